@@ -1,0 +1,67 @@
+//! Import errors: every one names the file and says what is wrong with it, on one line.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// An input file that could not be imported, and why.
+#[derive(Debug)]
+pub struct ImportError {
+    pub path: PathBuf,
+    pub problem: Problem,
+}
+
+impl ImportError {
+    pub fn new(path: impl AsRef<Path>, problem: Problem) -> Self {
+        Self {
+            path: path.as_ref().to_path_buf(),
+            problem,
+        }
+    }
+}
+
+impl fmt::Display for ImportError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}", self.path.display(), self.problem)
+    }
+}
+
+impl std::error::Error for ImportError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match &self.problem {
+            Problem::Io(e) => Some(e),
+            _ => None,
+        }
+    }
+}
+
+/// What is wrong with an input file.
+#[derive(Debug, thiserror::Error)]
+pub enum Problem {
+    #[error("{0}")]
+    Io(#[from] std::io::Error),
+    #[error("not a readable OpenVDB file: {0}")]
+    Vdb(String),
+    #[error("no grid named '{name}' (grids in the file: {})", available.join(", "))]
+    MissingGrid { name: String, available: Vec<String> },
+    #[error("grid '{name}' is unsupported: {why}")]
+    UnsupportedGrid { name: String, why: String },
+    #[error("voxel ({}, {}, {}) is {value}: densities must be finite", voxel[0], voxel[1], voxel[2])]
+    NonFinite { voxel: [usize; 3], value: f32 },
+    #[error(
+        "voxel ({}, {}, {}) is {value}: densities must not be negative (pass --clamp-negative to clamp them to 0)",
+        voxel[0], voxel[1], voxel[2]
+    )]
+    Negative { voxel: [usize; 3], value: f32 },
+    #[error("sidecar {sidecar}: {why}")]
+    Sidecar { sidecar: PathBuf, why: String },
+    #[error("{0}")]
+    Format(String),
+    #[error("dense box of {dims:?} voxels is too large ({voxels} voxels, the limit is {limit})")]
+    TooLarge {
+        dims: [usize; 3],
+        voxels: u128,
+        limit: u64,
+    },
+    #[error("{0}")]
+    Sequence(String),
+}

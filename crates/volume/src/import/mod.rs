@@ -1,0 +1,183 @@
+//! Bringing density volumes in: single files of any supported format, numbered sequences
+//! of them, and the validation every imported frame passes.
+
+mod guard;
+pub mod npy;
+pub mod raw;
+pub mod sequence;
+pub mod vdb;
+
+pub use sequence::{FrameFile, FrameRange, Sequence};
+
+use crate::error::{ImportError, Problem};
+use crate::volume::Volume;
+use std::path::Path;
+
+/// File formats haze imports.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Format {
+    /// OpenVDB (`.vdb`).
+    Vdb,
+    /// Raw little-endian `f32` with a JSON sidecar (`.f32`, `.raw`).
+    Raw,
+    /// NumPy (`.npy`).
+    Npy,
+}
+
+impl Format {
+    /// The format of a file, by its extension.
+    pub fn of(path: &Path) -> Option<Format> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        match ext.as_str() {
+            "vdb" => Some(Format::Vdb),
+            "f32" | "raw" => Some(Format::Raw),
+            "npy" => Some(Format::Npy),
+            _ => None,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Format::Vdb => "vdb",
+            Format::Raw => "raw",
+            Format::Npy => "npy",
+        }
+    }
+}
+
+/// How to import.
+#[derive(Clone, Debug)]
+pub struct ImportOptions {
+    /// Grid to read from VDB files.
+    pub grid: String,
+    /// Clamp negative densities to zero instead of refusing them.
+    pub clamp_negative: bool,
+    /// Added to the world coordinates of VDB grids (their transforms are often local to
+    /// the simulation domain, as Blender's are).
+    pub domain_offset: [f64; 3],
+}
+
+impl Default for ImportOptions {
+    fn default() -> Self {
+        Self {
+            grid: "density".to_string(),
+            clamp_negative: false,
+            domain_offset: [0.0; 3],
+        }
+    }
+}
+
+/// Imports and validates one file. VDB grids are read into their default box (see
+/// [`vdb`]).
+pub fn import(path: &Path, opts: &ImportOptions) -> Result<Volume, ImportError> {
+    let mut v = read_unchecked(path, opts, None)?;
+    validate(path, &mut v, opts.clamp_negative)?;
+    Ok(v)
+}
+
+/// The format of `path`, or an error naming the supported extensions.
+pub fn format_of(path: &Path) -> Result<Format, ImportError> {
+    Format::of(path).ok_or_else(|| {
+        ImportError::new(
+            path,
+            Problem::Format(
+                "unknown file type (expected .vdb, .f32/.raw with a .json sidecar, or .npy)"
+                    .to_string(),
+            ),
+        )
+    })
+}
+
+/// Reads without validation; `vdb_box` imposes the dense box of VDB grids.
+pub(crate) fn read_unchecked(
+    path: &Path,
+    opts: &ImportOptions,
+    vdb_box: Option<vdb::IndexBox>,
+) -> Result<Volume, ImportError> {
+    match format_of(path)? {
+        Format::Vdb => Ok(vdb::read(path, &opts.grid, vdb_box, opts.domain_offset)?.volume),
+        Format::Raw => raw::read(path),
+        Format::Npy => npy::read(path),
+    }
+}
+
+/// Rejects NaN and ±Inf (naming the first voxel), and negative densities unless
+/// `clamp_negative`, in which case they become 0. Returns how many voxels were clamped.
+pub fn validate(path: &Path, v: &mut Volume, clamp_negative: bool) -> Result<usize, ImportError> {
+    let mut clamped = 0;
+    let mut first_negative = None;
+    for (i, d) in v.data().iter().enumerate() {
+        if !d.is_finite() {
+            return Err(ImportError::new(
+                path,
+                Problem::NonFinite {
+                    voxel: v.coords(i),
+                    value: *d,
+                },
+            ));
+        }
+        if *d < 0.0 && first_negative.is_none() {
+            first_negative = Some(i);
+        }
+    }
+    if let Some(i) = first_negative {
+        if !clamp_negative {
+            return Err(ImportError::new(
+                path,
+                Problem::Negative {
+                    voxel: v.coords(i),
+                    value: v.data()[i],
+                },
+            ));
+        }
+        for d in v.data_mut() {
+            if *d < 0.0 {
+                *d = 0.0;
+                clamped += 1;
+            }
+        }
+        tracing::warn!("{}: clamped {clamped} negative voxels to 0", path.display());
+    }
+    Ok(clamped)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::volume::Bbox;
+
+    fn vol(data: Vec<f32>) -> Volume {
+        Volume::new([2, 2, 1], Bbox::new([0.0; 3], [1.0; 3]), data).unwrap()
+    }
+
+    #[test]
+    fn validation_rejects_non_finite_with_the_voxel() {
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            let mut v = vol(vec![0.0, 0.0, bad, 1.0]);
+            let e = validate(Path::new("x.f32"), &mut v, true).unwrap_err();
+            let msg = e.to_string();
+            assert!(msg.starts_with("x.f32: voxel (0, 1, 0) is "), "{msg}");
+        }
+    }
+
+    #[test]
+    fn validation_of_negatives() {
+        let mut v = vol(vec![0.5, -0.25, -0.0, -1.0]);
+        let e = validate(Path::new("n.npy"), &mut v, false).unwrap_err();
+        assert!(e.to_string().contains("voxel (1, 0, 0) is -0.25"), "{e}");
+        assert_eq!(validate(Path::new("n.npy"), &mut v, true).unwrap(), 2);
+        assert_eq!(v.data(), &[0.5, 0.0, -0.0, 0.0]);
+        let mut empty = Volume::zeros([0, 0, 0], Bbox::new([0.0; 3], [1.0; 3])).unwrap();
+        assert_eq!(validate(Path::new("e"), &mut empty, false).unwrap(), 0);
+    }
+
+    #[test]
+    fn formats_by_extension() {
+        assert_eq!(Format::of(Path::new("a/fluid_0001.VDB")), Some(Format::Vdb));
+        assert_eq!(Format::of(Path::new("d.f32")), Some(Format::Raw));
+        assert_eq!(Format::of(Path::new("d.npy")), Some(Format::Npy));
+        assert_eq!(Format::of(Path::new("d.json")), None);
+        assert!(format_of(Path::new("d.txt")).is_err());
+    }
+}

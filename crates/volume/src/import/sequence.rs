@@ -1,0 +1,345 @@
+//! Numbered frame sequences: a directory, a glob, or a single file.
+//!
+//! Frames are ordered by the last run of digits in their file name (Blender writes
+//! `fluid_data_0001.vdb`; sequences may start anywhere, e.g. at 1001, and may have gaps,
+//! which are reported). Every frame must share the first frame's grid (dims and world box)
+//! or loading names the first frame that differs. VDB frames are read into the union of
+//! their recorded boxes, so sparse grids whose active region moves still share one grid;
+//! an empty frame is a valid all-zero frame of the sequence's grid.
+
+use super::vdb::{self, IndexBox};
+use super::{Format, ImportOptions, format_of, read_unchecked, validate};
+use crate::error::{ImportError, Problem};
+use crate::volume::{Bbox, Volume};
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+
+/// One file of a sequence.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct FrameFile {
+    /// The frame number from the file name (0 for a lone file without one).
+    pub number: i64,
+    pub path: PathBuf,
+}
+
+/// An inclusive range of frame numbers, `A..B`, `A..`, `..B` or `A`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct FrameRange {
+    pub first: Option<i64>,
+    pub last: Option<i64>,
+}
+
+impl FrameRange {
+    pub fn contains(&self, n: i64) -> bool {
+        self.first.is_none_or(|f| n >= f) && self.last.is_none_or(|l| n <= l)
+    }
+}
+
+impl FromStr for FrameRange {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        let num = |t: &str| -> Result<Option<i64>, String> {
+            let t = t.trim();
+            if t.is_empty() {
+                Ok(None)
+            } else {
+                t.parse()
+                    .map(Some)
+                    .map_err(|_| format!("'{t}' is not a frame number"))
+            }
+        };
+        let r = match s.split_once("..") {
+            Some((a, b)) => FrameRange {
+                first: num(a)?,
+                last: num(b.strip_prefix('=').unwrap_or(b))?,
+            },
+            None => {
+                let n = num(s)?.ok_or("empty frame range")?;
+                FrameRange {
+                    first: Some(n),
+                    last: Some(n),
+                }
+            }
+        };
+        if let (Some(a), Some(b)) = (r.first, r.last) {
+            if a > b {
+                return Err(format!("frame range {s} is empty (first {a} > last {b})"));
+            }
+        }
+        Ok(r)
+    }
+}
+
+/// The frame number in a file name: its last run of ASCII digits.
+pub fn frame_number(path: &Path) -> Option<i64> {
+    let stem = path.file_stem()?.to_str()?;
+    let end = stem.rfind(|c: char| c.is_ascii_digit())? + 1;
+    let start = stem[..end]
+        .rfind(|c: char| !c.is_ascii_digit())
+        .map_or(0, |i| i + 1);
+    stem[start..end].parse().ok()
+}
+
+fn seq_err(path: &Path, why: impl Into<String>) -> ImportError {
+    ImportError::new(path, Problem::Sequence(why.into()))
+}
+
+fn is_glob(path: &Path) -> bool {
+    path.to_str().is_some_and(|s| s.contains(['*', '?', '[']))
+}
+
+/// Lists the frames of a directory, glob or single file, ordered by frame number.
+pub fn discover(path: &Path) -> Result<Vec<FrameFile>, ImportError> {
+    let files: Vec<PathBuf> = if is_glob(path) {
+        let pattern = path.to_str().unwrap_or_default();
+        let paths = glob::glob(pattern).map_err(|e| seq_err(path, format!("bad pattern: {e}")))?;
+        paths
+            .filter_map(Result::ok)
+            .filter(|p| p.is_file() && Format::of(p).is_some())
+            .collect()
+    } else if path.is_dir() {
+        let rd = std::fs::read_dir(path).map_err(|e| ImportError::new(path, e.into()))?;
+        let mut v = Vec::new();
+        for entry in rd {
+            let p = entry.map_err(|e| ImportError::new(path, e.into()))?.path();
+            if p.is_file() && Format::of(&p).is_some() {
+                v.push(p);
+            }
+        }
+        v
+    } else if path.is_file() {
+        format_of(path)?;
+        return Ok(vec![FrameFile {
+            number: frame_number(path).unwrap_or(0),
+            path: path.to_path_buf(),
+        }]);
+    } else {
+        return Err(ImportError::new(
+            path,
+            Problem::Io(std::io::Error::new(
+                std::io::ErrorKind::NotFound,
+                "no such file or directory",
+            )),
+        ));
+    };
+    if files.is_empty() {
+        return Err(seq_err(
+            path,
+            "no volume files (.vdb, .f32/.raw, .npy) found",
+        ));
+    }
+    let mut formats: Vec<&str> = files.iter().filter_map(|p| Format::of(p)).map(Format::name).collect();
+    formats.sort_unstable();
+    formats.dedup();
+    if formats.len() > 1 {
+        return Err(seq_err(
+            path,
+            format!(
+                "holds frames of several formats ({}); select one with a glob such as '{}'",
+                formats.join(", "),
+                path.join(format!("*.{}", formats[0])).display()
+            ),
+        ));
+    }
+    let mut frames = Vec::with_capacity(files.len());
+    for p in files {
+        let number = match frame_number(&p) {
+            Some(n) => n,
+            None => return Err(seq_err(&p, "has no frame number in its name")),
+        };
+        frames.push(FrameFile { number, path: p });
+    }
+    frames.sort_by(|a, b| a.number.cmp(&b.number).then_with(|| a.path.cmp(&b.path)));
+    for w in frames.windows(2) {
+        if w[0].number == w[1].number {
+            return Err(seq_err(
+                &w[1].path,
+                format!("frame {} also comes from {}", w[0].number, w[0].path.display()),
+            ));
+        }
+    }
+    Ok(frames)
+}
+
+/// Missing frame numbers between consecutive frames, as inclusive ranges.
+pub fn gaps(frames: &[FrameFile]) -> Vec<(i64, i64)> {
+    frames
+        .windows(2)
+        .filter(|w| w[1].number > w[0].number + 1)
+        .map(|w| (w[0].number + 1, w[1].number - 1))
+        .collect()
+}
+
+/// An opened sequence: its frames, and the grid they all share.
+#[derive(Debug)]
+pub struct Sequence {
+    source: PathBuf,
+    format: Format,
+    frames: Vec<FrameFile>,
+    gaps: Vec<(i64, i64)>,
+    opts: ImportOptions,
+    vdb_box: Option<IndexBox>,
+    dims: [usize; 3],
+    bbox: Bbox,
+}
+
+impl Sequence {
+    /// Discovers the frames of `path` within `range` and establishes their common grid
+    /// (for VDB, the union of the frames' recorded boxes; the first frame is read).
+    pub fn open(path: &Path, opts: &ImportOptions, range: FrameRange) -> Result<Self, ImportError> {
+        let all = discover(path)?;
+        let frames: Vec<FrameFile> = all.into_iter().filter(|f| range.contains(f.number)).collect();
+        if frames.is_empty() {
+            return Err(seq_err(path, format!("no frames in the range {range:?}")));
+        }
+        let format = format_of(&frames[0].path)?;
+        let vdb_box = if format == Format::Vdb {
+            union_box(&frames, opts)?
+        } else {
+            None
+        };
+        let first = read_unchecked(&frames[0].path, opts, vdb_box)?;
+        Ok(Self {
+            source: path.to_path_buf(),
+            format,
+            gaps: gaps(&frames),
+            frames,
+            opts: opts.clone(),
+            vdb_box,
+            dims: first.dims(),
+            bbox: *first.bbox(),
+        })
+    }
+
+    pub fn source(&self) -> &Path {
+        &self.source
+    }
+
+    pub fn format(&self) -> Format {
+        self.format
+    }
+
+    pub fn frames(&self) -> &[FrameFile] {
+        &self.frames
+    }
+
+    pub fn len(&self) -> usize {
+        self.frames.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.frames.is_empty()
+    }
+
+    /// Missing frame numbers, as inclusive ranges.
+    pub fn gaps(&self) -> &[(i64, i64)] {
+        &self.gaps
+    }
+
+    /// The grid every frame shares.
+    pub fn dims(&self) -> [usize; 3] {
+        self.dims
+    }
+
+    pub fn bbox(&self) -> &Bbox {
+        &self.bbox
+    }
+
+    /// Loads and validates frame `i` (0-based position in the sequence).
+    pub fn load(&self, i: usize) -> Result<Volume, ImportError> {
+        let f = self
+            .frames
+            .get(i)
+            .ok_or_else(|| seq_err(&self.source, format!("no frame at position {i}")))?;
+        let mut v = read_unchecked(&f.path, &self.opts, self.vdb_box)?;
+        if v.is_empty() && self.dims.iter().all(|&n| n > 0) {
+            v = Volume::zeros(self.dims, self.bbox)
+                .map_err(|e| seq_err(&f.path, e.to_string()))?;
+        }
+        if v.dims() != self.dims || !v.bbox().approx_eq(&self.bbox, 1e-9) {
+            let first = &self.frames[0];
+            return Err(seq_err(
+                &f.path,
+                format!(
+                    "frame {} has grid {:?} over {:?}..{:?} but frame {} ({}) has {:?} over {:?}..{:?}",
+                    f.number,
+                    v.dims(),
+                    v.bbox().min,
+                    v.bbox().max,
+                    first.number,
+                    first.path.display(),
+                    self.dims,
+                    self.bbox.min,
+                    self.bbox.max
+                ),
+            ));
+        }
+        validate(&f.path, &mut v, self.opts.clamp_negative)?;
+        Ok(v)
+    }
+}
+
+/// Union of the frames' dense boxes, from their headers where recorded.
+fn union_box(frames: &[FrameFile], opts: &ImportOptions) -> Result<Option<IndexBox>, ImportError> {
+    let mut acc: Option<IndexBox> = None;
+    for f in frames {
+        let info = vdb::probe(&f.path)?;
+        let gi = info.grid(&opts.grid).ok_or_else(|| {
+            ImportError::new(
+                &f.path,
+                Problem::MissingGrid {
+                    name: opts.grid.clone(),
+                    available: info.grids.iter().map(|g| g.name.clone()).collect(),
+                },
+            )
+        })?;
+        let b = match gi.default_box() {
+            Some(b) => Some(b),
+            None if gi.active_voxels == Some(0) => None,
+            // No recorded box: read the grid to find where its data is.
+            None => vdb::read(&f.path, &opts.grid, None, opts.domain_offset)?.index_box,
+        };
+        if let Some(b) = b {
+            acc = Some(acc.map_or(b, |a| a.union(&b)));
+        }
+    }
+    Ok(acc)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frame_numbers_from_names() {
+        assert_eq!(frame_number(Path::new("a/fluid_data_0001.vdb")), Some(1));
+        assert_eq!(frame_number(Path::new("smoke.1001.vdb")), Some(1001));
+        assert_eq!(frame_number(Path::new("fluid_data_0024_openvdb_blosc.vdb")), Some(24));
+        assert_eq!(frame_number(Path::new("v2/density.npy")), None);
+    }
+
+    #[test]
+    fn frame_ranges_parse() {
+        let r: FrameRange = "3..7".parse().unwrap();
+        assert!(r.contains(3) && r.contains(7) && !r.contains(8) && !r.contains(2));
+        let r: FrameRange = "1001..".parse().unwrap();
+        assert!(r.contains(5000) && !r.contains(1000));
+        let r: FrameRange = "..=4".parse().unwrap();
+        assert!(r.contains(-3) && !r.contains(5));
+        let r: FrameRange = "12".parse().unwrap();
+        assert!(r.contains(12) && !r.contains(13));
+        assert!("7..3".parse::<FrameRange>().is_err());
+        assert!("a..3".parse::<FrameRange>().is_err());
+    }
+
+    #[test]
+    fn gaps_are_inclusive_ranges() {
+        let f = |n| FrameFile {
+            number: n,
+            path: PathBuf::new(),
+        };
+        assert_eq!(gaps(&[f(1), f(2), f(5), f(6), f(8)]), vec![(3, 4), (7, 7)]);
+        assert!(gaps(&[f(1001), f(1002)]).is_empty());
+    }
+}

@@ -1,0 +1,495 @@
+//! OpenVDB import through vdb-rs: one scalar float grid of a file, sparse tree → dense box.
+//!
+//! * **Which grid**: by name (`density` by default). Only scalar float grids
+//!   (`Tree_float_5_4_3`, saved in full or half precision) of class fog volume (or
+//!   unknown class) are read; anything else is refused with the reason.
+//! * **Which box**: the domain when the writer records one (`file_base_resolution`, as
+//!   Blender's Mantaflow cache does: index box `[0, res)`), joined with the file's
+//!   `file_bbox_min/max` metadata; otherwise `file_bbox_min/max` alone; otherwise the
+//!   bounding box of the stored voxels. A caller can impose a box (sequences use the union
+//!   of their frames' boxes so that every frame has the same grid).
+//! * **Which values**: every value the tree stores inside the box — leaf voxels, active or
+//!   not, and tile values of internal nodes — over a background of 0 (fog volumes). Root
+//!   tiles (constant 4096³ regions) are not exposed by vdb-rs and read as background.
+//! * **Where in the world**: index `i` maps through the grid's transform to the *min corner*
+//!   of voxel `i` (Blender's convention for its fluid caches), plus the caller's domain
+//!   offset: `bbox.min = offset + T(i_min)`, `bbox.max = offset + T(i_max + 1)`.
+//!
+//! vdb-rs panics on some malformed or unsupported inputs (unknown transform maps, old file
+//! versions, inconsistent node data); those panics are caught and reported as errors.
+
+use super::guard::catch_panic;
+use crate::error::{ImportError, Problem};
+use crate::volume::{Bbox, Volume, voxel_count};
+use serde::Serialize;
+use std::fs::File;
+use std::io::{BufReader, Read};
+use std::path::Path;
+use vdb_rs::{Grid, Map, MetadataValue, VdbReader};
+
+/// OpenVDB's file magic, an int64 `0x56444220` ("VDB ") stored little-endian.
+const MAGIC: [u8; 8] = [0x20, 0x42, 0x44, 0x56, 0, 0, 0, 0];
+/// Oldest file version read: OpenVDB 3.0's (node mask compression, 2014).
+const MIN_VERSION: u32 = 222;
+/// Largest dense box allocated: 2³¹ voxels (8 GiB of f32).
+pub const MAX_VOXELS: u64 = 1 << 31;
+
+/// Inclusive box of voxel indices.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct IndexBox {
+    pub min: [i64; 3],
+    pub max: [i64; 3],
+}
+
+impl IndexBox {
+    /// Smallest box holding both.
+    pub fn union(&self, o: &IndexBox) -> IndexBox {
+        IndexBox {
+            min: [0, 1, 2].map(|a| self.min[a].min(o.min[a])),
+            max: [0, 1, 2].map(|a| self.max[a].max(o.max[a])),
+        }
+    }
+
+    /// Voxels per axis.
+    pub fn dims(&self) -> [i64; 3] {
+        [0, 1, 2].map(|a| self.max[a] - self.min[a] + 1)
+    }
+
+    fn from_metadata(min: [i32; 3], max: [i32; 3]) -> Option<IndexBox> {
+        let b = IndexBox {
+            min: min.map(i64::from),
+            max: max.map(i64::from),
+        };
+        (0..3).all(|a| b.min[a] <= b.max[a]).then_some(b)
+    }
+}
+
+/// What a VDB file says about one of its grids without reading the tree.
+#[derive(Clone, Debug, Serialize)]
+pub struct VdbGridInfo {
+    pub name: String,
+    pub grid_type: String,
+    pub class: Option<String>,
+    pub active_voxels: Option<i64>,
+    /// `file_bbox_min/max` when present and non-empty.
+    pub file_bbox: Option<IndexBox>,
+    /// `file_base_resolution` (Blender's simulation domain), when present.
+    pub base_resolution: Option<[i64; 3]>,
+    pub half_float: bool,
+    pub compression: String,
+}
+
+impl VdbGridInfo {
+    /// The dense box this grid is read into when the caller imposes none.
+    pub fn default_box(&self) -> Option<IndexBox> {
+        let domain = self.base_resolution.and_then(|r| {
+            (r.iter().all(|&n| n > 0)).then(|| IndexBox {
+                min: [0; 3],
+                max: r.map(|n| n - 1),
+            })
+        });
+        match (domain, self.file_bbox) {
+            (Some(d), Some(f)) => Some(d.union(&f)),
+            (d, f) => d.or(f),
+        }
+    }
+
+    /// Why haze cannot read this grid as density, if it cannot.
+    fn unsupported(&self) -> Option<String> {
+        let t = self.grid_type.as_str();
+        if t != "Tree_float_5_4_3" && t != "Tree_float_5_4_3_HalfFloat" {
+            return Some(format!(
+                "its type is {t}; haze reads scalar float grids (Tree_float_5_4_3)"
+            ));
+        }
+        match self.class.as_deref() {
+            Some("level set") => Some(
+                "it is a level set; haze reads fog volumes (density, background 0)".to_string(),
+            ),
+            _ => None,
+        }
+    }
+}
+
+/// The header of a VDB file: version and grids.
+#[derive(Clone, Debug, Serialize)]
+pub struct VdbFileInfo {
+    pub file_version: u32,
+    pub library_version: String,
+    /// Grids sorted by name.
+    pub grids: Vec<VdbGridInfo>,
+}
+
+impl VdbFileInfo {
+    pub fn grid(&self, name: &str) -> Option<&VdbGridInfo> {
+        self.grids.iter().find(|g| g.name == name)
+    }
+
+    fn require(&self, path: &Path, name: &str) -> Result<&VdbGridInfo, ImportError> {
+        let g = self.grid(name).ok_or_else(|| {
+            ImportError::new(
+                path,
+                Problem::MissingGrid {
+                    name: name.to_string(),
+                    available: self.grids.iter().map(|g| g.name.clone()).collect(),
+                },
+            )
+        })?;
+        if let Some(why) = g.unsupported() {
+            return Err(ImportError::new(
+                path,
+                Problem::UnsupportedGrid {
+                    name: name.to_string(),
+                    why,
+                },
+            ));
+        }
+        Ok(g)
+    }
+}
+
+fn vdb_err(path: &Path, msg: impl Into<String>) -> ImportError {
+    ImportError::new(path, Problem::Vdb(msg.into()))
+}
+
+/// Checks the magic and version bytes before vdb-rs sees the file.
+fn check_preamble(path: &Path) -> Result<(), ImportError> {
+    let mut head = [0u8; 12];
+    let mut f = File::open(path).map_err(|e| ImportError::new(path, e.into()))?;
+    let mut got = 0;
+    while got < head.len() {
+        match f.read(&mut head[got..]) {
+            Ok(0) => break,
+            Ok(n) => got += n,
+            Err(e) => return Err(ImportError::new(path, e.into())),
+        }
+    }
+    if got < head.len() {
+        return Err(vdb_err(path, format!("file is only {got} bytes long")));
+    }
+    if head[..8] != MAGIC {
+        return Err(vdb_err(path, "missing the OpenVDB magic number"));
+    }
+    let version = u32::from_le_bytes([head[8], head[9], head[10], head[11]]);
+    if version < MIN_VERSION {
+        return Err(vdb_err(
+            path,
+            format!(
+                "file version {version} predates OpenVDB 3 (version {MIN_VERSION}); re-save it with a current OpenVDB"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+fn open_reader(path: &Path) -> Result<VdbReader<BufReader<File>>, ImportError> {
+    check_preamble(path)?;
+    let file = File::open(path).map_err(|e| ImportError::new(path, e.into()))?;
+    let len = file
+        .metadata()
+        .map_err(|e| ImportError::new(path, e.into()))?
+        .len();
+    let reader = match catch_panic(|| VdbReader::new(BufReader::new(file))) {
+        Ok(Ok(r)) => r,
+        Ok(Err(e)) => return Err(vdb_err(path, describe(&e))),
+        Err(panic) => return Err(vdb_err(path, panic)),
+    };
+    // vdb-rs seeks to each grid; a grid past the end reads as empty instead of failing.
+    for gd in reader.grid_descriptors.values() {
+        let furthest = gd.grid_pos.max(gd.block_pos).max(gd.end_pos);
+        if furthest > len {
+            return Err(vdb_err(
+                path,
+                format!(
+                    "file ends early (truncated?): grid '{}' extends to byte {furthest} but the file has {len} bytes",
+                    gd.name
+                ),
+            ));
+        }
+    }
+    Ok(reader)
+}
+
+/// A vdb-rs error in words a user can act on.
+fn describe(e: &vdb_rs::ParseError) -> String {
+    match e {
+        vdb_rs::ParseError::IoError(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => {
+            "file ends early (truncated?)".to_string()
+        }
+        other => other.to_string(),
+    }
+}
+
+fn vec3i(v: Option<&MetadataValue>) -> Option<[i32; 3]> {
+    match v {
+        Some(MetadataValue::Vec3i(v)) => Some([v.x, v.y, v.z]),
+        _ => None,
+    }
+}
+
+fn info_of(reader: &VdbReader<BufReader<File>>) -> VdbFileInfo {
+    let mut grids: Vec<VdbGridInfo> = reader
+        .grid_descriptors
+        .values()
+        .map(|gd| {
+            let m = &gd.meta_data.0;
+            let string = |k: &str| match m.get(k) {
+                Some(MetadataValue::String(s)) => Some(s.clone()),
+                _ => None,
+            };
+            let file_bbox = match (vec3i(m.get("file_bbox_min")), vec3i(m.get("file_bbox_max"))) {
+                (Some(lo), Some(hi)) => IndexBox::from_metadata(lo, hi),
+                _ => None,
+            };
+            VdbGridInfo {
+                name: gd.name.clone(),
+                grid_type: gd.grid_type.clone(),
+                class: string("class"),
+                active_voxels: match m.get("file_voxel_count") {
+                    Some(MetadataValue::I64(n)) => Some(*n),
+                    _ => None,
+                },
+                file_bbox,
+                base_resolution: vec3i(m.get("file_base_resolution")).map(|r| r.map(i64::from)),
+                half_float: gd.meta_data.is_half_float(),
+                compression: string("file_compression")
+                    .unwrap_or_else(|| format!("{:?}", gd.compression)),
+            }
+        })
+        .collect();
+    grids.sort_by(|a, b| a.name.cmp(&b.name));
+    VdbFileInfo {
+        file_version: reader.header.file_version,
+        library_version: format!(
+            "{}.{}",
+            reader.header.library_version_major, reader.header.library_version_minor
+        ),
+        grids,
+    }
+}
+
+/// Reads the header and grid descriptors only (cheap: no tree data).
+pub fn probe(path: &Path) -> Result<VdbFileInfo, ImportError> {
+    Ok(info_of(&open_reader(path)?))
+}
+
+/// Scale and translation of a grid's index→world map.
+fn transform_of(path: &Path, map: &Map) -> Result<([f64; 3], [f64; 3]), ImportError> {
+    let (scale, translation) = match map {
+        Map::UniformScaleMap { voxel_size: v, .. } => ([v.x, v.y, v.z], [0.0; 3]),
+        Map::ScaleTranslateMap {
+            voxel_size: v,
+            translation: t,
+            ..
+        } => ([v.x, v.y, v.z], [t.x, t.y, t.z]),
+    };
+    if !scale.iter().all(|s| s.is_finite() && *s > 0.0) || !translation.iter().all(|t| t.is_finite())
+    {
+        return Err(vdb_err(
+            path,
+            format!("invalid transform (voxel size {scale:?}, translation {translation:?})"),
+        ));
+    }
+    Ok((scale, translation))
+}
+
+/// A grid read from a VDB file into a dense box.
+#[derive(Debug)]
+pub struct VdbFrame {
+    pub volume: Volume,
+    /// The index box the volume covers (`None` for an empty grid with no box).
+    pub index_box: Option<IndexBox>,
+    /// World size of a voxel, from the transform.
+    pub voxel_size: [f64; 3],
+    /// World position of index 0's min corner (transform translation + domain offset).
+    pub origin: [f64; 3],
+}
+
+/// Reads grid `name` of `path` into a dense volume over `index_box` (or the grid's default
+/// box, see the module docs), shifted by `domain_offset` in world space.
+pub fn read(
+    path: &Path,
+    name: &str,
+    index_box: Option<IndexBox>,
+    domain_offset: [f64; 3],
+) -> Result<VdbFrame, ImportError> {
+    let mut reader = open_reader(path)?;
+    let info = info_of(&reader);
+    let gi = info.require(path, name)?.clone();
+    if !reader.grid_descriptors[name].instance_parent.is_empty() {
+        return Err(ImportError::new(
+            path,
+            Problem::UnsupportedGrid {
+                name: name.to_string(),
+                why: "it is an instance of another grid; re-save the file with instancing off"
+                    .to_string(),
+            },
+        ));
+    }
+    let grid: Grid<f32> = match catch_panic(|| reader.read_grid::<f32>(name)) {
+        Ok(Ok(g)) => g,
+        Ok(Err(e)) => return Err(vdb_err(path, format!("grid '{name}': {}", describe(&e)))),
+        Err(panic) => return Err(vdb_err(path, format!("grid '{name}': {panic}"))),
+    };
+    let (voxel_size, translation) = transform_of(path, &grid.transform)?;
+    let origin = [0, 1, 2].map(|a| translation[a] + domain_offset[a]);
+    let bx = match index_box.or_else(|| gi.default_box()) {
+        Some(b) => Some(b),
+        None => stored_bbox(path, &grid)?,
+    };
+    let Some(bx) = bx else {
+        // An empty grid with no recorded box: a valid empty frame one voxel wide.
+        let bbox = Bbox::new(origin, [0, 1, 2].map(|a| origin[a] + voxel_size[a]));
+        let volume = Volume::zeros([0, 0, 0], bbox).map_err(|e| vdb_err(path, e.to_string()))?;
+        return Ok(VdbFrame {
+            volume,
+            index_box: None,
+            voxel_size,
+            origin,
+        });
+    };
+    let d = bx.dims();
+    let voxels = (d[0] as u128) * (d[1] as u128) * (d[2] as u128);
+    if voxels > MAX_VOXELS as u128 {
+        return Err(ImportError::new(
+            path,
+            Problem::TooLarge {
+                dims: d.map(|n| n as usize),
+                voxels,
+                limit: MAX_VOXELS,
+            },
+        ));
+    }
+    let dims = d.map(|n| n as usize);
+    let mut data = vec![0.0f32; voxel_count(dims).unwrap_or(0)];
+    let dense = Dense {
+        lo: bx.min,
+        dims,
+        data: &mut data,
+    };
+    fill(path, &grid, dense)?;
+    let bbox = Bbox::new(
+        [0, 1, 2].map(|a| origin[a] + bx.min[a] as f64 * voxel_size[a]),
+        [0, 1, 2].map(|a| origin[a] + (bx.max[a] + 1) as f64 * voxel_size[a]),
+    );
+    let volume = Volume::new(dims, bbox, data).map_err(|e| vdb_err(path, e.to_string()))?;
+    Ok(VdbFrame {
+        volume,
+        index_box: Some(bx),
+        voxel_size,
+        origin,
+    })
+}
+
+/// Destination box for the tree walk.
+struct Dense<'a> {
+    lo: [i64; 3],
+    dims: [usize; 3],
+    data: &'a mut [f32],
+}
+
+impl Dense<'_> {
+    /// Writes `value` over the cube `[o, o + side)` clipped to the box.
+    fn fill_cube(&mut self, o: [i64; 3], side: i64, value: f32) {
+        if value.to_bits() == 0 {
+            return; // the box starts at +0.0
+        }
+        let mut r = [(0usize, 0usize); 3];
+        for a in 0..3 {
+            let lo = (o[a] - self.lo[a]).max(0);
+            let hi = (o[a] + side - self.lo[a]).min(self.dims[a] as i64);
+            if lo >= hi {
+                return;
+            }
+            r[a] = (lo as usize, hi as usize);
+        }
+        for z in r[2].0..r[2].1 {
+            for y in r[1].0..r[1].1 {
+                let row = self.dims[0] * (y + self.dims[1] * z);
+                self.data[row + r[0].0..row + r[0].1].fill(value);
+            }
+        }
+    }
+}
+
+/// Local coordinates of linear offset `idx` in a node of side `2^log2` (z fastest, as
+/// OpenVDB lays out node tables).
+fn local(idx: usize, log2: u32) -> [i64; 3] {
+    let m = (1usize << log2) - 1;
+    [idx >> (2 * log2), (idx >> log2) & m, idx & m].map(|v| v as i64)
+}
+
+fn corrupt(path: &Path, what: &str) -> ImportError {
+    vdb_err(path, format!("corrupt tree: {what}"))
+}
+
+/// Visits every value `grid` stores as `(min corner, side, value)`: internal-node tiles
+/// (sides 128 and 8) and all 512 values of each leaf (side 1).
+fn walk(
+    path: &Path,
+    grid: &Grid<f32>,
+    mut visit: impl FnMut([i64; 3], i64, f32),
+) -> Result<(), ImportError> {
+    let at = |origin: [i32; 3], l: [i64; 3], shift: u32| {
+        [0, 1, 2].map(|a| i64::from(origin[a]) + (l[a] << shift))
+    };
+    for root in &grid.tree.root_nodes {
+        for idx in 0..(1usize << 15) {
+            let o = at([root.origin.x, root.origin.y, root.origin.z], local(idx, 5), 7);
+            if !root.child_mask.get(idx).is_some_and(|b| *b) {
+                let v = *root
+                    .data
+                    .get(idx)
+                    .ok_or_else(|| corrupt(path, "short root node table"))?;
+                visit(o, 128, v);
+                continue;
+            }
+            let n4 = root
+                .nodes
+                .get(&(idx as u32))
+                .ok_or_else(|| corrupt(path, "missing internal node"))?;
+            for j in 0..(1usize << 12) {
+                let o4 = at([n4.origin.x, n4.origin.y, n4.origin.z], local(j, 4), 3);
+                if !n4.child_mask.get(j).is_some_and(|b| *b) {
+                    let v = *n4
+                        .data
+                        .get(j)
+                        .ok_or_else(|| corrupt(path, "short internal node table"))?;
+                    visit(o4, 8, v);
+                    continue;
+                }
+                let leaf = n4
+                    .nodes
+                    .get(&(j as u32))
+                    .ok_or_else(|| corrupt(path, "missing leaf node"))?;
+                if leaf.buffer.len() != 512 {
+                    return Err(corrupt(path, "leaf with a wrong value count"));
+                }
+                for (k, &v) in leaf.buffer.iter().enumerate() {
+                    visit(at([leaf.origin.x, leaf.origin.y, leaf.origin.z], local(k, 3), 0), 1, v);
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Copies every stored value of `grid` inside the box.
+fn fill(path: &Path, grid: &Grid<f32>, mut dense: Dense<'_>) -> Result<(), ImportError> {
+    walk(path, grid, |o, side, v| dense.fill_cube(o, side, v))
+}
+
+/// Bounding box of every non-zero stored value, for grids that record no box.
+fn stored_bbox(path: &Path, grid: &Grid<f32>) -> Result<Option<IndexBox>, ImportError> {
+    let mut b: Option<IndexBox> = None;
+    walk(path, grid, |o, side, v| {
+        if v != 0.0 {
+            let nb = IndexBox {
+                min: o,
+                max: o.map(|c| c + side - 1),
+            };
+            b = Some(b.map_or(nb, |x| x.union(&nb)));
+        }
+    })?;
+    Ok(b)
+}

@@ -1,0 +1,183 @@
+//! Import of the bundled Blender/Mantaflow sample against OpenVDB's own dense export.
+
+use haze_volume::import::{self, FrameRange, Sequence, vdb};
+use haze_volume::{ImportOptions, VolumeStats};
+use std::path::{Path, PathBuf};
+
+fn data(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data").join(rel)
+}
+
+fn dense_truth() -> Vec<u32> {
+    let bytes = std::fs::read(data("plume-a/dense/density_0024.f32")).unwrap();
+    bytes
+        .chunks_exact(4)
+        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect()
+}
+
+fn bits(v: &haze_volume::Volume) -> Vec<u32> {
+    v.data().iter().map(|f| f.to_bits()).collect()
+}
+
+#[test]
+fn vdb_frame_24_reproduces_openvdb_dense_export_bit_for_bit() {
+    let v = import::import(&data("plume-a/vdb/fluid_data_0024.vdb"), &ImportOptions::default())
+        .unwrap();
+    assert_eq!(v.dims(), [48, 48, 64]);
+    assert_eq!(v.voxel_size(), [0.0625; 3]);
+    // Domain-local transform: the box starts at the index origin.
+    assert_eq!(v.bbox().min, [0.0; 3]);
+    assert_eq!(v.bbox().max, [3.0, 3.0, 4.0]);
+    assert!(bits(&v) == dense_truth(), "density differs from the dense export");
+    let s = VolumeStats::of(&v);
+    assert_eq!(s.nonzero, 11593);
+    assert_eq!(s.nonzero_bbox, Some([[10, 9, 1], [38, 37, 34]]));
+}
+
+#[test]
+fn domain_offset_places_blender_domain_in_world() {
+    let opts = ImportOptions {
+        domain_offset: [-1.5, -1.5, 0.0],
+        ..ImportOptions::default()
+    };
+    let v = import::import(&data("plume-a/vdb/fluid_data_0024.vdb"), &opts).unwrap();
+    assert_eq!(v.bbox().min, [-1.5, -1.5, 0.0]);
+    assert_eq!(v.bbox().max, [1.5, 1.5, 4.0]);
+    assert_eq!(v.voxel_center(0, 0, 0), [-1.46875, -1.46875, 0.03125]);
+}
+
+#[test]
+fn raw_sidecar_import_matches_the_file() {
+    let v = import::import(&data("plume-a/dense/density_0024.f32"), &ImportOptions::default())
+        .unwrap();
+    assert_eq!(v.dims(), [48, 48, 64]);
+    assert_eq!(v.bbox().min, [-1.5, -1.5, 0.0]);
+    assert!(bits(&v) == dense_truth());
+}
+
+#[test]
+fn blosc_resave_by_openvdb_equals_the_dense_export() {
+    let v = import::import(
+        &data("plume-a/blosc/fluid_data_0024_openvdb_blosc.vdb"),
+        &ImportOptions::default(),
+    )
+    .unwrap();
+    assert!(bits(&v) == dense_truth());
+}
+
+#[test]
+fn blender_blosc_frame_1_equals_zip_frame_1_statistics() {
+    // Same emitter, first frame: the density equals plume-a frame 1 (1472 active voxels).
+    let v = import::import(
+        &data("plume-a/blosc/fluid_data_0001_blender_blosc.vdb"),
+        &ImportOptions::default(),
+    )
+    .unwrap();
+    let s = VolumeStats::of(&v);
+    assert_eq!(v.dims(), [48, 48, 64]);
+    assert_eq!(s.nonzero, 1472);
+    assert_eq!(s.nonzero_bbox, Some([[17, 17, 1], [30, 30, 14]]));
+    assert_eq!(s.max, 1.0);
+}
+
+#[test]
+fn probe_lists_grids_and_refuses_non_scalar_ones() {
+    let p = data("plume-a/vdb/fluid_data_0024.vdb");
+    let info = vdb::probe(&p).unwrap();
+    let names: Vec<_> = info.grids.iter().map(|g| g.name.as_str()).collect();
+    assert_eq!(names, ["density", "flame", "shadow", "temperature", "velocity"]);
+    let opts = ImportOptions {
+        grid: "velocity".into(),
+        ..ImportOptions::default()
+    };
+    let e = import::import(&p, &opts).unwrap_err().to_string();
+    assert!(e.contains("Tree_vec3s_5_4_3"), "{e}");
+    let opts = ImportOptions {
+        grid: "smoke".into(),
+        ..ImportOptions::default()
+    };
+    let e = import::import(&p, &opts).unwrap_err().to_string();
+    assert!(e.contains("no grid named 'smoke'") && e.contains("density, flame"), "{e}");
+}
+
+#[test]
+fn empty_grid_is_a_valid_zero_frame() {
+    let opts = ImportOptions {
+        grid: "flame".into(),
+        ..ImportOptions::default()
+    };
+    let v = import::import(&data("plume-a/vdb/fluid_data_0024.vdb"), &opts).unwrap();
+    assert_eq!(v.dims(), [48, 48, 64]);
+    assert!(v.data().iter().all(|&d| d == 0.0));
+}
+
+#[test]
+fn negative_grid_needs_clamping() {
+    // Blender's viewport `shadow` grid is a dense −1.
+    let p = data("plume-a/vdb/fluid_data_0024.vdb");
+    let mut opts = ImportOptions {
+        grid: "shadow".into(),
+        ..ImportOptions::default()
+    };
+    let e = import::import(&p, &opts).unwrap_err().to_string();
+    assert!(e.contains("is -1") && e.contains("--clamp-negative"), "{e}");
+    opts.clamp_negative = true;
+    let v = import::import(&p, &opts).unwrap();
+    assert!(v.data().iter().all(|&d| d == 0.0));
+}
+
+#[test]
+fn sequence_of_bundled_frames() {
+    let seq = Sequence::open(
+        &data("plume-a/vdb"),
+        &ImportOptions::default(),
+        FrameRange::default(),
+    )
+    .unwrap();
+    let numbers: Vec<i64> = seq.frames().iter().map(|f| f.number).collect();
+    assert_eq!(numbers, (21..=28).collect::<Vec<_>>());
+    assert!(seq.gaps().is_empty());
+    assert_eq!(seq.dims(), [48, 48, 64]);
+    let v = seq.load(3).unwrap();
+    assert!(bits(&v) == dense_truth());
+    let chunk = Sequence::open(
+        &data("plume-a/vdb"),
+        &ImportOptions::default(),
+        "23..24".parse().unwrap(),
+    )
+    .unwrap();
+    assert_eq!(chunk.len(), 2);
+}
+
+#[test]
+fn truncated_vdb_is_an_error_not_a_panic() {
+    let bytes = std::fs::read(data("plume-a/vdb/fluid_data_0024.vdb")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    // Cut at many places: in the header, the descriptors, the topology and the leaves.
+    for cut in [0, 5, 11, 40, 200, 600, 1000, 4000, 20000, bytes.len() / 2, bytes.len() - 1] {
+        let p = dir.path().join(format!("cut_{cut}.vdb"));
+        std::fs::write(&p, &bytes[..cut]).unwrap();
+        let e = match import::import(&p, &ImportOptions::default()) {
+            Ok(_) => panic!("file cut at {cut} bytes imported"),
+            Err(e) => e.to_string(),
+        };
+        assert!(e.starts_with(&p.display().to_string()), "{e}");
+        assert!(!e.contains('\n'), "{e}");
+    }
+}
+
+#[test]
+fn bit_flipped_vdb_never_panics() {
+    let bytes = std::fs::read(data("plume-a/vdb/fluid_data_0021.vdb")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("flip.vdb");
+    // Flip bytes across the whole file; each result is either a clean import or an error.
+    let step = bytes.len() / 97;
+    for (k, pos) in (12..bytes.len()).step_by(step).enumerate() {
+        let mut b = bytes.clone();
+        b[pos] ^= 0x5a + k as u8;
+        std::fs::write(&p, &b).unwrap();
+        let _ = import::import(&p, &ImportOptions::default());
+    }
+}
