@@ -14,18 +14,21 @@ pub struct BlockId {
 
 impl fmt::Display for BlockId {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "block {} ({}, {})", self.index, self.kind.name(), self.scope)
+        write!(
+            f,
+            "block {} ({}, {})",
+            self.index,
+            self.kind.name(),
+            self.scope
+        )
     }
 }
 
 /// What went wrong with an asset file.
 #[derive(Debug, thiserror::Error)]
 pub enum AssetError {
-    #[error("{path}: {source}")]
-    Io {
-        path: PathBuf,
-        source: std::io::Error,
-    },
+    #[error("{path}: {err}")]
+    Io { path: PathBuf, err: std::io::Error },
     #[error("{path}: not a haze asset (bad magic number)")]
     BadMagic { path: PathBuf },
     #[error(

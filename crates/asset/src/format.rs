@@ -28,6 +28,17 @@ impl Scope {
         Scope::Frames { first: k, count: 1 }
     }
 
+    /// Whether the scope names only frames of an asset with `frame_count` frames (and at
+    /// least one).
+    pub fn fits(&self, frame_count: u32) -> bool {
+        match *self {
+            Scope::Asset => true,
+            Scope::Frames { first, count } => {
+                count > 0 && u64::from(first) + u64::from(count) <= u64::from(frame_count)
+            }
+        }
+    }
+
     pub fn covers(&self, k: u32) -> bool {
         match *self {
             Scope::Asset => false,
@@ -42,7 +53,11 @@ impl std::fmt::Display for Scope {
             Scope::Asset => write!(f, "asset-wide"),
             Scope::Frames { first, count: 1 } => write!(f, "frame {first}"),
             Scope::Frames { first, count } => {
-                write!(f, "frames {first}..{}", u64::from(first) + u64::from(count) - 1)
+                write!(
+                    f,
+                    "frames {first}..{}",
+                    u64::from(first) + u64::from(count) - 1
+                )
             }
         }
     }

@@ -78,7 +78,7 @@ impl Asset {
     pub fn open(path: &Path) -> Result<Asset, AssetError> {
         let io = |source| AssetError::Io {
             path: path.to_path_buf(),
-            source,
+            err: source,
         };
         let file = File::open(path).map_err(io)?;
         let len = file.metadata().map_err(io)?.len();
@@ -222,14 +222,11 @@ impl Asset {
                     )));
                 }
             }
-            if let Scope::Frames { first, count } = e.scope {
-                if count == 0 || u64::from(first) + u64::from(count) > u64::from(header.frame_count)
-                {
-                    return Err(bad(format!(
-                        "covers frames outside the asset's {} frames",
-                        header.frame_count
-                    )));
-                }
+            if !e.scope.fits(header.frame_count) {
+                return Err(bad(format!(
+                    "covers frames outside the asset's {} frames",
+                    header.frame_count
+                )));
             }
         }
         Ok(Asset {
@@ -271,7 +268,10 @@ impl Asset {
     pub fn block(&self, index: usize) -> Result<BlockView<'_>, AssetError> {
         let e = self.entries.get(index).ok_or_else(|| AssetError::Invalid {
             path: self.path.clone(),
-            what: format!("block {index} does not exist ({} blocks)", self.entries.len()),
+            what: format!(
+                "block {index} does not exist ({} blocks)",
+                self.entries.len()
+            ),
         })?;
         let id = BlockId {
             index,

@@ -1,7 +1,9 @@
 //! Streaming, atomic writing of `.haze` files.
 
 use crate::error::AssetError;
-use crate::format::{ALIGN, BlockEntry, BlockKind, FORMAT_VERSION, Header, MAGIC, PREAMBLE_LEN, Scope};
+use crate::format::{
+    ALIGN, BlockEntry, BlockKind, FORMAT_VERSION, Header, MAGIC, PREAMBLE_LEN, Scope,
+};
 use std::io::{BufWriter, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 use tempfile::NamedTempFile;
@@ -22,7 +24,7 @@ impl AssetWriter {
     pub fn create(path: &Path) -> Result<Self, AssetError> {
         let io = |source| AssetError::Io {
             path: path.to_path_buf(),
-            source,
+            err: source,
         };
         let dir = match path.parent() {
             Some(d) if !d.as_os_str().is_empty() => d,
@@ -50,7 +52,7 @@ impl AssetWriter {
     fn io(&self, source: std::io::Error) -> AssetError {
         AssetError::Io {
             path: self.path.clone(),
-            source,
+            err: source,
         }
     }
 
@@ -94,17 +96,14 @@ impl AssetWriter {
     /// Writes header, index and preamble, syncs, and moves the file into place.
     pub fn finish(mut self, header: &Header) -> Result<(), AssetError> {
         for (i, e) in self.entries.iter().enumerate() {
-            if let Scope::Frames { first, count } = e.scope {
-                if count == 0 || u64::from(first) + u64::from(count) > u64::from(header.frame_count)
-                {
-                    return Err(AssetError::Invalid {
-                        path: self.path.clone(),
-                        what: format!(
-                            "block {i} covers {} but the header has {} frames",
-                            e.scope, header.frame_count
-                        ),
-                    });
-                }
+            if !e.scope.fits(header.frame_count) {
+                return Err(AssetError::Invalid {
+                    path: self.path.clone(),
+                    what: format!(
+                        "block {i} covers {} but the header has {} frames",
+                        e.scope, header.frame_count
+                    ),
+                });
             }
         }
         let header_json = serde_json::to_vec(header).map_err(|e| AssetError::Invalid {
@@ -139,12 +138,20 @@ impl AssetWriter {
         let path = self.path.clone();
         let io = |source| AssetError::Io {
             path: path.clone(),
-            source,
+            err: source,
         };
         let mut tmp = self.out.into_inner().map_err(|e| io(e.into_error()))?;
         tmp.seek(SeekFrom::Start(0)).map_err(io)?;
         tmp.write_all(&pre).map_err(io)?;
         tmp.as_file().sync_all().map_err(io)?;
+        // Temporary files are created private (0600); a published asset is a normal file.
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            tmp.as_file()
+                .set_permissions(std::fs::Permissions::from_mode(0o644))
+                .map_err(io)?;
+        }
         tmp.persist(&path).map_err(|e| io(e.error))?;
         Ok(())
     }

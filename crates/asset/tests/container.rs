@@ -28,19 +28,33 @@ fn header(frames: u32) -> Header {
 
 fn frame_volume(k: usize) -> Volume {
     let b = Bbox::new([0.0; 3], [1.5, 1.0, 1.0]);
-    Volume::new([3, 2, 2], b, (0..12).map(|i| (i * (k + 1)) as f32 * 0.125).collect()).unwrap()
+    Volume::new(
+        [3, 2, 2],
+        b,
+        (0..12).map(|i| (i * (k + 1)) as f32 * 0.125).collect(),
+    )
+    .unwrap()
 }
 
 /// Three frames of raw volumes, one unknown per-frame-pair block and one asset-wide block.
 fn write_sample(path: &Path) {
     let mut w = AssetWriter::create(path).unwrap();
     for k in 0..3 {
-        w.write_block(BlockKind::RawVolume, Scope::frame(k), &encode_raw_volume(&frame_volume(k as usize)))
-            .unwrap();
-    }
-    w.write_block(BlockKind::Unknown(77), Scope::Frames { first: 1, count: 2 }, b"future data")
+        w.write_block(
+            BlockKind::RawVolume,
+            Scope::frame(k),
+            &encode_raw_volume(&frame_volume(k as usize)),
+        )
         .unwrap();
-    w.write_block(BlockKind::Unknown(78), Scope::Asset, &[]).unwrap();
+    }
+    w.write_block(
+        BlockKind::Unknown(77),
+        Scope::Frames { first: 1, count: 2 },
+        b"future data",
+    )
+    .unwrap();
+    w.write_block(BlockKind::Unknown(78), Scope::Asset, &[])
+        .unwrap();
     w.finish(&header(3)).unwrap();
 }
 
@@ -60,16 +74,28 @@ fn round_trip_with_streaming_api() {
         let f = a.frame(k).unwrap();
         let raw = f.find(BlockKind::RawVolume).unwrap();
         let v = decode_raw_volume(raw.bytes).unwrap();
-        assert!(matches!(v.data, std::borrow::Cow::Borrowed(_)), "mapped data is not copied");
-        assert_eq!(v.to_volume(*frame_volume(k).bbox()).unwrap(), frame_volume(k));
+        assert!(
+            matches!(v.data, std::borrow::Cow::Borrowed(_)),
+            "mapped data is not copied"
+        );
+        assert_eq!(
+            v.to_volume(*frame_volume(k).bbox()).unwrap(),
+            frame_volume(k)
+        );
         assert_eq!(f.blocks.len(), if k == 0 { 1 } else { 2 });
     }
     assert_eq!(a.asset_blocks().unwrap().len(), 1);
     a.verify_all().unwrap();
     let e = a.frame(3).unwrap_err().to_string();
-    assert!(e.contains("frame 3 does not exist (the asset has 3 frames)"), "{e}");
+    assert!(
+        e.contains("frame 3 does not exist (the asset has 3 frames)"),
+        "{e}"
+    );
     // Nothing but the asset is left in the directory.
-    let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    let names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
     assert_eq!(names, ["a.haze"]);
 }
 
@@ -79,7 +105,8 @@ fn an_unfinished_writer_leaves_no_file() {
     let p = dir.path().join("never.haze");
     {
         let mut w = AssetWriter::create(&p).unwrap();
-        w.write_block(BlockKind::RawVolume, Scope::frame(0), &[1, 2, 3]).unwrap();
+        w.write_block(BlockKind::RawVolume, Scope::frame(0), &[1, 2, 3])
+            .unwrap();
     }
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }
@@ -89,8 +116,12 @@ fn finish_refuses_blocks_outside_the_frames() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("bad.haze");
     let mut w = AssetWriter::create(&p).unwrap();
-    w.write_block(BlockKind::RawVolume, Scope::frame(5), &[]).unwrap();
-    assert!(matches!(w.finish(&header(3)), Err(AssetError::Invalid { .. })));
+    w.write_block(BlockKind::RawVolume, Scope::frame(5), &[])
+        .unwrap();
+    assert!(matches!(
+        w.finish(&header(3)),
+        Err(AssetError::Invalid { .. })
+    ));
     assert!(!p.exists());
 }
 
@@ -106,11 +137,17 @@ fn every_truncation_is_an_error() {
             Err(e) => e,
         };
         assert!(
-            matches!(e, AssetError::Truncated { .. } | AssetError::BadMagic { .. }),
+            matches!(
+                e,
+                AssetError::Truncated { .. } | AssetError::BadMagic { .. }
+            ),
             "cut at {cut}: {e}"
         );
         if cut >= 8 {
-            assert!(matches!(e, AssetError::Truncated { .. }), "cut at {cut}: {e}");
+            assert!(
+                matches!(e, AssetError::Truncated { .. }),
+                "cut at {cut}: {e}"
+            );
         }
     }
 }
@@ -145,7 +182,10 @@ fn every_bit_flip_is_detected_and_blocks_are_named() {
                 (Some(e), Some(i)) => panic!("flip in block {i} at {pos}.{bit}: {e}"),
                 (Some(_), None) => {}
                 // Padding between blocks is not covered by any checksum.
-                (None, None) => assert!(is_padding(&bytes, &clean, pos), "undetected flip at {pos}.{bit}"),
+                (None, None) => assert!(
+                    is_padding(&bytes, &clean, pos),
+                    "undetected flip at {pos}.{bit}"
+                ),
                 (None, Some(i)) => panic!("undetected flip in block {i} at {pos}.{bit}"),
             }
         }
@@ -159,7 +199,11 @@ fn is_padding(bytes: &[u8], a: &Asset, pos: usize) -> bool {
     let u64_at = |i: usize| u64::from_le_bytes(bytes[i..i + 8].try_into().unwrap()) as usize;
     let mut used = vec![(0, 60), (u64_at(16), u64_at(16) + u64_at(24))];
     used.push((u64_at(32), u64_at(32) + 40 * u64_at(40)));
-    used.extend(a.entries().iter().map(|e| (e.offset as usize, (e.offset + e.len) as usize)));
+    used.extend(
+        a.entries()
+            .iter()
+            .map(|e| (e.offset as usize, (e.offset + e.len) as usize)),
+    );
     !used.iter().any(|&(s, e)| (s..e).contains(&pos))
 }
 
@@ -173,10 +217,15 @@ fn future_versions_and_foreign_files_are_refused() {
     let crc = crc32fast::hash(&b[0..56]);
     b[56..60].copy_from_slice(&crc.to_le_bytes());
     let e = Asset::from_bytes(&p, &b).unwrap_err().to_string();
-    assert!(e.contains("format version 2 is newer than this haze reads (up to 1)"), "{e}");
+    assert!(
+        e.contains("format version 2 is newer than this haze reads (up to 1)"),
+        "{e}"
+    );
     let e = Asset::from_bytes(&p, b"OpenVDB and other things entirely").unwrap_err();
     assert!(matches!(e, AssetError::BadMagic { .. }));
-    let e = Asset::open(&dir.path().join("missing.haze")).unwrap_err().to_string();
+    let e = Asset::open(&dir.path().join("missing.haze"))
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("missing.haze"), "{e}");
 }
 

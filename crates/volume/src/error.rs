@@ -25,14 +25,9 @@ impl fmt::Display for ImportError {
     }
 }
 
-impl std::error::Error for ImportError {
-    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        match &self.problem {
-            Problem::Io(e) => Some(e),
-            _ => None,
-        }
-    }
-}
+/// The message already includes the underlying cause, so no `source` is chained (error
+/// reports stay one line).
+impl std::error::Error for ImportError {}
 
 /// What is wrong with an input file.
 #[derive(Debug, thiserror::Error)]
@@ -42,7 +37,10 @@ pub enum Problem {
     #[error("not a readable OpenVDB file: {0}")]
     Vdb(String),
     #[error("no grid named '{name}' (grids in the file: {})", available.join(", "))]
-    MissingGrid { name: String, available: Vec<String> },
+    MissingGrid {
+        name: String,
+        available: Vec<String>,
+    },
     #[error("grid '{name}' is unsupported: {why}")]
     UnsupportedGrid { name: String, why: String },
     #[error("voxel ({}, {}, {}) is {value}: densities must be finite", voxel[0], voxel[1], voxel[2])]

@@ -55,7 +55,9 @@ impl Rbf {
 /// Inclusive voxel index range along one axis whose centers can lie within `[lo, hi]`,
 /// clamped to `0..n`; `None` when empty.
 pub fn voxel_span(lo: f64, hi: f64, min: f64, voxel: f64, n: usize) -> Option<(usize, usize)> {
-    if n == 0 || !(voxel > 0.0) || !(lo <= hi) {
+    // Written so that NaN bounds or voxel sizes also take the early exit.
+    let valid = voxel > 0.0 && lo <= hi;
+    if n == 0 || !valid {
         return None;
     }
     // Voxel i's center is min + (i + 0.5)·voxel.
@@ -79,28 +81,36 @@ pub fn evaluate_on_grid(dims: [usize; 3], bbox: &Bbox, rbfs: &[Rbf]) -> Vec<f64>
     let size = bbox.size();
     let vs = [0, 1, 2].map(|a| size[a] / dims[a] as f64);
     let slice = dims[0] * dims[1];
-    out.par_chunks_mut(slice).enumerate().for_each(|(z, plane)| {
-        let pz = bbox.min[2] + (z as f64 + 0.5) * vs[2];
-        for rbf in rbfs {
-            let s = rbf.support_radius();
-            if s <= 0.0 || (pz - rbf.center[2]).abs() >= s {
-                continue;
-            }
-            let span = |a: usize| {
-                voxel_span(rbf.center[a] - s, rbf.center[a] + s, bbox.min[a], vs[a], dims[a])
-            };
-            let (Some((x0, x1)), Some((y0, y1))) = (span(0), span(1)) else {
-                continue;
-            };
-            for y in y0..=y1 {
-                let py = bbox.min[1] + (y as f64 + 0.5) * vs[1];
-                for x in x0..=x1 {
-                    let px = bbox.min[0] + (x as f64 + 0.5) * vs[0];
-                    plane[x + dims[0] * y] += rbf.eval([px, py, pz]);
+    out.par_chunks_mut(slice)
+        .enumerate()
+        .for_each(|(z, plane)| {
+            let pz = bbox.min[2] + (z as f64 + 0.5) * vs[2];
+            for rbf in rbfs {
+                let s = rbf.support_radius();
+                if s <= 0.0 || (pz - rbf.center[2]).abs() >= s {
+                    continue;
+                }
+                let span = |a: usize| {
+                    voxel_span(
+                        rbf.center[a] - s,
+                        rbf.center[a] + s,
+                        bbox.min[a],
+                        vs[a],
+                        dims[a],
+                    )
+                };
+                let (Some((x0, x1)), Some((y0, y1))) = (span(0), span(1)) else {
+                    continue;
+                };
+                for y in y0..=y1 {
+                    let py = bbox.min[1] + (y as f64 + 0.5) * vs[1];
+                    for x in x0..=x1 {
+                        let px = bbox.min[0] + (x as f64 + 0.5) * vs[0];
+                        plane[x + dims[0] * y] += rbf.eval([px, py, pz]);
+                    }
                 }
             }
-        }
-    });
+        });
     out
 }
 
@@ -151,7 +161,9 @@ mod tests {
         let mut rbfs = Vec::new();
         let mut seed = 12345u64;
         let mut rnd = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (seed >> 11) as f64 / (1u64 << 53) as f64
         };
         for _ in 0..40 {
@@ -167,7 +179,10 @@ mod tests {
                     let p = [0, 1, 2].map(|a| bbox.min[a] + p[a] * vs[a]);
                     let brute: f64 = rbfs.iter().map(|b| b.eval(p)).sum();
                     let got = fast[x + dims[0] * (y + dims[1] * z)];
-                    assert!((got - brute).abs() <= 1e-12, "({x},{y},{z}): {got} vs {brute}");
+                    assert!(
+                        (got - brute).abs() <= 1e-12,
+                        "({x},{y},{z}): {got} vs {brute}"
+                    );
                 }
             }
         }
@@ -177,7 +192,11 @@ mod tests {
     #[test]
     fn grid_evaluation_of_nothing_is_zero() {
         let bbox = Bbox::new([0.0; 3], [1.0; 3]);
-        assert!(evaluate_on_grid([4, 4, 4], &bbox, &[]).iter().all(|&v| v == 0.0));
+        assert!(
+            evaluate_on_grid([4, 4, 4], &bbox, &[])
+                .iter()
+                .all(|&v| v == 0.0)
+        );
         assert!(evaluate_on_grid([0, 4, 4], &bbox, &[Rbf::new([0.5; 3], 0.1, 1.0)]).is_empty());
     }
 }

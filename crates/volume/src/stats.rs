@@ -70,7 +70,10 @@ mod tests {
     fn stats_of_empty_and_zero_volumes() {
         let b = Bbox::new([0.0; 3], [1.0; 3]);
         let e = VolumeStats::of(&Volume::zeros([0, 0, 0], b).unwrap());
-        assert_eq!((e.min, e.max, e.nonzero, e.nonzero_bbox), (0.0, 0.0, 0, None));
+        assert_eq!(
+            (e.min, e.max, e.nonzero, e.nonzero_bbox),
+            (0.0, 0.0, 0, None)
+        );
         let z = VolumeStats::of(&Volume::zeros([2, 2, 2], b).unwrap());
         assert_eq!((z.min, z.max, z.nonzero), (0.0, 0.0, 0));
     }

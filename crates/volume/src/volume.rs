@@ -28,7 +28,11 @@ impl Bbox {
     /// Whether two boxes agree within `tol` times the larger extent (float noise from
     /// different writers must not split a sequence).
     pub fn approx_eq(&self, other: &Bbox, tol: f64) -> bool {
-        let scale = self.longest_side().abs().max(other.longest_side().abs()).max(1e-300);
+        let scale = self
+            .longest_side()
+            .abs()
+            .max(other.longest_side().abs())
+            .max(1e-300);
         (0..3).all(|a| {
             (self.min[a] - other.min[a]).abs() <= tol * scale
                 && (self.max[a] - other.max[a]).abs() <= tol * scale

@@ -5,7 +5,9 @@ use haze_volume::{ImportOptions, VolumeStats};
 use std::path::{Path, PathBuf};
 
 fn data(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data").join(rel)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../data")
+        .join(rel)
 }
 
 fn dense_truth() -> Vec<u32> {
@@ -22,14 +24,20 @@ fn bits(v: &haze_volume::Volume) -> Vec<u32> {
 
 #[test]
 fn vdb_frame_24_reproduces_openvdb_dense_export_bit_for_bit() {
-    let v = import::import(&data("plume-a/vdb/fluid_data_0024.vdb"), &ImportOptions::default())
-        .unwrap();
+    let v = import::import(
+        &data("plume-a/vdb/fluid_data_0024.vdb"),
+        &ImportOptions::default(),
+    )
+    .unwrap();
     assert_eq!(v.dims(), [48, 48, 64]);
     assert_eq!(v.voxel_size(), [0.0625; 3]);
     // Domain-local transform: the box starts at the index origin.
     assert_eq!(v.bbox().min, [0.0; 3]);
     assert_eq!(v.bbox().max, [3.0, 3.0, 4.0]);
-    assert!(bits(&v) == dense_truth(), "density differs from the dense export");
+    assert!(
+        bits(&v) == dense_truth(),
+        "density differs from the dense export"
+    );
     let s = VolumeStats::of(&v);
     assert_eq!(s.nonzero, 11593);
     assert_eq!(s.nonzero_bbox, Some([[10, 9, 1], [38, 37, 34]]));
@@ -49,8 +57,11 @@ fn domain_offset_places_blender_domain_in_world() {
 
 #[test]
 fn raw_sidecar_import_matches_the_file() {
-    let v = import::import(&data("plume-a/dense/density_0024.f32"), &ImportOptions::default())
-        .unwrap();
+    let v = import::import(
+        &data("plume-a/dense/density_0024.f32"),
+        &ImportOptions::default(),
+    )
+    .unwrap();
     assert_eq!(v.dims(), [48, 48, 64]);
     assert_eq!(v.bbox().min, [-1.5, -1.5, 0.0]);
     assert!(bits(&v) == dense_truth());
@@ -86,7 +97,10 @@ fn probe_lists_grids_and_refuses_non_scalar_ones() {
     let p = data("plume-a/vdb/fluid_data_0024.vdb");
     let info = vdb::probe(&p).unwrap();
     let names: Vec<_> = info.grids.iter().map(|g| g.name.as_str()).collect();
-    assert_eq!(names, ["density", "flame", "shadow", "temperature", "velocity"]);
+    assert_eq!(
+        names,
+        ["density", "flame", "shadow", "temperature", "velocity"]
+    );
     let opts = ImportOptions {
         grid: "velocity".into(),
         ..ImportOptions::default()
@@ -98,7 +112,10 @@ fn probe_lists_grids_and_refuses_non_scalar_ones() {
         ..ImportOptions::default()
     };
     let e = import::import(&p, &opts).unwrap_err().to_string();
-    assert!(e.contains("no grid named 'smoke'") && e.contains("density, flame"), "{e}");
+    assert!(
+        e.contains("no grid named 'smoke'") && e.contains("density, flame"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -155,7 +172,19 @@ fn truncated_vdb_is_an_error_not_a_panic() {
     let bytes = std::fs::read(data("plume-a/vdb/fluid_data_0024.vdb")).unwrap();
     let dir = tempfile::tempdir().unwrap();
     // Cut at many places: in the header, the descriptors, the topology and the leaves.
-    for cut in [0, 5, 11, 40, 200, 600, 1000, 4000, 20000, bytes.len() / 2, bytes.len() - 1] {
+    for cut in [
+        0,
+        5,
+        11,
+        40,
+        200,
+        600,
+        1000,
+        4000,
+        20000,
+        bytes.len() / 2,
+        bytes.len() - 1,
+    ] {
         let p = dir.path().join(format!("cut_{cut}.vdb"));
         std::fs::write(&p, &bytes[..cut]).unwrap();
         let e = match import::import(&p, &ImportOptions::default()) {

@@ -41,7 +41,8 @@ fn sidecar_err(raw: &Path, sidecar: &Path, why: impl Into<String>) -> ImportErro
 pub fn read_sidecar(raw: &Path) -> Result<Sidecar, ImportError> {
     let sc = sidecar_path(raw);
     let text = std::fs::read_to_string(&sc).map_err(|e| sidecar_err(raw, &sc, e.to_string()))?;
-    let s: Sidecar = serde_json::from_str(&text).map_err(|e| sidecar_err(raw, &sc, e.to_string()))?;
+    let s: Sidecar =
+        serde_json::from_str(&text).map_err(|e| sidecar_err(raw, &sc, e.to_string()))?;
     if let Some(dt) = &s.dtype {
         let d = dt.to_ascii_lowercase();
         let ok = d == "<f4" || d == "f4" || (d.contains("float32") && !d.contains("big"));
@@ -54,9 +55,8 @@ pub fn read_sidecar(raw: &Path) -> Result<Sidecar, ImportError> {
         }
     }
     let bbox = Bbox::new(s.world_bbox_min, s.world_bbox_max);
-    let ordered = (0..3).all(|a| {
-        bbox.min[a].is_finite() && bbox.max[a].is_finite() && bbox.max[a] > bbox.min[a]
-    });
+    let ordered = (0..3)
+        .all(|a| bbox.min[a].is_finite() && bbox.max[a].is_finite() && bbox.max[a] > bbox.min[a]);
     if !ordered {
         return Err(sidecar_err(
             raw,
@@ -108,6 +108,10 @@ pub fn read(path: &Path) -> Result<Volume, ImportError> {
         .chunks_exact(4)
         .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
         .collect();
-    Volume::new(sc.dims, Bbox::new(sc.world_bbox_min, sc.world_bbox_max), data)
-        .map_err(|e| ImportError::new(path, Problem::Format(e.to_string())))
+    Volume::new(
+        sc.dims,
+        Bbox::new(sc.world_bbox_min, sc.world_bbox_max),
+        data,
+    )
+    .map_err(|e| ImportError::new(path, Problem::Format(e.to_string())))
 }

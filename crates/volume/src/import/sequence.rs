@@ -62,10 +62,10 @@ impl FromStr for FrameRange {
                 }
             }
         };
-        if let (Some(a), Some(b)) = (r.first, r.last) {
-            if a > b {
-                return Err(format!("frame range {s} is empty (first {a} > last {b})"));
-            }
+        if let (Some(a), Some(b)) = (r.first, r.last)
+            && a > b
+        {
+            return Err(format!("frame range {s} is empty (first {a} > last {b})"));
         }
         Ok(r)
     }
@@ -129,7 +129,11 @@ pub fn discover(path: &Path) -> Result<Vec<FrameFile>, ImportError> {
             "no volume files (.vdb, .f32/.raw, .npy) found",
         ));
     }
-    let mut formats: Vec<&str> = files.iter().filter_map(|p| Format::of(p)).map(Format::name).collect();
+    let mut formats: Vec<&str> = files
+        .iter()
+        .filter_map(|p| Format::of(p))
+        .map(Format::name)
+        .collect();
     formats.sort_unstable();
     formats.dedup();
     if formats.len() > 1 {
@@ -155,7 +159,11 @@ pub fn discover(path: &Path) -> Result<Vec<FrameFile>, ImportError> {
         if w[0].number == w[1].number {
             return Err(seq_err(
                 &w[1].path,
-                format!("frame {} also comes from {}", w[0].number, w[0].path.display()),
+                format!(
+                    "frame {} also comes from {}",
+                    w[0].number,
+                    w[0].path.display()
+                ),
             ));
         }
     }
@@ -189,7 +197,10 @@ impl Sequence {
     /// (for VDB, the union of the frames' recorded boxes; the first frame is read).
     pub fn open(path: &Path, opts: &ImportOptions, range: FrameRange) -> Result<Self, ImportError> {
         let all = discover(path)?;
-        let frames: Vec<FrameFile> = all.into_iter().filter(|f| range.contains(f.number)).collect();
+        let frames: Vec<FrameFile> = all
+            .into_iter()
+            .filter(|f| range.contains(f.number))
+            .collect();
         if frames.is_empty() {
             return Err(seq_err(path, format!("no frames in the range {range:?}")));
         }
@@ -254,8 +265,7 @@ impl Sequence {
             .ok_or_else(|| seq_err(&self.source, format!("no frame at position {i}")))?;
         let mut v = read_unchecked(&f.path, &self.opts, self.vdb_box)?;
         if v.is_empty() && self.dims.iter().all(|&n| n > 0) {
-            v = Volume::zeros(self.dims, self.bbox)
-                .map_err(|e| seq_err(&f.path, e.to_string()))?;
+            v = Volume::zeros(self.dims, self.bbox).map_err(|e| seq_err(&f.path, e.to_string()))?;
         }
         if v.dims() != self.dims || !v.bbox().approx_eq(&self.bbox, 1e-9) {
             let first = &self.frames[0];
@@ -315,7 +325,10 @@ mod tests {
     fn frame_numbers_from_names() {
         assert_eq!(frame_number(Path::new("a/fluid_data_0001.vdb")), Some(1));
         assert_eq!(frame_number(Path::new("smoke.1001.vdb")), Some(1001));
-        assert_eq!(frame_number(Path::new("fluid_data_0024_openvdb_blosc.vdb")), Some(24));
+        assert_eq!(
+            frame_number(Path::new("fluid_data_0024_openvdb_blosc.vdb")),
+            Some(24)
+        );
         assert_eq!(frame_number(Path::new("v2/density.npy")), None);
     }
 

@@ -283,7 +283,8 @@ fn transform_of(path: &Path, map: &Map) -> Result<([f64; 3], [f64; 3]), ImportEr
             ..
         } => ([v.x, v.y, v.z], [t.x, t.y, t.z]),
     };
-    if !scale.iter().all(|s| s.is_finite() && *s > 0.0) || !translation.iter().all(|t| t.is_finite())
+    if !scale.iter().all(|s| s.is_finite() && *s > 0.0)
+        || !translation.iter().all(|t| t.is_finite())
     {
         return Err(vdb_err(
             path,
@@ -435,7 +436,11 @@ fn walk(
     };
     for root in &grid.tree.root_nodes {
         for idx in 0..(1usize << 15) {
-            let o = at([root.origin.x, root.origin.y, root.origin.z], local(idx, 5), 7);
+            let o = at(
+                [root.origin.x, root.origin.y, root.origin.z],
+                local(idx, 5),
+                7,
+            );
             if !root.child_mask.get(idx).is_some_and(|b| *b) {
                 let v = *root
                     .data
@@ -466,7 +471,15 @@ fn walk(
                     return Err(corrupt(path, "leaf with a wrong value count"));
                 }
                 for (k, &v) in leaf.buffer.iter().enumerate() {
-                    visit(at([leaf.origin.x, leaf.origin.y, leaf.origin.z], local(k, 3), 0), 1, v);
+                    visit(
+                        at(
+                            [leaf.origin.x, leaf.origin.y, leaf.origin.z],
+                            local(k, 3),
+                            0,
+                        ),
+                        1,
+                        v,
+                    );
                 }
             }
         }

@@ -1,0 +1,198 @@
+//! NumPy and raw imports on synthetic files, including every documented error.
+
+use haze_volume::ImportOptions;
+use haze_volume::import::{self, Sequence};
+use npyz::WriterBuilder;
+use std::path::Path;
+
+fn write_npy<T: npyz::AutoSerialize + Copy>(
+    path: &Path,
+    shape: &[u64],
+    order: npyz::Order,
+    data: &[T],
+) {
+    let mut buf = Vec::new();
+    let mut w = npyz::WriteOptions::new()
+        .default_dtype()
+        .shape(shape)
+        .order(order)
+        .writer(&mut buf)
+        .begin_nd()
+        .unwrap();
+    w.extend(data.iter().copied()).unwrap();
+    w.finish().unwrap();
+    std::fs::write(path, buf).unwrap();
+}
+
+fn sidecar(path: &Path, body: &str) {
+    std::fs::write(path.with_extension("json"), body).unwrap();
+}
+
+/// Value of voxel (x, y, z) in the synthetic volumes: distinct everywhere.
+fn value(x: usize, y: usize, z: usize) -> f32 {
+    (x + 10 * y + 100 * z) as f32 * 0.01
+}
+
+#[test]
+fn npy_c_and_fortran_orders_both_give_x_fastest() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (nx, ny, nz) = (4usize, 3usize, 2usize);
+    // C order, shape (z, y, x): the last index (x) varies fastest.
+    let mut c = Vec::new();
+    for z in 0..nz {
+        for y in 0..ny {
+            for x in 0..nx {
+                c.push(value(x, y, z));
+            }
+        }
+    }
+    let pc = tmp.path().join("c.npy");
+    write_npy(&pc, &[nz as u64, ny as u64, nx as u64], npyz::Order::C, &c);
+    // Fortran order, shape (x, y, z): the first index (x) varies fastest, same bytes.
+    let pf = tmp.path().join("f.npy");
+    write_npy(
+        &pf,
+        &[nx as u64, ny as u64, nz as u64],
+        npyz::Order::Fortran,
+        &c,
+    );
+    for p in [&pc, &pf] {
+        let v = import::import(p, &ImportOptions::default()).unwrap();
+        assert_eq!(v.dims(), [4, 3, 2]);
+        assert_eq!(v.get(3, 1, 0), value(3, 1, 0));
+        assert_eq!(v.get(1, 2, 1), value(1, 2, 1));
+        // No sidecar: unit voxels at the origin.
+        assert_eq!(v.bbox().max, [4.0, 3.0, 2.0]);
+    }
+}
+
+#[test]
+fn npy_float64_and_sidecar_box() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = tmp.path().join("d.npy");
+    let data: Vec<f64> = (0..24).map(|i| i as f64 / 8.0).collect();
+    write_npy(&p, &[2, 3, 4], npyz::Order::C, &data);
+    sidecar(
+        &p,
+        r#"{"dims": [4, 3, 2], "world_bbox_min": [-1, -1, 0], "world_bbox_max": [1, 0.5, 1], "note": "x"}"#,
+    );
+    let v = import::import(&p, &ImportOptions::default()).unwrap();
+    assert_eq!(v.bbox().min, [-1.0, -1.0, 0.0]);
+    assert_eq!(v.data()[23], 23.0 / 8.0);
+    sidecar(
+        &p,
+        r#"{"dims": [2, 3, 4], "world_bbox_min": [0, 0, 0], "world_bbox_max": [1, 1, 1]}"#,
+    );
+    let e = import::import(&p, &ImportOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("disagree with the array's [4, 3, 2]"), "{e}");
+}
+
+#[test]
+fn npy_errors_are_clear() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = tmp.path().join("flat.npy");
+    write_npy(&p, &[6], npyz::Order::C, &[0f32; 6]);
+    let e = import::import(&p, &ImportOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("shape [6]; a volume needs 3 dimensions"), "{e}");
+    let p = tmp.path().join("int.npy");
+    write_npy(&p, &[1, 1, 2], npyz::Order::C, &[1i32, 2]);
+    let e = import::import(&p, &ImportOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("not supported"), "{e}");
+    let p = tmp.path().join("junk.npy");
+    std::fs::write(&p, b"\x93NUMPY garbage").unwrap();
+    let e = import::import(&p, &ImportOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.starts_with(&p.display().to_string()), "{e}");
+    let p = tmp.path().join("nan.npy");
+    write_npy(&p, &[1, 1, 3], npyz::Order::C, &[0.0f32, f32::NAN, 1.0]);
+    let e = import::import(&p, &ImportOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("voxel (1, 0, 0) is NaN"), "{e}");
+}
+
+#[test]
+fn raw_sidecar_errors_are_clear() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = tmp.path().join("r.f32");
+    std::fs::write(&p, vec![0u8; 32]).unwrap();
+    let e = import::import(&p, &ImportOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("r.json"), "missing sidecar: {e}");
+    for (body, needle) in [
+        (r#"{"dims": [2, 2]}"#, "expected an array of length 3"),
+        (
+            r#"{"dims": [2, 2, 2], "world_bbox_min": [0,0,0], "world_bbox_max": [1,0,1]}"#,
+            "not ordered",
+        ),
+        (
+            r#"{"dims": [2, 2, 2], "world_bbox_min": [0,0,0], "world_bbox_max": [1,1,1], "voxel_size": [0.1, 0.5, 0.5]}"#,
+            "voxel_size",
+        ),
+        (
+            r#"{"dims": [2, 2, 2], "world_bbox_min": [0,0,0], "world_bbox_max": [1,1,1], "dtype": "float64"}"#,
+            "dtype 'float64'",
+        ),
+    ] {
+        sidecar(&p, body);
+        let e = import::import(&p, &ImportOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(needle), "{body}: {e}");
+        assert!(e.starts_with(&p.display().to_string()), "{e}");
+    }
+}
+
+#[test]
+fn sequences_must_share_one_grid() {
+    let tmp = tempfile::tempdir().unwrap();
+    for (n, max) in [(1001, 1.0), (1002, 1.0), (1004, 2.0)] {
+        let p = tmp.path().join(format!("s.{n}.f32"));
+        std::fs::write(&p, vec![0u8; 32]).unwrap();
+        sidecar(
+            &p,
+            &format!(
+                r#"{{"dims": [2, 2, 2], "world_bbox_min": [0,0,0], "world_bbox_max": [{max},1,1]}}"#
+            ),
+        );
+    }
+    let seq = Sequence::open(tmp.path(), &ImportOptions::default(), Default::default()).unwrap();
+    assert_eq!(seq.gaps(), &[(1003, 1003)]);
+    assert!(seq.load(1).is_ok());
+    let e = seq.load(2).unwrap_err().to_string();
+    assert!(
+        e.contains("s.1004.f32") && e.contains("frame 1004") && e.contains("frame 1001"),
+        "{e}"
+    );
+}
+
+#[test]
+fn sequences_refuse_ambiguity() {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("a_1.npy"), b"").unwrap();
+    std::fs::write(tmp.path().join("a_1.f32"), b"").unwrap();
+    let e = Sequence::open(tmp.path(), &ImportOptions::default(), Default::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("several formats"), "{e}");
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("a_01.npy"), b"").unwrap();
+    std::fs::write(tmp.path().join("b_1.npy"), b"").unwrap();
+    let e = Sequence::open(tmp.path(), &ImportOptions::default(), Default::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("frame 1 also comes from"), "{e}");
+    let empty = tempfile::tempdir().unwrap();
+    let e = Sequence::open(empty.path(), &ImportOptions::default(), Default::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("no volume files"), "{e}");
+}

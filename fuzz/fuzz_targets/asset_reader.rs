@@ -1,0 +1,23 @@
+//! Any byte string given to the asset reader yields an asset or an error: never a panic,
+//! never an out-of-bounds read. Every block of an accepted asset is verified and every
+//! raw-volume block decoded.
+#![no_main]
+
+use haze_asset::{Asset, BlockKind, decode_raw_volume};
+use libfuzzer_sys::fuzz_target;
+use std::path::Path;
+
+fuzz_target!(|data: &[u8]| {
+    let Ok(asset) = Asset::from_bytes(Path::new("fuzz.haze"), data) else {
+        return;
+    };
+    let _ = asset.verify_all();
+    for k in 0..asset.frame_count().min(64) + 1 {
+        if let Ok(frame) = asset.frame(k) {
+            if let Some(raw) = frame.find(BlockKind::RawVolume) {
+                let _ = decode_raw_volume(raw.bytes);
+            }
+        }
+    }
+    let _ = asset.asset_blocks();
+});

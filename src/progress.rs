@@ -1,0 +1,18 @@
+//! Progress bars for long work: shown on a terminal, silent otherwise.
+
+use indicatif::{ProgressBar, ProgressStyle};
+
+/// A bar over `len` frames with rate and ETA. Hidden when stderr is not a terminal (logs
+/// and scripts get no control characters).
+pub fn frames(len: usize, what: &str) -> ProgressBar {
+    let bar = ProgressBar::new(len as u64);
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{msg:>10} [{bar:30}] {pos}/{len} frames, {per_sec}, ETA {eta}",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar())
+        .progress_chars("=> "),
+    );
+    bar.set_message(what.to_string());
+    bar
+}

@@ -1,0 +1,295 @@
+//! End-to-end tests of the `haze` binary on the bundled sample in data/.
+
+use assert_cmd::Command;
+use std::path::{Path, PathBuf};
+
+fn data(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(rel)
+}
+
+fn haze() -> Command {
+    Command::cargo_bin("haze").unwrap()
+}
+
+/// Runs haze expecting failure; returns stderr after checking it is one line naming `file`,
+/// with no panic or backtrace.
+fn fails_with_one_line(args: &[&str], file: &Path) -> String {
+    let out = haze().args(args).output().unwrap();
+    assert!(!out.status.success(), "{args:?} succeeded");
+    assert_eq!(out.status.code(), Some(1), "{args:?}");
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert_eq!(err.lines().count(), 1, "not one line: {err}");
+    assert!(err.starts_with("error: "), "{err}");
+    assert!(
+        err.contains(&file.display().to_string()),
+        "file not named: {err}"
+    );
+    assert!(
+        !err.contains("panicked") && !err.contains("RUST_BACKTRACE"),
+        "{err}"
+    );
+    err
+}
+
+fn json_of(args: &[&str]) -> serde_json::Value {
+    let out = haze().args(args).output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+#[test]
+fn inspect_vdb_reports_dims_range_and_grids() {
+    let p = data("plume-a/vdb/fluid_data_0024.vdb");
+    let j = json_of(&["inspect", p.to_str().unwrap(), "--json"]);
+    assert_eq!(j["kind"], "file");
+    assert_eq!(j["dims"], serde_json::json!([48, 48, 64]));
+    assert_eq!(j["value_min"], 0.0);
+    assert_eq!(j["value_max"], 1.0);
+    assert_eq!(j["active_voxels"], 11593);
+    assert_eq!(j["voxel_size"], serde_json::json!([0.0625, 0.0625, 0.0625]));
+    assert_eq!(j["vdb"]["grids"].as_array().unwrap().len(), 5);
+    assert_eq!(j["memory_bytes"], 48 * 48 * 64 * 4);
+}
+
+#[test]
+fn inspect_text_output_is_readable() {
+    let p = data("plume-a/vdb/fluid_data_0024.vdb");
+    let out = haze()
+        .args(["inspect", p.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).unwrap();
+    for needle in [
+        "48 × 48 × 64",
+        "values:",
+        "11593 voxels",
+        "grid:       velocity",
+    ] {
+        assert!(text.contains(needle), "missing {needle}: {text}");
+    }
+}
+
+#[test]
+fn inspect_raw_with_sidecar_and_domain_offset() {
+    let raw = data("plume-a/dense/density_0024.f32");
+    let j = json_of(&["inspect", raw.to_str().unwrap(), "--json"]);
+    assert_eq!(j["format"], "raw");
+    assert_eq!(j["bbox_min"], serde_json::json!([-1.5, -1.5, 0.0]));
+    assert!((j["value_sum"].as_f64().unwrap() - 3606.951126572968).abs() < 1e-9);
+    let vdb = data("plume-a/vdb/fluid_data_0024.vdb");
+    let j = json_of(&[
+        "inspect",
+        vdb.to_str().unwrap(),
+        "--json",
+        "--domain-offset",
+        "-1.5,-1.5,0",
+    ]);
+    assert_eq!(j["bbox_min"], serde_json::json!([-1.5, -1.5, 0.0]));
+    assert_eq!(j["bbox_max"], serde_json::json!([1.5, 1.5, 4.0]));
+}
+
+#[test]
+fn inspect_sequence_counts_frames_and_gaps() {
+    let dir = data("plume-a/vdb");
+    let j = json_of(&["inspect", dir.to_str().unwrap(), "--json"]);
+    assert_eq!(j["kind"], "sequence");
+    assert_eq!(j["frames"], 8);
+    assert_eq!(j["first_frame"], 21);
+    assert_eq!(j["gaps"], serde_json::json!([]));
+    assert_eq!(j["per_frame"][3]["active_voxels"], 11593);
+
+    // A copy with frames 23 and 26..27 missing, selected by glob.
+    let tmp = tempfile::tempdir().unwrap();
+    for n in [21, 22, 24, 25, 28] {
+        let name = format!("fluid_data_00{n}.vdb");
+        std::fs::copy(dir.join(&name), tmp.path().join(&name)).unwrap();
+    }
+    let pattern = tmp.path().join("fluid_data_*.vdb");
+    let j = json_of(&["inspect", pattern.to_str().unwrap(), "--json"]);
+    assert_eq!(j["frames"], 5);
+    assert_eq!(j["gaps"], serde_json::json!([[23, 23], [26, 27]]));
+    assert_eq!(j["missing_frames"], 3);
+    let j = json_of(&[
+        "inspect",
+        tmp.path().to_str().unwrap(),
+        "--json",
+        "--frames",
+        "24..25",
+    ]);
+    assert_eq!(j["frames"], 2);
+}
+
+#[test]
+fn pack_then_inspect_asset_and_read_it_back() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("plume.haze");
+    let dir = data("plume-a/vdb");
+    haze()
+        .args([
+            "pack",
+            dir.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--frames",
+            "23..25",
+        ])
+        .assert()
+        .success();
+    let j = json_of(&["inspect", out.to_str().unwrap(), "--json"]);
+    assert_eq!(j["kind"], "asset");
+    assert_eq!(j["header"]["frame_count"], 3);
+    assert_eq!(
+        j["header"]["source"]["frame_numbers"],
+        serde_json::json!([23, 24, 25])
+    );
+    assert_eq!(j["blocks_by_kind"]["raw-volume"]["blocks"], 3);
+    assert_eq!(j["checksums_verified"], true);
+
+    // Frame 24 in the asset is bit-identical to OpenVDB's dense export.
+    let asset = haze_asset::Asset::open(&out).unwrap();
+    let f = asset.frame(1).unwrap();
+    let raw =
+        haze_asset::decode_raw_volume(f.find(haze_asset::BlockKind::RawVolume).unwrap().bytes)
+            .unwrap();
+    let truth = std::fs::read(data("plume-a/dense/density_0024.f32")).unwrap();
+    let got: Vec<u8> = raw.data.iter().flat_map(|v| v.to_le_bytes()).collect();
+    assert!(got == truth);
+}
+
+#[test]
+fn bad_inputs_fail_with_one_line_naming_the_file() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = |name: &str| tmp.path().join(name);
+
+    // A truncated VDB.
+    let vdb = std::fs::read(data("plume-a/vdb/fluid_data_0024.vdb")).unwrap();
+    std::fs::write(t("cut.vdb"), &vdb[..vdb.len() / 3]).unwrap();
+    let e = fails_with_one_line(&["inspect", t("cut.vdb").to_str().unwrap()], &t("cut.vdb"));
+    assert!(e.contains("truncated"), "{e}");
+
+    // A VDB without the requested grid.
+    let p = data("plume-a/vdb/fluid_data_0024.vdb");
+    let e = fails_with_one_line(&["inspect", p.to_str().unwrap(), "--grid", "smoke"], &p);
+    assert!(e.contains("no grid named 'smoke'"), "{e}");
+
+    // A sidecar whose dims disagree with the file size.
+    std::fs::write(t("d.f32"), vec![0u8; 4 * 10]).unwrap();
+    std::fs::write(
+        t("d.json"),
+        r#"{"dims": [2, 2, 3], "world_bbox_min": [0,0,0], "world_bbox_max": [1,1,1]}"#,
+    )
+    .unwrap();
+    let e = fails_with_one_line(&["inspect", t("d.f32").to_str().unwrap()], &t("d.f32"));
+    assert!(e.contains("need 48 bytes") && e.contains("40 bytes"), "{e}");
+
+    // A raw file containing NaN.
+    let mut nan = [0f32; 12];
+    nan[7] = f32::NAN;
+    std::fs::write(
+        t("n.f32"),
+        nan.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<_>>(),
+    )
+    .unwrap();
+    std::fs::write(
+        t("n.json"),
+        r#"{"dims": [2, 2, 3], "world_bbox_min": [0,0,0], "world_bbox_max": [1,1,1]}"#,
+    )
+    .unwrap();
+    let e = fails_with_one_line(&["inspect", t("n.f32").to_str().unwrap()], &t("n.f32"));
+    assert!(e.contains("voxel (1, 1, 1) is NaN"), "{e}");
+
+    // A truncated and a bit-flipped .haze.
+    let asset = t("a.haze");
+    haze()
+        .args([
+            "pack",
+            data("plume-a/vdb").to_str().unwrap(),
+            "--frames",
+            "21..22",
+        ])
+        .args(["--out", asset.to_str().unwrap()])
+        .assert()
+        .success();
+    let bytes = std::fs::read(&asset).unwrap();
+    std::fs::write(t("cut.haze"), &bytes[..bytes.len() - 100]).unwrap();
+    let e = fails_with_one_line(
+        &["inspect", t("cut.haze").to_str().unwrap()],
+        &t("cut.haze"),
+    );
+    assert!(e.contains("truncated"), "{e}");
+    let mut flipped = bytes.clone();
+    flipped[64 + 5000] ^= 0x10;
+    std::fs::write(t("flip.haze"), &flipped).unwrap();
+    let e = fails_with_one_line(
+        &["inspect", t("flip.haze").to_str().unwrap()],
+        &t("flip.haze"),
+    );
+    assert!(
+        e.contains("block 0 (raw-volume, frame 0): checksum mismatch"),
+        "{e}"
+    );
+
+    // A missing file, and an unknown file type.
+    let e = fails_with_one_line(
+        &["inspect", t("nope.vdb").to_str().unwrap()],
+        &t("nope.vdb"),
+    );
+    assert!(e.contains("no such file"), "{e}");
+    std::fs::write(t("x.txt"), "hello").unwrap();
+    fails_with_one_line(&["inspect", t("x.txt").to_str().unwrap()], &t("x.txt"));
+}
+
+#[test]
+fn pack_failure_leaves_no_output() {
+    let tmp = tempfile::tempdir().unwrap();
+    // Frame 2 has NaN: packing stops there and writes nothing.
+    for (n, bad) in [(1, false), (2, true)] {
+        let mut v = [0.5f32; 8];
+        if bad {
+            v[3] = f32::INFINITY;
+        }
+        let stem = tmp.path().join(format!("f_{n}"));
+        std::fs::write(
+            stem.with_extension("f32"),
+            v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<_>>(),
+        )
+        .unwrap();
+        std::fs::write(
+            stem.with_extension("json"),
+            r#"{"dims": [2, 2, 2], "world_bbox_min": [0,0,0], "world_bbox_max": [1,1,1]}"#,
+        )
+        .unwrap();
+    }
+    let out = tmp.path().join("out").join("s.haze");
+    std::fs::create_dir(tmp.path().join("out")).unwrap();
+    let pattern = tmp.path().join("*.f32");
+    let e = fails_with_one_line(
+        &[
+            "pack",
+            pattern.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        &tmp.path().join("f_2.f32"),
+    );
+    assert!(e.contains("is inf"), "{e}");
+    assert_eq!(
+        std::fs::read_dir(tmp.path().join("out")).unwrap().count(),
+        0
+    );
+}
+
+#[test]
+fn help_explains_commands() {
+    let out = haze().arg("--help").output().unwrap();
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.contains("inspect") && text.contains("pack"));
+    let out = haze().args(["inspect", "--help"]).output().unwrap();
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.contains("--grid") && text.contains("--domain-offset") && text.contains("glob"));
+}
