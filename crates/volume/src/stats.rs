@@ -56,10 +56,10 @@ mod tests {
     #[test]
     fn stats_of_a_small_volume() {
         let b = Bbox::new([0.0; 3], [1.0; 3]);
-        let mut data = vec![0.0f32; 27];
-        data[1 + 3 * (2 + 3 * 1)] = 0.5;
-        data[2 + 3 * (0 + 3 * 2)] = -0.25;
-        let v = Volume::new([3, 3, 3], b, data).unwrap();
+        let mut v = Volume::zeros([3, 3, 3], b).unwrap();
+        let (i, j) = (v.index(1, 2, 1), v.index(2, 0, 2));
+        v.data_mut()[i] = 0.5;
+        v.data_mut()[j] = -0.25;
         let s = VolumeStats::of(&v);
         assert_eq!((s.min, s.max, s.nonzero), (-0.25, 0.5, 2));
         assert_eq!(s.sum, 0.25);
