@@ -8,6 +8,9 @@ haze must import from it (x fastest, ground truth computed here with numpy).
   level_set.vdb     a level-set sphere (haze refuses level sets)
   empty.vdb         a float grid with no voxels
   ball_128.vdb      a 128^3-class smooth, noisy ball (benchmark input)
+
+uncompressed.vdb (frame 24 of plume-a without any compression) comes from
+make_uncompressed.cpp: the Python bindings cannot choose a file's compression.
 """
 import numpy as np
 import pyopenvdb as vdb

@@ -246,6 +246,13 @@ mod synthetic {
     }
 
     #[test]
+    fn uncompressed_resave_equals_the_dense_export() {
+        let v = import::import(&data("synthetic/uncompressed.vdb"), &ImportOptions::default())
+            .unwrap();
+        assert!(bits(&v) == dense_truth());
+    }
+
+    #[test]
     fn level_sets_are_refused() {
         let e = import::import(&data("synthetic/level_set.vdb"), &ImportOptions::default())
             .unwrap_err()
