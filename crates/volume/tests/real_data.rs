@@ -247,8 +247,11 @@ mod synthetic {
 
     #[test]
     fn uncompressed_resave_equals_the_dense_export() {
-        let v = import::import(&data("synthetic/uncompressed.vdb"), &ImportOptions::default())
-            .unwrap();
+        let v = import::import(
+            &data("synthetic/uncompressed.vdb"),
+            &ImportOptions::default(),
+        )
+        .unwrap();
         assert!(bits(&v) == dense_truth());
     }
 
