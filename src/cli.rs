@@ -43,6 +43,14 @@ pub enum Command {
         #[command(flatten)]
         import: ImportArgs,
     },
+    /// Bake a sequence: fit every frame with Gaussian RBFs and write them to a .haze asset.
+    ///
+    /// The first frame is fitted from scratch (greedy start, L-BFGS-B with teleportation);
+    /// later frames start from the previous frame's RBFs, drop the --delete weakest, and
+    /// get up to --max-insert new RBFs while their error exceeds the first frame's by more
+    /// than --threshold. Errors: rel_l2 = sqrt(Σ(D−D̃)²/ΣD²), rms_over_max =
+    /// sqrt(mean((D−D̃)²))/max D. Radii are fractions of the grid's longest side.
+    Bake(BakeCli),
     /// Pack volumes losslessly into a .haze asset (one raw-volume block per frame).
     ///
     /// The reference asset of a sequence: no fitting, no compression. The asset is written
@@ -61,8 +69,128 @@ pub enum Command {
     },
 }
 
+#[derive(Debug, clap::Args)]
+pub struct BakeCli {
+    /// File, directory or glob of numbered frames.
+    input: PathBuf,
+    /// The .haze file to write.
+    #[arg(long, short)]
+    out: PathBuf,
+    /// Frame range to bake, inclusive: A..B, A.., ..B or A. A chunk starts with a full
+    /// first-frame fit.
+    #[arg(long, value_name = "A..B")]
+    frames: Option<haze_volume::import::FrameRange>,
+    /// RBFs of the first frame (later frames vary by deletions and insertions).
+    #[arg(long, value_name = "N", conflicts_with = "target_error")]
+    rbfs: Option<usize>,
+    /// Instead of --rbfs: the smallest RBF count whose first-frame fit reaches this
+    /// rel_l2 (searched by doubling then bisection; each probe is a full fit).
+    #[arg(long, value_name = "E")]
+    target_error: Option<f64>,
+    /// Most RBFs the --target-error search may choose.
+    #[arg(long, value_name = "N", default_value_t = 4096)]
+    max_rbfs: usize,
+    /// Local minimizer.
+    #[arg(long, value_enum, default_value_t = OptimizerArg::Lbfgsb)]
+    optimizer: OptimizerArg,
+    /// Smallest RBF radius, as a fraction of the grid's longest side.
+    #[arg(long, default_value_t = 0.015)]
+    radius_min: f64,
+    /// Largest RBF radius, as a fraction of the grid's longest side.
+    #[arg(long, default_value_t = 0.09)]
+    radius_max: f64,
+    /// Fit first frames without teleportation (faster, usually a higher error).
+    #[arg(long)]
+    no_teleport: bool,
+    /// Iteration budget of a first-frame fit.
+    #[arg(long, default_value_t = 1000)]
+    max_iterations: u64,
+    /// Iteration budget of each minimization of a warm-started frame.
+    #[arg(long, default_value_t = 200)]
+    warm_iterations: u64,
+    /// RBFs deleted at the start of each later frame.
+    #[arg(long, default_value_t = 3)]
+    delete: usize,
+    /// Most RBFs inserted in a later frame.
+    #[arg(long, default_value_t = 8)]
+    max_insert: usize,
+    /// Insert RBFs while a frame's rel_l2 exceeds the first frame's by this ratio.
+    #[arg(long, default_value_t = 1.1)]
+    threshold: f64,
+    /// Seed of the random teleports (same seed, same input: same asset).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Also write a JSON report of every frame's fit.
+    #[arg(long, value_name = "REPORT.json")]
+    report: Option<PathBuf>,
+    #[command(flatten)]
+    import: ImportArgs,
+}
+
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum OptimizerArg {
+    /// L-BFGS-B with exact bounds (paper A).
+    Lbfgsb,
+    /// L-BFGS on a smooth (logistic) reparameterization of the bounds.
+    LbfgsReparam,
+}
+
+impl BakeCli {
+    fn into_args(self) -> anyhow::Result<crate::bake::BakeArgs> {
+        use anyhow::bail;
+        use haze_fit::{Bounds, FitOptions, Optimizer, SequenceOptions, Stop};
+        let bounds = Bounds {
+            radius: (self.radius_min, self.radius_max),
+            ..Bounds::default()
+        };
+        bounds.validate().map_err(anyhow::Error::msg)?;
+        if self.threshold.is_nan() || self.threshold < 1.0 {
+            bail!("--threshold {} must be at least 1", self.threshold);
+        }
+        let count = match (self.rbfs, self.target_error) {
+            (Some(0), _) => bail!("--rbfs must be at least 1"),
+            (Some(n), _) => crate::bake::Count::Fixed(n),
+            (None, Some(e)) if e > 0.0 && e <= 1.0 => crate::bake::Count::Target {
+                rel_l2: e,
+                cap: self.max_rbfs.max(1),
+            },
+            (None, Some(e)) => bail!("--target-error {e} must be in (0, 1]"),
+            (None, None) => crate::bake::Count::Fixed(300),
+        };
+        let fit = FitOptions {
+            bounds,
+            optimizer: match self.optimizer {
+                OptimizerArg::Lbfgsb => Optimizer::Lbfgsb,
+                OptimizerArg::LbfgsReparam => Optimizer::LbfgsReparam,
+            },
+            teleport: !self.no_teleport,
+            max_iterations: self.max_iterations,
+            stop: Stop::default(),
+            seed: self.seed,
+            ..FitOptions::default()
+        };
+        Ok(crate::bake::BakeArgs {
+            input: self.input,
+            out: self.out,
+            range: self.frames.unwrap_or_default(),
+            import: self.import.options(),
+            count,
+            fit: SequenceOptions {
+                fit,
+                delete: self.delete,
+                max_insert: self.max_insert,
+                threshold: self.threshold,
+                warm_iterations: self.warm_iterations,
+                ..SequenceOptions::default()
+            },
+            report: self.report,
+        })
+    }
+}
+
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Bake(b) => crate::bake::run(b.into_args()?),
         Command::Inspect {
             path,
             json,

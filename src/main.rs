@@ -1,10 +1,12 @@
 //! `haze`: bake smoke simulations into compact assets and inspect them.
 
+mod bake;
 mod cli;
 mod import_args;
 mod inspect;
 mod pack;
 mod progress;
+mod report;
 
 use clap::Parser;
 use std::process::ExitCode;

@@ -16,3 +16,15 @@ pub fn frames(len: usize, what: &str) -> ProgressBar {
     bar.set_message(what.to_string());
     bar
 }
+
+/// A spinner with elapsed time for work of unknown length.
+pub fn spinner(what: &str) -> ProgressBar {
+    let s = ProgressBar::new_spinner();
+    s.set_style(
+        ProgressStyle::with_template("{spinner} {msg} ({elapsed})")
+            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+    );
+    s.set_message(what.to_string());
+    s.enable_steady_tick(std::time::Duration::from_millis(200));
+    s
+}

@@ -68,6 +68,8 @@ impl std::fmt::Display for Scope {
 pub enum BlockKind {
     /// A dense `f32` volume (see [`crate::encode_raw_volume`]).
     RawVolume,
+    /// The Gaussian RBFs of one frame (see [`crate::encode_rbfs`]).
+    Rbfs,
     /// A kind this build does not know: kept and skipped.
     Unknown(u32),
 }
@@ -76,6 +78,7 @@ impl BlockKind {
     pub fn code(self) -> u32 {
         match self {
             BlockKind::RawVolume => 1,
+            BlockKind::Rbfs => 2,
             BlockKind::Unknown(c) => c,
         }
     }
@@ -83,6 +86,7 @@ impl BlockKind {
     pub fn from_code(c: u32) -> BlockKind {
         match c {
             1 => BlockKind::RawVolume,
+            2 => BlockKind::Rbfs,
             other => BlockKind::Unknown(other),
         }
     }
@@ -90,6 +94,7 @@ impl BlockKind {
     pub fn name(self) -> String {
         match self {
             BlockKind::RawVolume => "raw-volume".to_string(),
+            BlockKind::Rbfs => "rbfs".to_string(),
             BlockKind::Unknown(c) => format!("kind-{c}"),
         }
     }

@@ -21,6 +21,7 @@
 mod error;
 mod format;
 mod raw_volume;
+mod rbf_block;
 mod reader;
 mod writer;
 
@@ -30,5 +31,6 @@ pub use format::{
     SourceInfo,
 };
 pub use raw_volume::{RawVolumeView, decode_raw_volume, encode_raw_volume};
+pub use rbf_block::{decode_rbfs, encode_rbfs};
 pub use reader::{Asset, BlockView, FrameBlocks};
 pub use writer::AssetWriter;

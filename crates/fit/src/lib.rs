@@ -1,0 +1,23 @@
+//! RBF decomposition of smoke density (paper A §5.1): each frame becomes a weighted sum of
+//! Gaussian RBFs `B(x) = w·exp(−(|x − c|/r)²)`, cut off at `3r`, fitted by bound-constrained
+//! L-BFGS-B with teleportation; sequences are fitted with temporal coherence.
+
+pub mod grid;
+pub mod objective;
+
+pub use grid::FitGrid;
+pub mod bounds;
+pub mod optimize;
+
+pub use bounds::Bounds;
+pub use optimize::{Optimizer, Stop, minimize};
+pub mod frame;
+pub mod init;
+
+pub use frame::{FitOptions, FitStats, fit_first_frame};
+pub mod sequence;
+
+pub use sequence::{FrameFit, SequenceFitter, SequenceOptions};
+pub mod search;
+
+pub use search::{Search, rbfs_for_target};
