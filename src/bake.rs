@@ -78,7 +78,9 @@ pub fn run(args: BakeArgs) -> Result<()> {
     let mut records = Vec::with_capacity(seq.len());
     for (i, f) in seq.frames().iter().enumerate() {
         let v = seq.load(i)?;
-        let fit = fitter.fit(&v);
+        let fit = fitter
+            .fit(&v)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", f.path.display()))?;
         tracing::info!(
             "frame {}: {} RBFs, rel_l2 {:.4}, rms/max {:.4}, {} iterations, {:.2} s",
             f.number,
@@ -163,7 +165,8 @@ pub fn run(args: BakeArgs) -> Result<()> {
 fn choose_count(seq: &Sequence, target: f64, cap: usize, opts: &SequenceOptions) -> Result<Search> {
     for i in 0..seq.len() {
         let v = seq.load(i)?;
-        let grid = FitGrid::from_volume(&v);
+        let grid = FitGrid::from_volume(&v)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", seq.frames()[i].path.display()))?;
         if grid.sum_sq <= 0.0 {
             continue;
         }

@@ -237,19 +237,64 @@ struct AssetReport {
     blocks: usize,
     blocks_by_kind: BTreeMap<String, KindSummary>,
     checksums_verified: bool,
+    frames: Vec<AssetFrame>,
+}
+
+/// What an asset holds for one frame.
+#[derive(Serialize)]
+struct AssetFrame {
+    frame: i64,
+    rbfs: Option<usize>,
+    rel_l2: Option<f64>,
+    rms_over_max: Option<f64>,
 }
 
 fn asset_report(path: &Path) -> Result<AssetReport> {
     let asset = Asset::open(path)?;
     let bar = progress::frames(asset.entries().len(), "verifying");
+    let mut rbfs_per_frame = vec![None; asset.frame_count()];
     for i in 0..asset.entries().len() {
         bar.set_position(i as u64);
         let view = asset.block(i)?;
-        if view.kind() == BlockKind::RawVolume {
-            haze_asset::decode_raw_volume(view.bytes).map_err(|e| asset.block_error(&view, e))?;
+        match view.kind() {
+            BlockKind::RawVolume => {
+                haze_asset::decode_raw_volume(view.bytes)
+                    .map_err(|e| asset.block_error(&view, e))?;
+            }
+            BlockKind::Rbfs => {
+                let rbfs =
+                    haze_asset::decode_rbfs(view.bytes).map_err(|e| asset.block_error(&view, e))?;
+                if let haze_asset::Scope::Frames { first, .. } = view.id.scope {
+                    rbfs_per_frame[first as usize] = Some(rbfs.len());
+                }
+            }
+            BlockKind::Unknown(_) => {}
         }
     }
     bar.finish_and_clear();
+    let fits = asset
+        .header()
+        .settings
+        .get("fit")
+        .and_then(|f| f.get("frames"));
+    let frames = (0..asset.frame_count())
+        .map(|k| AssetFrame {
+            frame: asset
+                .header()
+                .source
+                .frame_numbers
+                .get(k)
+                .copied()
+                .unwrap_or(k as i64),
+            rbfs: rbfs_per_frame[k],
+            rel_l2: fits
+                .and_then(|f| f.get(k))
+                .and_then(|f| f["rel_l2"].as_f64()),
+            rms_over_max: fits
+                .and_then(|f| f.get(k))
+                .and_then(|f| f["rms_over_max"].as_f64()),
+        })
+        .collect();
     let mut by_kind: BTreeMap<String, KindSummary> = BTreeMap::new();
     for e in asset.entries() {
         let k = by_kind.entry(e.kind.name()).or_insert(KindSummary {
@@ -267,6 +312,7 @@ fn asset_report(path: &Path) -> Result<AssetReport> {
         blocks: asset.entries().len(),
         blocks_by_kind: by_kind,
         checksums_verified: true,
+        frames,
     })
 }
 
@@ -388,6 +434,15 @@ impl Report {
                     );
                 }
                 line(&mut out, "checksums", "all blocks verified".to_string());
+                for f in &r.frames {
+                    if let (Some(n), Some(e), Some(m)) = (f.rbfs, f.rel_l2, f.rms_over_max) {
+                        line(
+                            &mut out,
+                            &format!("frame {}", f.frame),
+                            format!("{n} RBFs, rel_l2 {e:.4}, rms/max {m:.4}"),
+                        );
+                    }
+                }
             }
         }
         out

@@ -31,8 +31,16 @@ pub struct FitGrid {
 }
 
 impl FitGrid {
-    /// Prepares `v` (validated: finite, non-negative).
-    pub fn from_volume(v: &Volume) -> FitGrid {
+    /// Prepares `v`; refuses NaN, infinite and negative densities (the importers reject
+    /// them already; this guards volumes built in code).
+    pub fn from_volume(v: &Volume) -> Result<FitGrid, String> {
+        if let Some(i) = v.data().iter().position(|d| !(d.is_finite() && *d >= 0.0)) {
+            let [x, y, z] = v.coords(i);
+            return Err(format!(
+                "voxel ({x}, {y}, {z}) is {}: the fit needs finite, non-negative densities",
+                v.data()[i]
+            ));
+        }
         let dims = v.dims();
         let unit = v.bbox().longest_side();
         let unit = if unit > 0.0 && unit.is_finite() {
@@ -56,7 +64,7 @@ impl FitGrid {
             .map(|(i, _)| i)
             .collect();
         let size = v.bbox().size();
-        FitGrid {
+        Ok(FitGrid {
             dims,
             h: [0, 1, 2].map(|a| vs[a] / unit),
             extent: [0, 1, 2].map(|a| size[a] / unit),
@@ -66,7 +74,7 @@ impl FitGrid {
             max_density,
             sum_sq,
             nonzero,
-        }
+        })
     }
 
     /// Number of voxels.

@@ -247,7 +247,7 @@ mod tests {
             let c = v.voxel_center(x, y, z);
             v.data_mut()[i] = f(c);
         }
-        FitGrid::from_volume(&v)
+        FitGrid::from_volume(&v).unwrap()
     }
 
     /// Residual against `haze_volume::rbf::evaluate_on_grid` (independent, support-box

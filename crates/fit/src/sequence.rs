@@ -106,10 +106,10 @@ impl SequenceFitter {
         &self.opts
     }
 
-    /// Fits the next frame.
-    pub fn fit(&mut self, volume: &Volume) -> FrameFit {
+    /// Fits the next frame; refuses non-finite or negative densities.
+    pub fn fit(&mut self, volume: &Volume) -> Result<FrameFit, String> {
         let start = Instant::now();
-        let grid = FitGrid::from_volume(volume);
+        let grid = FitGrid::from_volume(volume)?;
         let mut out = if grid.sum_sq <= 0.0 {
             self.previous = None;
             self.first = None;
@@ -122,7 +122,7 @@ impl SequenceFitter {
         };
         out.fit_seconds = start.elapsed().as_secs_f64();
         self.previous = Some(out.rbfs.clone());
-        out
+        Ok(out)
     }
 
     fn cold(&mut self, grid: &FitGrid) -> FrameFit {

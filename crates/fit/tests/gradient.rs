@@ -8,7 +8,7 @@ use std::path::Path;
 fn frame24() -> FitGrid {
     let p =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/plume-a/vdb/fluid_data_0024.vdb");
-    FitGrid::from_volume(&import::import(&p, &ImportOptions::default()).unwrap())
+    FitGrid::from_volume(&import::import(&p, &ImportOptions::default()).unwrap()).unwrap()
 }
 
 #[test]
