@@ -293,3 +293,190 @@ fn help_explains_commands() {
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(text.contains("--grid") && text.contains("--domain-offset") && text.contains("glob"));
 }
+
+#[test]
+fn bake_writes_rbfs_report_and_inspectable_asset() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("plume.haze");
+    let report = tmp.path().join("report.json");
+    let dir = data("plume-a/vdb");
+    haze()
+        .args([
+            "bake",
+            dir.to_str().unwrap(),
+            "--frames",
+            "21..23",
+            "--rbfs",
+            "80",
+        ])
+        .args(["--max-iterations", "200", "--out", out.to_str().unwrap()])
+        .args(["--report", report.to_str().unwrap()])
+        .assert()
+        .success();
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let frames = r["frames"].as_array().unwrap();
+    assert_eq!(frames.len(), 3);
+    for f in frames {
+        for key in [
+            "frame",
+            "rbfs",
+            "rel_l2",
+            "rms_over_max",
+            "fit_seconds",
+            "iterations",
+            "teleports",
+        ] {
+            assert!(!f[key].is_null(), "report lacks {key}: {f}");
+        }
+        assert!(f["rel_l2"].as_f64().unwrap() > 0.0 && f["rel_l2"].as_f64().unwrap() < 0.5);
+    }
+    assert_eq!(frames[0]["rbfs"], 80);
+    assert_eq!(frames[1]["deleted"], 3);
+    assert!(r["totals"]["seconds"].as_f64().unwrap() > 0.0);
+    assert_eq!(
+        r["totals"]["bytes"].as_u64().unwrap(),
+        std::fs::metadata(&out).unwrap().len()
+    );
+    assert!(r["temporal"]["mean_center_displacement"].as_f64().is_some());
+
+    let j = json_of(&["inspect", out.to_str().unwrap(), "--json"]);
+    assert_eq!(j["blocks_by_kind"]["rbfs"]["blocks"], 3);
+    assert_eq!(j["frames"][0]["rbfs"], 80);
+    assert_eq!(j["frames"][2]["frame"], 23);
+    let asset = haze_asset::Asset::open(&out).unwrap();
+    let rbfs = haze_asset::decode_rbfs(
+        asset
+            .frame(0)
+            .unwrap()
+            .find(haze_asset::BlockKind::Rbfs)
+            .unwrap()
+            .bytes,
+    )
+    .unwrap();
+    assert_eq!(rbfs.len(), 80);
+    // Inside the grid's box, radii within the default bounds (0.015..0.09 of 4 world units).
+    for b in &rbfs {
+        assert!(
+            b.center
+                .iter()
+                .zip([3.0, 3.0, 4.0])
+                .all(|(c, hi)| *c >= 0.0 && *c <= hi)
+        );
+        assert!(b.radius >= 0.06 * (1.0 - 1e-6) && b.radius <= 0.36 * (1.0 + 1e-6));
+    }
+}
+
+#[test]
+fn bake_with_target_error_picks_the_count() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("t.haze");
+    let report = tmp.path().join("t.json");
+    haze()
+        .args([
+            "bake",
+            data("plume-a/vdb").to_str().unwrap(),
+            "--frames",
+            "21",
+        ])
+        .args([
+            "--target-error",
+            "0.3",
+            "--no-teleport",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .args(["--report", report.to_str().unwrap()])
+        .assert()
+        .success();
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let search = &r["settings"]["search"];
+    assert_eq!(search["reached"], true);
+    let chosen = search["rbfs"].as_u64().unwrap();
+    // The chosen count reached the target; every smaller probe missed it.
+    for p in search["probes"].as_array().unwrap() {
+        let (n, e) = (p["rbfs"].as_u64().unwrap(), p["rel_l2"].as_f64().unwrap());
+        if n == chosen {
+            assert!(e <= 0.3);
+        }
+        if n < chosen {
+            assert!(e > 0.3, "{n} RBFs reached {e}");
+        }
+    }
+    assert_eq!(r["frames"][0]["rbfs"].as_u64().unwrap(), chosen);
+}
+
+#[test]
+fn bake_refuses_bad_arguments_and_inputs() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("x.haze");
+    let dir = data("plume-a/vdb");
+    for bad in [
+        vec!["--rbfs", "0"],
+        vec!["--target-error", "0"],
+        vec!["--target-error", "1.5"],
+        vec!["--threshold", "0.9"],
+        vec!["--radius-min", "0.2", "--radius-max", "0.1"],
+    ] {
+        let o = haze()
+            .args([
+                "bake",
+                dir.to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+            ])
+            .args(&bad)
+            .output()
+            .unwrap();
+        assert!(!o.status.success(), "{bad:?}");
+        let err = String::from_utf8(o.stderr).unwrap();
+        assert_eq!(err.lines().count(), 1, "{bad:?}: {err}");
+    }
+    let o = haze()
+        .args([
+            "bake",
+            dir.to_str().unwrap(),
+            "--rbfs",
+            "3",
+            "--target-error",
+            "0.1",
+        ])
+        .args(["--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(!o.status.success(), "--rbfs with --target-error");
+    assert!(!out.exists());
+    // A NaN in the second frame: the bake stops there and writes nothing.
+    let mut v = [0.25f32; 8];
+    for n in [1, 2] {
+        if n == 2 {
+            v[5] = f32::NAN;
+        }
+        let stem = tmp.path().join(format!("s_{n}"));
+        std::fs::write(
+            stem.with_extension("f32"),
+            v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<_>>(),
+        )
+        .unwrap();
+        std::fs::write(
+            stem.with_extension("json"),
+            r#"{"dims": [2, 2, 2], "world_bbox_min": [0,0,0], "world_bbox_max": [1,1,1]}"#,
+        )
+        .unwrap();
+    }
+    let pattern = tmp.path().join("s_*.f32");
+    let e = fails_with_one_line(
+        &[
+            "bake",
+            pattern.to_str().unwrap(),
+            "--rbfs",
+            "2",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        &tmp.path().join("s_2.f32"),
+    );
+    assert!(e.contains("NaN"), "{e}");
+    assert!(!out.exists());
+}

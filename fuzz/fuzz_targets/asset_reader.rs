@@ -1,9 +1,9 @@
 //! Any byte string given to the asset reader yields an asset or an error: never a panic,
 //! never an out-of-bounds read. Every block of an accepted asset is verified and every
-//! raw-volume block decoded.
+//! raw-volume and RBF block decoded.
 #![no_main]
 
-use haze_asset::{Asset, BlockKind, decode_raw_volume};
+use haze_asset::{Asset, BlockKind, decode_raw_volume, decode_rbfs};
 use libfuzzer_sys::fuzz_target;
 use std::path::Path;
 
@@ -16,6 +16,9 @@ fuzz_target!(|data: &[u8]| {
         if let Ok(frame) = asset.frame(k) {
             if let Some(raw) = frame.find(BlockKind::RawVolume) {
                 let _ = decode_raw_volume(raw.bytes);
+            }
+            if let Some(rbfs) = frame.find(BlockKind::Rbfs) {
+                let _ = decode_rbfs(rbfs.bytes);
             }
         }
     }

@@ -3,7 +3,7 @@
 //! stopping at the first CRC.
 #![no_main]
 
-use haze_asset::{Asset, BlockKind, decode_raw_volume};
+use haze_asset::{Asset, BlockKind, decode_raw_volume, decode_rbfs};
 use libfuzzer_sys::fuzz_target;
 use std::path::Path;
 
@@ -50,6 +50,9 @@ fuzz_target!(|data: &[u8]| {
         if let Ok(frame) = asset.frame(k) {
             if let Some(raw) = frame.find(BlockKind::RawVolume) {
                 let _ = decode_raw_volume(raw.bytes);
+            }
+            if let Some(rbfs) = frame.find(BlockKind::Rbfs) {
+                let _ = decode_rbfs(rbfs.bytes);
             }
         }
     }
