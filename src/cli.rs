@@ -105,6 +105,10 @@ pub struct BakeCli {
     /// Iteration budget of a first-frame fit.
     #[arg(long, default_value_t = 1000)]
     max_iterations: u64,
+    /// Stop a minimization when an iteration lowers the error by less than this fraction
+    /// (larger: faster, slightly less accurate; see BENCHMARKS.md).
+    #[arg(long, default_value_t = 1e-6)]
+    tolerance: f64,
     /// Iteration budget of each minimization of a warm-started frame.
     #[arg(long, default_value_t = 200)]
     warm_iterations: u64,
@@ -144,6 +148,9 @@ impl BakeCli {
             ..Bounds::default()
         };
         bounds.validate().map_err(anyhow::Error::msg)?;
+        if !(self.tolerance > 0.0 && self.tolerance < 1.0) {
+            bail!("--tolerance {} must be in (0, 1)", self.tolerance);
+        }
         if self.threshold.is_nan() || self.threshold < 1.0 {
             bail!("--threshold {} must be at least 1", self.threshold);
         }
@@ -165,7 +172,10 @@ impl BakeCli {
             },
             teleport: !self.no_teleport,
             max_iterations: self.max_iterations,
-            stop: Stop::default(),
+            stop: Stop {
+                relative_reduction: self.tolerance,
+                ..Stop::default()
+            },
             seed: self.seed,
             ..FitOptions::default()
         };

@@ -417,6 +417,7 @@ fn bake_refuses_bad_arguments_and_inputs() {
         vec!["--target-error", "0"],
         vec!["--target-error", "1.5"],
         vec!["--threshold", "0.9"],
+        vec!["--tolerance", "0"],
         vec!["--radius-min", "0.2", "--radius-max", "0.1"],
     ] {
         let o = haze()

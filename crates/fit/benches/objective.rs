@@ -9,7 +9,9 @@ use std::hint::black_box;
 use std::path::Path;
 
 fn grid(rel: &str) -> FitGrid {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data").join(rel);
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../data")
+        .join(rel);
     FitGrid::from_volume(&import::import(&p, &ImportOptions::default()).unwrap()).unwrap()
 }
 
@@ -41,7 +43,10 @@ fn bench(c: &mut Criterion) {
         let mut grad = vec![0.0; params.len()];
         group.throughput(Throughput::Elements(pairs(&g, &params)));
         for threads in [1, 2] {
-            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
             group.bench_function(format!("{name}_{n}rbfs_{threads}thread"), |b| {
                 b.iter(|| pool.install(|| cost_and_gradient(&g, black_box(&params), &mut grad)))
             });

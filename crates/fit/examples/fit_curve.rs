@@ -14,7 +14,11 @@ fn main() {
         std::process::exit(2);
     };
     let counts: Vec<usize> = args.filter_map(|a| a.parse().ok()).collect();
-    let counts = if counts.is_empty() { vec![100, 200, 400, 800, 1600] } else { counts };
+    let counts = if counts.is_empty() {
+        vec![100, 200, 400, 800, 1600]
+    } else {
+        counts
+    };
     let v = match import::import(std::path::Path::new(&path), &ImportOptions::default()) {
         Ok(v) => v,
         Err(e) => {
@@ -29,7 +33,9 @@ fn main() {
             std::process::exit(1);
         }
     };
-    println!("| RBFs | optimizer | teleport | rel_l2 | rms_over_max | iterations | teleports | seconds |");
+    println!(
+        "| RBFs | optimizer | teleport | rel_l2 | rms_over_max | iterations | teleports | seconds |"
+    );
     println!("|---|---|---|---|---|---|---|---|");
     for &n in &counts {
         for (optimizer, teleport) in [

@@ -212,6 +212,12 @@ pub fn minimize(
                 .run();
             match run {
                 Ok(r) => {
+                    tracing::trace!(
+                        "L-BFGS-B: {} iterations, {} cost and {} gradient evaluations",
+                        r.iter(),
+                        r.counts.cost_evals,
+                        r.counts.gradient_evals
+                    );
                     let converged =
                         matches!(r.report.termination, basin::Termination::Converged(_));
                     let iterations = r.iter();
