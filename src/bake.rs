@@ -3,10 +3,10 @@
 use crate::progress;
 use crate::report;
 use anyhow::{Context, Result, bail};
-use haze_asset::{AssetWriter, BlockKind, GridInfo, Header, Scope, SourceInfo, encode_rbfs};
+use haze_asset::{AssetWriter, BlockKind, Scope, encode_rbfs};
 use haze_fit::{FitGrid, FrameFit, Search, SequenceFitter, SequenceOptions, rbfs_for_target};
 use haze_volume::ImportOptions;
-use haze_volume::import::{Format, FrameRange, Sequence};
+use haze_volume::import::{FrameRange, Sequence};
 use serde::Serialize;
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -109,27 +109,7 @@ pub fn run(args: BakeArgs) -> Result<()> {
         "options": opts,
         "search": search,
     });
-    let d = seq.dims();
-    let mut header = Header {
-        generator: format!("haze {}", env!("CARGO_PKG_VERSION")),
-        frame_count: u32::try_from(seq.len())?,
-        grid: GridInfo {
-            dims: [d[0] as u32, d[1] as u32, d[2] as u32],
-            bbox_min: seq.bbox().min,
-            bbox_max: seq.bbox().max,
-        },
-        source: SourceInfo {
-            path: args.input.display().to_string(),
-            grid: if seq.format() == Format::Vdb {
-                args.import.grid.clone()
-            } else {
-                String::new()
-            },
-            frame_numbers: seq.frames().iter().map(|f| f.number).collect(),
-        },
-        settings: Default::default(),
-        extra: Default::default(),
-    };
+    let mut header = crate::asset_header::for_sequence(&seq, &args.input, &args.import)?;
     let summary: Vec<_> = records
         .iter()
         .map(|r| {

@@ -1,5 +1,6 @@
 //! `haze`: bake smoke simulations into compact assets and inspect them.
 
+mod asset_header;
 mod bake;
 mod cli;
 mod import_args;

@@ -2,7 +2,7 @@
 
 use crate::progress;
 use anyhow::{Result, bail};
-use haze_asset::{AssetWriter, BlockKind, GridInfo, Header, Scope, SourceInfo, encode_raw_volume};
+use haze_asset::{AssetWriter, BlockKind, Scope, encode_raw_volume};
 use haze_volume::ImportOptions;
 use haze_volume::import::{FrameRange, Sequence};
 use std::path::Path;
@@ -31,27 +31,7 @@ pub fn run(input: &Path, out: &Path, range: FrameRange, opts: &ImportOptions) ->
         bar.inc(1);
     }
     bar.finish_and_clear();
-    let d = seq.dims();
-    let header = Header {
-        generator: format!("haze {}", env!("CARGO_PKG_VERSION")),
-        frame_count: u32::try_from(seq.len())?,
-        grid: GridInfo {
-            dims: [d[0] as u32, d[1] as u32, d[2] as u32],
-            bbox_min: seq.bbox().min,
-            bbox_max: seq.bbox().max,
-        },
-        source: SourceInfo {
-            path: input.display().to_string(),
-            grid: if seq.format() == haze_volume::import::Format::Vdb {
-                opts.grid.clone()
-            } else {
-                String::new()
-            },
-            frame_numbers: seq.frames().iter().map(|f| f.number).collect(),
-        },
-        settings: Default::default(),
-        extra: Default::default(),
-    };
+    let header = crate::asset_header::for_sequence(&seq, input, opts)?;
     w.finish(&header)?;
     tracing::info!("{}: {} frames packed", out.display(), seq.len());
     Ok(())

@@ -31,6 +31,17 @@ fn fails_with_one_line(args: &[&str], file: &Path) -> String {
     err
 }
 
+/// Writes a 2×2×2 raw frame `STEM.f32` with its sidecar over the unit cube.
+fn write_cube(stem: &Path, v: &[f32; 8]) {
+    let bytes: Vec<u8> = v.iter().flat_map(|x| x.to_le_bytes()).collect();
+    std::fs::write(stem.with_extension("f32"), bytes).unwrap();
+    std::fs::write(
+        stem.with_extension("json"),
+        r#"{"dims": [2, 2, 2], "world_bbox_min": [0,0,0], "world_bbox_max": [1,1,1]}"#,
+    )
+    .unwrap();
+}
+
 fn json_of(args: &[&str]) -> serde_json::Value {
     let out = haze().args(args).output().unwrap();
     assert!(
@@ -253,17 +264,7 @@ fn pack_failure_leaves_no_output() {
         if bad {
             v[3] = f32::INFINITY;
         }
-        let stem = tmp.path().join(format!("f_{n}"));
-        std::fs::write(
-            stem.with_extension("f32"),
-            v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<_>>(),
-        )
-        .unwrap();
-        std::fs::write(
-            stem.with_extension("json"),
-            r#"{"dims": [2, 2, 2], "world_bbox_min": [0,0,0], "world_bbox_max": [1,1,1]}"#,
-        )
-        .unwrap();
+        write_cube(&tmp.path().join(format!("f_{n}")), &v);
     }
     let out = tmp.path().join("out").join("s.haze");
     std::fs::create_dir(tmp.path().join("out")).unwrap();
@@ -454,17 +455,7 @@ fn bake_refuses_bad_arguments_and_inputs() {
         if n == 2 {
             v[5] = f32::NAN;
         }
-        let stem = tmp.path().join(format!("s_{n}"));
-        std::fs::write(
-            stem.with_extension("f32"),
-            v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<_>>(),
-        )
-        .unwrap();
-        std::fs::write(
-            stem.with_extension("json"),
-            r#"{"dims": [2, 2, 2], "world_bbox_min": [0,0,0], "world_bbox_max": [1,1,1]}"#,
-        )
-        .unwrap();
+        write_cube(&tmp.path().join(format!("s_{n}")), &v);
     }
     let pattern = tmp.path().join("s_*.f32");
     let e = fails_with_one_line(

@@ -3,9 +3,10 @@
 //! stopping at the first CRC.
 #![no_main]
 
-use haze_asset::{Asset, BlockKind, decode_raw_volume, decode_rbfs};
+#[path = "common.rs"]
+mod common;
+
 use libfuzzer_sys::fuzz_target;
-use std::path::Path;
 
 fn u64_at(b: &[u8], i: usize) -> u64 {
     u64::from_le_bytes(b[i..i + 8].try_into().unwrap())
@@ -42,19 +43,5 @@ fn fix_checksums(b: &mut [u8]) {
 fuzz_target!(|data: &[u8]| {
     let mut b = data.to_vec();
     fix_checksums(&mut b);
-    let Ok(asset) = Asset::from_bytes(Path::new("fuzz.haze"), &b) else {
-        return;
-    };
-    let _ = asset.verify_all();
-    for k in 0..asset.frame_count().min(64) + 1 {
-        if let Ok(frame) = asset.frame(k) {
-            if let Some(raw) = frame.find(BlockKind::RawVolume) {
-                let _ = decode_raw_volume(raw.bytes);
-            }
-            if let Some(rbfs) = frame.find(BlockKind::Rbfs) {
-                let _ = decode_rbfs(rbfs.bytes);
-            }
-        }
-    }
-    let _ = asset.asset_blocks();
+    common::exercise(&b);
 });
