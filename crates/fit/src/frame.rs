@@ -51,9 +51,6 @@ pub struct FitStats {
     pub teleports: u64,
     /// Teleports kept (at convergence, only those that lowered the objective are kept).
     pub teleports_kept: u64,
-    /// Objective after the first minimization, before any teleport (for measuring the
-    /// gain of teleportation).
-    pub cost_before_teleports: f64,
 }
 
 /// Largest positive residual and its voxel, lowest index on ties; `None` when the density
@@ -147,7 +144,6 @@ pub fn fit_first_frame(grid: &FitGrid, n: usize, opts: &FitOptions) -> (Vec<f64>
             },
         );
         stats.iterations = m.iterations;
-        stats.cost_before_teleports = m.cost;
         return (params, stats);
     }
     // Phase 1: minimize in chunks, teleporting the weakest RBF to the largest error between
@@ -166,9 +162,6 @@ pub fn fit_first_frame(grid: &FitGrid, n: usize, opts: &FitOptions) -> (Vec<f64>
             },
         );
         stats.iterations += m.iterations;
-        if stats.cost_before_teleports == 0.0 {
-            stats.cost_before_teleports = m.cost;
-        }
         if m.cost < best.0 {
             best = (m.cost, params.clone());
         }

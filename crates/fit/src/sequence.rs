@@ -68,8 +68,6 @@ pub struct FrameFit {
     pub insertion_capped: bool,
     /// RBFs with a radius or weight on its bound.
     pub rbfs_at_bounds: usize,
-    /// rel_l2 after the first minimization, before teleports (first frames).
-    pub rel_l2_before_teleports: Option<f64>,
     /// Mean world distance moved by RBF centers that persisted from the previous frame.
     pub mean_center_displacement: Option<f64>,
 }
@@ -131,9 +129,7 @@ impl SequenceFitter {
         let n = (params.len() / PARAMS_PER_RBF).max(1);
         let radius = initial_radius(grid, n, &self.opts.fit.bounds) * grid.unit;
         self.first = Some((rel_l2, radius));
-        let mut f = finish(grid, &params, &self.opts, stats, rel_l2, rms);
-        f.rel_l2_before_teleports = Some(stats.cost_before_teleports.max(0.0).sqrt());
-        f
+        finish(grid, &params, &self.opts, stats, rel_l2, rms)
     }
 
     fn warm(
@@ -229,7 +225,6 @@ fn empty_fit() -> FrameFit {
         error_ratio: 1.0,
         insertion_capped: false,
         rbfs_at_bounds: 0,
-        rel_l2_before_teleports: None,
         mean_center_displacement: None,
     }
 }

@@ -251,7 +251,7 @@ fn sequence_error_ratio_stays_within_threshold_or_is_reported() {
             assert!(!f.warm_started);
             first_count = f.rbfs.len();
             assert_eq!(f.error_ratio, 1.0);
-            assert!(f.rel_l2_before_teleports.unwrap() >= f.rel_l2);
+            assert!(f.teleports > 0);
         } else {
             assert!(f.warm_started);
             assert_eq!(f.deleted, opts.delete);
