@@ -201,9 +201,9 @@ fn summary_line(out: &Path, records: &[FrameRecord], bytes: u64, seconds: f64) -
     let n = records.len().max(1) as f64;
     let mean = |f: fn(&FrameRecord) -> f64| records.iter().map(f).sum::<f64>() / n;
     format!(
-        "{}: {} frames, {:.0} RBFs/frame, mean rel_l2 {:.4}, mean rms/max {:.4}, {}, {:.1} s",
+        "{}: {}, {:.0} RBFs/frame, mean rel_l2 {:.4}, mean rms/max {:.4}, {}, {:.1} s",
         out.display(),
-        records.len(),
+        progress::count(records.len(), "frame"),
         mean(|r| r.rbfs as f64),
         mean(|r| r.fit.rel_l2),
         mean(|r| r.fit.rms_over_max),

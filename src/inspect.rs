@@ -351,10 +351,10 @@ impl Report {
             }
             Report::Sequence(r) => {
                 out.push_str(&format!(
-                    "{}  (sequence of {} {} frames)\n",
+                    "{}  ({} sequence, {})\n",
                     r.path,
-                    r.frames,
-                    r.format.name()
+                    r.format.name(),
+                    progress::count(r.frames, "frame")
                 ));
                 let gaps = if r.gaps.is_empty() {
                     "no gaps".to_string()
@@ -365,8 +365,10 @@ impl Report {
                     &mut out,
                     "frames",
                     format!(
-                        "{}..{}, {} frames, {gaps}",
-                        r.first_frame, r.last_frame, r.frames
+                        "{}..{}, {}, {gaps}",
+                        r.first_frame,
+                        r.last_frame,
+                        progress::count(r.frames, "frame")
                     ),
                 );
                 let d = r.dims;

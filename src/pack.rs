@@ -33,6 +33,10 @@ pub fn run(input: &Path, out: &Path, range: FrameRange, opts: &ImportOptions) ->
     bar.finish_and_clear();
     let header = crate::asset_header::for_sequence(&seq, input, opts)?;
     w.finish(&header)?;
-    tracing::info!("{}: {} frames packed", out.display(), seq.len());
+    tracing::info!(
+        "{}: {} packed",
+        out.display(),
+        progress::count(seq.len(), "frame")
+    );
     Ok(())
 }

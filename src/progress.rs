@@ -28,3 +28,12 @@ pub fn spinner(what: &str) -> ProgressBar {
     s.enable_steady_tick(std::time::Duration::from_millis(200));
     s
 }
+
+/// "1 frame", "2 frames".
+pub fn count(n: usize, noun: &str) -> String {
+    if n == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{n} {noun}s")
+    }
+}
