@@ -77,6 +77,7 @@ pub fn run(args: BakeArgs) -> Result<()> {
     let bar = progress::frames(seq.len(), "fitting");
     let mut records = Vec::with_capacity(seq.len());
     for (i, f) in seq.frames().iter().enumerate() {
+        bar.set_message(format!("frame {}", f.number));
         let v = seq.load(i)?;
         let fit = fitter
             .fit(&v)

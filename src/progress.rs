@@ -8,12 +8,14 @@ pub fn frames(len: usize, what: &str) -> ProgressBar {
     let bar = ProgressBar::new(len as u64);
     bar.set_style(
         ProgressStyle::with_template(
-            "{msg:>10} [{bar:30}] {pos}/{len} frames, {per_sec}, ETA {eta}",
+            "{msg:>10} [{bar:30}] {pos}/{len} frames, {elapsed} elapsed, ETA {eta}",
         )
         .unwrap_or_else(|_| ProgressStyle::default_bar())
         .progress_chars("=> "),
     );
     bar.set_message(what.to_string());
+    // Redraw while a long frame is in progress, so the clock keeps moving.
+    bar.enable_steady_tick(std::time::Duration::from_millis(500));
     bar
 }
 
