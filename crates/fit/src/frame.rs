@@ -85,8 +85,10 @@ pub enum Target {
     RandomNonzero,
 }
 
-/// Moves RBF `l` to `target` with radius `radius` and the residual there as its weight.
-/// Returns false when there is nowhere to go.
+/// Moves RBF `l` to `target` with radius `radius`. Its weight is the residual there; at a
+/// random voxel, where the residual may be small or negative, at least half the density
+/// there (so the move is a real proposal, and the minimizer then adjusts it). Weights are
+/// clamped to the bounds. Returns false when there is nowhere to go.
 pub fn teleport(
     grid: &FitGrid,
     params: &mut [f64],
