@@ -45,9 +45,9 @@ fn reconstruction_is_within_half_a_step_everywhere() {
             ResidualGroup::build(dims, std::slice::from_ref(&q), BuildOptions::default()).unwrap();
         let half = 0.5 * f64::from(q.step);
         let mut worst: f64 = 0.0;
-        for i in 0..v.len() {
+        for (i, a) in approx.iter().enumerate() {
             let [x, y, z] = v.coords(i).map(|c| c as u32);
-            let rec = approx[i] + f64::from(g.lookup(0, [x, y, z]));
+            let rec = a + f64::from(g.lookup(0, [x, y, z]));
             let err = (rec - f64::from(v.data()[i])).abs();
             worst = worst.max(err);
             // Half a step, plus the f32 rounding of the residual (relative 6e-8 of D).
