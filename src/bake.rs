@@ -1,7 +1,8 @@
 //! `haze bake`: a sequence of density volumes → RBF fits in a .haze asset (+ a report).
 
+use crate::output;
 use crate::progress;
-use crate::report;
+use crate::residual::{ResidualRecord, ResidualStage};
 use anyhow::{Context, Result, bail};
 use haze_asset::{AssetWriter, BlockKind, Scope, encode_rbfs};
 use haze_fit::{FitGrid, FrameFit, Search, SequenceFitter, SequenceOptions, rbfs_for_target};
@@ -33,6 +34,8 @@ pub struct BakeArgs {
     pub count: Count,
     pub fit: SequenceOptions,
     pub report: Option<PathBuf>,
+    /// Bits of the quantized residual.
+    pub quant_bits: u8,
 }
 
 /// One frame's line in the report and in the asset header.
@@ -42,6 +45,8 @@ struct FrameRecord {
     rbfs: usize,
     #[serde(flatten)]
     fit: FrameFit,
+    #[serde(flatten)]
+    residual: ResidualRecord,
 }
 
 pub fn run(args: BakeArgs) -> Result<()> {
@@ -73,6 +78,7 @@ pub fn run(args: BakeArgs) -> Result<()> {
         }
     };
     let mut fitter = SequenceFitter::new(opts.clone());
+    let mut residuals = ResidualStage::new(args.quant_bits, seq.dims())?;
     let mut writer = AssetWriter::create(&args.out)?;
     let bar = progress::frames(seq.len(), "fitting");
     let mut records = Vec::with_capacity(seq.len());
@@ -96,11 +102,21 @@ pub fn run(args: BakeArgs) -> Result<()> {
             Scope::frame(i as u32),
             &encode_rbfs(&fit.rbfs),
         )?;
+        let residual = residuals.push(&v, &fit.rbfs)?;
         records.push(FrameRecord {
             frame: f.number,
             rbfs: fit.rbfs.len(),
             fit,
+            residual,
         });
+        if residuals.full() || i + 1 == seq.len() {
+            let mut shares: Vec<ResidualRecord> =
+                records.iter().map(|r| r.residual.clone()).collect();
+            residuals.flush(&mut writer, &mut shares)?;
+            for (r, s) in records.iter_mut().zip(shares) {
+                r.residual = s;
+            }
+        }
         bar.inc(1);
     }
     bar.finish_and_clear();
@@ -109,13 +125,17 @@ pub fn run(args: BakeArgs) -> Result<()> {
         "rbfs": opts.rbfs,
         "options": opts,
         "search": search,
+        "quant_bits": args.quant_bits,
     });
     let mut header = crate::asset_header::for_sequence(&seq, &args.input, &args.import)?;
     let summary: Vec<_> = records
         .iter()
         .map(|r| {
             json!({"frame": r.frame, "rbfs": r.rbfs, "rel_l2": r.fit.rel_l2,
-                   "rms_over_max": r.fit.rms_over_max})
+                   "rms_over_max": r.fit.rms_over_max,
+                   "residual_nonzero": r.residual.residual_nonzero,
+                   "hash_bytes": r.residual.hash_bytes,
+                   "quant_step": r.residual.quant_step})
         })
         .collect();
     header.settings.insert(
@@ -137,7 +157,7 @@ pub fn run(args: BakeArgs) -> Result<()> {
             "temporal": temporal(&records, opts.threshold),
             "totals": {"seconds": seconds, "bytes": bytes, "frames": records.len()},
         });
-        report::write_json(path, &doc)?;
+        output::write_json(path, &doc)?;
     }
     Ok(())
 }

@@ -51,6 +51,18 @@ pub enum Command {
     /// than --threshold. Errors: rel_l2 = sqrt(Σ(D−D̃)²/ΣD²), rms_over_max =
     /// sqrt(mean((D−D̃)²))/max D. Radii are fractions of the grid's longest side.
     Bake(BakeCli),
+    /// Reconstruct one frame of a baked asset (RBFs + dequantized residual) as a dense
+    /// volume, to compare a bake with its input.
+    Export {
+        /// The baked .haze asset.
+        asset: PathBuf,
+        /// Source frame number (as `haze inspect` lists them).
+        #[arg(long)]
+        frame: i64,
+        /// Output: VOL.npy, or VOL.f32 (written with its VOL.json sidecar).
+        #[arg(long, short)]
+        out: PathBuf,
+    },
     /// Pack volumes losslessly into a .haze asset (one raw-volume block per frame).
     ///
     /// The reference asset of a sequence: no fitting, no compression. The asset is written
@@ -124,6 +136,9 @@ pub struct BakeCli {
     /// Seed of the random teleports (same seed, same input: same asset).
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Bits of the quantized residual (4..16).
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u8).range(4..=16))]
+    quant_bits: u8,
     /// Also write a JSON report of every frame's fit.
     #[arg(long, value_name = "REPORT.json")]
     report: Option<PathBuf>,
@@ -194,6 +209,7 @@ impl BakeCli {
                 ..SequenceOptions::default()
             },
             report: self.report,
+            quant_bits: self.quant_bits,
         })
     }
 }
@@ -201,6 +217,7 @@ impl BakeCli {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Bake(b) => crate::bake::run(b.into_args()?),
+        Command::Export { asset, frame, out } => crate::export::run(&asset, frame, &out),
         Command::Inspect {
             path,
             json,

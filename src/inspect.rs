@@ -268,6 +268,9 @@ fn asset_report(path: &Path) -> Result<AssetReport> {
                     rbfs_per_frame[first as usize] = Some(rbfs.len());
                 }
             }
+            BlockKind::ResidualHash => {
+                haze_hash::block::decode(view.bytes).map_err(|e| asset.block_error(&view, e))?;
+            }
             BlockKind::Unknown(_) => {}
         }
     }

@@ -3,11 +3,13 @@
 mod asset_header;
 mod bake;
 mod cli;
+mod export;
 mod import_args;
 mod inspect;
+mod output;
 mod pack;
 mod progress;
-mod report;
+mod residual;
 
 use clap::Parser;
 use std::process::ExitCode;

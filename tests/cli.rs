@@ -472,3 +472,102 @@ fn bake_refuses_bad_arguments_and_inputs() {
     assert!(e.contains("NaN"), "{e}");
     assert!(!out.exists());
 }
+
+#[test]
+fn bake_stores_the_residual_and_export_reconstructs_within_half_a_step() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("r.haze");
+    let report = tmp.path().join("r.json");
+    haze()
+        .args([
+            "bake",
+            data("plume-a/vdb").to_str().unwrap(),
+            "--frames",
+            "23..24",
+        ])
+        .args(["--rbfs", "60", "--no-teleport", "--max-iterations", "100"])
+        .args([
+            "--out",
+            out.to_str().unwrap(),
+            "--report",
+            report.to_str().unwrap(),
+        ])
+        .assert()
+        .success();
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let f24 = &r["frames"][1];
+    for key in [
+        "residual_nonzero",
+        "hash_bytes",
+        "hash_seconds",
+        "quant_step",
+    ] {
+        assert!(!f24[key].is_null(), "report lacks {key}");
+    }
+    let step = f24["quant_step"].as_f64().unwrap();
+    let j = json_of(&["inspect", out.to_str().unwrap(), "--json"]);
+    assert_eq!(j["blocks_by_kind"]["residual-hash"]["blocks"], 1);
+    // Export frame 24 and compare with OpenVDB's dense export of the input.
+    let exported = tmp.path().join("f24.f32");
+    haze()
+        .args(["export", out.to_str().unwrap(), "--frame", "24"])
+        .args(["--out", exported.to_str().unwrap()])
+        .assert()
+        .success();
+    let a = std::fs::read(&exported).unwrap();
+    let b = std::fs::read(data("plume-a/dense/density_0024.f32")).unwrap();
+    assert_eq!(a.len(), b.len());
+    let f = |c: &[u8]| f64::from(f32::from_le_bytes([c[0], c[1], c[2], c[3]]));
+    let worst = a
+        .chunks_exact(4)
+        .zip(b.chunks_exact(4))
+        .map(|(x, y)| (f(x) - f(y)).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        worst <= 0.5 * step + 1e-6,
+        "worst {worst}, half step {}",
+        0.5 * step
+    );
+    assert!(tmp.path().join("f24.json").exists());
+    // .npy too, and a frame that is not there.
+    let npy = tmp.path().join("f24.npy");
+    haze()
+        .args([
+            "export",
+            out.to_str().unwrap(),
+            "--frame",
+            "24",
+            "--out",
+            npy.to_str().unwrap(),
+        ])
+        .assert()
+        .success();
+    let e = fails_with_one_line(
+        &[
+            "export",
+            out.to_str().unwrap(),
+            "--frame",
+            "99",
+            "--out",
+            npy.to_str().unwrap(),
+        ],
+        &out,
+    );
+    assert!(
+        e.contains("frame 99 is not in the asset (frames 23..24)"),
+        "{e}"
+    );
+    // --quant-bits out of range is refused by the parser.
+    let o = haze()
+        .args([
+            "bake",
+            data("plume-a/vdb").to_str().unwrap(),
+            "--quant-bits",
+            "3",
+        ])
+        .args(["--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+}

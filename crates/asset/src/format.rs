@@ -70,6 +70,8 @@ pub enum BlockKind {
     RawVolume,
     /// The Gaussian RBFs of one frame (see [`crate::encode_rbfs`]).
     Rbfs,
+    /// The quantized, hashed residual of up to 27 frames (layout: `haze_hash::block`).
+    ResidualHash,
     /// A kind this build does not know: kept and skipped.
     Unknown(u32),
 }
@@ -79,6 +81,7 @@ impl BlockKind {
         match self {
             BlockKind::RawVolume => 1,
             BlockKind::Rbfs => 2,
+            BlockKind::ResidualHash => 3,
             BlockKind::Unknown(c) => c,
         }
     }
@@ -87,6 +90,7 @@ impl BlockKind {
         match c {
             1 => BlockKind::RawVolume,
             2 => BlockKind::Rbfs,
+            3 => BlockKind::ResidualHash,
             other => BlockKind::Unknown(other),
         }
     }
@@ -95,6 +99,7 @@ impl BlockKind {
         match self {
             BlockKind::RawVolume => "raw-volume".to_string(),
             BlockKind::Rbfs => "rbfs".to_string(),
+            BlockKind::ResidualHash => "residual-hash".to_string(),
             BlockKind::Unknown(c) => format!("kind-{c}"),
         }
     }

@@ -6,6 +6,7 @@
 //! * [`PerfectHash`]: the hash of a sparse set of integer cells with exact lookups.
 //! * [`tile`]: up to 27 frames tiled 3×3×3 into one hashed domain, as in the paper.
 
+pub mod block;
 pub mod psh;
 pub mod quantize;
 pub mod tile;

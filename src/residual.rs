@@ -1,0 +1,135 @@
+//! The residual stage of a bake (paper A §5.2): per frame, `R = D − D̃` against the RBFs
+//! exactly as stored (f32), quantized; every 27 frames (and at the end), one hash volume.
+
+use anyhow::{Result, anyhow};
+use haze_asset::{AssetWriter, BlockKind, Scope, decode_rbfs, encode_rbfs};
+use haze_hash::tile::{GROUP, ResidualGroup};
+use haze_hash::{BuildOptions, Quantized, block, quantize};
+use haze_volume::{Rbf, Volume, rbf};
+use serde::Serialize;
+use std::time::Instant;
+
+/// A frame's residual figures, as the report shows them.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct ResidualRecord {
+    /// Voxels whose quantized residual is not zero (the cells hashed).
+    pub residual_nonzero: usize,
+    /// The frame's share of its hash volume's block, by its share of the cells.
+    pub hash_bytes: f64,
+    /// Quantization time plus the frame's share of the hash volume's build time.
+    pub hash_seconds: f64,
+    /// Dequantization step, largest and RMS reconstruction error (density units).
+    pub quant_step: f32,
+    pub quant_max_error: f64,
+    pub quant_rms_error: f64,
+}
+
+/// Collects quantized frames and writes a hash volume every 27.
+pub struct ResidualStage {
+    bits: u8,
+    dims: [u32; 3],
+    first: usize,
+    pending: Vec<(Quantized, f64)>,
+}
+
+/// The RBFs as a reader of the asset sees them (rounded to f32 by the block encoding).
+pub fn as_stored(rbfs: &[Rbf]) -> Result<Vec<Rbf>> {
+    decode_rbfs(&encode_rbfs(rbfs)).map_err(|e| anyhow!("RBFs do not encode: {e}"))
+}
+
+/// `D̃ + R̂` of one frame: the reconstruction every consumer of the asset gets.
+pub fn reconstruct(
+    v_dims: [usize; 3],
+    bbox: &haze_volume::Bbox,
+    rbfs: &[Rbf],
+    group: &ResidualGroup,
+    j: usize,
+) -> Vec<f32> {
+    let approx = rbf::evaluate_on_grid(v_dims, bbox, rbfs);
+    let (nx, nxy) = (v_dims[0], v_dims[0] * v_dims[1]);
+    approx
+        .iter()
+        .enumerate()
+        .map(|(i, a)| {
+            let p = [i % nx, (i % nxy) / nx, i / nxy].map(|c| c as u32);
+            (a + f64::from(group.lookup(j, p))) as f32
+        })
+        .collect()
+}
+
+impl ResidualStage {
+    pub fn new(bits: u8, dims: [usize; 3]) -> Result<Self> {
+        let dims = dims.map(|d| d as u32);
+        quantize(&[], bits).map_err(|e| anyhow!("--quant-bits: {e}"))?;
+        Ok(ResidualStage {
+            bits,
+            dims,
+            first: 0,
+            pending: Vec::new(),
+        })
+    }
+
+    /// Quantizes frame `v`'s residual against `rbfs` (as stored).
+    pub fn push(&mut self, v: &Volume, rbfs: &[Rbf]) -> Result<ResidualRecord> {
+        let t = Instant::now();
+        let stored = as_stored(rbfs)?;
+        let approx = rbf::evaluate_on_grid(v.dims(), v.bbox(), &stored);
+        let r: Vec<f32> = v
+            .data()
+            .iter()
+            .zip(&approx)
+            .map(|(d, a)| (f64::from(*d) - a) as f32)
+            .collect();
+        let q = quantize(&r, self.bits).map_err(|e| anyhow!("residual: {e}"))?;
+        let record = ResidualRecord {
+            residual_nonzero: q.cells.len(),
+            quant_step: q.step,
+            quant_max_error: q.max_error,
+            quant_rms_error: q.rms_error,
+            ..ResidualRecord::default()
+        };
+        self.pending.push((q, t.elapsed().as_secs_f64()));
+        Ok(record)
+    }
+
+    /// Whether a hash volume is complete.
+    pub fn full(&self) -> bool {
+        self.pending.len() == GROUP
+    }
+
+    /// Hashes the pending frames into one block; fills their records' byte and time
+    /// shares (`records[k]` is the record of asset frame `k`).
+    pub fn flush(&mut self, w: &mut AssetWriter, records: &mut [ResidualRecord]) -> Result<()> {
+        if self.pending.is_empty() {
+            return Ok(());
+        }
+        let t = Instant::now();
+        let frames: Vec<Quantized> = self.pending.iter().map(|(q, _)| q.clone()).collect();
+        let g = ResidualGroup::build(self.dims, &frames, BuildOptions::default())?;
+        let bytes = block::encode(&g);
+        let build = t.elapsed().as_secs_f64();
+        let count = self.pending.len();
+        w.write_block(
+            BlockKind::ResidualHash,
+            Scope::Frames {
+                first: self.first as u32,
+                count: count as u32,
+            },
+            &bytes,
+        )?;
+        let cells: usize = frames.iter().map(|q| q.cells.len()).sum();
+        for (j, (q, secs)) in self.pending.iter().enumerate() {
+            let share = if cells > 0 {
+                q.cells.len() as f64 / cells as f64
+            } else {
+                1.0 / count as f64
+            };
+            let rec = &mut records[self.first + j];
+            rec.hash_bytes = share * bytes.len() as f64;
+            rec.hash_seconds = secs + share * build;
+        }
+        self.first += count;
+        self.pending.clear();
+        Ok(())
+    }
+}
