@@ -1,20 +1,23 @@
 //! `haze bake`: a sequence of density volumes → RBF fits in a .haze asset (+ a report).
 
+use crate::journal::{self, Journal, Record, Tag};
 use crate::output;
 use crate::progress;
-use crate::residual::{ResidualRecord, ResidualStage};
+use crate::residual::{HashVolume, ResidualRecord, ResidualStage};
 use anyhow::{Context, Result, bail};
-use haze_asset::{AssetWriter, BlockKind, Scope, encode_rbfs};
-use haze_fit::{FitGrid, FrameFit, Search, SequenceFitter, SequenceOptions, rbfs_for_target};
+use haze_asset::{AssetWriter, BlockKind, Scope, decode_rbfs, encode_rbfs};
+use haze_fit::{
+    FitGrid, FitterState, FrameFit, Search, SequenceFitter, SequenceOptions, rbfs_for_target,
+};
 use haze_volume::ImportOptions;
 use haze_volume::import::{FrameRange, Sequence};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// How many RBFs a first frame gets.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Serialize)]
 pub enum Count {
     Fixed(usize),
     /// Smallest count reaching this rel_l2, at most the cap.
@@ -36,10 +39,12 @@ pub struct BakeArgs {
     pub report: Option<PathBuf>,
     /// Bits of the quantized residual.
     pub quant_bits: u8,
+    /// Continue the interrupted bake of `out` from its journal.
+    pub resume: bool,
 }
 
 /// One frame's line in the report and in the asset header.
-#[derive(Serialize)]
+#[derive(Serialize, Deserialize)]
 struct FrameRecord {
     frame: i64,
     rbfs: usize,
@@ -47,6 +52,17 @@ struct FrameRecord {
     fit: FrameFit,
     #[serde(flatten)]
     residual: ResidualRecord,
+}
+
+/// What a bake has finished so far: its frames' records, and the asset's blocks in order.
+struct Done {
+    search: Option<Search>,
+    rbfs: usize,
+    records: Vec<FrameRecord>,
+    blocks: Vec<(BlockKind, Scope, Vec<u8>)>,
+    /// Asset frames already in hash volumes.
+    hashed: usize,
+    state: FitterState,
 }
 
 pub fn run(args: BakeArgs) -> Result<()> {
@@ -65,24 +81,73 @@ pub fn run(args: BakeArgs) -> Result<()> {
             seq.gaps()
         );
     }
-    let mut opts = args.fit.clone();
-    let search = match args.count {
-        Count::Fixed(n) => {
-            opts.rbfs = n;
-            None
+    let journal_path = journal::path_for(&args.out);
+    let inputs = inputs(&seq, &args)?;
+    let previous = if args.resume {
+        Journal::open(&journal_path)?
+    } else {
+        None
+    };
+    let (mut journal, mut done) = match previous {
+        Some((j, records)) => {
+            let done = restore(&journal_path, &inputs, records)?;
+            eprintln!(
+                "{}: resuming after {} of {}",
+                args.out.display(),
+                progress::count(done.records.len(), "finished frame"),
+                seq.len()
+            );
+            (j, done)
         }
-        Count::Target { rel_l2, cap } => {
-            let s = choose_count(&seq, rel_l2, cap, &opts)?;
-            opts.rbfs = s.rbfs;
-            Some(s)
+        None => {
+            if args.resume {
+                tracing::warn!(
+                    "{}: no interrupted bake to resume; starting from the first frame",
+                    journal_path.display()
+                );
+            } else if journal_path.exists() {
+                tracing::warn!(
+                    "{}: replacing the journal of an interrupted bake (--resume continues one)",
+                    journal_path.display()
+                );
+            }
+            let (rbfs, search) = match args.count {
+                Count::Fixed(n) => (n, None),
+                Count::Target { rel_l2, cap } => {
+                    let s = choose_count(&seq, rel_l2, cap, &args.fit)?;
+                    (s.rbfs, Some(s))
+                }
+            };
+            let start = json!({"inputs": inputs, "rbfs": rbfs, "search": search});
+            let j = Journal::create(&journal_path, &start)?;
+            let done = Done {
+                search,
+                rbfs,
+                records: Vec::new(),
+                blocks: Vec::new(),
+                hashed: 0,
+                state: FitterState::default(),
+            };
+            (j, done)
         }
     };
-    let mut fitter = SequenceFitter::new(opts.clone());
-    let mut residuals = ResidualStage::new(args.quant_bits, seq.dims())?;
-    let mut writer = AssetWriter::create(&args.out)?;
+    let opts = SequenceOptions {
+        rbfs: done.rbfs,
+        ..args.fit.clone()
+    };
+    let mut fitter = SequenceFitter::resume(opts.clone(), std::mem::take(&mut done.state));
+    let mut residuals = ResidualStage::new(args.quant_bits, seq.dims(), done.hashed)?;
     let bar = progress::frames(seq.len(), "fitting");
-    let mut records = Vec::with_capacity(seq.len());
-    for (i, f) in seq.frames().iter().enumerate() {
+    // Frames finished but not yet hashed: their quantized residuals again (deterministic).
+    for i in done.hashed..done.records.len() {
+        bar.set_message(format!("frame {}", seq.frames()[i].number));
+        let v = seq.load(i)?;
+        let rbfs = frame_rbfs(&done, i)?;
+        residuals.push(&v, &rbfs)?;
+    }
+    bar.set_position(done.records.len() as u64);
+    for i in done.records.len()..seq.len() {
+        let f = &seq.frames()[i];
         bar.set_message(format!("frame {}", f.number));
         let v = seq.load(i)?;
         let fit = fitter
@@ -97,24 +162,30 @@ pub fn run(args: BakeArgs) -> Result<()> {
             fit.iterations,
             fit.fit_seconds
         );
-        writer.write_block(
-            BlockKind::Rbfs,
-            Scope::frame(i as u32),
-            &encode_rbfs(&fit.rbfs),
-        )?;
+        let rbf_block = encode_rbfs(&fit.rbfs);
         let residual = residuals.push(&v, &fit.rbfs)?;
-        records.push(FrameRecord {
+        let record = FrameRecord {
             frame: f.number,
             rbfs: fit.rbfs.len(),
             fit,
             residual,
-        });
+        };
+        journal.append(
+            Tag::Frame,
+            &json!({"record": record, "state": fitter.state()}),
+            &rbf_block,
+        )?;
+        done.blocks
+            .push((BlockKind::Rbfs, Scope::frame(i as u32), rbf_block));
+        done.records.push(record);
         if residuals.full() || i + 1 == seq.len() {
-            let mut shares: Vec<ResidualRecord> =
-                records.iter().map(|r| r.residual.clone()).collect();
-            residuals.flush(&mut writer, &mut shares)?;
-            for (r, s) in records.iter_mut().zip(shares) {
-                r.residual = s;
+            bar.set_message("hashing");
+            if let Some(h) = residuals.flush()? {
+                let shares = json!({"first": h.first, "count": h.count, "shares": h.shares});
+                journal.append(Tag::Group, &shares, &h.bytes)?;
+                apply(&mut done.records, &h);
+                done.blocks
+                    .push((BlockKind::ResidualHash, h.scope(), h.bytes));
             }
         }
         bar.inc(1);
@@ -124,9 +195,10 @@ pub fn run(args: BakeArgs) -> Result<()> {
     let settings = json!({
         "rbfs": opts.rbfs,
         "options": opts,
-        "search": search,
+        "search": done.search,
         "quant_bits": args.quant_bits,
     });
+    let records = &done.records;
     let mut header = crate::asset_header::for_sequence(&seq, &args.input, &args.import)?;
     let summary: Vec<_> = records
         .iter()
@@ -142,24 +214,150 @@ pub fn run(args: BakeArgs) -> Result<()> {
         "fit".into(),
         json!({"settings": settings, "frames": summary}),
     );
+    let mut writer = AssetWriter::create(&args.out)?;
+    for (kind, scope, bytes) in &done.blocks {
+        writer.write_block(*kind, *scope, bytes)?;
+    }
     writer.finish(&header)?;
+    journal.remove()?;
     let bytes = std::fs::metadata(&args.out)
         .with_context(|| format!("{}: written but unreadable", args.out.display()))?
         .len();
     let seconds = start.elapsed().as_secs_f64();
-    eprintln!("{}", summary_line(&args.out, &records, bytes, seconds));
+    eprintln!("{}", summary_line(&args.out, records, bytes, seconds));
     if let Some(path) = &args.report {
         let doc = json!({
             "input": args.input.display().to_string(),
             "output": args.out.display().to_string(),
             "settings": settings,
             "frames": records,
-            "temporal": temporal(&records, opts.threshold),
+            "temporal": temporal(records, opts.threshold),
             "totals": {"seconds": seconds, "bytes": bytes, "frames": records.len()},
         });
         output::write_json(path, &doc)?;
     }
     Ok(())
+}
+
+fn apply(records: &mut [FrameRecord], h: &HashVolume) {
+    let mut res: Vec<ResidualRecord> = records.iter().map(|r| r.residual.clone()).collect();
+    h.share_into(&mut res);
+    for (r, s) in records.iter_mut().zip(res) {
+        r.residual = s;
+    }
+}
+
+/// What a journal must match to be resumed: the inputs (names and sizes of the frame
+/// files) and every setting that changes the result.
+fn inputs(seq: &Sequence, args: &BakeArgs) -> Result<serde_json::Value> {
+    let frames = seq
+        .frames()
+        .iter()
+        .map(|f| {
+            let size = std::fs::metadata(&f.path)
+                .with_context(|| format!("{}: cannot read", f.path.display()))?
+                .len();
+            Ok(json!([f.number, f.path.display().to_string(), size]))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok(json!({
+        "generator": env!("CARGO_PKG_VERSION"),
+        "frames": frames,
+        "import": args.import,
+        "count": args.count,
+        "fit": args.fit,
+        "quant_bits": args.quant_bits,
+    }))
+}
+
+/// The finished part of an interrupted bake, from its journal.
+fn restore(path: &Path, inputs: &serde_json::Value, records: Vec<Record>) -> Result<Done> {
+    let mut it = records.into_iter();
+    let start = it.next().map(|r| r.json).unwrap_or_default();
+    if start["inputs"] != *inputs {
+        let what = [
+            "frames",
+            "import",
+            "count",
+            "fit",
+            "quant_bits",
+            "generator",
+        ]
+        .into_iter()
+        .find(|k| start["inputs"][k] != inputs[k])
+        .unwrap_or("settings");
+        bail!(
+            "{}: the interrupted bake had other {}; run without --resume to start over",
+            path.display(),
+            match what {
+                "frames" => "input frames",
+                "import" => "import options",
+                "count" => "RBF count options",
+                "fit" => "fit options",
+                "quant_bits" => "--quant-bits",
+                "generator" => "haze version",
+                other => other,
+            }
+        );
+    }
+    let bad = |what: &str| anyhow::anyhow!("{}: damaged journal ({what})", path.display());
+    let mut done = Done {
+        search: serde_json::from_value(start["search"].clone()).map_err(|_| bad("search"))?,
+        rbfs: serde_json::from_value(start["rbfs"].clone()).map_err(|_| bad("rbfs"))?,
+        records: Vec::new(),
+        blocks: Vec::new(),
+        hashed: 0,
+        state: FitterState::default(),
+    };
+    for r in it {
+        match r.tag {
+            Tag::Frame => {
+                let record: FrameRecord =
+                    serde_json::from_value(r.json["record"].clone()).map_err(|_| bad("frame"))?;
+                done.state =
+                    serde_json::from_value(r.json["state"].clone()).map_err(|_| bad("state"))?;
+                let k = done.records.len() as u32;
+                done.blocks.push((BlockKind::Rbfs, Scope::frame(k), r.bin));
+                done.records.push(record);
+            }
+            Tag::Group => {
+                let first: usize =
+                    serde_json::from_value(r.json["first"].clone()).map_err(|_| bad("group"))?;
+                let count: usize =
+                    serde_json::from_value(r.json["count"].clone()).map_err(|_| bad("group"))?;
+                let shares: Vec<(f64, f64)> =
+                    serde_json::from_value(r.json["shares"].clone()).map_err(|_| bad("group"))?;
+                if first != done.hashed
+                    || shares.len() != count
+                    || first + count > done.records.len()
+                {
+                    return Err(bad("hash volumes out of order"));
+                }
+                let h = HashVolume {
+                    first,
+                    count,
+                    bytes: r.bin,
+                    shares,
+                };
+                apply(&mut done.records, &h);
+                done.blocks
+                    .push((BlockKind::ResidualHash, h.scope(), h.bytes));
+                done.hashed += count;
+            }
+            Tag::Start => return Err(bad("two start records")),
+        }
+    }
+    Ok(done)
+}
+
+/// The stored RBFs of finished frame `k`.
+fn frame_rbfs(done: &Done, k: usize) -> Result<Vec<haze_volume::Rbf>> {
+    let block = done
+        .blocks
+        .iter()
+        .find(|(kind, scope, _)| *kind == BlockKind::Rbfs && *scope == Scope::frame(k as u32))
+        .ok_or_else(|| anyhow::anyhow!("journal: frame {k} has no RBF block"))?;
+    decode_rbfs(&block.2).map_err(|e| anyhow::anyhow!("journal: frame {k}: {e}"))
 }
 
 /// Runs the RBF-count search on the first non-empty frame.

@@ -51,6 +51,20 @@ pub enum Command {
     /// than --threshold. Errors: rel_l2 = sqrt(Σ(D−D̃)²/ΣD²), rms_over_max =
     /// sqrt(mean((D−D̃)²))/max D. Radii are fractions of the grid's longest side.
     Bake(BakeCli),
+    /// Join chunks of one sequence baked separately (`haze bake --frames A..B`) into one
+    /// asset, in frame order.
+    ///
+    /// The chunks may be given in any order; they must cover contiguous, non-overlapping
+    /// frame ranges and be compatible (same grid, same settings, except the RBF count a
+    /// --target-error search picked per chunk). Every block is verified before it is copied.
+    Merge {
+        /// The chunk assets.
+        #[arg(required = true, value_name = "CHUNK")]
+        chunks: Vec<PathBuf>,
+        /// The .haze file to write.
+        #[arg(long, short)]
+        out: PathBuf,
+    },
     /// Reconstruct one frame of a baked asset (RBFs + dequantized residual) as a dense
     /// volume, to compare a bake with its input.
     Export {
@@ -89,9 +103,13 @@ pub struct BakeCli {
     #[arg(long, short)]
     out: PathBuf,
     /// Frame range to bake, inclusive: A..B, A.., ..B or A. A chunk starts with a full
-    /// first-frame fit.
+    /// first-frame fit; `haze merge` joins chunks baked separately (on a render farm, say).
     #[arg(long, value_name = "A..B")]
     frames: Option<haze_volume::import::FrameRange>,
+    /// Continue an interrupted bake of --out from its journal (OUT.partial, written as
+    /// frames finish), with the same input and settings. Without it, a bake starts over.
+    #[arg(long)]
+    resume: bool,
     /// RBFs of the first frame (later frames vary by deletions and insertions).
     #[arg(long, value_name = "N", conflicts_with = "target_error")]
     rbfs: Option<usize>,
@@ -210,6 +228,7 @@ impl BakeCli {
             },
             report: self.report,
             quant_bits: self.quant_bits,
+            resume: self.resume,
         })
     }
 }
@@ -217,6 +236,7 @@ impl BakeCli {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Bake(b) => crate::bake::run(b.into_args()?),
+        Command::Merge { chunks, out } => crate::merge::run(&chunks, &out),
         Command::Export { asset, frame, out } => crate::export::run(&asset, frame, &out),
         Command::Inspect {
             path,

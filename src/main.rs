@@ -6,6 +6,8 @@ mod cli;
 mod export;
 mod import_args;
 mod inspect;
+mod journal;
+mod merge;
 mod output;
 mod pack;
 mod progress;

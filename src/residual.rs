@@ -2,15 +2,15 @@
 //! exactly as stored (f32), quantized; every 27 frames (and at the end), one hash volume.
 
 use anyhow::{Result, anyhow};
-use haze_asset::{AssetWriter, BlockKind, Scope, decode_rbfs, encode_rbfs};
+use haze_asset::{Scope, decode_rbfs, encode_rbfs};
 use haze_hash::tile::{GROUP, ResidualGroup};
 use haze_hash::{BuildOptions, Quantized, block, quantize};
 use haze_volume::{Rbf, Volume, rbf};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
 /// A frame's residual figures, as the report shows them.
-#[derive(Clone, Debug, Default, Serialize)]
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct ResidualRecord {
     /// Voxels whose quantized residual is not zero (the cells hashed).
     pub residual_nonzero: usize,
@@ -24,12 +24,43 @@ pub struct ResidualRecord {
     pub quant_rms_error: f64,
 }
 
-/// Collects quantized frames and writes a hash volume every 27.
+/// Collects quantized frames and makes a hash volume of every 27.
 pub struct ResidualStage {
     bits: u8,
     dims: [u32; 3],
     first: usize,
     pending: Vec<(Quantized, f64)>,
+}
+
+/// A finished hash volume: its block and its frames' shares of bytes and seconds.
+#[derive(Debug)]
+pub struct HashVolume {
+    /// Asset index of its first frame, and its frame count.
+    pub first: usize,
+    pub count: usize,
+    /// The encoded block (haze_hash::block).
+    pub bytes: Vec<u8>,
+    /// Per frame: bytes (its share of the block, by its share of the cells) and seconds
+    /// (its quantization plus its share of the build).
+    pub shares: Vec<(f64, f64)>,
+}
+
+impl HashVolume {
+    pub fn scope(&self) -> Scope {
+        Scope::Frames {
+            first: self.first as u32,
+            count: self.count as u32,
+        }
+    }
+
+    /// Puts the shares into the records of the asset's frames (`records[k]` is frame `k`).
+    pub fn share_into(&self, records: &mut [ResidualRecord]) {
+        for (j, &(bytes, secs)) in self.shares.iter().enumerate() {
+            let rec = &mut records[self.first + j];
+            rec.hash_bytes = bytes;
+            rec.hash_seconds = secs;
+        }
+    }
 }
 
 /// The RBFs as a reader of the asset sees them (rounded to f32 by the block encoding).
@@ -58,13 +89,14 @@ pub fn reconstruct(
 }
 
 impl ResidualStage {
-    pub fn new(bits: u8, dims: [usize; 3]) -> Result<Self> {
+    /// A stage whose next frame is asset frame `first`, the start of a hash volume.
+    pub fn new(bits: u8, dims: [usize; 3], first: usize) -> Result<Self> {
         let dims = dims.map(|d| d as u32);
         quantize(&[], bits).map_err(|e| anyhow!("--quant-bits: {e}"))?;
         Ok(ResidualStage {
             bits,
             dims,
-            first: 0,
+            first,
             pending: Vec::new(),
         })
     }
@@ -97,11 +129,10 @@ impl ResidualStage {
         self.pending.len() == GROUP
     }
 
-    /// Hashes the pending frames into one block; fills their records' byte and time
-    /// shares (`records[k]` is the record of asset frame `k`).
-    pub fn flush(&mut self, w: &mut AssetWriter, records: &mut [ResidualRecord]) -> Result<()> {
+    /// Hashes the pending frames into one hash volume (`None` when none are pending).
+    pub fn flush(&mut self) -> Result<Option<HashVolume>> {
         if self.pending.is_empty() {
-            return Ok(());
+            return Ok(None);
         }
         let t = Instant::now();
         let frames: Vec<Quantized> = self.pending.iter().map(|(q, _)| q.clone()).collect();
@@ -109,27 +140,27 @@ impl ResidualStage {
         let bytes = block::encode(&g);
         let build = t.elapsed().as_secs_f64();
         let count = self.pending.len();
-        w.write_block(
-            BlockKind::ResidualHash,
-            Scope::Frames {
-                first: self.first as u32,
-                count: count as u32,
-            },
-            &bytes,
-        )?;
         let cells: usize = frames.iter().map(|q| q.cells.len()).sum();
-        for (j, (q, secs)) in self.pending.iter().enumerate() {
-            let share = if cells > 0 {
-                q.cells.len() as f64 / cells as f64
-            } else {
-                1.0 / count as f64
-            };
-            let rec = &mut records[self.first + j];
-            rec.hash_bytes = share * bytes.len() as f64;
-            rec.hash_seconds = secs + share * build;
-        }
+        let shares = self
+            .pending
+            .iter()
+            .map(|(q, secs)| {
+                let share = if cells > 0 {
+                    q.cells.len() as f64 / cells as f64
+                } else {
+                    1.0 / count as f64
+                };
+                (share * bytes.len() as f64, secs + share * build)
+            })
+            .collect();
+        let out = HashVolume {
+            first: self.first,
+            count,
+            bytes,
+            shares,
+        };
         self.first += count;
         self.pending.clear();
-        Ok(())
+        Ok(Some(out))
     }
 }

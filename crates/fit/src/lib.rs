@@ -17,7 +17,7 @@ pub mod init;
 pub use frame::{FitOptions, FitStats, fit_first_frame};
 pub mod sequence;
 
-pub use sequence::{FrameFit, SequenceFitter, SequenceOptions};
+pub use sequence::{FitterState, FrameFit, SequenceFitter, SequenceOptions};
 pub mod search;
 
 pub use search::{Search, rbfs_for_target};

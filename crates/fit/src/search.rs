@@ -9,11 +9,11 @@
 use crate::frame::{FitOptions, fit_first_frame};
 use crate::grid::FitGrid;
 use crate::sequence::errors;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
 /// One probe of the search.
-#[derive(Clone, Copy, Debug, Serialize)]
+#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
 pub struct Probe {
     pub rbfs: usize,
     pub rel_l2: f64,
@@ -21,7 +21,7 @@ pub struct Probe {
 }
 
 /// The outcome: the chosen count (the cap if the target was not reached) and the probes.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Search {
     pub rbfs: usize,
     pub reached: bool,

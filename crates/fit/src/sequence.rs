@@ -46,7 +46,7 @@ impl Default for SequenceOptions {
 }
 
 /// The fit of one frame.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct FrameFit {
     /// The RBFs in world coordinates and density units.
     #[serde(skip)]
@@ -91,12 +91,35 @@ pub struct SequenceFitter {
     first: Option<(f64, f64)>,
 }
 
+/// What a [`SequenceFitter`] carries from one frame to the next: enough to continue an
+/// interrupted sequence exactly where it stopped.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct FitterState {
+    /// The last frame's RBFs (full precision).
+    pub previous: Option<Vec<Rbf>>,
+    /// rel_l2 and insertion radius (world units) of the current run's first frame.
+    pub first: Option<(f64, f64)>,
+}
+
 impl SequenceFitter {
     pub fn new(opts: SequenceOptions) -> Self {
+        Self::resume(opts, FitterState::default())
+    }
+
+    /// A fitter that continues after the frame whose [`state`](Self::state) this is.
+    pub fn resume(opts: SequenceOptions, state: FitterState) -> Self {
         SequenceFitter {
             opts,
-            previous: None,
-            first: None,
+            previous: state.previous,
+            first: state.first,
+        }
+    }
+
+    /// The state after the last fitted frame.
+    pub fn state(&self) -> FitterState {
+        FitterState {
+            previous: self.previous.clone(),
+            first: self.first,
         }
     }
 

@@ -47,7 +47,7 @@ impl Format {
 }
 
 /// How to import.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ImportOptions {
     /// Grid to read from VDB files.
     pub grid: String,
