@@ -165,7 +165,7 @@ pub struct Sky {
 
 impl Default for Sky {
     fn default() -> Self {
-        let s = [0.5, 0.3, 0.8];
+        let s: [f64; 3] = [0.5, 0.3, 0.8];
         let n = (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt();
         Sky {
             zenith: [0.25, 0.45, 0.9],
