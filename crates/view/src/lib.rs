@@ -6,6 +6,7 @@
 pub mod camera;
 pub mod env;
 pub mod field;
+pub mod lighting;
 pub mod medium;
 
 pub use camera::Camera;

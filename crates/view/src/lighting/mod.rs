@@ -1,0 +1,3 @@
+//! Source radiance at the RBF centers (paper A §5.3–5.4).
+
+pub mod zh_table;
