@@ -6,8 +6,10 @@
 pub mod camera;
 pub mod env;
 pub mod field;
+pub mod image;
 pub mod medium;
 
 pub use camera::Camera;
 pub use env::{Environment, LatLong, Rgb, Sky};
+pub use image::{Image, ImageError};
 pub use medium::Medium;
