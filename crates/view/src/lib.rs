@@ -8,6 +8,7 @@ pub mod env;
 pub mod field;
 pub mod image;
 pub mod medium;
+pub mod reference;
 
 pub use camera::Camera;
 pub use env::{Environment, LatLong, Rgb, Sky};
