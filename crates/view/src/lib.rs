@@ -6,9 +6,12 @@
 pub mod camera;
 pub mod env;
 pub mod field;
+pub mod image;
 pub mod lighting;
 pub mod medium;
+pub mod reference;
 
 pub use camera::Camera;
 pub use env::{Environment, LatLong, Rgb, Sky};
+pub use image::{Image, ImageError};
 pub use medium::Medium;

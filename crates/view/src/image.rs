@@ -1,0 +1,217 @@
+//! Rendered images: linear RGB radiance per pixel (row 0 is the top), the image error of
+//! DESIGN.md (`rel_rms`), and writing as OpenEXR (linear `f32`) or PNG (tone-mapped).
+//! Both writers go through a temporary file beside the destination that is renamed into
+//! place, so a reader never sees a half-written image.
+
+use std::io::{BufWriter, Write};
+use std::path::Path;
+
+/// Linear RGB radiance, `width × height` pixels, row-major from the top row.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    pub width: usize,
+    pub height: usize,
+    pub pixels: Vec<[f32; 3]>,
+}
+
+/// Why an image could not be written.
+#[derive(Debug, thiserror::Error)]
+#[error("{path}: {problem}")]
+pub struct ImageError {
+    pub path: String,
+    pub problem: String,
+}
+
+impl Image {
+    /// A black image.
+    pub fn new(width: usize, height: usize) -> Image {
+        Image {
+            width,
+            height,
+            pixels: vec![[0.0; 3]; width * height],
+        }
+    }
+
+    /// Pixel `(x, y)`, `y = 0` being the top row.
+    pub fn get(&self, x: usize, y: usize) -> [f32; 3] {
+        self.pixels[y * self.width + x]
+    }
+
+    /// DESIGN.md's image error: the RMS over pixels of the linear radiance difference (all
+    /// three channels) divided by the RMS of `reference`,
+    /// `sqrt(Σ|self − ref|²) / sqrt(Σ|ref|²)`. A black reference gives 0 for an identical
+    /// image and `+∞` otherwise.
+    ///
+    /// # Panics
+    /// If the two images differ in size.
+    pub fn rel_rms(&self, reference: &Image) -> f64 {
+        assert_eq!(
+            (self.width, self.height),
+            (reference.width, reference.height),
+            "rel_rms of images of different sizes"
+        );
+        let (mut diff, mut norm) = (0.0f64, 0.0f64);
+        for (a, b) in self.pixels.iter().zip(&reference.pixels) {
+            for c in 0..3 {
+                let (a, b) = (f64::from(a[c]), f64::from(b[c]));
+                diff += (a - b) * (a - b);
+                norm += b * b;
+            }
+        }
+        if norm > 0.0 {
+            (diff / norm).sqrt()
+        } else if diff == 0.0 {
+            0.0
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// Writes linear RGB `f32` OpenEXR.
+    pub fn write_exr(&self, path: &Path) -> Result<(), ImageError> {
+        use exr::prelude::{Image as ExrImage, SpecificChannels, Vec2, WritableImage};
+        let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
+            let p = self.get(x, y);
+            (p[0], p[1], p[2])
+        });
+        let image = ExrImage::from_channels((self.width, self.height), channels);
+        write_atomically(path, |out| {
+            image
+                .write()
+                .to_buffered(out)
+                .map_err(|e| format!("cannot encode OpenEXR ({e})"))
+        })
+    }
+
+    /// Writes an 8-bit sRGB PNG: each linear channel is multiplied by `exposure`, clipped
+    /// to [0, 1] and encoded with the sRGB transfer function (no other tone curve, so a
+    /// linear value `1/exposure` is white).
+    pub fn write_png(&self, path: &Path, exposure: f64) -> Result<(), ImageError> {
+        let bytes: Vec<u8> = self
+            .pixels
+            .iter()
+            .flat_map(|p| p.map(|c| srgb8(f64::from(c) * exposure)))
+            .collect();
+        let (w, h) = (self.width, self.height);
+        write_atomically(path, |out| {
+            let size = |n: usize| u32::try_from(n).map_err(|_| format!("{n} pixels is too wide"));
+            let mut enc = png::Encoder::new(out, size(w)?, size(h)?);
+            enc.set_color(png::ColorType::Rgb);
+            enc.set_depth(png::BitDepth::Eight);
+            enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+            let mut writer = enc
+                .write_header()
+                .map_err(|e| format!("cannot encode PNG ({e})"))?;
+            writer
+                .write_image_data(&bytes)
+                .and_then(|()| writer.finish())
+                .map_err(|e| format!("cannot encode PNG ({e})"))
+        })
+    }
+}
+
+/// The sRGB opto-electronic transfer function of a linear value, clipped to [0, 1] and
+/// rounded to 8 bits (NaN gives 0).
+fn srgb8(v: f64) -> u8 {
+    let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
+    let e = if v <= 0.003_130_8 {
+        12.92 * v
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    };
+    (e * 255.0).round().clamp(0.0, 255.0) as u8
+}
+
+/// Runs `encode` on a temporary file in the destination's folder, then renames it to
+/// `path`.
+fn write_atomically(
+    path: &Path,
+    encode: impl FnOnce(&mut BufWriter<&mut std::fs::File>) -> Result<(), String>,
+) -> Result<(), ImageError> {
+    let err = |problem: String| ImageError {
+        path: path.display().to_string(),
+        problem,
+    };
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let mut tmp = tempfile::NamedTempFile::new_in(dir)
+        .map_err(|e| err(format!("cannot create a temporary file ({e})")))?;
+    {
+        let mut out = BufWriter::new(tmp.as_file_mut());
+        encode(&mut out).map_err(err)?;
+        out.flush()
+            .map_err(|e| err(format!("cannot write ({e})")))?;
+    }
+    tmp.persist(path)
+        .map_err(|e| err(format!("cannot rename the temporary file ({})", e.error)))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn gradient() -> Image {
+        let mut im = Image::new(5, 3);
+        for (i, p) in im.pixels.iter_mut().enumerate() {
+            *p = [i as f32 * 0.25, 1.0, 0.5 / (1.0 + i as f32)];
+        }
+        im
+    }
+
+    #[test]
+    fn rel_rms_matches_its_definition_and_guards_a_black_reference() {
+        let r = gradient();
+        let mut a = r.clone();
+        a.pixels[7][1] += 0.5;
+        a.pixels[2][0] -= 0.25;
+        let norm: f64 = r
+            .pixels
+            .iter()
+            .flat_map(|p| p.map(|c| f64::from(c) * f64::from(c)))
+            .sum();
+        let want = ((0.5f64 * 0.5 + 0.25 * 0.25) / norm).sqrt();
+        assert!((a.rel_rms(&r) - want).abs() < 1e-7 * want);
+        assert_eq!(r.rel_rms(&r), 0.0);
+        let black = Image::new(5, 3);
+        assert_eq!(black.rel_rms(&black), 0.0);
+        assert_eq!(r.rel_rms(&black), f64::INFINITY);
+    }
+
+    #[test]
+    fn exr_round_trips_linear_values_exactly() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.exr");
+        let im = gradient();
+        im.write_exr(&path).unwrap();
+        let back = crate::LatLong::load_exr(&path).unwrap();
+        assert_eq!((back.width, back.height), (5, 3));
+        assert_eq!(back.texels, im.pixels);
+        assert_eq!(
+            std::fs::read_dir(dir.path()).unwrap().count(),
+            1,
+            "no temp file left"
+        );
+    }
+
+    #[test]
+    fn png_is_srgb_encoded_and_written_in_place() {
+        assert_eq!(srgb8(0.0), 0);
+        assert_eq!(srgb8(1.0), 255);
+        assert_eq!(srgb8(7.0), 255);
+        assert_eq!(srgb8(f64::NAN), 0);
+        // 255 · (1.055 · 0.18^(1/2.4) − 0.055) = 117.65.
+        assert_eq!(srgb8(0.18), 118);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.png");
+        gradient().write_png(&path, 1.0).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+        let missing = dir.path().join("no/such/dir/a.png");
+        let e = gradient().write_png(&missing, 1.0).unwrap_err();
+        assert!(e.to_string().contains("no/such/dir"), "{e}");
+    }
+}

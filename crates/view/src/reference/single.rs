@@ -1,0 +1,70 @@
+//! Single scattering, ray traced.
+//!
+//! Along the camera ray, inside the volume box `[t₀, t₁]`, with `T = exp(−τ(t₀, t₁))`:
+//!
+//! `L = T·L_env(d) + ∫ T(t₀, t)·σt D(x_t)·Ω·S(x_t) dt`,
+//! `S(x) = (1/4π)∫ p(ω·d)·T_light(x, ω)·L_env(ω) dω`.
+//!
+//! The first term is exact. For the integral, the scattering point is drawn with density
+//! `σt D(t)·T(t₀, t)/(1 − T)` (a collision forced inside the box: `τ* = −ln(1 − ξ(1 − T))`,
+//! then `τ(t₀, t) = τ*` inverted exactly), so one sample is `(1 − T)·Ω·S(x_t)`. `S` is
+//! estimated with `light_samples` directions drawn from the phase function itself
+//! (density `p(ω·d)/4π`, so each contributes `T_light·L_env`; no importance sampling of
+//! the environment), each with its exact transmittance to the box exit. Averaging `spp`
+//! such points gives an unbiased estimate whose only noise comes from the positions and
+//! directions; an albedo of 0 or an empty ray is exact.
+
+use rand::RngExt;
+use rand_pcg::Pcg64;
+
+use super::{RefOptions, Scene, hg_direction, scaled};
+use crate::Rgb;
+use crate::field::ray_box;
+
+/// Single-scattering radiance arriving at `o` from direction `d` (unit), i.e. along the
+/// camera ray `o + t·d`.
+pub(crate) fn radiance(
+    scene: &Scene<'_>,
+    o: [f64; 3],
+    d: [f64; 3],
+    opts: &RefOptions,
+    rng: &mut Pcg64,
+) -> Rgb {
+    let Some((t0, t1)) = ray_box(o, d, scene.volume.bbox()) else {
+        return scene.env.radiance(d);
+    };
+    let view = scene.track(o, d);
+    let tau = view.depth(t0, t1);
+    let mut out = scaled(scene.env, d, (-tau).exp());
+    // 1 − T without cancellation for thin media.
+    let mass = -(-tau).exp_m1();
+    let albedo = scene.medium.albedo;
+    if albedo == 0.0 || mass <= 0.0 {
+        return out;
+    }
+    let (spp, lights) = (opts.spp.max(1), opts.light_samples.max(1));
+    let mut sum = [0.0f64; 3];
+    for _ in 0..spp {
+        let xi: f64 = rng.random();
+        // ξ < 1, so 1 − ξ·mass > T and τ* < τ; rounding may still overshoot: then t₁.
+        let target = -(-xi * mass).ln_1p();
+        let t = view.reach(t0, t1, target).unwrap_or(t1);
+        let x = [0, 1, 2].map(|a| o[a] + t * d[a]);
+        for _ in 0..lights {
+            let w = hg_direction(d, scene.medium.g, rng.random(), rng.random());
+            let t_light = match ray_box(x, w, scene.volume.bbox()) {
+                Some((a, b)) => (-scene.track(x, w).depth(a, b)).exp(),
+                None => 1.0,
+            };
+            let l = scaled(scene.env, w, t_light);
+            for c in 0..3 {
+                sum[c] += l[c];
+            }
+        }
+    }
+    let k = mass * albedo / (f64::from(spp) * f64::from(lights));
+    for c in 0..3 {
+        out[c] += k * sum[c];
+    }
+    out
+}

@@ -1,0 +1,369 @@
+//! Tests of the reference renderer against closed forms, quadrature and conservation laws.
+
+use super::*;
+use crate::Sky;
+use crate::field::ray_box;
+use crate::medium::hg;
+
+fn cube() -> Bbox {
+    Bbox::new([-1.0; 3], [1.0; 3])
+}
+
+/// A constant-density box: the trilinear field is `density` everywhere inside.
+fn constant_box(dims: [usize; 3], bbox: Bbox, density: f32) -> Volume {
+    Volume::new(dims, bbox, vec![density; dims[0] * dims[1] * dims[2]]).unwrap()
+}
+
+/// Three overlapping Gaussians in the unit cube [−1, 1]³, peak density about 1.
+fn blob() -> Volume {
+    let rbfs = [
+        Rbf::new([0.0, 0.0, 0.0], 0.45, 1.0),
+        Rbf::new([0.35, 0.2, 0.3], 0.3, 0.6),
+        Rbf::new([-0.4, -0.1, -0.2], 0.25, 0.8),
+    ];
+    rbf_volume(&rbfs, [16, 16, 16], cube()).unwrap()
+}
+
+fn medium(sigma_t: f64, albedo: f64, g: f64) -> Medium {
+    Medium::new(sigma_t, albedo, g).unwrap()
+}
+
+fn opts(spp: u32, multiple: bool) -> RefOptions {
+    RefOptions {
+        spp,
+        light_samples: 2,
+        seed: 7,
+        multiple,
+        max_bounces: 256,
+    }
+}
+
+fn sky() -> Environment {
+    Environment::Sky(Sky::default())
+}
+
+fn as_f32(c: Rgb) -> [f32; 3] {
+    c.map(|v| v as f32)
+}
+
+fn close(a: f32, b: f64, rel: f64) -> bool {
+    (f64::from(a) - b).abs() <= rel * b.abs().max(1e-30)
+}
+
+#[test]
+fn rbf_volume_samples_the_rbfs_at_voxel_centers() {
+    let v = blob();
+    let rbfs = [
+        Rbf::new([0.0, 0.0, 0.0], 0.45, 1.0),
+        Rbf::new([0.35, 0.2, 0.3], 0.3, 0.6),
+        Rbf::new([-0.4, -0.1, -0.2], 0.25, 0.8),
+    ];
+    for (x, y, z) in [(0, 0, 0), (7, 8, 8), (10, 9, 11), (4, 7, 6)] {
+        let p = v.voxel_center(x, y, z);
+        let want: f64 = rbfs.iter().map(|r| r.eval(p)).sum();
+        assert!(close(v.get(x, y, z), want, 1e-6), "{x} {y} {z}");
+    }
+    assert!(rbf_volume(&rbfs, [2, 2, 2], Bbox::new([0.0; 3], [0.0; 3])).is_err());
+}
+
+#[test]
+fn without_extinction_or_density_the_image_is_the_environment() {
+    let env = sky();
+    let cam = Camera::framing(&cube(), 40.0, 16, 12).unwrap();
+    let empty = Volume::new([0, 0, 0], cube(), vec![]).unwrap();
+    let zeros = constant_box([4, 4, 4], cube(), 0.0);
+    let scenes = [
+        (blob(), medium(0.0, 0.9, 0.5)),
+        (zeros, medium(10.0, 0.9, 0.5)),
+        (empty, medium(10.0, 0.9, 0.5)),
+    ];
+    for (v, m) in &scenes {
+        for multiple in [false, true] {
+            let im = render(v, m, &env, &cam, &opts(4, multiple));
+            for y in 0..cam.height {
+                for x in 0..cam.width {
+                    assert_eq!(im.get(x, y), as_f32(env.radiance(cam.pixel_ray(x, y))));
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn without_albedo_a_box_only_attenuates() {
+    // Constant density 0.7 in [−1, 1]³, σt = 1.3: L = c·exp(−σt·0.7·length) per pixel.
+    let c = [0.8, 0.5, 1.2];
+    let env = Environment::constant(c);
+    let v = constant_box([3, 3, 3], cube(), 0.7);
+    let m = medium(1.3, 0.0, 0.3);
+    let cam = Camera::framing(&cube(), 40.0, 16, 12).unwrap();
+    let want = |x: usize, y: usize| {
+        let d = cam.pixel_ray(x, y);
+        let len = ray_box(cam.eye, d, v.bbox()).map_or(0.0, |(a, b)| b - a);
+        (-1.3 * 0.7 * len).exp()
+    };
+    // Single scattering: the transmittance is exact, the scattered term vanishes.
+    let im = render(&v, &m, &env, &cam, &opts(4, false));
+    let mut through = 0;
+    for y in 0..cam.height {
+        for x in 0..cam.width {
+            let t = want(x, y);
+            through += usize::from(t < 0.99);
+            for (p, ck) in im.get(x, y).into_iter().zip(c) {
+                assert!(close(p, ck * t, 1e-6), "{x} {y}");
+            }
+        }
+    }
+    assert!(through > 50, "the box covers much of the image");
+    // Path tracing: a path escapes with probability T, so each pixel is c·Binomial(n, T)/n;
+    // the expected squared error is Σ c²T(1−T)/n. Allow 1.5× the expected rel_rms.
+    let n = 256;
+    let im = render(&v, &m, &env, &cam, &opts(n, true));
+    let mut reference = Image::new(cam.width, cam.height);
+    let (mut var, mut norm) = (0.0, 0.0);
+    for y in 0..cam.height {
+        for x in 0..cam.width {
+            let t = want(x, y);
+            reference.pixels[y * cam.width + x] = as_f32(c.map(|c| c * t));
+            for ck in c {
+                var += ck * ck * t * (1.0 - t) / f64::from(n);
+                norm += ck * ck * t * t;
+            }
+        }
+    }
+    let expected = (var / norm).sqrt();
+    let err = im.rel_rms(&reference);
+    eprintln!("albedo 0, path tracing: rel_rms {err:.4}, expected {expected:.4}");
+    assert!(
+        err < 1.5 * expected && err > 0.5 * expected,
+        "{err} vs {expected}"
+    );
+}
+
+#[test]
+fn a_non_absorbing_medium_under_a_uniform_environment_is_invisible() {
+    // White furnace: with Ω = 1 under constant c, L = c for every ray. Every path carries
+    // weight 1 and ends in the environment unless it needs more than max_bounces
+    // scatterings (optical depths here ≤ 6: such paths are vanishingly rare), so the
+    // pixels equal c up to f32 rounding; a lost or double-counted path would show as c/spp.
+    let c = [0.7, 0.4, 1.5];
+    let env = Environment::constant(c);
+    let v = blob();
+    let bbox = cube();
+    let inside = Camera::new(
+        [0.1, -0.2, 0.05],
+        [0.3, 1.0, 0.2],
+        [0.0, 0.0, 1.0],
+        60.0,
+        8,
+        6,
+    )
+    .unwrap();
+    let outside = Camera::framing(&bbox, 40.0, 16, 12).unwrap();
+    for g in [0.0, 0.9] {
+        for (vol, cam) in [
+            (&v, &outside),
+            (&constant_box([2, 2, 2], cube(), 1.0), &inside),
+        ] {
+            let im = render(vol, &medium(3.0, 1.0, g), &env, cam, &opts(16, true));
+            for p in &im.pixels {
+                for k in 0..3 {
+                    assert!(close(p[k], c[k], 1e-6), "g {g}: {p:?}");
+                }
+            }
+        }
+    }
+}
+
+/// Single scattering of a camera ray going straight down through a homogeneous slab
+/// `0 ≤ z ≤ 1` (unit density, extinction `s`) under a constant environment of 1, by
+/// midpoint quadrature in depth and `μ = cos θ` of the light direction:
+/// `L = e^{−s} + Ω·s ∫₀¹ e^{−s·u} ½∫₋₁¹ p(−μ)·e^{−s·ℓ(1−u, μ)} dμ du`, with the path
+/// length to the slab's surface `ℓ(z, μ) = (1 − z)/μ` upwards and `z/|μ|` downwards
+/// (the camera looks along −z, so the scattering angle has cosine `−μ`).
+fn slab_quadrature(s: f64, albedo: f64, g: f64) -> f64 {
+    let (nu, nm) = (1000, 2000);
+    let mut outer = 0.0;
+    for i in 0..nu {
+        let u = (i as f64 + 0.5) / nu as f64;
+        let z = 1.0 - u;
+        let mut inner = 0.0;
+        for j in 0..nm {
+            let mu = -1.0 + (j as f64 + 0.5) * 2.0 / nm as f64;
+            let len = if mu > 0.0 { (1.0 - z) / mu } else { z / -mu };
+            inner += 0.5 * hg(g, -mu) * (-s * len).exp() * 2.0 / nm as f64;
+        }
+        outer += (-s * u).exp() * inner / nu as f64;
+    }
+    (-s).exp() + albedo * s * outer
+}
+
+#[test]
+fn single_scattering_in_a_slab_matches_quadrature() {
+    // A 100×100×1 box is a slab for a central ray: sideways paths are ≥ 50 long, their
+    // transmittance e^{−25} is negligible. One pixel, spp = 40 000 scattering points.
+    // One sample is (1 − T)·Ω·mean(T_light·c) ∈ [0, (1 − T)Ω·c]: its standard deviation is
+    // at most half that range, so 4 standard errors are ≤ 2·(1 − T)Ω·c/√spp = 1 %.
+    let bbox = Bbox::new([-50.0, -50.0, 0.0], [50.0, 50.0, 1.0]);
+    let v = constant_box([2, 2, 2], bbox, 1.0);
+    let c = [1.0, 0.5, 2.0];
+    let env = Environment::constant(c);
+    let cam = Camera::new([0.0, 0.0, 3.0], [0.0; 3], [0.0, 1.0, 0.0], 10.0, 1, 1).unwrap();
+    let spp = 40_000;
+    for (s, albedo, g) in [(0.5, 0.8, 0.0), (0.5, 0.8, 0.6), (2.0, 1.0, -0.4)] {
+        let m = medium(s, albedo, g);
+        let im = render(&v, &m, &env, &cam, &opts(spp, false));
+        let want = slab_quadrature(s, albedo, g);
+        let scattered = want - (-s).exp();
+        let tol = 2.0 * (1.0 - (-s).exp()) * albedo / f64::from(spp).sqrt();
+        // The channels scale the same samples: each must be c_k times the same value.
+        let got = im.pixels[0].map(f64::from);
+        let err = got[0] / c[0] - want;
+        eprintln!(
+            "slab s {s} Ω {albedo} g {g}: L {:.5} vs {want:.5} (scattered {scattered:.5}), \
+             error {err:+.2e}, tolerance {tol:.1e}",
+            got[0] / c[0]
+        );
+        for (gk, ck) in got.into_iter().zip(c) {
+            assert!((gk / ck - want).abs() < tol, "{gk} vs {want}·{ck}");
+        }
+    }
+}
+
+#[test]
+fn path_tracing_with_one_bounce_is_single_scattering() {
+    // Two independent estimators of the same quantity (the path tracer samples light
+    // directions by escaping, single scattering by exact transmittance): their difference
+    // is pure noise. Its expected size is calibrated from each estimator's own seed-to-seed
+    // spread: E|a − b|² = σa² + σb² and E|a₁ − a₂|² = 2σa².
+    let v = blob();
+    let m = medium(3.0, 0.9, 0.5);
+    let env = sky();
+    let cam = Camera::framing(&cube(), 40.0, 12, 9).unwrap();
+    let single = |seed| {
+        let o = RefOptions {
+            seed,
+            ..opts(16, false)
+        };
+        render(&v, &m, &env, &cam, &o)
+    };
+    let path = |seed| {
+        let o = RefOptions {
+            seed,
+            max_bounces: 1,
+            ..opts(96, true)
+        };
+        render(&v, &m, &env, &cam, &o)
+    };
+    let (s1, s2, p1, p2) = (single(1), single(2), path(1), path(2));
+    let noise = (0.5 * s1.rel_rms(&s2).powi(2) + 0.5 * p1.rel_rms(&p2).powi(2)).sqrt();
+    let err = p1.rel_rms(&s1);
+    eprintln!("path (1 bounce) vs single: rel_rms {err:.4}, noise {noise:.4}");
+    assert!(err < 1.5 * noise && err < 0.05, "{err} vs noise {noise}");
+    // Multiple scattering adds light.
+    let full = render(&v, &m, &env, &cam, &opts(96, true));
+    let sum = |im: &Image| im.pixels.iter().map(|p| f64::from(p[0])).sum::<f64>();
+    assert!(sum(&full) > sum(&p1) * 1.02);
+}
+
+#[test]
+fn huge_extinction_is_opaque_finite_and_terminates() {
+    let c = [1.0, 1.0, 1.0];
+    let env = Environment::constant(c);
+    let v = constant_box([4, 4, 4], cube(), 1.0);
+    let cam = Camera::framing(&cube(), 40.0, 8, 6).unwrap();
+    let hits =
+        |x, y| ray_box(cam.eye, cam.pixel_ray(x, y), v.bbox()).is_some_and(|(a, b)| b - a > 1e-3);
+    for multiple in [false, true] {
+        let o = RefOptions {
+            max_bounces: 64,
+            ..opts(8, multiple)
+        };
+        // Albedo 0: nothing passes.
+        let im = render(&v, &medium(1e6, 0.0, 0.0), &env, &cam, &o);
+        for y in 0..cam.height {
+            for x in 0..cam.width {
+                let want = if hits(x, y) { 0.0 } else { 1.0 };
+                assert_eq!(im.get(x, y), [want; 3], "{x} {y}");
+            }
+        }
+        // Albedo 1, strongly peaked phase functions: light scattered at the surface only,
+        // finite and within the environment's bound.
+        for g in [0.95, -0.95] {
+            let im = render(&v, &medium(1e6, 1.0, g), &env, &cam, &o);
+            for p in &im.pixels {
+                assert!(
+                    p.iter()
+                        .all(|c| c.is_finite() && (0.0..=1.0 + 1e-6).contains(c))
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn a_camera_inside_sees_the_attenuated_environment() {
+    let c = [0.3, 0.6, 0.9];
+    let env = Environment::constant(c);
+    let v = constant_box([5, 5, 5], cube(), 0.5);
+    let cam = Camera::new(
+        [0.1, -0.2, 0.05],
+        [0.3, 1.0, 0.2],
+        [0.0, 0.0, 1.0],
+        70.0,
+        8,
+        6,
+    )
+    .unwrap();
+    let im = render(&v, &medium(2.0, 0.0, 0.0), &env, &cam, &opts(4, false));
+    for y in 0..cam.height {
+        for x in 0..cam.width {
+            let (t0, t1) = ray_box(cam.eye, cam.pixel_ray(x, y), v.bbox()).unwrap();
+            assert_eq!(t0, 0.0);
+            let t = (-2.0 * 0.5 * t1).exp();
+            for (p, ck) in im.get(x, y).into_iter().zip(c) {
+                assert!(close(p, ck * t, 1e-6), "{x} {y}");
+            }
+        }
+    }
+}
+
+#[test]
+fn images_depend_on_the_seed_but_not_on_the_thread_count() {
+    let v = blob();
+    let m = medium(4.0, 0.95, 0.7);
+    let env = sky();
+    let cam = Camera::framing(&cube(), 40.0, 8, 6).unwrap();
+    for multiple in [false, true] {
+        let o = opts(4, multiple);
+        let in_pool = |threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| render(&v, &m, &env, &cam, &o))
+        };
+        let one = in_pool(1);
+        assert_eq!(one, in_pool(2));
+        let other = render(&v, &m, &env, &cam, &RefOptions { seed: 8, ..o });
+        assert_ne!(one, other);
+    }
+}
+
+#[test]
+fn phase_sampled_directions_have_the_requested_cosine() {
+    for d in [
+        [0.0, 0.0, 1.0],
+        [0.0, 0.0, -1.0],
+        [0.6, -0.8, 0.0],
+        [0.48, 0.6, 0.64],
+    ] {
+        for (u1, u2) in [(0.1, 0.2), (0.5, 0.9), (0.93, 0.4)] {
+            let w = hg_direction(d, 0.6, u1, u2);
+            let cos = w[0] * d[0] + w[1] * d[1] + w[2] * d[2];
+            let norm = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
+            assert!((norm - 1.0).abs() < 1e-12);
+            assert!((cos - sample_hg_cos(0.6, u1)).abs() < 1e-12, "{d:?}");
+        }
+    }
+}
