@@ -4,10 +4,12 @@
 //! stage runs on the CPU (rayon) and is the oracle of its GPU twin.
 
 pub mod camera;
+pub mod diffusion;
 pub mod env;
 pub mod field;
 pub mod medium;
 
 pub use camera::Camera;
+pub use diffusion::{DiffusionSolver, Solution, SolveOptions, Sources};
 pub use env::{Environment, LatLong, Rgb, Sky};
 pub use medium::Medium;
