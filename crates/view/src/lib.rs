@@ -4,6 +4,7 @@
 //! stage runs on the CPU (rayon) and is the oracle of its GPU twin.
 
 pub mod camera;
+pub mod diffusion;
 pub mod env;
 pub mod field;
 pub mod image;
@@ -12,6 +13,7 @@ pub mod medium;
 pub mod reference;
 
 pub use camera::Camera;
+pub use diffusion::{DiffusionSolver, Solution, SolveOptions, Sources};
 pub use env::{Environment, LatLong, Rgb, Sky};
 pub use image::{Image, ImageError};
 pub use medium::Medium;

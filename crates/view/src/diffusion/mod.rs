@@ -1,0 +1,105 @@
+//! Multiple scattering by diffusion on the RBF basis (paper A §5.4).
+//!
+//! The media radiance is the two-term expansion `L_m(x, ω) ≈ L⁰(x) + L¹(x)·ω`, `ω` the
+//! direction of propagation, with `L⁰ = (1/4π)∫L dω` and `L¹ = (3/4π)∫L ω dω`; the
+//! single-scattering source `J_ss` (which carries the albedo) has moments `J⁰_ss`, `J¹_ss`
+//! defined the same way. Taking the zeroth and first moments of the RTE (DESIGN.md, "Notes
+//! on the mangled equations", re-derived and checked here):
+//!
+//! ```text
+//! (1/3)∇·L¹ = −σa D L⁰ + σt D J⁰_ss            σa = (1 − Ω) σt
+//!       ∇L⁰ = −σtr D L¹ + σt D J¹_ss           σtr = (1 − Ω g) σt
+//! ```
+//!
+//! (`σtr = (1 − Ω μ̄/3) σt` with `μ̄ = 3g`, the first Legendre coefficient of the normalized
+//! Henyey–Greenstein phase). Eliminating `L¹` gives the diffusion equation
+//!
+//! ```text
+//! ∇·(κ∇L⁰) − σa D L⁰ + S = 0,   κ = 1/(3 σtr D),   S = σt D J⁰_ss − (σt/(3σtr)) ∇·J¹_ss.
+//! ```
+//!
+//! The paper's eq. 6 and 13 are mangled in the text we have: they carry a factor 3 on
+//! `κ`'s flux law, `σt/σtr` instead of `σt/(3σtr)` on the `J¹` term and an `Ω` next to `σt`
+//! on the `J⁰` term. The equations above are DESIGN's derivation, which the tests verify
+//! (finite differences of the continuous fields, and the exact uniform solution
+//! `L⁰ = J⁰/(1 − Ω)`).
+//!
+//! On the RBF basis every field `F` is interpolated from its values `F_l` at the centers as
+//! `F(x) = Σ w_l B_l(x) F_l / D̃(x)` with `D̃ = Σ w_l B_l` (eq. 12), the density `D` is taken
+//! to be `D̃`, and the equation is enforced at every center `c_h`: `A L⁰ = b` with
+//! `A = ∇·(κ∇·) − σa D̃` and `b = −S` ([`assemble`]). It is solved per colour channel by
+//! CGLS with a warm start ([`DiffusionSolver`]), and converted into the order-2 SH source
+//! radiance of multiple scattering ([`ms_source_sh`]).
+
+mod basis;
+mod cgls;
+mod csr;
+mod radiance;
+mod solver;
+mod system;
+#[cfg(test)]
+mod tests;
+
+pub use cgls::{Cgls, cgls};
+pub use csr::Csr;
+pub use radiance::ms_source_sh;
+pub use solver::{DiffusionSolver, Solution, SolveOptions, solve_system};
+pub use system::{System, assemble};
+
+use crate::Medium;
+
+/// Single-scattering source radiance moments at the RBF centers, per colour channel (RGB):
+/// `j0[l][c] = J⁰_ss(c_l)` and `j1[l][c] = J¹_ss(c_l)` (x, y, z), functions of the direction
+/// of propagation. Non-finite entries are read as 0.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Sources {
+    pub j0: Vec<[f64; 3]>,
+    pub j1: Vec<[[f64; 3]; 3]>,
+}
+
+impl Sources {
+    /// Zero sources for `n` centers.
+    pub fn zeros(n: usize) -> Sources {
+        Sources {
+            j0: vec![[0.0; 3]; n],
+            j1: vec![[[0.0; 3]; 3]; n],
+        }
+    }
+
+    fn j0(&self, l: usize, c: usize) -> f64 {
+        finite_or_zero(self.j0[l][c])
+    }
+
+    fn j1(&self, l: usize, c: usize) -> [f64; 3] {
+        self.j1[l][c].map(finite_or_zero)
+    }
+}
+
+fn finite_or_zero(v: f64) -> f64 {
+    if v.is_finite() { v } else { 0.0 }
+}
+
+/// The coefficients of the diffusion equation that depend on the medium alone.
+#[derive(Clone, Copy, Debug)]
+struct Coefficients {
+    sigma_t: f64,
+    /// Absorption `σa = (1 − Ω) σt`.
+    sigma_a: f64,
+    /// Reduced extinction `σtr = (1 − Ω g) σt`.
+    sigma_tr: f64,
+}
+
+impl Coefficients {
+    /// `None` when the medium does not interact with light (`σt = 0`) or is invalid
+    /// (`σtr ≤ 0` or non-finite): then `S ≡ 0` and `L⁰ ≡ 0`.
+    fn of(m: &Medium) -> Option<Coefficients> {
+        let sigma_tr = (1.0 - m.albedo * m.g) * m.sigma_t;
+        let sigma_a = (1.0 - m.albedo) * m.sigma_t;
+        let ok = sigma_tr > 0.0 && sigma_tr.is_finite() && sigma_a.is_finite();
+        ok.then_some(Coefficients {
+            sigma_t: m.sigma_t,
+            sigma_a,
+            sigma_tr,
+        })
+    }
+}
