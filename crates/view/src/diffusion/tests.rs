@@ -436,8 +436,9 @@ fn extremes_stay_finite() {
     assert!(ms_source_sh(&[], &medium, &Sources::zeros(0), &[]).is_empty());
 }
 
-/// Frame to frame: the same set with slightly changed sources, and a set that lost and
-/// gained RBFs, both start from the previous frame and need fewer iterations than cold.
+/// Frame to frame, at a tolerance matched to rendering (1e-4): the same set with sources
+/// changed by 1 %, and a set that lost 10 RBFs, moved the rest by up to 0.002 and gained 5,
+/// both start from the previous frame and need fewer iterations than from zero.
 #[test]
 fn solver_warm_starts_from_the_previous_frame() {
     let rbfs = realistic(31, 300);
@@ -446,7 +447,7 @@ fn solver_warm_starts_from_the_previous_frame() {
     let src = random_sources(&mut rng, n);
     let opts = SolveOptions {
         max_iterations: 3000,
-        tolerance: 1e-8,
+        tolerance: 1e-4,
     };
     let mut solver = DiffusionSolver::new();
     let first = solver.solve(&rbfs, &MEDIUM, &src, &opts);
@@ -457,45 +458,33 @@ fn solver_warm_starts_from_the_previous_frame() {
         .iter_mut()
         .flatten()
         .for_each(|v| *v *= 1.0 + rng.uniform(-0.01, 0.01));
-    let cold = DiffusionSolver::new().solve(&rbfs, &MEDIUM, &next, &opts);
-    let warm = solver.solve(&rbfs, &MEDIUM, &next, &opts);
+    let cold_same = DiffusionSolver::new().solve(&rbfs, &MEDIUM, &next, &opts);
+    let warm_same = solver.solve(&rbfs, &MEDIUM, &next, &opts);
+    assert!(warm_same.converged && cold_same.converged);
     assert!(
-        warm.converged && warm.iterations < cold.iterations,
-        "{} vs {}",
-        warm.iterations,
-        cold.iterations
+        warm_same.iterations < cold_same.iterations,
+        "{warm_same:?} {cold_same:?} {first:?}"
     );
 
-    // Drop 10 RBFs, move the rest a little, add 5 new ones.
     let mut moved: Vec<Rbf> = rbfs[10..]
         .iter()
         .map(|b| {
-            Rbf::new(
-                b.center.map(|c| c + rng.uniform(-0.002, 0.002)),
-                b.radius,
-                b.weight,
-            )
+            let c = b.center.map(|c| c + rng.uniform(-0.002, 0.002));
+            Rbf::new(c, b.radius, b.weight)
         })
         .collect();
     moved.extend(realistic(77, 5));
-    let mut moved_src = Sources {
-        j0: next.j0[10..].to_vec(),
-        j1: next.j1[10..].to_vec(),
-    };
     let extra = random_sources(&mut rng, 5);
-    moved_src.j0.extend(extra.j0);
-    moved_src.j1.extend(extra.j1);
+    let moved_src = Sources {
+        j0: [&next.j0[10..], &extra.j0[..]].concat(),
+        j1: [&next.j1[10..], &extra.j1[..]].concat(),
+    };
     let cold = DiffusionSolver::new().solve(&moved, &MEDIUM, &moved_src, &opts);
     let warm = solver.solve(&moved, &MEDIUM, &moved_src, &opts);
     assert!(warm.converged && cold.converged);
-    assert!(
-        warm.iterations < cold.iterations,
-        "{} vs {}",
-        warm.iterations,
-        cold.iterations
-    );
+    assert!(warm.iterations < cold.iterations);
     eprintln!(
-        "warm start: same set {} → interpolated {} vs cold {}",
-        first.iterations, warm.iterations, cold.iterations
+        "warm start (tolerance 1e-4): same set {} vs cold {}; changed set {} vs cold {}",
+        warm_same.iterations, cold_same.iterations, warm.iterations, cold.iterations
     );
 }
