@@ -139,6 +139,8 @@ pub struct Fog {
     layers: Vec<Layer>,
     /// World box of every layer's footprint: x min, x max, y min, y max.
     bounds: [f64; 4],
+    /// Fogmap size in pixels.
+    size: [usize; 2],
 }
 
 impl Fog {
@@ -261,6 +263,7 @@ impl Fog {
             settings,
             layers,
             bounds,
+            size: [fogmap.nx, fogmap.ny],
         })
     }
 
@@ -287,6 +290,19 @@ impl Fog {
     /// World box `[x min, x max, y min, y max]` outside which the fog is clear.
     pub fn bounds(&self) -> [f64; 4] {
         self.bounds
+    }
+
+    /// World box `[x min, x max, y min, y max]` of the fogmap's pixels (whatever the basis
+    /// and levels; splines reach up to `d/2` cells beyond it).
+    pub fn map_box(&self) -> [f64; 4] {
+        let [ox, oy] = self.placement.origin;
+        let c = self.placement.cell;
+        [
+            ox,
+            ox + self.size[0] as f64 * c,
+            oy,
+            oy + self.size[1] as f64 * c,
+        ]
     }
 
     /// Optical depth `∫_O^P K_t` of the segment from `o` to `p` (paper E eq. 2, 11).

@@ -87,17 +87,17 @@ impl Camera {
         })
     }
 
-    /// A camera that frames a fog from above the ground: from beyond the south edge, a
-    /// little above the layer, looking north towards the horizon.
+    /// A camera that frames a fog from above the ground: from beyond the middle of the
+    /// south edge, above the layer, looking north over the fog to the horizon (which
+    /// crosses the upper part of the image at the default 50° field of view).
     pub fn framing(fog: &Fog) -> Camera {
-        let [x0, x1, y0, y1] = fog.bounds();
+        let [x0, x1, y0, y1] = fog.map_box();
         let p = fog.placement();
         let size = (x1 - x0).max(y1 - y0);
         let cx = (x0 + x1) / 2.0;
-        let eye_z = p.top.max(0.0) + 0.06 * size;
         Camera {
-            eye: [cx, y0 - 0.15 * size, eye_z],
-            target: [cx, y1 + 0.6 * size, 0.0],
+            eye: [cx, y0 - 0.2 * size, p.top.max(0.0) + 0.2 * size],
+            target: [cx, y0 + 0.6 * size, p.bottom.max(0.0)],
             up: [0.0, 0.0, 1.0],
             fov_deg: 50.0,
         }
