@@ -93,6 +93,9 @@ pub enum Command {
         #[command(flatten)]
         import: ImportArgs,
     },
+    /// Fog models: `haze fog wavelet` renders a fogmap as a wavelet fog.
+    #[command(subcommand)]
+    Fog(crate::fog::FogCommand),
 }
 
 #[derive(Debug, clap::Args)]
@@ -250,5 +253,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             frames,
             import,
         } => crate::pack::run(&input, &out, frames.unwrap_or_default(), &import.options()),
+        Command::Fog(fog) => crate::fog::run(fog),
     }
 }

@@ -4,6 +4,7 @@ mod asset_header;
 mod bake;
 mod cli;
 mod export;
+mod fog;
 mod import_args;
 mod inspect;
 mod journal;

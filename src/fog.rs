@@ -1,0 +1,309 @@
+//! `haze fog`: fog models. `haze fog wavelet` renders a fogmap as a wavelet fog over a
+//! simple outdoor scene (paper E).
+
+use crate::import_args::parse_vec3;
+use anyhow::{Context, Result, bail};
+use clap::{Args, Subcommand, ValueEnum};
+use haze_wavelet::render::{Camera, Scene};
+use haze_wavelet::{Basis, Fog, Fogmap, Mode, Placement, Settings};
+use std::path::PathBuf;
+use std::time::Instant;
+
+#[derive(Debug, Subcommand)]
+pub enum FogCommand {
+    /// Render a fogmap as a heterogeneous fog on B-spline wavelets (Giroud & Biri).
+    ///
+    /// The fogmap's pixels are the finest scaling coefficients of a 2-D extinction map
+    /// (PNG and EXR greyscale, NumPy .npy, or raw .f32 with a NAME.json sidecar holding
+    /// "dims": [width, height]; row 0 is the north edge). It is decomposed over --levels
+    /// steps of Mallat's transform and rendered over a ground plane and sky: each pixel's
+    /// transmittance τ is integrated exactly along its ray, level by level and cell by cell,
+    /// and L = τ·L_ground + (1 − τ)·L_fog. Level l is integrated only up to |OP|·µ^l, so
+    /// µ < 1 drops fine detail with distance (µ = 0: the coarsest level only).
+    ///
+    /// Extinction at height z is density · fogmap(x, y) · exp(−falloff·(z − bottom)) for
+    /// bottom ≤ z ≤ top, clear elsewhere. Without --eye the camera frames the fog from
+    /// beyond its south edge, a little above it, looking north at the horizon.
+    #[command(after_help = "Examples:\n  \
+        haze fog wavelet data/fogmap/fogmap_128.png --out fog.png\n  \
+        haze fog wavelet fog.exr --basis quadratic --levels 3 --mu 0.6 --out far.exr\n  \
+        haze fog wavelet fog.png --eye 0,-80,6 --target 0,40,0 --density 0.3 --out low.png")]
+    Wavelet(WaveletArgs),
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum BasisArg {
+    /// Box functions (1 cell): fastest, blocky.
+    Haar,
+    /// Hat functions (2 cells): smooth, the paper's recommended trade-off.
+    Linear,
+    /// Quadratic B-splines (3 cells): smoothest, slowest.
+    Quadratic,
+}
+
+#[derive(Debug, Args)]
+pub struct WaveletArgs {
+    /// The fogmap: .png, .exr, .npy or .f32 (+ .json sidecar).
+    fogmap: PathBuf,
+    /// Output image: .exr (linear RGB, 32-bit float) or .png (sRGB, 8-bit).
+    #[arg(long, short)]
+    out: PathBuf,
+    /// Scaling functions and wavelets.
+    #[arg(long, value_enum, default_value_t = BasisArg::Linear)]
+    basis: BasisArg,
+    /// Decomposition steps of Mallat's transform (0: render the fogmap as it is).
+    #[arg(long, default_value_t = 0)]
+    levels: usize,
+    /// Level l is integrated up to |OP|·µ^l; 1 keeps every level, 0 only the coarsest.
+    #[arg(long, default_value_t = 1.0)]
+    mu: f64,
+    /// Integrate the detail bases as wavelets (the paper's Algorithm 1) instead of
+    /// re-synthesizing them into one scaling basis per level; same image, slower, no
+    /// early exit.
+    #[arg(long)]
+    direct: bool,
+    /// Stop a ray once its transmittance is below this (0: never); the pixel then differs
+    /// from the exact one by less than this fraction of its contrast.
+    #[arg(long, default_value_t = 1.0 / 1024.0, value_name = "T")]
+    min_transmittance: f64,
+    /// Image width in pixels.
+    #[arg(long, default_value_t = 800)]
+    width: usize,
+    /// Image height in pixels.
+    #[arg(long, default_value_t = 600)]
+    height: usize,
+    /// Camera position (default: framing the fog, see above).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
+    eye: Option<[f64; 3]>,
+    /// Point looked at (default: framing the fog).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
+    target: Option<[f64; 3]>,
+    /// Camera up direction.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true, default_value = "0,0,1")]
+    up: [f64; 3],
+    /// Vertical field of view in degrees.
+    #[arg(long, default_value_t = 50.0)]
+    fov: f64,
+    /// World size of one fogmap pixel.
+    #[arg(long, default_value_t = 1.0)]
+    cell: f64,
+    /// World X,Y of the fogmap's south-west corner (default: the map centred on 0,0).
+    #[arg(long, value_name = "X,Y", value_parser = parse_vec2, allow_hyphen_values = true)]
+    origin: Option<[f64; 2]>,
+    /// Extinction per world unit of a fogmap value of 1 at the bottom of the layer (PNG
+    /// values are 0–1).
+    #[arg(long, default_value_t = 0.12)]
+    density: f64,
+    /// Height of the fog layer's bottom.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    bottom: f64,
+    /// Height of the fog layer's top.
+    #[arg(long, default_value_t = 8.0, allow_hyphen_values = true)]
+    top: f64,
+    /// Vertical extinction falloff k: density fades as exp(−k·(z − bottom)); 0 keeps it
+    /// constant up to the top.
+    #[arg(long, default_value_t = 0.3)]
+    falloff: f64,
+    /// Fog colour L_fog (linear RGB).
+    #[arg(long, value_name = "R,G,B", value_parser = parse_vec3)]
+    fog_color: Option<[f64; 3]>,
+}
+
+/// Parses "x,y" into two finite numbers.
+fn parse_vec2(s: &str) -> Result<[f64; 2], String> {
+    parse_vec3(&format!("{s},0"))
+        .map(|v| [v[0], v[1]])
+        .map_err(|_| format!("expected X,Y (two numbers), got '{s}'"))
+}
+
+pub fn run(cmd: FogCommand) -> Result<()> {
+    match cmd {
+        FogCommand::Wavelet(args) => wavelet(args),
+    }
+}
+
+enum Format {
+    Exr,
+    Png,
+}
+
+fn wavelet(args: WaveletArgs) -> Result<()> {
+    let format = match args
+        .out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .as_deref()
+    {
+        Some("exr") => Format::Exr,
+        Some("png") => Format::Png,
+        _ => bail!(
+            "{}: the output must be a .exr or .png image",
+            args.out.display()
+        ),
+    };
+    if args.width == 0 || args.height == 0 || args.width > 16384 || args.height > 16384 {
+        bail!(
+            "--width {} --height {}: each must be between 1 and 16384",
+            args.width,
+            args.height
+        );
+    }
+    let fogmap = Fogmap::load(&args.fogmap)?;
+    let basis = match args.basis {
+        BasisArg::Haar => Basis::Haar,
+        BasisArg::Linear => Basis::Linear,
+        BasisArg::Quadratic => Basis::Quadratic,
+    };
+    let origin = args.origin.unwrap_or([
+        -(fogmap.width as f64) * args.cell / 2.0,
+        -(fogmap.height as f64) * args.cell / 2.0,
+    ]);
+    let placement = Placement {
+        origin,
+        cell: args.cell,
+        density: args.density,
+        bottom: args.bottom,
+        top: args.top,
+        falloff: args.falloff,
+    };
+    let settings = Settings {
+        mu: args.mu,
+        mode: if args.direct {
+            Mode::Direct
+        } else {
+            Mode::Deconstructed
+        },
+        min_transmittance: args.min_transmittance,
+    };
+    let setup = Instant::now();
+    let fog = Fog::new(&fogmap.grid(), basis, args.levels, placement, settings)
+        .with_context(|| format!("{}", args.fogmap.display()))?;
+    let setup = setup.elapsed().as_secs_f64();
+    let framing = Camera::framing(&fog);
+    let camera = Camera {
+        eye: args.eye.unwrap_or(framing.eye),
+        target: args.target.unwrap_or(framing.target),
+        up: args.up,
+        fov_deg: args.fov,
+    };
+    let frame = camera.frame().map_err(anyhow::Error::msg)?;
+    let mut scene = Scene::default();
+    if let Some(c) = args.fog_color {
+        scene.fog = c;
+    }
+    let bar = rows_bar(args.height);
+    let start = Instant::now();
+    let pixels =
+        haze_wavelet::render::render(&fog, &frame, &scene, args.width, args.height, &|| {
+            bar.inc(1)
+        });
+    let seconds = start.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+    let bytes = match format {
+        Format::Exr => encode_exr(&pixels, args.width, args.height),
+        Format::Png => encode_png(&pixels, args.width, args.height),
+    }
+    .with_context(|| format!("{}: cannot encode", args.out.display()))?;
+    crate::output::write_atomic(&args.out, &bytes)?;
+    let rays = (args.width * args.height) as f64;
+    eprintln!(
+        "{}: {} × {}, {basis} fogmap {} × {}, {} level{}, µ {}{}, decomposed in {:.3} s, rendered in {:.3} s ({:.2} Mrays/s, {} thread{})",
+        args.out.display(),
+        args.width,
+        args.height,
+        fogmap.width,
+        fogmap.height,
+        args.levels,
+        if args.levels == 1 { "" } else { "s" },
+        args.mu,
+        if args.direct { ", direct" } else { "" },
+        setup,
+        seconds,
+        rays / seconds / 1e6,
+        rayon::current_num_threads(),
+        if rayon::current_num_threads() == 1 {
+            ""
+        } else {
+            "s"
+        },
+    );
+    Ok(())
+}
+
+/// A progress bar over image rows (hidden when stderr is not a terminal).
+fn rows_bar(rows: usize) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(rows as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{msg:>10} [{bar:30}] {pos}/{len} rows, {elapsed} elapsed, ETA {eta}",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+        .progress_chars("=> "),
+    );
+    bar.set_message("rendering");
+    bar
+}
+
+fn encode_exr(pixels: &[[f32; 3]], w: usize, h: usize) -> Result<Vec<u8>> {
+    use exr::prelude::*;
+    let channels = SpecificChannels::rgb(|p: Vec2<usize>| {
+        let c = pixels[p.y() * w + p.x()];
+        (c[0], c[1], c[2])
+    });
+    let image = Image::from_channels((w, h), channels);
+    let mut buf = std::io::Cursor::new(Vec::new());
+    image.write().to_buffered(&mut buf)?;
+    Ok(buf.into_inner())
+}
+
+/// Linear to sRGB-encoded 8 bits.
+fn srgb8(c: f32) -> u8 {
+    let c = c.clamp(0.0, 1.0);
+    let s = if c <= 0.003_130_8 {
+        12.92 * c
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    };
+    (s * 255.0).round() as u8
+}
+
+fn encode_png(pixels: &[[f32; 3]], w: usize, h: usize) -> Result<Vec<u8>> {
+    let raw: Vec<u8> = pixels.iter().flat_map(|p| p.map(srgb8)).collect();
+    let img = image::RgbImage::from_raw(w as u32, h as u32, raw)
+        .context("image size does not match its pixels")?;
+    let mut buf = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut buf, image::ImageFormat::Png)?;
+    Ok(buf.into_inner())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_encoding_endpoints_and_midtone() {
+        assert_eq!(srgb8(0.0), 0);
+        assert_eq!(srgb8(1.0), 255);
+        assert_eq!(srgb8(2.0), 255);
+        assert_eq!(srgb8(-1.0), 0);
+        // Linear 0.214 is sRGB ~0.5.
+        assert_eq!(srgb8(0.214), 128);
+    }
+
+    #[test]
+    fn vec2_parsing() {
+        assert_eq!(parse_vec2("-64, 3.5").unwrap(), [-64.0, 3.5]);
+        assert!(parse_vec2("1").is_err());
+        assert!(parse_vec2("1,2,3").is_err());
+    }
+
+    #[test]
+    fn images_encode() {
+        let px = vec![[0.5f32, 0.25, 1.0]; 6];
+        let png = encode_png(&px, 3, 2).unwrap();
+        assert_eq!(&png[1..4], b"PNG");
+        let exr = encode_exr(&px, 3, 2).unwrap();
+        assert_eq!(&exr[..4], &[0x76, 0x2f, 0x31, 0x01]);
+    }
+}

@@ -1,0 +1,217 @@
+//! End-to-end tests of `haze fog wavelet` on the bundled fogmap.
+
+use assert_cmd::Command;
+use std::path::{Path, PathBuf};
+
+fn fogmap() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("data/fogmap/fogmap_128.png")
+}
+
+fn haze() -> Command {
+    Command::cargo_bin("haze").unwrap()
+}
+
+/// Renders the bundled fogmap small into `out` with extra arguments; returns stderr.
+fn render(out: &Path, extra: &[&str]) -> String {
+    let mut args = vec![
+        "fog".to_string(),
+        "wavelet".to_string(),
+        fogmap().display().to_string(),
+        "--out".to_string(),
+        out.display().to_string(),
+        "--width".to_string(),
+        "64".to_string(),
+        "--height".to_string(),
+        "48".to_string(),
+    ];
+    args.extend(extra.iter().map(|s| s.to_string()));
+    let o = haze().args(&args).output().unwrap();
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert!(o.status.success(), "{args:?}: {err}");
+    err
+}
+
+fn read_exr(path: &Path) -> Vec<[f32; 3]> {
+    use exr::prelude::*;
+    let image = read_first_rgba_layer_from_file(
+        path,
+        |res, _| vec![[0.0f32; 3]; res.width() * res.height()],
+        |px: &mut Vec<[f32; 3]>, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+            px[pos.y() * 64 + pos.x()] = [r, g, b];
+        },
+    )
+    .unwrap();
+    assert_eq!(image.layer_data.size, Vec2(64, 48));
+    image.layer_data.channel_data.pixels
+}
+
+/// Runs haze expecting one-line failure naming `needle`.
+fn fails(args: &[&str], needle: &str) -> String {
+    let out = haze().args(args).output().unwrap();
+    assert_eq!(out.status.code(), Some(1), "{args:?}");
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert_eq!(err.lines().count(), 1, "not one line: {err}");
+    assert!(err.starts_with("error: ") && err.contains(needle), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    err
+}
+
+#[test]
+fn renders_png_and_exr_of_the_bundled_fogmap() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("fog.png");
+    let summary = render(&png, &[]);
+    assert!(
+        summary.contains("64 × 48, linear fogmap 128 × 128"),
+        "{summary}"
+    );
+    let img = image::open(&png).unwrap().to_rgb8();
+    assert_eq!(img.dimensions(), (64, 48));
+    // Top row: sky (blue dominates); the fog makes part of the ground whiter than the
+    // clear ground at the image's far left and right.
+    let top = img.get_pixel(32, 0);
+    assert!(top[2] > top[0], "{top:?}");
+    let exr = dir.path().join("fog.exr");
+    render(&exr, &[]);
+    let px = read_exr(&exr);
+    assert!(
+        px.iter()
+            .flatten()
+            .all(|v| v.is_finite() && (0.0..=1.0).contains(v))
+    );
+    let clear = dir.path().join("clear.exr");
+    render(&clear, &["--density", "0"]);
+    let bare = read_exr(&clear);
+    // Fog adds L_fog where it is: some pixels change a lot, the sky row not at all.
+    let changed = px
+        .iter()
+        .zip(&bare)
+        .filter(|(a, b)| (a[1] - b[1]).abs() > 0.1)
+        .count();
+    assert!(changed > 100, "{changed} pixels changed");
+    assert_eq!(px[..64], bare[..64]);
+    // Nothing else was left in the directory (outputs are renamed temp files).
+    let names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    assert_eq!(names.len(), 3, "{names:?}");
+}
+
+#[test]
+fn direct_and_deconstructed_levels_give_the_same_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let reference = dir.path().join("ref.exr");
+    render(
+        &reference,
+        &["--basis", "quadratic", "--min-transmittance", "0"],
+    );
+    let want = read_exr(&reference);
+    for extra in [
+        &["--levels", "3"][..],
+        &["--levels", "3", "--direct"][..],
+        &["--levels", "2", "--mu", "1"][..],
+    ] {
+        let out = dir.path().join("lod.exr");
+        let mut args = vec!["--basis", "quadratic", "--min-transmittance", "0"];
+        args.extend_from_slice(extra);
+        render(&out, &args);
+        let got = read_exr(&out);
+        let worst = got
+            .iter()
+            .flatten()
+            .zip(want.iter().flatten())
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0f32, f32::max);
+        assert!(worst < 1e-5, "{extra:?}: {worst}");
+    }
+    // µ = 0 keeps only the coarsest of 4 levels: visibly different, still finite.
+    let coarse = dir.path().join("coarse.exr");
+    render(
+        &coarse,
+        &["--basis", "quadratic", "--levels", "4", "--mu", "0"],
+    );
+    let got = read_exr(&coarse);
+    let worst = got
+        .iter()
+        .flatten()
+        .zip(want.iter().flatten())
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f32, f32::max);
+    assert!(worst > 0.01, "µ = 0 changed nothing: {worst}");
+}
+
+#[test]
+fn bad_inputs_fail_on_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("o.png");
+    let o = out.to_str().unwrap();
+    let missing = dir.path().join("missing.png");
+    fails(
+        &["fog", "wavelet", missing.to_str().unwrap(), "--out", o],
+        missing.to_str().unwrap(),
+    );
+    let colour = dir.path().join("colour.png");
+    image::RgbImage::from_raw(1, 1, vec![255, 0, 0])
+        .unwrap()
+        .save(&colour)
+        .unwrap();
+    fails(
+        &["fog", "wavelet", colour.to_str().unwrap(), "--out", o],
+        "must be greyscale",
+    );
+    let nan = dir.path().join("nan.f32");
+    std::fs::write(&nan, f32::NAN.to_le_bytes()).unwrap();
+    std::fs::write(nan.with_extension("json"), r#"{"dims": [1, 1]}"#).unwrap();
+    fails(
+        &["fog", "wavelet", nan.to_str().unwrap(), "--out", o],
+        "is NaN",
+    );
+    let fm = fogmap();
+    let fm = fm.to_str().unwrap();
+    let e = fails(
+        &["fog", "wavelet", fm, "--out", o, "--levels", "9"],
+        "at most 7",
+    );
+    assert!(e.contains("fogmap_128.png"), "{e}");
+    fails(
+        &["fog", "wavelet", fm, "--out", o, "--mu", "1.5"],
+        "µ = 1.5",
+    );
+    fails(
+        &["fog", "wavelet", fm, "--out", o, "--density", "1e305"],
+        "too large",
+    );
+    fails(
+        &["fog", "wavelet", fm, "--out", "x.jpg"],
+        "must be a .exr or .png",
+    );
+    fails(
+        &[
+            "fog", "wavelet", fm, "--out", o, "--eye", "1,2,3", "--target", "1,2,3",
+        ],
+        "coincide",
+    );
+    fails(
+        &["fog", "wavelet", fm, "--out", o, "--top", "-1"],
+        "top above bottom",
+    );
+    assert!(!out.exists());
+}
+
+#[test]
+fn help_explains_the_model() {
+    let out = haze().args(["fog", "wavelet", "--help"]).output().unwrap();
+    let text = String::from_utf8(out.stdout).unwrap();
+    for needle in [
+        "fogmap",
+        "--levels",
+        "--mu",
+        "µ^l",
+        "haar",
+        "quadratic",
+        "Examples",
+    ] {
+        assert!(text.contains(needle), "{needle} missing from --help");
+    }
+}
