@@ -32,7 +32,9 @@ fn frame(n: usize, seed: u64) -> (Vec<Rbf>, Sources) {
         })
         .collect();
     let sources = Sources {
-        j0: (0..n).map(|_| [0; 3].map(|_| rng.uniform(0.0, 2.0))).collect(),
+        j0: (0..n)
+            .map(|_| [0; 3].map(|_| rng.uniform(0.0, 2.0)))
+            .collect(),
         j1: (0..n)
             .map(|_| [0; 3].map(|_| [0; 3].map(|_| rng.uniform(-1.0, 1.0))))
             .collect(),

@@ -90,7 +90,7 @@ impl DiffusionSolver {
     ///
     /// The start is the previous solution when the RBF count is unchanged (the same set,
     /// refitted); else the previous frame's `L⁰` field interpolated at the new centers
-    /// ([`warm_start`]); else zero.
+    /// (see `warm_start` below); else zero.
     pub fn solve(
         &mut self,
         rbfs: &[Rbf],
