@@ -208,14 +208,15 @@ fn wavelet(args: WaveletArgs) -> Result<()> {
     crate::output::write_atomic(&args.out, &bytes)?;
     let rays = (args.width * args.height) as f64;
     eprintln!(
-        "{}: {} × {}, {basis} fogmap {} × {}, {} level{}, µ {}{}, decomposed in {:.3} s, rendered in {:.3} s ({:.2} Mrays/s, {} thread{})",
+        "{}: {} × {}, {} fogmap {} × {}, {} level{}, µ {}{}, decomposed in {:.3} s, rendered in {:.3} s ({:.2} Mrays/s, {} thread{})",
         args.out.display(),
         args.width,
         args.height,
+        fog.basis(),
         fogmap.width,
         fogmap.height,
-        args.levels,
-        if args.levels == 1 { "" } else { "s" },
+        fog.levels(),
+        if fog.levels() == 1 { "" } else { "s" },
         args.mu,
         if args.direct { ", direct" } else { "" },
         setup,
@@ -287,8 +288,10 @@ mod tests {
         assert_eq!(srgb8(1.0), 255);
         assert_eq!(srgb8(2.0), 255);
         assert_eq!(srgb8(-1.0), 0);
-        // Linear 0.214 is sRGB ~0.5.
-        assert_eq!(srgb8(0.214), 128);
+        // Linear 0.18 (mid grey) is sRGB 0.4614 (255 × 0.4614 = 117.7); 0.001 is on the
+        // linear segment: 12.92 × 0.001 × 255 = 3.3.
+        assert_eq!(srgb8(0.18), 118);
+        assert_eq!(srgb8(0.001), 3);
     }
 
     #[test]

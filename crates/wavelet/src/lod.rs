@@ -287,11 +287,6 @@ impl Fog {
         &self.settings
     }
 
-    /// World box `[x min, x max, y min, y max]` outside which the fog is clear.
-    pub fn bounds(&self) -> [f64; 4] {
-        self.bounds
-    }
-
     /// World box `[x min, x max, y min, y max]` of the fogmap's pixels (whatever the basis
     /// and levels; splines reach up to `d/2` cells beyond it).
     pub fn map_box(&self) -> [f64; 4] {

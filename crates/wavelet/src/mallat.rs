@@ -59,17 +59,6 @@ impl Grid {
         self.data[y as usize * self.nx + x as usize]
     }
 
-    /// The coefficients of this grid on another window (zero where this one has none).
-    pub fn crop(&self, x0: i64, y0: i64, nx: usize, ny: usize) -> Grid {
-        let mut out = Grid::zeros(x0, y0, nx, ny);
-        for y in 0..ny {
-            for x in 0..nx {
-                out.data[y * nx + x] = self.get(x0 + x as i64, y0 + y as i64);
-            }
-        }
-        out
-    }
-
     /// Smallest coefficient (0 for an empty window).
     pub fn min(&self) -> f64 {
         self.data.iter().copied().fold(0.0_f64, f64::min)
