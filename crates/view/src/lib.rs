@@ -7,6 +7,7 @@ pub mod camera;
 pub mod env;
 pub mod field;
 pub mod medium;
+pub mod sh;
 
 pub use camera::Camera;
 pub use env::{Environment, LatLong, Rgb, Sky};
