@@ -16,6 +16,7 @@
 //! uniform samples of the paper's angle `β ∈ [0, π]`: `β = asin(1/d)` for `d > 1`, else
 //! `acos(d) + π/2` (inside the RBF), and interpolates linearly in `β`.
 
+use crate::sh::quad::gauss_legendre;
 use std::f64::consts::PI;
 
 /// Cut-off of the Gaussian, in radii.
@@ -57,33 +58,6 @@ pub fn beta_of(d: f64) -> f64 {
     } else {
         d.max(0.0).acos() + PI / 2.0
     }
-}
-
-/// Gauss–Legendre nodes and weights on [−1, 1] (Newton on the Legendre recurrence).
-pub fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
-    (0..n)
-        .map(|i| {
-            let mut x = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-            let mut dp = 1.0;
-            for _ in 0..100 {
-                let (mut p0, mut p1) = (1.0, x);
-                for k in 2..=n {
-                    let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
-                    p0 = p1;
-                    p1 = p2;
-                }
-                let pn = if n == 0 { 1.0 } else { p1 };
-                let pn1 = if n == 1 { 1.0 } else { p0 };
-                dp = n as f64 * (x * pn - pn1) / (x * x - 1.0);
-                let dx = pn / dp;
-                x -= dx;
-                if dx.abs() < 1e-15 {
-                    break;
-                }
-            }
-            (x, 2.0 / ((1.0 - x * x) * dp * dp))
-        })
-        .collect()
 }
 
 /// `Y_l0(μ)` for `l < order`.
