@@ -12,6 +12,7 @@ mod merge;
 mod output;
 mod pack;
 mod progress;
+mod render;
 mod residual;
 
 use clap::Parser;

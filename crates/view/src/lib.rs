@@ -11,6 +11,7 @@ pub mod image;
 pub mod lighting;
 pub mod medium;
 pub mod reference;
+pub mod render;
 pub mod sh;
 
 pub use camera::Camera;

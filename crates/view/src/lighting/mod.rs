@@ -1,3 +1,4 @@
 //! Source radiance at the RBF centers (paper A §5.3–5.4).
 
+pub mod single;
 pub mod zh_table;

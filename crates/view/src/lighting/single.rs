@@ -1,0 +1,111 @@
+//! Single scattering at the RBF centers (paper A §5.3, eqs. 10–11).
+//!
+//! At each center `c_ℓ`, the optical depth towards every direction is the sum over RBFs
+//! `h` of `w_h · r_h · T(|c_h − c_ℓ| / r_h)` rotated onto the axis `c_h − c_ℓ`
+//! ([`ZhTable`]); times `−σt`, exponentiated in SH (`exp*`), it is the transmittance
+//! vector `τ̃(c_ℓ)`. The source radiance is then
+//!
+//! ```text
+//! J̃ss(c_ℓ) = (Ω/4π) · [(L_in ∗ τ̃(c_ℓ)) ⋆ p],   i.e.
+//! J_lm = (Ω/4π) · √(4π/(2l+1)) · p_l · (L_in ∗ τ̃)_lm
+//! ```
+//!
+//! with `∗` the SH triple product and `⋆` the convolution with the HG phase function's
+//! zonal coefficients `p_l` (DESIGN.md's eq. 11; for `p ≡ 1` it is `Ω · avg(L_in τ̃)`).
+//!
+//! Direction convention: `L_in(ω)` is the radiance arriving *from* `ω`; with the unflipped
+//! `p_l`, `J` is a function of the direction `d` a viewer looks along (the light scattered
+//! towards the viewer travels along `−d`): forward scattering peaks when `d` points at the
+//! light. Evaluate `J` at the view ray's direction.
+
+use crate::lighting::zh_table::ZhTable;
+use crate::medium::Medium;
+use crate::sh::{self, ExpMethod, ShExp, TripleProduct};
+use haze_volume::Rbf;
+use rayon::prelude::*;
+use std::f64::consts::PI;
+
+/// The SH machinery of one order, built once and reused while the order is unchanged.
+#[derive(Debug)]
+pub struct ShKit {
+    pub order: usize,
+    pub table: ZhTable,
+    pub triple: TripleProduct,
+    pub exp: ShExp,
+}
+
+impl ShKit {
+    pub fn new(order: usize) -> ShKit {
+        ShKit {
+            order,
+            table: ZhTable::new(order),
+            triple: TripleProduct::new(order),
+            exp: ShExp::new(order),
+        }
+    }
+}
+
+/// RGB SH vectors.
+pub type RgbSh = [Vec<f64>; 3];
+
+/// Optical depth SH vector at `p` through all `rbfs` (before `× −σt`): Σ w_h r_h T_h.
+pub fn optical_depth_sh(kit: &ShKit, rbfs: &[Rbf], p: [f64; 3]) -> Vec<f64> {
+    let n = kit.order;
+    let mut f = vec![0.0; n * n];
+    let mut zh = vec![0.0; n];
+    let mut y = vec![0.0; n * n];
+    let band_scale: Vec<f64> = (0..n)
+        .map(|l| (4.0 * PI / (2 * l + 1) as f64).sqrt())
+        .collect();
+    for h in rbfs {
+        if h.radius <= 0.0 || h.weight == 0.0 || !h.radius.is_finite() {
+            continue;
+        }
+        let a = [h.center[0] - p[0], h.center[1] - p[1], h.center[2] - p[2]];
+        let dist = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+        kit.table.lookup_into(dist / h.radius, &mut zh);
+        let s = h.weight * h.radius;
+        if dist <= 1e-12 * h.radius {
+            // At the center the depth is isotropic: band 0 only, no axis needed.
+            f[0] += s * zh[0];
+            continue;
+        }
+        sh::eval_into(n, a, &mut y);
+        for l in 0..n {
+            let k = s * band_scale[l] * zh[l];
+            for m in 0..(2 * l + 1) {
+                let i = l * l + m;
+                f[i] += k * y[i];
+            }
+        }
+    }
+    f
+}
+
+/// `J̃ss` at every RBF center, for lighting `light` (RGB SH of `L_in`).
+pub fn single_scattering(
+    kit: &ShKit,
+    rbfs: &[Rbf],
+    medium: &Medium,
+    light: &RgbSh,
+    method: ExpMethod,
+) -> Vec<RgbSh> {
+    let phase = sh::hg_zh(medium.g, kit.order);
+    rbfs.par_iter()
+        .map(|c| {
+            let mut f = optical_depth_sh(kit, rbfs, c.center);
+            for v in &mut f {
+                *v *= -medium.sigma_t;
+            }
+            let tau = kit.exp.exp(&f, method, &kit.triple);
+            [0, 1, 2].map(|ch| {
+                let lt = kit.triple.product(&light[ch], &tau);
+                let mut j = sh::convolve(&lt, &phase);
+                for v in &mut j {
+                    *v *= medium.albedo / (4.0 * PI);
+                }
+                j
+            })
+        })
+        .collect()
+}

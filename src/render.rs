@@ -1,0 +1,262 @@
+//! `haze render`: one frame of a baked asset, or a density volume, to an image — by
+//! compensated ray marching on the CPU (paper A §5), or by the reference renderer.
+
+use crate::progress;
+use crate::residual::as_stored;
+use anyhow::{Context, Result, anyhow, bail};
+use haze_asset::{Asset, BlockKind, Scope, decode_rbfs};
+use haze_fit::{SequenceFitter, SequenceOptions};
+use haze_view::reference::{self, RefOptions};
+use haze_view::render::{CrmOptions, crm_render};
+use haze_view::sh::ExpMethod;
+use haze_view::{Camera, Environment, LatLong, Medium, Sky};
+use haze_volume::import::{self, ImportOptions};
+use haze_volume::{Bbox, Rbf, Volume, rbf};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Everything `haze render` was asked to do.
+#[derive(Debug)]
+pub struct RenderArgs {
+    pub input: PathBuf,
+    pub frame: Option<i64>,
+    pub out: PathBuf,
+    pub width: usize,
+    pub height: usize,
+    pub eye: Option<[f64; 3]>,
+    pub target: Option<[f64; 3]>,
+    pub up: [f64; 3],
+    pub fov: f64,
+    pub env: String,
+    pub sigma_t: f64,
+    pub albedo: f64,
+    pub g: f64,
+    pub sh_order: usize,
+    pub multiple: bool,
+    pub residual: bool,
+    pub slices: f64,
+    pub reference: bool,
+    pub spp: u32,
+    pub exposure: f64,
+    pub import: ImportOptions,
+}
+
+/// A frame to render: its density, and its RBFs and residual when it has been fitted.
+struct FrameData {
+    density: Volume,
+    rbfs: Vec<Rbf>,
+    residual: Vec<f32>,
+    label: String,
+}
+
+pub fn run(a: RenderArgs) -> Result<()> {
+    let start = Instant::now();
+    let kind = out_kind(&a.out)?;
+    let medium = Medium::new(a.sigma_t, a.albedo, a.g).map_err(|e| anyhow!("{e}"))?;
+    if !(1..=haze_view::sh::MAX_ORDER).contains(&a.sh_order) {
+        bail!(
+            "--sh-order {} must be between 1 and {}",
+            a.sh_order,
+            haze_view::sh::MAX_ORDER
+        );
+    }
+    if !(a.slices > 0.0 && a.slices.is_finite()) {
+        bail!("--slices {} must be a positive number of slices per voxel", a.slices);
+    }
+    let env = environment(&a.env)?;
+    let frame = load(&a)?;
+    let camera = match (a.eye, a.target) {
+        (Some(e), Some(t)) => Camera::new(e, t, a.up, a.fov, a.width, a.height),
+        (None, None) => Camera::framing(frame.density.bbox(), a.fov, a.width, a.height),
+        _ => bail!("give both --eye and --target, or neither (to frame the volume)"),
+    }
+    .map_err(|e| anyhow!("camera: {e}"))?;
+    let spinner = progress::spinner(&format!("rendering {}", frame.label));
+    let (image, what) = if a.reference {
+        let opts = RefOptions {
+            spp: a.spp.max(1),
+            multiple: a.multiple,
+            ..RefOptions::default()
+        };
+        let img = reference::render(&frame.density, &medium, &env, &camera, &opts);
+        let what = format!(
+            "reference {} scattering, {} spp",
+            if a.multiple { "multiple" } else { "single" },
+            opts.spp
+        );
+        (img, what)
+    } else {
+        let opts = CrmOptions {
+            order: a.sh_order,
+            multiple: a.multiple,
+            residual: a.residual,
+            slices_per_voxel: a.slices,
+            exp: ExpMethod::OptimalLinear,
+        };
+        let residual = a.residual.then_some(frame.residual.as_slice());
+        let (img, stats) = crm_render(
+            &frame.rbfs,
+            residual,
+            frame.density.dims(),
+            frame.density.bbox(),
+            &medium,
+            &env,
+            &camera,
+            &opts,
+        );
+        tracing::info!("{stats}");
+        let what = format!(
+            "compensated ray marching, SH order {}, {}{}",
+            a.sh_order,
+            if a.multiple { "single + multiple scattering" } else { "single scattering" },
+            if a.residual { ", residual" } else { "" }
+        );
+        (img, what)
+    };
+    spinner.finish_and_clear();
+    match kind {
+        OutKind::Exr => image.write_exr(&a.out)?,
+        OutKind::Png => image.write_png(&a.out, a.exposure)?,
+    }
+    eprintln!(
+        "{}: {}×{}, {}, {:.2} s",
+        a.out.display(),
+        image.width,
+        image.height,
+        what,
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+enum OutKind {
+    Exr,
+    Png,
+}
+
+fn out_kind(out: &Path) -> Result<OutKind> {
+    match out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .as_deref()
+    {
+        Some("exr") => Ok(OutKind::Exr),
+        Some("png") => Ok(OutKind::Png),
+        _ => bail!(
+            "{}: unknown image type (use .exr for linear radiance or .png, tone-mapped)",
+            out.display()
+        ),
+    }
+}
+
+fn environment(spec: &str) -> Result<Environment> {
+    if spec == "sky" {
+        return Ok(Environment::Sky(Sky::default()));
+    }
+    let path = Path::new(spec);
+    if !path.exists() {
+        bail!("{spec}: no such environment map (use 'sky' or a lat-long .exr)");
+    }
+    Ok(Environment::Map(LatLong::load_exr(path)?))
+}
+
+/// The frame's data: from an asset (RBFs + dequantized residual) or from a volume file
+/// (fitted here with 300 RBFs; the residual is then exact).
+fn load(a: &RenderArgs) -> Result<FrameData> {
+    let is_asset = a
+        .input
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("haze"));
+    if is_asset {
+        return load_asset(&a.input, a.frame);
+    }
+    if a.frame.is_some() && a.input.is_file() {
+        tracing::warn!("--frame is ignored for a single volume file");
+    }
+    let path = if a.input.is_file() {
+        a.input.clone()
+    } else {
+        let seq = haze_volume::Sequence::open(&a.input, &a.import, Default::default())?;
+        let i = match a.frame {
+            Some(k) => seq
+                .frames()
+                .iter()
+                .position(|f| f.number == k)
+                .ok_or_else(|| anyhow!("{}: no frame {k}", a.input.display()))?,
+            None => 0,
+        };
+        seq.frames()[i].path.clone()
+    };
+    let density = import::import(&path, &a.import)?;
+    let mut rbfs = Vec::new();
+    let mut residual = vec![0.0f32; density.len()];
+    if !a.reference {
+        let spinner = progress::spinner(&format!("fitting {} with 300 RBFs", path.display()));
+        let fit = SequenceFitter::new(SequenceOptions::default())
+            .fit(&density)
+            .map_err(|e| anyhow!("{}: {e}", path.display()))?;
+        spinner.finish_and_clear();
+        rbfs = as_stored(&fit.rbfs)?;
+        let approx = rbf::evaluate_on_grid(density.dims(), density.bbox(), &rbfs);
+        for ((r, d), x) in residual.iter_mut().zip(density.data()).zip(&approx) {
+            *r = (f64::from(*d) - x) as f32;
+        }
+    }
+    Ok(FrameData {
+        density,
+        rbfs,
+        residual,
+        label: path.display().to_string(),
+    })
+}
+
+fn load_asset(path: &Path, frame: Option<i64>) -> Result<FrameData> {
+    let asset = Asset::open(path)?;
+    let h = asset.header();
+    let numbers = &h.source.frame_numbers;
+    let k = match frame {
+        Some(f) => numbers
+            .iter()
+            .position(|&n| n == f)
+            .ok_or_else(|| anyhow!("{}: frame {f} is not in the asset", path.display()))?,
+        None if numbers.is_empty() => bail!("{}: the asset has no frames", path.display()),
+        None => 0,
+    };
+    let blocks = asset.frame(k)?;
+    let rbf_block = blocks
+        .find(BlockKind::Rbfs)
+        .ok_or_else(|| anyhow!("{}: frame {k} has no RBFs (not a baked asset?)", path.display()))?;
+    let rbfs = decode_rbfs(rbf_block.bytes).map_err(|e| asset.block_error(&rbf_block, e))?;
+    let dims = h.grid.dims.map(|d| d as usize);
+    let bbox = Bbox::new(h.grid.bbox_min, h.grid.bbox_max);
+    let approx = rbf::evaluate_on_grid(dims, &bbox, &rbfs);
+    let mut residual = vec![0.0f32; approx.len()];
+    if let Some(b) = blocks.find(BlockKind::ResidualHash) {
+        let group = haze_hash::block::decode(b.bytes).map_err(|e| asset.block_error(&b, e))?;
+        let Scope::Frames { first, .. } = b.id.scope else {
+            bail!("{}: frame {k}'s residual block is not per frame", path.display());
+        };
+        if group.dims != h.grid.dims {
+            bail!("{}: residual block dims differ from the grid's", path.display());
+        }
+        let j = k - first as usize;
+        let (nx, nxy) = (dims[0], dims[0] * dims[1]);
+        for (i, r) in residual.iter_mut().enumerate() {
+            let p = [i % nx, (i % nxy) / nx, i / nxy].map(|c| c as u32);
+            *r = group.lookup(j, p);
+        }
+    }
+    let data: Vec<f32> = approx
+        .iter()
+        .zip(&residual)
+        .map(|(a, r)| (a + f64::from(*r)).max(0.0) as f32)
+        .collect();
+    let density = Volume::new(dims, bbox, data).context("asset grid")?;
+    Ok(FrameData {
+        density,
+        rbfs,
+        residual,
+        label: format!("{} frame {}", path.display(), numbers[k]),
+    })
+}
