@@ -225,6 +225,14 @@ pub struct RenderCli {
     /// View-pass slices per voxel (2: half a voxel apart, as in the paper).
     #[arg(long, default_value_t = 2.0)]
     slices: f64,
+    /// SH exponentiation of the transmittance: scaling and squaring (accurate for thick
+    /// smoke) or the paper's optimal linear approximation (faster, thin smoke only).
+    #[arg(long, value_enum, default_value_t = ExpArg::Square)]
+    exp: ExpArg,
+    /// Where each RBF's transmittance is evaluated: the mean over its footprint (six
+    /// points; removes the dark bias of dense smoke) or its center (paper A, faster).
+    #[arg(long, value_enum, default_value_t = SourceArg::Footprint)]
+    source: SourceArg,
     /// Render with the reference path tracer instead (slow).
     #[arg(long)]
     reference: bool,
@@ -258,12 +266,36 @@ impl RenderCli {
             multiple: !self.no_multiple,
             residual: !self.no_residual,
             slices: self.slices,
+            exp: match self.exp {
+                ExpArg::Square => haze_view::sh::ExpMethod::ScaleSquareAuto,
+                ExpArg::Linear => haze_view::sh::ExpMethod::OptimalLinear,
+            },
+            source_points: match self.source {
+                SourceArg::Footprint => haze_view::lighting::single::SourcePoints::Footprint,
+                SourceArg::Center => haze_view::lighting::single::SourcePoints::Center,
+            },
             reference: self.reference,
             spp: self.spp,
             exposure: self.exposure,
             import: self.import.options(),
         }
     }
+}
+
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum SourceArg {
+    /// Mean over six cubature points of each RBF's footprint.
+    Footprint,
+    /// Each RBF's center only.
+    Center,
+}
+
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum ExpArg {
+    /// exp(f/2^k)^(2^k) with ‖f̂‖/2^k ≤ 1, by triple products.
+    Square,
+    /// a(‖f̂‖) + b(‖f̂‖)·f̂ (paper A §5.3).
+    Linear,
 }
 
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]

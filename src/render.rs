@@ -6,6 +6,7 @@ use crate::residual::as_stored;
 use anyhow::{Context, Result, anyhow, bail};
 use haze_asset::{Asset, BlockKind, Scope, decode_rbfs};
 use haze_fit::{SequenceFitter, SequenceOptions};
+use haze_view::lighting::single::SourcePoints;
 use haze_view::reference::{self, RefOptions};
 use haze_view::render::{CrmOptions, crm_render};
 use haze_view::sh::ExpMethod;
@@ -35,6 +36,8 @@ pub struct RenderArgs {
     pub multiple: bool,
     pub residual: bool,
     pub slices: f64,
+    pub exp: ExpMethod,
+    pub source_points: SourcePoints,
     pub reference: bool,
     pub spp: u32,
     pub exposure: f64,
@@ -61,13 +64,22 @@ pub fn run(a: RenderArgs) -> Result<()> {
         );
     }
     if !(a.slices > 0.0 && a.slices.is_finite()) {
-        bail!("--slices {} must be a positive number of slices per voxel", a.slices);
+        bail!(
+            "--slices {} must be a positive number of slices per voxel",
+            a.slices
+        );
     }
     let env = environment(&a.env)?;
     let frame = load(&a)?;
     let camera = match (a.eye, a.target) {
         (Some(e), Some(t)) => Camera::new(e, t, a.up, a.fov, a.width, a.height),
-        (None, None) => Camera::framing(frame.density.bbox(), a.fov, a.width, a.height),
+        (None, None) => {
+            // Frame the smoke (voxels above 1 % of the peak), not the whole domain.
+            let peak = frame.density.data().iter().fold(0.0f32, |m, &d| m.max(d));
+            let smoke = frame.density.occupied_bbox(0.01 * peak);
+            let bbox = smoke.unwrap_or(*frame.density.bbox());
+            Camera::framing(&bbox, a.fov, a.width, a.height)
+        }
         _ => bail!("give both --eye and --target, or neither (to frame the volume)"),
     }
     .map_err(|e| anyhow!("camera: {e}"))?;
@@ -91,7 +103,9 @@ pub fn run(a: RenderArgs) -> Result<()> {
             multiple: a.multiple,
             residual: a.residual,
             slices_per_voxel: a.slices,
-            exp: ExpMethod::OptimalLinear,
+            exp: a.exp,
+            source_points: a.source_points,
+            ..CrmOptions::default()
         };
         let residual = a.residual.then_some(frame.residual.as_slice());
         let (img, stats) = crm_render(
@@ -108,7 +122,11 @@ pub fn run(a: RenderArgs) -> Result<()> {
         let what = format!(
             "compensated ray marching, SH order {}, {}{}",
             a.sh_order,
-            if a.multiple { "single + multiple scattering" } else { "single scattering" },
+            if a.multiple {
+                "single + multiple scattering"
+            } else {
+                "single scattering"
+            },
             if a.residual { ", residual" } else { "" }
         );
         (img, what)
@@ -224,9 +242,12 @@ fn load_asset(path: &Path, frame: Option<i64>) -> Result<FrameData> {
         None => 0,
     };
     let blocks = asset.frame(k)?;
-    let rbf_block = blocks
-        .find(BlockKind::Rbfs)
-        .ok_or_else(|| anyhow!("{}: frame {k} has no RBFs (not a baked asset?)", path.display()))?;
+    let rbf_block = blocks.find(BlockKind::Rbfs).ok_or_else(|| {
+        anyhow!(
+            "{}: frame {k} has no RBFs (not a baked asset?)",
+            path.display()
+        )
+    })?;
     let rbfs = decode_rbfs(rbf_block.bytes).map_err(|e| asset.block_error(&rbf_block, e))?;
     let dims = h.grid.dims.map(|d| d as usize);
     let bbox = Bbox::new(h.grid.bbox_min, h.grid.bbox_max);
@@ -235,10 +256,16 @@ fn load_asset(path: &Path, frame: Option<i64>) -> Result<FrameData> {
     if let Some(b) = blocks.find(BlockKind::ResidualHash) {
         let group = haze_hash::block::decode(b.bytes).map_err(|e| asset.block_error(&b, e))?;
         let Scope::Frames { first, .. } = b.id.scope else {
-            bail!("{}: frame {k}'s residual block is not per frame", path.display());
+            bail!(
+                "{}: frame {k}'s residual block is not per frame",
+                path.display()
+            );
         };
         if group.dims != h.grid.dims {
-            bail!("{}: residual block dims differ from the grid's", path.display());
+            bail!(
+                "{}: residual block dims differ from the grid's",
+                path.display()
+            );
         }
         let j = k - first as usize;
         let (nx, nxy) = (dims[0], dims[0] * dims[1]);

@@ -38,6 +38,7 @@ fn frame(n: usize, seed: u64) -> (Vec<Rbf>, Sources) {
         j1: (0..n)
             .map(|_| [0; 3].map(|_| [0; 3].map(|_| rng.uniform(-1.0, 1.0))))
             .collect(),
+        escape: Vec::new(),
     };
     (rbfs, sources)
 }

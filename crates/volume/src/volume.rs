@@ -167,6 +167,30 @@ impl Volume {
         [0, 1, 2].map(|a| self.bbox.min[a] + (i[a] as f64 + 0.5) * v[a])
     }
 
+    /// World box of the voxels whose density exceeds `threshold` (whole voxels), or
+    /// `None` when there are none: what a camera should frame.
+    pub fn occupied_bbox(&self, threshold: f32) -> Option<Bbox> {
+        let mut lo = [usize::MAX; 3];
+        let mut hi = [0usize; 3];
+        for (i, &d) in self.data.iter().enumerate() {
+            if d > threshold {
+                let c = self.coords(i);
+                for a in 0..3 {
+                    lo[a] = lo[a].min(c[a]);
+                    hi[a] = hi[a].max(c[a]);
+                }
+            }
+        }
+        if lo[0] == usize::MAX {
+            return None;
+        }
+        let v = self.voxel_size();
+        Some(Bbox::new(
+            [0, 1, 2].map(|a| self.bbox.min[a] + lo[a] as f64 * v[a]),
+            [0, 1, 2].map(|a| self.bbox.min[a] + (hi[a] + 1) as f64 * v[a]),
+        ))
+    }
+
     /// Bytes held by the samples.
     pub fn memory_bytes(&self) -> usize {
         self.data.len() * std::mem::size_of::<f32>()
@@ -176,6 +200,20 @@ impl Volume {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn occupied_bbox_is_the_box_of_the_dense_voxels() {
+        let mut v = Volume::zeros([4, 5, 6], Bbox::new([0.0; 3], [4.0, 10.0, 3.0])).unwrap();
+        assert_eq!(v.occupied_bbox(0.0), None);
+        let i = v.index(1, 2, 3);
+        v.data_mut()[i] = 1.0;
+        let j = v.index(2, 2, 5);
+        v.data_mut()[j] = 0.5;
+        let b = v.occupied_bbox(0.0).unwrap();
+        assert_eq!((b.min, b.max), ([1.0, 4.0, 1.5], [3.0, 6.0, 3.0]));
+        let b = v.occupied_bbox(0.6).unwrap();
+        assert_eq!((b.min, b.max), ([1.0, 4.0, 1.5], [2.0, 6.0, 2.0]));
+    }
 
     fn unit() -> Bbox {
         Bbox::new([0.0; 3], [1.0; 3])

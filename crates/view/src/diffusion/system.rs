@@ -4,11 +4,12 @@
 //! there, `D̃ = D̃(c_h)`):
 //!
 //! ```text
-//! A_hl = [D̃²∇²v_l − 3D̃ ∇D̃·∇v_l + (3|∇D̃|² − D̃∇²D̃) v_l] / (3σtr D̃⁴) − σa v_l
-//! b_h  = −S(c_h) = −σt Σ_l v_l J⁰_l + (σt/(3σtr)) Σ_l (D̃∇v_l − v_l∇D̃)/D̃² · J¹_l
+//! A_hl = [D̃²∇²v_l − 3D̃ ∇D̃·∇v_l + (3|∇D̃|² − D̃∇²D̃) v_l] / (3σtr D̃⁴) − (σa + σs P_h) v_l
+//! b_h  = −S'(c_h) = −σt Σ_l v_l (1 − P_l) J⁰_l + (σt/(3σtr)) Σ_l (D̃∇v_l − v_l∇D̃)/D̃² · J¹_l
 //! ```
 //!
-//! The first line is `∇·(κ∇(v_l/D̃)) − σa D̃ (v_l/D̃)` with `κ = 1/(3σtr D̃)`; the second
+//! (`P`: the escape probabilities of the vacuum correction, module docs). The first line is
+//! `∇·(κ∇(v_l/D̃)) − (σa + σs P) D̃ (v_l/D̃)` with `κ = 1/(3σtr D̃)`; the second
 //! uses `D J⁰ ≈ D̃ J⁰(x) = Σ v_l J⁰_l` and `∇·J¹(x) = Σ ∇(v_l/D̃)·J¹_l`. To stay finite
 //! where `D̃` is small, each ratio is formed before the products:
 //! `A_hl = [∇²v_l/D̃ − 3 (∇D̃/D̃)·(∇v_l/D̃) + (3|∇D̃/D̃|² − ∇²D̃/D̃)(v_l/D̃)]/(3σtr D̃) − σa v_l`,
@@ -100,6 +101,7 @@ fn row(
     let lap = loc.lap / d;
     let kappa = 1.0 / (3.0 * k.sigma_tr * d);
     let j1_factor = k.sigma_t / (3.0 * k.sigma_tr);
+    let sink = k.sigma_a + k.sigma_s * sources.escape(h);
     let mut b = [0.0; 3];
     let entries = loc
         .terms
@@ -112,9 +114,10 @@ fn row(
             let grad_basis: Vector3<f64> = gu - g * u;
             for (c, bc) in b.iter_mut().enumerate() {
                 let j1 = Vector3::from(sources.j1(t.l, c));
-                *bc += -k.sigma_t * t.v * sources.j0(t.l, c) + j1_factor * grad_basis.dot(&j1);
+                let j0 = (1.0 - sources.escape(t.l)) * sources.j0(t.l, c);
+                *bc += -k.sigma_t * t.v * j0 + j1_factor * grad_basis.dot(&j1);
             }
-            (t.l, diffusion * kappa - k.sigma_a * t.v)
+            (t.l, diffusion * kappa - sink * t.v)
         })
         .collect();
     (entries, b)

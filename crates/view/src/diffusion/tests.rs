@@ -37,6 +37,7 @@ fn random_sources(rng: &mut Rng, n: usize) -> Sources {
         j1: (0..n)
             .map(|_| [0; 3].map(|_| [0; 3].map(|_| rng.uniform(-1.0, 1.0))))
             .collect(),
+        escape: Vec::new(),
     }
 }
 
@@ -225,6 +226,7 @@ fn uniform_source_gives_the_infinite_medium_value() {
     let src = Sources {
         j0: vec![[1.0, 2.0, 0.5]; n],
         j1: vec![[[0.3, -0.2, 0.1], [0.0, 1.0, 0.0], [-0.5, 0.5, 0.5]]; n],
+        escape: Vec::new(),
     };
     let medium = Medium::new(3.0, 0.7, 0.5).unwrap();
     let s = DiffusionSolver::new().solve(&rbfs, &medium, &src, &SolveOptions::default());
@@ -233,6 +235,35 @@ fn uniform_source_gives_the_infinite_medium_value() {
         for c in 0..3 {
             let expect = src.j0[0][c] / 0.3;
             assert!((l[c] - expect).abs() < 1e-4 * expect, "{l:?} vs {expect}");
+        }
+    }
+}
+
+/// The vacuum correction with a uniform escape probability `P`: the constant field is
+/// still exact, now `L⁰ = (1 − P) J⁰/(1 − Ω(1 − P))`, and it stays finite and solvable at
+/// Ω = 1 (where the uncorrected system is singular).
+#[test]
+fn uniform_escape_gives_the_escape_balance() {
+    let rbfs = realistic(21, 150);
+    let n = rbfs.len();
+    for (albedo, p) in [(0.7, 0.3), (1.0, 0.25), (0.9, 1.0)] {
+        let src = Sources {
+            j0: vec![[1.0, 2.0, 0.5]; n],
+            j1: vec![[[0.3, -0.2, 0.1], [0.0, 1.0, 0.0], [-0.5, 0.5, 0.5]]; n],
+            escape: vec![p; n],
+        };
+        let medium = Medium::new(3.0, albedo, 0.5).unwrap();
+        let s = DiffusionSolver::new().solve(&rbfs, &medium, &src, &SolveOptions::default());
+        assert!(s.converged, "Ω {albedo}, P {p}: {s:?}");
+        for l in &s.l0 {
+            for c in 0..3 {
+                let expect = (1.0 - p) * src.j0[0][c] / (1.0 - albedo * (1.0 - p));
+                let tol = 1e-4 * src.j0[0][c];
+                assert!(
+                    (l[c] - expect).abs() < tol,
+                    "Ω {albedo}, P {p}: {l:?} vs {expect}"
+                );
+            }
         }
     }
 }
@@ -478,6 +509,7 @@ fn solver_warm_starts_from_the_previous_frame() {
     let moved_src = Sources {
         j0: [&next.j0[10..], &extra.j0[..]].concat(),
         j1: [&next.j1[10..], &extra.j1[..]].concat(),
+        escape: Vec::new(),
     };
     let cold = DiffusionSolver::new().solve(&moved, &MEDIUM, &moved_src, &opts);
     let warm = solver.solve(&moved, &MEDIUM, &moved_src, &opts);

@@ -13,6 +13,16 @@
 //! with `∗` the SH triple product and `⋆` the convolution with the HG phase function's
 //! zonal coefficients `p_l` (DESIGN.md's eq. 11; for `p ≡ 1` it is `Ω · avg(L_in τ̃)`).
 //!
+//! **Where τ̃ is taken** ([`SourcePoints`]). The volume pass spreads `J̃(c_ℓ)` over the
+//! RBF's whole footprint (eq. 14), so the value that represents RBF `ℓ` best is the
+//! `B_ℓ`-weighted mean of `τ̃` over the footprint, not its value at the center: in dense
+//! smoke the center is the most shadowed point and, the transmittance being convex in
+//! depth, the center value is biased dark (measured: −8 % of the image at a peak optical
+//! depth of ≈ 3, −26 % at ≈ 9; `BENCHMARKS.md`). [`SourcePoints::Footprint`] averages `τ̃`
+//! over the degree-3 cubature of the Gaussian weight `exp(−|x − c|²/r²)` (variance `r²/2`
+//! per axis): the six points `c ± r√(3/2)·e_i`, weights 1/6, exact for cubic `τ̃`.
+//! [`SourcePoints::Center`] is the paper's choice, six times cheaper.
+//!
 //! Direction convention: `L_in(ω)` is the radiance arriving *from* `ω`; with the unflipped
 //! `p_l`, `J` is a function of the direction `d` a viewer looks along (the light scattered
 //! towards the viewer travels along `−d`): forward scattering peaks when `d` points at the
@@ -48,6 +58,34 @@ impl ShKit {
 /// RGB SH vectors.
 pub type RgbSh = [Vec<f64>; 3];
 
+/// Where each RBF's transmittance vector is evaluated (module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SourcePoints {
+    /// At the center `c_ℓ` only (paper A §5.3).
+    Center,
+    /// The mean over the six-point Gaussian cubature of the RBF's footprint.
+    Footprint,
+}
+
+impl SourcePoints {
+    /// The evaluation points of `rbf` (all with equal weight).
+    pub fn points(self, rbf: &Rbf) -> Vec<[f64; 3]> {
+        match self {
+            SourcePoints::Center => vec![rbf.center],
+            SourcePoints::Footprint => {
+                let a = rbf.radius.max(0.0) * 1.5f64.sqrt();
+                (0..6)
+                    .map(|i| {
+                        let mut p = rbf.center;
+                        p[i / 2] += if i % 2 == 0 { a } else { -a };
+                        p
+                    })
+                    .collect()
+            }
+        }
+    }
+}
+
 /// Optical depth SH vector at `p` through all `rbfs` (before `× −σt`): Σ w_h r_h T_h.
 pub fn optical_depth_sh(kit: &ShKit, rbfs: &[Rbf], p: [f64; 3]) -> Vec<f64> {
     let n = kit.order;
@@ -82,6 +120,16 @@ pub fn optical_depth_sh(kit: &ShKit, rbfs: &[Rbf], p: [f64; 3]) -> Vec<f64> {
     f
 }
 
+/// The result of [`single_scattering`].
+#[derive(Clone, Debug, Default)]
+pub struct SingleScattering {
+    /// `J̃ss(c_ℓ)`, RGB SH of the viewing direction.
+    pub source: Vec<RgbSh>,
+    /// Escape probability at each center, `τ̃_00/√4π ∈ [0, 1]` (the mean transmittance
+    /// to the outside over all directions; the diffusion's vacuum correction).
+    pub escape: Vec<f64>,
+}
+
 /// `J̃ss` at every RBF center, for lighting `light` (RGB SH of `L_in`).
 pub fn single_scattering(
     kit: &ShKit,
@@ -89,23 +137,42 @@ pub fn single_scattering(
     medium: &Medium,
     light: &RgbSh,
     method: ExpMethod,
-) -> Vec<RgbSh> {
+    points: SourcePoints,
+) -> SingleScattering {
     let phase = sh::hg_zh(medium.g, kit.order);
-    rbfs.par_iter()
+    let (source, escape) = rbfs
+        .par_iter()
         .map(|c| {
-            let mut f = optical_depth_sh(kit, rbfs, c.center);
-            for v in &mut f {
-                *v *= -medium.sigma_t;
+            let pts = points.points(c);
+            let mut tau = vec![0.0; kit.order * kit.order];
+            for p in &pts {
+                let mut f = optical_depth_sh(kit, rbfs, *p);
+                for v in &mut f {
+                    *v *= -medium.sigma_t;
+                }
+                let t = kit.exp.exp(&f, method, &kit.triple);
+                for (a, b) in tau.iter_mut().zip(&t) {
+                    *a += b / pts.len() as f64;
+                }
             }
-            let tau = kit.exp.exp(&f, method, &kit.triple);
-            [0, 1, 2].map(|ch| {
+            let j = [0, 1, 2].map(|ch| {
                 let lt = kit.triple.product(&light[ch], &tau);
                 let mut j = sh::convolve(&lt, &phase);
                 for v in &mut j {
                     *v *= medium.albedo / (4.0 * PI);
                 }
                 j
-            })
+            });
+            let p = tau[0] / (4.0 * PI).sqrt();
+            (
+                j,
+                if p.is_finite() {
+                    p.clamp(0.0, 1.0)
+                } else {
+                    0.0
+                },
+            )
         })
-        .collect()
+        .unzip();
+    SingleScattering { source, escape }
 }

@@ -71,7 +71,13 @@ pub fn volume_pass(
                     continue;
                 }
                 let span = |a: usize| {
-                    voxel_span(rbf.center[a] - s, rbf.center[a] + s, bbox.min[a], vs[a], dims[a])
+                    voxel_span(
+                        rbf.center[a] - s,
+                        rbf.center[a] + s,
+                        bbox.min[a],
+                        vs[a],
+                        dims[a],
+                    )
                 };
                 let (Some((x0, x1)), Some((y0, y1))) = (span(0), span(1)) else {
                     continue;
@@ -115,7 +121,11 @@ pub fn volume_pass(
                 sh::eval_into(order, [p[0] - eye[0], p[1] - eye[1], p[2] - eye[2]], &mut y);
                 let a = &acc[i * 3 * n2..(i + 1) * 3 * n2];
                 for ch in 0..3 {
-                    let dot: f64 = a[ch * n2..(ch + 1) * n2].iter().zip(&y).map(|(s, b)| s * b).sum();
+                    let dot: f64 = a[ch * n2..(ch + 1) * n2]
+                        .iter()
+                        .zip(&y)
+                        .map(|(s, b)| s * b)
+                        .sum();
                     rad[i][ch] = (dot / d_tilde).max(0.0) as f32;
                 }
             }

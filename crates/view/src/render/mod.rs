@@ -4,7 +4,7 @@
 pub mod crm;
 
 use crate::diffusion::{DiffusionSolver, SolveOptions, Sources, ms_source_sh};
-use crate::lighting::single::{RgbSh, ShKit, single_scattering};
+use crate::lighting::single::{RgbSh, ShKit, SourcePoints, single_scattering};
 use crate::sh::{self, ExpMethod};
 use crate::{Camera, Environment, Image, Medium};
 use haze_volume::{Bbox, Rbf};
@@ -22,7 +22,14 @@ pub struct CrmOptions {
     pub residual: bool,
     /// View-pass slices per voxel (paper: 2, i.e. Δu = half a voxel).
     pub slices_per_voxel: f64,
+    /// How `exp*` is computed for the transmittance vectors (`BENCHMARKS.md`, "SH
+    /// exponentiation": the optimal linear one is exact at order 2 but breaks down for
+    /// thick smoke at higher orders).
     pub exp: ExpMethod,
+    /// Where each RBF's transmittance is taken (`lighting::single` module docs).
+    pub source_points: SourcePoints,
+    /// Stopping rule of the diffusion solve (the CG iterations knob).
+    pub solve: SolveOptions,
 }
 
 impl Default for CrmOptions {
@@ -32,7 +39,9 @@ impl Default for CrmOptions {
             multiple: true,
             residual: true,
             slices_per_voxel: 2.0,
-            exp: ExpMethod::OptimalLinear,
+            exp: ExpMethod::ScaleSquareAuto,
+            source_points: SourcePoints::Footprint,
+            solve: SolveOptions::default(),
         }
     }
 }
@@ -70,10 +79,10 @@ pub fn moments(source: &[RgbSh]) -> Sources {
     let mut s = Sources::zeros(source.len());
     let k1 = -(3.0 / (4.0 * PI)).sqrt();
     for (l, j) in source.iter().enumerate() {
-        for c in 0..3 {
-            s.j0[l][c] = j[c][0] / (4.0 * PI).sqrt();
-            if j[c].len() >= 4 {
-                s.j1[l][c] = [k1 * j[c][3], k1 * j[c][1], k1 * j[c][2]];
+        for (c, jc) in j.iter().enumerate() {
+            s.j0[l][c] = jc[0] / (4.0 * PI).sqrt();
+            if jc.len() >= 4 {
+                s.j1[l][c] = [k1 * jc[3], k1 * jc[1], k1 * jc[2]];
             }
         }
     }
@@ -92,12 +101,16 @@ pub fn source_radiance(
     stats: &mut CrmStats,
 ) -> Vec<RgbSh> {
     let t = Instant::now();
-    let mut source = single_scattering(kit, rbfs, medium, light, opts.exp);
+    let ss = single_scattering(kit, rbfs, medium, light, opts.exp, opts.source_points);
+    let mut source = ss.source;
     stats.single_seconds = t.elapsed().as_secs_f64();
     if opts.multiple && !rbfs.is_empty() {
         let t = Instant::now();
-        let sources = moments(&source);
-        let sol = solver.solve(rbfs, medium, &sources, &SolveOptions::default());
+        let sources = Sources {
+            escape: ss.escape,
+            ..moments(&source)
+        };
+        let sol = solver.solve(rbfs, medium, &sources, &opts.solve);
         stats.cg_iterations = sol.iterations;
         stats.cg_residual = sol.residual;
         let ms = ms_source_sh(rbfs, medium, &sources, &sol.l0);

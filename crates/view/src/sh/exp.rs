@@ -53,6 +53,9 @@ pub enum ExpMethod {
     OptimalLinear,
     /// `exp(f/2^k)^{2^k}` with `k = halvings`, by Taylor series and triple products.
     ScaleSquare { halvings: u32 },
+    /// Scaling and squaring with `k = halvings_for(‖f̂‖)` chosen per vector, so that the
+    /// Taylor series always starts from `‖f̂‖/2^k ≤ 1` (the renderer's default).
+    ScaleSquareAuto,
 }
 
 /// Smallest `k` with `norm/2^k ≤ 1`, the usual `halvings` of [`ExpMethod::ScaleSquare`].
@@ -200,6 +203,7 @@ impl ShExp {
             ExpMethod::OptimalLinear if nu > NORM_MAX => (nu / NORM_MAX).log2().ceil() as u32,
             ExpMethod::OptimalLinear => 0,
             ExpMethod::ScaleSquare { halvings } => halvings,
+            ExpMethod::ScaleSquareAuto => halvings_for(nu),
         };
         let scale = 0.5f64.powi(halvings as i32);
         // The DC factor goes into the base, so that squarings of a transmittance stay in
@@ -215,7 +219,7 @@ impl ShExp {
                 r[0] = a * (4.0 * PI).sqrt();
                 r
             }
-            ExpMethod::ScaleSquare { .. } => taylor(&g, tp),
+            ExpMethod::ScaleSquare { .. } | ExpMethod::ScaleSquareAuto => taylor(&g, tp),
         };
         for v in &mut r {
             *v *= dc;

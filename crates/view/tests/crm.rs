@@ -1,0 +1,433 @@
+//! The fast renderer (paper A §5.3–5.5) against independent computations: the
+//! single-scattering source at an RBF center against a direct spherical quadrature of its
+//! definition, whole images against the reference renderer, and the extremes.
+
+use haze_view::lighting::single::{RgbSh, ShKit, SourcePoints, single_scattering};
+use haze_view::medium::hg;
+use haze_view::reference::{self, RefOptions, rbf_volume};
+use haze_view::render::{CrmOptions, crm_render};
+use haze_view::sh::{self, ExpMethod, quad::SphereGrid, quad::gauss_legendre};
+use haze_view::{Camera, Environment, Image, LatLong, Medium, Sky};
+use haze_volume::{Bbox, Rbf};
+use std::f64::consts::PI;
+
+/// A small smoke-like cluster of Gaussians in the unit cube.
+fn cluster() -> Vec<Rbf> {
+    vec![
+        Rbf::new([0.50, 0.50, 0.40], 0.14, 1.0),
+        Rbf::new([0.62, 0.45, 0.55], 0.10, 0.8),
+        Rbf::new([0.40, 0.58, 0.60], 0.11, 0.7),
+        Rbf::new([0.52, 0.50, 0.75], 0.08, 0.9),
+        Rbf::new([0.35, 0.40, 0.45], 0.07, 1.2),
+        Rbf::new([0.66, 0.62, 0.35], 0.09, 0.6),
+    ]
+}
+
+fn unit_box() -> Bbox {
+    Bbox::new([0.0; 3], [1.0; 3])
+}
+
+/// `∫₀^∞ Σ B_h(x + sω) ds` by 32-point Gauss–Legendre on each RBF's chord through its
+/// support sphere (the cut-off at 3r is where the integrand jumps, so each piece is
+/// smooth): independent of the closed form behind the ZH table.
+fn optical_depth(rbfs: &[Rbf], x: [f64; 3], w: [f64; 3]) -> f64 {
+    let gl = gauss_legendre(32);
+    let mut sum = 0.0;
+    for h in rbfs {
+        let s = h.support_radius();
+        let oc = [0, 1, 2].map(|a| x[a] - h.center[a]);
+        let b = oc[0] * w[0] + oc[1] * w[1] + oc[2] * w[2];
+        let c = oc[0] * oc[0] + oc[1] * oc[1] + oc[2] * oc[2] - s * s;
+        let disc = b * b - c;
+        if disc <= 0.0 {
+            continue;
+        }
+        let (t0, t1) = ((-b - disc.sqrt()).max(0.0), -b + disc.sqrt());
+        if t1 <= t0 {
+            continue;
+        }
+        let (mid, half) = (0.5 * (t0 + t1), 0.5 * (t1 - t0));
+        for &(u, wt) in &gl {
+            let t = mid + half * u;
+            sum += half * wt * h.eval([x[0] + t * w[0], x[1] + t * w[1], x[2] + t * w[2]]);
+        }
+    }
+    sum
+}
+
+/// The single-scattering source at `x` seen along `d`, straight from its definition
+/// `J(x, d) = (Ω/4π) ∫ L(ω) τ(x, ω) p(ω·d) dω` on a 64 × 128 product grid.
+fn source_by_quadrature(
+    rbfs: &[Rbf],
+    medium: &Medium,
+    light: impl Fn([f64; 3]) -> f64,
+    x: [f64; 3],
+    dirs: &[[f64; 3]],
+) -> Vec<f64> {
+    let grid = SphereGrid::new(64, 128);
+    let lit: Vec<([f64; 3], f64)> = grid
+        .points()
+        .map(|(w, wt)| {
+            let tau = (-medium.sigma_t * optical_depth(rbfs, x, w)).exp();
+            (w, wt * light(w) * tau)
+        })
+        .collect();
+    dirs.iter()
+        .map(|d| {
+            let s: f64 = lit
+                .iter()
+                .map(|(w, lt)| lt * hg(medium.g, w[0] * d[0] + w[1] * d[1] + w[2] * d[2]))
+                .sum();
+            medium.albedo / (4.0 * PI) * s
+        })
+        .collect()
+}
+
+fn fibonacci_sphere(n: usize) -> Vec<[f64; 3]> {
+    let golden = PI * (3.0 - 5f64.sqrt());
+    (0..n)
+        .map(|i| {
+            let z = 1.0 - (2 * i + 1) as f64 / n as f64;
+            let r = (1.0 - z * z).sqrt();
+            let phi = golden * i as f64;
+            [r * phi.cos(), r * phi.sin(), z]
+        })
+        .collect()
+}
+
+/// Relative L2 error over `dirs` of the SH source of center `k` against quadrature, for a
+/// band-1 light `L(ω) = 1 + 0.6 ω_z + 0.3 ω_x` (exact in SH, so what is measured is the
+/// transmittance and phase machinery).
+fn single_scattering_error(order: usize, medium: &Medium, k: usize) -> f64 {
+    let rbfs = cluster();
+    let light_fn = |w: [f64; 3]| 1.0 + 0.6 * w[2] + 0.3 * w[0];
+    let mut l = vec![0.0; order * order];
+    l[0] = (4.0 * PI).sqrt();
+    if order > 1 {
+        let b1 = (4.0 * PI / 3.0).sqrt();
+        l[2] = 0.6 * b1; // z
+        l[3] = 0.3 * b1; // x
+    }
+    let light: RgbSh = [l.clone(), l.clone(), l];
+    let kit = ShKit::new(order);
+    let j = single_scattering(
+        &kit,
+        &rbfs,
+        medium,
+        &light,
+        ExpMethod::ScaleSquareAuto,
+        SourcePoints::Center,
+    )
+    .source;
+    let dirs = fibonacci_sphere(200);
+    let truth = source_by_quadrature(&rbfs, medium, light_fn, rbfs[k].center, &dirs);
+    let (mut num, mut den) = (0.0, 0.0);
+    for (d, t) in dirs.iter().zip(&truth) {
+        let v = sh::reconstruct(&j[k][0], *d);
+        num += (v - t).powi(2);
+        den += t * t;
+    }
+    (num / den).sqrt()
+}
+
+#[test]
+fn single_scattering_at_centers_matches_quadrature() {
+    // σt = 3: optical depths from the centers up to ≈ 0.6, ‖f̂‖ ≈ 0.5, where the exp*
+    // table (BENCHMARKS.md) gives < 1e-3; what remains is the truncation of τ and of the
+    // phase function to `order` bands, which must fall with the order.
+    let medium = Medium::new(3.0, 0.9, 0.3).unwrap();
+    for k in [0, 3, 4] {
+        let e: Vec<f64> = [2, 4, 6]
+            .iter()
+            .map(|&n| single_scattering_error(n, &medium, k))
+            .collect();
+        println!("center {k}: rel L2 at orders 2, 4, 6: {e:?}");
+        assert!(e[2] < 0.01, "center {k}, order 6: {e:?}");
+        assert!(e[1] < 0.03, "center {k}, order 4: {e:?}");
+        assert!(
+            e[2] < e[0],
+            "center {k}: no convergence with the order: {e:?}"
+        );
+    }
+}
+
+#[test]
+fn single_scattering_in_thick_smoke_and_strong_phase() {
+    // σt = 40: optical depths to ≈ 8 (‖f̂‖ ≈ 5), the regime where the optimal linear
+    // exp* fails; scaling and squaring keeps the source within 10 % at order 6 (the
+    // exp* table's 6 % at ‖f̂‖ = 4 plus truncation).
+    let medium = Medium::new(40.0, 0.9, 0.6).unwrap();
+    let e = single_scattering_error(6, &medium, 0);
+    println!("thick smoke, order 6: rel L2 {e:.4}");
+    assert!(e < 0.10, "{e}");
+}
+
+fn constant_env(c: f32) -> Environment {
+    Environment::Map(LatLong::new(8, 4, vec![[c; 3]; 32]).unwrap())
+}
+
+fn camera(w: usize, h: usize) -> Camera {
+    Camera::new(
+        [0.5, -1.3, 0.85],
+        [0.5, 0.5, 0.52],
+        [0.0, 0.0, 1.0],
+        40.0,
+        w,
+        h,
+    )
+    .unwrap()
+}
+
+/// `rel_rms` over the pixels whose ray meets the smoke (`mask`).
+fn masked_rel_rms(a: &Image, reference: &Image, mask: &[bool]) -> f64 {
+    let (mut num, mut den) = (0.0, 0.0);
+    for ((p, q), m) in a.pixels.iter().zip(&reference.pixels).zip(mask) {
+        if *m {
+            for c in 0..3 {
+                num += f64::from(p[c] - q[c]).powi(2);
+                den += f64::from(q[c]).powi(2);
+            }
+        }
+    }
+    (num / den.max(1e-300)).sqrt()
+}
+
+/// Pixels where the smoke blocks at least 2 % of the background (from an albedo-0
+/// reference render under a constant environment: exactly the transmittance).
+fn smoke_mask(volume: &haze_volume::Volume, sigma_t: f64, cam: &Camera) -> Vec<bool> {
+    let medium = Medium::new(sigma_t, 0.0, 0.0).unwrap();
+    let opts = RefOptions {
+        spp: 1,
+        multiple: false,
+        ..RefOptions::default()
+    };
+    let t = reference::render(volume, &medium, &constant_env(1.0), cam, &opts);
+    t.pixels.iter().map(|p| p[0] < 0.98).collect()
+}
+
+fn crm(rbfs: &[Rbf], medium: &Medium, env: &Environment, cam: &Camera, opts: CrmOptions) -> Image {
+    crm_render(rbfs, None, [32; 3], &unit_box(), medium, env, cam, &opts).0
+}
+
+/// Paper A Fig. 6 reports 4.3 % (single scattering) and 13.8 % (single + multiple) against
+/// ray tracing on its smoke. On this scene (peak optical depth ≈ 3) the measured errors
+/// are 4.5 % and ≈ 5 % (bias ≈ 3 % under ≈ 4 % reference noise at 512 paths); the bounds
+/// are the paper's figures with room for the reference noise. Before the diffusion's
+/// vacuum correction, multiple scattering was off by more than 100 % on plume-a.
+#[test]
+fn crm_matches_the_reference_on_an_rbf_scene() {
+    let rbfs = cluster();
+    let volume = rbf_volume(&rbfs, [32; 3], unit_box()).unwrap();
+    let medium = Medium::new(4.0, 0.8, 0.3).unwrap();
+    let env = Environment::Sky(Sky::default());
+    let cam = camera(48, 36);
+    let mask = smoke_mask(&volume, medium.sigma_t, &cam);
+    assert!(mask.iter().filter(|m| **m).count() > 100);
+    let reference = |multiple: bool, spp: u32| {
+        let opts = RefOptions {
+            spp,
+            multiple,
+            ..RefOptions::default()
+        };
+        reference::render(&volume, &medium, &env, &cam, &opts)
+    };
+    let single = crm(
+        &rbfs,
+        &medium,
+        &env,
+        &cam,
+        CrmOptions {
+            multiple: false,
+            ..CrmOptions::default()
+        },
+    );
+    let e_single = masked_rel_rms(&single, &reference(false, 256), &mask);
+    let multi = crm(&rbfs, &medium, &env, &cam, CrmOptions::default());
+    let e_multi = masked_rel_rms(&multi, &reference(true, 512), &mask);
+    println!("rel RMS on smoke pixels: single {e_single:.4}, single + multiple {e_multi:.4}");
+    assert!(e_single < 0.06, "single scattering: {e_single}");
+    assert!(e_multi < 0.10, "single + multiple scattering: {e_multi}");
+    // The paper's choice of source points is within its own figure too.
+    let center = CrmOptions {
+        multiple: false,
+        source_points: SourcePoints::Center,
+        ..CrmOptions::default()
+    };
+    let e_center = masked_rel_rms(
+        &crm(&rbfs, &medium, &env, &cam, center),
+        &reference(false, 256),
+        &mask,
+    );
+    assert!(
+        e_center < 0.09 && e_single < e_center,
+        "{e_center} vs {e_single}"
+    );
+}
+
+fn finite_nonnegative(img: &Image) -> bool {
+    img.pixels
+        .iter()
+        .all(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0))
+}
+
+#[test]
+fn no_extinction_shows_the_background_exactly() {
+    let env = Environment::Sky(Sky::default());
+    let cam = camera(24, 18);
+    let medium = Medium::new(0.0, 0.8, 0.3).unwrap();
+    for rbfs in [cluster(), Vec::new()] {
+        let img = crm(&rbfs, &medium, &env, &cam, CrmOptions::default());
+        for (i, p) in img.pixels.iter().enumerate() {
+            let b = env.radiance(cam.pixel_ray(i % 24, i / 24));
+            assert_eq!(*p, b.map(|c| c as f32), "pixel {i}");
+        }
+    }
+    // No RBFs at all, with extinction: nothing to scatter or block.
+    let thick = Medium::new(50.0, 0.8, 0.3).unwrap();
+    let img = crm(&[], &thick, &env, &cam, CrmOptions::default());
+    let b = env.radiance(cam.pixel_ray(12, 9));
+    assert_eq!(img.get(12, 9), b.map(|c| c as f32));
+}
+
+#[test]
+fn albedo_zero_is_the_exact_transmittance() {
+    // Without scattering the image is T·L_env; the reference integrates the optical depth
+    // of the same trilinear field exactly, the view pass with half-voxel slices (midpoint
+    // rule, error O(Δu²)): measured 2e-4.
+    let rbfs = cluster();
+    let volume = rbf_volume(&rbfs, [32; 3], unit_box()).unwrap();
+    let env = Environment::Sky(Sky::default());
+    let cam = camera(32, 24);
+    for sigma_t in [4.0, 12.0] {
+        let medium = Medium::new(sigma_t, 0.0, 0.0).unwrap();
+        let opts = RefOptions {
+            spp: 1,
+            multiple: false,
+            ..RefOptions::default()
+        };
+        let r = reference::render(&volume, &medium, &env, &cam, &opts);
+        let c = crm(&rbfs, &medium, &env, &cam, CrmOptions::default());
+        let e = c.rel_rms(&r);
+        assert!(e < 2e-3, "σt {sigma_t}: {e}");
+    }
+}
+
+#[test]
+fn huge_extinction_is_opaque_and_finite() {
+    let rbfs = cluster();
+    let env = Environment::Sky(Sky::default());
+    let cam = camera(24, 18);
+    let medium = Medium::new(1e6, 0.9, 0.3).unwrap();
+    for order in [1, 4] {
+        let opts = CrmOptions {
+            order,
+            ..CrmOptions::default()
+        };
+        let img = crm(&rbfs, &medium, &env, &cam, opts);
+        assert!(finite_nonnegative(&img));
+        // The center pixel looks into the core: the background is blocked and the smoke's
+        // own light is bounded by the brightest sky radiance.
+        let b = env.radiance(cam.pixel_ray(12, 9));
+        let p = img.get(12, 9);
+        assert!(
+            p.iter().zip(b).all(|(p, b)| f64::from(*p) < 0.5 * b),
+            "{p:?} vs {b:?}"
+        );
+    }
+}
+
+#[test]
+fn strong_phase_functions_keep_their_direction() {
+    // Looking towards the sun through thin smoke, forward scattering (g = 0.95) is
+    // brighter than back scattering (g = −0.95); looking away from it, the opposite.
+    let rbfs = cluster();
+    let sky = Sky::default();
+    let s = sky.sun_direction;
+    let env = Environment::Sky(sky);
+    let target = [0.5, 0.5, 0.52];
+    let mean = |img: &Image| img.pixels.iter().map(|p| f64::from(p[0])).sum::<f64>();
+    for (toward, sign) in [(true, 1.0), (false, -1.0)] {
+        let eye = [0, 1, 2].map(|a| target[a] - sign * 1.6 * s[a]);
+        let cam = Camera::new(eye, target, [0.0, 0.0, 1.0], 30.0, 16, 12).unwrap();
+        let render = |g: f64| {
+            let m = Medium::new(2.0, 0.9, g).unwrap();
+            crm(
+                &rbfs,
+                &m,
+                &env,
+                &cam,
+                CrmOptions {
+                    order: 6,
+                    ..CrmOptions::default()
+                },
+            )
+        };
+        let (fwd, back) = (render(0.95), render(-0.95));
+        assert!(finite_nonnegative(&fwd) && finite_nonnegative(&back));
+        assert_eq!(mean(&fwd) > mean(&back), toward, "toward the sun: {toward}");
+    }
+}
+
+#[test]
+fn camera_inside_the_smoke_and_every_order_agree_with_the_reference() {
+    let rbfs = cluster();
+    let volume = rbf_volume(&rbfs, [32; 3], unit_box()).unwrap();
+    let env = Environment::Sky(Sky::default());
+    let medium = Medium::new(2.0, 0.8, 0.3).unwrap();
+    let inside = Camera::new(
+        [0.5, 0.45, 0.45],
+        [0.6, 0.9, 0.6],
+        [0.0, 0.0, 1.0],
+        60.0,
+        24,
+        18,
+    )
+    .unwrap();
+    let opts = RefOptions {
+        spp: 256,
+        multiple: false,
+        ..RefOptions::default()
+    };
+    let r = reference::render(&volume, &medium, &env, &inside, &opts);
+    for (order, tol) in [(1, 0.05), (2, 0.03), (6, 0.03)] {
+        let c = crm(
+            &rbfs,
+            &medium,
+            &env,
+            &inside,
+            CrmOptions {
+                order,
+                multiple: false,
+                ..CrmOptions::default()
+            },
+        );
+        assert!(finite_nonnegative(&c));
+        let e = c.rel_rms(&r);
+        println!("camera inside, order {order}: rel RMS {e:.4}");
+        assert!(e < tol, "order {order}: {e}");
+    }
+}
+
+#[test]
+fn albedo_one_with_multiple_scattering_is_finite() {
+    // The uncorrected diffusion system is singular at Ω = 1; with the escape term it is
+    // not, and the image stays finite and brighter than single scattering alone.
+    let rbfs = cluster();
+    let env = Environment::Sky(Sky::default());
+    let cam = camera(24, 18);
+    let medium = Medium::new(8.0, 1.0, 0.0).unwrap();
+    let ms = crm(&rbfs, &medium, &env, &cam, CrmOptions::default());
+    let ss = crm(
+        &rbfs,
+        &medium,
+        &env,
+        &cam,
+        CrmOptions {
+            multiple: false,
+            ..CrmOptions::default()
+        },
+    );
+    assert!(finite_nonnegative(&ms));
+    let sum = |i: &Image| i.pixels.iter().map(|p| f64::from(p[1])).sum::<f64>();
+    assert!(sum(&ms) > sum(&ss));
+}
