@@ -1,0 +1,144 @@
+//! End-to-end tests of `haze render` on the bundled plume-a data: a baked asset and a raw
+//! volume, both renderers, and the one-line errors.
+
+use assert_cmd::Command;
+use std::path::{Path, PathBuf};
+
+fn data(p: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("data")
+        .join(p)
+        .display()
+        .to_string()
+}
+
+fn haze() -> Command {
+    Command::cargo_bin("haze").unwrap()
+}
+
+fn ok(args: &[&str]) -> String {
+    let o = haze().args(args).output().unwrap();
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert!(o.status.success(), "{args:?}: {err}");
+    err
+}
+
+fn fails(args: &[&str], needle: &str) {
+    let o = haze().args(args).output().unwrap();
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+    assert_eq!(err.lines().count(), 1, "not one line: {err}");
+    assert!(
+        err.starts_with("error: ") && err.contains(needle),
+        "{needle}: {err}"
+    );
+}
+
+fn read_exr(path: &Path, w: usize, h: usize) -> Vec<[f32; 3]> {
+    use exr::prelude::*;
+    let image = read_first_rgba_layer_from_file(
+        path,
+        |res, _| vec![[0.0f32; 3]; res.width() * res.height()],
+        move |px: &mut Vec<[f32; 3]>, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+            px[pos.y() * w + pos.x()] = [r, g, b];
+        },
+    )
+    .unwrap();
+    assert_eq!(image.layer_data.size, Vec2(w, h));
+    image.layer_data.channel_data.pixels
+}
+
+fn tmp(dir: &tempfile::TempDir, name: &str) -> PathBuf {
+    dir.path().join(name)
+}
+
+#[test]
+fn renders_a_baked_frame_and_a_volume() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = |p: &Path| p.display().to_string();
+    let asset = tmp(&dir, "plume.haze");
+    ok(&[
+        "bake",
+        &data("plume-a/vdb"),
+        "--frames",
+        "21..22",
+        "--out",
+        &s(&asset),
+        "-q",
+    ]);
+    let exr = tmp(&dir, "frame.exr");
+    let size = ["--width", "40", "--height", "30"];
+    let mut args = vec!["render", asset.to_str().unwrap(), "--frame", "22", "--out"];
+    args.push(exr.to_str().unwrap());
+    args.extend(size);
+    let err = ok(&args);
+    assert!(
+        err.contains("compensated ray marching") && err.contains("40×30"),
+        "{err}"
+    );
+    let crm = read_exr(&exr, 40, 30);
+    assert!(crm.iter().flatten().all(|c| c.is_finite() && *c >= 0.0));
+    // The smoke in the middle of the frame is not the sky behind it.
+    let without = tmp(&dir, "sky.exr");
+    let mut args = vec!["render", asset.to_str().unwrap(), "--sigma-t", "0", "--out"];
+    args.push(without.to_str().unwrap());
+    args.extend(size);
+    ok(&args);
+    let sky = read_exr(&without, 40, 30);
+    let centre = 15 * 40 + 20;
+    assert!(
+        (crm[centre][2] - sky[centre][2]).abs() > 0.02,
+        "{:?} vs {:?}",
+        crm[centre],
+        sky[centre]
+    );
+
+    // A raw volume is fitted on the fly; the reference renderer reads it directly.
+    let png = tmp(&dir, "volume.png");
+    let vol = data("plume-a/dense/density_0024.f32");
+    let mut args = vec!["render", &vol, "--sh-order", "2", "--no-multiple", "--out"];
+    args.push(png.to_str().unwrap());
+    args.extend(size);
+    ok(&args);
+    assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
+    let reference = tmp(&dir, "reference.exr");
+    let mut args = vec!["render", &vol, "--reference", "--spp", "2", "--out"];
+    args.push(reference.to_str().unwrap());
+    args.extend(size);
+    let err = ok(&args);
+    assert!(
+        err.contains("reference multiple scattering, 2 spp"),
+        "{err}"
+    );
+    assert!(
+        read_exr(&reference, 40, 30)
+            .iter()
+            .flatten()
+            .all(|c| c.is_finite())
+    );
+}
+
+#[test]
+fn bad_render_requests_fail_on_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let vol = data("plume-a/dense/density_0024.f32");
+    let out = tmp(&dir, "x.png");
+    let out = out.to_str().unwrap();
+    fails(&["render", &vol, "--out", "x.tiff"], "unknown image type");
+    fails(
+        &["render", &vol, "--out", out, "--sh-order", "9"],
+        "--sh-order 9",
+    );
+    fails(
+        &["render", &vol, "--out", out, "--env", "nowhere.exr"],
+        "nowhere.exr",
+    );
+    fails(&["render", &vol, "--out", out, "--albedo", "1.5"], "albedo");
+    fails(&["render", &vol, "--out", out, "--slices", "0"], "--slices");
+    fails(
+        &["render", &vol, "--out", out, "--eye", "1,2,3"],
+        "--target",
+    );
+    fails(&["render", "missing.haze", "--out", out], "missing.haze");
+    assert!(!Path::new(out).exists(), "a failed render left an image");
+}
