@@ -71,7 +71,8 @@ pub enum Command {
     /// at the RBF centers in spherical harmonics, multiple scattering by diffusion, the
     /// residual put back in the march. `--reference` instead path-traces the density
     /// (slow, for accuracy checks). A volume file is first fitted with 300 RBFs. World units
-    /// are the volume's; Z is up; the default camera frames the volume.
+    /// are the volume's; Z is up; the default camera frames the smoke
+    /// (voxels above 1 % of the peak density).
     Render(RenderCli),
     /// Reconstruct one frame of a baked asset (RBFs + dequantized residual) as a dense
     /// volume, to compare a bake with its input.

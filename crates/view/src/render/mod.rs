@@ -49,6 +49,9 @@ impl Default for CrmOptions {
 /// Where the time went, and how the diffusion solve ended.
 #[derive(Clone, Debug, Default)]
 pub struct CrmStats {
+    /// Building the SH tables of the order and projecting the environment (once per
+    /// order and environment in a viewer).
+    pub setup_seconds: f64,
     pub single_seconds: f64,
     pub multiple_seconds: f64,
     pub volume_seconds: f64,
@@ -61,7 +64,8 @@ impl std::fmt::Display for CrmStats {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "single scattering {:.3} s, multiple {:.3} s ({} CG iterations, residual {:.2e}), volume pass {:.3} s, view pass {:.3} s",
+            "setup {:.3} s, single scattering {:.3} s, multiple {:.3} s ({} CG iterations, residual {:.2e}), volume pass {:.3} s, view pass {:.3} s",
+            self.setup_seconds,
             self.single_seconds,
             self.multiple_seconds,
             self.cg_iterations,
@@ -141,9 +145,13 @@ pub fn crm_render(
     camera: &Camera,
     opts: &CrmOptions,
 ) -> (Image, CrmStats) {
+    let t = Instant::now();
     let kit = ShKit::new(opts.order);
     let light = sh::project_env(env, opts.order);
-    let mut stats = CrmStats::default();
+    let mut stats = CrmStats {
+        setup_seconds: t.elapsed().as_secs_f64(),
+        ..CrmStats::default()
+    };
     let mut solver = DiffusionSolver::new();
     let source = source_radiance(&kit, rbfs, medium, &light, opts, &mut solver, &mut stats);
     let t = Instant::now();

@@ -67,10 +67,18 @@ pub fn halvings_for(norm: f64) -> u32 {
     }
 }
 
-/// The tabulated optimal linear approximation of one order.
+/// `exp*` of one order. The optimal linear table is fitted on first use of
+/// [`ExpMethod::OptimalLinear`] (about a second at order 6), so scaling and squaring
+/// never pays for it.
 #[derive(Clone, Debug)]
 pub struct ShExp {
     order: usize,
+    table: std::sync::OnceLock<Table>,
+}
+
+/// `ln a`, `ln b` at `norms`.
+#[derive(Clone, Debug)]
+struct Table {
     norms: Vec<f64>,
     ln_a: Vec<f64>,
     ln_b: Vec<f64>,
@@ -97,9 +105,24 @@ fn hat_norm(f: &[f64]) -> f64 {
 }
 
 impl ShExp {
-    /// Fits the table for `order` (1..=`MAX_ORDER`); about a second for order 6.
+    /// `exp*` for `order` (1..=`MAX_ORDER`); cheap (the table is fitted when needed).
     pub fn new(order: usize) -> ShExp {
         assert!((1..=super::MAX_ORDER).contains(&order), "SH order {order}");
+        ShExp {
+            order,
+            table: std::sync::OnceLock::new(),
+        }
+    }
+
+    fn table(&self) -> &Table {
+        self.table.get_or_init(|| Table::fit(self.order))
+    }
+}
+
+impl Table {
+    /// Least-squares `a`, `b` per norm against the reference exponential of random
+    /// smoke-like shapes.
+    fn fit(order: usize) -> Table {
         let n = count(order);
         // Unit-norm shapes f̂/‖f̂‖; a lobe seen from its own center is constant and has
         // no shape, so such draws are skipped.
@@ -164,14 +187,11 @@ impl ShExp {
             })
             .collect();
         let (ln_a, ln_b) = fitted.into_iter().unzip();
-        ShExp {
-            order,
-            norms,
-            ln_a,
-            ln_b,
-        }
+        Table { norms, ln_a, ln_b }
     }
+}
 
+impl ShExp {
     pub fn order(&self) -> usize {
         self.order
     }
@@ -179,14 +199,15 @@ impl ShExp {
     /// `(a, b)` of the optimal linear approximation at `‖f̂‖ = norm ∈ [0, NORM_MAX]`.
     pub fn coefficients(&self, norm: f64) -> (f64, f64) {
         let nu = norm.clamp(0.0, NORM_MAX);
-        let i = self
+        let tb = self.table();
+        let i = tb
             .norms
             .partition_point(|&x| x <= nu)
-            .clamp(1, self.norms.len() - 1);
-        let (x0, x1) = (self.norms[i - 1], self.norms[i]);
+            .clamp(1, tb.norms.len() - 1);
+        let (x0, x1) = (tb.norms[i - 1], tb.norms[i]);
         let t = (nu - x0) / (x1 - x0);
         let lerp = |v: &[f64]| v[i - 1] + t * (v[i] - v[i - 1]);
-        (lerp(&self.ln_a).exp(), lerp(&self.ln_b).exp())
+        (lerp(&tb.ln_a).exp(), lerp(&tb.ln_b).exp())
     }
 
     /// `exp*(f)` for `f` of this order (`tp` of the same order).
