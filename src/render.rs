@@ -4,16 +4,18 @@
 use crate::progress;
 use crate::residual::as_stored;
 use anyhow::{Context, Result, anyhow, bail};
-use haze_asset::{Asset, BlockKind, Scope, decode_rbfs};
+use haze_asset::Asset;
 use haze_fit::{SequenceFitter, SequenceOptions};
 use haze_view::lighting::single::SourcePoints;
 use haze_view::reference::{self, RefOptions};
 use haze_view::render::{CrmOptions, crm_render};
 use haze_view::sh::ExpMethod;
+use haze_view::stream::FrameDecoder;
 use haze_view::{Camera, Environment, LatLong, Medium, Sky};
 use haze_volume::import::{self, ImportOptions};
 use haze_volume::{Bbox, Rbf, Volume, rbf};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// Everything `haze render` was asked to do.
@@ -231,8 +233,7 @@ fn load(a: &RenderArgs) -> Result<FrameData> {
 
 fn load_asset(path: &Path, frame: Option<i64>) -> Result<FrameData> {
     let asset = Asset::open(path)?;
-    let h = asset.header();
-    let numbers = &h.source.frame_numbers;
+    let numbers = &asset.header().source.frame_numbers;
     let k = match frame {
         Some(f) => numbers
             .iter()
@@ -241,39 +242,16 @@ fn load_asset(path: &Path, frame: Option<i64>) -> Result<FrameData> {
         None if numbers.is_empty() => bail!("{}: the asset has no frames", path.display()),
         None => 0,
     };
-    let blocks = asset.frame(k)?;
-    let rbf_block = blocks.find(BlockKind::Rbfs).ok_or_else(|| {
-        anyhow!(
-            "{}: frame {k} has no RBFs (not a baked asset?)",
-            path.display()
-        )
-    })?;
-    let rbfs = decode_rbfs(rbf_block.bytes).map_err(|e| asset.block_error(&rbf_block, e))?;
-    let dims = h.grid.dims.map(|d| d as usize);
-    let bbox = Bbox::new(h.grid.bbox_min, h.grid.bbox_max);
-    let approx = rbf::evaluate_on_grid(dims, &bbox, &rbfs);
-    let mut residual = vec![0.0f32; approx.len()];
-    if let Some(b) = blocks.find(BlockKind::ResidualHash) {
-        let group = haze_hash::block::decode(b.bytes).map_err(|e| asset.block_error(&b, e))?;
-        let Scope::Frames { first, .. } = b.id.scope else {
-            bail!(
-                "{}: frame {k}'s residual block is not per frame",
-                path.display()
-            );
-        };
-        if group.dims != h.grid.dims {
-            bail!(
-                "{}: residual block dims differ from the grid's",
-                path.display()
-            );
-        }
-        let j = k - first as usize;
-        let (nx, nxy) = (dims[0], dims[0] * dims[1]);
-        for (i, r) in residual.iter_mut().enumerate() {
-            let p = [i % nx, (i % nxy) / nx, i / nxy].map(|c| c as u32);
-            *r = group.lookup(j, p);
-        }
-    }
+    let mut decoder = FrameDecoder::new(Arc::new(asset));
+    let f = decoder.decode(k)?;
+    let g = &decoder.asset().header().grid;
+    let dims = g.dims.map(|d| d as usize);
+    let bbox = Bbox::new(g.bbox_min, g.bbox_max);
+    let approx = rbf::evaluate_on_grid(dims, &bbox, &f.rbfs);
+    let residual = match &f.residual {
+        Some(slot) => slot.dense(),
+        None => vec![0.0f32; approx.len()],
+    };
     let data: Vec<f32> = approx
         .iter()
         .zip(&residual)
@@ -282,8 +260,8 @@ fn load_asset(path: &Path, frame: Option<i64>) -> Result<FrameData> {
     let density = Volume::new(dims, bbox, data).context("asset grid")?;
     Ok(FrameData {
         density,
-        rbfs,
+        rbfs: f.rbfs,
         residual,
-        label: format!("{} frame {}", path.display(), numbers[k]),
+        label: format!("{} frame {}", path.display(), f.number),
     })
 }

@@ -13,6 +13,7 @@ pub mod medium;
 pub mod reference;
 pub mod render;
 pub mod sh;
+pub mod stream;
 
 pub use camera::Camera;
 pub use diffusion::{DiffusionSolver, Solution, SolveOptions, Sources};

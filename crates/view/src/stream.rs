@@ -1,0 +1,305 @@
+//! Streaming playback of a baked asset (paper A §6): while frame `k` renders, a background
+//! thread reads frames `k+1..k+n` from the memory-mapped `.haze` file — RBF array and the
+//! hash volume holding the frame's residual — so the renderer never waits on I/O or
+//! decoding.
+//!
+//! Memory is bounded whatever the sequence length: at most `ahead` decoded frames wait in
+//! the queue, one more is being decoded and one is held by the caller; a hash volume is
+//! decoded once and shared (`Arc`) by the frames of its 27 that are in flight, so at most
+//! two are alive in order playback. Scrubbing ([`FrameStream::seek`]) restarts the reader
+//! at the new frame and discards what it had read ahead. A damaged block is reported on
+//! its frame, with the file and the block named, and playback goes on.
+
+use haze_asset::{Asset, AssetError, BlockKind, Scope, decode_rbfs};
+use haze_hash::tile::ResidualGroup;
+use haze_volume::{Bbox, Rbf};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+
+/// The residual of one frame: its slot in a shared hash volume.
+#[derive(Clone, Debug)]
+pub struct ResidualSlot {
+    pub group: Arc<ResidualGroup>,
+    /// The frame's index within the hash volume (0..27).
+    pub slot: usize,
+}
+
+impl ResidualSlot {
+    /// The dequantized residual at voxel `p`.
+    pub fn lookup(&self, p: [u32; 3]) -> f32 {
+        self.group.lookup(self.slot, p)
+    }
+
+    /// The dequantized residual at every voxel (x fastest), as the volume pass takes it.
+    pub fn dense(&self) -> Vec<f32> {
+        let d = self.group.dims;
+        let (nx, nxy) = (d[0] as usize, (d[0] * d[1]) as usize);
+        (0..nxy * d[2] as usize)
+            .map(|i| self.lookup([i % nx, (i % nxy) / nx, i / nxy].map(|c| c as u32)))
+            .collect()
+    }
+}
+
+/// One decoded frame.
+#[derive(Clone, Debug)]
+pub struct StreamFrame {
+    /// Position in the asset (0-based).
+    pub index: usize,
+    /// The source frame number.
+    pub number: i64,
+    pub rbfs: Vec<Rbf>,
+    /// `None` when the asset stores no residual (baked without one).
+    pub residual: Option<ResidualSlot>,
+}
+
+/// Reads frames out of an asset, reusing the hash volume while consecutive frames share it.
+#[derive(Debug)]
+pub struct FrameDecoder {
+    asset: Arc<Asset>,
+    /// The last hash volume decoded: its block index and contents.
+    cached: Option<(usize, Arc<ResidualGroup>)>,
+}
+
+impl FrameDecoder {
+    pub fn new(asset: Arc<Asset>) -> FrameDecoder {
+        FrameDecoder {
+            asset,
+            cached: None,
+        }
+    }
+
+    pub fn asset(&self) -> &Asset {
+        &self.asset
+    }
+
+    /// Frame `k`: its RBFs and residual slot, blocks verified.
+    pub fn decode(&mut self, k: usize) -> Result<StreamFrame, AssetError> {
+        let a = &*self.asset;
+        let number =
+            *a.header()
+                .source
+                .frame_numbers
+                .get(k)
+                .ok_or_else(|| AssetError::NoFrame {
+                    path: a.path().to_path_buf(),
+                    frame: k,
+                    count: a.frame_count(),
+                })?;
+        let covering = |kind: BlockKind| {
+            a.entries()
+                .iter()
+                .position(|e| e.kind == kind && e.scope.covers(k as u32) && e.scope != Scope::Asset)
+        };
+        let rbf_index = covering(BlockKind::Rbfs).ok_or_else(|| AssetError::Invalid {
+            path: a.path().to_path_buf(),
+            what: format!("frame {number} has no RBF block (not a baked asset?)"),
+        })?;
+        let block = a.block(rbf_index)?;
+        let rbfs = decode_rbfs(block.bytes).map_err(|e| a.block_error(&block, e))?;
+        let residual = match covering(BlockKind::ResidualHash) {
+            None => None,
+            Some(i) => {
+                let entry = &a.entries()[i];
+                let Scope::Frames { first, .. } = entry.scope else {
+                    unreachable!("covering() excludes asset-wide blocks")
+                };
+                let group = match &self.cached {
+                    Some((c, g)) if *c == i => g.clone(),
+                    _ => {
+                        let block = a.block(i)?;
+                        let g = haze_hash::block::decode(block.bytes)
+                            .map_err(|e| a.block_error(&block, e))?;
+                        if g.dims != a.header().grid.dims {
+                            return Err(
+                                a.block_error(&block, "residual dims differ from the grid's")
+                            );
+                        }
+                        let g = Arc::new(g);
+                        self.cached = Some((i, g.clone()));
+                        g
+                    }
+                };
+                Some(ResidualSlot {
+                    group,
+                    slot: k - first as usize,
+                })
+            }
+        };
+        Ok(StreamFrame {
+            index: k,
+            number,
+            rbfs,
+            residual,
+        })
+    }
+}
+
+/// What the reader thread is asked to do.
+#[derive(Debug, Default)]
+struct Control {
+    /// Bumped by every seek; frames read for an older generation are discarded.
+    generation: AtomicU64,
+    /// Where the current generation starts.
+    start: Mutex<usize>,
+    stop: AtomicBool,
+    /// Frames decoded so far (for tests and statistics).
+    decoded: AtomicUsize,
+}
+
+/// A frame (or its one-line error) for a generation; `None` marks the end of the
+/// sequence when not looping.
+type Message = (u64, Option<Result<StreamFrame, String>>);
+
+/// Background reading of an asset's frames, in order from a start frame, `ahead` frames in
+/// advance, wrapping to frame 0 after the last when `looping`.
+#[derive(Debug)]
+pub struct FrameStream {
+    path: PathBuf,
+    frame_count: usize,
+    dims: [usize; 3],
+    bbox: Bbox,
+    control: Arc<Control>,
+    frames: Option<Receiver<Message>>,
+    reader: Option<JoinHandle<()>>,
+}
+
+impl FrameStream {
+    /// Opens `path` (header and index verified) and starts reading at frame 0.
+    pub fn open(path: &Path, ahead: usize, looping: bool) -> Result<FrameStream, AssetError> {
+        let asset = Arc::new(Asset::open(path)?);
+        let frame_count = asset.frame_count();
+        if frame_count == 0 {
+            return Err(AssetError::Invalid {
+                path: path.to_path_buf(),
+                what: "the asset has no frames".into(),
+            });
+        }
+        let grid = &asset.header().grid;
+        let dims = grid.dims.map(|d| d as usize);
+        let bbox = Bbox::new(grid.bbox_min, grid.bbox_max);
+        let control = Arc::new(Control::default());
+        let (tx, rx) = sync_channel(ahead.max(1));
+        let c = control.clone();
+        let reader = std::thread::Builder::new()
+            .name("haze-stream".into())
+            .spawn(move || read_frames(FrameDecoder::new(asset), tx, &c, looping))
+            .map_err(|e| AssetError::Invalid {
+                path: path.to_path_buf(),
+                what: format!("cannot start the reader thread: {e}"),
+            })?;
+        Ok(FrameStream {
+            path: path.to_path_buf(),
+            frame_count,
+            dims,
+            bbox,
+            control,
+            frames: Some(rx),
+            reader: Some(reader),
+        })
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    pub fn frame_count(&self) -> usize {
+        self.frame_count
+    }
+
+    /// The voxel grid every frame is rendered on.
+    pub fn grid(&self) -> ([usize; 3], Bbox) {
+        (self.dims, self.bbox)
+    }
+
+    /// Frames decoded by the reader so far.
+    pub fn decoded(&self) -> usize {
+        self.control.decoded.load(Ordering::Acquire)
+    }
+
+    /// Restarts reading at frame `k` (clamped to the asset); frames read ahead are dropped.
+    pub fn seek(&mut self, k: usize) {
+        *self.control.start.lock().unwrap_or_else(|e| e.into_inner()) = k.min(self.frame_count - 1);
+        self.control.generation.fetch_add(1, Ordering::AcqRel);
+        // Unblock a reader waiting on a full queue; what it had read is stale.
+        if let Some(rx) = &self.frames {
+            while rx.try_recv().is_ok() {}
+        }
+    }
+
+    /// The next frame, waiting for it; `None` after the last frame when not looping.
+    pub fn next_frame(&mut self) -> Option<Result<StreamFrame, String>> {
+        let rx = self.frames.as_ref()?;
+        loop {
+            let (generation, frame) = rx.recv().ok()?;
+            if generation == self.control.generation.load(Ordering::Acquire) {
+                return frame;
+            }
+        }
+    }
+
+    /// The next frame if it is ready, without waiting (a playback loop that finds none
+    /// has caught up with the reader; the end of a non-looping sequence also gives
+    /// `None`).
+    pub fn try_next_frame(&mut self) -> Option<Result<StreamFrame, String>> {
+        let rx = self.frames.as_ref()?;
+        while let Ok((generation, frame)) = rx.try_recv() {
+            if generation == self.control.generation.load(Ordering::Acquire) {
+                return frame;
+            }
+        }
+        None
+    }
+}
+
+impl Drop for FrameStream {
+    fn drop(&mut self) {
+        self.control.stop.store(true, Ordering::Release);
+        // Dropping the receiver makes a blocked send fail, so the reader exits.
+        self.frames = None;
+        if let Some(h) = self.reader.take() {
+            let _ = h.join();
+        }
+    }
+}
+
+/// The reader thread: decodes frames in order and queues them, restarting on a seek.
+fn read_frames(mut dec: FrameDecoder, tx: SyncSender<Message>, c: &Control, looping: bool) {
+    let count = dec.asset().frame_count();
+    let mut generation = c.generation.load(Ordering::Acquire);
+    let mut k = 0usize;
+    loop {
+        if c.stop.load(Ordering::Acquire) {
+            return;
+        }
+        let now = c.generation.load(Ordering::Acquire);
+        if now != generation {
+            generation = now;
+            k = *c.start.lock().unwrap_or_else(|e| e.into_inner());
+        }
+        if k == count && looping {
+            k = 0;
+        }
+        if k == count {
+            if tx.send((generation, None)).is_err() {
+                return;
+            }
+            // Wait for a seek or the end of the stream.
+            while c.generation.load(Ordering::Acquire) == generation {
+                if c.stop.load(Ordering::Acquire) {
+                    return;
+                }
+                std::thread::sleep(std::time::Duration::from_millis(2));
+            }
+            continue;
+        }
+        let frame = dec.decode(k).map_err(|e| e.to_string());
+        c.decoded.fetch_add(1, Ordering::AcqRel);
+        if tx.send((generation, Some(frame))).is_err() {
+            return;
+        }
+        k += 1;
+    }
+}

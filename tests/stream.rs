@@ -1,0 +1,130 @@
+//! Streaming playback (`haze_view::stream`) on an asset baked from the bundled plume-a
+//! frames: order, equality with a direct read, scrubbing, looping, bounded read-ahead and
+//! damaged blocks.
+
+use assert_cmd::Command;
+use haze_asset::{Asset, BlockKind, decode_rbfs};
+use haze_view::stream::{FrameDecoder, FrameStream};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Duration;
+
+fn bake(dir: &Path) -> PathBuf {
+    let out = dir.join("plume.haze");
+    let plume = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/plume-a/vdb");
+    let o = Command::cargo_bin("haze")
+        .unwrap()
+        .args([
+            "bake",
+            plume.to_str().unwrap(),
+            "--frames",
+            "21..26",
+            "-q",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    out
+}
+
+#[test]
+fn streams_frames_in_order_with_scrubbing_and_bounded_read_ahead() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = bake(dir.path());
+    let asset = Asset::open(&path).unwrap();
+    let n = asset.frame_count();
+    assert_eq!(n, 6);
+
+    // Nothing consumed: the reader stops after `ahead` queued frames plus one in hand.
+    let mut s = FrameStream::open(&path, 2, false).unwrap();
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(
+        s.decoded() <= 3,
+        "read ahead {} frames with a queue of 2",
+        s.decoded()
+    );
+
+    // In order, each equal to a direct read of its blocks.
+    let mut direct = FrameDecoder::new(Arc::new(Asset::open(&path).unwrap()));
+    for k in 0..n {
+        let f = s.next_frame().unwrap().unwrap();
+        assert_eq!((f.index, f.number), (k, 21 + k as i64));
+        let blocks = asset.frame(k).unwrap();
+        let rbfs = decode_rbfs(blocks.find(BlockKind::Rbfs).unwrap().bytes).unwrap();
+        assert_eq!(f.rbfs, rbfs);
+        let mine = f.residual.as_ref().unwrap();
+        let theirs = direct.decode(k).unwrap().residual.unwrap();
+        assert_eq!(mine.slot, k);
+        assert_eq!(mine.dense(), theirs.dense());
+        assert!(mine.dense().iter().any(|r| *r != 0.0));
+    }
+    assert!(s.next_frame().is_none(), "a non-looping stream ends");
+
+    // Scrubbing back, then forward.
+    s.seek(4);
+    assert_eq!(s.next_frame().unwrap().unwrap().index, 4);
+    s.seek(1);
+    let a = s.next_frame().unwrap().unwrap();
+    let b = s.next_frame().unwrap().unwrap();
+    assert_eq!((a.index, b.index), (1, 2));
+    // The frames of one hash volume share it.
+    assert!(Arc::ptr_eq(
+        &a.residual.unwrap().group,
+        &b.residual.unwrap().group
+    ));
+    s.seek(99);
+    assert_eq!(s.next_frame().unwrap().unwrap().index, n - 1);
+
+    // Looping wraps to the first frame.
+    let mut l = FrameStream::open(&path, 3, true).unwrap();
+    let idx: Vec<usize> = (0..n + 2)
+        .map(|_| l.next_frame().unwrap().unwrap().index)
+        .collect();
+    assert_eq!(idx, [0, 1, 2, 3, 4, 5, 0, 1]);
+}
+
+#[test]
+fn a_damaged_frame_is_reported_and_playback_goes_on() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = bake(dir.path());
+    let asset = Asset::open(&path).unwrap();
+    let e = asset
+        .entries()
+        .iter()
+        .filter(|e| e.kind == BlockKind::Rbfs)
+        .nth(2)
+        .copied()
+        .unwrap();
+    drop(asset);
+    let mut bytes = std::fs::read(&path).unwrap();
+    bytes[e.offset as usize + 10] ^= 0xff;
+    let bad = dir.path().join("bad.haze");
+    std::fs::write(&bad, bytes).unwrap();
+
+    let mut s = FrameStream::open(&bad, 2, false).unwrap();
+    for k in 0..6 {
+        let f = s.next_frame().unwrap();
+        if k == 2 {
+            let err = f.unwrap_err();
+            assert!(
+                err.contains("bad.haze") && err.lines().count() == 1,
+                "{err}"
+            );
+        } else {
+            assert_eq!(f.unwrap().index, k);
+        }
+    }
+}
+
+#[test]
+fn opening_a_missing_or_foreign_file_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let e = FrameStream::open(&dir.path().join("none.haze"), 2, false).unwrap_err();
+    assert!(e.to_string().contains("none.haze"), "{e}");
+    let junk = dir.path().join("junk.haze");
+    std::fs::write(&junk, b"not an asset at all, clearly").unwrap();
+    let e = FrameStream::open(&junk, 2, false).unwrap_err();
+    assert!(e.to_string().contains("junk.haze"), "{e}");
+}
