@@ -7,6 +7,8 @@
 //! gets a [`GpuError`] from [`GpuContext::new`], never a panic. Headless Linux machines can
 //! use Mesa's lavapipe, a Vulkan driver on the CPU.
 
+pub mod view_pass;
+
 use std::fmt;
 use std::future::Future;
 use std::sync::{Arc, Mutex};
