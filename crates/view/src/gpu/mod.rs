@@ -95,6 +95,11 @@ impl GpuContext {
         }
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
             backends,
+            // wgpu's release defaults in every build: debug builds would otherwise turn on
+            // the driver's debug messages, which land on stderr through the log (the
+            // Vulkan loader's complaints before a "no adapter" error, for one).
+            // WGPU_VALIDATION=1 and WGPU_DEBUG=1 turn them back on.
+            flags: wgpu::InstanceFlags::VALIDATION_INDIRECT_CALL.with_env(),
             ..wgpu::InstanceDescriptor::new_without_display_handle()
         });
         let adapter = block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
