@@ -6,9 +6,21 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 need_apt=()
-command -v cc >/dev/null 2>&1 || need_apt+=(gcc libc6-dev)
+why=()
+if ! command -v cc >/dev/null 2>&1; then
+    need_apt+=(gcc libc6-dev)
+    why+=("a C compiler for the Blosc decoder")
+fi
+# The GPU tests need a Vulkan device and fail (never skip) without one; on a machine
+# without a GPU that is Mesa's lavapipe, a Vulkan driver running on the CPU.
+if ! ls /usr/share/vulkan/icd.d/lvp_icd*.json >/dev/null 2>&1 &&
+    ! { PATH="$PATH:/sbin:/usr/sbin" ldconfig -p 2>/dev/null | grep -q libvulkan_lvp; }; then
+    need_apt+=(mesa-vulkan-drivers libvulkan1)
+    why+=("Mesa's lavapipe (Vulkan on the CPU) for the GPU tests")
+fi
 if ((${#need_apt[@]})); then
-    echo "test.sh: installing ${need_apt[*]} (C compiler for the Blosc decoder)" >&2
+    reasons=$(IFS=';' && echo "${why[*]}")
+    echo "test.sh: installing ${need_apt[*]} (${reasons//;/; })" >&2
     sudo=""
     [ "$(id -u)" -eq 0 ] || sudo="sudo"
     $sudo apt-get update -qq

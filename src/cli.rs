@@ -69,10 +69,10 @@ pub enum Command {
     ///
     /// By default with compensated ray marching on the CPU (paper A §5): single scattering
     /// at the RBF centers in spherical harmonics, multiple scattering by diffusion, the
-    /// residual put back in the march. `--reference` instead path-traces the density
-    /// (slow, for accuracy checks). A volume file is first fitted with 300 RBFs. World units
-    /// are the volume's; Z is up; the default camera frames the smoke
-    /// (voxels above 1 % of the peak density).
+    /// residual put back in the march; `--gpu` runs its view pass on the GPU. `--reference`
+    /// instead path-traces the density (slow, for accuracy checks). A volume file is first
+    /// fitted with 300 RBFs. World units are the volume's; Z is up; the default camera
+    /// frames the smoke (voxels above 1 % of the peak density).
     Render(RenderCli),
     /// Reconstruct one frame of a baked asset (RBFs + dequantized residual) as a dense
     /// volume, to compare a bake with its input.
@@ -235,8 +235,15 @@ pub struct RenderCli {
     #[arg(long, value_enum, default_value_t = SourceArg::Footprint)]
     source: SourceArg,
     /// Render with the reference path tracer instead (slow).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "gpu")]
     reference: bool,
+    /// Compensated ray marching entirely on the CPU (the default).
+    #[arg(long, conflicts_with_all = ["gpu", "reference"])]
+    cpu: bool,
+    /// Run the view pass on the GPU (sources and volume pass stay on the CPU). Needs a
+    /// GPU adapter; Mesa's lavapipe (mesa-vulkan-drivers) works without a GPU.
+    #[arg(long)]
+    gpu: bool,
     /// Samples per pixel of --reference.
     #[arg(long, default_value_t = 64)]
     spp: u32,
@@ -276,6 +283,8 @@ impl RenderCli {
                 SourceArg::Center => haze_view::lighting::single::SourcePoints::Center,
             },
             reference: self.reference,
+            // `--cpu` is the default, spelled out; clap refuses it with `--gpu`.
+            gpu: self.gpu && !self.cpu,
             spp: self.spp,
             exposure: self.exposure,
             import: self.import.options(),

@@ -1,17 +1,19 @@
 //! `haze render`: one frame of a baked asset, or a density volume, to an image — by
-//! compensated ray marching on the CPU (paper A §5), or by the reference renderer.
+//! compensated ray marching on the CPU (paper A §5), optionally with the view pass on the
+//! GPU, or by the reference renderer.
 
 use crate::progress;
 use crate::residual::as_stored;
 use anyhow::{Context, Result, anyhow, bail};
 use haze_asset::Asset;
 use haze_fit::{SequenceFitter, SequenceOptions};
+use haze_view::gpu::{GpuContext, view_pass};
 use haze_view::lighting::single::SourcePoints;
 use haze_view::reference::{self, RefOptions};
-use haze_view::render::{CrmOptions, crm_render};
+use haze_view::render::{CrmOptions, crm_grids, crm_render};
 use haze_view::sh::ExpMethod;
 use haze_view::stream::FrameDecoder;
-use haze_view::{Camera, Environment, LatLong, Medium, Sky};
+use haze_view::{Camera, Environment, Image, LatLong, Medium, Sky};
 use haze_volume::import::{self, ImportOptions};
 use haze_volume::{Bbox, Rbf, Volume, rbf};
 use std::path::{Path, PathBuf};
@@ -41,6 +43,8 @@ pub struct RenderArgs {
     pub exp: ExpMethod,
     pub source_points: SourcePoints,
     pub reference: bool,
+    /// The view pass on the GPU.
+    pub gpu: bool,
     pub spp: u32,
     pub exposure: f64,
     pub import: ImportOptions,
@@ -72,6 +76,14 @@ pub fn run(a: RenderArgs) -> Result<()> {
         );
     }
     let env = environment(&a.env)?;
+    // Before any fitting: a machine without an adapter is told at once.
+    let gpu = if a.gpu && !a.reference {
+        let ctx = GpuContext::new().map_err(|e| anyhow!("--gpu: {e}"))?;
+        tracing::info!("GPU: {} ({})", ctx.adapter_name(), ctx.backend());
+        Some(ctx)
+    } else {
+        None
+    };
     let frame = load(&a)?;
     let camera = match (a.eye, a.target) {
         (Some(e), Some(t)) => Camera::new(e, t, a.up, a.fov, a.width, a.height),
@@ -110,19 +122,48 @@ pub fn run(a: RenderArgs) -> Result<()> {
             ..CrmOptions::default()
         };
         let residual = a.residual.then_some(frame.residual.as_slice());
-        let (img, stats) = crm_render(
-            &frame.rbfs,
-            residual,
-            frame.density.dims(),
-            frame.density.bbox(),
-            &medium,
-            &env,
-            &camera,
-            &opts,
-        );
-        tracing::info!("{stats}");
+        let (dims, bbox) = (frame.density.dims(), frame.density.bbox());
+        let img = if let Some(ctx) = &gpu {
+            let (grids, du, mut stats) = crm_grids(
+                &frame.rbfs,
+                residual,
+                dims,
+                bbox,
+                &medium,
+                &env,
+                camera.eye,
+                &opts,
+            );
+            let t = Instant::now();
+            let pixels = view_pass::view_pass(ctx, &grids, &medium, &env, &camera, du)
+                .map_err(|e| anyhow!("--gpu: {e}"))?;
+            stats.view_seconds = t.elapsed().as_secs_f64();
+            tracing::info!("{stats}");
+            Image {
+                width: camera.width,
+                height: camera.height,
+                pixels,
+            }
+        } else {
+            let (img, stats) = crm_render(
+                &frame.rbfs,
+                residual,
+                dims,
+                bbox,
+                &medium,
+                &env,
+                &camera,
+                &opts,
+            );
+            tracing::info!("{stats}");
+            img
+        };
         let what = format!(
-            "compensated ray marching, SH order {}, {}{}",
+            "compensated ray marching{}, SH order {}, {}{}",
+            match &gpu {
+                Some(ctx) => format!(" (view pass on the GPU: {})", ctx.adapter_name()),
+                None => String::new(),
+            },
             a.sh_order,
             if a.multiple {
                 "single + multiple scattering"

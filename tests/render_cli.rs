@@ -78,6 +78,24 @@ fn renders_a_baked_frame_and_a_volume() {
     );
     let crm = read_exr(&exr, 40, 30);
     assert!(crm.iter().flatten().all(|c| c.is_finite() && *c >= 0.0));
+    // The view pass on the GPU: the same image up to f32 arithmetic (crates/view's
+    // gpu_view_pass tests measure 1e-6 relative) and the march's early exit, which may
+    // stop a slice apart and change a pixel by OPAQUE = 1e-4 times the brightest
+    // radiance (the sky's sun, < 10).
+    let gpu_exr = tmp(&dir, "gpu.exr");
+    let mut args = vec!["render", asset.to_str().unwrap(), "--frame", "22", "--gpu"];
+    args.extend(["--out", gpu_exr.to_str().unwrap()]);
+    args.extend(size);
+    let err = ok(&args);
+    assert!(err.contains("view pass on the GPU"), "{err}");
+    for (i, (g, c)) in read_exr(&gpu_exr, 40, 30).iter().zip(&crm).enumerate() {
+        for k in 0..3 {
+            assert!(
+                (g[k] - c[k]).abs() <= 1e-4 * c[k].abs() + 1e-3,
+                "pixel {i}: GPU {g:?}, CPU {c:?}"
+            );
+        }
+    }
     // The smoke in the middle of the frame is not the sky behind it.
     let without = tmp(&dir, "sky.exr");
     let mut args = vec!["render", asset.to_str().unwrap(), "--sigma-t", "0", "--out"];
@@ -141,4 +159,41 @@ fn bad_render_requests_fail_on_one_line() {
     );
     fails(&["render", "missing.haze", "--out", out], "missing.haze");
     assert!(!Path::new(out).exists(), "a failed render left an image");
+}
+
+/// Without a GPU adapter `--gpu` says so on one line, before any work (here the Vulkan
+/// loader is pointed at no driver at all).
+#[cfg(target_os = "linux")]
+#[test]
+fn gpu_without_an_adapter_fails_on_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let vol = data("plume-a/dense/density_0024.f32");
+    let out = tmp(&dir, "x.exr");
+    let o = haze()
+        .args(["render", &vol, "--gpu", "--out", out.to_str().unwrap()])
+        .env("VK_ICD_FILENAMES", "/nonexistent/icd.json")
+        .env("VK_DRIVER_FILES", "/nonexistent/icd.json")
+        .output()
+        .unwrap();
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(err.lines().count(), 1, "not one line: {err}");
+    assert!(
+        err.starts_with("error: --gpu: no GPU adapter found")
+            && err.contains("mesa-vulkan-drivers libvulkan1"),
+        "{err}"
+    );
+    assert!(!out.exists());
+    // The reference renderer has no GPU path.
+    let o = haze()
+        .args(["render", &vol, "--gpu", "--reference", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(
+        String::from_utf8(o.stderr)
+            .unwrap()
+            .contains("cannot be used with")
+    );
 }

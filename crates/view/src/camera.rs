@@ -112,6 +112,21 @@ impl Camera {
     pub fn forward(&self) -> [f64; 3] {
         self.forward
     }
+
+    /// Unit vector of the image's right, `forward × up` normalized.
+    pub fn right(&self) -> [f64; 3] {
+        self.right
+    }
+
+    /// Unit vector of the image's up, `right × forward`.
+    pub fn up(&self) -> [f64; 3] {
+        self.up
+    }
+
+    /// `tan(fov/2)`: the image's top edge is at `forward + tan_half·up`.
+    pub fn tan_half(&self) -> f64 {
+        self.tan_half
+    }
 }
 
 #[cfg(test)]

@@ -7,6 +7,7 @@ pub mod camera;
 pub mod diffusion;
 pub mod env;
 pub mod field;
+pub mod gpu;
 pub mod image;
 pub mod lighting;
 pub mod medium;

@@ -132,19 +132,20 @@ pub fn source_radiance(
     source
 }
 
-/// Renders a frame (RBFs over a `dims` grid on `bbox`, optional residual per voxel) by
-/// compensated ray marching.
+/// The volume pass of a frame (RBFs over a `dims` grid on `bbox`, optional residual per
+/// voxel) after the source radiance at the centers: the grids a view pass renders, the
+/// slice thickness `Δu` of `opts` (world units), and the time so far.
 #[allow(clippy::too_many_arguments)]
-pub fn crm_render(
+pub fn crm_grids(
     rbfs: &[Rbf],
     residual: Option<&[f32]>,
     dims: [usize; 3],
     bbox: &Bbox,
     medium: &Medium,
     env: &Environment,
-    camera: &Camera,
+    eye: [f64; 3],
     opts: &CrmOptions,
-) -> (Image, CrmStats) {
+) -> (crm::VolumeGrids, f64, CrmStats) {
     let t = Instant::now();
     let kit = ShKit::new(opts.order);
     let light = sh::project_env(env, opts.order);
@@ -156,10 +157,28 @@ pub fn crm_render(
     let source = source_radiance(&kit, rbfs, medium, &light, opts, &mut solver, &mut stats);
     let t = Instant::now();
     let residual = if opts.residual { residual } else { None };
-    let grids = crm::volume_pass(rbfs, &source, opts.order, dims, bbox, residual, camera.eye);
+    let grids = crm::volume_pass(rbfs, &source, opts.order, dims, bbox, residual, eye);
     stats.volume_seconds = t.elapsed().as_secs_f64();
-    let t = Instant::now();
     let du = crm::default_slice(dims, bbox) * 2.0 / opts.slices_per_voxel.max(1e-3);
+    (grids, du, stats)
+}
+
+/// Renders a frame (RBFs over a `dims` grid on `bbox`, optional residual per voxel) by
+/// compensated ray marching: [`crm_grids`], then [`crm::view_pass`].
+#[allow(clippy::too_many_arguments)]
+pub fn crm_render(
+    rbfs: &[Rbf],
+    residual: Option<&[f32]>,
+    dims: [usize; 3],
+    bbox: &Bbox,
+    medium: &Medium,
+    env: &Environment,
+    camera: &Camera,
+    opts: &CrmOptions,
+) -> (Image, CrmStats) {
+    let (grids, du, mut stats) =
+        crm_grids(rbfs, residual, dims, bbox, medium, env, camera.eye, opts);
+    let t = Instant::now();
     let pixels = crm::view_pass(&grids, medium, env, camera, du);
     stats.view_seconds = t.elapsed().as_secs_f64();
     (

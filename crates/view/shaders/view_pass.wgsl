@@ -1,0 +1,213 @@
+// View pass of compensated ray marching (paper A §5.5, eq. 16): the GPU twin of
+// `render::crm::view_pass`, in f32, one invocation per pixel.
+//
+// Slices perpendicular to the camera axis, `du` apart, are crossed by the pixel's ray at
+// u_i (t = (k + ½)·Δs with Δs = du / cos γ, γ the angle to the axis); each slice has
+// transmittance Δτ_i = exp(−σt·D(u_i)·Δs). Front to back, with early exit once the
+// transmittance falls below OPAQUE:
+//
+//     L = L_env(d)·Π Δτ_j + Σ_i J̃(u_i)·(1 − Δτ_i)·Π_{j<i} Δτ_j
+//
+// D and J̃ are trilinear between voxel centers with the stencil of `field::sample`
+// (constant to the box's faces, zero outside), done by hand on a storage buffer so the
+// weights are exact f32 rather than a sampler's fixed-point ones. Positions are relative
+// to the box's minimum corner, which keeps f32 precise for boxes far from the origin.
+
+struct Params {
+    // Eye relative to the box's minimum corner.
+    eye: vec3<f32>,
+    // tan(fov / 2).
+    tan_half: f32,
+    forward: vec3<f32>,
+    // width / height.
+    aspect: f32,
+    right: vec3<f32>,
+    sigma_t: f32,
+    up: vec3<f32>,
+    du: f32,
+    // Box size (its maximum corner, relative to its minimum).
+    size: vec3<f32>,
+    // 0: the built-in sky below, 1: the lat-long map in `env_map`.
+    env_kind: u32,
+    voxel: vec3<f32>,
+    _pad0: f32,
+    dims: vec3<u32>,
+    _pad1: u32,
+    image: vec2<u32>,
+    env_size: vec2<u32>,
+    zenith: vec3<f32>,
+    sharpness: f32,
+    horizon: vec3<f32>,
+    _pad2: f32,
+    ground: vec3<f32>,
+    _pad3: f32,
+    sun_direction: vec3<f32>,
+    _pad4: f32,
+    sun: vec3<f32>,
+    _pad5: f32,
+}
+
+// Transmittance below which the march stops (`crm::OPAQUE`).
+const OPAQUE: f32 = 1e-4;
+const PI: f32 = 3.14159265358979;
+
+@group(0) @binding(0) var<uniform> p: Params;
+// Per voxel (x fastest): J̃ in xyz, D in w.
+@group(0) @binding(1) var<storage, read> grid: array<vec4<f32>>;
+// Lat-long texels, RGB, row 0 at the zenith.
+@group(0) @binding(2) var<storage, read> env_map: array<f32>;
+@group(0) @binding(3) var<storage, read_write> pixels: array<vec4<f32>>;
+
+// `Camera::pixel_ray`: through the center of pixel (x, y), row 0 at the top.
+fn pixel_ray(x: u32, y: u32) -> vec3<f32> {
+    let px = f32(x) + 0.5;
+    let py = f32(y) + 0.5;
+    let sx = (2.0 * px / f32(p.image.x) - 1.0) * p.tan_half * p.aspect;
+    let sy = (1.0 - 2.0 * py / f32(p.image.y)) * p.tan_half;
+    return normalize(p.forward + sx * p.right + sy * p.up);
+}
+
+// `field::ray_box` on [0, size]: (t0, t1, 1) where the ray o + t·d is inside, t0 ≥ 0, or
+// z = 0 when it misses.
+fn ray_box(o: vec3<f32>, d: vec3<f32>) -> vec3<f32> {
+    var t0 = 0.0;
+    var t1 = 3.0e38;
+    for (var a = 0u; a < 3u; a++) {
+        if d[a] == 0.0 {
+            if o[a] < 0.0 || o[a] > p.size[a] {
+                return vec3<f32>(0.0);
+            }
+            continue;
+        }
+        let inv = 1.0 / d[a];
+        let ta = -o[a] * inv;
+        let tb = (p.size[a] - o[a]) * inv;
+        t0 = max(t0, min(ta, tb));
+        t1 = min(t1, max(ta, tb));
+    }
+    if t0 <= t1 && t1 < 3.0e38 {
+        return vec3<f32>(t0, t1, 1.0);
+    }
+    return vec3<f32>(0.0);
+}
+
+fn voxel(i: vec3<u32>) -> vec4<f32> {
+    return grid[i.x + p.dims.x * (i.y + p.dims.y * i.z)];
+}
+
+// Trilinear (J̃, D) at box-local point q, zero outside the box.
+fn sample_grid(q: vec3<f32>) -> vec4<f32> {
+    let n = p.dims;
+    if any(n == vec3<u32>(0u)) || !(all(q >= vec3<f32>(0.0)) && all(q <= p.size)) {
+        return vec4<f32>(0.0);
+    }
+    let f = clamp(q / p.voxel - 0.5, vec3<f32>(0.0), vec3<f32>(n) - 1.0);
+    let i0 = min(vec3<u32>(floor(f)), max(n, vec3<u32>(2u)) - 2u);
+    let t = f - vec3<f32>(i0);
+    let i1 = min(i0 + 1u, n - 1u);
+    let c00 = mix(voxel(i0), voxel(vec3<u32>(i1.x, i0.y, i0.z)), t.x);
+    let c10 = mix(voxel(vec3<u32>(i0.x, i1.y, i0.z)), voxel(vec3<u32>(i1.x, i1.y, i0.z)), t.x);
+    let c01 = mix(voxel(vec3<u32>(i0.x, i0.y, i1.z)), voxel(vec3<u32>(i1.x, i0.y, i1.z)), t.x);
+    let c11 = mix(voxel(vec3<u32>(i0.x, i1.y, i1.z)), voxel(i1), t.x);
+    return mix(mix(c00, c10, t.y), mix(c01, c11, t.y), t.z);
+}
+
+// `Sky::radiance`.
+fn sky(d: vec3<f32>) -> vec3<f32> {
+    let n = length(d);
+    if !(n > 0.0) {
+        return p.zenith;
+    }
+    let u = d / n;
+    var out = p.ground;
+    if u.z >= 0.0 {
+        out = mix(p.horizon, p.zenith, u.z);
+    }
+    let c = max(dot(u, p.sun_direction), 0.0);
+    var glow = 0.0;
+    if c > 0.0 {
+        glow = pow(c, p.sharpness);
+    } else if p.sharpness == 0.0 {
+        glow = 1.0;
+    }
+    return out + p.sun * glow;
+}
+
+fn texel(x: u32, y: u32) -> vec3<f32> {
+    let i = 3u * (y * p.env_size.x + x);
+    return vec3<f32>(env_map[i], env_map[i + 1u], env_map[i + 2u]);
+}
+
+fn wrap_column(x: f32, w: f32) -> u32 {
+    return min(u32(x - w * floor(x / w)), p.env_size.x - 1u);
+}
+
+// `LatLong::radiance`: column u → φ = 2πu from +X towards +Y, row v → θ = πv from +Z,
+// bilinear between texel centers, wrapping in φ and clamped at the poles.
+fn lat_long(d: vec3<f32>) -> vec3<f32> {
+    // θ by atan2 rather than acos: well conditioned at the poles too.
+    let theta = atan2(length(d.xy), d.z);
+    var phi = atan2(d.y, d.x);
+    if phi < 0.0 {
+        phi += 2.0 * PI;
+    }
+    let w = f32(p.env_size.x);
+    let h = f32(p.env_size.y);
+    let fx = phi / (2.0 * PI) * w - 0.5;
+    let fy = clamp(theta / PI * h - 0.5, 0.0, h - 1.0);
+    let x0 = floor(fx);
+    let y0 = floor(fy);
+    let tx = fx - x0;
+    let ty = fy - y0;
+    let xa = wrap_column(x0, w);
+    let xb = wrap_column(x0 + 1.0, w);
+    let ya = u32(y0);
+    let yb = min(ya + 1u, p.env_size.y - 1u);
+    return mix(mix(texel(xa, ya), texel(xb, ya), tx), mix(texel(xa, yb), texel(xb, yb), tx), ty);
+}
+
+fn environment(d: vec3<f32>) -> vec3<f32> {
+    if p.env_kind == 1u {
+        return lat_long(d);
+    }
+    return sky(d);
+}
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= p.image.x || id.y >= p.image.y {
+        return;
+    }
+    let d = pixel_ray(id.x, id.y);
+    let background = environment(d);
+    let cos_g = max(dot(d, p.forward), 1e-6);
+    let hit = ray_box(p.eye, d);
+    var out = vec3<f32>(0.0);
+    var tau = 1.0;
+    if hit.z > 0.0 {
+        let ds = p.du / cos_g;
+        // Slice planes at axis distances k·du from the eye; the ray meets plane k at
+        // t = k·du / cos γ. An integer counter: a float one stalls past 2²⁴.
+        let k0 = max(floor(hit.x * cos_g / p.du), 0.0);
+        let k1 = ceil(hit.y * cos_g / p.du);
+        let count = u32(max(k1 - k0, 0.0));
+        for (var i = 0u; i <= count; i++) {
+            let t = (k0 + f32(i) + 0.5) * ds;
+            if t < hit.x || t > hit.y {
+                continue;
+            }
+            let s = sample_grid(p.eye + t * d);
+            if s.w <= 0.0 {
+                continue;
+            }
+            let dt = exp(-p.sigma_t * s.w * ds);
+            out += tau * s.xyz * (1.0 - dt);
+            tau *= dt;
+            if tau < OPAQUE {
+                tau = 0.0;
+                break;
+            }
+        }
+    }
+    pixels[id.y * p.image.x + id.x] = vec4<f32>(out + tau * background, 1.0);
+}
