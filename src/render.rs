@@ -1,18 +1,20 @@
 //! `haze render`: one frame of a baked asset, or a density volume, to an image — by
-//! compensated ray marching on the CPU (paper A §5), optionally with the view pass on the
-//! GPU, or by the reference renderer.
+//! compensated ray marching on the CPU (paper A §5) or the GPU (all stages but the
+//! diffusion solve), or by the reference renderer.
 
 use crate::progress;
 use crate::residual::as_stored;
 use anyhow::{Context, Result, anyhow, bail};
 use haze_asset::Asset;
 use haze_fit::{SequenceFitter, SequenceOptions};
-use haze_view::gpu::{GpuContext, view_pass};
+use haze_view::gpu::GpuContext;
+use haze_view::gpu::renderer::{GpuFrame, GpuRenderer};
+use haze_view::gpu::volume_pass::Residual;
 use haze_view::lighting::single::SourcePoints;
 use haze_view::reference::{self, RefOptions};
-use haze_view::render::{CrmOptions, crm_grids, crm_render};
+use haze_view::render::{CrmOptions, crm_render};
 use haze_view::sh::ExpMethod;
-use haze_view::stream::FrameDecoder;
+use haze_view::stream::{FrameDecoder, ResidualSlot, StreamFrame};
 use haze_view::{Camera, Environment, Image, LatLong, Medium, Sky};
 use haze_volume::import::{self, ImportOptions};
 use haze_volume::{Bbox, Rbf, Volume, rbf};
@@ -43,7 +45,7 @@ pub struct RenderArgs {
     pub exp: ExpMethod,
     pub source_points: SourcePoints,
     pub reference: bool,
-    /// The view pass on the GPU.
+    /// Render on the GPU (all stages but the diffusion solve).
     pub gpu: bool,
     pub spp: u32,
     pub exposure: f64,
@@ -54,7 +56,10 @@ pub struct RenderArgs {
 struct FrameData {
     density: Volume,
     rbfs: Vec<Rbf>,
+    /// `R` at every voxel (zero for an asset baked without a residual).
     residual: Vec<f32>,
+    /// An asset frame's slot in its hash volume, which the GPU looks up itself.
+    slot: Option<ResidualSlot>,
     label: String,
 }
 
@@ -62,19 +67,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
     let start = Instant::now();
     let kind = out_kind(&a.out)?;
     let medium = Medium::new(a.sigma_t, a.albedo, a.g).map_err(|e| anyhow!("{e}"))?;
-    if !(1..=haze_view::sh::MAX_ORDER).contains(&a.sh_order) {
-        bail!(
-            "--sh-order {} must be between 1 and {}",
-            a.sh_order,
-            haze_view::sh::MAX_ORDER
-        );
-    }
-    if !(a.slices > 0.0 && a.slices.is_finite()) {
-        bail!(
-            "--slices {} must be a positive number of slices per voxel",
-            a.slices
-        );
-    }
+    check_knobs(a.sh_order, a.slices)?;
     let env = environment(&a.env)?;
     // Before any fitting: a machine without an adapter is told at once.
     let gpu = if a.gpu && !a.reference {
@@ -87,13 +80,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
     let frame = load(&a)?;
     let camera = match (a.eye, a.target) {
         (Some(e), Some(t)) => Camera::new(e, t, a.up, a.fov, a.width, a.height),
-        (None, None) => {
-            // Frame the smoke (voxels above 1 % of the peak), not the whole domain.
-            let peak = frame.density.data().iter().fold(0.0f32, |m, &d| m.max(d));
-            let smoke = frame.density.occupied_bbox(0.01 * peak);
-            let bbox = smoke.unwrap_or(*frame.density.bbox());
-            Camera::framing(&bbox, a.fov, a.width, a.height)
-        }
+        (None, None) => Camera::framing(&smoke_bbox(&frame.density), a.fov, a.width, a.height),
         _ => bail!("give both --eye and --target, or neither (to frame the volume)"),
     }
     .map_err(|e| anyhow!("camera: {e}"))?;
@@ -121,30 +108,48 @@ pub fn run(a: RenderArgs) -> Result<()> {
             source_points: a.source_points,
             ..CrmOptions::default()
         };
-        let residual = a.residual.then_some(frame.residual.as_slice());
         let (dims, bbox) = (frame.density.dims(), frame.density.bbox());
         let img = if let Some(ctx) = &gpu {
-            let (grids, du, mut stats) = crm_grids(
-                &frame.rbfs,
-                residual,
-                dims,
-                bbox,
-                &medium,
-                &env,
-                camera.eye,
-                &opts,
-            );
+            // Every stage on the GPU but the diffusion solve (`gpu::renderer`). The
+            // residual: an asset frame's hash volume, looked up on the GPU; a fitted
+            // volume's dense residual, uploaded.
+            let gpu_err = |e| anyhow!("--gpu: {e}");
             let t = Instant::now();
-            let pixels = view_pass::view_pass(ctx, &grids, &medium, &env, &camera, du)
-                .map_err(|e| anyhow!("--gpu: {e}"))?;
-            stats.view_seconds = t.elapsed().as_secs_f64();
-            tracing::info!("{stats}");
+            ctx.time_stages(true);
+            let mut renderer = GpuRenderer::new(ctx, env.clone()).map_err(gpu_err)?;
+            let setup = t.elapsed().as_secs_f64();
+            let residual = match &frame.slot {
+                Some(slot) => Residual::Hash(slot),
+                None => Residual::Dense(&frame.residual),
+            };
+            let input = GpuFrame {
+                key: 0,
+                rbfs: &frame.rbfs,
+                residual: Some(residual),
+                dims,
+                bbox: *bbox,
+            };
+            let (image, mut stats) = renderer
+                .render(ctx, &input, &medium, &camera, &opts)
+                .map_err(gpu_err)?;
+            let pixels = image.read(ctx).map_err(gpu_err)?;
+            stats.crm.setup_seconds += setup;
+            tracing::info!("host: {}", stats.crm);
+            if !stats.gpu.is_empty() {
+                let times: Vec<String> = stats
+                    .gpu
+                    .iter()
+                    .map(|(stage, s)| format!("{stage} {:.2} ms", s * 1e3))
+                    .collect();
+                tracing::info!("GPU: {}", times.join(", "));
+            }
             Image {
                 width: camera.width,
                 height: camera.height,
                 pixels,
             }
         } else {
+            let residual = a.residual.then_some(frame.residual.as_slice());
             let (img, stats) = crm_render(
                 &frame.rbfs,
                 residual,
@@ -161,7 +166,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
         let what = format!(
             "compensated ray marching{}, SH order {}, {}{}",
             match &gpu {
-                Some(ctx) => format!(" (view pass on the GPU: {})", ctx.adapter_name()),
+                Some(ctx) => format!(" on the GPU ({}; diffusion on the CPU)", ctx.adapter_name()),
                 None => String::new(),
             },
             a.sh_order,
@@ -211,7 +216,22 @@ fn out_kind(out: &Path) -> Result<OutKind> {
     }
 }
 
-fn environment(spec: &str) -> Result<Environment> {
+/// Refuses an SH order outside 1..=6 and a slice count per voxel that is not positive.
+pub(crate) fn check_knobs(sh_order: usize, slices: f64) -> Result<()> {
+    if !(1..=haze_view::sh::MAX_ORDER).contains(&sh_order) {
+        bail!(
+            "--sh-order {sh_order} must be between 1 and {}",
+            haze_view::sh::MAX_ORDER
+        );
+    }
+    if !(slices > 0.0 && slices.is_finite()) {
+        bail!("--slices {slices} must be a positive number of slices per voxel");
+    }
+    Ok(())
+}
+
+/// The environment of `--env`: the built-in sky, or a lat-long OpenEXR map.
+pub(crate) fn environment(spec: &str) -> Result<Environment> {
     if spec == "sky" {
         return Ok(Environment::Sky(Sky::default()));
     }
@@ -268,6 +288,7 @@ fn load(a: &RenderArgs) -> Result<FrameData> {
         density,
         rbfs,
         residual,
+        slot: None,
         label: path.display().to_string(),
     })
 }
@@ -288,8 +309,26 @@ fn load_asset(path: &Path, frame: Option<i64>) -> Result<FrameData> {
     let g = &decoder.asset().header().grid;
     let dims = g.dims.map(|d| d as usize);
     let bbox = Bbox::new(g.bbox_min, g.bbox_max);
-    let approx = rbf::evaluate_on_grid(dims, &bbox, &f.rbfs);
-    let residual = match &f.residual {
+    let (density, residual) = asset_density(dims, bbox, &f)?;
+    Ok(FrameData {
+        density,
+        rbfs: f.rbfs,
+        residual,
+        slot: f.residual,
+        label: format!("{} frame {}", path.display(), f.number),
+    })
+}
+
+/// A baked frame's density on the asset's `dims` grid over `bbox`, `D = max(D̃ + R, 0)`
+/// with the RBFs as stored and the dequantized residual, and that residual (zero when the
+/// asset stores none).
+pub(crate) fn asset_density(
+    dims: [usize; 3],
+    bbox: Bbox,
+    frame: &StreamFrame,
+) -> Result<(Volume, Vec<f32>)> {
+    let approx = rbf::evaluate_on_grid(dims, &bbox, &frame.rbfs);
+    let residual = match &frame.residual {
         Some(slot) => slot.dense(),
         None => vec![0.0f32; approx.len()],
     };
@@ -299,10 +338,14 @@ fn load_asset(path: &Path, frame: Option<i64>) -> Result<FrameData> {
         .map(|(a, r)| (a + f64::from(*r)).max(0.0) as f32)
         .collect();
     let density = Volume::new(dims, bbox, data).context("asset grid")?;
-    Ok(FrameData {
-        density,
-        rbfs: f.rbfs,
-        residual,
-        label: format!("{} frame {}", path.display(), f.number),
-    })
+    Ok((density, residual))
+}
+
+/// The box a default camera frames: the voxels above 1 % of the peak density (the smoke,
+/// not the whole domain), or the whole box when the volume is empty.
+pub(crate) fn smoke_bbox(density: &Volume) -> Bbox {
+    let peak = density.data().iter().fold(0.0f32, |m, &d| m.max(d));
+    density
+        .occupied_bbox(0.01 * peak)
+        .unwrap_or(*density.bbox())
 }

@@ -3,6 +3,7 @@
 //! Both writers go through a temporary file beside the destination that is renamed into
 //! place, so a reader never sees a half-written image.
 
+use rayon::prelude::*;
 use std::io::{BufWriter, Write};
 use std::path::Path;
 
@@ -83,15 +84,27 @@ impl Image {
         })
     }
 
-    /// Writes an 8-bit sRGB PNG: each linear channel is multiplied by `exposure`, clipped
-    /// to [0, 1] and encoded with the sRGB transfer function (no other tone curve, so a
-    /// linear value `1/exposure` is white).
+    /// The 8-bit sRGB encoding of the image, three bytes per pixel in pixel order: each
+    /// linear channel is multiplied by `exposure`, clipped to [0, 1] and encoded with the
+    /// sRGB transfer function (no other tone curve, so a linear value `1/exposure` is
+    /// white). What [`Image::write_png`] writes and the viewer shows; pixels are converted
+    /// in parallel.
+    pub fn to_srgb8(&self, exposure: f64) -> Vec<u8> {
+        let mut bytes = vec![0u8; 3 * self.pixels.len()];
+        bytes
+            .par_chunks_mut(3)
+            .zip(self.pixels.par_iter())
+            .for_each(|(out, p)| {
+                for (o, c) in out.iter_mut().zip(p) {
+                    *o = srgb8(f64::from(*c) * exposure);
+                }
+            });
+        bytes
+    }
+
+    /// Writes an 8-bit sRGB PNG of [`Image::to_srgb8`].
     pub fn write_png(&self, path: &Path, exposure: f64) -> Result<(), ImageError> {
-        let bytes: Vec<u8> = self
-            .pixels
-            .iter()
-            .flat_map(|p| p.map(|c| srgb8(f64::from(c) * exposure)))
-            .collect();
+        let bytes = self.to_srgb8(exposure);
         let (w, h) = (self.width, self.height);
         write_atomically(path, |out| {
             let size = |n: usize| u32::try_from(n).map_err(|_| format!("{n} pixels is too wide"));
@@ -204,6 +217,16 @@ mod tests {
         assert_eq!(srgb8(f64::NAN), 0);
         // 255 · (1.055 · 0.18^(1/2.4) − 0.055) = 117.65.
         assert_eq!(srgb8(0.18), 118);
+        // The whole image, pixel by pixel and channel by channel, exposure applied.
+        let im = gradient();
+        let bytes = im.to_srgb8(2.0);
+        assert_eq!(bytes.len(), 3 * 15);
+        for (i, p) in im.pixels.iter().enumerate() {
+            for c in 0..3 {
+                assert_eq!(bytes[3 * i + c], srgb8(2.0 * f64::from(p[c])), "pixel {i}");
+            }
+        }
+        assert_eq!(&bytes[3..6], &[srgb8(0.5), 255, srgb8(0.5)]);
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("a.png");
         gradient().write_png(&path, 1.0).unwrap();

@@ -159,6 +159,7 @@ type Message = (u64, Option<Result<StreamFrame, String>>);
 pub struct FrameStream {
     path: PathBuf,
     frame_count: usize,
+    numbers: Vec<i64>,
     dims: [usize; 3],
     bbox: Bbox,
     control: Arc<Control>,
@@ -177,6 +178,7 @@ impl FrameStream {
                 what: "the asset has no frames".into(),
             });
         }
+        let numbers = asset.header().source.frame_numbers.clone();
         let grid = &asset.header().grid;
         let dims = grid.dims.map(|d| d as usize);
         let bbox = Bbox::new(grid.bbox_min, grid.bbox_max);
@@ -193,6 +195,7 @@ impl FrameStream {
         Ok(FrameStream {
             path: path.to_path_buf(),
             frame_count,
+            numbers,
             dims,
             bbox,
             control,
@@ -207,6 +210,11 @@ impl FrameStream {
 
     pub fn frame_count(&self) -> usize {
         self.frame_count
+    }
+
+    /// The source frame number of each frame, in order.
+    pub fn frame_numbers(&self) -> &[i64] {
+        &self.numbers
     }
 
     /// The voxel grid every frame is rendered on.

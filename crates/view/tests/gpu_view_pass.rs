@@ -15,35 +15,8 @@ use haze_view::{Camera, Environment, LatLong, Medium, Sky};
 use haze_volume::{Bbox, Rbf};
 use std::time::Instant;
 
-fn context() -> GpuContext {
-    match GpuContext::new() {
-        Ok(ctx) => {
-            println!("GPU adapter: {} ({})", ctx.adapter_name(), ctx.backend());
-            ctx
-        }
-        Err(e) => panic!("{e}"),
-    }
-}
-
-/// The cluster of `tests/crm.rs`, mapped from the unit cube into `bbox`.
-fn cluster(bbox: &Bbox) -> Vec<Rbf> {
-    let s = bbox.size();
-    let scale = s[0].min(s[1]).min(s[2]);
-    [
-        ([0.50, 0.50, 0.40], 0.14, 1.0),
-        ([0.62, 0.45, 0.55], 0.10, 0.8),
-        ([0.40, 0.58, 0.60], 0.11, 0.7),
-        ([0.52, 0.50, 0.75], 0.08, 0.9),
-        ([0.35, 0.40, 0.45], 0.07, 1.2),
-        ([0.66, 0.62, 0.35], 0.09, 0.6),
-    ]
-    .into_iter()
-    .map(|(c, r, w)| {
-        let c = [0, 1, 2].map(|a| bbox.min[a] + c[a] * s[a]);
-        Rbf::new(c, r * scale, w)
-    })
-    .collect()
-}
+mod common;
+use common::{cluster, context, unit_box};
 
 /// Source radiance at the centers (single + multiple scattering, order 4), then the CPU
 /// volume pass: the grids both view passes read.
@@ -153,10 +126,6 @@ fn compare(
         cam.width, cam.height
     );
     (max_abs, rel)
-}
-
-fn unit_box() -> Bbox {
-    Bbox::new([0.0; 3], [1.0; 3])
 }
 
 #[test]

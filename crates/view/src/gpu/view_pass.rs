@@ -16,14 +16,15 @@
 //! everywhere); the environment as the CPU has it — the built-in sky evaluated
 //! analytically, a lat-long map uploaded texel for texel and looked up bilinearly with
 //! `LatLong::radiance`'s convention — so the background differs from the CPU's by `f32`
-//! rounding only. Coordinates are relative to the box's minimum corner.
+//! rounding only. Coordinates are relative to the box's minimum corner. The grid buffer is
+//! a [`GridBuffer`]: uploaded from CPU [`VolumeGrids`] by [`ViewPass::run`], or left on
+//! the GPU by the volume pass and read by [`ViewPass::run_on`].
 
-use super::{GpuContext, GpuError};
+use super::{GpuContext, GpuError, GridBuffer, buffer_init, compute_pipeline, submit_pass};
 use crate::camera::Camera;
 use crate::env::Environment;
 use crate::medium::Medium;
 use crate::render::crm::VolumeGrids;
-use wgpu::util::DeviceExt;
 
 /// The shader, `crates/view/shaders/view_pass.wgsl`.
 pub const SHADER: &str = include_str!("../../shaders/view_pass.wgsl");
@@ -77,30 +78,15 @@ pub struct ViewPass {
 impl ViewPass {
     /// Compiles the shader and builds the pipeline.
     pub fn new(ctx: &GpuContext) -> Result<ViewPass, GpuError> {
-        let pipeline = ctx.scoped("view pass pipeline creation", || {
-            let module = ctx
-                .device
-                .create_shader_module(wgpu::ShaderModuleDescriptor {
-                    label: Some("view_pass.wgsl"),
-                    source: wgpu::ShaderSource::Wgsl(SHADER.into()),
-                });
-            ctx.device
-                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some("view pass"),
-                    layout: None,
-                    module: &module,
-                    entry_point: Some("main"),
-                    compilation_options: Default::default(),
-                    cache: None,
-                })
-        })?;
+        let pipeline = compute_pipeline(ctx, "view pass pipeline creation", SHADER)?;
         Ok(ViewPass { pipeline })
     }
 
     /// The image of the volume-pass grids `g` (RGB per pixel, row 0 at the top), slice
-    /// thickness `du` (world units). Refuses grids whose radiance does not match the
-    /// density's voxels, a `du` that is not positive and finite, a sky with a negative
-    /// sun sharpness, and buffers beyond the device's limits.
+    /// thickness `du` (world units): uploads the grids, then [`ViewPass::run_on`]. Refuses
+    /// grids whose radiance does not match the density's voxels, a `du` that is not
+    /// positive and finite, a sky with a negative sun sharpness, and buffers beyond the
+    /// device's limits.
     pub fn run(
         &self,
         ctx: &GpuContext,
@@ -110,14 +96,52 @@ impl ViewPass {
         camera: &Camera,
         du: f64,
     ) -> Result<Vec<[f32; 3]>, GpuError> {
-        let dims = g.density.dims();
-        let voxels = dims.iter().product::<usize>();
-        if g.radiance.len() != voxels {
-            return Err(GpuError::Input(format!(
-                "the radiance grid has {} voxels, the density grid {voxels}",
-                g.radiance.len()
-            )));
-        }
+        let grid = GridBuffer::upload(ctx, g)?;
+        self.run_on(ctx, &grid, medium, env, camera, du)
+    }
+
+    /// The image of grids already on the GPU (those a
+    /// [`VolumePass`](super::volume_pass::VolumePass) wrote), as [`ViewPass::run`]:
+    /// [`ViewPass::dispatch`], then [`ImageBuffer::read`].
+    pub fn run_on(
+        &self,
+        ctx: &GpuContext,
+        grid: &GridBuffer,
+        medium: &Medium,
+        env: &Environment,
+        camera: &Camera,
+        du: f64,
+    ) -> Result<Vec<[f32; 3]>, GpuError> {
+        self.dispatch(ctx, grid, medium, env, camera, du)?.read(ctx)
+    }
+
+    /// Submits the view pass of grids on the GPU and leaves the image there (a frame
+    /// that is displayed or timed need not come back to the host).
+    pub fn dispatch(
+        &self,
+        ctx: &GpuContext,
+        grid: &GridBuffer,
+        medium: &Medium,
+        env: &Environment,
+        camera: &Camera,
+        du: f64,
+    ) -> Result<ImageBuffer, GpuError> {
+        let env = EnvBuffer::upload(ctx, env)?;
+        self.dispatch_in(ctx, grid, medium, &env, camera, du)
+    }
+
+    /// [`ViewPass::dispatch`] with the environment already on the GPU (uploaded once for
+    /// many frames).
+    pub fn dispatch_in(
+        &self,
+        ctx: &GpuContext,
+        grid: &GridBuffer,
+        medium: &Medium,
+        env: &EnvBuffer,
+        camera: &Camera,
+        du: f64,
+    ) -> Result<ImageBuffer, GpuError> {
+        let dims = grid.dims();
         if !(du > 0.0 && du.is_finite()) {
             return Err(GpuError::Input(format!(
                 "slice thickness {du} must be positive and finite"
@@ -132,39 +156,11 @@ impl ViewPass {
                 max_groups * TILE as usize
             )));
         }
-
-        // D and J̃ interleaved; one zero voxel stands in for an empty grid (the shader
-        // sees the zero dims and samples nothing).
-        let mut cells: Vec<[f32; 4]> = g
-            .radiance
-            .iter()
-            .zip(g.density.data())
-            .map(|(j, d)| [j[0], j[1], j[2], *d])
-            .collect();
-        if cells.is_empty() {
-            cells.push([0.0; 4]);
-        }
-        let (env_kind, env_size, texels, sky) = match env {
-            Environment::Sky(s) => {
-                if !(s.sharpness >= 0.0 && s.sharpness.is_finite()) {
-                    return Err(GpuError::Input(format!(
-                        "sky sun sharpness {} must be finite and ≥ 0",
-                        s.sharpness
-                    )));
-                }
-                (0, [0, 0], vec![[0.0f32; 3]], Some(s))
-            }
-            Environment::Map(m) => (1, [m.width as u32, m.height as u32], m.texels.clone(), None),
-        };
-        let sky = sky.cloned().unwrap_or_default();
-        let cell_bytes = std::mem::size_of_val(cells.as_slice()) as u64;
-        let env_bytes = std::mem::size_of_val(texels.as_slice()) as u64;
+        let sky = &env.sky;
         let out_bytes = (width * height * 16) as u64;
-        ctx.check_storage_size("the volume (density and radiance)", cell_bytes)?;
-        ctx.check_storage_size("the environment map", env_bytes)?;
         ctx.check_storage_size("the image", out_bytes)?;
 
-        let bbox = g.density.bbox();
+        let bbox = grid.bbox();
         let eye = [0, 1, 2].map(|a| camera.eye[a] - bbox.min[a]);
         let params = Params {
             eye: f32x3(eye),
@@ -176,13 +172,13 @@ impl ViewPass {
             up: f32x3(camera.up()),
             du: du as f32,
             size: f32x3(bbox.size()),
-            env_kind,
-            voxel: f32x3(g.density.voxel_size()),
+            env_kind: env.kind,
+            voxel: f32x3(grid.voxel_size()),
             _pad0: 0.0,
             dims: dims.map(|n| n as u32),
             _pad1: 0,
             image: [width as u32, height as u32],
-            env_size,
+            env_size: env.size,
             zenith: f32x3(sky.zenith),
             sharpness: sky.sharpness as f32,
             horizon: f32x3(sky.horizon),
@@ -196,76 +192,107 @@ impl ViewPass {
         };
 
         let output = ctx.scoped("the view pass", || {
-            let dev = &ctx.device;
-            let init = |label, contents: &[u8], usage| {
-                dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some(label),
-                    contents,
-                    usage,
-                })
-            };
-            let uniform = init(
+            let uniform = buffer_init(
+                ctx,
                 "view pass parameters",
                 bytemuck::bytes_of(&params),
                 wgpu::BufferUsages::UNIFORM,
             );
-            let grid = init(
-                "view pass grid",
-                bytemuck::cast_slice(&cells),
-                wgpu::BufferUsages::STORAGE,
-            );
-            let env_map = init(
-                "view pass environment",
-                bytemuck::cast_slice(&texels),
-                wgpu::BufferUsages::STORAGE,
-            );
-            let output = dev.create_buffer(&wgpu::BufferDescriptor {
+            let output = ctx.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("view pass image"),
                 size: out_bytes,
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             });
-            let bind = dev.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("view pass"),
-                layout: &self.pipeline.get_bind_group_layout(0),
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: uniform.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: grid.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 2,
-                        resource: env_map.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 3,
-                        resource: output.as_entire_binding(),
-                    },
-                ],
-            });
-            let mut enc = dev.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("view pass"),
-            });
-            {
-                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("view pass"),
-                    timestamp_writes: None,
-                });
-                pass.set_pipeline(&self.pipeline);
-                pass.set_bind_group(0, &bind, &[]);
-                pass.dispatch_workgroups(groups[0] as u32, groups[1] as u32, 1);
-            }
-            ctx.queue.submit([enc.finish()]);
+            let buffers = [&uniform, grid.buffer(), &env.buffer, &output];
+            let groups = [groups[0] as u32, groups[1] as u32, 1];
+            submit_pass(ctx, &self.pipeline, "view pass", &buffers, groups);
             output
         })?;
-        let bytes = ctx.read_buffer(&output)?;
+        Ok(ImageBuffer {
+            buffer: output,
+            width,
+            height,
+        })
+    }
+}
+
+/// The environment on the GPU as the view pass reads it: the sky's parameters (evaluated
+/// analytically), or a lat-long map's texels.
+#[derive(Debug)]
+pub struct EnvBuffer {
+    /// 0: sky, 1: lat-long map.
+    kind: u32,
+    size: [u32; 2],
+    /// The sky (the default for a map, unused).
+    sky: crate::env::Sky,
+    buffer: wgpu::Buffer,
+}
+
+impl EnvBuffer {
+    /// Uploads `env`. Refuses a sky with a negative or non-finite sun sharpness and a map
+    /// beyond the device's limits.
+    pub fn upload(ctx: &GpuContext, env: &Environment) -> Result<EnvBuffer, GpuError> {
+        let (kind, size, texels, sky) = match env {
+            Environment::Sky(s) => {
+                if !(s.sharpness >= 0.0 && s.sharpness.is_finite()) {
+                    return Err(GpuError::Input(format!(
+                        "sky sun sharpness {} must be finite and ≥ 0",
+                        s.sharpness
+                    )));
+                }
+                (0, [0, 0], &[[0.0f32; 3]][..], s.clone())
+            }
+            Environment::Map(m) => (
+                1,
+                [m.width as u32, m.height as u32],
+                &m.texels[..],
+                crate::env::Sky::default(),
+            ),
+        };
+        ctx.check_storage_size("the environment map", std::mem::size_of_val(texels) as u64)?;
+        let buffer = ctx.scoped("environment upload", || {
+            buffer_init(
+                ctx,
+                "view pass environment",
+                bytemuck::cast_slice(texels),
+                wgpu::BufferUsages::STORAGE,
+            )
+        })?;
+        Ok(EnvBuffer {
+            kind,
+            size,
+            sky,
+            buffer,
+        })
+    }
+}
+
+/// A view pass's image on the GPU: one `vec4<f32>` per pixel (RGB, then padding), row 0
+/// at the top.
+#[derive(Debug)]
+pub struct ImageBuffer {
+    buffer: wgpu::Buffer,
+    width: usize,
+    height: usize,
+}
+
+impl ImageBuffer {
+    /// Copies the pixels back to the host (waits for the GPU).
+    pub fn read(&self, ctx: &GpuContext) -> Result<Vec<[f32; 3]>, GpuError> {
+        let bytes = ctx.read_buffer(&self.buffer)?;
         // Copied rather than cast: the bytes come without `f32` alignment.
         let pixels: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&bytes);
-        Ok(pixels.iter().map(|p| [p[0], p[1], p[2]]).collect())
+        Ok(pixels
+            .iter()
+            .take(self.width * self.height)
+            .map(|p| [p[0], p[1], p[2]])
+            .collect())
+    }
+
+    /// `(width, height)` in pixels.
+    pub fn size(&self) -> (usize, usize) {
+        (self.width, self.height)
     }
 }
 

@@ -138,6 +138,12 @@ impl ZhTable {
         self.order
     }
 
+    /// The samples: `SAMPLES` rows of `order` zonal coefficients, row `k` at
+    /// `β = π k / (SAMPLES − 1)` (what the GPU uploads).
+    pub fn rows(&self) -> &[f64] {
+        &self.rows
+    }
+
     /// Zonal coefficients of a unit RBF seen from distance `d` (linear in β), into `out`.
     pub fn lookup_into(&self, d: f64, out: &mut [f64]) {
         let f = beta_of(d) / PI * (SAMPLES - 1) as f64;

@@ -108,33 +108,81 @@ pub fn source_radiance(
     let ss = single_scattering(kit, rbfs, medium, light, opts.exp, opts.source_points);
     let mut source = ss.source;
     stats.single_seconds = t.elapsed().as_secs_f64();
-    if opts.multiple && !rbfs.is_empty() {
+    if opts.multiple {
         let t = Instant::now();
-        let sources = Sources {
-            escape: ss.escape,
-            ..moments(&source)
-        };
-        let sol = solver.solve(rbfs, medium, &sources, &opts.solve);
-        stats.cg_iterations = sol.iterations;
-        stats.cg_residual = sol.residual;
-        let ms = ms_source_sh(rbfs, medium, &sources, &sol.l0);
-        for (j, m) in source.iter_mut().zip(&ms) {
-            for c in 0..3 {
-                // Propagation → viewing direction: band 1 changes sign.
-                let add = [m[c][0], -m[c][1], -m[c][2], -m[c][3]];
-                for (k, v) in add.iter().enumerate().take(j[c].len()) {
-                    j[c][k] += v;
-                }
-            }
-        }
+        add_multiple_scattering(rbfs, medium, &mut source, ss.escape, opts, solver, stats);
         stats.multiple_seconds = t.elapsed().as_secs_f64();
     }
     source
 }
 
+/// Adds `J̃ms` to the single-scattering source `source` at the centers of `rbfs` (whose
+/// escape probabilities are `escape`): the diffusion solve (§5.4, warm-started by
+/// `solver`; its iterations and residual go to `stats`), then the multiple-scattering
+/// source as bands 0–1, turned from the direction of propagation to the viewing
+/// direction. Nothing to add without RBFs.
+pub fn add_multiple_scattering(
+    rbfs: &[Rbf],
+    medium: &Medium,
+    source: &mut [RgbSh],
+    escape: Vec<f64>,
+    opts: &CrmOptions,
+    solver: &mut DiffusionSolver,
+    stats: &mut CrmStats,
+) {
+    if rbfs.is_empty() {
+        return;
+    }
+    let sources = Sources {
+        escape,
+        ..moments(source)
+    };
+    let sol = solver.solve(rbfs, medium, &sources, &opts.solve);
+    stats.cg_iterations = sol.iterations;
+    stats.cg_residual = sol.residual;
+    let ms = ms_source_sh(rbfs, medium, &sources, &sol.l0);
+    for (j, m) in source.iter_mut().zip(&ms) {
+        for c in 0..3 {
+            // Propagation → viewing direction: band 1 changes sign.
+            let add = [m[c][0], -m[c][1], -m[c][2], -m[c][3]];
+            for (k, v) in add.iter().enumerate().take(j[c].len()) {
+                j[c][k] += v;
+            }
+        }
+    }
+}
+
+/// The source radiance at the centers of a frame's RBFs (RGB SH of `opts.order`, functions
+/// of the viewing direction): the SH tables of the order, the environment projected, then
+/// [`source_radiance`] with a fresh diffusion solver; the first stages of [`crm_grids`],
+/// and what a volume pass on the GPU takes. The stats hold the time so far.
+pub fn crm_sources(
+    rbfs: &[Rbf],
+    medium: &Medium,
+    env: &Environment,
+    opts: &CrmOptions,
+) -> (Vec<RgbSh>, CrmStats) {
+    let t = Instant::now();
+    let kit = ShKit::new(opts.order);
+    let light = sh::project_env(env, opts.order);
+    let mut stats = CrmStats {
+        setup_seconds: t.elapsed().as_secs_f64(),
+        ..CrmStats::default()
+    };
+    let mut solver = DiffusionSolver::new();
+    let source = source_radiance(&kit, rbfs, medium, &light, opts, &mut solver, &mut stats);
+    (source, stats)
+}
+
+/// The view pass's slice thickness `Δu` for `opts` (world units): the default half voxel
+/// at the paper's 2 slices per voxel.
+pub fn slice_thickness(dims: [usize; 3], bbox: &Bbox, opts: &CrmOptions) -> f64 {
+    crm::default_slice(dims, bbox) * 2.0 / opts.slices_per_voxel.max(1e-3)
+}
+
 /// The volume pass of a frame (RBFs over a `dims` grid on `bbox`, optional residual per
-/// voxel) after the source radiance at the centers: the grids a view pass renders, the
-/// slice thickness `Δu` of `opts` (world units), and the time so far.
+/// voxel) after the source radiance at the centers ([`crm_sources`]): the grids a view
+/// pass renders, the slice thickness `Δu` of `opts` (world units), and the time so far.
 #[allow(clippy::too_many_arguments)]
 pub fn crm_grids(
     rbfs: &[Rbf],
@@ -146,21 +194,12 @@ pub fn crm_grids(
     eye: [f64; 3],
     opts: &CrmOptions,
 ) -> (crm::VolumeGrids, f64, CrmStats) {
-    let t = Instant::now();
-    let kit = ShKit::new(opts.order);
-    let light = sh::project_env(env, opts.order);
-    let mut stats = CrmStats {
-        setup_seconds: t.elapsed().as_secs_f64(),
-        ..CrmStats::default()
-    };
-    let mut solver = DiffusionSolver::new();
-    let source = source_radiance(&kit, rbfs, medium, &light, opts, &mut solver, &mut stats);
+    let (source, mut stats) = crm_sources(rbfs, medium, env, opts);
     let t = Instant::now();
     let residual = if opts.residual { residual } else { None };
     let grids = crm::volume_pass(rbfs, &source, opts.order, dims, bbox, residual, eye);
     stats.volume_seconds = t.elapsed().as_secs_f64();
-    let du = crm::default_slice(dims, bbox) * 2.0 / opts.slices_per_voxel.max(1e-3);
-    (grids, du, stats)
+    (grids, slice_thickness(dims, bbox, opts), stats)
 }
 
 /// Renders a frame (RBFs over a `dims` grid on `bbox`, optional residual per voxel) by

@@ -196,6 +196,13 @@ impl ShExp {
         self.order
     }
 
+    /// The optimal linear table `(‖f̂‖, ln a, ln b)` at its tabulated norms, ascending from
+    /// 0 to [`NORM_MAX`] (fitted on first use; what the GPU uploads).
+    pub fn linear_table(&self) -> (&[f64], &[f64], &[f64]) {
+        let tb = self.table();
+        (&tb.norms, &tb.ln_a, &tb.ln_b)
+    }
+
     /// `(a, b)` of the optimal linear approximation at `‖f̂‖ = norm ∈ [0, NORM_MAX]`.
     pub fn coefficients(&self, norm: f64) -> (f64, f64) {
         let nu = norm.clamp(0.0, NORM_MAX);

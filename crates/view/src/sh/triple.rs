@@ -62,6 +62,12 @@ impl TripleProduct {
         self.entries.len()
     }
 
+    /// The stored entries `(i, j, k, Γ_ijk)`, one per `(i, {j, k})` with `j ≤ k`, sorted by
+    /// `i` (what the GPU uploads).
+    pub fn entries(&self) -> &[(u16, u16, u16, f64)] {
+        &self.entries
+    }
+
     /// `Γ_ijk` (zero when not stored).
     pub fn gamma(&self, i: usize, j: usize, k: usize) -> f64 {
         let (j, k) = (j.min(k), j.max(k));

@@ -1,0 +1,271 @@
+//! Frames on the GPU (paper A §5.6): single scattering at the centers, multiple scattering,
+//! the volume pass and the view pass, chained — the GPU twin of
+//! [`crate::render::crm_render`], frame after frame.
+//!
+//! Stages and where they run:
+//! 1. **Single scattering** at the RBF centers: GPU
+//!    ([`SingleScatteringPass`], `shaders/single_scattering.wgsl`).
+//! 2. **Multiple scattering**: the CPU ([`add_multiple_scattering`]: assembly and CG of
+//!    the diffusion, warm-started from the previous frame). The sources come back from
+//!    the GPU (`n²` RGB coefficients per RBF, 256 KB at 1000 RBFs and order 4) and go up
+//!    again with `J̃ms` added. The solve is a few milliseconds at the sizes of a smoke
+//!    asset (`BENCHMARKS.md`, "GPU frame time", which measures it); a GPU CG would pay
+//!    a dispatch and a reduction per iteration instead.
+//! 3. **Volume pass**: GPU ([`VolumePass::run_on`], reading the sources where stage 1
+//!    or 2 left them).
+//! 4. **View pass**: GPU ([`ViewPass::dispatch`]); the image stays on the GPU until
+//!    [`ImageBuffer::read`].
+//!
+//! **Reuse** (the paper's): the sources at the centers depend on the frame, the medium,
+//! the lighting and the SH knobs, not on the camera, so a new camera reuses them; the
+//! grids depend on the eye only through the viewing direction in `J̃(u, d)`, which the
+//! isotropic phase function (`g = 0`: every band above 0 of `J̃ss` and `J̃ms` is zero)
+//! removes, so a new camera with `g = 0` reuses the grids too and runs the view pass only.
+//! A frame is known by the `key` its caller gives ([`GpuFrame`]).
+
+use super::single_scattering::SingleScatteringPass;
+use super::view_pass::{EnvBuffer, ImageBuffer, ViewPass};
+use super::volume_pass::{Residual, VolumePass};
+use super::{GpuContext, GpuError, GridBuffer, SourceBuffer};
+use crate::diffusion::DiffusionSolver;
+use crate::lighting::single::{RgbSh, ShKit};
+use crate::render::{CrmOptions, CrmStats, add_multiple_scattering, slice_thickness};
+use crate::sh;
+use crate::{Camera, Environment, Medium};
+use haze_volume::{Bbox, Rbf};
+use std::time::Instant;
+
+/// One frame to render.
+#[derive(Clone, Copy, Debug)]
+pub struct GpuFrame<'a> {
+    /// Identifies the frame's RBFs, residual and grid: equal keys promise equal frames
+    /// (e.g. the frame index within one asset).
+    pub key: u64,
+    pub rbfs: &'a [Rbf],
+    pub residual: Option<Residual<'a>>,
+    pub dims: [usize; 3],
+    pub bbox: Bbox,
+}
+
+/// What a frame could take from the previous one.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Reuse {
+    /// Everything was computed.
+    #[default]
+    Nothing,
+    /// The sources at the centers (a new camera with an anisotropic phase function).
+    Sources,
+    /// The volume-pass grids (a new camera with `g = 0`): the view pass only.
+    Grids,
+}
+
+/// Where a frame's time went.
+#[derive(Clone, Debug, Default)]
+pub struct FrameStats {
+    /// Host seconds per stage, as [`crate::render::crm_render`] reports them. The GPU
+    /// stages are submitted, not waited for, except where the multiple scattering reads
+    /// the single scattering back (its wait and readback count as single scattering; the
+    /// multiple scattering is the CPU solve and the upload); see `gpu` for device times.
+    pub crm: CrmStats,
+    pub reuse: Reuse,
+    /// GPU seconds per pass (timestamp queries), when [`GpuContext::time_stages`] is on
+    /// and the device has them.
+    pub gpu: Vec<(&'static str, f64)>,
+}
+
+/// The sources' dependencies besides the frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct SourceKey {
+    frame: u64,
+    lighting: u64,
+    medium: Medium,
+    opts: CrmOptions,
+}
+
+/// A GPU renderer of frames, keeping what carries from one frame to the next: the SH
+/// tables of the order, the projected lighting, the diffusion's warm start, and the last
+/// frame's sources and grids for reuse.
+#[derive(Debug)]
+pub struct GpuRenderer {
+    env: Environment,
+    /// `env` on the GPU, for the view pass.
+    env_buffer: EnvBuffer,
+    /// Bumped when the environment changes.
+    lighting: u64,
+    /// The order's tables and its single-scattering pass, and the light in SH (projected
+    /// when first needed).
+    order: Option<(ShKit, SingleScatteringPass, Option<RgbSh>)>,
+    volume: VolumePass,
+    view: ViewPass,
+    solver: DiffusionSolver,
+    sources: Option<(SourceKey, SourceBuffer)>,
+    grid: Option<(SourceKey, Option<[f64; 3]>, GridBuffer)>,
+}
+
+impl GpuRenderer {
+    /// Compiles the passes; `env` lights the frames and fills the background.
+    pub fn new(ctx: &GpuContext, env: Environment) -> Result<GpuRenderer, GpuError> {
+        Ok(GpuRenderer {
+            env_buffer: EnvBuffer::upload(ctx, &env)?,
+            env,
+            lighting: 0,
+            order: None,
+            volume: VolumePass::new(ctx)?,
+            view: ViewPass::new(ctx)?,
+            solver: DiffusionSolver::new(),
+            sources: None,
+            grid: None,
+        })
+    }
+
+    /// The environment.
+    pub fn environment(&self) -> &Environment {
+        &self.env
+    }
+
+    /// Lights the next frames with `env` (and shows it behind the smoke). Refuses what
+    /// [`EnvBuffer::upload`] refuses, keeping the environment it had.
+    pub fn set_environment(&mut self, ctx: &GpuContext, env: Environment) -> Result<(), GpuError> {
+        self.env_buffer = EnvBuffer::upload(ctx, &env)?;
+        self.env = env;
+        self.lighting += 1;
+        if let Some((_, _, light)) = &mut self.order {
+            *light = None;
+        }
+        Ok(())
+    }
+
+    /// Forgets the previous frame: no reuse and no warm start for the next one.
+    pub fn reset(&mut self) {
+        self.solver.reset();
+        self.sources = None;
+        self.grid = None;
+    }
+
+    /// Renders `frame` seen by `camera` into an image on the GPU (submitted; read it with
+    /// [`ImageBuffer::read`]). Refuses what the stages refuse (an order outside 1..=6, a
+    /// residual of other dims, sizes beyond the device's limits).
+    pub fn render(
+        &mut self,
+        ctx: &GpuContext,
+        frame: &GpuFrame<'_>,
+        medium: &Medium,
+        camera: &Camera,
+        opts: &CrmOptions,
+    ) -> Result<(ImageBuffer, FrameStats), GpuError> {
+        let mut stats = FrameStats::default();
+        let t = Instant::now();
+        if !(1..=sh::MAX_ORDER).contains(&opts.order) {
+            return Err(GpuError::Input(format!(
+                "SH order {} is outside 1..={}",
+                opts.order,
+                sh::MAX_ORDER
+            )));
+        }
+        let (kit, single, light) = match self.order.take() {
+            Some(o) if o.0.order == opts.order => self.order.insert(o),
+            _ => {
+                let kit = ShKit::new(opts.order);
+                let pass = SingleScatteringPass::new(ctx, &kit)?;
+                self.order.insert((kit, pass, None))
+            }
+        };
+        let light = light.get_or_insert_with(|| sh::project_env(&self.env, opts.order));
+        stats.crm.setup_seconds = t.elapsed().as_secs_f64();
+
+        // The knobs that do not change the sources are left out of their key.
+        let key = SourceKey {
+            frame: frame.key,
+            lighting: self.lighting,
+            medium: *medium,
+            opts: CrmOptions {
+                residual: false,
+                slices_per_voxel: 0.0,
+                ..*opts
+            },
+        };
+        let sources_fresh = matches!(&self.sources, Some((k, _)) if *k == key);
+        let source = match self.sources.take() {
+            Some((k, buffer)) if sources_fresh => &self.sources.insert((k, buffer)).1,
+            _ => {
+                let t = Instant::now();
+                let mut buffer = single.run(
+                    ctx,
+                    kit,
+                    frame.rbfs,
+                    medium,
+                    light,
+                    opts.exp,
+                    opts.source_points,
+                )?;
+                stats.crm.single_seconds = t.elapsed().as_secs_f64();
+                if opts.multiple && !frame.rbfs.is_empty() {
+                    // The single scattering's wait and readback count as its time.
+                    let ss = buffer.read(ctx)?;
+                    stats.crm.single_seconds = t.elapsed().as_secs_f64();
+                    let t = Instant::now();
+                    let mut source = ss.source;
+                    add_multiple_scattering(
+                        frame.rbfs,
+                        medium,
+                        &mut source,
+                        ss.escape,
+                        opts,
+                        &mut self.solver,
+                        &mut stats.crm,
+                    );
+                    buffer = SourceBuffer::upload(ctx, &source, opts.order)?;
+                    stats.crm.multiple_seconds = t.elapsed().as_secs_f64();
+                }
+                self.grid = None;
+                &self.sources.insert((key, buffer)).1
+            }
+        };
+
+        // The grids: the eye matters unless the phase function is isotropic.
+        let eye = (medium.g != 0.0).then_some(camera.eye);
+        let grid_key = (
+            SourceKey {
+                opts: CrmOptions {
+                    residual: opts.residual,
+                    ..key.opts
+                },
+                ..key
+            },
+            eye,
+        );
+        let grid_fresh = matches!(&self.grid, Some((k, e, _)) if (*k, *e) == grid_key);
+        let grid = match self.grid.take() {
+            Some(g) if grid_fresh => &self.grid.insert(g).2,
+            _ => {
+                let t = Instant::now();
+                let residual = if opts.residual { frame.residual } else { None };
+                let grid = self.volume.run_on(
+                    ctx,
+                    frame.rbfs,
+                    source,
+                    frame.dims,
+                    &frame.bbox,
+                    residual,
+                    camera.eye,
+                )?;
+                stats.crm.volume_seconds = t.elapsed().as_secs_f64();
+                &self.grid.insert((grid_key.0, grid_key.1, grid)).2
+            }
+        };
+        stats.reuse = match (sources_fresh, grid_fresh) {
+            (_, true) => Reuse::Grids,
+            (true, false) => Reuse::Sources,
+            (false, false) => Reuse::Nothing,
+        };
+
+        let t = Instant::now();
+        let du = slice_thickness(frame.dims, &frame.bbox, opts);
+        let image = self
+            .view
+            .dispatch_in(ctx, grid, medium, &self.env_buffer, camera, du)?;
+        stats.crm.view_seconds = t.elapsed().as_secs_f64();
+        stats.gpu = ctx.take_stage_times()?;
+        Ok((image, stats))
+    }
+}

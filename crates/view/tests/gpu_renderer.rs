@@ -1,0 +1,254 @@
+//! The GPU renderer (`gpu::renderer`: single scattering, volume and view passes on the
+//! GPU, the diffusion on the CPU) against `crm_render`, and its reuse rules: a camera
+//! move reuses the sources, and with `g = 0` the grids too, giving the image a fresh
+//! render gives; a new frame, medium or lighting recomputes everything.
+//!
+//! These tests need a GPU adapter (a CPU one will do: Mesa's lavapipe, which
+//! `scripts/test.sh` installs) and fail with the reason when there is none.
+//!
+//! **Tolerance.** The chained volume and view passes match the CPU within 1.2e-6 of the
+//! brightest radiance (`gpu_volume_pass.rs`); single scattering on the GPU carries a
+//! relative error of up to 3e-5 per unit of optical depth `‖f‖` in `J̃ss`
+//! (`gpu_single_scattering.rs`; ‖f‖ ≤ 6 here, so ≤ 2e-4), which the view pass passes on
+//! scaled by the in-scattered radiance, itself below the brightest radiance; the diffusion
+//! solves to 1e-6 from sources that differ by as much. A pixel may also differ by the
+//! march's early exit, `OPAQUE` = 1e-4 of the brightest. So `|ΔI| ≤ 5e-4 · brightest`
+//! per pixel and channel leaves a margin of more than 1.5 over the sum.
+
+use haze_view::gpu::renderer::{GpuFrame, GpuRenderer, Reuse};
+use haze_view::render::{CrmOptions, crm_render};
+use haze_view::{Camera, Environment, LatLong, Medium, Sky};
+use haze_volume::Rbf;
+
+mod common;
+use common::{context, unit_box};
+
+fn cluster() -> Vec<Rbf> {
+    common::cluster(&unit_box())
+}
+
+fn camera(eye: [f64; 3]) -> Camera {
+    Camera::new(eye, [0.5, 0.5, 0.52], [0.0, 0.0, 1.0], 40.0, 44, 30).unwrap()
+}
+
+/// Largest difference relative to the brightest radiance of the CPU image, after
+/// asserting the module's bound.
+fn compare(gpu: &[[f32; 3]], cpu: &[[f32; 3]], what: &str) -> f64 {
+    assert_eq!(gpu.len(), cpu.len(), "{what}");
+    let bright = f64::from(cpu.iter().flatten().fold(0.0f32, |a, &b| a.max(b)));
+    let mut worst: f64 = 0.0;
+    for (i, (g, c)) in gpu.iter().zip(cpu).enumerate() {
+        for k in 0..3 {
+            let d = f64::from((g[k] - c[k]).abs());
+            assert!(
+                d <= 5e-4 * bright,
+                "{what}: pixel {i} channel {k}: GPU {g:?}, CPU {c:?} (brightest {bright})"
+            );
+            worst = worst.max(d / bright);
+        }
+    }
+    println!("{what}: largest difference {worst:.2e} of the brightest pixel");
+    worst
+}
+
+#[test]
+fn frames_match_crm_render_at_every_setting() {
+    let ctx = context();
+    let rbfs = cluster();
+    let bbox = unit_box();
+    let dims = [20, 24, 18];
+    let env = Environment::Sky(Sky::default());
+    let cam = camera([0.5, -1.3, 0.85]);
+    let mut r = GpuRenderer::new(&ctx, env.clone()).unwrap();
+    let frame = GpuFrame {
+        key: 0,
+        rbfs: &rbfs,
+        residual: None,
+        dims,
+        bbox,
+    };
+    for (order, multiple, g, sigma_t) in [
+        (2, true, 0.0, 5.0),
+        (4, true, 0.5, 5.0),
+        (4, false, -0.3, 5.0),
+        (6, true, 0.2, 12.0),
+        (1, true, 0.0, 5.0),
+    ] {
+        let opts = CrmOptions {
+            order,
+            multiple,
+            ..CrmOptions::default()
+        };
+        let medium = Medium::new(sigma_t, 0.9, g).unwrap();
+        let (cpu, _) = crm_render(&rbfs, None, dims, &bbox, &medium, &env, &cam, &opts);
+        let (image, stats) = r.render(&ctx, &frame, &medium, &cam, &opts).unwrap();
+        assert_eq!(stats.reuse, Reuse::Nothing, "a new medium or order");
+        let gpu = image.read(&ctx).unwrap();
+        compare(
+            &gpu,
+            &cpu.pixels,
+            &format!("order {order}, multiple {multiple}, g {g}, σt {sigma_t}"),
+        );
+    }
+}
+
+#[test]
+fn camera_moves_reuse_what_does_not_depend_on_the_camera() {
+    let ctx = context();
+    let rbfs = cluster();
+    let bbox = unit_box();
+    let dims = [16, 16, 16];
+    let env = Environment::Sky(Sky::default());
+    let opts = CrmOptions::default();
+    let frame = GpuFrame {
+        key: 7,
+        rbfs: &rbfs,
+        residual: None,
+        dims,
+        bbox,
+    };
+    let (a, b) = (camera([0.5, -1.3, 0.85]), camera([1.8, 0.2, 0.6]));
+    for g in [0.0, 0.6] {
+        let medium = Medium::new(6.0, 0.9, g).unwrap();
+        let mut r = GpuRenderer::new(&ctx, env.clone()).unwrap();
+        let (_, first) = r.render(&ctx, &frame, &medium, &a, &opts).unwrap();
+        assert_eq!(first.reuse, Reuse::Nothing);
+        let (moved, stats) = r.render(&ctx, &frame, &medium, &b, &opts).unwrap();
+        let expect = if g == 0.0 {
+            Reuse::Grids
+        } else {
+            Reuse::Sources
+        };
+        assert_eq!(stats.reuse, expect, "g {g}");
+        // The reused image is the fresh one: a new renderer computes everything.
+        let mut fresh = GpuRenderer::new(&ctx, env.clone()).unwrap();
+        let (again, _) = fresh.render(&ctx, &frame, &medium, &b, &opts).unwrap();
+        let (moved, again) = (moved.read(&ctx).unwrap(), again.read(&ctx).unwrap());
+        let (cpu, _) = crm_render(&rbfs, None, dims, &bbox, &medium, &env, &b, &opts);
+        compare(&moved, &cpu.pixels, &format!("reused, g {g}"));
+        compare(&again, &cpu.pixels, &format!("fresh, g {g}"));
+
+        // A knob of the view pass alone (slices) reuses the grids; the residual toggle
+        // reuses the sources; a new frame, medium or lighting recomputes everything.
+        let slices = CrmOptions {
+            slices_per_voxel: 3.0,
+            ..opts
+        };
+        let (_, s) = r.render(&ctx, &frame, &medium, &b, &slices).unwrap();
+        assert_eq!(s.reuse, Reuse::Grids);
+        let no_residual = CrmOptions {
+            residual: false,
+            ..slices
+        };
+        let (_, s) = r.render(&ctx, &frame, &medium, &b, &no_residual).unwrap();
+        assert_eq!(s.reuse, Reuse::Sources);
+        let next = GpuFrame { key: 8, ..frame };
+        let (_, s) = r.render(&ctx, &next, &medium, &b, &opts).unwrap();
+        assert_eq!(s.reuse, Reuse::Nothing);
+        let thicker = Medium::new(7.0, 0.9, g).unwrap();
+        let (_, s) = r.render(&ctx, &next, &thicker, &b, &opts).unwrap();
+        assert_eq!(s.reuse, Reuse::Nothing);
+        r.set_environment(
+            &ctx,
+            Environment::Sky(Sky {
+                sun_direction: [0.0, 0.0, 1.0],
+                ..Sky::default()
+            }),
+        )
+        .unwrap();
+        let (_, s) = r.render(&ctx, &next, &thicker, &b, &opts).unwrap();
+        assert_eq!(s.reuse, Reuse::Nothing);
+    }
+}
+
+#[test]
+fn a_lat_long_map_lights_and_fills_the_background_as_on_the_cpu() {
+    let ctx = context();
+    let rbfs = cluster();
+    let bbox = unit_box();
+    let dims = [16, 16, 16];
+    // A map with a warm upper half and a bright patch: texel jumps and an anisotropic light.
+    let (w, h) = (32, 16);
+    let texels = (0..w * h)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            if (10..14).contains(&x) && (3..6).contains(&y) {
+                [6.0, 5.0, 4.0]
+            } else if y < h / 2 {
+                [0.9, 0.7, 0.5]
+            } else {
+                [0.2, 0.25, 0.3]
+            }
+        })
+        .collect();
+    let env = Environment::Map(LatLong::new(w, h, texels).unwrap());
+    let medium = Medium::new(6.0, 0.9, 0.3).unwrap();
+    let opts = CrmOptions::default();
+    let cam = camera([0.5, -1.3, 0.85]);
+    let mut r = GpuRenderer::new(&ctx, Environment::Sky(Sky::default())).unwrap();
+    r.set_environment(&ctx, env.clone()).unwrap();
+    let frame = GpuFrame {
+        key: 1,
+        rbfs: &rbfs,
+        residual: None,
+        dims,
+        bbox,
+    };
+    let (image, _) = r.render(&ctx, &frame, &medium, &cam, &opts).unwrap();
+    let (cpu, _) = crm_render(&rbfs, None, dims, &bbox, &medium, &env, &cam, &opts);
+    compare(&image.read(&ctx).unwrap(), &cpu.pixels, "lat-long map");
+    // A sky the view pass cannot take is refused, and the map stays.
+    let bad = Environment::Sky(Sky {
+        sharpness: -1.0,
+        ..Sky::default()
+    });
+    let e = r.set_environment(&ctx, bad).unwrap_err();
+    assert!(e.to_string().contains("sharpness"), "{e}");
+    assert!(matches!(r.environment(), Environment::Map(_)));
+}
+
+#[test]
+fn stage_times_come_from_timestamps_where_the_device_has_them() {
+    let ctx = context();
+    let on = ctx.time_stages(true);
+    assert_eq!(on, ctx.has_timestamps());
+    let rbfs = cluster();
+    let mut r = GpuRenderer::new(&ctx, Environment::Sky(Sky::default())).unwrap();
+    let frame = GpuFrame {
+        key: 0,
+        rbfs: &rbfs,
+        residual: None,
+        dims: [12, 12, 12],
+        bbox: unit_box(),
+    };
+    let medium = Medium::new(5.0, 0.9, 0.0).unwrap();
+    let (_, stats) = r
+        .render(
+            &ctx,
+            &frame,
+            &medium,
+            &camera([0.5, -1.3, 0.85]),
+            &CrmOptions::default(),
+        )
+        .unwrap();
+    if on {
+        let names: Vec<&str> = stats.gpu.iter().map(|(n, _)| *n).collect();
+        assert_eq!(names, ["single scattering", "volume pass", "view pass"]);
+        assert!(stats.gpu.iter().all(|(_, t)| t.is_finite() && *t >= 0.0));
+        assert!(stats.gpu.iter().any(|(_, t)| *t > 0.0));
+    } else {
+        assert!(stats.gpu.is_empty());
+    }
+    // Off again: nothing is timed.
+    ctx.time_stages(false);
+    let (_, stats) = r
+        .render(
+            &ctx,
+            &frame,
+            &medium,
+            &camera([0.4, -1.3, 0.85]),
+            &CrmOptions::default(),
+        )
+        .unwrap();
+    assert!(stats.gpu.is_empty());
+}
