@@ -18,6 +18,11 @@ if ! ls /usr/share/vulkan/icd.d/lvp_icd*.json >/dev/null 2>&1 &&
     need_apt+=(mesa-vulkan-drivers libvulkan1)
     why+=("Mesa's lavapipe (Vulkan on the CPU) for the GPU tests")
 fi
+# The viewer's window test runs `haze view` on a virtual X display.
+if ! command -v Xvfb >/dev/null 2>&1; then
+    need_apt+=(xvfb)
+    why+=("Xvfb, a virtual X display for the viewer window's test")
+fi
 if ((${#need_apt[@]})); then
     reasons=$(IFS=';' && echo "${why[*]}")
     echo "test.sh: installing ${need_apt[*]} (${reasons//;/; })" >&2

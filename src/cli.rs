@@ -69,11 +69,31 @@ pub enum Command {
     ///
     /// By default with compensated ray marching on the CPU (paper A §5): single scattering
     /// at the RBF centers in spherical harmonics, multiple scattering by diffusion, the
-    /// residual put back in the march; `--gpu` runs its view pass on the GPU. `--reference`
-    /// instead path-traces the density (slow, for accuracy checks). A volume file is first
-    /// fitted with 300 RBFs. World units are the volume's; Z is up; the default camera
-    /// frames the smoke (voxels above 1 % of the peak density).
+    /// residual put back in the march; `--gpu` runs it on the GPU (all but the diffusion
+    /// solve). `--reference` instead path-traces the density (slow, for accuracy checks). A
+    /// volume file is first fitted with 300 RBFs. World units are the volume's; Z is up;
+    /// the default camera frames the smoke (voxels above 1 % of the peak density).
     Render(RenderCli),
+    /// Play a baked asset in a window, lit and rendered as it plays.
+    ///
+    /// Every shown frame is rendered by compensated ray marching (paper A §5): single
+    /// scattering at the RBF centers and multiple scattering by diffusion on the CPU, the
+    /// volume and view passes on the GPU (Vulkan, Metal or DX12; Mesa's lavapipe works
+    /// without a GPU). Frames stream from the file on a background thread and play at
+    /// --fps, looping; a frame that cannot be rendered in time is skipped (dropped). Only
+    /// what changed is recomputed: a camera move re-runs the two passes, a new frame or
+    /// light also the lighting. The camera starts framing the smoke of the first frame.
+    ///
+    /// Window: drag the image to orbit, scroll to zoom; the side panel plays, pauses,
+    /// steps and scrubs, shows the measured fps, dropped frames and the time of each
+    /// stage, and moves the sun, the medium, the SH order, the slices, multiple
+    /// scattering, the residual and the exposure. Space plays or pauses, the left and right
+    /// arrow keys step.
+    ///
+    /// --play-for SECONDS measures playback: it plays that long from the first picture,
+    /// prints one line (frames shown, due and dropped, frame times, fps) and exits. A
+    /// frame is dropped when its time slot (1/fps long) ends without it on screen.
+    View(ViewCli),
     /// Reconstruct one frame of a baked asset (RBFs + dequantized residual) as a dense
     /// volume, to compare a bake with its input.
     Export {
@@ -240,8 +260,9 @@ pub struct RenderCli {
     /// Compensated ray marching entirely on the CPU (the default).
     #[arg(long, conflicts_with_all = ["gpu", "reference"])]
     cpu: bool,
-    /// Run the view pass on the GPU (sources and volume pass stay on the CPU). Needs a
-    /// GPU adapter; Mesa's lavapipe (mesa-vulkan-drivers) works without a GPU.
+    /// Render on the GPU: single scattering, volume and view passes (the diffusion solve
+    /// of multiple scattering stays on the CPU). Needs a GPU adapter; Mesa's lavapipe
+    /// (mesa-vulkan-drivers) works without a GPU.
     #[arg(long)]
     gpu: bool,
     /// Samples per pixel of --reference.
@@ -252,6 +273,83 @@ pub struct RenderCli {
     exposure: f64,
     #[command(flatten)]
     import: ImportArgs,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct ViewCli {
+    /// A baked .haze asset (`haze bake` makes one).
+    input: PathBuf,
+    /// Playback rate in frames per second; 0 plays every frame as fast as it renders.
+    #[arg(long, default_value_t = 24.0)]
+    fps: f64,
+    /// Render resolution (the picture is scaled to the window; larger costs more, in the
+    /// view pass mostly).
+    #[arg(long, value_name = "WxH", default_value = "400x300", value_parser = crate::viewer::parse_size)]
+    size: (usize, usize),
+    /// Vertical field of view, degrees.
+    #[arg(long, default_value_t = 40.0)]
+    fov: f64,
+    /// Lighting: the built-in sky (its sun can be moved in the window), or a lat-long
+    /// OpenEXR map (Z up, row 0 the zenith).
+    #[arg(long, default_value = "sky", value_name = "sky|ENV.exr")]
+    env: String,
+    /// Extinction cross-section: κt = σt · density.
+    #[arg(long, default_value_t = 4.0)]
+    sigma_t: f64,
+    /// Single-scattering albedo, 0..1.
+    #[arg(long, default_value_t = 0.8)]
+    albedo: f64,
+    /// Henyey–Greenstein asymmetry, −1..1.
+    #[arg(long, default_value_t = 0.3, allow_hyphen_values = true)]
+    g: f64,
+    /// Spherical-harmonic order (bands), 1..6.
+    #[arg(long, default_value_t = 4)]
+    sh_order: usize,
+    /// View-pass slices per voxel (2: half a voxel apart, as in the paper).
+    #[arg(long, default_value_t = 2.0)]
+    slices: f64,
+    /// Start with single scattering only.
+    #[arg(long)]
+    no_multiple: bool,
+    /// Start without the residual (the RBF approximation alone).
+    #[arg(long)]
+    no_residual: bool,
+    /// Exposure applied before the sRGB encoding.
+    #[arg(long, default_value_t = 1.0)]
+    exposure: f64,
+    /// Play for SECONDS from the first picture, print one line of playback figures to
+    /// stdout and exit.
+    #[arg(long, value_name = "SECONDS")]
+    play_for: Option<f64>,
+    /// With --play-for: play without opening a window (the render thread and the clock
+    /// alone, no display needed).
+    #[arg(long, requires = "play_for")]
+    no_window: bool,
+}
+
+impl ViewCli {
+    fn into_args(self) -> crate::viewer::ViewArgs {
+        crate::viewer::ViewArgs {
+            input: self.input,
+            fps: self.fps,
+            width: self.size.0,
+            height: self.size.1,
+            fov: self.fov,
+            env: self.env,
+            knobs: crate::viewer::Knobs {
+                sigma_t: self.sigma_t,
+                albedo: self.albedo,
+                g: self.g,
+                sh_order: self.sh_order,
+                slices: self.slices,
+                multiple: !self.no_multiple,
+                residual: !self.no_residual,
+                exposure: self.exposure,
+            },
+            play_for: self.play_for,
+            window: !self.no_window,
+        }
+    }
 }
 
 impl RenderCli {
@@ -381,6 +479,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Bake(b) => crate::bake::run(b.into_args()?),
         Command::Render(r) => crate::render::run(r.into_args()),
+        Command::View(v) => crate::viewer::run(v.into_args()),
         Command::Merge { chunks, out } => crate::merge::run(&chunks, &out),
         Command::Export { asset, frame, out } => crate::export::run(&asset, frame, &out),
         Command::Inspect {

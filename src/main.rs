@@ -14,6 +14,7 @@ mod pack;
 mod progress;
 mod render;
 mod residual;
+mod viewer;
 
 use clap::Parser;
 use std::process::ExitCode;
@@ -55,9 +56,16 @@ fn init_logging(verbose: u8, quiet: bool) {
         (false, 2) => "debug",
         _ => "trace",
     };
-    // vdb-rs logs every metadata type it does not know (Blender writes several) as a warning.
+    // vdb-rs logs every metadata type it does not know (Blender writes several) as a warning;
+    // the viewer window's libraries warn about harmless display quirks (X settings, a
+    // software rasterizer) unless asked for more.
+    let window = if verbose == 0 {
+        ",winit=error,egui_wgpu=error"
+    } else {
+        ""
+    };
     let filter = EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| EnvFilter::new(format!("{level},vdb_rs=error")));
+        .unwrap_or_else(|_| EnvFilter::new(format!("{level},vdb_rs=error{window}")));
     tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr)

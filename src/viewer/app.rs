@@ -1,0 +1,512 @@
+//! The viewer window (eframe on wgpu): the rendered frame in the middle, orbited by
+//! dragging and zoomed by scrolling; playback, timing, light, medium and quality controls
+//! in a side panel. Space plays or pauses, the left and right arrow keys step.
+//!
+//! The window only shows pictures and collects input: rendering happens on the render
+//! thread with its own headless GPU device (eframe's device only draws the UI), driven by
+//! the [`Player`]. The UI is redrawn on input, when the render thread finishes a job, and
+//! when a finished frame falls due.
+
+use super::Knobs;
+use super::orbit::Orbit;
+use super::playback::Playback;
+use super::player::{Player, View};
+use super::worker::{FrameCursor, Worker};
+use anyhow::{Result, anyhow};
+use eframe::egui;
+use haze_view::env::{angles, direction};
+use haze_view::gpu::GpuContext;
+use haze_view::{Environment, Sky};
+use std::ops::RangeInclusive;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// What the window starts from.
+pub struct Setup {
+    pub title: String,
+    pub cursor: FrameCursor,
+    pub ctx: GpuContext,
+    pub playback: Playback,
+    /// When the command started (the first picture is timed from there).
+    pub started: Instant,
+    pub settings: Settings,
+}
+
+/// What the window keeps besides the player: the panel's state and the camera.
+pub struct Settings {
+    /// The render device, for the panel.
+    pub adapter: String,
+    /// Source frame numbers.
+    pub numbers: Vec<i64>,
+    pub orbit: Orbit,
+    pub knobs: Knobs,
+    pub env: Arc<Environment>,
+    /// Render resolution.
+    pub size: (usize, usize),
+    pub play_for: Option<f64>,
+}
+
+/// Opens the window and runs it until it is closed (or `--play-for` has played), then
+/// prints the measurement line of `--play-for`.
+pub fn run_window(setup: Setup) -> Result<()> {
+    let outcome: Arc<Mutex<Option<Result<String, String>>>> = Arc::default();
+    let out = outcome.clone();
+    let options = eframe::NativeOptions {
+        viewport: egui::ViewportBuilder::default()
+            .with_title(setup.title.as_str())
+            // Room for the panel beside the picture, which is scaled to fit.
+            .with_inner_size([
+                (setup.settings.size.0 as f32 + 320.0).max(1000.0),
+                (setup.settings.size.1 as f32 + 40.0).max(720.0),
+            ]),
+        ..Default::default()
+    };
+    let title = setup.title.clone();
+    eframe::run_native(
+        &title,
+        options,
+        Box::new(move |cc| {
+            let repaint = cc.egui_ctx.clone();
+            let Setup {
+                cursor,
+                ctx,
+                playback,
+                started,
+                settings,
+                ..
+            } = setup;
+            let worker = Worker::spawn(cursor, ctx, Box::new(move || repaint.request_repaint()))?;
+            Ok(Box::new(ViewerApp::new(
+                Player::new(playback, worker, started),
+                settings,
+                out,
+            )))
+        }),
+    )
+    .map_err(|e| {
+        anyhow!(
+            "cannot open the viewer window: {}",
+            one_line(&e.to_string())
+        )
+    })?;
+    let taken = outcome.lock().map(|mut o| o.take()).unwrap_or(None);
+    match taken {
+        Some(Ok(line)) => {
+            println!("{line}");
+            Ok(())
+        }
+        Some(Err(e)) => Err(anyhow!(e)),
+        None => Ok(()),
+    }
+}
+
+fn one_line(text: &str) -> String {
+    text.split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
+/// The light of the panel: the sky with its sun moved by two sliders, or a fixed map.
+enum Light {
+    Sky {
+        sky: Sky,
+        /// Degrees: from +X towards +Y, and above the horizon.
+        azimuth: f64,
+        elevation: f64,
+    },
+    Map,
+}
+
+/// The sliders' ranges: the usual span, widened to hold the value given on the command
+/// line (a slider clamps its value into its range).
+struct Ranges {
+    sigma_t: RangeInclusive<f64>,
+    g: RangeInclusive<f64>,
+    slices: RangeInclusive<f64>,
+    exposure: RangeInclusive<f64>,
+}
+
+fn span(lo: f64, hi: f64, value: f64) -> RangeInclusive<f64> {
+    lo.min(value)..=hi.max(value)
+}
+
+struct ViewerApp {
+    player: Player,
+    settings: Settings,
+    initial_orbit: Orbit,
+    light: Light,
+    texture: Option<egui::TextureHandle>,
+    /// The source frame number of the picture on screen.
+    showing: Option<i64>,
+    /// The frame rate of the rate field (kept while playing as fast as possible).
+    target_fps: f64,
+    ranges: Ranges,
+    /// Where `--play-for` leaves its line (or its error).
+    outcome: Arc<Mutex<Option<Result<String, String>>>>,
+    done: bool,
+}
+
+impl ViewerApp {
+    fn new(
+        player: Player,
+        settings: Settings,
+        outcome: Arc<Mutex<Option<Result<String, String>>>>,
+    ) -> ViewerApp {
+        let light = match &*settings.env {
+            Environment::Sky(sky) => {
+                let (theta, phi) = angles(sky.sun_direction);
+                Light::Sky {
+                    sky: sky.clone(),
+                    azimuth: phi.to_degrees(),
+                    elevation: 90.0 - theta.to_degrees(),
+                }
+            }
+            Environment::Map(_) => Light::Map,
+        };
+        let fps = player.playback.fps();
+        let k = &settings.knobs;
+        let ranges = Ranges {
+            sigma_t: span(0.0, 64.0, k.sigma_t),
+            g: span(-0.99, 0.99, k.g),
+            slices: span(0.5, 4.0, k.slices),
+            exposure: span(0.05, 20.0, k.exposure),
+        };
+        ViewerApp {
+            ranges,
+            target_fps: if fps > 0.0 {
+                fps.clamp(1.0, 240.0)
+            } else {
+                24.0
+            },
+            player,
+            initial_orbit: settings.orbit.clone(),
+            settings,
+            light,
+            texture: None,
+            showing: None,
+            outcome,
+            done: false,
+        }
+    }
+
+    /// The view of the current camera, knobs, light and exposure (the orbit keeps the
+    /// camera valid, and the sliders' ranges the medium).
+    fn view(&self) -> View {
+        let (w, h) = self.settings.size;
+        let camera = self
+            .settings
+            .orbit
+            .camera(w, h)
+            .expect("the orbit keeps the camera valid");
+        let scene = self
+            .settings
+            .knobs
+            .scene(self.settings.env.clone())
+            .expect("the sliders keep the medium valid");
+        View {
+            camera,
+            scene,
+            exposure: self.settings.knobs.exposure,
+        }
+    }
+
+    /// Moves the sky's sun to the sliders' direction.
+    fn update_light(&mut self) {
+        if let Light::Sky {
+            sky,
+            azimuth,
+            elevation,
+        } = &self.light
+        {
+            let sun = direction((90.0 - *elevation).to_radians(), azimuth.to_radians());
+            if let Environment::Sky(current) = &*self.settings.env
+                && current.sun_direction == sun
+            {
+                return;
+            }
+            self.settings.env = Arc::new(Environment::Sky(Sky {
+                sun_direction: sun,
+                ..sky.clone()
+            }));
+        }
+    }
+
+    /// `--play-for`: once it has played that long, leaves the line and closes.
+    fn check_play_for(&mut self, ctx: &egui::Context, now: Instant) {
+        let Some(limit) = self.settings.play_for else {
+            return;
+        };
+        if self.done {
+            return;
+        }
+        let result = if let Some(e) = &self.player.first_failure {
+            Some(Err(e.clone()))
+        } else if self.player.first_picture.is_some() && self.player.report(now).seconds >= limit {
+            let (w, h) = self.settings.size;
+            Some(Ok(self.player.summary(now, w, h)))
+        } else {
+            None
+        };
+        if let Some(r) = result {
+            if let Ok(mut o) = self.outcome.lock() {
+                *o = Some(r);
+            }
+            self.done = true;
+            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+        }
+    }
+
+    fn keys(&mut self, ctx: &egui::Context) {
+        if ctx.egui_wants_keyboard_input() {
+            return;
+        }
+        let (space, left, right) = ctx.input(|i| {
+            (
+                i.key_pressed(egui::Key::Space),
+                i.key_pressed(egui::Key::ArrowLeft),
+                i.key_pressed(egui::Key::ArrowRight),
+            )
+        });
+        let p = &mut self.player.playback;
+        if space {
+            if p.playing() {
+                p.pause();
+            } else {
+                p.play();
+            }
+        }
+        if left {
+            p.step(-1);
+        }
+        if right {
+            p.step(1);
+        }
+    }
+
+    fn controls(&mut self, ui: &mut egui::Ui, now: Instant) {
+        ui.heading("haze view");
+        ui.small(format!("GPU: {}", self.settings.adapter));
+        ui.separator();
+
+        let r = self.player.report(now);
+        let count = self.player.playback.frame_count();
+        let p = &mut self.player.playback;
+        ui.horizontal(|ui| {
+            if ui.button("step back").clicked() {
+                p.step(-1);
+            }
+            let label = if p.playing() { "pause" } else { "play" };
+            if ui.button(label).clicked() {
+                if p.playing() {
+                    p.pause();
+                } else {
+                    p.play();
+                }
+            }
+            if ui.button("step forward").clicked() {
+                p.step(1);
+            }
+        });
+        let mut k = p.current();
+        let number = self.settings.numbers.get(k).copied().unwrap_or(k as i64);
+        if ui
+            .add(egui::Slider::new(&mut k, 0..=count - 1).text(format!("frame ({number})")))
+            .changed()
+        {
+            p.seek(k);
+        }
+        let mut fastest = p.fps() == 0.0;
+        let target = &mut self.target_fps;
+        ui.horizontal(|ui| {
+            let changed_rate = ui
+                .add_enabled(
+                    !fastest,
+                    egui::DragValue::new(target)
+                        .range(1.0..=240.0)
+                        .suffix(" fps"),
+                )
+                .changed();
+            let changed_mode = ui.checkbox(&mut fastest, "as fast as possible").changed();
+            if changed_rate || changed_mode {
+                // The range keeps the rate valid.
+                let _ = p.set_fps(if fastest { 0.0 } else { *target });
+            }
+        });
+
+        if p.playing() {
+            ui.label(format!("measured {:.1} fps", r.fps));
+            ui.label(format!("dropped {} of {} due", r.dropped, r.due));
+            ui.label(format!(
+                "frame time mean {:.1} ms, max {:.1} ms",
+                r.mean_frame_seconds * 1e3,
+                r.max_frame_seconds * 1e3
+            ));
+        } else {
+            ui.label("paused");
+        }
+        if let Some(n) = self.showing {
+            ui.small(format!("showing frame {n}"));
+        }
+        ui.separator();
+
+        ui.label("render (ms; host, then GPU per pass)");
+        match &self.player.times {
+            Some(t) => {
+                let s = &t.crm;
+                let reused = if t.sources_reused { " (reused)" } else { "" };
+                let grids = if t.grids_reused { " (reused)" } else { "" };
+                egui::Grid::new("times").num_columns(2).show(ui, |ui| {
+                    let mut row = |name: &str, v: String| {
+                        ui.label(name);
+                        ui.monospace(v);
+                        ui.end_row();
+                    };
+                    row(
+                        "single scattering",
+                        format!("{:.1}{reused}", s.single_seconds * 1e3),
+                    );
+                    row(
+                        "multiple (CPU)",
+                        format!("{:.1} ({} CG)", s.multiple_seconds * 1e3, s.cg_iterations),
+                    );
+                    row(
+                        "volume pass",
+                        format!("{:.1}{grids}", s.volume_seconds * 1e3),
+                    );
+                    row("view pass", format!("{:.1}", s.view_seconds * 1e3));
+                    for (stage, seconds) in &t.gpu {
+                        row(&format!("GPU: {stage}"), format!("{:.2}", seconds * 1e3));
+                    }
+                    row(
+                        "whole job, mean",
+                        format!("{:.1}", self.player.mean_render_seconds() * 1e3),
+                    );
+                });
+            }
+            None => {
+                ui.small("rendering the first frame…");
+            }
+        }
+        if let Some(e) = &self.player.error {
+            ui.colored_label(egui::Color32::LIGHT_RED, e);
+        }
+        ui.separator();
+
+        match &mut self.light {
+            Light::Sky {
+                azimuth, elevation, ..
+            } => {
+                ui.label("sun");
+                ui.add(egui::Slider::new(azimuth, 0.0..=360.0).text("azimuth °"));
+                ui.add(egui::Slider::new(elevation, -10.0..=90.0).text("elevation °"));
+            }
+            Light::Map => {
+                ui.label("light: environment map (--env)");
+            }
+        }
+        self.update_light();
+        ui.separator();
+
+        let k = &mut self.settings.knobs;
+        let r = &self.ranges;
+        ui.label("medium");
+        ui.add(
+            egui::Slider::new(&mut k.sigma_t, r.sigma_t.clone())
+                .logarithmic(true)
+                .text("σt"),
+        );
+        ui.add(egui::Slider::new(&mut k.albedo, 0.0..=1.0).text("albedo"));
+        ui.add(egui::Slider::new(&mut k.g, r.g.clone()).text("HG g"));
+        ui.separator();
+        ui.label("quality");
+        ui.add(egui::Slider::new(&mut k.sh_order, 1..=6).text("SH order"));
+        ui.add(egui::Slider::new(&mut k.slices, r.slices.clone()).text("slices per voxel"));
+        ui.checkbox(&mut k.multiple, "multiple scattering");
+        ui.checkbox(&mut k.residual, "residual");
+        ui.add(
+            egui::Slider::new(&mut k.exposure, r.exposure.clone())
+                .logarithmic(true)
+                .text("exposure"),
+        );
+        ui.separator();
+        if ui.button("reset camera").clicked() {
+            self.settings.orbit = self.initial_orbit.clone();
+        }
+        ui.small("drag the image to orbit, scroll to zoom; space: play/pause, left/right arrow keys: step");
+    }
+
+    fn image(&mut self, ui: &mut egui::Ui) {
+        let avail = ui.available_size();
+        let (rect, response) = ui.allocate_exact_size(avail, egui::Sense::drag());
+        if let Some(tex) = &self.texture {
+            let [w, h] = tex.size().map(|n| n as f32);
+            let scale = (rect.width() / w).min(rect.height() / h);
+            let shown = egui::Rect::from_center_size(rect.center(), egui::vec2(w, h) * scale);
+            let uv = egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0));
+            ui.painter()
+                .image(tex.id(), shown, uv, egui::Color32::WHITE);
+        }
+        if response.dragged() {
+            let d = response.drag_delta();
+            self.settings.orbit.drag(f64::from(d.x), f64::from(d.y));
+        }
+        if response.hovered() {
+            let scroll = ui.input(|i| i.smooth_scroll_delta.y);
+            if scroll != 0.0 {
+                self.settings.orbit.zoom(f64::from(scroll) / 40.0);
+            }
+        }
+    }
+}
+
+impl eframe::App for ViewerApp {
+    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+        let ctx = ui.ctx().clone();
+        let now = Instant::now();
+        self.keys(&ctx);
+        let before = self.view();
+        let update = self.player.update(now, &before);
+        if let Some(p) = update.shown {
+            let image = egui::ColorImage::from_rgb([p.width, p.height], &p.rgb);
+            match &mut self.texture {
+                Some(t) => t.set(image, egui::TextureOptions::LINEAR),
+                None => {
+                    self.texture =
+                        Some(ctx.load_texture("smoke", image, egui::TextureOptions::LINEAR));
+                }
+            }
+            self.showing = Some(p.number);
+        }
+        self.check_play_for(&ctx, now);
+
+        egui::Panel::left("controls")
+            .resizable(false)
+            .default_size(290.0)
+            .show(ui, |ui| {
+                egui::ScrollArea::vertical().show(ui, |ui| self.controls(ui, now));
+            });
+        egui::CentralPanel::default().show(ui, |ui| self.image(ui));
+
+        // A knob or the camera moved during this pass: the next pass hands the new view
+        // to the render thread. Otherwise the next pass comes when a picture falls due,
+        // when `--play-for` ends, or after a moment while playing (to keep the figures
+        // moving); the render thread wakes the window when it finishes a job.
+        if self.view() != before {
+            ctx.request_repaint();
+        } else {
+            let mut next = update.wake_at;
+            if let (Some(limit), false) = (self.settings.play_for, self.done) {
+                let left = limit - self.player.report(now).seconds;
+                if self.player.first_picture.is_some() {
+                    let end = now + Duration::from_secs_f64(left.max(0.0));
+                    next = Some(next.map_or(end, |n| n.min(end)));
+                }
+            }
+            if self.player.playback.playing() {
+                let soon = now + Duration::from_millis(250);
+                next = Some(next.map_or(soon, |n| n.min(soon)));
+            }
+            if let Some(at) = next {
+                ctx.request_repaint_after(at.saturating_duration_since(now));
+            }
+        }
+    }
+}

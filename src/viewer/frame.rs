@@ -1,0 +1,342 @@
+//! One frame of compensated ray marching for the viewer: [`FrameRenderer`] is the one
+//! seam between the viewer and the GPU pipeline, a thin layer over
+//! [`haze_view::gpu::renderer::GpuRenderer`] (single scattering, volume and view passes on
+//! the GPU, the diffusion on the CPU) that takes a frame (RBFs and residual on a grid), a
+//! medium, an environment, a camera and the [`CrmOptions`], and gives linear RGB pixels
+//! and where the time went.
+//!
+//! What carries between calls is the renderer's — the paper's reuse across frames: the
+//! compiled passes, the SH tables of the order and the projected light (rebuilt when the
+//! order or the environment changes), the diffusion solver (each solve starts from the
+//! previous frame's solution), the sources at the centers (reused while the frame, the
+//! medium, the light and the lighting options are unchanged: a camera move, the residual
+//! toggle or the slice count re-run the passes only) and, with the isotropic phase
+//! function, the volume-pass grids (a camera move re-runs the view pass only). A frame is
+//! known by a hash of its RBFs, grid and residual.
+
+use haze_view::gpu::renderer::{GpuFrame, GpuRenderer, Reuse};
+use haze_view::gpu::volume_pass::Residual;
+use haze_view::gpu::{GpuContext, GpuError};
+use haze_view::render::{CrmOptions, CrmStats};
+use haze_view::{Camera, Environment, Medium, Sky};
+use haze_volume::{Bbox, Rbf};
+use std::hash::{Hash, Hasher};
+use std::sync::Arc;
+
+/// Where the time of one [`FrameRenderer::render`] went.
+#[derive(Clone, Debug, Default)]
+pub struct StageTimes {
+    /// Host seconds per stage (setup when the SH tables or the light were rebuilt, single
+    /// scattering with its readback, the diffusion solve, the passes' submission); CG
+    /// iterations of the diffusion solve.
+    pub crm: CrmStats,
+    /// The sources at the centers were the previous call's (nothing they depend on
+    /// changed).
+    pub sources_reused: bool,
+    /// The volume-pass grids were the previous call's too (view pass only).
+    pub grids_reused: bool,
+    /// GPU seconds per pass, from timestamp queries where the device has them.
+    pub gpu: Vec<(&'static str, f64)>,
+}
+
+/// Renders frames on the GPU, reusing what did not change since the previous frame
+/// (module docs).
+#[derive(Debug)]
+pub struct FrameRenderer {
+    inner: GpuRenderer,
+}
+
+/// A key for the frame: equal for equal RBFs, grid and residual.
+fn frame_key(rbfs: &[Rbf], residual: Option<Residual<'_>>, dims: [usize; 3], bbox: &Bbox) -> u64 {
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    for b in rbfs {
+        for v in b.center.iter().chain([&b.radius, &b.weight]) {
+            v.to_bits().hash(&mut h);
+        }
+    }
+    dims.hash(&mut h);
+    for v in bbox.min.iter().chain(&bbox.max) {
+        v.to_bits().hash(&mut h);
+    }
+    match residual {
+        None => 0u8.hash(&mut h),
+        Some(Residual::Dense(r)) => {
+            1u8.hash(&mut h);
+            r.iter().for_each(|v| v.to_bits().hash(&mut h));
+        }
+        Some(Residual::Hash(slot)) => {
+            2u8.hash(&mut h);
+            (Arc::as_ptr(&slot.group) as usize).hash(&mut h);
+            slot.slot.hash(&mut h);
+        }
+    }
+    h.finish()
+}
+
+impl FrameRenderer {
+    /// Compiles the GPU passes on `ctx` and turns on its per-pass GPU timing.
+    pub fn new(ctx: &GpuContext) -> Result<FrameRenderer, GpuError> {
+        ctx.time_stages(true);
+        Ok(FrameRenderer {
+            inner: GpuRenderer::new(ctx, Environment::Sky(Sky::default()))?,
+        })
+    }
+
+    /// The image of a frame — `rbfs` and `residual` on a `dims` grid over `bbox` — lit by
+    /// `env` through `medium`, seen by `camera` (RGB per pixel, row 0 at the top), as
+    /// [`haze_view::render::crm_render`] computes it, read back from the GPU. The residual
+    /// is left out when `opts.residual` is off. Errors are the GPU stages' (bad input,
+    /// device limits, device errors).
+    #[allow(clippy::too_many_arguments)]
+    pub fn render(
+        &mut self,
+        ctx: &GpuContext,
+        rbfs: &[Rbf],
+        residual: Option<Residual<'_>>,
+        dims: [usize; 3],
+        bbox: &Bbox,
+        medium: &Medium,
+        env: &Environment,
+        camera: &Camera,
+        opts: &CrmOptions,
+    ) -> Result<(Vec<[f32; 3]>, StageTimes), GpuError> {
+        if self.inner.environment() != env {
+            self.inner.set_environment(ctx, env.clone())?;
+        }
+        let frame = GpuFrame {
+            key: frame_key(rbfs, residual, dims, bbox),
+            rbfs,
+            residual,
+            dims,
+            bbox: *bbox,
+        };
+        let (image, stats) = self.inner.render(ctx, &frame, medium, camera, opts)?;
+        let pixels = image.read(ctx)?;
+        Ok((
+            pixels,
+            StageTimes {
+                crm: stats.crm,
+                sources_reused: stats.reuse != Reuse::Nothing,
+                grids_reused: stats.reuse == Reuse::Grids,
+                gpu: stats.gpu,
+            },
+        ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::testing::{DIMS, bbox, write_asset};
+    use super::*;
+    use haze_view::Sky;
+    use haze_view::render::crm_render;
+    use haze_view::stream::{FrameDecoder, StreamFrame};
+    use std::sync::Arc;
+
+    /// These tests need a GPU adapter (lavapipe will do) and fail without one.
+    fn context() -> GpuContext {
+        GpuContext::new().unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    fn frames(n: usize) -> (tempfile::TempDir, Vec<StreamFrame>) {
+        let dir = tempfile::tempdir().unwrap();
+        let path = write_asset(dir.path(), "a.haze", n);
+        let mut d = FrameDecoder::new(Arc::new(haze_asset::Asset::open(&path).unwrap()));
+        let frames = (0..n).map(|k| d.decode(k).unwrap()).collect();
+        (dir, frames)
+    }
+
+    fn camera(azimuth: f64) -> Camera {
+        let b = bbox();
+        let c = [0, 1, 2].map(|a| 0.5 * (b.min[a] + b.max[a]));
+        let eye = [
+            c[0] + 6.0 * azimuth.cos(),
+            c[1] + 6.0 * azimuth.sin(),
+            c[2] + 1.5,
+        ];
+        Camera::new(eye, c, [0.0, 0.0, 1.0], 30.0, 40, 30).unwrap()
+    }
+
+    /// The GPU's image against the CPU's: `f32` arithmetic (≈ 1e-6 relative, see
+    /// crates/view/tests/gpu_volume_pass.rs) and the march's early exit (a slice apart:
+    /// OPAQUE = 1e-4 of the brightest radiance, the sky's sun < 10).
+    fn assert_close(gpu: &[[f32; 3]], cpu: &[[f32; 3]]) {
+        assert_eq!(gpu.len(), cpu.len());
+        for (i, (g, c)) in gpu.iter().zip(cpu).enumerate() {
+            for k in 0..3 {
+                assert!(
+                    (g[k] - c[k]).abs() <= 1e-4 * c[k].abs() + 1e-3,
+                    "pixel {i}: GPU {g:?}, CPU {c:?}"
+                );
+            }
+        }
+    }
+
+    fn render(
+        r: &mut FrameRenderer,
+        ctx: &GpuContext,
+        f: &StreamFrame,
+        env: &Environment,
+        camera: &Camera,
+        opts: &CrmOptions,
+    ) -> (Vec<[f32; 3]>, StageTimes) {
+        let medium = Medium::new(6.0, 0.85, 0.3).unwrap();
+        let residual = f.residual.as_ref().map(Residual::Hash);
+        r.render(
+            ctx,
+            &f.rbfs,
+            residual,
+            DIMS,
+            &bbox(),
+            &medium,
+            env,
+            camera,
+            opts,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn renders_what_crm_render_computes_and_reuses_the_sources() {
+        let ctx = context();
+        let (_dir, frames) = frames(2);
+        let env = Environment::Sky(Sky::default());
+        let opts = CrmOptions::default();
+        let medium = Medium::new(6.0, 0.85, 0.3).unwrap();
+        let mut r = FrameRenderer::new(&ctx).unwrap();
+        let f = &frames[0];
+        let (a, t) = render(&mut r, &ctx, f, &env, &camera(-1.0), &opts);
+        assert!(!t.sources_reused && t.crm.single_seconds > 0.0);
+        assert!(t.crm.cg_iterations > 0 && t.crm.view_seconds > 0.0);
+        let dense = f.residual.as_ref().unwrap().dense();
+        let (cpu, _) = crm_render(
+            &f.rbfs,
+            Some(&dense),
+            DIMS,
+            &bbox(),
+            &medium,
+            &env,
+            &camera(-1.0),
+            &opts,
+        );
+        assert_close(&a, &cpu.pixels);
+        // The smoke is in the picture: the middle differs from the empty sky's.
+        let (sky, _) = crm_render(
+            &[],
+            None,
+            DIMS,
+            &bbox(),
+            &medium,
+            &env,
+            &camera(-1.0),
+            &opts,
+        );
+        let mid = 15 * 40 + 20;
+        assert!((cpu.pixels[mid][2] - sky.pixels[mid][2]).abs() > 0.05);
+
+        // Another camera, the same frame and light: the sources are the first render's,
+        // so the image is a fresh renderer's to the bit.
+        let (b, t) = render(&mut r, &ctx, f, &env, &camera(0.5), &opts);
+        assert!(t.sources_reused);
+        assert_eq!((t.crm.single_seconds, t.crm.cg_iterations), (0.0, 0));
+        let mut fresh = FrameRenderer::new(&ctx).unwrap();
+        assert_eq!(b, render(&mut fresh, &ctx, f, &env, &camera(0.5), &opts).0);
+        assert_ne!(a, b);
+        // Without the residual, or with other slices: the passes only, and the CPU's
+        // image of those options.
+        for o in [
+            CrmOptions {
+                residual: false,
+                ..opts
+            },
+            CrmOptions {
+                slices_per_voxel: 3.0,
+                ..opts
+            },
+        ] {
+            let (c, t) = render(&mut r, &ctx, f, &env, &camera(0.5), &o);
+            assert!(t.sources_reused);
+            let resid = o.residual.then_some(dense.as_slice());
+            let medium = Medium::new(6.0, 0.85, 0.3).unwrap();
+            let (cpu, _) = crm_render(
+                &f.rbfs,
+                resid,
+                DIMS,
+                &bbox(),
+                &medium,
+                &env,
+                &camera(0.5),
+                &o,
+            );
+            assert_close(&c, &cpu.pixels);
+        }
+    }
+
+    #[test]
+    fn the_light_the_order_and_the_frame_are_recomputed_when_they_change() {
+        let ctx = context();
+        let (_dir, frames) = frames(2);
+        let mut r = FrameRenderer::new(&ctx).unwrap();
+        let cam = camera(-0.7);
+        let opts = CrmOptions::default();
+        let sky = Sky::default();
+        render(
+            &mut r,
+            &ctx,
+            &frames[0],
+            &Environment::Sky(sky.clone()),
+            &cam,
+            &opts,
+        );
+        // The sun moved: a new projection, new sources — a fresh renderer's image.
+        let low_sun = Environment::Sky(Sky {
+            sun_direction: [0.6, -0.8, 0.0],
+            ..sky.clone()
+        });
+        let (a, t) = render(&mut r, &ctx, &frames[0], &low_sun, &cam, &opts);
+        assert!(!t.sources_reused && t.crm.single_seconds > 0.0);
+        let mut fresh = FrameRenderer::new(&ctx).unwrap();
+        assert_close(
+            &a,
+            &render(&mut fresh, &ctx, &frames[0], &low_sun, &cam, &opts).0,
+        );
+        // Order 2: new SH tables.
+        let o2 = CrmOptions { order: 2, ..opts };
+        let (b, t) = render(&mut r, &ctx, &frames[0], &low_sun, &cam, &o2);
+        assert!(!t.sources_reused);
+        let mut fresh = FrameRenderer::new(&ctx).unwrap();
+        assert_close(
+            &b,
+            &render(&mut fresh, &ctx, &frames[0], &low_sun, &cam, &o2).0,
+        );
+        // The next frame: its diffusion starts from this one's solution and converges to
+        // the same image.
+        let (c, t) = render(&mut r, &ctx, &frames[1], &low_sun, &cam, &opts);
+        assert!(!t.sources_reused);
+        let mut fresh = FrameRenderer::new(&ctx).unwrap();
+        assert_close(
+            &c,
+            &render(&mut fresh, &ctx, &frames[1], &low_sun, &cam, &opts).0,
+        );
+        // The warm start, seen through a solve cut short at two CG iterations: from the
+        // previous frame's solution it gets much closer than from zero.
+        let short = CrmOptions {
+            solve: haze_view::SolveOptions {
+                max_iterations: 2,
+                tolerance: 1e-12,
+            },
+            ..opts
+        };
+        render(&mut r, &ctx, &frames[0], &low_sun, &cam, &short);
+        let (_, warm) = render(&mut r, &ctx, &frames[1], &low_sun, &cam, &short);
+        let mut fresh = FrameRenderer::new(&ctx).unwrap();
+        let (_, cold) = render(&mut fresh, &ctx, &frames[1], &low_sun, &cam, &short);
+        assert_eq!((warm.crm.cg_iterations, cold.crm.cg_iterations), (2, 2));
+        assert!(
+            warm.crm.cg_residual < 0.5 * cold.crm.cg_residual,
+            "warm {:.2e} vs cold {:.2e}",
+            warm.crm.cg_residual,
+            cold.crm.cg_residual
+        );
+    }
+}

@@ -1,0 +1,219 @@
+//! `haze view`: plays a baked asset in a window, lit and rendered as it plays by
+//! compensated ray marching (paper A §5–6), with an orbit camera and live knobs.
+//!
+//! - [`playback`]: the clock — which frame is due, what was shown on time, what dropped;
+//! - [`orbit`]: the camera around the smoke;
+//! - [`frame`]: one frame's render (sources at the centers on the CPU, volume and view
+//!   passes on the GPU), reusing what did not change;
+//! - [`worker`]: the render thread (frame stream, GPU context, renderer);
+//! - [`player`]: the clock driving the render thread, shared by the window and
+//!   `--no-window`;
+//! - [`app`]: the egui window.
+
+mod app;
+pub mod frame;
+mod orbit;
+mod playback;
+mod player;
+#[cfg(test)]
+mod testing;
+mod worker;
+
+use anyhow::{Result, anyhow, bail};
+use haze_view::gpu::GpuContext;
+use haze_view::render::CrmOptions;
+use haze_view::stream::FrameStream;
+use haze_view::{Environment, Medium};
+use orbit::Orbit;
+use playback::Playback;
+use player::{Player, View};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+use worker::{FrameCursor, Scene, Worker};
+
+/// Frames the background reader decodes ahead of the renderer.
+const READ_AHEAD: usize = 4;
+
+/// Everything `haze view` was asked to do.
+#[derive(Debug)]
+pub struct ViewArgs {
+    pub input: PathBuf,
+    /// Frames per second; 0: as fast as they render.
+    pub fps: f64,
+    /// Render resolution.
+    pub width: usize,
+    pub height: usize,
+    /// Vertical field of view, degrees.
+    pub fov: f64,
+    pub env: String,
+    /// The starting values of the window's knobs.
+    pub knobs: Knobs,
+    /// Play this many seconds from the first picture, print the figures, exit.
+    pub play_for: Option<f64>,
+    /// Play without a window (with `play_for`).
+    pub window: bool,
+}
+
+/// The knobs of the window, with their values from the command line.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Knobs {
+    pub sigma_t: f64,
+    pub albedo: f64,
+    pub g: f64,
+    pub sh_order: usize,
+    pub slices: f64,
+    pub multiple: bool,
+    pub residual: bool,
+    pub exposure: f64,
+}
+
+impl Knobs {
+    /// The medium and the renderer's options of these knobs.
+    fn scene(&self, env: Arc<Environment>) -> Result<Scene, String> {
+        Ok(Scene {
+            medium: Medium::new(self.sigma_t, self.albedo, self.g)?,
+            env,
+            opts: CrmOptions {
+                order: self.sh_order,
+                multiple: self.multiple,
+                residual: self.residual,
+                slices_per_voxel: self.slices,
+                ..CrmOptions::default()
+            },
+        })
+    }
+}
+
+/// Parses a render size `WxH` (or `W×H`), each side 1..=8192 pixels.
+pub fn parse_size(s: &str) -> Result<(usize, usize), String> {
+    let bad = || format!("'{s}' is not a size WxH (e.g. 800x600)");
+    let (w, h) = s.split_once(['x', 'X', '×']).ok_or_else(bad)?;
+    let side = |t: &str| {
+        t.trim()
+            .parse::<usize>()
+            .ok()
+            .filter(|n| (1..=8192).contains(n))
+    };
+    match (side(w), side(h)) {
+        (Some(w), Some(h)) => Ok((w, h)),
+        _ => Err(format!("{}: sides must be 1 to 8192 pixels", bad())),
+    }
+}
+
+pub fn run(a: ViewArgs) -> Result<()> {
+    let started = Instant::now();
+    // Every knob is checked before anything opens.
+    let knobs = a.knobs;
+    crate::render::check_knobs(knobs.sh_order, knobs.slices)?;
+    Medium::new(knobs.sigma_t, knobs.albedo, knobs.g).map_err(|e| anyhow!("{e}"))?;
+    if !(knobs.exposure > 0.0 && knobs.exposure.is_finite()) {
+        bail!("--exposure {} must be positive", knobs.exposure);
+    }
+    if let Some(s) = a.play_for
+        && !(s > 0.0 && s.is_finite())
+    {
+        bail!("--play-for {s} must be a positive number of seconds");
+    }
+    if !a.window && a.play_for.is_none() {
+        bail!("--no-window plays only for a while: give --play-for SECONDS");
+    }
+    let env = Arc::new(crate::render::environment(&a.env)?);
+
+    // The asset: its first frame is read now, so a file that is not a baked asset is
+    // refused before any window opens; it also places the camera.
+    if a.input.is_dir() {
+        bail!(
+            "{}: a directory, not a baked asset (haze bake makes a .haze file of it)",
+            a.input.display()
+        );
+    }
+    let stream = FrameStream::open(&a.input, READ_AHEAD, true)?;
+    let numbers = stream.frame_numbers().to_vec();
+    let playback = Playback::new(stream.frame_count(), a.fps).map_err(|e| anyhow!(e))?;
+    let (dims, bbox) = stream.grid();
+    let mut cursor = FrameCursor::new(stream, READ_AHEAD);
+    let first = cursor.get(0).map_err(|e| anyhow!(e))?;
+    let (density, _) = crate::render::asset_density(dims, bbox, first)?;
+    let smoke = crate::render::smoke_bbox(&density);
+    let orbit = Orbit::framing(&smoke, a.fov, a.width, a.height)
+        .map_err(|e| anyhow!("{}: cannot frame the smoke: {e}", a.input.display()))?;
+
+    let ctx = GpuContext::new().map_err(|e| anyhow!("GPU: {e}"))?;
+    let adapter = format!("{} ({})", ctx.adapter_name(), ctx.backend());
+    tracing::info!("GPU: {adapter}");
+    // The first view (also the proof that the window's camera and scene are valid).
+    let initial = View {
+        camera: orbit
+            .camera(a.width, a.height)
+            .map_err(|e| anyhow!("camera: {e}"))?,
+        scene: knobs.scene(env.clone()).map_err(|e| anyhow!(e))?,
+        exposure: knobs.exposure,
+    };
+
+    if !a.window {
+        let play_for = a.play_for.unwrap_or_default();
+        let worker = Worker::spawn(cursor, ctx, Box::new(|| {}))?;
+        let mut player = Player::new(playback, worker, started);
+        let line = play_without_window(&mut player, &initial, play_for)?;
+        println!("{line}");
+        return Ok(());
+    }
+    app::run_window(app::Setup {
+        title: format!("haze view — {}", a.input.display()),
+        cursor,
+        ctx,
+        playback,
+        started,
+        settings: app::Settings {
+            adapter,
+            numbers,
+            orbit,
+            knobs,
+            env,
+            size: (a.width, a.height),
+            play_for: a.play_for,
+        },
+    })
+}
+
+/// Plays for `seconds` from the first picture with the view fixed, without a window, and
+/// gives the measurement line.
+fn play_without_window(player: &mut Player, view: &View, seconds: f64) -> Result<String> {
+    let (w, h) = (view.camera.width, view.camera.height);
+    loop {
+        let now = Instant::now();
+        let update = player.update(now, view);
+        if let Some(e) = &player.first_failure {
+            bail!("{e}");
+        }
+        let left = match player.first_picture {
+            Some(_) => seconds - player.report(now).seconds,
+            None => seconds,
+        };
+        if player.first_picture.is_some() && left <= 0.0 {
+            return Ok(player.summary(now, w, h));
+        }
+        let mut wait = Duration::from_secs_f64(left.clamp(0.0, 0.05));
+        if let Some(at) = update.wake_at {
+            wait = wait.min(at.saturating_duration_since(now));
+        }
+        player.wait(wait);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_parse_and_bad_ones_say_why() {
+        assert_eq!(parse_size("800x600"), Ok((800, 600)));
+        assert_eq!(parse_size("64×48"), Ok((64, 48)));
+        assert_eq!(parse_size(" 3 X 2 "), Ok((3, 2)));
+        for bad in ["800", "0x600", "800x", "x600", "9000x10", "-1x5", "axb"] {
+            let e = parse_size(bad).unwrap_err();
+            assert!(e.contains(bad) && e.contains("WxH"), "{bad}: {e}");
+        }
+    }
+}

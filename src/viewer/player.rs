@@ -1,0 +1,311 @@
+//! The player: the playback clock driving the render thread — what to render next, when a
+//! finished picture goes on screen, and the figures of the run. The window and
+//! `--no-window` both drive it, calling [`Player::update`] whenever anything may have
+//! happened.
+//!
+//! Scheduling: one job at a time on the render thread, and at most one finished picture
+//! waiting for its due time. While playing, the next tick is asked for as soon as the
+//! thread is free and nothing waits, aimed at the slot the render will end in (the
+//! expected render time is a running mean of the last jobs), so a renderer faster than the
+//! frame rate works a frame ahead and shows every frame on time, and a slower one skips to
+//! the frames it can still show (`playback` module docs: what counts as dropped). While
+//! paused, the frame on screen is rendered again only when the camera, the scene or the
+//! exposure changed (a change of exposure alone is only tone-mapped again).
+
+use super::playback::{PlayReport, Playback};
+use super::worker::{Done, Job, Picture, Scene, Worker};
+use haze_view::Camera;
+use std::time::{Duration, Instant};
+
+/// What the user looks through: everything of a job but the frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct View {
+    pub camera: Camera,
+    pub scene: Scene,
+    pub exposure: f64,
+}
+
+/// What [`Player::update`] did.
+#[derive(Debug, Default)]
+pub struct Update {
+    /// A picture to put on screen now.
+    pub shown: Option<Picture>,
+    /// When to call `update` again at the latest (a picture will be due then); besides,
+    /// call it when the render thread reports a finished job.
+    pub wake_at: Option<Instant>,
+}
+
+/// Weight of the newest job in the running mean of render times.
+const LEAD_WEIGHT: f64 = 0.3;
+
+/// The playback clock and the render thread together (module docs).
+#[derive(Debug)]
+pub struct Player {
+    pub playback: Playback,
+    worker: Worker,
+    /// A finished job taken from the thread while waiting, not handled yet.
+    arrived: Option<Done>,
+    /// A finished picture of a tick that is not due yet.
+    pending: Option<Done>,
+    /// The frame and view of the last job handed to the thread.
+    submitted: Option<(usize, View)>,
+    /// Expected seconds per job.
+    lead: f64,
+    /// Jobs that rendered (not only tone-mapped) and their seconds, for the report.
+    renders: u64,
+    render_seconds: f64,
+    /// The latest stage times, and the latest job's error until a picture is shown.
+    pub times: Option<super::frame::StageTimes>,
+    pub error: Option<String>,
+    /// Jobs that failed, and the first one's error.
+    pub failures: u64,
+    pub first_failure: Option<String>,
+    created: Instant,
+    /// From the player's creation to its first picture on screen.
+    pub first_picture: Option<Duration>,
+}
+
+impl Player {
+    /// A player of `playback` on `worker`; the time to the first picture counts from
+    /// `created`.
+    pub fn new(playback: Playback, worker: Worker, created: Instant) -> Player {
+        Player {
+            playback,
+            worker,
+            arrived: None,
+            pending: None,
+            submitted: None,
+            lead: 0.0,
+            renders: 0,
+            render_seconds: 0.0,
+            times: None,
+            error: None,
+            failures: 0,
+            first_failure: None,
+            created,
+            first_picture: None,
+        }
+    }
+
+    /// Waits at most `timeout` for the render thread to finish its job (for a loop
+    /// without a window; the window is woken by the thread instead).
+    pub fn wait(&mut self, timeout: Duration) {
+        if self.arrived.is_none() {
+            self.arrived = self.worker.wait(timeout);
+        }
+    }
+
+    /// Takes the finished job, shows what is due at `now`, and hands the next job to the
+    /// render thread (module docs).
+    pub fn update(&mut self, now: Instant, view: &View) -> Update {
+        let mut out = Update::default();
+        while let Some(done) = self
+            .arrived
+            .take()
+            .or_else(|| self.worker.wait(Duration::ZERO))
+        {
+            self.finished(done, now, &mut out);
+        }
+        if let Some(done) = self.pending.take() {
+            let tick = done.tick.expect("only ticks wait");
+            match self.playback.due_at(tick.n) {
+                Some(due) if due > now => {
+                    out.wake_at = Some(due);
+                    self.pending = Some(done);
+                }
+                _ => {
+                    if self.playback.present(tick, now) {
+                        self.show(done, now, &mut out);
+                    }
+                }
+            }
+        }
+        if !self.worker.busy() && self.pending.is_none() {
+            let lead = Duration::from_secs_f64(self.lead);
+            let next = self.playback.next_request(now, lead);
+            let frame = next.map_or(self.playback.current(), |t| t.frame);
+            let stale = self.submitted.as_ref() != Some(&(frame, view.clone()));
+            if next.is_some() || (!self.playback.playing() && stale) {
+                self.worker.submit(Job {
+                    tick: next,
+                    frame,
+                    camera: view.camera.clone(),
+                    scene: view.scene.clone(),
+                    exposure: view.exposure,
+                });
+                self.submitted = Some((frame, view.clone()));
+            }
+        }
+        out
+    }
+
+    fn finished(&mut self, done: Done, now: Instant, out: &mut Update) {
+        self.lead = if self.lead == 0.0 {
+            done.seconds
+        } else {
+            LEAD_WEIGHT * done.seconds + (1.0 - LEAD_WEIGHT) * self.lead
+        };
+        match (&done.picture, done.tick) {
+            (Err(e), tick) => {
+                if let Some(t) = tick {
+                    self.playback.missed(t, now);
+                }
+                self.failures += 1;
+                self.first_failure.get_or_insert_with(|| e.clone());
+                self.error = Some(e.clone());
+            }
+            // A tick of an earlier run (a seek, a pause) is dropped.
+            (Ok(_), Some(t)) if !self.playback.is_current(t) => {}
+            (Ok(_), Some(_)) => self.pending = Some(done),
+            (Ok(_), None) => self.show(done, now, out),
+        }
+    }
+
+    fn show(&mut self, done: Done, now: Instant, out: &mut Update) {
+        let Ok(picture) = done.picture else { return };
+        if let Some(t) = &picture.times {
+            self.renders += 1;
+            self.render_seconds += done.seconds;
+            self.times = Some(t.clone());
+        }
+        self.error = None;
+        self.first_picture
+            .get_or_insert_with(|| now.saturating_duration_since(self.created));
+        out.shown = Some(picture);
+    }
+
+    /// The current run's figures at `now`.
+    pub fn report(&self, now: Instant) -> PlayReport {
+        self.playback.report(now)
+    }
+
+    /// Mean seconds of the jobs that rendered (0 before any).
+    pub fn mean_render_seconds(&self) -> f64 {
+        if self.renders > 0 {
+            self.render_seconds / self.renders as f64
+        } else {
+            0.0
+        }
+    }
+
+    /// The measurement line of `--play-for`: the run's figures at `now`, the mean render
+    /// time and the time to the first picture.
+    pub fn summary(&self, now: Instant, width: usize, height: usize) -> String {
+        let r = self.report(now);
+        let fps = self.playback.fps();
+        let target = if fps > 0.0 {
+            format!("{fps} fps")
+        } else {
+            "as fast as possible".to_string()
+        };
+        format!(
+            "played {:.2} s at {target}, {width}×{height}: {} frames shown, {} due, {} dropped; frame time mean {:.1} ms, max {:.1} ms; {:.2} fps; render mean {:.1} ms; first picture after {:.2} s",
+            r.seconds,
+            r.shown,
+            r.due,
+            r.dropped,
+            r.mean_frame_seconds * 1e3,
+            r.max_frame_seconds * 1e3,
+            r.fps,
+            self.mean_render_seconds() * 1e3,
+            self.first_picture.unwrap_or_default().as_secs_f64()
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::testing::{bbox, write_asset};
+    use super::super::worker::FrameCursor;
+    use super::*;
+    use haze_view::gpu::GpuContext;
+    use haze_view::render::CrmOptions;
+    use haze_view::stream::FrameStream;
+    use haze_view::{Environment, Medium, Sky};
+    use std::sync::Arc;
+
+    fn view(azimuth: f64, exposure: f64) -> View {
+        let b = bbox();
+        let c = [0, 1, 2].map(|a| 0.5 * (b.min[a] + b.max[a]));
+        let eye = [
+            c[0] + 6.0 * azimuth.cos(),
+            c[1] + 6.0 * azimuth.sin(),
+            c[2] + 1.5,
+        ];
+        View {
+            camera: Camera::new(eye, c, [0.0, 0.0, 1.0], 30.0, 16, 12).unwrap(),
+            scene: Scene {
+                medium: Medium::new(6.0, 0.85, 0.3).unwrap(),
+                env: Arc::new(Environment::Sky(Sky::default())),
+                opts: CrmOptions::default(),
+            },
+            exposure,
+        }
+    }
+
+    /// Updates until the render thread is idle and nothing waits; the pictures shown.
+    fn settle(p: &mut Player, v: &View) -> Vec<Picture> {
+        let mut shown = Vec::new();
+        loop {
+            let u = p.update(Instant::now(), v);
+            shown.extend(u.shown);
+            if !p.worker.busy() && p.pending.is_none() && p.arrived.is_none() {
+                return shown;
+            }
+            p.wait(Duration::from_millis(100));
+        }
+    }
+
+    /// Needs a GPU adapter (lavapipe will do); fails without one.
+    #[test]
+    fn paused_it_renders_only_what_changed_and_playing_it_plays_in_order() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = write_asset(dir.path(), "a.haze", 4);
+        let ctx = GpuContext::new().unwrap_or_else(|e| panic!("{e}"));
+        let cursor = FrameCursor::new(FrameStream::open(&path, 2, true).unwrap(), 2);
+        let worker = Worker::spawn(cursor, ctx, Box::new(|| {})).unwrap();
+        let mut playback = Playback::new(4, 24.0).unwrap();
+        playback.pause();
+        let mut p = Player::new(playback, worker, Instant::now());
+        let numbers = |pics: &[Picture]| pics.iter().map(|x| x.number).collect::<Vec<_>>();
+
+        let v = view(0.2, 1.0);
+        let first = settle(&mut p, &v);
+        assert_eq!(numbers(&first), [101]);
+        assert!(first[0].times.is_some() && p.first_picture.is_some());
+        assert!(settle(&mut p, &v).is_empty(), "nothing changed");
+        // Exposure: tone-mapped again, not rendered.
+        let brighter = settle(&mut p, &view(0.2, 3.0));
+        assert_eq!(numbers(&brighter), [101]);
+        assert!(brighter[0].times.is_none());
+        // The camera: the passes again, the sources kept.
+        let turned = settle(&mut p, &view(1.2, 3.0));
+        assert_eq!(numbers(&turned), [101]);
+        assert!(p.times.as_ref().unwrap().sources_reused);
+        // A step: the next frame, lit anew.
+        p.playback.step(1);
+        let stepped = settle(&mut p, &view(1.2, 3.0));
+        assert_eq!(numbers(&stepped), [102]);
+        assert!(!p.times.as_ref().unwrap().sources_reused);
+
+        // Playing as fast as possible: every frame in turn from the one after the frame
+        // on screen, looping, none dropped.
+        p.playback.set_fps(0.0).unwrap();
+        p.playback.play();
+        let v = view(1.2, 3.0);
+        let mut shown = Vec::new();
+        while shown.len() < 6 {
+            shown.extend(p.update(Instant::now(), &v).shown);
+            p.wait(Duration::from_millis(100));
+        }
+        assert_eq!(numbers(&shown), [103, 104, 101, 102, 103, 104]);
+        let r = p.report(Instant::now());
+        assert_eq!((r.shown, r.due, r.dropped), (6, 6, 0));
+        assert_eq!(p.failures, 0);
+        let line = p.summary(Instant::now(), 16, 12);
+        assert!(
+            line.contains("as fast as possible, 16×12: 6 frames shown, 6 due, 0 dropped"),
+            "{line}"
+        );
+    }
+}

@@ -1,0 +1,384 @@
+//! The viewer's render thread: it owns the asset's frame stream, the headless GPU context
+//! and the [`FrameRenderer`], takes one [`Job`] at a time and hands back a tone-mapped
+//! picture, so the window stays responsive while a frame renders.
+//!
+//! A job whose frame, camera and scene equal the previous job's is not rendered again:
+//! the kept linear pixels are only tone-mapped with the new exposure.
+
+use super::frame::{FrameRenderer, StageTimes};
+use super::playback::Tick;
+use haze_view::gpu::GpuContext;
+use haze_view::gpu::volume_pass::Residual;
+use haze_view::render::CrmOptions;
+use haze_view::stream::{FrameStream, StreamFrame};
+use haze_view::{Camera, Environment, Image, Medium};
+use std::sync::Arc;
+use std::sync::mpsc::{Receiver, Sender, channel};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+/// What lights the frame and how: everything but the frame, the camera and the exposure.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    pub medium: Medium,
+    pub env: Arc<Environment>,
+    pub opts: CrmOptions,
+}
+
+/// One picture to make.
+#[derive(Clone, Debug)]
+pub struct Job {
+    /// The playback tick it is for (`None`: a still, shown as soon as it is ready).
+    pub tick: Option<Tick>,
+    /// The asset frame (0-based).
+    pub frame: usize,
+    pub camera: Camera,
+    pub scene: Scene,
+    /// Linear radiance is multiplied by it before the sRGB encoding.
+    pub exposure: f64,
+}
+
+/// A finished picture: 8-bit sRGB, three bytes per pixel, row 0 at the top.
+#[derive(Debug)]
+pub struct Picture {
+    /// The source frame number.
+    pub number: i64,
+    pub width: usize,
+    pub height: usize,
+    pub rgb: Vec<u8>,
+    /// The stages' times, `None` when the previous render was only tone-mapped again.
+    pub times: Option<StageTimes>,
+}
+
+/// A job done, with how long it took on the render thread.
+#[derive(Debug)]
+pub struct Done {
+    pub tick: Option<Tick>,
+    pub seconds: f64,
+    /// The picture, or why there is none (a damaged frame, a GPU error), on one line.
+    pub picture: Result<Picture, String>,
+}
+
+/// Reads the frames a renderer asks for out of a looping [`FrameStream`]: the next ones by
+/// taking them from its read-ahead queue (skipping a few on the way when playback skips
+/// them), any other by seeking. The frame asked for last is kept.
+#[derive(Debug)]
+pub struct FrameCursor {
+    stream: FrameStream,
+    /// Skips up to this many frames by reading through them; farther jumps seek.
+    ahead: usize,
+    /// The frame the stream delivers next.
+    next: usize,
+    current: Option<StreamFrame>,
+}
+
+impl FrameCursor {
+    /// A cursor over `stream`, which must be looping and at its start (frame 0); `ahead`
+    /// is its read-ahead.
+    pub fn new(stream: FrameStream, ahead: usize) -> FrameCursor {
+        FrameCursor {
+            stream,
+            ahead,
+            next: 0,
+            current: None,
+        }
+    }
+
+    pub fn stream(&self) -> &FrameStream {
+        &self.stream
+    }
+
+    /// Frame `k` (0-based, below the frame count) or its one-line error.
+    pub fn get(&mut self, k: usize) -> Result<&StreamFrame, String> {
+        if self.current.as_ref().is_some_and(|f| f.index == k) {
+            return Ok(self.current.as_ref().expect("checked above"));
+        }
+        let count = self.stream.frame_count();
+        if (k + count - self.next) % count > self.ahead {
+            self.stream.seek(k);
+            self.next = k;
+        }
+        self.current = None;
+        loop {
+            let i = self.next;
+            let frame = self.stream.next_frame().ok_or_else(|| {
+                format!("{}: the frame reader stopped", self.stream.path().display())
+            })?;
+            self.next = (i + 1) % count;
+            if i == k {
+                return frame.map(|f| &*self.current.insert(f));
+            }
+        }
+    }
+}
+
+/// The render thread (module docs).
+#[derive(Debug)]
+pub struct Worker {
+    jobs: Option<Sender<Job>>,
+    done: Receiver<Done>,
+    thread: Option<JoinHandle<()>>,
+    busy: bool,
+}
+
+/// The previous render, kept to tone-map it again.
+struct Kept {
+    frame: usize,
+    camera: Camera,
+    scene: Scene,
+    image: Image,
+    number: i64,
+}
+
+impl Worker {
+    /// Compiles the GPU passes on `ctx` and starts the thread, which reads frames through
+    /// `cursor` and calls `wake` after every job (to repaint a window).
+    pub fn spawn(
+        mut cursor: FrameCursor,
+        ctx: GpuContext,
+        wake: Box<dyn Fn() + Send>,
+    ) -> anyhow::Result<Worker> {
+        let renderer = FrameRenderer::new(&ctx).map_err(|e| anyhow::anyhow!("GPU: {e}"))?;
+        let (jobs, inbox) = channel::<Job>();
+        let (outbox, done) = channel();
+        let thread = std::thread::Builder::new()
+            .name("haze-render".into())
+            .spawn(move || {
+                let mut renderer = renderer;
+                let mut kept = None;
+                while let Ok(job) = inbox.recv() {
+                    let t = Instant::now();
+                    let picture = run_job(&ctx, &mut renderer, &mut cursor, &job, &mut kept);
+                    let done = Done {
+                        tick: job.tick,
+                        seconds: t.elapsed().as_secs_f64(),
+                        picture,
+                    };
+                    if outbox.send(done).is_err() {
+                        return;
+                    }
+                    wake();
+                }
+            })
+            .map_err(|e| anyhow::anyhow!("cannot start the render thread: {e}"))?;
+        Ok(Worker {
+            jobs: Some(jobs),
+            done,
+            thread: Some(thread),
+            busy: false,
+        })
+    }
+
+    /// A job is being worked on.
+    pub fn busy(&self) -> bool {
+        self.busy
+    }
+
+    /// Hands `job` to the thread (after the one in progress, if any).
+    pub fn submit(&mut self, job: Job) {
+        if let Some(jobs) = &self.jobs {
+            self.busy = jobs.send(job).is_ok();
+        }
+    }
+
+    /// The finished job, if there is one, waiting for it at most `timeout`. A render
+    /// thread that has stopped (it cannot, short of a bug) gives one failed job and takes
+    /// no more.
+    pub fn wait(&mut self, timeout: Duration) -> Option<Done> {
+        use std::sync::mpsc::RecvTimeoutError;
+        let done = if timeout.is_zero() {
+            self.done.try_recv().map_err(|e| match e {
+                std::sync::mpsc::TryRecvError::Empty => RecvTimeoutError::Timeout,
+                std::sync::mpsc::TryRecvError::Disconnected => RecvTimeoutError::Disconnected,
+            })
+        } else {
+            self.done.recv_timeout(timeout)
+        };
+        match done {
+            Ok(done) => {
+                self.busy = false;
+                Some(done)
+            }
+            Err(RecvTimeoutError::Timeout) => None,
+            Err(RecvTimeoutError::Disconnected) => self.jobs.take().map(|_| {
+                self.busy = false;
+                Done {
+                    tick: None,
+                    seconds: 0.0,
+                    picture: Err("the render thread stopped".into()),
+                }
+            }),
+        }
+    }
+}
+
+impl Drop for Worker {
+    fn drop(&mut self) {
+        // Closing the job channel ends the thread after its current job.
+        self.jobs = None;
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+fn run_job(
+    ctx: &GpuContext,
+    renderer: &mut FrameRenderer,
+    cursor: &mut FrameCursor,
+    job: &Job,
+    kept: &mut Option<Kept>,
+) -> Result<Picture, String> {
+    let (width, height) = (job.camera.width, job.camera.height);
+    let same = |k: &Kept| k.frame == job.frame && k.camera == job.camera && k.scene == job.scene;
+    let times = match kept.as_ref() {
+        Some(k) if same(k) => None,
+        _ => {
+            *kept = None;
+            let (dims, bbox) = cursor.stream().grid();
+            let frame = cursor.get(job.frame)?;
+            let (pixels, times) = renderer
+                .render(
+                    ctx,
+                    &frame.rbfs,
+                    frame.residual.as_ref().map(Residual::Hash),
+                    dims,
+                    &bbox,
+                    &job.scene.medium,
+                    &job.scene.env,
+                    &job.camera,
+                    &job.scene.opts,
+                )
+                .map_err(|e| format!("frame {}: {e}", frame.number))?;
+            tracing::debug!("frame {}: {}", frame.number, times.crm);
+            *kept = Some(Kept {
+                frame: job.frame,
+                camera: job.camera.clone(),
+                scene: job.scene.clone(),
+                image: Image {
+                    width,
+                    height,
+                    pixels,
+                },
+                number: frame.number,
+            });
+            Some(times)
+        }
+    };
+    let k = kept.as_ref().expect("rendered or kept above");
+    Ok(Picture {
+        number: k.number,
+        width,
+        height,
+        rgb: k.image.to_srgb8(job.exposure),
+        times,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::testing::write_asset;
+    use super::*;
+    use haze_view::stream::FrameDecoder;
+
+    fn view_job(frame: usize, azimuth: f64, exposure: f64) -> Job {
+        let b = super::super::testing::bbox();
+        let c = [0, 1, 2].map(|a| 0.5 * (b.min[a] + b.max[a]));
+        let eye = [
+            c[0] + 6.0 * azimuth.cos(),
+            c[1] + 6.0 * azimuth.sin(),
+            c[2] + 1.5,
+        ];
+        Job {
+            tick: None,
+            frame,
+            camera: Camera::new(eye, c, [0.0, 0.0, 1.0], 30.0, 24, 18).unwrap(),
+            scene: Scene {
+                medium: Medium::new(6.0, 0.85, 0.3).unwrap(),
+                env: Arc::new(Environment::Sky(haze_view::Sky::default())),
+                opts: CrmOptions::default(),
+            },
+            exposure,
+        }
+    }
+
+    /// Needs a GPU adapter (lavapipe will do); fails without one.
+    #[test]
+    fn jobs_render_or_only_tone_map_again() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = write_asset(dir.path(), "a.haze", 3);
+        let ctx = GpuContext::new().unwrap_or_else(|e| panic!("{e}"));
+        let cursor = FrameCursor::new(FrameStream::open(&path, 2, true).unwrap(), 2);
+        let mut w = Worker::spawn(cursor, ctx, Box::new(|| {})).unwrap();
+        let mut run = |job: Job| {
+            w.submit(job);
+            assert!(w.busy());
+            let done = w.wait(Duration::from_secs(120)).expect("the job finishes");
+            assert!(!w.busy());
+            done.picture.unwrap()
+        };
+        let a = run(view_job(2, 0.3, 1.0));
+        assert_eq!(
+            (a.number, a.width, a.height, a.rgb.len()),
+            (103, 24, 18, 24 * 18 * 3)
+        );
+        assert!(a.times.is_some());
+        // The same view at another exposure: the kept pixels, tone-mapped again — the
+        // encoding of a fresh render's pixels at that exposure.
+        let b = run(view_job(2, 0.3, 4.0));
+        assert!(b.times.is_none());
+        let ctx = GpuContext::new().unwrap();
+        let mut r = FrameRenderer::new(&ctx).unwrap();
+        let mut d =
+            haze_view::stream::FrameDecoder::new(Arc::new(haze_asset::Asset::open(&path).unwrap()));
+        let f = d.decode(2).unwrap();
+        let job = view_job(2, 0.3, 4.0);
+        let (pixels, _) = r
+            .render(
+                &ctx,
+                &f.rbfs,
+                f.residual.as_ref().map(Residual::Hash),
+                super::super::testing::DIMS,
+                &super::super::testing::bbox(),
+                &job.scene.medium,
+                &job.scene.env,
+                &job.camera,
+                &job.scene.opts,
+            )
+            .unwrap();
+        let image = Image {
+            width: 24,
+            height: 18,
+            pixels,
+        };
+        assert_eq!(b.rgb, image.to_srgb8(4.0));
+        assert_ne!(a.rgb, b.rgb);
+        // Another camera or frame renders again.
+        assert!(run(view_job(2, 0.9, 4.0)).times.is_some());
+        let c = run(view_job(0, 0.9, 4.0));
+        assert_eq!(c.number, 101);
+        assert!(c.times.is_some());
+    }
+
+    #[test]
+    fn the_cursor_reads_forward_skips_seeks_and_wraps() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = write_asset(dir.path(), "a.haze", 9);
+        let mut decoder = FrameDecoder::new(Arc::new(haze_asset::Asset::open(&path).unwrap()));
+        let mut cursor = FrameCursor::new(FrameStream::open(&path, 2, true).unwrap(), 2);
+        // In order, the same frame twice, skips within and beyond the read-ahead, back,
+        // past the end (wrapping) and a jump back to the start.
+        for k in [0, 1, 1, 2, 4, 8, 3, 3, 7, 8, 0, 2, 0] {
+            let want = decoder.decode(k).unwrap();
+            let got = cursor.get(k).unwrap();
+            assert_eq!((got.index, got.number), (k, 101 + k as i64));
+            assert_eq!(got.rbfs, want.rbfs, "frame {k}");
+            let (g, w) = (
+                got.residual.as_ref().unwrap(),
+                want.residual.as_ref().unwrap(),
+            );
+            assert_eq!(g.slot, w.slot);
+            assert_eq!(g.group.steps, w.group.steps);
+        }
+    }
+}
