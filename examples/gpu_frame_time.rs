@@ -9,8 +9,8 @@
 //! scattering: one warm-up frame (pipelines, SH tables), then `--repeat` frames from
 //! scratch (a new frame key each time, the diffusion solve cold), each timed from the call
 //! to the image finished on the GPU (no readback; a viewer displays it where it is). GPU
-//! time per pass comes from timestamp queries, the diffusion's host time from the
-//! renderer; medians are printed. A last row per configuration times a camera move with
+//! time per pass comes from timestamp queries, the host time of the diffusion operators
+//! (computed on the CPU for each new frame) from the renderer; medians are printed. A last row per configuration times a camera move with
 //! the isotropic phase function, which reuses the grids (view pass only). `--compare`
 //! also renders each configuration's frame on the CPU (`crm_render`) at 400 × 300 and
 //! prints the largest pixel difference relative to the brightest pixel. `--playback`
@@ -110,9 +110,9 @@ fn main() {
         return;
     }
     println!(
-        "| RBFs | size | SH | multiple | single (GPU ms) | diffusion (CPU ms) | volume (GPU ms) | view (GPU ms) | frame (ms) | fps | view only (ms) |"
+        "| RBFs | size | SH | multiple | single (GPU ms) | operators (CPU ms) | diffusion (GPU ms) | volume (GPU ms) | view (GPU ms) | frame (ms) | fps | view only (ms) |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     let sky = Environment::Sky(Sky::default());
     for path in &assets {
         let asset = Arc::new(Asset::open(path).unwrap_or_else(|e| fail(e)));
@@ -152,15 +152,16 @@ fn main() {
                         (t.elapsed().as_secs_f64(), stats)
                     };
                     run(0, &camera, true);
-                    let mut per: [Vec<f64>; 5] = Default::default();
+                    let mut per: [Vec<f64>; 6] = Default::default();
                     for k in 1..=repeat {
                         let (total, stats) = run(k as u64, &camera, true);
                         let gpu = |name| gpu_seconds(&stats, name);
                         per[0].push(gpu("single scattering"));
                         per[1].push(stats.crm.multiple_seconds);
-                        per[2].push(gpu("volume pass"));
-                        per[3].push(gpu("view pass"));
-                        per[4].push(total);
+                        per[2].push(gpu("diffusion") + gpu("multiple scattering source"));
+                        per[3].push(gpu("volume pass"));
+                        per[4].push(gpu("view pass"));
+                        per[5].push(total);
                     }
                     // A camera move with g = 0: the grids are reused.
                     let mut moved = camera.clone();
@@ -173,9 +174,9 @@ fn main() {
                         }
                         moved.eye[0] = -moved.eye[0] + 2.0 * camera.eye[0];
                     }
-                    let [s, m, v, vp, total] = per.map(|x| median(x) * 1e3);
+                    let [s, ops, m, v, vp, total] = per.map(|x| median(x) * 1e3);
                     println!(
-                        "| {} | {w}×{h} | {order} | {} | {s:.2} | {m:.2} | {v:.2} | {vp:.2} | {total:.2} | {:.0} | {:.2} |",
+                        "| {} | {w}×{h} | {order} | {} | {s:.2} | {ops:.2} | {m:.2} | {v:.2} | {vp:.2} | {total:.2} | {:.0} | {:.2} |",
                         frame.rbfs.len(),
                         if multiple { "yes" } else { "no" },
                         1e3 / total,
@@ -220,9 +221,9 @@ fn main() {
 /// Every frame of each asset in order, the diffusion warm-started and then cold.
 fn play(ctx: &GpuContext, assets: &[PathBuf], (w, h): (usize, usize), order: usize) {
     println!(
-        "| asset | frames | RBFs (mean) | diffusion start | CG iterations (median) | single (GPU ms) | diffusion (CPU ms) | volume (GPU ms) | view (GPU ms) | frame (ms) |"
+        "| asset | frames | RBFs (mean) | diffusion start | CG iterations (median) | single (GPU ms) | operators (CPU ms) | diffusion (GPU ms) | volume (GPU ms) | view (GPU ms) | frame (ms) |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     let sky = Environment::Sky(Sky::default());
     let medium = Medium::new(8.0, 0.9, 0.0).unwrap_or_else(|e| fail(e));
     let opts = CrmOptions {
@@ -241,7 +242,7 @@ fn play(ctx: &GpuContext, assets: &[PathBuf], (w, h): (usize, usize), order: usi
         let camera = Camera::framing(&bbox, 40.0, w, h).unwrap_or_else(|e| fail(e));
         for warm in [true, false] {
             let mut r = GpuRenderer::new(ctx, sky.clone()).unwrap_or_else(|e| fail(e));
-            let mut per: [Vec<f64>; 6] = Default::default();
+            let mut per: [Vec<f64>; 7] = Default::default();
             for (k, f) in frames.iter().enumerate() {
                 if !warm {
                     r.reset();
@@ -262,19 +263,21 @@ fn play(ctx: &GpuContext, assets: &[PathBuf], (w, h): (usize, usize), order: usi
                 let gpu = |name| gpu_seconds(&stats, name);
                 // The first frame has nothing to start from either way.
                 if k > 0 {
-                    per[0].push(f64::from(stats.crm.cg_iterations));
+                    let cg = r.diffusion_stats(ctx).unwrap_or_else(|e| fail(e));
+                    per[0].push(f64::from(cg.map_or(0, |d| d.iterations)));
                     per[1].push(gpu("single scattering") * 1e3);
                     per[2].push(stats.crm.multiple_seconds * 1e3);
-                    per[3].push(gpu("volume pass") * 1e3);
-                    per[4].push(gpu("view pass") * 1e3);
-                    per[5].push(total * 1e3);
+                    per[3].push((gpu("diffusion") + gpu("multiple scattering source")) * 1e3);
+                    per[4].push(gpu("volume pass") * 1e3);
+                    per[5].push(gpu("view pass") * 1e3);
+                    per[6].push(total * 1e3);
                 }
             }
             let rbfs = frames.iter().map(|f| f.rbfs.len()).sum::<usize>() as f64
                 / frames.len().max(1) as f64;
-            let [it, s, m, v, vp, total] = per.map(median);
+            let [it, s, ops, m, v, vp, total] = per.map(median);
             println!(
-                "| {} | {} | {rbfs:.0} | {} | {it:.0} | {s:.2} | {m:.2} | {v:.2} | {vp:.2} | {total:.2} |",
+                "| {} | {} | {rbfs:.0} | {} | {it:.0} | {s:.2} | {ops:.2} | {m:.2} | {v:.2} | {vp:.2} | {total:.2} |",
                 path.file_name()
                     .map_or(String::new(), |n| n.to_string_lossy().into_owned()),
                 frames.len(),

@@ -69,17 +69,15 @@ pub enum Command {
     ///
     /// By default with compensated ray marching on the CPU (paper A §5): single scattering
     /// at the RBF centers in spherical harmonics, multiple scattering by diffusion, the
-    /// residual put back in the march; `--gpu` runs it on the GPU (all but the diffusion
-    /// solve). `--reference` instead path-traces the density (slow, for accuracy checks). A
+    /// residual put back in the march; `--gpu` runs every stage of it on the GPU. `--reference` instead path-traces the density (slow, for accuracy checks). A
     /// volume file is first fitted with 300 RBFs. World units are the volume's; Z is up;
     /// the default camera frames the smoke (voxels above 1 % of the peak density).
     Render(RenderCli),
     /// Play a baked asset in a window, lit and rendered as it plays.
     ///
-    /// Every shown frame is rendered by compensated ray marching (paper A §5): single
-    /// scattering at the RBF centers and multiple scattering by diffusion on the CPU, the
-    /// volume and view passes on the GPU (Vulkan, Metal or DX12; Mesa's lavapipe works
-    /// without a GPU). Frames stream from the file on a background thread and play at
+    /// Every shown frame is rendered by compensated ray marching (paper A §5) on the GPU
+    /// (Vulkan, Metal or DX12; Mesa's lavapipe works without a GPU): single scattering at
+    /// the RBF centers, multiple scattering by diffusion, the volume and view passes. Frames stream from the file on a background thread and play at
     /// --fps, looping; a frame that cannot be rendered in time is skipped (dropped). Only
     /// what changed is recomputed: a camera move re-runs the two passes, a new frame or
     /// light also the lighting. The camera starts framing the smoke of the first frame.
@@ -260,8 +258,8 @@ pub struct RenderCli {
     /// Compensated ray marching entirely on the CPU (the default).
     #[arg(long, conflicts_with_all = ["gpu", "reference"])]
     cpu: bool,
-    /// Render on the GPU: single scattering, volume and view passes (the diffusion solve
-    /// of multiple scattering stays on the CPU). Needs a GPU adapter; Mesa's lavapipe
+    /// Render on the GPU: single scattering, the diffusion solve of multiple scattering,
+    /// the volume and view passes (in f32). Needs a GPU adapter; Mesa's lavapipe
     /// (mesa-vulkan-drivers) works without a GPU.
     #[arg(long)]
     gpu: bool,

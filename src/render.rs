@@ -166,7 +166,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
         let what = format!(
             "compensated ray marching{}, SH order {}, {}{}",
             match &gpu {
-                Some(ctx) => format!(" on the GPU ({}; diffusion on the CPU)", ctx.adapter_name()),
+                Some(ctx) => format!(" on the GPU ({})", ctx.adapter_name()),
                 None => String::new(),
             },
             a.sh_order,

@@ -1,7 +1,6 @@
 //! One frame of compensated ray marching for the viewer: [`FrameRenderer`] is the one
 //! seam between the viewer and the GPU pipeline, a thin layer over
-//! [`haze_view::gpu::renderer::GpuRenderer`] (single scattering, volume and view passes on
-//! the GPU, the diffusion on the CPU) that takes a frame (RBFs and residual on a grid), a
+//! [`haze_view::gpu::renderer::GpuRenderer`] (every stage on the GPU) that takes a frame (RBFs and residual on a grid), a
 //! medium, an environment, a camera and the [`CrmOptions`], and gives linear RGB pixels
 //! and where the time went.
 //!
@@ -26,9 +25,9 @@ use std::sync::Arc;
 /// Where the time of one [`FrameRenderer::render`] went.
 #[derive(Clone, Debug, Default)]
 pub struct StageTimes {
-    /// Host seconds per stage (setup when the SH tables or the light were rebuilt, single
-    /// scattering with its readback, the diffusion solve, the passes' submission); CG
-    /// iterations of the diffusion solve.
+    /// Host seconds per stage (setup when the SH tables or the light were rebuilt, the
+    /// passes' submission, a new frame's diffusion operators); CG iterations of the
+    /// diffusion solve, read back with the image.
     pub crm: CrmStats,
     /// The sources at the centers were the previous call's (nothing they depend on
     /// changed).
@@ -110,8 +109,14 @@ impl FrameRenderer {
             dims,
             bbox: *bbox,
         };
-        let (image, stats) = self.inner.render(ctx, &frame, medium, camera, opts)?;
+        let (image, mut stats) = self.inner.render(ctx, &frame, medium, camera, opts)?;
         let pixels = image.read(ctx)?;
+        if stats.solved
+            && let Some(d) = self.inner.diffusion_stats(ctx)?
+        {
+            stats.crm.cg_iterations = d.iterations;
+            stats.crm.cg_residual = d.residual;
+        }
         Ok((
             pixels,
             StageTimes {

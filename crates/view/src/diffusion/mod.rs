@@ -53,6 +53,7 @@
 mod basis;
 mod cgls;
 mod csr;
+mod operators;
 mod radiance;
 mod solver;
 mod system;
@@ -61,6 +62,7 @@ mod tests;
 
 pub use cgls::{Cgls, cgls};
 pub use csr::Csr;
+pub use operators::{OperatorEntry, Operators};
 pub use radiance::ms_source_sh;
 pub use solver::{DiffusionSolver, Solution, SolveOptions, solve_system};
 pub use system::{System, assemble};
@@ -115,20 +117,20 @@ fn finite_or_zero(v: f64) -> f64 {
 
 /// The coefficients of the diffusion equation that depend on the medium alone.
 #[derive(Clone, Copy, Debug)]
-struct Coefficients {
-    sigma_t: f64,
+pub(crate) struct Coefficients {
+    pub(crate) sigma_t: f64,
     /// Scattering `σs = Ω σt`.
-    sigma_s: f64,
+    pub(crate) sigma_s: f64,
     /// Absorption `σa = (1 − Ω) σt`.
-    sigma_a: f64,
+    pub(crate) sigma_a: f64,
     /// Reduced extinction `σtr = (1 − Ω g) σt`.
-    sigma_tr: f64,
+    pub(crate) sigma_tr: f64,
 }
 
 impl Coefficients {
     /// `None` when the medium does not interact with light (`σt = 0`) or is invalid
     /// (`σtr ≤ 0` or non-finite): then `S ≡ 0` and `L⁰ ≡ 0`.
-    fn of(m: &Medium) -> Option<Coefficients> {
+    pub(crate) fn of(m: &Medium) -> Option<Coefficients> {
         let sigma_tr = (1.0 - m.albedo * m.g) * m.sigma_t;
         let sigma_a = (1.0 - m.albedo) * m.sigma_t;
         let ok = sigma_tr > 0.0 && sigma_tr.is_finite() && sigma_a.is_finite();

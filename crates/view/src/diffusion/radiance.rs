@@ -16,15 +16,13 @@
 //! (DESIGN's eq. 11 factor `(1/4π)√(4π/(2l+1)) p_l` is the same number). The tests check it
 //! against quadrature of the defining integral.
 
-use super::basis::{Neighbours, active, local};
-use super::{Coefficients, Sources};
+use super::{Operators, Sources};
 use crate::Medium;
 use haze_volume::Rbf;
-use nalgebra::Vector3;
-use std::f64::consts::PI;
 
-/// `J_ms` at every center, per channel, as the 4 SH coefficients above. Inactive RBFs and
-/// a medium with `σt = 0` give zeros.
+/// `J_ms` at every center, per channel, as the 4 SH coefficients above
+/// ([`Operators::ms_source_sh`] on the operators of `rbfs`). Inactive RBFs and a medium
+/// with `σt = 0` give zeros.
 ///
 /// # Panics
 /// If `sources` or `l0` do not hold one entry per RBF.
@@ -34,38 +32,5 @@ pub fn ms_source_sh(
     sources: &Sources,
     l0: &[[f64; 3]],
 ) -> Vec<[[f64; 4]; 3]> {
-    let n = rbfs.len();
-    assert!(
-        sources.j1.len() == n && l0.len() == n,
-        "sources for {} and L⁰ for {} centers, {n} RBFs",
-        sources.j1.len(),
-        l0.len()
-    );
-    let Some(k) = Coefficients::of(medium) else {
-        return vec![[[0.0; 4]; 3]; n];
-    };
-    let act = active(rbfs);
-    let nb = Neighbours::new(rbfs, &act);
-    let band0 = medium.albedo * 2.0 * PI.sqrt();
-    let band1 = medium.albedo * medium.g * (4.0 * PI / 3.0).sqrt();
-    (0..n)
-        .map(|h| {
-            if !act[h] {
-                return [[0.0; 4]; 3];
-            }
-            let loc = local(rbfs, &nb, rbfs[h].center);
-            let d = loc.density;
-            let g = loc.grad / d;
-            [0, 1, 2].map(|c| {
-                let grad_l0: Vector3<f64> = loc
-                    .terms
-                    .iter()
-                    .map(|t| (t.grad / d - g * (t.v / d)) * l0[t.l][c])
-                    .sum();
-                let j1 = Vector3::from(sources.j1(h, c));
-                let l1 = (j1 * (k.sigma_t * d) - grad_l0) / (k.sigma_tr * d);
-                [band0 * l0[h][c], band1 * l1.y, band1 * l1.z, band1 * l1.x]
-            })
-        })
-        .collect()
+    Operators::new(rbfs).ms_source_sh(medium, sources, l0)
 }

@@ -13,6 +13,7 @@
 //! gets a [`GpuError`] from [`GpuContext::new`], never a panic. Headless Linux machines can
 //! use Mesa's lavapipe, a Vulkan driver on the CPU.
 
+pub mod diffusion;
 pub mod renderer;
 pub mod single_scattering;
 pub mod view_pass;
@@ -624,6 +625,16 @@ fn compute_pipeline(
     label: &'static str,
     source: &str,
 ) -> Result<wgpu::ComputePipeline, GpuError> {
+    compute_pipeline_at(ctx, label, source, "main")
+}
+
+/// [`compute_pipeline`] of the entry point `entry` (the layout: the bindings it uses).
+fn compute_pipeline_at(
+    ctx: &GpuContext,
+    label: &'static str,
+    source: &str,
+    entry: &str,
+) -> Result<wgpu::ComputePipeline, GpuError> {
     ctx.scoped(label, || {
         let module = ctx
             .device
@@ -636,7 +647,7 @@ fn compute_pipeline(
                 label: Some(label),
                 layout: None,
                 module: &module,
-                entry_point: Some("main"),
+                entry_point: Some(entry),
                 compilation_options: Default::default(),
                 cache: None,
             })

@@ -5,12 +5,11 @@
 //! Stages and where they run:
 //! 1. **Single scattering** at the RBF centers: GPU
 //!    ([`SingleScatteringPass`], `shaders/single_scattering.wgsl`).
-//! 2. **Multiple scattering**: the CPU ([`add_multiple_scattering`]: assembly and CG of
-//!    the diffusion, warm-started from the previous frame). The sources come back from
-//!    the GPU (`n²` RGB coefficients per RBF, 256 KB at 1000 RBFs and order 4) and go up
-//!    again with `J̃ms` added. The solve is a few milliseconds at the sizes of a smoke
-//!    asset (`BENCHMARKS.md`, "GPU frame time", which measures it); a GPU CG would pay
-//!    a dispatch and a reduction per iteration instead.
+//! 2. **Multiple scattering**: GPU ([`DiffusionPass`], `shaders/diffusion.wgsl`: the
+//!    system, CGLS in one dispatch and `J̃ms` added to the sources in place), from the
+//!    frame's geometric [`Operators`], computed on the CPU once per frame and kept while
+//!    the frame is unchanged (a new light or medium reuses them). The solve starts from
+//!    the previous frame's solution when the RBF count is unchanged.
 //! 3. **Volume pass**: GPU ([`VolumePass::run_on`], reading the sources where stage 1
 //!    or 2 left them).
 //! 4. **View pass**: GPU ([`ViewPass::dispatch`]); the image stays on the GPU until
@@ -23,13 +22,14 @@
 //! removes, so a new camera with `g = 0` reuses the grids too and runs the view pass only.
 //! A frame is known by the `key` its caller gives ([`GpuFrame`]).
 
+use super::diffusion::{DiffusionPass, DiffusionStats, OperatorBuffers};
 use super::single_scattering::SingleScatteringPass;
 use super::view_pass::{EnvBuffer, ImageBuffer, ViewPass};
 use super::volume_pass::{Residual, VolumePass};
 use super::{GpuContext, GpuError, GridBuffer, SourceBuffer};
-use crate::diffusion::DiffusionSolver;
+use crate::diffusion::Operators;
 use crate::lighting::single::{RgbSh, ShKit};
-use crate::render::{CrmOptions, CrmStats, add_multiple_scattering, slice_thickness};
+use crate::render::{CrmOptions, CrmStats, slice_thickness};
 use crate::sh;
 use crate::{Camera, Environment, Medium};
 use haze_volume::{Bbox, Rbf};
@@ -63,10 +63,13 @@ pub enum Reuse {
 #[derive(Clone, Debug, Default)]
 pub struct FrameStats {
     /// Host seconds per stage, as [`crate::render::crm_render`] reports them. The GPU
-    /// stages are submitted, not waited for, except where the multiple scattering reads
-    /// the single scattering back (its wait and readback count as single scattering; the
-    /// multiple scattering is the CPU solve and the upload); see `gpu` for device times.
+    /// stages are submitted, not waited for (the multiple scattering's host time is the
+    /// frame's operators, when new, and the submission); see `gpu` for device times. The
+    /// diffusion's CG iterations and residual stay on the GPU (0 here):
+    /// [`GpuRenderer::diffusion_stats`] reads them.
     pub crm: CrmStats,
+    /// The diffusion ran for this frame (else it had none, or reused the sources).
+    pub solved: bool,
     pub reuse: Reuse,
     /// GPU seconds per pass (timestamp queries), when [`GpuContext::time_stages`] is on
     /// and the device has them.
@@ -83,8 +86,8 @@ struct SourceKey {
 }
 
 /// A GPU renderer of frames, keeping what carries from one frame to the next: the SH
-/// tables of the order, the projected lighting, the diffusion's warm start, and the last
-/// frame's sources and grids for reuse.
+/// tables of the order, the projected lighting, the frame's diffusion operators, the
+/// diffusion's warm start, and the last frame's sources and grids for reuse.
 #[derive(Debug)]
 pub struct GpuRenderer {
     env: Environment,
@@ -97,7 +100,9 @@ pub struct GpuRenderer {
     order: Option<(ShKit, SingleScatteringPass, Option<RgbSh>)>,
     volume: VolumePass,
     view: ViewPass,
-    solver: DiffusionSolver,
+    diffusion: DiffusionPass,
+    /// The diffusion operators of the frame with this key.
+    operators: Option<(u64, OperatorBuffers)>,
     sources: Option<(SourceKey, SourceBuffer)>,
     grid: Option<(SourceKey, Option<[f64; 3]>, GridBuffer)>,
 }
@@ -112,7 +117,8 @@ impl GpuRenderer {
             order: None,
             volume: VolumePass::new(ctx)?,
             view: ViewPass::new(ctx)?,
-            solver: DiffusionSolver::new(),
+            diffusion: DiffusionPass::new(ctx)?,
+            operators: None,
             sources: None,
             grid: None,
         })
@@ -137,9 +143,14 @@ impl GpuRenderer {
 
     /// Forgets the previous frame: no reuse and no warm start for the next one.
     pub fn reset(&mut self) {
-        self.solver.reset();
+        self.diffusion.reset();
         self.sources = None;
         self.grid = None;
+    }
+
+    /// How the last diffusion solve ended (waits for the GPU); `None` before the first.
+    pub fn diffusion_stats(&self, ctx: &GpuContext) -> Result<Option<DiffusionStats>, GpuError> {
+        self.diffusion.stats(ctx)
     }
 
     /// Renders `frame` seen by `camera` into an image on the GPU (submitted; read it with
@@ -189,7 +200,7 @@ impl GpuRenderer {
             Some((k, buffer)) if sources_fresh => &self.sources.insert((k, buffer)).1,
             _ => {
                 let t = Instant::now();
-                let mut buffer = single.run(
+                let buffer = single.run(
                     ctx,
                     kit,
                     frame.rbfs,
@@ -200,22 +211,18 @@ impl GpuRenderer {
                 )?;
                 stats.crm.single_seconds = t.elapsed().as_secs_f64();
                 if opts.multiple && !frame.rbfs.is_empty() {
-                    // The single scattering's wait and readback count as its time.
-                    let ss = buffer.read(ctx)?;
-                    stats.crm.single_seconds = t.elapsed().as_secs_f64();
                     let t = Instant::now();
-                    let mut source = ss.source;
-                    add_multiple_scattering(
-                        frame.rbfs,
-                        medium,
-                        &mut source,
-                        ss.escape,
-                        opts,
-                        &mut self.solver,
-                        &mut stats.crm,
-                    );
-                    buffer = SourceBuffer::upload(ctx, &source, opts.order)?;
+                    let ops = match self.operators.take() {
+                        Some((k, ops)) if k == frame.key => self.operators.insert((k, ops)),
+                        _ => {
+                            let ops = OperatorBuffers::upload(ctx, &Operators::new(frame.rbfs))?;
+                            self.operators.insert((frame.key, ops))
+                        }
+                    };
+                    self.diffusion
+                        .run(ctx, &ops.1, medium, &buffer, &opts.solve)?;
                     stats.crm.multiple_seconds = t.elapsed().as_secs_f64();
+                    stats.solved = true;
                 }
                 self.grid = None;
                 &self.sources.insert((key, buffer)).1

@@ -1,0 +1,334 @@
+//! Multiple scattering on the GPU (`shaders/diffusion.wgsl`), the twin of
+//! [`crate::render::add_multiple_scattering`]: the diffusion system of
+//! [`Operators::system`], solved by the CGLS of [`crate::diffusion::cgls`], turned into the
+//! source of [`Operators::ms_source_sh`] and added to the sources at the centers, in `f32`
+//! and without leaving the GPU.
+//!
+//! The frame's [`Operators`] (geometry only, computed on the CPU once per frame) are
+//! uploaded once; the medium and the sources enter as scalars and as the
+//! [`SourceBuffer`] that single scattering left, so a new light or medium costs one
+//! dispatch. One workgroup per colour channel runs every CGLS iteration in that dispatch:
+//! no host round trip and no dispatch per iteration, at the price of using three of the
+//! GPU's compute units for this stage (an iteration is two sparse products and four
+//! workgroup reductions). The solution stays on the GPU as the next frame's start when the
+//! RBF count is unchanged (the CPU solver interpolates across counts; here a new count
+//! starts from zero).
+//!
+//! Accuracy: `f32` CGLS reaches about `κ(RAC)·ε_f32` in relative error of `L⁰` (a few
+//! `1e-4` at the condition numbers of `BENCHMARKS.md`, "Multiple scattering"), its
+//! recurrence residual keeps falling below that; the tests bound the difference from the
+//! CPU's `f64` solve by the condition number they compute.
+
+use super::{GpuContext, GpuError, SourceBuffer, buffer_init, compute_pipeline_at, submit_pass};
+use crate::Medium;
+use crate::diffusion::{Coefficients, Operators, SolveOptions};
+use std::f64::consts::PI;
+
+/// The shader.
+pub const SHADER: &str = include_str!("../../shaders/diffusion.wgsl");
+
+/// Invocations per workgroup of `add`.
+const ADD_GROUP: u32 = 64;
+
+/// The shader's `Params` uniform, 48 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+struct Params {
+    n: u32,
+    n2: u32,
+    max_iterations: u32,
+    warm: u32,
+    tolerance: f32,
+    sigma_t: f32,
+    sigma_s: f32,
+    sigma_a: f32,
+    sigma_tr: f32,
+    band0: f32,
+    band1: f32,
+    _pad: f32,
+}
+
+/// The shader's `Entry`, 32 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+struct Entry {
+    col: u32,
+    diffusion: f32,
+    v: f32,
+    grad: [f32; 3],
+    _pad: [f32; 2],
+}
+
+/// A frame's operators on the GPU.
+#[derive(Debug)]
+pub struct OperatorBuffers {
+    n: usize,
+    index: wgpu::Buffer,
+    entries: wgpu::Buffer,
+    density: wgpu::Buffer,
+}
+
+impl OperatorBuffers {
+    /// Uploads `ops`: rows (an inactive center's as the identity's single entry), their
+    /// transpose as `(row, entry)` pairs per column, and `D̃` at the centers. Refuses
+    /// buffers beyond the device's limits.
+    pub fn upload(ctx: &GpuContext, ops: &Operators) -> Result<OperatorBuffers, GpuError> {
+        let n = ops.n();
+        let too_many = || GpuError::Input(format!("{n} RBFs are too many for the diffusion"));
+        let mut rows = Vec::with_capacity(n + 1);
+        let mut entries: Vec<Entry> = Vec::with_capacity(ops.nnz() + n);
+        let mut density = Vec::with_capacity(n.max(1));
+        rows.push(0u32);
+        for h in 0..n {
+            let d = ops.density(h);
+            if d > 0.0 {
+                entries.extend(ops.row(h).iter().map(|e| Entry {
+                    col: e.l as u32,
+                    diffusion: e.diffusion as f32,
+                    v: e.v as f32,
+                    grad: e.grad.map(|g| g as f32),
+                    _pad: [0.0; 2],
+                }));
+            } else {
+                entries.push(Entry {
+                    col: h as u32,
+                    ..Entry::default()
+                });
+            }
+            density.push(d as f32);
+            rows.push(u32::try_from(entries.len()).map_err(|_| too_many())?);
+        }
+        // Column starts, then the (row, entry) pairs of each column by increasing row.
+        let mut cols = vec![0u32; n + 1];
+        for e in &entries {
+            cols[e.col as usize + 1] += 1;
+        }
+        for l in 0..n {
+            cols[l + 1] += cols[l];
+        }
+        let mut fill = cols.clone();
+        let mut pairs = vec![0u32; 2 * entries.len()];
+        for h in 0..n {
+            for k in rows[h]..rows[h + 1] {
+                let l = entries[k as usize].col as usize;
+                let i = fill[l] as usize;
+                pairs[2 * i] = h as u32;
+                pairs[2 * i + 1] = k;
+                fill[l] += 1;
+            }
+        }
+        let mut index = rows;
+        index.extend(cols);
+        index.extend(pairs);
+        if entries.is_empty() {
+            entries.push(Entry::default());
+        }
+        if density.is_empty() {
+            density.push(0.0);
+        }
+        ctx.check_storage_size(
+            "the diffusion operators",
+            std::mem::size_of_val(entries.as_slice()) as u64,
+        )?;
+        ctx.check_storage_size("the diffusion index", 4 * index.len() as u64)?;
+        ctx.scoped("diffusion operator upload", || {
+            let storage = wgpu::BufferUsages::STORAGE;
+            OperatorBuffers {
+                n,
+                index: buffer_init(
+                    ctx,
+                    "diffusion index",
+                    bytemuck::cast_slice(&index),
+                    storage,
+                ),
+                entries: buffer_init(
+                    ctx,
+                    "diffusion operators",
+                    bytemuck::cast_slice(&entries),
+                    storage,
+                ),
+                density: buffer_init(
+                    ctx,
+                    "density at the centers",
+                    bytemuck::cast_slice(&density),
+                    storage,
+                ),
+            }
+        })
+    }
+
+    /// Number of centers.
+    pub fn n(&self) -> usize {
+        self.n
+    }
+}
+
+/// How the last solve ended (read back from the GPU).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DiffusionStats {
+    /// Most CGLS iterations among the three channels.
+    pub iterations: u32,
+    /// Largest relative residual `‖b − A L⁰‖/‖b‖` among the channels, as the `f32`
+    /// recurrence carries it.
+    pub residual: f64,
+    /// Every channel met the tolerance (or a least-squares optimum).
+    pub converged: bool,
+}
+
+/// The diffusion on the GPU: the pipelines and the solution kept for the next frame.
+#[derive(Debug)]
+pub struct DiffusionPass {
+    solve: wgpu::ComputePipeline,
+    add: wgpu::ComputePipeline,
+    /// `(centers, work buffer)`: the vectors of the last solve (module docs of the shader).
+    work: Option<(usize, wgpu::Buffer)>,
+}
+
+impl DiffusionPass {
+    /// Compiles the shader's two entry points.
+    pub fn new(ctx: &GpuContext) -> Result<DiffusionPass, GpuError> {
+        Ok(DiffusionPass {
+            solve: compute_pipeline_at(ctx, "diffusion pipeline creation", SHADER, "solve")?,
+            add: compute_pipeline_at(ctx, "diffusion pipeline creation", SHADER, "add")?,
+            work: None,
+        })
+    }
+
+    /// Forgets the last solution: the next solve starts from zero.
+    pub fn reset(&mut self) {
+        self.work = None;
+    }
+
+    /// Adds `J̃ms` to `sources` (single scattering's, with the escape probabilities): the
+    /// diffusion of the frame whose operators are `ops` in `medium`, solved with `opts`
+    /// from the last solution when it had as many centers (submitted, not waited for).
+    /// Nothing to add without centers or when the medium does not interact with light
+    /// (`σt = 0`: no source). Refuses sources for another number of centers and buffers
+    /// beyond the device's limits.
+    pub fn run(
+        &mut self,
+        ctx: &GpuContext,
+        ops: &OperatorBuffers,
+        medium: &Medium,
+        sources: &SourceBuffer,
+        opts: &SolveOptions,
+    ) -> Result<(), GpuError> {
+        let n = ops.n;
+        if sources.count() != n {
+            return Err(GpuError::Input(format!(
+                "sources for {} centers, diffusion operators for {n}",
+                sources.count()
+            )));
+        }
+        let Some(k) = Coefficients::of(medium) else {
+            return Ok(());
+        };
+        if n == 0 {
+            return Ok(());
+        }
+        let n32 = u32::try_from(n)
+            .map_err(|_| GpuError::Input(format!("{n} RBFs are too many for the diffusion")))?;
+        let words = 36 * n as u64 + 9;
+        ctx.check_storage_size("the diffusion's vectors", 4 * words)?;
+        let warm = matches!(&self.work, Some((m, _)) if *m == n);
+        if !warm {
+            let buffer = ctx.scoped("diffusion buffer creation", || {
+                ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("diffusion vectors"),
+                    size: 4 * words,
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                })
+            })?;
+            self.work = Some((n, buffer));
+        }
+        let Some((_, work)) = &self.work else {
+            unreachable!("the work buffer was just made");
+        };
+        let order = sources.order();
+        let params = Params {
+            n: n32,
+            n2: (order * order) as u32,
+            max_iterations: opts.max_iterations,
+            warm: u32::from(warm),
+            tolerance: opts.tolerance as f32,
+            sigma_t: k.sigma_t as f32,
+            sigma_s: k.sigma_s as f32,
+            sigma_a: k.sigma_a as f32,
+            sigma_tr: k.sigma_tr as f32,
+            band0: (medium.albedo * 2.0 * PI.sqrt()) as f32,
+            band1: (medium.albedo * medium.g * (4.0 * PI / 3.0).sqrt()) as f32,
+            _pad: 0.0,
+        };
+        ctx.scoped("diffusion", || {
+            let uniform = buffer_init(
+                ctx,
+                "diffusion parameters",
+                bytemuck::bytes_of(&params),
+                wgpu::BufferUsages::UNIFORM,
+            );
+            let buffers = [
+                &uniform,
+                sources.buffer(),
+                work,
+                &ops.index,
+                &ops.entries,
+                &ops.density,
+            ];
+            submit_pass(ctx, &self.solve, "diffusion", &buffers, [3, 1, 1]);
+            let groups = n32.div_ceil(ADD_GROUP);
+            submit_pass(
+                ctx,
+                &self.add,
+                "multiple scattering source",
+                &buffers[..3],
+                [groups, 1, 1],
+            );
+        })
+    }
+
+    /// The last solve's iterations, residual and convergence (waits for the GPU);
+    /// `None` before the first solve.
+    pub fn stats(&self, ctx: &GpuContext) -> Result<Option<DiffusionStats>, GpuError> {
+        let Some((n, work)) = &self.work else {
+            return Ok(None);
+        };
+        let words: Vec<f32> = bytemuck::pod_collect_to_vec(&ctx.read_buffer(work)?);
+        let mut stats = DiffusionStats {
+            converged: true,
+            ..DiffusionStats::default()
+        };
+        for c in 0..3 {
+            let at = 36 * n + 3 * c;
+            stats.iterations = stats.iterations.max(words[at] as u32);
+            stats.residual = stats.residual.max(f64::from(words[at + 1]));
+            stats.converged &= words[at + 2] == 1.0;
+        }
+        Ok(Some(stats))
+    }
+
+    /// `L⁰` at the centers from the last solve, per channel (waits for the GPU); `None`
+    /// before the first solve.
+    pub fn solution(&self, ctx: &GpuContext) -> Result<Option<Vec<[f64; 3]>>, GpuError> {
+        let Some((n, work)) = &self.work else {
+            return Ok(None);
+        };
+        let words: Vec<f32> = bytemuck::pod_collect_to_vec(&ctx.read_buffer(work)?);
+        Ok(Some(
+            (0..*n)
+                .map(|h| [0, 1, 2].map(|c| f64::from(words[8 * n * c + h])))
+                .collect(),
+        ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn layouts_match_the_shader() {
+        assert_eq!(std::mem::size_of::<Params>(), 48);
+        assert_eq!(std::mem::size_of::<Entry>(), 32);
+    }
+}
