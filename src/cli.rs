@@ -263,6 +263,10 @@ pub struct RenderCli {
     /// (mesa-vulkan-drivers) works without a GPU.
     #[arg(long)]
     gpu: bool,
+    /// With --gpu: where the diffusion of multiple scattering is solved. `auto`: on the
+    /// GPU, unless the adapter is a CPU (lavapipe), where the CPU's solve is faster.
+    #[arg(long, value_enum, default_value_t = DiffusionArg::Auto, requires = "gpu")]
+    diffusion: DiffusionArg,
     /// Samples per pixel of --reference.
     #[arg(long, default_value_t = 64)]
     spp: u32,
@@ -323,6 +327,10 @@ pub struct ViewCli {
     /// alone, no display needed).
     #[arg(long, requires = "play_for")]
     no_window: bool,
+    /// Where the diffusion of multiple scattering is solved. `auto`: on the GPU, unless
+    /// the adapter is a CPU (lavapipe), where the CPU's solve is faster.
+    #[arg(long, value_enum, default_value_t = DiffusionArg::Auto)]
+    diffusion: DiffusionArg,
 }
 
 impl ViewCli {
@@ -346,6 +354,7 @@ impl ViewCli {
             },
             play_for: self.play_for,
             window: !self.no_window,
+            diffusion: self.diffusion.into(),
         }
     }
 }
@@ -381,9 +390,30 @@ impl RenderCli {
             reference: self.reference,
             // `--cpu` is the default, spelled out; clap refuses it with `--gpu`.
             gpu: self.gpu && !self.cpu,
+            diffusion: self.diffusion.into(),
             spp: self.spp,
             exposure: self.exposure,
             import: self.import.options(),
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum DiffusionArg {
+    /// The GPU, or the CPU when the adapter is a CPU.
+    Auto,
+    /// The CPU, in f64 (the sources make a round trip).
+    Cpu,
+    /// The GPU, in f32.
+    Gpu,
+}
+
+impl From<DiffusionArg> for haze_view::gpu::renderer::DiffusionOn {
+    fn from(a: DiffusionArg) -> Self {
+        match a {
+            DiffusionArg::Auto => Self::Auto,
+            DiffusionArg::Cpu => Self::Cpu,
+            DiffusionArg::Gpu => Self::Gpu,
         }
     }
 }

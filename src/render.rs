@@ -1,6 +1,6 @@
 //! `haze render`: one frame of a baked asset, or a density volume, to an image — by
-//! compensated ray marching on the CPU (paper A §5) or the GPU (all stages but the
-//! diffusion solve), or by the reference renderer.
+//! compensated ray marching on the CPU (paper A §5) or the GPU (every stage), or by the
+//! reference renderer.
 
 use crate::progress;
 use crate::residual::as_stored;
@@ -8,7 +8,7 @@ use anyhow::{Context, Result, anyhow, bail};
 use haze_asset::Asset;
 use haze_fit::{SequenceFitter, SequenceOptions};
 use haze_view::gpu::GpuContext;
-use haze_view::gpu::renderer::{GpuFrame, GpuRenderer};
+use haze_view::gpu::renderer::{DiffusionOn, GpuFrame, GpuRenderer};
 use haze_view::gpu::volume_pass::Residual;
 use haze_view::lighting::single::SourcePoints;
 use haze_view::reference::{self, RefOptions};
@@ -45,8 +45,10 @@ pub struct RenderArgs {
     pub exp: ExpMethod,
     pub source_points: SourcePoints,
     pub reference: bool,
-    /// Render on the GPU (all stages but the diffusion solve).
+    /// Render on the GPU (every stage).
     pub gpu: bool,
+    /// Where `gpu` solves the diffusion.
+    pub diffusion: DiffusionOn,
     pub spp: u32,
     pub exposure: f64,
     pub import: ImportOptions,
@@ -110,13 +112,14 @@ pub fn run(a: RenderArgs) -> Result<()> {
         };
         let (dims, bbox) = (frame.density.dims(), frame.density.bbox());
         let img = if let Some(ctx) = &gpu {
-            // Every stage on the GPU but the diffusion solve (`gpu::renderer`). The
+            // Every stage on the GPU (`gpu::renderer`). The
             // residual: an asset frame's hash volume, looked up on the GPU; a fitted
             // volume's dense residual, uploaded.
             let gpu_err = |e| anyhow!("--gpu: {e}");
             let t = Instant::now();
             ctx.time_stages(true);
             let mut renderer = GpuRenderer::new(ctx, env.clone()).map_err(gpu_err)?;
+            renderer.set_diffusion(a.diffusion);
             let setup = t.elapsed().as_secs_f64();
             let residual = match &frame.slot {
                 Some(slot) => Residual::Hash(slot),
@@ -133,6 +136,12 @@ pub fn run(a: RenderArgs) -> Result<()> {
                 .render(ctx, &input, &medium, &camera, &opts)
                 .map_err(gpu_err)?;
             let pixels = image.read(ctx).map_err(gpu_err)?;
+            if stats.solved
+                && let Some(d) = renderer.diffusion_stats(ctx).map_err(gpu_err)?
+            {
+                stats.crm.cg_iterations = d.iterations;
+                stats.crm.cg_residual = d.residual;
+            }
             stats.crm.setup_seconds += setup;
             tracing::info!("host: {}", stats.crm);
             if !stats.gpu.is_empty() {
@@ -166,7 +175,14 @@ pub fn run(a: RenderArgs) -> Result<()> {
         let what = format!(
             "compensated ray marching{}, SH order {}, {}{}",
             match &gpu {
-                Some(ctx) => format!(" on the GPU ({})", ctx.adapter_name()),
+                Some(ctx) => format!(
+                    " on the GPU ({}; diffusion on the {})",
+                    ctx.adapter_name(),
+                    match a.diffusion.resolve(ctx) {
+                        DiffusionOn::Cpu => "CPU",
+                        _ => "GPU",
+                    }
+                ),
                 None => String::new(),
             },
             a.sh_order,

@@ -94,7 +94,7 @@ fn renders_a_baked_frame_and_a_volume() {
     );
     let crm = read_exr(&exr, 40, 30);
     assert!(crm.iter().flatten().all(|c| c.is_finite() && *c >= 0.0));
-    // On the GPU (all but the diffusion solve), the residual looked up in the asset's hash
+    // On the GPU (every stage), the residual looked up in the asset's hash
     // volume there: the same image (`assert_close`).
     let gpu_exr = tmp(&dir, "gpu.exr");
     let mut args = vec!["render", asset.to_str().unwrap(), "--frame", "22", "--gpu"];

@@ -16,6 +16,7 @@ use anyhow::{Result, anyhow};
 use eframe::egui;
 use haze_view::env::{angles, direction};
 use haze_view::gpu::GpuContext;
+use haze_view::gpu::renderer::DiffusionOn;
 use haze_view::{Environment, Sky};
 use std::ops::RangeInclusive;
 use std::sync::{Arc, Mutex};
@@ -26,6 +27,8 @@ pub struct Setup {
     pub title: String,
     pub cursor: FrameCursor,
     pub ctx: GpuContext,
+    /// Where the diffusion is solved.
+    pub diffusion: DiffusionOn,
     pub playback: Playback,
     /// When the command started (the first picture is timed from there).
     pub started: Instant,
@@ -70,12 +73,18 @@ pub fn run_window(setup: Setup) -> Result<()> {
             let Setup {
                 cursor,
                 ctx,
+                diffusion,
                 playback,
                 started,
                 settings,
                 ..
             } = setup;
-            let worker = Worker::spawn(cursor, ctx, Box::new(move || repaint.request_repaint()))?;
+            let worker = Worker::spawn(
+                cursor,
+                ctx,
+                diffusion,
+                Box::new(move || repaint.request_repaint()),
+            )?;
             Ok(Box::new(ViewerApp::new(
                 Player::new(playback, worker, started),
                 settings,
@@ -364,7 +373,7 @@ impl ViewerApp {
                         format!("{:.1}{reused}", s.single_seconds * 1e3),
                     );
                     row(
-                        "multiple (CPU)",
+                        "multiple scattering",
                         format!("{:.1} ({} CG)", s.multiple_seconds * 1e3, s.cg_iterations),
                     );
                     row(

@@ -21,6 +21,7 @@ mod worker;
 
 use anyhow::{Result, anyhow, bail};
 use haze_view::gpu::GpuContext;
+use haze_view::gpu::renderer::DiffusionOn;
 use haze_view::render::CrmOptions;
 use haze_view::stream::FrameStream;
 use haze_view::{Environment, Medium};
@@ -53,6 +54,8 @@ pub struct ViewArgs {
     pub play_for: Option<f64>,
     /// Play without a window (with `play_for`).
     pub window: bool,
+    /// Where the diffusion of multiple scattering is solved.
+    pub diffusion: DiffusionOn,
 }
 
 /// The knobs of the window, with their values from the command line.
@@ -140,7 +143,15 @@ pub fn run(a: ViewArgs) -> Result<()> {
         .map_err(|e| anyhow!("{}: cannot frame the smoke: {e}", a.input.display()))?;
 
     let ctx = GpuContext::new().map_err(|e| anyhow!("GPU: {e}"))?;
-    let adapter = format!("{} ({})", ctx.adapter_name(), ctx.backend());
+    let adapter = format!(
+        "{} ({}); diffusion on the {}",
+        ctx.adapter_name(),
+        ctx.backend(),
+        match a.diffusion.resolve(&ctx) {
+            DiffusionOn::Cpu => "CPU",
+            _ => "GPU",
+        }
+    );
     tracing::info!("GPU: {adapter}");
     // The first view (also the proof that the window's camera and scene are valid).
     let initial = View {
@@ -153,7 +164,7 @@ pub fn run(a: ViewArgs) -> Result<()> {
 
     if !a.window {
         let play_for = a.play_for.unwrap_or_default();
-        let worker = Worker::spawn(cursor, ctx, Box::new(|| {}))?;
+        let worker = Worker::spawn(cursor, ctx, a.diffusion, Box::new(|| {}))?;
         let mut player = Player::new(playback, worker, started);
         let line = play_without_window(&mut player, &initial, play_for)?;
         println!("{line}");
@@ -163,6 +174,7 @@ pub fn run(a: ViewArgs) -> Result<()> {
         title: format!("haze view — {}", a.input.display()),
         cursor,
         ctx,
+        diffusion: a.diffusion,
         playback,
         started,
         settings: app::Settings {

@@ -8,6 +8,7 @@
 use super::frame::{FrameRenderer, StageTimes};
 use super::playback::Tick;
 use haze_view::gpu::GpuContext;
+use haze_view::gpu::renderer::DiffusionOn;
 use haze_view::gpu::volume_pass::Residual;
 use haze_view::render::CrmOptions;
 use haze_view::stream::{FrameStream, StreamFrame};
@@ -136,9 +137,11 @@ impl Worker {
     pub fn spawn(
         mut cursor: FrameCursor,
         ctx: GpuContext,
+        diffusion: DiffusionOn,
         wake: Box<dyn Fn() + Send>,
     ) -> anyhow::Result<Worker> {
-        let renderer = FrameRenderer::new(&ctx).map_err(|e| anyhow::anyhow!("GPU: {e}"))?;
+        let renderer =
+            FrameRenderer::new(&ctx, diffusion).map_err(|e| anyhow::anyhow!("GPU: {e}"))?;
         let (jobs, inbox) = channel::<Job>();
         let (outbox, done) = channel();
         let thread = std::thread::Builder::new()
@@ -309,7 +312,7 @@ mod tests {
         let path = write_asset(dir.path(), "a.haze", 3);
         let ctx = GpuContext::new().unwrap_or_else(|e| panic!("{e}"));
         let cursor = FrameCursor::new(FrameStream::open(&path, 2, true).unwrap(), 2);
-        let mut w = Worker::spawn(cursor, ctx, Box::new(|| {})).unwrap();
+        let mut w = Worker::spawn(cursor, ctx, DiffusionOn::Auto, Box::new(|| {})).unwrap();
         let mut run = |job: Job| {
             w.submit(job);
             assert!(w.busy());
@@ -328,7 +331,7 @@ mod tests {
         let b = run(view_job(2, 0.3, 4.0));
         assert!(b.times.is_none());
         let ctx = GpuContext::new().unwrap();
-        let mut r = FrameRenderer::new(&ctx).unwrap();
+        let mut r = FrameRenderer::new(&ctx, DiffusionOn::Auto).unwrap();
         let mut d =
             haze_view::stream::FrameDecoder::new(Arc::new(haze_asset::Asset::open(&path).unwrap()));
         let f = d.decode(2).unwrap();

@@ -1,13 +1,15 @@
 // Multiple scattering by diffusion on the GPU (paper A §5.4): the twin of
 // `diffusion::Operators::system`, `diffusion::cgls` and `Operators::ms_source_sh`, in f32.
 //
-// `solve`: one workgroup per colour channel. From the frame's geometric operators
-// (`diffusion::operators` module docs) and the single-scattering sources it forms
+// One workgroup per colour channel in `setup`, `iterate` and `finish`. From the frame's
+// geometric operators (`diffusion::operators` module docs) and the single-scattering
+// sources it forms
 //   A_hl = diffusion_hl/(3σtr) − (σa + σs P_h) v_hl
 //   b_h  = Σ_l −σt v_hl (1 − P_l) J⁰_l + (σt/(3σtr)) grad_hl · J¹_l
-// row-equilibrates (R) and column-scales (C) A as the CPU's CGLS does, runs CGLS on
-// M = R A C from the start in `work` (the previous frame's L⁰ or zero), all iterations in
-// this one dispatch, and writes L⁰ and the multiple-scattering source
+// row-equilibrates (R) and column-scales (C) A as the CPU's CGLS does (`setup`), runs CGLS
+// on M = R A C from the start in `work` (the previous frame's L⁰ or zero) in chunks of
+// iterations (`iterate`, dispatched as often as `max_iterations` needs), and writes the
+// multiple-scattering source (`finish`)
 //   J_ms = (Ω 2√π L⁰, Ω g √(4π/3)·(L¹_y, L¹_z, L¹_x)),  L¹ = (σt D̃ J¹ − ∇L⁰)/(σtr D̃)
 // (direction of propagation). `add`: one invocation per center adds J_ms to the sources,
 // band 1 negated (propagation → viewing direction).
@@ -18,8 +20,9 @@
 // inputs count as 0, as on the CPU.
 //
 // `work`, f32: per channel c at 8nc: x, r, s, p, q, row scale, column scale, b (n each);
-// then J_ms at 24n + (3h + c)·4 + k; then per channel at 36n + 3c: iterations, relative
-// residual ‖b − A x‖/‖b‖, converged (1 or 0).
+// then J_ms at 24n + (3h + c)·4 + k; then per channel at 36n + 8c the solver's state:
+// iterations, relative residual ‖b − A x‖/‖b‖, converged (1 or 0), γ, ‖b‖, ‖M‖_F, ‖r‖,
+// stopped (1 or 0).
 
 struct Params {
     n: u32,
@@ -36,7 +39,8 @@ struct Params {
     // Ω 2√π and Ω g √(4π/3).
     band0: f32,
     band1: f32,
-    _pad: f32,
+    // Iterations per `iterate` dispatch.
+    chunk: u32,
 };
 
 // diffusion_hl, v_hl, grad_hl (module docs of `diffusion::operators`) of column `col`.
@@ -123,7 +127,10 @@ fn reduce(lid: u32, v: vec2<f32>) -> vec2<f32> {
         }
         workgroupBarrier();
     }
-    return workgroupUniformLoad(&reduce_buf[0]);
+    let total = workgroupUniformLoad(&reduce_buf[0]);
+    // No invocation may write the next sum's partial before every one has read this one.
+    workgroupBarrier();
+    return total;
 }
 
 // Offsets of channel c's vectors in `work`.
@@ -169,8 +176,22 @@ fn column_times(l: u32, v: Vectors, at: u32) -> f32 {
     return sum;
 }
 
+// Channel c's solver state in `work` (module docs): iterations, relative residual,
+// converged, γ = ‖Mᵀr‖², ‖b‖, ‖M‖_F, ‖r‖, stopped (converged or broken down).
+fn state_at(c: u32) -> u32 {
+    return 36u * params.n + 8u * c;
+}
+
+var<workgroup> state: array<f32, 8>;
+
+// Whether CGLS may stop: the residual meets the tolerance, or a least-squares optimum.
+fn done(residual: f32, gamma: f32, m_norm: f32, r_norm: f32) -> bool {
+    return residual <= params.tolerance || sqrt(gamma) <= LS_OPTIMAL * m_norm * r_norm;
+}
+
+// b, the scalings R and C, the start x, r = R(b − A x), s = p = Mᵀ r and the state.
 @compute @workgroup_size(256)
-fn solve(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+fn setup(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let n = params.n;
     let c = wg.x;
     let v = vectors(c);
@@ -217,11 +238,11 @@ fn solve(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) 
     let m_norm = sqrt(totals.y);
     let solving = b_norm > 0.0 && finite(b_norm);
 
-    // x from the start (zero when b = 0: the minimum-norm solution), r = R(b − A x).
+    // x from the start (zero when b = 0: the minimum-norm solution).
     for (var h = lid; h < n; h += WG) {
         let x = select(0.0, finite_or_zero(work[v.x + h]), params.warm == 1u && solving);
         work[v.x + h] = x;
-        // row_times multiplies by C: start p = C⁻¹ x so that it forms A x.
+        // row_times multiplies by C: p = C⁻¹ x makes it form A x.
         work[v.p + h] = x / work[v.col + h];
     }
     storageBarrier();
@@ -229,39 +250,68 @@ fn solve(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) 
         work[v.r + h] = (work[v.b + h] - row_times(h, v, v.p)) * work[v.row + h];
     }
     storageBarrier();
-    // s = Mᵀ r, p = s, γ = ‖s‖².
     part = vec2<f32>(0.0);
     for (var l = lid; l < n; l += WG) {
         let s = work[v.col + l] * column_times(l, v, v.r);
         work[v.s + l] = s;
         work[v.p + l] = s;
-        part += vec2<f32>(s * s, 0.0);
+        part.x += s * s;
     }
     for (var h = lid; h < n; h += WG) {
         let r = work[v.r + h];
         part.y += r * r;
     }
     storageBarrier();
-    var sums = reduce(lid, part);
-    var gamma = sums.x;
-    var r_norm = sqrt(sums.y);
+    let sums = reduce(lid, part);
     // ‖b − A x‖ = ‖R⁻¹ r‖.
     part = vec2<f32>(0.0);
     for (var h = lid; h < n; h += WG) {
         let u = work[v.r + h] / work[v.row + h];
         part.x += u * u;
     }
-    var residual = select(0.0, sqrt(reduce(lid, part).x) / b_norm, solving);
-    var converged = !solving || residual <= params.tolerance
-        || sqrt(gamma) <= LS_OPTIMAL * m_norm * r_norm;
-    var iterations = 0u;
+    let residual = select(0.0, sqrt(reduce(lid, part).x) / b_norm, solving);
+    let converged = !solving || done(residual, sums.x, m_norm, sqrt(sums.y));
+    if lid == 0u {
+        let st = state_at(c);
+        work[st] = 0.0;
+        work[st + 1u] = residual;
+        work[st + 2u] = select(0.0, 1.0, converged);
+        work[st + 3u] = sums.x;
+        work[st + 4u] = b_norm;
+        work[st + 5u] = m_norm;
+        work[st + 6u] = sqrt(sums.y);
+        work[st + 7u] = select(0.0, 1.0, converged);
+    }
+}
 
+// Up to `params.chunk` CGLS iterations from the state, until it stops or reaches
+// `params.max_iterations`. Chunks bound the length of one dispatch (watchdogs, and a
+// software rasterizer that abandons long ones); the host submits enough of them, and
+// those after the stop return at once.
+@compute @workgroup_size(256)
+fn iterate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let n = params.n;
+    let c = wg.x;
+    let v = vectors(c);
+    let st = state_at(c);
+    if lid < 8u {
+        state[lid] = work[st + lid];
+    }
+    var iterations = u32(workgroupUniformLoad(&state[0]));
+    var residual = workgroupUniformLoad(&state[1]);
+    var converged = workgroupUniformLoad(&state[2]) == 1.0;
+    var gamma = workgroupUniformLoad(&state[3]);
+    let b_norm = workgroupUniformLoad(&state[4]);
+    let m_norm = workgroupUniformLoad(&state[5]);
+    var r_norm = workgroupUniformLoad(&state[6]);
+    var stopped = workgroupUniformLoad(&state[7]) == 1.0;
+    let end = min(params.max_iterations, iterations + params.chunk);
     loop {
-        if converged || iterations >= params.max_iterations {
+        if stopped || iterations >= end {
             break;
         }
         // q = M p, α = γ/‖q‖².
-        part = vec2<f32>(0.0);
+        var part = vec2<f32>(0.0);
         for (var h = lid; h < n; h += WG) {
             let q = work[v.row + h] * row_times(h, v, v.p);
             work[v.q + h] = q;
@@ -270,6 +320,7 @@ fn solve(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) 
         storageBarrier();
         let alpha = gamma / reduce(lid, part).x;
         if !finite(alpha) {
+            stopped = true;
             break;
         }
         // x += α C p, r −= α q.
@@ -282,7 +333,7 @@ fn solve(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) 
             part += vec2<f32>(u * u, r * r);
         }
         storageBarrier();
-        sums = reduce(lid, part);
+        let sums = reduce(lid, part);
         // s = Mᵀ r, γ' = ‖s‖².
         part = vec2<f32>(0.0);
         for (var l = lid; l < n; l += WG) {
@@ -294,6 +345,7 @@ fn solve(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) 
         let gamma_next = reduce(lid, part).x;
         iterations += 1u;
         if !(finite(gamma_next) && finite(sums.x)) {
+            stopped = true;
             break;
         }
         let beta = gamma_next / gamma;
@@ -304,10 +356,25 @@ fn solve(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) 
         gamma = gamma_next;
         r_norm = sqrt(sums.y);
         residual = sqrt(sums.x) / b_norm;
-        converged = residual <= params.tolerance || sqrt(gamma) <= LS_OPTIMAL * m_norm * r_norm;
+        converged = done(residual, gamma, m_norm, r_norm);
+        stopped = converged;
     }
+    if lid == 0u {
+        work[st] = f32(iterations);
+        work[st + 1u] = residual;
+        work[st + 2u] = select(0.0, 1.0, converged);
+        work[st + 3u] = gamma;
+        work[st + 6u] = r_norm;
+        work[st + 7u] = select(0.0, 1.0, stopped);
+    }
+}
 
-    // J_ms at the centers from L⁰ = x (a breakdown's non-finite values count as 0).
+// J_ms at the centers from L⁰ = x (a breakdown's non-finite values count as 0).
+@compute @workgroup_size(256)
+fn finish(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let n = params.n;
+    let c = wg.x;
+    let v = vectors(c);
     for (var h = lid; h < n; h += WG) {
         work[v.x + h] = finite_or_zero(work[v.x + h]);
     }
@@ -329,12 +396,6 @@ fn solve(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) 
         for (var k = 0u; k < 4u; k++) {
             work[ms + (3u * h + c) * 4u + k] = out[k];
         }
-    }
-    if lid == 0u {
-        let stats = 36u * n + 3u * c;
-        work[stats] = f32(iterations);
-        work[stats + 1u] = residual;
-        work[stats + 2u] = select(0.0, 1.0, converged);
     }
 }
 

@@ -228,13 +228,14 @@ impl FrameStream {
     }
 
     /// Restarts reading at frame `k` (clamped to the asset); frames read ahead are dropped.
+    ///
+    /// The queue is not drained here: the reader may already have queued frames of the
+    /// new start, which a drain would lose. The stale frames are dropped as they are
+    /// received ([`FrameStream::next_frame`] compares generations), which also frees a
+    /// reader blocked on the full queue.
     pub fn seek(&mut self, k: usize) {
         *self.control.start.lock().unwrap_or_else(|e| e.into_inner()) = k.min(self.frame_count - 1);
         self.control.generation.fetch_add(1, Ordering::AcqRel);
-        // Unblock a reader waiting on a full queue; what it had read is stale.
-        if let Some(rx) = &self.frames {
-            while rx.try_recv().is_ok() {}
-        }
     }
 
     /// The next frame, waiting for it; `None` after the last frame when not looping.

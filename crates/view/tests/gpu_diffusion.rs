@@ -183,7 +183,8 @@ fn matches_the_cpu_on_small_and_large_sets() {
     check(&ctx, &cluster, &medium, 1, "cluster, order 1");
     let isotropic = Medium::new(8.0, 0.9, 0.0).unwrap();
     check(&ctx, &cluster, &isotropic, 2, "cluster, g = 0");
-    // More centers than the workgroup has invocations (256): the strided loops.
+    // More centers than the workgroup has invocations (256): the strided loops; and
+    // ~200 iterations, carried across a dozen `iterate` dispatches.
     check(&ctx, &scattered(300, 1), &medium, 2, "300 scattered");
 }
 
@@ -309,4 +310,22 @@ fn starts_from_the_last_solution() {
         warm.residual < 0.2 * cold.residual,
         "warm {warm:?}, cold {cold:?}"
     );
+    // A cap that is not a multiple of the iterations per dispatch (16): exactly that many.
+    let rbfs = scattered(300, 1);
+    let ops = OperatorBuffers::upload(&ctx, &Operators::new(&rbfs)).unwrap();
+    let capped = SolveOptions {
+        max_iterations: 37,
+        tolerance: 1e-12,
+    };
+    pass.run(
+        &ctx,
+        &ops,
+        &medium,
+        &single(&ctx, &rbfs, &medium, 2),
+        &capped,
+    )
+    .unwrap();
+    let stats = pass.stats(&ctx).unwrap().unwrap();
+    assert_eq!(stats.iterations, 37, "{stats:?}");
+    assert!(!stats.converged, "{stats:?}");
 }

@@ -7,19 +7,23 @@
 //! The frame's [`Operators`] (geometry only, computed on the CPU once per frame) are
 //! uploaded once; the medium and the sources enter as scalars and as the
 //! [`SourceBuffer`] that single scattering left, so a new light or medium costs one
-//! dispatch. One workgroup per colour channel runs every CGLS iteration in that dispatch:
-//! no host round trip and no dispatch per iteration, at the price of using three of the
-//! GPU's compute units for this stage (an iteration is two sparse products and four
-//! workgroup reductions). The solution stays on the GPU as the next frame's start when the
-//! RBF count is unchanged (the CPU solver interpolates across counts; here a new count
-//! starts from zero).
+//! compute pass. One workgroup per colour channel forms the system and its scalings
+//! (`setup`), runs CGLS in chunks of at least 16 iterations per dispatch (`iterate`: every
+//! dispatch carries on from the state the previous one left in the work buffer, and those
+//! after convergence return at once; at most 64 of them), then forms `J̃ms` (`finish`); a
+//! last dispatch adds it to the sources (`add`). All in one compute pass: no host round
+//! trip, no dispatch per iteration, and no dispatch long enough for a watchdog to abandon
+//! (lavapipe gave up on a single-dispatch solve after ≈ 0.6 s, at 1000 RBFs). The price of
+//! one workgroup per channel is that three of the GPU's compute units do this stage. The
+//! solution stays on the GPU as the next frame's start when the RBF count is unchanged
+//! (the CPU solver interpolates across counts; here a new count starts from zero).
 //!
 //! Accuracy: `f32` CGLS reaches about `κ(RAC)·ε_f32` in relative error of `L⁰` (a few
 //! `1e-4` at the condition numbers of `BENCHMARKS.md`, "Multiple scattering"), its
 //! recurrence residual keeps falling below that; the tests bound the difference from the
 //! CPU's `f64` solve by the condition number they compute.
 
-use super::{GpuContext, GpuError, SourceBuffer, buffer_init, compute_pipeline_at, submit_pass};
+use super::{GpuContext, GpuError, SourceBuffer, buffer_init};
 use crate::Medium;
 use crate::diffusion::{Coefficients, Operators, SolveOptions};
 use std::f64::consts::PI;
@@ -29,6 +33,11 @@ pub const SHADER: &str = include_str!("../../shaders/diffusion.wgsl");
 
 /// Invocations per workgroup of `add`.
 const ADD_GROUP: u32 = 64;
+/// Most `iterate` dispatches per solve: chunks grow beyond [`MIN_CHUNK`] iterations to keep
+/// within it.
+const MAX_CHUNKS: u32 = 64;
+/// Fewest CGLS iterations per `iterate` dispatch.
+const MIN_CHUNK: u32 = 16;
 
 /// The shader's `Params` uniform, 48 bytes.
 #[repr(C)]
@@ -45,7 +54,7 @@ struct Params {
     sigma_tr: f32,
     band0: f32,
     band1: f32,
-    _pad: f32,
+    chunk: u32,
 }
 
 /// The shader's `Entry`, 32 bytes.
@@ -178,19 +187,77 @@ pub struct DiffusionStats {
 /// The diffusion on the GPU: the pipelines and the solution kept for the next frame.
 #[derive(Debug)]
 pub struct DiffusionPass {
-    solve: wgpu::ComputePipeline,
+    layout: wgpu::BindGroupLayout,
+    /// The shader's entry points `setup`, `iterate`, `finish` and `add`.
+    setup: wgpu::ComputePipeline,
+    iterate: wgpu::ComputePipeline,
+    finish: wgpu::ComputePipeline,
     add: wgpu::ComputePipeline,
     /// `(centers, work buffer)`: the vectors of the last solve (module docs of the shader).
     work: Option<(usize, wgpu::Buffer)>,
 }
 
 impl DiffusionPass {
-    /// Compiles the shader's two entry points.
+    /// Compiles the shader's entry points, which share one bind group layout.
     pub fn new(ctx: &GpuContext) -> Result<DiffusionPass, GpuError> {
-        Ok(DiffusionPass {
-            solve: compute_pipeline_at(ctx, "diffusion pipeline creation", SHADER, "solve")?,
-            add: compute_pipeline_at(ctx, "diffusion pipeline creation", SHADER, "add")?,
-            work: None,
+        let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let uniform = wgpu::BindGroupLayoutEntry {
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            ..storage(0, true)
+        };
+        ctx.scoped("diffusion pipeline creation", || {
+            let d = &ctx.device;
+            let layout = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("diffusion"),
+                entries: &[
+                    uniform,
+                    storage(1, false),
+                    storage(2, false),
+                    storage(3, true),
+                    storage(4, true),
+                    storage(5, true),
+                ],
+            });
+            let pipeline_layout = d.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("diffusion"),
+                bind_group_layouts: &[Some(&layout)],
+                immediate_size: 0,
+            });
+            let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("diffusion"),
+                source: wgpu::ShaderSource::Wgsl(SHADER.into()),
+            });
+            let pipeline = |entry: &'static str| {
+                d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(entry),
+                    layout: Some(&pipeline_layout),
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    cache: None,
+                })
+            };
+            DiffusionPass {
+                setup: pipeline("setup"),
+                iterate: pipeline("iterate"),
+                finish: pipeline("finish"),
+                add: pipeline("add"),
+                layout,
+                work: None,
+            }
         })
     }
 
@@ -228,7 +295,7 @@ impl DiffusionPass {
         }
         let n32 = u32::try_from(n)
             .map_err(|_| GpuError::Input(format!("{n} RBFs are too many for the diffusion")))?;
-        let words = 36 * n as u64 + 9;
+        let words = 36 * n as u64 + 24;
         ctx.check_storage_size("the diffusion's vectors", 4 * words)?;
         let warm = matches!(&self.work, Some((m, _)) if *m == n);
         if !warm {
@@ -258,7 +325,7 @@ impl DiffusionPass {
             sigma_tr: k.sigma_tr as f32,
             band0: (medium.albedo * 2.0 * PI.sqrt()) as f32,
             band1: (medium.albedo * medium.g * (4.0 * PI / 3.0).sqrt()) as f32,
-            _pad: 0.0,
+            chunk: MIN_CHUNK.max(opts.max_iterations.div_ceil(MAX_CHUNKS)),
         };
         ctx.scoped("diffusion", || {
             let uniform = buffer_init(
@@ -275,15 +342,43 @@ impl DiffusionPass {
                 &ops.entries,
                 &ops.density,
             ];
-            submit_pass(ctx, &self.solve, "diffusion", &buffers, [3, 1, 1]);
-            let groups = n32.div_ceil(ADD_GROUP);
-            submit_pass(
-                ctx,
-                &self.add,
-                "multiple scattering source",
-                &buffers[..3],
-                [groups, 1, 1],
-            );
+            let entries: Vec<wgpu::BindGroupEntry<'_>> = buffers
+                .iter()
+                .zip(0..)
+                .map(|(b, binding)| wgpu::BindGroupEntry {
+                    binding,
+                    resource: b.as_entire_binding(),
+                })
+                .collect();
+            let bind = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("diffusion"),
+                layout: &self.layout,
+                entries: &entries,
+            });
+            let mut enc = ctx
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("diffusion"),
+                });
+            {
+                // One pass (one timed stage); each dispatch sees the previous one's writes.
+                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("diffusion"),
+                    timestamp_writes: ctx.timestamp_writes("diffusion"),
+                });
+                pass.set_bind_group(0, &bind, &[]);
+                pass.set_pipeline(&self.setup);
+                pass.dispatch_workgroups(3, 1, 1);
+                pass.set_pipeline(&self.iterate);
+                for _ in 0..opts.max_iterations.div_ceil(params.chunk) {
+                    pass.dispatch_workgroups(3, 1, 1);
+                }
+                pass.set_pipeline(&self.finish);
+                pass.dispatch_workgroups(3, 1, 1);
+                pass.set_pipeline(&self.add);
+                pass.dispatch_workgroups(n32.div_ceil(ADD_GROUP), 1, 1);
+            }
+            ctx.queue.submit([enc.finish()]);
         })
     }
 
@@ -299,7 +394,7 @@ impl DiffusionPass {
             ..DiffusionStats::default()
         };
         for c in 0..3 {
-            let at = 36 * n + 3 * c;
+            let at = 36 * n + 8 * c;
             stats.iterations = stats.iterations.max(words[at] as u32);
             stats.residual = stats.residual.max(f64::from(words[at + 1]));
             stats.converged &= words[at + 2] == 1.0;

@@ -3,8 +3,9 @@
 //! `crates/view/shaders/`, each file named for its CPU twin (`single_scattering.wgsl` ↔
 //! [`crate::lighting::single::single_scattering`], `view_pass.wgsl` ↔
 //! [`crate::render::crm::view_pass`], `volume_pass.wgsl` ↔
-//! [`crate::render::crm::volume_pass`]; `sh_basis.wgsl` ↔ [`crate::sh::eval_into`] is
-//! prepended to the shaders that need it). Single scattering leaves the sources at the
+//! [`crate::render::crm::volume_pass`], `diffusion.wgsl` ↔
+//! [`crate::render::add_multiple_scattering`]; `sh_basis.wgsl` ↔ [`crate::sh::eval_into`]
+//! is prepended to the shaders that need it). Single scattering leaves the sources at the
 //! centers on the GPU in a [`SourceBuffer`], which the volume pass reads; the volume pass
 //! leaves its grids in a [`GridBuffer`], which the view pass reads — no round trip through
 //! the host. [`renderer::GpuRenderer`] chains the stages into frames.
@@ -625,16 +626,6 @@ fn compute_pipeline(
     label: &'static str,
     source: &str,
 ) -> Result<wgpu::ComputePipeline, GpuError> {
-    compute_pipeline_at(ctx, label, source, "main")
-}
-
-/// [`compute_pipeline`] of the entry point `entry` (the layout: the bindings it uses).
-fn compute_pipeline_at(
-    ctx: &GpuContext,
-    label: &'static str,
-    source: &str,
-    entry: &str,
-) -> Result<wgpu::ComputePipeline, GpuError> {
     ctx.scoped(label, || {
         let module = ctx
             .device
@@ -647,7 +638,7 @@ fn compute_pipeline_at(
                 label: Some(label),
                 layout: None,
                 module: &module,
-                entry_point: Some(entry),
+                entry_point: Some("main"),
                 compilation_options: Default::default(),
                 cache: None,
             })

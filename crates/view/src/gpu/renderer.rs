@@ -6,10 +6,12 @@
 //! 1. **Single scattering** at the RBF centers: GPU
 //!    ([`SingleScatteringPass`], `shaders/single_scattering.wgsl`).
 //! 2. **Multiple scattering**: GPU ([`DiffusionPass`], `shaders/diffusion.wgsl`: the
-//!    system, CGLS in one dispatch and `J̃ms` added to the sources in place), from the
-//!    frame's geometric [`Operators`], computed on the CPU once per frame and kept while
-//!    the frame is unchanged (a new light or medium reuses them). The solve starts from
-//!    the previous frame's solution when the RBF count is unchanged.
+//!    system, CGLS and `J̃ms` added to the sources in place, in one compute pass), from
+//!    the frame's geometric [`Operators`], computed on the CPU once per frame and kept
+//!    while the frame is unchanged (a new light or medium reuses them); the solve starts
+//!    from the previous frame's solution when the RBF count is unchanged. On an adapter
+//!    that is a CPU (lavapipe) the CPU solves instead ([`DiffusionOn`]: the sources are
+//!    read back, [`add_multiple_scattering`] in `f64`, uploaded again).
 //! 3. **Volume pass**: GPU ([`VolumePass::run_on`], reading the sources where stage 1
 //!    or 2 left them).
 //! 4. **View pass**: GPU ([`ViewPass::dispatch`]); the image stays on the GPU until
@@ -27,9 +29,9 @@ use super::single_scattering::SingleScatteringPass;
 use super::view_pass::{EnvBuffer, ImageBuffer, ViewPass};
 use super::volume_pass::{Residual, VolumePass};
 use super::{GpuContext, GpuError, GridBuffer, SourceBuffer};
-use crate::diffusion::Operators;
+use crate::diffusion::{DiffusionSolver, Operators};
 use crate::lighting::single::{RgbSh, ShKit};
-use crate::render::{CrmOptions, CrmStats, slice_thickness};
+use crate::render::{CrmOptions, CrmStats, add_multiple_scattering, slice_thickness};
 use crate::sh;
 use crate::{Camera, Environment, Medium};
 use haze_volume::{Bbox, Rbf};
@@ -59,17 +61,49 @@ pub enum Reuse {
     Grids,
 }
 
+/// Where the renderer solves the diffusion of multiple scattering.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum DiffusionOn {
+    /// The GPU, unless the adapter is a CPU (a software rasterizer such as Mesa's
+    /// lavapipe), where the CPU's own solve is an order of magnitude faster
+    /// (`BENCHMARKS.md`, "GPU frame time").
+    #[default]
+    Auto,
+    /// The CPU, in `f64` (the sources make a round trip).
+    Cpu,
+    /// The GPU, in `f32` ([`DiffusionPass`]).
+    Gpu,
+}
+
+impl DiffusionOn {
+    /// `Cpu` or `Gpu` for the adapter of `ctx`.
+    pub fn resolve(self, ctx: &GpuContext) -> DiffusionOn {
+        match self {
+            DiffusionOn::Auto if ctx.adapter_info().device_type == wgpu::DeviceType::Cpu => {
+                DiffusionOn::Cpu
+            }
+            DiffusionOn::Auto => DiffusionOn::Gpu,
+            on => on,
+        }
+    }
+}
+
 /// Where a frame's time went.
 #[derive(Clone, Debug, Default)]
 pub struct FrameStats {
     /// Host seconds per stage, as [`crate::render::crm_render`] reports them. The GPU
     /// stages are submitted, not waited for (the multiple scattering's host time is the
-    /// frame's operators, when new, and the submission); see `gpu` for device times. The
-    /// diffusion's CG iterations and residual stay on the GPU (0 here):
-    /// [`GpuRenderer::diffusion_stats`] reads them.
+    /// frame's operators, when new, and the submission — or, on the CPU, the solve and
+    /// the upload, the wait for single scattering and its readback counting as single
+    /// scattering); see `gpu` for device times. The diffusion's CG iterations and
+    /// residual are set only by a CPU solve: [`GpuRenderer::diffusion_stats`] reads them
+    /// wherever it ran.
     pub crm: CrmStats,
     /// The diffusion ran for this frame (else it had none, or reused the sources).
     pub solved: bool,
+    /// Host seconds computing the frame's diffusion operators (part of
+    /// `crm.multiple_seconds`; 0 when they were the last frame's).
+    pub operators_seconds: f64,
     pub reuse: Reuse,
     /// GPU seconds per pass (timestamp queries), when [`GpuContext::time_stages`] is on
     /// and the device has them.
@@ -100,7 +134,13 @@ pub struct GpuRenderer {
     order: Option<(ShKit, SingleScatteringPass, Option<RgbSh>)>,
     volume: VolumePass,
     view: ViewPass,
+    diffusion_on: DiffusionOn,
     diffusion: DiffusionPass,
+    /// The CPU's solver (its warm start), for [`DiffusionOn::Cpu`].
+    solver: DiffusionSolver,
+    /// Where the last solve ran, and how it ended when that was the CPU.
+    last_solve: Option<DiffusionOn>,
+    cpu_stats: Option<DiffusionStats>,
     /// The diffusion operators of the frame with this key.
     operators: Option<(u64, OperatorBuffers)>,
     sources: Option<(SourceKey, SourceBuffer)>,
@@ -117,7 +157,11 @@ impl GpuRenderer {
             order: None,
             volume: VolumePass::new(ctx)?,
             view: ViewPass::new(ctx)?,
+            diffusion_on: DiffusionOn::default(),
             diffusion: DiffusionPass::new(ctx)?,
+            solver: DiffusionSolver::new(),
+            last_solve: None,
+            cpu_stats: None,
             operators: None,
             sources: None,
             grid: None,
@@ -144,13 +188,94 @@ impl GpuRenderer {
     /// Forgets the previous frame: no reuse and no warm start for the next one.
     pub fn reset(&mut self) {
         self.diffusion.reset();
+        self.solver.reset();
         self.sources = None;
         self.grid = None;
     }
 
-    /// How the last diffusion solve ended (waits for the GPU); `None` before the first.
+    /// Where the next frames solve the diffusion (the sources are recomputed).
+    pub fn set_diffusion(&mut self, on: DiffusionOn) {
+        if on != self.diffusion_on {
+            self.diffusion_on = on;
+            self.sources = None;
+            self.grid = None;
+        }
+    }
+
+    /// How the last diffusion solve ended (waits for the GPU when it ran there); `None`
+    /// before the first.
     pub fn diffusion_stats(&self, ctx: &GpuContext) -> Result<Option<DiffusionStats>, GpuError> {
-        self.diffusion.stats(ctx)
+        match self.last_solve {
+            None => Ok(None),
+            Some(DiffusionOn::Cpu) => Ok(self.cpu_stats),
+            Some(_) => self.diffusion.stats(ctx),
+        }
+    }
+
+    /// Adds `J̃ms` to `sources` on the GPU ([`DiffusionPass`]) from the frame's operators,
+    /// computed when the frame is new.
+    fn diffusion_gpu(
+        &mut self,
+        ctx: &GpuContext,
+        frame: &GpuFrame<'_>,
+        medium: &Medium,
+        sources: &SourceBuffer,
+        opts: &CrmOptions,
+        stats: &mut FrameStats,
+    ) -> Result<(), GpuError> {
+        let t = Instant::now();
+        let ops = match self.operators.take() {
+            Some((k, ops)) if k == frame.key => self.operators.insert((k, ops)),
+            _ => {
+                let t = Instant::now();
+                let ops = Operators::new(frame.rbfs);
+                stats.operators_seconds = t.elapsed().as_secs_f64();
+                let ops = OperatorBuffers::upload(ctx, &ops)?;
+                self.operators.insert((frame.key, ops))
+            }
+        };
+        self.diffusion
+            .run(ctx, &ops.1, medium, sources, &opts.solve)?;
+        self.last_solve = Some(DiffusionOn::Gpu);
+        stats.crm.multiple_seconds = t.elapsed().as_secs_f64();
+        Ok(())
+    }
+
+    /// The sources with `J̃ms` added on the CPU ([`add_multiple_scattering`], `f64`,
+    /// warm-started from the previous frame): `sources` read back, solved, uploaded.
+    fn diffusion_cpu(
+        &mut self,
+        ctx: &GpuContext,
+        frame: &GpuFrame<'_>,
+        medium: &Medium,
+        sources: &SourceBuffer,
+        opts: &CrmOptions,
+        stats: &mut FrameStats,
+    ) -> Result<SourceBuffer, GpuError> {
+        // The wait for single scattering and the readback count as its time.
+        let t = Instant::now();
+        let ss = sources.read(ctx)?;
+        stats.crm.single_seconds += t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let mut source = ss.source;
+        add_multiple_scattering(
+            frame.rbfs,
+            medium,
+            &mut source,
+            ss.escape,
+            opts,
+            &mut self.solver,
+            &mut stats.crm,
+        );
+        self.cpu_stats = Some(DiffusionStats {
+            iterations: stats.crm.cg_iterations,
+            residual: stats.crm.cg_residual,
+            converged: stats.crm.cg_residual <= opts.solve.tolerance,
+        });
+        self.last_solve = Some(DiffusionOn::Cpu);
+        let buffer = SourceBuffer::upload(ctx, &source, opts.order);
+        stats.crm.multiple_seconds = t.elapsed().as_secs_f64();
+        buffer
     }
 
     /// Renders `frame` seen by `camera` into an image on the GPU (submitted; read it with
@@ -200,7 +325,7 @@ impl GpuRenderer {
             Some((k, buffer)) if sources_fresh => &self.sources.insert((k, buffer)).1,
             _ => {
                 let t = Instant::now();
-                let buffer = single.run(
+                let mut buffer = single.run(
                     ctx,
                     kit,
                     frame.rbfs,
@@ -211,17 +336,15 @@ impl GpuRenderer {
                 )?;
                 stats.crm.single_seconds = t.elapsed().as_secs_f64();
                 if opts.multiple && !frame.rbfs.is_empty() {
-                    let t = Instant::now();
-                    let ops = match self.operators.take() {
-                        Some((k, ops)) if k == frame.key => self.operators.insert((k, ops)),
+                    buffer = match self.diffusion_on.resolve(ctx) {
+                        DiffusionOn::Cpu => {
+                            self.diffusion_cpu(ctx, frame, medium, &buffer, opts, &mut stats)?
+                        }
                         _ => {
-                            let ops = OperatorBuffers::upload(ctx, &Operators::new(frame.rbfs))?;
-                            self.operators.insert((frame.key, ops))
+                            self.diffusion_gpu(ctx, frame, medium, &buffer, opts, &mut stats)?;
+                            buffer
                         }
                     };
-                    self.diffusion
-                        .run(ctx, &ops.1, medium, &buffer, &opts.solve)?;
-                    stats.crm.multiple_seconds = t.elapsed().as_secs_f64();
                     stats.solved = true;
                 }
                 self.grid = None;
