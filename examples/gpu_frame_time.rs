@@ -2,7 +2,8 @@
 //!
 //! ```text
 //! cargo run --release --example gpu_frame_time -- ASSET.haze [ASSET.haze …]
-//!     [--sizes 800x600,1920x1080] [--orders 2,4] [--repeat 10] [--compare]
+//!     [--sizes 800x600,1920x1080] [--orders 2,4] [--repeat 10] [--lighting auto|cpu|gpu]
+//!     [--compare | --playback]
 //! ```
 //!
 //! For every asset (its first frame), image size, SH order, and with and without multiple
@@ -11,18 +12,18 @@
 //! to the image finished on the GPU (no readback; a viewer displays it where it is). GPU
 //! time per pass comes from timestamp queries, the host time of the diffusion operators
 //! (computed on the CPU for each new frame) from the renderer; medians are printed.
-//! `--diffusion cpu|gpu` picks where the diffusion runs (default `auto`: the CPU when the
-//! adapter is a CPU, such as lavapipe; else the GPU). A last row per configuration times a camera move with
-//! the isotropic phase function, which reuses the grids (view pass only). `--compare`
-//! also renders each configuration's frame on the CPU (`crm_render`) at 400 × 300 and
-//! prints the largest pixel difference relative to the brightest pixel. `--playback`
-//! instead renders every frame of each asset in order at the first size and order, with
-//! multiple scattering, once with the diffusion warm-started from the previous frame (as
-//! the viewer plays) and once cold, and prints the medians.
+//! `--lighting cpu|gpu` picks where single scattering and the diffusion run (default
+//! `auto`: the CPU when the adapter is a CPU, such as lavapipe; else the GPU). A last row
+//! per configuration times a camera move with the isotropic phase function, which reuses
+//! the grids (view pass only). `--compare` also renders each configuration's frame on the
+//! CPU (`crm_render`) at 400 × 300 and prints the largest pixel difference relative to the
+//! brightest pixel. `--playback` instead renders every frame of each asset in order at the
+//! first size and order, with multiple scattering, once with the diffusion warm-started
+//! from the previous frame (as the viewer plays) and once cold, and prints the medians.
 
 use haze_asset::Asset;
 use haze_view::gpu::GpuContext;
-use haze_view::gpu::renderer::{DiffusionOn, FrameStats, GpuFrame, GpuRenderer, Reuse};
+use haze_view::gpu::renderer::{FrameStats, GpuFrame, GpuRenderer, LightingOn, Reuse};
 use haze_view::gpu::volume_pass::Residual;
 use haze_view::render::{CrmOptions, crm_render};
 use haze_view::stream::FrameDecoder;
@@ -46,13 +47,13 @@ fn gpu_seconds(stats: &FrameStats, name: &str) -> f64 {
         .sum()
 }
 
-/// The diffusion's time in a frame: its GPU pass, or the host's solve (with the sources'
-/// round trip) where it ran on the CPU.
-fn diffusion_seconds(stats: &FrameStats) -> f64 {
-    if stats.gpu.iter().any(|(s, _)| *s == "diffusion") {
-        gpu_seconds(stats, "diffusion")
+/// A lighting stage's time in a frame: its GPU pass `pass`, or the host's `cpu` seconds
+/// where it ran on the CPU.
+fn stage_seconds(stats: &FrameStats, pass: &str, cpu: f64) -> f64 {
+    if stats.gpu.iter().any(|(s, _)| *s == pass) {
+        gpu_seconds(stats, pass)
     } else {
-        stats.crm.multiple_seconds
+        cpu
     }
 }
 
@@ -69,7 +70,7 @@ fn main() {
     let mut repeat = 10usize;
     let mut compare = false;
     let mut playback = false;
-    let mut diffusion = DiffusionOn::Auto;
+    let mut lighting = LightingOn::Auto;
     while let Some(a) = args.next() {
         match a.as_str() {
             "--sizes" => {
@@ -96,12 +97,12 @@ fn main() {
                     .and_then(|v| v.parse().ok())
                     .unwrap_or_else(|| fail("--repeat N"));
             }
-            "--diffusion" => {
-                diffusion = match args.next().as_deref() {
-                    Some("auto") => DiffusionOn::Auto,
-                    Some("cpu") => DiffusionOn::Cpu,
-                    Some("gpu") => DiffusionOn::Gpu,
-                    _ => fail("--diffusion auto|cpu|gpu"),
+            "--lighting" => {
+                lighting = match args.next().as_deref() {
+                    Some("auto") => LightingOn::Auto,
+                    Some("cpu") => LightingOn::Cpu,
+                    Some("gpu") => LightingOn::Gpu,
+                    _ => fail("--lighting auto|cpu|gpu"),
                 }
             }
             "--compare" => compare = true,
@@ -111,7 +112,7 @@ fn main() {
     }
     if assets.is_empty() {
         fail(
-            "usage: gpu_frame_time ASSET.haze … [--sizes 800x600,1920x1080] [--orders 2,4] [--repeat 10] [--diffusion auto|cpu|gpu] [--compare | --playback]",
+            "usage: gpu_frame_time ASSET.haze … [--sizes 800x600,1920x1080] [--orders 2,4] [--repeat 10] [--lighting auto|cpu|gpu] [--compare | --playback]",
         );
     }
     let ctx = GpuContext::new().unwrap_or_else(|e| fail(e));
@@ -126,22 +127,22 @@ fn main() {
             "unavailable (no timestamp queries)"
         }
     );
-    let on = diffusion.resolve(&ctx);
+    let on = lighting.resolve(&ctx);
     println!(
-        "diffusion on the {}: its column is {}",
-        if on == DiffusionOn::Cpu { "CPU" } else { "GPU" },
-        if on == DiffusionOn::Cpu {
-            "host time (solve in f64 and upload; the wait for single scattering and its readback not counted)"
+        "lighting at the centers on the {}: single scattering and diffusion are {}",
+        if on == LightingOn::Cpu { "CPU" } else { "GPU" },
+        if on == LightingOn::Cpu {
+            "host times (f64, all cores)"
         } else {
-            "GPU time (timestamp queries)"
+            "GPU times (timestamp queries)"
         }
     );
     if playback {
-        play(&ctx, &assets, sizes[0], orders[0], diffusion);
+        play(&ctx, &assets, sizes[0], orders[0], lighting);
         return;
     }
     println!(
-        "| RBFs | size | SH | multiple | single (GPU ms) | operators (CPU ms) | diffusion (ms) | volume (GPU ms) | view (GPU ms) | frame (ms) | fps | view only (ms) |"
+        "| RBFs | size | SH | multiple | single (ms) | operators (CPU ms) | diffusion (ms) | volume (GPU ms) | view (GPU ms) | frame (ms) | fps | view only (ms) |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     let sky = Environment::Sky(Sky::default());
@@ -163,7 +164,7 @@ fn main() {
                     let medium = Medium::new(8.0, 0.9, 0.0).unwrap_or_else(|e| fail(e));
                     let camera = Camera::framing(&bbox, 40.0, w, h).unwrap_or_else(|e| fail(e));
                     let mut r = GpuRenderer::new(&ctx, sky.clone()).unwrap_or_else(|e| fail(e));
-                    r.set_diffusion(diffusion);
+                    r.set_lighting(lighting);
                     let residual = frame.residual.as_ref().map(Residual::Hash);
                     let input = |key| GpuFrame {
                         key,
@@ -188,9 +189,11 @@ fn main() {
                     for k in 1..=repeat {
                         let (total, stats) = run(k as u64, &camera, true);
                         let gpu = |name| gpu_seconds(&stats, name);
-                        per[0].push(gpu("single scattering"));
+                        let single = stats.crm.single_seconds;
+                        per[0].push(stage_seconds(&stats, "single scattering", single));
                         per[1].push(stats.operators_seconds);
-                        per[2].push(diffusion_seconds(&stats));
+                        let multiple = stats.crm.multiple_seconds;
+                        per[2].push(stage_seconds(&stats, "diffusion", multiple));
                         per[3].push(gpu("volume pass"));
                         per[4].push(gpu("view pass"));
                         per[5].push(total);
@@ -256,10 +259,10 @@ fn play(
     assets: &[PathBuf],
     (w, h): (usize, usize),
     order: usize,
-    diffusion: DiffusionOn,
+    lighting: LightingOn,
 ) {
     println!(
-        "| asset | frames | RBFs (mean) | diffusion start | CG iterations (median) | single (GPU ms) | operators (CPU ms) | diffusion (ms) | volume (GPU ms) | view (GPU ms) | frame (ms) |"
+        "| asset | frames | RBFs (mean) | diffusion start | CG iterations (median) | single (ms) | operators (CPU ms) | diffusion (ms) | volume (GPU ms) | view (GPU ms) | frame (ms) |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|");
     let sky = Environment::Sky(Sky::default());
@@ -280,7 +283,7 @@ fn play(
         let camera = Camera::framing(&bbox, 40.0, w, h).unwrap_or_else(|e| fail(e));
         for warm in [true, false] {
             let mut r = GpuRenderer::new(ctx, sky.clone()).unwrap_or_else(|e| fail(e));
-            r.set_diffusion(diffusion);
+            r.set_lighting(lighting);
             let mut per: [Vec<f64>; 7] = Default::default();
             for (k, f) in frames.iter().enumerate() {
                 if !warm {
@@ -304,9 +307,11 @@ fn play(
                 if k > 0 {
                     let cg = r.diffusion_stats(ctx).unwrap_or_else(|e| fail(e));
                     per[0].push(f64::from(cg.map_or(0, |d| d.iterations)));
-                    per[1].push(gpu("single scattering") * 1e3);
+                    let single = stats.crm.single_seconds;
+                    per[1].push(stage_seconds(&stats, "single scattering", single) * 1e3);
                     per[2].push(stats.operators_seconds * 1e3);
-                    per[3].push(diffusion_seconds(&stats) * 1e3);
+                    let multiple = stats.crm.multiple_seconds;
+                    per[3].push(stage_seconds(&stats, "diffusion", multiple) * 1e3);
                     per[4].push(gpu("volume pass") * 1e3);
                     per[5].push(gpu("view pass") * 1e3);
                     per[6].push(total * 1e3);

@@ -77,8 +77,9 @@ pub enum Command {
     ///
     /// Every shown frame is rendered by compensated ray marching (paper A §5) on the GPU
     /// (Vulkan, Metal or DX12; Mesa's lavapipe works without a GPU): single scattering at
-    /// the RBF centers, multiple scattering by diffusion, the volume and view passes. Frames stream from the file on a background thread and play at
-    /// --fps, looping; a frame that cannot be rendered in time is skipped (dropped). Only
+    /// the RBF centers, multiple scattering by diffusion, the volume and view passes (the
+    /// first two on the CPU when the adapter is itself a CPU: --lighting). Frames stream
+    /// from the file on a background thread and play at --fps, looping; a frame that cannot be rendered in time is skipped (dropped). Only
     /// what changed is recomputed: a camera move re-runs the two passes, a new frame or
     /// light also the lighting. The camera starts framing the smoke of the first frame.
     ///
@@ -263,10 +264,11 @@ pub struct RenderCli {
     /// (mesa-vulkan-drivers) works without a GPU.
     #[arg(long)]
     gpu: bool,
-    /// With --gpu: where the diffusion of multiple scattering is solved. `auto`: on the
-    /// GPU, unless the adapter is a CPU (lavapipe), where the CPU's solve is faster.
-    #[arg(long, value_enum, default_value_t = DiffusionArg::Auto, requires = "gpu")]
-    diffusion: DiffusionArg,
+    /// With --gpu: where the lighting at the RBF centers (single scattering and the
+    /// diffusion of multiple scattering) is computed. `auto`: on the GPU, unless the
+    /// adapter is a CPU (lavapipe), where the CPU's own code is several times faster.
+    #[arg(long, value_enum, default_value_t = LightingArg::Auto, requires = "gpu")]
+    lighting: LightingArg,
     /// Samples per pixel of --reference.
     #[arg(long, default_value_t = 64)]
     spp: u32,
@@ -327,10 +329,11 @@ pub struct ViewCli {
     /// alone, no display needed).
     #[arg(long, requires = "play_for")]
     no_window: bool,
-    /// Where the diffusion of multiple scattering is solved. `auto`: on the GPU, unless
-    /// the adapter is a CPU (lavapipe), where the CPU's solve is faster.
-    #[arg(long, value_enum, default_value_t = DiffusionArg::Auto)]
-    diffusion: DiffusionArg,
+    /// Where the lighting at the RBF centers (single scattering and the diffusion of
+    /// multiple scattering) is computed. `auto`: on the GPU, unless the adapter is a CPU
+    /// (lavapipe), where the CPU's own code is several times faster.
+    #[arg(long, value_enum, default_value_t = LightingArg::Auto)]
+    lighting: LightingArg,
 }
 
 impl ViewCli {
@@ -354,7 +357,7 @@ impl ViewCli {
             },
             play_for: self.play_for,
             window: !self.no_window,
-            diffusion: self.diffusion.into(),
+            lighting: self.lighting.into(),
         }
     }
 }
@@ -390,7 +393,7 @@ impl RenderCli {
             reference: self.reference,
             // `--cpu` is the default, spelled out; clap refuses it with `--gpu`.
             gpu: self.gpu && !self.cpu,
-            diffusion: self.diffusion.into(),
+            lighting: self.lighting.into(),
             spp: self.spp,
             exposure: self.exposure,
             import: self.import.options(),
@@ -399,21 +402,21 @@ impl RenderCli {
 }
 
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
-enum DiffusionArg {
+enum LightingArg {
     /// The GPU, or the CPU when the adapter is a CPU.
     Auto,
-    /// The CPU, in f64 (the sources make a round trip).
+    /// The CPU, in f64 (the sources are then uploaded).
     Cpu,
     /// The GPU, in f32.
     Gpu,
 }
 
-impl From<DiffusionArg> for haze_view::gpu::renderer::DiffusionOn {
-    fn from(a: DiffusionArg) -> Self {
+impl From<LightingArg> for haze_view::gpu::renderer::LightingOn {
+    fn from(a: LightingArg) -> Self {
         match a {
-            DiffusionArg::Auto => Self::Auto,
-            DiffusionArg::Cpu => Self::Cpu,
-            DiffusionArg::Gpu => Self::Gpu,
+            LightingArg::Auto => Self::Auto,
+            LightingArg::Cpu => Self::Cpu,
+            LightingArg::Gpu => Self::Gpu,
         }
     }
 }

@@ -8,7 +8,7 @@ use anyhow::{Context, Result, anyhow, bail};
 use haze_asset::Asset;
 use haze_fit::{SequenceFitter, SequenceOptions};
 use haze_view::gpu::GpuContext;
-use haze_view::gpu::renderer::{DiffusionOn, GpuFrame, GpuRenderer};
+use haze_view::gpu::renderer::{GpuFrame, GpuRenderer, LightingOn};
 use haze_view::gpu::volume_pass::Residual;
 use haze_view::lighting::single::SourcePoints;
 use haze_view::reference::{self, RefOptions};
@@ -48,7 +48,7 @@ pub struct RenderArgs {
     /// Render on the GPU (every stage).
     pub gpu: bool,
     /// Where `gpu` solves the diffusion.
-    pub diffusion: DiffusionOn,
+    pub lighting: LightingOn,
     pub spp: u32,
     pub exposure: f64,
     pub import: ImportOptions,
@@ -119,7 +119,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
             let t = Instant::now();
             ctx.time_stages(true);
             let mut renderer = GpuRenderer::new(ctx, env.clone()).map_err(gpu_err)?;
-            renderer.set_diffusion(a.diffusion);
+            renderer.set_lighting(a.lighting);
             let setup = t.elapsed().as_secs_f64();
             let residual = match &frame.slot {
                 Some(slot) => Residual::Hash(slot),
@@ -176,10 +176,10 @@ pub fn run(a: RenderArgs) -> Result<()> {
             "compensated ray marching{}, SH order {}, {}{}",
             match &gpu {
                 Some(ctx) => format!(
-                    " on the GPU ({}; diffusion on the {})",
+                    " on the GPU ({}; lighting at the centers on the {})",
                     ctx.adapter_name(),
-                    match a.diffusion.resolve(ctx) {
-                        DiffusionOn::Cpu => "CPU",
+                    match a.lighting.resolve(ctx) {
+                        LightingOn::Cpu => "CPU",
                         _ => "GPU",
                     }
                 ),

@@ -95,18 +95,18 @@ fn renders_a_baked_frame_and_a_volume() {
     let crm = read_exr(&exr, 40, 30);
     assert!(crm.iter().flatten().all(|c| c.is_finite() && *c >= 0.0));
     // On the GPU (every stage), the residual looked up in the asset's hash
-    // volume there, the diffusion solved where `auto` puts it and on either side: the
-    // same image (`assert_close`).
-    for diffusion in ["auto", "cpu", "gpu"] {
-        let gpu_exr = tmp(&dir, &format!("gpu-{diffusion}.exr"));
+    // volume there, the lighting at the centers where `auto` puts it and on either side:
+    // the same image (`assert_close`).
+    for lighting in ["auto", "cpu", "gpu"] {
+        let gpu_exr = tmp(&dir, &format!("gpu-{lighting}.exr"));
         let mut args = vec!["render", asset.to_str().unwrap(), "--frame", "22", "--gpu"];
-        args.extend(["--diffusion", diffusion, "--out", gpu_exr.to_str().unwrap()]);
+        args.extend(["--lighting", lighting, "--out", gpu_exr.to_str().unwrap()]);
         args.extend(size);
         let err = ok(&args);
         assert!(err.contains("on the GPU"), "{err}");
-        if diffusion != "auto" {
-            let side = diffusion.to_uppercase();
-            assert!(err.contains(&format!("diffusion on the {side}")), "{err}");
+        if lighting != "auto" {
+            let side = lighting.to_uppercase();
+            assert!(err.contains(&format!("centers on the {side}")), "{err}");
         }
         assert_close(&read_exr(&gpu_exr, 40, 30), &crm);
     }

@@ -16,7 +16,7 @@ use anyhow::{Result, anyhow};
 use eframe::egui;
 use haze_view::env::{angles, direction};
 use haze_view::gpu::GpuContext;
-use haze_view::gpu::renderer::DiffusionOn;
+use haze_view::gpu::renderer::LightingOn;
 use haze_view::{Environment, Sky};
 use std::ops::RangeInclusive;
 use std::sync::{Arc, Mutex};
@@ -27,8 +27,8 @@ pub struct Setup {
     pub title: String,
     pub cursor: FrameCursor,
     pub ctx: GpuContext,
-    /// Where the diffusion is solved.
-    pub diffusion: DiffusionOn,
+    /// Where the lighting at the centers is computed.
+    pub lighting: LightingOn,
     pub playback: Playback,
     /// When the command started (the first picture is timed from there).
     pub started: Instant,
@@ -73,7 +73,7 @@ pub fn run_window(setup: Setup) -> Result<()> {
             let Setup {
                 cursor,
                 ctx,
-                diffusion,
+                lighting,
                 playback,
                 started,
                 settings,
@@ -82,7 +82,7 @@ pub fn run_window(setup: Setup) -> Result<()> {
             let worker = Worker::spawn(
                 cursor,
                 ctx,
-                diffusion,
+                lighting,
                 Box::new(move || repaint.request_repaint()),
             )?;
             Ok(Box::new(ViewerApp::new(

@@ -1,7 +1,7 @@
 //! One frame of compensated ray marching for the viewer: [`FrameRenderer`] is the one
 //! seam between the viewer and the GPU pipeline, a thin layer over
-//! [`haze_view::gpu::renderer::GpuRenderer`] (every stage on the GPU, the diffusion
-//! where [`DiffusionOn`] says) that takes a frame (RBFs and residual on a grid), a
+//! [`haze_view::gpu::renderer::GpuRenderer`] (every stage on the GPU, the lighting at the
+//! centers where [`LightingOn`] says) that takes a frame (RBFs and residual on a grid), a
 //! medium, an environment, a camera and the [`CrmOptions`], and gives linear RGB pixels
 //! and where the time went.
 //!
@@ -14,7 +14,7 @@
 //! function, the volume-pass grids (a camera move re-runs the view pass only). A frame is
 //! known by a hash of its RBFs, grid and residual.
 
-use haze_view::gpu::renderer::{DiffusionOn, GpuFrame, GpuRenderer, Reuse};
+use haze_view::gpu::renderer::{GpuFrame, GpuRenderer, LightingOn, Reuse};
 use haze_view::gpu::volume_pass::Residual;
 use haze_view::gpu::{GpuContext, GpuError};
 use haze_view::render::{CrmOptions, CrmStats};
@@ -74,12 +74,12 @@ fn frame_key(rbfs: &[Rbf], residual: Option<Residual<'_>>, dims: [usize; 3], bbo
 }
 
 impl FrameRenderer {
-    /// Compiles the GPU passes on `ctx`, solving the diffusion where `diffusion` says,
+    /// Compiles the GPU passes on `ctx`, lighting the centers where `lighting` says,
     /// and turns on its per-pass GPU timing.
-    pub fn new(ctx: &GpuContext, diffusion: DiffusionOn) -> Result<FrameRenderer, GpuError> {
+    pub fn new(ctx: &GpuContext, lighting: LightingOn) -> Result<FrameRenderer, GpuError> {
         ctx.time_stages(true);
         let mut inner = GpuRenderer::new(ctx, Environment::Sky(Sky::default()))?;
-        inner.set_diffusion(diffusion);
+        inner.set_lighting(lighting);
         Ok(FrameRenderer { inner })
     }
 
@@ -210,7 +210,7 @@ mod tests {
         let env = Environment::Sky(Sky::default());
         let opts = CrmOptions::default();
         let medium = Medium::new(6.0, 0.85, 0.3).unwrap();
-        let mut r = FrameRenderer::new(&ctx, DiffusionOn::Auto).unwrap();
+        let mut r = FrameRenderer::new(&ctx, LightingOn::Auto).unwrap();
         let f = &frames[0];
         let (a, t) = render(&mut r, &ctx, f, &env, &camera(-1.0), &opts);
         assert!(!t.sources_reused && t.crm.single_seconds > 0.0);
@@ -246,7 +246,7 @@ mod tests {
         let (b, t) = render(&mut r, &ctx, f, &env, &camera(0.5), &opts);
         assert!(t.sources_reused);
         assert_eq!((t.crm.single_seconds, t.crm.cg_iterations), (0.0, 0));
-        let mut fresh = FrameRenderer::new(&ctx, DiffusionOn::Auto).unwrap();
+        let mut fresh = FrameRenderer::new(&ctx, LightingOn::Auto).unwrap();
         assert_eq!(b, render(&mut fresh, &ctx, f, &env, &camera(0.5), &opts).0);
         assert_ne!(a, b);
         // Without the residual, or with other slices: the passes only, and the CPU's
@@ -283,7 +283,7 @@ mod tests {
     fn the_light_the_order_and_the_frame_are_recomputed_when_they_change() {
         let ctx = context();
         let (_dir, frames) = frames(2);
-        let mut r = FrameRenderer::new(&ctx, DiffusionOn::Auto).unwrap();
+        let mut r = FrameRenderer::new(&ctx, LightingOn::Auto).unwrap();
         let cam = camera(-0.7);
         let opts = CrmOptions::default();
         let sky = Sky::default();
@@ -302,7 +302,7 @@ mod tests {
         });
         let (a, t) = render(&mut r, &ctx, &frames[0], &low_sun, &cam, &opts);
         assert!(!t.sources_reused && t.crm.single_seconds > 0.0);
-        let mut fresh = FrameRenderer::new(&ctx, DiffusionOn::Auto).unwrap();
+        let mut fresh = FrameRenderer::new(&ctx, LightingOn::Auto).unwrap();
         assert_close(
             &a,
             &render(&mut fresh, &ctx, &frames[0], &low_sun, &cam, &opts).0,
@@ -311,7 +311,7 @@ mod tests {
         let o2 = CrmOptions { order: 2, ..opts };
         let (b, t) = render(&mut r, &ctx, &frames[0], &low_sun, &cam, &o2);
         assert!(!t.sources_reused);
-        let mut fresh = FrameRenderer::new(&ctx, DiffusionOn::Auto).unwrap();
+        let mut fresh = FrameRenderer::new(&ctx, LightingOn::Auto).unwrap();
         assert_close(
             &b,
             &render(&mut fresh, &ctx, &frames[0], &low_sun, &cam, &o2).0,
@@ -320,7 +320,7 @@ mod tests {
         // the same image.
         let (c, t) = render(&mut r, &ctx, &frames[1], &low_sun, &cam, &opts);
         assert!(!t.sources_reused);
-        let mut fresh = FrameRenderer::new(&ctx, DiffusionOn::Auto).unwrap();
+        let mut fresh = FrameRenderer::new(&ctx, LightingOn::Auto).unwrap();
         assert_close(
             &c,
             &render(&mut fresh, &ctx, &frames[1], &low_sun, &cam, &opts).0,
@@ -336,7 +336,7 @@ mod tests {
         };
         render(&mut r, &ctx, &frames[0], &low_sun, &cam, &short);
         let (_, warm) = render(&mut r, &ctx, &frames[1], &low_sun, &cam, &short);
-        let mut fresh = FrameRenderer::new(&ctx, DiffusionOn::Auto).unwrap();
+        let mut fresh = FrameRenderer::new(&ctx, LightingOn::Auto).unwrap();
         let (_, cold) = render(&mut fresh, &ctx, &frames[1], &low_sun, &cam, &short);
         assert_eq!((warm.crm.cg_iterations, cold.crm.cg_iterations), (2, 2));
         assert!(

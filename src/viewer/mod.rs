@@ -21,7 +21,7 @@ mod worker;
 
 use anyhow::{Result, anyhow, bail};
 use haze_view::gpu::GpuContext;
-use haze_view::gpu::renderer::DiffusionOn;
+use haze_view::gpu::renderer::LightingOn;
 use haze_view::render::CrmOptions;
 use haze_view::stream::FrameStream;
 use haze_view::{Environment, Medium};
@@ -54,8 +54,8 @@ pub struct ViewArgs {
     pub play_for: Option<f64>,
     /// Play without a window (with `play_for`).
     pub window: bool,
-    /// Where the diffusion of multiple scattering is solved.
-    pub diffusion: DiffusionOn,
+    /// Where the lighting at the centers (single and multiple scattering) is computed.
+    pub lighting: LightingOn,
 }
 
 /// The knobs of the window, with their values from the command line.
@@ -144,11 +144,11 @@ pub fn run(a: ViewArgs) -> Result<()> {
 
     let ctx = GpuContext::new().map_err(|e| anyhow!("GPU: {e}"))?;
     let adapter = format!(
-        "{} ({}); diffusion on the {}",
+        "{} ({}); lighting on the {}",
         ctx.adapter_name(),
         ctx.backend(),
-        match a.diffusion.resolve(&ctx) {
-            DiffusionOn::Cpu => "CPU",
+        match a.lighting.resolve(&ctx) {
+            LightingOn::Cpu => "CPU",
             _ => "GPU",
         }
     );
@@ -164,7 +164,7 @@ pub fn run(a: ViewArgs) -> Result<()> {
 
     if !a.window {
         let play_for = a.play_for.unwrap_or_default();
-        let worker = Worker::spawn(cursor, ctx, a.diffusion, Box::new(|| {}))?;
+        let worker = Worker::spawn(cursor, ctx, a.lighting, Box::new(|| {}))?;
         let mut player = Player::new(playback, worker, started);
         let line = play_without_window(&mut player, &initial, play_for)?;
         println!("{line}");
@@ -174,7 +174,7 @@ pub fn run(a: ViewArgs) -> Result<()> {
         title: format!("haze view — {}", a.input.display()),
         cursor,
         ctx,
-        diffusion: a.diffusion,
+        lighting: a.lighting,
         playback,
         started,
         settings: app::Settings {

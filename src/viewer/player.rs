@@ -219,7 +219,7 @@ mod tests {
     use super::super::worker::FrameCursor;
     use super::*;
     use haze_view::gpu::GpuContext;
-    use haze_view::gpu::renderer::DiffusionOn;
+    use haze_view::gpu::renderer::LightingOn;
     use haze_view::render::CrmOptions;
     use haze_view::stream::FrameStream;
     use haze_view::{Environment, Medium, Sky};
@@ -264,7 +264,7 @@ mod tests {
         let path = write_asset(dir.path(), "a.haze", 4);
         let ctx = GpuContext::new().unwrap_or_else(|e| panic!("{e}"));
         let cursor = FrameCursor::new(FrameStream::open(&path, 2, true).unwrap(), 2);
-        let worker = Worker::spawn(cursor, ctx, DiffusionOn::Auto, Box::new(|| {})).unwrap();
+        let worker = Worker::spawn(cursor, ctx, LightingOn::Auto, Box::new(|| {})).unwrap();
         let mut playback = Playback::new(4, 24.0).unwrap();
         playback.pause();
         let mut p = Player::new(playback, worker, Instant::now());

@@ -8,7 +8,7 @@
 use super::frame::{FrameRenderer, StageTimes};
 use super::playback::Tick;
 use haze_view::gpu::GpuContext;
-use haze_view::gpu::renderer::DiffusionOn;
+use haze_view::gpu::renderer::LightingOn;
 use haze_view::gpu::volume_pass::Residual;
 use haze_view::render::CrmOptions;
 use haze_view::stream::{FrameStream, StreamFrame};
@@ -137,11 +137,11 @@ impl Worker {
     pub fn spawn(
         mut cursor: FrameCursor,
         ctx: GpuContext,
-        diffusion: DiffusionOn,
+        lighting: LightingOn,
         wake: Box<dyn Fn() + Send>,
     ) -> anyhow::Result<Worker> {
         let renderer =
-            FrameRenderer::new(&ctx, diffusion).map_err(|e| anyhow::anyhow!("GPU: {e}"))?;
+            FrameRenderer::new(&ctx, lighting).map_err(|e| anyhow::anyhow!("GPU: {e}"))?;
         let (jobs, inbox) = channel::<Job>();
         let (outbox, done) = channel();
         let thread = std::thread::Builder::new()
@@ -312,7 +312,7 @@ mod tests {
         let path = write_asset(dir.path(), "a.haze", 3);
         let ctx = GpuContext::new().unwrap_or_else(|e| panic!("{e}"));
         let cursor = FrameCursor::new(FrameStream::open(&path, 2, true).unwrap(), 2);
-        let mut w = Worker::spawn(cursor, ctx, DiffusionOn::Auto, Box::new(|| {})).unwrap();
+        let mut w = Worker::spawn(cursor, ctx, LightingOn::Auto, Box::new(|| {})).unwrap();
         let mut run = |job: Job| {
             w.submit(job);
             assert!(w.busy());
@@ -331,7 +331,7 @@ mod tests {
         let b = run(view_job(2, 0.3, 4.0));
         assert!(b.times.is_none());
         let ctx = GpuContext::new().unwrap();
-        let mut r = FrameRenderer::new(&ctx, DiffusionOn::Auto).unwrap();
+        let mut r = FrameRenderer::new(&ctx, LightingOn::Auto).unwrap();
         let mut d =
             haze_view::stream::FrameDecoder::new(Arc::new(haze_asset::Asset::open(&path).unwrap()));
         let f = d.decode(2).unwrap();

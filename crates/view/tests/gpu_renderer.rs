@@ -16,7 +16,7 @@
 //! march's early exit, `OPAQUE` = 1e-4 of the brightest. So `|ΔI| ≤ 5e-4 · brightest`
 //! per pixel and channel leaves a margin of more than 1.5 over the sum.
 
-use haze_view::gpu::renderer::{DiffusionOn, GpuFrame, GpuRenderer, Reuse};
+use haze_view::gpu::renderer::{GpuFrame, GpuRenderer, LightingOn, Reuse};
 use haze_view::render::{CrmOptions, crm_render};
 use haze_view::{Camera, Environment, LatLong, Medium, Sky};
 use haze_volume::Rbf;
@@ -67,10 +67,10 @@ fn frames_match_crm_render_at_every_setting() {
         dims,
         bbox,
     };
-    // The diffusion on either side of the bus.
-    for on in [DiffusionOn::Gpu, DiffusionOn::Cpu] {
+    // The lighting at the centers on either side of the bus.
+    for on in [LightingOn::Gpu, LightingOn::Cpu] {
         let mut r = GpuRenderer::new(&ctx, env.clone()).unwrap();
-        r.set_diffusion(on);
+        r.set_lighting(on);
         for (order, multiple, g, sigma_t) in [
             (2, true, 0.0, 5.0),
             (4, true, 0.5, 5.0),
@@ -93,7 +93,7 @@ fn frames_match_crm_render_at_every_setting() {
                 &gpu,
                 &cpu.pixels,
                 &format!(
-                    "diffusion {on:?}, order {order}, multiple {multiple}, g {g}, σt {sigma_t}"
+                    "lighting {on:?}, order {order}, multiple {multiple}, g {g}, σt {sigma_t}"
                 ),
             );
             if multiple {
@@ -226,7 +226,7 @@ fn stage_times_come_from_timestamps_where_the_device_has_them() {
     assert_eq!(on, ctx.has_timestamps());
     let rbfs = cluster();
     let mut r = GpuRenderer::new(&ctx, Environment::Sky(Sky::default())).unwrap();
-    r.set_diffusion(DiffusionOn::Gpu);
+    r.set_lighting(LightingOn::Gpu);
     let frame = GpuFrame {
         key: 0,
         rbfs: &rbfs,

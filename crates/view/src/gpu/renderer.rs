@@ -9,9 +9,10 @@
 //!    system, CGLS and `J̃ms` added to the sources in place, in one compute pass), from
 //!    the frame's geometric [`Operators`], computed on the CPU once per frame and kept
 //!    while the frame is unchanged (a new light or medium reuses them); the solve starts
-//!    from the previous frame's solution when the RBF count is unchanged. On an adapter
-//!    that is a CPU (lavapipe) the CPU solves instead ([`DiffusionOn`]: the sources are
-//!    read back, [`add_multiple_scattering`] in `f64`, uploaded again).
+//!    from the previous frame's solution when the RBF count is unchanged.
+//!
+//! On an adapter that is a CPU (lavapipe) stages 1 and 2 run on the CPU instead
+//! ([`LightingOn`]: their `f64` twins on every core, the sources then uploaded).
 //! 3. **Volume pass**: GPU ([`VolumePass::run_on`], reading the sources where stage 1
 //!    or 2 left them).
 //! 4. **View pass**: GPU ([`ViewPass::dispatch`]); the image stays on the GPU until
@@ -30,7 +31,7 @@ use super::view_pass::{EnvBuffer, ImageBuffer, ViewPass};
 use super::volume_pass::{Residual, VolumePass};
 use super::{GpuContext, GpuError, GridBuffer, SourceBuffer};
 use crate::diffusion::{DiffusionSolver, Operators};
-use crate::lighting::single::{RgbSh, ShKit};
+use crate::lighting::single::{RgbSh, ShKit, single_scattering};
 use crate::render::{CrmOptions, CrmStats, add_multiple_scattering, slice_thickness};
 use crate::sh;
 use crate::{Camera, Environment, Medium};
@@ -61,31 +62,71 @@ pub enum Reuse {
     Grids,
 }
 
-/// Where the renderer solves the diffusion of multiple scattering.
+/// Where the renderer computes the lighting at the RBF centers: single scattering and the
+/// diffusion of multiple scattering (the volume and view passes always run on the GPU).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum DiffusionOn {
+pub enum LightingOn {
     /// The GPU, unless the adapter is a CPU (a software rasterizer such as Mesa's
-    /// lavapipe), where the CPU's own solve is an order of magnitude faster
+    /// lavapipe), where the CPU's own twins, on all its cores, are several times faster
     /// (`BENCHMARKS.md`, "GPU frame time").
     #[default]
     Auto,
-    /// The CPU, in `f64` (the sources make a round trip).
+    /// The CPU ([`crate::render::source_radiance`]'s stages, `f64`), the sources then
+    /// uploaded.
     Cpu,
-    /// The GPU, in `f32` ([`DiffusionPass`]).
+    /// The GPU ([`SingleScatteringPass`], [`DiffusionPass`]), in `f32`.
     Gpu,
 }
 
-impl DiffusionOn {
+impl LightingOn {
     /// `Cpu` or `Gpu` for the adapter of `ctx`.
-    pub fn resolve(self, ctx: &GpuContext) -> DiffusionOn {
+    pub fn resolve(self, ctx: &GpuContext) -> LightingOn {
         match self {
-            DiffusionOn::Auto if ctx.adapter_info().device_type == wgpu::DeviceType::Cpu => {
-                DiffusionOn::Cpu
+            LightingOn::Auto if ctx.adapter_info().device_type == wgpu::DeviceType::Cpu => {
+                LightingOn::Cpu
             }
-            DiffusionOn::Auto => DiffusionOn::Gpu,
+            LightingOn::Auto => LightingOn::Gpu,
             on => on,
         }
     }
+}
+
+/// The sources at the centers on the CPU: single scattering, then the diffusion (warm-
+/// started by `solver`) when `opts.multiple`; with how the solve ended, if there was one.
+fn cpu_sources(
+    kit: &ShKit,
+    light: &RgbSh,
+    frame: &GpuFrame<'_>,
+    medium: &Medium,
+    opts: &CrmOptions,
+    solver: &mut DiffusionSolver,
+    stats: &mut FrameStats,
+) -> (Vec<RgbSh>, Option<DiffusionStats>) {
+    let t = Instant::now();
+    let ss = single_scattering(kit, frame.rbfs, medium, light, opts.exp, opts.source_points);
+    stats.crm.single_seconds = t.elapsed().as_secs_f64();
+    let mut source = ss.source;
+    if !opts.multiple || frame.rbfs.is_empty() {
+        return (source, None);
+    }
+    let t = Instant::now();
+    add_multiple_scattering(
+        frame.rbfs,
+        medium,
+        &mut source,
+        ss.escape,
+        opts,
+        solver,
+        &mut stats.crm,
+    );
+    stats.crm.multiple_seconds = t.elapsed().as_secs_f64();
+    stats.solved = true;
+    let solve = DiffusionStats {
+        iterations: stats.crm.cg_iterations,
+        residual: stats.crm.cg_residual,
+        converged: stats.crm.cg_residual <= opts.solve.tolerance,
+    };
+    (source, Some(solve))
 }
 
 /// Where a frame's time went.
@@ -93,9 +134,8 @@ impl DiffusionOn {
 pub struct FrameStats {
     /// Host seconds per stage, as [`crate::render::crm_render`] reports them. The GPU
     /// stages are submitted, not waited for (the multiple scattering's host time is the
-    /// frame's operators, when new, and the submission — or, on the CPU, the solve and
-    /// the upload, the wait for single scattering and its readback counting as single
-    /// scattering); see `gpu` for device times. The diffusion's CG iterations and
+    /// frame's operators, when new, and the submission — or, on the CPU, the twins'
+    /// computation); see `gpu` for device times. The diffusion's CG iterations and
     /// residual are set only by a CPU solve: [`GpuRenderer::diffusion_stats`] reads them
     /// wherever it ran.
     pub crm: CrmStats,
@@ -134,13 +174,12 @@ pub struct GpuRenderer {
     order: Option<(ShKit, SingleScatteringPass, Option<RgbSh>)>,
     volume: VolumePass,
     view: ViewPass,
-    diffusion_on: DiffusionOn,
+    lighting_on: LightingOn,
     diffusion: DiffusionPass,
-    /// The CPU's solver (its warm start), for [`DiffusionOn::Cpu`].
+    /// The CPU's solver (its warm start), for [`LightingOn::Cpu`].
     solver: DiffusionSolver,
-    /// Where the last solve ran, and how it ended when that was the CPU.
-    last_solve: Option<DiffusionOn>,
-    cpu_stats: Option<DiffusionStats>,
+    /// Where the last diffusion solve ran, and how it ended when that was the CPU.
+    last_solve: Option<(LightingOn, DiffusionStats)>,
     /// The diffusion operators of the frame with this key.
     operators: Option<(u64, OperatorBuffers)>,
     sources: Option<(SourceKey, SourceBuffer)>,
@@ -157,11 +196,10 @@ impl GpuRenderer {
             order: None,
             volume: VolumePass::new(ctx)?,
             view: ViewPass::new(ctx)?,
-            diffusion_on: DiffusionOn::default(),
+            lighting_on: LightingOn::default(),
             diffusion: DiffusionPass::new(ctx)?,
             solver: DiffusionSolver::new(),
             last_solve: None,
-            cpu_stats: None,
             operators: None,
             sources: None,
             grid: None,
@@ -193,10 +231,11 @@ impl GpuRenderer {
         self.grid = None;
     }
 
-    /// Where the next frames solve the diffusion (the sources are recomputed).
-    pub fn set_diffusion(&mut self, on: DiffusionOn) {
-        if on != self.diffusion_on {
-            self.diffusion_on = on;
+    /// Where the next frames compute the lighting at the centers (the sources are
+    /// recomputed).
+    pub fn set_lighting(&mut self, on: LightingOn) {
+        if on != self.lighting_on {
+            self.lighting_on = on;
             self.sources = None;
             self.grid = None;
         }
@@ -207,7 +246,7 @@ impl GpuRenderer {
     pub fn diffusion_stats(&self, ctx: &GpuContext) -> Result<Option<DiffusionStats>, GpuError> {
         match self.last_solve {
             None => Ok(None),
-            Some(DiffusionOn::Cpu) => Ok(self.cpu_stats),
+            Some((LightingOn::Cpu, stats)) => Ok(Some(stats)),
             Some(_) => self.diffusion.stats(ctx),
         }
     }
@@ -236,46 +275,9 @@ impl GpuRenderer {
         };
         self.diffusion
             .run(ctx, &ops.1, medium, sources, &opts.solve)?;
-        self.last_solve = Some(DiffusionOn::Gpu);
+        self.last_solve = Some((LightingOn::Gpu, DiffusionStats::default()));
         stats.crm.multiple_seconds = t.elapsed().as_secs_f64();
         Ok(())
-    }
-
-    /// The sources with `J̃ms` added on the CPU ([`add_multiple_scattering`], `f64`,
-    /// warm-started from the previous frame): `sources` read back, solved, uploaded.
-    fn diffusion_cpu(
-        &mut self,
-        ctx: &GpuContext,
-        frame: &GpuFrame<'_>,
-        medium: &Medium,
-        sources: &SourceBuffer,
-        opts: &CrmOptions,
-        stats: &mut FrameStats,
-    ) -> Result<SourceBuffer, GpuError> {
-        // The wait for single scattering and the readback count as its time.
-        let t = Instant::now();
-        let ss = sources.read(ctx)?;
-        stats.crm.single_seconds += t.elapsed().as_secs_f64();
-        let t = Instant::now();
-        let mut source = ss.source;
-        add_multiple_scattering(
-            frame.rbfs,
-            medium,
-            &mut source,
-            ss.escape,
-            opts,
-            &mut self.solver,
-            &mut stats.crm,
-        );
-        self.cpu_stats = Some(DiffusionStats {
-            iterations: stats.crm.cg_iterations,
-            residual: stats.crm.cg_residual,
-            converged: stats.crm.cg_residual <= opts.solve.tolerance,
-        });
-        self.last_solve = Some(DiffusionOn::Cpu);
-        let buffer = SourceBuffer::upload(ctx, &source, opts.order);
-        stats.crm.multiple_seconds = t.elapsed().as_secs_f64();
-        buffer
     }
 
     /// Renders `frame` seen by `camera` into an image on the GPU (submitted; read it with
@@ -323,9 +325,26 @@ impl GpuRenderer {
         let sources_fresh = matches!(&self.sources, Some((k, _)) if *k == key);
         let source = match self.sources.take() {
             Some((k, buffer)) if sources_fresh => &self.sources.insert((k, buffer)).1,
+            _ if self.lighting_on.resolve(ctx) == LightingOn::Cpu => {
+                let (source, solve) = cpu_sources(
+                    kit,
+                    light,
+                    frame,
+                    medium,
+                    opts,
+                    &mut self.solver,
+                    &mut stats,
+                );
+                if let Some(solve) = solve {
+                    self.last_solve = Some((LightingOn::Cpu, solve));
+                }
+                let buffer = SourceBuffer::upload(ctx, &source, opts.order)?;
+                self.grid = None;
+                &self.sources.insert((key, buffer)).1
+            }
             _ => {
                 let t = Instant::now();
-                let mut buffer = single.run(
+                let buffer = single.run(
                     ctx,
                     kit,
                     frame.rbfs,
@@ -336,15 +355,7 @@ impl GpuRenderer {
                 )?;
                 stats.crm.single_seconds = t.elapsed().as_secs_f64();
                 if opts.multiple && !frame.rbfs.is_empty() {
-                    buffer = match self.diffusion_on.resolve(ctx) {
-                        DiffusionOn::Cpu => {
-                            self.diffusion_cpu(ctx, frame, medium, &buffer, opts, &mut stats)?
-                        }
-                        _ => {
-                            self.diffusion_gpu(ctx, frame, medium, &buffer, opts, &mut stats)?;
-                            buffer
-                        }
-                    };
+                    self.diffusion_gpu(ctx, frame, medium, &buffer, opts, &mut stats)?;
                     stats.solved = true;
                 }
                 self.grid = None;
