@@ -262,31 +262,21 @@ fn extremes_stay_finite_and_match() {
 #[test]
 fn starts_from_the_last_solution() {
     let ctx = context();
-    let rbfs = scattered(60, 7);
+    // 300 RBFs: ~200 iterations from zero at 1e-6.
+    let rbfs = scattered(300, 1);
     let medium = Medium::new(8.0, 0.9, 0.3).unwrap();
     let ops = OperatorBuffers::upload(&ctx, &Operators::new(&rbfs)).unwrap();
     let mut pass = DiffusionPass::new(&ctx).unwrap();
     let solve = SolveOptions::default();
-    pass.run(
-        &ctx,
-        &ops,
-        &medium,
-        &single(&ctx, &rbfs, &medium, 2),
-        &solve,
-    )
-    .unwrap();
-    let cold = pass.stats(&ctx).unwrap().unwrap();
+    let run = |pass: &mut DiffusionPass, medium: &Medium, opts: &SolveOptions| {
+        let sources = single(&ctx, &rbfs, medium, 2);
+        pass.run(&ctx, &ops, medium, &sources, opts).unwrap();
+        pass.stats(&ctx).unwrap().unwrap()
+    };
+    let cold = run(&mut pass, &medium, &solve);
     assert!(cold.converged && cold.iterations > 5, "{cold:?}");
     // The same system again: it starts at its solution.
-    pass.run(
-        &ctx,
-        &ops,
-        &medium,
-        &single(&ctx, &rbfs, &medium, 2),
-        &solve,
-    )
-    .unwrap();
-    let warm = pass.stats(&ctx).unwrap().unwrap();
+    let warm = run(&mut pass, &medium, &solve);
     assert!(
         warm.converged && warm.iterations * 4 < cold.iterations,
         "warm {warm:?}, cold {cold:?}"
@@ -298,34 +288,20 @@ fn starts_from_the_last_solution() {
         max_iterations: 2,
         tolerance: 1e-12,
     };
-    pass.run(&ctx, &ops, &near, &single(&ctx, &rbfs, &near, 2), &short)
-        .unwrap();
-    let warm = pass.stats(&ctx).unwrap().unwrap();
+    let warm = run(&mut pass, &near, &short);
     pass.reset();
-    pass.run(&ctx, &ops, &near, &single(&ctx, &rbfs, &near, 2), &short)
-        .unwrap();
-    let cold = pass.stats(&ctx).unwrap().unwrap();
+    let cold = run(&mut pass, &near, &short);
     assert_eq!((warm.iterations, cold.iterations), (2, 2));
     assert!(
         warm.residual < 0.2 * cold.residual,
         "warm {warm:?}, cold {cold:?}"
     );
     // A cap that is not a multiple of the iterations per dispatch (16): exactly that many.
-    let rbfs = scattered(300, 1);
-    let ops = OperatorBuffers::upload(&ctx, &Operators::new(&rbfs)).unwrap();
     let capped = SolveOptions {
         max_iterations: 37,
         tolerance: 1e-12,
     };
-    pass.run(
-        &ctx,
-        &ops,
-        &medium,
-        &single(&ctx, &rbfs, &medium, 2),
-        &capped,
-    )
-    .unwrap();
-    let stats = pass.stats(&ctx).unwrap().unwrap();
+    let stats = run(&mut pass, &medium, &capped);
     assert_eq!(stats.iterations, 37, "{stats:?}");
     assert!(!stats.converged, "{stats:?}");
 }

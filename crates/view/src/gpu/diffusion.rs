@@ -23,7 +23,7 @@
 //! recurrence residual keeps falling below that; the tests bound the difference from the
 //! CPU's `f64` solve by the condition number they compute.
 
-use super::{GpuContext, GpuError, SourceBuffer, buffer_init};
+use super::{GpuContext, GpuError, SourceBuffer, bind_buffers, buffer_init};
 use crate::Medium;
 use crate::diffusion::{Coefficients, Operators, SolveOptions};
 use std::f64::consts::PI;
@@ -342,19 +342,7 @@ impl DiffusionPass {
                 &ops.entries,
                 &ops.density,
             ];
-            let entries: Vec<wgpu::BindGroupEntry<'_>> = buffers
-                .iter()
-                .zip(0..)
-                .map(|(b, binding)| wgpu::BindGroupEntry {
-                    binding,
-                    resource: b.as_entire_binding(),
-                })
-                .collect();
-            let bind = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("diffusion"),
-                layout: &self.layout,
-                entries: &entries,
-            });
+            let bind = bind_buffers(ctx, "diffusion", &self.layout, &buffers);
             let mut enc = ctx
                 .device
                 .create_command_encoder(&wgpu::CommandEncoderDescriptor {

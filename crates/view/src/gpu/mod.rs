@@ -661,6 +661,28 @@ fn buffer_init(
         })
 }
 
+/// A bind group of `layout` binding `buffers[i]`, whole, to binding `i`.
+fn bind_buffers(
+    ctx: &GpuContext,
+    label: &'static str,
+    layout: &wgpu::BindGroupLayout,
+    buffers: &[&wgpu::Buffer],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry<'_>> = buffers
+        .iter()
+        .zip(0..)
+        .map(|(b, binding)| wgpu::BindGroupEntry {
+            binding,
+            resource: b.as_entire_binding(),
+        })
+        .collect();
+    ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout,
+        entries: &entries,
+    })
+}
+
 /// Binds `buffers` (binding `i` to `buffers[i]`) as group 0 of `pipeline` and submits one
 /// compute pass of `groups` workgroups (none when a count is 0), timed as `label` while
 /// [`GpuContext::time_stages`] is on. Call inside [`GpuContext::scoped`].
@@ -671,19 +693,7 @@ fn submit_pass(
     buffers: &[&wgpu::Buffer],
     groups: [u32; 3],
 ) {
-    let entries: Vec<wgpu::BindGroupEntry<'_>> = buffers
-        .iter()
-        .zip(0..)
-        .map(|(b, binding)| wgpu::BindGroupEntry {
-            binding,
-            resource: b.as_entire_binding(),
-        })
-        .collect();
-    let bind = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some(label),
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &entries,
-    });
+    let bind = bind_buffers(ctx, label, &pipeline.get_bind_group_layout(0), buffers);
     let mut enc = ctx
         .device
         .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
