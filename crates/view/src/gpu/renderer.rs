@@ -10,13 +10,13 @@
 //!    the frame's geometric [`Operators`], computed on the CPU once per frame and kept
 //!    while the frame is unchanged (a new light or medium reuses them); the solve starts
 //!    from the previous frame's solution when the RBF count is unchanged.
-//!
-//! On an adapter that is a CPU (lavapipe) stages 1 and 2 run on the CPU instead
-//! ([`LightingOn`]: their `f64` twins on every core, the sources then uploaded).
 //! 3. **Volume pass**: GPU ([`VolumePass::run_on`], reading the sources where stage 1
 //!    or 2 left them).
 //! 4. **View pass**: GPU ([`ViewPass::dispatch`]); the image stays on the GPU until
 //!    [`ImageBuffer::read`].
+//!
+//! On an adapter that is a CPU (lavapipe) stages 1 and 2 run on the CPU instead
+//! ([`LightingOn`]: their `f64` twins on every core, the sources then uploaded).
 //!
 //! **Reuse** (the paper's): the sources at the centers depend on the frame, the medium,
 //! the lighting and the SH knobs, not on the camera, so a new camera reuses them; the
