@@ -40,7 +40,7 @@
 //!
 //! Without transport it gives `L⁰ = (1 − P) J⁰/(1 − Ω(1 − P))`: the trapped value deep
 //! inside (`P → 0`), the single-collision value `(1 − P) J⁰ → 0` in thin smoke (`P → 1`),
-//! and a non-singular system at Ω = 1 wherever `P > 0`. With `P ≡ 0` ([`Sources::escape`]
+//! and a non-singular system at Ω = 1 wherever `P > 0`. With `P ≡ 0` (the `escape` of [`Sources`]
 //! empty) it is the equation above.
 //!
 //! On the RBF basis every field `F` is interpolated from its values `F_l` at the centers as
