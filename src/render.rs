@@ -136,12 +136,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
                 .render(ctx, &input, &medium, &camera, &opts)
                 .map_err(gpu_err)?;
             let pixels = image.read(ctx).map_err(gpu_err)?;
-            if stats.solved
-                && let Some(d) = renderer.diffusion_stats(ctx).map_err(gpu_err)?
-            {
-                stats.crm.cg_iterations = d.iterations;
-                stats.crm.cg_residual = d.residual;
-            }
+            renderer.read_solve(ctx, &mut stats).map_err(gpu_err)?;
             stats.crm.setup_seconds += setup;
             tracing::info!("host: {}", stats.crm);
             if !stats.gpu.is_empty() {

@@ -113,12 +113,7 @@ impl FrameRenderer {
         };
         let (image, mut stats) = self.inner.render(ctx, &frame, medium, camera, opts)?;
         let pixels = image.read(ctx)?;
-        if stats.solved
-            && let Some(d) = self.inner.diffusion_stats(ctx)?
-        {
-            stats.crm.cg_iterations = d.iterations;
-            stats.crm.cg_residual = d.residual;
-        }
+        self.inner.read_solve(ctx, &mut stats)?;
         Ok((
             pixels,
             StageTimes {

@@ -1,7 +1,7 @@
 //! The per-frame solve: assemble, then CGLS per colour channel from a warm start.
 
 use super::basis::{Neighbours, active};
-use super::{Sources, System, assemble, cgls};
+use super::{Operators, Sources, System, cgls};
 use crate::Medium;
 use haze_volume::Rbf;
 use nalgebra::DVector;
@@ -98,7 +98,24 @@ impl DiffusionSolver {
         sources: &Sources,
         opts: &SolveOptions,
     ) -> Solution {
-        let system = assemble(rbfs, medium, sources);
+        self.solve_with(&Operators::new(rbfs), rbfs, medium, sources, opts)
+    }
+
+    /// [`DiffusionSolver::solve`] with the operators of `rbfs` already computed (the
+    /// caller keeps them for [`Operators::ms_source_sh`]).
+    ///
+    /// # Panics
+    /// If `ops` or `sources` are not for as many centers as `rbfs`.
+    pub fn solve_with(
+        &mut self,
+        ops: &Operators,
+        rbfs: &[Rbf],
+        medium: &Medium,
+        sources: &Sources,
+        opts: &SolveOptions,
+    ) -> Solution {
+        assert_eq!(ops.n(), rbfs.len(), "operators for another set of RBFs");
+        let system = ops.system(medium, sources);
         let start = match &self.previous {
             Some((_, l0)) if l0.len() == rbfs.len() => l0.clone(),
             Some((prev_rbfs, l0)) => warm_start(prev_rbfs, l0, rbfs),

@@ -31,8 +31,8 @@ use super::view_pass::{EnvBuffer, ImageBuffer, ViewPass};
 use super::volume_pass::{Residual, VolumePass};
 use super::{GpuContext, GpuError, GridBuffer, SourceBuffer};
 use crate::diffusion::{DiffusionSolver, Operators};
-use crate::lighting::single::{RgbSh, ShKit, single_scattering};
-use crate::render::{CrmOptions, CrmStats, add_multiple_scattering, slice_thickness};
+use crate::lighting::single::{RgbSh, ShKit};
+use crate::render::{CrmOptions, CrmStats, slice_thickness, source_radiance};
 use crate::sh;
 use crate::{Camera, Environment, Medium};
 use haze_volume::{Bbox, Rbf};
@@ -71,8 +71,7 @@ pub enum LightingOn {
     /// (`BENCHMARKS.md`, "GPU frame time").
     #[default]
     Auto,
-    /// The CPU ([`crate::render::source_radiance`]'s stages, `f64`), the sources then
-    /// uploaded.
+    /// The CPU ([`source_radiance`], `f64`), the sources then uploaded.
     Cpu,
     /// The GPU ([`SingleScatteringPass`], [`DiffusionPass`]), in `f32`.
     Gpu,
@@ -91,44 +90,6 @@ impl LightingOn {
     }
 }
 
-/// The sources at the centers on the CPU: single scattering, then the diffusion (warm-
-/// started by `solver`) when `opts.multiple`; with how the solve ended, if there was one.
-fn cpu_sources(
-    kit: &ShKit,
-    light: &RgbSh,
-    frame: &GpuFrame<'_>,
-    medium: &Medium,
-    opts: &CrmOptions,
-    solver: &mut DiffusionSolver,
-    stats: &mut FrameStats,
-) -> (Vec<RgbSh>, Option<DiffusionStats>) {
-    let t = Instant::now();
-    let ss = single_scattering(kit, frame.rbfs, medium, light, opts.exp, opts.source_points);
-    stats.crm.single_seconds = t.elapsed().as_secs_f64();
-    let mut source = ss.source;
-    if !opts.multiple || frame.rbfs.is_empty() {
-        return (source, None);
-    }
-    let t = Instant::now();
-    add_multiple_scattering(
-        frame.rbfs,
-        medium,
-        &mut source,
-        ss.escape,
-        opts,
-        solver,
-        &mut stats.crm,
-    );
-    stats.crm.multiple_seconds = t.elapsed().as_secs_f64();
-    stats.solved = true;
-    let solve = DiffusionStats {
-        iterations: stats.crm.cg_iterations,
-        residual: stats.crm.cg_residual,
-        converged: stats.crm.cg_residual <= opts.solve.tolerance,
-    };
-    (source, Some(solve))
-}
-
 /// Where a frame's time went.
 #[derive(Clone, Debug, Default)]
 pub struct FrameStats {
@@ -136,7 +97,7 @@ pub struct FrameStats {
     /// stages are submitted, not waited for (the multiple scattering's host time is the
     /// frame's operators, when new, and the submission — or, on the CPU, the twins'
     /// computation); see `gpu` for device times. The diffusion's CG iterations and
-    /// residual are set only by a CPU solve: [`GpuRenderer::diffusion_stats`] reads them
+    /// residual are set only by a CPU solve: [`GpuRenderer::read_solve`] reads them
     /// wherever it ran.
     pub crm: CrmStats,
     /// The diffusion ran for this frame (else it had none, or reused the sources).
@@ -241,6 +202,18 @@ impl GpuRenderer {
         }
     }
 
+    /// Puts how this frame's diffusion solve ended (iterations, residual) into `stats`
+    /// when it had one; a solve on the GPU is read back (a wait).
+    pub fn read_solve(&self, ctx: &GpuContext, stats: &mut FrameStats) -> Result<(), GpuError> {
+        if stats.solved
+            && let Some(d) = self.diffusion_stats(ctx)?
+        {
+            stats.crm.cg_iterations = d.iterations;
+            stats.crm.cg_residual = d.residual;
+        }
+        Ok(())
+    }
+
     /// How the last diffusion solve ended (waits for the GPU when it ran there); `None`
     /// before the first.
     pub fn diffusion_stats(&self, ctx: &GpuContext) -> Result<Option<DiffusionStats>, GpuError> {
@@ -326,16 +299,22 @@ impl GpuRenderer {
         let source = match self.sources.take() {
             Some((k, buffer)) if sources_fresh => &self.sources.insert((k, buffer)).1,
             _ if self.lighting_on.resolve(ctx) == LightingOn::Cpu => {
-                let (source, solve) = cpu_sources(
+                let source = source_radiance(
                     kit,
-                    light,
-                    frame,
+                    frame.rbfs,
                     medium,
+                    light,
                     opts,
                     &mut self.solver,
-                    &mut stats,
+                    &mut stats.crm,
                 );
-                if let Some(solve) = solve {
+                if opts.multiple && !frame.rbfs.is_empty() {
+                    stats.solved = true;
+                    let solve = DiffusionStats {
+                        iterations: stats.crm.cg_iterations,
+                        residual: stats.crm.cg_residual,
+                        converged: stats.crm.cg_residual <= opts.solve.tolerance,
+                    };
                     self.last_solve = Some((LightingOn::Cpu, solve));
                 }
                 let buffer = SourceBuffer::upload(ctx, &source, opts.order)?;

@@ -3,7 +3,7 @@
 
 pub mod crm;
 
-use crate::diffusion::{DiffusionSolver, SolveOptions, Sources, ms_source_sh};
+use crate::diffusion::{DiffusionSolver, Operators, SolveOptions, Sources};
 use crate::lighting::single::{RgbSh, ShKit, SourcePoints, single_scattering};
 use crate::sh::{self, ExpMethod};
 use crate::{Camera, Environment, Image, Medium};
@@ -137,10 +137,11 @@ pub fn add_multiple_scattering(
         escape,
         ..moments(source)
     };
-    let sol = solver.solve(rbfs, medium, &sources, &opts.solve);
+    let ops = Operators::new(rbfs);
+    let sol = solver.solve_with(&ops, rbfs, medium, &sources, &opts.solve);
     stats.cg_iterations = sol.iterations;
     stats.cg_residual = sol.residual;
-    let ms = ms_source_sh(rbfs, medium, &sources, &sol.l0);
+    let ms = ops.ms_source_sh(medium, &sources, &sol.l0);
     for (j, m) in source.iter_mut().zip(&ms) {
         for c in 0..3 {
             // Propagation → viewing direction: band 1 changes sign.
