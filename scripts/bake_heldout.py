@@ -1,0 +1,114 @@
+"""Bake held-out Mantaflow smoke sequences (OpenVDB caches, as Blender writes them).
+
+These are the sequences that the figures in BENCHMARKS.md marked "held out" come from:
+other emitters, wind, obstacles and resolutions than the bundled plume-a, so that no
+constant is tuned to one simulation. Too large to commit; this script remakes them.
+
+Usage (Blender 5.0.1 as a Python module, from PyPI; the helpers live in the shared
+Mantaflow tools folder):
+
+    python3 -m venv bpyenv && bpyenv/bin/pip install bpy==5.0.1
+    bpyenv/bin/python scripts/bake_heldout.py CASE OUT_DIR [--tools ../shared/tools/mantaflow]
+
+CASE is one of:
+  plume-b   72 x 72 x 96,  50 frames: off-centre emitter, side wind, vorticity 0.3
+  plume-c   96 x 96 x 128, 50 frames: two emitters, wind, a tilted slab obstacle
+  plume-d   96 x 96 x 128, 50 frames: a wide low emitter, gusty turbulence, vorticity 0.05
+            (the sequence kept out of every tuning loop: report on it, never tune on it)
+
+The cache lands in OUT_DIR/CASE/ (fluid_data_NNNN.vdb) with meta.json beside it.
+"""
+import argparse
+import json
+import os
+import shutil
+import sys
+import time
+
+CASES = {
+    "plume-b": dict(
+        res=96, size=(3.0, 3.0, 4.0), frames=50, vorticity=0.3,
+        emitters=[(0.3, (0.6, -0.4, 0.5), (0.0, 0.0, 0.6))],
+        wind=((-1.6, 0.0, 1.2), 1.5, (0.0, 1.57, 0.0)),
+        obstacle=None, turbulence=None,
+    ),
+    "plume-c": dict(
+        res=128, size=(3.0, 3.0, 4.0), frames=50, vorticity=0.2,
+        emitters=[(0.28, (-0.5, 0.3, 0.45), (0.2, 0.0, 0.5)),
+                  (0.22, (0.55, -0.35, 0.4), (-0.1, 0.1, 0.7))],
+        wind=((0.0, -1.6, 1.0), 1.0, (-1.57, 0.0, 0.0)),
+        obstacle=((1.2, 0.5, 0.15), (0.0, 0.2, 2.3), (0.4, -0.3, 0.2)), turbulence=None,
+    ),
+    "plume-d": dict(
+        res=128, size=(3.0, 3.0, 4.0), frames=50, vorticity=0.05,
+        emitters=[(0.5, (0.0, 0.0, 0.35), (0.0, 0.0, 0.3))],
+        wind=None, obstacle=None,
+        turbulence=((0.0, 0.0, 2.0), 3.0, 0.6),
+    ),
+}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("case", choices=sorted(CASES))
+    ap.add_argument("out")
+    here = os.path.dirname(os.path.abspath(__file__))
+    ap.add_argument("--tools", default=os.path.join(here, "..", "..", "shared", "tools", "mantaflow"))
+    args = ap.parse_args()
+    sys.path.insert(0, os.path.abspath(args.tools))
+    import manta_fix  # noqa: E402
+
+    manta_fix.apply()  # before `import bpy`: see manta_fix.py
+    import bpy  # noqa: E402
+    import sa_common as C  # noqa: E402
+
+    case = CASES[args.case]
+    out = os.path.abspath(os.path.join(args.out, args.case))
+    work = out + ".work"
+    for d in (out, work):
+        if os.path.isdir(d):
+            shutil.rmtree(d)
+    os.makedirs(work)
+
+    t0 = time.time()
+    C.reset_scene()
+    sx, sy, sz = case["size"]
+    domain = C.add_box("Domain", case["size"], (0.0, 0.0, sz / 2))
+    for i, (radius, loc, vel) in enumerate(case["emitters"]):
+        em = C.add_sphere(f"Emitter{i}", radius, loc)
+        C.make_smoke_flow(em, density=1.0, temperature=1.0, init_vel=vel)
+    if case["obstacle"]:
+        size, loc, rot = case["obstacle"]
+        ob = C.add_box("Obstacle", size, loc)
+        ob.rotation_euler = rot
+        C.make_obstacle(ob)
+    if case["wind"]:
+        loc, strength, rot = case["wind"]
+        bpy.ops.object.effector_add(type="WIND", location=loc, rotation=rot)
+        bpy.context.active_object.field.strength = strength
+    if case["turbulence"]:
+        loc, strength, size = case["turbulence"]
+        bpy.ops.object.effector_add(type="TURBULENCE", location=loc)
+        f = bpy.context.active_object.field
+        f.strength, f.size = strength, size
+    F0, F1 = 1, case["frames"]
+    C.make_domain(domain, res_max=case["res"], cache_dir=work, frame_start=F0, frame_end=F1,
+                  vorticity=case["vorticity"], compress="ZIP", depth="32")
+    res, dt = C.bake(domain, frame_start=F0, frame_end=F1)
+    meta = C.domain_meta(domain)
+    meta.update({"case": args.case, "bake_result": list(res), "bake_seconds": dt, "settings": {
+        k: v for k, v in case.items()}})
+    data = os.path.join(work, "data")
+    os.makedirs(out)
+    for name in sorted(os.listdir(data)):
+        if name.startswith("fluid_data_") and name.endswith(".vdb"):
+            shutil.move(os.path.join(data, name), os.path.join(out, name))
+    with open(os.path.join(out, "meta.json"), "w") as fh:
+        json.dump(meta, fh, indent=1)
+    shutil.rmtree(work)
+    print(f"[{args.case}] {len(os.listdir(out)) - 1} frames in {out} ({time.time() - t0:.0f} s)", flush=True)
+    C.hard_exit(0)
+
+
+if __name__ == "__main__":
+    main()
