@@ -3,20 +3,23 @@
 //!
 //! ```text
 //! cargo run --release --example residual_trade -- INPUT [--frames A..B] [--upsample F]
-//!     [--rbfs N,N,..] [--bits B,B,..]
+//!     [--rbfs N,N,..] [--errors E,E,..] [--bricks B,B,..] [--bits B]
 //! ```
 //!
-//! Fits the frames of INPUT (a sequence, optionally resampled by F with trilinear
-//! interpolation to stand in for a finer simulation) as `haze bake` does, then for every
-//! RBF count and bit depth: the non-zero residual cells per frame, the reconstruction error
-//! of `D̃ + R̂` against `D` (max, and RMS over the max density), the hashed residual's
-//! bytes and build time per frame, random lookups per second, and what the same quantized
-//! residual costs as a dense 8/16-bit array, that array through zstd (level 3), and a
-//! sparse coordinate list (u32 index + value).
+//! Fits the frames of INPUT (a sequence, up to 27 frames: one hash volume; optionally
+//! resampled by F with trilinear interpolation) as `haze bake` does, then for every RBF
+//! count, `--residual-error` E and brick side: the non-zero residual voxels and stored
+//! bricks per frame, the share of bricks at each width, the reconstruction error of
+//! `D̃ + R̂` against `D` (max and RMS over each frame's peak), the hash volume's bytes per
+//! frame (the asset block) and per non-zero voxel, hashing time per frame (quantization +
+//! build), random lookups per second (one thread), and what the same quantized residual
+//! costs as a dense 8/16-bit array through zstd (level 3) and as a coordinate list (u32
+//! index + 8/16-bit value).
 
 use haze_fit::{SequenceFitter, SequenceOptions};
-use haze_hash::tile::{GROUP, ResidualGroup};
-use haze_hash::{BuildOptions, block, quantize};
+use haze_hash::pack::Width;
+use haze_hash::tile::{GROUP, ResidualGroup, unpayload};
+use haze_hash::{BuildOptions, QuantOptions, block, quantize};
 use haze_volume::import::{FrameRange, Sequence};
 use haze_volume::{ImportOptions, Rbf, Volume, rbf};
 use std::time::Instant;
@@ -26,7 +29,9 @@ struct Args {
     range: FrameRange,
     upsample: f64,
     rbfs: Vec<usize>,
-    bits: Vec<u8>,
+    errors: Vec<f64>,
+    bricks: Vec<u32>,
+    bits: u8,
 }
 
 fn parse() -> Result<Args, String> {
@@ -35,7 +40,9 @@ fn parse() -> Result<Args, String> {
         range: FrameRange::default(),
         upsample: 1.0,
         rbfs: vec![300],
-        bits: vec![8],
+        errors: vec![haze_hash::DEFAULT_ERROR],
+        bricks: vec![4],
+        bits: 8,
     };
     let mut it = std::env::args().skip(1);
     while let Some(s) = it.next() {
@@ -44,13 +51,15 @@ fn parse() -> Result<Args, String> {
             "--frames" => a.range = val()?.parse()?,
             "--upsample" => a.upsample = val()?.parse().map_err(|e| format!("{e}"))?,
             "--rbfs" => a.rbfs = list(&val()?)?,
-            "--bits" => a.bits = list(&val()?)?,
+            "--errors" => a.errors = list(&val()?)?,
+            "--bricks" => a.bricks = list(&val()?)?,
+            "--bits" => a.bits = val()?.parse().map_err(|e| format!("--bits: {e}"))?,
             _ if a.input.is_empty() => a.input = s,
             _ => return Err(format!("unexpected argument {s}")),
         }
     }
     if a.input.is_empty() {
-        return Err("usage: residual_trade INPUT [--frames A..B] [--upsample F] [--rbfs N,..] [--bits B,..]".into());
+        return Err("usage: residual_trade INPUT [--frames A..B] [--upsample F] [--rbfs N,..] [--errors E,..] [--bricks B,..] [--bits B]".into());
     }
     Ok(a)
 }
@@ -130,9 +139,9 @@ fn main() {
     );
     println!();
     println!(
-        "| RBFs | rel_l2 D̃ | bits | non-zero/frame | max err | rms err / max D | hash B/frame | B/cell | hash ms/frame | lookups/s | dense | dense+zstd | coord list | 4³ bricks with data |"
+        "| RBFs | rel_l2 D̃ | E | brick | non-zero/frame | bricks/frame | 2/4/8/16-bit bricks | max err / peak | rms err / peak | hash B/frame | B/non-zero | hash ms/frame | lookups/s | dense+zstd | coord list |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for &n in &a.rbfs {
         let mut fitter = SequenceFitter::new(SequenceOptions {
             rbfs: n,
@@ -156,17 +165,26 @@ fn main() {
             approx.push(rbf::evaluate_on_grid(dims, v.bbox(), &stored));
         }
         eprintln!("{n} RBFs fitted in {:.1} s", t.elapsed().as_secs_f64());
-        for &bits in &a.bits {
-            row(&frames, &approx, n, rel, bits, voxels);
+        for &e in &a.errors {
+            for &brick in &a.bricks {
+                row(&frames, &approx, n, rel, (e, brick, a.bits), voxels);
+            }
         }
     }
 }
 
-fn row(frames: &[Volume], approx: &[Vec<f64>], n: usize, rel: f64, bits: u8, voxels: usize) {
+fn row(
+    frames: &[Volume],
+    approx: &[Vec<f64>],
+    n: usize,
+    rel: f64,
+    (error, brick, bits): (f64, u32, u8),
+    voxels: usize,
+) {
     let dims = frames[0].dims();
     let t = Instant::now();
     let mut qs = Vec::new();
-    let (mut max_err, mut sq, mut peak) = (0.0f64, 0.0f64, 0.0f64);
+    let (mut max_err, mut sq) = (0.0f64, 0.0f64);
     for (v, ap) in frames.iter().zip(approx) {
         let r: Vec<f32> = v
             .data()
@@ -174,20 +192,21 @@ fn row(frames: &[Volume], approx: &[Vec<f64>], n: usize, rel: f64, bits: u8, vox
             .zip(ap)
             .map(|(d, a)| (f64::from(*d) - a) as f32)
             .collect();
-        let q = quantize(&r, bits).unwrap_or_else(|e| fail(&e));
-        max_err = max_err.max(q.max_error);
-        sq += q.rms_error * q.rms_error;
-        peak = v.data().iter().fold(peak, |m, d| m.max(f64::from(*d)));
+        let peak = v.data().iter().fold(0.0f32, |m, d| m.max(*d));
+        let q = quantize(&r, peak, QuantOptions { error, bits }).unwrap_or_else(|e| fail(&e));
+        let p = f64::from(peak).max(f64::MIN_POSITIVE);
+        max_err = max_err.max(q.max_error / p);
+        sq += (q.rms_error / p).powi(2);
         qs.push(q);
     }
     let quant_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let g = ResidualGroup::build(dims.map(|d| d as u32), &qs, BuildOptions::default())
+    let g = ResidualGroup::build(dims.map(|d| d as u32), brick, &qs, BuildOptions::default())
         .unwrap_or_else(|e| fail(&e.to_string()));
     let bytes = block::encode(&g).len();
     let hash_s = t.elapsed().as_secs_f64() + quant_s;
 
-    // Random lookups over the group's tiled domain (hits and misses alike).
+    // Random lookups over the frames (hits and misses alike).
     let lookups = 4_000_000u64;
     let t = Instant::now();
     let mut state = 0x2545_F491_4F6C_DD1Du64;
@@ -205,7 +224,24 @@ fn row(frames: &[Volume], approx: &[Vec<f64>], n: usize, rel: f64, bits: u8, vox
 
     let nf = frames.len() as f64;
     let cells: usize = qs.iter().map(|q| q.cells.len()).sum();
-    let vbytes = if bits <= 8 { 1 } else { 2 };
+    let stored = g.hash.keys.iter().filter(|&&k| k != 0).count();
+    let mut per_width = [0usize; 5];
+    for (&k, &p) in g.hash.keys.iter().zip(&g.hash.payloads) {
+        if let (true, Some((_, w))) = (k != 0, unpayload(p)) {
+            per_width[w.code() as usize] += 1;
+        }
+    }
+    let share = |w: Width| 100.0 * per_width[w.code() as usize] as f64 / stored.max(1) as f64;
+    let vbytes = if qs.iter().any(|q| q.lossless) {
+        4
+    } else if qs
+        .iter()
+        .all(|q| q.cells.iter().all(|&(_, v)| (-128..128).contains(&v)))
+    {
+        1
+    } else {
+        2
+    };
     let mut zstd_bytes = 0usize;
     for q in &qs {
         let mut dense = vec![0u8; voxels * vbytes];
@@ -215,41 +251,24 @@ fn row(frames: &[Volume], approx: &[Vec<f64>], n: usize, rel: f64, bits: u8, vox
         }
         zstd_bytes += zstd::bulk::compress(&dense, 3).expect("zstd").len();
     }
-    // Bricks of 4³ voxels holding at least one non-zero cell (what a brick-level hash
-    // would store).
-    let mut bricks = 0usize;
-    for q in &qs {
-        let mut ids: Vec<usize> = q
-            .cells
-            .iter()
-            .map(|&(i, _)| {
-                let i = i as usize;
-                let (x, y, z) = (
-                    i % dims[0],
-                    (i / dims[0]) % dims[1],
-                    i / (dims[0] * dims[1]),
-                );
-                x / 4 + dims[0].div_ceil(4) * (y / 4 + dims[1].div_ceil(4) * (z / 4))
-            })
-            .collect();
-        ids.sort_unstable();
-        ids.dedup();
-        bricks += ids.len();
-    }
     let kb = |b: f64| format!("{:.1} kB", b / 1000.0);
     println!(
-        "| {n} | {rel:.4} | {bits} | {:.0} ({:.2} %) | {max_err:.2e} | {:.3} % | {} | {:.2} | {:.1} | {:.0} M | {} | {} | {} | {:.0} |",
+        "| {n} | {rel:.4} | {error:.4} | {brick} | {:.0} ({:.2} %) | {:.0} | {:.0}/{:.0}/{:.0}/{:.0} % | {:.2e} | {:.3} % | {} | {:.2} | {:.1} | {:.0} M | {} | {} |",
         cells as f64 / nf,
         100.0 * cells as f64 / nf / voxels as f64,
-        100.0 * (sq / nf).sqrt() / peak.max(f64::MIN_POSITIVE),
+        stored as f64 / nf,
+        share(Width::W2),
+        share(Width::W4),
+        share(Width::W8),
+        share(Width::W16),
+        max_err,
+        100.0 * (sq / nf).sqrt(),
         kb(bytes as f64 / nf),
         bytes as f64 / cells.max(1) as f64,
         1000.0 * hash_s / nf,
         per_s / 1e6,
-        kb((voxels * vbytes) as f64),
         kb(zstd_bytes as f64 / nf),
         kb(cells as f64 * (4 + vbytes) as f64 / nf),
-        bricks as f64 / nf,
     );
 }
 

@@ -37,8 +37,10 @@ pub struct BakeArgs {
     pub count: Count,
     pub fit: SequenceOptions,
     pub report: Option<PathBuf>,
-    /// Bits of the quantized residual.
-    pub quant_bits: u8,
+    /// The residual's error (fraction of each frame's peak) and widest stored value.
+    pub quant: haze_hash::QuantOptions,
+    /// Brick side of the residual hash.
+    pub brick: u32,
     /// Continue the interrupted bake of `out` from its journal.
     pub resume: bool,
 }
@@ -136,7 +138,7 @@ pub fn run(args: BakeArgs) -> Result<()> {
         ..args.fit.clone()
     };
     let mut fitter = SequenceFitter::resume(opts.clone(), std::mem::take(&mut done.state));
-    let mut residuals = ResidualStage::new(args.quant_bits, seq.dims(), done.hashed)?;
+    let mut residuals = ResidualStage::new(args.quant, args.brick, seq.dims(), done.hashed)?;
     let bar = progress::frames(seq.len(), "fitting");
     // Frames finished but not yet hashed: their quantized residuals again (deterministic).
     for i in done.hashed..done.records.len() {
@@ -181,11 +183,15 @@ pub fn run(args: BakeArgs) -> Result<()> {
         if residuals.full() || i + 1 == seq.len() {
             bar.set_message("hashing");
             if let Some(h) = residuals.flush()? {
-                let shares = json!({"first": h.first, "count": h.count, "shares": h.shares});
+                let shares = json!({"first": h.first, "count": h.count, "shares": h.shares,
+                                    "bricks": h.bricks});
                 journal.append(Tag::Group, &shares, &h.bytes)?;
                 apply(&mut done.records, &h);
-                done.blocks
-                    .push((BlockKind::ResidualHash, h.scope(), h.bytes));
+                warn_widened(&done.records[h.first..h.first + h.count], seq.frames());
+                if !h.bytes.is_empty() {
+                    done.blocks
+                        .push((BlockKind::ResidualHash, h.scope(), h.bytes));
+                }
             }
         }
         bar.inc(1);
@@ -196,7 +202,9 @@ pub fn run(args: BakeArgs) -> Result<()> {
         "rbfs": opts.rbfs,
         "options": opts,
         "search": done.search,
-        "quant_bits": args.quant_bits,
+        "quant_bits": args.quant.bits,
+        "residual_error": args.quant.error,
+        "residual_brick": args.brick,
     });
     let records = &done.records;
     let mut header = crate::asset_header::for_sequence(&seq, &args.input, &args.import)?;
@@ -206,6 +214,8 @@ pub fn run(args: BakeArgs) -> Result<()> {
             json!({"frame": r.frame, "rbfs": r.rbfs, "rel_l2": r.fit.rel_l2,
                    "rms_over_max": r.fit.rms_over_max,
                    "residual_nonzero": r.residual.residual_nonzero,
+                   "residual_bricks": r.residual.residual_bricks,
+                   "rbf_max_error": r.residual.rbf_max_error,
                    "hash_bytes": r.residual.hash_bytes,
                    "quant_step": r.residual.quant_step})
         })
@@ -266,7 +276,9 @@ fn inputs(seq: &Sequence, args: &BakeArgs) -> Result<serde_json::Value> {
         "import": args.import,
         "count": args.count,
         "fit": args.fit,
-        "quant_bits": args.quant_bits,
+        "quant_bits": args.quant.bits,
+        "residual_error": args.quant.error,
+        "residual_brick": args.brick,
     }))
 }
 
@@ -281,6 +293,8 @@ fn restore(path: &Path, inputs: &serde_json::Value, records: Vec<Record>) -> Res
             "count",
             "fit",
             "quant_bits",
+            "residual_error",
+            "residual_brick",
             "generator",
         ]
         .into_iter()
@@ -295,6 +309,8 @@ fn restore(path: &Path, inputs: &serde_json::Value, records: Vec<Record>) -> Res
                 "count" => "RBF count options",
                 "fit" => "fit options",
                 "quant_bits" => "--quant-bits",
+                "residual_error" => "--residual-error",
+                "residual_brick" => "--residual-brick",
                 "generator" => "haze version",
                 other => other,
             }
@@ -327,8 +343,11 @@ fn restore(path: &Path, inputs: &serde_json::Value, records: Vec<Record>) -> Res
                     serde_json::from_value(r.json["count"].clone()).map_err(|_| bad("group"))?;
                 let shares: Vec<(f64, f64)> =
                     serde_json::from_value(r.json["shares"].clone()).map_err(|_| bad("group"))?;
+                let bricks: Vec<usize> =
+                    serde_json::from_value(r.json["bricks"].clone()).map_err(|_| bad("group"))?;
                 if first != done.hashed
                     || shares.len() != count
+                    || bricks.len() != count
                     || first + count > done.records.len()
                 {
                     return Err(bad("hash volumes out of order"));
@@ -338,10 +357,13 @@ fn restore(path: &Path, inputs: &serde_json::Value, records: Vec<Record>) -> Res
                     count,
                     bytes: r.bin,
                     shares,
+                    bricks,
                 };
                 apply(&mut done.records, &h);
-                done.blocks
-                    .push((BlockKind::ResidualHash, h.scope(), h.bytes));
+                if !h.bytes.is_empty() {
+                    done.blocks
+                        .push((BlockKind::ResidualHash, h.scope(), h.bytes));
+                }
                 done.hashed += count;
             }
             Tag::Start => return Err(bad("two start records")),
@@ -419,14 +441,42 @@ fn temporal(records: &[FrameRecord], threshold: f64) -> serde_json::Value {
 fn summary_line(out: &Path, records: &[FrameRecord], bytes: u64, seconds: f64) -> String {
     let n = records.len().max(1) as f64;
     let mean = |f: fn(&FrameRecord) -> f64| records.iter().map(f).sum::<f64>() / n;
+    let met = records
+        .iter()
+        .filter(|r| r.residual.rbfs_meet_error)
+        .count();
     format!(
-        "{}: {}, {:.0} RBFs/frame, mean rel_l2 {:.4}, mean rms/max {:.4}, {}, {:.1} s",
+        "{}: {}, {:.0} RBFs/frame, mean rel_l2 {:.4}, mean rms/max {:.4}, residual {}/frame ({} met by the RBFs alone), {}, {:.1} s",
         out.display(),
         progress::count(records.len(), "frame"),
         mean(|r| r.rbfs as f64),
         mean(|r| r.fit.rel_l2),
         mean(|r| r.fit.rms_over_max),
+        crate::inspect::bytes(mean(|r| r.residual.hash_bytes) as u64),
+        met,
         crate::inspect::bytes(bytes),
         seconds
     )
+}
+
+/// Warns about the frames whose residual could not be stored at the error asked for.
+fn warn_widened(records: &[FrameRecord], frames: &[haze_volume::import::FrameFile]) {
+    let widened: Vec<i64> = records
+        .iter()
+        .filter(|r| r.residual.quant_widened)
+        .map(|r| r.frame)
+        .collect();
+    if let (Some(first), Some(r)) = (
+        widened.first(),
+        records.iter().find(|r| r.residual.quant_widened),
+    ) {
+        let path = frames
+            .iter()
+            .find(|f| f.number == *first)
+            .map_or(String::new(), |f| format!("{}: ", f.path.display()));
+        tracing::warn!(
+            "{path}frames {widened:?}: the residual's largest value ({:.3} of the peak) needs more than --quant-bits at the asked --residual-error; the step was widened (raise --quant-bits to keep the error)",
+            r.residual.rbf_max_error
+        );
+    }
 }

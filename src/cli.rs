@@ -185,9 +185,20 @@ pub struct BakeCli {
     /// Seed of the random teleports (same seed, same input: same asset).
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Bits of the quantized residual (4..16).
+    /// Largest error of the stored volume, as a fraction of each frame's peak density: the
+    /// residual D − D̃ is quantized with a step of twice that, and nothing is stored where
+    /// the RBFs alone are within it. 0 = lossless (the residual's f32 values); the default
+    /// 1/255 is what 8-bit density storage promises.
+    #[arg(long, default_value_t = haze_hash::DEFAULT_ERROR, value_name = "E", value_parser = parse_error_fraction)]
+    residual_error: f64,
+    /// Widest stored residual value in bits (4..16); each brick takes the narrowest of 2, 4,
+    /// 8, 16 bits that holds its values. If the largest residual needs more at
+    /// --residual-error, the step widens (with a warning).
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u8).range(4..=16))]
     quant_bits: u8,
+    /// Side of the voxel bricks the residual is hashed by (1, 2, 4 or 8).
+    #[arg(long, default_value_t = haze_hash::tile::DEFAULT_BRICK, value_parser = parse_brick)]
+    residual_brick: u32,
     /// Also write a JSON report of every frame's fit.
     #[arg(long, value_name = "REPORT.json")]
     report: Option<PathBuf>,
@@ -500,10 +511,32 @@ impl BakeCli {
                 ..SequenceOptions::default()
             },
             report: self.report,
-            quant_bits: self.quant_bits,
+            quant: haze_hash::QuantOptions {
+                error: self.residual_error,
+                bits: self.quant_bits,
+            },
+            brick: self.residual_brick,
             resume: self.resume,
         })
     }
+}
+
+/// `--residual-error`: a finite fraction ≥ 0.
+fn parse_error_fraction(s: &str) -> Result<f64, String> {
+    let e: f64 = s.parse().map_err(|_| format!("'{s}' is not a number"))?;
+    if e.is_finite() && e >= 0.0 {
+        Ok(e)
+    } else {
+        Err(format!("{s} is not a fraction ≥ 0 of the peak density"))
+    }
+}
+
+/// `--residual-brick`: one of the supported sides.
+fn parse_brick(s: &str) -> Result<u32, String> {
+    s.parse()
+        .ok()
+        .filter(|b| haze_hash::tile::BRICK_SIDES.contains(b))
+        .ok_or_else(|| format!("'{s}' is not one of {:?}", haze_hash::tile::BRICK_SIDES))
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {

@@ -32,27 +32,31 @@ pub fn run(path: &Path, frame: i64, out: &Path) -> Result<()> {
         )
     })?;
     let rbfs = decode_rbfs(rbf_block.bytes).map_err(|e| asset.block_error(&rbf_block, e))?;
-    let res_block = blocks
-        .find(BlockKind::ResidualHash)
-        .ok_or_else(|| anyhow!("{}: frame {frame} has no residual block", path.display()))?;
-    let group =
-        haze_hash::block::decode(res_block.bytes).map_err(|e| asset.block_error(&res_block, e))?;
-    let Scope::Frames { first, .. } = res_block.id.scope else {
-        bail!(
-            "{}: the residual block of frame {frame} is not per frame",
-            path.display()
-        );
+    // No residual block: the RBFs alone met the error on every frame of its hash volume.
+    let residual = match blocks.find(BlockKind::ResidualHash) {
+        Some(res_block) => {
+            let group = haze_hash::block::decode(res_block.bytes)
+                .map_err(|e| asset.block_error(&res_block, e))?;
+            let Scope::Frames { first, .. } = res_block.id.scope else {
+                bail!(
+                    "{}: the residual block of frame {frame} is not per frame",
+                    path.display()
+                );
+            };
+            if group.dims != h.grid.dims {
+                bail!(
+                    "{}: residual block dims {:?} differ from the grid's",
+                    path.display(),
+                    group.dims
+                );
+            }
+            Some((group, k - first as usize))
+        }
+        None => None,
     };
     let dims = h.grid.dims.map(|d| d as usize);
-    if group.dims != h.grid.dims {
-        bail!(
-            "{}: residual block dims {:?} differ from the grid's",
-            path.display(),
-            group.dims
-        );
-    }
     let bbox = Bbox::new(h.grid.bbox_min, h.grid.bbox_max);
-    let data = reconstruct(dims, &bbox, &rbfs, &group, k - first as usize);
+    let data = reconstruct(dims, &bbox, &rbfs, residual.as_ref().map(|(g, j)| (g, *j)));
     let ext = out
         .extension()
         .and_then(|e| e.to_str())

@@ -1,10 +1,12 @@
 //! The residual stage of a bake (paper A §5.2): per frame, `R = D − D̃` against the RBFs
-//! exactly as stored (f32), quantized; every 27 frames (and at the end), one hash volume.
+//! exactly as stored (f32), quantized to the error asked for; every 27 frames (and at the
+//! end), one hash volume of bricks — or none, when the RBFs alone met the error on every
+//! frame of the group.
 
 use anyhow::{Result, anyhow};
 use haze_asset::{Scope, decode_rbfs, encode_rbfs};
 use haze_hash::tile::{GROUP, ResidualGroup};
-use haze_hash::{BuildOptions, Quantized, block, quantize};
+use haze_hash::{BuildOptions, QuantOptions, Quantized, block, quantize};
 use haze_volume::{Rbf, Volume, rbf};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
@@ -12,8 +14,23 @@ use std::time::Instant;
 /// A frame's residual figures, as the report shows them.
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct ResidualRecord {
-    /// Voxels whose quantized residual is not zero (the cells hashed).
+    /// Voxels whose quantized residual is not zero (the values that matter).
     pub residual_nonzero: usize,
+    /// Bricks stored for the frame (each holds its voxels' values at one width).
+    #[serde(default)]
+    pub residual_bricks: usize,
+    /// The largest error asked for, in density units (`--residual-error` × peak density).
+    #[serde(default)]
+    pub residual_target: f64,
+    /// Largest `|D − D̃|` over the frame's peak density: the error of the RBFs alone.
+    #[serde(default)]
+    pub rbf_max_error: f64,
+    /// The RBFs alone meet the error everywhere: nothing stored for the frame.
+    #[serde(default)]
+    pub rbfs_meet_error: bool,
+    /// The step had to widen past the asked error for the values to fit `--quant-bits`.
+    #[serde(default)]
+    pub quant_widened: bool,
     /// The frame's share of its hash volume's block, by its share of the cells.
     pub hash_bytes: f64,
     /// Quantization time plus the frame's share of the hash volume's build time.
@@ -26,7 +43,8 @@ pub struct ResidualRecord {
 
 /// Collects quantized frames and makes a hash volume of every 27.
 pub struct ResidualStage {
-    bits: u8,
+    opts: QuantOptions,
+    brick: u32,
     dims: [u32; 3],
     first: usize,
     pending: Vec<(Quantized, f64)>,
@@ -38,11 +56,14 @@ pub struct HashVolume {
     /// Asset index of its first frame, and its frame count.
     pub first: usize,
     pub count: usize,
-    /// The encoded block (haze_hash::block).
+    /// The encoded block (haze_hash::block); empty when no frame stores anything (the
+    /// asset then has no residual block for these frames).
     pub bytes: Vec<u8>,
-    /// Per frame: bytes (its share of the block, by its share of the cells) and seconds
-    /// (its quantization plus its share of the build).
+    /// Per frame: bytes (its share of the block, by its share of the packed values and
+    /// bricks) and seconds (its quantization plus its share of the build).
     pub shares: Vec<(f64, f64)>,
+    /// Per frame: bricks stored.
+    pub bricks: Vec<usize>,
 }
 
 impl HashVolume {
@@ -59,6 +80,7 @@ impl HashVolume {
             let rec = &mut records[self.first + j];
             rec.hash_bytes = bytes;
             rec.hash_seconds = secs;
+            rec.residual_bricks = self.bricks[j];
         }
     }
 }
@@ -68,13 +90,13 @@ pub fn as_stored(rbfs: &[Rbf]) -> Result<Vec<Rbf>> {
     decode_rbfs(&encode_rbfs(rbfs)).map_err(|e| anyhow!("RBFs do not encode: {e}"))
 }
 
-/// `D̃ + R̂` of one frame: the reconstruction every consumer of the asset gets.
+/// `D̃ + R̂` of one frame: the reconstruction every consumer of the asset gets (`D̃`
+/// alone where the frame has no residual block).
 pub fn reconstruct(
     v_dims: [usize; 3],
     bbox: &haze_volume::Bbox,
     rbfs: &[Rbf],
-    group: &ResidualGroup,
-    j: usize,
+    residual: Option<(&ResidualGroup, usize)>,
 ) -> Vec<f32> {
     let approx = rbf::evaluate_on_grid(v_dims, bbox, rbfs);
     let (nx, nxy) = (v_dims[0], v_dims[0] * v_dims[1]);
@@ -83,18 +105,20 @@ pub fn reconstruct(
         .enumerate()
         .map(|(i, a)| {
             let p = [i % nx, (i % nxy) / nx, i / nxy].map(|c| c as u32);
-            (a + f64::from(group.lookup(j, p))) as f32
+            let r = residual.map_or(0.0, |(g, j)| g.lookup(j, p));
+            (a + f64::from(r)) as f32
         })
         .collect()
 }
 
 impl ResidualStage {
     /// A stage whose next frame is asset frame `first`, the start of a hash volume.
-    pub fn new(bits: u8, dims: [usize; 3], first: usize) -> Result<Self> {
+    pub fn new(opts: QuantOptions, brick: u32, dims: [usize; 3], first: usize) -> Result<Self> {
         let dims = dims.map(|d| d as u32);
-        quantize(&[], bits).map_err(|e| anyhow!("--quant-bits: {e}"))?;
+        opts.validate().map_err(|e| anyhow!("{e}"))?;
         Ok(ResidualStage {
-            bits,
+            opts,
+            brick,
             dims,
             first,
             pending: Vec::new(),
@@ -112,9 +136,18 @@ impl ResidualStage {
             .zip(&approx)
             .map(|(d, a)| (f64::from(*d) - a) as f32)
             .collect();
-        let q = quantize(&r, self.bits).map_err(|e| anyhow!("residual: {e}"))?;
+        let peak = v.data().iter().fold(0.0f32, |m, &d| m.max(d));
+        let q = quantize(&r, peak, self.opts).map_err(|e| anyhow!("residual: {e}"))?;
         let record = ResidualRecord {
             residual_nonzero: q.cells.len(),
+            residual_target: q.target,
+            rbf_max_error: if peak > 0.0 {
+                q.rbf_error / f64::from(peak)
+            } else {
+                0.0
+            },
+            rbfs_meet_error: q.cells.is_empty(),
+            quant_widened: q.widened,
             quant_step: q.step,
             quant_max_error: q.max_error,
             quant_rms_error: q.rms_error,
@@ -136,17 +169,28 @@ impl ResidualStage {
         }
         let t = Instant::now();
         let frames: Vec<Quantized> = self.pending.iter().map(|(q, _)| q.clone()).collect();
-        let g = ResidualGroup::build(self.dims, &frames, BuildOptions::default())?;
-        let bytes = block::encode(&g);
-        let build = t.elapsed().as_secs_f64();
         let count = self.pending.len();
-        let cells: usize = frames.iter().map(|q| q.cells.len()).sum();
+        let (bytes, bricks, weights) = if frames.iter().all(|q| q.cells.is_empty()) {
+            // Nothing to store: no block at all.
+            (Vec::new(), vec![0; count], vec![0.0; count])
+        } else {
+            let g = ResidualGroup::build(self.dims, self.brick, &frames, BuildOptions::default())?;
+            let bricks: Vec<usize> = (0..count).map(|j| g.bricks_of(j)).collect();
+            // A frame's share: its packed words plus its bricks' key and payload.
+            let weights = (0..count)
+                .map(|j| (g.words_of(j) + 2 * bricks[j]) as f64)
+                .collect();
+            (block::encode(&g), bricks, weights)
+        };
+        let build = t.elapsed().as_secs_f64();
+        let total: f64 = weights.iter().sum();
         let shares = self
             .pending
             .iter()
-            .map(|(q, secs)| {
-                let share = if cells > 0 {
-                    q.cells.len() as f64 / cells as f64
+            .zip(&weights)
+            .map(|((_, secs), w)| {
+                let share = if total > 0.0 {
+                    w / total
                 } else {
                     1.0 / count as f64
                 };
@@ -158,6 +202,7 @@ impl ResidualStage {
             count,
             bytes,
             shares,
+            bricks,
         };
         self.first += count;
         self.pending.clear();

@@ -474,10 +474,11 @@ fn bake_refuses_bad_arguments_and_inputs() {
 }
 
 #[test]
-fn bake_stores_the_residual_and_export_reconstructs_within_half_a_step() {
+fn bake_stores_the_residual_and_export_reconstructs_within_the_error() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("r.haze");
     let report = tmp.path().join("r.json");
+    let error = 0.01;
     haze()
         .args([
             "bake",
@@ -486,6 +487,7 @@ fn bake_stores_the_residual_and_export_reconstructs_within_half_a_step() {
             "23..24",
         ])
         .args(["--rbfs", "60", "--no-teleport", "--max-iterations", "100"])
+        .args(["--residual-error", &error.to_string()])
         .args([
             "--out",
             out.to_str().unwrap(),
@@ -499,13 +501,19 @@ fn bake_stores_the_residual_and_export_reconstructs_within_half_a_step() {
     let f24 = &r["frames"][1];
     for key in [
         "residual_nonzero",
+        "residual_bricks",
+        "residual_target",
+        "rbf_max_error",
+        "rbfs_meet_error",
+        "quant_widened",
         "hash_bytes",
         "hash_seconds",
         "quant_step",
     ] {
         assert!(!f24[key].is_null(), "report lacks {key}");
     }
-    let step = f24["quant_step"].as_f64().unwrap();
+    let target = f24["residual_target"].as_f64().unwrap();
+    assert!(f24["residual_bricks"].as_u64().unwrap() > 0);
     let j = json_of(&["inspect", out.to_str().unwrap(), "--json"]);
     assert_eq!(j["blocks_by_kind"]["residual-hash"]["blocks"], 1);
     // Export frame 24 and compare with OpenVDB's dense export of the input.
@@ -524,11 +532,13 @@ fn bake_stores_the_residual_and_export_reconstructs_within_half_a_step() {
         .zip(b.chunks_exact(4))
         .map(|(x, y)| (f(x) - f(y)).abs())
         .fold(0.0, f64::max);
+    let peak = b.chunks_exact(4).map(f).fold(0.0, f64::max);
     assert!(
-        worst <= 0.5 * step + 1e-6,
-        "worst {worst}, half step {}",
-        0.5 * step
+        (target - error * peak).abs() <= 1e-9 * peak,
+        "target {target}"
     );
+    // The error asked for, plus the f32 rounding of D̃ + R̂ (6e-8 of the peak).
+    assert!(worst <= target + 1e-6, "worst {worst}, target {target}");
     assert!(tmp.path().join("f24.json").exists());
     // .npy too, and a frame that is not there.
     let npy = tmp.path().join("f24.npy");
@@ -558,16 +568,52 @@ fn bake_stores_the_residual_and_export_reconstructs_within_half_a_step() {
         e.contains("frame 99 is not in the asset (frames 23..24)"),
         "{e}"
     );
-    // --quant-bits out of range is refused by the parser.
-    let o = haze()
-        .args([
-            "bake",
-            data("plume-a/vdb").to_str().unwrap(),
-            "--quant-bits",
-            "3",
-        ])
+    // --quant-bits, --residual-error and --residual-brick out of range are refused by the
+    // parser.
+    for (flag, value) in [
+        ("--quant-bits", "3"),
+        ("--residual-error", "-0.1"),
+        ("--residual-error", "nan"),
+        ("--residual-brick", "3"),
+    ] {
+        let o = haze()
+            .args(["bake", data("plume-a/vdb").to_str().unwrap(), flag, value])
+            .args(["--out", out.to_str().unwrap()])
+            .output()
+            .unwrap();
+        assert!(!o.status.success(), "{flag} {value}");
+    }
+}
+
+#[test]
+fn frames_the_rbfs_alone_meet_store_no_residual() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("e.haze");
+    let report = tmp.path().join("e.json");
+    // An error of the whole peak: the RBFs alone meet it everywhere.
+    haze()
+        .args(["bake", data("plume-a/vdb").to_str().unwrap()])
+        .args(["--frames", "23..24", "--rbfs", "40", "--no-teleport"])
+        .args(["--max-iterations", "40", "--residual-error", "1"])
         .args(["--out", out.to_str().unwrap()])
-        .output()
-        .unwrap();
-    assert!(!o.status.success());
+        .args(["--report", report.to_str().unwrap()])
+        .assert()
+        .success();
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    for f in r["frames"].as_array().unwrap() {
+        assert_eq!(f["rbfs_meet_error"], true);
+        assert_eq!(f["residual_bricks"], 0);
+        assert!(f["rbf_max_error"].as_f64().unwrap() <= 1.0);
+    }
+    let j = json_of(&["inspect", out.to_str().unwrap(), "--json"]);
+    assert!(j["blocks_by_kind"]["residual-hash"].is_null(), "{j}");
+    // Export reconstructs D̃ alone.
+    let exported = tmp.path().join("f24.f32");
+    haze()
+        .args(["export", out.to_str().unwrap(), "--frame", "24"])
+        .args(["--out", exported.to_str().unwrap()])
+        .assert()
+        .success();
+    assert!(exported.exists());
 }

@@ -5,7 +5,7 @@
 
 use haze_asset::{AssetWriter, BlockKind, GridInfo, Header, Scope, SourceInfo, encode_rbfs};
 use haze_hash::tile::ResidualGroup;
-use haze_hash::{BuildOptions, quantize};
+use haze_hash::{BuildOptions, QuantOptions, quantize};
 use haze_volume::{Bbox, Rbf, rbf};
 use std::path::{Path, PathBuf};
 
@@ -62,7 +62,7 @@ pub fn write_asset(dir: &Path, name: &str, frames: usize) -> PathBuf {
                 (a * 0.3 * ripple + 0.02 * ripple) as f32
             })
             .collect();
-        quantized.push(quantize(&r, 8).unwrap());
+        quantized.push(quantize(&r, 1.0, QuantOptions::default()).unwrap());
         w.write_block(
             BlockKind::Rbfs,
             Scope::frame(k as u32),
@@ -70,8 +70,13 @@ pub fn write_asset(dir: &Path, name: &str, frames: usize) -> PathBuf {
         )
         .unwrap();
     }
-    let group =
-        ResidualGroup::build(DIMS.map(|n| n as u32), &quantized, BuildOptions::default()).unwrap();
+    let group = ResidualGroup::build(
+        DIMS.map(|n| n as u32),
+        4,
+        &quantized,
+        BuildOptions::default(),
+    )
+    .unwrap();
     w.write_block(
         BlockKind::ResidualHash,
         Scope::Frames {

@@ -213,12 +213,12 @@ fn future_versions_and_foreign_files_are_refused() {
     let p = dir.path().join("v.haze");
     write_sample(&p);
     let mut b = std::fs::read(&p).unwrap();
-    b[8..12].copy_from_slice(&2u32.to_le_bytes());
+    b[8..12].copy_from_slice(&3u32.to_le_bytes());
     let crc = crc32fast::hash(&b[0..56]);
     b[56..60].copy_from_slice(&crc.to_le_bytes());
     let e = Asset::from_bytes(&p, &b).unwrap_err().to_string();
     assert!(
-        e.contains("format version 2 is newer than this haze reads (up to 1)"),
+        e.contains("format version 3 is newer than this haze reads (up to 2)"),
         "{e}"
     );
     let e = Asset::from_bytes(&p, b"OpenVDB and other things entirely").unwrap_err();

@@ -9,19 +9,20 @@
 //!
 //! Construction: cells are grouped by `h₁` into buckets; buckets are placed largest first,
 //! each by searching an offset `Φ` that sends all of its cells to free slots; one-cell
-//! buckets, which come last, take any free slot directly. `r̄` starts at paper A's
-//! `⌈∛(K/3)⌉ + 9`, is kept coprime with `m̄` (so `h₀` and `h₁` are independent), and grows
-//! by a quarter when a bucket cannot be placed, a bounded number of times.
+//! buckets, which come last, take any free slot directly. `r̄` starts at `⌈∛(K/5)⌉`
+//! (Lefebvre & Hoppe's `r̄³ ≈ σK` with σ ≈ 0.2; paper A's `⌈∛(K/3)⌉ + 9` is 2–6× larger for
+//! the few thousand bricks of a frame, and `Φ` is then a large part of the bytes), is kept
+//! coprime with `m̄` (so `h₀` and `h₁` are independent), and grows by an eighth when a
+//! bucket cannot be placed, a bounded number of times.
 //!
 //! Lookups are exact: every slot stores its cell's key (linear index in the domain, plus
-//! one; 0 is an empty slot), so a cell without data reads 0, never another cell's value.
-//! A 4-byte key per slot was chosen over a domain-wide occupancy bitmap because the
-//! bitmap costs `domain/8` bytes whatever the sparsity — 5.3 MB for 27 tiled 128³ frames,
-//! against 4 bytes per stored cell (0.4 MB at 10 % occupancy of one frame).
+//! one; 0 is an empty slot), so a cell without data reads `None`, never another cell's
+//! payload.
 //!
 //! The layout is flat arrays for GPU upload: `Φ` as one `u32` per entry (three 10-bit
-//! components), keys as `u32`, values as `i16`. [`PerfectHash::get`] is the lookup the
-//! shader mirrors.
+//! components), keys and payloads as `u32`. [`PerfectHash::get`] is the lookup the shader
+//! mirrors. The residual hashes bricks of voxels, not voxels (see [`crate::tile`]): the
+//! payload of a brick says where its packed values start and how wide they are.
 
 use serde::Serialize;
 
@@ -40,7 +41,7 @@ pub struct BuildOptions {
 impl Default for BuildOptions {
     fn default() -> Self {
         BuildOptions {
-            max_attempts: 8,
+            max_attempts: 24,
             tries_per_bucket: 1 << 16,
         }
     }
@@ -50,7 +51,7 @@ impl Default for BuildOptions {
 #[derive(Debug, thiserror::Error, PartialEq, Eq)]
 pub enum HashError {
     #[error(
-        "the residual is too dense to hash: {cells} cells did not fit a {m}³ table with offset tables up to {r}³ in {attempts} attempts (use fewer quantization bits or more RBFs)"
+        "the residual is too dense to hash: {cells} bricks did not fit a {m}³ table with offset tables up to {r}³ in {attempts} attempts (accept a larger --residual-error or use more RBFs)"
     )]
     TooDense {
         cells: usize,
@@ -62,7 +63,7 @@ pub enum HashError {
     Invalid(String),
 }
 
-/// A perfect spatial hash of `i16` values over a 3-D domain.
+/// A perfect spatial hash of `u32` payloads over a 3-D domain.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PerfectHash {
     pub domain: [u32; 3],
@@ -74,8 +75,8 @@ pub struct PerfectHash {
     pub offsets: Vec<u32>,
     /// `m̄³` keys: linear cell index + 1, or 0 for an empty slot.
     pub keys: Vec<u32>,
-    /// `m̄³` values (0 in empty slots).
-    pub values: Vec<i16>,
+    /// `m̄³` payloads (0 in empty slots).
+    pub payloads: Vec<u32>,
 }
 
 fn gcd(a: u32, b: u32) -> u32 {
@@ -92,10 +93,10 @@ fn unpack(o: u32) -> [u32; 3] {
 }
 
 impl PerfectHash {
-    /// Builds the hash of `cells` (coordinates inside `domain`, distinct, values ≠ 0).
+    /// Builds the hash of `cells` (distinct coordinates inside `domain`, with payloads).
     pub fn build(
         domain: [u32; 3],
-        cells: &[([u32; 3], i16)],
+        cells: &[([u32; 3], u32)],
         opts: BuildOptions,
     ) -> Result<PerfectHash, HashError> {
         let volume = u64::from(domain[0]) * u64::from(domain[1]) * u64::from(domain[2]);
@@ -122,12 +123,12 @@ impl PerfectHash {
                 "{k} cells need a table side over {MAX_SIDE}"
             )));
         }
-        let mut r = coprime_at_least(((k as f64) / 3.0).cbrt().ceil() as u32 + 9, m);
+        let mut r = coprime_at_least(((k as f64) / 5.0).cbrt().ceil() as u32, m);
         for _ in 0..opts.max_attempts {
             if let Some(h) = Self::try_build(domain, cells, m, r, opts.tries_per_bucket) {
                 return Ok(h);
             }
-            r = coprime_at_least(r + r.div_ceil(4), m);
+            r = coprime_at_least(r + r.div_ceil(8), m);
         }
         Err(HashError::TooDense {
             cells: k,
@@ -139,7 +140,7 @@ impl PerfectHash {
 
     fn try_build(
         domain: [u32; 3],
-        cells: &[([u32; 3], i16)],
+        cells: &[([u32; 3], u32)],
         m: u32,
         r: u32,
         tries: u32,
@@ -161,7 +162,7 @@ impl PerfectHash {
             r,
             offsets: vec![0; ru * ru * ru],
             keys: vec![0; mu * mu * mu],
-            values: vec![0; mu * mu * mu],
+            payloads: vec![0; mu * mu * mu],
         };
         let key = |p: [u32; 3]| p[0] + domain[0] * (p[1] + domain[1] * p[2]) + 1;
         let table = (mu * mu * mu) as u64;
@@ -214,29 +215,26 @@ impl PerfectHash {
                 let (p, v) = cells[i as usize];
                 let s = slot([0, 1, 2].map(|a| (p[a] % m + phi[a]) % m));
                 h.keys[s] = key(p);
-                h.values[s] = v;
+                h.payloads[s] = v;
             }
         }
         Some(h)
     }
 
-    /// The value stored for cell `p`, or 0 when `p` has none (or lies outside the domain).
+    /// The payload stored for cell `p`, or `None` when `p` has none (or lies outside the
+    /// domain).
     #[inline]
-    pub fn get(&self, p: [u32; 3]) -> i16 {
+    pub fn get(&self, p: [u32; 3]) -> Option<u32> {
         let d = self.domain;
         if p[0] >= d[0] || p[1] >= d[1] || p[2] >= d[2] {
-            return 0;
+            return None;
         }
         let (m, r) = (self.m, self.r);
         let b = p[0] % r + r * (p[1] % r + r * (p[2] % r));
         let phi = unpack(self.offsets[b as usize]);
         let h = [0, 1, 2].map(|a| (p[a] % m + phi[a]) % m);
         let s = (h[0] + m * (h[1] + m * h[2])) as usize;
-        if self.keys[s] == p[0] + d[0] * (p[1] + d[1] * p[2]) + 1 {
-            self.values[s]
-        } else {
-            0
-        }
+        (self.keys[s] == p[0] + d[0] * (p[1] + d[1] * p[2]) + 1).then(|| self.payloads[s])
     }
 
     /// Stored cells.
@@ -250,6 +248,6 @@ impl PerfectHash {
 
     /// Bytes of the three arrays (what a GPU upload costs).
     pub fn bytes(&self) -> usize {
-        4 * self.offsets.len() + 4 * self.keys.len() + 2 * self.values.len()
+        4 * (self.offsets.len() + self.keys.len() + self.payloads.len())
     }
 }

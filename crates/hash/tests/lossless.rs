@@ -1,8 +1,8 @@
-//! Exactness of the perfect spatial hash over every cell of its domain, and the
-//! quantization bound on a real baked frame.
+//! Exactness of the perfect spatial hash over every cell of its domain, and of the bricked
+//! residual groups over every voxel of their frames.
 
-use haze_hash::tile::{GROUP, ResidualGroup, tile_origin};
-use haze_hash::{BuildOptions, HashError, PerfectHash, quantize};
+use haze_hash::tile::{BRICK_SIDES, GROUP, ResidualGroup, tile_origin};
+use haze_hash::{BuildOptions, HashError, PerfectHash, QuantOptions, quantize};
 
 /// Deterministic pseudo-random numbers.
 struct Lcg(u64);
@@ -16,8 +16,8 @@ impl Lcg {
     }
 }
 
-/// A random set of `k` distinct cells of `domain` with non-zero values.
-fn random_cells(domain: [u32; 3], k: usize, seed: u64) -> Vec<([u32; 3], i16)> {
+/// A random set of `k` distinct cells of `domain` with random payloads.
+fn random_cells(domain: [u32; 3], k: usize, seed: u64) -> Vec<([u32; 3], u32)> {
     let n = (domain[0] * domain[1] * domain[2]) as usize;
     let mut idx: Vec<usize> = (0..n).collect();
     let mut rng = Lcg(seed);
@@ -33,17 +33,16 @@ fn random_cells(domain: [u32; 3], k: usize, seed: u64) -> Vec<([u32; 3], i16)> {
                 (i / domain[0]) % domain[1],
                 i / (domain[0] * domain[1]),
             ];
-            let v = (rng.next() % 255) as i16 - 127;
-            (p, if v == 0 { 1 } else { v })
+            (p, rng.next() as u32)
         })
         .collect()
 }
 
-fn check_every_cell(domain: [u32; 3], cells: &[([u32; 3], i16)]) -> PerfectHash {
+fn check_every_cell(domain: [u32; 3], cells: &[([u32; 3], u32)]) -> PerfectHash {
     let h = PerfectHash::build(domain, cells, BuildOptions::default()).unwrap();
-    let mut dense = vec![0i16; (domain[0] * domain[1] * domain[2]) as usize];
+    let mut dense = vec![None; (domain[0] * domain[1] * domain[2]) as usize];
     for (p, v) in cells {
-        dense[(p[0] + domain[0] * (p[1] + domain[1] * p[2])) as usize] = *v;
+        dense[(p[0] + domain[0] * (p[1] + domain[1] * p[2])) as usize] = Some(*v);
     }
     for z in 0..domain[2] {
         for y in 0..domain[1] {
@@ -54,8 +53,8 @@ fn check_every_cell(domain: [u32; 3], cells: &[([u32; 3], i16)]) -> PerfectHash 
         }
     }
     // Outside the domain: nothing.
-    assert_eq!(h.get(domain), 0);
-    assert_eq!(h.get([u32::MAX, 0, 0]), 0);
+    assert_eq!(h.get(domain), None);
+    assert_eq!(h.get([u32::MAX, 0, 0]), None);
     assert_eq!(h.len(), cells.len());
     h
 }
@@ -105,9 +104,11 @@ fn too_dense_inputs_fail_cleanly_within_the_budget() {
 }
 
 #[test]
-fn groups_tile_27_frames_and_look_each_up_exactly() {
-    let dims = [6, 5, 4];
+fn groups_tile_27_frames_and_look_each_voxel_up_within_the_error() {
+    // Odd sizes: bricks of 2, 4 and 8 reach past the frame's edge on some axes.
+    let dims = [6, 5, 9];
     let n = (dims[0] * dims[1] * dims[2]) as usize;
+    let error = 0.01;
     let mut frames = Vec::new();
     let mut truth = Vec::new();
     for j in 0..GROUP {
@@ -120,29 +121,63 @@ fn groups_tile_27_frames_and_look_each_up_exactly() {
                 }
             })
             .collect();
-        frames.push(quantize(&r, 8).unwrap());
+        // Every third frame lossless, to mix widths in one block.
+        let e = if j % 3 == 2 { 0.0 } else { error };
+        frames.push(quantize(&r, 1.0, QuantOptions { error: e, bits: 8 }).unwrap());
         truth.push(r);
     }
-    let g = ResidualGroup::build(dims, &frames, BuildOptions::default()).unwrap();
-    assert_eq!(tile_origin(26, dims), [12, 10, 8]);
-    for (j, (f, r)) in frames.iter().zip(&truth).enumerate() {
-        for z in 0..dims[2] {
-            for y in 0..dims[1] {
-                for x in 0..dims[0] {
-                    let i = (x + dims[0] * (y + dims[1] * z)) as usize;
-                    let got = g.lookup(j, [x, y, z]);
-                    assert!(
-                        (got - r[i]).abs() <= 0.5 * f.step * 1.000001,
-                        "frame {j} voxel {i}"
-                    );
+    assert_eq!(tile_origin(26, dims), [12, 10, 18]);
+    for brick in BRICK_SIDES {
+        let g = ResidualGroup::build(dims, brick, &frames, BuildOptions::default()).unwrap();
+        let g = haze_hash::block::decode(&haze_hash::block::encode(&g)).unwrap();
+        for (j, (f, r)) in frames.iter().zip(&truth).enumerate() {
+            for z in 0..dims[2] {
+                for y in 0..dims[1] {
+                    for x in 0..dims[0] {
+                        let i = (x + dims[0] * (y + dims[1] * z)) as usize;
+                        let got = g.lookup(j, [x, y, z]);
+                        if f.lossless {
+                            assert_eq!(got, r[i], "brick {brick} frame {j} voxel {i}");
+                        } else {
+                            // The error asked for; f32(q)·step is rounded once (6e-8 relative).
+                            assert!(
+                                f64::from((got - r[i]).abs()) <= error + 1e-7,
+                                "brick {brick} frame {j} voxel {i}"
+                            );
+                        }
+                    }
                 }
             }
         }
+        assert_eq!(g.lookup(27, [0, 0, 0]), 0.0);
+        assert_eq!(g.lookup(0, [6, 0, 0]), 0.0);
     }
-    assert_eq!(g.lookup(27, [0, 0, 0]), 0.0);
-    assert_eq!(g.lookup(0, [6, 0, 0]), 0.0);
     // A partial group keeps the layout.
-    let part = ResidualGroup::build(dims, &frames[..4], BuildOptions::default()).unwrap();
+    let part = ResidualGroup::build(dims, 4, &frames[..4], BuildOptions::default()).unwrap();
     assert_eq!(part.frames(), 4);
-    assert!(ResidualGroup::build(dims, &[], BuildOptions::default()).is_err());
+    assert!(ResidualGroup::build(dims, 4, &[], BuildOptions::default()).is_err());
+    assert!(ResidualGroup::build(dims, 3, &frames[..1], BuildOptions::default()).is_err());
+}
+
+#[test]
+fn one_voxel_and_empty_frames_cost_what_they_hold() {
+    let dims = [9, 9, 9];
+    let mut r = vec![0.0f32; 729];
+    let opts = QuantOptions {
+        error: 1.0 / 255.0,
+        bits: 8,
+    };
+    let empty = quantize(&r, 1.0, opts).unwrap();
+    // One non-zero voxel in the last (partial) brick, on the domain's far corner.
+    r[728] = 0.5;
+    let one = quantize(&r, 1.0, opts).unwrap();
+    let g = ResidualGroup::build(dims, 4, &[empty.clone(), one], BuildOptions::default()).unwrap();
+    assert_eq!((g.bricks_of(0), g.bricks_of(1)), (0, 1));
+    // 64 values of 8 bits (0.5 / (2/255) = 64 steps): 16 words, all in frame 1.
+    assert_eq!((g.words_of(0), g.words_of(1), g.data.len()), (0, 16, 16));
+    assert!((g.lookup(1, [8, 8, 8]) - 0.5).abs() <= 1.0 / 255.0);
+    assert_eq!(g.lookup(1, [7, 8, 8]), 0.0);
+    assert_eq!(g.lookup(0, [8, 8, 8]), 0.0);
+    let none = ResidualGroup::build(dims, 4, &[empty], BuildOptions::default()).unwrap();
+    assert_eq!(none.data.len(), 0);
 }

@@ -16,10 +16,11 @@
 // and every voxel of the tile then visits only those, in ascending order (the CPU's
 // order, and the same order on every run). The per-voxel cut-off test is Rbf::eval's.
 //
-// The residual R is a dense f32 grid, or the frame's slot of a perfect spatial hash
-// (`ResidualGroup::lookup`, `PerfectHash::get`) looked up here: one u32 buffer holding the
-// offset table Φ (x | y << 10 | z << 20), the keys (linear index in the hash domain + 1,
-// 0 for an empty slot) and the i16 values packed two per word, low half first.
+// The residual R is a dense f32 grid, or the frame's slot of a perfect spatial hash of
+// voxel bricks (`ResidualGroup::lookup`, `PerfectHash::get`, `pack::get`) looked up here:
+// one u32 buffer holding the offset table Φ (x | y << 10 | z << 20), the keys (linear brick
+// index in the hash domain + 1, 0 for an empty slot), the payloads (first data word << 3 |
+// width code: 2, 4, 8, 16 bits, or 32 for f32 values) and the bricks' packed values.
 //
 // Positions are relative to the box's minimum corner, like the view pass. The output is
 // the view pass's grid: J̃ in xyz, D in w, x fastest.
@@ -35,18 +36,20 @@ struct Params {
     dims: vec3<u32>,
     // 0: no residual, 1: dense f32 (bits in `residual`), 2: the hash in `residual`.
     residual_kind: u32,
-    // Hash domain (three frames wide on every axis) and table side m̄.
+    // Hash domain in bricks (three frames wide on every axis) and table side m̄.
     hash_domain: vec3<u32>,
     hash_m: u32,
-    // Index-space origin of the frame's tile (`tile_origin`) and offset table side r̄.
+    // Brick-space origin of the frame's tile (`tile_origin`) and offset table side r̄.
     tile: vec3<u32>,
     hash_r: u32,
-    // Where the keys and the packed values start in `residual` (Φ starts at 0).
+    // Where the keys, payloads and packed values start in `residual` (Φ starts at 0).
     keys_at: u32,
-    values_at: u32,
+    payloads_at: u32,
+    data_at: u32,
+    // Brick side in voxels.
+    brick: u32,
     // Dequantization step of the frame.
     step: f32,
-    _pad: u32,
 }
 
 // `crm::MIN_DENSITY`.
@@ -71,11 +74,12 @@ const CHUNK: u32 = 64u;
 var<workgroup> hit_bits: array<atomic<u32>, 2>;
 var<workgroup> hit_mask: vec2<u32>;
 
-// `PerfectHash::get`: the value stored for cell c of the hash domain, 0 if none.
-fn hash_get(c: vec3<u32>) -> i32 {
+// `PerfectHash::get`: the payload stored for brick c of the hash domain; 0xffffffff if none
+// (no payload has all bits set: its width code is at most 4).
+fn hash_get(c: vec3<u32>) -> u32 {
     let d = p.hash_domain;
     if any(c >= d) {
-        return 0;
+        return 0xffffffffu;
     }
     let m = p.hash_m;
     let r = p.hash_r;
@@ -85,23 +89,37 @@ fn hash_get(c: vec3<u32>) -> i32 {
     let h = (c % m + phi) % m;
     let s = h.x + m * (h.y + m * h.z);
     if residual[p.keys_at + s] != c.x + d.x * (c.y + d.y * c.z) + 1u {
-        return 0;
+        return 0xffffffffu;
     }
-    let word = residual[p.values_at + s / 2u];
-    let low = (word >> (16u * (s & 1u))) & 0xffffu;
-    // Sign-extend the i16 (>> on i32 is arithmetic).
-    return bitcast<i32>(low << 16u) >> 16u;
+    return residual[p.payloads_at + s];
 }
 
-// R at voxel i (linear index `lin`): `ResidualGroup::lookup` of the frame's tile, times
-// its step (f32(q)·step, the CPU's dequantization to the bit).
+// R at voxel i (linear index `lin`): `ResidualGroup::lookup` of the frame's tile — the
+// brick's payload, then value k of the brick at its width (`pack::get`) — dequantized
+// as the CPU does (f32(q)·step, or the f32 itself at 32 bits).
 fn residual_at(i: vec3<u32>, lin: u32) -> f32 {
     switch p.residual_kind {
         case 1u: {
             return bitcast<f32>(residual[lin]);
         }
         case 2u: {
-            return f32(hash_get(p.tile + i)) * p.step;
+            let b = p.brick;
+            let payload = hash_get(p.tile + i / b);
+            if payload == 0xffffffffu {
+                return 0.0;
+            }
+            let code = payload & 7u;
+            let w = 2u << code;
+            let l = i % b;
+            let k = l.x + b * (l.y + b * l.z);
+            let bit = k * w;
+            let v = residual[p.data_at + (payload >> 3u) + bit / 32u] >> (bit % 32u);
+            if w == 32u {
+                return bitcast<f32>(v);
+            }
+            // Sign-extend the w-bit value (>> on i32 is arithmetic).
+            let q = bitcast<i32>(v << (32u - w)) >> (32u - w);
+            return f32(q) * p.step;
         }
         default: {
             return 0.0;

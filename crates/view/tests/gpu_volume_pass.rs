@@ -23,7 +23,7 @@
 //! is the only one): they are counted, required to be rare, and not compared.
 
 use haze_hash::tile::ResidualGroup;
-use haze_hash::{BuildOptions, quantize};
+use haze_hash::{BuildOptions, QuantOptions, quantize};
 use haze_view::gpu::GpuContext;
 use haze_view::gpu::view_pass::ViewPass;
 use haze_view::gpu::volume_pass::{Residual, VolumePass, volume_pass};
@@ -264,15 +264,17 @@ fn sh_basis_matches_sh_eval_for_every_coefficient() {
     println!("SH basis, order 6: max error {worst:.2e}");
 }
 
-/// A residual group of `frames` frames of `dims`, `bits` bits: frame `j` is
+/// A residual group of `frames` frames of `dims` in bricks of `brick`: frame `j` is
 /// `D_j − D̃`, with `D_j` the cluster's density scaled and rippled differently per frame
-/// (both signs, and non-zero outside every RBF's support too).
+/// (both signs, and non-zero outside every RBF's support too), quantized at an error that
+/// cycles through 1e-4, 1/255 and 0.03 of the peak and 0 (lossless), so that bricks of
+/// every width (2, 4, 8, 16 bits and f32) sit in one block.
 fn residual_group(
     rbfs: &[Rbf],
     dims: [usize; 3],
     bbox: &Bbox,
     frames: usize,
-    bits: u8,
+    brick: u32,
 ) -> Arc<ResidualGroup> {
     let approx = haze_volume::rbf::evaluate_on_grid(dims, bbox, rbfs);
     let quantized: Vec<_> = (0..frames)
@@ -287,11 +289,24 @@ fn residual_group(
                     (target - a) as f32
                 })
                 .collect();
-            quantize(&r, bits).unwrap()
+            let peak = approx.iter().fold(0.0f64, |m, a| m.max(*a)) as f32;
+            let error = [1e-4, 1.0 / 255.0, 0.03, 0.0][j % 4];
+            quantize(&r, peak, QuantOptions { error, bits: 16 }).unwrap()
         })
         .collect();
     let d = dims.map(|n| n as u32);
-    let group = ResidualGroup::build(d, &quantized, BuildOptions::default()).unwrap();
+    let group = ResidualGroup::build(d, brick, &quantized, BuildOptions::default()).unwrap();
+    let widths: std::collections::BTreeSet<u32> = group
+        .hash
+        .payloads
+        .iter()
+        .zip(&group.hash.keys)
+        .filter(|&(_, &k)| k != 0)
+        .map(|(&p, _)| p & 7)
+        .collect();
+    if frames >= 4 {
+        assert_eq!(widths.len(), 5, "widths {widths:?}");
+    }
     // As an asset stores and a reader decodes it.
     let decoded = haze_hash::block::decode(&haze_hash::block::encode(&group)).unwrap();
     assert_eq!(decoded, group);
@@ -308,11 +323,15 @@ fn hash_residual_matches_the_cpu_given_the_dense_slot() {
     let medium = Medium::new(4.0, 0.8, 0.3).unwrap();
     let eye = [0.3, -1.1, 0.7];
     let pass = VolumePass::new(&ctx).unwrap_or_else(|e| panic!("{e}"));
-    // 16 bits: values up to ±32767, so the sign extension of both halves of a packed word
-    // is exercised; 8 bits as a bake stores them (i8 in the block). 20 frames: the slots
-    // tested sit in tiles along every axis of the 3×3×3 layout.
-    for (bits, order, slots) in [(16u8, 2usize, vec![0usize, 4, 19]), (8, 6, vec![10, 13])] {
-        let group = residual_group(&rbfs, dims, &bbox, 20, bits);
+    // Bricks of every width (the sign extension of every packed position), and of sides 4,
+    // 2 and 8 (17 and 11 voxels: bricks past the frame's edge). 20 frames: the slots tested
+    // sit in tiles along every axis of the 3×3×3 layout, at every error of the cycle.
+    for (brick, order, slots) in [
+        (4u32, 2usize, vec![0usize, 5, 19]),
+        (2, 6, vec![10, 11]),
+        (8, 2, vec![13, 14]),
+    ] {
+        let group = residual_group(&rbfs, dims, &bbox, 20, brick);
         let source = sources(&rbfs, order, &medium, &env);
         let without = check(&ctx, &rbfs, &source, order, dims, &bbox, None, eye);
         for slot in slots {
@@ -509,7 +528,7 @@ fn a_compiled_pass_runs_many_frames_and_refuses_bad_input() {
         "the residual has 989 voxels, the grid 990"
     );
     let slot = ResidualSlot {
-        group: residual_group(&rbfs, [9, 10, 12], &bbox, 2, 8),
+        group: residual_group(&rbfs, [9, 10, 12], &bbox, 2, 4),
         slot: 1,
     };
     assert_eq!(
@@ -518,7 +537,7 @@ fn a_compiled_pass_runs_many_frames_and_refuses_bad_input() {
     );
     // A slot past the group's frames reads 0 everywhere, as `ResidualGroup::lookup`.
     let past = ResidualSlot {
-        group: residual_group(&rbfs, dims, &bbox, 2, 8),
+        group: residual_group(&rbfs, dims, &bbox, 2, 4),
         slot: 2,
     };
     assert!(past.dense().iter().all(|r| *r == 0.0));

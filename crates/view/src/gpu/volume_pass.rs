@@ -11,8 +11,8 @@
 //!
 //! Uploads: per RBF its center relative to the box's minimum corner, `1/r`, `w` and a
 //! culling radius; per center its source `J̃(c_ℓ)` as `f32` RGB SH; the residual as a
-//! dense `f32` grid or — what a baked asset holds — the frame's hash volume (offset
-//! table, keys and the `i16` values packed two per `u32`, low half first), looked up on
+//! dense `f32` grid or — what a baked asset holds — the frame's hash volume of bricks
+//! (offset table, keys, payloads and the packed values, one `u32` array), looked up on
 //! the GPU exactly as [`ResidualGroup::lookup`](haze_hash::tile::ResidualGroup::lookup)
 //! does, so `R` is the CPU's to the bit.
 //!
@@ -29,7 +29,7 @@ use super::{
 use crate::lighting::single::RgbSh;
 use crate::render::crm::VolumeGrids;
 use crate::stream::ResidualSlot;
-use haze_hash::tile::tile_origin;
+use haze_hash::tile::{bricks_per_frame, tile_origin};
 use haze_volume::{Bbox, Rbf};
 
 /// The shader: `crates/view/shaders/sh_basis.wgsl` followed by `volume_pass.wgsl`.
@@ -55,7 +55,7 @@ pub enum Residual<'a> {
 }
 
 /// The shader's `Params` uniform: WGSL's layout (a `vec3` is 16-byte aligned and the
-/// scalar after it fills its fourth slot), 96 bytes.
+/// scalar after it fills its fourth slot), 112 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 struct Params {
@@ -70,9 +70,11 @@ struct Params {
     tile: [u32; 3],
     hash_r: u32,
     keys_at: u32,
-    values_at: u32,
+    payloads_at: u32,
+    data_at: u32,
+    brick: u32,
     step: f32,
-    _pad: u32,
+    _pad: [u32; 3],
 }
 
 /// The residual's binding: its kind for the shader and its words.
@@ -81,9 +83,9 @@ struct ResidualWords {
     words: Vec<u32>,
 }
 
-/// The hash volume of `slot` as one `u32` array (Φ, keys, packed values) and the uniform
-/// fields that find its parts; a slot past the group's frames reads 0 everywhere, as
-/// `ResidualGroup::lookup` does.
+/// The hash volume of `slot` as one `u32` array (Φ, keys, payloads, packed values) and the
+/// uniform fields that find its parts; a slot past the group's frames reads 0 everywhere,
+/// as `ResidualGroup::lookup` does.
 fn hash_words(
     slot: &ResidualSlot,
     dims: [usize; 3],
@@ -104,29 +106,30 @@ fn hash_words(
     }
     let h = &g.hash;
     let (offsets, keys) = (h.offsets.len(), h.keys.len());
-    let too_many = || {
-        GpuError::Input(format!(
-            "the residual hash ({offsets} offsets, {keys} slots) is too large to index with 32 bits"
-        ))
+    let total = offsets + 2 * keys + g.data.len();
+    let index = |n: usize| {
+        u32::try_from(n).map_err(|_| {
+            GpuError::Input(format!(
+                "the residual hash ({offsets} offsets, {keys} slots, {} data words) is too large to index with 32 bits",
+                g.data.len()
+            ))
+        })
     };
-    let keys_at = u32::try_from(offsets).map_err(|_| too_many())?;
-    let values_at = u32::try_from(offsets + keys).map_err(|_| too_many())?;
-    u32::try_from(offsets + keys + h.values.len().div_ceil(2)).map_err(|_| too_many())?;
-    let mut words = Vec::with_capacity(offsets + keys + h.values.len().div_ceil(2));
+    index(total)?;
+    let mut words = Vec::with_capacity(total);
     words.extend_from_slice(&h.offsets);
     words.extend_from_slice(&h.keys);
-    words.extend(h.values.chunks(2).map(|pair| {
-        let lo = u32::from(pair[0] as u16);
-        let hi = pair.get(1).map_or(0, |&v| u32::from(v as u16));
-        lo | hi << 16
-    }));
+    words.extend_from_slice(&h.payloads);
+    words.extend_from_slice(&g.data);
     *params = Params {
         hash_domain: h.domain,
         hash_m: h.m,
-        tile: tile_origin(slot.slot, g.dims),
+        tile: tile_origin(slot.slot, bricks_per_frame(g.dims, g.brick)),
         hash_r: h.r,
-        keys_at,
-        values_at,
+        keys_at: index(offsets)?,
+        payloads_at: index(offsets + keys)?,
+        data_at: index(offsets + 2 * keys)?,
+        brick: g.brick,
         step: g.steps[slot.slot],
         ..*params
     };
@@ -329,7 +332,7 @@ mod tests {
 
     #[test]
     fn params_match_the_wgsl_layout() {
-        assert_eq!(std::mem::size_of::<Params>(), 96);
+        assert_eq!(std::mem::size_of::<Params>(), 112);
         assert_eq!(std::mem::offset_of!(Params, dims), 32);
         assert_eq!(std::mem::offset_of!(Params, tile), 64);
         assert_eq!(std::mem::offset_of!(Params, step), 88);
