@@ -247,6 +247,8 @@ struct AssetFrame {
     rbfs: Option<usize>,
     rel_l2: Option<f64>,
     rms_over_max: Option<f64>,
+    /// The frame's share of its residual hash volume, in bytes (0: none stored).
+    hash_bytes: Option<f64>,
 }
 
 fn asset_report(path: &Path) -> Result<AssetReport> {
@@ -296,6 +298,9 @@ fn asset_report(path: &Path) -> Result<AssetReport> {
             rms_over_max: fits
                 .and_then(|f| f.get(k))
                 .and_then(|f| f["rms_over_max"].as_f64()),
+            hash_bytes: fits
+                .and_then(|f| f.get(k))
+                .and_then(|f| f["hash_bytes"].as_f64()),
         })
         .collect();
     let mut by_kind: BTreeMap<String, KindSummary> = BTreeMap::new();
@@ -441,10 +446,13 @@ impl Report {
                 line(&mut out, "checksums", "all blocks verified".to_string());
                 for f in &r.frames {
                     if let (Some(n), Some(e), Some(m)) = (f.rbfs, f.rel_l2, f.rms_over_max) {
+                        let residual = f
+                            .hash_bytes
+                            .map_or(String::new(), |b| format!(", residual {}", bytes(b as u64)));
                         line(
                             &mut out,
                             &format!("frame {}", f.frame),
-                            format!("{n} RBFs, rel_l2 {e:.4}, rms/max {m:.4}"),
+                            format!("{n} RBFs, rel_l2 {e:.4}, rms/max {m:.4}{residual}"),
                         );
                     }
                 }

@@ -28,6 +28,10 @@ pub struct ResidualRecord {
     /// The RBFs alone meet the error everywhere: nothing stored for the frame.
     #[serde(default)]
     pub rbfs_meet_error: bool,
+    /// Share of the frame's smoke voxels (where `D` or `D̃` is not zero) that the RBFs
+    /// alone reconstruct within the error: how much of the budget they already meet.
+    #[serde(default)]
+    pub rbf_share_within_error: f64,
     /// The step had to widen past the asked error for the values to fit `--quant-bits`.
     #[serde(default)]
     pub quant_widened: bool,
@@ -137,6 +141,12 @@ impl ResidualStage {
             .map(|(d, a)| (f64::from(*d) - a) as f32)
             .collect();
         let peak = v.data().iter().fold(0.0f32, |m, &d| m.max(d));
+        let smoke = v
+            .data()
+            .iter()
+            .zip(&approx)
+            .filter(|&(d, a)| *d != 0.0 || *a != 0.0)
+            .count();
         let q = quantize(&r, peak, self.opts).map_err(|e| anyhow!("residual: {e}"))?;
         let record = ResidualRecord {
             residual_nonzero: q.cells.len(),
@@ -147,6 +157,12 @@ impl ResidualStage {
                 0.0
             },
             rbfs_meet_error: q.cells.is_empty(),
+            // Stored voxels are a subset of the smoke voxels (R ≠ 0 needs D or D̃ ≠ 0).
+            rbf_share_within_error: if smoke > 0 {
+                1.0 - q.cells.len() as f64 / smoke as f64
+            } else {
+                1.0
+            },
             quant_widened: q.widened,
             quant_step: q.step,
             quant_max_error: q.max_error,

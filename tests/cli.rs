@@ -505,6 +505,7 @@ fn bake_stores_the_residual_and_export_reconstructs_within_the_error() {
         "residual_target",
         "rbf_max_error",
         "rbfs_meet_error",
+        "rbf_share_within_error",
         "quant_widened",
         "hash_bytes",
         "hash_seconds",
@@ -514,6 +515,8 @@ fn bake_stores_the_residual_and_export_reconstructs_within_the_error() {
     }
     let target = f24["residual_target"].as_f64().unwrap();
     assert!(f24["residual_bricks"].as_u64().unwrap() > 0);
+    let share = f24["rbf_share_within_error"].as_f64().unwrap();
+    assert!(share > 0.0 && share < 1.0, "share {share}");
     let j = json_of(&["inspect", out.to_str().unwrap(), "--json"]);
     assert_eq!(j["blocks_by_kind"]["residual-hash"]["blocks"], 1);
     // Export frame 24 and compare with OpenVDB's dense export of the input.
@@ -604,6 +607,7 @@ fn frames_the_rbfs_alone_meet_store_no_residual() {
     for f in r["frames"].as_array().unwrap() {
         assert_eq!(f["rbfs_meet_error"], true);
         assert_eq!(f["residual_bricks"], 0);
+        assert_eq!(f["rbf_share_within_error"], 1.0);
         assert!(f["rbf_max_error"].as_f64().unwrap() <= 1.0);
     }
     let j = json_of(&["inspect", out.to_str().unwrap(), "--json"]);
