@@ -473,13 +473,13 @@ impl BakeCli {
         }
         let count = match (self.rbfs, self.target_error) {
             (Some(0), _) => bail!("--rbfs must be at least 1"),
-            (Some(n), _) => crate::bake::Count::Fixed(n),
-            (None, Some(e)) if e > 0.0 && e <= 1.0 => crate::bake::Count::Target {
+            (Some(n), _) => haze_bake::Count::Fixed(n),
+            (None, Some(e)) if e > 0.0 && e <= 1.0 => haze_bake::Count::Target {
                 rel_l2: e,
                 cap: self.max_rbfs.max(1),
             },
             (None, Some(e)) => bail!("--target-error {e} must be in (0, 1]"),
-            (None, None) => crate::bake::Count::Fixed(300),
+            (None, None) => haze_bake::Count::Fixed(300),
         };
         let fit = FitOptions {
             bounds,
@@ -497,26 +497,28 @@ impl BakeCli {
             ..FitOptions::default()
         };
         Ok(crate::bake::BakeArgs {
-            input: self.input,
-            out: self.out,
-            range: self.frames.unwrap_or_default(),
-            import: self.import.options(),
-            count,
-            fit: SequenceOptions {
-                fit,
-                delete: self.delete,
-                max_insert: self.max_insert,
-                threshold: self.threshold,
-                warm_iterations: self.warm_iterations,
-                ..SequenceOptions::default()
-            },
             report: self.report,
-            quant: haze_hash::QuantOptions {
-                error: self.residual_error,
-                bits: self.quant_bits,
+            options: haze_bake::BakeOptions {
+                input: self.input,
+                out: self.out,
+                range: self.frames.unwrap_or_default(),
+                import: self.import.options(),
+                count,
+                fit: SequenceOptions {
+                    fit,
+                    delete: self.delete,
+                    max_insert: self.max_insert,
+                    threshold: self.threshold,
+                    warm_iterations: self.warm_iterations,
+                    ..SequenceOptions::default()
+                },
+                quant: haze_hash::QuantOptions {
+                    error: self.residual_error,
+                    bits: self.quant_bits,
+                },
+                brick: self.residual_brick,
+                resume: self.resume,
             },
-            brick: self.residual_brick,
-            resume: self.resume,
         })
     }
 }

@@ -1,19 +1,16 @@
 //! `haze`: bake smoke simulations into compact assets and inspect them.
 
-mod asset_header;
 mod bake;
 mod cli;
 mod export;
 mod fog;
 mod import_args;
 mod inspect;
-mod journal;
 mod merge;
 mod output;
 mod pack;
 mod progress;
 mod render;
-mod residual;
 mod viewer;
 
 use clap::Parser;

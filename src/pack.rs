@@ -31,7 +31,7 @@ pub fn run(input: &Path, out: &Path, range: FrameRange, opts: &ImportOptions) ->
         bar.inc(1);
     }
     bar.finish_and_clear();
-    let header = crate::asset_header::for_sequence(&seq, input, opts)?;
+    let header = haze_bake::header::for_sequence(&seq, input, opts)?;
     w.finish(&header)?;
     tracing::info!(
         "{}: {} packed",

@@ -3,9 +3,9 @@
 //! reference renderer.
 
 use crate::progress;
-use crate::residual::as_stored;
 use anyhow::{Context, Result, anyhow, bail};
 use haze_asset::Asset;
+use haze_bake::residual::as_stored;
 use haze_fit::{SequenceFitter, SequenceOptions};
 use haze_view::gpu::GpuContext;
 use haze_view::gpu::renderer::{GpuFrame, GpuRenderer, LightingOn};

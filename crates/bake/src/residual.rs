@@ -46,6 +46,7 @@ pub struct ResidualRecord {
 }
 
 /// Collects quantized frames and makes a hash volume of every 27.
+#[derive(Debug)]
 pub struct ResidualStage {
     opts: QuantOptions,
     brick: u32,

@@ -1,0 +1,47 @@
+//! The bake as a library: a sequence of density volumes (OpenVDB, raw, NumPy) → Gaussian
+//! RBFs fitted frame by frame with temporal coherence (paper A §5.1, `haze-fit`) → the
+//! residual quantized to the error asked for and hashed in bricks (§5.2, `haze-hash`) →
+//! one streamable `.haze` asset (`haze-asset`), journaled so that an interrupted bake
+//! resumes where it stopped. The `haze` command-line tool only wraps this crate.
+//!
+//! ```no_run
+//! use haze_bake::{Bake, BakeOptions, Count, Event};
+//! # fn main() -> anyhow::Result<()> {
+//! let options = BakeOptions {
+//!     input: "cache/".into(),
+//!     out: "smoke.haze".into(),
+//!     range: Default::default(),
+//!     import: Default::default(),
+//!     count: Count::Fixed(300),
+//!     fit: Default::default(),
+//!     quant: Default::default(),
+//!     brick: haze_hash::tile::DEFAULT_BRICK,
+//!     resume: false,
+//! };
+//! let mut bake = Bake::new(options, |e: Event<'_>| eprintln!("{e:?}"))?;
+//! for frame in bake.by_ref() {
+//!     let f = frame?;
+//!     println!("frame {}: rel_l2 {:.4}", f.frame, f.fit.rel_l2);
+//! }
+//! let baked = bake.finish()?;
+//! println!("{} bytes", baked.bytes);
+//! # Ok(()) }
+//! ```
+//!
+//! * [`pipeline`]: [`Bake`] — open, fit, hash, journal, finish.
+//! * [`residual`]: the residual stage (quantize, hash volumes of 27 frames).
+//! * [`journal`]: the append-only journal of finished frames and hash volumes.
+//! * [`merge`]: chunks baked separately joined into one asset.
+//! * [`export`]: a frame reconstructed as a dense volume.
+//! * [`header`]: the asset header of a sequence.
+
+pub mod export;
+pub mod header;
+pub mod journal;
+pub mod merge;
+pub mod pipeline;
+pub mod residual;
+
+pub use export::{Reconstruction, reconstruct_frame};
+pub use merge::{Merged, merge};
+pub use pipeline::{Bake, BakeOptions, Baked, Count, Event, FrameRecord};

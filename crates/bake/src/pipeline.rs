@@ -1,0 +1,609 @@
+//! The bake: a sequence of density volumes → RBF fits (paper A §5.1) and the quantized,
+//! hashed residual (§5.2) in a `.haze` asset, journaled frame by frame so that an
+//! interrupted bake resumes.
+//!
+//! [`Bake::new`] opens the input (and the journal when resuming, or runs the RBF-count
+//! search); the bake is then an iterator of finished frames; [`Bake::finish`] writes the
+//! asset and returns the figures of the report.
+
+use crate::journal::{self, Journal, Record, Tag};
+use crate::residual::{HashVolume, ResidualRecord, ResidualStage};
+use anyhow::{Context, Result, bail};
+use haze_asset::{AssetWriter, BlockKind, Scope, decode_rbfs, encode_rbfs};
+use haze_fit::{
+    FitGrid, FitterState, FrameFit, Search, SequenceFitter, SequenceOptions, rbfs_for_target,
+};
+use haze_volume::ImportOptions;
+use haze_volume::import::{FrameRange, Sequence};
+use serde::{Deserialize, Serialize};
+use serde_json::json;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// How many RBFs a first frame gets.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub enum Count {
+    Fixed(usize),
+    /// Smallest count reaching this rel_l2, at most the cap.
+    Target {
+        rel_l2: f64,
+        cap: usize,
+    },
+}
+
+/// Everything a bake is asked to do.
+#[derive(Clone, Debug)]
+pub struct BakeOptions {
+    /// A volume file, a directory or a glob of numbered frames.
+    pub input: PathBuf,
+    /// The asset to write (its journal is `OUT.partial`).
+    pub out: PathBuf,
+    pub range: FrameRange,
+    pub import: ImportOptions,
+    pub count: Count,
+    pub fit: SequenceOptions,
+    /// The residual's error (fraction of each frame's peak) and widest stored value.
+    pub quant: haze_hash::QuantOptions,
+    /// Brick side of the residual hash.
+    pub brick: u32,
+    /// Continue the interrupted bake of `out` from its journal.
+    pub resume: bool,
+}
+
+/// One frame's line in the report and in the asset header.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct FrameRecord {
+    /// The frame's number in the input.
+    pub frame: i64,
+    pub rbfs: usize,
+    #[serde(flatten)]
+    pub fit: FrameFit,
+    /// The residual's figures; its hash volume's share (bytes, seconds, bricks) is filled
+    /// in when the volume is built, so only the records of [`Baked`] have all of them.
+    #[serde(flatten)]
+    pub residual: ResidualRecord,
+}
+
+/// What happens during a bake, for progress displays.
+#[derive(Debug)]
+pub enum Event<'a> {
+    /// Resuming an interrupted bake after `finished` of `total` frames.
+    Resumed { finished: usize, total: usize },
+    /// The RBF-count search of `--target-error` starts on frame `frame` (a long step).
+    Searching { frame: i64, target: f64 },
+    /// The search is over.
+    Searched(&'a Search),
+    /// Frame `frame` (asset index `index`) is being fitted.
+    Fitting { index: usize, frame: i64 },
+    /// A hash volume is being built.
+    Hashing,
+}
+
+/// A finished bake: the asset written and the figures of its report.
+#[derive(Debug)]
+pub struct Baked {
+    pub out: PathBuf,
+    /// The asset's size.
+    pub bytes: u64,
+    pub seconds: f64,
+    pub records: Vec<FrameRecord>,
+    /// The settings stored in the asset's header.
+    pub settings: serde_json::Value,
+    /// Flicker measures over the sequence.
+    pub temporal: serde_json::Value,
+}
+
+impl Baked {
+    /// The JSON report (`haze bake --report`): `input`, `output`, `settings`, `frames`,
+    /// `temporal`, `totals`.
+    pub fn report(&self, input: &Path) -> serde_json::Value {
+        json!({
+            "input": input.display().to_string(),
+            "output": self.out.display().to_string(),
+            "settings": self.settings,
+            "frames": self.records,
+            "temporal": self.temporal,
+            "totals": {"seconds": self.seconds, "bytes": self.bytes, "frames": self.records.len()},
+        })
+    }
+}
+
+/// A bake in progress: an iterator of finished frames.
+pub struct Bake {
+    options: BakeOptions,
+    seq: Sequence,
+    journal: Journal,
+    done: Done,
+    /// The sequence options with the chosen RBF count.
+    opts: SequenceOptions,
+    fitter: SequenceFitter,
+    residuals: ResidualStage,
+    /// Asset index of the next frame to fit.
+    next: usize,
+    failed: bool,
+    start: Instant,
+    events: Box<dyn FnMut(Event<'_>) + Send>,
+}
+
+impl std::fmt::Debug for Bake {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Bake")
+            .field("options", &self.options)
+            .field("next", &self.next)
+            .field("frames", &self.seq.len())
+            .finish_non_exhaustive()
+    }
+}
+
+/// What a bake has finished so far: its frames' records, and the asset's blocks in order.
+struct Done {
+    search: Option<Search>,
+    rbfs: usize,
+    records: Vec<FrameRecord>,
+    blocks: Vec<(BlockKind, Scope, Vec<u8>)>,
+    /// Asset frames already in hash volumes.
+    hashed: usize,
+    state: FitterState,
+}
+
+impl Bake {
+    /// Opens the input and the journal of an interrupted bake when `options.resume` (else
+    /// starts one, running the RBF-count search of `Count::Target` first); `events` hears
+    /// of the long steps.
+    pub fn new(
+        options: BakeOptions,
+        mut events: impl FnMut(Event<'_>) + Send + 'static,
+    ) -> Result<Bake> {
+        let args = options;
+        let start = Instant::now();
+        let seq = Sequence::open(&args.input, &args.import, args.range)?;
+        if seq.dims().contains(&0) {
+            bail!(
+                "{}: every frame is empty; nothing to bake",
+                args.input.display()
+            );
+        }
+        if !seq.gaps().is_empty() {
+            tracing::warn!(
+                "{}: missing frames {:?}; the asset's frames follow the files in order",
+                args.input.display(),
+                seq.gaps()
+            );
+        }
+        let journal_path = journal::path_for(&args.out);
+        let inputs = inputs(&seq, &args)?;
+        let previous = if args.resume {
+            Journal::open(&journal_path)?
+        } else {
+            None
+        };
+        let (journal, mut done) = match previous {
+            Some((j, records)) => {
+                let done = restore(&journal_path, &inputs, records)?;
+                events(Event::Resumed {
+                    finished: done.records.len(),
+                    total: seq.len(),
+                });
+                (j, done)
+            }
+            None => {
+                if args.resume {
+                    tracing::warn!(
+                        "{}: no interrupted bake to resume; starting from the first frame",
+                        journal_path.display()
+                    );
+                } else if journal_path.exists() {
+                    tracing::warn!(
+                        "{}: replacing the journal of an interrupted bake (--resume continues one)",
+                        journal_path.display()
+                    );
+                }
+                let (rbfs, search) = match args.count {
+                    Count::Fixed(n) => (n, None),
+                    Count::Target { rel_l2, cap } => {
+                        let s = choose_count(&seq, rel_l2, cap, &args.fit, &mut events)?;
+                        (s.rbfs, Some(s))
+                    }
+                };
+                let start = json!({"inputs": inputs, "rbfs": rbfs, "search": search});
+                let j = Journal::create(&journal_path, &start)?;
+                let done = Done {
+                    search,
+                    rbfs,
+                    records: Vec::new(),
+                    blocks: Vec::new(),
+                    hashed: 0,
+                    state: FitterState::default(),
+                };
+                (j, done)
+            }
+        };
+        let opts = SequenceOptions {
+            rbfs: done.rbfs,
+            ..args.fit.clone()
+        };
+        let fitter = SequenceFitter::resume(opts.clone(), std::mem::take(&mut done.state));
+        let mut residuals = ResidualStage::new(args.quant, args.brick, seq.dims(), done.hashed)?;
+        // Frames finished but not yet hashed: their quantized residuals again (deterministic).
+        for i in done.hashed..done.records.len() {
+            let v = seq.load(i)?;
+            let rbfs = frame_rbfs(&done, i)?;
+            residuals.push(&v, &rbfs)?;
+        }
+        Ok(Bake {
+            next: done.records.len(),
+            options: args,
+            seq,
+            journal,
+            done,
+            opts,
+            fitter,
+            residuals,
+            failed: false,
+            start,
+            events: Box::new(events),
+        })
+    }
+
+    /// The input sequence.
+    pub fn sequence(&self) -> &Sequence {
+        &self.seq
+    }
+
+    /// Frames finished so far (including those of a resumed journal).
+    pub fn finished(&self) -> usize {
+        self.done.records.len()
+    }
+
+    /// The RBF count of the first frame (fixed, or chosen by the search).
+    pub fn rbfs(&self) -> usize {
+        self.opts.rbfs
+    }
+
+    /// Fits frame `self.next`, journals it, and builds a hash volume when one is complete.
+    fn step(&mut self) -> Result<FrameRecord> {
+        let i = self.next;
+        let seq = &self.seq;
+        let f = &seq.frames()[i];
+        (self.events)(Event::Fitting {
+            index: i,
+            frame: f.number,
+        });
+        let v = seq.load(i)?;
+        let fit = self
+            .fitter
+            .fit(&v)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", f.path.display()))?;
+        tracing::info!(
+            "frame {}: {} RBFs, rel_l2 {:.4}, rms/max {:.4}, {} iterations, {:.2} s",
+            f.number,
+            fit.rbfs.len(),
+            fit.rel_l2,
+            fit.rms_over_max,
+            fit.iterations,
+            fit.fit_seconds
+        );
+        let rbf_block = encode_rbfs(&fit.rbfs);
+        let residual = self.residuals.push(&v, &fit.rbfs)?;
+        let record = FrameRecord {
+            frame: f.number,
+            rbfs: fit.rbfs.len(),
+            fit,
+            residual,
+        };
+        self.journal.append(
+            Tag::Frame,
+            &json!({"record": record, "state": self.fitter.state()}),
+            &rbf_block,
+        )?;
+        let done = &mut self.done;
+        done.blocks
+            .push((BlockKind::Rbfs, Scope::frame(i as u32), rbf_block));
+        done.records.push(record);
+        if self.residuals.full() || i + 1 == seq.len() {
+            (self.events)(Event::Hashing);
+            if let Some(h) = self.residuals.flush()? {
+                let shares = json!({"first": h.first, "count": h.count, "shares": h.shares,
+                                    "bricks": h.bricks});
+                self.journal.append(Tag::Group, &shares, &h.bytes)?;
+                apply(&mut done.records, &h);
+                warn_widened(&done.records[h.first..h.first + h.count], seq.frames());
+                if !h.bytes.is_empty() {
+                    done.blocks
+                        .push((BlockKind::ResidualHash, h.scope(), h.bytes));
+                }
+            }
+        }
+        self.next += 1;
+        Ok(done.records[i].clone())
+    }
+
+    /// Fits the frames not yet fitted, then writes the asset (atomically) and removes the
+    /// journal.
+    pub fn finish(mut self) -> Result<Baked> {
+        for r in self.by_ref() {
+            r?;
+        }
+        if self.failed {
+            bail!(
+                "{}: the bake failed; nothing written",
+                self.options.out.display()
+            );
+        }
+        let (args, seq, done, opts) = (&self.options, &self.seq, &self.done, &self.opts);
+        let settings = json!({
+            "rbfs": opts.rbfs,
+            "options": opts,
+            "search": done.search,
+            "quant_bits": args.quant.bits,
+            "residual_error": args.quant.error,
+            "residual_brick": args.brick,
+        });
+        let records = &done.records;
+        let mut header = crate::header::for_sequence(seq, &args.input, &args.import)?;
+        let summary: Vec<_> = records
+            .iter()
+            .map(|r| {
+                json!({"frame": r.frame, "rbfs": r.rbfs, "rel_l2": r.fit.rel_l2,
+                   "rms_over_max": r.fit.rms_over_max,
+                   "residual_nonzero": r.residual.residual_nonzero,
+                   "residual_bricks": r.residual.residual_bricks,
+                   "rbf_max_error": r.residual.rbf_max_error,
+                   "hash_bytes": r.residual.hash_bytes,
+                   "quant_step": r.residual.quant_step})
+            })
+            .collect();
+        header.settings.insert(
+            "fit".into(),
+            json!({"settings": settings, "frames": summary}),
+        );
+        let mut writer = AssetWriter::create(&args.out)?;
+        for (kind, scope, bytes) in &done.blocks {
+            writer.write_block(*kind, *scope, bytes)?;
+        }
+        writer.finish(&header)?;
+        self.journal.remove()?;
+        let bytes = std::fs::metadata(&args.out)
+            .with_context(|| format!("{}: written but unreadable", args.out.display()))?
+            .len();
+        Ok(Baked {
+            out: args.out.clone(),
+            bytes,
+            seconds: self.start.elapsed().as_secs_f64(),
+            temporal: temporal(records, opts.threshold),
+            records: done.records.clone(),
+            settings,
+        })
+    }
+}
+
+impl Iterator for Bake {
+    type Item = Result<FrameRecord>;
+
+    /// The next finished frame; after an error, `None`.
+    fn next(&mut self) -> Option<Result<FrameRecord>> {
+        if self.failed || self.next >= self.seq.len() {
+            return None;
+        }
+        let r = self.step();
+        self.failed = r.is_err();
+        Some(r)
+    }
+}
+
+fn apply(records: &mut [FrameRecord], h: &HashVolume) {
+    let mut res: Vec<ResidualRecord> = records.iter().map(|r| r.residual.clone()).collect();
+    h.share_into(&mut res);
+    for (r, s) in records.iter_mut().zip(res) {
+        r.residual = s;
+    }
+}
+
+/// What a journal must match to be resumed: the inputs (names and sizes of the frame
+/// files) and every setting that changes the result.
+fn inputs(seq: &Sequence, args: &BakeOptions) -> Result<serde_json::Value> {
+    let frames = seq
+        .frames()
+        .iter()
+        .map(|f| {
+            let size = std::fs::metadata(&f.path)
+                .with_context(|| format!("{}: cannot read", f.path.display()))?
+                .len();
+            Ok(json!([f.number, f.path.display().to_string(), size]))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok(json!({
+        "generator": env!("CARGO_PKG_VERSION"),
+        "frames": frames,
+        "import": args.import,
+        "count": args.count,
+        "fit": args.fit,
+        "quant_bits": args.quant.bits,
+        "residual_error": args.quant.error,
+        "residual_brick": args.brick,
+    }))
+}
+
+/// The finished part of an interrupted bake, from its journal.
+fn restore(path: &Path, inputs: &serde_json::Value, records: Vec<Record>) -> Result<Done> {
+    let mut it = records.into_iter();
+    let start = it.next().map(|r| r.json).unwrap_or_default();
+    if start["inputs"] != *inputs {
+        let what = [
+            "frames",
+            "import",
+            "count",
+            "fit",
+            "quant_bits",
+            "residual_error",
+            "residual_brick",
+            "generator",
+        ]
+        .into_iter()
+        .find(|k| start["inputs"][k] != inputs[k])
+        .unwrap_or("settings");
+        bail!(
+            "{}: the interrupted bake had other {}; run without --resume to start over",
+            path.display(),
+            match what {
+                "frames" => "input frames",
+                "import" => "import options",
+                "count" => "RBF count options",
+                "fit" => "fit options",
+                "quant_bits" => "--quant-bits",
+                "residual_error" => "--residual-error",
+                "residual_brick" => "--residual-brick",
+                "generator" => "haze version",
+                other => other,
+            }
+        );
+    }
+    let bad = |what: &str| anyhow::anyhow!("{}: damaged journal ({what})", path.display());
+    let mut done = Done {
+        search: serde_json::from_value(start["search"].clone()).map_err(|_| bad("search"))?,
+        rbfs: serde_json::from_value(start["rbfs"].clone()).map_err(|_| bad("rbfs"))?,
+        records: Vec::new(),
+        blocks: Vec::new(),
+        hashed: 0,
+        state: FitterState::default(),
+    };
+    for r in it {
+        match r.tag {
+            Tag::Frame => {
+                let record: FrameRecord =
+                    serde_json::from_value(r.json["record"].clone()).map_err(|_| bad("frame"))?;
+                done.state =
+                    serde_json::from_value(r.json["state"].clone()).map_err(|_| bad("state"))?;
+                let k = done.records.len() as u32;
+                done.blocks.push((BlockKind::Rbfs, Scope::frame(k), r.bin));
+                done.records.push(record);
+            }
+            Tag::Group => {
+                let first: usize =
+                    serde_json::from_value(r.json["first"].clone()).map_err(|_| bad("group"))?;
+                let count: usize =
+                    serde_json::from_value(r.json["count"].clone()).map_err(|_| bad("group"))?;
+                let shares: Vec<(f64, f64)> =
+                    serde_json::from_value(r.json["shares"].clone()).map_err(|_| bad("group"))?;
+                let bricks: Vec<usize> =
+                    serde_json::from_value(r.json["bricks"].clone()).map_err(|_| bad("group"))?;
+                if first != done.hashed
+                    || shares.len() != count
+                    || bricks.len() != count
+                    || first + count > done.records.len()
+                {
+                    return Err(bad("hash volumes out of order"));
+                }
+                let h = HashVolume {
+                    first,
+                    count,
+                    bytes: r.bin,
+                    shares,
+                    bricks,
+                };
+                apply(&mut done.records, &h);
+                if !h.bytes.is_empty() {
+                    done.blocks
+                        .push((BlockKind::ResidualHash, h.scope(), h.bytes));
+                }
+                done.hashed += count;
+            }
+            Tag::Start => return Err(bad("two start records")),
+        }
+    }
+    Ok(done)
+}
+
+/// The stored RBFs of finished frame `k`.
+fn frame_rbfs(done: &Done, k: usize) -> Result<Vec<haze_volume::Rbf>> {
+    let block = done
+        .blocks
+        .iter()
+        .find(|(kind, scope, _)| *kind == BlockKind::Rbfs && *scope == Scope::frame(k as u32))
+        .ok_or_else(|| anyhow::anyhow!("journal: frame {k} has no RBF block"))?;
+    decode_rbfs(&block.2).map_err(|e| anyhow::anyhow!("journal: frame {k}: {e}"))
+}
+
+/// Runs the RBF-count search on the first non-empty frame.
+fn choose_count(
+    seq: &Sequence,
+    target: f64,
+    cap: usize,
+    opts: &SequenceOptions,
+    events: &mut impl FnMut(Event<'_>),
+) -> Result<Search> {
+    for i in 0..seq.len() {
+        let v = seq.load(i)?;
+        let grid = FitGrid::from_volume(&v)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", seq.frames()[i].path.display()))?;
+        if grid.sum_sq <= 0.0 {
+            continue;
+        }
+        events(Event::Searching {
+            frame: seq.frames()[i].number,
+            target,
+        });
+        let s = rbfs_for_target(&grid, target, cap, &opts.fit);
+        events(Event::Searched(&s));
+        for p in &s.probes {
+            tracing::info!(
+                "  {} RBFs: rel_l2 {:.4} ({:.2} s)",
+                p.rbfs,
+                p.rel_l2,
+                p.seconds
+            );
+        }
+        if !s.reached {
+            tracing::warn!(
+                "rel_l2 {target} not reached with the cap of {cap} RBFs; baking with {}",
+                s.rbfs
+            );
+        }
+        return Ok(s);
+    }
+    Ok(Search {
+        rbfs: 0,
+        reached: true,
+        probes: Vec::new(),
+    })
+}
+
+/// Flicker measures over the sequence.
+fn temporal(records: &[FrameRecord], threshold: f64) -> serde_json::Value {
+    let moves: Vec<f64> = records
+        .iter()
+        .filter_map(|r| r.fit.mean_center_displacement)
+        .collect();
+    let ratios: Vec<f64> = records.iter().map(|r| r.fit.error_ratio).collect();
+    json!({
+        "mean_center_displacement": if moves.is_empty() { None } else {
+            Some(moves.iter().sum::<f64>() / moves.len() as f64) },
+        "max_error_ratio": ratios.iter().copied().fold(0.0, f64::max),
+        "error_ratio_threshold": threshold,
+        "frames_over_threshold": records.iter().filter(|r| r.fit.insertion_capped).count(),
+        "inserted": records.iter().map(|r| r.fit.inserted).sum::<usize>(),
+        "deleted": records.iter().map(|r| r.fit.deleted).sum::<usize>(),
+    })
+}
+
+/// Warns about the frames whose residual could not be stored at the error asked for.
+fn warn_widened(records: &[FrameRecord], frames: &[haze_volume::import::FrameFile]) {
+    let widened: Vec<i64> = records
+        .iter()
+        .filter(|r| r.residual.quant_widened)
+        .map(|r| r.frame)
+        .collect();
+    if let (Some(first), Some(r)) = (
+        widened.first(),
+        records.iter().find(|r| r.residual.quant_widened),
+    ) {
+        let path = frames
+            .iter()
+            .find(|f| f.number == *first)
+            .map_or(String::new(), |f| format!("{}: ", f.path.display()));
+        tracing::warn!(
+            "{path}frames {widened:?}: the residual's largest value ({:.3} of the peak) needs more than --quant-bits at the asked --residual-error; the step was widened (raise --quant-bits to keep the error)",
+            r.residual.rbf_max_error
+        );
+    }
+}
