@@ -335,6 +335,8 @@ mod tests {
         assert_eq!(std::mem::size_of::<Params>(), 112);
         assert_eq!(std::mem::offset_of!(Params, dims), 32);
         assert_eq!(std::mem::offset_of!(Params, tile), 64);
-        assert_eq!(std::mem::offset_of!(Params, step), 88);
+        assert_eq!(std::mem::offset_of!(Params, keys_at), 80);
+        assert_eq!(std::mem::offset_of!(Params, brick), 92);
+        assert_eq!(std::mem::offset_of!(Params, step), 96);
     }
 }
