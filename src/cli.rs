@@ -173,12 +173,25 @@ pub struct BakeCli {
     /// Iteration budget of each minimization of a warm-started frame.
     #[arg(long, default_value_t = 200)]
     warm_iterations: u64,
+    /// Stop a warm-started minimization when its last 10 iterations together lowered the
+    /// error by less than this fraction (0: only --tolerance stops it; see BENCHMARKS.md).
+    #[arg(long, default_value_t = 1e-3, value_name = "F")]
+    warm_tolerance: f64,
+    /// Fit first frames on the half-resolution grid, then polish at full resolution:
+    /// `auto` on grids of 64³ voxels or more.
+    #[arg(long, value_enum, default_value_t = CoarseArg::Auto)]
+    coarse_to_fine: CoarseArg,
     /// RBFs deleted at the start of each later frame.
     #[arg(long, default_value_t = 3)]
     delete: usize,
-    /// Most RBFs inserted in a later frame.
-    #[arg(long, default_value_t = 8)]
-    max_insert: usize,
+    /// Most RBFs inserted in a later frame [default: an eighth of --rbfs, at least 16]. A
+    /// frame that hits it keeps a higher error and is reported.
+    #[arg(long, value_name = "M")]
+    max_insert: Option<usize>,
+    /// How later frames get RBFs where the smoke grew: `batch` sizes each round by the
+    /// excess error; `single` inserts one at a time (paper A).
+    #[arg(long, value_enum, default_value_t = InsertionArg::Batch)]
+    insertion: InsertionArg,
     /// Insert RBFs while a frame's rel_l2 exceeds the first frame's by this ratio.
     #[arg(long, default_value_t = 1.1)]
     threshold: f64,
@@ -449,6 +462,21 @@ enum ExpArg {
 }
 
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum CoarseArg {
+    Auto,
+    On,
+    Off,
+}
+
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum InsertionArg {
+    /// Rounds sized by the excess error, placed where they lower the error most.
+    Batch,
+    /// One RBF and a joint minimization per round (paper A).
+    Single,
+}
+
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
 enum OptimizerArg {
     /// L-BFGS-B with exact bounds (paper A).
     Lbfgsb,
@@ -459,7 +487,7 @@ enum OptimizerArg {
 impl BakeCli {
     fn into_args(self) -> anyhow::Result<crate::bake::BakeArgs> {
         use anyhow::bail;
-        use haze_fit::{Bounds, FitOptions, Optimizer, SequenceOptions, Stop};
+        use haze_fit::{Bounds, Coarse, FitOptions, Insertion, Optimizer, SequenceOptions, Stop};
         let bounds = Bounds {
             radius: (self.radius_min, self.radius_max),
             ..Bounds::default()
@@ -467,6 +495,12 @@ impl BakeCli {
         bounds.validate().map_err(anyhow::Error::msg)?;
         if !(self.tolerance > 0.0 && self.tolerance < 1.0) {
             bail!("--tolerance {} must be in (0, 1)", self.tolerance);
+        }
+        if !(self.warm_tolerance >= 0.0 && self.warm_tolerance < 1.0) {
+            bail!("--warm-tolerance {} must be in [0, 1)", self.warm_tolerance);
+        }
+        if self.max_insert == Some(0) {
+            bail!("--max-insert must be at least 1 (--threshold 1e9 turns insertion off)");
         }
         if self.threshold.is_nan() || self.threshold < 1.0 {
             bail!("--threshold {} must be at least 1", self.threshold);
@@ -494,8 +528,14 @@ impl BakeCli {
                 ..Stop::default()
             },
             seed: self.seed,
+            coarse: match self.coarse_to_fine {
+                CoarseArg::Auto => Coarse::Auto,
+                CoarseArg::On => Coarse::Always,
+                CoarseArg::Off => Coarse::Never,
+            },
             ..FitOptions::default()
         };
+        let defaults = SequenceOptions::default();
         Ok(crate::bake::BakeArgs {
             report: self.report,
             options: haze_bake::BakeOptions {
@@ -509,8 +549,21 @@ impl BakeCli {
                     delete: self.delete,
                     max_insert: self.max_insert,
                     threshold: self.threshold,
-                    warm_iterations: self.warm_iterations,
-                    ..SequenceOptions::default()
+                    insertion: match self.insertion {
+                        InsertionArg::Batch => Insertion::Batch,
+                        InsertionArg::Single => Insertion::Single,
+                    },
+                    warm: Stop {
+                        max_iterations: self.warm_iterations,
+                        relative_reduction: self.tolerance,
+                        window: if self.warm_tolerance > 0.0 {
+                            defaults.warm.window
+                        } else {
+                            0
+                        },
+                        window_gain: self.warm_tolerance,
+                    },
+                    ..defaults
                 },
                 quant: haze_hash::QuantOptions {
                     error: self.residual_error,

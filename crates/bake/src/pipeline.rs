@@ -275,14 +275,36 @@ impl Bake {
             .fit(&v)
             .map_err(|e| anyhow::anyhow!("{}: {e}", f.path.display()))?;
         tracing::info!(
-            "frame {}: {} RBFs, rel_l2 {:.4}, rms/max {:.4}, {} iterations, {:.2} s",
+            "frame {}: {} RBFs (+{} −{}), rel_l2 {:.4} (ratio {:.3}), rms/max {:.4}, {} iterations, {:.2} s",
             f.number,
             fit.rbfs.len(),
+            fit.inserted,
+            fit.deleted,
             fit.rel_l2,
+            fit.error_ratio,
             fit.rms_over_max,
             fit.iterations,
             fit.fit_seconds
         );
+        if fit.insertion_capped {
+            tracing::warn!(
+                "{}: frame {}: error ratio {:.3} over --threshold {} after inserting {} RBFs, the most a frame may insert (raise --max-insert)",
+                f.path.display(),
+                f.number,
+                fit.error_ratio,
+                self.opts.threshold,
+                fit.inserted
+            );
+        } else if fit.insertion_stalled {
+            tracing::warn!(
+                "{}: frame {}: error ratio {:.3} over --threshold {}: inserting RBFs stopped lowering the error ({} inserted); the detail left is finer than --radius-min and goes to the residual",
+                f.path.display(),
+                f.number,
+                fit.error_ratio,
+                self.opts.threshold,
+                fit.inserted
+            );
+        }
         let rbf_block = encode_rbfs(&fit.rbfs);
         let residual = self.residuals.push(&v, &fit.rbfs)?;
         let record = FrameRecord {
@@ -553,9 +575,21 @@ fn choose_count(
                 p.seconds
             );
         }
-        if !s.reached {
+        if s.plateau
+            && let [.., a, b] = s.probes.as_slice()
+        {
             tracing::warn!(
-                "rel_l2 {target} not reached with the cap of {cap} RBFs; baking with {}",
+                "rel_l2 {target} is out of reach of RBFs: {} → {} RBFs lowered rel_l2 only from {:.4} to {:.4}, as the finest detail is narrower than --radius-min {} allows; baking with {} RBFs and leaving the rest to the residual (--residual-error), or lower --radius-min to let RBFs reach it",
+                a.fitted,
+                b.fitted,
+                a.rel_l2,
+                b.rel_l2,
+                opts.fit.bounds.radius.0,
+                s.rbfs
+            );
+        } else if !s.reached {
+            tracing::warn!(
+                "rel_l2 {target} not reached with the cap of {cap} RBFs; baking with {} (raise --max-rbfs)",
                 s.rbfs
             );
         }
@@ -564,6 +598,7 @@ fn choose_count(
     Ok(Search {
         rbfs: 0,
         reached: true,
+        plateau: false,
         probes: Vec::new(),
     })
 }
@@ -580,7 +615,9 @@ fn temporal(records: &[FrameRecord], threshold: f64) -> serde_json::Value {
             Some(moves.iter().sum::<f64>() / moves.len() as f64) },
         "max_error_ratio": ratios.iter().copied().fold(0.0, f64::max),
         "error_ratio_threshold": threshold,
-        "frames_over_threshold": records.iter().filter(|r| r.fit.insertion_capped).count(),
+        "frames_over_threshold": records.iter().filter(|r| r.fit.error_ratio > threshold).count(),
+        "frames_capped": records.iter().filter(|r| r.fit.insertion_capped).count(),
+        "frames_stalled": records.iter().filter(|r| r.fit.insertion_stalled).count(),
         "inserted": records.iter().map(|r| r.fit.inserted).sum::<usize>(),
         "deleted": records.iter().map(|r| r.fit.deleted).sum::<usize>(),
     })

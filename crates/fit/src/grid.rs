@@ -7,6 +7,15 @@
 
 use haze_volume::{Rbf, Volume};
 
+/// Indices of the positive values, ascending.
+fn positive(v: &[f64]) -> Vec<usize> {
+    v.iter()
+        .enumerate()
+        .filter(|(_, d)| **d > 0.0)
+        .map(|(i, _)| i)
+        .collect()
+}
+
 /// A frame prepared for fitting.
 #[derive(Clone, Debug)]
 pub struct FitGrid {
@@ -57,12 +66,7 @@ impl FitGrid {
         };
         let density: Vec<f64> = v.data().iter().map(|&d| f64::from(d) * inv).collect();
         let sum_sq = density.iter().map(|d| d * d).sum();
-        let nonzero = density
-            .iter()
-            .enumerate()
-            .filter(|(_, d)| **d != 0.0)
-            .map(|(i, _)| i)
-            .collect();
+        let nonzero = positive(&density);
         let size = v.bbox().size();
         Ok(FitGrid {
             dims,
@@ -75,6 +79,67 @@ impl FitGrid {
             sum_sq,
             nonzero,
         })
+    }
+
+    /// The frame at half the resolution for coarse-to-fine fitting: each coarse voxel is
+    /// the mean of the 2×2×2 fine voxels it covers (voxels past an odd edge count as zero
+    /// density), so its center is the centroid of theirs and the unit cube, the box and
+    /// the normalization are those of `self`. An RBF's parameters mean the same on both
+    /// grids; the coarse objective is the fine one with the density box-filtered, which
+    /// shifts optima by much less than a voxel for radii above one coarse voxel.
+    pub fn downsampled(&self) -> FitGrid {
+        let d = self.dims.map(|n| n.div_ceil(2));
+        let mut density = vec![0.0; d[0] * d[1] * d[2]];
+        for z in 0..self.dims[2] {
+            for y in 0..self.dims[1] {
+                let row = self.index(0, y, z);
+                let out = (d[0] * (y / 2 + d[1] * (z / 2)))..;
+                let out = &mut density[out];
+                for (x, v) in self.density[row..row + self.dims[0]].iter().enumerate() {
+                    out[x / 2] += v;
+                }
+            }
+        }
+        density.iter_mut().for_each(|v| *v *= 0.125);
+        self.with_density(d, self.h.map(|h| 2.0 * h), density)
+    }
+
+    /// The grid of the residual `D − D̃` of `self` (values may be negative): fitting RBFs
+    /// to it fits them with `D̃` frozen. Its normalization `ΣD²` stays that of `self`, so
+    /// costs on both grids compare.
+    pub fn residual_grid(&self, residual: Vec<f64>) -> FitGrid {
+        assert_eq!(residual.len(), self.len(), "one residual value per voxel");
+        FitGrid {
+            nonzero: positive(&residual),
+            density: residual,
+            ..self.clone_geometry()
+        }
+    }
+
+    /// Same box and normalization as `self`, other samples.
+    fn with_density(&self, dims: [usize; 3], h: [f64; 3], density: Vec<f64>) -> FitGrid {
+        FitGrid {
+            dims,
+            h,
+            sum_sq: density.iter().map(|d| d * d).sum(),
+            nonzero: positive(&density),
+            density,
+            ..self.clone_geometry()
+        }
+    }
+
+    fn clone_geometry(&self) -> FitGrid {
+        FitGrid {
+            dims: self.dims,
+            h: self.h,
+            extent: self.extent,
+            origin: self.origin,
+            unit: self.unit,
+            density: Vec::new(),
+            max_density: self.max_density,
+            sum_sq: self.sum_sq,
+            nonzero: Vec::new(),
+        }
     }
 
     /// Number of voxels.
@@ -120,5 +185,55 @@ impl FitGrid {
             rbf.radius / self.unit,
             rbf.weight / self.max_density,
         ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use haze_volume::Bbox;
+
+    /// Each coarse voxel is the mean of its 2×2×2 fine voxels (zeros past odd edges), at
+    /// their centroid; box and normalization stay.
+    #[test]
+    fn downsampled_grid_averages_blocks() {
+        let dims = [5, 4, 3];
+        let b = Bbox::new([1.0, 2.0, 3.0], [6.0, 6.0, 6.0]);
+        let mut v = Volume::zeros(dims, b).unwrap();
+        for i in 0..v.len() {
+            v.data_mut()[i] = (i % 7) as f32 + 0.5;
+        }
+        let g = FitGrid::from_volume(&v).unwrap();
+        let c = g.downsampled();
+        assert_eq!(c.dims, [3, 2, 2]);
+        assert_eq!(
+            (c.extent, c.unit, c.max_density),
+            (g.extent, g.unit, g.max_density)
+        );
+        for cz in 0..2 {
+            for cy in 0..2 {
+                for cx in 0..3 {
+                    let mut sum = 0.0;
+                    let mut centroid = [0.0; 3];
+                    for (dx, dy, dz) in (0..8).map(|k| (k & 1, (k >> 1) & 1, k >> 2)) {
+                        let (x, y, z) = (2 * cx + dx, 2 * cy + dy, 2 * cz + dz);
+                        let inside = x < 5 && y < 4 && z < 3;
+                        let p = [x, y, z].map(|v| v as f64 + 0.5);
+                        for a in 0..3 {
+                            centroid[a] += p[a] * g.h[a] / 8.0;
+                        }
+                        if inside {
+                            sum += g.density[g.index(x, y, z)];
+                        }
+                    }
+                    let i = c.index(cx, cy, cz);
+                    assert!((c.density[i] - sum / 8.0).abs() < 1e-15);
+                    let got = c.center(i);
+                    assert!((0..3).all(|a| (got[a] - centroid[a]).abs() < 1e-12));
+                }
+            }
+        }
+        let r = g.residual_grid(vec![-1.0; g.len()]);
+        assert!(r.nonzero.is_empty() && r.sum_sq == g.sum_sq);
     }
 }

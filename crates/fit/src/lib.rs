@@ -14,10 +14,10 @@ pub use optimize::{Optimizer, Stop, minimize};
 pub mod frame;
 pub mod init;
 
-pub use frame::{FitOptions, FitStats, fit_first_frame};
+pub use frame::{Coarse, FitOptions, FitStats, fit_first_frame};
 pub mod sequence;
 
-pub use sequence::{FitterState, FrameFit, SequenceFitter, SequenceOptions};
+pub use sequence::{FitterState, FrameFit, Insertion, SequenceFitter, SequenceOptions};
 pub mod search;
 
-pub use search::{Search, rbfs_for_target};
+pub use search::{PLATEAU_GAIN, Search, rbfs_for_target};

@@ -2,15 +2,22 @@
 //! basin's port of L-BFGS-B 3.0), or unconstrained L-BFGS on a smooth reparameterization
 //! `x = lo + (hi − lo)·σ(u)` of the box (σ the logistic function), which never pins a
 //! parameter exactly on a bound.
+//!
+//! Two convergence tests, either of which stops a run: the per-iteration one of L-BFGS-B
+//! (`(f_{k−1} − f_k) / f_k < relative_reduction`), and a windowed one for warm starts
+//! (`(f_{k−W} − f_k) / f_k < window_gain`). Near a warm start's optimum L-BFGS-B keeps
+//! making tiny steps that each gain more than 1e-6 but add up to nothing that matters
+//! against the frame's error; the window measures the gain that matters.
 
 use crate::bounds::Bounds;
 use crate::grid::FitGrid;
 use crate::objective::{self, PARAMS_PER_RBF};
 use basin::{
-    BoxBounds, ConstraintDescription, ConstraintSet, Constraints, CostFunction, Executor,
-    FirstOrderState, Gradient, Lbfgs,
+    ApplicationStop, BoxBounds, ConstraintDescription, ConstraintSet, Constraints, CostFunction,
+    Executor, FirstOrderState, Gradient, Lbfgs, State,
 };
 use serde::{Deserialize, Serialize};
+use std::collections::VecDeque;
 use std::convert::Infallible;
 
 /// Which local minimizer to use.
@@ -29,8 +36,16 @@ pub enum Optimizer {
 pub struct Stop {
     /// Most iterations.
     pub max_iterations: u64,
-    /// Stop when an iteration lowers the objective by less than this fraction of it.
+    /// Stop when an iteration lowers the objective `f = rel_l2²` by less than
+    /// `relative_reduction · max(f, 1)`: L-BFGS-B's own test, which for `f ≤ 1` (every
+    /// useful fit) is an absolute one: 1e-6 stops a fit at rel_l2 0.07 once an iteration
+    /// gains less than 2e-4 of `f`. 0 turns it off (the windowed test then decides).
     pub relative_reduction: f64,
+    /// Iterations of the windowed test (0: off).
+    pub window: u64,
+    /// Stop when the last `window` iterations together lowered the objective by less than
+    /// this fraction of it.
+    pub window_gain: f64,
 }
 
 impl Default for Stop {
@@ -38,6 +53,28 @@ impl Default for Stop {
         Stop {
             max_iterations: 200,
             relative_reduction: 1e-6,
+            window: 0,
+            window_gain: 0.0,
+        }
+    }
+}
+
+impl Stop {
+    /// The windowed test as a stopping rule on the costs of successive iterations.
+    fn window_test(&self) -> impl FnMut(f64) -> bool + 'static {
+        let (w, gain) = (self.window as usize, self.window_gain);
+        let mut costs: VecDeque<f64> = VecDeque::with_capacity(w + 1);
+        move |cost: f64| {
+            if w == 0 || !cost.is_finite() {
+                return false;
+            }
+            costs.push_back(cost);
+            if costs.len() <= w {
+                return false;
+            }
+            let old = costs.pop_front().unwrap_or(cost);
+            // f ≥ 0; a zero cost is converged whatever the window says.
+            old - cost <= gain * cost.max(0.0)
         }
     }
 }
@@ -46,6 +83,8 @@ impl Default for Stop {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Minimized {
     pub iterations: u64,
+    /// Objective passes (cost, or cost and gradient).
+    pub passes: u64,
     pub cost: f64,
     /// Stopped by its convergence test rather than by the iteration limit.
     pub converged: bool,
@@ -185,6 +224,7 @@ pub fn minimize(
     if n == 0 || stop.max_iterations == 0 {
         return Minimized {
             iterations: 0,
+            passes: 1,
             cost: objective::cost(grid, params),
             converged: true,
         };
@@ -207,8 +247,12 @@ pub fn minimize(
             let solver = Lbfgs::new()
                 .with_absolute_projected_gradient_tolerance(1e-12)
                 .with_relative_cost_reduction_tolerance(stop.relative_reduction);
+            let mut window = stop.window_test();
             let run = Executor::new(problem, solver, FirstOrderState::new(y0))
                 .max_iter(stop.max_iterations)
+                .stop_when(move |s: &FirstOrderState<Vec<f64>>| {
+                    (s.iter() > 0 && window(s.cost())).then(|| ApplicationStop::new("window"))
+                })
                 .run();
             match run {
                 Ok(r) => {
@@ -218,9 +262,12 @@ pub fn minimize(
                         r.counts.cost_evals,
                         r.counts.gradient_evals
                     );
-                    let converged =
-                        matches!(r.report.termination, basin::Termination::Converged(_));
+                    let converged = matches!(
+                        r.report.termination,
+                        basin::Termination::Converged(_) | basin::Termination::Application(_)
+                    );
                     let iterations = r.iter();
+                    let passes = r.counts.cost_evals.max(r.counts.gradient_evals);
                     let cost = r.best_cost();
                     *params = r
                         .best_param()
@@ -230,6 +277,7 @@ pub fn minimize(
                         .collect();
                     Minimized {
                         iterations,
+                        passes,
                         cost,
                         converged,
                     }
@@ -238,6 +286,7 @@ pub fn minimize(
                     tracing::debug!("L-BFGS-B stopped: {e}");
                     Minimized {
                         iterations: 0,
+                        passes: 1,
                         cost: objective::cost(grid, params),
                         converged: true,
                     }
@@ -255,16 +304,23 @@ pub fn minimize(
             let solver = Lbfgs::new()
                 .unbounded()
                 .with_relative_cost_change_tolerance(stop.relative_reduction);
+            let mut window = stop.window_test();
             let run = Executor::new(problem, solver, FirstOrderState::new(u0))
                 .max_iter(stop.max_iterations)
+                .stop_when(move |s: &FirstOrderState<Vec<f64>>| {
+                    (s.iter() > 0 && window(s.cost())).then(|| ApplicationStop::new("window"))
+                })
                 .run();
             match run {
                 Ok(r) => {
-                    let converged =
-                        matches!(r.report.termination, basin::Termination::Converged(_));
+                    let converged = matches!(
+                        r.report.termination,
+                        basin::Termination::Converged(_) | basin::Termination::Application(_)
+                    );
                     *params = map.to_x(r.best_param());
                     Minimized {
                         iterations: r.iter(),
+                        passes: r.counts.cost_evals.max(r.counts.gradient_evals),
                         cost: r.best_cost(),
                         converged,
                     }
@@ -272,5 +328,33 @@ pub fn minimize(
                 Err(never) => match never {},
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Stop;
+
+    /// The windowed test fires exactly when the last `window` iterations together gained
+    /// less than `window_gain` of the cost, and never before `window + 1` costs are seen.
+    #[test]
+    fn window_test_compares_costs_window_iterations_apart() {
+        let stop = Stop {
+            window: 3,
+            window_gain: 0.01,
+            ..Stop::default()
+        };
+        let mut test = stop.window_test();
+        // 1.0 → 0.9 → 0.85 → 0.84: over 3 iterations a gain of 0.16, far above 1 %.
+        for c in [1.0, 0.9, 0.85, 0.84] {
+            assert!(!test(c));
+        }
+        // 0.9 → 0.835 over the window: still above; then a flat tail stops it.
+        assert!(!test(0.835));
+        assert!(!test(0.834));
+        assert!(test(0.8339), "0.84 → 0.8339 gains 0.7 %");
+        // Off: never fires.
+        let mut off = Stop::default().window_test();
+        assert!((0..50).all(|_| !off(1.0)));
     }
 }

@@ -2,14 +2,34 @@
 //! from scratch with teleportation; every later frame starts from the previous frame's
 //! RBFs, deletes the `k` with the smallest integrals, is minimized without teleportation,
 //! and while its relative error exceeds the first frame's by more than the threshold ratio,
-//! gets an RBF of fixed radius inserted at the largest error and is minimized again, up to
-//! `m` insertions. Few RBFs move far between frames, so the fit does not flicker.
+//! gets RBFs of fixed radius inserted at the largest errors and is minimized again. Few
+//! RBFs move far between frames, so the fit does not flicker.
+//!
+//! Insertion ([`Insertion`]). The paper inserts one RBF at a time, each followed by a
+//! whole minimization, up to `m = 8`: smoke that grows faster than 8 RBFs per frame drifts
+//! away from the first frame's error, and each insertion costs a warm minimization.
+//! [`Insertion::Batch`] sizes each round by how far the error is from its target: with
+//! `rel_l2 ∝ n^(−α)` along the RBF-count curve, reaching `target` from `rel_l2` takes
+//! `n·((rel_l2/target)^(1/α) − 1)` more RBFs (`α = 1/3`), placed by matching pursuit
+//! on the residual ([`crate::init::matched`]: where a Gaussian of the insertion radius
+//! lowers `ΣR²` most, rather than on the largest single voxel) and then minimized
+//! jointly with the rest. Rounds repeat until the ratio holds, or a round removes less
+//! than [`MIN_ROUND_GAIN`] of the excess error (the error left is finer than an RBF can
+//! reach: the residual's job); the per-frame cap (by default an eighth of the first
+//! frame's count, 4.6× the paper's 8 at 300 RBFs) bounds the cost of a frame where the
+//! smoke turns turbulent faster than RBFs can follow. A frame left over the threshold
+//! either way is reported and logged.
+//!
+//! Warm minimizations stop by the windowed test of [`Stop`]: a warm start sits near its
+//! optimum, and the last iterations of a tight per-iteration test buy nothing visible.
+//! They run at full resolution: a warm start is already near the fine optimum, and a
+//! detour through the coarse one costs more polish than it saves (BENCHMARKS.md).
 //!
 //! An all-zero frame has no RBFs; the next non-empty frame starts afresh as a first frame.
 
-use crate::frame::{FitOptions, FitStats, fit_first_frame, max_error, weakest};
+use crate::frame::{FitOptions, FitStats, fit_first_frame, weakest};
 use crate::grid::FitGrid;
-use crate::init::initial_radius;
+use crate::init::{greedy, initial_radius, matched};
 use crate::objective::{self, PARAMS_PER_RBF};
 use crate::optimize::{Stop, minimize};
 use haze_volume::{Rbf, Volume};
@@ -24,12 +44,35 @@ pub struct SequenceOptions {
     pub rbfs: usize,
     /// RBFs deleted at the start of each later frame (paper: 3).
     pub delete: usize,
-    /// Most RBFs inserted per later frame (paper: 8).
-    pub max_insert: usize,
+    /// Most RBFs inserted per later frame (paper: 8); `None`: an eighth of the first
+    /// frame's count (37 for 300), at least [`MIN_AUTO_INSERT`].
+    pub max_insert: Option<usize>,
     /// Insert while rel_l2 / first frame's rel_l2 exceeds this (paper: 1.05–1.2).
     pub threshold: f64,
-    /// Iteration budget of each warm-started minimization.
-    pub warm_iterations: u64,
+    /// How RBFs are inserted.
+    pub insertion: Insertion,
+    /// Stopping rule of each warm-started joint minimization (the fits of inserted RBFs
+    /// alone follow `fit.polish`).
+    pub warm: Stop,
+}
+
+/// The automatic insertion cap's floor, for frames with few RBFs.
+pub const MIN_AUTO_INSERT: usize = 16;
+
+/// An insertion round must remove at least this share of the excess error
+/// (`rel_l2 − target`) for another round to follow; below it the frame is reported as
+/// over the threshold (`insertion_stalled`).
+pub const MIN_ROUND_GAIN: f64 = 0.25;
+
+/// How a warm frame gets RBFs where its error is too high (see the module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Insertion {
+    /// Rounds sized by the excess error; new RBFs fitted alone, then a joint polish.
+    #[default]
+    Batch,
+    /// The paper's: one RBF, then a joint minimization, per round.
+    Single,
 }
 
 impl Default for SequenceOptions {
@@ -38,11 +81,27 @@ impl Default for SequenceOptions {
             fit: FitOptions::default(),
             rbfs: 300,
             delete: 3,
-            max_insert: 8,
+            max_insert: None,
             threshold: 1.1,
-            warm_iterations: 200,
+            insertion: Insertion::default(),
+            warm: Stop {
+                max_iterations: 200,
+                relative_reduction: 0.0,
+                window: 10,
+                window_gain: 1e-3,
+            },
         }
     }
+}
+
+/// RBFs of one insertion round: the count that the RBF-count curve `rel_l2 ∝ n^(−1/3)`
+/// needs to bring `rel_l2` down to `target` from `n` RBFs; at least 1.
+pub fn batch_size(n: usize, rel_l2: f64, target: f64) -> usize {
+    if !(target > 0.0 && rel_l2 > target) {
+        return 1;
+    }
+    let more = n as f64 * ((rel_l2 / target).powi(3) - 1.0);
+    (more.ceil() as usize).max(1)
 }
 
 /// The fit of one frame.
@@ -56,16 +115,32 @@ pub struct FrameFit {
     /// `sqrt(mean((D − D̃)²)) / max D` (0 for an all-zero frame).
     pub rms_over_max: f64,
     pub fit_seconds: f64,
+    /// Seconds spent inserting (placing, fitting the new RBFs, polishing after them).
+    #[serde(default)]
+    pub insert_seconds: f64,
     pub iterations: u64,
+    /// Of which at half resolution (coarse to fine).
+    #[serde(default)]
+    pub coarse_iterations: u64,
+    /// Objective passes in all (line searches included).
+    #[serde(default)]
+    pub passes: u64,
     pub teleports: u64,
     /// Started from the previous frame's RBFs.
     pub warm_started: bool,
     pub deleted: usize,
     pub inserted: usize,
+    /// Insertion rounds.
+    #[serde(default)]
+    pub insert_rounds: usize,
     /// rel_l2 over the first frame's rel_l2 (1 for a first frame).
     pub error_ratio: f64,
     /// The insertion cap was reached with the ratio still above the threshold.
     pub insertion_capped: bool,
+    /// The ratio is above the threshold below the cap: insertion stopped paying (a round
+    /// removed less than [`MIN_ROUND_GAIN`] of the excess error) or found nowhere to go.
+    #[serde(default)]
+    pub insertion_stalled: bool,
     /// RBFs with a radius or weight on its bound.
     pub rbfs_at_bounds: usize,
     /// Mean world distance moved by RBF centers that persisted from the previous frame.
@@ -180,12 +255,9 @@ impl SequenceFitter {
             alive.remove(l);
             deleted += 1;
         }
-        let stop = Stop {
-            max_iterations: o.warm_iterations,
-            ..o.fit.stop
-        };
+        let (optimizer, warm) = (o.fit.optimizer, o.warm);
         let mut stats = FitStats::default();
-        stats.iterations += minimize(grid, &mut params, bounds, o.fit.optimizer, stop).iterations;
+        stats.add(&minimize(grid, &mut params, bounds, optimizer, warm), false);
         let (mut rel_l2, mut rms) = errors(grid, &params);
         let ratio = |rel: f64| {
             if first_rel > 0.0 {
@@ -194,28 +266,48 @@ impl SequenceFitter {
                 1.0
             }
         };
+        let target = first_rel * o.threshold;
         let radius = radius_world / grid.unit;
-        let mut inserted = 0;
-        while ratio(rel_l2) > o.threshold && inserted < o.max_insert {
-            let r = objective::residual(grid, &params);
-            let Some((value, i)) = max_error(&r) else {
-                break;
+        let cap = o.max_insert.unwrap_or((o.rbfs / 8).max(MIN_AUTO_INSERT));
+        let (mut inserted, mut rounds) = (0, 0);
+        let insert_start = Instant::now();
+        while ratio(rel_l2) > o.threshold && inserted < cap {
+            let residual = grid.residual_grid(objective::residual(grid, &params));
+            let new = match o.insertion {
+                Insertion::Batch => {
+                    let n = params.len() / PARAMS_PER_RBF;
+                    let m = batch_size(n, rel_l2, target).min(cap - inserted);
+                    matched(&residual, m, radius, bounds)
+                }
+                Insertion::Single => greedy(&residual, 1, radius, bounds),
             };
-            let c = grid.center(i);
-            let mut p = [c[0], c[1], c[2], radius, value];
-            bounds.clamp(grid, &mut p);
-            params.extend_from_slice(&p);
-            inserted += 1;
-            stats.iterations +=
-                minimize(grid, &mut params, bounds, o.fit.optimizer, stop).iterations;
+            if new.is_empty() {
+                break;
+            }
+            inserted += new.len() / PARAMS_PER_RBF;
+            rounds += 1;
+            params.extend_from_slice(&new);
+            stats.add(&minimize(grid, &mut params, bounds, optimizer, warm), false);
+            let before = rel_l2;
             (rel_l2, rms) = errors(grid, &params);
+            if before - rel_l2 < MIN_ROUND_GAIN * (before - target) {
+                // The error left is not where RBFs can be added (smoke that thinned
+                // under old RBFs, detail finer than the radius): more would only cost.
+                break;
+            }
         }
         let mut f = finish(grid, &params, o, stats, rel_l2, rms);
         f.warm_started = true;
         f.deleted = deleted;
         f.inserted = inserted;
+        f.insert_rounds = rounds;
+        if rounds > 0 {
+            f.insert_seconds = insert_start.elapsed().as_secs_f64();
+        }
         f.error_ratio = ratio(rel_l2);
-        f.insertion_capped = f.error_ratio > o.threshold;
+        let over = f.error_ratio > o.threshold;
+        f.insertion_capped = over && inserted >= cap;
+        f.insertion_stalled = over && !f.insertion_capped;
         let moved: Vec<f64> = alive
             .iter()
             .zip(&f.rbfs)
@@ -240,13 +332,18 @@ fn empty_fit() -> FrameFit {
         rel_l2: 0.0,
         rms_over_max: 0.0,
         fit_seconds: 0.0,
+        insert_seconds: 0.0,
         iterations: 0,
+        coarse_iterations: 0,
+        passes: 0,
         teleports: 0,
         warm_started: false,
         deleted: 0,
         inserted: 0,
+        insert_rounds: 0,
         error_ratio: 1.0,
         insertion_capped: false,
+        insertion_stalled: false,
         rbfs_at_bounds: 0,
         mean_center_displacement: None,
     }
@@ -268,8 +365,27 @@ fn finish(
         rel_l2,
         rms_over_max: rms,
         iterations: stats.iterations,
+        coarse_iterations: stats.coarse_iterations,
+        passes: stats.passes,
         teleports: stats.teleports,
         rbfs_at_bounds: o.fit.bounds.count_at_bounds(params),
         ..empty_fit()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::batch_size;
+
+    /// The round size inverts `rel_l2 ∝ n^(−1/3)`: `n` RBFs at rel_l2 `e` reach `e/k`
+    /// with `n·k³` RBFs.
+    #[test]
+    fn batch_size_follows_the_rbf_count_curve() {
+        assert_eq!(batch_size(100, 0.2, 0.1), 700);
+        assert_eq!(batch_size(300, 0.11, 0.1), 100);
+        assert_eq!(batch_size(300, 0.1, 0.1), 1);
+        assert_eq!(batch_size(300, 0.05, 0.1), 1);
+        assert_eq!(batch_size(0, 0.2, 0.1), 1);
+        assert_eq!(batch_size(10, 0.2, 0.0), 1);
     }
 }

@@ -255,15 +255,13 @@ fn sequence_error_ratio_stays_within_threshold_or_is_reported() {
         } else {
             assert!(f.warm_started);
             assert_eq!(f.deleted, opts.delete);
-            assert!(f.inserted <= opts.max_insert);
-            if f.error_ratio > opts.threshold {
-                assert!(
-                    f.insertion_capped && f.inserted == opts.max_insert,
-                    "frame {n}"
-                );
-            } else {
-                assert!(!f.insertion_capped);
-            }
+            // The automatic cap is generous: the growing plume keeps its ratio.
+            assert!(
+                f.error_ratio <= opts.threshold,
+                "frame {n}: {}",
+                f.error_ratio
+            );
+            assert!(!f.insertion_capped);
             assert!(f.mean_center_displacement.is_some());
         }
         assert!(f.rel_l2 > 0.0 && f.rel_l2 < 0.5);
@@ -275,4 +273,179 @@ fn sequence_error_ratio_stays_within_threshold_or_is_reported() {
     assert!(f.rbfs.is_empty() && f.rel_l2 == 0.0);
     let f = fitter.fit(&frame(26)).unwrap();
     assert!(!f.warm_started && f.rbfs.len() == 120);
+}
+
+/// Gaussians on a `n³` cube whose `k`-th blob is at `centers[k]`, radius 2.2 voxels.
+fn blobs(n: usize, centers: &[[f64; 3]]) -> Volume {
+    let rbfs: Vec<Rbf> = centers
+        .iter()
+        .enumerate()
+        .map(|(k, &c)| Rbf::new(c, 2.2, 0.5 + 0.4 * ((k * 7 % 5) as f64 / 4.0)))
+        .collect();
+    gaussians(n, &rbfs, 0.0, 1)
+}
+
+/// Warm-frame options of the drift tests: few first-frame RBFs so that drift shows.
+fn drift_options() -> SequenceOptions {
+    SequenceOptions {
+        rbfs: 4,
+        fit: FitOptions {
+            max_iterations: 300,
+            ..FitOptions::default()
+        },
+        ..SequenceOptions::default()
+    }
+}
+
+/// A sequence whose smoke drifts and grows by a blob every frame keeps every frame's
+/// error within the threshold ratio of the first frame's, with the default (automatic)
+/// insertion; the paper's single insertions capped at one per frame cannot.
+#[test]
+fn drifting_growing_sequence_keeps_its_error_ratio() {
+    let centers = |t: usize| -> Vec<[f64; 3]> {
+        (0..6 + 2 * t)
+            .map(|k| {
+                let a = k as f64 * 2.4;
+                [
+                    14.0 + 7.0 * a.cos() + 0.6 * t as f64,
+                    14.0 + 7.0 * a.sin(),
+                    6.0 + 2.2 * k as f64 * 0.8,
+                ]
+            })
+            .collect()
+    };
+    let frames: Vec<Volume> = (0..6).map(|t| blobs(32, &centers(t))).collect();
+    let opts = drift_options();
+    let mut fitter = SequenceFitter::new(opts.clone());
+    for (t, v) in frames.iter().enumerate() {
+        let f = fitter.fit(v).unwrap();
+        assert!(
+            f.error_ratio <= opts.threshold,
+            "frame {t}: ratio {} with {} inserted",
+            f.error_ratio,
+            f.inserted
+        );
+        assert!(!f.insertion_capped, "frame {t}");
+    }
+    // The paper's scheme with one insertion a frame falls behind, and says so.
+    let mut paper = SequenceFitter::new(SequenceOptions {
+        insertion: haze_fit::Insertion::Single,
+        max_insert: Some(1),
+        ..opts
+    });
+    let ratios: Vec<(f64, bool)> = frames
+        .iter()
+        .map(|v| {
+            let f = paper.fit(v).unwrap();
+            (f.error_ratio, f.insertion_capped)
+        })
+        .collect();
+    let worst = ratios.iter().map(|r| r.0).fold(0.0, f64::max);
+    assert!(worst > opts.threshold, "{ratios:?}");
+    assert!(
+        ratios
+            .iter()
+            .all(|&(r, capped)| capped == (r > opts.threshold))
+    );
+}
+
+/// Smoke that doubles in one frame gets enough RBFs in that frame.
+#[test]
+fn smoke_that_doubles_in_a_frame_gets_enough_rbfs() {
+    let first: Vec<[f64; 3]> = (0..6).map(|k| [6.0 + 4.0 * k as f64, 10.0, 10.0]).collect();
+    let mut doubled = first.clone();
+    doubled.extend((0..6).map(|k| [6.0 + 4.0 * k as f64, 22.0, 20.0]));
+    let opts = drift_options();
+    let mut fitter = SequenceFitter::new(opts.clone());
+    let f0 = fitter.fit(&blobs(32, &first)).unwrap();
+    let f1 = fitter.fit(&blobs(32, &doubled)).unwrap();
+    assert!(f1.error_ratio <= opts.threshold, "ratio {}", f1.error_ratio);
+    assert!(!f1.insertion_capped);
+    assert!(f1.inserted >= 3, "{} inserted", f1.inserted);
+    // The new blobs are covered: error where they are is as low as on the first frame.
+    assert!(f1.rel_l2 <= f0.rel_l2 * opts.threshold);
+}
+
+/// An explicit cap that stops insertion is reported on the frame.
+#[test]
+fn a_cap_that_is_hit_is_reported() {
+    let first: Vec<[f64; 3]> = (0..6).map(|k| [6.0 + 4.0 * k as f64, 10.0, 10.0]).collect();
+    let mut doubled = first.clone();
+    doubled.extend((0..6).map(|k| [6.0 + 4.0 * k as f64, 22.0, 20.0]));
+    let mut fitter = SequenceFitter::new(SequenceOptions {
+        max_insert: Some(1),
+        ..drift_options()
+    });
+    fitter.fit(&blobs(32, &first)).unwrap();
+    let f = fitter.fit(&blobs(32, &doubled)).unwrap();
+    assert_eq!(f.inserted, 1);
+    assert!(f.insertion_capped && f.error_ratio > 1.1);
+}
+
+/// Coarse to fine ends within a few percent of the full-resolution fit's error.
+#[test]
+fn coarse_to_fine_matches_the_full_resolution_fit() {
+    let centers: Vec<[f64; 3]> = (0..10)
+        .map(|k| {
+            let a = k as f64 * 2.1;
+            [
+                20.0 + 9.0 * a.cos(),
+                20.0 + 9.0 * a.sin(),
+                8.0 + 2.5 * k as f64,
+            ]
+        })
+        .collect();
+    let v = blobs(40, &centers);
+    let g = FitGrid::from_volume(&v).unwrap();
+    let fine = FitOptions {
+        coarse: haze_fit::Coarse::Never,
+        teleport: false,
+        ..FitOptions::default()
+    };
+    let coarse = FitOptions {
+        coarse: haze_fit::Coarse::Always,
+        ..fine.clone()
+    };
+    let (pf, sf) = fit_first_frame(&g, 10, &fine);
+    let (pc, sc) = fit_first_frame(&g, 10, &coarse);
+    let (ef, ec) = (rel_l2(&g, &pf), rel_l2(&g, &pc));
+    assert!(sc.coarse_iterations > 0 && sf.coarse_iterations == 0);
+    assert!(ec <= ef * 1.1 + 1e-3, "coarse to fine {ec} vs fine {ef}");
+}
+
+/// `--target-error` out of reach: voxel-sized detail that no RBF within the radius bounds
+/// represents makes rel_l2 plateau; the search stops there (not at the cap) and reports
+/// the count it fitted.
+#[test]
+fn target_search_stops_at_a_plateau() {
+    let n = 24;
+    let v = {
+        let b = cube(n);
+        let smooth = rbf::evaluate_on_grid([n; 3], &b, &[Rbf::new([12.0, 12.0, 12.0], 5.0, 1.0)]);
+        let data = smooth
+            .iter()
+            .enumerate()
+            .map(|(i, &s)| {
+                // A ±30 % checkerboard: detail at the voxel scale.
+                let (x, y, z) = (i % n, (i / n) % n, i / (n * n));
+                (s * (1.0 + 0.3 * if (x + y + z) % 2 == 0 { 1.0 } else { -1.0 })) as f32
+            })
+            .collect();
+        Volume::new([n; 3], b, data).unwrap()
+    };
+    let g = FitGrid::from_volume(&v).unwrap();
+    let opts = FitOptions {
+        teleport: false,
+        max_iterations: 200,
+        ..FitOptions::default()
+    };
+    let s = haze_fit::rbfs_for_target(&g, 0.01, 4096, &opts);
+    assert!(!s.reached && s.plateau, "{s:?}");
+    let [.., a, b] = s.probes.as_slice() else {
+        panic!("{s:?}")
+    };
+    assert!(b.rel_l2 > a.rel_l2 * (1.0 - haze_fit::PLATEAU_GAIN));
+    assert!(s.probes.len() <= 4, "{s:?}");
+    assert_eq!(s.rbfs, a.fitted);
+    assert!(s.rbfs <= a.rbfs);
 }

@@ -1,0 +1,137 @@
+//! Per-frame figures of a sequence fit (no residual, no asset): error, error ratio, RBFs
+//! inserted, iterations (at half and at full resolution), objective passes and seconds,
+//! then a summary line. `--paper` runs paper A's warm frames (one insertion at a time, at
+//! most 8, full resolution only, per-iteration convergence test) for a before/after.
+//!
+//! cargo run --release -p haze-fit --example sequence -- INPUT [--frames A..B] [--rbfs N]
+//!     [--paper] [--coarse auto|on|off] [--insertion batch|single] [--max-insert M]
+//!     [--warm-gain F] [--threshold T]
+
+use haze_fit::{Coarse, Insertion, SequenceFitter, SequenceOptions};
+use haze_volume::ImportOptions;
+use haze_volume::import::{FrameRange, Sequence};
+use std::path::Path;
+
+fn fail(msg: impl std::fmt::Display) -> ! {
+    eprintln!("error: {msg}");
+    std::process::exit(2)
+}
+
+fn value<T: std::str::FromStr>(args: &[String], i: usize) -> T {
+    args.get(i + 1)
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| fail(format!("{} needs a valid value", args[i])))
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let Some(input) = args.first() else {
+        fail(
+            "usage: sequence INPUT [--frames A..B] [--rbfs N] [--paper] [--coarse auto|on|off] [--insertion batch|single] [--max-insert M] [--warm-gain F] [--threshold T]",
+        )
+    };
+    let mut range = FrameRange::default();
+    let mut opts = SequenceOptions::default();
+    let mut i = 1;
+    while i < args.len() {
+        match args[i].as_str() {
+            "--frames" => range = value(&args, i),
+            "--rbfs" => opts.rbfs = value(&args, i),
+            "--threshold" => opts.threshold = value(&args, i),
+            "--max-insert" => opts.max_insert = Some(value(&args, i)),
+            "--warm-gain" => opts.warm.window_gain = value(&args, i),
+            "--coarse" => {
+                opts.fit.coarse = match args.get(i + 1).map(String::as_str) {
+                    Some("auto") => Coarse::Auto,
+                    Some("on") => Coarse::Always,
+                    Some("off") => Coarse::Never,
+                    _ => fail("--coarse auto|on|off"),
+                }
+            }
+            "--insertion" => {
+                opts.insertion = match args.get(i + 1).map(String::as_str) {
+                    Some("batch") => Insertion::Batch,
+                    Some("single") => Insertion::Single,
+                    _ => fail("--insertion batch|single"),
+                }
+            }
+            "--paper" => {
+                opts.insertion = Insertion::Single;
+                opts.max_insert = Some(8);
+                opts.fit.coarse = Coarse::Never;
+                opts.warm.window = 0;
+                i -= 1;
+            }
+            other => fail(format!("unknown argument {other}")),
+        }
+        i += 2;
+    }
+    let seq = Sequence::open(Path::new(input), &ImportOptions::default(), range)
+        .unwrap_or_else(|e| fail(format!("{input}: {e}")));
+    let d = seq.dims();
+    println!(
+        "{input}: {} frames of {} × {} × {}",
+        seq.len(),
+        d[0],
+        d[1],
+        d[2]
+    );
+    println!(
+        "| frame | RBFs | +ins | rel_l2 | rms/max | ratio | iterations (coarse) | passes | insert s | seconds |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    let mut fitter = SequenceFitter::new(opts.clone());
+    let (mut warm_s, mut rms, mut first_s) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut over, mut worst, mut capped, mut moved) = (0, 0.0f64, 0, Vec::new());
+    for k in 0..seq.len() {
+        let v = seq
+            .load(k)
+            .unwrap_or_else(|e| fail(format!("frame {k}: {e}")));
+        let f = fitter
+            .fit(&v)
+            .unwrap_or_else(|e| fail(format!("frame {k}: {e}")));
+        println!(
+            "| {} | {} | {} | {:.4} | {:.2} % | {:.3} | {} ({}) | {} | {:.2} | {:.2} |",
+            seq.frames()[k].number,
+            f.rbfs.len(),
+            f.inserted,
+            f.rel_l2,
+            f.rms_over_max * 100.0,
+            f.error_ratio,
+            f.iterations,
+            f.coarse_iterations,
+            f.passes,
+            f.insert_seconds,
+            f.fit_seconds
+        );
+        if f.rbfs.is_empty() {
+            continue;
+        }
+        rms.push(f.rms_over_max);
+        if f.warm_started {
+            warm_s.push(f.fit_seconds);
+        } else {
+            first_s.push(f.fit_seconds);
+        }
+        over += usize::from(f.error_ratio > opts.threshold);
+        capped += usize::from(f.insertion_capped);
+        worst = worst.max(f.error_ratio);
+        moved.extend(f.mean_center_displacement);
+    }
+    println!(
+        "summary: first frame {:.2} s; warm frames median {:.2} s, max {:.2} s; median rms/max {:.2} %; {over} frames over the threshold ratio ({capped} capped), worst ratio {worst:.3}; mean center displacement {:.4}",
+        first_s.first().copied().unwrap_or(f64::NAN),
+        median(warm_s.clone()),
+        warm_s.iter().copied().fold(f64::NAN, f64::max),
+        median(rms) * 100.0,
+        moved.iter().sum::<f64>() / moved.len().max(1) as f64,
+    );
+}
