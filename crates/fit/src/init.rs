@@ -146,23 +146,12 @@ pub fn matched(grid: &FitGrid, n: usize, radius: f64, bounds: &Bounds) -> Vec<f6
         return params;
     }
     let d = grid.dims;
-    // Taps `exp(−(t·h)²/r²)` for |t·h| < 3r, per axis.
-    let taps: Vec<Vec<f64>> = (0..3)
-        .map(|a| {
-            let reach = (CUTOFF_TAPS * radius / grid.h[a]).floor() as isize;
-            (-reach..=reach)
-                .map(|t| (-(t as f64 * grid.h[a] / radius).powi(2)).exp())
-                .collect()
-        })
-        .collect();
+    let taps = gaussian_taps(grid, radius);
     let norm: f64 = taps
         .iter()
         .map(|k| k.iter().map(|v| v * v).sum::<f64>())
         .product();
-    let mut corr = grid.density.clone();
-    for (a, k) in taps.iter().enumerate() {
-        corr = blur_axis(&corr, d, a, k);
-    }
+    let corr = correlate(grid, &taps);
     let mut candidates: Vec<(f64, usize)> = corr
         .iter()
         .enumerate()
@@ -198,6 +187,25 @@ pub fn matched(grid: &FitGrid, n: usize, radius: f64, bounds: &Bounds) -> Vec<f6
 
 /// Support of the correlation kernel, in radii (the RBFs' cut-off).
 const CUTOFF_TAPS: f64 = haze_volume::rbf::CUTOFF;
+
+/// Taps `exp(−(t·h)²/r²)` for `|t·h| < 3r`, per axis of `grid`.
+fn gaussian_taps(grid: &FitGrid, radius: f64) -> [Vec<f64>; 3] {
+    [0, 1, 2].map(|a| {
+        let reach = (CUTOFF_TAPS * radius / grid.h[a]).floor() as isize;
+        (-reach..=reach)
+            .map(|t| (-(t as f64 * grid.h[a] / radius).powi(2)).exp())
+            .collect()
+    })
+}
+
+/// `grid.density` correlated with the separable kernel `taps`, one axis after another.
+fn correlate(grid: &FitGrid, taps: &[Vec<f64>; 3]) -> Vec<f64> {
+    let mut v = blur_axis(&grid.density, grid.dims, 0, &taps[0]);
+    for (a, k) in taps.iter().enumerate().skip(1) {
+        v = blur_axis(&v, grid.dims, a, k);
+    }
+    v
+}
 
 /// `v` correlated with the symmetric kernel `k` (odd length, centered) along axis `a`
 /// of a grid of `dims` (x fastest); outside the grid counts as zero.
@@ -240,18 +248,7 @@ mod tests {
     fn separable_correlation_matches_brute_force() {
         let g = grid([9, 7, 6], |x, y, z| ((x * 7 + y * 3 + z * 5) % 11) as f32);
         let r = 0.12;
-        let taps: Vec<Vec<f64>> = (0..3)
-            .map(|a| {
-                let reach = (CUTOFF_TAPS * r / g.h[a]).floor() as isize;
-                (-reach..=reach)
-                    .map(|t| (-(t as f64 * g.h[a] / r).powi(2)).exp())
-                    .collect()
-            })
-            .collect();
-        let mut c = g.density.clone();
-        for (a, k) in taps.iter().enumerate() {
-            c = blur_axis(&c, g.dims, a, k);
-        }
+        let c = correlate(&g, &gaussian_taps(&g, r));
         for (i, &got) in c.iter().enumerate() {
             let p = g.center(i);
             let mut want = 0.0;

@@ -4,10 +4,11 @@
 //! parameter exactly on a bound.
 //!
 //! Two convergence tests, either of which stops a run: the per-iteration one of L-BFGS-B
-//! (`(f_{k−1} − f_k) / f_k < relative_reduction`), and a windowed one for warm starts
-//! (`(f_{k−W} − f_k) / f_k < window_gain`). Near a warm start's optimum L-BFGS-B keeps
-//! making tiny steps that each gain more than 1e-6 but add up to nothing that matters
-//! against the frame's error; the window measures the gain that matters.
+//! (`f_{k−1} − f_k ≤ relative_reduction · max(f_k, 1)`, absolute for our `f < 1`), and a
+//! windowed relative one for warm starts and polishes (`f_{k−W} − f_k ≤ window_gain · f_k`).
+//! The first stops a warm start too early (one small step after an insertion gains less
+//! than 1e-6 in absolute terms) or too late; the window measures the gain that matters
+//! against the frame's own error.
 
 use crate::bounds::Bounds;
 use crate::grid::FitGrid;

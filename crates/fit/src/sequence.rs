@@ -157,6 +157,16 @@ pub fn errors(grid: &FitGrid, params: &[f64]) -> (f64, f64) {
     ((e / grid.sum_sq).sqrt(), (e / r.len() as f64).sqrt())
 }
 
+/// The measures of [`errors`] from the objective `f = ΣR²/ΣD²` that a minimization
+/// returns with its parameters, without another pass over the grid.
+fn errors_from_cost(grid: &FitGrid, f: f64) -> (f64, f64) {
+    if grid.sum_sq <= 0.0 || grid.is_empty() {
+        return (0.0, 0.0);
+    }
+    let f = f.max(0.0);
+    (f.sqrt(), (f * grid.sum_sq / grid.len() as f64).sqrt())
+}
+
 /// Fits frames one after another, carrying RBFs from frame to frame.
 #[derive(Debug)]
 pub struct SequenceFitter {
@@ -257,8 +267,9 @@ impl SequenceFitter {
         }
         let (optimizer, warm) = (o.fit.optimizer, o.warm);
         let mut stats = FitStats::default();
-        stats.add(&minimize(grid, &mut params, bounds, optimizer, warm), false);
-        let (mut rel_l2, mut rms) = errors(grid, &params);
+        let m = minimize(grid, &mut params, bounds, optimizer, warm);
+        stats.add(&m, false);
+        let (mut rel_l2, mut rms) = errors_from_cost(grid, m.cost);
         let ratio = |rel: f64| {
             if first_rel > 0.0 {
                 rel / first_rel
@@ -287,9 +298,10 @@ impl SequenceFitter {
             inserted += new.len() / PARAMS_PER_RBF;
             rounds += 1;
             params.extend_from_slice(&new);
-            stats.add(&minimize(grid, &mut params, bounds, optimizer, warm), false);
+            let m = minimize(grid, &mut params, bounds, optimizer, warm);
+            stats.add(&m, false);
             let before = rel_l2;
-            (rel_l2, rms) = errors(grid, &params);
+            (rel_l2, rms) = errors_from_cost(grid, m.cost);
             if before - rel_l2 < MIN_ROUND_GAIN * (before - target) {
                 // The error left is not where RBFs can be added (smoke that thinned
                 // under old RBFs, detail finer than the radius): more would only cost.
@@ -375,7 +387,27 @@ fn finish(
 
 #[cfg(test)]
 mod tests {
-    use super::batch_size;
+    use super::{batch_size, errors, errors_from_cost};
+    use crate::grid::FitGrid;
+    use crate::objective;
+    use haze_volume::{Bbox, Volume};
+
+    /// The measures from a cost equal those from a pass over the residual.
+    #[test]
+    fn errors_from_cost_match_a_residual_pass() {
+        let b = Bbox::new([0.0; 3], [10.0, 8.0, 6.0]);
+        let mut v = Volume::zeros([10, 8, 6], b).unwrap();
+        for i in 0..v.len() {
+            v.data_mut()[i] = ((i * 13) % 7) as f32;
+        }
+        let g = FitGrid::from_volume(&v).unwrap();
+        let p = [0.4, 0.3, 0.2, 0.08, 0.6, 0.7, 0.5, 0.4, 0.05, 0.3];
+        let (rel, rms) = errors(&g, &p);
+        let (rel2, rms2) = errors_from_cost(&g, objective::cost(&g, &p));
+        assert!((rel - rel2).abs() < 1e-12 && (rms - rms2).abs() < 1e-12);
+        let empty = FitGrid::from_volume(&Volume::zeros([2, 2, 2], b).unwrap()).unwrap();
+        assert_eq!(errors_from_cost(&empty, 0.5), (0.0, 0.0));
+    }
 
     /// The round size inverts `rel_l2 ∝ n^(−1/3)`: `n` RBFs at rel_l2 `e` reach `e/k`
     /// with `n·k³` RBFs.
