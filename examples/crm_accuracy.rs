@@ -3,23 +3,33 @@
 //!
 //! ```text
 //! cargo run --release --example crm_accuracy -- VOLUME [--size WxH] [--spp N]
-//!     [--sigma-t S] [--albedo A] [--g G] [--rbfs N] [--table fig6|order|rbfs|slices|cg|all]
+//!     [--sigma-t S] [--albedo A] [--g G] [--rbfs N] [--eye X,Y,Z --target X,Y,Z]
+//!     [--sun-map ELEV,AZIM,ANGLE,RATIO [--no-sun-extraction]]
+//!     [--table fig6|order|rbfs|slices|cg|sun|all]
 //! ```
 //!
 //! VOLUME is one density frame (any format `haze` imports). It is fitted with `--rbfs`
 //! RBFs as `haze bake` fits a first frame; the residual is kept exact. The camera frames
-//! the smoke; lighting is the built-in sky. Errors are `rel_rms` (DESIGN.md) over the
-//! pixels where the smoke blocks at least 2 % of the background, against the reference
-//! renderer at `--spp` samples per pixel (its own noise is printed for scale).
+//! the smoke unless `--eye`/`--target` place it. Lighting is the built-in sky, or with
+//! `--sun-map` a 512 × 256 HDR map: a clear sky over a dark ground and a sun disk painted
+//! in (elevation and azimuth in degrees, apparent diameter in degrees, radiance RATIO ×
+//! the zenith's). The fast renderer gets that map as a user's `--env` would (its sun
+//! split off, unless `--no-sun-extraction`); the reference gets the sky without the disk
+//! plus the exact sun, the same light sampled without noise from the disk. Errors are
+//! `rel_rms` (DESIGN.md) over the pixels where the smoke blocks at least 2 % of the
+//! background, against the reference renderer at `--spp` samples per pixel (its own
+//! noise, two seeds, is printed for scale).
 
 use haze_fit::{SequenceFitter, SequenceOptions};
 use haze_view::diffusion::SolveOptions;
+use haze_view::env::direction;
 use haze_view::lighting::single::SourcePoints;
 use haze_view::reference::{self, RefOptions, rbf_volume};
 use haze_view::render::{CrmOptions, CrmStats, crm_render};
-use haze_view::{Camera, Environment, Image, LatLong, Medium, Sky};
+use haze_view::{Camera, Environment, Image, LatLong, Medium, Sky, Sun};
 use haze_volume::import::{ImportOptions, import};
 use haze_volume::{Rbf, Volume};
+use std::f64::consts::PI;
 use std::time::Instant;
 
 struct Args {
@@ -31,6 +41,10 @@ struct Args {
     g: f64,
     rbfs: usize,
     table: String,
+    eye: Option<[f64; 3]>,
+    target: Option<[f64; 3]>,
+    sun_map: Option<[f64; 4]>,
+    extract: bool,
 }
 
 fn parse() -> Result<Args, String> {
@@ -44,6 +58,21 @@ fn parse() -> Result<Args, String> {
         g: 0.3,
         rbfs: 300,
         table: "all".into(),
+        eye: None,
+        target: None,
+        sun_map: None,
+        extract: true,
+    };
+    let list = |s: String, n: usize| -> Result<Vec<f64>, String> {
+        let v: Vec<f64> = s
+            .split(',')
+            .map(|p| p.trim().parse::<f64>().map_err(|e| format!("{p}: {e}")))
+            .collect::<Result<_, _>>()?;
+        if v.len() == n {
+            Ok(v)
+        } else {
+            Err(format!("{s}: expected {n} numbers"))
+        }
     };
     while let Some(k) = it.next() {
         let mut v = || it.next().ok_or(format!("{k} needs a value"));
@@ -63,12 +92,25 @@ fn parse() -> Result<Args, String> {
             "--g" => a.g = num(v()?)?,
             "--rbfs" => a.rbfs = num(v()?)? as usize,
             "--table" => a.table = v()?,
+            "--eye" => {
+                let l = list(v()?, 3)?;
+                a.eye = Some([l[0], l[1], l[2]]);
+            }
+            "--target" => {
+                let l = list(v()?, 3)?;
+                a.target = Some([l[0], l[1], l[2]]);
+            }
+            "--sun-map" => {
+                let l = list(v()?, 4)?;
+                a.sun_map = Some([l[0], l[1], l[2], l[3]]);
+            }
+            "--no-sun-extraction" => a.extract = false,
             _ if a.input.is_empty() => a.input = k,
             _ => return Err(format!("unexpected argument {k}")),
         }
     }
     if a.input.is_empty() {
-        return Err("usage: crm_accuracy VOLUME [--size WxH] [--spp N] [--sigma-t S] [--albedo A] [--g G] [--rbfs N] [--table fig6|order|rbfs|slices|cg|all]".into());
+        return Err("usage: crm_accuracy VOLUME [--size WxH] [--spp N] [--sigma-t S] [--albedo A] [--g G] [--rbfs N] [--eye X,Y,Z --target X,Y,Z] [--sun-map ELEV,AZIM,ANGLE,RATIO [--no-sun-extraction]] [--table fig6|order|rbfs|slices|cg|sun|all]".into());
     }
     Ok(a)
 }
@@ -94,6 +136,8 @@ struct Scene {
     residual: Vec<f32>,
     medium: Medium,
     env: Environment,
+    /// What the reference is lit by: the same light, the sun given exactly.
+    ref_env: Environment,
     camera: Camera,
     mask: Vec<bool>,
 }
@@ -162,10 +206,40 @@ fn main() {
     let bbox = density
         .occupied_bbox(0.01 * peak)
         .unwrap_or(*density.bbox());
-    let camera = Camera::framing(&bbox, 40.0, a.size.0, a.size.1).expect("camera");
+    let camera = match (a.eye, a.target) {
+        (Some(e), Some(t)) => Camera::new(e, t, [0.0, 0.0, 1.0], 40.0, a.size.0, a.size.1),
+        _ => Camera::framing(&bbox, 40.0, a.size.0, a.size.1),
+    }
+    .expect("camera");
     let medium = Medium::new(a.sigma_t, a.albedo, a.g).expect("medium");
-    let env = Environment::Sky(Sky::default());
-    let white = Environment::Map(LatLong::new(4, 2, vec![[1.0; 3]; 8]).expect("map"));
+    let (env, ref_env) = match a.sun_map {
+        None => {
+            let sky = Environment::sky(Sky::default());
+            (sky.clone(), sky)
+        }
+        Some([elev, azim, angle, ratio]) => {
+            let (map, sky, sun) = sun_map(elev, azim, angle, ratio);
+            let env = if a.extract {
+                Environment::map_with_sun_extracted(map)
+            } else {
+                Environment::map(map)
+            };
+            if let Some(found) = env.suns.first() {
+                let off = dot(found.direction, sun.direction).clamp(-1.0, 1.0).acos();
+                println!(
+                    "# sun split off: {:.2}° from the painted one, {:.2}° wide (painted {angle}°), irradiance {:.4} (painted {:.4})",
+                    off.to_degrees(),
+                    found.angle.to_degrees(),
+                    found.irradiance[0],
+                    sun.irradiance[0]
+                );
+            }
+            let mut ref_env = Environment::map(sky);
+            ref_env.suns.push(sun);
+            (env, ref_env)
+        }
+    };
+    let white = Environment::map(LatLong::new(4, 2, vec![[1.0; 3]; 8]).expect("map"));
     let t_only = reference::render(
         &density,
         &Medium::new(a.sigma_t, 0.0, 0.0).expect("medium"),
@@ -185,12 +259,13 @@ fn main() {
         residual,
         medium,
         env,
+        ref_env,
         camera,
         mask,
     };
     let d = scene.density.dims();
     println!(
-        "# {} ({}×{}×{}), {} RBFs (rms/max {:.4}), {}×{}, σt {}, albedo {}, g {}, sky; {} smoke pixels; reference {} spp",
+        "# {} ({}×{}×{}), {} RBFs (rms/max {:.4}), {}×{}, σt {}, albedo {}, g {}, {}; {} smoke pixels; reference {} spp",
         a.input,
         d[0],
         d[1],
@@ -202,6 +277,17 @@ fn main() {
         a.sigma_t,
         a.albedo,
         a.g,
+        match a.sun_map {
+            None => "sky".to_string(),
+            Some(s) => format!(
+                "sun map (elevation {}°, azimuth {}°, {}°, {}× the zenith){}",
+                s[0],
+                s[1],
+                s[2],
+                s[3],
+                if a.extract { "" } else { ", not extracted" }
+            ),
+        },
         scene.mask.iter().filter(|m| **m).count(),
         a.spp
     );
@@ -213,7 +299,7 @@ fn main() {
             seed,
             ..RefOptions::default()
         };
-        let img = reference::render(volume, &scene.medium, &scene.env, &scene.camera, &opts);
+        let img = reference::render(volume, &scene.medium, &scene.ref_env, &scene.camera, &opts);
         (img, t.elapsed().as_secs_f64())
     };
     let all = a.table == "all";
@@ -223,6 +309,35 @@ fn main() {
     println!(
         "# reference (multiple, D): {t_ref:.1} s, noise {noise:.4} (rel_rms of two seeds / √2)"
     );
+    if all || a.table == "sun" {
+        let (ss_ref, t_ss) = reference(&scene.density, false, 1);
+        let (ss_ref2, _) = reference(&scene.density, false, 2);
+        let ss_noise = err(&ss_ref2, &ss_ref, &scene.mask) / 2f64.sqrt();
+        println!("# reference (single, D): {t_ss:.1} s, noise {ss_noise:.4}");
+        println!(
+            "\n| image (D̃ + R vs reference on D) | rel RMS | mean ratio | CRM s | lights pass s |"
+        );
+        println!("|---|---|---|---|---|");
+        for (name, multiple, r) in [
+            ("single scattering", false, &ss_ref),
+            ("final", true, &final_ref),
+        ] {
+            let (img, s, t) = scene.crm(
+                &scene.rbfs,
+                true,
+                CrmOptions {
+                    multiple,
+                    ..CrmOptions::default()
+                },
+            );
+            println!(
+                "| {name} | {:.4} | {:.3} | {t:.3} | {:.3} |",
+                err(&img, r, &scene.mask),
+                mean_ratio(&img, r, &scene.mask),
+                s.lights_seconds
+            );
+        }
+    }
     if all || a.table == "fig6" {
         let (ss_ref, _) = reference(&scene.approx, false, 1);
         let (ms_ref, _) = reference(&scene.approx, true, 1);
@@ -342,6 +457,76 @@ fn main() {
             );
         }
     }
+}
+
+/// Mean radiance of `a` over that of `r` on the mask (energy; 1 is right).
+fn mean_ratio(a: &Image, r: &Image, mask: &[bool]) -> f64 {
+    let (mut x, mut y) = (0.0, 0.0);
+    for ((p, q), m) in a.pixels.iter().zip(&r.pixels).zip(mask) {
+        if *m {
+            for c in 0..3 {
+                x += f64::from(p[c]);
+                y += f64::from(q[c]);
+            }
+        }
+    }
+    x / y.max(1e-300)
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// A 512 × 256 clear sky (the built-in sky's colours without its glow) over a dark
+/// ground, with a sun disk of apex `angle` degrees at elevation `elev`, azimuth `azim`,
+/// radiance `ratio` × the zenith's, each texel the mean of 4 × 4 subsamples (partly
+/// covered edge texels, as in a photographed map). Returns the map, the same map
+/// without the disk, and the sun.
+fn sun_map(elev: f64, azim: f64, angle: f64, ratio: f64) -> (LatLong, LatLong, Sun) {
+    let (w, h) = (512, 256);
+    let sky = Sky {
+        sun: [0.0; 3],
+        ground: [0.05, 0.045, 0.04],
+        ..Sky::default()
+    };
+    let radiance = sky.zenith.map(|c| c * ratio);
+    let sun = Sun::from_radiance(
+        direction((90.0 - elev).to_radians(), azim.to_radians()),
+        radiance,
+        angle,
+    )
+    .expect("sun");
+    let (mut with, mut without) = (Vec::with_capacity(w * h), Vec::with_capacity(w * h));
+    for y in 0..h {
+        for x in 0..w {
+            let (mut acc, mut disk, mut wsum) = ([0.0f64; 3], 0.0, 0.0);
+            for sy in 0..4 {
+                for sx in 0..4 {
+                    let theta = PI * (y as f64 + (sy as f64 + 0.5) / 4.0) / h as f64;
+                    let phi = 2.0 * PI * (x as f64 + (sx as f64 + 0.5) / 4.0) / w as f64;
+                    let d = direction(theta, phi);
+                    let wt = theta.sin();
+                    let l = sky.radiance(d);
+                    for c in 0..3 {
+                        acc[c] += wt * l[c];
+                    }
+                    if sun.covers(d) {
+                        disk += wt;
+                    }
+                    wsum += wt;
+                }
+            }
+            let base = acc.map(|c| c / wsum);
+            let f = disk / wsum;
+            without.push(base.map(|c| c as f32));
+            with.push([0, 1, 2].map(|c| (base[c] + f * radiance[c]) as f32));
+        }
+    }
+    (
+        LatLong::new(w, h, with).expect("map"),
+        LatLong::new(w, h, without).expect("map"),
+        sun,
+    )
 }
 
 fn rms_over_max(d: &Volume, x: &Volume) -> f64 {

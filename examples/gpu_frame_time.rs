@@ -145,7 +145,7 @@ fn main() {
         "| RBFs | size | SH | multiple | single (ms) | operators (CPU ms) | diffusion (ms) | volume (GPU ms) | view (GPU ms) | frame (ms) | fps | view only (ms) |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
-    let sky = Environment::Sky(Sky::default());
+    let sky = Environment::sky(Sky::default());
     for path in &assets {
         let asset = Arc::new(Asset::open(path).unwrap_or_else(|e| fail(e)));
         let mut decoder = FrameDecoder::new(asset.clone());
@@ -265,7 +265,7 @@ fn play(
         "| asset | frames | RBFs (mean) | diffusion start | CG iterations (median) | single (ms) | operators (CPU ms) | diffusion (ms) | volume (GPU ms) | view (GPU ms) | frame (ms) |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|");
-    let sky = Environment::Sky(Sky::default());
+    let sky = Environment::sky(Sky::default());
     let medium = Medium::new(8.0, 0.9, 0.0).unwrap_or_else(|e| fail(e));
     let opts = CrmOptions {
         order,

@@ -245,9 +245,8 @@ pub struct RenderCli {
     /// Vertical field of view, degrees.
     #[arg(long, default_value_t = 40.0)]
     fov: f64,
-    /// Lighting: the built-in sky, or a lat-long OpenEXR map (Z up, row 0 the zenith).
-    #[arg(long, default_value = "sky", value_name = "sky|ENV.exr")]
-    env: String,
+    #[command(flatten)]
+    lights: crate::light_args::LightArgs,
     /// Extinction cross-section: κt = σt · density.
     #[arg(long, default_value_t = 4.0)]
     sigma_t: f64,
@@ -317,10 +316,8 @@ pub struct ViewCli {
     /// Vertical field of view, degrees.
     #[arg(long, default_value_t = 40.0)]
     fov: f64,
-    /// Lighting: the built-in sky (its sun can be moved in the window), or a lat-long
-    /// OpenEXR map (Z up, row 0 the zenith).
-    #[arg(long, default_value = "sky", value_name = "sky|ENV.exr")]
-    env: String,
+    #[command(flatten)]
+    lights: crate::light_args::LightArgs,
     /// Extinction cross-section: κt = σt · density.
     #[arg(long, default_value_t = 4.0)]
     sigma_t: f64,
@@ -368,7 +365,7 @@ impl ViewCli {
             width: self.size.0,
             height: self.size.1,
             fov: self.fov,
-            env: self.env,
+            env: self.lights,
             knobs: crate::viewer::Knobs {
                 sigma_t: self.sigma_t,
                 albedo: self.albedo,
@@ -398,7 +395,7 @@ impl RenderCli {
             target: self.target,
             up: self.up,
             fov: self.fov,
-            env: self.env,
+            env: self.lights,
             sigma_t: self.sigma_t,
             albedo: self.albedo,
             g: self.g,

@@ -6,6 +6,7 @@ mod export;
 mod fog;
 mod import_args;
 mod inspect;
+mod light_args;
 mod merge;
 mod output;
 mod pack;

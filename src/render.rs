@@ -15,7 +15,7 @@ use haze_view::reference::{self, RefOptions};
 use haze_view::render::{CrmOptions, crm_render};
 use haze_view::sh::ExpMethod;
 use haze_view::stream::{FrameDecoder, ResidualSlot, StreamFrame};
-use haze_view::{Camera, Environment, Image, LatLong, Medium, Sky};
+use haze_view::{Camera, Image, Medium};
 use haze_volume::import::{self, ImportOptions};
 use haze_volume::{Bbox, Rbf, Volume, rbf};
 use std::path::{Path, PathBuf};
@@ -34,7 +34,7 @@ pub struct RenderArgs {
     pub target: Option<[f64; 3]>,
     pub up: [f64; 3],
     pub fov: f64,
-    pub env: String,
+    pub env: crate::light_args::LightArgs,
     pub sigma_t: f64,
     pub albedo: f64,
     pub g: f64,
@@ -70,7 +70,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
     let kind = out_kind(&a.out)?;
     let medium = Medium::new(a.sigma_t, a.albedo, a.g).map_err(|e| anyhow!("{e}"))?;
     check_knobs(a.sh_order, a.slices)?;
-    let env = environment(&a.env)?;
+    let env = a.env.environment()?;
     // Before any fitting: a machine without an adapter is told at once.
     let gpu = if a.gpu && !a.reference {
         let ctx = GpuContext::new().map_err(|e| anyhow!("--gpu: {e}"))?;
@@ -239,18 +239,6 @@ pub(crate) fn check_knobs(sh_order: usize, slices: f64) -> Result<()> {
         bail!("--slices {slices} must be a positive number of slices per voxel");
     }
     Ok(())
-}
-
-/// The environment of `--env`: the built-in sky, or a lat-long OpenEXR map.
-pub(crate) fn environment(spec: &str) -> Result<Environment> {
-    if spec == "sky" {
-        return Ok(Environment::Sky(Sky::default()));
-    }
-    let path = Path::new(spec);
-    if !path.exists() {
-        bail!("{spec}: no such environment map (use 'sky' or a lat-long .exr)");
-    }
-    Ok(Environment::Map(LatLong::load_exr(path)?))
 }
 
 /// The frame's data: from an asset (RBFs + dequantized residual) or from a volume file

@@ -17,7 +17,7 @@ use eframe::egui;
 use haze_view::env::{angles, direction};
 use haze_view::gpu::GpuContext;
 use haze_view::gpu::renderer::LightingOn;
-use haze_view::{Environment, Sky};
+use haze_view::{Distant, Environment, Sky};
 use std::ops::RangeInclusive;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -159,8 +159,8 @@ impl ViewerApp {
         settings: Settings,
         outcome: Arc<Mutex<Option<Result<String, String>>>>,
     ) -> ViewerApp {
-        let light = match &*settings.env {
-            Environment::Sky(sky) => {
+        let light = match &settings.env.distant {
+            Distant::Sky(sky) => {
                 let (theta, phi) = angles(sky.sun_direction);
                 Light::Sky {
                     sky: sky.clone(),
@@ -168,7 +168,7 @@ impl ViewerApp {
                     elevation: 90.0 - theta.to_degrees(),
                 }
             }
-            Environment::Map(_) => Light::Map,
+            Distant::Map(_) => Light::Map,
         };
         let fps = player.playback.fps();
         let k = &settings.knobs;
@@ -226,12 +226,12 @@ impl ViewerApp {
         } = &self.light
         {
             let sun = direction((90.0 - *elevation).to_radians(), azimuth.to_radians());
-            if let Environment::Sky(current) = &*self.settings.env
+            if let Distant::Sky(current) = &self.settings.env.distant
                 && current.sun_direction == sun
             {
                 return;
             }
-            self.settings.env = Arc::new(Environment::Sky(Sky {
+            self.settings.env = Arc::new(Environment::sky(Sky {
                 sun_direction: sun,
                 ..sky.clone()
             }));

@@ -78,7 +78,7 @@ impl FrameRenderer {
     /// and turns on its per-pass GPU timing.
     pub fn new(ctx: &GpuContext, lighting: LightingOn) -> Result<FrameRenderer, GpuError> {
         ctx.time_stages(true);
-        let mut inner = GpuRenderer::new(ctx, Environment::Sky(Sky::default()))?;
+        let mut inner = GpuRenderer::new(ctx, Environment::sky(Sky::default()))?;
         inner.set_lighting(lighting);
         Ok(FrameRenderer { inner })
     }
@@ -202,7 +202,7 @@ mod tests {
     fn renders_what_crm_render_computes_and_reuses_the_sources() {
         let ctx = context();
         let (_dir, frames) = frames(2);
-        let env = Environment::Sky(Sky::default());
+        let env = Environment::sky(Sky::default());
         let opts = CrmOptions::default();
         let medium = Medium::new(6.0, 0.85, 0.3).unwrap();
         let mut r = FrameRenderer::new(&ctx, LightingOn::Auto).unwrap();
@@ -286,12 +286,12 @@ mod tests {
             &mut r,
             &ctx,
             &frames[0],
-            &Environment::Sky(sky.clone()),
+            &Environment::sky(sky.clone()),
             &cam,
             &opts,
         );
         // The sun moved: a new projection, new sources — a fresh renderer's image.
-        let low_sun = Environment::Sky(Sky {
+        let low_sun = Environment::sky(Sky {
             sun_direction: [0.6, -0.8, 0.0],
             ..sky.clone()
         });

@@ -47,7 +47,7 @@ pub struct ViewArgs {
     pub height: usize,
     /// Vertical field of view, degrees.
     pub fov: f64,
-    pub env: String,
+    pub env: crate::light_args::LightArgs,
     /// The starting values of the window's knobs.
     pub knobs: Knobs,
     /// Play this many seconds from the first picture, print the figures, exit.
@@ -121,7 +121,7 @@ pub fn run(a: ViewArgs) -> Result<()> {
     if !a.window && a.play_for.is_none() {
         bail!("--no-window plays only for a while: give --play-for SECONDS");
     }
-    let env = Arc::new(crate::render::environment(&a.env)?);
+    let env = Arc::new(a.env.environment()?);
 
     // The asset: its first frame is read now, so a file that is not a baked asset is
     // refused before any window opens; it also places the camera.

@@ -237,7 +237,7 @@ mod tests {
             camera: Camera::new(eye, c, [0.0, 0.0, 1.0], 30.0, 16, 12).unwrap(),
             scene: Scene {
                 medium: Medium::new(6.0, 0.85, 0.3).unwrap(),
-                env: Arc::new(Environment::Sky(Sky::default())),
+                env: Arc::new(Environment::sky(Sky::default())),
                 opts: CrmOptions::default(),
             },
             exposure,

@@ -298,7 +298,7 @@ mod tests {
             camera: Camera::new(eye, c, [0.0, 0.0, 1.0], 30.0, 24, 18).unwrap(),
             scene: Scene {
                 medium: Medium::new(6.0, 0.85, 0.3).unwrap(),
-                env: Arc::new(Environment::Sky(haze_view::Sky::default())),
+                env: Arc::new(Environment::sky(haze_view::Sky::default())),
                 opts: CrmOptions::default(),
             },
             exposure,

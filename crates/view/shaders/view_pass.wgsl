@@ -8,7 +8,8 @@
 //
 //     L = L_env(d)·Π Δτ_j + Σ_i J̃(u_i)·(1 − Δτ_i)·Π_{j<i} Δτ_j
 //
-// D and J̃ are trilinear between voxel centers with the stencil of `field::sample`
+// D and J̃_D = D·J̃ (eq. 15) are trilinear between voxel centers, J̃ = J̃_D/D, with the
+// stencil of `field::sample`
 // (constant to the box's faces, zero outside), done by hand on a storage buffer so the
 // weights are exact f32 rather than a sampler's fixed-point ones. Positions are relative
 // to the box's minimum corner, which keeps f32 precise for boxes far from the origin.
@@ -91,11 +92,13 @@ fn ray_box(o: vec3<f32>, d: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(0.0);
 }
 
+// (J̃_D = D·J̃, D) of a voxel: eq. 15's product is what is interpolated.
 fn voxel(i: vec3<u32>) -> vec4<f32> {
-    return grid[i.x + p.dims.x * (i.y + p.dims.y * i.z)];
+    let v = grid[i.x + p.dims.x * (i.y + p.dims.y * i.z)];
+    return vec4<f32>(v.xyz * v.w, v.w);
 }
 
-// Trilinear (J̃, D) at box-local point q, zero outside the box.
+// Trilinear (J̃_D, D) at box-local point q, zero outside the box.
 fn sample_grid(q: vec3<f32>) -> vec4<f32> {
     let n = p.dims;
     if any(n == vec3<u32>(0u)) || !(all(q >= vec3<f32>(0.0)) && all(q <= p.size)) {
@@ -201,7 +204,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
                 continue;
             }
             let dt = exp(-p.sigma_t * s.w * ds);
-            out += tau * s.xyz * (1.0 - dt);
+            out += tau * (s.xyz / s.w) * (1.0 - dt);
             tau *= dt;
             if tau < OPAQUE {
                 tau = 0.0;

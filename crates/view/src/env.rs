@@ -5,6 +5,7 @@
 //! zenith). Values are linear RGB radiance, looked up bilinearly between pixel centers
 //! (wrapping in azimuth, clamped at the poles).
 
+use crate::lights::{PointLight, Sun};
 use std::f64::consts::PI;
 use std::path::Path;
 
@@ -201,30 +202,94 @@ impl Sky {
     }
 }
 
-/// What lights the smoke.
+/// Distant radiance: what a ray sees where it leaves the scene, apart from the suns.
 #[derive(Clone, Debug, PartialEq)]
-pub enum Environment {
+pub enum Distant {
     Sky(Sky),
     Map(LatLong),
 }
 
-impl Environment {
-    /// Radiance arriving from direction `d` (pointing away from the scene, towards the sky).
+impl Distant {
+    /// Radiance arriving from direction `d` (pointing away from the scene).
     pub fn radiance(&self, d: [f64; 3]) -> Rgb {
         match self {
-            Environment::Sky(s) => s.radiance(d),
-            Environment::Map(m) => m.radiance(d),
+            Distant::Sky(s) => s.radiance(d),
+            Distant::Map(m) => m.radiance(d),
         }
+    }
+}
+
+/// What lights the smoke: distant radiance (projected on SH by the fast renderer), and
+/// lights evaluated exactly — suns (distant disks) and point lights ([`crate::lights`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Environment {
+    pub distant: Distant,
+    pub suns: Vec<Sun>,
+    pub points: Vec<PointLight>,
+}
+
+impl Environment {
+    /// The built-in sky, no lights.
+    pub fn sky(sky: Sky) -> Environment {
+        Environment::from(Distant::Sky(sky))
+    }
+
+    /// A lat-long map as it is (see [`Environment::map_with_sun_extracted`]), no lights.
+    pub fn map(map: LatLong) -> Environment {
+        Environment::from(Distant::Map(map))
+    }
+
+    /// A lat-long map whose sun, if it has one ([`crate::lights::extract_sun`]), is split
+    /// off into a [`Sun`] lit exactly; the rest stays the distant map.
+    pub fn map_with_sun_extracted(map: LatLong) -> Environment {
+        match crate::lights::extract_sun(&map) {
+            Some((sun, rest)) => Environment {
+                distant: Distant::Map(rest),
+                suns: vec![sun],
+                points: Vec::new(),
+            },
+            None => Environment::map(map),
+        }
+    }
+
+    /// Radiance a ray sees where it leaves the scene in direction `d`: the distant
+    /// radiance plus the disks of the suns.
+    pub fn radiance(&self, d: [f64; 3]) -> Rgb {
+        let mut out = self.distant.radiance(d);
+        for sun in &self.suns {
+            if sun.covers(d) {
+                let l = sun.radiance();
+                for c in 0..3 {
+                    out[c] += l[c];
+                }
+            }
+        }
+        out
+    }
+
+    /// True when there are suns or point lights.
+    pub fn has_lights(&self) -> bool {
+        !self.suns.is_empty() || !self.points.is_empty()
     }
 
     /// A constant environment (every direction `c`), handy for tests: `Map` of one texel.
     pub fn constant(c: Rgb) -> Environment {
         let t = [c[0] as f32, c[1] as f32, c[2] as f32];
-        Environment::Map(LatLong {
+        Environment::map(LatLong {
             width: 1,
             height: 1,
             texels: vec![t],
         })
+    }
+}
+
+impl From<Distant> for Environment {
+    fn from(distant: Distant) -> Environment {
+        Environment {
+            distant,
+            suns: Vec::new(),
+            points: Vec::new(),
+        }
     }
 }
 

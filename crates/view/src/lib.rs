@@ -10,6 +10,7 @@ pub mod field;
 pub mod gpu;
 pub mod image;
 pub mod lighting;
+pub mod lights;
 pub mod medium;
 pub mod reference;
 pub mod render;
@@ -18,6 +19,7 @@ pub mod stream;
 
 pub use camera::Camera;
 pub use diffusion::{DiffusionSolver, Solution, SolveOptions, Sources};
-pub use env::{Environment, LatLong, Rgb, Sky};
+pub use env::{Distant, Environment, LatLong, Rgb, Sky};
 pub use image::{Image, ImageError};
+pub use lights::{PointLight, Sun};
 pub use medium::Medium;

@@ -163,7 +163,7 @@ fn single_scattering_in_thick_smoke_and_strong_phase() {
 }
 
 fn constant_env(c: f32) -> Environment {
-    Environment::Map(LatLong::new(8, 4, vec![[c; 3]; 32]).unwrap())
+    Environment::map(LatLong::new(8, 4, vec![[c; 3]; 32]).unwrap())
 }
 
 fn camera(w: usize, h: usize) -> Camera {
@@ -219,7 +219,7 @@ fn crm_matches_the_reference_on_an_rbf_scene() {
     let rbfs = cluster();
     let volume = rbf_volume(&rbfs, [32; 3], unit_box()).unwrap();
     let medium = Medium::new(4.0, 0.8, 0.3).unwrap();
-    let env = Environment::Sky(Sky::default());
+    let env = Environment::sky(Sky::default());
     let cam = camera(48, 36);
     let mask = smoke_mask(&volume, medium.sigma_t, &cam);
     assert!(mask.iter().filter(|m| **m).count() > 100);
@@ -272,7 +272,7 @@ fn finite_nonnegative(img: &Image) -> bool {
 
 #[test]
 fn no_extinction_shows_the_background_exactly() {
-    let env = Environment::Sky(Sky::default());
+    let env = Environment::sky(Sky::default());
     let cam = camera(24, 18);
     let medium = Medium::new(0.0, 0.8, 0.3).unwrap();
     for rbfs in [cluster(), Vec::new()] {
@@ -296,7 +296,7 @@ fn albedo_zero_is_the_exact_transmittance() {
     // rule, error O(Δu²)): measured 2e-4.
     let rbfs = cluster();
     let volume = rbf_volume(&rbfs, [32; 3], unit_box()).unwrap();
-    let env = Environment::Sky(Sky::default());
+    let env = Environment::sky(Sky::default());
     let cam = camera(32, 24);
     for sigma_t in [4.0, 12.0] {
         let medium = Medium::new(sigma_t, 0.0, 0.0).unwrap();
@@ -315,7 +315,7 @@ fn albedo_zero_is_the_exact_transmittance() {
 #[test]
 fn huge_extinction_is_opaque_and_finite() {
     let rbfs = cluster();
-    let env = Environment::Sky(Sky::default());
+    let env = Environment::sky(Sky::default());
     let cam = camera(24, 18);
     let medium = Medium::new(1e6, 0.9, 0.3).unwrap();
     for order in [1, 4] {
@@ -343,7 +343,7 @@ fn strong_phase_functions_keep_their_direction() {
     let rbfs = cluster();
     let sky = Sky::default();
     let s = sky.sun_direction;
-    let env = Environment::Sky(sky);
+    let env = Environment::sky(sky);
     let target = [0.5, 0.5, 0.52];
     let mean = |img: &Image| img.pixels.iter().map(|p| f64::from(p[0])).sum::<f64>();
     for (toward, sign) in [(true, 1.0), (false, -1.0)] {
@@ -372,7 +372,7 @@ fn strong_phase_functions_keep_their_direction() {
 fn camera_inside_the_smoke_and_every_order_agree_with_the_reference() {
     let rbfs = cluster();
     let volume = rbf_volume(&rbfs, [32; 3], unit_box()).unwrap();
-    let env = Environment::Sky(Sky::default());
+    let env = Environment::sky(Sky::default());
     let medium = Medium::new(2.0, 0.8, 0.3).unwrap();
     let inside = Camera::new(
         [0.5, 0.45, 0.45],
@@ -413,7 +413,7 @@ fn albedo_one_with_multiple_scattering_is_finite() {
     // The uncorrected diffusion system is singular at Ω = 1; with the escape term it is
     // not, and the image stays finite and brighter than single scattering alone.
     let rbfs = cluster();
-    let env = Environment::Sky(Sky::default());
+    let env = Environment::sky(Sky::default());
     let cam = camera(24, 18);
     let medium = Medium::new(8.0, 1.0, 0.0).unwrap();
     let ms = crm(&rbfs, &medium, &env, &cam, CrmOptions::default());

@@ -58,7 +58,7 @@ fn single(
     order: usize,
 ) -> haze_view::gpu::SourceBuffer {
     let kit = ShKit::new(order);
-    let light = sh::project_env(&Environment::Sky(Sky::default()), order);
+    let light = sh::project_env(&Environment::sky(Sky::default()), order);
     SingleScatteringPass::new(ctx, &kit)
         .unwrap()
         .run(
@@ -119,6 +119,7 @@ fn check(ctx: &GpuContext, rbfs: &[Rbf], medium: &Medium, order: usize, what: &s
     add_multiple_scattering(
         rbfs,
         medium,
+        &Environment::constant([0.0; 3]),
         &mut cpu,
         ss.escape.clone(),
         &opts,

@@ -18,7 +18,7 @@
 
 use haze_view::gpu::renderer::{GpuFrame, GpuRenderer, LightingOn, Reuse};
 use haze_view::render::{CrmOptions, crm_render};
-use haze_view::{Camera, Environment, LatLong, Medium, Sky};
+use haze_view::{Camera, Distant, Environment, LatLong, Medium, Sky};
 use haze_volume::Rbf;
 
 mod common;
@@ -58,7 +58,7 @@ fn frames_match_crm_render_at_every_setting() {
     let rbfs = cluster();
     let bbox = unit_box();
     let dims = [20, 24, 18];
-    let env = Environment::Sky(Sky::default());
+    let env = Environment::sky(Sky::default());
     let cam = camera([0.5, -1.3, 0.85]);
     let frame = GpuFrame {
         key: 0,
@@ -110,7 +110,7 @@ fn camera_moves_reuse_what_does_not_depend_on_the_camera() {
     let rbfs = cluster();
     let bbox = unit_box();
     let dims = [16, 16, 16];
-    let env = Environment::Sky(Sky::default());
+    let env = Environment::sky(Sky::default());
     let opts = CrmOptions::default();
     let frame = GpuFrame {
         key: 7,
@@ -162,7 +162,7 @@ fn camera_moves_reuse_what_does_not_depend_on_the_camera() {
         assert_eq!(s.reuse, Reuse::Nothing);
         r.set_environment(
             &ctx,
-            Environment::Sky(Sky {
+            Environment::sky(Sky {
                 sun_direction: [0.0, 0.0, 1.0],
                 ..Sky::default()
             }),
@@ -193,11 +193,11 @@ fn a_lat_long_map_lights_and_fills_the_background_as_on_the_cpu() {
             }
         })
         .collect();
-    let env = Environment::Map(LatLong::new(w, h, texels).unwrap());
+    let env = Environment::map(LatLong::new(w, h, texels).unwrap());
     let medium = Medium::new(6.0, 0.9, 0.3).unwrap();
     let opts = CrmOptions::default();
     let cam = camera([0.5, -1.3, 0.85]);
-    let mut r = GpuRenderer::new(&ctx, Environment::Sky(Sky::default())).unwrap();
+    let mut r = GpuRenderer::new(&ctx, Environment::sky(Sky::default())).unwrap();
     r.set_environment(&ctx, env.clone()).unwrap();
     let frame = GpuFrame {
         key: 1,
@@ -210,13 +210,13 @@ fn a_lat_long_map_lights_and_fills_the_background_as_on_the_cpu() {
     let (cpu, _) = crm_render(&rbfs, None, dims, &bbox, &medium, &env, &cam, &opts);
     compare(&image.read(&ctx).unwrap(), &cpu.pixels, "lat-long map");
     // A sky the view pass cannot take is refused, and the map stays.
-    let bad = Environment::Sky(Sky {
+    let bad = Environment::sky(Sky {
         sharpness: -1.0,
         ..Sky::default()
     });
     let e = r.set_environment(&ctx, bad).unwrap_err();
     assert!(e.to_string().contains("sharpness"), "{e}");
-    assert!(matches!(r.environment(), Environment::Map(_)));
+    assert!(matches!(r.environment().distant, Distant::Map(_)));
 }
 
 #[test]
@@ -225,7 +225,7 @@ fn stage_times_come_from_timestamps_where_the_device_has_them() {
     let on = ctx.time_stages(true);
     assert_eq!(on, ctx.has_timestamps());
     let rbfs = cluster();
-    let mut r = GpuRenderer::new(&ctx, Environment::Sky(Sky::default())).unwrap();
+    let mut r = GpuRenderer::new(&ctx, Environment::sky(Sky::default())).unwrap();
     r.set_lighting(LightingOn::Gpu);
     let frame = GpuFrame {
         key: 0,

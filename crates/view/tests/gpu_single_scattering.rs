@@ -55,7 +55,7 @@ fn scattered(n: usize) -> Vec<Rbf> {
 }
 
 fn light(order: usize) -> RgbSh {
-    sh::project_env(&Environment::Sky(Sky::default()), order)
+    sh::project_env(&Environment::sky(Sky::default()), order)
 }
 
 /// Largest `‖f‖` (optical depth times σt, before `exp*`) over the evaluation points.

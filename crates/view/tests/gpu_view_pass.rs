@@ -36,6 +36,7 @@ fn grids(
         rbfs,
         medium,
         &light,
+        env,
         &opts,
         &mut DiffusionSolver::new(),
         &mut CrmStats::default(),
@@ -54,7 +55,7 @@ fn busy_map(w: usize, h: usize) -> Environment {
             })
         })
         .collect();
-    Environment::Map(LatLong::new(w, h, texels).unwrap())
+    Environment::map(LatLong::new(w, h, texels).unwrap())
 }
 
 /// Largest radiance the scene can put in a pixel: the brightest background or voxel.
@@ -133,7 +134,7 @@ fn sky_seen_through_smoke_matches_the_cpu() {
     let ctx = context();
     let bbox = unit_box();
     let rbfs = cluster(&bbox);
-    let env = Environment::Sky(Sky::default());
+    let env = Environment::sky(Sky::default());
     let medium = Medium::new(4.0, 0.8, 0.3).unwrap();
     // 36 rows: not a multiple of the 8×8 workgroups.
     let cam = Camera::new(
@@ -180,7 +181,7 @@ fn box_far_from_the_origin_with_uneven_voxels_matches_the_cpu() {
     let bbox = Bbox::new([120.0, -40.0, 15.0], [121.5, -39.0, 17.0]);
     let dims = [24, 16, 40];
     let rbfs = cluster(&bbox);
-    let env = Environment::Sky(Sky::default());
+    let env = Environment::sky(Sky::default());
     let medium = Medium::new(6.0, 0.7, 0.0).unwrap();
     let cam = Camera::framing(&bbox, 35.0, 40, 40).unwrap();
     let g = grids(&rbfs, dims, &bbox, &medium, &env, cam.eye);
@@ -212,7 +213,7 @@ fn no_extinction_shows_the_background() {
     )
     .unwrap();
     for (env, tol) in [
-        (Environment::Sky(Sky::default()), 1e-5),
+        (Environment::sky(Sky::default()), 1e-5),
         (busy_map(32, 16), 1e-4),
     ] {
         let g = grids(&rbfs, [16; 3], &bbox, &medium, &env, cam.eye);
@@ -227,7 +228,7 @@ fn a_compiled_pass_renders_many_frames_and_refuses_bad_input() {
     let pass = ViewPass::new(&ctx).unwrap_or_else(|e| panic!("{e}"));
     let bbox = unit_box();
     let rbfs = cluster(&bbox);
-    let env = Environment::Sky(Sky::default());
+    let env = Environment::sky(Sky::default());
     let medium = Medium::new(4.0, 0.8, 0.3).unwrap();
     let cam = Camera::framing(&bbox, 40.0, 16, 12).unwrap();
     let g = grids(&rbfs, [16; 3], &bbox, &medium, &env, cam.eye);

@@ -199,7 +199,7 @@ fn orders_1_2_4_6_match_the_cpu() {
     let ctx = context();
     let bbox = unit_box();
     let rbfs = cluster(&bbox);
-    let env = Environment::Sky(Sky::default());
+    let env = Environment::sky(Sky::default());
     let medium = Medium::new(4.0, 0.8, 0.3).unwrap();
     let eye = [0.5, -1.3, 0.85];
     // Not multiples of the 4×4×4 tiles.
@@ -218,7 +218,7 @@ fn eye_inside_a_box_far_from_the_origin_with_uneven_voxels() {
     let bbox = Bbox::new([120.0, -40.0, 15.0], [121.5, -39.0, 17.0]);
     let dims = [24, 14, 33];
     let rbfs = cluster(&bbox);
-    let env = Environment::Sky(Sky::default());
+    let env = Environment::sky(Sky::default());
     let medium = Medium::new(6.0, 0.7, -0.4).unwrap();
     let eye = [120.731, -39.517, 16.093];
     for order in [2, 6] {
@@ -319,7 +319,7 @@ fn hash_residual_matches_the_cpu_given_the_dense_slot() {
     let bbox = Bbox::new([-0.2, 0.1, 0.0], [0.8, 1.3, 0.9]);
     let dims = [14, 17, 11];
     let rbfs = cluster(&bbox);
-    let env = Environment::Sky(Sky::default());
+    let env = Environment::sky(Sky::default());
     let medium = Medium::new(4.0, 0.8, 0.3).unwrap();
     let eye = [0.3, -1.1, 0.7];
     let pass = VolumePass::new(&ctx).unwrap_or_else(|e| panic!("{e}"));
@@ -406,7 +406,7 @@ fn chained_gpu_passes_match_crm_render() {
     let bbox = unit_box();
     let dims = [20, 24, 18];
     let rbfs = cluster(&bbox);
-    let env = Environment::Sky(Sky::default());
+    let env = Environment::sky(Sky::default());
     let medium = Medium::new(5.0, 0.8, 0.3).unwrap();
     let cam = Camera::new(
         [0.5, -1.3, 0.85],
@@ -470,7 +470,7 @@ fn a_compiled_pass_runs_many_frames_and_refuses_bad_input() {
     let pass = VolumePass::new(&ctx).unwrap_or_else(|e| panic!("{e}"));
     let bbox = unit_box();
     let rbfs = cluster(&bbox);
-    let env = Environment::Sky(Sky::default());
+    let env = Environment::sky(Sky::default());
     let medium = Medium::new(4.0, 0.8, 0.3).unwrap();
     let source = sources(&rbfs, 2, &medium, &env);
     let dims = [9, 10, 11];

@@ -304,6 +304,7 @@ impl GpuRenderer {
                     frame.rbfs,
                     medium,
                     light,
+                    &self.env,
                     opts,
                     &mut self.solver,
                     &mut stats.crm,

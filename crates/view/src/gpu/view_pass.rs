@@ -22,7 +22,7 @@
 
 use super::{GpuContext, GpuError, GridBuffer, buffer_init, compute_pipeline, submit_pass};
 use crate::camera::Camera;
-use crate::env::Environment;
+use crate::env::{Distant, Environment};
 use crate::medium::Medium;
 use crate::render::crm::VolumeGrids;
 
@@ -233,8 +233,8 @@ impl EnvBuffer {
     /// Uploads `env`. Refuses a sky with a negative or non-finite sun sharpness and a map
     /// beyond the device's limits.
     pub fn upload(ctx: &GpuContext, env: &Environment) -> Result<EnvBuffer, GpuError> {
-        let (kind, size, texels, sky) = match env {
-            Environment::Sky(s) => {
+        let (kind, size, texels, sky) = match &env.distant {
+            Distant::Sky(s) => {
                 if !(s.sharpness >= 0.0 && s.sharpness.is_finite()) {
                     return Err(GpuError::Input(format!(
                         "sky sun sharpness {} must be finite and ≥ 0",
@@ -243,7 +243,7 @@ impl EnvBuffer {
                 }
                 (0, [0, 0], &[[0.0f32; 3]][..], s.clone())
             }
-            Environment::Map(m) => (
+            Distant::Map(m) => (
                 1,
                 [m.width as u32, m.height as u32],
                 &m.texels[..],

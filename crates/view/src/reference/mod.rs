@@ -27,8 +27,10 @@ use rand::SeedableRng;
 use rand_pcg::Pcg64;
 use rayon::prelude::*;
 
-use crate::medium::{Medium, sample_hg_cos};
+use crate::field::ray_box;
+use crate::medium::{FOUR_PI, Medium, hg, sample_hg_cos};
 use crate::{Camera, Environment, Image, Rgb};
+use rand::RngExt;
 
 /// Sample counts and switches of the reference renderer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -147,19 +149,47 @@ fn hg_direction(d: [f64; 3], g: f64, u1: f64, u2: f64) -> [f64; 3] {
     let c = sample_hg_cos(g, u1);
     let s = (1.0 - c * c).max(0.0).sqrt();
     let phi = 2.0 * std::f64::consts::PI * u2;
-    // Orthonormal basis about d (Duff et al. 2017).
-    let sign = 1.0f64.copysign(d[2]);
-    let a = -1.0 / (sign + d[2]);
-    let b = d[0] * d[1] * a;
-    let t1 = [1.0 + sign * d[0] * d[0] * a, sign * b, -sign * d[0]];
-    let t2 = [b, sign + d[1] * d[1] * a, -d[1]];
+    let (t1, t2) = crate::lights::basis(d);
     let (cp, sp) = (phi.cos(), phi.sin());
     [0, 1, 2].map(|k| c * d[k] + s * (cp * t1[k] + sp * t2[k]))
 }
 
-/// `env.radiance(d)` scaled.
-fn scaled(env: &Environment, d: [f64; 3], k: f64) -> Rgb {
-    env.radiance(d).map(|c| c * k)
+/// The light of `scene`'s suns and point lights scattered at `x` towards a viewer looking
+/// along `d`, divided by the albedo: `Σ E·T_light·p(s·d)/4π`, one direction drawn
+/// uniformly in each sun's disk (an unbiased estimate of the disk's integral), the exact
+/// `1/r²` of each point light.
+fn direct_light(scene: &Scene<'_>, x: [f64; 3], d: [f64; 3], rng: &mut Pcg64) -> Rgb {
+    let g = scene.medium.g;
+    let mut out = [0.0f64; 3];
+    let transmittance = |w: [f64; 3], len: f64| match ray_box(x, w, scene.volume.bbox()) {
+        Some((a, b)) if a < len => (-scene.track(x, w).depth(a, b.min(len))).exp(),
+        _ => 1.0,
+    };
+    for sun in &scene.env.suns {
+        let w = sun.sample_direction(rng.random(), rng.random());
+        let k = transmittance(w, f64::INFINITY) * hg(g, dot(w, d)) / FOUR_PI;
+        for (o, e) in out.iter_mut().zip(sun.irradiance) {
+            *o += e * k;
+        }
+    }
+    for light in &scene.env.points {
+        let v = [0, 1, 2].map(|a| light.position[a] - x[a]);
+        let r2 = dot(v, v);
+        if r2.is_nan() || r2 <= 0.0 {
+            continue;
+        }
+        let r = r2.sqrt();
+        let w = v.map(|c| c / r);
+        let k = transmittance(w, r) * hg(g, dot(w, d)) / (FOUR_PI * r2);
+        for (o, i) in out.iter_mut().zip(light.intensity) {
+            *o += i * k;
+        }
+    }
+    out
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 #[cfg(test)]

@@ -12,13 +12,17 @@
 //!
 //! Each path is an unbiased estimate of the Neumann series of the radiative transfer
 //! equation truncated after `max_bounces` scattering events: paths needing more contribute
-//! 0, which is the only bias. The environment is not sampled at collisions (no next-event
-//! estimation): under a smooth environment a path reaches it by itself with low variance.
+//! 0, which is the only bias. The distant environment is not sampled at collisions (no
+//! next-event estimation): under a smooth environment a path reaches it by itself with low
+//! variance. Suns and point lights are: at every collision the path adds
+//! `weight·(E·T_light·p/4π)` per light (`super::direct_light`), and a path that leaves
+//! the box after a collision collects the distant radiance only (a sun's disk was
+//! counted by the explicit sample); the camera ray itself sees the disks.
 
 use rand::RngExt;
 use rand_pcg::Pcg64;
 
-use super::{RefOptions, Scene, hg_direction, scaled};
+use super::{RefOptions, Scene, direct_light, hg_direction};
 use crate::Rgb;
 use crate::field::ray_box;
 
@@ -52,23 +56,38 @@ fn trace(
 ) -> Rgb {
     let mut weight = 1.0f64;
     let mut bounces = 0u32;
+    let mut sum = [0.0f64; 3];
     loop {
         let collision = ray_box(o, d, scene.volume.bbox()).and_then(|(t0, t1)| {
             let u: f64 = rng.random();
             scene.track(o, d).reach(t0, t1, -(-u).ln_1p())
         });
         let Some(t) = collision else {
-            return scaled(scene.env, d, weight);
+            let l = if bounces == 0 {
+                scene.env.radiance(d)
+            } else {
+                scene.env.distant.radiance(d)
+            };
+            for c in 0..3 {
+                sum[c] += weight * l[c];
+            }
+            return sum;
         };
         if bounces == max_bounces {
-            return [0.0; 3];
+            return sum;
         }
         bounces += 1;
         weight *= scene.medium.albedo;
         if weight == 0.0 {
-            return [0.0; 3];
+            return sum;
         }
         o = [0, 1, 2].map(|a| o[a] + t * d[a]);
+        if scene.env.has_lights() {
+            let direct = direct_light(scene, o, d, rng);
+            for c in 0..3 {
+                sum[c] += weight * direct[c];
+            }
+        }
         d = hg_direction(d, scene.medium.g, rng.random(), rng.random());
     }
 }

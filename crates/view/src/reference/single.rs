@@ -3,21 +3,28 @@
 //! Along the camera ray, inside the volume box `[t₀, t₁]`, with `T = exp(−τ(t₀, t₁))`:
 //!
 //! `L = T·L_env(d) + ∫ T(t₀, t)·σt D(x_t)·Ω·S(x_t) dt`,
-//! `S(x) = (1/4π)∫ p(ω·d)·T_light(x, ω)·L_env(ω) dω`.
+//! `S(x) = (1/4π)∫ p(ω·d)·T_light(x, ω)·L_env(ω) dω`,
+//!
+//! `L_env` the distant radiance plus the suns' disks, and point lights adding
+//! `(1/4π)·p(ω·d)·T_light·I/r²` towards each.
 //!
 //! The first term is exact. For the integral, the scattering point is drawn with density
 //! `σt D(t)·T(t₀, t)/(1 − T)` (a collision forced inside the box: `τ* = −ln(1 − ξ(1 − T))`,
 //! then `τ(t₀, t) = τ*` inverted exactly), so one sample is `(1 − T)·Ω·S(x_t)`. `S` is
 //! estimated with `light_samples` directions drawn from the phase function itself
 //! (density `p(ω·d)/4π`, so each contributes `T_light·L_env`; no importance sampling of
-//! the environment), each with its exact transmittance to the box exit. Averaging `spp`
-//! such points gives an unbiased estimate whose only noise comes from the positions and
-//! directions; an albedo of 0 or an empty ray is exact.
+//! the environment), each with its exact transmittance to the box exit. The suns and point
+//! lights are sampled explicitly instead (their small disks are what phase sampling
+//! would almost never hit): per light direction, a point drawn uniformly in each sun's
+//! disk contributes `E·T_light·p/4π` (density `1/Ω☉`, radiance `E/Ω☉`), each point light
+//! `I/r²·T_light·p/4π`; phase-sampled directions see the distant radiance only. Averaging
+//! `spp` such points gives an unbiased estimate whose only noise comes from the positions
+//! and directions; an albedo of 0 or an empty ray is exact.
 
 use rand::RngExt;
 use rand_pcg::Pcg64;
 
-use super::{RefOptions, Scene, hg_direction, scaled};
+use super::{RefOptions, Scene, direct_light, hg_direction};
 use crate::Rgb;
 use crate::field::ray_box;
 
@@ -35,7 +42,7 @@ pub(crate) fn radiance(
     };
     let view = scene.track(o, d);
     let tau = view.depth(t0, t1);
-    let mut out = scaled(scene.env, d, (-tau).exp());
+    let mut out = scene.env.radiance(d).map(|c| c * (-tau).exp());
     // 1 − T without cancellation for thin media.
     let mass = -(-tau).exp_m1();
     let albedo = scene.medium.albedo;
@@ -56,9 +63,10 @@ pub(crate) fn radiance(
                 Some((a, b)) => (-scene.track(x, w).depth(a, b)).exp(),
                 None => 1.0,
             };
-            let l = scaled(scene.env, w, t_light);
+            let l = scene.env.distant.radiance(w);
+            let direct = direct_light(scene, x, d, rng);
             for c in 0..3 {
-                sum[c] += l[c];
+                sum[c] += l[c] * t_light + direct[c];
             }
         }
     }

@@ -39,7 +39,7 @@ fn opts(spp: u32, multiple: bool) -> RefOptions {
 }
 
 fn sky() -> Environment {
-    Environment::Sky(Sky::default())
+    Environment::sky(Sky::default())
 }
 
 fn as_f32(c: Rgb) -> [f32; 3] {

@@ -20,7 +20,8 @@
 //! which is eq. 16's `Σ J̃_D σt Δs Π Δτ` with each slice's emission integrated exactly
 //! for constant `D` and `J̃` across it (`∫₀^Δs σt D J̃ e^{−σt D s} ds = J̃ (1 − Δτ)`): the
 //! same for thin slices, and bounded for opaque ones (huge σt gives `J̃`, never a blow-up).
-//! `D` and `J̃` between voxel centers are trilinear.
+//! `D` between voxel centers is trilinear, and so is `J̃_D = D·J̃` (eq. 15): the emission
+//! of a thin slice is `J̃_D σt Δs`, so `J̃` at a sample is `J̃_D/D`.
 
 use crate::camera::Camera;
 use crate::env::{Environment, Rgb};
@@ -144,8 +145,10 @@ pub fn volume_pass(
     }
 }
 
-/// Trilinear `J̃` at world point `p` (0 outside the box), with the same stencil as
-/// [`field::sample`].
+/// `J̃` at world point `p` (0 outside the box) as eq. 15 stores it: the trilinear `J̃_D =
+/// D·J̃` over the trilinear `D`, with the same stencil as [`field::sample`] (so a sample
+/// between a smoke voxel and an empty one keeps the smoke's source radiance instead of
+/// halving it, which darkened thin smoke and edges).
 fn sample_radiance(g: &VolumeGrids, p: [f64; 3]) -> Rgb {
     let v = &g.density;
     let b = v.bbox();
@@ -162,7 +165,7 @@ fn sample_radiance(g: &VolumeGrids, p: [f64; 3]) -> Rgb {
         i0[a] = i;
         t[a] = f - i as f64;
     }
-    let mut s = [0.0; 3];
+    let (mut s, mut ws) = ([0.0; 3], 0.0);
     for corner in 0..8 {
         let mut w = 1.0;
         let mut idx = [0usize; 3];
@@ -171,14 +174,21 @@ fn sample_radiance(g: &VolumeGrids, p: [f64; 3]) -> Rgb {
             idx[a] = (i0[a] + usize::from(hi)).min(d[a] - 1);
             w *= if hi { t[a] } else { 1.0 - t[a] };
         }
-        if w != 0.0 {
-            let r = g.radiance[v.index(idx[0], idx[1], idx[2])];
+        let i = v.index(idx[0], idx[1], idx[2]);
+        let wd = w * f64::from(v.data()[i]);
+        if wd != 0.0 {
+            let r = g.radiance[i];
             for c in 0..3 {
-                s[c] += w * f64::from(r[c]);
+                s[c] += wd * f64::from(r[c]);
             }
+            ws += wd;
         }
     }
-    s
+    if ws > 0.0 {
+        s.map(|c| c / ws)
+    } else {
+        [0.0; 3]
+    }
 }
 
 /// Transmittance below which the march stops (the rest cannot change a pixel by more

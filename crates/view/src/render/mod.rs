@@ -2,8 +2,10 @@
 //! multiple scattering by diffusion), then compensated ray marching (paper A §5).
 
 pub mod crm;
+pub mod lights_pass;
 
 use crate::diffusion::{DiffusionSolver, Operators, SolveOptions, Sources};
+use crate::lighting::direct::add_light_moments;
 use crate::lighting::single::{RgbSh, ShKit, SourcePoints, single_scattering};
 use crate::sh::{self, ExpMethod};
 use crate::{Camera, Environment, Image, Medium};
@@ -55,6 +57,8 @@ pub struct CrmStats {
     pub single_seconds: f64,
     pub multiple_seconds: f64,
     pub volume_seconds: f64,
+    /// The lights pass (suns and point lights per voxel, shadows marched).
+    pub lights_seconds: f64,
     pub view_seconds: f64,
     pub cg_iterations: u32,
     pub cg_residual: f64,
@@ -64,13 +68,14 @@ impl std::fmt::Display for CrmStats {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "setup {:.3} s, single scattering {:.3} s, multiple {:.3} s ({} CG iterations, residual {:.2e}), volume pass {:.3} s, view pass {:.3} s",
+            "setup {:.3} s, single scattering {:.3} s, multiple {:.3} s ({} CG iterations, residual {:.2e}), volume pass {:.3} s, lights pass {:.3} s, view pass {:.3} s",
             self.setup_seconds,
             self.single_seconds,
             self.multiple_seconds,
             self.cg_iterations,
             self.cg_residual,
             self.volume_seconds,
+            self.lights_seconds,
             self.view_seconds
         )
     }
@@ -94,12 +99,17 @@ pub fn moments(source: &[RgbSh]) -> Sources {
 }
 
 /// Source radiance `J̃ = J̃ss + J̃ms` at every center (RGB SH of `kit.order`, functions of
-/// the viewing direction), with the diffusion solve warm-started by `solver`.
+/// the viewing direction), with the diffusion solve warm-started by `solver`: `J̃ss` of
+/// the environment's projection `light`; the suns and point lights of `env` feed the
+/// diffusion only (`lighting::direct`), their single scattering is added per voxel by
+/// [`lights_pass::lights_pass`].
+#[allow(clippy::too_many_arguments)]
 pub fn source_radiance(
     kit: &ShKit,
     rbfs: &[Rbf],
     medium: &Medium,
     light: &RgbSh,
+    env: &Environment,
     opts: &CrmOptions,
     solver: &mut DiffusionSolver,
     stats: &mut CrmStats,
@@ -110,7 +120,16 @@ pub fn source_radiance(
     stats.single_seconds = t.elapsed().as_secs_f64();
     if opts.multiple {
         let t = Instant::now();
-        add_multiple_scattering(rbfs, medium, &mut source, ss.escape, opts, solver, stats);
+        add_multiple_scattering(
+            rbfs,
+            medium,
+            env,
+            &mut source,
+            ss.escape,
+            opts,
+            solver,
+            stats,
+        );
         stats.multiple_seconds = t.elapsed().as_secs_f64();
     }
     source
@@ -118,12 +137,15 @@ pub fn source_radiance(
 
 /// Adds `J̃ms` to the single-scattering source `source` at the centers of `rbfs` (whose
 /// escape probabilities are `escape`): the diffusion solve (§5.4, warm-started by
-/// `solver`; its iterations and residual go to `stats`), then the multiple-scattering
-/// source as bands 0–1, turned from the direction of propagation to the viewing
-/// direction. Nothing to add without RBFs.
+/// `solver`; its iterations and residual go to `stats`) with the direct light of `env`'s
+/// suns and point lights added to its sources, then the multiple-scattering source as
+/// bands 0–1, turned from the direction of propagation to the viewing direction. Nothing
+/// to add without RBFs.
+#[allow(clippy::too_many_arguments)]
 pub fn add_multiple_scattering(
     rbfs: &[Rbf],
     medium: &Medium,
+    env: &Environment,
     source: &mut [RgbSh],
     escape: Vec<f64>,
     opts: &CrmOptions,
@@ -133,10 +155,11 @@ pub fn add_multiple_scattering(
     if rbfs.is_empty() {
         return;
     }
-    let sources = Sources {
+    let mut sources = Sources {
         escape,
         ..moments(source)
     };
+    add_light_moments(&mut sources, rbfs, env, medium, opts.source_points);
     let ops = Operators::new(rbfs);
     let sol = solver.solve_with(&ops, rbfs, medium, &sources, &opts.solve);
     stats.cg_iterations = sol.iterations;
@@ -171,7 +194,16 @@ pub fn crm_sources(
         ..CrmStats::default()
     };
     let mut solver = DiffusionSolver::new();
-    let source = source_radiance(&kit, rbfs, medium, &light, opts, &mut solver, &mut stats);
+    let source = source_radiance(
+        &kit,
+        rbfs,
+        medium,
+        &light,
+        env,
+        opts,
+        &mut solver,
+        &mut stats,
+    );
     (source, stats)
 }
 
@@ -198,8 +230,11 @@ pub fn crm_grids(
     let (source, mut stats) = crm_sources(rbfs, medium, env, opts);
     let t = Instant::now();
     let residual = if opts.residual { residual } else { None };
-    let grids = crm::volume_pass(rbfs, &source, opts.order, dims, bbox, residual, eye);
+    let mut grids = crm::volume_pass(rbfs, &source, opts.order, dims, bbox, residual, eye);
     stats.volume_seconds = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    lights_pass::lights_pass(&mut grids, env, medium, eye);
+    stats.lights_seconds = t.elapsed().as_secs_f64();
     (grids, slice_thickness(dims, bbox, opts), stats)
 }
 

@@ -6,7 +6,7 @@ use rayon::prelude::*;
 
 use super::basis::{band_of, count, eval_into};
 use super::quad::{SphereGrid, gauss_legendre};
-use crate::env::{Environment, LatLong, Sky, direction};
+use crate::env::{Distant, Environment, LatLong, Sky, direction};
 
 /// Projection of `f` by `n_theta` Gauss–Legendre latitudes (in `cos θ`) × `n_phi`
 /// uniform azimuths: exact for products `f·Y_i` that are polynomials of degree
@@ -52,9 +52,9 @@ fn project_on(grid: &SphereGrid, order: usize, f: impl Fn([f64; 3]) -> [f64; 3])
 /// the horizon, where the sky jumps to the ground colour) × 128 azimuths: exact for
 /// every band-limited part to degree 95, and the sun glow `max(0, ω·s)^k` is `C^{k−1}`.
 pub fn project_env(env: &Environment, order: usize) -> [Vec<f64>; 3] {
-    match env {
-        Environment::Map(m) => project_latlong(m, order),
-        Environment::Sky(s) => project_sky(s, order),
+    match &env.distant {
+        Distant::Map(m) => project_latlong(m, order),
+        Distant::Sky(s) => project_sky(s, order),
     }
 }
 
@@ -150,7 +150,7 @@ mod tests {
         let c = [0.5, 1.0, 2.0];
         // Both the one-texel map of `Environment::constant` and a real-sized one.
         let big = LatLong::new(64, 32, vec![[0.5, 1.0, 2.0]; 64 * 32]).unwrap();
-        for env in [Environment::constant(c), Environment::Map(big)] {
+        for env in [Environment::constant(c), Environment::map(big)] {
             let p = project_env(&env, 6);
             for ch in 0..3 {
                 // Exact texel integrals: only rounding of a few hundred sums remains.
@@ -181,7 +181,7 @@ mod tests {
                 band0 += f64::from(f(d) as f32) * solid / (4.0 * PI).sqrt();
             }
         }
-        let p = project_env(&Environment::Map(LatLong::new(w, h, texels).unwrap()), 3);
+        let p = project_env(&Environment::map(LatLong::new(w, h, texels).unwrap()), 3);
         assert!((p[0][0] - band0).abs() < 1e-9, "{} vs {band0}", p[0][0]);
         for d in [[0.3, 0.5, 0.81], [-1.0, 0.0, 0.0], [0.2, -0.7, -0.68]] {
             let n: f64 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
@@ -195,7 +195,7 @@ mod tests {
     #[test]
     fn default_sky_reconstructs_at_order_6_and_order_1_is_its_mean() {
         let sky = Sky::default();
-        let env = Environment::Sky(sky.clone());
+        let env = Environment::sky(sky.clone());
         // Independent reference: midpoint rule in (θ, φ), 400 × 800 cells.
         let (nt, np) = (400, 800);
         let mut mean = [0.0; 3];

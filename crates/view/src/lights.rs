@@ -1,0 +1,434 @@
+//! Lights lit exactly, beside the environment's SH: suns (distant disks) and point lights,
+//! the disk-averaged phase function of a sun, and the extraction of a lat-long map's sun.
+//!
+//! A sun of radiance `L` and apparent (apex) angle `α` covers the solid angle
+//! `Ω☉ = 2π(1 − cos(α/2))` and gives the irradiance `E = L·Ω☉` on a surface facing it. Its
+//! single-scattering source at a point `x` seen along the viewing direction `d` is
+//! `J(x, d) = (Ω/4π)∫_disk L·p(ω·d)·T(x, ω) dω ≈ Ω·E·T(x, s)·p̄(s·d)/4π`: the
+//! transmittance taken toward the disk's center `s` (the shadow of a 0.5–8° disk is
+//! sharp at voxel scale), the phase function averaged over the disk ([`DiskPhase`], which
+//! matters for back light through forward-scattering smoke: HG with `g = 0.9` drops by a
+//! third 3° off its peak). A zero-angle sun is a directional light of irradiance `E`.
+//!
+//! A point light of radiant intensity `I` at `P` gives `E = I/|P − x|²` at `x`; the fast
+//! renderer uses `I/(|P − x|² + a²/3)`, `a` half the smallest voxel side, the mean of
+//! `1/r²` over a ball of radius `a` about the light, so that a voxel holding the light
+//! stays finite.
+
+use crate::env::{LatLong, Rgb};
+use crate::medium::hg;
+use std::f64::consts::PI;
+
+/// A distant light: a uniformly bright disk in the sky.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sun {
+    /// Unit direction towards the disk's center.
+    pub direction: [f64; 3],
+    /// Irradiance on a surface facing the sun, RGB.
+    pub irradiance: Rgb,
+    /// Apparent (apex) angle of the disk, radians, in `[0, π]`.
+    pub angle: f64,
+}
+
+/// Solid angle of a cone of apex angle `angle`: `2π(1 − cos(angle/2))`, without
+/// cancellation for small angles (`4π sin²(angle/4)`).
+pub fn cone_solid_angle(angle: f64) -> f64 {
+    4.0 * PI * (angle / 4.0).sin().powi(2)
+}
+
+impl Sun {
+    /// A sun towards `direction` (any length > 0) of disk radiance `radiance` and apparent
+    /// angle `angle_degrees`; a zero angle makes a directional light whose irradiance is
+    /// `radiance` itself. Refuses a zero or non-finite direction, negative or non-finite
+    /// radiance, and angles outside `[0°, 180°]`.
+    pub fn from_radiance(
+        direction: [f64; 3],
+        radiance: Rgb,
+        angle_degrees: f64,
+    ) -> Result<Sun, String> {
+        let dir = unit(direction).ok_or_else(|| {
+            format!("sun direction {direction:?} must be a finite, non-zero vector")
+        })?;
+        if radiance.iter().any(|c| !(c.is_finite() && *c >= 0.0)) {
+            return Err(format!(
+                "sun radiance {radiance:?} must be finite and non-negative"
+            ));
+        }
+        if !(0.0..=180.0).contains(&angle_degrees) {
+            return Err(format!(
+                "sun angle {angle_degrees}° must be between 0° and 180°"
+            ));
+        }
+        let angle = angle_degrees.to_radians();
+        let omega = if angle > 0.0 {
+            cone_solid_angle(angle)
+        } else {
+            1.0
+        };
+        Ok(Sun {
+            direction: dir,
+            irradiance: radiance.map(|c| c * omega),
+            angle,
+        })
+    }
+
+    /// Solid angle of the disk (0 for a directional light).
+    pub fn solid_angle(&self) -> f64 {
+        cone_solid_angle(self.angle)
+    }
+
+    /// Radiance of the disk, `E/Ω☉` (0 for a zero-angle sun: it has no visible disk).
+    pub fn radiance(&self) -> Rgb {
+        let omega = self.solid_angle();
+        if omega > 0.0 {
+            self.irradiance.map(|c| c / omega)
+        } else {
+            [0.0; 3]
+        }
+    }
+
+    /// True when direction `d` (any length) points into the disk.
+    pub fn covers(&self, d: [f64; 3]) -> bool {
+        if self.angle <= 0.0 {
+            return false;
+        }
+        let Some(u) = unit(d) else {
+            return false;
+        };
+        dot(u, self.direction) >= (0.5 * self.angle).cos()
+    }
+
+    /// A direction drawn uniformly (per solid angle) in the disk from `u1, u2 ∈ [0, 1)`;
+    /// the center for a zero-angle sun.
+    pub fn sample_direction(&self, u1: f64, u2: f64) -> [f64; 3] {
+        if self.angle <= 0.0 {
+            return self.direction;
+        }
+        // cos θ uniform on [cos(α/2), 1]: 1 − cos θ = u1·(1 − cos(α/2)), without
+        // cancellation.
+        let one_minus = u1 * 2.0 * (0.25 * self.angle).sin().powi(2);
+        let cos_t = 1.0 - one_minus;
+        let sin_t = (one_minus * (2.0 - one_minus)).max(0.0).sqrt();
+        let (t1, t2) = basis(self.direction);
+        let phi = 2.0 * PI * u2;
+        let (c, s) = (phi.cos(), phi.sin());
+        [0, 1, 2].map(|k| cos_t * self.direction[k] + sin_t * (c * t1[k] + s * t2[k]))
+    }
+}
+
+/// A point light.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PointLight {
+    pub position: [f64; 3],
+    /// Radiant intensity, RGB: irradiance `I/d²` at distance `d`, unoccluded.
+    pub intensity: Rgb,
+}
+
+impl PointLight {
+    /// Refuses non-finite positions and negative or non-finite intensity.
+    pub fn new(position: [f64; 3], intensity: Rgb) -> Result<PointLight, String> {
+        if position.iter().any(|c| !c.is_finite()) {
+            return Err(format!("light position {position:?} must be finite"));
+        }
+        if intensity.iter().any(|c| !(c.is_finite() && *c >= 0.0)) {
+            return Err(format!(
+                "light intensity {intensity:?} must be finite and non-negative"
+            ));
+        }
+        Ok(PointLight {
+            position,
+            intensity,
+        })
+    }
+}
+
+/// The HG phase function averaged over a sun's disk, `p̄(cos θc)`, `θc` the angle between
+/// the disk's center and the viewing direction: a table over `θc ∈ [0, π]`, linear
+/// between entries. Exact HG for a zero-angle sun.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DiskPhase {
+    g: f64,
+    /// `p̄` at `θc = k·π/(n − 1)`; empty for a zero-angle sun.
+    table: Vec<f64>,
+}
+
+/// Entries of a [`DiskPhase`] table: the step `π/511` is 0.35°, a tenth of the width of
+/// HG's forward peak at `g = 0.95` (`≈ (1 − g)` rad).
+pub const DISK_PHASE_ENTRIES: usize = 512;
+
+impl DiskPhase {
+    /// The table of HG(`g`) averaged over a disk of apex angle `angle` (radians), by a
+    /// product rule over the disk: Gauss–Legendre in `1 − cos θ` (uniform per solid
+    /// angle) × the trapezoid rule in azimuth (periodic, so spectrally accurate).
+    pub fn new(g: f64, angle: f64) -> DiskPhase {
+        if angle <= 0.0 {
+            return DiskPhase {
+                g,
+                table: Vec::new(),
+            };
+        }
+        let (nodes, weights) = gauss_legendre_01(24);
+        let azimuths = 96;
+        let h = 2.0 * (0.25 * angle).sin().powi(2); // 1 − cos(α/2)
+        let n = DISK_PHASE_ENTRIES;
+        let table = (0..n)
+            .map(|k| {
+                let tc = PI * k as f64 / (n - 1) as f64;
+                // Disk about +Z; viewing direction at polar angle tc in the XZ plane.
+                let (st, ct) = tc.sin_cos();
+                let mut sum = 0.0;
+                for (x, w) in nodes.iter().zip(&weights) {
+                    let one_minus = x * h;
+                    let cz = 1.0 - one_minus;
+                    let sz = (one_minus * (2.0 - one_minus)).max(0.0).sqrt();
+                    let mut ring = 0.0;
+                    for j in 0..azimuths {
+                        let phi = 2.0 * PI * (j as f64 + 0.5) / azimuths as f64;
+                        ring += hg(g, sz * phi.cos() * st + cz * ct);
+                    }
+                    sum += w * ring / azimuths as f64;
+                }
+                sum
+            })
+            .collect();
+        DiskPhase { g, table }
+    }
+
+    /// `p̄` for `cos θc` (clamped to [−1, 1]).
+    pub fn eval(&self, cos_c: f64) -> f64 {
+        if self.table.is_empty() {
+            return hg(self.g, cos_c);
+        }
+        let n = self.table.len();
+        let f = cos_c.clamp(-1.0, 1.0).acos() / PI * (n - 1) as f64;
+        let i = (f.floor() as usize).min(n - 2);
+        let t = f - i as f64;
+        self.table[i] * (1.0 - t) + self.table[i + 1] * t
+    }
+
+    /// The table (empty for a zero-angle sun), for GPU upload.
+    pub fn table(&self) -> &[f64] {
+        &self.table
+    }
+}
+
+/// Gauss–Legendre nodes and weights on `[0, 1]` (Newton on the Legendre recurrence).
+fn gauss_legendre_01(n: usize) -> (Vec<f64>, Vec<f64>) {
+    let (mut x, mut w) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    for i in 0..n {
+        let mut z = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
+        let mut dp = 1.0;
+        for _ in 0..100 {
+            let (mut p0, mut p1) = (1.0, z);
+            for k in 2..=n {
+                let p2 = ((2 * k - 1) as f64 * z * p1 - (k - 1) as f64 * p0) / k as f64;
+                p0 = p1;
+                p1 = p2;
+            }
+            dp = n as f64 * (z * p1 - p0) / (z * z - 1.0);
+            let dz = p1 / dp;
+            z -= dz;
+            if dz.abs() < 1e-15 {
+                break;
+            }
+        }
+        x.push(0.5 * (1.0 - z));
+        w.push(1.0 / ((1.0 - z * z) * dp * dp));
+    }
+    (x, w)
+}
+
+/// The smallest ratio of the peak luminance to the map's median [`extract_sun`] calls a
+/// sun.
+pub const SUN_CONTRAST: f64 = 10.0;
+/// The smallest ratio of the peak luminance to the sky around it [`extract_sun`] calls a
+/// sun (a disk 20× the zenith's radiance beside a horizon 6× brighter than the zenith).
+pub const SUN_LOCAL_CONTRAST: f64 = 3.0;
+/// The largest solid angle (sr) [`extract_sun`] calls compact: a disk of about 29°.
+pub const SUN_MAX_SOLID_ANGLE: f64 = 0.2;
+
+/// Splits the sun off a lat-long map: the brightest compact region, if it is at least
+/// clearly brighter than the sky around it.
+///
+/// The region is grown from the brightest texel (8-neighbours, wrapping in azimuth): first
+/// over the texels of at least half the peak, then, with `sky` the median luminance of
+/// the texels around that core, over those above `sky + 5 % (peak − sky)` — the local sky,
+/// so a bright horizon beside a low sun is not taken for it; the peak must be
+/// [`SUN_LOCAL_CONTRAST`] times that sky and [`SUN_CONTRAST`] times the map's median. The sky behind the region is the
+/// mean of the ring of texels around it; the excess over that sky,
+/// `Σ (L − L_sky)·Ω_texel`, becomes the sun's irradiance, its luminance-weighted mean
+/// direction the sun's, and its angular spread the disk's angle (a uniform disk of
+/// angular radius `ρ` has `⟨θ²⟩ = ρ²/2`). The region's texels are set to the sky, so the
+/// map and the sun together carry the map's power. `None` when no region qualifies (an
+/// overcast map, or a bright region larger than [`SUN_MAX_SOLID_ANGLE`]).
+pub fn extract_sun(map: &LatLong) -> Option<(Sun, LatLong)> {
+    let (w, h) = (map.width, map.height);
+    let lum = |t: &[f32; 3]| {
+        0.2126 * f64::from(t[0]) + 0.7152 * f64::from(t[1]) + 0.0722 * f64::from(t[2])
+    };
+    let y: Vec<f64> = map.texels.iter().map(lum).collect();
+    let solid: Vec<f64> = (0..h).map(|r| map.texel_direction(0, r).1).collect();
+    // Median luminance per solid angle.
+    let mut order: Vec<usize> = (0..w * h).collect();
+    order.sort_by(|a, b| y[*a].total_cmp(&y[*b]));
+    let total: f64 = order.iter().map(|&i| solid[i / w]).sum();
+    let mut acc = 0.0;
+    let mut sky = 0.0;
+    for &i in &order {
+        acc += solid[i / w];
+        if acc >= 0.5 * total {
+            sky = y[i];
+            break;
+        }
+    }
+    let peak_i = *order.last()?;
+    let peak = y[peak_i];
+    if !(peak > SUN_CONTRAST * sky && peak > 0.0) {
+        return None;
+    }
+    let neighbours = |i: usize| {
+        let (x, r) = ((i % w) as i64, (i / w) as i64);
+        let mut out = Vec::with_capacity(8);
+        for dr in -1..=1i64 {
+            for dx in -1..=1i64 {
+                if (dr, dx) == (0, 0) {
+                    continue;
+                }
+                let rr = r + dr;
+                if rr < 0 || rr >= h as i64 {
+                    continue;
+                }
+                let xx = (x + dx).rem_euclid(w as i64);
+                out.push(rr as usize * w + xx as usize);
+            }
+        }
+        out
+    };
+    // Grows the connected region of texels at or above `threshold` from `seed`; `None`
+    // once it is larger than a sun.
+    let grow = |seed: &[usize], threshold: f64| -> Option<(Vec<usize>, Vec<bool>)> {
+        let mut inside = vec![false; w * h];
+        let mut region = seed.to_vec();
+        let mut area = 0.0;
+        for &i in seed {
+            inside[i] = true;
+            area += solid[i / w];
+        }
+        let mut k = 0;
+        while k < region.len() {
+            for n in neighbours(region[k]) {
+                if !inside[n] && y[n] >= threshold {
+                    inside[n] = true;
+                    region.push(n);
+                    area += solid[n / w];
+                    if area > SUN_MAX_SOLID_ANGLE {
+                        return None;
+                    }
+                }
+            }
+            k += 1;
+        }
+        Some((region, inside))
+    };
+    // The ring of texels around a region (8-neighbours not in it).
+    let ring = |region: &[usize], inside: &[bool]| {
+        let mut seen = inside.to_vec();
+        let mut out = Vec::new();
+        for &i in region {
+            for n in neighbours(i) {
+                if !seen[n] {
+                    seen[n] = true;
+                    out.push(n);
+                }
+            }
+        }
+        out
+    };
+    // The core (at least half the peak), the sky around it (the ring's median), then the
+    // whole disk: the core grown over the texels above 5 % of the peak's excess over that
+    // sky — relative to the local sky, so a bright horizon near a low sun stays sky.
+    let (core, core_inside) = grow(&[peak_i], 0.5 * peak)?;
+    let mut around: Vec<f64> = ring(&core, &core_inside).iter().map(|&i| y[i]).collect();
+    around.sort_by(f64::total_cmp);
+    let local = around.get(around.len() / 2).copied().unwrap_or(0.0);
+    if peak <= SUN_LOCAL_CONTRAST * local {
+        return None;
+    }
+    let (region, in_region) = grow(&core, local + 0.05 * (peak - local))?;
+    // The sky behind the sun: the mean of the ring around the region.
+    let outer = ring(&region, &in_region);
+    let ring_n = outer.len();
+    let mut ring_sum = [0.0f64; 3];
+    for &n in &outer {
+        for (s, t) in ring_sum.iter_mut().zip(map.texels[n]) {
+            *s += f64::from(t);
+        }
+    }
+    let behind = if ring_n > 0 {
+        ring_sum.map(|s| s / ring_n as f64)
+    } else {
+        [0.0; 3]
+    };
+    let mut rest = map.clone();
+    let mut irradiance = [0.0f64; 3];
+    let mut mean_dir = [0.0f64; 3];
+    let mut weights = Vec::with_capacity(region.len());
+    for &i in &region {
+        let (d, omega) = map.texel_direction(i % w, i / w);
+        let t = map.texels[i];
+        let mut excess = [0.0; 3];
+        for c in 0..3 {
+            let keep = f64::from(t[c]).min(behind[c]);
+            excess[c] = f64::from(t[c]) - keep;
+            rest.texels[i][c] = keep as f32;
+            irradiance[c] += excess[c] * omega;
+        }
+        let wgt = (0.2126 * excess[0] + 0.7152 * excess[1] + 0.0722 * excess[2]) * omega;
+        for a in 0..3 {
+            mean_dir[a] += wgt * d[a];
+        }
+        weights.push((d, wgt));
+    }
+    let direction = unit(mean_dir)?;
+    let (mut m2, mut wsum) = (0.0, 0.0);
+    for (d, wgt) in weights {
+        let theta = dot(d, direction).clamp(-1.0, 1.0).acos();
+        m2 += wgt * theta * theta;
+        wsum += wgt;
+    }
+    let rho = if wsum > 0.0 {
+        (2.0 * m2 / wsum).sqrt()
+    } else {
+        0.0
+    };
+    let sun = Sun {
+        direction,
+        irradiance,
+        angle: (2.0 * rho).min(PI),
+    };
+    Some((sun, rest))
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// `v/|v|`, or `None` for a zero or non-finite vector.
+pub(crate) fn unit(v: [f64; 3]) -> Option<[f64; 3]> {
+    let n = dot(v, v).sqrt();
+    (n > 0.0 && n.is_finite()).then(|| v.map(|c| c / n))
+}
+
+/// Two unit vectors completing the unit `d` to an orthonormal basis (Duff et al. 2017).
+pub(crate) fn basis(d: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+    let sign = 1.0f64.copysign(d[2]);
+    let a = -1.0 / (sign + d[2]);
+    let b = d[0] * d[1] * a;
+    (
+        [1.0 + sign * d[0] * d[0] * a, sign * b, -sign * d[0]],
+        [b, sign + d[1] * d[1] * a, -d[1]],
+    )
+}
+
+#[cfg(test)]
+mod tests;

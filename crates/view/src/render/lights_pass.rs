@@ -1,0 +1,131 @@
+//! The lights pass: suns and point lights added exactly to the volume-pass grids, per
+//! voxel, after [`super::crm::volume_pass`] (which carries the environment's SH).
+//!
+//! At a voxel center `u` with `D(u) > 0`, seen along `d` (from the eye), each light adds
+//! `J(u, d) += Ω·E(u)·T(u)·p(s·d)/4π` (`crate::lights` module docs), `s` the unit vector
+//! towards the light, `p` the disk-averaged HG of a sun or HG for a point light. The
+//! transmittance `T = exp(−σt·τ)` is marched through the grid's `D = D̃ + R` (the shadow
+//! volume, residual included): `τ = Σ_k D(u + (k + ½)h·s)·h` over `n = ⌈ℓ/h₀⌉` equal
+//! steps `h = ℓ/n`, `h₀` the smallest voxel side, `ℓ` the distance to the box's face (or
+//! to a point light inside the box), `D` trilinear (`field::sample`); the march stops
+//! once `σt·τ > 20` (`T < 2·10⁻⁹`). Voxels with `D = 0` emit nothing and are skipped.
+//!
+//! The GPU twin is `shaders/lights_pass.wgsl` (`gpu::lights_pass`).
+
+use super::crm::VolumeGrids;
+use crate::env::Environment;
+use crate::field;
+use crate::lights::DiskPhase;
+use crate::medium::{FOUR_PI, Medium, hg};
+use haze_volume::Volume;
+use rayon::prelude::*;
+
+/// Optical depth (σt·τ) beyond which the shadow march stops.
+pub const SHADOW_CUTOFF: f64 = 20.0;
+
+/// Adds the suns and point lights of `env` to the radiance of `grids` (camera at `eye`).
+pub fn lights_pass(grids: &mut VolumeGrids, env: &Environment, medium: &Medium, eye: [f64; 3]) {
+    if !env.has_lights() || medium.albedo == 0.0 {
+        return;
+    }
+    let phases: Vec<DiskPhase> = env
+        .suns
+        .iter()
+        .map(|s| DiskPhase::new(medium.g, s.angle))
+        .collect();
+    let density = &grids.density;
+    let dims = density.dims();
+    let bbox = *density.bbox();
+    let vs = density.voxel_size();
+    let h0 = vs[0].min(vs[1]).min(vs[2]);
+    // The mean of 1/r² over a ball of radius a (half a voxel) about a point light: 3/a².
+    let soft = (0.5 * h0).powi(2) / 3.0;
+    let plane = dims[0] * dims[1];
+    let k = medium.albedo / FOUR_PI;
+    grids
+        .radiance
+        .par_chunks_mut(plane.max(1))
+        .enumerate()
+        .for_each(|(z, slice)| {
+            for (i, out) in slice.iter_mut().enumerate() {
+                let idx = z * plane + i;
+                if density.data()[idx] <= 0.0 {
+                    continue;
+                }
+                let (x, y) = (i % dims[0], i / dims[0]);
+                let u = [x, y, z].map(|a| a as f64 + 0.5);
+                let u = [0, 1, 2].map(|a| bbox.min[a] + u[a] * vs[a]);
+                let Some(d) = crate::lights::unit([0, 1, 2].map(|a| u[a] - eye[a])) else {
+                    continue;
+                };
+                let mut add = [0.0f64; 3];
+                for (sun, phase) in env.suns.iter().zip(&phases) {
+                    let t = transmittance(density, medium.sigma_t, u, sun.direction, f64::MAX, h0);
+                    if t <= 0.0 {
+                        continue;
+                    }
+                    let p = phase.eval(dot(sun.direction, d));
+                    for (a, e) in add.iter_mut().zip(sun.irradiance) {
+                        *a += e * t * p;
+                    }
+                }
+                for light in &env.points {
+                    let v = [0, 1, 2].map(|a| light.position[a] - u[a]);
+                    let r2 = dot(v, v);
+                    let Some(s) = crate::lights::unit(v) else {
+                        // The light at the voxel center: isotropic, unshadowed.
+                        for (a, i) in add.iter_mut().zip(light.intensity) {
+                            *a += i / soft;
+                        }
+                        continue;
+                    };
+                    let t = transmittance(density, medium.sigma_t, u, s, r2.sqrt(), h0);
+                    let p = hg(medium.g, dot(s, d));
+                    for (a, i) in add.iter_mut().zip(light.intensity) {
+                        *a += i / (r2 + soft) * t * p;
+                    }
+                }
+                for c in 0..3 {
+                    out[c] = (f64::from(out[c]) + k * add[c]) as f32;
+                }
+            }
+        });
+}
+
+/// `exp(−σt·τ)` from `u` along the unit `s` to the box's face or `max_len`, whichever is
+/// nearer, by the midpoint rule on the trilinear density (module docs); `h0` the step.
+pub fn transmittance(
+    density: &Volume,
+    sigma_t: f64,
+    u: [f64; 3],
+    s: [f64; 3],
+    max_len: f64,
+    h0: f64,
+) -> f64 {
+    if sigma_t == 0.0 {
+        return 1.0;
+    }
+    let len = match field::ray_box(u, s, density.bbox()) {
+        Some((_, t1)) => t1.min(max_len),
+        None => return 1.0,
+    };
+    if len.is_nan() || len <= 0.0 {
+        return 1.0;
+    }
+    let n = (len / h0).ceil().max(1.0);
+    let h = len / n;
+    let mut depth = 0.0;
+    for k in 0..n as u64 {
+        let t = (k as f64 + 0.5) * h;
+        let p = [0, 1, 2].map(|a| u[a] + t * s[a]);
+        depth += sigma_t * field::sample(density, p) * h;
+        if depth > SHADOW_CUTOFF {
+            break;
+        }
+    }
+    (-depth).exp()
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}

@@ -1,0 +1,126 @@
+//! The lighting flags `haze render` and `haze view` share: the environment (built-in sky or
+//! a lat-long map, whose sun is split off and lit exactly unless told not to), and suns
+//! and point lights given on the command line.
+
+use anyhow::{Result, bail};
+use haze_view::{Environment, LatLong, PointLight, Sky, Sun};
+use std::path::Path;
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct LightArgs {
+    /// Distant lighting: the built-in sky, or a lat-long OpenEXR map (Z up, row 0 the
+    /// zenith). A map's sun (its brightest compact region) is split off and lit exactly,
+    /// like --sun.
+    #[arg(long, default_value = "sky", value_name = "sky|ENV.exr")]
+    pub env: String,
+    /// Keep an environment map whole: its sun stays in the spherical harmonics (blurred
+    /// over a few bands) instead of being lit as a sun.
+    #[arg(long)]
+    pub no_sun_extraction: bool,
+    /// A sun, lit exactly (sharp shadows, the phase function at its true direction):
+    /// the direction towards it, the radiance of its disk (RGB) and the disk's apparent
+    /// diameter in degrees (default 0.53, the real sun's). An angle of 0 makes a
+    /// point-like sun whose RGB is its irradiance. Repeatable.
+    #[arg(long, value_name = "X,Y,Z,R,G,B[,ANGLE]", value_parser = parse_sun, allow_hyphen_values = true)]
+    pub sun: Vec<Sun>,
+    /// A point light, lit exactly: position and radiant intensity (RGB; irradiance
+    /// I/d² at distance d, unshadowed). Repeatable.
+    #[arg(long, value_name = "X,Y,Z,R,G,B", value_parser = parse_point, allow_hyphen_values = true)]
+    pub light: Vec<PointLight>,
+}
+
+impl LightArgs {
+    /// The environment these flags describe. A map that is not there, or not a readable
+    /// RGB OpenEXR, is a one-line error naming it.
+    pub fn environment(&self) -> Result<Environment> {
+        let mut env = if self.env == "sky" {
+            Environment::sky(Sky::default())
+        } else {
+            let path = Path::new(&self.env);
+            if !path.exists() {
+                bail!(
+                    "{}: no such environment map (use 'sky' or a lat-long .exr)",
+                    self.env
+                );
+            }
+            let map = LatLong::load_exr(path)?;
+            if self.no_sun_extraction {
+                Environment::map(map)
+            } else {
+                let env = Environment::map_with_sun_extracted(map);
+                match env.suns.first() {
+                    Some(sun) => {
+                        let (theta, phi) = haze_view::env::angles(sun.direction);
+                        tracing::info!(
+                            "{}: sun split off at elevation {:.1}°, azimuth {:.1}°, {:.2}° wide, irradiance {:.3?}",
+                            self.env,
+                            90.0 - theta.to_degrees(),
+                            phi.to_degrees(),
+                            sun.angle.to_degrees(),
+                            sun.irradiance
+                        );
+                    }
+                    None => tracing::info!("{}: no sun found, the map is lit whole", self.env),
+                }
+                env
+            }
+        };
+        env.suns.extend(self.sun.iter().cloned());
+        env.points.extend(self.light.iter().cloned());
+        Ok(env)
+    }
+}
+
+/// Comma-separated finite numbers.
+fn numbers(s: &str) -> Result<Vec<f64>, String> {
+    s.split(',')
+        .map(|p| {
+            p.trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| format!("'{p}' is not a finite number"))
+        })
+        .collect()
+}
+
+fn parse_sun(s: &str) -> Result<Sun, String> {
+    let v = numbers(s)?;
+    if !(6..=7).contains(&v.len()) {
+        return Err(format!(
+            "expected X,Y,Z,R,G,B[,ANGLE] (6 or 7 numbers), got '{s}'"
+        ));
+    }
+    let angle = v.get(6).copied().unwrap_or(0.53);
+    Sun::from_radiance([v[0], v[1], v[2]], [v[3], v[4], v[5]], angle)
+}
+
+fn parse_point(s: &str) -> Result<PointLight, String> {
+    let v = numbers(s)?;
+    if v.len() != 6 {
+        return Err(format!("expected X,Y,Z,R,G,B (6 numbers), got '{s}'"));
+    }
+    PointLight::new([v[0], v[1], v[2]], [v[3], v[4], v[5]])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn suns_and_lights_parse_and_bad_ones_are_refused() {
+        let s = parse_sun("0,0,2,10,10,10").unwrap();
+        assert_eq!(s.direction, [0.0, 0.0, 1.0]);
+        assert!((s.angle.to_degrees() - 0.53).abs() < 1e-12);
+        let s = parse_sun("1,0,0, 2,3,4, 0").unwrap();
+        assert_eq!(s.irradiance, [2.0, 3.0, 4.0]);
+        assert!(parse_sun("1,0,0,1,1").is_err());
+        assert!(parse_sun("0,0,0,1,1,1").is_err());
+        assert!(parse_sun("0,0,1,1,1,1,200").is_err());
+        assert!(parse_sun("0,0,1,1,x,1").is_err());
+        let p = parse_point("-1,2,3,5,5,5").unwrap();
+        assert_eq!(p.position, [-1.0, 2.0, 3.0]);
+        assert!(parse_point("1,2,3,-1,0,0").is_err());
+        assert!(parse_point("1,2,3").is_err());
+    }
+}
