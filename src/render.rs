@@ -93,11 +93,16 @@ pub fn run(a: RenderArgs) -> Result<()> {
             multiple: a.multiple,
             ..RefOptions::default()
         };
-        let img = reference::render(&frame.density, &medium, &env, &camera, &opts);
+        let (img, noise) =
+            reference::render_with_noise(&frame.density, &medium, &env, &camera, &opts);
         let what = format!(
-            "reference {} scattering, {} spp",
+            "reference {} scattering, {} spp{}",
             if a.multiple { "multiple" } else { "single" },
-            opts.spp
+            opts.spp.div_ceil(2) * if opts.spp > 1 { 2 } else { 1 },
+            match noise {
+                Some(n) => format!(", noise ≈ {:.1} % (two seeds)", 100.0 * n),
+                None => String::new(),
+            }
         );
         (img, what)
     } else {

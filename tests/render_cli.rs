@@ -225,3 +225,73 @@ fn gpu_without_an_adapter_fails_on_one_line() {
             .contains("cannot be used with")
     );
 }
+
+fn mean(px: &[[f32; 3]]) -> f64 {
+    px.iter()
+        .map(|p| f64::from(p[0] + p[1] + p[2]))
+        .sum::<f64>()
+        / (3 * px.len()) as f64
+}
+
+/// Suns and point lights from the command line, a map's sun split off (and kept whole
+/// with --no-sun-extraction), and the reference's noise in its summary line.
+#[test]
+fn suns_lights_and_a_maps_sun_reach_the_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let vol = data("plume-a/dense/density_0024.f32");
+    let size = ["--width", "40", "--height", "30"];
+    let render = |name: &str, extra: &[&str]| {
+        let out = tmp(&dir, name);
+        let mut args = vec!["-v", "render", vol.as_str(), "--out", out.to_str().unwrap()];
+        args.extend_from_slice(&size);
+        args.extend_from_slice(extra);
+        let log = ok(&args);
+        (read_exr(&out, 40, 30), log)
+    };
+    let (plain, _) = render("plain.exr", &[]);
+    let (sun, _) = render("sun.exr", &["--sun", "0.3,-1,0.5,20000,19000,18000,3"]);
+    let (light, _) = render("light.exr", &["--light", "-1,-1,1,40,40,40"]);
+    assert!(
+        mean(&sun) > 1.05 * mean(&plain),
+        "{} vs {}",
+        mean(&sun),
+        mean(&plain)
+    );
+    assert!(mean(&light) > mean(&plain));
+    // A lat-long map, dim sky with a small bright sun.
+    let (w, h) = (64usize, 32usize);
+    let map = tmp(&dir, "env.exr");
+    exr::prelude::write_rgb_file(&map, w, h, |x, y| {
+        if (x, y) == (10, 8) || (x, y) == (11, 8) {
+            (500.0f32, 480.0, 450.0)
+        } else {
+            (0.3f32, 0.4, 0.6)
+        }
+    })
+    .unwrap();
+    let map = map.to_str().unwrap();
+    let (split, log) = render("split.exr", &["--env", map]);
+    assert!(log.contains("sun split off"), "{log}");
+    let (whole, log) = render("whole.exr", &["--env", map, "--no-sun-extraction"]);
+    assert!(!log.contains("sun split off"), "{log}");
+    // The same light either way: the images agree in the mean within the SH blur.
+    let (a, b) = (mean(&split), mean(&whole));
+    assert!((a / b - 1.0).abs() < 0.2, "{a} vs {b}");
+    let out = tmp(&dir, "ref.exr");
+    let log = ok(&[
+        "render",
+        &vol,
+        "--out",
+        out.to_str().unwrap(),
+        "--width",
+        "16",
+        "--height",
+        "12",
+        "--reference",
+        "--spp",
+        "4",
+        "--sun",
+        "0.3,-1,0.5,20000,19000,18000",
+    ]);
+    assert!(log.contains("noise ≈"), "{log}");
+}

@@ -15,11 +15,14 @@
 //! center (1 for a point light). The transmittance `T` is that of the RBFs alone:
 //! `τ = Σ_h w_h ∫ exp(−|x + t·s − c_h|²/r_h²) dt` in closed form (erf), along the whole ray
 //! to infinity for a sun and to the light for a point light, the `3r` cut-off ignored
-//! (`e⁻⁹`). It is averaged over the evaluation points of [`SourcePoints`], like the
-//! environment's transmittance vectors. A point light's `1/d²` is softened to
-//! `1/(d² + r²/3)` (the mean of `1/d²` over a ball of the RBF's radius `r`).
+//! (`e⁻⁹`). It is taken at the center: the diffusion is collocated at the centers, so its
+//! source is the value there. (The footprint mean that `SourcePoints::Footprint` gives
+//! the environment's transmittance is for the volume pass, which spreads a center's value
+//! over the whole Gaussian; fed to the diffusion it made the multiple scattering of a
+//! sun-lit plume 23 % too bright against the path tracer, the center 7 %: BENCHMARKS.md.)
+//! A point light's `1/d²` is softened to `1/(d² + r²/3)` (the mean of `1/d²` over a ball
+//! of the RBF's radius `r`).
 
-use super::single::SourcePoints;
 use crate::diffusion::Sources;
 use crate::env::Environment;
 use crate::medium::{FOUR_PI, Medium};
@@ -57,13 +60,7 @@ pub fn rbf_depth(rbfs: &[Rbf], x: [f64; 3], s: [f64; 3], len: f64) -> f64 {
 
 /// Adds the direct light of `env`'s suns and point lights at the centers of `rbfs` to the
 /// diffusion's source moments (module docs).
-pub fn add_light_moments(
-    sources: &mut Sources,
-    rbfs: &[Rbf],
-    env: &Environment,
-    medium: &Medium,
-    points: SourcePoints,
-) {
+pub fn add_light_moments(sources: &mut Sources, rbfs: &[Rbf], env: &Environment, medium: &Medium) {
     if !env.has_lights() || medium.albedo == 0.0 {
         return;
     }
@@ -71,7 +68,7 @@ pub fn add_light_moments(
     let add: Vec<([f64; 3], [[f64; 3]; 3])> = rbfs
         .par_iter()
         .map(|rbf| {
-            let pts = points.points(rbf);
+            let c = rbf.center;
             let mut j0 = [0.0f64; 3];
             let mut j1 = [[0.0f64; 3]; 3];
             let mut light = |e: [f64; 3], s: [f64; 3], t: f64, m: f64| {
@@ -84,9 +81,7 @@ pub fn add_light_moments(
                 }
             };
             for sun in &env.suns {
-                let t = mean(&pts, |p| {
-                    (-medium.sigma_t * rbf_depth(rbfs, p, sun.direction, f64::INFINITY)).exp()
-                });
+                let t = (-medium.sigma_t * rbf_depth(rbfs, c, sun.direction, f64::INFINITY)).exp();
                 let m = 0.5 * (1.0 + (0.5 * sun.angle).cos());
                 light(sun.irradiance, sun.direction, t, m);
             }
@@ -103,14 +98,7 @@ pub fn add_light_moments(
                     );
                     continue;
                 };
-                let t = mean(&pts, |p| {
-                    let w = [0, 1, 2].map(|a| pl.position[a] - p[a]);
-                    let len = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
-                    match crate::lights::unit(w) {
-                        Some(u) => (-medium.sigma_t * rbf_depth(rbfs, p, u, len)).exp(),
-                        None => 1.0,
-                    }
-                });
+                let t = (-medium.sigma_t * rbf_depth(rbfs, c, s, d2.sqrt())).exp();
                 let e = pl.intensity.map(|i| i / (d2 + soft).max(1e-300));
                 light(e, s, t, 1.0);
             }
@@ -125,10 +113,6 @@ pub fn add_light_moments(
             }
         }
     }
-}
-
-fn mean(points: &[[f64; 3]], f: impl Fn([f64; 3]) -> f64) -> f64 {
-    points.iter().map(|p| f(*p)).sum::<f64>() / points.len().max(1) as f64
 }
 
 #[cfg(test)]
@@ -184,7 +168,7 @@ mod tests {
         });
         let rbfs = [Rbf::new([0.0; 3], 0.1, 1.0)];
         let mut direct = Sources::zeros(1);
-        add_light_moments(&mut direct, &rbfs, &env, &medium, SourcePoints::Center);
+        add_light_moments(&mut direct, &rbfs, &env, &medium);
         // J(d) = Ω·E·p(s·d)/4π over viewing directions d, order 2.
         let proj = [2.0, 1.0, 0.5].map(|e| {
             sh::project_fn(
@@ -213,7 +197,7 @@ mod tests {
         env.points
             .push(PointLight::new(dir.map(|c| 2.0 * c), [4.0; 3]).unwrap());
         let mut pl = Sources::zeros(1);
-        add_light_moments(&mut pl, &rbfs, &env, &medium, SourcePoints::Center);
+        add_light_moments(&mut pl, &rbfs, &env, &medium);
         let e = 4.0 / (4.0 + 0.01 / 3.0);
         assert!((pl.j0[0][0] - medium.albedo * e / FOUR_PI).abs() < 1e-12);
     }

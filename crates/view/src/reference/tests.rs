@@ -3,7 +3,7 @@
 use super::*;
 use crate::Sky;
 use crate::field::ray_box;
-use crate::medium::hg;
+use crate::medium::{FOUR_PI, hg};
 
 fn cube() -> Bbox {
     Bbox::new([-1.0; 3], [1.0; 3])
@@ -366,4 +366,137 @@ fn phase_sampled_directions_have_the_requested_cosine() {
             assert!((cos - sample_hg_cos(0.6, u1)).abs() < 1e-12, "{d:?}");
         }
     }
+}
+
+/// Single scattering of a directional sun (irradiance `e`, towards `(sin θs, 0, cos θs)`)
+/// in the unit slab seen from above along −Z, black sky: the closed form
+/// `Ω·e·p(−cos θs)/4π · σ∫₀¹ e^{−σu(1 + 1/cos θs)} du`.
+fn sun_slab(s: f64, albedo: f64, g: f64, theta_s: f64, e: f64) -> f64 {
+    let k = 1.0 + 1.0 / theta_s.cos();
+    albedo * e * hg(g, -theta_s.cos()) / FOUR_PI * (1.0 - (-s * k).exp()) / k
+}
+
+#[test]
+fn a_sun_over_a_slab_matches_the_closed_form_in_both_estimators() {
+    // The slab of `single_scattering_in_a_slab_matches_quadrature`; the sun is sampled
+    // explicitly, so a sample is (1 − T)·Ω·E·p/4π·T_sun ∈ [0, (1 − T)·Ω·E·p/4π]: 4
+    // standard errors ≤ 2·range/√spp. The path tracer cut at one bounce estimates the
+    // same integral (collisions drawn ∝ σT, the sun's light at each).
+    let bbox = Bbox::new([-50.0, -50.0, 0.0], [50.0, 50.0, 1.0]);
+    let v = constant_box([2, 2, 2], bbox, 1.0);
+    let cam = Camera::new([0.0, 0.0, 3.0], [0.0; 3], [0.0, 1.0, 0.0], 10.0, 1, 1).unwrap();
+    let spp = 20_000;
+    for (s, albedo, g, theta_s) in [
+        (0.5, 0.8, 0.0, 0.3f64),
+        (1.5, 1.0, 0.6, 1.0),
+        (0.2, 0.5, -0.4, 0.0),
+    ] {
+        let mut env = Environment::constant([0.0; 3]);
+        env.suns.push(crate::lights::Sun {
+            direction: [theta_s.sin(), 0.0, theta_s.cos()],
+            irradiance: [3.0, 2.0, 1.0],
+            angle: 0.0,
+        });
+        let m = medium(s, albedo, g);
+        let want = sun_slab(s, albedo, g, theta_s, 1.0);
+        let c = albedo * hg(g, -theta_s.cos()) / FOUR_PI;
+        let mass = 1.0 - (-s).exp();
+        let tol = 2.0 * mass * c / f64::from(spp).sqrt();
+        // A path collides with probability 1 − T (else it sees the black sky): its sample
+        // is in {0} ∪ [0, c], E[X²] ≤ (1 − T)c², 4 standard errors.
+        let tol_path = 4.0 * c * mass.sqrt() / f64::from(spp).sqrt();
+        let single = render(&v, &m, &env, &cam, &opts(spp, false)).pixels[0];
+        let path = render(
+            &v,
+            &m,
+            &env,
+            &cam,
+            &RefOptions {
+                max_bounces: 1,
+                ..opts(spp, true)
+            },
+        )
+        .pixels[0];
+        for (name, px, tol) in [("single", single, tol), ("path", path, tol_path)] {
+            for (k, e) in [3.0, 2.0, 1.0].into_iter().enumerate() {
+                let got = f64::from(px[k]) / e;
+                assert!(
+                    (got - want).abs() < tol.max(1e-6 * want),
+                    "{name} σ {s} Ω {albedo} g {g} θs {theta_s}: {got} vs {want} (tolerance {tol:.1e})"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn a_sun_disk_and_a_point_light_reach_the_estimators() {
+    // A 6° disk straight above and a zero-angle sun of the same irradiance light the slab
+    // alike within the disk's phase average (g = 0: exactly alike); a point light far
+    // above (distance 1000, intensity 1e6) is a sun of irradiance ≈ 1.
+    let bbox = Bbox::new([-50.0, -50.0, 0.0], [50.0, 50.0, 1.0]);
+    let v = constant_box([2, 2, 2], bbox, 1.0);
+    let cam = Camera::new([0.0, 0.0, 3.0], [0.0; 3], [0.0, 1.0, 0.0], 10.0, 1, 1).unwrap();
+    let m = medium(1.0, 0.9, 0.0);
+    let spp = 20_000;
+    let want = sun_slab(1.0, 0.9, 0.0, 0.0, 1.0);
+    let tol = 2.0 * 0.9 / FOUR_PI / f64::from(spp).sqrt() + 0.01 * want;
+    let mut disk = Environment::constant([0.0; 3]);
+    disk.suns.push(crate::lights::Sun {
+        direction: [0.0, 0.0, 1.0],
+        irradiance: [1.0; 3],
+        angle: 6f64.to_radians(),
+    });
+    let mut point = Environment::constant([0.0; 3]);
+    point
+        .points
+        .push(crate::lights::PointLight::new([0.0, 0.0, 1001.0], [1e6; 3]).unwrap());
+    for (name, env) in [("disk", disk), ("point", point)] {
+        let got = f64::from(render(&v, &m, &env, &cam, &opts(spp, false)).pixels[0][0]);
+        assert!((got - want).abs() < tol, "{name}: {got} vs {want}");
+    }
+}
+
+#[test]
+fn the_noise_estimate_of_two_half_runs_predicts_the_error() {
+    // Against a 16× longer render, the error of a short one is its noise (plus the long
+    // one's, a quarter as large): the two-seed estimate must be within a factor 1.6.
+    let v = blob();
+    let m = medium(3.0, 0.9, 0.5);
+    let mut env = sky();
+    env.suns
+        .push(crate::lights::Sun::from_radiance([0.3, -0.5, 0.8], [800.0; 3], 2.0).unwrap());
+    let cam = Camera::framing(&cube(), 40.0, 16, 12).unwrap();
+    for multiple in [false, true] {
+        let (short, noise) = render_with_noise(&v, &m, &env, &cam, &opts(16, multiple));
+        let long = render(
+            &v,
+            &m,
+            &env,
+            &cam,
+            &RefOptions {
+                seed: 99,
+                ..opts(256, multiple)
+            },
+        );
+        let noise = noise.expect("smoke in view");
+        let mask = smoke_pixels(&long, &env, &cam);
+        let pick = |im: &Image| Image {
+            width: mask.iter().filter(|m| **m).count(),
+            height: 1,
+            pixels: im
+                .pixels
+                .iter()
+                .zip(&mask)
+                .filter(|(_, m)| **m)
+                .map(|(p, _)| *p)
+                .collect(),
+        };
+        let err = pick(&short).rel_rms(&pick(&long));
+        eprintln!("multiple {multiple}: error {err:.4}, estimate {noise:.4}");
+        assert!(err < 1.6 * noise && noise < 1.6 * err, "{err} vs {noise}");
+    }
+    // Albedo 0, single scattering: exact (only the attenuation), no noise.
+    let (_, zero) = render_with_noise(&v, &medium(3.0, 0.0, 0.0), &env, &cam, &opts(8, false));
+    assert_eq!(zero, Some(0.0));
 }

@@ -159,7 +159,7 @@ pub fn add_multiple_scattering(
         escape,
         ..moments(source)
     };
-    add_light_moments(&mut sources, rbfs, env, medium, opts.source_points);
+    add_light_moments(&mut sources, rbfs, env, medium);
     let ops = Operators::new(rbfs);
     let sol = solver.solve_with(&ops, rbfs, medium, &sources, &opts.solve);
     stats.cg_iterations = sol.iterations;
