@@ -17,7 +17,7 @@ use eframe::egui;
 use haze_view::env::{angles, direction};
 use haze_view::gpu::GpuContext;
 use haze_view::gpu::renderer::LightingOn;
-use haze_view::{Distant, Environment, Sky};
+use haze_view::{Distant, Environment};
 use std::ops::RangeInclusive;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -113,15 +113,70 @@ fn one_line(text: &str) -> String {
     text.split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
-/// The light of the panel: the sky with its sun moved by two sliders, or a fixed map.
+/// The light of the panel: what its two sun sliders (degrees: azimuth from +X towards
+/// +Y, elevation above the horizon) move — see [`move_sun`] — or a fixed map.
 enum Light {
-    Sky {
-        sky: Sky,
-        /// Degrees: from +X towards +Y, and above the horizon.
-        azimuth: f64,
-        elevation: f64,
-    },
+    /// The environment's first sun (`--sun`, or a map's sun split off), the real light.
+    Sun { azimuth: f64, elevation: f64 },
+    /// The built-in sky without suns: its sun glow.
+    Sky { azimuth: f64, elevation: f64 },
+    /// A map without suns.
     Map,
+}
+
+impl Light {
+    /// What the sliders of `env` move, starting where that sun is.
+    fn of(env: &Environment) -> Light {
+        let at = |d: [f64; 3]| {
+            let (theta, phi) = angles(d);
+            (phi.to_degrees(), 90.0 - theta.to_degrees())
+        };
+        match (env.suns.first(), &env.distant) {
+            (Some(sun), _) => {
+                let (azimuth, elevation) = at(sun.direction);
+                Light::Sun { azimuth, elevation }
+            }
+            (None, Distant::Sky(sky)) => {
+                let (azimuth, elevation) = at(sky.sun_direction);
+                Light::Sky { azimuth, elevation }
+            }
+            (None, Distant::Map(_)) => Light::Map,
+        }
+    }
+
+    /// `(azimuth, elevation)` of the sliders (zeros for a map, which has none).
+    fn sliders(&self) -> (f64, f64) {
+        match self {
+            Light::Sun { azimuth, elevation } | Light::Sky { azimuth, elevation } => {
+                (*azimuth, *elevation)
+            }
+            Light::Map => (0.0, 0.0),
+        }
+    }
+}
+
+/// `env` with its sun towards `azimuth`, `elevation` (degrees), or `None` when that
+/// changes nothing. With suns, the first one — the real light, lit exactly — and, under
+/// the built-in sky, the sky's glow with it (the sky's picture of that sun); without
+/// suns, the built-in sky's glow (a map without suns has nothing to move). Everything
+/// else (the other suns, the point lights, the map) is kept.
+pub(super) fn move_sun(env: &Environment, azimuth: f64, elevation: f64) -> Option<Environment> {
+    let d = direction((90.0 - elevation).to_radians(), azimuth.to_radians());
+    let mut out = env.clone();
+    let mut changed = false;
+    if let Some(sun) = out.suns.first_mut()
+        && sun.direction != d
+    {
+        sun.direction = d;
+        changed = true;
+    }
+    if let Distant::Sky(sky) = &mut out.distant
+        && sky.sun_direction != d
+    {
+        sky.sun_direction = d;
+        changed = true;
+    }
+    changed.then_some(out)
 }
 
 /// The sliders' ranges: the usual span, widened to hold the value given on the command
@@ -142,6 +197,9 @@ struct ViewerApp {
     settings: Settings,
     initial_orbit: Orbit,
     light: Light,
+    /// The sliders' values last applied to the environment: it changes only when they
+    /// move (the light given on the command line stays as given until then).
+    light_applied: (f64, f64),
     texture: Option<egui::TextureHandle>,
     /// The source frame number of the picture on screen.
     showing: Option<i64>,
@@ -159,17 +217,7 @@ impl ViewerApp {
         settings: Settings,
         outcome: Arc<Mutex<Option<Result<String, String>>>>,
     ) -> ViewerApp {
-        let light = match &settings.env.distant {
-            Distant::Sky(sky) => {
-                let (theta, phi) = angles(sky.sun_direction);
-                Light::Sky {
-                    sky: sky.clone(),
-                    azimuth: phi.to_degrees(),
-                    elevation: 90.0 - theta.to_degrees(),
-                }
-            }
-            Distant::Map(_) => Light::Map,
-        };
+        let light = Light::of(&settings.env);
         let fps = player.playback.fps();
         let k = &settings.knobs;
         let ranges = Ranges {
@@ -188,6 +236,7 @@ impl ViewerApp {
             player,
             initial_orbit: settings.orbit.clone(),
             settings,
+            light_applied: light.sliders(),
             light,
             texture: None,
             showing: None,
@@ -217,24 +266,15 @@ impl ViewerApp {
         }
     }
 
-    /// Moves the sky's sun to the sliders' direction.
+    /// Moves the sun to the sliders' direction ([`move_sun`]).
     fn update_light(&mut self) {
-        if let Light::Sky {
-            sky,
-            azimuth,
-            elevation,
-        } = &self.light
-        {
-            let sun = direction((90.0 - *elevation).to_radians(), azimuth.to_radians());
-            if let Distant::Sky(current) = &self.settings.env.distant
-                && current.sun_direction == sun
-            {
-                return;
-            }
-            self.settings.env = Arc::new(Environment::sky(Sky {
-                sun_direction: sun,
-                ..sky.clone()
-            }));
+        let at = self.light.sliders();
+        if at == self.light_applied {
+            return;
+        }
+        self.light_applied = at;
+        if let Some(env) = move_sun(&self.settings.env, at.0, at.1) {
+            self.settings.env = Arc::new(env);
         }
     }
 
@@ -380,6 +420,12 @@ impl ViewerApp {
                         "volume pass",
                         format!("{:.1}{grids}", s.volume_seconds * 1e3),
                     );
+                    if self.settings.env.has_lights() {
+                        row(
+                            "lights pass",
+                            format!("{:.1}{grids}", s.lights_seconds * 1e3),
+                        );
+                    }
                     row("view pass", format!("{:.1}", s.view_seconds * 1e3));
                     for (stage, seconds) in &t.gpu {
                         row(&format!("GPU: {stage}"), format!("{:.2}", seconds * 1e3));
@@ -399,11 +445,14 @@ impl ViewerApp {
         }
         ui.separator();
 
+        let sun = matches!(self.light, Light::Sun { .. });
         match &mut self.light {
-            Light::Sky {
-                azimuth, elevation, ..
-            } => {
-                ui.label("sun");
+            Light::Sun { azimuth, elevation } | Light::Sky { azimuth, elevation } => {
+                ui.label(if sun {
+                    "sun (lit exactly)"
+                } else {
+                    "sun (sky glow)"
+                });
                 ui.add(egui::Slider::new(azimuth, 0.0..=360.0).text("azimuth °"));
                 ui.add(egui::Slider::new(elevation, -10.0..=90.0).text("elevation °"));
             }
@@ -517,5 +566,67 @@ impl eframe::App for ViewerApp {
                 ctx.request_repaint_after(at.saturating_duration_since(now));
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use haze_view::{LatLong, PointLight, Sky, Sun};
+
+    fn sun_towards(d: [f64; 3]) -> Sun {
+        Sun::from_radiance(d, [1e4; 3], 0.53).unwrap()
+    }
+
+    fn close(a: [f64; 3], b: [f64; 3]) -> bool {
+        (0..3).all(|k| (a[k] - b[k]).abs() < 1e-12)
+    }
+
+    #[test]
+    fn the_sliders_move_the_real_sun_when_there_is_one() {
+        let d = direction(30f64.to_radians(), 40f64.to_radians());
+        // The built-in sky with a --sun and a point light: the sliders start at the sun
+        // and move it, the sky's glow with it, and keep the point light.
+        let mut env = Environment::sky(Sky::default());
+        env.suns.push(sun_towards([0.0, -1.0, 1.0]));
+        env.suns.push(sun_towards([1.0, 0.0, 0.2]));
+        env.points
+            .push(PointLight::new([1.0, 2.0, 3.0], [1.0; 3]).unwrap());
+        let Light::Sun { azimuth, elevation } = Light::of(&env) else {
+            panic!("a sun to move");
+        };
+        assert!((azimuth - 270.0).abs() < 1e-9 && (elevation - 45.0).abs() < 1e-9);
+        let moved = move_sun(&env, 40.0, 60.0).unwrap();
+        assert!(close(moved.suns[0].direction, d));
+        let Distant::Sky(sky) = &moved.distant else {
+            panic!("the sky stays");
+        };
+        assert!(close(sky.sun_direction, d));
+        assert_eq!(moved.suns[1], env.suns[1]);
+        assert_eq!(moved.points, env.points);
+        assert_eq!(moved.suns[0].irradiance, env.suns[0].irradiance);
+
+        // A map with its sun split off: the sun moves, the map stays.
+        let map = LatLong::new(2, 1, vec![[0.5; 3]; 2]).unwrap();
+        let mut env = Environment::map(map.clone());
+        env.suns.push(sun_towards([0.0, 0.0, 1.0]));
+        assert!(matches!(Light::of(&env), Light::Sun { .. }));
+        let moved = move_sun(&env, 40.0, 60.0).unwrap();
+        assert!(close(moved.suns[0].direction, d));
+        assert_eq!(moved.distant, Distant::Map(map.clone()));
+        assert!(move_sun(&moved, 40.0, 60.0).is_none());
+
+        // No suns: the sky's glow, as before; a map has nothing to move.
+        let env = Environment::sky(Sky::default());
+        assert!(matches!(Light::of(&env), Light::Sky { .. }));
+        let moved = move_sun(&env, 40.0, 60.0).unwrap();
+        assert!(moved.suns.is_empty());
+        let Distant::Sky(sky) = &moved.distant else {
+            panic!("the sky stays");
+        };
+        assert!(close(sky.sun_direction, d));
+        let env = Environment::map(map);
+        assert!(matches!(Light::of(&env), Light::Map));
+        assert!(move_sun(&env, 40.0, 60.0).is_none());
     }
 }

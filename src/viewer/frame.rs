@@ -341,4 +341,48 @@ mod tests {
             cold.crm.cg_residual
         );
     }
+
+    #[test]
+    fn suns_and_point_lights_light_frames_and_the_panel_moves_the_sun() {
+        // A --sun and a --light: the GPU lights pass and the diffusion's direct light give
+        // the CPU's image; the panel's sliders move the sun (`app::move_sun`), which
+        // recomputes the sources and gives the CPU's image of the moved sun.
+        let ctx = context();
+        let (_dir, frames) = frames(1);
+        let f = &frames[0];
+        let dense = f.residual.as_ref().unwrap().dense();
+        let b = bbox();
+        let c = [0, 1, 2].map(|a| 0.5 * (b.min[a] + b.max[a]));
+        let mut env = Environment::sky(Sky::default());
+        env.suns
+            .push(haze_view::Sun::from_radiance([0.3, -0.4, 0.85], [5e4; 3], 0.53).unwrap());
+        env.points.push(
+            haze_view::PointLight::new([c[0] + 1.5, c[1] - 0.5, c[2]], [3.0, 2.5, 2.0]).unwrap(),
+        );
+        let opts = CrmOptions::default();
+        let medium = Medium::new(6.0, 0.85, 0.3).unwrap();
+        let cam = camera(-1.0);
+        let cpu = |env: &Environment| {
+            crm_render(&f.rbfs, Some(&dense), DIMS, &b, &medium, env, &cam, &opts)
+                .0
+                .pixels
+        };
+        let mut r = FrameRenderer::new(&ctx, LightingOn::Auto).unwrap();
+        let (lit, t) = render(&mut r, &ctx, f, &env, &cam, &opts);
+        assert!(t.crm.lights_seconds > 0.0);
+        assert_close(&lit, &cpu(&env));
+        let moved = super::super::app::move_sun(&env, 200.0, 25.0).unwrap();
+        let (other, t) = render(&mut r, &ctx, f, &moved, &cam, &opts);
+        assert!(!t.sources_reused, "a moved sun relights the centers");
+        assert_close(&other, &cpu(&moved));
+        let change = lit
+            .iter()
+            .zip(&other)
+            .map(|(p, q)| (p[0] - q[0]).abs())
+            .fold(0.0f32, f32::max);
+        assert!(
+            change > 0.05,
+            "moving the sun changed the image by {change}"
+        );
+    }
 }

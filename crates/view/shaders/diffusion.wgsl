@@ -16,6 +16,9 @@
 //
 // J⁰ and J¹ come from the sources' bands 0 and 1 (viewing direction):
 //   J⁰ = J_00/√4π,  J¹ = −√(3/4π)·(J_11, J_1−1, J_10);
+// plus, when `params.direct` is 1, the direct light of the suns and point lights at the
+// centers (`lighting::direct::add_light_moments`, computed on the host): per center and
+// channel one vec4 (J⁰, J¹ x y z) in `direct`;
 // P_h (escape probability) from the `w` of the center's first coefficient. Non-finite
 // inputs count as 0, as on the CPU.
 //
@@ -41,6 +44,11 @@ struct Params {
     band1: f32,
     // Iterations per `iterate` dispatch.
     chunk: u32,
+    // 1: add the lights' moments in `direct`, 0: there are none (`direct` is a dummy).
+    direct: u32,
+    _p0: u32,
+    _p1: u32,
+    _p2: u32,
 };
 
 // diffusion_hl, v_hl, grad_hl (module docs of `diffusion::operators`) of column `col`.
@@ -63,6 +71,9 @@ struct Entry {
 @group(0) @binding(4) var<storage, read> entries: array<Entry>;
 // D̃(c_h), 0 at an inactive center, whose row holds one entry, the identity's (col h).
 @group(0) @binding(5) var<storage, read> density: array<f32>;
+// The lights' direct J⁰ and J¹ (direction of propagation) per center and channel, at
+// (3h + c): (J⁰, J¹x, J¹y, J¹z).
+@group(0) @binding(6) var<storage, read> direct: array<vec4<f32>>;
 
 const WG: u32 = 256u;
 // A least-squares optimum is reached when ‖Mᵀ R r‖ ≤ LS_OPTIMAL ‖M‖_F ‖R r‖ (the CPU's
@@ -85,20 +96,31 @@ fn escape(h: u32) -> f32 {
     return select(0.0, clamp(p, 0.0, 1.0), finite(p));
 }
 
+// The lights' (J⁰, J¹) of center l, channel c; zero without lights.
+fn direct_at(l: u32, c: u32) -> vec4<f32> {
+    if params.direct == 0u {
+        return vec4<f32>(0.0);
+    }
+    return direct[3u * l + c];
+}
+
 fn j0(l: u32, c: u32) -> f32 {
-    return finite_or_zero(sources[l * params.n2][c]) * 0.28209479; // 1/√4π
+    // sources[..] / √4π + the lights', as the CPU sums them into `Sources::j0`.
+    return finite_or_zero(sources[l * params.n2][c] * 0.28209479 + direct_at(l, c).x);
 }
 
 fn j1(l: u32, c: u32) -> vec3<f32> {
+    let lights = direct_at(l, c).yzw;
     if params.n2 < 4u {
-        return vec3<f32>(0.0);
+        return vec3<f32>(finite_or_zero(lights.x), finite_or_zero(lights.y),
+                         finite_or_zero(lights.z));
     }
     let base = l * params.n2;
     let k1 = -0.48860251; // −√(3/4π)
-    return k1 * vec3<f32>(
-        finite_or_zero(sources[base + 3u][c]),
-        finite_or_zero(sources[base + 1u][c]),
-        finite_or_zero(sources[base + 2u][c]),
+    return vec3<f32>(
+        finite_or_zero(k1 * sources[base + 3u][c] + lights.x),
+        finite_or_zero(k1 * sources[base + 1u][c] + lights.y),
+        finite_or_zero(k1 * sources[base + 2u][c] + lights.z),
     );
 }
 

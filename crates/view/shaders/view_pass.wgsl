@@ -31,7 +31,8 @@ struct Params {
     // 0: the built-in sky below, 1: the lat-long map in `env_map`.
     env_kind: u32,
     voxel: vec3<f32>,
-    _pad0: f32,
+    // Suns whose disks are in `suns`.
+    suns: u32,
     dims: vec3<u32>,
     _pad1: u32,
     image: vec2<u32>,
@@ -58,6 +59,9 @@ const PI: f32 = 3.14159265358979;
 // Lat-long texels, RGB, row 0 at the zenith.
 @group(0) @binding(2) var<storage, read> env_map: array<f32>;
 @group(0) @binding(3) var<storage, read_write> pixels: array<vec4<f32>>;
+// Two per sun with a disk (`Environment::radiance`): (unit direction towards it,
+// cos(angle/2)), (disk radiance, 0).
+@group(0) @binding(4) var<storage, read> suns: array<vec4<f32>>;
 
 // `Camera::pixel_ray`: through the center of pixel (x, y), row 0 at the top.
 fn pixel_ray(x: u32, y: u32) -> vec3<f32> {
@@ -169,11 +173,22 @@ fn lat_long(d: vec3<f32>) -> vec3<f32> {
     return mix(mix(texel(xa, ya), texel(xb, ya), tx), mix(texel(xa, yb), texel(xb, yb), tx), ty);
 }
 
+// `Environment::radiance`: the distant radiance plus the disks of the suns (`Sun::covers`)
+// in the unit direction d.
 fn environment(d: vec3<f32>) -> vec3<f32> {
+    var out: vec3<f32>;
     if p.env_kind == 1u {
-        return lat_long(d);
+        out = lat_long(d);
+    } else {
+        out = sky(d);
     }
-    return sky(d);
+    for (var i = 0u; i < p.suns; i++) {
+        let s = suns[2u * i];
+        if dot(d, s.xyz) >= s.w {
+            out += suns[2u * i + 1u].xyz;
+        }
+    }
+    return out;
 }
 
 @compute @workgroup_size(8, 8)

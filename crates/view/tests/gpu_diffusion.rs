@@ -3,7 +3,9 @@
 //! and the sources with `J̃ms` added, from the same single-scattering sources (the GPU's,
 //! read back, so both start from the same numbers). Small and larger-than-a-workgroup
 //! sets, SH orders 1, 2 and 4, anisotropic and isotropic phase, and the extremes (σt = 0,
-//! albedo 1, inactive RBFs, no RBFs), the warm start, and a mismatched buffer.
+//! albedo 1, inactive RBFs, no RBFs), the warm start, a mismatched buffer, and the direct
+//! light of suns and point lights added to the source (`gpu::diffusion::DirectBuffer`,
+//! the CPU's `lighting::direct::add_light_moments`).
 //!
 //! These tests need a GPU adapter (a CPU one will do: Mesa's lavapipe, which
 //! `scripts/test.sh` installs) and fail with the reason when there is none.
@@ -19,12 +21,13 @@
 
 use haze_view::diffusion::{Operators, SolveOptions, Sources, solve_system};
 use haze_view::gpu::GpuContext;
-use haze_view::gpu::diffusion::{DiffusionPass, OperatorBuffers};
+use haze_view::gpu::diffusion::{DiffusionPass, DirectBuffer, OperatorBuffers};
 use haze_view::gpu::single_scattering::SingleScatteringPass;
+use haze_view::lighting::direct::add_light_moments;
 use haze_view::lighting::single::{ShKit, SourcePoints};
 use haze_view::render::{CrmOptions, CrmStats, add_multiple_scattering, moments};
 use haze_view::sh::{self, ExpMethod};
-use haze_view::{DiffusionSolver, Environment, Medium, Sky};
+use haze_view::{DiffusionSolver, Environment, Medium, PointLight, Sky, Sun};
 use haze_volume::Rbf;
 use nalgebra::DMatrix;
 
@@ -97,6 +100,27 @@ fn condition(ops: &Operators, medium: &Medium, sources: &Sources) -> f64 {
 /// Runs the GPU diffusion on the single scattering of `rbfs` and compares it with the
 /// CPU's; returns the relative error of `L⁰` and of the sources.
 fn check(ctx: &GpuContext, rbfs: &[Rbf], medium: &Medium, order: usize, what: &str) -> (f64, f64) {
+    check_lit(
+        ctx,
+        rbfs,
+        medium,
+        &Environment::constant([0.0; 3]),
+        order,
+        what,
+    )
+    .0
+}
+
+/// [`check`] with the direct light of `env`'s suns and point lights in the source (the
+/// single scattering stays the sky's); also returns the CPU's sources with `J̃ms`.
+fn check_lit(
+    ctx: &GpuContext,
+    rbfs: &[Rbf],
+    medium: &Medium,
+    env: &Environment,
+    order: usize,
+    what: &str,
+) -> ((f64, f64), Vec<haze_view::lighting::single::RgbSh>) {
     let buffer = single(ctx, rbfs, medium, order);
     let ss = buffer.read(ctx).unwrap();
     let opts = CrmOptions {
@@ -105,10 +129,11 @@ fn check(ctx: &GpuContext, rbfs: &[Rbf], medium: &Medium, order: usize, what: &s
     };
     // CPU: the solution and the sources with J̃ms.
     let ops = Operators::new(rbfs);
-    let sources = Sources {
+    let mut sources = Sources {
         escape: ss.escape.clone(),
         ..moments(&ss.source)
     };
+    add_light_moments(&mut sources, rbfs, env, medium);
     let cpu_l0 = solve_system(
         &ops.system(medium, &sources),
         &vec![[0.0; 3]; rbfs.len()],
@@ -119,7 +144,7 @@ fn check(ctx: &GpuContext, rbfs: &[Rbf], medium: &Medium, order: usize, what: &s
     add_multiple_scattering(
         rbfs,
         medium,
-        &Environment::constant([0.0; 3]),
+        env,
         &mut cpu,
         ss.escape.clone(),
         &opts,
@@ -129,7 +154,12 @@ fn check(ctx: &GpuContext, rbfs: &[Rbf], medium: &Medium, order: usize, what: &s
     // GPU.
     let mut pass = DiffusionPass::new(ctx).unwrap();
     let gpu_ops = OperatorBuffers::upload(ctx, &ops).unwrap();
-    pass.run(ctx, &gpu_ops, medium, &buffer, &opts.solve)
+    let direct = env.has_lights().then(|| {
+        let mut m = Sources::zeros(rbfs.len());
+        add_light_moments(&mut m, rbfs, env, medium);
+        DirectBuffer::upload(ctx, &m).unwrap()
+    });
+    pass.run_with(ctx, &gpu_ops, medium, &buffer, direct.as_ref(), &opts.solve)
         .unwrap();
     let gpu = buffer.read(ctx).unwrap();
     let stats = pass.stats(ctx).unwrap().unwrap();
@@ -172,7 +202,75 @@ fn check(ctx: &GpuContext, rbfs: &[Rbf], medium: &Medium, order: usize, what: &s
     );
     assert!(stats.converged, "{what}: {stats:?}");
     assert!(l0_err <= tol, "{what}: L⁰ error {l0_err:.2e} > {tol:.2e}");
-    (l0_err, src_err)
+    ((l0_err, src_err), cpu)
+}
+
+#[test]
+fn lights_in_the_source_match_the_cpu() {
+    // A sun and a point light (outside the cluster and inside it) add their direct light
+    // at the centers to the diffusion's source: J⁰ in b, J¹ in b and in J̃ms's band 1.
+    let ctx = context();
+    let cluster = common::cluster(&unit_box());
+    let mut env = Environment::constant([0.0; 3]);
+    env.suns.push(Sun {
+        direction: [0.36, 0.48, 0.8],
+        irradiance: [8.0, 7.0, 6.0],
+        angle: 0.53f64.to_radians(),
+    });
+    env.points
+        .push(PointLight::new([1.3, 0.2, 0.7], [2.0, 1.5, 1.0]).unwrap());
+    env.points
+        .push(PointLight::new([0.5, 0.5, 0.5], [0.05, 0.05, 0.05]).unwrap());
+    let dark = Environment::constant([0.0; 3]);
+    for (medium, order, what) in [
+        (
+            Medium::new(8.0, 0.9, 0.6).unwrap(),
+            4,
+            "lit, g 0.6, order 4",
+        ),
+        (Medium::new(8.0, 0.9, 0.0).unwrap(), 2, "lit, g 0, order 2"),
+        (
+            Medium::new(8.0, 0.9, -0.4).unwrap(),
+            1,
+            "lit, g −0.4, order 1",
+        ),
+    ] {
+        let (_, lit) = check_lit(&ctx, &cluster, &medium, &env, order, what);
+        // The lights matter: the sources without them are far outside the tolerance.
+        let (_, unlit) = check_lit(&ctx, &cluster, &medium, &dark, order, "unlit");
+        let largest = lit
+            .iter()
+            .map(|j| j.iter().flatten().map(|v| v * v).sum::<f64>().sqrt())
+            .fold(0.0, f64::max);
+        let change = lit
+            .iter()
+            .zip(&unlit)
+            .flat_map(|(a, b)| {
+                (0..3).flat_map(move |c| a[c].iter().zip(&b[c]).map(|(x, y)| (x - y).abs()))
+            })
+            .fold(0.0, f64::max);
+        assert!(
+            change > 0.1 * largest,
+            "{what}: the lights changed J̃ by {change}"
+        );
+    }
+    // Moments for another set: refused.
+    let medium = Medium::new(8.0, 0.9, 0.6).unwrap();
+    let buffer = single(&ctx, &cluster, &medium, 2);
+    let ops = OperatorBuffers::upload(&ctx, &Operators::new(&cluster)).unwrap();
+    let direct = DirectBuffer::upload(&ctx, &Sources::zeros(2)).unwrap();
+    let e = DiffusionPass::new(&ctx)
+        .unwrap()
+        .run_with(
+            &ctx,
+            &ops,
+            &medium,
+            &buffer,
+            Some(&direct),
+            &SolveOptions::default(),
+        )
+        .unwrap_err();
+    assert!(e.to_string().contains("direct light for 2 centers"), "{e}");
 }
 
 #[test]

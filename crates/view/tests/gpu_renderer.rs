@@ -18,7 +18,7 @@
 
 use haze_view::gpu::renderer::{GpuFrame, GpuRenderer, LightingOn, Reuse};
 use haze_view::render::{CrmOptions, crm_render};
-use haze_view::{Camera, Distant, Environment, LatLong, Medium, Sky};
+use haze_view::{Camera, Distant, Environment, LatLong, Medium, PointLight, Sky, Sun};
 use haze_volume::Rbf;
 
 mod common;
@@ -217,6 +217,101 @@ fn a_lat_long_map_lights_and_fills_the_background_as_on_the_cpu() {
     let e = r.set_environment(&ctx, bad).unwrap_err();
     assert!(e.to_string().contains("sharpness"), "{e}");
     assert!(matches!(r.environment().distant, Distant::Map(_)));
+}
+
+#[test]
+fn frames_lit_by_a_sun_and_a_point_light_match_crm_render() {
+    // The lights reach the image twice: per voxel through the lights pass (single
+    // scattering, shadows marched) and at the centers through the diffusion's source (on
+    // the GPU: moments computed on the host and added in `setup`). Both lighting paths,
+    // isotropic and forward scattering, with and without the diffusion.
+    let ctx = context();
+    let rbfs = cluster();
+    let bbox = unit_box();
+    let dims = [20, 24, 18];
+    let mut env = Environment::sky(Sky::default());
+    env.suns.push(Sun {
+        direction: [0.3, 0.2, 0.93].map(|c| c / 0.9949f64.sqrt()),
+        irradiance: [8.0, 7.5, 6.5],
+        angle: 0.53f64.to_radians(),
+    });
+    env.points
+        .push(PointLight::new([1.2, 0.3, 0.6], [1.5, 1.2, 1.0]).unwrap());
+    let frame = GpuFrame {
+        key: 3,
+        rbfs: &rbfs,
+        residual: None,
+        dims,
+        bbox,
+    };
+    let (a, b) = (camera([0.5, -1.3, 0.85]), camera([1.8, 0.2, 0.6]));
+    for on in [LightingOn::Gpu, LightingOn::Cpu] {
+        let mut r = GpuRenderer::new(&ctx, env.clone()).unwrap();
+        r.set_lighting(on);
+        for (order, multiple, g) in [(4, true, 0.5), (2, true, 0.0), (4, false, 0.8)] {
+            let opts = CrmOptions {
+                order,
+                multiple,
+                ..CrmOptions::default()
+            };
+            let medium = Medium::new(6.0, 0.9, g).unwrap();
+            let what = format!("lit, lighting {on:?}, order {order}, multiple {multiple}, g {g}");
+            let timed = on == LightingOn::Gpu && multiple && ctx.time_stages(true);
+            let (image, stats) = r.render(&ctx, &frame, &medium, &a, &opts).unwrap();
+            if timed {
+                let names: Vec<&str> = stats.gpu.iter().map(|(n, _)| *n).collect();
+                assert_eq!(
+                    names,
+                    [
+                        "single scattering",
+                        "diffusion",
+                        "volume pass",
+                        "lights pass",
+                        "view pass"
+                    ]
+                );
+            }
+            ctx.time_stages(false);
+            let (cpu, _) = crm_render(&rbfs, None, dims, &bbox, &medium, &env, &a, &opts);
+            compare(&image.read(&ctx).unwrap(), &cpu.pixels, &what);
+            // A camera move: with g = 0 the grids (lights included) are reused.
+            let (moved, stats) = r.render(&ctx, &frame, &medium, &b, &opts).unwrap();
+            let expect = if g == 0.0 {
+                Reuse::Grids
+            } else {
+                Reuse::Sources
+            };
+            assert_eq!(stats.reuse, expect, "{what}");
+            let (cpu, _) = crm_render(&rbfs, None, dims, &bbox, &medium, &env, &b, &opts);
+            compare(
+                &moved.read(&ctx).unwrap(),
+                &cpu.pixels,
+                &format!("{what}, moved"),
+            );
+        }
+        // The sun is most of the light: moving it changes the image.
+        let medium = Medium::new(6.0, 0.9, 0.0).unwrap();
+        let opts = CrmOptions::default();
+        let (lit, _) = r.render(&ctx, &frame, &medium, &a, &opts).unwrap();
+        let mut moved = env.clone();
+        moved.suns[0].direction = [-0.6, 0.1, 0.8].map(|c| c / 1.01f64.sqrt());
+        r.set_environment(&ctx, moved.clone()).unwrap();
+        let (other, s) = r.render(&ctx, &frame, &medium, &a, &opts).unwrap();
+        assert_eq!(s.reuse, Reuse::Nothing, "new lights recompute everything");
+        let (lit, other) = (lit.read(&ctx).unwrap(), other.read(&ctx).unwrap());
+        let (cpu, _) = crm_render(&rbfs, None, dims, &bbox, &medium, &moved, &a, &opts);
+        compare(&other, &cpu.pixels, &format!("lighting {on:?}, sun moved"));
+        let change = lit
+            .iter()
+            .zip(&other)
+            .map(|(p, q)| (p[0] - q[0]).abs())
+            .fold(0.0f32, f32::max);
+        let bright = lit.iter().flatten().fold(0.0f32, |a, &b| a.max(b));
+        assert!(
+            change > 0.05 * bright,
+            "moving the sun changed the image by {change} (brightest {bright})"
+        );
+    }
 }
 
 #[test]

@@ -11,7 +11,7 @@ use haze_view::lighting::single::ShKit;
 use haze_view::render::crm::{self, OPAQUE, VolumeGrids};
 use haze_view::render::{CrmOptions, CrmStats, source_radiance};
 use haze_view::sh;
-use haze_view::{Camera, Environment, LatLong, Medium, Sky};
+use haze_view::{Camera, Environment, LatLong, Medium, Sky, Sun};
 use haze_volume::{Bbox, Rbf};
 use std::time::Instant;
 
@@ -220,6 +220,87 @@ fn no_extinction_shows_the_background() {
         let (_, rel) = compare(&ctx, &g, &medium, &env, &cam, 0.02);
         assert!(rel < tol, "{rel}");
     }
+}
+
+#[test]
+fn suns_disks_in_the_background_match_the_cpu() {
+    // `Environment::radiance` adds the suns' disks to the sky: a 6° sun at the smoke's
+    // edge, a 0.53° one on a pixel's ray, and a zero-angle one (a light without a disk)
+    // in view. No pixel's ray lies within f32 rounding of a disk's rim (checked), where
+    // the two sides could decide differently.
+    let ctx = context();
+    let bbox = unit_box();
+    let rbfs = cluster(&bbox);
+    let cam = Camera::new(
+        [0.5, -1.3, 0.85],
+        [0.5, 0.5, 0.52],
+        [0.0, 0.0, 1.0],
+        40.0,
+        64,
+        48,
+    )
+    .unwrap();
+    let (f, r, u) = (cam.forward(), cam.right(), cam.up());
+    let toward = |a: f64, b: f64| {
+        let v = [0, 1, 2].map(|k| f[k] + a * r[k] + b * u[k]);
+        let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        v.map(|c| c / n)
+    };
+    let mut env = Environment::sky(Sky::default());
+    env.suns = vec![
+        Sun {
+            direction: toward(0.12, 0.05),
+            irradiance: [3.0, 2.8, 2.5],
+            angle: 6f64.to_radians(),
+        },
+        Sun {
+            direction: cam.pixel_ray(40, 10),
+            irradiance: [1.0, 1.0, 1.0],
+            angle: 0.53f64.to_radians(),
+        },
+        Sun {
+            direction: toward(-0.1, -0.05),
+            irradiance: [5.0; 3],
+            angle: 0.0,
+        },
+    ];
+    let mut covered = [0usize; 3];
+    for y in 0..cam.height {
+        for x in 0..cam.width {
+            let d = cam.pixel_ray(x, y);
+            for (k, sun) in env.suns.iter().enumerate() {
+                let c: f64 = (0..3).map(|a| d[a] * sun.direction[a]).sum();
+                if sun.angle > 0.0 {
+                    let rim = (0.5 * sun.angle).cos();
+                    assert!((c - rim).abs() > 1e-6, "pixel ({x}, {y}) on sun {k}'s rim");
+                }
+                covered[k] += usize::from(sun.covers(d));
+            }
+        }
+    }
+    assert!(
+        covered[0] > 20 && covered[1] == 1 && covered[2] == 0,
+        "{covered:?}"
+    );
+    for (sigma_t, tol) in [(0.0, 1e-5), (4.0, 1e-4)] {
+        let medium = Medium::new(sigma_t, 0.8, 0.3).unwrap();
+        let g = grids(&rbfs, [24; 3], &bbox, &medium, &env, cam.eye);
+        let du = crm::default_slice([24; 3], &bbox);
+        let (_, rel) = compare(&ctx, &g, &medium, &env, &cam, du);
+        assert!(rel < tol, "σt {sigma_t}: {rel}");
+    }
+    // The disks are drawn: without them the images differ.
+    let medium = Medium::new(0.0, 0.8, 0.3).unwrap();
+    let g = grids(&rbfs, [8; 3], &bbox, &medium, &env, cam.eye);
+    let with = view_pass(&ctx, &g, &medium, &env, &cam, 0.05).unwrap();
+    let bare = Environment::sky(Sky::default());
+    let without = view_pass(&ctx, &g, &medium, &bare, &cam, 0.05).unwrap();
+    let brighter = with
+        .iter()
+        .zip(&without)
+        .filter(|(a, b)| a[0] > b[0] + 100.0)
+        .count();
+    assert_eq!(brighter, covered[0] + covered[1]);
 }
 
 #[test]

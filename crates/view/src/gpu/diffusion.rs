@@ -7,7 +7,10 @@
 //! The frame's [`Operators`] (geometry only, computed on the CPU once per frame) are
 //! uploaded once; the medium and the sources enter as scalars and as the
 //! [`SourceBuffer`] that single scattering left, so a new light or medium costs one
-//! compute pass. One workgroup per colour channel forms the system and its scalings
+//! compute pass. The direct light of suns and point lights at the centers — moments `J⁰`,
+//! `J¹` that [`crate::lighting::direct::add_light_moments`] computes on the host in closed
+//! form — is uploaded as a [`DirectBuffer`] and added to the moments formed from the
+//! sources ([`DiffusionPass::run_with`]), as the CPU adds it to its `Sources`. One workgroup per colour channel forms the system and its scalings
 //! (`setup`), runs CGLS in chunks of at least 16 iterations per dispatch (`iterate`: every
 //! dispatch carries on from the state the previous one left in the work buffer, and those
 //! after convergence return at once; at most 64 of them), then forms `J̃ms` (`finish`); a
@@ -25,7 +28,7 @@
 
 use super::{GpuContext, GpuError, SourceBuffer, bind_buffers, buffer_init};
 use crate::Medium;
-use crate::diffusion::{Coefficients, Operators, SolveOptions};
+use crate::diffusion::{Coefficients, Operators, SolveOptions, Sources};
 use std::f64::consts::PI;
 
 /// The shader.
@@ -39,7 +42,7 @@ const MAX_CHUNKS: u32 = 64;
 /// Fewest CGLS iterations per `iterate` dispatch.
 const MIN_CHUNK: u32 = 16;
 
-/// The shader's `Params` uniform, 48 bytes.
+/// The shader's `Params` uniform, 64 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 struct Params {
@@ -55,6 +58,8 @@ struct Params {
     band0: f32,
     band1: f32,
     chunk: u32,
+    direct: u32,
+    _pad: [u32; 3],
 }
 
 /// The shader's `Entry`, 32 bytes.
@@ -172,6 +177,60 @@ impl OperatorBuffers {
     }
 }
 
+/// The direct light of the suns and point lights at the centers on the GPU, as the
+/// diffusion's source moments `J⁰`, `J¹` (direction of propagation) that
+/// [`crate::lighting::direct::add_light_moments`] computes on the host (closed-form
+/// transmittance through the RBFs, cheap beside the solve): per center and channel one
+/// `vec4` `(J⁰, J¹)`, which `setup` and `finish` add to the moments they form from the
+/// [`SourceBuffer`], as the CPU adds them to its `Sources`.
+#[derive(Debug)]
+pub struct DirectBuffer {
+    buffer: wgpu::Buffer,
+    count: usize,
+}
+
+impl DirectBuffer {
+    /// Uploads the moments of `direct` (its escape probabilities are not used). Refuses
+    /// moments of unequal lengths and buffers beyond the device's limits.
+    pub fn upload(ctx: &GpuContext, direct: &Sources) -> Result<DirectBuffer, GpuError> {
+        let n = direct.j0.len();
+        if direct.j1.len() != n {
+            return Err(GpuError::Input(format!(
+                "direct light moments J⁰ for {n} centers, J¹ for {}",
+                direct.j1.len()
+            )));
+        }
+        let mut words: Vec<[f32; 4]> = Vec::with_capacity((3 * n).max(1));
+        for (j0, j1) in direct.j0.iter().zip(&direct.j1) {
+            for c in 0..3 {
+                let v = j1[c];
+                words.push([j0[c] as f32, v[0] as f32, v[1] as f32, v[2] as f32]);
+            }
+        }
+        if words.is_empty() {
+            words.push([0.0; 4]);
+        }
+        ctx.check_storage_size(
+            "the direct light at the centers",
+            std::mem::size_of_val(words.as_slice()) as u64,
+        )?;
+        let buffer = ctx.scoped("direct light upload", || {
+            buffer_init(
+                ctx,
+                "direct light at the centers",
+                bytemuck::cast_slice(&words),
+                wgpu::BufferUsages::STORAGE,
+            )
+        })?;
+        Ok(DirectBuffer { buffer, count: n })
+    }
+
+    /// Centers.
+    pub fn count(&self) -> usize {
+        self.count
+    }
+}
+
 /// How the last solve ended (read back from the GPU).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct DiffusionStats {
@@ -193,6 +252,8 @@ pub struct DiffusionPass {
     iterate: wgpu::ComputePipeline,
     finish: wgpu::ComputePipeline,
     add: wgpu::ComputePipeline,
+    /// Bound in place of a [`DirectBuffer`] when there is none.
+    no_direct: wgpu::Buffer,
     /// `(centers, work buffer)`: the vectors of the last solve (module docs of the shader).
     work: Option<(usize, wgpu::Buffer)>,
 }
@@ -229,6 +290,7 @@ impl DiffusionPass {
                     storage(3, true),
                     storage(4, true),
                     storage(5, true),
+                    storage(6, true),
                 ],
             });
             let pipeline_layout = d.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -255,6 +317,12 @@ impl DiffusionPass {
                 iterate: pipeline("iterate"),
                 finish: pipeline("finish"),
                 add: pipeline("add"),
+                no_direct: buffer_init(
+                    ctx,
+                    "no direct light",
+                    &[0; 16],
+                    wgpu::BufferUsages::STORAGE,
+                ),
                 layout,
                 work: None,
             }
@@ -280,11 +348,35 @@ impl DiffusionPass {
         sources: &SourceBuffer,
         opts: &SolveOptions,
     ) -> Result<(), GpuError> {
+        self.run_with(ctx, ops, medium, sources, None, opts)
+    }
+
+    /// [`DiffusionPass::run`] with the direct light of suns and point lights at the
+    /// centers added to the single-scattering moments (the CPU's
+    /// [`crate::render::add_multiple_scattering`]); refuses moments for another number of
+    /// centers too.
+    pub fn run_with(
+        &mut self,
+        ctx: &GpuContext,
+        ops: &OperatorBuffers,
+        medium: &Medium,
+        sources: &SourceBuffer,
+        direct: Option<&DirectBuffer>,
+        opts: &SolveOptions,
+    ) -> Result<(), GpuError> {
         let n = ops.n;
         if sources.count() != n {
             return Err(GpuError::Input(format!(
                 "sources for {} centers, diffusion operators for {n}",
                 sources.count()
+            )));
+        }
+        if let Some(d) = direct
+            && d.count != n
+        {
+            return Err(GpuError::Input(format!(
+                "direct light for {} centers, diffusion operators for {n}",
+                d.count
             )));
         }
         let Some(k) = Coefficients::of(medium) else {
@@ -326,6 +418,8 @@ impl DiffusionPass {
             band0: (medium.albedo * 2.0 * PI.sqrt()) as f32,
             band1: (medium.albedo * medium.g * (4.0 * PI / 3.0).sqrt()) as f32,
             chunk: MIN_CHUNK.max(opts.max_iterations.div_ceil(MAX_CHUNKS)),
+            direct: u32::from(direct.is_some()),
+            _pad: [0; 3],
         };
         ctx.scoped("diffusion", || {
             let uniform = buffer_init(
@@ -341,6 +435,7 @@ impl DiffusionPass {
                 &ops.index,
                 &ops.entries,
                 &ops.density,
+                direct.map_or(&self.no_direct, |d| &d.buffer),
             ];
             let bind = bind_buffers(ctx, "diffusion", &self.layout, &buffers);
             let mut enc = ctx
@@ -411,7 +506,7 @@ mod tests {
 
     #[test]
     fn layouts_match_the_shader() {
-        assert_eq!(std::mem::size_of::<Params>(), 48);
+        assert_eq!(std::mem::size_of::<Params>(), 64);
         assert_eq!(std::mem::size_of::<Entry>(), 32);
     }
 }

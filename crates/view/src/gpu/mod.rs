@@ -3,18 +3,20 @@
 //! `crates/view/shaders/`, each file named for its CPU twin (`single_scattering.wgsl` ↔
 //! [`crate::lighting::single::single_scattering`], `view_pass.wgsl` ↔
 //! [`crate::render::crm::view_pass`], `volume_pass.wgsl` ↔
-//! [`crate::render::crm::volume_pass`], `diffusion.wgsl` ↔
+//! [`crate::render::crm::volume_pass`], `lights_pass.wgsl` ↔
+//! [`crate::render::lights_pass::lights_pass`], `diffusion.wgsl` ↔
 //! [`crate::render::add_multiple_scattering`]; `sh_basis.wgsl` ↔ [`crate::sh::eval_into`]
 //! is prepended to the shaders that need it). Single scattering leaves the sources at the
 //! centers on the GPU in a [`SourceBuffer`], which the volume pass reads; the volume pass
-//! leaves its grids in a [`GridBuffer`], which the view pass reads — no round trip through
-//! the host. [`renderer::GpuRenderer`] chains the stages into frames.
+//! leaves its grids in a [`GridBuffer`], to which the lights pass adds the suns and point
+//! lights in place and which the view pass reads — no round trip through the host. [`renderer::GpuRenderer`] chains the stages into frames.
 //!
 //! Everything here builds on every platform; at run time a machine without a usable GPU
 //! gets a [`GpuError`] from [`GpuContext::new`], never a panic. Headless Linux machines can
 //! use Mesa's lavapipe, a Vulkan driver on the CPU.
 
 pub mod diffusion;
+pub mod lights_pass;
 pub mod renderer;
 pub mod single_scattering;
 pub mod view_pass;
@@ -396,7 +398,8 @@ impl GpuContext {
 
 /// The grids of a volume pass on the GPU: one `vec4<f32>` per voxel (x fastest), `J̃`
 /// (RGB) in `xyz` and `D` in `w`, over a `dims` grid on `bbox` — what
-/// [`volume_pass::VolumePass`] writes and [`view_pass::ViewPass`] reads. An empty grid
+/// [`volume_pass::VolumePass`] writes, [`lights_pass::LightsPass`] adds to and
+/// [`view_pass::ViewPass`] reads. An empty grid
 /// still has one (zero) voxel of buffer: wgpu binds no empty buffers.
 #[derive(Debug)]
 pub struct GridBuffer {

@@ -10,9 +10,15 @@
 //!    the frame's geometric [`Operators`], computed on the CPU once per frame and kept
 //!    while the frame is unchanged (a new light or medium reuses them); the solve starts
 //!    from the previous frame's solution when the RBF count is unchanged.
+//!    The suns' and point lights' direct light at the centers enters the diffusion as
+//!    source moments computed on the host ([`add_light_moments`], closed form through the
+//!    RBFs) and uploaded with the sources ([`DirectBuffer`]).
 //! 3. **Volume pass**: GPU ([`VolumePass::run_on`], reading the sources where stage 1
 //!    or 2 left them).
-//! 4. **View pass**: GPU ([`ViewPass::dispatch`]); the image stays on the GPU until
+//! 4. **Lights pass**: GPU ([`LightsPass::run_on`], in place on the volume pass's grids):
+//!    the suns and point lights per voxel, shadows marched through the grid's density;
+//!    nothing runs without lights.
+//! 5. **View pass**: GPU ([`ViewPass::dispatch`]); the image stays on the GPU until
 //!    [`ImageBuffer::read`].
 //!
 //! On an adapter that is a CPU (lavapipe) stages 1 and 2 run on the CPU instead
@@ -21,16 +27,20 @@
 //! **Reuse** (the paper's): the sources at the centers depend on the frame, the medium,
 //! the lighting and the SH knobs, not on the camera, so a new camera reuses them; the
 //! grids depend on the eye only through the viewing direction in `J̃(u, d)`, which the
-//! isotropic phase function (`g = 0`: every band above 0 of `J̃ss` and `J̃ms` is zero)
-//! removes, so a new camera with `g = 0` reuses the grids too and runs the view pass only.
+//! isotropic phase function (`g = 0`: every band above 0 of `J̃ss` and `J̃ms` is zero, and
+//! the lights pass's phase `p(s·d)` is 1) removes, so a new camera with `g = 0` reuses the
+//! grids too and runs the view pass only. The lights belong to the environment, whose
+//! generation is part of both keys: new lights recompute the sources and the grids.
 //! A frame is known by the `key` its caller gives ([`GpuFrame`]).
 
-use super::diffusion::{DiffusionPass, DiffusionStats, OperatorBuffers};
+use super::diffusion::{DiffusionPass, DiffusionStats, DirectBuffer, OperatorBuffers};
+use super::lights_pass::LightsPass;
 use super::single_scattering::SingleScatteringPass;
 use super::view_pass::{EnvBuffer, ImageBuffer, ViewPass};
 use super::volume_pass::{Residual, VolumePass};
 use super::{GpuContext, GpuError, GridBuffer, SourceBuffer};
-use crate::diffusion::{DiffusionSolver, Operators};
+use crate::diffusion::{DiffusionSolver, Operators, Sources};
+use crate::lighting::direct::add_light_moments;
 use crate::lighting::single::{RgbSh, ShKit};
 use crate::render::{CrmOptions, CrmStats, slice_thickness, source_radiance};
 use crate::sh;
@@ -134,6 +144,7 @@ pub struct GpuRenderer {
     /// when first needed).
     order: Option<(ShKit, SingleScatteringPass, Option<RgbSh>)>,
     volume: VolumePass,
+    lights: LightsPass,
     view: ViewPass,
     lighting_on: LightingOn,
     diffusion: DiffusionPass,
@@ -156,6 +167,7 @@ impl GpuRenderer {
             lighting: 0,
             order: None,
             volume: VolumePass::new(ctx)?,
+            lights: LightsPass::new(ctx)?,
             view: ViewPass::new(ctx)?,
             lighting_on: LightingOn::default(),
             diffusion: DiffusionPass::new(ctx)?,
@@ -225,7 +237,8 @@ impl GpuRenderer {
     }
 
     /// Adds `J̃ms` to `sources` on the GPU ([`DiffusionPass`]) from the frame's operators,
-    /// computed when the frame is new.
+    /// computed when the frame is new, with the direct light of the environment's suns and
+    /// point lights at the centers (computed here, on the host) in its source.
     fn diffusion_gpu(
         &mut self,
         ctx: &GpuContext,
@@ -246,8 +259,15 @@ impl GpuRenderer {
                 self.operators.insert((frame.key, ops))
             }
         };
+        let direct = if self.env.has_lights() && medium.albedo != 0.0 {
+            let mut moments = Sources::zeros(frame.rbfs.len());
+            add_light_moments(&mut moments, frame.rbfs, &self.env, medium);
+            Some(DirectBuffer::upload(ctx, &moments)?)
+        } else {
+            None
+        };
         self.diffusion
-            .run(ctx, &ops.1, medium, sources, &opts.solve)?;
+            .run_with(ctx, &ops.1, medium, sources, direct.as_ref(), &opts.solve)?;
         self.last_solve = Some((LightingOn::Gpu, DiffusionStats::default()));
         stats.crm.multiple_seconds = t.elapsed().as_secs_f64();
         Ok(())
@@ -343,7 +363,10 @@ impl GpuRenderer {
             }
         };
 
-        // The grids: the eye matters unless the phase function is isotropic.
+        // The grids: the eye matters unless the phase function is isotropic (the lights
+        // pass's phase too: `p = 1` at g = 0; the one voxel it skips, a voxel center the
+        // eye sits on exactly, is left out of this reasoning). The lights are in the key
+        // through the lighting generation.
         let eye = (medium.g != 0.0).then_some(camera.eye);
         let grid_key = (
             SourceKey {
@@ -371,6 +394,10 @@ impl GpuRenderer {
                     camera.eye,
                 )?;
                 stats.crm.volume_seconds = t.elapsed().as_secs_f64();
+                let t = Instant::now();
+                self.lights
+                    .run_on(ctx, &grid, &self.env, medium, camera.eye)?;
+                stats.crm.lights_seconds = t.elapsed().as_secs_f64();
                 &self.grid.insert((grid_key.0, grid_key.1, grid)).2
             }
         };

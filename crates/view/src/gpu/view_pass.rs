@@ -15,8 +15,10 @@
 //! of GPUs interpolate with 8-bit weights, and 32-bit float textures are not filterable
 //! everywhere); the environment as the CPU has it — the built-in sky evaluated
 //! analytically, a lat-long map uploaded texel for texel and looked up bilinearly with
-//! `LatLong::radiance`'s convention — so the background differs from the CPU's by `f32`
-//! rounding only. Coordinates are relative to the box's minimum corner. The grid buffer is
+//! `LatLong::radiance`'s convention — plus the disks of the suns (`Environment::radiance`:
+//! direction, `cos(angle/2)` and radiance per sun), so the background differs from the
+//! CPU's by `f32` rounding only (and, at a disk's rim, by which side of it `f32` puts a
+//! pixel's ray). Coordinates are relative to the box's minimum corner. The grid buffer is
 //! a [`GridBuffer`]: uploaded from CPU [`VolumeGrids`] by [`ViewPass::run`], or left on
 //! the GPU by the volume pass and read by [`ViewPass::run_on`].
 
@@ -48,7 +50,7 @@ struct Params {
     size: [f32; 3],
     env_kind: u32,
     voxel: [f32; 3],
-    _pad0: f32,
+    suns: u32,
     dims: [u32; 3],
     _pad1: u32,
     image: [u32; 2],
@@ -174,7 +176,7 @@ impl ViewPass {
             size: f32x3(bbox.size()),
             env_kind: env.kind,
             voxel: f32x3(grid.voxel_size()),
-            _pad0: 0.0,
+            suns: env.suns,
             dims: dims.map(|n| n as u32),
             _pad1: 0,
             image: [width as u32, height as u32],
@@ -204,7 +206,13 @@ impl ViewPass {
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             });
-            let buffers = [&uniform, grid.buffer(), &env.buffer, &output];
+            let buffers = [
+                &uniform,
+                grid.buffer(),
+                &env.buffer,
+                &output,
+                &env.sun_buffer,
+            ];
             let groups = [groups[0] as u32, groups[1] as u32, 1];
             submit_pass(ctx, &self.pipeline, "view pass", &buffers, groups);
             output
@@ -218,7 +226,8 @@ impl ViewPass {
 }
 
 /// The environment on the GPU as the view pass reads it: the sky's parameters (evaluated
-/// analytically), or a lat-long map's texels.
+/// analytically), or a lat-long map's texels; and the disks of the suns
+/// ([`Environment::radiance`]).
 #[derive(Debug)]
 pub struct EnvBuffer {
     /// 0: sky, 1: lat-long map.
@@ -227,12 +236,52 @@ pub struct EnvBuffer {
     /// The sky (the default for a map, unused).
     sky: crate::env::Sky,
     buffer: wgpu::Buffer,
+    /// Suns with a disk (zero-angle suns have none).
+    suns: u32,
+    /// Per sun `(direction, cos(angle/2))`, `(radiance, 0)`; one zero `vec4` when none.
+    sun_buffer: wgpu::Buffer,
 }
 
 impl EnvBuffer {
-    /// Uploads `env`. Refuses a sky with a negative or non-finite sun sharpness and a map
-    /// beyond the device's limits.
+    /// Uploads `env`. Refuses a sky with a negative or non-finite sun sharpness, suns with
+    /// a non-finite direction, irradiance or angle or a direction that is not a unit
+    /// vector, and a map beyond the device's limits.
     pub fn upload(ctx: &GpuContext, env: &Environment) -> Result<EnvBuffer, GpuError> {
+        let mut disks: Vec<[f32; 4]> = Vec::with_capacity(2 * env.suns.len());
+        for (i, sun) in env.suns.iter().enumerate() {
+            let finite = sun
+                .direction
+                .iter()
+                .chain(&sun.irradiance)
+                .all(|c| c.is_finite())
+                && sun.angle.is_finite();
+            if !finite {
+                return Err(GpuError::Input(format!(
+                    "sun {i} has a non-finite direction {:?}, irradiance {:?} or angle {}",
+                    sun.direction, sun.irradiance, sun.angle
+                )));
+            }
+            let norm = sun.direction.iter().map(|c| c * c).sum::<f64>().sqrt();
+            if (norm - 1.0).abs() > super::lights_pass::UNIT_TOLERANCE {
+                return Err(GpuError::Input(format!(
+                    "sun {i}'s direction {:?} is not a unit vector (length {norm})",
+                    sun.direction
+                )));
+            }
+            if sun.angle <= 0.0 {
+                continue;
+            }
+            let d = f32x3(sun.direction);
+            let l = f32x3(sun.radiance());
+            disks.push([d[0], d[1], d[2], (0.5 * sun.angle).cos() as f32]);
+            disks.push([l[0], l[1], l[2], 0.0]);
+        }
+        let suns = u32::try_from(disks.len() / 2)
+            .map_err(|_| GpuError::Input(format!("{} suns are too many", env.suns.len())))?;
+        if disks.is_empty() {
+            disks.push([0.0; 4]);
+        }
+        ctx.check_storage_size("the suns", std::mem::size_of_val(disks.as_slice()) as u64)?;
         let (kind, size, texels, sky) = match &env.distant {
             Distant::Sky(s) => {
                 if !(s.sharpness >= 0.0 && s.sharpness.is_finite()) {
@@ -251,12 +300,20 @@ impl EnvBuffer {
             ),
         };
         ctx.check_storage_size("the environment map", std::mem::size_of_val(texels) as u64)?;
-        let buffer = ctx.scoped("environment upload", || {
-            buffer_init(
-                ctx,
-                "view pass environment",
-                bytemuck::cast_slice(texels),
-                wgpu::BufferUsages::STORAGE,
+        let (buffer, sun_buffer) = ctx.scoped("environment upload", || {
+            (
+                buffer_init(
+                    ctx,
+                    "view pass environment",
+                    bytemuck::cast_slice(texels),
+                    wgpu::BufferUsages::STORAGE,
+                ),
+                buffer_init(
+                    ctx,
+                    "view pass suns",
+                    bytemuck::cast_slice(&disks),
+                    wgpu::BufferUsages::STORAGE,
+                ),
             )
         })?;
         Ok(EnvBuffer {
@@ -264,6 +321,8 @@ impl EnvBuffer {
             size,
             sky,
             buffer,
+            suns,
+            sun_buffer,
         })
     }
 }

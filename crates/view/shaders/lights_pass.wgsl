@@ -1,0 +1,227 @@
+// Lights pass of the fast renderer: the GPU twin of `render::lights_pass::lights_pass`, in
+// f32, one invocation per voxel center u, in place on the volume pass's grid.
+//
+// Where D(u) > 0, seen along d = (u − eye)/|u − eye|, each light adds
+//
+//     J(u, d) += (Ω/4π)·E(u)·T(u)·p(s·d)
+//
+// with s the unit vector towards the light. A sun: E its irradiance, p the disk-averaged
+// HG (`DiskPhase`: a table over θc ∈ [0, π], linear in θc; exact HG for a zero-angle sun).
+// A point light of intensity I at P: E = I/(|P − u|² + soft), p = HG, and a light at the
+// voxel center itself adds I/soft, isotropic and unshadowed. The transmittance
+// T = exp(−σt·τ) is marched through D (the grid's w, the shadow volume): the midpoint rule
+// over n = ⌈ℓ/h0⌉ equal steps h = ℓ/n, ℓ the distance to the box's face along s (or to a
+// point light inside the box), D trilinear with `field::sample`'s stencil; the march stops
+// once σt·τ > SHADOW_CUTOFF.
+//
+// In place: invocation u writes the xyz (J) words of its own voxel only and reads the
+// w (D) words of any voxel, which nobody writes, so the invocations do not race. The grid
+// is bound as flat f32 words (4 per voxel) so that every access touches one word.
+// Positions are relative to the box's minimum corner (f32 precision far from the origin).
+
+struct Params {
+    // Eye relative to the box's minimum corner.
+    eye: vec3<f32>,
+    sigma_t: f32,
+    voxel: vec3<f32>,
+    // The march's step bound: the smallest voxel side.
+    h0: f32,
+    // Box size (its maximum corner, relative to its minimum).
+    size: vec3<f32>,
+    // A point light's softening a²/3, a half the smallest voxel side.
+    soft: f32,
+    dims: vec3<u32>,
+    suns: u32,
+    points: u32,
+    // HG asymmetry.
+    g: f32,
+    // Ω/4π.
+    k: f32,
+    _pad: u32,
+}
+
+// `lights_pass::SHADOW_CUTOFF`.
+const SHADOW_CUTOFF: f32 = 20.0;
+const PI: f32 = 3.14159265358979;
+const NONE: u32 = 0xffffffffu;
+
+@group(0) @binding(0) var<uniform> p: Params;
+// Eight words per light, suns first: a sun (direction towards it, x y z; its table's first
+// word; irradiance r g b; its table's length, 0 for exact HG), a point light (position
+// relative to the box, x y z; the linear index of the voxel whose center it is, NONE if
+// none; intensity r g b; 0); then the suns' DiskPhase tables. f32 values as their bits.
+@group(0) @binding(1) var<storage, read> lights: array<u32>;
+// Per voxel (x fastest): J̃ r g b, D.
+@group(0) @binding(2) var<storage, read_write> grid: array<f32>;
+
+fn word(i: u32) -> f32 {
+    return bitcast<f32>(lights[i]);
+}
+
+fn light_vec(i: u32) -> vec3<f32> {
+    return vec3<f32>(word(i), word(i + 1u), word(i + 2u));
+}
+
+fn density(i: vec3<u32>) -> f32 {
+    return grid[4u * (i.x + p.dims.x * (i.y + p.dims.y * i.z)) + 3u];
+}
+
+// `field::sample`: D trilinear at box-local q, constant to the faces, zero outside.
+fn sample_density(q: vec3<f32>) -> f32 {
+    let n = p.dims;
+    if !(all(q >= vec3<f32>(0.0)) && all(q <= p.size)) {
+        return 0.0;
+    }
+    let f = clamp(q / p.voxel - 0.5, vec3<f32>(0.0), vec3<f32>(n) - 1.0);
+    let i0 = min(vec3<u32>(floor(f)), max(n, vec3<u32>(2u)) - 2u);
+    let t = f - vec3<f32>(i0);
+    let i1 = min(i0 + 1u, n - 1u);
+    let c00 = mix(density(i0), density(vec3<u32>(i1.x, i0.y, i0.z)), t.x);
+    let c10 = mix(density(vec3<u32>(i0.x, i1.y, i0.z)), density(vec3<u32>(i1.x, i1.y, i0.z)), t.x);
+    let c01 = mix(density(vec3<u32>(i0.x, i0.y, i1.z)), density(vec3<u32>(i1.x, i0.y, i1.z)), t.x);
+    let c11 = mix(density(vec3<u32>(i0.x, i1.y, i1.z)), density(i1), t.x);
+    return mix(mix(c00, c10, t.y), mix(c01, c11, t.y), t.z);
+}
+
+// Distance from u (inside the box) along the unit s to the box's face (`field::ray_box`'s
+// t1); 0 when there is none.
+fn exit_distance(u: vec3<f32>, s: vec3<f32>) -> f32 {
+    var t1 = 3.0e38;
+    for (var a = 0u; a < 3u; a++) {
+        if s[a] == 0.0 {
+            if u[a] < 0.0 || u[a] > p.size[a] {
+                return 0.0;
+            }
+            continue;
+        }
+        let inv = 1.0 / s[a];
+        t1 = min(t1, max(-u[a] * inv, (p.size[a] - u[a]) * inv));
+    }
+    return select(0.0, t1, t1 < 3.0e38);
+}
+
+// `lights_pass::transmittance`: exp(−σt·τ) from u along s to the face or max_len.
+fn transmittance(u: vec3<f32>, s: vec3<f32>, max_len: f32) -> f32 {
+    if p.sigma_t == 0.0 {
+        return 1.0;
+    }
+    let len = min(exit_distance(u, s), max_len);
+    if !(len > 0.0) {
+        return 1.0;
+    }
+    // An integer count: a float one stalls past 2²⁴.
+    let n = u32(max(ceil(len / p.h0), 1.0));
+    let h = len / f32(n);
+    var depth = 0.0;
+    for (var k = 0u; k < n; k++) {
+        let t = (f32(k) + 0.5) * h;
+        depth += p.sigma_t * sample_density(u + t * s) * h;
+        if depth > SHADOW_CUTOFF {
+            break;
+        }
+    }
+    return exp(-depth);
+}
+
+// `medium::hg`, with 1 + g² − 2gc written as (1 − g)² + 2g(1 − c) (no cancellation in
+// 1 + g² − 2g for a forward peak).
+fn hg(c: f32) -> f32 {
+    let g = p.g;
+    let denom = max((1.0 - g) * (1.0 - g) + 2.0 * g * (1.0 - clamp(c, -1.0, 1.0)), 1e-37);
+    return (1.0 - g * g) / (denom * sqrt(denom));
+}
+
+// atan(a) for a in [0, 1], to a few ulp (Cephes' atanf): the built-in atan2 may be off by
+// thousands of ulp (Vulkan allows 4096; lavapipe's is ≈ 1e-5 relative), which the steep
+// table of a forward-scattering phase would turn into 1e-4 of the light.
+fn atan_01(a: f32) -> f32 {
+    var x = a;
+    var y = 0.0;
+    if a > 0.41421356 {
+        // tan(π/8) < a ≤ 1: atan(a) = π/4 + atan((a − 1)/(a + 1)).
+        x = (a - 1.0) / (a + 1.0);
+        y = 0.25 * PI;
+    }
+    let z = x * x;
+    return y + (((8.05374449538e-2 * z - 1.38776856032e-1) * z + 1.99777106478e-1) * z
+        - 3.33329491539e-1) * z * x + x;
+}
+
+// The angle between the unit s and d, as atan2(|s × d|, s·d) — well conditioned near 0
+// and π, where acos is not — with `atan_01`.
+fn angle_between(s: vec3<f32>, d: vec3<f32>) -> f32 {
+    let y = length(cross(s, d));
+    let x = dot(s, d);
+    let big = max(y, abs(x));
+    if !(big > 0.0) {
+        return 0.0;
+    }
+    var r = atan_01(min(y, abs(x)) / big);
+    if y > abs(x) {
+        r = 0.5 * PI - r;
+    }
+    if x < 0.0 {
+        r = PI - r;
+    }
+    return r;
+}
+
+// `DiskPhase::eval` of the table of `len` words at `at`, for the unit s and d.
+fn disk_phase(at: u32, len: u32, s: vec3<f32>, d: vec3<f32>) -> f32 {
+    let c = dot(s, d);
+    if len == 0u {
+        return hg(c);
+    }
+    let theta = angle_between(s, d);
+    let f = clamp(theta / PI, 0.0, 1.0) * f32(len - 1u);
+    let i = min(u32(floor(f)), len - 2u);
+    let t = f - f32(i);
+    return mix(word(at + i), word(at + i + 1u), t);
+}
+
+@compute @workgroup_size(4, 4, 4)
+fn main(@builtin(global_invocation_id) i: vec3<u32>) {
+    if any(i >= p.dims) {
+        return;
+    }
+    let lin = i.x + p.dims.x * (i.y + p.dims.y * i.z);
+    if !(grid[4u * lin + 3u] > 0.0) {
+        return;
+    }
+    let u = (vec3<f32>(i) + 0.5) * p.voxel;
+    let view = u - p.eye;
+    let view_len = length(view);
+    if !(view_len > 0.0) {
+        return;
+    }
+    let d = view / view_len;
+    var add = vec3<f32>(0.0);
+    for (var l = 0u; l < p.suns; l++) {
+        let at = 8u * l;
+        let s = light_vec(at);
+        let t = transmittance(u, s, 3.0e38);
+        if t <= 0.0 {
+            continue;
+        }
+        let phase = disk_phase(lights[at + 3u], lights[at + 7u], s, d);
+        add += light_vec(at + 4u) * (t * phase);
+    }
+    for (var l = 0u; l < p.points; l++) {
+        let at = 8u * (p.suns + l);
+        let v = light_vec(at) - u;
+        let r2 = dot(v, v);
+        let intensity = light_vec(at + 4u);
+        if lights[at + 3u] == lin || !(r2 > 0.0) {
+            // The light at the voxel center: isotropic, unshadowed.
+            add += intensity / p.soft;
+            continue;
+        }
+        let r = sqrt(r2);
+        let s = v / r;
+        let t = transmittance(u, s, r);
+        add += intensity * (t * hg(dot(s, d)) / (r2 + p.soft));
+    }
+    for (var c = 0u; c < 3u; c++) {
+        grid[4u * lin + c] += p.k * add[c];
+    }
+}

@@ -1,0 +1,330 @@
+//! The lights pass on the GPU (`shaders/lights_pass.wgsl`), the twin of
+//! [`crate::render::lights_pass::lights_pass`]: the suns and point lights of the
+//! environment added to the volume pass's grids per voxel, in `f32`, in place on a
+//! [`GridBuffer`].
+//!
+//! One invocation per voxel center `u` with `D(u) > 0` adds, for each light,
+//! `Ω·E(u)·T(u)·p(s·d)/4π` to `J̃` (`d` from the eye to the voxel, `s` towards the light):
+//! the sun's irradiance and disk-averaged phase ([`DiskPhase`]'s table, uploaded; exact HG
+//! for a zero-angle sun), or a point light's `I/(|P − u|² + a²/3)` and HG; the
+//! transmittance `T = exp(−σt·τ)` marched through the grid's `D` (its `w` words) with the
+//! CPU's midpoint rule — `n = ⌈ℓ/h₀⌉` steps to the box's face or to the light, trilinear
+//! `D`, stopping once `σt·τ >` [`SHADOW_CUTOFF`]. The pass writes only the `J̃` words of
+//! its own voxel and reads only `D` words, so it runs in place without races.
+//!
+//! Uploads: the lights, positions relative to the box's minimum corner (as every pass:
+//! `f32` keeps its precision for boxes far from the origin), eight words each, then the
+//! suns' phase tables (512 `f32` per sun with a disk, built once per `(g, angle)` and kept
+//! for the next frames). A point light that sits exactly on a voxel center (in the CPU's
+//! `f64` arithmetic) is flagged with that voxel's index, so the GPU adds the CPU's
+//! isotropic, unshadowed `I/(a²/3)` there even where `f32` rounding puts the two points an
+//! ulp apart.
+//!
+//! Cost: per voxel and light one shadow march of up to `ℓ/h₀` trilinear samples (eight
+//! density reads each); neighbouring invocations march parallel (a sun) or converging (a
+//! point light) rays, so the reads stay coherent.
+
+use super::{GpuContext, GpuError, GridBuffer, buffer_init, compute_pipeline, submit_pass};
+use crate::env::Environment;
+use crate::lights::DiskPhase;
+use crate::medium::{FOUR_PI, Medium};
+use crate::render::crm::VolumeGrids;
+pub use crate::render::lights_pass::SHADOW_CUTOFF;
+use std::sync::Mutex;
+
+/// The shader, `crates/view/shaders/lights_pass.wgsl`.
+pub const SHADER: &str = include_str!("../../shaders/lights_pass.wgsl");
+
+/// Voxels per workgroup side (`@workgroup_size(4, 4, 4)` in the shader).
+const SIDE: usize = 4;
+
+/// Words per light record in the lights buffer.
+const RECORD: usize = 8;
+
+/// How far from 1 the length of a sun's direction may be: `Sun::direction` is a unit
+/// vector, and the shader takes it for one (the CPU's phase and march read it as given).
+pub const UNIT_TOLERANCE: f64 = 1e-6;
+
+/// "No voxel" in a point light's record.
+const NONE: u32 = u32::MAX;
+
+/// The shader's `Params` uniform: WGSL's layout (a `vec3` is 16-byte aligned and the
+/// scalar after it fills its fourth slot), 80 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+struct Params {
+    eye: [f32; 3],
+    sigma_t: f32,
+    voxel: [f32; 3],
+    h0: f32,
+    size: [f32; 3],
+    soft: f32,
+    dims: [u32; 3],
+    suns: u32,
+    points: u32,
+    g: f32,
+    k: f32,
+    _pad: u32,
+}
+
+/// A sun's phase table as uploaded, for the `g` and disk angle it was built for.
+#[derive(Debug)]
+struct Table {
+    g: u64,
+    angle: u64,
+    values: Vec<f32>,
+}
+
+/// The compiled lights pass, reusable across frames; it keeps the suns' phase tables of
+/// the last run.
+#[derive(Debug)]
+pub struct LightsPass {
+    pipeline: wgpu::ComputePipeline,
+    tables: Mutex<Vec<Table>>,
+}
+
+/// The linear index of the voxel whose center is `p` in the CPU's arithmetic
+/// (`bbox.min + (i + ½)·voxel`, `f64`), if one is.
+fn voxel_at(p: [f64; 3], grid: &GridBuffer) -> Option<u32> {
+    let dims = grid.dims();
+    let vs = grid.voxel_size();
+    let min = grid.bbox().min;
+    let mut idx = [0usize; 3];
+    for a in 0..3 {
+        if dims[a] == 0 || vs[a] <= 0.0 {
+            return None;
+        }
+        let f = ((p[a] - min[a]) / vs[a] - 0.5).round();
+        if !(f >= 0.0 && f < dims[a] as f64) {
+            return None;
+        }
+        idx[a] = f as usize;
+        if min[a] + (idx[a] as f64 + 0.5) * vs[a] != p[a] {
+            return None;
+        }
+    }
+    u32::try_from(idx[0] + dims[0] * (idx[1] + dims[1] * idx[2])).ok()
+}
+
+impl LightsPass {
+    /// Compiles the shader and builds the pipeline.
+    pub fn new(ctx: &GpuContext) -> Result<LightsPass, GpuError> {
+        let pipeline = compute_pipeline(ctx, "lights pass pipeline creation", SHADER)?;
+        Ok(LightsPass {
+            pipeline,
+            tables: Mutex::new(Vec::new()),
+        })
+    }
+
+    /// The phase tables of the suns of `env` for `g` (empty for a zero-angle sun), from
+    /// the last run's where they match.
+    fn tables(&self, env: &Environment, g: f64) -> Vec<Vec<f32>> {
+        let mut kept: Vec<Table> = self
+            .tables
+            .lock()
+            .map(|mut t| std::mem::take(&mut *t))
+            .unwrap_or_default();
+        let mut out = Vec::with_capacity(env.suns.len());
+        for sun in &env.suns {
+            let (gb, ab) = (g.to_bits(), sun.angle.to_bits());
+            let i = match kept.iter().position(|t| t.g == gb && t.angle == ab) {
+                Some(i) => i,
+                None => {
+                    let values = DiskPhase::new(g, sun.angle)
+                        .table()
+                        .iter()
+                        .map(|v| *v as f32)
+                        .collect();
+                    kept.push(Table {
+                        g: gb,
+                        angle: ab,
+                        values,
+                    });
+                    kept.len() - 1
+                }
+            };
+            out.push(kept[i].values.clone());
+        }
+        // Keep the tables of these suns only.
+        kept.retain(|t| {
+            t.g == g.to_bits() && env.suns.iter().any(|s| s.angle.to_bits() == t.angle)
+        });
+        if let Ok(mut t) = self.tables.lock() {
+            *t = kept;
+        }
+        out
+    }
+
+    /// Adds the suns and point lights of `env` to the grids on the GPU (those a
+    /// [`VolumePass`](super::volume_pass::VolumePass) wrote, or an upload), the camera at
+    /// `eye`, as [`crate::render::lights_pass::lights_pass`] does on the CPU (submitted,
+    /// not waited for). Without lights, or with albedo 0, nothing is dispatched. Refuses
+    /// lights with non-finite values, a sun direction that is not a unit vector (within
+    /// [`UNIT_TOLERANCE`]), a sun angle outside `[0, π]`, and grids or buffers beyond the
+    /// device's limits.
+    pub fn run_on(
+        &self,
+        ctx: &GpuContext,
+        grid: &GridBuffer,
+        env: &Environment,
+        medium: &Medium,
+        eye: [f64; 3],
+    ) -> Result<(), GpuError> {
+        let dims = grid.dims();
+        if !env.has_lights() || medium.albedo == 0.0 || dims.contains(&0) {
+            return Ok(());
+        }
+        let finite = |v: &[f64]| v.iter().all(|c| c.is_finite());
+        for (i, s) in env.suns.iter().enumerate() {
+            if !(finite(&s.direction) && finite(&s.irradiance)) {
+                return Err(GpuError::Input(format!(
+                    "sun {i} has a non-finite direction {:?} or irradiance {:?}",
+                    s.direction, s.irradiance
+                )));
+            }
+            let norm = s.direction.iter().map(|c| c * c).sum::<f64>().sqrt();
+            if (norm - 1.0).abs() > UNIT_TOLERANCE {
+                return Err(GpuError::Input(format!(
+                    "sun {i}'s direction {:?} is not a unit vector (length {norm})",
+                    s.direction
+                )));
+            }
+            if !(0.0..=std::f64::consts::PI).contains(&s.angle) {
+                return Err(GpuError::Input(format!(
+                    "sun {i}'s angle {} rad is outside [0, π]",
+                    s.angle
+                )));
+            }
+        }
+        for (i, l) in env.points.iter().enumerate() {
+            if !(finite(&l.position) && finite(&l.intensity)) {
+                return Err(GpuError::Input(format!(
+                    "point light {i} has a non-finite position {:?} or intensity {:?}",
+                    l.position, l.intensity
+                )));
+            }
+        }
+        if !finite(&eye) {
+            return Err(GpuError::Input(format!("the eye {eye:?} is not finite")));
+        }
+        let groups = dims.map(|n| n.div_ceil(SIDE));
+        let max_groups = ctx.device.limits().max_compute_workgroups_per_dimension as usize;
+        if groups.iter().any(|&n| n > max_groups) {
+            return Err(GpuError::Input(format!(
+                "a grid of {dims:?} voxels is larger than the device dispatches ({} voxels a side at most)",
+                max_groups * SIDE
+            )));
+        }
+        let count = |n: usize, what: &str| {
+            u32::try_from(n).map_err(|_| GpuError::Input(format!("{n} {what} are too many")))
+        };
+        let suns = count(env.suns.len(), "suns")?;
+        let points = count(env.points.len(), "point lights")?;
+
+        let bbox = grid.bbox();
+        let vs = grid.voxel_size();
+        let h0 = vs[0].min(vs[1]).min(vs[2]);
+        let rel = |p: [f64; 3]| [0, 1, 2].map(|a| ((p[a] - bbox.min[a]) as f32).to_bits());
+        let bits = |v: [f64; 3]| v.map(|c| (c as f32).to_bits());
+
+        // The records, then the tables.
+        let tables = self.tables(env, medium.g);
+        let mut words: Vec<u32> =
+            Vec::with_capacity(RECORD * (env.suns.len() + env.points.len()) + 512 * tables.len());
+        let mut at = RECORD * (env.suns.len() + env.points.len());
+        for (sun, table) in env.suns.iter().zip(&tables) {
+            words.extend(bits(sun.direction));
+            words.push(count(at, "phase table words")?);
+            words.extend(bits(sun.irradiance));
+            words.push(count(table.len(), "phase table entries")?);
+            at += table.len();
+        }
+        for light in &env.points {
+            words.extend(rel(light.position));
+            words.push(voxel_at(light.position, grid).unwrap_or(NONE));
+            words.extend(bits(light.intensity));
+            words.push(0);
+        }
+        for table in &tables {
+            words.extend(table.iter().map(|v| v.to_bits()));
+        }
+        ctx.check_storage_size("the lights", std::mem::size_of_val(words.as_slice()) as u64)?;
+
+        let params = Params {
+            eye: rel(eye).map(f32::from_bits),
+            sigma_t: medium.sigma_t as f32,
+            voxel: vs.map(|v| v as f32),
+            h0: h0 as f32,
+            size: bbox.size().map(|v| v as f32),
+            soft: ((0.5 * h0).powi(2) / 3.0) as f32,
+            dims: dims.map(|n| n as u32),
+            suns,
+            points,
+            g: medium.g as f32,
+            k: (medium.albedo / FOUR_PI) as f32,
+            _pad: 0,
+        };
+        ctx.scoped("the lights pass", || {
+            let uniform = buffer_init(
+                ctx,
+                "lights pass parameters",
+                bytemuck::bytes_of(&params),
+                wgpu::BufferUsages::UNIFORM,
+            );
+            let lights = buffer_init(
+                ctx,
+                "lights",
+                bytemuck::cast_slice(&words),
+                wgpu::BufferUsages::STORAGE,
+            );
+            submit_pass(
+                ctx,
+                &self.pipeline,
+                "lights pass",
+                &[&uniform, &lights, grid.buffer()],
+                groups.map(|n| n as u32),
+            );
+        })
+    }
+
+    /// [`LightsPass::run_on`] CPU grids: uploads them, adds the lights and reads them back.
+    pub fn run(
+        &self,
+        ctx: &GpuContext,
+        grids: &VolumeGrids,
+        env: &Environment,
+        medium: &Medium,
+        eye: [f64; 3],
+    ) -> Result<VolumeGrids, GpuError> {
+        let grid = GridBuffer::upload(ctx, grids)?;
+        self.run_on(ctx, &grid, env, medium, eye)?;
+        grid.read(ctx)
+    }
+}
+
+/// [`crate::render::lights_pass::lights_pass`] on the GPU: compiles the pass, runs it
+/// once on `grids` (uploaded and read back; keep a [`LightsPass`] and chain
+/// [`LightsPass::run_on`] after the volume pass to render frames).
+pub fn lights_pass(
+    ctx: &GpuContext,
+    grids: &mut VolumeGrids,
+    env: &Environment,
+    medium: &Medium,
+    eye: [f64; 3],
+) -> Result<(), GpuError> {
+    *grids = LightsPass::new(ctx)?.run(ctx, grids, env, medium, eye)?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn params_match_the_wgsl_layout() {
+        assert_eq!(std::mem::size_of::<Params>(), 80);
+        assert_eq!(std::mem::offset_of!(Params, dims), 48);
+        assert_eq!(std::mem::offset_of!(Params, suns), 60);
+        assert_eq!(std::mem::offset_of!(Params, k), 72);
+    }
+}
