@@ -409,7 +409,8 @@ pub fn extract_sun(map: &LatLong) -> Option<(Sun, LatLong)> {
     Some((sun, rest))
 }
 
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+/// `a·b`.
+pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 

@@ -28,6 +28,7 @@ use rand_pcg::Pcg64;
 use rayon::prelude::*;
 
 use crate::field::ray_box;
+use crate::lights::dot;
 use crate::medium::{FOUR_PI, Medium, hg, sample_hg_cos};
 use crate::{Camera, Environment, Image, Rgb};
 use rand::RngExt;
@@ -250,10 +251,6 @@ fn direct_light(scene: &Scene<'_>, x: [f64; 3], d: [f64; 3], rng: &mut Pcg64) ->
         }
     }
     out
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 #[cfg(test)]

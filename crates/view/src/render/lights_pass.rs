@@ -15,7 +15,7 @@
 use super::crm::VolumeGrids;
 use crate::env::Environment;
 use crate::field;
-use crate::lights::DiskPhase;
+use crate::lights::{DiskPhase, dot};
 use crate::medium::{FOUR_PI, Medium, hg};
 use haze_volume::Volume;
 use rayon::prelude::*;
@@ -124,8 +124,4 @@ pub fn transmittance(
         }
     }
     (-depth).exp()
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
