@@ -148,7 +148,8 @@ pub struct BakeCli {
     /// rel_l2 (searched by doubling then bisection; each probe is a full fit).
     #[arg(long, value_name = "E")]
     target_error: Option<f64>,
-    /// Most RBFs the --target-error search may choose.
+    /// Most RBFs a frame may have: the --target-error search's ceiling, and where later
+    /// frames stop inserting.
     #[arg(long, value_name = "N", default_value_t = 4096)]
     max_rbfs: usize,
     /// Local minimizer.
@@ -184,8 +185,9 @@ pub struct BakeCli {
     /// RBFs deleted at the start of each later frame.
     #[arg(long, default_value_t = 3)]
     delete: usize,
-    /// Most RBFs inserted in a later frame [default: an eighth of --rbfs, at least 16]. A
-    /// frame that hits it keeps a higher error and is reported.
+    /// Most RBFs inserted in a later frame [default: as many as keep the previous frame's
+    /// RBFs per voxel of smoke as the smoke grows, at least an eighth of --rbfs and 16].
+    /// A frame that hits it keeps a higher error and is reported.
     #[arg(long, value_name = "M")]
     max_insert: Option<usize>,
     /// How later frames get RBFs where the smoke grew: `batch` sizes each round by the
@@ -545,6 +547,7 @@ impl BakeCli {
                     fit,
                     delete: self.delete,
                     max_insert: self.max_insert,
+                    max_rbfs: self.max_rbfs.max(1),
                     threshold: self.threshold,
                     insertion: match self.insertion {
                         InsertionArg::Batch => Insertion::Batch,

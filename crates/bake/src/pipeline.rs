@@ -288,7 +288,7 @@ impl Bake {
         );
         if fit.insertion_capped {
             tracing::warn!(
-                "{}: frame {}: error ratio {:.3} over --threshold {} after inserting {} RBFs, the most a frame may insert (raise --max-insert)",
+                "{}: frame {}: error ratio {:.3} over --threshold {} after inserting {} RBFs, the most this frame may insert (the smoke's growth, --max-insert or --max-rbfs): its detail grows faster than its size, and the residual stores what the RBFs miss",
                 f.path.display(),
                 f.number,
                 fit.error_ratio,

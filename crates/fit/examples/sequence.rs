@@ -2,12 +2,15 @@
 //! inserted, iterations (at half and at full resolution), objective passes and seconds,
 //! then a summary line. `--paper` runs paper A's warm frames (one insertion at a time, at
 //! most 8, full resolution only, per-iteration convergence test) for a before/after.
+//! `--cold-every K` also fits every K-th warm frame from scratch with the warm fit's RBF
+//! count and prints the warm error over the cold one: above 1 is drift that the warm
+//! start added, not the smoke's own growing complexity.
 //!
 //! cargo run --release -p haze-fit --example sequence -- INPUT [--frames A..B] [--rbfs N]
 //!     [--paper] [--coarse auto|on|off] [--insertion batch|single] [--max-insert M]
-//!     [--warm-gain F] [--threshold T]
+//!     [--warm-gain F] [--threshold T] [--cold-every K]
 
-use haze_fit::{Coarse, Insertion, SequenceFitter, SequenceOptions};
+use haze_fit::{Coarse, FitGrid, Insertion, SequenceFitter, SequenceOptions, fit_first_frame};
 use haze_volume::ImportOptions;
 use haze_volume::import::{FrameRange, Sequence};
 use std::path::Path;
@@ -35,17 +38,19 @@ fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some(input) = args.first() else {
         fail(
-            "usage: sequence INPUT [--frames A..B] [--rbfs N] [--paper] [--coarse auto|on|off] [--insertion batch|single] [--max-insert M] [--warm-gain F] [--threshold T]",
+            "usage: sequence INPUT [--frames A..B] [--rbfs N] [--paper] [--coarse auto|on|off] [--insertion batch|single] [--max-insert M] [--warm-gain F] [--threshold T] [--cold-every K]",
         )
     };
     let mut range = FrameRange::default();
     let mut opts = SequenceOptions::default();
+    let mut cold_every = 0usize;
     let mut i = 1;
     while i < args.len() {
         match args[i].as_str() {
             "--frames" => range = value(&args, i),
             "--rbfs" => opts.rbfs = value(&args, i),
             "--threshold" => opts.threshold = value(&args, i),
+            "--cold-every" => cold_every = value(&args, i),
             "--max-insert" => opts.max_insert = Some(value(&args, i)),
             "--warm-gain" => opts.warm.window_gain = value(&args, i),
             "--coarse" => {
@@ -85,12 +90,13 @@ fn main() {
         d[2]
     );
     println!(
-        "| frame | RBFs | +ins | rel_l2 | rms/max | ratio | iterations (coarse) | passes | insert s | seconds |"
+        "| frame | RBFs | +ins | rel_l2 | rms/max | ratio | iterations (coarse) | passes | insert s | seconds | warm/cold |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     let mut fitter = SequenceFitter::new(opts.clone());
     let (mut warm_s, mut rms, mut first_s) = (Vec::new(), Vec::new(), Vec::new());
     let (mut over, mut worst, mut capped, mut moved) = (0, 0.0f64, 0, Vec::new());
+    let mut cold_ratio = Vec::new();
     for k in 0..seq.len() {
         let v = seq
             .load(k)
@@ -98,8 +104,17 @@ fn main() {
         let f = fitter
             .fit(&v)
             .unwrap_or_else(|e| fail(format!("frame {k}: {e}")));
+        let cold = if cold_every > 0 && f.warm_started && k % cold_every == 0 {
+            let g = FitGrid::from_volume(&v).unwrap_or_else(|e| fail(format!("frame {k}: {e}")));
+            let (p, _) = fit_first_frame(&g, f.rbfs.len(), &opts.fit);
+            let (rel, _) = haze_fit::sequence::errors(&g, &p);
+            cold_ratio.push(f.rel_l2 / rel);
+            format!("{:.3}", f.rel_l2 / rel)
+        } else {
+            String::new()
+        };
         println!(
-            "| {} | {} | {} | {:.4} | {:.2} % | {:.3} | {} ({}) | {} | {:.2} | {:.2} |",
+            "| {} | {} | {} | {:.4} | {:.2} % | {:.3} | {} ({}) | {} | {:.2} | {:.2} | {cold} |",
             seq.frames()[k].number,
             f.rbfs.len(),
             f.inserted,
@@ -134,4 +149,12 @@ fn main() {
         median(rms) * 100.0,
         moved.iter().sum::<f64>() / moved.len().max(1) as f64,
     );
+    if !cold_ratio.is_empty() {
+        println!(
+            "warm over cold at the same RBF count: median {:.3}, max {:.3} ({} frames)",
+            median(cold_ratio.clone()),
+            cold_ratio.iter().copied().fold(f64::NAN, f64::max),
+            cold_ratio.len()
+        );
+    }
 }

@@ -15,10 +15,16 @@
 //! lowers `ΣR²` most, rather than on the largest single voxel) and then minimized
 //! jointly with the rest. Rounds repeat until the ratio holds, or a round removes less
 //! than [`MIN_ROUND_GAIN`] of the excess error (the error left is finer than an RBF can
-//! reach: the residual's job); the per-frame cap (by default an eighth of the first
-//! frame's count, 4.6× the paper's 8 at 300 RBFs) bounds the cost of a frame where the
-//! smoke turns turbulent faster than RBFs can follow. A frame left over the threshold
-//! either way is reported and logged.
+//! reach: the residual's job). The per-frame cap follows the smoke: a frame may add as
+//! many RBFs as keep the previous frame's RBFs per voxel of smoke ([`smoke_support`])
+//! over its grown support, and at least an eighth of the first frame's count (4.6× the
+//! paper's 8 at 300 RBFs) for smoke that changes shape without growing; no frame grows
+//! past [`SequenceOptions::max_rbfs`]. The cap bounds
+//! the cost of a frame where the smoke turns turbulent faster than its size grows: on
+//! such smoke a fit from scratch with the same RBF count is no better (BENCHMARKS.md),
+//! the first frame's error is out of reach of any RBF count a renderer would take, and
+//! the residual stores the rest. A frame left over the threshold either way is reported
+//! and logged.
 //!
 //! Warm minimizations stop by the windowed test of [`Stop`]: a warm start sits near its
 //! optimum, and the last iterations of a tight per-iteration test buy nothing visible.
@@ -44,9 +50,13 @@ pub struct SequenceOptions {
     pub rbfs: usize,
     /// RBFs deleted at the start of each later frame (paper: 3).
     pub delete: usize,
-    /// Most RBFs inserted per later frame (paper: 8); `None`: an eighth of the first
-    /// frame's count (37 for 300), at least [`MIN_AUTO_INSERT`].
+    /// Most RBFs inserted per later frame (paper: 8); `None`: [`auto_insert_cap`] (the
+    /// smoke's growth, at least an eighth of the first frame's count).
     pub max_insert: Option<usize>,
+    /// Most RBFs a frame may have: insertion stops there (a frame over the threshold is
+    /// then reported as capped).
+    #[serde(default = "default_max_rbfs")]
+    pub max_rbfs: usize,
     /// Insert while rel_l2 / first frame's rel_l2 exceeds this (paper: 1.05–1.2).
     pub threshold: f64,
     /// How RBFs are inserted.
@@ -56,8 +66,50 @@ pub struct SequenceOptions {
     pub warm: Stop,
 }
 
+/// The default of [`SequenceOptions::max_rbfs`]: paper A's "a few thousand".
+pub const DEFAULT_MAX_RBFS: usize = 4096;
+
+fn default_max_rbfs() -> usize {
+    DEFAULT_MAX_RBFS
+}
+
 /// The automatic insertion cap's floor, for frames with few RBFs.
 pub const MIN_AUTO_INSERT: usize = 16;
+
+/// Smoke is where the density exceeds this share of the frame's peak ([`smoke_support`]).
+pub const SUPPORT_LEVEL: f64 = 0.01;
+
+/// Voxels of smoke: the density above [`SUPPORT_LEVEL`] of the frame's peak. The measure of
+/// the smoke's size that the automatic insertion cap follows; thin wisps below 1 % of the
+/// peak barely change the fit's error.
+pub fn smoke_support(grid: &FitGrid) -> usize {
+    grid.nonzero
+        .iter()
+        .filter(|&&i| grid.density[i] > SUPPORT_LEVEL)
+        .count()
+}
+
+/// The automatic per-frame insertion cap: the RBFs that keep `n_previous` RBFs per voxel
+/// of smoke when its support grows from `support_previous` to `support` voxels, plus the
+/// `deleted` ones, and at least an eighth of the first frame's `rbfs` (never below
+/// [`MIN_AUTO_INSERT`]) for smoke that changes shape without growing.
+pub fn auto_insert_cap(
+    rbfs: usize,
+    n_previous: usize,
+    support_previous: usize,
+    support: usize,
+    deleted: usize,
+) -> usize {
+    let floor = (rbfs / 8).max(MIN_AUTO_INSERT);
+    if support_previous == 0 || support <= support_previous {
+        return floor;
+    }
+    // ⌈n·(s − s₀)/s₀⌉ in integers: exact where a float product rounds up a whole count.
+    let grown = (n_previous as u128 * (support - support_previous) as u128)
+        .div_ceil(support_previous as u128);
+    let follow = usize::try_from(grown).unwrap_or(usize::MAX);
+    follow.saturating_add(deleted).max(floor)
+}
 
 /// An insertion round must remove at least this share of the excess error
 /// (`rel_l2 − target`) for another round to follow; below it the frame is reported as
@@ -82,6 +134,7 @@ impl Default for SequenceOptions {
             rbfs: 300,
             delete: 3,
             max_insert: None,
+            max_rbfs: DEFAULT_MAX_RBFS,
             threshold: 1.1,
             insertion: Insertion::default(),
             warm: Stop {
@@ -133,6 +186,10 @@ pub struct FrameFit {
     /// Insertion rounds.
     #[serde(default)]
     pub insert_rounds: usize,
+    /// The most RBFs this frame could insert (`--max-insert`, or [`auto_insert_cap`],
+    /// within [`SequenceOptions::max_rbfs`]); 0 for a first frame.
+    #[serde(default)]
+    pub insert_cap: usize,
     /// rel_l2 over the first frame's rel_l2 (1 for a first frame).
     pub error_ratio: f64,
     /// The insertion cap was reached with the ratio still above the threshold.
@@ -174,6 +231,8 @@ pub struct SequenceFitter {
     previous: Option<Vec<Rbf>>,
     /// rel_l2 and insertion radius (world units) of the current run's first frame.
     first: Option<(f64, f64)>,
+    /// [`smoke_support`] of the last fitted frame.
+    support: Option<usize>,
 }
 
 /// What a [`SequenceFitter`] carries from one frame to the next: enough to continue an
@@ -184,6 +243,10 @@ pub struct FitterState {
     pub previous: Option<Vec<Rbf>>,
     /// rel_l2 and insertion radius (world units) of the current run's first frame.
     pub first: Option<(f64, f64)>,
+    /// [`smoke_support`] of the last fitted frame (absent in journals of older bakes: the
+    /// next frame's cap then takes the floor).
+    #[serde(default)]
+    pub support: Option<usize>,
 }
 
 impl SequenceFitter {
@@ -197,6 +260,7 @@ impl SequenceFitter {
             opts,
             previous: state.previous,
             first: state.first,
+            support: state.support,
         }
     }
 
@@ -205,6 +269,7 @@ impl SequenceFitter {
         FitterState {
             previous: self.previous.clone(),
             first: self.first,
+            support: self.support,
         }
     }
 
@@ -228,6 +293,7 @@ impl SequenceFitter {
         };
         out.fit_seconds = start.elapsed().as_secs_f64();
         self.previous = Some(out.rbfs.clone());
+        self.support = Some(smoke_support(&grid));
         Ok(out)
     }
 
@@ -279,7 +345,17 @@ impl SequenceFitter {
         };
         let target = first_rel * o.threshold;
         let radius = radius_world / grid.unit;
-        let cap = o.max_insert.unwrap_or((o.rbfs / 8).max(MIN_AUTO_INSERT));
+        let cap = o.max_insert.unwrap_or_else(|| {
+            let support_previous = self.support.unwrap_or(0);
+            auto_insert_cap(
+                o.rbfs,
+                prev.len(),
+                support_previous,
+                smoke_support(grid),
+                deleted,
+            )
+        });
+        let cap = cap.min(o.max_rbfs.saturating_sub(params.len() / PARAMS_PER_RBF));
         let (mut inserted, mut rounds) = (0, 0);
         let insert_start = Instant::now();
         while ratio(rel_l2) > o.threshold && inserted < cap {
@@ -313,6 +389,7 @@ impl SequenceFitter {
         f.deleted = deleted;
         f.inserted = inserted;
         f.insert_rounds = rounds;
+        f.insert_cap = cap;
         if rounds > 0 {
             f.insert_seconds = insert_start.elapsed().as_secs_f64();
         }
@@ -353,6 +430,7 @@ fn empty_fit() -> FrameFit {
         deleted: 0,
         inserted: 0,
         insert_rounds: 0,
+        insert_cap: 0,
         error_ratio: 1.0,
         insertion_capped: false,
         insertion_stalled: false,
@@ -387,7 +465,7 @@ fn finish(
 
 #[cfg(test)]
 mod tests {
-    use super::{batch_size, errors, errors_from_cost};
+    use super::{auto_insert_cap, batch_size, errors, errors_from_cost, smoke_support};
     use crate::grid::FitGrid;
     use crate::objective;
     use haze_volume::{Bbox, Volume};
@@ -407,6 +485,36 @@ mod tests {
         assert!((rel - rel2).abs() < 1e-12 && (rms - rms2).abs() < 1e-12);
         let empty = FitGrid::from_volume(&Volume::zeros([2, 2, 2], b).unwrap()).unwrap();
         assert_eq!(errors_from_cost(&empty, 0.5), (0.0, 0.0));
+    }
+
+    /// The automatic cap keeps the RBFs per voxel of smoke: support ×2 from 300 RBFs
+    /// allows 300 more (+ the deleted); smoke that shrinks, keeps its size or had none
+    /// gets the floor, an eighth of the first frame's count or 16.
+    #[test]
+    fn insertion_cap_follows_the_smoke() {
+        assert_eq!(auto_insert_cap(300, 300, 1000, 2000, 3), 303);
+        assert_eq!(auto_insert_cap(300, 600, 1000, 1100, 3), 63);
+        assert_eq!(auto_insert_cap(300, 300, 1000, 1010, 3), 37);
+        assert_eq!(auto_insert_cap(300, 300, 1000, 900, 3), 37);
+        assert_eq!(auto_insert_cap(300, 300, 1000, 1000, 3), 37);
+        assert_eq!(auto_insert_cap(300, 300, 0, 1000, 3), 37);
+        assert_eq!(auto_insert_cap(40, 40, 100, 100, 0), 16);
+    }
+
+    /// The support counts voxels above 1 % of the peak, by brute force over the grid.
+    #[test]
+    fn support_counts_voxels_above_a_hundredth_of_the_peak() {
+        let b = Bbox::new([0.0; 3], [4.0, 4.0, 4.0]);
+        let mut v = Volume::zeros([4, 4, 4], b).unwrap();
+        for (i, d) in v.data_mut().iter_mut().enumerate() {
+            *d = 2.0 * (i as f32 / 63.0).powi(4);
+        }
+        let g = FitGrid::from_volume(&v).unwrap();
+        let brute = v.data().iter().filter(|&&d| d / 2.0 > 0.01).count();
+        assert_eq!(smoke_support(&g), brute);
+        assert!(brute > 10 && brute < 64);
+        let empty = FitGrid::from_volume(&Volume::zeros([2, 2, 2], b).unwrap()).unwrap();
+        assert_eq!(smoke_support(&empty), 0);
     }
 
     /// The round size inverts `rel_l2 ∝ n^(−1/3)`: `n` RBFs at rel_l2 `e` reach `e/k`

@@ -2,6 +2,7 @@
 //! sequences on the bundled frames.
 
 use haze_fit::objective::PARAMS_PER_RBF;
+use haze_fit::sequence::{auto_insert_cap, smoke_support};
 use haze_fit::{
     Bounds, FitGrid, FitOptions, Optimizer, SequenceFitter, SequenceOptions, fit_first_frame,
 };
@@ -245,6 +246,8 @@ fn sequence_error_ratio_stays_within_threshold_or_is_reported() {
     };
     let mut fitter = SequenceFitter::new(opts.clone());
     let mut first_count = 0;
+    let support = |n| smoke_support(&FitGrid::from_volume(&frame(n)).unwrap());
+    let mut previous_count = 0;
     for (k, n) in (21..=25).enumerate() {
         let f = fitter.fit(&frame(n)).unwrap();
         if k == 0 {
@@ -259,10 +262,13 @@ fn sequence_error_ratio_stays_within_threshold_or_is_reported() {
             let reported = f.insertion_capped || f.insertion_stalled;
             assert_eq!(reported, f.error_ratio > opts.threshold, "frame {n}");
             assert!(!(f.insertion_capped && f.insertion_stalled));
-            assert!(f.inserted <= 16, "automatic cap: max(120 / 8, 16)");
+            let cap = auto_insert_cap(120, previous_count, support(n - 1), support(n), 3);
+            assert_eq!(f.insert_cap, cap, "frame {n}");
+            assert!(f.inserted <= cap, "frame {n}");
             assert!(f.mean_center_displacement.is_some());
         }
         assert!(f.rel_l2 > 0.0 && f.rel_l2 < 0.5);
+        previous_count = f.rbfs.len();
     }
     assert_eq!(first_count, 120);
     // An empty frame in the middle gives no RBFs and the next frame starts afresh.
@@ -377,6 +383,16 @@ fn a_cap_that_is_hit_is_reported() {
     fitter.fit(&blobs(32, &first)).unwrap();
     let f = fitter.fit(&blobs(32, &doubled)).unwrap();
     assert_eq!(f.inserted, 1);
+    assert!(f.insertion_capped && f.error_ratio > 1.1);
+    // So is the ceiling on a frame's RBF count, whatever the smoke's growth asks for.
+    let mut fitter = SequenceFitter::new(SequenceOptions {
+        max_rbfs: 6,
+        ..drift_options()
+    });
+    fitter.fit(&blobs(32, &first)).unwrap();
+    let f = fitter.fit(&blobs(32, &doubled)).unwrap();
+    assert_eq!(f.rbfs.len(), 6);
+    assert_eq!(f.insert_cap, 6 - (4 - 3));
     assert!(f.insertion_capped && f.error_ratio > 1.1);
 }
 
