@@ -5,7 +5,7 @@
 //! cargo run --release --example crm_accuracy -- VOLUME [--size WxH] [--spp N]
 //!     [--sigma-t S] [--albedo A] [--g G] [--rbfs N] [--eye X,Y,Z --target X,Y,Z]
 //!     [--sun-map ELEV,AZIM,ANGLE,RATIO [--no-sun-extraction]]
-//!     [--table fig6|order|rbfs|slices|cg|sun|all]
+//!     [--table fig6|order|rbfs|slices|cg|sun|reference|all]
 //! ```
 //!
 //! VOLUME is one density frame (any format `haze` imports). It is fitted with `--rbfs`
@@ -18,7 +18,9 @@
 //! plus the exact sun, the same light sampled without noise from the disk. Errors are
 //! `rel_rms` (DESIGN.md) over the pixels where the smoke blocks at least 2 % of the
 //! background, against the reference renderer at `--spp` samples per pixel (its own
-//! noise, two seeds, is printed for scale).
+//! noise, two seeds, is printed for scale). `--table reference` measures only the
+//! reference's own noise under the light the fast renderer gets (no fit), with and
+//! without importance sampling of the environment.
 
 use haze_fit::{SequenceFitter, SequenceOptions};
 use haze_view::diffusion::SolveOptions;
@@ -110,7 +112,7 @@ fn parse() -> Result<Args, String> {
         }
     }
     if a.input.is_empty() {
-        return Err("usage: crm_accuracy VOLUME [--size WxH] [--spp N] [--sigma-t S] [--albedo A] [--g G] [--rbfs N] [--eye X,Y,Z --target X,Y,Z] [--sun-map ELEV,AZIM,ANGLE,RATIO [--no-sun-extraction]] [--table fig6|order|rbfs|slices|cg|sun|all]".into());
+        return Err("usage: crm_accuracy VOLUME [--size WxH] [--spp N] [--sigma-t S] [--albedo A] [--g G] [--rbfs N] [--eye X,Y,Z --target X,Y,Z] [--sun-map ELEV,AZIM,ANGLE,RATIO [--no-sun-extraction]] [--table fig6|order|rbfs|slices|cg|sun|reference|all]".into());
     }
     Ok(a)
 }
@@ -194,14 +196,6 @@ fn main() {
         eprintln!("{e}");
         std::process::exit(1)
     });
-    let rbfs = fit(&density, a.rbfs);
-    let approx = rbf_volume(&rbfs, density.dims(), *density.bbox()).expect("grid");
-    let residual: Vec<f32> = density
-        .data()
-        .iter()
-        .zip(approx.data())
-        .map(|(d, x)| d - x)
-        .collect();
     let peak = density.data().iter().fold(0.0f32, |m, &d| m.max(d));
     let bbox = density
         .occupied_bbox(0.01 * peak)
@@ -239,6 +233,42 @@ fn main() {
             (env, ref_env)
         }
     };
+    if a.table == "reference" {
+        let d = density.dims();
+        println!(
+            "# {} ({}×{}×{}), {}×{}, σt {}, albedo {}, g {}, {}",
+            a.input,
+            d[0],
+            d[1],
+            d[2],
+            a.size.0,
+            a.size.1,
+            a.sigma_t,
+            a.albedo,
+            a.g,
+            match (a.sun_map, env.suns.is_empty()) {
+                (None, _) => "sky".to_string(),
+                (Some(s), whole) => format!(
+                    "sun map (elevation {}°, azimuth {}°, {}°, {}× the zenith), {}",
+                    s[0],
+                    s[1],
+                    s[2],
+                    s[3],
+                    if whole { "whole" } else { "sun split off" }
+                ),
+            }
+        );
+        reference_noise(&density, &medium, &env, &camera, a.spp);
+        return;
+    }
+    let rbfs = fit(&density, a.rbfs);
+    let approx = rbf_volume(&rbfs, density.dims(), *density.bbox()).expect("grid");
+    let residual: Vec<f32> = density
+        .data()
+        .iter()
+        .zip(approx.data())
+        .map(|(d, x)| d - x)
+        .collect();
     let white = Environment::map(LatLong::new(4, 2, vec![[1.0; 3]; 8]).expect("map"));
     let t_only = reference::render(
         &density,
@@ -462,6 +492,40 @@ fn main() {
                 s.cg_residual,
                 err(&img, &final_ref, &scene.mask),
                 s.multiple_seconds
+            );
+        }
+    }
+}
+
+/// The reference renderer's own noise (`render_with_noise`: two half-runs, DESIGN.md's
+/// mask, what `haze render --reference` prints) under the light the user gives (`env`:
+/// the sky, or the map with its sun split off or, with `--no-sun-extraction`, whole),
+/// both estimators, with the environment importance-sampled (MIS) and without.
+fn reference_noise(
+    density: &Volume,
+    medium: &Medium,
+    env: &Environment,
+    camera: &Camera,
+    spp: u32,
+) {
+    println!("\n| estimator | environment sampling | spp | noise | s |");
+    println!("|---|---|---|---|---|");
+    for multiple in [false, true] {
+        for env_sampling in [false, true] {
+            let opts = RefOptions {
+                spp,
+                multiple,
+                env_sampling,
+                ..RefOptions::default()
+            };
+            let t = Instant::now();
+            let (_, noise) = reference::render_with_noise(density, medium, env, camera, &opts);
+            println!(
+                "| {} | {} | {spp} | {} | {:.1} |",
+                if multiple { "paths" } else { "single" },
+                if env_sampling { "MIS" } else { "phase only" },
+                noise.map_or("-".to_string(), |n| format!("{:.2} %", 100.0 * n)),
+                t.elapsed().as_secs_f64()
             );
         }
     }

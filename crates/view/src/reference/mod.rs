@@ -11,12 +11,19 @@
 //! - `= true`: every order up to [`RefOptions::max_bounces`] by volumetric path tracing
 //!   (`path.rs`).
 //!
+//! At every scattering point both estimators sample the suns and point lights explicitly
+//! and, with [`RefOptions::env_sampling`], the distant environment too: a direction from
+//! the map's luminance combined with the phase-sampled one by multiple importance
+//! sampling (`env_sampling.rs`), so that neither a small bright region of the map nor a
+//! sharp forward phase function leaves rare, huge samples.
+//!
 //! Transmittances are exact (`track.rs`: the optical depth of the trilinear field along a
 //! ray is integrated exactly piece by piece) and collisions are sampled by inverting it, so the
 //! only noise is that of the scattering events and the light directions. One ray per pixel,
 //! through its center (DESIGN.md); each pixel draws from its own generator, seeded from
 //! [`RefOptions::seed`] and the pixel index, so images do not depend on the thread count.
 
+mod env_sampling;
 mod path;
 mod single;
 mod track;
@@ -31,6 +38,7 @@ use crate::field::ray_box;
 use crate::lights::dot;
 use crate::medium::{FOUR_PI, Medium, hg, sample_hg_cos};
 use crate::{Camera, Environment, Image, Rgb};
+use env_sampling::{EnvSampler, power_heuristic};
 use rand::RngExt;
 
 /// Sample counts and switches of the reference renderer.
@@ -50,6 +58,11 @@ pub struct RefOptions {
     /// Path tracing: the most scattering events of a path; paths needing more contribute
     /// nothing (the only bias, and the energy lost is the probability of such paths).
     pub max_bounces: u32,
+    /// Importance-sample the distant environment at every scattering point, combined with
+    /// phase sampling by MIS (`env_sampling.rs`); `false` samples the phase function only
+    /// (the estimator before it, for comparisons). A map of constant luminance is sampled
+    /// by the phase function either way.
+    pub env_sampling: bool,
 }
 
 impl Default for RefOptions {
@@ -66,6 +79,7 @@ impl Default for RefOptions {
             seed: 0x6861_7a65,
             multiple: true,
             max_bounces: 256,
+            env_sampling: true,
         }
     }
 }
@@ -76,6 +90,8 @@ pub(crate) struct Scene<'a> {
     pub volume: &'a Volume,
     pub medium: &'a Medium,
     pub env: &'a Environment,
+    /// The distribution the distant environment is sampled from, if it is.
+    pub sampler: Option<&'a EnvSampler>,
 }
 
 impl<'a> Scene<'a> {
@@ -87,6 +103,24 @@ impl<'a> Scene<'a> {
             d,
         }
     }
+
+    /// `exp(−τ)` from `x` along the unit `w` over the distance `len` (∞: to the box's exit).
+    fn transmittance(&self, x: [f64; 3], w: [f64; 3], len: f64) -> f64 {
+        match ray_box(x, w, self.volume.bbox()) {
+            Some((a, b)) if a < len => (-self.track(x, w).depth(a, b.min(len))).exp(),
+            _ => 1.0,
+        }
+    }
+}
+
+/// The sampler of `env`'s distant radiance the estimators use under `opts`: none without
+/// [`RefOptions::env_sampling`], for a map without light, or for one of constant
+/// luminance.
+fn sampler_for(env: &Environment, opts: &RefOptions) -> Option<EnvSampler> {
+    if !opts.env_sampling {
+        return None;
+    }
+    EnvSampler::for_distant(&env.distant).filter(|s| !s.is_uniform())
 }
 
 /// Renders `volume` lit by `env`, one ray per pixel center, `opts.spp` samples each, in
@@ -98,11 +132,18 @@ pub fn render(
     camera: &Camera,
     opts: &RefOptions,
 ) -> Image {
+    let sampler = sampler_for(env, opts);
     let scene = Scene {
         volume,
         medium,
         env,
+        sampler: sampler.as_ref(),
     };
+    render_scene(&scene, camera, opts)
+}
+
+/// [`render`] of a scene whose sampler is built.
+fn render_scene(scene: &Scene<'_>, camera: &Camera, opts: &RefOptions) -> Image {
     let (w, h) = (camera.width, camera.height);
     let mut image = Image::new(w, h);
     image
@@ -114,9 +155,9 @@ pub fn render(
                 let mut rng = pixel_rng(opts.seed, (y * w + x) as u64);
                 let d = camera.pixel_ray(x, y);
                 let l = if opts.multiple {
-                    path::radiance(&scene, camera.eye, d, opts, &mut rng)
+                    path::radiance(scene, camera.eye, d, opts, &mut rng)
                 } else {
-                    single::radiance(&scene, camera.eye, d, opts, &mut rng)
+                    single::radiance(scene, camera.eye, d, opts, &mut rng)
                 };
                 *px = l.map(|c| c as f32);
             }
@@ -144,11 +185,16 @@ pub fn render_with_noise(
         spp: opts.spp.div_ceil(2),
         ..*opts
     };
-    let a = render(volume, medium, env, camera, &half);
-    let b = render(
+    let sampler = sampler_for(env, opts);
+    let scene = Scene {
         volume,
         medium,
         env,
+        sampler: sampler.as_ref(),
+    };
+    let a = render_scene(&scene, camera, &half);
+    let b = render_scene(
+        &scene,
         camera,
         &RefOptions {
             seed: opts.seed ^ 0x5eed_0001,
@@ -226,13 +272,9 @@ fn hg_direction(d: [f64; 3], g: f64, u1: f64, u2: f64) -> [f64; 3] {
 fn direct_light(scene: &Scene<'_>, x: [f64; 3], d: [f64; 3], rng: &mut Pcg64) -> Rgb {
     let g = scene.medium.g;
     let mut out = [0.0f64; 3];
-    let transmittance = |w: [f64; 3], len: f64| match ray_box(x, w, scene.volume.bbox()) {
-        Some((a, b)) if a < len => (-scene.track(x, w).depth(a, b.min(len))).exp(),
-        _ => 1.0,
-    };
     for sun in &scene.env.suns {
         let w = sun.sample_direction(rng.random(), rng.random());
-        let k = transmittance(w, f64::INFINITY) * hg(g, dot(w, d)) / FOUR_PI;
+        let k = scene.transmittance(x, w, f64::INFINITY) * hg(g, dot(w, d)) / FOUR_PI;
         for (o, e) in out.iter_mut().zip(sun.irradiance) {
             *o += e * k;
         }
@@ -245,7 +287,7 @@ fn direct_light(scene: &Scene<'_>, x: [f64; 3], d: [f64; 3], rng: &mut Pcg64) ->
         }
         let r = r2.sqrt();
         let w = v.map(|c| c / r);
-        let k = transmittance(w, r) * hg(g, dot(w, d)) / (FOUR_PI * r2);
+        let k = scene.transmittance(x, w, r) * hg(g, dot(w, d)) / (FOUR_PI * r2);
         for (o, i) in out.iter_mut().zip(light.intensity) {
             *o += i * k;
         }
@@ -253,5 +295,36 @@ fn direct_light(scene: &Scene<'_>, x: [f64; 3], d: [f64; 3], rng: &mut Pcg64) ->
     out
 }
 
+/// One estimate of the distant environment's light scattered at `x` towards a viewer
+/// looking along `d`, divided by the albedo:
+/// `(1/4π)∫ p(ω·d)·T(x, ω)·L_distant(ω) dω`. With a sampler, one phase-sampled and one
+/// map-sampled direction combined by the power heuristic (`env_sampling.rs`); without,
+/// the phase-sampled direction alone (its density cancels the phase function).
+fn distant_light(scene: &Scene<'_>, x: [f64; 3], d: [f64; 3], rng: &mut Pcg64) -> Rgb {
+    let g = scene.medium.g;
+    let w = hg_direction(d, g, rng.random(), rng.random());
+    let Some(sampler) = scene.sampler else {
+        let k = scene.transmittance(x, w, f64::INFINITY);
+        return scene.env.distant.radiance(w).map(|c| c * k);
+    };
+    // Phase sample: f/q_p = T·L, weighted against the map's density there.
+    let q_p = hg(g, dot(w, d)) / FOUR_PI;
+    let k = power_heuristic(q_p, sampler.pdf(w)) * scene.transmittance(x, w, f64::INFINITY);
+    let mut out = scene.env.distant.radiance(w).map(|c| c * k);
+    // Map sample: f/q_e = p/4π·T·L/q_e, weighted against the phase density there.
+    let (w, q_e) = sampler.sample(rng.random(), rng.random());
+    let l = scene.env.distant.radiance(w);
+    if l.iter().any(|c| *c > 0.0) {
+        let q_p = hg(g, dot(w, d)) / FOUR_PI;
+        let k = power_heuristic(q_e, q_p) * q_p / q_e * scene.transmittance(x, w, f64::INFINITY);
+        for c in 0..3 {
+            out[c] += l[c] * k;
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod mis_tests;
 #[cfg(test)]
 mod tests;

@@ -12,19 +12,28 @@
 //!
 //! Each path is an unbiased estimate of the Neumann series of the radiative transfer
 //! equation truncated after `max_bounces` scattering events: paths needing more contribute
-//! 0, which is the only bias. The distant environment is not sampled at collisions (no
-//! next-event estimation): under a smooth environment a path reaches it by itself with low
-//! variance. Suns and point lights are: at every collision the path adds
-//! `weight·(E·T_light·p/4π)` per light (`super::direct_light`), and a path that leaves
-//! the box after a collision collects the distant radiance only (a sun's disk was
+//! 0, which is the only bias. Suns and point lights are sampled at every collision: the
+//! path adds `weight·(E·T_light·p/4π)` per light (`super::direct_light`), and a path that
+//! leaves the box after a collision collects the distant radiance only (a sun's disk was
 //! counted by the explicit sample); the camera ray itself sees the disks.
+//!
+//! With an environment sampler (`env_sampling.rs`) the distant radiance is collected by
+//! both ends at once, by MIS: at every collision a direction `ω_e` drawn from the map
+//! (density `q_e`) adds `weight·w_e·(p(ω_e·d)/4π)·T_light·L/q_e` (next-event estimation),
+//! and the path that leaves the box after a collision, along the direction `ω` its last
+//! phase sample drew with density `q_p`, collects `weight·w_p·L(ω)` instead of
+//! `weight·L(ω)`; `w_e = q_e²/(q_e² + q_p²)` and `w_p = q_p²/(q_p² + q_e²)` (power
+//! heuristic), evaluated at the same direction sum to 1, so each path length keeps its
+//! expectation. Without a sampler the distant radiance is reached by escaping only.
 
 use rand::RngExt;
 use rand_pcg::Pcg64;
 
-use super::{RefOptions, Scene, direct_light, hg_direction};
+use super::{RefOptions, Scene, direct_light, hg_direction, power_heuristic};
 use crate::Rgb;
 use crate::field::ray_box;
+use crate::lights::dot;
+use crate::medium::{FOUR_PI, hg};
 
 /// Radiance arriving at `o` from direction `d` (unit), all orders of scattering up to
 /// `opts.max_bounces`, averaged over `opts.spp` paths.
@@ -56,6 +65,8 @@ fn trace(
 ) -> Rgb {
     let mut weight = 1.0f64;
     let mut bounces = 0u32;
+    // The density of the last phase-sampled direction (read only after a collision).
+    let mut phase_pdf = 0.0f64;
     let mut sum = [0.0f64; 3];
     loop {
         let collision = ray_box(o, d, scene.volume.bbox()).and_then(|(t0, t1)| {
@@ -68,8 +79,12 @@ fn trace(
             } else {
                 scene.env.distant.radiance(d)
             };
+            let w = match scene.sampler {
+                Some(s) if bounces > 0 => weight * power_heuristic(phase_pdf, s.pdf(d)),
+                _ => weight,
+            };
             for c in 0..3 {
-                sum[c] += weight * l[c];
+                sum[c] += w * l[c];
             }
             return sum;
         };
@@ -88,6 +103,21 @@ fn trace(
                 sum[c] += weight * direct[c];
             }
         }
-        d = hg_direction(d, scene.medium.g, rng.random(), rng.random());
+        let g = scene.medium.g;
+        if let Some(sampler) = scene.sampler {
+            let (w, q_e) = sampler.sample(rng.random(), rng.random());
+            let l = scene.env.distant.radiance(w);
+            if l.iter().any(|c| *c > 0.0) {
+                let q_p = hg(g, dot(w, d)) / FOUR_PI;
+                let k = weight * power_heuristic(q_e, q_p) * q_p / q_e
+                    * scene.transmittance(o, w, f64::INFINITY);
+                for c in 0..3 {
+                    sum[c] += k * l[c];
+                }
+            }
+        }
+        let next = hg_direction(d, g, rng.random(), rng.random());
+        phase_pdf = hg(g, dot(next, d)) / FOUR_PI;
+        d = next;
     }
 }

@@ -11,20 +11,22 @@
 //! The first term is exact. For the integral, the scattering point is drawn with density
 //! `σt D(t)·T(t₀, t)/(1 − T)` (a collision forced inside the box: `τ* = −ln(1 − ξ(1 − T))`,
 //! then `τ(t₀, t) = τ*` inverted exactly), so one sample is `(1 − T)·Ω·S(x_t)`. `S` is
-//! estimated with `light_samples` directions drawn from the phase function itself
-//! (density `p(ω·d)/4π`, so each contributes `T_light·L_env`; no importance sampling of
-//! the environment), each with its exact transmittance to the box exit. The suns and point
-//! lights are sampled explicitly instead (their small disks are what phase sampling
-//! would almost never hit): per light direction, a point drawn uniformly in each sun's
-//! disk contributes `E·T_light·p/4π` (density `1/Ω☉`, radiance `E/Ω☉`), each point light
-//! `I/r²·T_light·p/4π`; phase-sampled directions see the distant radiance only. Averaging
-//! `spp` such points gives an unbiased estimate whose only noise comes from the positions
-//! and directions; an albedo of 0 or an empty ray is exact.
+//! estimated `light_samples` times, each with exact transmittances to the box exit. The
+//! distant radiance: a direction drawn from the phase function itself (density
+//! `p(ω·d)/4π`, so it contributes `T_light·L_env`), and, when the environment is
+//! importance-sampled, one drawn from the map's luminance, the two combined by the power
+//! heuristic (`super::distant_light`, `env_sampling.rs`). The suns and point lights are
+//! sampled explicitly (their small disks are what phase sampling would almost never hit):
+//! a point drawn uniformly in each sun's disk contributes `E·T_light·p/4π` (density
+//! `1/Ω☉`, radiance `E/Ω☉`), each point light `I/r²·T_light·p/4π`; the other directions
+//! see the distant radiance only. Averaging `spp` such points gives an unbiased estimate
+//! whose only noise comes from the positions and directions; an albedo of 0 or an empty
+//! ray is exact.
 
 use rand::RngExt;
 use rand_pcg::Pcg64;
 
-use super::{RefOptions, Scene, direct_light, hg_direction};
+use super::{RefOptions, Scene, direct_light, distant_light};
 use crate::Rgb;
 use crate::field::ray_box;
 
@@ -58,15 +60,10 @@ pub(crate) fn radiance(
         let t = view.reach(t0, t1, target).unwrap_or(t1);
         let x = [0, 1, 2].map(|a| o[a] + t * d[a]);
         for _ in 0..lights {
-            let w = hg_direction(d, scene.medium.g, rng.random(), rng.random());
-            let t_light = match ray_box(x, w, scene.volume.bbox()) {
-                Some((a, b)) => (-scene.track(x, w).depth(a, b)).exp(),
-                None => 1.0,
-            };
-            let l = scene.env.distant.radiance(w);
+            let distant = distant_light(scene, x, d, rng);
             let direct = direct_light(scene, x, d, rng);
             for c in 0..3 {
-                sum[c] += l[c] * t_light + direct[c];
+                sum[c] += distant[c] + direct[c];
             }
         }
     }

@@ -35,6 +35,7 @@ fn opts(spp: u32, multiple: bool) -> RefOptions {
         seed: 7,
         multiple,
         max_bounces: 256,
+        env_sampling: true,
     }
 }
 
