@@ -6,9 +6,20 @@
 //! tables) — with a reference renderer that integrates the same single-scattering model
 //! by quadrature, independent of every table.
 
+pub mod airlight;
+pub mod camera;
+pub mod file;
+pub mod gtable;
 pub mod hfunc;
 pub mod htable;
 pub mod quad;
+pub mod reference;
+pub mod render;
+pub mod scene;
 pub mod special;
 pub mod table;
 pub mod vec3;
+
+pub use camera::Camera;
+pub use file::{SceneError, load};
+pub use scene::{Environment, Light, Material, Medium, Rgb, Scene, Shape, Surface};

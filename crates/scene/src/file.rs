@@ -1,0 +1,511 @@
+//! The scene file (DESIGN.md "Scene file"): one JSON object read into a [`Scene`].
+//!
+//! Every object refuses keys it does not know; every problem — a missing file, bad JSON,
+//! an unknown key, a wrong type, a negative radius, a zero normal, a type not supported
+//! yet — is one line naming the file, the place in it and the problem.
+
+use crate::camera::Camera;
+use crate::scene::{Environment, Light, Material, Medium, Rgb, Scene, Shape, Surface};
+use crate::vec3::{Vec3, normalize};
+use serde::Deserialize;
+use serde::de::DeserializeOwned;
+use serde_json::Value;
+use std::path::Path;
+
+/// Why a scene could not be read: `file: problem`, on one line.
+#[derive(Debug, thiserror::Error)]
+#[error("{file}: {problem}")]
+pub struct SceneError {
+    pub file: String,
+    pub problem: String,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileSpec {
+    camera: CameraSpec,
+    #[serde(default)]
+    environment: Value,
+    #[serde(default)]
+    environment_distance: Option<f64>,
+    #[serde(default)]
+    lights: Vec<Value>,
+    #[serde(default)]
+    media: Vec<Value>,
+    #[serde(default)]
+    surfaces: Vec<Value>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CameraSpec {
+    eye: Vec3,
+    target: Vec3,
+    #[serde(default = "default_up")]
+    up: Vec3,
+    #[serde(default = "default_fov")]
+    fov: f64,
+    #[serde(default = "default_width")]
+    width: usize,
+    #[serde(default = "default_height")]
+    height: usize,
+}
+
+fn default_up() -> Vec3 {
+    [0.0, 0.0, 1.0]
+}
+fn default_fov() -> f64 {
+    40.0
+}
+fn default_width() -> usize {
+    320
+}
+fn default_height() -> usize {
+    240
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PointSpec {
+    #[serde(rename = "type")]
+    _kind: String,
+    position: Vec3,
+    intensity: Rgb,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SunSpec {
+    #[serde(rename = "type")]
+    _kind: String,
+    direction: Vec3,
+    radiance: Rgb,
+    #[serde(default = "default_sun_angle")]
+    angle: f64,
+}
+
+fn default_sun_angle() -> f64 {
+    0.53
+}
+
+/// `σt` as one number or one per channel.
+#[derive(Debug, Deserialize)]
+#[serde(untagged)]
+enum Scalar3 {
+    One(f64),
+    Rgb(Rgb),
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct HomogeneousSpec {
+    #[serde(rename = "type")]
+    _kind: String,
+    sigma_t: Scalar3,
+    #[serde(default = "default_albedo")]
+    albedo: f64,
+    #[serde(default)]
+    g: f64,
+}
+
+fn default_albedo() -> f64 {
+    1.0
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MaterialSpec {
+    diffuse: Rgb,
+    #[serde(default)]
+    specular: Rgb,
+    #[serde(default)]
+    shininess: f64,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PlaneSpec {
+    #[serde(rename = "type")]
+    _kind: String,
+    point: Vec3,
+    normal: Vec3,
+    material: MaterialSpec,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SphereSpec {
+    #[serde(rename = "type")]
+    _kind: String,
+    center: Vec3,
+    radius: f64,
+    material: MaterialSpec,
+}
+
+/// Reads and validates the scene file at `path`.
+pub fn load(path: &Path) -> Result<Scene, SceneError> {
+    let file = path.display().to_string();
+    let err = |problem: String| SceneError {
+        file: file.clone(),
+        problem,
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| {
+        err(match e.kind() {
+            std::io::ErrorKind::NotFound => "no such scene file".to_string(),
+            _ => format!("cannot read ({e})"),
+        })
+    })?;
+    parse(&text).map_err(err)
+}
+
+/// Parses and validates a scene from JSON text; the error is the problem alone (the caller
+/// names the file).
+pub fn parse(text: &str) -> Result<Scene, String> {
+    let spec: FileSpec = serde_json::from_str(text).map_err(|e| e.to_string())?;
+    let c = &spec.camera;
+    for (name, v) in [("eye", c.eye), ("target", c.target), ("up", c.up)] {
+        finite(&format!("camera.{name}"), &v)?;
+    }
+    let camera = Camera::new(c.eye, c.target, c.up, c.fov, c.width, c.height)
+        .map_err(|e| format!("camera: {e}"))?;
+    let environment = environment(&spec.environment)?;
+    let environment_distance = match spec.environment_distance {
+        None => f64::INFINITY,
+        Some(d) if d > 0.0 => d,
+        Some(d) => return Err(format!("environment_distance {d} must be positive")),
+    };
+    let lights = spec
+        .lights
+        .iter()
+        .enumerate()
+        .map(|(i, v)| light(v).map_err(|e| format!("lights[{i}]: {e}")))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut medium = Medium::NONE;
+    let mut sigma_s = [0.0; 3];
+    for (i, v) in spec.media.iter().enumerate() {
+        let (st, ss) = homogeneous(v).map_err(|e| format!("media[{i}]: {e}"))?;
+        for c in 0..3 {
+            medium.sigma_t[c] += st[c];
+            sigma_s[c] += ss[c];
+        }
+    }
+    medium.albedo = [0, 1, 2].map(|c| {
+        if medium.sigma_t[c] > 0.0 {
+            (sigma_s[c] / medium.sigma_t[c]).clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    });
+    let surfaces = spec
+        .surfaces
+        .iter()
+        .enumerate()
+        .map(|(i, v)| surface(v).map_err(|e| format!("surfaces[{i}]: {e}")))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(Scene {
+        camera,
+        environment,
+        environment_distance,
+        lights,
+        medium,
+        surfaces,
+    })
+}
+
+/// The `"type"` of an object in a list.
+fn kind(v: &Value) -> Result<&str, String> {
+    match v.get("type") {
+        Some(Value::String(s)) => Ok(s),
+        Some(other) => Err(format!("\"type\" must be a string, not {other}")),
+        None if v.is_object() => Err("missing \"type\"".to_string()),
+        None => Err(format!("expected an object, found {v}")),
+    }
+}
+
+fn typed<T: DeserializeOwned>(v: &Value) -> Result<T, String> {
+    T::deserialize(v).map_err(|e| e.to_string())
+}
+
+fn finite(what: &str, v: &[f64]) -> Result<(), String> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err(format!("{what} must be finite"))
+    }
+}
+
+fn non_negative(what: &str, v: &[f64]) -> Result<(), String> {
+    finite(what, v)?;
+    if v.iter().all(|&x| x >= 0.0) {
+        Ok(())
+    } else {
+        Err(format!("{what} {v:?} must not be negative"))
+    }
+}
+
+fn environment(v: &Value) -> Result<Environment, String> {
+    match v {
+        Value::Null => Ok(Environment::Black),
+        Value::String(s) if s == "sky" => Ok(Environment::Sky),
+        Value::String(s) if s.to_ascii_lowercase().ends_with(".exr") => Err(format!(
+            "environment \"{s}\": environment maps are not supported by the scene renderer yet (use \"sky\", [r, g, b] or null)"
+        )),
+        Value::String(s) => Err(format!(
+            "environment \"{s}\" must be \"sky\", an .exr map, [r, g, b] or null"
+        )),
+        _ => {
+            let c: Rgb = typed(v).map_err(|e| format!("environment: {e}"))?;
+            non_negative("environment", &c)?;
+            Ok(Environment::Constant(c))
+        }
+    }
+}
+
+fn light(v: &Value) -> Result<Light, String> {
+    match kind(v)? {
+        "point" => {
+            let p: PointSpec = typed(v)?;
+            finite("position", &p.position)?;
+            non_negative("intensity", &p.intensity)?;
+            Ok(Light::Point {
+                position: p.position,
+                intensity: p.intensity,
+            })
+        }
+        "sun" => {
+            let s: SunSpec = typed(v)?;
+            finite("direction", &s.direction)?;
+            non_negative("radiance", &s.radiance)?;
+            let direction = normalize(s.direction).ok_or("direction must not be zero")?;
+            if !(0.0..180.0).contains(&s.angle) {
+                return Err(format!("angle {} must be in [0, 180) degrees", s.angle));
+            }
+            Ok(Light::Sun {
+                direction,
+                radiance: s.radiance,
+                angle: s.angle.to_radians(),
+            })
+        }
+        other => Err(format!(
+            "unknown light type \"{other}\" (known: \"point\", \"sun\")"
+        )),
+    }
+}
+
+/// A homogeneous medium's `σt` and `σs` per channel.
+fn homogeneous(v: &Value) -> Result<(Rgb, Rgb), String> {
+    match kind(v)? {
+        "homogeneous" => {
+            let h: HomogeneousSpec = typed(v)?;
+            let st = match h.sigma_t {
+                Scalar3::One(s) => [s; 3],
+                Scalar3::Rgb(c) => c,
+            };
+            non_negative("sigma_t", &st)?;
+            if !(0.0..=1.0).contains(&h.albedo) {
+                return Err(format!("albedo {} must be in [0, 1]", h.albedo));
+            }
+            if h.g != 0.0 {
+                return Err(format!(
+                    "g = {}: only isotropic scattering (g = 0) is supported in homogeneous media yet (paper C's analytic model)",
+                    h.g
+                ));
+            }
+            Ok((st, st.map(|s| s * h.albedo)))
+        }
+        t @ ("gaussians" | "analytic" | "fogmap" | "asset") => {
+            Err(format!("media type \"{t}\" is not supported yet"))
+        }
+        other => Err(format!(
+            "unknown media type \"{other}\" (known: \"homogeneous\"; \"gaussians\", \"analytic\", \"fogmap\", \"asset\" to come)"
+        )),
+    }
+}
+
+fn material(m: MaterialSpec) -> Result<Material, String> {
+    non_negative("material.diffuse", &m.diffuse)?;
+    non_negative("material.specular", &m.specular)?;
+    non_negative("material.shininess", &[m.shininess])?;
+    Ok(Material {
+        diffuse: m.diffuse,
+        specular: m.specular,
+        shininess: m.shininess,
+    })
+}
+
+fn surface(v: &Value) -> Result<Surface, String> {
+    match kind(v)? {
+        "plane" => {
+            let p: PlaneSpec = typed(v)?;
+            finite("point", &p.point)?;
+            finite("normal", &p.normal)?;
+            let normal = normalize(p.normal).ok_or("normal must not be zero")?;
+            Ok(Surface {
+                shape: Shape::Plane {
+                    point: p.point,
+                    normal,
+                },
+                material: material(p.material)?,
+            })
+        }
+        "sphere" => {
+            let s: SphereSpec = typed(v)?;
+            finite("center", &s.center)?;
+            if !(s.radius > 0.0 && s.radius.is_finite()) {
+                return Err(format!("radius {} must be positive", s.radius));
+            }
+            Ok(Surface {
+                shape: Shape::Sphere {
+                    center: s.center,
+                    radius: s.radius,
+                },
+                material: material(s.material)?,
+            })
+        }
+        "mesh" => Err("surface type \"mesh\" is not supported yet".to_string()),
+        other => Err(format!(
+            "unknown surface type \"{other}\" (known: \"plane\", \"sphere\"; \"mesh\" to come)"
+        )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = r#"{
+        "camera": {"eye": [0, -5, 1], "target": [0, 0, 1], "fov": 50, "width": 8, "height": 6},
+        "environment": "sky",
+        "lights": [
+            {"type": "point", "position": [1, 0, 2], "intensity": [10, 9, 8]},
+            {"type": "sun", "direction": [0, 0, 2], "radiance": [1, 1, 1], "angle": 0}
+        ],
+        "media": [
+            {"type": "homogeneous", "sigma_t": 0.1, "albedo": 0.8, "g": 0},
+            {"type": "homogeneous", "sigma_t": [0.1, 0.2, 0.3]}
+        ],
+        "surfaces": [
+            {"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 3], "material": {"diffuse": [0.5, 0.5, 0.5]}},
+            {"type": "sphere", "center": [0, 0, 1], "radius": 0.5,
+             "material": {"diffuse": [0.8, 0.2, 0.2], "specular": [0.2, 0.2, 0.2], "shininess": 20}}
+        ]
+    }"#;
+
+    #[test]
+    fn reads_every_supported_key() {
+        let s = parse(GOOD).unwrap();
+        assert_eq!((s.camera.width, s.camera.height), (8, 6));
+        assert_eq!(s.environment, Environment::Sky);
+        assert_eq!(s.lights.len(), 2);
+        assert_eq!(
+            s.lights[1],
+            Light::Sun {
+                direction: [0.0, 0.0, 1.0],
+                radiance: [1.0; 3],
+                angle: 0.0
+            }
+        );
+        // Media add: σt = 0.1 + (0.1, 0.2, 0.3); σs = 0.08 + (0.1, 0.2, 0.3).
+        assert!((s.medium.sigma_t[2] - 0.4).abs() < 1e-15);
+        assert!((s.medium.albedo[0] - 0.18 / 0.2).abs() < 1e-15);
+        assert_eq!(s.surfaces.len(), 2);
+        assert_eq!(s.surfaces[1].material.shininess, 20.0);
+        assert!(s.environment_distance.is_infinite());
+        // A minimal scene: only a camera.
+        let m = parse(r#"{"camera": {"eye": [0, 0, 0], "target": [1, 0, 0]}}"#).unwrap();
+        assert_eq!((m.camera.width, m.camera.height), (320, 240));
+        assert_eq!(m.environment, Environment::Black);
+    }
+
+    fn problem(edit: (&str, &str)) -> String {
+        let text = GOOD.replacen(edit.0, edit.1, 1);
+        assert_ne!(text, GOOD, "{edit:?} changes nothing");
+        let e = parse(&text).unwrap_err();
+        assert!(!e.contains('\n'), "not one line: {e}");
+        e
+    }
+
+    #[test]
+    fn problems_are_named() {
+        let cases = [
+            (
+                ("\"fov\": 50", "\"fov\": 50, \"zoom\": 2"),
+                "unknown field `zoom`",
+            ),
+            (
+                ("\"radius\": 0.5", "\"radius\": -0.5"),
+                "surfaces[1]: radius -0.5 must be positive",
+            ),
+            (
+                ("\"normal\": [0, 0, 3]", "\"normal\": [0, 0, 0]"),
+                "surfaces[0]: normal must not be zero",
+            ),
+            (
+                ("\"intensity\": [10, 9, 8]", "\"intensity\": \"bright\""),
+                "lights[0]: invalid type",
+            ),
+            (
+                ("\"g\": 0", "\"g\": 0.3"),
+                "media[0]: g = 0.3: only isotropic",
+            ),
+            (
+                (
+                    "\"type\": \"homogeneous\", \"sigma_t\": 0.1",
+                    "\"type\": \"gaussians\", \"sigma_t\": 0.1",
+                ),
+                "media[0]: media type \"gaussians\" is not supported yet",
+            ),
+            (
+                ("\"type\": \"plane\"", "\"type\": \"mesh\""),
+                "surfaces[0]: surface type \"mesh\" is not supported yet",
+            ),
+            (
+                (
+                    "\"environment\": \"sky\"",
+                    "\"environment\": \"studio.exr\"",
+                ),
+                "not supported by the scene renderer yet",
+            ),
+            (
+                ("\"type\": \"sun\"", "\"type\": \"spot\""),
+                "lights[1]: unknown light type \"spot\"",
+            ),
+            (
+                ("\"albedo\": 0.8", "\"albedo\": 1.5"),
+                "albedo 1.5 must be in [0, 1]",
+            ),
+            (
+                ("\"shininess\": 20", "\"shininess\": 20, \"roughness\": 1"),
+                "surfaces[1]: unknown field `roughness`",
+            ),
+            (
+                ("\"target\": [0, 0, 1]", "\"target\": [0, -5, 1]"),
+                "camera: the target is at the eye",
+            ),
+        ];
+        for (edit, needle) in cases {
+            let e = problem(edit);
+            assert!(e.contains(needle), "{edit:?}: {e}");
+        }
+    }
+
+    #[test]
+    fn load_names_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("scene.json");
+        let e = load(&path).unwrap_err().to_string();
+        assert!(e.contains("scene.json: no such scene file"), "{e}");
+        std::fs::write(&path, GOOD.replacen("\"fov\": 50", "\"fovy\": 50", 1)).unwrap();
+        let e = load(&path).unwrap_err().to_string();
+        assert!(e.contains("scene.json: unknown field `fovy`"), "{e}");
+        std::fs::write(&path, "{ not json").unwrap();
+        assert!(
+            load(&path)
+                .unwrap_err()
+                .to_string()
+                .contains("scene.json: ")
+        );
+        std::fs::write(&path, GOOD).unwrap();
+        assert!(load(&path).is_ok());
+    }
+}

@@ -1,0 +1,403 @@
+//! Rendering a scene: per pixel `L = Σ_lights La + e^{−β·t}·Lp` (paper C, eq. 19), with
+//! `La` the airlight ([`crate::airlight`]), `t` the distance to the surface hit and `Lp`
+//! the light the surface reflects towards the eye — direct light attenuated by the medium
+//! and shadowed by the scene's surfaces, plus light scattered once onto it (unshadowed, as
+//! in paper C). Rays that hit nothing end at the environment distance and see the
+//! environment (and the suns' disks) attenuated. Two models fill in the point lights'
+//! scattered terms: [`Analytic`] (paper C's tables) and [`Reference`] (quadrature).
+//!
+//! Per channel `c`: extinction `β = σt[c]`, scattering `σs = albedo[c]·β`. A surface's
+//! reflected radiance from a light of irradiance `E` at direction `l` is
+//! `E·[ρd/π·cos θs + ks·(m + 2)/(2π)·max(0, r·l)^m]` for `cos θs = n·l > 0`, `r` the
+//! mirror direction of the view (the normalized Phong lobe of paper C §4). Suns light the
+//! medium and the surfaces unattenuated (the fog is local) and scatter
+//! `σs·E/(4π)·∫e^{−βx}dx` towards the eye, and `αE/(4π)·[ρd + ks(m + 2)/(m + 1)]` onto a
+//! surface (the medium's in-scattering integrated over the lobes, rays to infinity).
+
+use crate::airlight::{self, Limits, attenuated_length, effective_light, light_off_point};
+use crate::gtable::{self, GTable};
+use crate::htable::HTable;
+use crate::reference::{self, RefOptions};
+use crate::scene::{Environment, Light, Material, Rgb, Scene};
+use crate::vec3::{Vec3, axpy, cos_sin, dot, norm, reflect, scale, sub};
+use rayon::prelude::*;
+use std::f64::consts::PI;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// Linear RGB radiance, row 0 the top.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    pub width: usize,
+    pub height: usize,
+    pub pixels: Vec<[f32; 3]>,
+}
+
+impl Image {
+    /// DESIGN.md's image error against `reference`: `sqrt(Σ|a − b|²/Σ|b|²)` over all
+    /// channels (0 for two black images).
+    pub fn rel_rms(&self, reference: &Image) -> f64 {
+        let (mut d, mut n) = (0.0, 0.0);
+        for (a, b) in self.pixels.iter().zip(&reference.pixels) {
+            for c in 0..3 {
+                let (a, b) = (f64::from(a[c]), f64::from(b[c]));
+                d += (a - b) * (a - b);
+                n += b * b;
+            }
+        }
+        if n > 0.0 {
+            (d / n).sqrt()
+        } else if d == 0.0 {
+            0.0
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+/// How the point lights' scattered terms are computed, per unit intensity and channel.
+pub trait Model: Sync {
+    /// Airlight along `eye + t·dir`, `t ∈ [0, t_end]`.
+    fn airlight(&self, eye: Vec3, dir: Vec3, t_end: f64, light: Vec3, beta: f64, ss: f64) -> f64;
+    /// Light scattered onto the surface point `p` and reflected towards the viewer.
+    #[allow(clippy::too_many_arguments)]
+    fn surface(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        r: Vec3,
+        light: Vec3,
+        beta: f64,
+        ss: f64,
+        m: &Material,
+        ch: usize,
+    ) -> f64;
+    /// What it is, for summaries.
+    fn name(&self) -> String;
+}
+
+/// Paper C: the airlight's table `K` and the `G0`/`Gn` tables (one per Phong exponent in
+/// the scene).
+#[derive(Debug)]
+pub struct Analytic {
+    pub h: HTable,
+    pub g0: GTable,
+    pub gn: Vec<GTable>,
+}
+
+impl Analytic {
+    /// Builds the tables the scene needs (the `Gn` tables only for specular materials).
+    pub fn new(scene: &Scene) -> Analytic {
+        let h = HTable::default();
+        let g0 = GTable::new(&h, 1.0, gtable::DEFAULT_SIZE);
+        let mut exps: Vec<f64> = scene
+            .surfaces
+            .iter()
+            .filter(|s| s.material.is_specular())
+            .map(|s| s.material.shininess)
+            .collect();
+        exps.sort_by(f64::total_cmp);
+        exps.dedup();
+        let gn = exps
+            .into_iter()
+            .map(|n| GTable::new(&h, n, gtable::DEFAULT_SIZE))
+            .collect();
+        Analytic { h, g0, gn }
+    }
+
+    fn gn(&self, n: f64) -> Option<&GTable> {
+        self.gn.iter().find(|t| t.exponent == n)
+    }
+}
+
+/// The angle between two unit vectors, by `atan2` (exact near 0 and π).
+fn angle(a: Vec3, b: Vec3) -> f64 {
+    let (c, s) = cos_sin(a, b);
+    s.atan2(c)
+}
+
+impl Model for Analytic {
+    fn airlight(&self, eye: Vec3, dir: Vec3, t_end: f64, light: Vec3, beta: f64, ss: f64) -> f64 {
+        airlight::point(&self.h, eye, dir, t_end, light, 1.0, beta, ss)
+    }
+
+    /// `σs·I/(2π Dsp)·[ρd/π·G0(T, θs) + ks(m + 2)/(2π)·Gm(T, θ′s)]` (paper C eq. 17–18,
+    /// [`crate::gtable`]).
+    fn surface(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        r: Vec3,
+        light: Vec3,
+        beta: f64,
+        ss: f64,
+        m: &Material,
+        ch: usize,
+    ) -> f64 {
+        if ss <= 0.0 {
+            return 0.0;
+        }
+        let v = sub(light, p);
+        let d = norm(v);
+        let l = scale(v, 1.0 / d);
+        let t = beta * d;
+        let mut out = m.diffuse[ch] / PI * self.g0.g(t, angle(n, l));
+        if let Some(g) = self.gn(m.shininess).filter(|_| m.specular[ch] > 0.0) {
+            let k = m.specular[ch] * (m.shininess + 2.0) / (2.0 * PI);
+            out += k * g.g(t, angle(r, l));
+        }
+        ss / (2.0 * PI * d) * out
+    }
+
+    fn name(&self) -> String {
+        format!(
+            "paper C analytic (K table {}², G tables {}×{})",
+            self.h.table.nx, self.g0.table.nx, self.g0.table.ny
+        )
+    }
+}
+
+/// The quadrature reference ([`crate::reference`]).
+#[derive(Debug, Default)]
+pub struct Reference {
+    pub options: RefOptions,
+}
+
+impl Model for Reference {
+    fn airlight(&self, eye: Vec3, dir: Vec3, t_end: f64, light: Vec3, beta: f64, ss: f64) -> f64 {
+        reference::point_airlight(eye, dir, t_end, light, beta, ss, self.options.tolerance)
+    }
+
+    fn surface(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        r: Vec3,
+        light: Vec3,
+        beta: f64,
+        ss: f64,
+        m: &Material,
+        ch: usize,
+    ) -> f64 {
+        reference::surface_scattered(p, n, r, light, beta, ss, m, ch, &self.options)
+    }
+
+    fn name(&self) -> String {
+        "single-scattering reference (quadrature)".to_string()
+    }
+}
+
+/// `e^{−βt}`, 1 at `β = 0` whatever `t` (no `0·∞`).
+fn transmittance(beta: f64, t: f64) -> f64 {
+    if beta <= 0.0 { 1.0 } else { (-beta * t).exp() }
+}
+
+/// Renders the scene's camera image with `model`; `progress` hears the number of rows
+/// finished so far.
+pub fn render(
+    scene: &Scene,
+    model: &dyn Model,
+    lim: &Limits,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Image {
+    let cam = &scene.camera;
+    let (w, h) = (cam.width, cam.height);
+    let lim = Limits {
+        gamma_min: lim.gamma_min.max(0.5 * cam.pixel_radius()),
+        ..*lim
+    };
+    let done = AtomicUsize::new(0);
+    let rows: Vec<Vec<[f32; 3]>> = (0..h)
+        .into_par_iter()
+        .map(|y| {
+            let row = (0..w)
+                .map(|x| radiance(scene, model, &lim, cam.pixel_ray(x, y)).map(|c| c as f32))
+                .collect();
+            progress(done.fetch_add(1, Ordering::Relaxed) + 1);
+            row
+        })
+        .collect();
+    Image {
+        width: w,
+        height: h,
+        pixels: rows.into_iter().flatten().collect(),
+    }
+}
+
+/// Channels grouped by equal `(β, σs)`: each group's scattering is computed once per
+/// unit intensity.
+fn channel_groups(scene: &Scene) -> Vec<(f64, f64, Vec<usize>)> {
+    let mut groups: Vec<(f64, f64, Vec<usize>)> = Vec::new();
+    let ss = scene.medium.sigma_s();
+    for (c, &s) in ss.iter().enumerate() {
+        let key = (scene.medium.sigma_t[c], s);
+        match groups.iter_mut().find(|g| (g.0, g.1) == key) {
+            Some(g) => g.2.push(c),
+            None => groups.push((key.0, key.1, vec![c])),
+        }
+    }
+    groups
+}
+
+/// Radiance along the camera ray of unit direction `dir`.
+pub fn radiance(scene: &Scene, model: &dyn Model, lim: &Limits, dir: Vec3) -> Rgb {
+    let eye = scene.camera.eye;
+    let hit = scene.intersect(eye, dir, 0.0, scene.environment_distance);
+    let t_end = hit.map_or(scene.environment_distance, |h| h.t);
+    let groups = channel_groups(scene);
+    let mut out = [0.0; 3];
+    // Airlight.
+    for light in &scene.lights {
+        match light {
+            Light::Point {
+                position,
+                intensity,
+            } => {
+                let s = effective_light(eye, dir, *position, lim);
+                for (beta, ss, chans) in &groups {
+                    if *ss <= 0.0 || chans.iter().all(|&c| intensity[c] <= 0.0) {
+                        continue;
+                    }
+                    let la = model.airlight(eye, dir, t_end, s, *beta, *ss);
+                    for &c in chans {
+                        out[c] += intensity[c] * la;
+                    }
+                }
+            }
+            Light::Sun {
+                radiance, angle, ..
+            } => {
+                let e = Light::sun_irradiance(*radiance, *angle);
+                for c in 0..3 {
+                    let ss = scene.medium.sigma_s()[c];
+                    out[c] += airlight::sun(t_end, e[c], scene.medium.sigma_t[c], ss);
+                }
+            }
+        }
+    }
+    // What the ray ends on, attenuated.
+    let behind = match hit {
+        Some(h) => surface(scene, model, lim, &groups, dir, h),
+        None if t_end.is_infinite() && scene.medium.sigma_t.iter().all(|&b| b > 0.0) => [0.0; 3],
+        None => background(scene, dir),
+    };
+    for c in 0..3 {
+        if behind[c] != 0.0 {
+            out[c] += transmittance(scene.medium.sigma_t[c], t_end) * behind[c];
+        }
+    }
+    out
+}
+
+/// The environment and the suns' disks in direction `dir`.
+fn background(scene: &Scene, dir: Vec3) -> Rgb {
+    let mut l = match &scene.environment {
+        Environment::Black => [0.0; 3],
+        env => env.radiance(dir),
+    };
+    for light in &scene.lights {
+        if let Light::Sun {
+            direction,
+            radiance,
+            angle,
+        } = light
+            && *angle > 0.0
+            && dot(dir, *direction) >= (0.5 * angle).cos()
+        {
+            for (o, r) in l.iter_mut().zip(radiance) {
+                *o += r;
+            }
+        }
+    }
+    l
+}
+
+/// Radiance leaving the surface hit towards the eye.
+fn surface(
+    scene: &Scene,
+    model: &dyn Model,
+    lim: &Limits,
+    groups: &[(f64, f64, Vec<usize>)],
+    dir: Vec3,
+    hit: crate::scene::Hit,
+) -> Rgb {
+    let m = &scene.surfaces[hit.surface].material;
+    let (p, n) = (hit.point, hit.normal);
+    let r = reflect(scale(dir, -1.0), n);
+    // Shadow rays start a little off the surface.
+    let p_off = axpy(p, 1e-9 * (1.0 + norm(p)), n);
+    let brdf = |l: Vec3, c: usize| {
+        let cos = dot(n, l);
+        if cos <= 0.0 {
+            return 0.0;
+        }
+        let mut f = m.diffuse[c] / PI * cos;
+        if m.specular[c] > 0.0 {
+            f += m.specular[c] * (m.shininess + 2.0) / (2.0 * PI)
+                * dot(r, l).max(0.0).powf(m.shininess);
+        }
+        f
+    };
+    let mut out = [0.0; 3];
+    for light in &scene.lights {
+        match light {
+            Light::Point {
+                position,
+                intensity,
+            } => {
+                let s = light_off_point(p, n, *position, lim.r_min);
+                let v = sub(s, p);
+                let d = norm(v);
+                let l = scale(v, 1.0 / d);
+                let lit = dot(n, l) > 0.0 && scene.visible(p_off, s);
+                for (beta, ss, chans) in groups {
+                    let scattered = if *ss > 0.0 {
+                        Some(
+                            chans
+                                .iter()
+                                .map(|&c| model.surface(p, n, r, s, *beta, *ss, m, c)),
+                        )
+                    } else {
+                        None
+                    };
+                    let direct = transmittance(*beta, d) / (d * d);
+                    let scattered: Vec<f64> = match scattered {
+                        Some(it) => it.collect(),
+                        None => vec![0.0; chans.len()],
+                    };
+                    for (i, &c) in chans.iter().enumerate() {
+                        let mut v = scattered[i];
+                        if lit {
+                            v += direct * brdf(l, c);
+                        }
+                        out[c] += intensity[c] * v;
+                    }
+                }
+            }
+            Light::Sun {
+                direction,
+                radiance,
+                angle,
+            } => {
+                let e = Light::sun_irradiance(*radiance, *angle);
+                let lit = dot(n, *direction) > 0.0
+                    && scene
+                        .intersect(p_off, *direction, 0.0, f64::INFINITY)
+                        .is_none();
+                let ss = scene.medium.sigma_s();
+                for c in 0..3 {
+                    if lit {
+                        out[c] += e[c] * brdf(*direction, c);
+                    }
+                    if ss[c] > 0.0 {
+                        let lobes = m.diffuse[c]
+                            + m.specular[c] * (m.shininess + 2.0) / (m.shininess + 1.0);
+                        let path = scene.medium.sigma_t[c]
+                            * attenuated_length(scene.medium.sigma_t[c], f64::INFINITY);
+                        out[c] += scene.medium.albedo[c] * e[c] / (4.0 * PI) * path * lobes;
+                    }
+                }
+            }
+        }
+    }
+    out
+}
