@@ -72,6 +72,10 @@ pub enum Command {
     /// residual put back in the march; `--gpu` runs every stage of it on the GPU. `--reference` instead path-traces the density (slow, for accuracy checks). A
     /// volume file is first fitted with 300 RBFs. World units are the volume's; Z is up;
     /// the default camera frames the smoke (voxels above 1 % of the peak density).
+    ///
+    /// `--scene SCENE.json` renders a scene file instead (camera, lights, homogeneous fog,
+    /// planes and spheres; README "Scenes"): paper C's analytic single scattering on the
+    /// CPU, or with `--reference` the same model integrated by quadrature.
     Render(RenderCli),
     /// Play a baked asset in a window, lit and rendered as it plays.
     ///
@@ -148,10 +152,10 @@ pub struct BakeCli {
     /// rel_l2 (searched by doubling then bisection; each probe is a full fit).
     #[arg(long, value_name = "E")]
     target_error: Option<f64>,
-    /// Most RBFs a frame may have: the --target-error search's ceiling, and where later
-    /// frames stop inserting.
-    #[arg(long, value_name = "N", default_value_t = 4096)]
-    max_rbfs: usize,
+    /// Most RBFs a frame may have: where later frames stop inserting [default: 4 × the
+    /// first frame's count], and the --target-error search's ceiling [default: 4096].
+    #[arg(long, value_name = "N")]
+    max_rbfs: Option<usize>,
     /// Local minimizer.
     #[arg(long, value_enum, default_value_t = OptimizerArg::Lbfgsb)]
     optimizer: OptimizerArg,
@@ -224,17 +228,23 @@ pub struct BakeCli {
 #[derive(Debug, clap::Args)]
 pub struct RenderCli {
     /// A .haze asset, or a volume file / directory of frames.
-    input: PathBuf,
+    #[arg(required_unless_present = "scene", conflicts_with = "scene")]
+    input: Option<PathBuf>,
+    /// Render a scene file (JSON: camera, environment, lights, media, surfaces) instead.
+    #[arg(long, value_name = "SCENE.json")]
+    scene: Option<PathBuf>,
     /// Source frame number (default: the first).
     #[arg(long)]
     frame: Option<i64>,
     /// Output image: IMG.exr (linear radiance) or IMG.png (exposure, sRGB).
     #[arg(long, short)]
     out: PathBuf,
-    #[arg(long, default_value_t = 400)]
-    width: usize,
-    #[arg(long, default_value_t = 300)]
-    height: usize,
+    /// Image width [default: 400, or the scene camera's].
+    #[arg(long)]
+    width: Option<usize>,
+    /// Image height [default: 300, or the scene camera's].
+    #[arg(long)]
+    height: Option<usize>,
     /// Camera position (world units), with --target.
     #[arg(long, value_name = "X,Y,Z", value_parser = crate::import_args::parse_vec3, allow_hyphen_values = true)]
     eye: Option<[f64; 3]>,
@@ -388,11 +398,12 @@ impl ViewCli {
 impl RenderCli {
     fn into_args(self) -> crate::render::RenderArgs {
         crate::render::RenderArgs {
-            input: self.input,
+            // clap requires the input without --scene.
+            input: self.input.unwrap_or_default(),
             frame: self.frame,
             out: self.out,
-            width: self.width,
-            height: self.height,
+            width: self.width.unwrap_or(400),
+            height: self.height.unwrap_or(300),
             eye: self.eye,
             target: self.target,
             up: self.up,
@@ -509,7 +520,7 @@ impl BakeCli {
             (Some(n), _) => haze_bake::Count::Fixed(n),
             (None, Some(e)) if e > 0.0 && e <= 1.0 => haze_bake::Count::Target {
                 rel_l2: e,
-                cap: self.max_rbfs.max(1),
+                cap: self.max_rbfs.unwrap_or(4096).max(1),
             },
             (None, Some(e)) => bail!("--target-error {e} must be in (0, 1]"),
             (None, None) => haze_bake::Count::Fixed(300),
@@ -547,7 +558,7 @@ impl BakeCli {
                     fit,
                     delete: self.delete,
                     max_insert: self.max_insert,
-                    max_rbfs: self.max_rbfs.max(1),
+                    max_rbfs: self.max_rbfs.map(|n| n.max(1)),
                     threshold: self.threshold,
                     insertion: match self.insertion {
                         InsertionArg::Batch => Insertion::Batch,
@@ -597,7 +608,18 @@ fn parse_brick(s: &str) -> Result<u32, String> {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Bake(b) => crate::bake::run(b.into_args()?),
-        Command::Render(r) => crate::render::run(r.into_args()),
+        Command::Render(r) => match r.scene {
+            Some(scene) => crate::scene_render::run(crate::scene_render::SceneRenderArgs {
+                scene,
+                out: r.out,
+                width: r.width,
+                height: r.height,
+                reference: r.reference,
+                gpu: r.gpu,
+                exposure: r.exposure,
+            }),
+            None => crate::render::run(r.into_args()),
+        },
         Command::View(v) => crate::viewer::run(v.into_args()),
         Command::Merge { chunks, out } => crate::merge::run(&chunks, &out),
         Command::Export { asset, frame, out } => crate::export::run(&asset, frame, &out),

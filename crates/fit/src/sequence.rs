@@ -19,7 +19,8 @@
 //! many RBFs as keep the previous frame's RBFs per voxel of smoke ([`smoke_support`])
 //! over its grown support, and at least an eighth of the first frame's count (4.6× the
 //! paper's 8 at 300 RBFs) for smoke that changes shape without growing; no frame grows
-//! past [`SequenceOptions::max_rbfs`]. The cap bounds
+//! past [`SequenceOptions::max_rbfs`] (by default [`GROWTH_LIMIT`] times the first
+//! frame's count). The cap bounds
 //! the cost of a frame where the smoke turns turbulent faster than its size grows: on
 //! such smoke a fit from scratch with the same RBF count is no better (BENCHMARKS.md),
 //! the first frame's error is out of reach of any RBF count a renderer would take, and
@@ -53,10 +54,11 @@ pub struct SequenceOptions {
     /// Most RBFs inserted per later frame (paper: 8); `None`: [`auto_insert_cap`] (the
     /// smoke's growth, at least an eighth of the first frame's count).
     pub max_insert: Option<usize>,
-    /// Most RBFs a frame may have: insertion stops there (a frame over the threshold is
-    /// then reported as capped).
-    #[serde(default = "default_max_rbfs")]
-    pub max_rbfs: usize,
+    /// Most RBFs a later frame may have: insertion stops there (a frame over the
+    /// threshold is then reported as capped); `None`: [`GROWTH_LIMIT`] times the first
+    /// frame's count.
+    #[serde(default)]
+    pub max_rbfs: Option<usize>,
     /// Insert while rel_l2 / first frame's rel_l2 exceeds this (paper: 1.05–1.2).
     pub threshold: f64,
     /// How RBFs are inserted.
@@ -66,12 +68,11 @@ pub struct SequenceOptions {
     pub warm: Stop,
 }
 
-/// The default of [`SequenceOptions::max_rbfs`]: paper A's "a few thousand".
-pub const DEFAULT_MAX_RBFS: usize = 4096;
-
-fn default_max_rbfs() -> usize {
-    DEFAULT_MAX_RBFS
-}
+/// The default ceiling of a later frame's RBF count, in first frames' counts. Smoke whose
+/// detail outgrows its size is not fitted better from scratch with more RBFs than a warm
+/// frame has (BENCHMARKS.md, plume-d): past four times the first count every frame costs
+/// more than it gains, and the residual stores the rest.
+pub const GROWTH_LIMIT: usize = 4;
 
 /// The automatic insertion cap's floor, for frames with few RBFs.
 pub const MIN_AUTO_INSERT: usize = 16;
@@ -134,7 +135,7 @@ impl Default for SequenceOptions {
             rbfs: 300,
             delete: 3,
             max_insert: None,
-            max_rbfs: DEFAULT_MAX_RBFS,
+            max_rbfs: None,
             threshold: 1.1,
             insertion: Insertion::default(),
             warm: Stop {
@@ -355,7 +356,8 @@ impl SequenceFitter {
                 deleted,
             )
         });
-        let cap = cap.min(o.max_rbfs.saturating_sub(params.len() / PARAMS_PER_RBF));
+        let ceiling = o.max_rbfs.unwrap_or(o.rbfs.saturating_mul(GROWTH_LIMIT));
+        let cap = cap.min(ceiling.saturating_sub(params.len() / PARAMS_PER_RBF));
         let (mut inserted, mut rounds) = (0, 0);
         let insert_start = Instant::now();
         while ratio(rel_l2) > o.threshold && inserted < cap {

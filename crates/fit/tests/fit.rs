@@ -386,7 +386,7 @@ fn a_cap_that_is_hit_is_reported() {
     assert!(f.insertion_capped && f.error_ratio > 1.1);
     // So is the ceiling on a frame's RBF count, whatever the smoke's growth asks for.
     let mut fitter = SequenceFitter::new(SequenceOptions {
-        max_rbfs: 6,
+        max_rbfs: Some(6),
         ..drift_options()
     });
     fitter.fit(&blobs(32, &first)).unwrap();
