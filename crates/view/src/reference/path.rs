@@ -1,11 +1,17 @@
 //! Multiple scattering by volumetric path tracing.
 //!
-//! A path starts at the eye along the camera ray. Each free flight draws `τ* ~ Exp(1)`
-//! and stops where the exact optical depth from the start reaches it: the collision
-//! distance then has density `σt D(t)·exp(−τ(0, t))`, exactly what delta tracking samples
-//! but without a majorant, so neither an empty volume (`σt·max D = 0`) nor a huge
-//! extinction changes its cost (it is proportional to the voxels crossed). A flight that
-//! leaves the box first ends the path, which collects `weight·L_env(direction)`. At a
+//! A path starts at the eye along the camera ray. The camera ray's own part is exact, as
+//! in single scattering: the background `T·L_env(d)` (`T` the ray's transmittance
+//! through the box, the suns' disks included) is added once, and the path's first
+//! collision is forced inside the box, drawn with density `σt D(t)·T(t₀, t)/(1 − T)` and
+//! weighted by `1 − T` — so no path of a thin pixel is spent on seeing the background,
+//! whose all-or-nothing share was most of such a pixel's noise. Every later free flight
+//! draws `τ* ~ Exp(1)` and stops where the exact optical depth from the start reaches
+//! it: the collision distance then has density `σt D(t)·exp(−τ(0, t))`, exactly what
+//! delta tracking samples but without a majorant, so neither an empty volume
+//! (`σt·max D = 0`) nor a huge extinction changes its cost (it is proportional to the
+//! voxels crossed). A flight that leaves the box first ends the path, which collects
+//! `weight·L_env(direction)`. At a
 //! collision the weight is multiplied by the albedo Ω (survival weight; an albedo of 0
 //! ends the path) and the new direction is drawn from the phase function about the current
 //! one (density `p/4π`, which cancels the `(1/4π)p` of the source radiance).
@@ -44,80 +50,91 @@ pub(crate) fn radiance(
     opts: &RefOptions,
     rng: &mut Pcg64,
 ) -> Rgb {
+    let Some((t0, t1)) = ray_box(o, d, scene.volume.bbox()) else {
+        return scene.env.radiance(d);
+    };
+    let view = scene.track(o, d);
+    let tau = view.depth(t0, t1);
+    let mut out = scene.env.radiance(d).map(|c| c * (-tau).exp());
+    // 1 − T without cancellation for thin media.
+    let mass = -(-tau).exp_m1();
+    if scene.medium.albedo == 0.0 || mass <= 0.0 || opts.max_bounces == 0 {
+        return out;
+    }
     let spp = opts.spp.max(1);
     let mut sum = [0.0f64; 3];
     for _ in 0..spp {
-        let l = trace(scene, o, d, opts.max_bounces, rng);
+        let xi: f64 = rng.random();
+        // ξ < 1, so 1 − ξ·mass > T and τ* < τ; rounding may still overshoot: then t₁.
+        let t = view.reach(t0, t1, -(-xi * mass).ln_1p()).unwrap_or(t1);
+        let x = [0, 1, 2].map(|a| o[a] + t * d[a]);
+        let l = scatter(scene, x, d, mass, opts.max_bounces, rng);
         for c in 0..3 {
             sum[c] += l[c];
         }
     }
-    sum.map(|s| s / f64::from(spp))
+    for c in 0..3 {
+        out[c] += sum[c] / f64::from(spp);
+    }
+    out
 }
 
-/// One path.
-fn trace(
+/// The rest of one path from its first collision at `x` on a ray along `d`, reached with
+/// the weight `weight`: what it collects at this and later collisions and where it
+/// leaves the box.
+fn scatter(
     scene: &Scene<'_>,
-    mut o: [f64; 3],
+    mut x: [f64; 3],
     mut d: [f64; 3],
+    mut weight: f64,
     max_bounces: u32,
     rng: &mut Pcg64,
 ) -> Rgb {
-    let mut weight = 1.0f64;
-    let mut bounces = 0u32;
-    // The density of the last phase-sampled direction (read only after a collision).
-    let mut phase_pdf = 0.0f64;
+    let g = scene.medium.g;
     let mut sum = [0.0f64; 3];
-    loop {
-        let collision = ray_box(o, d, scene.volume.bbox()).and_then(|(t0, t1)| {
-            let u: f64 = rng.random();
-            scene.track(o, d).reach(t0, t1, -(-u).ln_1p())
-        });
-        let Some(t) = collision else {
-            let l = if bounces == 0 {
-                scene.env.radiance(d)
-            } else {
-                scene.env.distant.radiance(d)
-            };
-            let w = match scene.sampler {
-                Some(s) if bounces > 0 => weight * power_heuristic(phase_pdf, s.pdf(d)),
-                _ => weight,
-            };
-            for c in 0..3 {
-                sum[c] += w * l[c];
-            }
-            return sum;
-        };
-        if bounces == max_bounces {
-            return sum;
-        }
-        bounces += 1;
+    for _ in 0..max_bounces {
         weight *= scene.medium.albedo;
         if weight == 0.0 {
             return sum;
         }
-        o = [0, 1, 2].map(|a| o[a] + t * d[a]);
         if scene.env.has_lights() {
-            let direct = direct_light(scene, o, d, rng);
+            let direct = direct_light(scene, x, d, rng);
             for c in 0..3 {
                 sum[c] += weight * direct[c];
             }
         }
-        let g = scene.medium.g;
         if let Some(sampler) = scene.sampler {
             let (w, q_e) = sampler.sample(rng.random(), rng.random());
             let l = scene.env.distant.radiance(w);
             if l.iter().any(|c| *c > 0.0) {
                 let q_p = hg(g, dot(w, d)) / FOUR_PI;
                 let k = weight * power_heuristic(q_e, q_p) * q_p / q_e
-                    * scene.transmittance(o, w, f64::INFINITY);
+                    * scene.transmittance(x, w, f64::INFINITY);
                 for c in 0..3 {
                     sum[c] += k * l[c];
                 }
             }
         }
         let next = hg_direction(d, g, rng.random(), rng.random());
-        phase_pdf = hg(g, dot(next, d)) / FOUR_PI;
+        let phase_pdf = hg(g, dot(next, d)) / FOUR_PI;
         d = next;
+        let collision = ray_box(x, d, scene.volume.bbox()).and_then(|(t0, t1)| {
+            let u: f64 = rng.random();
+            scene.track(x, d).reach(t0, t1, -(-u).ln_1p())
+        });
+        let Some(t) = collision else {
+            let w = match scene.sampler {
+                Some(s) => weight * power_heuristic(phase_pdf, s.pdf(d)),
+                None => weight,
+            };
+            let l = scene.env.distant.radiance(d);
+            for c in 0..3 {
+                sum[c] += w * l[c];
+            }
+            return sum;
+        };
+        x = [0, 1, 2].map(|a| x[a] + t * d[a]);
     }
+    // A collision past `max_bounces`: the truncated tail.
+    sum
 }

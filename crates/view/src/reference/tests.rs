@@ -103,42 +103,22 @@ fn without_albedo_a_box_only_attenuates() {
         let len = ray_box(cam.eye, d, v.bbox()).map_or(0.0, |(a, b)| b - a);
         (-1.3 * 0.7 * len).exp()
     };
-    // Single scattering: the transmittance is exact, the scattered term vanishes.
-    let im = render(&v, &m, &env, &cam, &opts(4, false));
-    let mut through = 0;
-    for y in 0..cam.height {
-        for x in 0..cam.width {
-            let t = want(x, y);
-            through += usize::from(t < 0.99);
-            for (p, ck) in im.get(x, y).into_iter().zip(c) {
-                assert!(close(p, ck * t, 1e-6), "{x} {y}");
+    // Both estimators take the camera ray's transmittance exactly; the scattered term
+    // vanishes (the path tracer's forced collisions carry weight 0).
+    for multiple in [false, true] {
+        let im = render(&v, &m, &env, &cam, &opts(4, multiple));
+        let mut through = 0;
+        for y in 0..cam.height {
+            for x in 0..cam.width {
+                let t = want(x, y);
+                through += usize::from(t < 0.99);
+                for (p, ck) in im.get(x, y).into_iter().zip(c) {
+                    assert!(close(p, ck * t, 1e-6), "{x} {y}");
+                }
             }
         }
+        assert!(through > 50, "the box covers much of the image");
     }
-    assert!(through > 50, "the box covers much of the image");
-    // Path tracing: a path escapes with probability T, so each pixel is c·Binomial(n, T)/n;
-    // the expected squared error is Σ c²T(1−T)/n. Allow 1.5× the expected rel_rms.
-    let n = 256;
-    let im = render(&v, &m, &env, &cam, &opts(n, true));
-    let mut reference = Image::new(cam.width, cam.height);
-    let (mut var, mut norm) = (0.0, 0.0);
-    for y in 0..cam.height {
-        for x in 0..cam.width {
-            let t = want(x, y);
-            reference.pixels[y * cam.width + x] = as_f32(c.map(|c| c * t));
-            for ck in c {
-                var += ck * ck * t * (1.0 - t) / f64::from(n);
-                norm += ck * ck * t * t;
-            }
-        }
-    }
-    let expected = (var / norm).sqrt();
-    let err = im.rel_rms(&reference);
-    eprintln!("albedo 0, path tracing: rel_rms {err:.4}, expected {expected:.4}");
-    assert!(
-        err < 1.5 * expected && err > 0.5 * expected,
-        "{err} vs {expected}"
-    );
 }
 
 #[test]
@@ -461,7 +441,10 @@ fn a_sun_disk_and_a_point_light_reach_the_estimators() {
 #[test]
 fn the_noise_estimate_of_two_half_runs_predicts_the_error() {
     // Against a 16× longer render, the error of a short one is its noise (plus the long
-    // one's, a quarter as large): the two-seed estimate must be within a factor 1.6.
+    // one's, a quarter as large). The estimate is itself a sample variance over the
+    // pixels, dominated by the few noisiest ones: one seed's estimate is seen from half
+    // to twice the error (a spread of ≈ 30 %). Over 4 seeds (≈ 15 %), the RMS estimate
+    // must be within a factor 1.5 of the RMS error.
     let v = blob();
     let m = medium(3.0, 0.9, 0.5);
     let mut env = sky();
@@ -469,7 +452,6 @@ fn the_noise_estimate_of_two_half_runs_predicts_the_error() {
         .push(crate::lights::Sun::from_radiance([0.3, -0.5, 0.8], [800.0; 3], 2.0).unwrap());
     let cam = Camera::framing(&cube(), 40.0, 16, 12).unwrap();
     for multiple in [false, true] {
-        let (short, noise) = render_with_noise(&v, &m, &env, &cam, &opts(16, multiple));
         let long = render(
             &v,
             &m,
@@ -480,7 +462,6 @@ fn the_noise_estimate_of_two_half_runs_predicts_the_error() {
                 ..opts(256, multiple)
             },
         );
-        let noise = noise.expect("smoke in view");
         let mask = smoke_pixels(&long, &env, &cam);
         let pick = |im: &Image| Image {
             width: mask.iter().filter(|m| **m).count(),
@@ -493,9 +474,21 @@ fn the_noise_estimate_of_two_half_runs_predicts_the_error() {
                 .map(|(p, _)| *p)
                 .collect(),
         };
-        let err = pick(&short).rel_rms(&pick(&long));
-        eprintln!("multiple {multiple}: error {err:.4}, estimate {noise:.4}");
-        assert!(err < 1.6 * noise && noise < 1.6 * err, "{err} vs {noise}");
+        let (mut err2, mut noise2) = (0.0, 0.0);
+        for seed in 1..=4 {
+            let o = RefOptions {
+                seed,
+                ..opts(16, multiple)
+            };
+            let (short, noise) = render_with_noise(&v, &m, &env, &cam, &o);
+            let noise = noise.expect("smoke in view");
+            let err = pick(&short).rel_rms(&pick(&long));
+            eprintln!("multiple {multiple}, seed {seed}: error {err:.4}, estimate {noise:.4}");
+            err2 += err * err / 4.0;
+            noise2 += noise * noise / 4.0;
+        }
+        let (err, noise) = (err2.sqrt(), noise2.sqrt());
+        assert!(err < 1.5 * noise && noise < 1.5 * err, "{err} vs {noise}");
     }
     // Albedo 0, single scattering: exact (only the attenuation), no noise.
     let (_, zero) = render_with_noise(&v, &medium(3.0, 0.0, 0.0), &env, &cam, &opts(8, false));
