@@ -12,6 +12,7 @@ mod output;
 mod pack;
 mod progress;
 mod render;
+mod scene_render;
 mod viewer;
 
 use clap::Parser;

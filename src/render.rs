@@ -211,12 +211,12 @@ pub fn run(a: RenderArgs) -> Result<()> {
     Ok(())
 }
 
-enum OutKind {
+pub(crate) enum OutKind {
     Exr,
     Png,
 }
 
-fn out_kind(out: &Path) -> Result<OutKind> {
+pub(crate) fn out_kind(out: &Path) -> Result<OutKind> {
     match out
         .extension()
         .and_then(|e| e.to_str())

@@ -1,0 +1,127 @@
+//! End-to-end tests of `haze render --scene` on the bundled room scene: the analytic
+//! render against its quadrature reference on a tiny image, and one-line errors.
+
+use assert_cmd::Command;
+use std::path::{Path, PathBuf};
+
+fn room() -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("data/scenes/room.json")
+        .display()
+        .to_string()
+}
+
+fn haze() -> Command {
+    Command::cargo_bin("haze").unwrap()
+}
+
+fn read_exr(path: &Path) -> (usize, usize, Vec<[f32; 3]>) {
+    use exr::prelude::*;
+    let image = read_first_rgba_layer_from_file(
+        path,
+        |res, _| (res.width(), vec![[0.0f32; 3]; res.width() * res.height()]),
+        |(w, px): &mut (usize, Vec<[f32; 3]>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+            px[pos.y() * *w + pos.x()] = [r, g, b];
+        },
+    )
+    .unwrap();
+    let size = image.layer_data.size;
+    (size.0, size.1, image.layer_data.channel_data.pixels.1)
+}
+
+fn render(args: &[&str]) -> String {
+    let o = haze().arg("render").args(args).output().unwrap();
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert!(o.status.success(), "{args:?}: {err}");
+    err
+}
+
+#[test]
+fn renders_the_room_and_its_reference() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = |n: &str| -> PathBuf { dir.path().join(n) };
+    let (a, r, png) = (out("a.exr"), out("r.exr"), out("a.png"));
+    let size = ["--width", "24", "--height", "18"];
+    let room = room();
+    let err = render(&[&["--scene", &room, "--out", a.to_str().unwrap()], &size[..]].concat());
+    assert!(err.contains("24×18") && err.contains("paper C"), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    let args = [
+        &[
+            "--scene",
+            &room,
+            "--reference",
+            "--out",
+            r.to_str().unwrap(),
+        ],
+        &size[..],
+    ]
+    .concat();
+    assert!(render(&args).contains("reference"));
+    render(
+        &[
+            &["--scene", &room, "--out", png.to_str().unwrap()],
+            &size[..],
+        ]
+        .concat(),
+    );
+    assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
+    let (w, h, pa) = read_exr(&a);
+    let (_, _, pr) = read_exr(&r);
+    assert_eq!((w, h), (24, 18));
+    assert!(pa.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+    // The analytic image within 3 % rel. RMS of the reference (airlight alone: 1 %;
+    // crates/scene's tests measure both).
+    let (mut d, mut n) = (0.0f64, 0.0f64);
+    for (x, y) in pa.iter().flatten().zip(pr.iter().flatten()) {
+        d += f64::from(x - y).powi(2);
+        n += f64::from(*y).powi(2);
+    }
+    let e = (d / n).sqrt();
+    assert!(e < 0.03, "rel RMS {e}");
+    // The lights' glow makes the image brighter than black fog.
+    assert!(pa.iter().any(|p| p[0] > 0.05));
+}
+
+fn fails(args: &[&str], needles: &[&str]) {
+    let o = haze().arg("render").args(args).output().unwrap();
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+    assert_eq!(err.lines().count(), 1, "not one line: {err}");
+    for n in needles {
+        assert!(err.starts_with("error: ") && err.contains(n), "{n}: {err}");
+    }
+}
+
+#[test]
+fn bad_scenes_are_one_line_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.json");
+    let text = std::fs::read_to_string(room()).unwrap();
+    std::fs::write(
+        &bad,
+        text.replacen("\"fov\": 50", "\"fov\": 50, \"zoom\": 2", 1),
+    )
+    .unwrap();
+    let out = dir.path().join("x.exr");
+    let (bad_s, out_s) = (bad.to_str().unwrap(), out.to_str().unwrap());
+    fails(
+        &["--scene", bad_s, "--out", out_s],
+        &["bad.json", "unknown field `zoom`"],
+    );
+    std::fs::write(&bad, text.replacen("\"radius\": 0.45", "\"radius\": -1", 1)).unwrap();
+    fails(
+        &["--scene", bad_s, "--out", out_s],
+        &["bad.json", "surfaces[3]: radius -1"],
+    );
+    let missing = dir.path().join("none.json");
+    fails(
+        &["--scene", missing.to_str().unwrap(), "--out", out_s],
+        &["none.json: no such scene file"],
+    );
+    fails(
+        &["--scene", &room(), "--gpu", "--out", out_s],
+        &["CPU only"],
+    );
+    assert!(!out.exists());
+}
