@@ -32,8 +32,8 @@ impl Default for RefOptions {
     fn default() -> Self {
         RefOptions {
             tolerance: 1e-9,
-            gamma_panels: 16,
-            phi_nodes: 128,
+            gamma_panels: 8,
+            phi_nodes: 64,
         }
     }
 }

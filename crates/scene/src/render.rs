@@ -350,7 +350,10 @@ fn surface(
                 let l = scale(v, 1.0 / d);
                 let lit = dot(n, l) > 0.0 && scene.visible(p_off, s);
                 for (beta, ss, chans) in groups {
-                    let scattered = if *ss > 0.0 {
+                    let reflects = chans
+                        .iter()
+                        .any(|&c| m.diffuse[c] > 0.0 || m.specular[c] > 0.0);
+                    let scattered = if *ss > 0.0 && reflects {
                         Some(
                             chans
                                 .iter()
