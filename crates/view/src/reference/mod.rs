@@ -66,12 +66,12 @@ pub struct RefOptions {
 }
 
 impl Default for RefOptions {
-    /// 256 samples per pixel, 4 light directions per single-scattering point, 256 bounces.
-    /// Measured on a three-Gaussian blob (64³, peak density ≈ 1, σt = 8 and 40, Ω = 0.95,
-    /// g = 0.5)
-    /// under the built-in sky: image noise (`rel_rms` between two seeds, / √2) 0.7 % for
-    /// single scattering and 3 % for path tracing; the truncation loss only matters for an
-    /// albedo close to 1 at optical thickness in the tens.
+    /// 256 samples per pixel, 4 light directions per single-scattering point, 256 bounces,
+    /// the environment importance-sampled. Measured on a held-out plume (72 × 72 × 96,
+    /// σt = 4, Ω = 0.8, g = 0.2, 120 × 90 pixels) under the built-in sky: image noise
+    /// (`render_with_noise`) 1.5 % for single scattering and 2.2 % for path tracing
+    /// (BENCHMARKS.md "Reference noise"); the truncation loss only matters for an albedo
+    /// close to 1 at optical thickness in the tens.
     fn default() -> Self {
         RefOptions {
             spp: 256,
