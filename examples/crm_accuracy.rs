@@ -5,7 +5,7 @@
 //! cargo run --release --example crm_accuracy -- VOLUME [--size WxH] [--spp N]
 //!     [--sigma-t S] [--albedo A] [--g G] [--rbfs N] [--eye X,Y,Z --target X,Y,Z]
 //!     [--sun-map ELEV,AZIM,ANGLE,RATIO [--no-sun-extraction]]
-//!     [--table fig6|order|rbfs|slices|cg|sun|reference|all]
+//!     [--table fig6|order|rbfs|slices|cg|sun|ms|reference|all] [--cache DIR]
 //! ```
 //!
 //! VOLUME is one density frame (any format `haze` imports). It is fitted with `--rbfs`
@@ -20,7 +20,10 @@
 //! background, against the reference renderer at `--spp` samples per pixel (its own
 //! noise, two seeds, is printed for scale). `--table reference` measures only the
 //! reference's own noise under the light the fast renderer gets (no fit), with and
-//! without importance sampling of the environment.
+//! without importance sampling of the environment. `--table ms` measures the multiple
+//! scattering part alone (final − single of both renderers) and, with `--cache`, writes
+//! its images there as PNG. `--cache DIR` keeps the reference images and the fit between
+//! runs (raw `f32` files keyed by every argument they depend on).
 
 use haze_fit::{SequenceFitter, SequenceOptions};
 use haze_view::diffusion::SolveOptions;
@@ -47,6 +50,7 @@ struct Args {
     target: Option<[f64; 3]>,
     sun_map: Option<[f64; 4]>,
     extract: bool,
+    cache: Option<std::path::PathBuf>,
 }
 
 fn parse() -> Result<Args, String> {
@@ -64,6 +68,7 @@ fn parse() -> Result<Args, String> {
         target: None,
         sun_map: None,
         extract: true,
+        cache: None,
     };
     let list = |s: String, n: usize| -> Result<Vec<f64>, String> {
         let v: Vec<f64> = s
@@ -107,12 +112,13 @@ fn parse() -> Result<Args, String> {
                 a.sun_map = Some([l[0], l[1], l[2], l[3]]);
             }
             "--no-sun-extraction" => a.extract = false,
+            "--cache" => a.cache = Some(v()?.into()),
             _ if a.input.is_empty() => a.input = k,
             _ => return Err(format!("unexpected argument {k}")),
         }
     }
     if a.input.is_empty() {
-        return Err("usage: crm_accuracy VOLUME [--size WxH] [--spp N] [--sigma-t S] [--albedo A] [--g G] [--rbfs N] [--eye X,Y,Z --target X,Y,Z] [--sun-map ELEV,AZIM,ANGLE,RATIO [--no-sun-extraction]] [--table fig6|order|rbfs|slices|cg|sun|reference|all]".into());
+        return Err("usage: crm_accuracy VOLUME [--size WxH] [--spp N] [--sigma-t S] [--albedo A] [--g G] [--rbfs N] [--eye X,Y,Z --target X,Y,Z] [--sun-map ELEV,AZIM,ANGLE,RATIO [--no-sun-extraction]] [--table fig6|order|rbfs|slices|cg|sun|ms|reference|all] [--cache DIR]".into());
     }
     Ok(a)
 }
@@ -261,7 +267,7 @@ fn main() {
         reference_noise(&density, &medium, &env, &camera, a.spp);
         return;
     }
-    let rbfs = fit(&density, a.rbfs);
+    let rbfs = cached_fit(&a, &density);
     let approx = rbf_volume(&rbfs, density.dims(), *density.bbox()).expect("grid");
     let residual: Vec<f32> = density
         .data()
@@ -329,7 +335,25 @@ fn main() {
             seed,
             ..RefOptions::default()
         };
+        let key = format!(
+            "ref|{}|{:?}|{}|{}|{}|{}|{:?}|{:?}|{:?}|{multiple}|{seed}|{}",
+            a.input,
+            a.size,
+            a.spp,
+            a.sigma_t,
+            a.albedo,
+            a.g,
+            a.sun_map,
+            a.eye,
+            a.target,
+            // The density rendered: the original or the fit's approximation.
+            volume.data().iter().map(|v| f64::from(*v)).sum::<f64>()
+        );
+        if let Some(img) = cache_read(&a, &key) {
+            return (img, 0.0);
+        }
         let img = reference::render(volume, &scene.medium, &scene.ref_env, &scene.camera, &opts);
+        cache_write(&a, &key, &img);
         (img, t.elapsed().as_secs_f64())
     };
     let all = a.table == "all";
@@ -374,6 +398,14 @@ fn main() {
             "# multiple scattering part: {:.3} of the reference's (which is {:.1} % of its final image)",
             (means[1].0 - means[0].0) / (means[1].1 - means[0].1),
             100.0 * (means[1].1 - means[0].1) / means[1].1
+        );
+    }
+    if a.table == "ms" {
+        multiple_part(
+            &a,
+            &scene,
+            &final_ref,
+            &reference(&scene.density, false, 1).0,
         );
     }
     if all || a.table == "fig6" {
@@ -495,6 +527,154 @@ fn main() {
             );
         }
     }
+}
+
+/// The multiple-scattering part alone: final − single of the fast renderer against the
+/// same difference of the reference (both on the original density), as `rel_rms` and mean
+/// ratio over the smoke pixels, with the images (same exposure) in the cache directory.
+fn multiple_part(a: &Args, scene: &Scene, final_ref: &Image, single_ref: &Image) {
+    let (single, _, _) = scene.crm(
+        &scene.rbfs,
+        true,
+        CrmOptions {
+            multiple: false,
+            ..CrmOptions::default()
+        },
+    );
+    let (fin, stats, _) = scene.crm(&scene.rbfs, true, CrmOptions::default());
+    let diff = |x: &Image, y: &Image| Image {
+        width: x.width,
+        height: x.height,
+        pixels: x
+            .pixels
+            .iter()
+            .zip(&y.pixels)
+            .map(|(p, q)| [0, 1, 2].map(|c| p[c] - q[c]))
+            .collect(),
+    };
+    let ms = diff(&fin, &single);
+    let ms_ref = diff(final_ref, single_ref);
+    println!(
+        "single {:.4} (ratio {:.3}) | final {:.4} (ratio {:.3}) | ms part {:.4} (ratio {:.3}, {:.1} % of the reference's final) | CG {} it",
+        err(&single, single_ref, &scene.mask),
+        mean_ratio(&single, single_ref, &scene.mask),
+        err(&fin, final_ref, &scene.mask),
+        mean_ratio(&fin, final_ref, &scene.mask),
+        err(&ms, &ms_ref, &scene.mask),
+        mean_ratio(&ms, &ms_ref, &scene.mask),
+        100.0 * masked_mean(&ms_ref, &scene.mask) / masked_mean(final_ref, &scene.mask),
+        stats.cg_iterations
+    );
+    if let Some(dir) = &a.cache {
+        let exposure = 0.5 / masked_mean(&ms_ref, &scene.mask).max(1e-12);
+        // Side by side: haze's multiple scattering, the reference's, the reference's final
+        // image at half the exposure and the difference, scaled up 3× for viewing.
+        // The fourth panel: haze − reference, red where haze is brighter, blue where darker
+        // (green channel mean of the two), at 2× the exposure.
+        let signed = Image {
+            width: ms.width,
+            height: ms.height,
+            pixels: ms
+                .pixels
+                .iter()
+                .zip(&ms_ref.pixels)
+                .map(|(p, q)| {
+                    let d = (p[0] + p[1] + p[2] - q[0] - q[1] - q[2]) / 3.0;
+                    [2.0 * d.max(0.0), 0.0, 2.0 * (-d).max(0.0)]
+                })
+                .collect(),
+        };
+        let panels = [
+            (&ms, 1.0f32),
+            (&ms_ref, 1.0),
+            (final_ref, 0.5),
+            (&signed, 1.0),
+        ];
+        let (w, h, k) = (ms.width, ms.height, 3);
+        let mut side = Image::new(4 * w * k, h * k);
+        for y in 0..h * k {
+            for x in 0..4 * w * k {
+                let (panel, scale) = panels[x / (w * k)];
+                let p = panel.get((x % (w * k)) / k, y / k);
+                side.pixels[y * 4 * w * k + x] = p.map(|c| c * scale);
+            }
+        }
+        side.write_png(&dir.join("ms.png"), exposure).expect("png");
+    }
+}
+
+fn cache_path(a: &Args, key: &str) -> Option<std::path::PathBuf> {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    key.hash(&mut h);
+    a.cache
+        .as_ref()
+        .map(|d| d.join(format!("{:016x}.f32", h.finish())))
+}
+
+/// A cached image: width, height (u32 LE), then RGB `f32` LE.
+fn cache_read(a: &Args, key: &str) -> Option<Image> {
+    let bytes = std::fs::read(cache_path(a, key)?).ok()?;
+    let word = |i: usize| f32::from_le_bytes(bytes[4 * i..4 * i + 4].try_into().expect("4"));
+    let (w, h) = (
+        u32::from_le_bytes(bytes[0..4].try_into().ok()?) as usize,
+        u32::from_le_bytes(bytes[4..8].try_into().ok()?) as usize,
+    );
+    (bytes.len() == 8 + 12 * w * h).then(|| Image {
+        width: w,
+        height: h,
+        pixels: (0..w * h)
+            .map(|p| [0, 1, 2].map(|c| word(2 + 3 * p + c)))
+            .collect(),
+    })
+}
+
+fn cache_write(a: &Args, key: &str, img: &Image) {
+    let Some(path) = cache_path(a, key) else {
+        return;
+    };
+    let mut bytes = Vec::with_capacity(8 + 12 * img.pixels.len());
+    bytes.extend((img.width as u32).to_le_bytes());
+    bytes.extend((img.height as u32).to_le_bytes());
+    for p in &img.pixels {
+        for c in p {
+            bytes.extend(c.to_le_bytes());
+        }
+    }
+    std::fs::create_dir_all(path.parent().expect("dir")).expect("cache dir");
+    std::fs::write(path, bytes).expect("cache write");
+}
+
+/// `fit` with its RBFs kept in the cache (center, radius, weight: 5 numbers per line).
+fn cached_fit(a: &Args, density: &Volume) -> Vec<Rbf> {
+    let path = cache_path(a, &format!("fit|{}|{}", a.input, a.rbfs));
+    if let Some(text) = path.as_ref().and_then(|p| std::fs::read_to_string(p).ok()) {
+        return text
+            .lines()
+            .map(|l| {
+                let v: Vec<f64> = l
+                    .split(' ')
+                    .map(|x| x.parse().expect("cached fit"))
+                    .collect();
+                Rbf::new([v[0], v[1], v[2]], v[3], v[4])
+            })
+            .collect();
+    }
+    let rbfs = fit(density, a.rbfs);
+    if let Some(p) = path {
+        let text: String = rbfs
+            .iter()
+            .map(|r| {
+                format!(
+                    "{:e} {:e} {:e} {:e} {:e}\n",
+                    r.center[0], r.center[1], r.center[2], r.radius, r.weight
+                )
+            })
+            .collect();
+        std::fs::create_dir_all(p.parent().expect("dir")).expect("cache dir");
+        std::fs::write(p, text).expect("cache write");
+    }
+    rbfs
 }
 
 /// The reference renderer's own noise (`render_with_noise`: two half-runs, DESIGN.md's

@@ -4,13 +4,14 @@
 // One workgroup per colour channel in `setup`, `iterate` and `finish`. From the frame's
 // geometric operators (`diffusion::operators` module docs) and the single-scattering
 // sources it forms
-//   A_hl = diffusion_hl/(3σtr) − (σa + σs P_h) v_hl
-//   b_h  = Σ_l −σt v_hl (1 − P_l) J⁰_l + (σt/(3σtr)) grad_hl · J¹_l
+//   A_hl = (1 − P_h) diffusion_hl/(3σtr) − (σa + σs P_h) v_hl
+//   b_h  = Σ_l (1 − P_l) [−σt v_hl J⁰_l + (σt/(3σtr)) grad_hl · J¹_l]
 // row-equilibrates (R) and column-scales (C) A as the CPU's CGLS does (`setup`), runs CGLS
 // on M = R A C from the start in `work` (the previous frame's L⁰ or zero) in chunks of
 // iterations (`iterate`, dispatched as often as `max_iterations` needs), and writes the
 // multiple-scattering source (`finish`)
-//   J_ms = (Ω 2√π L⁰, Ω g √(4π/3)·(L¹_y, L¹_z, L¹_x)),  L¹ = (σt D̃ J¹ − ∇L⁰)/(σtr D̃)
+//   J_ms = (Ω 2√π L⁰, Ω g √(4π/3)·(L¹_y, L¹_z, L¹_x)),
+//   L¹ = (σt D̃ (1 − P_h) J¹ − ∇L⁰)/(σtr D̃)
 // (direction of propagation). `add`: one invocation per center adds J_ms to the sources,
 // band 1 negated (propagation → viewing direction).
 //
@@ -130,8 +131,9 @@ fn coef(k: u32, h: u32) -> f32 {
         return 1.0;
     }
     let e = entries[k];
-    let sink = params.sigma_a + params.sigma_s * escape(h);
-    return e.diffusion / (3.0 * params.sigma_tr) - sink * e.v;
+    let p = escape(h);
+    let sink = params.sigma_a + params.sigma_s * p;
+    return e.diffusion * (1.0 - p) / (3.0 * params.sigma_tr) - sink * e.v;
 }
 
 fn inverse_norm(sq: f32) -> f32 {
@@ -231,9 +233,9 @@ fn setup(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) 
                 let e = entries[k];
                 let a = coef(k, h);
                 sq += a * a;
-                let j0l = (1.0 - escape(e.col)) * j0(e.col, c);
-                b += -params.sigma_t * e.v * j0l
-                    + j1_factor * dot(vec3<f32>(e.gx, e.gy, e.gz), j1(e.col, c));
+                let kept = 1.0 - escape(e.col);
+                b += kept * (-params.sigma_t * e.v * j0(e.col, c)
+                    + j1_factor * dot(vec3<f32>(e.gx, e.gy, e.gz), j1(e.col, c)));
             }
         }
         work[v.b + h] = b;
@@ -411,7 +413,8 @@ fn finish(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index)
                 let e = entries[k];
                 grad += vec3<f32>(e.gx, e.gy, e.gz) * work[v.x + e.col];
             }
-            let l1 = (j1(h, c) * (params.sigma_t * d) - grad) / (params.sigma_tr * d);
+            let kept = 1.0 - escape(h);
+            let l1 = (j1(h, c) * (params.sigma_t * d * kept) - grad) / (params.sigma_tr * d);
             out = vec4<f32>(params.band0 * work[v.x + h], params.band1 * l1.y,
                             params.band1 * l1.z, params.band1 * l1.x);
         }

@@ -35,13 +35,24 @@
 //! generation the part `P` leaves. Both enter the local balance:
 //!
 //! ```text
-//! ∇·(κ∇L⁰) − (σa + σs P) D L⁰ + S' = 0,   S' = σt D (1 − P) J⁰_ss − (σt/(3σtr)) ∇·J¹_ss
+//! ∇·(κ'∇L⁰) − (σa + σs P) D L⁰ + S' = 0,   κ' = (1 − P) κ,
+//! S' = σt D (1 − P) J⁰_ss − (σt/(3σtr)) ∇·((1 − P) J¹_ss)
 //! ```
 //!
 //! Without transport it gives `L⁰ = (1 − P) J⁰/(1 − Ω(1 − P))`: the trapped value deep
 //! inside (`P → 0`), the single-collision value `(1 − P) J⁰ → 0` in thin smoke (`P → 1`),
-//! and a non-singular system at Ω = 1 wherever `P > 0`. With `P ≡ 0` (the `escape` of [`Sources`]
-//! empty) it is the equation above.
+//! and a non-singular system at Ω = 1 wherever `P > 0`. The source's flux `J¹` is kept
+//! in the same proportion as `J⁰` (in `S'` and in `L¹ = (σt D (1 − P) J¹ − ∇L⁰)/(σtr D)`):
+//! without it a thin region kept the whole flux of its source, `|L¹|/3` exceeded `L⁰`,
+//! and the forward-scattered light was too bright (against the path tracer the multiple
+//! scattering of sun-lit held-out plumes was 5–9 % too bright in the mean, and 17 % under
+//! the built-in sky on plume-a; BENCHMARKS.md, "Multiple scattering under a sun").
+//! The diffusion coefficient is kept in that proportion too: `L⁰` describes the light
+//! that collides again, and the flights that would have carried it furthest are the ones
+//! that leave the smoke (a measured choice: it lowered the error of the multiple
+//! scattering part on every scene tried; a flight length conditioned on colliding within
+//! a slab of escape probability `P` would shorten it even more, which measured worse).
+//! With `P ≡ 0` (the `escape` of [`Sources`] empty) it is the equation above.
 //!
 //! On the RBF basis every field `F` is interpolated from its values `F_l` at the centers as
 //! `F(x) = Σ w_l B_l(x) F_l / D̃(x)` with `D̃ = Σ w_l B_l` (eq. 12), the density `D` is taken

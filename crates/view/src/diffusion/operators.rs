@@ -1,7 +1,7 @@
 //! The parts of the diffusion system that depend on the RBFs alone (paper A §5.4, eq. 12–13).
 //!
 //! Every medium- and light-dependent factor of `A`, `b` and `J̃ms` is a scalar per center
-//! (`κ = 1/(3σtr D̃)`, the sink `σa + σs P_h`, `σt`, `σt/(3σtr)`) multiplying one of three
+//! (`κ = (1 − P_h)/(3σtr D̃)`, the sink `σa + σs P_h`, `σt`, `σt/(3σtr)`) multiplying one of three
 //! geometric operators on the sparse pattern `{(h, l): v_l(c_h) ≠ 0}`, with `v_l = w_l B_l`:
 //!
 //! ```text
@@ -13,8 +13,8 @@
 //! (all at `c_h`, `D̃ = D̃(c_h)`), so that (module docs of [`super`], `system`, `radiance`):
 //!
 //! ```text
-//! A_hl = diffusion_hl/(3σtr) − (σa + σs P_h) v_hl
-//! b_h  = Σ_l −σt v_hl (1 − P_l) J⁰_l + (σt/(3σtr)) grad_hl · J¹_l
+//! A_hl = (1 − P_h) diffusion_hl/(3σtr) − (σa + σs P_h) v_hl
+//! b_h  = Σ_l (1 − P_l) [−σt v_hl J⁰_l + (σt/(3σtr)) grad_hl · J¹_l]
 //! ∇L⁰(c_h) = Σ_l grad_hl L⁰_l
 //! ```
 //!
@@ -147,17 +147,21 @@ impl Operators {
                 Some(k) if self.density[h] > 0.0 => {
                     let inv_3_sigma_tr = 1.0 / (3.0 * k.sigma_tr);
                     let j1_factor = k.sigma_t * inv_3_sigma_tr;
-                    let sink = k.sigma_a + k.sigma_s * sources.escape(h);
+                    let p_h = sources.escape(h);
+                    let sink = k.sigma_a + k.sigma_s * p_h;
+                    // The flux of the light that collides again (module docs).
+                    let kappa = (1.0 - p_h) * inv_3_sigma_tr;
                     self.row(h)
                         .iter()
                         .map(|e| {
                             let grad = Vector3::from(e.grad);
                             for (c, bc) in b.iter_mut().enumerate() {
-                                let j1 = Vector3::from(sources.j1(e.l, c));
-                                let j0 = (1.0 - sources.escape(e.l)) * sources.j0(e.l, c);
+                                let kept = 1.0 - sources.escape(e.l);
+                                let j1 = Vector3::from(sources.j1(e.l, c)) * kept;
+                                let j0 = kept * sources.j0(e.l, c);
                                 bc[h] += -k.sigma_t * e.v * j0 + j1_factor * grad.dot(&j1);
                             }
-                            (e.l, e.diffusion * inv_3_sigma_tr - sink * e.v)
+                            (e.l, e.diffusion * kappa - sink * e.v)
                         })
                         .collect()
                 }
@@ -206,7 +210,7 @@ impl Operators {
                         .iter()
                         .map(|e| Vector3::from(e.grad) * l0[e.l][c])
                         .sum();
-                    let j1 = Vector3::from(sources.j1(h, c));
+                    let j1 = Vector3::from(sources.j1(h, c)) * (1.0 - sources.escape(h));
                     let l1 = (j1 * (k.sigma_t * d) - grad_l0) / (k.sigma_tr * d);
                     [band0 * l0[h][c], band1 * l1.y, band1 * l1.z, band1 * l1.x]
                 })

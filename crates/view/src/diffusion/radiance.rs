@@ -2,7 +2,8 @@
 //! last paragraph).
 //!
 //! From the first-moment equation (module docs) the media radiance at `c_l` is
-//! `L_m(ω) ≈ L⁰_l + L¹_l·ω` with `L¹_l = (σt D̃ J¹_ss − ∇L⁰)/(σtr D̃)`, everything at `c_l`:
+//! `L_m(ω) ≈ L⁰_l + L¹_l·ω` with `L¹_l = (σt D̃ (1 − P_l) J¹_ss − ∇L⁰)/(σtr D̃)` (`P_l` the
+//! escape probability, `super` module docs), everything at `c_l`:
 //! `J¹_ss` is the given center value, `∇L⁰ = Σ_k ∇(v_k/D̃) L⁰_k` the gradient of the
 //! interpolated field (eq. 12). Its projection on the real orthonormal SH
 //! (`Y00 = 1/(2√π)`, `(Y1−1, Y10, Y11) = √(3/4π)·(y, z, x)`, index `l(l+1)+m`) is

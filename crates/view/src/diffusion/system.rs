@@ -4,12 +4,13 @@
 //! there, `D̃ = D̃(c_h)`):
 //!
 //! ```text
-//! A_hl = [D̃²∇²v_l − 3D̃ ∇D̃·∇v_l + (3|∇D̃|² − D̃∇²D̃) v_l] / (3σtr D̃⁴) − (σa + σs P_h) v_l
-//! b_h  = −S'(c_h) = −σt Σ_l v_l (1 − P_l) J⁰_l + (σt/(3σtr)) Σ_l (D̃∇v_l − v_l∇D̃)/D̃² · J¹_l
+//! A_hl = (1 − P_h) [D̃²∇²v_l − 3D̃ ∇D̃·∇v_l + (3|∇D̃|² − D̃∇²D̃) v_l] / (3σtr D̃⁴) − (σa + σs P_h) v_l
+//! b_h  = −S'(c_h) = Σ_l (1 − P_l) [−σt v_l J⁰_l + (σt/(3σtr)) (D̃∇v_l − v_l∇D̃)/D̃² · J¹_l]
 //! ```
 //!
 //! (`P`: the escape probabilities of the vacuum correction, module docs). The first line is
-//! `∇·(κ∇(v_l/D̃)) − (σa + σs P) D̃ (v_l/D̃)` with `κ = 1/(3σtr D̃)`; the second
+//! `∇·(κ∇(v_l/D̃)) − (σa + σs P) D̃ (v_l/D̃)` with `κ = (1 − P_h)/(3σtr D̃)` taken constant
+//! over the row's neighbourhood; the second
 //! uses `D J⁰ ≈ D̃ J⁰(x) = Σ v_l J⁰_l` and `∇·J¹(x) = Σ ∇(v_l/D̃)·J¹_l`. To stay finite
 //! where `D̃` is small, each ratio is formed before the products:
 //! `A_hl = [∇²v_l/D̃ − 3 (∇D̃/D̃)·(∇v_l/D̃) + (3|∇D̃/D̃|² − ∇²D̃/D̃)(v_l/D̃)]/(3σtr D̃) − σa v_l`,

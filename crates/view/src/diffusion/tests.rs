@@ -37,7 +37,7 @@ fn random_sources(rng: &mut Rng, n: usize) -> Sources {
         j1: (0..n)
             .map(|_| [0; 3].map(|_| [0; 3].map(|_| rng.uniform(-1.0, 1.0))))
             .collect(),
-        escape: Vec::new(),
+        escape: (0..n).map(|_| rng.uniform(0.0, 0.9)).collect(),
     }
 }
 
@@ -86,7 +86,8 @@ const MEDIUM: Medium = Medium {
     g: 0.4,
 };
 
-/// `A` applied to values `L⁰_l` equals `∇·(κ∇L⁰) − σa D̃ L⁰` at every center, with
+/// `A` applied to values `L⁰_l` equals `(1 − P_h)∇·(κ∇L⁰) − (σa + σs P_h) D̃ L⁰` at every
+/// center `h` (random escape probabilities `P`), with
 /// `L⁰(x)` and `κ(x) = 1/(3σtr D̃(x))` evaluated by `Rbf::eval` and the divergence by nested
 /// central differences, step `h = 1e-3·r_min`. Truncation is `O((h/r)²) ≈ 1e-6` of the
 /// terms (`~|L|/r²`), rounding `~ε|L|/h² ≈ 1e-10` of them: tolerance `1e-5` of
@@ -98,7 +99,14 @@ fn operator_rows_match_finite_differences_of_the_field() {
     let mut worst = 0.0f64;
     for rbfs in overlapping_sets(3) {
         let n = rbfs.len();
-        let sys = assemble(&rbfs, &MEDIUM, &Sources::zeros(n));
+        // Escape probabilities: the flux of row h is kept in the proportion 1 − P_h and the
+        // sink grows by σs P_h (module docs of `diffusion`).
+        let escape: Vec<f64> = (0..n).map(|_| rng.uniform(0.0, 0.9)).collect();
+        let src = Sources {
+            escape: escape.clone(),
+            ..Sources::zeros(n)
+        };
+        let sys = assemble(&rbfs, &MEDIUM, &src);
         let a = sys.a.to_dense();
         let vals: Vec<f64> = (0..n).map(|_| rng.uniform(0.5, 2.0)).collect();
         let applied = &a * DVector::from_column_slice(&vals);
@@ -114,7 +122,8 @@ fn operator_rows_match_finite_differences_of_the_field() {
                     (up - down) / (h * h)
                 })
                 .sum();
-            let fd = div - sigma_a * density(&rbfs, x) * l0(x);
+            let sink = sigma_a + 7.0 * 0.6 * escape[i];
+            let fd = (1.0 - escape[i]) * div - sink * density(&rbfs, x) * l0(x);
             let scale: f64 = (0..n).map(|l| (a[(i, l)] * vals[l]).abs()).sum();
             let err = (applied[i] - fd).abs() / scale;
             worst = worst.max(err);
@@ -124,7 +133,8 @@ fn operator_rows_match_finite_differences_of_the_field() {
     eprintln!("operator check: worst relative error {worst:.2e}");
 }
 
-/// `b = −S` with `S(x) = σt D̃ J⁰(x) − (σt/(3σtr)) ∇·J¹(x)`, the interpolated `J⁰`, `J¹`
+/// `b = −S` with `S(x) = σt D̃ J⁰(x) − (σt/(3σtr)) ∇·J¹(x)`, the interpolated
+/// `(1 − P_l) J⁰_l`, `(1 − P_l) J¹_l`
 /// built by `Rbf::eval` and the divergence by central differences (`h = 1e-4·r_min`:
 /// truncation `~1e-8`, rounding `~1e-12/1e-4·r`). Tolerance `1e-6` of the terms' scale.
 #[test]
@@ -140,10 +150,12 @@ fn source_matches_finite_differences_of_the_field() {
         for (i, b) in rbfs.iter().enumerate() {
             let x = b.center;
             for c in 0..3 {
-                let j0: Vec<f64> = src.j0.iter().map(|j| j[c]).collect();
+                // The sources are kept in the proportion 1 − P_l at their centers.
+                let kept = |l: usize| 1.0 - src.escape[l];
+                let j0: Vec<f64> = (0..n).map(|l| kept(l) * src.j0[l][c]).collect();
                 let div: f64 = (0..3)
                     .map(|ax| {
-                        let j1: Vec<f64> = src.j1.iter().map(|j| j[c][ax]).collect();
+                        let j1: Vec<f64> = (0..n).map(|l| kept(l) * src.j1[l][c][ax]).collect();
                         let f = |p| interp(&rbfs, &j1, p);
                         (f(shifted(x, ax, h)) - f(shifted(x, ax, -h))) / (2.0 * h)
                     })
@@ -373,8 +385,10 @@ fn ms_source_sh_matches_the_phase_integral() {
                     let f = |p| interp(&rbfs, &vals, p);
                     (f(shifted(x, ax, step)) - f(shifted(x, ax, -step))) / (2.0 * step)
                 });
-                let l1 = [0, 1, 2]
-                    .map(|ax| (4.0 * dens * src.j1[h][c][ax] - grad[ax]) / (sigma_tr * dens));
+                let kept = 1.0 - src.escape[h];
+                let l1 = [0, 1, 2].map(|ax| {
+                    (4.0 * dens * kept * src.j1[h][c][ax] - grad[ax]) / (sigma_tr * dens)
+                });
                 let y = sh[h][c];
                 for w in [[0.0, 0.0, 1.0], [0.6, -0.8, 0.0], [-0.48, 0.36, -0.8]] {
                     let quad = phase_integral(g, w, l0[h][c], l1) * 0.8;
@@ -509,7 +523,7 @@ fn solver_warm_starts_from_the_previous_frame() {
     let moved_src = Sources {
         j0: [&next.j0[10..], &extra.j0[..]].concat(),
         j1: [&next.j1[10..], &extra.j1[..]].concat(),
-        escape: Vec::new(),
+        escape: [&next.escape[10..], &extra.escape[..]].concat(),
     };
     let cold = DiffusionSolver::new().solve(&moved, &MEDIUM, &moved_src, &opts);
     let warm = solver.solve(&moved, &MEDIUM, &moved_src, &opts);
