@@ -34,7 +34,7 @@ impl Orbit {
     /// front-right and a little above): the same eye and target. Zooming is allowed from
     /// 1/50 to 20 times that distance.
     pub fn framing(bbox: &Bbox, fov: f64, width: usize, height: usize) -> Result<Orbit, String> {
-        let camera = Camera::framing(bbox, fov, width, height)?;
+        let camera = Camera::framing(bbox.min, bbox.max, fov, width, height)?;
         let target = [0, 1, 2].map(|a| 0.5 * (bbox.min[a] + bbox.max[a]));
         let d = [0, 1, 2].map(|a| camera.eye[a] - target[a]);
         let distance = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
@@ -103,7 +103,7 @@ mod tests {
     fn framing_is_the_camera_of_haze_render() {
         let b = Bbox::new([-1.0, 2.0, 0.0], [1.0, 3.5, 4.0]);
         let o = Orbit::framing(&b, 40.0, 400, 300).unwrap();
-        let want = Camera::framing(&b, 40.0, 400, 300).unwrap();
+        let want = Camera::framing(b.min, b.max, 40.0, 400, 300).unwrap();
         let got = o.camera(400, 300).unwrap();
         assert!(
             close(got.eye, want.eye, 1e-12),
