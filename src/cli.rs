@@ -75,7 +75,8 @@ pub enum Command {
     ///
     /// `--scene SCENE.json` renders a scene file instead (camera, lights, homogeneous fog,
     /// planes and spheres; README "Scenes"): paper C's analytic single scattering on the
-    /// CPU, or with `--reference` the same model integrated by quadrature.
+    /// CPU, on the GPU with `--gpu` (the same model in f32), or with `--reference` the
+    /// same model integrated by quadrature.
     Render(RenderCli),
     /// Play a baked asset in a window, lit and rendered as it plays.
     ///
@@ -295,8 +296,9 @@ pub struct RenderCli {
     #[arg(long, conflicts_with_all = ["gpu", "reference"])]
     cpu: bool,
     /// Render on the GPU: single scattering, the diffusion solve of multiple scattering,
-    /// the volume and view passes (in f32). Needs a GPU adapter; Mesa's lavapipe
-    /// (mesa-vulkan-drivers) works without a GPU.
+    /// the volume and view passes (in f32); with --scene, paper C's airlight and surface
+    /// shading. Needs a GPU adapter; Mesa's lavapipe (mesa-vulkan-drivers) works without
+    /// a GPU.
     #[arg(long)]
     gpu: bool,
     /// With --gpu: where the lighting at the RBF centers (single scattering and the

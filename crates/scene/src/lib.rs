@@ -8,6 +8,7 @@
 
 pub mod airlight;
 pub mod file;
+pub mod gpu;
 pub mod gtable;
 pub mod hfunc;
 pub mod htable;
