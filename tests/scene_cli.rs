@@ -163,3 +163,42 @@ fn renders_the_room_on_the_gpu_as_on_the_cpu() {
         .count();
     assert!(outside * 100 <= w * h, "{outside} pixels differ");
 }
+
+/// `haze view --scene` without a window: the scene loads, renders on the GPU while the
+/// camera turns, and the figures come out on one line; a bad scene is a one-line error.
+#[test]
+fn views_the_room_without_a_window() {
+    let o = haze()
+        .args(["view", "--scene", &room(), "--size", "48x36"])
+        .args(["--no-window", "--play-for", "0.3"])
+        .output()
+        .unwrap();
+    let out = String::from_utf8(o.stdout).unwrap();
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert!(o.status.success(), "{err}");
+    assert!(
+        out.contains("pictures of 48×36") && out.contains("median"),
+        "{out}"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.json");
+    std::fs::write(&bad, "{\"camera\": {}}").unwrap();
+    let o = haze()
+        .args([
+            "view",
+            "--scene",
+            bad.to_str().unwrap(),
+            "--no-window",
+            "--play-for",
+            "1",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.starts_with("error: ") && err.contains("bad.json"),
+        "{err}"
+    );
+    assert_eq!(err.lines().count(), 1, "{err}");
+}

@@ -36,10 +36,17 @@ impl Orbit {
     pub fn framing(bbox: &Bbox, fov: f64, width: usize, height: usize) -> Result<Orbit, String> {
         let camera = Camera::framing(bbox.min, bbox.max, fov, width, height)?;
         let target = [0, 1, 2].map(|a| 0.5 * (bbox.min[a] + bbox.max[a]));
-        let d = [0, 1, 2].map(|a| camera.eye[a] - target[a]);
+        Orbit::looking(camera.eye, target, fov)
+            .map_err(|_| format!("cannot frame a box of size {:?}", bbox.size()))
+    }
+
+    /// The orbit whose camera stands at `eye` looking at `target` (a scene file's camera,
+    /// with Z up). Zooming is allowed from 1/50 to 20 times that distance.
+    pub fn looking(eye: [f64; 3], target: [f64; 3], fov: f64) -> Result<Orbit, String> {
+        let d = [0, 1, 2].map(|a| eye[a] - target[a]);
         let distance = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
         if !(distance > 0.0 && distance.is_finite()) {
-            return Err(format!("cannot frame a box of size {:?}", bbox.size()));
+            return Err(format!("the eye {eye:?} is at the target {target:?}"));
         }
         Ok(Orbit {
             target,
