@@ -335,6 +335,10 @@ fn shade_surface(dir: vec3<f32>, p: vec3<f32>, n: vec3<f32>, s: u32) -> vec3<f32
             }
             let theta_s = angle(n, l);
             let theta_r = angle(r, l);
+            // G0 and Gn at T = β·d; channels of equal β share them.
+            var g0 = 0.0;
+            var gm = 0.0;
+            var g_beta = -1.0;
             for (var c = 0u; c < 3u; c++) {
                 if (e[c] <= 0.0) {
                     continue;
@@ -348,10 +352,18 @@ fn shade_surface(dir: vec3<f32>, p: vec3<f32>, n: vec3<f32>, s: u32) -> vec3<f32
                     v_c = att / (d * d) * f[c];
                 }
                 if (ss[c] > 0.0 && (diffuse[c] > 0.0 || specular[c] > 0.0)) {
-                    let t = beta[c] * d;
-                    var g = diffuse[c] / PI * g_table(0u, t, theta_s);
+                    if (beta[c] != g_beta) {
+                        let t = beta[c] * d;
+                        g0 = g_table(0u, t, theta_s);
+                        gm = 0.0;
+                        if (gn >= 0.0) {
+                            gm = g_table(u32(gn), t, theta_r);
+                        }
+                        g_beta = beta[c];
+                    }
+                    var g = diffuse[c] / PI * g0;
                     if (gn >= 0.0 && specular[c] > 0.0) {
-                        g += specular[c] * (m + 2.0) / (2.0 * PI) * g_table(u32(gn), t, theta_r);
+                        g += specular[c] * (m + 2.0) / (2.0 * PI) * gm;
                     }
                     v_c += ss[c] / (2.0 * PI * d) * g;
                 }
