@@ -16,7 +16,7 @@
 //! [`SHADOW_OFFSET`] (relative) off it instead of the CPU's `10⁻⁹` and ignore surfaces
 //! within that distance of their ends (the CPU: `10⁻⁷`), since a smaller offset is
 //! below `f32`'s resolution; and environments at `∞` are flagged, not carried as `∞`
-//! (WGSL does not promise infinities).
+//! (WGSL does not promise infinities), finite ones beyond `10³⁰` clamped there.
 
 use crate::airlight::Limits;
 use crate::render::{Analytic, Image};
@@ -215,7 +215,8 @@ impl GpuRenderer {
             sigma_t: vec4(scene.medium.sigma_t, lim.r_min),
             sigma_s: vec4(
                 scene.medium.sigma_s(),
-                if far.is_finite() { far } else { 0.0 },
+                // Beyond f32's range a finite distance would read as ∞ in the shader.
+                if far.is_finite() { far.min(1e30) } else { 0.0 },
             ),
             albedo: {
                 let [a, b, c] = f32x3(scene.medium.albedo);

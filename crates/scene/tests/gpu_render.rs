@@ -1,9 +1,10 @@
 //! The GPU scene renderer against its CPU twin (`render::render` with paper C's
 //! `Analytic` model), pixel by pixel, on small images: the bundled room, a coloured
 //! medium with suns and the sky, and the extremes — a nearly clear medium (σt = 10⁻⁶), a
-//! clear one with the sky at ∞, a dense one (σt = 3), the eye inside a sphere (the medium
-//! fills space: the eye is always in it), a light at the eye, a light in the middle of the view (γ → 0), a
-//! plane seen at grazing angles, lights 10⁻³ above and exactly on a surface.
+//! clear one with the sky at ∞, an environment farther than `f32` reaches (clamped to
+//! 10³⁰ for the shader), a dense one (σt = 3), the eye inside a sphere (the medium fills
+//! space: the eye is always in it), a light at the eye, a light in the middle of the view
+//! (γ → 0), a plane seen at grazing angles, lights 10⁻³ above and exactly on a surface.
 //!
 //! These tests need a GPU adapter (a CPU one will do: Mesa's lavapipe, which
 //! `scripts/test.sh` installs) and fail with the reason when there is none.
@@ -165,6 +166,10 @@ fn gpu_matches_the_cpu_on_every_case() {
             ]),
         ),
         ("nearly clear (σt 1e-6)", scene(&[("\"sigma_t\": 0.25", "\"sigma_t\": 1e-6")])),
+        (
+            "environment at 1e35, beyond f32",
+            scene(&[("[0.1, 0.12, 0.15]", "\"sky\", \"environment_distance\": 1e35")]),
+        ),
         ("clear (σt 0), sky at ∞", scene(&[("\"sigma_t\": 0.25", "\"sigma_t\": 0"), ("[0.1, 0.12, 0.15]", "\"sky\"")])),
         (
             "dense (σt 3), eye close to the sphere",
