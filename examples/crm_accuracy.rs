@@ -208,7 +208,7 @@ fn main() {
         .unwrap_or(*density.bbox());
     let camera = match (a.eye, a.target) {
         (Some(e), Some(t)) => Camera::new(e, t, [0.0, 0.0, 1.0], 40.0, a.size.0, a.size.1),
-        _ => Camera::framing(&bbox, 40.0, a.size.0, a.size.1),
+        _ => Camera::framing(bbox.min, bbox.max, 40.0, a.size.0, a.size.1),
     }
     .expect("camera");
     let medium = Medium::new(a.sigma_t, a.albedo, a.g).expect("medium");

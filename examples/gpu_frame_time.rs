@@ -162,7 +162,8 @@ fn main() {
                         ..CrmOptions::default()
                     };
                     let medium = Medium::new(8.0, 0.9, 0.0).unwrap_or_else(|e| fail(e));
-                    let camera = Camera::framing(&bbox, 40.0, w, h).unwrap_or_else(|e| fail(e));
+                    let camera =
+                        Camera::framing(bbox.min, bbox.max, 40.0, w, h).unwrap_or_else(|e| fail(e));
                     let mut r = GpuRenderer::new(&ctx, sky.clone()).unwrap_or_else(|e| fail(e));
                     r.set_lighting(lighting);
                     let residual = frame.residual.as_ref().map(Residual::Hash);
@@ -218,8 +219,8 @@ fn main() {
                         median(view_only) * 1e3
                     );
                     if compare && w == sizes[0].0 && h == sizes[0].1 {
-                        let cam =
-                            Camera::framing(&bbox, 40.0, 400, 300).unwrap_or_else(|e| fail(e));
+                        let cam = Camera::framing(bbox.min, bbox.max, 40.0, 400, 300)
+                            .unwrap_or_else(|e| fail(e));
                         r.reset();
                         let (img, _) = r
                             .render(&ctx, &input(u64::MAX), &medium, &cam, &opts)
@@ -280,7 +281,7 @@ fn play(
         let frames: Vec<_> = (0..asset.frame_count())
             .map(|k| decoder.decode(k).unwrap_or_else(|e| fail(e)))
             .collect();
-        let camera = Camera::framing(&bbox, 40.0, w, h).unwrap_or_else(|e| fail(e));
+        let camera = Camera::framing(bbox.min, bbox.max, 40.0, w, h).unwrap_or_else(|e| fail(e));
         for warm in [true, false] {
             let mut r = GpuRenderer::new(ctx, sky.clone()).unwrap_or_else(|e| fail(e));
             r.set_lighting(lighting);

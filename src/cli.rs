@@ -75,7 +75,8 @@ pub enum Command {
     ///
     /// `--scene SCENE.json` renders a scene file instead (camera, lights, homogeneous fog,
     /// planes and spheres; README "Scenes"): paper C's analytic single scattering on the
-    /// CPU, or with `--reference` the same model integrated by quadrature.
+    /// CPU, on the GPU with `--gpu` (the same model in f32), or with `--reference` the
+    /// same model integrated by quadrature.
     Render(RenderCli),
     /// Play a baked asset in a window, lit and rendered as it plays.
     ///
@@ -96,6 +97,12 @@ pub enum Command {
     /// --play-for SECONDS measures playback: it plays that long from the first picture,
     /// prints one line (frames shown, due and dropped, frame times, fps) and exits. A
     /// frame is dropped when its time slot (1/fps long) ends without it on screen.
+    ///
+    /// `--scene SCENE.json` shows a scene file instead, rendered by paper C's analytic
+    /// single scattering on the GPU whenever the camera or a knob changes: drag to orbit,
+    /// scroll to zoom, the panel scales the fog's density and albedo, moves the point
+    /// lights and scales every light's power. With --play-for it turns the camera a degree
+    /// per picture for that long and prints the pictures' median time.
     View(ViewCli),
     /// Reconstruct one frame of a baked asset (RBFs + dequantized residual) as a dense
     /// volume, to compare a bake with its input.
@@ -295,8 +302,9 @@ pub struct RenderCli {
     #[arg(long, conflicts_with_all = ["gpu", "reference"])]
     cpu: bool,
     /// Render on the GPU: single scattering, the diffusion solve of multiple scattering,
-    /// the volume and view passes (in f32). Needs a GPU adapter; Mesa's lavapipe
-    /// (mesa-vulkan-drivers) works without a GPU.
+    /// the volume and view passes (in f32); with --scene, paper C's airlight and surface
+    /// shading. Needs a GPU adapter; Mesa's lavapipe (mesa-vulkan-drivers) works without
+    /// a GPU.
     #[arg(long)]
     gpu: bool,
     /// With --gpu: where the lighting at the RBF centers (single scattering and the
@@ -317,7 +325,13 @@ pub struct RenderCli {
 #[derive(Debug, clap::Args)]
 pub struct ViewCli {
     /// A baked .haze asset (`haze bake` makes one).
-    input: PathBuf,
+    #[arg(required_unless_present = "scene", conflicts_with = "scene")]
+    input: Option<PathBuf>,
+    /// Show a scene file (README "Scenes") instead: paper C's renderer on the GPU, the
+    /// orbit camera starting at the scene's, fog and lights in the panel. Of the options
+    /// below only --size, --exposure, --play-for and --no-window apply.
+    #[arg(long, value_name = "SCENE.json")]
+    scene: Option<PathBuf>,
     /// Playback rate in frames per second; 0 plays every frame as fast as it renders.
     #[arg(long, default_value_t = 24.0)]
     fps: f64,
@@ -372,7 +386,8 @@ pub struct ViewCli {
 impl ViewCli {
     fn into_args(self) -> crate::viewer::ViewArgs {
         crate::viewer::ViewArgs {
-            input: self.input,
+            // clap requires the input without --scene.
+            input: self.input.unwrap_or_default(),
             fps: self.fps,
             width: self.size.0,
             height: self.size.1,
@@ -620,7 +635,19 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             }),
             None => crate::render::run(r.into_args()),
         },
-        Command::View(v) => crate::viewer::run(v.into_args()),
+        Command::View(v) => match v.scene {
+            Some(scene) => {
+                crate::viewer::scene_view::run(crate::viewer::scene_view::SceneViewArgs {
+                    scene,
+                    width: v.size.0,
+                    height: v.size.1,
+                    exposure: v.exposure,
+                    play_for: v.play_for,
+                    window: !v.no_window,
+                })
+            }
+            None => crate::viewer::run(v.into_args()),
+        },
         Command::Merge { chunks, out } => crate::merge::run(&chunks, &out),
         Command::Export { asset, frame, out } => crate::export::run(&asset, frame, &out),
         Command::Inspect {

@@ -4,7 +4,8 @@
 use crate::import_args::parse_vec3;
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand, ValueEnum};
-use haze_wavelet::render::{Camera, Scene};
+use haze_camera::LookAt;
+use haze_wavelet::render::Scene;
 use haze_wavelet::{Basis, Fog, Fogmap, Mode, Placement, Settings};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -180,24 +181,22 @@ fn wavelet(args: WaveletArgs) -> Result<()> {
     let fog = Fog::new(&fogmap.grid(), basis, args.levels, placement, settings)
         .with_context(|| format!("{}", args.fogmap.display()))?;
     let setup = setup.elapsed().as_secs_f64();
-    let framing = Camera::framing(&fog);
-    let camera = Camera {
+    let framing = haze_wavelet::render::framing(&fog);
+    let camera = LookAt {
         eye: args.eye.unwrap_or(framing.eye),
         target: args.target.unwrap_or(framing.target),
         up: args.up,
         fov_deg: args.fov,
-    };
-    let frame = camera.frame().map_err(anyhow::Error::msg)?;
+    }
+    .camera(args.width, args.height)
+    .map_err(anyhow::Error::msg)?;
     let mut scene = Scene::default();
     if let Some(c) = args.fog_color {
         scene.fog = c;
     }
     let bar = rows_bar(args.height);
     let start = Instant::now();
-    let pixels =
-        haze_wavelet::render::render(&fog, &frame, &scene, args.width, args.height, &|| {
-            bar.inc(1)
-        });
+    let pixels = haze_wavelet::render::render(&fog, &camera, &scene, &|| bar.inc(1));
     let seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
     let bytes = match format {

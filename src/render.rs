@@ -82,7 +82,10 @@ pub fn run(a: RenderArgs) -> Result<()> {
     let frame = load(&a)?;
     let camera = match (a.eye, a.target) {
         (Some(e), Some(t)) => Camera::new(e, t, a.up, a.fov, a.width, a.height),
-        (None, None) => Camera::framing(&smoke_bbox(&frame.density), a.fov, a.width, a.height),
+        (None, None) => {
+            let b = smoke_bbox(&frame.density);
+            Camera::framing(b.min, b.max, a.fov, a.width, a.height)
+        }
         _ => bail!("give both --eye and --target, or neither (to frame the volume)"),
     }
     .map_err(|e| anyhow!("camera: {e}"))?;

@@ -1,10 +1,14 @@
-//! `haze render --scene`: a scene file rendered on the CPU by paper C's analytic single
-//! scattering (crates/scene), or by its quadrature reference (`--reference`).
+//! `haze render --scene`: a scene file rendered by paper C's analytic single scattering
+//! (crates/scene) on the CPU, or on the GPU with `--gpu` (its `f32` twin,
+//! `haze_scene::gpu`), or by its quadrature reference (`--reference`, CPU).
 
 use crate::render::{OutKind, out_kind};
-use anyhow::{Result, bail};
+use anyhow::{Result, anyhow};
+use haze_scene::Scene;
 use haze_scene::airlight::Limits;
-use haze_scene::render::{Analytic, Model, Reference, render};
+use haze_scene::gpu::GpuRenderer;
+use haze_scene::render::{Analytic, Image, Model, Reference, render};
+use haze_view::gpu::{GpuContext, GpuError};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -25,9 +29,6 @@ pub struct SceneRenderArgs {
 pub fn run(a: SceneRenderArgs) -> Result<()> {
     let start = Instant::now();
     let kind = out_kind(&a.out)?;
-    if a.gpu {
-        bail!("--scene renders on the CPU only so far (drop --gpu)");
-    }
     let mut scene = haze_scene::load(&a.scene)?;
     let (w, h) = (
         a.width.unwrap_or(scene.camera.width),
@@ -37,6 +38,9 @@ pub fn run(a: SceneRenderArgs) -> Result<()> {
         .camera
         .with_size(w, h)
         .map_err(|e| anyhow::anyhow!("{}: {e}", a.scene.display()))?;
+    if a.gpu {
+        return run_gpu(&a, &scene, kind, start);
+    }
     let model: Box<dyn Model> = if a.reference {
         Box::new(Reference::default())
     } else {
@@ -52,15 +56,7 @@ pub fn run(a: SceneRenderArgs) -> Result<()> {
         bar.set_position(rows as u64)
     });
     bar.finish_and_clear();
-    let image = haze_view::Image {
-        width: image.width,
-        height: image.height,
-        pixels: image.pixels,
-    };
-    match kind {
-        OutKind::Exr => image.write_exr(&a.out)?,
-        OutKind::Png => image.write_png(&a.out, a.exposure)?,
-    }
+    write(&a, image, kind)?;
     eprintln!(
         "{}: {}×{}, scene {} ({} lights, {} surfaces), {}, {:.2} s",
         a.out.display(),
@@ -72,5 +68,48 @@ pub fn run(a: SceneRenderArgs) -> Result<()> {
         model.name(),
         start.elapsed().as_secs_f64()
     );
+    Ok(())
+}
+
+/// `--gpu`: the tables built on the CPU, the image rendered by `haze_scene::gpu`.
+fn run_gpu(a: &SceneRenderArgs, scene: &Scene, kind: OutKind, start: Instant) -> Result<()> {
+    let gpu_err = |e: GpuError| anyhow!("--gpu: {e}");
+    let ctx = GpuContext::new().map_err(gpu_err)?;
+    let analytic = Analytic::new(scene);
+    let renderer = GpuRenderer::new(&ctx, &analytic).map_err(gpu_err)?;
+    let frame = Instant::now();
+    let image = renderer
+        .render(&ctx, scene, &Limits::default())
+        .map_err(|e| anyhow!("--gpu: {}: {e}", a.scene.display()))?;
+    let frame = frame.elapsed().as_secs_f64();
+    let (w, h) = (image.width, image.height);
+    write(a, image, kind)?;
+    eprintln!(
+        "{}: {}×{}, scene {} ({} lights, {} surfaces), {} on the GPU ({}), frame {:.3} s, {:.2} s in all",
+        a.out.display(),
+        w,
+        h,
+        a.scene.display(),
+        scene.lights.len(),
+        scene.surfaces.len(),
+        analytic.name(),
+        ctx.adapter_name(),
+        frame,
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// Writes the image as `kind` (temp file + rename).
+fn write(a: &SceneRenderArgs, image: Image, kind: OutKind) -> Result<()> {
+    let image = haze_view::Image {
+        width: image.width,
+        height: image.height,
+        pixels: image.pixels,
+    };
+    match kind {
+        OutKind::Exr => image.write_exr(&a.out)?,
+        OutKind::Png => image.write_png(&a.out, a.exposure)?,
+    }
     Ok(())
 }

@@ -1,5 +1,6 @@
 //! End-to-end tests of `haze render --scene` on the bundled room scene: the analytic
-//! render against its quadrature reference on a tiny image, and one-line errors.
+//! render against its quadrature reference on a tiny image, the GPU's against the CPU's,
+//! and one-line errors.
 
 use assert_cmd::Command;
 use std::path::{Path, PathBuf};
@@ -119,9 +120,85 @@ fn bad_scenes_are_one_line_errors() {
         &["--scene", missing.to_str().unwrap(), "--out", out_s],
         &["none.json: no such scene file"],
     );
-    fails(
-        &["--scene", &room(), "--gpu", "--out", out_s],
-        &["CPU only"],
-    );
     assert!(!out.exists());
+}
+
+/// `--gpu` (lavapipe will do; fails without an adapter) against the CPU render, pixel by
+/// pixel within crates/scene's GPU tolerance (`tests/gpu_render.rs`: `5·10⁻⁴` relative
+/// plus `10⁻⁵` of the mean, at most 1 % of the pixels outside).
+#[test]
+fn renders_the_room_on_the_gpu_as_on_the_cpu() {
+    let dir = tempfile::tempdir().unwrap();
+    let (c, g) = (dir.path().join("c.exr"), dir.path().join("g.exr"));
+    let size = ["--width", "40", "--height", "30"];
+    let room = room();
+    render(&[&["--scene", &room, "--out", c.to_str().unwrap()], &size[..]].concat());
+    let err = render(
+        &[
+            &["--scene", &room, "--gpu", "--out", g.to_str().unwrap()],
+            &size[..],
+        ]
+        .concat(),
+    );
+    // The summary is the last line (a Vulkan driver may print its own lines before it).
+    let last = err.lines().last().unwrap_or_default();
+    assert!(
+        last.contains("40×30") && last.contains("on the GPU") && last.contains("frame"),
+        "{err}"
+    );
+    let (w, h, pc) = read_exr(&c);
+    let (_, _, pg) = read_exr(&g);
+    assert_eq!((w, h), (40, 30));
+    let mean = pc.iter().flatten().map(|v| f64::from(*v)).sum::<f64>() / (3 * w * h) as f64;
+    assert!(mean > 0.0);
+    let outside = pc
+        .iter()
+        .zip(&pg)
+        .filter(|(c, g)| {
+            (0..3).any(|k| {
+                let (c, g) = (f64::from(c[k]), f64::from(g[k]));
+                (g - c).abs() > 5e-4 * c.abs() + 1e-5 * mean
+            })
+        })
+        .count();
+    assert!(outside * 100 <= w * h, "{outside} pixels differ");
+}
+
+/// `haze view --scene` without a window: the scene loads, renders on the GPU while the
+/// camera turns, and the figures come out on one line; a bad scene is a one-line error.
+#[test]
+fn views_the_room_without_a_window() {
+    let o = haze()
+        .args(["view", "--scene", &room(), "--size", "48x36"])
+        .args(["--no-window", "--play-for", "0.3"])
+        .output()
+        .unwrap();
+    let out = String::from_utf8(o.stdout).unwrap();
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert!(o.status.success(), "{err}");
+    assert!(
+        out.contains("pictures of 48×36") && out.contains("median"),
+        "{out}"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.json");
+    std::fs::write(&bad, "{\"camera\": {}}").unwrap();
+    let o = haze()
+        .args([
+            "view",
+            "--scene",
+            bad.to_str().unwrap(),
+            "--no-window",
+            "--play-for",
+            "1",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.starts_with("error: ") && err.contains("bad.json"),
+        "{err}"
+    );
+    assert_eq!(err.lines().count(), 1, "{err}");
 }

@@ -1,6 +1,6 @@
-//! End-to-end tests of `haze view` on an asset baked from the bundled plume-a frames: the
-//! one-line errors, playback measured without a window, and the real window on a virtual
-//! X display (Xvfb, which `scripts/test.sh` installs) with Mesa's lavapipe. A playback
+//! End-to-end tests of `haze view` on an asset baked from the bundled plume-a frames (and
+//! `--scene` on the bundled room): the one-line errors, playback measured without a
+//! window, and the real window on a virtual X display (Xvfb, which `scripts/test.sh` installs) with Mesa's lavapipe. A playback
 //! that never ends fails its test after two minutes.
 //!
 //! The playback tests need a GPU adapter (lavapipe will do) and fail without one.
@@ -286,6 +286,58 @@ fn the_window_plays_on_a_virtual_display() {
         assert!((3.0..4.5).contains(&secs) && shown >= 2, "{out}");
         assert!(dropped <= due && shown >= due - dropped, "{out}");
     }
+}
+
+/// `haze view --scene`'s window on a virtual display: opens, shows the room, and
+/// `--play-for` closes it with the measurement line.
+#[cfg(target_os = "linux")]
+#[test]
+fn the_scene_window_shows_on_a_virtual_display() {
+    let dir = tempfile::tempdir().unwrap();
+    let room = data("scenes/room.json");
+    let mut failures = Vec::new();
+    let out = (0..3).find_map(|attempt| {
+        let display = match VirtualDisplay::start(dir.path(), attempt) {
+            Ok(d) => d,
+            Err(e) => {
+                failures.push(e);
+                return None;
+            }
+        };
+        let o = haze()
+            .args([
+                "view",
+                "--scene",
+                &room,
+                "--size",
+                "64x48",
+                "--play-for",
+                "2",
+            ])
+            .env("DISPLAY", format!(":{}", display.number))
+            .env_remove("XAUTHORITY")
+            .env_remove("WAYLAND_DISPLAY")
+            .timeout(std::time::Duration::from_secs(120))
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr).to_string();
+        if o.status.success() {
+            return Some(String::from_utf8(o.stdout).unwrap());
+        }
+        assert!(err.contains("cannot open the viewer window"), "{err}");
+        failures.push(format!(
+            "{err}\nXvfb :{} said: {}",
+            display.number,
+            display.log()
+        ));
+        None
+    });
+    let out = out.unwrap_or_else(|| panic!("{}", failures.join("\n---\n")));
+    assert!(
+        out.contains("of 64×48 in") && out.contains("median"),
+        "{out}"
+    );
+    assert_eq!(out.lines().count(), 1, "{out}");
 }
 
 /// Without a GPU adapter the viewer says so on one line, before opening a window (here

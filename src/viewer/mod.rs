@@ -8,13 +8,15 @@
 //! - [`worker`]: the render thread (frame stream, GPU context, renderer);
 //! - [`player`]: the clock driving the render thread, shared by the window and
 //!   `--no-window`;
-//! - [`app`]: the egui window.
+//! - [`app`]: the egui window;
+//! - [`scene_view`]: `haze view --scene`, a scene file through paper C's GPU renderer.
 
 mod app;
 pub mod frame;
 mod orbit;
 mod playback;
 mod player;
+pub mod scene_view;
 #[cfg(test)]
 mod testing;
 mod worker;

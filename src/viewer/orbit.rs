@@ -34,12 +34,19 @@ impl Orbit {
     /// front-right and a little above): the same eye and target. Zooming is allowed from
     /// 1/50 to 20 times that distance.
     pub fn framing(bbox: &Bbox, fov: f64, width: usize, height: usize) -> Result<Orbit, String> {
-        let camera = Camera::framing(bbox, fov, width, height)?;
+        let camera = Camera::framing(bbox.min, bbox.max, fov, width, height)?;
         let target = [0, 1, 2].map(|a| 0.5 * (bbox.min[a] + bbox.max[a]));
-        let d = [0, 1, 2].map(|a| camera.eye[a] - target[a]);
+        Orbit::looking(camera.eye, target, fov)
+            .map_err(|_| format!("cannot frame a box of size {:?}", bbox.size()))
+    }
+
+    /// The orbit whose camera stands at `eye` looking at `target` (a scene file's camera,
+    /// with Z up). Zooming is allowed from 1/50 to 20 times that distance.
+    pub fn looking(eye: [f64; 3], target: [f64; 3], fov: f64) -> Result<Orbit, String> {
+        let d = [0, 1, 2].map(|a| eye[a] - target[a]);
         let distance = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
         if !(distance > 0.0 && distance.is_finite()) {
-            return Err(format!("cannot frame a box of size {:?}", bbox.size()));
+            return Err(format!("the eye {eye:?} is at the target {target:?}"));
         }
         Ok(Orbit {
             target,
@@ -103,7 +110,7 @@ mod tests {
     fn framing_is_the_camera_of_haze_render() {
         let b = Bbox::new([-1.0, 2.0, 0.0], [1.0, 3.5, 4.0]);
         let o = Orbit::framing(&b, 40.0, 400, 300).unwrap();
-        let want = Camera::framing(&b, 40.0, 400, 300).unwrap();
+        let want = Camera::framing(b.min, b.max, 40.0, 400, 300).unwrap();
         let got = o.camera(400, 300).unwrap();
         assert!(
             close(got.eye, want.eye, 1e-12),

@@ -77,7 +77,8 @@ impl Default for Limits {
 /// The light position the models use for the ray `eye + t·dir` (unit `dir`): at least
 /// `r_min` from the eye (pushed out along the eye–light line, or sideways if the light is
 /// exactly at the eye), and if it is in front of the ray closer than `γ_min` to it, turned
-/// about the eye onto the cone `γ = γ_min`.
+/// about the eye onto the cone `γ = γ_min` (on the side where it lies; the airlight
+/// depends only on `γ`, so any side will do for a light on the ray).
 pub fn effective_light(eye: Vec3, dir: Vec3, light: Vec3, lim: &Limits) -> Vec3 {
     let mut v = sub(light, eye);
     let d = norm(v);
@@ -88,7 +89,12 @@ pub fn effective_light(eye: Vec3, dir: Vec3, light: Vec3, lim: &Limits) -> Vec3 
     let d = norm(v);
     let (c, s) = cos_sin(scale(v, 1.0 / d), dir);
     if c > 0.0 && s < lim.gamma_min.sin() {
-        let side = normalize(axpy(v, -dot(v, dir), dir)).unwrap_or_else(|| perpendicular(dir));
+        // The part of v across the ray, projected twice: with the light on the ray the
+        // first projection leaves rounding noise, which need not be across the ray.
+        let across = |a: Vec3| normalize(axpy(a, -dot(a, dir), dir));
+        let side = across(v)
+            .and_then(across)
+            .unwrap_or_else(|| perpendicular(dir));
         let (sg, cg) = lim.gamma_min.sin_cos();
         v = scale(axpy(scale(dir, cg), sg, side), d);
     }

@@ -4,7 +4,7 @@
 //! an unknown key, a wrong type, a negative radius, a zero normal, a type not supported
 //! yet — is one line naming the file, the place in it and the problem.
 
-use crate::camera::Camera;
+use crate::Camera;
 use crate::scene::{Environment, Light, Material, Medium, Rgb, Scene, Shape, Surface};
 use crate::vec3::{Vec3, normalize};
 use serde::Deserialize;

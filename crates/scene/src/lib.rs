@@ -7,8 +7,8 @@
 //! by quadrature, independent of every table.
 
 pub mod airlight;
-pub mod camera;
 pub mod file;
+pub mod gpu;
 pub mod gtable;
 pub mod hfunc;
 pub mod htable;
@@ -20,6 +20,6 @@ pub mod special;
 pub mod table;
 pub mod vec3;
 
-pub use camera::Camera;
 pub use file::{SceneError, load};
+pub use haze_camera::Camera;
 pub use scene::{Environment, Light, Material, Medium, Rgb, Scene, Shape, Surface};

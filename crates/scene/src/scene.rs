@@ -1,7 +1,7 @@
 //! A scene as the renderers see it, validated: camera, environment, lights, the medium
 //! (all homogeneous media summed) and surfaces. [`crate::file`] reads it from JSON.
 
-use crate::camera::Camera;
+use crate::Camera;
 use crate::vec3::{Vec3, dot, sub};
 
 /// Linear RGB.

@@ -124,6 +124,23 @@ fn extremes_are_finite_and_match_closed_forms() {
         a.is_finite() && (a / r - 1.0).abs() < 1e-3,
         "through the light: {a} vs {r}"
     );
+    // A light on an oblique ray (up to rounding, which leaves noise in any direction):
+    // turned onto the cone γ_min itself, whatever side the noise picks.
+    for (i, d) in [[0.3, 0.7, -0.2], [-0.8, 0.1, 0.55], [1e-3, -1.0, 2e-3]]
+        .iter()
+        .enumerate()
+    {
+        let d = normalize(*d).unwrap();
+        let eye = [0.4, -1.3, 2.2];
+        let s = effective_light(eye, d, axpy(eye, 2.5 + i as f64, d), &lim);
+        let u = normalize(haze_scene::vec3::sub(s, eye)).unwrap();
+        let (c, sn) = haze_scene::vec3::cos_sin(u, d);
+        assert!(
+            (sn.atan2(c) / lim.gamma_min - 1.0).abs() < 1e-6,
+            "{d:?}: γ = {}",
+            sn.atan2(c)
+        );
+    }
     // The light at the eye: moved to r_min; finite, and the same for the reference.
     let s = effective_light([0.0; 3], y, [0.0; 3], &lim);
     assert!((norm(s) - lim.r_min).abs() < 1e-15);

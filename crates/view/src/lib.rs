@@ -3,7 +3,6 @@
 //! compensated ray marching, and a reference renderer to measure them against. Every
 //! stage runs on the CPU (rayon) and is the oracle of its GPU twin.
 
-pub mod camera;
 pub mod diffusion;
 pub mod env;
 pub mod field;
@@ -17,9 +16,9 @@ pub mod render;
 pub mod sh;
 pub mod stream;
 
-pub use camera::Camera;
 pub use diffusion::{DiffusionSolver, Solution, SolveOptions, Sources};
 pub use env::{Distant, Environment, LatLong, Rgb, Sky};
+pub use haze_camera::Camera;
 pub use image::{Image, ImageError};
 pub use lights::{PointLight, Sun};
 pub use medium::Medium;

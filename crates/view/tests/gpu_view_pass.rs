@@ -183,7 +183,7 @@ fn box_far_from_the_origin_with_uneven_voxels_matches_the_cpu() {
     let rbfs = cluster(&bbox);
     let env = Environment::sky(Sky::default());
     let medium = Medium::new(6.0, 0.7, 0.0).unwrap();
-    let cam = Camera::framing(&bbox, 35.0, 40, 40).unwrap();
+    let cam = Camera::framing(bbox.min, bbox.max, 35.0, 40, 40).unwrap();
     let g = grids(&rbfs, dims, &bbox, &medium, &env, cam.eye);
     // Two slice thicknesses: the default half voxel and a coarse one.
     for du in [crm::default_slice(dims, &bbox), 0.05] {
@@ -311,7 +311,7 @@ fn a_compiled_pass_renders_many_frames_and_refuses_bad_input() {
     let rbfs = cluster(&bbox);
     let env = Environment::sky(Sky::default());
     let medium = Medium::new(4.0, 0.8, 0.3).unwrap();
-    let cam = Camera::framing(&bbox, 40.0, 16, 12).unwrap();
+    let cam = Camera::framing(bbox.min, bbox.max, 40.0, 16, 12).unwrap();
     let g = grids(&rbfs, [16; 3], &bbox, &medium, &env, cam.eye);
     let a = pass.run(&ctx, &g, &medium, &env, &cam, 0.03).unwrap();
     let b = pass.run(&ctx, &g, &medium, &env, &cam, 0.03).unwrap();

@@ -1,9 +1,9 @@
 //! Ray throughput of the wavelet fog: rays per second on one core for each basis ×
 //! levels × µ, on a 64² fogmap (the bundled 128² map averaged 2 × 2) seen by the default
-//! camera (`Camera::framing`) at 800 × 600, one ray in 16 (200 × 150 rays).
+//! camera (`render::framing`) at 800 × 600, one ray in 16 (200 × 150 rays).
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use haze_wavelet::render::{Camera, Scene, shade};
+use haze_wavelet::render::{Scene, framing, shade};
 use haze_wavelet::{Basis, Fog, Fogmap, Grid, Mode, Placement, Settings};
 use std::hint::black_box;
 use std::path::Path;
@@ -57,10 +57,10 @@ fn bench(c: &mut Criterion) {
             ..Settings::default()
         };
         let fog = Fog::new(&grid, basis, levels, placement(), settings).unwrap();
-        let frame = Camera::framing(&fog).frame().unwrap();
+        let frame = framing(&fog).camera(800, 600).unwrap();
         let dirs: Vec<[f64; 3]> = (0..150)
             .flat_map(|y| (0..200).map(move |x| (4 * x, 4 * y)))
-            .map(|(x, y)| frame.ray(x, y, 800, 600))
+            .map(|(x, y)| frame.pixel_ray(x, y))
             .collect();
         group.throughput(Throughput::Elements(dirs.len() as u64));
         let id = BenchmarkId::new(

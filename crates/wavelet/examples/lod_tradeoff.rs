@@ -13,7 +13,7 @@
 //! `|τ − τ_exact|`; "rms/rms" is the RMS error over the RMS of `1 − τ_exact` (the fog's
 //! opacity, what the image shows).
 
-use haze_wavelet::render::Camera;
+use haze_camera::LookAt;
 use haze_wavelet::{Basis, Fog, Fogmap, Grid, Mode, Placement, Settings};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -40,10 +40,10 @@ fn main() {
         falloff: 0.3,
     };
     let exact = Fog::new(&grid, Basis::Linear, 0, placement, Settings::default()).unwrap();
-    let high = Camera::framing(&exact);
+    let high = haze_wavelet::render::framing(&exact);
     let [x0, x1, y0, y1] = exact.map_box();
     let cx = (x0 + x1) / 2.0;
-    let low = Camera {
+    let low = LookAt {
         eye: [cx, y0 + 0.02 * (y1 - y0), 2.0],
         target: [cx, y1, 2.0],
         ..high
@@ -53,15 +53,15 @@ fn main() {
     }
 }
 
-fn table(grid: &Grid, cell: f64, placement: Placement, view: &str, camera: Camera) {
+fn table(grid: &Grid, cell: f64, placement: Placement, view: &str, camera: LookAt) {
     let exact_settings = Settings {
         min_transmittance: 0.0,
         ..Settings::default()
     };
-    let frame = camera.frame().unwrap();
+    let frame = camera.camera(800, 600).unwrap();
     let dirs: Vec<[f64; 3]> = (0..150)
         .flat_map(|y| (0..200).map(move |x| (4 * x, 4 * y)))
-        .map(|(x, y)| frame.ray(x, y, 800, 600))
+        .map(|(x, y)| frame.pixel_ray(x, y))
         .collect();
     println!(
         "\n{} × {} fogmap, cell {cell}, {} rays, {view} (eye {:?})\n",

@@ -13,109 +13,22 @@
 //! are shaded in parallel with rayon.
 
 use crate::lod::Fog;
+use haze_camera::{Camera, LookAt};
 use rayon::prelude::*;
 
-/// A pinhole camera.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Camera {
-    /// Eye position.
-    pub eye: [f64; 3],
-    /// Point looked at.
-    pub target: [f64; 3],
-    /// Up direction (need not be orthogonal to the view direction).
-    pub up: [f64; 3],
-    /// Vertical field of view in degrees.
-    pub fov_deg: f64,
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn normalize(a: [f64; 3]) -> Option<[f64; 3]> {
-    let n = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
-    (n > 1e-12 && n.is_finite()).then(|| a.map(|c| c / n))
-}
-
-/// The camera's orthonormal frame: right, true up, forward.
-#[derive(Clone, Copy, Debug)]
-pub struct Frame {
-    /// Eye position.
-    pub eye: [f64; 3],
-    right: [f64; 3],
-    up: [f64; 3],
-    forward: [f64; 3],
-    tan_half: f64,
-}
-
-impl Camera {
-    /// The camera's frame, or why it has none.
-    pub fn frame(&self) -> Result<Frame, String> {
-        if !self
-            .eye
-            .iter()
-            .chain(&self.target)
-            .chain(&self.up)
-            .all(|v| v.is_finite())
-        {
-            return Err("camera eye, target and up must be finite".to_string());
-        }
-        let forward = normalize(sub(self.target, self.eye))
-            .ok_or_else(|| "camera eye and target coincide".to_string())?;
-        let right = normalize(cross(forward, self.up))
-            .ok_or_else(|| "camera up is parallel to the view direction".to_string())?;
-        if !(self.fov_deg > 0.0 && self.fov_deg < 180.0) {
-            return Err(format!(
-                "field of view {}° must be in (0, 180)",
-                self.fov_deg
-            ));
-        }
-        Ok(Frame {
-            eye: self.eye,
-            right,
-            up: cross(right, forward),
-            forward,
-            tan_half: (self.fov_deg.to_radians() / 2.0).tan(),
-        })
-    }
-
-    /// A camera that frames a fog from above the ground: from beyond the middle of the
-    /// south edge, above the layer, looking north over the fog to the horizon (which
-    /// crosses the upper part of the image at the default 50° field of view).
-    pub fn framing(fog: &Fog) -> Camera {
-        let [x0, x1, y0, y1] = fog.map_box();
-        let p = fog.placement();
-        let size = (x1 - x0).max(y1 - y0);
-        let cx = (x0 + x1) / 2.0;
-        Camera {
-            eye: [cx, y0 - 0.2 * size, p.top.max(0.0) + 0.2 * size],
-            target: [cx, y0 + 0.6 * size, p.bottom.max(0.0)],
-            up: [0.0, 0.0, 1.0],
-            fov_deg: 50.0,
-        }
-    }
-}
-
-impl Frame {
-    /// Unit direction through pixel `(x, y)`'s centre of a `w × h` image (row 0 on top).
-    pub fn ray(&self, x: usize, y: usize, w: usize, h: usize) -> [f64; 3] {
-        let aspect = w as f64 / h as f64;
-        let sx = ((x as f64 + 0.5) / w as f64 * 2.0 - 1.0) * self.tan_half * aspect;
-        let sy = (1.0 - (y as f64 + 0.5) / h as f64 * 2.0) * self.tan_half;
-        let d = [
-            self.forward[0] + sx * self.right[0] + sy * self.up[0],
-            self.forward[1] + sx * self.right[1] + sy * self.up[1],
-            self.forward[2] + sx * self.right[2] + sy * self.up[2],
-        ];
-        normalize(d).unwrap_or(self.forward)
+/// A view that frames a fog from above the ground: from beyond the middle of the south
+/// edge, above the layer, looking north over the fog to the horizon (which crosses the
+/// upper part of the image at the default 50° field of view), Z up.
+pub fn framing(fog: &Fog) -> LookAt {
+    let [x0, x1, y0, y1] = fog.map_box();
+    let p = fog.placement();
+    let size = (x1 - x0).max(y1 - y0);
+    let cx = (x0 + x1) / 2.0;
+    LookAt {
+        eye: [cx, y0 - 0.2 * size, p.top.max(0.0) + 0.2 * size],
+        target: [cx, y0 + 0.6 * size, p.bottom.max(0.0)],
+        up: [0.0, 0.0, 1.0],
+        fov_deg: 50.0,
     }
 }
 
@@ -163,23 +76,22 @@ pub fn shade(fog: &Fog, scene: &Scene, eye: [f64; 3], dir: [f64; 3]) -> [f64; 3]
     [0, 1, 2].map(|c| tau * surface[c] + (1.0 - tau) * scene.fog[c])
 }
 
-/// Renders `width × height` pixels, row 0 on top, linear RGB; `row_done` is called once
-/// per finished row (from worker threads).
+/// Renders the camera's `width × height` pixels, row 0 on top, linear RGB; `row_done` is
+/// called once per finished row (from worker threads).
 pub fn render(
     fog: &Fog,
-    camera: &Frame,
+    camera: &Camera,
     scene: &Scene,
-    width: usize,
-    height: usize,
     row_done: &(dyn Fn() + Sync),
 ) -> Vec<[f32; 3]> {
+    let (width, height) = (camera.width, camera.height);
     let mut pixels = vec![[0.0f32; 3]; width * height];
     pixels
         .par_chunks_mut(width.max(1))
         .enumerate()
         .for_each(|(y, row)| {
             for (x, px) in row.iter_mut().enumerate() {
-                let dir = camera.ray(x, y, width, height);
+                let dir = camera.pixel_ray(x, y);
                 *px = shade(fog, scene, camera.eye, dir).map(|c| c as f32);
             }
             row_done();

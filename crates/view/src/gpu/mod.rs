@@ -624,7 +624,7 @@ impl SourceBuffer {
 
 /// Compiles the WGSL `source` and builds its compute pipeline (entry point `main`, the
 /// bind group layout taken from the shader), as the stage called `label`.
-fn compute_pipeline(
+pub fn compute_pipeline(
     ctx: &GpuContext,
     label: &'static str,
     source: &str,
@@ -649,7 +649,7 @@ fn compute_pipeline(
 }
 
 /// A buffer holding `contents`. Call inside [`GpuContext::scoped`].
-fn buffer_init(
+pub fn buffer_init(
     ctx: &GpuContext,
     label: &'static str,
     contents: &[u8],
@@ -689,7 +689,7 @@ fn bind_buffers(
 /// Binds `buffers` (binding `i` to `buffers[i]`) as group 0 of `pipeline` and submits one
 /// compute pass of `groups` workgroups (none when a count is 0), timed as `label` while
 /// [`GpuContext::time_stages`] is on. Call inside [`GpuContext::scoped`].
-fn submit_pass(
+pub fn submit_pass(
     ctx: &GpuContext,
     pipeline: &wgpu::ComputePipeline,
     label: &'static str,

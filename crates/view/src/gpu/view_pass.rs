@@ -23,7 +23,7 @@
 //! the GPU by the volume pass and read by [`ViewPass::run_on`].
 
 use super::{GpuContext, GpuError, GridBuffer, buffer_init, compute_pipeline, submit_pass};
-use crate::camera::Camera;
+use crate::Camera;
 use crate::env::{Distant, Environment};
 use crate::medium::Medium;
 use crate::render::crm::VolumeGrids;

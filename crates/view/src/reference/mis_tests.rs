@@ -185,7 +185,7 @@ fn a_black_map_falls_back_to_phase_sampling_and_lights_nothing() {
     assert!(sampler_for(&black, &RefOptions::default()).is_none());
     let v = blob();
     let m = Medium::new(3.0, 0.9, 0.5).unwrap();
-    let cam = Camera::framing(&cube(), 40.0, 8, 6).unwrap();
+    let cam = Camera::framing(cube().min, cube().max, 40.0, 8, 6).unwrap();
     let mut lit = black.clone();
     lit.suns
         .push(crate::lights::Sun::from_radiance([0.3, -0.5, 0.8], [800.0; 3], 2.0).unwrap());

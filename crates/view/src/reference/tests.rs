@@ -70,7 +70,7 @@ fn rbf_volume_samples_the_rbfs_at_voxel_centers() {
 #[test]
 fn without_extinction_or_density_the_image_is_the_environment() {
     let env = sky();
-    let cam = Camera::framing(&cube(), 40.0, 16, 12).unwrap();
+    let cam = Camera::framing(cube().min, cube().max, 40.0, 16, 12).unwrap();
     let empty = Volume::new([0, 0, 0], cube(), vec![]).unwrap();
     let zeros = constant_box([4, 4, 4], cube(), 0.0);
     let scenes = [
@@ -97,7 +97,7 @@ fn without_albedo_a_box_only_attenuates() {
     let env = Environment::constant(c);
     let v = constant_box([3, 3, 3], cube(), 0.7);
     let m = medium(1.3, 0.0, 0.3);
-    let cam = Camera::framing(&cube(), 40.0, 16, 12).unwrap();
+    let cam = Camera::framing(cube().min, cube().max, 40.0, 16, 12).unwrap();
     let want = |x: usize, y: usize| {
         let d = cam.pixel_ray(x, y);
         let len = ray_box(cam.eye, d, v.bbox()).map_or(0.0, |(a, b)| b - a);
@@ -140,7 +140,7 @@ fn a_non_absorbing_medium_under_a_uniform_environment_is_invisible() {
         6,
     )
     .unwrap();
-    let outside = Camera::framing(&bbox, 40.0, 16, 12).unwrap();
+    let outside = Camera::framing(bbox.min, bbox.max, 40.0, 16, 12).unwrap();
     for g in [0.0, 0.9] {
         for (vol, cam) in [
             (&v, &outside),
@@ -220,7 +220,7 @@ fn path_tracing_with_one_bounce_is_single_scattering() {
     let v = blob();
     let m = medium(3.0, 0.9, 0.5);
     let env = sky();
-    let cam = Camera::framing(&cube(), 40.0, 12, 9).unwrap();
+    let cam = Camera::framing(cube().min, cube().max, 40.0, 12, 9).unwrap();
     let single = |seed| {
         let o = RefOptions {
             seed,
@@ -252,7 +252,7 @@ fn huge_extinction_is_opaque_finite_and_terminates() {
     let c = [1.0, 1.0, 1.0];
     let env = Environment::constant(c);
     let v = constant_box([4, 4, 4], cube(), 1.0);
-    let cam = Camera::framing(&cube(), 40.0, 8, 6).unwrap();
+    let cam = Camera::framing(cube().min, cube().max, 40.0, 8, 6).unwrap();
     let hits =
         |x, y| ray_box(cam.eye, cam.pixel_ray(x, y), v.bbox()).is_some_and(|(a, b)| b - a > 1e-3);
     for multiple in [false, true] {
@@ -314,7 +314,7 @@ fn images_depend_on_the_seed_but_not_on_the_thread_count() {
     let v = blob();
     let m = medium(4.0, 0.95, 0.7);
     let env = sky();
-    let cam = Camera::framing(&cube(), 40.0, 8, 6).unwrap();
+    let cam = Camera::framing(cube().min, cube().max, 40.0, 8, 6).unwrap();
     for multiple in [false, true] {
         let o = opts(4, multiple);
         let in_pool = |threads| {
@@ -450,7 +450,7 @@ fn the_noise_estimate_of_two_half_runs_predicts_the_error() {
     let mut env = sky();
     env.suns
         .push(crate::lights::Sun::from_radiance([0.3, -0.5, 0.8], [800.0; 3], 2.0).unwrap());
-    let cam = Camera::framing(&cube(), 40.0, 16, 12).unwrap();
+    let cam = Camera::framing(cube().min, cube().max, 40.0, 16, 12).unwrap();
     for multiple in [false, true] {
         let long = render(
             &v,

@@ -23,7 +23,7 @@
 //! `D` between voxel centers is trilinear, and so is `J̃_D = D·J̃` (eq. 15): the emission
 //! of a thin slice is `J̃_D σt Δs`, so `J̃` at a sample is `J̃_D/D`.
 
-use crate::camera::Camera;
+use crate::Camera;
 use crate::env::{Environment, Rgb};
 use crate::field;
 use crate::lighting::single::RgbSh;

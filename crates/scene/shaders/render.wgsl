@@ -1,0 +1,476 @@
+// The scene renderer on the GPU: the twin of crates/scene's `render::render` with the
+// `Analytic` model (paper C), one invocation per pixel, in f32. See `src/gpu.rs` for the
+// buffers' layout and what differs from the CPU (offsets of shadow rays).
+//
+// Coordinates are relative to the eye (the eye is the origin), so f32 keeps its
+// precision wherever the scene is placed.
+
+const PI: f32 = 3.14159265358979;
+const HALF_PI: f32 = 1.5707963267949;
+// The G tables' largest optical distance (gtable::T_MAX).
+const T_MAX: f32 = 50.0;
+
+struct Params {
+    forward: vec4<f32>,   // xyz; w: tan(fov/2)
+    right: vec4<f32>,     // xyz; w: width/height
+    up: vec4<f32>,        // xyz; w: γ_min
+    sigma_t: vec4<f32>,   // xyz; w: r_min
+    sigma_s: vec4<f32>,   // xyz; w: the environment's distance (when finite)
+    albedo: vec4<f32>,    // xyz; w: shadow offset (relative)
+    env_color: vec4<f32>, // xyz: a constant environment's radiance
+    size: vec4<u32>,      // width, height, lights, surfaces
+    flags: vec4<u32>,     // environment (0 black, 1 sky, 2 constant), environment at ∞, K side, G nx
+    tables: vec4<u32>,    // G ny, offset of the first G table, -, -
+}
+
+@group(0) @binding(0) var<uniform> P: Params;
+// Three vec4 per light: (kind 0 point / 1 sun, position or unit direction),
+// (intensity or disk radiance, -), (sun irradiance, cos(angle/2) or 2 for no disk).
+@group(0) @binding(1) var<storage, read> lights: array<vec4<f32>>;
+// Four vec4 per surface: (kind 0 plane / 1 sphere, point or center),
+// (normal, radius), (diffuse, shininess), (specular, index of its G table or -1).
+@group(0) @binding(2) var<storage, read> surfaces: array<vec4<f32>>;
+// K (side² values), then the G tables (nx·ny values each; G0 first), x fastest.
+@group(0) @binding(3) var<storage, read> tables: array<f32>;
+@group(0) @binding(4) var<storage, read_write> image: array<vec4<f32>>;
+
+// table::Table2::at: bilinear on nodes i/(n−1), clamped to the unit square.
+fn table_at(base: u32, nx: u32, ny: u32, x: f32, y: f32) -> f32 {
+    let fx = clamp(x, 0.0, 1.0) * f32(nx - 1u);
+    let fy = clamp(y, 0.0, 1.0) * f32(ny - 1u);
+    let i = min(u32(floor(fx)), nx - 2u);
+    let j = min(u32(floor(fy)), ny - 2u);
+    let tx = fx - f32(i);
+    let ty = fy - f32(j);
+    let k = base + j * nx + i;
+    let v00 = tables[k];
+    let v10 = tables[k + 1u];
+    let v01 = tables[k + nx];
+    let v11 = tables[k + nx + 1u];
+    let a = v00 + tx * (v10 - v00);
+    let b = v01 + tx * (v11 - v01);
+    return a + ty * (b - a);
+}
+
+// htable::HTable::k on x = √(ρ/(1 + ρ)), y = 1 − δ/(π/2).
+fn k_table(rho: f32, delta: f32) -> f32 {
+    let n = P.flags.z;
+    return table_at(0u, n, n, sqrt(rho / (1.0 + rho)), 1.0 - delta / HALF_PI);
+}
+
+// gtable::GTable::g for the table at `index` (0: G0).
+fn g_table(index: u32, t: f32, theta: f32) -> f32 {
+    if (t > T_MAX) {
+        return 0.0;
+    }
+    let nx = P.flags.w;
+    let ny = P.tables.x;
+    let xmax = T_MAX / (1.0 + T_MAX);
+    let q = table_at(P.tables.y + index * nx * ny, nx, ny, t / (1.0 + t) / xmax, theta / PI);
+    return exp(-t) * q / (1.0 + t);
+}
+
+// e^x − 1 without cancellation for small |x| (WGSL has no expm1): the Taylor series to
+// x⁶ below 0.1 (truncation < x⁷/5040 < 2e-11 relative), exp(x) − 1 above (rounding
+// < 1e-6 relative there).
+fn expm1(x: f32) -> f32 {
+    if (abs(x) < 0.1) {
+        return x * (1.0 + x * (0.5 + x * (1.0 / 6.0 + x * (1.0 / 24.0 + x * (1.0 / 120.0 + x / 720.0)))));
+    }
+    return exp(x) - 1.0;
+}
+
+// airlight::attenuated_length for a finite t.
+fn attenuated_length(beta: f32, t: f32) -> f32 {
+    if (beta <= 0.0) {
+        return t;
+    }
+    return -expm1(-beta * t) / beta;
+}
+
+// A unit vector perpendicular to the unit vector a (vec3::perpendicular).
+fn perpendicular(a: vec3<f32>) -> vec3<f32> {
+    var helper = vec3<f32>(0.0, 1.0, 0.0);
+    if (abs(a.x) < 0.9) {
+        helper = vec3<f32>(1.0, 0.0, 0.0);
+    }
+    return normalize(cross(a, helper));
+}
+
+// airlight::atan2_over: atan2(h, y)/h for h > 0 or y > 0, its series 1/y·(1 − q²/3 + q⁴/5)
+// for q = h/y below 1e-3 (truncation < q⁶/7).
+fn atan2_over(h: f32, y: f32) -> f32 {
+    if (y > 0.0 && h < 1e-3 * y) {
+        let q2 = (h / y) * (h / y);
+        return (1.0 - q2 / 3.0 + q2 * q2 / 5.0) / y;
+    }
+    return atan2(h, y) / h;
+}
+
+// airlight::effective_light, the eye at the origin.
+fn effective_light(dir: vec3<f32>, light: vec3<f32>) -> vec3<f32> {
+    var v = light;
+    let r_min = P.sigma_t.w;
+    let d0 = length(v);
+    if (d0 < r_min) {
+        var u = perpendicular(dir);
+        if (d0 > 0.0) {
+            u = v / d0;
+        }
+        v = u * r_min;
+    }
+    let d = length(v);
+    let u = v / d;
+    let gamma_min = P.up.w;
+    if (dot(u, dir) > 0.0 && length(cross(u, dir)) < sin(gamma_min)) {
+        // The part of v across the ray, projected twice (as on the CPU): with the light
+        // on the ray the first projection leaves rounding noise, not across the ray.
+        var side = perpendicular(dir);
+        let w = v - dot(v, dir) * dir;
+        if (length(w) > 0.0) {
+            let w1 = normalize(w);
+            let w2 = w1 - dot(w1, dir) * dir;
+            if (length(w2) > 0.0) {
+                side = normalize(w2);
+            }
+        }
+        v = (dir * cos(gamma_min) + side * sin(gamma_min)) * d;
+    }
+    return v;
+}
+
+// One end's term of the stable airlight (airlight::point): light at distance r from the
+// end, y the end's signed distance along the ray from the foot of the light's
+// perpendicular, h the light's distance from the ray's line, t_opt light → end → eye.
+fn airlight_term(h: f32, y: f32, r: f32, t_opt: f32, beta: f32) -> f32 {
+    let attenuation = exp(-t_opt);
+    if (attenuation == 0.0) {
+        return 0.0;
+    }
+    var r_plus_y = r + y;
+    if (y < 0.0) {
+        r_plus_y = h * h / (r - y);
+    }
+    let rho = beta * sqrt(2.0 * r * r_plus_y);
+    let delta = 0.5 * atan2(h, y);
+    return attenuation * atan2_over(h, y) * k_table(rho, delta) / (1.0 + rho);
+}
+
+// airlight::point per unit intensity, the eye at the origin; `far` false for a ray to ∞.
+fn airlight(dir: vec3<f32>, t_end: f32, far: bool, light: vec3<f32>, beta: f32, ss: f32) -> f32 {
+    if (ss <= 0.0 || t_end <= 0.0) {
+        return 0.0;
+    }
+    let d_sv = length(light);
+    let u = light / d_sv;
+    let cos_g = dot(u, dir);
+    let h = d_sv * length(cross(u, dir));
+    let near = airlight_term(h, -d_sv * cos_g, d_sv, beta * d_sv, beta);
+    var end = 0.0;
+    if (far) {
+        let d_sp = length(light - t_end * dir);
+        end = airlight_term(h, t_end - d_sv * cos_g, d_sp, beta * (d_sp + t_end), beta);
+    }
+    return max(ss / (4.0 * PI) * (near - end), 0.0);
+}
+
+struct Hit {
+    t: f32,
+    surface: i32,
+}
+
+// scene::Shape::intersect of surface i: the nearest t in (t_min, t_max), or -1.
+fn intersect_one(i: u32, o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> f32 {
+    let a = surfaces[4u * i];
+    let b = surfaces[4u * i + 1u];
+    if (a.x == 0.0) {
+        let den = dot(d, b.xyz);
+        if (den == 0.0) {
+            return -1.0;
+        }
+        let t = dot(a.yzw - o, b.xyz) / den;
+        if (t > t_min && t < t_max) {
+            return t;
+        }
+        return -1.0;
+    }
+    let oc = a.yzw - o;
+    let bb = dot(d, oc);
+    let perp = oc - bb * d;
+    let disc = b.w * b.w - dot(perp, perp);
+    if (disc < 0.0) {
+        return -1.0;
+    }
+    let s = sqrt(disc);
+    if (bb - s > t_min && bb - s < t_max) {
+        return bb - s;
+    }
+    if (bb + s > t_min && bb + s < t_max) {
+        return bb + s;
+    }
+    return -1.0;
+}
+
+// scene::Scene::intersect.
+fn intersect(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> Hit {
+    var best = Hit(t_max, -1);
+    for (var i = 0u; i < P.size.w; i++) {
+        let t = intersect_one(i, o, d, t_min, best.t);
+        if (t >= 0.0) {
+            best = Hit(t, i32(i));
+        }
+    }
+    return best;
+}
+
+// Whether the segment p → q is free of surfaces (scene::Scene::visible), its ends
+// excluded by `eps` relative.
+fn visible(p: vec3<f32>, q: vec3<f32>, eps_rel: f32) -> bool {
+    let v = q - p;
+    let len = length(v);
+    if (len <= 0.0) {
+        return true;
+    }
+    let dir = v / len;
+    let eps = eps_rel * (1.0 + len);
+    for (var i = 0u; i < P.size.w; i++) {
+        if (intersect_one(i, p, dir, eps, len - eps) >= 0.0) {
+            return false;
+        }
+    }
+    return true;
+}
+
+// The angle between two unit vectors by atan2 (render::angle).
+fn angle(a: vec3<f32>, b: vec3<f32>) -> f32 {
+    return atan2(length(cross(a, b)), dot(a, b));
+}
+
+// Lambert + normalized Phong times cos θᵢ (render::surface's brdf), per channel.
+fn brdf(n: vec3<f32>, r: vec3<f32>, l: vec3<f32>, diffuse: vec3<f32>, specular: vec3<f32>, m: f32) -> vec3<f32> {
+    let c = dot(n, l);
+    if (c <= 0.0) {
+        return vec3<f32>(0.0);
+    }
+    var f = diffuse / PI * c;
+    // max(0, r·l)^m, with 0⁰ = 1 as the CPU's powf.
+    let rl = dot(r, l);
+    var lobe = 1.0;
+    if (m > 0.0) {
+        lobe = 0.0;
+        if (rl > 0.0) {
+            lobe = pow(rl, m);
+        }
+    }
+    return f + specular * (m + 2.0) / (2.0 * PI) * lobe;
+}
+
+// Scene::environment radiance (scene::Environment::radiance).
+fn environment(d: vec3<f32>) -> vec3<f32> {
+    let kind = P.flags.x;
+    if (kind == 0u) {
+        return vec3<f32>(0.0);
+    }
+    if (kind == 2u) {
+        return P.env_color.xyz;
+    }
+    var out = vec3<f32>(0.25, 0.22, 0.2);
+    if (d.z >= 0.0) {
+        out = vec3<f32>(0.8, 0.85, 0.9) * (1.0 - d.z) + vec3<f32>(0.25, 0.45, 0.9) * d.z;
+    }
+    let n = sqrt(0.25 + 0.09 + 0.64);
+    let c = max(dot(d, vec3<f32>(0.5, 0.3, 0.8) / n), 0.0);
+    let c2 = c * c;
+    let c4 = c2 * c2;
+    return out + vec3<f32>(4.0, 3.6, 3.0) * (c4 * c4);
+}
+
+// The environment and the suns' disks (render::background).
+fn background(d: vec3<f32>) -> vec3<f32> {
+    var l = environment(d);
+    for (var i = 0u; i < P.size.z; i++) {
+        let a = lights[3u * i];
+        let c = lights[3u * i + 2u];
+        if (a.x == 1.0 && c.w <= 1.0 && dot(d, a.yzw) >= c.w) {
+            l += lights[3u * i + 1u].xyz;
+        }
+    }
+    return l;
+}
+
+// Light leaving the surface hit at p (normal n towards the viewer) towards the eye
+// (render::surface with the Analytic model).
+fn shade_surface(dir: vec3<f32>, p: vec3<f32>, n: vec3<f32>, s: u32) -> vec3<f32> {
+    let diffuse = surfaces[4u * s + 2u].xyz;
+    let m = surfaces[4u * s + 2u].w;
+    let specular = surfaces[4u * s + 3u].xyz;
+    let gn = surfaces[4u * s + 3u].w;
+    let r = 2.0 * dot(-dir, n) * n + dir;
+    let eps = P.albedo.w;
+    let p_off = p + eps * (1.0 + length(p)) * n;
+    let beta = P.sigma_t.xyz;
+    let ss = P.sigma_s.xyz;
+    var out = vec3<f32>(0.0);
+    for (var i = 0u; i < P.size.z; i++) {
+        let a = lights[3u * i];
+        let e = lights[3u * i + 1u].xyz;
+        if (a.x == 0.0) {
+            // light_off_point
+            var light = a.yzw;
+            let v0 = light - p;
+            let d0 = length(v0);
+            if (d0 < P.sigma_t.w) {
+                var u = n;
+                if (d0 > 0.0) {
+                    u = v0 / d0;
+                }
+                light = p + P.sigma_t.w * u;
+            }
+            let v = light - p;
+            let d = length(v);
+            let l = v / d;
+            var f = vec3<f32>(0.0);
+            if (dot(n, l) > 0.0 && visible(p_off, light, eps)) {
+                f = brdf(n, r, l, diffuse, specular, m);
+            }
+            let theta_s = angle(n, l);
+            let theta_r = angle(r, l);
+            // G0 and Gn at T = β·d; channels of equal β share them.
+            var g0 = 0.0;
+            var gm = 0.0;
+            var g_beta = -1.0;
+            for (var c = 0u; c < 3u; c++) {
+                if (e[c] <= 0.0) {
+                    continue;
+                }
+                var v_c = 0.0;
+                if (f[c] != 0.0) {
+                    var att = 1.0;
+                    if (beta[c] > 0.0) {
+                        att = exp(-beta[c] * d);
+                    }
+                    v_c = att / (d * d) * f[c];
+                }
+                if (ss[c] > 0.0 && (diffuse[c] > 0.0 || specular[c] > 0.0)) {
+                    if (beta[c] != g_beta) {
+                        let t = beta[c] * d;
+                        g0 = g_table(0u, t, theta_s);
+                        gm = 0.0;
+                        if (gn >= 0.0) {
+                            gm = g_table(u32(gn), t, theta_r);
+                        }
+                        g_beta = beta[c];
+                    }
+                    var g = diffuse[c] / PI * g0;
+                    if (gn >= 0.0 && specular[c] > 0.0) {
+                        g += specular[c] * (m + 2.0) / (2.0 * PI) * gm;
+                    }
+                    v_c += ss[c] / (2.0 * PI * d) * g;
+                }
+                out[c] += e[c] * v_c;
+            }
+        } else {
+            let irradiance = lights[3u * i + 2u].xyz;
+            let sd = a.yzw;
+            if (dot(n, sd) > 0.0 && intersect(p_off, sd, 0.0, 3.0e38).surface < 0) {
+                out += irradiance * brdf(n, r, sd, diffuse, specular, m);
+            }
+            let lobes = diffuse + specular * (m + 2.0) / (m + 1.0);
+            for (var c = 0u; c < 3u; c++) {
+                if (ss[c] > 0.0) {
+                    out[c] += P.albedo[c] * irradiance[c] / (4.0 * PI) * lobes[c];
+                }
+            }
+        }
+    }
+    return out;
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let w = P.size.x;
+    let h = P.size.y;
+    if (id.x >= w || id.y >= h) {
+        return;
+    }
+    // Camera::ray through the pixel's center.
+    let tan_half = P.forward.w;
+    let sx = (2.0 * (f32(id.x) + 0.5) / f32(w) - 1.0) * tan_half * P.right.w;
+    let sy = (1.0 - 2.0 * (f32(id.y) + 0.5) / f32(h)) * tan_half;
+    let dir = normalize(P.forward.xyz + sx * P.right.xyz + sy * P.up.xyz);
+
+    let env_far = P.flags.y == 0u;
+    var t_max = 3.0e38;
+    if (env_far) {
+        t_max = P.sigma_s.w;
+    }
+    let hit = intersect(vec3<f32>(0.0), dir, 0.0, t_max);
+    let finite_end = hit.surface >= 0 || env_far;
+    let t_end = hit.t;
+    let beta = P.sigma_t.xyz;
+    let ss = P.sigma_s.xyz;
+    var out = vec3<f32>(0.0);
+    for (var i = 0u; i < P.size.z; i++) {
+        let a = lights[3u * i];
+        let e = lights[3u * i + 1u].xyz;
+        if (a.x == 0.0) {
+            let s = effective_light(dir, a.yzw);
+            var la = 0.0;
+            for (var c = 0u; c < 3u; c++) {
+                if (ss[c] <= 0.0 || e[c] <= 0.0) {
+                    continue;
+                }
+                // Channels of equal (β, σs) share one evaluation.
+                if (c == 0u || beta[c] != beta[c - 1u] || ss[c] != ss[c - 1u] || e[c - 1u] <= 0.0) {
+                    la = airlight(dir, t_end, finite_end, s, beta[c], ss[c]);
+                }
+                out[c] += e[c] * la;
+            }
+        } else {
+            let irradiance = lights[3u * i + 2u].xyz;
+            for (var c = 0u; c < 3u; c++) {
+                if (ss[c] <= 0.0 || irradiance[c] <= 0.0) {
+                    continue;
+                }
+                var len = 0.0;
+                if (finite_end) {
+                    len = attenuated_length(beta[c], t_end);
+                } else {
+                    len = 1.0 / beta[c];
+                }
+                out[c] += ss[c] * irradiance[c] / (4.0 * PI) * len;
+            }
+        }
+    }
+    var behind = vec3<f32>(0.0);
+    if (hit.surface >= 0) {
+        let s = u32(hit.surface);
+        let p = t_end * dir;
+        let a = surfaces[4u * s];
+        var n = surfaces[4u * s + 1u].xyz;
+        if (a.x != 0.0) {
+            n = normalize(p - a.yzw);
+        }
+        if (dot(n, dir) > 0.0) {
+            n = -n;
+        }
+        behind = shade_surface(dir, p, n, s);
+    } else if (finite_end || any(beta <= vec3<f32>(0.0))) {
+        behind = background(dir);
+    }
+    for (var c = 0u; c < 3u; c++) {
+        if (behind[c] != 0.0) {
+            if (!finite_end) {
+                // Only a clear channel (β = 0) sees an environment at ∞.
+                if (beta[c] <= 0.0) {
+                    out[c] += behind[c];
+                }
+            } else if (beta[c] <= 0.0) {
+                out[c] += behind[c];
+            } else {
+                out[c] += exp(-beta[c] * t_end) * behind[c];
+            }
+        }
+    }
+    image[id.y * w + id.x] = vec4<f32>(out, 1.0);
+}

@@ -1,0 +1,283 @@
+//! The scene renderer on the GPU (`shaders/render.wgsl`, wgpu compute): the twin of
+//! [`crate::render::render`] with the [`Analytic`] model — paper C's airlight of point
+//! lights through the `K` table, suns, the medium's transmittance, planes and spheres lit
+//! by Lambert + normalized Phong with the light scattered onto them through the `G0`/`Gn`
+//! tables, the environment — one invocation per pixel, in `f32`.
+//!
+//! Uploads (once, [`GpuRenderer::new`]): the tables in one storage buffer, `K` then `G0`
+//! then the `Gn` of the scene's Phong exponents, read by bilinear interpolation in the
+//! shader exactly as [`crate::table::Table2::at`] reads them on the CPU (a filtered
+//! texture would not do: GPUs interpolate with 8-bit fractions, an error of up to 1/512
+//! of a cell's difference). Per frame ([`GpuRenderer::render`]): the camera, medium and
+//! environment (a uniform), the lights and surfaces (storage), all positions relative to
+//! the eye so that `f32` keeps its precision wherever the scene lies.
+//!
+//! What differs from the CPU beyond `f32` rounding: shadow rays leave a surface
+//! [`SHADOW_OFFSET`] (relative) off it instead of the CPU's `10⁻⁹` and ignore surfaces
+//! within that distance of their ends (the CPU: `10⁻⁷`), since a smaller offset is
+//! below `f32`'s resolution; and environments at `∞` are flagged, not carried as `∞`
+//! (WGSL does not promise infinities), finite ones beyond `10³⁰` clamped there.
+
+use crate::airlight::Limits;
+use crate::render::{Analytic, Image};
+use crate::scene::{Environment, Light, Scene, Shape};
+use haze_view::gpu::{GpuContext, GpuError, buffer_init, compute_pipeline, submit_pass};
+
+/// The shader, `crates/scene/shaders/render.wgsl`.
+pub const SHADER: &str = include_str!("../shaders/render.wgsl");
+
+/// Relative offset of shadow rays off the surface (and the margin they keep from their
+/// ends): `(1 + |p|)·SHADOW_OFFSET`, `p` relative to the eye.
+pub const SHADOW_OFFSET: f32 = 1e-4;
+
+/// Pixels per workgroup side (`@workgroup_size(8, 8, 1)`).
+const SIDE: usize = 8;
+
+/// The shader's `Params` uniform (ten `vec4`, 160 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+struct Params {
+    forward: [f32; 4],
+    right: [f32; 4],
+    up: [f32; 4],
+    sigma_t: [f32; 4],
+    sigma_s: [f32; 4],
+    albedo: [f32; 4],
+    env_color: [f32; 4],
+    size: [u32; 4],
+    flags: [u32; 4],
+    tables: [u32; 4],
+}
+
+/// The compiled renderer with its tables on the GPU, reusable across frames of scenes
+/// whose Phong exponents it has tables for.
+#[derive(Debug)]
+pub struct GpuRenderer {
+    pipeline: wgpu::ComputePipeline,
+    tables: wgpu::Buffer,
+    k_side: u32,
+    g_size: (u32, u32),
+    /// The exponents of the `Gn` tables, in upload order (table `i + 1`).
+    exponents: Vec<f64>,
+}
+
+fn f32x3(v: [f64; 3]) -> [f32; 3] {
+    v.map(|c| c as f32)
+}
+
+/// `(kind, v)`: a record's first word says what it is.
+fn tagged(kind: f32, v: [f64; 3]) -> [f32; 4] {
+    [kind, v[0] as f32, v[1] as f32, v[2] as f32]
+}
+
+fn vec4(v: [f64; 3], w: f64) -> [f32; 4] {
+    [v[0] as f32, v[1] as f32, v[2] as f32, w as f32]
+}
+
+impl GpuRenderer {
+    /// Compiles the shader and uploads the tables of `analytic`.
+    pub fn new(ctx: &GpuContext, analytic: &Analytic) -> Result<GpuRenderer, GpuError> {
+        let k = &analytic.h.table;
+        if k.nx != k.ny {
+            return Err(GpuError::Input(format!(
+                "the K table must be square, not {}×{}",
+                k.nx, k.ny
+            )));
+        }
+        let g0 = &analytic.g0.table;
+        let mut data = k.data.clone();
+        data.extend_from_slice(&g0.data);
+        for g in &analytic.gn {
+            if (g.table.nx, g.table.ny) != (g0.nx, g0.ny) {
+                return Err(GpuError::Input(format!(
+                    "the G{} table is {}×{}, not {}×{} as G0",
+                    g.exponent, g.table.nx, g.table.ny, g0.nx, g0.ny
+                )));
+            }
+            data.extend_from_slice(&g.table.data);
+        }
+        let bytes = std::mem::size_of_val(data.as_slice()) as u64;
+        ctx.check_storage_size("the K and G tables", bytes)?;
+        let pipeline = compute_pipeline(ctx, "scene render pipeline creation", SHADER)?;
+        let tables = ctx.scoped("scene tables upload", || {
+            buffer_init(
+                ctx,
+                "scene tables",
+                bytemuck::cast_slice(&data),
+                wgpu::BufferUsages::STORAGE,
+            )
+        })?;
+        let side =
+            |n: usize| u32::try_from(n).map_err(|_| GpuError::Input(format!("table side {n}")));
+        Ok(GpuRenderer {
+            pipeline,
+            tables,
+            k_side: side(k.nx)?,
+            g_size: (side(g0.nx)?, side(g0.ny)?),
+            exponents: analytic.gn.iter().map(|g| g.exponent).collect(),
+        })
+    }
+
+    /// The index (in the tables buffer, 0 for `G0`) of the `Gn` table of `exponent`.
+    fn gn_index(&self, exponent: f64) -> Option<usize> {
+        self.exponents
+            .iter()
+            .position(|&e| e == exponent)
+            .map(|i| i + 1)
+    }
+
+    /// Renders the scene's camera image (as [`crate::render::render`] with
+    /// [`Analytic`] and the limits `lim`), reading it back to the host.
+    pub fn render(&self, ctx: &GpuContext, scene: &Scene, lim: &Limits) -> Result<Image, GpuError> {
+        let cam = &scene.camera;
+        let (w, h) = (cam.width, cam.height);
+        let pixels = w
+            .checked_mul(h)
+            .filter(|&n| u32::try_from(n).is_ok())
+            .ok_or_else(|| GpuError::Input(format!("image of {w}×{h} pixels is too large")))?;
+        let out_bytes = 16 * pixels as u64;
+        ctx.check_storage_size("the image", out_bytes)?;
+        let eye = cam.eye;
+        let rel = |p: [f64; 3]| [0, 1, 2].map(|a| p[a] - eye[a]);
+        let mut lights: Vec<[f32; 4]> = Vec::with_capacity(3 * scene.lights.len().max(1));
+        for light in &scene.lights {
+            match *light {
+                Light::Point {
+                    position,
+                    intensity,
+                } => {
+                    lights.push(tagged(0.0, rel(position)));
+                    lights.push(vec4(intensity, 0.0));
+                    lights.push([0.0; 4]);
+                }
+                Light::Sun {
+                    direction,
+                    radiance,
+                    angle,
+                } => {
+                    let disk = if angle > 0.0 {
+                        (0.5 * angle).cos()
+                    } else {
+                        2.0
+                    };
+                    lights.push(tagged(1.0, direction));
+                    lights.push(vec4(radiance, 0.0));
+                    lights.push(vec4(Light::sun_irradiance(radiance, angle), disk));
+                }
+            }
+        }
+        let mut surfaces: Vec<[f32; 4]> = Vec::with_capacity(4 * scene.surfaces.len().max(1));
+        for (i, s) in scene.surfaces.iter().enumerate() {
+            let m = &s.material;
+            let gn = if m.is_specular() {
+                self.gn_index(m.shininess).ok_or_else(|| {
+                    GpuError::Input(format!(
+                        "surfaces[{i}]: no G table for the Phong exponent {}",
+                        m.shininess
+                    ))
+                })? as f64
+            } else {
+                -1.0
+            };
+            match s.shape {
+                Shape::Plane { point, normal } => {
+                    surfaces.push(tagged(0.0, rel(point)));
+                    surfaces.push(vec4(normal, 0.0));
+                }
+                Shape::Sphere { center, radius } => {
+                    surfaces.push(tagged(1.0, rel(center)));
+                    surfaces.push(vec4([0.0; 3], radius));
+                }
+            }
+            surfaces.push(vec4(m.diffuse, m.shininess));
+            surfaces.push(vec4(m.specular, gn));
+        }
+        // wgpu binds no empty buffers.
+        for list in [&mut lights, &mut surfaces] {
+            if list.is_empty() {
+                list.push([0.0; 4]);
+            }
+        }
+        let (env_kind, env_color) = match &scene.environment {
+            Environment::Black => (0, [0.0; 3]),
+            Environment::Sky => (1, [0.0; 3]),
+            Environment::Constant(c) => (2, *c),
+        };
+        let gamma_min = lim.gamma_min.max(0.5 * cam.pixel_radius());
+        let far = scene.environment_distance;
+        let count = |n: usize, what: &str| {
+            u32::try_from(n).map_err(|_| GpuError::Input(format!("{n} {what} are too many")))
+        };
+        let params = Params {
+            forward: vec4(cam.forward(), cam.tan_half()),
+            right: vec4(cam.right(), w as f64 / h as f64),
+            up: vec4(cam.up(), gamma_min),
+            sigma_t: vec4(scene.medium.sigma_t, lim.r_min),
+            sigma_s: vec4(
+                scene.medium.sigma_s(),
+                // Beyond f32's range a finite distance would read as ∞ in the shader.
+                if far.is_finite() { far.min(1e30) } else { 0.0 },
+            ),
+            albedo: {
+                let [a, b, c] = f32x3(scene.medium.albedo);
+                [a, b, c, SHADOW_OFFSET]
+            },
+            env_color: vec4(env_color, 0.0),
+            size: [
+                count(w, "columns")?,
+                count(h, "rows")?,
+                count(scene.lights.len(), "lights")?,
+                count(scene.surfaces.len(), "surfaces")?,
+            ],
+            flags: [
+                env_kind,
+                u32::from(!far.is_finite()),
+                self.k_side,
+                self.g_size.0,
+            ],
+            tables: [self.g_size.1, self.k_side * self.k_side, 0, 0],
+        };
+        let groups = [w.div_ceil(SIDE) as u32, h.div_ceil(SIDE) as u32, 1];
+        let output = ctx.scoped("scene render", || {
+            let uniform = buffer_init(
+                ctx,
+                "scene params",
+                bytemuck::bytes_of(&params),
+                wgpu::BufferUsages::UNIFORM,
+            );
+            let lights = buffer_init(
+                ctx,
+                "scene lights",
+                bytemuck::cast_slice(&lights),
+                wgpu::BufferUsages::STORAGE,
+            );
+            let surfaces = buffer_init(
+                ctx,
+                "scene surfaces",
+                bytemuck::cast_slice(&surfaces),
+                wgpu::BufferUsages::STORAGE,
+            );
+            let output = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("scene image"),
+                size: out_bytes,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            submit_pass(
+                ctx,
+                &self.pipeline,
+                "scene render",
+                &[&uniform, &lights, &surfaces, &self.tables, &output],
+                groups,
+            );
+            output
+        })?;
+        let bytes = ctx.read_buffer(&output)?;
+        let rgba: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&bytes);
+        Ok(Image {
+            width: w,
+            height: h,
+            pixels: rgba.into_iter().map(|p| [p[0], p[1], p[2]]).collect(),
+        })
+    }
+}

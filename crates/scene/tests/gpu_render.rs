@@ -1,0 +1,222 @@
+//! The GPU scene renderer against its CPU twin (`render::render` with paper C's
+//! `Analytic` model), pixel by pixel, on small images: the bundled room, a coloured
+//! medium with suns and the sky, and the extremes — a nearly clear medium (σt = 10⁻⁶), a
+//! clear one with the sky at ∞, an environment farther than `f32` reaches (clamped to
+//! 10³⁰ for the shader), a dense one (σt = 3), the eye inside a sphere (the medium fills
+//! space: the eye is always in it), a light at the eye, a light in the middle of the view
+//! (γ → 0), a plane seen at grazing angles, lights 10⁻³ above and exactly on a surface.
+//!
+//! These tests need a GPU adapter (a CPU one will do: Mesa's lavapipe, which
+//! `scripts/test.sh` installs) and fail with the reason when there is none.
+//!
+//! **Tolerance.** Per pixel and channel `|L_gpu − L_cpu| ≤ REL·|L_cpu| + FLOOR·L̄`, with
+//! `L̄` the CPU image's mean. Both read the same `f32` tables the same way (bilinear from
+//! the same nodes); the GPU computes in `f32` what the CPU computes in `f64`: ray
+//! directions, distances and angles to ~10⁻⁷ relative, `atan2` within lavapipe's few ulp,
+//! the table coordinates and so the interpolated `K` and `G` to ~10⁻⁶; the largest
+//! relative errors come from the airlight's `1/h` peak at a light (`h = D·|u × r̂|`, a
+//! cross product of nearly parallel unit vectors, ~10⁻⁷/γ relative: 3·10⁻⁴ at
+//! `γ_min ≈ 4·10⁻⁴`) and from the difference of the airlight's two ends when a light lies
+//! far behind a surface (absolute error ~10⁻⁷ of the near term, hence the floor).
+//! Measured on lavapipe: at most 3.3·10⁻⁵ (σt → 0 and the room; 10⁻⁶–10⁻⁵ for the
+//! others, printed per case); `REL = 5·10⁻⁴` leaves a margin of fifteen, `FLOOR = 10⁻⁵`
+//! keeps values far below the image's from counting. Pixels where `f32` and `f64` take different discrete decisions — a ray
+//! on a sphere's silhouette, a shadow ray grazing an occluder, the GPU's larger shadow
+//! offset at a contact — differ by whole terms; at most `OUTLIERS` of the pixels may
+//! (the count per case is printed; none did on lavapipe). The case of a light on a pixel's
+//! ray holds both to `γ_min` exactly: rounding noise once put the CPU's effective light at
+//! a quarter of it.
+
+use haze_scene::airlight::Limits;
+use haze_scene::gpu::GpuRenderer;
+use haze_scene::render::{Analytic, Image, render};
+use haze_scene::{Scene, file};
+use haze_view::gpu::GpuContext;
+use std::sync::OnceLock;
+
+const REL: f64 = 5e-4;
+const FLOOR: f64 = 1e-5;
+/// Largest share of pixels allowed outside the tolerance (see the module docs).
+const OUTLIERS: f64 = 0.01;
+
+fn context() -> &'static GpuContext {
+    static C: OnceLock<GpuContext> = OnceLock::new();
+    C.get_or_init(|| match GpuContext::new() {
+        Ok(ctx) => {
+            println!("GPU adapter: {} ({})", ctx.adapter_name(), ctx.backend());
+            ctx
+        }
+        Err(e) => panic!("{e}"),
+    })
+}
+
+/// Tables for every Phong exponent the cases use (12 and 30).
+fn analytic() -> &'static Analytic {
+    static A: OnceLock<Analytic> = OnceLock::new();
+    A.get_or_init(|| {
+        let mut s = file::parse(BASE).unwrap();
+        let mut extra = s.surfaces[1].clone();
+        extra.material.shininess = 30.0;
+        s.surfaces.push(extra);
+        Analytic::new(&s)
+    })
+}
+
+fn renderer() -> &'static GpuRenderer {
+    static R: OnceLock<GpuRenderer> = OnceLock::new();
+    R.get_or_init(|| GpuRenderer::new(context(), analytic()).unwrap())
+}
+
+const BASE: &str = r#"{
+    "camera": {"eye": [0, -6, 1.6], "target": [0, 0, 0.8], "fov": 55, "width": 32, "height": 24},
+    "environment": [0.1, 0.12, 0.15],
+    "lights": [
+        {"type": "point", "position": [-1.2, -0.5, 1.8], "intensity": [6, 5, 4]},
+        {"type": "point", "position": [1.5, 1.0, 0.6], "intensity": [1, 2, 4]}
+    ],
+    "media": [{"type": "homogeneous", "sigma_t": 0.25, "albedo": 0.9}],
+    "surfaces": [
+        {"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1], "material": {"diffuse": [0.6, 0.6, 0.6]}},
+        {"type": "sphere", "center": [0.2, 0.5, 0.7], "radius": 0.7,
+         "material": {"diffuse": [0.7, 0.3, 0.2], "specular": [0.3, 0.3, 0.3], "shininess": 12}}
+    ]
+}"#;
+
+/// The base scene with `edits` (text replacements) applied.
+fn scene(edits: &[(&str, &str)]) -> Scene {
+    let mut text = BASE.to_string();
+    for (from, to) in edits {
+        assert!(text.contains(from), "{from}");
+        text = text.replacen(from, to, 1);
+    }
+    file::parse(&text).unwrap()
+}
+
+fn room() -> Scene {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/scenes/room.json");
+    let mut s = haze_scene::load(std::path::Path::new(path)).unwrap();
+    s.camera = s.camera.with_size(40, 30).unwrap();
+    s
+}
+
+/// Compares the GPU image with the CPU's (module docs); returns the share of outliers and
+/// the worst relative error among the others.
+fn compare(name: &str, scene: &Scene) -> (f64, f64) {
+    let lim = Limits::default();
+    let cpu = render(scene, analytic(), &lim, &|_| {});
+    let gpu: Image = renderer().render(context(), scene, &lim).unwrap();
+    assert_eq!((gpu.width, gpu.height), (cpu.width, cpu.height));
+    let mean = cpu
+        .pixels
+        .iter()
+        .flat_map(|p| p.iter().map(|&v| f64::from(v).abs()))
+        .sum::<f64>()
+        / (3 * cpu.pixels.len()) as f64;
+    let (mut outliers, mut worst, mut worst_at, mut worst_out) = (0, 0.0f64, 0, 0.0f64);
+    for (i, (g, c)) in gpu.pixels.iter().zip(&cpu.pixels).enumerate() {
+        assert!(
+            g.iter().all(|v| v.is_finite() && *v >= 0.0),
+            "{name}: pixel {i} is {g:?}"
+        );
+        let mut out = false;
+        for k in 0..3 {
+            let (g, c) = (f64::from(g[k]), f64::from(c[k]));
+            let d = (g - c).abs();
+            let r = d / (c.abs() + FLOOR * mean);
+            if d > REL * c.abs() + FLOOR * mean {
+                out = true;
+                worst_out = worst_out.max(r);
+            } else {
+                if r > worst {
+                    worst = r;
+                    worst_at = i;
+                }
+            }
+        }
+        outliers += usize::from(out);
+    }
+    let share = outliers as f64 / cpu.pixels.len() as f64;
+    println!(
+        "{name}: {outliers} of {} pixels outside (worst {worst_out:.2e}), worst relative error of the others {worst:.2e} (pixel {worst_at}), mean {mean:.3e}",
+        cpu.pixels.len()
+    );
+    assert!(mean > 0.0, "{name}: a black image tests nothing");
+    assert!(
+        share <= OUTLIERS,
+        "{name}: {outliers} pixels outside the tolerance"
+    );
+    (share, worst)
+}
+
+#[test]
+fn gpu_matches_the_cpu_on_every_case() {
+    let cases: Vec<(&str, Scene)> = vec![
+        ("room", room()),
+        ("base", scene(&[])),
+        (
+            "coloured medium, suns and sky",
+            scene(&[
+                ("\"sigma_t\": 0.25", "\"sigma_t\": [0.2, 0.3, 0.45]"),
+                ("\"environment\": [0.1, 0.12, 0.15]", "\"environment\": \"sky\", \"environment_distance\": 40"),
+                (
+                    "\"lights\": [",
+                    "\"lights\": [{\"type\": \"sun\", \"direction\": [0.3, -0.4, 0.8], \"radiance\": [2000, 1900, 1700], \"angle\": 0.02},
+                     {\"type\": \"sun\", \"direction\": [-0.6, 0.2, 0.3], \"radiance\": [0.5, 0.4, 0.3], \"angle\": 0},",
+                ),
+            ]),
+        ),
+        ("nearly clear (σt 1e-6)", scene(&[("\"sigma_t\": 0.25", "\"sigma_t\": 1e-6")])),
+        (
+            "environment at 1e35, beyond f32",
+            scene(&[("[0.1, 0.12, 0.15]", "\"sky\", \"environment_distance\": 1e35")]),
+        ),
+        ("clear (σt 0), sky at ∞", scene(&[("\"sigma_t\": 0.25", "\"sigma_t\": 0"), ("[0.1, 0.12, 0.15]", "\"sky\"")])),
+        (
+            "dense (σt 3), eye close to the sphere",
+            scene(&[
+                ("\"sigma_t\": 0.25", "\"sigma_t\": 3"),
+                ("\"eye\": [0, -6, 1.6]", "\"eye\": [0, -1.2, 1.2]"),
+            ]),
+        ),
+        (
+            "eye inside a sphere with a light",
+            scene(&[(
+                "\"surfaces\": [",
+                "\"surfaces\": [{\"type\": \"sphere\", \"center\": [0, -5, 1.5], \"radius\": 2.5, \"material\": {\"diffuse\": [0.5, 0.5, 0.5]}},",
+            ), ("[-1.2, -0.5, 1.8]", "[0.5, -4.5, 2]")]),
+        ),
+        ("light at the eye", scene(&[("[-1.2, -0.5, 1.8]", "[0, -6, 1.6]")])),
+        (
+            "light in the middle of the view",
+            // The center pixel of a 33 × 25 image looks at the light: γ = 0, the model's
+            // γ_min holds.
+            scene(&[
+                ("[-1.2, -0.5, 1.8]", "[0, -3, 1.2]"),
+                ("\"width\": 32, \"height\": 24", "\"width\": 33, \"height\": 25"),
+            ]),
+        ),
+        (
+            "grazing plane",
+            scene(&[("\"eye\": [0, -6, 1.6], \"target\": [0, 0, 0.8]", "\"eye\": [0, -6, 0.02], \"target\": [0, 0, 0.01]")]),
+        ),
+        ("light 1e-3 above the floor", scene(&[("[1.5, 1.0, 0.6]", "[1.5, -1.0, 0.001]")])),
+        ("light on the floor", scene(&[("[1.5, 1.0, 0.6]", "[1.5, -1.0, 0]")])),
+    ];
+    for (name, s) in &cases {
+        compare(name, s);
+    }
+}
+
+#[test]
+fn a_missing_phong_table_is_refused() {
+    let mut s = scene(&[]);
+    s.surfaces[1].material.shininess = 7.0;
+    let e = renderer()
+        .render(context(), &s, &Limits::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("surfaces[1]: no G table for the Phong exponent 7"),
+        "{e}"
+    );
+}
