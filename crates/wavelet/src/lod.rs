@@ -287,6 +287,17 @@ impl Fog {
         &self.settings
     }
 
+    /// One layer per level `0 … L`: in [`Mode::Deconstructed`] the scaling basis `A_l`.
+    pub fn layers(&self) -> &[Layer] {
+        &self.layers
+    }
+
+    /// World box `[x min, x max, y min, y max]` of every layer's footprint: where the fog
+    /// can be non-zero.
+    pub fn bounds(&self) -> [f64; 4] {
+        self.bounds
+    }
+
     /// World box `[x min, x max, y min, y max]` of the fogmap's pixels (whatever the basis
     /// and levels; splines reach up to `d/2` cells beyond it).
     pub fn map_box(&self) -> [f64; 4] {
