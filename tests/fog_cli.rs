@@ -142,6 +142,68 @@ fn direct_and_deconstructed_levels_give_the_same_image() {
 }
 
 #[test]
+fn gpu_renders_the_cpu_image() {
+    let dir = tempfile::tempdir().unwrap();
+    for (extra, tol) in [
+        // Exact integrals: f32 rounding only.
+        (
+            &[
+                "--basis",
+                "quadratic",
+                "--levels",
+                "3",
+                "--mu",
+                "0.7",
+                "--min-transmittance",
+                "0",
+            ][..],
+            1e-4,
+        ),
+        // Early exit: a ray may stop a cell earlier or later on either side, with its
+        // transmittance below the threshold (1/1024) either way.
+        (
+            &["--basis", "haar", "--levels", "2", "--density", "0.5"][..],
+            2.0 / 1024.0 + 1e-4,
+        ),
+    ] {
+        let cpu = dir.path().join("cpu.exr");
+        let gpu = dir.path().join("gpu.exr");
+        render(&cpu, extra);
+        let mut args = extra.to_vec();
+        args.push("--gpu");
+        let summary = render(&gpu, &args);
+        assert!(summary.contains("on the GPU ("), "{summary}");
+        let (want, got) = (read_exr(&cpu), read_exr(&gpu));
+        // A ground point within f32 rounding of a checker line may take the other tone
+        // (the two differ by 0.05 at most): a few pixels, no more.
+        let (mut off, mut worst) = (0, 0.0f32);
+        for (a, b) in got.iter().zip(&want) {
+            let e = (0..3).map(|c| (a[c] - b[c]).abs()).fold(0.0f32, f32::max);
+            if e > tol {
+                assert!(e < 0.05, "{extra:?}: {a:?} vs {b:?}");
+                off += 1;
+            } else {
+                worst = worst.max(e);
+            }
+        }
+        println!("{extra:?}: largest difference {worst:e}, {off} checker pixels");
+        assert!(off <= want.len() / 200, "{extra:?}: {off} pixels differ");
+    }
+    fails(
+        &[
+            "fog",
+            "wavelet",
+            fogmap().to_str().unwrap(),
+            "--out",
+            dir.path().join("x.png").to_str().unwrap(),
+            "--gpu",
+            "--direct",
+        ],
+        "--direct is CPU only",
+    );
+}
+
+#[test]
 fn bad_inputs_fail_on_one_line() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("o.png");
@@ -210,6 +272,7 @@ fn help_explains_the_model() {
         "µ^l",
         "haar",
         "quadratic",
+        "--gpu",
         "Examples",
     ] {
         assert!(text.contains(needle), "{needle} missing from --help");
