@@ -6,7 +6,7 @@ use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand, ValueEnum};
 use haze_wavelet::render::{Camera, Scene};
 use haze_wavelet::{Basis, Fog, Fogmap, Mode, Placement, Settings};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 #[derive(Debug, Subcommand)]
@@ -29,11 +29,16 @@ pub enum FogCommand {
     /// Mesa's lavapipe will do), in 32-bit floats: it differs from the CPU's by about 1e-5,
     /// by up to --min-transmittance where a ray stops early, and by the checker's contrast
     /// on a rare ground pixel whose point rounds to the other side of a checker line.
+    ///
+    /// --wind DX,DY moves the fog DX,DY world units per second; --time T renders it at
+    /// time T, and --frames N renders N frames 1/--fps seconds apart (numbered images).
+    /// The fogmap is decomposed once: wind only moves the fog over the ground.
     #[command(after_help = "Examples:\n  \
         haze fog wavelet data/fogmap/fogmap_128.png --out fog.png\n  \
         haze fog wavelet fog.exr --basis quadratic --levels 3 --mu 0.6 --out far.exr\n  \
         haze fog wavelet fog.png --eye 0,-80,6 --target 0,40,0 --density 0.3 --out low.png\n  \
-        haze fog wavelet data/fogmap/fogmap_128.png --gpu --width 1920 --height 1080 --out hd.exr")]
+        haze fog wavelet data/fogmap/fogmap_128.png --gpu --width 1920 --height 1080 --out hd.exr\n  \
+        haze fog wavelet fog.png --gpu --wind 3,1 --frames 48 --fps 24 --out drift.png")]
     Wavelet(WaveletArgs),
 }
 
@@ -113,6 +118,19 @@ pub struct WaveletArgs {
     /// constant up to the top.
     #[arg(long, default_value_t = 0.3)]
     falloff: f64,
+    /// Wind: the fog drifts DX,DY world units per second (the ground and the camera stay).
+    #[arg(long, value_name = "DX,DY", value_parser = parse_vec2, allow_hyphen_values = true, default_value = "0,0")]
+    wind: [f64; 2],
+    /// Time of the (first) frame in seconds: the fog has drifted by wind × time.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    time: f64,
+    /// Frames to render, 1/fps s apart, written to OUT with the frame number before the
+    /// extension (fog.png → fog_0000.png, fog_0001.png …); the fog is decomposed once.
+    #[arg(long, default_value_t = 1)]
+    frames: usize,
+    /// Frames per second of --frames.
+    #[arg(long, default_value_t = 24.0)]
+    fps: f64,
     /// Fog colour L_fog (linear RGB).
     #[arg(long, value_name = "R,G,B", value_parser = parse_vec3)]
     fog_color: Option<[f64; 3]>,
@@ -161,6 +179,16 @@ fn wavelet(args: WaveletArgs) -> Result<()> {
     if args.gpu && args.direct {
         bail!("--direct is CPU only: --gpu integrates the deconstructed levels");
     }
+    if !(args.time.is_finite() && args.fps.is_finite() && args.fps > 0.0) {
+        bail!(
+            "--time {} --fps {}: the time must be finite and the rate positive",
+            args.time,
+            args.fps
+        );
+    }
+    if !(1..=100_000).contains(&args.frames) {
+        bail!("--frames {}: must be between 1 and 100000", args.frames);
+    }
     let fogmap = Fogmap::load(&args.fogmap)?;
     let basis = match args.basis {
         BasisArg::Haar => Basis::Haar,
@@ -204,32 +232,71 @@ fn wavelet(args: WaveletArgs) -> Result<()> {
     if let Some(c) = args.fog_color {
         scene.fog = c;
     }
-    let start = Instant::now();
-    let (pixels, device) = if args.gpu {
-        let (pixels, adapter) = render_gpu(&fog, &camera, &scene, args.width, args.height)?;
-        (pixels, format!("on the GPU ({adapter})"))
+    // The GPU's device, passes and uploaded levels, made once for every frame.
+    let mut gpu = if args.gpu {
+        Some(GpuFog::new(&fog)?)
     } else {
-        let bar = rows_bar(args.height);
-        let pixels =
-            haze_wavelet::render::render(&fog, &frame, &scene, args.width, args.height, &|| {
-                bar.inc(1)
-            });
-        bar.finish_and_clear();
-        let threads = rayon::current_num_threads();
-        let s = if threads == 1 { "" } else { "s" };
-        (pixels, format!("{threads} thread{s}"))
+        None
     };
-    let seconds = start.elapsed().as_secs_f64();
-    let bytes = match format {
-        Format::Exr => encode_exr(&pixels, args.width, args.height),
-        Format::Png => encode_png(&pixels, args.width, args.height),
+    let device = match &gpu {
+        Some(g) => format!("on the GPU ({})", g.ctx.adapter_name()),
+        None => {
+            let threads = rayon::current_num_threads();
+            format!("{threads} thread{}", if threads == 1 { "" } else { "s" })
+        }
+    };
+    // Wind moves the fog (not the camera, whose default framing is of the fog at rest);
+    // the transform is computed once, every frame only moves it.
+    let mut fog = fog;
+    let mut moved = [0.0; 2];
+    let start = Instant::now();
+    for k in 0..args.frames {
+        let t = args.time + k as f64 / args.fps;
+        let offset = [args.wind[0] * t, args.wind[1] * t];
+        let by = [offset[0] - moved[0], offset[1] - moved[1]];
+        moved = offset;
+        fog.translate(by);
+        let pixels = match &mut gpu {
+            Some(g) => {
+                g.fog.translate(by);
+                g.render(&camera, &scene, args.width, args.height)?
+            }
+            None => {
+                let bar = rows_bar(args.height);
+                let px = haze_wavelet::render::render(
+                    &fog,
+                    &frame,
+                    &scene,
+                    args.width,
+                    args.height,
+                    &|| bar.inc(1),
+                );
+                bar.finish_and_clear();
+                px
+            }
+        };
+        let out = frame_path(&args.out, k, args.frames);
+        let bytes = match format {
+            Format::Exr => encode_exr(&pixels, args.width, args.height),
+            Format::Png => encode_png(&pixels, args.width, args.height),
+        }
+        .with_context(|| format!("{}: cannot encode", out.display()))?;
+        crate::output::write_atomic(&out, &bytes)?;
     }
-    .with_context(|| format!("{}: cannot encode", args.out.display()))?;
-    crate::output::write_atomic(&args.out, &bytes)?;
-    let rays = (args.width * args.height) as f64;
+    let seconds = start.elapsed().as_secs_f64();
+    let rays = (args.width * args.height * args.frames) as f64;
+    let frames = if args.frames == 1 {
+        String::new()
+    } else {
+        format!(
+            " ({} frames, {:.3} s each)",
+            args.frames,
+            seconds / args.frames as f64
+        )
+    };
     eprintln!(
-        "{}: {} × {}, {} fogmap {} × {}, {} level{}, µ {}{}, decomposed in {:.3} s, rendered in {:.3} s ({:.2} Mrays/s, {})",
-        args.out.display(),
+        "{}: {} × {}, {} fogmap {} × {}, {} level{}, µ {}{}, decomposed in {:.3} s, rendered in {:.3} s{} ({:.2} Mrays/s, {})",
+        frame_path(&args.out, 0, args.frames).display(),
         args.width,
         args.height,
         fog.basis(),
@@ -241,27 +308,58 @@ fn wavelet(args: WaveletArgs) -> Result<()> {
         if args.direct { ", direct" } else { "" },
         setup,
         seconds,
+        frames,
         rays / seconds / 1e6,
         device,
     );
     Ok(())
 }
 
-/// Renders on the GPU: the linear RGB pixels and the adapter's name.
-fn render_gpu(
-    fog: &Fog,
-    camera: &Camera,
-    scene: &Scene,
-    width: usize,
-    height: usize,
-) -> Result<(Vec<[f32; 3]>, String)> {
-    use haze_wavelet::gpu::{GpuContext, fog::FogRenderer};
-    let ctx = GpuContext::new()?;
-    let renderer = FogRenderer::new(&ctx)?;
-    let uploaded = renderer.upload(&ctx, fog)?;
-    let pixels = renderer.render(&ctx, &uploaded, camera, scene, width, height)?;
-    let rgb = pixels.iter().map(|p| [p[0], p[1], p[2]]).collect();
-    Ok((rgb, ctx.adapter_name().to_string()))
+/// Frame `k` of `frames`: `out` itself for a single frame, else `out` with `_KKKK`
+/// before the extension (`fog.png` → `fog_0000.png`).
+fn frame_path(out: &Path, k: usize, frames: usize) -> PathBuf {
+    if frames == 1 {
+        return out.to_path_buf();
+    }
+    let stem = out
+        .file_stem()
+        .map(|s| s.to_string_lossy())
+        .unwrap_or_default();
+    let ext = out
+        .extension()
+        .map(|s| s.to_string_lossy())
+        .unwrap_or_default();
+    out.with_file_name(format!("{stem}_{k:04}.{ext}"))
+}
+
+/// A fog on the GPU: the device, the compiled passes and the fog's levels.
+struct GpuFog {
+    ctx: haze_wavelet::gpu::GpuContext,
+    renderer: haze_wavelet::gpu::fog::FogRenderer,
+    fog: haze_wavelet::gpu::fog::GpuFog,
+}
+
+impl GpuFog {
+    fn new(fog: &Fog) -> Result<GpuFog> {
+        let ctx = haze_wavelet::gpu::GpuContext::new()?;
+        let renderer = haze_wavelet::gpu::fog::FogRenderer::new(&ctx)?;
+        let fog = renderer.upload(&ctx, fog)?;
+        Ok(GpuFog { ctx, renderer, fog })
+    }
+
+    /// One frame's linear RGB pixels.
+    fn render(
+        &self,
+        camera: &Camera,
+        scene: &Scene,
+        width: usize,
+        height: usize,
+    ) -> Result<Vec<[f32; 3]>> {
+        let pixels = self
+            .renderer
+            .render(&self.ctx, &self.fog, camera, scene, width, height)?;
+        Ok(pixels.iter().map(|p| [p[0], p[1], p[2]]).collect())
+    }
 }
 
 /// A progress bar over image rows (hidden when stderr is not a terminal).

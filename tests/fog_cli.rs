@@ -203,6 +203,73 @@ fn gpu_renders_the_cpu_image() {
     );
 }
 
+/// Largest channel difference between two images.
+fn worst(a: &[[f32; 3]], b: &[[f32; 3]]) -> f32 {
+    a.iter()
+        .flatten()
+        .zip(b.iter().flatten())
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f32::max)
+}
+
+#[test]
+fn wind_moves_the_fog_over_numbered_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    // A fixed camera (the default one frames the fog at rest, wherever --origin puts it).
+    let cam = ["--eye", "0,-90,20", "--target", "0,10,0", "--levels", "2"];
+    let anim = dir.path().join("anim.exr");
+    let mut args = cam.to_vec();
+    args.extend(["--wind", "8,-4", "--frames", "3", "--fps", "2"]);
+    let summary = render(&anim, &args);
+    assert!(summary.contains("3 frames"), "{summary}");
+    let frame = |k: usize| read_exr(&dir.path().join(format!("anim_{k:04}.exr")));
+    assert!(!anim.exists());
+    // Frame 0 is the fog at rest; frame 2 (t = 1 s) the fog placed 8, −4 units over: the
+    // bundled map is 128 × 128 cells of 1, centred on 0,0 by default.
+    let rest = dir.path().join("rest.exr");
+    render(&rest, &cam);
+    assert!(worst(&frame(0), &read_exr(&rest)) <= 1e-6);
+    let placed = dir.path().join("placed.exr");
+    let mut args = cam.to_vec();
+    args.extend(["--origin", "-56,-68"]);
+    render(&placed, &args);
+    let want = read_exr(&placed);
+    assert!(worst(&frame(2), &want) <= 1e-5);
+    assert!(worst(&frame(1), &frame(0)) > 0.01, "the fog did not move");
+    // --time alone, and on the GPU (uploaded once, moved per frame).
+    let at = dir.path().join("at.exr");
+    let mut args = cam.to_vec();
+    args.extend([
+        "--wind",
+        "8,-4",
+        "--time",
+        "1",
+        "--gpu",
+        "--min-transmittance",
+        "0",
+    ]);
+    render(&at, &args);
+    let got = read_exr(&at);
+    let off = got
+        .iter()
+        .zip(&want)
+        .filter(|(a, b)| (0..3).any(|c| (a[c] - b[c]).abs() > 2.0 / 1024.0))
+        .count();
+    assert!(off <= want.len() / 200, "{off} pixels differ");
+    fails(
+        &[
+            "fog",
+            "wavelet",
+            fogmap().to_str().unwrap(),
+            "--out",
+            anim.to_str().unwrap(),
+            "--fps",
+            "0",
+        ],
+        "the rate positive",
+    );
+}
+
 #[test]
 fn bad_inputs_fail_on_one_line() {
     let dir = tempfile::tempdir().unwrap();
@@ -273,6 +340,8 @@ fn help_explains_the_model() {
         "haar",
         "quadratic",
         "--gpu",
+        "--wind",
+        "--frames",
         "Examples",
     ] {
         assert!(text.contains(needle), "{needle} missing from --help");

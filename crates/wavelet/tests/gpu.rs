@@ -374,6 +374,61 @@ fn images_match_the_cpu_renderer() {
 }
 
 #[test]
+fn a_fog_moved_on_the_gpu_matches_the_cpu_without_a_new_upload() {
+    let ctx = context();
+    let gpu = FogRenderer::new(&ctx).unwrap();
+    let by = [5.25, -3.5];
+    let moved_p = Placement {
+        origin: [PLACEMENT.origin[0] + by[0], PLACEMENT.origin[1] + by[1]],
+        ..PLACEMENT
+    };
+    let (w, h) = (32, 24);
+    for basis in [Basis::Haar, Basis::Linear, Basis::Quadratic] {
+        let mut cpu = fog(basis, 2, 0.7, PLACEMENT, 0.0);
+        let still = cpu.clone();
+        let mut up = gpu.upload(&ctx, &cpu).unwrap();
+        cpu.translate(by);
+        up.translate(by);
+        let queries = rays(&moved_p, basis.degree(), 2);
+        let got = gpu.optical_depths(&ctx, &up, &queries).unwrap();
+        let mut moved = 0;
+        for (q, g) in queries.iter().zip(&got) {
+            let want = cpu_depth(&cpu, q);
+            let tol = 3e-6 * PLACEMENT.density * (1.0 + path_length(q));
+            assert!((g - want).abs() <= tol, "{basis} {q:?}: GPU {g} CPU {want}");
+            moved += usize::from((cpu_depth(&still, q) - want).abs() > 1e-2);
+        }
+        assert!(moved > queries.len() / 4, "{basis}: the fog did not move");
+        // The image too: the ground's checker stays, the fog moves over it.
+        let cam = Camera::framing(&cpu);
+        let want = render::render(&cpu, &cam.frame().unwrap(), &Scene::default(), w, h, &|| {});
+        let img = gpu
+            .render(&ctx, &up, &cam, &Scene::default(), w, h)
+            .unwrap();
+        let mut other_tone = 0;
+        for y in 0..h {
+            for x in 0..w {
+                let (tau, _) = cpu_pixel_tau(&cpu, &cam, x, y, w, h);
+                let g = img[y * w + x];
+                assert!((f64::from(g[3]) - tau).abs() <= 1e-5, "{basis} ({x}, {y})");
+                let e = (0..3)
+                    .map(|c| (g[c] - want[y * w + x][c]).abs())
+                    .fold(0.0, f32::max);
+                // Checker-line pixels may take the other tone (0.05 apart at most).
+                if e > 1e-5 {
+                    assert!(e < 0.05, "{basis} ({x}, {y}): {e}");
+                    other_tone += 1;
+                }
+            }
+        }
+        assert!(
+            other_tone <= w * h / 100,
+            "{basis}: {other_tone} pixels differ"
+        );
+    }
+}
+
+#[test]
 fn bad_inputs_are_errors() {
     let ctx = context();
     let gpu = FogRenderer::new(&ctx).unwrap();

@@ -573,6 +573,14 @@ impl FogRenderer {
 }
 
 impl GpuFog {
+    /// Moves the fog by `by` in world `(x, y)`, as [`Fog::translate`]: nothing is uploaded
+    /// again (the levels are stored relative to the fog's corner, which moves).
+    pub fn translate(&mut self, by: [f64; 2]) {
+        self.anchor[0] += by[0];
+        self.anchor[1] += by[1];
+        self.base.origin = [self.anchor[0] as f32, self.anchor[1] as f32];
+    }
+
     /// A world point in the GPU's coordinates (relative to the fogmap's corner and the
     /// layer's bottom).
     fn relative(&self, p: [f64; 3]) -> [f64; 3] {
