@@ -95,38 +95,62 @@ struct Query {
 
 @group(0) @binding(5) var<storage, read> queries: array<Query>;
 
-// `integrate::moments`: M_n(x) for n = 0 … nmax (nmax ≤ 4, x ≥ 0).
-fn moments(x: f32, nmax: u32) -> array<f32, 5> {
-    var out = array<f32, 5>(0.0, 0.0, 0.0, 0.0, 0.0);
+// A polynomial of degree ≤ 4 in σ (or the moments M_0 … M_4): coefficients 0–3 in `lo`,
+// 4 in `hi`. Vectors rather than arrays: a local array indexed at run time lives in
+// memory on most GPUs (and on lavapipe), vectors stay in registers.
+struct Poly4 {
+    lo: vec4<f32>,
+    hi: f32,
+}
+
+// `integrate::moments`: M_n(x) = ∫₀¹ σⁿ e^{−xσ} dσ for n = 0 … nmax (nmax ≤ 4, x ≥ 0).
+// Entries above nmax multiply zero coefficients: they need only be finite.
+fn moments(x: f32, nmax: u32) -> Poly4 {
     if x == 0.0 {
-        for (var n = 0u; n <= nmax; n++) {
-            out[n] = 1.0 / f32(n + 1u);
-        }
-        return out;
+        return Poly4(vec4<f32>(1.0, 0.5, 1.0 / 3.0, 0.25), 0.2);
     }
     let e = exp(-x);
-    if x > f32(nmax + 1u) {
-        // x > 1: 1 − e^{−x} has no cancellation.
-        out[0] = (1.0 - e) / x;
-        for (var n = 1u; n <= nmax; n++) {
-            out[n] = (f32(n) * out[n - 1u] - e) / x;
-        }
-        return out;
-    }
     let a = f32(nmax + 1u);
+    if x > a {
+        // Upward recurrence M_n = (n·M_{n−1} − e^{−x})/x from M_0 = (1 − e^{−x})/x
+        // (x > 1: no cancellation); stable for n < x.
+        let m0 = (1.0 - e) / x;
+        let m1 = (m0 - e) / x;
+        let m2 = (2.0 * m1 - e) / x;
+        let m3 = (3.0 * m2 - e) / x;
+        let m4 = (4.0 * m3 - e) / x;
+        return Poly4(vec4<f32>(m0, m1, m2, m3), m4);
+    }
+    // M_nmax = e^{−x}·Σ_k x^k/((nmax+1)…(nmax+1+k)), all terms positive; x ≤ 5, so the
+    // series reaches f32 precision in at most ~25 terms.
     var term = 1.0 / a;
     var sum = term;
-    var m = 1.0;
-    // x ≤ 5: the series converges to f32 precision in at most ~25 terms.
+    var k = 1.0;
     for (var i = 0; i < 64 && term > 1e-9 * sum; i++) {
-        term *= x / (a + m);
+        term *= x / (a + k);
         sum += term;
-        m += 1.0;
+        k += 1.0;
     }
-    out[nmax] = e * sum;
-    for (var n = nmax; n >= 1u; n--) {
-        out[n - 1u] = (x * out[n] + e) / f32(n);
+    // Downward: M_{n−1} = (x·M_n + e^{−x})/n, positive terms only.
+    var m = e * sum;
+    var out = Poly4(vec4<f32>(0.0), 0.0);
+    if nmax >= 4u {
+        out.hi = m;
+        m = (x * m + e) / 4.0;
     }
+    if nmax >= 3u {
+        out.lo.w = m;
+        m = (x * m + e) / 3.0;
+    }
+    if nmax >= 2u {
+        out.lo.z = m;
+        m = (x * m + e) / 2.0;
+    }
+    if nmax >= 1u {
+        out.lo.y = m;
+        m = x * m + e;
+    }
+    out.lo.x = m;
     return out;
 }
 
@@ -149,9 +173,9 @@ fn along(axis: u32, j: i32, a: f32, b: f32) -> vec3<f32> {
 }
 
 // `cell_polynomial`: the integrand polynomial of level `lv` in cell (ix, iy), whose local
-// coordinates run from (s.x, q.x) to (s.y, q.y).
-fn cell_polynomial(lv: Level, ix: i32, iy: i32, s: vec2<f32>, q: vec2<f32>) -> array<f32, 5> {
-    var r = array<f32, 5>(0.0, 0.0, 0.0, 0.0, 0.0);
+// coordinates run from (s.x, q.x) to (s.y, q.y): Σ_kx X_kx(σ)·Σ_ky c·Y_ky(σ).
+fn cell_polynomial(lv: Level, ix: i32, iy: i32, s: vec2<f32>, q: vec2<f32>) -> Poly4 {
+    var r = Poly4(vec4<f32>(0.0), 0.0);
     // Stride 1: the coefficients whose support covers the cell.
     let kx0 = max(ix - p.first.x - p.support.x + 1, lv.k0.x);
     let kx1 = min(ix - p.first.x, lv.k0.x + lv.n.x - 1);
@@ -160,26 +184,38 @@ fn cell_polynomial(lv: Level, ix: i32, iy: i32, s: vec2<f32>, q: vec2<f32>) -> a
     if kx0 > kx1 || ky0 > ky1 {
         return r;
     }
-    let d = i32(p.degree);
-    var y = array<vec3<f32>, 3>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    // At most 3 functions overlap a cell along y (quadratic support).
     let ny = ky1 - ky0 + 1;
-    for (var j = 0; j < ny; j++) {
-        y[j] = along(1u, iy - p.first.y - (ky0 + j), q.x, q.y);
+    let y0 = along(1u, iy - p.first.y - ky0, q.x, q.y);
+    var y1 = vec3<f32>(0.0);
+    var y2 = vec3<f32>(0.0);
+    if ny > 1 {
+        y1 = along(1u, iy - p.first.y - ky0 - 1, q.x, q.y);
     }
-    let row0 = ky0 - lv.k0.y;
+    if ny > 2 {
+        y2 = along(1u, iy - p.first.y - ky0 - 2, q.x, q.y);
+    }
+    let row0 = lv.coef_at + u32((ky0 - lv.k0.y) * lv.n.x);
+    let width = u32(lv.n.x);
     for (var kx = kx0; kx <= kx1; kx++) {
         let x = along(0u, ix - p.first.x - kx, s.x, s.y);
-        let col = kx - lv.k0.x;
-        var z = vec3<f32>(0.0);
-        for (var j = 0; j < ny; j++) {
-            let c = coef[lv.coef_at + u32((row0 + j) * lv.n.x + col)];
-            z += c * y[j];
+        let at = row0 + u32(kx - lv.k0.x);
+        // Z(σ) = Σ_ky c·Y_ky(σ).
+        var z = coef[at] * y0;
+        if ny > 1 {
+            z += coef[at + width] * y1;
         }
-        for (var a = 0; a <= d; a++) {
-            for (var b = 0; b <= d; b++) {
-                r[a + b] += x[a] * z[b];
-            }
+        if ny > 2 {
+            z += coef[at + 2u * width] * y2;
         }
+        // R += X·Z (degree ≤ 4; the unused coefficients of X and Z are zero).
+        r.lo += vec4<f32>(
+            x.x * z.x,
+            x.x * z.y + x.y * z.x,
+            x.x * z.z + x.y * z.y + x.z * z.x,
+            x.y * z.z + x.z * z.y,
+        );
+        r.hi += x.z * z.z;
     }
     return r;
 }
@@ -272,11 +308,7 @@ fn integrate(l: u32, o: vec3<f32>, d: vec3<f32>, ta_in: f32, tb_in: f32, goal: f
                 m = moments(p.falloff * abs(za - zb), nmax);
             }
             let r = cell_polynomial(lv, ix, iy, vec2<f32>(sa, sb), vec2<f32>(ra, rb));
-            var sum = 0.0;
-            for (var n = 0u; n <= nmax; n++) {
-                sum += r[n] * m[n];
-            }
-            out.acc += len * h * sum;
+            out.acc += len * h * (dot(r.lo, m.lo) + r.hi * m.hi);
             if out.acc + lv.floor * (tb - t_exit) >= goal {
                 out.stopped = true;
                 return out;
