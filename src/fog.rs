@@ -4,6 +4,7 @@
 use crate::import_args::parse_vec3;
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand, ValueEnum};
+use haze_volume::import::sequence::frame_number;
 use haze_wavelet::render::{Camera, Scene};
 use haze_wavelet::{Basis, Fog, Fogmap, Mode, Placement, Settings};
 use std::path::{Path, PathBuf};
@@ -32,7 +33,9 @@ pub enum FogCommand {
     ///
     /// --wind DX,DY moves the fog DX,DY world units per second; --time T renders it at
     /// time T, and --frames N renders N frames 1/--fps seconds apart (numbered images).
-    /// The fogmap is decomposed once: wind only moves the fog over the ground.
+    /// The fogmap is decomposed once: wind only moves the fog over the ground. FOGMAP may
+    /// be a directory of numbered fogmaps: frame k shows fogmap k, decomposed again only
+    /// when it differs from the previous frame's.
     #[command(after_help = "Examples:\n  \
         haze fog wavelet data/fogmap/fogmap_128.png --out fog.png\n  \
         haze fog wavelet fog.exr --basis quadratic --levels 3 --mu 0.6 --out far.exr\n  \
@@ -54,7 +57,8 @@ enum BasisArg {
 
 #[derive(Debug, Args)]
 pub struct WaveletArgs {
-    /// The fogmap: .png, .exr, .npy or .f32 (+ .json sidecar).
+    /// The fogmap: .png, .exr, .npy or .f32 (+ .json sidecar), or a directory of numbered
+    /// fogmaps of one size (an animation: frame k shows fogmap k, looping).
     fogmap: PathBuf,
     /// Output image: .exr (linear RGB, 32-bit float) or .png (sRGB, 8-bit).
     #[arg(long, short)]
@@ -125,9 +129,10 @@ pub struct WaveletArgs {
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     time: f64,
     /// Frames to render, 1/fps s apart, written to OUT with the frame number before the
-    /// extension (fog.png → fog_0000.png, fog_0001.png …); the fog is decomposed once.
-    #[arg(long, default_value_t = 1)]
-    frames: usize,
+    /// extension (fog.png → fog_0000.png, fog_0001.png …) [default: 1, or the number of
+    /// fogmaps when FOGMAP is a directory].
+    #[arg(long)]
+    frames: Option<usize>,
     /// Frames per second of --frames.
     #[arg(long, default_value_t = 24.0)]
     fps: f64,
@@ -186,10 +191,12 @@ fn wavelet(args: WaveletArgs) -> Result<()> {
             args.fps
         );
     }
-    if !(1..=100_000).contains(&args.frames) {
-        bail!("--frames {}: must be between 1 and 100000", args.frames);
+    let files = fogmap_files(&args.fogmap)?;
+    let frames = args.frames.unwrap_or(files.len());
+    if !(1..=100_000).contains(&frames) {
+        bail!("--frames {frames}: must be between 1 and 100000");
     }
-    let fogmap = Fogmap::load(&args.fogmap)?;
+    let mut fogmap = Fogmap::load(&files[0])?;
     let basis = match args.basis {
         BasisArg::Haar => Basis::Haar,
         BasisArg::Linear => Basis::Linear,
@@ -218,8 +225,8 @@ fn wavelet(args: WaveletArgs) -> Result<()> {
     };
     let setup = Instant::now();
     let fog = Fog::new(&fogmap.grid(), basis, args.levels, placement, settings)
-        .with_context(|| format!("{}", args.fogmap.display()))?;
-    let setup = setup.elapsed().as_secs_f64();
+        .with_context(|| format!("{}", files[0].display()))?;
+    let mut setup = setup.elapsed().as_secs_f64();
     let framing = Camera::framing(&fog);
     let camera = Camera {
         eye: args.eye.unwrap_or(framing.eye),
@@ -247,10 +254,38 @@ fn wavelet(args: WaveletArgs) -> Result<()> {
     };
     // Wind moves the fog (not the camera, whose default framing is of the fog at rest);
     // the transform is computed once, every frame only moves it.
+    // A sequence's fogmap is decomposed again only when it differs from the last one.
     let mut fog = fog;
     let mut moved = [0.0; 2];
+    let (mut shown, mut decompositions) = (0, 1);
     let start = Instant::now();
-    for k in 0..args.frames {
+    for k in 0..frames {
+        if k % files.len() != shown {
+            shown = k % files.len();
+            let next = Fogmap::load(&files[shown])?;
+            if [next.width, next.height] != [fogmap.width, fogmap.height] {
+                bail!(
+                    "{}: {} × {}, but the sequence's first fogmap is {} × {}",
+                    files[shown].display(),
+                    next.width,
+                    next.height,
+                    fogmap.width,
+                    fogmap.height
+                );
+            }
+            if next.values != fogmap.values {
+                let at = Instant::now();
+                fog = Fog::new(&next.grid(), basis, args.levels, placement, settings)
+                    .with_context(|| format!("{}", files[shown].display()))?;
+                fog.translate(moved);
+                setup += at.elapsed().as_secs_f64();
+                decompositions += 1;
+                if let Some(g) = &mut gpu {
+                    g.fog = g.renderer.upload(&g.ctx, &fog)?;
+                }
+            }
+            fogmap = next;
+        }
         let t = args.time + k as f64 / args.fps;
         let offset = [args.wind[0] * t, args.wind[1] * t];
         let by = [offset[0] - moved[0], offset[1] - moved[1]];
@@ -275,7 +310,7 @@ fn wavelet(args: WaveletArgs) -> Result<()> {
                 px
             }
         };
-        let out = frame_path(&args.out, k, args.frames);
+        let out = frame_path(&args.out, k, frames);
         let bytes = match format {
             Format::Exr => encode_exr(&pixels, args.width, args.height),
             Format::Png => encode_png(&pixels, args.width, args.height),
@@ -284,19 +319,17 @@ fn wavelet(args: WaveletArgs) -> Result<()> {
         crate::output::write_atomic(&out, &bytes)?;
     }
     let seconds = start.elapsed().as_secs_f64();
-    let rays = (args.width * args.height * args.frames) as f64;
-    let frames = if args.frames == 1 {
-        String::new()
-    } else {
-        format!(
-            " ({} frames, {:.3} s each)",
-            args.frames,
-            seconds / args.frames as f64
-        )
-    };
+    let rays = (args.width * args.height * frames) as f64;
+    let mut counts = String::new();
+    if frames > 1 {
+        counts = format!(" ({frames} frames, {:.3} s each)", seconds / frames as f64);
+    }
+    if files.len() > 1 {
+        counts += &format!(" ({} fogmaps, {decompositions} decomposed)", files.len());
+    }
     eprintln!(
         "{}: {} × {}, {} fogmap {} × {}, {} level{}, µ {}{}, decomposed in {:.3} s, rendered in {:.3} s{} ({:.2} Mrays/s, {})",
-        frame_path(&args.out, 0, args.frames).display(),
+        frame_path(&args.out, 0, frames).display(),
         args.width,
         args.height,
         fog.basis(),
@@ -308,11 +341,52 @@ fn wavelet(args: WaveletArgs) -> Result<()> {
         if args.direct { ", direct" } else { "" },
         setup,
         seconds,
-        frames,
+        counts,
         rays / seconds / 1e6,
         device,
     );
     Ok(())
+}
+
+/// The fogmaps to render: `path` itself, or the numbered fogmaps (`.png`, `.exr`, `.npy`,
+/// `.f32`) of the directory `path`, ordered by the last number in their names.
+fn fogmap_files(path: &Path) -> Result<Vec<PathBuf>> {
+    if !path.is_dir() {
+        return Ok(vec![path.to_path_buf()]);
+    }
+    let mut files = Vec::new();
+    for entry in std::fs::read_dir(path).with_context(|| format!("{}", path.display()))? {
+        let p = entry.with_context(|| format!("{}", path.display()))?.path();
+        let ext = p
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        if p.is_file() && matches!(ext.as_deref(), Some("png" | "exr" | "npy" | "f32")) {
+            let n = frame_number(&p).with_context(|| {
+                format!(
+                    "{}: a fogmap of a sequence needs a frame number in its name",
+                    p.display()
+                )
+            })?;
+            files.push((n, p));
+        }
+    }
+    files.sort();
+    if let Some(w) = files.windows(2).find(|w| w[0].0 == w[1].0) {
+        bail!(
+            "{}: frame {} also comes from {}",
+            w[1].1.display(),
+            w[0].0,
+            w[0].1.display()
+        );
+    }
+    if files.is_empty() {
+        bail!(
+            "{}: no fogmaps (.png, .exr, .npy, .f32) in the directory",
+            path.display()
+        );
+    }
+    Ok(files.into_iter().map(|(_, p)| p).collect())
 }
 
 /// Frame `k` of `frames`: `out` itself for a single frame, else `out` with `_KKKK`

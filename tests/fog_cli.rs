@@ -271,6 +271,80 @@ fn wind_moves_the_fog_over_numbered_frames() {
 }
 
 #[test]
+fn a_directory_of_fogmaps_is_an_animation_decomposed_when_the_map_changes() {
+    let dir = tempfile::tempdir().unwrap();
+    let maps = dir.path().join("maps");
+    std::fs::create_dir(&maps).unwrap();
+    // Three 24 × 16 maps, numbered out of order on disk: 7 and 9 are the same bank of
+    // fog, 12 a different one.
+    let bank = |shift: u32| {
+        image::GrayImage::from_fn(24, 16, |x, y| {
+            let v = if (x + shift) % 24 < 12 && y > 3 {
+                200
+            } else {
+                20
+            };
+            image::Luma([v])
+        })
+    };
+    bank(0).save(maps.join("fog_9.png")).unwrap();
+    bank(0).save(maps.join("fog_7.png")).unwrap();
+    bank(8).save(maps.join("fog_12.png")).unwrap();
+    let cam = [
+        "--eye", "0,-30,12", "--target", "0,5,0", "--cell", "2", "--levels", "2",
+    ];
+    let run = |fogmap: &Path, out: &Path, extra: &[&str]| {
+        let mut args = vec![
+            "fog".to_string(),
+            "wavelet".to_string(),
+            fogmap.display().to_string(),
+            "--out".to_string(),
+            out.display().to_string(),
+            "--width".to_string(),
+            "64".to_string(),
+            "--height".to_string(),
+            "48".to_string(),
+        ];
+        args.extend(cam.iter().chain(extra).map(|s| s.to_string()));
+        let o = haze().args(&args).output().unwrap();
+        let err = String::from_utf8(o.stderr).unwrap();
+        assert!(o.status.success(), "{args:?}: {err}");
+        err
+    };
+    let anim = dir.path().join("anim.exr");
+    let summary = run(&maps, &anim, &[]);
+    assert!(summary.contains("(3 fogmaps, 2 decomposed)"), "{summary}");
+    for (k, name) in [(0, "fog_7.png"), (1, "fog_9.png"), (2, "fog_12.png")] {
+        let single = dir.path().join("single.exr");
+        run(&maps.join(name), &single, &[]);
+        let got = read_exr(&dir.path().join(format!("anim_{k:04}.exr")));
+        assert!(worst(&got, &read_exr(&single)) <= 1e-6, "frame {k}");
+    }
+    // On the GPU, looping over 4 frames: frame 3 is fog_7 again.
+    let summary = run(&maps, &anim, &["--gpu", "--frames", "4"]);
+    assert!(summary.contains("(3 fogmaps, 3 decomposed)"), "{summary}");
+    let first = read_exr(&dir.path().join("anim_0000.exr"));
+    let last = read_exr(&dir.path().join("anim_0003.exr"));
+    assert!(worst(&first, &last) <= 1e-6);
+    assert!(worst(&first, &read_exr(&dir.path().join("anim_0002.exr"))) > 0.01);
+    // A map of another size is refused, naming it.
+    image::GrayImage::new(8, 8)
+        .save(maps.join("fog_20.png"))
+        .unwrap();
+    let out = anim.to_str().unwrap();
+    fails(
+        &["fog", "wavelet", maps.to_str().unwrap(), "--out", out],
+        "fog_20.png: 8 × 8, but the sequence's first fogmap is 24 × 16",
+    );
+    let empty = dir.path().join("empty");
+    std::fs::create_dir(&empty).unwrap();
+    fails(
+        &["fog", "wavelet", empty.to_str().unwrap(), "--out", out],
+        "no fogmaps",
+    );
+}
+
+#[test]
 fn bad_inputs_fail_on_one_line() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("o.png");
