@@ -429,6 +429,72 @@ fn a_fog_moved_on_the_gpu_matches_the_cpu_without_a_new_upload() {
 }
 
 #[test]
+fn extremes_give_finite_pixels_like_the_cpu() {
+    let ctx = context();
+    let gpu = FogRenderer::new(&ctx).unwrap();
+    let scene = Scene::default();
+    let (w, h) = (24, 18);
+    let far = Camera {
+        eye: [-3.0e4, -4.0e4, 9.0e3],
+        target: [2.0, 10.0, 0.0],
+        up: [0.0, 0.0, 1.0],
+        fov_deg: 0.05,
+    };
+    for (density, falloff, cam) in [
+        // Opaque: every ray through fog stops at once, τ underflows to 0.
+        (1e30, 0.3, None),
+        // Almost clear: τ = 1 to f32 precision, the stop depth beyond f32's range.
+        (1e-30, 0.3, None),
+        // A steep profile: the moments' exponent `k·|Δz|` is large in every cell.
+        (0.4, 20.0, None),
+        // Seen from 50 000 units away through a narrow lens.
+        (0.4, 0.3, Some(far)),
+    ] {
+        let p = Placement {
+            density,
+            falloff,
+            ..PLACEMENT
+        };
+        let fog = fog(Basis::Quadratic, 2, 0.8, p, 1.0 / 1024.0);
+        let cam = cam.unwrap_or_else(|| Camera::framing(&fog));
+        let up = gpu.upload(&ctx, &fog).unwrap();
+        let got = gpu.render(&ctx, &up, &cam, &scene, w, h).unwrap();
+        let mut foggy = 0;
+        for y in 0..h {
+            for x in 0..w {
+                let g = got[y * w + x];
+                assert!(
+                    g.iter().all(|v| v.is_finite()),
+                    "{density} {falloff}: {g:?}"
+                );
+                let (tau, _) = cpu_pixel_tau(&fog, &cam, x, y, w, h);
+                let gt = f64::from(g[3]);
+                // f32 positions 50 000 units out are off by ~0.004 units: τ within 1e-3.
+                let tol = if cam == far { 1e-3 } else { 1e-5 };
+                assert!(
+                    (gt - tau).abs() <= tol || (tau < 2e-3 && gt < 4e-3),
+                    "{density} {falloff} ({x}, {y}): τ {gt} vs {tau}"
+                );
+                foggy += usize::from(tau < 0.99);
+            }
+        }
+        if density > 1e-3 {
+            assert!(foggy > 0, "{density} {falloff}: no fog in view");
+        }
+    }
+    // A density beyond f32 is refused rather than turned into infinity.
+    let p = Placement {
+        density: 1e39,
+        ..PLACEMENT
+    };
+    let e = gpu
+        .upload(&ctx, &fog(Basis::Linear, 1, 1.0, p, 0.0))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("beyond the GPU's 32-bit floats"), "{e}");
+}
+
+#[test]
 fn bad_inputs_are_errors() {
     let ctx = context();
     let gpu = FogRenderer::new(&ctx).unwrap();
