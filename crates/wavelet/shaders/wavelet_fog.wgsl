@@ -74,8 +74,6 @@ struct Level {
     _pad: u32,
 }
 
-const MAX_LEVELS: u32 = 17u;
-
 @group(0) @binding(0) var<uniform> p: Params;
 @group(0) @binding(1) var<storage, read> levels: array<Level>;
 // The basis pieces: piece j along axis a has coefficients pieces[3·(6a + j) + 0..3].
@@ -349,6 +347,7 @@ fn depth(o: vec3<f32>, d: vec3<f32>, len: f32) -> f32 {
     let big_l = p.levels;
     // d_max,l = len·µ^l, d_max,0 = len; the band of level l is [d_max,l+1, d_max,l]
     // (from 0 for the finest level), clipped to the fog.
+    // At most 16 steps (`lod::MAX_LEVELS`): levels 0 … 16 and the bound after them.
     var dmax: array<f32, 18>;
     dmax[0] = len;
     for (var l = 1u; l <= big_l + 1u; l++) {
