@@ -5,9 +5,10 @@ use crate::import_args::parse_vec3;
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand, ValueEnum};
 use haze_camera::LookAt;
+use haze_volume::import::sequence::frame_number;
 use haze_wavelet::render::Scene;
 use haze_wavelet::{Basis, Fog, Fogmap, Mode, Placement, Settings};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 #[derive(Debug, Subcommand)]
@@ -25,10 +26,23 @@ pub enum FogCommand {
     /// Extinction at height z is density · fogmap(x, y) · exp(−falloff·(z − bottom)) for
     /// bottom ≤ z ≤ top, clear elsewhere. Without --eye the camera frames the fog from
     /// beyond its south edge, a little above it, looking north at the horizon.
+    ///
+    /// --gpu renders the same image on the GPU (headless, wgpu: Vulkan, Metal or DX12;
+    /// Mesa's lavapipe will do), in 32-bit floats: it differs from the CPU's by about 1e-5,
+    /// by up to --min-transmittance where a ray stops early, and by the checker's contrast
+    /// on a rare ground pixel whose point rounds to the other side of a checker line.
+    ///
+    /// --wind DX,DY moves the fog DX,DY world units per second; --time T renders it at
+    /// time T, and --frames N renders N frames 1/--fps seconds apart (numbered images).
+    /// The fogmap is decomposed once: wind only moves the fog over the ground. FOGMAP may
+    /// be a directory of numbered fogmaps: frame k shows fogmap k, decomposed again only
+    /// when it differs from the previous frame's.
     #[command(after_help = "Examples:\n  \
         haze fog wavelet data/fogmap/fogmap_128.png --out fog.png\n  \
         haze fog wavelet fog.exr --basis quadratic --levels 3 --mu 0.6 --out far.exr\n  \
-        haze fog wavelet fog.png --eye 0,-80,6 --target 0,40,0 --density 0.3 --out low.png")]
+        haze fog wavelet fog.png --eye 0,-80,6 --target 0,40,0 --density 0.3 --out low.png\n  \
+        haze fog wavelet data/fogmap/fogmap_128.png --gpu --width 1920 --height 1080 --out hd.exr\n  \
+        haze fog wavelet fog.png --gpu --wind 3,1 --frames 48 --fps 24 --out drift.png")]
     Wavelet(WaveletArgs),
 }
 
@@ -44,7 +58,8 @@ enum BasisArg {
 
 #[derive(Debug, Args)]
 pub struct WaveletArgs {
-    /// The fogmap: .png, .exr, .npy or .f32 (+ .json sidecar).
+    /// The fogmap: .png, .exr, .npy or .f32 (+ .json sidecar), or a directory of numbered
+    /// fogmaps of one size (an animation: frame k shows fogmap k, looping).
     fogmap: PathBuf,
     /// Output image: .exr (linear RGB, 32-bit float) or .png (sRGB, 8-bit).
     #[arg(long, short)]
@@ -63,6 +78,9 @@ pub struct WaveletArgs {
     /// early exit.
     #[arg(long)]
     direct: bool,
+    /// Render on the GPU (headless; same image as the CPU's within f32 rounding).
+    #[arg(long)]
+    gpu: bool,
     /// Stop a ray once its transmittance is below this (0: never); the pixel then differs
     /// from the exact one by less than this fraction of its contrast.
     #[arg(long, default_value_t = 1.0 / 1024.0, value_name = "T")]
@@ -105,6 +123,20 @@ pub struct WaveletArgs {
     /// constant up to the top.
     #[arg(long, default_value_t = 0.3)]
     falloff: f64,
+    /// Wind: the fog drifts DX,DY world units per second (the ground and the camera stay).
+    #[arg(long, value_name = "DX,DY", value_parser = parse_vec2, allow_hyphen_values = true, default_value = "0,0")]
+    wind: [f64; 2],
+    /// Time of the (first) frame in seconds: the fog has drifted by wind × time.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    time: f64,
+    /// Frames to render, 1/fps s apart, written to OUT with the frame number before the
+    /// extension (fog.png → fog_0000.png, fog_0001.png …) [default: 1, or the number of
+    /// fogmaps when FOGMAP is a directory].
+    #[arg(long)]
+    frames: Option<usize>,
+    /// Frames per second of --frames.
+    #[arg(long, default_value_t = 24.0)]
+    fps: f64,
     /// Fog colour L_fog (linear RGB).
     #[arg(long, value_name = "R,G,B", value_parser = parse_vec3)]
     fog_color: Option<[f64; 3]>,
@@ -150,7 +182,22 @@ fn wavelet(args: WaveletArgs) -> Result<()> {
             args.height
         );
     }
-    let fogmap = Fogmap::load(&args.fogmap)?;
+    if args.gpu && args.direct {
+        bail!("--direct is CPU only: --gpu integrates the deconstructed levels");
+    }
+    if !(args.time.is_finite() && args.fps.is_finite() && args.fps > 0.0) {
+        bail!(
+            "--time {} --fps {}: the time must be finite and the rate positive",
+            args.time,
+            args.fps
+        );
+    }
+    let files = fogmap_files(&args.fogmap)?;
+    let frames = args.frames.unwrap_or(files.len());
+    if !(1..=100_000).contains(&frames) {
+        bail!("--frames {frames}: must be between 1 and 100000");
+    }
+    let mut fogmap = Fogmap::load(&files[0])?;
     let basis = match args.basis {
         BasisArg::Haar => Basis::Haar,
         BasisArg::Linear => Basis::Linear,
@@ -179,36 +226,106 @@ fn wavelet(args: WaveletArgs) -> Result<()> {
     };
     let setup = Instant::now();
     let fog = Fog::new(&fogmap.grid(), basis, args.levels, placement, settings)
-        .with_context(|| format!("{}", args.fogmap.display()))?;
-    let setup = setup.elapsed().as_secs_f64();
+        .with_context(|| format!("{}", files[0].display()))?;
+    let mut setup = setup.elapsed().as_secs_f64();
     let framing = haze_wavelet::render::framing(&fog);
     let camera = LookAt {
         eye: args.eye.unwrap_or(framing.eye),
         target: args.target.unwrap_or(framing.target),
         up: args.up,
         fov_deg: args.fov,
-    }
-    .camera(args.width, args.height)
-    .map_err(anyhow::Error::msg)?;
+    };
+    let frame = camera
+        .camera(args.width, args.height)
+        .map_err(anyhow::Error::msg)?;
     let mut scene = Scene::default();
     if let Some(c) = args.fog_color {
         scene.fog = c;
     }
-    let bar = rows_bar(args.height);
+    // The GPU's device, passes and uploaded levels, made once for every frame.
+    let mut gpu = if args.gpu {
+        Some(GpuFog::new(&fog)?)
+    } else {
+        None
+    };
+    let device = match &gpu {
+        Some(g) => format!("on the GPU ({})", g.ctx.adapter_name()),
+        None => {
+            let threads = rayon::current_num_threads();
+            format!("{threads} thread{}", if threads == 1 { "" } else { "s" })
+        }
+    };
+    // Wind moves the fog (not the camera, whose default framing is of the fog at rest);
+    // the transform is computed once, every frame only moves it.
+    // A sequence's fogmap is decomposed again only when it differs from the last one.
+    let mut fog = fog;
+    let mut moved = [0.0; 2];
+    let (mut shown, mut decompositions) = (0, 1);
     let start = Instant::now();
-    let pixels = haze_wavelet::render::render(&fog, &camera, &scene, &|| bar.inc(1));
-    let seconds = start.elapsed().as_secs_f64();
-    bar.finish_and_clear();
-    let bytes = match format {
-        Format::Exr => encode_exr(&pixels, args.width, args.height),
-        Format::Png => encode_png(&pixels, args.width, args.height),
+    for k in 0..frames {
+        if k % files.len() != shown {
+            shown = k % files.len();
+            let next = Fogmap::load(&files[shown])?;
+            if [next.width, next.height] != [fogmap.width, fogmap.height] {
+                bail!(
+                    "{}: {} × {}, but the sequence's first fogmap is {} × {}",
+                    files[shown].display(),
+                    next.width,
+                    next.height,
+                    fogmap.width,
+                    fogmap.height
+                );
+            }
+            if next.values != fogmap.values {
+                let at = Instant::now();
+                fog = Fog::new(&next.grid(), basis, args.levels, placement, settings)
+                    .with_context(|| format!("{}", files[shown].display()))?;
+                fog.translate(moved);
+                setup += at.elapsed().as_secs_f64();
+                decompositions += 1;
+                if let Some(g) = &mut gpu {
+                    g.fog = g.renderer.upload(&g.ctx, &fog)?;
+                }
+            }
+            fogmap = next;
+        }
+        let t = args.time + k as f64 / args.fps;
+        let offset = [args.wind[0] * t, args.wind[1] * t];
+        let by = [offset[0] - moved[0], offset[1] - moved[1]];
+        moved = offset;
+        fog.translate(by);
+        let pixels = match &mut gpu {
+            Some(g) => {
+                g.fog.translate(by);
+                g.render(&camera, &scene, args.width, args.height)?
+            }
+            None => {
+                let bar = rows_bar(args.height);
+                let px = haze_wavelet::render::render(&fog, &frame, &scene, &|| bar.inc(1));
+                bar.finish_and_clear();
+                px
+            }
+        };
+        let out = frame_path(&args.out, k, frames);
+        let bytes = match format {
+            Format::Exr => encode_exr(&pixels, args.width, args.height),
+            Format::Png => encode_png(&pixels, args.width, args.height),
+        }
+        .with_context(|| format!("{}: cannot encode", out.display()))?;
+        crate::output::write_atomic(&out, &bytes)?;
     }
-    .with_context(|| format!("{}: cannot encode", args.out.display()))?;
-    crate::output::write_atomic(&args.out, &bytes)?;
-    let rays = (args.width * args.height) as f64;
+    let seconds = start.elapsed().as_secs_f64();
+    let rays = (args.width * args.height * frames) as f64;
+    let mut counts = String::new();
+    if frames > 1 {
+        counts = format!(" ({frames} frames, {:.3} s each)", seconds / frames as f64);
+    }
+    if files.len() > 1 {
+        counts += &format!(" ({} fogmaps, {decompositions} decomposed)", files.len());
+    }
     eprintln!(
-        "{}: {} × {}, {} fogmap {} × {}, {} level{}, µ {}{}, decomposed in {:.3} s, rendered in {:.3} s ({:.2} Mrays/s, {} thread{})",
-        args.out.display(),
+        "{}: {} × {}, {} fogmap {} × {}, {} level{}, µ {}{}, decomposed in {:.3} s, rendered in {:.3} s{} ({:.2} Mrays/s, {})",
+        frame_path(&args.out, 0, frames).display(),
         args.width,
         args.height,
         fog.basis(),
@@ -220,15 +337,99 @@ fn wavelet(args: WaveletArgs) -> Result<()> {
         if args.direct { ", direct" } else { "" },
         setup,
         seconds,
+        counts,
         rays / seconds / 1e6,
-        rayon::current_num_threads(),
-        if rayon::current_num_threads() == 1 {
-            ""
-        } else {
-            "s"
-        },
+        device,
     );
     Ok(())
+}
+
+/// The fogmaps to render: `path` itself, or the numbered fogmaps (`.png`, `.exr`, `.npy`,
+/// `.f32`) of the directory `path`, ordered by the last number in their names.
+fn fogmap_files(path: &Path) -> Result<Vec<PathBuf>> {
+    if !path.is_dir() {
+        return Ok(vec![path.to_path_buf()]);
+    }
+    let mut files = Vec::new();
+    for entry in std::fs::read_dir(path).with_context(|| format!("{}", path.display()))? {
+        let p = entry.with_context(|| format!("{}", path.display()))?.path();
+        let ext = p
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        if p.is_file() && matches!(ext.as_deref(), Some("png" | "exr" | "npy" | "f32")) {
+            let n = frame_number(&p).with_context(|| {
+                format!(
+                    "{}: a fogmap of a sequence needs a frame number in its name",
+                    p.display()
+                )
+            })?;
+            files.push((n, p));
+        }
+    }
+    files.sort();
+    if let Some(w) = files.windows(2).find(|w| w[0].0 == w[1].0) {
+        bail!(
+            "{}: frame {} also comes from {}",
+            w[1].1.display(),
+            w[0].0,
+            w[0].1.display()
+        );
+    }
+    if files.is_empty() {
+        bail!(
+            "{}: no fogmaps (.png, .exr, .npy, .f32) in the directory",
+            path.display()
+        );
+    }
+    Ok(files.into_iter().map(|(_, p)| p).collect())
+}
+
+/// Frame `k` of `frames`: `out` itself for a single frame, else `out` with `_KKKK`
+/// before the extension (`fog.png` → `fog_0000.png`).
+fn frame_path(out: &Path, k: usize, frames: usize) -> PathBuf {
+    if frames == 1 {
+        return out.to_path_buf();
+    }
+    let stem = out
+        .file_stem()
+        .map(|s| s.to_string_lossy())
+        .unwrap_or_default();
+    let ext = out
+        .extension()
+        .map(|s| s.to_string_lossy())
+        .unwrap_or_default();
+    out.with_file_name(format!("{stem}_{k:04}.{ext}"))
+}
+
+/// A fog on the GPU: the device, the compiled passes and the fog's levels.
+struct GpuFog {
+    ctx: haze_wavelet::gpu::GpuContext,
+    renderer: haze_wavelet::gpu::fog::FogRenderer,
+    fog: haze_wavelet::gpu::fog::GpuFog,
+}
+
+impl GpuFog {
+    fn new(fog: &Fog) -> Result<GpuFog> {
+        let ctx = haze_wavelet::gpu::GpuContext::new()?;
+        let renderer = haze_wavelet::gpu::fog::FogRenderer::new(&ctx)?;
+        let fog = renderer.upload(&ctx, fog)?;
+        Ok(GpuFog { ctx, renderer, fog })
+    }
+
+    /// One frame's linear RGB pixels.
+    fn render(
+        &self,
+        camera: &LookAt,
+        scene: &Scene,
+        width: usize,
+        height: usize,
+    ) -> Result<Vec<[f32; 3]>> {
+        let pixels = self
+            .renderer
+            .render(&self.ctx, &self.fog, camera, scene, width, height)?;
+        Ok(pixels.iter().map(|p| [p[0], p[1], p[2]]).collect())
+    }
 }
 
 /// A progress bar over image rows (hidden when stderr is not a terminal).

@@ -142,6 +142,209 @@ fn direct_and_deconstructed_levels_give_the_same_image() {
 }
 
 #[test]
+fn gpu_renders_the_cpu_image() {
+    let dir = tempfile::tempdir().unwrap();
+    for (extra, tol) in [
+        // Exact integrals: f32 rounding only.
+        (
+            &[
+                "--basis",
+                "quadratic",
+                "--levels",
+                "3",
+                "--mu",
+                "0.7",
+                "--min-transmittance",
+                "0",
+            ][..],
+            1e-4,
+        ),
+        // Early exit: a ray may stop a cell earlier or later on either side, with its
+        // transmittance below the threshold (1/1024) either way.
+        (
+            &["--basis", "haar", "--levels", "2", "--density", "0.5"][..],
+            2.0 / 1024.0 + 1e-4,
+        ),
+    ] {
+        let cpu = dir.path().join("cpu.exr");
+        let gpu = dir.path().join("gpu.exr");
+        render(&cpu, extra);
+        let mut args = extra.to_vec();
+        args.push("--gpu");
+        let summary = render(&gpu, &args);
+        assert!(summary.contains("on the GPU ("), "{summary}");
+        let (want, got) = (read_exr(&cpu), read_exr(&gpu));
+        // A ground point within f32 rounding of a checker line may take the other tone
+        // (the two differ by 0.05 at most): a few pixels, no more.
+        let (mut off, mut worst) = (0, 0.0f32);
+        for (a, b) in got.iter().zip(&want) {
+            let e = (0..3).map(|c| (a[c] - b[c]).abs()).fold(0.0f32, f32::max);
+            if e > tol {
+                assert!(e < 0.05, "{extra:?}: {a:?} vs {b:?}");
+                off += 1;
+            } else {
+                worst = worst.max(e);
+            }
+        }
+        println!("{extra:?}: largest difference {worst:e}, {off} checker pixels");
+        assert!(off <= want.len() / 200, "{extra:?}: {off} pixels differ");
+    }
+    fails(
+        &[
+            "fog",
+            "wavelet",
+            fogmap().to_str().unwrap(),
+            "--out",
+            dir.path().join("x.png").to_str().unwrap(),
+            "--gpu",
+            "--direct",
+        ],
+        "--direct is CPU only",
+    );
+}
+
+/// Largest channel difference between two images.
+fn worst(a: &[[f32; 3]], b: &[[f32; 3]]) -> f32 {
+    a.iter()
+        .flatten()
+        .zip(b.iter().flatten())
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f32::max)
+}
+
+#[test]
+fn wind_moves_the_fog_over_numbered_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    // A fixed camera (the default one frames the fog at rest, wherever --origin puts it).
+    let cam = ["--eye", "0,-90,20", "--target", "0,10,0", "--levels", "2"];
+    let anim = dir.path().join("anim.exr");
+    let mut args = cam.to_vec();
+    args.extend(["--wind", "8,-4", "--frames", "3", "--fps", "2"]);
+    let summary = render(&anim, &args);
+    assert!(summary.contains("3 frames"), "{summary}");
+    let frame = |k: usize| read_exr(&dir.path().join(format!("anim_{k:04}.exr")));
+    assert!(!anim.exists());
+    // Frame 0 is the fog at rest; frame 2 (t = 1 s) the fog placed 8, −4 units over: the
+    // bundled map is 128 × 128 cells of 1, centred on 0,0 by default.
+    let rest = dir.path().join("rest.exr");
+    render(&rest, &cam);
+    assert!(worst(&frame(0), &read_exr(&rest)) <= 1e-6);
+    let placed = dir.path().join("placed.exr");
+    let mut args = cam.to_vec();
+    args.extend(["--origin", "-56,-68"]);
+    render(&placed, &args);
+    let want = read_exr(&placed);
+    assert!(worst(&frame(2), &want) <= 1e-5);
+    assert!(worst(&frame(1), &frame(0)) > 0.01, "the fog did not move");
+    // --time alone, and on the GPU (uploaded once, moved per frame).
+    let at = dir.path().join("at.exr");
+    let mut args = cam.to_vec();
+    args.extend([
+        "--wind",
+        "8,-4",
+        "--time",
+        "1",
+        "--gpu",
+        "--min-transmittance",
+        "0",
+    ]);
+    render(&at, &args);
+    let got = read_exr(&at);
+    let off = got
+        .iter()
+        .zip(&want)
+        .filter(|(a, b)| (0..3).any(|c| (a[c] - b[c]).abs() > 2.0 / 1024.0))
+        .count();
+    assert!(off <= want.len() / 200, "{off} pixels differ");
+    fails(
+        &[
+            "fog",
+            "wavelet",
+            fogmap().to_str().unwrap(),
+            "--out",
+            anim.to_str().unwrap(),
+            "--fps",
+            "0",
+        ],
+        "the rate positive",
+    );
+}
+
+#[test]
+fn a_directory_of_fogmaps_is_an_animation_decomposed_when_the_map_changes() {
+    let dir = tempfile::tempdir().unwrap();
+    let maps = dir.path().join("maps");
+    std::fs::create_dir(&maps).unwrap();
+    // Three 24 × 16 maps, numbered out of order on disk: 7 and 9 are the same bank of
+    // fog, 12 a different one.
+    let bank = |shift: u32| {
+        image::GrayImage::from_fn(24, 16, |x, y| {
+            let v = if (x + shift) % 24 < 12 && y > 3 {
+                200
+            } else {
+                20
+            };
+            image::Luma([v])
+        })
+    };
+    bank(0).save(maps.join("fog_9.png")).unwrap();
+    bank(0).save(maps.join("fog_7.png")).unwrap();
+    bank(8).save(maps.join("fog_12.png")).unwrap();
+    let cam = [
+        "--eye", "0,-30,12", "--target", "0,5,0", "--cell", "2", "--levels", "2",
+    ];
+    let run = |fogmap: &Path, out: &Path, extra: &[&str]| {
+        let mut args = vec![
+            "fog".to_string(),
+            "wavelet".to_string(),
+            fogmap.display().to_string(),
+            "--out".to_string(),
+            out.display().to_string(),
+            "--width".to_string(),
+            "64".to_string(),
+            "--height".to_string(),
+            "48".to_string(),
+        ];
+        args.extend(cam.iter().chain(extra).map(|s| s.to_string()));
+        let o = haze().args(&args).output().unwrap();
+        let err = String::from_utf8(o.stderr).unwrap();
+        assert!(o.status.success(), "{args:?}: {err}");
+        err
+    };
+    let anim = dir.path().join("anim.exr");
+    let summary = run(&maps, &anim, &[]);
+    assert!(summary.contains("(3 fogmaps, 2 decomposed)"), "{summary}");
+    for (k, name) in [(0, "fog_7.png"), (1, "fog_9.png"), (2, "fog_12.png")] {
+        let single = dir.path().join("single.exr");
+        run(&maps.join(name), &single, &[]);
+        let got = read_exr(&dir.path().join(format!("anim_{k:04}.exr")));
+        assert!(worst(&got, &read_exr(&single)) <= 1e-6, "frame {k}");
+    }
+    // On the GPU, looping over 4 frames: frame 3 is fog_7 again.
+    let summary = run(&maps, &anim, &["--gpu", "--frames", "4"]);
+    assert!(summary.contains("(3 fogmaps, 3 decomposed)"), "{summary}");
+    let first = read_exr(&dir.path().join("anim_0000.exr"));
+    let last = read_exr(&dir.path().join("anim_0003.exr"));
+    assert!(worst(&first, &last) <= 1e-6);
+    assert!(worst(&first, &read_exr(&dir.path().join("anim_0002.exr"))) > 0.01);
+    // A map of another size is refused, naming it.
+    image::GrayImage::new(8, 8)
+        .save(maps.join("fog_20.png"))
+        .unwrap();
+    let out = anim.to_str().unwrap();
+    fails(
+        &["fog", "wavelet", maps.to_str().unwrap(), "--out", out],
+        "fog_20.png: 8 × 8, but the sequence's first fogmap is 24 × 16",
+    );
+    let empty = dir.path().join("empty");
+    std::fs::create_dir(&empty).unwrap();
+    fails(
+        &["fog", "wavelet", empty.to_str().unwrap(), "--out", out],
+        "no fogmaps",
+    );
+}
+
+#[test]
 fn bad_inputs_fail_on_one_line() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("o.png");
@@ -210,6 +413,9 @@ fn help_explains_the_model() {
         "µ^l",
         "haar",
         "quadratic",
+        "--gpu",
+        "--wind",
+        "--frames",
         "Examples",
     ] {
         assert!(text.contains(needle), "{needle} missing from --help");

@@ -28,7 +28,7 @@ use crate::basis::{Piecewise, Poly};
 use crate::mallat::Grid;
 
 /// Most pieces of one 1-D function (a coarse quadratic function on the finer grid).
-const MAX_PIECES: usize = 6;
+pub const MAX_PIECES: usize = 6;
 /// Most functions of one term overlapping a cell along one axis.
 const MAX_OVERLAP: usize = 3;
 
@@ -83,7 +83,39 @@ pub struct Term {
     pieces: [[Poly; MAX_PIECES]; 2],
 }
 
+/// A term's data as flat arrays, for a GPU upload ([`crate::gpu`]).
+#[derive(Clone, Copy, Debug)]
+pub struct TermView<'a> {
+    /// Coefficients, row after row (`n[0]` per row).
+    pub coef: &'a [f64],
+    /// Index of the first stored coefficient along x and y.
+    pub k0: [i64; 2],
+    /// Stored coefficients along x and y.
+    pub n: [usize; 2],
+    /// Cell of the first piece of coefficient 0, along x and y.
+    pub first: [i64; 2],
+    /// Cells between consecutive coefficients.
+    pub stride: i64,
+    /// Pieces per function along x and y.
+    pub support: [usize; 2],
+    /// The pieces along x and y (unused entries zero).
+    pub pieces: &'a [[Poly; MAX_PIECES]; 2],
+}
+
 impl Term {
+    /// The term's arrays.
+    pub fn view(&self) -> TermView<'_> {
+        TermView {
+            coef: &self.coef,
+            k0: self.k0,
+            n: self.n,
+            first: self.first,
+            stride: self.stride,
+            support: self.support,
+            pieces: &self.pieces,
+        }
+    }
+
     /// The functions `c_{kx,ky} f_x(kx) f_y(ky)` of `coef`; `fx` and `fy` share a stride.
     pub fn new(coef: &Grid, fx: &Piecewise, fy: &Piecewise) -> Term {
         assert_eq!(fx.stride, fy.stride, "one grid per term");
@@ -142,6 +174,11 @@ pub struct Layer {
 }
 
 impl Layer {
+    /// The terms the layer carries.
+    pub fn terms(&self) -> &[Term] {
+        &self.terms
+    }
+
     /// A layer of `terms` on a grid whose cells are `scale` finest cells wide; `floor`
     /// is a lower bound of the sum of the terms (0 if none can be negative).
     pub fn new(scale: f64, degree: usize, terms: Vec<Term>, floor: f64) -> Layer {

@@ -15,9 +15,11 @@
 //! * [`integrate`]: exact integrals of a level along a ray segment.
 //! * [`lod`]: the renderable [`Fog`]: µ, deconstruction, early termination.
 //! * [`render`]: camera, a ground-and-sky scene, the per-pixel blend, parallel rendering.
+//! * [`gpu`]: the same renderer in WGSL on wgpu (paper E §5), tested against the CPU.
 
 pub mod basis;
 pub mod fogmap;
+pub mod gpu;
 pub mod integrate;
 pub mod lod;
 pub mod mallat;

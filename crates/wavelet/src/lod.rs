@@ -287,6 +287,28 @@ impl Fog {
         &self.settings
     }
 
+    /// One layer per level `0 … L`: in [`Mode::Deconstructed`] the scaling basis `A_l`.
+    pub fn layers(&self) -> &[Layer] {
+        &self.layers
+    }
+
+    /// World box `[x min, x max, y min, y max]` of every layer's footprint: where the fog
+    /// can be non-zero.
+    pub fn bounds(&self) -> [f64; 4] {
+        self.bounds
+    }
+
+    /// Moves the fog by `by` in world `(x, y)` — wind carrying it along (the fog at time
+    /// `t` under a wind `w` is the fog moved by `w·t`) — without recomputing its
+    /// transform: the placement's origin and the footprint shift, the levels stay.
+    pub fn translate(&mut self, by: [f64; 2]) {
+        for (axis, d) in by.into_iter().enumerate() {
+            self.placement.origin[axis] += d;
+            self.bounds[2 * axis] += d;
+            self.bounds[2 * axis + 1] += d;
+        }
+    }
+
     /// World box `[x min, x max, y min, y max]` of the fogmap's pixels (whatever the basis
     /// and levels; splines reach up to `d/2` cells beyond it).
     pub fn map_box(&self) -> [f64; 4] {

@@ -571,3 +571,35 @@ fn deconstructed_bases_are_non_negative_where_the_input_is() {
         }
     }
 }
+
+#[test]
+fn a_translated_fog_is_the_fog_placed_there() {
+    let mut rng = Pcg64::seed_from_u64(31);
+    let g = random_fogmap(9, 7, &mut rng);
+    let p = placement();
+    let by = [3.75, -2.25];
+    let moved_p = Placement {
+        origin: [p.origin[0] + by[0], p.origin[1] + by[1]],
+        ..p
+    };
+    for basis in Basis::ALL {
+        let settings = Settings {
+            mu: 0.7,
+            ..Settings::default()
+        };
+        let mut moved = Fog::new(&g, basis, 2, p, settings).unwrap();
+        let still = moved.clone();
+        moved.translate(by);
+        let placed = Fog::new(&g, basis, 2, moved_p, settings).unwrap();
+        assert_eq!(moved.placement(), placed.placement());
+        for (o, q) in segments(&moved_p, 9, 7, &mut rng) {
+            let got = moved.optical_depth(o, q);
+            let want = placed.optical_depth(o, q);
+            assert!(close(got, want, 1.0), "{basis}: {got} vs {want}");
+            // The same as the unmoved fog seen from points moved back.
+            let back = |a: [f64; 3]| [a[0] - by[0], a[1] - by[1], a[2]];
+            let before = still.optical_depth(back(o), back(q));
+            assert!(close(got, before, 1.0), "{basis}: {got} vs {before}");
+        }
+    }
+}
