@@ -39,7 +39,7 @@ use std::f64::consts::PI;
 use crate::env::{Distant, LatLong, Sky, angles};
 
 /// Rec. 709 luminance of linear RGB.
-fn luminance(c: [f64; 3]) -> f64 {
+pub(crate) fn luminance(c: [f64; 3]) -> f64 {
     0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
 }
 
@@ -64,6 +64,8 @@ pub(crate) struct EnvSampler {
     cos_spans: Vec<f64>,
     /// True when every texel has the same density (uniform over the sphere).
     uniform: bool,
+    /// `∫ Ȳ dω` over the sphere: the map's luminance-weighted scalar irradiance.
+    power: f64,
 }
 
 impl EnvSampler {
@@ -137,6 +139,7 @@ impl EnvSampler {
         let uniform = mean.iter().all(|m| *m == first);
         let density = mean.iter().map(|m| m / total).collect();
         Some(EnvSampler {
+            power: total,
             width: w,
             height: h,
             rows,
@@ -177,6 +180,12 @@ impl EnvSampler {
             Distant::Map(m) => EnvSampler::new(m),
             Distant::Sky(s) => EnvSampler::for_sky(s),
         }
+    }
+
+    /// `∫ Y(ω) dω` of the map (luminance, Rec. 709): the light it brings to a point, in
+    /// the units of a sun's irradiance.
+    pub fn power(&self) -> f64 {
+        self.power
     }
 
     /// True when the density is the same everywhere (`1/4π`): a map of constant

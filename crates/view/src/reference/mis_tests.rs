@@ -4,9 +4,9 @@
 use rand::SeedableRng;
 
 use super::*;
-use crate::LatLong;
 use crate::env::direction;
 use crate::medium::hg;
+use crate::{LatLong, Sun};
 
 fn cube() -> Bbox {
     Bbox::new([-1.0; 3], [1.0; 3])
@@ -350,4 +350,35 @@ fn path_tracing_with_and_without_mis_agree_under_a_patch() {
         assert!((a[c] - b[c]).abs() < tol, "{} vs {}", a[c], b[c]);
     }
     assert!(sa[0] < sb[0], "{} vs {}", sa[0], sb[0]);
+}
+
+/// The map is importance-sampled only while it brings more light than the suns: its
+/// power `∫ Y dω` against the closed form of a two-valued map (upper half luminance 1,
+/// lower half 0.5: `2π + π`), and the sampler kept with suns of 0.9× that luminance and
+/// dropped at 1.1× (phase sampling alone then collects the map).
+#[test]
+fn the_map_is_sampled_only_while_it_outshines_the_suns() {
+    let (w, h) = (8, 4);
+    let texels = (0..w * h)
+        .map(|i| if i / w < h / 2 { [1.0; 3] } else { [0.5; 3] })
+        .collect();
+    let map = LatLong::new(w, h, texels).unwrap();
+    let sampler = EnvSampler::new(&map).unwrap();
+    let power = 3.0 * std::f64::consts::PI;
+    assert!(
+        (sampler.power() - power).abs() < 1e-9 * power,
+        "{} vs {power}",
+        sampler.power()
+    );
+    let opts = RefOptions::default();
+    let with_sun = |y: f64| {
+        let mut env = Environment::map(map.clone());
+        // A grey zero-angle sun: irradiance = the given radiance, luminance y.
+        env.suns
+            .push(Sun::from_radiance([0.3, 0.2, 0.9], [y; 3], 0.0).unwrap());
+        env
+    };
+    assert!(sampler_for(&Environment::map(map.clone()), &opts).is_some());
+    assert!(sampler_for(&with_sun(0.9 * power), &opts).is_some());
+    assert!(sampler_for(&with_sun(1.1 * power), &opts).is_none());
 }
