@@ -110,8 +110,9 @@ pub enum Command {
     /// framing: W/S fly ahead and back, A/D sideways, Q/E down and up, dragging the image
     /// looks around, scrolling flies ahead; the panel sets the basis, the levels, µ, the
     /// density, the falloff, the wind (which drifts the fog as time passes) and the
-    /// exposure. With --play-for it turns the camera a degree per picture, the fog
-    /// drifting with the wind, and prints the pictures' median time.
+    /// exposure. A directory of numbered fogmaps plays at --fps, each decomposed when it
+    /// differs from the last. With --play-for it turns the camera a degree per picture,
+    /// the fog drifting with the wind, and prints the pictures' median time.
     View(ViewCli),
     /// Reconstruct one frame of a baked asset (RBFs + dequantized residual) as a dense
     /// volume, to compare a bake with its input.
@@ -343,8 +344,9 @@ pub struct ViewCli {
     scene: Option<PathBuf>,
     /// Fly through a fogmap's wavelet fog instead (as `haze fog wavelet` renders it), on
     /// the GPU: WASD and Q/E fly, dragging looks around; basis, levels, µ, density,
-    /// falloff and wind in the panel. The "Fog" options below apply, and --size,
-    /// --exposure, --play-for and --no-window.
+    /// falloff and wind in the panel. FOGMAP may be a directory of numbered fogmaps, shown
+    /// at --fps. The "Fog" options below apply, and --fps, --size, --exposure, --play-for
+    /// and --no-window.
     #[arg(long, value_name = "FOGMAP")]
     fog: Option<PathBuf>,
     /// Playback rate in frames per second; 0 plays every frame as fast as it renders.
@@ -657,6 +659,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 // Present: the guard above.
                 fogmap: v.fog.unwrap_or_default(),
                 model: v.fog_model,
+                fps: v.fps,
                 width: v.size.0,
                 height: v.size.1,
                 exposure: v.exposure,

@@ -382,7 +382,7 @@ fn wavelet(args: WaveletArgs) -> Result<()> {
 
 /// The fogmaps to render: `path` itself, or the numbered fogmaps (`.png`, `.exr`, `.npy`,
 /// `.f32`) of the directory `path`, ordered by the last number in their names.
-fn fogmap_files(path: &Path) -> Result<Vec<PathBuf>> {
+pub fn fogmap_files(path: &Path) -> Result<Vec<PathBuf>> {
     if !path.is_dir() {
         return Ok(vec![path.to_path_buf()]);
     }

@@ -402,8 +402,8 @@ fn the_fog_flies_without_a_window() {
     assert!(out.contains("(GPU render, read back, sRGB) on "), "{out}");
 }
 
-/// A fogmap that cannot be read, or knobs its fog refuses: one line naming the file and
-/// the problem, exit 1, before any device or window.
+/// A fogmap that cannot be read, a sequence that cannot play, or knobs its fog refuses:
+/// one line naming the file and the problem, exit 1, before any device or window.
 #[test]
 fn a_bad_fogmap_fails_on_one_line() {
     let dir = tempfile::tempdir().unwrap();
@@ -422,7 +422,26 @@ fn a_bad_fogmap_fails_on_one_line() {
         &data("scenes/room.json"),
         "room.json: unknown fogmap format",
     );
-    fog(&[], dir.path().to_str().unwrap(), "a directory");
+    let empty = dir.path().join("empty");
+    std::fs::create_dir(&empty).unwrap();
+    fog(&[], empty.to_str().unwrap(), "empty: no fogmaps");
+    // A sequence of fogmaps of two sizes, and one without a rate.
+    let seq = dir.path().join("seq");
+    std::fs::create_dir(&seq).unwrap();
+    std::fs::copy(&fogmap, seq.join("fog_0001.png")).unwrap();
+    std::fs::write(seq.join("fog_0002.f32"), [0u8; 16]).unwrap();
+    std::fs::write(seq.join("fog_0002.json"), r#"{"dims": [2, 2]}"#).unwrap();
+    let seq = seq.to_str().unwrap();
+    fog(
+        &[],
+        seq,
+        "fog_0002.f32: 2 × 2, but the sequence's first fogmap is 128 × 128",
+    );
+    fog(
+        &["--fps", "0"],
+        seq,
+        "--fps 0: a sequence of fogmaps needs a positive rate",
+    );
     fog(&["--levels", "9"], &fogmap, "fogmap_128.png: 9 levels");
     fog(&["--mu", "1.5"], &fogmap, "µ = 1.5 must be in [0, 1]");
 }

@@ -4,10 +4,12 @@
 //! The fly camera starts at the fog's default framing (`haze_wavelet::render::framing`,
 //! as `haze fog wavelet` without `--eye`). The panel sets the basis, the levels, µ, the
 //! density, the falloff, the wind and the exposure. The fog is decomposed and uploaded
-//! again only when the basis, levels, µ, density or falloff change; the wind moves the
-//! uploaded fog by `wind · dt` each frame (nothing uploaded). A picture is rendered on the
-//! window's thread whenever the camera, a knob or the fog's drift changed (GPU render,
-//! read back, sRGB encoding; BENCHMARKS.md has its time on lavapipe).
+//! again only when the basis, levels, µ, density or falloff change, or a sequence's next
+//! fogmap (a directory of numbered fogmaps, shown at `--fps`) differs from the last; the
+//! wind moves the uploaded fog by `wind · dt` each frame (nothing uploaded). A picture is
+//! rendered on the window's thread whenever the camera, a knob or the fog's animation
+//! changed (GPU render, read back, sRGB encoding; BENCHMARKS.md has its time on
+//! lavapipe).
 
 use super::fly::Fly;
 use crate::fog::FogModelArgs;
@@ -25,8 +27,11 @@ use std::time::Instant;
 /// Everything `haze view --fog` was asked to do.
 #[derive(Debug)]
 pub struct FogViewArgs {
+    /// A fogmap, or a directory of numbered fogmaps (an animation at `fps`).
     pub fogmap: PathBuf,
     pub model: FogModelArgs,
+    /// Fogmaps per second of a sequence.
+    pub fps: f64,
     /// Render resolution.
     pub width: usize,
     pub height: usize,
@@ -60,9 +65,28 @@ impl FogKnobs {
     }
 }
 
-/// The fogmap, the device and the fog on it: what every picture needs.
+/// Where the fog is in its animation: how far the wind has moved it, and which fogmap of
+/// the sequence it shows (taken modulo their number).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FogAt {
+    pub drift: [f64; 2],
+    pub map: usize,
+}
+
+impl FogAt {
+    /// The fog `seconds` into its animation under a constant wind.
+    fn after(seconds: f64, wind: [f64; 2], fps: f64) -> FogAt {
+        FogAt {
+            drift: wind.map(|w| w * seconds),
+            map: (seconds * fps).max(0.0) as usize,
+        }
+    }
+}
+
+/// The fogmaps, the device and the fog on it: what every picture needs.
 struct Renderer {
-    fogmap: Fogmap,
+    /// One fogmap, or a sequence's (all of one size).
+    fogmaps: Vec<Fogmap>,
     model: FogModelArgs,
     scene: Scene,
     ctx: GpuContext,
@@ -71,7 +95,11 @@ struct Renderer {
     /// The fog on the GPU, of the knobs in `built`, moved by `moved`.
     fog: GpuFog,
     built: (Basis, usize, [f64; 3]),
+    /// The fogmap `fog` was decomposed from (or one with the same values).
+    built_map: usize,
     moved: [f64; 2],
+    /// Decompositions made (the first one included).
+    decompositions: usize,
 }
 
 impl Renderer {
@@ -93,19 +121,19 @@ impl Renderer {
     }
 
     fn new(
-        fogmap: Fogmap,
+        fogmaps: Vec<Fogmap>,
         model: FogModelArgs,
         knobs: &FogKnobs,
         (width, height): (usize, usize),
     ) -> Result<(Renderer, Fog)> {
-        let fog = Renderer::decompose(&fogmap, &model, knobs).map_err(|e| anyhow!(e))?;
+        let fog = Renderer::decompose(&fogmaps[0], &model, knobs).map_err(|e| anyhow!(e))?;
         let ctx = GpuContext::new().map_err(|e| anyhow!("GPU: {e}"))?;
         let gpu = FogRenderer::new(&ctx).map_err(|e| anyhow!("GPU: {e}"))?;
         let image = FogImage::new(&ctx, width, height).map_err(|e| anyhow!("{e}"))?;
         let uploaded = gpu.upload(&ctx, &fog).map_err(|e| anyhow!("GPU: {e}"))?;
         let scene = model.scene();
         let r = Renderer {
-            fogmap,
+            fogmaps,
             model,
             scene,
             ctx,
@@ -113,20 +141,22 @@ impl Renderer {
             image,
             fog: uploaded,
             built: knobs.model(),
+            built_map: 0,
             moved: [0.0; 2],
+            decompositions: 1,
         };
         Ok((r, fog))
     }
 
-    /// Renders the fog of `knobs`, drifted by `drift`, seen from `look`; the sRGB bytes.
-    fn picture(
-        &mut self,
-        look: &LookAt,
-        knobs: &FogKnobs,
-        drift: [f64; 2],
-    ) -> Result<Vec<u8>, String> {
-        if knobs.model() != self.built {
-            let fog = Renderer::decompose(&self.fogmap, &self.model, knobs)?;
+    /// Renders the fog of `knobs` at `at`, seen from `look`; the sRGB bytes. The fog is
+    /// decomposed again only when a knob of its model changed or the fogmap shown differs
+    /// from the last one decomposed.
+    fn picture(&mut self, look: &LookAt, knobs: &FogKnobs, at: FogAt) -> Result<Vec<u8>, String> {
+        let map = at.map % self.fogmaps.len();
+        let same_map = self.fogmaps[map].values == self.fogmaps[self.built_map].values;
+        if knobs.model() != self.built || !same_map {
+            let fog = Renderer::decompose(&self.fogmaps[map], &self.model, knobs)?;
+            self.decompositions += 1;
             self.fog = self
                 .gpu
                 .upload(&self.ctx, &fog)
@@ -134,6 +164,8 @@ impl Renderer {
             self.built = knobs.model();
             self.moved = [0.0; 2];
         }
+        self.built_map = map;
+        let drift = at.drift;
         self.fog
             .translate([drift[0] - self.moved[0], drift[1] - self.moved[1]]);
         self.moved = drift;
@@ -168,13 +200,30 @@ pub fn run(a: FogViewArgs) -> Result<()> {
     if !a.window && a.play_for.is_none() {
         bail!("--no-window plays only for a while: give --play-for SECONDS");
     }
-    if a.fogmap.is_dir() {
+    let files = crate::fog::fogmap_files(&a.fogmap)?;
+    if files.len() > 1 && !(a.fps > 0.0 && a.fps.is_finite()) {
         bail!(
-            "{}: a directory: haze view --fog shows one fogmap (haze fog wavelet renders a sequence)",
-            a.fogmap.display()
+            "--fps {}: a sequence of fogmaps needs a positive rate",
+            a.fps
         );
     }
-    let fogmap = Fogmap::load(&a.fogmap)?;
+    let mut fogmaps: Vec<Fogmap> = Vec::with_capacity(files.len());
+    for f in &files {
+        let next = Fogmap::load(f)?;
+        if let Some(first) = fogmaps.first()
+            && [next.width, next.height] != [first.width, first.height]
+        {
+            bail!(
+                "{}: {} × {}, but the sequence's first fogmap is {} × {}",
+                f.display(),
+                next.width,
+                next.height,
+                first.width,
+                first.height
+            );
+        }
+        fogmaps.push(next);
+    }
     let knobs = FogKnobs {
         basis: a.model.basis(),
         levels: a.model.levels,
@@ -185,7 +234,7 @@ pub fn run(a: FogViewArgs) -> Result<()> {
         exposure: a.exposure,
     };
     let name = a.fogmap.display().to_string();
-    let (mut renderer, fog) = Renderer::new(fogmap, a.model, &knobs, (a.width, a.height))
+    let (mut renderer, fog) = Renderer::new(fogmaps, a.model, &knobs, (a.width, a.height))
         .with_context(|| name.clone())?;
     let [x0, x1, y0, y1] = fog.map_box();
     // Flying speed: a tenth of the fog's width per second.
@@ -194,10 +243,11 @@ pub fn run(a: FogViewArgs) -> Result<()> {
         .map_err(|e| anyhow!("{name}: camera: {e}"))?;
     // The first picture, also the proof that the fog renders.
     renderer
-        .picture(&fly.look_at(), &knobs, [0.0; 2])
+        .picture(&fly.look_at(), &knobs, FogAt::after(0.0, knobs.wind, a.fps))
         .map_err(|e| anyhow!("{name}: {e}"))?;
     if !a.window {
-        let line = fly_without_window(&mut renderer, fly, &knobs, a.play_for.unwrap_or_default())
+        let seconds = a.play_for.unwrap_or_default();
+        let line = fly_without_window(&mut renderer, fly, &knobs, a.fps, seconds)
             .map_err(|e| anyhow!("{name}: {e}"))?;
         println!("{line}");
         return Ok(());
@@ -211,7 +261,8 @@ pub fn run(a: FogViewArgs) -> Result<()> {
         ..Default::default()
     };
     let outcome: Arc<Mutex<Option<String>>> = Arc::default();
-    let max_levels = haze_wavelet::lod::max_levels(renderer.fogmap.width, renderer.fogmap.height);
+    let max_levels =
+        haze_wavelet::lod::max_levels(renderer.fogmaps[0].width, renderer.fogmaps[0].height);
     let app = FogApp {
         renderer,
         fly: fly.clone(),
@@ -219,7 +270,9 @@ pub fn run(a: FogViewArgs) -> Result<()> {
         knobs,
         max_levels,
         speed,
-        drift: [0.0; 2],
+        fps: a.fps,
+        at: FogAt::after(0.0, [0.0; 2], a.fps),
+        clock: 0.0,
         drifting: true,
         last: Instant::now(),
         texture: None,
@@ -245,12 +298,14 @@ pub fn run(a: FogViewArgs) -> Result<()> {
     Ok(())
 }
 
-/// Renders pictures for `seconds`, turning the camera by a degree and letting the wind
-/// drift the fog by the time elapsed, and gives the measurement line.
+/// Renders pictures for `seconds`, turning the camera by a degree and letting the fog
+/// drift with the wind (and a sequence play at `fps`) by the time elapsed, and gives the
+/// measurement line.
 fn fly_without_window(
     r: &mut Renderer,
     mut fly: Fly,
     knobs: &FogKnobs,
+    fps: f64,
     seconds: f64,
 ) -> Result<String, String> {
     let start = Instant::now();
@@ -258,7 +313,7 @@ fn fly_without_window(
     while start.elapsed().as_secs_f64() < seconds || times.is_empty() {
         let t = Instant::now();
         let at = start.elapsed().as_secs_f64();
-        r.picture(&fly.look_at(), knobs, knobs.wind.map(|w| w * at))?;
+        r.picture(&fly.look_at(), knobs, FogAt::after(at, knobs.wind, fps))?;
         times.push(t.elapsed().as_secs_f64());
         fly.turn(1f64.to_radians() / super::fly::RADIANS_PER_PIXEL, 0.0);
     }
@@ -270,7 +325,7 @@ fn summary(r: &Renderer, mut times: Vec<f64>, seconds: f64) -> String {
     times.sort_by(f64::total_cmp);
     let median = times.get(times.len() / 2).copied().unwrap_or(0.0);
     let (w, h) = r.size();
-    format!(
+    let mut line = format!(
         "{} picture{} of {}×{} in {:.2} s, median {:.1} ms each (GPU render, read back, sRGB) on {}",
         times.len(),
         if times.len() == 1 { "" } else { "s" },
@@ -279,7 +334,16 @@ fn summary(r: &Renderer, mut times: Vec<f64>, seconds: f64) -> String {
         seconds,
         1e3 * median,
         r.ctx.adapter_name()
-    )
+    );
+    if r.fogmaps.len() > 1 {
+        line += &format!(
+            "; {} fogmaps, {} decomposition{}",
+            r.fogmaps.len(),
+            r.decompositions,
+            if r.decompositions == 1 { "" } else { "s" }
+        );
+    }
+    line
 }
 
 /// The window.
@@ -292,15 +356,19 @@ struct FogApp {
     max_levels: usize,
     /// World units per second of WASD.
     speed: f64,
-    /// How far the wind has moved the fog.
-    drift: [f64; 2],
-    /// Whether the wind blows (the panel can hold it).
+    /// Fogmaps per second of a sequence.
+    fps: f64,
+    /// Where the fog is in its animation.
+    at: FogAt,
+    /// Seconds the fog has moved (the sequence's clock).
+    clock: f64,
+    /// Whether the fog moves: the wind blows and a sequence plays (the panel can hold it).
     drifting: bool,
     /// When the last pass ran (the clock of flying and drifting).
     last: Instant,
     texture: Option<egui::TextureHandle>,
     /// What the texture shows.
-    shown: Option<(Fly, FogKnobs, [f64; 2])>,
+    shown: Option<(Fly, FogKnobs, FogAt)>,
     frame_ms: f64,
     error: Option<String>,
     /// `--play-for`: close the window that long after it opened.
@@ -350,7 +418,15 @@ impl FogApp {
             let range = holding(k.wind[a], -20.0, 20.0);
             ui.add(egui::Slider::new(&mut k.wind[a], range).text(*name));
         }
-        ui.checkbox(&mut self.drifting, "wind blows");
+        if self.renderer.fogmaps.len() > 1 {
+            ui.label(format!(
+                "fogmap {} of {} at {} per second",
+                self.at.map % self.renderer.fogmaps.len() + 1,
+                self.renderer.fogmaps.len(),
+                self.fps
+            ));
+        }
+        ui.checkbox(&mut self.drifting, "fog moves (wind, sequence)");
         ui.separator();
         ui.add(
             egui::Slider::new(&mut k.exposure, 0.01..=100.0)
@@ -359,7 +435,8 @@ impl FogApp {
         );
         if ui.button("reset").clicked() {
             (self.fly, self.knobs) = self.start.clone();
-            self.drift = [0.0; 2];
+            self.at = FogAt::after(0.0, [0.0; 2], self.fps);
+            self.clock = 0.0;
         }
         ui.small(
             "W A S D fly, Q E down and up, drag the image to look around, scroll to fly ahead",
@@ -406,18 +483,22 @@ impl FogApp {
         );
         let step = self.speed * dt;
         self.fly.fly(ahead * step, aside * step, rise * step);
-        let blowing = self.drifting && self.knobs.wind != [0.0; 2];
-        if blowing {
+        let sequence = self.renderer.fogmaps.len() > 1;
+        let moves = self.drifting && (sequence || self.knobs.wind != [0.0; 2]);
+        if moves {
+            // The wind may change on the way: the drift adds up its steps.
             for a in 0..2 {
-                self.drift[a] += self.knobs.wind[a] * dt;
+                self.at.drift[a] += self.knobs.wind[a] * dt;
             }
+            self.clock += dt;
+            self.at.map = FogAt::after(self.clock, [0.0; 2], self.fps).map;
         }
-        blowing || ahead != 0.0 || aside != 0.0 || rise != 0.0
+        moves || ahead != 0.0 || aside != 0.0 || rise != 0.0
     }
 
     /// Renders the current view if the texture shows another.
     fn refresh(&mut self, ctx: &egui::Context) {
-        let now = (self.fly.clone(), self.knobs.clone(), self.drift);
+        let now = (self.fly.clone(), self.knobs.clone(), self.at);
         if self.shown.as_ref() == Some(&now) {
             return;
         }
@@ -469,7 +550,7 @@ impl eframe::App for FogApp {
             }
         }
         // The wind, a held key or a knob moved: the next pass renders it.
-        let now = (self.fly.clone(), self.knobs.clone(), self.drift);
+        let now = (self.fly.clone(), self.knobs.clone(), self.at);
         if moving || self.shown.as_ref() != Some(&now) {
             ctx.request_repaint();
         }
@@ -494,8 +575,10 @@ mod tests {
     }
 
     /// The viewer's picture is the CPU renderer's image of the fog its knobs describe,
-    /// after a knob change (a new decomposition) and a drift (a move of the uploaded
-    /// fog): the CPU's fog is built from scratch with the same knobs and translated once.
+    /// after a knob change (a new decomposition), a drift (a move of the uploaded fog) and
+    /// a sequence's next fogmap: the CPU's fog is built from scratch with the same knobs
+    /// and fogmap and translated once. A fogmap with the last one's values is not
+    /// decomposed again.
     /// Tolerance: one sRGB step (8-bit rounding of values that differ by f32 rounding,
     /// about 1e-5), on all but a few pixels (ground points that round to the other side
     /// of a checker line, as `haze fog wavelet --gpu` documents).
@@ -512,18 +595,28 @@ mod tests {
             exposure: 1.0,
         };
         let (w, h) = (48, 36);
-        let (mut r, fog) = Renderer::new(fogmap(), model.clone(), &knobs, (w, h))
-            .unwrap_or_else(|e| panic!("{e}"));
+        // A sequence of three fogmaps: the bundled one twice, then the bundled one
+        // mirrored east to west.
+        let mut mirrored = fogmap();
+        for row in mirrored.values.chunks_mut(mirrored.width) {
+            row.reverse();
+        }
+        let maps = vec![fogmap(), fogmap(), mirrored.clone()];
+        let (mut r, fog) =
+            Renderer::new(maps, model.clone(), &knobs, (w, h)).unwrap_or_else(|e| panic!("{e}"));
         let mut fly = Fly::looking(&haze_wavelet::render::framing(&fog)).unwrap();
         fly.fly(20.0, 5.0, -4.0);
         fly.turn(30.0, 10.0);
-        r.picture(&fly.look_at(), &knobs, [0.0; 2]).unwrap();
+        let at = |map, drift| FogAt { drift, map };
+        r.picture(&fly.look_at(), &knobs, at(0, [0.0; 2])).unwrap();
         knobs.basis = Basis::Quadratic;
         knobs.mu = 0.6;
         knobs.density = 0.3;
         knobs.falloff = 0.1;
         let drift = [7.5, -3.0];
-        let got = r.picture(&fly.look_at(), &knobs, drift).unwrap();
+        let got = r.picture(&fly.look_at(), &knobs, at(1, drift)).unwrap();
+        // The knobs changed: decomposed again; fogmap 1 has fogmap 0's values: not again.
+        assert_eq!(r.decompositions, 2);
 
         let mut cpu = Renderer::decompose(&fogmap(), &model, &knobs).unwrap();
         assert_eq!(cpu.basis(), Basis::Quadratic);
@@ -543,7 +636,28 @@ mod tests {
             .count();
         assert!(off <= w * h / 100, "{off} of {} bytes differ", got.len());
         // The drift and the knobs did change the picture.
-        let still = r.picture(&fly.look_at(), &knobs, [0.0; 2]).unwrap();
+        let still = r.picture(&fly.look_at(), &knobs, at(4, [0.0; 2])).unwrap();
         assert_ne!(still, got);
+        assert_eq!(r.decompositions, 2, "fogmap 4 is fogmap 1 (4 mod 3)");
+
+        // Fogmap 2 differs: decomposed again, and the picture is the CPU's of the mirror.
+        let got = r.picture(&fly.look_at(), &knobs, at(2, drift)).unwrap();
+        assert_eq!(r.decompositions, 3);
+        let mut cpu = Renderer::decompose(&mirrored, &model, &knobs).unwrap();
+        cpu.translate(drift);
+        let px = haze_wavelet::render::render(&cpu, &camera, &model.scene(), &|| {});
+        let want = haze_view::Image {
+            width: w,
+            height: h,
+            pixels: px,
+        }
+        .to_srgb8(1.0);
+        let off = got
+            .iter()
+            .zip(&want)
+            .filter(|(g, c)| g.abs_diff(**c) > 1)
+            .count();
+        assert!(off <= w * h / 100, "{off} of {} bytes differ", got.len());
+        assert_ne!(got, still);
     }
 }
