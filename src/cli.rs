@@ -103,6 +103,16 @@ pub enum Command {
     /// scroll to zoom, the panel scales the fog's density and albedo, moves the point
     /// lights and scales every light's power. With --play-for it turns the camera a degree
     /// per picture for that long and prints the pictures' median time.
+    ///
+    /// `--fog FOGMAP` flies through a fogmap's wavelet fog instead (paper E; the "Fog"
+    /// options are `haze fog wavelet`'s), rendered by the GPU fog renderer whenever the
+    /// camera, a knob or the wind moved it. The fly camera starts at the fog's default
+    /// framing: W/S fly ahead and back, A/D sideways, Q/E down and up, dragging the image
+    /// looks around, scrolling flies ahead; the panel sets the basis, the levels, µ, the
+    /// density, the falloff, the wind (which drifts the fog as time passes) and the
+    /// exposure. A directory of numbered fogmaps plays at --fps, each decomposed when it
+    /// differs from the last. With --play-for it turns the camera a degree per picture,
+    /// the fog drifting with the wind, and prints the pictures' median time.
     View(ViewCli),
     /// Reconstruct one frame of a baked asset (RBFs + dequantized residual) as a dense
     /// volume, to compare a bake with its input.
@@ -325,13 +335,20 @@ pub struct RenderCli {
 #[derive(Debug, clap::Args)]
 pub struct ViewCli {
     /// A baked .haze asset (`haze bake` makes one).
-    #[arg(required_unless_present = "scene", conflicts_with = "scene")]
+    #[arg(required_unless_present_any = ["scene", "fog"], conflicts_with_all = ["scene", "fog"])]
     input: Option<PathBuf>,
     /// Show a scene file (README "Scenes") instead: paper C's renderer on the GPU, the
     /// orbit camera starting at the scene's, fog and lights in the panel. Of the options
     /// below only --size, --exposure, --play-for and --no-window apply.
-    #[arg(long, value_name = "SCENE.json")]
+    #[arg(long, value_name = "SCENE.json", conflicts_with = "fog")]
     scene: Option<PathBuf>,
+    /// Fly through a fogmap's wavelet fog instead (as `haze fog wavelet` renders it), on
+    /// the GPU: WASD and Q/E fly, dragging looks around; basis, levels, µ, density,
+    /// falloff and wind in the panel. FOGMAP may be a directory of numbered fogmaps, shown
+    /// at --fps. The "Fog" options below apply, and --fps, --size, --exposure, --play-for
+    /// and --no-window.
+    #[arg(long, value_name = "FOGMAP")]
+    fog: Option<PathBuf>,
     /// Playback rate in frames per second; 0 plays every frame as fast as it renders.
     #[arg(long, default_value_t = 24.0)]
     fps: f64,
@@ -381,6 +398,8 @@ pub struct ViewCli {
     /// (lavapipe), where the CPU's own code is several times faster.
     #[arg(long, value_enum, default_value_t = LightingArg::Auto)]
     lighting: LightingArg,
+    #[command(flatten, next_help_heading = "Fog (with --fog)")]
+    fog_model: crate::fog::FogModelArgs,
 }
 
 impl ViewCli {
@@ -635,6 +654,19 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             }),
             None => crate::render::run(r.into_args()),
         },
+        Command::View(v) if v.fog.is_some() => {
+            crate::viewer::fog_view::run(crate::viewer::fog_view::FogViewArgs {
+                // Present: the guard above.
+                fogmap: v.fog.unwrap_or_default(),
+                model: v.fog_model,
+                fps: v.fps,
+                width: v.size.0,
+                height: v.size.1,
+                exposure: v.exposure,
+                play_for: v.play_for,
+                window: !v.no_window,
+            })
+        }
         Command::View(v) => match v.scene {
             Some(scene) => {
                 crate::viewer::scene_view::run(crate::viewer::scene_view::SceneViewArgs {

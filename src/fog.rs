@@ -47,7 +47,7 @@ pub enum FogCommand {
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
-enum BasisArg {
+pub enum BasisArg {
     /// Box functions (1 cell): fastest, blocky.
     Haar,
     /// Hat functions (2 cells): smooth, the paper's recommended trade-off.
@@ -56,23 +56,109 @@ enum BasisArg {
     Quadratic,
 }
 
+/// The fog itself: its basis, levels and level of detail, where its layer lies and how
+/// dense it is, its colour and its wind (`haze fog wavelet` and `haze view --fog`).
+#[derive(Clone, Debug, Args)]
+pub struct FogModelArgs {
+    /// Scaling functions and wavelets.
+    #[arg(long, value_enum, default_value_t = BasisArg::Linear)]
+    pub basis: BasisArg,
+    /// Decomposition steps of Mallat's transform (0: render the fogmap as it is).
+    #[arg(long, default_value_t = 0)]
+    pub levels: usize,
+    /// Level l is integrated up to |OP|·µ^l; 1 keeps every level, 0 only the coarsest.
+    #[arg(long, default_value_t = 1.0)]
+    pub mu: f64,
+    /// Stop a ray once its transmittance is below this (0: never); the pixel then differs
+    /// from the exact one by less than this fraction of its contrast.
+    #[arg(long, default_value_t = 1.0 / 1024.0, value_name = "T")]
+    pub min_transmittance: f64,
+    /// World size of one fogmap pixel.
+    #[arg(long, default_value_t = 1.0)]
+    pub cell: f64,
+    /// World X,Y of the fogmap's south-west corner (default: the map centred on 0,0).
+    #[arg(long, value_name = "X,Y", value_parser = parse_vec2, allow_hyphen_values = true)]
+    pub origin: Option<[f64; 2]>,
+    /// Extinction per world unit of a fogmap value of 1 at the bottom of the layer (PNG
+    /// values are 0–1).
+    #[arg(long, default_value_t = 0.12)]
+    pub density: f64,
+    /// Height of the fog layer's bottom.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub bottom: f64,
+    /// Height of the fog layer's top.
+    #[arg(long, default_value_t = 8.0, allow_hyphen_values = true)]
+    pub top: f64,
+    /// Vertical extinction falloff k: density fades as exp(−k·(z − bottom)); 0 keeps it
+    /// constant up to the top.
+    #[arg(long, default_value_t = 0.3)]
+    pub falloff: f64,
+    /// Wind: the fog drifts DX,DY world units per second (the ground and the camera stay).
+    #[arg(long, value_name = "DX,DY", value_parser = parse_vec2, allow_hyphen_values = true, default_value = "0,0")]
+    pub wind: [f64; 2],
+    /// Fog colour L_fog (linear RGB).
+    #[arg(long, value_name = "R,G,B", value_parser = parse_vec3)]
+    pub fog_color: Option<[f64; 3]>,
+}
+
+impl FogModelArgs {
+    /// The scaling functions asked for.
+    pub fn basis(&self) -> Basis {
+        match self.basis {
+            BasisArg::Haar => Basis::Haar,
+            BasisArg::Linear => Basis::Linear,
+            BasisArg::Quadratic => Basis::Quadratic,
+        }
+    }
+
+    /// Where the layer lies: by default a `width × height` fogmap centred on 0,0.
+    pub fn placement(&self, width: usize, height: usize) -> Placement {
+        Placement {
+            origin: self.origin.unwrap_or([
+                -(width as f64) * self.cell / 2.0,
+                -(height as f64) * self.cell / 2.0,
+            ]),
+            cell: self.cell,
+            density: self.density,
+            bottom: self.bottom,
+            top: self.top,
+            falloff: self.falloff,
+        }
+    }
+
+    /// µ and the early exit, integrating the deconstructed levels unless `direct`.
+    pub fn settings(&self, direct: bool) -> Settings {
+        Settings {
+            mu: self.mu,
+            mode: if direct {
+                Mode::Direct
+            } else {
+                Mode::Deconstructed
+            },
+            min_transmittance: self.min_transmittance,
+        }
+    }
+
+    /// The scene under the fog, with `--fog-color`.
+    pub fn scene(&self) -> Scene {
+        let mut scene = Scene::default();
+        if let Some(c) = self.fog_color {
+            scene.fog = c;
+        }
+        scene
+    }
+}
+
 #[derive(Debug, Args)]
 pub struct WaveletArgs {
     /// The fogmap: .png, .exr, .npy or .f32 (+ .json sidecar), or a directory of numbered
     /// fogmaps of one size (an animation: frame k shows fogmap k, looping).
     fogmap: PathBuf,
+    #[command(flatten)]
+    model: FogModelArgs,
     /// Output image: .exr (linear RGB, 32-bit float) or .png (sRGB, 8-bit).
     #[arg(long, short)]
     out: PathBuf,
-    /// Scaling functions and wavelets.
-    #[arg(long, value_enum, default_value_t = BasisArg::Linear)]
-    basis: BasisArg,
-    /// Decomposition steps of Mallat's transform (0: render the fogmap as it is).
-    #[arg(long, default_value_t = 0)]
-    levels: usize,
-    /// Level l is integrated up to |OP|·µ^l; 1 keeps every level, 0 only the coarsest.
-    #[arg(long, default_value_t = 1.0)]
-    mu: f64,
     /// Integrate the detail bases as wavelets (the paper's Algorithm 1) instead of
     /// re-synthesizing them into one scaling basis per level; same image, slower, no
     /// early exit.
@@ -81,10 +167,6 @@ pub struct WaveletArgs {
     /// Render on the GPU (headless; same image as the CPU's within f32 rounding).
     #[arg(long)]
     gpu: bool,
-    /// Stop a ray once its transmittance is below this (0: never); the pixel then differs
-    /// from the exact one by less than this fraction of its contrast.
-    #[arg(long, default_value_t = 1.0 / 1024.0, value_name = "T")]
-    min_transmittance: f64,
     /// Image width in pixels.
     #[arg(long, default_value_t = 800)]
     width: usize,
@@ -103,29 +185,6 @@ pub struct WaveletArgs {
     /// Vertical field of view in degrees.
     #[arg(long, default_value_t = 50.0)]
     fov: f64,
-    /// World size of one fogmap pixel.
-    #[arg(long, default_value_t = 1.0)]
-    cell: f64,
-    /// World X,Y of the fogmap's south-west corner (default: the map centred on 0,0).
-    #[arg(long, value_name = "X,Y", value_parser = parse_vec2, allow_hyphen_values = true)]
-    origin: Option<[f64; 2]>,
-    /// Extinction per world unit of a fogmap value of 1 at the bottom of the layer (PNG
-    /// values are 0–1).
-    #[arg(long, default_value_t = 0.12)]
-    density: f64,
-    /// Height of the fog layer's bottom.
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-    bottom: f64,
-    /// Height of the fog layer's top.
-    #[arg(long, default_value_t = 8.0, allow_hyphen_values = true)]
-    top: f64,
-    /// Vertical extinction falloff k: density fades as exp(−k·(z − bottom)); 0 keeps it
-    /// constant up to the top.
-    #[arg(long, default_value_t = 0.3)]
-    falloff: f64,
-    /// Wind: the fog drifts DX,DY world units per second (the ground and the camera stay).
-    #[arg(long, value_name = "DX,DY", value_parser = parse_vec2, allow_hyphen_values = true, default_value = "0,0")]
-    wind: [f64; 2],
     /// Time of the (first) frame in seconds: the fog has drifted by wind × time.
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     time: f64,
@@ -137,9 +196,6 @@ pub struct WaveletArgs {
     /// Frames per second of --frames.
     #[arg(long, default_value_t = 24.0)]
     fps: f64,
-    /// Fog colour L_fog (linear RGB).
-    #[arg(long, value_name = "R,G,B", value_parser = parse_vec3)]
-    fog_color: Option<[f64; 3]>,
 }
 
 /// Parses "x,y" into two finite numbers.
@@ -198,35 +254,18 @@ fn wavelet(args: WaveletArgs) -> Result<()> {
         bail!("--frames {frames}: must be between 1 and 100000");
     }
     let mut fogmap = Fogmap::load(&files[0])?;
-    let basis = match args.basis {
-        BasisArg::Haar => Basis::Haar,
-        BasisArg::Linear => Basis::Linear,
-        BasisArg::Quadratic => Basis::Quadratic,
-    };
-    let origin = args.origin.unwrap_or([
-        -(fogmap.width as f64) * args.cell / 2.0,
-        -(fogmap.height as f64) * args.cell / 2.0,
-    ]);
-    let placement = Placement {
-        origin,
-        cell: args.cell,
-        density: args.density,
-        bottom: args.bottom,
-        top: args.top,
-        falloff: args.falloff,
-    };
-    let settings = Settings {
-        mu: args.mu,
-        mode: if args.direct {
-            Mode::Direct
-        } else {
-            Mode::Deconstructed
-        },
-        min_transmittance: args.min_transmittance,
-    };
+    let basis = args.model.basis();
+    let placement = args.model.placement(fogmap.width, fogmap.height);
+    let settings = args.model.settings(args.direct);
     let setup = Instant::now();
-    let fog = Fog::new(&fogmap.grid(), basis, args.levels, placement, settings)
-        .with_context(|| format!("{}", files[0].display()))?;
+    let fog = Fog::new(
+        &fogmap.grid(),
+        basis,
+        args.model.levels,
+        placement,
+        settings,
+    )
+    .with_context(|| format!("{}", files[0].display()))?;
     let mut setup = setup.elapsed().as_secs_f64();
     let framing = haze_wavelet::render::framing(&fog);
     let camera = LookAt {
@@ -238,10 +277,7 @@ fn wavelet(args: WaveletArgs) -> Result<()> {
     let frame = camera
         .camera(args.width, args.height)
         .map_err(anyhow::Error::msg)?;
-    let mut scene = Scene::default();
-    if let Some(c) = args.fog_color {
-        scene.fog = c;
-    }
+    let scene = args.model.scene();
     // The GPU's device, passes and uploaded levels, made once for every frame.
     let mut gpu = if args.gpu {
         Some(GpuFog::new(&fog)?)
@@ -278,7 +314,7 @@ fn wavelet(args: WaveletArgs) -> Result<()> {
             }
             if next.values != fogmap.values {
                 let at = Instant::now();
-                fog = Fog::new(&next.grid(), basis, args.levels, placement, settings)
+                fog = Fog::new(&next.grid(), basis, args.model.levels, placement, settings)
                     .with_context(|| format!("{}", files[shown].display()))?;
                 fog.translate(moved);
                 setup += at.elapsed().as_secs_f64();
@@ -290,7 +326,7 @@ fn wavelet(args: WaveletArgs) -> Result<()> {
             fogmap = next;
         }
         let t = args.time + k as f64 / args.fps;
-        let offset = [args.wind[0] * t, args.wind[1] * t];
+        let offset = [args.model.wind[0] * t, args.model.wind[1] * t];
         let by = [offset[0] - moved[0], offset[1] - moved[1]];
         moved = offset;
         fog.translate(by);
@@ -333,7 +369,7 @@ fn wavelet(args: WaveletArgs) -> Result<()> {
         fogmap.height,
         fog.levels(),
         if fog.levels() == 1 { "" } else { "s" },
-        args.mu,
+        args.model.mu,
         if args.direct { ", direct" } else { "" },
         setup,
         seconds,
@@ -346,7 +382,7 @@ fn wavelet(args: WaveletArgs) -> Result<()> {
 
 /// The fogmaps to render: `path` itself, or the numbered fogmaps (`.png`, `.exr`, `.npy`,
 /// `.f32`) of the directory `path`, ordered by the last number in their names.
-fn fogmap_files(path: &Path) -> Result<Vec<PathBuf>> {
+pub fn fogmap_files(path: &Path) -> Result<Vec<PathBuf>> {
     if !path.is_dir() {
         return Ok(vec![path.to_path_buf()]);
     }

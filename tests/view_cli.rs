@@ -288,16 +288,15 @@ fn the_window_plays_on_a_virtual_display() {
     }
 }
 
-/// `haze view --scene`'s window on a virtual display: opens, shows the room, and
-/// `--play-for` closes it with the measurement line.
+/// Runs `haze ARGS` on a fresh virtual display and gives its stdout. A server that does
+/// not come up, or a connection it refuses, is tried again on a fresh server (three times
+/// in all); what each attempt printed is in the failure. A window that never closes fails
+/// the test instead of hanging it.
 #[cfg(target_os = "linux")]
-#[test]
-fn the_scene_window_shows_on_a_virtual_display() {
-    let dir = tempfile::tempdir().unwrap();
-    let room = data("scenes/room.json");
+fn on_virtual_display(dir: &Path, args: &[&str]) -> String {
     let mut failures = Vec::new();
     let out = (0..3).find_map(|attempt| {
-        let display = match VirtualDisplay::start(dir.path(), attempt) {
+        let display = match VirtualDisplay::start(dir, attempt) {
             Ok(d) => d,
             Err(e) => {
                 failures.push(e);
@@ -305,15 +304,7 @@ fn the_scene_window_shows_on_a_virtual_display() {
             }
         };
         let o = haze()
-            .args([
-                "view",
-                "--scene",
-                &room,
-                "--size",
-                "64x48",
-                "--play-for",
-                "2",
-            ])
+            .args(args)
             .env("DISPLAY", format!(":{}", display.number))
             .env_remove("XAUTHORITY")
             .env_remove("WAYLAND_DISPLAY")
@@ -324,6 +315,7 @@ fn the_scene_window_shows_on_a_virtual_display() {
         if o.status.success() {
             return Some(String::from_utf8(o.stdout).unwrap());
         }
+        // Only the X connection is retried: any other failure is the viewer's.
         assert!(err.contains("cannot open the viewer window"), "{err}");
         failures.push(format!(
             "{err}\nXvfb :{} said: {}",
@@ -332,12 +324,139 @@ fn the_scene_window_shows_on_a_virtual_display() {
         ));
         None
     });
-    let out = out.unwrap_or_else(|| panic!("{}", failures.join("\n---\n")));
+    out.unwrap_or_else(|| panic!("{}", failures.join("\n---\n")))
+}
+
+/// `haze view --scene`'s window on a virtual display: opens, shows the room, and
+/// `--play-for` closes it with the measurement line.
+#[cfg(target_os = "linux")]
+#[test]
+fn the_scene_window_shows_on_a_virtual_display() {
+    let dir = tempfile::tempdir().unwrap();
+    let room = data("scenes/room.json");
+    let out = on_virtual_display(
+        dir.path(),
+        &[
+            "view",
+            "--scene",
+            &room,
+            "--size",
+            "64x48",
+            "--play-for",
+            "2",
+        ],
+    );
     assert!(
         out.contains("of 64×48 in") && out.contains("median"),
         "{out}"
     );
     assert_eq!(out.lines().count(), 1, "{out}");
+}
+
+/// `haze view --fog`'s window on a virtual display: opens on the bundled fogmap with the
+/// wind blowing, and `--play-for` closes it after a second with the measurement line.
+#[cfg(target_os = "linux")]
+#[test]
+fn the_fog_window_shows_on_a_virtual_display() {
+    let dir = tempfile::tempdir().unwrap();
+    let fogmap = data("fogmap/fogmap_128.png");
+    let out = on_virtual_display(
+        dir.path(),
+        &[
+            "view",
+            "--fog",
+            &fogmap,
+            "--size",
+            "64x48",
+            "--wind",
+            "2,1",
+            "--play-for",
+            "1",
+        ],
+    );
+    let (pictures, seconds) = pictures(out.trim(), "64×48");
+    assert!(pictures >= 1 && (1.0..3.0).contains(&seconds), "{out}");
+    assert_eq!(out.lines().count(), 1, "{out}");
+}
+
+/// `haze view --fog` without a window: flies for two seconds over the bundled fogmap (at
+/// three levels, the wind blowing) and prints one line: the pictures rendered, their
+/// size, the time and the device.
+#[test]
+fn the_fog_flies_without_a_window() {
+    let o = haze()
+        .args(["view", "--fog", &data("fogmap/fogmap_128.png")])
+        .args([
+            "--levels", "3", "--mu", "0.7", "--wind", "3,1", "--size", "64x48",
+        ])
+        .args(["--no-window", "--play-for", "2"])
+        .timeout(std::time::Duration::from_secs(120))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    let out = String::from_utf8(o.stdout).unwrap();
+    assert_eq!(out.lines().count(), 1, "{out}");
+    let (pictures, seconds) = pictures(out.trim(), "64×48");
+    assert!(pictures >= 2 && (2.0..4.0).contains(&seconds), "{out}");
+    assert!(out.contains("(GPU render, read back, sRGB) on "), "{out}");
+}
+
+/// A fogmap that cannot be read, a sequence that cannot play, or knobs its fog refuses:
+/// one line naming the file and the problem, exit 1, before any device or window.
+#[test]
+fn a_bad_fogmap_fails_on_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let broken = dir.path().join("broken.png");
+    std::fs::write(&broken, b"not a PNG").unwrap();
+    let broken = broken.to_str().unwrap();
+    let fogmap = data("fogmap/fogmap_128.png");
+    let fog = |extra: &[&str], path: &str, needle: &str| {
+        let mut args = vec!["view", "--fog", path, "--no-window", "--play-for", "1"];
+        args.extend_from_slice(extra);
+        fails(&args, needle);
+    };
+    fog(&[], broken, "broken.png");
+    fog(
+        &[],
+        &data("scenes/room.json"),
+        "room.json: unknown fogmap format",
+    );
+    let empty = dir.path().join("empty");
+    std::fs::create_dir(&empty).unwrap();
+    fog(&[], empty.to_str().unwrap(), "empty: no fogmaps");
+    // A sequence of fogmaps of two sizes, and one without a rate.
+    let seq = dir.path().join("seq");
+    std::fs::create_dir(&seq).unwrap();
+    std::fs::copy(&fogmap, seq.join("fog_0001.png")).unwrap();
+    std::fs::write(seq.join("fog_0002.f32"), [0u8; 16]).unwrap();
+    std::fs::write(seq.join("fog_0002.json"), r#"{"dims": [2, 2]}"#).unwrap();
+    let seq = seq.to_str().unwrap();
+    fog(
+        &[],
+        seq,
+        "fog_0002.f32: 2 × 2, but the sequence's first fogmap is 128 × 128",
+    );
+    fog(
+        &["--fps", "0"],
+        seq,
+        "--fps 0: a sequence of fogmaps needs a positive rate",
+    );
+    fog(&["--levels", "9"], &fogmap, "fogmap_128.png: 9 levels");
+    fog(&["--mu", "1.5"], &fogmap, "µ = 1.5 must be in [0, 1]");
+}
+
+/// The figures of a `haze view --scene/--fog` line: (pictures, seconds), checking the size.
+fn pictures(line: &str, size: &str) -> (u64, f64) {
+    let (n, rest) = line
+        .split_once(" picture")
+        .unwrap_or_else(|| panic!("{line}"));
+    let rest = rest
+        .split_once(&format!(" of {size} in "))
+        .unwrap_or_else(|| panic!("{size}: {line}"))
+        .1;
+    let secs = rest.split_once(" s,").unwrap_or_else(|| panic!("{line}")).0;
+    (n.parse().unwrap(), secs.parse().unwrap())
 }
 
 /// Without a GPU adapter the viewer says so on one line, before opening a window (here

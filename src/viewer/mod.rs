@@ -9,9 +9,13 @@
 //! - [`player`]: the clock driving the render thread, shared by the window and
 //!   `--no-window`;
 //! - [`app`]: the egui window;
-//! - [`scene_view`]: `haze view --scene`, a scene file through paper C's GPU renderer.
+//! - [`scene_view`]: `haze view --scene`, a scene file through paper C's GPU renderer;
+//! - [`fog_view`]: `haze view --fog`, a fogmap's wavelet fog (paper E) on the GPU;
+//! - [`fly`]: its fly camera.
 
 mod app;
+mod fly;
+pub mod fog_view;
 pub mod frame;
 mod orbit;
 mod playback;
