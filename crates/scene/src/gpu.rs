@@ -180,6 +180,11 @@ impl GpuRenderer {
                 -1.0
             };
             match s.shape {
+                Shape::Mesh(_) => {
+                    return Err(GpuError::Input(format!(
+                        "surfaces[{i}]: meshes are not rendered on the GPU yet (render this scene without --gpu)"
+                    )));
+                }
                 Shape::Plane { point, normal } => {
                     surfaces.push(tagged(0.0, rel(point)));
                     surfaces.push(vec4(normal, 0.0));
