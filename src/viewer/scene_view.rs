@@ -110,9 +110,14 @@ pub fn scene_box(scene: &Scene) -> ([f64; 3], [f64; 3]) {
         }
     }
     for s in &scene.surfaces {
-        match s.shape {
-            Shape::Plane { point, .. } => add(point, 0.0),
-            Shape::Sphere { center, radius } => add(center, radius),
+        match &s.shape {
+            Shape::Plane { point, .. } => add(*point, 0.0),
+            Shape::Sphere { center, radius } => add(*center, *radius),
+            Shape::Mesh(mesh) => {
+                let b = mesh.nodes[0].bounds;
+                add(b.min, 0.0);
+                add(b.max, 0.0);
+            }
         }
     }
     (lo, hi)

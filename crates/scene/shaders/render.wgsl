@@ -27,12 +27,18 @@ struct Params {
 // Three vec4 per light: (kind 0 point / 1 sun, position or unit direction),
 // (intensity or disk radiance, -), (sun irradiance, cos(angle/2) or 2 for no disk).
 @group(0) @binding(1) var<storage, read> lights: array<vec4<f32>>;
-// Four vec4 per surface: (kind 0 plane / 1 sphere, point or center),
-// (normal, radius), (diffuse, shininess), (specular, index of its G table or -1).
+// Four vec4 per surface: (kind 0 plane / 1 sphere / 2 mesh, point or center; a mesh: its
+// first node and first triangle in `meshes`), (normal, radius), (diffuse, shininess),
+// (specular, index of its G table or -1).
 @group(0) @binding(2) var<storage, read> surfaces: array<vec4<f32>>;
 // K (side² values), then the G tables (nx·ny values each; G0 first), x fastest.
 @group(0) @binding(3) var<storage, read> tables: array<f32>;
 @group(0) @binding(4) var<storage, read_write> image: array<vec4<f32>>;
+// The meshes' hierarchies and triangles (mesh::Mesh), f32 bits: per node two records
+// (box min, first) and (box max, count) — a leaf's triangles from `first`, an inner
+// node's children at its own index + 1 and at `first` —, per triangle six records
+// (p0, 1 if it has vertex normals), (p1, -), (p2, -), (n0, -), (n1, -), (n2, -).
+@group(0) @binding(5) var<storage, read> meshes: array<vec4<u32>>;
 
 // table::Table2::at: bilinear on nodes i/(n−1), clamped to the unit square.
 fn table_at(base: u32, nx: u32, ny: u32, x: f32, y: f32) -> f32 {
@@ -177,50 +183,177 @@ fn airlight(dir: vec3<f32>, t_end: f32, far: bool, light: vec3<f32>, beta: f32, 
 struct Hit {
     t: f32,
     surface: i32,
+    // On a mesh: the triangle (from the mesh's first) and the barycentric u, v.
+    tri: u32,
+    u: f32,
+    v: f32,
 }
 
-// scene::Shape::intersect of surface i: the nearest t in (t_min, t_max), or -1.
-fn intersect_one(i: u32, o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> f32 {
+// Where a ray meets one surface: t (-1 for none), and on a mesh the triangle and u, v.
+struct Found {
+    t: f32,
+    tri: u32,
+    u: f32,
+    v: f32,
+}
+
+fn f3(x: vec4<u32>) -> vec3<f32> {
+    return bitcast<vec3<f32>>(x.xyz);
+}
+
+// mesh::Aabb::hit: whether o + t·d meets the box for some t in [t_min, t_max]; along
+// an axis where d is zero, whether o lies in the slab.
+fn box_hit(lo: vec3<f32>, hi: vec3<f32>, o: vec3<f32>, d: vec3<f32>, inv: vec3<f32>, t_min: f32, t_max: f32) -> bool {
+    var a = t_min;
+    var b = t_max;
+    for (var k = 0; k < 3; k++) {
+        if (d[k] == 0.0) {
+            if (o[k] < lo[k] || o[k] > hi[k]) {
+                return false;
+            }
+        } else {
+            let t0 = (lo[k] - o[k]) * inv[k];
+            let t1 = (hi[k] - o[k]) * inv[k];
+            a = max(a, min(t0, t1));
+            b = min(b, max(t0, t1) * (1.0 + 4.8e-7));
+        }
+    }
+    return a <= b;
+}
+
+// mesh::Triangle::intersect (Möller–Trumbore) of triangle record `r`: (t, u, v), t = -1
+// for none.
+fn triangle_hit(r: u32, o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> vec3<f32> {
+    let p0 = f3(meshes[r]);
+    let e1 = f3(meshes[r + 1u]) - p0;
+    let e2 = f3(meshes[r + 2u]) - p0;
+    let pv = cross(d, e2);
+    let det = dot(e1, pv);
+    if (det == 0.0) {
+        return vec3<f32>(-1.0);
+    }
+    let inv = 1.0 / det;
+    let s = o - p0;
+    let u = dot(s, pv) * inv;
+    if (u < 0.0 || u > 1.0) {
+        return vec3<f32>(-1.0);
+    }
+    let q = cross(s, e1);
+    let v = dot(d, q) * inv;
+    if (v < 0.0 || u + v > 1.0) {
+        return vec3<f32>(-1.0);
+    }
+    let t = dot(e2, q) * inv;
+    if (t > t_min && t < t_max) {
+        return vec3<f32>(t, u, v);
+    }
+    return vec3<f32>(-1.0);
+}
+
+// mesh::Mesh::intersect: the nearest triangle through the hierarchy from node record
+// `nodes`, triangles from record `tris`.
+fn mesh_hit(nodes: u32, tris: u32, o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> Found {
+    let inv = select(vec3<f32>(0.0), 1.0 / d, d != vec3<f32>(0.0));
+    var best = Found(-1.0, 0u, 0.0, 0.0);
+    var hi = t_max;
+    var stack: array<u32, 64>;
+    var top = 1u;
+    stack[0] = 0u;
+    while (top > 0u) {
+        top -= 1u;
+        let index = stack[top];
+        let a = meshes[nodes + 2u * index];
+        let b = meshes[nodes + 2u * index + 1u];
+        if (!box_hit(f3(a), f3(b), o, d, inv, t_min, hi)) {
+            continue;
+        }
+        if (b.w > 0u) {
+            for (var i = a.w; i < a.w + b.w; i++) {
+                let h = triangle_hit(tris + 6u * i, o, d, t_min, hi);
+                if (h.x >= 0.0) {
+                    best = Found(h.x, i, h.y, h.z);
+                    hi = h.x;
+                }
+            }
+        } else {
+            stack[top] = a.w;
+            stack[top + 1u] = index + 1u;
+            top += 2u;
+        }
+    }
+    return best;
+}
+
+// scene::Shape::intersect of surface i: the nearest t in (t_min, t_max) (-1 for none).
+fn intersect_one(i: u32, o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> Found {
+    let none = Found(-1.0, 0u, 0.0, 0.0);
     let a = surfaces[4u * i];
     let b = surfaces[4u * i + 1u];
     if (a.x == 0.0) {
         let den = dot(d, b.xyz);
         if (den == 0.0) {
-            return -1.0;
+            return none;
         }
         let t = dot(a.yzw - o, b.xyz) / den;
         if (t > t_min && t < t_max) {
-            return t;
+            return Found(t, 0u, 0.0, 0.0);
         }
-        return -1.0;
+        return none;
+    }
+    if (a.x == 2.0) {
+        return mesh_hit(u32(a.y), u32(a.z), o, d, t_min, t_max);
     }
     let oc = a.yzw - o;
     let bb = dot(d, oc);
     let perp = oc - bb * d;
     let disc = b.w * b.w - dot(perp, perp);
     if (disc < 0.0) {
-        return -1.0;
+        return none;
     }
     let s = sqrt(disc);
     if (bb - s > t_min && bb - s < t_max) {
-        return bb - s;
+        return Found(bb - s, 0u, 0.0, 0.0);
     }
     if (bb + s > t_min && bb + s < t_max) {
-        return bb + s;
+        return Found(bb + s, 0u, 0.0, 0.0);
     }
-    return -1.0;
+    return none;
 }
 
 // scene::Scene::intersect.
 fn intersect(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> Hit {
-    var best = Hit(t_max, -1);
+    var best = Hit(t_max, -1, 0u, 0.0, 0.0);
     for (var i = 0u; i < P.size.w; i++) {
-        let t = intersect_one(i, o, d, t_min, best.t);
-        if (t >= 0.0) {
-            best = Hit(t, i32(i));
+        let f = intersect_one(i, o, d, t_min, best.t);
+        if (f.t >= 0.0) {
+            best = Hit(f.t, i32(i), f.tri, f.u, f.v);
         }
     }
     return best;
+}
+
+// The normal where a ray of direction d meets triangle `tri` of the mesh whose triangles
+// start at record `tris`, at barycentric (u, v): the vertex normals interpolated (or the
+// face normal), on the side of the face the ray arrives at (scene::Shape::intersect).
+fn mesh_normal(tris: u32, tri: u32, u: f32, v: f32, d: vec3<f32>) -> vec3<f32> {
+    let r = tris + 6u * tri;
+    let p0 = f3(meshes[r]);
+    let c = cross(f3(meshes[r + 1u]) - p0, f3(meshes[r + 2u]) - p0);
+    var face = vec3<f32>(0.0, 0.0, 1.0);
+    if (dot(c, c) > 0.0) {
+        face = normalize(c);
+    }
+    var n = face;
+    if (meshes[r].w != 0u) {
+        let m = (1.0 - u - v) * f3(meshes[r + 3u]) + u * f3(meshes[r + 4u]) + v * f3(meshes[r + 5u]);
+        if (dot(m, m) > 0.0) {
+            n = normalize(m);
+        }
+    }
+    if (dot(face, d) * dot(n, d) < 0.0) {
+        n = -n;
+    }
+    return n;
 }
 
 // Whether the segment p → q is free of surfaces (scene::Scene::visible), its ends
@@ -234,7 +367,7 @@ fn visible(p: vec3<f32>, q: vec3<f32>, eps_rel: f32) -> bool {
     let dir = v / len;
     let eps = eps_rel * (1.0 + len);
     for (var i = 0u; i < P.size.w; i++) {
-        if (intersect_one(i, p, dir, eps, len - eps) >= 0.0) {
+        if (intersect_one(i, p, dir, eps, len - eps).t >= 0.0) {
             return false;
         }
     }
@@ -448,8 +581,10 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         let p = t_end * dir;
         let a = surfaces[4u * s];
         var n = surfaces[4u * s + 1u].xyz;
-        if (a.x != 0.0) {
+        if (a.x == 1.0) {
             n = normalize(p - a.yzw);
+        } else if (a.x == 2.0) {
+            n = mesh_normal(u32(a.z), hit.tri, hit.u, hit.v, dir);
         }
         if (dot(n, dir) > 0.0) {
             n = -n;

@@ -5,12 +5,15 @@
 //! yet — is one line naming the file, the place in it and the problem.
 
 use crate::Camera;
+use crate::mesh::Mesh;
+use crate::model;
 use crate::scene::{Environment, Light, Material, Medium, Rgb, Scene, Shape, Surface};
 use crate::vec3::{Vec3, normalize};
 use serde::Deserialize;
 use serde::de::DeserializeOwned;
 use serde_json::Value;
 use std::path::Path;
+use std::sync::Arc;
 
 /// Why a scene could not be read: `file: problem`, on one line.
 #[derive(Debug, thiserror::Error)]
@@ -142,6 +145,31 @@ struct SphereSpec {
     material: MaterialSpec,
 }
 
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MeshSpec {
+    #[serde(rename = "type")]
+    _kind: String,
+    path: String,
+    #[serde(default)]
+    transform: TransformSpec,
+    #[serde(default)]
+    material: Option<MaterialSpec>,
+}
+
+/// `x ↦ translate + R(axis, degrees)·(scale ∘ x)`.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TransformSpec {
+    #[serde(default)]
+    translate: Vec3,
+    /// `[ax, ay, az, degrees]`.
+    #[serde(default)]
+    rotate: Option<[f64; 4]>,
+    #[serde(default)]
+    scale: Option<Scalar3>,
+}
+
 /// Reads and validates the scene file at `path`.
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
     let file = path.display().to_string();
@@ -155,12 +183,17 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
             _ => format!("cannot read ({e})"),
         })
     })?;
-    parse(&text).map_err(err)
+    parse_in(&text, path.parent().unwrap_or(Path::new("."))).map_err(err)
 }
 
-/// Parses and validates a scene from JSON text; the error is the problem alone (the caller
-/// names the file).
+/// [`parse_in`] with paths relative to the working directory.
 pub fn parse(text: &str) -> Result<Scene, String> {
+    parse_in(text, Path::new(""))
+}
+
+/// Parses and validates a scene from JSON text, its files (models) relative to `base`;
+/// the error is the problem alone (the caller names the scene file).
+pub fn parse_in(text: &str, base: &Path) -> Result<Scene, String> {
     let spec: FileSpec = serde_json::from_str(text).map_err(|e| e.to_string())?;
     let c = &spec.camera;
     for (name, v) in [("eye", c.eye), ("target", c.target), ("up", c.up)] {
@@ -196,12 +229,10 @@ pub fn parse(text: &str) -> Result<Scene, String> {
             0.0
         }
     });
-    let surfaces = spec
-        .surfaces
-        .iter()
-        .enumerate()
-        .map(|(i, v)| surface(v).map_err(|e| format!("surfaces[{i}]: {e}")))
-        .collect::<Result<Vec<_>, _>>()?;
+    let mut surfaces = Vec::new();
+    for (i, v) in spec.surfaces.iter().enumerate() {
+        surfaces.extend(surface(v, base).map_err(|e| format!("surfaces[{i}]: {e}"))?);
+    }
     Ok(Scene {
         camera,
         environment,
@@ -333,20 +364,22 @@ fn material(m: MaterialSpec) -> Result<Material, String> {
     })
 }
 
-fn surface(v: &Value) -> Result<Surface, String> {
+/// A surface of the file: one, or for a mesh without a material one per material of the
+/// model.
+fn surface(v: &Value, base: &Path) -> Result<Vec<Surface>, String> {
     match kind(v)? {
         "plane" => {
             let p: PlaneSpec = typed(v)?;
             finite("point", &p.point)?;
             finite("normal", &p.normal)?;
             let normal = normalize(p.normal).ok_or("normal must not be zero")?;
-            Ok(Surface {
+            Ok(vec![Surface {
                 shape: Shape::Plane {
                     point: p.point,
                     normal,
                 },
                 material: material(p.material)?,
-            })
+            }])
         }
         "sphere" => {
             let s: SphereSpec = typed(v)?;
@@ -354,17 +387,57 @@ fn surface(v: &Value) -> Result<Surface, String> {
             if !(s.radius > 0.0 && s.radius.is_finite()) {
                 return Err(format!("radius {} must be positive", s.radius));
             }
-            Ok(Surface {
+            Ok(vec![Surface {
                 shape: Shape::Sphere {
                     center: s.center,
                     radius: s.radius,
                 },
                 material: material(s.material)?,
+            }])
+        }
+        "mesh" => {
+            let m: MeshSpec = typed(v)?;
+            let t = &m.transform;
+            finite("transform.translate", &t.translate)?;
+            let [ax, ay, az, deg] = t.rotate.unwrap_or([0.0, 0.0, 1.0, 0.0]);
+            finite("transform.rotate", &[ax, ay, az, deg])?;
+            let scale = match t.scale {
+                None => [1.0; 3],
+                Some(Scalar3::One(s)) => [s; 3],
+                Some(Scalar3::Rgb(s)) => s,
+            };
+            finite("transform.scale", &scale)?;
+            if scale.contains(&0.0) {
+                return Err(format!("transform.scale {scale:?} must not be zero"));
+            }
+            let transform = model::trs(t.translate, [ax, ay, az], deg, scale)
+                .ok_or("transform.rotate: the axis must not be zero")?;
+            let own = m.material.map(material).transpose()?;
+            let parts = model::load(&base.join(&m.path), &transform)?;
+            let surface = |material: Material, triangles| Surface {
+                shape: Shape::Mesh(Arc::new(Mesh::new(triangles))),
+                material,
+            };
+            Ok(match own {
+                Some(mat) => vec![surface(
+                    mat,
+                    parts.into_iter().flat_map(|p| p.triangles).collect(),
+                )],
+                None => parts
+                    .into_iter()
+                    .map(|p| {
+                        let mat = Material {
+                            diffuse: p.base_color.map(|c| c.clamp(0.0, 1.0)),
+                            specular: [0.0; 3],
+                            shininess: 0.0,
+                        };
+                        surface(mat, p.triangles)
+                    })
+                    .collect(),
             })
         }
-        "mesh" => Err("surface type \"mesh\" is not supported yet".to_string()),
         other => Err(format!(
-            "unknown surface type \"{other}\" (known: \"plane\", \"sphere\"; \"mesh\" to come)"
+            "unknown surface type \"{other}\" (known: \"plane\", \"sphere\", \"mesh\")"
         )),
     }
 }
@@ -456,8 +529,8 @@ mod tests {
                 "media[0]: media type \"gaussians\" is not supported yet",
             ),
             (
-                ("\"type\": \"plane\"", "\"type\": \"mesh\""),
-                "surfaces[0]: surface type \"mesh\" is not supported yet",
+                ("\"type\": \"plane\"", "\"type\": \"cone\""),
+                "surfaces[0]: unknown surface type \"cone\"",
             ),
             (
                 (

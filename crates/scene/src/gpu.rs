@@ -1,6 +1,6 @@
 //! The scene renderer on the GPU (`shaders/render.wgsl`, wgpu compute): the twin of
 //! [`crate::render::render`] with the [`Analytic`] model — paper C's airlight of point
-//! lights through the `K` table, suns, the medium's transmittance, planes and spheres lit
+//! lights through the `K` table, suns, the medium's transmittance, planes, spheres and meshes lit
 //! by Lambert + normalized Phong with the light scattered onto them through the `G0`/`Gn`
 //! tables, the environment — one invocation per pixel, in `f32`.
 //!
@@ -9,8 +9,9 @@
 //! shader exactly as [`crate::table::Table2::at`] reads them on the CPU (a filtered
 //! texture would not do: GPUs interpolate with 8-bit fractions, an error of up to 1/512
 //! of a cell's difference). Per frame ([`GpuRenderer::render`]): the camera, medium and
-//! environment (a uniform), the lights and surfaces (storage), all positions relative to
-//! the eye so that `f32` keeps its precision wherever the scene lies.
+//! environment (a uniform), the lights and surfaces (storage), the meshes' hierarchies and
+//! triangles (storage, traversed as [`crate::mesh::Mesh::intersect`] does), all positions
+//! relative to the eye so that `f32` keeps its precision wherever the scene lies.
 //!
 //! What differs from the CPU beyond `f32` rounding: shadow rays leave a surface
 //! [`SHADOW_OFFSET`] (relative) off it instead of the CPU's `10⁻⁹` and ignore surfaces
@@ -19,6 +20,7 @@
 //! (WGSL does not promise infinities), finite ones beyond `10³⁰` clamped there.
 
 use crate::airlight::Limits;
+use crate::mesh::Mesh;
 use crate::render::{Analytic, Image};
 use crate::scene::{Environment, Light, Scene, Shape};
 use haze_view::gpu::{GpuContext, GpuError, buffer_init, compute_pipeline, submit_pass};
@@ -72,6 +74,46 @@ fn tagged(kind: f32, v: [f64; 3]) -> [f32; 4] {
 
 fn vec4(v: [f64; 3], w: f64) -> [f32; 4] {
     [v[0] as f32, v[1] as f32, v[2] as f32, w as f32]
+}
+
+/// `[x, y, z, w]` as the bits of `f32` coordinates and a `u32`.
+fn bits(v: [f64; 3], w: u32) -> [u32; 4] {
+    [
+        (v[0] as f32).to_bits(),
+        (v[1] as f32).to_bits(),
+        (v[2] as f32).to_bits(),
+        w,
+    ]
+}
+
+/// Appends `mesh`'s records to `out` (the shader's `meshes` layout), positions relative
+/// to `eye`; returns the record indices of its first node and first triangle. The boxes
+/// grow by `4·10⁻⁶` of the mesh's size plus its distance from the eye: `f32` rounds the
+/// corners and the shader's hit distances by ~`10⁻⁷` of those, and a box must still
+/// hold every triangle the shader would hit.
+fn mesh_records(mesh: &Mesh, eye: [f64; 3], out: &mut Vec<[u32; 4]>) -> (usize, usize) {
+    let rel = |p: [f64; 3]| [0, 1, 2].map(|a| p[a] - eye[a]);
+    let root = mesh.nodes[0].bounds;
+    let (lo, hi) = (rel(root.min), rel(root.max));
+    let far = (0..3)
+        .map(|a| lo[a].abs().max(hi[a].abs()))
+        .fold(0.0, f64::max);
+    let pad = 4e-6 * (far + crate::vec3::norm(crate::vec3::sub(hi, lo)));
+    let nodes = out.len();
+    for n in &mesh.nodes {
+        out.push(bits(rel(n.bounds.min).map(|x| x - pad), n.first));
+        out.push(bits(rel(n.bounds.max).map(|x| x + pad), n.count));
+    }
+    let tris = out.len();
+    for t in &mesh.triangles {
+        out.push(bits(rel(t.p[0]), u32::from(t.n.is_some())));
+        out.push(bits(rel(t.p[1]), 0));
+        out.push(bits(rel(t.p[2]), 0));
+        for k in 0..3 {
+            out.push(bits(t.n.map_or([0.0; 3], |n| n[k]), 0));
+        }
+    }
+    (nodes, tris)
 }
 
 impl GpuRenderer {
@@ -167,6 +209,7 @@ impl GpuRenderer {
             }
         }
         let mut surfaces: Vec<[f32; 4]> = Vec::with_capacity(4 * scene.surfaces.len().max(1));
+        let mut meshes: Vec<[u32; 4]> = Vec::new();
         for (i, s) in scene.surfaces.iter().enumerate() {
             let m = &s.material;
             let gn = if m.is_specular() {
@@ -179,12 +222,23 @@ impl GpuRenderer {
             } else {
                 -1.0
             };
-            match s.shape {
-                Shape::Plane { point, normal } => {
+            match &s.shape {
+                Shape::Mesh(mesh) => {
+                    let (nodes, tris) = mesh_records(mesh, eye, &mut meshes);
+                    // Record indices travel as f32 in the surface record: exact below 2²⁴.
+                    if tris.max(nodes) >= 1 << 24 {
+                        return Err(GpuError::Input(format!(
+                            "surfaces[{i}]: the scene's meshes are too large for the GPU renderer"
+                        )));
+                    }
+                    surfaces.push([2.0, nodes as f32, tris as f32, 0.0]);
+                    surfaces.push([0.0; 4]);
+                }
+                &Shape::Plane { point, normal } => {
                     surfaces.push(tagged(0.0, rel(point)));
                     surfaces.push(vec4(normal, 0.0));
                 }
-                Shape::Sphere { center, radius } => {
+                &Shape::Sphere { center, radius } => {
                     surfaces.push(tagged(1.0, rel(center)));
                     surfaces.push(vec4([0.0; 3], radius));
                 }
@@ -198,6 +252,10 @@ impl GpuRenderer {
                 list.push([0.0; 4]);
             }
         }
+        if meshes.is_empty() {
+            meshes.push([0; 4]);
+        }
+        ctx.check_storage_size("the meshes", 16 * meshes.len() as u64)?;
         let (env_kind, env_color) = match &scene.environment {
             Environment::Black => (0, [0.0; 3]),
             Environment::Sky => (1, [0.0; 3]),
@@ -257,6 +315,12 @@ impl GpuRenderer {
                 bytemuck::cast_slice(&surfaces),
                 wgpu::BufferUsages::STORAGE,
             );
+            let meshes = buffer_init(
+                ctx,
+                "scene meshes",
+                bytemuck::cast_slice(&meshes),
+                wgpu::BufferUsages::STORAGE,
+            );
             let output = ctx.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("scene image"),
                 size: out_bytes,
@@ -267,7 +331,7 @@ impl GpuRenderer {
                 ctx,
                 &self.pipeline,
                 "scene render",
-                &[&uniform, &lights, &surfaces, &self.tables, &output],
+                &[&uniform, &lights, &surfaces, &self.tables, &output, &meshes],
                 groups,
             );
             output

@@ -12,6 +12,8 @@ pub mod gpu;
 pub mod gtable;
 pub mod hfunc;
 pub mod htable;
+pub mod mesh;
+pub mod model;
 pub mod quad;
 pub mod reference;
 pub mod render;

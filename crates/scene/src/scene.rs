@@ -2,7 +2,9 @@
 //! (all homogeneous media summed) and surfaces. [`crate::file`] reads it from JSON.
 
 use crate::Camera;
+use crate::mesh::Mesh;
 use crate::vec3::{Vec3, dot, sub};
+use std::sync::Arc;
 
 /// Linear RGB.
 pub type Rgb = [f64; 3];
@@ -140,6 +142,8 @@ pub enum Shape {
         center: Vec3,
         radius: f64,
     },
+    /// Triangles in world space with their hierarchy (both sides lit, like the plane).
+    Mesh(Arc<Mesh>),
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -159,18 +163,20 @@ pub struct Hit {
 }
 
 impl Shape {
-    /// The nearest `t ∈ (t_min, t_max)` where the ray `o + t·d` (unit `d`) meets the shape.
-    pub fn intersect(&self, o: Vec3, d: Vec3, t_min: f64, t_max: f64) -> Option<f64> {
-        match *self {
-            Shape::Plane { point, normal } => {
+    /// The nearest `t ∈ (t_min, t_max)` where the ray `o + t·d` (unit `d`) meets the
+    /// shape, with the unit normal there (outward for a sphere; a plane's or a triangle's
+    /// on either side, turned by the caller).
+    pub fn intersect(&self, o: Vec3, d: Vec3, t_min: f64, t_max: f64) -> Option<(f64, Vec3)> {
+        match self {
+            &Shape::Plane { point, normal } => {
                 let den = dot(d, normal);
                 if den == 0.0 {
                     return None;
                 }
                 let t = dot(sub(point, o), normal) / den;
-                (t > t_min && t < t_max).then_some(t)
+                (t > t_min && t < t_max).then_some((t, normal))
             }
-            Shape::Sphere { center, radius } => {
+            &Shape::Sphere { center, radius } => {
                 // |o + t·d − c|² = r², written to avoid cancellation: b = d·(c − o),
                 // the discriminant from the distance of c to the line.
                 let oc = sub(center, o);
@@ -182,23 +188,27 @@ impl Shape {
                 }
                 let s = disc.sqrt();
                 let (t0, t1) = (b - s, b + s);
-                if t0 > t_min && t0 < t_max {
-                    Some(t0)
+                let t = if t0 > t_min && t0 < t_max {
+                    t0
                 } else if t1 > t_min && t1 < t_max {
-                    Some(t1)
+                    t1
                 } else {
-                    None
-                }
+                    return None;
+                };
+                let p = crate::vec3::axpy(o, t, d);
+                let n = crate::vec3::normalize(sub(p, center)).unwrap_or([0.0, 0.0, 1.0]);
+                Some((t, n))
             }
-        }
-    }
-
-    /// The outward unit normal at a point on the shape.
-    pub fn normal_at(&self, p: Vec3) -> Vec3 {
-        match *self {
-            Shape::Plane { normal, .. } => normal,
-            Shape::Sphere { center, .. } => {
-                crate::vec3::normalize(sub(p, center)).unwrap_or([0.0, 0.0, 1.0])
+            Shape::Mesh(mesh) => {
+                let h = mesh.intersect(o, d, t_min, t_max)?;
+                let tri = &mesh.triangles[h.triangle];
+                // The shading normal, on the side of the face the ray arrives at.
+                let mut n = tri.normal(h.u, h.v);
+                let face = tri.face_normal().unwrap_or(n);
+                if dot(face, d) * dot(n, d) < 0.0 {
+                    n = crate::vec3::scale(n, -1.0);
+                }
+                Some((h.t, n))
             }
         }
     }
@@ -210,9 +220,8 @@ impl Scene {
         let mut best: Option<Hit> = None;
         for (i, s) in self.surfaces.iter().enumerate() {
             let hi = best.map_or(t_max, |b| b.t);
-            if let Some(t) = s.shape.intersect(o, d, t_min, hi) {
+            if let Some((t, mut normal)) = s.shape.intersect(o, d, t_min, hi) {
                 let point = crate::vec3::axpy(o, t, d);
-                let mut normal = s.shape.normal_at(point);
                 if dot(normal, d) > 0.0 {
                     normal = crate::vec3::scale(normal, -1.0);
                 }

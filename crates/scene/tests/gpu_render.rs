@@ -4,7 +4,8 @@
 //! clear one with the sky at ∞, an environment farther than `f32` reaches (clamped to
 //! 10³⁰ for the shader), a dense one (σt = 3), the eye inside a sphere (the medium fills
 //! space: the eye is always in it), a light at the eye, a light in the middle of the view
-//! (γ → 0), a plane seen at grazing angles, lights 10⁻³ above and exactly on a surface.
+//! (γ → 0), a plane seen at grazing angles, lights 10⁻³ above and exactly on a surface;
+//! and glTF meshes (smooth and faceted, the eye close to one) through the hierarchy.
 //!
 //! These tests need a GPU adapter (a CPU one will do: Mesa's lavapipe, which
 //! `scripts/test.sh` installs) and fail with the reason when there is none.
@@ -219,4 +220,48 @@ fn a_missing_phong_table_is_refused() {
         e.contains("surfaces[1]: no G table for the Phong exponent 7"),
         "{e}"
     );
+}
+
+/// Meshes on the GPU against the CPU (same tolerance): a smooth low-poly sphere (vertex
+/// normals, specular) and a faceted one (face normals) turned and placed by the scene
+/// file, lit by the point lights and a sun whose shadow rays cross the meshes; and the
+/// eye close to a mesh, most rays crossing the hierarchy's boxes near their edges.
+#[test]
+fn gpu_matches_the_cpu_with_meshes() {
+    use haze_scene::model;
+    let dir = tempfile::tempdir().unwrap();
+    let smooth = model::uv_sphere([0.0, 0.0, 0.0], 0.6, 8, [0.7, 0.3, 0.2]);
+    let mut faceted = model::uv_sphere([0.0, 0.0, 0.0], 0.5, 5, [0.2, 0.5, 0.7]);
+    faceted.normals = None;
+    std::fs::write(dir.path().join("smooth.glb"), model::glb(&smooth)).unwrap();
+    std::fs::write(dir.path().join("faceted.glb"), model::glb(&faceted)).unwrap();
+    let meshes = r#""surfaces": [
+        {"type": "mesh", "path": "smooth.glb", "transform": {"translate": [-0.6, 0.4, 0.6]},
+         "material": {"diffuse": [0.7, 0.3, 0.2], "specular": [0.3, 0.3, 0.3], "shininess": 12}},
+        {"type": "mesh", "path": "faceted.glb",
+         "transform": {"translate": [0.8, -0.3, 0.5], "rotate": [1, 1, 0, 35], "scale": [1, 1, 1.4]}},"#;
+    let load = |edits: &[(&str, &str)]| {
+        let mut text = BASE.replacen("\"surfaces\": [", meshes, 1);
+        for (from, to) in edits {
+            assert!(text.contains(from), "{from}");
+            text = text.replacen(from, to, 1);
+        }
+        let path = dir.path().join("scene.json");
+        std::fs::write(&path, text).unwrap();
+        haze_scene::load(&path).unwrap()
+    };
+    let sun = (
+        "\"lights\": [",
+        "\"lights\": [{\"type\": \"sun\", \"direction\": [0.4, -0.3, 0.8], \"radiance\": [0.8, 0.8, 0.7], \"angle\": 0},",
+    );
+    let cases = [
+        ("meshes", load(&[sun])),
+        (
+            "eye close to a mesh",
+            load(&[sun, ("\"eye\": [0, -6, 1.6]", "\"eye\": [0.5, -1.1, 0.9]")]),
+        ),
+    ];
+    for (name, s) in &cases {
+        compare(name, s);
+    }
 }
