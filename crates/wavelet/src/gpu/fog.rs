@@ -17,6 +17,7 @@ use super::{GpuContext, GpuError};
 use crate::lod::{Fog, MAX_LEVELS, Mode};
 use crate::render::Scene;
 use haze_camera::LookAt;
+use haze_view::gpu::buffer_init;
 
 /// The shader, `crates/wavelet/shaders/wavelet_fog.wgsl`.
 pub const SHADER: &str = include_str!("../../shaders/wavelet_fog.wgsl");
@@ -356,9 +357,19 @@ impl FogRenderer {
         ctx.check_storage_size("the fog's coefficients", (coef.len() * 4) as u64)?;
         let (levels, pieces, coef) = ctx.scoped("fog upload", || {
             (
-                ctx.buffer_init("fog levels", bytemuck::cast_slice(&levels), storage),
-                ctx.buffer_init("fog basis pieces", bytemuck::cast_slice(&table), storage),
-                ctx.buffer_init("fog coefficients", bytemuck::cast_slice(&coef), storage),
+                buffer_init(ctx, "fog levels", bytemuck::cast_slice(&levels), storage),
+                buffer_init(
+                    ctx,
+                    "fog basis pieces",
+                    bytemuck::cast_slice(&table),
+                    storage,
+                ),
+                buffer_init(
+                    ctx,
+                    "fog coefficients",
+                    bytemuck::cast_slice(&coef),
+                    storage,
+                ),
             )
         })?;
         Ok(GpuFog {
@@ -478,7 +489,8 @@ impl FogRenderer {
         ctx.check_storage_size("the rays' depths", out_bytes)?;
         let (input, output) = ctx.scoped("ray upload", || {
             (
-                ctx.buffer_init(
+                buffer_init(
+                    ctx,
                     "fog rays",
                     bytemuck::cast_slice(&queries),
                     wgpu::BufferUsages::STORAGE,
@@ -521,7 +533,8 @@ impl FogRenderer {
         groups: [u32; 3],
     ) -> Result<(), GpuError> {
         ctx.scoped("wavelet fog pass", || {
-            let uniform = ctx.buffer_init(
+            let uniform = buffer_init(
+                ctx,
                 "wavelet fog params",
                 bytemuck::bytes_of(params),
                 wgpu::BufferUsages::UNIFORM,
