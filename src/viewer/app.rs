@@ -523,14 +523,13 @@ impl eframe::App for ViewerApp {
         let before = self.view();
         let update = self.player.update(now, &before);
         if let Some(p) = update.shown {
-            let image = egui::ColorImage::from_rgb([p.width, p.height], &p.rgb);
-            match &mut self.texture {
-                Some(t) => t.set(image, egui::TextureOptions::LINEAR),
-                None => {
-                    self.texture =
-                        Some(ctx.load_texture("smoke", image, egui::TextureOptions::LINEAR));
-                }
-            }
+            super::show_picture(
+                &ctx,
+                &mut self.texture,
+                "smoke",
+                [p.width, p.height],
+                &p.rgb,
+            );
             self.showing = Some(p.number);
         }
         self.check_play_for(&ctx, now);

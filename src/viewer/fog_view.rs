@@ -506,14 +506,7 @@ impl FogApp {
         match self.renderer.picture(&now.0.look_at(), &now.1, now.2) {
             Ok(rgb) => {
                 let (w, h) = self.renderer.size();
-                let image = egui::ColorImage::from_rgb([w, h], &rgb);
-                match &mut self.texture {
-                    Some(t) => t.set(image, egui::TextureOptions::LINEAR),
-                    None => {
-                        self.texture =
-                            Some(ctx.load_texture("fog", image, egui::TextureOptions::LINEAR));
-                    }
-                }
+                super::show_picture(ctx, &mut self.texture, "fog", [w, h], &rgb);
                 self.error = None;
             }
             Err(e) => self.error = Some(e),

@@ -94,6 +94,23 @@ impl Knobs {
     }
 }
 
+/// Puts a picture (sRGB8 RGB, `[width, height]`) in `texture`, which is made on first use
+/// under `name`: the one way every viewer window shows what it rendered.
+fn show_picture(
+    ctx: &eframe::egui::Context,
+    texture: &mut Option<eframe::egui::TextureHandle>,
+    name: &str,
+    size: [usize; 2],
+    rgb: &[u8],
+) {
+    use eframe::egui::{ColorImage, TextureOptions};
+    let image = ColorImage::from_rgb(size, rgb);
+    match texture {
+        Some(t) => t.set(image, TextureOptions::LINEAR),
+        None => *texture = Some(ctx.load_texture(name, image, TextureOptions::LINEAR)),
+    }
+}
+
 /// Parses a render size `WxH` (or `W×H`), each side 1..=8192 pixels.
 pub fn parse_size(s: &str) -> Result<(usize, usize), String> {
     let bad = || format!("'{s}' is not a size WxH (e.g. 800x600)");

@@ -411,14 +411,7 @@ impl SceneApp {
         match self.renderer.picture(&now.0, &now.1) {
             Ok(rgb) => {
                 let (w, h) = self.renderer.size;
-                let image = egui::ColorImage::from_rgb([w, h], &rgb);
-                match &mut self.texture {
-                    Some(t) => t.set(image, egui::TextureOptions::LINEAR),
-                    None => {
-                        self.texture =
-                            Some(ctx.load_texture("scene", image, egui::TextureOptions::LINEAR));
-                    }
-                }
+                super::show_picture(ctx, &mut self.texture, "scene", [w, h], &rgb);
                 self.error = None;
             }
             Err(e) => self.error = Some(e),
