@@ -239,6 +239,7 @@ pub fn parse_in(text: &str, base: &Path) -> Result<Scene, String> {
         environment_distance,
         lights,
         medium,
+        hetero: Vec::new(),
         surfaces,
     })
 }

@@ -12,6 +12,8 @@ pub mod gpu;
 pub mod gtable;
 pub mod hfunc;
 pub mod htable;
+pub mod march;
+pub mod media;
 pub mod mesh;
 pub mod model;
 pub mod quad;

@@ -289,7 +289,7 @@ pub fn radiance(scene: &Scene, model: &dyn Model, lim: &Limits, dir: Vec3) -> Rg
 }
 
 /// The environment and the suns' disks in direction `dir`.
-fn background(scene: &Scene, dir: Vec3) -> Rgb {
+pub fn background(scene: &Scene, dir: Vec3) -> Rgb {
     let mut l = match &scene.environment {
         Environment::Black => [0.0; 3],
         env => env.radiance(dir),
@@ -325,18 +325,7 @@ fn surface(
     let r = reflect(scale(dir, -1.0), n);
     // Shadow rays start a little off the surface.
     let p_off = axpy(p, 1e-9 * (1.0 + norm(p)), n);
-    let brdf = |l: Vec3, c: usize| {
-        let cos = dot(n, l);
-        if cos <= 0.0 {
-            return 0.0;
-        }
-        let mut f = m.diffuse[c] / PI * cos;
-        if m.specular[c] > 0.0 {
-            f += m.specular[c] * (m.shininess + 2.0) / (2.0 * PI)
-                * dot(r, l).max(0.0).powf(m.shininess);
-        }
-        f
-    };
+    let brdf = |l: Vec3, c: usize| m.brdf(n, r, l, c);
     let mut out = [0.0; 3];
     for light in &scene.lights {
         match light {

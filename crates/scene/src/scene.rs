@@ -20,6 +20,9 @@ pub struct Scene {
     pub environment_distance: f64,
     pub lights: Vec<Light>,
     pub medium: Medium,
+    /// Media whose extinction varies in space (smoke assets, Gaussians, analytic fog),
+    /// adding to `medium` where they overlap.
+    pub hetero: Vec<crate::media::HeteroMedium>,
     pub surfaces: Vec<Surface>,
 }
 
@@ -126,6 +129,22 @@ impl Material {
     /// Whether the material has a specular lobe.
     pub fn is_specular(&self) -> bool {
         self.specular.iter().any(|&s| s > 0.0)
+    }
+
+    /// `f·cos θᵢ` of channel `c` for light arriving from unit `l` at a point of unit
+    /// normal `n`, `r` the mirror direction of the view: `diffuse/π·cos θᵢ +
+    /// specular·(n + 2)/(2π)·max(0, r·l)ⁿ`; zero for light from behind the surface.
+    pub fn brdf(&self, n: Vec3, r: Vec3, l: Vec3, c: usize) -> f64 {
+        let cos = dot(n, l);
+        if cos <= 0.0 {
+            return 0.0;
+        }
+        let mut f = self.diffuse[c] / std::f64::consts::PI * cos;
+        if self.specular[c] > 0.0 {
+            f += self.specular[c] * (self.shininess + 2.0) / (2.0 * std::f64::consts::PI)
+                * dot(r, l).max(0.0).powf(self.shininess);
+        }
+        f
     }
 }
 
