@@ -53,10 +53,9 @@ pub fn optical_depth(scene: &Scene, o: Vec3, d: Vec3, len: f64) -> Rgb {
     if len <= 0.0 {
         return tau;
     }
-    for c in 0..3 {
-        let s = scene.medium.sigma_t[c];
+    for (t, &s) in tau.iter_mut().zip(&scene.medium.sigma_t) {
         if s > 0.0 {
-            tau[c] += s * len;
+            *t += s * len;
         }
     }
     for m in &scene.hetero {
