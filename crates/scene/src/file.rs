@@ -215,7 +215,14 @@ pub fn parse_in(text: &str, base: &Path) -> Result<Scene, String> {
         .collect::<Result<Vec<_>, _>>()?;
     let mut medium = Medium::NONE;
     let mut sigma_s = [0.0; 3];
+    let mut hetero = Vec::new();
     for (i, v) in spec.media.iter().enumerate() {
+        if kind(v).is_ok_and(|k| k == "asset") {
+            let m = crate::asset_medium::AssetMedium::from_json(v, base)
+                .map_err(|e| format!("media[{i}]: {e}"))?;
+            hetero.push(crate::media::HeteroMedium(Arc::new(m)));
+            continue;
+        }
         let (st, ss) = homogeneous(v).map_err(|e| format!("media[{i}]: {e}"))?;
         for c in 0..3 {
             medium.sigma_t[c] += st[c];
@@ -239,7 +246,7 @@ pub fn parse_in(text: &str, base: &Path) -> Result<Scene, String> {
         environment_distance,
         lights,
         medium,
-        hetero: Vec::new(),
+        hetero,
         surfaces,
     })
 }
@@ -345,11 +352,11 @@ fn homogeneous(v: &Value) -> Result<(Rgb, Rgb), String> {
             }
             Ok((st, st.map(|s| s * h.albedo)))
         }
-        t @ ("gaussians" | "analytic" | "fogmap" | "asset") => {
+        t @ ("gaussians" | "analytic" | "fogmap") => {
             Err(format!("media type \"{t}\" is not supported yet"))
         }
         other => Err(format!(
-            "unknown media type \"{other}\" (known: \"homogeneous\"; \"gaussians\", \"analytic\", \"fogmap\", \"asset\" to come)"
+            "unknown media type \"{other}\" (known: \"homogeneous\", \"asset\"; \"gaussians\", \"analytic\", \"fogmap\" to come)"
         )),
     }
 }

@@ -7,6 +7,7 @@
 //! by quadrature, independent of every table.
 
 pub mod airlight;
+pub mod asset_medium;
 pub mod file;
 pub mod gpu;
 pub mod gtable;
@@ -23,6 +24,7 @@ pub mod scene;
 pub mod special;
 pub mod table;
 pub mod vec3;
+pub mod voxel_grid;
 
 pub use file::{SceneError, load};
 pub use haze_camera::Camera;

@@ -59,6 +59,11 @@ pub trait Heterogeneous: Send + Sync + fmt::Debug {
     }
     /// A box outside which `σt = 0`, or `None` when the medium fills space.
     fn bounds(&self) -> Option<Aabb>;
+    /// The extinction as a voxel grid when that is what the medium is (a smoke asset):
+    /// the GPU renderer uploads it. `None` for media of another kind.
+    fn voxels(&self) -> Option<&crate::voxel_grid::VoxelGrid> {
+        None
+    }
 }
 
 /// A shared heterogeneous medium of a scene; two are equal when they are the same object.
