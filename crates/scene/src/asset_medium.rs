@@ -93,7 +93,10 @@ pub fn frame_density(
     let g = &decoder.asset().header().grid;
     let dims = g.dims.map(|d| d as usize);
     let bbox = Bbox::new(g.bbox_min, g.bbox_max);
-    if dims.contains(&0) || (0..3).any(|a| !(bbox.max[a] > bbox.min[a])) {
+    if dims.contains(&0)
+        || (0..3)
+            .any(|a| bbox.max[a].partial_cmp(&bbox.min[a]) != Some(std::cmp::Ordering::Greater))
+    {
         return Err(format!(
             "{}: the asset's grid {dims:?} over {:?}..{:?} is empty",
             path.display(),

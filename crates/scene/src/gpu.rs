@@ -61,6 +61,8 @@ pub struct GpuRenderer {
     g_size: (u32, u32),
     /// The exponents of the `Gn` tables, in upload order (table `i + 1`).
     exponents: Vec<f64>,
+    /// The march of scenes with voxel media ([`crate::gpu_march`]), compiled for the first.
+    march: std::sync::OnceLock<wgpu::ComputePipeline>,
 }
 
 fn f32x3(v: [f64; 3]) -> [f32; 3] {
@@ -157,6 +159,7 @@ impl GpuRenderer {
             k_side: side(k.nx)?,
             g_size: (side(g0.nx)?, side(g0.ny)?),
             exponents: analytic.gn.iter().map(|g| g.exponent).collect(),
+            march: std::sync::OnceLock::new(),
         })
     }
 
@@ -296,6 +299,19 @@ impl GpuRenderer {
             tables: [self.g_size.1, self.k_side * self.k_side, 0, 0],
         };
         let groups = [w.div_ceil(SIDE) as u32, h.div_ceil(SIDE) as u32, 1];
+        // Scenes with voxel media: the march (crate::gpu_march) instead of paper C.
+        let opt = crate::asset_medium::march_options(scene, false);
+        let march = crate::gpu_march::MarchInput::of(scene, eye, &opt)?;
+        let march_pipeline = match &march {
+            None => None,
+            Some(m) => {
+                m.check(ctx)?;
+                if self.march.get().is_none() {
+                    let _ = self.march.set(crate::gpu_march::pipeline(ctx)?);
+                }
+                self.march.get()
+            }
+        };
         let output = ctx.scoped("scene render", || {
             let uniform = buffer_init(
                 ctx,
@@ -327,13 +343,13 @@ impl GpuRenderer {
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             });
-            submit_pass(
-                ctx,
-                &self.pipeline,
-                "scene render",
-                &[&uniform, &lights, &surfaces, &self.tables, &output, &meshes],
-                groups,
-            );
+            let mut buffers = vec![&uniform, &lights, &surfaces, &self.tables, &output, &meshes];
+            let extra = march.as_ref().map(|m| m.buffers(ctx));
+            if let Some((grid, records)) = &extra {
+                buffers.extend([grid, records]);
+            }
+            let pipeline = march_pipeline.unwrap_or(&self.pipeline);
+            submit_pass(ctx, pipeline, "scene render", &buffers, groups);
             output
         })?;
         let bytes = ctx.read_buffer(&output)?;

@@ -10,6 +10,7 @@ pub mod airlight;
 pub mod asset_medium;
 pub mod file;
 pub mod gpu;
+pub mod gpu_march;
 pub mod gtable;
 pub mod hfunc;
 pub mod htable;

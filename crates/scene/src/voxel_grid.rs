@@ -92,13 +92,14 @@ impl VoxelGrid {
 
     /// `∫₀^len ρ(o + t·d) dt` for a unit `d` (`len` may be `∞`), exactly (module docs).
     pub fn density_integral(&self, o: Vec3, d: Vec3, len: f64) -> f64 {
-        if !(len > 0.0) {
+        // Also a NaN length.
+        if len.is_nan() || len <= 0.0 {
             return 0.0;
         }
         let Some((t0, t1)) = self.bounds().clip(o, d, 0.0, len) else {
             return 0.0;
         };
-        if !(t1 > t0) || !t1.is_finite() {
+        if t1 <= t0 || !t1.is_finite() {
             return 0.0;
         }
         // Per axis: the ray's voxel coordinate u(t) = u0 + (t − t0)·du, and the t of

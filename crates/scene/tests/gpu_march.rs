@@ -1,0 +1,130 @@
+//! The GPU march (`gpu_march`, taken by `GpuRenderer::render` for scenes with a smoke
+//! asset) against its CPU twin (`march::render`), pixel by pixel, on small images of the
+//! bundled plume over a ground plane: lit by a point light and a sun (shadows of the
+//! smoke on the ground and on itself), anisotropic scattering, a homogeneous fog around
+//! the smoke, and the eye inside the smoke.
+//!
+//! These tests need a GPU adapter (a CPU one will do: Mesa's lavapipe) and fail with the
+//! reason when there is none.
+//!
+//! **Tolerance.** Per pixel and channel `|L_gpu − L_cpu| ≤ REL·|L_cpu| + FLOOR·L̄`, `L̄`
+//! the CPU image's mean. Both take the same steps and the same exact optical depths;
+//! the GPU sums them in `f32` (~10⁻⁷ relative per term, a few hundred terms along a ray
+//! and its shadow rays: ~10⁻⁵) and its positions relative to the eye carry ~10⁻⁷ of the
+//! scene's size, which moves a step's samples by as much. Measured on lavapipe: at most
+//! 10⁻⁵ relative (printed per case); `REL = 2·10⁻⁴` leaves a margin of twenty. Pixels
+//! where `f32` and `f64` decide differently — a shadow ray grazing an occluder, the GPU's
+//! larger offset of surfaces' shadow rays — may differ by whole terms: at most
+//! `OUTLIERS` of them (none did on lavapipe).
+
+use haze_scene::Scene;
+use haze_scene::airlight::Limits;
+use haze_scene::asset_medium::march_options;
+use haze_scene::gpu::GpuRenderer;
+use haze_scene::render::{Analytic, Image};
+use haze_view::gpu::GpuContext;
+use std::path::Path;
+use std::sync::OnceLock;
+
+const REL: f64 = 2e-4;
+const FLOOR: f64 = 1e-5;
+const OUTLIERS: f64 = 0.01;
+
+fn context() -> &'static GpuContext {
+    static C: OnceLock<GpuContext> = OnceLock::new();
+    C.get_or_init(|| match GpuContext::new() {
+        Ok(ctx) => {
+            println!("GPU adapter: {} ({})", ctx.adapter_name(), ctx.backend());
+            ctx
+        }
+        Err(e) => panic!("{e}"),
+    })
+}
+
+/// The plume (scaled to half size) over the ground, with `media`'s extra keys and
+/// `extra_media` after it.
+fn scene(camera: &str, asset_keys: &str, extra_media: &str) -> Scene {
+    let text = format!(
+        r#"{{"camera": {camera},
+            "environment": [0.1, 0.12, 0.15], "environment_distance": 8,
+            "lights": [
+              {{"type": "point", "position": [-0.6, -0.7, 0.5], "intensity": [2.0, 2.5, 3.5]}},
+              {{"type": "sun", "direction": [0.7, -0.35, 0.62], "radiance": [2.2, 2.1, 1.9], "angle": 0}}
+            ],
+            "media": [
+              {{"type": "asset", "path": "plume.haze", "frame": 24, "sigma_t": 8, "albedo": 0.9,
+                "offset": [-0.75, -0.75, 0.1], "scale": 0.5 {asset_keys}}} {extra_media}
+            ],
+            "surfaces": [
+              {{"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1],
+                "material": {{"diffuse": [0.6, 0.58, 0.55], "specular": [0.2, 0.2, 0.2], "shininess": 12}}}}
+            ]}}"#
+    );
+    let base = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/scenes");
+    haze_scene::file::parse_in(&text, &base).unwrap()
+}
+
+const OUTSIDE: &str =
+    r#"{"eye": [0.3, -4.0, 1.5], "target": [0, 0, 0.8], "fov": 40, "width": 32, "height": 24}"#;
+
+/// One renderer for every case (their surfaces share the Phong exponent 12).
+fn renderer(s: &Scene) -> &'static GpuRenderer {
+    static R: OnceLock<GpuRenderer> = OnceLock::new();
+    R.get_or_init(|| GpuRenderer::new(context(), &Analytic::new(s)).unwrap())
+}
+
+fn compare(name: &str, s: &Scene) {
+    let ctx = context();
+    let g: Image = renderer(s).render(ctx, s, &Limits::default()).unwrap();
+    let c = haze_scene::march::render(s, &Limits::default(), &march_options(s, false), &|_| {});
+    let n = c.pixels.len();
+    let mean = c
+        .pixels
+        .iter()
+        .flatten()
+        .map(|v| f64::from(*v))
+        .sum::<f64>()
+        / (3 * n) as f64;
+    assert!(mean > 0.0, "{name}: black");
+    let (mut worst, mut outside) = (0.0f64, 0);
+    for (a, b) in c.pixels.iter().zip(&g.pixels) {
+        let mut bad = false;
+        for k in 0..3 {
+            let (a, b) = (f64::from(a[k]), f64::from(b[k]));
+            let err = (b - a).abs();
+            bad |= err > REL * a.abs() + FLOOR * mean;
+            worst = worst.max(err / (a.abs() + FLOOR * mean));
+        }
+        outside += usize::from(bad);
+    }
+    println!("{name}: worst relative {worst:.2e}, {outside} of {n} pixels outside");
+    assert!(
+        (outside as f64) <= OUTLIERS * n as f64,
+        "{name}: {outside} pixels differ (worst {worst:.2e})"
+    );
+}
+
+#[test]
+fn the_plume_over_the_ground_as_on_the_cpu() {
+    compare("plume", &scene(OUTSIDE, "", ""));
+}
+
+#[test]
+fn anisotropic_smoke_in_fog_and_the_eye_inside_it() {
+    compare(
+        "forward scattering in fog",
+        &scene(
+            OUTSIDE,
+            r#", "g": 0.6"#,
+            r#", {"type": "homogeneous", "sigma_t": 0.15, "albedo": 0.8}"#,
+        ),
+    );
+    compare(
+        "eye in the smoke",
+        &scene(
+            r#"{"eye": [0.0, -0.2, 0.9], "target": [0.3, 1.0, 0.7], "fov": 60, "width": 16, "height": 12}"#,
+            "",
+            "",
+        ),
+    );
+}
