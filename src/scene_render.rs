@@ -1,6 +1,9 @@
 //! `haze render --scene`: a scene file rendered by paper C's analytic single scattering
 //! (crates/scene) on the CPU, or on the GPU with `--gpu` (its `f32` twin,
-//! `haze_scene::gpu`), or by its quadrature reference (`--reference`, CPU).
+//! `haze_scene::gpu`), or by its quadrature reference (`--reference`, CPU). Scenes with
+//! heterogeneous media (a smoke asset) are rendered by the single-scattering march
+//! instead (`haze_scene::march`; on the GPU `haze_scene::gpu_march`), whose reference is
+//! the same march at a quarter of the step.
 
 use crate::render::{OutKind, out_kind};
 use anyhow::{Result, anyhow};
@@ -131,7 +134,11 @@ fn run_gpu(a: &SceneRenderArgs, scene: &Scene, kind: OutKind, start: Instant) ->
         a.scene.display(),
         scene.lights.len(),
         scene.surfaces.len(),
-        analytic.name(),
+        if scene.hetero.is_empty() {
+            analytic.name()
+        } else {
+            "single-scattering march".to_string()
+        },
         ctx.adapter_name(),
         frame,
         start.elapsed().as_secs_f64()
