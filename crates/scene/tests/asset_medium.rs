@@ -161,4 +161,22 @@ fn bad_assets_are_one_line_errors() {
         let e = medium(&json).unwrap_err();
         assert!(e.contains(needle) && !e.contains('\n'), "{json}: {e}");
     }
+    // Through the scene file: the entry is named, the asset found next to the scene.
+    let scene = |media: &str| {
+        haze_scene::file::parse_in(
+            &format!(
+                r#"{{"camera": {{"eye": [0, -5, 1], "target": [0, 0, 1]}}, "media": [{media}]}}"#
+            ),
+            &scenes(),
+        )
+    };
+    let e = scene(r#"{"type": "homogeneous", "sigma_t": 0.1}, {"type": "asset", "path": "plume.haze", "frame": 7}"#)
+        .unwrap_err();
+    assert!(
+        e.starts_with("media[1]: ") && e.contains("plume.haze: frame 7"),
+        "{e}"
+    );
+    let s = scene(r#"{"type": "asset", "path": "plume.haze"}"#).unwrap();
+    assert_eq!(s.hetero.len(), 1);
+    assert_eq!(s.hetero[0].name(), "asset plume.haze");
 }
