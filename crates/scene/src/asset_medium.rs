@@ -197,11 +197,14 @@ impl Heterogeneous for AssetMedium {
 /// when it has none; `fine` (the reference) takes a quarter of that.
 pub fn march_options(scene: &crate::Scene, fine: bool) -> crate::march::MarchOptions {
     let mut opt = crate::march::MarchOptions::default();
-    for m in &scene.hetero {
-        if let Some(g) = m.voxels() {
-            let v = g.voxel.iter().fold(f64::INFINITY, |a, &b| a.min(b));
-            opt.step = opt.step.min(0.5 * v);
-        }
+    let voxel = scene
+        .hetero
+        .iter()
+        .filter_map(|m| m.voxels())
+        .flat_map(|g| g.voxel)
+        .fold(f64::INFINITY, f64::min);
+    if voxel.is_finite() {
+        opt.step = 0.5 * voxel;
     }
     if fine {
         opt.step *= 0.25;
