@@ -484,10 +484,7 @@ fn smoke_rises_through_the_fog_composited_by_depth() {
         .zip(&cpu)
         .filter(|(a, b)| (0..3).any(|c| (a[c] - b[c]).abs() > 0.01))
         .count();
-    assert!(
-        (10..=140).contains(&changed),
-        "{changed} pixels show smoke"
-    );
+    assert!((10..=140).contains(&changed), "{changed} pixels show smoke");
     let (mut off, mut largest) = (0, 0.0f32);
     for (a, b) in gpu.iter().zip(&cpu) {
         let e = (0..3).map(|c| (a[c] - b[c]).abs()).fold(0.0f32, f32::max);
