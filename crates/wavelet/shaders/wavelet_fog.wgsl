@@ -84,7 +84,12 @@ struct Level {
     _pad: u32,
 }
 
-@group(0) @binding(0) var<uniform> p: Params;
+// The parameters are a storage buffer, not a uniform one: Mesa's lavapipe inlines the
+// values of uniforms that steer branches and loops into the shader and compiles a new
+// variant for every new set of values (seconds of LLVM work each); the eye's x is among
+// them, so a fog drifting east–west (or a camera moving so) recompiled the shader on
+// every frame. Storage buffers are never inlined.
+@group(0) @binding(0) var<storage, read> p: Params;
 @group(0) @binding(1) var<storage, read> levels: array<Level>;
 // The basis pieces: piece j along axis a has coefficients pieces[3·(6a + j) + 0..3].
 @group(0) @binding(2) var<storage, read> pieces: array<f32>;

@@ -31,8 +31,9 @@ const MAX_GROUPS: u32 = 65_535;
 /// "Never" on the GPU, where infinities are best avoided: larger than any depth.
 const NEVER: f32 = 3.0e38;
 
-/// The shader's `Params` uniform in WGSL's layout (a `vec3` is 16-byte aligned and the
-/// scalar after it fills its fourth slot), 224 bytes.
+/// The shader's `Params` in WGSL's layout (a `vec3` is 16-byte aligned and the scalar
+/// after it fills its fourth slot), 224 bytes; bound as a read-only storage buffer, not a
+/// uniform one (the shader says why).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 struct Params {
@@ -681,7 +682,7 @@ impl FogRenderer {
                 ctx,
                 "wavelet fog params",
                 bytemuck::bytes_of(params),
-                wgpu::BufferUsages::UNIFORM,
+                wgpu::BufferUsages::STORAGE,
             );
             let buffers = [&uniform, &fog.levels, &fog.pieces, &fog.coef, output];
             let entries: Vec<wgpu::BindGroupEntry<'_>> = buffers
