@@ -7,7 +7,10 @@
 //! buffers, with the basis's polynomial pieces. Per frame, one invocation per pixel casts
 //! the pixel's ray, integrates the levels exactly cell by cell in their µ bands (eq. 11,
 //! 12) with the early exit on transmittance, and blends ground or sky with the fog's
-//! colour, as [`crate::render::shade`] does.
+//! colour, as [`crate::render::shade`] does. With a [`SmokeLayer`] (per pixel a smoke's
+//! radiance, transmittance and depth, [`FogRenderer::draw_over`]) the fog is integrated
+//! in two spans split at the smoke's depth and composited with it, as
+//! [`crate::render::shade_over`] does.
 //!
 //! Positions on the GPU are relative to the fogmap's south-west corner (and heights to the
 //! layer's bottom), computed in `f64` on the host, so a fog far from the world's origin
