@@ -400,6 +400,8 @@ pub struct ViewCli {
     lighting: LightingArg,
     #[command(flatten, next_help_heading = "Fog (with --fog)")]
     fog_model: crate::fog::FogModelArgs,
+    #[command(flatten, next_help_heading = "Smoke in the fog (with --fog)")]
+    fog_smoke: crate::fog_smoke::SmokeArgs,
 }
 
 impl ViewCli {
@@ -659,6 +661,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 // Present: the guard above.
                 fogmap: v.fog.unwrap_or_default(),
                 model: v.fog_model,
+                smoke: v.fog_smoke,
                 fps: v.fps,
                 width: v.size.0,
                 height: v.size.1,
@@ -667,6 +670,9 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 window: !v.no_window,
             })
         }
+        Command::View(v) if v.fog_smoke.smoke.is_some() => anyhow::bail!(
+            "--smoke shows a smoke asset in a fog: give --fog FOGMAP too (`haze view FILE.haze` shows the asset alone)"
+        ),
         Command::View(v) => match v.scene {
             Some(scene) => {
                 crate::viewer::scene_view::run(crate::viewer::scene_view::SceneViewArgs {

@@ -37,12 +37,19 @@ pub enum FogCommand {
     /// The fogmap is decomposed once: wind only moves the fog over the ground. FOGMAP may
     /// be a directory of numbered fogmaps: frame k shows fogmap k, decomposed again only
     /// when it differs from the previous frame's.
+    ///
+    /// --smoke FILE.haze shows a baked smoke frame in the fog (placed by --smoke-offset and
+    /// --smoke-scale in the fog's world: Z up, ground at z = 0), both media composited by
+    /// depth: with the smoke's radiance L_s, transmittance T_s and the opacity-weighted
+    /// mean depth d of the smoke along each pixel's ray, L = F[0,d] + T_f[0,d]·(L_s +
+    /// T_s·F[d,P]), the fog's two parts integrated exactly on either side of d.
     #[command(after_help = "Examples:\n  \
         haze fog wavelet data/fogmap/fogmap_128.png --out fog.png\n  \
         haze fog wavelet fog.exr --basis quadratic --levels 3 --mu 0.6 --out far.exr\n  \
         haze fog wavelet fog.png --eye 0,-80,6 --target 0,40,0 --density 0.3 --out low.png\n  \
         haze fog wavelet data/fogmap/fogmap_128.png --gpu --width 1920 --height 1080 --out hd.exr\n  \
-        haze fog wavelet fog.png --gpu --wind 3,1 --frames 48 --fps 24 --out drift.png")]
+        haze fog wavelet fog.png --gpu --wind 3,1 --frames 48 --fps 24 --out drift.png\n  \
+        haze fog wavelet data/fogmap/fogmap_128.png --smoke plume.haze --smoke-scale 3 --eye 0,-40,10 --target 0,0,5 --out smoke.png")]
     Wavelet(WaveletArgs),
 }
 
@@ -156,12 +163,15 @@ pub struct WaveletArgs {
     fogmap: PathBuf,
     #[command(flatten)]
     model: FogModelArgs,
+    #[command(flatten, next_help_heading = "Smoke in the fog")]
+    smoke: crate::fog_smoke::SmokeArgs,
     /// Output image: .exr (linear RGB, 32-bit float) or .png (sRGB, 8-bit).
     #[arg(long, short)]
     out: PathBuf,
     /// Integrate the detail bases as wavelets (the paper's Algorithm 1) instead of
     /// re-synthesizing them into one scaling basis per level; same image, slower, no
-    /// early exit.
+    /// early exit. CPU only: it is the reference the deconstructed levels (which --gpu
+    /// integrates) are tested against.
     #[arg(long)]
     direct: bool,
     /// Render on the GPU (headless; same image as the CPU's within f32 rounding).
@@ -239,7 +249,9 @@ fn wavelet(args: WaveletArgs) -> Result<()> {
         );
     }
     if args.gpu && args.direct {
-        bail!("--direct is CPU only: --gpu integrates the deconstructed levels");
+        bail!(
+            "--direct is CPU only: --gpu integrates the deconstructed levels, the same image faster (the direct wavelet integration is the CPU's reference)"
+        );
     }
     if !(args.time.is_finite() && args.fps.is_finite() && args.fps > 0.0) {
         bail!(
@@ -278,6 +290,15 @@ fn wavelet(args: WaveletArgs) -> Result<()> {
         .camera(args.width, args.height)
         .map_err(anyhow::Error::msg)?;
     let scene = args.model.scene();
+    // The smoke's layer: one camera for every frame, so computed once.
+    let smoke_at = Instant::now();
+    let smoke = match args.smoke.load()? {
+        Some(smoke) => {
+            let layer = smoke.layer(&frame);
+            Some((smoke.label, layer, smoke_at.elapsed().as_secs_f64()))
+        }
+        None => None,
+    };
     // The GPU's device, passes and uploaded levels, made once for every frame.
     let mut gpu = if args.gpu {
         Some(GpuFog::new(&fog)?)
@@ -333,11 +354,18 @@ fn wavelet(args: WaveletArgs) -> Result<()> {
         let pixels = match &mut gpu {
             Some(g) => {
                 g.fog.translate(by);
-                g.render(&camera, &scene, args.width, args.height)?
+                let layer = smoke.as_ref().map(|s| s.1.as_slice());
+                g.render(&camera, &scene, layer, args.width, args.height)?
             }
             None => {
                 let bar = rows_bar(args.height);
-                let px = haze_wavelet::render::render(&fog, &frame, &scene, &|| bar.inc(1));
+                let done = || bar.inc(1);
+                let px = match &smoke {
+                    Some((_, layer, _)) => {
+                        haze_wavelet::render::render_over(&fog, &frame, &scene, layer, &done)
+                    }
+                    None => haze_wavelet::render::render(&fog, &frame, &scene, &done),
+                };
                 bar.finish_and_clear();
                 px
             }
@@ -358,6 +386,9 @@ fn wavelet(args: WaveletArgs) -> Result<()> {
     }
     if files.len() > 1 {
         counts += &format!(" ({} fogmaps, {decompositions} decomposed)", files.len());
+    }
+    if let Some((label, _, seconds)) = &smoke {
+        counts += &format!(", with {label} (smoke lit and rendered in {seconds:.3} s)");
     }
     eprintln!(
         "{}: {} × {}, {} fogmap {} × {}, {} level{}, µ {}{}, decomposed in {:.3} s, rendered in {:.3} s{} ({:.2} Mrays/s, {})",
@@ -453,17 +484,23 @@ impl GpuFog {
         Ok(GpuFog { ctx, renderer, fog })
     }
 
-    /// One frame's linear RGB pixels.
+    /// One frame's linear RGB pixels, with a smoke layer composited by depth when given.
     fn render(
         &self,
         camera: &LookAt,
         scene: &Scene,
+        smoke: Option<&[haze_wavelet::render::SmokeSample]>,
         width: usize,
         height: usize,
     ) -> Result<Vec<[f32; 3]>> {
-        let pixels = self
-            .renderer
-            .render(&self.ctx, &self.fog, camera, scene, width, height)?;
+        let pixels = match smoke {
+            Some(layer) => self
+                .renderer
+                .render_over(&self.ctx, &self.fog, camera, scene, layer, width, height)?,
+            None => self
+                .renderer
+                .render(&self.ctx, &self.fog, camera, scene, width, height)?,
+        };
         Ok(pixels.iter().map(|p| [p[0], p[1], p[2]]).collect())
     }
 }

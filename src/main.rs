@@ -4,6 +4,7 @@ mod bake;
 mod cli;
 mod export;
 mod fog;
+mod fog_smoke;
 mod import_args;
 mod inspect;
 mod light_args;

@@ -55,14 +55,14 @@ pub struct RenderArgs {
 }
 
 /// A frame to render: its density, and its RBFs and residual when it has been fitted.
-struct FrameData {
-    density: Volume,
-    rbfs: Vec<Rbf>,
+pub(crate) struct FrameData {
+    pub(crate) density: Volume,
+    pub(crate) rbfs: Vec<Rbf>,
     /// `R` at every voxel (zero for an asset baked without a residual).
-    residual: Vec<f32>,
+    pub(crate) residual: Vec<f32>,
     /// An asset frame's slot in its hash volume, which the GPU looks up itself.
     slot: Option<ResidualSlot>,
-    label: String,
+    pub(crate) label: String,
 }
 
 pub fn run(a: RenderArgs) -> Result<()> {
@@ -300,7 +300,7 @@ fn load(a: &RenderArgs) -> Result<FrameData> {
     })
 }
 
-fn load_asset(path: &Path, frame: Option<i64>) -> Result<FrameData> {
+pub(crate) fn load_asset(path: &Path, frame: Option<i64>) -> Result<FrameData> {
     let asset = Asset::open(path)?;
     let numbers = &asset.header().source.frame_numbers;
     let k = match frame {

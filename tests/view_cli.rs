@@ -402,6 +402,33 @@ fn the_fog_flies_without_a_window() {
     assert!(out.contains("(GPU render, read back, sRGB) on "), "{out}");
 }
 
+/// `haze view --fog --smoke` without a window: the baked plume stands in the fog, its
+/// layer rendered again for every picture (the camera turns); `--smoke` without `--fog`
+/// is refused on one line.
+#[test]
+fn smoke_flies_in_the_fog_without_a_window() {
+    let dir = tempfile::tempdir().unwrap();
+    let asset = bake(dir.path());
+    let a = asset.to_str().unwrap();
+    let o = haze()
+        .args(["view", "--fog", &data("fogmap/fogmap_128.png")])
+        .args(["--smoke", a, "--smoke-frame", "22", "--smoke-scale", "4"])
+        .args(["--size", "64x48", "--no-window", "--play-for", "1"])
+        .timeout(std::time::Duration::from_secs(120))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    let out = String::from_utf8(o.stdout).unwrap();
+    let (pictures, _) = pictures(out.trim(), "64×48");
+    assert!(pictures >= 1, "{out}");
+    assert!(
+        out.contains("plume.haze frame 22 (smoke layer on the CPU)"),
+        "{out}"
+    );
+    fails(&["view", a, "--smoke", a], "give --fog FOGMAP too");
+}
+
 /// A fogmap that cannot be read, a sequence that cannot play, or knobs its fog refuses:
 /// one line naming the file and the problem, exit 1, before any device or window.
 #[test]

@@ -10,14 +10,21 @@
 //! rendered on the window's thread whenever the camera, a knob or the fog's animation
 //! changed (GPU render, read back, sRGB encoding; BENCHMARKS.md has its time on
 //! lavapipe).
+//!
+//! With `--smoke FILE.haze` a baked smoke frame stands in the fog (`crate::fog_smoke`:
+//! placement, lighting): whenever the camera moved, its layer (radiance, transmittance
+//! and depth per pixel) is rendered on the CPU and uploaded, and the GPU composites it
+//! with the fog by depth (`FogRenderer::draw_over`, the twin of
+//! `haze_wavelet::render::shade_over`).
 
 use super::fly::Fly;
 use crate::fog::FogModelArgs;
+use crate::fog_smoke::{Smoke, SmokeArgs};
 use anyhow::{Context, Result, anyhow, bail};
 use eframe::egui;
 use haze_camera::LookAt;
 use haze_wavelet::gpu::GpuContext;
-use haze_wavelet::gpu::fog::{FogImage, FogRenderer, GpuFog};
+use haze_wavelet::gpu::fog::{FogImage, FogRenderer, GpuFog, SmokeLayer};
 use haze_wavelet::render::Scene;
 use haze_wavelet::{Basis, Fog, Fogmap};
 use std::path::PathBuf;
@@ -30,6 +37,8 @@ pub struct FogViewArgs {
     /// A fogmap, or a directory of numbered fogmaps (an animation at `fps`).
     pub fogmap: PathBuf,
     pub model: FogModelArgs,
+    /// The smoke shown in the fog, if any.
+    pub smoke: SmokeArgs,
     /// Fogmaps per second of a sequence.
     pub fps: f64,
     /// Render resolution.
@@ -100,6 +109,8 @@ struct Renderer {
     moved: [f64; 2],
     /// Decompositions made (the first one included).
     decompositions: usize,
+    /// The smoke, its layer on the GPU and the view that layer is of.
+    smoke: Option<(Smoke, SmokeLayer, Option<LookAt>)>,
 }
 
 impl Renderer {
@@ -125,6 +136,7 @@ impl Renderer {
         model: FogModelArgs,
         knobs: &FogKnobs,
         (width, height): (usize, usize),
+        smoke: Option<Smoke>,
     ) -> Result<(Renderer, Fog)> {
         let fog = Renderer::decompose(&fogmaps[0], &model, knobs).map_err(|e| anyhow!(e))?;
         let ctx = GpuContext::new().map_err(|e| anyhow!("GPU: {e}"))?;
@@ -132,6 +144,15 @@ impl Renderer {
         let image = FogImage::new(&ctx, width, height).map_err(|e| anyhow!("{e}"))?;
         let uploaded = gpu.upload(&ctx, &fog).map_err(|e| anyhow!("GPU: {e}"))?;
         let scene = model.scene();
+        let smoke = match smoke {
+            Some(smoke) => {
+                let none = vec![haze_wavelet::render::SmokeSample::default(); width * height];
+                let layer =
+                    SmokeLayer::new(&ctx, &none, width, height).map_err(|e| anyhow!("{e}"))?;
+                Some((smoke, layer, None))
+            }
+            None => None,
+        };
         let r = Renderer {
             fogmaps,
             model,
@@ -144,6 +165,7 @@ impl Renderer {
             built_map: 0,
             moved: [0.0; 2],
             decompositions: 1,
+            smoke,
         };
         Ok((r, fog))
     }
@@ -169,9 +191,25 @@ impl Renderer {
         self.fog
             .translate([drift[0] - self.moved[0], drift[1] - self.moved[1]]);
         self.moved = drift;
-        self.gpu
-            .draw(&self.ctx, &self.fog, look, &self.scene, &self.image)
-            .map_err(|e| e.to_string())?;
+        match &mut self.smoke {
+            Some((smoke, layer, of)) => {
+                // The smoke's layer depends on the camera only.
+                if of.as_ref() != Some(look) {
+                    let [w, h] = self.image.size();
+                    let camera = look.camera(w, h)?;
+                    layer
+                        .write(&self.ctx, &smoke.layer(&camera))
+                        .map_err(|e| e.to_string())?;
+                    *of = Some(*look);
+                }
+                self.gpu
+                    .draw_over(&self.ctx, &self.fog, look, &self.scene, layer, &self.image)
+            }
+            None => self
+                .gpu
+                .draw(&self.ctx, &self.fog, look, &self.scene, &self.image),
+        }
+        .map_err(|e| e.to_string())?;
         let pixels = self.image.read(&self.ctx).map_err(|e| e.to_string())?;
         let [width, height] = self.image.size();
         let image = haze_view::Image {
@@ -234,7 +272,8 @@ pub fn run(a: FogViewArgs) -> Result<()> {
         exposure: a.exposure,
     };
     let name = a.fogmap.display().to_string();
-    let (mut renderer, fog) = Renderer::new(fogmaps, a.model, &knobs, (a.width, a.height))
+    let smoke = a.smoke.load()?;
+    let (mut renderer, fog) = Renderer::new(fogmaps, a.model, &knobs, (a.width, a.height), smoke)
         .with_context(|| name.clone())?;
     let [x0, x1, y0, y1] = fog.map_box();
     // Flying speed: a tenth of the fog's width per second.
@@ -335,6 +374,9 @@ fn summary(r: &Renderer, mut times: Vec<f64>, seconds: f64) -> String {
         1e3 * median,
         r.ctx.adapter_name()
     );
+    if let Some((smoke, ..)) = &r.smoke {
+        line += &format!("; with {} (smoke layer on the CPU)", smoke.label);
+    }
     if r.fogmaps.len() > 1 {
         line += &format!(
             "; {} fogmaps, {} decomposition{}",
@@ -390,6 +432,9 @@ impl FogApp {
         let (w, h) = self.renderer.size();
         ui.label(format!("{w} × {h}, {:.1} ms per picture", self.frame_ms));
         ui.label(format!("GPU: {}", self.renderer.ctx.adapter_name()));
+        if let Some((smoke, ..)) = &self.renderer.smoke {
+            ui.label(format!("smoke: {}", smoke.label));
+        }
         if let Some(e) = &self.error {
             ui.colored_label(egui::Color32::RED, e);
         }
@@ -595,8 +640,8 @@ mod tests {
             row.reverse();
         }
         let maps = vec![fogmap(), fogmap(), mirrored.clone()];
-        let (mut r, fog) =
-            Renderer::new(maps, model.clone(), &knobs, (w, h)).unwrap_or_else(|e| panic!("{e}"));
+        let (mut r, fog) = Renderer::new(maps, model.clone(), &knobs, (w, h), None)
+            .unwrap_or_else(|e| panic!("{e}"));
         let mut fly = Fly::looking(&haze_wavelet::render::framing(&fog)).unwrap();
         fly.fly(20.0, 5.0, -4.0);
         fly.turn(30.0, 10.0);

@@ -609,3 +609,61 @@ fn extreme_lights_stay_finite_and_physical() {
     let e = a.rel_rms(&b);
     assert!(e < 1e-3, "{e}");
 }
+
+/// The view pass as a layer: its radiance plus its transmittance times the background is
+/// the view pass's image; the depth is the opacity-weighted mean of the slice positions,
+/// which for a homogeneous slab seen head-on is `t0 + 1/σ − L·T/(1 − T)` (the mean of
+/// an exponential truncated to the slab's length `L`, `T = e^{−σL}`), up to the slices'
+/// discretization; a surface in front hides the smoke.
+#[test]
+fn the_view_layer_is_the_view_pass_split_into_smoke_and_background() {
+    use haze_view::render::crm::{VolumeGrids, default_slice, view_layer, view_pass};
+    use haze_volume::Volume;
+    let n = 8;
+    let bbox = Bbox::new([-1.0, -1.0, 2.0], [1.0, 1.0, 4.0]);
+    let density = Volume::new([n; 3], bbox, vec![1.0; n * n * n]).unwrap();
+    let grids = VolumeGrids {
+        density,
+        radiance: vec![[0.7, 0.4, 0.2]; n * n * n],
+    };
+    let medium = Medium::new(0.9, 0.8, 0.0).unwrap();
+    let env = Environment::sky(Sky::default());
+    // Looking straight down at the slab from z = 6: the centre pixel crosses z 4 → 2.
+    let camera = Camera::new(
+        [0.0, 0.0, 6.0],
+        [0.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        60.0,
+        9,
+        9,
+    )
+    .unwrap();
+    let du = default_slice([n; 3], &bbox) / 4.0;
+    let image = view_pass(&grids, &medium, &env, &camera, du);
+    let layer = view_layer(&grids, &medium, &camera, du, &|_| f64::INFINITY);
+    for (i, (px, s)) in image.iter().zip(&layer).enumerate() {
+        let bg = env.radiance(camera.pixel_ray(i % 9, i / 9));
+        for c in 0..3 {
+            let want = f64::from(s.radiance[c]) + f64::from(s.transmittance) * bg[c];
+            assert!((f64::from(px[c]) - want).abs() < 1e-6, "pixel {i}");
+        }
+    }
+    let centre = layer[4 * 9 + 4];
+    let (sigma, len): (f64, f64) = (0.9, 2.0);
+    let t = (-sigma * len).exp();
+    let want = 2.0 + 1.0 / sigma - len * t / (1.0 - t);
+    assert!(
+        (f64::from(centre.depth) - want).abs() < 0.02,
+        "depth {} vs {want}",
+        centre.depth
+    );
+    assert!((f64::from(centre.transmittance) - t).abs() < 1e-3);
+    // A corner pixel misses the box: nothing, at depth 0.
+    assert_eq!(
+        (layer[0].transmittance, layer[0].radiance, layer[0].depth),
+        (1.0, [0.0; 3], 0.0)
+    );
+    // A surface 1 unit in front of the slab hides it.
+    let hidden = view_layer(&grids, &medium, &camera, du, &|_| 1.0);
+    assert!(hidden.iter().all(|s| s.transmittance == 1.0));
+}

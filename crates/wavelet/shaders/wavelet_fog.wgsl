@@ -18,7 +18,12 @@
 // fog far from the world origin keeps f32 precision; grid coordinates of level l are
 // (x/cell + d/2)/scale_l.
 //
-// Output per pixel: (r, g, b, τ); per ray: (optical depth, 0, 0, 0).
+// With a smoke layer (radiance L_s, transmittance T_s and depth d per pixel, `smoke`), the
+// fog is integrated in two spans split at d, with the µ bands of the whole ray, and
+// L = F[0, d] + T_f[0, d]·(L_s + T_s·F[d, P]) (`render::shade_over`).
+//
+// Output per pixel: (r, g, b, τ) (τ of fog and smoke together); per ray: (optical depth,
+// 0, 0, 0).
 
 struct Params {
     eye: vec3<f32>,
@@ -58,6 +63,11 @@ struct Params {
     // Scaling basis: cell of coefficient 0's first piece, pieces per function.
     first: vec2<i32>,
     support: vec2<i32>,
+    // 1: composite the smoke layer `smoke` by depth (`main`), 0: no smoke.
+    layer: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 struct Level {
@@ -74,7 +84,12 @@ struct Level {
     _pad: u32,
 }
 
-@group(0) @binding(0) var<uniform> p: Params;
+// The parameters are a storage buffer, not a uniform one: Mesa's lavapipe inlines the
+// values of uniforms that steer branches and loops into the shader and compiles a new
+// variant for every new set of values (seconds of LLVM work each); the eye's x is among
+// them, so a fog drifting east–west (or a camera moving so) recompiled the shader on
+// every frame. Storage buffers are never inlined.
+@group(0) @binding(0) var<storage, read> p: Params;
 @group(0) @binding(1) var<storage, read> levels: array<Level>;
 // The basis pieces: piece j along axis a has coefficients pieces[3·(6a + j) + 0..3].
 @group(0) @binding(2) var<storage, read> pieces: array<f32>;
@@ -92,6 +107,10 @@ struct Query {
 }
 
 @group(0) @binding(5) var<storage, read> queries: array<Query>;
+
+// The smoke layer of `main`, two entries per pixel (x fastest, row 0 on top): the smoke's
+// radiance and transmittance (L_s, T_s), then its representative depth d (in x).
+@group(0) @binding(6) var<storage, read> smoke: array<vec4<f32>>;
 
 // A polynomial of degree ≤ 4 in σ (or the moments M_0 … M_4): coefficients 0–3 in `lo`,
 // 4 in `hi`. Vectors rather than arrays: a local array indexed at run time lives in
@@ -340,7 +359,14 @@ fn fog_interval(o: vec3<f32>, d: vec3<f32>, len: f32) -> vec2<f32> {
 
 // `Fog::depth`: density·∫ f h along o + t·d, t ∈ [0, len], d unit.
 fn depth(o: vec3<f32>, d: vec3<f32>, len: f32) -> f32 {
-    let iv = fog_interval(o, d, len);
+    return depth_span(o, d, len, 0.0, len);
+}
+
+// `Fog::depth_span`: density·∫ f h along o + t·d over t ∈ [t0, t1] ⊂ [0, len], with the µ
+// bands of the whole ray (len = |OP|), so that spans split at any s add up to `depth`.
+fn depth_span(o: vec3<f32>, d: vec3<f32>, len: f32, t0: f32, t1: f32) -> f32 {
+    var iv = fog_interval(o, d, len);
+    iv = vec2<f32>(max(iv.x, t0), min(iv.y, t1));
     if !(iv.y > iv.x) || p.density == 0.0 {
         return 0.0;
     }
@@ -401,7 +427,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let dir = normalize(p.forward + sx * p.right + sy * p.up);
     let eye = p.eye;
     var surface: vec3<f32>;
-    var od: f32;
+    // |OP|: to the ground, or to where a sky ray leaves the fog (0 if it never enters).
+    var len = 0.0;
     // The ground is at relative height ground_z; the eye is above it when eye.z > ground_z.
     if eye.z > p.ground_z && dir.z < 0.0 {
         let t = (p.ground_z - eye.z) / dir.z;
@@ -410,17 +437,31 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         let a = floor(q.x / p.checker) + floor(q.y / p.checker);
         let parity = a - 2.0 * floor(a / 2.0);
         surface = select(p.ground0, p.ground1, parity >= 1.0);
-        od = depth(eye, dir, t);
+        len = t;
     } else {
         let e = sqrt(clamp(dir.z, 0.0, 1.0));
         surface = p.horizon + (p.zenith - p.horizon) * e;
-        od = depth_to_exit(eye, dir);
+        let iv = fog_interval(eye, dir, 3.0e38);
+        len = select(0.0, iv.y, iv.y > iv.x);
     }
-    // e^{−88} ≈ 6e-39 is below f32's normal range: a larger depth (even one that
-    // overflowed to infinity) gives the same τ ≈ 0.
-    let tau = exp(-min(od, 88.0));
-    let c = tau * surface + (1.0 - tau) * p.fog;
-    result[gid.x + p.image.x * gid.y] = vec4<f32>(c, tau);
+    let i = gid.x + p.image.x * gid.y;
+    if p.layer == 0u {
+        // e^{−88} ≈ 6e-39 is below f32's normal range: a larger depth (even one that
+        // overflowed to infinity) gives the same τ ≈ 0.
+        let tau = exp(-min(depth(eye, dir, len), 88.0));
+        let c = tau * surface + (1.0 - tau) * p.fog;
+        result[i] = vec4<f32>(c, tau);
+        return;
+    }
+    // `render::shade_over`: the fog split at the smoke's depth s,
+    // L = F[0, s] + T_f[0, s]·(L_s + T_s·F[s, P]).
+    let ls = smoke[2u * i];
+    let s = clamp(smoke[2u * i + 1u].x, 0.0, len);
+    let front = exp(-min(depth_span(eye, dir, len, 0.0, s), 88.0));
+    let back = exp(-min(depth_span(eye, dir, len, s, len), 88.0));
+    let behind = (1.0 - back) * p.fog + back * surface;
+    let c = (1.0 - front) * p.fog + front * (ls.xyz + ls.w * behind);
+    result[i] = vec4<f32>(c, front * ls.w * back);
 }
 
 @compute @workgroup_size(64, 1, 1)

@@ -346,6 +346,26 @@ impl Fog {
         }
     }
 
+    /// Where a ray from `o` along unit `d` leaves the fog (0 if it never enters it): the
+    /// length `|OP|` of a sky ray ([`Fog::optical_depth_ray`]).
+    pub fn exit_distance(&self, o: [f64; 3], d: [f64; 3]) -> f64 {
+        self.fog_interval(o, d, f64::INFINITY)
+            .map_or(0.0, |(_, tb)| tb)
+    }
+
+    /// Optical depth of the part `t ∈ [t0, t1]` of the ray `o + t·d` (`d` unit) whose end
+    /// `P` is at `t = len`: the levels' µ bands are those of the whole ray (`|OP|·µ^l`,
+    /// eq. 12), so for `0 ≤ s ≤ len` the spans `[0, s]` and `[s, len]` add up to
+    /// [`Fog::optical_depth`] of `O, P` (exactly, up to rounding, when no early exit
+    /// happens: every level is integrated cell by cell and a cell cut at `s` is two exact
+    /// integrals). The early exit applies to the span on its own.
+    pub fn optical_depth_span(&self, o: [f64; 3], d: [f64; 3], len: f64, t0: f64, t1: f64) -> f64 {
+        if !(len.is_finite() && len > 0.0 && t1 > t0) {
+            return 0.0;
+        }
+        self.depth_span(o, d, len, t0.max(0.0), t1.min(len))
+    }
+
     /// Transmittance `τ = e^{−depth}` of a segment.
     pub fn transmittance(&self, o: [f64; 3], p: [f64; 3]) -> f64 {
         (-self.optical_depth(o, p)).exp()
@@ -384,9 +404,19 @@ impl Fog {
 
     /// `density · ∫ f h` along `o + t·d`, `t ∈ [0, len]`, `d` unit, `len = |OP|`.
     fn depth(&self, o: [f64; 3], d: [f64; 3], len: f64) -> f64 {
+        self.depth_span(o, d, len, 0.0, len)
+    }
+
+    /// `density · ∫ f h` along `o + t·d` over `t ∈ [t0, t1] ⊂ [0, len]`, `d` unit, with the
+    /// µ bands of `len = |OP|`.
+    fn depth_span(&self, o: [f64; 3], d: [f64; 3], len: f64, t0: f64, t1: f64) -> f64 {
         let Some((ta, tb)) = self.fog_interval(o, d, len) else {
             return 0.0;
         };
+        let (ta, tb) = (ta.max(t0), tb.min(t1));
+        if tb <= ta {
+            return 0.0;
+        }
         if self.placement.density == 0.0 {
             return 0.0;
         }

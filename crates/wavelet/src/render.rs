@@ -11,9 +11,14 @@
 //! [`shade`] is the whole per-pixel computation — one ray, one call to the fog's
 //! integrator, one blend — with no allocation, so a fragment shader can mirror it; rows
 //! are shaded in parallel with rayon.
+//!
+//! [`shade_over`] composites a second participating medium — smoke, given per pixel as
+//! its radiance, transmittance and a representative depth — with the fog, splitting the
+//! fog's integral at that depth.
 
 use crate::lod::Fog;
 use haze_camera::{Camera, LookAt};
+pub use haze_view::render::crm::SmokeSample;
 use rayon::prelude::*;
 
 /// A view that frames a fog from above the ground: from beyond the middle of the south
@@ -59,21 +64,81 @@ impl Default for Scene {
     }
 }
 
+/// Distance along unit `dir` from `eye` to the ground `z = 0`, if the ray meets it (the
+/// eye above the ground, looking down).
+pub fn ground_distance(eye: [f64; 3], dir: [f64; 3]) -> Option<f64> {
+    (eye[2] > 0.0 && dir[2] < 0.0).then(|| -eye[2] / dir[2])
+}
+
+/// The ground's colour at a point of it.
+fn ground_colour(scene: &Scene, p: [f64; 2]) -> [f64; 3] {
+    let parity = ((p[0] / scene.checker).floor() + (p[1] / scene.checker).floor()).rem_euclid(2.0);
+    scene.ground[usize::from(parity >= 1.0)]
+}
+
+/// The sky's colour along unit `dir`.
+fn sky_colour(scene: &Scene, dir: [f64; 3]) -> [f64; 3] {
+    let e = dir[2].clamp(0.0, 1.0).sqrt();
+    [0, 1, 2].map(|c| scene.horizon[c] + (scene.zenith[c] - scene.horizon[c]) * e)
+}
+
 /// Radiance of the pixel whose ray leaves `eye` along unit `dir`.
 pub fn shade(fog: &Fog, scene: &Scene, eye: [f64; 3], dir: [f64; 3]) -> [f64; 3] {
-    let (surface, tau) = if eye[2] > 0.0 && dir[2] < 0.0 {
-        let t = -eye[2] / dir[2];
-        let p = [eye[0] + t * dir[0], eye[1] + t * dir[1], 0.0];
-        let parity =
-            ((p[0] / scene.checker).floor() + (p[1] / scene.checker).floor()).rem_euclid(2.0);
-        let colour = scene.ground[usize::from(parity >= 1.0)];
-        (colour, (-fog.optical_depth(eye, p)).exp())
-    } else {
-        let e = dir[2].clamp(0.0, 1.0).sqrt();
-        let sky = [0, 1, 2].map(|c| scene.horizon[c] + (scene.zenith[c] - scene.horizon[c]) * e);
-        (sky, (-fog.optical_depth_ray(eye, dir)).exp())
+    let (surface, tau) = match ground_distance(eye, dir) {
+        Some(t) => {
+            let p = [eye[0] + t * dir[0], eye[1] + t * dir[1], 0.0];
+            (
+                ground_colour(scene, [p[0], p[1]]),
+                (-fog.optical_depth(eye, p)).exp(),
+            )
+        }
+        None => (
+            sky_colour(scene, dir),
+            (-fog.optical_depth_ray(eye, dir)).exp(),
+        ),
     };
     [0, 1, 2].map(|c| tau * surface[c] + (1.0 - tau) * scene.fog[c])
+}
+
+/// Radiance of the pixel whose ray leaves `eye` along unit `dir` with a second medium,
+/// smoke, composited by depth (its layer `smoke`: radiance `L_s`, transmittance `T_s`,
+/// depth `d`, see [`SmokeSample`]).
+///
+/// Along the ray both media emit and absorb; with the smoke taken as concentrated at its
+/// representative depth `d`, the fog in front of `d` attenuates the smoke and everything
+/// behind it, and the smoke attenuates the fog behind it and the ground or sky:
+///
+/// `L = F[0, d] + T_f[0, d]·(L_s + T_s·F[d, P])`,
+///
+/// with `T_f[a, b] = e^{−∫_a^b K_t}` and, the fog's in-scattered radiance being the
+/// constant `L_fog`, `F[a, b] = (1 − T_f[a, b])·L_fog` in front and
+/// `F[d, P] = (1 − T_f[d, P])·L_fog + T_f[d, P]·L(P)` with the ground or sky behind.
+/// Both fog parts come from [`Fog::optical_depth_span`] with the µ bands of the whole ray,
+/// so without smoke (`L_s = 0`, `T_s = 1`) this is [`shade`] for any `d`: splitting the
+/// fog at `d` is exact. `d` is clamped to `[0, |OP|]`.
+pub fn shade_over(
+    fog: &Fog,
+    scene: &Scene,
+    eye: [f64; 3],
+    dir: [f64; 3],
+    smoke: &SmokeSample,
+) -> [f64; 3] {
+    let (surface, len) = match ground_distance(eye, dir) {
+        Some(t) => (
+            ground_colour(scene, [eye[0] + t * dir[0], eye[1] + t * dir[1]]),
+            t,
+        ),
+        None => (sky_colour(scene, dir), fog.exit_distance(eye, dir)),
+    };
+    let s = f64::from(smoke.depth).clamp(0.0, len);
+    let front = (-fog.optical_depth_span(eye, dir, len, 0.0, s)).exp();
+    let back = (-fog.optical_depth_span(eye, dir, len, s, len)).exp();
+    let ts = f64::from(smoke.transmittance);
+    [0, 1, 2].map(|c| {
+        let lf = scene.fog[c];
+        let behind = (1.0 - back) * lf + back * surface[c];
+        (1.0 - front) * lf + front * (f64::from(smoke.radiance[c]) + ts * behind)
+    })
 }
 
 /// Renders the camera's `width × height` pixels, row 0 on top, linear RGB; `row_done` is
@@ -93,6 +158,36 @@ pub fn render(
             for (x, px) in row.iter_mut().enumerate() {
                 let dir = camera.pixel_ray(x, y);
                 *px = shade(fog, scene, camera.eye, dir).map(|c| c as f32);
+            }
+            row_done();
+        });
+    pixels
+}
+
+/// [`render`] with a smoke layer composited by depth ([`shade_over`]): `smoke` holds one
+/// [`SmokeSample`] per pixel of the camera, row 0 on top, computed with the same camera
+/// (e.g. `haze_view::render::crm::view_layer` with [`ground_distance`] as the rays' end).
+///
+/// # Panics
+/// If `smoke` does not have one sample per pixel.
+pub fn render_over(
+    fog: &Fog,
+    camera: &Camera,
+    scene: &Scene,
+    smoke: &[SmokeSample],
+    row_done: &(dyn Fn() + Sync),
+) -> Vec<[f32; 3]> {
+    let (width, height) = (camera.width, camera.height);
+    assert_eq!(smoke.len(), width * height, "one smoke sample per pixel");
+    let mut pixels = vec![[0.0f32; 3]; width * height];
+    pixels
+        .par_chunks_mut(width.max(1))
+        .enumerate()
+        .for_each(|(y, row)| {
+            for (x, px) in row.iter_mut().enumerate() {
+                let dir = camera.pixel_ray(x, y);
+                let layer = &smoke[y * width + x];
+                *px = shade_over(fog, scene, camera.eye, dir, layer).map(|c| c as f32);
             }
             row_done();
         });

@@ -20,7 +20,7 @@ use haze_camera::LookAt;
 use haze_wavelet::gpu::GpuContext;
 use haze_wavelet::gpu::fog::{FogRenderer, RayQuery};
 use haze_wavelet::lod::{Fog, Mode, Settings};
-use haze_wavelet::render::{self, Scene};
+use haze_wavelet::render::{self, Scene, SmokeSample};
 use haze_wavelet::{Basis, Grid, Placement};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
@@ -371,6 +371,92 @@ fn images_match_the_cpu_renderer() {
             assert!(foggy > w * h / 10, "{basis}: {foggy} foggy pixels");
         }
     }
+}
+
+/// A smoke layer composited by depth: the GPU's pixels are the CPU's
+/// (`render::render_over`), for random smoke radiances, transmittances and depths (in
+/// front of the fog, inside it, behind the ground), every basis, µ < 1 (whose bands are
+/// the whole ray's on both sides of the split), from above and from inside the fog.
+#[test]
+fn smoke_composited_by_depth_matches_the_cpu() {
+    let ctx = context();
+    let gpu = FogRenderer::new(&ctx).unwrap();
+    let scene = Scene::default();
+    let min_t = 1.0 / 1024.0;
+    let (w, h) = (40, 30);
+    let mut rng = Pcg64::seed_from_u64(41);
+    let smoke: Vec<SmokeSample> = (0..w * h)
+        .map(|i| SmokeSample {
+            radiance: [0; 3].map(|_| rng.random_range(0.0..0.6)),
+            // Every fourth pixel has no smoke.
+            transmittance: if i % 4 == 0 {
+                1.0
+            } else {
+                rng.random_range(0.0..1.0)
+            },
+            depth: rng.random_range(0.0..40.0),
+        })
+        .collect();
+    for basis in [Basis::Haar, Basis::Linear, Basis::Quadratic] {
+        let fog = fog(basis, 2, 0.6, PLACEMENT, min_t);
+        let up = gpu.upload(&ctx, &fog).unwrap();
+        let inside = LookAt {
+            eye: [2.0, 6.0, 1.6],
+            target: [3.0, 20.0, 1.2],
+            up: [0.0, 0.0, 1.0],
+            fov_deg: 70.0,
+        };
+        for cam in [render::framing(&fog), inside] {
+            let camera = cam.camera(w, h).unwrap();
+            let want = render::render_over(&fog, &camera, &scene, &smoke, &|| {});
+            let got = gpu
+                .render_over(&ctx, &up, &cam, &scene, &smoke, w, h)
+                .unwrap();
+            let mut split = 0;
+            for y in 0..h {
+                for x in 0..w {
+                    let i = y * w + x;
+                    let (_, ground) = cpu_pixel_tau(&fog, &cam, x, y, w, h);
+                    let on_line = ground.is_some_and(|p| {
+                        p.iter().any(|c| {
+                            let r = c / scene.checker;
+                            (r - r.round()).abs() < 1e-4
+                        })
+                    });
+                    if on_line {
+                        continue;
+                    }
+                    let d = camera.pixel_ray(x, y);
+                    let len = render::ground_distance(camera.eye, d)
+                        .unwrap_or_else(|| fog.exit_distance(camera.eye, d));
+                    let s = f64::from(smoke[i].depth);
+                    split += usize::from(
+                        s < len && fog.optical_depth_span(camera.eye, d, len, 0.0, s) > 0.01,
+                    );
+                    for c in 0..3 {
+                        let e = (f64::from(got[i][c]) - f64::from(want[i][c])).abs();
+                        assert!(
+                            e <= 2.0 * min_t + 1e-5,
+                            "{basis} ({x}, {y}) channel {c}: {} vs {}",
+                            got[i][c],
+                            want[i][c]
+                        );
+                    }
+                }
+            }
+            assert!(
+                split > w * h / 10,
+                "{basis}: {split} pixels split inside fog"
+            );
+        }
+    }
+    // A layer of another size is refused.
+    let fog = fog(Basis::Linear, 1, 1.0, PLACEMENT, min_t);
+    let up = gpu.upload(&ctx, &fog).unwrap();
+    let e = gpu
+        .render_over(&ctx, &up, &render::framing(&fog), &scene, &smoke, w + 1, h)
+        .unwrap_err();
+    assert!(e.to_string().contains("smoke layer"), "{e}");
 }
 
 #[test]

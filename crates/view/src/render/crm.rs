@@ -149,7 +149,7 @@ pub fn volume_pass(
 /// D·J̃` over the trilinear `D`, with the same stencil as [`field::sample`] (so a sample
 /// between a smoke voxel and an empty one keeps the smoke's source radiance instead of
 /// halving it, which darkened thin smoke and edges).
-fn sample_radiance(g: &VolumeGrids, p: [f64; 3]) -> Rgb {
+pub fn sample_radiance(g: &VolumeGrids, p: [f64; 3]) -> Rgb {
     let v = &g.density;
     let b = v.bbox();
     let d = v.dims();
@@ -195,6 +195,83 @@ fn sample_radiance(g: &VolumeGrids, p: [f64; 3]) -> Rgb {
 /// than this fraction of the remaining light).
 pub const OPAQUE: f64 = 1e-4;
 
+/// What the smoke adds along one pixel's ray, for compositing with other media: the
+/// smoke's own radiance `L_s = Σ_i J̃(u_i)(1 − Δτ_i) Π_{j<i} Δτ_j` (no background), its
+/// transmittance `T_s = Π Δτ_i`, and a representative depth `d` (distance from the eye).
+///
+/// `d` is the opacity-weighted mean of the slice positions,
+/// `d = Σ_i t_i w_i / Σ_i w_i` with `w_i = (1 − Δτ_i) Π_{j<i} Δτ_j`: the discrete
+/// `∫ t σt D(t) T_s(0, t) dt / (1 − T_s)`, the mean distance at which the smoke absorbs
+/// or scatters the light coming along the ray (the density of that event is
+/// `σt D(t) T_s(0, t)`, of total mass `1 − T_s`). When the smoke's source radiance `J̃` is
+/// constant along the ray, the same weights are those of its emission, so `d` is also
+/// where `L_s` comes from on average. Another medium that is split at `d` — its part in
+/// front of `d` attenuating `L_s`, its part behind attenuated by `T_s` — is composited
+/// exactly when the smoke is a thin sheet at `d`, and to first order in that medium's
+/// optical depth across the smoke otherwise. A ray that meets no smoke has `L_s = 0`,
+/// `T_s = 1` and `d = 0` (any split is then exact).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SmokeSample {
+    /// `L_s`, linear RGB.
+    pub radiance: [f32; 3],
+    /// `T_s`.
+    pub transmittance: f32,
+    /// `d`, world length from the eye.
+    pub depth: f32,
+}
+
+/// The view pass along one ray from `eye` along unit `d` (camera axis `axis`, slice
+/// thickness `du`), stopping at `t_end` (an opaque surface; `∞` for none).
+fn march(
+    g: &VolumeGrids,
+    medium: &Medium,
+    eye: [f64; 3],
+    d: [f64; 3],
+    axis: [f64; 3],
+    du: f64,
+    t_end: f64,
+) -> ([f64; 3], f64, f64) {
+    let bbox = *g.density.bbox();
+    let cos_g = (d[0] * axis[0] + d[1] * axis[1] + d[2] * axis[2]).max(1e-6);
+    let Some((t0, t1)) = field::ray_box(eye, d, &bbox) else {
+        return ([0.0; 3], 1.0, 0.0);
+    };
+    let t1 = t1.min(t_end);
+    let ds = du / cos_g;
+    // Slice planes at axis distances k·du from the eye; the ray meets plane k at
+    // t = k·du / cos γ.
+    let k0 = (t0 * cos_g / du).floor() as i64;
+    let k1 = (t1 * cos_g / du).ceil() as i64;
+    let (mut tau, mut out) = (1.0f64, [0.0f64; 3]);
+    let (mut depth, mut weight) = (0.0f64, 0.0f64);
+    for k in k0.max(0)..=k1 {
+        let t = (k as f64 + 0.5) * ds;
+        if t < t0 || t > t1 {
+            continue;
+        }
+        let p = [eye[0] + t * d[0], eye[1] + t * d[1], eye[2] + t * d[2]];
+        let dens = field::sample(&g.density, p);
+        if dens <= 0.0 {
+            continue;
+        }
+        let dt = (-medium.sigma_t * dens * ds).exp();
+        let j = sample_radiance(g, p);
+        let w = tau * (1.0 - dt);
+        for c in 0..3 {
+            out[c] += w * j[c];
+        }
+        depth += w * t;
+        weight += w;
+        tau *= dt;
+        if tau < OPAQUE {
+            tau = 0.0;
+            break;
+        }
+    }
+    let depth = if weight > 0.0 { depth / weight } else { 0.0 };
+    (out, tau, depth)
+}
+
 /// View pass: the image of the volume-pass grids, slice thickness `du` (world units).
 pub fn view_pass(
     g: &VolumeGrids,
@@ -203,47 +280,41 @@ pub fn view_pass(
     camera: &Camera,
     du: f64,
 ) -> Vec<[f32; 3]> {
-    let (w, h) = (camera.width, camera.height);
+    let w = camera.width;
     let axis = camera.forward();
-    let bbox = *g.density.bbox();
-    (0..w * h)
+    (0..w * camera.height)
         .into_par_iter()
         .map(|i| {
             let d = camera.pixel_ray(i % w, i / w);
             let background = env.radiance(d);
-            let cos_g = (d[0] * axis[0] + d[1] * axis[1] + d[2] * axis[2]).max(1e-6);
-            let Some((t0, t1)) = field::ray_box(camera.eye, d, &bbox) else {
-                return background.map(|c| c as f32);
-            };
-            let ds = du / cos_g;
-            // Slice planes at axis distances k·du from the eye; the ray meets plane k at
-            // t = k·du / cos γ.
-            let e = camera.eye;
-            let k0 = (t0 * cos_g / du).floor() as i64;
-            let k1 = (t1 * cos_g / du).ceil() as i64;
-            let (mut tau, mut out) = (1.0f64, [0.0f64; 3]);
-            for k in k0.max(0)..=k1 {
-                let t = (k as f64 + 0.5) * ds;
-                if t < t0 || t > t1 {
-                    continue;
-                }
-                let p = [e[0] + t * d[0], e[1] + t * d[1], e[2] + t * d[2]];
-                let dens = field::sample(&g.density, p);
-                if dens <= 0.0 {
-                    continue;
-                }
-                let dt = (-medium.sigma_t * dens * ds).exp();
-                let j = sample_radiance(g, p);
-                for c in 0..3 {
-                    out[c] += tau * j[c] * (1.0 - dt);
-                }
-                tau *= dt;
-                if tau < OPAQUE {
-                    tau = 0.0;
-                    break;
-                }
-            }
+            let (out, tau, _) = march(g, medium, camera.eye, d, axis, du, f64::INFINITY);
             [0, 1, 2].map(|c| (out[c] + tau * background[c]) as f32)
+        })
+        .collect()
+}
+
+/// The view pass as a layer ([`SmokeSample`] per pixel, row 0 on top) for compositing
+/// with another medium; `t_end(d)` is where the ray along unit `d` from the eye meets an
+/// opaque surface (`f64::INFINITY` for none), beyond which the smoke is hidden.
+pub fn view_layer(
+    g: &VolumeGrids,
+    medium: &Medium,
+    camera: &Camera,
+    du: f64,
+    t_end: &(dyn Fn([f64; 3]) -> f64 + Sync),
+) -> Vec<SmokeSample> {
+    let w = camera.width;
+    let axis = camera.forward();
+    (0..w * camera.height)
+        .into_par_iter()
+        .map(|i| {
+            let d = camera.pixel_ray(i % w, i / w);
+            let (out, tau, depth) = march(g, medium, camera.eye, d, axis, du, t_end(d));
+            SmokeSample {
+                radiance: out.map(|c| c as f32),
+                transmittance: tau as f32,
+                depth: depth as f32,
+            }
         })
         .collect()
 }

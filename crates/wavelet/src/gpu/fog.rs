@@ -7,7 +7,10 @@
 //! buffers, with the basis's polynomial pieces. Per frame, one invocation per pixel casts
 //! the pixel's ray, integrates the levels exactly cell by cell in their µ bands (eq. 11,
 //! 12) with the early exit on transmittance, and blends ground or sky with the fog's
-//! colour, as [`crate::render::shade`] does.
+//! colour, as [`crate::render::shade`] does. With a [`SmokeLayer`] (per pixel a smoke's
+//! radiance, transmittance and depth, [`FogRenderer::draw_over`]) the fog is integrated
+//! in two spans split at the smoke's depth and composited with it, as
+//! [`crate::render::shade_over`] does.
 //!
 //! Positions on the GPU are relative to the fogmap's south-west corner (and heights to the
 //! layer's bottom), computed in `f64` on the host, so a fog far from the world's origin
@@ -15,7 +18,7 @@
 
 use super::{GpuContext, GpuError};
 use crate::lod::{Fog, MAX_LEVELS, Mode};
-use crate::render::Scene;
+use crate::render::{Scene, SmokeSample};
 use haze_camera::LookAt;
 use haze_view::gpu::buffer_init;
 
@@ -31,8 +34,9 @@ const MAX_GROUPS: u32 = 65_535;
 /// "Never" on the GPU, where infinities are best avoided: larger than any depth.
 const NEVER: f32 = 3.0e38;
 
-/// The shader's `Params` uniform in WGSL's layout (a `vec3` is 16-byte aligned and the
-/// scalar after it fills its fourth slot), 208 bytes.
+/// The shader's `Params` in WGSL's layout (a `vec3` is 16-byte aligned and the scalar
+/// after it fills its fourth slot), 224 bytes; bound as a read-only storage buffer, not a
+/// uniform one (the shader says why).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 struct Params {
@@ -63,6 +67,8 @@ struct Params {
     degree: u32,
     first: [i32; 2],
     support: [i32; 2],
+    layer: u32,
+    _pad: [u32; 3],
 }
 
 /// The shader's `Level`: 48 bytes.
@@ -113,6 +119,76 @@ pub enum RayQuery {
 pub struct FogRenderer {
     image: wgpu::ComputePipeline,
     depths: wgpu::ComputePipeline,
+    /// Bound as the smoke layer when there is none (never read).
+    no_smoke: wgpu::Buffer,
+}
+
+/// A smoke layer on the GPU, composited by depth with the fog by
+/// [`FogRenderer::draw_over`]: per pixel the smoke's radiance, transmittance and depth
+/// ([`SmokeSample`], as [`crate::render::shade_over`] takes it).
+#[derive(Debug)]
+pub struct SmokeLayer {
+    buffer: wgpu::Buffer,
+    width: u32,
+    height: u32,
+}
+
+impl SmokeLayer {
+    /// A layer of `width × height` pixels holding `samples` (row 0 on top).
+    pub fn new(
+        ctx: &GpuContext,
+        samples: &[SmokeSample],
+        width: usize,
+        height: usize,
+    ) -> Result<SmokeLayer, GpuError> {
+        if samples.len() != width * height || samples.is_empty() {
+            return Err(GpuError::Input(format!(
+                "a smoke layer of {} samples for {width} × {height} pixels",
+                samples.len()
+            )));
+        }
+        let bytes = (samples.len() * 32) as u64;
+        ctx.check_storage_size("the smoke layer", bytes)?;
+        let buffer = ctx.scoped("smoke layer", || {
+            buffer_init(
+                ctx,
+                "smoke layer",
+                bytemuck::cast_slice(&Self::pack(samples)),
+                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            )
+        })?;
+        Ok(SmokeLayer {
+            buffer,
+            width: width as u32,
+            height: height as u32,
+        })
+    }
+
+    /// Replaces the samples (same size) without a new buffer.
+    pub fn write(&self, ctx: &GpuContext, samples: &[SmokeSample]) -> Result<(), GpuError> {
+        if samples.len() != (self.width * self.height) as usize {
+            return Err(GpuError::Input(format!(
+                "{} smoke samples for a layer of {} × {} pixels",
+                samples.len(),
+                self.width,
+                self.height
+            )));
+        }
+        ctx.queue
+            .write_buffer(&self.buffer, 0, bytemuck::cast_slice(&Self::pack(samples)));
+        Ok(())
+    }
+
+    /// The shader's two `vec4` per pixel: `(L_s, T_s)`, `(d, 0, 0, 0)`.
+    fn pack(samples: &[SmokeSample]) -> Vec<[f32; 4]> {
+        samples
+            .iter()
+            .flat_map(|s| {
+                let [r, g, b] = s.radiance;
+                [[r, g, b, s.transmittance], [s.depth, 0.0, 0.0, 0.0]]
+            })
+            .collect()
+    }
 }
 
 /// A fog's levels on the GPU, ready to render (made by [`FogRenderer::upload`]).
@@ -214,9 +290,18 @@ impl FogRenderer {
                     })
             })
         };
+        let no_smoke = ctx.scoped("empty smoke layer", || {
+            buffer_init(
+                ctx,
+                "no smoke layer",
+                &[0u8; 32],
+                wgpu::BufferUsages::STORAGE,
+            )
+        })?;
         Ok(FogRenderer {
             image: pipeline("main")?,
             depths: pipeline("depths")?,
+            no_smoke,
         })
     }
 
@@ -352,6 +437,8 @@ impl FogRenderer {
                 to_i32(first[1], "first cell")?,
             ],
             support: [support[0] as i32, support[1] as i32],
+            layer: 0,
+            _pad: [0; 3],
         };
         let storage = wgpu::BufferUsages::STORAGE;
         ctx.check_storage_size("the fog's coefficients", (coef.len() * 4) as u64)?;
@@ -391,6 +478,38 @@ impl FogRenderer {
         scene: &Scene,
         image: &FogImage,
     ) -> Result<(), GpuError> {
+        self.draw_layer(ctx, fog, look, scene, None, image)
+    }
+
+    /// [`FogRenderer::draw`] with a smoke layer of the image's size composited by depth,
+    /// as [`crate::render::render_over`] does.
+    pub fn draw_over(
+        &self,
+        ctx: &GpuContext,
+        fog: &GpuFog,
+        look: &LookAt,
+        scene: &Scene,
+        smoke: &SmokeLayer,
+        image: &FogImage,
+    ) -> Result<(), GpuError> {
+        if [smoke.width, smoke.height] != [image.width, image.height] {
+            return Err(GpuError::Input(format!(
+                "a smoke layer of {} × {} pixels over an image of {} × {}",
+                smoke.width, smoke.height, image.width, image.height
+            )));
+        }
+        self.draw_layer(ctx, fog, look, scene, Some(smoke), image)
+    }
+
+    fn draw_layer(
+        &self,
+        ctx: &GpuContext,
+        fog: &GpuFog,
+        look: &LookAt,
+        scene: &Scene,
+        smoke: Option<&SmokeLayer>,
+        image: &FogImage,
+    ) -> Result<(), GpuError> {
         // The CPU's camera for the image (which validates the view), in f64.
         let camera = look
             .camera(image.width as usize, image.height as usize)
@@ -410,8 +529,37 @@ impl FogRenderer {
         params.checker = scene.checker as f32;
         params.fog = f32x3(scene.fog);
         params.image = [image.width, image.height];
+        params.layer = u32::from(smoke.is_some());
+        let layer = smoke.map_or(&self.no_smoke, |s| &s.buffer);
         let groups = [image.width.div_ceil(TILE), image.height.div_ceil(TILE), 1];
-        self.submit(ctx, &self.image, fog, &params, &image.buffer, None, groups)
+        self.submit(
+            ctx,
+            &self.image,
+            fog,
+            &params,
+            &image.buffer,
+            (6, layer),
+            groups,
+        )
+    }
+
+    /// Renders `fog` with a smoke layer to `width × height` pixels `(r, g, b, τ)` and
+    /// reads them back (the twin of [`crate::render::render_over`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn render_over(
+        &self,
+        ctx: &GpuContext,
+        fog: &GpuFog,
+        look: &LookAt,
+        scene: &Scene,
+        smoke: &[SmokeSample],
+        width: usize,
+        height: usize,
+    ) -> Result<Vec<[f32; 4]>, GpuError> {
+        let image = FogImage::new(ctx, width, height)?;
+        let layer = SmokeLayer::new(ctx, smoke, width, height)?;
+        self.draw_over(ctx, fog, look, scene, &layer, &image)?;
+        image.read(ctx)
     }
 
     /// Renders `fog` to `width × height` pixels `(r, g, b, τ)` and reads them back.
@@ -511,7 +659,7 @@ impl FogRenderer {
             fog,
             &params,
             &output,
-            Some(&input),
+            (5, &input),
             [groups as u32, 1, 1],
         )?;
         let bytes = ctx.read_buffer(&output)?;
@@ -519,8 +667,8 @@ impl FogRenderer {
         Ok(out.iter().map(|v| f64::from(v[0])).collect())
     }
 
-    /// Binds the fog, `params`, `output` (and the rays, for `depths`) and submits one
-    /// pass of `pipeline`.
+    /// Binds the fog, `params`, `output` and `extra` (binding, buffer: the smoke layer of
+    /// `main`, the rays of `depths`) and submits one pass of `pipeline`.
     #[allow(clippy::too_many_arguments)]
     fn submit(
         &self,
@@ -529,7 +677,7 @@ impl FogRenderer {
         fog: &GpuFog,
         params: &Params,
         output: &wgpu::Buffer,
-        rays: Option<&wgpu::Buffer>,
+        extra: (u32, &wgpu::Buffer),
         groups: [u32; 3],
     ) -> Result<(), GpuError> {
         ctx.scoped("wavelet fog pass", || {
@@ -537,13 +685,13 @@ impl FogRenderer {
                 ctx,
                 "wavelet fog params",
                 bytemuck::bytes_of(params),
-                wgpu::BufferUsages::UNIFORM,
+                wgpu::BufferUsages::STORAGE,
             );
-            let mut buffers = vec![&uniform, &fog.levels, &fog.pieces, &fog.coef, output];
-            buffers.extend(rays);
+            let buffers = [&uniform, &fog.levels, &fog.pieces, &fog.coef, output];
             let entries: Vec<wgpu::BindGroupEntry<'_>> = buffers
-                .iter()
+                .into_iter()
                 .zip(0..)
+                .chain([(extra.1, extra.0)])
                 .map(|(b, binding)| wgpu::BindGroupEntry {
                     binding,
                     resource: b.as_entire_binding(),
@@ -595,10 +743,11 @@ mod tests {
 
     #[test]
     fn layouts_match_the_shader() {
-        // WGSL: Params is 13 16-byte rows, Level 3, Query 2.
-        assert_eq!(std::mem::size_of::<Params>(), 208);
+        // WGSL: Params is 14 16-byte rows, Level 3, Query 2.
+        assert_eq!(std::mem::size_of::<Params>(), 224);
         assert_eq!(std::mem::size_of::<Level>(), 48);
         assert_eq!(std::mem::size_of::<Query>(), 32);
         assert!(SHADER.contains("@binding(5) var<storage, read> queries: array<Query>"));
+        assert!(SHADER.contains("@binding(6) var<storage, read> smoke: array<vec4<f32>>"));
     }
 }

@@ -6,8 +6,9 @@
 //!   whatever else the build has), with wgpu's errors turned into values instead of
 //!   panics — the one device setup of every GPU renderer in haze.
 //! * [`fog`]: the levels of a fog uploaded to storage buffers ([`fog::GpuFog`]) and the
-//!   two passes of `shaders/wavelet_fog.wgsl` — one image of the scene through the fog,
-//!   or the optical depths of given rays.
+//!   two passes of `shaders/wavelet_fog.wgsl` — one image of the scene through the fog
+//!   (with a smoke layer composited by depth, or without), or the optical depths of given
+//!   rays.
 //!
 //! Everything here builds on every platform; at run time a machine without a usable GPU
 //! gets a [`GpuError`] from [`GpuContext::new`], never a panic. Headless Linux machines can
