@@ -7,6 +7,8 @@
 //! by quadrature, independent of every table.
 
 pub mod airlight;
+pub mod envglow;
+pub mod envref;
 pub mod file;
 pub mod gpu;
 pub mod gtable;
