@@ -48,7 +48,7 @@ struct Params {
 
 // envglow::T_NODES.
 const T_NODES: u32 = 65u;
-// envglow::MAX_ORDER.
+// envglow::GPU_MAX_ORDER.
 const SH_MAX: u32 = 16u;
 
 // table::Table2::at: bilinear on nodes i/(n−1), clamped to the unit square.

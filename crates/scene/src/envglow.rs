@@ -47,8 +47,11 @@ use std::f64::consts::PI;
 /// (BENCHMARKS.md "Environment glow").
 pub const DEFAULT_ORDER: usize = 16;
 
-/// Highest order the GPU shader evaluates.
-pub const MAX_ORDER: usize = 16;
+/// Highest order evaluated on the CPU (its stack buffers).
+pub const MAX_ORDER: usize = 24;
+
+/// Highest order the GPU shader evaluates (its `SH_MAX`).
+pub const GPU_MAX_ORDER: usize = 16;
 
 /// Nodes of the `λ_l(t)` table over `t ∈ [0, D]`.
 pub const T_NODES: usize = 65;
@@ -142,8 +145,9 @@ pub struct EnvGlow {
 }
 
 impl EnvGlow {
-    /// The glow of the scene's environment and medium at SH order `order`, with Phong
-    /// factors for `exponents`; `None` for a black environment.
+    /// The glow of the scene's environment and medium at SH order `order` (1 to
+    /// [`MAX_ORDER`]; panics otherwise), with Phong factors for `exponents`; `None` for a
+    /// black environment.
     pub fn new(
         scene: &Scene,
         k: &(impl KFunction + Sync),
@@ -151,6 +155,10 @@ impl EnvGlow {
         exponents: &[f64],
     ) -> Option<EnvGlow> {
         use rayon::prelude::*;
+        assert!(
+            (1..=MAX_ORDER).contains(&order),
+            "SH order {order} outside 1..={MAX_ORDER}"
+        );
         let env = view_environment(&scene.environment)?;
         let proj = sh::project_env(&env, order);
         let n = order * order;
@@ -242,16 +250,26 @@ impl EnvGlow {
 
     /// The environment's airlight along the view ray of unit direction `dir`, `x ∈ [0, t]`.
     pub fn view(&self, dir: Vec3, t: f64) -> Rgb {
-        let mut out = [0.0; 3];
         if !self.glows {
-            return out;
+            return [0.0; 3];
         }
-        let y = sh::eval(self.order, dir);
-        let lam: Vec<[f64; 3]> = (0..self.order).map(|l| self.lambda_at(l, t)).collect();
-        for (i, (yi, li)) in y.iter().zip(&self.radiance).enumerate() {
-            let g = lam[sh::basis::band_of(i)];
-            for c in 0..3 {
-                out[c] += g[c] * li[c] * yi;
+        let mut lam = [[0.0; 3]; MAX_ORDER];
+        for (l, v) in lam.iter_mut().enumerate().take(self.order) {
+            *v = self.lambda_at(l, t);
+        }
+        self.sum(&lam, &self.radiance, dir)
+    }
+
+    /// `Σ_lm f_l·c_lm·Y_lm(axis)` per channel (`order ≤ MAX_ORDER`).
+    fn sum(&self, f: &[[f64; 3]; MAX_ORDER], coeffs: &[[f64; 3]], axis: Vec3) -> Rgb {
+        let mut y = [0.0; MAX_ORDER * MAX_ORDER];
+        sh::eval_into(self.order, axis, &mut y);
+        let mut out = [0.0; 3];
+        for (l, fl) in f.iter().enumerate().take(self.order) {
+            for i in l * l..(l + 1) * (l + 1) {
+                for c in 0..3 {
+                    out[c] += fl[c] * coeffs[i][c] * y[i];
+                }
             }
         }
         out
@@ -259,15 +277,11 @@ impl EnvGlow {
 
     /// `Σ f_l·L_in,lm·Y_lm(axis)` per channel.
     fn filtered(&self, f: &[f64], axis: Vec3) -> Rgb {
-        let y = sh::eval(self.order, axis);
-        let mut out = [0.0; 3];
-        for (i, (yi, li)) in y.iter().zip(&self.incident).enumerate() {
-            let fl = f[sh::basis::band_of(i)];
-            for c in 0..3 {
-                out[c] += fl * li[c] * yi;
-            }
+        let mut fl = [[0.0; 3]; MAX_ORDER];
+        for (o, v) in fl.iter_mut().zip(f) {
+            *o = [*v; 3];
         }
-        out
+        self.sum(&fl, &self.incident, axis)
     }
 
     /// Environment light (direct and scattered) reflected towards the viewer by a surface

@@ -198,11 +198,11 @@ impl GpuRenderer {
             {
                 data.extend(row.iter().map(|&v| [v as f32, 0.0, 0.0, 0.0]));
             }
-            if g.order > envglow::MAX_ORDER {
+            if g.order > envglow::GPU_MAX_ORDER {
                 return Err(GpuError::Input(format!(
                     "SH order {} above the shader's {}",
                     g.order,
-                    envglow::MAX_ORDER
+                    envglow::GPU_MAX_ORDER
                 )));
             }
             env[2] = offset(g.order)?;
