@@ -6,11 +6,11 @@
 // Positions are relative to the eye, as in render.wgsl.
 
 // The grids' values, one after the other (x fastest).
-@group(0) @binding(6) var<storage, read> grid: array<f32>;
+@group(0) @binding(7) var<storage, read> grid: array<f32>;
 // media[0]: (grid count, step, most steps, smallest transmittance); per grid five records:
 // (box min, g), (voxel size, first value in `grid`), (dims, -), (σt scale per channel, -),
 // (albedo per channel, -).
-@group(0) @binding(7) var<storage, read> media: array<vec4<f32>>;
+@group(0) @binding(8) var<storage, read> media: array<vec4<f32>>;
 
 fn grid_base(i: u32) -> u32 {
     return 1u + 5u * i;

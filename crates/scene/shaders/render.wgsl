@@ -19,8 +19,10 @@ struct Params {
     albedo: vec4<f32>,    // xyz; w: shadow offset (relative)
     env_color: vec4<f32>, // xyz: a constant environment's radiance
     size: vec4<u32>,      // width, height, lights, surfaces
-    flags: vec4<u32>,     // environment (0 black, 1 sky, 2 constant), environment at ∞, K side, G nx
+    flags: vec4<u32>,     // environment (0 black, 1 sky, 2 constant, 3 map), environment at ∞, K side, G nx
     tables: vec4<u32>,    // G ny, offset of the first G table, -, -
+    env: vec4<u32>,       // map width, map height, SH order (0: no environment light), 1 if it glows
+    env_at: vec4<u32>,    // offsets in `envdata`: L_in,lm, λ table, lobe factors, map texels
 }
 
 @group(0) @binding(0) var<uniform> P: Params;
@@ -39,6 +41,15 @@ struct Params {
 // node's children at its own index + 1 and at `first` —, per triangle six records
 // (p0, 1 if it has vertex normals), (p1, -), (p2, -), (n0, -), (n1, -), (n2, -).
 @group(0) @binding(5) var<storage, read> meshes: array<vec4<u32>>;
+// The environment's light (envglow::EnvGlow): L_lm (order² records, rgb), L_in,lm
+// (order²), λ_l(t_j) (T_NODES·order, at j·order + l), the lobe factors in .x (order per
+// row: Lambert's a_l, then p_l of each G table's Phong exponent), then a map's texels.
+@group(0) @binding(6) var<storage, read> envdata: array<vec4<f32>>;
+
+// envglow::T_NODES.
+const T_NODES: u32 = 65u;
+// envglow::GPU_MAX_ORDER.
+const SH_MAX: u32 = 16u;
 
 // table::Table2::at: bilinear on nodes i/(n−1), clamped to the unit square.
 fn table_at(base: u32, nx: u32, ny: u32, x: f32, y: f32) -> f32 {
@@ -398,6 +409,108 @@ fn brdf(n: vec3<f32>, r: vec3<f32>, l: vec3<f32>, diffuse: vec3<f32>, specular: 
     return f + specular * (m + 2.0) / (2.0 * PI) * lobe;
 }
 
+// haze_view::LatLong::radiance: bilinear between texel centres, wrapping in azimuth,
+// clamped at the poles.
+fn env_map(d: vec3<f32>) -> vec3<f32> {
+    let w = P.env.x;
+    let h = P.env.y;
+    let len = length(d);
+    let theta = acos(clamp(d.z / len, -1.0, 1.0));
+    var phi = atan2(d.y, d.x);
+    if (phi < 0.0) {
+        phi += 2.0 * PI;
+    }
+    let fx = phi / (2.0 * PI) * f32(w) - 0.5;
+    let fy = clamp(theta / PI * f32(h) - 0.5, 0.0, f32(h - 1u));
+    let x0 = floor(fx);
+    let y0 = floor(fy);
+    let tx = fx - x0;
+    let ty = fy - y0;
+    let xa = u32(x0 - floor(x0 / f32(w)) * f32(w)) % w;
+    let xb = (xa + 1u) % w;
+    let ya = min(u32(y0), h - 1u);
+    let yb = min(ya + 1u, h - 1u);
+    let base = P.env_at.w;
+    return envdata[base + ya * w + xa].xyz * ((1.0 - tx) * (1.0 - ty))
+        + envdata[base + ya * w + xb].xyz * (tx * (1.0 - ty))
+        + envdata[base + yb * w + xa].xyz * ((1.0 - tx) * ty)
+        + envdata[base + yb * w + xb].xyz * (tx * ty);
+}
+
+// Σ_lm f_l·c_lm·Y_lm(d), the coefficients c from `envdata[base]` (sh::basis::eval_into:
+// the real orthonormal SH without the Condon–Shortley phase, by the normalized
+// recurrences in z = cos θ and (x + iy)^m for the azimuth).
+fn sh_sum(d: vec3<f32>, base: u32, f_in: array<vec3<f32>, SH_MAX>) -> vec3<f32> {
+    var f = f_in;
+    let order = P.env.z;
+    let u = normalize(d);
+    let z = clamp(u.z, -1.0, 1.0);
+    var cm = 1.0;
+    var sm = 0.0;
+    var qmm = 0.28209479177387814;
+    var out = vec3<f32>(0.0);
+    for (var m = 0u; m < order; m++) {
+        var ca = 1.0;
+        var sa = 0.0;
+        if (m > 0u) {
+            let mf = f32(m);
+            qmm *= sqrt((2.0 * mf + 1.0) / (2.0 * mf));
+            let c2 = cm * u.x - sm * u.y;
+            sm = cm * u.y + sm * u.x;
+            cm = c2;
+            ca = 1.4142135623730951 * cm;
+            sa = 1.4142135623730951 * sm;
+        }
+        let mf = f32(m);
+        var q_prev = 0.0;
+        var q = qmm;
+        for (var l = m; l < order; l++) {
+            if (l == m + 1u) {
+                q_prev = q;
+                q = sqrt(2.0 * mf + 3.0) * z * qmm;
+            } else if (l > m + 1u) {
+                let lf = f32(l);
+                let a = sqrt((4.0 * lf * lf - 1.0) / (lf * lf - mf * mf));
+                let b = sqrt(((lf - 1.0) * (lf - 1.0) - mf * mf) / (4.0 * (lf - 1.0) * (lf - 1.0) - 1.0));
+                let next = a * (z * q - b * q_prev);
+                q_prev = q;
+                q = next;
+            }
+            let i = l * (l + 1u);
+            var c = envdata[base + i + m].xyz * ca;
+            if (m > 0u) {
+                c += envdata[base + i - m].xyz * sa;
+            }
+            out += f[l] * q * c;
+        }
+    }
+    return out;
+}
+
+// EnvGlow::view: the environment's airlight along x·dir, x ∈ [0, t].
+fn env_view(dir: vec3<f32>, t: f32) -> vec3<f32> {
+    var f: array<vec3<f32>, SH_MAX>;
+    let order = P.env.z;
+    let s = clamp(t / P.sigma_s.w, 0.0, 1.0) * f32(T_NODES - 1u);
+    let j = min(u32(floor(s)), T_NODES - 2u);
+    let a = s - f32(j);
+    for (var l = 0u; l < order; l++) {
+        f[l] = (1.0 - a) * envdata[P.env_at.y + j * order + l].xyz
+            + a * envdata[P.env_at.y + (j + 1u) * order + l].xyz;
+    }
+    return sh_sum(dir, 0u, f);
+}
+
+// EnvGlow::filtered: Σ f_l·L_in,lm·Y_lm(axis), f from lobe row `row`.
+fn env_lobe(axis: vec3<f32>, row: u32) -> vec3<f32> {
+    var f: array<vec3<f32>, SH_MAX>;
+    let order = P.env.z;
+    for (var l = 0u; l < order; l++) {
+        f[l] = vec3<f32>(envdata[P.env_at.z + row * order + l].x);
+    }
+    return sh_sum(axis, P.env_at.x, f);
+}
+
 // Scene::environment radiance (scene::Environment::radiance).
 fn environment(d: vec3<f32>) -> vec3<f32> {
     let kind = P.flags.x;
@@ -406,6 +519,9 @@ fn environment(d: vec3<f32>) -> vec3<f32> {
     }
     if (kind == 2u) {
         return P.env_color.xyz;
+    }
+    if (kind == 3u) {
+        return env_map(d);
     }
     var out = vec3<f32>(0.25, 0.22, 0.2);
     if (d.z >= 0.0) {
@@ -444,6 +560,13 @@ fn shade_surface(dir: vec3<f32>, p: vec3<f32>, n: vec3<f32>, s: u32) -> vec3<f32
     let beta = P.sigma_t.xyz;
     let ss = P.sigma_s.xyz;
     var out = vec3<f32>(0.0);
+    // The environment's light, direct and scattered (EnvGlow::surface).
+    if (P.env.z > 0u) {
+        out += diffuse / PI * env_lobe(n, 0u);
+        if (gn >= 0.0 && any(specular > vec3<f32>(0.0))) {
+            out += specular * (m + 2.0) / (2.0 * PI) * env_lobe(r, u32(gn));
+        }
+    }
     for (var i = 0u; i < P.size.z; i++) {
         let a = lights[3u * i];
         let e = lights[3u * i + 1u].xyz;
@@ -574,6 +697,10 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
                 out[c] += ss[c] * irradiance[c] / (4.0 * PI) * len;
             }
         }
+    }
+    // The environment's airlight (EnvGlow::view).
+    if (P.env.w != 0u) {
+        out += env_view(dir, t_end);
     }
     var behind = vec3<f32>(0.0);
     if (hit.surface >= 0) {

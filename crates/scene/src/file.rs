@@ -9,6 +9,7 @@ use crate::mesh::Mesh;
 use crate::model;
 use crate::scene::{Environment, Light, Material, Medium, Rgb, Scene, Shape, Surface};
 use crate::vec3::{Vec3, normalize};
+use haze_view::LatLong;
 use serde::Deserialize;
 use serde::de::DeserializeOwned;
 use serde_json::Value;
@@ -201,7 +202,7 @@ pub fn parse_in(text: &str, base: &Path) -> Result<Scene, String> {
     }
     let camera = Camera::new(c.eye, c.target, c.up, c.fov, c.width, c.height)
         .map_err(|e| format!("camera: {e}"))?;
-    let environment = environment(&spec.environment)?;
+    let environment = environment(&spec.environment, base)?;
     let environment_distance = match spec.environment_distance {
         None => f64::INFINITY,
         Some(d) if d > 0.0 => d,
@@ -282,13 +283,24 @@ fn non_negative(what: &str, v: &[f64]) -> Result<(), String> {
     }
 }
 
-fn environment(v: &Value) -> Result<Environment, String> {
+/// `null`, `"sky"`, `[r, g, b]` or a lat-long `.exr` map, its path relative to `base`
+/// (read by crates/view's [`LatLong::load_exr`]).
+fn environment(v: &Value, base: &Path) -> Result<Environment, String> {
     match v {
         Value::Null => Ok(Environment::Black),
         Value::String(s) if s == "sky" => Ok(Environment::Sky),
-        Value::String(s) if s.to_ascii_lowercase().ends_with(".exr") => Err(format!(
-            "environment \"{s}\": environment maps are not supported by the scene renderer yet (use \"sky\", [r, g, b] or null)"
-        )),
+        Value::String(s) if s.to_ascii_lowercase().ends_with(".exr") => {
+            let path = base.join(s);
+            if !path.is_file() {
+                return Err(format!(
+                    "environment \"{s}\": no such environment map {}",
+                    path.display()
+                ));
+            }
+            LatLong::load_exr(&path)
+                .map(|m| Environment::Map(Arc::new(m)))
+                .map_err(|e| format!("environment \"{s}\": {}", e.problem))
+        }
         Value::String(s) => Err(format!(
             "environment \"{s}\" must be \"sky\", an .exr map, [r, g, b] or null"
         )),
@@ -545,7 +557,7 @@ mod tests {
                     "\"environment\": \"sky\"",
                     "\"environment\": \"studio.exr\"",
                 ),
-                "not supported by the scene renderer yet",
+                "environment \"studio.exr\": no such environment map studio.exr",
             ),
             (
                 ("\"type\": \"sun\"", "\"type\": \"spot\""),

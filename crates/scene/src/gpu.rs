@@ -20,6 +20,8 @@
 //! (WGSL does not promise infinities), finite ones beyond `10³⁰` clamped there.
 
 use crate::airlight::Limits;
+use crate::envglow::{self, EnvGlow};
+use crate::htable::HTable;
 use crate::mesh::Mesh;
 use crate::render::{Analytic, Image};
 use crate::scene::{Environment, Light, Scene, Shape};
@@ -35,7 +37,7 @@ pub const SHADOW_OFFSET: f32 = 1e-4;
 /// Pixels per workgroup side (`@workgroup_size(8, 8, 1)`).
 const SIDE: usize = 8;
 
-/// The shader's `Params` uniform (ten `vec4`, 160 bytes).
+/// The shader's `Params` uniform (twelve `vec4`, 192 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 struct Params {
@@ -49,6 +51,8 @@ struct Params {
     size: [u32; 4],
     flags: [u32; 4],
     tables: [u32; 4],
+    env: [u32; 4],
+    env_at: [u32; 4],
 }
 
 /// The compiled renderer with its tables on the GPU, reusable across frames of scenes
@@ -63,6 +67,8 @@ pub struct GpuRenderer {
     exponents: Vec<f64>,
     /// The march of scenes with voxel media ([`crate::gpu_march`]), compiled for the first.
     march: std::sync::OnceLock<wgpu::ComputePipeline>,
+    /// The `K` table, for the environment's glow ([`EnvGlow`]), built per frame.
+    h: HTable,
 }
 
 fn f32x3(v: [f64; 3]) -> [f32; 3] {
@@ -160,6 +166,7 @@ impl GpuRenderer {
             g_size: (side(g0.nx)?, side(g0.ny)?),
             exponents: analytic.gn.iter().map(|g| g.exponent).collect(),
             march: std::sync::OnceLock::new(),
+            h: analytic.h.clone(),
         })
     }
 
@@ -169,6 +176,51 @@ impl GpuRenderer {
             .iter()
             .position(|&e| e == exponent)
             .map(|i| i + 1)
+    }
+
+    /// The `envdata` records of the scene's environment (the shader's layout: the
+    /// [`EnvGlow`] of the frame's medium, then a map's texels), `Params::env` and
+    /// `Params::env_at`.
+    #[allow(clippy::type_complexity)]
+    fn env_records(&self, scene: &Scene) -> Result<(Vec<[f32; 4]>, [u32; 4], [u32; 4]), GpuError> {
+        let mut data: Vec<[f32; 4]> = Vec::new();
+        let mut env = [0u32; 4];
+        let mut at = [0u32; 4];
+        let offset = |n: usize| {
+            u32::try_from(n).map_err(|_| GpuError::Input("the environment is too large".into()))
+        };
+        if let Some(g) = EnvGlow::new(scene, &self.h, envglow::DEFAULT_ORDER, &self.exponents) {
+            let rgb = |v: &[f64; 3]| vec4(*v, 0.0);
+            data.extend(g.radiance.iter().map(rgb));
+            at[0] = offset(data.len())?;
+            data.extend(g.incident.iter().map(rgb));
+            at[1] = offset(data.len())?;
+            data.extend(g.lambda.iter().map(rgb));
+            at[2] = offset(data.len())?;
+            for row in std::iter::once(&g.diffuse_lobe).chain(g.specular_lobes.iter().map(|s| &s.1))
+            {
+                data.extend(row.iter().map(|&v| [v as f32, 0.0, 0.0, 0.0]));
+            }
+            if g.order > envglow::GPU_MAX_ORDER {
+                return Err(GpuError::Input(format!(
+                    "SH order {} above the shader's {}",
+                    g.order,
+                    envglow::GPU_MAX_ORDER
+                )));
+            }
+            env[2] = offset(g.order)?;
+            env[3] = u32::from(g.glows);
+        }
+        if let Environment::Map(m) = &scene.environment {
+            at[3] = offset(data.len())?;
+            env[0] = offset(m.width)?;
+            env[1] = offset(m.height)?;
+            data.extend(m.texels.iter().map(|t| [t[0], t[1], t[2], 0.0]));
+        }
+        if data.is_empty() {
+            data.push([0.0; 4]);
+        }
+        Ok((data, env, at))
     }
 
     /// Renders the scene's camera image (as [`crate::render::render`] with
@@ -263,7 +315,10 @@ impl GpuRenderer {
             Environment::Black => (0, [0.0; 3]),
             Environment::Sky => (1, [0.0; 3]),
             Environment::Constant(c) => (2, *c),
+            Environment::Map(_) => (3, [0.0; 3]),
         };
+        let (envdata, env, env_at) = self.env_records(scene)?;
+        ctx.check_storage_size("the environment", 16 * envdata.len() as u64)?;
         let gamma_min = lim.gamma_min.max(0.5 * cam.pixel_radius());
         let far = scene.environment_distance;
         let count = |n: usize, what: &str| {
@@ -297,6 +352,8 @@ impl GpuRenderer {
                 self.g_size.0,
             ],
             tables: [self.g_size.1, self.k_side * self.k_side, 0, 0],
+            env,
+            env_at,
         };
         let groups = [w.div_ceil(SIDE) as u32, h.div_ceil(SIDE) as u32, 1];
         // Scenes with voxel media: the march (crate::gpu_march) instead of paper C.
@@ -337,13 +394,27 @@ impl GpuRenderer {
                 bytemuck::cast_slice(&meshes),
                 wgpu::BufferUsages::STORAGE,
             );
+            let envdata = buffer_init(
+                ctx,
+                "scene environment",
+                bytemuck::cast_slice(&envdata),
+                wgpu::BufferUsages::STORAGE,
+            );
             let output = ctx.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("scene image"),
                 size: out_bytes,
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             });
-            let mut buffers = vec![&uniform, &lights, &surfaces, &self.tables, &output, &meshes];
+            let mut buffers = vec![
+                &uniform,
+                &lights,
+                &surfaces,
+                &self.tables,
+                &output,
+                &meshes,
+                &envdata,
+            ];
             let extra = march.as_ref().map(|m| m.buffers(ctx));
             if let Some((grid, records)) = &extra {
                 buffers.extend([grid, records]);

@@ -8,6 +8,8 @@
 
 pub mod airlight;
 pub mod asset_medium;
+pub mod envglow;
+pub mod envref;
 pub mod file;
 pub mod gpu;
 pub mod gpu_march;

@@ -3,8 +3,11 @@
 //! the light the surface reflects towards the eye — direct light attenuated by the medium
 //! and shadowed by the scene's surfaces, plus light scattered once onto it (unshadowed, as
 //! in paper C). Rays that hit nothing end at the environment distance and see the
-//! environment (and the suns' disks) attenuated. Two models fill in the point lights'
-//! scattered terms: [`Analytic`] (paper C's tables) and [`Reference`] (quadrature).
+//! environment (and the suns' disks) attenuated. The environment also glows through the
+//! medium and lights the surfaces, directly and scattered once ([`EnvLight`], paper C
+//! §6.4). Two models fill in the scattered terms: [`Analytic`] (paper C's tables, the
+//! environment in SH: [`crate::envglow`]) and [`Reference`] (quadrature:
+//! [`crate::reference`], [`crate::envref`]).
 //!
 //! Per channel `c`: extinction `β = σt[c]`, scattering `σs = albedo[c]·β`. A surface's
 //! reflected radiance from a light of irradiance `E` at direction `l` is
@@ -15,6 +18,8 @@
 //! surface (the medium's in-scattering integrated over the lobes, rays to infinity).
 
 use crate::airlight::{self, Limits, attenuated_length, effective_light, light_off_point};
+use crate::envglow::{self, EnvGlow};
+use crate::envref::EnvReference;
 use crate::gtable::{self, GTable};
 use crate::htable::HTable;
 use crate::reference::{self, RefOptions};
@@ -73,6 +78,37 @@ pub trait Model: Sync {
     ) -> f64;
     /// What it is, for summaries.
     fn name(&self) -> String;
+    /// The environment's light through the medium for `scene` (built once per image),
+    /// `None` for a black environment.
+    fn environment(&self, scene: &Scene) -> Option<Box<dyn EnvLight>>;
+}
+
+/// The environment's light through the medium ([`crate::envglow`]): its airlight along a
+/// view ray and the light it sends onto surfaces, direct and scattered.
+pub trait EnvLight: Sync {
+    /// Airlight along `eye + x·dir`, `x ∈ [0, t]`.
+    fn view(&self, dir: Vec3, t: f64) -> Rgb;
+    /// Radiance reflected towards the viewer by a surface point of unit normal `n`, `r`
+    /// the mirror direction of the view.
+    fn surface(&self, n: Vec3, r: Vec3, m: &Material) -> Rgb;
+}
+
+impl EnvLight for EnvGlow {
+    fn view(&self, dir: Vec3, t: f64) -> Rgb {
+        EnvGlow::view(self, dir, t)
+    }
+    fn surface(&self, n: Vec3, r: Vec3, m: &Material) -> Rgb {
+        EnvGlow::surface(self, n, r, m)
+    }
+}
+
+impl EnvLight for EnvReference {
+    fn view(&self, dir: Vec3, t: f64) -> Rgb {
+        EnvReference::view(self, dir, t)
+    }
+    fn surface(&self, n: Vec3, r: Vec3, m: &Material) -> Rgb {
+        EnvReference::surface(self, n, r, m)
+    }
 }
 
 /// Paper C: the airlight's table `K` and the `G0`/`Gn` tables (one per Phong exponent in
@@ -98,14 +134,19 @@ impl Analytic {
         exps.sort_by(f64::total_cmp);
         exps.dedup();
         let gn = exps
-            .into_iter()
-            .map(|n| GTable::new(&h, n, gtable::DEFAULT_SIZE))
+            .iter()
+            .map(|&n| GTable::new(&h, n, gtable::DEFAULT_SIZE))
             .collect();
         Analytic { h, g0, gn }
     }
 
     fn gn(&self, n: f64) -> Option<&GTable> {
         self.gn.iter().find(|t| t.exponent == n)
+    }
+
+    /// The Phong exponents it has `Gn` tables for.
+    pub fn exponents(&self) -> Vec<f64> {
+        self.gn.iter().map(|g| g.exponent).collect()
     }
 }
 
@@ -150,9 +191,27 @@ impl Model for Analytic {
 
     fn name(&self) -> String {
         format!(
-            "paper C analytic (K table {}², G tables {}×{})",
-            self.h.table.nx, self.g0.table.nx, self.g0.table.ny
+            "paper C analytic (K table {}², G tables {}×{}, environment in SH of order {})",
+            self.h.table.nx,
+            self.g0.table.nx,
+            self.g0.table.ny,
+            envglow::DEFAULT_ORDER
         )
+    }
+
+    /// The environment in SH with the medium's glow ([`EnvGlow`]), with `Phong` factors
+    /// for the exponents of the scene's specular surfaces.
+    fn environment(&self, scene: &Scene) -> Option<Box<dyn EnvLight>> {
+        let mut exps: Vec<f64> = scene
+            .surfaces
+            .iter()
+            .filter(|s| s.material.is_specular())
+            .map(|s| s.material.shininess)
+            .collect();
+        exps.sort_by(f64::total_cmp);
+        exps.dedup();
+        EnvGlow::new(scene, &self.h, envglow::DEFAULT_ORDER, &exps)
+            .map(|g| Box::new(g) as Box<dyn EnvLight>)
     }
 }
 
@@ -184,6 +243,11 @@ impl Model for Reference {
     fn name(&self) -> String {
         "single-scattering reference (quadrature)".to_string()
     }
+
+    /// The environment integrated on the sphere ([`EnvReference`]).
+    fn environment(&self, scene: &Scene) -> Option<Box<dyn EnvLight>> {
+        EnvReference::new(scene).map(|r| Box::new(r) as Box<dyn EnvLight>)
+    }
 }
 
 /// `e^{−βt}`, 1 at `β = 0` whatever `t` (no `0·∞`).
@@ -205,12 +269,14 @@ pub fn render(
         gamma_min: lim.gamma_min.max(0.5 * cam.pixel_radius()),
         ..*lim
     };
+    let env = model.environment(scene);
+    let env = env.as_deref();
     let done = AtomicUsize::new(0);
     let rows: Vec<Vec<[f32; 3]>> = (0..h)
         .into_par_iter()
         .map(|y| {
             let row = (0..w)
-                .map(|x| radiance(scene, model, &lim, cam.pixel_ray(x, y)).map(|c| c as f32))
+                .map(|x| radiance(scene, model, env, &lim, cam.pixel_ray(x, y)).map(|c| c as f32))
                 .collect();
             progress(done.fetch_add(1, Ordering::Relaxed) + 1);
             row
@@ -238,8 +304,15 @@ fn channel_groups(scene: &Scene) -> Vec<(f64, f64, Vec<usize>)> {
     groups
 }
 
-/// Radiance along the camera ray of unit direction `dir`.
-pub fn radiance(scene: &Scene, model: &dyn Model, lim: &Limits, dir: Vec3) -> Rgb {
+/// Radiance along the camera ray of unit direction `dir`; `env` is the model's
+/// [`Model::environment`].
+pub fn radiance(
+    scene: &Scene,
+    model: &dyn Model,
+    env: Option<&dyn EnvLight>,
+    lim: &Limits,
+    dir: Vec3,
+) -> Rgb {
     let eye = scene.camera.eye;
     let hit = scene.intersect(eye, dir, 0.0, scene.environment_distance);
     let t_end = hit.map_or(scene.environment_distance, |h| h.t);
@@ -274,9 +347,16 @@ pub fn radiance(scene: &Scene, model: &dyn Model, lim: &Limits, dir: Vec3) -> Rg
             }
         }
     }
+    // The environment's airlight.
+    if let Some(env) = env {
+        let a = env.view(dir, t_end);
+        for c in 0..3 {
+            out[c] += a[c];
+        }
+    }
     // What the ray ends on, attenuated.
     let behind = match hit {
-        Some(h) => surface(scene, model, lim, &groups, dir, h),
+        Some(h) => surface(scene, model, env, lim, &groups, dir, h),
         None if t_end.is_infinite() && scene.medium.sigma_t.iter().all(|&b| b > 0.0) => [0.0; 3],
         None => background(scene, dir),
     };
@@ -315,6 +395,7 @@ pub fn background(scene: &Scene, dir: Vec3) -> Rgb {
 fn surface(
     scene: &Scene,
     model: &dyn Model,
+    env: Option<&dyn EnvLight>,
     lim: &Limits,
     groups: &[(f64, f64, Vec<usize>)],
     dir: Vec3,
@@ -326,7 +407,7 @@ fn surface(
     // Shadow rays start a little off the surface.
     let p_off = axpy(p, 1e-9 * (1.0 + norm(p)), n);
     let brdf = |l: Vec3, c: usize| m.brdf(n, r, l, c);
-    let mut out = [0.0; 3];
+    let mut out = env.map_or([0.0; 3], |e| e.surface(n, r, m));
     for light in &scene.lights {
         match light {
             Light::Point {

@@ -4,6 +4,7 @@
 use crate::Camera;
 use crate::mesh::Mesh;
 use crate::vec3::{Vec3, dot, sub};
+use haze_view::LatLong;
 use std::sync::Arc;
 
 /// Linear RGB.
@@ -35,6 +36,8 @@ pub enum Environment {
     Sky,
     /// `[r, g, b]`: the same radiance in every direction.
     Constant(Rgb),
+    /// `"ENV.exr"`: a lat-long map (crates/view's convention, looked up bilinearly).
+    Map(Arc<LatLong>),
 }
 
 impl Environment {
@@ -46,6 +49,7 @@ impl Environment {
         match self {
             Environment::Black => [0.0; 3],
             Environment::Constant(c) => *c,
+            Environment::Map(m) => m.radiance(d),
             Environment::Sky => {
                 let (zenith, horizon, ground) =
                     ([0.25, 0.45, 0.9], [0.8, 0.85, 0.9], [0.25, 0.22, 0.2]);
