@@ -145,6 +145,133 @@ pub enum Command {
     /// Fog models: `haze fog wavelet` renders a fogmap as a wavelet fog.
     #[command(subcommand)]
     Fog(crate::fog::FogCommand),
+    /// Measure the speed/accuracy trade of every knob on your own data.
+    ///
+    /// For smoke (a volume, a sequence's --frame or a .haze asset's frame) each setting is
+    /// fitted (RBF count, teleportation), its residual stored (--residual-error, bits) and
+    /// rendered on the CPU by compensated ray marching (SH order, exp, source placement, CG
+    /// iterations, slices, render size, multiple scattering, residual) under the lighting
+    /// and camera flags of `haze render`; every knob is turned one at a time around the
+    /// defaults, then greedy chains of changes from the defaults towards speed and towards
+    /// accuracy give the Pareto front its combinations. For a fogmap (.png, .exr, or
+    /// --fogmap) every basis × levels × µ of its wavelet fog is rendered. The error of a
+    /// setting is the rel RMS of its picture (scaled up to the full size) against the most
+    /// accurate setting's, and with --reference also against the reference renderer's.
+    ///
+    /// Writes DIR/tradeoff.json (`settings`: every setting with its knobs, `ms` per stage
+    /// and `error`; `pareto`: the front of render time against error, ordered by time),
+    /// DIR/pareto.{svg,png} and DIR/knob-NAME.{svg,png}. `haze render --budget-ms T
+    /// --tradeoff DIR/tradeoff.json` then picks from it.
+    ///
+    /// --extremes instead bakes and renders tiny cases at the edges of every knob and of
+    /// the medium and reports NaN/Inf counts, energy against the reference and the
+    /// diffusion solve's convergence (DIR/extremes.json).
+    Tradeoff(TradeoffCli),
+}
+
+#[derive(Debug, clap::Args)]
+pub struct TradeoffCli {
+    /// A volume file, a directory or glob of numbered frames, a .haze asset, or a fogmap.
+    #[arg(required_unless_present = "extremes")]
+    input: Option<PathBuf>,
+    /// Source frame number (default: the first).
+    #[arg(long)]
+    frame: Option<i64>,
+    /// Directory for tradeoff.json and the plots (created if missing).
+    #[arg(long, short)]
+    out: PathBuf,
+    /// Also measure every setting against the reference renderer (path tracing at --spp;
+    /// for a fogmap the exact integral of the map).
+    #[arg(long)]
+    reference: bool,
+    /// Samples per pixel of --reference.
+    #[arg(long, default_value_t = 64)]
+    spp: u32,
+    /// Sweep only these knobs (comma-separated names, as tradeoff.json lists them); the
+    /// others keep their defaults.
+    #[arg(long, value_delimiter = ',', value_name = "LIST")]
+    knobs: Option<Vec<String>>,
+    /// Fewer values per knob and shorter chains (seconds instead of minutes).
+    #[arg(long)]
+    quick: bool,
+    /// Treat INPUT as a fogmap (.png and .exr always are).
+    #[arg(long)]
+    fogmap: bool,
+    /// Run the extreme cases instead (no INPUT).
+    #[arg(long, conflicts_with_all = ["input", "reference", "knobs", "quick"])]
+    extremes: bool,
+    /// Full picture width (the size knob renders fractions of it).
+    #[arg(long, default_value_t = 160)]
+    width: usize,
+    /// Full picture height.
+    #[arg(long, default_value_t = 120)]
+    height: usize,
+    /// Camera position (world units), with --target.
+    #[arg(long, value_name = "X,Y,Z", value_parser = crate::import_args::parse_vec3, allow_hyphen_values = true)]
+    eye: Option<[f64; 3]>,
+    /// Point the camera looks at, with --eye.
+    #[arg(long, value_name = "X,Y,Z", value_parser = crate::import_args::parse_vec3, allow_hyphen_values = true)]
+    target: Option<[f64; 3]>,
+    /// Camera up vector.
+    #[arg(long, value_name = "X,Y,Z", value_parser = crate::import_args::parse_vec3, default_value = "0,0,1", allow_hyphen_values = true)]
+    up: [f64; 3],
+    /// Vertical field of view, degrees.
+    #[arg(long, default_value_t = 40.0)]
+    fov: f64,
+    #[command(flatten)]
+    lights: crate::light_args::LightArgs,
+    /// Extinction cross-section: κt = σt · density.
+    #[arg(long, default_value_t = 4.0)]
+    sigma_t: f64,
+    /// Single-scattering albedo, 0..1.
+    #[arg(long, default_value_t = 0.8)]
+    albedo: f64,
+    /// Henyey–Greenstein asymmetry, −1..1.
+    #[arg(long, default_value_t = 0.3, allow_hyphen_values = true)]
+    g: f64,
+    #[command(flatten)]
+    import: ImportArgs,
+    #[command(flatten, next_help_heading = "Fog (fogmap input)")]
+    fog_model: crate::fog::FogModelArgs,
+}
+
+impl TradeoffCli {
+    fn into_args(self) -> anyhow::Result<crate::tradeoff::TradeoffArgs> {
+        if !(1..=4096).contains(&self.width) || !(1..=4096).contains(&self.height) {
+            anyhow::bail!(
+                "--width {} --height {}: each must be between 1 and 4096",
+                self.width,
+                self.height
+            );
+        }
+        Ok(crate::tradeoff::TradeoffArgs {
+            input: self.input.unwrap_or_default(),
+            frame: self.frame,
+            out: self.out,
+            reference: self.reference,
+            spp: self.spp,
+            knobs: self.knobs,
+            quick: self.quick,
+            fogmap: self.fogmap,
+            extremes: self.extremes,
+            smoke: crate::tradeoff::SmokeInput {
+                lights: self.lights,
+                sigma_t: self.sigma_t,
+                albedo: self.albedo,
+                g: self.g,
+                view: crate::tradeoff::smoke::View {
+                    eye: self.eye,
+                    target: self.target,
+                    up: self.up,
+                    fov: self.fov,
+                    width: self.width,
+                    height: self.height,
+                },
+                import: self.import.options(),
+            },
+            fog_model: self.fog_model,
+        })
+    }
 }
 
 #[derive(Debug, clap::Args)]
@@ -325,6 +452,18 @@ pub struct RenderCli {
     /// Samples per pixel of --reference.
     #[arg(long, default_value_t = 64)]
     spp: u32,
+    /// Choose the knobs automatically: the most accurate setting of a tradeoff sweep's
+    /// Pareto front that renders within T milliseconds (the sweep's machine and size).
+    #[arg(long, value_name = "T", conflicts_with_all = ["target_error", "reference", "gpu"])]
+    budget_ms: Option<f64>,
+    /// Choose the knobs automatically: the fastest setting of the front whose error
+    /// against the sweep's best setting is at most E (rel RMS, 0.02 = 2 %).
+    #[arg(long, value_name = "E", conflicts_with_all = ["reference", "gpu"])]
+    target_error: Option<f64>,
+    /// The sweep for --budget-ms/--target-error (`haze tradeoff`'s tradeoff.json); without
+    /// it a quick sweep of INPUT is run first, at this render's size.
+    #[arg(long, value_name = "FILE")]
+    tradeoff: Option<PathBuf>,
     /// Exposure applied before PNG tone mapping.
     #[arg(long, default_value_t = 1.0)]
     exposure: f64,
@@ -459,6 +598,15 @@ impl RenderCli {
                 SourceArg::Center => haze_view::lighting::single::SourcePoints::Center,
             },
             reference: self.reference,
+            goal: match (self.budget_ms, self.target_error) {
+                (Some(t), _) => Some(crate::tradeoff::pareto::Goal::BudgetMs(t)),
+                (None, Some(e)) => Some(crate::tradeoff::pareto::Goal::TargetError(e)),
+                (None, None) => None,
+            },
+            tradeoff: self.tradeoff,
+            solve: haze_view::diffusion::SolveOptions::default(),
+            rbfs: 300,
+            teleport: true,
             // `--cpu` is the default, spelled out; clap refuses it with `--gpu`.
             gpu: self.gpu && !self.cpu,
             lighting: self.lighting.into(),
@@ -695,5 +843,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             import,
         } => crate::pack::run(&input, &out, frames.unwrap_or_default(), &import.options()),
         Command::Fog(fog) => crate::fog::run(fog),
+        Command::Tradeoff(t) => crate::tradeoff::run(t.into_args()?),
     }
 }

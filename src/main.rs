@@ -13,6 +13,7 @@ mod pack;
 mod progress;
 mod render;
 mod scene_render;
+mod tradeoff;
 mod viewer;
 
 use clap::Parser;
