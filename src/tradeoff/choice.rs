@@ -6,12 +6,11 @@ use anyhow::{Context, Result, anyhow};
 use serde_json::{Map, Value};
 use std::path::Path;
 
-/// A chosen setting: its knob values, measured time and error, and the reason in words.
+/// A chosen setting: its knob values and the reason in words (with its measured time
+/// and error).
 #[derive(Clone, Debug)]
 pub struct Choice {
     pub knobs: Map<String, Value>,
-    pub ms: f64,
-    pub error: f64,
     pub reason: String,
 }
 
@@ -71,12 +70,7 @@ pub fn choose(doc: &Value, goal: Goal) -> Result<Choice> {
         reason += "; ";
         reason += &why;
     }
-    Ok(Choice {
-        knobs,
-        ms: points[i].ms,
-        error: points[i].error,
-        reason,
-    })
+    Ok(Choice { knobs, reason })
 }
 
 /// For every knob the choice moves off its default: what that change alone measured

@@ -6,6 +6,7 @@
 use anyhow::{Result, anyhow};
 use haze_bake::residual::as_stored;
 use haze_fit::{FitOptions, SequenceFitter, SequenceOptions};
+use haze_view::lighting::single::SourcePoints;
 use haze_view::reference::{self, RefOptions};
 use haze_view::render::{CrmOptions, crm_render};
 use haze_view::{Camera, Environment, Image, Medium, Sky, Sun};
@@ -47,8 +48,11 @@ pub struct Case {
     pub light: Light,
     pub rbfs: usize,
     pub sh_order: usize,
-    /// Iteration budget of the fit (kept small where the RBFs outnumber the voxels).
+    /// Iteration budget of the fit (kept small where the RBFs are many).
     pub fit_iterations: u64,
+    /// Where each RBF's transmittance is taken (the centre alone keeps 5000 RBFs' n²
+    /// single scattering cheap).
+    pub source: SourcePoints,
 }
 
 const BASE: Case = Case {
@@ -62,6 +66,7 @@ const BASE: Case = Case {
     rbfs: 20,
     sh_order: 4,
     fit_iterations: 200,
+    source: SourcePoints::Footprint,
 };
 
 /// Every case: the baseline and one edge of one knob or medium parameter each.
@@ -126,8 +131,10 @@ pub fn cases() -> Vec<Case> {
         Case {
             name: "5000 RBFs",
             rbfs: 5000,
-            n: 6,
-            fit_iterations: 5,
+            n: 18,
+            fit_iterations: 3,
+            sh_order: 2,
+            source: SourcePoints::Center,
             ..BASE
         },
         Case {
@@ -277,6 +284,7 @@ pub fn run_case(case: &Case) -> Result<Outcome> {
         .map_err(anyhow::Error::msg)?;
     let crm = CrmOptions {
         order: case.sh_order,
+        source_points: case.source,
         ..CrmOptions::default()
     };
     let (img, stats) = crm_render(
@@ -299,6 +307,7 @@ pub fn run_case(case: &Case) -> Result<Outcome> {
             ..RefOptions::default()
         },
     );
+    tracing::info!("{}: fit {:.3} s; {stats}", case.name, fit.fit_seconds);
     let (nan, inf) = non_finite(&img);
     let (reference_nan, reference_inf) = non_finite(&reference);
     let r = mean(&reference);
@@ -369,4 +378,125 @@ pub fn run(out: &Path) -> Result<()> {
     }
     println!("{}", path.display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Runs the case named `name` and checks what every case must hold: finite RBFs and
+    /// pixels in both renderers, a converged diffusion solve, the RBF count asked for
+    /// (fewer only where the frame has fewer smoke voxels), and the energy within `band`.
+    fn check(name: &str, band: (f64, f64)) {
+        let case = cases().into_iter().find(|c| c.name == name).unwrap();
+        let o = run_case(&case).unwrap();
+        assert_eq!(o.bad_rbfs, 0, "{name}: non-finite RBFs");
+        assert_eq!((o.nan, o.inf), (0, 0), "{name}: fast renderer");
+        assert_eq!(
+            (o.reference_nan, o.reference_inf),
+            (0, 0),
+            "{name}: reference"
+        );
+        assert!(o.converged, "{name}: CG residual {:e}", o.cg_residual);
+        assert!(
+            o.fit_rel_l2.is_finite() && o.fit_rel_l2 <= 1.0,
+            "{name}: fit {}",
+            o.fit_rel_l2
+        );
+        match case.shape {
+            Shape::Puff => assert_eq!(o.rbfs, case.rbfs, "{name}"),
+            Shape::Empty => assert_eq!(o.rbfs, 0, "{name}"),
+            Shape::SingleVoxel => assert!((1..=case.rbfs).contains(&o.rbfs), "{name}"),
+        }
+        assert!(
+            o.energy >= band.0 && o.energy <= band.1,
+            "{name}: energy {} outside {band:?}",
+            o.energy
+        );
+    }
+
+    /// The mean radiance includes the sky around the puff. The fast renderer's light on
+    /// these puffs is measured within 5 % of the reference's (`haze tradeoff
+    /// --extremes`, BENCHMARKS.md), whose 32 paths per pixel put < 1 % of noise on a mean
+    /// over 432 pixels: ±8 % catches a lost or doubled scattering term.
+    const NEAR: (f64, f64) = (0.92, 1.08);
+
+    #[test]
+    fn baseline() {
+        check("baseline", NEAR);
+    }
+
+    #[test]
+    fn vanishing_extinction() {
+        check("sigma_t 1e-6", NEAR);
+    }
+
+    /// An opaque puff: the fast renderer is measured 20 % darker (its source radiance at
+    /// the RBF centers cannot resolve the lit skin of a medium this thick); the band
+    /// fails on a further loss or a blow-up.
+    #[test]
+    fn huge_extinction() {
+        check("sigma_t 1e3", (0.7, 1.08));
+    }
+
+    #[test]
+    fn no_scattering() {
+        check("albedo 0", NEAR);
+    }
+
+    #[test]
+    fn no_absorption() {
+        check("albedo 1", NEAR);
+    }
+
+    #[test]
+    fn forward_scattering() {
+        check("g 0.95", NEAR);
+    }
+
+    #[test]
+    fn backward_scattering() {
+        check("g -0.95", NEAR);
+    }
+
+    #[test]
+    fn grazing_sun() {
+        check("grazing light", NEAR);
+    }
+
+    #[test]
+    fn back_lit() {
+        check("back-lit", NEAR);
+    }
+
+    /// Nothing to scatter: both renderers show the same sky.
+    #[test]
+    fn empty_frame() {
+        check("empty frame", (1.0 - 1e-4, 1.0 + 1e-4));
+    }
+
+    #[test]
+    fn single_voxel() {
+        check("single voxel", NEAR);
+    }
+
+    #[test]
+    fn one_rbf() {
+        check("1 RBF", NEAR);
+    }
+
+    #[test]
+    fn five_thousand_rbfs() {
+        check("5000 RBFs", NEAR);
+    }
+
+    #[test]
+    fn sh_order_one() {
+        check("SH order 1", NEAR);
+    }
+
+    #[test]
+    fn sh_order_max() {
+        check("SH order max", NEAR);
+    }
 }
