@@ -351,9 +351,12 @@ pub struct BakeCli {
     /// Largest error of the stored volume, as a fraction of each frame's peak density: the
     /// residual D − D̃ is quantized with a step of twice that, and nothing is stored where
     /// the RBFs alone are within it. 0 = lossless (the residual's f32 values); the default
-    /// 1/255 is what 8-bit density storage promises.
-    #[arg(long, default_value_t = haze_hash::DEFAULT_ERROR, value_name = "E", value_parser = parse_error_fraction)]
-    residual_error: f64,
+    /// 1/255 is what 8-bit density storage promises. With --target-error and without this
+    /// flag it is chosen: the largest of 0.5/255 … 16/255 that keeps the stored density
+    /// within a quarter of the target (rel_l2, guaranteed by the quantizer's bound on the
+    /// first frame), printed and stored in the asset header with why.
+    #[arg(long, value_name = "E", value_parser = parse_error_fraction)]
+    residual_error: Option<f64>,
     /// Widest stored residual value in bits (4..16); each brick takes the narrowest of 2, 4,
     /// 8, 16 bits that holds its values. If the largest residual needs more at
     /// --residual-error, the step widens (with a warning).
@@ -728,6 +731,25 @@ impl BakeCli {
             ..FitOptions::default()
         };
         let defaults = SequenceOptions::default();
+        let mut choices = serde_json::Map::new();
+        let residual_error = match (self.residual_error, &count) {
+            (Some(e), _) => e,
+            (None, haze_bake::Count::Target { rel_l2, .. }) => {
+                let import = self.import.options();
+                let range = self.frames.unwrap_or_default();
+                let seq = haze_volume::Sequence::open(&self.input, &import, range)?;
+                let first = seq.load(0)?;
+                match haze_bake::choice::residual_error_for(&first, *rel_l2) {
+                    Some(c) => {
+                        eprintln!("residual error chosen: {}", c.why);
+                        choices.insert("residual_error".into(), serde_json::to_value(&c)?);
+                        c.residual_error
+                    }
+                    None => haze_hash::DEFAULT_ERROR,
+                }
+            }
+            (None, _) => haze_hash::DEFAULT_ERROR,
+        };
         Ok(crate::bake::BakeArgs {
             report: self.report,
             options: haze_bake::BakeOptions {
@@ -759,11 +781,12 @@ impl BakeCli {
                     ..defaults
                 },
                 quant: haze_hash::QuantOptions {
-                    error: self.residual_error,
+                    error: residual_error,
                     bits: self.quant_bits,
                 },
                 brick: self.residual_brick,
                 resume: self.resume,
+                choices,
             },
         })
     }

@@ -282,3 +282,51 @@ fn bad_inputs_fail_on_one_line() {
         "--width 0",
     );
 }
+
+/// `haze bake --target-error` also chooses the residual error, prints why and stores it
+/// in the asset header; an explicit --residual-error is kept.
+#[test]
+fn bake_target_error_chooses_the_residual_error_and_stores_why() {
+    let dir = tempfile::tempdir().unwrap();
+    let vol = puff(dir.path());
+    let out = dir.path().join("p.haze");
+    let o = out.to_str().unwrap();
+    let (_, err) = ok(&[
+        "bake",
+        &vol,
+        "--out",
+        o,
+        "--target-error",
+        "0.5",
+        "--max-rbfs",
+        "8",
+        "--no-teleport",
+    ]);
+    assert!(
+        err.contains("residual error chosen: target error 0.5"),
+        "{err}"
+    );
+    let asset = haze_asset::Asset::open(&out).unwrap();
+    let c = &asset.header().extra["choices"]["residual_error"];
+    let chosen = c["residual_error"].as_f64().unwrap();
+    assert!(c["bound"].as_f64().unwrap() <= 0.25 * 0.5);
+    assert!(c["why"].as_str().unwrap().contains("/255"));
+    let stored = &asset.header().settings["fit"]["settings"]["residual_error"];
+    assert_eq!(stored.as_f64().unwrap(), chosen);
+    let (_, err) = ok(&[
+        "bake",
+        &vol,
+        "--out",
+        o,
+        "--target-error",
+        "0.5",
+        "--max-rbfs",
+        "8",
+        "--no-teleport",
+        "--residual-error",
+        "0.01",
+    ]);
+    assert!(!err.contains("residual error chosen"), "{err}");
+    let asset = haze_asset::Asset::open(&out).unwrap();
+    assert!(asset.header().extra.get("choices").is_none());
+}
