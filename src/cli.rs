@@ -368,6 +368,13 @@ pub struct BakeCli {
     /// Also write a JSON report of every frame's fit.
     #[arg(long, value_name = "REPORT.json")]
     report: Option<PathBuf>,
+    /// Choose the render knobs `haze view` starts with: the most accurate setting of the
+    /// --tradeoff sweep's front that rendered within T ms; stored with why in the header.
+    #[arg(long, value_name = "T", requires = "tradeoff")]
+    view_budget_ms: Option<f64>,
+    /// The sweep (`haze tradeoff`'s tradeoff.json) for --view-budget-ms.
+    #[arg(long, value_name = "FILE", requires = "view_budget_ms")]
+    tradeoff: Option<PathBuf>,
     #[command(flatten)]
     import: ImportArgs,
 }
@@ -545,7 +552,46 @@ pub struct ViewCli {
 }
 
 impl ViewCli {
-    fn into_args(self) -> crate::viewer::ViewArgs {
+    /// The knobs an asset's header chose for the viewer (`haze bake --view-budget-ms`),
+    /// applied where the command line left the default.
+    fn apply_stored_choice(&mut self) {
+        let Some(input) = &self.input else { return };
+        let Some((knobs, why)) = crate::tradeoff::choice::stored_view_knobs(input) else {
+            return;
+        };
+        let d = haze_view::render::CrmOptions::default();
+        let mut used = Vec::new();
+        if let Some(v) = knobs.get("sh_order").and_then(|v| v.as_u64())
+            && self.sh_order == d.order
+        {
+            self.sh_order = v as usize;
+            used.push(format!("SH order {v}"));
+        }
+        if let Some(v) = knobs.get("slices").and_then(|v| v.as_f64())
+            && self.slices == d.slices_per_voxel
+        {
+            self.slices = v;
+            used.push(format!("{v} slices per voxel"));
+        }
+        if knobs.get("multiple").and_then(|v| v.as_bool()) == Some(false) && !self.no_multiple {
+            self.no_multiple = true;
+            used.push("no multiple scattering".to_string());
+        }
+        if knobs.get("residual").and_then(|v| v.as_bool()) == Some(false) && !self.no_residual {
+            self.no_residual = true;
+            used.push("no residual".to_string());
+        }
+        if !used.is_empty() {
+            eprintln!(
+                "{}: starting with the asset's choice ({}): {why}",
+                input.display(),
+                used.join(", ")
+            );
+        }
+    }
+
+    fn into_args(mut self) -> crate::viewer::ViewArgs {
+        self.apply_stored_choice();
         crate::viewer::ViewArgs {
             // clap requires the input without --scene.
             input: self.input.unwrap_or_default(),
@@ -750,6 +796,14 @@ impl BakeCli {
             }
             (None, _) => haze_hash::DEFAULT_ERROR,
         };
+        if let (Some(t), Some(file)) = (self.view_budget_ms, &self.tradeoff) {
+            let c = crate::tradeoff::choice::for_view(file, t)?;
+            eprintln!("view settings chosen: {}", c.reason);
+            choices.insert(
+                "view".into(),
+                serde_json::json!({"knobs": c.knobs, "why": c.reason}),
+            );
+        }
         Ok(crate::bake::BakeArgs {
             report: self.report,
             options: haze_bake::BakeOptions {

@@ -330,3 +330,70 @@ fn bake_target_error_chooses_the_residual_error_and_stores_why() {
     let asset = haze_asset::Asset::open(&out).unwrap();
     assert!(asset.header().extra.get("choices").is_none());
 }
+
+/// `haze bake --view-budget-ms T --tradeoff FILE` stores the viewer's knobs with why, and
+/// `haze view` starts with them.
+#[test]
+fn a_view_budget_is_stored_in_the_asset_and_the_viewer_starts_with_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let vol = puff(dir.path());
+    let sweep = dir.path().join("sweep");
+    let s = sweep.to_str().unwrap();
+    ok(&[
+        "tradeoff", &vol, "--out", s, "--quick", "--width", "32", "--height", "24", "--knobs",
+        "multiple",
+    ]);
+    let file = sweep.join("tradeoff.json");
+    let doc: Value = serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    // The fastest front entry is single scattering alone (multiple scattering costs time).
+    let fastest = &entries(&doc, "pareto")[0];
+    let budget = format!("{}", fastest["ms"]["render"].as_f64().unwrap() * 1.0001);
+    let out = dir.path().join("p.haze");
+    let o = out.to_str().unwrap();
+    let (_, err) = ok(&[
+        "bake",
+        &vol,
+        "--out",
+        o,
+        "--rbfs",
+        "8",
+        "--no-teleport",
+        "--view-budget-ms",
+        &budget,
+        "--tradeoff",
+        file.to_str().unwrap(),
+    ]);
+    assert!(err.contains("view settings chosen: budget"), "{err}");
+    let asset = haze_asset::Asset::open(&out).unwrap();
+    let stored = &asset.header().extra["choices"]["view"];
+    assert_eq!(stored["knobs"], fastest["knobs"]);
+    let (stdout, err) = ok(&[
+        "view",
+        o,
+        "--no-window",
+        "--play-for",
+        "0.2",
+        "--lighting",
+        "cpu",
+    ]);
+    if fastest["knobs"]["multiple"] == Value::Bool(false) {
+        assert!(
+            err.contains("starting with the asset's choice (no multiple scattering)"),
+            "{err}"
+        );
+    }
+    assert!(!stdout.is_empty());
+    fails(
+        &[
+            "bake",
+            &vol,
+            "--out",
+            o,
+            "--view-budget-ms",
+            "0",
+            "--tradeoff",
+            file.to_str().unwrap(),
+        ],
+        "must be a positive",
+    );
+}

@@ -135,3 +135,24 @@ pub fn bool_knob(c: &Choice, name: &str) -> Option<bool> {
 pub fn str_knob<'a>(c: &'a Choice, name: &str) -> Option<&'a str> {
     c.knobs.get(name).and_then(Value::as_str)
 }
+
+/// The setting of the sweep in `file` for a viewer with `budget_ms` per picture.
+pub fn for_view(file: &Path, budget_ms: f64) -> Result<Choice> {
+    if !(budget_ms > 0.0 && budget_ms.is_finite()) {
+        anyhow::bail!("--view-budget-ms {budget_ms} must be a positive number of milliseconds");
+    }
+    let doc = read(file)?;
+    if doc.get("kind").and_then(Value::as_str) != Some("smoke") {
+        anyhow::bail!("{}: not a smoke sweep", file.display());
+    }
+    choose(&doc, Goal::BudgetMs(budget_ms)).map_err(|e| anyhow!("{}: {e}", file.display()))
+}
+
+/// The viewer knobs and why stored in an asset's header (`extra.choices.view`), if any.
+pub fn stored_view_knobs(asset: &Path) -> Option<(Map<String, Value>, String)> {
+    let a = haze_asset::Asset::open(asset).ok()?;
+    let view = a.header().extra.get("choices")?.get("view")?;
+    let knobs = view.get("knobs")?.as_object()?.clone();
+    let why = view.get("why")?.as_str()?.to_string();
+    Some((knobs, why))
+}

@@ -12,6 +12,9 @@ pub struct Knob {
     pub values: Vec<Value>,
     pub default: usize,
     pub best: usize,
+    /// The knob acts on the bake alone and cannot change the render time (the residual's
+    /// error and bits, teleportation): its measured render-time differences are noise.
+    pub render_neutral: bool,
 }
 
 impl Knob {
@@ -22,6 +25,15 @@ impl Knob {
             values,
             default,
             best,
+            render_neutral: false,
+        }
+    }
+
+    /// The same knob, marked as acting on the bake alone.
+    pub fn render_neutral(self) -> Knob {
+        Knob {
+            render_neutral: true,
+            ..self
         }
     }
 }

@@ -217,7 +217,11 @@ pub fn run_sweep(
                 Why::OneKnob(k) => Some(Effect {
                     knob: k,
                     value: m.setting[k],
-                    d_ms: m.sample.render_ms - d.sample.render_ms,
+                    d_ms: if knobs[k].render_neutral {
+                        0.0
+                    } else {
+                        m.sample.render_ms - d.sample.render_ms
+                    },
                     d_error: m.error - d.error,
                 }),
                 _ => None,
@@ -262,13 +266,26 @@ pub fn run_sweep(
     })
 }
 
+/// A knob value for people: names unquoted, fractions to 4 significant digits.
+fn short(v: &Value) -> String {
+    match v {
+        Value::String(s) => s.clone(),
+        Value::Number(n) if n.is_f64() => {
+            let x = n.as_f64().unwrap_or(0.0);
+            let s = format!("{x:.4}");
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        }
+        other => other.to_string(),
+    }
+}
+
 /// "sh_order=2" for the knobs of `s` that differ from `default` ("defaults" if none).
 pub fn describe_short(knobs: &[Knob], s: &[usize], default: &[usize]) -> String {
     let parts: Vec<String> = knobs
         .iter()
         .enumerate()
         .filter(|&(k, _)| s[k] != default[k])
-        .map(|(k, knob)| format!("{}={}", knob.name, knob.values[s[k]]))
+        .map(|(k, knob)| format!("{}={}", knob.name, short(&knob.values[s[k]])))
         .collect();
     if parts.is_empty() {
         "defaults".to_string()

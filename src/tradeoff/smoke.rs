@@ -144,19 +144,21 @@ impl SmokeLab {
                 },
                 last(tables.rbfs.len()),
             ),
-            Knob::new("teleport", vec![json!(false), json!(true)], 1, 1),
+            Knob::new("teleport", vec![json!(false), json!(true)], 1, 1).render_neutral(),
             Knob::new(
                 "residual_error",
                 nums(&RESIDUAL_ERROR),
                 index_of(&RESIDUAL_ERROR, &haze_hash::DEFAULT_ERROR),
                 0,
-            ),
+            )
+            .render_neutral(),
             Knob::new(
                 "quant_bits",
                 QUANT_BITS.iter().map(|x| json!(x)).collect(),
                 1,
                 2,
-            ),
+            )
+            .render_neutral(),
             Knob::new(
                 "sh_order",
                 tables.sh.iter().map(|x| json!(x)).collect(),
