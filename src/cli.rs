@@ -563,12 +563,14 @@ impl ViewCli {
         let mut used = Vec::new();
         if let Some(v) = knobs.get("sh_order").and_then(|v| v.as_u64())
             && self.sh_order == d.order
+            && v as usize != d.order
         {
             self.sh_order = v as usize;
             used.push(format!("SH order {v}"));
         }
         if let Some(v) = knobs.get("slices").and_then(|v| v.as_f64())
             && self.slices == d.slices_per_voxel
+            && v != d.slices_per_voxel
         {
             self.slices = v;
             used.push(format!("{v} slices per voxel"));

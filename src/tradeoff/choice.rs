@@ -53,7 +53,7 @@ pub fn choose(doc: &Value, goal: Goal) -> Result<Choice> {
         .ok_or_else(|| anyhow!("a front entry has no \"knobs\""))?;
     let goal_text = match goal {
         Goal::BudgetMs(t) => format!(
-            "budget {t} ms: the most accurate of the {} front settings within it",
+            "budget {t:.1} ms: the most accurate of the {} front settings within it",
             points.len()
         ),
         Goal::TargetError(x) => format!(

@@ -52,7 +52,7 @@ where
     chart
         .configure_mesh()
         .x_desc("render time, ms")
-        .y_desc("error against the best setting, % (log)")
+        .y_desc("error against the best setting, % (log; 0 at the bottom)")
         .label_style(("sans-serif", 13))
         .draw()
         .map_err(err)?;
