@@ -103,6 +103,9 @@ fn a_quick_smoke_sweep_writes_its_front_and_plots_and_render_chooses_from_it() {
         "24",
         "--knobs",
         "rbfs,sh_order,slices,multiple,residual",
+        "--reference",
+        "--spp",
+        "4",
     ]);
     assert!(stdout.contains("on the front"), "{stdout}");
     let doc: Value =
@@ -123,6 +126,9 @@ fn a_quick_smoke_sweep_writes_its_front_and_plots_and_render_chooses_from_it() {
         let ms = &s["ms"];
         assert!(ms["render"].as_f64().unwrap() > 0.0 && ms["bake"].as_f64().unwrap() > 0.0);
         assert!(s["error"].as_f64().unwrap().is_finite());
+        // --reference: every setting also against the path tracer.
+        let r = s["error_reference"].as_f64().unwrap();
+        assert!(r.is_finite() && r > 0.0, "{r}");
     }
     check_front(&doc);
     for stem in ["pareto", "knob-sh_order", "knob-multiple"] {
