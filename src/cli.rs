@@ -145,6 +145,133 @@ pub enum Command {
     /// Fog models: `haze fog wavelet` renders a fogmap as a wavelet fog.
     #[command(subcommand)]
     Fog(crate::fog::FogCommand),
+    /// Measure the speed/accuracy trade of every knob on your own data.
+    ///
+    /// For smoke (a volume, a sequence's --frame or a .haze asset's frame) each setting is
+    /// fitted (RBF count, teleportation), its residual stored (--residual-error, bits) and
+    /// rendered on the CPU by compensated ray marching (SH order, exp, source placement, CG
+    /// iterations, slices, render size, multiple scattering, residual) under the lighting
+    /// and camera flags of `haze render`; every knob is turned one at a time around the
+    /// defaults, then greedy chains of changes from the defaults towards speed and towards
+    /// accuracy give the Pareto front its combinations. For a fogmap (.png, .exr, or
+    /// --fogmap) every basis × levels × µ of its wavelet fog is rendered. The error of a
+    /// setting is the rel RMS of its picture (scaled up to the full size) against the most
+    /// accurate setting's, and with --reference also against the reference renderer's.
+    ///
+    /// Writes DIR/tradeoff.json (`settings`: every setting with its knobs, `ms` per stage
+    /// and `error`; `pareto`: the front of render time against error, ordered by time),
+    /// DIR/pareto.{svg,png} and DIR/knob-NAME.{svg,png}. `haze render --budget-ms T
+    /// --tradeoff DIR/tradeoff.json` then picks from it.
+    ///
+    /// --extremes instead bakes and renders tiny cases at the edges of every knob and of
+    /// the medium and reports NaN/Inf counts, energy against the reference and the
+    /// diffusion solve's convergence (DIR/extremes.json).
+    Tradeoff(TradeoffCli),
+}
+
+#[derive(Debug, clap::Args)]
+pub struct TradeoffCli {
+    /// A volume file, a directory or glob of numbered frames, a .haze asset, or a fogmap.
+    #[arg(required_unless_present = "extremes")]
+    input: Option<PathBuf>,
+    /// Source frame number (default: the first).
+    #[arg(long)]
+    frame: Option<i64>,
+    /// Directory for tradeoff.json and the plots (created if missing).
+    #[arg(long, short)]
+    out: PathBuf,
+    /// Also measure every setting against the reference renderer (path tracing at --spp;
+    /// for a fogmap the exact integral of the map).
+    #[arg(long)]
+    reference: bool,
+    /// Samples per pixel of --reference.
+    #[arg(long, default_value_t = 64)]
+    spp: u32,
+    /// Sweep only these knobs (comma-separated names, as tradeoff.json lists them); the
+    /// others keep their defaults.
+    #[arg(long, value_delimiter = ',', value_name = "LIST")]
+    knobs: Option<Vec<String>>,
+    /// Fewer values per knob and shorter chains (seconds instead of minutes).
+    #[arg(long)]
+    quick: bool,
+    /// Treat INPUT as a fogmap (.png and .exr always are).
+    #[arg(long)]
+    fogmap: bool,
+    /// Run the extreme cases instead (no INPUT).
+    #[arg(long, conflicts_with_all = ["input", "reference", "knobs", "quick"])]
+    extremes: bool,
+    /// Full picture width (the size knob renders fractions of it).
+    #[arg(long, default_value_t = 160)]
+    width: usize,
+    /// Full picture height.
+    #[arg(long, default_value_t = 120)]
+    height: usize,
+    /// Camera position (world units), with --target.
+    #[arg(long, value_name = "X,Y,Z", value_parser = crate::import_args::parse_vec3, allow_hyphen_values = true)]
+    eye: Option<[f64; 3]>,
+    /// Point the camera looks at, with --eye.
+    #[arg(long, value_name = "X,Y,Z", value_parser = crate::import_args::parse_vec3, allow_hyphen_values = true)]
+    target: Option<[f64; 3]>,
+    /// Camera up vector.
+    #[arg(long, value_name = "X,Y,Z", value_parser = crate::import_args::parse_vec3, default_value = "0,0,1", allow_hyphen_values = true)]
+    up: [f64; 3],
+    /// Vertical field of view, degrees.
+    #[arg(long, default_value_t = 40.0)]
+    fov: f64,
+    #[command(flatten)]
+    lights: crate::light_args::LightArgs,
+    /// Extinction cross-section: κt = σt · density.
+    #[arg(long, default_value_t = 4.0)]
+    sigma_t: f64,
+    /// Single-scattering albedo, 0..1.
+    #[arg(long, default_value_t = 0.8)]
+    albedo: f64,
+    /// Henyey–Greenstein asymmetry, −1..1.
+    #[arg(long, default_value_t = 0.3, allow_hyphen_values = true)]
+    g: f64,
+    #[command(flatten)]
+    import: ImportArgs,
+    #[command(flatten, next_help_heading = "Fog (fogmap input)")]
+    fog_model: crate::fog::FogModelArgs,
+}
+
+impl TradeoffCli {
+    fn into_args(self) -> anyhow::Result<crate::tradeoff::TradeoffArgs> {
+        if !(1..=4096).contains(&self.width) || !(1..=4096).contains(&self.height) {
+            anyhow::bail!(
+                "--width {} --height {}: each must be between 1 and 4096",
+                self.width,
+                self.height
+            );
+        }
+        Ok(crate::tradeoff::TradeoffArgs {
+            input: self.input.unwrap_or_default(),
+            frame: self.frame,
+            out: self.out,
+            reference: self.reference,
+            spp: self.spp,
+            knobs: self.knobs,
+            quick: self.quick,
+            fogmap: self.fogmap,
+            extremes: self.extremes,
+            smoke: crate::tradeoff::SmokeInput {
+                lights: self.lights,
+                sigma_t: self.sigma_t,
+                albedo: self.albedo,
+                g: self.g,
+                view: crate::tradeoff::smoke::View {
+                    eye: self.eye,
+                    target: self.target,
+                    up: self.up,
+                    fov: self.fov,
+                    width: self.width,
+                    height: self.height,
+                },
+                import: self.import.options(),
+            },
+            fog_model: self.fog_model,
+        })
+    }
 }
 
 #[derive(Debug, clap::Args)]
@@ -224,9 +351,12 @@ pub struct BakeCli {
     /// Largest error of the stored volume, as a fraction of each frame's peak density: the
     /// residual D − D̃ is quantized with a step of twice that, and nothing is stored where
     /// the RBFs alone are within it. 0 = lossless (the residual's f32 values); the default
-    /// 1/255 is what 8-bit density storage promises.
-    #[arg(long, default_value_t = haze_hash::DEFAULT_ERROR, value_name = "E", value_parser = parse_error_fraction)]
-    residual_error: f64,
+    /// 1/255 is what 8-bit density storage promises. With --target-error and without this
+    /// flag it is chosen: the largest of 0.5/255 … 16/255 that keeps the stored density
+    /// within a quarter of the target (rel_l2, guaranteed by the quantizer's bound on the
+    /// first frame), printed and stored in the asset header with why.
+    #[arg(long, value_name = "E", value_parser = parse_error_fraction)]
+    residual_error: Option<f64>,
     /// Widest stored residual value in bits (4..16); each brick takes the narrowest of 2, 4,
     /// 8, 16 bits that holds its values. If the largest residual needs more at
     /// --residual-error, the step widens (with a warning).
@@ -238,6 +368,13 @@ pub struct BakeCli {
     /// Also write a JSON report of every frame's fit.
     #[arg(long, value_name = "REPORT.json")]
     report: Option<PathBuf>,
+    /// Choose the render knobs `haze view` starts with: the most accurate setting of the
+    /// --tradeoff sweep's front that rendered within T ms; stored with why in the header.
+    #[arg(long, value_name = "T", requires = "tradeoff")]
+    view_budget_ms: Option<f64>,
+    /// The sweep (`haze tradeoff`'s tradeoff.json) for --view-budget-ms.
+    #[arg(long, value_name = "FILE", requires = "view_budget_ms")]
+    tradeoff: Option<PathBuf>,
     #[command(flatten)]
     import: ImportArgs,
 }
@@ -325,6 +462,18 @@ pub struct RenderCli {
     /// Samples per pixel of --reference.
     #[arg(long, default_value_t = 64)]
     spp: u32,
+    /// Choose the knobs automatically: the most accurate setting of a tradeoff sweep's
+    /// Pareto front that renders within T milliseconds (the sweep's machine and size).
+    #[arg(long, value_name = "T", conflicts_with_all = ["target_error", "reference", "gpu"])]
+    budget_ms: Option<f64>,
+    /// Choose the knobs automatically: the fastest setting of the front whose error
+    /// against the sweep's best setting is at most E (rel RMS, 0.02 = 2 %).
+    #[arg(long, value_name = "E", conflicts_with_all = ["reference", "gpu"])]
+    target_error: Option<f64>,
+    /// The sweep for --budget-ms/--target-error (`haze tradeoff`'s tradeoff.json); without
+    /// it a quick sweep of INPUT is run first, at this render's size.
+    #[arg(long, value_name = "FILE")]
+    tradeoff: Option<PathBuf>,
     /// Exposure applied before PNG tone mapping.
     #[arg(long, default_value_t = 1.0)]
     exposure: f64,
@@ -405,7 +554,48 @@ pub struct ViewCli {
 }
 
 impl ViewCli {
-    fn into_args(self) -> crate::viewer::ViewArgs {
+    /// The knobs an asset's header chose for the viewer (`haze bake --view-budget-ms`),
+    /// applied where the command line left the default.
+    fn apply_stored_choice(&mut self) {
+        let Some(input) = &self.input else { return };
+        let Some((knobs, why)) = crate::tradeoff::choice::stored_view_knobs(input) else {
+            return;
+        };
+        let d = haze_view::render::CrmOptions::default();
+        let mut used = Vec::new();
+        if let Some(v) = knobs.get("sh_order").and_then(|v| v.as_u64())
+            && self.sh_order == d.order
+            && v as usize != d.order
+        {
+            self.sh_order = v as usize;
+            used.push(format!("SH order {v}"));
+        }
+        if let Some(v) = knobs.get("slices").and_then(|v| v.as_f64())
+            && self.slices == d.slices_per_voxel
+            && v != d.slices_per_voxel
+        {
+            self.slices = v;
+            used.push(format!("{v} slices per voxel"));
+        }
+        if knobs.get("multiple").and_then(|v| v.as_bool()) == Some(false) && !self.no_multiple {
+            self.no_multiple = true;
+            used.push("no multiple scattering".to_string());
+        }
+        if knobs.get("residual").and_then(|v| v.as_bool()) == Some(false) && !self.no_residual {
+            self.no_residual = true;
+            used.push("no residual".to_string());
+        }
+        if !used.is_empty() {
+            eprintln!(
+                "{}: starting with the asset's choice ({}): {why}",
+                input.display(),
+                used.join(", ")
+            );
+        }
+    }
+
+    fn into_args(mut self) -> crate::viewer::ViewArgs {
+        self.apply_stored_choice();
         crate::viewer::ViewArgs {
             // clap requires the input without --scene.
             input: self.input.unwrap_or_default(),
@@ -461,6 +651,15 @@ impl RenderCli {
                 SourceArg::Center => haze_view::lighting::single::SourcePoints::Center,
             },
             reference: self.reference,
+            goal: match (self.budget_ms, self.target_error) {
+                (Some(t), _) => Some(crate::tradeoff::pareto::Goal::BudgetMs(t)),
+                (None, Some(e)) => Some(crate::tradeoff::pareto::Goal::TargetError(e)),
+                (None, None) => None,
+            },
+            tradeoff: self.tradeoff,
+            solve: haze_view::diffusion::SolveOptions::default(),
+            rbfs: 300,
+            teleport: true,
             // `--cpu` is the default, spelled out; clap refuses it with `--gpu`.
             gpu: self.gpu && !self.cpu,
             lighting: self.lighting.into(),
@@ -582,6 +781,33 @@ impl BakeCli {
             ..FitOptions::default()
         };
         let defaults = SequenceOptions::default();
+        let mut choices = serde_json::Map::new();
+        let residual_error = match (self.residual_error, &count) {
+            (Some(e), _) => e,
+            (None, haze_bake::Count::Target { rel_l2, .. }) => {
+                let import = self.import.options();
+                let range = self.frames.unwrap_or_default();
+                let seq = haze_volume::Sequence::open(&self.input, &import, range)?;
+                let first = seq.load(0)?;
+                match haze_bake::choice::residual_error_for(&first, *rel_l2) {
+                    Some(c) => {
+                        eprintln!("residual error chosen: {}", c.why);
+                        choices.insert("residual_error".into(), serde_json::to_value(&c)?);
+                        c.residual_error
+                    }
+                    None => haze_hash::DEFAULT_ERROR,
+                }
+            }
+            (None, _) => haze_hash::DEFAULT_ERROR,
+        };
+        if let (Some(t), Some(file)) = (self.view_budget_ms, &self.tradeoff) {
+            let c = crate::tradeoff::choice::for_view(file, t)?;
+            eprintln!("view settings chosen: {}", c.reason);
+            choices.insert(
+                "view".into(),
+                serde_json::json!({"knobs": c.knobs, "why": c.reason}),
+            );
+        }
         Ok(crate::bake::BakeArgs {
             report: self.report,
             options: haze_bake::BakeOptions {
@@ -613,11 +839,12 @@ impl BakeCli {
                     ..defaults
                 },
                 quant: haze_hash::QuantOptions {
-                    error: self.residual_error,
+                    error: residual_error,
                     bits: self.quant_bits,
                 },
                 brick: self.residual_brick,
                 resume: self.resume,
+                choices,
             },
         })
     }
@@ -701,5 +928,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             import,
         } => crate::pack::run(&input, &out, frames.unwrap_or_default(), &import.options()),
         Command::Fog(fog) => crate::fog::run(fog),
+        Command::Tradeoff(t) => crate::tradeoff::run(t.into_args()?),
     }
 }

@@ -14,6 +14,7 @@ mod pack;
 mod progress;
 mod render;
 mod scene_render;
+mod tradeoff;
 mod viewer;
 
 use clap::Parser;

@@ -3,10 +3,13 @@
 //! reference renderer.
 
 use crate::progress;
+use crate::tradeoff::choice;
+use crate::tradeoff::pareto::Goal;
 use anyhow::{Context, Result, anyhow, bail};
 use haze_asset::Asset;
 use haze_bake::residual::as_stored;
-use haze_fit::{SequenceFitter, SequenceOptions};
+use haze_fit::{FitOptions, SequenceFitter, SequenceOptions};
+use haze_view::diffusion::SolveOptions;
 use haze_view::gpu::GpuContext;
 use haze_view::gpu::renderer::{GpuFrame, GpuRenderer, LightingOn};
 use haze_view::gpu::volume_pass::Residual;
@@ -45,6 +48,15 @@ pub struct RenderArgs {
     pub exp: ExpMethod,
     pub source_points: SourcePoints,
     pub reference: bool,
+    /// Choose the knobs from a tradeoff sweep to meet this.
+    pub goal: Option<Goal>,
+    /// The sweep (`tradeoff.json`); a quick sweep of the input when absent.
+    pub tradeoff: Option<PathBuf>,
+    /// Stopping rule of the diffusion solve.
+    pub solve: SolveOptions,
+    /// RBFs of a volume input's fit, and whether it teleports.
+    pub rbfs: usize,
+    pub teleport: bool,
     /// Render on the GPU (every stage).
     pub gpu: bool,
     /// Where `gpu` solves the diffusion.
@@ -65,7 +77,10 @@ pub(crate) struct FrameData {
     pub(crate) label: String,
 }
 
-pub fn run(a: RenderArgs) -> Result<()> {
+pub fn run(mut a: RenderArgs) -> Result<()> {
+    if let Some(goal) = a.goal {
+        choose_knobs(&mut a, goal)?;
+    }
     let start = Instant::now();
     let kind = out_kind(&a.out)?;
     let medium = Medium::new(a.sigma_t, a.albedo, a.g).map_err(|e| anyhow!("{e}"))?;
@@ -116,7 +131,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
             slices_per_voxel: a.slices,
             exp: a.exp,
             source_points: a.source_points,
-            ..CrmOptions::default()
+            solve: a.solve,
         };
         let (dims, bbox) = (frame.density.dims(), frame.density.bbox());
         let img = if let Some(ctx) = &gpu {
@@ -214,6 +229,105 @@ pub fn run(a: RenderArgs) -> Result<()> {
     Ok(())
 }
 
+/// `--budget-ms`/`--target-error`: picks the setting from the sweep (read, or a quick
+/// one run here) and sets the knobs of `a` to it, printing the choice and why.
+fn choose_knobs(a: &mut RenderArgs, goal: Goal) -> Result<()> {
+    match goal {
+        Goal::BudgetMs(t) if !(t > 0.0 && t.is_finite()) => {
+            bail!("--budget-ms {t} must be a positive number of milliseconds")
+        }
+        Goal::TargetError(e) if !(e > 0.0 && e.is_finite()) => {
+            bail!("--target-error {e} must be a positive rel RMS (0.02 = 2 %)")
+        }
+        _ => {}
+    }
+    let (doc, source) = match &a.tradeoff {
+        Some(path) => (choice::read(path)?, path.display().to_string()),
+        None => {
+            let input = crate::tradeoff::SmokeInput {
+                lights: a.env.clone(),
+                sigma_t: a.sigma_t,
+                albedo: a.albedo,
+                g: a.g,
+                view: crate::tradeoff::smoke::View {
+                    eye: a.eye,
+                    target: a.target,
+                    up: a.up,
+                    fov: a.fov,
+                    width: a.width,
+                    height: a.height,
+                },
+                import: a.import.clone(),
+            };
+            let mut lab = crate::tradeoff::smoke_lab(&a.input, a.frame, &input, true)?;
+            let bar = progress::settings_bar();
+            let sweep = crate::tradeoff::run_sweep(
+                &mut lab,
+                crate::tradeoff::smoke_plan(true),
+                Vec::new(),
+                None,
+                &bar,
+            )?;
+            let doc = sweep.to_json(&a.input, a.frame, serde_json::Value::Null);
+            (doc, format!("a quick sweep of {}", a.input.display()))
+        }
+    };
+    if doc.get("kind").and_then(|k| k.as_str()) == Some("fogmap") {
+        bail!("{source}: a fogmap's sweep cannot choose a smoke render's knobs");
+    }
+    let c = choice::choose(&doc, goal).map_err(|e| anyhow!("{source}: {e}"))?;
+    if let Some(v) = choice::f64_knob(&c, "sh_order") {
+        a.sh_order = v as usize;
+    }
+    if let Some(v) = choice::str_knob(&c, "exp") {
+        a.exp = if v == "linear" {
+            ExpMethod::OptimalLinear
+        } else {
+            ExpMethod::ScaleSquareAuto
+        };
+    }
+    if let Some(v) = choice::str_knob(&c, "source") {
+        a.source_points = if v == "center" {
+            SourcePoints::Center
+        } else {
+            SourcePoints::Footprint
+        };
+    }
+    if let Some(v) = choice::f64_knob(&c, "cg_iterations") {
+        a.solve.max_iterations = v as u32;
+    }
+    if let Some(v) = choice::f64_knob(&c, "slices") {
+        a.slices = v;
+    }
+    if let Some(v) = choice::bool_knob(&c, "multiple") {
+        a.multiple = v;
+    }
+    if let Some(v) = choice::bool_knob(&c, "residual") {
+        a.residual = v;
+    }
+    if let Some(v) = choice::f64_knob(&c, "size") {
+        a.width = ((a.width as f64 * v).round() as usize).max(8);
+        a.height = ((a.height as f64 * v).round() as usize).max(8);
+    }
+    let is_asset = a
+        .input
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("haze"));
+    let mut note = String::new();
+    if is_asset {
+        note = " (RBF count, teleportation and residual error are the asset's own: bake with them to get the measured error)".to_string();
+    } else {
+        if let Some(v) = choice::f64_knob(&c, "rbfs") {
+            a.rbfs = v as usize;
+        }
+        if let Some(v) = choice::bool_knob(&c, "teleport") {
+            a.teleport = v;
+        }
+    }
+    eprintln!("choice from {source}: {}{note}", c.reason);
+    Ok(())
+}
+
 pub(crate) enum OutKind {
     Exr,
     Png,
@@ -259,29 +373,22 @@ fn load(a: &RenderArgs) -> Result<FrameData> {
     if is_asset {
         return load_asset(&a.input, a.frame);
     }
-    if a.frame.is_some() && a.input.is_file() {
-        tracing::warn!("--frame is ignored for a single volume file");
-    }
-    let path = if a.input.is_file() {
-        a.input.clone()
-    } else {
-        let seq = haze_volume::Sequence::open(&a.input, &a.import, Default::default())?;
-        let i = match a.frame {
-            Some(k) => seq
-                .frames()
-                .iter()
-                .position(|f| f.number == k)
-                .ok_or_else(|| anyhow!("{}: no frame {k}", a.input.display()))?,
-            None => 0,
-        };
-        seq.frames()[i].path.clone()
-    };
+    let path = volume_path(&a.input, a.frame, &a.import)?;
     let density = import::import(&path, &a.import)?;
     let mut rbfs = Vec::new();
     let mut residual = vec![0.0f32; density.len()];
     if !a.reference {
-        let spinner = progress::spinner(&format!("fitting {} with 300 RBFs", path.display()));
-        let fit = SequenceFitter::new(SequenceOptions::default())
+        let spinner =
+            progress::spinner(&format!("fitting {} with {} RBFs", path.display(), a.rbfs));
+        let opts = SequenceOptions {
+            rbfs: a.rbfs,
+            fit: FitOptions {
+                teleport: a.teleport,
+                ..FitOptions::default()
+            },
+            ..SequenceOptions::default()
+        };
+        let fit = SequenceFitter::new(opts)
             .fit(&density)
             .map_err(|e| anyhow!("{}: {e}", path.display()))?;
         spinner.finish_and_clear();
@@ -298,6 +405,43 @@ fn load(a: &RenderArgs) -> Result<FrameData> {
         slot: None,
         label: path.display().to_string(),
     })
+}
+
+/// The file of frame `frame` of `input` (a volume file, or a directory or glob of
+/// numbered frames: its first frame by default).
+fn volume_path(input: &Path, frame: Option<i64>, opts: &ImportOptions) -> Result<PathBuf> {
+    if frame.is_some() && input.is_file() {
+        tracing::warn!("--frame is ignored for a single volume file");
+    }
+    if input.is_file() {
+        return Ok(input.to_path_buf());
+    }
+    let seq = haze_volume::Sequence::open(input, opts, Default::default())?;
+    let i = match frame {
+        Some(k) => seq
+            .frames()
+            .iter()
+            .position(|f| f.number == k)
+            .ok_or_else(|| anyhow!("{}: no frame {k}", input.display()))?,
+        None => 0,
+    };
+    Ok(seq.frames()[i].path.clone())
+}
+
+/// The density of one frame: a volume file's, a sequence's frame, or an asset's
+/// reconstruction `max(D̃ + R̂, 0)` (`haze tradeoff`'s input).
+pub(crate) fn load_density(
+    input: &Path,
+    frame: Option<i64>,
+    opts: &ImportOptions,
+) -> Result<Volume> {
+    let is_asset = input
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("haze"));
+    if is_asset {
+        return Ok(load_asset(input, frame)?.density);
+    }
+    Ok(import::import(&volume_path(input, frame, opts)?, opts)?)
 }
 
 pub(crate) fn load_asset(path: &Path, frame: Option<i64>) -> Result<FrameData> {

@@ -17,6 +17,7 @@
 //!     quant: Default::default(),
 //!     brick: haze_hash::tile::DEFAULT_BRICK,
 //!     resume: false,
+//!     choices: Default::default(),
 //! };
 //! let mut bake = Bake::new(options, |e: Event<'_>| eprintln!("{e:?}"))?;
 //! for frame in bake.by_ref() {
@@ -34,7 +35,9 @@
 //! * [`merge`]: chunks baked separately joined into one asset.
 //! * [`export`]: a frame reconstructed as a dense volume.
 //! * [`header`]: the asset header of a sequence.
+//! * [`choice`]: automatic choices (the residual error of a `--target-error` bake) and why.
 
+pub mod choice;
 pub mod export;
 pub mod header;
 pub mod journal;

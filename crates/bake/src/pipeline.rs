@@ -48,6 +48,9 @@ pub struct BakeOptions {
     pub brick: u32,
     /// Continue the interrupted bake of `out` from its journal.
     pub resume: bool,
+    /// Automatic choices made for this bake and why (`choice`), stored in the header's
+    /// `extra.choices` for every reader (`haze inspect`, `haze view`).
+    pub choices: serde_json::Map<String, serde_json::Value>,
 }
 
 /// One frame's line in the report and in the asset header.
@@ -379,6 +382,11 @@ impl Bake {
             "fit".into(),
             json!({"settings": settings, "frames": summary}),
         );
+        if !args.choices.is_empty() {
+            header
+                .extra
+                .insert("choices".into(), args.choices.clone().into());
+        }
         let mut writer = AssetWriter::create(&args.out)?;
         for (kind, scope, bytes) in &done.blocks {
             writer.write_block(*kind, *scope, bytes)?;

@@ -1,0 +1,512 @@
+//! `haze tradeoff`: the speed/accuracy curve of every knob on the user's own data. Each
+//! setting is baked and rendered through the code paths of `haze bake`/`haze render`
+//! (smoke) or `haze fog wavelet` (fogmaps) and timed; its error is the rel RMS
+//! (DESIGN.md) of its picture against the most accurate setting's. Writes
+//! `tradeoff.json` (every setting and the Pareto front of render time against error) and
+//! plots; `haze render --budget-ms/--target-error` choose from it (`choice`).
+
+pub mod choice;
+pub mod extremes;
+pub mod fog;
+pub mod knobs;
+pub mod pareto;
+pub mod plot;
+pub mod smoke;
+
+use anyhow::{Context, Result, anyhow, bail};
+use haze_view::Image;
+use knobs::{Effect, Knob, Setting};
+use serde_json::{Map, Value, json};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// What one setting measured.
+#[derive(Debug)]
+pub struct Sample {
+    /// The picture (its size may be a fraction of the full one: the `size` knob).
+    pub image: Image,
+    /// Render milliseconds, the time the front is drawn over.
+    pub render_ms: f64,
+    /// Milliseconds of every stage measured (`bake`, `render` and their parts).
+    pub ms: Value,
+    /// What else the stages reported (fit error, CG iterations).
+    pub detail: Value,
+}
+
+/// A sweepable model of the input: its knobs and how to measure a setting of them.
+pub trait Lab {
+    /// `smoke` or `fogmap`.
+    fn kind(&self) -> &'static str;
+    fn knobs(&self) -> &[Knob];
+    /// Bakes and renders setting `s` (knob indices).
+    fn measure(&mut self, s: &[usize]) -> Result<Sample>;
+    /// The independent reference picture at the full size (`--reference`).
+    fn reference(&mut self, spp: u32) -> Result<Image>;
+}
+
+/// Keeps only the knobs named in `only` (the others keep their default value alone).
+pub fn restrict(knobs: &mut [Knob], only: &[String]) {
+    for k in knobs.iter_mut() {
+        if !only.iter().any(|n| n == k.name) {
+            k.values = vec![k.values[k.default].clone()];
+            k.default = 0;
+            k.best = 0;
+        }
+    }
+}
+
+/// `img` resampled bilinearly to `w × h` (pixel centres mapped onto pixel centres), so
+/// that a picture rendered smaller is compared with the full-size one as a user would
+/// see it scaled up.
+pub fn resample(img: &Image, w: usize, h: usize) -> Image {
+    if (img.width, img.height) == (w, h) {
+        return img.clone();
+    }
+    let mut out = Image::new(w, h);
+    let coord = |i: usize, n_out: usize, n_in: usize| -> (usize, usize, f32) {
+        let x = ((i as f64 + 0.5) * n_in as f64 / n_out as f64 - 0.5).clamp(0.0, (n_in - 1) as f64);
+        let x0 = x.floor() as usize;
+        let x1 = (x0 + 1).min(n_in - 1);
+        (x0, x1, (x - x0 as f64) as f32)
+    };
+    for y in 0..h {
+        let (y0, y1, fy) = coord(y, h, img.height);
+        for x in 0..w {
+            let (x0, x1, fx) = coord(x, w, img.width);
+            let p = |xx: usize, yy: usize| img.pixels[yy * img.width + xx];
+            let (a, b, c, d) = (p(x0, y0), p(x1, y0), p(x0, y1), p(x1, y1));
+            let mut v = [0.0f32; 3];
+            for ch in 0..3 {
+                let top = a[ch] + fx * (b[ch] - a[ch]);
+                let bot = c[ch] + fx * (d[ch] - c[ch]);
+                v[ch] = top + fy * (bot - top);
+            }
+            out.pixels[y * w + x] = v;
+        }
+    }
+    out
+}
+
+/// How a setting came to be measured.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Why {
+    Best,
+    Default,
+    /// One knob changed from the defaults (its index).
+    OneKnob(usize),
+    /// A greedy chain towards cheaper or more accurate settings.
+    Chain {
+        cheaper: bool,
+    },
+    /// One combination of a full factorial sweep.
+    Factorial,
+}
+
+/// A measured setting.
+#[derive(Debug)]
+pub struct Measured {
+    pub setting: Setting,
+    pub why: Why,
+    pub sample: Sample,
+    pub error: f64,
+    pub error_reference: Option<f64>,
+}
+
+/// The whole sweep: every setting measured, errors against the best.
+#[derive(Debug)]
+pub struct Sweep {
+    pub kind: &'static str,
+    pub knobs: Vec<Knob>,
+    pub measured: Vec<Measured>,
+    pub front: Vec<usize>,
+    pub size: [usize; 2],
+    pub reference_spp: Option<u32>,
+}
+
+/// How long a sweep may search for combinations.
+#[derive(Clone, Copy, Debug)]
+pub struct Plan {
+    /// Greedy steps towards cheaper settings.
+    pub cheaper_steps: usize,
+    /// Greedy steps towards more accurate settings.
+    pub accurate_steps: usize,
+    /// Every combination instead of one at a time and chains.
+    pub factorial: Option<usize>,
+}
+
+/// Measures `lab` over its knobs: the best setting, the defaults, every knob one at a
+/// time (or the `factorial` list), then the greedy chains; `bar` counts the settings.
+pub fn run_sweep(
+    lab: &mut dyn Lab,
+    plan: Plan,
+    factorial: Vec<Setting>,
+    reference: Option<u32>,
+    bar: &indicatif::ProgressBar,
+) -> Result<Sweep> {
+    let knobs = lab.knobs().to_vec();
+    let best = knobs::best(&knobs);
+    let default = knobs::defaults(&knobs);
+    let mut queue: Vec<(Setting, Why)> =
+        vec![(best.clone(), Why::Best), (default.clone(), Why::Default)];
+    if plan.factorial.is_some() {
+        queue.extend(factorial.into_iter().map(|s| (s, Why::Factorial)));
+    } else {
+        queue.extend(
+            knobs::one_at_a_time(&knobs)
+                .into_iter()
+                .map(|(k, s)| (s, Why::OneKnob(k))),
+        );
+    }
+    bar.set_length((queue.len() + plan.cheaper_steps + plan.accurate_steps) as u64);
+    // A first render warms the caches and the thread pool; its timing is not kept.
+    bar.set_message("warm-up");
+    lab.measure(&default)?;
+    let mut seen: HashMap<Setting, usize> = HashMap::new();
+    let mut measured: Vec<Measured> = Vec::new();
+    let reference_img = match reference {
+        Some(spp) => {
+            bar.set_message("reference");
+            Some(lab.reference(spp)?)
+        }
+        None => None,
+    };
+    let mut measure =
+        |lab: &mut dyn Lab, s: Setting, why: Why, measured: &mut Vec<Measured>| -> Result<()> {
+            if seen.contains_key(&s) {
+                bar.inc(1);
+                return Ok(());
+            }
+            bar.set_message(describe_short(&knobs, &s, &default));
+            let sample = lab.measure(&s)?;
+            let (error, error_reference) = match measured.first() {
+                Some(b) => {
+                    let full = &b.sample.image;
+                    let img = resample(&sample.image, full.width, full.height);
+                    let r = reference_img
+                        .as_ref()
+                        .map(|r| resample(&sample.image, r.width, r.height).rel_rms(r));
+                    (img.rel_rms(full), r)
+                }
+                None => (
+                    0.0,
+                    reference_img
+                        .as_ref()
+                        .map(|r| resample(&sample.image, r.width, r.height).rel_rms(r)),
+                ),
+            };
+            seen.insert(s.clone(), measured.len());
+            measured.push(Measured {
+                setting: s,
+                why,
+                sample,
+                error,
+                error_reference,
+            });
+            bar.inc(1);
+            Ok(())
+        };
+    for (s, why) in queue {
+        measure(lab, s, why, &mut measured)?;
+    }
+    if plan.factorial.is_none() {
+        // The one-knob effects, relative to the defaults.
+        let d = &measured[1];
+        let effects: Vec<Effect> = measured
+            .iter()
+            .filter_map(|m| match m.why {
+                Why::OneKnob(k) => Some(Effect {
+                    knob: k,
+                    value: m.setting[k],
+                    d_ms: if knobs[k].render_neutral {
+                        0.0
+                    } else {
+                        m.sample.render_ms - d.sample.render_ms
+                    },
+                    d_error: m.error - d.error,
+                }),
+                _ => None,
+            })
+            .collect();
+        // Timing noise: 5 % of the default's render time; error changes below 0.01 %
+        // are not worth a step.
+        let noise = knobs::Noise {
+            ms: 0.05 * d.sample.render_ms,
+            error: 1e-4,
+        };
+        for (cheaper, steps) in [(true, plan.cheaper_steps), (false, plan.accurate_steps)] {
+            let mut current = default.clone();
+            for _ in 0..steps {
+                match knobs::next_step(&current, &effects, cheaper, noise) {
+                    Some(s) => {
+                        measure(lab, s.clone(), Why::Chain { cheaper }, &mut measured)?;
+                        current = s;
+                    }
+                    None => break,
+                }
+            }
+        }
+    }
+    bar.finish_and_clear();
+    let points: Vec<pareto::Point> = measured
+        .iter()
+        .map(|m| pareto::Point {
+            ms: m.sample.render_ms,
+            error: m.error,
+        })
+        .collect();
+    let front = pareto::front(&points);
+    let full = &measured[0].sample.image;
+    Ok(Sweep {
+        kind: lab.kind(),
+        knobs,
+        front,
+        size: [full.width, full.height],
+        measured,
+        reference_spp: reference,
+    })
+}
+
+/// A knob value for people: names unquoted, fractions to 4 significant digits.
+fn short(v: &Value) -> String {
+    match v {
+        Value::String(s) => s.clone(),
+        Value::Number(n) if n.is_f64() => {
+            let x = n.as_f64().unwrap_or(0.0);
+            let s = format!("{x:.4}");
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        }
+        other => other.to_string(),
+    }
+}
+
+/// "sh_order=2" for the knobs of `s` that differ from `default` ("defaults" if none).
+pub fn describe_short(knobs: &[Knob], s: &[usize], default: &[usize]) -> String {
+    let parts: Vec<String> = knobs
+        .iter()
+        .enumerate()
+        .filter(|&(k, _)| s[k] != default[k])
+        .map(|(k, knob)| format!("{}={}", knob.name, short(&knob.values[s[k]])))
+        .collect();
+    if parts.is_empty() {
+        "defaults".to_string()
+    } else {
+        parts.join(" ")
+    }
+}
+
+impl Sweep {
+    fn entry(&self, i: usize) -> Value {
+        let m = &self.measured[i];
+        let default = knobs::defaults(&self.knobs);
+        let why = match &m.why {
+            Why::Best => "best".to_string(),
+            Why::Default => "default".to_string(),
+            Why::OneKnob(k) => format!("knob {}", self.knobs[*k].name),
+            Why::Chain { cheaper: true } => "chain towards speed".to_string(),
+            Why::Chain { cheaper: false } => "chain towards accuracy".to_string(),
+            Why::Factorial => "combination".to_string(),
+        };
+        let mut e = Map::new();
+        e.insert("index".into(), json!(i));
+        e.insert(
+            "knobs".into(),
+            Value::Object(knobs::describe(&self.knobs, &m.setting)),
+        );
+        e.insert(
+            "changed".into(),
+            json!(describe_short(&self.knobs, &m.setting, &default)),
+        );
+        e.insert("why".into(), json!(why));
+        e.insert("ms".into(), m.sample.ms.clone());
+        e.insert("error".into(), json!(m.error));
+        if let Some(r) = m.error_reference {
+            e.insert("error_reference".into(), json!(r));
+        }
+        e.insert(
+            "size".into(),
+            json!([m.sample.image.width, m.sample.image.height]),
+        );
+        e.insert("detail".into(), m.sample.detail.clone());
+        Value::Object(e)
+    }
+
+    /// `tradeoff.json` (DESIGN.md "CLI contract").
+    pub fn to_json(&self, input: &Path, frame: Option<i64>, medium: Value) -> Value {
+        json!({
+            "input": input.display().to_string(),
+            "frame": frame,
+            "kind": self.kind,
+            "size": self.size,
+            "threads": rayon::current_num_threads(),
+            "medium": medium,
+            "front_over": "render",
+            "error_against": "best",
+            "reference_spp": self.reference_spp,
+            "knobs": self.knobs.iter().map(|k| json!({
+                "name": k.name, "values": k.values, "default": k.values[k.default], "best": k.values[k.best],
+            })).collect::<Vec<_>>(),
+            "settings": (0..self.measured.len()).map(|i| self.entry(i)).collect::<Vec<_>>(),
+            "pareto": self.front.iter().map(|&i| self.entry(i)).collect::<Vec<_>>(),
+        })
+    }
+}
+
+/// The input kind: fogmaps are images (`.png`, `.exr`) or forced by `--fogmap`.
+pub fn is_fogmap(input: &Path, forced: bool) -> bool {
+    forced
+        || input
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| e.eq_ignore_ascii_case("png") || e.eq_ignore_ascii_case("exr"))
+}
+
+/// Everything `haze tradeoff` was asked.
+#[derive(Debug)]
+pub struct TradeoffArgs {
+    pub input: PathBuf,
+    pub frame: Option<i64>,
+    pub out: PathBuf,
+    pub reference: bool,
+    pub spp: u32,
+    pub knobs: Option<Vec<String>>,
+    pub quick: bool,
+    pub fogmap: bool,
+    pub extremes: bool,
+    pub smoke: SmokeInput,
+    pub fog_model: crate::fog::FogModelArgs,
+}
+
+/// A smoke sweep's scene: the light, the medium, the camera and the import options.
+#[derive(Debug, Clone)]
+pub struct SmokeInput {
+    pub lights: crate::light_args::LightArgs,
+    pub sigma_t: f64,
+    pub albedo: f64,
+    pub g: f64,
+    pub view: smoke::View,
+    pub import: haze_volume::ImportOptions,
+}
+
+/// Every knob a sweep of `kind` knows, for `--knobs`' message.
+fn check_knob_names(knobs: &[Knob], only: &[String]) -> Result<()> {
+    for n in only {
+        if !knobs.iter().any(|k| k.name == n) {
+            let names: Vec<&str> = knobs.iter().map(|k| k.name).collect();
+            bail!("--knobs: no knob '{n}' here (knobs: {})", names.join(", "));
+        }
+    }
+    Ok(())
+}
+
+/// Opens the smoke lab of `input` (a volume, a sequence's frame or an asset's frame).
+pub fn smoke_lab(
+    input: &Path,
+    frame: Option<i64>,
+    s: &SmokeInput,
+    quick: bool,
+) -> Result<smoke::SmokeLab> {
+    let medium = haze_view::Medium::new(s.sigma_t, s.albedo, s.g).map_err(|e| anyhow!("{e}"))?;
+    let env = s.lights.environment()?;
+    let density = crate::render::load_density(input, frame, &s.import)?;
+    Ok(smoke::SmokeLab::new(
+        density,
+        env,
+        medium,
+        s.view,
+        quick,
+        if quick { 1 } else { 2 },
+    ))
+}
+
+/// The plan of a smoke sweep.
+pub fn smoke_plan(quick: bool) -> Plan {
+    Plan {
+        cheaper_steps: if quick { 3 } else { 10 },
+        accurate_steps: if quick { 1 } else { 4 },
+        factorial: None,
+    }
+}
+
+pub fn run(a: TradeoffArgs) -> Result<()> {
+    if a.extremes {
+        return extremes::run(&a.out);
+    }
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("{}: cannot create the output directory", a.out.display()))?;
+    let fog = is_fogmap(&a.input, a.fogmap);
+    let bar = crate::progress::settings_bar();
+    let (sweep, medium) = if fog {
+        let mut lab = fog::FogLab::open(
+            &a.input,
+            a.fog_model.clone(),
+            a.smoke.view.width,
+            a.smoke.view.height,
+            a.quick,
+            if a.quick { 1 } else { 2 },
+        )?;
+        if let Some(only) = &a.knobs {
+            check_knob_names(lab.knobs(), only)?;
+            lab.restrict(only);
+        }
+        let list = lab.factorial();
+        let plan = Plan {
+            cheaper_steps: 0,
+            accurate_steps: 0,
+            factorial: Some(list.len()),
+        };
+        let sweep = run_sweep(&mut lab, plan, list, a.reference.then_some(0), &bar)?;
+        (
+            sweep,
+            json!({"density": a.fog_model.density, "falloff": a.fog_model.falloff}),
+        )
+    } else {
+        let mut lab = smoke_lab(&a.input, a.frame, &a.smoke, a.quick)?;
+        if let Some(only) = &a.knobs {
+            check_knob_names(lab.knobs(), only)?;
+            lab.restrict(only);
+        }
+        let sweep = run_sweep(
+            &mut lab,
+            smoke_plan(a.quick),
+            Vec::new(),
+            a.reference.then_some(a.spp),
+            &bar,
+        )?;
+        (
+            sweep,
+            json!({"sigma_t": a.smoke.sigma_t, "albedo": a.smoke.albedo, "g": a.smoke.g}),
+        )
+    };
+    let doc = sweep.to_json(&a.input, a.frame, medium);
+    let path = a.out.join("tradeoff.json");
+    crate::output::write_json(&path, &doc)?;
+    let plots = plot::write_all(&a.out, &sweep)?;
+    print_summary(&sweep, &path, plots);
+    Ok(())
+}
+
+fn print_summary(sweep: &Sweep, path: &Path, plots: usize) {
+    let default = knobs::defaults(&sweep.knobs);
+    println!(
+        "{}: {} settings measured at {} × {}, {} on the front (render ms, error against the best setting):",
+        path.display(),
+        sweep.measured.len(),
+        sweep.size[0],
+        sweep.size[1],
+        sweep.front.len()
+    );
+    for &i in &sweep.front {
+        let m = &sweep.measured[i];
+        println!(
+            "  {:>9.1} ms  {:>7.3} %  {}",
+            m.sample.render_ms,
+            100.0 * m.error,
+            describe_short(&sweep.knobs, &m.setting, &default)
+        );
+    }
+    println!(
+        "{plots} plots (SVG and PNG) in {}",
+        path.parent()
+            .map_or_else(String::new, |p| p.display().to_string())
+    );
+}

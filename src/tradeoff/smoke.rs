@@ -1,0 +1,369 @@
+//! The smoke sweep: a density frame fitted with RBFs (as `haze bake` fits a first frame),
+//! its residual quantized (as the bake stores it), rendered by compensated ray marching
+//! on the CPU (`haze render`'s default) for every setting of the knobs.
+
+use super::knobs::Knob;
+use super::{Lab, Sample};
+use anyhow::{Result, anyhow};
+use haze_bake::residual::as_stored;
+use haze_fit::{FitOptions, SequenceFitter, SequenceOptions};
+use haze_hash::QuantOptions;
+use haze_view::diffusion::SolveOptions;
+use haze_view::lighting::single::SourcePoints;
+use haze_view::reference::{self, RefOptions};
+use haze_view::render::{CrmOptions, crm_render};
+use haze_view::sh::ExpMethod;
+use haze_view::{Camera, Environment, Image, Medium};
+use haze_volume::{Rbf, Volume, rbf};
+use serde_json::{Value, json};
+use std::collections::HashMap;
+use std::time::Instant;
+
+/// Where the camera looks from: given, or framing the smoke.
+#[derive(Clone, Copy, Debug)]
+pub struct View {
+    pub eye: Option<[f64; 3]>,
+    pub target: Option<[f64; 3]>,
+    pub up: [f64; 3],
+    pub fov: f64,
+    /// The full render size (the `size` knob scales it).
+    pub width: usize,
+    pub height: usize,
+}
+
+impl View {
+    /// The camera at `scale` × the full size (at least 8 pixels a side).
+    pub fn camera(&self, density: &Volume, scale: f64) -> Result<Camera> {
+        let w = ((self.width as f64 * scale).round() as usize).max(8);
+        let h = ((self.height as f64 * scale).round() as usize).max(8);
+        match (self.eye, self.target) {
+            (Some(e), Some(t)) => Camera::new(e, t, self.up, self.fov, w, h),
+            (None, None) => {
+                let b = crate::render::smoke_bbox(density);
+                Camera::framing(b.min, b.max, self.fov, w, h)
+            }
+            _ => {
+                return Err(anyhow!(
+                    "give both --eye and --target, or neither (to frame the smoke)"
+                ));
+            }
+        }
+        .map_err(|e| anyhow!("camera: {e}"))
+    }
+}
+
+/// The knob values of a smoke sweep.
+const RBFS: [usize; 5] = [50, 100, 200, 300, 600];
+const RBFS_QUICK: [usize; 2] = [50, 100];
+const RESIDUAL_ERROR: [f64; 4] = [0.0, 1.0 / 255.0, 4.0 / 255.0, 16.0 / 255.0];
+const QUANT_BITS: [u8; 3] = [4, 8, 16];
+const SH_ORDER: [usize; 6] = [1, 2, 3, 4, 5, 6];
+const SH_ORDER_QUICK: [usize; 3] = [2, 4, 6];
+const CG: [u32; 5] = [5, 10, 20, 50, 500];
+const CG_QUICK: [u32; 2] = [10, 500];
+const SLICES: [f64; 4] = [0.5, 1.0, 2.0, 4.0];
+const SLICES_QUICK: [f64; 2] = [1.0, 2.0];
+const SIZE: [f64; 4] = [0.25, 0.5, 0.75, 1.0];
+const SIZE_QUICK: [f64; 2] = [0.5, 1.0];
+
+/// A smoke setting decoded from knob indices.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SmokeSetting {
+    pub rbfs: usize,
+    pub teleport: bool,
+    pub residual_error: f64,
+    pub quant_bits: u8,
+    pub crm: CrmOptions,
+    pub size: f64,
+}
+
+/// The smoke lab: the density, its light and medium, and the fits made so far.
+#[derive(Debug)]
+pub struct SmokeLab {
+    density: Volume,
+    env: Environment,
+    medium: Medium,
+    view: View,
+    knobs: Vec<Knob>,
+    repeats: usize,
+    fits: HashMap<(usize, bool), (Vec<Rbf>, f64, f64)>,
+}
+
+#[derive(Clone, Debug)]
+struct Tables {
+    rbfs: Vec<usize>,
+    sh: Vec<usize>,
+    cg: Vec<u32>,
+    slices: Vec<f64>,
+    size: Vec<f64>,
+}
+
+fn index_of<T: PartialEq>(v: &[T], x: &T) -> usize {
+    v.iter().position(|y| y == x).unwrap_or(0)
+}
+
+impl SmokeLab {
+    /// A lab over `density`; `quick` sweeps fewer values of each knob; every render is
+    /// timed `repeats` times (the fastest counts).
+    pub fn new(
+        density: Volume,
+        env: Environment,
+        medium: Medium,
+        view: View,
+        quick: bool,
+        repeats: usize,
+    ) -> SmokeLab {
+        let tables = if quick {
+            Tables {
+                rbfs: RBFS_QUICK.to_vec(),
+                sh: SH_ORDER_QUICK.to_vec(),
+                cg: CG_QUICK.to_vec(),
+                slices: SLICES_QUICK.to_vec(),
+                size: SIZE_QUICK.to_vec(),
+            }
+        } else {
+            Tables {
+                rbfs: RBFS.to_vec(),
+                sh: SH_ORDER.to_vec(),
+                cg: CG.to_vec(),
+                slices: SLICES.to_vec(),
+                size: SIZE.to_vec(),
+            }
+        };
+        let d = CrmOptions::default();
+        let nums = |v: &[f64]| v.iter().map(|x| json!(x)).collect::<Vec<Value>>();
+        let last = |n: usize| n - 1;
+        let knobs = vec![
+            Knob::new(
+                "rbfs",
+                tables.rbfs.iter().map(|x| json!(x)).collect(),
+                if quick {
+                    1
+                } else {
+                    index_of(&tables.rbfs, &300)
+                },
+                last(tables.rbfs.len()),
+            ),
+            Knob::new("teleport", vec![json!(false), json!(true)], 1, 1).render_neutral(),
+            Knob::new(
+                "residual_error",
+                nums(&RESIDUAL_ERROR),
+                index_of(&RESIDUAL_ERROR, &haze_hash::DEFAULT_ERROR),
+                0,
+            )
+            .render_neutral(),
+            Knob::new(
+                "quant_bits",
+                QUANT_BITS.iter().map(|x| json!(x)).collect(),
+                1,
+                2,
+            )
+            .render_neutral(),
+            Knob::new(
+                "sh_order",
+                tables.sh.iter().map(|x| json!(x)).collect(),
+                index_of(&tables.sh, &d.order),
+                last(tables.sh.len()),
+            ),
+            Knob::new("exp", vec![json!("square"), json!("linear")], 0, 0),
+            Knob::new("source", vec![json!("footprint"), json!("center")], 0, 0),
+            Knob::new(
+                "cg_iterations",
+                tables.cg.iter().map(|x| json!(x)).collect(),
+                index_of(&tables.cg, &d.solve.max_iterations),
+                last(tables.cg.len()),
+            ),
+            Knob::new(
+                "slices",
+                nums(&tables.slices),
+                index_of(&tables.slices, &d.slices_per_voxel),
+                last(tables.slices.len()),
+            ),
+            Knob::new(
+                "size",
+                nums(&tables.size),
+                last(tables.size.len()),
+                last(tables.size.len()),
+            ),
+            Knob::new("multiple", vec![json!(false), json!(true)], 1, 1),
+            Knob::new("residual", vec![json!(false), json!(true)], 1, 1),
+        ];
+        SmokeLab {
+            density,
+            env,
+            medium,
+            view,
+            knobs,
+            repeats: repeats.max(1),
+            fits: HashMap::new(),
+        }
+    }
+
+    /// Keeps only the knobs named in `only` (the others stay at their defaults).
+    pub fn restrict(&mut self, only: &[String]) {
+        super::restrict(&mut self.knobs, only);
+    }
+
+    /// The setting of knob indices `s`.
+    pub fn decode(&self, s: &[usize]) -> SmokeSetting {
+        let v = |k: usize| &self.knobs[k].values[s[k]];
+        let f = |k: usize| v(k).as_f64().unwrap_or(0.0);
+        let b = |k: usize| v(k).as_bool().unwrap_or(true);
+        SmokeSetting {
+            rbfs: f(0) as usize,
+            teleport: b(1),
+            residual_error: f(2),
+            quant_bits: f(3) as u8,
+            crm: CrmOptions {
+                order: f(4) as usize,
+                exp: if v(5) == "linear" {
+                    ExpMethod::OptimalLinear
+                } else {
+                    ExpMethod::ScaleSquareAuto
+                },
+                source_points: if v(6) == "center" {
+                    SourcePoints::Center
+                } else {
+                    SourcePoints::Footprint
+                },
+                solve: SolveOptions {
+                    max_iterations: f(7) as u32,
+                    ..SolveOptions::default()
+                },
+                slices_per_voxel: f(8),
+                multiple: b(10),
+                residual: b(11),
+            },
+            size: f(9),
+        }
+    }
+
+    /// The first-frame fit of `rbfs` RBFs (cached): the RBFs as stored, the seconds it
+    /// took and its rel_l2.
+    fn fit(&mut self, rbfs: usize, teleport: bool) -> Result<(Vec<Rbf>, f64, f64)> {
+        if let Some(f) = self.fits.get(&(rbfs, teleport)) {
+            return Ok(f.clone());
+        }
+        let t = Instant::now();
+        let opts = SequenceOptions {
+            rbfs,
+            fit: FitOptions {
+                teleport,
+                ..FitOptions::default()
+            },
+            ..SequenceOptions::default()
+        };
+        let fit = SequenceFitter::new(opts)
+            .fit(&self.density)
+            .map_err(|e| anyhow!("fit of {rbfs} RBFs: {e}"))?;
+        let stored = as_stored(&fit.rbfs)?;
+        let out = (stored, t.elapsed().as_secs_f64(), fit.rel_l2);
+        self.fits.insert((rbfs, teleport), out.clone());
+        Ok(out)
+    }
+}
+
+/// The residual `D − D̃` quantized as the bake stores it and dequantized as every reader
+/// gets it, with the seconds it took.
+pub fn stored_residual(
+    density: &Volume,
+    rbfs: &[Rbf],
+    opts: QuantOptions,
+) -> Result<(Vec<f32>, f64)> {
+    let t = Instant::now();
+    let approx = rbf::evaluate_on_grid(density.dims(), density.bbox(), rbfs);
+    let r: Vec<f32> = density
+        .data()
+        .iter()
+        .zip(&approx)
+        .map(|(d, a)| (f64::from(*d) - a) as f32)
+        .collect();
+    let peak = density.data().iter().fold(0.0f32, |m, &d| m.max(d));
+    let q = haze_hash::quantize(&r, peak, opts).map_err(|e| anyhow!("residual: {e}"))?;
+    let mut dense = vec![0.0f32; r.len()];
+    for &(i, v) in &q.cells {
+        dense[i as usize] = q.value(v);
+    }
+    Ok((dense, t.elapsed().as_secs_f64()))
+}
+
+impl Lab for SmokeLab {
+    fn kind(&self) -> &'static str {
+        "smoke"
+    }
+
+    fn knobs(&self) -> &[Knob] {
+        &self.knobs
+    }
+
+    fn measure(&mut self, s: &[usize]) -> Result<Sample> {
+        let set = self.decode(s);
+        let (rbfs, fit_s, rel_l2) = self.fit(set.rbfs, set.teleport)?;
+        let (residual, quant_s) = stored_residual(
+            &self.density,
+            &rbfs,
+            QuantOptions {
+                error: set.residual_error,
+                bits: set.quant_bits,
+            },
+        )?;
+        let camera = self.view.camera(&self.density, set.size)?;
+        let mut best: Option<(f64, Image, haze_view::render::CrmStats)> = None;
+        for _ in 0..self.repeats {
+            let t = Instant::now();
+            let (img, stats) = crm_render(
+                &rbfs,
+                set.crm.residual.then_some(residual.as_slice()),
+                self.density.dims(),
+                self.density.bbox(),
+                &self.medium,
+                &self.env,
+                &camera,
+                &set.crm,
+            );
+            let ms = t.elapsed().as_secs_f64() * 1e3;
+            if best.as_ref().is_none_or(|(b, _, _)| ms < *b) {
+                best = Some((ms, img, stats));
+            }
+        }
+        let (render_ms, image, stats) = best.ok_or_else(|| anyhow!("no render"))?;
+        let ms = json!({
+            "fit": fit_s * 1e3,
+            "residual": quant_s * 1e3,
+            "bake": (fit_s + quant_s) * 1e3,
+            "render": render_ms,
+            "setup": stats.setup_seconds * 1e3,
+            "single": stats.single_seconds * 1e3,
+            "multiple": stats.multiple_seconds * 1e3,
+            "volume": stats.volume_seconds * 1e3,
+            "lights": stats.lights_seconds * 1e3,
+            "view": stats.view_seconds * 1e3,
+        });
+        Ok(Sample {
+            image,
+            render_ms,
+            ms,
+            detail: json!({
+                "fit_rel_l2": rel_l2,
+                "cg_iterations": stats.cg_iterations,
+                "cg_residual": stats.cg_residual,
+            }),
+        })
+    }
+
+    fn reference(&mut self, spp: u32) -> Result<Image> {
+        let camera = self.view.camera(&self.density, 1.0)?;
+        let opts = RefOptions {
+            spp: spp.max(1),
+            multiple: true,
+            ..RefOptions::default()
+        };
+        Ok(reference::render(
+            &self.density,
+            &self.medium,
+            &self.env,
+            &camera,
+            &opts,
+        ))
+    }
+}
