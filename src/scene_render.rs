@@ -7,6 +7,8 @@ use anyhow::{Result, anyhow};
 use haze_scene::Scene;
 use haze_scene::airlight::Limits;
 use haze_scene::gpu::GpuRenderer;
+use haze_scene::march::{self, MarchOptions};
+use haze_scene::paper_b::{self, PaperBOptions, Prepared};
 use haze_scene::render::{Analytic, Image, Model, Reference, render};
 use haze_view::gpu::{GpuContext, GpuError};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -38,6 +40,9 @@ pub fn run(a: SceneRenderArgs) -> Result<()> {
         .camera
         .with_size(w, h)
         .map_err(|e| anyhow::anyhow!("{}: {e}", a.scene.display()))?;
+    if !scene.hetero.is_empty() {
+        return run_hetero(&a, &scene, kind, start);
+    }
     if a.gpu {
         return run_gpu(&a, &scene, kind, start);
     }
@@ -98,6 +103,59 @@ fn run_gpu(a: &SceneRenderArgs, scene: &Scene, kind: OutKind, start: Instant) ->
         start.elapsed().as_secs_f64()
     );
     Ok(())
+}
+
+/// Scenes with heterogeneous media: Gaussian media by paper B (CPU), or by the march
+/// through every medium with `--reference` (a step of a fifth of the smallest Gaussian
+/// radius, at most 0.02).
+fn run_hetero(a: &SceneRenderArgs, scene: &Scene, kind: OutKind, start: Instant) -> Result<()> {
+    let fail = |e: String| anyhow!("{}: {e}", a.scene.display());
+    let bar = rows_bar(scene.camera.height);
+    let progress = |rows: usize| bar.set_position(rows as u64);
+    let (image, what) = if a.reference {
+        let opt = MarchOptions {
+            step: paper_b::march_step(scene),
+            ..Default::default()
+        };
+        let image = march::render(scene, &Limits::default(), &opt, &progress);
+        (image, format!("single-scattering march, step {}", opt.step))
+    } else if a.gpu {
+        return Err(fail(
+            "--gpu does not render heterogeneous media yet (use the CPU or --reference)".into(),
+        ));
+    } else {
+        let analytic = Analytic::new(scene);
+        let prep = Prepared::new(scene, &analytic, PaperBOptions::default()).map_err(fail)?;
+        let image = paper_b::render(&prep, &Limits::default(), &progress);
+        (image, prep.name())
+    };
+    bar.finish_and_clear();
+    let (w, h) = (image.width, image.height);
+    write(a, image, kind)?;
+    eprintln!(
+        "{}: {}×{}, scene {} ({} lights, {} surfaces, {} heterogeneous media), {}, {:.2} s",
+        a.out.display(),
+        w,
+        h,
+        a.scene.display(),
+        scene.lights.len(),
+        scene.surfaces.len(),
+        scene.hetero.len(),
+        what,
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// A progress bar over the image's rows.
+fn rows_bar(rows: usize) -> ProgressBar {
+    let bar = ProgressBar::new(rows as u64);
+    bar.set_style(
+        ProgressStyle::with_template("rendering [{bar:30}] {pos}/{len} rows, ETA {eta}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    bar
 }
 
 /// Writes the image as `kind` (temp file + rename).

@@ -14,6 +14,7 @@
 
 pub mod airlight;
 pub mod bvh;
+pub mod cloud;
 pub mod erf;
 pub mod line;
 pub mod medium;

@@ -215,7 +215,14 @@ pub fn parse_in(text: &str, base: &Path) -> Result<Scene, String> {
         .collect::<Result<Vec<_>, _>>()?;
     let mut medium = Medium::NONE;
     let mut sigma_s = [0.0; 3];
+    let mut hetero = Vec::new();
     for (i, v) in spec.media.iter().enumerate() {
+        // Paper B's Gaussian media ([`crate::gaussian_medium`]).
+        if kind(v).map_err(|e| format!("media[{i}]: {e}"))? == "gaussians" {
+            let m = crate::gaussian_medium::parse(v).map_err(|e| format!("media[{i}]: {e}"))?;
+            hetero.push(crate::media::HeteroMedium(Arc::new(m)));
+            continue;
+        }
         let (st, ss) = homogeneous(v).map_err(|e| format!("media[{i}]: {e}"))?;
         for c in 0..3 {
             medium.sigma_t[c] += st[c];
@@ -239,7 +246,7 @@ pub fn parse_in(text: &str, base: &Path) -> Result<Scene, String> {
         environment_distance,
         lights,
         medium,
-        hetero: Vec::new(),
+        hetero,
         surfaces,
     })
 }
@@ -345,11 +352,11 @@ fn homogeneous(v: &Value) -> Result<(Rgb, Rgb), String> {
             }
             Ok((st, st.map(|s| s * h.albedo)))
         }
-        t @ ("gaussians" | "analytic" | "fogmap" | "asset") => {
+        t @ ("analytic" | "fogmap" | "asset") => {
             Err(format!("media type \"{t}\" is not supported yet"))
         }
         other => Err(format!(
-            "unknown media type \"{other}\" (known: \"homogeneous\"; \"gaussians\", \"analytic\", \"fogmap\", \"asset\" to come)"
+            "unknown media type \"{other}\" (known: \"homogeneous\", \"gaussians\"; \"analytic\", \"fogmap\", \"asset\" to come)"
         )),
     }
 }
@@ -525,9 +532,9 @@ mod tests {
             (
                 (
                     "\"type\": \"homogeneous\", \"sigma_t\": 0.1",
-                    "\"type\": \"gaussians\", \"sigma_t\": 0.1",
+                    "\"type\": \"fogmap\", \"sigma_t\": 0.1",
                 ),
-                "media[0]: media type \"gaussians\" is not supported yet",
+                "media[0]: media type \"fogmap\" is not supported yet",
             ),
             (
                 ("\"type\": \"plane\"", "\"type\": \"cone\""),

@@ -8,6 +8,7 @@
 
 pub mod airlight;
 pub mod file;
+pub mod gaussian_medium;
 pub mod gpu;
 pub mod gtable;
 pub mod hfunc;
@@ -16,6 +17,7 @@ pub mod march;
 pub mod media;
 pub mod mesh;
 pub mod model;
+pub mod paper_b;
 pub mod quad;
 pub mod reference;
 pub mod render;

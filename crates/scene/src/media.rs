@@ -59,6 +59,10 @@ pub trait Heterogeneous: Send + Sync + fmt::Debug {
     }
     /// A box outside which `σt = 0`, or `None` when the medium fills space.
     fn bounds(&self) -> Option<Aabb>;
+    /// The medium as a sum of Gaussians, for paper B's renderer ([`crate::paper_b`]).
+    fn gaussians(&self) -> Option<&crate::gaussian_medium::GaussianMediumOf> {
+        None
+    }
 }
 
 /// A shared heterogeneous medium of a scene; two are equal when they are the same object.
