@@ -219,7 +219,8 @@ pub fn parse_in(text: &str, base: &Path) -> Result<Scene, String> {
     for (i, v) in spec.media.iter().enumerate() {
         // Paper B's Gaussian media ([`crate::gaussian_medium`]).
         if kind(v).map_err(|e| format!("media[{i}]: {e}"))? == "gaussians" {
-            let m = crate::gaussian_medium::parse(v).map_err(|e| format!("media[{i}]: {e}"))?;
+            let m =
+                crate::gaussian_medium::parse(v, base).map_err(|e| format!("media[{i}]: {e}"))?;
             hetero.push(crate::media::HeteroMedium(Arc::new(m)));
             continue;
         }

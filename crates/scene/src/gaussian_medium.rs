@@ -8,6 +8,13 @@
 //! and `noise` (optional, paper B §5.5: `{"seed": n, "gain": g, "frequency": f,
 //! "offset": [x,y,z]}` — a rendering perturbation of paper B's renderer, not part of the
 //! medium: the reference ignores it).
+//!
+//! A baked smoke frame is a Gaussian medium too (its RBFs are Gaussians, paper A §5.1):
+//! `"asset": "SMOKE.haze"` (relative to the scene file), `"frame": n` (the source frame
+//! number `haze inspect` lists; default the first), `"offset": [x,y,z]` (added to the
+//! centres) add the frame's RBFs — centre, radius and weight in world units, the weight
+//! the smoke's density — to the listed `gaussians`. The RBFs' 3r cut-off of paper A is
+//! not applied (it drops at most `w·e⁻⁹` of density); the residual is not used.
 
 use crate::media::{Aabb, Heterogeneous};
 use crate::scene::Rgb;
@@ -16,6 +23,7 @@ use haze_gaussians::noise::{Noise, Perlin};
 use haze_gaussians::{Gaussian, GaussianMedium};
 use serde::Deserialize;
 use serde_json::Value;
+use std::path::Path;
 
 /// A Gaussian medium of a scene with its optional detail noise.
 #[derive(Debug)]
@@ -85,14 +93,56 @@ struct MediumSpec {
     background: f64,
     #[serde(default)]
     noise: Option<NoiseSpec>,
+    #[serde(default)]
+    asset: Option<String>,
+    #[serde(default)]
+    frame: Option<i64>,
+    #[serde(default)]
+    offset: Option<Vec3>,
 }
 
 fn default_albedo() -> f64 {
     1.0
 }
 
-/// Reads a `"gaussians"` medium; the error is one line naming the key.
-pub fn parse(v: &Value) -> Result<GaussianMediumOf, String> {
+/// The RBFs of frame `frame` (source number; the first when `None`) of the asset at
+/// `path`, moved by `offset`, as Gaussians.
+fn asset_gaussians(path: &Path, frame: Option<i64>, offset: Vec3) -> Result<Vec<Gaussian>, String> {
+    let asset = haze_asset::Asset::open(path).map_err(|e| e.to_string())?;
+    let numbers = &asset.header().source.frame_numbers;
+    let k = match frame {
+        Some(f) => numbers
+            .iter()
+            .position(|&n| n == f)
+            .ok_or_else(|| format!("{}: frame {f} is not in the asset", path.display()))?,
+        None if numbers.is_empty() => {
+            return Err(format!("{}: the asset has no frames", path.display()));
+        }
+        None => 0,
+    };
+    let blocks = asset.frame(k).map_err(|e| e.to_string())?;
+    let block = blocks.find(haze_asset::BlockKind::Rbfs).ok_or_else(|| {
+        format!(
+            "{}: frame {} has no RBF block (not a baked asset?)",
+            path.display(),
+            numbers[k]
+        )
+    })?;
+    let rbfs = haze_asset::decode_rbfs(block.bytes)
+        .map_err(|e| asset.block_error(&block, e).to_string())?;
+    Ok(rbfs
+        .into_iter()
+        .map(|r| Gaussian {
+            center: [0, 1, 2].map(|a| r.center[a] + offset[a]),
+            radius: r.radius,
+            weight: r.weight,
+        })
+        .collect())
+}
+
+/// Reads a `"gaussians"` medium, its asset (if any) relative to `base`; the error is one
+/// line naming the key.
+pub fn parse(v: &Value, base: &Path) -> Result<GaussianMediumOf, String> {
     let s: MediumSpec = MediumSpec::deserialize(v).map_err(|e| e.to_string())?;
     if s.g != 0.0 {
         return Err(format!(
@@ -100,7 +150,7 @@ pub fn parse(v: &Value) -> Result<GaussianMediumOf, String> {
             s.g
         ));
     }
-    let gaussians = s
+    let mut gaussians: Vec<Gaussian> = s
         .gaussians
         .into_iter()
         .map(|g| Gaussian {
@@ -109,6 +159,18 @@ pub fn parse(v: &Value) -> Result<GaussianMediumOf, String> {
             weight: g.weight,
         })
         .collect();
+    match (&s.asset, s.frame, s.offset) {
+        (Some(a), frame, offset) => {
+            let offset = offset.unwrap_or([0.0; 3]);
+            if !offset.iter().all(|x| x.is_finite()) {
+                return Err("offset must be finite".to_string());
+            }
+            gaussians.extend(asset_gaussians(&base.join(a), frame, offset)?);
+        }
+        (None, Some(_), _) => return Err("\"frame\" needs \"asset\"".to_string()),
+        (None, _, Some(_)) => return Err("\"offset\" needs \"asset\"".to_string()),
+        (None, None, None) => {}
+    }
     let medium = GaussianMedium::new(s.sigma_t, s.albedo, s.background, gaussians)?;
     let noise = match s.noise {
         None => None,
@@ -141,7 +203,7 @@ mod tests {
     use super::*;
 
     fn parse_str(s: &str) -> Result<GaussianMediumOf, String> {
-        parse(&serde_json::from_str(s).unwrap())
+        parse(&serde_json::from_str(s).unwrap(), Path::new(""))
     }
 
     #[test]
