@@ -81,7 +81,11 @@ fn an_asset_frame_is_a_gaussian_medium() {
     }
     // The extinction is σt times the RBF sum there (no 3r cut-off; the medium drops only
     // what adds less than 10⁻¹⁰ of optical depth to any line).
-    let x = [gs[2].center[0] + 0.05, gs[2].center[1], gs[2].center[2] - 0.04];
+    let x = [
+        gs[2].center[0] + 0.05,
+        gs[2].center[1],
+        gs[2].center[2] - 0.04,
+    ];
     let want: f64 = 3.0
         * gs.iter()
             .map(|g| {
