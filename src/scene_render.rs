@@ -7,6 +7,7 @@ use anyhow::{Result, anyhow};
 use haze_scene::Scene;
 use haze_scene::airlight::Limits;
 use haze_scene::gpu::GpuRenderer;
+use haze_scene::gpu_paper_b::GpuPaperB;
 use haze_scene::march::{self, MarchOptions};
 use haze_scene::paper_b::{self, PaperBOptions, Prepared};
 use haze_scene::render::{Analytic, Image, Model, Reference, render};
@@ -105,7 +106,8 @@ fn run_gpu(a: &SceneRenderArgs, scene: &Scene, kind: OutKind, start: Instant) ->
     Ok(())
 }
 
-/// Scenes with heterogeneous media: Gaussian media by paper B (CPU), or by the march
+/// Scenes with heterogeneous media: Gaussian media by paper B (CPU, or GPU with
+/// `--gpu`), or by the march
 /// through every medium with `--reference` (a step of a fifth of the smallest Gaussian
 /// radius, at most 0.02).
 fn run_hetero(a: &SceneRenderArgs, scene: &Scene, kind: OutKind, start: Instant) -> Result<()> {
@@ -120,9 +122,22 @@ fn run_hetero(a: &SceneRenderArgs, scene: &Scene, kind: OutKind, start: Instant)
         let image = march::render(scene, &Limits::default(), &opt, &progress);
         (image, format!("single-scattering march, step {}", opt.step))
     } else if a.gpu {
-        return Err(fail(
-            "--gpu does not render heterogeneous media yet (use the CPU or --reference)".into(),
-        ));
+        let gpu_err = |e: GpuError| anyhow!("--gpu: {}: {e}", a.scene.display());
+        let ctx = GpuContext::new().map_err(gpu_err)?;
+        let analytic = Analytic::new(scene);
+        let prep = Prepared::new(scene, &analytic, PaperBOptions::default()).map_err(fail)?;
+        let tables = GpuRenderer::new(&ctx, &analytic).map_err(gpu_err)?;
+        let frame = Instant::now();
+        let image = GpuPaperB::new(&ctx)
+            .and_then(|r| r.render(&ctx, &tables, &prep, &Limits::default()))
+            .map_err(gpu_err)?;
+        let what = format!(
+            "{} on the GPU ({}), frame {:.3} s",
+            prep.name(),
+            ctx.adapter_name(),
+            frame.elapsed().as_secs_f64()
+        );
+        (image, what)
     } else {
         let analytic = Analytic::new(scene);
         let prep = Prepared::new(scene, &analytic, PaperBOptions::default()).map_err(fail)?;

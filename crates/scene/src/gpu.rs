@@ -171,6 +171,30 @@ impl GpuRenderer {
     /// Renders the scene's camera image (as [`crate::render::render`] with
     /// [`Analytic`] and the limits `lim`), reading it back to the host.
     pub fn render(&self, ctx: &GpuContext, scene: &Scene, lim: &Limits) -> Result<Image, GpuError> {
+        // Heterogeneous media other than paper B's Gaussians ([`crate::gpu_paper_b`]) have
+        // no GPU twin yet: refuse them rather than render the scene without them.
+        if let Some(m) = scene.hetero.first() {
+            return Err(GpuError::Input(format!(
+                "this renderer does not render heterogeneous media ({})",
+                m.name()
+            )));
+        }
+        self.render_pass(ctx, scene, lim, &self.pipeline, None, &[])
+    }
+
+    /// [`GpuRenderer::render`]'s frame with another entry point of the same bindings
+    /// (`pipeline`), the homogeneous medium's `(σt, σs)` replaced by `medium` if given, and
+    /// `extra` storage buffers bound after the six of `render.wgsl` (bindings 6, 7, …).
+    pub(crate) fn render_pass(
+        &self,
+        ctx: &GpuContext,
+        scene: &Scene,
+        lim: &Limits,
+        pipeline: &wgpu::ComputePipeline,
+        medium: Option<([f64; 3], [f64; 3])>,
+        extra: &[&wgpu::Buffer],
+    ) -> Result<Image, GpuError> {
+        let (sigma_t, sigma_s) = medium.unwrap_or((scene.medium.sigma_t, scene.medium.sigma_s()));
         let cam = &scene.camera;
         let (w, h) = (cam.width, cam.height);
         let pixels = w
@@ -270,9 +294,9 @@ impl GpuRenderer {
             forward: vec4(cam.forward(), cam.tan_half()),
             right: vec4(cam.right(), w as f64 / h as f64),
             up: vec4(cam.up(), gamma_min),
-            sigma_t: vec4(scene.medium.sigma_t, lim.r_min),
+            sigma_t: vec4(sigma_t, lim.r_min),
             sigma_s: vec4(
-                scene.medium.sigma_s(),
+                sigma_s,
                 // Beyond f32's range a finite distance would read as ∞ in the shader.
                 if far.is_finite() { far.min(1e30) } else { 0.0 },
             ),
@@ -327,13 +351,9 @@ impl GpuRenderer {
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             });
-            submit_pass(
-                ctx,
-                &self.pipeline,
-                "scene render",
-                &[&uniform, &lights, &surfaces, &self.tables, &output, &meshes],
-                groups,
-            );
+            let mut buffers = vec![&uniform, &lights, &surfaces, &self.tables, &output, &meshes];
+            buffers.extend_from_slice(extra);
+            submit_pass(ctx, pipeline, "scene render", &buffers, groups);
             output
         })?;
         let bytes = ctx.read_buffer(&output)?;

@@ -10,6 +10,7 @@ pub mod airlight;
 pub mod file;
 pub mod gaussian_medium;
 pub mod gpu;
+pub mod gpu_paper_b;
 pub mod gtable;
 pub mod hfunc;
 pub mod htable;

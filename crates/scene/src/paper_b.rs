@@ -51,32 +51,32 @@ impl Default for PaperBOptions {
 
 /// One light, prepared for a frame.
 #[derive(Debug)]
-struct Lit {
-    source: Source,
+pub(crate) struct Lit {
+    pub(crate) source: Source,
     /// Point: radiant intensity; sun: irradiance.
-    power: Rgb,
+    pub(crate) power: Rgb,
     /// `e^{Eᵢ}` per Gaussian and channel.
-    center: Vec<Rgb>,
+    pub(crate) center: Vec<Rgb>,
     /// `e^{−Σᵢ Tᵢ(s, v)}` (a sun: the Gaussians from the eye towards it).
-    c_sv: f64,
+    pub(crate) c_sv: f64,
 }
 
 /// A scene prepared for paper B: the Gaussians merged, the homogeneous part summed, the
 /// per-frame exponents of every light.
 #[derive(Debug)]
 pub struct Prepared<'a> {
-    scene: &'a Scene,
+    pub(crate) scene: &'a Scene,
     analytic: &'a Analytic,
     options: PaperBOptions,
-    set: GaussianSet,
+    pub(crate) set: GaussianSet,
     /// Per Gaussian: the noise of its medium and its radius.
-    noise: Vec<Option<&'a Noise>>,
+    pub(crate) noise: Vec<Option<&'a Noise>>,
     radius: Vec<f64>,
-    beta0: Rgb,
-    sigma_s0: Rgb,
+    pub(crate) beta0: Rgb,
+    pub(crate) sigma_s0: Rgb,
     /// Whether a Gaussian medium's background fills space (it hides every sun).
-    background: bool,
-    lights: Vec<Lit>,
+    pub(crate) background: bool,
+    pub(crate) lights: Vec<Lit>,
 }
 
 impl<'a> Prepared<'a> {
