@@ -1,15 +1,19 @@
 //! `haze render --scene`: a scene file rendered by paper C's analytic single scattering
 //! (crates/scene) on the CPU, or on the GPU with `--gpu` (its `f32` twin,
-//! `haze_scene::gpu`), or by its quadrature reference (`--reference`, CPU). Scenes with
-//! heterogeneous media (a smoke asset) are rendered by the single-scattering march
-//! instead (`haze_scene::march`; on the GPU `haze_scene::gpu_march`), whose reference is
-//! the same march at a quarter of the step.
+//! `haze_scene::gpu`), or by its quadrature reference (`--reference`, CPU). Scenes whose
+//! heterogeneous media are all Gaussians are rendered by paper B (`haze_scene::paper_b`,
+//! `gpu_paper_b`), with the march as reference; scenes with other heterogeneous media (a
+//! smoke asset) by the single-scattering march (`haze_scene::march`; on the GPU
+//! `haze_scene::gpu_march`), whose reference is the same march at a quarter of the step.
 
 use crate::render::{OutKind, out_kind};
 use anyhow::{Result, anyhow};
 use haze_scene::Scene;
 use haze_scene::airlight::Limits;
 use haze_scene::gpu::GpuRenderer;
+use haze_scene::gpu_paper_b::GpuPaperB;
+use haze_scene::march::{self, MarchOptions};
+use haze_scene::paper_b::{self, PaperBOptions, Prepared};
 use haze_scene::render::{Analytic, Image, Model, Reference, render};
 use haze_view::gpu::{GpuContext, GpuError};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -41,6 +45,10 @@ pub fn run(a: SceneRenderArgs) -> Result<()> {
         .camera
         .with_size(w, h)
         .map_err(|e| anyhow::anyhow!("{}: {e}", a.scene.display()))?;
+    // Gaussian media alone: paper B; any other heterogeneous medium: the march.
+    if !scene.hetero.is_empty() && scene.hetero.iter().all(|m| m.gaussians().is_some()) {
+        return run_hetero(&a, &scene, kind, start);
+    }
     if a.gpu {
         return run_gpu(&a, &scene, kind, start);
     }
@@ -77,7 +85,8 @@ pub fn run(a: SceneRenderArgs) -> Result<()> {
     Ok(())
 }
 
-/// A scene with heterogeneous media (a smoke asset): the single-scattering march through
+/// A scene with heterogeneous media other than Gaussians alone (a smoke asset, or a mix):
+/// the single-scattering march through
 /// every medium (`haze_scene::march`), shadows of the media on the surfaces included, at
 /// half a voxel per step, or a quarter of that for `--reference`.
 fn run_march(a: &SceneRenderArgs, scene: &Scene, kind: OutKind, start: Instant) -> Result<()> {
@@ -144,6 +153,73 @@ fn run_gpu(a: &SceneRenderArgs, scene: &Scene, kind: OutKind, start: Instant) ->
         start.elapsed().as_secs_f64()
     );
     Ok(())
+}
+
+/// Scenes with heterogeneous media: Gaussian media by paper B (CPU, or GPU with
+/// `--gpu`), or by the march
+/// through every medium with `--reference` (a step of a fifth of the smallest Gaussian
+/// radius, at most 0.02).
+fn run_hetero(a: &SceneRenderArgs, scene: &Scene, kind: OutKind, start: Instant) -> Result<()> {
+    let fail = |e: String| anyhow!("{}: {e}", a.scene.display());
+    let bar = rows_bar(scene.camera.height);
+    let progress = |rows: usize| bar.set_position(rows as u64);
+    let (image, what) = if a.reference {
+        let opt = MarchOptions {
+            step: paper_b::march_step(scene),
+            ..Default::default()
+        };
+        let image = march::render(scene, &Limits::default(), &opt, &progress);
+        (image, format!("single-scattering march, step {}", opt.step))
+    } else if a.gpu {
+        let gpu_err = |e: GpuError| anyhow!("--gpu: {}: {e}", a.scene.display());
+        let ctx = GpuContext::new().map_err(gpu_err)?;
+        let analytic = Analytic::new(scene);
+        let prep = Prepared::new(scene, &analytic, PaperBOptions::default()).map_err(fail)?;
+        let tables = GpuRenderer::new(&ctx, &analytic).map_err(gpu_err)?;
+        let frame = Instant::now();
+        let image = GpuPaperB::new(&ctx)
+            .and_then(|r| r.render(&ctx, &tables, &prep, &Limits::default()))
+            .map_err(gpu_err)?;
+        let what = format!(
+            "{} on the GPU ({}), frame {:.3} s",
+            prep.name(),
+            ctx.adapter_name(),
+            frame.elapsed().as_secs_f64()
+        );
+        (image, what)
+    } else {
+        let analytic = Analytic::new(scene);
+        let prep = Prepared::new(scene, &analytic, PaperBOptions::default()).map_err(fail)?;
+        let image = paper_b::render(&prep, &Limits::default(), &progress);
+        (image, prep.name())
+    };
+    bar.finish_and_clear();
+    let (w, h) = (image.width, image.height);
+    write(a, image, kind)?;
+    eprintln!(
+        "{}: {}×{}, scene {} ({} lights, {} surfaces, {} heterogeneous media), {}, {:.2} s",
+        a.out.display(),
+        w,
+        h,
+        a.scene.display(),
+        scene.lights.len(),
+        scene.surfaces.len(),
+        scene.hetero.len(),
+        what,
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// A progress bar over the image's rows.
+fn rows_bar(rows: usize) -> ProgressBar {
+    let bar = ProgressBar::new(rows as u64);
+    bar.set_style(
+        ProgressStyle::with_template("rendering [{bar:30}] {pos}/{len} rows, ETA {eta}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    bar
 }
 
 /// Writes the image as `kind` (temp file + rename).

@@ -218,9 +218,18 @@ pub fn parse_in(text: &str, base: &Path) -> Result<Scene, String> {
     let mut sigma_s = [0.0; 3];
     let mut hetero = Vec::new();
     for (i, v) in spec.media.iter().enumerate() {
-        if kind(v).is_ok_and(|k| k == "asset") {
+        let k = kind(v).map_err(|e| format!("media[{i}]: {e}"))?;
+        // A smoke asset's density ([`crate::asset_medium`]).
+        if k == "asset" {
             let m = crate::asset_medium::AssetMedium::from_json(v, base)
                 .map_err(|e| format!("media[{i}]: {e}"))?;
+            hetero.push(crate::media::HeteroMedium(Arc::new(m)));
+            continue;
+        }
+        // Paper B's Gaussian media ([`crate::gaussian_medium`]).
+        if k == "gaussians" {
+            let m =
+                crate::gaussian_medium::parse(v, base).map_err(|e| format!("media[{i}]: {e}"))?;
             hetero.push(crate::media::HeteroMedium(Arc::new(m)));
             continue;
         }
@@ -364,11 +373,9 @@ fn homogeneous(v: &Value) -> Result<(Rgb, Rgb), String> {
             }
             Ok((st, st.map(|s| s * h.albedo)))
         }
-        t @ ("gaussians" | "analytic" | "fogmap") => {
-            Err(format!("media type \"{t}\" is not supported yet"))
-        }
+        t @ ("analytic" | "fogmap") => Err(format!("media type \"{t}\" is not supported yet")),
         other => Err(format!(
-            "unknown media type \"{other}\" (known: \"homogeneous\", \"asset\"; \"gaussians\", \"analytic\", \"fogmap\" to come)"
+            "unknown media type \"{other}\" (known: \"homogeneous\", \"asset\", \"gaussians\"; \"analytic\", \"fogmap\" to come)"
         )),
     }
 }
@@ -544,9 +551,9 @@ mod tests {
             (
                 (
                     "\"type\": \"homogeneous\", \"sigma_t\": 0.1",
-                    "\"type\": \"gaussians\", \"sigma_t\": 0.1",
+                    "\"type\": \"fogmap\", \"sigma_t\": 0.1",
                 ),
-                "media[0]: media type \"gaussians\" is not supported yet",
+                "media[0]: media type \"fogmap\" is not supported yet",
             ),
             (
                 ("\"type\": \"plane\"", "\"type\": \"cone\""),

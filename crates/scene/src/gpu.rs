@@ -226,6 +226,44 @@ impl GpuRenderer {
     /// Renders the scene's camera image (as [`crate::render::render`] with
     /// [`Analytic`] and the limits `lim`), reading it back to the host.
     pub fn render(&self, ctx: &GpuContext, scene: &Scene, lim: &Limits) -> Result<Image, GpuError> {
+        if scene.hetero.is_empty() {
+            return self.render_pass(ctx, scene, lim, &self.pipeline, None, &[]);
+        }
+        // Scenes with voxel media: the march (crate::gpu_march) instead of paper C; other
+        // heterogeneous media (paper B's Gaussians: [`crate::gpu_paper_b`]) are refused
+        // here rather than rendered without them.
+        if let Some(m) = scene.hetero.iter().find(|m| m.voxels().is_none()) {
+            return Err(GpuError::Input(format!(
+                "this renderer does not render heterogeneous media ({})",
+                m.name()
+            )));
+        }
+        let opt = crate::asset_medium::march_options(scene, false);
+        let Some(march) = crate::gpu_march::MarchInput::of(scene, scene.camera.eye, &opt)? else {
+            return self.render_pass(ctx, scene, lim, &self.pipeline, None, &[]);
+        };
+        march.check(ctx)?;
+        if self.march.get().is_none() {
+            let _ = self.march.set(crate::gpu_march::pipeline(ctx)?);
+        }
+        let pipeline = self.march.get().expect("set above");
+        let (grid, records) = march.buffers(ctx);
+        self.render_pass(ctx, scene, lim, pipeline, None, &[&grid, &records])
+    }
+
+    /// [`GpuRenderer::render`]'s frame with another entry point of the same bindings
+    /// (`pipeline`), the homogeneous medium's `(σt, σs)` replaced by `medium` if given, and
+    /// `extra` storage buffers bound after the seven of `render.wgsl` (bindings 7, 8, …).
+    pub(crate) fn render_pass(
+        &self,
+        ctx: &GpuContext,
+        scene: &Scene,
+        lim: &Limits,
+        pipeline: &wgpu::ComputePipeline,
+        medium: Option<([f64; 3], [f64; 3])>,
+        extra: &[&wgpu::Buffer],
+    ) -> Result<Image, GpuError> {
+        let (sigma_t, sigma_s) = medium.unwrap_or((scene.medium.sigma_t, scene.medium.sigma_s()));
         let cam = &scene.camera;
         let (w, h) = (cam.width, cam.height);
         let pixels = w
@@ -328,9 +366,9 @@ impl GpuRenderer {
             forward: vec4(cam.forward(), cam.tan_half()),
             right: vec4(cam.right(), w as f64 / h as f64),
             up: vec4(cam.up(), gamma_min),
-            sigma_t: vec4(scene.medium.sigma_t, lim.r_min),
+            sigma_t: vec4(sigma_t, lim.r_min),
             sigma_s: vec4(
-                scene.medium.sigma_s(),
+                sigma_s,
                 // Beyond f32's range a finite distance would read as ∞ in the shader.
                 if far.is_finite() { far.min(1e30) } else { 0.0 },
             ),
@@ -356,19 +394,6 @@ impl GpuRenderer {
             env_at,
         };
         let groups = [w.div_ceil(SIDE) as u32, h.div_ceil(SIDE) as u32, 1];
-        // Scenes with voxel media: the march (crate::gpu_march) instead of paper C.
-        let opt = crate::asset_medium::march_options(scene, false);
-        let march = crate::gpu_march::MarchInput::of(scene, eye, &opt)?;
-        let march_pipeline = match &march {
-            None => None,
-            Some(m) => {
-                m.check(ctx)?;
-                if self.march.get().is_none() {
-                    let _ = self.march.set(crate::gpu_march::pipeline(ctx)?);
-                }
-                self.march.get()
-            }
-        };
         let output = ctx.scoped("scene render", || {
             let uniform = buffer_init(
                 ctx,
@@ -415,11 +440,7 @@ impl GpuRenderer {
                 &meshes,
                 &envdata,
             ];
-            let extra = march.as_ref().map(|m| m.buffers(ctx));
-            if let Some((grid, records)) = &extra {
-                buffers.extend([grid, records]);
-            }
-            let pipeline = march_pipeline.unwrap_or(&self.pipeline);
+            buffers.extend_from_slice(extra);
             submit_pass(ctx, pipeline, "scene render", &buffers, groups);
             output
         })?;

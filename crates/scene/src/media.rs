@@ -64,6 +64,10 @@ pub trait Heterogeneous: Send + Sync + fmt::Debug {
     fn voxels(&self) -> Option<&crate::voxel_grid::VoxelGrid> {
         None
     }
+    /// The medium as a sum of Gaussians, for paper B's renderer ([`crate::paper_b`]).
+    fn gaussians(&self) -> Option<&crate::gaussian_medium::GaussianMediumOf> {
+        None
+    }
 }
 
 /// A shared heterogeneous medium of a scene; two are equal when they are the same object.

@@ -1,0 +1,137 @@
+//! The line integral of one Gaussian in closed form (paper B, appendix A, eq. 31).
+//!
+//! For `f(x) = c·exp(−a²|x − b|²)` along `o + t·d` (unit `d`), `t ∈ [0, L]`: with
+//! `b′ = b − o`, `m = b′·d` (the foot of the perpendicular) and `h² = |b′ − m·d|²` (the
+//! squared distance of `b` from the line, computed from the vector itself rather than
+//! through `sin ξ`, which loses everything near the axis),
+//!
+//! `∫₀^L f dt = c·e^{−a²h²}·(√π/2a)·[erf(a(L − m)) − erf(−a·m)]`,
+//!
+//! the difference taken by [`crate::erf::erf_diff`] (exact in the tails and for short
+//! segments). `L` may be `+∞`.
+
+use crate::erf::erf_diff;
+use crate::vec::{Vec3, axpy, dot, sub};
+use std::f64::consts::PI;
+
+/// `∫₀^len c·exp(−a²|o + t·d − b|²) dt` for unit `d` (module docs); 0 for `len ≤ 0`.
+pub fn gaussian(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3, len: f64) -> f64 {
+    if len <= 0.0 || c == 0.0 {
+        return 0.0;
+    }
+    let bp = sub(b, o);
+    let m = dot(bp, d);
+    let perp = axpy(bp, -m, d);
+    let h2 = dot(perp, perp);
+    let side = (-a * a * h2).exp();
+    if side == 0.0 {
+        return 0.0;
+    }
+    c * side * PI.sqrt() / (2.0 * a) * erf_diff(-a * m, a * (len - m))
+}
+
+/// The most a Gaussian of peak `c` and inverse radius `a` can add to the optical depth of
+/// a line passing at distance `h` from its centre: `c·√π/a·e^{−a²h²}` (the whole line).
+pub fn line_bound(c: f64, a: f64, h: f64) -> f64 {
+    c * PI.sqrt() / a * (-a * a * h * h).exp()
+}
+
+/// The distance from the centre beyond which a line picks up less than `delta` of the
+/// Gaussian's optical depth: `√(ln(c√π/(a·δ)))/a` (0 when even the centre line does).
+pub fn negligible_radius(c: f64, a: f64, delta: f64) -> f64 {
+    let q = (c * PI.sqrt() / (a * delta)).ln();
+    if q > 0.0 { q.sqrt() / a } else { 0.0 }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::vec::normalize;
+
+    /// The integral by composite Simpson with a breakpoint at the foot of the
+    /// perpendicular (each side smooth; 4000 panels each, error ≪ 1e-12 relative for
+    /// `a·L ≤ 50`).
+    fn quadrature(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3, len: f64) -> f64 {
+        let f = |t: f64| {
+            let x = sub(axpy(o, t, d), b);
+            c * (-a * a * dot(x, x)).exp()
+        };
+        let m = dot(sub(b, o), d).clamp(0.0, len);
+        let simpson = |x0: f64, x1: f64| {
+            let n = 4000;
+            let h = (x1 - x0) / n as f64;
+            let mut s = f(x0) + f(x1);
+            for i in 1..n {
+                s += f(x0 + i as f64 * h) * if i % 2 == 1 { 4.0 } else { 2.0 };
+            }
+            s * h / 3.0
+        };
+        simpson(0.0, m) + simpson(m, len)
+    }
+
+    #[test]
+    fn closed_form_matches_quadrature() {
+        let d = normalize([0.3, -0.5, 0.8]).unwrap();
+        let o = [0.1, 0.2, -0.3];
+        for (c, a, b, len) in [
+            (1.0, 1.0, [0.5, 0.0, 0.4], 3.0),
+            (2.5, 4.0, [0.0, 0.0, 0.0], 2.0),
+            // The centre behind the origin, in front of the end, off to the side.
+            (0.7, 2.0, [-0.5, 0.8, -1.0], 1.5),
+            (0.7, 2.0, [1.0, -1.0, 3.0], 1.5),
+            (0.3, 0.1, [5.0, 1.0, 2.0], 40.0),
+            (1.0, 10.0, [0.33, -0.5, 0.52], 1.0),
+        ] {
+            let want = quadrature(c, a, b, o, d, len);
+            let got = gaussian(c, a, b, o, d, len);
+            let err = (got - want).abs();
+            // Relative 1e-10: the far-off case is a 2e-10 tail, where both lose digits.
+            assert!(
+                err <= 1e-10 * want,
+                "{c} {a} {b:?} {len}: {got:e} vs {want:e}"
+            );
+        }
+    }
+
+    #[test]
+    fn infinite_line_and_bounds() {
+        // Through the centre, the whole line: c√π/a.
+        let g = gaussian(
+            2.0,
+            3.0,
+            [0.0; 3],
+            [0.0, 0.0, -100.0],
+            [0.0, 0.0, 1.0],
+            f64::INFINITY,
+        );
+        assert!((g - 2.0 * PI.sqrt() / 3.0).abs() < 1e-14);
+        assert!((line_bound(2.0, 3.0, 0.0) - g).abs() < 1e-14);
+        // Starting at the centre: half of it.
+        let half = gaussian(2.0, 3.0, [0.0; 3], [0.0; 3], [1.0, 0.0, 0.0], f64::INFINITY);
+        assert!((half - g / 2.0).abs() < 1e-14);
+        // Beyond the negligible radius a line picks up less than δ.
+        let r = negligible_radius(2.0, 3.0, 1e-10);
+        let far = gaussian(
+            2.0,
+            3.0,
+            [0.0, r, 0.0],
+            [-50.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            100.0,
+        );
+        assert!(far <= 1e-10 && far > 0.5e-10, "{far:e}");
+        assert_eq!(negligible_radius(1e-12, 1.0, 1e-10), 0.0);
+        // Degenerate inputs.
+        assert_eq!(
+            gaussian(1.0, 1.0, [0.0; 3], [0.0; 3], [1.0, 0.0, 0.0], 0.0),
+            0.0
+        );
+        assert_eq!(
+            gaussian(1.0, 1e8, [0.0, 1.0, 0.0], [0.0; 3], [1.0, 0.0, 0.0], 1.0),
+            0.0
+        );
+        // A very wide Gaussian over a short segment: c·L (the short-interval branch).
+        let w = gaussian(1.5, 1e-7, [0.0; 3], [0.0; 3], [1.0, 0.0, 0.0], 2.0);
+        assert!((w - 3.0).abs() < 1e-12, "{w}");
+    }
+}

@@ -1,0 +1,340 @@
+//! Paper B's figures for BENCHMARKS.md: accuracy against the march reference and frame
+//! time against the number of Gaussians and lights; also writes the bundled scene.
+//!
+//! ```text
+//! cargo run --release -p haze-scene --example paper_b_figures -- accuracy [--size 64x48]
+//! cargo run --release -p haze-scene --example paper_b_figures -- timing [--size 320x240]
+//!     [--counts 10,100,1000,5000] [--lights 1,2,4] [--repeat 3]
+//! cargo run --release -p haze-scene --example paper_b_figures -- scene data/scenes/gaussians.json
+//! ```
+//!
+//! Every scene is the same room (a floor, a back wall, a glossy sphere, point lights)
+//! with a cloud of Gaussians from `haze_gaussians::cloud::ball` (fixed seed), at a chosen
+//! peak optical depth per Gaussian. **Accuracy**: paper B (CPU) against the march through
+//! the exact medium (`haze render --scene --reference`'s renderer, step
+//! `paper_b::march_step`), relative RMS over the image (DESIGN.md), for the whole image
+//! (where the sphere's shadow in the medium, which paper B does not model, counts
+//! against it), the airlight alone (no surfaces, black environment: the factorization's
+//! error alone) and the surfaces alone (albedo 0: the direct light through the
+//! Gaussians). The march has no light scattered onto
+//! surfaces, so paper B's is off in the comparison; its share of paper B's image is
+//! printed apart. **Timing**: the median of `--repeat` frames, per-frame preparation
+//! (the exponents `Eᵢ` per light) included, rayon on every core.
+
+use haze_gaussians::cloud;
+use haze_scene::airlight::Limits;
+use haze_scene::march::{self, MarchOptions};
+use haze_scene::paper_b::{self, PaperBOptions, Prepared};
+use haze_scene::render::{Analytic, Image};
+use haze_scene::{Scene, file};
+use std::time::Instant;
+
+fn fail(msg: impl std::fmt::Display) -> ! {
+    eprintln!("error: {msg}");
+    std::process::exit(1)
+}
+
+/// A cloud: how many, ball radius, radius range, peak optical depth; or one Gaussian.
+struct Cloud {
+    n: usize,
+    spread: f64,
+    radii: (f64, f64),
+    tau: f64,
+    centre: [f64; 3],
+}
+
+const LIGHTS: [([f64; 3], [f64; 3]); 4] = [
+    ([-1.6, -0.8, 2.6], [8.0, 7.0, 6.0]),
+    ([1.8, 1.0, 0.9], [2.0, 3.0, 6.0]),
+    ([0.2, -1.5, 3.2], [5.0, 5.0, 5.0]),
+    ([-1.0, 1.6, 0.6], [6.0, 3.0, 2.0]),
+];
+
+/// The room's JSON with `cloud`, `lights` point lights, `(w, h)` pixels; `black` makes
+/// surfaces and environment black, `albedo` is the medium's.
+fn scene_text(
+    cloud: &Cloud,
+    lights: usize,
+    size: (usize, usize),
+    black: bool,
+    albedo: f64,
+) -> String {
+    let gs = cloud::ball(
+        cloud.n,
+        2007,
+        cloud.centre,
+        cloud.spread,
+        cloud.radii,
+        cloud.tau,
+        2.0,
+    );
+    let list: Vec<String> = gs
+        .iter()
+        .map(|g| {
+            format!(
+                "      {{\"center\": [{:.4}, {:.4}, {:.4}], \"radius\": {:.4}, \"weight\": {:.5}}}",
+                g.center[0], g.center[1], g.center[2], g.radius, g.weight
+            )
+        })
+        .collect();
+    let lights: Vec<String> = LIGHTS
+        .iter()
+        .cycle()
+        .take(lights)
+        .enumerate()
+        .map(|(i, (p, c))| {
+            // Repeated lights move along x so that none coincide.
+            let dx = 0.37 * (i / LIGHTS.len()) as f64;
+            format!(
+                "    {{\"type\": \"point\", \"position\": [{}, {}, {}], \"intensity\": [{}, {}, {}]}}",
+                p[0] + dx, p[1], p[2], c[0], c[1], c[2]
+            )
+        })
+        .collect();
+    let (diffuse, specular, env) = if black {
+        ("[0, 0, 0]", "[0, 0, 0]", "null")
+    } else {
+        ("[0.6, 0.6, 0.6]", "[0.3, 0.3, 0.3]", "[0.05, 0.06, 0.08]")
+    };
+    format!(
+        r#"{{
+  "camera": {{"eye": [0, -6, 1.6], "target": [0, 0, 1.0], "fov": 45, "width": {}, "height": {}}},
+  "environment": {env},
+  "lights": [
+{}
+  ],
+  "media": [
+    {{"type": "gaussians", "sigma_t": 2, "albedo": {albedo}, "gaussians": [
+{}
+    ]}}
+  ],
+  "surfaces": [
+    {{"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1], "material": {{"diffuse": {diffuse}}}}},
+    {{"type": "plane", "point": [0, 3, 0], "normal": [0, -1, 0], "material": {{"diffuse": {diffuse}}}}},
+    {{"type": "sphere", "center": [0.9, 0.8, 0.5], "radius": 0.5,
+      "material": {{"diffuse": {diffuse}, "specular": {specular}, "shininess": 20}}}}
+  ]
+}}
+"#,
+        size.0,
+        size.1,
+        lights.join(",\n"),
+        list.join(",\n")
+    )
+}
+
+fn scene(cloud: &Cloud, lights: usize, size: (usize, usize), black: bool, albedo: f64) -> Scene {
+    file::parse(&scene_text(cloud, lights, size, black, albedo)).unwrap_or_else(|e| fail(e))
+}
+
+fn paper_b(s: &Scene, analytic: &Analytic, surface_scattering: bool) -> Image {
+    let prep = Prepared::new(s, analytic, PaperBOptions { surface_scattering })
+        .unwrap_or_else(|e| fail(e));
+    paper_b::render(&prep, &Limits::default(), &|_| {})
+}
+
+fn reference(s: &Scene) -> Image {
+    let opt = MarchOptions {
+        step: paper_b::march_step(s),
+        ..Default::default()
+    };
+    march::render(s, &Limits::default(), &opt, &|_| {})
+}
+
+fn arg<'a>(args: &'a [String], key: &str) -> Option<&'a str> {
+    args.iter()
+        .position(|a| a == key)
+        .and_then(|i| args.get(i + 1))
+        .map(String::as_str)
+}
+
+fn size(args: &[String], default: (usize, usize)) -> (usize, usize) {
+    match arg(args, "--size") {
+        None => default,
+        Some(s) => {
+            let (w, h) = s.split_once('x').unwrap_or_else(|| fail("--size WxH"));
+            (
+                w.parse().unwrap_or_else(|_| fail("--size WxH")),
+                h.parse().unwrap_or_else(|_| fail("--size WxH")),
+            )
+        }
+    }
+}
+
+fn list(args: &[String], key: &str, default: &[usize]) -> Vec<usize> {
+    match arg(args, key) {
+        None => default.to_vec(),
+        Some(s) => s
+            .split(',')
+            .map(|x| x.parse().unwrap_or_else(|_| fail(format!("{key} N,N,…"))))
+            .collect(),
+    }
+}
+
+fn cases() -> Vec<(&'static str, Cloud)> {
+    vec![
+        (
+            "1 gaussian, peak depth 0.15",
+            Cloud {
+                n: 1,
+                spread: 0.0,
+                radii: (0.6, 0.6),
+                tau: 0.15,
+                centre: [0.0, 0.3, 1.2],
+            },
+        ),
+        (
+            "100 gaussians, peak depth 0.05",
+            Cloud {
+                n: 100,
+                spread: 1.2,
+                radii: (0.15, 0.3),
+                tau: 0.05,
+                centre: [0.0, 0.0, 1.2],
+            },
+        ),
+        (
+            "1000 gaussians, peak depth 0.03",
+            Cloud {
+                n: 1000,
+                spread: 1.4,
+                radii: (0.06, 0.12),
+                tau: 0.03,
+                centre: [0.0, 0.0, 1.2],
+            },
+        ),
+        (
+            "100 gaussians, peak depth 0.5",
+            Cloud {
+                n: 100,
+                spread: 1.2,
+                radii: (0.15, 0.3),
+                tau: 0.5,
+                centre: [0.0, 0.0, 1.2],
+            },
+        ),
+        (
+            "1 gaussian, peak depth 2, light 0.6 r from it",
+            Cloud {
+                n: 1,
+                spread: 0.0,
+                radii: (0.8, 0.8),
+                tau: 2.0,
+                centre: [-1.2, -0.6, 2.2],
+            },
+        ),
+    ]
+}
+
+fn accuracy(args: &[String]) {
+    let sz = size(args, (64, 48));
+    println!(
+        "paper B against the march reference, {}×{}, 2 point lights (relative RMS over the image)",
+        sz.0, sz.1
+    );
+    println!(
+        "| scene | image | airlight only | surfaces only (albedo 0) | surface scattering's share | paper B s | reference s |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    for (name, cloud) in cases() {
+        let s = scene(&cloud, 2, sz, false, 0.9);
+        let analytic = Analytic::new(&s);
+        let t = Instant::now();
+        let b = paper_b(&s, &analytic, false);
+        let tb = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let r = reference(&s);
+        let tr = t.elapsed().as_secs_f64();
+        let with = paper_b(&s, &analytic, true);
+        let share = with.rel_rms(&b);
+        // No surfaces: nothing shadows the medium (neither paper B nor C has volume
+        // shadows; the march has), so this measures the factorization alone.
+        let mut air = scene(&cloud, 2, sz, true, 0.9);
+        air.surfaces.clear();
+        let air_e = paper_b(&air, &analytic, false).rel_rms(&reference(&air));
+        let surf = scene(&cloud, 2, sz, false, 0.0);
+        let surf_e = paper_b(&surf, &analytic, false).rel_rms(&reference(&surf));
+        println!(
+            "| {name} | {:.2} % | {:.2} % | {:.2e} | {:.1} % | {tb:.2} | {tr:.1} |",
+            100.0 * b.rel_rms(&r),
+            100.0 * air_e,
+            surf_e,
+            100.0 * share
+        );
+    }
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn timing(args: &[String]) {
+    let sz = size(args, (320, 240));
+    let counts = list(args, "--counts", &[10, 100, 1000, 5000]);
+    let lights = list(args, "--lights", &[1, 2, 4]);
+    let repeat = list(args, "--repeat", &[3])[0].max(1);
+    println!(
+        "paper B on the CPU ({} threads), {}×{}, median of {repeat} frames (ms)",
+        rayon::current_num_threads(),
+        sz.0,
+        sz.1
+    );
+    print!("| gaussians |");
+    for l in &lights {
+        print!(" {l} light{} |", if *l == 1 { "" } else { "s" });
+    }
+    println!();
+    println!("|---|{}", "---|".repeat(lights.len()));
+    for &n in &counts {
+        let cloud = Cloud {
+            n,
+            spread: 1.4,
+            radii: (0.06, 0.2),
+            tau: 0.05,
+            centre: [0.0, 0.0, 1.2],
+        };
+        print!("| {n} |");
+        for &l in &lights {
+            let s = scene(&cloud, l, sz, false, 0.9);
+            let analytic = Analytic::new(&s);
+            let times: Vec<f64> = (0..repeat)
+                .map(|_| {
+                    let t = Instant::now();
+                    let _ = paper_b(&s, &analytic, true);
+                    t.elapsed().as_secs_f64() * 1e3
+                })
+                .collect();
+            print!(" {:.0} |", median(times));
+        }
+        println!();
+    }
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    match args.first().map(String::as_str) {
+        Some("accuracy") => accuracy(&args),
+        Some("timing") => timing(&args),
+        Some("scene") => {
+            let path = args.get(1).unwrap_or_else(|| fail("scene PATH"));
+            let cloud = Cloud {
+                n: 150,
+                spread: 1.3,
+                radii: (0.15, 0.35),
+                tau: 0.12,
+                centre: [0.0, 0.0, 1.2],
+            };
+            let text = scene_text(&cloud, 2, (320, 240), false, 0.9).replacen(
+                "\"gaussians\": [",
+                "\"noise\": {\"seed\": 7, \"gain\": 1.5, \"frequency\": 2},\n      \"gaussians\": [",
+                1,
+            );
+            let tmp = format!("{path}.tmp");
+            std::fs::write(&tmp, text).unwrap_or_else(|e| fail(format!("{tmp}: {e}")));
+            std::fs::rename(&tmp, path).unwrap_or_else(|e| fail(format!("{path}: {e}")));
+            println!("{path}: 150 gaussians with noise, 2 point lights");
+        }
+        _ => fail("usage: paper_b_figures accuracy|timing|scene PATH [options]"),
+    }
+}

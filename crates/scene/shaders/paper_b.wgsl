@@ -1,0 +1,285 @@
+// Paper B on the GPU: the twin of crates/scene's `paper_b::Prepared::radiance`, appended
+// to render.wgsl (whose helpers it calls; its entry point is renamed) — see
+// `src/gpu_paper_b.rs`. Positions are relative to the eye. P.sigma_t/P.sigma_s carry the
+// homogeneous part β0, σs0 (the scene's homogeneous media plus the Gaussian backgrounds).
+
+// Two records per Gaussian: (centre, a = 1/r), (c = peak extinction, albedo, cull radius², -).
+@group(0) @binding(7) var<storage, read> blobs: array<vec4<f32>>;
+// Per light l and Gaussian i at l·n + i: e^{Eᵢ} per channel; then per light (C_sv, -, -, -);
+// then (n, 1 if a background hides the suns, -, -) and (σs of the scene's homogeneous
+// media, -).
+@group(0) @binding(8) var<storage, read> bexp: array<vec4<f32>>;
+
+const SQRT_PI_2: f32 = 0.88622692545;
+const TWO_OVER_SQRT_PI: f32 = 1.12837916710;
+// Lengths beyond this are the same as ∞ to the erf (and keep a·len finite).
+const LONG: f32 = 1.0e30;
+
+// erfc(x) for x ≥ 0 by Abramowitz & Stegun 7.1.26 (gaussians::erf::erf_as): absolute
+// error ≤ 1.5e-7.
+fn erfc_pos(x: f32) -> f32 {
+    let t = 1.0 / (1.0 + 0.3275911 * x);
+    let poly = t * (0.254829592 + t * (-0.284496736 + t * (1.421413741 + t * (-1.453152027 + t * 1.061405429))));
+    return poly * exp(-x * x);
+}
+
+// erf(x1) − erf(x0) for x0 ≤ x1 (gaussians::erf::erf_diff), arguments clamped to
+// [−10, 10] (erfc(10) is below f32's range).
+fn erf_diff(a: f32, b: f32) -> f32 {
+    let x0 = clamp(a, -10.0, 10.0);
+    let x1 = clamp(b, -10.0, 10.0);
+    let delta = x1 - x0;
+    if (!(delta > 0.0)) {
+        return 0.0;
+    }
+    let mid = 0.5 * (x0 + x1);
+    if (delta * max(abs(mid), 1.0) < 1.0e-3) {
+        return TWO_OVER_SQRT_PI * exp(-mid * mid) * delta * (1.0 + (2.0 * mid * mid - 1.0) * delta * delta / 12.0);
+    }
+    if (x0 >= 0.0) {
+        return erfc_pos(x0) - erfc_pos(x1);
+    }
+    if (x1 <= 0.0) {
+        return erfc_pos(-x1) - erfc_pos(-x0);
+    }
+    return (1.0 - erfc_pos(x1)) + (1.0 - erfc_pos(-x0));
+}
+
+// gaussians::line::gaussian: ∫₀^len c·exp(−a²|o + t·d − b|²) dt, unit d.
+fn line_gauss(c: f32, a: f32, b: vec3<f32>, o: vec3<f32>, d: vec3<f32>, len_in: f32) -> f32 {
+    let len = min(len_in, LONG);
+    if (len <= 0.0 || c == 0.0) {
+        return 0.0;
+    }
+    let bp = b - o;
+    let m = dot(bp, d);
+    let perp = bp - m * d;
+    let side = exp(-a * a * dot(perp, perp));
+    if (side == 0.0) {
+        return 0.0;
+    }
+    return c * side * SQRT_PI_2 / a * erf_diff(-a * m, a * (len - m));
+}
+
+fn gaussian_count() -> u32 {
+    return u32(bexp[arrayLength(&bexp) - 2u].x);
+}
+
+// The Gaussians' optical depth along o + t·u, t ∈ [0, len], and its scattering part.
+fn gauss_depth(o: vec3<f32>, u: vec3<f32>, len: f32) -> vec2<f32> {
+    var out = vec2<f32>(0.0);
+    let n = gaussian_count();
+    for (var i = 0u; i < n; i++) {
+        let b0 = blobs[2u * i];
+        let b1 = blobs[2u * i + 1u];
+        let t = line_gauss(b1.x, b0.w, b0.xyz, o, u, len);
+        out += vec2<f32>(t, b1.y * t);
+    }
+    return out;
+}
+
+// paper_b::Prepared::surface: the surface lit through T(s,p).
+fn shade_surface_b(dir: vec3<f32>, p: vec3<f32>, n: vec3<f32>, s: u32) -> vec3<f32> {
+    let diffuse = surfaces[4u * s + 2u].xyz;
+    let m = surfaces[4u * s + 2u].w;
+    let specular = surfaces[4u * s + 3u].xyz;
+    let gn = surfaces[4u * s + 3u].w;
+    let r = 2.0 * dot(-dir, n) * n + dir;
+    let eps = P.albedo.w;
+    let p_off = p + eps * (1.0 + length(p)) * n;
+    let header = arrayLength(&bexp) - 2u;
+    let background_hides_suns = bexp[header].y > 0.5;
+    let ss_scene = bexp[header + 1u].xyz;
+    var out = vec3<f32>(0.0);
+    for (var i = 0u; i < P.size.z; i++) {
+        let a = lights[3u * i];
+        let e = lights[3u * i + 1u].xyz;
+        if (a.x == 0.0) {
+            var light = a.yzw;
+            let v0 = light - p;
+            let d0 = length(v0);
+            if (d0 < P.sigma_t.w) {
+                var u = n;
+                if (d0 > 0.0) {
+                    u = v0 / d0;
+                }
+                light = p + P.sigma_t.w * u;
+            }
+            let v = light - p;
+            let d = length(v);
+            let l = v / d;
+            var f = vec3<f32>(0.0);
+            if (dot(n, l) > 0.0 && visible(p_off, light, eps)) {
+                f = brdf(n, r, l, diffuse, specular, m);
+            }
+            let depth = gauss_depth(p, l, d);
+            let theta_s = angle(n, l);
+            let theta_r = angle(r, l);
+            for (var c = 0u; c < 3u; c++) {
+                if (e[c] <= 0.0) {
+                    continue;
+                }
+                let beta = P.sigma_t[c] + depth.x / d;
+                var v_c = exp(-beta * d) / (d * d) * f[c];
+                let ss = P.sigma_s[c] + depth.y / d;
+                if (ss > 0.0) {
+                    let t = beta * d;
+                    var g = diffuse[c] / PI * g_table(0u, t, theta_s);
+                    if (gn >= 0.0 && specular[c] > 0.0) {
+                        g += specular[c] * (m + 2.0) / (2.0 * PI) * g_table(u32(gn), t, theta_r);
+                    }
+                    v_c += ss / (2.0 * PI * d) * g;
+                }
+                out[c] += e[c] * v_c;
+            }
+        } else {
+            let irradiance = lights[3u * i + 2u].xyz;
+            let sd = a.yzw;
+            if (dot(n, sd) > 0.0 && !background_hides_suns && intersect(p_off, sd, 0.0, 3.0e38).surface < 0) {
+                let t = gauss_depth(p, sd, LONG).x;
+                out += irradiance * exp(-t) * brdf(n, r, sd, diffuse, specular, m);
+            }
+            let lobes = diffuse + specular * (m + 2.0) / (m + 1.0);
+            for (var c = 0u; c < 3u; c++) {
+                if (ss_scene[c] > 0.0) {
+                    out[c] += P.albedo[c] * irradiance[c] / (4.0 * PI) * lobes[c];
+                }
+            }
+        }
+    }
+    return out;
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let w = P.size.x;
+    let h = P.size.y;
+    if (id.x >= w || id.y >= h) {
+        return;
+    }
+    let tan_half = P.forward.w;
+    let sx = (2.0 * (f32(id.x) + 0.5) / f32(w) - 1.0) * tan_half * P.right.w;
+    let sy = (1.0 - 2.0 * (f32(id.y) + 0.5) / f32(h)) * tan_half;
+    let dir = normalize(P.forward.xyz + sx * P.right.xyz + sy * P.up.xyz);
+
+    let env_far = P.flags.y == 0u;
+    var t_max = 3.0e38;
+    if (env_far) {
+        t_max = P.sigma_s.w;
+    }
+    let hit = intersect(vec3<f32>(0.0), dir, 0.0, t_max);
+    let finite_end = hit.surface >= 0 || env_far;
+    var t_end = LONG;
+    if (finite_end) {
+        t_end = hit.t;
+    }
+    let beta = P.sigma_t.xyz;
+    let ss = P.sigma_s.xyz;
+    let n_g = gaussian_count();
+    let n_l = P.size.z;
+    let header = arrayLength(&bexp) - 2u;
+    let background_hides_suns = bexp[header].y > 0.5;
+    let ss_scene = bexp[header + 1u].xyz;
+    var out = vec3<f32>(0.0);
+    // The Gaussians whose cull sphere the ray crosses: Tᵢ(v,p) and their factored airlight.
+    var tau = 0.0;
+    for (var i = 0u; i < n_g; i++) {
+        let b0 = blobs[2u * i];
+        let b1 = blobs[2u * i + 1u];
+        let b = b0.xyz;
+        let m = dot(b, dir);
+        let foot = b - clamp(m, 0.0, t_end) * dir;
+        if (dot(foot, foot) > b1.z) {
+            continue;
+        }
+        let a = b0.w;
+        let t_r = clamp(m, 0.0, t_end);
+        let vp = line_gauss(b1.x, a, b, vec3<f32>(0.0), dir, t_end);
+        tau += vp;
+        if (vp <= 0.0 || b1.y <= 0.0) {
+            continue;
+        }
+        let vr = line_gauss(b1.x, a, b, vec3<f32>(0.0), dir, t_r);
+        let br = t_r * dir;
+        for (var l = 0u; l < n_l; l++) {
+            let la = lights[3u * l];
+            var f0 = 1.0 / (4.0 * PI);
+            var sr = 0.0;
+            var e = lights[3u * l + 2u].xyz;
+            if (la.x == 0.0) {
+                e = lights[3u * l + 1u].xyz;
+                let ls = br - la.yzw;
+                let d = length(ls);
+                if (d > 0.0) {
+                    sr = line_gauss(b1.x, a, b, la.yzw, ls / d, d);
+                }
+                let dc = max(d, P.sigma_t.w);
+                f0 = 1.0 / (4.0 * PI * dc * dc);
+            } else {
+                sr = line_gauss(b1.x, a, b, br, la.yzw, LONG);
+            }
+            let base = b1.y * f0 * exp(-sr - vr) * vp;
+            out += e * base * bexp[l * n_g + i].xyz;
+        }
+    }
+    // The homogeneous term of each light.
+    for (var l = 0u; l < n_l; l++) {
+        let la = lights[3u * l];
+        let c_sv = bexp[n_l * n_g + l].x;
+        if (la.x == 0.0) {
+            let e = lights[3u * l + 1u].xyz;
+            let s = effective_light(dir, la.yzw);
+            for (var c = 0u; c < 3u; c++) {
+                if (e[c] > 0.0 && ss[c] > 0.0) {
+                    out[c] += e[c] * c_sv * airlight(dir, t_end, finite_end, s, beta[c], ss[c]);
+                }
+            }
+        } else if (!background_hides_suns) {
+            let irradiance = lights[3u * l + 2u].xyz;
+            for (var c = 0u; c < 3u; c++) {
+                if (ss_scene[c] <= 0.0 || irradiance[c] <= 0.0) {
+                    continue;
+                }
+                var len = 0.0;
+                if (finite_end) {
+                    len = attenuated_length(beta[c], t_end);
+                } else {
+                    len = 1.0 / beta[c];
+                }
+                out[c] += c_sv * ss_scene[c] * irradiance[c] / (4.0 * PI) * len;
+            }
+        }
+    }
+    var behind = vec3<f32>(0.0);
+    if (hit.surface >= 0) {
+        let s = u32(hit.surface);
+        let p = t_end * dir;
+        let a = surfaces[4u * s];
+        var n = surfaces[4u * s + 1u].xyz;
+        if (a.x == 1.0) {
+            n = normalize(p - a.yzw);
+        } else if (a.x == 2.0) {
+            n = mesh_normal(u32(a.z), hit.tri, hit.u, hit.v, dir);
+        }
+        if (dot(n, dir) > 0.0) {
+            n = -n;
+        }
+        behind = shade_surface_b(dir, p, n, s);
+    } else if (finite_end || any(beta <= vec3<f32>(0.0))) {
+        behind = background(dir);
+    }
+    for (var c = 0u; c < 3u; c++) {
+        if (behind[c] != 0.0) {
+            if (!finite_end) {
+                if (beta[c] <= 0.0) {
+                    out[c] += exp(-tau) * behind[c];
+                }
+            } else if (beta[c] <= 0.0) {
+                out[c] += exp(-tau) * behind[c];
+            } else {
+                out[c] += exp(-beta[c] * t_end - tau) * behind[c];
+            }
+        }
+    }
+    image[id.y * w + id.x] = vec4<f32>(out, 1.0);
+}

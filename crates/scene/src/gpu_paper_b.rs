@@ -1,0 +1,123 @@
+//! Paper B on the GPU (`shaders/paper_b.wgsl` appended to `shaders/render.wgsl`, whose
+//! helpers — intersections, shadow rays, paper C's airlight and tables, the BRDF, the
+//! environment — it shares): the `f32` twin of [`crate::paper_b::Prepared::radiance`],
+//! one invocation per pixel. The CPU prepares the frame as for its own render (the
+//! Gaussians merged, each one's `e^{Eᵢ}` per light, `C_sv`) and uploads it; the shader
+//! loops over every Gaussian per pixel (those whose cull sphere the ray crosses gather
+//! airlight; every one adds to `T(s,p)`, exact as the CPU's hierarchy), with
+//! Abramowitz–Stegun's erf (`1.5·10⁻⁷`) for libm's. Noise (§5.5) has no GPU twin yet and
+//! is refused.
+
+use crate::airlight::Limits;
+use crate::gpu::GpuRenderer;
+use crate::paper_b::Prepared;
+use crate::render::Image;
+use haze_gaussians::airlight::cull_radius;
+use haze_view::gpu::{GpuContext, GpuError, buffer_init, compute_pipeline};
+
+/// `shaders/paper_b.wgsl`.
+pub const SHADER: &str = include_str!("../shaders/paper_b.wgsl");
+
+/// The compiled paper B pipeline; the tables are the paper C renderer's.
+#[derive(Debug)]
+pub struct GpuPaperB {
+    pipeline: wgpu::ComputePipeline,
+}
+
+impl GpuPaperB {
+    /// Compiles render.wgsl (its entry point renamed) with paper_b.wgsl's.
+    pub fn new(ctx: &GpuContext) -> Result<GpuPaperB, GpuError> {
+        let source = format!(
+            "{}\n{}",
+            crate::gpu::SHADER.replacen("fn main(", "fn main_paper_c(", 1),
+            SHADER
+        );
+        let pipeline = compute_pipeline(ctx, "paper B pipeline creation", &source)?;
+        Ok(GpuPaperB { pipeline })
+    }
+
+    /// Renders `prep`'s scene (as [`crate::paper_b::render`] with `lim`) with the tables
+    /// of `tables` (built from the same scene's [`crate::render::Analytic`]).
+    pub fn render(
+        &self,
+        ctx: &GpuContext,
+        tables: &GpuRenderer,
+        prep: &Prepared<'_>,
+        lim: &Limits,
+    ) -> Result<Image, GpuError> {
+        if prep.noise.iter().any(|n| n.is_some_and(|n| n.gain > 0.0)) {
+            return Err(GpuError::Input(
+                "noise in Gaussian media is not rendered on the GPU yet".into(),
+            ));
+        }
+        let eye = prep.scene.camera.eye;
+        let blobs_in = prep.set.blobs();
+        if blobs_in.len() >= 1 << 24 {
+            return Err(GpuError::Input(format!(
+                "{} Gaussians are too many for the GPU renderer",
+                blobs_in.len()
+            )));
+        }
+        let mut blobs: Vec<[f32; 4]> = Vec::with_capacity(2 * blobs_in.len().max(1));
+        for b in blobs_in {
+            let r = cull_radius(b);
+            blobs.push([
+                (b.center[0] - eye[0]) as f32,
+                (b.center[1] - eye[1]) as f32,
+                (b.center[2] - eye[2]) as f32,
+                b.a as f32,
+            ]);
+            blobs.push([b.c as f32, b.albedo as f32, (r * r) as f32, 0.0]);
+        }
+        if blobs.is_empty() {
+            blobs.push([0.0; 4]);
+        }
+        let mut bexp: Vec<[f32; 4]> = Vec::new();
+        for l in &prep.lights {
+            for e in &l.center {
+                bexp.push([e[0] as f32, e[1] as f32, e[2] as f32, 0.0]);
+            }
+        }
+        for l in &prep.lights {
+            bexp.push([l.c_sv as f32, 0.0, 0.0, 0.0]);
+        }
+        bexp.push([
+            blobs_in.len() as f32,
+            if prep.background { 1.0 } else { 0.0 },
+            0.0,
+            0.0,
+        ]);
+        let ss = prep.scene.medium.sigma_s();
+        bexp.push([ss[0] as f32, ss[1] as f32, ss[2] as f32, 0.0]);
+        for (what, n) in [
+            ("the Gaussians", blobs.len()),
+            ("their exponents", bexp.len()),
+        ] {
+            ctx.check_storage_size(what, 16 * n as u64)?;
+        }
+        let (blobs, bexp) = ctx.scoped("paper B upload", || {
+            (
+                buffer_init(
+                    ctx,
+                    "paper B gaussians",
+                    bytemuck::cast_slice(&blobs),
+                    wgpu::BufferUsages::STORAGE,
+                ),
+                buffer_init(
+                    ctx,
+                    "paper B exponents",
+                    bytemuck::cast_slice(&bexp),
+                    wgpu::BufferUsages::STORAGE,
+                ),
+            )
+        })?;
+        tables.render_pass(
+            ctx,
+            prep.scene,
+            lim,
+            &self.pipeline,
+            Some((prep.beta0, prep.sigma_s0)),
+            &[&blobs, &bexp],
+        )
+    }
+}

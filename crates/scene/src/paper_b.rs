@@ -1,0 +1,382 @@
+//! Paper B (Zhou et al. 2007, §4–5): a scene whose media are Gaussian sums
+//! ([`crate::gaussian_medium`]) over an optional homogeneous part, rendered per pixel as
+//! `L = La + e^{−T(v,p)}·Lp` (eq. 29), on the CPU.
+//!
+//! * **Homogeneous part** `β0` = the scene's homogeneous media plus every Gaussian
+//!   medium's background (per channel, with its scattering `σs0`).
+//! * **Airlight** of each point light: `L0 + Σᵢ Lᵢ`. The homogeneous term is paper C's
+//!   airlight ([`crate::airlight::point`], the same `K` table as [`crate::render`]) with
+//!   `β0`, times `C_sv = e^{−Σᵢ Tᵢ(s, v)}` (eq. 15–17); each Gaussian the view ray passes
+//!   within its cull radius adds `αᵢ·f0·f1·Tᵢ(v,p)` ([`haze_gaussians::airlight`]), its
+//!   ray-independent exponent `Eᵢ` computed once per frame and light. A sun is a light at
+//!   infinity: Gaussians and backgrounds attenuate it, the scene's homogeneous media do
+//!   not (paper C's convention, as in [`crate::march`]).
+//! * **Screen optical depth** `T(v,p) = β0·dr + Σᵢ Tᵢ(v,p)` over the same Gaussians;
+//!   rays that escape see the environment through it.
+//! * **Surfaces** (§4.3, with paper C's tables): the optical depth `T(s,p)` from each
+//!   light to the surface point is accumulated per Gaussian in closed form (plus
+//!   `β0·|s − p|`); the direct light is `I·e^{−T(s,p)}·f·cos θ/d²` (shadowed by surfaces),
+//!   the light the medium scatters onto the surface is paper C's `G0`/`Gn` terms with the
+//!   path-averaged `β̄ = T(s,p)/d` and `σ̄s = S(s,p)/d` (the notes' "Tsp → T(s,p)").
+//!   [`PaperBOptions::surface_scattering`] turns that term off (the march reference has
+//!   none).
+//! * **Noise** (§5.5): a medium's `noise` perturbs the direction along which its
+//!   Gaussians' `Tᵢ(v,p)` is integrated ([`haze_gaussians::noise`]).
+
+use crate::airlight::{self, Limits, attenuated_length, effective_light, light_off_point};
+use crate::render::{Analytic, Image, Model, background};
+use crate::scene::{Light, Rgb, Scene};
+use crate::vec3::{Vec3, axpy, dot, norm, reflect, scale, sub};
+use haze_gaussians::airlight::{GaussianSet, Source, factored, projection};
+use haze_gaussians::line;
+use haze_gaussians::noise::Noise;
+use rayon::prelude::*;
+use std::f64::consts::PI;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// Switches of the renderer.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PaperBOptions {
+    /// Include the light the medium scatters onto surfaces (paper C's `G` terms).
+    pub surface_scattering: bool,
+}
+
+impl Default for PaperBOptions {
+    fn default() -> Self {
+        PaperBOptions {
+            surface_scattering: true,
+        }
+    }
+}
+
+/// One light, prepared for a frame.
+#[derive(Debug)]
+pub(crate) struct Lit {
+    pub(crate) source: Source,
+    /// Point: radiant intensity; sun: irradiance.
+    pub(crate) power: Rgb,
+    /// `e^{Eᵢ}` per Gaussian and channel.
+    pub(crate) center: Vec<Rgb>,
+    /// `e^{−Σᵢ Tᵢ(s, v)}` (a sun: the Gaussians from the eye towards it).
+    pub(crate) c_sv: f64,
+}
+
+/// A scene prepared for paper B: the Gaussians merged, the homogeneous part summed, the
+/// per-frame exponents of every light.
+#[derive(Debug)]
+pub struct Prepared<'a> {
+    pub(crate) scene: &'a Scene,
+    analytic: &'a Analytic,
+    options: PaperBOptions,
+    pub(crate) set: GaussianSet,
+    /// Per Gaussian: the noise of its medium and its radius.
+    pub(crate) noise: Vec<Option<&'a Noise>>,
+    radius: Vec<f64>,
+    pub(crate) beta0: Rgb,
+    pub(crate) sigma_s0: Rgb,
+    /// Whether a Gaussian medium's background fills space (it hides every sun).
+    pub(crate) background: bool,
+    pub(crate) lights: Vec<Lit>,
+}
+
+impl<'a> Prepared<'a> {
+    /// Prepares the scene; an error when a medium is not a Gaussian sum.
+    pub fn new(
+        scene: &'a Scene,
+        analytic: &'a Analytic,
+        options: PaperBOptions,
+    ) -> Result<Prepared<'a>, String> {
+        let mut media = Vec::new();
+        for m in &scene.hetero {
+            media.push(m.gaussians().ok_or_else(|| {
+                format!(
+                    "paper B's renderer lights Gaussian media only, not {} (use --reference)",
+                    m.name()
+                )
+            })?);
+        }
+        let mut beta0 = scene.medium.sigma_t;
+        let mut sigma_s0 = scene.medium.sigma_s();
+        let mut bg = 0.0;
+        for m in &media {
+            let b = m.medium.beta0();
+            bg += b;
+            for c in 0..3 {
+                beta0[c] += b;
+                sigma_s0[c] += m.medium.albedo * b;
+            }
+        }
+        let plain: Vec<_> = media.iter().map(|m| &m.medium).collect();
+        let set = GaussianSet::new(&plain);
+        let (mut noise, mut radius) = (Vec::new(), Vec::new());
+        for m in &media {
+            for g in m.medium.gaussians() {
+                if m.medium.sigma_t * g.weight > 0.0 {
+                    noise.push(m.noise.as_ref());
+                    radius.push(g.radius);
+                }
+            }
+        }
+        let eye = scene.camera.eye;
+        let lights = scene
+            .lights
+            .iter()
+            .map(|l| {
+                let (source, power) = match l {
+                    Light::Point {
+                        position,
+                        intensity,
+                    } => (Source::Point(*position), *intensity),
+                    Light::Sun {
+                        direction,
+                        radiance,
+                        angle,
+                    } => (
+                        Source::Sun(*direction),
+                        Light::sun_irradiance(*radiance, *angle),
+                    ),
+                };
+                let g = set.center_exponents(eye, source);
+                let center = set
+                    .blobs()
+                    .iter()
+                    .zip(&g)
+                    .map(|(b, e)| {
+                        let to_eye = norm(sub(eye, b.center));
+                        [0, 1, 2].map(|c| {
+                            let path = match source {
+                                Source::Point(s) => beta0[c] * (norm(sub(s, b.center)) + to_eye),
+                                Source::Sun(_) if bg > 0.0 => f64::INFINITY,
+                                Source::Sun(_) => beta0[c] * to_eye,
+                            };
+                            (e - path).exp()
+                        })
+                    })
+                    .collect();
+                let c_sv = match source.path(eye) {
+                    Some((d, len)) => (-set.depth(eye, d, len, None).0).exp(),
+                    None => 1.0,
+                };
+                Lit {
+                    source,
+                    power,
+                    center,
+                    c_sv,
+                }
+            })
+            .collect();
+        Ok(Prepared {
+            scene,
+            analytic,
+            options,
+            set,
+            noise,
+            radius,
+            beta0,
+            sigma_s0,
+            background: bg > 0.0,
+            lights,
+        })
+    }
+
+    /// The number of Gaussians lit.
+    pub fn gaussian_count(&self) -> usize {
+        self.set.blobs().len()
+    }
+
+    /// Radiance along the camera ray of unit direction `dir`.
+    pub fn radiance(&self, lim: &Limits, dir: Vec3) -> Rgb {
+        let scene = self.scene;
+        let cam = &scene.camera;
+        let eye = cam.eye;
+        let frame = [cam.right(), cam.up(), cam.forward()];
+        let hit = scene.intersect(eye, dir, 0.0, scene.environment_distance);
+        let t_end = hit.map_or(scene.environment_distance, |h| h.t);
+        let mut out = [0.0; 3];
+        // The Gaussians along the ray: Tᵢ(v,p) and their airlight.
+        let mut tau = 0.0;
+        self.set.on_segment(eye, dir, t_end, |i| {
+            let b = &self.set.blobs()[i];
+            let proj = projection(b, eye, dir, t_end);
+            let along = match self.noise[i] {
+                Some(n) => n.perturb(
+                    dir,
+                    axpy(eye, proj.0, dir),
+                    self.radius[i],
+                    norm(sub(b.center, eye)),
+                    frame,
+                ),
+                None => dir,
+            };
+            let vp = line::gaussian(b.c, b.a, b.center, eye, along, t_end);
+            tau += vp;
+            for l in &self.lights {
+                let base = factored(b, eye, dir, proj, vp, l.source, lim.r_min, 0.0);
+                for (c, o) in out.iter_mut().enumerate() {
+                    *o += l.power[c] * base * l.center[i][c];
+                }
+            }
+        });
+        // The homogeneous term of each light.
+        for l in &self.lights {
+            match l.source {
+                Source::Point(s) => {
+                    let s = effective_light(eye, dir, s, lim);
+                    for (c, o) in out.iter_mut().enumerate() {
+                        if l.power[c] > 0.0 && self.sigma_s0[c] > 0.0 {
+                            *o += l.power[c]
+                                * l.c_sv
+                                * airlight::point(
+                                    &self.analytic.h,
+                                    eye,
+                                    dir,
+                                    t_end,
+                                    s,
+                                    1.0,
+                                    self.beta0[c],
+                                    self.sigma_s0[c],
+                                );
+                        }
+                    }
+                }
+                Source::Sun(_) if !self.background => {
+                    let ss = scene.medium.sigma_s();
+                    for c in 0..3 {
+                        out[c] += l.c_sv * airlight::sun(t_end, l.power[c], self.beta0[c], ss[c]);
+                    }
+                }
+                Source::Sun(_) => {}
+            }
+        }
+        let behind = match hit {
+            Some(h) => self.surface(lim, dir, h),
+            None if t_end.is_infinite() && self.beta0.iter().all(|&b| b > 0.0) => [0.0; 3],
+            None => background(scene, dir),
+        };
+        for c in 0..3 {
+            if behind[c] != 0.0 {
+                let t = if self.beta0[c] > 0.0 {
+                    self.beta0[c] * t_end
+                } else {
+                    0.0
+                } + tau;
+                out[c] += (-t).exp() * behind[c];
+            }
+        }
+        out
+    }
+
+    /// Radiance leaving the surface hit towards the eye (module docs).
+    fn surface(&self, lim: &Limits, dir: Vec3, hit: crate::scene::Hit) -> Rgb {
+        let scene = self.scene;
+        let m = &scene.surfaces[hit.surface].material;
+        let (p, n) = (hit.point, hit.normal);
+        let r = reflect(scale(dir, -1.0), n);
+        let p_off = axpy(p, 1e-9 * (1.0 + norm(p)), n);
+        let mut out = [0.0; 3];
+        for l in &self.lights {
+            match l.source {
+                Source::Point(position) => {
+                    let s = light_off_point(p, n, position, lim.r_min);
+                    let v = sub(s, p);
+                    let d = norm(v);
+                    let u = scale(v, 1.0 / d);
+                    let lit = dot(n, u) > 0.0 && scene.visible(p_off, s);
+                    let (tg, sg) = self.set.depth(p, u, d, None);
+                    for (c, o) in out.iter_mut().enumerate() {
+                        if l.power[c] <= 0.0 {
+                            continue;
+                        }
+                        let beta = self.beta0[c] + tg / d;
+                        let mut v = 0.0;
+                        if lit {
+                            v += (-beta * d).exp() / (d * d) * m.brdf(n, r, u, c);
+                        }
+                        let ss = self.sigma_s0[c] + sg / d;
+                        if self.options.surface_scattering && ss > 0.0 {
+                            v += self.analytic.surface(p, n, r, s, beta, ss, m, c);
+                        }
+                        *o += l.power[c] * v;
+                    }
+                }
+                Source::Sun(sun) => {
+                    let lit = dot(n, sun) > 0.0
+                        && scene.intersect(p_off, sun, 0.0, f64::INFINITY).is_none()
+                        && !self.background;
+                    let t = if lit {
+                        self.set.depth(p, sun, f64::INFINITY, None).0
+                    } else {
+                        0.0
+                    };
+                    let ss = scene.medium.sigma_s();
+                    for c in 0..3 {
+                        if lit {
+                            out[c] += l.power[c] * (-t).exp() * m.brdf(n, r, sun, c);
+                        }
+                        // Paper C's in-scattering of the homogeneous media onto the
+                        // surface, as in [`crate::render`].
+                        if self.options.surface_scattering && ss[c] > 0.0 {
+                            let lobes = m.diffuse[c]
+                                + m.specular[c] * (m.shininess + 2.0) / (m.shininess + 1.0);
+                            let st = scene.medium.sigma_t[c];
+                            let path = st * attenuated_length(st, f64::INFINITY);
+                            out[c] +=
+                                scene.medium.albedo[c] * l.power[c] / (4.0 * PI) * path * lobes;
+                        }
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// What it is, for summaries.
+    pub fn name(&self) -> String {
+        format!(
+            "paper B, {} gaussians ({})",
+            self.gaussian_count(),
+            self.analytic.name()
+        )
+    }
+}
+
+/// The march step that resolves every Gaussian medium of the scene: a fifth of the
+/// smallest radius (midpoint error `~(h/r)²/24 < 2·10⁻³` across a Gaussian), at most the
+/// march's default 0.02.
+pub fn march_step(scene: &Scene) -> f64 {
+    let mut step = crate::march::MarchOptions::default().step;
+    for m in &scene.hetero {
+        if let Some(g) = m.gaussians() {
+            for x in g.medium.gaussians() {
+                step = step.min(0.2 * x.radius);
+            }
+        }
+    }
+    step
+}
+
+/// Renders the scene's camera image with paper B; `progress` hears the rows finished.
+pub fn render(prep: &Prepared<'_>, lim: &Limits, progress: &(dyn Fn(usize) + Sync)) -> Image {
+    let cam = &prep.scene.camera;
+    let (w, h) = (cam.width, cam.height);
+    let lim = Limits {
+        gamma_min: lim.gamma_min.max(0.5 * cam.pixel_radius()),
+        ..*lim
+    };
+    let done = AtomicUsize::new(0);
+    let rows: Vec<Vec<[f32; 3]>> = (0..h)
+        .into_par_iter()
+        .map(|y| {
+            let row = (0..w)
+                .map(|x| prep.radiance(&lim, cam.pixel_ray(x, y)).map(|c| c as f32))
+                .collect();
+            progress(done.fetch_add(1, Ordering::Relaxed) + 1);
+            row
+        })
+        .collect();
+    Image {
+        width: w,
+        height: h,
+        pixels: rows.into_iter().flatten().collect(),
+    }
+}

@@ -1,0 +1,192 @@
+//! Paper B's GPU renderer against its CPU twin (`paper_b::render`), pixel by pixel, on
+//! small images: a cloud of 100 Gaussians with two point lights, the same with a sun, a
+//! background and a homogeneous medium, dense Gaussians with a light beside one, an
+//! empty Gaussian medium, and the eye inside the cloud.
+//!
+//! These tests need a GPU adapter (a CPU one will do: Mesa's lavapipe) and fail with the
+//! reason when there is none.
+//!
+//! **Tolerance.** Per pixel and channel `|L_gpu − L_cpu| ≤ REL·|L_cpu| + FLOOR·L̄`, `L̄`
+//! the CPU image's mean. The GPU computes in `f32` what the CPU computes in `f64`, with
+//! Abramowitz–Stegun's erf (absolute `1.5·10⁻⁷`, so a relative error of the line
+//! integrals up to ~`10⁻⁴` where an erf difference is small, e.g. short or grazing
+//! crossings) for libm's, and sums every Gaussian's `T(s,p)` where the CPU drops those
+//! below `10⁻¹⁰`; paper C's part is the same as `gpu_render.rs`'s (`5·10⁻⁴`).
+//! Measured on lavapipe: at most 1.3·10⁻⁵ (printed per case); `REL = 2·10⁻⁴` leaves a
+//! margin of fifteen, `FLOOR = 10⁻⁴` keeps values far below the image's from counting;
+//! at most `OUTLIERS` of the pixels may take other discrete decisions (silhouettes,
+//! shadow rays grazing an occluder; none did).
+
+use haze_gaussians::cloud;
+use haze_scene::airlight::Limits;
+use haze_scene::gpu::GpuRenderer;
+use haze_scene::gpu_paper_b::GpuPaperB;
+use haze_scene::paper_b::{self, PaperBOptions, Prepared};
+use haze_scene::render::Analytic;
+use haze_scene::{Scene, file};
+use haze_view::gpu::GpuContext;
+use std::sync::OnceLock;
+
+const REL: f64 = 2e-4;
+const FLOOR: f64 = 1e-4;
+const OUTLIERS: f64 = 0.01;
+
+fn context() -> &'static GpuContext {
+    static C: OnceLock<GpuContext> = OnceLock::new();
+    C.get_or_init(|| match GpuContext::new() {
+        Ok(ctx) => {
+            println!("GPU adapter: {} ({})", ctx.adapter_name(), ctx.backend());
+            ctx
+        }
+        Err(e) => panic!("{e}"),
+    })
+}
+
+fn scene(lights: &str, media: &str, eye: &str) -> Scene {
+    let text = format!(
+        r#"{{
+        "camera": {{"eye": {eye}, "target": [0, 0, 1.0], "fov": 50, "width": 24, "height": 18}},
+        "environment": [0.05, 0.06, 0.08],
+        "lights": [{lights}],
+        "media": [{media}],
+        "surfaces": [
+            {{"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1], "material": {{"diffuse": [0.6, 0.6, 0.6]}}}},
+            {{"type": "sphere", "center": [0.9, 0.8, 0.5], "radius": 0.5,
+             "material": {{"diffuse": [0.7, 0.3, 0.2], "specular": [0.3, 0.3, 0.3], "shininess": 20}}}}
+        ]
+    }}"#
+    );
+    file::parse(&text).unwrap()
+}
+
+const POINTS: &str = r#"{"type": "point", "position": [-1.6, -0.8, 2.6], "intensity": [8, 7, 6]},
+    {"type": "point", "position": [1.8, 1.0, 0.9], "intensity": [2, 3, 6]}"#;
+
+fn gaussians(n: usize, tau: f64, extra: &str) -> String {
+    let gs = cloud::ball(n, 42, [0.0, 0.0, 1.0], 1.2, (0.2, 0.35), tau, 2.0);
+    let list: Vec<String> = gs
+        .iter()
+        .map(|g| {
+            format!(
+                r#"{{"center": [{}, {}, {}], "radius": {}, "weight": {}}}"#,
+                g.center[0], g.center[1], g.center[2], g.radius, g.weight
+            )
+        })
+        .collect();
+    format!(
+        r#"{{"type": "gaussians", "sigma_t": 2, "albedo": 0.9{extra}, "gaussians": [{}]}}"#,
+        list.join(", ")
+    )
+}
+
+/// Paper C's tables for every scene here (one Phong exponent, 20), built once, and their
+/// GPU upload.
+fn tables() -> &'static (Analytic, GpuRenderer) {
+    static T: OnceLock<(Analytic, GpuRenderer)> = OnceLock::new();
+    T.get_or_init(|| {
+        let a = Analytic::new(&scene(POINTS, "", "[0, -6, 1.6]"));
+        let g = GpuRenderer::new(context(), &a).unwrap();
+        (a, g)
+    })
+}
+
+fn compare(name: &str, s: &Scene) {
+    let (analytic, tables) = tables();
+    let prep = Prepared::new(s, analytic, PaperBOptions::default()).unwrap();
+    let lim = Limits::default();
+    let cpu = paper_b::render(&prep, &lim, &|_| {});
+    let gpu = GpuPaperB::new(context())
+        .unwrap()
+        .render(context(), tables, &prep, &lim)
+        .unwrap();
+    let mean = cpu
+        .pixels
+        .iter()
+        .flatten()
+        .map(|&v| f64::from(v).abs())
+        .sum::<f64>()
+        / (3 * cpu.pixels.len()) as f64;
+    let (mut outliers, mut worst) = (0, 0.0f64);
+    for (g, c) in gpu.pixels.iter().zip(&cpu.pixels) {
+        assert!(
+            g.iter().all(|v| v.is_finite() && *v >= 0.0),
+            "{name}: {g:?}"
+        );
+        let mut out = false;
+        for k in 0..3 {
+            let (g, c) = (f64::from(g[k]), f64::from(c[k]));
+            let d = (g - c).abs();
+            if d > REL * c.abs() + FLOOR * mean {
+                out = true;
+            } else {
+                worst = worst.max(d / (c.abs() + FLOOR * mean));
+            }
+        }
+        outliers += usize::from(out);
+    }
+    let share = outliers as f64 / cpu.pixels.len() as f64;
+    println!("{name}: worst relative {worst:.2e}, outliers {share:.3}");
+    assert!(share <= OUTLIERS, "{name}: {share} of the pixels differ");
+}
+
+#[test]
+fn cloud_with_point_lights() {
+    compare(
+        "cloud",
+        &scene(POINTS, &gaussians(100, 0.1, ""), "[0, -6, 1.6]"),
+    );
+}
+
+#[test]
+fn sun_background_and_homogeneous_medium() {
+    let lights = format!(
+        r#"{POINTS}, {{"type": "sun", "direction": [0.3, -0.2, 1], "radiance": [2, 2, 2], "angle": 0}}"#
+    );
+    // A sun through the Gaussians alone, then with a background (which hides it) and a
+    // homogeneous medium of another colour.
+    compare(
+        "sun",
+        &scene(&lights, &gaussians(60, 0.1, ""), "[0, -6, 1.6]"),
+    );
+    let media = format!(
+        r#"{{"type": "homogeneous", "sigma_t": [0.05, 0.1, 0.15], "albedo": 0.8}}, {}"#,
+        gaussians(60, 0.1, r#", "background": 0.03"#)
+    );
+    compare("background", &scene(&lights, &media, "[0, -6, 1.6]"));
+}
+
+#[test]
+fn dense_cloud_inside_and_empty() {
+    compare(
+        "dense",
+        &scene(POINTS, &gaussians(40, 1.5, ""), "[0, -6, 1.6]"),
+    );
+    compare(
+        "eye inside",
+        &scene(POINTS, &gaussians(100, 0.1, ""), "[0.1, -0.3, 1.1]"),
+    );
+    compare(
+        "empty",
+        &scene(
+            POINTS,
+            r#"{"type": "homogeneous", "sigma_t": 0.2, "albedo": 0.9}, {"type": "gaussians", "sigma_t": 1}"#,
+            "[0, -6, 1.6]",
+        ),
+    );
+}
+
+#[test]
+fn noise_is_refused_on_the_gpu() {
+    let s = scene(
+        POINTS,
+        &gaussians(5, 0.1, r#", "noise": {"gain": 1}"#),
+        "[0, -6, 1.6]",
+    );
+    let (analytic, tables) = tables();
+    let prep = Prepared::new(&s, analytic, PaperBOptions::default()).unwrap();
+    let e = GpuPaperB::new(context())
+        .unwrap()
+        .render(context(), tables, &prep, &Limits::default())
+        .unwrap_err();
+    assert!(e.to_string().contains("noise"), "{e}");
+}
