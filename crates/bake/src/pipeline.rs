@@ -299,7 +299,7 @@ impl Bake {
             && fit.insertion_stop == Some(haze_fit::InsertionStop::MarginalGain)
         {
             tracing::warn!(
-                "{}: frame {}: error ratio {:.3} over --threshold {}: insertion stopped by marginal gain after {} RBFs: the best next RBF would lower ∫R² by {:.3e}, under the {:.3e} that --marginal-gain {} of the first frame's asks; the detail left is finer than RBFs pay for and goes to the residual (lower --marginal-gain to spend more RBFs on it)",
+                "{}: frame {}: error ratio {:.3} over --threshold {}: insertion stopped by marginal gain after {} RBFs: the best RBF left out would lower ∫R² by {:.3e}, under the {:.3e} that --marginal-gain {} of the first frame's asks; the detail left is finer than RBFs pay for and goes to the residual (lower --marginal-gain to spend more RBFs on it)",
                 f.path.display(),
                 f.number,
                 fit.error_ratio,

@@ -24,7 +24,8 @@
 //! matching pursuit would add to its converged fit, the marginal gain of RBFs past its
 //! count. A warm frame inserts only the RBFs predicted to gain at least
 //! [`SequenceOptions::marginal_gain`] (default [`MARGINAL_GAIN`]) times that price, and
-//! stops inserting when none does: RBFs are spent only while they pay about as well as
+//! stops inserting after a round where some proposal fell short (the ones that paid are
+//! in) or none paid: RBFs are spent only while they pay about as well as
 //! the first frame's last ones, not on detail finer than a Gaussian of the insertion
 //! radius resolves. Every warm frame records why insertion stopped ([`InsertionStop`]).
 //!
@@ -101,8 +102,8 @@ pub const MARGINAL_GAIN: f64 = 0.5;
 pub enum InsertionStop {
     /// The error ratio is within the threshold (with or without insertions).
     TargetMet,
-    /// No RBF the next round would insert is predicted to pay the share of the first
-    /// frame's marginal gain.
+    /// A round's proposals, all or some, were predicted to gain less than the share of
+    /// the first frame's marginal gain (those that paid were inserted).
     MarginalGain,
     /// A round removed less than [`MIN_ROUND_GAIN`] of the excess error.
     Stalled,
@@ -270,8 +271,9 @@ pub struct FrameFit {
     /// Why insertion stopped (`None` for a first or empty frame).
     #[serde(default)]
     pub insertion_stop: Option<InsertionStop>,
-    /// Predicted `∫R² dV` reduction (world units) of the best RBF the last round could
-    /// insert, where matching pursuit proposed one.
+    /// Predicted `∫R² dV` reduction (world units) of the best RBF the last round left
+    /// out for falling short of `gain_floor`, or where it left none out, of its best
+    /// proposal (`None`: no round, or matching pursuit proposed nothing).
     #[serde(default)]
     pub next_gain: Option<f64>,
     /// The smallest predicted gain an inserted RBF needed (the marginal-gain share of the
@@ -500,7 +502,13 @@ impl SequenceFitter {
                 ),
             };
             next_gain = gains.first().map(|&g| world_gain(grid, g));
+            let proposed = new.len();
             if floor > 0.0 {
+                let short = gains
+                    .iter()
+                    .map(|&g| world_gain(grid, g))
+                    .filter(|&g| g < floor);
+                next_gain = short.reduce(f64::max).or(next_gain);
                 new = new
                     .chunks(PARAMS_PER_RBF)
                     .zip(&gains)
@@ -514,6 +522,8 @@ impl SequenceFitter {
             if new.is_empty() {
                 break InsertionStop::Nowhere;
             }
+            // Some proposals did not pay: those that did are in, the rest would not.
+            let trimmed = new.len() < proposed;
             inserted += new.len() / PARAMS_PER_RBF;
             rounds += 1;
             params.extend_from_slice(&new);
@@ -521,10 +531,13 @@ impl SequenceFitter {
             stats.add(&m, false);
             let before = rel_l2;
             (rel_l2, rms) = errors_from_cost(grid, m.cost);
-            if ratio(rel_l2) > o.threshold
-                && inserted < cap
-                && before - rel_l2 < MIN_ROUND_GAIN * (before - target)
-            {
+            if ratio(rel_l2) <= o.threshold {
+                continue;
+            }
+            if trimmed {
+                break InsertionStop::MarginalGain;
+            }
+            if inserted < cap && before - rel_l2 < MIN_ROUND_GAIN * (before - target) {
                 // The error left is not where RBFs can be added (smoke that thinned
                 // under old RBFs, detail finer than the radius): more would only cost.
                 break InsertionStop::Stalled;
