@@ -345,6 +345,11 @@ pub struct BakeCli {
     /// Insert RBFs while a frame's rel_l2 exceeds the first frame's by this ratio.
     #[arg(long, default_value_t = 1.1)]
     threshold: f64,
+    /// Insert an RBF only where it is predicted to lower the squared error by at least
+    /// this fraction of what the first frame's next RBFs would (its marginal gain); a
+    /// frame whose proposals all fall short stops inserting and is reported (0: off).
+    #[arg(long, default_value_t = haze_fit::sequence::MARGINAL_GAIN, value_name = "F")]
+    marginal_gain: f64,
     /// Seed of the random teleports (same seed, same input: same asset).
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -750,6 +755,12 @@ impl BakeCli {
         if self.threshold.is_nan() || self.threshold < 1.0 {
             bail!("--threshold {} must be at least 1", self.threshold);
         }
+        if !(self.marginal_gain.is_finite() && self.marginal_gain >= 0.0) {
+            bail!(
+                "--marginal-gain {} must be a finite number ≥ 0 (0 turns the test off)",
+                self.marginal_gain
+            );
+        }
         let count = match (self.rbfs, self.target_error) {
             (Some(0), _) => bail!("--rbfs must be at least 1"),
             (Some(n), _) => haze_bake::Count::Fixed(n),
@@ -822,6 +833,7 @@ impl BakeCli {
                     max_insert: self.max_insert,
                     max_rbfs: self.max_rbfs.map(|n| n.max(1)),
                     threshold: self.threshold,
+                    marginal_gain: self.marginal_gain,
                     insertion: match self.insertion {
                         InsertionArg::Batch => Insertion::Batch,
                         InsertionArg::Single => Insertion::Single,

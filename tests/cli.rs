@@ -334,6 +334,24 @@ fn bake_writes_rbfs_report_and_inspectable_asset() {
     }
     assert_eq!(frames[0]["rbfs"], 80);
     assert_eq!(frames[1]["deleted"], 3);
+    // Why insertion stopped: none on a first frame, whose marginal gain sets the price.
+    assert!(frames[0]["insertion_stop"].is_null());
+    assert!(frames[0]["gain_floor"].as_f64().unwrap() > 0.0);
+    let reasons = [
+        "target-met",
+        "marginal-gain",
+        "stalled",
+        "nowhere",
+        "cap",
+        "ceiling",
+    ];
+    for f in &frames[1..] {
+        let stop = f["insertion_stop"].as_str().unwrap();
+        assert!(reasons.contains(&stop), "{stop}");
+        let over = f["error_ratio"].as_f64().unwrap() > 1.1;
+        assert_eq!(stop != "target-met", over, "{f}");
+    }
+    assert!(r["temporal"]["frames_marginal_gain"].as_u64().is_some());
     assert!(r["totals"]["seconds"].as_f64().unwrap() > 0.0);
     assert_eq!(
         r["totals"]["bytes"].as_u64().unwrap(),
@@ -418,6 +436,8 @@ fn bake_refuses_bad_arguments_and_inputs() {
         vec!["--target-error", "0"],
         vec!["--target-error", "1.5"],
         vec!["--threshold", "0.9"],
+        vec!["--marginal-gain=-0.5"],
+        vec!["--marginal-gain", "inf"],
         vec!["--tolerance", "0"],
         vec!["--radius-min", "0.2", "--radius-max", "0.1"],
     ] {

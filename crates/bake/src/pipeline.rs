@@ -298,6 +298,20 @@ impl Bake {
                 self.opts.threshold,
                 fit.inserted
             );
+        } else if fit.insertion_stalled
+            && fit.insertion_stop == Some(haze_fit::InsertionStop::MarginalGain)
+        {
+            tracing::warn!(
+                "{}: frame {}: error ratio {:.3} over --threshold {}: insertion stopped by marginal gain after {} RBFs: the best RBF left out would lower ∫R² by {:.3e}, under the {:.3e} that --marginal-gain {} of the first frame's asks; the detail left is finer than RBFs pay for and goes to the residual (lower --marginal-gain to spend more RBFs on it)",
+                f.path.display(),
+                f.number,
+                fit.error_ratio,
+                self.opts.threshold,
+                fit.inserted,
+                fit.next_gain.unwrap_or(0.0),
+                fit.gain_floor,
+                self.opts.marginal_gain
+            );
         } else if fit.insertion_stalled {
             tracing::warn!(
                 "{}: frame {}: error ratio {:.3} over --threshold {}: inserting RBFs stopped lowering the error ({} inserted); the detail left is finer than --radius-min and goes to the residual",
@@ -626,6 +640,7 @@ fn temporal(records: &[FrameRecord], threshold: f64) -> serde_json::Value {
         "frames_over_threshold": records.iter().filter(|r| r.fit.error_ratio > threshold).count(),
         "frames_capped": records.iter().filter(|r| r.fit.insertion_capped).count(),
         "frames_stalled": records.iter().filter(|r| r.fit.insertion_stalled).count(),
+        "frames_marginal_gain": records.iter().filter(|r| r.fit.insertion_stop == Some(haze_fit::InsertionStop::MarginalGain)).count(),
         "inserted": records.iter().map(|r| r.fit.inserted).sum::<usize>(),
         "deleted": records.iter().map(|r| r.fit.deleted).sum::<usize>(),
     })

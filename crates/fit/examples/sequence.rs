@@ -8,9 +8,11 @@
 //!
 //! cargo run --release -p haze-fit --example sequence -- INPUT [--frames A..B] [--rbfs N]
 //!     [--paper] [--coarse auto|on|off] [--insertion batch|single] [--max-insert M]
-//!     [--warm-gain F] [--threshold T] [--cold-every K]
+//!     [--warm-gain F] [--threshold T] [--marginal-gain F] [--cold-every K]
 
-use haze_fit::{Coarse, FitGrid, Insertion, SequenceFitter, SequenceOptions, fit_first_frame};
+use haze_fit::{
+    Coarse, FitGrid, Insertion, InsertionStop, SequenceFitter, SequenceOptions, fit_first_frame,
+};
 use haze_volume::ImportOptions;
 use haze_volume::import::{FrameRange, Sequence};
 use std::path::Path;
@@ -38,7 +40,7 @@ fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some(input) = args.first() else {
         fail(
-            "usage: sequence INPUT [--frames A..B] [--rbfs N] [--paper] [--coarse auto|on|off] [--insertion batch|single] [--max-insert M] [--warm-gain F] [--threshold T] [--cold-every K]",
+            "usage: sequence INPUT [--frames A..B] [--rbfs N] [--paper] [--coarse auto|on|off] [--insertion batch|single] [--max-insert M] [--warm-gain F] [--threshold T] [--marginal-gain F] [--cold-every K]",
         )
     };
     let mut range = FrameRange::default();
@@ -50,6 +52,7 @@ fn main() {
             "--frames" => range = value(&args, i),
             "--rbfs" => opts.rbfs = value(&args, i),
             "--threshold" => opts.threshold = value(&args, i),
+            "--marginal-gain" => opts.marginal_gain = value(&args, i),
             "--cold-every" => cold_every = value(&args, i),
             "--max-insert" => opts.max_insert = Some(value(&args, i)),
             "--warm-gain" => opts.warm.window_gain = value(&args, i),
@@ -90,12 +93,13 @@ fn main() {
         d[2]
     );
     println!(
-        "| frame | RBFs | +ins | rel_l2 | rms/max | ratio | iterations (coarse) | passes | insert s | seconds | warm/cold |"
+        "| frame | RBFs | +ins | rel_l2 | rms/max | ratio | iterations (coarse) | passes | insert s | seconds | stop | warm/cold |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     let mut fitter = SequenceFitter::new(opts.clone());
     let (mut warm_s, mut rms, mut first_s) = (Vec::new(), Vec::new(), Vec::new());
     let (mut over, mut worst, mut capped, mut moved) = (0, 0.0f64, 0, Vec::new());
+    let (mut marginal, mut iterations) = (0, 0u64);
     let mut cold_ratio = Vec::new();
     for k in 0..seq.len() {
         let v = seq
@@ -114,7 +118,7 @@ fn main() {
             String::new()
         };
         println!(
-            "| {} | {} | {} | {:.4} | {:.2} % | {:.3} | {} ({}) | {} | {:.2} | {:.2} | {cold} |",
+            "| {} | {} | {} | {:.4} | {:.2} % | {:.3} | {} ({}) | {} | {:.2} | {:.2} | {} | {cold} |",
             seq.frames()[k].number,
             f.rbfs.len(),
             f.inserted,
@@ -125,7 +129,8 @@ fn main() {
             f.coarse_iterations,
             f.passes,
             f.insert_seconds,
-            f.fit_seconds
+            f.fit_seconds,
+            f.insertion_stop.map_or("", |s| s.as_str())
         );
         if f.rbfs.is_empty() {
             continue;
@@ -138,11 +143,13 @@ fn main() {
         }
         over += usize::from(f.error_ratio > opts.threshold);
         capped += usize::from(f.insertion_capped);
+        marginal += usize::from(f.insertion_stop == Some(InsertionStop::MarginalGain));
+        iterations += f.iterations;
         worst = worst.max(f.error_ratio);
         moved.extend(f.mean_center_displacement);
     }
     println!(
-        "summary: first frame {:.2} s; warm frames median {:.2} s, max {:.2} s; median rms/max {:.2} %; {over} frames over the threshold ratio ({capped} capped), worst ratio {worst:.3}; mean center displacement {:.4}",
+        "summary: first frame {:.2} s; warm frames median {:.2} s, max {:.2} s; median rms/max {:.2} %; {over} frames over the threshold ratio ({capped} capped, {marginal} stopped by marginal gain), worst ratio {worst:.3}; mean center displacement {:.4}; {iterations} iterations in all",
         first_s.first().copied().unwrap_or(f64::NAN),
         median(warm_s.clone()),
         warm_s.iter().copied().fold(f64::NAN, f64::max),

@@ -17,7 +17,9 @@ pub mod init;
 pub use frame::{Coarse, FitOptions, FitStats, fit_first_frame};
 pub mod sequence;
 
-pub use sequence::{FitterState, FrameFit, Insertion, SequenceFitter, SequenceOptions};
+pub use sequence::{
+    FitterState, FrameFit, Insertion, InsertionStop, SequenceFitter, SequenceOptions,
+};
 pub mod search;
 
 pub use search::{PLATEAU_GAIN, Search, rbfs_for_target};

@@ -15,7 +15,21 @@
 //! lowers `ΣR²` most, rather than on the largest single voxel) and then minimized
 //! jointly with the rest. Rounds repeat until the ratio holds, or a round removes less
 //! than [`MIN_ROUND_GAIN`] of the excess error (the error left is finer than an RBF can
-//! reach: the residual's job). The per-frame cap follows the smoke: a frame may add as
+//! reach: the residual's job).
+//!
+//! Marginal gain. Each RBF that matching pursuit proposes comes with its predicted
+//! reduction of the error ([`crate::init::matched_with_gains`]), measured as `∫R² dV` in
+//! world units (density² × volume, so frames of different peaks and boxes compare). The
+//! first frame sets the price: the mean predicted gain of the [`insert_floor`] RBFs that
+//! matching pursuit would add to its converged fit, the marginal gain of RBFs past its
+//! count. A warm frame inserts only the RBFs predicted to gain at least
+//! [`SequenceOptions::marginal_gain`] (default [`MARGINAL_GAIN`]) times that price, and
+//! stops inserting after a round where some proposal fell short (the ones that paid are
+//! in) or none paid: RBFs are spent only while they pay about as well as
+//! the first frame's last ones, not on detail finer than a Gaussian of the insertion
+//! radius resolves. Every warm frame records why insertion stopped ([`InsertionStop`]).
+//!
+//! The per-frame cap follows the smoke: a frame may add as
 //! many RBFs as keep the previous frame's RBFs per voxel of smoke ([`smoke_support`])
 //! over its grown support, and at least an eighth of the first frame's count (4.6× the
 //! paper's 8 at 300 RBFs) for smoke that changes shape without growing; no frame grows
@@ -36,7 +50,7 @@
 
 use crate::frame::{FitOptions, FitStats, fit_first_frame, weakest};
 use crate::grid::FitGrid;
-use crate::init::{greedy, initial_radius, matched};
+use crate::init::{greedy, initial_radius, matched_with_gains};
 use crate::objective::{self, PARAMS_PER_RBF};
 use crate::optimize::{Stop, minimize};
 use haze_volume::{Rbf, Volume};
@@ -66,6 +80,53 @@ pub struct SequenceOptions {
     /// Stopping rule of each warm-started joint minimization (the fits of inserted RBFs
     /// alone follow `fit.polish`).
     pub warm: Stop,
+    /// Insert an RBF only where it is predicted to lower `∫R² dV` by at least this
+    /// fraction of the first frame's marginal gain (see the module docs); 0: no such test.
+    #[serde(default = "default_marginal_gain")]
+    pub marginal_gain: f64,
+}
+
+fn default_marginal_gain() -> f64 {
+    MARGINAL_GAIN
+}
+
+/// The default share of the first frame's marginal gain that an inserted RBF must be
+/// predicted to reach. Along the first frame's RBF-count curve (`rel_l2 ∝ n^(−α)`,
+/// `α ≈ 0.26–0.33`) the gain of one more RBF falls as `n^(−1−2α)`: half of it is the
+/// gain at about 1.5× the first frame's count.
+pub const MARGINAL_GAIN: f64 = 0.5;
+
+/// Why a warm frame stopped inserting RBFs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum InsertionStop {
+    /// The error ratio is within the threshold (with or without insertions).
+    TargetMet,
+    /// A round's proposals, all or some, were predicted to gain less than the share of
+    /// the first frame's marginal gain (those that paid were inserted).
+    MarginalGain,
+    /// A round removed less than [`MIN_ROUND_GAIN`] of the excess error.
+    Stalled,
+    /// Matching pursuit found no positive residual to place an RBF on.
+    Nowhere,
+    /// The frame inserted its per-frame cap (`--max-insert` or [`auto_insert_cap`]).
+    Cap,
+    /// The frame reached [`SequenceOptions::max_rbfs`].
+    Ceiling,
+}
+
+impl InsertionStop {
+    /// The reason in words, for logs and tables.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            InsertionStop::TargetMet => "target met",
+            InsertionStop::MarginalGain => "marginal gain",
+            InsertionStop::Stalled => "stalled",
+            InsertionStop::Nowhere => "nowhere to insert",
+            InsertionStop::Cap => "cap",
+            InsertionStop::Ceiling => "ceiling",
+        }
+    }
 }
 
 /// The default ceiling of a later frame's RBF count, in first frames' counts. Smoke whose
@@ -76,6 +137,13 @@ pub const GROWTH_LIMIT: usize = 4;
 
 /// The automatic insertion cap's floor, for frames with few RBFs.
 pub const MIN_AUTO_INSERT: usize = 16;
+
+/// The smallest automatic insertion cap: an eighth of the first frame's `rbfs`, at least
+/// [`MIN_AUTO_INSERT`]. Also the number of RBFs whose mean predicted gain on the first
+/// frame sets the marginal-gain price.
+pub fn insert_floor(rbfs: usize) -> usize {
+    (rbfs / 8).max(MIN_AUTO_INSERT)
+}
 
 /// Smoke is where the density exceeds this share of the frame's peak ([`smoke_support`]).
 pub const SUPPORT_LEVEL: f64 = 0.01;
@@ -101,7 +169,7 @@ pub fn auto_insert_cap(
     support: usize,
     deleted: usize,
 ) -> usize {
-    let floor = (rbfs / 8).max(MIN_AUTO_INSERT);
+    let floor = insert_floor(rbfs);
     if support_previous == 0 || support <= support_previous {
         return floor;
     }
@@ -144,6 +212,7 @@ impl Default for SequenceOptions {
                 window: 10,
                 window_gain: 1e-3,
             },
+            marginal_gain: MARGINAL_GAIN,
         }
     }
 }
@@ -199,10 +268,29 @@ pub struct FrameFit {
     /// removed less than [`MIN_ROUND_GAIN`] of the excess error) or found nowhere to go.
     #[serde(default)]
     pub insertion_stalled: bool,
+    /// Why insertion stopped (`None` for a first or empty frame).
+    #[serde(default)]
+    pub insertion_stop: Option<InsertionStop>,
+    /// Predicted `∫R² dV` reduction (world units) of the best RBF the last round left
+    /// out for falling short of `gain_floor`, or where it left none out, of its best
+    /// proposal (`None`: no round, or matching pursuit proposed nothing).
+    #[serde(default)]
+    pub next_gain: Option<f64>,
+    /// The smallest predicted gain an inserted RBF needed (the marginal-gain share of the
+    /// first frame's; for a first frame, its own marginal gain); 0 without the test.
+    #[serde(default)]
+    pub gain_floor: f64,
     /// RBFs with a radius or weight on its bound.
     pub rbfs_at_bounds: usize,
     /// Mean world distance moved by RBF centers that persisted from the previous frame.
     pub mean_center_displacement: Option<f64>,
+}
+
+/// A reduction of `ΣR²` on `grid` (normalized densities, summed over voxels) as
+/// `∫R² dV` in world units: × (peak density)² × the world volume of a voxel.
+pub fn world_gain(grid: &FitGrid, gain: f64) -> f64 {
+    let voxel: f64 = grid.h.iter().map(|h| h * grid.unit).product();
+    gain * grid.max_density * grid.max_density * voxel
 }
 
 /// Error measures of `params` on `grid`.
@@ -234,6 +322,8 @@ pub struct SequenceFitter {
     first: Option<(f64, f64)>,
     /// [`smoke_support`] of the last fitted frame.
     support: Option<usize>,
+    /// The current run's first frame's marginal gain (`∫R² dV`, world units).
+    first_gain: Option<f64>,
 }
 
 /// What a [`SequenceFitter`] carries from one frame to the next: enough to continue an
@@ -248,6 +338,10 @@ pub struct FitterState {
     /// next frame's cap then takes the floor).
     #[serde(default)]
     pub support: Option<usize>,
+    /// The first frame's marginal gain (absent in journals of older bakes: the resumed
+    /// frames then insert without the marginal-gain test).
+    #[serde(default)]
+    pub first_gain: Option<f64>,
 }
 
 impl SequenceFitter {
@@ -262,6 +356,7 @@ impl SequenceFitter {
             previous: state.previous,
             first: state.first,
             support: state.support,
+            first_gain: state.first_gain,
         }
     }
 
@@ -271,6 +366,7 @@ impl SequenceFitter {
             previous: self.previous.clone(),
             first: self.first,
             support: self.support,
+            first_gain: self.first_gain,
         }
     }
 
@@ -285,6 +381,7 @@ impl SequenceFitter {
         let mut out = if grid.sum_sq <= 0.0 {
             self.previous = None;
             self.first = None;
+            self.first_gain = None;
             empty_fit()
         } else {
             match (self.previous.take(), self.first) {
@@ -304,7 +401,23 @@ impl SequenceFitter {
         let n = (params.len() / PARAMS_PER_RBF).max(1);
         let radius = initial_radius(grid, n, &self.opts.fit.bounds) * grid.unit;
         self.first = Some((rel_l2, radius));
-        finish(grid, &params, &self.opts, stats, rel_l2, rms)
+        // The marginal gain: what the next RBFs of the insertion radius would buy.
+        let residual = grid.residual_grid(objective::residual(grid, &params));
+        let (_, gains) = matched_with_gains(
+            &residual,
+            insert_floor(self.opts.rbfs),
+            radius / grid.unit,
+            &self.opts.fit.bounds,
+        );
+        let gain = if gains.is_empty() {
+            0.0
+        } else {
+            world_gain(grid, gains.iter().sum::<f64>() / gains.len() as f64)
+        };
+        self.first_gain = Some(gain);
+        let mut f = finish(grid, &params, &self.opts, stats, rel_l2, rms);
+        f.gain_floor = gain;
+        f
     }
 
     fn warm(
@@ -357,22 +470,60 @@ impl SequenceFitter {
             )
         });
         let ceiling = o.max_rbfs.unwrap_or(o.rbfs.saturating_mul(GROWTH_LIMIT));
-        let cap = cap.min(ceiling.saturating_sub(params.len() / PARAMS_PER_RBF));
-        let (mut inserted, mut rounds) = (0, 0);
+        let room = ceiling.saturating_sub(params.len() / PARAMS_PER_RBF);
+        let (cap, full) = if room < cap {
+            (room, InsertionStop::Ceiling)
+        } else {
+            (cap, InsertionStop::Cap)
+        };
+        let floor = o.marginal_gain.max(0.0) * self.first_gain.unwrap_or(0.0);
+        let (mut inserted, mut rounds, mut next_gain) = (0, 0, None);
         let insert_start = Instant::now();
-        while ratio(rel_l2) > o.threshold && inserted < cap {
-            let residual = grid.residual_grid(objective::residual(grid, &params));
-            let new = match o.insertion {
-                Insertion::Batch => {
-                    let n = params.len() / PARAMS_PER_RBF;
-                    let m = batch_size(n, rel_l2, target).min(cap - inserted);
-                    matched(&residual, m, radius, bounds)
-                }
-                Insertion::Single => greedy(&residual, 1, radius, bounds),
-            };
-            if new.is_empty() {
-                break;
+        let stop = loop {
+            if ratio(rel_l2) <= o.threshold {
+                break InsertionStop::TargetMet;
             }
+            if inserted >= cap {
+                break full;
+            }
+            let residual = grid.residual_grid(objective::residual(grid, &params));
+            let n = params.len() / PARAMS_PER_RBF;
+            let m = match o.insertion {
+                Insertion::Batch => batch_size(n, rel_l2, target).min(cap - inserted),
+                Insertion::Single => 1,
+            };
+            let (mut new, gains) = match o.insertion {
+                Insertion::Batch => matched_with_gains(&residual, m, radius, bounds),
+                // The largest-voxel rule has no prediction; the RBF is judged by the one
+                // matching pursuit would place.
+                Insertion::Single => (
+                    greedy(&residual, 1, radius, bounds),
+                    matched_with_gains(&residual, 1, radius, bounds).1,
+                ),
+            };
+            next_gain = gains.first().map(|&g| world_gain(grid, g));
+            let proposed = new.len();
+            if floor > 0.0 {
+                let short = gains
+                    .iter()
+                    .map(|&g| world_gain(grid, g))
+                    .filter(|&g| g < floor);
+                next_gain = short.reduce(f64::max).or(next_gain);
+                new = new
+                    .chunks(PARAMS_PER_RBF)
+                    .zip(&gains)
+                    .filter(|&(_, &g)| world_gain(grid, g) >= floor)
+                    .flat_map(|(p, _)| p.iter().copied())
+                    .collect();
+                if new.is_empty() && !gains.is_empty() {
+                    break InsertionStop::MarginalGain;
+                }
+            }
+            if new.is_empty() {
+                break InsertionStop::Nowhere;
+            }
+            // Some proposals did not pay: those that did are in, the rest would not.
+            let trimmed = new.len() < proposed;
             inserted += new.len() / PARAMS_PER_RBF;
             rounds += 1;
             params.extend_from_slice(&new);
@@ -380,24 +531,33 @@ impl SequenceFitter {
             stats.add(&m, false);
             let before = rel_l2;
             (rel_l2, rms) = errors_from_cost(grid, m.cost);
-            if before - rel_l2 < MIN_ROUND_GAIN * (before - target) {
+            if ratio(rel_l2) <= o.threshold {
+                continue;
+            }
+            if trimmed {
+                break InsertionStop::MarginalGain;
+            }
+            if inserted < cap && before - rel_l2 < MIN_ROUND_GAIN * (before - target) {
                 // The error left is not where RBFs can be added (smoke that thinned
                 // under old RBFs, detail finer than the radius): more would only cost.
-                break;
+                break InsertionStop::Stalled;
             }
-        }
+        };
         let mut f = finish(grid, &params, o, stats, rel_l2, rms);
         f.warm_started = true;
         f.deleted = deleted;
         f.inserted = inserted;
         f.insert_rounds = rounds;
         f.insert_cap = cap;
+        f.insertion_stop = Some(stop);
+        f.next_gain = next_gain;
+        f.gain_floor = floor;
         if rounds > 0 {
             f.insert_seconds = insert_start.elapsed().as_secs_f64();
         }
         f.error_ratio = ratio(rel_l2);
         let over = f.error_ratio > o.threshold;
-        f.insertion_capped = over && inserted >= cap;
+        f.insertion_capped = over && matches!(stop, InsertionStop::Cap | InsertionStop::Ceiling);
         f.insertion_stalled = over && !f.insertion_capped;
         let moved: Vec<f64> = alive
             .iter()
@@ -436,6 +596,9 @@ fn empty_fit() -> FrameFit {
         error_ratio: 1.0,
         insertion_capped: false,
         insertion_stalled: false,
+        insertion_stop: None,
+        next_gain: None,
+        gain_floor: 0.0,
         rbfs_at_bounds: 0,
         mean_center_displacement: None,
     }

@@ -4,7 +4,8 @@
 use haze_fit::objective::PARAMS_PER_RBF;
 use haze_fit::sequence::{auto_insert_cap, smoke_support};
 use haze_fit::{
-    Bounds, FitGrid, FitOptions, Optimizer, SequenceFitter, SequenceOptions, fit_first_frame,
+    Bounds, FitGrid, FitOptions, InsertionStop, Optimizer, SequenceFitter, SequenceOptions,
+    fit_first_frame,
 };
 use haze_volume::{Bbox, ImportOptions, Rbf, Volume, import, rbf};
 use std::path::Path;
@@ -330,6 +331,13 @@ fn drifting_growing_sequence_keeps_its_error_ratio() {
             f.inserted
         );
         assert!(!f.insertion_capped, "frame {t}");
+        if t > 0 {
+            assert_eq!(
+                f.insertion_stop,
+                Some(InsertionStop::TargetMet),
+                "frame {t}"
+            );
+        }
     }
     // The paper's scheme with one insertion a frame falls behind, and says so.
     let mut paper = SequenceFitter::new(SequenceOptions {
@@ -366,6 +374,8 @@ fn smoke_that_doubles_in_a_frame_gets_enough_rbfs() {
     assert!(f1.error_ratio <= opts.threshold, "ratio {}", f1.error_ratio);
     assert!(!f1.insertion_capped);
     assert!(f1.inserted >= 3, "{} inserted", f1.inserted);
+    assert_eq!(f1.insertion_stop, Some(InsertionStop::TargetMet));
+    assert!(f0.gain_floor > 0.0 && f1.gain_floor == 0.5 * f0.gain_floor);
     // The new blobs are covered: error where they are is as low as on the first frame.
     assert!(f1.rel_l2 <= f0.rel_l2 * opts.threshold);
 }
@@ -384,6 +394,7 @@ fn a_cap_that_is_hit_is_reported() {
     let f = fitter.fit(&blobs(32, &doubled)).unwrap();
     assert_eq!(f.inserted, 1);
     assert!(f.insertion_capped && f.error_ratio > 1.1);
+    assert_eq!(f.insertion_stop, Some(InsertionStop::Cap));
     // So is the ceiling on a frame's RBF count, whatever the smoke's growth asks for.
     let mut fitter = SequenceFitter::new(SequenceOptions {
         max_rbfs: Some(6),
@@ -394,6 +405,42 @@ fn a_cap_that_is_hit_is_reported() {
     assert_eq!(f.rbfs.len(), 6);
     assert_eq!(f.insert_cap, 6 - (4 - 3));
     assert!(f.insertion_capped && f.error_ratio > 1.1);
+    assert_eq!(f.insertion_stop, Some(InsertionStop::Ceiling));
+}
+
+/// Detail below the resolvable scale: the later frame is the first one's smoke with a
+/// one-voxel checkerboard of ±60 % laid on it. A Gaussian of the insertion radius hardly
+/// correlates with it, so the marginal-gain rule inserts only the RBFs that re-cover the
+/// blobs (3 of the first frame's 4 RBFs are deleted) and then stops, saying why; without
+/// the rule the frame spends more RBFs, up to its ceiling, and its error drops by < 2 %.
+#[test]
+fn detail_below_the_resolvable_scale_stops_by_marginal_gain() {
+    let centers: Vec<[f64; 3]> = (0..6).map(|k| [6.0 + 4.0 * k as f64, 12.0, 14.0]).collect();
+    let smooth = blobs(32, &centers);
+    let mut rough = smooth.clone();
+    for i in 0..rough.len() {
+        let [x, y, z] = rough.coords(i);
+        let sign = if (x + y + z) % 2 == 0 { 1.0 } else { -1.0 };
+        rough.data_mut()[i] *= 1.0 + 0.6 * sign;
+    }
+    let opts = drift_options();
+    let mut fitter = SequenceFitter::new(opts.clone());
+    fitter.fit(&smooth).unwrap();
+    let f = fitter.fit(&rough).unwrap();
+    assert!(f.error_ratio > opts.threshold, "ratio {}", f.error_ratio);
+    assert_eq!(f.insertion_stop, Some(InsertionStop::MarginalGain));
+    assert!(f.insertion_stalled && !f.insertion_capped);
+    let next = f.next_gain.expect("matching pursuit proposed an RBF");
+    assert!(next < f.gain_floor, "{next} vs {}", f.gain_floor);
+    // Without the rule the same frame spends RBFs for next to nothing.
+    let mut free = SequenceFitter::new(SequenceOptions {
+        marginal_gain: 0.0,
+        ..opts
+    });
+    free.fit(&smooth).unwrap();
+    let g = free.fit(&rough).unwrap();
+    assert!(g.inserted > f.inserted, "{:?}", g.insertion_stop);
+    assert!(g.rel_l2 > 0.98 * f.rel_l2, "{} vs {}", g.rel_l2, f.rel_l2);
 }
 
 /// Coarse to fine ends within a few percent of the full-resolution fit's error.
