@@ -1,13 +1,17 @@
 //! `haze render --scene`: a scene file rendered by paper C's analytic single scattering
 //! (crates/scene) on the CPU, or on the GPU with `--gpu` (its `f32` twin,
-//! `haze_scene::gpu`), or by its quadrature reference (`--reference`, CPU).
+//! `haze_scene::gpu`), or by its quadrature reference (`--reference`, CPU); analytic fog
+//! (paper D) composited over the picture at `--time` (`haze_scene::analytic`), or every
+//! medium lit by the march with `--march` (`haze_scene::march`).
 
 use crate::render::{OutKind, out_kind};
 use anyhow::{Result, anyhow};
 use haze_scene::Scene;
 use haze_scene::airlight::Limits;
+use haze_scene::analytic;
 use haze_scene::gpu::GpuRenderer;
-use haze_scene::render::{Analytic, Image, Model, Reference, render};
+use haze_scene::march::{self, MarchOptions};
+use haze_scene::render::{Analytic, Image, Model, Reference};
 use haze_view::gpu::{GpuContext, GpuError};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
@@ -24,12 +28,19 @@ pub struct SceneRenderArgs {
     pub reference: bool,
     pub gpu: bool,
     pub exposure: f64,
+    /// Seconds of wind for the analytic fog.
+    pub time: f64,
+    /// Single scattering through every medium by `haze_scene::march`.
+    pub march: bool,
 }
 
 pub fn run(a: SceneRenderArgs) -> Result<()> {
     let start = Instant::now();
     let kind = out_kind(&a.out)?;
-    let mut scene = haze_scene::load(&a.scene)?;
+    if !a.time.is_finite() {
+        anyhow::bail!("--time {} must be finite", a.time);
+    }
+    let mut scene = haze_scene::load(&a.scene)?.at_time(a.time);
     let (w, h) = (
         a.width.unwrap_or(scene.camera.width),
         a.height.unwrap_or(scene.camera.height),
@@ -39,6 +50,12 @@ pub fn run(a: SceneRenderArgs) -> Result<()> {
         .with_size(w, h)
         .map_err(|e| anyhow::anyhow!("{}: {e}", a.scene.display()))?;
     if a.gpu {
+        if scene.analytic_media().next().is_some() {
+            anyhow::bail!(
+                "{}: --gpu does not composite analytic media yet; render them without --gpu",
+                a.scene.display()
+            );
+        }
         return run_gpu(&a, &scene, kind, start);
     }
     let model: Box<dyn Model> = if a.reference {
@@ -52,9 +69,17 @@ pub fn run(a: SceneRenderArgs) -> Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar())
             .progress_chars("=> "),
     );
-    let image = render(&scene, model.as_ref(), &Limits::default(), &|rows| {
-        bar.set_position(rows as u64)
-    });
+    let progress = |rows: usize| bar.set_position(rows as u64);
+    let image = if a.march {
+        march::render(
+            &scene,
+            &Limits::default(),
+            &MarchOptions::default(),
+            &progress,
+        )
+    } else {
+        analytic::render(&scene, model.as_ref(), &Limits::default(), &progress)
+    };
     bar.finish_and_clear();
     write(&a, image, kind)?;
     eprintln!(
@@ -65,7 +90,11 @@ pub fn run(a: SceneRenderArgs) -> Result<()> {
         a.scene.display(),
         scene.lights.len(),
         scene.surfaces.len(),
-        model.name(),
+        if a.march {
+            "single scattering by ray marching".to_string()
+        } else {
+            model.name()
+        },
         start.elapsed().as_secs_f64()
     );
     Ok(())

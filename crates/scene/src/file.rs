@@ -215,7 +215,12 @@ pub fn parse_in(text: &str, base: &Path) -> Result<Scene, String> {
         .collect::<Result<Vec<_>, _>>()?;
     let mut medium = Medium::NONE;
     let mut sigma_s = [0.0; 3];
+    let mut hetero = Vec::new();
     for (i, v) in spec.media.iter().enumerate() {
+        if kind(v).ok() == Some("analytic") {
+            hetero.push(crate::analytic::parse(v).map_err(|e| format!("media[{i}]: {e}"))?);
+            continue;
+        }
         let (st, ss) = homogeneous(v).map_err(|e| format!("media[{i}]: {e}"))?;
         for c in 0..3 {
             medium.sigma_t[c] += st[c];
@@ -239,7 +244,7 @@ pub fn parse_in(text: &str, base: &Path) -> Result<Scene, String> {
         environment_distance,
         lights,
         medium,
-        hetero: Vec::new(),
+        hetero,
         surfaces,
     })
 }
@@ -345,11 +350,11 @@ fn homogeneous(v: &Value) -> Result<(Rgb, Rgb), String> {
             }
             Ok((st, st.map(|s| s * h.albedo)))
         }
-        t @ ("gaussians" | "analytic" | "fogmap" | "asset") => {
+        t @ ("gaussians" | "fogmap" | "asset") => {
             Err(format!("media type \"{t}\" is not supported yet"))
         }
         other => Err(format!(
-            "unknown media type \"{other}\" (known: \"homogeneous\"; \"gaussians\", \"analytic\", \"fogmap\", \"asset\" to come)"
+            "unknown media type \"{other}\" (known: \"homogeneous\", \"analytic\"; \"gaussians\", \"fogmap\", \"asset\" to come)"
         )),
     }
 }

@@ -59,6 +59,10 @@ pub trait Heterogeneous: Send + Sync + fmt::Debug {
     }
     /// A box outside which `σt = 0`, or `None` when the medium fills space.
     fn bounds(&self) -> Option<Aabb>;
+    /// The medium as paper D's analytic fog, when it is one ([`crate::analytic`]).
+    fn as_analytic(&self) -> Option<&crate::analytic::AnalyticMedium> {
+        None
+    }
 }
 
 /// A shared heterogeneous medium of a scene; two are equal when they are the same object.
