@@ -482,6 +482,20 @@ pub struct RenderCli {
     /// Exposure applied before PNG tone mapping.
     #[arg(long, default_value_t = 1.0)]
     exposure: f64,
+    /// With --scene: the time in seconds at which the analytic fog is rendered (its wind
+    /// has carried it for this long).
+    #[arg(
+        long,
+        default_value_t = 0.0,
+        requires = "scene",
+        allow_hyphen_values = true
+    )]
+    time: f64,
+    /// With --scene: single scattering of the scene's lights through every medium (the
+    /// analytic fog included) by ray marching with exact transmittance, on the CPU,
+    /// instead of paper C's airlight and paper D's fog colour.
+    #[arg(long, requires = "scene", conflicts_with_all = ["gpu", "reference"])]
+    march: bool,
     #[command(flatten)]
     import: ImportArgs,
 }
@@ -892,6 +906,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 reference: r.reference,
                 gpu: r.gpu,
                 exposure: r.exposure,
+                time: r.time,
+                march: r.march,
             }),
             None => crate::render::run(r.into_args()),
         },

@@ -1,20 +1,23 @@
 //! `haze render --scene`: a scene file rendered by paper C's analytic single scattering
 //! (crates/scene) on the CPU, or on the GPU with `--gpu` (its `f32` twin,
-//! `haze_scene::gpu`), or by its quadrature reference (`--reference`, CPU). Scenes whose
-//! heterogeneous media are all Gaussians are rendered by paper B (`haze_scene::paper_b`,
-//! `gpu_paper_b`), with the march as reference; scenes with other heterogeneous media (a
-//! smoke asset) by the single-scattering march (`haze_scene::march`; on the GPU
+//! `haze_scene::gpu`), or by its quadrature reference (`--reference`, CPU); analytic fog
+//! (paper D) composited over that picture at `--time` (`haze_scene::analytic`). Scenes
+//! whose heterogeneous media are all Gaussians are rendered by paper B
+//! (`haze_scene::paper_b`, `gpu_paper_b`), with the march as reference; scenes with other
+//! heterogeneous media (a smoke asset), and every scene with `--march`, by the
+//! single-scattering march through every medium (`haze_scene::march`; on the GPU
 //! `haze_scene::gpu_march`), whose reference is the same march at a quarter of the step.
 
 use crate::render::{OutKind, out_kind};
 use anyhow::{Result, anyhow};
 use haze_scene::Scene;
 use haze_scene::airlight::Limits;
+use haze_scene::analytic;
 use haze_scene::gpu::GpuRenderer;
 use haze_scene::gpu_paper_b::GpuPaperB;
 use haze_scene::march::{self, MarchOptions};
 use haze_scene::paper_b::{self, PaperBOptions, Prepared};
-use haze_scene::render::{Analytic, Image, Model, Reference, render};
+use haze_scene::render::{Analytic, Image, Model, Reference};
 use haze_view::gpu::{GpuContext, GpuError};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
@@ -31,12 +34,19 @@ pub struct SceneRenderArgs {
     pub reference: bool,
     pub gpu: bool,
     pub exposure: f64,
+    /// Seconds of wind for the analytic fog.
+    pub time: f64,
+    /// Single scattering through every medium by `haze_scene::march`.
+    pub march: bool,
 }
 
 pub fn run(a: SceneRenderArgs) -> Result<()> {
     let start = Instant::now();
     let kind = out_kind(&a.out)?;
-    let mut scene = haze_scene::load(&a.scene)?;
+    if !a.time.is_finite() {
+        anyhow::bail!("--time {} must be finite", a.time);
+    }
+    let mut scene = haze_scene::load(&a.scene)?.at_time(a.time);
     let (w, h) = (
         a.width.unwrap_or(scene.camera.width),
         a.height.unwrap_or(scene.camera.height),
@@ -45,14 +55,27 @@ pub fn run(a: SceneRenderArgs) -> Result<()> {
         .camera
         .with_size(w, h)
         .map_err(|e| anyhow::anyhow!("{}: {e}", a.scene.display()))?;
-    // Gaussian media alone: paper B; any other heterogeneous medium: the march.
+    if a.march && !a.gpu {
+        return run_march(&a, &scene, kind, start);
+    }
+    // Gaussian media alone: paper B; analytic fog: paper C's picture with paper D's fog
+    // composited; any other heterogeneous medium: the march.
     if !scene.hetero.is_empty() && scene.hetero.iter().all(|m| m.gaussians().is_some()) {
         return run_hetero(&a, &scene, kind, start);
     }
     if a.gpu {
+        if scene.analytic_media().next().is_some() {
+            anyhow::bail!(
+                "{}: --gpu does not composite analytic media yet; render them without --gpu",
+                a.scene.display()
+            );
+        }
+        if a.march {
+            anyhow::bail!("--march renders on the CPU only; drop --gpu");
+        }
         return run_gpu(&a, &scene, kind, start);
     }
-    if !scene.hetero.is_empty() {
+    if scene.hetero.iter().any(|m| m.as_analytic().is_none()) {
         return run_march(&a, &scene, kind, start);
     }
     let model: Box<dyn Model> = if a.reference {
@@ -66,9 +89,8 @@ pub fn run(a: SceneRenderArgs) -> Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar())
             .progress_chars("=> "),
     );
-    let image = render(&scene, model.as_ref(), &Limits::default(), &|rows| {
-        bar.set_position(rows as u64)
-    });
+    let progress = |rows: usize| bar.set_position(rows as u64);
+    let image = analytic::render(&scene, model.as_ref(), &Limits::default(), &progress);
     bar.finish_and_clear();
     write(&a, image, kind)?;
     eprintln!(

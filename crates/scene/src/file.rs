@@ -233,6 +233,11 @@ pub fn parse_in(text: &str, base: &Path) -> Result<Scene, String> {
             hetero.push(crate::media::HeteroMedium(Arc::new(m)));
             continue;
         }
+        // Paper D's analytic fog ([`crate::analytic`]).
+        if k == "analytic" {
+            hetero.push(crate::analytic::parse(v).map_err(|e| format!("media[{i}]: {e}"))?);
+            continue;
+        }
         let (st, ss) = homogeneous(v).map_err(|e| format!("media[{i}]: {e}"))?;
         for c in 0..3 {
             medium.sigma_t[c] += st[c];
@@ -373,9 +378,9 @@ fn homogeneous(v: &Value) -> Result<(Rgb, Rgb), String> {
             }
             Ok((st, st.map(|s| s * h.albedo)))
         }
-        t @ ("analytic" | "fogmap") => Err(format!("media type \"{t}\" is not supported yet")),
+        t @ "fogmap" => Err(format!("media type \"{t}\" is not supported yet")),
         other => Err(format!(
-            "unknown media type \"{other}\" (known: \"homogeneous\", \"asset\", \"gaussians\"; \"analytic\", \"fogmap\" to come)"
+            "unknown media type \"{other}\" (known: \"homogeneous\", \"asset\", \"gaussians\", \"analytic\"; \"fogmap\" to come)"
         )),
     }
 }

@@ -7,6 +7,7 @@
 //! by quadrature, independent of every table.
 
 pub mod airlight;
+pub mod analytic;
 pub mod asset_medium;
 pub mod envglow;
 pub mod envref;

@@ -68,6 +68,10 @@ pub trait Heterogeneous: Send + Sync + fmt::Debug {
     fn gaussians(&self) -> Option<&crate::gaussian_medium::GaussianMediumOf> {
         None
     }
+    /// The medium as paper D's analytic fog, when it is one ([`crate::analytic`]).
+    fn as_analytic(&self) -> Option<&crate::analytic::AnalyticMedium> {
+        None
+    }
 }
 
 /// A shared heterogeneous medium of a scene; two are equal when they are the same object.
