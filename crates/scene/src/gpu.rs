@@ -67,6 +67,8 @@ pub struct GpuRenderer {
     exponents: Vec<f64>,
     /// The march of scenes with voxel media ([`crate::gpu_march`]), compiled for the first.
     march: std::sync::OnceLock<wgpu::ComputePipeline>,
+    /// The environment's light on the voxel media, kept between frames.
+    env: crate::env_smoke::Cache,
     /// The `K` table, for the environment's glow ([`EnvGlow`]), built per frame.
     h: HTable,
 }
@@ -166,6 +168,7 @@ impl GpuRenderer {
             g_size: (side(g0.nx)?, side(g0.ny)?),
             exponents: analytic.gn.iter().map(|g| g.exponent).collect(),
             march: std::sync::OnceLock::new(),
+            env: Default::default(),
             h: analytic.h.clone(),
         })
     }
@@ -357,7 +360,10 @@ impl GpuRenderer {
         };
         let groups = [w.div_ceil(SIDE) as u32, h.div_ceil(SIDE) as u32, 1];
         // Scenes with voxel media: the march (crate::gpu_march) instead of paper C.
-        let opt = crate::asset_medium::march_options(scene, false);
+        let mut opt = crate::asset_medium::march_steps(scene, false);
+        if !scene.hetero.is_empty() {
+            opt.env = self.env.light(scene);
+        }
         let march = crate::gpu_march::MarchInput::of(scene, eye, &opt)?;
         let march_pipeline = match &march {
             None => None,
@@ -416,8 +422,8 @@ impl GpuRenderer {
                 &envdata,
             ];
             let extra = march.as_ref().map(|m| m.buffers(ctx));
-            if let Some((grid, records)) = &extra {
-                buffers.extend([grid, records]);
+            if let Some(bufs) = &extra {
+                buffers.extend(bufs);
             }
             let pipeline = march_pipeline.unwrap_or(&self.pipeline);
             submit_pass(ctx, pipeline, "scene render", &buffers, groups);
