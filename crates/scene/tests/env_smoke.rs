@@ -109,3 +109,27 @@ fn a_black_or_hidden_environment_lights_nothing() {
     let s = scene("null", "");
     assert_eq!(march_options(&s, false), march_steps(&s, false));
 }
+
+#[test]
+fn fog_dims_the_environment_by_its_distance() {
+    // A homogeneous fog between the smoke and an environment `D` away multiplies every
+    // coefficient by e^{−σt·D} (env_smoke's model), the smoke's own shadowing unchanged.
+    let opt = EnvOptions {
+        nodes: 2,
+        order: 2,
+        theta: 4,
+    };
+    let clear = EnvGrid::build(&scene("[1, 1, 1]", ""), &opt).unwrap();
+    let fog = r#", {"type": "homogeneous", "sigma_t": [0.2, 0.3, 0.4], "albedo": 0.8}"#;
+    let mut s = scene("[1, 1, 1]", fog);
+    s.environment_distance = 3.0;
+    let dimmed = EnvGrid::build(&s, &opt).unwrap();
+    for (i, (a, b)) in clear.coeffs.iter().zip(&dimmed.coeffs).enumerate() {
+        let f = (-[0.2, 0.3, 0.4][i % 3] * 3.0f64).exp();
+        let want = f64::from(*a) * f;
+        assert!(
+            (f64::from(*b) - want).abs() <= 1e-6 * (1.0 + want.abs()),
+            "{b} vs {want}"
+        );
+    }
+}
