@@ -263,7 +263,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             let mid = (t + 0.5 * hs) * dir;
             let first = total_depth(t * dir, dir, 0.5 * hs);
             let second = total_depth(mid, dir, 0.5 * hs);
-            let j = in_scattered(mid, dir);
+            let j = in_scattered(mid, dir) + env_in_scattered(mid, dir);
             out += trans * exp(-first) * j * hs;
             trans *= exp(-(first + second));
             t += hs;

@@ -194,8 +194,16 @@ impl Heterogeneous for AssetMedium {
 /// The march's settings for `scene` ([`crate::march`]): steps of half the smallest voxel
 /// of its voxel media (a trilinear field varies over a voxel; the midpoint rule's error
 /// then stays ~`h²/24` of the in-scattered light's curvature), or the default step
-/// when it has none; `fine` (the reference) takes a quarter of that.
+/// when it has none; `fine` (the reference) takes a quarter of that. The environment
+/// lights the media through [`crate::env_smoke::light`], computed here (once per render).
 pub fn march_options(scene: &crate::Scene, fine: bool) -> crate::march::MarchOptions {
+    let mut opt = march_steps(scene, fine);
+    opt.env = crate::env_smoke::light(scene);
+    opt
+}
+
+/// [`march_options`] without the environment's light on the media.
+pub fn march_steps(scene: &crate::Scene, fine: bool) -> crate::march::MarchOptions {
     let mut opt = crate::march::MarchOptions::default();
     let voxel = scene
         .hetero

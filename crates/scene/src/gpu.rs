@@ -67,6 +67,8 @@ pub struct GpuRenderer {
     exponents: Vec<f64>,
     /// The march of scenes with voxel media ([`crate::gpu_march`]), compiled for the first.
     march: std::sync::OnceLock<wgpu::ComputePipeline>,
+    /// The environment's light on the voxel media, kept between frames.
+    env: crate::env_smoke::Cache,
     /// The `K` table, for the environment's glow ([`EnvGlow`]), built per frame.
     h: HTable,
 }
@@ -166,6 +168,7 @@ impl GpuRenderer {
             g_size: (side(g0.nx)?, side(g0.ny)?),
             exponents: analytic.gn.iter().map(|g| g.exponent).collect(),
             march: std::sync::OnceLock::new(),
+            env: Default::default(),
             h: analytic.h.clone(),
         })
     }
@@ -238,7 +241,8 @@ impl GpuRenderer {
                 m.name()
             )));
         }
-        let opt = crate::asset_medium::march_options(scene, false);
+        let mut opt = crate::asset_medium::march_steps(scene, false);
+        opt.env = self.env.light(scene);
         let Some(march) = crate::gpu_march::MarchInput::of(scene, scene.camera.eye, &opt)? else {
             return self.render_pass(ctx, scene, lim, &self.pipeline, None, &[]);
         };
@@ -247,7 +251,7 @@ impl GpuRenderer {
             let _ = self.march.set(crate::gpu_march::pipeline(ctx)?);
         }
         let pipeline = self.march.get().expect("set above");
-        let (grid, records) = march.buffers(ctx);
+        let [grid, records] = march.buffers(ctx);
         self.render_pass(ctx, scene, lim, pipeline, None, &[&grid, &records])
     }
 

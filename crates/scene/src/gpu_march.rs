@@ -10,7 +10,8 @@
 //! media's optical depths — the grids' by the same exact walk through the voxel planes
 //! with Simpson's rule per piece ([`VoxelGrid::density_integral`]) —, shadow rays towards
 //! every light through the grids (smoke → surfaces and smoke → itself), Henyey–Greenstein
-//! phase. What differs from the CPU beyond `f32`: a surface point's shadow rays test the
+//! phase, and the environment's light from the precomputed SH grid
+//! ([`crate::env_smoke`], `shaders/env_smoke.wgsl`). What differs from the CPU beyond `f32`: a surface point's shadow rays test the
 //! surfaces' visibility from [`crate::gpu::SHADOW_OFFSET`] (relative) off it, as paper
 //! C's renderer does, the media's optical depth still from the point itself (from the
 //! offset point the shadow of dense smoke would move by as much, a visible error at its
@@ -22,6 +23,7 @@
 //! reaching an environment at `∞` at small steps — is cut short there. Real GPUs have no
 //! such limit.
 
+use crate::env_smoke::EnvLight;
 use crate::march::MarchOptions;
 use crate::scene::Scene;
 use crate::vec3::Vec3;
@@ -30,12 +32,15 @@ use haze_view::gpu::{GpuContext, GpuError, buffer_init, compute_pipeline};
 /// The march's own part of the shader.
 const MARCH: &str = include_str!("../shaders/march.wgsl");
 
+/// The environment's light on the media ([`crate::env_smoke`]), appended after the march.
+const ENV_SMOKE: &str = include_str!("../shaders/env_smoke.wgsl");
+
 /// `render.wgsl`'s entry point, renamed to a plain function in the march's module.
 const ENTRY: &str =
     "@compute @workgroup_size(8, 8, 1)\nfn main(@builtin(global_invocation_id) id: vec3<u32>)";
 
 /// The march's whole shader: `render.wgsl` with its entry point renamed, then
-/// `march.wgsl`.
+/// `march.wgsl`, `env_smoke.wgsl`.
 pub fn shader() -> Result<String, GpuError> {
     let base = crate::gpu::SHADER;
     if !base.contains(ENTRY) {
@@ -44,7 +49,7 @@ pub fn shader() -> Result<String, GpuError> {
         ));
     }
     Ok(format!(
-        "{}\n{MARCH}",
+        "{}\n{MARCH}\n{ENV_SMOKE}",
         base.replace(ENTRY, "fn analytic_main(id: vec3<u32>)")
     ))
 }
@@ -55,7 +60,8 @@ pub fn pipeline(ctx: &GpuContext) -> Result<wgpu::ComputePipeline, GpuError> {
 }
 
 /// What the march adds to paper C's buffers: the grids' values and their records (the
-/// shader's `grid` and `media` bindings).
+/// shader's `grid` and `media` bindings), the environment's grid of SH coefficients
+/// ([`crate::env_smoke::EnvGrid`]) after the voxel grids.
 #[derive(Clone, Debug)]
 pub struct MarchInput {
     grid: Vec<f32>,
@@ -104,12 +110,37 @@ impl MarchInput {
             records.push(f(m.albedo(), 0.0));
             grid.extend_from_slice(&g.data);
         }
+        // The environment's grid follows the voxel grids in `grid`, its start in the
+        // record after the media's.
+        let env = match &opt.env {
+            EnvLight::None => vec![0.0; 8],
+            EnvLight::Grid(g) => {
+                let min = [0, 1, 2].map(|a| (g.min[a] - eye[a]) as f32);
+                let cell = g.cell.map(|c| c as f32);
+                let mut v = vec![min[0], min[1], min[2], g.nodes as f32];
+                v.extend([cell[0], cell[1], cell[2], g.order as f32]);
+                v.extend_from_slice(&g.coeffs);
+                v
+            }
+            EnvLight::Direct(_) => {
+                return Err(GpuError::Input(
+                    "the GPU march lights smoke by the environment's grid only".into(),
+                ));
+            }
+        };
+        if grid.len() + env.len() >= 1 << 24 {
+            return Err(GpuError::Input(
+                "the environment's grid over the media is too large for the GPU renderer".into(),
+            ));
+        }
+        records.push([grid.len() as f32, 0.0, 0.0, 0.0]);
+        grid.extend_from_slice(&env);
         Ok(Some(MarchInput { grid, records }))
     }
 
     /// Uploads the grids and records. Call inside [`GpuContext::scoped`], after
     /// [`MarchInput::check`].
-    pub fn buffers(&self, ctx: &GpuContext) -> (wgpu::Buffer, wgpu::Buffer) {
+    pub fn buffers(&self, ctx: &GpuContext) -> [wgpu::Buffer; 2] {
         let grid = buffer_init(
             ctx,
             "scene voxel grids",
@@ -122,7 +153,7 @@ impl MarchInput {
             bytemuck::cast_slice(&self.records),
             wgpu::BufferUsages::STORAGE,
         );
-        (grid, records)
+        [grid, records]
     }
 
     /// Whether the device holds the grids in one storage buffer.

@@ -15,9 +15,11 @@
 //! direct light of every light (Lambert + normalized Phong, [`Material::brdf`]) reaching
 //! it through the media; light scattered onto surfaces by the medium is not included.
 //! Where a homogeneous medium fills space the march ends where the transmittance falls
-//! below [`MarchOptions::min_transmittance`].
+//! below [`MarchOptions::min_transmittance`]. The environment lights the heterogeneous
+//! media too, by [`MarchOptions::env`] ([`crate::env_smoke`]), added to `Σ_l`.
 
 use crate::airlight::Limits;
+use crate::env_smoke::EnvLight;
 use crate::media::henyey_greenstein;
 use crate::render::Image;
 use crate::scene::{Light, Rgb, Scene};
@@ -34,6 +36,8 @@ pub struct MarchOptions {
     pub min_transmittance: f64,
     /// Most steps along one ray (a guard against a tiny `step` on a long ray).
     pub max_steps: usize,
+    /// The environment's light on the heterogeneous media ([`crate::env_smoke`]).
+    pub env: EnvLight,
 }
 
 impl Default for MarchOptions {
@@ -42,6 +46,7 @@ impl Default for MarchOptions {
             step: 0.02,
             min_transmittance: 1e-6,
             max_steps: 200_000,
+            env: EnvLight::None,
         }
     }
 }
@@ -186,7 +191,13 @@ pub fn radiance(scene: &Scene, lim: &Limits, opt: &MarchOptions, dir: Vec3) -> R
             // Transmittance to the midpoint, then over the rest of the step.
             let first = optical_depth(scene, axpy(eye, t, dir), dir, 0.5 * h);
             let second = optical_depth(scene, mid, dir, 0.5 * h);
-            let j = in_scattered(scene, lim, mid, dir);
+            let mut j = in_scattered(scene, lim, mid, dir);
+            if opt.env != EnvLight::None {
+                let e = opt.env.in_scattered(scene, mid, dir);
+                for c in 0..3 {
+                    j[c] += e[c];
+                }
+            }
             for c in 0..3 {
                 out[c] += trans[c] * (-first[c]).exp() * j[c] * h;
                 trans[c] *= (-(first[c] + second[c])).exp();

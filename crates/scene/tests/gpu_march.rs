@@ -20,6 +20,7 @@
 use haze_scene::Scene;
 use haze_scene::airlight::Limits;
 use haze_scene::asset_medium::march_options;
+use haze_scene::env_smoke::EnvLight;
 use haze_scene::gpu::GpuRenderer;
 use haze_scene::render::{Analytic, Image};
 use haze_view::gpu::GpuContext;
@@ -127,4 +128,30 @@ fn anisotropic_smoke_in_fog_and_the_eye_inside_it() {
             "",
         ),
     );
+}
+
+#[test]
+fn the_sky_lights_the_smoke_as_on_the_cpu() {
+    let mut s = scene(OUTSIDE, r#", "g": 0.6"#, "");
+    s.environment = haze_scene::Environment::Sky;
+    // The case tests the environment's term: it adds more than 1 % (fifty times the
+    // tolerance) to three times as many pixels as the outliers allowed (33 of 768).
+    let opt = march_options(&s, false);
+    assert!(matches!(opt.env, EnvLight::Grid(_)), "{:?}", opt.env);
+    let mut none = opt.clone();
+    none.env = EnvLight::None;
+    let with = haze_scene::march::render(&s, &Limits::default(), &opt, &|_| {});
+    let without = haze_scene::march::render(&s, &Limits::default(), &none, &|_| {});
+    let lit = with
+        .pixels
+        .iter()
+        .zip(&without.pixels)
+        .filter(|(a, b)| a[1] > 1.01 * b[1])
+        .count();
+    println!("sky: {lit} pixels brightened by the environment's term");
+    assert!(
+        lit as f64 > 3.0 * OUTLIERS * with.pixels.len() as f64,
+        "{lit}"
+    );
+    compare("sky", &s);
 }
