@@ -67,6 +67,8 @@ pub struct GpuRenderer {
     exponents: Vec<f64>,
     /// The march of scenes with voxel media ([`crate::gpu_march`]), compiled for the first.
     march: std::sync::OnceLock<wgpu::ComputePipeline>,
+    /// The rasterized renderer's passes ([`crate::raster`]), compiled for its first frame.
+    raster: std::sync::OnceLock<crate::raster::RasterPipelines>,
     /// The `K` table, for the environment's glow ([`EnvGlow`]), built per frame.
     h: HTable,
 }
@@ -166,6 +168,7 @@ impl GpuRenderer {
             g_size: (side(g0.nx)?, side(g0.ny)?),
             exponents: analytic.gn.iter().map(|g| g.exponent).collect(),
             march: std::sync::OnceLock::new(),
+            raster: std::sync::OnceLock::new(),
             h: analytic.h.clone(),
         })
     }
@@ -226,6 +229,49 @@ impl GpuRenderer {
     /// Renders the scene's camera image (as [`crate::render::render`] with
     /// [`Analytic`] and the limits `lim`), reading it back to the host.
     pub fn render(&self, ctx: &GpuContext, scene: &Scene, lim: &Limits) -> Result<Image, GpuError> {
+        Ok(self.frame(ctx, scene, lim, false)?.0)
+    }
+
+    /// [`GpuRenderer::render`] with the surfaces rasterized ([`crate::raster`]): the same
+    /// picture but where a pixel's center lies within rounding of a silhouette.
+    pub fn render_rasterized(
+        &self,
+        ctx: &GpuContext,
+        scene: &Scene,
+        lim: &Limits,
+    ) -> Result<Image, GpuError> {
+        Ok(self.frame(ctx, scene, lim, true)?.0)
+    }
+
+    /// [`GpuRenderer::render_rasterized`] and the surface its raster pass found at each
+    /// pixel (row by row; `None` for none, and for every pixel of a scene with voxel
+    /// media, which is ray-traced).
+    pub fn render_rasterized_with_surfaces(
+        &self,
+        ctx: &GpuContext,
+        scene: &Scene,
+        lim: &Limits,
+    ) -> Result<(Image, Vec<Option<usize>>), GpuError> {
+        let (image, gbuffer) = self.frame(ctx, scene, lim, true)?;
+        let surfaces = match gbuffer {
+            Some(g) => self.raster.get().map_or_else(
+                || Err(GpuError::Input("no raster pass ran".into())),
+                |r| r.read_surfaces(ctx, &g),
+            )?,
+            None => vec![None; image.pixels.len()],
+        };
+        Ok((image, surfaces))
+    }
+
+    /// One frame, its primary hits rasterized when `rasterize` (and the scene has no voxel
+    /// media); the G-buffer when one was drawn.
+    fn frame(
+        &self,
+        ctx: &GpuContext,
+        scene: &Scene,
+        lim: &Limits,
+        rasterize: bool,
+    ) -> Result<(Image, Option<wgpu::Texture>), GpuError> {
         let cam = &scene.camera;
         let (w, h) = (cam.width, cam.height);
         let pixels = w
@@ -369,7 +415,17 @@ impl GpuRenderer {
                 self.march.get()
             }
         };
-        let output = ctx.scoped("scene render", || {
+        let raster = match (rasterize, &march) {
+            (true, None) => {
+                if self.raster.get().is_none() {
+                    let _ = self.raster.set(crate::raster::RasterPipelines::new(ctx)?);
+                }
+                let vertices = crate::raster::vertices(scene, eye)?;
+                self.raster.get().map(|r| (r, vertices))
+            }
+            _ => None,
+        };
+        let (output, gbuffer) = ctx.scoped("scene render", || {
             let uniform = buffer_init(
                 ctx,
                 "scene params",
@@ -420,15 +476,27 @@ impl GpuRenderer {
                 buffers.extend([grid, records]);
             }
             let pipeline = march_pipeline.unwrap_or(&self.pipeline);
-            submit_pass(ctx, pipeline, "scene render", &buffers, groups);
-            output
+            let gbuffer = match &raster {
+                Some((r, vertices)) => {
+                    let size = (params.size[0], params.size[1]);
+                    let g = r.gbuffer(ctx, [&uniform, &surfaces, &meshes], vertices, size);
+                    r.shade(ctx, &buffers, &g, groups);
+                    Some(g)
+                }
+                None => {
+                    submit_pass(ctx, pipeline, "scene render", &buffers, groups);
+                    None
+                }
+            };
+            (output, gbuffer)
         })?;
         let bytes = ctx.read_buffer(&output)?;
         let rgba: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&bytes);
-        Ok(Image {
+        let image = Image {
             width: w,
             height: h,
             pixels: rgba.into_iter().map(|p| [p[0], p[1], p[2]]).collect(),
-        })
+        };
+        Ok((image, gbuffer))
     }
 }

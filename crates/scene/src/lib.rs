@@ -21,6 +21,7 @@ pub mod media;
 pub mod mesh;
 pub mod model;
 pub mod quad;
+pub mod raster;
 pub mod reference;
 pub mod render;
 pub mod scene;
