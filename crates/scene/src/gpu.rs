@@ -430,7 +430,8 @@ impl GpuRenderer {
                 ctx,
                 "scene params",
                 bytemuck::bytes_of(&params),
-                wgpu::BufferUsages::UNIFORM,
+                // Storage for the rasterized renderer (crate::raster::shader).
+                wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::STORAGE,
             );
             let lights = buffer_init(
                 ctx,

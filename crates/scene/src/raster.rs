@@ -36,6 +36,12 @@ const RASTER: &str = include_str!("../shaders/raster.wgsl");
 /// `render.wgsl`'s primary ray, replaced by the G-buffer's hit.
 const PRIMARY: &str = "let hit = intersect(vec3<f32>(0.0), dir, 0.0, t_max);";
 
+/// `render.wgsl`'s parameters, read from a storage buffer here: Mesa's lavapipe inlines
+/// the values of uniforms that steer branches into a new shader variant, compiled (for
+/// seconds) per new set of values, and did so for the camera of the raster pass — every
+/// orbiting picture. It never inlines storage buffers.
+const PARAMS: &str = "@group(0) @binding(0) var<uniform> P: Params;";
+
 /// The G-buffer's format: (bits of `t`, surface + 1 or 0, triangle, 0).
 const GBUFFER: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Uint;
 
@@ -48,19 +54,22 @@ pub struct Vertex {
     pub id: [u32; 2],
 }
 
-/// The whole shader: `render.wgsl` with its primary hit read from the G-buffer, then
-/// `raster.wgsl`.
+/// The whole shader: `render.wgsl` with its primary hit read from the G-buffer and its
+/// parameters from a storage buffer ([`PARAMS`]), then `raster.wgsl`.
 pub fn shader() -> Result<String, GpuError> {
     let base = crate::gpu::SHADER;
-    if base.matches(PRIMARY).count() != 1 {
+    if base.matches(PRIMARY).count() != 1 || base.matches(PARAMS).count() != 1 {
         return Err(GpuError::Input(
-            "render.wgsl's primary ray changed: the rasterized renderer cannot replace it".into(),
+            "render.wgsl's primary ray or parameters changed: the rasterized renderer cannot replace them".into(),
         ));
     }
-    Ok(format!(
-        "{}\n{RASTER}",
-        base.replace(PRIMARY, "let hit = gbuffer_hit(id, dir, t_max);")
-    ))
+    let base = base
+        .replace(PRIMARY, "let hit = gbuffer_hit(id, dir, t_max);")
+        .replace(
+            PARAMS,
+            "@group(0) @binding(0) var<storage, read> P: Params;",
+        );
+    Ok(format!("{base}\n{RASTER}"))
 }
 
 /// The triangles of the scene's surfaces, positions relative to `eye`, in surface order.
