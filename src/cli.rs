@@ -506,8 +506,9 @@ pub struct ViewCli {
     #[arg(required_unless_present_any = ["scene", "fog"], conflicts_with_all = ["scene", "fog"])]
     input: Option<PathBuf>,
     /// Show a scene file (README "Scenes") instead: paper C's renderer on the GPU, the
-    /// orbit camera starting at the scene's, fog and lights in the panel. Of the options
-    /// below only --size, --exposure, --play-for and --no-window apply.
+    /// orbit camera starting at the scene's, fog and lights in the panel, the surfaces
+    /// rasterized with a depth buffer. Of the options below only --size, --exposure,
+    /// --play-for, --no-window and --ray-traced apply.
     #[arg(long, value_name = "SCENE.json", conflicts_with = "fog")]
     scene: Option<PathBuf>,
     /// Fly through a fogmap's wavelet fog instead (as `haze fog wavelet` renders it), on
@@ -561,6 +562,10 @@ pub struct ViewCli {
     /// alone, no display needed).
     #[arg(long, requires = "play_for")]
     no_window: bool,
+    /// With --scene: start with the surfaces ray-traced per pixel instead of rasterized
+    /// (the panel switches between the two).
+    #[arg(long, requires = "scene")]
+    ray_traced: bool,
     /// Where the lighting at the RBF centers (single scattering and the diffusion of
     /// multiple scattering) is computed. `auto`: on the GPU, unless the adapter is a CPU
     /// (lavapipe), where the CPU's own code is several times faster.
@@ -937,6 +942,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                     exposure: v.exposure,
                     play_for: v.play_for,
                     window: !v.no_window,
+                    ray_traced: v.ray_traced,
                 })
             }
             None => crate::viewer::run(v.into_args()),

@@ -294,6 +294,22 @@ fn views_the_room_without_a_window() {
         out.contains("pictures of 48×36") && out.contains("median"),
         "{out}"
     );
+    assert!(out.contains("with rasterized surfaces"), "{out}");
+    let o = haze()
+        .args([
+            "view",
+            "--scene",
+            &room(),
+            "--size",
+            "48x36",
+            "--ray-traced",
+        ])
+        .args(["--no-window", "--play-for", "0.3"])
+        .output()
+        .unwrap();
+    let out = String::from_utf8(o.stdout).unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(out.contains("with ray-traced surfaces"), "{out}");
     let dir = tempfile::tempdir().unwrap();
     let bad = dir.path().join("bad.json");
     std::fs::write(&bad, "{\"camera\": {}}").unwrap();

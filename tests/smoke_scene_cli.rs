@@ -129,4 +129,5 @@ fn views_the_smoke_scene_without_a_window() {
     let err = String::from_utf8(o.stderr).unwrap();
     assert!(o.status.success(), "{err}");
     assert!(out.contains("pictures of 32×24"), "{out}");
+    assert!(out.contains("with ray-traced surfaces"), "{out}");
 }

@@ -1,6 +1,8 @@
 //! `haze view --scene`: a scene file shown through paper C's renderer on the GPU
 //! (`haze_scene::gpu`), with an orbit camera and the medium and lights editable in a side
-//! panel.
+//! panel. The surfaces are rasterized with a depth buffer (`haze_scene::raster`), the
+//! airlight and shading computed per pixel up to that depth; a panel switch (or
+//! `--ray-traced`) shows the ray tracer's picture instead, for comparison.
 //!
 //! The orbit starts at the scene's camera and turns about the point its central ray looks
 //! at (the first surface it meets, else the scene's middle at the same distance), Z up.
@@ -34,6 +36,8 @@ pub struct SceneViewArgs {
     /// Turn the camera for this many seconds, print the figures, exit.
     pub play_for: Option<f64>,
     pub window: bool,
+    /// Start with the surfaces ray-traced rather than rasterized.
+    pub ray_traced: bool,
 }
 
 /// One light's knobs.
@@ -54,6 +58,8 @@ pub struct SceneKnobs {
     pub albedo: f64,
     pub lights: Vec<LightKnob>,
     pub exposure: f64,
+    /// Surfaces rasterized with a depth buffer (else ray-traced).
+    pub rasterized: bool,
 }
 
 impl SceneKnobs {
@@ -74,6 +80,7 @@ impl SceneKnobs {
                 })
                 .collect(),
             exposure,
+            rasterized: true,
         }
     }
 }
@@ -161,10 +168,13 @@ impl Renderer {
     /// Renders the edited scene; the sRGB bytes of the picture.
     fn picture(&self, orbit: &Orbit, knobs: &SceneKnobs) -> Result<Vec<u8>, String> {
         let scene = edited(&self.base, orbit, knobs, self.size)?;
-        let img = self
-            .gpu
-            .render(&self.ctx, &scene, &Limits::default())
-            .map_err(|e| e.to_string())?;
+        let lim = Limits::default();
+        let img = if knobs.rasterized {
+            self.gpu.render_rasterized(&self.ctx, &scene, &lim)
+        } else {
+            self.gpu.render(&self.ctx, &scene, &lim)
+        }
+        .map_err(|e| e.to_string())?;
         let image = haze_view::Image {
             width: img.width,
             height: img.height,
@@ -190,7 +200,10 @@ pub fn run(a: SceneViewArgs) -> Result<()> {
     let fov = 2.0 * base.camera.tan_half().atan().to_degrees();
     let orbit = Orbit::looking(base.camera.eye, look_target(&base), fov)
         .map_err(|e| anyhow!("{}: camera: {e}", a.scene.display()))?;
-    let knobs = SceneKnobs::of(&base, a.exposure);
+    let knobs = SceneKnobs {
+        rasterized: !a.ray_traced,
+        ..SceneKnobs::of(&base, a.exposure)
+    };
     let ctx = GpuContext::new().map_err(|e| anyhow!("GPU: {e}"))?;
     let gpu = GpuRenderer::new(&ctx, &Analytic::new(&base)).map_err(|e| anyhow!("GPU: {e}"))?;
     let renderer = Renderer {
@@ -265,21 +278,27 @@ fn turn_without_window(
         times.push(t.elapsed().as_secs_f64());
         orbit.drag(1f64.to_radians() / super::orbit::RADIANS_PER_PIXEL, 0.0);
     }
-    Ok(summary(r, times, start.elapsed().as_secs_f64()))
+    Ok(summary(r, knobs, times, start.elapsed().as_secs_f64()))
 }
 
 /// The measurement line: pictures rendered in `seconds`, their median time.
-fn summary(r: &Renderer, mut times: Vec<f64>, seconds: f64) -> String {
+fn summary(r: &Renderer, knobs: &SceneKnobs, mut times: Vec<f64>, seconds: f64) -> String {
     times.sort_by(f64::total_cmp);
     let median = times.get(times.len() / 2).copied().unwrap_or(0.0);
     format!(
-        "{} picture{} of {}×{} in {:.2} s, median {:.1} ms each (GPU render, read back, sRGB) on {}",
+        "{} picture{} of {}×{} in {:.2} s, median {:.1} ms each (GPU render with {} surfaces, read back, sRGB) on {}",
         times.len(),
         if times.len() == 1 { "" } else { "s" },
         r.size.0,
         r.size.1,
         seconds,
         1e3 * median,
+        // GpuRenderer::render_rasterized ray-traces scenes with voxel media (the march).
+        if knobs.rasterized && r.base.hetero.is_empty() {
+            "rasterized"
+        } else {
+            "ray-traced"
+        },
         r.ctx.adapter_name()
     )
 }
@@ -317,6 +336,8 @@ impl SceneApp {
         if let Some(e) = &self.error {
             ui.colored_label(egui::Color32::RED, e);
         }
+        ui.checkbox(&mut self.knobs.rasterized, "rasterize surfaces")
+            .on_hover_text("off: every pixel's ray traced through the surfaces instead");
         ui.separator();
         ui.label("medium");
         let k = &mut self.knobs;
@@ -437,7 +458,12 @@ impl eframe::App for SceneApp {
         if let Some((opened, seconds)) = self.play_for {
             let left = seconds - opened.elapsed().as_secs_f64();
             if left <= 0.0 {
-                let line = summary(&self.renderer, self.times.clone(), seconds - left);
+                let line = summary(
+                    &self.renderer,
+                    &self.knobs,
+                    self.times.clone(),
+                    seconds - left,
+                );
                 if let Ok(mut o) = self.outcome.lock() {
                     o.get_or_insert(line);
                 }
@@ -482,8 +508,9 @@ mod tests {
         assert!((o.distance - hit.t).abs() < 1e-9);
     }
 
-    /// The panel's edits reach the scene, and its GPU picture is the CPU's render of that
-    /// scene (within crates/scene's GPU tolerance, 5·10⁻⁴ relative).
+    /// The panel's edits reach the scene, and its GPU pictures, rasterized and ray-traced,
+    /// are the CPU's render of that scene (within crates/scene's GPU tolerance, 5·10⁻⁴
+    /// relative, but for 1 % of the pixels: silhouettes and shadow edges).
     #[test]
     fn edits_make_the_scene_the_gpu_renders() {
         let base = room();
@@ -518,7 +545,6 @@ mod tests {
         let ctx = GpuContext::new().unwrap_or_else(|e| panic!("{e}"));
         let analytic = Analytic::new(&base);
         let gpu = GpuRenderer::new(&ctx, &analytic).unwrap();
-        let g = gpu.render(&ctx, &s, &Limits::default()).unwrap();
         let c = render(&s, &analytic, &Limits::default(), &|_| {});
         let mean = c
             .pixels
@@ -527,16 +553,23 @@ mod tests {
             .map(|v| f64::from(*v))
             .sum::<f64>()
             / (3 * c.pixels.len()) as f64;
-        let outside = g
-            .pixels
-            .iter()
-            .flatten()
-            .zip(c.pixels.iter().flatten())
-            .filter(|(g, c)| f64::from(*g - *c).abs() > 5e-4 * f64::from(**c).abs() + 1e-5 * mean)
-            .count();
-        assert!(
-            mean > 0.0 && outside <= c.pixels.len() / 100,
-            "{outside} differ"
-        );
+        // Both the panel's paths: rasterized (the default) and ray-traced.
+        let traced = gpu.render(&ctx, &s, &Limits::default()).unwrap();
+        let rasterized = gpu.render_rasterized(&ctx, &s, &Limits::default()).unwrap();
+        for (name, g) in [("ray-traced", traced), ("rasterized", rasterized)] {
+            let outside = g
+                .pixels
+                .iter()
+                .flatten()
+                .zip(c.pixels.iter().flatten())
+                .filter(|(g, c)| {
+                    f64::from(*g - *c).abs() > 5e-4 * f64::from(**c).abs() + 1e-5 * mean
+                })
+                .count();
+            assert!(
+                mean > 0.0 && outside <= c.pixels.len() / 100,
+                "{name}: {outside} differ"
+            );
+        }
     }
 }

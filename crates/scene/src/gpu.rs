@@ -69,6 +69,8 @@ pub struct GpuRenderer {
     march: std::sync::OnceLock<wgpu::ComputePipeline>,
     /// The environment's light on the voxel media, kept between frames.
     env: crate::env_smoke::Cache,
+    /// The rasterized renderer's passes ([`crate::raster`]), compiled for its first frame.
+    raster: std::sync::OnceLock<crate::raster::RasterPipelines>,
     /// The `K` table, for the environment's glow ([`EnvGlow`]), built per frame.
     h: HTable,
 }
@@ -169,6 +171,7 @@ impl GpuRenderer {
             exponents: analytic.gn.iter().map(|g| g.exponent).collect(),
             march: std::sync::OnceLock::new(),
             env: Default::default(),
+            raster: std::sync::OnceLock::new(),
             h: analytic.h.clone(),
         })
     }
@@ -229,8 +232,51 @@ impl GpuRenderer {
     /// Renders the scene's camera image (as [`crate::render::render`] with
     /// [`Analytic`] and the limits `lim`), reading it back to the host.
     pub fn render(&self, ctx: &GpuContext, scene: &Scene, lim: &Limits) -> Result<Image, GpuError> {
+        Ok(self.frame(ctx, scene, lim, false)?.0)
+    }
+
+    /// [`GpuRenderer::render`] with the surfaces rasterized ([`crate::raster`]): the same
+    /// picture but where a pixel's center lies within rounding of a silhouette.
+    pub fn render_rasterized(
+        &self,
+        ctx: &GpuContext,
+        scene: &Scene,
+        lim: &Limits,
+    ) -> Result<Image, GpuError> {
+        Ok(self.frame(ctx, scene, lim, true)?.0)
+    }
+
+    /// [`GpuRenderer::render_rasterized`] and the surface its raster pass found at each
+    /// pixel (row by row; `None` for none, and for every pixel of a scene with voxel
+    /// media, which is ray-traced).
+    pub fn render_rasterized_with_surfaces(
+        &self,
+        ctx: &GpuContext,
+        scene: &Scene,
+        lim: &Limits,
+    ) -> Result<(Image, Vec<Option<usize>>), GpuError> {
+        let (image, gbuffer) = self.frame(ctx, scene, lim, true)?;
+        let surfaces = match gbuffer {
+            Some(g) => self.raster.get().map_or_else(
+                || Err(GpuError::Input("no raster pass ran".into())),
+                |r| r.read_surfaces(ctx, &g),
+            )?,
+            None => vec![None; image.pixels.len()],
+        };
+        Ok((image, surfaces))
+    }
+
+    /// One frame, its primary hits rasterized when `rasterize` and the scene has no
+    /// heterogeneous media; the G-buffer when one was drawn.
+    fn frame(
+        &self,
+        ctx: &GpuContext,
+        scene: &Scene,
+        lim: &Limits,
+        rasterize: bool,
+    ) -> Result<(Image, Option<wgpu::Texture>), GpuError> {
         if scene.hetero.is_empty() {
-            return self.render_pass(ctx, scene, lim, &self.pipeline, None, &[]);
+            return self.pass(ctx, scene, lim, &self.pipeline, None, &[], rasterize);
         }
         // Scenes with voxel media: the march (crate::gpu_march) instead of paper C; other
         // heterogeneous media (paper B's Gaussians: [`crate::gpu_paper_b`]) are refused
@@ -244,7 +290,7 @@ impl GpuRenderer {
         let mut opt = crate::asset_medium::march_steps(scene, false);
         opt.env = self.env.light(scene);
         let Some(march) = crate::gpu_march::MarchInput::of(scene, scene.camera.eye, &opt)? else {
-            return self.render_pass(ctx, scene, lim, &self.pipeline, None, &[]);
+            return self.pass(ctx, scene, lim, &self.pipeline, None, &[], rasterize);
         };
         march.check(ctx)?;
         if self.march.get().is_none() {
@@ -252,7 +298,7 @@ impl GpuRenderer {
         }
         let pipeline = self.march.get().expect("set above");
         let [grid, records] = march.buffers(ctx);
-        self.render_pass(ctx, scene, lim, pipeline, None, &[&grid, &records])
+        self.pass(ctx, scene, lim, pipeline, None, &[&grid, &records], false)
     }
 
     /// [`GpuRenderer::render`]'s frame with another entry point of the same bindings
@@ -267,6 +313,25 @@ impl GpuRenderer {
         medium: Option<([f64; 3], [f64; 3])>,
         extra: &[&wgpu::Buffer],
     ) -> Result<Image, GpuError> {
+        Ok(self
+            .pass(ctx, scene, lim, pipeline, medium, extra, false)?
+            .0)
+    }
+
+    /// [`GpuRenderer::render_pass`], its primary hits rasterized ([`crate::raster`]) when
+    /// `rasterize` (then `pipeline` and `extra` are not used: the raster pass shades with
+    /// `render.wgsl`); the G-buffer when one was drawn.
+    #[allow(clippy::too_many_arguments)]
+    fn pass(
+        &self,
+        ctx: &GpuContext,
+        scene: &Scene,
+        lim: &Limits,
+        pipeline: &wgpu::ComputePipeline,
+        medium: Option<([f64; 3], [f64; 3])>,
+        extra: &[&wgpu::Buffer],
+        rasterize: bool,
+    ) -> Result<(Image, Option<wgpu::Texture>), GpuError> {
         let (sigma_t, sigma_s) = medium.unwrap_or((scene.medium.sigma_t, scene.medium.sigma_s()));
         let cam = &scene.camera;
         let (w, h) = (cam.width, cam.height);
@@ -398,12 +463,22 @@ impl GpuRenderer {
             env_at,
         };
         let groups = [w.div_ceil(SIDE) as u32, h.div_ceil(SIDE) as u32, 1];
-        let output = ctx.scoped("scene render", || {
+        let raster = if rasterize {
+            if self.raster.get().is_none() {
+                let _ = self.raster.set(crate::raster::RasterPipelines::new(ctx)?);
+            }
+            let vertices = crate::raster::vertices(scene, eye)?;
+            self.raster.get().map(|r| (r, vertices))
+        } else {
+            None
+        };
+        let (output, gbuffer) = ctx.scoped("scene render", || {
             let uniform = buffer_init(
                 ctx,
                 "scene params",
                 bytemuck::bytes_of(&params),
-                wgpu::BufferUsages::UNIFORM,
+                // Storage for the rasterized renderer (crate::raster::shader).
+                wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::STORAGE,
             );
             let lights = buffer_init(
                 ctx,
@@ -445,15 +520,27 @@ impl GpuRenderer {
                 &envdata,
             ];
             buffers.extend_from_slice(extra);
-            submit_pass(ctx, pipeline, "scene render", &buffers, groups);
-            output
+            let gbuffer = match &raster {
+                Some((r, vertices)) => {
+                    let size = (params.size[0], params.size[1]);
+                    let g = r.gbuffer(ctx, [&uniform, &surfaces, &meshes], vertices, size);
+                    r.shade(ctx, &buffers, &g, groups);
+                    Some(g)
+                }
+                None => {
+                    submit_pass(ctx, pipeline, "scene render", &buffers, groups);
+                    None
+                }
+            };
+            (output, gbuffer)
         })?;
         let bytes = ctx.read_buffer(&output)?;
         let rgba: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&bytes);
-        Ok(Image {
+        let image = Image {
             width: w,
             height: h,
             pixels: rgba.into_iter().map(|p| [p[0], p[1], p[2]]).collect(),
-        })
+        };
+        Ok((image, gbuffer))
     }
 }

@@ -26,6 +26,7 @@ pub mod mesh;
 pub mod model;
 pub mod paper_b;
 pub mod quad;
+pub mod raster;
 pub mod reference;
 pub mod render;
 pub mod scene;
