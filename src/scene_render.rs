@@ -14,6 +14,7 @@ use haze_scene::Scene;
 use haze_scene::airlight::Limits;
 use haze_scene::analytic;
 use haze_scene::gpu::GpuRenderer;
+use haze_scene::gpu_analytic::GpuAnalytic;
 use haze_scene::gpu_paper_b::GpuPaperB;
 use haze_scene::march::{self, MarchOptions};
 use haze_scene::paper_b::{self, PaperBOptions, Prepared};
@@ -64,12 +65,6 @@ pub fn run(a: SceneRenderArgs) -> Result<()> {
         return run_hetero(&a, &scene, kind, start);
     }
     if a.gpu {
-        if scene.analytic_media().next().is_some() {
-            anyhow::bail!(
-                "{}: --gpu does not composite analytic media yet; render them without --gpu",
-                a.scene.display()
-            );
-        }
         if a.march {
             anyhow::bail!("--march renders on the CPU only; drop --gpu");
         }
@@ -144,16 +139,26 @@ fn run_march(a: &SceneRenderArgs, scene: &Scene, kind: OutKind, start: Instant) 
     Ok(())
 }
 
-/// `--gpu`: the tables built on the CPU, the image rendered by `haze_scene::gpu`.
+/// `--gpu`: the tables built on the CPU, the image rendered by `haze_scene::gpu` (analytic
+/// fog composited over it by `haze_scene::gpu_analytic`).
 fn run_gpu(a: &SceneRenderArgs, scene: &Scene, kind: OutKind, start: Instant) -> Result<()> {
     let gpu_err = |e: GpuError| anyhow!("--gpu: {e}");
     let ctx = GpuContext::new().map_err(gpu_err)?;
     let analytic = Analytic::new(scene);
     let renderer = GpuRenderer::new(&ctx, &analytic).map_err(gpu_err)?;
+    // Analytic fog alone: paper C's picture with paper D's fog composited on the GPU.
+    let fog = !scene.hetero.is_empty() && scene.hetero.iter().all(|m| m.as_analytic().is_some());
+    let composite = if fog {
+        Some(GpuAnalytic::new(&ctx).map_err(gpu_err)?)
+    } else {
+        None
+    };
     let frame = Instant::now();
-    let image = renderer
-        .render(&ctx, scene, &Limits::default())
-        .map_err(|e| anyhow!("--gpu: {}: {e}", a.scene.display()))?;
+    let image = match &composite {
+        Some(c) => c.render(&ctx, &renderer, scene, &Limits::default()),
+        None => renderer.render(&ctx, scene, &Limits::default()),
+    }
+    .map_err(|e| anyhow!("--gpu: {}: {e}", a.scene.display()))?;
     let frame = frame.elapsed().as_secs_f64();
     let (w, h) = (image.width, image.height);
     write(a, image, kind)?;
@@ -167,6 +172,8 @@ fn run_gpu(a: &SceneRenderArgs, scene: &Scene, kind: OutKind, start: Instant) ->
         scene.surfaces.len(),
         if scene.hetero.is_empty() {
             analytic.name()
+        } else if fog {
+            format!("{} with analytic fog composited", analytic.name())
         } else {
             "single-scattering march".to_string()
         },

@@ -278,6 +278,45 @@ fn renders_the_room_on_the_gpu_as_on_the_cpu() {
     assert!(outside * 100 <= w * h, "{outside} pixels differ");
 }
 
+/// `--gpu` on the bundled analytic fog (paper D's composite on the GPU) against the CPU
+/// render, within crates/scene's tolerance for it (`tests/gpu_analytic.rs`: `5·10⁻⁴`
+/// relative plus `10⁻⁴` of the fog's colour, here of the image's mean, which the fogged
+/// pixels tend to; at most 1 % of the pixels outside).
+#[test]
+fn renders_analytic_fog_on_the_gpu_as_on_the_cpu() {
+    let dir = tempfile::tempdir().unwrap();
+    let (c, g) = (dir.path().join("c.exr"), dir.path().join("g.exr"));
+    let scene = bundled("analytic_fog.json");
+    let common = [
+        "--width", "32", "--height", "24", "--time", "4", "--scene", &scene,
+    ];
+    render(&[&common[..], &["--out", c.to_str().unwrap()]].concat());
+    let err = render(&[&common[..], &["--gpu", "--out", g.to_str().unwrap()]].concat());
+    let last = err.lines().last().unwrap_or_default();
+    assert!(
+        last.contains("32×24")
+            && last.contains("analytic fog composited")
+            && last.contains("frame"),
+        "{err}"
+    );
+    let (w, h, pc) = read_exr(&c);
+    let (_, _, pg) = read_exr(&g);
+    assert_eq!((w, h), (32, 24));
+    let mean = pc.iter().flatten().map(|v| f64::from(*v)).sum::<f64>() / (3 * w * h) as f64;
+    assert!(mean > 0.0);
+    let outside = pc
+        .iter()
+        .zip(&pg)
+        .filter(|(c, g)| {
+            (0..3).any(|k| {
+                let (c, g) = (f64::from(c[k]), f64::from(g[k]));
+                (g - c).abs() > 5e-4 * c.abs() + 1e-4 * mean
+            })
+        })
+        .count();
+    assert!(outside * 100 <= w * h, "{outside} pixels differ");
+}
+
 /// `haze view --scene` without a window: the scene loads, renders on the GPU while the
 /// camera turns, and the figures come out on one line; a bad scene is a one-line error.
 #[test]

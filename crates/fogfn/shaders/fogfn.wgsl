@@ -204,11 +204,17 @@ fn fog_polynomial(i: u32, w: vec3<f32>, len: f32) -> f32 {
 
 // The optical depth ∫₀^len K(eye + s·w) ds of every term (haze_fogfn::Fog::optical_depth).
 fn fog_depth(w: vec3<f32>, len: f32) -> f32 {
+    return fog_depth_from(0u, w, len);
+}
+
+// fog_depth of the fog whose records start at fog_terms[start] (several fogs in one array,
+// each ended by its terminator).
+fn fog_depth_from(start: u32, w: vec3<f32>, len: f32) -> f32 {
     if (len <= 0.0) {
         return 0.0;
     }
     var total = 0.0;
-    var i = 0u;
+    var i = start;
     var bad = false;
     loop {
         let h = fog_terms[i];

@@ -1,6 +1,8 @@
 //! The `f32` WGSL twin of the closed forms (`shaders/fogfn.wgsl`): [`LIBRARY`] defines
 //! `fog_depth(w, len)`, the optical depth along a ray leaving the eye, for any shader that
-//! declares the storage array `fog_terms` and fills it with [`records`]; [`DepthKernel`]
+//! declares the storage array `fog_terms` and fills it with [`records`] (and
+//! `fog_depth_from(start, w, len)` for a fog whose records start at `fog_terms[start]`,
+//! several fogs' records laid end to end); [`DepthKernel`]
 //! runs it over a batch of rays (the twin tests and the benchmarks).
 //!
 //! Precision: [`records`] does in `f64` everything that depends on where the eye is and

@@ -15,6 +15,7 @@ pub mod envref;
 pub mod file;
 pub mod gaussian_medium;
 pub mod gpu;
+pub mod gpu_analytic;
 pub mod gpu_march;
 pub mod gpu_paper_b;
 pub mod gtable;
