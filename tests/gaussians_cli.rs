@@ -105,54 +105,40 @@ fn bad_gaussian_media_are_one_line_errors() {
 }
 
 #[test]
-fn gpu_renders_gaussians_and_refuses_their_noise() {
-    // The bundled scene's noise has no GPU twin: refused on one line. Without it the GPU
-    // renders the scene as the CPU does (crates/scene/tests/gpu_paper_b.rs compares them
-    // pixel by pixel); the viewer, paper C's GPU renderer, refuses heterogeneous media.
-    // These need a GPU adapter (lavapipe will do).
+fn gpu_renders_the_bundled_gaussians_with_their_noise() {
+    // The bundled scene, noise included, on the GPU and on the CPU: the same image within
+    // crates/scene/tests/gpu_paper_b.rs's tolerance (2·10⁻⁴ relative, 10⁻⁴ of the mean;
+    // there pixel by pixel, here through the EXR files). The viewer, paper C's GPU
+    // renderer, refuses heterogeneous media. These need a GPU adapter (lavapipe will do).
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("g.exr");
-    let o = haze()
-        .args(["render", "--scene", &scene(), "--gpu", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
-    let err = String::from_utf8(o.stderr).unwrap();
-    assert!(!o.status.success());
-    // One line of ours, last (the Vulkan loader may print its own warnings before it).
-    assert_eq!(err.matches("noise in Gaussian").count(), 1, "{err}");
-    assert!(
-        err.trim()
-            .lines()
-            .last()
-            .unwrap_or("")
-            .contains("noise in Gaussian media is not rendered on the GPU yet"),
-        "{err}"
+    let (g, c) = (dir.path().join("g.exr"), dir.path().join("c.exr"));
+    let s = scene();
+    let size = ["--width", "16", "--height", "12"];
+    let err = render(
+        &[
+            &["--scene", &s, "--gpu", "--out", g.to_str().unwrap()],
+            &size[..],
+        ]
+        .concat(),
     );
-    let quiet = dir.path().join("quiet.json");
-    let text = std::fs::read_to_string(scene()).unwrap();
-    std::fs::write(&quiet, text.replacen("\"gain\": 1.5", "\"gain\": 0", 1)).unwrap();
-    let err = render(&[
-        "--scene",
-        quiet.to_str().unwrap(),
-        "--gpu",
-        "--width",
-        "16",
-        "--height",
-        "12",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
     assert!(
         err.contains("paper B, 150 gaussians") && err.contains("on the GPU"),
         "{err}"
     );
-    assert!(
-        read_exr(&out)
-            .iter()
-            .flatten()
-            .all(|v| v.is_finite() && *v >= 0.0)
-    );
+    render(&[&["--scene", &s, "--out", c.to_str().unwrap()], &size[..]].concat());
+    let (pg, pc) = (read_exr(&g), read_exr(&c));
+    assert_eq!(pg.len(), pc.len());
+    let mean = pc.iter().flatten().map(|&v| f64::from(v)).sum::<f64>() / (3 * pc.len()) as f64;
+    let mut worst = 0.0f64;
+    for (a, b) in pg.iter().zip(&pc) {
+        for k in 0..3 {
+            let (a, b) = (f64::from(a[k]), f64::from(b[k]));
+            assert!(a.is_finite() && a >= 0.0, "{a}");
+            worst = worst.max((a - b).abs() / (b.abs() + 1e-4 * mean));
+        }
+    }
+    println!("GPU vs CPU: worst relative {worst:.2e}");
+    assert!(worst < 2e-4, "{worst}");
     let o = haze()
         .args([
             "view",

@@ -60,6 +60,12 @@ impl Perlin {
         }
     }
 
+    /// The permutation, doubled (`perm[i] = perm[i + 256]`), that hashes the lattice
+    /// cells: what a twin of [`Perlin::value`] needs to read the same field.
+    pub fn permutation(&self) -> &[u8; 512] {
+        &self.perm
+    }
+
     /// The noise at `x` (lattice units).
     pub fn value(&self, x: Vec3) -> f64 {
         let fl = x.map(f64::floor);
@@ -100,10 +106,13 @@ impl Perlin {
         )
     }
 
+    /// The offsets of [`Perlin::vector`]'s three lookups.
+    pub const VECTOR_OFFSETS: [Vec3; 3] =
+        [[0.0; 3], [31.416, 47.853, 12.793], [73.156, 5.412, 91.737]];
+
     /// Three values of the field at fixed offsets: a noise vector.
     pub fn vector(&self, x: Vec3) -> Vec3 {
-        const OFF: [Vec3; 3] = [[0.0; 3], [31.416, 47.853, 12.793], [73.156, 5.412, 91.737]];
-        OFF.map(|o| self.value([x[0] + o[0], x[1] + o[1], x[2] + o[2]]))
+        Perlin::VECTOR_OFFSETS.map(|o| self.value([x[0] + o[0], x[1] + o[1], x[2] + o[2]]))
     }
 }
 

@@ -4,9 +4,12 @@
 // homogeneous part β0, σs0 (the scene's homogeneous media plus the Gaussian backgrounds).
 
 // Two records per Gaussian: (centre, a = 1/r), (c = peak extinction, albedo, cull radius², -).
+// With noise (header .z = 1), then two more per Gaussian: (eye + offset, frequency),
+// (scale gain·r/|v − b|, record of its permutation, -, -); then the permutations, 512
+// entries each, four per record. NOISE_OFFSET_1/2 are prepended from the CPU's constants.
 @group(0) @binding(7) var<storage, read> blobs: array<vec4<f32>>;
 // Per light l and Gaussian i at l·n + i: e^{Eᵢ} per channel; then per light (C_sv, -, -, -);
-// then (n, 1 if a background hides the suns, -, -) and (σs of the scene's homogeneous
+// then (n, 1 if a background hides the suns, 1 if noise records follow, -) and (σs of the scene's homogeneous
 // media, -).
 @group(0) @binding(8) var<storage, read> bexp: array<vec4<f32>>;
 
@@ -59,6 +62,89 @@ fn line_gauss(c: f32, a: f32, b: vec3<f32>, o: vec3<f32>, d: vec3<f32>, len_in: 
         return 0.0;
     }
     return c * side * SQRT_PI_2 / a * erf_diff(-a * m, a * (len - m));
+}
+
+// Perlin's improved noise (gaussians::noise::Perlin::value) with the permutation at
+// record `base` of `blobs`.
+fn noise_perm(base: u32, k: u32) -> u32 {
+    return u32(blobs[base + (k >> 2u)][k & 3u]);
+}
+
+fn noise_fade(t: vec3<f32>) -> vec3<f32> {
+    return t * t * t * (t * (t * 6.0 - 15.0) + 10.0);
+}
+
+fn noise_lerp(t: f32, a: f32, b: f32) -> f32 {
+    return a + t * (b - a);
+}
+
+// The hashed cube-edge gradient dotted with (x, y, z).
+fn noise_grad(hash: u32, x: f32, y: f32, z: f32) -> f32 {
+    let h = hash & 15u;
+    var u = y;
+    if (h < 8u) {
+        u = x;
+    }
+    var v = z;
+    if (h < 4u) {
+        v = y;
+    } else if (h == 12u || h == 14u) {
+        v = x;
+    }
+    if ((h & 1u) != 0u) {
+        u = -u;
+    }
+    if ((h & 2u) != 0u) {
+        v = -v;
+    }
+    return u + v;
+}
+
+fn perlin_value(base: u32, x: vec3<f32>) -> f32 {
+    let fl = floor(x);
+    // rem_euclid(256), exact while |fl| < 2²⁴.
+    let cell = vec3<u32>(clamp(fl - 256.0 * floor(fl / 256.0), vec3<f32>(0.0), vec3<f32>(255.0)));
+    let f = x - fl;
+    let w = noise_fade(f);
+    let a = noise_perm(base, cell.x) + cell.y;
+    let aa = noise_perm(base, a) + cell.z;
+    let ab = noise_perm(base, a + 1u) + cell.z;
+    let b = noise_perm(base, cell.x + 1u) + cell.y;
+    let ba = noise_perm(base, b) + cell.z;
+    let bb = noise_perm(base, b + 1u) + cell.z;
+    let g000 = noise_grad(noise_perm(base, aa), f.x, f.y, f.z);
+    let g100 = noise_grad(noise_perm(base, ba), f.x - 1.0, f.y, f.z);
+    let g010 = noise_grad(noise_perm(base, ab), f.x, f.y - 1.0, f.z);
+    let g110 = noise_grad(noise_perm(base, bb), f.x - 1.0, f.y - 1.0, f.z);
+    let g001 = noise_grad(noise_perm(base, aa + 1u), f.x, f.y, f.z - 1.0);
+    let g101 = noise_grad(noise_perm(base, ba + 1u), f.x - 1.0, f.y, f.z - 1.0);
+    let g011 = noise_grad(noise_perm(base, ab + 1u), f.x, f.y - 1.0, f.z - 1.0);
+    let g111 = noise_grad(noise_perm(base, bb + 1u), f.x - 1.0, f.y - 1.0, f.z - 1.0);
+    let y0 = noise_lerp(w.y, noise_lerp(w.x, g000, g100), noise_lerp(w.x, g010, g110));
+    let y1 = noise_lerp(w.y, noise_lerp(w.x, g001, g101), noise_lerp(w.x, g011, g111));
+    return noise_lerp(w.z, y0, y1);
+}
+
+// Noise::perturb: the view direction of Gaussian i's Tᵢ(v,p), its projection at t_r.
+fn noisy_direction(i: u32, n_g: u32, dir: vec3<f32>, t_r: f32) -> vec3<f32> {
+    let r0 = blobs[2u * n_g + 2u * i];
+    let r1 = blobs[2u * n_g + 2u * i + 1u];
+    if (r1.x == 0.0) {
+        return dir;
+    }
+    let q = (t_r * dir + r0.xyz) * r0.w;
+    let base = u32(r1.y);
+    let n = vec3<f32>(
+        perlin_value(base, q),
+        perlin_value(base, q + NOISE_OFFSET_1),
+        perlin_value(base, q + NOISE_OFFSET_2),
+    );
+    let d = dir + r1.x * n.x * P.right.xyz + r1.x * n.y * P.up.xyz + r1.x * n.z * P.forward.xyz;
+    let len = length(d);
+    if (len > 0.0 && len < 3.0e38) {
+        return d / len;
+    }
+    return dir;
 }
 
 fn gaussian_count() -> u32 {
@@ -180,6 +266,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let header = arrayLength(&bexp) - 2u;
     let background_hides_suns = bexp[header].y > 0.5;
     let ss_scene = bexp[header + 1u].xyz;
+    let noisy = bexp[header].z > 0.5;
     var out = vec3<f32>(0.0);
     // The Gaussians whose cull sphere the ray crosses: Tᵢ(v,p) and their factored airlight.
     var tau = 0.0;
@@ -194,7 +281,11 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         let a = b0.w;
         let t_r = clamp(m, 0.0, t_end);
-        let vp = line_gauss(b1.x, a, b, vec3<f32>(0.0), dir, t_end);
+        var along = dir;
+        if (noisy) {
+            along = noisy_direction(i, n_g, dir, t_r);
+        }
+        let vp = line_gauss(b1.x, a, b, vec3<f32>(0.0), along, t_end);
         tau += vp;
         if (vp <= 0.0 || b1.y <= 0.0) {
             continue;

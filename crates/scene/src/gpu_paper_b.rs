@@ -5,14 +5,21 @@
 //! Gaussians merged, each one's `e^{Eᵢ}` per light, `C_sv`) and uploads it; the shader
 //! loops over every Gaussian per pixel (those whose cull sphere the ray crosses gather
 //! airlight; every one adds to `T(s,p)`, exact as the CPU's hierarchy), with
-//! Abramowitz–Stegun's erf (`1.5·10⁻⁷`) for libm's. Noise (§5.5) has no GPU twin yet and
-//! is refused.
+//! Abramowitz–Stegun's erf (`1.5·10⁻⁷`) for libm's.
+//!
+//! Noise (§5.5): the shader's `perlin_value` is [`Perlin::value`] in `f32`, reading the
+//! permutation the CPU drew from the medium's seed (uploaded once per distinct medium);
+//! each noisy Gaussian carries its lookup origin `eye + offset`, the frequency and the
+//! scale `gain·rᵢ/|v − bᵢ|` (in `f64` on the CPU), and the shader perturbs the direction
+//! of `Tᵢ(v,p)` in the camera frame as [`haze_gaussians::noise::Noise::perturb`] does.
 
 use crate::airlight::Limits;
 use crate::gpu::GpuRenderer;
 use crate::paper_b::Prepared;
 use crate::render::Image;
 use haze_gaussians::airlight::cull_radius;
+use haze_gaussians::noise::{Noise, Perlin};
+use haze_gaussians::vec::{norm, sub};
 use haze_view::gpu::{GpuContext, GpuError, buffer_init, compute_pipeline};
 
 /// `shaders/paper_b.wgsl`.
@@ -27,9 +34,17 @@ pub struct GpuPaperB {
 impl GpuPaperB {
     /// Compiles render.wgsl (its entry point renamed) with paper_b.wgsl's.
     pub fn new(ctx: &GpuContext) -> Result<GpuPaperB, GpuError> {
+        let off = Perlin::VECTOR_OFFSETS;
         let source = format!(
-            "{}\n{}",
+            "{}\nconst NOISE_OFFSET_1 = vec3<f32>({:?}, {:?}, {:?});\n\
+             const NOISE_OFFSET_2 = vec3<f32>({:?}, {:?}, {:?});\n{}",
             crate::gpu::SHADER.replacen("fn main(", "fn main_paper_c(", 1),
+            off[1][0] as f32,
+            off[1][1] as f32,
+            off[1][2] as f32,
+            off[2][0] as f32,
+            off[2][1] as f32,
+            off[2][2] as f32,
             SHADER
         );
         let pipeline = compute_pipeline(ctx, "paper B pipeline creation", &source)?;
@@ -45,11 +60,6 @@ impl GpuPaperB {
         prep: &Prepared<'_>,
         lim: &Limits,
     ) -> Result<Image, GpuError> {
-        if prep.noise.iter().any(|n| n.is_some_and(|n| n.gain > 0.0)) {
-            return Err(GpuError::Input(
-                "noise in Gaussian media is not rendered on the GPU yet".into(),
-            ));
-        }
         let eye = prep.scene.camera.eye;
         let blobs_in = prep.set.blobs();
         if blobs_in.len() >= 1 << 24 {
@@ -69,6 +79,10 @@ impl GpuPaperB {
             ]);
             blobs.push([b.c as f32, b.albedo as f32, (r * r) as f32, 0.0]);
         }
+        let noisy = prep.noise.iter().any(|n| n.is_some_and(|n| n.gain > 0.0));
+        if noisy {
+            noise_records(prep, &mut blobs)?;
+        }
         if blobs.is_empty() {
             blobs.push([0.0; 4]);
         }
@@ -84,7 +98,7 @@ impl GpuPaperB {
         bexp.push([
             blobs_in.len() as f32,
             if prep.background { 1.0 } else { 0.0 },
-            0.0,
+            if noisy { 1.0 } else { 0.0 },
             0.0,
         ]);
         let ss = prep.scene.medium.sigma_s();
@@ -120,4 +134,51 @@ impl GpuPaperB {
             &[&blobs, &bexp],
         )
     }
+}
+
+/// Appends to `blobs` (the `2n` records of the `n` Gaussians) two noise records per
+/// Gaussian — `(eye + offset, frequency)` and `(gain·rᵢ/|v − bᵢ|, index of its
+/// permutation, -, -)`, a scale of 0 where [`Noise::perturb`] leaves the direction alone —
+/// then each distinct medium's permutation, four entries per record. An error when a
+/// record's index would not be exact in `f32` (`2²⁴`).
+fn noise_records(prep: &Prepared<'_>, blobs: &mut Vec<[f32; 4]>) -> Result<(), GpuError> {
+    let eye = prep.scene.camera.eye;
+    let n = prep.set.blobs().len();
+    let mut tables: Vec<&Noise> = Vec::new();
+    let table_start = 4 * n;
+    for (i, b) in prep.set.blobs().iter().enumerate() {
+        let (origin, scale, table) = match prep.noise[i] {
+            Some(noise) => {
+                let dist = norm(sub(b.center, eye));
+                let scale = if noise.gain == 0.0 || dist <= 0.0 {
+                    0.0
+                } else {
+                    noise.gain * prep.radius[i] / dist
+                };
+                let k = match tables.iter().position(|t| std::ptr::eq(*t, noise)) {
+                    Some(k) => k,
+                    None => {
+                        tables.push(noise);
+                        tables.len() - 1
+                    }
+                };
+                let origin = [0, 1, 2].map(|a| (eye[a] + noise.offset[a]) as f32);
+                ((origin, noise.frequency as f32), scale, k)
+            }
+            None => (([0.0; 3], 0.0), 0.0, 0),
+        };
+        blobs.push([origin.0[0], origin.0[1], origin.0[2], origin.1]);
+        blobs.push([scale as f32, (table_start + 128 * table) as f32, 0.0, 0.0]);
+    }
+    for t in tables {
+        for q in t.perlin.permutation().chunks_exact(4) {
+            blobs.push([q[0], q[1], q[2], q[3]].map(f32::from));
+        }
+    }
+    if blobs.len() > 1 << 24 {
+        return Err(GpuError::Input(format!(
+            "{n} Gaussians with noise are too many for the GPU renderer"
+        )));
+    }
+    Ok(())
 }

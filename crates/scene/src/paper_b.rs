@@ -71,7 +71,7 @@ pub struct Prepared<'a> {
     pub(crate) set: GaussianSet,
     /// Per Gaussian: the noise of its medium and its radius.
     pub(crate) noise: Vec<Option<&'a Noise>>,
-    radius: Vec<f64>,
+    pub(crate) radius: Vec<f64>,
     pub(crate) beta0: Rgb,
     pub(crate) sigma_s0: Rgb,
     /// Whether a Gaussian medium's background fills space (it hides every sun).
