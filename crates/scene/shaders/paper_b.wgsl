@@ -243,16 +243,10 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= w || id.y >= h) {
         return;
     }
-    let tan_half = P.forward.w;
-    let sx = (2.0 * (f32(id.x) + 0.5) / f32(w) - 1.0) * tan_half * P.right.w;
-    let sy = (1.0 - 2.0 * (f32(id.y) + 0.5) / f32(h)) * tan_half;
-    let dir = normalize(P.forward.xyz + sx * P.right.xyz + sy * P.up.xyz);
+    let dir = pixel_dir(vec2<f32>(id.xy) + 0.5);
 
     let env_far = P.flags.y == 0u;
-    var t_max = 3.0e38;
-    if (env_far) {
-        t_max = P.sigma_s.w;
-    }
+    let t_max = primary_t_max();
     let hit = intersect(vec3<f32>(0.0), dir, 0.0, t_max);
     let finite_end = hit.surface >= 0 || env_far;
     var t_end = LONG;

@@ -18,14 +18,6 @@
 // holds RASTER_NEAR / z, 1 there, → 0 far away).
 const RASTER_NEAR: f32 = 1e-4;
 
-// The ray through pixel center `c` (in pixels, y down), as render.wgsl's `main` builds it.
-fn pixel_dir(c: vec2<f32>) -> vec3<f32> {
-    let tan_half = P.forward.w;
-    let sx = (2.0 * c.x / f32(P.size.x) - 1.0) * tan_half * P.right.w;
-    let sy = (1.0 - 2.0 * c.y / f32(P.size.y)) * tan_half;
-    return normalize(P.forward.xyz + sx * P.right.xyz + sy * P.up.xyz);
-}
-
 // Where o + t·d meets the plane of triangle record `r`: (t, u, v) as in `triangle_hit`
 // (Möller–Trumbore, the same operations) without its range tests; t = -1 when the ray is
 // parallel to the plane.
@@ -44,14 +36,6 @@ fn triangle_plane(r: u32, o: vec3<f32>, d: vec3<f32>) -> vec3<f32> {
     let q = cross(s, e1);
     let v = dot(d, q) * inv;
     return vec3<f32>(dot(e2, q) * inv, u, v);
-}
-
-// The far end of primary rays (render.wgsl's `main`).
-fn primary_t_max() -> f32 {
-    if (P.flags.y == 0u) {
-        return P.sigma_s.w;
-    }
-    return 3.0e38;
 }
 
 // The primary hit of pixel `id` from the G-buffer; a mesh's barycentrics recomputed on

@@ -642,6 +642,24 @@ fn shade_surface(dir: vec3<f32>, p: vec3<f32>, n: vec3<f32>, s: u32) -> vec3<f32
     return out;
 }
 
+// Camera::ray through the point `c` of the image (in pixels, y down; a pixel's center
+// is its index + 0.5): a unit direction from the eye.
+fn pixel_dir(c: vec2<f32>) -> vec3<f32> {
+    let tan_half = P.forward.w;
+    let sx = (2.0 * c.x / f32(P.size.x) - 1.0) * tan_half * P.right.w;
+    let sy = (1.0 - 2.0 * c.y / f32(P.size.y)) * tan_half;
+    return normalize(P.forward.xyz + sx * P.right.xyz + sy * P.up.xyz);
+}
+
+// How far primary rays look for surfaces: the environment's distance when it is finite,
+// else "∞".
+fn primary_t_max() -> f32 {
+    if (P.flags.y == 0u) {
+        return P.sigma_s.w;
+    }
+    return 3.0e38;
+}
+
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let w = P.size.x;
@@ -649,17 +667,10 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= w || id.y >= h) {
         return;
     }
-    // Camera::ray through the pixel's center.
-    let tan_half = P.forward.w;
-    let sx = (2.0 * (f32(id.x) + 0.5) / f32(w) - 1.0) * tan_half * P.right.w;
-    let sy = (1.0 - 2.0 * (f32(id.y) + 0.5) / f32(h)) * tan_half;
-    let dir = normalize(P.forward.xyz + sx * P.right.xyz + sy * P.up.xyz);
+    let dir = pixel_dir(vec2<f32>(id.xy) + 0.5);
 
     let env_far = P.flags.y == 0u;
-    var t_max = 3.0e38;
-    if (env_far) {
-        t_max = P.sigma_s.w;
-    }
+    let t_max = primary_t_max();
     let hit = intersect(vec3<f32>(0.0), dir, 0.0, t_max);
     let finite_end = hit.surface >= 0 || env_far;
     let t_end = hit.t;
