@@ -9,6 +9,7 @@
 pub mod airlight;
 pub mod analytic;
 pub mod asset_medium;
+pub mod edit;
 pub mod env_smoke;
 pub mod envglow;
 pub mod envref;
