@@ -507,8 +507,12 @@ pub struct ViewCli {
     input: Option<PathBuf>,
     /// Show a scene file (README "Scenes") instead: paper C's renderer on the GPU, the
     /// orbit camera starting at the scene's, fog and lights in the panel, the surfaces
-    /// rasterized with a depth buffer. Of the options below only --size, --exposure,
-    /// --play-for, --no-window and --ray-traced apply.
+    /// rasterized with a depth buffer. Gaussian media are rendered by paper B (surfaces
+    /// ray-traced) and edited with the panel's tools (paper B §6): paintbrush, airbrush,
+    /// eraser, particle emitter, copy/cut/paste of a dragged rectangle; left drag = stroke,
+    /// right drag = orbit, Ctrl+Z / Ctrl+Y undo and redo, Ctrl+S saves the edited medium
+    /// into SCENE.edited.json (the panel's file; "load" reads one back). Of the options
+    /// below only --size, --exposure, --play-for, --no-window and --ray-traced apply.
     #[arg(long, value_name = "SCENE.json", conflicts_with = "fog")]
     scene: Option<PathBuf>,
     /// Fly through a fogmap's wavelet fog instead (as `haze fog wavelet` renders it), on

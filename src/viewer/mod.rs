@@ -9,11 +9,14 @@
 //! - [`player`]: the clock driving the render thread, shared by the window and
 //!   `--no-window`;
 //! - [`app`]: the egui window;
-//! - [`scene_view`]: `haze view --scene`, a scene file through paper C's GPU renderer;
+//! - [`scene_view`]: `haze view --scene`, a scene file through paper C's GPU renderer
+//!   (paper B's for Gaussian media);
+//! - [`edit_tools`]: its editing tools for Gaussian media (paper B §6);
 //! - [`fog_view`]: `haze view --fog`, a fogmap's wavelet fog (paper E) on the GPU;
 //! - [`fly`]: its fly camera.
 
 mod app;
+pub mod edit_tools;
 mod fly;
 pub mod fog_view;
 pub mod frame;

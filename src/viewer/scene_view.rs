@@ -2,7 +2,11 @@
 //! (`haze_scene::gpu`), with an orbit camera and the medium and lights editable in a side
 //! panel. The surfaces are rasterized with a depth buffer (`haze_scene::raster`), the
 //! airlight and shading computed per pixel up to that depth; a panel switch (or
-//! `--ray-traced`) shows the ray tracer's picture instead, for comparison.
+//! `--ray-traced`) shows the ray tracer's picture instead, for comparison. Scenes whose
+//! heterogeneous media are all Gaussians are rendered by paper B on the GPU
+//! (`haze_scene::gpu_paper_b`, ray-traced surfaces: its raster variant does not exist),
+//! and the panel's editing tools (paper B §6, [`super::edit_tools`]) change their first
+//! Gaussian medium, every edit re-lit in the next picture.
 //!
 //! The orbit starts at the scene's camera and turns about the point its central ray looks
 //! at (the first surface it meets, else the scene's middle at the same distance), Z up.
@@ -12,12 +16,15 @@
 //! BENCHMARKS.md has its time on lavapipe), so the window shows the edit it was asked for,
 //! never an older one; a slow device makes the window slow to answer rather than late.
 
+use super::edit_tools::Editor;
 use super::orbit::Orbit;
 use anyhow::{Result, anyhow, bail};
 use eframe::egui;
 use haze_scene::airlight::Limits;
 use haze_scene::gpu::GpuRenderer;
-use haze_scene::render::Analytic;
+use haze_scene::gpu_paper_b::GpuPaperB;
+use haze_scene::paper_b::{PaperBOptions, Prepared};
+use haze_scene::render::{Analytic, Image};
 use haze_scene::{Light, Scene, Shape};
 use haze_view::gpu::GpuContext;
 use std::ops::RangeInclusive;
@@ -157,30 +164,89 @@ pub fn edited(
 }
 
 /// The scene file, the renderer and its device: what every picture needs.
-struct Renderer {
-    base: Scene,
-    ctx: GpuContext,
+pub(super) struct Renderer {
+    pub(super) base: Scene,
+    pub(super) ctx: GpuContext,
     gpu: GpuRenderer,
-    size: (usize, usize),
+    /// Paper C's tables (paper B's CPU side uses them too).
+    pub(super) analytic: Analytic,
+    /// Paper B's renderer, for a scene whose heterogeneous media are all Gaussians.
+    paper_b: Option<GpuPaperB>,
+    pub(super) size: (usize, usize),
 }
 
 impl Renderer {
-    /// Renders the edited scene; the sRGB bytes of the picture.
-    fn picture(&self, orbit: &Orbit, knobs: &SceneKnobs) -> Result<Vec<u8>, String> {
-        let scene = edited(&self.base, orbit, knobs, self.size)?;
-        let lim = Limits::default();
-        let img = if knobs.rasterized {
-            self.gpu.render_rasterized(&self.ctx, &scene, &lim)
+    /// The renderers of `base` on a new GPU context, for `size` pictures.
+    pub(super) fn new(base: Scene, size: (usize, usize)) -> Result<Renderer> {
+        let ctx = GpuContext::new().map_err(|e| anyhow!("GPU: {e}"))?;
+        let analytic = Analytic::new(&base);
+        let gpu = GpuRenderer::new(&ctx, &analytic).map_err(|e| anyhow!("GPU: {e}"))?;
+        let gaussian =
+            !base.hetero.is_empty() && base.hetero.iter().all(|m| m.gaussians().is_some());
+        let paper_b = if gaussian {
+            Some(GpuPaperB::new(&ctx).map_err(|e| anyhow!("GPU: {e}"))?)
         } else {
-            self.gpu.render(&self.ctx, &scene, &lim)
+            None
+        };
+        Ok(Renderer {
+            base,
+            ctx,
+            gpu,
+            analytic,
+            paper_b,
+            size,
+        })
+    }
+
+    /// The scene the panel, the orbit and the editor (if any) describe.
+    pub(super) fn scene(
+        &self,
+        orbit: &Orbit,
+        knobs: &SceneKnobs,
+        editor: Option<&Editor>,
+    ) -> Result<Scene, String> {
+        let mut scene = edited(&self.base, orbit, knobs, self.size)?;
+        if let Some(e) = editor {
+            e.apply(&mut scene)?;
         }
-        .map_err(|e| e.to_string())?;
+        Ok(scene)
+    }
+
+    /// Renders the edited scene; the sRGB bytes of the picture.
+    pub(super) fn picture(
+        &self,
+        orbit: &Orbit,
+        knobs: &SceneKnobs,
+        editor: Option<&Editor>,
+    ) -> Result<Vec<u8>, String> {
+        let img = self.image(orbit, knobs, editor)?;
         let image = haze_view::Image {
             width: img.width,
             height: img.height,
             pixels: img.pixels,
         };
         Ok(image.to_srgb8(knobs.exposure))
+    }
+
+    /// Renders the edited scene; its linear radiance.
+    pub(super) fn image(
+        &self,
+        orbit: &Orbit,
+        knobs: &SceneKnobs,
+        editor: Option<&Editor>,
+    ) -> Result<Image, String> {
+        let scene = self.scene(orbit, knobs, editor)?;
+        let lim = Limits::default();
+        let img = if let Some(pb) = &self.paper_b {
+            let prep = Prepared::new(&scene, &self.analytic, PaperBOptions::default())?;
+            pb.render(&self.ctx, &self.gpu, &prep, &lim)
+        } else if knobs.rasterized {
+            self.gpu.render_rasterized(&self.ctx, &scene, &lim)
+        } else {
+            self.gpu.render(&self.ctx, &scene, &lim)
+        }
+        .map_err(|e| e.to_string())?;
+        Ok(img)
     }
 }
 
@@ -204,17 +270,11 @@ pub fn run(a: SceneViewArgs) -> Result<()> {
         rasterized: !a.ray_traced,
         ..SceneKnobs::of(&base, a.exposure)
     };
-    let ctx = GpuContext::new().map_err(|e| anyhow!("GPU: {e}"))?;
-    let gpu = GpuRenderer::new(&ctx, &Analytic::new(&base)).map_err(|e| anyhow!("GPU: {e}"))?;
-    let renderer = Renderer {
-        base,
-        ctx,
-        gpu,
-        size: (a.width, a.height),
-    };
+    let editor = Editor::new(&base, &a.scene);
+    let renderer = Renderer::new(base, (a.width, a.height))?;
     // The first picture, also the proof that the scene renders.
     renderer
-        .picture(&orbit, &knobs)
+        .picture(&orbit, &knobs, None)
         .map_err(|e| anyhow!("{}: {e}", a.scene.display()))?;
     if !a.window {
         let line = turn_without_window(&renderer, orbit, &knobs, a.play_for.unwrap_or_default())
@@ -240,6 +300,8 @@ pub fn run(a: SceneViewArgs) -> Result<()> {
         range: (lo.map(|v| v - 2.0), hi.map(|v| v + 2.0)),
         texture: None,
         shown: None,
+        editor,
+        last_tick: Instant::now(),
         frame_ms: 0.0,
         error: None,
         play_for: a.play_for.map(|s| (Instant::now(), s)),
@@ -274,7 +336,7 @@ fn turn_without_window(
     let mut times = Vec::new();
     while start.elapsed().as_secs_f64() < seconds || times.is_empty() {
         let t = Instant::now();
-        r.picture(&orbit, knobs)?;
+        r.picture(&orbit, knobs, None)?;
         times.push(t.elapsed().as_secs_f64());
         orbit.drag(1f64.to_radians() / super::orbit::RADIANS_PER_PIXEL, 0.0);
     }
@@ -293,8 +355,11 @@ fn summary(r: &Renderer, knobs: &SceneKnobs, mut times: Vec<f64>, seconds: f64) 
         r.size.1,
         seconds,
         1e3 * median,
-        // GpuRenderer::render_rasterized ray-traces scenes with voxel media (the march).
-        if knobs.rasterized && r.base.hetero.is_empty() {
+        // GpuRenderer::render_rasterized ray-traces scenes with voxel media (the march);
+        // paper B ray-traces.
+        if r.paper_b.is_some() {
+            "paper B's Gaussians and ray-traced"
+        } else if knobs.rasterized && r.base.hetero.is_empty() {
             "rasterized"
         } else {
             "ray-traced"
@@ -313,8 +378,12 @@ struct SceneApp {
     /// Where the light sliders reach.
     range: ([f64; 3], [f64; 3]),
     texture: Option<egui::TextureHandle>,
-    /// What the texture shows.
-    shown: Option<(Orbit, SceneKnobs)>,
+    /// What the texture shows (the editor's generation last).
+    shown: Option<(Orbit, SceneKnobs, u64)>,
+    /// The Gaussian medium's editing tools, when the scene has one.
+    editor: Option<Editor>,
+    /// When the running airbrush or emitter stroke last advanced.
+    last_tick: Instant,
     frame_ms: f64,
     error: Option<String>,
     /// `--play-for`: close the window that long after it opened.
@@ -326,6 +395,12 @@ struct SceneApp {
 }
 
 impl SceneApp {
+    /// What the picture should show now.
+    fn view(&self) -> (Orbit, SceneKnobs, u64) {
+        let generation = self.editor.as_ref().map_or(0, Editor::generation);
+        (self.orbit.clone(), self.knobs.clone(), generation)
+    }
+
     fn controls(&mut self, ui: &mut egui::Ui) {
         ui.heading("scene");
         ui.label(format!(
@@ -397,6 +472,11 @@ impl SceneApp {
             (self.orbit, self.knobs) = self.start.clone();
         }
         ui.small("drag the image to orbit, scroll to zoom");
+        if let Some(e) = &mut self.editor {
+            ui.separator();
+            ui.heading("edit the Gaussians");
+            e.panel(ui);
+        }
     }
 
     fn image(&mut self, ui: &mut egui::Ui) {
@@ -409,6 +489,9 @@ impl SceneApp {
             let uv = egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0));
             ui.painter()
                 .image(tex.id(), shown, uv, egui::Color32::WHITE);
+            if self.edit_drag(&response, shown, scale) {
+                return;
+            }
         }
         if response.dragged() {
             let d = response.drag_delta();
@@ -422,14 +505,86 @@ impl SceneApp {
         }
     }
 
+    /// Hands a drag on the picture (shown in `shown` at `scale` screen points per pixel)
+    /// to the editing tool, if one is picked: the primary button's drags are strokes, the
+    /// other buttons' still orbit. Whether the editor took it.
+    fn edit_drag(&mut self, response: &egui::Response, shown: egui::Rect, scale: f32) -> bool {
+        let Some(editor) = &mut self.editor else {
+            return false;
+        };
+        if editor.tool == super::edit_tools::Tool::Orbit {
+            return false;
+        }
+        let primary = egui::PointerButton::Primary;
+        let pixel = response.interact_pointer_pos().map(|p| {
+            (
+                f64::from((p.x - shown.min.x) / scale),
+                f64::from((p.y - shown.min.y) / scale),
+            )
+        });
+        let Ok(cam) = self
+            .orbit
+            .camera(self.renderer.size.0, self.renderer.size.1)
+        else {
+            return false;
+        };
+        let scene = &self.renderer.base;
+        let mut took = false;
+        if let Some((px, py)) = pixel {
+            if response.drag_started_by(primary) || response.clicked_by(primary) {
+                if let Err(e) = editor.press(scene, &cam, px, py) {
+                    editor.message = Some(e);
+                }
+                self.last_tick = Instant::now();
+                took = true;
+            } else if response.dragged_by(primary) {
+                editor.drag(scene, &cam, px, py);
+                took = true;
+            }
+        }
+        if response.drag_stopped_by(primary) || response.clicked_by(primary) {
+            editor.release(&cam);
+            took = true;
+        }
+        if let Some(r) = editor.selection() {
+            let at = |(x, y): (f64, f64)| shown.min + egui::vec2(x as f32, y as f32) * scale;
+            let rect = egui::Rect::from_two_pos(at(r.a), at(r.b));
+            let stroke = egui::Stroke::new(1.0, egui::Color32::YELLOW);
+            response.ctx.layer_painter(response.layer_id).rect_stroke(
+                rect,
+                0.0,
+                stroke,
+                egui::StrokeKind::Middle,
+            );
+        }
+        took
+    }
+
+    /// Advances a running airbrush or emitter stroke by the time since the last picture.
+    fn tick(&mut self) {
+        let Some(editor) = &mut self.editor else {
+            return;
+        };
+        let now = Instant::now();
+        if editor.running()
+            && let Ok(cam) = self
+                .orbit
+                .camera(self.renderer.size.0, self.renderer.size.1)
+        {
+            let dt = now.duration_since(self.last_tick).as_secs_f64();
+            editor.tick(&self.renderer.base, &cam, dt);
+        }
+        self.last_tick = now;
+    }
+
     /// Renders the current view if the texture shows another.
     fn refresh(&mut self, ctx: &egui::Context) {
-        let now = (self.orbit.clone(), self.knobs.clone());
+        let now = self.view();
         if self.shown.as_ref() == Some(&now) {
             return;
         }
         let t = Instant::now();
-        match self.renderer.picture(&now.0, &now.1) {
+        match self.renderer.picture(&now.0, &now.1, self.editor.as_ref()) {
             Ok(rgb) => {
                 let (w, h) = self.renderer.size;
                 super::show_picture(ctx, &mut self.texture, "scene", [w, h], &rgb);
@@ -447,6 +602,10 @@ impl SceneApp {
 impl eframe::App for SceneApp {
     fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
         let ctx = ui.ctx().clone();
+        if let Some(e) = &mut self.editor {
+            e.keys(&ctx);
+        }
+        self.tick();
         self.refresh(&ctx);
         egui::Panel::left("controls")
             .resizable(false)
@@ -472,8 +631,10 @@ impl eframe::App for SceneApp {
                 ctx.request_repaint_after(std::time::Duration::from_secs_f64(left));
             }
         }
-        // A knob or the camera moved during this pass: the next pass renders it.
-        if self.shown.as_ref() != Some(&(self.orbit.clone(), self.knobs.clone())) {
+        // A knob, the camera or the Gaussians moved during this pass, or particles are
+        // flying: the next pass renders it.
+        let running = self.editor.as_ref().is_some_and(Editor::running);
+        if running || self.shown.as_ref() != Some(&self.view()) {
             ctx.request_repaint();
         }
     }
