@@ -570,6 +570,17 @@ pub struct ViewCli {
     /// (the panel switches between the two).
     #[arg(long, requires = "scene")]
     ray_traced: bool,
+    /// With --scene: a scripted stroke of the Gaussian editing tools, applied before the
+    /// first picture with the scene's camera, at the render size: TOOL (paint, airbrush,
+    /// erase, emit, copy, cut, paste) then the cursor's picture points `X,Y` (pixels,
+    /// from the top left), e.g. `paint:10,40:50,40`; the panel's default settings;
+    /// airbrush and emitter strokes run 0.05 s per point. Repeat for more strokes.
+    #[arg(long, value_name = "TOOL:X,Y[:X,Y…]", requires = "scene", value_parser = crate::viewer::edit_tools::parse_stroke)]
+    stroke: Vec<crate::viewer::edit_tools::ScriptedStroke>,
+    /// With --scene: after the --stroke edits, save the edited Gaussian medium into a copy
+    /// of the scene file at FILE (as the panel's "save").
+    #[arg(long, value_name = "FILE", requires = "scene")]
+    save_edits: Option<PathBuf>,
     /// Where the lighting at the RBF centers (single scattering and the diffusion of
     /// multiple scattering) is computed. `auto`: on the GPU, unless the adapter is a CPU
     /// (lavapipe), where the CPU's own code is several times faster.
@@ -947,6 +958,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                     play_for: v.play_for,
                     window: !v.no_window,
                     ray_traced: v.ray_traced,
+                    strokes: v.stroke,
+                    save_edits: v.save_edits,
                 })
             }
             None => crate::viewer::run(v.into_args()),

@@ -160,3 +160,103 @@ fn gpu_renders_the_bundled_gaussians_with_their_noise() {
         "{out}"
     );
 }
+
+/// `haze view --scene` edits the bundled Gaussians from the command line and saves them:
+/// a scripted paint stroke across the floor and an eraser stroke, then `--save-edits`; the
+/// saved copy loads, holds the count the viewer reported, keeps the first Gaussians it did
+/// not erase and adds the stroke's on the floor (`|z|` below the default jitter, half the
+/// radius); a bad stroke or a scene without Gaussians is an error on its first line.
+#[test]
+fn view_scripts_strokes_and_saves_the_edited_medium() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("edited.json");
+    let o = haze()
+        .args(["view", "--scene", &scene(), "--size", "64x48"])
+        .args(["--no-window", "--play-for", "0.1"])
+        .args(["--stroke", "paint:10,40:30,42:50,40"])
+        .args(["--stroke", "erase:32,12"])
+        .args(["--save-edits", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert!(o.status.success(), "{err}");
+    let count = err
+        .split_once("2 strokes: 150 → ")
+        .and_then(|(_, r)| r.split_once(" Gaussians"))
+        .and_then(|(n, _)| n.parse::<usize>().ok())
+        .unwrap_or_else(|| panic!("{err}"));
+    assert!(
+        err.contains(&format!("saved {count} Gaussians to ")),
+        "{err}"
+    );
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
+    let edited = v["media"][0]["gaussians"].as_array().unwrap();
+    assert_eq!(edited.len(), count);
+    let first: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(scene()).unwrap()).unwrap();
+    let first = first["media"][0]["gaussians"].as_array().unwrap();
+    // The first Gaussians come first, each as it was or 0.05 lighter (one eraser dab);
+    // the stroke's follow.
+    let mut lowered = 0;
+    let mut kept = 0;
+    for (g, f) in edited.iter().zip(first) {
+        if g["center"] != f["center"] {
+            break;
+        }
+        kept += 1;
+        let (w, w0) = (g["weight"].as_f64().unwrap(), f["weight"].as_f64().unwrap());
+        if w != w0 {
+            assert!((w - (w0 - 0.05)).abs() < 1e-12, "{g} from {f}");
+            lowered += 1;
+        }
+    }
+    assert!(lowered > 0 && kept > 100 && kept <= 150, "{lowered} {kept}");
+    let added = &edited[kept..];
+    assert!(!added.is_empty());
+    for g in added {
+        let (z, r) = (
+            g["center"][2].as_f64().unwrap(),
+            g["radius"].as_f64().unwrap(),
+        );
+        assert!(z.abs() < 0.5 * r, "{g}");
+    }
+    let fails = |args: &[&str], needle: &str| {
+        let o = haze().args(args).output().unwrap();
+        let err = String::from_utf8(o.stderr).unwrap();
+        // 1 from haze, 2 from clap's parse of the arguments.
+        assert!(matches!(o.status.code(), Some(1 | 2)), "{err}");
+        assert!(err.lines().next().unwrap_or("").contains(needle), "{err}");
+    };
+    let play = ["--no-window", "--play-for", "0.1"];
+    fails(
+        &[
+            &["view", "--scene", &scene(), "--stroke", "wipe:1,2"][..],
+            &play,
+        ]
+        .concat(),
+        "unknown tool 'wipe'",
+    );
+    fails(
+        &[
+            &["view", "--scene", &scene(), "--stroke", "paint:1"][..],
+            &play,
+        ]
+        .concat(),
+        "'1' is not a picture point X,Y",
+    );
+    let room = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/scenes/room.json");
+    fails(
+        &[
+            &[
+                "view",
+                "--scene",
+                room.to_str().unwrap(),
+                "--stroke",
+                "paint:1,2",
+            ][..],
+            &play,
+        ]
+        .concat(),
+        "room.json: --stroke and --save-edits edit a Gaussian medium, and the scene has none",
+    );
+}

@@ -353,6 +353,35 @@ fn the_scene_window_shows_on_a_virtual_display() {
     assert_eq!(out.lines().count(), 1, "{out}");
 }
 
+/// `haze view --scene`'s window on the bundled Gaussian medium with one scripted paint
+/// stroke: opens, shows the edited medium through paper B, and `--play-for` closes it with
+/// the measurement line.
+#[cfg(target_os = "linux")]
+#[test]
+fn the_scene_window_shows_a_painted_gaussian_medium() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = data("scenes/gaussians.json");
+    let out = on_virtual_display(
+        dir.path(),
+        &[
+            "view",
+            "--scene",
+            &scene,
+            "--size",
+            "64x48",
+            "--stroke",
+            "paint:10,40:50,40",
+            "--play-for",
+            "2",
+        ],
+    );
+    assert!(
+        out.contains("of 64×48 in") && out.contains("paper B's Gaussians"),
+        "{out}"
+    );
+    assert_eq!(out.lines().count(), 1, "{out}");
+}
+
 /// `haze view --fog`'s window on a virtual display: opens on the bundled fogmap with the
 /// wind blowing, and `--play-for` closes it after a second with the measurement line.
 #[cfg(target_os = "linux")]

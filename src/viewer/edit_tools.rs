@@ -58,6 +58,66 @@ impl Tool {
     ];
 }
 
+/// A stroke given on the command line (`--stroke TOOL:X,Y:X,Y…`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ScriptedStroke {
+    pub tool: Tool,
+    /// The cursor's picture points, in pixels from the top left.
+    pub points: Vec<(f64, f64)>,
+}
+
+impl std::fmt::Display for ScriptedStroke {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let name = SCRIPT_NAMES.iter().find(|n| n.1 == self.tool);
+        write!(f, "{}", name.map_or("orbit", |n| n.0))?;
+        for (x, y) in &self.points {
+            write!(f, ":{x},{y}")?;
+        }
+        Ok(())
+    }
+}
+
+/// The tools' names in `--stroke`.
+const SCRIPT_NAMES: [(&str, Tool); 7] = [
+    ("paint", Tool::Paint),
+    ("airbrush", Tool::Airbrush),
+    ("erase", Tool::Erase),
+    ("emit", Tool::Emit),
+    ("copy", Tool::Copy),
+    ("cut", Tool::Cut),
+    ("paste", Tool::Paste),
+];
+
+/// Seconds an airbrush or emitter stroke of `--stroke` runs per point.
+const SCRIPT_TICK: f64 = 0.05;
+
+/// Parses `TOOL:X,Y[:X,Y…]`.
+pub fn parse_stroke(s: &str) -> Result<ScriptedStroke, String> {
+    let mut parts = s.split(':');
+    let name = parts.next().unwrap_or_default().trim();
+    let tool = SCRIPT_NAMES
+        .iter()
+        .find(|n| n.0 == name)
+        .map(|n| n.1)
+        .ok_or_else(|| {
+            let known: Vec<&str> = SCRIPT_NAMES.iter().map(|n| n.0).collect();
+            format!("unknown tool '{name}' (known: {})", known.join(", "))
+        })?;
+    let points = parts
+        .map(|p| {
+            let xy = p.split_once(',').and_then(|(x, y)| {
+                let (x, y) = (x.trim().parse::<f64>().ok()?, y.trim().parse::<f64>().ok()?);
+                (x.is_finite() && y.is_finite()).then_some((x, y))
+            });
+            xy.ok_or_else(|| format!("'{p}' is not a picture point X,Y"))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    if points.is_empty() {
+        return Err(format!("'{s}' has no points: give TOOL:X,Y[:X,Y…]"));
+    }
+    Ok(ScriptedStroke { tool, points })
+}
+
 /// The tools' settings.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ToolKnobs {
@@ -355,6 +415,29 @@ impl Editor {
         self.doc.commit(draft.into_edit());
         self.strokes += 1;
         self.generation += 1;
+    }
+
+    /// Plays a scripted stroke with the tool it names and the current settings: the
+    /// button pressed at its first point, dragged through the others (airbrush and
+    /// emitter strokes running [`SCRIPT_TICK`] before each, and once more at the end),
+    /// released.
+    pub fn script(
+        &mut self,
+        scene: &Scene,
+        cam: &Camera,
+        s: &ScriptedStroke,
+    ) -> Result<(), String> {
+        self.tool = s.tool;
+        let (x, y) = s.points[0];
+        self.press(scene, cam, x, y)?;
+        for &(x, y) in &s.points[1..] {
+            self.tick(scene, cam, SCRIPT_TICK);
+            self.drag(scene, cam, x, y);
+        }
+        self.tick(scene, cam, SCRIPT_TICK);
+        self.release(cam);
+        self.tool = Tool::Orbit;
+        Ok(())
     }
 
     pub fn undo(&mut self) {

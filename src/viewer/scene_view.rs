@@ -16,7 +16,7 @@
 //! BENCHMARKS.md has its time on lavapipe), so the window shows the edit it was asked for,
 //! never an older one; a slow device makes the window slow to answer rather than late.
 
-use super::edit_tools::Editor;
+use super::edit_tools::{Editor, ScriptedStroke};
 use super::orbit::Orbit;
 use anyhow::{Result, anyhow, bail};
 use eframe::egui;
@@ -45,6 +45,10 @@ pub struct SceneViewArgs {
     pub window: bool,
     /// Start with the surfaces ray-traced rather than rasterized.
     pub ray_traced: bool,
+    /// Edits of the Gaussian medium made before the first picture.
+    pub strokes: Vec<ScriptedStroke>,
+    /// Where to save the medium after them.
+    pub save_edits: Option<PathBuf>,
 }
 
 /// One light's knobs.
@@ -270,15 +274,52 @@ pub fn run(a: SceneViewArgs) -> Result<()> {
         rasterized: !a.ray_traced,
         ..SceneKnobs::of(&base, a.exposure)
     };
-    let editor = Editor::new(&base, &a.scene);
+    let mut editor = Editor::new(&base, &a.scene);
+    if !a.strokes.is_empty() || a.save_edits.is_some() {
+        let e = editor.as_mut().ok_or_else(|| {
+            anyhow!(
+                "{}: --stroke and --save-edits edit a Gaussian medium, and the scene has none",
+                a.scene.display()
+            )
+        })?;
+        let cam = orbit
+            .camera(a.width, a.height)
+            .map_err(|e| anyhow!("{}: camera: {e}", a.scene.display()))?;
+        let before = e.gaussians().len();
+        for s in &a.strokes {
+            e.script(&base, &cam, s)
+                .map_err(|e| anyhow!("{}: --stroke {s}: {e}", a.scene.display()))?;
+        }
+        eprintln!(
+            "{} stroke{}: {before} → {} Gaussians",
+            a.strokes.len(),
+            if a.strokes.len() == 1 { "" } else { "s" },
+            e.gaussians().len()
+        );
+        if let Some(out) = &a.save_edits {
+            e.path = out.display().to_string();
+            e.save();
+            let said = e.message.take().unwrap_or_default();
+            if !said.starts_with("saved") {
+                bail!("--save-edits: {said}");
+            }
+            eprintln!("{said}");
+        }
+    }
     let renderer = Renderer::new(base, (a.width, a.height))?;
     // The first picture, also the proof that the scene renders.
     renderer
-        .picture(&orbit, &knobs, None)
+        .picture(&orbit, &knobs, editor.as_ref())
         .map_err(|e| anyhow!("{}: {e}", a.scene.display()))?;
     if !a.window {
-        let line = turn_without_window(&renderer, orbit, &knobs, a.play_for.unwrap_or_default())
-            .map_err(|e| anyhow!("{}: {e}", a.scene.display()))?;
+        let line = turn_without_window(
+            &renderer,
+            orbit,
+            &knobs,
+            editor.as_ref(),
+            a.play_for.unwrap_or_default(),
+        )
+        .map_err(|e| anyhow!("{}: {e}", a.scene.display()))?;
         println!("{line}");
         return Ok(());
     }
@@ -330,13 +371,14 @@ fn turn_without_window(
     r: &Renderer,
     mut orbit: Orbit,
     knobs: &SceneKnobs,
+    editor: Option<&Editor>,
     seconds: f64,
 ) -> Result<String, String> {
     let start = Instant::now();
     let mut times = Vec::new();
     while start.elapsed().as_secs_f64() < seconds || times.is_empty() {
         let t = Instant::now();
-        r.picture(&orbit, knobs, None)?;
+        r.picture(&orbit, knobs, editor)?;
         times.push(t.elapsed().as_secs_f64());
         orbit.drag(1f64.to_radians() / super::orbit::RADIANS_PER_PIXEL, 0.0);
     }
