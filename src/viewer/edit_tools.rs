@@ -675,6 +675,28 @@ mod tests {
             .count()
     }
 
+    /// `--stroke` values: every tool's name, points in pixels, written back as given;
+    /// bad ones say why.
+    #[test]
+    fn scripted_strokes_parse_and_print_back() {
+        for (name, tool) in SCRIPT_NAMES {
+            let text = format!("{name}:1.5,2:30,-4");
+            let s = parse_stroke(&text).unwrap();
+            assert_eq!(s.tool, tool);
+            assert_eq!(s.points, vec![(1.5, 2.0), (30.0, -4.0)]);
+            assert_eq!(s.to_string(), text);
+        }
+        for (bad, why) in [
+            ("brush:1,2", "unknown tool 'brush'"),
+            ("paint", "has no points"),
+            ("paint:1,2:3", "'3' is not a picture point"),
+            ("erase:1,nan", "'1,nan' is not a picture point"),
+        ] {
+            let e = parse_stroke(bad).unwrap_err();
+            assert!(e.contains(why), "{bad}: {e}");
+        }
+    }
+
     /// The viewer's editing path on the bundled Gaussian scene, on the GPU: one scripted
     /// paintbrush stroke across the floor (press, ten moves, release through the hooks
     /// the window calls) adds the Gaussians the stroke implies — one every 0.75 radius of
