@@ -368,9 +368,15 @@ impl Editor {
     /// The cursor moves to `(px, py)` with the button down.
     pub fn drag(&mut self, scene: &Scene, cam: &Camera, px: f64, py: f64) {
         self.cursor = (px, py);
+        let target = self.knobs.target();
         match &mut self.stroke {
             Some((d, Stroke::Paint(b))) => b.stroke_to(scene, cam, px, py, d),
             Some((d, Stroke::Erase(e))) => e.stroke_to(cam, px, py, d),
+            Some((_, Stroke::Emit(e))) => {
+                if let Some((at, _)) = target.hit(scene, cam, px, py) {
+                    e.move_to(at);
+                }
+            }
             Some(_) => {}
             None => return,
         }

@@ -6,8 +6,10 @@
 //! lets the lifetime set size and density, "the longer the particle lives, the smaller
 //! its scale `a` and amplitude `c`": here `a` halves and `c` falls to zero linearly over
 //! the lifetime, i.e. radius `r₀/(1 − ½τ/L)` and weight `w₀·(1 − τ/L)` (the paper gives
-//! no law). The emitter runs while the button is held; when the stroke ends its living
-//! particles freeze into Gaussians.
+//! no law). The emitter runs while the button is held and can be moved meanwhile
+//! ([`Emitter::move_to`]: the cursor drags it along a path, each particle starting where
+//! the emitter was at its birth); when the stroke ends its living particles freeze into
+//! Gaussians.
 
 use super::{Draft, normal_deviate};
 use crate::vec3::{Vec3, axpy, norm};
@@ -71,10 +73,11 @@ impl EmitParams {
     }
 }
 
-/// A particle: its birth time and initial velocity.
+/// A particle: its birth time and place and initial velocity.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Particle {
     born: f64,
+    origin: Vec3,
     velocity: Vec3,
 }
 
@@ -127,12 +130,21 @@ impl Emitter {
             let kick = [0; 3].map(|_| s * normal_deviate(&mut self.rng));
             self.alive.push(Particle {
                 born,
+                origin: self.origin,
                 velocity: axpy(kick, 1.0, p.velocity),
             });
             self.born += 1;
         }
         let now = self.time;
         self.alive.retain(|q| now - q.born < p.lifetime);
+    }
+
+    /// Moves the emitter to `origin` (a finite point; others are ignored): particles born
+    /// from now on start there.
+    pub fn move_to(&mut self, origin: Vec3) {
+        if origin.iter().all(|x| x.is_finite()) {
+            self.origin = origin;
+        }
     }
 
     /// The living particles as Gaussians, oldest first.
@@ -143,7 +155,7 @@ impl Emitter {
             .map(|q| {
                 let age = self.time - q.born;
                 let x = [0, 1, 2].map(|k| {
-                    self.origin[k] + q.velocity[k] * age + 0.5 * p.acceleration[k] * age * age
+                    q.origin[k] + q.velocity[k] * age + 0.5 * p.acceleration[k] * age * age
                 });
                 p.gaussian(x, age)
             })
@@ -194,6 +206,26 @@ mod tests {
             }
             assert!((g.radius - 0.1 / (1.0 - 0.5 * age / 0.75)).abs() < 1e-12);
             assert!((g.weight - 0.8 * (1.0 - age / 0.75)).abs() < 1e-12);
+        }
+        // Moved at 2.03 s then run 0.25 s on: the particles born since (k = 21, 22)
+        // start at the new place, the others keep their parabolas.
+        let mut moved = e.clone();
+        let to = [2.0, 2.0, 1.0];
+        moved.move_to(to);
+        moved.advance(0.25);
+        let after = moved.gaussians();
+        assert_eq!(after.len(), 7, "k = 16…22");
+        for (g, k) in after.iter().zip(16..) {
+            let age = 2.28 - k as f64 / 10.0;
+            let from = if k >= 21 { to } else { origin };
+            let want = [
+                from[0] + age,
+                from[1],
+                from[2] + 3.0 * age - 0.5 * 9.81 * age * age,
+            ];
+            for (x, w) in g.center.iter().zip(want) {
+                assert!((x - w).abs() < 1e-9, "{k}: {g:?}");
+            }
         }
         // Older particles are larger and fainter.
         assert!(gs[0].radius > gs[7].radius && gs[0].weight < gs[7].weight);
