@@ -455,6 +455,9 @@ impl SceneApp {
         }
         ui.checkbox(&mut self.knobs.rasterized, "rasterize surfaces")
             .on_hover_text("off: every pixel's ray traced through the surfaces instead");
+        if self.renderer.paper_b.is_some() {
+            ui.small("Gaussian media: paper B, surfaces ray-traced");
+        }
         ui.separator();
         ui.label("medium");
         let k = &mut self.knobs;
