@@ -9,11 +9,13 @@
 //! - [`player`]: the clock driving the render thread, shared by the window and
 //!   `--no-window`;
 //! - [`app`]: the egui window;
+//! - [`budget`]: the starting knobs chosen for a time budget or an error target;
 //! - [`scene_view`]: `haze view --scene`, a scene file through paper C's GPU renderer;
 //! - [`fog_view`]: `haze view --fog`, a fogmap's wavelet fog (paper E) on the GPU;
 //! - [`fly`]: its fly camera.
 
 mod app;
+pub mod budget;
 mod fly;
 pub mod fog_view;
 pub mod frame;
@@ -62,6 +64,10 @@ pub struct ViewArgs {
     pub window: bool,
     /// Where the lighting at the centers (single and multiple scattering) is computed.
     pub lighting: LightingOn,
+    /// Start with the knobs a tradeoff sweep's front gives for this budget or target.
+    pub goal: Option<crate::tradeoff::pareto::Goal>,
+    /// The sweep for `goal`; a quick sweep of the asset when absent.
+    pub tradeoff: Option<PathBuf>,
 }
 
 /// The knobs of the window, with their values from the command line.
@@ -78,6 +84,22 @@ pub struct Knobs {
 }
 
 impl Knobs {
+    /// The rendering knobs in words ("SH order 2, 1 slices per voxel, single scattering,
+    /// residual on").
+    pub fn describe(&self) -> String {
+        format!(
+            "SH order {}, {} slices per voxel, {}, residual {}",
+            self.sh_order,
+            self.slices,
+            if self.multiple {
+                "single + multiple scattering"
+            } else {
+                "single scattering"
+            },
+            if self.residual { "on" } else { "off" }
+        )
+    }
+
     /// The medium and the renderer's options of these knobs.
     fn scene(&self, env: Arc<Environment>) -> Result<Scene, String> {
         Ok(Scene {
@@ -127,8 +149,17 @@ pub fn parse_size(s: &str) -> Result<(usize, usize), String> {
     }
 }
 
-pub fn run(a: ViewArgs) -> Result<()> {
+pub fn run(mut a: ViewArgs) -> Result<()> {
     let started = Instant::now();
+    if a.input.is_dir() {
+        bail!(
+            "{}: a directory, not a baked asset (haze bake makes a .haze file of it)",
+            a.input.display()
+        );
+    }
+    if let Some(goal) = a.goal {
+        budget::choose_knobs(&mut a, goal)?;
+    }
     // Every knob is checked before anything opens.
     let knobs = a.knobs;
     crate::render::check_knobs(knobs.sh_order, knobs.slices)?;
@@ -148,12 +179,6 @@ pub fn run(a: ViewArgs) -> Result<()> {
 
     // The asset: its first frame is read now, so a file that is not a baked asset is
     // refused before any window opens; it also places the camera.
-    if a.input.is_dir() {
-        bail!(
-            "{}: a directory, not a baked asset (haze bake makes a .haze file of it)",
-            a.input.display()
-        );
-    }
     let stream = FrameStream::open(&a.input, READ_AHEAD, true)?;
     let numbers = stream.frame_numbers().to_vec();
     let playback = Playback::new(stream.frame_count(), a.fps).map_err(|e| anyhow!(e))?;
@@ -190,7 +215,7 @@ pub fn run(a: ViewArgs) -> Result<()> {
         let worker = Worker::spawn(cursor, ctx, a.lighting, Box::new(|| {}))?;
         let mut player = Player::new(playback, worker, started);
         let line = play_without_window(&mut player, &initial, play_for)?;
-        println!("{line}");
+        println!("{line}; {}", knobs.describe());
         return Ok(());
     }
     app::run_window(app::Setup {
