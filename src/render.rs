@@ -237,6 +237,12 @@ fn choose_knobs(a: &mut RenderArgs, goal: Goal) -> Result<()> {
     let (doc, source) = match &a.tradeoff {
         Some(path) => {
             let mut doc = choice::read(path)?;
+            if doc.get("kind").and_then(|k| k.as_str()) == Some("fogmap") {
+                bail!(
+                    "{}: a fogmap's sweep cannot choose a smoke render's knobs",
+                    path.display()
+                );
+            }
             if let Some(warning) = choice::rescale(&mut doc, a.width, a.height)
                 .map_err(|e| anyhow!("{}: {e}", path.display()))?
             {
@@ -265,9 +271,6 @@ fn choose_knobs(a: &mut RenderArgs, goal: Goal) -> Result<()> {
             (doc, format!("a quick sweep of {}", a.input.display()))
         }
     };
-    if doc.get("kind").and_then(|k| k.as_str()) == Some("fogmap") {
-        bail!("{source}: a fogmap's sweep cannot choose a smoke render's knobs");
-    }
     let c = choice::choose(&doc, goal).map_err(|e| anyhow!("{source}: {e}"))?;
     let is_asset = a
         .input
@@ -575,7 +578,8 @@ mod tests {
     /// the knob that meets the budget, is chosen and reaches the render's options.
     #[test]
     fn exp_source_and_cg_choices_reach_the_render() {
-        let cases: [(&str, Value, fn(&RenderArgs) -> bool); 3] = [
+        type Applied = fn(&RenderArgs) -> bool;
+        let cases: [(&str, Value, Applied); 3] = [
             ("exp", json!("linear"), |a| {
                 a.exp == ExpMethod::OptimalLinear
             }),

@@ -654,3 +654,112 @@ fn print_summary(sweep: &Sweep, path: &Path, plots: usize, timing: &str) {
             .map_or_else(String::new, |p| p.display().to_string())
     );
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A lab of two knobs, `model` (changes the render's work and its picture) and
+    /// `stored` (bake-only: changes the picture, not the work), whose pictures are flat at
+    /// `1 + 0.1·model + 0.01·stored` and whose clock runs down with every call: timing
+    /// noise that would make each later setting look faster.
+    struct Flat {
+        knobs: Vec<Knob>,
+        calls: f64,
+    }
+
+    impl Lab for Flat {
+        fn kind(&self) -> &'static str {
+            "smoke"
+        }
+        fn knobs(&self) -> &[Knob] {
+            &self.knobs
+        }
+        fn measure(&mut self, s: &[usize]) -> Result<Sample> {
+            self.calls += 1.0;
+            let v = 1.0 + 0.1 * s[0] as f32 + 0.01 * s[1] as f32;
+            let mut image = Image::new(4, 3);
+            image.pixels.iter_mut().for_each(|p| *p = [v; 3]);
+            // Work: 100 ms per step of `model` down from 2, less the noise.
+            let render_ms = 100.0 * (3.0 - s[0] as f64) - self.calls;
+            Ok(Sample {
+                image,
+                render_ms,
+                ms: json!({"render": render_ms, "view": render_ms / 2.0}),
+                detail: json!({}),
+            })
+        }
+        fn reference(&mut self, _spp: u32) -> Result<Image> {
+            unreachable!("not asked for")
+        }
+    }
+
+    fn flat() -> Flat {
+        Flat {
+            knobs: vec![
+                Knob::new("model", vec![json!(0), json!(1), json!(2)], 1, 2),
+                Knob::new("stored", vec![json!(0), json!(1)], 0, 1).render_neutral(),
+            ],
+            calls: 0.0,
+        }
+    }
+
+    /// A bake-only change takes the render time of its twin (the same render knobs):
+    /// the noise that made it look faster is gone and it cannot undercut its twin on the
+    /// front. Its own measured time is kept beside.
+    #[test]
+    fn bake_only_changes_render_in_their_twins_time() {
+        let plan = Plan {
+            cheaper_steps: 3,
+            accurate_steps: 3,
+            factorial: None,
+        };
+        let bar = indicatif::ProgressBar::hidden();
+        let sweep = run_sweep(&mut flat(), plan, Vec::new(), None, &bar).unwrap();
+        let at = |s: &[usize]| sweep.measured.iter().find(|m| m.setting == s).unwrap();
+        let (default, stored) = (at(&[1, 0]), at(&[1, 1]));
+        assert_eq!(stored.sample.render_ms, default.sample.render_ms);
+        assert_eq!(stored.sample.ms["render"], json!(default.sample.render_ms));
+        assert!(stored.sample.ms["render_measured"].as_f64().unwrap() < default.sample.render_ms);
+        // The best setting (model 2, stored 1) shares the time of (2, 0) when measured.
+        if let Some(twin) = sweep.measured.iter().find(|m| m.setting == [2, 0]) {
+            assert_eq!(at(&[2, 1]).sample.render_ms, twin.sample.render_ms);
+        }
+        // On the front, of two settings with the same render knobs only the more accurate
+        // one remains.
+        for &i in &sweep.front {
+            for &j in &sweep.front {
+                if i != j {
+                    assert_ne!(sweep.measured[i].setting[0], sweep.measured[j].setting[0]);
+                }
+            }
+        }
+    }
+
+    /// The knob effects against flat pictures: the rel RMS of `a` against `b` is
+    /// `|a − b| / b`.
+    #[test]
+    fn knob_effects_are_the_picture_changes_measured() {
+        let plan = Plan {
+            cheaper_steps: 0,
+            accurate_steps: 0,
+            factorial: None,
+        };
+        let bar = indicatif::ProgressBar::hidden();
+        let sweep = run_sweep(&mut flat(), plan, Vec::new(), None, &bar).unwrap();
+        let e = sweep.effects();
+        let rows = e["model"].as_array().unwrap();
+        assert_eq!(rows.len(), 3);
+        let close = |x: &Value, y: f64| (x.as_f64().unwrap() - y).abs() < 1e-6;
+        // model 0: 1.0 against the defaults' 1.1 and the best's 1.2.
+        assert_eq!(rows[0]["value"], json!(0));
+        assert!(close(&rows[0]["change"], 0.1 / 1.1), "{}", rows[0]);
+        assert!(close(&rows[0]["vs_best"], 0.2 / 1.2), "{}", rows[0]);
+        assert!(close(&rows[1]["change"], 0.0));
+        let stored = e["stored"].as_array().unwrap();
+        assert!(close(&stored[1]["change"], 0.01 / 1.1), "{}", stored[1]);
+        assert!(close(&stored[0]["vs_best"], 0.01 / 1.11), "{}", stored[0]);
+        // Its render time is its twin's (the defaults').
+        assert_eq!(stored[1]["ms"], stored[0]["ms"]);
+    }
+}

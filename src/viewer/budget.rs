@@ -21,6 +21,9 @@ pub fn choose_knobs(a: &mut ViewArgs, goal: Goal) -> Result<()> {
     let (doc, source) = match &a.tradeoff {
         Some(path) => {
             let mut doc = choice::read(path)?;
+            if doc.get("kind").and_then(|k| k.as_str()) != Some("smoke") {
+                bail!("{}: not a smoke sweep", path.display());
+            }
             if let Some(warning) = choice::rescale(&mut doc, a.width, a.height)
                 .map_err(|e| anyhow!("{}: {e}", path.display()))?
             {
@@ -55,9 +58,6 @@ pub fn choose_knobs(a: &mut ViewArgs, goal: Goal) -> Result<()> {
             (doc, format!("a quick sweep of {}", a.input.display()))
         }
     };
-    if doc.get("kind").and_then(|k| k.as_str()) != Some("smoke") {
-        bail!("{source}: not a smoke sweep");
-    }
     let c = choice::choose(&doc, goal).map_err(|e| anyhow!("{source}: {e}"))?;
     apply(a, &c);
     eprintln!("choice from {source}: {}", c.reason);
