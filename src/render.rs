@@ -267,23 +267,44 @@ fn choose_knobs(a: &mut RenderArgs, goal: Goal) -> Result<()> {
                 import: a.import.clone(),
                 timing: crate::tradeoff::smoke::Timing::Cpu,
             };
-            let doc = crate::tradeoff::quick_sweep(&a.input, a.frame, &input, None)?;
+            // An asset's bake knobs are its own: only the render's are swept.
+            let doc = crate::tradeoff::quick_sweep(
+                &a.input,
+                a.frame,
+                &input,
+                is_asset(&a.input).then_some(&RENDER_KNOBS[..]),
+            )?;
             (doc, format!("a quick sweep of {}", a.input.display()))
         }
     };
     let c = choice::choose(&doc, goal).map_err(|e| anyhow!("{source}: {e}"))?;
-    let is_asset = a
-        .input
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("haze"));
-    apply_choice(a, &c, !is_asset);
-    let note = if is_asset {
+    let asset = is_asset(&a.input);
+    apply_choice(a, &c, !asset);
+    let note = if asset {
         " (RBF count, teleportation and residual error are the asset's own: bake with them to get the measured error)"
     } else {
         ""
     };
     eprintln!("choice from {source}: {}{note}", c.reason);
     Ok(())
+}
+
+/// The knobs of a render (the others are the bake's).
+const RENDER_KNOBS: [&str; 8] = [
+    "sh_order",
+    "exp",
+    "source",
+    "cg_iterations",
+    "slices",
+    "size",
+    "multiple",
+    "residual",
+];
+
+fn is_asset(input: &Path) -> bool {
+    input
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("haze"))
 }
 
 /// Sets the knobs of `a` that choice `c` names; the fit's (RBF count, teleportation)

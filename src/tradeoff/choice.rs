@@ -211,25 +211,37 @@ fn medium(doc: &Value, key: &str) -> Option<f64> {
     doc.get("medium")?.get(key)?.as_f64()
 }
 
-/// A knob value in words ("SH order 2", "sources at the RBF centers").
+/// A number as people write it: `1` for 1.0, `0.5`.
+fn number(v: &Value) -> String {
+    match v.as_f64() {
+        Some(x) if x.fract() == 0.0 && x.abs() < 1e15 => format!("{}", x as i64),
+        Some(x) => format!("{x}"),
+        None => v.to_string(),
+    }
+}
+
+/// A knob value in words, each a singular phrase ("SH order 2", "placing the sources at
+/// the RBF centers").
 fn phrase(name: &str, v: &Value) -> String {
     let n = v.as_f64().unwrap_or(f64::NAN);
+    let x = number(v);
     match (name, v.as_str(), v.as_bool()) {
-        ("sh_order", ..) => format!("SH order {v}"),
+        ("sh_order", ..) => format!("SH order {x}"),
         ("exp", Some("linear"), _) => "the optimal linear exponential".into(),
         ("exp", ..) => "scaling and squaring".into(),
-        ("source", Some("center"), _) => "sources at the RBF centers".into(),
-        ("source", ..) => "sources over the RBF footprints".into(),
-        ("cg_iterations", ..) => format!("{v} CG iterations"),
-        ("slices", ..) => format!("{v} slices per voxel"),
+        ("source", Some("center"), _) => "placing the sources at the RBF centers".into(),
+        ("source", ..) => "placing them over the RBF footprints".into(),
+        ("cg_iterations", ..) => format!("stopping the diffusion solve at {x} CG iterations"),
+        ("slices", ..) if n == 1.0 => "marching 1 slice per voxel".into(),
+        ("slices", ..) => format!("marching {x} slices per voxel"),
         ("size", ..) if n >= 1.0 => "the full picture size".into(),
-        ("size", ..) => format!("{v} of the picture size"),
-        ("rbfs", ..) => format!("{v} RBFs"),
+        ("size", ..) => format!("rendering at {x} of the picture size"),
+        ("rbfs", ..) => format!("fitting {x} RBFs"),
         ("teleport", _, Some(true)) => "fitting with teleportation".into(),
         ("teleport", ..) => "fitting without teleportation".into(),
         ("residual_error", ..) => format!("residual error {:.1}/255", 255.0 * n),
-        ("quant_bits", ..) => format!("a {v}-bit residual"),
-        _ => format!("{name} {v}"),
+        ("quant_bits", ..) => format!("quantizing the residual to {x} bits"),
+        _ => format!("{name} {x}"),
     }
 }
 
