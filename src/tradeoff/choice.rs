@@ -316,7 +316,10 @@ fn knob_reasons(doc: &Value, chosen: &Map<String, Value>, goal: Goal, error: f64
                     percent((e - error).max(0.0)),
                     percent(e)
                 ),
-                Goal::BudgetMs(_) => format!(" and takes {:.1} ms", (on.ms - off.ms).max(0.0)),
+                Goal::BudgetMs(_) if on.ms > off.ms => {
+                    format!(" and takes {:.1} ms", on.ms - off.ms)
+                }
+                Goal::BudgetMs(_) => " and takes no measurable time".to_string(),
             };
             out.push(format!(
                 "{ctx}{what} {}{cmp}: {}",
