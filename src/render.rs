@@ -248,6 +248,9 @@ fn choose_knobs(a: &mut RenderArgs, goal: Goal) -> Result<()> {
             {
                 eprintln!("warning: {}: {warning}", path.display());
             }
+            if let Some(warning) = choice::timing_mismatch(&doc, false) {
+                eprintln!("warning: {}: {warning}", path.display());
+            }
             (doc, path.display().to_string())
         }
         None => {

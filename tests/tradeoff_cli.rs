@@ -576,11 +576,52 @@ fn the_viewer_chooses_its_knobs_for_a_budget() {
         .collect();
     assert_eq!(warnings.len(), 1, "{err}");
     assert!(warnings[0].starts_with("warning: ") && warnings[0].contains("64×48"));
+    // The sweep timed the CPU's renderer, the viewer renders on the GPU: said once.
+    assert_eq!(
+        err.matches("the times are of the CPU renderer").count(),
+        1,
+        "{err}"
+    );
     // The fastest front setting, with multiple scattering off (a 100 % target does not
     // need it); the residual was not swept, so it stays on.
     let sh = fastest["knobs"]["sh_order"].as_u64().unwrap();
     let knobs = format!("SH order {sh}, 2 slices per voxel, single scattering, residual on");
     assert!(stdout.trim_end().ends_with(&knobs), "{stdout}\n{err}");
+    // Bad goals and files: an error line (after the warnings about the file, if any),
+    // before any window or sweep.
+    let f = file.to_str().unwrap();
+    for (flags, needle) in [
+        (
+            vec!["--budget-ms", "0", "--tradeoff", f],
+            "must be a positive",
+        ),
+        (
+            vec!["--target-error", "0", "--tradeoff", f],
+            "must be a positive",
+        ),
+        (
+            vec!["--budget-ms", "1e-9", "--tradeoff", f],
+            "no setting renders within",
+        ),
+        (
+            vec!["--budget-ms", "10", "--tradeoff", "/nonexistent/t.json"],
+            "/nonexistent/t.json",
+        ),
+    ] {
+        let mut args = view.to_vec();
+        args.extend(["--size", "32x24"]);
+        args.extend(flags);
+        let o = haze().args(&args).output().unwrap();
+        let err = String::from_utf8(o.stderr).unwrap();
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+        let last = err.lines().last().unwrap();
+        assert!(
+            last.starts_with("error: ") && last.contains(needle),
+            "{err}"
+        );
+        assert!(err.lines().all(|l| l.starts_with("warning: ") || l == last));
+        assert!(o.stdout.is_empty());
+    }
 }
 
 /// `haze tradeoff --gpu` times the GPU renderer (lavapipe will do; without an adapter

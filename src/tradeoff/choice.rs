@@ -89,6 +89,23 @@ pub fn rescale(doc: &mut Value, w: usize, h: usize) -> Result<Option<String>> {
     )))
 }
 
+/// A one-line warning when sweep `doc` timed another renderer than the one that will use
+/// the choice (`gpu`: the GPU renderer of `haze view`; else the CPU's of `haze render`).
+/// Sweeps written before `timing` was recorded timed the CPU.
+pub fn timing_mismatch(doc: &Value, gpu: bool) -> Option<String> {
+    let timing = doc.get("timing").and_then(Value::as_str).unwrap_or("CPU");
+    match (timing.starts_with("GPU"), gpu) {
+        (true, false) => Some(format!(
+            "the times are of the GPU renderer ({timing}); this render runs on the CPU"
+        )),
+        (false, true) => Some(
+            "the times are of the CPU renderer; the viewer renders on the GPU (haze tradeoff --gpu times it)"
+                .to_string(),
+        ),
+        _ => None,
+    }
+}
+
 /// One value of a knob, as `effects` measured it.
 #[derive(Clone, Copy, Debug)]
 struct Effect {

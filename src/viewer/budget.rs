@@ -29,6 +29,9 @@ pub fn choose_knobs(a: &mut ViewArgs, goal: Goal) -> Result<()> {
             {
                 eprintln!("warning: {}: {warning}", path.display());
             }
+            if let Some(warning) = choice::timing_mismatch(&doc, true) {
+                eprintln!("warning: {}: {warning}", path.display());
+            }
             (doc, path.display().to_string())
         }
         None => {
