@@ -566,16 +566,16 @@ pub struct ViewCli {
     /// Start with the knobs (SH order, slices, multiple scattering, residual, render
     /// size) of the most accurate setting of a tradeoff sweep's front that renders within
     /// T milliseconds; prints the choice and why.
-    #[arg(long, value_name = "T", conflicts_with_all = ["target_error", "scene", "fog"])]
+    #[arg(long, value_name = "T", group = "goal", conflicts_with_all = ["scene", "fog"])]
     budget_ms: Option<f64>,
     /// Start with the fastest front setting whose error against the sweep's best is at
     /// most E (rel RMS, 0.02 = 2 %), the models the scene does not need turned off.
-    #[arg(long, value_name = "E", conflicts_with_all = ["scene", "fog"])]
+    #[arg(long, value_name = "E", group = "goal", conflicts_with_all = ["scene", "fog"])]
     target_error: Option<f64>,
     /// The sweep for --budget-ms/--target-error (`haze tradeoff`'s tradeoff.json; its
     /// view-pass times are rescaled to --size); without it a quick sweep of the asset is
     /// measured first, at --size on the viewer's GPU renderer.
-    #[arg(long, value_name = "FILE", conflicts_with_all = ["scene", "fog"])]
+    #[arg(long, value_name = "FILE", requires = "goal")]
     tradeoff: Option<PathBuf>,
     /// Exposure applied before the sRGB encoding.
     #[arg(long, default_value_t = 1.0)]
