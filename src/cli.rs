@@ -198,8 +198,15 @@ pub struct TradeoffCli {
     #[arg(long)]
     fogmap: bool,
     /// Run the extreme cases instead (no INPUT).
-    #[arg(long, conflicts_with_all = ["input", "reference", "knobs", "quick"])]
+    #[arg(long, conflicts_with_all = ["input", "reference", "knobs", "quick", "gpu"])]
     extremes: bool,
+    /// Time the renders with every stage on the GPU (`haze render --gpu`, the viewer's
+    /// renderer; each render a new frame) instead of on the CPU.
+    #[arg(long)]
+    gpu: bool,
+    /// With --gpu: where the lighting at the RBF centers is computed (as `haze render`).
+    #[arg(long, value_enum, default_value_t = LightingArg::Auto, requires = "gpu")]
+    lighting: LightingArg,
     /// Full picture width (the size knob renders fractions of it).
     #[arg(long, default_value_t = 160)]
     width: usize,
@@ -268,6 +275,11 @@ impl TradeoffCli {
                     height: self.height,
                 },
                 import: self.import.options(),
+                timing: if self.gpu {
+                    crate::tradeoff::smoke::Timing::Gpu(self.lighting.into())
+                } else {
+                    crate::tradeoff::smoke::Timing::Cpu
+                },
             },
             fog_model: self.fog_model,
         })
@@ -555,6 +567,20 @@ pub struct ViewCli {
     /// Start without the residual (the RBF approximation alone).
     #[arg(long)]
     no_residual: bool,
+    /// Start with the knobs (SH order, slices, multiple scattering, residual, render
+    /// size) of the most accurate setting of a tradeoff sweep's front that renders within
+    /// T milliseconds; prints the choice and why.
+    #[arg(long, value_name = "T", group = "goal", conflicts_with_all = ["scene", "fog"])]
+    budget_ms: Option<f64>,
+    /// Start with the fastest front setting whose error against the sweep's best is at
+    /// most E (rel RMS, 0.02 = 2 %), the models the scene does not need turned off.
+    #[arg(long, value_name = "E", group = "goal", conflicts_with_all = ["scene", "fog"])]
+    target_error: Option<f64>,
+    /// The sweep for --budget-ms/--target-error (`haze tradeoff`'s tradeoff.json; its
+    /// view-pass times are rescaled to --size); without it a quick sweep of the asset is
+    /// measured first, at --size on the viewer's GPU renderer.
+    #[arg(long, value_name = "FILE", requires = "goal")]
+    tradeoff: Option<PathBuf>,
     /// Exposure applied before the sRGB encoding.
     #[arg(long, default_value_t = 1.0)]
     exposure: f64,
@@ -634,7 +660,15 @@ impl ViewCli {
     }
 
     fn into_args(mut self) -> crate::viewer::ViewArgs {
-        self.apply_stored_choice();
+        let goal = match (self.budget_ms, self.target_error) {
+            (Some(t), _) => Some(crate::tradeoff::pareto::Goal::BudgetMs(t)),
+            (None, Some(e)) => Some(crate::tradeoff::pareto::Goal::TargetError(e)),
+            (None, None) => None,
+        };
+        // A goal on the command line replaces the choice stored in the asset.
+        if goal.is_none() {
+            self.apply_stored_choice();
+        }
         crate::viewer::ViewArgs {
             // clap requires the input without --scene.
             input: self.input.unwrap_or_default(),
@@ -656,6 +690,8 @@ impl ViewCli {
             play_for: self.play_for,
             window: !self.no_window,
             lighting: self.lighting.into(),
+            goal,
+            tradeoff: self.tradeoff,
         }
     }
 }
@@ -848,10 +884,7 @@ impl BakeCli {
         if let (Some(t), Some(file)) = (self.view_budget_ms, &self.tradeoff) {
             let c = crate::tradeoff::choice::for_view(file, t)?;
             eprintln!("view settings chosen: {}", c.reason);
-            choices.insert(
-                "view".into(),
-                serde_json::json!({"knobs": c.knobs, "why": c.reason}),
-            );
+            choices.insert("view".into(), c.to_json());
         }
         Ok(crate::bake::BakeArgs {
             report: self.report,

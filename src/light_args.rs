@@ -69,6 +69,23 @@ impl LightArgs {
         env.points.extend(self.light.iter().cloned());
         Ok(env)
     }
+
+    /// The light in words ("the built-in sky and 1 sun"), as a choice's reasons name it.
+    pub fn describe(&self) -> String {
+        let mut s = if self.env == "sky" {
+            "the built-in sky".to_string()
+        } else {
+            format!("the map {}", self.env)
+        };
+        let plural = |n: usize, what: &str| format!("{n} {what}{}", if n == 1 { "" } else { "s" });
+        if !self.sun.is_empty() {
+            s += &format!(" and {}", plural(self.sun.len(), "sun"));
+        }
+        if !self.light.is_empty() {
+            s += &format!(" and {}", plural(self.light.len(), "point light"));
+        }
+        s
+    }
 }
 
 /// Comma-separated finite numbers.

@@ -230,19 +230,29 @@ pub fn run(mut a: RenderArgs) -> Result<()> {
 }
 
 /// `--budget-ms`/`--target-error`: picks the setting from the sweep (read, or a quick
-/// one run here) and sets the knobs of `a` to it, printing the choice and why.
+/// one run here) and sets the knobs of `a` to it, printing the choice and why. A sweep
+/// measured at another picture size has its view-pass times rescaled (with a warning).
 fn choose_knobs(a: &mut RenderArgs, goal: Goal) -> Result<()> {
-    match goal {
-        Goal::BudgetMs(t) if !(t > 0.0 && t.is_finite()) => {
-            bail!("--budget-ms {t} must be a positive number of milliseconds")
-        }
-        Goal::TargetError(e) if !(e > 0.0 && e.is_finite()) => {
-            bail!("--target-error {e} must be a positive rel RMS (0.02 = 2 %)")
-        }
-        _ => {}
-    }
+    choice::check_goal(goal)?;
     let (doc, source) = match &a.tradeoff {
-        Some(path) => (choice::read(path)?, path.display().to_string()),
+        Some(path) => {
+            let mut doc = choice::read(path)?;
+            if doc.get("kind").and_then(|k| k.as_str()) == Some("fogmap") {
+                bail!(
+                    "{}: a fogmap's sweep cannot choose a smoke render's knobs",
+                    path.display()
+                );
+            }
+            if let Some(warning) = choice::rescale(&mut doc, a.width, a.height)
+                .map_err(|e| anyhow!("{}: {e}", path.display()))?
+            {
+                eprintln!("warning: {}: {warning}", path.display());
+            }
+            if let Some(warning) = choice::timing_mismatch(&doc, false) {
+                eprintln!("warning: {}: {warning}", path.display());
+            }
+            (doc, path.display().to_string())
+        }
         None => {
             let input = crate::tradeoff::SmokeInput {
                 lights: a.env.clone(),
@@ -258,74 +268,92 @@ fn choose_knobs(a: &mut RenderArgs, goal: Goal) -> Result<()> {
                     height: a.height,
                 },
                 import: a.import.clone(),
+                timing: crate::tradeoff::smoke::Timing::Cpu,
             };
-            let mut lab = crate::tradeoff::smoke_lab(&a.input, a.frame, &input, true)?;
-            let bar = progress::settings_bar();
-            let sweep = crate::tradeoff::run_sweep(
-                &mut lab,
-                crate::tradeoff::smoke_plan(true),
-                Vec::new(),
-                None,
-                &bar,
+            // An asset's bake knobs are its own: only the render's are swept.
+            let doc = crate::tradeoff::quick_sweep(
+                &a.input,
+                a.frame,
+                &input,
+                is_asset(&a.input).then_some(&RENDER_KNOBS[..]),
             )?;
-            let doc = sweep.to_json(&a.input, a.frame, serde_json::Value::Null);
             (doc, format!("a quick sweep of {}", a.input.display()))
         }
     };
-    if doc.get("kind").and_then(|k| k.as_str()) == Some("fogmap") {
-        bail!("{source}: a fogmap's sweep cannot choose a smoke render's knobs");
-    }
     let c = choice::choose(&doc, goal).map_err(|e| anyhow!("{source}: {e}"))?;
-    if let Some(v) = choice::f64_knob(&c, "sh_order") {
+    let asset = is_asset(&a.input);
+    apply_choice(a, &c, !asset);
+    let note = if asset {
+        " (RBF count, teleportation and residual error are the asset's own: bake with them to get the measured error)"
+    } else {
+        ""
+    };
+    eprintln!("choice from {source}: {}{note}", c.reason);
+    Ok(())
+}
+
+/// The knobs of a render (the others are the bake's).
+const RENDER_KNOBS: [&str; 8] = [
+    "sh_order",
+    "exp",
+    "source",
+    "cg_iterations",
+    "slices",
+    "size",
+    "multiple",
+    "residual",
+];
+
+fn is_asset(input: &Path) -> bool {
+    input
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("haze"))
+}
+
+/// Sets the knobs of `a` that choice `c` names; the fit's (RBF count, teleportation)
+/// only when `fit` (a volume input, fitted here).
+fn apply_choice(a: &mut RenderArgs, c: &choice::Choice, fit: bool) {
+    if let Some(v) = choice::f64_knob(c, "sh_order") {
         a.sh_order = v as usize;
     }
-    if let Some(v) = choice::str_knob(&c, "exp") {
+    if let Some(v) = choice::str_knob(c, "exp") {
         a.exp = if v == "linear" {
             ExpMethod::OptimalLinear
         } else {
             ExpMethod::ScaleSquareAuto
         };
     }
-    if let Some(v) = choice::str_knob(&c, "source") {
+    if let Some(v) = choice::str_knob(c, "source") {
         a.source_points = if v == "center" {
             SourcePoints::Center
         } else {
             SourcePoints::Footprint
         };
     }
-    if let Some(v) = choice::f64_knob(&c, "cg_iterations") {
+    if let Some(v) = choice::f64_knob(c, "cg_iterations") {
         a.solve.max_iterations = v as u32;
     }
-    if let Some(v) = choice::f64_knob(&c, "slices") {
+    if let Some(v) = choice::f64_knob(c, "slices") {
         a.slices = v;
     }
-    if let Some(v) = choice::bool_knob(&c, "multiple") {
+    if let Some(v) = choice::bool_knob(c, "multiple") {
         a.multiple = v;
     }
-    if let Some(v) = choice::bool_knob(&c, "residual") {
+    if let Some(v) = choice::bool_knob(c, "residual") {
         a.residual = v;
     }
-    if let Some(v) = choice::f64_knob(&c, "size") {
+    if let Some(v) = choice::f64_knob(c, "size") {
         a.width = ((a.width as f64 * v).round() as usize).max(8);
         a.height = ((a.height as f64 * v).round() as usize).max(8);
     }
-    let is_asset = a
-        .input
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("haze"));
-    let mut note = String::new();
-    if is_asset {
-        note = " (RBF count, teleportation and residual error are the asset's own: bake with them to get the measured error)".to_string();
-    } else {
-        if let Some(v) = choice::f64_knob(&c, "rbfs") {
+    if fit {
+        if let Some(v) = choice::f64_knob(c, "rbfs") {
             a.rbfs = v as usize;
         }
-        if let Some(v) = choice::bool_knob(&c, "teleport") {
+        if let Some(v) = choice::bool_knob(c, "teleport") {
             a.teleport = v;
         }
     }
-    eprintln!("choice from {source}: {}{note}", c.reason);
-    Ok(())
 }
 
 pub(crate) enum OutKind {
@@ -499,4 +527,108 @@ pub(crate) fn smoke_bbox(density: &Volume) -> Bbox {
     density
         .occupied_bbox(0.01 * peak)
         .unwrap_or(*density.bbox())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::{Value, json};
+
+    fn args() -> RenderArgs {
+        RenderArgs {
+            input: PathBuf::from("smoke.vdb"),
+            frame: None,
+            out: PathBuf::from("out.png"),
+            width: 400,
+            height: 300,
+            eye: None,
+            target: None,
+            up: [0.0, 0.0, 1.0],
+            fov: 40.0,
+            env: crate::light_args::LightArgs {
+                env: "sky".into(),
+                no_sun_extraction: false,
+                sun: Vec::new(),
+                light: Vec::new(),
+            },
+            sigma_t: 4.0,
+            albedo: 0.8,
+            g: 0.3,
+            sh_order: 4,
+            multiple: true,
+            residual: true,
+            slices: 2.0,
+            exp: ExpMethod::ScaleSquareAuto,
+            source_points: SourcePoints::Footprint,
+            reference: false,
+            goal: None,
+            tradeoff: None,
+            solve: SolveOptions::default(),
+            rbfs: 300,
+            teleport: true,
+            gpu: false,
+            lighting: LightingOn::Auto,
+            spp: 64,
+            exposure: 1.0,
+            import: ImportOptions::default(),
+        }
+    }
+
+    /// A sweep of the `exp`, `source` and `cg_iterations` knobs where changing `knob` to
+    /// `value` alone is the fastest setting: the best (slow, exact), the defaults, and
+    /// that change.
+    fn front_decided_by(knob: &str, value: Value) -> Value {
+        let defaults = json!({"exp": "square", "source": "footprint", "cg_iterations": 20});
+        let best = json!({"exp": "square", "source": "footprint", "cg_iterations": 500});
+        let mut changed = defaults.clone();
+        changed[knob] = value;
+        json!({
+            "kind": "smoke",
+            "size": [400, 300],
+            "knobs": [
+                {"name": "exp", "values": ["square", "linear"], "default": "square", "best": "square"},
+                {"name": "source", "values": ["footprint", "center"], "default": "footprint", "best": "footprint"},
+                {"name": "cg_iterations", "values": [5, 20, 500], "default": 20, "best": 500},
+            ],
+            "settings": [
+                {"knobs": best, "ms": {"render": 300.0, "view": 100.0}, "error": 0.0},
+                {"knobs": defaults, "ms": {"render": 100.0, "view": 100.0}, "error": 0.01},
+                {"knobs": changed, "ms": {"render": 50.0, "view": 50.0}, "error": 0.02},
+            ],
+        })
+    }
+
+    /// Each of the exp variant, the source placement and the CG iterations, when it is
+    /// the knob that meets the budget, is chosen and reaches the render's options.
+    #[test]
+    fn exp_source_and_cg_choices_reach_the_render() {
+        type Applied = fn(&RenderArgs) -> bool;
+        let cases: [(&str, Value, Applied); 3] = [
+            ("exp", json!("linear"), |a| {
+                a.exp == ExpMethod::OptimalLinear
+            }),
+            ("source", json!("center"), |a| {
+                a.source_points == SourcePoints::Center
+            }),
+            ("cg_iterations", json!(5), |a| a.solve.max_iterations == 5),
+        ];
+        for (knob, value, applied) in cases {
+            let doc = front_decided_by(knob, value.clone());
+            let mut a = args();
+            assert!(!applied(&a), "{knob}: already at the choice");
+            // Within 60 ms only the change is; within 150 ms the defaults are better.
+            let c = choice::choose(&doc, Goal::BudgetMs(60.0)).unwrap();
+            assert_eq!(c.knobs[knob], value);
+            apply_choice(&mut a, &c, true);
+            assert!(applied(&a), "{knob}: {a:?}");
+            assert!(c.reason.contains("50.0 ms at 2.00 %"), "{}", c.reason);
+            let mut a = args();
+            let c = choice::choose(&doc, Goal::BudgetMs(150.0)).unwrap();
+            apply_choice(&mut a, &c, true);
+            assert!(!applied(&a), "{knob}: {a:?}");
+            // A target of 1.5 % is met by the defaults alone.
+            let c = choice::choose(&doc, Goal::TargetError(0.015)).unwrap();
+            assert_ne!(c.knobs[knob], value);
+        }
+    }
 }

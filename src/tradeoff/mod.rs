@@ -209,8 +209,12 @@ pub fn run_sweep(
         measure(lab, s, why, &mut measured)?;
     }
     if plan.factorial.is_none() {
-        // The one-knob effects, relative to the defaults.
-        let d = &measured[1];
+        // The one-knob effects, relative to the defaults (the best setting itself when
+        // every knob's default is its best).
+        let d = measured
+            .iter()
+            .find(|m| m.setting == default)
+            .ok_or_else(|| anyhow!("the defaults were not measured"))?;
         let effects: Vec<Effect> = measured
             .iter()
             .filter_map(|m| match m.why {
@@ -247,6 +251,7 @@ pub fn run_sweep(
         }
     }
     bar.finish_and_clear();
+    share_render_times(&knobs, &mut measured);
     let points: Vec<pareto::Point> = measured
         .iter()
         .map(|m| pareto::Point {
@@ -264,6 +269,43 @@ pub fn run_sweep(
         measured,
         reference_spp: reference,
     })
+}
+
+/// A setting that differs from another measured one in bake-only knobs alone (residual
+/// error and bits, teleportation) renders the same work: its render time is taken from
+/// that twin (the one with those knobs at their defaults), so that timing noise cannot put
+/// a bake-only change on the render front. Its own measured time stays in `ms` as
+/// `render_measured`.
+fn share_render_times(knobs: &[Knob], measured: &mut [Measured]) {
+    let twin_of = |s: &Setting| -> Setting {
+        s.iter()
+            .zip(knobs)
+            .map(|(&v, k)| if k.render_neutral { k.default } else { v })
+            .collect()
+    };
+    let index: HashMap<Setting, usize> = measured
+        .iter()
+        .enumerate()
+        .map(|(i, m)| (m.setting.clone(), i))
+        .collect();
+    for i in 0..measured.len() {
+        let twin = twin_of(&measured[i].setting);
+        let Some(&j) = index.get(&twin) else { continue };
+        if j == i {
+            continue;
+        }
+        let (ms, view) = (
+            measured[j].sample.render_ms,
+            measured[j].sample.ms.get("view").cloned(),
+        );
+        let m = &mut measured[i];
+        m.sample.ms["render_measured"] = json!(m.sample.render_ms);
+        m.sample.ms["render"] = json!(ms);
+        if let Some(v) = view {
+            m.sample.ms["view"] = v;
+        }
+        m.sample.render_ms = ms;
+    }
 }
 
 /// A knob value for people: names unquoted, fractions to 4 significant digits.
@@ -330,15 +372,68 @@ impl Sweep {
         Value::Object(e)
     }
 
-    /// `tradeoff.json` (DESIGN.md "CLI contract").
-    pub fn to_json(&self, input: &Path, frame: Option<i64>, medium: Value) -> Value {
+    /// What each knob does alone on this scene: for every value, the setting with that
+    /// value and every other knob at its default — its render ms, `change` (rel RMS of its
+    /// picture against the defaults' picture) and `vs_best` (against the picture with this
+    /// knob at its most accurate value, the others at their defaults). The choice's
+    /// reasons are read from it (`choice`). Values whose setting was not measured are left
+    /// out.
+    pub fn effects(&self) -> Value {
+        let index: HashMap<&[usize], usize> = self
+            .measured
+            .iter()
+            .enumerate()
+            .map(|(i, m)| (m.setting.as_slice(), i))
+            .collect();
+        let default = knobs::defaults(&self.knobs);
+        let Some(&d) = index.get(default.as_slice()) else {
+            return json!({});
+        };
+        let picture = |i: usize, like: usize| {
+            let to = &self.measured[like].sample.image;
+            resample(&self.measured[i].sample.image, to.width, to.height)
+        };
+        let mut out = Map::new();
+        for (k, knob) in self.knobs.iter().enumerate() {
+            if knob.values.len() < 2 {
+                continue;
+            }
+            let with = |v: usize| {
+                let mut s = default.clone();
+                s[k] = v;
+                index.get(s.as_slice()).copied()
+            };
+            let best = with(knob.best);
+            let rows: Vec<Value> = (0..knob.values.len())
+                .filter_map(|v| {
+                    let i = with(v)?;
+                    let m = &self.measured[i];
+                    Some(json!({
+                        "value": knob.values[v],
+                        "ms": m.sample.render_ms,
+                        "view": m.sample.ms.get("view"),
+                        "change": picture(i, d).rel_rms(&self.measured[d].sample.image),
+                        "vs_best": best.map(|b| picture(i, b).rel_rms(&self.measured[b].sample.image)),
+                    }))
+                })
+                .collect();
+            out.insert(knob.name.to_string(), Value::Array(rows));
+        }
+        Value::Object(out)
+    }
+
+    /// `tradeoff.json` (DESIGN.md "CLI contract"). `medium` describes the scene (σt,
+    /// albedo, g and the light for smoke) and `timing` the renderer the times are of.
+    pub fn to_json(&self, input: &Path, frame: Option<i64>, medium: Value, timing: &str) -> Value {
         json!({
             "input": input.display().to_string(),
             "frame": frame,
             "kind": self.kind,
             "size": self.size,
             "threads": rayon::current_num_threads(),
+            "timing": timing,
             "medium": medium,
+            "effects": self.effects(),
             "front_over": "render",
             "error_against": "best",
             "reference_spp": self.reference_spp,
@@ -385,6 +480,21 @@ pub struct SmokeInput {
     pub g: f64,
     pub view: smoke::View,
     pub import: haze_volume::ImportOptions,
+    /// The renderer the sweep times.
+    pub timing: smoke::Timing,
+}
+
+impl SmokeInput {
+    /// The scene as `tradeoff.json` records it (`medium`): σt, albedo, g and the light
+    /// in words.
+    pub fn medium_json(&self) -> Value {
+        json!({
+            "sigma_t": self.sigma_t,
+            "albedo": self.albedo,
+            "g": self.g,
+            "light": self.lights.describe(),
+        })
+    }
 }
 
 /// Every knob a sweep of `kind` knows, for `--knobs`' message.
@@ -408,14 +518,49 @@ pub fn smoke_lab(
     let medium = haze_view::Medium::new(s.sigma_t, s.albedo, s.g).map_err(|e| anyhow!("{e}"))?;
     let env = s.lights.environment()?;
     let density = crate::render::load_density(input, frame, &s.import)?;
-    Ok(smoke::SmokeLab::new(
+    let mut lab = smoke::SmokeLab::new(
         density,
         env,
         medium,
         s.view,
         quick,
         if quick { 1 } else { 2 },
-    ))
+    );
+    lab.set_timing(s.timing)?;
+    Ok(lab)
+}
+
+/// The renderer a sweep's times are of, in words.
+pub fn timing_name(adapter: Option<String>) -> String {
+    match adapter {
+        Some(a) => format!("GPU: {a}"),
+        None => "CPU".to_string(),
+    }
+}
+
+/// A quick sweep of `input`'s smoke (`--quick`, with a progress bar) for a choice made
+/// on the spot, as `tradeoff.json` would hold it; `only` restricts it to those knobs. An
+/// asset is rendered with its own RBFs (the ones the render will use), not refitted.
+pub fn quick_sweep(
+    input: &Path,
+    frame: Option<i64>,
+    s: &SmokeInput,
+    only: Option<&[&str]>,
+) -> Result<Value> {
+    let mut lab = smoke_lab(input, frame, s, true)?;
+    if input
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("haze"))
+    {
+        lab.use_rbfs(crate::render::load_asset(input, frame)?.rbfs);
+    }
+    if let Some(only) = only {
+        lab.restrict(&only.iter().map(|n| n.to_string()).collect::<Vec<_>>());
+    }
+    let bar = crate::progress::settings_bar();
+    let sweep = run_sweep(&mut lab, smoke_plan(true), Vec::new(), None, &bar)?;
+    let timing = timing_name(lab.adapter());
+    Ok(sweep.to_json(input, frame, s.medium_json(), &timing))
 }
 
 /// The plan of a smoke sweep.
@@ -435,7 +580,7 @@ pub fn run(a: TradeoffArgs) -> Result<()> {
         .with_context(|| format!("{}: cannot create the output directory", a.out.display()))?;
     let fog = is_fogmap(&a.input, a.fogmap);
     let bar = crate::progress::settings_bar();
-    let (sweep, medium) = if fog {
+    let (sweep, medium, timing) = if fog {
         let mut lab = fog::FogLab::open(
             &a.input,
             a.fog_model.clone(),
@@ -458,6 +603,7 @@ pub fn run(a: TradeoffArgs) -> Result<()> {
         (
             sweep,
             json!({"density": a.fog_model.density, "falloff": a.fog_model.falloff}),
+            "CPU".to_string(),
         )
     } else {
         let mut lab = smoke_lab(&a.input, a.frame, &a.smoke, a.quick)?;
@@ -472,23 +618,21 @@ pub fn run(a: TradeoffArgs) -> Result<()> {
             a.reference.then_some(a.spp),
             &bar,
         )?;
-        (
-            sweep,
-            json!({"sigma_t": a.smoke.sigma_t, "albedo": a.smoke.albedo, "g": a.smoke.g}),
-        )
+        let timing = timing_name(lab.adapter());
+        (sweep, a.smoke.medium_json(), timing)
     };
-    let doc = sweep.to_json(&a.input, a.frame, medium);
+    let doc = sweep.to_json(&a.input, a.frame, medium, &timing);
     let path = a.out.join("tradeoff.json");
     crate::output::write_json(&path, &doc)?;
     let plots = plot::write_all(&a.out, &sweep)?;
-    print_summary(&sweep, &path, plots);
+    print_summary(&sweep, &path, plots, &timing);
     Ok(())
 }
 
-fn print_summary(sweep: &Sweep, path: &Path, plots: usize) {
+fn print_summary(sweep: &Sweep, path: &Path, plots: usize, timing: &str) {
     let default = knobs::defaults(&sweep.knobs);
     println!(
-        "{}: {} settings measured at {} × {}, {} on the front (render ms, error against the best setting):",
+        "{}: {} settings measured at {} × {} ({timing}), {} on the front (render ms, error against the best setting):",
         path.display(),
         sweep.measured.len(),
         sweep.size[0],
@@ -509,4 +653,113 @@ fn print_summary(sweep: &Sweep, path: &Path, plots: usize) {
         path.parent()
             .map_or_else(String::new, |p| p.display().to_string())
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A lab of two knobs, `model` (changes the render's work and its picture) and
+    /// `stored` (bake-only: changes the picture, not the work), whose pictures are flat at
+    /// `1 + 0.1·model + 0.01·stored` and whose clock runs down with every call: timing
+    /// noise that would make each later setting look faster.
+    struct Flat {
+        knobs: Vec<Knob>,
+        calls: f64,
+    }
+
+    impl Lab for Flat {
+        fn kind(&self) -> &'static str {
+            "smoke"
+        }
+        fn knobs(&self) -> &[Knob] {
+            &self.knobs
+        }
+        fn measure(&mut self, s: &[usize]) -> Result<Sample> {
+            self.calls += 1.0;
+            let v = 1.0 + 0.1 * s[0] as f32 + 0.01 * s[1] as f32;
+            let mut image = Image::new(4, 3);
+            image.pixels.iter_mut().for_each(|p| *p = [v; 3]);
+            // Work: 100 ms per step of `model` down from 2, less the noise.
+            let render_ms = 100.0 * (3.0 - s[0] as f64) - self.calls;
+            Ok(Sample {
+                image,
+                render_ms,
+                ms: json!({"render": render_ms, "view": render_ms / 2.0}),
+                detail: json!({}),
+            })
+        }
+        fn reference(&mut self, _spp: u32) -> Result<Image> {
+            unreachable!("not asked for")
+        }
+    }
+
+    fn flat() -> Flat {
+        Flat {
+            knobs: vec![
+                Knob::new("model", vec![json!(0), json!(1), json!(2)], 1, 2),
+                Knob::new("stored", vec![json!(0), json!(1)], 0, 1).render_neutral(),
+            ],
+            calls: 0.0,
+        }
+    }
+
+    /// A bake-only change takes the render time of its twin (the same render knobs):
+    /// the noise that made it look faster is gone and it cannot undercut its twin on the
+    /// front. Its own measured time is kept beside.
+    #[test]
+    fn bake_only_changes_render_in_their_twins_time() {
+        let plan = Plan {
+            cheaper_steps: 3,
+            accurate_steps: 3,
+            factorial: None,
+        };
+        let bar = indicatif::ProgressBar::hidden();
+        let sweep = run_sweep(&mut flat(), plan, Vec::new(), None, &bar).unwrap();
+        let at = |s: &[usize]| sweep.measured.iter().find(|m| m.setting == s).unwrap();
+        let (default, stored) = (at(&[1, 0]), at(&[1, 1]));
+        assert_eq!(stored.sample.render_ms, default.sample.render_ms);
+        assert_eq!(stored.sample.ms["render"], json!(default.sample.render_ms));
+        assert!(stored.sample.ms["render_measured"].as_f64().unwrap() < default.sample.render_ms);
+        // The best setting (model 2, stored 1) shares the time of (2, 0) when measured.
+        if let Some(twin) = sweep.measured.iter().find(|m| m.setting == [2, 0]) {
+            assert_eq!(at(&[2, 1]).sample.render_ms, twin.sample.render_ms);
+        }
+        // On the front, of two settings with the same render knobs only the more accurate
+        // one remains.
+        for &i in &sweep.front {
+            for &j in &sweep.front {
+                if i != j {
+                    assert_ne!(sweep.measured[i].setting[0], sweep.measured[j].setting[0]);
+                }
+            }
+        }
+    }
+
+    /// The knob effects against flat pictures: the rel RMS of `a` against `b` is
+    /// `|a − b| / b`.
+    #[test]
+    fn knob_effects_are_the_picture_changes_measured() {
+        let plan = Plan {
+            cheaper_steps: 0,
+            accurate_steps: 0,
+            factorial: None,
+        };
+        let bar = indicatif::ProgressBar::hidden();
+        let sweep = run_sweep(&mut flat(), plan, Vec::new(), None, &bar).unwrap();
+        let e = sweep.effects();
+        let rows = e["model"].as_array().unwrap();
+        assert_eq!(rows.len(), 3);
+        let close = |x: &Value, y: f64| (x.as_f64().unwrap() - y).abs() < 1e-6;
+        // model 0: 1.0 against the defaults' 1.1 and the best's 1.2.
+        assert_eq!(rows[0]["value"], json!(0));
+        assert!(close(&rows[0]["change"], 0.1 / 1.1), "{}", rows[0]);
+        assert!(close(&rows[0]["vs_best"], 0.2 / 1.2), "{}", rows[0]);
+        assert!(close(&rows[1]["change"], 0.0));
+        let stored = e["stored"].as_array().unwrap();
+        assert!(close(&stored[1]["change"], 0.01 / 1.1), "{}", stored[1]);
+        assert!(close(&stored[0]["vs_best"], 0.01 / 1.11), "{}", stored[0]);
+        // Its render time is its twin's (the defaults').
+        assert_eq!(stored[1]["ms"], stored[0]["ms"]);
+    }
 }

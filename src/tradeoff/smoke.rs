@@ -1,6 +1,8 @@
 //! The smoke sweep: a density frame fitted with RBFs (as `haze bake` fits a first frame),
 //! its residual quantized (as the bake stores it), rendered by compensated ray marching
-//! on the CPU (`haze render`'s default) for every setting of the knobs.
+//! for every setting of the knobs — on the CPU (`haze render`'s default), or with every
+//! stage on the GPU (`haze render --gpu`, the viewer's renderer) when the sweep times the
+//! GPU.
 
 use super::knobs::Knob;
 use super::{Lab, Sample};
@@ -9,6 +11,9 @@ use haze_bake::residual::as_stored;
 use haze_fit::{FitOptions, SequenceFitter, SequenceOptions};
 use haze_hash::QuantOptions;
 use haze_view::diffusion::SolveOptions;
+use haze_view::gpu::GpuContext;
+use haze_view::gpu::renderer::{GpuFrame, GpuRenderer, LightingOn};
+use haze_view::gpu::volume_pass::Residual;
 use haze_view::lighting::single::SourcePoints;
 use haze_view::reference::{self, RefOptions};
 use haze_view::render::{CrmOptions, crm_render};
@@ -77,6 +82,33 @@ pub struct SmokeSetting {
     pub size: f64,
 }
 
+/// The renderer a sweep times.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Timing {
+    /// `crm_render` on the CPU.
+    Cpu,
+    /// `GpuRenderer` (every stage on the GPU, the lighting at the centers where told),
+    /// each render a new frame: no reuse and no warm start from the setting before.
+    Gpu(LightingOn),
+}
+
+/// The GPU renderer of a GPU-timed sweep, and the key of the next frame.
+#[derive(Debug)]
+struct Gpu {
+    ctx: GpuContext,
+    renderer: GpuRenderer,
+    lighting: LightingOn,
+    next_key: u64,
+}
+
+/// One timed render: milliseconds, the picture, the host's stage times and the GPU's.
+type Timed = (
+    f64,
+    Image,
+    haze_view::render::CrmStats,
+    Vec<(&'static str, f64)>,
+);
+
 /// The smoke lab: the density, its light and medium, and the fits made so far.
 #[derive(Debug)]
 pub struct SmokeLab {
@@ -87,6 +119,7 @@ pub struct SmokeLab {
     knobs: Vec<Knob>,
     repeats: usize,
     fits: HashMap<(usize, bool), (Vec<Rbf>, f64, f64)>,
+    gpu: Option<Gpu>,
 }
 
 #[derive(Clone, Debug)]
@@ -196,6 +229,55 @@ impl SmokeLab {
             knobs,
             repeats: repeats.max(1),
             fits: HashMap::new(),
+            gpu: None,
+        }
+    }
+
+    /// Times the renders with `timing`; a GPU is opened here (a machine without one is
+    /// told at once).
+    pub fn set_timing(&mut self, timing: Timing) -> Result<()> {
+        self.gpu = match timing {
+            Timing::Cpu => None,
+            Timing::Gpu(on) => {
+                let ctx = GpuContext::new().map_err(|e| anyhow!("--gpu: {e}"))?;
+                ctx.time_stages(true);
+                let mut renderer =
+                    GpuRenderer::new(&ctx, self.env.clone()).map_err(|e| anyhow!("--gpu: {e}"))?;
+                renderer.set_lighting(on);
+                Some(Gpu {
+                    ctx,
+                    renderer,
+                    lighting: on,
+                    next_key: 0,
+                })
+            }
+        };
+        Ok(())
+    }
+
+    /// The adapter the renders are timed on, or `None` for the CPU.
+    pub fn adapter(&self) -> Option<String> {
+        self.gpu.as_ref().map(|g| {
+            format!(
+                "{} ({}), lighting at the centers on the {}",
+                g.ctx.adapter_name(),
+                g.ctx.backend(),
+                match g.lighting.resolve(&g.ctx) {
+                    LightingOn::Cpu => "CPU",
+                    _ => "GPU",
+                }
+            )
+        })
+    }
+
+    /// Renders these RBFs (an asset's own, as stored) instead of fitting: the `rbfs`
+    /// knob has their count for its one value, and no fit is timed.
+    pub fn use_rbfs(&mut self, rbfs: Vec<Rbf>) {
+        let n = rbfs.len();
+        self.knobs[0] = Knob::new("rbfs", vec![json!(n)], 0, 0);
+        for teleport in [false, true] {
+            self.fits
+                .insert((n, teleport), (rbfs.clone(), 0.0, f64::NAN));
         }
     }
 
@@ -308,26 +390,59 @@ impl Lab for SmokeLab {
             },
         )?;
         let camera = self.view.camera(&self.density, set.size)?;
-        let mut best: Option<(f64, Image, haze_view::render::CrmStats)> = None;
-        for _ in 0..self.repeats {
+        let mut best: Option<Timed> = None;
+        // On the GPU a first render is not timed: a new SH order builds its tables and
+        // pipelines once (the viewer pays that when the knob changes, not per frame).
+        let warm_up = usize::from(self.gpu.is_some());
+        for run in 0..warm_up + self.repeats {
             let t = Instant::now();
-            let (img, stats) = crm_render(
-                &rbfs,
-                set.crm.residual.then_some(residual.as_slice()),
-                self.density.dims(),
-                self.density.bbox(),
-                &self.medium,
-                &self.env,
-                &camera,
-                &set.crm,
-            );
+            let (img, stats, gpu_stages) = match &mut self.gpu {
+                None => {
+                    let (img, stats) = crm_render(
+                        &rbfs,
+                        set.crm.residual.then_some(residual.as_slice()),
+                        self.density.dims(),
+                        self.density.bbox(),
+                        &self.medium,
+                        &self.env,
+                        &camera,
+                        &set.crm,
+                    );
+                    (img, stats, Vec::new())
+                }
+                Some(g) => {
+                    // The residual is uploaded dense, as `haze render --gpu` does for a
+                    // fitted volume; turned off, the view pass is told so by the options.
+                    let gpu_err = |e| anyhow!("--gpu: {e}");
+                    g.renderer.reset();
+                    g.next_key += 1;
+                    let frame = GpuFrame {
+                        key: g.next_key,
+                        rbfs: &rbfs,
+                        residual: Some(Residual::Dense(&residual)),
+                        dims: self.density.dims(),
+                        bbox: *self.density.bbox(),
+                    };
+                    let (image, stats) = g
+                        .renderer
+                        .render(&g.ctx, &frame, &self.medium, &camera, &set.crm)
+                        .map_err(gpu_err)?;
+                    let pixels = image.read(&g.ctx).map_err(gpu_err)?;
+                    let img = Image {
+                        width: camera.width,
+                        height: camera.height,
+                        pixels,
+                    };
+                    (img, stats.crm, stats.gpu)
+                }
+            };
             let ms = t.elapsed().as_secs_f64() * 1e3;
-            if best.as_ref().is_none_or(|(b, _, _)| ms < *b) {
-                best = Some((ms, img, stats));
+            if run >= warm_up && best.as_ref().is_none_or(|(b, ..)| ms < *b) {
+                best = Some((ms, img, stats, gpu_stages));
             }
         }
-        let (render_ms, image, stats) = best.ok_or_else(|| anyhow!("no render"))?;
-        let ms = json!({
+        let (render_ms, image, stats, gpu_stages) = best.ok_or_else(|| anyhow!("no render"))?;
+        let mut ms = json!({
             "fit": fit_s * 1e3,
             "residual": quant_s * 1e3,
             "bake": (fit_s + quant_s) * 1e3,
@@ -339,6 +454,14 @@ impl Lab for SmokeLab {
             "lights": stats.lights_seconds * 1e3,
             "view": stats.view_seconds * 1e3,
         });
+        // On the GPU the host stages only submit the passes: the device's own times (when
+        // it has timestamp queries) are the passes' costs, and the view pass's is `view`.
+        for (stage, s) in gpu_stages {
+            ms[format!("gpu {stage}")] = json!(s * 1e3);
+            if stage.contains("view") {
+                ms["view"] = json!(s * 1e3);
+            }
+        }
         Ok(Sample {
             image,
             render_ms,

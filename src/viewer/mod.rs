@@ -9,6 +9,7 @@
 //! - [`player`]: the clock driving the render thread, shared by the window and
 //!   `--no-window`;
 //! - [`app`]: the egui window;
+//! - [`budget`]: the starting knobs chosen for a time budget or an error target;
 //! - [`scene_view`]: `haze view --scene`, a scene file through paper C's GPU renderer
 //!   (paper B's for Gaussian media);
 //! - [`edit_tools`]: its editing tools for Gaussian media (paper B §6);
@@ -16,6 +17,7 @@
 //! - [`fly`]: its fly camera.
 
 mod app;
+pub mod budget;
 pub mod edit_tools;
 mod fly;
 pub mod fog_view;
@@ -65,6 +67,10 @@ pub struct ViewArgs {
     pub window: bool,
     /// Where the lighting at the centers (single and multiple scattering) is computed.
     pub lighting: LightingOn,
+    /// Start with the knobs a tradeoff sweep's front gives for this budget or target.
+    pub goal: Option<crate::tradeoff::pareto::Goal>,
+    /// The sweep for `goal`; a quick sweep of the asset when absent.
+    pub tradeoff: Option<PathBuf>,
 }
 
 /// The knobs of the window, with their values from the command line.
@@ -81,6 +87,23 @@ pub struct Knobs {
 }
 
 impl Knobs {
+    /// The rendering knobs in words ("SH order 2, 1 slice per voxel, single scattering,
+    /// residual on").
+    pub fn describe(&self) -> String {
+        format!(
+            "SH order {}, {} slice{} per voxel, {}, residual {}",
+            self.sh_order,
+            self.slices,
+            if self.slices == 1.0 { "" } else { "s" },
+            if self.multiple {
+                "single + multiple scattering"
+            } else {
+                "single scattering"
+            },
+            if self.residual { "on" } else { "off" }
+        )
+    }
+
     /// The medium and the renderer's options of these knobs.
     fn scene(&self, env: Arc<Environment>) -> Result<Scene, String> {
         Ok(Scene {
@@ -130,7 +153,17 @@ pub fn parse_size(s: &str) -> Result<(usize, usize), String> {
     }
 }
 
-pub fn run(a: ViewArgs) -> Result<()> {
+pub fn run(mut a: ViewArgs) -> Result<()> {
+    if a.input.is_dir() {
+        bail!(
+            "{}: a directory, not a baked asset (haze bake makes a .haze file of it)",
+            a.input.display()
+        );
+    }
+    if let Some(goal) = a.goal {
+        budget::choose_knobs(&mut a, goal)?;
+    }
+    // The viewer's own start (a choice's sweep is not part of its first picture).
     let started = Instant::now();
     // Every knob is checked before anything opens.
     let knobs = a.knobs;
@@ -151,12 +184,6 @@ pub fn run(a: ViewArgs) -> Result<()> {
 
     // The asset: its first frame is read now, so a file that is not a baked asset is
     // refused before any window opens; it also places the camera.
-    if a.input.is_dir() {
-        bail!(
-            "{}: a directory, not a baked asset (haze bake makes a .haze file of it)",
-            a.input.display()
-        );
-    }
     let stream = FrameStream::open(&a.input, READ_AHEAD, true)?;
     let numbers = stream.frame_numbers().to_vec();
     let playback = Playback::new(stream.frame_count(), a.fps).map_err(|e| anyhow!(e))?;
@@ -193,7 +220,7 @@ pub fn run(a: ViewArgs) -> Result<()> {
         let worker = Worker::spawn(cursor, ctx, a.lighting, Box::new(|| {}))?;
         let mut player = Player::new(playback, worker, started);
         let line = play_without_window(&mut player, &initial, play_for)?;
-        println!("{line}");
+        println!("{line}; {}", knobs.describe());
         return Ok(());
     }
     app::run_window(app::Setup {

@@ -1,0 +1,195 @@
+//! `haze view --budget-ms T | --target-error E [--tradeoff FILE]`: the viewer's starting
+//! knobs (SH order, slices per voxel, multiple scattering, the residual and the render
+//! size) chosen from a tradeoff sweep's front — the file's, its view-pass times rescaled
+//! to the viewer's size, or a quick sweep of the asset measured here, at the viewer's
+//! size with the viewer's renderer (every stage on the GPU, the asset's own RBFs), before
+//! the window opens.
+
+use super::ViewArgs;
+use crate::tradeoff::choice::{self, Choice};
+use crate::tradeoff::pareto::Goal;
+use crate::tradeoff::smoke::{Timing, View};
+use anyhow::{Result, anyhow, bail};
+
+/// The knobs the viewer can start with; a quick sweep turns these alone.
+pub const VIEW_KNOBS: [&str; 5] = ["sh_order", "slices", "multiple", "residual", "size"];
+
+/// Chooses the starting knobs of `a` for `goal`, printing the choice, why, and what the
+/// viewer starts with.
+pub fn choose_knobs(a: &mut ViewArgs, goal: Goal) -> Result<()> {
+    choice::check_goal(goal)?;
+    let (doc, source) = match &a.tradeoff {
+        Some(path) => {
+            let mut doc = choice::read(path)?;
+            if doc.get("kind").and_then(|k| k.as_str()) != Some("smoke") {
+                bail!("{}: not a smoke sweep", path.display());
+            }
+            if let Some(warning) = choice::rescale(&mut doc, a.width, a.height)
+                .map_err(|e| anyhow!("{}: {e}", path.display()))?
+            {
+                eprintln!("warning: {}: {warning}", path.display());
+            }
+            if let Some(warning) = choice::timing_mismatch(&doc, true) {
+                eprintln!("warning: {}: {warning}", path.display());
+            }
+            (doc, path.display().to_string())
+        }
+        None => {
+            let input = crate::tradeoff::SmokeInput {
+                lights: a.env.clone(),
+                sigma_t: a.knobs.sigma_t,
+                albedo: a.knobs.albedo,
+                g: a.knobs.g,
+                view: View {
+                    eye: None,
+                    target: None,
+                    up: [0.0, 0.0, 1.0],
+                    fov: a.fov,
+                    width: a.width,
+                    height: a.height,
+                },
+                import: Default::default(),
+                timing: Timing::Gpu(a.lighting),
+            };
+            eprintln!(
+                "measuring a quick sweep of {} at {}×{} for the choice",
+                a.input.display(),
+                a.width,
+                a.height
+            );
+            let doc = crate::tradeoff::quick_sweep(&a.input, None, &input, Some(&VIEW_KNOBS))?;
+            (doc, format!("a quick sweep of {}", a.input.display()))
+        }
+    };
+    let c = choice::choose(&doc, goal).map_err(|e| anyhow!("{source}: {e}"))?;
+    apply(a, &c);
+    eprintln!("choice from {source}: {}", c.reason);
+    eprintln!(
+        "starting with {}, {}×{}",
+        a.knobs.describe(),
+        a.width,
+        a.height
+    );
+    Ok(())
+}
+
+/// Sets the viewer's knobs that choice `c` names (the others are the sweep's bake).
+fn apply(a: &mut ViewArgs, c: &Choice) {
+    if let Some(v) = choice::f64_knob(c, "sh_order") {
+        a.knobs.sh_order = v as usize;
+    }
+    if let Some(v) = choice::f64_knob(c, "slices") {
+        a.knobs.slices = v;
+    }
+    if let Some(v) = choice::bool_knob(c, "multiple") {
+        a.knobs.multiple = v;
+    }
+    if let Some(v) = choice::bool_knob(c, "residual") {
+        a.knobs.residual = v;
+    }
+    if let Some(v) = choice::f64_knob(c, "size") {
+        a.width = ((a.width as f64 * v).round() as usize).max(8);
+        a.height = ((a.height as f64 * v).round() as usize).max(8);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::testing::write_asset;
+    use super::super::{Knobs, run};
+    use super::*;
+    use serde_json::json;
+
+    /// A sweep of the viewer's knobs measured at 80 × 60 whose front, within 60 ms,
+    /// holds SH order 2, one slice per voxel, no multiple scattering and half the size.
+    fn sweep() -> serde_json::Value {
+        let setting = |sh: u64, slices: f64, m: bool, size: f64, ms: f64, error: f64| {
+            json!({"knobs": {"sh_order": sh, "slices": slices, "multiple": m, "residual": true, "size": size},
+                   "ms": {"render": ms, "view": 0.5 * ms}, "error": error})
+        };
+        json!({
+            "kind": "smoke",
+            "size": [80, 60],
+            "knobs": [
+                {"name": "sh_order", "values": [2, 4, 6], "default": 4, "best": 6},
+                {"name": "slices", "values": [1.0, 2.0], "default": 2.0, "best": 2.0},
+                {"name": "multiple", "values": [false, true], "default": true, "best": true},
+                {"name": "residual", "values": [false, true], "default": true, "best": true},
+                {"name": "size", "values": [0.5, 1.0], "default": 1.0, "best": 1.0},
+            ],
+            "settings": [
+                setting(6, 2.0, true, 1.0, 400.0, 0.0),
+                setting(4, 2.0, true, 1.0, 200.0, 0.01),
+                setting(2, 1.0, false, 0.5, 50.0, 0.08),
+            ],
+        })
+    }
+
+    /// `--budget-ms 60 --tradeoff FILE`: the viewer starts with the front's knobs — they
+    /// are what its first view renders with — and plays them without a window.
+    #[test]
+    fn the_viewer_starts_with_the_knobs_the_budget_chooses() {
+        let dir = tempfile::tempdir().unwrap();
+        let asset = write_asset(dir.path(), "a.haze", 2);
+        let file = dir.path().join("tradeoff.json");
+        std::fs::write(&file, sweep().to_string()).unwrap();
+        let defaults = Knobs {
+            sigma_t: 4.0,
+            albedo: 0.8,
+            g: 0.3,
+            sh_order: 4,
+            slices: 2.0,
+            multiple: true,
+            residual: true,
+            exposure: 1.0,
+        };
+        let mut a = ViewArgs {
+            input: asset,
+            fps: 0.0,
+            width: 80,
+            height: 60,
+            fov: 40.0,
+            env: crate::light_args::LightArgs {
+                env: "sky".into(),
+                no_sun_extraction: false,
+                sun: Vec::new(),
+                light: Vec::new(),
+            },
+            knobs: defaults.clone(),
+            play_for: Some(0.3),
+            window: false,
+            lighting: haze_view::gpu::renderer::LightingOn::Cpu,
+            goal: Some(Goal::BudgetMs(60.0)),
+            tradeoff: Some(file.clone()),
+        };
+        choose_knobs(&mut a, Goal::BudgetMs(60.0)).unwrap();
+        assert_eq!(
+            a.knobs,
+            Knobs {
+                sh_order: 2,
+                slices: 1.0,
+                multiple: false,
+                ..defaults.clone()
+            }
+        );
+        assert_eq!((a.width, a.height), (40, 30));
+        let scene = a
+            .knobs
+            .scene(std::sync::Arc::new(a.env.environment().unwrap()))
+            .unwrap();
+        assert_eq!(
+            (
+                scene.opts.order,
+                scene.opts.slices_per_voxel,
+                scene.opts.multiple,
+                scene.opts.residual
+            ),
+            (2, 1.0, false, true)
+        );
+        // The whole viewer without a window, choosing again inside `run`.
+        a.knobs = defaults;
+        a.width = 80;
+        a.height = 60;
+        run(a).unwrap();
+    }
+}
