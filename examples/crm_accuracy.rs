@@ -6,6 +6,7 @@
 //!     [--sigma-t S] [--albedo A] [--g G] [--rbfs N] [--eye X,Y,Z --target X,Y,Z]
 //!     [--sun-map ELEV,AZIM,ANGLE,RATIO [--no-sun-extraction]]
 //!     [--table fig6|order|rbfs|slices|cg|sun|ms|reference|all] [--cache DIR]
+//!     [--diffusion centers|grid[:F]]
 //! ```
 //!
 //! VOLUME is one density frame (any format `haze` imports). It is fitted with `--rbfs`
@@ -30,7 +31,7 @@ use haze_view::diffusion::SolveOptions;
 use haze_view::env::direction;
 use haze_view::lighting::single::SourcePoints;
 use haze_view::reference::{self, RefOptions, rbf_volume};
-use haze_view::render::{CrmOptions, CrmStats, crm_render};
+use haze_view::render::{CrmOptions, CrmStats, MsDiffusion, crm_render};
 use haze_view::{Camera, Environment, Image, LatLong, Medium, Sky, Sun};
 use haze_volume::import::{ImportOptions, import};
 use haze_volume::{Rbf, Volume};
@@ -51,6 +52,7 @@ struct Args {
     sun_map: Option<[f64; 4]>,
     extract: bool,
     cache: Option<std::path::PathBuf>,
+    diffusion: MsDiffusion,
 }
 
 fn parse() -> Result<Args, String> {
@@ -64,6 +66,7 @@ fn parse() -> Result<Args, String> {
         g: 0.3,
         rbfs: 300,
         table: "all".into(),
+        diffusion: CrmOptions::default().diffusion,
         eye: None,
         target: None,
         sun_map: None,
@@ -99,6 +102,7 @@ fn parse() -> Result<Args, String> {
             "--g" => a.g = num(v()?)?,
             "--rbfs" => a.rbfs = num(v()?)? as usize,
             "--table" => a.table = v()?,
+            "--diffusion" => a.diffusion = parse_diffusion(&v()?)?,
             "--eye" => {
                 let l = list(v()?, 3)?;
                 a.eye = Some([l[0], l[1], l[2]]);
@@ -118,9 +122,24 @@ fn parse() -> Result<Args, String> {
         }
     }
     if a.input.is_empty() {
-        return Err("usage: crm_accuracy VOLUME [--size WxH] [--spp N] [--sigma-t S] [--albedo A] [--g G] [--rbfs N] [--eye X,Y,Z --target X,Y,Z] [--sun-map ELEV,AZIM,ANGLE,RATIO [--no-sun-extraction]] [--table fig6|order|rbfs|slices|cg|sun|ms|reference|all] [--cache DIR]".into());
+        return Err("usage: crm_accuracy VOLUME [--size WxH] [--spp N] [--sigma-t S] [--albedo A] [--g G] [--rbfs N] [--eye X,Y,Z --target X,Y,Z] [--sun-map ELEV,AZIM,ANGLE,RATIO [--no-sun-extraction]] [--table fig6|order|rbfs|slices|cg|sun|ms|reference|all] [--cache DIR] [--diffusion centers|grid[:F]]".into());
     }
     Ok(a)
+}
+
+/// `centers` or `grid:F` (`grid` alone: F = 2).
+fn parse_diffusion(s: &str) -> Result<MsDiffusion, String> {
+    match s.split_once(':') {
+        None if s == "centers" => Ok(MsDiffusion::Centers),
+        None if s == "grid" => Ok(MsDiffusion::Grid { factor: 2 }),
+        Some(("grid", f)) => match f.parse::<usize>() {
+            Ok(factor) if factor >= 1 => Ok(MsDiffusion::Grid { factor }),
+            _ => Err(format!(
+                "--diffusion {s}: the factor must be a whole number ≥ 1"
+            )),
+        },
+        _ => Err(format!("--diffusion {s}: expected centers, grid or grid:F")),
+    }
 }
 
 /// `rel_rms` over the pixels of `mask`.
@@ -541,7 +560,14 @@ fn multiple_part(a: &Args, scene: &Scene, final_ref: &Image, single_ref: &Image)
             ..CrmOptions::default()
         },
     );
-    let (fin, stats, _) = scene.crm(&scene.rbfs, true, CrmOptions::default());
+    let (fin, stats, _) = scene.crm(
+        &scene.rbfs,
+        true,
+        CrmOptions {
+            diffusion: a.diffusion,
+            ..CrmOptions::default()
+        },
+    );
     let diff = |x: &Image, y: &Image| Image {
         width: x.width,
         height: x.height,

@@ -459,6 +459,12 @@ pub struct RenderCli {
     /// points; removes the dark bias of dense smoke) or its center (paper A, faster).
     #[arg(long, value_enum, default_value_t = SourceArg::Footprint)]
     source: SourceArg,
+    /// Where multiple scattering's diffusion is solved: `centers` (on the RBF basis,
+    /// paper A §5.4; CPU and GPU) or `grid[:F]` (finite volumes on the density averaged
+    /// over F³ voxels, F = 2 by default; CPU only, refused with --gpu). BENCHMARKS.md
+    /// "Multiple scattering under a sun" compares the two.
+    #[arg(long, default_value = "centers", value_parser = parse_diffusion)]
+    diffusion: haze_view::render::MsDiffusion,
     /// Render with the reference path tracer instead (slow).
     #[arg(long, conflicts_with = "gpu")]
     reference: bool,
@@ -732,6 +738,7 @@ impl RenderCli {
                 (None, None) => None,
             },
             tradeoff: self.tradeoff,
+            diffusion: self.diffusion,
             solve: haze_view::diffusion::SolveOptions::default(),
             rbfs: 300,
             teleport: true,
@@ -762,6 +769,20 @@ impl From<LightingArg> for haze_view::gpu::renderer::LightingOn {
             LightingArg::Cpu => Self::Cpu,
             LightingArg::Gpu => Self::Gpu,
         }
+    }
+}
+
+/// `centers`, `grid` or `grid:F` (the range of F is checked by `render::run`).
+fn parse_diffusion(s: &str) -> Result<haze_view::render::MsDiffusion, String> {
+    use haze_view::render::MsDiffusion;
+    match s.split_once(':') {
+        None if s == "centers" => Ok(MsDiffusion::Centers),
+        None if s == "grid" => Ok(MsDiffusion::Grid { factor: 2 }),
+        Some(("grid", f)) => f
+            .parse::<usize>()
+            .map(|factor| MsDiffusion::Grid { factor })
+            .map_err(|_| format!("grid:{f}: the factor must be a whole number")),
+        _ => Err(format!("{s}: expected centers, grid or grid:F")),
     }
 }
 

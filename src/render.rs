@@ -15,7 +15,7 @@ use haze_view::gpu::renderer::{GpuFrame, GpuRenderer, LightingOn};
 use haze_view::gpu::volume_pass::Residual;
 use haze_view::lighting::single::SourcePoints;
 use haze_view::reference::{self, RefOptions};
-use haze_view::render::{CrmOptions, crm_render};
+use haze_view::render::{CrmOptions, MsDiffusion, crm_render};
 use haze_view::sh::ExpMethod;
 use haze_view::stream::{FrameDecoder, ResidualSlot, StreamFrame};
 use haze_view::{Camera, Image, Medium};
@@ -47,6 +47,8 @@ pub struct RenderArgs {
     pub slices: f64,
     pub exp: ExpMethod,
     pub source_points: SourcePoints,
+    /// Where multiple scattering's diffusion is solved.
+    pub diffusion: MsDiffusion,
     pub reference: bool,
     /// Choose the knobs from a tradeoff sweep to meet this.
     pub goal: Option<Goal>,
@@ -86,6 +88,14 @@ pub fn run(mut a: RenderArgs) -> Result<()> {
     let medium = Medium::new(a.sigma_t, a.albedo, a.g).map_err(|e| anyhow!("{e}"))?;
     check_knobs(a.sh_order, a.slices)?;
     let env = a.env.environment()?;
+    if let MsDiffusion::Grid { factor } = a.diffusion
+        && !(1..=16).contains(&factor)
+    {
+        bail!("--diffusion grid:{factor}: the factor must be 1 to 16 (voxels per cell side)");
+    }
+    if a.gpu && !a.reference && matches!(a.diffusion, MsDiffusion::Grid { .. }) {
+        bail!("--diffusion grid runs on the CPU only; use --diffusion centers with --gpu");
+    }
     // Before any fitting: a machine without an adapter is told at once.
     let gpu = if a.gpu && !a.reference {
         let ctx = GpuContext::new().map_err(|e| anyhow!("--gpu: {e}"))?;
@@ -132,6 +142,8 @@ pub fn run(mut a: RenderArgs) -> Result<()> {
             exp: a.exp,
             source_points: a.source_points,
             solve: a.solve,
+            diffusion: a.diffusion,
+            ..CrmOptions::default()
         };
         let (dims, bbox) = (frame.density.dims(), frame.density.bbox());
         let img = if let Some(ctx) = &gpu {

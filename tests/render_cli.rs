@@ -147,6 +147,28 @@ fn renders_a_baked_frame_and_a_volume() {
         images.push(read_exr(&exr, 40, 30));
     }
     assert_close(&images[1], &images[0]);
+    // Multiple scattering on the voxel grid adds light to single scattering.
+    let grid = tmp(&dir, "grid.exr");
+    let mut args = vec![
+        "render",
+        &vol,
+        "--sh-order",
+        "2",
+        "--diffusion",
+        "grid:3",
+        "--out",
+    ];
+    args.push(grid.to_str().unwrap());
+    args.extend(size);
+    ok(&args);
+    let with_grid = read_exr(&grid, 40, 30);
+    assert!(with_grid.iter().flatten().all(|c| c.is_finite()));
+    assert!(
+        mean(&with_grid) > 1.01 * mean(&images[0]),
+        "{} vs {}",
+        mean(&with_grid),
+        mean(&images[0])
+    );
     let reference = tmp(&dir, "reference.exr");
     let mut args = vec!["render", &vol, "--reference", "--spp", "2", "--out"];
     args.push(reference.to_str().unwrap());
@@ -186,6 +208,14 @@ fn bad_render_requests_fail_on_one_line() {
         "--target",
     );
     fails(&["render", "missing.haze", "--out", out], "missing.haze");
+    fails(
+        &["render", &vol, "--out", out, "--diffusion", "grid:0"],
+        "grid:0",
+    );
+    fails(
+        &["render", &vol, "--out", out, "--gpu", "--diffusion", "grid"],
+        "CPU only",
+    );
     assert!(!Path::new(out).exists(), "a failed render left an image");
 }
 

@@ -315,6 +315,7 @@ impl SmokeLab {
                 slices_per_voxel: f(8),
                 multiple: b(10),
                 residual: b(11),
+                ..CrmOptions::default()
             },
             size: f(9),
         }

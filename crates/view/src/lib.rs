@@ -7,6 +7,7 @@ pub mod diffusion;
 pub mod env;
 pub mod field;
 pub mod gpu;
+pub mod grid_diffusion;
 pub mod image;
 pub mod lighting;
 pub mod lights;

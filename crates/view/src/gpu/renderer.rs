@@ -42,7 +42,7 @@ use super::{GpuContext, GpuError, GridBuffer, SourceBuffer};
 use crate::diffusion::{DiffusionSolver, Operators, Sources};
 use crate::lighting::direct::add_light_moments;
 use crate::lighting::single::{RgbSh, ShKit};
-use crate::render::{CrmOptions, CrmStats, slice_thickness, source_radiance};
+use crate::render::{CrmOptions, CrmStats, MsDiffusion, slice_thickness, source_radiance};
 use crate::sh;
 use crate::{Camera, Environment, Medium};
 use haze_volume::{Bbox, Rbf};
@@ -275,7 +275,8 @@ impl GpuRenderer {
 
     /// Renders `frame` seen by `camera` into an image on the GPU (submitted; read it with
     /// [`ImageBuffer::read`]). Refuses what the stages refuse (an order outside 1..=6, a
-    /// residual of other dims, sizes beyond the device's limits).
+    /// residual of other dims, sizes beyond the device's limits, multiple scattering on
+    /// the grid: [`MsDiffusion::Grid`] is CPU only).
     pub fn render(
         &mut self,
         ctx: &GpuContext,
@@ -292,6 +293,11 @@ impl GpuRenderer {
                 opts.order,
                 sh::MAX_ORDER
             )));
+        }
+        if opts.multiple && opts.diffusion != MsDiffusion::Centers {
+            return Err(GpuError::Input(
+                "the grid diffusion runs on the CPU only; the GPU solves on the centers".into(),
+            ));
         }
         let (kit, single, light) = match self.order.take() {
             Some(o) if o.0.order == opts.order => self.order.insert(o),

@@ -5,6 +5,7 @@ pub mod crm;
 pub mod lights_pass;
 
 use crate::diffusion::{DiffusionSolver, Operators, SolveOptions, Sources};
+use crate::grid_diffusion::{self, GridSolveOptions};
 use crate::lighting::direct::add_light_moments;
 use crate::lighting::single::{RgbSh, ShKit, SourcePoints, single_scattering};
 use crate::sh::{self, ExpMethod};
@@ -32,6 +33,22 @@ pub struct CrmOptions {
     pub source_points: SourcePoints,
     /// Stopping rule of the diffusion solve (the CG iterations knob).
     pub solve: SolveOptions,
+    /// Where the diffusion of multiple scattering is solved.
+    pub diffusion: MsDiffusion,
+    /// Stopping rule of the grid's diffusion solve ([`MsDiffusion::Grid`]).
+    pub grid_solve: GridSolveOptions,
+}
+
+/// Where multiple scattering's diffusion is solved.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MsDiffusion {
+    /// On the RBF basis, collocated at the centers (paper A §5.4, `crate::diffusion`),
+    /// with the escape-probability vacuum correction; its source joins the centers'.
+    Centers,
+    /// By finite volumes on the volume pass's density averaged over `factor³` voxels,
+    /// the first collision kept per cell (`crate::grid_diffusion`); added per voxel
+    /// after the lights pass. CPU only: the GPU renderer solves on the centers.
+    Grid { factor: usize },
 }
 
 impl Default for CrmOptions {
@@ -44,6 +61,8 @@ impl Default for CrmOptions {
             exp: ExpMethod::ScaleSquareAuto,
             source_points: SourcePoints::Footprint,
             solve: SolveOptions::default(),
+            diffusion: MsDiffusion::Centers,
+            grid_solve: GridSolveOptions::default(),
         }
     }
 }
@@ -118,7 +137,7 @@ pub fn source_radiance(
     let ss = single_scattering(kit, rbfs, medium, light, opts.exp, opts.source_points);
     let mut source = ss.source;
     stats.single_seconds = t.elapsed().as_secs_f64();
-    if opts.multiple {
+    if opts.multiple && opts.diffusion == MsDiffusion::Centers {
         let t = Instant::now();
         add_multiple_scattering(
             rbfs,
@@ -235,6 +254,22 @@ pub fn crm_grids(
     let t = Instant::now();
     lights_pass::lights_pass(&mut grids, env, medium, eye);
     stats.lights_seconds = t.elapsed().as_secs_f64();
+    if let (true, MsDiffusion::Grid { factor }) = (opts.multiple, opts.diffusion) {
+        let t = Instant::now();
+        let ms = grid_diffusion::frame_media_radiance(
+            &grids,
+            rbfs,
+            &moments(&source),
+            env,
+            medium,
+            factor,
+            &opts.grid_solve,
+        );
+        grid_diffusion::add_to_grids(&mut grids, &ms, medium, eye);
+        stats.cg_iterations = ms.iterations;
+        stats.cg_residual = ms.residual;
+        stats.multiple_seconds = t.elapsed().as_secs_f64();
+    }
     (grids, slice_thickness(dims, bbox, opts), stats)
 }
 

@@ -1,0 +1,87 @@
+//! The coarse grid of the diffusion: the volume pass's density `D = D̃ + R` averaged over
+//! blocks of `f × f × f` voxels.
+
+use haze_volume::Volume;
+
+/// A block-averaged copy of a density grid. Cell `c` covers the fine voxels
+/// `[f·c, min(f·c + f, n))` per axis; its density is their mean, its size `h = f·voxel`.
+#[derive(Clone, Debug)]
+pub struct CoarseGrid {
+    pub dims: [usize; 3],
+    /// Blocking factor `f ≥ 1`.
+    pub factor: usize,
+    /// Cell sides (world units).
+    pub h: [f64; 3],
+    /// World position of cell `[0, 0, 0]`'s low corner.
+    pub origin: [f64; 3],
+    /// Mean density per cell, x fastest.
+    pub density: Vec<f64>,
+}
+
+impl CoarseGrid {
+    /// Averages `fine` over blocks of `factor³` voxels (`factor` is clamped to ≥ 1).
+    /// Negative or non-finite densities count as 0.
+    pub fn new(fine: &Volume, factor: usize) -> CoarseGrid {
+        let f = factor.max(1);
+        let n = fine.dims();
+        let dims = n.map(|a| a.div_ceil(f));
+        let vs = fine.voxel_size();
+        let mut sum = vec![0.0f64; dims.iter().product()];
+        let mut count = vec![0u32; sum.len()];
+        for z in 0..n[2] {
+            for y in 0..n[1] {
+                for x in 0..n[0] {
+                    let c = x / f + dims[0] * (y / f + dims[1] * (z / f));
+                    let d = f64::from(fine.get(x, y, z));
+                    if d.is_finite() && d > 0.0 {
+                        sum[c] += d;
+                    }
+                    count[c] += 1;
+                }
+            }
+        }
+        let density = sum
+            .iter()
+            .zip(&count)
+            .map(|(s, &k)| if k > 0 { s / f64::from(k) } else { 0.0 })
+            .collect();
+        CoarseGrid {
+            dims,
+            factor: f,
+            h: vs.map(|v| v * f as f64),
+            origin: fine.bbox().min,
+            density,
+        }
+    }
+
+    /// Number of cells.
+    pub fn len(&self) -> usize {
+        self.density.len()
+    }
+
+    /// No cells.
+    pub fn is_empty(&self) -> bool {
+        self.density.is_empty()
+    }
+
+    /// Linear index of cell `[x, y, z]`.
+    pub fn index(&self, c: [usize; 3]) -> usize {
+        c[0] + self.dims[0] * (c[1] + self.dims[1] * c[2])
+    }
+
+    /// Cell coordinates of linear index `i`.
+    pub fn coords(&self, i: usize) -> [usize; 3] {
+        let (x, r) = (i % self.dims[0], i / self.dims[0]);
+        [x, r % self.dims[1], r / self.dims[1]]
+    }
+
+    /// World position of the center of cell `c`.
+    pub fn center(&self, c: [usize; 3]) -> [f64; 3] {
+        [0, 1, 2].map(|a| self.origin[a] + (c[a] as f64 + 0.5) * self.h[a])
+    }
+
+    /// Cell volume.
+    pub fn volume(&self) -> f64 {
+        self.h[0] * self.h[1] * self.h[2]
+    }
+}

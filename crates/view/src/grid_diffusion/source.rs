@@ -1,0 +1,142 @@
+//! The first-scattering source moments `J⁰`, `J¹` per coarse cell: the environment's
+//! single scattering interpolated from the RBF centers (eq. 12, as the volume pass
+//! interpolates it), and the suns' and point lights' direct light with its transmittance
+//! marched through the volume pass's density, as the lights pass marches it.
+
+use super::CoarseGrid;
+use crate::diffusion::Sources;
+use crate::env::Environment;
+use crate::lights::unit;
+use crate::medium::{FOUR_PI, Medium};
+use crate::render::lights_pass::transmittance;
+use haze_volume::rbf::voxel_span;
+use haze_volume::{Rbf, Volume};
+use rayon::prelude::*;
+
+/// `J¹` of one point, `[channel][axis]`.
+type Moment1 = [[f64; 3]; 3];
+
+/// `J⁰`, `J¹` of the centers' sources `centers` (one per RBF) at every cell center:
+/// `J(x) = Σ v_l(x) J_l / Σ v_l(x)`, `v_l = w_l B_l`; 0 where no RBF reaches.
+pub fn interpolate_centers(grid: &CoarseGrid, rbfs: &[Rbf], centers: &Sources) -> Sources {
+    let d = grid.dims;
+    let plane = d[0] * d[1];
+    let slices: Vec<(Vec<[f64; 3]>, Vec<Moment1>)> = (0..d[2])
+        .into_par_iter()
+        .map(|z| {
+            let pz = grid.origin[2] + (z as f64 + 0.5) * grid.h[2];
+            let mut w = vec![0.0f64; plane];
+            let mut j0 = vec![[0.0f64; 3]; plane];
+            let mut j1 = vec![[[0.0f64; 3]; 3]; plane];
+            for (l, rbf) in rbfs.iter().enumerate() {
+                let s = rbf.support_radius();
+                if s <= 0.0 || (pz - rbf.center[2]).abs() >= s {
+                    continue;
+                }
+                let span = |a: usize| {
+                    voxel_span(
+                        rbf.center[a] - s,
+                        rbf.center[a] + s,
+                        grid.origin[a],
+                        grid.h[a],
+                        d[a],
+                    )
+                };
+                let (Some((x0, x1)), Some((y0, y1))) = (span(0), span(1)) else {
+                    continue;
+                };
+                for y in y0..=y1 {
+                    for x in x0..=x1 {
+                        let p = grid.center([x, y, z]);
+                        let b = rbf.eval(p);
+                        if b.is_nan() || b <= 0.0 {
+                            continue;
+                        }
+                        let i = x + d[0] * y;
+                        w[i] += b;
+                        for (c, (s0, s1)) in j0[i].iter_mut().zip(&mut j1[i]).enumerate() {
+                            *s0 += b * centers.j0[l][c];
+                            s1.iter_mut()
+                                .zip(centers.j1[l][c])
+                                .for_each(|(s, v)| *s += b * v);
+                        }
+                    }
+                }
+            }
+            for i in 0..plane {
+                if w[i] > 0.0 {
+                    j0[i] = j0[i].map(|v| v / w[i]);
+                    j1[i] = j1[i].map(|c| c.map(|v| v / w[i]));
+                }
+            }
+            (j0, j1)
+        })
+        .collect();
+    let mut out = Sources::zeros(0);
+    for (a, b) in slices {
+        out.j0.extend(a);
+        out.j1.extend(b);
+    }
+    out
+}
+
+/// Adds the direct light of `env`'s suns and point lights at every cell center with smoke
+/// (`lighting::direct`'s moments: `J⁰ = Ω·E·T/4π`, `J¹ = −3·g·m·J⁰·s`, `m` the disk's
+/// mean cosine), `T` marched through `fine` (`render::lights_pass::transmittance`).
+pub fn add_lights(
+    sources: &mut Sources,
+    grid: &CoarseGrid,
+    fine: &Volume,
+    env: &Environment,
+    medium: &Medium,
+) {
+    if !env.has_lights() || medium.albedo == 0.0 {
+        return;
+    }
+    let k = medium.albedo / FOUR_PI;
+    let vs = fine.voxel_size();
+    let h0 = vs[0].min(vs[1]).min(vs[2]);
+    // A point light inside a cell: the mean of 1/r² over a ball of half a cell.
+    let hc = grid.h[0].min(grid.h[1]).min(grid.h[2]);
+    let soft = (0.5 * hc).powi(2) / 3.0;
+    sources
+        .j0
+        .par_iter_mut()
+        .zip(sources.j1.par_iter_mut())
+        .enumerate()
+        .for_each(|(i, (j0, j1))| {
+            if grid.density[i] <= 0.0 {
+                return;
+            }
+            let u = grid.center(grid.coords(i));
+            let mut light = |e: [f64; 3], s: [f64; 3], t: f64, m: f64| {
+                for c in 0..3 {
+                    let a = k * e[c] * t;
+                    j0[c] += a;
+                    for (axis, sa) in s.iter().enumerate() {
+                        j1[c][axis] -= 3.0 * medium.g * m * a * sa;
+                    }
+                }
+            };
+            for sun in &env.suns {
+                let t = transmittance(fine, medium.sigma_t, u, sun.direction, f64::MAX, h0);
+                light(
+                    sun.irradiance,
+                    sun.direction,
+                    t,
+                    0.5 * (1.0 + (0.5 * sun.angle).cos()),
+                );
+            }
+            for pl in &env.points {
+                let v = [0, 1, 2].map(|a| pl.position[a] - u[a]);
+                let r2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+                match unit(v) {
+                    Some(s) => {
+                        let t = transmittance(fine, medium.sigma_t, u, s, r2.sqrt(), h0);
+                        light(pl.intensity.map(|x| x / (r2 + soft)), s, t, 1.0);
+                    }
+                    None => light(pl.intensity.map(|x| x / soft), [0.0; 3], 1.0, 0.0),
+                }
+            }
+        });
+}

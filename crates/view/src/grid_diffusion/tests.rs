@@ -1,0 +1,259 @@
+use super::*;
+use crate::env::Environment;
+use crate::lights::Sun;
+use crate::render::crm::VolumeGrids;
+use haze_volume::{Bbox, Volume};
+
+fn grid(dims: [usize; 3], h: [f64; 3], density: Vec<f64>) -> CoarseGrid {
+    CoarseGrid {
+        dims,
+        factor: 1,
+        h,
+        origin: [0.0; 3],
+        density,
+    }
+}
+
+/// A line of cells with a step source and uniform escape `p` against the closed form of
+/// `κ'L'' − σ D L + S = 0` with zero flux at both ends (no neighbours there):
+/// `L = (S/σD)(1 − cosh(kx)/(2 cosh(kW/2)))` on the lit half, `(S/σD) cosh(k(W − x))/
+/// (2 cosh(kW/2))` on the other, `k² = σD/κ'`, `κ' = (1 − p)/(3σtr D)`, `σ = σa + σs p`.
+#[test]
+fn line_matches_the_closed_form() {
+    let medium = Medium::new(2.0, 0.6, 0.3).unwrap();
+    let (n, w, d, p, j0) = (200usize, 4.0, 1.5, 0.2, 1.0);
+    let h = w / n as f64;
+    // Wide cells across the line: no neighbours there, so the system is one-dimensional.
+    let g = grid([n, 1, 1], [h, 7.0, 3.0], vec![d; n]);
+    let mut src = Sources::zeros(n);
+    for l in 0..n / 2 {
+        src.j0[l] = [j0, 0.5 * j0, 0.0];
+    }
+    let sys = FvSystem::new(&g, &medium, &src, &vec![p; n]).unwrap();
+    let sol = solve(
+        &sys,
+        None,
+        &GridSolveOptions {
+            max_iterations: 5000,
+            tolerance: 1e-12,
+        },
+    );
+    let (st, ss, sa) = (2.0, 1.2, 0.8);
+    let str_ = (1.0 - 0.6 * 0.3) * st;
+    let sink = (sa + ss * p) * d;
+    let kappa = (1.0 - p) / (3.0 * str_ * d);
+    let k = (sink / kappa).sqrt();
+    let s = st * d * (1.0 - p) * j0;
+    let c = (k * w / 2.0).cosh();
+    for (l, v) in sol.l0.iter().enumerate() {
+        let x = (l as f64 + 0.5) * h;
+        let exact = if x < w / 2.0 {
+            s / sink * (1.0 - (k * x).cosh() / (2.0 * c))
+        } else {
+            s / sink * (k * (w - x)).cosh() / (2.0 * c)
+        };
+        assert!(
+            (v[0] - exact).abs() < 2e-3 * s / sink,
+            "cell {l}: {} vs {exact}",
+            v[0]
+        );
+        assert!((v[1] - 0.5 * v[0]).abs() < 1e-9 * s / sink);
+        assert_eq!(v[2], 0.0);
+    }
+}
+
+/// The conjugate gradient against a dense LU solve of the same operator, on a small grid
+/// of random densities, sources, fluxes and escape probabilities.
+#[test]
+fn cg_matches_a_dense_solve() {
+    let mut seed = 7u64;
+    let mut rnd = || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let dims = [5, 4, 3];
+    let n = 60;
+    let density: Vec<f64> = (0..n)
+        .map(|_| if rnd() < 0.2 { 0.0 } else { 2.0 * rnd() })
+        .collect();
+    let g = grid(dims, [0.3, 0.25, 0.4], density);
+    let mut src = Sources::zeros(n);
+    for l in 0..n {
+        src.j0[l] = [rnd(), rnd(), rnd()];
+        src.j1[l] = [[rnd() - 0.5, rnd() - 0.5, rnd() - 0.5]; 3];
+    }
+    let esc: Vec<f64> = (0..n).map(|_| 0.05 + 0.9 * rnd()).collect();
+    let medium = Medium::new(3.0, 0.95, 0.5).unwrap();
+    let sys = FvSystem::new(&g, &medium, &src, &esc).unwrap();
+    let m = sys.n();
+    let mut dense = nalgebra::DMatrix::zeros(m, m);
+    let mut e = vec![[0.0; 3]; m];
+    let mut col = vec![[0.0; 3]; m];
+    for k in 0..m {
+        e[k] = [1.0; 3];
+        sys.apply(&e, &mut col);
+        for r in 0..m {
+            dense[(r, k)] = col[r][0];
+        }
+        e[k] = [0.0; 3];
+    }
+    assert!(
+        (dense.clone() - dense.transpose()).abs().max() < 1e-12,
+        "not symmetric"
+    );
+    let lu = dense.lu();
+    let sol = solve(
+        &sys,
+        None,
+        &GridSolveOptions {
+            max_iterations: 1000,
+            tolerance: 1e-12,
+        },
+    );
+    for c in 0..3 {
+        let b = nalgebra::DVector::from_fn(m, |k, _| sys.b[k][c]);
+        let x = lu.solve(&b).unwrap();
+        for k in 0..m {
+            assert!((sol.l0[k][c] - x[k]).abs() < 1e-8 * x.amax(), "{k} {c}");
+        }
+    }
+}
+
+/// `P` at the center of a box filled uniformly against a fine quadrature of
+/// `exp(−σt D ℓ(ω))`, `ℓ` the exact distance to the box's face.
+#[test]
+fn escape_matches_quadrature() {
+    let (dims, h, d, st) = ([9, 9, 9], [0.1; 3], 1.3, 2.0);
+    let g = grid(dims, h, vec![d; 729]);
+    let p = escape(&g, st, &fibonacci_directions(2048));
+    let x = g.center([4, 4, 4]);
+    let (nt, np) = (400, 800);
+    let mut q = 0.0;
+    for it in 0..nt {
+        let th = (it as f64 + 0.5) * std::f64::consts::PI / nt as f64;
+        for ip in 0..np {
+            let ph = (ip as f64 + 0.5) * 2.0 * std::f64::consts::PI / np as f64;
+            let w = [th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()];
+            let len = (0..3)
+                .filter(|&a| w[a] != 0.0)
+                .map(|a| {
+                    if w[a] > 0.0 {
+                        (0.9 - x[a]) / w[a]
+                    } else {
+                        -x[a] / w[a]
+                    }
+                })
+                .fold(f64::INFINITY, f64::min);
+            q += (-st * d * len).exp() * th.sin();
+        }
+    }
+    q *= (std::f64::consts::PI / nt as f64) * (2.0 * std::f64::consts::PI / np as f64)
+        / (4.0 * std::f64::consts::PI);
+    let c = g.index([4, 4, 4]);
+    assert!((p[c] - q).abs() < 2e-3 * q, "{} vs {q}", p[c]);
+    // Empty cells and σt = 0.
+    let e = escape(
+        &grid([2, 2, 2], h, vec![0.0; 8]),
+        st,
+        &fibonacci_directions(8),
+    );
+    assert_eq!(e, vec![1.0; 8]);
+    assert!(
+        escape(&g, 0.0, &fibonacci_directions(8))
+            .iter()
+            .all(|&v| v == 1.0)
+    );
+}
+
+/// Deep inside a thick uniform box the solution is the local balance
+/// `(1 − P) J⁰ / (1 − Ω (1 − P)) → J⁰/(1 − Ω)` (`P → 0`), also at Ω = 1 where it grows
+/// without bound in the size but stays finite.
+#[test]
+fn thick_smoke_reaches_the_local_balance() {
+    let n = 11;
+    let g = grid([n, n, n], [0.1; 3], vec![1.0; n * n * n]);
+    let mut src = Sources::zeros(n * n * n);
+    src.j0 = vec![[1.0, 2.0, 0.0]; n * n * n];
+    for (albedo, sigma_t) in [(0.8, 400.0), (1.0, 400.0), (0.8, 1e9)] {
+        let medium = Medium::new(sigma_t, albedo, 0.4).unwrap();
+        let p = escape(&g, medium.sigma_t, &fibonacci_directions(DIRECTIONS));
+        let ms = media_radiance(g.clone(), &medium, &src, &p, &GridSolveOptions::default());
+        let center = ms.l0[g.index([5, 5, 5])];
+        assert!(ms.l0.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+        if albedo < 1.0 {
+            let balance = 1.0 / (1.0 - albedo);
+            assert!((center[0] - balance).abs() < 1e-3 * balance, "{center:?}");
+            assert!((center[1] - 2.0 * balance).abs() < 1e-3 * balance);
+        } else {
+            assert!(center[0] > 50.0, "{center:?}");
+        }
+        assert_eq!(center[2], 0.0);
+    }
+}
+
+/// A volume grid of one blob lit by a sun.
+fn blob() -> (VolumeGrids, Environment) {
+    let n = 12;
+    let bbox = Bbox::new([0.0; 3], [1.0; 3]);
+    let data: Vec<f32> = (0..n * n * n)
+        .map(|i| {
+            let c = [i % n, i / n % n, i / (n * n)].map(|a| (a as f64 + 0.5) / n as f64 - 0.5);
+            (1.0 - 6.0 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2])).max(0.0) as f32
+        })
+        .collect();
+    let grids = VolumeGrids {
+        density: Volume::new([n; 3], bbox, data).unwrap(),
+        radiance: vec![[0.0; 3]; n * n * n],
+    };
+    let mut env = Environment::constant([0.0; 3]);
+    env.suns.push(Sun {
+        direction: [0.0, 0.6, 0.8],
+        irradiance: [3.0, 2.0, 1.0],
+        angle: 0.01,
+    });
+    (grids, env)
+}
+
+/// Extremes: no smoke, no albedo and no extinction add nothing; huge σt stays finite.
+#[test]
+fn extremes_stay_finite() {
+    let (grids, env) = blob();
+    let eye = [0.5, -3.0, 0.5];
+    let run = |grids: &VolumeGrids, medium: &Medium| {
+        let n = grids.radiance.len();
+        let mut g = grids.clone();
+        let ms = frame_media_radiance(
+            &g,
+            &[],
+            &Sources::zeros(0),
+            &env,
+            medium,
+            2,
+            &GridSolveOptions::default(),
+        );
+        add_to_grids(&mut g, &ms, medium, eye);
+        assert_eq!(g.radiance.len(), n);
+        g.radiance
+    };
+    let lit = run(&grids, &Medium::new(8.0, 0.9, 0.5).unwrap());
+    assert!(lit.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+    assert!(lit.iter().flatten().any(|&v| v > 0.0));
+    for m in [
+        Medium::new(8.0, 0.0, 0.5).unwrap(),
+        Medium::new(0.0, 0.9, 0.5).unwrap(),
+    ] {
+        assert!(run(&grids, &m).iter().flatten().all(|&v| v == 0.0));
+    }
+    let huge = run(&grids, &Medium::new(1e12, 1.0, 0.9).unwrap());
+    assert!(huge.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+    let mut empty = grids.clone();
+    empty.density.data_mut().iter_mut().for_each(|v| *v = 0.0);
+    assert!(
+        run(&empty, &Medium::new(8.0, 0.9, 0.5).unwrap())
+            .iter()
+            .flatten()
+            .all(|&v| v == 0.0)
+    );
+}
