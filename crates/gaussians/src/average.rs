@@ -62,6 +62,18 @@ pub fn mean_depth(rho: f64) -> f64 {
         // F(ρ)/ρ = 1 − 2ρ²/3 + …
         return 0.5 * PI.sqrt();
     }
+    if rho > 20.0 {
+        // Dawson's asymptotic series F(ρ)/ρ ~ Σ_k (2k−1)!!/(2ρ²)^{k+1}: the first term
+        // left out is below 3·10⁻¹² of the sum here; no exponentials.
+        let u = 0.5 / (rho * rho);
+        let mut term = u;
+        let mut sum = u;
+        for k in 1..6 {
+            term *= (2 * k - 1) as f64 * u;
+            sum += term;
+        }
+        return 0.5 * PI.sqrt() * sum;
+    }
     0.5 * PI.sqrt() * dawson(rho) / rho
 }
 
@@ -142,6 +154,12 @@ mod tests {
                     200,
                 );
             assert!((mean_depth(rho) - q).abs() < 1e-10, "𝒯({rho}) vs {q}");
+        }
+        // Far away (the asymptotic series) against Dawson's integral, itself checked
+        // against quadrature above.
+        for rho in [20.000001, 25.0, 60.0, 1e4] {
+            let want = 0.5 * PI.sqrt() * dawson(rho) / rho;
+            assert!((mean_depth(rho) / want - 1.0).abs() < 1e-11, "𝒯({rho})");
         }
         for (rho, want) in [(0.0, 0.8862269), (1.0, 0.4768605), (2.0, 0.1335280)] {
             assert!((mean_depth(rho) - want).abs() < 1e-7);

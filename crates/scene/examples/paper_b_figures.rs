@@ -4,7 +4,7 @@
 //! ```text
 //! cargo run --release -p haze-scene --example paper_b_figures -- accuracy [--size 64x48]
 //! cargo run --release -p haze-scene --example paper_b_figures -- timing [--size 320x240]
-//!     [--counts 10,100,1000,5000] [--lights 1,2,4] [--repeat 3]
+//!     [--counts 10,100,1000,5000] [--lights 1,2,4] [--repeat 3] [--gpu [--prep]]
 //! cargo run --release -p haze-scene --example paper_b_figures -- environment [--size 48x36]
 //!     [--theta 8]
 //! cargo run --release -p haze-scene --example paper_b_figures -- scene data/scenes/gaussians.json
@@ -23,14 +23,19 @@
 //! surfaces, so paper B's is off in the comparison; its share of paper B's image is
 //! printed apart. **Environment**: the built-in sky alone over a floor (§4.2, the average
 //! optical depth) against the march integrating it over directions. **Timing**: the median of `--repeat` frames, per-frame preparation
-//! (the exponents `Eᵢ` per light) included, rayon on every core.
+//! (the exponents `Eᵢ` per light, the environment's `Ēᵢ` and `T̄ⱼ(bᵢ)`) included, rayon
+//! on every core; with `--gpu` the frame on the GPU (`haze_scene::gpu_paper_b`: the same
+//! preparation on the CPU, upload, pass, read-back), the tables uploaded beforehand.
 
 use haze_gaussians::cloud;
 use haze_scene::airlight::Limits;
+use haze_scene::gpu::GpuRenderer;
+use haze_scene::gpu_paper_b::GpuPaperB;
 use haze_scene::march::{self, MarchOptions};
 use haze_scene::paper_b::{self, PaperBOptions, Prepared};
 use haze_scene::render::{Analytic, Image};
 use haze_scene::{Scene, file};
+use haze_view::gpu::GpuContext;
 use std::time::Instant;
 
 fn fail(msg: impl std::fmt::Display) -> ! {
@@ -349,12 +354,25 @@ fn timing(args: &[String]) {
     let counts = list(args, "--counts", &[10, 100, 1000, 5000]);
     let lights = list(args, "--lights", &[1, 2, 4]);
     let repeat = list(args, "--repeat", &[3])[0].max(1);
-    println!(
-        "paper B on the CPU ({} threads), {}×{}, median of {repeat} frames (ms)",
-        rayon::current_num_threads(),
-        sz.0,
-        sz.1
-    );
+    let gpu = args.iter().any(|a| a == "--gpu").then(|| {
+        let ctx = GpuContext::new().unwrap_or_else(|e| fail(e));
+        let pipeline = GpuPaperB::new(&ctx).unwrap_or_else(|e| fail(e));
+        (ctx, pipeline)
+    });
+    match &gpu {
+        Some((ctx, _)) => println!(
+            "paper B on the GPU ({}), {}×{}, median of {repeat} frames (ms)",
+            ctx.adapter_name(),
+            sz.0,
+            sz.1
+        ),
+        None => println!(
+            "paper B on the CPU ({} threads), {}×{}, median of {repeat} frames (ms)",
+            rayon::current_num_threads(),
+            sz.0,
+            sz.1
+        ),
+    }
     print!("| gaussians |");
     for l in &lights {
         print!(" {l} light{} |", if *l == 1 { "" } else { "s" });
@@ -373,10 +391,30 @@ fn timing(args: &[String]) {
         for &l in &lights {
             let s = scene(&cloud, l, sz, false, 0.9);
             let analytic = Analytic::new(&s);
+            let tables = gpu
+                .as_ref()
+                .map(|(ctx, _)| GpuRenderer::new(ctx, &analytic).unwrap_or_else(|e| fail(e)));
             let times: Vec<f64> = (0..repeat)
                 .map(|_| {
                     let t = Instant::now();
-                    let _ = paper_b(&s, &analytic, true);
+                    match (&gpu, &tables) {
+                        (Some((ctx, pipeline)), Some(tables)) => {
+                            let prep = Prepared::new(&s, &analytic, PaperBOptions::default())
+                                .unwrap_or_else(|e| fail(e));
+                            if args.iter().any(|a| a == "--prep") {
+                                eprintln!(
+                                    "{n} gaussians, {l} lights: preparation {:.0} ms",
+                                    t.elapsed().as_secs_f64() * 1e3
+                                );
+                            }
+                            pipeline
+                                .render(ctx, tables, &prep, &Limits::default())
+                                .unwrap_or_else(|e| fail(e));
+                        }
+                        _ => {
+                            let _ = paper_b(&s, &analytic, true);
+                        }
+                    }
                     t.elapsed().as_secs_f64() * 1e3
                 })
                 .collect();
