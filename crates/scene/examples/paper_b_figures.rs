@@ -31,7 +31,7 @@ use haze_gaussians::cloud;
 use haze_scene::airlight::Limits;
 use haze_scene::gpu::GpuRenderer;
 use haze_scene::gpu_paper_b::GpuPaperB;
-use haze_scene::march::{self, MarchOptions};
+use haze_scene::march;
 use haze_scene::paper_b::{self, PaperBOptions, Prepared};
 use haze_scene::render::{Analytic, Image};
 use haze_scene::{Scene, file};
@@ -142,11 +142,10 @@ fn paper_b(s: &Scene, analytic: &Analytic, surface_scattering: bool) -> Image {
     paper_b::render(&prep, &Limits::default(), &|_| {})
 }
 
+/// `--reference`'s march: the environment integrated over directions at every sample and
+/// surface point (`paper_b::reference_options`).
 fn reference(s: &Scene) -> Image {
-    let opt = MarchOptions {
-        step: paper_b::march_step(s),
-        ..Default::default()
-    };
+    let opt = paper_b::reference_options(s, paper_b::REFERENCE_THETA);
     march::render(s, &Limits::default(), &opt, &|_| {})
 }
 
