@@ -16,7 +16,7 @@ use haze_scene::analytic;
 use haze_scene::gpu::GpuRenderer;
 use haze_scene::gpu_analytic::GpuAnalytic;
 use haze_scene::gpu_paper_b::GpuPaperB;
-use haze_scene::march::{self, MarchOptions};
+use haze_scene::march;
 use haze_scene::paper_b::{self, PaperBOptions, Prepared};
 use haze_scene::render::{Analytic, Image, Model, Reference};
 use haze_view::gpu::{GpuContext, GpuError};
@@ -187,18 +187,27 @@ fn run_gpu(a: &SceneRenderArgs, scene: &Scene, kind: OutKind, start: Instant) ->
 /// Scenes with heterogeneous media: Gaussian media by paper B (CPU, or GPU with
 /// `--gpu`), or by the march
 /// through every medium with `--reference` (a step of a fifth of the smallest Gaussian
-/// radius, at most 0.02).
+/// radius, at most 0.02; the environment integrated over directions at every sample and
+/// surface point, `paper_b::reference_options`).
 fn run_hetero(a: &SceneRenderArgs, scene: &Scene, kind: OutKind, start: Instant) -> Result<()> {
     let fail = |e: String| anyhow!("{}: {e}", a.scene.display());
     let bar = rows_bar(scene.camera.height);
     let progress = |rows: usize| bar.set_position(rows as u64);
     let (image, what) = if a.reference {
-        let opt = MarchOptions {
-            step: paper_b::march_step(scene),
-            ..Default::default()
-        };
+        let opt = paper_b::reference_options(scene, paper_b::REFERENCE_THETA);
         let image = march::render(scene, &Limits::default(), &opt, &progress);
-        (image, format!("single-scattering march, step {}", opt.step))
+        let env = if opt.env == haze_scene::env_smoke::EnvLight::None {
+            String::new()
+        } else {
+            format!(
+                ", the environment over {} directions",
+                2 * paper_b::REFERENCE_THETA * paper_b::REFERENCE_THETA
+            )
+        };
+        (
+            image,
+            format!("single-scattering march, step {}{env}", opt.step),
+        )
     } else if a.gpu {
         let gpu_err = |e: GpuError| anyhow!("--gpu: {}: {e}", a.scene.display());
         let ctx = GpuContext::new().map_err(gpu_err)?;

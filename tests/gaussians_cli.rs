@@ -260,3 +260,54 @@ fn view_scripts_strokes_and_saves_the_edited_medium() {
         "room.json: --stroke and --save-edits edit a Gaussian medium, and the scene has none",
     );
 }
+
+#[test]
+fn sky_scene_matches_its_reference_on_cpu_and_gpu() {
+    // data/scenes/gaussians_sky.json: 100 Gaussians under the built-in sky and a sun,
+    // a floor and a glossy sphere. Paper B lights the Gaussians and dims the surfaces by
+    // the sky through the average optical depth (§4.2); `--reference` marches the exact
+    // medium with the sky integrated over 128 directions at every sample and surface
+    // point. Rel RMS measured 3.5 % at 12×9, which counts against paper B the light the
+    // medium scatters onto surfaces (the march has none) and the sphere's shadow in the
+    // sunlit medium (paper B has no volume shadows); within 5 %. The GPU twin matches
+    // the CPU within 10⁻³ (measured 1.4·10⁻⁷).
+    let dir = tempfile::tempdir().unwrap();
+    let s = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("data/scenes/gaussians_sky.json")
+        .display()
+        .to_string();
+    let size = ["--width", "12", "--height", "9"];
+    let out = |name: &str, extra: &[&str]| {
+        let p = dir.path().join(name);
+        let err = render(
+            &[
+                &["--scene", &s, "--out", p.to_str().unwrap()],
+                extra,
+                &size[..],
+            ]
+            .concat(),
+        );
+        (read_exr(&p), err)
+    };
+    let (cpu, _) = out("c.exr", &[]);
+    let (reference, err) = out("r.exr", &["--reference"]);
+    assert!(err.contains("the environment over 128 directions"), "{err}");
+    let (gpu, err) = out("g.exr", &["--gpu"]);
+    assert!(err.contains("on the GPU"), "{err}");
+    let rel = |a: &[[f32; 3]], b: &[[f32; 3]]| {
+        let (mut d, mut n) = (0.0, 0.0);
+        for (x, y) in a.iter().zip(b) {
+            for k in 0..3 {
+                let (x, y) = (f64::from(x[k]), f64::from(y[k]));
+                d += (x - y) * (x - y);
+                n += y * y;
+            }
+        }
+        (d / n).sqrt()
+    };
+    let e = rel(&cpu, &reference);
+    let g = rel(&gpu, &cpu);
+    println!("sky scene: paper B vs reference {e:.4}, GPU vs CPU {g:.2e}");
+    assert!(e < 0.05, "{e}");
+    assert!(g < 1e-3, "{g}");
+}

@@ -4,8 +4,11 @@
 //! ```text
 //! cargo run --release -p haze-scene --example paper_b_figures -- accuracy [--size 64x48]
 //! cargo run --release -p haze-scene --example paper_b_figures -- timing [--size 320x240]
-//!     [--counts 10,100,1000,5000] [--lights 1,2,4] [--repeat 3]
+//!     [--counts 10,100,1000,5000] [--lights 1,2,4] [--repeat 3] [--gpu [--prep]]
+//! cargo run --release -p haze-scene --example paper_b_figures -- environment [--size 48x36]
+//!     [--theta 8]
 //! cargo run --release -p haze-scene --example paper_b_figures -- scene data/scenes/gaussians.json
+//! cargo run --release -p haze-scene --example paper_b_figures -- sky-scene data/scenes/gaussians_sky.json
 //! ```
 //!
 //! Every scene is the same room (a floor, a back wall, a glossy sphere, point lights)
@@ -18,15 +21,21 @@
 //! error alone) and the surfaces alone (albedo 0: the direct light through the
 //! Gaussians). The march has no light scattered onto
 //! surfaces, so paper B's is off in the comparison; its share of paper B's image is
-//! printed apart. **Timing**: the median of `--repeat` frames, per-frame preparation
-//! (the exponents `Eᵢ` per light) included, rayon on every core.
+//! printed apart. **Environment**: the built-in sky alone over a floor (§4.2, the average
+//! optical depth) against the march integrating it over directions. **Timing**: the median of `--repeat` frames, per-frame preparation
+//! (the exponents `Eᵢ` per light, the environment's `Ēᵢ` and `T̄ⱼ(bᵢ)`) included, rayon
+//! on every core; with `--gpu` the frame on the GPU (`haze_scene::gpu_paper_b`: the same
+//! preparation on the CPU, upload, pass, read-back), the tables uploaded beforehand.
 
 use haze_gaussians::cloud;
 use haze_scene::airlight::Limits;
-use haze_scene::march::{self, MarchOptions};
+use haze_scene::gpu::GpuRenderer;
+use haze_scene::gpu_paper_b::GpuPaperB;
+use haze_scene::march;
 use haze_scene::paper_b::{self, PaperBOptions, Prepared};
 use haze_scene::render::{Analytic, Image};
 use haze_scene::{Scene, file};
+use haze_view::gpu::GpuContext;
 use std::time::Instant;
 
 fn fail(msg: impl std::fmt::Display) -> ! {
@@ -133,11 +142,10 @@ fn paper_b(s: &Scene, analytic: &Analytic, surface_scattering: bool) -> Image {
     paper_b::render(&prep, &Limits::default(), &|_| {})
 }
 
+/// `--reference`'s march: the environment integrated over directions at every sample and
+/// surface point (`paper_b::reference_options`).
 fn reference(s: &Scene) -> Image {
-    let opt = MarchOptions {
-        step: paper_b::march_step(s),
-        ..Default::default()
-    };
+    let opt = paper_b::reference_options(s, paper_b::REFERENCE_THETA);
     march::render(s, &Limits::default(), &opt, &|_| {})
 }
 
@@ -264,6 +272,77 @@ fn accuracy(args: &[String]) {
     }
 }
 
+/// The environment's light alone (§4.2): the built-in sky over a floor, no point lights,
+/// the cases' clouds; paper B against the march with the environment integrated over
+/// `2·θ²` directions at every sample and surface point (`paper_b::reference_options`).
+fn environment(args: &[String]) {
+    let sz = size(args, (48, 36));
+    let theta = list(args, "--theta", &[paper_b::REFERENCE_THETA])[0];
+    println!(
+        "paper B lit by the sky against the march ({} directions per point), {}×{} (relative RMS)",
+        2 * theta * theta,
+        sz.0,
+        sz.1
+    );
+    println!(
+        "| scene | image | airlight only | surfaces only (albedo 0) | surface scattering's share | paper B s | reference s |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    let sky = |cloud: &Cloud, albedo: f64, floor: bool| {
+        let mut s = scene(cloud, 0, sz, false, albedo);
+        s.environment = haze_scene::Environment::Sky;
+        s.surfaces.truncate(usize::from(floor));
+        s
+    };
+    let reference = |s: &Scene| {
+        march::render(
+            s,
+            &Limits::default(),
+            &paper_b::reference_options(s, theta),
+            &|_| {},
+        )
+    };
+    for (name, cloud) in cases().into_iter().take(4) {
+        let s = sky(&cloud, 0.9, true);
+        let analytic = Analytic::new(&s);
+        let t = Instant::now();
+        let b = paper_b(&s, &analytic, false);
+        let tb = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let r = reference(&s);
+        let tr = t.elapsed().as_secs_f64();
+        let share = paper_b(&s, &analytic, true).rel_rms(&b);
+        // The airlight alone: no surfaces, less the same scene at albedo 0 (the sky seen
+        // through the medium).
+        let air = sky(&cloud, 0.9, false);
+        let air_b = paper_b(&air, &analytic, false);
+        let air_r = reference(&air);
+        let surf = sky(&cloud, 0.0, true);
+        let surf_e = paper_b(&surf, &analytic, false).rel_rms(&reference(&surf));
+        let air_only = |img: &Image, no_albedo: &Image| Image {
+            width: img.width,
+            height: img.height,
+            pixels: img
+                .pixels
+                .iter()
+                .zip(&no_albedo.pixels)
+                .map(|(a, b)| [a[0] - b[0], a[1] - b[1], a[2] - b[2]])
+                .collect(),
+        };
+        let dark = sky(&cloud, 0.0, false);
+        let dark_b = paper_b(&dark, &analytic, false);
+        let dark_r = reference(&dark);
+        let air_e = air_only(&air_b, &dark_b).rel_rms(&air_only(&air_r, &dark_r));
+        println!(
+            "| {name} | {:.2} % | {:.2} % | {:.2} % | {:.1} % | {tb:.2} | {tr:.1} |",
+            100.0 * b.rel_rms(&r),
+            100.0 * air_e,
+            100.0 * surf_e,
+            100.0 * share
+        );
+    }
+}
+
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
@@ -274,12 +353,25 @@ fn timing(args: &[String]) {
     let counts = list(args, "--counts", &[10, 100, 1000, 5000]);
     let lights = list(args, "--lights", &[1, 2, 4]);
     let repeat = list(args, "--repeat", &[3])[0].max(1);
-    println!(
-        "paper B on the CPU ({} threads), {}×{}, median of {repeat} frames (ms)",
-        rayon::current_num_threads(),
-        sz.0,
-        sz.1
-    );
+    let gpu = args.iter().any(|a| a == "--gpu").then(|| {
+        let ctx = GpuContext::new().unwrap_or_else(|e| fail(e));
+        let pipeline = GpuPaperB::new(&ctx).unwrap_or_else(|e| fail(e));
+        (ctx, pipeline)
+    });
+    match &gpu {
+        Some((ctx, _)) => println!(
+            "paper B on the GPU ({}), {}×{}, median of {repeat} frames (ms)",
+            ctx.adapter_name(),
+            sz.0,
+            sz.1
+        ),
+        None => println!(
+            "paper B on the CPU ({} threads), {}×{}, median of {repeat} frames (ms)",
+            rayon::current_num_threads(),
+            sz.0,
+            sz.1
+        ),
+    }
     print!("| gaussians |");
     for l in &lights {
         print!(" {l} light{} |", if *l == 1 { "" } else { "s" });
@@ -298,10 +390,30 @@ fn timing(args: &[String]) {
         for &l in &lights {
             let s = scene(&cloud, l, sz, false, 0.9);
             let analytic = Analytic::new(&s);
+            let tables = gpu
+                .as_ref()
+                .map(|(ctx, _)| GpuRenderer::new(ctx, &analytic).unwrap_or_else(|e| fail(e)));
             let times: Vec<f64> = (0..repeat)
                 .map(|_| {
                     let t = Instant::now();
-                    let _ = paper_b(&s, &analytic, true);
+                    match (&gpu, &tables) {
+                        (Some((ctx, pipeline)), Some(tables)) => {
+                            let prep = Prepared::new(&s, &analytic, PaperBOptions::default())
+                                .unwrap_or_else(|e| fail(e));
+                            if args.iter().any(|a| a == "--prep") {
+                                eprintln!(
+                                    "{n} gaussians, {l} lights: preparation {:.0} ms",
+                                    t.elapsed().as_secs_f64() * 1e3
+                                );
+                            }
+                            pipeline
+                                .render(ctx, tables, &prep, &Limits::default())
+                                .unwrap_or_else(|e| fail(e));
+                        }
+                        _ => {
+                            let _ = paper_b(&s, &analytic, true);
+                        }
+                    }
                     t.elapsed().as_secs_f64() * 1e3
                 })
                 .collect();
@@ -316,6 +428,7 @@ fn main() {
     match args.first().map(String::as_str) {
         Some("accuracy") => accuracy(&args),
         Some("timing") => timing(&args),
+        Some("environment") => environment(&args),
         Some("scene") => {
             let path = args.get(1).unwrap_or_else(|| fail("scene PATH"));
             let cloud = Cloud {
@@ -335,6 +448,43 @@ fn main() {
             std::fs::rename(&tmp, path).unwrap_or_else(|e| fail(format!("{path}: {e}")));
             println!("{path}: 150 gaussians with noise, 2 point lights");
         }
-        _ => fail("usage: paper_b_figures accuracy|timing|scene PATH [options]"),
+        Some("sky-scene") => {
+            // 100 Gaussians under the built-in sky and a sun along its glow, over a floor
+            // and a glossy sphere (no back wall: it would hide half the sky).
+            let path = args.get(1).unwrap_or_else(|| fail("sky-scene PATH"));
+            let cloud = Cloud {
+                n: 100,
+                spread: 1.3,
+                radii: (0.15, 0.35),
+                tau: 0.08,
+                centre: [0.0, 0.0, 1.2],
+            };
+            let text = scene_text(&cloud, 1, (320, 240), false, 0.9);
+            let lights = text
+                .split_once("  \"lights\": [\n")
+                .and_then(|(_, rest)| rest.split_once("\n  ],"))
+                .map(|(l, _)| l.to_string())
+                .unwrap_or_else(|| fail("the room's lights"));
+            let wall = text
+                .lines()
+                .find(|l| l.contains("\"point\": [0, 3, 0]"))
+                .unwrap_or_else(|| fail("the room's wall"))
+                .to_string();
+            let text = text
+                .replacen("\"environment\": [0.05, 0.06, 0.08]", "\"environment\": \"sky\"", 1)
+                .replacen(
+                    &lights,
+                    "    {\"type\": \"sun\", \"direction\": [0.5, 0.3, 0.8], \"radiance\": [40, 36, 30], \"angle\": 0.0093}",
+                    1,
+                )
+                .replacen(&format!("{wall}\n"), "", 1);
+            let tmp = format!("{path}.tmp");
+            std::fs::write(&tmp, text).unwrap_or_else(|e| fail(format!("{tmp}: {e}")));
+            std::fs::rename(&tmp, path).unwrap_or_else(|e| fail(format!("{path}: {e}")));
+            println!("{path}: 100 gaussians under the sky and a sun");
+        }
+        _ => fail(
+            "usage: paper_b_figures accuracy|environment|timing|scene PATH|sky-scene PATH [options]",
+        ),
     }
 }

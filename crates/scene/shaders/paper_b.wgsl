@@ -9,8 +9,10 @@
 // entries each, four per record. NOISE_OFFSET_1/2 are prepended from the CPU's constants.
 @group(0) @binding(7) var<storage, read> blobs: array<vec4<f32>>;
 // Per light l and Gaussian i at l·n + i: e^{Eᵢ} per channel; then per light (C_sv, -, -, -);
-// then (n, 1 if a background hides the suns, 1 if noise records follow, -) and (σs of the scene's homogeneous
-// media, -).
+// with an environment, per Gaussian (αᵢ·Ēᵢ·e^{Eᵢ}, -) and (Ē, β_bg·D) (gaussian_env);
+// then (n, 1 if a background hides the suns, 1 if noise records follow, environment: 0
+// none, 1 without, 2 with its light scattered onto surfaces) and (σs of the scene's
+// homogeneous media, -).
 @group(0) @binding(8) var<storage, read> bexp: array<vec4<f32>>;
 
 const SQRT_PI_2: f32 = 0.88622692545;
@@ -57,10 +59,13 @@ fn line_gauss(c: f32, a: f32, b: vec3<f32>, o: vec3<f32>, d: vec3<f32>, len_in: 
     let bp = b - o;
     let m = dot(bp, d);
     let perp = bp - m * d;
-    let side = exp(-a * a * dot(perp, perp));
-    if (side == 0.0) {
+    // Lines farther than √40 radii pick up at most e⁻⁴⁰ of the Gaussian's depth (the CPU
+    // drops them below 10⁻¹⁰ absolute): skip the erf.
+    let q = a * a * dot(perp, perp);
+    if (q > 40.0) {
         return 0.0;
     }
+    let side = exp(-q);
     return c * side * SQRT_PI_2 / a * erf_diff(-a * m, a * (len - m));
 }
 
@@ -151,6 +156,87 @@ fn gaussian_count() -> u32 {
     return u32(bexp[arrayLength(&bexp) - 2u].x);
 }
 
+// Dawson's integral F(x) = e^{−x²}∫₀^x e^{t²} dt (gaussians::average::dawson): Taylor below
+// 0.2, Rybicki's sum with h = 0.4 (Numerical Recipes §6.10, ~2e-7), 1/(2x) far away.
+fn dawson(x: f32) -> f32 {
+    let ax = abs(x);
+    if (ax < 0.2) {
+        let x2 = x * x;
+        return x * (1.0 - 2.0 / 3.0 * x2 * (1.0 - 0.4 * x2 * (1.0 - 2.0 / 7.0 * x2)));
+    }
+    if (ax > 1.0e3) {
+        return 0.5 / x;
+    }
+    let h = 0.4;
+    let n0 = 2.0 * round(0.5 * ax / h);
+    let xp = ax - n0 * h;
+    var e1 = exp(2.0 * xp * h);
+    let e2 = e1 * e1;
+    var d1 = n0 + 1.0;
+    var d2 = d1 - 2.0;
+    var sum = 0.0;
+    for (var k = 0u; k < 6u; k++) {
+        let q = f32(2u * k + 1u) * h;
+        sum += exp(-q * q) * (e1 / d1 + 1.0 / (d2 * e1));
+        d1 += 2.0;
+        d2 -= 2.0;
+        e1 *= e2;
+    }
+    return 0.5641895835 * sign(x) * exp(-xp * xp) * sum;
+}
+
+// T̄ᵢ(p) = c·𝒯(a|p − b|)/a, 𝒯(ρ) = √π·F(ρ)/(2ρ) (gaussians::average); beyond ρ = 6
+// Dawson's asymptotic series F ~ 1/(2ρ) + 1/(4ρ³) + 3/(8ρ⁵) + 15/(16ρ⁷) (the next term
+// is 4·10⁻⁶ of F there), no exponentials.
+fn gauss_mean_depth(c: f32, a: f32, b: vec3<f32>, p: vec3<f32>) -> f32 {
+    let rho = a * length(p - b);
+    var t = SQRT_PI_2;
+    if (rho > 6.0) {
+        let u = 1.0 / (rho * rho);
+        t = SQRT_PI_2 * 0.5 * u * (1.0 + u * (0.5 + u * (0.75 + u * 1.875)));
+    } else if (rho > 1.0e-4) {
+        t = SQRT_PI_2 * dawson(rho) / rho;
+    }
+    return c * t / a;
+}
+
+// The environment's mode (0: none) and the record index of its per-Gaussian factors.
+fn env_mode() -> u32 {
+    return u32(bexp[arrayLength(&bexp) - 2u].w);
+}
+
+fn env_base(n_g: u32) -> u32 {
+    return P.size.z * n_g + P.size.z;
+}
+
+// GaussianEnv::surface: the SH environment on the surface dimmed by e^{−T̄(p)}.
+fn env_surface_b(p: vec3<f32>, n: vec3<f32>, r: vec3<f32>, diffuse: vec3<f32>, specular: vec3<f32>, m: f32, gn: f32) -> vec3<f32> {
+    let n_g = gaussian_count();
+    let rec = bexp[env_base(n_g) + n_g];
+    var t = rec.w;
+    var s = 0.0;
+    for (var i = 0u; i < n_g; i++) {
+        let b0 = blobs[2u * i];
+        let b1 = blobs[2u * i + 1u];
+        let ti = gauss_mean_depth(b1.x, b0.w, b0.xyz, p);
+        t += ti;
+        s += b1.y * ti;
+    }
+    let att = exp(-t);
+    var out = vec3<f32>(0.0);
+    if (P.env.z > 0u) {
+        out += diffuse / PI * env_lobe(n, 0u);
+        if (gn >= 0.0 && any(specular > vec3<f32>(0.0))) {
+            out += specular * (m + 2.0) / (2.0 * PI) * env_lobe(r, u32(gn));
+        }
+    }
+    out *= att;
+    if (env_mode() == 2u && s > 0.0) {
+        out += s * att * rec.xyz * (diffuse + specular * (m + 2.0) / (m + 1.0));
+    }
+    return out;
+}
+
 // The Gaussians' optical depth along o + t·u, t ∈ [0, len], and its scattering part.
 fn gauss_depth(o: vec3<f32>, u: vec3<f32>, len: f32) -> vec2<f32> {
     var out = vec2<f32>(0.0);
@@ -177,6 +263,9 @@ fn shade_surface_b(dir: vec3<f32>, p: vec3<f32>, n: vec3<f32>, s: u32) -> vec3<f
     let background_hides_suns = bexp[header].y > 0.5;
     let ss_scene = bexp[header + 1u].xyz;
     var out = vec3<f32>(0.0);
+    if (env_mode() > 0u) {
+        out = env_surface_b(p, n, r, diffuse, specular, m, gn);
+    }
     for (var i = 0u; i < P.size.z; i++) {
         let a = lights[3u * i];
         let e = lights[3u * i + 1u].xyz;
@@ -261,6 +350,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let background_hides_suns = bexp[header].y > 0.5;
     let ss_scene = bexp[header + 1u].xyz;
     let noisy = bexp[header].z > 0.5;
+    let has_env = env_mode() > 0u;
+    let env_at = env_base(n_g);
     var out = vec3<f32>(0.0);
     // The Gaussians whose cull sphere the ray crosses: Tᵢ(v,p) and their factored airlight.
     var tau = 0.0;
@@ -305,6 +396,10 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             }
             let base = b1.y * f0 * exp(-sr - vr) * vp;
             out += e * base * bexp[l * n_g + i].xyz;
+        }
+        if (has_env) {
+            let own = vr + gauss_mean_depth(b1.x, a, b, br);
+            out += bexp[env_at + i].xyz * (exp(-own) * vp);
         }
     }
     // The homogeneous term of each light.

@@ -38,7 +38,7 @@
 
 use crate::media::Aabb;
 use crate::quad::gauss_legendre;
-use crate::scene::{Environment, Rgb, Scene};
+use crate::scene::{Environment, Material, Rgb, Scene};
 use crate::vec3::{Vec3, dot, norm};
 use haze_view::sh;
 use rayon::prelude::*;
@@ -306,6 +306,38 @@ impl Direct {
                 for c in 0..3 {
                     out[c] += wt * ss[c] * p * l[c];
                 }
+            }
+        }
+        out
+    }
+
+    /// The environment's light reflected towards the viewer by the surface point `p` of
+    /// unit normal `n` (`r` the view's mirror direction) by the rule:
+    /// `Σ_ω w·L_env(ω)·e^{−σt·D}·e^{−τ_het(p, ω, ∞)}·f(n, r, ω)·cos θ` — each direction
+    /// attenuated exactly by the heterogeneous media, unshadowed by surfaces (paper C §6.4's
+    /// convention for environment maps, as [`crate::envglow`]). The reference of
+    /// [`crate::gaussian_env`]'s surfaces; the Lambert lobe's kink at the horizon makes
+    /// the product rule converge as `~1/n²`.
+    pub fn surface(&self, scene: &Scene, p: Vec3, n: Vec3, r: Vec3, m: &Material) -> Rgb {
+        if matches!(scene.environment, Environment::Black) {
+            return [0.0; 3];
+        }
+        let fog = fog_factor(scene);
+        let mut out = [0.0; 3];
+        for (w, wt) in &self.rule {
+            if dot(*w, n) <= 0.0 {
+                continue;
+            }
+            let l = scene.environment.radiance(*w);
+            let mut tau = [0.0; 3];
+            for med in &scene.hetero {
+                let t = med.optical_depth(p, *w, f64::INFINITY);
+                for c in 0..3 {
+                    tau[c] += t[c];
+                }
+            }
+            for c in 0..3 {
+                out[c] += wt * l[c] * fog[c] * (-tau[c]).exp() * m.brdf(n, r, *w, c);
             }
         }
         out

@@ -7,6 +7,12 @@
 //! airlight; every one adds to `T(s,p)`, exact as the CPU's hierarchy), with
 //! Abramowitz–Stegun's erf (`1.5·10⁻⁷`) for libm's.
 //!
+//! The environment ([`crate::gaussian_env`]): the CPU uploads each Gaussian's
+//! `αᵢ·Ēᵢ·e^{Eᵢ}` and `(Ē, β_bg·D)`; the shader adds `e^{−Tᵢ(v,bᵢʳ) − T̄ᵢ(bᵢʳ)}·Tᵢ(v,p)`
+//! times it per Gaussian the ray gathers, and dims render.wgsl's SH lighting of surfaces
+//! (paper C's, the same `EnvGlow`) by `e^{−T̄(p)}`, `T̄(p)` summed over every Gaussian
+//! with Dawson's integral by Rybicki's sum at `h = 0.4` (`~2·10⁻⁷`, Numerical Recipes).
+//!
 //! Noise (§5.5): the shader's `perlin_value` is [`Perlin::value`] in `f32`, reading the
 //! permutation the CPU drew from the medium's seed (uploaded once per distinct medium);
 //! each noisy Gaussian carries its lookup origin `eye + offset`, the frequency and the
@@ -95,11 +101,32 @@ impl GpuPaperB {
         for l in &prep.lights {
             bexp.push([l.c_sv as f32, 0.0, 0.0, 0.0]);
         }
+        // The environment (crate::gaussian_env): αᵢ·Ēᵢ·e^{Eᵢ} per Gaussian, then (Ē, β_bg·D).
+        let env_flag = match &prep.env {
+            Some(env) => {
+                for e in &env.center {
+                    bexp.push([e[0] as f32, e[1] as f32, e[2] as f32, 0.0]);
+                }
+                let m = env.mean;
+                bexp.push([
+                    m[0] as f32,
+                    m[1] as f32,
+                    m[2] as f32,
+                    env.background_depth as f32,
+                ]);
+                if prep.options.surface_scattering {
+                    2.0
+                } else {
+                    1.0
+                }
+            }
+            None => 0.0,
+        };
         bexp.push([
             blobs_in.len() as f32,
             if prep.background { 1.0 } else { 0.0 },
             if noisy { 1.0 } else { 0.0 },
-            0.0,
+            env_flag,
         ]);
         let ss = prep.scene.medium.sigma_s();
         bexp.push([ss[0] as f32, ss[1] as f32, ss[2] as f32, 0.0]);

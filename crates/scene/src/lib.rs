@@ -14,6 +14,7 @@ pub mod env_smoke;
 pub mod envglow;
 pub mod envref;
 pub mod file;
+pub mod gaussian_env;
 pub mod gaussian_medium;
 pub mod gpu;
 pub mod gpu_analytic;

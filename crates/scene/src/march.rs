@@ -16,7 +16,9 @@
 //! it through the media; light scattered onto surfaces by the medium is not included.
 //! Where a homogeneous medium fills space the march ends where the transmittance falls
 //! below [`MarchOptions::min_transmittance`]. The environment lights the heterogeneous
-//! media too, by [`MarchOptions::env`] ([`crate::env_smoke`]), added to `Σ_l`.
+//! media too, by [`MarchOptions::env`] ([`crate::env_smoke`]), added to `Σ_l`, and the
+//! surfaces by [`MarchOptions::env_surfaces`] when set, each direction attenuated by the
+//! media ([`crate::env_smoke::Direct::surface`]).
 
 use crate::airlight::Limits;
 use crate::env_smoke::EnvLight;
@@ -38,6 +40,9 @@ pub struct MarchOptions {
     pub max_steps: usize,
     /// The environment's light on the heterogeneous media ([`crate::env_smoke`]).
     pub env: EnvLight,
+    /// The environment's light on the surfaces, by direct quadrature
+    /// ([`crate::env_smoke::Direct::surface`]; paper B's reference), or none.
+    pub env_surfaces: Option<std::sync::Arc<crate::env_smoke::Direct>>,
 }
 
 impl Default for MarchOptions {
@@ -47,6 +52,7 @@ impl Default for MarchOptions {
             min_transmittance: 1e-6,
             max_steps: 200_000,
             env: EnvLight::None,
+            env_surfaces: None,
         }
     }
 }
@@ -223,6 +229,12 @@ pub fn radiance(scene: &Scene, lim: &Limits, opt: &MarchOptions, dir: Vec3) -> R
             for (l, li) in lights_at(scene, lim, p_off) {
                 for c in 0..3 {
                     l_out[c] += m.brdf(n, r, l, c) * li[c];
+                }
+            }
+            if let Some(d) = &opt.env_surfaces {
+                let e = d.surface(scene, p_off, n, r, m);
+                for c in 0..3 {
+                    l_out[c] += e[c];
                 }
             }
             l_out

@@ -20,14 +20,19 @@
 //!   path-averaged `β̄ = T(s,p)/d` and `σ̄s = S(s,p)/d` (the notes' "Tsp → T(s,p)").
 //!   [`PaperBOptions::surface_scattering`] turns that term off (the march reference has
 //!   none).
+//! * **Environment** (§4.2, [`crate::gaussian_env`]): the Gaussians scatter it towards
+//!   the eye and dim it on surfaces through the average optical depth `T̄`; its light
+//!   scattered onto surfaces follows [`PaperBOptions::surface_scattering`].
 //! * **Noise** (§5.5): a medium's `noise` perturbs the direction along which its
 //!   Gaussians' `Tᵢ(v,p)` is integrated ([`haze_gaussians::noise`]).
 
 use crate::airlight::{self, Limits, attenuated_length, effective_light, light_off_point};
+use crate::gaussian_env::GaussianEnv;
 use crate::render::{Analytic, Image, Model, background};
 use crate::scene::{Light, Rgb, Scene};
 use crate::vec3::{Vec3, axpy, dot, norm, reflect, scale, sub};
 use haze_gaussians::airlight::{GaussianSet, Source, factored, projection};
+use haze_gaussians::average::gaussian_mean_depth;
 use haze_gaussians::line;
 use haze_gaussians::noise::Noise;
 use rayon::prelude::*;
@@ -67,7 +72,7 @@ pub(crate) struct Lit {
 pub struct Prepared<'a> {
     pub(crate) scene: &'a Scene,
     analytic: &'a Analytic,
-    options: PaperBOptions,
+    pub(crate) options: PaperBOptions,
     pub(crate) set: GaussianSet,
     /// Per Gaussian: the noise of its medium and its radius.
     pub(crate) noise: Vec<Option<&'a Noise>>,
@@ -77,6 +82,8 @@ pub struct Prepared<'a> {
     /// Whether a Gaussian medium's background fills space (it hides every sun).
     pub(crate) background: bool,
     pub(crate) lights: Vec<Lit>,
+    /// The environment's terms (none for a black environment).
+    pub(crate) env: Option<GaussianEnv>,
 }
 
 impl<'a> Prepared<'a> {
@@ -165,6 +172,7 @@ impl<'a> Prepared<'a> {
                 }
             })
             .collect();
+        let env = GaussianEnv::new(scene, &analytic.h, &set, beta0, bg, &analytic.exponents());
         Ok(Prepared {
             scene,
             analytic,
@@ -176,6 +184,7 @@ impl<'a> Prepared<'a> {
             sigma_s0,
             background: bg > 0.0,
             lights,
+            env,
         })
     }
 
@@ -214,6 +223,15 @@ impl<'a> Prepared<'a> {
                 let base = factored(b, eye, dir, proj, vp, l.source, lim.r_min, 0.0);
                 for (c, o) in out.iter_mut().enumerate() {
                     *o += l.power[c] * base * l.center[i][c];
+                }
+            }
+            if let Some(env) = &self.env
+                && vp > 0.0
+            {
+                let own = proj.1 + gaussian_mean_depth(b.c, b.a, b.center, axpy(eye, proj.0, dir));
+                let f = (-own).exp() * vp;
+                for (c, o) in out.iter_mut().enumerate() {
+                    *o += env.center[i][c] * f;
                 }
             }
         });
@@ -273,7 +291,10 @@ impl<'a> Prepared<'a> {
         let (p, n) = (hit.point, hit.normal);
         let r = reflect(scale(dir, -1.0), n);
         let p_off = axpy(p, 1e-9 * (1.0 + norm(p)), n);
-        let mut out = [0.0; 3];
+        let mut out = match &self.env {
+            Some(env) => env.surface(&self.set, p, n, r, m, self.options.surface_scattering),
+            None => [0.0; 3],
+        };
         for l in &self.lights {
             match l.source {
                 Source::Point(position) => {
@@ -353,6 +374,27 @@ pub fn march_step(scene: &Scene) -> f64 {
         }
     }
     step
+}
+
+/// Gauss–Legendre nodes in `cos θ` of the reference's environment rule
+/// ([`crate::env_smoke::Direct`], `2·8²` directions per march sample and surface point).
+pub const REFERENCE_THETA: usize = 8;
+
+/// The reference's march for a scene of Gaussian media: a step of [`march_step`], the
+/// environment integrated over `2θ²` directions at every sample and surface point
+/// ([`crate::env_smoke::Direct`]; none for a black environment).
+pub fn reference_options(scene: &Scene, theta: usize) -> crate::march::MarchOptions {
+    use crate::env_smoke::{Direct, EnvLight};
+    let mut opt = crate::march::MarchOptions {
+        step: march_step(scene),
+        ..Default::default()
+    };
+    if !matches!(scene.environment, crate::scene::Environment::Black) {
+        let d = std::sync::Arc::new(Direct::new(theta));
+        opt.env = EnvLight::Direct(d.clone());
+        opt.env_surfaces = Some(d);
+    }
+    opt
 }
 
 /// Renders the scene's camera image with paper B; `progress` hears the rows finished.

@@ -1,7 +1,9 @@
 //! Paper B's GPU renderer against its CPU twin (`paper_b::render`), pixel by pixel, on
 //! small images: a cloud of 100 Gaussians with two point lights, the same with a sun, a
 //! background and a homogeneous medium, dense Gaussians with a light beside one, an
-//! empty Gaussian medium, the eye inside the cloud, and two noisy media (§5.5).
+//! empty Gaussian medium, the eye inside the cloud, two noisy media (§5.5), and the sky
+//! through the average optical depth (§4.2; the others have a faint constant
+//! environment).
 //!
 //! These tests need a GPU adapter (a CPU one will do: Mesa's lavapipe) and fail with the
 //! reason when there is none.
@@ -157,6 +159,34 @@ fn sun_background_and_homogeneous_medium() {
         gaussians(60, 0.1, r#", "background": 0.03"#)
     );
     compare("background", &scene(&lights, &media, "[0, -6, 1.6]"));
+}
+
+#[test]
+fn sky_through_the_average_optical_depth() {
+    // §4.2 on the GPU: the built-in sky lights the Gaussians and the (glossy) surfaces
+    // through T̄, with and without the light scattered onto them; a sun beside it.
+    let sun = r#"{"type": "sun", "direction": [0.48, 0.36, 0.8], "radiance": [20, 19, 17], "angle": 0.01}"#;
+    let mut s = scene(sun, &gaussians(100, 0.1, ""), "[0, -6, 1.6]");
+    s.environment = haze_scene::Environment::Sky;
+    compare("sky", &s);
+    let (analytic, tables) = tables();
+    let prep = Prepared::new(
+        &s,
+        analytic,
+        PaperBOptions {
+            surface_scattering: false,
+        },
+    )
+    .unwrap();
+    let lim = Limits::default();
+    let cpu = paper_b::render(&prep, &lim, &|_| {});
+    let gpu = GpuPaperB::new(context())
+        .unwrap()
+        .render(context(), tables, &prep, &lim)
+        .unwrap();
+    let e = gpu.rel_rms(&cpu);
+    println!("sky without surface scattering: rel RMS {e:.2e}");
+    assert!(e < REL, "{e}");
 }
 
 #[test]

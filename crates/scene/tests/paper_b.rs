@@ -8,6 +8,7 @@ use haze_scene::airlight::Limits;
 use haze_scene::march::{self, MarchOptions};
 use haze_scene::paper_b::{self, PaperBOptions, Prepared};
 use haze_scene::render::{self, Analytic, Image};
+use haze_scene::scene::Environment;
 use haze_scene::{Scene, file};
 use std::sync::OnceLock;
 
@@ -62,10 +63,12 @@ fn paper_b(s: &Scene, surface_scattering: bool) -> Image {
     paper_b::render(&prep, &Limits::default(), &|_| {})
 }
 
+/// The march through the exact medium at `step`, the environment integrated over 72
+/// directions at every sample and surface point.
 fn reference(s: &Scene, step: f64) -> Image {
     let opt = MarchOptions {
         step,
-        ..Default::default()
+        ..paper_b::reference_options(s, 6)
     };
     march::render(s, &Limits::default(), &opt, &|_| {})
 }
@@ -94,15 +97,19 @@ fn surface_shadows_of_the_gaussians_are_exact() {
     // (density ε = e⁻⁹) the ray crosses, so a ray may miss up to √π·ε·r of depth per
     // Gaussian: with 60 Gaussians of r ≤ 0.4 at most 1 − e^{−60·√π·ε·0.4} = 5.2·10⁻³
     // relative (measured: 4·10⁻⁵). Dense Gaussians make the shadows deep.
+    // A black environment: its light on the surfaces goes through the average optical
+    // depth, an approximation measured elsewhere.
     let media = gaussians(60, 0.8, (0.2, 0.4), "").replace("\"albedo\": 0.9", "\"albedo\": 0");
-    let s = scene(&media, (24, 18));
+    let mut s = scene(&media, (24, 18));
+    s.environment = Environment::Black;
     let b = paper_b(&s, true);
     let r = reference(&s, 1.0);
     let e = b.rel_rms(&r);
     println!("direct light through 60 dense Gaussians: rel RMS {e:.2e}");
     assert!(e < 5.2e-3, "rel RMS {e:e}");
     // And the shadows are there: the same scene without the medium is brighter.
-    let clear = scene(r#"{"type": "gaussians", "sigma_t": 0}"#, (24, 18));
+    let mut clear = scene(r#"{"type": "gaussians", "sigma_t": 0}"#, (24, 18));
+    clear.environment = Environment::Black;
     assert!(paper_b(&clear, true).rel_rms(&b) > 0.1);
 }
 
@@ -197,4 +204,76 @@ fn other_media_are_refused_by_paper_b() {
         )));
     let e = Prepared::new(&s, analytic(), PaperBOptions::default()).unwrap_err();
     assert!(e.contains("not a uniform test medium"), "{e}");
+}
+
+#[test]
+fn sky_light_through_the_average_optical_depth_matches_the_reference() {
+    // §4.2: the built-in sky over a floor, no point lights, 100 faint Gaussians. Paper B
+    // dims the sky by e^{−T̄} (the average optical depth) on the floor and in each
+    // Gaussian's airlight; the march integrates the sky over 72 directions at every sample
+    // and floor point with the exact optical depth per direction. Measured 1.4 % at
+    // 24×18 over 128 directions (BENCHMARKS.md "Paper B"); the goal is 3 %.
+    let mut s = scene(&gaussians(100, 0.05, (0.2, 0.35), ""), (16, 12));
+    s.environment = Environment::Sky;
+    s.lights.clear();
+    s.surfaces.truncate(1);
+    let b = paper_b(&s, false);
+    let r = reference(&s, 0.04);
+    let e = b.rel_rms(&r);
+    println!("100 faint Gaussians under the sky: rel RMS {e:.4}");
+    assert!(e < 0.03, "rel RMS {e}");
+    // The Gaussians' airlight of the sky alone (less the same scene at albedo 0): the
+    // larger error, measured 5.0 % here (3.1 % at 24×18), the same over 288 directions —
+    // not the quadrature but the model: paper B's airlight is 3.4 % darker in all, as
+    // e^{−T̄} ≤ the mean of e^{−T(x,ω)} (Jensen). Within 7 %, and far from 0.
+    let mut dark = s.clone();
+    dark.hetero = scene(
+        &gaussians(100, 0.05, (0.2, 0.35), "").replace("\"albedo\": 0.9", "\"albedo\": 0"),
+        (16, 12),
+    )
+    .hetero;
+    let air = |a: &Image, d: &Image| Image {
+        width: a.width,
+        height: a.height,
+        pixels: a
+            .pixels
+            .iter()
+            .zip(&d.pixels)
+            .map(|(x, y)| [0, 1, 2].map(|c| x[c] - y[c]))
+            .collect(),
+    };
+    let air_b = air(&b, &paper_b(&dark, false));
+    let air_r = air(&r, &reference(&dark, 0.04));
+    let e = air_b.rel_rms(&air_r);
+    let total: f64 = air_r.pixels.iter().flatten().map(|&v| f64::from(v)).sum();
+    let total_b: f64 = air_b.pixels.iter().flatten().map(|&v| f64::from(v)).sum();
+    println!("their airlight of the sky: rel RMS {e:.4}, sum {total:.3} vs paper B {total_b:.3}");
+    assert!(e < 0.07, "rel RMS {e}");
+    assert!(total > 0.1 && total_b > 0.1, "{total} {total_b}");
+}
+
+#[test]
+fn sun_light_matches_the_reference() {
+    // A sun (a light at infinity, §4.1's f0 = E/4π) through 100 faint Gaussians over a
+    // floor and a sphere, black environment: paper B's factored airlight and its exact
+    // T(s,p) on the surfaces against the march. The image is dominated by the sunlit
+    // surfaces, whose shadows are exact (measured 0.3 %): within 3 %, the goal.
+    let mut s = scene(&gaussians(100, 0.05, (0.2, 0.35), ""), (16, 12));
+    s.environment = Environment::Black;
+    s.lights = vec![haze_scene::Light::Sun {
+        direction: [0.48, 0.36, 0.8],
+        radiance: [40.0, 38.0, 34.0],
+        angle: 0.0093,
+    }];
+    let b = paper_b(&s, false);
+    let r = reference(&s, 0.04);
+    let e = b.rel_rms(&r);
+    println!("100 faint Gaussians under a sun: rel RMS {e:.4}");
+    assert!(e < 0.03, "rel RMS {e}");
+    // The airlight alone (no surfaces): the factorization's error, measured 3.6 % (the
+    // other Gaussians' shadows sampled at each centre); within 5 %.
+    s.surfaces.clear();
+    let e = paper_b(&s, false).rel_rms(&reference(&s, 0.04));
+    println!("their airlight of the sun: rel RMS {e:.4}");
+    assert!(e < 0.05, "rel RMS {e}");
 }
