@@ -458,3 +458,27 @@ fn marches_smoke_in_analytic_fog_on_the_gpu() {
     let (outside, n) = march_outside(&c, &g);
     assert!(outside * 100 <= n, "{outside} pixels differ");
 }
+
+/// `haze view --scene` on the bundled analytic fog without a window: the fog composited
+/// on the GPU as its wind plays, the figures on one line.
+#[test]
+fn views_the_analytic_fog_without_a_window() {
+    let o = haze()
+        .args([
+            "view",
+            "--scene",
+            &bundled("analytic_fog.json"),
+            "--size",
+            "32x24",
+        ])
+        .args(["--no-window", "--play-for", "0.3"])
+        .output()
+        .unwrap();
+    let out = String::from_utf8(o.stdout).unwrap();
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert!(o.status.success(), "{err}");
+    assert!(
+        out.contains(" of 32×24") && out.contains("analytic fog composited as its wind plays"),
+        "{out}"
+    );
+}

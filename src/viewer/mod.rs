@@ -10,6 +10,7 @@
 //!   `--no-window`;
 //! - [`app`]: the egui window;
 //! - [`scene_view`]: `haze view --scene`, a scene file through paper C's GPU renderer;
+//! - [`wind_panel`]: its wind and lit mode for scenes with analytic fog (paper D);
 //! - [`fog_view`]: `haze view --fog`, a fogmap's wavelet fog (paper E) on the GPU;
 //! - [`fly`]: its fly camera.
 
@@ -23,6 +24,7 @@ mod player;
 pub mod scene_view;
 #[cfg(test)]
 mod testing;
+mod wind_panel;
 mod worker;
 
 use anyhow::{Result, anyhow, bail};

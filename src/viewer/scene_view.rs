@@ -13,6 +13,7 @@
 //! never an older one; a slow device makes the window slow to answer rather than late.
 
 use super::orbit::Orbit;
+use super::wind_panel::{FogRenderer, Wind};
 use anyhow::{Result, anyhow, bail};
 use eframe::egui;
 use haze_scene::airlight::Limits;
@@ -161,15 +162,25 @@ struct Renderer {
     base: Scene,
     ctx: GpuContext,
     gpu: GpuRenderer,
+    /// Paper D's composite, for a scene with analytic fog.
+    fog: Option<FogRenderer>,
     size: (usize, usize),
 }
 
 impl Renderer {
-    /// Renders the edited scene; the sRGB bytes of the picture.
-    fn picture(&self, orbit: &Orbit, knobs: &SceneKnobs) -> Result<Vec<u8>, String> {
+    /// Renders the edited scene, its analytic fogs carried by `wind`; the sRGB bytes of
+    /// the picture.
+    fn picture(
+        &self,
+        orbit: &Orbit,
+        knobs: &SceneKnobs,
+        wind: Option<&Wind>,
+    ) -> Result<Vec<u8>, String> {
         let scene = edited(&self.base, orbit, knobs, self.size)?;
         let lim = Limits::default();
-        let img = if knobs.rasterized {
+        let img = if let (Some(fog), Some(wind)) = (&self.fog, wind) {
+            fog.render(&self.ctx, &self.gpu, &scene, wind, &lim)
+        } else if knobs.rasterized {
             self.gpu.render_rasterized(&self.ctx, &scene, &lim)
         } else {
             self.gpu.render(&self.ctx, &scene, &lim)
@@ -206,19 +217,31 @@ pub fn run(a: SceneViewArgs) -> Result<()> {
     };
     let ctx = GpuContext::new().map_err(|e| anyhow!("GPU: {e}"))?;
     let gpu = GpuRenderer::new(&ctx, &Analytic::new(&base)).map_err(|e| anyhow!("GPU: {e}"))?;
+    let wind = Wind::of(&base);
+    let fog = match wind {
+        Some(_) => Some(FogRenderer::new(&ctx).map_err(|e| anyhow!("GPU: {e}"))?),
+        None => None,
+    };
     let renderer = Renderer {
         base,
         ctx,
         gpu,
+        fog,
         size: (a.width, a.height),
     };
     // The first picture, also the proof that the scene renders.
     renderer
-        .picture(&orbit, &knobs)
+        .picture(&orbit, &knobs, wind.as_ref())
         .map_err(|e| anyhow!("{}: {e}", a.scene.display()))?;
     if !a.window {
-        let line = turn_without_window(&renderer, orbit, &knobs, a.play_for.unwrap_or_default())
-            .map_err(|e| anyhow!("{}: {e}", a.scene.display()))?;
+        let line = turn_without_window(
+            &renderer,
+            orbit,
+            &knobs,
+            wind,
+            a.play_for.unwrap_or_default(),
+        )
+        .map_err(|e| anyhow!("{}: {e}", a.scene.display()))?;
         println!("{line}");
         return Ok(());
     }
@@ -245,6 +268,9 @@ pub fn run(a: SceneViewArgs) -> Result<()> {
         play_for: a.play_for.map(|s| (Instant::now(), s)),
         times: Vec::new(),
         outcome: outcome.clone(),
+        wind,
+        clock: Instant::now(),
+        wind_changed: false,
     };
     eframe::run_native(&title, options, Box::new(move |_| Ok(Box::new(app)))).map_err(|e| {
         anyhow!(
@@ -262,21 +288,26 @@ fn one_line(text: &str) -> String {
     text.split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
-/// Renders pictures for `seconds`, turning the camera by a degree each, and gives the
-/// measurement line.
+/// Renders pictures for `seconds`, turning the camera by a degree each (and playing the
+/// analytic fog's wind in real time), and gives the measurement line.
 fn turn_without_window(
     r: &Renderer,
     mut orbit: Orbit,
     knobs: &SceneKnobs,
+    mut wind: Option<Wind>,
     seconds: f64,
 ) -> Result<String, String> {
     let start = Instant::now();
     let mut times = Vec::new();
     while start.elapsed().as_secs_f64() < seconds || times.is_empty() {
         let t = Instant::now();
-        r.picture(&orbit, knobs)?;
-        times.push(t.elapsed().as_secs_f64());
+        r.picture(&orbit, knobs, wind.as_ref())?;
+        let took = t.elapsed().as_secs_f64();
+        times.push(took);
         orbit.drag(1f64.to_radians() / super::orbit::RADIANS_PER_PIXEL, 0.0);
+        if let Some(w) = &mut wind {
+            w.advance(&r.base, took);
+        }
     }
     Ok(summary(r, knobs, times, start.elapsed().as_secs_f64()))
 }
@@ -286,7 +317,7 @@ fn summary(r: &Renderer, knobs: &SceneKnobs, mut times: Vec<f64>, seconds: f64) 
     times.sort_by(f64::total_cmp);
     let median = times.get(times.len() / 2).copied().unwrap_or(0.0);
     format!(
-        "{} picture{} of {}×{} in {:.2} s, median {:.1} ms each (GPU render with {} surfaces, read back, sRGB) on {}",
+        "{} picture{} of {}×{} in {:.2} s, median {:.1} ms each (GPU render with {} surfaces{}, read back, sRGB) on {}",
         times.len(),
         if times.len() == 1 { "" } else { "s" },
         r.size.0,
@@ -298,6 +329,11 @@ fn summary(r: &Renderer, knobs: &SceneKnobs, mut times: Vec<f64>, seconds: f64) 
             "rasterized"
         } else {
             "ray-traced"
+        },
+        if r.fog.is_some() {
+            ", analytic fog composited as its wind plays"
+        } else {
+            ""
         },
         r.ctx.adapter_name()
     )
@@ -323,6 +359,12 @@ struct SceneApp {
     times: Vec<f64>,
     /// `--play-for`'s measurement line, printed once the window has closed.
     outcome: Arc<Mutex<Option<String>>>,
+    /// The analytic fog's wind and lit mode (wind_panel), for a scene with one.
+    wind: Option<Wind>,
+    /// When the wind last moved on.
+    clock: Instant,
+    /// The wind panel changed since the last picture.
+    wind_changed: bool,
 }
 
 impl SceneApp {
@@ -393,6 +435,10 @@ impl SceneApp {
                 .logarithmic(true)
                 .text("exposure"),
         );
+        if let Some(w) = &mut self.wind {
+            ui.separator();
+            self.wind_changed |= w.ui(ui, &self.renderer.base);
+        }
         if ui.button("reset").clicked() {
             (self.orbit, self.knobs) = self.start.clone();
         }
@@ -422,14 +468,24 @@ impl SceneApp {
         }
     }
 
-    /// Renders the current view if the texture shows another.
+    /// Renders the current view if the texture shows another (the fog playing: always).
     fn refresh(&mut self, ctx: &egui::Context) {
         let now = (self.orbit.clone(), self.knobs.clone());
-        if self.shown.as_ref() == Some(&now) {
+        let elapsed = self.clock.elapsed().as_secs_f64();
+        self.clock = Instant::now();
+        let playing = match &mut self.wind {
+            Some(w) if w.playing => {
+                w.advance(&self.renderer.base, elapsed);
+                true
+            }
+            _ => false,
+        };
+        if !playing && self.shown.as_ref() == Some(&now) && !self.wind_changed {
             return;
         }
+        self.wind_changed = false;
         let t = Instant::now();
-        match self.renderer.picture(&now.0, &now.1) {
+        match self.renderer.picture(&now.0, &now.1, self.wind.as_ref()) {
             Ok(rgb) => {
                 let (w, h) = self.renderer.size;
                 super::show_picture(ctx, &mut self.texture, "scene", [w, h], &rgb);
@@ -472,8 +528,12 @@ impl eframe::App for SceneApp {
                 ctx.request_repaint_after(std::time::Duration::from_secs_f64(left));
             }
         }
-        // A knob or the camera moved during this pass: the next pass renders it.
-        if self.shown.as_ref() != Some(&(self.orbit.clone(), self.knobs.clone())) {
+        // A knob or the camera moved during this pass, or the fog plays: the next pass
+        // renders it.
+        if self.shown.as_ref() != Some(&(self.orbit.clone(), self.knobs.clone()))
+            || self.wind_changed
+            || self.wind.as_ref().is_some_and(|w| w.playing)
+        {
             ctx.request_repaint();
         }
     }
