@@ -236,6 +236,8 @@ fn fog_depth_at(start: u32, o: vec3<f32>, w: vec3<f32>, len: f32) -> f32 {
         if (kind < 0) {
             break;
         }
+        // A blob of d = 0 is the constant 1/c (haze_fogfn::blob).
+        let flat_blob = kind >= 3 && kind <= 5 && h.w == 0.0;
         switch kind {
             case 0: {
                 total += h.y * len;
@@ -253,6 +255,11 @@ fn fog_depth_at(start: u32, o: vec3<f32>, w: vec3<f32>, len: f32) -> f32 {
                 i += 2u + u32(fog_terms[i + 1u].x) + u32(fog_terms[i + 1u].y);
             }
             case 3: {
+                if (flat_blob) {
+                    total += h.y * len / h.z;
+                    i += 2u;
+                    break;
+                }
                 let e = fog_terms[i + 1u].xyz + o;
                 let cr = cross(w, e);
                 let disc = h.z / h.w + dot(cr, cr);
@@ -260,6 +267,11 @@ fn fog_depth_at(start: u32, o: vec3<f32>, w: vec3<f32>, len: f32) -> f32 {
                 i += 2u;
             }
             case 4: {
+                if (flat_blob) {
+                    total += h.y * len / h.z;
+                    i += 3u;
+                    break;
+                }
                 let l = fog_terms[i + 2u].xyz;
                 let e = fog_terms[i + 1u].xyz + o - dot(o, l) * l;
                 let wp = w - dot(w, l) * l;
@@ -274,6 +286,11 @@ fn fog_depth_at(start: u32, o: vec3<f32>, w: vec3<f32>, len: f32) -> f32 {
                 i += 3u;
             }
             case 5: {
+                if (flat_blob) {
+                    total += h.y * len / h.z;
+                    i += 2u;
+                    break;
+                }
                 let e = fog_terms[i + 1u].xyz + o;
                 let r = fog_terms[i + 1u].w;
                 let b = dot(e, w);

@@ -182,7 +182,9 @@ fn blobs_and_height_on_the_gpu() {
         json!([
             {"type": "blob", "weight": 2.0, "shape": "point", "center": near([3.0, 0.0, 0.0]), "c": 0.5, "d": 4.0},
             {"type": "blob", "weight": 1.0, "shape": "line", "center": near([0.0, 2.0, 0.0]), "direction": [0, 0, 1], "c": 0.3, "d": 2.0},
-            {"type": "blob", "weight": 1.5, "shape": "sphere", "center": near([0.0, -4.0, 0.0]), "radius": 0.8, "c": 0.4, "d": 3.0}
+            {"type": "blob", "weight": 1.5, "shape": "sphere", "center": near([0.0, -4.0, 0.0]), "radius": 0.8, "c": 0.4, "d": 3.0},
+            // d = 0: the constant 1/c (no division by d on the GPU).
+            {"type": "blob", "weight": 0.5, "shape": "line", "center": near([1.0, 1.0, 0.0]), "direction": [0, 1, 0], "c": 2.0, "d": 0.0}
         ]),
     );
     check(
