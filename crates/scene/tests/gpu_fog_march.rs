@@ -85,14 +85,14 @@ fn the_lit_analytic_fog_as_on_the_cpu() {
     let mut s = haze_scene::load(&scenes().join("analytic_fog.json"))
         .unwrap()
         .at_time(7.5);
-    s.camera = s.camera.with_size(24, 18).unwrap();
+    s.camera = s.camera.with_size(16, 12).unwrap();
     compare("lit analytic fog", &s);
 }
 
 #[test]
 fn smoke_in_analytic_fog_as_on_the_cpu() {
     let text = r#"{"camera": {"eye": [0.3, -4.0, 1.5], "target": [0, 0, 0.8], "fov": 40,
-            "width": 24, "height": 18},
+            "width": 16, "height": 12},
         "environment": [0.1, 0.12, 0.15], "environment_distance": 8,
         "lights": [
           {"type": "point", "position": [-0.6, -0.7, 0.5], "intensity": [2.0, 2.5, 3.5]},
