@@ -510,9 +510,9 @@ pub struct RenderCli {
     )]
     time: f64,
     /// With --scene: single scattering of the scene's lights through every medium (the
-    /// analytic fog included) by ray marching with exact transmittance, on the CPU,
-    /// instead of paper C's airlight and paper D's fog colour.
-    #[arg(long, requires = "scene", conflicts_with_all = ["gpu", "reference"])]
+    /// analytic fog included) by ray marching with exact transmittance, on the CPU (on
+    /// the GPU with --gpu), instead of paper C's airlight and paper D's fog colour.
+    #[arg(long, requires = "scene", conflicts_with = "reference")]
     march: bool,
     #[command(flatten)]
     import: ImportArgs,

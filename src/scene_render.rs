@@ -61,13 +61,11 @@ pub fn run(a: SceneRenderArgs) -> Result<()> {
     }
     // Gaussian media alone: paper B; analytic fog: paper C's picture with paper D's fog
     // composited; any other heterogeneous medium: the march.
-    if !scene.hetero.is_empty() && scene.hetero.iter().all(|m| m.gaussians().is_some()) {
+    if !a.march && !scene.hetero.is_empty() && scene.hetero.iter().all(|m| m.gaussians().is_some())
+    {
         return run_hetero(&a, &scene, kind, start);
     }
     if a.gpu {
-        if a.march {
-            anyhow::bail!("--march renders on the CPU only; drop --gpu");
-        }
         return run_gpu(&a, &scene, kind, start);
     }
     if scene.hetero.iter().any(|m| m.as_analytic().is_none()) {
@@ -140,14 +138,19 @@ fn run_march(a: &SceneRenderArgs, scene: &Scene, kind: OutKind, start: Instant) 
 }
 
 /// `--gpu`: the tables built on the CPU, the image rendered by `haze_scene::gpu` (analytic
-/// fog composited over it by `haze_scene::gpu_analytic`).
+/// fog composited over it by `haze_scene::gpu_analytic`, or marched through with the other
+/// media by `haze_scene::gpu_march`).
 fn run_gpu(a: &SceneRenderArgs, scene: &Scene, kind: OutKind, start: Instant) -> Result<()> {
     let gpu_err = |e: GpuError| anyhow!("--gpu: {e}");
     let ctx = GpuContext::new().map_err(gpu_err)?;
     let analytic = Analytic::new(scene);
     let renderer = GpuRenderer::new(&ctx, &analytic).map_err(gpu_err)?;
-    // Analytic fog alone: paper C's picture with paper D's fog composited on the GPU.
-    let fog = !scene.hetero.is_empty() && scene.hetero.iter().all(|m| m.as_analytic().is_some());
+    // Analytic fog alone: paper C's picture with paper D's fog composited on the GPU, or
+    // with --march the lit picture (the march, as every scene with other heterogeneous
+    // media: smoke assets alone or in analytic fog).
+    let fog = !a.march
+        && !scene.hetero.is_empty()
+        && scene.hetero.iter().all(|m| m.as_analytic().is_some());
     let composite = if fog {
         Some(GpuAnalytic::new(&ctx).map_err(gpu_err)?)
     } else {

@@ -371,3 +371,114 @@ fn views_the_room_without_a_window() {
     );
     assert_eq!(err.lines().count(), 1, "{err}");
 }
+
+/// Pixels of `g` outside `REL·|c| + 10⁻⁵·mean(c)` of `c`, with the image size; the GPU
+/// march's tolerance against the CPU's (crates/scene/tests/gpu_fog_march.rs: `10⁻³`).
+fn march_outside(c: &Path, g: &Path) -> (usize, usize) {
+    let (w, h, pc) = read_exr(c);
+    let (_, _, pg) = read_exr(g);
+    let mean = pc.iter().flatten().map(|v| f64::from(*v)).sum::<f64>() / (3 * w * h) as f64;
+    assert!(mean > 0.0);
+    let outside = pc
+        .iter()
+        .zip(&pg)
+        .filter(|(c, g)| {
+            (0..3).any(|k| {
+                let (c, g) = (f64::from(c[k]), f64::from(g[k]));
+                (g - c).abs() > 1e-3 * c.abs() + 1e-5 * mean
+            })
+        })
+        .count();
+    (outside, w * h)
+}
+
+/// `--gpu --march`: the lit analytic fog marched on the GPU, as `--march` on the CPU.
+#[test]
+fn marches_analytic_fog_on_the_gpu_as_on_the_cpu() {
+    let dir = tempfile::tempdir().unwrap();
+    let (c, g) = (dir.path().join("c.exr"), dir.path().join("g.exr"));
+    let scene = bundled("analytic_fog.json");
+    let common = [
+        "--width", "16", "--height", "12", "--time", "4", "--march", "--scene", &scene,
+    ];
+    render(&[&common[..], &["--out", c.to_str().unwrap()]].concat());
+    let err = render(&[&common[..], &["--gpu", "--out", g.to_str().unwrap()]].concat());
+    let last = err.lines().last().unwrap_or_default();
+    assert!(
+        last.contains("16×12") && last.contains("single-scattering march on the GPU"),
+        "{err}"
+    );
+    let (outside, n) = march_outside(&c, &g);
+    assert!(outside * 100 <= n, "{outside} pixels differ");
+}
+
+/// `--gpu` on a smoke asset in analytic fog: both marched on the GPU, as on the CPU.
+#[test]
+fn marches_smoke_in_analytic_fog_on_the_gpu() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("smoke_fog.json");
+    let plume = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/scenes/plume.haze");
+    std::fs::write(
+        &scene,
+        format!(
+            r#"{{"camera": {{"eye": [0.3, -4.0, 1.5], "target": [0, 0, 0.8], "fov": 40, "width": 16, "height": 12}},
+               "environment": [0.1, 0.12, 0.15], "environment_distance": 8,
+               "lights": [{{"type": "point", "position": [-0.6, -0.7, 0.5], "intensity": [2.0, 2.5, 3.5]}}],
+               "media": [
+                 {{"type": "asset", "path": {plume:?}, "frame": 24, "sigma_t": 8, "albedo": 0.9,
+                   "offset": [-0.75, -0.75, 0.1], "scale": 0.5}},
+                 {{"type": "analytic", "sigma_t": 0.3, "albedo": 0.8, "far": 6, "wind": [0.4, 0, 0],
+                   "terms": [{{"type": "constant", "weight": 0.2}},
+                             {{"type": "blob", "weight": 1.0, "shape": "point", "center": [0.6, 0.4, 0.5], "c": 0.5, "d": 4.0}}]}}
+               ],
+               "surfaces": [{{"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1], "material": {{"diffuse": [0.6, 0.58, 0.55]}}}}]}}"#
+        ),
+    )
+    .unwrap();
+    let scene = scene.to_str().unwrap();
+    let (c, g) = (dir.path().join("c.exr"), dir.path().join("g.exr"));
+    render(&[
+        "--scene",
+        scene,
+        "--time",
+        "2",
+        "--out",
+        c.to_str().unwrap(),
+    ]);
+    let err = render(&[
+        "--scene",
+        scene,
+        "--time",
+        "2",
+        "--gpu",
+        "--out",
+        g.to_str().unwrap(),
+    ]);
+    assert!(err.contains("single-scattering march on the GPU"), "{err}");
+    let (outside, n) = march_outside(&c, &g);
+    assert!(outside * 100 <= n, "{outside} pixels differ");
+}
+
+/// `haze view --scene` on the bundled analytic fog without a window: the fog composited
+/// on the GPU as its wind plays, the figures on one line.
+#[test]
+fn views_the_analytic_fog_without_a_window() {
+    let o = haze()
+        .args([
+            "view",
+            "--scene",
+            &bundled("analytic_fog.json"),
+            "--size",
+            "32x24",
+        ])
+        .args(["--no-window", "--play-for", "0.3"])
+        .output()
+        .unwrap();
+    let out = String::from_utf8(o.stdout).unwrap();
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert!(o.status.success(), "{err}");
+    assert!(
+        out.contains(" of 32×24") && out.contains("analytic fog composited as its wind plays"),
+        "{out}"
+    );
+}

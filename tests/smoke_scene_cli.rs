@@ -128,6 +128,8 @@ fn views_the_smoke_scene_without_a_window() {
     let out = String::from_utf8(o.stdout).unwrap();
     let err = String::from_utf8(o.stderr).unwrap();
     assert!(o.status.success(), "{err}");
-    assert!(out.contains("pictures of 32×24"), "{out}");
+    // One picture or more: the whole march of one may take longer than 0.3 s on a
+    // loaded 2-core machine (lavapipe marches it in chunks, gpu_march::chunks).
+    assert!(out.contains(" of 32×24"), "{out}");
     assert!(out.contains("with ray-traced surfaces"), "{out}");
 }

@@ -13,6 +13,7 @@
 //! - [`scene_view`]: `haze view --scene`, a scene file through paper C's GPU renderer
 //!   (paper B's for Gaussian media);
 //! - [`edit_tools`]: its editing tools for Gaussian media (paper B §6);
+//! - [`wind_panel`]: its wind and lit mode for scenes with analytic fog (paper D);
 //! - [`fog_view`]: `haze view --fog`, a fogmap's wavelet fog (paper E) on the GPU;
 //! - [`fly`]: its fly camera.
 
@@ -28,6 +29,7 @@ mod player;
 pub mod scene_view;
 #[cfg(test)]
 mod testing;
+mod wind_panel;
 mod worker;
 
 use anyhow::{Result, anyhow, bail};

@@ -6,7 +6,8 @@
 //! heterogeneous media are all Gaussians are rendered by paper B on the GPU
 //! (`haze_scene::gpu_paper_b`, ray-traced surfaces: its raster variant does not exist),
 //! and the panel's editing tools (paper B §6, [`super::edit_tools`]) change their first
-//! Gaussian medium, every edit re-lit in the next picture.
+//! Gaussian medium, every edit re-lit in the next picture. Scenes with analytic fog
+//! (paper D) play its wind live ([`super::wind_panel`]).
 //!
 //! The orbit starts at the scene's camera and turns about the point its central ray looks
 //! at (the first surface it meets, else the scene's middle at the same distance), Z up.
@@ -18,6 +19,7 @@
 
 use super::edit_tools::{Editor, ScriptedStroke};
 use super::orbit::Orbit;
+use super::wind_panel::{FogRenderer, Wind};
 use anyhow::{Result, anyhow, bail};
 use eframe::egui;
 use haze_scene::airlight::Limits;
@@ -176,6 +178,8 @@ pub(super) struct Renderer {
     pub(super) analytic: Analytic,
     /// Paper B's renderer, for a scene whose heterogeneous media are all Gaussians.
     paper_b: Option<GpuPaperB>,
+    /// Paper D's composite, for a scene with analytic fog.
+    fog: Option<FogRenderer>,
     pub(super) size: (usize, usize),
 }
 
@@ -185,6 +189,10 @@ impl Renderer {
         let ctx = GpuContext::new().map_err(|e| anyhow!("GPU: {e}"))?;
         let analytic = Analytic::new(&base);
         let gpu = GpuRenderer::new(&ctx, &analytic).map_err(|e| anyhow!("GPU: {e}"))?;
+        let fog = match Wind::of(&base) {
+            Some(_) => Some(FogRenderer::new(&ctx).map_err(|e| anyhow!("GPU: {e}"))?),
+            None => None,
+        };
         let gaussian =
             !base.hetero.is_empty() && base.hetero.iter().all(|m| m.gaussians().is_some());
         let paper_b = if gaussian {
@@ -216,14 +224,16 @@ impl Renderer {
         Ok(scene)
     }
 
-    /// Renders the edited scene; the sRGB bytes of the picture.
+    /// Renders the edited scene, its analytic fogs carried by `wind`; the sRGB bytes of
+    /// the picture.
     pub(super) fn picture(
         &self,
         orbit: &Orbit,
         knobs: &SceneKnobs,
         editor: Option<&Editor>,
+        wind: Option<&Wind>,
     ) -> Result<Vec<u8>, String> {
-        let img = self.image(orbit, knobs, editor)?;
+        let img = self.image(orbit, knobs, editor, wind)?;
         let image = haze_view::Image {
             width: img.width,
             height: img.height,
@@ -232,18 +242,21 @@ impl Renderer {
         Ok(image.to_srgb8(knobs.exposure))
     }
 
-    /// Renders the edited scene; its linear radiance.
+    /// Renders the edited scene, its analytic fogs carried by `wind`; its linear radiance.
     pub(super) fn image(
         &self,
         orbit: &Orbit,
         knobs: &SceneKnobs,
         editor: Option<&Editor>,
+        wind: Option<&Wind>,
     ) -> Result<Image, String> {
         let scene = self.scene(orbit, knobs, editor)?;
         let lim = Limits::default();
         let img = if let Some(pb) = &self.paper_b {
             let prep = Prepared::new(&scene, &self.analytic, PaperBOptions::default())?;
             pb.render(&self.ctx, &self.gpu, &prep, &lim)
+        } else if let (Some(fog), Some(wind)) = (&self.fog, wind) {
+            fog.render(&self.ctx, &self.gpu, &scene, wind, &lim)
         } else if knobs.rasterized {
             self.gpu.render_rasterized(&self.ctx, &scene, &lim)
         } else {
@@ -306,10 +319,11 @@ pub fn run(a: SceneViewArgs) -> Result<()> {
             eprintln!("{said}");
         }
     }
+    let wind = Wind::of(&base);
     let renderer = Renderer::new(base, (a.width, a.height))?;
     // The first picture, also the proof that the scene renders.
     renderer
-        .picture(&orbit, &knobs, editor.as_ref())
+        .picture(&orbit, &knobs, editor.as_ref(), wind.as_ref())
         .map_err(|e| anyhow!("{}: {e}", a.scene.display()))?;
     if !a.window {
         let line = turn_without_window(
@@ -317,6 +331,7 @@ pub fn run(a: SceneViewArgs) -> Result<()> {
             orbit,
             &knobs,
             editor.as_ref(),
+            wind,
             a.play_for.unwrap_or_default(),
         )
         .map_err(|e| anyhow!("{}: {e}", a.scene.display()))?;
@@ -348,6 +363,9 @@ pub fn run(a: SceneViewArgs) -> Result<()> {
         play_for: a.play_for.map(|s| (Instant::now(), s)),
         times: Vec::new(),
         outcome: outcome.clone(),
+        wind,
+        clock: Instant::now(),
+        wind_changed: false,
     };
     eframe::run_native(&title, options, Box::new(move |_| Ok(Box::new(app)))).map_err(|e| {
         anyhow!(
@@ -365,22 +383,27 @@ fn one_line(text: &str) -> String {
     text.split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
-/// Renders pictures for `seconds`, turning the camera by a degree each, and gives the
-/// measurement line.
+/// Renders pictures for `seconds`, turning the camera by a degree each (and playing the
+/// analytic fog's wind in real time), and gives the measurement line.
 fn turn_without_window(
     r: &Renderer,
     mut orbit: Orbit,
     knobs: &SceneKnobs,
     editor: Option<&Editor>,
+    mut wind: Option<Wind>,
     seconds: f64,
 ) -> Result<String, String> {
     let start = Instant::now();
     let mut times = Vec::new();
     while start.elapsed().as_secs_f64() < seconds || times.is_empty() {
         let t = Instant::now();
-        r.picture(&orbit, knobs, editor)?;
-        times.push(t.elapsed().as_secs_f64());
+        r.picture(&orbit, knobs, editor, wind.as_ref())?;
+        let took = t.elapsed().as_secs_f64();
+        times.push(took);
         orbit.drag(1f64.to_radians() / super::orbit::RADIANS_PER_PIXEL, 0.0);
+        if let Some(w) = &mut wind {
+            w.advance(&r.base, took);
+        }
     }
     Ok(summary(r, knobs, times, start.elapsed().as_secs_f64()))
 }
@@ -390,7 +413,7 @@ fn summary(r: &Renderer, knobs: &SceneKnobs, mut times: Vec<f64>, seconds: f64) 
     times.sort_by(f64::total_cmp);
     let median = times.get(times.len() / 2).copied().unwrap_or(0.0);
     format!(
-        "{} picture{} of {}×{} in {:.2} s, median {:.1} ms each (GPU render with {} surfaces, read back, sRGB) on {}",
+        "{} picture{} of {}×{} in {:.2} s, median {:.1} ms each (GPU render with {} surfaces{}, read back, sRGB) on {}",
         times.len(),
         if times.len() == 1 { "" } else { "s" },
         r.size.0,
@@ -405,6 +428,11 @@ fn summary(r: &Renderer, knobs: &SceneKnobs, mut times: Vec<f64>, seconds: f64) 
             "rasterized"
         } else {
             "ray-traced"
+        },
+        if r.fog.is_some() {
+            ", analytic fog composited as its wind plays"
+        } else {
+            ""
         },
         r.ctx.adapter_name()
     )
@@ -434,6 +462,12 @@ struct SceneApp {
     times: Vec<f64>,
     /// `--play-for`'s measurement line, printed once the window has closed.
     outcome: Arc<Mutex<Option<String>>>,
+    /// The analytic fog's wind and lit mode (wind_panel), for a scene with one.
+    wind: Option<Wind>,
+    /// When the wind last moved on.
+    clock: Instant,
+    /// The wind panel changed since the last picture.
+    wind_changed: bool,
 }
 
 impl SceneApp {
@@ -513,6 +547,10 @@ impl SceneApp {
                 .logarithmic(true)
                 .text("exposure"),
         );
+        if let Some(w) = &mut self.wind {
+            ui.separator();
+            self.wind_changed |= w.ui(ui, &self.renderer.base);
+        }
         if ui.button("reset").clicked() {
             (self.orbit, self.knobs) = self.start.clone();
         }
@@ -622,14 +660,27 @@ impl SceneApp {
         self.last_tick = now;
     }
 
-    /// Renders the current view if the texture shows another.
+    /// Renders the current view if the texture shows another (the fog playing: always).
     fn refresh(&mut self, ctx: &egui::Context) {
         let now = self.view();
-        if self.shown.as_ref() == Some(&now) {
+        let elapsed = self.clock.elapsed().as_secs_f64();
+        self.clock = Instant::now();
+        let playing = match &mut self.wind {
+            Some(w) if w.playing => {
+                w.advance(&self.renderer.base, elapsed);
+                true
+            }
+            _ => false,
+        };
+        if !playing && self.shown.as_ref() == Some(&now) && !self.wind_changed {
             return;
         }
+        self.wind_changed = false;
         let t = Instant::now();
-        match self.renderer.picture(&now.0, &now.1, self.editor.as_ref()) {
+        match self
+            .renderer
+            .picture(&now.0, &now.1, self.editor.as_ref(), self.wind.as_ref())
+        {
             Ok(rgb) => {
                 let (w, h) = self.renderer.size;
                 super::show_picture(ctx, &mut self.texture, "scene", [w, h], &rgb);
@@ -676,10 +727,14 @@ impl eframe::App for SceneApp {
                 ctx.request_repaint_after(std::time::Duration::from_secs_f64(left));
             }
         }
-        // A knob, the camera or the Gaussians moved during this pass, or particles are
-        // flying: the next pass renders it.
+        // A knob, the camera or the Gaussians moved during this pass, particles are
+        // flying or the fog plays: the next pass renders it.
         let running = self.editor.as_ref().is_some_and(Editor::running);
-        if running || self.shown.as_ref() != Some(&self.view()) {
+        if running
+            || self.shown.as_ref() != Some(&self.view())
+            || self.wind_changed
+            || self.wind.as_ref().is_some_and(|w| w.playing)
+        {
             ctx.request_repaint();
         }
     }

@@ -1,5 +1,6 @@
 // Analytic fog functions (paper D) in f32: the twin of haze_fogfn's closed forms
-// (crates/fogfn/src, one function per family), for rays leaving the eye.
+// (crates/fogfn/src, one function per family), for rays leaving the eye or any point given
+// relative to it (fog_depth_at), and the density K itself (fog_density_at).
 //
 // The includer declares `fog_terms: array<vec4<f32>>`, the records written by
 // haze_fogfn::gpu::records: everything that depends on the eye and the time (phases, cell
@@ -68,20 +69,27 @@ fn fog_ln_e(x: f32) -> f32 {
     return -x + log(1.0 - exp(x)) - log(-x);
 }
 
+// s^p for 0 ≤ p ≤ 15 by squaring (the spec allows powers ≤ 9, antiderivatives ≤ 10).
+// Written without a loop, as fog_piece's nodes and fog_polynomial's axes: lavapipe
+// (llvmpipe) ends an invocation's loops after 65535 iterations in all, and a march or a
+// long cell walk evaluates the polynomial many times (one loop over the monomials each).
 fn fog_powi(s: f32, p: u32) -> f32 {
-    var r = 1.0;
-    for (var i = 0u; i < p; i++) {
-        r *= s;
-    }
-    return r;
+    let s2 = s * s;
+    let s4 = s2 * s2;
+    return select(1.0, s, (p & 1u) != 0u) * select(1.0, s2, (p & 2u) != 0u)
+        * select(1.0, s4, (p & 4u) != 0u) * select(1.0, s4 * s4, (p & 8u) != 0u);
+}
+
+// One monomial [coef, p0, p1, p2] at cell coordinates s.
+fn fog_mono(r: vec4<f32>, s: vec3<f32>) -> f32 {
+    return r.x * fog_powi(s.x, u32(r.y)) * fog_powi(s.y, u32(r.z)) * fog_powi(s.z, u32(r.w));
 }
 
 // P at cell coordinates s; monomials from record `m`.
 fn fog_poly(m: u32, count: u32, s: vec3<f32>) -> f32 {
     var v = 0.0;
     for (var i = 0u; i < count; i++) {
-        let r = fog_terms[m + i];
-        v += r.x * fog_powi(s.x, u32(r.y)) * fog_powi(s.y, u32(r.z)) * fog_powi(s.z, u32(r.w));
+        v += fog_mono(fog_terms[m + i], s);
     }
     return v;
 }
@@ -104,50 +112,58 @@ fn fog_phi(m: u32, count: u32, c: f32, s: f32) -> f32 {
     return cell * (fog_antiderivative(m, count, c) - qc) + fog_antiderivative(m, count, s - p * cell) - qc;
 }
 
-// 5-point Gauss–Legendre on [t0, t1] of P(s0 + t·ds − shift).
+// 5-point Gauss–Legendre on [t0, t1] of P(s0 + t·ds − shift): the five nodes in one pass
+// over the monomials.
 fn fog_piece(m: u32, count: u32, s0: vec3<f32>, ds: vec3<f32>, shift: vec3<f32>, t0: f32, t1: f32) -> f32 {
-    var x = array<f32, 5>(0.0, -0.5384693101056831, 0.5384693101056831, -0.9061798459386640, 0.9061798459386640);
-    var wt = array<f32, 5>(0.5688888888888889, 0.4786286704993665, 0.4786286704993665, 0.2369268850561891, 0.2369268850561891);
     let mid = 0.5 * (t0 + t1);
     let half = 0.5 * (t1 - t0);
+    let x1 = 0.5384693101056831 * half;
+    let x2 = 0.9061798459386640 * half;
+    let p0 = s0 + mid * ds - shift;
+    let p1 = s0 + (mid - x1) * ds - shift;
+    let p2 = s0 + (mid + x1) * ds - shift;
+    let p3 = s0 + (mid - x2) * ds - shift;
+    let p4 = s0 + (mid + x2) * ds - shift;
     var v = 0.0;
-    for (var i = 0u; i < 5u; i++) {
-        let t = mid + half * x[i];
-        v += wt[i] * fog_poly(m, count, s0 + t * ds - shift);
+    for (var i = 0u; i < count; i++) {
+        let r = fog_terms[m + i];
+        v += 0.5688888888888889 * fog_mono(r, p0)
+            + 0.4786286704993665 * (fog_mono(r, p1) + fog_mono(r, p2))
+            + 0.2369268850561891 * (fog_mono(r, p3) + fog_mono(r, p4));
     }
     return v * half;
 }
 
-// ∫₀^len of the polynomial whose record starts at `i` (haze_fogfn::polynomial).
-fn fog_polynomial(i: u32, w: vec3<f32>, len: f32) -> f32 {
+// ∫₀^len along o + t·w (o relative to the eye) of the polynomial whose record starts at
+// `i` (haze_fogfn::polynomial).
+fn fog_polynomial(i: u32, o: vec3<f32>, w: vec3<f32>, len: f32) -> f32 {
     let head = fog_terms[i];
     let c = head.z;
     let periodic = head.w > 0.5;
     let n = u32(fog_terms[i + 1u].x);
     let count = u32(fog_terms[i + 1u].y);
     let m = i + 2u + n;
-    var s0 = vec3<f32>(0.0);
-    var ds = vec3<f32>(0.0);
-    for (var j = 0u; j < n; j++) {
-        let a = fog_terms[i + 2u + j];
-        s0[j] = a.w;
-        ds[j] = dot(a.xyz, w);
-    }
+    // The axes as vector lanes (unused lanes: s0 = ds = 0).
+    let used = vec3<bool>(true, n > 1u, n > 2u);
+    let a0 = fog_terms[i + 2u];
+    let a1 = select(vec4<f32>(0.0), fog_terms[i + 3u], used.y);
+    let a2 = select(vec4<f32>(0.0), fog_terms[i + 4u], used.z);
+    let s0 = vec3<f32>(a0.w, a1.w, a2.w) + vec3<f32>(dot(a0.xyz, o), dot(a1.xyz, o), dot(a2.xyz, o));
+    let ds = vec3<f32>(dot(a0.xyz, w), dot(a1.xyz, w), dot(a2.xyz, w));
+    let flat = ds == vec3<f32>(0.0);
     if (!periodic) {
-        var t0 = 0.0;
-        var t1 = len;
-        for (var j = 0u; j < n; j++) {
-            if (ds[j] == 0.0) {
-                if (abs(s0[j]) > c) {
-                    return 0.0;
-                }
-                continue;
-            }
-            let a = (-c - s0[j]) / ds[j];
-            let b = (c - s0[j]) / ds[j];
-            t0 = max(t0, min(a, b));
-            t1 = min(t1, max(a, b));
+        // Along an axis the ray does not move on: inside the slab or nothing.
+        if (any(used & flat & (abs(s0) > vec3<f32>(c)))) {
+            return 0.0;
         }
+        let inv = 1.0 / select(ds, vec3<f32>(1.0), flat);
+        let a = (-c - s0) * inv;
+        let b = (c - s0) * inv;
+        let skip = flat | !used;
+        let lo = select(min(a, b), vec3<f32>(-3.0e38), skip);
+        let hi = select(max(a, b), vec3<f32>(3.0e38), skip);
+        let t0 = max(0.0, max(lo.x, max(lo.y, lo.z)));
+        let t1 = min(len, min(hi.x, min(hi.y, hi.z)));
         if (t1 <= t0) {
             return 0.0;
         }
@@ -159,45 +175,35 @@ fn fog_polynomial(i: u32, w: vec3<f32>, len: f32) -> f32 {
     }
     // The walk: border k of axis j ahead of the eye lies at
     // t = ((cell_j + k + 1)·2C − C − s0_j)/ds_j (ds_j > 0; mirrored for ds_j < 0),
-    // computed from k each time rather than accumulated.
-    var first = vec3<f32>(0.0);
+    // computed from k each time rather than accumulated; the axes as vector lanes.
+    let moving = used & !flat;
+    let up = ds > vec3<f32>(0.0);
+    let inv = 1.0 / select(ds, vec3<f32>(1.0), flat);
+    let first = floor((s0 + c) / p);
     var crossed = vec3<f32>(0.0);
-    for (var j = 0u; j < n; j++) {
-        first[j] = floor((s0[j] + c) / p);
-    }
     var t = 0.0;
     var total = 0.0;
     for (var step = 0u; step < FOG_MAX_CELLS && t < len; step++) {
-        var best = len;
-        var jb = 3u;
-        for (var j = 0u; j < n; j++) {
-            if (ds[j] == 0.0) {
-                continue;
-            }
-            var border = 0.0;
-            if (ds[j] > 0.0) {
-                border = (first[j] + crossed[j] + 1.0) * p - c;
-            } else {
-                border = (first[j] - crossed[j]) * p - c;
-            }
-            let tj = max((border - s0[j]) / ds[j], t);
-            if (tj < best) {
-                best = tj;
-                jb = j;
-            }
+        let border = select((first - crossed) * p - c, (first + crossed + 1.0) * p - c, up);
+        let tj = select(vec3<f32>(3.0e38), max((border - s0) * inv, vec3<f32>(t)), moving);
+        let best = min(len, min(tj.x, min(tj.y, tj.z)));
+        // The first axis whose border comes first (before len).
+        let hit = (tj == vec3<f32>(best)) & (tj < vec3<f32>(len));
+        var pick = vec3<bool>(false);
+        if (hit.x) {
+            pick.x = true;
+        } else if (hit.y) {
+            pick.y = true;
+        } else if (hit.z) {
+            pick.z = true;
         }
         if (best > t) {
             let mid = 0.5 * (t + best);
-            var shift = vec3<f32>(0.0);
-            for (var j = 0u; j < n; j++) {
-                shift[j] = p * floor((s0[j] + mid * ds[j] + c) / p);
-            }
+            let shift = p * floor((s0 + mid * ds + c) / p);
             total += fog_piece(m, count, s0, ds, shift, t, best);
         }
         t = best;
-        if (jb < 3u) {
-            crossed[jb] += 1.0;
-        }
+        crossed += select(vec3<f32>(0.0), vec3<f32>(1.0), pick);
     }
     return total;
 }
@@ -210,6 +216,14 @@ fn fog_depth(w: vec3<f32>, len: f32) -> f32 {
 // fog_depth of the fog whose records start at fog_terms[start] (several fogs in one array,
 // each ended by its terminator).
 fn fog_depth_from(start: u32, w: vec3<f32>, len: f32) -> f32 {
+    return fog_depth_at(start, vec3<f32>(0.0), w, len);
+}
+
+// ∫₀^len K(eye + o + s·w) ds of the fog whose records start at fog_terms[start]: the ray
+// leaves the point o (relative to the eye). Each record's eye-relative quantity moves by o:
+// a wave's phase by q·o, a cell coordinate by a_j·o, an offset to a blob by o (its part
+// across a line by o's), a height layer's ln-density by −b·(n·o).
+fn fog_depth_at(start: u32, o: vec3<f32>, w: vec3<f32>, len: f32) -> f32 {
     if (len <= 0.0) {
         return 0.0;
     }
@@ -222,6 +236,8 @@ fn fog_depth_from(start: u32, w: vec3<f32>, len: f32) -> f32 {
         if (kind < 0) {
             break;
         }
+        // A blob of d = 0 is the constant 1/c (haze_fogfn::blob).
+        let flat_blob = kind >= 3 && kind <= 5 && h.w == 0.0;
         switch kind {
             case 0: {
                 total += h.y * len;
@@ -230,23 +246,34 @@ fn fog_depth_from(start: u32, w: vec3<f32>, len: f32) -> f32 {
             case 1: {
                 let q = fog_terms[i + 1u].xyz;
                 let half = 0.5 * dot(q, w) * len;
-                total += h.y * len * cos(fog_wrap(h.z + fog_wrap(half))) * fog_sinc(half);
+                let phase = fog_wrap(h.z + dot(q, o));
+                total += h.y * len * cos(fog_wrap(phase + fog_wrap(half))) * fog_sinc(half);
                 i += 2u;
             }
             case 2: {
-                total += h.y * fog_polynomial(i, w, len);
+                total += h.y * fog_polynomial(i, o, w, len);
                 i += 2u + u32(fog_terms[i + 1u].x) + u32(fog_terms[i + 1u].y);
             }
             case 3: {
-                let e = fog_terms[i + 1u].xyz;
+                if (flat_blob) {
+                    total += h.y * len / h.z;
+                    i += 2u;
+                    break;
+                }
+                let e = fog_terms[i + 1u].xyz + o;
                 let cr = cross(w, e);
                 let disc = h.z / h.w + dot(cr, cr);
                 total += h.y * fog_inv_quad(1.0, dot(e, w), disc, 0.0, len) / h.w;
                 i += 2u;
             }
             case 4: {
-                let e = fog_terms[i + 1u].xyz;
+                if (flat_blob) {
+                    total += h.y * len / h.z;
+                    i += 3u;
+                    break;
+                }
                 let l = fog_terms[i + 2u].xyz;
+                let e = fog_terms[i + 1u].xyz + o - dot(o, l) * l;
                 let wp = w - dot(w, l) * l;
                 let a = dot(wp, wp);
                 if (a == 0.0) {
@@ -259,7 +286,12 @@ fn fog_depth_from(start: u32, w: vec3<f32>, len: f32) -> f32 {
                 i += 3u;
             }
             case 5: {
-                let e = fog_terms[i + 1u].xyz;
+                if (flat_blob) {
+                    total += h.y * len / h.z;
+                    i += 2u;
+                    break;
+                }
+                let e = fog_terms[i + 1u].xyz + o;
                 let r = fog_terms[i + 1u].w;
                 let b = dot(e, w);
                 let cr = cross(w, e);
@@ -280,7 +312,82 @@ fn fog_depth_from(start: u32, w: vec3<f32>, len: f32) -> f32 {
             }
             case 6: {
                 let n = fog_terms[i + 1u].xyz;
-                total += len * exp(h.y + fog_ln_e(h.z * dot(n, w) * len));
+                total += len * exp(h.y - h.z * dot(n, o) + fog_ln_e(h.z * dot(n, w) * len));
+                i += 2u;
+            }
+            default: {
+                bad = true;
+            }
+        }
+        if (bad) {
+            break;
+        }
+    }
+    return total;
+}
+
+// K(eye + x) of the fog whose records start at fog_terms[start] (haze_fogfn::Fog::density).
+fn fog_density_at(start: u32, x: vec3<f32>) -> f32 {
+    var total = 0.0;
+    var i = start;
+    var bad = false;
+    loop {
+        let h = fog_terms[i];
+        let kind = i32(h.x);
+        if (kind < 0) {
+            break;
+        }
+        switch kind {
+            case 0: {
+                total += h.y;
+                i += 1u;
+            }
+            case 1: {
+                let q = fog_terms[i + 1u].xyz;
+                total += h.y * cos(fog_wrap(h.z + dot(q, x)));
+                i += 2u;
+            }
+            case 2: {
+                let c = h.z;
+                let p = 2.0 * c;
+                let n = u32(fog_terms[i + 1u].x);
+                let count = u32(fog_terms[i + 1u].y);
+                var s = vec3<f32>(0.0);
+                var inside = true;
+                for (var j = 0u; j < n; j++) {
+                    let a = fog_terms[i + 2u + j];
+                    s[j] = a.w + dot(a.xyz, x);
+                    if (h.w > 0.5) {
+                        s[j] -= p * floor((s[j] + c) / p);
+                    } else if (abs(s[j]) > c) {
+                        inside = false;
+                    }
+                }
+                if (inside) {
+                    total += h.y * fog_poly(i + 2u + n, count, s);
+                }
+                i += 2u + n + count;
+            }
+            case 3: {
+                let e = fog_terms[i + 1u].xyz + x;
+                total += h.y / (h.z + h.w * dot(e, e));
+                i += 2u;
+            }
+            case 4: {
+                let l = fog_terms[i + 2u].xyz;
+                let e = fog_terms[i + 1u].xyz + x - dot(x, l) * l;
+                total += h.y / (h.z + h.w * dot(e, e));
+                i += 3u;
+            }
+            case 5: {
+                let e = fog_terms[i + 1u].xyz + x;
+                let r = fog_terms[i + 1u].w;
+                total += h.y / (h.z + h.w * max(dot(e, e) - r * r, 0.0));
+                i += 2u;
+            }
+            case 6: {
+                let n = fog_terms[i + 1u].xyz;
+                total += exp(h.y - h.z * dot(n, x));
                 i += 2u;
             }
             default: {

@@ -2,7 +2,9 @@
 //! `fog_depth(w, len)`, the optical depth along a ray leaving the eye, for any shader that
 //! declares the storage array `fog_terms` and fills it with [`records`] (and
 //! `fog_depth_from(start, w, len)` for a fog whose records start at `fog_terms[start]`,
-//! several fogs' records laid end to end); [`DepthKernel`]
+//! several fogs' records laid end to end; `fog_depth_at(start, o, w, len)` for a ray
+//! leaving the point `o` relative to the eye and `fog_density_at(start, x)` for `K`
+//! itself, what a march needs); [`DepthKernel`]
 //! runs it over a batch of rays (the twin tests and the benchmarks).
 //!
 //! Precision: [`records`] does in `f64` everything that depends on where the eye is and

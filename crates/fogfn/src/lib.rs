@@ -93,6 +93,42 @@ impl Term {
     }
 }
 
+impl Term {
+    /// The shortest length over which the term varies by a sizeable part of itself (`∞`
+    /// for a constant): a wave's `1/|q|`, a polynomial's half width over its degree, a
+    /// blob's core radius `√(c/d)`, a height layer's `1/b`. What a march that samples `K`
+    /// (the lit picture) sets its step from.
+    pub fn feature_size(&self) -> f64 {
+        let positive = |x: f64| {
+            if x > 0.0 && x.is_finite() {
+                x
+            } else {
+                f64::INFINITY
+            }
+        };
+        match &self.family {
+            Family::Constant => f64::INFINITY,
+            Family::Cosine(c) => c
+                .waves
+                .iter()
+                .map(|w| positive(1.0 / vec3::norm2(w.q).sqrt()))
+                .fold(f64::INFINITY, f64::min),
+            Family::Polynomial(p) => {
+                let degree = p
+                    .monomials
+                    .iter()
+                    .map(|(_, pw)| pw.iter().sum::<u32>())
+                    .max()
+                    .unwrap_or(0)
+                    .max(1);
+                positive(p.half / f64::from(degree))
+            }
+            Family::Blob(b) => positive((b.c / b.d).sqrt()),
+            Family::Height(h) => positive(1.0 / h.falloff),
+        }
+    }
+}
+
 /// A fog: its terms and the wind carrying them.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Fog {
@@ -109,6 +145,15 @@ impl Fog {
         } else {
             x
         }
+    }
+
+    /// The smallest [`Term::feature_size`] of the terms of non-zero weight.
+    pub fn feature_size(&self) -> f64 {
+        self.terms
+            .iter()
+            .filter(|t| t.weight != 0.0)
+            .map(Term::feature_size)
+            .fold(f64::INFINITY, f64::min)
     }
 
     /// `K(x, t) = Σ w_i γ_i(x − v t, t)`.

@@ -497,3 +497,47 @@ fn polynomial_lower_bound_is_a_bound_and_tight() {
     }
     assert!(lb <= least && least - lb < 0.05, "{lb} vs {least}");
 }
+
+/// `Fog::feature_size` (the march's step) against each family's length read off its
+/// parameters by hand: a wave's 1/|k|, a polynomial's half width over its degree, a
+/// blob's √(c/d), a height layer's 1/b; a constant has none, a zero weight counts not.
+#[test]
+fn feature_sizes_are_the_families_lengths() {
+    let one = |term: serde_json::Value| {
+        fog([0.0; 3], json!([{"type": "constant", "weight": 5.0}, term])).feature_size()
+    };
+    assert!(
+        fog([0.0; 3], json!([{"type": "constant", "weight": 1.0}]))
+            .feature_size()
+            .is_infinite()
+    );
+    let cases = [
+        (
+            json!({"type": "cosine", "weight": 0.5, "k": 2.5, "direction": [0, 3, 4]}),
+            0.4,
+        ),
+        (
+            json!({"type": "polynomial", "axes": [[1, 0, 0]], "half_width": 3.0, "coefficients": [1.0, 0.0, -0.1]}),
+            1.5,
+        ),
+        (
+            json!({"type": "blob", "weight": 1.0, "shape": "point", "center": [0, 0, 0], "c": 0.5, "d": 2.0}),
+            0.5,
+        ),
+        (
+            json!({"type": "height", "weight": 1.0, "falloff": 4.0, "base": 0.0}),
+            0.25,
+        ),
+        (
+            json!({"type": "blob", "weight": 0.0, "shape": "point", "center": [0, 0, 0], "c": 0.5, "d": 2.0}),
+            f64::INFINITY,
+        ),
+    ];
+    for (term, want) in cases {
+        let got = one(term.clone());
+        assert!(
+            got == want || (got - want).abs() < 1e-12 * want,
+            "{term}: {got} vs {want}"
+        );
+    }
+}

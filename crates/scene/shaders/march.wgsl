@@ -1,7 +1,9 @@
 // The single-scattering march on the GPU: the twin of crates/scene's `march::radiance`
-// for scenes whose heterogeneous media are voxel grids (smoke assets), one invocation per
-// pixel, in f32. Appended to render.wgsl (whose entry point is renamed; its bindings,
-// surfaces, shadow rays, BRDF and environment are shared); see `src/gpu_march.rs`.
+// for scenes whose heterogeneous media are voxel grids (smoke assets) and analytic fogs
+// (paper D), one invocation per pixel, in f32. Appended to render.wgsl (whose entry point
+// is renamed; its bindings, surfaces, shadow rays, BRDF and environment are shared) and
+// followed by haze_fogfn's fogfn.wgsl, whose `fog_terms` is `media` here; see
+// `src/gpu_march.rs`.
 //
 // Positions are relative to the eye, as in render.wgsl.
 
@@ -9,8 +11,15 @@
 @group(0) @binding(7) var<storage, read> grid: array<f32>;
 // media[0]: (grid count, step, most steps, smallest transmittance); per grid five records:
 // (box min, g), (voxel size, first value in `grid`), (dims, -), (σt scale per channel, -),
-// (albedo per channel, -).
+// (albedo per channel, -); the environment's record (env_smoke.wgsl); the analytic fogs'
+// head (fog count, -, -, -) and per fog three records: (σt per channel, index in `media`
+// of its first closed-form record), (albedo per channel, g), (far, -, -, -); then the
+// fogs' closed-form records (haze_fogfn::gpu::records), each fog's ended by its
+// terminator.
 @group(0) @binding(8) var<storage, read> media: array<vec4<f32>>;
+
+// Analytic fogs a march takes at most (gpu_march::MarchInput::of refuses more).
+const FOG_MAX_MEDIA: u32 = 8u;
 
 fn grid_base(i: u32) -> u32 {
     return 1u + 5u * i;
@@ -127,13 +136,48 @@ fn grids_depth(o: vec3<f32>, d: vec3<f32>, len: f32) -> vec3<f32> {
     return tau;
 }
 
+// The analytic fogs' head record.
+fn fog_head() -> u32 {
+    return 2u + 5u * u32(media[0].x);
+}
+
+fn fog_count() -> u32 {
+    return u32(media[fog_head()].x);
+}
+
+// The first of fog k's three records.
+fn fog_base(k: u32) -> u32 {
+    return fog_head() + 1u + 3u * k;
+}
+
+// The analytic fogs' optical depth along o + t·d, t ∈ [0, min(len, far)] per fog
+// (analytic::AnalyticMedium::optical_depth), by their closed forms.
+fn fogs_depth(o: vec3<f32>, d: vec3<f32>, len: f32) -> vec3<f32> {
+    var tau = vec3<f32>(0.0);
+    for (var k = 0u; k < fog_count(); k++) {
+        let b = fog_base(k);
+        let a = media[b];
+        let k_len = fog_depth_at(u32(a.w), o, d, min(len, media[b + 2u].x));
+        tau += a.xyz * k_len;
+    }
+    return tau;
+}
+
+// The heterogeneous media's optical depth (march::hetero_depth: what attenuates a sun).
+fn hetero_depth(o: vec3<f32>, d: vec3<f32>, len: f32) -> vec3<f32> {
+    if (len <= 0.0) {
+        return vec3<f32>(0.0);
+    }
+    return grids_depth(o, d, len) + fogs_depth(o, d, len);
+}
+
 // Every medium's optical depth (march::optical_depth): the homogeneous one's σt·len plus
-// the grids'.
+// the heterogeneous media's.
 fn total_depth(o: vec3<f32>, d: vec3<f32>, len: f32) -> vec3<f32> {
     if (len <= 0.0) {
         return vec3<f32>(0.0);
     }
-    return max(P.sigma_t.xyz, vec3<f32>(0.0)) * len + grids_depth(o, d, len);
+    return max(P.sigma_t.xyz, vec3<f32>(0.0)) * len + hetero_depth(o, d, len);
 }
 
 // media::henyey_greenstein.
@@ -171,7 +215,7 @@ fn arrival(i: u32, x: vec3<f32>, x_vis: vec3<f32>) -> Arrival {
         return Arrival(false, l, vec3<f32>(0.0));
     }
     // Suns pass the homogeneous medium unattenuated (paper C's convention).
-    let tau = grids_depth(x, l, 3.0e38);
+    let tau = hetero_depth(x, l, 3.0e38);
     return Arrival(true, l, lights[3u * i + 2u].xyz * exp(-tau));
 }
 
@@ -182,6 +226,16 @@ fn in_scattered(x: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
     for (var m = 0u; m < count; m++) {
         let b = grid_base(m);
         if (grid_density(m, x) * max(max(media[b + 3u].x, media[b + 3u].y), media[b + 3u].z) > 0.0) {
+            any_s = true;
+        }
+    }
+    // Each fog's σs at x: σt·K(x)·albedo (its K read once).
+    let fogs = fog_count();
+    var fog_k = array<f32, FOG_MAX_MEDIA>();
+    for (var k = 0u; k < min(fogs, FOG_MAX_MEDIA); k++) {
+        let b = fog_base(k);
+        fog_k[k] = fog_density_at(u32(media[b].w), x);
+        if (any(media[b].xyz * fog_k[k] * media[b + 1u].xyz > vec3<f32>(0.0))) {
             any_s = true;
         }
     }
@@ -203,6 +257,10 @@ fn in_scattered(x: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
                 s += media[b + 3u].xyz * rho * media[b + 4u].xyz * hg(media[b].w, c);
             }
         }
+        for (var k = 0u; k < min(fogs, FOG_MAX_MEDIA); k++) {
+            let b = fog_base(k);
+            s += media[b].xyz * fog_k[k] * media[b + 1u].xyz * hg(media[b + 1u].w, c);
+        }
         out += s * arr.e;
     }
     return out;
@@ -214,6 +272,10 @@ fn medium_span(dir: vec3<f32>, t_end: f32) -> vec2<f32> {
         return vec2<f32>(0.0, t_end);
     }
     var span = vec2<f32>(1.0, 0.0);
+    // An analytic fog holds extinction up to its far.
+    for (var k = 0u; k < fog_count(); k++) {
+        span = vec2<f32>(0.0, max(span.y, min(t_end, media[fog_base(k) + 2u].x)));
+    }
     for (var m = 0u; m < u32(media[0].x); m++) {
         let s = grid_clip(m, vec3<f32>(0.0), dir, 0.0, t_end);
         if (s.x <= s.y) {
@@ -242,17 +304,41 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let t_max = primary_t_max();
     let hit = intersect(vec3<f32>(0.0), dir, 0.0, t_max);
     let t_end = hit.t;
+    // A march longer than P.tables.z steps (0: no limit) goes on in the next dispatch of
+    // the same pass: its state after the image, two vec4 per pixel — (radiance so far, t),
+    // (transmittance, steps taken + 1; 0 before the first dispatch, −1 once done).
+    // Lavapipe ends an invocation's loops after 65535 iterations in all; a dispatch per
+    // chunk of steps gives each its own budget (gpu_march module docs).
+    let idx = id.y * w + id.x;
+    let chunk = P.tables.z;
+    let at = w * h + 2u * idx;
     var out = vec3<f32>(0.0);
     var trans = vec3<f32>(1.0);
     var faded = false;
     let span = medium_span(dir, t_end);
-    if (span.x <= span.y) {
+    var t = span.x;
+    var steps = 0u;
+    if (chunk > 0u && image[at + 1u].w != 0.0) {
+        if (image[at + 1u].w < 0.0) {
+            return;
+        }
+        out = image[at].xyz;
+        t = image[at].w;
+        trans = image[at + 1u].xyz;
+        steps = u32(image[at + 1u].w) - 1u;
+    } else if (span.x <= span.y) {
         trans = exp(-total_depth(vec3<f32>(0.0), dir, span.x));
+    }
+    if (span.x <= span.y) {
         let step_len = media[0].y;
         let most = u32(media[0].z);
-        var t = span.x;
-        var steps = 0u;
+        var taken = 0u;
         while (t < span.y && steps < most) {
+            if (chunk > 0u && taken == chunk) {
+                image[at] = vec4<f32>(out, t);
+                image[at + 1u] = vec4<f32>(trans, f32(steps + 1u));
+                return;
+            }
             let hs = min(step_len, span.y - t);
             let mid = (t + 0.5 * hs) * dir;
             let first = total_depth(t * dir, dir, 0.5 * hs);
@@ -262,11 +348,15 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             trans *= exp(-(first + second));
             t += hs;
             steps += 1u;
+            taken += 1u;
             if (all(trans < vec3<f32>(media[0].w))) {
                 faded = true;
                 break;
             }
         }
+    }
+    if (chunk > 0u) {
+        image[at + 1u] = vec4<f32>(0.0, 0.0, 0.0, -1.0);
     }
     if (!faded) {
         var behind = vec3<f32>(0.0);
@@ -299,5 +389,5 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         out += trans * behind;
     }
-    image[id.y * w + id.x] = vec4<f32>(out, 1.0);
+    image[idx] = vec4<f32>(out, 1.0);
 }

@@ -193,8 +193,9 @@ impl Heterogeneous for AssetMedium {
 
 /// The march's settings for `scene` ([`crate::march`]): steps of half the smallest voxel
 /// of its voxel media (a trilinear field varies over a voxel; the midpoint rule's error
-/// then stays ~`h²/24` of the in-scattered light's curvature), or the default step
-/// when it has none; `fine` (the reference) takes a quarter of that. The environment
+/// then stays ~`h²/24` of the in-scattered light's curvature) and an eighth of its
+/// analytic fogs' finest feature, whichever is smaller, or the default step
+/// when it has neither; `fine` (the reference) takes a quarter of that. The environment
 /// lights the media through [`crate::env_smoke::light`], computed here (once per render).
 pub fn march_options(scene: &crate::Scene, fine: bool) -> crate::march::MarchOptions {
     let mut opt = march_steps(scene, fine);
@@ -211,8 +212,14 @@ pub fn march_steps(scene: &crate::Scene, fine: bool) -> crate::march::MarchOptio
         .filter_map(|m| m.voxels())
         .flat_map(|g| g.voxel)
         .fold(f64::INFINITY, f64::min);
-    if voxel.is_finite() {
-        opt.step = 0.5 * voxel;
+    // Analytic fogs: an eighth of their finest feature (haze_fogfn::Fog::feature_size).
+    let fog = scene
+        .analytic_media()
+        .map(|a| 0.125 * a.fog.feature_size())
+        .fold(f64::INFINITY, f64::min);
+    let step = (0.5 * voxel).min(fog);
+    if step.is_finite() {
+        opt.step = step;
     }
     if fine {
         opt.step *= 0.25;

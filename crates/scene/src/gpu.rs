@@ -276,12 +276,16 @@ impl GpuRenderer {
         rasterize: bool,
     ) -> Result<(Image, Option<wgpu::Texture>), GpuError> {
         if scene.hetero.is_empty() {
-            return self.pass(ctx, scene, lim, &self.pipeline, None, &[], rasterize);
+            return self.pass(ctx, scene, lim, &self.pipeline, None, &[], rasterize, None);
         }
-        // Scenes with voxel media: the march (crate::gpu_march) instead of paper C; other
-        // heterogeneous media (paper B's Gaussians: [`crate::gpu_paper_b`]) are refused
-        // here rather than rendered without them.
-        if let Some(m) = scene.hetero.iter().find(|m| m.voxels().is_none()) {
+        // Scenes with voxel media or analytic fogs: the march (crate::gpu_march) instead
+        // of paper C; other heterogeneous media (paper B's Gaussians:
+        // [`crate::gpu_paper_b`]) are refused here rather than rendered without them.
+        if let Some(m) = scene
+            .hetero
+            .iter()
+            .find(|m| m.voxels().is_none() && m.as_analytic().is_none())
+        {
             return Err(GpuError::Input(format!(
                 "this renderer does not render heterogeneous media ({})",
                 m.name()
@@ -290,7 +294,7 @@ impl GpuRenderer {
         let mut opt = crate::asset_medium::march_steps(scene, false);
         opt.env = self.env.light(scene);
         let Some(march) = crate::gpu_march::MarchInput::of(scene, scene.camera.eye, &opt)? else {
-            return self.pass(ctx, scene, lim, &self.pipeline, None, &[], rasterize);
+            return self.pass(ctx, scene, lim, &self.pipeline, None, &[], rasterize, None);
         };
         march.check(ctx)?;
         if self.march.get().is_none() {
@@ -298,7 +302,17 @@ impl GpuRenderer {
         }
         let pipeline = self.march.get().expect("set above");
         let [grid, records] = march.buffers(ctx);
-        self.pass(ctx, scene, lim, pipeline, None, &[&grid, &records], false)
+        let chunks = crate::gpu_march::chunks(scene, &opt);
+        self.pass(
+            ctx,
+            scene,
+            lim,
+            pipeline,
+            None,
+            &[&grid, &records],
+            false,
+            Some(chunks),
+        )
     }
 
     /// [`GpuRenderer::render`]'s frame with another entry point of the same bindings
@@ -314,13 +328,15 @@ impl GpuRenderer {
         extra: &[&wgpu::Buffer],
     ) -> Result<Image, GpuError> {
         Ok(self
-            .pass(ctx, scene, lim, pipeline, medium, extra, false)?
+            .pass(ctx, scene, lim, pipeline, medium, extra, false, None)?
             .0)
     }
 
     /// [`GpuRenderer::render_pass`], its primary hits rasterized ([`crate::raster`]) when
     /// `rasterize` (then `pipeline` and `extra` are not used: the raster pass shades with
-    /// `render.wgsl`); the G-buffer when one was drawn.
+    /// `render.wgsl`); the G-buffer when one was drawn. `chunks`: the march's
+    /// `(steps per dispatch, dispatches)` ([`crate::gpu_march::chunks`]), its state kept
+    /// after the image between dispatches.
     #[allow(clippy::too_many_arguments)]
     fn pass(
         &self,
@@ -331,6 +347,7 @@ impl GpuRenderer {
         medium: Option<([f64; 3], [f64; 3])>,
         extra: &[&wgpu::Buffer],
         rasterize: bool,
+        chunks: Option<(u32, u32)>,
     ) -> Result<(Image, Option<wgpu::Texture>), GpuError> {
         let (sigma_t, sigma_s) = medium.unwrap_or((scene.medium.sigma_t, scene.medium.sigma_s()));
         let cam = &scene.camera;
@@ -339,7 +356,9 @@ impl GpuRenderer {
             .checked_mul(h)
             .filter(|&n| u32::try_from(n).is_ok())
             .ok_or_else(|| GpuError::Input(format!("image of {w}×{h} pixels is too large")))?;
-        let out_bytes = 16 * pixels as u64;
+        let (chunk, dispatches) = chunks.unwrap_or((0, 1));
+        // The march's state after the image: two vec4 per pixel.
+        let out_bytes = 16 * pixels as u64 * if chunk > 0 { 3 } else { 1 };
         ctx.check_storage_size("the image", out_bytes)?;
         let eye = cam.eye;
         let rel = |p: [f64; 3]| [0, 1, 2].map(|a| p[a] - eye[a]);
@@ -458,7 +477,7 @@ impl GpuRenderer {
                 self.k_side,
                 self.g_size.0,
             ],
-            tables: [self.g_size.1, self.k_side * self.k_side, 0, 0],
+            tables: [self.g_size.1, self.k_side * self.k_side, chunk, 0],
             env,
             env_at,
         };
@@ -528,14 +547,17 @@ impl GpuRenderer {
                     Some(g)
                 }
                 None => {
-                    submit_pass(ctx, pipeline, "scene render", &buffers, groups);
+                    for _ in 0..dispatches.max(1) {
+                        submit_pass(ctx, pipeline, "scene render", &buffers, groups);
+                    }
                     None
                 }
             };
             (output, gbuffer)
         })?;
         let bytes = ctx.read_buffer(&output)?;
-        let rgba: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&bytes);
+        let mut rgba: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&bytes);
+        rgba.truncate(w * h);
         let image = Image {
             width: w,
             height: h,

@@ -1,9 +1,14 @@
 //! The single-scattering march on the GPU (`shaders/march.wgsl`): the `f32` twin of
 //! [`crate::march::radiance`] for scenes whose heterogeneous media are voxel grids
-//! ([`crate::voxel_grid::VoxelGrid`], smoke assets). [`crate::gpu::GpuRenderer::render`]
-//! takes this path for such scenes; the camera, lights, surfaces and meshes travel in the
+//! ([`crate::voxel_grid::VoxelGrid`], smoke assets) and analytic fogs
+//! ([`crate::analytic::AnalyticMedium`], paper D), alone or together.
+//! [`crate::gpu::GpuRenderer::render`] takes this path for such scenes (paper D's
+//! composite of analytic fogs alone is [`crate::gpu_analytic`]'s); the camera, lights,
+//! surfaces and meshes travel in the
 //! buffers of paper C's renderer, and the shader reuses `render.wgsl`'s surfaces, shadow
-//! rays, BRDF and environment (the march is appended to it, its entry point renamed).
+//! rays, BRDF and environment (the march is appended to it, its entry point renamed), and
+//! `haze_fogfn`'s WGSL closed forms (`fog_depth_at` from any point, `fog_density_at`), their
+//! records after the grids' in the same buffer (the device has no ninth storage binding).
 //!
 //! Per pixel, as on the CPU: midpoint steps of [`crate::march::MarchOptions::step`] over
 //! the part of the camera ray holding extinction, each step's transmittance from the
@@ -18,10 +23,13 @@
 //! edges).
 //!
 //! **Lavapipe.** Mesa's CPU driver ends an invocation's loops after 65535 iterations in
-//! all (steps, lights, voxel planes crossed); the shader's per-axis work is written as
-//! vector operations to stay far below that, but a march that long — a homogeneous fog
-//! reaching an environment at `∞` at small steps — is cut short there. Real GPUs have no
-//! such limit.
+//! all (steps, lights, voxel planes crossed, fog records and monomials — and, as it runs
+//! eight pixels in lock step under masks, every loop on an untaken branch still costs an
+//! iteration); a step of the example analytic fog costs ~10³. So the march goes [`chunks`]
+//! of steps per dispatch, several dispatches per picture, each invocation's state (its
+//! radiance so far, `t`, transmittance, steps) kept after the image between them; each
+//! dispatch has its own budget. Real GPUs have no such limit (the extra dispatches cost
+//! them a primary ray per pixel each).
 
 use crate::env_smoke::EnvLight;
 use crate::march::MarchOptions;
@@ -35,12 +43,61 @@ const MARCH: &str = include_str!("../shaders/march.wgsl");
 /// The environment's light on the media ([`crate::env_smoke`]), appended after the march.
 const ENV_SMOKE: &str = include_str!("../shaders/env_smoke.wgsl");
 
+/// The march's `(steps per dispatch, dispatches)` for `scene` marched with `opt`: a
+/// dispatch's loop iterations kept below lavapipe's 65535 by a model of a step's cost —
+/// `100 + 100·L + 10·(L + 3)·R` iterations for `L` lights and `R` fog records, fitted
+/// with a margin of two on the bundled analytic fog — and enough dispatches for the
+/// longest march: the analytic fogs' `far`, the voxel boxes' farthest corner, or (with a
+/// homogeneous medium) the environment's distance, over the step, capped by
+/// [`MarchOptions::max_steps`] and [`MAX_DISPATCHES`].
+pub fn chunks(scene: &Scene, opt: &MarchOptions) -> (u32, u32) {
+    let lights = scene.lights.len() as f64;
+    let records: usize = scene
+        .analytic_media()
+        .map(|a| haze_fogfn::gpu::records(&a.fog, scene.camera.eye, a.time).len())
+        .sum();
+    let per_step = 100.0 + 100.0 * lights + 10.0 * (lights + 3.0) * records as f64;
+    let chunk = (50_000.0 / per_step).floor().clamp(1.0, 4096.0);
+    let eye = scene.camera.eye;
+    let mut reach: f64 = 0.0;
+    for m in &scene.hetero {
+        if let Some(a) = m.as_analytic() {
+            reach = reach.max(a.far);
+        } else if let Some(b) = m.bounds() {
+            let corner =
+                [0, 1, 2].map(|k| (b.min[k] - eye[k]).abs().max((b.max[k] - eye[k]).abs()));
+            reach = reach.max(crate::vec3::norm(corner));
+        }
+    }
+    if scene.medium.sigma_t.iter().any(|&s| s > 0.0) {
+        reach = reach.max(scene.environment_distance);
+    }
+    let steps = (reach / opt.step).ceil() + 1.0;
+    let steps = if steps.is_finite() {
+        steps.min(opt.max_steps as f64)
+    } else {
+        opt.max_steps as f64
+    };
+    (
+        chunk as u32,
+        (steps / chunk).ceil().clamp(1.0, MAX_DISPATCHES) as u32,
+    )
+}
+
+/// Dispatches one march takes at most (a homogeneous fog reaching an environment at `∞`
+/// would ask for [`MarchOptions::max_steps`]; its march fades long before on a real
+/// GPU, and on lavapipe ends after this many chunks).
+const MAX_DISPATCHES: f64 = 256.0;
+
+/// Analytic fogs one march takes at most (`FOG_MAX_MEDIA` in `shaders/march.wgsl`).
+pub const MAX_FOGS: usize = 8;
+
 /// `render.wgsl`'s entry point, renamed to a plain function in the march's module.
 const ENTRY: &str =
     "@compute @workgroup_size(8, 8, 1)\nfn main(@builtin(global_invocation_id) id: vec3<u32>)";
 
 /// The march's whole shader: `render.wgsl` with its entry point renamed, then
-/// `march.wgsl`, `env_smoke.wgsl`.
+/// `march.wgsl`, `env_smoke.wgsl` and `haze_fogfn`'s `fogfn.wgsl`.
 pub fn shader() -> Result<String, GpuError> {
     let base = crate::gpu::SHADER;
     if !base.contains(ENTRY) {
@@ -48,8 +105,10 @@ pub fn shader() -> Result<String, GpuError> {
             "render.wgsl's entry point changed: the march cannot rename it".into(),
         ));
     }
+    // fogfn.wgsl reads the includer's `fog_terms`: here the records' array `media`.
+    let fogfn = haze_fogfn::gpu::LIBRARY.replace("fog_terms", "media");
     Ok(format!(
-        "{}\n{MARCH}\n{ENV_SMOKE}",
+        "{}\n{MARCH}\n{ENV_SMOKE}\n{fogfn}",
         base.replace(ENTRY, "fn analytic_main(id: vec3<u32>)")
     ))
 }
@@ -61,7 +120,8 @@ pub fn pipeline(ctx: &GpuContext) -> Result<wgpu::ComputePipeline, GpuError> {
 
 /// What the march adds to paper C's buffers: the grids' values and their records (the
 /// shader's `grid` and `media` bindings), the environment's grid of SH coefficients
-/// ([`crate::env_smoke::EnvGrid`]) after the voxel grids.
+/// ([`crate::env_smoke::EnvGrid`]) after the voxel grids, the analytic fogs' records
+/// after the grids' (layout in `shaders/march.wgsl`).
 #[derive(Clone, Debug)]
 pub struct MarchInput {
     grid: Vec<f32>,
@@ -69,9 +129,10 @@ pub struct MarchInput {
 }
 
 impl MarchInput {
-    /// The scene's voxel media, positions relative to `eye`, marched with `opt`; `None`
-    /// when the scene has no heterogeneous medium (paper C's renderer serves it), an
-    /// error when one is not a voxel grid.
+    /// The scene's voxel media and analytic fogs, positions relative to `eye`, marched
+    /// with `opt`; `None` when the scene has no heterogeneous medium (paper C's renderer
+    /// serves it), an error when one is neither (or for more than
+    /// [`MAX_FOGS`] fogs).
     pub fn of(
         scene: &Scene,
         eye: Vec3,
@@ -82,15 +143,21 @@ impl MarchInput {
         }
         let mut grid = Vec::new();
         let mut records = vec![[
-            scene.hetero.len() as f32,
+            0.0,
             opt.step as f32,
             opt.max_steps.min(1 << 24) as f32,
             opt.min_transmittance as f32,
         ]];
+        let f = |v: Vec3, w: f64| [v[0] as f32, v[1] as f32, v[2] as f32, w as f32];
+        let mut fogs = Vec::new();
         for m in &scene.hetero {
+            if let Some(a) = m.as_analytic() {
+                fogs.push(a);
+                continue;
+            }
             let g = m.voxels().ok_or_else(|| {
                 GpuError::Input(format!(
-                    "the GPU renderer marches voxel media only, not {}",
+                    "the GPU renderer marches voxel media and analytic fogs only, not {}",
                     m.name()
                 ))
             })?;
@@ -101,14 +168,20 @@ impl MarchInput {
                     m.name()
                 )));
             }
-            let f = |v: Vec3, w: f64| [v[0] as f32, v[1] as f32, v[2] as f32, w as f32];
             let min = [0, 1, 2].map(|a| g.min[a] - eye[a]);
             records.push(f(min, m.g()));
             records.push(f(g.voxel, grid.len() as f64));
             records.push(f(g.dims.map(|d| d as f64), 0.0));
             records.push(f(g.scale, 0.0));
             records.push(f(m.albedo(), 0.0));
+            records[0][0] += 1.0;
             grid.extend_from_slice(&g.data);
+        }
+        if fogs.len() > MAX_FOGS {
+            return Err(GpuError::Input(format!(
+                "{} analytic fogs are more than the GPU march takes ({MAX_FOGS})",
+                fogs.len()
+            )));
         }
         // The environment's grid follows the voxel grids in `grid`, its start in the
         // record after the media's.
@@ -135,6 +208,26 @@ impl MarchInput {
         }
         records.push([grid.len() as f32, 0.0, 0.0, 0.0]);
         grid.extend_from_slice(&env);
+        // The fogs: their head, three records each, then their closed forms' records.
+        records.push([fogs.len() as f32, 0.0, 0.0, 0.0]);
+        let mut first = records.len() + 3 * fogs.len();
+        let mut closed = Vec::new();
+        for a in &fogs {
+            let r = haze_fogfn::gpu::records(&a.fog, eye, a.time);
+            if first + r.len() >= 1 << 24 {
+                return Err(GpuError::Input(format!(
+                    "{}: too many fog records for the GPU renderer",
+                    a.fog.terms.len()
+                )));
+            }
+            records.push(f(a.sigma_t, first as f64));
+            records.push(f(a.albedo, a.g));
+            // Beyond f32's range `far` would read as ∞ in the shader.
+            records.push([a.far.min(1e30) as f32, 0.0, 0.0, 0.0]);
+            first += r.len();
+            closed.extend(r);
+        }
+        records.extend(closed);
         Ok(Some(MarchInput { grid, records }))
     }
 
@@ -156,8 +249,9 @@ impl MarchInput {
         [grid, records]
     }
 
-    /// Whether the device holds the grids in one storage buffer.
+    /// Whether the device holds the grids and the records in one storage buffer each.
     pub fn check(&self, ctx: &GpuContext) -> Result<(), GpuError> {
-        ctx.check_storage_size("the voxel grids", 4 * self.grid.len() as u64)
+        ctx.check_storage_size("the voxel grids", 4 * self.grid.len() as u64)?;
+        ctx.check_storage_size("the media's records", 16 * self.records.len() as u64)
     }
 }

@@ -159,16 +159,19 @@ fn in_scattered(scene: &Scene, lim: &Limits, x: Vec3, dir: Vec3) -> Rgb {
 }
 
 /// The interval of the camera ray that holds extinction: `[0, t_end]` when the
-/// homogeneous medium is present, else the union of the heterogeneous media's boxes.
+/// homogeneous medium is present, else the union of the heterogeneous media's boxes (an
+/// analytic fog's: `[0, min(t_end, far)]`).
 fn medium_span(scene: &Scene, eye: Vec3, dir: Vec3, t_end: f64) -> Option<(f64, f64)> {
     if scene.medium.sigma_t.iter().any(|&s| s > 0.0) {
         return Some((0.0, t_end));
     }
     let mut span: Option<(f64, f64)> = None;
     for m in &scene.hetero {
-        let s = match m.bounds() {
-            Some(b) => b.clip(eye, dir, 0.0, t_end),
-            None => Some((0.0, t_end)),
+        let s = match (m.bounds(), m.as_analytic()) {
+            (Some(b), _) => b.clip(eye, dir, 0.0, t_end),
+            // An analytic fog ends at its `far` from the eye (crate::analytic).
+            (None, Some(a)) => Some((0.0, t_end.min(a.far))),
+            (None, None) => Some((0.0, t_end)),
         };
         if let Some((a, b)) = s {
             span = Some(span.map_or((a, b), |(x, y)| (x.min(a), y.max(b))));
