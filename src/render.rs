@@ -568,6 +568,7 @@ mod tests {
             g: 0.3,
             sh_order: 4,
             multiple: true,
+            diffusion: MsDiffusion::Centers,
             residual: true,
             slices: 2.0,
             exp: ExpMethod::ScaleSquareAuto,

@@ -206,6 +206,7 @@ impl Renderer {
             gpu,
             analytic,
             paper_b,
+            fog,
             size,
         })
     }
