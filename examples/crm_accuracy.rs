@@ -7,6 +7,7 @@
 //!     [--sun-map ELEV,AZIM,ANGLE,RATIO [--no-sun-extraction]]
 //!     [--table fig6|order|rbfs|slices|cg|sun|ms|reference|all] [--cache DIR]
 //!     [--diffusion centers|grid[:F]]
+//!     [--env centers|grid] [--env-spacing VOXELS] [--env-theta N]
 //! ```
 //!
 //! VOLUME is one density frame (any format `haze` imports). It is fitted with `--rbfs`
@@ -24,13 +25,17 @@
 //! without importance sampling of the environment. `--table ms` measures the multiple
 //! scattering part alone (final − single of both renderers) and, with `--cache`, writes
 //! its images there as PNG. `--cache DIR` keeps the reference images and the fit between
-//! runs (raw `f32` files keyed by every argument they depend on).
+//! runs (raw `f32` files keyed by every argument they depend on). `--env` chooses where
+//! the environment's single scattering comes from (the RBF centers, paper A, or the
+//! per-voxel grid, with its node spacing and direction rule) in every table but `fig6`,
+//! which prints the three source choices side by side.
 
 use haze_fit::{SequenceFitter, SequenceOptions};
 use haze_view::diffusion::SolveOptions;
 use haze_view::env::direction;
 use haze_view::lighting::single::SourcePoints;
 use haze_view::reference::{self, RefOptions, rbf_volume};
+use haze_view::render::env_pass::{EnvGridOptions, EnvSource};
 use haze_view::render::{CrmOptions, CrmStats, MsDiffusion, crm_render};
 use haze_view::{Camera, Environment, Image, LatLong, Medium, Sky, Sun};
 use haze_volume::import::{ImportOptions, import};
@@ -53,6 +58,17 @@ struct Args {
     extract: bool,
     cache: Option<std::path::PathBuf>,
     diffusion: MsDiffusion,
+    env_source: EnvSource,
+}
+
+impl Args {
+    /// The fast renderer's defaults with this run's environment source.
+    fn base(&self) -> CrmOptions {
+        CrmOptions {
+            env_source: self.env_source,
+            ..CrmOptions::default()
+        }
+    }
 }
 
 fn parse() -> Result<Args, String> {
@@ -72,7 +88,9 @@ fn parse() -> Result<Args, String> {
         sun_map: None,
         extract: true,
         cache: None,
+        env_source: CrmOptions::default().env_source,
     };
+    let mut grid = EnvGridOptions::default();
     let list = |s: String, n: usize| -> Result<Vec<f64>, String> {
         let v: Vec<f64> = s
             .split(',')
@@ -117,12 +135,24 @@ fn parse() -> Result<Args, String> {
             }
             "--no-sun-extraction" => a.extract = false,
             "--cache" => a.cache = Some(v()?.into()),
+            "--env" => {
+                a.env_source = match v()?.as_str() {
+                    "centers" => EnvSource::Centers,
+                    "grid" => EnvSource::Grid(grid),
+                    s => return Err(format!("--env {s}: centers or grid")),
+                }
+            }
+            "--env-spacing" => grid.spacing = num(v()?)?,
+            "--env-theta" => grid.theta = num(v()?)? as usize,
             _ if a.input.is_empty() => a.input = k,
             _ => return Err(format!("unexpected argument {k}")),
         }
     }
+    if let EnvSource::Grid(g) = &mut a.env_source {
+        *g = grid;
+    }
     if a.input.is_empty() {
-        return Err("usage: crm_accuracy VOLUME [--size WxH] [--spp N] [--sigma-t S] [--albedo A] [--g G] [--rbfs N] [--eye X,Y,Z --target X,Y,Z] [--sun-map ELEV,AZIM,ANGLE,RATIO [--no-sun-extraction]] [--table fig6|order|rbfs|slices|cg|sun|ms|reference|all] [--cache DIR] [--diffusion centers|grid[:F]]".into());
+        return Err("usage: crm_accuracy VOLUME [--size WxH] [--spp N] [--sigma-t S] [--albedo A] [--g G] [--rbfs N] [--eye X,Y,Z --target X,Y,Z] [--sun-map ELEV,AZIM,ANGLE,RATIO [--no-sun-extraction]] [--table fig6|order|rbfs|slices|cg|sun|ms|reference|all] [--cache DIR] [--diffusion centers|grid[:F]] [--env centers|grid] [--env-spacing VOXELS] [--env-theta N]".into());
     }
     Ok(a)
 }
@@ -401,7 +431,7 @@ fn main() {
                 true,
                 CrmOptions {
                     multiple,
-                    ..CrmOptions::default()
+                    ..a.base()
                 },
             );
             println!(
@@ -432,10 +462,27 @@ fn main() {
         let (ms_ref, _) = reference(&scene.approx, true, 1);
         println!("\n| image | source points | rel RMS | CRM s |");
         println!("|---|---|---|---|");
-        for points in [SourcePoints::Center, SourcePoints::Footprint] {
+        let grid = match a.env_source {
+            EnvSource::Grid(g) => g,
+            EnvSource::Centers => EnvGridOptions::default(),
+        };
+        for (points, env_source) in [
+            (SourcePoints::Center, EnvSource::Centers),
+            (SourcePoints::Footprint, EnvSource::Centers),
+            (SourcePoints::Footprint, EnvSource::Grid(grid)),
+        ] {
             let opts = CrmOptions {
                 source_points: points,
-                ..CrmOptions::default()
+                env_source,
+                ..a.base()
+            };
+            let points = match env_source {
+                EnvSource::Centers => format!("{points:?}"),
+                EnvSource::Grid(g) => format!(
+                    "grid ({} voxels, {} directions)",
+                    g.spacing,
+                    8 * g.theta * g.theta
+                ),
             };
             let rows: [(&str, bool, bool, &Image); 3] = [
                 ("single scattering in D̃", false, false, &ss_ref),
@@ -445,7 +492,7 @@ fn main() {
             for (name, multiple, residual, r) in rows {
                 let (img, _, t) = scene.crm(&scene.rbfs, residual, CrmOptions { multiple, ..opts });
                 println!(
-                    "| {name} | {points:?} | {:.4} | {t:.3} |",
+                    "| {name} | {points} | {:.4} | {t:.3} |",
                     err(&img, r, &scene.mask)
                 );
             }
@@ -457,14 +504,7 @@ fn main() {
         );
         println!("|---|---|---|---|---|---|---|");
         for order in 1..=6 {
-            let (img, s, t) = scene.crm(
-                &scene.rbfs,
-                true,
-                CrmOptions {
-                    order,
-                    ..CrmOptions::default()
-                },
-            );
+            let (img, s, t) = scene.crm(&scene.rbfs, true, CrmOptions { order, ..a.base() });
             println!(
                 "| {order} | {:.4} | {:.3} | {:.3} | {:.3} | {:.3} | {t:.3} |",
                 err(&img, &final_ref, &scene.mask),
@@ -490,8 +530,8 @@ fn main() {
                 .zip(approx.data())
                 .map(|(d, x)| d - x)
                 .collect();
-            let (no_res, _, _) = scene.crm(&rbfs, false, CrmOptions::default());
-            let (img, s, total) = scene.render(&rbfs, Some(&residual), CrmOptions::default());
+            let (no_res, _, _) = scene.crm(&rbfs, false, a.base());
+            let (img, s, total) = scene.render(&rbfs, Some(&residual), a.base());
             println!(
                 "| {} | {:.4} | {:.4} | {:.4} | {:.3} | {:.3} | {total:.3} |",
                 rbfs.len(),
@@ -512,7 +552,7 @@ fn main() {
                 true,
                 CrmOptions {
                     slices_per_voxel: spv,
-                    ..CrmOptions::default()
+                    ..a.base()
                 },
             );
             println!(
@@ -534,7 +574,7 @@ fn main() {
                         max_iterations: it,
                         ..SolveOptions::default()
                     },
-                    ..CrmOptions::default()
+                    ..a.base()
                 },
             );
             println!(
@@ -557,7 +597,7 @@ fn multiple_part(a: &Args, scene: &Scene, final_ref: &Image, single_ref: &Image)
         true,
         CrmOptions {
             multiple: false,
-            ..CrmOptions::default()
+            ..a.base()
         },
     );
     let (fin, stats, _) = scene.crm(
@@ -565,7 +605,7 @@ fn multiple_part(a: &Args, scene: &Scene, final_ref: &Image, single_ref: &Image)
         true,
         CrmOptions {
             diffusion: a.diffusion,
-            ..CrmOptions::default()
+            ..a.base()
         },
     );
     let diff = |x: &Image, y: &Image| Image {

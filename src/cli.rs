@@ -455,9 +455,12 @@ pub struct RenderCli {
     /// smoke) or the paper's optimal linear approximation (faster, thin smoke only).
     #[arg(long, value_enum, default_value_t = ExpArg::Square)]
     exp: ExpArg,
-    /// Where each RBF's transmittance is evaluated: the mean over its footprint (six
-    /// points; removes the dark bias of dense smoke) or its center (paper A, faster).
-    #[arg(long, value_enum, default_value_t = SourceArg::Footprint)]
+    /// Where the environment's single scattering comes from: a coarse grid of the
+    /// transmitted environment's SH marched through the smoke, added per voxel (grid);
+    /// or paper A's source at the RBF centers, their transmittance averaged over each
+    /// footprint (footprint) or taken at the center (center). The diffusion starts from
+    /// the centers' single scattering either way (footprint for grid).
+    #[arg(long, value_enum, default_value_t = SourceArg::Grid)]
     source: SourceArg,
     /// Where multiple scattering's diffusion is solved: `centers` (on the RBF basis,
     /// paper A §5.4; CPU and GPU) or `grid[:F]` (finite volumes on the density averaged
@@ -465,6 +468,10 @@ pub struct RenderCli {
     /// "Multiple scattering under a sun" compares the two.
     #[arg(long, default_value = "centers", value_parser = parse_diffusion)]
     diffusion: haze_view::render::MsDiffusion,
+    /// Voxels between the nodes of `--source grid`'s grid (smaller: sharper self-shadowing,
+    /// more time; the time grows as the inverse cube).
+    #[arg(long, default_value_t = haze_view::render::env_pass::EnvGridOptions::default().spacing, value_parser = positive_f64)]
+    env_grid_spacing: f64,
     /// Render with the reference path tracer instead (slow).
     #[arg(long, conflicts_with = "gpu")]
     reference: bool,
@@ -728,8 +735,21 @@ impl RenderCli {
                 ExpArg::Linear => haze_view::sh::ExpMethod::OptimalLinear,
             },
             source_points: match self.source {
-                SourceArg::Footprint => haze_view::lighting::single::SourcePoints::Footprint,
+                SourceArg::Footprint | SourceArg::Grid => {
+                    haze_view::lighting::single::SourcePoints::Footprint
+                }
                 SourceArg::Center => haze_view::lighting::single::SourcePoints::Center,
+            },
+            env_source: match self.source {
+                SourceArg::Grid => haze_view::render::env_pass::EnvSource::Grid(
+                    haze_view::render::env_pass::EnvGridOptions {
+                        spacing: self.env_grid_spacing,
+                        ..Default::default()
+                    },
+                ),
+                SourceArg::Footprint | SourceArg::Center => {
+                    haze_view::render::env_pass::EnvSource::Centers
+                }
             },
             reference: self.reference,
             goal: match (self.budget_ms, self.target_error) {
@@ -788,9 +808,11 @@ fn parse_diffusion(s: &str) -> Result<haze_view::render::MsDiffusion, String> {
 
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
 enum SourceArg {
-    /// Mean over six cubature points of each RBF's footprint.
+    /// Per voxel, from a grid of the transmitted environment's SH.
+    Grid,
+    /// At the RBF centers, mean over six cubature points of each RBF's footprint.
     Footprint,
-    /// Each RBF's center only.
+    /// At the RBF centers, each RBF's center only.
     Center,
 }
 
@@ -957,6 +979,16 @@ fn parse_error_fraction(s: &str) -> Result<f64, String> {
         Ok(e)
     } else {
         Err(format!("{s} is not a fraction ≥ 0 of the peak density"))
+    }
+}
+
+/// `--env-grid-spacing`: a finite number of voxels > 0.
+fn positive_f64(s: &str) -> Result<f64, String> {
+    let v: f64 = s.parse().map_err(|_| format!("'{s}' is not a number"))?;
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("{s} must be a finite number > 0"))
     }
 }
 

@@ -15,6 +15,7 @@ use haze_view::gpu::renderer::{GpuFrame, GpuRenderer, LightingOn};
 use haze_view::gpu::volume_pass::Residual;
 use haze_view::lighting::single::SourcePoints;
 use haze_view::reference::{self, RefOptions};
+use haze_view::render::env_pass::EnvSource;
 use haze_view::render::{CrmOptions, MsDiffusion, crm_render};
 use haze_view::sh::ExpMethod;
 use haze_view::stream::{FrameDecoder, ResidualSlot, StreamFrame};
@@ -49,6 +50,8 @@ pub struct RenderArgs {
     pub source_points: SourcePoints,
     /// Where multiple scattering's diffusion is solved.
     pub diffusion: MsDiffusion,
+    /// Where the environment's single scattering comes from.
+    pub env_source: EnvSource,
     pub reference: bool,
     /// Choose the knobs from a tradeoff sweep to meet this.
     pub goal: Option<Goal>,
@@ -141,6 +144,7 @@ pub fn run(mut a: RenderArgs) -> Result<()> {
             slices_per_voxel: a.slices,
             exp: a.exp,
             source_points: a.source_points,
+            env_source: a.env_source,
             solve: a.solve,
             diffusion: a.diffusion,
             ..CrmOptions::default()
@@ -336,11 +340,13 @@ fn apply_choice(a: &mut RenderArgs, c: &choice::Choice, fit: bool) {
         };
     }
     if let Some(v) = choice::str_knob(c, "source") {
+        // The sweep measured paper A's sources at the centers.
         a.source_points = if v == "center" {
             SourcePoints::Center
         } else {
             SourcePoints::Footprint
         };
+        a.env_source = EnvSource::Centers;
     }
     if let Some(v) = choice::f64_knob(c, "cg_iterations") {
         a.solve.max_iterations = v as u32;

@@ -308,6 +308,8 @@ impl SmokeLab {
                 } else {
                     SourcePoints::Footprint
                 },
+                // The sweep's "source" knob is paper A's placement at the centers.
+                env_source: haze_view::render::env_pass::EnvSource::Centers,
                 solve: SolveOptions {
                     max_iterations: f(7) as u32,
                     ..SolveOptions::default()

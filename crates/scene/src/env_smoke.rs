@@ -40,9 +40,8 @@ use crate::media::Aabb;
 use crate::quad::gauss_legendre;
 use crate::scene::{Environment, Material, Rgb, Scene};
 use crate::vec3::{Vec3, dot, norm};
-use haze_view::sh;
+use haze_view::sh::{self, ShGrid, quad::SphereGrid};
 use rayon::prelude::*;
-use std::f64::consts::PI;
 
 /// Settings of the environment's grid.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -68,21 +67,11 @@ impl Default for EnvOptions {
     }
 }
 
-/// The product rule: `(unit direction, weight)` with weights summing to `4π`.
+/// The product rule: `(unit direction, weight)` with weights summing to `4π` — `theta`
+/// Gauss–Legendre latitudes × `2·theta` azimuths (`haze_view::sh::quad::SphereGrid`).
 pub fn directions(theta: usize) -> Vec<(Vec3, f64)> {
-    let n_phi = 2 * theta.max(1);
-    let mut out = Vec::with_capacity(n_phi * theta);
-    for (z, w) in gauss_legendre(theta.max(1)) {
-        let s = (1.0 - z * z).max(0.0).sqrt();
-        for k in 0..n_phi {
-            let phi = 2.0 * PI * (k as f64 + 0.5) / n_phi as f64;
-            out.push((
-                [s * phi.cos(), s * phi.sin(), z],
-                w * 2.0 * PI / n_phi as f64,
-            ));
-        }
-    }
-    out
+    let t = theta.max(1);
+    SphereGrid::new(t, 2 * t).points().collect()
 }
 
 /// `e^{−σt·D}` per channel: the homogeneous fog between the smoke and the environment.
@@ -138,19 +127,16 @@ fn lit(scene: &Scene) -> bool {
         && !scene.hetero.is_empty()
 }
 
-/// `E_lm` on a grid of nodes (module docs).
+/// `E_lm` on a grid of nodes (module docs): [`ShGrid`], the same number of nodes on every
+/// axis.
 #[derive(Clone, Debug, PartialEq)]
-pub struct EnvGrid {
-    /// The first node (the box's lower corner).
-    pub min: Vec3,
-    /// Distance between nodes per axis.
-    pub cell: Vec3,
-    /// Nodes per axis.
-    pub nodes: usize,
-    /// SH order.
-    pub order: usize,
-    /// `E_lm` per channel, node-major (x fastest), then coefficient, then channel.
-    pub coeffs: Vec<f32>,
+pub struct EnvGrid(ShGrid);
+
+impl std::ops::Deref for EnvGrid {
+    type Target = ShGrid;
+    fn deref(&self) -> &ShGrid {
+        &self.0
+    }
 }
 
 impl EnvGrid {
@@ -203,46 +189,13 @@ impl EnvGrid {
                 e.into_iter().map(|v| v as f32)
             })
             .collect();
-        Some(EnvGrid {
+        Some(EnvGrid(ShGrid {
             min: b.min,
             cell,
-            nodes,
+            nodes: [nodes; 3],
             order,
             coeffs,
-        })
-    }
-
-    /// `E_lm(x)` trilinear between the nodes (clamped to the box), into `out`
-    /// (`3·order²`, channel fastest).
-    fn at(&self, x: Vec3, out: &mut [f64]) {
-        let n = self.nodes;
-        let k3 = 3 * sh::count(self.order);
-        let mut i0 = [0usize; 3];
-        let mut f = [0.0; 3];
-        for a in 0..3 {
-            let u = if self.cell[a] > 0.0 {
-                ((x[a] - self.min[a]) / self.cell[a]).clamp(0.0, (n - 1) as f64)
-            } else {
-                0.0
-            };
-            i0[a] = (u.floor() as usize).min(n - 2);
-            f[a] = u - i0[a] as f64;
-        }
-        out[..k3].fill(0.0);
-        for corner in 0..8 {
-            let d = [corner & 1, (corner >> 1) & 1, corner >> 2];
-            let w: f64 = (0..3)
-                .map(|a| if d[a] == 1 { f[a] } else { 1.0 - f[a] })
-                .product();
-            if w == 0.0 {
-                continue;
-            }
-            let node = (i0[0] + d[0]) + n * ((i0[1] + d[1]) + n * (i0[2] + d[2]));
-            let src = &self.coeffs[node * k3..(node + 1) * k3];
-            for (o, v) in out.iter_mut().zip(src) {
-                *o += w * f64::from(*v);
-            }
-        }
+        }))
     }
 
     /// `J(x)` (module docs): the environment's light scattered once towards `−dir` at `x`
@@ -414,6 +367,7 @@ impl Cache {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::f64::consts::PI;
 
     #[test]
     fn the_rule_integrates_low_order_polynomials() {

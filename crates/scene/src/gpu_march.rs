@@ -190,7 +190,7 @@ impl MarchInput {
             EnvLight::Grid(g) => {
                 let min = [0, 1, 2].map(|a| (g.min[a] - eye[a]) as f32);
                 let cell = g.cell.map(|c| c as f32);
-                let mut v = vec![min[0], min[1], min[2], g.nodes as f32];
+                let mut v = vec![min[0], min[1], min[2], g.nodes[0] as f32];
                 v.extend([cell[0], cell[1], cell[2], g.order as f32]);
                 v.extend_from_slice(&g.coeffs);
                 v

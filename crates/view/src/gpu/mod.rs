@@ -16,6 +16,7 @@
 //! use Mesa's lavapipe, a Vulkan driver on the CPU.
 
 pub mod diffusion;
+pub mod env_pass;
 pub mod lights_pass;
 pub mod renderer;
 pub mod single_scattering;
@@ -629,6 +630,16 @@ pub fn compute_pipeline(
     label: &'static str,
     source: &str,
 ) -> Result<wgpu::ComputePipeline, GpuError> {
+    compute_pipeline_at(ctx, label, source, "main")
+}
+
+/// [`compute_pipeline`] of the entry point `entry` (shaders with several).
+pub fn compute_pipeline_at(
+    ctx: &GpuContext,
+    label: &'static str,
+    source: &str,
+    entry: &'static str,
+) -> Result<wgpu::ComputePipeline, GpuError> {
     ctx.scoped(label, || {
         let module = ctx
             .device
@@ -641,7 +652,7 @@ pub fn compute_pipeline(
                 label: Some(label),
                 layout: None,
                 module: &module,
-                entry_point: Some("main"),
+                entry_point: Some(entry),
                 compilation_options: Default::default(),
                 cache: None,
             })

@@ -15,10 +15,15 @@
 //!    RBFs) and uploaded with the sources ([`DirectBuffer`]).
 //! 3. **Volume pass**: GPU ([`VolumePass::run_on`], reading the sources where stage 1
 //!    or 2 left them).
-//! 4. **Lights pass**: GPU ([`LightsPass::run_on`], in place on the volume pass's grids):
+//! 4. **Environment pass** (with [`EnvSource::Grid`]): GPU ([`EnvPass::run_on`], in
+//!    place on the grids): the distant environment's single scattering per voxel from
+//!    the grid of its transmitted SH; the centers then carry `J̃ms` only (on the GPU the
+//!    single scattering is copied before the diffusion and subtracted after it,
+//!    [`RemoveSingle`]).
+//! 5. **Lights pass**: GPU ([`LightsPass::run_on`], in place on the volume pass's grids):
 //!    the suns and point lights per voxel, shadows marched through the grid's density;
 //!    nothing runs without lights.
-//! 5. **View pass**: GPU ([`ViewPass::dispatch`]); the image stays on the GPU until
+//! 6. **View pass**: GPU ([`ViewPass::dispatch`]); the image stays on the GPU until
 //!    [`ImageBuffer::read`].
 //!
 //! On an adapter that is a CPU (lavapipe) stages 1 and 2 run on the CPU instead
@@ -34,6 +39,7 @@
 //! A frame is known by the `key` its caller gives ([`GpuFrame`]).
 
 use super::diffusion::{DiffusionPass, DiffusionStats, DirectBuffer, OperatorBuffers};
+use super::env_pass::{EnvPass, RemoveSingle};
 use super::lights_pass::LightsPass;
 use super::single_scattering::SingleScatteringPass;
 use super::view_pass::{EnvBuffer, ImageBuffer, ViewPass};
@@ -42,6 +48,7 @@ use super::{GpuContext, GpuError, GridBuffer, SourceBuffer};
 use crate::diffusion::{DiffusionSolver, Operators, Sources};
 use crate::lighting::direct::add_light_moments;
 use crate::lighting::single::{RgbSh, ShKit};
+use crate::render::env_pass::EnvSource;
 use crate::render::{CrmOptions, CrmStats, MsDiffusion, slice_thickness, source_radiance};
 use crate::sh;
 use crate::{Camera, Environment, Medium};
@@ -144,6 +151,8 @@ pub struct GpuRenderer {
     /// when first needed).
     order: Option<(ShKit, SingleScatteringPass, Option<RgbSh>)>,
     volume: VolumePass,
+    env_pass: EnvPass,
+    remove_single: RemoveSingle,
     lights: LightsPass,
     view: ViewPass,
     lighting_on: LightingOn,
@@ -167,6 +176,8 @@ impl GpuRenderer {
             lighting: 0,
             order: None,
             volume: VolumePass::new(ctx)?,
+            env_pass: EnvPass::new(ctx)?,
+            remove_single: RemoveSingle::new(ctx)?,
             lights: LightsPass::new(ctx)?,
             view: ViewPass::new(ctx)?,
             lighting_on: LightingOn::default(),
@@ -308,6 +319,9 @@ impl GpuRenderer {
             }
         };
         let light = light.get_or_insert_with(|| sh::project_env(&self.env, opts.order));
+        // The environment pass's copy of the light (the borrow of `self.order` ends
+        // before the diffusion).
+        let env_light = matches!(opts.env_source, EnvSource::Grid(_)).then(|| light.clone());
         stats.crm.setup_seconds = t.elapsed().as_secs_f64();
 
         // The knobs that do not change the sources are left out of their key.
@@ -349,19 +363,37 @@ impl GpuRenderer {
                 &self.sources.insert((key, buffer)).1
             }
             _ => {
+                let grid_env = matches!(opts.env_source, EnvSource::Grid(_));
+                let diffuse = opts.multiple && !frame.rbfs.is_empty();
                 let t = Instant::now();
-                let buffer = single.run(
-                    ctx,
-                    kit,
-                    frame.rbfs,
-                    medium,
-                    light,
-                    opts.exp,
-                    opts.source_points,
-                )?;
+                let buffer = if grid_env && !diffuse {
+                    // No diffusion to feed: the centers carry nothing.
+                    let n2 = opts.order * opts.order;
+                    let zero =
+                        vec![[vec![0.0; n2], vec![0.0; n2], vec![0.0; n2]]; frame.rbfs.len()];
+                    SourceBuffer::upload(ctx, &zero, opts.order)?
+                } else {
+                    single.run(
+                        ctx,
+                        kit,
+                        frame.rbfs,
+                        medium,
+                        light,
+                        opts.exp,
+                        opts.source_points,
+                    )?
+                };
                 stats.crm.single_seconds = t.elapsed().as_secs_f64();
-                if opts.multiple && !frame.rbfs.is_empty() {
+                if diffuse {
+                    let copy = if grid_env {
+                        Some(self.remove_single.copy(ctx, &buffer)?)
+                    } else {
+                        None
+                    };
                     self.diffusion_gpu(ctx, frame, medium, &buffer, opts, &mut stats)?;
+                    if let Some(copy) = copy {
+                        self.remove_single.run(ctx, &buffer, &copy)?;
+                    }
                     stats.solved = true;
                 }
                 self.grid = None;
@@ -400,6 +432,13 @@ impl GpuRenderer {
                     camera.eye,
                 )?;
                 stats.crm.volume_seconds = t.elapsed().as_secs_f64();
+                if let (EnvSource::Grid(g), Some(light)) = (&opts.env_source, &env_light) {
+                    let t = Instant::now();
+                    self.env_pass.run_on(
+                        ctx, &grid, &self.env, light, medium, camera.eye, opts.order, g,
+                    )?;
+                    stats.crm.env_seconds = t.elapsed().as_secs_f64();
+                }
                 let t = Instant::now();
                 self.lights
                     .run_on(ctx, &grid, &self.env, medium, camera.eye)?;

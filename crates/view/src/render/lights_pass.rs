@@ -17,7 +17,7 @@ use crate::env::Environment;
 use crate::field;
 use crate::lights::{DiskPhase, dot};
 use crate::medium::{FOUR_PI, Medium, hg};
-use haze_volume::Volume;
+use haze_volume::{Bbox, Volume};
 use rayon::prelude::*;
 
 /// Optical depth (σt·τ) beyond which the shadow march stops.
@@ -102,20 +102,54 @@ pub fn transmittance(
     max_len: f64,
     h0: f64,
 ) -> f64 {
+    (-optical_depth(density, sigma_t, u, s, max_len, h0)).exp()
+}
+
+/// The optical depth `σt·τ` of [`transmittance`], the march stopped once it exceeds
+/// [`SHADOW_CUTOFF`] (0 for σt = 0 or no way through the box).
+pub fn optical_depth(
+    density: &Volume,
+    sigma_t: f64,
+    u: [f64; 3],
+    s: [f64; 3],
+    max_len: f64,
+    h0: f64,
+) -> f64 {
+    optical_depth_within(density, sigma_t, u, s, max_len, h0, density.bbox())
+}
+
+/// [`optical_depth`] with the samples outside `occupied` skipped: the same sum when the
+/// trilinear density is zero outside `occupied` ([`occupied_box`]), the same steps and
+/// sample points, only fewer of them visited.
+pub fn optical_depth_within(
+    density: &Volume,
+    sigma_t: f64,
+    u: [f64; 3],
+    s: [f64; 3],
+    max_len: f64,
+    h0: f64,
+    occupied: &Bbox,
+) -> f64 {
     if sigma_t == 0.0 {
-        return 1.0;
+        return 0.0;
     }
     let len = match field::ray_box(u, s, density.bbox()) {
         Some((_, t1)) => t1.min(max_len),
-        None => return 1.0,
+        None => return 0.0,
     };
     if len.is_nan() || len <= 0.0 {
-        return 1.0;
+        return 0.0;
     }
+    let Some((ta, tb)) = field::ray_box(u, s, occupied) else {
+        return 0.0;
+    };
     let n = (len / h0).ceil().max(1.0);
     let h = len / n;
+    // Sample k sits at (k + ½)h: those in [ta, tb] and a step to spare on each side.
+    let k0 = ((ta / h - 1.0).floor().max(0.0)).min(n) as u64;
+    let k1 = ((tb / h + 1.0).ceil().max(0.0)).min(n) as u64;
     let mut depth = 0.0;
-    for k in 0..n as u64 {
+    for k in k0..k1 {
         let t = (k as f64 + 0.5) * h;
         let p = [0, 1, 2].map(|a| u[a] + t * s[a]);
         depth += sigma_t * field::sample(density, p) * h;
@@ -123,5 +157,18 @@ pub fn transmittance(
             break;
         }
     }
-    (-depth).exp()
+    depth
+}
+
+/// A box outside which the trilinear density of `density` is zero: the voxel centers
+/// with `D > 0` grown by one voxel (the reach of `field::sample`'s stencil), within the
+/// grid's box; `None` when no voxel has `D > 0`.
+pub fn occupied_box(density: &Volume) -> Option<Bbox> {
+    let b = density.occupied_bbox(0.0)?;
+    let vs = density.voxel_size();
+    let outer = density.bbox();
+    Some(Bbox::new(
+        [0, 1, 2].map(|a| (b.min[a] - 0.5 * vs[a]).max(outer.min[a])),
+        [0, 1, 2].map(|a| (b.max[a] + 0.5 * vs[a]).min(outer.max[a])),
+    ))
 }

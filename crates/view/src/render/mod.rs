@@ -2,6 +2,7 @@
 //! multiple scattering by diffusion), then compensated ray marching (paper A §5).
 
 pub mod crm;
+pub mod env_pass;
 pub mod lights_pass;
 
 use crate::diffusion::{DiffusionSolver, Operators, SolveOptions, Sources};
@@ -10,6 +11,7 @@ use crate::lighting::direct::add_light_moments;
 use crate::lighting::single::{RgbSh, ShKit, SourcePoints, single_scattering};
 use crate::sh::{self, ExpMethod};
 use crate::{Camera, Environment, Image, Medium};
+use env_pass::{EnvGridOptions, EnvSource};
 use haze_volume::{Bbox, Rbf};
 use std::f64::consts::PI;
 use std::time::Instant;
@@ -29,8 +31,14 @@ pub struct CrmOptions {
     /// exponentiation": the optimal linear one is exact at order 2 but breaks down for
     /// thick smoke at higher orders).
     pub exp: ExpMethod,
-    /// Where each RBF's transmittance is taken (`lighting::single` module docs).
+    /// Where each RBF's transmittance is taken (`lighting::single` module docs): the
+    /// single scattering at the centers the diffusion starts from, and the image's with
+    /// [`EnvSource::Centers`].
     pub source_points: SourcePoints,
+    /// Where the environment's single scattering in the image comes from: the centers
+    /// (paper A) or the grid of the transmitted environment per voxel
+    /// ([`env_pass`]).
+    pub env_source: EnvSource,
     /// Stopping rule of the diffusion solve (the CG iterations knob).
     pub solve: SolveOptions,
     /// Where the diffusion of multiple scattering is solved.
@@ -60,6 +68,7 @@ impl Default for CrmOptions {
             slices_per_voxel: 2.0,
             exp: ExpMethod::ScaleSquareAuto,
             source_points: SourcePoints::Footprint,
+            env_source: EnvSource::Grid(EnvGridOptions::default()),
             solve: SolveOptions::default(),
             diffusion: MsDiffusion::Centers,
             grid_solve: GridSolveOptions::default(),
@@ -76,6 +85,8 @@ pub struct CrmStats {
     pub single_seconds: f64,
     pub multiple_seconds: f64,
     pub volume_seconds: f64,
+    /// The environment pass (its grid marched, then added per voxel).
+    pub env_seconds: f64,
     /// The lights pass (suns and point lights per voxel, shadows marched).
     pub lights_seconds: f64,
     pub view_seconds: f64,
@@ -87,13 +98,14 @@ impl std::fmt::Display for CrmStats {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "setup {:.3} s, single scattering {:.3} s, multiple {:.3} s ({} CG iterations, residual {:.2e}), volume pass {:.3} s, lights pass {:.3} s, view pass {:.3} s",
+            "setup {:.3} s, single scattering {:.3} s, multiple {:.3} s ({} CG iterations, residual {:.2e}), volume pass {:.3} s, environment pass {:.3} s, lights pass {:.3} s, view pass {:.3} s",
             self.setup_seconds,
             self.single_seconds,
             self.multiple_seconds,
             self.cg_iterations,
             self.cg_residual,
             self.volume_seconds,
+            self.env_seconds,
             self.lights_seconds,
             self.view_seconds
         )
@@ -121,7 +133,8 @@ pub fn moments(source: &[RgbSh]) -> Sources {
 /// the viewing direction), with the diffusion solve warm-started by `solver`: `J̃ss` of
 /// the environment's projection `light`; the suns and point lights of `env` feed the
 /// diffusion only (`lighting::direct`), their single scattering is added per voxel by
-/// [`lights_pass::lights_pass`].
+/// [`lights_pass::lights_pass`]. With [`EnvSource::Grid`] the centers' single scattering
+/// feeds the diffusion but is left out of `J̃` ([`env_pass::env_pass`] adds it per voxel).
 #[allow(clippy::too_many_arguments)]
 pub fn source_radiance(
     kit: &ShKit,
@@ -133,10 +146,16 @@ pub fn source_radiance(
     solver: &mut DiffusionSolver,
     stats: &mut CrmStats,
 ) -> Vec<RgbSh> {
+    let grid = matches!(opts.env_source, EnvSource::Grid(_));
+    if grid && !opts.multiple {
+        let n2 = sh::count(kit.order);
+        return vec![[vec![0.0; n2], vec![0.0; n2], vec![0.0; n2]]; rbfs.len()];
+    }
     let t = Instant::now();
     let ss = single_scattering(kit, rbfs, medium, light, opts.exp, opts.source_points);
     let mut source = ss.source;
     stats.single_seconds = t.elapsed().as_secs_f64();
+    let single = grid.then(|| source.clone());
     if opts.multiple && opts.diffusion == MsDiffusion::Centers {
         let t = Instant::now();
         add_multiple_scattering(
@@ -150,6 +169,16 @@ pub fn source_radiance(
             stats,
         );
         stats.multiple_seconds = t.elapsed().as_secs_f64();
+    }
+    if let Some(single) = single {
+        // J̃ms alone: the environment pass lights each voxel instead.
+        for (j, s) in source.iter_mut().zip(&single) {
+            for (jc, sc) in j.iter_mut().zip(s) {
+                for (v, w) in jc.iter_mut().zip(sc) {
+                    *v -= w;
+                }
+            }
+        }
     }
     source
 }
@@ -251,15 +280,33 @@ pub fn crm_grids(
     let residual = if opts.residual { residual } else { None };
     let mut grids = crm::volume_pass(rbfs, &source, opts.order, dims, bbox, residual, eye);
     stats.volume_seconds = t.elapsed().as_secs_f64();
+    if let EnvSource::Grid(g) = &opts.env_source {
+        let t = Instant::now();
+        let light = sh::project_env(env, opts.order);
+        env_pass::env_pass(&mut grids, env, &light, medium, eye, opts.order, g);
+        stats.env_seconds = t.elapsed().as_secs_f64();
+    }
     let t = Instant::now();
     lights_pass::lights_pass(&mut grids, env, medium, eye);
     stats.lights_seconds = t.elapsed().as_secs_f64();
     if let (true, MsDiffusion::Grid { factor }) = (opts.multiple, opts.diffusion) {
         let t = Instant::now();
+        // The grid's diffusion starts from the centers' single scattering, which the
+        // image leaves out when the environment pass lights the voxels instead.
+        let centers = match opts.env_source {
+            EnvSource::Grid(_) => {
+                let paper_a = CrmOptions {
+                    env_source: EnvSource::Centers,
+                    ..*opts
+                };
+                crm_sources(rbfs, medium, env, &paper_a).0
+            }
+            EnvSource::Centers => source,
+        };
         let ms = grid_diffusion::frame_media_radiance(
             &grids,
             rbfs,
-            &moments(&source),
+            &moments(&centers),
             env,
             medium,
             factor,

@@ -9,6 +9,7 @@
 
 pub mod basis;
 pub mod exp;
+pub mod grid;
 pub mod project;
 pub mod quad;
 pub mod triple;
@@ -16,6 +17,7 @@ pub mod zonal;
 
 pub use basis::{count, eval, eval_into, index, reconstruct};
 pub use exp::{ExpMethod, ShExp, exp_reference, halvings_for, random_optical_depth};
+pub use grid::ShGrid;
 pub use project::{project_env, project_fn};
 pub use triple::TripleProduct;
 pub use zonal::{convolve, gaussian_optical_depth_zh, hg_zh, zh_project, zh_rotate};

@@ -1,0 +1,245 @@
+// Environment pass of the fast renderer: the GPU twin of `render::env_pass`, in f32, on the
+// volume pass's grid (prepended with `sh_basis.wgsl`). Two entry points:
+//
+// `shadow`, one invocation per node x of the environment's grid: where some voxel center
+// with D > 0 lies within one cell of the node (per axis, strictly), the light the smoke
+// takes away
+//
+//     S_lm(x) = Σ_k w_k·L(ω_k)·(1 − T(x, ω_k))·Y_lm(ω_k)
+//
+// over the direction rule (uploaded: ω, w·L(ω), Y(ω)), T = exp(−σt·τ) marched through the
+// grid's D with `lights_pass::optical_depth`'s midpoint rule (n = ⌈ℓ/h0⌉ equal steps to the
+// box's face, trilinear D, stopping once σt·τ > SHADOW_CUTOFF); 0 at the other nodes.
+//
+// `apply`, one invocation per voxel center u with D(u) > 0, seen along d (from the eye):
+//
+//     J̃(u, d) += max(0, Σ_j Ω·g^l·(L_j − S_j(u))·Y_j(d))
+//
+// S trilinear between the nodes (`ShGrid::at`). It writes the J words of its own voxel and
+// reads only D words and S, so it runs in place without races.
+// Positions are relative to the box's minimum corner (f32 precision far from the origin).
+
+struct Params {
+    // Eye relative to the box's minimum corner.
+    eye: vec3<f32>,
+    sigma_t: f32,
+    voxel: vec3<f32>,
+    // The march's step bound: the smallest voxel side.
+    h0: f32,
+    // Box size.
+    size: vec3<f32>,
+    // SH order.
+    order: u32,
+    dims: vec3<u32>,
+    // Directions of the rule.
+    directions: u32,
+    // The first node, relative to the box.
+    node_min: vec3<f32>,
+    _pad0: u32,
+    // Distance between nodes per axis (0 on an axis of one node).
+    cell: vec3<f32>,
+    _pad1: u32,
+    nodes: vec3<u32>,
+    _pad2: u32,
+}
+
+// `lights_pass::SHADOW_CUTOFF`.
+const SHADOW_CUTOFF: f32 = 20.0;
+
+@group(0) @binding(0) var<uniform> p: Params;
+// `shadow`: per direction 4 + 4 + order² words: ω x y z, 0, w·L r g b, 0, Y_j(ω).
+// `apply`: per coefficient j (order² of them) L_j r g b, Ω·g^l.
+@group(0) @binding(1) var<storage, read> table: array<f32>;
+// Per voxel (x fastest): J̃ r g b, D.
+@group(0) @binding(2) var<storage, read_write> grid: array<f32>;
+// Per node (x fastest) 3·order² words: S_j r g b per coefficient.
+@group(0) @binding(3) var<storage, read_write> shadow_sh: array<f32>;
+
+fn density(i: vec3<u32>) -> f32 {
+    return grid[4u * (i.x + p.dims.x * (i.y + p.dims.y * i.z)) + 3u];
+}
+
+// `field::sample`: D trilinear at box-local q, constant to the faces, zero outside.
+fn sample_density(q: vec3<f32>) -> f32 {
+    let n = p.dims;
+    if !(all(q >= vec3<f32>(0.0)) && all(q <= p.size)) {
+        return 0.0;
+    }
+    let f = clamp(q / p.voxel - 0.5, vec3<f32>(0.0), vec3<f32>(n) - 1.0);
+    let i0 = min(vec3<u32>(floor(f)), max(n, vec3<u32>(2u)) - 2u);
+    let t = f - vec3<f32>(i0);
+    let i1 = min(i0 + 1u, n - 1u);
+    let c00 = mix(density(i0), density(vec3<u32>(i1.x, i0.y, i0.z)), t.x);
+    let c10 = mix(density(vec3<u32>(i0.x, i1.y, i0.z)), density(vec3<u32>(i1.x, i1.y, i0.z)), t.x);
+    let c01 = mix(density(vec3<u32>(i0.x, i0.y, i1.z)), density(vec3<u32>(i1.x, i0.y, i1.z)), t.x);
+    let c11 = mix(density(vec3<u32>(i0.x, i1.y, i1.z)), density(i1), t.x);
+    return mix(mix(c00, c10, t.y), mix(c01, c11, t.y), t.z);
+}
+
+// Distance from u (inside the box) along the unit s to the box's face; 0 when none.
+fn exit_distance(u: vec3<f32>, s: vec3<f32>) -> f32 {
+    var t1 = 3.0e38;
+    for (var a = 0u; a < 3u; a++) {
+        if s[a] == 0.0 {
+            if u[a] < 0.0 || u[a] > p.size[a] {
+                return 0.0;
+            }
+            continue;
+        }
+        let inv = 1.0 / s[a];
+        t1 = min(t1, max(-u[a] * inv, (p.size[a] - u[a]) * inv));
+    }
+    return select(0.0, t1, t1 < 3.0e38);
+}
+
+// `lights_pass::optical_depth`: σt·τ from u along s to the box's face.
+fn optical_depth(u: vec3<f32>, s: vec3<f32>) -> f32 {
+    let len = exit_distance(u, s);
+    if !(len > 0.0) {
+        return 0.0;
+    }
+    let n = u32(max(ceil(len / p.h0), 1.0));
+    let h = len / f32(n);
+    var depth = 0.0;
+    for (var k = 0u; k < n; k++) {
+        let t = (f32(k) + 0.5) * h;
+        depth += p.sigma_t * sample_density(u + t * s) * h;
+        if depth > SHADOW_CUTOFF {
+            break;
+        }
+    }
+    return depth;
+}
+
+// −expm1(−x) = 1 − e^{−x} without cancellation for small x ≥ 0.
+fn one_minus_exp(x: f32) -> f32 {
+    if x < 1e-3 {
+        return x * (1.0 - x * (0.5 - x / 6.0));
+    }
+    return 1.0 - exp(-x);
+}
+
+// Voxel index range (inclusive) along axis a whose centers lie strictly within one cell
+// of the node coordinate x; lo > hi when none. An axis of one node covers every voxel.
+fn voxel_range(a: u32, x: f32) -> vec2<i32> {
+    let last = i32(p.dims[a]) - 1;
+    if p.nodes[a] < 2u || !(p.cell[a] > 0.0) {
+        return vec2<i32>(0, last);
+    }
+    // Center k at (k + ½)·voxel: |(k + ½)·voxel − x| < cell.
+    let lo = i32(floor((x - p.cell[a]) / p.voxel[a] - 0.5)) + 1;
+    let hi = i32(ceil((x + p.cell[a]) / p.voxel[a] - 0.5)) - 1;
+    return vec2<i32>(max(lo, 0), min(hi, last));
+}
+
+fn node_needed(x: vec3<f32>) -> bool {
+    let rx = voxel_range(0u, x.x);
+    let ry = voxel_range(1u, x.y);
+    let rz = voxel_range(2u, x.z);
+    for (var z = rz.x; z <= rz.y; z++) {
+        for (var y = ry.x; y <= ry.y; y++) {
+            for (var k = rx.x; k <= rx.y; k++) {
+                if density(vec3<u32>(u32(k), u32(y), u32(z))) > 0.0 {
+                    return true;
+                }
+            }
+        }
+    }
+    return false;
+}
+
+@compute @workgroup_size(64)
+fn shadow(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) ng: vec3<u32>) {
+    let node = gid.x + 64u * ng.x * gid.y;
+    let total = p.nodes.x * p.nodes.y * p.nodes.z;
+    if node >= total {
+        return;
+    }
+    let n2 = p.order * p.order;
+    let k3 = 3u * n2;
+    var s: array<f32, 108>;
+    for (var j = 0u; j < k3; j++) {
+        s[j] = 0.0;
+    }
+    let idx = vec3<u32>(node % p.nodes.x, (node / p.nodes.x) % p.nodes.y, node / (p.nodes.x * p.nodes.y));
+    let x = p.node_min + vec3<f32>(idx) * p.cell;
+    if p.sigma_t > 0.0 && node_needed(x) {
+        let stride = 8u + n2;
+        for (var k = 0u; k < p.directions; k++) {
+            let at = k * stride;
+            let w = vec3<f32>(table[at], table[at + 1u], table[at + 2u]);
+            let lost = one_minus_exp(optical_depth(x, w));
+            if lost == 0.0 {
+                continue;
+            }
+            let l = lost * vec3<f32>(table[at + 4u], table[at + 5u], table[at + 6u]);
+            for (var j = 0u; j < n2; j++) {
+                let y = table[at + 8u + j];
+                s[3u * j] += l.x * y;
+                s[3u * j + 1u] += l.y * y;
+                s[3u * j + 2u] += l.z * y;
+            }
+        }
+    }
+    for (var j = 0u; j < k3; j++) {
+        shadow_sh[node * k3 + j] = s[j];
+    }
+}
+
+@compute @workgroup_size(4, 4, 4)
+fn apply(@builtin(global_invocation_id) i: vec3<u32>) {
+    if any(i >= p.dims) {
+        return;
+    }
+    let lin = i.x + p.dims.x * (i.y + p.dims.y * i.z);
+    if !(grid[4u * lin + 3u] > 0.0) {
+        return;
+    }
+    let u = (vec3<f32>(i) + 0.5) * p.voxel;
+    let view = u - p.eye;
+    if !(length(view) > 0.0) {
+        return;
+    }
+    sh_eval(p.order, view);
+    // `ShGrid::stencil`.
+    var i0 = vec3<u32>(0u);
+    var f = vec3<f32>(0.0);
+    for (var a = 0u; a < 3u; a++) {
+        if p.nodes[a] < 2u || !(p.cell[a] > 0.0) {
+            continue;
+        }
+        let t = clamp((u[a] - p.node_min[a]) / p.cell[a], 0.0, f32(p.nodes[a] - 1u));
+        i0[a] = min(u32(floor(t)), p.nodes[a] - 2u);
+        f[a] = t - f32(i0[a]);
+    }
+    let n2 = p.order * p.order;
+    let k3 = 3u * n2;
+    var acc = vec3<f32>(0.0);
+    for (var corner = 0u; corner < 8u; corner++) {
+        let d = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, corner >> 2u);
+        var w = 1.0;
+        for (var a = 0u; a < 3u; a++) {
+            if d[a] == 1u {
+                w *= select(f[a], 0.0, p.nodes[a] < 2u);
+            } else {
+                w *= 1.0 - f[a];
+            }
+        }
+        if w == 0.0 {
+            continue;
+        }
+        let c = i0 + d;
+        let node = c.x + p.nodes.x * (c.y + p.nodes.y * c.z);
+        for (var j = 0u; j < n2; j++) {
+            let a = table[4u * j + 3u] * ysh[j] * w;
+            acc -= a * vec3<f32>(shadow_sh[node * k3 + 3u * j], shadow_sh[node * k3 + 3u * j + 1u], shadow_sh[node * k3 + 3u * j + 2u]);
+        }
+    }
+    for (var j = 0u; j < n2; j++) {
+        acc += table[4u * j + 3u] * ysh[j] * vec3<f32>(table[4u * j], table[4u * j + 1u], table[4u * j + 2u]);
+    }
+    let add = max(acc, vec3<f32>(0.0));
+    for (var c = 0u; c < 3u; c++) {
+        grid[4u * lin + c] += add[c];
+    }
+}

@@ -1,0 +1,318 @@
+//! The environment pass on the GPU (`shaders/env_pass.wgsl`), the twin of
+//! [`crate::render::env_pass::env_pass`]: the distant environment's single scattering
+//! added per voxel to the volume pass's grids, in `f32`, in place on a [`GridBuffer`].
+//!
+//! Two dispatches: `shadow`, one invocation per node of the grid
+//! ([`env_pass::grid_frame`]), marches the uploaded direction rule through the grid's `D`
+//! and writes `S_lm` at the nodes the pass reads (the CPU's [`env_pass::needed_nodes`]
+//! criterion, tested per node on the GPU by a scan of the voxels within a cell); `apply`,
+//! one invocation per voxel with `D > 0`, adds `max(0, Σ Ω g^l (L_j − S_j(u)) Y_j(d))`.
+//! The march visits every sample to the box's face (the CPU skips the samples outside the
+//! smoke's box, which are zeros: the same sum).
+//!
+//! Uploads: per direction `ω`, `w·L(ω)` and `Y(ω)` (`8 + order²` words); per coefficient
+//! `L_j` and `Ω g^l` (4 words). The nodes' `S` stays on the GPU ([`EnvShadow`]) and can be
+//! read back for tests.
+
+use super::{
+    GpuContext, GpuError, GridBuffer, SourceBuffer, buffer_init, compute_pipeline_at, submit_pass,
+};
+use crate::env::Environment;
+use crate::lighting::single::RgbSh;
+use crate::medium::Medium;
+use crate::render::env_pass::{self, EnvGridOptions};
+use crate::sh;
+
+/// The shader: `crates/view/shaders/sh_basis.wgsl` followed by `env_pass.wgsl`.
+pub const SHADER: &str = concat!(
+    include_str!("../../shaders/sh_basis.wgsl"),
+    include_str!("../../shaders/env_pass.wgsl")
+);
+
+/// Voxels per workgroup side of `apply` (`@workgroup_size(4, 4, 4)`).
+const SIDE: usize = 4;
+
+/// Nodes per workgroup of `shadow` (`@workgroup_size(64)`).
+const NODES: usize = 64;
+
+/// The shader's `Params` uniform (WGSL layout), 112 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+struct Params {
+    eye: [f32; 3],
+    sigma_t: f32,
+    voxel: [f32; 3],
+    h0: f32,
+    size: [f32; 3],
+    order: u32,
+    dims: [u32; 3],
+    directions: u32,
+    node_min: [f32; 3],
+    _pad0: u32,
+    cell: [f32; 3],
+    _pad1: u32,
+    nodes: [u32; 3],
+    _pad2: u32,
+}
+
+/// `S_lm` at the grid's nodes on the GPU (`3·order²` `f32` per node, channel fastest, as
+/// [`crate::sh::ShGrid::coeffs`]).
+#[derive(Debug)]
+pub struct EnvShadow {
+    buffer: wgpu::Buffer,
+    len: usize,
+}
+
+impl EnvShadow {
+    /// Reads the coefficients back (a wait).
+    pub fn read(&self, ctx: &GpuContext) -> Result<Vec<f32>, GpuError> {
+        let bytes = ctx.read_buffer(&self.buffer)?;
+        Ok(bytemuck::cast_slice::<u8, f32>(&bytes)[..self.len].to_vec())
+    }
+}
+
+/// The compiled environment pass, reusable across frames.
+#[derive(Debug)]
+pub struct EnvPass {
+    shadow: wgpu::ComputePipeline,
+    apply: wgpu::ComputePipeline,
+}
+
+impl EnvPass {
+    /// Compiles the shader and builds its two pipelines.
+    pub fn new(ctx: &GpuContext) -> Result<EnvPass, GpuError> {
+        Ok(EnvPass {
+            shadow: compute_pipeline_at(
+                ctx,
+                "environment grid pipeline creation",
+                SHADER,
+                "shadow",
+            )?,
+            apply: compute_pipeline_at(ctx, "environment pass pipeline creation", SHADER, "apply")?,
+        })
+    }
+
+    /// Adds the environment's single scattering to the grids on the GPU (those a
+    /// [`VolumePass`](super::volume_pass::VolumePass) wrote, or an upload), camera at
+    /// `eye`, as [`env_pass::env_pass`] does on the CPU (submitted, not waited for);
+    /// `light` is the environment's projection at `order`. Returns the nodes' `S`. With
+    /// albedo 0 the grid is computed and nothing added. Refuses an order outside 1..=6,
+    /// a `light` of another order, a non-finite eye and sizes beyond the device's limits.
+    #[allow(clippy::too_many_arguments)]
+    pub fn run_on(
+        &self,
+        ctx: &GpuContext,
+        grid: &GridBuffer,
+        env: &Environment,
+        light: &RgbSh,
+        medium: &Medium,
+        eye: [f64; 3],
+        order: usize,
+        opts: &EnvGridOptions,
+    ) -> Result<EnvShadow, GpuError> {
+        if !(1..=sh::MAX_ORDER).contains(&order) {
+            return Err(GpuError::Input(format!(
+                "SH order {order} is outside 1..={}",
+                sh::MAX_ORDER
+            )));
+        }
+        let n2 = sh::count(order);
+        if light.iter().any(|c| c.len() < n2) {
+            return Err(GpuError::Input(format!(
+                "the environment's projection has fewer than {n2} coefficients"
+            )));
+        }
+        if !eye.iter().all(|c| c.is_finite()) {
+            return Err(GpuError::Input(format!("the eye {eye:?} is not finite")));
+        }
+        let dims = grid.dims();
+        let bbox = *grid.bbox();
+        let frame = env_pass::grid_frame(dims, &bbox, opts.spacing, order);
+        let total = frame.len();
+        let len = total * 3 * n2;
+        let bytes = (len.max(1) * 4) as u64;
+        ctx.check_storage_size("the environment's grid", bytes)?;
+        let rule = env_pass::lit_directions(env, opts.theta, order);
+        let mut table: Vec<f32> = Vec::with_capacity(rule.len() * (8 + n2));
+        for (w, l, y) in &rule {
+            table.extend(w.map(|c| c as f32));
+            table.push(0.0);
+            table.extend(l.map(|c| c as f32));
+            table.push(0.0);
+            table.extend(y.iter().map(|v| *v as f32));
+        }
+        if table.is_empty() {
+            table.push(0.0);
+        }
+        let a = env_pass::phase_factors(medium, order);
+        let mut factors: Vec<f32> = Vec::with_capacity(4 * n2);
+        for (j, aj) in a.iter().enumerate() {
+            factors.extend([light[0][j], light[1][j], light[2][j], *aj].map(|v| v as f32));
+        }
+        ctx.check_storage_size("the direction rule", (table.len() * 4) as u64)?;
+
+        let vs = grid.voxel_size();
+        let count = |n: usize, what: &str| {
+            u32::try_from(n).map_err(|_| GpuError::Input(format!("{n} {what} are too many")))
+        };
+        let params = Params {
+            eye: [0, 1, 2].map(|k| (eye[k] - bbox.min[k]) as f32),
+            sigma_t: medium.sigma_t as f32,
+            voxel: vs.map(|v| v as f32),
+            h0: vs[0].min(vs[1]).min(vs[2]) as f32,
+            size: bbox.size().map(|v| v as f32),
+            order: order as u32,
+            dims: dims.map(|n| n as u32),
+            directions: count(rule.len(), "directions")?,
+            node_min: [0, 1, 2].map(|k| (frame.min[k] - bbox.min[k]) as f32),
+            _pad0: 0,
+            cell: frame.cell.map(|c| c as f32),
+            _pad1: 0,
+            nodes: frame.nodes.map(|n| n as u32),
+            _pad2: 0,
+        };
+        let max_groups = ctx.device.limits().max_compute_workgroups_per_dimension as usize;
+        let node_groups = total.div_ceil(NODES);
+        let gx = node_groups.clamp(1, max_groups);
+        let gy = node_groups.div_ceil(gx);
+        let voxel_groups = dims.map(|n| n.div_ceil(SIDE));
+        if gy > max_groups || voxel_groups.iter().any(|&n| n > max_groups) {
+            return Err(GpuError::Input(format!(
+                "a grid of {dims:?} voxels is larger than the device dispatches"
+            )));
+        }
+        ctx.scoped("the environment pass", || {
+            let uniform = buffer_init(
+                ctx,
+                "environment pass parameters",
+                bytemuck::bytes_of(&params),
+                wgpu::BufferUsages::UNIFORM,
+            );
+            let rule = buffer_init(
+                ctx,
+                "environment direction rule",
+                bytemuck::cast_slice(&table),
+                wgpu::BufferUsages::STORAGE,
+            );
+            let factors = buffer_init(
+                ctx,
+                "environment projection",
+                bytemuck::cast_slice(&factors),
+                wgpu::BufferUsages::STORAGE,
+            );
+            let shadow = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("environment grid"),
+                size: bytes,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            let groups = if total == 0 {
+                [0, 0, 0]
+            } else {
+                [gx as u32, gy as u32, 1]
+            };
+            submit_pass(
+                ctx,
+                &self.shadow,
+                "environment grid",
+                &[&uniform, &rule, grid.buffer(), &shadow],
+                groups,
+            );
+            if medium.albedo != 0.0 && !dims.contains(&0) {
+                submit_pass(
+                    ctx,
+                    &self.apply,
+                    "environment pass",
+                    &[&uniform, &factors, grid.buffer(), &shadow],
+                    voxel_groups.map(|n| n as u32),
+                );
+            }
+            EnvShadow {
+                buffer: shadow,
+                len,
+            }
+        })
+    }
+}
+
+/// `shaders/remove_single.wgsl`.
+pub const REMOVE_SHADER: &str = include_str!("../../shaders/remove_single.wgsl");
+
+/// The centers' single scattering taken out of their sources on the GPU (the renderer's
+/// GPU lighting with [`crate::render::env_pass::EnvSource::Grid`]): a copy of the sources
+/// taken before the diffusion adds `J̃ms`, subtracted after it.
+#[derive(Debug)]
+pub struct RemoveSingle {
+    pipeline: wgpu::ComputePipeline,
+}
+
+impl RemoveSingle {
+    /// Compiles the shader.
+    pub fn new(ctx: &GpuContext) -> Result<RemoveSingle, GpuError> {
+        Ok(RemoveSingle {
+            pipeline: super::compute_pipeline(
+                ctx,
+                "remove single pipeline creation",
+                REMOVE_SHADER,
+            )?,
+        })
+    }
+
+    /// A copy of `sources` (submitted).
+    pub fn copy(&self, ctx: &GpuContext, sources: &SourceBuffer) -> Result<wgpu::Buffer, GpuError> {
+        let src = sources.buffer();
+        ctx.scoped("copying the single scattering", || {
+            let copy = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("single scattering at the centers"),
+                size: src.size(),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            let mut enc = ctx
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("copying the single scattering"),
+                });
+            enc.copy_buffer_to_buffer(src, 0, &copy, 0, src.size());
+            ctx.queue.submit([enc.finish()]);
+            copy
+        })
+    }
+
+    /// `sources −= copy` word by word (the escape words kept; submitted).
+    pub fn run(
+        &self,
+        ctx: &GpuContext,
+        sources: &SourceBuffer,
+        copy: &wgpu::Buffer,
+    ) -> Result<(), GpuError> {
+        let words = (sources.buffer().size() / 4) as usize;
+        let groups = words.div_ceil(NODES);
+        let max_groups = ctx.device.limits().max_compute_workgroups_per_dimension as usize;
+        let gx = groups.clamp(1, max_groups);
+        let gy = groups.div_ceil(gx);
+        ctx.scoped("removing the single scattering", || {
+            submit_pass(
+                ctx,
+                &self.pipeline,
+                "remove single",
+                &[sources.buffer(), copy],
+                [gx as u32, gy as u32, 1],
+            );
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn params_match_the_wgsl_layout() {
+        assert_eq!(std::mem::size_of::<Params>(), 112);
+        assert_eq!(std::mem::offset_of!(Params, dims), 48);
+        assert_eq!(std::mem::offset_of!(Params, node_min), 64);
+        assert_eq!(std::mem::offset_of!(Params, cell), 80);
+        assert_eq!(std::mem::offset_of!(Params, nodes), 96);
+    }
+}

@@ -1,0 +1,276 @@
+//! The environment pass: single scattering of the distant environment (the sky or map,
+//! the part in SH) per voxel, from a coarse grid of its transmitted radiance in SH —
+//! instead of paper A §5.3's source at the RBF centers interpolated over their footprints
+//! ([`EnvSource`]).
+//!
+//! **Model.** A point `x` of the smoke receives from direction `ω` (towards the source)
+//! `L(ω)·T(x, ω)`, `T = exp(−σt·τ(x, ω))` through the grid's `D = D̃ + R` to the box's
+//! face. Scattered towards the eye (viewing direction `d`, from the eye) with the HG phase
+//! of `ω·d` (normalized to `(1/4π)∫p = 1`, Legendre coefficients `(2l+1)g^l`) and the
+//! addition theorem, `J(x, d) = (Ω/4π)∫L T p dω = Ω·Σ_l g^l Σ_m E_lm(x)·Y_lm(d)` with
+//! `E_lm(x) = ∫ L(ω)·T(x, ω)·Y_lm(ω) dω`, truncated at the renderer's SH order.
+//!
+//! **The grid** ([`env_grid`]). `E_lm = L_lm − S_lm`: `L_lm` the environment's projection
+//! (exact, `sh::project_env`), `S_lm(x) = ∫ L·(1 − T)·Y_lm dω` the light the smoke
+//! takes away, which the grid stores at its nodes, by the product rule of
+//! `2·theta` Gauss–Legendre latitudes (`theta` per hemisphere: the sky jumps at the
+//! horizon) × `4·theta` azimuths, `1 − T = −expm1(−σt·τ)` marched with the lights pass's
+//! midpoint rule ([`super::lights_pass::optical_depth`]). Written so, the rule's error is
+//! proportional to the shadowing: thin smoke (`T → 1`) gets `L_lm` exactly, where the
+//! centers' interpolated source was biased. Nodes span the voxel centers, `spacing`
+//! voxels apart (rounded to fit the box), trilinear between ([`ShGrid`]).
+//!
+//! **The pass** ([`env_pass`]). At every voxel center `u` with `D(u) > 0`, seen along
+//! `d = (u − eye)/|u − eye|`, `J̃(u, d) += max(0, Ω·Σ_l g^l Σ_m (L_lm − S_lm(u))·Y_lm(d))`
+//! (the clamp removes the truncation's ringing where the smoke is almost black), after
+//! the volume pass and before the lights pass. The centers then carry the multiple
+//! scattering only; their single scattering still feeds the diffusion.
+//!
+//! The GPU twin is `shaders/env_pass.wgsl` (`gpu::env_pass`).
+
+use super::crm::VolumeGrids;
+use super::lights_pass::{occupied_box, optical_depth_within};
+use crate::env::Environment;
+use crate::lighting::single::RgbSh;
+use crate::medium::Medium;
+use crate::sh::{self, ShGrid, quad::SphereGrid};
+use haze_volume::{Bbox, Volume};
+use rayon::prelude::*;
+
+/// Settings of the environment's grid.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EnvGridOptions {
+    /// Voxels between neighbouring nodes (> 0; rounded per axis so the nodes span the
+    /// voxel centers evenly).
+    pub spacing: f64,
+    /// Gauss–Legendre latitudes per hemisphere of the direction rule
+    /// (`2·theta × 2·theta` directions).
+    pub theta: usize,
+}
+
+impl Default for EnvGridOptions {
+    fn default() -> Self {
+        EnvGridOptions {
+            spacing: 1.5,
+            theta: 3,
+        }
+    }
+}
+
+/// How the fast renderer lights the smoke by the distant environment (single scattering;
+/// suns and point lights are the lights pass's).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum EnvSource {
+    /// Paper A §5.3: the source at the RBF centers (`CrmOptions::source_points`),
+    /// interpolated by the volume pass.
+    Centers,
+    /// Per voxel from the grid of the transmitted environment (module docs).
+    Grid(EnvGridOptions),
+}
+
+/// The direction rule of `theta` latitudes per hemisphere: `(direction, weight)`,
+/// weights summing to `4π`.
+pub fn directions(theta: usize) -> SphereGrid {
+    let t = theta.max(1);
+    SphereGrid::hemispheres(t, 4 * t)
+}
+
+/// The nodes of the grid over a `dims` grid on `bbox` (no coefficients yet): from the
+/// first voxel center to the last, about `spacing` voxels apart (at least two nodes per
+/// axis of two voxels or more, one on an axis of one voxel).
+pub fn grid_frame(dims: [usize; 3], bbox: &Bbox, spacing: f64, order: usize) -> ShGrid {
+    let spacing = if spacing > 0.0 && spacing.is_finite() {
+        spacing
+    } else {
+        1.0
+    };
+    let vs = [0, 1, 2].map(|a| bbox.size()[a] / dims[a].max(1) as f64);
+    let mut nodes = [1usize; 3];
+    let mut cell = [0.0; 3];
+    for a in 0..3 {
+        if dims[a] >= 2 {
+            let span = (dims[a] - 1) as f64;
+            nodes[a] = ((span / spacing).ceil() as usize).max(1) + 1;
+            cell[a] = span * vs[a] / (nodes[a] - 1) as f64;
+        }
+    }
+    ShGrid {
+        min: [0, 1, 2].map(|a| bbox.min[a] + 0.5 * vs[a]),
+        cell,
+        nodes,
+        order,
+        coeffs: Vec::new(),
+    }
+}
+
+/// The rule's directions that bring light: `(ω, w·L(ω), Y(ω))` of `env`'s distant
+/// radiance at `order`.
+pub fn lit_directions(
+    env: &Environment,
+    theta: usize,
+    order: usize,
+) -> Vec<([f64; 3], [f64; 3], Vec<f64>)> {
+    directions(theta)
+        .points()
+        .map(|(w, wt)| {
+            let l = env.distant.radiance(w);
+            (w, l.map(|c| wt * c), sh::eval(order, w))
+        })
+        .filter(|(_, l, _)| l.iter().any(|&c| c != 0.0))
+        .collect()
+}
+
+/// The grid of `S_lm` (module docs) of `env`'s distant light through `density` (σt
+/// `sigma_t`), SH of `order`.
+pub fn env_grid(
+    density: &Volume,
+    sigma_t: f64,
+    env: &Environment,
+    order: usize,
+    opts: &EnvGridOptions,
+) -> ShGrid {
+    let dims = density.dims();
+    let vs = density.voxel_size();
+    let grid = grid_frame(dims, density.bbox(), opts.spacing, order);
+    let nodes = grid.nodes;
+    let n2 = sh::count(order);
+    let h0 = vs[0].min(vs[1]).min(vs[2]);
+    let rule = lit_directions(env, opts.theta, order);
+    let total = grid.len();
+    let occupied = occupied_box(density);
+    let needed = needed_nodes(density, &grid);
+    let coeffs: Vec<f32> = match occupied {
+        Some(occupied) if sigma_t > 0.0 => (0..total)
+            .into_par_iter()
+            .flat_map_iter(|i| {
+                let mut s = vec![0.0f64; 3 * n2];
+                if needed[i] {
+                    let x = grid.node([
+                        i % nodes[0],
+                        (i / nodes[0]) % nodes[1],
+                        i / (nodes[0] * nodes[1]),
+                    ]);
+                    for (w, l, y) in &rule {
+                        let tau =
+                            optical_depth_within(density, sigma_t, x, *w, f64::MAX, h0, &occupied);
+                        // 1 − T, exact for small τ.
+                        let lost = -(-tau).exp_m1();
+                        if lost == 0.0 {
+                            continue;
+                        }
+                        for (j, yj) in y.iter().enumerate() {
+                            for c in 0..3 {
+                                s[3 * j + c] += lost * l[c] * yj;
+                            }
+                        }
+                    }
+                }
+                s.into_iter().map(|v| v as f32)
+            })
+            .collect(),
+        _ => vec![0.0; total * 3 * n2],
+    };
+    ShGrid { coeffs, ..grid }
+}
+
+/// Which nodes the pass reads: those within one cell (per axis, strictly) of a voxel
+/// center with `D > 0` — the nodes of its trilinear stencil with a non-zero weight. The
+/// others are left at zero and cost nothing.
+pub fn needed_nodes(density: &Volume, grid: &ShGrid) -> Vec<bool> {
+    let mut needed = vec![false; grid.len()];
+    let dims = density.dims();
+    let vs = density.voxel_size();
+    let bbox = density.bbox();
+    let n = grid.nodes;
+    let range = |a: usize, k: usize| -> (usize, usize) {
+        if n[a] < 2 || grid.cell[a].is_nan() || grid.cell[a] <= 0.0 {
+            return (0, 0);
+        }
+        let u = bbox.min[a] + (k as f64 + 0.5) * vs[a];
+        let f = (u - grid.min[a]) / grid.cell[a];
+        let lo = (f - 1.0).floor() + 1.0;
+        let hi = (f + 1.0).ceil() - 1.0;
+        let top = (n[a] - 1) as f64;
+        (lo.clamp(0.0, top) as usize, hi.clamp(0.0, top) as usize)
+    };
+    for (idx, &d) in density.data().iter().enumerate() {
+        if d.is_nan() || d <= 0.0 {
+            continue;
+        }
+        let k = [
+            idx % dims[0],
+            (idx / dims[0]) % dims[1],
+            idx / (dims[0] * dims[1]),
+        ];
+        let (r0, r1, r2) = (range(0, k[0]), range(1, k[1]), range(2, k[2]));
+        for z in r2.0..=r2.1 {
+            for y in r1.0..=r1.1 {
+                for x in r0.0..=r0.1 {
+                    needed[x + n[0] * (y + n[1] * z)] = true;
+                }
+            }
+        }
+    }
+    needed
+}
+
+/// The per-coefficient factors `Ω·g^l` of `J = Σ_j Ω g^l E_j Y_j(d)` at `order`.
+pub fn phase_factors(medium: &Medium, order: usize) -> Vec<f64> {
+    (0..sh::count(order))
+        .map(|j| medium.albedo * medium.g.powi(sh::basis::band_of(j) as i32))
+        .collect()
+}
+
+/// Adds the environment's single scattering to the radiance of `grids` (camera at `eye`),
+/// from [`env_grid`] of `opts` and `light`, the environment's projection at `order`
+/// (module docs). Returns the grid (for inspection and the GPU twin's tests); nothing
+/// is added with albedo 0.
+pub fn env_pass(
+    grids: &mut VolumeGrids,
+    env: &Environment,
+    light: &RgbSh,
+    medium: &Medium,
+    eye: [f64; 3],
+    order: usize,
+    opts: &EnvGridOptions,
+) -> ShGrid {
+    let grid = env_grid(&grids.density, medium.sigma_t, env, order, opts);
+    if medium.albedo == 0.0 {
+        return grid;
+    }
+    let n2 = sh::count(order);
+    let a = phase_factors(medium, order);
+    let density = &grids.density;
+    let dims = density.dims();
+    let bbox = *density.bbox();
+    let vs = density.voxel_size();
+    let plane = dims[0] * dims[1];
+    grids
+        .radiance
+        .par_chunks_mut(plane.max(1))
+        .enumerate()
+        .for_each(|(z, slice)| {
+            let mut s = vec![0.0; 3 * n2];
+            let mut y = vec![0.0; n2];
+            for (i, out) in slice.iter_mut().enumerate() {
+                if density.data()[z * plane + i] <= 0.0 {
+                    continue;
+                }
+                let (x, yy) = (i % dims[0], i / dims[0]);
+                let u = [x, yy, z].map(|k| k as f64 + 0.5);
+                let u = [0, 1, 2].map(|k| bbox.min[k] + u[k] * vs[k]);
+                let Some(d) = crate::lights::unit([0, 1, 2].map(|k| u[k] - eye[k])) else {
+                    continue;
+                };
+                grid.at(u, &mut s);
+                sh::eval_into(order, d, &mut y);
+                for c in 0..3 {
+                    let j: f64 = (0..n2)
+                        .map(|k| a[k] * (light[c][k] - s[3 * k + c]) * y[k])
+                        .sum();
+                    out[c] = (f64::from(out[c]) + j.max(0.0)) as f32;
+                }
+            }
+        });
+    grid
+}
