@@ -575,6 +575,7 @@ mod tests {
             sh_order: 4,
             multiple: true,
             diffusion: MsDiffusion::Centers,
+            env_source: EnvSource::Grid(haze_view::render::env_pass::EnvGridOptions::default()),
             residual: true,
             slices: 2.0,
             exp: ExpMethod::ScaleSquareAuto,

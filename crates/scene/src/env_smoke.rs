@@ -37,7 +37,6 @@
 //! lit by the environment"), which chose the defaults.
 
 use crate::media::Aabb;
-use crate::quad::gauss_legendre;
 use crate::scene::{Environment, Material, Rgb, Scene};
 use crate::vec3::{Vec3, dot, norm};
 use haze_view::sh::{self, ShGrid, quad::SphereGrid};
