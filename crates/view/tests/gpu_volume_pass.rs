@@ -30,6 +30,7 @@ use haze_view::gpu::volume_pass::{Residual, VolumePass, volume_pass};
 use haze_view::gpu::{GpuError, GridBuffer};
 use haze_view::lighting::single::RgbSh;
 use haze_view::render::crm::{self, MIN_DENSITY, OPAQUE, VolumeGrids};
+use haze_view::render::env_pass::EnvSource;
 use haze_view::render::{CrmOptions, crm_render, crm_sources, slice_thickness};
 use haze_view::sh;
 use haze_view::stream::ResidualSlot;
@@ -41,9 +42,13 @@ use std::time::Instant;
 mod common;
 use common::{cluster, context, unit_box};
 
+/// Paper A's chain (the environment's single scattering at the centers, through the
+/// volume pass): the environment pass has its own twin test (`tests/gpu_env_pass.rs`)
+/// and the whole GPU frame `tests/gpu_renderer.rs`.
 fn opts(order: usize) -> CrmOptions {
     CrmOptions {
         order,
+        env_source: EnvSource::Centers,
         ..CrmOptions::default()
     }
 }
