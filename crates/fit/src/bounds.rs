@@ -101,7 +101,8 @@ impl Bounds {
 /// resolution ([`FitGrid::full_h`], unit cube): the narrowest Gaussian the frame's grid
 /// tells apart from a one-voxel spike (module docs). A coarse pass keeps the frame's floor:
 /// with its own (twice as large) the radii it hands to the full-resolution polish are
-/// held 3–4 % worse on plume-b at 600–1200 RBFs. 0 for a grid without voxels.
+/// held 3–4 % worse on plume-b at 600–1200 RBFs. 0 for a grid without a voxel size
+/// (a `Volume` refuses such boxes).
 pub fn nyquist_radius(grid: &FitGrid) -> f64 {
     let h = grid.full_h;
     if h.is_finite() && h > 0.0 {
