@@ -315,8 +315,9 @@ pub struct BakeCli {
     /// Local minimizer.
     #[arg(long, value_enum, default_value_t = OptimizerArg::Lbfgsb)]
     optimizer: OptimizerArg,
-    /// Smallest RBF radius, as a fraction of the grid's longest side.
-    #[arg(long, default_value_t = 0.015)]
+    /// Smallest RBF radius, as a fraction of the grid's longest side; never below the
+    /// grid's Nyquist radius 2h/π (h the voxel side), which 0 leaves as the floor.
+    #[arg(long, default_value_t = 0.0)]
     radius_min: f64,
     /// Largest RBF radius, as a fraction of the grid's longest side.
     #[arg(long, default_value_t = 0.09)]

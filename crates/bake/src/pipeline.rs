@@ -314,7 +314,7 @@ impl Bake {
             );
         } else if fit.insertion_stalled {
             tracing::warn!(
-                "{}: frame {}: error ratio {:.3} over --threshold {}: inserting RBFs stopped lowering the error ({} inserted); the detail left is finer than --radius-min and goes to the residual",
+                "{}: frame {}: error ratio {:.3} over --threshold {}: inserting RBFs stopped lowering the error ({} inserted); the detail left is finer than the smallest radius and goes to the residual",
                 f.path.display(),
                 f.number,
                 fit.error_ratio,
@@ -601,12 +601,12 @@ fn choose_count(
             && let [.., a, b] = s.probes.as_slice()
         {
             tracing::warn!(
-                "rel_l2 {target} is out of reach of RBFs: {} → {} RBFs lowered rel_l2 only from {:.4} to {:.4}, as the finest detail is narrower than --radius-min {} allows; baking with {} RBFs and leaving the rest to the residual (--residual-error), or lower --radius-min to let RBFs reach it",
+                "rel_l2 {target} is out of reach of RBFs: {} → {} RBFs lowered rel_l2 only from {:.4} to {:.4}, as the finest detail is narrower than the smallest radius {:.5} allows (--radius-min, never below the grid's Nyquist radius 2h/π); baking with {} RBFs and leaving the rest to the residual (--residual-error)",
                 a.fitted,
                 b.fitted,
                 a.rel_l2,
                 b.rel_l2,
-                opts.fit.bounds.radius.0,
+                opts.fit.bounds.radius_on(&grid).0,
                 s.rbfs
             );
         } else if !s.reached {

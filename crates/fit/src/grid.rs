@@ -23,6 +23,10 @@ pub struct FitGrid {
     pub dims: [usize; 3],
     /// Voxel size per axis, in unit-cube coordinates.
     pub h: [f64; 3],
+    /// Smallest voxel side of the frame at full resolution (unit cube): grids derived
+    /// from it ([`FitGrid::downsampled`], [`FitGrid::residual_grid`]) keep it, so the
+    /// radius floor ([`crate::bounds::nyquist_radius`]) of a coarse pass is the frame's.
+    pub full_h: f64,
     /// Size of the box per axis in unit-cube coordinates (the longest is 1).
     pub extent: [f64; 3],
     /// World position of the box's min corner.
@@ -71,6 +75,10 @@ impl FitGrid {
         Ok(FitGrid {
             dims,
             h: [0, 1, 2].map(|a| vs[a] / unit),
+            full_h: [0, 1, 2]
+                .map(|a| vs[a] / unit)
+                .into_iter()
+                .fold(f64::INFINITY, f64::min),
             extent: [0, 1, 2].map(|a| size[a] / unit),
             origin: v.bbox().min,
             unit,
@@ -132,6 +140,7 @@ impl FitGrid {
         FitGrid {
             dims: self.dims,
             h: self.h,
+            full_h: self.full_h,
             extent: self.extent,
             origin: self.origin,
             unit: self.unit,

@@ -23,11 +23,8 @@ pub fn initial_radius(grid: &FitGrid, n: usize, bounds: &Bounds) -> f64 {
     let voxel = grid.h[0] * grid.h[1] * grid.h[2];
     let v = grid.nonzero.len() as f64 * voxel;
     let r = 0.5 * (v / n.max(1) as f64).cbrt();
-    if r.is_finite() {
-        r.clamp(bounds.radius.0, bounds.radius.1)
-    } else {
-        bounds.radius.0
-    }
+    let (lo, hi) = bounds.radius_on(grid);
+    if r.is_finite() { r.clamp(lo, hi) } else { lo }
 }
 
 /// Largest value of `r` per brick, and where.

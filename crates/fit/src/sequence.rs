@@ -623,7 +623,7 @@ fn finish(
         coarse_iterations: stats.coarse_iterations,
         passes: stats.passes,
         teleports: stats.teleports,
-        rbfs_at_bounds: o.fit.bounds.count_at_bounds(params),
+        rbfs_at_bounds: o.fit.bounds.count_at_bounds(grid, params),
         ..empty_fit()
     }
 }

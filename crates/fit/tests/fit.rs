@@ -214,7 +214,7 @@ fn rbfs_pushed_to_the_bounds_stay_there() {
     let opts = FitOptions::default();
     let (g, p) = fit(&v, 1, &opts);
     assert_eq!(p[3], opts.bounds.radius.1);
-    assert_eq!(opts.bounds.count_at_bounds(&p), 1);
+    assert_eq!(opts.bounds.count_at_bounds(&g, &p), 1);
     assert!(rel_l2(&g, &p) > 0.1);
     let tight = Bounds {
         radius: (0.2, 0.5),
