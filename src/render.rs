@@ -15,7 +15,7 @@ use haze_view::gpu::renderer::{GpuFrame, GpuRenderer, LightingOn};
 use haze_view::gpu::volume_pass::Residual;
 use haze_view::lighting::single::SourcePoints;
 use haze_view::reference::{self, RefOptions};
-use haze_view::render::env_pass::EnvSource;
+use haze_view::render::env_pass::{EnvGridOptions, EnvSource};
 use haze_view::render::{CrmOptions, MsDiffusion, crm_render};
 use haze_view::sh::ExpMethod;
 use haze_view::stream::{FrameDecoder, ResidualSlot, StreamFrame};
@@ -340,13 +340,18 @@ fn apply_choice(a: &mut RenderArgs, c: &choice::Choice, fit: bool) {
         };
     }
     if let Some(v) = choice::str_knob(c, "source") {
-        // The sweep measured paper A's sources at the centers.
+        // "grid": the environment pass (at the spacing asked for, else the default);
+        // "footprint" and "center": paper A's sources at the centers.
         a.source_points = if v == "center" {
             SourcePoints::Center
         } else {
             SourcePoints::Footprint
         };
-        a.env_source = EnvSource::Centers;
+        if v != "grid" {
+            a.env_source = EnvSource::Centers;
+        } else if a.env_source == EnvSource::Centers {
+            a.env_source = EnvSource::Grid(EnvGridOptions::default());
+        }
     }
     if let Some(v) = choice::f64_knob(c, "cg_iterations") {
         a.solve.max_iterations = v as u32;
@@ -575,7 +580,7 @@ mod tests {
             sh_order: 4,
             multiple: true,
             diffusion: MsDiffusion::Centers,
-            env_source: EnvSource::Grid(haze_view::render::env_pass::EnvGridOptions::default()),
+            env_source: EnvSource::Grid(EnvGridOptions::default()),
             residual: true,
             slices: 2.0,
             exp: ExpMethod::ScaleSquareAuto,

@@ -246,6 +246,9 @@ fn phrase(name: &str, v: &Value) -> String {
         ("sh_order", ..) => format!("SH order {x}"),
         ("exp", Some("linear"), _) => "the optimal linear exponential".into(),
         ("exp", ..) => "scaling and squaring".into(),
+        ("source", Some("grid"), _) => {
+            "lighting each voxel from the grid of the transmitted environment".into()
+        }
         ("source", Some("center"), _) => "placing the sources at the RBF centers".into(),
         ("source", ..) => "placing them over the RBF footprints".into(),
         ("cg_iterations", ..) => format!("stopping the diffusion solve at {x} CG iterations"),

@@ -386,7 +386,8 @@ mod tests {
 
     /// Runs the case named `name` and checks what every case must hold: finite RBFs and
     /// pixels in both renderers, a converged diffusion solve, the RBF count asked for
-    /// (fewer only where the frame has fewer smoke voxels), and the energy within `band`.
+    /// (within 5 %: fewer where the placement covers the frame sooner), and the energy
+    /// within `band`.
     fn check(name: &str, band: (f64, f64)) {
         let case = cases().into_iter().find(|c| c.name == name).unwrap();
         let o = run_case(&case).unwrap();
@@ -404,7 +405,14 @@ mod tests {
             o.fit_rel_l2
         );
         match case.shape {
-            Shape::Puff => assert_eq!(o.rbfs, case.rbfs, "{name}"),
+            // The greedy placement stops where no positive residual is left: 5000 RBFs
+            // on 18³ voxels, at least the grid's Nyquist radius each, cover the puff
+            // with a few percent fewer.
+            Shape::Puff => assert!(
+                o.rbfs <= case.rbfs && 20 * o.rbfs >= 19 * case.rbfs,
+                "{name}: {} RBFs",
+                o.rbfs
+            ),
             Shape::Empty => assert_eq!(o.rbfs, 0, "{name}"),
             Shape::SingleVoxel => assert!((1..=case.rbfs).contains(&o.rbfs), "{name}"),
         }

@@ -16,6 +16,7 @@ use haze_view::gpu::renderer::{GpuFrame, GpuRenderer, LightingOn};
 use haze_view::gpu::volume_pass::Residual;
 use haze_view::lighting::single::SourcePoints;
 use haze_view::reference::{self, RefOptions};
+use haze_view::render::env_pass::{EnvGridOptions, EnvSource};
 use haze_view::render::{CrmOptions, crm_render};
 use haze_view::sh::ExpMethod;
 use haze_view::{Camera, Environment, Image, Medium};
@@ -199,7 +200,12 @@ impl SmokeLab {
                 last(tables.sh.len()),
             ),
             Knob::new("exp", vec![json!("square"), json!("linear")], 0, 0),
-            Knob::new("source", vec![json!("footprint"), json!("center")], 0, 0),
+            Knob::new(
+                "source",
+                vec![json!("grid"), json!("footprint"), json!("center")],
+                0,
+                0,
+            ),
             Knob::new(
                 "cg_iterations",
                 tables.cg.iter().map(|x| json!(x)).collect(),
@@ -308,8 +314,13 @@ impl SmokeLab {
                 } else {
                     SourcePoints::Footprint
                 },
-                // The sweep's "source" knob is paper A's placement at the centers.
-                env_source: haze_view::render::env_pass::EnvSource::Centers,
+                // "grid" is the environment pass; "footprint" and "center" are paper A's
+                // sources at the centers.
+                env_source: if v(6) == "grid" {
+                    EnvSource::Grid(EnvGridOptions::default())
+                } else {
+                    EnvSource::Centers
+                },
                 solve: SolveOptions {
                     max_iterations: f(7) as u32,
                     ..SolveOptions::default()
