@@ -581,6 +581,12 @@ pub struct ViewCli {
     /// Start without the residual (the RBF approximation alone).
     #[arg(long)]
     no_residual: bool,
+    /// Start with the sky's single scattering at the RBF centers (paper A, `haze render
+    /// --source footprint`) instead of per voxel by the environment pass: about half the
+    /// frame time on lavapipe, 9–11 % darker single scattering on sky-lit smoke
+    /// (BENCHMARKS.md, "Environment pass"); a panel switch too.
+    #[arg(long)]
+    sky_at_centers: bool,
     /// Start with the knobs (SH order, slices, multiple scattering, residual, render
     /// size) of the most accurate setting of a tradeoff sweep's front that renders within
     /// T milliseconds; prints the choice and why.
@@ -699,6 +705,7 @@ impl ViewCli {
                 slices: self.slices,
                 multiple: !self.no_multiple,
                 residual: !self.no_residual,
+                sky_per_voxel: !self.sky_at_centers,
                 exposure: self.exposure,
             },
             play_for: self.play_for,

@@ -479,6 +479,7 @@ impl ViewerApp {
         ui.add(egui::Slider::new(&mut k.slices, r.slices.clone()).text("slices per voxel"));
         ui.checkbox(&mut k.multiple, "multiple scattering");
         ui.checkbox(&mut k.residual, "residual");
+        ui.checkbox(&mut k.sky_per_voxel, "sky per voxel (environment pass)");
         ui.add(
             egui::Slider::new(&mut k.exposure, r.exposure.clone())
                 .logarithmic(true)

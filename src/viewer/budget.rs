@@ -141,6 +141,7 @@ mod tests {
             slices: 2.0,
             multiple: true,
             residual: true,
+            sky_per_voxel: true,
             exposure: 1.0,
         };
         let mut a = ViewArgs {

@@ -36,6 +36,7 @@ use anyhow::{Result, anyhow, bail};
 use haze_view::gpu::GpuContext;
 use haze_view::gpu::renderer::LightingOn;
 use haze_view::render::CrmOptions;
+use haze_view::render::env_pass::{EnvGridOptions, EnvSource};
 use haze_view::stream::FrameStream;
 use haze_view::{Environment, Medium};
 use orbit::Orbit;
@@ -85,6 +86,9 @@ pub struct Knobs {
     pub slices: f64,
     pub multiple: bool,
     pub residual: bool,
+    /// The sky's single scattering per voxel by the environment pass (else at the RBF
+    /// centers, paper A §5.3).
+    pub sky_per_voxel: bool,
     pub exposure: f64,
 }
 
@@ -103,7 +107,11 @@ impl Knobs {
                 "single scattering"
             },
             if self.residual { "on" } else { "off" }
-        )
+        ) + if self.sky_per_voxel {
+            ""
+        } else {
+            ", sky at the centers"
+        }
     }
 
     /// The medium and the renderer's options of these knobs.
@@ -116,6 +124,11 @@ impl Knobs {
                 multiple: self.multiple,
                 residual: self.residual,
                 slices_per_voxel: self.slices,
+                env_source: if self.sky_per_voxel {
+                    EnvSource::Grid(EnvGridOptions::default())
+                } else {
+                    EnvSource::Centers
+                },
                 ..CrmOptions::default()
             },
         })
@@ -272,6 +285,33 @@ fn play_without_window(player: &mut Player, view: &View, seconds: f64) -> Result
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The panel's sky switch picks the renderer's environment source, and the knobs'
+    /// words say so only when it is off.
+    #[test]
+    fn the_sky_switch_picks_the_environment_source() {
+        let on = Knobs {
+            sigma_t: 4.0,
+            albedo: 0.8,
+            g: 0.3,
+            sh_order: 4,
+            slices: 2.0,
+            multiple: true,
+            residual: true,
+            sky_per_voxel: true,
+            exposure: 1.0,
+        };
+        let off = Knobs {
+            sky_per_voxel: false,
+            ..on.clone()
+        };
+        let env = Arc::new(Environment::sky(haze_view::Sky::default()));
+        let source = |k: &Knobs| k.scene(env.clone()).unwrap().opts.env_source;
+        assert!(matches!(source(&on), EnvSource::Grid(_)));
+        assert_eq!(source(&off), EnvSource::Centers);
+        assert!(!on.describe().contains("sky"), "{}", on.describe());
+        assert!(off.describe().ends_with(", sky at the centers"));
+    }
 
     #[test]
     fn sizes_parse_and_bad_ones_say_why() {
