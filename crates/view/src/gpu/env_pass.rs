@@ -23,9 +23,11 @@ use crate::medium::Medium;
 use crate::render::env_pass::{self, EnvGridOptions};
 use crate::sh;
 
-/// The shader: `crates/view/shaders/sh_basis.wgsl` followed by `env_pass.wgsl`.
+/// The shader: `crates/view/shaders/sh_basis.wgsl`, the shadow march shared with the
+/// lights pass (`grid_march.wgsl`), then `env_pass.wgsl`.
 pub const SHADER: &str = concat!(
     include_str!("../../shaders/sh_basis.wgsl"),
+    include_str!("../../shaders/grid_march.wgsl"),
     include_str!("../../shaders/env_pass.wgsl")
 );
 

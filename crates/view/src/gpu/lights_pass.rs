@@ -32,8 +32,12 @@ use crate::render::crm::VolumeGrids;
 pub use crate::render::lights_pass::SHADOW_CUTOFF;
 use std::sync::Mutex;
 
-/// The shader, `crates/view/shaders/lights_pass.wgsl`.
-pub const SHADER: &str = include_str!("../../shaders/lights_pass.wgsl");
+/// The shader: the shadow march shared with the environment pass
+/// (`crates/view/shaders/grid_march.wgsl`), then `lights_pass.wgsl`.
+pub const SHADER: &str = concat!(
+    include_str!("../../shaders/grid_march.wgsl"),
+    include_str!("../../shaders/lights_pass.wgsl")
+);
 
 /// Voxels per workgroup side (`@workgroup_size(4, 4, 4)` in the shader).
 const SIDE: usize = 4;
