@@ -363,16 +363,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         if (hit.surface >= 0) {
             let s = u32(hit.surface);
             let p = t_end * dir;
-            let a = surfaces[4u * s];
-            var n = surfaces[4u * s + 1u].xyz;
-            if (a.x == 1.0) {
-                n = normalize(p - a.yzw);
-            } else if (a.x == 2.0) {
-                n = mesh_normal(u32(a.z), hit.tri, hit.u, hit.v, dir);
-            }
-            if (dot(n, dir) > 0.0) {
-                n = -n;
-            }
+            let n = hit_normal(hit, p, dir);
             let diffuse = surfaces[4u * s + 2u].xyz;
             let m = surfaces[4u * s + 2u].w;
             let specular = surfaces[4u * s + 3u].xyz;

@@ -343,6 +343,23 @@ fn intersect(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> Hit {
     return best;
 }
 
+// The normal of surface `hit.surface` at its point p on a ray of direction d: a plane's
+// own, a sphere's radial one, a mesh's interpolated one; turned towards the ray.
+fn hit_normal(hit: Hit, p: vec3<f32>, d: vec3<f32>) -> vec3<f32> {
+    let s = u32(hit.surface);
+    let a = surfaces[4u * s];
+    var n = surfaces[4u * s + 1u].xyz;
+    if (a.x == 1.0) {
+        n = normalize(p - a.yzw);
+    } else if (a.x == 2.0) {
+        n = mesh_normal(u32(a.z), hit.tri, hit.u, hit.v, d);
+    }
+    if (dot(n, d) > 0.0) {
+        n = -n;
+    }
+    return n;
+}
+
 // The normal where a ray of direction d meets triangle `tri` of the mesh whose triangles
 // start at record `tris`, at barycentric (u, v): the vertex normals interpolated (or the
 // face normal), on the side of the face the ray arrives at (scene::Shape::intersect).
@@ -717,16 +734,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if (hit.surface >= 0) {
         let s = u32(hit.surface);
         let p = t_end * dir;
-        let a = surfaces[4u * s];
-        var n = surfaces[4u * s + 1u].xyz;
-        if (a.x == 1.0) {
-            n = normalize(p - a.yzw);
-        } else if (a.x == 2.0) {
-            n = mesh_normal(u32(a.z), hit.tri, hit.u, hit.v, dir);
-        }
-        if (dot(n, dir) > 0.0) {
-            n = -n;
-        }
+        let n = hit_normal(hit, p, dir);
         behind = shade_surface(dir, p, n, s);
     } else if (finite_end || any(beta <= vec3<f32>(0.0))) {
         behind = background(dir);
