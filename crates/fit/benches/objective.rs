@@ -2,7 +2,7 @@
 //! (pairs of an RBF and a voxel inside its 3r sphere), on one and on two threads.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use haze_fit::objective::{PARAMS_PER_RBF, cost_and_gradient};
+use haze_fit::objective::{PARAMS_PER_RBF, Scratch, cost_and_gradient_with};
 use haze_fit::{Bounds, FitGrid, init};
 use haze_volume::{ImportOptions, import};
 use std::hint::black_box;
@@ -41,6 +41,8 @@ fn bench(c: &mut Criterion) {
         let bounds = Bounds::default();
         let params = init::greedy(&g, n, init::initial_radius(&g, n, &bounds), &bounds);
         let mut grad = vec![0.0; params.len()];
+        // The fit keeps one residual buffer per minimization.
+        let mut scratch = Scratch::default();
         group.throughput(Throughput::Elements(pairs(&g, &params)));
         for threads in [1, 2] {
             let pool = rayon::ThreadPoolBuilder::new()
@@ -48,7 +50,11 @@ fn bench(c: &mut Criterion) {
                 .build()
                 .unwrap();
             group.bench_function(format!("{name}_{n}rbfs_{threads}thread"), |b| {
-                b.iter(|| pool.install(|| cost_and_gradient(&g, black_box(&params), &mut grad)))
+                b.iter(|| {
+                    pool.install(|| {
+                        cost_and_gradient_with(&g, black_box(&params), &mut grad, &mut scratch)
+                    })
+                })
             });
         }
     }

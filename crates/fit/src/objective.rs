@@ -16,9 +16,12 @@
 //! Evaluation is separable: `e_lv = ex_l[i]·ey_l[j]·ez_l[k]`, so each RBF gets three small
 //! 1-D tables per pass and the inner loops are one multiply-add per voxel, with no `exp`.
 //! The pass has two parallel halves, neither needing atomics or locks: (1) per z-plane,
-//! gather the RBFs whose support meets the plane and accumulate `D̃`, then `R` and the
-//! plane's share of `ΣR²`; (2) per RBF, walk its support sphere over `R` and accumulate its
-//! five gradient entries. Partial sums are combined in a fixed order, so results do not
+//! gather the RBFs whose support meets the plane, copy `D` on the rows they reach,
+//! subtract `D̃` there to get `R`, and accumulate the plane's share of `Σ(R² − D²)`
+//! (outside every support `R = D`, so `ΣR² = ΣD² + Σ_reached(R² − D²)` touches only the
+//! voxels the RBFs reach, not the whole grid); (2) per RBF, walk its support sphere over
+//! `R` and accumulate its five gradient entries. Partial sums are combined in a fixed
+//! order, so results do not
 //! depend on the thread count.
 
 use crate::grid::FitGrid;
@@ -34,6 +37,9 @@ const CUT2: f64 = CUTOFF * CUTOFF;
 #[derive(Debug, Default, Clone)]
 struct Axis {
     lo: usize,
+    /// Position of the smallest `q`: `q` does not increase up to it and does not
+    /// decrease after it (rounding is monotone, so this holds in floating point too).
+    mid: usize,
     /// `x_i − c` for voxel `lo + k`.
     d: Vec<f64>,
     /// `(x_i − c)² / r²`.
@@ -56,6 +62,9 @@ impl Axis {
             a.d.push(d);
             a.q.push(q);
             a.e.push((-q).exp());
+            if q < a.q[a.mid] {
+                a.mid = a.q.len() - 1;
+            }
         }
         Some(a)
     }
@@ -91,18 +100,19 @@ impl Tables {
     }
 
     /// Table positions of the x-row `(j, k)` whose voxels lie inside the sphere, given
-    /// `s = qy + qz < 9`.
+    /// `s = qy + qz < 9`: the `i` with `qx_i + s < 9`, found by binary search on the two
+    /// monotone halves of the table (exactly the per-voxel test's range; a row is
+    /// 5–15 voxels at fitted radii, so the search must cost less than a scan).
     #[inline]
     fn row(&self, s: f64) -> Option<(usize, usize)> {
-        let q = &self.axes[0].q;
-        let (mut a, mut b) = (0, q.len());
-        while a < b && q[a] + s >= CUT2 {
-            a += 1;
+        let ax = &self.axes[0];
+        let (left, right) = ax.q.split_at(ax.mid + 1);
+        let a = left.partition_point(|&q| q + s >= CUT2);
+        if a == left.len() {
+            return None;
         }
-        while b > a && q[b - 1] + s >= CUT2 {
-            b -= 1;
-        }
-        (a < b).then_some((a, b))
+        let b = left.len() + right.partition_point(|&q| q + s < CUT2);
+        Some((a, b))
     }
 }
 
@@ -126,52 +136,122 @@ fn plane_lists(grid: &FitGrid, t: &[Option<Tables>]) -> Vec<Vec<u32>> {
     lists
 }
 
-/// `R = D − D̃` over the whole grid and `Σ R²` (unnormalized).
-fn residual_with(grid: &FitGrid, t: &[Option<Tables>]) -> (Vec<f64>, f64) {
+/// Subtracts `D̃` of the RBFs in `list` from one z-plane `out` (x fastest).
+fn subtract_plane(grid: &FitGrid, t: &[Option<Tables>], z: usize, list: &[u32], out: &mut [f64]) {
+    for &l in list {
+        let Some(tab) = &t[l as usize] else { continue };
+        let [ax, ay, az] = &tab.axes;
+        let kz = z - az.lo;
+        let (qz, ez) = (az.q[kz], az.e[kz]);
+        for (jy, (&qy, &ey)) in ay.q.iter().zip(&ay.e).enumerate() {
+            let s = qy + qz;
+            if s >= CUT2 {
+                continue;
+            }
+            let Some((a, b)) = tab.row(s) else { continue };
+            let f = tab.w * ey * ez;
+            let row = grid.dims[0] * (ay.lo + jy) + ax.lo;
+            for (o, &ex) in out[row + a..row + b].iter_mut().zip(&ax.e[a..b]) {
+                *o -= f * ex;
+            }
+        }
+    }
+}
+
+/// For each x-row of one z-plane, a voxel range `[lo, hi)` that holds every voxel the
+/// RBFs in `list` reach on it (the union of their bounding boxes' rows; empty: `lo ≥ hi`).
+fn row_spans(grid: &FitGrid, t: &[Option<Tables>], list: &[u32]) -> Vec<(usize, usize)> {
+    let mut spans = vec![(usize::MAX, 0); grid.dims[1]];
+    for &l in list {
+        let Some(tab) = &t[l as usize] else { continue };
+        let [ax, ay, _] = &tab.axes;
+        for span in &mut spans[ay.lo..=ay.hi()] {
+            span.0 = span.0.min(ax.lo);
+            span.1 = span.1.max(ax.hi() + 1);
+        }
+    }
+    spans
+}
+
+/// A residual buffer kept from pass to pass, so that a pass touches only the voxels the
+/// RBFs reach: with the fitted radii of 1–2 voxels that is a small part of a 128³ grid,
+/// and copying and summing the whole grid each pass was most of its time (BENCHMARKS.md).
+#[derive(Debug, Default, Clone)]
+pub struct Scratch {
+    r: Vec<f64>,
+}
+
+/// `Σ R²` (unnormalized) with `R = D − D̃` written into `scratch` on the rows of the RBFs'
+/// bounding boxes ([`row_spans`]); the other entries are left as they were and
+/// hold no meaning. Outside the RBFs `R = D`, so
+/// `ΣR² = ΣD² + Σ_reached (R² − D²)`, with `ΣD²` the grid's `sum_sq`.
+fn residual_reached(grid: &FitGrid, t: &[Option<Tables>], scratch: &mut Scratch) -> f64 {
     let lists = plane_lists(grid, t);
     let plane = grid.dims[0] * grid.dims[1];
-    let mut r = grid.density.clone();
+    let r = &mut scratch.r;
+    r.resize(grid.len(), 0.0);
     if plane == 0 {
-        return (r, 0.0);
+        return 0.0;
     }
     let partial: Vec<f64> = r
         .par_chunks_mut(plane)
+        .zip(grid.density.par_chunks(plane))
         .zip(lists.par_iter())
         .enumerate()
-        .map(|(z, (out, list))| {
-            for &l in list {
-                let Some(tab) = &t[l as usize] else { continue };
-                let [ax, ay, az] = &tab.axes;
-                let kz = z - az.lo;
-                let (qz, ez) = (az.q[kz], az.e[kz]);
-                for (jy, (&qy, &ey)) in ay.q.iter().zip(&ay.e).enumerate() {
-                    let s = qy + qz;
-                    if s >= CUT2 {
-                        continue;
-                    }
-                    let Some((a, b)) = tab.row(s) else { continue };
-                    let f = tab.w * ey * ez;
-                    let row = grid.dims[0] * (ay.lo + jy) + ax.lo;
-                    for (o, &ex) in out[row + a..row + b].iter_mut().zip(&ax.e[a..b]) {
-                        *o -= f * ex;
+        .map(|(z, ((out, density), list))| {
+            if list.is_empty() {
+                return 0.0;
+            }
+            let spans = row_spans(grid, t, list);
+            for (y, &(lo, hi)) in spans.iter().enumerate() {
+                if lo < hi {
+                    let row = grid.dims[0] * y;
+                    out[row + lo..row + hi].copy_from_slice(&density[row + lo..row + hi]);
+                }
+            }
+            subtract_plane(grid, t, z, list, out);
+            let mut delta = 0.0;
+            for (y, &(lo, hi)) in spans.iter().enumerate() {
+                if lo < hi {
+                    let row = grid.dims[0] * y;
+                    for (&r, &d) in out[row + lo..row + hi]
+                        .iter()
+                        .zip(&density[row + lo..row + hi])
+                    {
+                        delta += r * r - d * d;
                     }
                 }
             }
-            out.iter().map(|v| v * v).sum::<f64>()
+            delta
         })
         .collect();
-    let sum = partial.iter().sum();
-    (r, sum)
+    // Rounding can take a perfect fit a hair below zero.
+    (grid.sum_sq + partial.iter().sum::<f64>()).max(0.0)
 }
 
 /// The residual `D − D̃` of the normalized density (x fastest).
 pub fn residual(grid: &FitGrid, params: &[f64]) -> Vec<f64> {
-    residual_with(grid, &tables(grid, params)).0
+    let t = tables(grid, params);
+    let lists = plane_lists(grid, &t);
+    let plane = grid.dims[0] * grid.dims[1];
+    let mut r = grid.density.clone();
+    if plane > 0 {
+        r.par_chunks_mut(plane)
+            .zip(lists.par_iter())
+            .enumerate()
+            .for_each(|(z, (out, list))| subtract_plane(grid, &t, z, list, out));
+    }
+    r
 }
 
 /// `f(θ)` = ΣR² / ΣD² (0 for an all-zero frame).
 pub fn cost(grid: &FitGrid, params: &[f64]) -> f64 {
-    let (_, e) = residual_with(grid, &tables(grid, params));
+    cost_with(grid, params, &mut Scratch::default())
+}
+
+/// [`cost`] with a residual buffer reused across calls.
+pub fn cost_with(grid: &FitGrid, params: &[f64], scratch: &mut Scratch) -> f64 {
+    let e = residual_reached(grid, &tables(grid, params), scratch);
     normalize(grid, e)
 }
 
@@ -183,10 +263,22 @@ fn normalize(grid: &FitGrid, e: f64) -> f64 {
     }
 }
 
-/// `f(θ)` and its gradient (written into `grad`, same layout as `params`) in one pass.
+/// [`cost_and_gradient_with`] with a fresh buffer.
 pub fn cost_and_gradient(grid: &FitGrid, params: &[f64], grad: &mut [f64]) -> f64 {
+    cost_and_gradient_with(grid, params, grad, &mut Scratch::default())
+}
+
+/// `f(θ)` and its gradient (written into `grad`, same layout as `params`) in one pass,
+/// reusing `scratch` for the residual.
+pub fn cost_and_gradient_with(
+    grid: &FitGrid,
+    params: &[f64],
+    grad: &mut [f64],
+    scratch: &mut Scratch,
+) -> f64 {
     let t = tables(grid, params);
-    let (r, e) = residual_with(grid, &t);
+    let e = residual_reached(grid, &t, scratch);
+    let r = &scratch.r;
     let scale = if grid.sum_sq > 0.0 {
         1.0 / grid.sum_sq
     } else {
@@ -209,11 +301,12 @@ pub fn cost_and_gradient(grid: &FitGrid, params: &[f64], grad: &mut [f64]) -> f6
                     let Some((a, b)) = tab.row(s) else { continue };
                     let row = grid.index(ax.lo, ay.lo + jy, az.lo + kz);
                     let (mut t0, mut t1, mut t2) = (0.0, 0.0, 0.0);
-                    for i in a..b {
-                        let re = r[row + i] * ax.e[i];
+                    let voxels = r[row + a..row + b].iter().zip(&ax.e[a..b]);
+                    for ((&rv, &e), (&d, &q)) in voxels.zip(ax.d[a..b].iter().zip(&ax.q[a..b])) {
+                        let re = rv * e;
                         t0 += re;
-                        t1 += re * ax.d[i];
-                        t2 += re * ax.q[i];
+                        t1 += re * d;
+                        t2 += re * q;
                     }
                     let f = ey * ez;
                     s0 += f * t0;
@@ -276,6 +369,69 @@ mod tests {
         }
         let e: f64 = r.iter().map(|v| v * v).sum::<f64>() / g.sum_sq;
         assert!((cost(&g, &params) - e).abs() < 1e-12);
+    }
+
+    /// A reused residual buffer gives the cost and gradient of a fresh one, also when the
+    /// previous pass's RBFs reached voxels the next pass's do not (stale entries there
+    /// must not count), and the cost equals `Σ(D − D̃)²/ΣD²` with `D̃` from the
+    /// independent reference evaluation.
+    #[test]
+    fn reused_buffer_matches_fresh_passes_and_the_reference() {
+        let g = grid_of([20, 14, 11], |p| {
+            ((p[1] * 0.4).cos().abs() + p[0] * 0.05) as f32
+        });
+        let a = [0.2, 0.3, 0.2, 0.06, 0.8, 0.7, 0.2, 0.4, 0.04, 0.3];
+        let b = [0.8, 0.5, 0.1, 0.03, 0.5, 0.45, 0.45, 0.3, 0.12, 0.4];
+        let mut scratch = Scratch::default();
+        let mut ga = vec![0.0; a.len()];
+        cost_and_gradient_with(&g, &a, &mut ga, &mut scratch);
+        for params in [&b[..], &a[..], &b[..]] {
+            let mut reused = vec![0.0; params.len()];
+            let mut fresh = vec![0.0; params.len()];
+            let c1 = cost_and_gradient_with(&g, params, &mut reused, &mut scratch);
+            let c2 = cost_and_gradient(&g, params, &mut fresh);
+            assert_eq!(c1, c2);
+            assert_eq!(reused, fresh);
+            let rbfs: Vec<_> = params
+                .chunks(5)
+                .map(|p| haze_volume::Rbf::new([p[0], p[1], p[2]], p[3], p[4]))
+                .collect();
+            let ext = haze_volume::Bbox::new([0.0; 3], g.extent);
+            let reference = rbf::evaluate_on_grid(g.dims, &ext, &rbfs);
+            let e: f64 = (0..g.len())
+                .map(|i| (g.density[i] - reference[i]).powi(2))
+                .sum::<f64>()
+                / g.sum_sq;
+            assert!((c1 - e).abs() < 1e-12 * e.max(1.0), "{c1} vs {e}");
+            assert_eq!(cost_with(&g, params, &mut scratch), c1);
+        }
+    }
+
+    /// The binary-searched row is exactly the range of the per-voxel sphere test, for
+    /// centers on and between voxel centers and `s` across `[0, 9)`.
+    #[test]
+    fn row_ranges_equal_the_per_voxel_test() {
+        let g = grid_of([24, 3, 3], |_| 1.0);
+        for (c, r) in [
+            (0.5, 0.07),
+            (0.52083, 0.02),
+            (0.01, 0.05),
+            (0.97, 0.1),
+            (0.3, 0.013),
+        ] {
+            // y and z: the middle of the 3-voxel axes (the unit is the 24-voxel side).
+            let tab = Tables::new(&g, &[c, 1.5 / 24.0, 1.5 / 24.0, r, 1.0]).unwrap();
+            let q = &tab.axes[0].q;
+            for k in 0..200 {
+                let s = 9.0 * k as f64 / 200.0;
+                let inside: Vec<usize> = (0..q.len()).filter(|&i| q[i] + s < CUT2).collect();
+                let want = inside.first().map(|&a| (a, inside[inside.len() - 1] + 1));
+                assert_eq!(tab.row(s), want, "c {c} r {r} s {s}");
+                if let Some((a, b)) = want {
+                    assert_eq!(b - a, inside.len(), "one contiguous range");
+                }
+            }
+        }
     }
 
     #[test]

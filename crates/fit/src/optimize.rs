@@ -12,7 +12,7 @@
 
 use crate::bounds::Bounds;
 use crate::grid::FitGrid;
-use crate::objective::{self, PARAMS_PER_RBF};
+use crate::objective::{self, PARAMS_PER_RBF, Scratch};
 use basin::{
     ApplicationStop, BoxBounds, ConstraintDescription, ConstraintSet, Constraints, CostFunction,
     Executor, FirstOrderState, Gradient, Lbfgs, State,
@@ -20,6 +20,7 @@ use basin::{
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
 use std::convert::Infallible;
+use std::sync::Mutex;
 
 /// Which local minimizer to use.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -94,6 +95,7 @@ pub struct Minimized {
 /// The problem in scaled variables `y = x / scale` (see [`scales`]); bounds are scaled too.
 struct Bounded<'a> {
     grid: &'a FitGrid,
+    scratch: Mutex<Scratch>,
     scale: Vec<f64>,
     lower: Vec<f64>,
     upper: Vec<f64>,
@@ -117,7 +119,12 @@ impl CostFunction for Bounded<'_> {
     type Output = f64;
     type Error = Infallible;
     fn cost(&self, y: &Vec<f64>) -> Result<f64, Infallible> {
-        Ok(objective::cost(self.grid, &self.unscale(y)))
+        let mut scratch = self.scratch.lock().unwrap_or_else(|e| e.into_inner());
+        Ok(objective::cost_with(
+            self.grid,
+            &self.unscale(y),
+            &mut scratch,
+        ))
     }
 }
 
@@ -133,7 +140,8 @@ impl Gradient for Bounded<'_> {
     }
     fn cost_and_gradient_into(&self, y: &Vec<f64>, g: &mut Vec<f64>) -> Result<f64, Infallible> {
         g.resize(y.len(), 0.0);
-        let c = objective::cost_and_gradient(self.grid, &self.unscale(y), g);
+        let mut scratch = self.scratch.lock().unwrap_or_else(|e| e.into_inner());
+        let c = objective::cost_and_gradient_with(self.grid, &self.unscale(y), g, &mut scratch);
         for (gk, s) in g.iter_mut().zip(&self.scale) {
             *gk *= s;
         }
@@ -151,6 +159,7 @@ impl Constraints for Bounded<'_> {
 /// The box mapped through the logistic function.
 struct Reparam<'a> {
     grid: &'a FitGrid,
+    scratch: Mutex<Scratch>,
     lower: Vec<f64>,
     upper: Vec<f64>,
 }
@@ -188,7 +197,8 @@ impl CostFunction for Reparam<'_> {
     type Output = f64;
     type Error = Infallible;
     fn cost(&self, u: &Vec<f64>) -> Result<f64, Infallible> {
-        Ok(objective::cost(self.grid, &self.to_x(u)))
+        let mut scratch = self.scratch.lock().unwrap_or_else(|e| e.into_inner());
+        Ok(objective::cost_with(self.grid, &self.to_x(u), &mut scratch))
     }
 }
 
@@ -200,7 +210,8 @@ impl Gradient for Reparam<'_> {
     fn cost_and_gradient(&self, u: &Vec<f64>) -> Result<(f64, Vec<f64>), Infallible> {
         let x = self.to_x(u);
         let mut g = vec![0.0; x.len()];
-        let c = objective::cost_and_gradient(self.grid, &x, &mut g);
+        let mut scratch = self.scratch.lock().unwrap_or_else(|e| e.into_inner());
+        let c = objective::cost_and_gradient_with(self.grid, &x, &mut g, &mut scratch);
         // dx/du = (hi − lo)·σ(u)·(1 − σ(u)).
         for (k, gk) in g.iter_mut().enumerate() {
             let s = sigmoid(u[k]);
@@ -241,6 +252,7 @@ pub fn minimize(
             let y0 = div(params);
             let problem = Bounded {
                 grid,
+                scratch: Mutex::default(),
                 lower: div(&lower),
                 upper: div(&upper),
                 scale: scale.clone(),
@@ -297,10 +309,16 @@ pub fn minimize(
         Optimizer::LbfgsReparam => {
             let map = Reparam {
                 grid,
+                scratch: Mutex::default(),
                 lower: lower.clone(),
                 upper: upper.clone(),
             };
-            let problem = Reparam { grid, lower, upper };
+            let problem = Reparam {
+                grid,
+                scratch: Mutex::default(),
+                lower,
+                upper,
+            };
             let u0 = map.to_u(params);
             let solver = Lbfgs::new()
                 .unbounded()
