@@ -337,7 +337,7 @@ pub struct BakeCli {
     warm_iterations: u64,
     /// Stop a warm-started minimization when its last 10 iterations together lowered the
     /// error by less than this fraction (0: only --tolerance stops it; see BENCHMARKS.md).
-    #[arg(long, default_value_t = 1e-3, value_name = "F")]
+    #[arg(long, default_value_t = haze_fit::sequence::WARM_WINDOW_GAIN, value_name = "F")]
     warm_tolerance: f64,
     /// Fit first frames on the half-resolution grid, then polish at full resolution:
     /// `auto` on grids of 64³ voxels or more.

@@ -8,7 +8,7 @@
 //!
 //! cargo run --release -p haze-fit --example sequence -- INPUT [--frames A..B] [--rbfs N]
 //!     [--paper] [--coarse auto|on|off] [--insertion batch|single] [--max-insert M]
-//!     [--warm-gain F] [--threshold T] [--marginal-gain F] [--cold-every K] [--radius-min R]
+//!     [--warm-gain F] [--warm-window W] [--threshold T] [--marginal-gain F] [--cold-every K] [--radius-min R]
 
 use haze_fit::{
     Coarse, FitGrid, Insertion, InsertionStop, SequenceFitter, SequenceOptions, fit_first_frame,
@@ -40,7 +40,7 @@ fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some(input) = args.first() else {
         fail(
-            "usage: sequence INPUT [--frames A..B] [--rbfs N] [--paper] [--coarse auto|on|off] [--insertion batch|single] [--max-insert M] [--warm-gain F] [--threshold T] [--marginal-gain F] [--cold-every K] [--radius-min R]",
+            "usage: sequence INPUT [--frames A..B] [--rbfs N] [--paper] [--coarse auto|on|off] [--insertion batch|single] [--max-insert M] [--warm-gain F] [--warm-window W] [--threshold T] [--marginal-gain F] [--cold-every K] [--radius-min R]",
         )
     };
     let mut range = FrameRange::default();
@@ -56,6 +56,7 @@ fn main() {
             "--cold-every" => cold_every = value(&args, i),
             "--max-insert" => opts.max_insert = Some(value(&args, i)),
             "--warm-gain" => opts.warm.window_gain = value(&args, i),
+            "--warm-window" => opts.warm.window = value(&args, i),
             "--radius-min" => opts.fit.bounds.radius.0 = value(&args, i),
             "--coarse" => {
                 opts.fit.coarse = match args.get(i + 1).map(String::as_str) {
