@@ -386,6 +386,49 @@ fn bake_writes_rbfs_report_and_inspectable_asset() {
     }
 }
 
+/// A frame left over the threshold at the RBF ceiling is a warning naming the ceiling,
+/// and the report marks it capped with `insertion_stop` "ceiling".
+#[test]
+fn bake_warns_and_reports_a_frame_capped_at_the_ceiling() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("plume.haze");
+    let report = tmp.path().join("report.json");
+    let dir = data("plume-a/vdb");
+    // Threshold 1 and a ceiling at the first frame's count: a warm frame of the growing
+    // plume over the first frame's error can only put back the 3 RBFs it deleted.
+    let run = haze()
+        .args(["bake", dir.to_str().unwrap(), "--frames", "21..23"])
+        .args(["--rbfs", "40", "--max-rbfs", "40", "--threshold", "1"])
+        .args(["--max-iterations", "100", "--out", out.to_str().unwrap()])
+        .args(["--report", report.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(run.status.success());
+    let log = String::from_utf8_lossy(&run.stderr);
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let frames = r["frames"].as_array().unwrap();
+    let over: Vec<_> = frames[1..]
+        .iter()
+        .filter(|f| f["error_ratio"].as_f64().unwrap() > 1.0)
+        .collect();
+    assert!(!over.is_empty(), "no frame over the threshold: {r}");
+    for f in &over {
+        assert_eq!(f["insertion_stop"], "ceiling", "{f}");
+        assert_eq!(f["insertion_capped"], true, "{f}");
+        assert_eq!(f["rbfs"], 40, "{f}");
+        let line = format!("frame {}: error ratio", f["frame"]);
+        assert!(
+            log.lines().any(|l| l.contains("WARN")
+                && l.contains(&line)
+                && l.contains("at the ceiling of 40 RBFs")),
+            "no ceiling warning for frame {}: {log}",
+            f["frame"]
+        );
+    }
+    assert_eq!(r["temporal"]["frames_capped"], over.len());
+}
+
 #[test]
 fn bake_with_target_error_picks_the_count() {
     let tmp = tempfile::tempdir().unwrap();

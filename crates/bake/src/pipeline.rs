@@ -289,9 +289,20 @@ impl Bake {
             fit.iterations,
             fit.fit_seconds
         );
-        if fit.insertion_capped {
+        if fit.insertion_capped && fit.insertion_stop == Some(haze_fit::InsertionStop::Ceiling) {
             tracing::warn!(
-                "{}: frame {}: error ratio {:.3} over --threshold {} after inserting {} RBFs, the most this frame may insert (the smoke's growth, --max-insert or --max-rbfs): its detail grows faster than its size, and the residual stores what the RBFs miss",
+                "{}: frame {}: error ratio {:.3} over --threshold {} at the ceiling of {} RBFs a frame (--max-rbfs; by default {}× the first frame's count) after inserting {}: the ceiling bounds what a frame costs, and the residual stores what the RBFs miss (raise --max-rbfs to spend more RBFs)",
+                f.path.display(),
+                f.number,
+                fit.error_ratio,
+                self.opts.threshold,
+                fit.rbfs.len(),
+                haze_fit::sequence::GROWTH_LIMIT,
+                fit.inserted
+            );
+        } else if fit.insertion_capped {
+            tracing::warn!(
+                "{}: frame {}: error ratio {:.3} over --threshold {} after inserting {} RBFs, the most this frame may insert (the smoke's growth, or --max-insert): its detail grows faster than its size, and the residual stores what the RBFs miss",
                 f.path.display(),
                 f.number,
                 fit.error_ratio,
