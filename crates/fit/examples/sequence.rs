@@ -4,12 +4,17 @@
 //! most 8, full resolution only, per-iteration convergence test) for a before/after.
 //! `--cold-every K` also fits every K-th warm frame from scratch with the warm fit's RBF
 //! count and prints the warm error over the cold one: above 1 is drift that the warm
-//! start added, not the smoke's own growing complexity.
+//! start added, not the smoke's own growing complexity. `--cold-density K` fits every
+//! K-th warm frame from scratch with the first frame's RBFs per voxel of smoke (its count
+//! times the growth of [`smoke_support`](haze_fit::sequence::smoke_support)) and prints that
+//! count, the cold error and the warm error over it: the error the first frame's RBF
+//! density reaches on this frame, against which a warm frame's drift can be judged.
 //!
 //! cargo run --release -p haze-fit --example sequence -- INPUT [--frames A..B] [--rbfs N]
 //!     [--paper] [--coarse auto|on|off] [--insertion batch|single] [--max-insert M]
-//!     [--warm-gain F] [--warm-window W] [--threshold T] [--marginal-gain F] [--cold-every K] [--radius-min R]
+//!     [--warm-gain F] [--warm-window W] [--threshold T] [--marginal-gain F] [--cold-every K] [--cold-density K] [--radius-min R]
 
+use haze_fit::sequence::smoke_support;
 use haze_fit::{
     Coarse, FitGrid, Insertion, InsertionStop, SequenceFitter, SequenceOptions, fit_first_frame,
 };
@@ -40,12 +45,12 @@ fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some(input) = args.first() else {
         fail(
-            "usage: sequence INPUT [--frames A..B] [--rbfs N] [--paper] [--coarse auto|on|off] [--insertion batch|single] [--max-insert M] [--warm-gain F] [--warm-window W] [--threshold T] [--marginal-gain F] [--cold-every K] [--radius-min R]",
+            "usage: sequence INPUT [--frames A..B] [--rbfs N] [--paper] [--coarse auto|on|off] [--insertion batch|single] [--max-insert M] [--warm-gain F] [--warm-window W] [--threshold T] [--marginal-gain F] [--cold-every K] [--cold-density K] [--radius-min R]",
         )
     };
     let mut range = FrameRange::default();
     let mut opts = SequenceOptions::default();
-    let mut cold_every = 0usize;
+    let (mut cold_every, mut cold_density) = (0usize, 0usize);
     let mut i = 1;
     while i < args.len() {
         match args[i].as_str() {
@@ -54,6 +59,7 @@ fn main() {
             "--threshold" => opts.threshold = value(&args, i),
             "--marginal-gain" => opts.marginal_gain = value(&args, i),
             "--cold-every" => cold_every = value(&args, i),
+            "--cold-density" => cold_density = value(&args, i),
             "--max-insert" => opts.max_insert = Some(value(&args, i)),
             "--warm-gain" => opts.warm.window_gain = value(&args, i),
             "--warm-window" => opts.warm.window = value(&args, i),
@@ -95,14 +101,15 @@ fn main() {
         d[2]
     );
     println!(
-        "| frame | RBFs | +ins | rel_l2 | rms/max | ratio | iterations (coarse) | passes | insert s | seconds | stop | warm/cold |"
+        "| frame | RBFs | +ins | rel_l2 | rms/max | ratio | iterations (coarse) | passes | insert s | seconds | stop | warm/cold | at first density: RBFs, cold rel_l2, warm/cold |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let mut fitter = SequenceFitter::new(opts.clone());
     let (mut warm_s, mut rms, mut first_s) = (Vec::new(), Vec::new(), Vec::new());
     let (mut over, mut worst, mut capped, mut moved) = (0, 0.0f64, 0, Vec::new());
     let (mut marginal, mut iterations) = (0, 0u64);
-    let mut cold_ratio = Vec::new();
+    let (mut cold_ratio, mut density_ratio) = (Vec::new(), Vec::new());
+    let mut first: Option<(usize, usize)> = None;
     for k in 0..seq.len() {
         let v = seq
             .load(k)
@@ -110,8 +117,22 @@ fn main() {
         let f = fitter
             .fit(&v)
             .unwrap_or_else(|e| fail(format!("frame {k}: {e}")));
+        let g = FitGrid::from_volume(&v).unwrap_or_else(|e| fail(format!("frame {k}: {e}")));
+        let support = smoke_support(&g);
+        if !f.warm_started {
+            first = Some((f.rbfs.len(), support));
+        }
+        let density = match first {
+            Some((n0, s0)) if cold_density > 0 && f.warm_started && k % cold_density == 0 => {
+                let n = (n0 as f64 * support as f64 / s0.max(1) as f64).round() as usize;
+                let (p, _) = fit_first_frame(&g, n.max(1), &opts.fit);
+                let (rel, _) = haze_fit::sequence::errors(&g, &p);
+                density_ratio.push(f.rel_l2 / rel);
+                format!("{n}, {rel:.4}, {:.3}", f.rel_l2 / rel)
+            }
+            _ => String::new(),
+        };
         let cold = if cold_every > 0 && f.warm_started && k % cold_every == 0 {
-            let g = FitGrid::from_volume(&v).unwrap_or_else(|e| fail(format!("frame {k}: {e}")));
             let (p, _) = fit_first_frame(&g, f.rbfs.len(), &opts.fit);
             let (rel, _) = haze_fit::sequence::errors(&g, &p);
             cold_ratio.push(f.rel_l2 / rel);
@@ -120,7 +141,7 @@ fn main() {
             String::new()
         };
         println!(
-            "| {} | {} | {} | {:.4} | {:.2} % | {:.3} | {} ({}) | {} | {:.2} | {:.2} | {} | {cold} |",
+            "| {} | {} | {} | {:.4} | {:.2} % | {:.3} | {} ({}) | {} | {:.2} | {:.2} | {} | {cold} | {density} |",
             seq.frames()[k].number,
             f.rbfs.len(),
             f.inserted,
@@ -158,6 +179,14 @@ fn main() {
         median(rms) * 100.0,
         moved.iter().sum::<f64>() / moved.len().max(1) as f64,
     );
+    if !density_ratio.is_empty() {
+        println!(
+            "warm over cold at the first frame's RBF density: median {:.3}, max {:.3} ({} frames)",
+            median(density_ratio.clone()),
+            density_ratio.iter().copied().fold(f64::NAN, f64::max),
+            density_ratio.len()
+        );
+    }
     if !cold_ratio.is_empty() {
         println!(
             "warm over cold at the same RBF count: median {:.3}, max {:.3} ({} frames)",
