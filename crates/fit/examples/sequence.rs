@@ -12,7 +12,8 @@
 //!
 //! cargo run --release -p haze-fit --example sequence -- INPUT [--frames A..B] [--rbfs N]
 //!     [--paper] [--coarse auto|on|off] [--insertion batch|single] [--max-insert M]
-//!     [--warm-gain F] [--warm-window W] [--threshold T] [--marginal-gain F] [--cold-every K] [--cold-density K] [--radius-min R]
+//!     [--warm-gain F] [--warm-window W] [--tolerance F] [--polish-iterations N]
+//!     [--threshold T] [--marginal-gain F] [--cold-every K] [--cold-density K] [--radius-min R]
 
 use haze_fit::sequence::smoke_support;
 use haze_fit::{
@@ -45,7 +46,7 @@ fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some(input) = args.first() else {
         fail(
-            "usage: sequence INPUT [--frames A..B] [--rbfs N] [--paper] [--coarse auto|on|off] [--insertion batch|single] [--max-insert M] [--warm-gain F] [--warm-window W] [--threshold T] [--marginal-gain F] [--cold-every K] [--cold-density K] [--radius-min R]",
+            "usage: sequence INPUT [--frames A..B] [--rbfs N] [--paper] [--coarse auto|on|off] [--insertion batch|single] [--max-insert M] [--warm-gain F] [--warm-window W] [--tolerance F] [--polish-iterations N] [--threshold T] [--marginal-gain F] [--cold-every K] [--cold-density K] [--radius-min R]",
         )
     };
     let mut range = FrameRange::default();
@@ -63,6 +64,8 @@ fn main() {
             "--max-insert" => opts.max_insert = Some(value(&args, i)),
             "--warm-gain" => opts.warm.window_gain = value(&args, i),
             "--warm-window" => opts.warm.window = value(&args, i),
+            "--tolerance" => opts.fit.stop.relative_reduction = value(&args, i),
+            "--polish-iterations" => opts.fit.polish.max_iterations = value(&args, i),
             "--radius-min" => opts.fit.bounds.radius.0 = value(&args, i),
             "--coarse" => {
                 opts.fit.coarse = match args.get(i + 1).map(String::as_str) {
