@@ -12,7 +12,8 @@
 //!
 //! cargo run --release -p haze-fit --example sequence -- INPUT [--frames A..B] [--rbfs N]
 //!     [--paper] [--coarse auto|on|off] [--insertion batch|single] [--max-insert M]
-//!     [--warm-gain F] [--warm-window W] [--tolerance F] [--polish-iterations N]
+//!     [--warm-gain F] [--warm-window W] [--warm-iterations N] [--tolerance F]
+//!     [--polish-iterations N]
 //!     [--threshold T] [--marginal-gain F] [--cold-every K] [--cold-density K] [--radius-min R]
 
 use haze_fit::sequence::smoke_support;
@@ -46,7 +47,7 @@ fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some(input) = args.first() else {
         fail(
-            "usage: sequence INPUT [--frames A..B] [--rbfs N] [--paper] [--coarse auto|on|off] [--insertion batch|single] [--max-insert M] [--warm-gain F] [--warm-window W] [--tolerance F] [--polish-iterations N] [--threshold T] [--marginal-gain F] [--cold-every K] [--cold-density K] [--radius-min R]",
+            "usage: sequence INPUT [--frames A..B] [--rbfs N] [--paper] [--coarse auto|on|off] [--insertion batch|single] [--max-insert M] [--warm-gain F] [--warm-window W] [--warm-iterations N] [--tolerance F] [--polish-iterations N] [--threshold T] [--marginal-gain F] [--cold-every K] [--cold-density K] [--radius-min R]",
         )
     };
     let mut range = FrameRange::default();
@@ -64,6 +65,7 @@ fn main() {
             "--max-insert" => opts.max_insert = Some(value(&args, i)),
             "--warm-gain" => opts.warm.window_gain = value(&args, i),
             "--warm-window" => opts.warm.window = value(&args, i),
+            "--warm-iterations" => opts.warm.max_iterations = value(&args, i),
             "--tolerance" => opts.fit.stop.relative_reduction = value(&args, i),
             "--polish-iterations" => opts.fit.polish.max_iterations = value(&args, i),
             "--radius-min" => opts.fit.bounds.radius.0 = value(&args, i),
