@@ -5,6 +5,7 @@
 //! cargo run --release -p haze-scene --example paper_b_figures -- accuracy [--size 64x48]
 //! cargo run --release -p haze-scene --example paper_b_figures -- timing [--size 320x240]
 //!     [--counts 10,100,1000,5000] [--lights 1,2,4] [--repeat 3] [--gpu [--prep]]
+//!     [--no-environment]
 //! cargo run --release -p haze-scene --example paper_b_figures -- environment [--size 48x36]
 //!     [--theta 8]
 //! cargo run --release -p haze-scene --example paper_b_figures -- scene data/scenes/gaussians.json
@@ -25,7 +26,8 @@
 //! optical depth) against the march integrating it over directions. **Timing**: the median of `--repeat` frames, per-frame preparation
 //! (the exponents `Eᵢ` per light, the environment's `Ēᵢ` and `T̄ⱼ(bᵢ)`) included, rayon
 //! on every core; with `--gpu` the frame on the GPU (`haze_scene::gpu_paper_b`: the same
-//! preparation on the CPU, upload, pass, read-back), the tables uploaded beforehand.
+//! preparation on the CPU, upload, pass, read-back), the tables uploaded beforehand;
+//! `--no-environment` makes the room's environment black (no §4.2 terms, no `T̄(p)`).
 
 use haze_gaussians::cloud;
 use haze_scene::airlight::Limits;
@@ -353,6 +355,7 @@ fn timing(args: &[String]) {
     let counts = list(args, "--counts", &[10, 100, 1000, 5000]);
     let lights = list(args, "--lights", &[1, 2, 4]);
     let repeat = list(args, "--repeat", &[3])[0].max(1);
+    let no_environment = args.iter().any(|a| a == "--no-environment");
     let gpu = args.iter().any(|a| a == "--gpu").then(|| {
         let ctx = GpuContext::new().unwrap_or_else(|e| fail(e));
         let pipeline = GpuPaperB::new(&ctx).unwrap_or_else(|e| fail(e));
@@ -388,7 +391,16 @@ fn timing(args: &[String]) {
         };
         print!("| {n} |");
         for &l in &lights {
-            let s = scene(&cloud, l, sz, false, 0.9);
+            let s = if no_environment {
+                let text = scene_text(&cloud, l, sz, false, 0.9).replacen(
+                    "\"environment\": [0.05, 0.06, 0.08]",
+                    "\"environment\": null",
+                    1,
+                );
+                file::parse(&text).unwrap_or_else(|e| fail(e))
+            } else {
+                scene(&cloud, l, sz, false, 0.9)
+            };
             let analytic = Analytic::new(&s);
             let tables = gpu
                 .as_ref()

@@ -237,25 +237,158 @@ fn env_surface_b(p: vec3<f32>, n: vec3<f32>, r: vec3<f32>, diffuse: vec3<f32>, s
     return out;
 }
 
-// The Gaussians' optical depth along o + t·u, t ∈ [0, len], and its scattering part.
-fn gauss_depth(o: vec3<f32>, u: vec3<f32>, len: f32) -> vec2<f32> {
+// ---- Per-tile lists of Gaussians (§5's splatting as screen tiles) ----
+// A workgroup is an 8×8 tile of pixels. Its invocations test the Gaussians in chunks of
+// CHUNK against a bound of the whole tile (the frustum of its view rays, or the hull of
+// its surface points and a light) and compact the survivors, in index order, into
+// `tile_list`; every pixel then loops over the list only. A Gaussian left out cannot
+// reach any of the tile's per-pixel computations (the view ray's cull sphere test, or
+// line_gauss's √40-radii cut-off), so the image is the unculled one's, sums in the same
+// order.
+const TILE_SIZE: u32 = 8u;
+const CHUNK: u32 = 256u;
+// CHUNK / 64 invocations.
+const PER_INVOCATION: u32 = 4u;
+// line_gauss's cut-off, √40 radii.
+const SQRT_40: f32 = 6.32455532;
+
+var<workgroup> tile_list: array<u32, 256>;
+var<workgroup> tile_counts: array<u32, 64>;
+var<workgroup> tile_total: u32;
+var<workgroup> tile_points: array<vec4<f32>, 64>;
+
+// The margin added to every cull radius: f32's rounding of the shader's own per-pixel
+// tests and of the bounds (~10⁻⁷ relative) a hundred times over.
+fn cull_margin(r: f32, b: vec3<f32>) -> f32 {
+    return 1.0e-3 * r + 1.0e-5 * length(b) + 1.0e-30;
+}
+
+// The tile's four side planes through the eye (inward unit normals) from the rays through
+// its corners at the pixel edges; every view ray of the tile lies in the convex cone
+// {x : nₖ·x ≥ 0}.
+fn tile_planes(tile: vec2<u32>) -> array<vec3<f32>, 4> {
+    let x0 = f32(tile.x * TILE_SIZE);
+    let y0 = f32(tile.y * TILE_SIZE);
+    let x1 = f32(min((tile.x + 1u) * TILE_SIZE, P.size.x));
+    let y1 = f32(min((tile.y + 1u) * TILE_SIZE, P.size.y));
+    let c00 = pixel_dir(vec2<f32>(x0, y0));
+    let c10 = pixel_dir(vec2<f32>(x1, y0));
+    let c01 = pixel_dir(vec2<f32>(x0, y1));
+    let c11 = pixel_dir(vec2<f32>(x1, y1));
+    let mid = pixel_dir(vec2<f32>(0.5 * (x0 + x1), 0.5 * (y0 + y1)));
+    var planes = array<vec3<f32>, 4>(cross(c00, c01), cross(c10, c00), cross(c11, c10), cross(c01, c11));
+    for (var k = 0u; k < 4u; k++) {
+        var n = normalize(planes[k]);
+        if (dot(n, mid) < 0.0) {
+            n = -n;
+        }
+        planes[k] = n;
+    }
+    return planes;
+}
+
+// Whether Gaussian i's cull sphere meets the tile's cone of view rays.
+fn meets_tile(i: u32, planes: array<vec3<f32>, 4>) -> bool {
+    let b0 = blobs[2u * i];
+    let r = sqrt(blobs[2u * i + 1u].z);
+    let reach = -(r + cull_margin(r, b0.xyz));
+    for (var k = 0u; k < 4u; k++) {
+        if (dot(planes[k], b0.xyz) < reach) {
+            return false;
+        }
+    }
+    return true;
+}
+
+// Whether Gaussian i's √40-radii sphere comes within `rad` of the segment o + t·u,
+// t ∈ [0, len] (rad < 0: never).
+fn near_segment(i: u32, o: vec3<f32>, u: vec3<f32>, len: f32, rad: f32) -> bool {
+    if (rad < 0.0) {
+        return false;
+    }
+    let b0 = blobs[2u * i];
+    let r = SQRT_40 / b0.w;
+    let bo = b0.xyz - o;
+    let t = clamp(dot(bo, u), 0.0, len);
+    let foot = bo - t * u;
+    let reach = r + rad + cull_margin(r, b0.xyz) + 1.0e-5 * length(o);
+    return dot(foot, foot) <= reach * reach;
+}
+
+// Fills tile_list with the Gaussians start.. start + CHUNK that pass the tile's test
+// (`view`: meets_tile with `planes`; else near_segment with o, u, len, rad), in index
+// order; returns how many. Called by every invocation of the workgroup alike.
+fn list_chunk(start: u32, n: u32, lid: u32, view: bool, planes: array<vec3<f32>, 4>, o: vec3<f32>, u: vec3<f32>, len: f32, rad: f32) -> u32 {
+    // Every invocation is done with the previous list before it is overwritten.
+    workgroupBarrier();
+    var mine: array<u32, 4>;
+    var count = 0u;
+    for (var k = 0u; k < PER_INVOCATION; k++) {
+        let i = start + PER_INVOCATION * lid + k;
+        if (i < n) {
+            var keep = false;
+            if (view) {
+                keep = meets_tile(i, planes);
+            } else {
+                keep = near_segment(i, o, u, len, rad);
+            }
+            if (keep) {
+                mine[count] = i;
+                count++;
+            }
+        }
+    }
+    tile_counts[lid] = count;
+    workgroupBarrier();
+    var at = 0u;
+    for (var j = 0u; j < lid; j++) {
+        at += tile_counts[j];
+    }
+    for (var k = 0u; k < count; k++) {
+        tile_list[at + k] = mine[k];
+    }
+    if (lid == 63u) {
+        tile_total = at + count;
+    }
+    workgroupBarrier();
+    return tile_total;
+}
+
+// The Gaussians' optical depth along o + t·u, t ∈ [0, len], and its scattering part, for
+// every invocation where `shading`, over the Gaussians near the segment (cu, culen) of
+// the tile's bound (radius crad) — which holds every shading invocation's segment.
+fn gauss_depth_tiled(o: vec3<f32>, u: vec3<f32>, len: f32, shading: bool, lid: u32, co: vec3<f32>, cu: vec3<f32>, clen: f32, crad: f32) -> vec2<f32> {
     var out = vec2<f32>(0.0);
     let n = gaussian_count();
-    for (var i = 0u; i < n; i++) {
-        let b0 = blobs[2u * i];
-        let b1 = blobs[2u * i + 1u];
-        let t = line_gauss(b1.x, b0.w, b0.xyz, o, u, len);
-        out += vec2<f32>(t, b1.y * t);
+    let none = array<vec3<f32>, 4>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    for (var start = 0u; start < n; start += CHUNK) {
+        let m = list_chunk(start, n, lid, false, none, co, cu, clen, crad);
+        if (shading) {
+            for (var k = 0u; k < m; k++) {
+                let i = tile_list[k];
+                let b0 = blobs[2u * i];
+                let b1 = blobs[2u * i + 1u];
+                let t = line_gauss(b1.x, b0.w, b0.xyz, o, u, len);
+                out += vec2<f32>(t, b1.y * t);
+            }
+        }
     }
     return out;
 }
 
-// paper_b::Prepared::surface: the surface lit through T(s,p).
-fn shade_surface_b(dir: vec3<f32>, p: vec3<f32>, n: vec3<f32>, s: u32) -> vec3<f32> {
-    let diffuse = surfaces[4u * s + 2u].xyz;
-    let m = surfaces[4u * s + 2u].w;
-    let specular = surfaces[4u * s + 3u].xyz;
-    let gn = surfaces[4u * s + 3u].w;
+// paper_b::Prepared::surface: the surface lit through T(s,p), for every invocation
+// where `shading` (the others pass along for the tile's lists). (cb, rb): a sphere
+// holding the tile's surface points (rb < 0: none).
+fn shade_surface_b(dir: vec3<f32>, p: vec3<f32>, n: vec3<f32>, s: u32, shading: bool, lid: u32, cb: vec3<f32>, rb: f32) -> vec3<f32> {
+    // A scene without surfaces has one empty record: read materials where shading only.
+    var mat = array<vec4<f32>, 2>(vec4<f32>(0.0), vec4<f32>(0.0, 0.0, 0.0, -1.0));
+    if (shading) {
+        mat = array<vec4<f32>, 2>(surfaces[4u * s + 2u], surfaces[4u * s + 3u]);
+    }
+    let diffuse = mat[0].xyz;
+    let m = mat[0].w;
+    let specular = mat[1].xyz;
+    let gn = mat[1].w;
     let r = 2.0 * dot(-dir, n) * n + dir;
     let eps = P.albedo.w;
     let p_off = p + eps * (1.0 + length(p)) * n;
@@ -263,7 +396,7 @@ fn shade_surface_b(dir: vec3<f32>, p: vec3<f32>, n: vec3<f32>, s: u32) -> vec3<f
     let background_hides_suns = bexp[header].y > 0.5;
     let ss_scene = bexp[header + 1u].xyz;
     var out = vec3<f32>(0.0);
-    if (env_mode() > 0u) {
+    if (shading && env_mode() > 0u) {
         out = env_surface_b(p, n, r, diffuse, specular, m, gn);
     }
     for (var i = 0u; i < P.size.z; i++) {
@@ -284,10 +417,25 @@ fn shade_surface_b(dir: vec3<f32>, p: vec3<f32>, n: vec3<f32>, s: u32) -> vec3<f
             let d = length(v);
             let l = v / d;
             var f = vec3<f32>(0.0);
-            if (dot(n, l) > 0.0 && visible(p_off, light, eps)) {
+            if (shading && dot(n, l) > 0.0 && visible(p_off, light, eps)) {
                 f = brdf(n, r, l, diffuse, specular, m);
             }
-            let depth = gauss_depth(p, l, d);
+            // The tile's bound: the capsule around cb → light of radius rb (+ r_min, how
+            // far a light is moved off a point too close).
+            let cv = a.yzw - cb;
+            let clen = length(cv);
+            var cu = vec3<f32>(0.0, 0.0, 1.0);
+            if (clen > 0.0) {
+                cu = cv / clen;
+            }
+            var crad = rb;
+            if (rb >= 0.0) {
+                crad = rb + P.sigma_t.w;
+            }
+            let depth = gauss_depth_tiled(p, l, d, shading, lid, cb, cu, clen, crad);
+            if (!shading) {
+                continue;
+            }
             let theta_s = angle(n, l);
             let theta_r = angle(r, l);
             for (var c = 0u; c < 3u; c++) {
@@ -310,13 +458,14 @@ fn shade_surface_b(dir: vec3<f32>, p: vec3<f32>, n: vec3<f32>, s: u32) -> vec3<f
         } else {
             let irradiance = lights[3u * i + 2u].xyz;
             let sd = a.yzw;
-            if (dot(n, sd) > 0.0 && !background_hides_suns && intersect(p_off, sd, 0.0, 3.0e38).surface < 0) {
-                let t = gauss_depth(p, sd, LONG).x;
+            let lit = shading && dot(n, sd) > 0.0 && !background_hides_suns && intersect(p_off, sd, 0.0, 3.0e38).surface < 0;
+            let t = gauss_depth_tiled(p, sd, LONG, lit, lid, cb, sd, LONG, rb).x;
+            if (lit) {
                 out += irradiance * exp(-t) * brdf(n, r, sd, diffuse, specular, m);
             }
             let lobes = diffuse + specular * (m + 2.0) / (m + 1.0);
             for (var c = 0u; c < 3u; c++) {
-                if (ss_scene[c] > 0.0) {
+                if (shading && ss_scene[c] > 0.0) {
                     out[c] += P.albedo[c] * irradiance[c] / (4.0 * PI) * lobes[c];
                 }
             }
@@ -326,13 +475,12 @@ fn shade_surface_b(dir: vec3<f32>, p: vec3<f32>, n: vec3<f32>, s: u32) -> vec3<f
 }
 
 @compute @workgroup_size(8, 8, 1)
-fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_index) lid: u32, @builtin(workgroup_id) tile: vec3<u32>) {
     let w = P.size.x;
     let h = P.size.y;
-    if (id.x >= w || id.y >= h) {
-        return;
-    }
-    let dir = pixel_dir(vec2<f32>(id.xy) + 0.5);
+    // Invocations beyond the image's edge take part in the tile's lists, write nothing.
+    let inside = id.x < w && id.y < h;
+    let dir = pixel_dir(vec2<f32>(min(id.xy, vec2<u32>(w - 1u, h - 1u))) + 0.5);
 
     let env_far = P.flags.y == 0u;
     let t_max = primary_t_max();
@@ -355,51 +503,56 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     var out = vec3<f32>(0.0);
     // The Gaussians whose cull sphere the ray crosses: Tᵢ(v,p) and their factored airlight.
     var tau = 0.0;
-    for (var i = 0u; i < n_g; i++) {
-        let b0 = blobs[2u * i];
-        let b1 = blobs[2u * i + 1u];
-        let b = b0.xyz;
-        let m = dot(b, dir);
-        let foot = b - clamp(m, 0.0, t_end) * dir;
-        if (dot(foot, foot) > b1.z) {
-            continue;
-        }
-        let a = b0.w;
-        let t_r = clamp(m, 0.0, t_end);
-        var along = dir;
-        if (noisy) {
-            along = noisy_direction(i, n_g, dir, t_r);
-        }
-        let vp = line_gauss(b1.x, a, b, vec3<f32>(0.0), along, t_end);
-        tau += vp;
-        if (vp <= 0.0 || b1.y <= 0.0) {
-            continue;
-        }
-        let vr = line_gauss(b1.x, a, b, vec3<f32>(0.0), dir, t_r);
-        let br = t_r * dir;
-        for (var l = 0u; l < n_l; l++) {
-            let la = lights[3u * l];
-            var f0 = 1.0 / (4.0 * PI);
-            var sr = 0.0;
-            var e = lights[3u * l + 2u].xyz;
-            if (la.x == 0.0) {
-                e = lights[3u * l + 1u].xyz;
-                let ls = br - la.yzw;
-                let d = length(ls);
-                if (d > 0.0) {
-                    sr = line_gauss(b1.x, a, b, la.yzw, ls / d, d);
-                }
-                let dc = max(d, P.sigma_t.w);
-                f0 = 1.0 / (4.0 * PI * dc * dc);
-            } else {
-                sr = line_gauss(b1.x, a, b, br, la.yzw, LONG);
+    let planes = tile_planes(tile.xy);
+    for (var start = 0u; start < n_g; start += CHUNK) {
+        let listed = list_chunk(start, n_g, lid, true, planes, vec3<f32>(0.0), vec3<f32>(0.0), 0.0, 0.0);
+        for (var k = 0u; k < listed; k++) {
+            let i = tile_list[k];
+            let b0 = blobs[2u * i];
+            let b1 = blobs[2u * i + 1u];
+            let b = b0.xyz;
+            let m = dot(b, dir);
+            let foot = b - clamp(m, 0.0, t_end) * dir;
+            if (dot(foot, foot) > b1.z) {
+                continue;
             }
-            let base = b1.y * f0 * exp(-sr - vr) * vp;
-            out += e * base * bexp[l * n_g + i].xyz;
-        }
-        if (has_env) {
-            let own = vr + gauss_mean_depth(b1.x, a, b, br);
-            out += bexp[env_at + i].xyz * (exp(-own) * vp);
+            let a = b0.w;
+            let t_r = clamp(m, 0.0, t_end);
+            var along = dir;
+            if (noisy) {
+                along = noisy_direction(i, n_g, dir, t_r);
+            }
+            let vp = line_gauss(b1.x, a, b, vec3<f32>(0.0), along, t_end);
+            tau += vp;
+            if (vp <= 0.0 || b1.y <= 0.0) {
+                continue;
+            }
+            let vr = line_gauss(b1.x, a, b, vec3<f32>(0.0), dir, t_r);
+            let br = t_r * dir;
+            for (var l = 0u; l < n_l; l++) {
+                let la = lights[3u * l];
+                var f0 = 1.0 / (4.0 * PI);
+                var sr = 0.0;
+                var e = lights[3u * l + 2u].xyz;
+                if (la.x == 0.0) {
+                    e = lights[3u * l + 1u].xyz;
+                    let ls = br - la.yzw;
+                    let d = length(ls);
+                    if (d > 0.0) {
+                        sr = line_gauss(b1.x, a, b, la.yzw, ls / d, d);
+                    }
+                    let dc = max(d, P.sigma_t.w);
+                    f0 = 1.0 / (4.0 * PI * dc * dc);
+                } else {
+                    sr = line_gauss(b1.x, a, b, br, la.yzw, LONG);
+                }
+                let base = b1.y * f0 * exp(-sr - vr) * vp;
+                out += e * base * bexp[l * n_g + i].xyz;
+            }
+            if (has_env) {
+                let own = vr + gauss_mean_depth(b1.x, a, b, br);
+                out += bexp[env_at + i].xyz * (exp(-own) * vp);
+            }
         }
     }
     // The homogeneous term of each light.
@@ -430,13 +583,36 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             }
         }
     }
-    var behind = vec3<f32>(0.0);
-    if (hit.surface >= 0) {
-        let s = u32(hit.surface);
-        let p = t_end * dir;
-        let n = hit_normal(hit, p, dir);
-        behind = shade_surface_b(dir, p, n, s);
-    } else if (finite_end || any(beta <= vec3<f32>(0.0))) {
+    // The tile's surface points, bounded by a sphere for the shadow lists.
+    let on_surface = inside && hit.surface >= 0;
+    let p = t_end * dir;
+    var surf_id = 0u;
+    var n = vec3<f32>(0.0, 0.0, 1.0);
+    if (on_surface) {
+        surf_id = u32(hit.surface);
+        n = hit_normal(hit, p, dir);
+        tile_points[lid] = vec4<f32>(p, 1.0);
+    } else {
+        tile_points[lid] = vec4<f32>(0.0);
+    }
+    workgroupBarrier();
+    var lo = vec3<f32>(3.0e38);
+    var hi = vec3<f32>(-3.0e38);
+    for (var k = 0u; k < TILE_SIZE * TILE_SIZE; k++) {
+        let q = tile_points[k];
+        if (q.w > 0.0) {
+            lo = min(lo, q.xyz);
+            hi = max(hi, q.xyz);
+        }
+    }
+    var cb = vec3<f32>(0.0);
+    var rb = -1.0;
+    if (all(lo <= hi)) {
+        cb = 0.5 * (lo + hi);
+        rb = 0.5 * length(hi - lo) * (1.0 + 1.0e-5) + 1.0e-5 * length(cb);
+    }
+    var behind = shade_surface_b(dir, p, n, surf_id, on_surface, lid, cb, rb);
+    if (!on_surface && (finite_end || any(beta <= vec3<f32>(0.0)))) {
         behind = background(dir);
     }
     for (var c = 0u; c < 3u; c++) {
@@ -452,5 +628,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             }
         }
     }
-    image[id.y * w + id.x] = vec4<f32>(out, 1.0);
+    if (inside) {
+        image[id.y * w + id.x] = vec4<f32>(out, 1.0);
+    }
 }

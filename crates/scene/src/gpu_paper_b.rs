@@ -2,10 +2,19 @@
 //! helpers — intersections, shadow rays, paper C's airlight and tables, the BRDF, the
 //! environment — it shares): the `f32` twin of [`crate::paper_b::Prepared::radiance`],
 //! one invocation per pixel. The CPU prepares the frame as for its own render (the
-//! Gaussians merged, each one's `e^{Eᵢ}` per light, `C_sv`) and uploads it; the shader
-//! loops over every Gaussian per pixel (those whose cull sphere the ray crosses gather
-//! airlight; every one adds to `T(s,p)`, exact as the CPU's hierarchy), with
+//! Gaussians merged, each one's `e^{Eᵢ}` per light, `C_sv`) and uploads it, with
 //! Abramowitz–Stegun's erf (`1.5·10⁻⁷`) for libm's.
+//!
+//! **Tiles** (§5's splatting, by screen tiles): a workgroup is an 8 × 8 tile of pixels.
+//! Its 64 invocations test the Gaussians, 256 at a time, against a bound of the whole
+//! tile and compact the survivors in index order into a workgroup list that every pixel
+//! then loops over: for the view ray, the cull sphere `√(ln(cᵢ/ε))/aᵢ` against the
+//! tile's cone of rays (its four side planes); for the optical depth `T(s,p)` to each
+//! light, the `√40`-radii sphere beyond which the shader's line integral is zero
+//! (`e⁻⁴⁰`) against the capsule from the sphere around the tile's surface points to the
+//! light (a sun: the half-line towards it). A Gaussian left out fails the pixel's own test
+//! for every pixel of the tile, so the lists change no sum (margins of `10⁻³` of the
+//! radius cover `f32`'s rounding of the bounds).
 //!
 //! The environment ([`crate::gaussian_env`]): the CPU uploads each Gaussian's
 //! `αᵢ·Ēᵢ·e^{Eᵢ}` and `(Ē, β_bg·D)`; the shader adds `e^{−Tᵢ(v,bᵢʳ) − T̄ᵢ(bᵢʳ)}·Tᵢ(v,p)`
