@@ -209,19 +209,13 @@ fn env_base(n_g: u32) -> u32 {
     return P.size.z * n_g + P.size.z;
 }
 
-// GaussianEnv::surface: the SH environment on the surface dimmed by e^{−T̄(p)}.
-fn env_surface_b(p: vec3<f32>, n: vec3<f32>, r: vec3<f32>, diffuse: vec3<f32>, specular: vec3<f32>, m: f32, gn: f32) -> vec3<f32> {
+// GaussianEnv::surface: the SH environment on the surface dimmed by e^{−T̄(p)}, `mean`
+// the Gaussians' (T̄, S̄) at p (tile_mean_depth).
+fn env_surface_b(mean: vec2<f32>, n: vec3<f32>, r: vec3<f32>, diffuse: vec3<f32>, specular: vec3<f32>, m: f32, gn: f32) -> vec3<f32> {
     let n_g = gaussian_count();
     let rec = bexp[env_base(n_g) + n_g];
-    var t = rec.w;
-    var s = 0.0;
-    for (var i = 0u; i < n_g; i++) {
-        let b0 = blobs[2u * i];
-        let b1 = blobs[2u * i + 1u];
-        let ti = gauss_mean_depth(b1.x, b0.w, b0.xyz, p);
-        t += ti;
-        s += b1.y * ti;
-    }
+    let t = rec.w + mean.x;
+    let s = mean.y;
     let att = exp(-t);
     var out = vec3<f32>(0.0);
     if (P.env.z > 0u) {
@@ -315,10 +309,16 @@ fn near_segment(i: u32, o: vec3<f32>, u: vec3<f32>, len: f32, rad: f32) -> bool 
     return dot(foot, foot) <= reach * reach;
 }
 
+// The tests of list_chunk.
+const LIST_VIEW: u32 = 0u;
+const LIST_SEGMENT: u32 = 1u;
+const LIST_NEAR: u32 = 2u;
+
 // Fills tile_list with the Gaussians start.. start + CHUNK that pass the tile's test
-// (`view`: meets_tile with `planes`; else near_segment with o, u, len, rad), in index
-// order; returns how many. Called by every invocation of the workgroup alike.
-fn list_chunk(start: u32, n: u32, lid: u32, view: bool, planes: array<vec3<f32>, 4>, o: vec3<f32>, u: vec3<f32>, len: f32, rad: f32) -> u32 {
+// (LIST_VIEW: meets_tile with `planes`; LIST_SEGMENT: near_segment with o, u, len, rad;
+// LIST_NEAR: not far_from_tile of the sphere (o, rad)), in index order; returns how
+// many. Called by every invocation of the workgroup alike.
+fn list_chunk(start: u32, n: u32, lid: u32, mode: u32, planes: array<vec3<f32>, 4>, o: vec3<f32>, u: vec3<f32>, len: f32, rad: f32) -> u32 {
     // Every invocation is done with the previous list before it is overwritten.
     workgroupBarrier();
     var mine: array<u32, 4>;
@@ -327,10 +327,12 @@ fn list_chunk(start: u32, n: u32, lid: u32, view: bool, planes: array<vec3<f32>,
         let i = start + PER_INVOCATION * lid + k;
         if (i < n) {
             var keep = false;
-            if (view) {
+            if (mode == LIST_VIEW) {
                 keep = meets_tile(i, planes);
-            } else {
+            } else if (mode == LIST_SEGMENT) {
                 keep = near_segment(i, o, u, len, rad);
+            } else {
+                keep = rad >= 0.0 && !far_from_tile(i, o, rad);
             }
             if (keep) {
                 mine[count] = i;
@@ -354,6 +356,106 @@ fn list_chunk(start: u32, n: u32, lid: u32, view: bool, planes: array<vec3<f32>,
     return tile_total;
 }
 
+// ---- T̄(p) by tiles: far Gaussians through a Taylor expansion about the tile ----
+// T̄ has no cut-off (𝒯 ~ √π/(4ρ²)). A Gaussian far from the sphere (cb, rb) around the
+// tile's surface points — every point at ρ = a|p − b| ≥ 6, where gauss_mean_depth takes
+// Dawson's asymptotic series, and |cb − b| ≥ FAR_RATIO·rb — adds its series' Taylor
+// expansion to second order about cb, summed over the tile's far Gaussians once (value,
+// gradient, Hessian; T̄ and S̄ = Σ αᵢT̄ᵢ): for the leading 1/|x|² the remainder is below
+// Σ_{k≥3}(k+1)ε^k ≈ 4ε³, ε = rb/|cb − b| ≤ 1/FAR_RATIO (Gegenbauer's |C_k¹| ≤ k + 1), so
+// within 1.1·10⁻³ of the far Gaussians' share. The near ones are listed and summed
+// exactly per pixel.
+const FAR_RATIO: f32 = 16.0;
+
+// Per invocation, its share of the far sums: (T̄, ∇T̄), (H_xx, H_yy, H_zz, H_xy),
+// (H_xz, H_yz, -, -), then the same for S̄.
+var<workgroup> tile_far: array<vec4<f32>, 384>;
+
+// Whether Gaussian i is far from every point of the sphere (cb, rb) (above).
+fn far_from_tile(i: u32, cb: vec3<f32>, rb: f32) -> bool {
+    let b0 = blobs[2u * i];
+    let d = length(b0.xyz - cb) * (1.0 - 1.0e-4);
+    return d >= FAR_RATIO * rb && b0.w * (d - rb) >= 6.0;
+}
+
+// Gaussian i's asymptotic T̄ᵢ (gauss_mean_depth beyond ρ = 6) at cb, its gradient and
+// Hessian: with s = |x|², x = cb − b, u = 1/(a²s), φ(s) = (c/a)(√π/4)·P(u),
+// P = u + u²/2 + 3u³/4 + 15u⁴/8: φ′ = −(c/a)(√π/4)·u·P′(u)/s, φ″ = (c/a)(√π/4)·Q′(u)/s²,
+// Q = u²P′; ∇ = 2φ′x, H = 2φ′I + 4φ″xxᵀ. Written as the three records of tile_far.
+fn far_terms(i: u32, cb: vec3<f32>) -> array<vec4<f32>, 3> {
+    let b0 = blobs[2u * i];
+    let c = blobs[2u * i + 1u].x;
+    let a = b0.w;
+    let x = cb - b0.xyz;
+    let s = dot(x, x);
+    let u = 1.0 / (a * a * s);
+    let k = SQRT_PI_2 * 0.5 * c / a;
+    let p = u * (1.0 + u * (0.5 + u * (0.75 + u * 1.875)));
+    let dp = 1.0 + u * (1.0 + u * (2.25 + u * 7.5));
+    let dq = u * (2.0 + u * (3.0 + u * (9.0 + u * 37.5)));
+    let d1 = -k * u * dp / s;
+    let d2 = k * dq / (s * s);
+    let g = 2.0 * d1 * x;
+    let hd = 2.0 * d1 + 4.0 * d2 * x * x;
+    let ho = 4.0 * d2 * vec3<f32>(x.x * x.y, x.x * x.z, x.y * x.z);
+    return array<vec4<f32>, 3>(vec4<f32>(k * p, g), vec4<f32>(hd, ho.x), vec4<f32>(ho.y, ho.z, 0.0, 0.0));
+}
+
+// The expansion of records r0..r2 at cb + d.
+fn far_at(r0: vec4<f32>, r1: vec4<f32>, r2: vec4<f32>, d: vec3<f32>) -> f32 {
+    let quad = dot(r1.xyz, d * d) + 2.0 * (r1.w * d.x * d.y + r2.x * d.x * d.z + r2.y * d.y * d.z);
+    return r0.x + dot(r0.yzw, d) + 0.5 * quad;
+}
+
+// (T̄(p), S̄(p)) of the Gaussians (the background's β_bg·D apart) for every invocation
+// where `shading`; (cb, rb): the sphere around the tile's surface points (rb < 0: none).
+fn tile_mean_depth(p: vec3<f32>, shading: bool, lid: u32, cb: vec3<f32>, rb: f32) -> vec2<f32> {
+    let n = gaussian_count();
+    var acc = array<vec4<f32>, 6>(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
+    if (rb >= 0.0) {
+        for (var i = lid; i < n; i += TILE_SIZE * TILE_SIZE) {
+            if (far_from_tile(i, cb, rb)) {
+                let f = far_terms(i, cb);
+                let albedo = blobs[2u * i + 1u].y;
+                for (var k = 0u; k < 3u; k++) {
+                    acc[k] += f[k];
+                    acc[k + 3u] += albedo * f[k];
+                }
+            }
+        }
+    }
+    workgroupBarrier();
+    for (var k = 0u; k < 6u; k++) {
+        tile_far[6u * lid + k] = acc[k];
+    }
+    workgroupBarrier();
+    var out = vec2<f32>(0.0);
+    if (shading) {
+        var sum = array<vec4<f32>, 6>(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
+        for (var j = 0u; j < TILE_SIZE * TILE_SIZE; j++) {
+            for (var k = 0u; k < 6u; k++) {
+                sum[k] += tile_far[6u * j + k];
+            }
+        }
+        let d = p - cb;
+        out = vec2<f32>(far_at(sum[0], sum[1], sum[2], d), far_at(sum[3], sum[4], sum[5], d));
+    }
+    let none = array<vec3<f32>, 4>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    for (var start = 0u; start < n; start += CHUNK) {
+        let m = list_chunk(start, n, lid, LIST_NEAR, none, cb, vec3<f32>(0.0), 0.0, rb);
+        if (shading) {
+            for (var k = 0u; k < m; k++) {
+                let i = tile_list[k];
+                let b0 = blobs[2u * i];
+                let b1 = blobs[2u * i + 1u];
+                let ti = gauss_mean_depth(b1.x, b0.w, b0.xyz, p);
+                out += vec2<f32>(ti, b1.y * ti);
+            }
+        }
+    }
+    return out;
+}
+
 // The Gaussians' optical depth along o + t·u, t ∈ [0, len], and its scattering part, for
 // every invocation where `shading`, over the Gaussians near the segment (cu, culen) of
 // the tile's bound (radius crad) — which holds every shading invocation's segment.
@@ -362,7 +464,7 @@ fn gauss_depth_tiled(o: vec3<f32>, u: vec3<f32>, len: f32, shading: bool, lid: u
     let n = gaussian_count();
     let none = array<vec3<f32>, 4>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
     for (var start = 0u; start < n; start += CHUNK) {
-        let m = list_chunk(start, n, lid, false, none, co, cu, clen, crad);
+        let m = list_chunk(start, n, lid, LIST_SEGMENT, none, co, cu, clen, crad);
         if (shading) {
             for (var k = 0u; k < m; k++) {
                 let i = tile_list[k];
@@ -396,8 +498,11 @@ fn shade_surface_b(dir: vec3<f32>, p: vec3<f32>, n: vec3<f32>, s: u32, shading: 
     let background_hides_suns = bexp[header].y > 0.5;
     let ss_scene = bexp[header + 1u].xyz;
     var out = vec3<f32>(0.0);
-    if (shading && env_mode() > 0u) {
-        out = env_surface_b(p, n, r, diffuse, specular, m, gn);
+    if (env_mode() > 0u) {
+        let mean = tile_mean_depth(p, shading, lid, cb, rb);
+        if (shading) {
+            out = env_surface_b(mean, n, r, diffuse, specular, m, gn);
+        }
     }
     for (var i = 0u; i < P.size.z; i++) {
         let a = lights[3u * i];
@@ -505,7 +610,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_
     var tau = 0.0;
     let planes = tile_planes(tile.xy);
     for (var start = 0u; start < n_g; start += CHUNK) {
-        let listed = list_chunk(start, n_g, lid, true, planes, vec3<f32>(0.0), vec3<f32>(0.0), 0.0, 0.0);
+        let listed = list_chunk(start, n_g, lid, LIST_VIEW, planes, vec3<f32>(0.0), vec3<f32>(0.0), 0.0, 0.0);
         for (var k = 0u; k < listed; k++) {
             let i = tile_list[k];
             let b0 = blobs[2u * i];

@@ -14,13 +14,19 @@
 //! (`e⁻⁴⁰`) against the capsule from the sphere around the tile's surface points to the
 //! light (a sun: the half-line towards it). A Gaussian left out fails the pixel's own test
 //! for every pixel of the tile, so the lists change no sum (margins of `10⁻³` of the
-//! radius cover `f32`'s rounding of the bounds).
+//! radius cover `f32`'s rounding of the bounds). The environment's `T̄(p)` has no
+//! cut-off: a Gaussian far from the sphere around the tile's surface points (every
+//! point at `ρ ≥ 6`, where the shader takes Dawson's asymptotic series, and at least 16
+//! times the sphere's radius away) enters through the second-order Taylor expansion of
+//! that series about the sphere's centre, summed once per tile (remainder below `4ε³`
+//! of its share, `ε ≤ 1/16`: `10⁻³`); the others are listed and summed exactly per pixel.
 //!
 //! The environment ([`crate::gaussian_env`]): the CPU uploads each Gaussian's
 //! `αᵢ·Ēᵢ·e^{Eᵢ}` and `(Ē, β_bg·D)`; the shader adds `e^{−Tᵢ(v,bᵢʳ) − T̄ᵢ(bᵢʳ)}·Tᵢ(v,p)`
 //! times it per Gaussian the ray gathers, and dims render.wgsl's SH lighting of surfaces
-//! (paper C's, the same `EnvGlow`) by `e^{−T̄(p)}`, `T̄(p)` summed over every Gaussian
-//! with Dawson's integral by Rybicki's sum at `h = 0.4` (`~2·10⁻⁷`, Numerical Recipes).
+//! (paper C's, the same `EnvGlow`) by `e^{−T̄(p)}`, `T̄(p)` summed over the Gaussians
+//! (above) with Dawson's integral by Rybicki's sum at `h = 0.4` (`~2·10⁻⁷`, Numerical
+//! Recipes).
 //!
 //! Noise (§5.5): the shader's `perlin_value` is [`Perlin::value`] in `f32`, reading the
 //! permutation the CPU drew from the medium's seed (uploaded once per distinct medium);
