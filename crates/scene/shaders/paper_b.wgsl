@@ -243,6 +243,9 @@ const TILE_SIZE: u32 = 8u;
 const CHUNK: u32 = 256u;
 // CHUNK / 64 invocations.
 const PER_INVOCATION: u32 = 4u;
+// Up to this many Gaussians every pixel loops over all of them (the same sums in the same
+// order as through the lists, without the lists' barriers).
+const DIRECT_MAX: u32 = 32u;
 // line_gauss's cut-off, √40 radii.
 const SQRT_40: f32 = 6.32455532;
 
@@ -342,15 +345,20 @@ fn list_chunk(start: u32, n: u32, lid: u32, mode: u32, planes: array<vec3<f32>, 
     }
     tile_counts[lid] = count;
     workgroupBarrier();
-    var at = 0u;
-    for (var j = 0u; j < lid; j++) {
-        at += tile_counts[j];
+    // One invocation turns the counts into offsets (an exclusive scan).
+    if (lid == 0u) {
+        var total = 0u;
+        for (var j = 0u; j < TILE_SIZE * TILE_SIZE; j++) {
+            let c = tile_counts[j];
+            tile_counts[j] = total;
+            total += c;
+        }
+        tile_total = total;
     }
+    workgroupBarrier();
+    let at = tile_counts[lid];
     for (var k = 0u; k < count; k++) {
         tile_list[at + k] = mine[k];
-    }
-    if (lid == 63u) {
-        tile_total = at + count;
     }
     workgroupBarrier();
     return tile_total;
@@ -411,6 +419,18 @@ fn far_at(r0: vec4<f32>, r1: vec4<f32>, r2: vec4<f32>, d: vec3<f32>) -> f32 {
 // where `shading`; (cb, rb): the sphere around the tile's surface points (rb < 0: none).
 fn tile_mean_depth(p: vec3<f32>, shading: bool, lid: u32, cb: vec3<f32>, rb: f32) -> vec2<f32> {
     let n = gaussian_count();
+    if (n <= DIRECT_MAX) {
+        var exact = vec2<f32>(0.0);
+        if (shading) {
+            for (var i = 0u; i < n; i++) {
+                let b0 = blobs[2u * i];
+                let b1 = blobs[2u * i + 1u];
+                let ti = gauss_mean_depth(b1.x, b0.w, b0.xyz, p);
+                exact += vec2<f32>(ti, b1.y * ti);
+            }
+        }
+        return exact;
+    }
     var acc = array<vec4<f32>, 6>(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
     if (rb >= 0.0) {
         for (var i = lid; i < n; i += TILE_SIZE * TILE_SIZE) {
@@ -429,16 +449,19 @@ fn tile_mean_depth(p: vec3<f32>, shading: bool, lid: u32, cb: vec3<f32>, rb: f32
         tile_far[6u * lid + k] = acc[k];
     }
     workgroupBarrier();
-    var out = vec2<f32>(0.0);
-    if (shading) {
-        var sum = array<vec4<f32>, 6>(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
-        for (var j = 0u; j < TILE_SIZE * TILE_SIZE; j++) {
+    // One invocation sums the shares into the first six records.
+    if (lid == 0u) {
+        for (var j = 1u; j < TILE_SIZE * TILE_SIZE; j++) {
             for (var k = 0u; k < 6u; k++) {
-                sum[k] += tile_far[6u * j + k];
+                tile_far[k] += tile_far[6u * j + k];
             }
         }
+    }
+    workgroupBarrier();
+    var out = vec2<f32>(0.0);
+    if (shading) {
         let d = p - cb;
-        out = vec2<f32>(far_at(sum[0], sum[1], sum[2], d), far_at(sum[3], sum[4], sum[5], d));
+        out = vec2<f32>(far_at(tile_far[0], tile_far[1], tile_far[2], d), far_at(tile_far[3], tile_far[4], tile_far[5], d));
     }
     let none = array<vec3<f32>, 4>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
     for (var start = 0u; start < n; start += CHUNK) {
@@ -463,11 +486,15 @@ fn gauss_depth_tiled(o: vec3<f32>, u: vec3<f32>, len: f32, shading: bool, lid: u
     var out = vec2<f32>(0.0);
     let n = gaussian_count();
     let none = array<vec3<f32>, 4>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    let direct = n <= DIRECT_MAX;
     for (var start = 0u; start < n; start += CHUNK) {
-        let m = list_chunk(start, n, lid, LIST_SEGMENT, none, co, cu, clen, crad);
+        var m = n - start;
+        if (!direct) {
+            m = list_chunk(start, n, lid, LIST_SEGMENT, none, co, cu, clen, crad);
+        }
         if (shading) {
             for (var k = 0u; k < m; k++) {
-                let i = tile_list[k];
+                let i = select(tile_list[k], start + k, direct);
                 let b0 = blobs[2u * i];
                 let b1 = blobs[2u * i + 1u];
                 let t = line_gauss(b1.x, b0.w, b0.xyz, o, u, len);
@@ -609,10 +636,14 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_
     // The Gaussians whose cull sphere the ray crosses: Tᵢ(v,p) and their factored airlight.
     var tau = 0.0;
     let planes = tile_planes(tile.xy);
+    let direct = n_g <= DIRECT_MAX;
     for (var start = 0u; start < n_g; start += CHUNK) {
-        let listed = list_chunk(start, n_g, lid, LIST_VIEW, planes, vec3<f32>(0.0), vec3<f32>(0.0), 0.0, 0.0);
+        var listed = n_g - start;
+        if (!direct) {
+            listed = list_chunk(start, n_g, lid, LIST_VIEW, planes, vec3<f32>(0.0), vec3<f32>(0.0), 0.0, 0.0);
+        }
         for (var k = 0u; k < listed; k++) {
-            let i = tile_list[k];
+            let i = select(tile_list[k], start + k, direct);
             let b0 = blobs[2u * i];
             let b1 = blobs[2u * i + 1u];
             let b = b0.xyz;
@@ -688,7 +719,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_
             }
         }
     }
-    // The tile's surface points, bounded by a sphere for the shadow lists.
+    // The tile's surface points, bounded by a sphere for the lists (none without them).
     let on_surface = inside && hit.surface >= 0;
     let p = t_end * dir;
     var surf_id = 0u;
@@ -696,25 +727,33 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_
     if (on_surface) {
         surf_id = u32(hit.surface);
         n = hit_normal(hit, p, dir);
-        tile_points[lid] = vec4<f32>(p, 1.0);
-    } else {
-        tile_points[lid] = vec4<f32>(0.0);
-    }
-    workgroupBarrier();
-    var lo = vec3<f32>(3.0e38);
-    var hi = vec3<f32>(-3.0e38);
-    for (var k = 0u; k < TILE_SIZE * TILE_SIZE; k++) {
-        let q = tile_points[k];
-        if (q.w > 0.0) {
-            lo = min(lo, q.xyz);
-            hi = max(hi, q.xyz);
-        }
     }
     var cb = vec3<f32>(0.0);
     var rb = -1.0;
-    if (all(lo <= hi)) {
-        cb = 0.5 * (lo + hi);
-        rb = 0.5 * length(hi - lo) * (1.0 + 1.0e-5) + 1.0e-5 * length(cb);
+    if (n_g > DIRECT_MAX) {
+        tile_points[lid] = select(vec4<f32>(0.0), vec4<f32>(p, 1.0), on_surface);
+        workgroupBarrier();
+        // One invocation bounds them (into the first record; w < 0: no surface point).
+        if (lid == 0u) {
+            var lo = vec3<f32>(3.0e38);
+            var hi = vec3<f32>(-3.0e38);
+            for (var k = 0u; k < TILE_SIZE * TILE_SIZE; k++) {
+                let q = tile_points[k];
+                if (q.w > 0.0) {
+                    lo = min(lo, q.xyz);
+                    hi = max(hi, q.xyz);
+                }
+            }
+            var sphere = vec4<f32>(0.0, 0.0, 0.0, -1.0);
+            if (all(lo <= hi)) {
+                let c = 0.5 * (lo + hi);
+                sphere = vec4<f32>(c, 0.5 * length(hi - lo) * (1.0 + 1.0e-5) + 1.0e-5 * length(c));
+            }
+            tile_points[0] = sphere;
+        }
+        workgroupBarrier();
+        cb = tile_points[0].xyz;
+        rb = tile_points[0].w;
     }
     var behind = shade_surface_b(dir, p, n, surf_id, on_surface, lid, cb, rb);
     if (!on_surface && (finite_end || any(beta <= vec3<f32>(0.0)))) {

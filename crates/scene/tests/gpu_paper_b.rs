@@ -321,11 +321,11 @@ fn tiles_drop_most_gaussians_and_the_extremes() {
     // Every pixel within the tolerance but a few (2 of 2560) for silhouettes: a wrong cull
     // shows as a scatter of outliers, not as a worst case.
     compare_with("wide", &wide(1500, inside), 1e-3);
-    // One Gaussian larger than the view, centred on the camera's target, a light inside.
-    compare(
-        "covering",
-        &wide(0, r#"{"center": [0, 8, 0.6], "radius": 6, "weight": 0.02}"#),
-    );
+    // A Gaussian larger than the view, centred on the camera's target, the lights inside
+    // it: with the tiles (191 Gaussians) and alone (the untiled pipeline, ≤ 32).
+    let covering = r#"{"center": [0, 8, 0.6], "radius": 6, "weight": 0.02}"#;
+    compare("covering, tiled", &wide(40, covering));
+    compare("covering alone", &wide(0, covering));
     // No Gaussians: paper C's part alone.
     compare("none", &wide(0, ""));
 }
