@@ -237,8 +237,8 @@ fn env_surface_b(mean: vec2<f32>, n: vec3<f32>, r: vec3<f32>, diffuse: vec3<f32>
 // its surface points and a light) and compact the survivors, in index order, into
 // `tile_list`; every pixel then loops over the list only. A Gaussian left out cannot
 // reach any of the tile's per-pixel computations (the view ray's cull sphere test, or
-// line_gauss's √40-radii cut-off), so the image is the unculled one's, sums in the same
-// order.
+// line_gauss's √40-radii cut-off), so these sums are the unculled ones, in the same
+// order. (T̄(p), which has no cut-off, is another matter: tile_mean_depth.)
 const TILE_SIZE: u32 = 8u;
 const CHUNK: u32 = 256u;
 // CHUNK / 64 invocations.
