@@ -143,23 +143,31 @@ impl GaussianSet {
     /// `−Σ_{j≠i}[Tⱼ(s, bᵢ) + Tⱼ(v, bᵢ)]` for every Gaussian `i` (module docs): the
     /// ray-independent part of its attenuation, Gaussians only.
     pub fn center_exponents(&self, v: Vec3, light: Source) -> Vec<f64> {
-        self.blobs
-            .iter()
-            .enumerate()
-            .map(|(i, b)| {
-                let to_light = light
-                    .path(b.center)
-                    .map_or(0.0, |(d, len)| self.depth(b.center, d, len, Some(i)).0);
-                let dv = sub(v, b.center);
-                let lv = norm(dv);
-                let to_eye = if lv > 0.0 {
-                    self.depth(b.center, dv.map(|c| c / lv), lv, Some(i)).0
-                } else {
-                    0.0
-                };
-                -(to_light + to_eye)
-            })
+        (0..self.blobs.len())
+            .map(|i| -(self.depth_to_light(i, light) + self.depth_to_point(i, v)))
             .collect()
+    }
+
+    /// `Σ_{j≠i} Tⱼ(bᵢ, v)`: the other Gaussians' optical depth from Gaussian `i`'s centre
+    /// to the point `v` (0 at the centre itself).
+    pub fn depth_to_point(&self, i: usize, v: Vec3) -> f64 {
+        let b = self.blobs[i].center;
+        let dv = sub(v, b);
+        let lv = norm(dv);
+        if lv > 0.0 {
+            self.depth(b, dv.map(|c| c / lv), lv, Some(i)).0
+        } else {
+            0.0
+        }
+    }
+
+    /// `Σ_{j≠i} Tⱼ(s, bᵢ)`: the other Gaussians' optical depth from Gaussian `i`'s centre
+    /// to the light (a sun: towards it, to infinity).
+    pub fn depth_to_light(&self, i: usize, light: Source) -> f64 {
+        let b = self.blobs[i].center;
+        light
+            .path(b)
+            .map_or(0.0, |(d, len)| self.depth(b, d, len, Some(i)).0)
     }
 }
 

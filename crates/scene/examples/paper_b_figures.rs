@@ -5,6 +5,7 @@
 //! cargo run --release -p haze-scene --example paper_b_figures -- accuracy [--size 64x48]
 //! cargo run --release -p haze-scene --example paper_b_figures -- timing [--size 320x240]
 //!     [--counts 10,100,1000,5000] [--lights 1,2,4] [--repeat 3] [--gpu [--prep]]
+//!     [--no-environment] [--scene FILE]
 //! cargo run --release -p haze-scene --example paper_b_figures -- environment [--size 48x36]
 //!     [--theta 8]
 //! cargo run --release -p haze-scene --example paper_b_figures -- scene data/scenes/gaussians.json
@@ -25,7 +26,9 @@
 //! optical depth) against the march integrating it over directions. **Timing**: the median of `--repeat` frames, per-frame preparation
 //! (the exponents `Eᵢ` per light, the environment's `Ēᵢ` and `T̄ⱼ(bᵢ)`) included, rayon
 //! on every core; with `--gpu` the frame on the GPU (`haze_scene::gpu_paper_b`: the same
-//! preparation on the CPU, upload, pass, read-back), the tables uploaded beforehand.
+//! preparation on the CPU, upload, pass, read-back), the tables uploaded beforehand;
+//! `--no-environment` makes the room's environment black (no §4.2 terms, no `T̄(p)`);
+//! `--scene FILE` times that scene instead (its camera at `--size`).
 
 use haze_gaussians::cloud;
 use haze_scene::airlight::Limits;
@@ -348,11 +351,45 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
+/// One timed frame (ms) of `s`: on the GPU when given, else on the CPU; `prep` prints
+/// the preparation's share.
+fn frame(
+    s: &Scene,
+    analytic: &Analytic,
+    gpu: Option<&(GpuContext, GpuPaperB)>,
+    tables: Option<&GpuRenderer>,
+    prep: bool,
+) -> f64 {
+    let t = Instant::now();
+    match (gpu, tables) {
+        (Some((ctx, pipeline)), Some(tables)) => {
+            let p =
+                Prepared::new(s, analytic, PaperBOptions::default()).unwrap_or_else(|e| fail(e));
+            if prep {
+                eprintln!(
+                    "{} gaussians, {} lights: preparation {:.0} ms",
+                    p.gaussian_count(),
+                    s.lights.len(),
+                    t.elapsed().as_secs_f64() * 1e3
+                );
+            }
+            pipeline
+                .render(ctx, tables, &p, &Limits::default())
+                .unwrap_or_else(|e| fail(e));
+        }
+        _ => {
+            let _ = paper_b(s, analytic, true);
+        }
+    }
+    t.elapsed().as_secs_f64() * 1e3
+}
+
 fn timing(args: &[String]) {
     let sz = size(args, (320, 240));
     let counts = list(args, "--counts", &[10, 100, 1000, 5000]);
     let lights = list(args, "--lights", &[1, 2, 4]);
     let repeat = list(args, "--repeat", &[3])[0].max(1);
+    let no_environment = args.iter().any(|a| a == "--no-environment");
     let gpu = args.iter().any(|a| a == "--gpu").then(|| {
         let ctx = GpuContext::new().unwrap_or_else(|e| fail(e));
         let pipeline = GpuPaperB::new(&ctx).unwrap_or_else(|e| fail(e));
@@ -372,6 +409,24 @@ fn timing(args: &[String]) {
             sz.1
         ),
     }
+    if let Some(path) = arg(args, "--scene") {
+        // A scene file at its own lights and Gaussians, the camera resized.
+        let mut s = file::load(std::path::Path::new(path)).unwrap_or_else(|e| fail(e));
+        s.camera = s
+            .camera
+            .clone()
+            .with_size(sz.0, sz.1)
+            .unwrap_or_else(|e| fail(e));
+        let analytic = Analytic::new(&s);
+        let tables = gpu
+            .as_ref()
+            .map(|(ctx, _)| GpuRenderer::new(ctx, &analytic).unwrap_or_else(|e| fail(e)));
+        let times: Vec<f64> = (0..repeat)
+            .map(|_| frame(&s, &analytic, gpu.as_ref(), tables.as_ref(), false))
+            .collect();
+        println!("{path}: {:.0} ms", median(times));
+        return;
+    }
     print!("| gaussians |");
     for l in &lights {
         print!(" {l} light{} |", if *l == 1 { "" } else { "s" });
@@ -388,34 +443,23 @@ fn timing(args: &[String]) {
         };
         print!("| {n} |");
         for &l in &lights {
-            let s = scene(&cloud, l, sz, false, 0.9);
+            let s = if no_environment {
+                let text = scene_text(&cloud, l, sz, false, 0.9).replacen(
+                    "\"environment\": [0.05, 0.06, 0.08]",
+                    "\"environment\": null",
+                    1,
+                );
+                file::parse(&text).unwrap_or_else(|e| fail(e))
+            } else {
+                scene(&cloud, l, sz, false, 0.9)
+            };
             let analytic = Analytic::new(&s);
             let tables = gpu
                 .as_ref()
                 .map(|(ctx, _)| GpuRenderer::new(ctx, &analytic).unwrap_or_else(|e| fail(e)));
+            let prep_flag = args.iter().any(|a| a == "--prep");
             let times: Vec<f64> = (0..repeat)
-                .map(|_| {
-                    let t = Instant::now();
-                    match (&gpu, &tables) {
-                        (Some((ctx, pipeline)), Some(tables)) => {
-                            let prep = Prepared::new(&s, &analytic, PaperBOptions::default())
-                                .unwrap_or_else(|e| fail(e));
-                            if args.iter().any(|a| a == "--prep") {
-                                eprintln!(
-                                    "{n} gaussians, {l} lights: preparation {:.0} ms",
-                                    t.elapsed().as_secs_f64() * 1e3
-                                );
-                            }
-                            pipeline
-                                .render(ctx, tables, &prep, &Limits::default())
-                                .unwrap_or_else(|e| fail(e));
-                        }
-                        _ => {
-                            let _ = paper_b(&s, &analytic, true);
-                        }
-                    }
-                    t.elapsed().as_secs_f64() * 1e3
-                })
+                .map(|_| frame(&s, &analytic, gpu.as_ref(), tables.as_ref(), prep_flag))
                 .collect();
             print!(" {:.0} |", median(times));
         }

@@ -209,19 +209,13 @@ fn env_base(n_g: u32) -> u32 {
     return P.size.z * n_g + P.size.z;
 }
 
-// GaussianEnv::surface: the SH environment on the surface dimmed by e^{−T̄(p)}.
-fn env_surface_b(p: vec3<f32>, n: vec3<f32>, r: vec3<f32>, diffuse: vec3<f32>, specular: vec3<f32>, m: f32, gn: f32) -> vec3<f32> {
+// GaussianEnv::surface: the SH environment on the surface dimmed by e^{−T̄(p)}, `mean`
+// the Gaussians' (T̄, S̄) at p (tile_mean_depth).
+fn env_surface_b(mean: vec2<f32>, n: vec3<f32>, r: vec3<f32>, diffuse: vec3<f32>, specular: vec3<f32>, m: f32, gn: f32) -> vec3<f32> {
     let n_g = gaussian_count();
     let rec = bexp[env_base(n_g) + n_g];
-    var t = rec.w;
-    var s = 0.0;
-    for (var i = 0u; i < n_g; i++) {
-        let b0 = blobs[2u * i];
-        let b1 = blobs[2u * i + 1u];
-        let ti = gauss_mean_depth(b1.x, b0.w, b0.xyz, p);
-        t += ti;
-        s += b1.y * ti;
-    }
+    let t = rec.w + mean.x;
+    let s = mean.y;
     let att = exp(-t);
     var out = vec3<f32>(0.0);
     if (P.env.z > 0u) {
@@ -237,25 +231,293 @@ fn env_surface_b(p: vec3<f32>, n: vec3<f32>, r: vec3<f32>, diffuse: vec3<f32>, s
     return out;
 }
 
-// The Gaussians' optical depth along o + t·u, t ∈ [0, len], and its scattering part.
-fn gauss_depth(o: vec3<f32>, u: vec3<f32>, len: f32) -> vec2<f32> {
-    var out = vec2<f32>(0.0);
+// ---- Per-tile lists of Gaussians (§5's splatting as screen tiles) ----
+// A workgroup is an 8×8 tile of pixels. Its invocations test the Gaussians in chunks of
+// CHUNK against a bound of the whole tile (the frustum of its view rays, or the hull of
+// its surface points and a light) and compact the survivors, in index order, into
+// `tile_list`; every pixel then loops over the list only. A Gaussian left out cannot
+// reach any of the tile's per-pixel computations (the view ray's cull sphere test, or
+// line_gauss's √40-radii cut-off), so these sums are the unculled ones, in the same
+// order. (T̄(p), which has no cut-off, is another matter: tile_mean_depth.)
+const TILE_SIZE: u32 = 8u;
+const CHUNK: u32 = 256u;
+// CHUNK / 64 invocations.
+const PER_INVOCATION: u32 = 4u;
+// Up to this many Gaussians every pixel loops over all of them (the same sums in the same
+// order as through the lists, without the lists' barriers).
+const DIRECT_MAX: u32 = 32u;
+// line_gauss's cut-off, √40 radii.
+const SQRT_40: f32 = 6.32455532;
+
+var<workgroup> tile_list: array<u32, 256>;
+var<workgroup> tile_counts: array<u32, 64>;
+var<workgroup> tile_total: u32;
+var<workgroup> tile_points: array<vec4<f32>, 64>;
+
+// The margin added to every cull radius: f32's rounding of the shader's own per-pixel
+// tests and of the bounds (~10⁻⁷ relative) a hundred times over.
+fn cull_margin(r: f32, b: vec3<f32>) -> f32 {
+    return 1.0e-3 * r + 1.0e-5 * length(b) + 1.0e-30;
+}
+
+// The tile's four side planes through the eye (inward unit normals) from the rays through
+// its corners at the pixel edges; every view ray of the tile lies in the convex cone
+// {x : nₖ·x ≥ 0}.
+fn tile_planes(tile: vec2<u32>) -> array<vec3<f32>, 4> {
+    let x0 = f32(tile.x * TILE_SIZE);
+    let y0 = f32(tile.y * TILE_SIZE);
+    let x1 = f32(min((tile.x + 1u) * TILE_SIZE, P.size.x));
+    let y1 = f32(min((tile.y + 1u) * TILE_SIZE, P.size.y));
+    let c00 = pixel_dir(vec2<f32>(x0, y0));
+    let c10 = pixel_dir(vec2<f32>(x1, y0));
+    let c01 = pixel_dir(vec2<f32>(x0, y1));
+    let c11 = pixel_dir(vec2<f32>(x1, y1));
+    let mid = pixel_dir(vec2<f32>(0.5 * (x0 + x1), 0.5 * (y0 + y1)));
+    var planes = array<vec3<f32>, 4>(cross(c00, c01), cross(c10, c00), cross(c11, c10), cross(c01, c11));
+    for (var k = 0u; k < 4u; k++) {
+        var n = normalize(planes[k]);
+        if (dot(n, mid) < 0.0) {
+            n = -n;
+        }
+        planes[k] = n;
+    }
+    return planes;
+}
+
+// Whether Gaussian i's cull sphere meets the tile's cone of view rays.
+fn meets_tile(i: u32, planes: array<vec3<f32>, 4>) -> bool {
+    let b0 = blobs[2u * i];
+    let r = sqrt(blobs[2u * i + 1u].z);
+    let reach = -(r + cull_margin(r, b0.xyz));
+    for (var k = 0u; k < 4u; k++) {
+        if (dot(planes[k], b0.xyz) < reach) {
+            return false;
+        }
+    }
+    return true;
+}
+
+// Whether Gaussian i's √40-radii sphere comes within `rad` of the segment o + t·u,
+// t ∈ [0, len] (rad < 0: never).
+fn near_segment(i: u32, o: vec3<f32>, u: vec3<f32>, len: f32, rad: f32) -> bool {
+    if (rad < 0.0) {
+        return false;
+    }
+    let b0 = blobs[2u * i];
+    let r = SQRT_40 / b0.w;
+    let bo = b0.xyz - o;
+    let t = clamp(dot(bo, u), 0.0, len);
+    let foot = bo - t * u;
+    let reach = r + rad + cull_margin(r, b0.xyz) + 1.0e-5 * length(o);
+    return dot(foot, foot) <= reach * reach;
+}
+
+// The tests of list_chunk.
+const LIST_VIEW: u32 = 0u;
+const LIST_SEGMENT: u32 = 1u;
+const LIST_NEAR: u32 = 2u;
+
+// Fills tile_list with the Gaussians start.. start + CHUNK that pass the tile's test
+// (LIST_VIEW: meets_tile with `planes`; LIST_SEGMENT: near_segment with o, u, len, rad;
+// LIST_NEAR: not far_from_tile of the sphere (o, rad)), in index order; returns how
+// many. Called by every invocation of the workgroup alike.
+fn list_chunk(start: u32, n: u32, lid: u32, mode: u32, planes: array<vec3<f32>, 4>, o: vec3<f32>, u: vec3<f32>, len: f32, rad: f32) -> u32 {
+    // Every invocation is done with the previous list before it is overwritten.
+    workgroupBarrier();
+    var mine: array<u32, 4>;
+    var count = 0u;
+    for (var k = 0u; k < PER_INVOCATION; k++) {
+        let i = start + PER_INVOCATION * lid + k;
+        if (i < n) {
+            var keep = false;
+            if (mode == LIST_VIEW) {
+                keep = meets_tile(i, planes);
+            } else if (mode == LIST_SEGMENT) {
+                keep = near_segment(i, o, u, len, rad);
+            } else {
+                keep = rad >= 0.0 && !far_from_tile(i, o, rad);
+            }
+            if (keep) {
+                mine[count] = i;
+                count++;
+            }
+        }
+    }
+    tile_counts[lid] = count;
+    workgroupBarrier();
+    // One invocation turns the counts into offsets (an exclusive scan).
+    if (lid == 0u) {
+        var total = 0u;
+        for (var j = 0u; j < TILE_SIZE * TILE_SIZE; j++) {
+            let c = tile_counts[j];
+            tile_counts[j] = total;
+            total += c;
+        }
+        tile_total = total;
+    }
+    workgroupBarrier();
+    let at = tile_counts[lid];
+    for (var k = 0u; k < count; k++) {
+        tile_list[at + k] = mine[k];
+    }
+    workgroupBarrier();
+    return tile_total;
+}
+
+// ---- T̄(p) by tiles: far Gaussians through a Taylor expansion about the tile ----
+// T̄ has no cut-off (𝒯 ~ √π/(4ρ²)). A Gaussian far from the sphere (cb, rb) around the
+// tile's surface points — every point at ρ = a|p − b| ≥ 6, where gauss_mean_depth takes
+// Dawson's asymptotic series, and |cb − b| ≥ FAR_RATIO·rb — adds its series' Taylor
+// expansion to second order about cb, summed over the tile's far Gaussians once (value,
+// gradient, Hessian; T̄ and S̄ = Σ αᵢT̄ᵢ): for the leading 1/|x|² the remainder is below
+// Σ_{k≥3}(k+1)ε^k ≈ 4ε³, ε = rb/|cb − b| ≤ 1/FAR_RATIO (Gegenbauer's |C_k¹| ≤ k + 1), so
+// within 1.1·10⁻³ of the far Gaussians' share. The near ones are listed and summed
+// exactly per pixel.
+const FAR_RATIO: f32 = 16.0;
+
+// Per invocation, its share of the far sums: (T̄, ∇T̄), (H_xx, H_yy, H_zz, H_xy),
+// (H_xz, H_yz, -, -), then the same for S̄.
+var<workgroup> tile_far: array<vec4<f32>, 384>;
+
+// Whether Gaussian i is far from every point of the sphere (cb, rb) (above).
+fn far_from_tile(i: u32, cb: vec3<f32>, rb: f32) -> bool {
+    let b0 = blobs[2u * i];
+    let d = length(b0.xyz - cb) * (1.0 - 1.0e-4);
+    return d >= FAR_RATIO * rb && b0.w * (d - rb) >= 6.0;
+}
+
+// Gaussian i's asymptotic T̄ᵢ (gauss_mean_depth beyond ρ = 6) at cb, its gradient and
+// Hessian: with s = |x|², x = cb − b, u = 1/(a²s), φ(s) = (c/a)(√π/4)·P(u),
+// P = u + u²/2 + 3u³/4 + 15u⁴/8: φ′ = −(c/a)(√π/4)·u·P′(u)/s, φ″ = (c/a)(√π/4)·Q′(u)/s²,
+// Q = u²P′; ∇ = 2φ′x, H = 2φ′I + 4φ″xxᵀ. Written as the three records of tile_far.
+fn far_terms(i: u32, cb: vec3<f32>) -> array<vec4<f32>, 3> {
+    let b0 = blobs[2u * i];
+    let c = blobs[2u * i + 1u].x;
+    let a = b0.w;
+    let x = cb - b0.xyz;
+    let s = dot(x, x);
+    let u = 1.0 / (a * a * s);
+    let k = SQRT_PI_2 * 0.5 * c / a;
+    let p = u * (1.0 + u * (0.5 + u * (0.75 + u * 1.875)));
+    let dp = 1.0 + u * (1.0 + u * (2.25 + u * 7.5));
+    let dq = u * (2.0 + u * (3.0 + u * (9.0 + u * 37.5)));
+    let d1 = -k * u * dp / s;
+    let d2 = k * dq / (s * s);
+    let g = 2.0 * d1 * x;
+    let hd = 2.0 * d1 + 4.0 * d2 * x * x;
+    let ho = 4.0 * d2 * vec3<f32>(x.x * x.y, x.x * x.z, x.y * x.z);
+    return array<vec4<f32>, 3>(vec4<f32>(k * p, g), vec4<f32>(hd, ho.x), vec4<f32>(ho.y, ho.z, 0.0, 0.0));
+}
+
+// The expansion of records r0..r2 at cb + d.
+fn far_at(r0: vec4<f32>, r1: vec4<f32>, r2: vec4<f32>, d: vec3<f32>) -> f32 {
+    let quad = dot(r1.xyz, d * d) + 2.0 * (r1.w * d.x * d.y + r2.x * d.x * d.z + r2.y * d.y * d.z);
+    return r0.x + dot(r0.yzw, d) + 0.5 * quad;
+}
+
+// (T̄(p), S̄(p)) of the Gaussians (the background's β_bg·D apart) for every invocation
+// where `shading`; (cb, rb): the sphere around the tile's surface points (rb < 0: none).
+fn tile_mean_depth(p: vec3<f32>, shading: bool, lid: u32, cb: vec3<f32>, rb: f32) -> vec2<f32> {
     let n = gaussian_count();
-    for (var i = 0u; i < n; i++) {
-        let b0 = blobs[2u * i];
-        let b1 = blobs[2u * i + 1u];
-        let t = line_gauss(b1.x, b0.w, b0.xyz, o, u, len);
-        out += vec2<f32>(t, b1.y * t);
+    if (n <= DIRECT_MAX) {
+        var exact = vec2<f32>(0.0);
+        if (shading) {
+            for (var i = 0u; i < n; i++) {
+                let b0 = blobs[2u * i];
+                let b1 = blobs[2u * i + 1u];
+                let ti = gauss_mean_depth(b1.x, b0.w, b0.xyz, p);
+                exact += vec2<f32>(ti, b1.y * ti);
+            }
+        }
+        return exact;
+    }
+    var acc = array<vec4<f32>, 6>(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
+    if (rb >= 0.0) {
+        for (var i = lid; i < n; i += TILE_SIZE * TILE_SIZE) {
+            if (far_from_tile(i, cb, rb)) {
+                let f = far_terms(i, cb);
+                let albedo = blobs[2u * i + 1u].y;
+                for (var k = 0u; k < 3u; k++) {
+                    acc[k] += f[k];
+                    acc[k + 3u] += albedo * f[k];
+                }
+            }
+        }
+    }
+    workgroupBarrier();
+    for (var k = 0u; k < 6u; k++) {
+        tile_far[6u * lid + k] = acc[k];
+    }
+    workgroupBarrier();
+    // One invocation sums the shares into the first six records.
+    if (lid == 0u) {
+        for (var j = 1u; j < TILE_SIZE * TILE_SIZE; j++) {
+            for (var k = 0u; k < 6u; k++) {
+                tile_far[k] += tile_far[6u * j + k];
+            }
+        }
+    }
+    workgroupBarrier();
+    var out = vec2<f32>(0.0);
+    if (shading) {
+        let d = p - cb;
+        out = vec2<f32>(far_at(tile_far[0], tile_far[1], tile_far[2], d), far_at(tile_far[3], tile_far[4], tile_far[5], d));
+    }
+    let none = array<vec3<f32>, 4>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    for (var start = 0u; start < n; start += CHUNK) {
+        let m = list_chunk(start, n, lid, LIST_NEAR, none, cb, vec3<f32>(0.0), 0.0, rb);
+        if (shading) {
+            for (var k = 0u; k < m; k++) {
+                let i = tile_list[k];
+                let b0 = blobs[2u * i];
+                let b1 = blobs[2u * i + 1u];
+                let ti = gauss_mean_depth(b1.x, b0.w, b0.xyz, p);
+                out += vec2<f32>(ti, b1.y * ti);
+            }
+        }
     }
     return out;
 }
 
-// paper_b::Prepared::surface: the surface lit through T(s,p).
-fn shade_surface_b(dir: vec3<f32>, p: vec3<f32>, n: vec3<f32>, s: u32) -> vec3<f32> {
-    let diffuse = surfaces[4u * s + 2u].xyz;
-    let m = surfaces[4u * s + 2u].w;
-    let specular = surfaces[4u * s + 3u].xyz;
-    let gn = surfaces[4u * s + 3u].w;
+// The Gaussians' optical depth along o + t·u, t ∈ [0, len], and its scattering part, for
+// every invocation where `shading`, over the Gaussians near the segment (cu, culen) of
+// the tile's bound (radius crad) — which holds every shading invocation's segment.
+fn gauss_depth_tiled(o: vec3<f32>, u: vec3<f32>, len: f32, shading: bool, lid: u32, co: vec3<f32>, cu: vec3<f32>, clen: f32, crad: f32) -> vec2<f32> {
+    var out = vec2<f32>(0.0);
+    let n = gaussian_count();
+    let none = array<vec3<f32>, 4>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    let direct = n <= DIRECT_MAX;
+    for (var start = 0u; start < n; start += CHUNK) {
+        var m = n - start;
+        if (!direct) {
+            m = list_chunk(start, n, lid, LIST_SEGMENT, none, co, cu, clen, crad);
+        }
+        if (shading) {
+            for (var k = 0u; k < m; k++) {
+                let i = select(tile_list[k], start + k, direct);
+                let b0 = blobs[2u * i];
+                let b1 = blobs[2u * i + 1u];
+                let t = line_gauss(b1.x, b0.w, b0.xyz, o, u, len);
+                out += vec2<f32>(t, b1.y * t);
+            }
+        }
+    }
+    return out;
+}
+
+// paper_b::Prepared::surface: the surface lit through T(s,p), for every invocation
+// where `shading` (the others pass along for the tile's lists). (cb, rb): a sphere
+// holding the tile's surface points (rb < 0: none).
+fn shade_surface_b(dir: vec3<f32>, p: vec3<f32>, n: vec3<f32>, s: u32, shading: bool, lid: u32, cb: vec3<f32>, rb: f32) -> vec3<f32> {
+    // A scene without surfaces has one empty record: read materials where shading only.
+    var mat = array<vec4<f32>, 2>(vec4<f32>(0.0), vec4<f32>(0.0, 0.0, 0.0, -1.0));
+    if (shading) {
+        mat = array<vec4<f32>, 2>(surfaces[4u * s + 2u], surfaces[4u * s + 3u]);
+    }
+    let diffuse = mat[0].xyz;
+    let m = mat[0].w;
+    let specular = mat[1].xyz;
+    let gn = mat[1].w;
     let r = 2.0 * dot(-dir, n) * n + dir;
     let eps = P.albedo.w;
     let p_off = p + eps * (1.0 + length(p)) * n;
@@ -264,7 +526,10 @@ fn shade_surface_b(dir: vec3<f32>, p: vec3<f32>, n: vec3<f32>, s: u32) -> vec3<f
     let ss_scene = bexp[header + 1u].xyz;
     var out = vec3<f32>(0.0);
     if (env_mode() > 0u) {
-        out = env_surface_b(p, n, r, diffuse, specular, m, gn);
+        let mean = tile_mean_depth(p, shading, lid, cb, rb);
+        if (shading) {
+            out = env_surface_b(mean, n, r, diffuse, specular, m, gn);
+        }
     }
     for (var i = 0u; i < P.size.z; i++) {
         let a = lights[3u * i];
@@ -284,10 +549,25 @@ fn shade_surface_b(dir: vec3<f32>, p: vec3<f32>, n: vec3<f32>, s: u32) -> vec3<f
             let d = length(v);
             let l = v / d;
             var f = vec3<f32>(0.0);
-            if (dot(n, l) > 0.0 && visible(p_off, light, eps)) {
+            if (shading && dot(n, l) > 0.0 && visible(p_off, light, eps)) {
                 f = brdf(n, r, l, diffuse, specular, m);
             }
-            let depth = gauss_depth(p, l, d);
+            // The tile's bound: the capsule around cb → light of radius rb (+ r_min, how
+            // far a light is moved off a point too close).
+            let cv = a.yzw - cb;
+            let clen = length(cv);
+            var cu = vec3<f32>(0.0, 0.0, 1.0);
+            if (clen > 0.0) {
+                cu = cv / clen;
+            }
+            var crad = rb;
+            if (rb >= 0.0) {
+                crad = rb + P.sigma_t.w;
+            }
+            let depth = gauss_depth_tiled(p, l, d, shading, lid, cb, cu, clen, crad);
+            if (!shading) {
+                continue;
+            }
             let theta_s = angle(n, l);
             let theta_r = angle(r, l);
             for (var c = 0u; c < 3u; c++) {
@@ -310,13 +590,14 @@ fn shade_surface_b(dir: vec3<f32>, p: vec3<f32>, n: vec3<f32>, s: u32) -> vec3<f
         } else {
             let irradiance = lights[3u * i + 2u].xyz;
             let sd = a.yzw;
-            if (dot(n, sd) > 0.0 && !background_hides_suns && intersect(p_off, sd, 0.0, 3.0e38).surface < 0) {
-                let t = gauss_depth(p, sd, LONG).x;
+            let lit = shading && dot(n, sd) > 0.0 && !background_hides_suns && intersect(p_off, sd, 0.0, 3.0e38).surface < 0;
+            let t = gauss_depth_tiled(p, sd, LONG, lit, lid, cb, sd, LONG, rb).x;
+            if (lit) {
                 out += irradiance * exp(-t) * brdf(n, r, sd, diffuse, specular, m);
             }
             let lobes = diffuse + specular * (m + 2.0) / (m + 1.0);
             for (var c = 0u; c < 3u; c++) {
-                if (ss_scene[c] > 0.0) {
+                if (shading && ss_scene[c] > 0.0) {
                     out[c] += P.albedo[c] * irradiance[c] / (4.0 * PI) * lobes[c];
                 }
             }
@@ -326,13 +607,12 @@ fn shade_surface_b(dir: vec3<f32>, p: vec3<f32>, n: vec3<f32>, s: u32) -> vec3<f
 }
 
 @compute @workgroup_size(8, 8, 1)
-fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_index) lid: u32, @builtin(workgroup_id) tile: vec3<u32>) {
     let w = P.size.x;
     let h = P.size.y;
-    if (id.x >= w || id.y >= h) {
-        return;
-    }
-    let dir = pixel_dir(vec2<f32>(id.xy) + 0.5);
+    // Invocations beyond the image's edge take part in the tile's lists, write nothing.
+    let inside = id.x < w && id.y < h;
+    let dir = pixel_dir(vec2<f32>(min(id.xy, vec2<u32>(w - 1u, h - 1u))) + 0.5);
 
     let env_far = P.flags.y == 0u;
     let t_max = primary_t_max();
@@ -355,51 +635,60 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     var out = vec3<f32>(0.0);
     // The Gaussians whose cull sphere the ray crosses: Tᵢ(v,p) and their factored airlight.
     var tau = 0.0;
-    for (var i = 0u; i < n_g; i++) {
-        let b0 = blobs[2u * i];
-        let b1 = blobs[2u * i + 1u];
-        let b = b0.xyz;
-        let m = dot(b, dir);
-        let foot = b - clamp(m, 0.0, t_end) * dir;
-        if (dot(foot, foot) > b1.z) {
-            continue;
+    let planes = tile_planes(tile.xy);
+    let direct = n_g <= DIRECT_MAX;
+    for (var start = 0u; start < n_g; start += CHUNK) {
+        var listed = n_g - start;
+        if (!direct) {
+            listed = list_chunk(start, n_g, lid, LIST_VIEW, planes, vec3<f32>(0.0), vec3<f32>(0.0), 0.0, 0.0);
         }
-        let a = b0.w;
-        let t_r = clamp(m, 0.0, t_end);
-        var along = dir;
-        if (noisy) {
-            along = noisy_direction(i, n_g, dir, t_r);
-        }
-        let vp = line_gauss(b1.x, a, b, vec3<f32>(0.0), along, t_end);
-        tau += vp;
-        if (vp <= 0.0 || b1.y <= 0.0) {
-            continue;
-        }
-        let vr = line_gauss(b1.x, a, b, vec3<f32>(0.0), dir, t_r);
-        let br = t_r * dir;
-        for (var l = 0u; l < n_l; l++) {
-            let la = lights[3u * l];
-            var f0 = 1.0 / (4.0 * PI);
-            var sr = 0.0;
-            var e = lights[3u * l + 2u].xyz;
-            if (la.x == 0.0) {
-                e = lights[3u * l + 1u].xyz;
-                let ls = br - la.yzw;
-                let d = length(ls);
-                if (d > 0.0) {
-                    sr = line_gauss(b1.x, a, b, la.yzw, ls / d, d);
-                }
-                let dc = max(d, P.sigma_t.w);
-                f0 = 1.0 / (4.0 * PI * dc * dc);
-            } else {
-                sr = line_gauss(b1.x, a, b, br, la.yzw, LONG);
+        for (var k = 0u; k < listed; k++) {
+            let i = select(tile_list[k], start + k, direct);
+            let b0 = blobs[2u * i];
+            let b1 = blobs[2u * i + 1u];
+            let b = b0.xyz;
+            let m = dot(b, dir);
+            let foot = b - clamp(m, 0.0, t_end) * dir;
+            if (dot(foot, foot) > b1.z) {
+                continue;
             }
-            let base = b1.y * f0 * exp(-sr - vr) * vp;
-            out += e * base * bexp[l * n_g + i].xyz;
-        }
-        if (has_env) {
-            let own = vr + gauss_mean_depth(b1.x, a, b, br);
-            out += bexp[env_at + i].xyz * (exp(-own) * vp);
+            let a = b0.w;
+            let t_r = clamp(m, 0.0, t_end);
+            var along = dir;
+            if (noisy) {
+                along = noisy_direction(i, n_g, dir, t_r);
+            }
+            let vp = line_gauss(b1.x, a, b, vec3<f32>(0.0), along, t_end);
+            tau += vp;
+            if (vp <= 0.0 || b1.y <= 0.0) {
+                continue;
+            }
+            let vr = line_gauss(b1.x, a, b, vec3<f32>(0.0), dir, t_r);
+            let br = t_r * dir;
+            for (var l = 0u; l < n_l; l++) {
+                let la = lights[3u * l];
+                var f0 = 1.0 / (4.0 * PI);
+                var sr = 0.0;
+                var e = lights[3u * l + 2u].xyz;
+                if (la.x == 0.0) {
+                    e = lights[3u * l + 1u].xyz;
+                    let ls = br - la.yzw;
+                    let d = length(ls);
+                    if (d > 0.0) {
+                        sr = line_gauss(b1.x, a, b, la.yzw, ls / d, d);
+                    }
+                    let dc = max(d, P.sigma_t.w);
+                    f0 = 1.0 / (4.0 * PI * dc * dc);
+                } else {
+                    sr = line_gauss(b1.x, a, b, br, la.yzw, LONG);
+                }
+                let base = b1.y * f0 * exp(-sr - vr) * vp;
+                out += e * base * bexp[l * n_g + i].xyz;
+            }
+            if (has_env) {
+                let own = vr + gauss_mean_depth(b1.x, a, b, br);
+                out += bexp[env_at + i].xyz * (exp(-own) * vp);
+            }
         }
     }
     // The homogeneous term of each light.
@@ -430,13 +719,44 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             }
         }
     }
-    var behind = vec3<f32>(0.0);
-    if (hit.surface >= 0) {
-        let s = u32(hit.surface);
-        let p = t_end * dir;
-        let n = hit_normal(hit, p, dir);
-        behind = shade_surface_b(dir, p, n, s);
-    } else if (finite_end || any(beta <= vec3<f32>(0.0))) {
+    // The tile's surface points, bounded by a sphere for the lists (none without them).
+    let on_surface = inside && hit.surface >= 0;
+    let p = t_end * dir;
+    var surf_id = 0u;
+    var n = vec3<f32>(0.0, 0.0, 1.0);
+    if (on_surface) {
+        surf_id = u32(hit.surface);
+        n = hit_normal(hit, p, dir);
+    }
+    var cb = vec3<f32>(0.0);
+    var rb = -1.0;
+    if (n_g > DIRECT_MAX) {
+        tile_points[lid] = select(vec4<f32>(0.0), vec4<f32>(p, 1.0), on_surface);
+        workgroupBarrier();
+        // One invocation bounds them (into the first record; w < 0: no surface point).
+        if (lid == 0u) {
+            var lo = vec3<f32>(3.0e38);
+            var hi = vec3<f32>(-3.0e38);
+            for (var k = 0u; k < TILE_SIZE * TILE_SIZE; k++) {
+                let q = tile_points[k];
+                if (q.w > 0.0) {
+                    lo = min(lo, q.xyz);
+                    hi = max(hi, q.xyz);
+                }
+            }
+            var sphere = vec4<f32>(0.0, 0.0, 0.0, -1.0);
+            if (all(lo <= hi)) {
+                let c = 0.5 * (lo + hi);
+                sphere = vec4<f32>(c, 0.5 * length(hi - lo) * (1.0 + 1.0e-5) + 1.0e-5 * length(c));
+            }
+            tile_points[0] = sphere;
+        }
+        workgroupBarrier();
+        cb = tile_points[0].xyz;
+        rb = tile_points[0].w;
+    }
+    var behind = shade_surface_b(dir, p, n, surf_id, on_surface, lid, cb, rb);
+    if (!on_surface && (finite_end || any(beta <= vec3<f32>(0.0)))) {
         behind = background(dir);
     }
     for (var c = 0u; c < 3u; c++) {
@@ -452,5 +772,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             }
         }
     }
-    image[id.y * w + id.x] = vec4<f32>(out, 1.0);
+    if (inside) {
+        image[id.y * w + id.x] = vec4<f32>(out, 1.0);
+    }
 }

@@ -61,13 +61,16 @@ fn fog_factor(scene: &Scene) -> Rgb {
 }
 
 impl GaussianEnv {
-    /// The frame's environment terms; `None` for a black environment. `beta0` is the
-    /// homogeneous part per channel, `background` the Gaussian media's share of it,
-    /// `exponents` the scene's Phong exponents.
+    /// The frame's environment terms; `None` for a black environment. `to_eye` is each
+    /// centre's [`GaussianSet::depth_to_point`] towards the eye, `beta0` the homogeneous
+    /// part per channel, `background` the Gaussian media's share of it, `exponents` the
+    /// scene's Phong exponents.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         scene: &Scene,
         k: &(impl crate::airlight::KFunction + Sync),
         set: &GaussianSet,
+        to_eye: &[f64],
         beta0: Rgb,
         background: f64,
         exponents: &[f64],
@@ -109,13 +112,8 @@ impl GaussianEnv {
                     .filter(|&(j, _)| j != i)
                     .map(|(_, o)| gaussian_mean_depth(o.c, o.a, o.center, x))
                     .sum();
-                let dv = sub(eye, x);
-                let lv = norm(dv);
-                let to_eye = if lv > 0.0 {
-                    set.depth(x, dv.map(|c| c / lv), lv, Some(i)).0
-                } else {
-                    0.0
-                };
+                let lv = norm(sub(eye, x));
+                let to_eye = to_eye[i];
                 [0, 1, 2].map(|c| {
                     let path = if beta0[c] > 0.0 { beta0[c] * lv } else { 0.0 };
                     b.albedo * e[c] / (4.0 * PI)

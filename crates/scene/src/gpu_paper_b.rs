@@ -2,16 +2,33 @@
 //! helpers — intersections, shadow rays, paper C's airlight and tables, the BRDF, the
 //! environment — it shares): the `f32` twin of [`crate::paper_b::Prepared::radiance`],
 //! one invocation per pixel. The CPU prepares the frame as for its own render (the
-//! Gaussians merged, each one's `e^{Eᵢ}` per light, `C_sv`) and uploads it; the shader
-//! loops over every Gaussian per pixel (those whose cull sphere the ray crosses gather
-//! airlight; every one adds to `T(s,p)`, exact as the CPU's hierarchy), with
+//! Gaussians merged, each one's `e^{Eᵢ}` per light, `C_sv`) and uploads it, with
 //! Abramowitz–Stegun's erf (`1.5·10⁻⁷`) for libm's.
+//!
+//! **Tiles** (§5's splatting, by screen tiles): a workgroup is an 8 × 8 tile of pixels.
+//! Its 64 invocations test the Gaussians, 256 at a time, against a bound of the whole
+//! tile and compact the survivors in index order into a workgroup list that every pixel
+//! then loops over: for the view ray, the cull sphere `√(ln(cᵢ/ε))/aᵢ` against the
+//! tile's cone of rays (its four side planes); for the optical depth `T(s,p)` to each
+//! light, the `√40`-radii sphere beyond which the shader's line integral is zero
+//! (`e⁻⁴⁰`) against the capsule from the sphere around the tile's surface points to the
+//! light (a sun: the half-line towards it). A Gaussian left out fails the pixel's own test
+//! for every pixel of the tile, so the lists change no sum (margins of `10⁻³` of the
+//! radius cover `f32`'s rounding of the bounds). The environment's `T̄(p)` has no
+//! cut-off: a Gaussian far from the sphere around the tile's surface points (every
+//! point at `ρ ≥ 6`, where the shader takes Dawson's asymptotic series, and at least 16
+//! times the sphere's radius away) enters through the second-order Taylor expansion of
+//! that series about the sphere's centre, summed once per tile (remainder below `4ε³`
+//! of its share, `ε ≤ 1/16`: `10⁻³`); the others are listed and summed exactly per pixel.
+//! Frames of at most 32 Gaussians take the same shader without the lists (every sum
+//! exact, no workgroup barriers: on lavapipe their mere presence costs ~30 %).
 //!
 //! The environment ([`crate::gaussian_env`]): the CPU uploads each Gaussian's
 //! `αᵢ·Ēᵢ·e^{Eᵢ}` and `(Ē, β_bg·D)`; the shader adds `e^{−Tᵢ(v,bᵢʳ) − T̄ᵢ(bᵢʳ)}·Tᵢ(v,p)`
 //! times it per Gaussian the ray gathers, and dims render.wgsl's SH lighting of surfaces
-//! (paper C's, the same `EnvGlow`) by `e^{−T̄(p)}`, `T̄(p)` summed over every Gaussian
-//! with Dawson's integral by Rybicki's sum at `h = 0.4` (`~2·10⁻⁷`, Numerical Recipes).
+//! (paper C's, the same `EnvGlow`) by `e^{−T̄(p)}`, `T̄(p)` summed over the Gaussians
+//! (above) with Dawson's integral by Rybicki's sum at `h = 0.4` (`~2·10⁻⁷`, Numerical
+//! Recipes).
 //!
 //! Noise (§5.5): the shader's `perlin_value` is [`Perlin::value`] in `f32`, reading the
 //! permutation the CPU drew from the medium's seed (uploaded once per distinct medium);
@@ -31,15 +48,39 @@ use haze_view::gpu::{GpuContext, GpuError, buffer_init, compute_pipeline};
 /// `shaders/paper_b.wgsl`.
 pub const SHADER: &str = include_str!("../shaders/paper_b.wgsl");
 
-/// The compiled paper B pipeline; the tables are the paper C renderer's.
+/// `shaders/paper_b.wgsl`'s count up to which every pixel loops over all Gaussians.
+const DIRECT_LINE: &str = "const DIRECT_MAX: u32 = 32u;";
+
+/// The shader's [`DIRECT_LINE`] count: up to it frames take the untiled pipeline.
+const DIRECT_MAX: usize = 32;
+
+/// paper_b.wgsl without the tile lists: every count direct, the (then unreached)
+/// workgroup barriers removed — on lavapipe a shader with barriers runs ~30 % slower
+/// even where it reaches none, which the lists repay only beyond a few dozen Gaussians.
+fn untiled(shader: &str) -> String {
+    shader
+        .replace(DIRECT_LINE, "const DIRECT_MAX: u32 = 4294967295u;")
+        .replace("workgroupBarrier();", "")
+}
+
+/// The compiled paper B pipelines (tiled, and untiled for a few Gaussians); the tables
+/// are the paper C renderer's.
 #[derive(Debug)]
 pub struct GpuPaperB {
-    pipeline: wgpu::ComputePipeline,
+    tiled: wgpu::ComputePipeline,
+    untiled: wgpu::ComputePipeline,
 }
 
 impl GpuPaperB {
-    /// Compiles render.wgsl (its entry point renamed) with paper_b.wgsl's.
+    /// Compiles render.wgsl (its entry point renamed) with paper_b.wgsl's, tiled and not.
     pub fn new(ctx: &GpuContext) -> Result<GpuPaperB, GpuError> {
+        Ok(GpuPaperB {
+            tiled: Self::compile(ctx, SHADER)?,
+            untiled: Self::compile(ctx, &untiled(SHADER))?,
+        })
+    }
+
+    fn compile(ctx: &GpuContext, shader: &str) -> Result<wgpu::ComputePipeline, GpuError> {
         let off = Perlin::VECTOR_OFFSETS;
         let source = format!(
             "{}\nconst NOISE_OFFSET_1 = vec3<f32>({:?}, {:?}, {:?});\n\
@@ -51,10 +92,9 @@ impl GpuPaperB {
             off[2][0] as f32,
             off[2][1] as f32,
             off[2][2] as f32,
-            SHADER
+            shader
         );
-        let pipeline = compute_pipeline(ctx, "paper B pipeline creation", &source)?;
-        Ok(GpuPaperB { pipeline })
+        compute_pipeline(ctx, "paper B pipeline creation", &source)
     }
 
     /// Renders `prep`'s scene (as [`crate::paper_b::render`] with `lim`) with the tables
@@ -152,11 +192,16 @@ impl GpuPaperB {
                 ),
             )
         })?;
+        let pipeline = if blobs_in.len() <= DIRECT_MAX {
+            &self.untiled
+        } else {
+            &self.tiled
+        };
         tables.render_pass(
             ctx,
             prep.scene,
             lim,
-            &self.pipeline,
+            pipeline,
             Some((prep.beta0, prep.sigma_s0)),
             &[&blobs, &bexp],
         )
@@ -208,4 +253,18 @@ fn noise_records(prep: &Prepared<'_>, blobs: &mut Vec<[f32; 4]>) -> Result<(), G
         )));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_untiled_shader_is_the_tiled_one_without_lists() {
+        assert_eq!(SHADER.matches(DIRECT_LINE).count(), 1);
+        assert!(SHADER.contains("workgroupBarrier();"));
+        let u = untiled(SHADER);
+        assert!(!u.contains("workgroupBarrier") && !u.contains(DIRECT_LINE));
+        assert!(u.contains("const DIRECT_MAX: u32 = 4294967295u;"));
+    }
 }

@@ -125,6 +125,12 @@ impl<'a> Prepared<'a> {
             }
         }
         let eye = scene.camera.eye;
+        // Each centre's depth towards the eye, shared by every light and the environment.
+        let n = set.blobs().len();
+        let to_eye: Vec<f64> = (0..n)
+            .into_par_iter()
+            .map(|i| set.depth_to_point(i, eye))
+            .collect();
         let lights = scene
             .lights
             .iter()
@@ -143,7 +149,11 @@ impl<'a> Prepared<'a> {
                         Light::sun_irradiance(*radiance, *angle),
                     ),
                 };
-                let g = set.center_exponents(eye, source);
+                // GaussianSet::center_exponents, in parallel and sharing `to_eye`.
+                let g: Vec<f64> = (0..n)
+                    .into_par_iter()
+                    .map(|i| -(set.depth_to_light(i, source) + to_eye[i]))
+                    .collect();
                 let center = set
                     .blobs()
                     .iter()
@@ -172,7 +182,15 @@ impl<'a> Prepared<'a> {
                 }
             })
             .collect();
-        let env = GaussianEnv::new(scene, &analytic.h, &set, beta0, bg, &analytic.exponents());
+        let env = GaussianEnv::new(
+            scene,
+            &analytic.h,
+            &set,
+            &to_eye,
+            beta0,
+            bg,
+            &analytic.exponents(),
+        );
         Ok(Prepared {
             scene,
             analytic,
