@@ -63,10 +63,11 @@ fn fog_factor(scene: &Scene) -> Rgb {
 impl GaussianEnv {
     /// The frame's environment terms; `None` for a black environment. `beta0` is the
     /// homogeneous part per channel, `background` the Gaussian media's share of it,
-    /// `exponents` the scene's Phong exponents.
+    /// `exponents` the scene's Phong exponents; the glow is `analytic`'s, kept between
+    /// frames ([`envglow::Cache`]).
     pub fn new(
         scene: &Scene,
-        k: &(impl crate::airlight::KFunction + Sync),
+        analytic: &crate::render::Analytic,
         set: &GaussianSet,
         beta0: Rgb,
         background: f64,
@@ -75,7 +76,9 @@ impl GaussianEnv {
         if matches!(scene.environment, Environment::Black) {
             return None;
         }
-        let glow = EnvGlow::new(scene, k, envglow::DEFAULT_ORDER, exponents)?;
+        let glow = analytic
+            .glow
+            .glow(scene, &analytic.h, envglow::DEFAULT_ORDER, exponents)?;
         let fog = fog_factor(scene);
         // Y_00 = 1/(2√π): (1/4π)∫L = L_00·Y_00.
         let y00 = 0.5 / PI.sqrt();

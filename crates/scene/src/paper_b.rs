@@ -172,7 +172,7 @@ impl<'a> Prepared<'a> {
                 }
             })
             .collect();
-        let env = GaussianEnv::new(scene, &analytic.h, &set, beta0, bg, &analytic.exponents());
+        let env = GaussianEnv::new(scene, analytic, &set, beta0, bg, &analytic.exponents());
         Ok(Prepared {
             scene,
             analytic,
