@@ -95,6 +95,13 @@ impl FrameRenderer {
         self.inner.env_grid_builds()
     }
 
+    /// How many shadow volumes of the lights were computed so far
+    /// ([`GpuRenderer::light_shadow_builds`]).
+    #[cfg(test)]
+    pub fn light_shadow_builds(&self) -> u64 {
+        self.inner.light_shadow_builds()
+    }
+
     /// The image of a frame — `rbfs` and `residual` on a `dims` grid over `bbox` — lit by
     /// `env` through `medium`, seen by `camera` (RGB per pixel, row 0 at the top), as
     /// [`haze_view::render::crm_render`] computes it, read back from the GPU. The residual
@@ -287,9 +294,10 @@ mod tests {
     }
 
     /// The environment pass's grid is computed once per frame, σt, sky, order and
-    /// residual toggle: a camera move, a new albedo or `g` and a new point light reuse it,
-    /// and every picture is a fresh renderer's to the bit (single scattering: no warm
-    /// started solve to tell them apart).
+    /// residual toggle: a camera move, a new albedo or `g` and a new point light reuse it;
+    /// the lights' shadow volume once per frame, σt and light position; every picture is
+    /// a fresh renderer's to the bit (single scattering: no warm-started solve to tell
+    /// them apart).
     #[test]
     fn the_environment_grid_is_rebuilt_exactly_when_what_it_depends_on_changes() {
         let ctx = context();
@@ -345,7 +353,18 @@ mod tests {
             haze_view::PointLight::new([b.max[0] + 0.5, b.min[1], b.max[2]], [2.0; 3]).unwrap(),
         );
         shot(&mut r, 0, &other, &lit, &camera(0.5), &opts);
-        assert_eq!(r.env_grid_builds(), 1);
+        assert_eq!((r.env_grid_builds(), r.light_shadow_builds()), (1, 1));
+        // The lights' shadow volume is kept across a camera move and a brighter light,
+        // and marched again for a moved light.
+        let (p, _) = shot(&mut r, 0, &other, &lit, &camera(-1.0), &opts);
+        assert_eq!((r.env_grid_builds(), r.light_shadow_builds()), (1, 1));
+        assert_eq!(p, fresh(0, &other, &lit, &camera(-1.0), &opts));
+        lit.points[0].intensity = [5.0; 3];
+        shot(&mut r, 0, &other, &lit, &camera(-1.0), &opts);
+        assert_eq!(r.light_shadow_builds(), 1);
+        lit.points[0].position[2] -= 0.3;
+        shot(&mut r, 0, &other, &lit, &camera(-1.0), &opts);
+        assert_eq!((r.env_grid_builds(), r.light_shadow_builds()), (1, 2));
 
         // σt, the frame, the residual toggle, the order and the sky each rebuild it.
         let thick = Medium::new(9.0, 0.5, -0.4).unwrap();

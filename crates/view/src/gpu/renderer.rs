@@ -40,12 +40,15 @@
 //! from every node: most of a frame on lavapipe) has a key of its own, [`EnvGridKey`] —
 //! the frame, the residual toggle, σt, the distant environment, the order and the grid's
 //! settings — so rebuilt volume grids (a camera move with `g ≠ 0`, a new albedo or `g`,
-//! new lights) reuse it and only its per-voxel evaluation runs again.
+//! new lights) reuse it and only its per-voxel evaluation runs again. The lights pass's
+//! shadow volume ([`LightShadow`], a march toward each light from every voxel) is kept
+//! likewise while the frame, the residual toggle, σt and the lights' directions and
+//! positions hold.
 //! A frame is known by the `key` its caller gives ([`GpuFrame`]).
 
 use super::diffusion::{DiffusionPass, DiffusionStats, DirectBuffer, OperatorBuffers};
 use super::env_pass::{EnvPass, EnvShadow, RemoveSingle};
-use super::lights_pass::LightsPass;
+use super::lights_pass::{LightShadow, LightsPass};
 use super::single_scattering::SingleScatteringPass;
 use super::view_pass::{EnvBuffer, ImageBuffer, ViewPass};
 use super::volume_pass::{Residual, VolumePass};
@@ -191,6 +194,11 @@ pub struct GpuRenderer {
     env_grid: Option<(EnvGridKey, EnvShadow)>,
     /// How many environment grids were computed (for tests and figures).
     env_grid_builds: u64,
+    /// The lights pass's shadow volume, of the frame with this key and residual toggle
+    /// (σt and the lights' directions and positions checked by [`LightShadow::fits`]).
+    light_shadow: Option<((u64, bool), LightShadow)>,
+    /// How many shadow volumes were computed.
+    light_shadow_builds: u64,
 }
 
 impl GpuRenderer {
@@ -216,6 +224,8 @@ impl GpuRenderer {
             grid: None,
             env_grid: None,
             env_grid_builds: 0,
+            light_shadow: None,
+            light_shadow_builds: 0,
         })
     }
 
@@ -225,6 +235,14 @@ impl GpuRenderer {
     /// change, not with the camera, the albedo or `g`.
     pub fn env_grid_builds(&self) -> u64 {
         self.env_grid_builds
+    }
+
+    /// How many shadow volumes of the lights pass ([`LightsPass::shadow`]) this renderer
+    /// has computed: it grows when the frame, the residual toggle, σt or a light's
+    /// direction or position changes, not with the camera, `g`, the albedo or the
+    /// lights' power.
+    pub fn light_shadow_builds(&self) -> u64 {
+        self.light_shadow_builds
     }
 
     /// The environment.
@@ -256,6 +274,7 @@ impl GpuRenderer {
         self.sources = None;
         self.grid = None;
         self.env_grid = None;
+        self.light_shadow = None;
     }
 
     /// Where the next frames compute the lighting at the centers (the sources are
@@ -505,8 +524,22 @@ impl GpuRenderer {
                     stats.crm.env_seconds = t.elapsed().as_secs_f64();
                 }
                 let t = Instant::now();
-                self.lights
-                    .run_on(ctx, &grid, &self.env, medium, camera.eye)?;
+                if self.env.has_lights() && medium.albedo != 0.0 && !frame.dims.contains(&0) {
+                    let key = (frame.key, opts.residual);
+                    let kept = matches!(&self.light_shadow,
+                        Some((k, s)) if *k == key && s.fits(&grid, &self.env, medium.sigma_t));
+                    let shadow = match self.light_shadow.take() {
+                        Some(kept_shadow) if kept => &self.light_shadow.insert(kept_shadow).1,
+                        _ => {
+                            let shadow =
+                                self.lights.shadow(ctx, &grid, &self.env, medium.sigma_t)?;
+                            self.light_shadow_builds += 1;
+                            &self.light_shadow.insert((key, shadow)).1
+                        }
+                    };
+                    self.lights
+                        .apply(ctx, &grid, shadow, &self.env, medium, camera.eye)?;
+                }
                 stats.crm.lights_seconds = t.elapsed().as_secs_f64();
                 &self.grid.insert((grid_key.0, grid_key.1, grid)).2
             }
