@@ -161,10 +161,10 @@ struct Slots {
 }
 
 /// [`EnvGlow::new`] kept between frames, for one `K` table (its holder's): the
-/// environment's SH projection (the costly part: ~0.3 s at order 16 on 2 cores) is keyed
-/// by the environment and the order; the glow by those and [`GlowKey`] — so camera moves
-/// and light or surface edits rebuild nothing, and a medium edit only the `λ_l` tables,
-/// from the kept projection.
+/// environment's SH projection (about half of [`EnvGlow::new`]'s time, BENCHMARKS.md
+/// "Environment glow") is keyed by the environment and the order; the glow by those and
+/// [`GlowKey`] — so camera moves and light or surface edits rebuild nothing, and a medium
+/// edit only the `λ_l` tables, from the kept projection.
 #[derive(Debug, Default)]
 pub struct Cache(Mutex<Slots>);
 
