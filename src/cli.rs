@@ -612,6 +612,11 @@ pub struct ViewCli {
     /// alone, no display needed).
     #[arg(long, requires = "play_for")]
     no_window: bool,
+    /// With --no-window and an asset: pause on the first frame and turn the camera a
+    /// degree per picture instead of playing (what a camera drag costs); prints the
+    /// pictures' median time.
+    #[arg(long, requires = "no_window", conflicts_with_all = ["scene", "fog"])]
+    orbit: bool,
     /// With --scene: start with the surfaces ray-traced per pixel instead of rasterized
     /// (the panel switches between the two).
     #[arg(long, requires = "scene")]
@@ -710,6 +715,7 @@ impl ViewCli {
             },
             play_for: self.play_for,
             window: !self.no_window,
+            orbit: self.orbit,
             lighting: self.lighting.into(),
             goal,
             tradeoff: self.tradeoff,

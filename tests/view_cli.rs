@@ -124,6 +124,7 @@ fn bad_files_and_knobs_fail_on_one_line() {
         vec!["view", a, "--size", "0x10"],
         vec!["view", a, "--size", "640"],
         vec!["view", a, "--no-window"],
+        vec!["view", a, "--orbit", "--play-for", "1"],
     ] {
         let o = haze().args(&args).output().unwrap();
         assert_eq!(o.status.code(), Some(2), "{args:?}");
@@ -168,6 +169,18 @@ fn plays_without_a_window_and_reports_the_figures() {
     let (_, shown, due, dropped, ..) = figures(&line);
     assert!(line.contains("as fast as possible"), "{line}");
     assert!(shown >= 1 && due == shown && dropped == 0, "{line}");
+
+    // Turning the camera on the paused first frame: at least two pictures, timed.
+    let line = run(&["--orbit", "--play-for", "1"]);
+    let turned: usize = line
+        .strip_prefix("turned ")
+        .and_then(|r| r.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{line}"));
+    assert!(
+        turned >= 2 && line.contains("32×24") && line.contains("median"),
+        "{line}"
+    );
 }
 
 /// A virtual X display of the test's own: `Xvfb -displayfd 1` picks a display number whose

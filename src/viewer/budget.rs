@@ -159,6 +159,7 @@ mod tests {
             knobs: defaults.clone(),
             play_for: Some(0.3),
             window: false,
+            orbit: false,
             lighting: haze_view::gpu::renderer::LightingOn::Cpu,
             goal: Some(Goal::BudgetMs(60.0)),
             tradeoff: Some(file.clone()),

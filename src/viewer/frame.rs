@@ -11,8 +11,11 @@
 //! previous frame's solution), the sources at the centers (reused while the frame, the
 //! medium, the light and the lighting options are unchanged: a camera move, the residual
 //! toggle or the slice count re-run the passes only) and, with the isotropic phase
-//! function, the volume-pass grids (a camera move re-runs the view pass only). A frame is
-//! known by a hash of its RBFs, grid and residual.
+//! function, the volume-pass grids (a camera move re-runs the view pass only); the
+//! environment pass's grid (the march towards the sky from every node) is kept while the
+//! frame, the residual toggle, σt, the sky or map, the order and its settings hold — a
+//! camera move, an albedo, `g` or light change only evaluate it again per voxel. A frame
+//! is known by a hash of its RBFs, grid and residual.
 
 use haze_view::gpu::renderer::{GpuFrame, GpuRenderer, LightingOn, Reuse};
 use haze_view::gpu::volume_pass::Residual;
@@ -81,6 +84,22 @@ impl FrameRenderer {
         let mut inner = GpuRenderer::new(ctx, Environment::sky(Sky::default()))?;
         inner.set_lighting(lighting);
         Ok(FrameRenderer { inner })
+    }
+
+    /// How many environment-pass grids were computed so far: the grid is kept across
+    /// camera moves and albedo, `g` or light changes, and rebuilt when the frame, σt, the
+    /// sky or map, the order, the residual toggle or the grid's settings change
+    /// ([`GpuRenderer::env_grid_builds`]).
+    #[cfg(test)]
+    pub fn env_grid_builds(&self) -> u64 {
+        self.inner.env_grid_builds()
+    }
+
+    /// How many shadow volumes of the lights were computed so far
+    /// ([`GpuRenderer::light_shadow_builds`]).
+    #[cfg(test)]
+    pub fn light_shadow_builds(&self) -> u64 {
+        self.inner.light_shadow_builds()
     }
 
     /// The image of a frame — `rbfs` and `residual` on a `dims` grid over `bbox` — lit by
@@ -272,6 +291,107 @@ mod tests {
             );
             assert_close(&c, &cpu.pixels);
         }
+    }
+
+    /// The environment pass's grid is computed once per frame, σt, sky, order and
+    /// residual toggle: a camera move, a new albedo or `g` and a new point light reuse it;
+    /// the lights' shadow volume once per frame, σt and light position; every picture is
+    /// a fresh renderer's to the bit (single scattering: no warm-started solve to tell
+    /// them apart).
+    #[test]
+    fn the_environment_grid_is_rebuilt_exactly_when_what_it_depends_on_changes() {
+        let ctx = context();
+        let (_dir, frames) = frames(2);
+        let opts = CrmOptions {
+            multiple: false,
+            ..CrmOptions::default()
+        };
+        assert!(matches!(
+            opts.env_source,
+            haze_view::render::env_pass::EnvSource::Grid(_)
+        ));
+        let sky = Environment::sky(Sky::default());
+        let m = Medium::new(6.0, 0.85, 0.3).unwrap();
+        let shot = |r: &mut FrameRenderer,
+                    k: usize,
+                    m: &Medium,
+                    env: &Environment,
+                    cam: &Camera,
+                    o: &CrmOptions| {
+            let f = &frames[k];
+            let residual = f.residual.as_ref().map(Residual::Hash);
+            r.render(&ctx, &f.rbfs, residual, DIMS, &bbox(), m, env, cam, o)
+                .unwrap()
+        };
+        // Each picture against a fresh renderer's, which builds its one grid.
+        let fresh = |k: usize, m: &Medium, env: &Environment, cam: &Camera, o: &CrmOptions| {
+            let mut f = FrameRenderer::new(&ctx, LightingOn::Auto).unwrap();
+            let (pixels, _) = shot(&mut f, k, m, env, cam, o);
+            assert_eq!(f.env_grid_builds(), 1);
+            pixels
+        };
+        let mut r = FrameRenderer::new(&ctx, LightingOn::Auto).unwrap();
+        let (first, t) = shot(&mut r, 0, &m, &sky, &camera(-1.0), &opts);
+        assert_eq!(r.env_grid_builds(), 1);
+        assert!(t.crm.env_seconds > 0.0);
+
+        // A camera move (g ≠ 0: the volume grids are rebuilt, the environment's is not).
+        let (moved, t) = shot(&mut r, 0, &m, &sky, &camera(0.5), &opts);
+        assert!(t.sources_reused && !t.grids_reused);
+        assert_eq!(r.env_grid_builds(), 1);
+        assert_ne!(moved, first);
+        assert_eq!(moved, fresh(0, &m, &sky, &camera(0.5), &opts));
+
+        // Albedo and g enter per voxel only; a point light is the lights pass's.
+        let other = Medium::new(6.0, 0.5, -0.4).unwrap();
+        let (p, _) = shot(&mut r, 0, &other, &sky, &camera(0.5), &opts);
+        assert_eq!(r.env_grid_builds(), 1);
+        assert_eq!(p, fresh(0, &other, &sky, &camera(0.5), &opts));
+        let b = bbox();
+        let mut lit = sky.clone();
+        lit.points.push(
+            haze_view::PointLight::new([b.max[0] + 0.5, b.min[1], b.max[2]], [2.0; 3]).unwrap(),
+        );
+        shot(&mut r, 0, &other, &lit, &camera(0.5), &opts);
+        assert_eq!((r.env_grid_builds(), r.light_shadow_builds()), (1, 1));
+        // The lights' shadow volume is kept across a camera move and a brighter light,
+        // and marched again for a moved light.
+        let (p, _) = shot(&mut r, 0, &other, &lit, &camera(-1.0), &opts);
+        assert_eq!((r.env_grid_builds(), r.light_shadow_builds()), (1, 1));
+        assert_eq!(p, fresh(0, &other, &lit, &camera(-1.0), &opts));
+        lit.points[0].intensity = [5.0; 3];
+        shot(&mut r, 0, &other, &lit, &camera(-1.0), &opts);
+        assert_eq!(r.light_shadow_builds(), 1);
+        lit.points[0].position[2] -= 0.3;
+        shot(&mut r, 0, &other, &lit, &camera(-1.0), &opts);
+        assert_eq!((r.env_grid_builds(), r.light_shadow_builds()), (1, 2));
+
+        // σt, the frame, the residual toggle, the order and the sky each rebuild it.
+        let thick = Medium::new(9.0, 0.5, -0.4).unwrap();
+        let (p, _) = shot(&mut r, 0, &thick, &sky, &camera(0.5), &opts);
+        assert_eq!(r.env_grid_builds(), 2);
+        assert_eq!(p, fresh(0, &thick, &sky, &camera(0.5), &opts));
+        shot(&mut r, 1, &thick, &sky, &camera(0.5), &opts);
+        assert_eq!(r.env_grid_builds(), 3);
+        let no_residual = CrmOptions {
+            residual: false,
+            ..opts
+        };
+        shot(&mut r, 1, &thick, &sky, &camera(0.5), &no_residual);
+        assert_eq!(r.env_grid_builds(), 4);
+        let o2 = CrmOptions { order: 2, ..opts };
+        shot(&mut r, 1, &thick, &sky, &camera(0.5), &o2);
+        assert_eq!(r.env_grid_builds(), 5);
+        let low_sun = Environment::sky(Sky {
+            sun_direction: [0.6, -0.8, 0.0],
+            ..Sky::default()
+        });
+        shot(&mut r, 1, &thick, &low_sun, &camera(0.5), &o2);
+        assert_eq!(r.env_grid_builds(), 6);
+        // And back to a camera move: kept again.
+        let (p, _) = shot(&mut r, 1, &thick, &low_sun, &camera(-0.3), &o2);
+        assert_eq!(r.env_grid_builds(), 6);
+        assert_eq!(p, fresh(1, &thick, &low_sun, &camera(-0.3), &o2));
     }
 
     #[test]

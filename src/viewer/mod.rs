@@ -68,6 +68,8 @@ pub struct ViewArgs {
     pub play_for: Option<f64>,
     /// Play without a window (with `play_for`).
     pub window: bool,
+    /// Without a window: turn the camera on the first frame, paused, instead of playing.
+    pub orbit: bool,
     /// Where the lighting at the centers (single and multiple scattering) is computed.
     pub lighting: LightingOn,
     /// Start with the knobs a tradeoff sweep's front gives for this budget or target.
@@ -234,7 +236,11 @@ pub fn run(mut a: ViewArgs) -> Result<()> {
         let play_for = a.play_for.unwrap_or_default();
         let worker = Worker::spawn(cursor, ctx, a.lighting, Box::new(|| {}))?;
         let mut player = Player::new(playback, worker, started);
-        let line = play_without_window(&mut player, &initial, play_for)?;
+        let line = if a.orbit {
+            turn_without_window(&mut player, orbit, initial, play_for)?
+        } else {
+            play_without_window(&mut player, &initial, play_for)?
+        };
         println!("{line}; {}", knobs.describe());
         return Ok(());
     }
@@ -280,6 +286,51 @@ fn play_without_window(player: &mut Player, view: &View, seconds: f64) -> Result
         }
         player.wait(wait);
     }
+}
+
+/// Pauses on the first frame and renders it for `seconds`, turning the camera by a
+/// degree after each picture, without a window; gives the measurement line (the pictures'
+/// median and mean time, from one picture on screen to the next).
+fn turn_without_window(
+    player: &mut Player,
+    mut orbit: Orbit,
+    mut view: View,
+    seconds: f64,
+) -> Result<String> {
+    let (w, h) = (view.camera.width, view.camera.height);
+    player.playback.pause();
+    let mut last: Option<Instant> = None;
+    let mut times = Vec::new();
+    let start = Instant::now();
+    loop {
+        let now = Instant::now();
+        let update = player.update(now, &view);
+        if let Some(e) = &player.first_failure {
+            bail!("{e}");
+        }
+        if update.shown.is_some() {
+            if let Some(t) = last {
+                times.push(now.duration_since(t).as_secs_f64());
+            }
+            last = Some(now);
+            if start.elapsed().as_secs_f64() >= seconds && !times.is_empty() {
+                break;
+            }
+            orbit.drag(1f64.to_radians() / orbit::RADIANS_PER_PIXEL, 0.0);
+            view.camera = orbit.camera(w, h).map_err(|e| anyhow!("camera: {e}"))?;
+            continue;
+        }
+        player.wait(Duration::from_millis(50));
+    }
+    let mean = times.iter().sum::<f64>() / times.len() as f64;
+    times.sort_by(f64::total_cmp);
+    Ok(format!(
+        "turned {} pictures of {w}×{h} on the first frame, paused: median {:.1} ms, mean {:.1} ms; render mean {:.1} ms",
+        times.len() + 1,
+        1e3 * times[times.len() / 2],
+        1e3 * mean,
+        1e3 * player.mean_render_seconds()
+    ))
 }
 
 #[cfg(test)]

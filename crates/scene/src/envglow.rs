@@ -42,6 +42,7 @@ use crate::scene::{Environment, Material, Rgb, Scene};
 use crate::vec3::Vec3;
 use haze_view::sh;
 use std::f64::consts::PI;
+use std::sync::{Arc, Mutex};
 
 /// The SH order (bands `l < 16`, 256 coefficients per channel), chosen by measurement
 /// (BENCHMARKS.md "Environment glow").
@@ -117,6 +118,108 @@ pub fn view_environment(env: &Environment) -> Option<haze_view::Environment> {
     }
 }
 
+/// The environment's exact SH projection at `order`, `L_lm` per channel at
+/// `l(l + 1) + m` (`sh::project_env`); `None` for a black environment.
+pub fn projection(env: &Environment, order: usize) -> Option<Vec<[f64; 3]>> {
+    let proj = sh::project_env(&view_environment(env)?, order);
+    Some(
+        (0..order * order)
+            .map(|i| [proj[0][i], proj[1][i], proj[2][i]])
+            .collect(),
+    )
+}
+
+/// Two environments are the same light (a map compared by its texels, unless it is the
+/// very same map).
+fn same_environment(a: &Environment, b: &Environment) -> bool {
+    match (a, b) {
+        (Environment::Map(x), Environment::Map(y)) => Arc::ptr_eq(x, y) || x == y,
+        _ => a == b,
+    }
+}
+
+/// What an [`EnvGlow`] depends on besides the environment and the `K` table: the
+/// environment distance, the medium's σt and σs, the order and the Phong exponents (not
+/// the camera, the lights or the surfaces' shapes).
+#[derive(Clone, Debug, PartialEq)]
+struct GlowKey {
+    distance: f64,
+    sigma_t: Rgb,
+    sigma_s: Rgb,
+    order: usize,
+    exponents: Vec<f64>,
+}
+
+#[derive(Debug, Default)]
+struct Slots {
+    /// The environment, the order and [`projection`] of them.
+    projection: Option<(Environment, usize, Vec<[f64; 3]>)>,
+    /// The last glow, of the environment in `projection`.
+    glow: Option<(GlowKey, EnvGlow)>,
+    projections: u64,
+    glows: u64,
+}
+
+/// [`EnvGlow::new`] kept between frames, for one `K` table (its holder's): the
+/// environment's SH projection (about half of [`EnvGlow::new`]'s time, BENCHMARKS.md
+/// "Environment glow") is keyed by the environment and the order; the glow by those and
+/// [`GlowKey`] — so camera moves and light or surface edits rebuild nothing, and a medium
+/// edit only the `λ_l` tables, from the kept projection.
+#[derive(Debug, Default)]
+pub struct Cache(Mutex<Slots>);
+
+impl Cache {
+    /// [`EnvGlow::new`] of `scene` with `k`, computed again only in the part whose inputs
+    /// changed (type docs). Panics as [`EnvGlow::new`] for an order outside 1 to
+    /// [`MAX_ORDER`].
+    pub fn glow(
+        &self,
+        scene: &Scene,
+        k: &(impl KFunction + Sync),
+        order: usize,
+        exponents: &[f64],
+    ) -> Option<EnvGlow> {
+        if matches!(scene.environment, Environment::Black) {
+            return None;
+        }
+        let key = GlowKey {
+            distance: scene.environment_distance,
+            sigma_t: scene.medium.sigma_t,
+            sigma_s: scene.medium.sigma_s(),
+            order,
+            exponents: exponents.to_vec(),
+        };
+        let mut slots = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        let same_projection = matches!(&slots.projection,
+            Some((env, o, _)) if *o == order && same_environment(env, &scene.environment));
+        if same_projection
+            && let Some((k0, glow)) = &slots.glow
+            && *k0 == key
+        {
+            return Some(glow.clone());
+        }
+        let radiance = match &slots.projection {
+            Some((_, _, r)) if same_projection => r.clone(),
+            _ => {
+                let r = projection(&scene.environment, order)?;
+                slots.projections += 1;
+                slots.projection = Some((scene.environment.clone(), order, r.clone()));
+                r
+            }
+        };
+        let glow = EnvGlow::with_radiance(scene, k, order, exponents, radiance);
+        slots.glows += 1;
+        slots.glow = Some((key, glow.clone()));
+        Some(glow)
+    }
+
+    /// How many projections and glows were computed so far (for tests and figures).
+    pub fn builds(&self) -> (u64, u64) {
+        let slots = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        (slots.projections, slots.glows)
+    }
+}
+
 /// `k_t(cos γ)` for a unit-direction ray and sources at distance `d` (module docs), by
 /// paper C's stable form with `k`.
 pub fn kernel(k: &impl KFunction, d: f64, t: f64, gamma: f64, beta: f64, sigma_s: f64) -> f64 {
@@ -154,17 +257,31 @@ impl EnvGlow {
         order: usize,
         exponents: &[f64],
     ) -> Option<EnvGlow> {
-        use rayon::prelude::*;
         assert!(
             (1..=MAX_ORDER).contains(&order),
             "SH order {order} outside 1..={MAX_ORDER}"
         );
-        let env = view_environment(&scene.environment)?;
-        let proj = sh::project_env(&env, order);
-        let n = order * order;
-        let radiance: Vec<[f64; 3]> = (0..n)
-            .map(|i| [proj[0][i], proj[1][i], proj[2][i]])
-            .collect();
+        let radiance = projection(&scene.environment, order)?;
+        Some(EnvGlow::with_radiance(scene, k, order, exponents, radiance))
+    }
+
+    /// [`EnvGlow::new`] of the environment whose projection at `order` is `radiance`
+    /// (`L_lm` per channel, `order²` of them, as [`projection`] gives): the `λ_l` tables of
+    /// the scene's medium and distance and the lobes of `exponents`. Panics for an order
+    /// outside 1 to [`MAX_ORDER`] or another count of coefficients.
+    pub fn with_radiance(
+        scene: &Scene,
+        k: &(impl KFunction + Sync),
+        order: usize,
+        exponents: &[f64],
+        radiance: Vec<[f64; 3]>,
+    ) -> EnvGlow {
+        use rayon::prelude::*;
+        assert!(
+            (1..=MAX_ORDER).contains(&order) && radiance.len() == order * order,
+            "SH order {order} outside 1..={MAX_ORDER} or {} coefficients",
+            radiance.len()
+        );
         let d = scene.environment_distance;
         let rule = gamma_rule(8);
         let mut lambda = vec![[0.0; 3]; T_NODES * order];
@@ -221,7 +338,7 @@ impl EnvGlow {
                 [0, 1, 2].map(|c| (transmit[c] + lambda[last + l][c]) * r[c])
             })
             .collect();
-        Some(EnvGlow {
+        EnvGlow {
             order,
             distance: d,
             radiance,
@@ -233,7 +350,7 @@ impl EnvGlow {
                 .iter()
                 .map(|&e| (e, lobe_factors(order, e)))
                 .collect(),
-        })
+        }
     }
 
     /// `λ_l(t)` per channel, linear between the table's nodes (`t` clamped to `[0, D]`).

@@ -64,11 +64,12 @@ impl GaussianEnv {
     /// The frame's environment terms; `None` for a black environment. `to_eye` is each
     /// centre's [`GaussianSet::depth_to_point`] towards the eye, `beta0` the homogeneous
     /// part per channel, `background` the Gaussian media's share of it, `exponents` the
-    /// scene's Phong exponents.
+    /// scene's Phong exponents; the glow is `analytic`'s, kept between frames
+    /// ([`envglow::Cache`]).
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         scene: &Scene,
-        k: &(impl crate::airlight::KFunction + Sync),
+        analytic: &crate::render::Analytic,
         set: &GaussianSet,
         to_eye: &[f64],
         beta0: Rgb,
@@ -78,7 +79,9 @@ impl GaussianEnv {
         if matches!(scene.environment, Environment::Black) {
             return None;
         }
-        let glow = EnvGlow::new(scene, k, envglow::DEFAULT_ORDER, exponents)?;
+        let glow = analytic
+            .glow
+            .glow(scene, &analytic.h, envglow::DEFAULT_ORDER, exponents)?;
         let fog = fog_factor(scene);
         // Y_00 = 1/(2√π): (1/4π)∫L = L_00·Y_00.
         let y00 = 0.5 / PI.sqrt();

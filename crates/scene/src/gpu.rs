@@ -20,7 +20,7 @@
 //! (WGSL does not promise infinities), finite ones beyond `10³⁰` clamped there.
 
 use crate::airlight::Limits;
-use crate::envglow::{self, EnvGlow};
+use crate::envglow;
 use crate::htable::HTable;
 use crate::mesh::Mesh;
 use crate::render::{Analytic, Image};
@@ -71,8 +71,10 @@ pub struct GpuRenderer {
     env: crate::env_smoke::Cache,
     /// The rasterized renderer's passes ([`crate::raster`]), compiled for its first frame.
     raster: std::sync::OnceLock<crate::raster::RasterPipelines>,
-    /// The `K` table, for the environment's glow ([`EnvGlow`]), built per frame.
+    /// The `K` table, for the environment's glow ([`EnvGlow`](envglow::EnvGlow)).
     h: HTable,
+    /// The environment's glow, kept between frames ([`envglow::Cache`]).
+    glow: envglow::Cache,
 }
 
 fn f32x3(v: [f64; 3]) -> [f32; 3] {
@@ -173,7 +175,15 @@ impl GpuRenderer {
             env: Default::default(),
             raster: std::sync::OnceLock::new(),
             h: analytic.h.clone(),
+            glow: envglow::Cache::default(),
         })
+    }
+
+    /// How many SH projections of the environment and glows ([`EnvGlow`](envglow::EnvGlow)) this renderer
+    /// computed: they are kept across camera moves and light edits, the glow rebuilt
+    /// (from the kept projection) when the medium changes ([`envglow::Cache`]).
+    pub fn env_builds(&self) -> (u64, u64) {
+        self.glow.builds()
     }
 
     /// The index (in the tables buffer, 0 for `G0`) of the `Gn` table of `exponent`.
@@ -185,7 +195,7 @@ impl GpuRenderer {
     }
 
     /// The `envdata` records of the scene's environment (the shader's layout: the
-    /// [`EnvGlow`] of the frame's medium, then a map's texels), `Params::env` and
+    /// [`EnvGlow`](envglow::EnvGlow) of the frame's medium, then a map's texels), `Params::env` and
     /// `Params::env_at`.
     #[allow(clippy::type_complexity)]
     fn env_records(&self, scene: &Scene) -> Result<(Vec<[f32; 4]>, [u32; 4], [u32; 4]), GpuError> {
@@ -195,7 +205,10 @@ impl GpuRenderer {
         let offset = |n: usize| {
             u32::try_from(n).map_err(|_| GpuError::Input("the environment is too large".into()))
         };
-        if let Some(g) = EnvGlow::new(scene, &self.h, envglow::DEFAULT_ORDER, &self.exponents) {
+        if let Some(g) = self
+            .glow
+            .glow(scene, &self.h, envglow::DEFAULT_ORDER, &self.exponents)
+        {
             let rgb = |v: &[f64; 3]| vec4(*v, 0.0);
             data.extend(g.radiance.iter().map(rgb));
             at[0] = offset(data.len())?;

@@ -184,7 +184,7 @@ impl<'a> Prepared<'a> {
             .collect();
         let env = GaussianEnv::new(
             scene,
-            &analytic.h,
+            analytic,
             &set,
             &to_eye,
             beta0,

@@ -118,6 +118,8 @@ pub struct Analytic {
     pub h: HTable,
     pub g0: GTable,
     pub gn: Vec<GTable>,
+    /// The environment's glow with `h`, kept between renders ([`envglow::Cache`]).
+    pub glow: envglow::Cache,
 }
 
 impl Analytic {
@@ -137,7 +139,12 @@ impl Analytic {
             .iter()
             .map(|&n| GTable::new(&h, n, gtable::DEFAULT_SIZE))
             .collect();
-        Analytic { h, g0, gn }
+        Analytic {
+            h,
+            g0,
+            gn,
+            glow: envglow::Cache::default(),
+        }
     }
 
     fn gn(&self, n: f64) -> Option<&GTable> {
@@ -210,7 +217,8 @@ impl Model for Analytic {
             .collect();
         exps.sort_by(f64::total_cmp);
         exps.dedup();
-        EnvGlow::new(scene, &self.h, envglow::DEFAULT_ORDER, &exps)
+        self.glow
+            .glow(scene, &self.h, envglow::DEFAULT_ORDER, &exps)
             .map(|g| Box::new(g) as Box<dyn EnvLight>)
     }
 }

@@ -282,3 +282,49 @@ fn scene_files_read_exr_environments_and_name_bad_ones() {
     // Relative to the scene file, not the working directory.
     assert!(file::parse(&text("env.exr")).is_err());
 }
+
+/// The glow kept between frames (`envglow::Cache`) is `EnvGlow::new`'s to the bit, and it
+/// projects the environment again only for another environment or order: a camera move,
+/// a light or a surface leave both the projection and the glow; the medium and the
+/// environment distance rebuild the glow (from the kept projection); the exponents too.
+#[test]
+fn the_kept_glow_is_rebuilt_only_when_its_inputs_change() {
+    use haze_scene::envglow::Cache;
+    let cache = Cache::default();
+    let mut s = scene(Environment::Sky, 0.2, 0.9, 8.0);
+    let fresh = |s: &Scene, e: &[f64]| EnvGlow::new(s, h(), 4, e).unwrap();
+    assert_eq!(cache.glow(&s, h(), 4, &[]).unwrap(), fresh(&s, &[]));
+    assert_eq!(cache.builds(), (1, 1));
+    s.camera = Camera::new([3.0, 1.0, 2.0], [0.0; 3], [0.0, 0.0, 1.0], 40.0, 8, 6).unwrap();
+    s.surfaces.push(haze_scene::Surface {
+        shape: haze_scene::Shape::Sphere {
+            center: [0.0, 0.0, 1.0],
+            radius: 0.5,
+        },
+        material: lambert(0.5),
+    });
+    assert_eq!(cache.glow(&s, h(), 4, &[]).unwrap(), fresh(&s, &[]));
+    assert_eq!(cache.builds(), (1, 1));
+    // The medium and the distance: a new glow, the same projection.
+    s.medium.albedo = [0.5; 3];
+    assert_eq!(cache.glow(&s, h(), 4, &[]).unwrap(), fresh(&s, &[]));
+    assert_eq!(cache.builds(), (1, 2));
+    s.environment_distance = 20.0;
+    assert_eq!(cache.glow(&s, h(), 4, &[]).unwrap(), fresh(&s, &[]));
+    assert_eq!(cache.builds(), (1, 3));
+    assert_eq!(cache.glow(&s, h(), 4, &[20.0]).unwrap(), fresh(&s, &[20.0]));
+    assert_eq!(cache.builds(), (1, 4));
+    // Another environment or order: projected again.
+    s.environment = Environment::Constant([0.3, 0.2, 0.1]);
+    assert_eq!(cache.glow(&s, h(), 4, &[20.0]).unwrap(), fresh(&s, &[20.0]));
+    assert_eq!(cache.builds(), (2, 5));
+    assert_eq!(
+        cache.glow(&s, h(), 3, &[20.0]).unwrap(),
+        EnvGlow::new(&s, h(), 3, &[20.0]).unwrap()
+    );
+    assert_eq!(cache.builds(), (3, 6));
+    // Black: nothing to build, nothing counted.
+    s.environment = Environment::Black;
+    assert!(cache.glow(&s, h(), 3, &[20.0]).is_none());
+    assert_eq!(cache.builds(), (3, 6));
+}

@@ -336,3 +336,47 @@ fn gpu_matches_the_cpu_with_environment_glow() {
         compare_within(name, s, 3e-3);
     }
 }
+
+/// The environment's SH projection and glow are kept between frames
+/// (`GpuRenderer::env_builds`): a camera move and a moved light project nothing again and
+/// give a fresh renderer's picture to the bit; a medium edit rebuilds the glow from the
+/// kept projection; another environment projects again.
+#[test]
+fn the_environment_is_projected_once_across_camera_moves() {
+    let ctx = context();
+    let lim = Limits::default();
+    let sky = scene(&[("[0.1, 0.12, 0.15]", "\"sky\", \"environment_distance\": 12")]);
+    let r = GpuRenderer::new(ctx, analytic()).unwrap();
+    let first = r.render(ctx, &sky, &lim).unwrap();
+    assert_eq!(r.env_builds(), (1, 1));
+    let mut moved = sky.clone();
+    moved.camera = haze_scene::Camera::new(
+        [2.5, -5.0, 2.2],
+        [0.0, 0.0, 0.8],
+        [0.0, 0.0, 1.0],
+        55.0,
+        32,
+        24,
+    )
+    .unwrap();
+    if let haze_scene::Light::Point { position, .. } = &mut moved.lights[0] {
+        position[0] += 0.5;
+    }
+    let a = r.render_rasterized(ctx, &moved, &lim).unwrap();
+    assert_eq!(r.env_builds(), (1, 1));
+    assert_ne!(a.pixels, first.pixels);
+    let fresh = GpuRenderer::new(ctx, analytic()).unwrap();
+    assert_eq!(
+        a.pixels,
+        fresh.render_rasterized(ctx, &moved, &lim).unwrap().pixels
+    );
+    let mut thick = moved.clone();
+    thick.medium.sigma_t = [0.4; 3];
+    let b = r.render(ctx, &thick, &lim).unwrap();
+    assert_eq!(r.env_builds(), (1, 2));
+    let fresh = GpuRenderer::new(ctx, analytic()).unwrap();
+    assert_eq!(b.pixels, fresh.render(ctx, &thick, &lim).unwrap().pixels);
+    thick.environment = haze_scene::Environment::Constant([0.2, 0.3, 0.4]);
+    r.render(ctx, &thick, &lim).unwrap();
+    assert_eq!(r.env_builds(), (2, 3));
+}

@@ -14,6 +14,11 @@
 // point light inside the box), D trilinear with `field::sample`'s stencil; the march stops
 // once σt·τ > SHADOW_CUTOFF.
 //
+// Two entry points: `shadow` writes T per voxel with D > 0 and light (the shadow volume:
+// it depends on D, σt and the lights' directions and positions, not on the eye, g, the
+// albedo or the lights' power, so the renderer keeps it across camera moves), `main` adds
+// the lights from it.
+//
 // In place: invocation u writes the xyz (J) words of its own voxel only and reads the
 // w (D) words of any voxel, which nobody writes, so the invocations do not race. The grid
 // is bound as flat f32 words (4 per voxel) so that every access touches one word.
@@ -51,6 +56,9 @@ const NONE: u32 = 0xffffffffu;
 @group(0) @binding(1) var<storage, read> lights: array<u32>;
 // Per voxel (x fastest): J̃ r g b, D.
 @group(0) @binding(2) var<storage, read_write> grid: array<f32>;
+// T per voxel (x fastest) and light (suns then point lights, fastest): `shadow` writes it
+// where D > 0, `main` reads it.
+@group(0) @binding(3) var<storage, read_write> shadow_t: array<f32>;
 
 fn word(i: u32) -> f32 {
     return bitcast<f32>(lights[i]);
@@ -124,13 +132,47 @@ fn disk_phase(at: u32, len: u32, s: vec3<f32>, d: vec3<f32>) -> f32 {
     return mix(word(at + i), word(at + i + 1u), t);
 }
 
-@compute @workgroup_size(4, 4, 4)
-fn main(@builtin(global_invocation_id) i: vec3<u32>) {
+// The voxel index of invocation i when it is a voxel with D > 0, else NONE.
+fn smoke_voxel(i: vec3<u32>) -> u32 {
     if any(i >= p.dims) {
-        return;
+        return NONE;
     }
     let lin = i.x + p.dims.x * (i.y + p.dims.y * i.z);
     if !(grid[4u * lin + 3u] > 0.0) {
+        return NONE;
+    }
+    return lin;
+}
+
+@compute @workgroup_size(4, 4, 4)
+fn shadow(@builtin(global_invocation_id) i: vec3<u32>) {
+    let lin = smoke_voxel(i);
+    if lin == NONE {
+        return;
+    }
+    let u = (vec3<f32>(i) + 0.5) * p.voxel;
+    let n = p.suns + p.points;
+    for (var l = 0u; l < p.suns; l++) {
+        shadow_t[lin * n + l] = transmittance(u, light_vec(8u * l), 3.0e38);
+    }
+    for (var l = 0u; l < p.points; l++) {
+        let at = 8u * (p.suns + l);
+        let v = light_vec(at) - u;
+        let r2 = dot(v, v);
+        var t = 1.0;
+        // A light at the voxel center is unshadowed (`main`).
+        if lights[at + 3u] != lin && r2 > 0.0 {
+            let r = sqrt(r2);
+            t = transmittance(u, v / r, r);
+        }
+        shadow_t[lin * n + p.suns + l] = t;
+    }
+}
+
+@compute @workgroup_size(4, 4, 4)
+fn main(@builtin(global_invocation_id) i: vec3<u32>) {
+    let lin = smoke_voxel(i);
+    if lin == NONE {
         return;
     }
     let u = (vec3<f32>(i) + 0.5) * p.voxel;
@@ -140,11 +182,12 @@ fn main(@builtin(global_invocation_id) i: vec3<u32>) {
         return;
     }
     let d = view / view_len;
+    let n = p.suns + p.points;
     var add = vec3<f32>(0.0);
     for (var l = 0u; l < p.suns; l++) {
         let at = 8u * l;
         let s = light_vec(at);
-        let t = transmittance(u, s, 3.0e38);
+        let t = shadow_t[lin * n + l];
         if t <= 0.0 {
             continue;
         }
@@ -161,9 +204,8 @@ fn main(@builtin(global_invocation_id) i: vec3<u32>) {
             add += intensity / p.soft;
             continue;
         }
-        let r = sqrt(r2);
-        let s = v / r;
-        let t = transmittance(u, s, r);
+        let s = v / sqrt(r2);
+        let t = shadow_t[lin * n + p.suns + l];
         add += intensity * (t * hg(dot(s, d)) / (r2 + p.soft));
     }
     for (var c = 0u; c < 3u; c++) {

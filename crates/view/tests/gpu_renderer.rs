@@ -263,19 +263,24 @@ fn frames_lit_by_a_sun_and_a_point_light_match_crm_render() {
             let (image, stats) = r.render(&ctx, &frame, &medium, &a, &opts).unwrap();
             if timed {
                 let names: Vec<&str> = stats.gpu.iter().map(|(n, _)| *n).collect();
-                assert_eq!(
-                    names,
-                    [
-                        "single scattering",
-                        "diffusion",
-                        "remove single",
-                        "volume pass",
-                        "environment grid",
-                        "environment pass",
-                        "lights pass",
-                        "view pass"
-                    ]
-                );
+                // The lights' shadow volume is the frame's first render's, kept after it
+                // (the same frame and σt); the environment grid is rebuilt with the order.
+                let shadow = (order, g) == (4, 0.5);
+                let expect: Vec<&str> = [
+                    "single scattering",
+                    "diffusion",
+                    "remove single",
+                    "volume pass",
+                    "environment grid",
+                    "environment pass",
+                    "lights shadow volume",
+                    "lights pass",
+                    "view pass",
+                ]
+                .into_iter()
+                .filter(|n| shadow || *n != "lights shadow volume")
+                .collect();
+                assert_eq!(names, expect);
             }
             ctx.time_stages(false);
             let (cpu, _) = crm_render(&rbfs, None, dims, &bbox, &medium, &env, &a, &opts);

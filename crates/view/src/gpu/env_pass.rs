@@ -22,6 +22,7 @@ use crate::lighting::single::RgbSh;
 use crate::medium::Medium;
 use crate::render::env_pass::{self, EnvGridOptions};
 use crate::sh;
+use haze_volume::Bbox;
 
 /// The shader: `crates/view/shaders/sh_basis.wgsl`, the shadow march shared with the
 /// lights pass (`grid_march.wgsl`), then `env_pass.wgsl`.
@@ -58,11 +59,19 @@ struct Params {
 }
 
 /// `S_lm` at the grid's nodes on the GPU (`3·order²` `f32` per node, channel fastest, as
-/// [`crate::sh::ShGrid::coeffs`]).
+/// [`crate::sh::ShGrid::coeffs`]), with the grid's frame: what [`EnvPass::grid`] computed,
+/// ready for any number of [`EnvPass::apply`] (it depends on the density, σt, the
+/// environment, the order and [`EnvGridOptions`], not on the eye, the albedo or `g`).
 #[derive(Debug)]
 pub struct EnvShadow {
     buffer: wgpu::Buffer,
     len: usize,
+    /// The `shadow` dispatch's parameters (the eye left at zero): the nodes' frame and
+    /// the volume grid's size, which `apply` shares.
+    params: Params,
+    order: usize,
+    dims: [usize; 3],
+    bbox: Bbox,
 }
 
 impl EnvShadow {
@@ -71,6 +80,11 @@ impl EnvShadow {
         let bytes = ctx.read_buffer(&self.buffer)?;
         Ok(bytemuck::cast_slice::<u8, f32>(&bytes)[..self.len].to_vec())
     }
+
+    /// The SH order of the coefficients.
+    pub fn order(&self) -> usize {
+        self.order
+    }
 }
 
 /// The compiled environment pass, reusable across frames.
@@ -78,6 +92,16 @@ impl EnvShadow {
 pub struct EnvPass {
     shadow: wgpu::ComputePipeline,
     apply: wgpu::ComputePipeline,
+}
+
+fn check_order(order: usize) -> Result<usize, GpuError> {
+    if !(1..=sh::MAX_ORDER).contains(&order) {
+        return Err(GpuError::Input(format!(
+            "SH order {order} is outside 1..={}",
+            sh::MAX_ORDER
+        )));
+    }
+    Ok(sh::count(order))
 }
 
 impl EnvPass {
@@ -96,10 +120,11 @@ impl EnvPass {
 
     /// Adds the environment's single scattering to the grids on the GPU (those a
     /// [`VolumePass`](super::volume_pass::VolumePass) wrote, or an upload), camera at
-    /// `eye`, as [`env_pass::env_pass`] does on the CPU (submitted, not waited for);
-    /// `light` is the environment's projection at `order`. Returns the nodes' `S`. With
-    /// albedo 0 the grid is computed and nothing added. Refuses an order outside 1..=6,
-    /// a `light` of another order, a non-finite eye and sizes beyond the device's limits.
+    /// `eye`, as [`env_pass::env_pass`] does on the CPU (submitted, not waited for):
+    /// [`EnvPass::grid`] then [`EnvPass::apply`]; `light` is the environment's projection
+    /// at `order`. Returns the nodes' `S`. With albedo 0 the grid is computed and nothing
+    /// added. Refuses an order outside 1..=6, a `light` of another order, a non-finite eye
+    /// and sizes beyond the device's limits.
     #[allow(clippy::too_many_arguments)]
     pub fn run_on(
         &self,
@@ -112,13 +137,7 @@ impl EnvPass {
         order: usize,
         opts: &EnvGridOptions,
     ) -> Result<EnvShadow, GpuError> {
-        if !(1..=sh::MAX_ORDER).contains(&order) {
-            return Err(GpuError::Input(format!(
-                "SH order {order} is outside 1..={}",
-                sh::MAX_ORDER
-            )));
-        }
-        let n2 = sh::count(order);
+        let n2 = check_order(order)?;
         if light.iter().any(|c| c.len() < n2) {
             return Err(GpuError::Input(format!(
                 "the environment's projection has fewer than {n2} coefficients"
@@ -127,6 +146,24 @@ impl EnvPass {
         if !eye.iter().all(|c| c.is_finite()) {
             return Err(GpuError::Input(format!("the eye {eye:?} is not finite")));
         }
+        let shadow = self.grid(ctx, grid, env, medium.sigma_t, order, opts)?;
+        self.apply(ctx, grid, &shadow, light, medium, eye)?;
+        Ok(shadow)
+    }
+
+    /// The `shadow` dispatch alone (submitted): `S_lm` at the nodes of the environment's
+    /// grid over `grid`'s `D`, for σt `sigma_t` (module docs). Refuses an order outside
+    /// 1..=6 and sizes beyond the device's limits.
+    pub fn grid(
+        &self,
+        ctx: &GpuContext,
+        grid: &GridBuffer,
+        env: &Environment,
+        sigma_t: f64,
+        order: usize,
+        opts: &EnvGridOptions,
+    ) -> Result<EnvShadow, GpuError> {
+        let n2 = check_order(order)?;
         let dims = grid.dims();
         let bbox = *grid.bbox();
         let frame = env_pass::grid_frame(dims, &bbox, opts.spacing, order);
@@ -146,11 +183,6 @@ impl EnvPass {
         if table.is_empty() {
             table.push(0.0);
         }
-        let a = env_pass::phase_factors(medium, order);
-        let mut factors: Vec<f32> = Vec::with_capacity(4 * n2);
-        for (j, aj) in a.iter().enumerate() {
-            factors.extend([light[0][j], light[1][j], light[2][j], *aj].map(|v| v as f32));
-        }
         ctx.check_storage_size("the direction rule", (table.len() * 4) as u64)?;
 
         let vs = grid.voxel_size();
@@ -158,8 +190,8 @@ impl EnvPass {
             u32::try_from(n).map_err(|_| GpuError::Input(format!("{n} {what} are too many")))
         };
         let params = Params {
-            eye: [0, 1, 2].map(|k| (eye[k] - bbox.min[k]) as f32),
-            sigma_t: medium.sigma_t as f32,
+            eye: [0.0; 3],
+            sigma_t: sigma_t as f32,
             voxel: vs.map(|v| v as f32),
             h0: vs[0].min(vs[1]).min(vs[2]) as f32,
             size: bbox.size().map(|v| v as f32),
@@ -177,16 +209,15 @@ impl EnvPass {
         let node_groups = total.div_ceil(NODES);
         let gx = node_groups.clamp(1, max_groups);
         let gy = node_groups.div_ceil(gx);
-        let voxel_groups = dims.map(|n| n.div_ceil(SIDE));
-        if gy > max_groups || voxel_groups.iter().any(|&n| n > max_groups) {
+        if gy > max_groups {
             return Err(GpuError::Input(format!(
                 "a grid of {dims:?} voxels is larger than the device dispatches"
             )));
         }
-        ctx.scoped("the environment pass", || {
+        ctx.scoped("the environment grid", || {
             let uniform = buffer_init(
                 ctx,
-                "environment pass parameters",
+                "environment grid parameters",
                 bytemuck::bytes_of(&params),
                 wgpu::BufferUsages::UNIFORM,
             );
@@ -194,12 +225,6 @@ impl EnvPass {
                 ctx,
                 "environment direction rule",
                 bytemuck::cast_slice(&table),
-                wgpu::BufferUsages::STORAGE,
-            );
-            let factors = buffer_init(
-                ctx,
-                "environment projection",
-                bytemuck::cast_slice(&factors),
                 wgpu::BufferUsages::STORAGE,
             );
             let shadow = ctx.device.create_buffer(&wgpu::BufferDescriptor {
@@ -220,19 +245,88 @@ impl EnvPass {
                 &[&uniform, &rule, grid.buffer(), &shadow],
                 groups,
             );
-            if medium.albedo != 0.0 && !dims.contains(&0) {
-                submit_pass(
-                    ctx,
-                    &self.apply,
-                    "environment pass",
-                    &[&uniform, &factors, grid.buffer(), &shadow],
-                    voxel_groups.map(|n| n as u32),
-                );
-            }
             EnvShadow {
                 buffer: shadow,
                 len,
+                params,
+                order,
+                dims,
+                bbox,
             }
+        })
+    }
+
+    /// The `apply` dispatch alone (submitted): adds to `grid`'s `J̃`, camera at `eye`,
+    /// the environment's single scattering from `shadow` (an [`EnvPass::grid`] of a grid
+    /// with the same `D`) and `light`, the environment's projection at `shadow`'s order;
+    /// nothing with albedo 0. Refuses a grid of other dims or box than `shadow`'s, a
+    /// `light` of another order, a non-finite eye and sizes beyond the device's limits.
+    pub fn apply(
+        &self,
+        ctx: &GpuContext,
+        grid: &GridBuffer,
+        shadow: &EnvShadow,
+        light: &RgbSh,
+        medium: &Medium,
+        eye: [f64; 3],
+    ) -> Result<(), GpuError> {
+        let order = shadow.order;
+        let n2 = check_order(order)?;
+        if light.iter().any(|c| c.len() < n2) {
+            return Err(GpuError::Input(format!(
+                "the environment's projection has fewer than {n2} coefficients"
+            )));
+        }
+        if !eye.iter().all(|c| c.is_finite()) {
+            return Err(GpuError::Input(format!("the eye {eye:?} is not finite")));
+        }
+        let dims = grid.dims();
+        let bbox = *grid.bbox();
+        if dims != shadow.dims || bbox != shadow.bbox {
+            return Err(GpuError::Input(format!(
+                "the environment's grid is of a {:?} grid, not of this {dims:?} one",
+                shadow.dims
+            )));
+        }
+        let a = env_pass::phase_factors(medium, order);
+        let mut factors: Vec<f32> = Vec::with_capacity(4 * n2);
+        for (j, aj) in a.iter().enumerate() {
+            factors.extend([light[0][j], light[1][j], light[2][j], *aj].map(|v| v as f32));
+        }
+        let params = Params {
+            eye: [0, 1, 2].map(|k| (eye[k] - bbox.min[k]) as f32),
+            ..shadow.params
+        };
+        let max_groups = ctx.device.limits().max_compute_workgroups_per_dimension as usize;
+        let voxel_groups = dims.map(|n| n.div_ceil(SIDE));
+        if voxel_groups.iter().any(|&n| n > max_groups) {
+            return Err(GpuError::Input(format!(
+                "a grid of {dims:?} voxels is larger than the device dispatches"
+            )));
+        }
+        if medium.albedo == 0.0 || dims.contains(&0) {
+            return Ok(());
+        }
+        ctx.scoped("the environment pass", || {
+            let uniform = buffer_init(
+                ctx,
+                "environment pass parameters",
+                bytemuck::bytes_of(&params),
+                wgpu::BufferUsages::UNIFORM,
+            );
+            let factors = buffer_init(
+                ctx,
+                "environment projection",
+                bytemuck::cast_slice(&factors),
+                wgpu::BufferUsages::STORAGE,
+            );
+            submit_pass(
+                ctx,
+                &self.apply,
+                "environment pass",
+                &[&uniform, &factors, grid.buffer(), &shadow.buffer],
+                voxel_groups.map(|n| n as u32),
+            );
         })
     }
 }

@@ -12,6 +12,11 @@
 //! `D`, stopping once `σt·τ >` [`SHADOW_CUTOFF`]. The pass writes only the `J̃` words of
 //! its own voxel and reads only `D` words, so it runs in place without races.
 //!
+//! Two dispatches: `shadow` marches `T` toward every light from every voxel with `D > 0`
+//! into a [`LightShadow`] (it depends on `D`, σt and the lights' directions and positions
+//! only, so a renderer keeps it across camera moves and `g`, albedo or power changes),
+//! `main` adds the lights from it.
+//!
 //! Uploads: the lights, positions relative to the box's minimum corner (as every pass:
 //! `f32` keeps its precision for boxes far from the origin), eight words each, then the
 //! suns' phase tables (512 `f32` per sun with a disk, built once per `(g, angle)` and kept
@@ -24,12 +29,16 @@
 //! density reads each); neighbouring invocations march parallel (a sun) or converging (a
 //! point light) rays, so the reads stay coherent.
 
-use super::{GpuContext, GpuError, GridBuffer, buffer_init, compute_pipeline, submit_pass};
+use super::{
+    GpuContext, GpuError, GridBuffer, buffer_init, compute_pipeline, compute_pipeline_at,
+    submit_pass,
+};
 use crate::env::Environment;
 use crate::lights::DiskPhase;
 use crate::medium::{FOUR_PI, Medium};
 use crate::render::crm::VolumeGrids;
 pub use crate::render::lights_pass::SHADOW_CUTOFF;
+use haze_volume::Bbox;
 use std::sync::Mutex;
 
 /// The shader: the shadow march shared with the environment pass
@@ -84,7 +93,92 @@ struct Table {
 #[derive(Debug)]
 pub struct LightsPass {
     pipeline: wgpu::ComputePipeline,
+    shadow: wgpu::ComputePipeline,
     tables: Mutex<Vec<Table>>,
+}
+
+/// The lights' shadow volume on the GPU: `T = exp(−σt·τ)` toward each light at every
+/// voxel center with `D > 0` ([`LightsPass::shadow`]), for any number of
+/// [`LightsPass::apply`]: it depends on the grid's `D`, σt and the lights' directions and
+/// positions, not on the eye, `g`, the albedo or the lights' power.
+#[derive(Debug)]
+pub struct LightShadow {
+    buffer: wgpu::Buffer,
+    dims: [usize; 3],
+    bbox: Bbox,
+    sigma_t: f64,
+    /// [`geometry`] of the lights it was marched toward.
+    geometry: Vec<[f64; 3]>,
+}
+
+impl LightShadow {
+    /// Whether it is the shadow volume of `env`'s lights (their directions and positions)
+    /// in a grid of `grid`'s box and dims with σt `sigma_t` (the grid's `D` is the
+    /// caller's to vouch for).
+    pub fn fits(&self, grid: &GridBuffer, env: &Environment, sigma_t: f64) -> bool {
+        self.dims == grid.dims()
+            && self.bbox == *grid.bbox()
+            && self.sigma_t == sigma_t
+            && self.geometry == geometry(env)
+    }
+}
+
+/// What the shadow volume sees of the lights: the suns' directions, then the point
+/// lights' positions (with the sun count to tell them apart).
+fn geometry(env: &Environment) -> Vec<[f64; 3]> {
+    std::iter::once([env.suns.len() as f64, 0.0, 0.0])
+        .chain(env.suns.iter().map(|s| s.direction))
+        .chain(env.points.iter().map(|l| l.position))
+        .collect()
+}
+
+/// Refuses lights with non-finite values, a sun direction that is not a unit vector or a
+/// sun angle outside `[0, π]`.
+fn check_lights(env: &Environment) -> Result<(), GpuError> {
+    let finite = |v: &[f64]| v.iter().all(|c| c.is_finite());
+    for (i, s) in env.suns.iter().enumerate() {
+        if !(finite(&s.direction) && finite(&s.irradiance)) {
+            return Err(GpuError::Input(format!(
+                "sun {i} has a non-finite direction {:?} or irradiance {:?}",
+                s.direction, s.irradiance
+            )));
+        }
+        let norm = s.direction.iter().map(|c| c * c).sum::<f64>().sqrt();
+        if (norm - 1.0).abs() > UNIT_TOLERANCE {
+            return Err(GpuError::Input(format!(
+                "sun {i}'s direction {:?} is not a unit vector (length {norm})",
+                s.direction
+            )));
+        }
+        if !(0.0..=std::f64::consts::PI).contains(&s.angle) {
+            return Err(GpuError::Input(format!(
+                "sun {i}'s angle {} rad is outside [0, π]",
+                s.angle
+            )));
+        }
+    }
+    for (i, l) in env.points.iter().enumerate() {
+        if !(finite(&l.position) && finite(&l.intensity)) {
+            return Err(GpuError::Input(format!(
+                "point light {i} has a non-finite position {:?} or intensity {:?}",
+                l.position, l.intensity
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// The workgroups over a `dims` grid, or why the device cannot dispatch them.
+fn dispatch(ctx: &GpuContext, dims: [usize; 3]) -> Result<[u32; 3], GpuError> {
+    let groups = dims.map(|n| n.div_ceil(SIDE));
+    let max_groups = ctx.device.limits().max_compute_workgroups_per_dimension as usize;
+    if groups.iter().any(|&n| n > max_groups) {
+        return Err(GpuError::Input(format!(
+            "a grid of {dims:?} voxels is larger than the device dispatches ({} voxels a side at most)",
+            max_groups * SIDE
+        )));
+    }
+    Ok(groups.map(|n| n as u32))
 }
 
 /// The linear index of the voxel whose center is `p` in the CPU's arithmetic
@@ -114,8 +208,10 @@ impl LightsPass {
     /// Compiles the shader and builds the pipeline.
     pub fn new(ctx: &GpuContext) -> Result<LightsPass, GpuError> {
         let pipeline = compute_pipeline(ctx, "lights pass pipeline creation", SHADER)?;
+        let shadow = compute_pipeline_at(ctx, "lights shadow pipeline creation", SHADER, "shadow")?;
         Ok(LightsPass {
             pipeline,
+            shadow,
             tables: Mutex::new(Vec::new()),
         })
     }
@@ -162,10 +258,10 @@ impl LightsPass {
     /// Adds the suns and point lights of `env` to the grids on the GPU (those a
     /// [`VolumePass`](super::volume_pass::VolumePass) wrote, or an upload), the camera at
     /// `eye`, as [`crate::render::lights_pass::lights_pass`] does on the CPU (submitted,
-    /// not waited for). Without lights, or with albedo 0, nothing is dispatched. Refuses
-    /// lights with non-finite values, a sun direction that is not a unit vector (within
-    /// [`UNIT_TOLERANCE`]), a sun angle outside `[0, π]`, and grids or buffers beyond the
-    /// device's limits.
+    /// not waited for): [`LightsPass::shadow`] then [`LightsPass::apply`]. Without lights,
+    /// or with albedo 0, nothing is dispatched. Refuses lights with non-finite values, a
+    /// sun direction that is not a unit vector (within [`UNIT_TOLERANCE`]), a sun angle
+    /// outside `[0, π]`, and grids or buffers beyond the device's limits.
     pub fn run_on(
         &self,
         ctx: &GpuContext,
@@ -174,57 +270,146 @@ impl LightsPass {
         medium: &Medium,
         eye: [f64; 3],
     ) -> Result<(), GpuError> {
-        let dims = grid.dims();
-        if !env.has_lights() || medium.albedo == 0.0 || dims.contains(&0) {
+        if !env.has_lights() || medium.albedo == 0.0 || grid.dims().contains(&0) {
             return Ok(());
         }
-        let finite = |v: &[f64]| v.iter().all(|c| c.is_finite());
-        for (i, s) in env.suns.iter().enumerate() {
-            if !(finite(&s.direction) && finite(&s.irradiance)) {
-                return Err(GpuError::Input(format!(
-                    "sun {i} has a non-finite direction {:?} or irradiance {:?}",
-                    s.direction, s.irradiance
-                )));
-            }
-            let norm = s.direction.iter().map(|c| c * c).sum::<f64>().sqrt();
-            if (norm - 1.0).abs() > UNIT_TOLERANCE {
-                return Err(GpuError::Input(format!(
-                    "sun {i}'s direction {:?} is not a unit vector (length {norm})",
-                    s.direction
-                )));
-            }
-            if !(0.0..=std::f64::consts::PI).contains(&s.angle) {
-                return Err(GpuError::Input(format!(
-                    "sun {i}'s angle {} rad is outside [0, π]",
-                    s.angle
-                )));
-            }
-        }
-        for (i, l) in env.points.iter().enumerate() {
-            if !(finite(&l.position) && finite(&l.intensity)) {
-                return Err(GpuError::Input(format!(
-                    "point light {i} has a non-finite position {:?} or intensity {:?}",
-                    l.position, l.intensity
-                )));
-            }
-        }
-        if !finite(&eye) {
+        check_lights(env)?;
+        if !eye.iter().all(|c| c.is_finite()) {
             return Err(GpuError::Input(format!("the eye {eye:?} is not finite")));
         }
-        let groups = dims.map(|n| n.div_ceil(SIDE));
-        let max_groups = ctx.device.limits().max_compute_workgroups_per_dimension as usize;
-        if groups.iter().any(|&n| n > max_groups) {
-            return Err(GpuError::Input(format!(
-                "a grid of {dims:?} voxels is larger than the device dispatches ({} voxels a side at most)",
-                max_groups * SIDE
-            )));
+        let shadow = self.shadow(ctx, grid, env, medium.sigma_t)?;
+        self.apply(ctx, grid, &shadow, env, medium, eye)
+    }
+
+    /// The shadow volume alone (the `shadow` dispatch, submitted): `T` toward each of
+    /// `env`'s lights at every voxel center with `D > 0` of `grid`, for σt `sigma_t`.
+    /// Refuses what [`LightsPass::run_on`] refuses.
+    pub fn shadow(
+        &self,
+        ctx: &GpuContext,
+        grid: &GridBuffer,
+        env: &Environment,
+        sigma_t: f64,
+    ) -> Result<LightShadow, GpuError> {
+        check_lights(env)?;
+        let dims = grid.dims();
+        let groups = dispatch(ctx, dims)?;
+        let lights = env.suns.len() + env.points.len();
+        let voxels = dims[0] * dims[1] * dims[2];
+        let bytes = (4 * (voxels * lights).max(1)) as u64;
+        ctx.check_storage_size("the lights' shadow volume", bytes)?;
+        let (words, params) = self.records(ctx, grid, env, sigma_t, 0.0, 0.0, [0.0; 3])?;
+        let shadow = LightShadow {
+            buffer: ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("lights' shadow volume"),
+                size: bytes,
+                usage: wgpu::BufferUsages::STORAGE,
+                mapped_at_creation: false,
+            }),
+            dims,
+            bbox: *grid.bbox(),
+            sigma_t,
+            geometry: geometry(env),
+        };
+        if dims.contains(&0) || lights == 0 {
+            return Ok(shadow);
         }
+        ctx.scoped("the lights' shadow volume", || {
+            let uniform = buffer_init(
+                ctx,
+                "lights shadow parameters",
+                bytemuck::bytes_of(&params),
+                wgpu::BufferUsages::UNIFORM,
+            );
+            let lights = buffer_init(
+                ctx,
+                "lights",
+                bytemuck::cast_slice(&words),
+                wgpu::BufferUsages::STORAGE,
+            );
+            submit_pass(
+                ctx,
+                &self.shadow,
+                "lights shadow volume",
+                &[&uniform, &lights, grid.buffer(), &shadow.buffer],
+                groups,
+            );
+        })?;
+        Ok(shadow)
+    }
+
+    /// The lights alone (the `main` dispatch, submitted): adds `env`'s lights to `grid`'s
+    /// `J̃`, the camera at `eye`, their transmittance read from `shadow` (nothing with
+    /// albedo 0 or without lights). Refuses what [`LightsPass::run_on`] refuses, and a
+    /// `shadow` that is not of this grid's box and dims, σt and lights' directions and
+    /// positions ([`LightShadow::fits`]).
+    pub fn apply(
+        &self,
+        ctx: &GpuContext,
+        grid: &GridBuffer,
+        shadow: &LightShadow,
+        env: &Environment,
+        medium: &Medium,
+        eye: [f64; 3],
+    ) -> Result<(), GpuError> {
+        if !env.has_lights() || medium.albedo == 0.0 || grid.dims().contains(&0) {
+            return Ok(());
+        }
+        check_lights(env)?;
+        if !eye.iter().all(|c| c.is_finite()) {
+            return Err(GpuError::Input(format!("the eye {eye:?} is not finite")));
+        }
+        if !shadow.fits(grid, env, medium.sigma_t) {
+            return Err(GpuError::Input(
+                "the lights' shadow volume is of another grid, σt or lights".into(),
+            ));
+        }
+        let groups = dispatch(ctx, grid.dims())?;
+        let (words, params) =
+            self.records(ctx, grid, env, medium.sigma_t, medium.g, medium.albedo, eye)?;
+        ctx.scoped("the lights pass", || {
+            let uniform = buffer_init(
+                ctx,
+                "lights pass parameters",
+                bytemuck::bytes_of(&params),
+                wgpu::BufferUsages::UNIFORM,
+            );
+            let lights = buffer_init(
+                ctx,
+                "lights",
+                bytemuck::cast_slice(&words),
+                wgpu::BufferUsages::STORAGE,
+            );
+            submit_pass(
+                ctx,
+                &self.pipeline,
+                "lights pass",
+                &[&uniform, &lights, grid.buffer(), &shadow.buffer],
+                groups,
+            );
+        })
+    }
+
+    /// The lights' records and tables (the shader's `lights`) and the parameters, for
+    /// HG `g`, albedo `albedo` and the eye at `eye`.
+    #[allow(clippy::too_many_arguments)]
+    fn records(
+        &self,
+        ctx: &GpuContext,
+        grid: &GridBuffer,
+        env: &Environment,
+        sigma_t: f64,
+        g: f64,
+        albedo: f64,
+        eye: [f64; 3],
+    ) -> Result<(Vec<u32>, Params), GpuError> {
         let count = |n: usize, what: &str| {
             u32::try_from(n).map_err(|_| GpuError::Input(format!("{n} {what} are too many")))
         };
         let suns = count(env.suns.len(), "suns")?;
         let points = count(env.points.len(), "point lights")?;
 
+        let dims = grid.dims();
         let bbox = grid.bbox();
         let vs = grid.voxel_size();
         let h0 = vs[0].min(vs[1]).min(vs[2]);
@@ -232,7 +417,7 @@ impl LightsPass {
         let bits = |v: [f64; 3]| v.map(|c| (c as f32).to_bits());
 
         // The records, then the tables.
-        let tables = self.tables(env, medium.g);
+        let tables = self.tables(env, g);
         let mut words: Vec<u32> =
             Vec::with_capacity(RECORD * (env.suns.len() + env.points.len()) + 512 * tables.len());
         let mut at = RECORD * (env.suns.len() + env.points.len());
@@ -252,11 +437,14 @@ impl LightsPass {
         for table in &tables {
             words.extend(table.iter().map(|v| v.to_bits()));
         }
+        if words.is_empty() {
+            words.push(0);
+        }
         ctx.check_storage_size("the lights", std::mem::size_of_val(words.as_slice()) as u64)?;
 
         let params = Params {
             eye: rel(eye).map(f32::from_bits),
-            sigma_t: medium.sigma_t as f32,
+            sigma_t: sigma_t as f32,
             voxel: vs.map(|v| v as f32),
             h0: h0 as f32,
             size: bbox.size().map(|v| v as f32),
@@ -264,31 +452,11 @@ impl LightsPass {
             dims: dims.map(|n| n as u32),
             suns,
             points,
-            g: medium.g as f32,
-            k: (medium.albedo / FOUR_PI) as f32,
+            g: g as f32,
+            k: (albedo / FOUR_PI) as f32,
             _pad: 0,
         };
-        ctx.scoped("the lights pass", || {
-            let uniform = buffer_init(
-                ctx,
-                "lights pass parameters",
-                bytemuck::bytes_of(&params),
-                wgpu::BufferUsages::UNIFORM,
-            );
-            let lights = buffer_init(
-                ctx,
-                "lights",
-                bytemuck::cast_slice(&words),
-                wgpu::BufferUsages::STORAGE,
-            );
-            submit_pass(
-                ctx,
-                &self.pipeline,
-                "lights pass",
-                &[&uniform, &lights, grid.buffer()],
-                groups.map(|n| n as u32),
-            );
-        })
+        Ok((words, params))
     }
 
     /// [`LightsPass::run_on`] CPU grids: uploads them, adds the lights and reads them back.

@@ -36,11 +36,19 @@
 //! the lights pass's phase `p(s·d)` is 1) removes, so a new camera with `g = 0` reuses the
 //! grids too and runs the view pass only. The lights belong to the environment, whose
 //! generation is part of both keys: new lights recompute the sources and the grids.
+//! The environment pass's grid of `S_lm` ([`EnvShadow`], the march of every direction
+//! from every node: most of a frame on lavapipe) has a key of its own, [`EnvGridKey`] —
+//! the frame, the residual toggle, σt, the distant environment, the order and the grid's
+//! settings — so rebuilt volume grids (a camera move with `g ≠ 0`, a new albedo or `g`,
+//! new lights) reuse it and only its per-voxel evaluation runs again. The lights pass's
+//! shadow volume ([`LightShadow`], a march toward each light from every voxel) is kept
+//! likewise while the frame, the residual toggle, σt and the lights' directions and
+//! positions hold.
 //! A frame is known by the `key` its caller gives ([`GpuFrame`]).
 
 use super::diffusion::{DiffusionPass, DiffusionStats, DirectBuffer, OperatorBuffers};
-use super::env_pass::{EnvPass, RemoveSingle};
-use super::lights_pass::LightsPass;
+use super::env_pass::{EnvPass, EnvShadow, RemoveSingle};
+use super::lights_pass::{LightShadow, LightsPass};
 use super::single_scattering::SingleScatteringPass;
 use super::view_pass::{EnvBuffer, ImageBuffer, ViewPass};
 use super::volume_pass::{Residual, VolumePass};
@@ -48,7 +56,7 @@ use super::{GpuContext, GpuError, GridBuffer, SourceBuffer};
 use crate::diffusion::{DiffusionSolver, Operators, Sources};
 use crate::lighting::direct::add_light_moments;
 use crate::lighting::single::{RgbSh, ShKit};
-use crate::render::env_pass::EnvSource;
+use crate::render::env_pass::{EnvGridOptions, EnvSource};
 use crate::render::{CrmOptions, CrmStats, MsDiffusion, slice_thickness, source_radiance};
 use crate::sh;
 use crate::{Camera, Environment, Medium};
@@ -137,6 +145,20 @@ struct SourceKey {
     opts: CrmOptions,
 }
 
+/// What the environment pass's grid of `S_lm` ([`EnvShadow`]) depends on: the density
+/// `D = D̃ + R` (the frame and whether the residual is in), σt, the distant environment
+/// (its generation), the SH order and the grid's settings — not the camera, the albedo
+/// or `g`, which enter only at the per-voxel evaluation ([`EnvPass::apply`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct EnvGridKey {
+    frame: u64,
+    residual: bool,
+    sigma_t: f64,
+    distant: u64,
+    order: usize,
+    grid: EnvGridOptions,
+}
+
 /// A GPU renderer of frames, keeping what carries from one frame to the next: the SH
 /// tables of the order, the projected lighting, the frame's diffusion operators, the
 /// diffusion's warm start, and the last frame's sources and grids for reuse.
@@ -147,6 +169,8 @@ pub struct GpuRenderer {
     env_buffer: EnvBuffer,
     /// Bumped when the environment changes.
     lighting: u64,
+    /// Bumped when the environment's distant part (sky or map: what is in SH) changes.
+    distant: u64,
     /// The order's tables and its single-scattering pass, and the light in SH (projected
     /// when first needed).
     order: Option<(ShKit, SingleScatteringPass, Option<RgbSh>)>,
@@ -165,6 +189,16 @@ pub struct GpuRenderer {
     operators: Option<(u64, OperatorBuffers)>,
     sources: Option<(SourceKey, SourceBuffer)>,
     grid: Option<(SourceKey, Option<[f64; 3]>, GridBuffer)>,
+    /// The environment pass's grid and its key, kept while the key holds (a camera move,
+    /// a new albedo or `g`, another slice count rebuild the volume grids, not this).
+    env_grid: Option<(EnvGridKey, EnvShadow)>,
+    /// How many environment grids were computed (for tests and figures).
+    env_grid_builds: u64,
+    /// The lights pass's shadow volume, of the frame with this key and residual toggle
+    /// (σt and the lights' directions and positions checked by [`LightShadow::fits`]).
+    light_shadow: Option<((u64, bool), LightShadow)>,
+    /// How many shadow volumes were computed.
+    light_shadow_builds: u64,
 }
 
 impl GpuRenderer {
@@ -174,6 +208,7 @@ impl GpuRenderer {
             env_buffer: EnvBuffer::upload(ctx, &env)?,
             env,
             lighting: 0,
+            distant: 0,
             order: None,
             volume: VolumePass::new(ctx)?,
             env_pass: EnvPass::new(ctx)?,
@@ -187,7 +222,27 @@ impl GpuRenderer {
             operators: None,
             sources: None,
             grid: None,
+            env_grid: None,
+            env_grid_builds: 0,
+            light_shadow: None,
+            light_shadow_builds: 0,
         })
+    }
+
+    /// How many environment-pass grids ([`EnvPass::grid`], the march of every direction
+    /// from every node) this renderer has computed: it grows when the frame, the
+    /// residual toggle, σt, the distant environment, the order or the grid's settings
+    /// change, not with the camera, the albedo or `g`.
+    pub fn env_grid_builds(&self) -> u64 {
+        self.env_grid_builds
+    }
+
+    /// How many shadow volumes of the lights pass ([`LightsPass::shadow`]) this renderer
+    /// has computed: it grows when the frame, the residual toggle, σt or a light's
+    /// direction or position changes, not with the camera, `g`, the albedo or the
+    /// lights' power.
+    pub fn light_shadow_builds(&self) -> u64 {
+        self.light_shadow_builds
     }
 
     /// The environment.
@@ -199,11 +254,16 @@ impl GpuRenderer {
     /// [`EnvBuffer::upload`] refuses, keeping the environment it had.
     pub fn set_environment(&mut self, ctx: &GpuContext, env: Environment) -> Result<(), GpuError> {
         self.env_buffer = EnvBuffer::upload(ctx, &env)?;
+        if env.distant != self.env.distant {
+            // The projection and the environment grid see the distant part only; new
+            // suns or point lights keep them.
+            self.distant += 1;
+            if let Some((_, _, light)) = &mut self.order {
+                *light = None;
+            }
+        }
         self.env = env;
         self.lighting += 1;
-        if let Some((_, _, light)) = &mut self.order {
-            *light = None;
-        }
         Ok(())
     }
 
@@ -213,6 +273,8 @@ impl GpuRenderer {
         self.solver.reset();
         self.sources = None;
         self.grid = None;
+        self.env_grid = None;
+        self.light_shadow = None;
     }
 
     /// Where the next frames compute the lighting at the centers (the sources are
@@ -434,14 +496,50 @@ impl GpuRenderer {
                 stats.crm.volume_seconds = t.elapsed().as_secs_f64();
                 if let (EnvSource::Grid(g), Some(light)) = (&opts.env_source, &env_light) {
                     let t = Instant::now();
-                    self.env_pass.run_on(
-                        ctx, &grid, &self.env, light, medium, camera.eye, opts.order, g,
-                    )?;
+                    let key = EnvGridKey {
+                        frame: frame.key,
+                        residual: opts.residual,
+                        sigma_t: medium.sigma_t,
+                        distant: self.distant,
+                        order: opts.order,
+                        grid: *g,
+                    };
+                    let shadow = match self.env_grid.take() {
+                        Some((k, shadow)) if k == key => &self.env_grid.insert((k, shadow)).1,
+                        _ => {
+                            let shadow = self.env_pass.grid(
+                                ctx,
+                                &grid,
+                                &self.env,
+                                medium.sigma_t,
+                                opts.order,
+                                g,
+                            )?;
+                            self.env_grid_builds += 1;
+                            &self.env_grid.insert((key, shadow)).1
+                        }
+                    };
+                    self.env_pass
+                        .apply(ctx, &grid, shadow, light, medium, camera.eye)?;
                     stats.crm.env_seconds = t.elapsed().as_secs_f64();
                 }
                 let t = Instant::now();
-                self.lights
-                    .run_on(ctx, &grid, &self.env, medium, camera.eye)?;
+                if self.env.has_lights() && medium.albedo != 0.0 && !frame.dims.contains(&0) {
+                    let key = (frame.key, opts.residual);
+                    let kept = matches!(&self.light_shadow,
+                        Some((k, s)) if *k == key && s.fits(&grid, &self.env, medium.sigma_t));
+                    let shadow = match self.light_shadow.take() {
+                        Some(kept_shadow) if kept => &self.light_shadow.insert(kept_shadow).1,
+                        _ => {
+                            let shadow =
+                                self.lights.shadow(ctx, &grid, &self.env, medium.sigma_t)?;
+                            self.light_shadow_builds += 1;
+                            &self.light_shadow.insert((key, shadow)).1
+                        }
+                    };
+                    self.lights
+                        .apply(ctx, &grid, shadow, &self.env, medium, camera.eye)?;
+                }
                 stats.crm.lights_seconds = t.elapsed().as_secs_f64();
                 &self.grid.insert((grid_key.0, grid_key.1, grid)).2
             }
