@@ -96,6 +96,7 @@ pub fn gather(
     }
     let h = grid.h[0].min(grid.h[1]).min(grid.h[2]);
     let size = [0, 1, 2].map(|a| grid.h[a] * grid.dims[a] as f64);
+    let (occ_lo, occ_hi) = occupied(grid);
     let sigma_t = if sigma_t.is_finite() {
         sigma_t.max(0.0)
     } else {
@@ -124,6 +125,16 @@ pub fn gather(
                 }
                 let steps = (len / h).ceil().max(1.0) as usize;
                 let step = len / steps as f64;
+                // The same steps, those beyond the occupied box (density 0) skipped.
+                let mut reach = f64::INFINITY;
+                for a in 0..3 {
+                    if back[a] > 0.0 {
+                        reach = reach.min((occ_hi[a] - x[a]) / back[a]);
+                    } else if back[a] < 0.0 {
+                        reach = reach.min((occ_lo[a] - x[a]) / back[a]);
+                    }
+                }
+                let steps = steps.min((reach / step + 0.5).ceil().max(0.0) as usize);
                 acc.fill(0.0);
                 let mut t = 1.0;
                 for k in 0..steps {
@@ -177,6 +188,29 @@ pub fn gather(
         out.escape.push(p);
     }
     out
+}
+
+/// The world box outside which the trilinear density of `grid` is 0: the cells with
+/// smoke and one cell around them (the interpolation reaches half a cell beyond), within
+/// the grid's box.
+fn occupied(grid: &CoarseGrid) -> ([f64; 3], [f64; 3]) {
+    let (mut lo, mut hi) = ([usize::MAX; 3], [0usize; 3]);
+    for (i, &d) in grid.density.iter().enumerate() {
+        if d > 0.0 {
+            let c = grid.coords(i);
+            for a in 0..3 {
+                lo[a] = lo[a].min(c[a]);
+                hi[a] = hi[a].max(c[a]);
+            }
+        }
+    }
+    if lo[0] == usize::MAX {
+        return (grid.origin, grid.origin);
+    }
+    (
+        [0, 1, 2].map(|a| grid.origin[a] + lo[a].saturating_sub(1) as f64 * grid.h[a]),
+        [0, 1, 2].map(|a| grid.origin[a] + (hi[a] + 2).min(grid.dims[a]) as f64 * grid.h[a]),
+    )
 }
 
 /// The record of `grid` (`stride` values per cell) at world point `p`, trilinear between

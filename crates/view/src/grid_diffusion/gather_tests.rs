@@ -156,7 +156,7 @@ fn orders_and_tail_reach_the_balance_and_the_extremes() {
     let g = uniform([n; 3], [0.1; 3], 1.0);
     let mut src = Sources::zeros(g.len());
     src.j0 = vec![[1.0, 2.0, 0.0]; g.len()];
-    let dirs = rule(3);
+    let (dirs, later) = (rule(3), rule(2));
     let c = g.index([5, 5, 5]);
     let run = |m: &Medium, k: usize| {
         explicit_media_radiance(
@@ -166,6 +166,7 @@ fn orders_and_tail_reach_the_balance_and_the_extremes() {
             &[],
             k,
             &dirs,
+            &later,
             &GridSolveOptions::default(),
         )
     };

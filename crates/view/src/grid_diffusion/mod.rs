@@ -187,19 +187,22 @@ fn scattered(l: &Gathered, medium: &Medium) -> Sources {
 }
 
 /// `L⁰`, `L¹` on `grid` with the first `orders` scattering orders gathered explicitly
-/// (`gather`, from the first-scattering sources `sources` and `suns`, along `dirs`) and
+/// (`gather`, from the first-scattering sources `sources` and `suns`, along `first`, the
+/// later orders, whose sources are smoother, along `later`) and
 /// the rest by the diffusion fed by the last gathered order, with the escape probability
 /// of the first gather as its vacuum correction (module docs).
 ///
 /// # Panics
 /// If `sources` or a sun's transmittance do not hold one entry per cell.
+#[allow(clippy::too_many_arguments)]
 pub fn explicit_media_radiance(
     grid: CoarseGrid,
     medium: &Medium,
     sources: &Sources,
     suns: &[SunSource],
     orders: usize,
-    dirs: &[([f64; 3], f64)],
+    first: &[([f64; 3], f64)],
+    later: &[([f64; 3], f64)],
     opts: &GridSolveOptions,
 ) -> MediaRadiance {
     let n = grid.len();
@@ -213,7 +216,7 @@ pub fn explicit_media_radiance(
     if medium.albedo <= 0.0 || medium.sigma_t.is_nan() || medium.sigma_t <= 0.0 {
         return out;
     }
-    let mut last = gather(&out.grid, medium.sigma_t, sources, suns, dirs);
+    let mut last = gather(&out.grid, medium.sigma_t, sources, suns, first);
     let escape = last.escape.clone();
     out.l0.clone_from(&last.l0);
     out.l1.clone_from(&last.l1);
@@ -223,7 +226,7 @@ pub fn explicit_media_radiance(
             medium.sigma_t,
             &scattered(&last, medium),
             &[],
-            dirs,
+            later,
         );
         for (o, l) in out.l0.iter_mut().zip(&last.l0) {
             (0..3).for_each(|c| o[c] += l[c]);
@@ -241,7 +244,7 @@ pub fn explicit_media_radiance(
 /// (`explicit_media_radiance`): the environment's single scattering from the environment
 /// pass's grid `env_grid` and projection `light` when given (else from the centers'
 /// moments `center_moments` of `rbfs`), the point lights as moments and the suns exactly,
-/// along the environment pass's 72 directions.
+/// along the environment pass's 72 directions for the first order and 32 for the later.
 #[allow(clippy::too_many_arguments)]
 pub fn frame_explicit_media_radiance(
     grids: &VolumeGrids,
@@ -261,12 +264,19 @@ pub fn frame_explicit_media_radiance(
     };
     add_lights(&mut sources, &grid, &grids.density, env, medium, false);
     let suns = sun_sources(&grid, &grids.density, env, medium);
-    let dirs: Vec<_> = directions(GATHER_THETA).points().collect();
-    explicit_media_radiance(grid, medium, &sources, &suns, orders, &dirs, opts)
+    let first: Vec<_> = directions(GATHER_THETA).points().collect();
+    let later: Vec<_> = directions(GATHER_LATER_THETA).points().collect();
+    explicit_media_radiance(grid, medium, &sources, &suns, orders, &first, &later, opts)
 }
 
-/// Gauss–Legendre latitudes per hemisphere of the gather's directions (`2·3 × 4·3 = 72`).
+/// Gauss–Legendre latitudes per hemisphere of the first order's directions
+/// (`2·3 × 4·3 = 72`, the environment pass's rule).
 pub const GATHER_THETA: usize = 3;
+
+/// The same for the later orders (`2·2 × 4·2 = 32`): their sources are smooth, and on
+/// the tuning scenes 32 directions measured as 72 (BENCHMARKS.md, "Multiple scattering:
+/// explicit orders"), 8 a point worse.
+pub const GATHER_LATER_THETA: usize = 2;
 
 /// The media radiance of a frame on the grid of `factor`: the coarse grid of `grids`'
 /// density, the sources (the centers' single scattering `center_moments` of `rbfs`, and
