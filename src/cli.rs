@@ -464,8 +464,9 @@ pub struct RenderCli {
     #[arg(long, value_enum, default_value_t = SourceArg::Grid)]
     source: SourceArg,
     /// How multiple scattering is computed: `orders[:F[:K]]` (the default on the CPU: the
-    /// first K scattering orders gathered explicitly along 72 directions on the density
-    /// averaged over F³ voxels, F = 2, K = 3, and the rest by diffusion on that grid),
+    /// first K scattering orders gathered explicitly along 72 directions, 32 after the
+    /// first, on the density averaged over F³ voxels, F = 2, K = 3, and the rest by
+    /// diffusion on that grid),
     /// `centers` (paper A §5.4's diffusion on the RBF basis; the only one on the GPU, and
     /// the default with --gpu) or `grid[:F]` (the diffusion alone on the F³ grid). `grid`
     /// and `orders` run on the CPU only and are refused with --gpu. BENCHMARKS.md
