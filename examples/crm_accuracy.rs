@@ -6,7 +6,7 @@
 //!     [--sigma-t S] [--albedo A] [--g G] [--rbfs N] [--eye X,Y,Z --target X,Y,Z]
 //!     [--sun-map ELEV,AZIM,ANGLE,RATIO [--no-sun-extraction]]
 //!     [--table fig6|order|rbfs|slices|cg|sun|ms|reference|all] [--cache DIR]
-//!     [--diffusion centers|grid[:F]]
+//!     [--diffusion centers|grid[:F]|orders[:F[:K]]]
 //!     [--env centers|grid] [--env-spacing VOXELS] [--env-theta N]
 //! ```
 //!
@@ -152,24 +152,16 @@ fn parse() -> Result<Args, String> {
         *g = grid;
     }
     if a.input.is_empty() {
-        return Err("usage: crm_accuracy VOLUME [--size WxH] [--spp N] [--sigma-t S] [--albedo A] [--g G] [--rbfs N] [--eye X,Y,Z --target X,Y,Z] [--sun-map ELEV,AZIM,ANGLE,RATIO [--no-sun-extraction]] [--table fig6|order|rbfs|slices|cg|sun|ms|reference|all] [--cache DIR] [--diffusion centers|grid[:F]] [--env centers|grid] [--env-spacing VOXELS] [--env-theta N]".into());
+        return Err("usage: crm_accuracy VOLUME [--size WxH] [--spp N] [--sigma-t S] [--albedo A] [--g G] [--rbfs N] [--eye X,Y,Z --target X,Y,Z] [--sun-map ELEV,AZIM,ANGLE,RATIO [--no-sun-extraction]] [--table fig6|order|rbfs|slices|cg|sun|ms|reference|all] [--cache DIR] [--diffusion centers|grid[:F]|orders[:F[:K]]] [--env centers|grid] [--env-spacing VOXELS] [--env-theta N]".into());
     }
     Ok(a)
 }
 
-/// `centers` or `grid:F` (`grid` alone: F = 2).
+/// `centers`, `grid[:F]` or `orders[:F[:K]]` (`MsDiffusion`'s syntax).
 fn parse_diffusion(s: &str) -> Result<MsDiffusion, String> {
-    match s.split_once(':') {
-        None if s == "centers" => Ok(MsDiffusion::Centers),
-        None if s == "grid" => Ok(MsDiffusion::Grid { factor: 2 }),
-        Some(("grid", f)) => match f.parse::<usize>() {
-            Ok(factor) if factor >= 1 => Ok(MsDiffusion::Grid { factor }),
-            _ => Err(format!(
-                "--diffusion {s}: the factor must be a whole number ≥ 1"
-            )),
-        },
-        _ => Err(format!("--diffusion {s}: expected centers, grid or grid:F")),
-    }
+    let d: MsDiffusion = s.parse().map_err(|e| format!("--diffusion {e}"))?;
+    d.check().map_err(|e| format!("--diffusion {s}: {e}"))?;
+    Ok(d)
 }
 
 /// `rel_rms` over the pixels of `mask`.

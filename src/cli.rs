@@ -463,12 +463,16 @@ pub struct RenderCli {
     /// the centers' single scattering either way (footprint for grid).
     #[arg(long, value_enum, default_value_t = SourceArg::Grid)]
     source: SourceArg,
-    /// Where multiple scattering's diffusion is solved: `centers` (on the RBF basis,
-    /// paper A §5.4; CPU and GPU) or `grid[:F]` (finite volumes on the density averaged
-    /// over F³ voxels, F = 2 by default; CPU only, refused with --gpu). BENCHMARKS.md
-    /// "Multiple scattering under a sun" compares the two.
-    #[arg(long, default_value = "centers", value_parser = parse_diffusion)]
-    diffusion: haze_view::render::MsDiffusion,
+    /// How multiple scattering is computed: `orders[:F[:K]]` (the default on the CPU: the
+    /// first K scattering orders gathered explicitly along 72 directions, 32 after the
+    /// first, on the density averaged over F³ voxels, F = 2, K = 3, and the rest by
+    /// diffusion on that grid),
+    /// `centers` (paper A §5.4's diffusion on the RBF basis; the only one on the GPU, and
+    /// the default with --gpu) or `grid[:F]` (the diffusion alone on the F³ grid). `grid`
+    /// and `orders` run on the CPU only and are refused with --gpu. BENCHMARKS.md
+    /// "Multiple scattering: explicit orders" compares them.
+    #[arg(long, value_parser = parse_diffusion)]
+    diffusion: Option<haze_view::render::MsDiffusion>,
     /// Voxels between the nodes of `--source grid`'s grid (smaller: sharper self-shadowing,
     /// more time; the time grows as the inverse cube).
     #[arg(long, default_value_t = haze_view::render::env_pass::EnvGridOptions::default().spacing, value_parser = positive_f64)]
@@ -772,7 +776,11 @@ impl RenderCli {
                 (None, None) => None,
             },
             tradeoff: self.tradeoff,
-            diffusion: self.diffusion,
+            diffusion: self.diffusion.unwrap_or(if self.gpu {
+                haze_view::render::MsDiffusion::Centers
+            } else {
+                haze_view::render::MsDiffusion::CPU_DEFAULT
+            }),
             solve: haze_view::diffusion::SolveOptions::default(),
             rbfs: 300,
             teleport: true,
@@ -806,18 +814,9 @@ impl From<LightingArg> for haze_view::gpu::renderer::LightingOn {
     }
 }
 
-/// `centers`, `grid` or `grid:F` (the range of F is checked by `render::run`).
+/// `centers`, `grid[:F]` or `orders[:F[:K]]` (`MsDiffusion`'s syntax).
 fn parse_diffusion(s: &str) -> Result<haze_view::render::MsDiffusion, String> {
-    use haze_view::render::MsDiffusion;
-    match s.split_once(':') {
-        None if s == "centers" => Ok(MsDiffusion::Centers),
-        None if s == "grid" => Ok(MsDiffusion::Grid { factor: 2 }),
-        Some(("grid", f)) => f
-            .parse::<usize>()
-            .map(|factor| MsDiffusion::Grid { factor })
-            .map_err(|_| format!("grid:{f}: the factor must be a whole number")),
-        _ => Err(format!("{s}: expected centers, grid or grid:F")),
-    }
+    s.parse()
 }
 
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]

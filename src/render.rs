@@ -91,13 +91,13 @@ pub fn run(mut a: RenderArgs) -> Result<()> {
     let medium = Medium::new(a.sigma_t, a.albedo, a.g).map_err(|e| anyhow!("{e}"))?;
     check_knobs(a.sh_order, a.slices)?;
     let env = a.env.environment()?;
-    if let MsDiffusion::Grid { factor } = a.diffusion
-        && !(1..=16).contains(&factor)
-    {
-        bail!("--diffusion grid:{factor}: the factor must be 1 to 16 (voxels per cell side)");
-    }
-    if a.gpu && !a.reference && matches!(a.diffusion, MsDiffusion::Grid { .. }) {
-        bail!("--diffusion grid runs on the CPU only; use --diffusion centers with --gpu");
+    a.diffusion
+        .check()
+        .map_err(|e| anyhow!("--diffusion {}: {e}", diffusion_name(a.diffusion)))?;
+    if a.gpu && !a.reference && a.diffusion != MsDiffusion::Centers {
+        bail!(
+            "--diffusion grid and orders run on the CPU only; use --diffusion centers with --gpu"
+        );
     }
     // Before any fitting: a machine without an adapter is told at once.
     let gpu = if a.gpu && !a.reference {
@@ -552,6 +552,15 @@ pub(crate) fn smoke_bbox(density: &Volume) -> Bbox {
         .unwrap_or(*density.bbox())
 }
 
+/// `--diffusion`'s spelling of `d`.
+fn diffusion_name(d: MsDiffusion) -> String {
+    match d {
+        MsDiffusion::Centers => "centers".into(),
+        MsDiffusion::Grid { factor } => format!("grid:{factor}"),
+        MsDiffusion::Orders { factor, orders } => format!("orders:{factor}:{orders}"),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -579,7 +588,7 @@ mod tests {
             g: 0.3,
             sh_order: 4,
             multiple: true,
-            diffusion: MsDiffusion::Centers,
+            diffusion: MsDiffusion::CPU_DEFAULT,
             env_source: EnvSource::Grid(EnvGridOptions::default()),
             residual: true,
             slices: 2.0,

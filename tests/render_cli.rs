@@ -84,8 +84,9 @@ fn renders_a_baked_frame_and_a_volume() {
     ]);
     let exr = tmp(&dir, "frame.exr");
     let size = ["--width", "40", "--height", "30"];
-    let mut args = vec!["render", asset.to_str().unwrap(), "--frame", "22", "--out"];
-    args.push(exr.to_str().unwrap());
+    // The centers' diffusion, the GPU's (the CPU's default gathers orders on a grid).
+    let mut args = vec!["render", asset.to_str().unwrap(), "--frame", "22"];
+    args.extend(["--diffusion", "centers", "--out", exr.to_str().unwrap()]);
     args.extend(size);
     let err = ok(&args);
     assert!(
@@ -169,6 +170,22 @@ fn renders_a_baked_frame_and_a_volume() {
         mean(&with_grid),
         mean(&images[0])
     );
+    // The default on the CPU, explicit orders on the grid: light added, and close to
+    // the grid's diffusion (both estimate the same multiple scattering).
+    let orders = tmp(&dir, "orders.exr");
+    let mut args = vec!["render", &vol, "--sh-order", "2", "--out"];
+    args.push(orders.to_str().unwrap());
+    args.extend(size);
+    ok(&args);
+    let with_orders = read_exr(&orders, 40, 30);
+    assert!(with_orders.iter().flatten().all(|c| c.is_finite()));
+    let (single, ms) = (mean(&images[0]), mean(&with_orders));
+    assert!(ms > 1.01 * single, "{ms} vs {single}");
+    let (a, b) = (ms - single, mean(&with_grid) - single);
+    assert!(
+        (a - b).abs() < 0.5 * b,
+        "multiple part {a} vs the grid's {b}"
+    );
     let reference = tmp(&dir, "reference.exr");
     let mut args = vec!["render", &vol, "--reference", "--spp", "2", "--out"];
     args.push(reference.to_str().unwrap());
@@ -215,6 +232,22 @@ fn bad_render_requests_fail_on_one_line() {
     fails(
         &["render", &vol, "--out", out, "--gpu", "--diffusion", "grid"],
         "CPU only",
+    );
+    fails(
+        &[
+            "render",
+            &vol,
+            "--out",
+            out,
+            "--gpu",
+            "--diffusion",
+            "orders",
+        ],
+        "CPU only",
+    );
+    fails(
+        &["render", &vol, "--out", out, "--diffusion", "orders:2:9"],
+        "orders:2:9",
     );
     assert!(!Path::new(out).exists(), "a failed render left an image");
 }

@@ -369,7 +369,8 @@ impl GpuRenderer {
         }
         if opts.multiple && opts.diffusion != MsDiffusion::Centers {
             return Err(GpuError::Input(
-                "the grid diffusion runs on the CPU only; the GPU solves on the centers".into(),
+                "the grid diffusion and the explicit orders run on the CPU only; the GPU solves on the centers"
+                    .into(),
             ));
         }
         let (kit, single, light) = match self.order.take() {

@@ -50,6 +50,9 @@
 
 mod coarse;
 mod escape;
+mod gather;
+#[cfg(test)]
+mod gather_tests;
 mod solve;
 mod source;
 #[cfg(test)]
@@ -57,13 +60,17 @@ mod tests;
 
 pub use coarse::CoarseGrid;
 pub use escape::{escape, fibonacci_directions};
+pub use gather::{Gathered, SunSource, T_MIN, gather};
 pub use solve::{FvSystem, GridSolution, GridSolveOptions, THIN, solve};
-pub use source::{add_lights, interpolate_centers};
+pub use source::{add_lights, env_grid_sources, interpolate_centers, sun_sources};
 
 use crate::diffusion::Sources;
 use crate::env::Environment;
+use crate::lighting::single::RgbSh;
 use crate::medium::Medium;
 use crate::render::crm::VolumeGrids;
+use crate::render::env_pass::directions;
+use crate::sh::ShGrid;
 use haze_volume::Rbf;
 use rayon::prelude::*;
 
@@ -120,7 +127,21 @@ pub fn media_radiance(
         next.j0[i] = out.l0[i].map(|l| medium.albedo * l);
         next.j1[i] = out.l1[i].map(|c| c.map(|l| medium.albedo * medium.g * l));
     }
-    if let Some(sys) = FvSystem::new(&out.grid, medium, &next, escape) {
+    diffuse_rest(&mut out, medium, &next, escape, opts);
+    clamp_moments(&mut out);
+    out
+}
+
+/// Adds to `out` the diffusion (module docs) of the light that `next` (the sources of the
+/// first order not yet in `out`) and everything after it carry.
+fn diffuse_rest(
+    out: &mut MediaRadiance,
+    medium: &Medium,
+    next: &Sources,
+    escape: &[f64],
+    opts: &GridSolveOptions,
+) {
+    if let Some(sys) = FvSystem::new(&out.grid, medium, next, escape) {
         let sol = solve(&sys, None, opts);
         for (k, &i) in sys.cells.iter().enumerate() {
             let l1 = sys.flux_moment(&out.grid, &sol.l0, k);
@@ -132,6 +153,10 @@ pub fn media_radiance(
         out.iterations = sol.iterations;
         out.residual = sol.residual;
     }
+}
+
+/// `L⁰ ≥ 0` and `|L¹| ≤ 3 L⁰` (a non-negative radiance) per cell and channel.
+fn clamp_moments(out: &mut MediaRadiance) {
     for (l0, l1) in out.l0.iter_mut().zip(&mut out.l1) {
         for c in 0..3 {
             l0[c] = l0[c].max(0.0);
@@ -146,8 +171,112 @@ pub fn media_radiance(
             }
         }
     }
+}
+
+/// The next order's source `J = Ω (L⁰ + g L¹·ω)` of the gathered light `g`.
+fn scattered(l: &Gathered, medium: &Medium) -> Sources {
+    Sources {
+        j0: l.l0.iter().map(|c| c.map(|v| medium.albedo * v)).collect(),
+        j1: l
+            .l1
+            .iter()
+            .map(|c| c.map(|a| a.map(|v| medium.albedo * medium.g * v)))
+            .collect(),
+        escape: Vec::new(),
+    }
+}
+
+/// `L⁰`, `L¹` on `grid` with the first `orders` scattering orders gathered explicitly
+/// (`gather`, from the first-scattering sources `sources` and `suns`, along `first`, the
+/// later orders, whose sources are smoother, along `later`) and
+/// the rest by the diffusion fed by the last gathered order, with the escape probability
+/// of the first gather as its vacuum correction (module docs).
+///
+/// # Panics
+/// If `sources` or a sun's transmittance do not hold one entry per cell.
+#[allow(clippy::too_many_arguments)]
+pub fn explicit_media_radiance(
+    grid: CoarseGrid,
+    medium: &Medium,
+    sources: &Sources,
+    suns: &[SunSource],
+    orders: usize,
+    first: &[([f64; 3], f64)],
+    later: &[([f64; 3], f64)],
+    opts: &GridSolveOptions,
+) -> MediaRadiance {
+    let n = grid.len();
+    let mut out = MediaRadiance {
+        l0: vec![[0.0; 3]; n],
+        l1: vec![[[0.0; 3]; 3]; n],
+        grid,
+        iterations: 0,
+        residual: 0.0,
+    };
+    if medium.albedo <= 0.0 || medium.sigma_t.is_nan() || medium.sigma_t <= 0.0 {
+        return out;
+    }
+    let mut last = gather(&out.grid, medium.sigma_t, sources, suns, first);
+    let escape = last.escape.clone();
+    out.l0.clone_from(&last.l0);
+    out.l1.clone_from(&last.l1);
+    for _ in 1..orders.max(1) {
+        last = gather(
+            &out.grid,
+            medium.sigma_t,
+            &scattered(&last, medium),
+            &[],
+            later,
+        );
+        for (o, l) in out.l0.iter_mut().zip(&last.l0) {
+            (0..3).for_each(|c| o[c] += l[c]);
+        }
+        for (o, l) in out.l1.iter_mut().zip(&last.l1) {
+            (0..3).for_each(|c| (0..3).for_each(|a| o[c][a] += l[c][a]));
+        }
+    }
+    diffuse_rest(&mut out, medium, &scattered(&last, medium), &escape, opts);
+    clamp_moments(&mut out);
     out
 }
+
+/// Scattering orders gathered explicitly on the coarse grid of `factor` of `grids`' density
+/// (`explicit_media_radiance`): the environment's single scattering from the environment
+/// pass's grid `env_grid` and projection `light` when given (else from the centers'
+/// moments `center_moments` of `rbfs`), the point lights as moments and the suns exactly,
+/// along the environment pass's 72 directions for the first order and 32 for the later.
+#[allow(clippy::too_many_arguments)]
+pub fn frame_explicit_media_radiance(
+    grids: &VolumeGrids,
+    rbfs: &[Rbf],
+    center_moments: &Sources,
+    env_grid: Option<(&ShGrid, &RgbSh)>,
+    env: &Environment,
+    medium: &Medium,
+    factor: usize,
+    orders: usize,
+    opts: &GridSolveOptions,
+) -> MediaRadiance {
+    let grid = CoarseGrid::new(&grids.density, factor);
+    let mut sources = match env_grid {
+        Some((g, light)) => env_grid_sources(&grid, &grids.density, g, light, medium),
+        None => interpolate_centers(&grid, rbfs, center_moments),
+    };
+    add_lights(&mut sources, &grid, &grids.density, env, medium, false);
+    let suns = sun_sources(&grid, &grids.density, env, medium);
+    let first: Vec<_> = directions(GATHER_THETA).points().collect();
+    let later: Vec<_> = directions(GATHER_LATER_THETA).points().collect();
+    explicit_media_radiance(grid, medium, &sources, &suns, orders, &first, &later, opts)
+}
+
+/// Gauss–Legendre latitudes per hemisphere of the first order's directions
+/// (`2·3 × 4·3 = 72`, the environment pass's rule).
+pub const GATHER_THETA: usize = 3;
+
+/// The same for the later orders (`2·2 × 4·2 = 32`): their sources are smooth, and on
+/// the tuning scenes 32 directions measured as 72 (BENCHMARKS.md, "Multiple scattering:
+/// explicit orders"), 8 a point worse.
+pub const GATHER_LATER_THETA: usize = 2;
 
 /// The media radiance of a frame on the grid of `factor`: the coarse grid of `grids`'
 /// density, the sources (the centers' single scattering `center_moments` of `rbfs`, and
@@ -163,7 +292,7 @@ pub fn frame_media_radiance(
 ) -> MediaRadiance {
     let grid = CoarseGrid::new(&grids.density, factor);
     let mut sources = interpolate_centers(&grid, rbfs, center_moments);
-    add_lights(&mut sources, &grid, &grids.density, env, medium);
+    add_lights(&mut sources, &grid, &grids.density, env, medium, true);
     let p = escape(&grid, medium.sigma_t, &fibonacci_directions(DIRECTIONS));
     media_radiance(grid, medium, &sources, &p, opts)
 }

@@ -4,11 +4,16 @@
 //! marched through the volume pass's density, as the lights pass marches it.
 
 use super::CoarseGrid;
+use super::gather::SunSource;
 use crate::diffusion::Sources;
 use crate::env::Environment;
-use crate::lights::unit;
+use crate::lighting::single::RgbSh;
+use crate::lights::{DiskPhase, unit};
 use crate::medium::{FOUR_PI, Medium};
+use crate::render::env_pass::phase_factors;
 use crate::render::lights_pass::transmittance;
+use crate::render::moments;
+use crate::sh::{self, ShGrid};
 use haze_volume::rbf::voxel_span;
 use haze_volume::{Rbf, Volume};
 use rayon::prelude::*;
@@ -80,19 +85,22 @@ pub fn interpolate_centers(grid: &CoarseGrid, rbfs: &[Rbf], centers: &Sources) -
     out
 }
 
-/// Adds the direct light of `env`'s suns and point lights at every cell center with smoke
-/// (`lighting::direct`'s moments: `J⁰ = Ω·E·T/4π`, `J¹ = −3·g·m·J⁰·s`, `m` the disk's
-/// mean cosine), `T` marched through `fine` (`render::lights_pass::transmittance`).
+/// Adds the direct light of `env`'s suns (with `suns`) and point lights at every cell
+/// center with smoke (`lighting::direct`'s moments: `J⁰ = Ω·E·T/4π`, `J¹ = −3·g·m·J⁰·s`,
+/// `m` the disk's mean cosine), `T` marched through `fine`
+/// (`render::lights_pass::transmittance`).
 pub fn add_lights(
     sources: &mut Sources,
     grid: &CoarseGrid,
     fine: &Volume,
     env: &Environment,
     medium: &Medium,
+    suns: bool,
 ) {
     if !env.has_lights() || medium.albedo == 0.0 {
         return;
     }
+    let sun_list = if suns { &env.suns[..] } else { &[] };
     let k = medium.albedo / FOUR_PI;
     let vs = fine.voxel_size();
     let h0 = vs[0].min(vs[1]).min(vs[2]);
@@ -118,7 +126,7 @@ pub fn add_lights(
                     }
                 }
             };
-            for sun in &env.suns {
+            for sun in sun_list {
                 let t = transmittance(fine, medium.sigma_t, u, sun.direction, f64::MAX, h0);
                 light(
                     sun.irradiance,
@@ -139,4 +147,105 @@ pub fn add_lights(
                 }
             }
         });
+}
+
+/// The environment pass's single scattering as moments per cell: at every fine voxel `v`
+/// with smoke, `J(v, d) = Ω Σ_{l≤1} g^l (L_lm − S_lm(v)) Y_lm(d)` from the grid `env_grid`
+/// of the light the smoke takes away and `light`, the environment's projection
+/// (`render::env_pass`), turned into `J⁰`, `J¹` (`render::moments`), then averaged over
+/// the cell weighted by the density (the cell's `D·J` is the mean of its voxels' `D·J`).
+pub fn env_grid_sources(
+    grid: &CoarseGrid,
+    fine: &Volume,
+    env_grid: &ShGrid,
+    light: &RgbSh,
+    medium: &Medium,
+) -> Sources {
+    let order = env_grid.order.min(2);
+    let n2 = sh::count(order);
+    let a = phase_factors(medium, order);
+    let k3 = 3 * sh::count(env_grid.order);
+    let dims = fine.dims();
+    let bbox = *fine.bbox();
+    let vs = fine.voxel_size();
+    let f = grid.factor;
+    let cells: Vec<([f64; 3], Moment1)> = (0..grid.len())
+        .into_par_iter()
+        .map(|i| {
+            if grid.density[i] <= 0.0 {
+                return ([0.0; 3], [[0.0; 3]; 3]);
+            }
+            let c = grid.coords(i);
+            let mut s = vec![0.0; k3];
+            let (mut w, mut j0, mut j1) = (0.0, [0.0f64; 3], [[0.0f64; 3]; 3]);
+            for z in c[2] * f..((c[2] + 1) * f).min(dims[2]) {
+                for y in c[1] * f..((c[1] + 1) * f).min(dims[1]) {
+                    for x in c[0] * f..((c[0] + 1) * f).min(dims[0]) {
+                        let d = f64::from(fine.get(x, y, z));
+                        if !(d > 0.0 && d.is_finite()) {
+                            continue;
+                        }
+                        let u = [x, y, z];
+                        let u = [0, 1, 2].map(|k| bbox.min[k] + (u[k] as f64 + 0.5) * vs[k]);
+                        env_grid.at(u, &mut s);
+                        let j: RgbSh = [0, 1, 2].map(|ch| {
+                            (0..n2)
+                                .map(|k| a[k] * (light[ch][k] - s[3 * k + ch]))
+                                .collect()
+                        });
+                        let m = moments(&[j]);
+                        w += d;
+                        for (ch, (s0, s1)) in j0.iter_mut().zip(&mut j1).enumerate() {
+                            *s0 += d * m.j0[0][ch];
+                            s1.iter_mut()
+                                .zip(m.j1[0][ch])
+                                .for_each(|(s, v)| *s += d * v);
+                        }
+                    }
+                }
+            }
+            if w > 0.0 {
+                (j0.map(|v| v / w), j1.map(|c| c.map(|v| v / w)))
+            } else {
+                ([0.0; 3], [[0.0; 3]; 3])
+            }
+        })
+        .collect();
+    let mut out = Sources::zeros(0);
+    for (a, b) in cells {
+        out.j0.push(a);
+        out.j1.push(b);
+    }
+    out
+}
+
+/// `env`'s suns as sources of the first gathered order (`super::gather`): `Ω E/4π`, the
+/// disk-averaged phase and the transmittance from every cell center with smoke to the
+/// sun, marched through `fine` (`render::lights_pass::transmittance`).
+pub fn sun_sources(
+    grid: &CoarseGrid,
+    fine: &Volume,
+    env: &Environment,
+    medium: &Medium,
+) -> Vec<SunSource> {
+    let vs = fine.voxel_size();
+    let h0 = vs[0].min(vs[1]).min(vs[2]);
+    env.suns
+        .iter()
+        .map(|sun| SunSource {
+            emit: sun.irradiance.map(|e| medium.albedo * e / FOUR_PI),
+            direction: sun.direction,
+            phase: DiskPhase::new(medium.g, sun.angle),
+            transmittance: (0..grid.len())
+                .into_par_iter()
+                .map(|i| {
+                    if grid.density[i] <= 0.0 {
+                        return 0.0;
+                    }
+                    let u = grid.center(grid.coords(i));
+                    transmittance(fine, medium.sigma_t, u, sun.direction, f64::MAX, h0)
+                })
+                .collect(),
+        })
+        .collect()
 }

@@ -57,6 +57,72 @@ pub enum MsDiffusion {
     /// the first collision kept per cell (`crate::grid_diffusion`); added per voxel
     /// after the lights pass. CPU only: the GPU renderer solves on the centers.
     Grid { factor: usize },
+    /// On the same coarse grid, the first `orders` scattering orders gathered explicitly
+    /// along 72 directions from every cell and the rest by the grid's diffusion
+    /// (`crate::grid_diffusion::explicit_media_radiance`). CPU only.
+    Orders { factor: usize, orders: usize },
+}
+
+impl MsDiffusion {
+    /// `haze render`'s choice on the CPU (BENCHMARKS.md, "Multiple scattering: explicit
+    /// orders"): three orders gathered on cells of 2³ voxels.
+    pub const CPU_DEFAULT: MsDiffusion = MsDiffusion::Orders {
+        factor: 2,
+        orders: 3,
+    };
+}
+
+impl MsDiffusion {
+    /// `Err` naming the field when the factor is outside 1–16 or the number of orders
+    /// outside 1–8.
+    pub fn check(&self) -> Result<(), String> {
+        match *self {
+            MsDiffusion::Centers => Ok(()),
+            MsDiffusion::Grid { factor } | MsDiffusion::Orders { factor, .. }
+                if !(1..=16).contains(&factor) =>
+            {
+                Err(format!(
+                    "the factor {factor} must be 1 to 16 (voxels per cell side)"
+                ))
+            }
+            MsDiffusion::Orders { orders, .. } if !(1..=8).contains(&orders) => {
+                Err(format!("{orders} orders: gather 1 to 8 orders explicitly"))
+            }
+            _ => Ok(()),
+        }
+    }
+}
+
+impl std::str::FromStr for MsDiffusion {
+    type Err = String;
+
+    /// `centers`, `grid[:F]` or `orders[:F[:K]]` (F voxels per cell side, default 2; K
+    /// gathered orders, default 3); the ranges are [`MsDiffusion::check`]'s.
+    fn from_str(s: &str) -> Result<MsDiffusion, String> {
+        let mut parts = s.split(':');
+        let kind = parts.next().unwrap_or_default();
+        let mut number = |what: &str, default: usize| match parts.next() {
+            None => Ok(default),
+            Some(v) => v
+                .parse::<usize>()
+                .map_err(|_| format!("{s}: {what} must be a whole number")),
+        };
+        let out = match kind {
+            "centers" => MsDiffusion::Centers,
+            "grid" => MsDiffusion::Grid {
+                factor: number("the factor", 2)?,
+            },
+            "orders" => MsDiffusion::Orders {
+                factor: number("the factor", 2)?,
+                orders: number("the number of orders", 3)?,
+            },
+            _ => return Err(format!("{s}: expected centers, grid[:F] or orders[:F[:K]]")),
+        };
+        match parts.next() {
+            None => Ok(out),
+            Some(_) => Err(format!("{s}: too many fields")),
+        }
+    }
 }
 
 impl Default for CrmOptions {
@@ -147,7 +213,9 @@ pub fn source_radiance(
     stats: &mut CrmStats,
 ) -> Vec<RgbSh> {
     let grid = matches!(opts.env_source, EnvSource::Grid(_));
-    if grid && !opts.multiple {
+    // Nothing at the centers: the environment pass lights the voxels, and the grid's
+    // diffusions take their own sources.
+    if grid && !(opts.multiple && opts.diffusion == MsDiffusion::Centers) {
         let n2 = sh::count(kit.order);
         return vec![[vec![0.0; n2], vec![0.0; n2], vec![0.0; n2]]; rbfs.len()];
     }
@@ -280,44 +348,82 @@ pub fn crm_grids(
     let residual = if opts.residual { residual } else { None };
     let mut grids = crm::volume_pass(rbfs, &source, opts.order, dims, bbox, residual, eye);
     stats.volume_seconds = t.elapsed().as_secs_f64();
+    let mut env_grid = None;
     if let EnvSource::Grid(g) = &opts.env_source {
         let t = Instant::now();
         let light = sh::project_env(env, opts.order);
-        env_pass::env_pass(&mut grids, env, &light, medium, eye, opts.order, g);
+        let grid = env_pass::env_pass(&mut grids, env, &light, medium, eye, opts.order, g);
+        env_grid = Some((grid, light));
         stats.env_seconds = t.elapsed().as_secs_f64();
     }
     let t = Instant::now();
     lights_pass::lights_pass(&mut grids, env, medium, eye);
     stats.lights_seconds = t.elapsed().as_secs_f64();
-    if let (true, MsDiffusion::Grid { factor }) = (opts.multiple, opts.diffusion) {
-        let t = Instant::now();
-        // The grid's diffusion starts from the centers' single scattering, which the
-        // image leaves out when the environment pass lights the voxels instead.
-        let centers = match opts.env_source {
-            EnvSource::Grid(_) => {
-                let paper_a = CrmOptions {
-                    env_source: EnvSource::Centers,
-                    ..*opts
-                };
-                crm_sources(rbfs, medium, env, &paper_a).0
-            }
-            EnvSource::Centers => source,
-        };
-        let ms = grid_diffusion::frame_media_radiance(
-            &grids,
-            rbfs,
-            &moments(&centers),
-            env,
-            medium,
-            factor,
-            &opts.grid_solve,
-        );
-        grid_diffusion::add_to_grids(&mut grids, &ms, medium, eye);
-        stats.cg_iterations = ms.iterations;
-        stats.cg_residual = ms.residual;
-        stats.multiple_seconds = t.elapsed().as_secs_f64();
+    match (opts.multiple, opts.diffusion) {
+        (true, MsDiffusion::Grid { factor }) => {
+            let t = Instant::now();
+            let ms = grid_diffusion::frame_media_radiance(
+                &grids,
+                rbfs,
+                &moments(&centers_single(rbfs, medium, env, opts, source)),
+                env,
+                medium,
+                factor,
+                &opts.grid_solve,
+            );
+            grid_diffusion::add_to_grids(&mut grids, &ms, medium, eye);
+            stats.cg_iterations = ms.iterations;
+            stats.cg_residual = ms.residual;
+            stats.multiple_seconds = t.elapsed().as_secs_f64();
+        }
+        (true, MsDiffusion::Orders { factor, orders }) => {
+            let t = Instant::now();
+            // The environment pass's grid lights the cells; without it, the centers.
+            let centers = match &env_grid {
+                Some(_) => Sources::zeros(rbfs.len()),
+                None => moments(&source),
+            };
+            let ms = grid_diffusion::frame_explicit_media_radiance(
+                &grids,
+                rbfs,
+                &centers,
+                env_grid.as_ref().map(|(g, l)| (g, l)),
+                env,
+                medium,
+                factor,
+                orders,
+                &opts.grid_solve,
+            );
+            grid_diffusion::add_to_grids(&mut grids, &ms, medium, eye);
+            stats.cg_iterations = ms.iterations;
+            stats.cg_residual = ms.residual;
+            stats.multiple_seconds = t.elapsed().as_secs_f64();
+        }
+        _ => {}
     }
     (grids, slice_thickness(dims, bbox, opts), stats)
+}
+
+/// The centers' single scattering (RGB SH, viewing direction) that the grid's diffusion
+/// starts from: `source` itself with [`EnvSource::Centers`]; with the environment pass,
+/// which leaves it out of the image's source, computed again as paper A's.
+fn centers_single(
+    rbfs: &[Rbf],
+    medium: &Medium,
+    env: &Environment,
+    opts: &CrmOptions,
+    source: Vec<RgbSh>,
+) -> Vec<RgbSh> {
+    match opts.env_source {
+        EnvSource::Grid(_) => {
+            let paper_a = CrmOptions {
+                env_source: EnvSource::Centers,
+                ..*opts
+            };
+            crm_sources(rbfs, medium, env, &paper_a).0
+        }
+        EnvSource::Centers => source,
+    }
 }
 
 /// Renders a frame (RBFs over a `dims` grid on `bbox`, optional residual per voxel) by

@@ -1,0 +1,251 @@
+//! Scattering orders computed explicitly on the coarse grid: the light scattered once
+//! more, gathered along directions from every cell (source iteration, one order per call).
+//!
+//! For a source `J(y, ω)` (radiance emitted per unit optical depth at `y` into the
+//! direction of propagation `ω`), the radiance arriving at `x` along `ω` is
+//!
+//! ```text
+//! L(x, ω) = ∫₀^∞ T(x, x − sω) σt D(x − sω) J(x − sω, ω) ds
+//! ```
+//!
+//! and its moments `L⁰ = (1/4π)∫L dω`, `L¹ = (3/4π)∫L ω dω` are what the next order's
+//! source `J' = Ω (L⁰ + g L¹·ω)` (Funk–Hecke on HG, bands 0–1) needs. The sphere is the
+//! environment pass's rule (Gauss–Legendre latitudes per hemisphere × azimuths,
+//! [`crate::render::env_pass::directions`]); each ray is marched from the cell center to
+//! the box's face in steps of the smallest cell side, the density and `D·J` trilinear
+//! between cell centers, each step's share `T (1 − e^{−Δτ}) · (D·J)/D` exact for a
+//! constant density within the step (so opaque smoke stays bounded), stopped below
+//! transmittance [`T_MIN`]. `J` is given per cell as its moments `J⁰ + J¹·ω` (the sky's
+//! and point lights' share) plus, per sun, the transmittance towards it: a sun's source
+//! `(Ω/4π) E T(y) p̄(−s·ω)` is evaluated with the disk-averaged phase in the gathered
+//! direction exactly (`p̄` does not vary along the ray, so the march sums `T` alone).
+//! The mean of the rays' final transmittance is the escape probability `P` of the cell.
+
+use super::CoarseGrid;
+use crate::diffusion::Sources;
+use crate::lights::DiskPhase;
+use crate::medium::FOUR_PI;
+use rayon::prelude::*;
+
+/// Transmittance below which a ray stops.
+pub const T_MIN: f64 = 1e-4;
+
+/// A sun's share of the first source: `J = emit · T(y) · p̄(−s·ω)`.
+#[derive(Clone, Debug)]
+pub struct SunSource {
+    /// `Ω E / 4π` per channel.
+    pub emit: [f64; 3],
+    /// Unit direction towards the sun.
+    pub direction: [f64; 3],
+    /// HG averaged over the disk ([`DiskPhase`]).
+    pub phase: DiskPhase,
+    /// Transmittance from each cell center to the sun (one per cell).
+    pub transmittance: Vec<f64>,
+}
+
+/// `L⁰`, `L¹` of the gathered light per cell, and the escape probability.
+#[derive(Clone, Debug)]
+pub struct Gathered {
+    pub l0: Vec<[f64; 3]>,
+    /// `[channel][axis]`.
+    pub l1: Vec<[[f64; 3]; 3]>,
+    /// `P = (1/4π)∫T(x → outside) dω` per cell (1 without smoke).
+    pub escape: Vec<f64>,
+}
+
+/// Values per cell in the march's record: `D`, `D·J⁰` (3), `D·J¹` (9), `D·T` per sun.
+const BASE: usize = 13;
+
+fn finite(x: f64) -> f64 {
+    if x.is_finite() { x } else { 0.0 }
+}
+
+/// The light `sources` (moments per cell) and `suns` scatter into every cell with smoke
+/// of `grid`, gathered along `dirs` (`(ω, weight)`, weights summing to `4π`) through σt
+/// `sigma_t` (module docs).
+///
+/// # Panics
+/// If `sources` or a sun's transmittance do not hold one entry per cell.
+pub fn gather(
+    grid: &CoarseGrid,
+    sigma_t: f64,
+    sources: &Sources,
+    suns: &[SunSource],
+    dirs: &[([f64; 3], f64)],
+) -> Gathered {
+    let n = grid.len();
+    assert!(sources.j0.len() == n && sources.j1.len() == n);
+    assert!(suns.iter().all(|s| s.transmittance.len() == n));
+    let stride = BASE + suns.len();
+    let mut rec = vec![0.0f64; n * stride];
+    for (i, r) in rec.chunks_mut(stride).enumerate() {
+        let d = grid.density[i];
+        if !(d > 0.0 && d.is_finite()) {
+            continue;
+        }
+        r[0] = d;
+        for c in 0..3 {
+            r[1 + c] = d * finite(sources.j0[i][c]);
+            for a in 0..3 {
+                r[4 + 3 * c + a] = d * finite(sources.j1[i][c][a]);
+            }
+        }
+        for (k, s) in suns.iter().enumerate() {
+            r[BASE + k] = d * finite(s.transmittance[i]).clamp(0.0, 1.0);
+        }
+    }
+    let h = grid.h[0].min(grid.h[1]).min(grid.h[2]);
+    let size = [0, 1, 2].map(|a| grid.h[a] * grid.dims[a] as f64);
+    let (occ_lo, occ_hi) = occupied(grid);
+    let sigma_t = if sigma_t.is_finite() {
+        sigma_t.max(0.0)
+    } else {
+        0.0
+    };
+    let cells: Vec<([f64; 3], [[f64; 3]; 3], f64)> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            if grid.density[i] <= 0.0 || grid.density[i].is_nan() || dirs.is_empty() {
+                return ([0.0; 3], [[0.0; 3]; 3], 1.0);
+            }
+            let x = grid.center(grid.coords(i));
+            let (mut l0, mut l1, mut escape) = ([0.0f64; 3], [[0.0f64; 3]; 3], 0.0);
+            let mut acc = vec![0.0f64; stride];
+            let mut sample = vec![0.0f64; stride];
+            for &(w, wt) in dirs {
+                // Light arriving along w comes from x − s·w.
+                let back = w.map(|v| -v);
+                let mut len = f64::INFINITY;
+                for a in 0..3 {
+                    if back[a] > 0.0 {
+                        len = len.min((grid.origin[a] + size[a] - x[a]) / back[a]);
+                    } else if back[a] < 0.0 {
+                        len = len.min((grid.origin[a] - x[a]) / back[a]);
+                    }
+                }
+                let steps = (len / h).ceil().max(1.0) as usize;
+                let step = len / steps as f64;
+                // The same steps, those beyond the occupied box (density 0) skipped.
+                let mut reach = f64::INFINITY;
+                for a in 0..3 {
+                    if back[a] > 0.0 {
+                        reach = reach.min((occ_hi[a] - x[a]) / back[a]);
+                    } else if back[a] < 0.0 {
+                        reach = reach.min((occ_lo[a] - x[a]) / back[a]);
+                    }
+                }
+                let steps = steps.min((reach / step + 0.5).ceil().max(0.0) as usize);
+                acc.fill(0.0);
+                let mut t = 1.0;
+                for k in 0..steps {
+                    let s = (k as f64 + 0.5) * step;
+                    let p = [0, 1, 2].map(|a| x[a] + s * back[a]);
+                    trilinear(grid, &rec, stride, p, &mut sample);
+                    let d = sample[0];
+                    if d <= 0.0 {
+                        continue;
+                    }
+                    let dtau = sigma_t * d * step;
+                    let share = t * -(-dtau).exp_m1() / d;
+                    for (a, v) in acc.iter_mut().zip(&sample).skip(1) {
+                        *a += share * v;
+                    }
+                    t *= (-dtau).exp();
+                    if t < T_MIN {
+                        t = 0.0;
+                        break;
+                    }
+                }
+                escape += wt * t;
+                for c in 0..3 {
+                    let mut l = acc[1 + c] + (0..3).map(|a| acc[4 + 3 * c + a] * w[a]).sum::<f64>();
+                    for (k, sun) in suns.iter().enumerate() {
+                        let cos = -(0..3).map(|a| sun.direction[a] * w[a]).sum::<f64>();
+                        l += sun.emit[c] * acc[BASE + k] * sun.phase.eval(cos);
+                    }
+                    let l = l.max(0.0);
+                    l0[c] += wt * l;
+                    for a in 0..3 {
+                        l1[c][a] += 3.0 * wt * l * w[a];
+                    }
+                }
+            }
+            (
+                l0.map(|v| v / FOUR_PI),
+                l1.map(|c| c.map(|v| v / FOUR_PI)),
+                (escape / FOUR_PI).clamp(0.0, 1.0),
+            )
+        })
+        .collect();
+    let mut out = Gathered {
+        l0: Vec::with_capacity(n),
+        l1: Vec::with_capacity(n),
+        escape: Vec::with_capacity(n),
+    };
+    for (a, b, p) in cells {
+        out.l0.push(a);
+        out.l1.push(b);
+        out.escape.push(p);
+    }
+    out
+}
+
+/// The world box outside which the trilinear density of `grid` is 0: the cells with
+/// smoke and one cell around them (the interpolation reaches half a cell beyond), within
+/// the grid's box.
+fn occupied(grid: &CoarseGrid) -> ([f64; 3], [f64; 3]) {
+    let (mut lo, mut hi) = ([usize::MAX; 3], [0usize; 3]);
+    for (i, &d) in grid.density.iter().enumerate() {
+        if d > 0.0 {
+            let c = grid.coords(i);
+            for a in 0..3 {
+                lo[a] = lo[a].min(c[a]);
+                hi[a] = hi[a].max(c[a]);
+            }
+        }
+    }
+    if lo[0] == usize::MAX {
+        return (grid.origin, grid.origin);
+    }
+    (
+        [0, 1, 2].map(|a| grid.origin[a] + lo[a].saturating_sub(1) as f64 * grid.h[a]),
+        [0, 1, 2].map(|a| grid.origin[a] + (hi[a] + 2).min(grid.dims[a]) as f64 * grid.h[a]),
+    )
+}
+
+/// The record of `grid` (`stride` values per cell) at world point `p`, trilinear between
+/// cell centers, into `out` (zeros outside the box).
+fn trilinear(grid: &CoarseGrid, rec: &[f64], stride: usize, p: [f64; 3], out: &mut [f64]) {
+    out.fill(0.0);
+    let mut lo = [0usize; 3];
+    let mut t = [0.0f64; 3];
+    for a in 0..3 {
+        let u = (p[a] - grid.origin[a]) / grid.h[a];
+        if !(u >= 0.0 && u <= grid.dims[a] as f64) {
+            return;
+        }
+        let c = (u - 0.5).clamp(0.0, (grid.dims[a] - 1) as f64);
+        lo[a] = (c.floor() as usize).min(grid.dims[a].saturating_sub(2));
+        t[a] = c - lo[a] as f64;
+    }
+    for corner in 0..8 {
+        let mut w = 1.0;
+        let mut c = [0usize; 3];
+        for a in 0..3 {
+            let hi = corner >> a & 1 == 1;
+            c[a] = (lo[a] + usize::from(hi)).min(grid.dims[a] - 1);
+            w *= if hi { t[a] } else { 1.0 - t[a] };
+        }
+        if w == 0.0 {
+            continue;
+        }
+        let k = grid.index(c) * stride;
+        let r = &rec[k..k + stride];
+        if r[0] <= 0.0 {
+            continue;
+        }
+        for (o, v) in out.iter_mut().zip(r) {
+            *o += w * v;
+        }
+    }
+}
