@@ -499,10 +499,13 @@ pub struct RenderCli {
     spp: u32,
     /// Choose the knobs automatically: the most accurate setting of a tradeoff sweep's
     /// Pareto front that renders within T milliseconds (the sweep's machine and size).
+    /// Multiple scattering then uses the diffusion the sweep times, `centers`, unless
+    /// --diffusion says otherwise (and then the budget does not account for it).
     #[arg(long, value_name = "T", conflicts_with_all = ["target_error", "reference", "gpu"])]
     budget_ms: Option<f64>,
     /// Choose the knobs automatically: the fastest setting of the front whose error
-    /// against the sweep's best setting is at most E (rel RMS, 0.02 = 2 %).
+    /// against the sweep's best setting is at most E (rel RMS, 0.02 = 2 %). Multiple
+    /// scattering uses `--diffusion centers` as with --budget-ms.
     #[arg(long, value_name = "E", conflicts_with_all = ["reference", "gpu"])]
     target_error: Option<f64>,
     /// The sweep for --budget-ms/--target-error (`haze tradeoff`'s tradeoff.json); without
@@ -776,11 +779,15 @@ impl RenderCli {
                 (None, None) => None,
             },
             tradeoff: self.tradeoff,
-            diffusion: self.diffusion.unwrap_or(if self.gpu {
-                haze_view::render::MsDiffusion::Centers
-            } else {
-                haze_view::render::MsDiffusion::CPU_DEFAULT
-            }),
+            // A sweep times the centers' diffusion (its `multiple` and `cg_iterations`
+            // knobs), so a knob chosen for a budget renders with it unless asked otherwise.
+            diffusion: self.diffusion.unwrap_or(
+                if self.gpu || self.budget_ms.is_some() || self.target_error.is_some() {
+                    haze_view::render::MsDiffusion::Centers
+                } else {
+                    haze_view::render::MsDiffusion::CPU_DEFAULT
+                },
+            ),
             solve: haze_view::diffusion::SolveOptions::default(),
             rbfs: 300,
             teleport: true,
@@ -1079,5 +1086,45 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         } => crate::pack::run(&input, &out, frames.unwrap_or_default(), &import.options()),
         Command::Fog(fog) => crate::fog::run(fog),
         Command::Tradeoff(t) => crate::tradeoff::run(t.into_args()?),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use haze_view::render::MsDiffusion;
+
+    fn render_args(extra: &[&str]) -> crate::render::RenderArgs {
+        let argv = [
+            &["haze", "render", "smoke.vdb", "--out", "out.png"][..],
+            extra,
+        ]
+        .concat();
+        match Cli::try_parse_from(argv).unwrap().command {
+            Command::Render(r) => r.into_args(),
+            _ => unreachable!("parsed a render command"),
+        }
+    }
+
+    /// The CPU renders with the gathered orders by default; the GPU and a knob chosen
+    /// for a budget or a target error (timed with the centers' diffusion) use the
+    /// centers; an explicit `--diffusion` wins everywhere.
+    #[test]
+    fn the_diffusion_follows_the_renderer_and_the_goal() {
+        assert_eq!(render_args(&[]).diffusion, MsDiffusion::CPU_DEFAULT);
+        assert_ne!(MsDiffusion::CPU_DEFAULT, MsDiffusion::Centers);
+        assert_eq!(render_args(&["--gpu"]).diffusion, MsDiffusion::Centers);
+        assert_eq!(
+            render_args(&["--budget-ms", "500"]).diffusion,
+            MsDiffusion::Centers
+        );
+        assert_eq!(
+            render_args(&["--target-error", "0.02"]).diffusion,
+            MsDiffusion::Centers
+        );
+        assert_eq!(
+            render_args(&["--budget-ms", "500", "--diffusion", "orders"]).diffusion,
+            MsDiffusion::CPU_DEFAULT
+        );
     }
 }
