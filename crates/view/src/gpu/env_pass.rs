@@ -16,6 +16,7 @@
 
 use super::{
     GpuContext, GpuError, GridBuffer, SourceBuffer, buffer_init, compute_pipeline_at, submit_pass,
+    voxel_groups,
 };
 use crate::env::Environment;
 use crate::lighting::single::RgbSh;
@@ -297,13 +298,7 @@ impl EnvPass {
             eye: [0, 1, 2].map(|k| (eye[k] - bbox.min[k]) as f32),
             ..shadow.params
         };
-        let max_groups = ctx.device.limits().max_compute_workgroups_per_dimension as usize;
-        let voxel_groups = dims.map(|n| n.div_ceil(SIDE));
-        if voxel_groups.iter().any(|&n| n > max_groups) {
-            return Err(GpuError::Input(format!(
-                "a grid of {dims:?} voxels is larger than the device dispatches"
-            )));
-        }
+        let groups = voxel_groups(ctx, dims, SIDE)?;
         if medium.albedo == 0.0 || dims.contains(&0) {
             return Ok(());
         }
@@ -325,7 +320,7 @@ impl EnvPass {
                 &self.apply,
                 "environment pass",
                 &[&uniform, &factors, grid.buffer(), &shadow.buffer],
-                voxel_groups.map(|n| n as u32),
+                groups,
             );
         })
     }

@@ -31,7 +31,7 @@
 
 use super::{
     GpuContext, GpuError, GridBuffer, buffer_init, compute_pipeline, compute_pipeline_at,
-    submit_pass,
+    submit_pass, voxel_groups,
 };
 use crate::env::Environment;
 use crate::lights::DiskPhase;
@@ -168,17 +168,37 @@ fn check_lights(env: &Environment) -> Result<(), GpuError> {
     Ok(())
 }
 
-/// The workgroups over a `dims` grid, or why the device cannot dispatch them.
-fn dispatch(ctx: &GpuContext, dims: [usize; 3]) -> Result<[u32; 3], GpuError> {
-    let groups = dims.map(|n| n.div_ceil(SIDE));
-    let max_groups = ctx.device.limits().max_compute_workgroups_per_dimension as usize;
-    if groups.iter().any(|&n| n > max_groups) {
-        return Err(GpuError::Input(format!(
-            "a grid of {dims:?} voxels is larger than the device dispatches ({} voxels a side at most)",
-            max_groups * SIDE
-        )));
-    }
-    Ok(groups.map(|n| n as u32))
+/// Uploads the parameters and the lights' records (`records`) and submits one pass of
+/// `pipeline` over `groups`, bound as both entry points read them: parameters, lights,
+/// the grid, the shadow volume. Call inside [`GpuContext::scoped`].
+fn submit(
+    ctx: &GpuContext,
+    pipeline: &wgpu::ComputePipeline,
+    label: &'static str,
+    (params, words): (&Params, &[u32]),
+    grid: &GridBuffer,
+    shadow: &LightShadow,
+    groups: [u32; 3],
+) {
+    let uniform = buffer_init(
+        ctx,
+        "lights parameters",
+        bytemuck::bytes_of(params),
+        wgpu::BufferUsages::UNIFORM,
+    );
+    let lights = buffer_init(
+        ctx,
+        "lights",
+        bytemuck::cast_slice(words),
+        wgpu::BufferUsages::STORAGE,
+    );
+    submit_pass(
+        ctx,
+        pipeline,
+        label,
+        &[&uniform, &lights, grid.buffer(), &shadow.buffer],
+        groups,
+    );
 }
 
 /// The linear index of the voxel whose center is `p` in the CPU's arithmetic
@@ -293,7 +313,7 @@ impl LightsPass {
     ) -> Result<LightShadow, GpuError> {
         check_lights(env)?;
         let dims = grid.dims();
-        let groups = dispatch(ctx, dims)?;
+        let groups = voxel_groups(ctx, dims, SIDE)?;
         let lights = env.suns.len() + env.points.len();
         let voxels = dims[0] * dims[1] * dims[2];
         let bytes = (4 * (voxels * lights).max(1)) as u64;
@@ -315,25 +335,15 @@ impl LightsPass {
             return Ok(shadow);
         }
         ctx.scoped("the lights' shadow volume", || {
-            let uniform = buffer_init(
-                ctx,
-                "lights shadow parameters",
-                bytemuck::bytes_of(&params),
-                wgpu::BufferUsages::UNIFORM,
-            );
-            let lights = buffer_init(
-                ctx,
-                "lights",
-                bytemuck::cast_slice(&words),
-                wgpu::BufferUsages::STORAGE,
-            );
-            submit_pass(
+            submit(
                 ctx,
                 &self.shadow,
                 "lights shadow volume",
-                &[&uniform, &lights, grid.buffer(), &shadow.buffer],
+                (&params, &words),
+                grid,
+                &shadow,
                 groups,
-            );
+            )
         })?;
         Ok(shadow)
     }
@@ -364,29 +374,19 @@ impl LightsPass {
                 "the lights' shadow volume is of another grid, σt or lights".into(),
             ));
         }
-        let groups = dispatch(ctx, grid.dims())?;
+        let groups = voxel_groups(ctx, grid.dims(), SIDE)?;
         let (words, params) =
             self.records(ctx, grid, env, medium.sigma_t, medium.g, medium.albedo, eye)?;
         ctx.scoped("the lights pass", || {
-            let uniform = buffer_init(
-                ctx,
-                "lights pass parameters",
-                bytemuck::bytes_of(&params),
-                wgpu::BufferUsages::UNIFORM,
-            );
-            let lights = buffer_init(
-                ctx,
-                "lights",
-                bytemuck::cast_slice(&words),
-                wgpu::BufferUsages::STORAGE,
-            );
-            submit_pass(
+            submit(
                 ctx,
                 &self.pipeline,
                 "lights pass",
-                &[&uniform, &lights, grid.buffer(), &shadow.buffer],
+                (&params, &words),
+                grid,
+                shadow,
                 groups,
-            );
+            )
         })
     }
 

@@ -697,6 +697,20 @@ fn bind_buffers(
     })
 }
 
+/// The workgroups of `side`³ invocations covering a grid of `dims` voxels, or why the
+/// device cannot dispatch them (a side beyond its workgroups per dimension).
+pub fn voxel_groups(ctx: &GpuContext, dims: [usize; 3], side: usize) -> Result<[u32; 3], GpuError> {
+    let groups = dims.map(|n| n.div_ceil(side));
+    let max_groups = ctx.device.limits().max_compute_workgroups_per_dimension as usize;
+    if groups.iter().any(|&n| n > max_groups) {
+        return Err(GpuError::Input(format!(
+            "a grid of {dims:?} voxels is larger than the device dispatches ({} voxels a side at most)",
+            max_groups * side
+        )));
+    }
+    Ok(groups.map(|n| n as u32))
+}
+
 /// Binds `buffers` (binding `i` to `buffers[i]`) as group 0 of `pipeline` and submits one
 /// compute pass of `groups` workgroups (none when a count is 0), timed as `label` while
 /// [`GpuContext::time_stages`] is on. Call inside [`GpuContext::scoped`].

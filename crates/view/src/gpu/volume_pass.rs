@@ -25,6 +25,7 @@
 
 use super::{
     GpuContext, GpuError, GridBuffer, SourceBuffer, buffer_init, compute_pipeline, submit_pass,
+    voxel_groups,
 };
 use crate::lighting::single::RgbSh;
 use crate::render::crm::VolumeGrids;
@@ -197,14 +198,7 @@ impl VolumePass {
         let count = u32::try_from(rbfs.len())
             .map_err(|_| GpuError::Input(format!("{} RBFs are too many", rbfs.len())))?;
         let voxels = dims.iter().product::<usize>();
-        let groups = dims.map(|n| n.div_ceil(SIDE));
-        let max_groups = ctx.device.limits().max_compute_workgroups_per_dimension as usize;
-        if groups.iter().any(|&n| n > max_groups) {
-            return Err(GpuError::Input(format!(
-                "a grid of {dims:?} voxels is larger than the device dispatches ({} voxels a side at most)",
-                max_groups * SIDE
-            )));
-        }
+        let groups = voxel_groups(ctx, dims, SIDE)?;
 
         // Positions relative to the box's minimum corner, as the view pass.
         let size = bbox.size();
@@ -295,13 +289,7 @@ impl VolumePass {
                 &residual_buf,
                 grid.buffer(),
             ];
-            submit_pass(
-                ctx,
-                &self.pipeline,
-                "volume pass",
-                &buffers,
-                groups.map(|n| n as u32),
-            );
+            submit_pass(ctx, &self.pipeline, "volume pass", &buffers, groups);
         })?;
         Ok(grid)
     }

@@ -84,4 +84,44 @@ impl CoarseGrid {
     pub fn volume(&self) -> f64 {
         self.h[0] * self.h[1] * self.h[2]
     }
+
+    /// The eight cells around world point `p` and their trilinear weights between cell
+    /// centers (the outer half cells take their own value), or `None` outside the box.
+    pub fn corners(&self, p: [f64; 3]) -> Option<[(usize, f64); 8]> {
+        let mut lo = [0usize; 3];
+        let mut t = [0.0f64; 3];
+        for a in 0..3 {
+            let u = (p[a] - self.origin[a]) / self.h[a];
+            if !(u >= 0.0 && u <= self.dims[a] as f64) {
+                return None;
+            }
+            let c = (u - 0.5).clamp(0.0, (self.dims[a] - 1) as f64);
+            lo[a] = (c.floor() as usize).min(self.dims[a].saturating_sub(2));
+            t[a] = c - lo[a] as f64;
+        }
+        Some(std::array::from_fn(|corner| {
+            let mut w = 1.0;
+            let mut c = [0usize; 3];
+            for a in 0..3 {
+                let hi = corner >> a & 1 == 1;
+                c[a] = (lo[a] + usize::from(hi)).min(self.dims[a] - 1);
+                w *= if hi { t[a] } else { 1.0 - t[a] };
+            }
+            (self.index(c), w)
+        }))
+    }
+
+    /// The distance from `x` inside the box along `d` to the box's face (∞ for `d = 0`).
+    pub fn exit_distance(&self, x: [f64; 3], d: [f64; 3]) -> f64 {
+        let mut len = f64::INFINITY;
+        for a in 0..3 {
+            let size = self.h[a] * self.dims[a] as f64;
+            if d[a] > 0.0 {
+                len = len.min((self.origin[a] + size - x[a]) / d[a]);
+            } else if d[a] < 0.0 {
+                len = len.min((self.origin[a] - x[a]) / d[a]);
+            }
+        }
+        len
+    }
 }

@@ -23,36 +23,17 @@ pub fn fibonacci_directions(n: usize) -> Vec<[f64; 3]> {
 
 /// The density of `grid` at world point `p`, trilinear between cell centers (0 outside).
 pub fn sample(grid: &CoarseGrid, p: [f64; 3]) -> f64 {
-    let mut lo = [0usize; 3];
-    let mut t = [0.0f64; 3];
-    for a in 0..3 {
-        let u = (p[a] - grid.origin[a]) / grid.h[a];
-        if !(u >= 0.0 && u <= grid.dims[a] as f64) {
-            return 0.0;
-        }
-        let c = (u - 0.5).clamp(0.0, (grid.dims[a] - 1) as f64);
-        lo[a] = (c.floor() as usize).min(grid.dims[a].saturating_sub(2));
-        t[a] = c - lo[a] as f64;
-    }
-    let mut s = 0.0;
-    for corner in 0..8 {
-        let mut w = 1.0;
-        let mut c = [0usize; 3];
-        for a in 0..3 {
-            let hi = corner >> a & 1 == 1;
-            c[a] = (lo[a] + usize::from(hi)).min(grid.dims[a] - 1);
-            w *= if hi { t[a] } else { 1.0 - t[a] };
-        }
-        s += w * grid.density[grid.index(c)];
-    }
-    s
+    grid.corners(p).map_or(0.0, |corners| {
+        corners
+            .iter()
+            .fold(0.0, |s, &(i, w)| s + w * grid.density[i])
+    })
 }
 
 /// `P` at every cell with smoke (1 elsewhere), `dirs` directions, steps of the smallest
 /// cell side by the midpoint rule until the box's face.
 pub fn escape(grid: &CoarseGrid, sigma_t: f64, dirs: &[[f64; 3]]) -> Vec<f64> {
     let h = grid.h[0].min(grid.h[1]).min(grid.h[2]);
-    let size = [0, 1, 2].map(|a| grid.h[a] * grid.dims[a] as f64);
     (0..grid.len())
         .into_par_iter()
         .map(|i| {
@@ -63,14 +44,7 @@ pub fn escape(grid: &CoarseGrid, sigma_t: f64, dirs: &[[f64; 3]]) -> Vec<f64> {
             let mut sum = 0.0;
             for d in dirs {
                 // Distance to the box's face along d.
-                let mut len = f64::INFINITY;
-                for a in 0..3 {
-                    if d[a] > 0.0 {
-                        len = len.min((grid.origin[a] + size[a] - x[a]) / d[a]);
-                    } else if d[a] < 0.0 {
-                        len = len.min((grid.origin[a] - x[a]) / d[a]);
-                    }
-                }
+                let len = grid.exit_distance(x, *d);
                 let n = (len / h).ceil().max(1.0) as usize;
                 let step = len / n as f64;
                 let mut depth = 0.0;

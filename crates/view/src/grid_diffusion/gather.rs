@@ -95,7 +95,6 @@ pub fn gather(
         }
     }
     let h = grid.h[0].min(grid.h[1]).min(grid.h[2]);
-    let size = [0, 1, 2].map(|a| grid.h[a] * grid.dims[a] as f64);
     let (occ_lo, occ_hi) = occupied(grid);
     let sigma_t = if sigma_t.is_finite() {
         sigma_t.max(0.0)
@@ -115,14 +114,7 @@ pub fn gather(
             for &(w, wt) in dirs {
                 // Light arriving along w comes from x − s·w.
                 let back = w.map(|v| -v);
-                let mut len = f64::INFINITY;
-                for a in 0..3 {
-                    if back[a] > 0.0 {
-                        len = len.min((grid.origin[a] + size[a] - x[a]) / back[a]);
-                    } else if back[a] < 0.0 {
-                        len = len.min((grid.origin[a] - x[a]) / back[a]);
-                    }
-                }
+                let len = grid.exit_distance(x, back);
                 let steps = (len / h).ceil().max(1.0) as usize;
                 let step = len / steps as f64;
                 // The same steps, those beyond the occupied box (density 0) skipped.
@@ -217,30 +209,14 @@ fn occupied(grid: &CoarseGrid) -> ([f64; 3], [f64; 3]) {
 /// cell centers, into `out` (zeros outside the box).
 fn trilinear(grid: &CoarseGrid, rec: &[f64], stride: usize, p: [f64; 3], out: &mut [f64]) {
     out.fill(0.0);
-    let mut lo = [0usize; 3];
-    let mut t = [0.0f64; 3];
-    for a in 0..3 {
-        let u = (p[a] - grid.origin[a]) / grid.h[a];
-        if !(u >= 0.0 && u <= grid.dims[a] as f64) {
-            return;
-        }
-        let c = (u - 0.5).clamp(0.0, (grid.dims[a] - 1) as f64);
-        lo[a] = (c.floor() as usize).min(grid.dims[a].saturating_sub(2));
-        t[a] = c - lo[a] as f64;
-    }
-    for corner in 0..8 {
-        let mut w = 1.0;
-        let mut c = [0usize; 3];
-        for a in 0..3 {
-            let hi = corner >> a & 1 == 1;
-            c[a] = (lo[a] + usize::from(hi)).min(grid.dims[a] - 1);
-            w *= if hi { t[a] } else { 1.0 - t[a] };
-        }
+    let Some(corners) = grid.corners(p) else {
+        return;
+    };
+    for (cell, w) in corners {
         if w == 0.0 {
             continue;
         }
-        let k = grid.index(c) * stride;
-        let r = &rec[k..k + stride];
+        let r = &rec[cell * stride..(cell + 1) * stride];
         if r[0] <= 0.0 {
             continue;
         }

@@ -3,9 +3,8 @@
 //! between equal cells) and each ray's share `J (1 − e^{−σt D ℓ})` has a closed form.
 
 use super::*;
-use crate::lights::{DiskPhase, Sun};
+use crate::lights::DiskPhase;
 use crate::sh::quad::SphereGrid;
-use haze_volume::{Bbox, Volume};
 
 fn uniform(n: [usize; 3], h: [f64; 3], d: f64) -> CoarseGrid {
     CoarseGrid {
@@ -195,24 +194,7 @@ fn orders_and_tail_reach_the_balance_and_the_extremes() {
 /// albedo or extinction, finite when opaque.
 #[test]
 fn frame_orders_extremes() {
-    let n = 12;
-    let bbox = Bbox::new([0.0; 3], [1.0; 3]);
-    let data: Vec<f32> = (0..n * n * n)
-        .map(|i| {
-            let c = [i % n, i / n % n, i / (n * n)].map(|a| (a as f64 + 0.5) / n as f64 - 0.5);
-            (1.0 - 6.0 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2])).max(0.0) as f32
-        })
-        .collect();
-    let grids = VolumeGrids {
-        density: Volume::new([n; 3], bbox, data).unwrap(),
-        radiance: vec![[0.0; 3]; n * n * n],
-    };
-    let mut env = Environment::constant([0.2; 3]);
-    env.suns.push(Sun {
-        direction: [0.0, 0.6, 0.8],
-        irradiance: [3.0, 2.0, 1.0],
-        angle: 0.01,
-    });
+    let (grids, env) = super::tests::blob([0.2; 3]);
     let run = |grids: &VolumeGrids, m: &Medium| {
         let ms = frame_explicit_media_radiance(
             grids,
@@ -227,23 +209,5 @@ fn frame_orders_extremes() {
         );
         ms.l0
     };
-    let lit = run(&grids, &Medium::new(8.0, 0.9, 0.5).unwrap());
-    assert!(lit.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
-    assert!(lit.iter().flatten().any(|&v| v > 0.0));
-    for m in [
-        Medium::new(8.0, 0.0, 0.5).unwrap(),
-        Medium::new(0.0, 0.9, 0.5).unwrap(),
-    ] {
-        assert!(run(&grids, &m).iter().flatten().all(|&v| v == 0.0));
-    }
-    let huge = run(&grids, &Medium::new(1e12, 1.0, 0.9).unwrap());
-    assert!(huge.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
-    let mut empty = grids.clone();
-    empty.density.data_mut().iter_mut().for_each(|v| *v = 0.0);
-    assert!(
-        run(&empty, &Medium::new(8.0, 0.9, 0.5).unwrap())
-            .iter()
-            .flatten()
-            .all(|&v| v == 0.0)
-    );
+    super::tests::check_extremes(&grids, run);
 }

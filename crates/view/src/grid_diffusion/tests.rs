@@ -193,8 +193,8 @@ fn thick_smoke_reaches_the_local_balance() {
     }
 }
 
-/// A volume grid of one blob lit by a sun.
-fn blob() -> (VolumeGrids, Environment) {
+/// A volume grid of one blob lit by a sun, the sky of radiance `sky`.
+pub(super) fn blob(sky: [f64; 3]) -> (VolumeGrids, Environment) {
     let n = 12;
     let bbox = Bbox::new([0.0; 3], [1.0; 3]);
     let data: Vec<f32> = (0..n * n * n)
@@ -207,7 +207,7 @@ fn blob() -> (VolumeGrids, Environment) {
         density: Volume::new([n; 3], bbox, data).unwrap(),
         radiance: vec![[0.0; 3]; n * n * n],
     };
-    let mut env = Environment::constant([0.0; 3]);
+    let mut env = Environment::constant(sky);
     env.suns.push(Sun {
         direction: [0.0, 0.6, 0.8],
         irradiance: [3.0, 2.0, 1.0],
@@ -216,10 +216,44 @@ fn blob() -> (VolumeGrids, Environment) {
     (grids, env)
 }
 
+/// The extremes every multiple-scattering model of `grids` must meet, `run` giving its
+/// radiance per cell or voxel for a medium: light where the smoke is lit; nothing
+/// without albedo, extinction or smoke; finite and non-negative at σt = 1e12.
+pub(super) fn check_extremes<T: Copy + Into<f64>>(
+    grids: &VolumeGrids,
+    run: impl Fn(&VolumeGrids, &Medium) -> Vec<[T; 3]>,
+) {
+    let values = |grids: &VolumeGrids, m: &Medium| -> Vec<f64> {
+        run(grids, m)
+            .into_iter()
+            .flatten()
+            .map(Into::into)
+            .collect()
+    };
+    let lit = values(grids, &Medium::new(8.0, 0.9, 0.5).unwrap());
+    assert!(lit.iter().all(|v| v.is_finite() && *v >= 0.0));
+    assert!(lit.iter().any(|&v| v > 0.0));
+    for m in [
+        Medium::new(8.0, 0.0, 0.5).unwrap(),
+        Medium::new(0.0, 0.9, 0.5).unwrap(),
+    ] {
+        assert!(values(grids, &m).iter().all(|&v| v == 0.0));
+    }
+    let huge = values(grids, &Medium::new(1e12, 1.0, 0.9).unwrap());
+    assert!(huge.iter().all(|v| v.is_finite() && *v >= 0.0));
+    let mut empty = grids.clone();
+    empty.density.data_mut().iter_mut().for_each(|v| *v = 0.0);
+    assert!(
+        values(&empty, &Medium::new(8.0, 0.9, 0.5).unwrap())
+            .iter()
+            .all(|&v| v == 0.0)
+    );
+}
+
 /// Extremes: no smoke, no albedo and no extinction add nothing; huge σt stays finite.
 #[test]
 fn extremes_stay_finite() {
-    let (grids, env) = blob();
+    let (grids, env) = blob([0.0; 3]);
     let eye = [0.5, -3.0, 0.5];
     let run = |grids: &VolumeGrids, medium: &Medium| {
         let n = grids.radiance.len();
@@ -237,23 +271,5 @@ fn extremes_stay_finite() {
         assert_eq!(g.radiance.len(), n);
         g.radiance
     };
-    let lit = run(&grids, &Medium::new(8.0, 0.9, 0.5).unwrap());
-    assert!(lit.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
-    assert!(lit.iter().flatten().any(|&v| v > 0.0));
-    for m in [
-        Medium::new(8.0, 0.0, 0.5).unwrap(),
-        Medium::new(0.0, 0.9, 0.5).unwrap(),
-    ] {
-        assert!(run(&grids, &m).iter().flatten().all(|&v| v == 0.0));
-    }
-    let huge = run(&grids, &Medium::new(1e12, 1.0, 0.9).unwrap());
-    assert!(huge.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
-    let mut empty = grids.clone();
-    empty.density.data_mut().iter_mut().for_each(|v| *v = 0.0);
-    assert!(
-        run(&empty, &Medium::new(8.0, 0.9, 0.5).unwrap())
-            .iter()
-            .flatten()
-            .all(|&v| v == 0.0)
-    );
+    check_extremes(&grids, run);
 }

@@ -359,31 +359,24 @@ pub fn crm_grids(
     let t = Instant::now();
     lights_pass::lights_pass(&mut grids, env, medium, eye);
     stats.lights_seconds = t.elapsed().as_secs_f64();
-    match (opts.multiple, opts.diffusion) {
-        (true, MsDiffusion::Grid { factor }) => {
-            let t = Instant::now();
-            let ms = grid_diffusion::frame_media_radiance(
-                &grids,
-                rbfs,
-                &moments(&centers_single(rbfs, medium, env, opts, source)),
-                env,
-                medium,
-                factor,
-                &opts.grid_solve,
-            );
-            grid_diffusion::add_to_grids(&mut grids, &ms, medium, eye);
-            stats.cg_iterations = ms.iterations;
-            stats.cg_residual = ms.residual;
-            stats.multiple_seconds = t.elapsed().as_secs_f64();
-        }
+    let t = Instant::now();
+    let ms = match (opts.multiple, opts.diffusion) {
+        (true, MsDiffusion::Grid { factor }) => Some(grid_diffusion::frame_media_radiance(
+            &grids,
+            rbfs,
+            &moments(&centers_single(rbfs, medium, env, opts, source)),
+            env,
+            medium,
+            factor,
+            &opts.grid_solve,
+        )),
         (true, MsDiffusion::Orders { factor, orders }) => {
-            let t = Instant::now();
             // The environment pass's grid lights the cells; without it, the centers.
             let centers = match &env_grid {
                 Some(_) => Sources::zeros(rbfs.len()),
                 None => moments(&source),
             };
-            let ms = grid_diffusion::frame_explicit_media_radiance(
+            Some(grid_diffusion::frame_explicit_media_radiance(
                 &grids,
                 rbfs,
                 &centers,
@@ -393,13 +386,15 @@ pub fn crm_grids(
                 factor,
                 orders,
                 &opts.grid_solve,
-            );
-            grid_diffusion::add_to_grids(&mut grids, &ms, medium, eye);
-            stats.cg_iterations = ms.iterations;
-            stats.cg_residual = ms.residual;
-            stats.multiple_seconds = t.elapsed().as_secs_f64();
+            ))
         }
-        _ => {}
+        _ => None,
+    };
+    if let Some(ms) = ms {
+        grid_diffusion::add_to_grids(&mut grids, &ms, medium, eye);
+        stats.cg_iterations = ms.iterations;
+        stats.cg_residual = ms.residual;
+        stats.multiple_seconds = t.elapsed().as_secs_f64();
     }
     (grids, slice_thickness(dims, bbox, opts), stats)
 }
