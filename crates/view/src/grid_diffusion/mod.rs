@@ -86,6 +86,20 @@ pub struct MediaRadiance {
     pub residual: f64,
 }
 
+impl MediaRadiance {
+    /// No light on any cell of `grid` (no solve run).
+    fn zeros(grid: CoarseGrid) -> MediaRadiance {
+        let n = grid.len();
+        MediaRadiance {
+            l0: vec![[0.0; 3]; n],
+            l1: vec![[[0.0; 3]; 3]; n],
+            grid,
+            iterations: 0,
+            residual: 0.0,
+        }
+    }
+}
+
 /// Directions of the escape-probability march.
 pub const DIRECTIONS: usize = 32;
 
@@ -103,13 +117,7 @@ pub fn media_radiance(
     opts: &GridSolveOptions,
 ) -> MediaRadiance {
     let n = grid.len();
-    let mut out = MediaRadiance {
-        l0: vec![[0.0; 3]; n],
-        l1: vec![[[0.0; 3]; 3]; n],
-        grid,
-        iterations: 0,
-        residual: 0.0,
-    };
+    let mut out = MediaRadiance::zeros(grid);
     assert!(sources.j0.len() == n && sources.j1.len() == n && escape.len() == n);
     if medium.albedo <= 0.0 || medium.sigma_t.is_nan() || medium.sigma_t <= 0.0 {
         return out;
@@ -205,14 +213,7 @@ pub fn explicit_media_radiance(
     later: &[([f64; 3], f64)],
     opts: &GridSolveOptions,
 ) -> MediaRadiance {
-    let n = grid.len();
-    let mut out = MediaRadiance {
-        l0: vec![[0.0; 3]; n],
-        l1: vec![[[0.0; 3]; 3]; n],
-        grid,
-        iterations: 0,
-        residual: 0.0,
-    };
+    let mut out = MediaRadiance::zeros(grid);
     if medium.albedo <= 0.0 || medium.sigma_t.is_nan() || medium.sigma_t <= 0.0 {
         return out;
     }
