@@ -18,7 +18,11 @@ CASE is one of:
   plume-e   112 x 70 x 98, 45 frames: one emitter that moves along x and pulses
             (density keyed 1.0 / 0.4), a sphere obstacle the smoke wraps around, mild
             vorticity (the sequence kept out of every tuning loop: report on it, never
-            tune on it)
+            tune on it; looked at once for the lighting and bake figures since)
+  plume-f   90 x 90 x 120, 50 frames: a sideways jet from a low emitter against a cross
+            wind, a second emitter keyed on at frame 20, a tilted slab overhead, strong
+            vorticity and a turbulence field (the next sequence kept out of every tuning
+            loop: report on it, never tune on it)
 
 The cache lands in OUT_DIR/CASE/ (fluid_data_NNNN.vdb) with meta.json beside it.
 """
@@ -60,6 +64,15 @@ CASES = {
         # (radius, location): a sphere the rising smoke wraps around
         sphere_obstacle=(0.45, (0.0, 0.0, 1.7)),
     ),
+    "plume-f": dict(
+        res=120, size=(3.0, 3.0, 4.0), frames=50, vorticity=0.4,
+        emitters=[(0.22, (-0.9, 0.4, 0.35), (1.2, 0.0, 0.4)),
+                  (0.3, (0.6, -0.5, 0.4), (0.0, 0.1, 0.6))],
+        wind=((1.4, 1.4, 1.0), 1.2, (1.2, 0.0, 2.3)), turbulence=((0.0, 0.0, 2.5), 1.5, 0.4),
+        obstacle=((1.4, 0.8, 0.12), (0.3, 0.1, 2.9), (0.0, -0.35, 0.5)),
+        # (frame, density) keys of emitter 1: off until frame 20, then on
+        emitter1_on=[(1, 0.0), (19, 0.0), (20, 1.0)],
+    ),
 }
 
 
@@ -97,6 +110,10 @@ def main():
                 em.location = path_loc
                 em.keyframe_insert(data_path="location", frame=frame)
             for frame, density in case.get("emitter_pulse", []):
+                flow.flow_settings.density = density
+                flow.flow_settings.keyframe_insert(data_path="density", frame=frame)
+        if i == 1:
+            for frame, density in case.get("emitter1_on", []):
                 flow.flow_settings.density = density
                 flow.flow_settings.keyframe_insert(data_path="density", frame=frame)
     if case.get("sphere_obstacle"):
