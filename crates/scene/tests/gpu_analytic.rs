@@ -26,24 +26,15 @@ use haze_scene::gpu::GpuRenderer;
 use haze_scene::gpu_analytic::GpuAnalytic;
 use haze_scene::render::Analytic;
 use haze_scene::{Scene, file};
-use haze_view::gpu::GpuContext;
 use std::sync::OnceLock;
+
+mod common;
+use common::{Tolerance, assert_agree, context};
 
 const REL: f64 = 5e-4;
 const FLOOR: f64 = 1e-5;
 const FOG: f64 = 1e-4;
 const OUTLIERS: f64 = 0.01;
-
-fn context() -> &'static GpuContext {
-    static C: OnceLock<GpuContext> = OnceLock::new();
-    C.get_or_init(|| match GpuContext::new() {
-        Ok(ctx) => {
-            println!("GPU adapter: {} ({})", ctx.adapter_name(), ctx.backend());
-            ctx
-        }
-        Err(e) => panic!("{e}"),
-    })
-}
 
 fn composite() -> &'static GpuAnalytic {
     static R: OnceLock<GpuAnalytic> = OnceLock::new();
@@ -57,41 +48,14 @@ fn compare(name: &str, scene: &Scene) {
     let cpu = analytic::render(scene, &model, &lim, &|_| {});
     let tables = GpuRenderer::new(context(), &model).unwrap();
     let gpu = composite().render(context(), &tables, scene, &lim).unwrap();
-    assert_eq!((gpu.width, gpu.height), (cpu.width, cpu.height));
     let fog_max = analytic::fog_colours(scene)
         .iter()
         .fold([0.0f64; 3], |a, (_, c)| [0, 1, 2].map(|k| a[k].max(c[k])));
-    let mean = cpu
-        .pixels
-        .iter()
-        .flat_map(|p| p.iter().map(|&v| f64::from(v).abs()))
-        .sum::<f64>()
-        / (3 * cpu.pixels.len()) as f64;
-    let (mut outliers, mut worst) = (0, 0.0f64);
-    for (i, (g, c)) in gpu.pixels.iter().zip(&cpu.pixels).enumerate() {
-        assert!(
-            g.iter().all(|v| v.is_finite() && *v >= 0.0),
-            "{name}: pixel {i} is {g:?}"
-        );
-        let mut out = false;
-        for k in 0..3 {
-            let (g, c) = (f64::from(g[k]), f64::from(c[k]));
-            let bound = REL * c.abs() + FLOOR * mean + FOG * fog_max[k];
-            let d = (g - c).abs();
-            if d > bound {
-                out = true;
-            } else {
-                worst = worst.max(d / (c.abs() + FLOOR * mean));
-            }
-        }
-        outliers += usize::from(out);
-    }
-    let share = outliers as f64 / cpu.pixels.len() as f64;
-    println!("{name}: {outliers} outliers, worst relative error {worst:.2e}");
-    assert!(
-        share <= OUTLIERS,
-        "{name}: {outliers} pixels out of tolerance"
-    );
+    let tol = Tolerance {
+        extra: fog_max.map(|f| FOG * f),
+        ..Tolerance::new(REL, FLOOR, OUTLIERS)
+    };
+    assert_agree(name, &gpu, &cpu, tol);
 }
 
 #[test]

@@ -23,24 +23,15 @@ use haze_scene::asset_medium::march_options;
 use haze_scene::env_smoke::EnvLight;
 use haze_scene::gpu::GpuRenderer;
 use haze_scene::render::{Analytic, Image};
-use haze_view::gpu::GpuContext;
 use std::path::Path;
 use std::sync::OnceLock;
+
+mod common;
+use common::{Tolerance, assert_agree, context};
 
 const REL: f64 = 2e-4;
 const FLOOR: f64 = 1e-5;
 const OUTLIERS: f64 = 0.01;
-
-fn context() -> &'static GpuContext {
-    static C: OnceLock<GpuContext> = OnceLock::new();
-    C.get_or_init(|| match GpuContext::new() {
-        Ok(ctx) => {
-            println!("GPU adapter: {} ({})", ctx.adapter_name(), ctx.backend());
-            ctx
-        }
-        Err(e) => panic!("{e}"),
-    })
-}
 
 /// The plume (scaled to half size) over the ground, with `media`'s extra keys and
 /// `extra_media` after it.
@@ -78,31 +69,7 @@ fn compare(name: &str, s: &Scene) {
     let ctx = context();
     let g: Image = renderer(s).render(ctx, s, &Limits::default()).unwrap();
     let c = haze_scene::march::render(s, &Limits::default(), &march_options(s, false), &|_| {});
-    let n = c.pixels.len();
-    let mean = c
-        .pixels
-        .iter()
-        .flatten()
-        .map(|v| f64::from(*v))
-        .sum::<f64>()
-        / (3 * n) as f64;
-    assert!(mean > 0.0, "{name}: black");
-    let (mut worst, mut outside) = (0.0f64, 0);
-    for (a, b) in c.pixels.iter().zip(&g.pixels) {
-        let mut bad = false;
-        for k in 0..3 {
-            let (a, b) = (f64::from(a[k]), f64::from(b[k]));
-            let err = (b - a).abs();
-            bad |= err > REL * a.abs() + FLOOR * mean;
-            worst = worst.max(err / (a.abs() + FLOOR * mean));
-        }
-        outside += usize::from(bad);
-    }
-    println!("{name}: worst relative {worst:.2e}, {outside} of {n} pixels outside");
-    assert!(
-        (outside as f64) <= OUTLIERS * n as f64,
-        "{name}: {outside} pixels differ (worst {worst:.2e})"
-    );
+    assert_agree(name, &g, &c, Tolerance::new(REL, FLOOR, OUTLIERS));
 }
 
 #[test]

@@ -35,23 +35,14 @@ use haze_scene::gpu_paper_b::GpuPaperB;
 use haze_scene::paper_b::{self, PaperBOptions, Prepared};
 use haze_scene::render::{Analytic, Image};
 use haze_scene::{Scene, file};
-use haze_view::gpu::GpuContext;
 use std::sync::OnceLock;
+
+mod common;
+use common::{Tolerance, assert_agree, context};
 
 const REL: f64 = 2e-4;
 const FLOOR: f64 = 1e-4;
 const OUTLIERS: f64 = 0.01;
-
-fn context() -> &'static GpuContext {
-    static C: OnceLock<GpuContext> = OnceLock::new();
-    C.get_or_init(|| match GpuContext::new() {
-        Ok(ctx) => {
-            println!("GPU adapter: {} ({})", ctx.adapter_name(), ctx.backend());
-            ctx
-        }
-        Err(e) => panic!("{e}"),
-    })
-}
 
 fn scene(lights: &str, media: &str, eye: &str) -> Scene {
     let text = format!(
@@ -116,36 +107,11 @@ fn compare_with(name: &str, s: &Scene, outliers_allowed: f64) -> Image {
         .unwrap()
         .render(context(), tables, &prep, &lim)
         .unwrap();
-    let mean = cpu
-        .pixels
-        .iter()
-        .flatten()
-        .map(|&v| f64::from(v).abs())
-        .sum::<f64>()
-        / (3 * cpu.pixels.len()) as f64;
-    let (mut outliers, mut worst) = (0, 0.0f64);
-    for (g, c) in gpu.pixels.iter().zip(&cpu.pixels) {
-        assert!(
-            g.iter().all(|v| v.is_finite() && *v >= 0.0),
-            "{name}: {g:?}"
-        );
-        let mut out = false;
-        for k in 0..3 {
-            let (g, c) = (f64::from(g[k]), f64::from(c[k]));
-            let d = (g - c).abs();
-            if d > REL * c.abs() + FLOOR * mean {
-                out = true;
-            } else {
-                worst = worst.max(d / (c.abs() + FLOOR * mean));
-            }
-        }
-        outliers += usize::from(out);
-    }
-    let share = outliers as f64 / cpu.pixels.len() as f64;
-    println!("{name}: worst relative {worst:.2e}, outliers {share:.3}");
-    assert!(
-        share <= outliers_allowed,
-        "{name}: {share} of the pixels differ"
+    assert_agree(
+        name,
+        &gpu,
+        &cpu,
+        Tolerance::new(REL, FLOOR, outliers_allowed),
     );
     cpu
 }

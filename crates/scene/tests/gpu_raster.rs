@@ -30,18 +30,11 @@ use haze_scene::render::Analytic;
 use haze_scene::{Scene, model};
 use haze_view::gpu::GpuContext;
 
+mod common;
+use common::context;
+
 const REL: f64 = 1e-4;
 const FLOOR: f64 = 1e-6;
-
-fn context() -> GpuContext {
-    match GpuContext::new() {
-        Ok(ctx) => {
-            println!("GPU adapter: {} ({})", ctx.adapter_name(), ctx.backend());
-            ctx
-        }
-        Err(e) => panic!("{e}"),
-    }
-}
 
 const SCENE: &str = r#"{
     "camera": {"eye": [0, -6, 1.6], "target": [0, 0, 0.8], "fov": 55, "width": 64, "height": 48},
@@ -169,8 +162,8 @@ fn rasterized_surfaces_match_the_ray_tracer() {
     let ctx = context();
     let dir = tempfile::tempdir().unwrap();
     let base = load(dir.path(), &[]);
-    let gpu = GpuRenderer::new(&ctx, &Analytic::new(&base)).unwrap();
-    compare(&ctx, &gpu, "plane, sphere, meshes", &base);
+    let gpu = GpuRenderer::new(ctx, &Analytic::new(&base)).unwrap();
+    compare(ctx, &gpu, "plane, sphere, meshes", &base);
     let near = load(
         dir.path(),
         &[
@@ -178,7 +171,7 @@ fn rasterized_surfaces_match_the_ray_tracer() {
             ("\"target\": [0, 0, 0.8]", "\"target\": [0, 0.5, 0.6]"),
         ],
     );
-    compare(&ctx, &gpu, "eye close to a mesh", &near);
+    compare(ctx, &gpu, "eye close to a mesh", &near);
     let far = load(
         dir.path(),
         &[(
@@ -186,7 +179,7 @@ fn rasterized_surfaces_match_the_ray_tracer() {
             "\"environment\": \"sky\", \"environment_distance\": 7",
         )],
     );
-    compare(&ctx, &gpu, "environment at 7", &far);
+    compare(ctx, &gpu, "environment at 7", &far);
 }
 
 /// A scene without surfaces draws nothing and shades the background as the ray tracer.
@@ -196,10 +189,10 @@ fn rasterized_without_surfaces_is_the_fog_alone() {
     let dir = tempfile::tempdir().unwrap();
     let mut s = load(dir.path(), &[]);
     s.surfaces.clear();
-    let gpu = GpuRenderer::new(&ctx, &Analytic::new(&s)).unwrap();
+    let gpu = GpuRenderer::new(ctx, &Analytic::new(&s)).unwrap();
     let lim = Limits::default();
-    let traced = gpu.render(&ctx, &s, &lim).unwrap();
-    let (raster, seen) = gpu.render_rasterized_with_surfaces(&ctx, &s, &lim).unwrap();
+    let traced = gpu.render(ctx, &s, &lim).unwrap();
+    let (raster, seen) = gpu.render_rasterized_with_surfaces(ctx, &s, &lim).unwrap();
     assert!(seen.iter().all(Option::is_none));
     assert_eq!(raster.pixels, traced.pixels);
 }

@@ -32,24 +32,15 @@ use haze_scene::airlight::Limits;
 use haze_scene::gpu::GpuRenderer;
 use haze_scene::render::{Analytic, Image, render};
 use haze_scene::{Scene, file};
-use haze_view::gpu::GpuContext;
 use std::sync::OnceLock;
+
+mod common;
+use common::{Agreement, Tolerance, assert_agree, context};
 
 const REL: f64 = 5e-4;
 const FLOOR: f64 = 1e-5;
 /// Largest share of pixels allowed outside the tolerance (see the module docs).
 const OUTLIERS: f64 = 0.01;
-
-fn context() -> &'static GpuContext {
-    static C: OnceLock<GpuContext> = OnceLock::new();
-    C.get_or_init(|| match GpuContext::new() {
-        Ok(ctx) => {
-            println!("GPU adapter: {} ({})", ctx.adapter_name(), ctx.backend());
-            ctx
-        }
-        Err(e) => panic!("{e}"),
-    })
-}
 
 /// Tables for every Phong exponent the cases use (12 and 30).
 fn analytic() -> &'static Analytic {
@@ -100,58 +91,17 @@ fn room() -> Scene {
     s
 }
 
-/// Compares the GPU image with the CPU's (module docs); returns the share of outliers and
-/// the worst relative error among the others.
-fn compare(name: &str, scene: &Scene) -> (f64, f64) {
+/// Compares the GPU image with the CPU's (module docs).
+fn compare(name: &str, scene: &Scene) -> Agreement {
     compare_within(name, scene, REL)
 }
 
 /// [`compare`] with the relative tolerance `rel`.
-fn compare_within(name: &str, scene: &Scene, rel: f64) -> (f64, f64) {
+fn compare_within(name: &str, scene: &Scene, rel: f64) -> Agreement {
     let lim = Limits::default();
     let cpu = render(scene, analytic(), &lim, &|_| {});
     let gpu: Image = renderer().render(context(), scene, &lim).unwrap();
-    assert_eq!((gpu.width, gpu.height), (cpu.width, cpu.height));
-    let mean = cpu
-        .pixels
-        .iter()
-        .flat_map(|p| p.iter().map(|&v| f64::from(v).abs()))
-        .sum::<f64>()
-        / (3 * cpu.pixels.len()) as f64;
-    let (mut outliers, mut worst, mut worst_at, mut worst_out) = (0, 0.0f64, 0, 0.0f64);
-    for (i, (g, c)) in gpu.pixels.iter().zip(&cpu.pixels).enumerate() {
-        assert!(
-            g.iter().all(|v| v.is_finite() && *v >= 0.0),
-            "{name}: pixel {i} is {g:?}"
-        );
-        let mut out = false;
-        for k in 0..3 {
-            let (g, c) = (f64::from(g[k]), f64::from(c[k]));
-            let d = (g - c).abs();
-            let r = d / (c.abs() + FLOOR * mean);
-            if d > rel * c.abs() + FLOOR * mean {
-                out = true;
-                worst_out = worst_out.max(r);
-            } else {
-                if r > worst {
-                    worst = r;
-                    worst_at = i;
-                }
-            }
-        }
-        outliers += usize::from(out);
-    }
-    let share = outliers as f64 / cpu.pixels.len() as f64;
-    println!(
-        "{name}: {outliers} of {} pixels outside (worst {worst_out:.2e}), worst relative error of the others {worst:.2e} (pixel {worst_at}), mean {mean:.3e}",
-        cpu.pixels.len()
-    );
-    assert!(mean > 0.0, "{name}: a black image tests nothing");
-    assert!(
-        share <= OUTLIERS,
-        "{name}: {outliers} pixels outside the tolerance"
-    );
-    (share, worst)
+    assert_agree(name, &gpu, &cpu, Tolerance::new(rel, FLOOR, OUTLIERS))
 }
 
 #[test]
