@@ -1,7 +1,7 @@
 //! Per-frame figures of a sequence fit (no residual, no asset): error, error ratio, RBFs
-//! inserted, iterations (at half and at full resolution), objective passes and seconds,
-//! RBFs moved at the ceiling or after insertion stopped, then a summary line. `--paper` runs paper A's warm frames (one insertion at a time, at
-//! most 8, full resolution only, per-iteration convergence test) for a before/after.
+//! inserted and moved (after insertion stopped over the threshold), iterations (at half
+//! and at full resolution), objective passes and seconds, then a summary line. `--paper`
+//! runs paper A's warm frames (one insertion at a time, at most 8, full resolution only, per-iteration convergence test) for a before/after.
 //! `--cold-every K` also fits every K-th warm frame from scratch with the warm fit's RBF
 //! count and prints the warm error over the cold one: above 1 is drift that the warm
 //! start added, not the smoke's own growing complexity. `--cold-density K` fits every
