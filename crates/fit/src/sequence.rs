@@ -76,8 +76,9 @@ pub struct SequenceOptions {
     pub rbfs: usize,
     /// RBFs deleted at the start of each later frame (paper: 3).
     pub delete: usize,
-    /// Most RBFs inserted per later frame (paper: 8); `None`: [`auto_insert_cap`] (the
-    /// smoke's growth, at least an eighth of the first frame's count).
+    /// Most RBFs inserted per later frame (paper: 8); `None`: the larger of
+    /// [`auto_insert_cap`] (the smoke's growth, at least an eighth of the first frame's
+    /// count) and [`excess_insert_cap`] (the error's excess).
     pub max_insert: Option<usize>,
     /// Most RBFs a later frame may have: insertion stops there (a frame over the
     /// threshold is then reported as capped); `None`: [`GROWTH_LIMIT`] times the first
@@ -111,7 +112,7 @@ pub const MARGINAL_GAIN: f64 = 0.5;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum InsertionStop {
-    /// The error ratio is within the threshold (with or without insertions).
+    /// The error ratio is within the threshold (with or without insertions or moved RBFs).
     TargetMet,
     /// A round's proposals, all or some, were predicted to gain less than the share of
     /// the first frame's marginal gain (those that paid were inserted).
@@ -120,7 +121,7 @@ pub enum InsertionStop {
     Stalled,
     /// Matching pursuit found no positive residual to place an RBF on.
     Nowhere,
-    /// The frame inserted its per-frame cap (`--max-insert` or [`auto_insert_cap`]).
+    /// The frame inserted its per-frame cap (`--max-insert`, or the automatic one).
     Cap,
     /// The frame reached [`SequenceOptions::max_rbfs`].
     Ceiling,
@@ -292,8 +293,9 @@ pub struct FrameFit {
     /// Insertion rounds.
     #[serde(default)]
     pub insert_rounds: usize,
-    /// The most RBFs this frame could insert (`--max-insert`, or [`auto_insert_cap`],
-    /// within [`SequenceOptions::max_rbfs`]); 0 for a first frame.
+    /// The most RBFs this frame could insert (`--max-insert`, or the larger of
+    /// [`auto_insert_cap`] and [`excess_insert_cap`], within
+    /// [`SequenceOptions::max_rbfs`]); 0 for a first frame.
     #[serde(default)]
     pub insert_cap: usize,
     /// rel_l2 over the first frame's rel_l2 (1 for a first frame).
