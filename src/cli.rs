@@ -308,8 +308,9 @@ pub struct BakeCli {
     /// rel_l2 (searched by doubling then bisection; each probe is a full fit).
     #[arg(long, value_name = "E")]
     target_error: Option<f64>,
-    /// Most RBFs a frame may have: where later frames stop inserting [default: 4 × the
-    /// first frame's count], and the --target-error search's ceiling [default: 4096].
+    /// Most RBFs a frame may have: where later frames stop inserting and move RBFs
+    /// instead [default: 4 × the first frame's count], and the --target-error search's
+    /// ceiling [default: 4096].
     #[arg(long, value_name = "N")]
     max_rbfs: Option<usize>,
     /// Local minimizer.
@@ -347,8 +348,9 @@ pub struct BakeCli {
     #[arg(long, default_value_t = 3)]
     delete: usize,
     /// Most RBFs inserted in a later frame [default: as many as keep the previous frame's
-    /// RBFs per voxel of smoke as the smoke grows, at least an eighth of --rbfs and 16].
-    /// A frame that hits it keeps a higher error and is reported.
+    /// RBFs per voxel of smoke as the smoke grows or as its excess error asks for, at
+    /// least an eighth of --rbfs and 16]. A frame that hits it moves its weakest RBFs to
+    /// where they lower the error more; if still over --threshold, it is reported.
     #[arg(long, value_name = "M")]
     max_insert: Option<usize>,
     /// How later frames get RBFs where the smoke grew: `batch` sizes each round by the

@@ -8,7 +8,10 @@
 //! warnings (a capped frame among them) go to stderr.
 //!
 //! cargo run --release -p haze-bake --example total_error -- INPUT [--frames A..B]
-//!     [--rbfs N] [--residual-error E]
+//!     [--rbfs N] [--residual-error E] [--polish-iterations N]
+//!
+//! `--polish-iterations N` sets the first frame's full-resolution polish budget
+//! (`FitOptions::polish`); a summary line ends the table.
 
 use haze_bake::{Bake, BakeOptions, Count, reconstruct_frame};
 use haze_fit::SequenceOptions;
@@ -41,13 +44,20 @@ fn main() {
         .init();
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some(input) = args.first() else {
-        fail("usage: total_error INPUT [--frames A..B] [--rbfs N] [--residual-error E]")
+        fail(
+            "usage: total_error INPUT [--frames A..B] [--rbfs N] [--residual-error E] [--polish-iterations N]",
+        )
     };
     let range: FrameRange = value(&args, "--frames").unwrap_or_default();
     let quant = QuantOptions {
         error: value(&args, "--residual-error").unwrap_or(QuantOptions::default().error),
         ..QuantOptions::default()
     };
+    let mut fit = SequenceOptions::default();
+    if let Some(n) = value(&args, "--polish-iterations") {
+        fit.fit.polish.max_iterations = n;
+    }
+    let threshold = fit.threshold;
     let dir = tempfile::tempdir().unwrap_or_else(|e| fail(format!("a temporary folder: {e}")));
     let out = dir.path().join("total_error.haze");
     let options = BakeOptions {
@@ -56,7 +66,7 @@ fn main() {
         range,
         import: ImportOptions::default(),
         count: Count::Fixed(value(&args, "--rbfs").unwrap_or(300)),
-        fit: SequenceOptions::default(),
+        fit,
         quant,
         brick: haze_hash::tile::DEFAULT_BRICK,
         resume: false,
@@ -74,9 +84,10 @@ fn main() {
         baked.seconds
     );
     println!(
-        "| frame | RBFs | RBF rel_l2 | RBF rms/max | ratio | stop | capped | iterations | passes | fit s | asset rel_l2 | asset rms/max | asset max/peak | residual bytes |"
+        "| frame | RBFs | moved | RBF rel_l2 | RBF rms/max | ratio | stop | capped | iterations | passes | fit s | asset rel_l2 | asset rms/max | asset max/peak | residual bytes |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let mut worst_asset = 0.0f64;
     for (k, r) in baked.records.iter().enumerate() {
         let v = seq
             .load(k)
@@ -92,10 +103,12 @@ fn main() {
         }
         let n = v.data().len().max(1) as f64;
         let guard = |x: f64, y: f64| if y > 0.0 { x / y } else { 0.0 };
+        worst_asset = worst_asset.max(guard(e2, d2).sqrt());
         println!(
-            "| {} | {} | {:.4} | {:.2} % | {:.3} | {} | {} | {} | {} | {:.2} | {:.4} | {:.3} % | {:.4} | {:.0} |",
+            "| {} | {} | {} | {:.4} | {:.2} % | {:.3} | {} | {} | {} | {} | {:.2} | {:.4} | {:.3} % | {:.4} | {:.0} |",
             r.frame,
             r.rbfs,
+            r.fit.exchanged,
             r.fit.rel_l2,
             100.0 * r.fit.rms_over_max,
             r.fit.error_ratio,
@@ -110,5 +123,30 @@ fn main() {
             r.residual.hash_bytes
         );
     }
+    let warm: Vec<f64> = baked
+        .records
+        .iter()
+        .filter(|r| r.fit.warm_started)
+        .map(|r| r.fit.fit_seconds)
+        .collect();
+    let mut sorted = warm.clone();
+    sorted.sort_by(f64::total_cmp);
+    let over = baked
+        .records
+        .iter()
+        .filter(|r| r.fit.error_ratio > threshold)
+        .count();
+    let worst = baked
+        .records
+        .iter()
+        .map(|r| r.fit.error_ratio)
+        .fold(0.0, f64::max);
+    println!(
+        "summary: {over} of {} warm frames over {threshold}, worst ratio {worst:.3}; warm fit median {:.2} s, max {:.2} s; {} iterations; worst asset rel_l2 {worst_asset:.4}",
+        warm.len(),
+        sorted.get(sorted.len() / 2).copied().unwrap_or(f64::NAN),
+        sorted.last().copied().unwrap_or(f64::NAN),
+        baked.records.iter().map(|r| r.fit.iterations).sum::<u64>(),
+    );
     println!("temporal: {}", baked.temporal);
 }

@@ -278,11 +278,12 @@ impl Bake {
             .fit(&v)
             .map_err(|e| anyhow::anyhow!("{}: {e}", f.path.display()))?;
         tracing::info!(
-            "frame {}: {} RBFs (+{} −{}), rel_l2 {:.4} (ratio {:.3}), rms/max {:.4}, {} iterations, {:.2} s",
+            "frame {}: {} RBFs (+{} −{}, {} moved), rel_l2 {:.4} (ratio {:.3}), rms/max {:.4}, {} iterations, {:.2} s",
             f.number,
             fit.rbfs.len(),
             fit.inserted,
             fit.deleted,
+            fit.exchanged,
             fit.rel_l2,
             fit.error_ratio,
             fit.rms_over_max,
@@ -291,23 +292,25 @@ impl Bake {
         );
         if fit.insertion_capped && fit.insertion_stop == Some(haze_fit::InsertionStop::Ceiling) {
             tracing::warn!(
-                "{}: frame {}: error ratio {:.3} over --threshold {} at the ceiling of {} RBFs a frame (--max-rbfs; by default {}× the first frame's count) after inserting {}: the ceiling bounds what a frame costs, and the residual stores what the RBFs miss (raise --max-rbfs to spend more RBFs)",
+                "{}: frame {}: error ratio {:.3} over --threshold {} at the ceiling of {} RBFs a frame (--max-rbfs; by default {}× the first frame's count) after inserting {} and moving {}: the ceiling bounds what a frame costs, and the residual stores what the RBFs miss (raise --max-rbfs to spend more RBFs)",
                 f.path.display(),
                 f.number,
                 fit.error_ratio,
                 self.opts.threshold,
                 fit.rbfs.len(),
                 haze_fit::sequence::GROWTH_LIMIT,
-                fit.inserted
+                fit.inserted,
+                fit.exchanged
             );
         } else if fit.insertion_capped {
             tracing::warn!(
-                "{}: frame {}: error ratio {:.3} over --threshold {} after inserting {} RBFs, the most this frame may insert (the smoke's growth, or --max-insert): its detail grows faster than its size, and the residual stores what the RBFs miss",
+                "{}: frame {}: error ratio {:.3} over --threshold {} after inserting {} RBFs, the most this frame may insert (the smoke's growth or the error's excess, or --max-insert), and moving {}: its detail grows faster than its size, and the residual stores what the RBFs miss",
                 f.path.display(),
                 f.number,
                 fit.error_ratio,
                 self.opts.threshold,
-                fit.inserted
+                fit.inserted,
+                fit.exchanged
             );
         } else if fit.insertion_stalled
             && fit.insertion_stop == Some(haze_fit::InsertionStop::MarginalGain)
@@ -653,6 +656,7 @@ fn temporal(records: &[FrameRecord], threshold: f64) -> serde_json::Value {
         "frames_stalled": records.iter().filter(|r| r.fit.insertion_stalled).count(),
         "frames_marginal_gain": records.iter().filter(|r| r.fit.insertion_stop == Some(haze_fit::InsertionStop::MarginalGain)).count(),
         "inserted": records.iter().map(|r| r.fit.inserted).sum::<usize>(),
+        "exchanged": records.iter().map(|r| r.fit.exchanged).sum::<usize>(),
         "deleted": records.iter().map(|r| r.fit.deleted).sum::<usize>(),
     })
 }

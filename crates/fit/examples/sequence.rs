@@ -1,7 +1,7 @@
 //! Per-frame figures of a sequence fit (no residual, no asset): error, error ratio, RBFs
-//! inserted, iterations (at half and at full resolution), objective passes and seconds,
-//! then a summary line. `--paper` runs paper A's warm frames (one insertion at a time, at
-//! most 8, full resolution only, per-iteration convergence test) for a before/after.
+//! inserted and moved (after insertion stopped over the threshold), iterations (at half
+//! and at full resolution), objective passes and seconds, then a summary line. `--paper`
+//! runs paper A's warm frames (one insertion at a time, at most 8, full resolution only, per-iteration convergence test) for a before/after.
 //! `--cold-every K` also fits every K-th warm frame from scratch with the warm fit's RBF
 //! count and prints the warm error over the cold one: above 1 is drift that the warm
 //! start added, not the smoke's own growing complexity. `--cold-density K` fits every
@@ -11,7 +11,7 @@
 //! density reaches on this frame, against which a warm frame's drift can be judged.
 //!
 //! cargo run --release -p haze-fit --example sequence -- INPUT [--frames A..B] [--rbfs N]
-//!     [--paper] [--coarse auto|on|off] [--insertion batch|single] [--max-insert M]
+//!     [--paper] [--coarse auto|on|off] [--insertion batch|single] [--max-insert M] [--max-rbfs N]
 //!     [--warm-gain F] [--warm-window W] [--warm-iterations N] [--tolerance F]
 //!     [--polish-iterations N]
 //!     [--threshold T] [--marginal-gain F] [--cold-every K] [--cold-density K] [--radius-min R]
@@ -47,7 +47,7 @@ fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some(input) = args.first() else {
         fail(
-            "usage: sequence INPUT [--frames A..B] [--rbfs N] [--paper] [--coarse auto|on|off] [--insertion batch|single] [--max-insert M] [--warm-gain F] [--warm-window W] [--warm-iterations N] [--tolerance F] [--polish-iterations N] [--threshold T] [--marginal-gain F] [--cold-every K] [--cold-density K] [--radius-min R]",
+            "usage: sequence INPUT [--frames A..B] [--rbfs N] [--paper] [--coarse auto|on|off] [--insertion batch|single] [--max-insert M] [--max-rbfs N] [--warm-gain F] [--warm-window W] [--warm-iterations N] [--tolerance F] [--polish-iterations N] [--threshold T] [--marginal-gain F] [--cold-every K] [--cold-density K] [--radius-min R]",
         )
     };
     let mut range = FrameRange::default();
@@ -63,6 +63,7 @@ fn main() {
             "--cold-every" => cold_every = value(&args, i),
             "--cold-density" => cold_density = value(&args, i),
             "--max-insert" => opts.max_insert = Some(value(&args, i)),
+            "--max-rbfs" => opts.max_rbfs = Some(value(&args, i)),
             "--warm-gain" => opts.warm.window_gain = value(&args, i),
             "--warm-window" => opts.warm.window = value(&args, i),
             "--warm-iterations" => opts.warm.max_iterations = value(&args, i),
@@ -106,9 +107,9 @@ fn main() {
         d[2]
     );
     println!(
-        "| frame | RBFs | +ins | rel_l2 | rms/max | ratio | iterations (coarse) | passes | insert s | seconds | stop | warm/cold | at first density: RBFs, cold rel_l2, warm/cold |"
+        "| frame | RBFs | +ins | moved | rel_l2 | rms/max | ratio | iterations (coarse) | passes | insert s | seconds | stop | warm/cold | at first density: RBFs, cold rel_l2, warm/cold |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let mut fitter = SequenceFitter::new(opts.clone());
     let (mut warm_s, mut rms, mut first_s) = (Vec::new(), Vec::new(), Vec::new());
     let (mut over, mut worst, mut capped, mut moved) = (0, 0.0f64, 0, Vec::new());
@@ -146,10 +147,11 @@ fn main() {
             String::new()
         };
         println!(
-            "| {} | {} | {} | {:.4} | {:.2} % | {:.3} | {} ({}) | {} | {:.2} | {:.2} | {} | {cold} | {density} |",
+            "| {} | {} | {} | {} | {:.4} | {:.2} % | {:.3} | {} ({}) | {} | {:.2} | {:.2} | {} | {cold} | {density} |",
             seq.frames()[k].number,
             f.rbfs.len(),
             f.inserted,
+            f.exchanged,
             f.rel_l2,
             f.rms_over_max * 100.0,
             f.error_ratio,

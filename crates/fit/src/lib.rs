@@ -15,6 +15,7 @@ pub mod frame;
 pub mod init;
 
 pub use frame::{Coarse, FitOptions, FitStats, fit_first_frame};
+pub mod exchange;
 pub mod sequence;
 
 pub use sequence::{

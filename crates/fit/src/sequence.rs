@@ -29,17 +29,27 @@
 //! the first frame's last ones, not on detail finer than a Gaussian of the insertion
 //! radius resolves. Every warm frame records why insertion stopped ([`InsertionStop`]).
 //!
-//! The per-frame cap follows the smoke: a frame may add as
+//! The per-frame cap follows the smoke and the error: a frame may add as
 //! many RBFs as keep the previous frame's RBFs per voxel of smoke ([`smoke_support`])
-//! over its grown support, and at least an eighth of the first frame's count (4.6× the
-//! paper's 8 at 300 RBFs) for smoke that changes shape without growing; no frame grows
+//! over its grown support, or as many as its excess error asks for ([`batch_size`] after
+//! the warm minimization, [`excess_insert_cap`]), and at least an eighth of the first
+//! frame's count (4.6× the paper's 8 at 300 RBFs); no frame grows
 //! past [`SequenceOptions::max_rbfs`] (by default [`GROWTH_LIMIT`] times the first
-//! frame's count). The cap bounds
-//! the cost of a frame where the smoke turns turbulent faster than its size grows: on
+//! frame's count). The ceiling bounds the cost of a frame (a pass costs in proportion to
+//! the RBFs) where the smoke turns turbulent faster than its size grows: on
 //! such smoke a fit from scratch with the same RBF count is no better (BENCHMARKS.md),
 //! the first frame's error is out of reach of any RBF count a renderer would take, and
-//! the residual stores the rest. A frame left over the threshold either way is reported
-//! and logged.
+//! the residual stores the rest.
+//!
+//! Exchange ([`crate::exchange`]). A frame still over the threshold when insertion stops
+//! (cap, ceiling, marginal gain, stall) does not give up: in rounds, the RBFs whose
+//! removal would raise `ΣR²` least are moved to where matching pursuit predicts a larger
+//! gain (at most a quarter of the RBFs a round, [`EXCHANGE_SHARE`]), followed by a joint
+//! minimization; a round that does not lower the error is undone, and rounds stop when
+//! the ratio holds or a round removes less than [`MIN_ROUND_GAIN`] of the excess. Smoke
+//! that leaves one place for another (a moving emitter, old smoke thinning) keeps its
+//! error at a constant count. A frame left over the threshold after all this is
+//! reported and logged.
 //!
 //! Warm minimizations stop by the windowed test of [`Stop`]: a warm start sits near its
 //! optimum, and the last iterations of a tight per-iteration test buy nothing visible.
@@ -48,6 +58,7 @@
 //!
 //! An all-zero frame has no RBFs; the next non-empty frame starts afresh as a first frame.
 
+use crate::exchange::{paying_exchanges, removal_costs};
 use crate::frame::{FitOptions, FitStats, fit_first_frame, weakest};
 use crate::grid::FitGrid;
 use crate::init::{greedy, initial_radius, matched_with_gains};
@@ -65,8 +76,9 @@ pub struct SequenceOptions {
     pub rbfs: usize,
     /// RBFs deleted at the start of each later frame (paper: 3).
     pub delete: usize,
-    /// Most RBFs inserted per later frame (paper: 8); `None`: [`auto_insert_cap`] (the
-    /// smoke's growth, at least an eighth of the first frame's count).
+    /// Most RBFs inserted per later frame (paper: 8); `None`: the larger of
+    /// [`auto_insert_cap`] (the smoke's growth, at least an eighth of the first frame's
+    /// count) and [`excess_insert_cap`] (the error's excess).
     pub max_insert: Option<usize>,
     /// Most RBFs a later frame may have: insertion stops there (a frame over the
     /// threshold is then reported as capped); `None`: [`GROWTH_LIMIT`] times the first
@@ -100,7 +112,7 @@ pub const MARGINAL_GAIN: f64 = 0.5;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum InsertionStop {
-    /// The error ratio is within the threshold (with or without insertions).
+    /// The error ratio is within the threshold (with or without insertions or moved RBFs).
     TargetMet,
     /// A round's proposals, all or some, were predicted to gain less than the share of
     /// the first frame's marginal gain (those that paid were inserted).
@@ -109,7 +121,7 @@ pub enum InsertionStop {
     Stalled,
     /// Matching pursuit found no positive residual to place an RBF on.
     Nowhere,
-    /// The frame inserted its per-frame cap (`--max-insert` or [`auto_insert_cap`]).
+    /// The frame inserted its per-frame cap (`--max-insert`, or the automatic one).
     Cap,
     /// The frame reached [`SequenceOptions::max_rbfs`].
     Ceiling,
@@ -179,6 +191,21 @@ pub fn auto_insert_cap(
     let follow = usize::try_from(grown).unwrap_or(usize::MAX);
     follow.saturating_add(deleted).max(floor)
 }
+
+/// The per-frame cap grows with the error's excess: at least the RBFs that
+/// [`batch_size`] asks for to bring `rel_l2` of `n` RBFs down to `target`, so that a frame
+/// whose smoke turned more detailed than it grew gets its first round in full (the
+/// marginal-gain test and [`SequenceOptions::max_rbfs`] still bound it).
+pub fn excess_insert_cap(n: usize, rel_l2: f64, target: f64) -> usize {
+    if rel_l2 > target {
+        batch_size(n, rel_l2, target)
+    } else {
+        0
+    }
+}
+
+/// At the ceiling an exchange round moves at most this share (1/4) of the frame's RBFs.
+pub const EXCHANGE_SHARE: usize = 4;
 
 /// An insertion round must remove at least this share of the excess error
 /// (`rel_l2 − target`) for another round to follow; below it the frame is reported as
@@ -259,11 +286,16 @@ pub struct FrameFit {
     pub warm_started: bool,
     pub deleted: usize,
     pub inserted: usize,
+    /// RBFs moved at the ceiling: removed where they lowered the error least and put
+    /// where matching pursuit predicts a larger gain ([`crate::exchange`]).
+    #[serde(default)]
+    pub exchanged: usize,
     /// Insertion rounds.
     #[serde(default)]
     pub insert_rounds: usize,
-    /// The most RBFs this frame could insert (`--max-insert`, or [`auto_insert_cap`],
-    /// within [`SequenceOptions::max_rbfs`]); 0 for a first frame.
+    /// The most RBFs this frame could insert (`--max-insert`, or the larger of
+    /// [`auto_insert_cap`] and [`excess_insert_cap`], within
+    /// [`SequenceOptions::max_rbfs`]); 0 for a first frame.
     #[serde(default)]
     pub insert_cap: usize,
     /// rel_l2 over the first frame's rel_l2 (1 for a first frame).
@@ -474,6 +506,11 @@ impl SequenceFitter {
                 smoke_support(grid),
                 deleted,
             )
+            .max(excess_insert_cap(
+                params.len() / PARAMS_PER_RBF,
+                rel_l2,
+                target,
+            ))
         });
         let ceiling = o.max_rbfs.unwrap_or(o.rbfs.saturating_mul(GROWTH_LIMIT));
         let room = ceiling.saturating_sub(params.len() / PARAMS_PER_RBF);
@@ -485,7 +522,7 @@ impl SequenceFitter {
         let floor = o.marginal_gain.max(0.0) * self.first_gain.unwrap_or(0.0);
         let (mut inserted, mut rounds, mut next_gain) = (0, 0, None);
         let insert_start = Instant::now();
-        let stop = loop {
+        let mut stop = loop {
             if ratio(rel_l2) <= o.threshold {
                 break InsertionStop::TargetMet;
             }
@@ -549,8 +586,55 @@ impl SequenceFitter {
                 break InsertionStop::Stalled;
             }
         };
+        // A frame left over the threshold (at its cap or ceiling, or where more RBFs stop
+        // paying) moves the RBFs that lower the error least to where new ones would lower
+        // it more: its count stays, its error drops.
+        let mut exchanged = 0;
+        if ratio(rel_l2) > o.threshold && stop != InsertionStop::Nowhere {
+            loop {
+                let residual = objective::residual(grid, &params);
+                let n = params.len() / PARAMS_PER_RBF;
+                let m = batch_size(n, rel_l2, target).min((n / EXCHANGE_SHARE).max(1));
+                let (new, gains) =
+                    matched_with_gains(&grid.residual_grid(residual.clone()), m, radius, bounds);
+                let costs = removal_costs(grid, &residual, &params);
+                let (add, remove) = paying_exchanges(&gains, &costs);
+                if add.is_empty() {
+                    break;
+                }
+                let kept = (params.clone(), alive.clone());
+                for &l in remove.iter().rev() {
+                    params.drain(l * PARAMS_PER_RBF..(l + 1) * PARAMS_PER_RBF);
+                    if l < alive.len() {
+                        alive.remove(l);
+                    }
+                }
+                for &a in &add {
+                    params.extend_from_slice(&new[a * PARAMS_PER_RBF..(a + 1) * PARAMS_PER_RBF]);
+                }
+                let m = minimize(grid, &mut params, bounds, optimizer, warm);
+                stats.add(&m, false);
+                let before = rel_l2;
+                let (rel, r) = errors_from_cost(grid, m.cost);
+                if rel >= before {
+                    // The joint minimization undid the predicted gain: keep the old RBFs.
+                    (params, alive) = kept;
+                    break;
+                }
+                (rel_l2, rms) = (rel, r);
+                exchanged += add.len();
+                if ratio(rel_l2) <= o.threshold {
+                    stop = InsertionStop::TargetMet;
+                    break;
+                }
+                if before - rel_l2 < MIN_ROUND_GAIN * (before - target) {
+                    break;
+                }
+            }
+        }
         let mut f = finish(grid, &params, o, stats, rel_l2, rms);
         f.warm_started = true;
+        f.exchanged = exchanged;
         f.deleted = deleted;
         f.inserted = inserted;
         f.insert_rounds = rounds;
@@ -558,7 +642,7 @@ impl SequenceFitter {
         f.insertion_stop = Some(stop);
         f.next_gain = next_gain;
         f.gain_floor = floor;
-        if rounds > 0 {
+        if rounds > 0 || exchanged > 0 {
             f.insert_seconds = insert_start.elapsed().as_secs_f64();
         }
         f.error_ratio = ratio(rel_l2);
@@ -597,6 +681,7 @@ fn empty_fit() -> FrameFit {
         warm_started: false,
         deleted: 0,
         inserted: 0,
+        exchanged: 0,
         insert_rounds: 0,
         insert_cap: 0,
         error_ratio: 1.0,
@@ -636,7 +721,9 @@ fn finish(
 
 #[cfg(test)]
 mod tests {
-    use super::{auto_insert_cap, batch_size, errors, errors_from_cost, smoke_support};
+    use super::{
+        auto_insert_cap, batch_size, errors, errors_from_cost, excess_insert_cap, smoke_support,
+    };
     use crate::grid::FitGrid;
     use crate::objective;
     use haze_volume::{Bbox, Volume};
@@ -670,6 +757,19 @@ mod tests {
         assert_eq!(auto_insert_cap(300, 300, 1000, 1000, 3), 37);
         assert_eq!(auto_insert_cap(300, 300, 0, 1000, 3), 37);
         assert_eq!(auto_insert_cap(40, 40, 100, 100, 0), 16);
+    }
+
+    /// The cap from the excess error is the first round's size: 0 within the target,
+    /// `n·((e/t)³ − 1)` above it (300 RBFs at 1.2× the target: 219 more), so a frame
+    /// whose detail outgrew its support is not held to the support's cap.
+    #[test]
+    fn insertion_cap_grows_with_the_excess_error() {
+        assert_eq!(excess_insert_cap(300, 0.1, 0.11), 0);
+        assert_eq!(excess_insert_cap(300, 0.11, 0.11), 0);
+        assert_eq!(excess_insert_cap(300, 0.132, 0.11), 219);
+        assert_eq!(excess_insert_cap(300, 0.2, 0.1), 2100);
+        let support = auto_insert_cap(300, 300, 1000, 1000, 3);
+        assert!(excess_insert_cap(300, 0.132, 0.11) > support);
     }
 
     /// The support counts voxels above 1 % of the peak, by brute force over the grid.

@@ -263,9 +263,10 @@ fn sequence_error_ratio_stays_within_threshold_or_is_reported() {
             let reported = f.insertion_capped || f.insertion_stalled;
             assert_eq!(reported, f.error_ratio > opts.threshold, "frame {n}");
             assert!(!(f.insertion_capped && f.insertion_stalled));
+            // The cap follows the smoke's growth, or the excess error where that asks more.
             let cap = auto_insert_cap(120, previous_count, support(n - 1), support(n), 3);
-            assert_eq!(f.insert_cap, cap, "frame {n}");
-            assert!(f.inserted <= cap, "frame {n}");
+            assert!(f.insert_cap >= cap, "frame {n}");
+            assert!(f.inserted <= f.insert_cap, "frame {n}");
             assert!(f.mean_center_displacement.is_some());
         }
         assert!(f.rel_l2 > 0.0 && f.rel_l2 < 0.5);
@@ -406,6 +407,40 @@ fn a_cap_that_is_hit_is_reported() {
     assert_eq!(f.insert_cap, 6 - (4 - 3));
     assert!(f.insertion_capped && f.error_ratio > 1.1);
     assert_eq!(f.insertion_stop, Some(InsertionStop::Ceiling));
+}
+
+/// At the ceiling, RBFs left on smoke that went away are exchanged for RBFs on smoke that
+/// appeared: half the blobs move across the box between two frames and the frame may
+/// neither grow nor delete; it meets the threshold by moving RBFs (the same frame without
+/// insertion or exchange, threshold out of reach, stays far over it).
+#[test]
+fn at_the_ceiling_rbfs_move_to_where_the_smoke_went() {
+    let first: Vec<[f64; 3]> = (0..6).map(|k| [6.0 + 4.0 * k as f64, 10.0, 10.0]).collect();
+    let mut moved = first.clone();
+    for c in moved.iter_mut().skip(3) {
+        *c = [c[0] - 8.0, 24.0, 22.0];
+    }
+    let opts = SequenceOptions {
+        max_rbfs: Some(4),
+        delete: 0,
+        ..drift_options()
+    };
+    let mut fitter = SequenceFitter::new(opts.clone());
+    fitter.fit(&blobs(32, &first)).unwrap();
+    let f = fitter.fit(&blobs(32, &moved)).unwrap();
+    assert_eq!((f.rbfs.len(), f.inserted), (4, 0));
+    assert!(f.exchanged >= 1, "{:?}", f.insertion_stop);
+    assert!(f.error_ratio <= opts.threshold, "ratio {}", f.error_ratio);
+    assert_eq!(f.insertion_stop, Some(InsertionStop::TargetMet));
+    assert!(!f.insertion_capped);
+    let mut stay = SequenceFitter::new(SequenceOptions {
+        threshold: 1e6,
+        ..opts
+    });
+    stay.fit(&blobs(32, &first)).unwrap();
+    let g = stay.fit(&blobs(32, &moved)).unwrap();
+    assert!(g.rel_l2 > 2.0 * f.rel_l2, "{} vs {}", g.rel_l2, f.rel_l2);
+    assert_eq!(g.exchanged, 0);
 }
 
 /// Detail below the resolvable scale: the later frame is the first one's smoke with a
