@@ -75,7 +75,7 @@ use crate::medium::Medium;
 use crate::render::crm::VolumeGrids;
 use crate::render::env_pass::directions;
 use crate::sh::ShGrid;
-use haze_volume::Rbf;
+use haze_volume::{Rbf, Volume};
 use rayon::prelude::*;
 
 /// `L⁰`, `L¹` on every cell of a coarse grid (0 where there is no smoke).
@@ -254,7 +254,7 @@ pub fn explicit_media_radiance(
 }
 
 /// Scattering orders gathered explicitly on the coarse grid of `factor` of `grids`' density
-/// (`explicit_media_radiance`): the environment's single scattering from the environment
+/// (0: [`auto_grid`]'s) (`explicit_media_radiance`): the environment's single scattering from the environment
 /// pass's grid `env_grid` and projection `light` when given (else from the centers'
 /// moments `center_moments` of `rbfs`), the point lights as moments and the suns exactly,
 /// along the environment pass's 72 directions for the first order and 32 for the later.
@@ -270,7 +270,11 @@ pub fn frame_explicit_media_radiance(
     orders: usize,
     opts: &GridSolveOptions,
 ) -> MediaRadiance {
-    let grid = CoarseGrid::new(&grids.density, factor);
+    let grid = if factor == 0 {
+        auto_grid(&grids.density)
+    } else {
+        CoarseGrid::new(&grids.density, factor)
+    };
     let mut sources = match env_grid {
         Some((g, light)) => env_grid_sources(&grid, &grids.density, g, light, medium),
         None => interpolate_centers(&grid, rbfs, center_moments),
@@ -280,6 +284,48 @@ pub fn frame_explicit_media_radiance(
     let first: Vec<_> = directions(GATHER_THETA).points().collect();
     let later: Vec<_> = directions(GATHER_LATER_THETA).points().collect();
     explicit_media_radiance(grid, medium, &sources, &suns, orders, &first, &later, opts)
+}
+
+/// The work of the gathered orders on `grid`, in cell steps per direction: the cells
+/// with smoke times the mean side, in cells, of the box they occupy (each ray from a
+/// cell crosses about that many before it leaves the smoke or the light runs out).
+pub fn gather_work(grid: &CoarseGrid) -> f64 {
+    let (mut lo, mut hi, mut cells) = ([usize::MAX; 3], [0usize; 3], 0usize);
+    for (i, &d) in grid.density.iter().enumerate() {
+        if d > 0.0 {
+            cells += 1;
+            let c = grid.coords(i);
+            for a in 0..3 {
+                lo[a] = lo[a].min(c[a]);
+                hi[a] = hi[a].max(c[a]);
+            }
+        }
+    }
+    if cells == 0 {
+        return 0.0;
+    }
+    let side = (0..3).map(|a| (hi[a] + 1 - lo[a]) as f64).sum::<f64>() / 3.0;
+    cells as f64 * side
+}
+
+/// The most [`gather_work`] that the automatic cell size lets the gathered orders do:
+/// about 10 s of multiple scattering (four orders, 72 + 3 × 32 directions; measured
+/// 16–18 µs per unit of work on a 2-core machine shared three ways) (BENCHMARKS.md,
+/// "Multiple scattering: the cell size").
+pub const GATHER_BUDGET: f64 = 6e5;
+
+/// The coarse grid of the automatic cell size: cells of 2³ voxels (the measured
+/// default), or the smallest larger side up to 8 whose [`gather_work`] is within
+/// [`GATHER_BUDGET`] (the work falls as `F⁻⁴`: `F⁻³` cells, `F⁻¹` steps per ray).
+pub fn auto_grid(fine: &Volume) -> CoarseGrid {
+    let mut grid = CoarseGrid::new(fine, 2);
+    for f in 3..=8 {
+        if gather_work(&grid) <= GATHER_BUDGET {
+            break;
+        }
+        grid = CoarseGrid::new(fine, f);
+    }
+    grid
 }
 
 /// Gauss–Legendre latitudes per hemisphere of the first order's directions
