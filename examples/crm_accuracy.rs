@@ -59,6 +59,7 @@ struct Args {
     cache: Option<std::path::PathBuf>,
     diffusion: MsDiffusion,
     env_source: EnvSource,
+    max_bounces: Option<u32>,
 }
 
 impl Args {
@@ -89,6 +90,7 @@ fn parse() -> Result<Args, String> {
         extract: true,
         cache: None,
         env_source: CrmOptions::default().env_source,
+        max_bounces: None,
     };
     let mut grid = EnvGridOptions::default();
     let list = |s: String, n: usize| -> Result<Vec<f64>, String> {
@@ -135,6 +137,7 @@ fn parse() -> Result<Args, String> {
             }
             "--no-sun-extraction" => a.extract = false,
             "--cache" => a.cache = Some(v()?.into()),
+            "--max-bounces" => a.max_bounces = Some(num(v()?)? as u32),
             "--env" => {
                 a.env_source = match v()?.as_str() {
                     "centers" => EnvSource::Centers,
@@ -374,10 +377,11 @@ fn main() {
             spp: a.spp,
             multiple,
             seed,
+            max_bounces: a.max_bounces.unwrap_or(RefOptions::default().max_bounces),
             ..RefOptions::default()
         };
         let key = format!(
-            "ref|{}|{:?}|{}|{}|{}|{}|{:?}|{:?}|{:?}|{multiple}|{seed}|{}",
+            "ref|{}|{:?}|{}|{}|{}|{}|{:?}|{:?}|{:?}|{multiple}|{seed}|{}{}",
             a.input,
             a.size,
             a.spp,
@@ -388,7 +392,12 @@ fn main() {
             a.eye,
             a.target,
             // The density rendered: the original or the fit's approximation.
-            volume.data().iter().map(|v| f64::from(*v)).sum::<f64>()
+            volume.data().iter().map(|v| f64::from(*v)).sum::<f64>(),
+            // Truncated paths only where asked (the keys of full paths unchanged).
+            match a.max_bounces {
+                Some(n) if multiple => format!("|bounces {n}"),
+                _ => String::new(),
+            }
         );
         if let Some(img) = cache_read(&a, &key) {
             return (img, 0.0);
@@ -445,7 +454,7 @@ fn main() {
         multiple_part(
             &a,
             &scene,
-            &final_ref,
+            [&final_ref, &final_ref2],
             &reference(&scene.density, false, 1).0,
         );
     }
@@ -583,7 +592,11 @@ fn main() {
 /// The multiple-scattering part alone: final − single of the fast renderer against the
 /// same difference of the reference (both on the original density), as `rel_rms` and mean
 /// ratio over the smoke pixels, with the images (same exposure) in the cache directory.
-fn multiple_part(a: &Args, scene: &Scene, final_ref: &Image, single_ref: &Image) {
+/// The multiple-scattering part (final − single) of the fast renderer against the
+/// reference's (`finals`: two seeds; the first is the table's reference, their mean, at
+/// twice the samples and `1/√2` the noise, is printed beside it).
+fn multiple_part(a: &Args, scene: &Scene, finals: [&Image; 2], single_ref: &Image) {
+    let final_ref = finals[0];
     let (single, _, _) = scene.crm(
         &scene.rbfs,
         true,
@@ -622,6 +635,23 @@ fn multiple_part(a: &Args, scene: &Scene, final_ref: &Image, single_ref: &Image)
         mean_ratio(&ms, &ms_ref, &scene.mask),
         100.0 * masked_mean(&ms_ref, &scene.mask) / masked_mean(final_ref, &scene.mask),
         stats.cg_iterations
+    );
+    let both = Image {
+        width: final_ref.width,
+        height: final_ref.height,
+        pixels: finals[0]
+            .pixels
+            .iter()
+            .zip(&finals[1].pixels)
+            .map(|(p, q)| [0, 1, 2].map(|c| 0.5 * (p[c] + q[c])))
+            .collect(),
+    };
+    println!(
+        "final against both seeds' mean ({} spp) {:.4} | ms part {:.4} | {:.3} s multiple",
+        2 * a.spp,
+        err(&fin, &both, &scene.mask),
+        err(&ms, &diff(&both, single_ref), &scene.mask),
+        stats.multiple_seconds
     );
     if let Some(dir) = &a.cache {
         let exposure = 0.5 / masked_mean(&ms_ref, &scene.mask).max(1e-12);

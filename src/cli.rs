@@ -467,8 +467,10 @@ pub struct RenderCli {
     source: SourceArg,
     /// How multiple scattering is computed: `orders[:F[:K]]` (the default on the CPU: the
     /// first K scattering orders gathered explicitly along 72 directions, 32 after the
-    /// first, on the density averaged over F³ voxels, F = 2, K = 3, and the rest by
-    /// diffusion on that grid),
+    /// first, on the density averaged over F³ voxels, and the rest by diffusion on that
+    /// grid; K = 4; F = auto unless given: 2, or where the cells with smoke times the
+    /// side of the box they fill exceed 600 000, the smallest larger F within it,
+    /// which keeps a frame's multiple scattering to about 10 s on two cores),
     /// `centers` (paper A §5.4's diffusion on the RBF basis; the only one on the GPU, and
     /// the default with --gpu) or `grid[:F]` (the diffusion alone on the F³ grid). `grid`
     /// and `orders` run on the CPU only and are refused with --gpu. BENCHMARKS.md

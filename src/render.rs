@@ -557,6 +557,10 @@ fn diffusion_name(d: MsDiffusion) -> String {
     match d {
         MsDiffusion::Centers => "centers".into(),
         MsDiffusion::Grid { factor } => format!("grid:{factor}"),
+        MsDiffusion::Orders {
+            factor: MsDiffusion::AUTO,
+            orders,
+        } => format!("orders:auto:{orders}"),
         MsDiffusion::Orders { factor, orders } => format!("orders:{factor}:{orders}"),
     }
 }

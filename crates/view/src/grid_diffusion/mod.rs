@@ -46,7 +46,11 @@
 //! bound of a non-negative radiance) are interpolated trilinearly from the cells, weighted
 //! by their density (a voxel next to empty cells keeps its smoke's value, as
 //! `crm::sample_radiance`), and every voxel with smoke gains the multiple-scattering
-//! source `J_ms(ω) = Ω (L⁰ + g L¹·ω)` (Funk–Hecke on HG) towards the eye, `ω = −d`.
+//! source `J_ms(ω) = Ω (L⁰ + g L¹·ω + Σ_{l=2,3} g^l Σ_m c_lm Y_lm(ω))` (Funk–Hecke on
+//! HG) towards the eye, `ω = −d`, with bands 2–3 `c_lm` of the gathered orders
+//! ([`Gathered::high`]; the diffusion's light has none). Bands 0–1 alone made the
+//! multiple part 5–10 % too bright where a sun's scattered light is seen across its
+//! flow (BENCHMARKS.md, "Multiple scattering: the light towards the eye").
 
 mod coarse;
 mod escape;
@@ -60,7 +64,7 @@ mod tests;
 
 pub use coarse::CoarseGrid;
 pub use escape::{escape, fibonacci_directions};
-pub use gather::{Gathered, SunSource, T_MIN, gather};
+pub use gather::{Gathered, HIGH, SunSource, T_MIN, gather};
 pub use solve::{FvSystem, GridSolution, GridSolveOptions, THIN, solve};
 pub use source::{add_lights, env_grid_sources, interpolate_centers, sun_sources};
 
@@ -71,7 +75,7 @@ use crate::medium::Medium;
 use crate::render::crm::VolumeGrids;
 use crate::render::env_pass::directions;
 use crate::sh::ShGrid;
-use haze_volume::Rbf;
+use haze_volume::{Rbf, Volume};
 use rayon::prelude::*;
 
 /// `L⁰`, `L¹` on every cell of a coarse grid (0 where there is no smoke).
@@ -82,6 +86,9 @@ pub struct MediaRadiance {
     pub l0: Vec<[f64; 3]>,
     /// `L¹` per cell, `[channel][axis]`, clamped to `|L¹| ≤ 3 L⁰`.
     pub l1: Vec<[[f64; 3]; 3]>,
+    /// Bands 2–3 of the gathered orders' radiance per cell ([`Gathered::high`]; 0 for
+    /// the diffusions, whose light is bands 0–1).
+    pub high: Vec<[[f64; HIGH]; 3]>,
     pub iterations: u32,
     pub residual: f64,
 }
@@ -93,6 +100,7 @@ impl MediaRadiance {
         MediaRadiance {
             l0: vec![[0.0; 3]; n],
             l1: vec![[[0.0; 3]; 3]; n],
+            high: vec![[[0.0; HIGH]; 3]; n],
             grid,
             iterations: 0,
             residual: 0.0,
@@ -221,6 +229,7 @@ pub fn explicit_media_radiance(
     let escape = last.escape.clone();
     out.l0.clone_from(&last.l0);
     out.l1.clone_from(&last.l1);
+    out.high.clone_from(&last.high);
     for _ in 1..orders.max(1) {
         last = gather(
             &out.grid,
@@ -235,6 +244,9 @@ pub fn explicit_media_radiance(
         for (o, l) in out.l1.iter_mut().zip(&last.l1) {
             (0..3).for_each(|c| (0..3).for_each(|a| o[c][a] += l[c][a]));
         }
+        for (o, l) in out.high.iter_mut().zip(&last.high) {
+            (0..3).for_each(|c| (0..HIGH).for_each(|k| o[c][k] += l[c][k]));
+        }
     }
     diffuse_rest(&mut out, medium, &scattered(&last, medium), &escape, opts);
     clamp_moments(&mut out);
@@ -242,7 +254,7 @@ pub fn explicit_media_radiance(
 }
 
 /// Scattering orders gathered explicitly on the coarse grid of `factor` of `grids`' density
-/// (`explicit_media_radiance`): the environment's single scattering from the environment
+/// (0: [`auto_grid`]'s) (`explicit_media_radiance`): the environment's single scattering from the environment
 /// pass's grid `env_grid` and projection `light` when given (else from the centers'
 /// moments `center_moments` of `rbfs`), the point lights as moments and the suns exactly,
 /// along the environment pass's 72 directions for the first order and 32 for the later.
@@ -258,7 +270,11 @@ pub fn frame_explicit_media_radiance(
     orders: usize,
     opts: &GridSolveOptions,
 ) -> MediaRadiance {
-    let grid = CoarseGrid::new(&grids.density, factor);
+    let grid = if factor == 0 {
+        auto_grid(&grids.density)
+    } else {
+        CoarseGrid::new(&grids.density, factor)
+    };
     let mut sources = match env_grid {
         Some((g, light)) => env_grid_sources(&grid, &grids.density, g, light, medium),
         None => interpolate_centers(&grid, rbfs, center_moments),
@@ -268,6 +284,48 @@ pub fn frame_explicit_media_radiance(
     let first: Vec<_> = directions(GATHER_THETA).points().collect();
     let later: Vec<_> = directions(GATHER_LATER_THETA).points().collect();
     explicit_media_radiance(grid, medium, &sources, &suns, orders, &first, &later, opts)
+}
+
+/// The work of the gathered orders on `grid`, in cell steps per direction: the cells
+/// with smoke times the mean side, in cells, of the box they occupy (each ray from a
+/// cell crosses about that many before it leaves the smoke or the light runs out).
+pub fn gather_work(grid: &CoarseGrid) -> f64 {
+    let (mut lo, mut hi, mut cells) = ([usize::MAX; 3], [0usize; 3], 0usize);
+    for (i, &d) in grid.density.iter().enumerate() {
+        if d > 0.0 {
+            cells += 1;
+            let c = grid.coords(i);
+            for a in 0..3 {
+                lo[a] = lo[a].min(c[a]);
+                hi[a] = hi[a].max(c[a]);
+            }
+        }
+    }
+    if cells == 0 {
+        return 0.0;
+    }
+    let side = (0..3).map(|a| (hi[a] + 1 - lo[a]) as f64).sum::<f64>() / 3.0;
+    cells as f64 * side
+}
+
+/// The most [`gather_work`] that the automatic cell size lets the gathered orders do:
+/// about 10 s of multiple scattering (four orders, 72 + 3 × 32 directions; measured
+/// 16–18 µs per unit of work on a 2-core machine shared three ways) (BENCHMARKS.md,
+/// "Multiple scattering: the cell size").
+pub const GATHER_BUDGET: f64 = 6e5;
+
+/// The coarse grid of the automatic cell size: cells of 2³ voxels (the measured
+/// default), or the smallest larger side up to 8 whose [`gather_work`] is within
+/// [`GATHER_BUDGET`] (the work falls as `F⁻⁴`: `F⁻³` cells, `F⁻¹` steps per ray).
+pub fn auto_grid(fine: &Volume) -> CoarseGrid {
+    let mut grid = CoarseGrid::new(fine, 2);
+    for f in 3..=8 {
+        if gather_work(&grid) <= GATHER_BUDGET {
+            break;
+        }
+        grid = CoarseGrid::new(fine, f);
+    }
+    grid
 }
 
 /// Gauss–Legendre latitudes per hemisphere of the first order's directions
@@ -298,8 +356,9 @@ pub fn frame_media_radiance(
     media_radiance(grid, medium, &sources, &p, opts)
 }
 
-/// Adds `J_ms(−d) = Ω (L⁰ − g L¹·d)` of `ms` to the radiance of every voxel of `grids`
-/// with smoke, `d` the unit direction from `eye` to the voxel (module docs).
+/// Adds `J_ms(−d) = Ω (L⁰ − g L¹·d + Σ_{l=2,3} g^l c_lm Y_lm(−d))` of `ms` to the
+/// radiance of every voxel of `grids` with smoke, `d` the unit direction from `eye` to
+/// the voxel (module docs).
 pub fn add_to_grids(grids: &mut VolumeGrids, ms: &MediaRadiance, medium: &Medium, eye: [f64; 3]) {
     let density = &grids.density;
     let dims = density.dims();
@@ -327,6 +386,7 @@ pub fn add_to_grids(grids: &mut VolumeGrids, ms: &MediaRadiance, medium: &Medium
                     t[a] = c - lo[a] as f64;
                 }
                 let (mut l0, mut l1, mut ws) = ([0.0; 3], [[0.0; 3]; 3], 0.0);
+                let mut high = [[0.0; HIGH]; 3];
                 for corner in 0..8 {
                     let mut w = 1.0;
                     let mut c = [0usize; 3];
@@ -345,6 +405,9 @@ pub fn add_to_grids(grids: &mut VolumeGrids, ms: &MediaRadiance, medium: &Medium
                                 .zip(ms.l1[k][ch])
                                 .for_each(|(s, v)| *s += wd * v);
                         }
+                        for (h, c) in high.iter_mut().zip(&ms.high[k]) {
+                            h.iter_mut().zip(c).for_each(|(h, v)| *h += wd * v);
+                        }
                     }
                 }
                 if ws <= 0.0 {
@@ -354,9 +417,15 @@ pub fn add_to_grids(grids: &mut VolumeGrids, ms: &MediaRadiance, medium: &Medium
                 let Some(d) = crate::lights::unit([0, 1, 2].map(|a| p[a] - eye[a])) else {
                     continue;
                 };
+                // Bands 2–3 towards the eye, ω = −d, each scaled by g^l (Funk–Hecke).
+                let mut y = [0.0; 16];
+                crate::sh::eval_into(4, d.map(|v| -v), &mut y);
+                // Band 2 is the first 5 coefficients, band 3 the next 7.
+                let gl = |k: usize| medium.g.powi(if k < 5 { 2 } else { 3 });
                 for ch in 0..3 {
                     let flux = l1[ch][0] * d[0] + l1[ch][1] * d[1] + l1[ch][2] * d[2];
-                    let j = medium.albedo * (l0[ch] - medium.g * flux) / ws;
+                    let bands: f64 = (0..HIGH).map(|k| gl(k) * high[ch][k] * y[4 + k]).sum();
+                    let j = medium.albedo * (l0[ch] - medium.g * flux + bands) / ws;
                     out[ch] = (f64::from(out[ch]) + j.max(0.0)) as f32;
                 }
             }

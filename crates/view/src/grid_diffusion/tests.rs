@@ -273,3 +273,33 @@ fn extremes_stay_finite() {
     };
     check_extremes(&grids, run);
 }
+
+/// The automatic cell size: 2 for a small plume; for a 128³ box full of smoke the
+/// smallest F whose work `⌈128/F⌉³ · ⌈128/F⌉` (every cell has smoke, the box is the
+/// grid) is within the budget, counted here independently of `gather_work`; and the
+/// gathered orders on it keep that factor.
+#[test]
+fn the_automatic_cell_size_follows_the_amount_of_smoke() {
+    let small = Volume::new(
+        [16, 16, 20],
+        Bbox::new([0.0; 3], [1.0; 3]),
+        (0..16 * 16 * 20)
+            .map(|i| if i % 3 == 0 { 1.0 } else { 0.0 })
+            .collect(),
+    )
+    .unwrap();
+    assert_eq!(auto_grid(&small).factor, 2);
+    let n = 128usize;
+    let full = Volume::new([n; 3], Bbox::new([0.0; 3], [1.0; 3]), vec![0.5; n * n * n]).unwrap();
+    let expected = (2..=8)
+        .find(|&f| (n.div_ceil(f) as f64).powi(4) <= GATHER_BUDGET)
+        .unwrap_or(8);
+    assert!(expected > 2, "the test needs a volume over the budget");
+    let grid = auto_grid(&full);
+    assert_eq!(grid.factor, expected);
+    assert_eq!(gather_work(&grid), (n.div_ceil(expected) as f64).powi(4));
+    // No smoke: no work, the default size.
+    let empty = Volume::new([8; 3], Bbox::new([0.0; 3], [1.0; 3]), vec![0.0; 512]).unwrap();
+    assert_eq!(gather_work(&CoarseGrid::new(&empty, 2)), 0.0);
+    assert_eq!(auto_grid(&empty).factor, 2);
+}

@@ -59,25 +59,36 @@ pub enum MsDiffusion {
     Grid { factor: usize },
     /// On the same coarse grid, the first `orders` scattering orders gathered explicitly
     /// along 72 directions from every cell and the rest by the grid's diffusion
-    /// (`crate::grid_diffusion::explicit_media_radiance`). CPU only.
+    /// (`crate::grid_diffusion::explicit_media_radiance`); `factor` [`MsDiffusion::AUTO`]
+    /// chooses it from the amount of smoke (`crate::grid_diffusion::auto_factor`). CPU
+    /// only.
     Orders { factor: usize, orders: usize },
 }
 
 impl MsDiffusion {
+    /// The cell size of [`MsDiffusion::Orders`] chosen per frame from the smoke.
+    pub const AUTO: usize = 0;
+
     /// `haze render`'s choice on the CPU (BENCHMARKS.md, "Multiple scattering: explicit
-    /// orders"): three orders gathered on cells of 2³ voxels.
+    /// orders"): four orders gathered on cells of 2³ voxels, larger cells where the
+    /// smoke would cost more than `grid_diffusion::GATHER_BUDGET`.
     pub const CPU_DEFAULT: MsDiffusion = MsDiffusion::Orders {
-        factor: 2,
-        orders: 3,
+        factor: MsDiffusion::AUTO,
+        orders: 4,
     };
 }
 
 impl MsDiffusion {
-    /// `Err` naming the field when the factor is outside 1–16 or the number of orders
-    /// outside 1–8.
+    /// `Err` naming the field when the factor is outside 1–16 (or [`MsDiffusion::AUTO`]
+    /// for the orders) or the number of orders outside 1–8.
     pub fn check(&self) -> Result<(), String> {
         match *self {
             MsDiffusion::Centers => Ok(()),
+            MsDiffusion::Orders { factor, orders }
+                if factor == MsDiffusion::AUTO && (1..=8).contains(&orders) =>
+            {
+                Ok(())
+            }
             MsDiffusion::Grid { factor } | MsDiffusion::Orders { factor, .. }
                 if !(1..=16).contains(&factor) =>
             {
@@ -96,25 +107,30 @@ impl MsDiffusion {
 impl std::str::FromStr for MsDiffusion {
     type Err = String;
 
-    /// `centers`, `grid[:F]` or `orders[:F[:K]]` (F voxels per cell side, default 2; K
-    /// gathered orders, default 3); the ranges are [`MsDiffusion::check`]'s.
+    /// `centers`, `grid[:F]` or `orders[:F[:K]]` (F voxels per cell side, default 2 for
+    /// `grid`, `auto` ([`MsDiffusion::AUTO`], the default) or a number for `orders`; K
+    /// gathered orders, default 4); the ranges are [`MsDiffusion::check`]'s.
     fn from_str(s: &str) -> Result<MsDiffusion, String> {
         let mut parts = s.split(':');
         let kind = parts.next().unwrap_or_default();
-        let mut number = |what: &str, default: usize| match parts.next() {
+        // `auto` only where the field may be chosen automatically.
+        let mut number = |what: &str, default: usize, auto: bool| match parts.next() {
             None => Ok(default),
-            Some(v) => v
-                .parse::<usize>()
-                .map_err(|_| format!("{s}: {what} must be a whole number")),
+            Some("auto") if auto => Ok(MsDiffusion::AUTO),
+            Some(v) => match v.parse::<usize>() {
+                Ok(0) if auto => Err(format!("{s}: {what} must be at least 1 (or auto)")),
+                Ok(n) => Ok(n),
+                Err(_) => Err(format!("{s}: {what} must be a whole number")),
+            },
         };
         let out = match kind {
             "centers" => MsDiffusion::Centers,
             "grid" => MsDiffusion::Grid {
-                factor: number("the factor", 2)?,
+                factor: number("the factor", 2, false)?,
             },
             "orders" => MsDiffusion::Orders {
-                factor: number("the factor", 2)?,
-                orders: number("the number of orders", 3)?,
+                factor: number("the factor", MsDiffusion::AUTO, true)?,
+                orders: number("the number of orders", 4, false)?,
             },
             _ => return Err(format!("{s}: expected centers, grid[:F] or orders[:F[:K]]")),
         };
@@ -158,16 +174,24 @@ pub struct CrmStats {
     pub view_seconds: f64,
     pub cg_iterations: u32,
     pub cg_residual: f64,
+    /// Voxels per cell side of the gathered orders (0 without them).
+    pub ms_factor: usize,
+    /// Their `grid_diffusion::gather_work` on that grid.
+    pub ms_work: f64,
 }
 
 impl std::fmt::Display for CrmStats {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "setup {:.3} s, single scattering {:.3} s, multiple {:.3} s ({} CG iterations, residual {:.2e}), volume pass {:.3} s, environment pass {:.3} s, lights pass {:.3} s, view pass {:.3} s",
+            "setup {:.3} s, single scattering {:.3} s, multiple {:.3} s ({}{} CG iterations, residual {:.2e}), volume pass {:.3} s, environment pass {:.3} s, lights pass {:.3} s, view pass {:.3} s",
             self.setup_seconds,
             self.single_seconds,
             self.multiple_seconds,
+            match self.ms_factor {
+                0 => String::new(),
+                f => format!("cells of {f}³ voxels, work {:.2e}, ", self.ms_work),
+            },
             self.cg_iterations,
             self.cg_residual,
             self.volume_seconds,
@@ -392,6 +416,10 @@ pub fn crm_grids(
     };
     if let Some(ms) = ms {
         grid_diffusion::add_to_grids(&mut grids, &ms, medium, eye);
+        if matches!(opts.diffusion, MsDiffusion::Orders { .. }) {
+            stats.ms_factor = ms.grid.factor;
+            stats.ms_work = grid_diffusion::gather_work(&ms.grid);
+        }
         stats.cg_iterations = ms.iterations;
         stats.cg_residual = ms.residual;
         stats.multiple_seconds = t.elapsed().as_secs_f64();
@@ -447,4 +475,31 @@ pub fn crm_render(
         },
         stats,
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::MsDiffusion;
+
+    /// `orders` chooses its cell size unless given one; `auto` only where allowed.
+    #[test]
+    fn diffusion_spellings() {
+        let p = |s: &str| s.parse::<MsDiffusion>().and_then(|d| d.check().map(|()| d));
+        let orders = |factor, orders| Ok(MsDiffusion::Orders { factor, orders });
+        assert_eq!(p("orders"), orders(MsDiffusion::AUTO, 4));
+        assert_eq!(p("orders:auto:5"), orders(MsDiffusion::AUTO, 5));
+        assert_eq!(p("orders:3"), orders(3, 4));
+        assert_eq!(p("orders:2:3"), orders(2, 3));
+        assert_eq!(Ok(MsDiffusion::CPU_DEFAULT), orders(MsDiffusion::AUTO, 4));
+        for bad in [
+            "orders:0",
+            "orders:auto:0",
+            "orders:17",
+            "grid:auto",
+            "grid:0",
+        ] {
+            assert!(p(bad).is_err(), "{bad}");
+        }
+        assert_eq!(p("grid"), Ok(MsDiffusion::Grid { factor: 2 }));
+    }
 }
