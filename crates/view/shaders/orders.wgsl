@@ -13,13 +13,13 @@
 // soft), J¹ = −3g J⁰ s), then D_c·T toward each sun, T marched through the fine D from
 // the cell center (`grid_march.wgsl`).
 //
-// `gather`, one invocation per cell with D > 0 (one order): along each direction ω of the
-// uniform's rule the light arriving at the cell center x from x − sω, marched to the
+// `gather`, one invocation per cell with D > 0 (one order, its rule in dispatches of 8
+// directions): along each direction ω of the rule the light arriving at the cell center x from x − sω, marched to the
 // coarse box's face in n = ⌈ℓ/h⌉ equal steps (h the smallest cell side), the record
 // trilinear between cell centers, each step's share T(1 − e^{−Δτ})·(D·J)/D, stopping
 // below T_MIN; L = J⁰-part + J¹-part·ω + Σ_suns (Ω E/4π)·(D·T)-part·p̄(s·(−ω)), clamped
-// ≥ 0; L⁰ = Σ w L/4π, L¹ = 3 Σ w L ω/4π, P = Σ w T/4π (first order). It adds L⁰, L¹ to
-// `media` (writes them for the first order, with P) and writes the next order's record
+// ≥ 0; L⁰ = Σ w L/4π, L¹ = 3 Σ w L ω/4π, P = Σ w T/4π (first order). It adds L⁰, L¹
+// (and P) to `media`, which `cells` cleared, and the next order's record
 // D·(Ω L⁰, Ω g L¹) to `rec_out`.
 //
 // `system`, one invocation per cell: the finite-volume row of the diffusion after the
@@ -32,6 +32,12 @@
 // `cg_start`, `cg_iterate`: Jacobi-preconditioned conjugate gradients, one workgroup per
 // colour channel (each its own step lengths, as the CPU's), `cg_iterate` carrying on from
 // the state in `work` for `chunk` iterations per dispatch until ‖r‖/‖b‖ ≤ tolerance.
+//
+// lavapipe ends every loop nested in an outermost loop once they have run 65535 iterations
+// together (gallivm's loop limiter), silently: so the corners of a sample and the faces
+// of a row are written out, the gather's directions come in dispatches of 8, the CG's
+// iterations in chunks sized by the cells (`gpu::orders`), and the host keeps the cell
+// factor ≤ 8 (≤ 512 voxels per cell in `cells`).
 //
 // `finish`, one invocation per cell: L⁰ += max(x, 0), L¹ += 3× the mean of the two
 // opposite faces' flux densities G(x_i − x_j) + drive, then L⁰ ≥ 0 and |L¹| ≤ 3L⁰.
@@ -80,11 +86,13 @@ struct Params {
     sigma_tr: f32,
     // The suns in the first source (0 in `rec_in` of the later orders).
     rec_suns: u32,
-    _pad: u32,
+    // 1 for the first dispatch of an order (its directions come in several).
+    chunk_first: u32,
     // L_j r g b and Ω g^l of the environment's coefficients j < 4.
     env: array<vec4<f32>, 4>,
-    // ω x y z, weight (summing to 4π).
-    rule: array<vec4<f32>, 72>,
+    // This dispatch's directions of the order's rule: ω x y z, weight (summing to 4π
+    // over the order's dispatches).
+    rule: array<vec4<f32>, 8>,
 }
 
 const NONE: u32 = 0xffffffffu;
@@ -157,38 +165,41 @@ fn transmittance(u: vec3<f32>, s: vec3<f32>, max_len: f32) -> f32 {
     return exp(-optical_depth(u, s, max_len));
 }
 
-// S_j (channel c) at box-local u: `ShGrid::at`'s trilinear stencil.
-fn env_s(u: vec3<f32>, j: u32) -> vec3<f32> {
-    var i0 = vec3<u32>(0u);
-    var f = vec3<f32>(0.0);
-    for (var a = 0u; a < 3u; a++) {
-        if p.nodes[a] < 2u || !(p.node_cell[a] > 0.0) {
-            continue;
-        }
-        let t = clamp((u[a] - p.node_min[a]) / p.node_cell[a], 0.0, f32(p.nodes[a] - 1u));
-        i0[a] = min(u32(floor(t)), p.nodes[a] - 2u);
-        f[a] = t - f32(i0[a]);
-    }
+// J_j = Ω g^l (L_j − S_j(u)) for j < 4 (zero beyond order²) at box-local u, S trilinear
+// between the nodes (`ShGrid::at`'s stencil), the corners' four coefficients read together.
+fn env_coeffs(u: vec3<f32>) -> array<vec3<f32>, 4> {
+    let many = p.nodes >= vec3<u32>(2u) & p.node_cell > vec3<f32>(0.0);
+    let t = clamp((u - p.node_min) / select(vec3<f32>(1.0), p.node_cell, many), vec3<f32>(0.0),
+        vec3<f32>(max(p.nodes, vec3<u32>(1u)) - 1u));
+    let i0 = select(vec3<u32>(0u), min(vec3<u32>(floor(t)), max(p.nodes, vec3<u32>(2u)) - 2u), many);
+    let f = select(vec3<f32>(0.0), t - vec3<f32>(i0), many);
     let k3 = 3u * p.order * p.order;
-    var s = vec3<f32>(0.0);
+    let n2 = min(p.order * p.order, 4u);
+    var s = array<vec3<f32>, 4>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
     for (var corner = 0u; corner < 8u; corner++) {
         let d = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, corner >> 2u);
-        var w = 1.0;
-        for (var a = 0u; a < 3u; a++) {
-            if d[a] == 1u {
-                w *= select(f[a], 0.0, p.nodes[a] < 2u);
-            } else {
-                w *= 1.0 - f[a];
-            }
-        }
+        let wv = select(1.0 - f, select(vec3<f32>(0.0), f, many), d == vec3<u32>(1u));
+        let w = wv.x * wv.y * wv.z;
         if w == 0.0 {
             continue;
         }
         let c = i0 + d;
-        let at = (c.x + p.nodes.x * (c.y + p.nodes.y * c.z)) * k3 + 3u * j;
-        s += w * vec3<f32>(shadow_sh[at], shadow_sh[at + 1u], shadow_sh[at + 2u]);
+        let at = (c.x + p.nodes.x * (c.y + p.nodes.y * c.z)) * k3;
+        s[0] += w * vec3<f32>(shadow_sh[at], shadow_sh[at + 1u], shadow_sh[at + 2u]);
+        if n2 == 4u {
+            s[1] += w * vec3<f32>(shadow_sh[at + 3u], shadow_sh[at + 4u], shadow_sh[at + 5u]);
+            s[2] += w * vec3<f32>(shadow_sh[at + 6u], shadow_sh[at + 7u], shadow_sh[at + 8u]);
+            s[3] += w * vec3<f32>(shadow_sh[at + 9u], shadow_sh[at + 10u], shadow_sh[at + 11u]);
+        }
     }
-    return s;
+    var out = array<vec3<f32>, 4>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    out[0] = p.env[0].w * (p.env[0].xyz - s[0]);
+    if n2 == 4u {
+        out[1] = p.env[1].w * (p.env[1].xyz - s[1]);
+        out[2] = p.env[2].w * (p.env[2].xyz - s[2]);
+        out[3] = p.env[3].w * (p.env[3].xyz - s[3]);
+    }
+    return out;
 }
 
 @compute @workgroup_size(64)
@@ -205,7 +216,6 @@ fn cells(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     var j0 = vec3<f32>(0.0);
     // J¹ per channel, axes in the vector.
     var j1 = array<vec3<f32>, 3>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
-    let n2 = min(p.order * p.order, 4u);
     for (var z = lo.z; z < hi.z; z++) {
         for (var y = lo.y; y < hi.y; y++) {
             for (var x = lo.x; x < hi.x; x++) {
@@ -216,17 +226,13 @@ fn cells(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
                 sum += d;
                 w += d;
                 let u = (vec3<f32>(f32(x), f32(y), f32(z)) + 0.5) * p.voxel;
-                var coef = array<vec3<f32>, 4>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
-                for (var j = 0u; j < n2; j++) {
-                    coef[j] = p.env[j].w * (p.env[j].xyz - env_s(u, j));
-                }
+                let coef = env_coeffs(u);
                 j0 += d * coef[0] / sqrt(FOUR_PI);
-                if n2 >= 4u {
-                    let k1 = -sqrt(3.0 / FOUR_PI);
-                    for (var ch = 0u; ch < 3u; ch++) {
-                        j1[ch] += d * k1 * vec3<f32>(coef[3][ch], coef[1][ch], coef[2][ch]);
-                    }
-                }
+                // J¹ = −√(3/4π)(J_11, J_1−1, J_10) per channel (zero below order 2).
+                let k1 = -d * sqrt(3.0 / FOUR_PI);
+                j1[0] += k1 * vec3<f32>(coef[3].x, coef[1].x, coef[2].x);
+                j1[1] += k1 * vec3<f32>(coef[3].y, coef[1].y, coef[2].y);
+                j1[2] += k1 * vec3<f32>(coef[3].z, coef[1].z, coef[2].z);
             }
         }
     }
@@ -296,121 +302,156 @@ fn coarse_exit(x: vec3<f32>, s: vec3<f32>) -> f32 {
     return len;
 }
 
+// One of the eight cells around a sample: its record's first word and trilinear weight
+// (0 for a cell without smoke, as `gather`'s `trilinear` skips it).
+struct Corner {
+    at: u32,
+    w: f32,
+}
+
+fn corner(c0: vec3<u32>, f: vec3<f32>, o: vec3<u32>) -> Corner {
+    let cc = min(c0 + o, p.cells - 1u);
+    let wv = select(1.0 - f, f, o == vec3<u32>(1u));
+    let at = cell_index(cc) * p.stride;
+    return Corner(at, select(0.0, wv.x * wv.y * wv.z, rec_in[at] > 0.0));
+}
+
+// The record's J⁰ and J¹ (per channel, axes in the vector) at a corner, times w.
+struct Moments {
+    j0: vec3<f32>,
+    r: vec3<f32>,
+    g: vec3<f32>,
+    b: vec3<f32>,
+}
+
+fn moments_at(k: Corner, w: f32) -> Moments {
+    let a = k.at;
+    return Moments(
+        w * vec3<f32>(rec_in[a + 1u], rec_in[a + 2u], rec_in[a + 3u]),
+        w * vec3<f32>(rec_in[a + 4u], rec_in[a + 5u], rec_in[a + 6u]),
+        w * vec3<f32>(rec_in[a + 7u], rec_in[a + 8u], rec_in[a + 9u]),
+        w * vec3<f32>(rec_in[a + 10u], rec_in[a + 11u], rec_in[a + 12u]),
+    );
+}
+
+fn add_moments(a: Moments, b: Moments) -> Moments {
+    return Moments(a.j0 + b.j0, a.r + b.r, a.g + b.g, a.b + b.b);
+}
+
+// One dispatch gathers the uniform's rule (a share of an order's directions, few enough
+// that an invocation's loops stay within lavapipe's budget of 65535 iterations per
+// outermost loop): it adds its part of L⁰, L¹ to `media` (and of P for the first order),
+// and of the next source to `rec_out`, which its order's first dispatch clears.
 @compute @workgroup_size(64)
 fn gather(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) ng: vec3<u32>) {
     let i = invocation_cell(gid, ng);
     if i >= total_cells() {
         return;
     }
-    let stride = p.stride;
-    let dc = rec_in[i * stride];
-    var l0 = vec3<f32>(0.0);
-    var l1 = array<vec3<f32>, 3>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
-    var escape = FOUR_PI;
-    if dc > 0.0 && p.directions > 0u {
-        escape = 0.0;
-        let x = (vec3<f32>(cell_coords(i)) + 0.5) * p.cell;
-        let h = min(p.cell.x, min(p.cell.y, p.cell.z));
-        let n = p.cells;
-        let top = max(n, vec3<u32>(2u)) - 2u;
-        for (var k = 0u; k < p.directions; k++) {
-            let w = p.rule[k].xyz;
-            let wt = p.rule[k].w;
-            let back = -w;
-            let len = coarse_exit(x, back);
-            let steps = u32(max(ceil(len / h), 1.0));
-            let step = len / f32(steps);
-            var acc: array<f32, MAX_RECORD>;
-            for (var v = 0u; v < stride; v++) {
-                acc[v] = 0.0;
-            }
-            var t = 1.0;
-            for (var s = 0u; s < steps; s++) {
-                let q = x + ((f32(s) + 0.5) * step) * back;
-                // `CoarseGrid::corners`: nothing outside the box.
-                let u = q / p.cell;
-                if !(all(u >= vec3<f32>(0.0)) && all(u <= vec3<f32>(n))) {
-                    continue;
-                }
-                let cf = clamp(u - 0.5, vec3<f32>(0.0), vec3<f32>(n) - 1.0);
-                let c0 = min(vec3<u32>(floor(cf)), top);
-                let f = cf - vec3<f32>(c0);
-                var corner_at: array<u32, 8>;
-                var corner_w: array<f32, 8>;
-                var d = 0.0;
-                for (var corner = 0u; corner < 8u; corner++) {
-                    let o = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, corner >> 2u);
-                    let cc = min(c0 + o, n - 1u);
-                    let wv = select(1.0 - f, f, o == vec3<u32>(1u));
-                    var wc = wv.x * wv.y * wv.z;
-                    let at = cell_index(cc) * stride;
-                    if !(rec_in[at] > 0.0) {
-                        wc = 0.0;
-                    }
-                    corner_at[corner] = at;
-                    corner_w[corner] = wc;
-                    d += wc * rec_in[at];
-                }
-                if !(d > 0.0) {
-                    continue;
-                }
-                let dtau = p.sigma_t * d * step;
-                let share = t * one_minus_exp(dtau) / d;
-                for (var corner = 0u; corner < 8u; corner++) {
-                    let wc = share * corner_w[corner];
-                    if wc == 0.0 {
-                        continue;
-                    }
-                    let at = corner_at[corner];
-                    for (var v = 1u; v < stride; v++) {
-                        acc[v] += wc * rec_in[at + v];
-                    }
-                }
-                t *= exp(-dtau);
-                if t < T_MIN {
-                    t = 0.0;
-                    break;
-                }
-            }
-            escape += wt * t;
-            for (var ch = 0u; ch < 3u; ch++) {
-                var l = acc[1u + ch] + acc[4u + 3u * ch] * w.x + acc[5u + 3u * ch] * w.y
-                    + acc[6u + 3u * ch] * w.z;
-                for (var sun = 0u; sun < p.rec_suns; sun++) {
-                    let at = 8u * sun;
-                    let phase = disk_phase(lights[at + 3u], lights[at + 7u], light_vec(at), back);
-                    l += p.k * word(at + 4u + ch) * acc[13u + sun] * phase;
-                }
-                l = max(l, 0.0);
-                l0[ch] += wt * l;
-                l1[ch] += (3.0 * wt * l) * w;
-            }
+    let dc = rec_in[i * p.stride];
+    let m = i * MEDIA;
+    let next = i * 13u;
+    if p.chunk_first == 1u {
+        for (var k = 0u; k < 13u; k++) {
+            rec_out[next + k] = 0.0;
         }
     }
-    let m = i * MEDIA;
+    rec_out[next] = max(dc, 0.0);
+    if !(dc > 0.0) {
+        // No smoke: no light, P = 1.
+        if p.first == 1u && p.chunk_first == 1u {
+            media[m + 12u] = 1.0;
+        }
+        return;
+    }
+    let x = (vec3<f32>(cell_coords(i)) + 0.5) * p.cell;
+    let h = min(p.cell.x, min(p.cell.y, p.cell.z));
+    let n = p.cells;
+    let top = max(n, vec3<u32>(2u)) - 2u;
+    var l0 = vec3<f32>(0.0);
+    var l1 = array<vec3<f32>, 3>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+    var escape = 0.0;
+    for (var k = 0u; k < p.directions; k++) {
+        let w = p.rule[k].xyz;
+        let wt = p.rule[k].w;
+        let back = -w;
+        let len = coarse_exit(x, back);
+        let steps = u32(max(ceil(len / h), 1.0));
+        let step = len / f32(steps);
+        var acc = Moments(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+        var acc_sun = array<f32, 8>(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+        var t = 1.0;
+        for (var s = 0u; s < steps; s++) {
+            let q = x + ((f32(s) + 0.5) * step) * back;
+            // `CoarseGrid::corners`: nothing outside the box.
+            let u = q / p.cell;
+            if !(all(u >= vec3<f32>(0.0)) && all(u <= vec3<f32>(n))) {
+                continue;
+            }
+            let cf = clamp(u - 0.5, vec3<f32>(0.0), vec3<f32>(n) - 1.0);
+            let c0 = min(vec3<u32>(floor(cf)), top);
+            let f = cf - vec3<f32>(c0);
+            let k0 = corner(c0, f, vec3<u32>(0u, 0u, 0u));
+            let k1 = corner(c0, f, vec3<u32>(1u, 0u, 0u));
+            let k2 = corner(c0, f, vec3<u32>(0u, 1u, 0u));
+            let k3 = corner(c0, f, vec3<u32>(1u, 1u, 0u));
+            let k4 = corner(c0, f, vec3<u32>(0u, 0u, 1u));
+            let k5 = corner(c0, f, vec3<u32>(1u, 0u, 1u));
+            let k6 = corner(c0, f, vec3<u32>(0u, 1u, 1u));
+            let k7 = corner(c0, f, vec3<u32>(1u, 1u, 1u));
+            let d = k0.w * rec_in[k0.at] + k1.w * rec_in[k1.at] + k2.w * rec_in[k2.at]
+                + k3.w * rec_in[k3.at] + k4.w * rec_in[k4.at] + k5.w * rec_in[k5.at]
+                + k6.w * rec_in[k6.at] + k7.w * rec_in[k7.at];
+            if !(d > 0.0) {
+                continue;
+            }
+            let dtau = p.sigma_t * d * step;
+            let share = t * one_minus_exp(dtau) / d;
+            let a = add_moments(
+                add_moments(add_moments(moments_at(k0, k0.w), moments_at(k1, k1.w)),
+                    add_moments(moments_at(k2, k2.w), moments_at(k3, k3.w))),
+                add_moments(add_moments(moments_at(k4, k4.w), moments_at(k5, k5.w)),
+                    add_moments(moments_at(k6, k6.w), moments_at(k7, k7.w))),
+            );
+            acc = add_moments(acc, Moments(share * a.j0, share * a.r, share * a.g, share * a.b));
+            for (var sun = 0u; sun < p.rec_suns; sun++) {
+                let o = 13u + sun;
+                acc_sun[sun] += share * (k0.w * rec_in[k0.at + o] + k1.w * rec_in[k1.at + o]
+                    + k2.w * rec_in[k2.at + o] + k3.w * rec_in[k3.at + o]
+                    + k4.w * rec_in[k4.at + o] + k5.w * rec_in[k5.at + o]
+                    + k6.w * rec_in[k6.at + o] + k7.w * rec_in[k7.at + o]);
+            }
+            t *= exp(-dtau);
+            if t < T_MIN {
+                t = 0.0;
+                break;
+            }
+        }
+        escape += wt * t;
+        var l = acc.j0 + vec3<f32>(dot(acc.r, w), dot(acc.g, w), dot(acc.b, w));
+        for (var sun = 0u; sun < p.rec_suns; sun++) {
+            let at = 8u * sun;
+            let phase = disk_phase(lights[at + 3u], lights[at + 7u], light_vec(at), back);
+            l += (p.k * acc_sun[sun] * phase) * light_vec(at + 4u);
+        }
+        l = max(l, vec3<f32>(0.0));
+        l0 += wt * l;
+        l1[0] += (3.0 * wt * l.x) * w;
+        l1[1] += (3.0 * wt * l.y) * w;
+        l1[2] += (3.0 * wt * l.z) * w;
+    }
     for (var ch = 0u; ch < 3u; ch++) {
         let a0 = l0[ch] / FOUR_PI;
         let a1 = l1[ch] / FOUR_PI;
-        if p.first == 1u {
-            media[m + ch] = a0;
-        } else {
-            media[m + ch] += a0;
-        }
+        media[m + ch] += a0;
+        rec_out[next + 1u + ch] += dc * p.albedo * a0;
         for (var a = 0u; a < 3u; a++) {
-            if p.first == 1u {
-                media[m + 3u + 3u * ch + a] = a1[a];
-            } else {
-                media[m + 3u + 3u * ch + a] += a1[a];
-            }
-        }
-        rec_out[i * 13u + 1u + ch] = dc * p.albedo * a0;
-        for (var a = 0u; a < 3u; a++) {
-            rec_out[i * 13u + 4u + 3u * ch + a] = dc * p.albedo * p.g * a1[a];
+            media[m + 3u + 3u * ch + a] += a1[a];
+            rec_out[next + 4u + 3u * ch + a] += dc * p.albedo * p.g * a1[a];
         }
     }
-    rec_out[i * 13u] = max(dc, 0.0);
     if p.first == 1u {
-        media[m + 12u] = clamp(escape / FOUR_PI, 0.0, 1.0);
+        media[m + 12u] += escape / FOUR_PI;
     }
 }
 
@@ -526,6 +567,16 @@ fn state_at(c: u32) -> u32 {
     return ROW * total_cells() + 8u * c;
 }
 
+// G p_j through face f of the row at r (0 without a neighbouring unknown); the product
+// unrolls the six faces, so that an iteration's loops are over the cells alone.
+fn face_term(r: u32, cc: vec3<u32>, f: u32, c: u32) -> f32 {
+    let g = work[r + 1u + f];
+    if !(g > 0.0) {
+        return 0.0;
+    }
+    return g * work[neighbour(cc, f) * ROW + 34u + c];
+}
+
 @compute @workgroup_size(256)
 fn cg_start(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let c = wg.x;
@@ -569,14 +620,10 @@ fn cg_iterate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_in
         for (var i = lid; i < n; i += WG) {
             let r = i * ROW;
             let pi = work[r + 34u + c];
-            var ap = work[r] * pi;
             let cc = cell_coords(i);
-            for (var f = 0u; f < 6u; f++) {
-                let g = work[r + 1u + f];
-                if g > 0.0 {
-                    ap -= g * work[neighbour(cc, f) * ROW + 34u + c];
-                }
-            }
+            let ap = work[r] * pi - face_term(r, cc, 0u, c) - face_term(r, cc, 1u, c)
+                - face_term(r, cc, 2u, c) - face_term(r, cc, 3u, c) - face_term(r, cc, 4u, c)
+                - face_term(r, cc, 5u, c);
             work[r + 37u + c] = ap;
             part.x += pi * ap;
         }

@@ -46,20 +46,23 @@ pub const SHADER: &str = concat!(
 
 /// Most suns in the first source (the shader's records hold `13 + 8` words).
 pub const MAX_SUNS: usize = 8;
-/// Directions the uniform holds (the first order's 72).
-const MAX_DIRECTIONS: usize = 72;
+/// Directions per gather dispatch (what the uniform holds): lavapipe ends the loops nested
+/// in an outermost loop after 65535 iterations together (module docs of the shader), and
+/// a cell's march of 8 directions stays within that up to ~2000 cells a side.
+const DIRECTIONS_PER_DISPATCH: usize = 8;
+/// Most voxels per cell side on the GPU (`cells` visits ≤ 512 voxels per invocation).
+pub const MAX_FACTOR: usize = 8;
+/// Loop iterations one `cg_iterate` dispatch may spend (below lavapipe's 65535).
+const CG_LOOP_BUDGET: usize = 40_000;
 /// Words per cell of the cells' radiance and of the system.
 const MEDIA: usize = 16;
 const ROW: usize = 40;
 /// Invocations per group of the per-cell dispatches, and per side of `apply`.
 const CELLS: usize = 64;
 const SIDE: usize = 4;
-/// Most `cg_iterate` dispatches per solve, and fewest iterations per dispatch.
-const MAX_CHUNKS: u32 = 64;
-const MIN_CHUNK: u32 = 16;
 
-/// The shader's `Params` (WGSL layout), 256 bytes, followed in the uniform by the
-/// direction rule (`MAX_DIRECTIONS` `vec4`).
+/// The shader's `Params` (WGSL layout), 256 bytes, followed in the uniform by a share of
+/// the direction rule ([`DIRECTIONS_PER_DISPATCH`] `vec4`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 struct Params {
@@ -92,7 +95,7 @@ struct Params {
     sigma_a: f32,
     sigma_tr: f32,
     rec_suns: u32,
-    _pad: u32,
+    chunk_first: u32,
     env: [[f32; 4]; 4],
 }
 
@@ -269,7 +272,7 @@ impl OrdersPass {
     /// A uniform of `params` and the rule `rule` (`(ω, weight)`).
     fn uniform(ctx: &GpuContext, params: &Params, rule: &[([f64; 3], f64)]) -> wgpu::Buffer {
         let mut bytes = bytemuck::bytes_of(params).to_vec();
-        let mut table = [[0.0f32; 4]; MAX_DIRECTIONS];
+        let mut table = [[0.0f32; 4]; DIRECTIONS_PER_DISPATCH];
         for (t, (w, wt)) in table.iter_mut().zip(rule) {
             *t = [w[0] as f32, w[1] as f32, w[2] as f32, *wt as f32];
         }
@@ -295,7 +298,22 @@ impl OrdersPass {
         groups: [u32; 3],
         times: u32,
     ) {
-        let bind = bind_buffers(ctx, label, &self.layout, buffers);
+        let binds: Vec<_> = (0..times)
+            .map(|_| bind_buffers(ctx, label, &self.layout, buffers))
+            .collect();
+        self.dispatch_each(ctx, label, pipeline, &binds, groups);
+    }
+
+    /// One compute pass (one timed stage) of `pipeline` over `groups` per bind group of
+    /// `binds`, in order. Call inside [`GpuContext::scoped`].
+    fn dispatch_each(
+        &self,
+        ctx: &GpuContext,
+        label: &'static str,
+        pipeline: &wgpu::ComputePipeline,
+        binds: &[wgpu::BindGroup],
+        groups: [u32; 3],
+    ) {
         let mut enc = ctx
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
@@ -305,8 +323,8 @@ impl OrdersPass {
                 timestamp_writes: ctx.timestamp_writes(label),
             });
             pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, &bind, &[]);
-            for _ in 0..times {
+            for bind in binds {
+                pass.set_bind_group(0, bind, &[]);
                 pass.dispatch_workgroups(groups[0], groups[1], groups[2]);
             }
         }
@@ -333,9 +351,9 @@ impl OrdersPass {
         factor: usize,
         orders: usize,
     ) -> Result<MediaBuffer, GpuError> {
-        if !(1..=16).contains(&factor) || !(1..=8).contains(&orders) {
+        if !(1..=MAX_FACTOR).contains(&factor) || !(1..=8).contains(&orders) {
             return Err(GpuError::Input(format!(
-                "orders:{factor}:{orders}: the factor must be 1 to 16 and the orders 1 to 8"
+                "orders:{factor}:{orders}: on the GPU the factor must be 1 to {MAX_FACTOR} and the orders 1 to 8"
             )));
         }
         if env.suns.len() > MAX_SUNS {
@@ -402,7 +420,7 @@ impl OrdersPass {
             sigma_a: sigma_a as f32,
             sigma_tr: sigma_tr as f32,
             rec_suns: env.suns.len() as u32,
-            _pad: 0,
+            chunk_first: 1,
             env: env_coeffs,
         };
         let record_bytes = (4 * n.max(1) * stride) as u64;
@@ -453,33 +471,39 @@ impl OrdersPass {
             );
             for k in 0..orders {
                 let rule = if k == 0 { &first } else { &later };
-                let p = Params {
-                    first: u32::from(k == 0),
-                    stride: if k == 0 { stride as u32 } else { 13 },
-                    rec_suns: if k == 0 { env.suns.len() as u32 } else { 0 },
-                    directions: rule.len() as u32,
-                    ..params
-                };
-                let uniform = OrdersPass::uniform(ctx, &p, rule);
                 rec.swap(0, 1);
-                // rec[0]: this order's source, rec[1]: the next.
-                self.dispatch(
-                    ctx,
-                    "orders gather",
-                    &self.gather,
-                    &[
-                        &uniform,
-                        &lights_buf,
-                        grid.buffer(),
-                        shadow.buffer(),
-                        &rec[0],
-                        &rec[1],
-                        &media,
-                        &rw,
-                    ],
-                    groups,
-                    1,
-                );
+                // rec[0]: this order's source, rec[1]: the next; one pass per order.
+                let binds: Vec<_> = rule
+                    .chunks(DIRECTIONS_PER_DISPATCH)
+                    .enumerate()
+                    .map(|(c, part)| {
+                        let p = Params {
+                            first: u32::from(k == 0),
+                            chunk_first: u32::from(c == 0),
+                            stride: if k == 0 { stride as u32 } else { 13 },
+                            rec_suns: if k == 0 { env.suns.len() as u32 } else { 0 },
+                            directions: part.len() as u32,
+                            ..params
+                        };
+                        let uniform = OrdersPass::uniform(ctx, &p, part);
+                        bind_buffers(
+                            ctx,
+                            "orders gather",
+                            &self.layout,
+                            &[
+                                &uniform,
+                                &lights_buf,
+                                grid.buffer(),
+                                shadow.buffer(),
+                                &rec[0],
+                                &rec[1],
+                                &media,
+                                &rw,
+                            ],
+                        )
+                    })
+                    .collect();
+                self.dispatch_each(ctx, "orders gather", &self.gather, &binds, groups);
             }
             let [spare, last] = rec;
             MediaBuffer {
@@ -510,7 +534,10 @@ impl OrdersPass {
         let words = (ROW * n + 24) as u64;
         ctx.check_storage_size("the orders' diffusion", 4 * words)?;
         let groups = cell_groups(ctx, n)?;
-        let chunk = MIN_CHUNK.max(opts.max_iterations.div_ceil(MAX_CHUNKS));
+        // An iteration loops over the cells three times (256 invocations) and reduces
+        // twice (8 rounds each).
+        let per_iteration = 3 * n.div_ceil(256) + 20;
+        let chunk = u32::try_from((CG_LOOP_BUDGET / per_iteration).max(1)).unwrap_or(u32::MAX);
         let params = Params {
             stride: 13,
             max_iterations: opts.max_iterations,
@@ -679,6 +706,7 @@ mod tests {
 
     #[test]
     fn params_match_the_wgsl_layout() {
+        assert_eq!(std::mem::offset_of!(Params, chunk_first), 188);
         assert_eq!(std::mem::size_of::<Params>(), 192 + 64);
         assert_eq!(std::mem::offset_of!(Params, dims), 48);
         assert_eq!(std::mem::offset_of!(Params, cell), 80);
@@ -693,8 +721,8 @@ mod tests {
         use crate::grid_diffusion::{T_MIN, THIN};
         assert!(SHADER.contains(&format!("const T_MIN: f32 = {T_MIN:e};")));
         assert!(SHADER.contains(&format!("const THIN: f32 = {THIN:e};")));
-        assert!(SHADER.contains(&format!("rule: array<vec4<f32>, {MAX_DIRECTIONS}>")));
-        assert_eq!(directions(GATHER_THETA).len(), MAX_DIRECTIONS);
-        assert!(directions(GATHER_LATER_THETA).len() <= MAX_DIRECTIONS);
+        assert!(SHADER.contains(&format!(
+            "rule: array<vec4<f32>, {DIRECTIONS_PER_DISPATCH}>"
+        )));
     }
 }
