@@ -55,17 +55,19 @@ pub enum MsDiffusion {
     Centers,
     /// By finite volumes on the volume pass's density averaged over `factor³` voxels,
     /// the first collision kept per cell (`crate::grid_diffusion`); added per voxel
-    /// after the lights pass. CPU only: the GPU renderer solves on the centers.
+    /// after the lights pass. CPU only.
     Grid { factor: usize },
     /// On the same coarse grid, the first `orders` scattering orders gathered explicitly
     /// along 72 directions from every cell and the rest by the grid's diffusion
-    /// (`crate::grid_diffusion::explicit_media_radiance`). CPU only.
+    /// (`crate::grid_diffusion::explicit_media_radiance`; on the GPU
+    /// `crate::gpu::orders`, lit by the environment pass's grid).
     Orders { factor: usize, orders: usize },
 }
 
 impl MsDiffusion {
-    /// `haze render`'s choice on the CPU (BENCHMARKS.md, "Multiple scattering: explicit
-    /// orders"): three orders gathered on cells of 2³ voxels.
+    /// `haze render`'s choice on the CPU and the GPU, and the viewer's (BENCHMARKS.md,
+    /// "Multiple scattering: explicit orders"): three orders gathered on cells of 2³
+    /// voxels.
     pub const CPU_DEFAULT: MsDiffusion = MsDiffusion::Orders {
         factor: 2,
         orders: 3,
