@@ -483,8 +483,8 @@ pub struct RenderCli {
     /// Compensated ray marching entirely on the CPU (the default).
     #[arg(long, conflicts_with_all = ["gpu", "reference"])]
     cpu: bool,
-    /// Render on the GPU: single scattering, the diffusion solve of multiple scattering,
-    /// the volume and view passes (in f32); with --scene, paper C's airlight and surface
+    /// Render on the GPU: single scattering, multiple scattering (the explicit orders or
+    /// the centers' diffusion, --diffusion), the volume and view passes (in f32); with --scene, paper C's airlight and surface
     /// shading. Needs a GPU adapter; Mesa's lavapipe (mesa-vulkan-drivers) works without
     /// a GPU.
     #[arg(long)]
