@@ -12,20 +12,25 @@
 //!   point lights' moments and each sun's transmittance from the cell center, marched
 //!   through the volume pass's `D` as the lights pass marches
 //!   ([`crate::grid_diffusion::add_lights`], [`crate::grid_diffusion::sun_sources`]) —
-//!   then one dispatch per order ([`crate::grid_diffusion::gather`]: 72 directions for
-//!   the first, 32 for the later);
+//!   then one pass per order ([`crate::grid_diffusion::gather`]: 72 directions for the
+//!   first, 32 for the later, 8 per dispatch);
 //! - [`OrdersPass::diffuse`]: the finite-volume system of the light after the gathered
 //!   orders, one invocation per cell, solved by Jacobi-preconditioned conjugate gradients
 //!   ([`crate::grid_diffusion::solve`]) with one workgroup per colour channel, in chunks
-//!   of iterations per dispatch (as the centers' diffusion: no dispatch long enough for a
-//!   watchdog, no host round trip), then `L⁰`, `L¹` per cell with the flux moment and the
-//!   clamp `|L¹| ≤ 3L⁰`;
+//!   of iterations per dispatch sized by the cells (as the centers' diffusion: no
+//!   dispatch long enough for a watchdog, no host round trip), then `L⁰`, `L¹` per cell
+//!   with the flux moment and the clamp `|L¹| ≤ 3L⁰`;
 //! - [`OrdersPass::apply`]: `J_ms = Ω (L⁰ − g L¹·d)` per voxel towards the eye
 //!   ([`crate::grid_diffusion::add_to_grids`]).
 //!
 //! The cells' `L⁰`, `L¹` and escape probabilities stay on the GPU ([`MediaBuffer`]) and
 //! can be read back for tests. Cells of the diffusion that the CPU leaves out (thinner
-//! than [`THIN`]) are identity rows with no source here, which gives the same solution.
+//! than [`crate::grid_diffusion::THIN`]) are identity rows with no source here, which
+//! gives the same solution.
+//!
+//! lavapipe ends the loops nested in an outermost loop once they have run 65535
+//! iterations together, silently (`shaders/orders.wgsl`): the split of the directions
+//! into dispatches, the CG's chunks and [`MAX_FACTOR`] keep every invocation within it.
 
 use super::env_pass::EnvShadow;
 use super::lights_pass::LightsPass;
@@ -335,7 +340,7 @@ impl OrdersPass {
     /// `D` (module docs), lit by the environment's single scattering from `shadow` (the
     /// environment pass's grid of this `D`) and `light` (its projection), `env`'s point
     /// lights and suns (records from `lights`) in `medium` (submitted). Refuses a factor
-    /// outside 1–16, orders outside 1–8, more than [`MAX_SUNS`] suns, a `shadow` of
+    /// outside 1–[`MAX_FACTOR`], orders outside 1–8, more than [`MAX_SUNS`] suns, a `shadow` of
     /// another grid, a `light` of fewer coefficients than its order, and sizes beyond the
     /// device's limits.
     #[allow(clippy::too_many_arguments)]
