@@ -7,7 +7,7 @@
 //!     [--sun-map ELEV,AZIM,ANGLE,RATIO [--no-sun-extraction]]
 //!     [--table fig6|order|rbfs|slices|cg|sun|ms|reference|all] [--cache DIR]
 //!     [--diffusion centers|grid[:F]|orders[:F[:K]]]
-//!     [--env centers|grid] [--env-spacing VOXELS] [--env-theta N]
+//!     [--env centers|grid] [--env-spacing VOXELS] [--env-theta N] [--gpu]
 //! ```
 //!
 //! VOLUME is one density frame (any format `haze` imports). It is fitted with `--rbfs`
@@ -28,11 +28,16 @@
 //! runs (raw `f32` files keyed by every argument they depend on). `--env` chooses where
 //! the environment's single scattering comes from (the RBF centers, paper A, or the
 //! per-voxel grid, with its node spacing and direction rule) in every table but `fig6`,
-//! which prints the three source choices side by side.
+//! which prints the three source choices side by side. `--gpu` renders the fast
+//! renderer's images with `gpu::renderer` (every stage on the GPU adapter, lavapipe
+//! will do) instead of `crm_render`; the references are the same.
 
 use haze_fit::{SequenceFitter, SequenceOptions};
 use haze_view::diffusion::SolveOptions;
 use haze_view::env::direction;
+use haze_view::gpu::GpuContext;
+use haze_view::gpu::renderer::{GpuFrame, GpuRenderer};
+use haze_view::gpu::volume_pass::Residual;
 use haze_view::lighting::single::SourcePoints;
 use haze_view::reference::{self, RefOptions, rbf_volume};
 use haze_view::render::env_pass::{EnvGridOptions, EnvSource};
@@ -60,6 +65,7 @@ struct Args {
     diffusion: MsDiffusion,
     env_source: EnvSource,
     max_bounces: Option<u32>,
+    gpu: bool,
 }
 
 impl Args {
@@ -88,6 +94,7 @@ fn parse() -> Result<Args, String> {
         target: None,
         sun_map: None,
         extract: true,
+        gpu: false,
         cache: None,
         env_source: CrmOptions::default().env_source,
         max_bounces: None,
@@ -136,6 +143,7 @@ fn parse() -> Result<Args, String> {
                 a.sun_map = Some([l[0], l[1], l[2], l[3]]);
             }
             "--no-sun-extraction" => a.extract = false,
+            "--gpu" => a.gpu = true,
             "--cache" => a.cache = Some(v()?.into()),
             "--max-bounces" => a.max_bounces = Some(num(v()?)? as u32),
             "--env" => {
@@ -155,7 +163,7 @@ fn parse() -> Result<Args, String> {
         *g = grid;
     }
     if a.input.is_empty() {
-        return Err("usage: crm_accuracy VOLUME [--size WxH] [--spp N] [--sigma-t S] [--albedo A] [--g G] [--rbfs N] [--eye X,Y,Z --target X,Y,Z] [--sun-map ELEV,AZIM,ANGLE,RATIO [--no-sun-extraction]] [--table fig6|order|rbfs|slices|cg|sun|ms|reference|all] [--cache DIR] [--diffusion centers|grid[:F]|orders[:F[:K]]] [--env centers|grid] [--env-spacing VOXELS] [--env-theta N]".into());
+        return Err("usage: crm_accuracy VOLUME [--size WxH] [--spp N] [--sigma-t S] [--albedo A] [--g G] [--rbfs N] [--eye X,Y,Z --target X,Y,Z] [--sun-map ELEV,AZIM,ANGLE,RATIO [--no-sun-extraction]] [--table fig6|order|rbfs|slices|cg|sun|ms|reference|all] [--cache DIR] [--diffusion centers|grid[:F]|orders[:F[:K]]] [--env centers|grid] [--env-spacing VOXELS] [--env-theta N] [--gpu]".into());
     }
     Ok(a)
 }
@@ -192,6 +200,8 @@ struct Scene {
     ref_env: Environment,
     camera: Camera,
     mask: Vec<bool>,
+    /// Render on this GPU (`--gpu`).
+    gpu: Option<GpuContext>,
 }
 
 impl Scene {
@@ -206,6 +216,28 @@ impl Scene {
         opts: CrmOptions,
     ) -> (Image, CrmStats, f64) {
         let t = Instant::now();
+        if let Some(ctx) = &self.gpu {
+            let gpu = |e: haze_view::gpu::GpuError| -> ! { panic!("--gpu: {e}") };
+            let mut r = GpuRenderer::new(ctx, self.env.clone()).unwrap_or_else(|e| gpu(e));
+            let frame = GpuFrame {
+                key: 0,
+                rbfs,
+                residual: res.map(Residual::Dense),
+                dims: self.density.dims(),
+                bbox: *self.density.bbox(),
+            };
+            let (image, mut stats) = r
+                .render(ctx, &frame, &self.medium, &self.camera, &opts)
+                .unwrap_or_else(|e| gpu(e));
+            let pixels = image.read(ctx).unwrap_or_else(|e| gpu(e));
+            r.read_solve(ctx, &mut stats).unwrap_or_else(|e| gpu(e));
+            let img = Image {
+                width: self.camera.width,
+                height: self.camera.height,
+                pixels,
+            };
+            return (img, stats.crm, t.elapsed().as_secs_f64());
+        }
         let (img, stats) = crm_render(
             rbfs,
             res,
@@ -342,6 +374,9 @@ fn main() {
         ref_env,
         camera,
         mask,
+        gpu: a
+            .gpu
+            .then(|| GpuContext::new().unwrap_or_else(|e| panic!("--gpu: {e}"))),
     };
     let d = scene.density.dims();
     println!(

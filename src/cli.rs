@@ -465,16 +465,16 @@ pub struct RenderCli {
     /// the centers' single scattering either way (footprint for grid).
     #[arg(long, value_enum, default_value_t = SourceArg::Grid)]
     source: SourceArg,
-    /// How multiple scattering is computed: `orders[:F[:K]]` (the default on the CPU: the
-    /// first K scattering orders gathered explicitly along 72 directions, 32 after the
-    /// first, on the density averaged over F³ voxels, and the rest by diffusion on that
-    /// grid; K = 4; F = auto unless given: 2, or where the cells with smoke times the
-    /// side of the box they fill exceed 600 000, the smallest larger F within it,
-    /// which keeps a frame's multiple scattering to about 10 s on two cores),
-    /// `centers` (paper A §5.4's diffusion on the RBF basis; the only one on the GPU, and
-    /// the default with --gpu) or `grid[:F]` (the diffusion alone on the F³ grid). `grid`
-    /// and `orders` run on the CPU only and are refused with --gpu. BENCHMARKS.md
-    /// "Multiple scattering: explicit orders" compares them.
+    /// How multiple scattering is computed: `orders[:F[:K]]` (the default: the first K
+    /// scattering orders gathered explicitly along 72 directions, 32 after the first, on
+    /// the density averaged over F³ voxels, and the rest by diffusion on that grid; K = 4;
+    /// F = auto unless given: on the CPU 2, or where the cells with smoke times the side
+    /// of the box they fill exceed 600 000, the smallest larger F within it, which keeps
+    /// a frame's multiple scattering to about 10 s on two cores; with --gpu 2, at most 8,
+    /// and lit by the sky per voxel, so --source grid), `centers` (paper A §5.4's
+    /// diffusion on the RBF basis; the default with --gpu and --source footprint or
+    /// center) or `grid[:F]` (the diffusion alone on the F³ grid, CPU only, refused with
+    /// --gpu). BENCHMARKS.md "Multiple scattering: explicit orders" compares them.
     #[arg(long, value_parser = parse_diffusion)]
     diffusion: Option<haze_view::render::MsDiffusion>,
     /// Voxels between the nodes of `--source grid`'s grid (smaller: sharper self-shadowing,
@@ -487,8 +487,8 @@ pub struct RenderCli {
     /// Compensated ray marching entirely on the CPU (the default).
     #[arg(long, conflicts_with_all = ["gpu", "reference"])]
     cpu: bool,
-    /// Render on the GPU: single scattering, the diffusion solve of multiple scattering,
-    /// the volume and view passes (in f32); with --scene, paper C's airlight and surface
+    /// Render on the GPU: single scattering, multiple scattering (the explicit orders or
+    /// the centers' diffusion, --diffusion), the volume and view passes (in f32); with --scene, paper C's airlight and surface
     /// shading. Needs a GPU adapter; Mesa's lavapipe (mesa-vulkan-drivers) works without
     /// a GPU.
     #[arg(long)]
@@ -598,6 +598,14 @@ pub struct ViewCli {
     /// (BENCHMARKS.md, "Environment pass"); a panel switch too.
     #[arg(long)]
     sky_at_centers: bool,
+    /// Multiple scattering by paper A's diffusion at the RBF centers (`haze render
+    /// --diffusion centers`) instead of the explicit orders on a grid of 2³-voxel cells
+    /// (`orders`, the default, which takes the sky per voxel): less than half the frame
+    /// time of a new frame on lavapipe, a larger error (BENCHMARKS.md, "Multiple
+    /// scattering: explicit orders"); a panel switch too. A knob chosen for a budget or a
+    /// target error uses it (the sweep times it).
+    #[arg(long)]
+    ms_at_centers: bool,
     /// Start with the knobs (SH order, slices, multiple scattering, residual, render
     /// size) of the most accurate setting of a tradeoff sweep's front that renders within
     /// T milliseconds; prints the choice and why.
@@ -722,6 +730,7 @@ impl ViewCli {
                 multiple: !self.no_multiple,
                 residual: !self.no_residual,
                 sky_per_voxel: !self.sky_at_centers,
+                orders: !self.ms_at_centers,
                 exposure: self.exposure,
             },
             play_for: self.play_for,
@@ -784,12 +793,16 @@ impl RenderCli {
             },
             tradeoff: self.tradeoff,
             // A sweep times the centers' diffusion (its `multiple` and `cg_iterations`
-            // knobs), so a knob chosen for a budget renders with it unless asked otherwise.
+            // knobs), so a knob chosen for a budget renders with it unless asked otherwise;
+            // the GPU's orders are lit by the environment pass's grid (`--source grid`).
             diffusion: self.diffusion.unwrap_or(
-                if self.gpu || self.budget_ms.is_some() || self.target_error.is_some() {
+                if self.budget_ms.is_some()
+                    || self.target_error.is_some()
+                    || (self.gpu && !matches!(self.source, SourceArg::Grid))
+                {
                     haze_view::render::MsDiffusion::Centers
                 } else {
-                    haze_view::render::MsDiffusion::CPU_DEFAULT
+                    haze_view::render::MsDiffusion::DEFAULT
                 },
             ),
             solve: haze_view::diffusion::SolveOptions::default(),
@@ -1110,14 +1123,23 @@ mod tests {
         }
     }
 
-    /// The CPU renders with the gathered orders by default; the GPU and a knob chosen
-    /// for a budget or a target error (timed with the centers' diffusion) use the
-    /// centers; an explicit `--diffusion` wins everywhere.
+    /// The CPU and the GPU render with the gathered orders by default (the GPU's with the
+    /// sky per voxel, `--source grid`, which lights them); a knob chosen for a budget or
+    /// a target error (timed with the centers' diffusion) uses the centers; an explicit
+    /// `--diffusion` wins everywhere.
     #[test]
     fn the_diffusion_follows_the_renderer_and_the_goal() {
-        assert_eq!(render_args(&[]).diffusion, MsDiffusion::CPU_DEFAULT);
-        assert_ne!(MsDiffusion::CPU_DEFAULT, MsDiffusion::Centers);
-        assert_eq!(render_args(&["--gpu"]).diffusion, MsDiffusion::Centers);
+        assert_eq!(render_args(&[]).diffusion, MsDiffusion::DEFAULT);
+        assert_ne!(MsDiffusion::DEFAULT, MsDiffusion::Centers);
+        assert_eq!(render_args(&["--gpu"]).diffusion, MsDiffusion::DEFAULT);
+        assert_eq!(
+            render_args(&["--gpu", "--source", "footprint"]).diffusion,
+            MsDiffusion::Centers
+        );
+        assert_eq!(
+            render_args(&["--source", "footprint"]).diffusion,
+            MsDiffusion::DEFAULT
+        );
         assert_eq!(
             render_args(&["--budget-ms", "500"]).diffusion,
             MsDiffusion::Centers
@@ -1128,7 +1150,7 @@ mod tests {
         );
         assert_eq!(
             render_args(&["--budget-ms", "500", "--diffusion", "orders"]).diffusion,
-            MsDiffusion::CPU_DEFAULT
+            MsDiffusion::DEFAULT
         );
     }
 }

@@ -94,9 +94,19 @@ pub fn run(mut a: RenderArgs) -> Result<()> {
     a.diffusion
         .check()
         .map_err(|e| anyhow!("--diffusion {}: {e}", diffusion_name(a.diffusion)))?;
-    if a.gpu && !a.reference && a.diffusion != MsDiffusion::Centers {
+    if a.gpu && !a.reference && matches!(a.diffusion, MsDiffusion::Grid { .. }) {
         bail!(
-            "--diffusion grid and orders run on the CPU only; use --diffusion centers with --gpu"
+            "--diffusion grid runs on the CPU only; use --diffusion orders or centers with --gpu"
+        );
+    }
+    if a.gpu
+        && !a.reference
+        && a.multiple
+        && matches!(a.diffusion, MsDiffusion::Orders { .. })
+        && !matches!(a.env_source, EnvSource::Grid(_))
+    {
+        bail!(
+            "--diffusion orders with --gpu is lit by the sky per voxel (--source grid); use --diffusion centers with --source footprint or center"
         );
     }
     // Before any fitting: a machine without an adapter is told at once.
@@ -592,7 +602,7 @@ mod tests {
             g: 0.3,
             sh_order: 4,
             multiple: true,
-            diffusion: MsDiffusion::CPU_DEFAULT,
+            diffusion: MsDiffusion::DEFAULT,
             env_source: EnvSource::Grid(EnvGridOptions::default()),
             residual: true,
             slices: 2.0,

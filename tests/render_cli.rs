@@ -101,6 +101,7 @@ fn renders_a_baked_frame_and_a_volume() {
     for lighting in ["auto", "cpu", "gpu"] {
         let gpu_exr = tmp(&dir, &format!("gpu-{lighting}.exr"));
         let mut args = vec!["render", asset.to_str().unwrap(), "--frame", "22", "--gpu"];
+        args.extend(["--diffusion", "centers"]);
         args.extend(["--lighting", lighting, "--out", gpu_exr.to_str().unwrap()]);
         args.extend(size);
         let err = ok(&args);
@@ -111,6 +112,31 @@ fn renders_a_baked_frame_and_a_volume() {
         }
         assert_close(&read_exr(&gpu_exr, 40, 30), &crm);
     }
+    // The default on either side, the explicit orders (on the GPU: gpu::orders): the same
+    // image within `assert_close`'s bound plus 1e-2 of the light the multiple scattering
+    // adds (the orders' twin, crates/view's gpu_orders and gpu_renderer tests; its first
+    // source reads the environment grid, which the GPU marches in f32).
+    let mut orders = Vec::new();
+    for extra in [&[][..], &["--gpu"], &["--no-multiple"]] {
+        let exr = tmp(&dir, &format!("orders-{}.exr", orders.len()));
+        let mut args = vec!["render", asset.to_str().unwrap(), "--frame", "22"];
+        args.extend(["--out", exr.to_str().unwrap()]);
+        args.extend(size);
+        args.extend(extra);
+        ok(&args);
+        orders.push(read_exr(&exr, 40, 30));
+    }
+    let (cpu, gpu, single) = (&orders[0], &orders[1], &orders[2]);
+    for (i, ((g, c), s)) in gpu.iter().zip(cpu).zip(single).enumerate() {
+        for k in 0..3 {
+            let ms = (c[k] - s[k]).abs();
+            assert!(
+                (g[k] - c[k]).abs() <= 1e-4 * c[k].abs() + 1e-3 + 1e-2 * ms,
+                "pixel {i}: GPU {g:?}, CPU {c:?}, single scattering {s:?}"
+            );
+        }
+    }
+    assert!(mean(cpu) > 1.01 * mean(single), "the orders add light");
     // The smoke in the middle of the frame is not the sky behind it.
     let without = tmp(&dir, "sky.exr");
     let mut args = vec!["render", asset.to_str().unwrap(), "--sigma-t", "0", "--out"];
@@ -242,8 +268,10 @@ fn bad_render_requests_fail_on_one_line() {
             "--gpu",
             "--diffusion",
             "orders",
+            "--source",
+            "footprint",
         ],
-        "CPU only",
+        "--source grid",
     );
     fails(
         &["render", &vol, "--out", out, "--diffusion", "orders:2:9"],

@@ -480,6 +480,7 @@ impl ViewerApp {
         ui.checkbox(&mut k.multiple, "multiple scattering");
         ui.checkbox(&mut k.residual, "residual");
         ui.checkbox(&mut k.sky_per_voxel, "sky per voxel (environment pass)");
+        ui.checkbox(&mut k.orders, "multiple scattering by explicit orders");
         ui.add(
             egui::Slider::new(&mut k.exposure, r.exposure.clone())
                 .logarithmic(true)

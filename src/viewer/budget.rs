@@ -63,6 +63,8 @@ pub fn choose_knobs(a: &mut ViewArgs, goal: Goal) -> Result<()> {
     };
     let c = choice::choose(&doc, goal).map_err(|e| anyhow!("{source}: {e}"))?;
     apply(a, &c);
+    // The sweep times the centers' diffusion.
+    a.knobs.orders = false;
     eprintln!("choice from {source}: {}", c.reason);
     eprintln!(
         "starting with {}, {}×{}",
@@ -142,6 +144,7 @@ mod tests {
             multiple: true,
             residual: true,
             sky_per_voxel: true,
+            orders: false,
             exposure: 1.0,
         };
         let mut a = ViewArgs {

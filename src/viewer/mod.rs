@@ -35,8 +35,8 @@ mod worker;
 use anyhow::{Result, anyhow, bail};
 use haze_view::gpu::GpuContext;
 use haze_view::gpu::renderer::LightingOn;
-use haze_view::render::CrmOptions;
 use haze_view::render::env_pass::{EnvGridOptions, EnvSource};
+use haze_view::render::{CrmOptions, MsDiffusion};
 use haze_view::stream::FrameStream;
 use haze_view::{Environment, Medium};
 use orbit::Orbit;
@@ -91,6 +91,10 @@ pub struct Knobs {
     /// The sky's single scattering per voxel by the environment pass (else at the RBF
     /// centers, paper A §5.3).
     pub sky_per_voxel: bool,
+    /// Multiple scattering by the explicit orders on a coarse grid (with the sky per
+    /// voxel, which lights them; `haze render --diffusion orders`), else by paper A's
+    /// diffusion at the RBF centers.
+    pub orders: bool,
     pub exposure: f64,
 }
 
@@ -130,6 +134,12 @@ impl Knobs {
                     EnvSource::Grid(EnvGridOptions::default())
                 } else {
                     EnvSource::Centers
+                },
+                // The explicit orders take the sky per voxel (on the GPU it lights them).
+                diffusion: if self.orders && self.sky_per_voxel {
+                    MsDiffusion::DEFAULT
+                } else {
+                    MsDiffusion::Centers
                 },
                 ..CrmOptions::default()
             },
@@ -350,6 +360,7 @@ mod tests {
             multiple: true,
             residual: true,
             sky_per_voxel: true,
+            orders: true,
             exposure: 1.0,
         };
         let off = Knobs {
@@ -362,6 +373,15 @@ mod tests {
         assert_eq!(source(&off), EnvSource::Centers);
         assert!(!on.describe().contains("sky"), "{}", on.describe());
         assert!(off.describe().ends_with(", sky at the centers"));
+        // The explicit orders need the sky per voxel; their switch picks the diffusion.
+        let diffusion = |k: &Knobs| k.scene(env.clone()).unwrap().opts.diffusion;
+        assert_eq!(diffusion(&on), MsDiffusion::DEFAULT);
+        assert_eq!(diffusion(&off), MsDiffusion::Centers);
+        let centers = Knobs {
+            orders: false,
+            ..on.clone()
+        };
+        assert_eq!(diffusion(&centers), MsDiffusion::Centers);
     }
 
     #[test]

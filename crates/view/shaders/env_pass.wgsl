@@ -52,14 +52,6 @@ struct Params {
 // Per node (x fastest) 3·order² words: S_j r g b per coefficient.
 @group(0) @binding(3) var<storage, read_write> shadow_sh: array<f32>;
 
-// −expm1(−x) = 1 − e^{−x} without cancellation for small x ≥ 0.
-fn one_minus_exp(x: f32) -> f32 {
-    if x < 1e-3 {
-        return x * (1.0 - x * (0.5 - x / 6.0));
-    }
-    return 1.0 - exp(-x);
-}
-
 // Voxel index range (inclusive) along axis a whose centers lie strictly within one cell
 // of the node coordinate x; lo > hi when none. An axis of one node covers every voxel.
 fn voxel_range(a: u32, x: f32) -> vec2<i32> {

@@ -3,6 +3,14 @@
 // `sigma_t`, and the grid of the volume pass as `grid`): D trilinear in the grid, and
 // σt·τ by the midpoint rule of `render::lights_pass::optical_depth`.
 
+// −expm1(−x) = 1 − e^{−x} without cancellation for small x ≥ 0.
+fn one_minus_exp(x: f32) -> f32 {
+    if x < 1e-3 {
+        return x * (1.0 - x * (0.5 - x / 6.0));
+    }
+    return 1.0 - exp(-x);
+}
+
 // `lights_pass::SHADOW_CUTOFF`: a march stops once σt·τ passes it (e^−20 ≈ 2e-9).
 const SHADOW_CUTOFF: f32 = 20.0;
 

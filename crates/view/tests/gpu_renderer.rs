@@ -20,7 +20,8 @@
 //! view pass attenuates, within the same bound.
 
 use haze_view::gpu::renderer::{GpuFrame, GpuRenderer, LightingOn, Reuse};
-use haze_view::render::{CrmOptions, crm_render};
+use haze_view::render::env_pass::EnvSource;
+use haze_view::render::{CrmOptions, MsDiffusion, crm_render};
 use haze_view::{Camera, Distant, Environment, LatLong, Medium, PointLight, Sky, Sun};
 use haze_volume::Rbf;
 
@@ -381,4 +382,143 @@ fn stage_times_come_from_timestamps_where_the_device_has_them() {
         )
         .unwrap();
     assert!(stats.gpu.is_empty());
+}
+
+/// The largest difference of the GPU image `gpu` from `crm_render`'s with `opts`, relative
+/// to the largest light the multiple scattering adds (`crm_render`'s image less its
+/// single scattering), after asserting the bound of the test below and that the orders
+/// add light.
+fn check_orders(
+    gpu: &[[f32; 3]],
+    rbfs: &[Rbf],
+    dims: [usize; 3],
+    medium: &Medium,
+    env: &Environment,
+    cam: &Camera,
+    opts: &CrmOptions,
+) -> f64 {
+    let bbox = unit_box();
+    let (cpu, _) = crm_render(rbfs, None, dims, &bbox, medium, env, cam, opts);
+    let single = CrmOptions {
+        multiple: false,
+        ..*opts
+    };
+    let (dark, _) = crm_render(rbfs, None, dims, &bbox, medium, env, cam, &single);
+    let ms = cpu
+        .pixels
+        .iter()
+        .flatten()
+        .zip(dark.pixels.iter().flatten())
+        .map(|(c, s)| f64::from(c - s))
+        .fold(0.0, f64::max);
+    let bright = f64::from(cpu.pixels.iter().flatten().fold(0.0f32, |a, &b| a.max(b)));
+    assert!(
+        ms > 1e-2 * bright,
+        "the orders add {ms} (brightest {bright})"
+    );
+    let d = gpu
+        .iter()
+        .flatten()
+        .zip(cpu.pixels.iter().flatten())
+        .map(|(g, c)| f64::from((g - c).abs()))
+        .fold(0.0, f64::max);
+    assert!(
+        d <= 5e-4 * bright + 1e-2 * ms,
+        "{d} (brightest {bright}, ms {ms})"
+    );
+    d / ms
+}
+
+#[test]
+fn frames_with_the_explicit_orders_match_crm_render_and_keep_their_cells() {
+    // `--diffusion orders` on the GPU (gpu::orders) against the CPU's crm_render with the
+    // same options, lit by the sky, a sun and a point light. Beyond the module's bound
+    // (5e-4 of the brightest pixel), the orders' twin (tests/gpu_orders.rs) puts J_ms
+    // within 5e-3 of its largest, and its first source reads the GPU's environment grid,
+    // within 1e-2 of S of the CPU's (gpu_env_pass.rs), S a part of the light: held to
+    // 1e-2 of the largest light the multiple scattering adds to a pixel (printed).
+    let ctx = context();
+    let rbfs = cluster();
+    let bbox = unit_box();
+    let dims = [16, 16, 20];
+    let mut env = Environment::sky(Sky::default());
+    env.suns.push(Sun {
+        direction: [0.3, 0.2, 0.93].map(|c| c / 0.9949f64.sqrt()),
+        irradiance: [8.0, 7.5, 6.5],
+        angle: 3f64.to_radians(),
+    });
+    env.points
+        .push(PointLight::new([0.7, 0.3, 0.6], [0.5, 0.4, 0.3]).unwrap());
+    let frame = GpuFrame {
+        key: 5,
+        rbfs: &rbfs,
+        residual: None,
+        dims,
+        bbox,
+    };
+    let opts = CrmOptions {
+        diffusion: MsDiffusion::Orders {
+            factor: 2,
+            orders: 2,
+        },
+        ..CrmOptions::default()
+    };
+    let (a, b) = (camera([0.5, -1.3, 0.85]), camera([1.8, 0.2, 0.6]));
+    let medium = Medium::new(8.0, 0.9, 0.5).unwrap();
+    let mut r = GpuRenderer::new(&ctx, env.clone()).unwrap();
+    let (image, stats) = r.render(&ctx, &frame, &medium, &a, &opts).unwrap();
+    assert!(stats.solved);
+    let gpu = image.read(&ctx).unwrap();
+    let d = check_orders(&gpu, &rbfs, dims, &medium, &env, &a, &opts);
+    println!("orders: largest difference {d:.2e} of the largest multiple scattering");
+    let solve = r.diffusion_stats(&ctx).unwrap().unwrap();
+    assert!(solve.converged && solve.iterations > 0, "{solve:?}");
+    assert_eq!((r.orders_builds(), r.env_grid_builds()), (1, 1));
+
+    // A camera move keeps the cells (and the environment grid): the image is the CPU's.
+    let (moved, stats) = r.render(&ctx, &frame, &medium, &b, &opts).unwrap();
+    assert_eq!(stats.reuse, Reuse::Sources);
+    assert_eq!((r.orders_builds(), r.env_grid_builds()), (1, 1));
+    let d = check_orders(
+        &moved.read(&ctx).unwrap(),
+        &rbfs,
+        dims,
+        &medium,
+        &env,
+        &b,
+        &opts,
+    );
+    println!("orders, moved: largest difference {d:.2e} of the largest multiple scattering");
+    // A new albedo or g gathers again on the same environment grid.
+    let brighter = Medium::new(8.0, 0.95, 0.3).unwrap();
+    let (image, _) = r.render(&ctx, &frame, &brighter, &b, &opts).unwrap();
+    assert_eq!((r.orders_builds(), r.env_grid_builds()), (2, 1));
+    check_orders(
+        &image.read(&ctx).unwrap(),
+        &rbfs,
+        dims,
+        &brighter,
+        &env,
+        &b,
+        &opts,
+    );
+    // The grid's diffusion alone stays on the CPU; the orders need the sky per voxel.
+    let grid = CrmOptions {
+        diffusion: MsDiffusion::Grid { factor: 2 },
+        ..opts
+    };
+    let e = r
+        .render(&ctx, &frame, &medium, &a, &grid)
+        .map(|_| ())
+        .unwrap_err();
+    assert!(e.to_string().contains("CPU only"), "{e}");
+    let centers = CrmOptions {
+        env_source: EnvSource::Centers,
+        ..opts
+    };
+    let e = r
+        .render(&ctx, &frame, &medium, &a, &centers)
+        .map(|_| ())
+        .unwrap_err();
+    assert!(e.to_string().contains("environment pass's grid"), "{e}");
 }

@@ -86,6 +86,22 @@ impl EnvShadow {
     pub fn order(&self) -> usize {
         self.order
     }
+
+    /// Whether it is the grid of a volume grid of `grid`'s dims and box.
+    pub fn is_of(&self, grid: &GridBuffer) -> bool {
+        self.dims == grid.dims() && self.bbox == *grid.bbox()
+    }
+
+    /// The nodes' frame as the shader takes it: the first node relative to the box's
+    /// minimum corner, the distance between nodes, the nodes per axis.
+    pub(crate) fn node_frame(&self) -> ([f32; 3], [f32; 3], [u32; 3]) {
+        (self.params.node_min, self.params.cell, self.params.nodes)
+    }
+
+    /// The storage buffer of the coefficients.
+    pub(crate) fn buffer(&self) -> &wgpu::Buffer {
+        &self.buffer
+    }
 }
 
 /// The compiled environment pass, reusable across frames.

@@ -42,9 +42,11 @@ use haze_volume::Bbox;
 use std::sync::Mutex;
 
 /// The shader: the shadow march shared with the environment pass
-/// (`crates/view/shaders/grid_march.wgsl`), then `lights_pass.wgsl`.
+/// (`crates/view/shaders/grid_march.wgsl`), the phase functions shared with the gathered
+/// orders (`disk_phase.wgsl`), then `lights_pass.wgsl`.
 pub const SHADER: &str = concat!(
     include_str!("../../shaders/grid_march.wgsl"),
+    include_str!("../../shaders/disk_phase.wgsl"),
     include_str!("../../shaders/lights_pass.wgsl")
 );
 
@@ -388,6 +390,20 @@ impl LightsPass {
                 groups,
             )
         })
+    }
+
+    /// The lights' records and the suns' phase tables for HG `g` (the shader's `lights`),
+    /// which the gathered orders read too ([`super::orders`]). Refuses what
+    /// [`LightsPass::run_on`] refuses of the lights.
+    pub(crate) fn light_words(
+        &self,
+        ctx: &GpuContext,
+        grid: &GridBuffer,
+        env: &Environment,
+        g: f64,
+    ) -> Result<Vec<u32>, GpuError> {
+        check_lights(env)?;
+        Ok(self.records(ctx, grid, env, 0.0, g, 0.0, [0.0; 3])?.0)
     }
 
     /// The lights' records and tables (the shader's `lights`) and the parameters, for

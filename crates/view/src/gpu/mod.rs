@@ -5,8 +5,11 @@
 //! [`crate::render::crm::view_pass`], `volume_pass.wgsl` ↔
 //! [`crate::render::crm::volume_pass`], `lights_pass.wgsl` ↔
 //! [`crate::render::lights_pass::lights_pass`], `diffusion.wgsl` ↔
-//! [`crate::render::add_multiple_scattering`]; `sh_basis.wgsl` ↔ [`crate::sh::eval_into`]
-//! is prepended to the shaders that need it). Single scattering leaves the sources at the
+//! [`crate::render::add_multiple_scattering`], `orders.wgsl` ↔
+//! [`crate::grid_diffusion::explicit_media_radiance`] and
+//! [`crate::grid_diffusion::add_to_grids`]; `sh_basis.wgsl` ↔ [`crate::sh::eval_into`]
+//! is prepended to the shaders that need it, the shadow march `grid_march.wgsl` and the
+//! phase functions `disk_phase.wgsl` to those that march or light). Single scattering leaves the sources at the
 //! centers on the GPU in a [`SourceBuffer`], which the volume pass reads; the volume pass
 //! leaves its grids in a [`GridBuffer`], to which the lights pass adds the suns and point
 //! lights in place and which the view pass reads — no round trip through the host. [`renderer::GpuRenderer`] chains the stages into frames.
@@ -18,6 +21,7 @@
 pub mod diffusion;
 pub mod env_pass;
 pub mod lights_pass;
+pub mod orders;
 pub mod renderer;
 pub mod single_scattering;
 pub mod view_pass;

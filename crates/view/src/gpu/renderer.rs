@@ -5,7 +5,7 @@
 //! Stages and where they run:
 //! 1. **Single scattering** at the RBF centers: GPU
 //!    ([`SingleScatteringPass`], `shaders/single_scattering.wgsl`).
-//! 2. **Multiple scattering**: GPU ([`DiffusionPass`], `shaders/diffusion.wgsl`: the
+//! 2. **Multiple scattering** on the centers ([`MsDiffusion::Centers`]): GPU ([`DiffusionPass`], `shaders/diffusion.wgsl`: the
 //!    system, CGLS and `J̃ms` added to the sources in place, in one compute pass), from
 //!    the frame's geometric [`Operators`], computed on the CPU once per frame and kept
 //!    while the frame is unchanged (a new light or medium reuses them); the solve starts
@@ -23,7 +23,14 @@
 //! 5. **Lights pass**: GPU ([`LightsPass::run_on`], in place on the volume pass's grids):
 //!    the suns and point lights per voxel, shadows marched through the grid's density;
 //!    nothing runs without lights.
-//! 6. **View pass**: GPU ([`ViewPass::dispatch`]); the image stays on the GPU until
+//! 6. **Explicit orders** (with [`MsDiffusion::Orders`], which takes the environment
+//!    pass's grid): GPU ([`OrdersPass`], in place on the grids): the first scattering
+//!    orders gathered on the coarse grid from the environment pass's `S_lm`, the point
+//!    lights and the suns, the diffusion after them, `J_ms` added per voxel; the centers
+//!    then carry nothing. Their cells are kept while the grids' key without the eye holds
+//!    (a camera move adds them to the voxels again, [`OrdersPass::apply`]); a new albedo,
+//!    `g` or light gathers again but keeps the environment pass's grid.
+//! 7. **View pass**: GPU ([`ViewPass::dispatch`]); the image stays on the GPU until
 //!    [`ImageBuffer::read`].
 //!
 //! On an adapter that is a CPU (lavapipe) stages 1 and 2 run on the CPU instead
@@ -49,6 +56,7 @@
 use super::diffusion::{DiffusionPass, DiffusionStats, DirectBuffer, OperatorBuffers};
 use super::env_pass::{EnvPass, EnvShadow, RemoveSingle};
 use super::lights_pass::{LightShadow, LightsPass};
+use super::orders::{MediaBuffer, OrdersPass};
 use super::single_scattering::SingleScatteringPass;
 use super::view_pass::{EnvBuffer, ImageBuffer, ViewPass};
 use super::volume_pass::{Residual, VolumePass};
@@ -145,6 +153,18 @@ struct SourceKey {
     opts: CrmOptions,
 }
 
+/// Where the last multiple-scattering solve ran.
+#[derive(Clone, Copy, Debug)]
+enum LastSolve {
+    /// The centers' diffusion on the CPU, and how it ended.
+    Cpu(DiffusionStats),
+    /// The centers' diffusion on the GPU ([`DiffusionPass`]).
+    Gpu,
+    /// The diffusion after the gathered orders on the GPU ([`OrdersPass::diffuse`]), to
+    /// this relative residual.
+    Orders(f64),
+}
+
 /// What the environment pass's grid of `S_lm` ([`EnvShadow`]) depends on: the density
 /// `D = D̃ + R` (the frame and whether the residual is in), σt, the distant environment
 /// (its generation), the SH order and the grid's settings — not the camera, the albedo
@@ -184,7 +204,7 @@ pub struct GpuRenderer {
     /// The CPU's solver (its warm start), for [`LightingOn::Cpu`].
     solver: DiffusionSolver,
     /// Where the last diffusion solve ran, and how it ended when that was the CPU.
-    last_solve: Option<(LightingOn, DiffusionStats)>,
+    last_solve: Option<LastSolve>,
     /// The diffusion operators of the frame with this key.
     operators: Option<(u64, OperatorBuffers)>,
     sources: Option<(SourceKey, SourceBuffer)>,
@@ -199,6 +219,12 @@ pub struct GpuRenderer {
     light_shadow: Option<((u64, bool), LightShadow)>,
     /// How many shadow volumes were computed.
     light_shadow_builds: u64,
+    orders: OrdersPass,
+    /// The gathered orders' cells (after their diffusion) of the grids with this key:
+    /// a camera move adds them to the rebuilt grids again ([`OrdersPass::apply`]).
+    orders_media: Option<(SourceKey, MediaBuffer)>,
+    /// How many times the orders were gathered and diffused.
+    orders_builds: u64,
 }
 
 impl GpuRenderer {
@@ -226,6 +252,9 @@ impl GpuRenderer {
             env_grid_builds: 0,
             light_shadow: None,
             light_shadow_builds: 0,
+            orders: OrdersPass::new(ctx)?,
+            orders_media: None,
+            orders_builds: 0,
         })
     }
 
@@ -243,6 +272,14 @@ impl GpuRenderer {
     /// lights' power.
     pub fn light_shadow_builds(&self) -> u64 {
         self.light_shadow_builds
+    }
+
+    /// How many times this renderer has gathered the explicit orders and solved their
+    /// diffusion ([`OrdersPass::gather`], [`OrdersPass::diffuse`]): it grows with
+    /// everything that changes the grids' light except the camera, which only adds the
+    /// kept cells to the voxels again.
+    pub fn orders_builds(&self) -> u64 {
+        self.orders_builds
     }
 
     /// The environment.
@@ -275,6 +312,7 @@ impl GpuRenderer {
         self.grid = None;
         self.env_grid = None;
         self.light_shadow = None;
+        self.orders_media = None;
     }
 
     /// Where the next frames compute the lighting at the centers (the sources are
@@ -304,8 +342,15 @@ impl GpuRenderer {
     pub fn diffusion_stats(&self, ctx: &GpuContext) -> Result<Option<DiffusionStats>, GpuError> {
         match self.last_solve {
             None => Ok(None),
-            Some((LightingOn::Cpu, stats)) => Ok(Some(stats)),
-            Some(_) => self.diffusion.stats(ctx),
+            Some(LastSolve::Cpu(stats)) => Ok(Some(stats)),
+            Some(LastSolve::Gpu) => self.diffusion.stats(ctx),
+            Some(LastSolve::Orders(tolerance)) => {
+                Ok(self.orders.solve_stats(ctx)?.map(|s| DiffusionStats {
+                    iterations: s.iterations,
+                    residual: s.residual,
+                    converged: s.residual <= tolerance,
+                }))
+            }
         }
     }
 
@@ -341,15 +386,16 @@ impl GpuRenderer {
         };
         self.diffusion
             .run_with(ctx, &ops.1, medium, sources, direct.as_ref(), &opts.solve)?;
-        self.last_solve = Some((LightingOn::Gpu, DiffusionStats::default()));
+        self.last_solve = Some(LastSolve::Gpu);
         stats.crm.multiple_seconds = t.elapsed().as_secs_f64();
         Ok(())
     }
 
     /// Renders `frame` seen by `camera` into an image on the GPU (submitted; read it with
     /// [`ImageBuffer::read`]). Refuses what the stages refuse (an order outside 1..=6, a
-    /// residual of other dims, sizes beyond the device's limits, multiple scattering on
-    /// the grid: [`MsDiffusion::Grid`] is CPU only).
+    /// residual of other dims, sizes beyond the device's limits, multiple scattering by
+    /// the grid's diffusion alone — [`MsDiffusion::Grid`] is CPU only — and the explicit
+    /// orders without the environment pass's grid, which lights their cells).
     pub fn render(
         &mut self,
         ctx: &GpuContext,
@@ -367,11 +413,23 @@ impl GpuRenderer {
                 sh::MAX_ORDER
             )));
         }
-        if opts.multiple && opts.diffusion != MsDiffusion::Centers {
+        if opts.multiple && matches!(opts.diffusion, MsDiffusion::Grid { .. }) {
             return Err(GpuError::Input(
-                "the grid diffusion and the explicit orders run on the CPU only; the GPU solves on the centers"
+                "the grid diffusion runs on the CPU only; the GPU gathers orders or solves on the centers"
                     .into(),
             ));
+        }
+        if opts.multiple
+            && matches!(opts.diffusion, MsDiffusion::Orders { .. })
+            && !matches!(opts.env_source, EnvSource::Grid(_))
+        {
+            return Err(GpuError::Input(
+                "the explicit orders on the GPU are lit by the environment pass's grid (the sky per voxel), not by the centers"
+                    .into(),
+            ));
+        }
+        if let Err(e) = opts.diffusion.check() {
+            return Err(GpuError::Input(e));
         }
         let (kit, single, light) = match self.order.take() {
             Some(o) if o.0.order == opts.order => self.order.insert(o),
@@ -419,7 +477,7 @@ impl GpuRenderer {
                         residual: stats.crm.cg_residual,
                         converged: stats.crm.cg_residual <= opts.solve.tolerance,
                     };
-                    self.last_solve = Some((LightingOn::Cpu, solve));
+                    self.last_solve = Some(LastSolve::Cpu(solve));
                 }
                 let buffer = SourceBuffer::upload(ctx, &source, opts.order)?;
                 self.grid = None;
@@ -427,7 +485,9 @@ impl GpuRenderer {
             }
             _ => {
                 let grid_env = matches!(opts.env_source, EnvSource::Grid(_));
-                let diffuse = opts.multiple && !frame.rbfs.is_empty();
+                let diffuse = opts.multiple
+                    && opts.diffusion == MsDiffusion::Centers
+                    && !frame.rbfs.is_empty();
                 let t = Instant::now();
                 let buffer = if grid_env && !diffuse {
                     // No diffusion to feed: the centers carry nothing.
@@ -542,6 +602,43 @@ impl GpuRenderer {
                         .apply(ctx, &grid, shadow, &self.env, medium, camera.eye)?;
                 }
                 stats.crm.lights_seconds = t.elapsed().as_secs_f64();
+                let t = Instant::now();
+                if let (
+                    true,
+                    MsDiffusion::Orders { factor, orders },
+                    Some((_, shadow)),
+                    Some(light),
+                ) = (opts.multiple, opts.diffusion, &self.env_grid, &env_light)
+                    && medium.albedo > 0.0
+                    && medium.sigma_t > 0.0
+                    && !frame.dims.contains(&0)
+                {
+                    let kept = matches!(&self.orders_media, Some((k, _)) if *k == grid_key.0);
+                    let media = match self.orders_media.take() {
+                        Some(m) if kept => &self.orders_media.insert(m).1,
+                        _ => {
+                            let media = self.orders.gather(
+                                ctx,
+                                &grid,
+                                shadow,
+                                light,
+                                &self.env,
+                                &self.lights,
+                                medium,
+                                factor,
+                                orders,
+                            )?;
+                            self.orders
+                                .diffuse(ctx, &grid, shadow, &media, &opts.grid_solve)?;
+                            self.orders_builds += 1;
+                            self.last_solve = Some(LastSolve::Orders(opts.grid_solve.tolerance));
+                            stats.solved = true;
+                            &self.orders_media.insert((grid_key.0, media)).1
+                        }
+                    };
+                    self.orders.apply(ctx, &grid, shadow, media, camera.eye)?;
+                    stats.crm.multiple_seconds = t.elapsed().as_secs_f64();
+                }
                 &self.grid.insert((grid_key.0, grid_key.1, grid)).2
             }
         };

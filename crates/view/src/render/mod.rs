@@ -55,13 +55,14 @@ pub enum MsDiffusion {
     Centers,
     /// By finite volumes on the volume pass's density averaged over `factor³` voxels,
     /// the first collision kept per cell (`crate::grid_diffusion`); added per voxel
-    /// after the lights pass. CPU only: the GPU renderer solves on the centers.
+    /// after the lights pass. CPU only.
     Grid { factor: usize },
     /// On the same coarse grid, the first `orders` scattering orders gathered explicitly
     /// along 72 directions from every cell and the rest by the grid's diffusion
-    /// (`crate::grid_diffusion::explicit_media_radiance`); `factor` [`MsDiffusion::AUTO`]
-    /// chooses it from the amount of smoke (`crate::grid_diffusion::auto_factor`). CPU
-    /// only.
+    /// (`crate::grid_diffusion::explicit_media_radiance`; on the GPU
+    /// `crate::gpu::orders`, lit by the environment pass's grid); `factor`
+    /// [`MsDiffusion::AUTO`] chooses it from the amount of smoke
+    /// (`crate::grid_diffusion::auto_grid`).
     Orders { factor: usize, orders: usize },
 }
 
@@ -69,10 +70,11 @@ impl MsDiffusion {
     /// The cell size of [`MsDiffusion::Orders`] chosen per frame from the smoke.
     pub const AUTO: usize = 0;
 
-    /// `haze render`'s choice on the CPU (BENCHMARKS.md, "Multiple scattering: explicit
-    /// orders"): four orders gathered on cells of 2³ voxels, larger cells where the
-    /// smoke would cost more than `grid_diffusion::GATHER_BUDGET`.
-    pub const CPU_DEFAULT: MsDiffusion = MsDiffusion::Orders {
+    /// `haze render`'s choice on the CPU and the GPU, and the viewer's (BENCHMARKS.md,
+    /// "Multiple scattering: explicit orders"): four orders gathered on cells of 2³
+    /// voxels, larger cells where the smoke would cost more than
+    /// `grid_diffusion::GATHER_BUDGET`.
+    pub const DEFAULT: MsDiffusion = MsDiffusion::Orders {
         factor: MsDiffusion::AUTO,
         orders: 4,
     };
@@ -490,7 +492,7 @@ mod tests {
         assert_eq!(p("orders:auto:5"), orders(MsDiffusion::AUTO, 5));
         assert_eq!(p("orders:3"), orders(3, 4));
         assert_eq!(p("orders:2:3"), orders(2, 3));
-        assert_eq!(Ok(MsDiffusion::CPU_DEFAULT), orders(MsDiffusion::AUTO, 4));
+        assert_eq!(Ok(MsDiffusion::DEFAULT), orders(MsDiffusion::AUTO, 4));
         for bad in [
             "orders:0",
             "orders:auto:0",

@@ -1,0 +1,750 @@
+//! Explicit scattering orders on the GPU (`shaders/orders.wgsl`), the twin of
+//! [`crate::grid_diffusion::explicit_media_radiance`] fed as
+//! [`crate::render::crm_grids`] feeds it with the environment pass's grid: multiple
+//! scattering on the coarse grid of `f³`-voxel cells, its first `K` orders gathered along
+//! the environment pass's direction rules and the rest by the finite-volume diffusion,
+//! then added per voxel, in `f32` and in place on a [`GridBuffer`].
+//!
+//! Three steps, each submitted without a wait:
+//! - [`OrdersPass::gather`]: the coarse density and the first source per cell from what
+//!   the GPU passes hold — the environment pass's grid of `S_lm` ([`EnvShadow`], the
+//!   sky's single scattering per voxel, [`crate::grid_diffusion::env_grid_sources`]), the
+//!   point lights' moments and each sun's transmittance from the cell center, marched
+//!   through the volume pass's `D` as the lights pass marches
+//!   ([`crate::grid_diffusion::add_lights`], [`crate::grid_diffusion::sun_sources`]) —
+//!   then one pass per order ([`crate::grid_diffusion::gather`]: 72 directions for the
+//!   first, 32 for the later, 8 per dispatch);
+//! - [`OrdersPass::diffuse`]: the finite-volume system of the light after the gathered
+//!   orders, one invocation per cell, solved by Jacobi-preconditioned conjugate gradients
+//!   ([`crate::grid_diffusion::solve`]) with one workgroup per colour channel, in chunks
+//!   of iterations per dispatch sized by the cells (as the centers' diffusion: no
+//!   dispatch long enough for a watchdog, no host round trip), then `L⁰`, `L¹` per cell
+//!   with the flux moment and the clamp `|L¹| ≤ 3L⁰`;
+//! - [`OrdersPass::apply`]: `J_ms = Ω (L⁰ − g L¹·d + Σ_{l=2,3} g^l c_lm Y_lm(−d))` per
+//!   voxel towards the eye, with the gathered orders' bands 2–3 `c_lm`
+//!   ([`crate::grid_diffusion::add_to_grids`]).
+//!
+//! The cells' `L⁰`, `L¹` and escape probabilities stay on the GPU ([`MediaBuffer`]) and
+//! can be read back for tests. Cells of the diffusion that the CPU leaves out (thinner
+//! than [`crate::grid_diffusion::THIN`]) are identity rows with no source here, which
+//! gives the same solution.
+//!
+//! lavapipe ends the loops nested in an outermost loop once they have run 65535
+//! iterations together, silently (`shaders/orders.wgsl`): the split of the directions
+//! into dispatches, the CG's chunks and [`MAX_FACTOR`] keep every invocation within it.
+
+use super::env_pass::EnvShadow;
+use super::lights_pass::LightsPass;
+use super::{GpuContext, GpuError, GridBuffer, bind_buffers, buffer_init, voxel_groups};
+use crate::env::Environment;
+use crate::grid_diffusion::{GATHER_LATER_THETA, GATHER_THETA, GridSolveOptions, HIGH};
+use crate::lighting::single::RgbSh;
+use crate::medium::{FOUR_PI, Medium};
+use crate::render::MsDiffusion;
+use crate::render::env_pass::{directions, phase_factors};
+
+/// The shader: the fine march (`grid_march.wgsl`), the phase functions
+/// (`disk_phase.wgsl`), then `orders.wgsl`.
+pub const SHADER: &str = concat!(
+    include_str!("../../shaders/grid_march.wgsl"),
+    include_str!("../../shaders/disk_phase.wgsl"),
+    include_str!("../../shaders/sh_basis.wgsl"),
+    include_str!("../../shaders/orders.wgsl")
+);
+
+/// Most suns in the first source (the shader's records hold `13 + 8` words).
+pub const MAX_SUNS: usize = 8;
+/// Directions per gather dispatch (what the uniform holds): lavapipe ends the loops nested
+/// in an outermost loop after 65535 iterations together (module docs of the shader), and
+/// a cell's march of 8 directions stays within that up to ~2000 cells a side.
+const DIRECTIONS_PER_DISPATCH: usize = 8;
+/// Most voxels per cell side on the GPU (`cells` visits ≤ 512 voxels per invocation).
+pub const MAX_FACTOR: usize = 8;
+/// Loop iterations one `cg_iterate` dispatch may spend (below lavapipe's 65535).
+const CG_LOOP_BUDGET: usize = 40_000;
+/// Words per cell of the cells' radiance and of the system.
+const MEDIA: usize = 16 + 3 * HIGH;
+/// The cell size [`MsDiffusion::AUTO`] stands for on the GPU (the CPU's measured
+/// default; the GPU's march is not bound by the CPU's budget).
+pub const AUTO_FACTOR: usize = 2;
+const ROW: usize = 40;
+/// Invocations per group of the per-cell dispatches, and per side of `apply`.
+const CELLS: usize = 64;
+const SIDE: usize = 4;
+
+/// The shader's `Params` (WGSL layout), 256 bytes, followed in the uniform by a share of
+/// the direction rule ([`DIRECTIONS_PER_DISPATCH`] `vec4`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+struct Params {
+    eye: [f32; 3],
+    sigma_t: f32,
+    voxel: [f32; 3],
+    h0: f32,
+    size: [f32; 3],
+    soft: f32,
+    dims: [u32; 3],
+    factor: u32,
+    cells: [u32; 3],
+    suns: u32,
+    cell: [f32; 3],
+    points: u32,
+    g: f32,
+    albedo: f32,
+    k: f32,
+    stride: u32,
+    first: u32,
+    order: u32,
+    directions: u32,
+    max_iterations: u32,
+    node_min: [f32; 3],
+    chunk: u32,
+    node_cell: [f32; 3],
+    tolerance: f32,
+    nodes: [u32; 3],
+    sigma_s: f32,
+    sigma_a: f32,
+    sigma_tr: f32,
+    rec_suns: u32,
+    chunk_first: u32,
+    env: [[f32; 4]; 4],
+}
+
+/// `L⁰`, `L¹` and the escape probability per coarse cell on the GPU (`MEDIA` `f32` per
+/// cell: `L⁰` RGB, `L¹` `[channel][axis]`, `P`, the cell's mean density, two unused, bands
+/// 2–3 `[channel][HIGH]` of the gathered orders), with the
+/// last gathered order's scattered source (the diffusion's input) and the uniform of the
+/// grid they belong to.
+#[derive(Debug)]
+pub struct MediaBuffer {
+    media: wgpu::Buffer,
+    /// The last gathered order's record, `D·(Ω L⁰, Ω g L¹)` (13 words per cell).
+    last: wgpu::Buffer,
+    /// The other record buffer (the first source's, then the ping-pong's other half).
+    spare: wgpu::Buffer,
+    params: Params,
+    cells: [usize; 3],
+    dims: [usize; 3],
+}
+
+/// What [`MediaBuffer::read`] returns: per cell `L⁰`, `L¹`, the escape probability and
+/// the mean density.
+#[derive(Clone, Debug, Default)]
+pub struct CellRadiance {
+    pub cells: [usize; 3],
+    pub l0: Vec<[f64; 3]>,
+    pub l1: Vec<[[f64; 3]; 3]>,
+    /// Bands 2–3 of the gathered orders (`grid_diffusion::Gathered::high`).
+    pub high: Vec<[[f64; HIGH]; 3]>,
+    pub escape: Vec<f64>,
+    pub density: Vec<f64>,
+}
+
+impl MediaBuffer {
+    fn len(&self) -> usize {
+        self.cells.iter().product()
+    }
+
+    /// Reads the cells back (a wait).
+    pub fn read(&self, ctx: &GpuContext) -> Result<CellRadiance, GpuError> {
+        let words: Vec<f32> = bytemuck::pod_collect_to_vec(&ctx.read_buffer(&self.media)?);
+        let mut out = CellRadiance {
+            cells: self.cells,
+            ..CellRadiance::default()
+        };
+        for c in words.chunks(MEDIA).take(self.len()) {
+            let v = |k: usize| f64::from(c[k]);
+            out.l0.push([v(0), v(1), v(2)]);
+            out.l1
+                .push([0, 1, 2].map(|ch| [0, 1, 2].map(|a| v(3 + 3 * ch + a))));
+            out.high
+                .push([0, 1, 2].map(|ch| std::array::from_fn(|k| v(16 + HIGH * ch + k))));
+            out.escape.push(v(12));
+            out.density.push(v(13));
+        }
+        Ok(out)
+    }
+}
+
+/// How a solve on the GPU ended.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct OrdersSolve {
+    /// Most CG iterations among the channels.
+    pub iterations: u32,
+    /// Largest relative residual `‖r‖/‖b‖` among the channels (the `f32` recurrence's).
+    pub residual: f64,
+}
+
+/// The compiled pass: one bind group layout shared by its entry points.
+#[derive(Debug)]
+pub struct OrdersPass {
+    layout: wgpu::BindGroupLayout,
+    cells: wgpu::ComputePipeline,
+    gather: wgpu::ComputePipeline,
+    system: wgpu::ComputePipeline,
+    cg_start: wgpu::ComputePipeline,
+    cg_iterate: wgpu::ComputePipeline,
+    finish: wgpu::ComputePipeline,
+    apply: wgpu::ComputePipeline,
+    /// The work buffer of the last solve (rows, vectors, state) and its cell count.
+    work: std::sync::Mutex<Option<(usize, wgpu::Buffer)>>,
+}
+
+/// `(σs, σa, σtr)` of a medium that scatters, as the CPU's system takes them.
+fn coefficients(m: &Medium) -> Option<(f64, f64, f64)> {
+    let sigma_tr = (1.0 - m.albedo * m.g) * m.sigma_t;
+    let sigma_a = (1.0 - m.albedo) * m.sigma_t;
+    let ok = m.albedo > 0.0
+        && m.sigma_t > 0.0
+        && sigma_tr > 0.0
+        && sigma_tr.is_finite()
+        && sigma_a.is_finite();
+    ok.then_some((m.albedo * m.sigma_t, sigma_a, sigma_tr))
+}
+
+/// Groups of 64 invocations covering `n` cells: `[x, y, 1]` with `x·y·64 ≥ n`.
+fn cell_groups(ctx: &GpuContext, n: usize) -> Result<[u32; 3], GpuError> {
+    let groups = n.div_ceil(CELLS);
+    let max_groups = ctx.device.limits().max_compute_workgroups_per_dimension as usize;
+    let gx = groups.clamp(1, max_groups);
+    let gy = groups.div_ceil(gx);
+    if gy > max_groups {
+        return Err(GpuError::Input(format!(
+            "{n} cells are more than the device dispatches"
+        )));
+    }
+    Ok([gx as u32, gy as u32, 1])
+}
+
+impl OrdersPass {
+    /// Compiles the shader's entry points.
+    pub fn new(ctx: &GpuContext) -> Result<OrdersPass, GpuError> {
+        let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let uniform = wgpu::BindGroupLayoutEntry {
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            ..storage(0, true)
+        };
+        ctx.scoped("orders pipeline creation", || {
+            let d = &ctx.device;
+            let layout = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("orders"),
+                entries: &[
+                    uniform,
+                    storage(1, true),
+                    storage(2, false),
+                    storage(3, true),
+                    storage(4, true),
+                    storage(5, false),
+                    storage(6, false),
+                    storage(7, false),
+                ],
+            });
+            let pipeline_layout = d.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("orders"),
+                bind_group_layouts: &[Some(&layout)],
+                immediate_size: 0,
+            });
+            let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("orders"),
+                source: wgpu::ShaderSource::Wgsl(SHADER.into()),
+            });
+            let pipeline = |entry: &'static str| {
+                d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(entry),
+                    layout: Some(&pipeline_layout),
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    cache: None,
+                })
+            };
+            OrdersPass {
+                cells: pipeline("cells"),
+                gather: pipeline("gather"),
+                system: pipeline("system"),
+                cg_start: pipeline("cg_start"),
+                cg_iterate: pipeline("cg_iterate"),
+                finish: pipeline("finish"),
+                apply: pipeline("apply"),
+                layout,
+                work: std::sync::Mutex::new(None),
+            }
+        })
+    }
+
+    /// A uniform of `params` and the rule `rule` (`(ω, weight)`).
+    fn uniform(ctx: &GpuContext, params: &Params, rule: &[([f64; 3], f64)]) -> wgpu::Buffer {
+        let mut bytes = bytemuck::bytes_of(params).to_vec();
+        let mut table = [[0.0f32; 4]; DIRECTIONS_PER_DISPATCH];
+        for (t, (w, wt)) in table.iter_mut().zip(rule) {
+            *t = [w[0] as f32, w[1] as f32, w[2] as f32, *wt as f32];
+        }
+        bytes.extend_from_slice(bytemuck::cast_slice(&table));
+        buffer_init(
+            ctx,
+            "orders parameters",
+            &bytes,
+            wgpu::BufferUsages::UNIFORM,
+        )
+    }
+
+    /// One compute pass of `pipeline` over `groups` (repeated `times`), binding in order
+    /// the uniform, the lights, the grid, the environment's `S`, the record read, the
+    /// record written, the cells' radiance and the work buffer. Call inside
+    /// [`GpuContext::scoped`].
+    fn dispatch(
+        &self,
+        ctx: &GpuContext,
+        label: &'static str,
+        pipeline: &wgpu::ComputePipeline,
+        buffers: &[&wgpu::Buffer; 8],
+        groups: [u32; 3],
+        times: u32,
+    ) {
+        let binds: Vec<_> = (0..times)
+            .map(|_| bind_buffers(ctx, label, &self.layout, buffers))
+            .collect();
+        self.dispatch_each(ctx, label, pipeline, &binds, groups);
+    }
+
+    /// One compute pass (one timed stage) of `pipeline` over `groups` per bind group of
+    /// `binds`, in order. Call inside [`GpuContext::scoped`].
+    fn dispatch_each(
+        &self,
+        ctx: &GpuContext,
+        label: &'static str,
+        pipeline: &wgpu::ComputePipeline,
+        binds: &[wgpu::BindGroup],
+        groups: [u32; 3],
+    ) {
+        let mut enc = ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(label),
+                timestamp_writes: ctx.timestamp_writes(label),
+            });
+            pass.set_pipeline(pipeline);
+            for bind in binds {
+                pass.set_bind_group(0, bind, &[]);
+                pass.dispatch_workgroups(groups[0], groups[1], groups[2]);
+            }
+        }
+        ctx.queue.submit([enc.finish()]);
+    }
+
+    /// The first `orders` scattering orders on the coarse grid of `factor` over `grid`'s
+    /// `D` (module docs), lit by the environment's single scattering from `shadow` (the
+    /// environment pass's grid of this `D`) and `light` (its projection), `env`'s point
+    /// lights and suns (records from `lights`) in `medium` (submitted); the factor
+    /// [`MsDiffusion::AUTO`] is [`AUTO_FACTOR`]. Refuses a factor
+    /// outside 1–[`MAX_FACTOR`], orders outside 1–8, more than [`MAX_SUNS`] suns, a `shadow` of
+    /// another grid, a `light` of fewer coefficients than its order, and sizes beyond the
+    /// device's limits.
+    #[allow(clippy::too_many_arguments)]
+    pub fn gather(
+        &self,
+        ctx: &GpuContext,
+        grid: &GridBuffer,
+        shadow: &EnvShadow,
+        light: &RgbSh,
+        env: &Environment,
+        lights: &LightsPass,
+        medium: &Medium,
+        factor: usize,
+        orders: usize,
+    ) -> Result<MediaBuffer, GpuError> {
+        let factor = if factor == MsDiffusion::AUTO {
+            AUTO_FACTOR
+        } else {
+            factor
+        };
+        if !(1..=MAX_FACTOR).contains(&factor) || !(1..=8).contains(&orders) {
+            return Err(GpuError::Input(format!(
+                "orders:{factor}:{orders}: on the GPU the factor must be 1 to {MAX_FACTOR} and the orders 1 to 8"
+            )));
+        }
+        if env.suns.len() > MAX_SUNS {
+            return Err(GpuError::Input(format!(
+                "{} suns: the gathered orders on the GPU take at most {MAX_SUNS}",
+                env.suns.len()
+            )));
+        }
+        let dims = grid.dims();
+        let bbox = *grid.bbox();
+        if !shadow.is_of(grid) {
+            return Err(GpuError::Input(
+                "the environment's grid is of another volume grid".into(),
+            ));
+        }
+        let order = shadow.order();
+        let n2 = (order * order).min(4);
+        if light.iter().any(|c| c.len() < n2) {
+            return Err(GpuError::Input(format!(
+                "the environment's projection has fewer than {n2} coefficients"
+            )));
+        }
+        let cells = dims.map(|n| n.div_ceil(factor));
+        let n = cells.iter().product::<usize>();
+        let vs = grid.voxel_size();
+        let h = vs.map(|v| v * factor as f64);
+        let hmin = h[0].min(h[1]).min(h[2]);
+        let (node_min, node_cell, nodes) = shadow.node_frame();
+        let a = phase_factors(medium, order);
+        let mut env_coeffs = [[0.0f32; 4]; 4];
+        for (j, e) in env_coeffs.iter_mut().enumerate().take(n2) {
+            *e = [light[0][j], light[1][j], light[2][j], a[j]].map(|v| v as f32);
+        }
+        let words = lights.light_words(ctx, grid, env, medium.g)?;
+        let stride = 13 + env.suns.len();
+        let (sigma_s, sigma_a, sigma_tr) = coefficients(medium).unwrap_or_default();
+        let params = Params {
+            eye: [0.0; 3],
+            sigma_t: medium.sigma_t as f32,
+            voxel: vs.map(|v| v as f32),
+            h0: vs[0].min(vs[1]).min(vs[2]) as f32,
+            size: bbox.size().map(|v| v as f32),
+            soft: ((0.5 * hmin).powi(2) / 3.0) as f32,
+            dims: dims.map(|v| v as u32),
+            factor: factor as u32,
+            cells: cells.map(|v| v as u32),
+            suns: env.suns.len() as u32,
+            cell: h.map(|v| v as f32),
+            points: env.points.len() as u32,
+            g: medium.g as f32,
+            albedo: medium.albedo as f32,
+            k: (medium.albedo / FOUR_PI) as f32,
+            stride: stride as u32,
+            first: 1,
+            order: order as u32,
+            directions: 0,
+            max_iterations: 0,
+            node_min,
+            chunk: 0,
+            node_cell,
+            tolerance: 0.0,
+            nodes,
+            sigma_s: sigma_s as f32,
+            sigma_a: sigma_a as f32,
+            sigma_tr: sigma_tr as f32,
+            rec_suns: env.suns.len() as u32,
+            chunk_first: 1,
+            env: env_coeffs,
+        };
+        let record_bytes = (4 * n.max(1) * stride) as u64;
+        ctx.check_storage_size("the gathered orders' sources", record_bytes)?;
+        let groups = cell_groups(ctx, n)?;
+        let first: Vec<_> = directions(GATHER_THETA).points().collect();
+        let later: Vec<_> = directions(GATHER_LATER_THETA).points().collect();
+        ctx.scoped("the gathered orders", || {
+            let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+            let buffer = |label, size: u64| {
+                ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size,
+                    usage: storage,
+                    mapped_at_creation: false,
+                })
+            };
+            let media = buffer("cells' radiance", (4 * MEDIA * n.max(1)) as u64);
+            let mut rec = [
+                buffer("orders' source", record_bytes),
+                buffer("orders' source", record_bytes),
+            ];
+            let lights_buf = buffer_init(
+                ctx,
+                "orders' lights",
+                bytemuck::cast_slice(&words),
+                wgpu::BufferUsages::STORAGE,
+            );
+            let (ro, rw) = (buffer("orders' unused", 16), buffer("orders' unused", 16));
+            let cells_uniform = OrdersPass::uniform(ctx, &params, &[]);
+            // `cells` writes the first source into rec[1] (read as the input below).
+            self.dispatch(
+                ctx,
+                "orders cells",
+                &self.cells,
+                &[
+                    &cells_uniform,
+                    &lights_buf,
+                    grid.buffer(),
+                    shadow.buffer(),
+                    &ro,
+                    &rec[1],
+                    &media,
+                    &rw,
+                ],
+                groups,
+                1,
+            );
+            for k in 0..orders {
+                let rule = if k == 0 { &first } else { &later };
+                rec.swap(0, 1);
+                // rec[0]: this order's source, rec[1]: the next; one pass per order.
+                let binds: Vec<_> = rule
+                    .chunks(DIRECTIONS_PER_DISPATCH)
+                    .enumerate()
+                    .map(|(c, part)| {
+                        let p = Params {
+                            first: u32::from(k == 0),
+                            chunk_first: u32::from(c == 0),
+                            stride: if k == 0 { stride as u32 } else { 13 },
+                            rec_suns: if k == 0 { env.suns.len() as u32 } else { 0 },
+                            directions: part.len() as u32,
+                            ..params
+                        };
+                        let uniform = OrdersPass::uniform(ctx, &p, part);
+                        bind_buffers(
+                            ctx,
+                            "orders gather",
+                            &self.layout,
+                            &[
+                                &uniform,
+                                &lights_buf,
+                                grid.buffer(),
+                                shadow.buffer(),
+                                &rec[0],
+                                &rec[1],
+                                &media,
+                                &rw,
+                            ],
+                        )
+                    })
+                    .collect();
+                self.dispatch_each(ctx, "orders gather", &self.gather, &binds, groups);
+            }
+            let [spare, last] = rec;
+            MediaBuffer {
+                media,
+                last,
+                spare,
+                params,
+                cells,
+                dims,
+            }
+        })
+    }
+
+    /// Adds to `media` the diffusion of the light after its gathered orders (module docs),
+    /// solved with `opts` (submitted). Nothing to add when the medium does not scatter.
+    pub fn diffuse(
+        &self,
+        ctx: &GpuContext,
+        grid: &GridBuffer,
+        shadow: &EnvShadow,
+        media: &MediaBuffer,
+        opts: &GridSolveOptions,
+    ) -> Result<(), GpuError> {
+        if media.params.sigma_tr <= 0.0 || media.params.albedo <= 0.0 {
+            return Ok(());
+        }
+        let n = media.len();
+        let words = (ROW * n + 24) as u64;
+        ctx.check_storage_size("the orders' diffusion", 4 * words)?;
+        let groups = cell_groups(ctx, n)?;
+        // An iteration loops over the cells three times (256 invocations) and reduces
+        // twice (8 rounds each).
+        let per_iteration = 3 * n.div_ceil(256) + 20;
+        let chunk = u32::try_from((CG_LOOP_BUDGET / per_iteration).max(1)).unwrap_or(u32::MAX);
+        let params = Params {
+            stride: 13,
+            max_iterations: opts.max_iterations,
+            chunk,
+            tolerance: opts.tolerance as f32,
+            ..media.params
+        };
+        let mut kept = self.work.lock().map_err(|_| GpuError::Gpu {
+            during: "the orders' diffusion",
+            reason: "a previous solve panicked".into(),
+        })?;
+        ctx.scoped("the orders' diffusion", || {
+            let work = match kept.take() {
+                Some((m, w)) if m == n => w,
+                _ => ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("orders' diffusion"),
+                    size: 4 * words,
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                }),
+            };
+            let uniform = OrdersPass::uniform(ctx, &params, &[]);
+            let dummy = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("orders' unused"),
+                size: 16,
+                usage: wgpu::BufferUsages::STORAGE,
+                mapped_at_creation: false,
+            });
+            let buffers = [
+                &uniform,
+                &dummy,
+                grid.buffer(),
+                shadow.buffer(),
+                &media.last,
+                &media.spare,
+                &media.media,
+                &work,
+            ];
+            self.dispatch(ctx, "orders system", &self.system, &buffers, groups, 1);
+            self.dispatch(ctx, "orders cg", &self.cg_start, &buffers, [3, 1, 1], 1);
+            let times = opts.max_iterations.div_ceil(chunk);
+            self.dispatch(
+                ctx,
+                "orders cg",
+                &self.cg_iterate,
+                &buffers,
+                [3, 1, 1],
+                times,
+            );
+            self.dispatch(ctx, "orders finish", &self.finish, &buffers, groups, 1);
+            *kept = Some((n, work));
+        })
+    }
+
+    /// How the last [`OrdersPass::diffuse`] ended (a wait); `None` before the first.
+    pub fn solve_stats(&self, ctx: &GpuContext) -> Result<Option<OrdersSolve>, GpuError> {
+        let kept = self.work.lock().map_err(|_| GpuError::Gpu {
+            during: "the orders' diffusion",
+            reason: "a previous solve panicked".into(),
+        })?;
+        let Some((n, work)) = kept.as_ref() else {
+            return Ok(None);
+        };
+        let words: Vec<f32> = bytemuck::pod_collect_to_vec(&ctx.read_buffer(work)?);
+        let mut out = OrdersSolve::default();
+        for c in 0..3 {
+            let at = ROW * n + 8 * c;
+            out.iterations = out.iterations.max(words[at] as u32);
+            out.residual = out.residual.max(f64::from(words[at + 1]));
+        }
+        Ok(Some(out))
+    }
+
+    /// Adds `J_ms = Ω (L⁰ − g L¹·d + Σ_{l=2,3} g^l c_lm Y_lm(−d))` of `media` to every voxel of `grid` with smoke, the
+    /// camera at `eye` (submitted). Refuses a grid other than `media`'s and a non-finite
+    /// eye.
+    pub fn apply(
+        &self,
+        ctx: &GpuContext,
+        grid: &GridBuffer,
+        shadow: &EnvShadow,
+        media: &MediaBuffer,
+        eye: [f64; 3],
+    ) -> Result<(), GpuError> {
+        if grid.dims() != media.dims {
+            return Err(GpuError::Input(format!(
+                "the cells are of a {:?} grid, not of this {:?} one",
+                media.dims,
+                grid.dims()
+            )));
+        }
+        if !eye.iter().all(|c| c.is_finite()) {
+            return Err(GpuError::Input(format!("the eye {eye:?} is not finite")));
+        }
+        if media.params.albedo == 0.0 || media.dims.contains(&0) {
+            return Ok(());
+        }
+        let groups = voxel_groups(ctx, media.dims, SIDE)?;
+        let min = grid.bbox().min;
+        let params = Params {
+            eye: [0, 1, 2].map(|a| (eye[a] - min[a]) as f32),
+            ..media.params
+        };
+        ctx.scoped("the orders' light per voxel", || {
+            let uniform = OrdersPass::uniform(ctx, &params, &[]);
+            let unused = || {
+                ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("orders' unused"),
+                    size: 16,
+                    usage: wgpu::BufferUsages::STORAGE,
+                    mapped_at_creation: false,
+                })
+            };
+            let (ro, rw) = (unused(), unused());
+            self.dispatch(
+                ctx,
+                "orders apply",
+                &self.apply,
+                &[
+                    &uniform,
+                    &ro,
+                    grid.buffer(),
+                    shadow.buffer(),
+                    &media.last,
+                    &media.spare,
+                    &media.media,
+                    &rw,
+                ],
+                groups,
+                1,
+            );
+        })
+    }
+
+    /// The three steps in a row: [`OrdersPass::gather`], [`OrdersPass::diffuse`],
+    /// [`OrdersPass::apply`] (what the renderer runs; submitted). Nothing is added when
+    /// the medium does not scatter (`σt ≤ 0` or albedo 0).
+    #[allow(clippy::too_many_arguments)]
+    pub fn run_on(
+        &self,
+        ctx: &GpuContext,
+        grid: &GridBuffer,
+        shadow: &EnvShadow,
+        light: &RgbSh,
+        env: &Environment,
+        lights: &LightsPass,
+        medium: &Medium,
+        eye: [f64; 3],
+        (factor, orders): (usize, usize),
+        opts: &GridSolveOptions,
+    ) -> Result<(), GpuError> {
+        if coefficients(medium).is_none() || grid.dims().contains(&0) {
+            return Ok(());
+        }
+        let media = self.gather(
+            ctx, grid, shadow, light, env, lights, medium, factor, orders,
+        )?;
+        self.diffuse(ctx, grid, shadow, &media, opts)?;
+        self.apply(ctx, grid, shadow, &media, eye)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn params_match_the_wgsl_layout() {
+        assert_eq!(std::mem::offset_of!(Params, chunk_first), 188);
+        assert_eq!(std::mem::size_of::<Params>(), 192 + 64);
+        assert_eq!(std::mem::offset_of!(Params, dims), 48);
+        assert_eq!(std::mem::offset_of!(Params, cell), 80);
+        assert_eq!(std::mem::offset_of!(Params, g), 96);
+        assert_eq!(std::mem::offset_of!(Params, node_min), 128);
+        assert_eq!(std::mem::offset_of!(Params, nodes), 160);
+        assert_eq!(std::mem::offset_of!(Params, env), 192);
+    }
+
+    #[test]
+    fn the_shader_keeps_the_cpu_constants() {
+        use crate::grid_diffusion::{T_MIN, THIN};
+        assert!(SHADER.contains(&format!("const T_MIN: f32 = {T_MIN:e};")));
+        assert!(SHADER.contains(&format!("const THIN: f32 = {THIN:e};")));
+        assert!(SHADER.contains(&format!(
+            "rule: array<vec4<f32>, {DIRECTIONS_PER_DISPATCH}>"
+        )));
+    }
+}
