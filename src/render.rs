@@ -231,9 +231,12 @@ pub fn run(mut a: RenderArgs) -> Result<()> {
             },
             a.sh_order,
             if a.multiple {
-                "single + multiple scattering"
+                format!(
+                    "single + multiple scattering ({})",
+                    diffusion_name(a.diffusion)
+                )
             } else {
-                "single scattering"
+                "single scattering".into()
             },
             if a.residual { ", residual" } else { "" }
         );
