@@ -26,7 +26,9 @@
 //! recurrence residual keeps falling below that; the tests bound the difference from the
 //! CPU's `f64` solve by the condition number they compute.
 
-use super::{GpuContext, GpuError, SourceBuffer, bind_buffers, buffer_init};
+use super::{
+    ComputeLayout, GpuContext, GpuError, SourceBuffer, bind_buffers, buffer_init, compute_layout,
+};
 use crate::Medium;
 use crate::diffusion::{Coefficients, Operators, SolveOptions, Sources};
 use std::f64::consts::PI;
@@ -261,47 +263,18 @@ pub struct DiffusionPass {
 impl DiffusionPass {
     /// Compiles the shader's entry points, which share one bind group layout.
     pub fn new(ctx: &GpuContext) -> Result<DiffusionPass, GpuError> {
-        let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let uniform = wgpu::BindGroupLayoutEntry {
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Uniform,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            ..storage(0, true)
-        };
         ctx.scoped("diffusion pipeline creation", || {
             let d = &ctx.device;
-            let layout = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("diffusion"),
-                entries: &[
-                    uniform,
-                    storage(1, false),
-                    storage(2, false),
-                    storage(3, true),
-                    storage(4, true),
-                    storage(5, true),
-                    storage(6, true),
-                ],
-            });
-            let pipeline_layout = d.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("diffusion"),
-                bind_group_layouts: &[Some(&layout)],
-                immediate_size: 0,
-            });
-            let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("diffusion"),
-                source: wgpu::ShaderSource::Wgsl(SHADER.into()),
-            });
+            let ComputeLayout {
+                layout,
+                pipeline_layout,
+                module,
+            } = compute_layout(
+                d,
+                "diffusion",
+                SHADER,
+                &[false, false, true, true, true, true],
+            );
             let pipeline = |entry: &'static str| {
                 d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                     label: Some(entry),

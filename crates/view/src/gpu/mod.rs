@@ -767,6 +767,58 @@ fn block_on<F: Future>(f: F) -> F::Output {
     pollster::block_on(f)
 }
 
+/// What a compute pass with one explicit bind group compiles before its pipelines.
+struct ComputeLayout {
+    layout: wgpu::BindGroupLayout,
+    pipeline_layout: wgpu::PipelineLayout,
+    module: wgpu::ShaderModule,
+}
+
+/// The bind group layout of a compute pass — binding 0 a uniform buffer, binding `i ≥ 1`
+/// a storage buffer, read-only where `read_only[i − 1]` — the pipeline layout over it and
+/// the module of `source`, all labelled `label`.
+fn compute_layout(
+    d: &wgpu::Device,
+    label: &'static str,
+    source: &'static str,
+    read_only: &[bool],
+) -> ComputeLayout {
+    let buffer = |binding: usize, ty| wgpu::BindGroupLayoutEntry {
+        binding: binding as u32,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    };
+    let entries: Vec<wgpu::BindGroupLayoutEntry> =
+        std::iter::once(buffer(0, wgpu::BufferBindingType::Uniform))
+            .chain(read_only.iter().enumerate().map(|(i, &read_only)| {
+                buffer(i + 1, wgpu::BufferBindingType::Storage { read_only })
+            }))
+            .collect();
+    let layout = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some(label),
+        entries: &entries,
+    });
+    let pipeline_layout = d.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(label),
+        bind_group_layouts: &[Some(&layout)],
+        immediate_size: 0,
+    });
+    let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(label),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    });
+    ComputeLayout {
+        layout,
+        pipeline_layout,
+        module,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

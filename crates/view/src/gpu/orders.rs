@@ -35,7 +35,10 @@
 
 use super::env_pass::EnvShadow;
 use super::lights_pass::LightsPass;
-use super::{GpuContext, GpuError, GridBuffer, bind_buffers, buffer_init, voxel_groups};
+use super::{
+    ComputeLayout, GpuContext, GpuError, GridBuffer, bind_buffers, buffer_init, compute_layout,
+    voxel_groups,
+};
 use crate::env::Environment;
 use crate::grid_diffusion::{GATHER_LATER_THETA, GATHER_THETA, GridSolveOptions, HIGH};
 use crate::lighting::single::RgbSh;
@@ -219,48 +222,18 @@ fn cell_groups(ctx: &GpuContext, n: usize) -> Result<[u32; 3], GpuError> {
 impl OrdersPass {
     /// Compiles the shader's entry points.
     pub fn new(ctx: &GpuContext) -> Result<OrdersPass, GpuError> {
-        let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let uniform = wgpu::BindGroupLayoutEntry {
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Uniform,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            ..storage(0, true)
-        };
         ctx.scoped("orders pipeline creation", || {
             let d = &ctx.device;
-            let layout = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("orders"),
-                entries: &[
-                    uniform,
-                    storage(1, true),
-                    storage(2, false),
-                    storage(3, true),
-                    storage(4, true),
-                    storage(5, false),
-                    storage(6, false),
-                    storage(7, false),
-                ],
-            });
-            let pipeline_layout = d.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("orders"),
-                bind_group_layouts: &[Some(&layout)],
-                immediate_size: 0,
-            });
-            let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("orders"),
-                source: wgpu::ShaderSource::Wgsl(SHADER.into()),
-            });
+            let ComputeLayout {
+                layout,
+                pipeline_layout,
+                module,
+            } = compute_layout(
+                d,
+                "orders",
+                SHADER,
+                &[true, false, true, true, false, false, false],
+            );
             let pipeline = |entry: &'static str| {
                 d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                     label: Some(entry),
