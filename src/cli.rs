@@ -503,13 +503,14 @@ pub struct RenderCli {
     spp: u32,
     /// Choose the knobs automatically: the most accurate setting of a tradeoff sweep's
     /// Pareto front that renders within T milliseconds (the sweep's machine and size).
-    /// Multiple scattering then uses the diffusion the sweep times, `centers`, unless
-    /// --diffusion says otherwise (and then the budget does not account for it).
+    /// The choice sets the knobs the sweep turned, the multiple-scattering model
+    /// (--diffusion) among them; a sweep written before its `diffusion` knob timed
+    /// `centers`, which it then uses.
     #[arg(long, value_name = "T", conflicts_with_all = ["target_error", "reference", "gpu"])]
     budget_ms: Option<f64>,
     /// Choose the knobs automatically: the fastest setting of the front whose error
-    /// against the sweep's best setting is at most E (rel RMS, 0.02 = 2 %). Multiple
-    /// scattering uses `--diffusion centers` as with --budget-ms.
+    /// against the sweep's best setting is at most E (rel RMS, 0.02 = 2 %); the knobs are
+    /// set as with --budget-ms.
     #[arg(long, value_name = "E", conflicts_with_all = ["reference", "gpu"])]
     target_error: Option<f64>,
     /// The sweep for --budget-ms/--target-error (`haze tradeoff`'s tradeoff.json); without
@@ -731,6 +732,7 @@ impl ViewCli {
                 residual: !self.no_residual,
                 sky_per_voxel: !self.sky_at_centers,
                 orders: !self.ms_at_centers,
+                orders_model: haze_view::render::MsDiffusion::DEFAULT,
                 exposure: self.exposure,
             },
             play_for: self.play_for,
@@ -792,14 +794,10 @@ impl RenderCli {
                 (None, None) => None,
             },
             tradeoff: self.tradeoff,
-            // A sweep times the centers' diffusion (its `multiple` and `cg_iterations`
-            // knobs), so a knob chosen for a budget renders with it unless asked otherwise;
-            // the GPU's orders are lit by the environment pass's grid (`--source grid`).
+            // The GPU's orders are lit by the environment pass's grid (`--source grid`);
+            // a knob chosen for a budget brings its own diffusion (the sweep's knob).
             diffusion: self.diffusion.unwrap_or(
-                if self.budget_ms.is_some()
-                    || self.target_error.is_some()
-                    || (self.gpu && !matches!(self.source, SourceArg::Grid))
-                {
+                if self.gpu && !matches!(self.source, SourceArg::Grid) {
                     haze_view::render::MsDiffusion::Centers
                 } else {
                     haze_view::render::MsDiffusion::DEFAULT
@@ -1124,9 +1122,9 @@ mod tests {
     }
 
     /// The CPU and the GPU render with the gathered orders by default (the GPU's with the
-    /// sky per voxel, `--source grid`, which lights them); a knob chosen for a budget or
-    /// a target error (timed with the centers' diffusion) uses the centers; an explicit
-    /// `--diffusion` wins everywhere.
+    /// sky per voxel, `--source grid`, which lights them), and so does a render for a
+    /// budget or a target error until the choice sets the sweep's `diffusion` knob
+    /// (`render::apply_choice`); an explicit `--diffusion` is parsed as given.
     #[test]
     fn the_diffusion_follows_the_renderer_and_the_goal() {
         assert_eq!(render_args(&[]).diffusion, MsDiffusion::DEFAULT);
@@ -1142,15 +1140,15 @@ mod tests {
         );
         assert_eq!(
             render_args(&["--budget-ms", "500"]).diffusion,
-            MsDiffusion::Centers
+            MsDiffusion::DEFAULT
         );
         assert_eq!(
             render_args(&["--target-error", "0.02"]).diffusion,
-            MsDiffusion::Centers
+            MsDiffusion::DEFAULT
         );
         assert_eq!(
-            render_args(&["--budget-ms", "500", "--diffusion", "orders"]).diffusion,
-            MsDiffusion::DEFAULT
+            render_args(&["--budget-ms", "500", "--diffusion", "centers"]).diffusion,
+            MsDiffusion::Centers
         );
     }
 }

@@ -95,6 +95,9 @@ pub struct Knobs {
     /// voxel, which lights them; `haze render --diffusion orders`), else by paper A's
     /// diffusion at the RBF centers.
     pub orders: bool,
+    /// The explicit orders' cells and count ([`MsDiffusion::DEFAULT`] unless a budget's
+    /// choice named others).
+    pub orders_model: MsDiffusion,
     pub exposure: f64,
 }
 
@@ -137,7 +140,7 @@ impl Knobs {
                 },
                 // The explicit orders take the sky per voxel (on the GPU it lights them).
                 diffusion: if self.orders && self.sky_per_voxel {
-                    MsDiffusion::DEFAULT
+                    self.orders_model
                 } else {
                     MsDiffusion::Centers
                 },
@@ -361,6 +364,7 @@ mod tests {
             residual: true,
             sky_per_voxel: true,
             orders: true,
+            orders_model: MsDiffusion::DEFAULT,
             exposure: 1.0,
         };
         let off = Knobs {
@@ -382,6 +386,15 @@ mod tests {
             ..on.clone()
         };
         assert_eq!(diffusion(&centers), MsDiffusion::Centers);
+        let cheaper = MsDiffusion::Orders {
+            factor: 3,
+            orders: 3,
+        };
+        let chosen = Knobs {
+            orders_model: cheaper,
+            ..on.clone()
+        };
+        assert_eq!(diffusion(&chosen), cheaper);
     }
 
     #[test]
