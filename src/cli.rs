@@ -607,6 +607,9 @@ pub struct ViewCli {
     /// target error uses it (the sweep times it).
     #[arg(long)]
     ms_at_centers: bool,
+    /// The explicit orders' model an asset's stored choice names (not a flag).
+    #[arg(skip)]
+    orders_model: Option<haze_view::render::MsDiffusion>,
     /// Start with the knobs (SH order, slices, multiple scattering, residual, render
     /// size) of the most accurate setting of a tradeoff sweep's front that renders within
     /// T milliseconds; prints the choice and why.
@@ -695,6 +698,30 @@ impl ViewCli {
             self.no_residual = true;
             used.push("no residual".to_string());
         }
+        // The multiple-scattering model (with multiple scattering on), unless the command
+        // line asked for the centers'.
+        let multiple = knobs.get("multiple").and_then(|v| v.as_bool()) != Some(false);
+        let model = knobs
+            .get("diffusion")
+            .filter(|_| multiple)
+            .and_then(|v| v.as_str())
+            .and_then(|v| v.parse::<haze_view::render::MsDiffusion>().ok());
+        match model {
+            Some(haze_view::render::MsDiffusion::Centers) if !self.ms_at_centers => {
+                self.ms_at_centers = true;
+                used.push("multiple scattering by the centers' diffusion".to_string());
+            }
+            Some(m @ haze_view::render::MsDiffusion::Orders { .. })
+                if !self.ms_at_centers && m != haze_view::render::MsDiffusion::DEFAULT =>
+            {
+                self.orders_model = Some(m);
+                used.push(format!(
+                    "multiple scattering by {}",
+                    crate::render::diffusion_name(m)
+                ));
+            }
+            _ => {}
+        }
         if !used.is_empty() {
             eprintln!(
                 "{}: starting with the asset's choice ({}): {why}",
@@ -732,7 +759,9 @@ impl ViewCli {
                 residual: !self.no_residual,
                 sky_per_voxel: !self.sky_at_centers,
                 orders: !self.ms_at_centers,
-                orders_model: haze_view::render::MsDiffusion::DEFAULT,
+                orders_model: self
+                    .orders_model
+                    .unwrap_or(haze_view::render::MsDiffusion::DEFAULT),
                 exposure: self.exposure,
             },
             play_for: self.play_for,

@@ -573,7 +573,7 @@ pub(crate) fn smoke_bbox(density: &Volume) -> Bbox {
 }
 
 /// `--diffusion`'s spelling of `d`.
-fn diffusion_name(d: MsDiffusion) -> String {
+pub(crate) fn diffusion_name(d: MsDiffusion) -> String {
     match d {
         MsDiffusion::Centers => "centers".into(),
         MsDiffusion::Grid { factor } => format!("grid:{factor}"),

@@ -461,6 +461,41 @@ fn a_view_budget_is_stored_in_the_asset_and_the_viewer_starts_with_it() {
         );
     }
     assert!(!stdout.is_empty());
+    // A stored choice of the cheaper explicit orders (a sweep whose every setting had
+    // them): the viewer starts with that model.
+    let mut cheaper = doc.clone();
+    for e in cheaper["settings"].as_array_mut().unwrap() {
+        e["knobs"]["diffusion"] = Value::from("orders:3:3");
+        e["knobs"]["multiple"] = Value::Bool(true);
+    }
+    let file2 = dir.path().join("cheaper.json");
+    std::fs::write(&file2, cheaper.to_string()).unwrap();
+    ok(&[
+        "bake",
+        &vol,
+        "--out",
+        o,
+        "--rbfs",
+        "8",
+        "--no-teleport",
+        "--view-budget-ms",
+        "1e9",
+        "--tradeoff",
+        file2.to_str().unwrap(),
+    ]);
+    let (_, err) = ok(&[
+        "view",
+        o,
+        "--no-window",
+        "--play-for",
+        "0.2",
+        "--lighting",
+        "cpu",
+    ]);
+    assert!(
+        err.contains("starting with the asset's choice (multiple scattering by orders:3:3)"),
+        "{err}"
+    );
     fails(
         &[
             "bake",

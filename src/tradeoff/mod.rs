@@ -700,6 +700,8 @@ mod tests {
     struct Flat {
         knobs: Vec<Knob>,
         calls: f64,
+        /// A `model` value the renderer cannot run.
+        cannot: Option<usize>,
     }
 
     impl Lab for Flat {
@@ -726,6 +728,12 @@ mod tests {
         fn reference(&mut self, _spp: u32) -> Result<Image> {
             unreachable!("not asked for")
         }
+        fn runnable(&self, s: &[usize]) -> std::result::Result<Setting, String> {
+            match self.cannot {
+                Some(v) if s[0] == v => Err(format!("model {v} cannot run")),
+                _ => Ok(s.to_vec()),
+            }
+        }
     }
 
     fn flat() -> Flat {
@@ -735,6 +743,7 @@ mod tests {
                 Knob::new("stored", vec![json!(0), json!(1)], 0, 1).render_neutral(),
             ],
             calls: 0.0,
+            cannot: None,
         }
     }
 
@@ -795,5 +804,31 @@ mod tests {
         assert!(close(&stored[0]["vs_best"], 0.01 / 1.11), "{}", stored[0]);
         // Its render time is its twin's (the defaults').
         assert_eq!(stored[1]["ms"], stored[0]["ms"]);
+    }
+
+    /// A setting the renderer cannot run is not measured: the sweep lists it with why,
+    /// and the rest of the sweep goes on.
+    #[test]
+    fn settings_that_cannot_run_are_listed_not_measured() {
+        let plan = Plan {
+            cheaper_steps: 3,
+            accurate_steps: 0,
+            factorial: None,
+        };
+        let bar = indicatif::ProgressBar::hidden();
+        let mut lab = Flat {
+            cannot: Some(0),
+            ..flat()
+        };
+        let sweep = run_sweep(&mut lab, plan, Vec::new(), None, &bar).unwrap();
+        assert!(sweep.measured.iter().all(|m| m.setting[0] != 0));
+        assert!(sweep.measured.iter().any(|m| m.setting == [1, 1]));
+        assert_eq!(
+            sweep.skipped,
+            vec![(vec![0, 0], "model 0 cannot run".to_string())]
+        );
+        let doc = sweep.to_json(Path::new("x"), None, json!({}), "CPU");
+        assert_eq!(doc["skipped"][0]["knobs"], json!({"model": 0, "stored": 0}));
+        assert_eq!(doc["skipped"][0]["why"], "model 0 cannot run");
     }
 }
