@@ -103,17 +103,25 @@ pub struct Knobs {
 
 impl Knobs {
     /// The rendering knobs in words ("SH order 2, 1 slice per voxel, single scattering,
-    /// residual on").
+    /// residual on"; multiple scattering names its model, `--diffusion`'s spelling, when
+    /// it is not the default).
     pub fn describe(&self) -> String {
         format!(
             "SH order {}, {} slice{} per voxel, {}, residual {}",
             self.sh_order,
             self.slices,
             if self.slices == 1.0 { "" } else { "s" },
-            if self.multiple {
-                "single + multiple scattering"
+            if !self.multiple {
+                "single scattering".to_string()
+            } else if !(self.orders && self.sky_per_voxel) {
+                "single + multiple scattering (centers)".to_string()
+            } else if self.orders_model != MsDiffusion::DEFAULT {
+                format!(
+                    "single + multiple scattering ({})",
+                    crate::render::diffusion_name(self.orders_model)
+                )
             } else {
-                "single scattering"
+                "single + multiple scattering".to_string()
             },
             if self.residual { "on" } else { "off" }
         ) + if self.sky_per_voxel {
@@ -377,6 +385,16 @@ mod tests {
         assert_eq!(source(&off), EnvSource::Centers);
         assert!(!on.describe().contains("sky"), "{}", on.describe());
         assert!(off.describe().ends_with(", sky at the centers"));
+        assert!(
+            on.describe()
+                .contains("2 slices per voxel, single + multiple scattering, residual on"),
+            "{}",
+            on.describe()
+        );
+        assert!(
+            off.describe()
+                .contains("single + multiple scattering (centers)")
+        );
         // The explicit orders need the sky per voxel; their switch picks the diffusion.
         let diffusion = |k: &Knobs| k.scene(env.clone()).unwrap().opts.diffusion;
         assert_eq!(diffusion(&on), MsDiffusion::DEFAULT);
@@ -395,6 +413,11 @@ mod tests {
             ..on.clone()
         };
         assert_eq!(diffusion(&chosen), cheaper);
+        assert!(
+            chosen
+                .describe()
+                .contains("multiple scattering (orders:3:3)")
+        );
     }
 
     #[test]
