@@ -75,7 +75,7 @@ const SIZE_QUICK: [f64; 2] = [0.5, 1.0];
 /// diffusion at the centers, then the explicit orders from few orders on large cells to
 /// the renderers' default ([`MsDiffusion::DEFAULT`], the most accurate).
 const DIFFUSION: [&str; 4] = ["centers", "orders:4:2", "orders:3:3", "orders:auto:4"];
-const DIFFUSION_QUICK: [&str; 2] = ["centers", "orders:auto:4"];
+const DIFFUSION_QUICK: [&str; 3] = ["centers", "orders:4:2", "orders:auto:4"];
 /// The knobs' positions in a setting ([`SmokeLab::decode`]'s order).
 const SOURCE: usize = 6;
 const MULTIPLE: usize = 10;
