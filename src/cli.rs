@@ -150,7 +150,9 @@ pub enum Command {
     /// For smoke (a volume, a sequence's --frame or a .haze asset's frame) each setting is
     /// fitted (RBF count, teleportation), its residual stored (--residual-error, bits) and
     /// rendered on the CPU by compensated ray marching (SH order, exp, source placement, CG
-    /// iterations, slices, render size, multiple scattering, residual) under the lighting
+    /// iterations, slices, render size, multiple scattering and its model `diffusion` —
+    /// centers, orders:4:2, orders:3:3, orders:auto:4 as --diffusion spells them —,
+    /// residual) under the lighting
     /// and camera flags of `haze render`; every knob is turned one at a time around the
     /// defaults, then greedy chains of changes from the defaults towards speed and towards
     /// accuracy give the Pareto front its combinations. For a fogmap (.png, .exr, or
@@ -503,13 +505,14 @@ pub struct RenderCli {
     spp: u32,
     /// Choose the knobs automatically: the most accurate setting of a tradeoff sweep's
     /// Pareto front that renders within T milliseconds (the sweep's machine and size).
-    /// Multiple scattering then uses the diffusion the sweep times, `centers`, unless
-    /// --diffusion says otherwise (and then the budget does not account for it).
+    /// The choice sets the knobs the sweep turned, the multiple-scattering model
+    /// (--diffusion) among them; a sweep written before its `diffusion` knob timed
+    /// `centers`, which it then uses.
     #[arg(long, value_name = "T", conflicts_with_all = ["target_error", "reference", "gpu"])]
     budget_ms: Option<f64>,
     /// Choose the knobs automatically: the fastest setting of the front whose error
-    /// against the sweep's best setting is at most E (rel RMS, 0.02 = 2 %). Multiple
-    /// scattering uses `--diffusion centers` as with --budget-ms.
+    /// against the sweep's best setting is at most E (rel RMS, 0.02 = 2 %); the knobs are
+    /// set as with --budget-ms.
     #[arg(long, value_name = "E", conflicts_with_all = ["reference", "gpu"])]
     target_error: Option<f64>,
     /// The sweep for --budget-ms/--target-error (`haze tradeoff`'s tradeoff.json); without
@@ -606,6 +609,9 @@ pub struct ViewCli {
     /// target error uses it (the sweep times it).
     #[arg(long)]
     ms_at_centers: bool,
+    /// The explicit orders' model an asset's stored choice names (not a flag).
+    #[arg(skip)]
+    orders_model: Option<haze_view::render::MsDiffusion>,
     /// Start with the knobs (SH order, slices, multiple scattering, residual, render
     /// size) of the most accurate setting of a tradeoff sweep's front that renders within
     /// T milliseconds; prints the choice and why.
@@ -694,6 +700,30 @@ impl ViewCli {
             self.no_residual = true;
             used.push("no residual".to_string());
         }
+        // The multiple-scattering model (with multiple scattering on), unless the command
+        // line asked for the centers'.
+        let multiple = knobs.get("multiple").and_then(|v| v.as_bool()) != Some(false);
+        let model = knobs
+            .get("diffusion")
+            .filter(|_| multiple)
+            .and_then(|v| v.as_str())
+            .and_then(|v| v.parse::<haze_view::render::MsDiffusion>().ok());
+        match model {
+            Some(haze_view::render::MsDiffusion::Centers) if !self.ms_at_centers => {
+                self.ms_at_centers = true;
+                used.push("multiple scattering by the centers' diffusion".to_string());
+            }
+            Some(m @ haze_view::render::MsDiffusion::Orders { .. })
+                if !self.ms_at_centers && m != haze_view::render::MsDiffusion::DEFAULT =>
+            {
+                self.orders_model = Some(m);
+                used.push(format!(
+                    "multiple scattering by {}",
+                    crate::render::diffusion_name(m)
+                ));
+            }
+            _ => {}
+        }
         if !used.is_empty() {
             eprintln!(
                 "{}: starting with the asset's choice ({}): {why}",
@@ -731,6 +761,9 @@ impl ViewCli {
                 residual: !self.no_residual,
                 sky_per_voxel: !self.sky_at_centers,
                 orders: !self.ms_at_centers,
+                orders_model: self
+                    .orders_model
+                    .unwrap_or(haze_view::render::MsDiffusion::DEFAULT),
                 exposure: self.exposure,
             },
             play_for: self.play_for,
@@ -792,14 +825,10 @@ impl RenderCli {
                 (None, None) => None,
             },
             tradeoff: self.tradeoff,
-            // A sweep times the centers' diffusion (its `multiple` and `cg_iterations`
-            // knobs), so a knob chosen for a budget renders with it unless asked otherwise;
-            // the GPU's orders are lit by the environment pass's grid (`--source grid`).
+            // The GPU's orders are lit by the environment pass's grid (`--source grid`);
+            // a knob chosen for a budget brings its own diffusion (the sweep's knob).
             diffusion: self.diffusion.unwrap_or(
-                if self.budget_ms.is_some()
-                    || self.target_error.is_some()
-                    || (self.gpu && !matches!(self.source, SourceArg::Grid))
-                {
+                if self.gpu && !matches!(self.source, SourceArg::Grid) {
                     haze_view::render::MsDiffusion::Centers
                 } else {
                     haze_view::render::MsDiffusion::DEFAULT
@@ -1124,9 +1153,9 @@ mod tests {
     }
 
     /// The CPU and the GPU render with the gathered orders by default (the GPU's with the
-    /// sky per voxel, `--source grid`, which lights them); a knob chosen for a budget or
-    /// a target error (timed with the centers' diffusion) uses the centers; an explicit
-    /// `--diffusion` wins everywhere.
+    /// sky per voxel, `--source grid`, which lights them), and so does a render for a
+    /// budget or a target error until the choice sets the sweep's `diffusion` knob
+    /// (`render::apply_choice`); an explicit `--diffusion` is parsed as given.
     #[test]
     fn the_diffusion_follows_the_renderer_and_the_goal() {
         assert_eq!(render_args(&[]).diffusion, MsDiffusion::DEFAULT);
@@ -1142,15 +1171,15 @@ mod tests {
         );
         assert_eq!(
             render_args(&["--budget-ms", "500"]).diffusion,
-            MsDiffusion::Centers
+            MsDiffusion::DEFAULT
         );
         assert_eq!(
             render_args(&["--target-error", "0.02"]).diffusion,
-            MsDiffusion::Centers
+            MsDiffusion::DEFAULT
         );
         assert_eq!(
-            render_args(&["--budget-ms", "500", "--diffusion", "orders"]).diffusion,
-            MsDiffusion::DEFAULT
+            render_args(&["--budget-ms", "500", "--diffusion", "centers"]).diffusion,
+            MsDiffusion::Centers
         );
     }
 }

@@ -322,7 +322,7 @@ fn choose_knobs(a: &mut RenderArgs, goal: Goal) -> Result<()> {
 }
 
 /// The knobs of a render (the others are the bake's).
-const RENDER_KNOBS: [&str; 8] = [
+const RENDER_KNOBS: [&str; 9] = [
     "sh_order",
     "exp",
     "source",
@@ -331,6 +331,7 @@ const RENDER_KNOBS: [&str; 8] = [
     "size",
     "multiple",
     "residual",
+    "diffusion",
 ];
 
 fn is_asset(input: &Path) -> bool {
@@ -378,6 +379,12 @@ fn apply_choice(a: &mut RenderArgs, c: &choice::Choice, fit: bool) {
     if let Some(v) = choice::bool_knob(c, "residual") {
         a.residual = v;
     }
+    // The multiple-scattering model the chosen setting was measured with; a sweep
+    // without the knob (written before it) timed the centers' diffusion.
+    a.diffusion = match choice::str_knob(c, "diffusion") {
+        Some(v) => v.parse().unwrap_or(a.diffusion),
+        None => MsDiffusion::Centers,
+    };
     if let Some(v) = choice::f64_knob(c, "size") {
         a.width = ((a.width as f64 * v).round() as usize).max(8);
         a.height = ((a.height as f64 * v).round() as usize).max(8);
@@ -566,7 +573,7 @@ pub(crate) fn smoke_bbox(density: &Volume) -> Bbox {
 }
 
 /// `--diffusion`'s spelling of `d`.
-fn diffusion_name(d: MsDiffusion) -> String {
+pub(crate) fn diffusion_name(d: MsDiffusion) -> String {
     match d {
         MsDiffusion::Centers => "centers".into(),
         MsDiffusion::Grid { factor } => format!("grid:{factor}"),
@@ -629,8 +636,10 @@ mod tests {
     /// `value` alone is the fastest setting: the best (slow, exact), the defaults, and
     /// that change.
     fn front_decided_by(knob: &str, value: Value) -> Value {
-        let defaults = json!({"exp": "square", "source": "footprint", "cg_iterations": 20});
-        let best = json!({"exp": "square", "source": "footprint", "cg_iterations": 500});
+        let defaults = json!({"exp": "square", "source": "footprint", "cg_iterations": 20,
+                              "diffusion": "orders:auto:4"});
+        let best = json!({"exp": "square", "source": "footprint", "cg_iterations": 500,
+                          "diffusion": "orders:auto:4"});
         let mut changed = defaults.clone();
         changed[knob] = value;
         json!({
@@ -640,6 +649,8 @@ mod tests {
                 {"name": "exp", "values": ["square", "linear"], "default": "square", "best": "square"},
                 {"name": "source", "values": ["footprint", "center"], "default": "footprint", "best": "footprint"},
                 {"name": "cg_iterations", "values": [5, 20, 500], "default": 20, "best": 500},
+                {"name": "diffusion", "values": ["centers", "orders:3:3", "orders:auto:4"],
+                 "default": "orders:auto:4", "best": "orders:auto:4"},
             ],
             "settings": [
                 {"knobs": best, "ms": {"render": 300.0, "view": 100.0}, "error": 0.0},
@@ -649,12 +660,14 @@ mod tests {
         })
     }
 
-    /// Each of the exp variant, the source placement and the CG iterations, when it is
-    /// the knob that meets the budget, is chosen and reaches the render's options.
+    /// Each of the exp variant, the source placement, the CG iterations and the
+    /// multiple-scattering model, when it is the knob that meets the budget, is chosen and
+    /// reaches the render's options; a sweep without the `diffusion` knob (which timed
+    /// the centers' diffusion) renders with the centers.
     #[test]
-    fn exp_source_and_cg_choices_reach_the_render() {
+    fn exp_source_cg_and_diffusion_choices_reach_the_render() {
         type Applied = fn(&RenderArgs) -> bool;
-        let cases: [(&str, Value, Applied); 3] = [
+        let cases: [(&str, Value, Applied); 5] = [
             ("exp", json!("linear"), |a| {
                 a.exp == ExpMethod::OptimalLinear
             }),
@@ -662,6 +675,16 @@ mod tests {
                 a.source_points == SourcePoints::Center
             }),
             ("cg_iterations", json!(5), |a| a.solve.max_iterations == 5),
+            ("diffusion", json!("centers"), |a| {
+                a.diffusion == MsDiffusion::Centers
+            }),
+            ("diffusion", json!("orders:3:3"), |a| {
+                a.diffusion
+                    == MsDiffusion::Orders {
+                        factor: 3,
+                        orders: 3,
+                    }
+            }),
         ];
         for (knob, value, applied) in cases {
             let doc = front_decided_by(knob, value.clone());
@@ -681,5 +704,29 @@ mod tests {
             let c = choice::choose(&doc, Goal::TargetError(0.015)).unwrap();
             assert_ne!(c.knobs[knob], value);
         }
+        let mut old = front_decided_by("exp", json!("linear"));
+        for s in old["settings"].as_array_mut().unwrap() {
+            s["knobs"].as_object_mut().unwrap().remove("diffusion");
+        }
+        let mut a = args();
+        apply_choice(
+            &mut a,
+            &choice::choose(&old, Goal::BudgetMs(150.0)).unwrap(),
+            true,
+        );
+        assert_eq!(a.diffusion, MsDiffusion::Centers);
+        // The reason names the model in words.
+        let c = choice::choose(
+            &front_decided_by("diffusion", json!("orders:3:3")),
+            Goal::BudgetMs(60.0),
+        )
+        .unwrap();
+        assert!(
+            c.reason.contains(
+                "multiple scattering by explicit orders (3 orders on cells of 3³ voxels)"
+            ),
+            "{}",
+            c.reason
+        );
     }
 }

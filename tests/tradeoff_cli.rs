@@ -102,7 +102,7 @@ fn a_quick_smoke_sweep_writes_its_front_and_plots_and_render_chooses_from_it() {
         "--height",
         "24",
         "--knobs",
-        "rbfs,sh_order,slices,multiple,residual",
+        "rbfs,sh_order,slices,multiple,residual,diffusion",
         "--reference",
         "--spp",
         "4",
@@ -113,8 +113,9 @@ fn a_quick_smoke_sweep_writes_its_front_and_plots_and_render_chooses_from_it() {
     assert_eq!(doc["kind"], "smoke");
     let settings = entries(&doc, "settings");
     // best + default + one at a time: rbfs 1, SH order 1 (order 6 alone is the best
-    // setting), slices 1, multiple 1, residual 1; the chains' steps depend on timings.
-    assert!(settings.len() >= 7, "{}", settings.len());
+    // setting), slices 1, multiple 1, residual 1, diffusion 1; the chains' steps depend
+    // on timings.
+    assert!(settings.len() >= 8, "{}", settings.len());
     let best = settings.iter().find(|s| s["why"] == "best").unwrap();
     assert_eq!(best["error"].as_f64().unwrap(), 0.0);
     // Single scattering alone loses light: a visible error against the best.
@@ -123,6 +124,21 @@ fn a_quick_smoke_sweep_writes_its_front_and_plots_and_render_chooses_from_it() {
         .find(|s| s["changed"] == "multiple=false")
         .unwrap();
     assert!(single["error"].as_f64().unwrap() > 1e-3);
+    // The default (and most accurate) multiple scattering is the explicit orders; paper
+    // A's diffusion at the centers is another picture.
+    let diffusion = doc["knobs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|k| k["name"] == "diffusion")
+        .unwrap();
+    assert_eq!(diffusion["default"], "orders:auto:4");
+    assert_eq!(diffusion["best"], "orders:auto:4");
+    let centers = settings
+        .iter()
+        .find(|s| s["changed"] == "diffusion=centers")
+        .unwrap();
+    assert!(centers["error"].as_f64().unwrap() > 1e-3, "{centers}");
     for s in settings {
         let ms = &s["ms"];
         assert!(ms["render"].as_f64().unwrap() > 0.0 && ms["bake"].as_f64().unwrap() > 0.0);
@@ -163,6 +179,14 @@ fn a_quick_smoke_sweep_writes_its_front_and_plots_and_render_chooses_from_it() {
     ]);
     assert!(
         err.contains("choice from") && err.contains("0.00 %"),
+        "{err}"
+    );
+    // The most accurate setting renders with its model, the explicit orders.
+    assert!(
+        err.lines()
+            .last()
+            .unwrap()
+            .contains("single + multiple scattering (orders:auto:4)"),
         "{err}"
     );
     let (_, err) = ok(&[
@@ -437,6 +461,41 @@ fn a_view_budget_is_stored_in_the_asset_and_the_viewer_starts_with_it() {
         );
     }
     assert!(!stdout.is_empty());
+    // A stored choice of the cheaper explicit orders (a sweep whose every setting had
+    // them): the viewer starts with that model.
+    let mut cheaper = doc.clone();
+    for e in cheaper["settings"].as_array_mut().unwrap() {
+        e["knobs"]["diffusion"] = Value::from("orders:3:3");
+        e["knobs"]["multiple"] = Value::Bool(true);
+    }
+    let file2 = dir.path().join("cheaper.json");
+    std::fs::write(&file2, cheaper.to_string()).unwrap();
+    ok(&[
+        "bake",
+        &vol,
+        "--out",
+        o,
+        "--rbfs",
+        "8",
+        "--no-teleport",
+        "--view-budget-ms",
+        "1e9",
+        "--tradeoff",
+        file2.to_str().unwrap(),
+    ]);
+    let (_, err) = ok(&[
+        "view",
+        o,
+        "--no-window",
+        "--play-for",
+        "0.2",
+        "--lighting",
+        "cpu",
+    ]);
+    assert!(
+        err.contains("starting with the asset's choice (multiple scattering by orders:3:3)"),
+        "{err}"
+    );
     fails(
         &[
             "bake",

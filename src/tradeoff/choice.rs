@@ -261,7 +261,36 @@ fn phrase(name: &str, v: &Value) -> String {
         ("teleport", ..) => "fitting without teleportation".into(),
         ("residual_error", ..) => format!("residual error {:.1}/255", 255.0 * n),
         ("quant_bits", ..) => format!("quantizing the residual to {x} bits"),
+        ("diffusion", Some(d), _) => diffusion_phrase(d),
         _ => format!("{name} {x}"),
+    }
+}
+
+/// A multiple-scattering model (`--diffusion`'s spelling) in words: "multiple
+/// scattering by explicit orders (4 orders)".
+fn diffusion_phrase(d: &str) -> String {
+    let mut parts = d.split(':');
+    match (parts.next(), parts.next(), parts.next()) {
+        (Some("centers"), ..) => {
+            "multiple scattering by paper A's diffusion at the RBF centers".into()
+        }
+        (Some("grid"), f, _) => format!(
+            "multiple scattering by diffusion on cells of {}³ voxels",
+            f.unwrap_or("2")
+        ),
+        (Some("orders"), f, k) => {
+            let k = k.unwrap_or("4");
+            let plural = if k == "1" { "" } else { "s" };
+            match f {
+                None | Some("auto") => {
+                    format!("multiple scattering by explicit orders ({k} order{plural})")
+                }
+                Some(f) => format!(
+                    "multiple scattering by explicit orders ({k} order{plural} on cells of {f}³ voxels)"
+                ),
+            }
+        }
+        _ => format!("diffusion {d}"),
     }
 }
 
@@ -272,7 +301,7 @@ fn context(doc: &Value, name: &str) -> Option<String> {
         .and_then(|m| m.get("light"))
         .and_then(Value::as_str);
     match name {
-        "multiple" | "cg_iterations" => {
+        "multiple" | "cg_iterations" | "diffusion" => {
             Some(format!("albedo {}", medium(doc, "albedo")?)).map(|a| {
                 match medium(doc, "sigma_t") {
                     Some(s) => format!("{a}, σt {s}"),

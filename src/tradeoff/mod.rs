@@ -42,6 +42,12 @@ pub trait Lab {
     fn measure(&mut self, s: &[usize]) -> Result<Sample>;
     /// The independent reference picture at the full size (`--reference`).
     fn reference(&mut self, spp: u32) -> Result<Image>;
+    /// The setting that renders `s`: `s` itself, or the nearest one the renderer can run
+    /// (two knob values that cannot go together are mapped as the command line maps
+    /// them), or `Err` saying why `s` cannot run.
+    fn runnable(&self, s: &[usize]) -> std::result::Result<Setting, String> {
+        Ok(s.to_vec())
+    }
 }
 
 /// Keeps only the knobs named in `only` (the others keep their default value alone).
@@ -121,6 +127,8 @@ pub struct Sweep {
     pub front: Vec<usize>,
     pub size: [usize; 2],
     pub reference_spp: Option<u32>,
+    /// Settings the renderer cannot run, with why.
+    pub skipped: Vec<(Setting, String)>,
 }
 
 /// How long a sweep may search for combinations.
@@ -170,41 +178,57 @@ pub fn run_sweep(
         }
         None => None,
     };
-    let mut measure =
-        |lab: &mut dyn Lab, s: Setting, why: Why, measured: &mut Vec<Measured>| -> Result<()> {
-            if seen.contains_key(&s) {
-                bar.inc(1);
-                return Ok(());
-            }
-            bar.set_message(describe_short(&knobs, &s, &default));
-            let sample = lab.measure(&s)?;
-            let (error, error_reference) = match measured.first() {
-                Some(b) => {
-                    let full = &b.sample.image;
-                    let img = resample(&sample.image, full.width, full.height);
-                    let r = reference_img
-                        .as_ref()
-                        .map(|r| resample(&sample.image, r.width, r.height).rel_rms(r));
-                    (img.rel_rms(full), r)
+    let mut skipped: Vec<(Setting, String)> = Vec::new();
+    // Measures `s` (as the renderer runs it, `Lab::runnable`) unless already measured;
+    // the setting measured, or `None` when `s` cannot run.
+    let mut measure = |lab: &mut dyn Lab,
+                       s: Setting,
+                       why: Why,
+                       measured: &mut Vec<Measured>|
+     -> Result<Option<Setting>> {
+        let s = match lab.runnable(&s) {
+            Ok(r) => r,
+            Err(reason) => {
+                if !skipped.iter().any(|(k, _)| *k == s) {
+                    skipped.push((s, reason));
                 }
-                None => (
-                    0.0,
-                    reference_img
-                        .as_ref()
-                        .map(|r| resample(&sample.image, r.width, r.height).rel_rms(r)),
-                ),
-            };
-            seen.insert(s.clone(), measured.len());
-            measured.push(Measured {
-                setting: s,
-                why,
-                sample,
-                error,
-                error_reference,
-            });
-            bar.inc(1);
-            Ok(())
+                bar.inc(1);
+                return Ok(None);
+            }
         };
+        if seen.contains_key(&s) {
+            bar.inc(1);
+            return Ok(Some(s));
+        }
+        bar.set_message(describe_short(&knobs, &s, &default));
+        let sample = lab.measure(&s)?;
+        let (error, error_reference) = match measured.first() {
+            Some(b) => {
+                let full = &b.sample.image;
+                let img = resample(&sample.image, full.width, full.height);
+                let r = reference_img
+                    .as_ref()
+                    .map(|r| resample(&sample.image, r.width, r.height).rel_rms(r));
+                (img.rel_rms(full), r)
+            }
+            None => (
+                0.0,
+                reference_img
+                    .as_ref()
+                    .map(|r| resample(&sample.image, r.width, r.height).rel_rms(r)),
+            ),
+        };
+        seen.insert(s.clone(), measured.len());
+        measured.push(Measured {
+            setting: s.clone(),
+            why,
+            sample,
+            error,
+            error_reference,
+        });
+        bar.inc(1);
+        Ok(Some(s))
+    };
     for (s, why) in queue {
         measure(lab, s, why, &mut measured)?;
     }
@@ -240,12 +264,12 @@ pub fn run_sweep(
         for (cheaper, steps) in [(true, plan.cheaper_steps), (false, plan.accurate_steps)] {
             let mut current = default.clone();
             for _ in 0..steps {
-                match knobs::next_step(&current, &effects, cheaper, noise) {
-                    Some(s) => {
-                        measure(lab, s.clone(), Why::Chain { cheaper }, &mut measured)?;
-                        current = s;
-                    }
-                    None => break,
+                let Some(s) = knobs::next_step(&current, &effects, cheaper, noise) else {
+                    break;
+                };
+                match measure(lab, s, Why::Chain { cheaper }, &mut measured)? {
+                    Some(s) if s != current => current = s,
+                    _ => break,
                 }
             }
         }
@@ -268,6 +292,7 @@ pub fn run_sweep(
         size: [full.width, full.height],
         measured,
         reference_spp: reference,
+        skipped,
     })
 }
 
@@ -442,6 +467,9 @@ impl Sweep {
             })).collect::<Vec<_>>(),
             "settings": (0..self.measured.len()).map(|i| self.entry(i)).collect::<Vec<_>>(),
             "pareto": self.front.iter().map(|&i| self.entry(i)).collect::<Vec<_>>(),
+            "skipped": self.skipped.iter().map(|(s, why)| json!({
+                "knobs": knobs::describe(&self.knobs, s), "why": why,
+            })).collect::<Vec<_>>(),
         })
     }
 }
@@ -648,6 +676,12 @@ fn print_summary(sweep: &Sweep, path: &Path, plots: usize, timing: &str) {
             describe_short(&sweep.knobs, &m.setting, &default)
         );
     }
+    for (s, why) in &sweep.skipped {
+        println!(
+            "  not measured: {} ({why})",
+            describe_short(&sweep.knobs, s, &default)
+        );
+    }
     println!(
         "{plots} plots (SVG and PNG) in {}",
         path.parent()
@@ -666,6 +700,8 @@ mod tests {
     struct Flat {
         knobs: Vec<Knob>,
         calls: f64,
+        /// A `model` value the renderer cannot run.
+        cannot: Option<usize>,
     }
 
     impl Lab for Flat {
@@ -692,6 +728,12 @@ mod tests {
         fn reference(&mut self, _spp: u32) -> Result<Image> {
             unreachable!("not asked for")
         }
+        fn runnable(&self, s: &[usize]) -> std::result::Result<Setting, String> {
+            match self.cannot {
+                Some(v) if s[0] == v => Err(format!("model {v} cannot run")),
+                _ => Ok(s.to_vec()),
+            }
+        }
     }
 
     fn flat() -> Flat {
@@ -701,6 +743,7 @@ mod tests {
                 Knob::new("stored", vec![json!(0), json!(1)], 0, 1).render_neutral(),
             ],
             calls: 0.0,
+            cannot: None,
         }
     }
 
@@ -761,5 +804,31 @@ mod tests {
         assert!(close(&stored[0]["vs_best"], 0.01 / 1.11), "{}", stored[0]);
         // Its render time is its twin's (the defaults').
         assert_eq!(stored[1]["ms"], stored[0]["ms"]);
+    }
+
+    /// A setting the renderer cannot run is not measured: the sweep lists it with why,
+    /// and the rest of the sweep goes on.
+    #[test]
+    fn settings_that_cannot_run_are_listed_not_measured() {
+        let plan = Plan {
+            cheaper_steps: 3,
+            accurate_steps: 0,
+            factorial: None,
+        };
+        let bar = indicatif::ProgressBar::hidden();
+        let mut lab = Flat {
+            cannot: Some(0),
+            ..flat()
+        };
+        let sweep = run_sweep(&mut lab, plan, Vec::new(), None, &bar).unwrap();
+        assert!(sweep.measured.iter().all(|m| m.setting[0] != 0));
+        assert!(sweep.measured.iter().any(|m| m.setting == [1, 1]));
+        assert_eq!(
+            sweep.skipped,
+            vec![(vec![0, 0], "model 0 cannot run".to_string())]
+        );
+        let doc = sweep.to_json(Path::new("x"), None, json!({}), "CPU");
+        assert_eq!(doc["skipped"][0]["knobs"], json!({"model": 0, "stored": 0}));
+        assert_eq!(doc["skipped"][0]["why"], "model 0 cannot run");
     }
 }

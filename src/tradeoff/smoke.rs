@@ -17,7 +17,7 @@ use haze_view::gpu::volume_pass::Residual;
 use haze_view::lighting::single::SourcePoints;
 use haze_view::reference::{self, RefOptions};
 use haze_view::render::env_pass::{EnvGridOptions, EnvSource};
-use haze_view::render::{CrmOptions, crm_render};
+use haze_view::render::{CrmOptions, MsDiffusion, crm_render};
 use haze_view::sh::ExpMethod;
 use haze_view::{Camera, Environment, Image, Medium};
 use haze_volume::{Rbf, Volume, rbf};
@@ -71,6 +71,15 @@ const SLICES: [f64; 4] = [0.5, 1.0, 2.0, 4.0];
 const SLICES_QUICK: [f64; 2] = [1.0, 2.0];
 const SIZE: [f64; 4] = [0.25, 0.5, 0.75, 1.0];
 const SIZE_QUICK: [f64; 2] = [0.5, 1.0];
+/// The multiple-scattering models (`--diffusion`'s spelling), cheapest first: paper A's
+/// diffusion at the centers, then the explicit orders from few orders on large cells to
+/// the renderers' default ([`MsDiffusion::DEFAULT`], the most accurate).
+const DIFFUSION: [&str; 4] = ["centers", "orders:4:2", "orders:3:3", "orders:auto:4"];
+const DIFFUSION_QUICK: [&str; 3] = ["centers", "orders:4:2", "orders:auto:4"];
+/// The knobs' positions in a setting ([`SmokeLab::decode`]'s order).
+const SOURCE: usize = 6;
+const MULTIPLE: usize = 10;
+const DIFFUSION_KNOB: usize = 12;
 
 /// A smoke setting decoded from knob indices.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -130,6 +139,7 @@ struct Tables {
     cg: Vec<u32>,
     slices: Vec<f64>,
     size: Vec<f64>,
+    diffusion: Vec<&'static str>,
 }
 
 fn index_of<T: PartialEq>(v: &[T], x: &T) -> usize {
@@ -154,6 +164,7 @@ impl SmokeLab {
                 cg: CG_QUICK.to_vec(),
                 slices: SLICES_QUICK.to_vec(),
                 size: SIZE_QUICK.to_vec(),
+                diffusion: DIFFUSION_QUICK.to_vec(),
             }
         } else {
             Tables {
@@ -162,6 +173,7 @@ impl SmokeLab {
                 cg: CG.to_vec(),
                 slices: SLICES.to_vec(),
                 size: SIZE.to_vec(),
+                diffusion: DIFFUSION.to_vec(),
             }
         };
         let d = CrmOptions::default();
@@ -226,6 +238,13 @@ impl SmokeLab {
             ),
             Knob::new("multiple", vec![json!(false), json!(true)], 1, 1),
             Knob::new("residual", vec![json!(false), json!(true)], 1, 1),
+            // The renderers' default model is the most accurate one swept.
+            Knob::new(
+                "diffusion",
+                tables.diffusion.iter().map(|x| json!(x)).collect(),
+                last(tables.diffusion.len()),
+                last(tables.diffusion.len()),
+            ),
         ];
         SmokeLab {
             density,
@@ -328,9 +347,22 @@ impl SmokeLab {
                 slices_per_voxel: f(8),
                 multiple: b(10),
                 residual: b(11),
+                diffusion: v(DIFFUSION_KNOB)
+                    .as_str()
+                    .and_then(|d| d.parse().ok())
+                    .unwrap_or(MsDiffusion::DEFAULT),
                 ..CrmOptions::default()
             },
             size: f(9),
+        }
+    }
+
+    /// The setting that renders `s` with this lab's renderer ([`gpu_runnable`] on the
+    /// GPU; every setting runs on the CPU).
+    fn runnable(&self, s: &[usize]) -> std::result::Result<Vec<usize>, String> {
+        match self.gpu {
+            None => Ok(s.to_vec()),
+            Some(_) => gpu_runnable(&self.knobs, s),
         }
     }
 
@@ -356,6 +388,37 @@ impl SmokeLab {
         let out = (stored, t.elapsed().as_secs_f64(), fit.rel_l2);
         self.fits.insert((rbfs, teleport), out.clone());
         Ok(out)
+    }
+}
+
+/// On the GPU the explicit orders are lit by the environment pass's grid: a setting with
+/// multiple scattering by the orders and `source` footprint or center renders as `haze
+/// render --gpu --source footprint` does, with the centers' diffusion (the setting
+/// returned says so), or cannot run when the sweep has no `centers` value (`Err` says
+/// why).
+fn gpu_runnable(knobs: &[Knob], s: &[usize]) -> std::result::Result<Vec<usize>, String> {
+    let value = |k: usize| &knobs[k].values[s[k]];
+    let orders = value(DIFFUSION_KNOB)
+        .as_str()
+        .is_some_and(|d| d.starts_with("orders"));
+    let multiple = value(MULTIPLE).as_bool().unwrap_or(true);
+    if !orders || !multiple || value(SOURCE) == "grid" {
+        return Ok(s.to_vec());
+    }
+    match knobs[DIFFUSION_KNOB]
+        .values
+        .iter()
+        .position(|v| v == "centers")
+    {
+        Some(c) => {
+            let mut out = s.to_vec();
+            out[DIFFUSION_KNOB] = c;
+            Ok(out)
+        }
+        None => Err(format!(
+            "source={}: the explicit orders on the GPU need source=grid",
+            value(SOURCE).as_str().unwrap_or("?")
+        )),
     }
 }
 
@@ -390,6 +453,10 @@ impl Lab for SmokeLab {
 
     fn knobs(&self) -> &[Knob] {
         &self.knobs
+    }
+
+    fn runnable(&self, s: &[usize]) -> std::result::Result<Vec<usize>, String> {
+        SmokeLab::runnable(self, s)
     }
 
     fn measure(&mut self, s: &[usize]) -> Result<Sample> {
@@ -502,5 +569,94 @@ impl Lab for SmokeLab {
             &camera,
             &opts,
         ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use haze_view::Sky;
+    use haze_volume::Bbox;
+
+    fn lab(quick: bool) -> SmokeLab {
+        let density = Volume::new([2, 2, 2], Bbox::new([0.0; 3], [1.0; 3]), vec![1.0; 8]).unwrap();
+        let view = View {
+            eye: None,
+            target: None,
+            up: [0.0, 0.0, 1.0],
+            fov: 40.0,
+            width: 8,
+            height: 8,
+        };
+        SmokeLab::new(
+            density,
+            Environment::sky(Sky::default()),
+            Medium::new(4.0, 0.8, 0.3).unwrap(),
+            view,
+            quick,
+            1,
+        )
+    }
+
+    /// The `diffusion` knob's values decode to the renderers' models, its default and
+    /// best being the renderers' default; on the GPU the orders with the sources at the
+    /// centers render with the centers' diffusion, or are skipped when the sweep has no
+    /// `centers` value; with the sky per voxel, or single scattering alone, nothing
+    /// changes.
+    #[test]
+    fn the_diffusion_knob_decodes_and_maps_what_the_gpu_cannot_run() {
+        let full = lab(false);
+        let k = &full.knobs[DIFFUSION_KNOB];
+        assert_eq!(k.name, "diffusion");
+        assert_eq!(k.default, k.best);
+        let default = super::super::knobs::defaults(&full.knobs);
+        assert_eq!(full.decode(&default).crm.diffusion, MsDiffusion::DEFAULT);
+        let with = |knob: usize, v: usize| {
+            let mut s = default.clone();
+            s[knob] = v;
+            s
+        };
+        let models: Vec<MsDiffusion> = (0..k.values.len())
+            .map(|v| full.decode(&with(DIFFUSION_KNOB, v)).crm.diffusion)
+            .collect();
+        assert_eq!(
+            models,
+            [
+                MsDiffusion::Centers,
+                MsDiffusion::Orders {
+                    factor: 4,
+                    orders: 2
+                },
+                MsDiffusion::Orders {
+                    factor: 3,
+                    orders: 3
+                },
+                MsDiffusion::DEFAULT,
+            ]
+        );
+        let footprint = with(SOURCE, 1);
+        assert_eq!(full.knobs[SOURCE].values[1], "footprint");
+        let mapped = gpu_runnable(&full.knobs, &footprint).unwrap();
+        assert_eq!(
+            mapped,
+            with(SOURCE, 1)
+                .iter()
+                .enumerate()
+                .map(|(i, &v)| if i == DIFFUSION_KNOB { 0 } else { v })
+                .collect::<Vec<_>>()
+        );
+        assert_eq!(full.decode(&mapped).crm.diffusion, MsDiffusion::Centers);
+        assert_eq!(gpu_runnable(&full.knobs, &default).unwrap(), default);
+        let mut single = footprint.clone();
+        single[MULTIPLE] = 0;
+        assert_eq!(gpu_runnable(&full.knobs, &single).unwrap(), single);
+        // Restricted to other knobs, the diffusion has its default alone: no centers.
+        let mut only = lab(true);
+        only.restrict(&["source".to_string()]);
+        let e = gpu_runnable(&only.knobs, &[0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0]).unwrap_err();
+        assert!(
+            e.contains("source=footprint") && e.contains("source=grid"),
+            "{e}"
+        );
     }
 }

@@ -1,6 +1,6 @@
 //! `haze view --budget-ms T | --target-error E [--tradeoff FILE]`: the viewer's starting
-//! knobs (SH order, slices per voxel, multiple scattering, the residual and the render
-//! size) chosen from a tradeoff sweep's front — the file's, its view-pass times rescaled
+//! knobs (SH order, slices per voxel, multiple scattering and its model, the residual and
+//! the render size) chosen from a tradeoff sweep's front — the file's, its view-pass times rescaled
 //! to the viewer's size, or a quick sweep of the asset measured here, at the viewer's
 //! size with the viewer's renderer (every stage on the GPU, the asset's own RBFs), before
 //! the window opens.
@@ -10,9 +10,17 @@ use crate::tradeoff::choice::{self, Choice};
 use crate::tradeoff::pareto::Goal;
 use crate::tradeoff::smoke::{Timing, View};
 use anyhow::{Result, anyhow, bail};
+use haze_view::render::MsDiffusion;
 
 /// The knobs the viewer can start with; a quick sweep turns these alone.
-pub const VIEW_KNOBS: [&str; 5] = ["sh_order", "slices", "multiple", "residual", "size"];
+pub const VIEW_KNOBS: [&str; 6] = [
+    "sh_order",
+    "slices",
+    "multiple",
+    "residual",
+    "size",
+    "diffusion",
+];
 
 /// Chooses the starting knobs of `a` for `goal`, printing the choice, why, and what the
 /// viewer starts with.
@@ -63,8 +71,6 @@ pub fn choose_knobs(a: &mut ViewArgs, goal: Goal) -> Result<()> {
     };
     let c = choice::choose(&doc, goal).map_err(|e| anyhow!("{source}: {e}"))?;
     apply(a, &c);
-    // The sweep times the centers' diffusion.
-    a.knobs.orders = false;
     eprintln!("choice from {source}: {}", c.reason);
     eprintln!(
         "starting with {}, {}×{}",
@@ -93,6 +99,17 @@ fn apply(a: &mut ViewArgs, c: &Choice) {
         a.width = ((a.width as f64 * v).round() as usize).max(8);
         a.height = ((a.height as f64 * v).round() as usize).max(8);
     }
+    // The multiple-scattering model; a sweep without the knob (written before it) timed
+    // the centers' diffusion.
+    match choice::str_knob(c, "diffusion").map(str::parse::<MsDiffusion>) {
+        Some(Ok(m @ MsDiffusion::Orders { .. })) => {
+            a.knobs.orders = true;
+            a.knobs.orders_model = m;
+        }
+        Some(Ok(_)) | None => a.knobs.orders = false,
+        // A model the viewer does not name keeps the command line's.
+        Some(Err(_)) => {}
+    }
 }
 
 #[cfg(test)]
@@ -103,10 +120,17 @@ mod tests {
     use serde_json::json;
 
     /// A sweep of the viewer's knobs measured at 80 × 60 whose front, within 60 ms,
-    /// holds SH order 2, one slice per voxel, no multiple scattering and half the size.
+    /// holds SH order 2, one slice per voxel, no multiple scattering, half the size and
+    /// the cheaper explicit orders.
     fn sweep() -> serde_json::Value {
         let setting = |sh: u64, slices: f64, m: bool, size: f64, ms: f64, error: f64| {
-            json!({"knobs": {"sh_order": sh, "slices": slices, "multiple": m, "residual": true, "size": size},
+            let diffusion = if ms < 100.0 {
+                "orders:3:3"
+            } else {
+                "orders:auto:4"
+            };
+            json!({"knobs": {"sh_order": sh, "slices": slices, "multiple": m, "residual": true,
+                             "size": size, "diffusion": diffusion},
                    "ms": {"render": ms, "view": 0.5 * ms}, "error": error})
         };
         json!({
@@ -118,6 +142,8 @@ mod tests {
                 {"name": "multiple", "values": [false, true], "default": true, "best": true},
                 {"name": "residual", "values": [false, true], "default": true, "best": true},
                 {"name": "size", "values": [0.5, 1.0], "default": 1.0, "best": 1.0},
+                {"name": "diffusion", "values": ["orders:3:3", "orders:auto:4"],
+                 "default": "orders:auto:4", "best": "orders:auto:4"},
             ],
             "settings": [
                 setting(6, 2.0, true, 1.0, 400.0, 0.0),
@@ -144,11 +170,12 @@ mod tests {
             multiple: true,
             residual: true,
             sky_per_voxel: true,
-            orders: false,
+            orders: true,
+            orders_model: MsDiffusion::DEFAULT,
             exposure: 1.0,
         };
-        let mut a = ViewArgs {
-            input: asset,
+        let args = |tradeoff: &std::path::Path| ViewArgs {
+            input: asset.clone(),
             fps: 0.0,
             width: 80,
             height: 60,
@@ -165,15 +192,21 @@ mod tests {
             orbit: false,
             lighting: haze_view::gpu::renderer::LightingOn::Cpu,
             goal: Some(Goal::BudgetMs(60.0)),
-            tradeoff: Some(file.clone()),
+            tradeoff: Some(tradeoff.to_path_buf()),
         };
+        let mut a = args(&file);
         choose_knobs(&mut a, Goal::BudgetMs(60.0)).unwrap();
+        let cheaper = MsDiffusion::Orders {
+            factor: 3,
+            orders: 3,
+        };
         assert_eq!(
             a.knobs,
             Knobs {
                 sh_order: 2,
                 slices: 1.0,
                 multiple: false,
+                orders_model: cheaper,
                 ..defaults.clone()
             }
         );
@@ -187,10 +220,21 @@ mod tests {
                 scene.opts.order,
                 scene.opts.slices_per_voxel,
                 scene.opts.multiple,
-                scene.opts.residual
+                scene.opts.residual,
+                scene.opts.diffusion
             ),
-            (2, 1.0, false, true)
+            (2, 1.0, false, true, cheaper)
         );
+        // A sweep written before the `diffusion` knob timed the centers' diffusion.
+        let mut old = sweep();
+        for s in old["settings"].as_array_mut().unwrap() {
+            s["knobs"].as_object_mut().unwrap().remove("diffusion");
+        }
+        let old_file = dir.path().join("old.json");
+        std::fs::write(&old_file, old.to_string()).unwrap();
+        let mut b = args(&old_file);
+        choose_knobs(&mut b, Goal::BudgetMs(60.0)).unwrap();
+        assert!(!b.knobs.orders);
         // The whole viewer without a window, choosing again inside `run`.
         a.knobs = defaults;
         a.width = 80;

@@ -95,22 +95,33 @@ pub struct Knobs {
     /// voxel, which lights them; `haze render --diffusion orders`), else by paper A's
     /// diffusion at the RBF centers.
     pub orders: bool,
+    /// The explicit orders' cells and count ([`MsDiffusion::DEFAULT`] unless a budget's
+    /// choice named others).
+    pub orders_model: MsDiffusion,
     pub exposure: f64,
 }
 
 impl Knobs {
     /// The rendering knobs in words ("SH order 2, 1 slice per voxel, single scattering,
-    /// residual on").
+    /// residual on"; multiple scattering names its model, `--diffusion`'s spelling, when
+    /// it is not the default).
     pub fn describe(&self) -> String {
         format!(
             "SH order {}, {} slice{} per voxel, {}, residual {}",
             self.sh_order,
             self.slices,
             if self.slices == 1.0 { "" } else { "s" },
-            if self.multiple {
-                "single + multiple scattering"
+            if !self.multiple {
+                "single scattering".to_string()
+            } else if !(self.orders && self.sky_per_voxel) {
+                "single + multiple scattering (centers)".to_string()
+            } else if self.orders_model != MsDiffusion::DEFAULT {
+                format!(
+                    "single + multiple scattering ({})",
+                    crate::render::diffusion_name(self.orders_model)
+                )
             } else {
-                "single scattering"
+                "single + multiple scattering".to_string()
             },
             if self.residual { "on" } else { "off" }
         ) + if self.sky_per_voxel {
@@ -137,7 +148,7 @@ impl Knobs {
                 },
                 // The explicit orders take the sky per voxel (on the GPU it lights them).
                 diffusion: if self.orders && self.sky_per_voxel {
-                    MsDiffusion::DEFAULT
+                    self.orders_model
                 } else {
                     MsDiffusion::Centers
                 },
@@ -361,6 +372,7 @@ mod tests {
             residual: true,
             sky_per_voxel: true,
             orders: true,
+            orders_model: MsDiffusion::DEFAULT,
             exposure: 1.0,
         };
         let off = Knobs {
@@ -373,6 +385,16 @@ mod tests {
         assert_eq!(source(&off), EnvSource::Centers);
         assert!(!on.describe().contains("sky"), "{}", on.describe());
         assert!(off.describe().ends_with(", sky at the centers"));
+        assert!(
+            on.describe()
+                .contains("2 slices per voxel, single + multiple scattering, residual on"),
+            "{}",
+            on.describe()
+        );
+        assert!(
+            off.describe()
+                .contains("single + multiple scattering (centers)")
+        );
         // The explicit orders need the sky per voxel; their switch picks the diffusion.
         let diffusion = |k: &Knobs| k.scene(env.clone()).unwrap().opts.diffusion;
         assert_eq!(diffusion(&on), MsDiffusion::DEFAULT);
@@ -382,6 +404,20 @@ mod tests {
             ..on.clone()
         };
         assert_eq!(diffusion(&centers), MsDiffusion::Centers);
+        let cheaper = MsDiffusion::Orders {
+            factor: 3,
+            orders: 3,
+        };
+        let chosen = Knobs {
+            orders_model: cheaper,
+            ..on.clone()
+        };
+        assert_eq!(diffusion(&chosen), cheaper);
+        assert!(
+            chosen
+                .describe()
+                .contains("multiple scattering (orders:3:3)")
+        );
     }
 
     #[test]
