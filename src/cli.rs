@@ -605,8 +605,8 @@ pub struct ViewCli {
     /// --diffusion centers`) instead of the explicit orders on a grid of 2³-voxel cells
     /// (`orders`, the default, which takes the sky per voxel): less than half the frame
     /// time of a new frame on lavapipe, a larger error (BENCHMARKS.md, "Multiple
-    /// scattering: explicit orders"); a panel switch too. A knob chosen for a budget or a
-    /// target error uses it (the sweep times it).
+    /// scattering: explicit orders"); a panel switch too. A setting chosen for a budget
+    /// or a target error brings its own model (the sweep's `diffusion` knob).
     #[arg(long)]
     ms_at_centers: bool,
     /// The explicit orders' model an asset's stored choice names (not a flag).
