@@ -14,6 +14,10 @@
 // soft), J¹ = −3g J⁰ s), then D_c·T toward each sun, T marched through the fine D from
 // the cell center (`grid_march.wgsl`).
 //
+// `occupied`, one workgroup: the box of the cells with smoke, widened by a cell on each
+// side and clipped to the grid (`gather`'s `occupied`), as positions lo, hi in `work`'s
+// first six words (an empty grid: both 0). The gather's rays stop at it.
+//
 // `gather`, one invocation per cell with D > 0 (one order, its rule in dispatches of 8
 // directions): along each direction ω of the rule the light arriving at the cell center x from x − sω, marched to the
 // coarse box's face in n = ⌈ℓ/h⌉ equal steps (h the smallest cell side), the record
@@ -124,11 +128,14 @@ const WG: u32 = 256u;
 @group(0) @binding(5) var<storage, read_write> rec_out: array<f32>;
 @group(0) @binding(6) var<storage, read_write> media: array<f32>;
 // The rows and CG vectors (ROW words per cell), then per channel 8 words of state:
-// iterations, ‖r‖/‖b‖, r·z, ‖b‖, stopped.
+// iterations, ‖r‖/‖b‖, r·z, ‖b‖, stopped; in `occupied` and `gather`, the box of the
+// cells with smoke (6 words).
 @group(0) @binding(7) var<storage, read_write> work: array<f32>;
 
 var<workgroup> reduce_buf: array<vec2<f32>, WG>;
 var<workgroup> state: array<f32, 8>;
+var<workgroup> occ_lo: array<vec3<u32>, WG>;
+var<workgroup> occ_hi: array<vec3<u32>, WG>;
 
 fn word(i: u32) -> f32 {
     return bitcast<f32>(lights[i]);
@@ -343,6 +350,46 @@ fn add_moments(a: Moments, b: Moments) -> Moments {
     return Moments(a.j0 + b.j0, a.r + b.r, a.g + b.g, a.b + b.b);
 }
 
+@compute @workgroup_size(256)
+fn occupied(@builtin(local_invocation_index) lid: u32) {
+    var lo = vec3<u32>(NONE);
+    var hi = vec3<u32>(0u);
+    let n = total_cells();
+    for (var i = lid; i < n; i += WG) {
+        if media[i * MEDIA + 13u] > 0.0 {
+            let c = cell_coords(i);
+            lo = min(lo, c);
+            hi = max(hi, c);
+        }
+    }
+    occ_lo[lid] = lo;
+    occ_hi[lid] = hi;
+    workgroupBarrier();
+    for (var s = WG / 2u; s > 0u; s = s / 2u) {
+        if lid < s {
+            occ_lo[lid] = min(occ_lo[lid], occ_lo[lid + s]);
+            occ_hi[lid] = max(occ_hi[lid], occ_hi[lid + s]);
+        }
+        workgroupBarrier();
+    }
+    if lid == 0u {
+        let l = occ_lo[0];
+        let h = occ_hi[0];
+        var a = vec3<f32>(0.0);
+        var b = vec3<f32>(0.0);
+        if l.x != NONE {
+            a = vec3<f32>(max(l, vec3<u32>(1u)) - 1u) * p.cell;
+            b = vec3<f32>(min(h + 2u, p.cells)) * p.cell;
+        }
+        work[0] = a.x;
+        work[1] = a.y;
+        work[2] = a.z;
+        work[3] = b.x;
+        work[4] = b.y;
+        work[5] = b.z;
+    }
+}
+
 // One dispatch gathers the uniform's rule (a share of an order's directions, few enough
 // that an invocation's loops stay within lavapipe's budget of 65535 iterations per
 // outermost loop): it adds its part of L⁰, L¹ to `media` (and of P for the first order),
@@ -373,6 +420,8 @@ fn gather(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     let h = min(p.cell.x, min(p.cell.y, p.cell.z));
     let n = p.cells;
     let top = max(n, vec3<u32>(2u)) - 2u;
+    let occ_a = vec3<f32>(work[0], work[1], work[2]);
+    let occ_b = vec3<f32>(work[3], work[4], work[5]);
     var l0 = vec3<f32>(0.0);
     var l1 = array<vec3<f32>, 3>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
     var high: array<array<f32, 12>, 3>;
@@ -382,8 +431,13 @@ fn gather(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         let wt = p.rule[k].w;
         let back = -w;
         let len = coarse_exit(x, back);
-        let steps = u32(max(ceil(len / h), 1.0));
-        let step = len / f32(steps);
+        let all_steps = u32(max(ceil(len / h), 1.0));
+        let step = len / f32(all_steps);
+        // The same steps, those beyond the box of the cells with smoke skipped.
+        let to = select(select(vec3<f32>(3.0e38), (occ_a - x) / back, back < vec3<f32>(0.0)),
+            (occ_b - x) / back, back > vec3<f32>(0.0));
+        let reach = min(to.x, min(to.y, to.z));
+        let steps = min(all_steps, u32(max(ceil(reach / step + 0.5), 0.0)));
         var acc = Moments(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
         var acc_sun = array<f32, 8>(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
         var t = 1.0;

@@ -12,8 +12,9 @@
 //!   point lights' moments and each sun's transmittance from the cell center, marched
 //!   through the volume pass's `D` as the lights pass marches
 //!   ([`crate::grid_diffusion::add_lights`], [`crate::grid_diffusion::sun_sources`]) —
-//!   then one pass per order ([`crate::grid_diffusion::gather`]: 72 directions for the
-//!   first, 32 for the later, 8 per dispatch);
+//!   then the box of the cells with smoke, where the rays stop (one workgroup), and one
+//!   pass per order ([`crate::grid_diffusion::gather`]: 72 directions for the first, 32
+//!   for the later, 8 per dispatch);
 //! - [`OrdersPass::diffuse`]: the finite-volume system of the light after the gathered
 //!   orders, one invocation per cell, solved by Jacobi-preconditioned conjugate gradients
 //!   ([`crate::grid_diffusion::solve`]) with one workgroup per colour channel, in chunks
@@ -187,6 +188,7 @@ pub struct OrdersPass {
     system: wgpu::ComputePipeline,
     cg_start: wgpu::ComputePipeline,
     cg_iterate: wgpu::ComputePipeline,
+    occupied: wgpu::ComputePipeline,
     finish: wgpu::ComputePipeline,
     apply: wgpu::ComputePipeline,
     /// The work buffer of the last solve (rows, vectors, state) and its cell count.
@@ -250,6 +252,7 @@ impl OrdersPass {
                 system: pipeline("system"),
                 cg_start: pipeline("cg_start"),
                 cg_iterate: pipeline("cg_iterate"),
+                occupied: pipeline("occupied"),
                 finish: pipeline("finish"),
                 apply: pipeline("apply"),
                 layout,
@@ -464,6 +467,25 @@ impl OrdersPass {
                 groups,
                 1,
             );
+            // The box of the cells with smoke, where the gathers' rays stop.
+            let occupied = buffer("cells with smoke", 32);
+            self.dispatch(
+                ctx,
+                "orders occupied",
+                &self.occupied,
+                &[
+                    &cells_uniform,
+                    &lights_buf,
+                    grid.buffer(),
+                    shadow.buffer(),
+                    &ro,
+                    &rw,
+                    &media,
+                    &occupied,
+                ],
+                [1, 1, 1],
+                1,
+            );
             for k in 0..orders {
                 let rule = if k == 0 { &first } else { &later };
                 rec.swap(0, 1);
@@ -493,7 +515,7 @@ impl OrdersPass {
                                 &rec[0],
                                 &rec[1],
                                 &media,
-                                &rw,
+                                &occupied,
                             ],
                         )
                     })
