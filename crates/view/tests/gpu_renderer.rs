@@ -223,6 +223,19 @@ fn a_lat_long_map_lights_and_fills_the_background_as_on_the_cpu() {
     assert!(matches!(r.environment().distant, Distant::Map(_)));
 }
 
+/// The built-in sky with a sun `sun_deg` wide, high in the sky, and a point light
+/// (position, intensity).
+fn sky_sun_and_point(sun_deg: f64, point: ([f64; 3], [f64; 3])) -> Environment {
+    let mut env = Environment::sky(Sky::default());
+    env.suns.push(Sun {
+        direction: [0.3, 0.2, 0.93].map(|c| c / 0.9949f64.sqrt()),
+        irradiance: [8.0, 7.5, 6.5],
+        angle: sun_deg.to_radians(),
+    });
+    env.points.push(PointLight::new(point.0, point.1).unwrap());
+    env
+}
+
 #[test]
 fn frames_lit_by_a_sun_and_a_point_light_match_crm_render() {
     // The lights reach the image twice: per voxel through the lights pass (single
@@ -233,14 +246,7 @@ fn frames_lit_by_a_sun_and_a_point_light_match_crm_render() {
     let rbfs = cluster();
     let bbox = unit_box();
     let dims = [20, 24, 18];
-    let mut env = Environment::sky(Sky::default());
-    env.suns.push(Sun {
-        direction: [0.3, 0.2, 0.93].map(|c| c / 0.9949f64.sqrt()),
-        irradiance: [8.0, 7.5, 6.5],
-        angle: 0.53f64.to_radians(),
-    });
-    env.points
-        .push(PointLight::new([1.2, 0.3, 0.6], [1.5, 1.2, 1.0]).unwrap());
+    let env = sky_sun_and_point(0.53, ([1.2, 0.3, 0.6], [1.5, 1.2, 1.0]));
     let frame = GpuFrame {
         key: 3,
         rbfs: &rbfs,
@@ -441,14 +447,7 @@ fn frames_with_the_explicit_orders_match_crm_render_and_keep_their_cells() {
     let rbfs = cluster();
     let bbox = unit_box();
     let dims = [16, 16, 20];
-    let mut env = Environment::sky(Sky::default());
-    env.suns.push(Sun {
-        direction: [0.3, 0.2, 0.93].map(|c| c / 0.9949f64.sqrt()),
-        irradiance: [8.0, 7.5, 6.5],
-        angle: 3f64.to_radians(),
-    });
-    env.points
-        .push(PointLight::new([0.7, 0.3, 0.6], [0.5, 0.4, 0.3]).unwrap());
+    let env = sky_sun_and_point(3.0, ([0.7, 0.3, 0.6], [0.5, 0.4, 0.3]));
     let frame = GpuFrame {
         key: 5,
         rbfs: &rbfs,

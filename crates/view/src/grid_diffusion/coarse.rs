@@ -69,6 +69,23 @@ impl CoarseGrid {
         c[0] + self.dims[0] * (c[1] + self.dims[1] * c[2])
     }
 
+    /// The cells with smoke (`D > 0`): how many, and the lowest and highest cell
+    /// coordinates among them (`None` without smoke).
+    pub fn smoke_cells(&self) -> Option<(usize, [usize; 3], [usize; 3])> {
+        let (mut lo, mut hi, mut cells) = ([usize::MAX; 3], [0usize; 3], 0usize);
+        for (i, &d) in self.density.iter().enumerate() {
+            if d > 0.0 {
+                cells += 1;
+                let c = self.coords(i);
+                for a in 0..3 {
+                    lo[a] = lo[a].min(c[a]);
+                    hi[a] = hi[a].max(c[a]);
+                }
+            }
+        }
+        (cells > 0).then_some((cells, lo, hi))
+    }
+
     /// Cell coordinates of linear index `i`.
     pub fn coords(&self, i: usize) -> [usize; 3] {
         let (x, r) = (i % self.dims[0], i / self.dims[0]);

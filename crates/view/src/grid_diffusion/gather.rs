@@ -215,19 +215,9 @@ pub fn gather(
 /// smoke and one cell around them (the interpolation reaches half a cell beyond), within
 /// the grid's box.
 fn occupied(grid: &CoarseGrid) -> ([f64; 3], [f64; 3]) {
-    let (mut lo, mut hi) = ([usize::MAX; 3], [0usize; 3]);
-    for (i, &d) in grid.density.iter().enumerate() {
-        if d > 0.0 {
-            let c = grid.coords(i);
-            for a in 0..3 {
-                lo[a] = lo[a].min(c[a]);
-                hi[a] = hi[a].max(c[a]);
-            }
-        }
-    }
-    if lo[0] == usize::MAX {
+    let Some((_, lo, hi)) = grid.smoke_cells() else {
         return (grid.origin, grid.origin);
-    }
+    };
     (
         [0, 1, 2].map(|a| grid.origin[a] + lo[a].saturating_sub(1) as f64 * grid.h[a]),
         [0, 1, 2].map(|a| grid.origin[a] + (hi[a] + 2).min(grid.dims[a]) as f64 * grid.h[a]),

@@ -290,20 +290,9 @@ pub fn frame_explicit_media_radiance(
 /// with smoke times the mean side, in cells, of the box they occupy (each ray from a
 /// cell crosses about that many before it leaves the smoke or the light runs out).
 pub fn gather_work(grid: &CoarseGrid) -> f64 {
-    let (mut lo, mut hi, mut cells) = ([usize::MAX; 3], [0usize; 3], 0usize);
-    for (i, &d) in grid.density.iter().enumerate() {
-        if d > 0.0 {
-            cells += 1;
-            let c = grid.coords(i);
-            for a in 0..3 {
-                lo[a] = lo[a].min(c[a]);
-                hi[a] = hi[a].max(c[a]);
-            }
-        }
-    }
-    if cells == 0 {
+    let Some((cells, lo, hi)) = grid.smoke_cells() else {
         return 0.0;
-    }
+    };
     let side = (0..3).map(|a| (hi[a] + 1 - lo[a]) as f64).sum::<f64>() / 3.0;
     cells as f64 * side
 }
