@@ -85,21 +85,20 @@ impl MsDiffusion {
     /// for the orders) or the number of orders outside 1–8.
     pub fn check(&self) -> Result<(), String> {
         match *self {
-            MsDiffusion::Centers => Ok(()),
-            MsDiffusion::Orders { factor, orders }
-                if factor == MsDiffusion::AUTO && (1..=8).contains(&orders) =>
-            {
-                Ok(())
+            MsDiffusion::Orders { orders, .. } if !(1..=8).contains(&orders) => {
+                Err(format!("{orders} orders: gather 1 to 8 orders explicitly"))
             }
+            MsDiffusion::Orders {
+                factor: MsDiffusion::AUTO,
+                ..
+            }
+            | MsDiffusion::Centers => Ok(()),
             MsDiffusion::Grid { factor } | MsDiffusion::Orders { factor, .. }
                 if !(1..=16).contains(&factor) =>
             {
                 Err(format!(
                     "the factor {factor} must be 1 to 16 (voxels per cell side)"
                 ))
-            }
-            MsDiffusion::Orders { orders, .. } if !(1..=8).contains(&orders) => {
-                Err(format!("{orders} orders: gather 1 to 8 orders explicitly"))
             }
             _ => Ok(()),
         }
@@ -501,6 +500,10 @@ mod tests {
             "grid:0",
         ] {
             assert!(p(bad).is_err(), "{bad}");
+        }
+        // An automatic factor with a bad count names the count.
+        for bad in ["orders:auto:0", "orders:auto:9"] {
+            assert!(p(bad).unwrap_err().contains("orders"), "{bad}");
         }
         assert_eq!(p("grid"), Ok(MsDiffusion::Grid { factor: 2 }));
     }
