@@ -22,7 +22,12 @@ CASE is one of:
   plume-f   90 x 90 x 120, 50 frames: a sideways jet from a low emitter against a cross
             wind, a second emitter keyed on at frame 20, a tilted slab overhead, strong
             vorticity and a turbulence field (the next sequence kept out of every tuning
-            loop: report on it, never tune on it)
+            loop: report on it, never tune on it; looked at once for the bake and lighting
+            figures since)
+  plume-g   104 x 104 x 130, 48 frames: a puff start (the emitter just on at frame 1) of a
+            wide low emitter under a turbulence field and a side wind, a second emitter
+            keyed on at frame 15, a sphere obstacle high up (the next sequence kept out of
+            every tuning loop: report on it, never tune on it)
 
 The cache lands in OUT_DIR/CASE/ (fluid_data_NNNN.vdb) with meta.json beside it.
 """
@@ -72,6 +77,17 @@ CASES = {
         obstacle=((1.4, 0.8, 0.12), (0.3, 0.1, 2.9), (0.0, -0.35, 0.5)),
         # (frame, density) keys of emitter 1: off until frame 20, then on
         emitter1_on=[(1, 0.0), (19, 0.0), (20, 1.0)],
+    ),
+    "plume-g": dict(
+        res=130, size=(3.2, 3.2, 4.0), frames=48, vorticity=0.25,
+        emitters=[(0.4, (0.3, 0.2, 0.35), (0.0, 0.0, 0.5)),
+                  (0.2, (-0.7, -0.5, 0.3), (0.3, 0.2, 0.7))],
+        wind=((-1.5, 0.0, 1.5), 0.8, (0.0, 1.2, 0.0)),
+        obstacle=None, turbulence=((0.3, -0.2, 1.8), 2.0, 0.5),
+        # (frame, density) keys of emitter 1: off until frame 15, then on
+        emitter1_on=[(1, 0.0), (14, 0.0), (15, 1.0)],
+        # (radius, location): a sphere the rising smoke meets high up
+        sphere_obstacle=(0.35, (-0.3, 0.3, 2.6)),
     ),
 }
 
