@@ -28,6 +28,9 @@ CASE is one of:
             wide low emitter under a turbulence field and a side wind, a second emitter
             keyed on at frame 15, a sphere obstacle high up (the next sequence kept out of
             every tuning loop: report on it, never tune on it)
+  plume-h   96 x 96 x 128, 40 frames: the issue's kind of case, a steady plume from a
+            centred emitter bent by a gusting wind under a slab obstacle, vorticity 0.35
+            (kept for one measurement with the final defaults)
 
 The cache lands in OUT_DIR/CASE/ (fluid_data_NNNN.vdb) with meta.json beside it.
 """
@@ -88,6 +91,12 @@ CASES = {
         emitter1_on=[(1, 0.0), (14, 0.0), (15, 1.0)],
         # (radius, location): a sphere the rising smoke meets high up
         sphere_obstacle=(0.35, (-0.3, 0.3, 2.6)),
+    ),
+    "plume-h": dict(
+        res=128, size=(3.0, 3.0, 4.0), frames=40, vorticity=0.35,
+        emitters=[(0.3, (0.1, -0.2, 0.4), (0.0, 0.0, 0.7))],
+        wind=((1.5, 0.5, 1.2), 1.3, (0.3, -1.4, 0.0)), turbulence=((0.0, 0.0, 2.2), 1.0, 0.8),
+        obstacle=((1.6, 0.9, 0.12), (-0.4, 0.2, 2.5), (0.25, 0.0, -0.3)),
     ),
 }
 
