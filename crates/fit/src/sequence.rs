@@ -322,6 +322,30 @@ pub struct FrameFit {
     pub rbfs_at_bounds: usize,
     /// Mean world distance moved by RBF centers that persisted from the previous frame.
     pub mean_center_displacement: Option<f64>,
+    /// Where a warm frame's seconds went (all zero for a first frame).
+    #[serde(default)]
+    pub split: TimeSplit,
+}
+
+/// Seconds of a warm frame by step: the minimizations (the first one after the
+/// deletions, those after insertion rounds, those after exchange rounds) with their
+/// passes, and the pricing between them (residual grids and matching pursuit, removal
+/// costs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct TimeSplit {
+    /// The minimization after the deletions.
+    pub warm_seconds: f64,
+    pub warm_passes: u64,
+    /// The minimizations after insertion rounds.
+    pub insert_seconds: f64,
+    pub insert_passes: u64,
+    /// The minimizations after exchange rounds.
+    pub exchange_seconds: f64,
+    pub exchange_passes: u64,
+    /// Residuals, residual grids and matching pursuit's proposals.
+    pub pursuit_seconds: f64,
+    /// Removal costs of exchange rounds.
+    pub removal_seconds: f64,
 }
 
 /// A reduction of `ΣR²` on `grid` (normalized densities, summed over voxels) as
@@ -485,7 +509,10 @@ impl SequenceFitter {
         }
         let (optimizer, warm) = (o.fit.optimizer, o.warm);
         let mut stats = FitStats::default();
+        let mut split = TimeSplit::default();
+        let t = Instant::now();
         let m = minimize(grid, &mut params, bounds, optimizer, warm);
+        (split.warm_seconds, split.warm_passes) = (t.elapsed().as_secs_f64(), m.passes);
         stats.add(&m, false);
         let (mut rel_l2, mut rms) = errors_from_cost(grid, m.cost);
         let ratio = |rel: f64| {
@@ -529,6 +556,7 @@ impl SequenceFitter {
             if inserted >= cap {
                 break full;
             }
+            let t = Instant::now();
             let residual = grid.residual_grid(objective::residual(grid, &params));
             let n = params.len() / PARAMS_PER_RBF;
             let m = match o.insertion {
@@ -544,6 +572,7 @@ impl SequenceFitter {
                     matched_with_gains(&residual, 1, radius, bounds).1,
                 ),
             };
+            split.pursuit_seconds += t.elapsed().as_secs_f64();
             next_gain = gains.first().map(|&g| world_gain(grid, g));
             let proposed = new.len();
             if floor > 0.0 {
@@ -570,7 +599,10 @@ impl SequenceFitter {
             inserted += new.len() / PARAMS_PER_RBF;
             rounds += 1;
             params.extend_from_slice(&new);
+            let t = Instant::now();
             let m = minimize(grid, &mut params, bounds, optimizer, warm);
+            split.insert_seconds += t.elapsed().as_secs_f64();
+            split.insert_passes += m.passes;
             stats.add(&m, false);
             let before = rel_l2;
             (rel_l2, rms) = errors_from_cost(grid, m.cost);
@@ -592,12 +624,16 @@ impl SequenceFitter {
         let mut exchanged = 0;
         if ratio(rel_l2) > o.threshold && stop != InsertionStop::Nowhere {
             loop {
+                let t = Instant::now();
                 let residual = objective::residual(grid, &params);
                 let n = params.len() / PARAMS_PER_RBF;
                 let m = batch_size(n, rel_l2, target).min((n / EXCHANGE_SHARE).max(1));
                 let (new, gains) =
                     matched_with_gains(&grid.residual_grid(residual.clone()), m, radius, bounds);
+                split.pursuit_seconds += t.elapsed().as_secs_f64();
+                let t = Instant::now();
                 let costs = removal_costs(grid, &residual, &params);
+                split.removal_seconds += t.elapsed().as_secs_f64();
                 let (add, remove) = paying_exchanges(&gains, &costs);
                 if add.is_empty() {
                     break;
@@ -612,7 +648,10 @@ impl SequenceFitter {
                 for &a in &add {
                     params.extend_from_slice(&new[a * PARAMS_PER_RBF..(a + 1) * PARAMS_PER_RBF]);
                 }
+                let t = Instant::now();
                 let m = minimize(grid, &mut params, bounds, optimizer, warm);
+                split.exchange_seconds += t.elapsed().as_secs_f64();
+                split.exchange_passes += m.passes;
                 stats.add(&m, false);
                 let before = rel_l2;
                 let (rel, r) = errors_from_cost(grid, m.cost);
@@ -635,6 +674,7 @@ impl SequenceFitter {
         let mut f = finish(grid, &params, o, stats, rel_l2, rms);
         f.warm_started = true;
         f.exchanged = exchanged;
+        f.split = split;
         f.deleted = deleted;
         f.inserted = inserted;
         f.insert_rounds = rounds;
@@ -692,6 +732,7 @@ fn empty_fit() -> FrameFit {
         gain_floor: 0.0,
         rbfs_at_bounds: 0,
         mean_center_displacement: None,
+        split: TimeSplit::default(),
     }
 }
 
