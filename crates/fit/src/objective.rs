@@ -51,9 +51,13 @@ impl Axis {
     fn new(c: f64, r: f64, h: f64, n: usize) -> Option<Axis> {
         let s = CUTOFF * r;
         let (lo, hi) = voxel_span(c - s, c + s, 0.0, h, n)?;
+        let len = hi + 1 - lo;
         let mut a = Axis {
             lo,
-            ..Axis::default()
+            mid: 0,
+            d: Vec::with_capacity(len),
+            q: Vec::with_capacity(len),
+            e: Vec::with_capacity(len),
         };
         for i in lo..=hi {
             let d = (i as f64 + 0.5) * h - c;
@@ -79,6 +83,10 @@ struct Tables {
     w: f64,
     r: f64,
     axes: [Axis; 3],
+    /// For the x-row at table positions `(j, k)`, entry `k·ny + j`: the table positions
+    /// `[a, b)` inside the sphere ([`Tables::row`]; empty: `a ≥ b`). Found once per pass
+    /// and read by both halves of it.
+    rows: Vec<(u32, u32)>,
 }
 
 impl Tables {
@@ -91,11 +99,25 @@ impl Tables {
         let x = Axis::new(c[0], r, grid.h[0], grid.dims[0])?;
         let y = Axis::new(c[1], r, grid.h[1], grid.dims[1])?;
         let z = Axis::new(c[2], r, grid.h[2], grid.dims[2])?;
-        Some(Tables {
+        let mut t = Tables {
             w,
             r,
             axes: [x, y, z],
-        })
+            rows: Vec::new(),
+        };
+        let [_, ay, az] = &t.axes;
+        let mut rows = Vec::with_capacity(ay.q.len() * az.q.len());
+        for &qz in &az.q {
+            for &qy in &ay.q {
+                let s = qy + qz;
+                rows.push(match (s < CUT2).then(|| t.row(s)).flatten() {
+                    Some((a, b)) => (a as u32, b as u32),
+                    None => (0, 0),
+                });
+            }
+        }
+        t.rows = rows;
+        Some(t)
     }
 
     /// Table positions of the x-row `(j, k)` whose voxels lie inside the sphere, given
@@ -141,13 +163,13 @@ fn subtract_plane(grid: &FitGrid, t: &[Option<Tables>], z: usize, list: &[u32], 
         let Some(tab) = &t[l as usize] else { continue };
         let [ax, ay, az] = &tab.axes;
         let kz = z - az.lo;
-        let (qz, ez) = (az.q[kz], az.e[kz]);
-        for (jy, (&qy, &ey)) in ay.q.iter().zip(&ay.e).enumerate() {
-            let s = qy + qz;
-            if s >= CUT2 {
+        let ez = az.e[kz];
+        let rows = &tab.rows[kz * ay.q.len()..(kz + 1) * ay.q.len()];
+        for (jy, (&ey, &(a, b))) in ay.e.iter().zip(rows).enumerate() {
+            let (a, b) = (a as usize, b as usize);
+            if a >= b {
                 continue;
             }
-            let Some((a, b)) = tab.row(s) else { continue };
             let f = tab.w * ey * ez;
             let row = grid.dims[0] * (ay.lo + jy) + ax.lo;
             for (o, &ex) in out[row + a..row + b].iter_mut().zip(&ax.e[a..b]) {
@@ -291,12 +313,14 @@ fn plane_sums(grid: &FitGrid, tab: &Tables, z: usize, plane: &[f64]) -> Sums {
     let kz = z - az.lo;
     let (dz, qz, ez) = (az.d[kz], az.q[kz], az.e[kz]);
     let (mut s0, mut sx, mut sy, mut sq) = (0.0, 0.0, 0.0, 0.0);
-    for (jy, ((&dy, &qy), &ey)) in ay.d.iter().zip(&ay.q).zip(&ay.e).enumerate() {
-        let s = qy + qz;
-        if s >= CUT2 {
+    let rows = &tab.rows[kz * ay.q.len()..(kz + 1) * ay.q.len()];
+    let table = ay.d.iter().zip(&ay.q).zip(&ay.e).zip(rows);
+    for (jy, (((&dy, &qy), &ey), &(a, b))) in table.enumerate() {
+        let (a, b) = (a as usize, b as usize);
+        if a >= b {
             continue;
         }
-        let Some((a, b)) = tab.row(s) else { continue };
+        let s = qy + qz;
         let row = grid.dims[0] * (ay.lo + jy) + ax.lo;
         let [t0, t1, t2] = row_sums(
             &plane[row + a..row + b],
