@@ -13,7 +13,9 @@
 //! `n·((rel_l2/target)^(1/α) − 1)` more RBFs (`α = 1/3`), placed by matching pursuit
 //! on the residual ([`crate::init::matched`]: where a Gaussian of the insertion radius
 //! lowers `ΣR²` most, rather than on the largest single voxel) and then minimized
-//! jointly with the rest. Rounds repeat until the ratio holds, or a round removes less
+//! with the RBFs whose supports overlap theirs, the rest frozen ([`crate::local`]; a
+//! round of a few RBFs at 1200 costs a few dozen RBFs' passes instead of a whole frame's,
+//! and the next frame's warm start minimizes all of them again). Rounds repeat until the ratio holds, or a round removes less
 //! than [`MIN_ROUND_GAIN`] of the excess error (the error left is finer than an RBF can
 //! reach: the residual's job).
 //!
@@ -44,8 +46,9 @@
 //! Exchange ([`crate::exchange`]). A frame still over the threshold when insertion stops
 //! (cap, ceiling, marginal gain, stall) does not give up: in rounds, the RBFs whose
 //! removal would raise `ΣR²` least are moved to where matching pursuit predicts a larger
-//! gain (at most a quarter of the RBFs a round, [`EXCHANGE_SHARE`]), followed by a joint
-//! minimization; a round that does not lower the error is undone, and rounds stop when
+//! gain (at most a quarter of the RBFs a round, [`EXCHANGE_SHARE`]), followed by a
+//! minimization of the moved RBFs and those whose supports overlap them where they were
+//! or where they went, the rest frozen ([`crate::local`]); a round that does not lower the error is undone, and rounds stop when
 //! the ratio holds or a round removes less than [`MIN_ROUND_GAIN`] of the excess. Smoke
 //! that leaves one place for another (a moving emitter, old smoke thinning) keeps its
 //! error at a constant count. A frame left over the threshold after all this is
@@ -62,6 +65,7 @@ use crate::exchange::{paying_exchanges, removal_costs};
 use crate::frame::{FitOptions, FitStats, fit_first_frame, weakest};
 use crate::grid::FitGrid;
 use crate::init::{greedy, initial_radius, matched_with_gains};
+use crate::local::{minimize_free, overlapping};
 use crate::objective::{self, PARAMS_PER_RBF};
 use crate::optimize::{Stop, minimize};
 use haze_volume::{Rbf, Volume};
@@ -89,8 +93,8 @@ pub struct SequenceOptions {
     pub threshold: f64,
     /// How RBFs are inserted.
     pub insertion: Insertion,
-    /// Stopping rule of each warm-started joint minimization (the fits of inserted RBFs
-    /// alone follow `fit.polish`).
+    /// Stopping rule of each warm-started minimization (of all RBFs after the deletions,
+    /// of the RBFs a round touches after it).
     pub warm: Stop,
     /// Insert an RBF only where it is predicted to lower `∫R² dV` by at least this
     /// fraction of the first frame's marginal gain (see the module docs); 0: no such test.
@@ -216,10 +220,12 @@ pub const MIN_ROUND_GAIN: f64 = 0.25;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Insertion {
-    /// Rounds sized by the excess error; new RBFs fitted alone, then a joint polish.
+    /// Rounds sized by the excess error, each followed by a minimization of the new RBFs
+    /// and those their supports overlap.
     #[default]
     Batch,
-    /// The paper's: one RBF, then a joint minimization, per round.
+    /// The paper's: one RBF per round (minimized with the RBFs it overlaps; the paper
+    /// minimizes all of them).
     Single,
 }
 
@@ -600,7 +606,8 @@ impl SequenceFitter {
             rounds += 1;
             params.extend_from_slice(&new);
             let t = Instant::now();
-            let m = minimize(grid, &mut params, bounds, optimizer, warm);
+            let free = overlapping(&params, &new);
+            let m = minimize_free(grid, &mut params, &free, bounds, optimizer, warm);
             split.insert_seconds += t.elapsed().as_secs_f64();
             split.insert_passes += m.passes;
             stats.add(&m, false);
@@ -639,6 +646,11 @@ impl SequenceFitter {
                     break;
                 }
                 let kept = (params.clone(), alive.clone());
+                // The RBFs that the removed and the added ones change the residual under.
+                let mut touched: Vec<f64> = remove
+                    .iter()
+                    .flat_map(|&l| params[l * PARAMS_PER_RBF..(l + 1) * PARAMS_PER_RBF].to_vec())
+                    .collect();
                 for &l in remove.iter().rev() {
                     params.drain(l * PARAMS_PER_RBF..(l + 1) * PARAMS_PER_RBF);
                     if l < alive.len() {
@@ -646,17 +658,20 @@ impl SequenceFitter {
                     }
                 }
                 for &a in &add {
-                    params.extend_from_slice(&new[a * PARAMS_PER_RBF..(a + 1) * PARAMS_PER_RBF]);
+                    let p = &new[a * PARAMS_PER_RBF..(a + 1) * PARAMS_PER_RBF];
+                    params.extend_from_slice(p);
+                    touched.extend_from_slice(p);
                 }
                 let t = Instant::now();
-                let m = minimize(grid, &mut params, bounds, optimizer, warm);
+                let free = overlapping(&params, &touched);
+                let m = minimize_free(grid, &mut params, &free, bounds, optimizer, warm);
                 split.exchange_seconds += t.elapsed().as_secs_f64();
                 split.exchange_passes += m.passes;
                 stats.add(&m, false);
                 let before = rel_l2;
                 let (rel, r) = errors_from_cost(grid, m.cost);
                 if rel >= before {
-                    // The joint minimization undid the predicted gain: keep the old RBFs.
+                    // The minimization undid the predicted gain: keep the old RBFs.
                     (params, alive) = kept;
                     break;
                 }
