@@ -1,6 +1,8 @@
 //! Per-frame figures of a sequence fit (no residual, no asset): error, error ratio, RBFs
 //! inserted and moved (after insertion stopped over the threshold), iterations (at half
-//! and at full resolution), objective passes and seconds, then a summary line. `--paper`
+//! and at full resolution), objective passes and seconds, where a warm frame's seconds
+//! went (the minimizations after the deletions, insertion rounds and exchange rounds with
+//! their passes; matching pursuit; removal costs), then a summary line. `--paper`
 //! runs paper A's warm frames (one insertion at a time, at most 8, full resolution only, per-iteration convergence test) for a before/after.
 //! `--cold-every K` also fits every K-th warm frame from scratch with the warm fit's RBF
 //! count and prints the warm error over the cold one: above 1 is drift that the warm

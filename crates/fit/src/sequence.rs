@@ -224,8 +224,7 @@ pub enum Insertion {
     /// and those their supports overlap.
     #[default]
     Batch,
-    /// The paper's: one RBF per round (minimized with the RBFs it overlaps; the paper
-    /// minimizes all of them).
+    /// The paper's: one RBF, then a joint minimization, per round.
     Single,
 }
 
@@ -606,8 +605,14 @@ impl SequenceFitter {
             rounds += 1;
             params.extend_from_slice(&new);
             let t = Instant::now();
-            let free = overlapping(&params, &new);
-            let m = minimize_free(grid, &mut params, &free, bounds, optimizer, warm);
+            let m = match o.insertion {
+                Insertion::Batch => {
+                    let free = overlapping(&params, &new);
+                    minimize_free(grid, &mut params, &free, bounds, optimizer, warm)
+                }
+                // The paper minimizes all RBFs after each insertion.
+                Insertion::Single => minimize(grid, &mut params, bounds, optimizer, warm),
+            };
             split.insert_seconds += t.elapsed().as_secs_f64();
             split.insert_passes += m.passes;
             stats.add(&m, false);
