@@ -32,48 +32,57 @@ pub const PARAMS_PER_RBF: usize = 5;
 
 const CUT2: f64 = CUTOFF * CUTOFF;
 
-/// One axis of one RBF's support: voxel range and per-voxel tables.
+/// One axis of one RBF's support: voxel range and per-voxel tables, the three tables in
+/// one allocation (a pass builds them for every RBF).
 #[derive(Debug, Default, Clone)]
 struct Axis {
     lo: usize,
     /// Position of the smallest `q`: `q` does not increase up to it and does not
     /// decrease after it (rounding is monotone, so this holds in floating point too).
     mid: usize,
-    /// `x_i − c` for voxel `lo + k`.
-    d: Vec<f64>,
-    /// `(x_i − c)² / r²`.
-    q: Vec<f64>,
-    /// `exp(−q)`.
-    e: Vec<f64>,
+    /// Voxels on the axis.
+    n: usize,
+    /// `d`, then `q`, then `e` (see their accessors).
+    v: Vec<f64>,
 }
 
 impl Axis {
     fn new(c: f64, r: f64, h: f64, n: usize) -> Option<Axis> {
         let s = CUTOFF * r;
         let (lo, hi) = voxel_span(c - s, c + s, 0.0, h, n)?;
-        let len = hi + 1 - lo;
-        let mut a = Axis {
-            lo,
-            mid: 0,
-            d: Vec::with_capacity(len),
-            q: Vec::with_capacity(len),
-            e: Vec::with_capacity(len),
-        };
-        for i in lo..=hi {
-            let d = (i as f64 + 0.5) * h - c;
+        let n = hi + 1 - lo;
+        let mut v = vec![0.0; 3 * n];
+        let mut mid = 0;
+        for k in 0..n {
+            let d = ((lo + k) as f64 + 0.5) * h - c;
             let q = (d / r) * (d / r);
-            a.d.push(d);
-            a.q.push(q);
-            a.e.push((-q).exp());
-            if q < a.q[a.mid] {
-                a.mid = a.q.len() - 1;
+            v[k] = d;
+            v[n + k] = q;
+            v[2 * n + k] = (-q).exp();
+            if q < v[n + mid] {
+                mid = k;
             }
         }
-        Some(a)
+        Some(Axis { lo, mid, n, v })
+    }
+
+    /// `x_i − c` for voxel `lo + k`.
+    fn d(&self) -> &[f64] {
+        &self.v[..self.n]
+    }
+
+    /// `(x_i − c)² / r²`.
+    fn q(&self) -> &[f64] {
+        &self.v[self.n..2 * self.n]
+    }
+
+    /// `exp(−q)`.
+    fn e(&self) -> &[f64] {
+        &self.v[2 * self.n..]
     }
 
     fn hi(&self) -> usize {
-        self.lo + self.d.len() - 1
+        self.lo + self.n - 1
     }
 }
 
@@ -106,9 +115,9 @@ impl Tables {
             rows: Vec::new(),
         };
         let [_, ay, az] = &t.axes;
-        let mut rows = Vec::with_capacity(ay.q.len() * az.q.len());
-        for &qz in &az.q {
-            for &qy in &ay.q {
+        let mut rows = Vec::with_capacity(ay.q().len() * az.q().len());
+        for &qz in az.q() {
+            for &qy in ay.q() {
                 let s = qy + qz;
                 rows.push(match (s < CUT2).then(|| t.row(s)).flatten() {
                     Some((a, b)) => (a as u32, b as u32),
@@ -127,7 +136,7 @@ impl Tables {
     #[inline]
     fn row(&self, s: f64) -> Option<(usize, usize)> {
         let ax = &self.axes[0];
-        let (left, right) = ax.q.split_at(ax.mid + 1);
+        let (left, right) = ax.q().split_at(ax.mid + 1);
         let a = left.partition_point(|&q| q + s >= CUT2);
         if a == left.len() {
             return None;
@@ -163,16 +172,16 @@ fn subtract_plane(grid: &FitGrid, t: &[Option<Tables>], z: usize, list: &[u32], 
         let Some(tab) = &t[l as usize] else { continue };
         let [ax, ay, az] = &tab.axes;
         let kz = z - az.lo;
-        let ez = az.e[kz];
-        let rows = &tab.rows[kz * ay.q.len()..(kz + 1) * ay.q.len()];
-        for (jy, (&ey, &(a, b))) in ay.e.iter().zip(rows).enumerate() {
+        let ez = az.e()[kz];
+        let rows = &tab.rows[kz * ay.q().len()..(kz + 1) * ay.q().len()];
+        for (jy, (&ey, &(a, b))) in ay.e().iter().zip(rows).enumerate() {
             let (a, b) = (a as usize, b as usize);
             if a >= b {
                 continue;
             }
             let f = tab.w * ey * ez;
             let row = grid.dims[0] * (ay.lo + jy) + ax.lo;
-            for (o, &ex) in out[row + a..row + b].iter_mut().zip(&ax.e[a..b]) {
+            for (o, &ex) in out[row + a..row + b].iter_mut().zip(&ax.e()[a..b]) {
                 *o -= f * ex;
             }
         }
@@ -311,10 +320,10 @@ impl Sums {
 fn plane_sums(grid: &FitGrid, tab: &Tables, z: usize, plane: &[f64]) -> Sums {
     let [ax, ay, az] = &tab.axes;
     let kz = z - az.lo;
-    let (dz, qz, ez) = (az.d[kz], az.q[kz], az.e[kz]);
+    let (dz, qz, ez) = (az.d()[kz], az.q()[kz], az.e()[kz]);
     let (mut s0, mut sx, mut sy, mut sq) = (0.0, 0.0, 0.0, 0.0);
-    let rows = &tab.rows[kz * ay.q.len()..(kz + 1) * ay.q.len()];
-    let table = ay.d.iter().zip(&ay.q).zip(&ay.e).zip(rows);
+    let rows = &tab.rows[kz * ay.q().len()..(kz + 1) * ay.q().len()];
+    let table = ay.d().iter().zip(ay.q()).zip(ay.e()).zip(rows);
     for (jy, (((&dy, &qy), &ey), &(a, b))) in table.enumerate() {
         let (a, b) = (a as usize, b as usize);
         if a >= b {
@@ -324,9 +333,9 @@ fn plane_sums(grid: &FitGrid, tab: &Tables, z: usize, plane: &[f64]) -> Sums {
         let row = grid.dims[0] * (ay.lo + jy) + ax.lo;
         let [t0, t1, t2] = row_sums(
             &plane[row + a..row + b],
-            &ax.e[a..b],
-            &ax.d[a..b],
-            &ax.q[a..b],
+            &ax.e()[a..b],
+            &ax.d()[a..b],
+            &ax.q()[a..b],
         );
         let f = ey * ez;
         s0 += f * t0;
@@ -585,7 +594,7 @@ mod tests {
         ] {
             // y and z: the middle of the 3-voxel axes (the unit is the 24-voxel side).
             let tab = Tables::new(&g, &[c, 1.5 / 24.0, 1.5 / 24.0, r, 1.0]).unwrap();
-            let q = &tab.axes[0].q;
+            let q = tab.axes[0].q();
             for k in 0..200 {
                 let s = 9.0 * k as f64 / 200.0;
                 let inside: Vec<usize> = (0..q.len()).filter(|&i| q[i] + s < CUT2).collect();
