@@ -1,6 +1,8 @@
 //! Per-frame figures of a sequence fit (no residual, no asset): error, error ratio, RBFs
 //! inserted and moved (after insertion stopped over the threshold), iterations (at half
-//! and at full resolution), objective passes and seconds, then a summary line. `--paper`
+//! and at full resolution), objective passes and seconds, where a warm frame's seconds
+//! went (the minimizations after the deletions, insertion rounds and exchange rounds with
+//! their passes; matching pursuit; removal costs), then a summary line. `--paper`
 //! runs paper A's warm frames (one insertion at a time, at most 8, full resolution only, per-iteration convergence test) for a before/after.
 //! `--cold-every K` also fits every K-th warm frame from scratch with the warm fit's RBF
 //! count and prints the warm error over the cold one: above 1 is drift that the warm
@@ -107,9 +109,9 @@ fn main() {
         d[2]
     );
     println!(
-        "| frame | RBFs | +ins | moved | rel_l2 | rms/max | ratio | iterations (coarse) | passes | insert s | seconds | stop | warm/cold | at first density: RBFs, cold rel_l2, warm/cold |"
+        "| frame | RBFs | +ins | moved | rel_l2 | rms/max | ratio | iterations (coarse) | passes | insert s | seconds | split s (passes): warm / insert / exchange min., pursuit, removal | stop | warm/cold | at first density: RBFs, cold rel_l2, warm/cold |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let mut fitter = SequenceFitter::new(opts.clone());
     let (mut warm_s, mut rms, mut first_s) = (Vec::new(), Vec::new(), Vec::new());
     let (mut over, mut worst, mut capped, mut moved) = (0, 0.0f64, 0, Vec::new());
@@ -147,7 +149,7 @@ fn main() {
             String::new()
         };
         println!(
-            "| {} | {} | {} | {} | {:.4} | {:.2} % | {:.3} | {} ({}) | {} | {:.2} | {:.2} | {} | {cold} | {density} |",
+            "| {} | {} | {} | {} | {:.4} | {:.2} % | {:.3} | {} ({}) | {} | {:.2} | {:.2} | {:.2} ({}) / {:.2} ({}) / {:.2} ({}), {:.2}, {:.2} | {} | {cold} | {density} |",
             seq.frames()[k].number,
             f.rbfs.len(),
             f.inserted,
@@ -160,6 +162,14 @@ fn main() {
             f.passes,
             f.insert_seconds,
             f.fit_seconds,
+            f.split.warm_seconds,
+            f.split.warm_passes,
+            f.split.insert_seconds,
+            f.split.insert_passes,
+            f.split.exchange_seconds,
+            f.split.exchange_passes,
+            f.split.pursuit_seconds,
+            f.split.removal_seconds,
             f.insertion_stop.map_or("", |s| s.as_str())
         );
         if f.rbfs.is_empty() {

@@ -7,8 +7,8 @@
 //! one RBF; at a converged fit `⟨R, g⟩ ≈ 0` and the cost is about `w²⟨g, g⟩`). Matching
 //! pursuit predicts each new RBF's gain ([`crate::init::matched_with_gains`]). Pairing the
 //! `k`-th largest gain with the `k`-th smallest cost, an exchange pays while the gain
-//! exceeds the cost; RBFs near one another interact, so the joint minimization that
-//! follows, not the prediction, decides whether a round is kept.
+//! exceeds the cost; RBFs near one another interact, so the minimization that follows
+//! ([`crate::local`]), not the prediction, decides whether a round is kept.
 
 use crate::grid::FitGrid;
 use crate::objective::PARAMS_PER_RBF;

@@ -16,6 +16,7 @@ pub mod init;
 
 pub use frame::{Coarse, FitOptions, FitStats, fit_first_frame};
 pub mod exchange;
+pub mod local;
 pub mod sequence;
 
 pub use sequence::{

@@ -15,14 +15,13 @@
 //!
 //! Evaluation is separable: `e_lv = ex_l[i]·ey_l[j]·ez_l[k]`, so each RBF gets three small
 //! 1-D tables per pass and the inner loops are one multiply-add per voxel, with no `exp`.
-//! The pass has two parallel halves, neither needing atomics or locks: (1) per z-plane,
-//! gather the RBFs whose support meets the plane, copy `D` on the rows they reach,
-//! subtract `D̃` there to get `R`, and accumulate the plane's share of `Σ(R² − D²)`
-//! (outside every support `R = D`, so `ΣR² = ΣD² + Σ_reached(R² − D²)` touches only the
-//! voxels the RBFs reach, not the whole grid); (2) per RBF, walk its support sphere over
-//! `R` and accumulate its five gradient entries. Partial sums are combined in a fixed
-//! order, so results do not
-//! depend on the thread count.
+//! The pass runs in parallel over z-planes, without atomics or locks: per plane, gather
+//! the RBFs whose support meets the plane, copy `D` on the rows they reach, subtract `D̃`
+//! there to get `R`, accumulate the plane's share of `Σ(R² − D²)` (outside every support
+//! `R = D`, so `ΣR² = ΣD² + Σ_reached(R² − D²)` touches only the voxels the RBFs reach,
+//! not the whole grid), and, for a gradient, each listed RBF's share of its five sums
+//! over the plane while the plane's `R` is in cache. Partial sums are combined in plane
+//! order, so results do not depend on the thread count.
 
 use crate::grid::FitGrid;
 use haze_volume::rbf::{CUTOFF, voxel_span};
@@ -33,44 +32,57 @@ pub const PARAMS_PER_RBF: usize = 5;
 
 const CUT2: f64 = CUTOFF * CUTOFF;
 
-/// One axis of one RBF's support: voxel range and per-voxel tables.
+/// One axis of one RBF's support: voxel range and per-voxel tables, the three tables in
+/// one allocation (a pass builds them for every RBF).
 #[derive(Debug, Default, Clone)]
 struct Axis {
     lo: usize,
     /// Position of the smallest `q`: `q` does not increase up to it and does not
     /// decrease after it (rounding is monotone, so this holds in floating point too).
     mid: usize,
-    /// `x_i − c` for voxel `lo + k`.
-    d: Vec<f64>,
-    /// `(x_i − c)² / r²`.
-    q: Vec<f64>,
-    /// `exp(−q)`.
-    e: Vec<f64>,
+    /// Voxels on the axis.
+    n: usize,
+    /// `d`, then `q`, then `e` (see their accessors).
+    v: Vec<f64>,
 }
 
 impl Axis {
     fn new(c: f64, r: f64, h: f64, n: usize) -> Option<Axis> {
         let s = CUTOFF * r;
         let (lo, hi) = voxel_span(c - s, c + s, 0.0, h, n)?;
-        let mut a = Axis {
-            lo,
-            ..Axis::default()
-        };
-        for i in lo..=hi {
-            let d = (i as f64 + 0.5) * h - c;
+        let n = hi + 1 - lo;
+        let mut v = vec![0.0; 3 * n];
+        let mut mid = 0;
+        for k in 0..n {
+            let d = ((lo + k) as f64 + 0.5) * h - c;
             let q = (d / r) * (d / r);
-            a.d.push(d);
-            a.q.push(q);
-            a.e.push((-q).exp());
-            if q < a.q[a.mid] {
-                a.mid = a.q.len() - 1;
+            v[k] = d;
+            v[n + k] = q;
+            v[2 * n + k] = (-q).exp();
+            if q < v[n + mid] {
+                mid = k;
             }
         }
-        Some(a)
+        Some(Axis { lo, mid, n, v })
+    }
+
+    /// `x_i − c` for voxel `lo + k`.
+    fn d(&self) -> &[f64] {
+        &self.v[..self.n]
+    }
+
+    /// `(x_i − c)² / r²`.
+    fn q(&self) -> &[f64] {
+        &self.v[self.n..2 * self.n]
+    }
+
+    /// `exp(−q)`.
+    fn e(&self) -> &[f64] {
+        &self.v[2 * self.n..]
     }
 
     fn hi(&self) -> usize {
-        self.lo + self.d.len() - 1
+        self.lo + self.n - 1
     }
 }
 
@@ -80,6 +92,10 @@ struct Tables {
     w: f64,
     r: f64,
     axes: [Axis; 3],
+    /// For the x-row at table positions `(j, k)`, entry `k·ny + j`: the table positions
+    /// `[a, b)` inside the sphere ([`Tables::row`]; empty: `a ≥ b`). Found once per pass
+    /// and read by both halves of it.
+    rows: Vec<(u32, u32)>,
 }
 
 impl Tables {
@@ -92,11 +108,25 @@ impl Tables {
         let x = Axis::new(c[0], r, grid.h[0], grid.dims[0])?;
         let y = Axis::new(c[1], r, grid.h[1], grid.dims[1])?;
         let z = Axis::new(c[2], r, grid.h[2], grid.dims[2])?;
-        Some(Tables {
+        let mut t = Tables {
             w,
             r,
             axes: [x, y, z],
-        })
+            rows: Vec::new(),
+        };
+        let [_, ay, az] = &t.axes;
+        let mut rows = Vec::with_capacity(ay.q().len() * az.q().len());
+        for &qz in az.q() {
+            for &qy in ay.q() {
+                let s = qy + qz;
+                rows.push(match (s < CUT2).then(|| t.row(s)).flatten() {
+                    Some((a, b)) => (a as u32, b as u32),
+                    None => (0, 0),
+                });
+            }
+        }
+        t.rows = rows;
+        Some(t)
     }
 
     /// Table positions of the x-row `(j, k)` whose voxels lie inside the sphere, given
@@ -106,7 +136,7 @@ impl Tables {
     #[inline]
     fn row(&self, s: f64) -> Option<(usize, usize)> {
         let ax = &self.axes[0];
-        let (left, right) = ax.q.split_at(ax.mid + 1);
+        let (left, right) = ax.q().split_at(ax.mid + 1);
         let a = left.partition_point(|&q| q + s >= CUT2);
         if a == left.len() {
             return None;
@@ -142,16 +172,16 @@ fn subtract_plane(grid: &FitGrid, t: &[Option<Tables>], z: usize, list: &[u32], 
         let Some(tab) = &t[l as usize] else { continue };
         let [ax, ay, az] = &tab.axes;
         let kz = z - az.lo;
-        let (qz, ez) = (az.q[kz], az.e[kz]);
-        for (jy, (&qy, &ey)) in ay.q.iter().zip(&ay.e).enumerate() {
-            let s = qy + qz;
-            if s >= CUT2 {
+        let ez = az.e()[kz];
+        let rows = &tab.rows[kz * ay.q().len()..(kz + 1) * ay.q().len()];
+        for (jy, (&ey, &(a, b))) in ay.e().iter().zip(rows).enumerate() {
+            let (a, b) = (a as usize, b as usize);
+            if a >= b {
                 continue;
             }
-            let Some((a, b)) = tab.row(s) else { continue };
             let f = tab.w * ey * ez;
             let row = grid.dims[0] * (ay.lo + jy) + ax.lo;
-            for (o, &ex) in out[row + a..row + b].iter_mut().zip(&ax.e[a..b]) {
+            for (o, &ex) in out[row + a..row + b].iter_mut().zip(&ax.e()[a..b]) {
                 *o -= f * ex;
             }
         }
@@ -185,7 +215,17 @@ pub struct Scratch {
 /// bounding boxes ([`row_spans`]); the other entries are left as they were and
 /// hold no meaning. Outside the RBFs `R = D`, so
 /// `ΣR² = ΣD² + Σ_reached (R² − D²)`, with `ΣD²` the grid's `sum_sq`.
-fn residual_reached(grid: &FitGrid, t: &[Option<Tables>], scratch: &mut Scratch) -> f64 {
+///
+/// With `sums`, also each RBF's five gradient sums ([`Sums`]), accumulated plane by plane
+/// while the plane's residual is still in cache (a second walk over each RBF's sphere
+/// read `R` from memory in the RBFs' order, scattered over the grid); the planes' shares
+/// are added in plane order, so the sums do not depend on the thread count.
+fn residual_reached(
+    grid: &FitGrid,
+    t: &[Option<Tables>],
+    scratch: &mut Scratch,
+    sums: Option<&mut [Sums]>,
+) -> f64 {
     let lists = plane_lists(grid, t);
     let plane = grid.dims[0] * grid.dims[1];
     let r = &mut scratch.r;
@@ -193,14 +233,15 @@ fn residual_reached(grid: &FitGrid, t: &[Option<Tables>], scratch: &mut Scratch)
     if plane == 0 {
         return 0.0;
     }
-    let partial: Vec<f64> = r
+    let with_sums = sums.is_some();
+    let partial: Vec<(f64, Vec<Sums>)> = r
         .par_chunks_mut(plane)
         .zip(grid.density.par_chunks(plane))
         .zip(lists.par_iter())
         .enumerate()
         .map(|(z, ((out, density), list))| {
             if list.is_empty() {
-                return 0.0;
+                return (0.0, Vec::new());
             }
             let spans = row_spans(grid, t, list);
             for (y, &(lo, hi)) in spans.iter().enumerate() {
@@ -214,19 +255,119 @@ fn residual_reached(grid: &FitGrid, t: &[Option<Tables>], scratch: &mut Scratch)
             for (y, &(lo, hi)) in spans.iter().enumerate() {
                 if lo < hi {
                     let row = grid.dims[0] * y;
-                    for (&r, &d) in out[row + lo..row + hi]
-                        .iter()
-                        .zip(&density[row + lo..row + hi])
-                    {
-                        delta += r * r - d * d;
-                    }
+                    delta += row_delta(&out[row + lo..row + hi], &density[row + lo..row + hi]);
                 }
             }
-            delta
+            let plane_sums = if with_sums {
+                list.iter()
+                    .map(|&l| match &t[l as usize] {
+                        Some(tab) => plane_sums(grid, tab, z, out),
+                        None => Sums::default(),
+                    })
+                    .collect()
+            } else {
+                Vec::new()
+            };
+            (delta, plane_sums)
         })
         .collect();
+    if let Some(sums) = sums {
+        sums.fill(Sums::default());
+        for (list, (_, part)) in lists.iter().zip(&partial) {
+            for (&l, p) in list.iter().zip(part) {
+                sums[l as usize].add(p);
+            }
+        }
+    }
     // Rounding can take a perfect fit a hair below zero.
-    (grid.sum_sq + partial.iter().sum::<f64>()).max(0.0)
+    (grid.sum_sq + partial.iter().map(|p| p.0).sum::<f64>()).max(0.0)
+}
+
+/// `Σ (R² − D²)` over one row, in four interleaved partial sums (one running sum waits
+/// on the previous addition at every voxel).
+#[inline]
+fn row_delta(r: &[f64], d: &[f64]) -> f64 {
+    let mut acc = [0.0; 4];
+    let (rc, dc) = (r.chunks_exact(4), d.chunks_exact(4));
+    let tail: f64 = rc
+        .remainder()
+        .iter()
+        .zip(dc.remainder())
+        .map(|(&r, &d)| r * r - d * d)
+        .sum();
+    for (r4, d4) in rc.zip(dc) {
+        for k in 0..4 {
+            acc[k] += r4[k] * r4[k] - d4[k] * d4[k];
+        }
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+}
+
+/// One RBF's gradient sums over the voxels of its sphere, with `R` the residual and
+/// `e, d_a, q` its tables: `S0 = Σ R e`, `S_a = Σ R e d_a`, `Sq = Σ R e q`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Sums([f64; 5]);
+
+impl Sums {
+    fn add(&mut self, o: &Sums) {
+        for (a, b) in self.0.iter_mut().zip(&o.0) {
+            *a += b;
+        }
+    }
+}
+
+/// The share of [`Sums`] of one RBF on the z-plane `z`, whose residual is `plane`.
+fn plane_sums(grid: &FitGrid, tab: &Tables, z: usize, plane: &[f64]) -> Sums {
+    let [ax, ay, az] = &tab.axes;
+    let kz = z - az.lo;
+    let (dz, qz, ez) = (az.d()[kz], az.q()[kz], az.e()[kz]);
+    let (mut s0, mut sx, mut sy, mut sq) = (0.0, 0.0, 0.0, 0.0);
+    let rows = &tab.rows[kz * ay.q().len()..(kz + 1) * ay.q().len()];
+    let table = ay.d().iter().zip(ay.q()).zip(ay.e()).zip(rows);
+    for (jy, (((&dy, &qy), &ey), &(a, b))) in table.enumerate() {
+        let (a, b) = (a as usize, b as usize);
+        if a >= b {
+            continue;
+        }
+        let s = qy + qz;
+        let row = grid.dims[0] * (ay.lo + jy) + ax.lo;
+        let [t0, t1, t2] = row_sums(
+            &plane[row + a..row + b],
+            &ax.e()[a..b],
+            &ax.d()[a..b],
+            &ax.q()[a..b],
+        );
+        let f = ey * ez;
+        s0 += f * t0;
+        sx += f * t1;
+        sy += f * dy * t0;
+        sq += f * (t2 + s * t0);
+    }
+    Sums([s0, sx, sy, dz * s0, sq])
+}
+
+/// `(Σ R e, Σ R e d, Σ R e q)` over one row, in interleaved partial sums.
+#[inline]
+fn row_sums(r: &[f64], e: &[f64], d: &[f64], q: &[f64]) -> [f64; 3] {
+    const L: usize = 4;
+    let mut acc = [[0.0; L]; 3];
+    let n = r.len() / L * L;
+    for i in (0..n).step_by(L) {
+        for k in 0..L {
+            let re = r[i + k] * e[i + k];
+            acc[0][k] += re;
+            acc[1][k] += re * d[i + k];
+            acc[2][k] += re * q[i + k];
+        }
+    }
+    let mut out = acc.map(|a| (a[0] + a[1]) + (a[2] + a[3]));
+    for i in n..r.len() {
+        let re = r[i] * e[i];
+        out[0] += re;
+        out[1] += re * d[i];
+        out[2] += re * q[i];
+    }
+    out
 }
 
 /// The residual `D − D̃` of the normalized density (x fastest).
@@ -251,7 +392,7 @@ pub fn cost(grid: &FitGrid, params: &[f64]) -> f64 {
 
 /// [`cost`] with a residual buffer reused across calls.
 pub fn cost_with(grid: &FitGrid, params: &[f64], scratch: &mut Scratch) -> f64 {
-    let e = residual_reached(grid, &tables(grid, params), scratch);
+    let e = residual_reached(grid, &tables(grid, params), scratch, None);
     normalize(grid, e)
 }
 
@@ -277,53 +418,25 @@ pub fn cost_and_gradient_with(
     scratch: &mut Scratch,
 ) -> f64 {
     let t = tables(grid, params);
-    let e = residual_reached(grid, &t, scratch);
-    let r = &scratch.r;
+    let mut sums = vec![Sums::default(); t.len()];
+    let e = residual_reached(grid, &t, scratch, Some(&mut sums));
     let scale = if grid.sum_sq > 0.0 {
         1.0 / grid.sum_sq
     } else {
         1.0
     };
-    grad.par_chunks_mut(PARAMS_PER_RBF)
-        .zip(t.par_iter())
-        .for_each(|(g, tab)| {
-            g.fill(0.0);
-            let Some(tab) = tab else { return };
-            let [ax, ay, az] = &tab.axes;
-            // S0 = Σ R e, Sa = Σ R e d_a, Sq = Σ R e q.
-            let (mut s0, mut sx, mut sy, mut sz, mut sq) = (0.0, 0.0, 0.0, 0.0, 0.0);
-            for (kz, ((&dz, &qz), &ez)) in az.d.iter().zip(&az.q).zip(&az.e).enumerate() {
-                for (jy, ((&dy, &qy), &ey)) in ay.d.iter().zip(&ay.q).zip(&ay.e).enumerate() {
-                    let s = qy + qz;
-                    if s >= CUT2 {
-                        continue;
-                    }
-                    let Some((a, b)) = tab.row(s) else { continue };
-                    let row = grid.index(ax.lo, ay.lo + jy, az.lo + kz);
-                    let (mut t0, mut t1, mut t2) = (0.0, 0.0, 0.0);
-                    let voxels = r[row + a..row + b].iter().zip(&ax.e[a..b]);
-                    for ((&rv, &e), (&d, &q)) in voxels.zip(ax.d[a..b].iter().zip(&ax.q[a..b])) {
-                        let re = rv * e;
-                        t0 += re;
-                        t1 += re * d;
-                        t2 += re * q;
-                    }
-                    let f = ey * ez;
-                    s0 += f * t0;
-                    sx += f * t1;
-                    sy += f * dy * t0;
-                    sz += f * dz * t0;
-                    sq += f * (t2 + s * t0);
-                }
-            }
-            let (w, rr) = (tab.w, tab.r);
-            let k = -4.0 * w * scale / (rr * rr);
-            g[0] = k * sx;
-            g[1] = k * sy;
-            g[2] = k * sz;
-            g[3] = k * sq * rr;
-            g[4] = -2.0 * s0 * scale;
-        });
+    for ((g, tab), Sums([s0, sx, sy, sz, sq])) in grad.chunks_mut(PARAMS_PER_RBF).zip(&t).zip(sums)
+    {
+        g.fill(0.0);
+        let Some(tab) = tab else { continue };
+        let (w, rr) = (tab.w, tab.r);
+        let k = -4.0 * w * scale / (rr * rr);
+        g[0] = k * sx;
+        g[1] = k * sy;
+        g[2] = k * sz;
+        g[3] = k * sq * rr;
+        g[4] = -2.0 * s0 * scale;
+    }
     normalize(grid, e)
 }
 
@@ -407,6 +520,66 @@ mod tests {
         }
     }
 
+    /// The gradient, accumulated plane by plane, against the formulas of the module docs
+    /// summed voxel by voxel with `R` from the independent reference evaluation and
+    /// `e_lv` from `Rbf::eval`, for overlapping RBFs, one clipped by the grid's corner and
+    /// one outside it.
+    #[test]
+    fn gradient_matches_a_voxel_by_voxel_sum() {
+        let g = grid_of([19, 13, 15], |p| {
+            ((p[0] * 0.2).sin().abs() + p[1] * 0.07 + p[2] * 0.03) as f32
+        });
+        let params = [
+            0.31, 0.42, 0.37, 0.09, 0.7, //
+            0.36, 0.45, 0.33, 0.06, 0.4, //
+            0.02, 0.03, 0.04, 0.12, 0.9, //
+            2.0, 2.0, 2.0, 0.05, 1.0,
+        ];
+        let mut grad = vec![0.0; params.len()];
+        let f = cost_and_gradient(&g, &params, &mut grad);
+        let rbfs: Vec<_> = params
+            .chunks(5)
+            .map(|p| haze_volume::Rbf::new([p[0], p[1], p[2]], p[3], p[4]))
+            .collect();
+        let ext = haze_volume::Bbox::new([0.0; 3], g.extent);
+        let reference = rbf::evaluate_on_grid(g.dims, &ext, &rbfs);
+        let r: Vec<f64> = (0..g.len()).map(|i| g.density[i] - reference[i]).collect();
+        let e: f64 = r.iter().map(|v| v * v).sum();
+        assert!((f - e / g.sum_sq).abs() < 1e-12);
+        for (l, p) in params.chunks(5).enumerate() {
+            let (c, rr, w) = ([p[0], p[1], p[2]], p[3], p[4]);
+            let mut want = [0.0; 5];
+            for (i, &rv) in r.iter().enumerate() {
+                let x = g.center(i);
+                let d: Vec<f64> = (0..3).map(|a| x[a] - c[a]).collect();
+                let d2: f64 = d.iter().map(|v| v * v).sum();
+                if d2 >= CUT2 * rr * rr {
+                    continue;
+                }
+                let ev = (-d2 / (rr * rr)).exp();
+                for a in 0..3 {
+                    want[a] -= 4.0 * w * rv * ev * d[a] / (rr * rr * g.sum_sq);
+                }
+                want[3] -= 4.0 * w * rv * ev * d2 / (rr * rr * rr * g.sum_sq);
+                want[4] -= 2.0 * rv * ev / g.sum_sq;
+            }
+            for k in 0..5 {
+                let got = grad[l * 5 + k];
+                assert!(
+                    (got - want[k]).abs() <= 1e-10 * want[k].abs().max(1e-6),
+                    "RBF {l} parameter {k}: {got} vs {}",
+                    want[k]
+                );
+            }
+            if l < 3 {
+                assert!(
+                    want.iter().any(|v| v.abs() > 1e-6),
+                    "RBF {l} reaches voxels"
+                );
+            }
+        }
+    }
+
     /// The binary-searched row is exactly the range of the per-voxel sphere test, for
     /// centers on and between voxel centers and `s` across `[0, 9)`.
     #[test]
@@ -421,7 +594,7 @@ mod tests {
         ] {
             // y and z: the middle of the 3-voxel axes (the unit is the 24-voxel side).
             let tab = Tables::new(&g, &[c, 1.5 / 24.0, 1.5 / 24.0, r, 1.0]).unwrap();
-            let q = &tab.axes[0].q;
+            let q = tab.axes[0].q();
             for k in 0..200 {
                 let s = 9.0 * k as f64 / 200.0;
                 let inside: Vec<usize> = (0..q.len()).filter(|&i| q[i] + s < CUT2).collect();

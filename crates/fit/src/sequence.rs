@@ -13,7 +13,9 @@
 //! `n·((rel_l2/target)^(1/α) − 1)` more RBFs (`α = 1/3`), placed by matching pursuit
 //! on the residual ([`crate::init::matched`]: where a Gaussian of the insertion radius
 //! lowers `ΣR²` most, rather than on the largest single voxel) and then minimized
-//! jointly with the rest. Rounds repeat until the ratio holds, or a round removes less
+//! with the RBFs whose supports overlap theirs, the rest frozen ([`crate::local`]; a
+//! round of a few RBFs at 1200 costs a few dozen RBFs' passes instead of a whole frame's,
+//! and the next frame's warm start minimizes all of them again). Rounds repeat until the ratio holds, or a round removes less
 //! than [`MIN_ROUND_GAIN`] of the excess error (the error left is finer than an RBF can
 //! reach: the residual's job).
 //!
@@ -44,8 +46,9 @@
 //! Exchange ([`crate::exchange`]). A frame still over the threshold when insertion stops
 //! (cap, ceiling, marginal gain, stall) does not give up: in rounds, the RBFs whose
 //! removal would raise `ΣR²` least are moved to where matching pursuit predicts a larger
-//! gain (at most a quarter of the RBFs a round, [`EXCHANGE_SHARE`]), followed by a joint
-//! minimization; a round that does not lower the error is undone, and rounds stop when
+//! gain (at most a quarter of the RBFs a round, [`EXCHANGE_SHARE`]), followed by a
+//! minimization of the moved RBFs and those whose supports overlap them where they were
+//! or where they went, the rest frozen ([`crate::local`]); a round that does not lower the error is undone, and rounds stop when
 //! the ratio holds or a round removes less than [`MIN_ROUND_GAIN`] of the excess. Smoke
 //! that leaves one place for another (a moving emitter, old smoke thinning) keeps its
 //! error at a constant count. A frame left over the threshold after all this is
@@ -62,6 +65,7 @@ use crate::exchange::{paying_exchanges, removal_costs};
 use crate::frame::{FitOptions, FitStats, fit_first_frame, weakest};
 use crate::grid::FitGrid;
 use crate::init::{greedy, initial_radius, matched_with_gains};
+use crate::local::{minimize_free, overlapping};
 use crate::objective::{self, PARAMS_PER_RBF};
 use crate::optimize::{Stop, minimize};
 use haze_volume::{Rbf, Volume};
@@ -89,8 +93,8 @@ pub struct SequenceOptions {
     pub threshold: f64,
     /// How RBFs are inserted.
     pub insertion: Insertion,
-    /// Stopping rule of each warm-started joint minimization (the fits of inserted RBFs
-    /// alone follow `fit.polish`).
+    /// Stopping rule of each warm-started minimization (of all RBFs after the deletions,
+    /// of the RBFs a round touches after it).
     pub warm: Stop,
     /// Insert an RBF only where it is predicted to lower `∫R² dV` by at least this
     /// fraction of the first frame's marginal gain (see the module docs); 0: no such test.
@@ -216,7 +220,8 @@ pub const MIN_ROUND_GAIN: f64 = 0.25;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Insertion {
-    /// Rounds sized by the excess error; new RBFs fitted alone, then a joint polish.
+    /// Rounds sized by the excess error, each followed by a minimization of the new RBFs
+    /// and those their supports overlap.
     #[default]
     Batch,
     /// The paper's: one RBF, then a joint minimization, per round.
@@ -322,6 +327,30 @@ pub struct FrameFit {
     pub rbfs_at_bounds: usize,
     /// Mean world distance moved by RBF centers that persisted from the previous frame.
     pub mean_center_displacement: Option<f64>,
+    /// Where a warm frame's seconds went (all zero for a first frame).
+    #[serde(default)]
+    pub split: TimeSplit,
+}
+
+/// Seconds of a warm frame by step: the minimizations (the first one after the
+/// deletions, those after insertion rounds, those after exchange rounds) with their
+/// passes, and the pricing between them (residual grids and matching pursuit, removal
+/// costs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct TimeSplit {
+    /// The minimization after the deletions.
+    pub warm_seconds: f64,
+    pub warm_passes: u64,
+    /// The minimizations after insertion rounds.
+    pub insert_seconds: f64,
+    pub insert_passes: u64,
+    /// The minimizations after exchange rounds.
+    pub exchange_seconds: f64,
+    pub exchange_passes: u64,
+    /// Residuals, residual grids and matching pursuit's proposals.
+    pub pursuit_seconds: f64,
+    /// Removal costs of exchange rounds.
+    pub removal_seconds: f64,
 }
 
 /// A reduction of `ΣR²` on `grid` (normalized densities, summed over voxels) as
@@ -485,7 +514,10 @@ impl SequenceFitter {
         }
         let (optimizer, warm) = (o.fit.optimizer, o.warm);
         let mut stats = FitStats::default();
+        let mut split = TimeSplit::default();
+        let t = Instant::now();
         let m = minimize(grid, &mut params, bounds, optimizer, warm);
+        (split.warm_seconds, split.warm_passes) = (t.elapsed().as_secs_f64(), m.passes);
         stats.add(&m, false);
         let (mut rel_l2, mut rms) = errors_from_cost(grid, m.cost);
         let ratio = |rel: f64| {
@@ -529,6 +561,7 @@ impl SequenceFitter {
             if inserted >= cap {
                 break full;
             }
+            let t = Instant::now();
             let residual = grid.residual_grid(objective::residual(grid, &params));
             let n = params.len() / PARAMS_PER_RBF;
             let m = match o.insertion {
@@ -544,6 +577,7 @@ impl SequenceFitter {
                     matched_with_gains(&residual, 1, radius, bounds).1,
                 ),
             };
+            split.pursuit_seconds += t.elapsed().as_secs_f64();
             next_gain = gains.first().map(|&g| world_gain(grid, g));
             let proposed = new.len();
             if floor > 0.0 {
@@ -570,7 +604,17 @@ impl SequenceFitter {
             inserted += new.len() / PARAMS_PER_RBF;
             rounds += 1;
             params.extend_from_slice(&new);
-            let m = minimize(grid, &mut params, bounds, optimizer, warm);
+            let t = Instant::now();
+            let m = match o.insertion {
+                Insertion::Batch => {
+                    let free = overlapping(&params, &new);
+                    minimize_free(grid, &mut params, &free, bounds, optimizer, warm)
+                }
+                // The paper minimizes all RBFs after each insertion.
+                Insertion::Single => minimize(grid, &mut params, bounds, optimizer, warm),
+            };
+            split.insert_seconds += t.elapsed().as_secs_f64();
+            split.insert_passes += m.passes;
             stats.add(&m, false);
             let before = rel_l2;
             (rel_l2, rms) = errors_from_cost(grid, m.cost);
@@ -592,17 +636,26 @@ impl SequenceFitter {
         let mut exchanged = 0;
         if ratio(rel_l2) > o.threshold && stop != InsertionStop::Nowhere {
             loop {
+                let t = Instant::now();
                 let residual = objective::residual(grid, &params);
                 let n = params.len() / PARAMS_PER_RBF;
                 let m = batch_size(n, rel_l2, target).min((n / EXCHANGE_SHARE).max(1));
                 let (new, gains) =
                     matched_with_gains(&grid.residual_grid(residual.clone()), m, radius, bounds);
+                split.pursuit_seconds += t.elapsed().as_secs_f64();
+                let t = Instant::now();
                 let costs = removal_costs(grid, &residual, &params);
+                split.removal_seconds += t.elapsed().as_secs_f64();
                 let (add, remove) = paying_exchanges(&gains, &costs);
                 if add.is_empty() {
                     break;
                 }
                 let kept = (params.clone(), alive.clone());
+                // The RBFs that the removed and the added ones change the residual under.
+                let mut touched: Vec<f64> = remove
+                    .iter()
+                    .flat_map(|&l| params[l * PARAMS_PER_RBF..(l + 1) * PARAMS_PER_RBF].to_vec())
+                    .collect();
                 for &l in remove.iter().rev() {
                     params.drain(l * PARAMS_PER_RBF..(l + 1) * PARAMS_PER_RBF);
                     if l < alive.len() {
@@ -610,14 +663,20 @@ impl SequenceFitter {
                     }
                 }
                 for &a in &add {
-                    params.extend_from_slice(&new[a * PARAMS_PER_RBF..(a + 1) * PARAMS_PER_RBF]);
+                    let p = &new[a * PARAMS_PER_RBF..(a + 1) * PARAMS_PER_RBF];
+                    params.extend_from_slice(p);
+                    touched.extend_from_slice(p);
                 }
-                let m = minimize(grid, &mut params, bounds, optimizer, warm);
+                let t = Instant::now();
+                let free = overlapping(&params, &touched);
+                let m = minimize_free(grid, &mut params, &free, bounds, optimizer, warm);
+                split.exchange_seconds += t.elapsed().as_secs_f64();
+                split.exchange_passes += m.passes;
                 stats.add(&m, false);
                 let before = rel_l2;
                 let (rel, r) = errors_from_cost(grid, m.cost);
                 if rel >= before {
-                    // The joint minimization undid the predicted gain: keep the old RBFs.
+                    // The minimization undid the predicted gain: keep the old RBFs.
                     (params, alive) = kept;
                     break;
                 }
@@ -635,6 +694,7 @@ impl SequenceFitter {
         let mut f = finish(grid, &params, o, stats, rel_l2, rms);
         f.warm_started = true;
         f.exchanged = exchanged;
+        f.split = split;
         f.deleted = deleted;
         f.inserted = inserted;
         f.insert_rounds = rounds;
@@ -692,6 +752,7 @@ fn empty_fit() -> FrameFit {
         gain_floor: 0.0,
         rbfs_at_bounds: 0,
         mean_center_displacement: None,
+        split: TimeSplit::default(),
     }
 }
 
