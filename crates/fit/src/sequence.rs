@@ -61,6 +61,7 @@
 //!
 //! An all-zero frame has no RBFs; the next non-empty frame starts afresh as a first frame.
 
+use crate::bounds::Bounds;
 use crate::exchange::{paying_exchanges, removal_costs};
 use crate::frame::{FitOptions, FitStats, fit_first_frame, weakest};
 use crate::grid::FitGrid;
@@ -276,7 +277,8 @@ pub struct FrameFit {
     /// `sqrt(mean((D − D̃)²)) / max D` (0 for an all-zero frame).
     pub rms_over_max: f64,
     pub fit_seconds: f64,
-    /// Seconds spent inserting (placing, fitting the new RBFs, polishing after them).
+    /// Seconds spent inserting and exchanging (placing RBFs, the minimizations after each
+    /// round).
     #[serde(default)]
     pub insert_seconds: f64,
     pub iterations: u64,
@@ -635,59 +637,30 @@ impl SequenceFitter {
         // it more: its count stays, its error drops.
         let mut exchanged = 0;
         if ratio(rel_l2) > o.threshold && stop != InsertionStop::Nowhere {
-            loop {
+            let round = ExchangeRound {
+                target,
+                radius,
+                bounds,
+            };
+            let minimizer = |params: &mut Vec<f64>, touched: &[f64]| {
                 let t = Instant::now();
-                let residual = objective::residual(grid, &params);
-                let n = params.len() / PARAMS_PER_RBF;
-                let m = batch_size(n, rel_l2, target).min((n / EXCHANGE_SHARE).max(1));
-                let (new, gains) =
-                    matched_with_gains(&grid.residual_grid(residual.clone()), m, radius, bounds);
-                split.pursuit_seconds += t.elapsed().as_secs_f64();
-                let t = Instant::now();
-                let costs = removal_costs(grid, &residual, &params);
-                split.removal_seconds += t.elapsed().as_secs_f64();
-                let (add, remove) = paying_exchanges(&gains, &costs);
-                if add.is_empty() {
-                    break;
-                }
-                let kept = (params.clone(), alive.clone());
-                // The RBFs that the removed and the added ones change the residual under.
-                let mut touched: Vec<f64> = remove
-                    .iter()
-                    .flat_map(|&l| params[l * PARAMS_PER_RBF..(l + 1) * PARAMS_PER_RBF].to_vec())
-                    .collect();
-                for &l in remove.iter().rev() {
-                    params.drain(l * PARAMS_PER_RBF..(l + 1) * PARAMS_PER_RBF);
-                    if l < alive.len() {
-                        alive.remove(l);
-                    }
-                }
-                for &a in &add {
-                    let p = &new[a * PARAMS_PER_RBF..(a + 1) * PARAMS_PER_RBF];
-                    params.extend_from_slice(p);
-                    touched.extend_from_slice(p);
-                }
-                let t = Instant::now();
-                let free = overlapping(&params, &touched);
-                let m = minimize_free(grid, &mut params, &free, bounds, optimizer, warm);
+                let free = overlapping(params, touched);
+                let m = minimize_free(grid, params, &free, bounds, optimizer, warm);
                 split.exchange_seconds += t.elapsed().as_secs_f64();
                 split.exchange_passes += m.passes;
                 stats.add(&m, false);
-                let before = rel_l2;
-                let (rel, r) = errors_from_cost(grid, m.cost);
-                if rel >= before {
-                    // The minimization undid the predicted gain: keep the old RBFs.
-                    (params, alive) = kept;
-                    break;
-                }
-                (rel_l2, rms) = (rel, r);
-                exchanged += add.len();
+                m.cost
+            };
+            let (cost, moved, priced) = round.run(grid, &mut params, &mut alive, rel_l2, minimizer);
+            (split.pursuit_seconds, split.removal_seconds) = (
+                split.pursuit_seconds + priced.0,
+                split.removal_seconds + priced.1,
+            );
+            if moved > 0 {
+                exchanged = moved;
+                (rel_l2, rms) = errors_from_cost(grid, cost);
                 if ratio(rel_l2) <= o.threshold {
                     stop = InsertionStop::TargetMet;
-                    break;
-                }
-                if before - rel_l2 < MIN_ROUND_GAIN * (before - target) {
-                    break;
                 }
             }
         }
@@ -724,6 +697,91 @@ impl SequenceFitter {
             f.mean_center_displacement = Some(moved.iter().sum::<f64>() / moved.len() as f64);
         }
         f
+    }
+}
+
+/// The exchange rounds of a warm frame left over its target (see the module docs and
+/// [`crate::exchange`]).
+struct ExchangeRound<'a> {
+    /// rel_l2 to reach.
+    target: f64,
+    /// Radius of the RBFs put in (unit cube).
+    radius: f64,
+    bounds: &'a Bounds,
+}
+
+impl ExchangeRound<'_> {
+    /// Rounds on `params` (at `rel_l2`): each moves the cheapest RBFs to matching pursuit's
+    /// best proposals ([`removal_costs`], [`paying_exchanges`], at most a quarter of the
+    /// RBFs, [`EXCHANGE_SHARE`]), then calls `minimize(params, touched)` (`touched`: the
+    /// removed and the added RBFs' parameters), which minimizes the parameters in place
+    /// and returns the objective `ΣR²/ΣD²`. A round whose minimization does not lower
+    /// rel_l2 is undone: the parameters and `alive` (the previous frame's index of each
+    /// of the first `alive.len()` RBFs) are put back as they were. Rounds stop at the
+    /// target, at a round undone, at one that removes less than [`MIN_ROUND_GAIN`] of the
+    /// excess, or where no exchange pays. Returns the objective of the rounds kept (that
+    /// of `rel_l2` if none), the RBFs they moved and the seconds spent pricing (matching
+    /// pursuit with its residual grids, removal costs).
+    fn run(
+        &self,
+        grid: &FitGrid,
+        params: &mut Vec<f64>,
+        alive: &mut Vec<usize>,
+        mut rel_l2: f64,
+        mut minimize: impl FnMut(&mut Vec<f64>, &[f64]) -> f64,
+    ) -> (f64, usize, (f64, f64)) {
+        let (mut cost, mut exchanged, mut priced) = (rel_l2 * rel_l2, 0, (0.0, 0.0));
+        while rel_l2 > self.target {
+            let t = Instant::now();
+            let residual = objective::residual(grid, params);
+            let n = params.len() / PARAMS_PER_RBF;
+            let m = batch_size(n, rel_l2, self.target).min((n / EXCHANGE_SHARE).max(1));
+            let (new, gains) = matched_with_gains(
+                &grid.residual_grid(residual.clone()),
+                m,
+                self.radius,
+                self.bounds,
+            );
+            priced.0 += t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            let costs = removal_costs(grid, &residual, params);
+            priced.1 += t.elapsed().as_secs_f64();
+            let (add, remove) = paying_exchanges(&gains, &costs);
+            if add.is_empty() {
+                break;
+            }
+            let kept = (params.clone(), alive.clone());
+            // The RBFs that the removed and the added ones change the residual under.
+            let mut touched: Vec<f64> = remove
+                .iter()
+                .flat_map(|&l| params[l * PARAMS_PER_RBF..(l + 1) * PARAMS_PER_RBF].to_vec())
+                .collect();
+            for &l in remove.iter().rev() {
+                params.drain(l * PARAMS_PER_RBF..(l + 1) * PARAMS_PER_RBF);
+                if l < alive.len() {
+                    alive.remove(l);
+                }
+            }
+            for &a in &add {
+                let p = &new[a * PARAMS_PER_RBF..(a + 1) * PARAMS_PER_RBF];
+                params.extend_from_slice(p);
+                touched.extend_from_slice(p);
+            }
+            let before = rel_l2;
+            let f = minimize(params, &touched);
+            let rel = f.max(0.0).sqrt();
+            if rel >= before {
+                // The minimization undid the predicted gain: keep the old RBFs.
+                (*params, *alive) = kept;
+                break;
+            }
+            (rel_l2, cost) = (rel, f);
+            exchanged += add.len();
+            if rel_l2 > self.target && before - rel_l2 < MIN_ROUND_GAIN * (before - self.target) {
+                break;
+            }
+        }
+        (cost, exchanged, priced)
     }
 }
 
@@ -783,11 +841,101 @@ fn finish(
 #[cfg(test)]
 mod tests {
     use super::{
-        auto_insert_cap, batch_size, errors, errors_from_cost, excess_insert_cap, smoke_support,
+        ExchangeRound, auto_insert_cap, batch_size, errors, errors_from_cost, excess_insert_cap,
+        smoke_support,
     };
+    use crate::bounds::Bounds;
     use crate::grid::FitGrid;
-    use crate::objective;
-    use haze_volume::{Bbox, Volume};
+    use crate::objective::{self, PARAMS_PER_RBF};
+    use crate::optimize::{Optimizer, Stop, minimize};
+    use haze_volume::{Bbox, Rbf, Volume, rbf};
+
+    /// Gaussian blobs of radius 1.8 voxels at `centers` on a `n³` cube of unit voxels.
+    fn blobs(n: usize, centers: &[[f64; 3]]) -> FitGrid {
+        let b = Bbox::new([0.0; 3], [n as f64; 3]);
+        let rbfs: Vec<Rbf> = centers
+            .iter()
+            .enumerate()
+            .map(|(k, &c)| Rbf::new(c, 1.8, 0.4 + 0.15 * (k % 4) as f64))
+            .collect();
+        let data = rbf::evaluate_on_grid([n; 3], &b, &rbfs)
+            .iter()
+            .map(|&v| v as f32)
+            .collect();
+        FitGrid::from_volume(&Volume::new([n; 3], b, data).unwrap()).unwrap()
+    }
+
+    /// The undo path of an exchange round: two of four blobs fitted, two RBFs on empty
+    /// space, two blobs bare. A round moves the empty ones onto the bare blobs; where the
+    /// minimization after it does not lower the error (here it shrinks every weight a
+    /// hundredfold), the frame's RBFs and their bookkeeping are exactly the ones before
+    /// the round; with a real minimization the move is kept and the moved RBFs leave
+    /// the bookkeeping.
+    #[test]
+    fn an_exchange_round_that_does_not_pay_is_undone() {
+        let centers = [
+            [6.0, 6.0, 10.0],
+            [16.0, 6.0, 10.0],
+            [6.0, 16.0, 10.0],
+            [16.0, 16.0, 10.0],
+        ];
+        let g = blobs(22, &centers);
+        let bounds = Bounds::default();
+        let r = 1.8 / 22.0;
+        let at = |c: [f64; 3], w: f64| [c[0] / 22.0, c[1] / 22.0, c[2] / 22.0, r, w];
+        let start: Vec<f64> = [
+            at(centers[0], 0.4),
+            at([11.0, 11.0, 3.0], 0.01),
+            at(centers[1], 0.55),
+            at([11.0, 11.0, 18.0], 0.01),
+        ]
+        .concat();
+        let (rel, _) = errors(&g, &start);
+        let round = ExchangeRound {
+            target: 0.5 * rel,
+            radius: r,
+            bounds: &bounds,
+        };
+        let (mut params, mut alive) = (start.clone(), vec![7, 8, 9, 10]);
+        let mut costs = Vec::new();
+        let mut touched_rbfs = 0;
+        let worse = |p: &mut Vec<f64>, touched: &[f64]| {
+            touched_rbfs = touched.len() / PARAMS_PER_RBF;
+            for q in p.chunks_mut(PARAMS_PER_RBF) {
+                q[4] *= 0.01;
+            }
+            let f = objective::cost(&g, p);
+            costs.push(f);
+            f
+        };
+        let (cost, moved, _) = round.run(&g, &mut params, &mut alive, rel, worse);
+        assert_eq!(costs.len(), 1, "one round, then undone");
+        assert!(costs[0].sqrt() >= rel, "{} vs {rel}", costs[0].sqrt());
+        assert_eq!(moved, 0);
+        assert!((cost - rel * rel).abs() <= 1e-15, "{cost} vs {}", rel * rel);
+        assert_eq!(params, start);
+        assert_eq!(alive, vec![7, 8, 9, 10]);
+        // Each move touches the RBF removed and the one added.
+        assert!(touched_rbfs >= 2 && touched_rbfs % 2 == 0, "{touched_rbfs}");
+        // The same round with the minimization kept: the empty RBFs (previous frame's 8
+        // and 10) moved onto the bare blobs and are no longer followed.
+        let real = |p: &mut Vec<f64>, _: &[f64]| {
+            let stop = Stop {
+                max_iterations: 100,
+                ..Stop::default()
+            };
+            minimize(&g, p, &bounds, Optimizer::default(), stop).cost
+        };
+        let (cost, moved, _) = round.run(&g, &mut params, &mut alive, rel, real);
+        let after = cost.sqrt();
+        assert!(
+            moved >= 2 && after < 0.5 * rel,
+            "{moved} moved, {after} vs {rel}"
+        );
+        assert!((errors(&g, &params).0 - after).abs() < 1e-9);
+        assert_eq!(params.len(), start.len());
+        assert_eq!(alive, vec![7, 9]);
+    }
 
     /// The measures from a cost equal those from a pass over the residual.
     #[test]
