@@ -75,7 +75,7 @@ fn summary_line(b: &Baked) -> String {
         .filter(|r| r.residual.rbfs_meet_error)
         .count();
     format!(
-        "{}: {}, {:.0} RBFs/frame, mean rel_l2 {:.4}, mean rms/max {:.4}, residual {}/frame ({} met by the RBFs alone), {}, {:.1} s",
+        "{}: {}, {:.0} RBFs/frame, mean rel_l2 {:.4}, mean rms/max {:.4}, residual {}/frame ({} met by the RBFs alone), {}, {:.1} s{}",
         b.out.display(),
         progress::count(records.len(), "frame"),
         mean(|r| r.rbfs as f64),
@@ -84,6 +84,29 @@ fn summary_line(b: &Baked) -> String {
         crate::inspect::bytes(mean(|r| r.residual.hash_bytes) as u64),
         met,
         crate::inspect::bytes(b.bytes),
-        b.seconds
+        b.seconds,
+        over_threshold(records)
+    )
+}
+
+/// The frames whose RBFs ended over the threshold ratio (each one warned), in one clause
+/// for the summary line: how many, the worst ratio, how many at the `--max-rbfs` ceiling;
+/// empty when every frame held its ratio.
+fn over_threshold(records: &[haze_bake::FrameRecord]) -> String {
+    let over: Vec<_> = records
+        .iter()
+        .filter(|r| r.fit.insertion_capped || r.fit.insertion_stalled)
+        .collect();
+    if over.is_empty() {
+        return String::new();
+    }
+    let worst = over.iter().map(|r| r.fit.error_ratio).fold(0.0, f64::max);
+    let ceiling = over
+        .iter()
+        .filter(|r| r.fit.insertion_stop == Some(haze_fit::InsertionStop::Ceiling))
+        .count();
+    format!(
+        "; {} over the threshold ratio (worst {worst:.3}; {ceiling} at the --max-rbfs ceiling): the residual holds their error",
+        progress::count(over.len(), "frame")
     )
 }

@@ -427,6 +427,22 @@ fn bake_warns_and_reports_a_frame_capped_at_the_ceiling() {
         );
     }
     assert_eq!(r["temporal"]["frames_capped"], over.len());
+    // The last line counts them.
+    let worst = over
+        .iter()
+        .map(|f| f["error_ratio"].as_f64().unwrap())
+        .fold(0.0, f64::max);
+    let n = over.len();
+    let count = format!(
+        "{n} frame{} over the threshold ratio",
+        if n == 1 { "" } else { "s" }
+    );
+    let summary = log.lines().last().unwrap_or("");
+    assert!(
+        summary.contains(&count)
+            && summary.contains(&format!("worst {worst:.3}; {n} at the --max-rbfs ceiling")),
+        "{summary}"
+    );
 }
 
 #[test]
