@@ -311,7 +311,7 @@ pub struct BakeCli {
     #[arg(long, value_name = "E")]
     target_error: Option<f64>,
     /// Most RBFs a frame may have: where later frames stop inserting and move RBFs
-    /// instead [default: 4 × the first frame's count], and the --target-error search's
+    /// instead [default: 8 × the first frame's count], and the --target-error search's
     /// ceiling [default: 4096].
     #[arg(long, value_name = "N")]
     max_rbfs: Option<usize>,
