@@ -445,6 +445,17 @@ mod tests {
     use super::*;
     use haze_volume::{Bbox, Volume, rbf};
 
+    /// `D̃` of `params` (unit-cube parameters) on every voxel of `g`, by the independent
+    /// reference evaluation of `haze_volume::rbf`.
+    fn reference_sum(g: &FitGrid, params: &[f64]) -> Vec<f64> {
+        let rbfs: Vec<_> = params
+            .chunks(5)
+            .map(|p| haze_volume::Rbf::new([p[0], p[1], p[2]], p[3], p[4]))
+            .collect();
+        let ext = haze_volume::Bbox::new([0.0; 3], g.extent);
+        rbf::evaluate_on_grid(g.dims, &ext, &rbfs)
+    }
+
     fn grid_of(dims: [usize; 3], f: impl Fn([f64; 3]) -> f32) -> FitGrid {
         let b = Bbox::new([0.0; 3], [dims[0] as f64, dims[1] as f64, dims[2] as f64]);
         let mut v = Volume::zeros(dims, b).unwrap();
@@ -470,12 +481,7 @@ mod tests {
             2.0, 2.0, 2.0, 0.05, 1.0, // outside: touches nothing
         ];
         let r = residual(&g, &params);
-        let rbfs: Vec<_> = params
-            .chunks(5)
-            .map(|p| haze_volume::Rbf::new([p[0], p[1], p[2]], p[3], p[4]))
-            .collect();
-        let ext = haze_volume::Bbox::new([0.0; 3], g.extent);
-        let reference = rbf::evaluate_on_grid(g.dims, &ext, &rbfs);
+        let reference = reference_sum(&g, &params);
         for i in 0..g.len() {
             let want = g.density[i] - reference[i];
             assert!((r[i] - want).abs() < 1e-12, "voxel {i}: {} vs {want}", r[i]);
@@ -505,12 +511,7 @@ mod tests {
             let c2 = cost_and_gradient(&g, params, &mut fresh);
             assert_eq!(c1, c2);
             assert_eq!(reused, fresh);
-            let rbfs: Vec<_> = params
-                .chunks(5)
-                .map(|p| haze_volume::Rbf::new([p[0], p[1], p[2]], p[3], p[4]))
-                .collect();
-            let ext = haze_volume::Bbox::new([0.0; 3], g.extent);
-            let reference = rbf::evaluate_on_grid(g.dims, &ext, &rbfs);
+            let reference = reference_sum(&g, params);
             let e: f64 = (0..g.len())
                 .map(|i| (g.density[i] - reference[i]).powi(2))
                 .sum::<f64>()
@@ -537,12 +538,7 @@ mod tests {
         ];
         let mut grad = vec![0.0; params.len()];
         let f = cost_and_gradient(&g, &params, &mut grad);
-        let rbfs: Vec<_> = params
-            .chunks(5)
-            .map(|p| haze_volume::Rbf::new([p[0], p[1], p[2]], p[3], p[4]))
-            .collect();
-        let ext = haze_volume::Bbox::new([0.0; 3], g.extent);
-        let reference = rbf::evaluate_on_grid(g.dims, &ext, &rbfs);
+        let reference = reference_sum(&g, &params);
         let r: Vec<f64> = (0..g.len()).map(|i| g.density[i] - reference[i]).collect();
         let e: f64 = r.iter().map(|v| v * v).sum();
         assert!((f - e / g.sum_sq).abs() < 1e-12);
