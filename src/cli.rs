@@ -1016,7 +1016,13 @@ impl BakeCli {
                     },
                     warm: Stop {
                         max_iterations: self.warm_iterations,
-                        relative_reduction: self.tolerance,
+                        // The windowed test replaces the per-iteration one, as in the
+                        // library's defaults; without it, --tolerance stops a warm frame.
+                        relative_reduction: if self.warm_tolerance > 0.0 {
+                            defaults.warm.relative_reduction
+                        } else {
+                            self.tolerance
+                        },
                         window: if self.warm_tolerance > 0.0 {
                             defaults.warm.window
                         } else {

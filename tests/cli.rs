@@ -700,3 +700,30 @@ fn frames_the_rbfs_alone_meet_store_no_residual() {
         .success();
     assert!(exported.exists());
 }
+
+/// The CLI's defaults are the library's: a bake with no fitting flags records in its
+/// report exactly `SequenceOptions::default()` (the first frame's and the warm frames'
+/// stopping rules among them), so figures measured through the library hold for
+/// `haze bake`.
+#[test]
+fn bake_defaults_are_the_librarys() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("d.haze");
+    let report = tmp.path().join("d.json");
+    let dir = data("plume-a/vdb");
+    let run = haze()
+        .args(["bake", dir.to_str().unwrap(), "--frames", "21..22", "-q"])
+        .args(["--out", out.to_str().unwrap()])
+        .args(["--report", report.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let library = serde_json::to_value(haze_fit::SequenceOptions::default()).unwrap();
+    assert_eq!(r["settings"]["options"], library);
+}
