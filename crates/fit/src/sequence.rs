@@ -151,7 +151,7 @@ impl InsertionStop {
 /// outgrows its size is not fitted better from scratch with more RBFs than a warm frame
 /// has (BENCHMARKS.md, plume-d), and the residual stores what the RBFs miss. With the
 /// local rounds and the cheaper pass, 8× holds every frame of plume-e (4×: 11 of 44 over
-/// 1.1) for 29–36 % more bake time and lowers plume-d's worst ratio 1.86 → 1.66 for 52 %
+/// 1.1) for 34 % more bake time and lowers plume-d's worst ratio 1.86 → 1.66 for 42 %
 /// more (BENCHMARKS.md, "The default ceiling"); sequences that stay within their first
 /// frame's error below it never reach it.
 pub const GROWTH_LIMIT: usize = 8;
