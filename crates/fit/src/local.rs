@@ -172,6 +172,46 @@ mod tests {
         assert_ne!(p[0..5], start[0..5]);
     }
 
+    /// The extremes: no free RBF leaves the parameters as they were and returns their full
+    /// objective; every RBF free is the joint minimization (the background is the density
+    /// itself); an empty frame (`ΣD² = 0`, background 0) gives the unnormalized `ΣR²` that
+    /// the full objective gives there, finite.
+    #[test]
+    fn extremes_none_free_all_free_empty_frame() {
+        let g = grid();
+        let bounds = Bounds::default();
+        let mut p = PARAMS.to_vec();
+        for q in p.chunks_mut(5) {
+            bounds.clamp(&g, q);
+        }
+        let start = p.clone();
+        let stop = Stop {
+            max_iterations: 30,
+            ..Stop::default()
+        };
+        let none = minimize_free(&g, &mut p, &[], &bounds, Optimizer::Lbfgsb, stop);
+        assert_eq!(p, start);
+        assert!((none.cost - objective::cost(&g, &p)).abs() < 1e-12);
+        let all = minimize_free(&g, &mut p, &[0, 1, 2, 3], &bounds, Optimizer::Lbfgsb, stop);
+        let mut joint = start.clone();
+        let j = minimize(&g, &mut joint, &bounds, Optimizer::Lbfgsb, stop);
+        assert!(
+            (all.cost - j.cost).abs() <= 1e-12 * j.cost,
+            "{} vs {}",
+            all.cost,
+            j.cost
+        );
+        for (a, b) in p.iter().zip(&joint) {
+            assert!((a - b).abs() <= 1e-9, "{a} vs {b}");
+        }
+        let b = Bbox::new([0.0; 3], [22.0, 18.0, 16.0]);
+        let empty = FitGrid::from_volume(&Volume::zeros([22, 18, 16], b).unwrap()).unwrap();
+        let mut q = start.clone();
+        let m = minimize_free(&empty, &mut q, &[1], &bounds, Optimizer::Lbfgsb, stop);
+        assert!(m.cost.is_finite() && m.cost >= 0.0, "{}", m.cost);
+        assert!((m.cost - objective::cost(&empty, &q)).abs() <= 1e-12 * m.cost.max(1.0));
+    }
+
     /// Overlap is `|c_a − c_b| < 3(r_a + r_b)`, checked against the distances.
     #[test]
     fn overlapping_supports() {
