@@ -18,7 +18,7 @@
 //! the zenith's). The fast renderer gets that map as a user's `--env` would (its sun
 //! split off, unless `--no-sun-extraction`); the reference gets the sky without the disk
 //! plus the exact sun, the same light sampled without noise from the disk. Errors are
-//! `rel_rms` (DESIGN.md) over the pixels where the smoke blocks at least 2 % of the
+//! `rel_rms` (docs/conventions.md) over the pixels where the smoke blocks at least 2 % of the
 //! background, against the reference renderer at `--spp` samples per pixel (its own
 //! noise, two seeds, is printed for scale). `--table reference` measures only the
 //! reference's own noise under the light the fast renderer gets (no fit), with and
@@ -800,7 +800,7 @@ fn cached_fit(a: &Args, density: &Volume) -> Vec<Rbf> {
     rbfs
 }
 
-/// The reference renderer's own noise (`render_with_noise`: two half-runs, DESIGN.md's
+/// The reference renderer's own noise (`render_with_noise`: two half-runs, docs/conventions.md's
 /// mask, what `haze render --reference` prints) under the light the user gives (`env`:
 /// the sky, or the map with its sun split off or, with `--no-sun-extraction`, whole),
 /// both estimators, with the environment importance-sampled (MIS) and without.

@@ -16,7 +16,7 @@ importance-sampled); Mitsuba with `volpath` at `max_depth` 2 (one scattering eve
 the grid as a `gridvolume` (trilinear, clamped past the outer voxel centers, as haze's
 field), the map as an `envmap` turned from Mitsuba's Y-up frame into haze's Z-up one.
 
-Prints `rel_rms` (DESIGN.md: RMS of the difference over the RMS of the reference, here
+Prints `rel_rms` (docs/conventions.md: RMS of the difference over the RMS of the reference, here
 Mitsuba's image) over the pixels where the smoke changes the background by more than 1 %,
 and each renderer's own noise: haze's from its two half-runs, Mitsuba's from two seeds.
 The pixel footprints differ (haze: one ray through each pixel center; Mitsuba: a box
@@ -68,7 +68,7 @@ def sun_direction():
 
 
 def env_map(w=512, h=256, sub=4):
-    """Lat-long map (DESIGN.md: row 0 the zenith, column u → φ = 2πu from +X to +Y),
+    """Lat-long map (docs/conventions.md: row 0 the zenith, column u → φ = 2πu from +X to +Y),
     each texel the sin θ-weighted mean of sub × sub subsamples."""
     s = sun_direction()
     cos_half = math.cos(math.radians(SUN_ANGLE) / 2.0)

@@ -17,7 +17,7 @@ fn bundled(name: &str) -> String {
         .to_string()
 }
 
-/// `sqrt(Σ|a − b|²/Σ|b|²)` over all channels (DESIGN.md's image error).
+/// `sqrt(Σ|a − b|²/Σ|b|²)` over all channels (docs/conventions.md's image error).
 fn rel_rms(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
     let (mut d, mut n) = (0.0f64, 0.0f64);
     for (x, y) in a.iter().flatten().zip(b.iter().flatten()) {

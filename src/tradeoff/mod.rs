@@ -1,7 +1,7 @@
 //! `haze tradeoff`: the speed/accuracy curve of every knob on the user's own data. Each
 //! setting is baked and rendered through the code paths of `haze bake`/`haze render`
 //! (smoke) or `haze fog wavelet` (fogmaps) and timed; its error is the rel RMS
-//! (DESIGN.md) of its picture against the most accurate setting's. Writes
+//! (docs/conventions.md "Errors") of its picture against the most accurate setting's. Writes
 //! `tradeoff.json` (every setting and the Pareto front of render time against error) and
 //! plots; `haze render --budget-ms/--target-error` choose from it (`choice`).
 
@@ -447,7 +447,7 @@ impl Sweep {
         Value::Object(out)
     }
 
-    /// `tradeoff.json` (DESIGN.md "CLI contract"). `medium` describes the scene (σt,
+    /// `tradeoff.json` (docs/formats.md "Trade-off sweep"). `medium` describes the scene (σt,
     /// albedo, g and the light for smoke) and `timing` the renderer the times are of.
     pub fn to_json(&self, input: &Path, frame: Option<i64>, medium: Value, timing: &str) -> Value {
         json!({

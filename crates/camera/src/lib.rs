@@ -1,4 +1,4 @@
-//! The pinhole camera of every haze renderer (DESIGN.md "Conventions"): `eye`, `target`,
+//! The pinhole camera of every haze renderer (docs/conventions.md "Camera"): `eye`, `target`,
 //! `up` (default `0,0,1`, need not be orthogonal to the view), vertical field of view in
 //! degrees; image row 0 is the top, column 0 the left; rays through pixel centers.
 //!

@@ -1,5 +1,5 @@
 //! A fog read from JSON: the `"terms"` of an analytic medium and its `"wind"`
-//! (README "Analytic fog"). Every term refuses keys it does not know and is validated —
+//! (docs/formats.md "Analytic fog"). Every term refuses keys it does not know and is validated —
 //! finite numbers, non-zero directions, `c > 0`, `d ≥ 0`, `C > 0`, degrees `≤ 9` — and the
 //! whole fog must be non-negative everywhere: the sum of the terms' lower bounds
 //! ([`crate::Fog::lower_bound`]) must not be below 0 (paper D: "extinction function must

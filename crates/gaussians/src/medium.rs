@@ -1,5 +1,5 @@
-//! The medium: `σt(x) = σt·(background + Σᵢ wᵢ·exp(−|x − cᵢ|²/rᵢ²))` (DESIGN.md "Scene
-//! file", `"type": "gaussians"`), i.e. paper B's `β0 + Σ cᵢe^{−aᵢ²|x−bᵢ|²}` with
+//! The medium: `σt(x) = σt·(background + Σᵢ wᵢ·exp(−|x − cᵢ|²/rᵢ²))` (docs/formats.md
+//! "Scene file", `"type": "gaussians"`), i.e. paper B's `β0 + Σ cᵢe^{−aᵢ²|x−bᵢ|²}` with
 //! `β0 = σt·background`, `cᵢ = σt·wᵢ`, `aᵢ = 1/rᵢ`, `bᵢ = cᵢ`'s centre.
 //!
 //! Optical depths are the sum of every Gaussian's closed-form line integral

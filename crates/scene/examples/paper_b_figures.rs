@@ -16,7 +16,7 @@
 //! with a cloud of Gaussians from `haze_gaussians::cloud::ball` (fixed seed), at a chosen
 //! peak optical depth per Gaussian. **Accuracy**: paper B (CPU) against the march through
 //! the exact medium (`haze render --scene --reference`'s renderer, step
-//! `paper_b::march_step`), relative RMS over the image (DESIGN.md), for the whole image
+//! `paper_b::march_step`), relative RMS over the image (docs/conventions.md), for the whole image
 //! (where the sphere's shadow in the medium, which paper B does not model, counts
 //! against it), the airlight alone (no surfaces, black environment: the factorization's
 //! error alone) and the surfaces alone (albedo 0: the direct light through the

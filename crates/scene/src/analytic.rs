@@ -1,4 +1,4 @@
-//! Paper D's analytic fog in a scene (`{"type": "analytic", …}`, README "Analytic fog"):
+//! Paper D's analytic fog in a scene (`{"type": "analytic", …}`, docs/formats.md "Analytic fog"):
 //! the extinction `σt·K(x, t)` with `K` a sum of [`haze_fogfn`]'s functions, as a
 //! [`Heterogeneous`] medium (lit by [`crate::march`] like every medium) and rendered as
 //! paper D renders it (§3.1, eq. 5–6, §4): per pixel the exact optical depth `∫_O^P σt K`

@@ -1,4 +1,4 @@
-//! A baked smoke asset placed in a scene (DESIGN.md "Scene file", media type `"asset"`):
+//! A baked smoke asset placed in a scene (docs/formats.md "Scene file", media type `"asset"`):
 //! one frame of a `.haze` file, its density `D = max(D̃ + R, 0)` — the frame's RBFs
 //! (paper A §5) evaluated at the asset's voxel centers plus its dequantized residual
 //! (§5.3), exactly as `haze render` reconstructs a frame — resampled once into a

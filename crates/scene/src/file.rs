@@ -1,4 +1,4 @@
-//! The scene file (DESIGN.md "Scene file"): one JSON object read into a [`Scene`].
+//! The scene file (docs/formats.md "Scene file"): one JSON object read into a [`Scene`].
 //!
 //! Every object refuses keys it does not know; every problem — a missing file, bad JSON,
 //! an unknown key, a wrong type, a negative radius, a zero normal, a type not supported

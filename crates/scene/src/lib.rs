@@ -1,5 +1,5 @@
 //! Scenes — a camera, an environment, point and sun lights, participating media and
-//! surfaces, read from one JSON file (DESIGN.md "Scene file") — and the fog models that
+//! surfaces, read from one JSON file (docs/formats.md "Scene file") — and the fog models that
 //! light them. Today: paper C (Sun et al. 2005), analytic single scattering of point
 //! lights in a homogeneous isotropic medium — airlight from a precomputed table of its
 //! special function, surfaces lit through the medium (diffuse `G0` and specular `Gn`

@@ -38,7 +38,7 @@ pub struct Image {
 }
 
 impl Image {
-    /// DESIGN.md's image error against `reference`: `sqrt(Σ|a − b|²/Σ|b|²)` over all
+    /// The image error (docs/conventions.md) against `reference`: `sqrt(Σ|a − b|²/Σ|b|²)` over all
     /// channels (0 for two black images).
     pub fn rel_rms(&self, reference: &Image) -> f64 {
         let (mut d, mut n) = (0.0, 0.0);

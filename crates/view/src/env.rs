@@ -1,6 +1,6 @@
 //! Environment lighting: distant radiance `L(ω)` from a lat-long map or the built-in sky.
 //!
-//! Lat-long convention (DESIGN.md), Z up: pixel column `u ∈ [0,1)` → azimuth `φ = 2πu`
+//! Lat-long convention (docs/conventions.md), Z up: pixel column `u ∈ [0,1)` → azimuth `φ = 2πu`
 //! from +X towards +Y; row `v ∈ [0,1]` → polar angle `θ = πv` from +Z (row 0 is the
 //! zenith). Values are linear RGB radiance, looked up bilinearly between pixel centers
 //! (wrapping in azimuth, clamped at the poles).

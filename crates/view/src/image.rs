@@ -1,5 +1,5 @@
 //! Rendered images: linear RGB radiance per pixel (row 0 is the top), the image error of
-//! DESIGN.md (`rel_rms`), and writing as OpenEXR (linear `f32`) or PNG (tone-mapped).
+//! docs/conventions.md (`rel_rms`), and writing as OpenEXR (linear `f32`) or PNG (tone-mapped).
 //! Both writers go through a temporary file beside the destination that is renamed into
 //! place, so a reader never sees a half-written image.
 
@@ -38,7 +38,7 @@ impl Image {
         self.pixels[y * self.width + x]
     }
 
-    /// DESIGN.md's image error: the RMS over pixels of the linear radiance difference (all
+    /// The image error of docs/conventions.md: the RMS over pixels of the linear radiance difference (all
     /// three channels) divided by the RMS of `reference`,
     /// `sqrt(Σ|self − ref|²) / sqrt(Σ|ref|²)`. A black reference gives 0 for an identical
     /// image and `+∞` otherwise.

@@ -1,5 +1,5 @@
 //! Optical properties of the smoke: extinction `κt = σt·D(x)`, albedo `Ω = σs/σt`, and the
-//! Henyey–Greenstein phase function, normalized so that `(1/4π)∫p dω = 1` (DESIGN.md).
+//! Henyey–Greenstein phase function, normalized so that `(1/4π)∫p dω = 1` (docs/conventions.md).
 
 use std::f64::consts::PI;
 

@@ -3,8 +3,8 @@
 //! The media radiance is the two-term expansion `L_m(x, ω) ≈ L⁰(x) + L¹(x)·ω`, `ω` the
 //! direction of propagation, with `L⁰ = (1/4π)∫L dω` and `L¹ = (3/4π)∫L ω dω`; the
 //! single-scattering source `J_ss` (which carries the albedo) has moments `J⁰_ss`, `J¹_ss`
-//! defined the same way. Taking the zeroth and first moments of the RTE (DESIGN.md, "Notes
-//! on the mangled equations", re-derived and checked here):
+//! defined the same way. Taking the zeroth and first moments of the RTE (docs/derivations.md,
+//! "Notes on the mangled equations", re-derived and checked here):
 //!
 //! ```text
 //! (1/3)∇·L¹ = −σa D L⁰ + σt D J⁰_ss            σa = (1 − Ω) σt
@@ -20,7 +20,7 @@
 //!
 //! The paper's eq. 6 and 13 are mangled in the text we have: they carry a factor 3 on
 //! `κ`'s flux law, `σt/σtr` instead of `σt/(3σtr)` on the `J¹` term and an `Ω` next to `σt`
-//! on the `J⁰` term. The equations above are DESIGN's derivation, which the tests verify
+//! on the `J⁰` term. The equations above are docs/derivations.md's, which the tests verify
 //! (finite differences of the continuous fields, and the exact uniform solution
 //! `L⁰ = J⁰/(1 − Ω)`).
 //!

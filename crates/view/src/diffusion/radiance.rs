@@ -14,7 +14,7 @@
 //!
 //! The source `J_ms(ω) = (Ω/4π)∫ p(ω·ω') L_m(ω') dω'` with the normalized
 //! Henyey–Greenstein phase is, by Funk–Hecke, `J_lm = Ω g^l L_lm`: `½∫p(μ)P_l(μ)dμ = g^l`
-//! (DESIGN's eq. 11 factor `(1/4π)√(4π/(2l+1)) p_l` is the same number). The tests check it
+//! (docs/derivations.md's eq. 11 factor `(1/4π)√(4π/(2l+1)) p_l` is the same number). The tests check it
 //! against quadrature of the defining integral.
 
 use super::{Operators, Sources};

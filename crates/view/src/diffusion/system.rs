@@ -1,4 +1,4 @@
-//! Assembly of `A L⁰ = b` at the RBF centers (paper A eq. 13, in DESIGN's corrected form).
+//! Assembly of `A L⁰ = b` at the RBF centers (paper A eq. 13, in docs/derivations.md's form).
 //!
 //! With `v_l = w_l B_l` and `L⁰(x) = Σ v_l(x) L⁰_l / D̃(x)`, at a center `c_h` (all fields
 //! there, `D̃ = D̃(c_h)`):

@@ -11,7 +11,7 @@
 //! ```
 //!
 //! with `∗` the SH triple product and `⋆` the convolution with the HG phase function's
-//! zonal coefficients `p_l` (DESIGN.md's eq. 11; for `p ≡ 1` it is `Ω · avg(L_in τ̃)`).
+//! zonal coefficients `p_l` (docs/derivations.md, eq. 11; for `p ≡ 1` it is `Ω · avg(L_in τ̃)`).
 //!
 //! **Where τ̃ is taken** ([`SourcePoints`]). The volume pass spreads `J̃(c_ℓ)` over the
 //! RBF's whole footprint (eq. 14), so the value that represents RBF `ℓ` best is the

@@ -1,7 +1,7 @@
 //! Importance sampling of the distant environment, and its combination with phase
 //! sampling by multiple importance sampling (MIS).
 //!
-//! **The distribution.** A lat-long map of `w × h` texels (DESIGN.md: column `x` covers
+//! **The distribution.** A lat-long map of `w × h` texels (docs/conventions.md: column `x` covers
 //! azimuths `φ ∈ 2π[x, x+1)/w`, row `y` polar angles `θ ∈ π[y, y+1)/h`) gets the texel
 //! weights `W(x, y) = Ȳ(x, y)·Ω_y`, where
 //!

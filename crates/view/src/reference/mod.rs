@@ -20,7 +20,7 @@
 //! Transmittances are exact (`track.rs`: the optical depth of the trilinear field along a
 //! ray is integrated exactly piece by piece) and collisions are sampled by inverting it, so the
 //! only noise is that of the scattering events and the light directions. One ray per pixel,
-//! through its center (DESIGN.md); each pixel draws from its own generator, seeded from
+//! through its center (docs/conventions.md); each pixel draws from its own generator, seeded from
 //! [`RefOptions::seed`] and the pixel index, so images do not depend on the thread count.
 
 mod env_sampling;
@@ -180,7 +180,7 @@ fn render_scene(scene: &Scene<'_>, camera: &Camera, opts: &RefOptions) -> Image 
 /// up) from different seeds, averaged into the image, whose noise is then
 /// `rel_rms(A, B)/2` (the mean of two independent estimates has half the variance of
 /// one, and `A − B` twice it) over the pixels where the smoke changes the environment by
-/// more than 1 % (DESIGN.md's mask). `None` for a single sample per pixel, or when no
+/// more than 1 % (docs/conventions.md's mask). `None` for a single sample per pixel, or when no
 /// pixel shows smoke.
 pub fn render_with_noise(
     volume: &Volume,
@@ -231,7 +231,7 @@ pub fn render_with_noise(
 }
 
 /// The pixels of `image` where the smoke changes the environment seen through
-/// `camera` by more than 1 % (summed over the channels): DESIGN.md's error mask.
+/// `camera` by more than 1 % (summed over the channels): docs/conventions.md's error mask.
 pub fn smoke_pixels(image: &Image, env: &Environment, camera: &Camera) -> Vec<bool> {
     image
         .pixels
