@@ -143,6 +143,10 @@ fn light_records(scene: &Scene, eye: [f64; 3]) -> Vec<[f32; 4]> {
             }
         }
     }
+    // wgpu binds no empty buffers.
+    if lights.is_empty() {
+        lights.push([0.0; 4]);
+    }
     lights
 }
 
@@ -424,17 +428,8 @@ impl GpuRenderer {
         let out_bytes = 16 * pixels as u64 * if chunk > 0 { 3 } else { 1 };
         ctx.check_storage_size("the image", out_bytes)?;
         let eye = cam.eye;
-        let mut lights = light_records(scene, eye);
-        let (mut surfaces, mut meshes) = self.surface_records(scene, eye)?;
-        // wgpu binds no empty buffers.
-        for list in [&mut lights, &mut surfaces] {
-            if list.is_empty() {
-                list.push([0.0; 4]);
-            }
-        }
-        if meshes.is_empty() {
-            meshes.push([0; 4]);
-        }
+        let lights = light_records(scene, eye);
+        let (surfaces, meshes) = self.surface_records(scene, eye)?;
         ctx.check_storage_size("the meshes", 16 * meshes.len() as u64)?;
         let (params, envdata) = self.params(scene, lim, (sigma_t, sigma_s), chunk)?;
         ctx.check_storage_size("the environment", 16 * envdata.len() as u64)?;
@@ -527,7 +522,8 @@ impl GpuRenderer {
 
     /// Four records per surface (layout in `render.wgsl`: shape, its parameters, the
     /// diffuse colour and shininess, the specular colour and its `Gn` table), positions
-    /// relative to `eye`, and the meshes' hierarchies and triangles.
+    /// relative to `eye`, and the meshes' hierarchies and triangles (each one zero record
+    /// when empty).
     fn surface_records(&self, scene: &Scene, eye: [f64; 3]) -> Result<SurfaceRecords, GpuError> {
         let rel = |p: [f64; 3]| [0, 1, 2].map(|a| p[a] - eye[a]);
         let mut surfaces: Vec<[f32; 4]> = Vec::with_capacity(4 * scene.surfaces.len().max(1));
@@ -567,6 +563,13 @@ impl GpuRenderer {
             }
             surfaces.push(vec4(m.diffuse, m.shininess));
             surfaces.push(vec4(m.specular, gn));
+        }
+        // wgpu binds no empty buffers.
+        if surfaces.is_empty() {
+            surfaces.push([0.0; 4]);
+        }
+        if meshes.is_empty() {
+            meshes.push([0; 4]);
         }
         Ok((surfaces, meshes))
     }

@@ -299,6 +299,36 @@ impl OrdersPass {
 
     /// One compute pass (one timed stage) of `pipeline` over `groups` per bind group of
     /// `binds`, in order. Call inside [`GpuContext::scoped`].
+    /// The bind groups of one order's gather, a chunk of the directions `rule` each (its
+    /// parameters: `params` with the chunk's directions, and for the first order
+    /// `first_order`'s record stride and sun count); `buffers` are bindings 1–7.
+    fn gather_binds(
+        &self,
+        ctx: &GpuContext,
+        params: &Params,
+        first_order: Option<(usize, usize)>,
+        rule: &[([f64; 3], f64)],
+        buffers: [&wgpu::Buffer; 7],
+    ) -> Vec<wgpu::BindGroup> {
+        rule.chunks(DIRECTIONS_PER_DISPATCH)
+            .enumerate()
+            .map(|(c, part)| {
+                let p = Params {
+                    first: u32::from(first_order.is_some()),
+                    chunk_first: u32::from(c == 0),
+                    stride: first_order.map_or(13, |(stride, _)| stride as u32),
+                    rec_suns: first_order.map_or(0, |(_, suns)| suns as u32),
+                    directions: part.len() as u32,
+                    ..*params
+                };
+                let uniform = OrdersPass::uniform(ctx, &p, part);
+                let mut all = vec![&uniform];
+                all.extend(buffers);
+                bind_buffers(ctx, "orders gather", &self.layout, &all)
+            })
+            .collect()
+    }
+
     fn dispatch_each(
         &self,
         ctx: &GpuContext,
@@ -421,36 +451,22 @@ impl OrdersPass {
                 let rule = if k == 0 { &first } else { &later };
                 rec.swap(0, 1);
                 // rec[0]: this order's source, rec[1]: the next; one pass per order.
-                let binds: Vec<_> = rule
-                    .chunks(DIRECTIONS_PER_DISPATCH)
-                    .enumerate()
-                    .map(|(c, part)| {
-                        let p = Params {
-                            first: u32::from(k == 0),
-                            chunk_first: u32::from(c == 0),
-                            stride: if k == 0 { stride as u32 } else { 13 },
-                            rec_suns: if k == 0 { env.suns.len() as u32 } else { 0 },
-                            directions: part.len() as u32,
-                            ..params
-                        };
-                        let uniform = OrdersPass::uniform(ctx, &p, part);
-                        bind_buffers(
-                            ctx,
-                            "orders gather",
-                            &self.layout,
-                            &[
-                                &uniform,
-                                &lights_buf,
-                                grid.buffer(),
-                                shadow.buffer(),
-                                &rec[0],
-                                &rec[1],
-                                &media,
-                                &occupied,
-                            ],
-                        )
-                    })
-                    .collect();
+                let first_order = (k == 0).then_some((stride, env.suns.len()));
+                let binds = self.gather_binds(
+                    ctx,
+                    &params,
+                    first_order,
+                    rule,
+                    [
+                        &lights_buf,
+                        grid.buffer(),
+                        shadow.buffer(),
+                        &rec[0],
+                        &rec[1],
+                        &media,
+                        &occupied,
+                    ],
+                );
                 self.dispatch_each(ctx, "orders gather", &self.gather, &binds, groups);
             }
             let [spare, last] = rec;
