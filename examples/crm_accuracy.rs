@@ -33,9 +33,9 @@
 //! will do) instead of `crm_render`; the references are the same.
 
 use haze_fit::{SequenceFitter, SequenceOptions};
+use haze_gpu::GpuContext;
 use haze_view::diffusion::SolveOptions;
 use haze_view::env::direction;
-use haze_view::gpu::GpuContext;
 use haze_view::gpu::renderer::{GpuFrame, GpuRenderer};
 use haze_view::gpu::volume_pass::Residual;
 use haze_view::lighting::single::SourcePoints;
@@ -217,7 +217,7 @@ impl Scene {
     ) -> (Image, CrmStats, f64) {
         let t = Instant::now();
         if let Some(ctx) = &self.gpu {
-            let gpu = |e: haze_view::gpu::GpuError| -> ! { panic!("--gpu: {e}") };
+            let gpu = |e: haze_gpu::GpuError| -> ! { panic!("--gpu: {e}") };
             let mut r = GpuRenderer::new(ctx, self.env.clone()).unwrap_or_else(|e| gpu(e));
             let frame = GpuFrame {
                 key: 0,

@@ -22,7 +22,7 @@
 //! from the previous frame (as the viewer plays) and once cold, and prints the medians.
 
 use haze_asset::Asset;
-use haze_view::gpu::GpuContext;
+use haze_gpu::GpuContext;
 use haze_view::gpu::renderer::{FrameStats, GpuFrame, GpuRenderer, LightingOn, Reuse};
 use haze_view::gpu::volume_pass::Residual;
 use haze_view::render::{CrmOptions, crm_render};

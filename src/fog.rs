@@ -471,14 +471,14 @@ fn frame_path(out: &Path, k: usize, frames: usize) -> PathBuf {
 
 /// A fog on the GPU: the device, the compiled passes and the fog's levels.
 struct GpuFog {
-    ctx: haze_wavelet::gpu::GpuContext,
+    ctx: haze_gpu::GpuContext,
     renderer: haze_wavelet::gpu::fog::FogRenderer,
     fog: haze_wavelet::gpu::fog::GpuFog,
 }
 
 impl GpuFog {
     fn new(fog: &Fog) -> Result<GpuFog> {
-        let ctx = haze_wavelet::gpu::GpuContext::new()?;
+        let ctx = haze_gpu::GpuContext::new()?;
         let renderer = haze_wavelet::gpu::fog::FogRenderer::new(&ctx)?;
         let fog = renderer.upload(&ctx, fog)?;
         Ok(GpuFog { ctx, renderer, fog })

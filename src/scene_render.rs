@@ -6,20 +6,20 @@
 //! (`haze_scene::paper_b`, `gpu_paper_b`), with the march as reference; scenes with other
 //! heterogeneous media (a smoke asset), and every scene with `--march`, by the
 //! single-scattering march through every medium (`haze_scene::march`; on the GPU
-//! `haze_scene::gpu_march`), whose reference is the same march at a quarter of the step.
+//! `haze_scene::gpu::march`), whose reference is the same march at a quarter of the step.
 
 use crate::render::{OutKind, out_kind};
 use anyhow::{Result, anyhow};
+use haze_gpu::{GpuContext, GpuError};
 use haze_scene::Scene;
 use haze_scene::airlight::Limits;
 use haze_scene::analytic;
 use haze_scene::gpu::GpuRenderer;
-use haze_scene::gpu_analytic::GpuAnalytic;
-use haze_scene::gpu_paper_b::GpuPaperB;
+use haze_scene::gpu::analytic::GpuAnalytic;
+use haze_scene::gpu::paper_b::GpuPaperB;
 use haze_scene::march;
 use haze_scene::paper_b::{self, PaperBOptions, Prepared};
 use haze_scene::render::{Analytic, Image, Model, Reference};
-use haze_view::gpu::{GpuContext, GpuError};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -138,8 +138,8 @@ fn run_march(a: &SceneRenderArgs, scene: &Scene, kind: OutKind, start: Instant) 
 }
 
 /// `--gpu`: the tables built on the CPU, the image rendered by `haze_scene::gpu` (analytic
-/// fog composited over it by `haze_scene::gpu_analytic`, or marched through with the other
-/// media by `haze_scene::gpu_march`).
+/// fog composited over it by `haze_scene::gpu::analytic`, or marched through with the other
+/// media by `haze_scene::gpu::march`).
 fn run_gpu(a: &SceneRenderArgs, scene: &Scene, kind: OutKind, start: Instant) -> Result<()> {
     let gpu_err = |e: GpuError| anyhow!("--gpu: {e}");
     let ctx = GpuContext::new().map_err(gpu_err)?;

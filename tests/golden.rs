@@ -102,11 +102,7 @@ fn scene(name: &str, file: &str, gpu: bool) {
     if gpu {
         args.push("--gpu");
     }
-    check(
-        name,
-        &args,
-        if gpu { GPU_TOLERANCE } else { CPU_TOLERANCE },
-    );
+    check(name, &args, if gpu { GPU_TOLERANCE } else { CPU_TOLERANCE });
 }
 
 #[test]
@@ -228,11 +224,7 @@ fn wavelet(name: &str, gpu: bool) {
     if gpu {
         args.push("--gpu");
     }
-    check(
-        name,
-        &args,
-        if gpu { GPU_TOLERANCE } else { CPU_TOLERANCE },
-    );
+    check(name, &args, if gpu { GPU_TOLERANCE } else { CPU_TOLERANCE });
 }
 
 #[test]

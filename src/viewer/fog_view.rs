@@ -23,7 +23,7 @@ use crate::fog_smoke::{Smoke, SmokeArgs};
 use anyhow::{Context, Result, anyhow, bail};
 use eframe::egui;
 use haze_camera::LookAt;
-use haze_wavelet::gpu::GpuContext;
+use haze_gpu::GpuContext;
 use haze_wavelet::gpu::fog::{FogImage, FogRenderer, GpuFog, SmokeLayer};
 use haze_wavelet::render::Scene;
 use haze_wavelet::{Basis, Fog, Fogmap};

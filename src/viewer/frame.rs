@@ -17,9 +17,9 @@
 //! camera move, an albedo, `g` or light change only evaluate it again per voxel. A frame
 //! is known by a hash of its RBFs, grid and residual.
 
+use haze_gpu::{GpuContext, GpuError};
 use haze_view::gpu::renderer::{GpuFrame, GpuRenderer, LightingOn, Reuse};
 use haze_view::gpu::volume_pass::Residual;
-use haze_view::gpu::{GpuContext, GpuError};
 use haze_view::render::{CrmOptions, CrmStats};
 use haze_view::{Camera, Environment, Medium, Sky};
 use haze_volume::{Bbox, Rbf};

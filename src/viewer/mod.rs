@@ -33,7 +33,7 @@ mod wind_panel;
 mod worker;
 
 use anyhow::{Result, anyhow, bail};
-use haze_view::gpu::GpuContext;
+use haze_gpu::GpuContext;
 use haze_view::gpu::renderer::LightingOn;
 use haze_view::render::env_pass::{EnvGridOptions, EnvSource};
 use haze_view::render::{CrmOptions, MsDiffusion};

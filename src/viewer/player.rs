@@ -218,7 +218,7 @@ mod tests {
     use super::super::testing::{bbox, write_asset};
     use super::super::worker::FrameCursor;
     use super::*;
-    use haze_view::gpu::GpuContext;
+    use haze_gpu::GpuContext;
     use haze_view::gpu::renderer::LightingOn;
     use haze_view::render::CrmOptions;
     use haze_view::stream::FrameStream;

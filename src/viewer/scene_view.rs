@@ -1,10 +1,10 @@
 //! `haze view --scene`: a scene file shown through paper C's renderer on the GPU
 //! (`haze_scene::gpu`), with an orbit camera and the medium and lights editable in a side
-//! panel. The surfaces are rasterized with a depth buffer (`haze_scene::raster`), the
+//! panel. The surfaces are rasterized with a depth buffer (`haze_scene::gpu::raster`), the
 //! airlight and shading computed per pixel up to that depth; a panel switch (or
 //! `--ray-traced`) shows the ray tracer's picture instead, for comparison. Scenes whose
 //! heterogeneous media are all Gaussians are rendered by paper B on the GPU
-//! (`haze_scene::gpu_paper_b`, ray-traced surfaces: its raster variant does not exist),
+//! (`haze_scene::gpu::paper_b`, ray-traced surfaces: its raster variant does not exist),
 //! and the panel's editing tools (paper B §6, [`super::edit_tools`]) change their first
 //! Gaussian medium, every edit re-lit in the next picture. Scenes with analytic fog
 //! (paper D) play its wind live ([`super::wind_panel`]).
@@ -22,13 +22,13 @@ use super::orbit::Orbit;
 use super::wind_panel::{FogRenderer, Wind};
 use anyhow::{Result, anyhow, bail};
 use eframe::egui;
+use haze_gpu::GpuContext;
 use haze_scene::airlight::Limits;
 use haze_scene::gpu::GpuRenderer;
-use haze_scene::gpu_paper_b::GpuPaperB;
+use haze_scene::gpu::paper_b::GpuPaperB;
 use haze_scene::paper_b::{PaperBOptions, Prepared};
 use haze_scene::render::{Analytic, Image};
 use haze_scene::{Light, Scene, Shape};
-use haze_view::gpu::GpuContext;
 use std::ops::RangeInclusive;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};

@@ -2,8 +2,8 @@
 //! time played back live — play/pause, a playback rate, the wind's speed scaled and its
 //! horizontal direction overridden, a time slider — and the choice between paper D's
 //! composite (the fog's exact depth per pixel over paper C's picture,
-//! `haze_scene::gpu_analytic`) and the lit picture (single scattering of the scene's
-//! lights through the fog, `haze_scene::gpu_march`).
+//! `haze_scene::gpu::analytic`) and the lit picture (single scattering of the scene's
+//! lights through the fog, `haze_scene::gpu::march`).
 //!
 //! A windy term at time `t` is `γ(x − d(t))`, `d` the drift: `v·t` for a steady wind `v`.
 //! The panel changes `v` while the fog plays, so it accumulates the drift instead,
@@ -13,14 +13,14 @@
 //! (the steady wind). Cosines drifting on their own (`ω t`) follow the time.
 
 use eframe::egui;
+use haze_gpu::{GpuContext, GpuError};
 use haze_scene::Scene;
 use haze_scene::airlight::Limits;
 use haze_scene::analytic::AnalyticMedium;
 use haze_scene::gpu::GpuRenderer;
-use haze_scene::gpu_analytic::GpuAnalytic;
+use haze_scene::gpu::analytic::GpuAnalytic;
 use haze_scene::media::HeteroMedium;
 use haze_scene::render::Image;
-use haze_view::gpu::{GpuContext, GpuError};
 use std::sync::Arc;
 
 /// Where the time slider reaches (scene seconds).

@@ -7,7 +7,7 @@
 
 use super::frame::{FrameRenderer, StageTimes};
 use super::playback::Tick;
-use haze_view::gpu::GpuContext;
+use haze_gpu::GpuContext;
 use haze_view::gpu::renderer::LightingOn;
 use haze_view::gpu::volume_pass::Residual;
 use haze_view::render::CrmOptions;

@@ -5,7 +5,7 @@
 
 use haze_fogfn::gpu::DepthKernel;
 use haze_fogfn::{Fog, spec};
-use haze_view::gpu::GpuContext;
+use haze_gpu::GpuContext;
 use serde_json::json;
 use std::time::Instant;
 

@@ -1,7 +1,12 @@
 // Optical depths of a batch of rays from the eye (haze_fogfn::gpu::DepthKernel), the
-// test and benchmark harness of fogfn.wgsl (prepended).
+// test and benchmark harness of fogfn.wgsl.
+#import fogfn
 
 @group(0) @binding(0) var<storage, read> fog_terms: array<vec4<f32>>;
+
+fn fog_record(i: u32) -> vec4<f32> {
+    return fog_terms[i];
+}
 // Unit direction and length per ray.
 @group(0) @binding(1) var<storage, read> rays: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> depths: array<f32>;

@@ -2,8 +2,9 @@
 // (crates/fogfn/src, one function per family), for rays leaving the eye or any point given
 // relative to it (fog_depth_at), and the density K itself (fog_density_at).
 //
-// The includer declares `fog_terms: array<vec4<f32>>`, the records written by
-// haze_fogfn::gpu::records: everything that depends on the eye and the time (phases, cell
+// A module (`#import fogfn`). The importer defines `fn fog_record(i: u32) -> vec4<f32>`,
+// the i-th of the records written by haze_fogfn::gpu::records (wherever its bindings
+// keep them): everything that depends on the eye and the time (phases, cell
 // coordinates, offsets to the blobs, the height layer at the eye) is computed there in
 // f64, relative to the eye, so that only the direction and the length of each ray reach
 // f32. Records (kind in .x), ended by kind -1:
@@ -89,7 +90,7 @@ fn fog_mono(r: vec4<f32>, s: vec3<f32>) -> f32 {
 fn fog_poly(m: u32, count: u32, s: vec3<f32>) -> f32 {
     var v = 0.0;
     for (var i = 0u; i < count; i++) {
-        v += fog_mono(fog_terms[m + i], s);
+        v += fog_mono(fog_record(m + i), s);
     }
     return v;
 }
@@ -98,7 +99,7 @@ fn fog_poly(m: u32, count: u32, s: vec3<f32>) -> f32 {
 fn fog_antiderivative(m: u32, count: u32, s: f32) -> f32 {
     var v = 0.0;
     for (var i = 0u; i < count; i++) {
-        let r = fog_terms[m + i];
+        let r = fog_record(m + i);
         let p = u32(r.y);
         v += r.x * fog_powi(s, p + 1u) / f32(p + 1u);
     }
@@ -126,7 +127,7 @@ fn fog_piece(m: u32, count: u32, s0: vec3<f32>, ds: vec3<f32>, shift: vec3<f32>,
     let p4 = s0 + (mid + x2) * ds - shift;
     var v = 0.0;
     for (var i = 0u; i < count; i++) {
-        let r = fog_terms[m + i];
+        let r = fog_record(m + i);
         v += 0.5688888888888889 * fog_mono(r, p0)
             + 0.4786286704993665 * (fog_mono(r, p1) + fog_mono(r, p2))
             + 0.2369268850561891 * (fog_mono(r, p3) + fog_mono(r, p4));
@@ -137,17 +138,17 @@ fn fog_piece(m: u32, count: u32, s0: vec3<f32>, ds: vec3<f32>, shift: vec3<f32>,
 // ∫₀^len along o + t·w (o relative to the eye) of the polynomial whose record starts at
 // `i` (haze_fogfn::polynomial).
 fn fog_polynomial(i: u32, o: vec3<f32>, w: vec3<f32>, len: f32) -> f32 {
-    let head = fog_terms[i];
+    let head = fog_record(i);
     let c = head.z;
     let periodic = head.w > 0.5;
-    let n = u32(fog_terms[i + 1u].x);
-    let count = u32(fog_terms[i + 1u].y);
+    let n = u32(fog_record(i + 1u).x);
+    let count = u32(fog_record(i + 1u).y);
     let m = i + 2u + n;
     // The axes as vector lanes (unused lanes: s0 = ds = 0).
     let used = vec3<bool>(true, n > 1u, n > 2u);
-    let a0 = fog_terms[i + 2u];
-    let a1 = select(vec4<f32>(0.0), fog_terms[i + 3u], used.y);
-    let a2 = select(vec4<f32>(0.0), fog_terms[i + 4u], used.z);
+    let a0 = fog_record(i + 2u);
+    let a1 = select(vec4<f32>(0.0), fog_record(i + 3u), used.y);
+    let a2 = select(vec4<f32>(0.0), fog_record(i + 4u), used.z);
     let s0 = vec3<f32>(a0.w, a1.w, a2.w) + vec3<f32>(dot(a0.xyz, o), dot(a1.xyz, o), dot(a2.xyz, o));
     let ds = vec3<f32>(dot(a0.xyz, w), dot(a1.xyz, w), dot(a2.xyz, w));
     let flat = ds == vec3<f32>(0.0);
@@ -213,13 +214,13 @@ fn fog_depth(w: vec3<f32>, len: f32) -> f32 {
     return fog_depth_from(0u, w, len);
 }
 
-// fog_depth of the fog whose records start at fog_terms[start] (several fogs in one array,
+// fog_depth of the fog whose records start at fog_record(start) (several fogs in one array,
 // each ended by its terminator).
 fn fog_depth_from(start: u32, w: vec3<f32>, len: f32) -> f32 {
     return fog_depth_at(start, vec3<f32>(0.0), w, len);
 }
 
-// ∫₀^len K(eye + o + s·w) ds of the fog whose records start at fog_terms[start]: the ray
+// ∫₀^len K(eye + o + s·w) ds of the fog whose records start at fog_record(start): the ray
 // leaves the point o (relative to the eye). Each record's eye-relative quantity moves by o:
 // a wave's phase by q·o, a cell coordinate by a_j·o, an offset to a blob by o (its part
 // across a line by o's), a height layer's ln-density by −b·(n·o).
@@ -231,7 +232,7 @@ fn fog_depth_at(start: u32, o: vec3<f32>, w: vec3<f32>, len: f32) -> f32 {
     var i = start;
     var bad = false;
     loop {
-        let h = fog_terms[i];
+        let h = fog_record(i);
         let kind = i32(h.x);
         if (kind < 0) {
             break;
@@ -244,7 +245,7 @@ fn fog_depth_at(start: u32, o: vec3<f32>, w: vec3<f32>, len: f32) -> f32 {
                 i += 1u;
             }
             case 1: {
-                let q = fog_terms[i + 1u].xyz;
+                let q = fog_record(i + 1u).xyz;
                 let half = 0.5 * dot(q, w) * len;
                 let phase = fog_wrap(h.z + dot(q, o));
                 total += h.y * len * cos(fog_wrap(phase + fog_wrap(half))) * fog_sinc(half);
@@ -252,7 +253,7 @@ fn fog_depth_at(start: u32, o: vec3<f32>, w: vec3<f32>, len: f32) -> f32 {
             }
             case 2: {
                 total += h.y * fog_polynomial(i, o, w, len);
-                i += 2u + u32(fog_terms[i + 1u].x) + u32(fog_terms[i + 1u].y);
+                i += 2u + u32(fog_record(i + 1u).x) + u32(fog_record(i + 1u).y);
             }
             case 3: {
                 if (flat_blob) {
@@ -260,7 +261,7 @@ fn fog_depth_at(start: u32, o: vec3<f32>, w: vec3<f32>, len: f32) -> f32 {
                     i += 2u;
                     break;
                 }
-                let e = fog_terms[i + 1u].xyz + o;
+                let e = fog_record(i + 1u).xyz + o;
                 let cr = cross(w, e);
                 let disc = h.z / h.w + dot(cr, cr);
                 total += h.y * fog_inv_quad(1.0, dot(e, w), disc, 0.0, len) / h.w;
@@ -272,8 +273,8 @@ fn fog_depth_at(start: u32, o: vec3<f32>, w: vec3<f32>, len: f32) -> f32 {
                     i += 3u;
                     break;
                 }
-                let l = fog_terms[i + 2u].xyz;
-                let e = fog_terms[i + 1u].xyz + o - dot(o, l) * l;
+                let l = fog_record(i + 2u).xyz;
+                let e = fog_record(i + 1u).xyz + o - dot(o, l) * l;
                 let wp = w - dot(w, l) * l;
                 let a = dot(wp, wp);
                 if (a == 0.0) {
@@ -291,8 +292,8 @@ fn fog_depth_at(start: u32, o: vec3<f32>, w: vec3<f32>, len: f32) -> f32 {
                     i += 2u;
                     break;
                 }
-                let e = fog_terms[i + 1u].xyz + o;
-                let r = fog_terms[i + 1u].w;
+                let e = fog_record(i + 1u).xyz + o;
+                let r = fog_record(i + 1u).w;
                 let b = dot(e, w);
                 let cr = cross(w, e);
                 let h2 = dot(cr, cr);
@@ -311,7 +312,7 @@ fn fog_depth_at(start: u32, o: vec3<f32>, w: vec3<f32>, len: f32) -> f32 {
                 i += 2u;
             }
             case 6: {
-                let n = fog_terms[i + 1u].xyz;
+                let n = fog_record(i + 1u).xyz;
                 total += len * exp(h.y - h.z * dot(n, o) + fog_ln_e(h.z * dot(n, w) * len));
                 i += 2u;
             }
@@ -326,13 +327,13 @@ fn fog_depth_at(start: u32, o: vec3<f32>, w: vec3<f32>, len: f32) -> f32 {
     return total;
 }
 
-// K(eye + x) of the fog whose records start at fog_terms[start] (haze_fogfn::Fog::density).
+// K(eye + x) of the fog whose records start at fog_record(start) (haze_fogfn::Fog::density).
 fn fog_density_at(start: u32, x: vec3<f32>) -> f32 {
     var total = 0.0;
     var i = start;
     var bad = false;
     loop {
-        let h = fog_terms[i];
+        let h = fog_record(i);
         let kind = i32(h.x);
         if (kind < 0) {
             break;
@@ -343,19 +344,19 @@ fn fog_density_at(start: u32, x: vec3<f32>) -> f32 {
                 i += 1u;
             }
             case 1: {
-                let q = fog_terms[i + 1u].xyz;
+                let q = fog_record(i + 1u).xyz;
                 total += h.y * cos(fog_wrap(h.z + dot(q, x)));
                 i += 2u;
             }
             case 2: {
                 let c = h.z;
                 let p = 2.0 * c;
-                let n = u32(fog_terms[i + 1u].x);
-                let count = u32(fog_terms[i + 1u].y);
+                let n = u32(fog_record(i + 1u).x);
+                let count = u32(fog_record(i + 1u).y);
                 var s = vec3<f32>(0.0);
                 var inside = true;
                 for (var j = 0u; j < n; j++) {
-                    let a = fog_terms[i + 2u + j];
+                    let a = fog_record(i + 2u + j);
                     s[j] = a.w + dot(a.xyz, x);
                     if (h.w > 0.5) {
                         s[j] -= p * floor((s[j] + c) / p);
@@ -369,24 +370,24 @@ fn fog_density_at(start: u32, x: vec3<f32>) -> f32 {
                 i += 2u + n + count;
             }
             case 3: {
-                let e = fog_terms[i + 1u].xyz + x;
+                let e = fog_record(i + 1u).xyz + x;
                 total += h.y / (h.z + h.w * dot(e, e));
                 i += 2u;
             }
             case 4: {
-                let l = fog_terms[i + 2u].xyz;
-                let e = fog_terms[i + 1u].xyz + x - dot(x, l) * l;
+                let l = fog_record(i + 2u).xyz;
+                let e = fog_record(i + 1u).xyz + x - dot(x, l) * l;
                 total += h.y / (h.z + h.w * dot(e, e));
                 i += 3u;
             }
             case 5: {
-                let e = fog_terms[i + 1u].xyz + x;
-                let r = fog_terms[i + 1u].w;
+                let e = fog_record(i + 1u).xyz + x;
+                let r = fog_record(i + 1u).w;
                 total += h.y / (h.z + h.w * max(dot(e, e) - r * r, 0.0));
                 i += 2u;
             }
             case 6: {
-                let n = fog_terms[i + 1u].xyz;
+                let n = fog_record(i + 1u).xyz;
                 total += exp(h.y - h.z * dot(n, x));
                 i += 2u;
             }

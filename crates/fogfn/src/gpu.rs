@@ -1,7 +1,8 @@
-//! The `f32` WGSL twin of the closed forms (`shaders/fogfn.wgsl`): [`LIBRARY`] defines
-//! `fog_depth(w, len)`, the optical depth along a ray leaving the eye, for any shader that
-//! declares the storage array `fog_terms` and fills it with [`records`] (and
-//! `fog_depth_from(start, w, len)` for a fog whose records start at `fog_terms[start]`,
+//! The `f32` WGSL twin of the closed forms (`shaders/fogfn.wgsl`): the module `fogfn`
+//! ([`MODULES`]) defines `fog_depth(w, len)`, the optical depth along a ray leaving the
+//! eye, for any shader that imports it and defines `fog_record(i)`, the `i`-th of the
+//! [`records`] it keeps in a buffer (and `fog_depth_from(start, w, len)` for a fog whose
+//! records start at `fog_record(start)`,
 //! several fogs' records laid end to end; `fog_depth_at(start, o, w, len)` for a ray
 //! leaving the point `o` relative to the eye and `fog_density_at(start, x)` for `K`
 //! itself, what a march needs); [`DepthKernel`]
@@ -17,11 +18,22 @@
 
 use crate::vec3::{Vec3, dot, perp, sub};
 use crate::{Family, Fog, blob::Shape};
-use haze_view::gpu::{GpuContext, GpuError, buffer_init, compute_pipeline, submit_pass};
+use haze_gpu::wgsl::{Module, Variant};
+use haze_gpu::{GpuContext, GpuError, buffer_init, compute_pipeline, submit_pass};
 
-/// The WGSL library (`fog_depth` and its helpers).
-pub const LIBRARY: &str = include_str!("../shaders/fogfn.wgsl");
-const DEPTHS: &str = include_str!("../shaders/depths.wgsl");
+/// The WGSL module `fogfn` (`fog_depth` and its helpers), for the shaders of other crates
+/// that march analytic fogs.
+pub const MODULES: &[Module] = &[Module {
+    name: "fogfn",
+    source: include_str!("../shaders/fogfn.wgsl"),
+}];
+
+/// [`DepthKernel`]'s shader (`shaders/depths.wgsl`).
+pub const DEPTHS: Variant = Variant {
+    label: "fog depths",
+    entry: include_str!("../shaders/depths.wgsl"),
+    defines: &[],
+};
 
 fn v4(v: Vec3, w: f64) -> [f32; 4] {
     [v[0] as f32, v[1] as f32, v[2] as f32, w as f32]
@@ -97,7 +109,7 @@ pub struct DepthKernel {
 
 impl DepthKernel {
     pub fn new(ctx: &GpuContext) -> Result<DepthKernel, GpuError> {
-        let source = format!("{LIBRARY}\n{DEPTHS}");
+        let source = DEPTHS.source(&[MODULES])?;
         Ok(DepthKernel {
             pipeline: compute_pipeline(ctx, "fog depths pipeline creation", &source)?,
         })
@@ -151,5 +163,16 @@ impl DepthKernel {
             out
         })?;
         Ok(bytemuck::pod_collect_to_vec(&ctx.read_buffer(&out)?))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The depth kernel's shader composes and validates on the CPU (no device needed).
+    #[test]
+    fn the_shader_validates() {
+        haze_gpu::wgsl::assert_variants_valid(&[DEPTHS], &[MODULES]);
     }
 }

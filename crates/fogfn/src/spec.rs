@@ -219,46 +219,7 @@ fn term(v: &Value) -> Result<Term, String> {
         }
         "blob" => {
             let s: BlobSpec = typed(v)?;
-            finite("center", &s.center)?;
-            if !(s.c > 0.0 && s.c.is_finite()) {
-                return Err(format!("c = {} must be positive", s.c));
-            }
-            if !(s.d >= 0.0 && s.d.is_finite()) {
-                return Err(format!("d = {} must not be negative", s.d));
-            }
-            let shape = match (s.shape.as_str(), s.direction, s.radius) {
-                ("point", None, None) => Shape::Point { center: s.center },
-                ("line", Some(d), None) => Shape::Line {
-                    point: s.center,
-                    direction: unit("direction", d)?,
-                },
-                ("sphere", None, Some(r)) if r > 0.0 && r.is_finite() => Shape::Sphere {
-                    center: s.center,
-                    radius: r,
-                },
-                ("sphere", None, Some(r)) => return Err(format!("radius {r} must be positive")),
-                ("point", ..) => return Err("a point blob takes no direction or radius".into()),
-                ("line", ..) => {
-                    return Err("a line blob takes a direction and no radius".into());
-                }
-                ("sphere", ..) => {
-                    return Err("a sphere blob takes a radius and no direction".into());
-                }
-                (other, ..) => {
-                    return Err(format!(
-                        "unknown blob shape \"{other}\" (known: \"point\", \"line\", \"sphere\")"
-                    ));
-                }
-            };
-            (
-                s.weight,
-                s.wind,
-                Family::Blob(Blob {
-                    shape,
-                    c: s.c,
-                    d: s.d,
-                }),
-            )
+            (s.weight, s.wind, Family::Blob(blob(&s)?))
         }
         "height" => {
             let s: HeightSpec = typed(v)?;
@@ -291,6 +252,47 @@ fn term(v: &Value) -> Result<Term, String> {
         weight,
         windy,
         family,
+    })
+}
+
+/// A blob term's shape and profile, or why the spec is not one: a center not finite,
+/// `c` not positive, `d` negative, or a shape with the wrong parameters.
+fn blob(s: &BlobSpec) -> Result<Blob, String> {
+    finite("center", &s.center)?;
+    if !(s.c > 0.0 && s.c.is_finite()) {
+        return Err(format!("c = {} must be positive", s.c));
+    }
+    if !(s.d >= 0.0 && s.d.is_finite()) {
+        return Err(format!("d = {} must not be negative", s.d));
+    }
+    let shape = match (s.shape.as_str(), s.direction, s.radius) {
+        ("point", None, None) => Shape::Point { center: s.center },
+        ("line", Some(d), None) => Shape::Line {
+            point: s.center,
+            direction: unit("direction", d)?,
+        },
+        ("sphere", None, Some(r)) if r > 0.0 && r.is_finite() => Shape::Sphere {
+            center: s.center,
+            radius: r,
+        },
+        ("sphere", None, Some(r)) => return Err(format!("radius {r} must be positive")),
+        ("point", ..) => return Err("a point blob takes no direction or radius".into()),
+        ("line", ..) => {
+            return Err("a line blob takes a direction and no radius".into());
+        }
+        ("sphere", ..) => {
+            return Err("a sphere blob takes a radius and no direction".into());
+        }
+        (other, ..) => {
+            return Err(format!(
+                "unknown blob shape \"{other}\" (known: \"point\", \"line\", \"sphere\")"
+            ));
+        }
+    };
+    Ok(Blob {
+        shape,
+        c: s.c,
+        d: s.d,
     })
 }
 

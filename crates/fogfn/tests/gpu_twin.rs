@@ -18,7 +18,7 @@
 use haze_fogfn::gpu::DepthKernel;
 use haze_fogfn::vec3::{Vec3, axpy, normalize};
 use haze_fogfn::{Fog, spec};
-use haze_view::gpu::GpuContext;
+use haze_gpu::GpuContext;
 use serde_json::json;
 use std::sync::OnceLock;
 

@@ -15,11 +15,11 @@
 //! (rayon on every core). As a check, the share of pixels where GPU and CPU differ beyond
 //! crates/scene's test tolerance is printed.
 
+use haze_gpu::GpuContext;
 use haze_scene::airlight::Limits;
 use haze_scene::gpu::GpuRenderer;
 use haze_scene::render::{Analytic, Image, render};
 use haze_scene::{Light, Scene};
-use haze_view::gpu::GpuContext;
 use std::time::Instant;
 
 fn fail(msg: impl std::fmt::Display) -> ! {

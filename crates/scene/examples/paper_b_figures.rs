@@ -25,20 +25,20 @@
 //! printed apart. **Environment**: the built-in sky alone over a floor (§4.2, the average
 //! optical depth) against the march integrating it over directions. **Timing**: the median of `--repeat` frames, per-frame preparation
 //! (the exponents `Eᵢ` per light, the environment's `Ēᵢ` and `T̄ⱼ(bᵢ)`) included, rayon
-//! on every core; with `--gpu` the frame on the GPU (`haze_scene::gpu_paper_b`: the same
+//! on every core; with `--gpu` the frame on the GPU (`haze_scene::gpu::paper_b`: the same
 //! preparation on the CPU, upload, pass, read-back), the tables uploaded beforehand;
 //! `--no-environment` makes the room's environment black (no §4.2 terms, no `T̄(p)`);
 //! `--scene FILE` times that scene instead (its camera at `--size`).
 
 use haze_gaussians::cloud;
+use haze_gpu::GpuContext;
 use haze_scene::airlight::Limits;
 use haze_scene::gpu::GpuRenderer;
-use haze_scene::gpu_paper_b::GpuPaperB;
+use haze_scene::gpu::paper_b::GpuPaperB;
 use haze_scene::march;
 use haze_scene::paper_b::{self, PaperBOptions, Prepared};
 use haze_scene::render::{Analytic, Image};
 use haze_scene::{Scene, file};
-use haze_view::gpu::GpuContext;
 use std::time::Instant;
 
 fn fail(msg: impl std::fmt::Display) -> ! {

@@ -1,10 +1,17 @@
-// Paper D's composite on the GPU (haze_scene::gpu_analytic): appended to render.wgsl
-// (its entry point renamed paper_c_main) and haze_fogfn's fogfn.wgsl. Per pixel: paper
-// C's picture, then the analytic fogs' exact optical depth from the eye to the primary
+// Paper D's composite on the GPU (haze_scene::gpu_analytic), over render.wgsl and
+// haze_fogfn's fogfn.wgsl. Per pixel: paper C's picture (`paper_c_main`), then the analytic fogs' exact optical depth from the eye to the primary
 // hit and C_fin = τ C_in + (1 − τ) C_fog per channel (haze_scene::analytic::composite).
+
+#import render
+#import fogfn
 
 // Every fog's records (haze_fogfn::gpu::records), laid end to end.
 @group(0) @binding(7) var<storage, read> fog_terms: array<vec4<f32>>;
+
+// fogfn.wgsl's records.
+fn fog_record(i: u32) -> vec4<f32> {
+    return fog_terms[i];
+}
 // Two vec4 per fog: (σt, index of its first record), (C_fog, far).
 @group(0) @binding(8) var<storage, read> fog_media: array<vec4<f32>>;
 

@@ -1,11 +1,15 @@
 // The single-scattering march on the GPU: the twin of crates/scene's `march::radiance`
 // for scenes whose heterogeneous media are voxel grids (smoke assets) and analytic fogs
-// (paper D), one invocation per pixel, in f32. Appended to render.wgsl (whose entry point
-// is renamed; its bindings, surfaces, shadow rays, BRDF and environment are shared) and
-// followed by haze_fogfn's fogfn.wgsl, whose `fog_terms` is `media` here; see
-// `src/gpu_march.rs`.
+// (paper D), one invocation per pixel, in f32. Over render.wgsl (its bindings, surfaces,
+// shadow rays, BRDF and environment are shared), env_smoke.wgsl (the environment's light
+// on the media) and haze_fogfn's fogfn.wgsl (which reads its records from `media`
+// through `fog_record`); see `src/gpu_march.rs`.
 //
 // Positions are relative to the eye, as in render.wgsl.
+
+#import render
+#import env_smoke
+#import fogfn
 
 // The grids' values, one after the other (x fastest).
 @group(0) @binding(7) var<storage, read> grid: array<f32>;
@@ -17,6 +21,11 @@
 // fogs' closed-form records (haze_fogfn::gpu::records), each fog's ended by its
 // terminator.
 @group(0) @binding(8) var<storage, read> media: array<vec4<f32>>;
+
+// fogfn.wgsl's records: the fogs' closed forms are in `media`, after the grids'.
+fn fog_record(i: u32) -> vec4<f32> {
+    return media[i];
+}
 
 // Analytic fogs a march takes at most (gpu_march::MarchInput::of refuses more).
 const FOG_MAX_MEDIA: u32 = 8u;

@@ -1,12 +1,26 @@
-// Paper B on the GPU: the twin of crates/scene's `paper_b::Prepared::radiance`, appended
-// to render.wgsl (whose helpers it calls; its entry point is renamed) — see
-// `src/gpu_paper_b.rs`. Positions are relative to the eye. P.sigma_t/P.sigma_s carry the
+// Paper B on the GPU: the twin of crates/scene's `paper_b::Prepared::radiance`, over
+// render.wgsl (whose helpers it calls) — see `src/gpu_paper_b.rs`. Positions are relative to the eye. P.sigma_t/P.sigma_s carry the
 // homogeneous part β0, σs0 (the scene's homogeneous media plus the Gaussian backgrounds).
 
 // Two records per Gaussian: (centre, a = 1/r), (c = peak extinction, albedo, cull radius², -).
 // With noise (header .z = 1), then two more per Gaussian: (eye + offset, frequency),
 // (scale gain·r/|v − b|, record of its permutation, -, -); then the permutations, 512
-// entries each, four per record. NOISE_OFFSET_1/2 are prepended from the CPU's constants.
+// entries each, four per record.
+//
+// Two variants: tiled (the Gaussians listed per 8 × 8 tile beyond DIRECT_MAX of them) and
+// UNTILED (every count direct, no workgroup barrier at all: on lavapipe a shader with
+// barriers runs ~30 % slower even where it reaches none).
+
+#import render
+
+// Perlin's vector offsets 1 and 2 (haze_gaussians::noise::Perlin::VECTOR_OFFSETS), set by
+// the pipeline from the CPU's constants.
+override NOISE_OFFSET_1_X: f32;
+override NOISE_OFFSET_1_Y: f32;
+override NOISE_OFFSET_1_Z: f32;
+override NOISE_OFFSET_2_X: f32;
+override NOISE_OFFSET_2_Y: f32;
+override NOISE_OFFSET_2_Z: f32;
 @group(0) @binding(7) var<storage, read> blobs: array<vec4<f32>>;
 // Per light l and Gaussian i at l·n + i: e^{Eᵢ} per channel; then per light (C_sv, -, -, -);
 // with an environment, per Gaussian (αᵢ·Ēᵢ·e^{Eᵢ}, -) and (Ē, β_bg·D) (gaussian_env);
@@ -141,8 +155,8 @@ fn noisy_direction(i: u32, n_g: u32, dir: vec3<f32>, t_r: f32) -> vec3<f32> {
     let base = u32(r1.y);
     let n = vec3<f32>(
         perlin_value(base, q),
-        perlin_value(base, q + NOISE_OFFSET_1),
-        perlin_value(base, q + NOISE_OFFSET_2),
+        perlin_value(base, q + vec3<f32>(NOISE_OFFSET_1_X, NOISE_OFFSET_1_Y, NOISE_OFFSET_1_Z)),
+        perlin_value(base, q + vec3<f32>(NOISE_OFFSET_2_X, NOISE_OFFSET_2_Y, NOISE_OFFSET_2_Z)),
     );
     let d = dir + r1.x * n.x * P.right.xyz + r1.x * n.y * P.up.xyz + r1.x * n.z * P.forward.xyz;
     let len = length(d);
@@ -244,8 +258,18 @@ const CHUNK: u32 = 256u;
 // CHUNK / 64 invocations.
 const PER_INVOCATION: u32 = 4u;
 // Up to this many Gaussians every pixel loops over all of them (the same sums in the same
-// order as through the lists, without the lists' barriers).
-const DIRECT_MAX: u32 = 32u;
+// order as through the lists, without the lists' barriers): gpu_paper_b::DIRECT_MAX, set
+// by the pipeline (the UNTILED variant's: all of them).
+override DIRECT_MAX: u32;
+
+// The barrier of the tile lists; none in the UNTILED variant.
+#ifdef UNTILED
+fn tile_barrier() {}
+#else
+fn tile_barrier() {
+    workgroupBarrier();
+}
+#endif
 // line_gauss's cut-off, √40 radii.
 const SQRT_40: f32 = 6.32455532;
 
@@ -323,7 +347,7 @@ const LIST_NEAR: u32 = 2u;
 // many. Called by every invocation of the workgroup alike.
 fn list_chunk(start: u32, n: u32, lid: u32, mode: u32, planes: array<vec3<f32>, 4>, o: vec3<f32>, u: vec3<f32>, len: f32, rad: f32) -> u32 {
     // Every invocation is done with the previous list before it is overwritten.
-    workgroupBarrier();
+    tile_barrier();
     var mine: array<u32, 4>;
     var count = 0u;
     for (var k = 0u; k < PER_INVOCATION; k++) {
@@ -344,7 +368,7 @@ fn list_chunk(start: u32, n: u32, lid: u32, mode: u32, planes: array<vec3<f32>, 
         }
     }
     tile_counts[lid] = count;
-    workgroupBarrier();
+    tile_barrier();
     // One invocation turns the counts into offsets (an exclusive scan).
     if (lid == 0u) {
         var total = 0u;
@@ -355,12 +379,12 @@ fn list_chunk(start: u32, n: u32, lid: u32, mode: u32, planes: array<vec3<f32>, 
         }
         tile_total = total;
     }
-    workgroupBarrier();
+    tile_barrier();
     let at = tile_counts[lid];
     for (var k = 0u; k < count; k++) {
         tile_list[at + k] = mine[k];
     }
-    workgroupBarrier();
+    tile_barrier();
     return tile_total;
 }
 
@@ -444,11 +468,11 @@ fn tile_mean_depth(p: vec3<f32>, shading: bool, lid: u32, cb: vec3<f32>, rb: f32
             }
         }
     }
-    workgroupBarrier();
+    tile_barrier();
     for (var k = 0u; k < 6u; k++) {
         tile_far[6u * lid + k] = acc[k];
     }
-    workgroupBarrier();
+    tile_barrier();
     // One invocation sums the shares into the first six records.
     if (lid == 0u) {
         for (var j = 1u; j < TILE_SIZE * TILE_SIZE; j++) {
@@ -457,7 +481,7 @@ fn tile_mean_depth(p: vec3<f32>, shading: bool, lid: u32, cb: vec3<f32>, rb: f32
             }
         }
     }
-    workgroupBarrier();
+    tile_barrier();
     var out = vec2<f32>(0.0);
     if (shading) {
         let d = p - cb;
@@ -732,7 +756,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_
     var rb = -1.0;
     if (n_g > DIRECT_MAX) {
         tile_points[lid] = select(vec4<f32>(0.0), vec4<f32>(p, 1.0), on_surface);
-        workgroupBarrier();
+        tile_barrier();
         // One invocation bounds them (into the first record; w < 0: no surface point).
         if (lid == 0u) {
             var lo = vec3<f32>(3.0e38);
@@ -751,7 +775,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_
             }
             tile_points[0] = sphere;
         }
-        workgroupBarrier();
+        tile_barrier();
         cb = tile_points[0].xyz;
         rb = tile_points[0].w;
     }

@@ -1,7 +1,7 @@
-// The rasterized scene renderer: appended to render.wgsl (see `src/raster.rs`), whose
-// entry point then takes each pixel's primary hit from the G-buffer this file's raster
-// pass writes instead of ray-tracing it; the airlight to that depth, the shading and the
-// shadow rays are render.wgsl's own.
+// The rasterized scene renderer (see `src/raster.rs`): render.wgsl's `paper_c_main`,
+// composed with GBUFFER and PARAMS_IN_STORAGE defined, takes each pixel's primary hit from
+// the G-buffer this file's raster pass writes instead of ray-tracing it; the airlight to
+// that depth, the shading and the shadow rays are render.wgsl's own.
 //
 // The raster pass draws every surface as triangles into a reversed depth buffer: meshes'
 // own triangles, each sphere as its bounding cube and each plane as one triangle covering
@@ -10,6 +10,14 @@
 // meets the triangle), or the sphere or plane exactly as render.wgsl's `intersect_one`
 // does —, discards a miss and writes the exact depth, so the depth test keeps the nearest
 // surface along the same ray the ray tracer follows. Positions are relative to the eye.
+
+#import render
+
+// The shading pass: one invocation per pixel.
+@compute @workgroup_size(8, 8, 1)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    paper_c_main(id);
+}
 
 // The G-buffer: per pixel (bits of the hit's t, surface + 1 or 0 for none, triangle, 0).
 @group(0) @binding(7) var gbuffer: texture_2d<u32>;

@@ -1,6 +1,17 @@
 // The scene renderer on the GPU: the twin of crates/scene's `render::render` with the
-// `Analytic` model (paper C), one invocation per pixel, in f32. See `src/gpu.rs` for the
-// buffers' layout and what differs from the CPU (offsets of shadow rays).
+// `Analytic` model (paper C), one invocation per pixel (`paper_c_main`), in f32. See
+// `src/gpu.rs` for the buffers' layout and what differs from the CPU (offsets of shadow
+// rays).
+//
+// A module, imported by the entry files of every scene renderer: `paper_c.wgsl` (paper C
+// alone), `analytic.wgsl` (paper D's composite), `march.wgsl` (voxel media and analytic
+// fogs), `paper_b.wgsl` (Gaussian media) and `raster.wgsl` (primary hits rasterized),
+// which share its bindings, intersections, shadow rays, airlight tables, BRDF and
+// environment. Defines:
+// - GBUFFER: `paper_c_main` takes its primary hit from `gbuffer_hit` (raster.wgsl)
+//   instead of tracing it;
+// - PARAMS_IN_STORAGE: `P` is read from a storage buffer, not a uniform (Mesa's lavapipe
+//   compiles a new shader variant per set of uniform values that steer branches).
 //
 // Coordinates are relative to the eye (the eye is the origin), so f32 keeps its
 // precision wherever the scene is placed.
@@ -25,7 +36,11 @@ struct Params {
     env_at: vec4<u32>,    // offsets in `envdata`: L_in,lm, λ table, lobe factors, map texels
 }
 
+#ifdef PARAMS_IN_STORAGE
+@group(0) @binding(0) var<storage, read> P: Params;
+#else
 @group(0) @binding(0) var<uniform> P: Params;
+#endif
 // Three vec4 per light: (kind 0 point / 1 sun, position or unit direction),
 // (intensity or disk radiance, -), (sun irradiance, cos(angle/2) or 2 for no disk).
 @group(0) @binding(1) var<storage, read> lights: array<vec4<f32>>;
@@ -677,8 +692,9 @@ fn primary_t_max() -> f32 {
     return 3.0e38;
 }
 
-@compute @workgroup_size(8, 8, 1)
-fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+// Paper C's pixel `id`: the airlight of every light along the primary ray, the
+// environment's, and the surface hit (or the background) attenuated to the eye.
+fn paper_c_main(id: vec3<u32>) {
     let w = P.size.x;
     let h = P.size.y;
     if (id.x >= w || id.y >= h) {
@@ -688,7 +704,11 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
 
     let env_far = P.flags.y == 0u;
     let t_max = primary_t_max();
+#ifdef GBUFFER
+    let hit = gbuffer_hit(id, dir, t_max);
+#else
     let hit = intersect(vec3<f32>(0.0), dir, 0.0, t_max);
+#endif
     let finite_end = hit.surface >= 0 || env_far;
     let t_end = hit.t;
     let beta = P.sigma_t.xyz;

@@ -23,7 +23,7 @@
 use haze_scene::airlight::Limits;
 use haze_scene::analytic;
 use haze_scene::gpu::GpuRenderer;
-use haze_scene::gpu_analytic::GpuAnalytic;
+use haze_scene::gpu::analytic::GpuAnalytic;
 use haze_scene::render::Analytic;
 use haze_scene::{Scene, file};
 use std::sync::OnceLock;

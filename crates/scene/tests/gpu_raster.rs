@@ -1,4 +1,4 @@
-//! The rasterized scene renderer (`haze_scene::raster`) against the ray-traced one on the
+//! The rasterized scene renderer (`haze_scene::gpu::raster`) against the ray-traced one on the
 //! GPU and the CPU's visibility, on small scenes holding a plane, spheres and glTF meshes
 //! (smooth and faceted), lit by point lights and a sun whose shadow rays cross them.
 //!
@@ -24,11 +24,11 @@
 //! REL·|L_traced| + FLOOR·L̄`, `L̄` the traced image's mean; `REL = 10⁻⁴` (measured on
 //! lavapipe: 0, the pictures bit-identical, printed per case), `FLOOR = 10⁻⁶`.
 
+use haze_gpu::GpuContext;
 use haze_scene::airlight::Limits;
 use haze_scene::gpu::GpuRenderer;
 use haze_scene::render::Analytic;
 use haze_scene::{Scene, model};
-use haze_view::gpu::GpuContext;
 
 mod common;
 use common::context;

@@ -1,4 +1,4 @@
-// The phase functions shared by the lights pass and the gathered orders (prepended to each;
+// The phase functions shared by the lights pass and the gathered orders (a module imported by each;
 // both declare `p` with the HG asymmetry `g`, and `word(i)`, the f32 at word i of the
 // lights' records, where the suns' `DiskPhase` tables are).
 

@@ -19,6 +19,9 @@
 // reads only D words and S, so it runs in place without races.
 // Positions are relative to the box's minimum corner (f32 precision far from the origin).
 
+#import sh_basis
+#import grid_march
+
 struct Params {
     // Eye relative to the box's minimum corner.
     eye: vec3<f32>,

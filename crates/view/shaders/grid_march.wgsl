@@ -1,5 +1,5 @@
 // The shadow march shared by the lights pass and the environment pass of the fast
-// renderer (prepended to each; both declare `p` with `dims`, `size`, `voxel`, `h0` and
+// renderer (a module imported by each; both declare `p` with `dims`, `size`, `voxel`, `h0` and
 // `sigma_t`, and the grid of the volume pass as `grid`): D trilinear in the grid, and
 // σt·τ by the midpoint rule of `render::lights_pass::optical_depth`.
 

@@ -24,6 +24,9 @@
 // is bound as flat f32 words (4 per voxel) so that every access touches one word.
 // Positions are relative to the box's minimum corner (f32 precision far from the origin).
 
+#import grid_march
+#import disk_phase
+
 struct Params {
     // Eye relative to the box's minimum corner.
     eye: vec3<f32>,

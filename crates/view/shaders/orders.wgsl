@@ -52,6 +52,10 @@
 // centers weighted by D_c, J̃ += max(0, Ω (L⁰ − g L¹·d + Σ_{l=2,3} g^l c_lm Y_lm(−d)))
 // towards the eye (d from the eye).
 
+#import grid_march
+#import disk_phase
+#import sh_basis
+
 struct Params {
     eye: vec3<f32>,
     sigma_t: f32,

@@ -1,4 +1,4 @@
-// The real SH basis (`sh::eval_into`) in WGSL, orders 1–6: prepended to the shaders that
+// The real SH basis (`sh::eval_into`) in WGSL, orders 1–6: a module imported by the shaders that
 // evaluate SH at a direction (`volume_pass.wgsl`, `single_scattering.wgsl`).
 
 // 1/√(4π) and √2.

@@ -21,6 +21,8 @@
 // probability τ̃_00/√4π ∈ [0, 1] (the diffusion's vacuum correction), the others 0.
 // The layout is the volume pass's `source` buffer.
 
+#import sh_basis
+
 struct Params {
     // Number of RBFs.
     count: u32,

@@ -25,6 +25,8 @@
 // Positions are relative to the box's minimum corner, like the view pass. The output is
 // the view pass's grid: J̃ in xyz, D in w, x fastest.
 
+#import sh_basis
+
 struct Params {
     // Eye relative to the box's minimum corner.
     eye: vec3<f32>,

@@ -357,9 +357,17 @@ pub fn extract_sun(map: &LatLong) -> Option<(Sun, LatLong)> {
     let (region, in_region) = grow(&core, local + 0.05 * (peak - local))?;
     // The sky behind the sun: the mean of the ring around the region.
     let outer = ring(&region, &in_region);
+    sun_of_region(map, &region, &outer)
+}
+
+/// The sun held by the texels of `region` above the sky behind it (the mean of the texels
+/// of `outer`, the ring around it): its irradiance, mean direction and angle (twice the
+/// RMS angle from that direction), and the map with the excess removed.
+fn sun_of_region(map: &LatLong, region: &[usize], outer: &[usize]) -> Option<(Sun, LatLong)> {
+    let w = map.width;
     let ring_n = outer.len();
     let mut ring_sum = [0.0f64; 3];
-    for &n in &outer {
+    for &n in outer {
         for (s, t) in ring_sum.iter_mut().zip(map.texels[n]) {
             *s += f64::from(t);
         }
@@ -373,7 +381,7 @@ pub fn extract_sun(map: &LatLong) -> Option<(Sun, LatLong)> {
     let mut irradiance = [0.0f64; 3];
     let mut mean_dir = [0.0f64; 3];
     let mut weights = Vec::with_capacity(region.len());
-    for &i in &region {
+    for &i in region {
         let (d, omega) = map.texel_direction(i % w, i / w);
         let t = map.texels[i];
         let mut excess = [0.0; 3];

@@ -19,8 +19,8 @@
 //! The tests take `tol = 20·ε·(1 + κ)` — 50× the worst measured — for `L⁰` per channel,
 //! and for the sources per center relative to the largest source.
 
+use haze_gpu::GpuContext;
 use haze_view::diffusion::{Operators, SolveOptions, Sources, solve_system};
-use haze_view::gpu::GpuContext;
 use haze_view::gpu::diffusion::{DiffusionPass, DirectBuffer, OperatorBuffers};
 use haze_view::gpu::single_scattering::SingleScatteringPass;
 use haze_view::lighting::direct::add_light_moments;

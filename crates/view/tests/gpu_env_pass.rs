@@ -18,8 +18,9 @@
 //! recurrence in `f32`: held to `|ΔJ| ≤ 5e-3·max|J|` (measured ≤ 5.6e-4, and 1.7e-3 at
 //! σt 1e4, where the lit part `L − S` of opaque smoke is a difference of near equals).
 
+use haze_gpu::GpuError;
+use haze_view::gpu::GridBuffer;
 use haze_view::gpu::env_pass::EnvPass;
-use haze_view::gpu::{GpuError, GridBuffer};
 use haze_view::render::crm::{self, VolumeGrids};
 use haze_view::render::env_pass::{EnvGridOptions, env_pass};
 use haze_view::sh;

@@ -29,9 +29,10 @@
 //! those lit; 10 % for a point light on a voxel center, whose rays to whole lines of voxel
 //! centers are whole numbers of steps) and held to 2 % of `S` (measured: 5.8e-3).
 
+use haze_gpu::{GpuContext, GpuError};
 use haze_view::field;
+use haze_view::gpu::GridBuffer;
 use haze_view::gpu::lights_pass::{LightsPass, SHADOW_CUTOFF};
-use haze_view::gpu::{GpuContext, GpuError, GridBuffer};
 use haze_view::lights::DiskPhase;
 use haze_view::medium::{FOUR_PI, hg};
 use haze_view::render::crm::{self, VolumeGrids};

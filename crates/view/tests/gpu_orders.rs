@@ -26,10 +26,11 @@
 //! `κ·1e-5` relative, κ ≲ 1e2 here, so the final moments and the voxels' light are held to
 //! `1e-2·max`.
 
+use haze_gpu::GpuContext;
+use haze_view::gpu::GridBuffer;
 use haze_view::gpu::env_pass::EnvPass;
 use haze_view::gpu::lights_pass::LightsPass;
 use haze_view::gpu::orders::{AUTO_FACTOR, CellRadiance, OrdersPass};
-use haze_view::gpu::{GpuContext, GridBuffer};
 use haze_view::grid_diffusion::{
     CoarseGrid, GATHER_LATER_THETA, GATHER_THETA, GridSolveOptions, HIGH, MediaRadiance,
     add_lights, add_to_grids, env_grid_sources, explicit_media_radiance, gather, sun_sources,

@@ -22,7 +22,7 @@
 //! and channel as vectors, `‖ΔJ‖₂ ≤ tol·‖J‖₂ + 1e-12`, and for the escape probability
 //! (`τ̃_00/√4π`). The measured errors are printed (`--nocapture`).
 
-use haze_view::gpu::GpuContext;
+use haze_gpu::GpuContext;
 use haze_view::gpu::single_scattering::{SingleScatteringPass, single_scattering};
 use haze_view::lighting::single::{self, RgbSh, ShKit, SingleScattering, SourcePoints};
 use haze_view::sh::{self, ExpMethod};

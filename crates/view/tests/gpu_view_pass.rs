@@ -4,9 +4,9 @@
 //! These tests need a GPU adapter (a CPU one will do: Mesa's lavapipe, which
 //! `scripts/test.sh` installs) and fail with the reason when there is none.
 
+use haze_gpu::{GpuContext, GpuError};
 use haze_view::diffusion::DiffusionSolver;
 use haze_view::gpu::view_pass::{ViewPass, view_pass};
-use haze_view::gpu::{GpuContext, GpuError};
 use haze_view::lighting::single::ShKit;
 use haze_view::render::crm::{self, OPAQUE, VolumeGrids};
 use haze_view::render::{CrmOptions, CrmStats, source_radiance};

@@ -22,12 +22,13 @@
 //! decided by rounding (the RBF's `w·e⁻⁹` is in or out, and with it the residual where it
 //! is the only one): they are counted, required to be rare, and not compared.
 
+use haze_gpu::GpuContext;
+use haze_gpu::GpuError;
 use haze_hash::tile::ResidualGroup;
 use haze_hash::{BuildOptions, QuantOptions, quantize};
-use haze_view::gpu::GpuContext;
+use haze_view::gpu::GridBuffer;
 use haze_view::gpu::view_pass::ViewPass;
 use haze_view::gpu::volume_pass::{Residual, VolumePass, volume_pass};
-use haze_view::gpu::{GpuError, GridBuffer};
 use haze_view::lighting::single::RgbSh;
 use haze_view::render::crm::{self, MIN_DENSITY, OPAQUE, VolumeGrids};
 use haze_view::render::env_pass::EnvSource;

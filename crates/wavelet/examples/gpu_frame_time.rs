@@ -9,7 +9,7 @@
 //! median of 5 after one warm-up frame. CPU: `render::render` on every core, median of 3.
 //! The default early exit (τ < 1/1024) on both. Prints a Markdown table.
 
-use haze_wavelet::gpu::GpuContext;
+use haze_gpu::GpuContext;
 use haze_wavelet::gpu::fog::{FogImage, FogRenderer};
 use haze_wavelet::render::{self, Scene};
 use haze_wavelet::{Basis, Fog, Fogmap, Grid, Placement, Settings};

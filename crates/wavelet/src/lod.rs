@@ -218,28 +218,7 @@ impl Fog {
                 layers
             }
         };
-        let shift = d as f64 / 2.0;
-        let mut bounds = [
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-        ];
-        for layer in &layers {
-            let [x0, x1, y0, y1] = layer.cells;
-            if x0 >= x1 {
-                continue;
-            }
-            let world = |c: i64, axis: usize| {
-                (c as f64 * layer.scale - shift) * placement.cell + placement.origin[axis]
-            };
-            bounds = [
-                bounds[0].min(world(x0, 0)),
-                bounds[1].max(world(x1, 0)),
-                bounds[2].min(world(y0, 1)),
-                bounds[3].max(world(y1, 1)),
-            ];
-        }
+        let bounds = world_bounds(&layers, d, &placement);
         // Guard: on the part of a ray where levels 0 … l are active the integrand is A_l
         // (module docs), bounded by max|A_l| (B-splines sum to at most one); each of the
         // L + 1 levels adds at most twice that along a path no longer than the fog box's
@@ -477,4 +456,32 @@ impl Fog {
         }
         self.placement.density * acc
     }
+}
+
+/// The world box `[x0, x1, y0, y1]` the levels' cells cover (a basis of `degree` centred
+/// by half its degree), empty (`+∞, −∞`) when no level has a cell.
+fn world_bounds(layers: &[Layer], degree: usize, placement: &Placement) -> [f64; 4] {
+    let shift = degree as f64 / 2.0;
+    let mut bounds = [
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    for layer in layers {
+        let [x0, x1, y0, y1] = layer.cells;
+        if x0 >= x1 {
+            continue;
+        }
+        let world = |c: i64, axis: usize| {
+            (c as f64 * layer.scale - shift) * placement.cell + placement.origin[axis]
+        };
+        bounds = [
+            bounds[0].min(world(x0, 0)),
+            bounds[1].max(world(x1, 0)),
+            bounds[2].min(world(y0, 1)),
+            bounds[3].max(world(y1, 1)),
+        ];
+    }
+    bounds
 }

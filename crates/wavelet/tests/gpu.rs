@@ -17,7 +17,7 @@
 //! (the coordinates are exact in binary), so both sides take the same row of cells.
 
 use haze_camera::LookAt;
-use haze_wavelet::gpu::GpuContext;
+use haze_gpu::GpuContext;
 use haze_wavelet::gpu::fog::{FogRenderer, RayQuery};
 use haze_wavelet::lod::{Fog, Mode, Settings};
 use haze_wavelet::render::{self, Scene, SmokeSample};

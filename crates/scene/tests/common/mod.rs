@@ -4,8 +4,8 @@
 // Each test file is its own crate and uses only some of these.
 #![allow(dead_code)]
 
+use haze_gpu::GpuContext;
 use haze_scene::render::Image;
-use haze_view::gpu::GpuContext;
 use std::sync::OnceLock;
 
 /// The GPU device, opened once per test binary (a CPU one will do: Mesa's lavapipe, which

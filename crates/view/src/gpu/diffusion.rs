@@ -26,15 +26,19 @@
 //! recurrence residual keeps falling below that; the tests bound the difference from the
 //! CPU's `f64` solve by the condition number they compute.
 
-use super::{
-    ComputeLayout, GpuContext, GpuError, SourceBuffer, bind_buffers, buffer_init, compute_layout,
-};
+use super::SourceBuffer;
 use crate::Medium;
 use crate::diffusion::{Coefficients, Operators, SolveOptions, Sources};
+use haze_gpu::wgsl::Variant;
+use haze_gpu::{ComputeLayout, GpuContext, GpuError, bind_buffers, buffer_init, compute_layout};
 use std::f64::consts::PI;
 
-/// The shader.
-pub const SHADER: &str = include_str!("../../shaders/diffusion.wgsl");
+/// The shader, `crates/view/shaders/diffusion.wgsl`.
+pub const SHADER: Variant = Variant {
+    label: "diffusion",
+    entry: include_str!("../../shaders/diffusion.wgsl"),
+    defines: &[],
+};
 
 /// Invocations per workgroup of `add`.
 const ADD_GROUP: u32 = 64;
@@ -263,6 +267,7 @@ pub struct DiffusionPass {
 impl DiffusionPass {
     /// Compiles the shader's entry points, which share one bind group layout.
     pub fn new(ctx: &GpuContext) -> Result<DiffusionPass, GpuError> {
+        let source = super::shaders::source(&SHADER)?;
         ctx.scoped("diffusion pipeline creation", || {
             let d = &ctx.device;
             let ComputeLayout {
@@ -272,7 +277,7 @@ impl DiffusionPass {
             } = compute_layout(
                 d,
                 "diffusion",
-                SHADER,
+                &source,
                 &[false, false, true, true, true, true],
             );
             let pipeline = |entry: &'static str| {

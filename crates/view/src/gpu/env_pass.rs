@@ -14,24 +14,23 @@
 //! `L_j` and `Ω g^l` (4 words). The nodes' `S` stays on the GPU ([`EnvShadow`]) and can be
 //! read back for tests.
 
-use super::{
-    GpuContext, GpuError, GridBuffer, SourceBuffer, buffer_init, compute_pipeline_at, submit_pass,
-    voxel_groups,
-};
+use super::{GridBuffer, SourceBuffer};
 use crate::env::Environment;
 use crate::lighting::single::RgbSh;
 use crate::medium::Medium;
 use crate::render::env_pass::{self, EnvGridOptions};
 use crate::sh;
+use haze_gpu::wgsl::Variant;
+use haze_gpu::{GpuContext, GpuError, buffer_init, compute_pipeline_at, submit_pass, voxel_groups};
 use haze_volume::Bbox;
 
-/// The shader: `crates/view/shaders/sh_basis.wgsl`, the shadow march shared with the
-/// lights pass (`grid_march.wgsl`), then `env_pass.wgsl`.
-pub const SHADER: &str = concat!(
-    include_str!("../../shaders/sh_basis.wgsl"),
-    include_str!("../../shaders/grid_march.wgsl"),
-    include_str!("../../shaders/env_pass.wgsl")
-);
+/// The shader: `crates/view/shaders/env_pass.wgsl`, importing `sh_basis` and the shadow
+/// march shared with the lights pass (`grid_march`).
+pub const SHADER: Variant = Variant {
+    label: "environment pass",
+    entry: include_str!("../../shaders/env_pass.wgsl"),
+    defines: &[],
+};
 
 /// Voxels per workgroup side of `apply` (`@workgroup_size(4, 4, 4)`).
 const SIDE: usize = 4;
@@ -124,14 +123,20 @@ fn check_order(order: usize) -> Result<usize, GpuError> {
 impl EnvPass {
     /// Compiles the shader and builds its two pipelines.
     pub fn new(ctx: &GpuContext) -> Result<EnvPass, GpuError> {
+        let source = super::shaders::source(&SHADER)?;
         Ok(EnvPass {
             shadow: compute_pipeline_at(
                 ctx,
                 "environment grid pipeline creation",
-                SHADER,
+                &source,
                 "shadow",
             )?,
-            apply: compute_pipeline_at(ctx, "environment pass pipeline creation", SHADER, "apply")?,
+            apply: compute_pipeline_at(
+                ctx,
+                "environment pass pipeline creation",
+                &source,
+                "apply",
+            )?,
         })
     }
 
@@ -343,7 +348,11 @@ impl EnvPass {
 }
 
 /// `shaders/remove_single.wgsl`.
-pub const REMOVE_SHADER: &str = include_str!("../../shaders/remove_single.wgsl");
+pub const REMOVE_SHADER: Variant = Variant {
+    label: "single scattering removal",
+    entry: include_str!("../../shaders/remove_single.wgsl"),
+    defines: &[],
+};
 
 /// The centers' single scattering taken out of their sources on the GPU (the renderer's
 /// GPU lighting with [`crate::render::env_pass::EnvSource::Grid`]): a copy of the sources
@@ -357,10 +366,10 @@ impl RemoveSingle {
     /// Compiles the shader.
     pub fn new(ctx: &GpuContext) -> Result<RemoveSingle, GpuError> {
         Ok(RemoveSingle {
-            pipeline: super::compute_pipeline(
+            pipeline: haze_gpu::compute_pipeline(
                 ctx,
                 "remove single pipeline creation",
-                REMOVE_SHADER,
+                &super::shaders::source(&REMOVE_SHADER)?,
             )?,
         })
     }

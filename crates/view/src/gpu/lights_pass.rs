@@ -29,26 +29,28 @@
 //! density reads each); neighbouring invocations march parallel (a sun) or converging (a
 //! point light) rays, so the reads stay coherent.
 
-use super::{
-    GpuContext, GpuError, GridBuffer, buffer_init, compute_pipeline, compute_pipeline_at,
-    submit_pass, voxel_groups,
-};
+use super::GridBuffer;
 use crate::env::Environment;
 use crate::lights::DiskPhase;
 use crate::medium::{FOUR_PI, Medium};
 use crate::render::crm::VolumeGrids;
 pub use crate::render::lights_pass::SHADOW_CUTOFF;
+use haze_gpu::wgsl::Variant;
+use haze_gpu::{
+    GpuContext, GpuError, buffer_init, compute_pipeline, compute_pipeline_at, submit_pass,
+    voxel_groups,
+};
 use haze_volume::Bbox;
 use std::sync::Mutex;
 
-/// The shader: the shadow march shared with the environment pass
-/// (`crates/view/shaders/grid_march.wgsl`), the phase functions shared with the gathered
-/// orders (`disk_phase.wgsl`), then `lights_pass.wgsl`.
-pub const SHADER: &str = concat!(
-    include_str!("../../shaders/grid_march.wgsl"),
-    include_str!("../../shaders/disk_phase.wgsl"),
-    include_str!("../../shaders/lights_pass.wgsl")
-);
+/// The shader: `crates/view/shaders/lights_pass.wgsl`, importing the shadow march shared
+/// with the environment pass (`grid_march`) and the phase functions shared with the
+/// gathered orders (`disk_phase`).
+pub const SHADER: Variant = Variant {
+    label: "lights pass",
+    entry: include_str!("../../shaders/lights_pass.wgsl"),
+    defines: &[],
+};
 
 /// Voxels per workgroup side (`@workgroup_size(4, 4, 4)` in the shader).
 const SIDE: usize = 4;
@@ -229,8 +231,10 @@ fn voxel_at(p: [f64; 3], grid: &GridBuffer) -> Option<u32> {
 impl LightsPass {
     /// Compiles the shader and builds the pipeline.
     pub fn new(ctx: &GpuContext) -> Result<LightsPass, GpuError> {
-        let pipeline = compute_pipeline(ctx, "lights pass pipeline creation", SHADER)?;
-        let shadow = compute_pipeline_at(ctx, "lights shadow pipeline creation", SHADER, "shadow")?;
+        let source = super::shaders::source(&SHADER)?;
+        let pipeline = compute_pipeline(ctx, "lights pass pipeline creation", &source)?;
+        let shadow =
+            compute_pipeline_at(ctx, "lights shadow pipeline creation", &source, "shadow")?;
         Ok(LightsPass {
             pipeline,
             shadow,

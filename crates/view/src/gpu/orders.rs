@@ -34,27 +34,27 @@
 //! iterations together, silently (`shaders/orders.wgsl`): the split of the directions
 //! into dispatches, the CG's chunks and [`MAX_FACTOR`] keep every invocation within it.
 
+use super::GridBuffer;
 use super::env_pass::EnvShadow;
 use super::lights_pass::LightsPass;
-use super::{
-    ComputeLayout, GpuContext, GpuError, GridBuffer, bind_buffers, buffer_init, compute_layout,
-    voxel_groups,
-};
 use crate::env::Environment;
 use crate::grid_diffusion::{GATHER_LATER_THETA, GATHER_THETA, GridSolveOptions, HIGH};
 use crate::lighting::single::RgbSh;
 use crate::medium::{FOUR_PI, Medium};
 use crate::render::MsDiffusion;
 use crate::render::env_pass::{directions, phase_factors};
+use haze_gpu::wgsl::Variant;
+use haze_gpu::{
+    ComputeLayout, GpuContext, GpuError, bind_buffers, buffer_init, compute_layout, voxel_groups,
+};
 
-/// The shader: the fine march (`grid_march.wgsl`), the phase functions
-/// (`disk_phase.wgsl`), then `orders.wgsl`.
-pub const SHADER: &str = concat!(
-    include_str!("../../shaders/grid_march.wgsl"),
-    include_str!("../../shaders/disk_phase.wgsl"),
-    include_str!("../../shaders/sh_basis.wgsl"),
-    include_str!("../../shaders/orders.wgsl")
-);
+/// The shader: `crates/view/shaders/orders.wgsl`, importing the fine march
+/// (`grid_march`), the phase functions (`disk_phase`) and `sh_basis`.
+pub const SHADER: Variant = Variant {
+    label: "gathered orders",
+    entry: include_str!("../../shaders/orders.wgsl"),
+    defines: &[],
+};
 
 /// Most suns in the first source (the shader's records hold `13 + 8` words).
 pub const MAX_SUNS: usize = 8;
@@ -224,6 +224,7 @@ fn cell_groups(ctx: &GpuContext, n: usize) -> Result<[u32; 3], GpuError> {
 impl OrdersPass {
     /// Compiles the shader's entry points.
     pub fn new(ctx: &GpuContext) -> Result<OrdersPass, GpuError> {
+        let source = super::shaders::source(&SHADER)?;
         ctx.scoped("orders pipeline creation", || {
             let d = &ctx.device;
             let ComputeLayout {
@@ -233,7 +234,7 @@ impl OrdersPass {
             } = compute_layout(
                 d,
                 "orders",
-                SHADER,
+                &source,
                 &[true, false, true, true, false, false, false],
             );
             let pipeline = |entry: &'static str| {
@@ -298,6 +299,36 @@ impl OrdersPass {
 
     /// One compute pass (one timed stage) of `pipeline` over `groups` per bind group of
     /// `binds`, in order. Call inside [`GpuContext::scoped`].
+    /// The bind groups of one order's gather, a chunk of the directions `rule` each (its
+    /// parameters: `params` with the chunk's directions, and for the first order
+    /// `first_order`'s record stride and sun count); `buffers` are bindings 1–7.
+    fn gather_binds(
+        &self,
+        ctx: &GpuContext,
+        params: &Params,
+        first_order: Option<(usize, usize)>,
+        rule: &[([f64; 3], f64)],
+        buffers: [&wgpu::Buffer; 7],
+    ) -> Vec<wgpu::BindGroup> {
+        rule.chunks(DIRECTIONS_PER_DISPATCH)
+            .enumerate()
+            .map(|(c, part)| {
+                let p = Params {
+                    first: u32::from(first_order.is_some()),
+                    chunk_first: u32::from(c == 0),
+                    stride: first_order.map_or(13, |(stride, _)| stride as u32),
+                    rec_suns: first_order.map_or(0, |(_, suns)| suns as u32),
+                    directions: part.len() as u32,
+                    ..*params
+                };
+                let uniform = OrdersPass::uniform(ctx, &p, part);
+                let mut all = vec![&uniform];
+                all.extend(buffers);
+                bind_buffers(ctx, "orders gather", &self.layout, &all)
+            })
+            .collect()
+    }
+
     fn dispatch_each(
         &self,
         ctx: &GpuContext,
@@ -344,83 +375,13 @@ impl OrdersPass {
         factor: usize,
         orders: usize,
     ) -> Result<MediaBuffer, GpuError> {
-        let factor = if factor == MsDiffusion::AUTO {
-            AUTO_FACTOR
-        } else {
-            factor
-        };
-        if !(1..=MAX_FACTOR).contains(&factor) || !(1..=8).contains(&orders) {
-            return Err(GpuError::Input(format!(
-                "orders:{factor}:{orders}: on the GPU the factor must be 1 to {MAX_FACTOR} and the orders 1 to 8"
-            )));
-        }
-        if env.suns.len() > MAX_SUNS {
-            return Err(GpuError::Input(format!(
-                "{} suns: the gathered orders on the GPU take at most {MAX_SUNS}",
-                env.suns.len()
-            )));
-        }
-        let dims = grid.dims();
-        let bbox = *grid.bbox();
-        if !shadow.is_of(grid) {
-            return Err(GpuError::Input(
-                "the environment's grid is of another volume grid".into(),
-            ));
-        }
-        let order = shadow.order();
-        let n2 = (order * order).min(4);
-        if light.iter().any(|c| c.len() < n2) {
-            return Err(GpuError::Input(format!(
-                "the environment's projection has fewer than {n2} coefficients"
-            )));
-        }
-        let cells = dims.map(|n| n.div_ceil(factor));
-        let n = cells.iter().product::<usize>();
-        let vs = grid.voxel_size();
-        let h = vs.map(|v| v * factor as f64);
-        let hmin = h[0].min(h[1]).min(h[2]);
-        let (node_min, node_cell, nodes) = shadow.node_frame();
-        let a = phase_factors(medium, order);
-        let mut env_coeffs = [[0.0f32; 4]; 4];
-        for (j, e) in env_coeffs.iter_mut().enumerate().take(n2) {
-            *e = [light[0][j], light[1][j], light[2][j], a[j]].map(|v| v as f32);
-        }
+        let factor = check_gather(grid, shadow, light, env, factor, orders)?;
         let words = lights.light_words(ctx, grid, env, medium.g)?;
         let stride = 13 + env.suns.len();
-        let (sigma_s, sigma_a, sigma_tr) = coefficients(medium).unwrap_or_default();
-        let params = Params {
-            eye: [0.0; 3],
-            sigma_t: medium.sigma_t as f32,
-            voxel: vs.map(|v| v as f32),
-            h0: vs[0].min(vs[1]).min(vs[2]) as f32,
-            size: bbox.size().map(|v| v as f32),
-            soft: ((0.5 * hmin).powi(2) / 3.0) as f32,
-            dims: dims.map(|v| v as u32),
-            factor: factor as u32,
-            cells: cells.map(|v| v as u32),
-            suns: env.suns.len() as u32,
-            cell: h.map(|v| v as f32),
-            points: env.points.len() as u32,
-            g: medium.g as f32,
-            albedo: medium.albedo as f32,
-            k: (medium.albedo / FOUR_PI) as f32,
-            stride: stride as u32,
-            first: 1,
-            order: order as u32,
-            directions: 0,
-            max_iterations: 0,
-            node_min,
-            chunk: 0,
-            node_cell,
-            tolerance: 0.0,
-            nodes,
-            sigma_s: sigma_s as f32,
-            sigma_a: sigma_a as f32,
-            sigma_tr: sigma_tr as f32,
-            rec_suns: env.suns.len() as u32,
-            chunk_first: 1,
-            env: env_coeffs,
-        };
+        let params = gather_params(grid, shadow, light, env, medium, factor);
+        let dims = grid.dims();
+        let cells = dims.map(|n| n.div_ceil(factor));
+        let n = cells.iter().product::<usize>();
         let record_bytes = (4 * n.max(1) * stride) as u64;
         ctx.check_storage_size("the gathered orders' sources", record_bytes)?;
         let groups = cell_groups(ctx, n)?;
@@ -490,36 +451,22 @@ impl OrdersPass {
                 let rule = if k == 0 { &first } else { &later };
                 rec.swap(0, 1);
                 // rec[0]: this order's source, rec[1]: the next; one pass per order.
-                let binds: Vec<_> = rule
-                    .chunks(DIRECTIONS_PER_DISPATCH)
-                    .enumerate()
-                    .map(|(c, part)| {
-                        let p = Params {
-                            first: u32::from(k == 0),
-                            chunk_first: u32::from(c == 0),
-                            stride: if k == 0 { stride as u32 } else { 13 },
-                            rec_suns: if k == 0 { env.suns.len() as u32 } else { 0 },
-                            directions: part.len() as u32,
-                            ..params
-                        };
-                        let uniform = OrdersPass::uniform(ctx, &p, part);
-                        bind_buffers(
-                            ctx,
-                            "orders gather",
-                            &self.layout,
-                            &[
-                                &uniform,
-                                &lights_buf,
-                                grid.buffer(),
-                                shadow.buffer(),
-                                &rec[0],
-                                &rec[1],
-                                &media,
-                                &occupied,
-                            ],
-                        )
-                    })
-                    .collect();
+                let first_order = (k == 0).then_some((stride, env.suns.len()));
+                let binds = self.gather_binds(
+                    ctx,
+                    &params,
+                    first_order,
+                    rule,
+                    [
+                        &lights_buf,
+                        grid.buffer(),
+                        shadow.buffer(),
+                        &rec[0],
+                        &rec[1],
+                        &media,
+                        &occupied,
+                    ],
+                );
                 self.dispatch_each(ctx, "orders gather", &self.gather, &binds, groups);
             }
             let [spare, last] = rec;
@@ -717,6 +664,109 @@ impl OrdersPass {
     }
 }
 
+/// The factor [`OrdersPass::gather`] takes (the automatic one resolved), or why it cannot
+/// gather: a factor or order count out of range, too many suns, an environment grid of
+/// another volume or a projection with too few coefficients.
+fn check_gather(
+    grid: &GridBuffer,
+    shadow: &EnvShadow,
+    light: &RgbSh,
+    env: &Environment,
+    factor: usize,
+    orders: usize,
+) -> Result<usize, GpuError> {
+    let factor = if factor == MsDiffusion::AUTO {
+        AUTO_FACTOR
+    } else {
+        factor
+    };
+    if !(1..=MAX_FACTOR).contains(&factor) || !(1..=8).contains(&orders) {
+        return Err(GpuError::Input(format!(
+            "orders:{factor}:{orders}: on the GPU the factor must be 1 to {MAX_FACTOR} and the orders 1 to 8"
+        )));
+    }
+    if env.suns.len() > MAX_SUNS {
+        return Err(GpuError::Input(format!(
+            "{} suns: the gathered orders on the GPU take at most {MAX_SUNS}",
+            env.suns.len()
+        )));
+    }
+    if !shadow.is_of(grid) {
+        return Err(GpuError::Input(
+            "the environment's grid is of another volume grid".into(),
+        ));
+    }
+    let order = shadow.order();
+    let n2 = (order * order).min(4);
+    if light.iter().any(|c| c.len() < n2) {
+        return Err(GpuError::Input(format!(
+            "the environment's projection has fewer than {n2} coefficients"
+        )));
+    }
+    Ok(factor)
+}
+
+/// The gathers' parameters for `grid` in cells of `factor` voxels a side (the first
+/// order's: its records carry the suns).
+fn gather_params(
+    grid: &GridBuffer,
+    shadow: &EnvShadow,
+    light: &RgbSh,
+    env: &Environment,
+    medium: &Medium,
+    factor: usize,
+) -> Params {
+    let dims = grid.dims();
+    let bbox = *grid.bbox();
+    let order = shadow.order();
+    let n2 = (order * order).min(4);
+    let cells = dims.map(|n| n.div_ceil(factor));
+    let vs = grid.voxel_size();
+    let h = vs.map(|v| v * factor as f64);
+    let hmin = h[0].min(h[1]).min(h[2]);
+    let (node_min, node_cell, nodes) = shadow.node_frame();
+    let a = phase_factors(medium, order);
+    let mut env_coeffs = [[0.0f32; 4]; 4];
+    for (j, e) in env_coeffs.iter_mut().enumerate().take(n2) {
+        *e = [light[0][j], light[1][j], light[2][j], a[j]].map(|v| v as f32);
+    }
+    let stride = 13 + env.suns.len();
+    let (sigma_s, sigma_a, sigma_tr) = coefficients(medium).unwrap_or_default();
+    Params {
+        eye: [0.0; 3],
+        sigma_t: medium.sigma_t as f32,
+        voxel: vs.map(|v| v as f32),
+        h0: vs[0].min(vs[1]).min(vs[2]) as f32,
+        size: bbox.size().map(|v| v as f32),
+        soft: ((0.5 * hmin).powi(2) / 3.0) as f32,
+        dims: dims.map(|v| v as u32),
+        factor: factor as u32,
+        cells: cells.map(|v| v as u32),
+        suns: env.suns.len() as u32,
+        cell: h.map(|v| v as f32),
+        points: env.points.len() as u32,
+        g: medium.g as f32,
+        albedo: medium.albedo as f32,
+        k: (medium.albedo / FOUR_PI) as f32,
+        stride: stride as u32,
+        first: 1,
+        order: order as u32,
+        directions: 0,
+        max_iterations: 0,
+        node_min,
+        chunk: 0,
+        node_cell,
+        tolerance: 0.0,
+        nodes,
+        sigma_s: sigma_s as f32,
+        sigma_a: sigma_a as f32,
+        sigma_tr: sigma_tr as f32,
+        rec_suns: env.suns.len() as u32,
+        chunk_first: 1,
+        env: env_coeffs,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -736,9 +786,17 @@ mod tests {
     #[test]
     fn the_shader_keeps_the_cpu_constants() {
         use crate::grid_diffusion::{T_MIN, THIN};
-        assert!(SHADER.contains(&format!("const T_MIN: f32 = {T_MIN:e};")));
-        assert!(SHADER.contains(&format!("const THIN: f32 = {THIN:e};")));
-        assert!(SHADER.contains(&format!(
+        assert!(
+            SHADER
+                .entry
+                .contains(&format!("const T_MIN: f32 = {T_MIN:e};"))
+        );
+        assert!(
+            SHADER
+                .entry
+                .contains(&format!("const THIN: f32 = {THIN:e};"))
+        );
+        assert!(SHADER.entry.contains(&format!(
             "rule: array<vec4<f32>, {DIRECTIONS_PER_DISPATCH}>"
         )));
     }

@@ -60,7 +60,7 @@ use super::orders::{MediaBuffer, OrdersPass};
 use super::single_scattering::SingleScatteringPass;
 use super::view_pass::{EnvBuffer, ImageBuffer, ViewPass};
 use super::volume_pass::{Residual, VolumePass};
-use super::{GpuContext, GpuError, GridBuffer, SourceBuffer};
+use super::{GridBuffer, SourceBuffer};
 use crate::diffusion::{DiffusionSolver, Operators, Sources};
 use crate::lighting::direct::add_light_moments;
 use crate::lighting::single::{RgbSh, ShKit};
@@ -68,6 +68,7 @@ use crate::render::env_pass::{EnvGridOptions, EnvSource};
 use crate::render::{CrmOptions, CrmStats, MsDiffusion, slice_thickness, source_radiance};
 use crate::sh;
 use crate::{Camera, Environment, Medium};
+use haze_gpu::{GpuContext, GpuError};
 use haze_volume::{Bbox, Rbf};
 use std::time::Instant;
 
@@ -405,32 +406,69 @@ impl GpuRenderer {
         opts: &CrmOptions,
     ) -> Result<(ImageBuffer, FrameStats), GpuError> {
         let mut stats = FrameStats::default();
+        let (key, source, sources_fresh, env_light) =
+            self.sources(ctx, frame, medium, opts, &mut stats)?;
+        // The grids: the eye matters unless the phase function is isotropic (the lights
+        // pass's phase too: `p = 1` at g = 0; the one voxel it skips, a voxel center the
+        // eye sits on exactly, is left out of this reasoning). The lights are in the key
+        // through the lighting generation.
+        let eye = (medium.g != 0.0).then_some(camera.eye);
+        let grid_key = (
+            SourceKey {
+                opts: CrmOptions {
+                    residual: opts.residual,
+                    ..key.opts
+                },
+                ..key
+            },
+            eye,
+        );
+        let grid_fresh = matches!(&self.grid, Some((k, e, _)) if (*k, *e) == grid_key);
+        let built = match self.grid.take() {
+            Some(g) if grid_fresh => Ok(g.2),
+            _ => self.build_grid(
+                ctx,
+                frame,
+                &source,
+                medium,
+                camera,
+                opts,
+                grid_key.0,
+                env_light.as_ref(),
+                &mut stats,
+            ),
+        };
+        self.sources = Some((key, source));
+        let grid = &self.grid.insert((grid_key.0, grid_key.1, built?)).2;
+        stats.reuse = match (sources_fresh, grid_fresh) {
+            (_, true) => Reuse::Grids,
+            (true, false) => Reuse::Sources,
+            (false, false) => Reuse::Nothing,
+        };
+
         let t = Instant::now();
-        if !(1..=sh::MAX_ORDER).contains(&opts.order) {
-            return Err(GpuError::Input(format!(
-                "SH order {} is outside 1..={}",
-                opts.order,
-                sh::MAX_ORDER
-            )));
-        }
-        if opts.multiple && matches!(opts.diffusion, MsDiffusion::Grid { .. }) {
-            return Err(GpuError::Input(
-                "the grid diffusion runs on the CPU only; the GPU gathers orders or solves on the centers"
-                    .into(),
-            ));
-        }
-        if opts.multiple
-            && matches!(opts.diffusion, MsDiffusion::Orders { .. })
-            && !matches!(opts.env_source, EnvSource::Grid(_))
-        {
-            return Err(GpuError::Input(
-                "the explicit orders on the GPU are lit by the environment pass's grid (the sky per voxel), not by the centers"
-                    .into(),
-            ));
-        }
-        if let Err(e) = opts.diffusion.check() {
-            return Err(GpuError::Input(e));
-        }
+        let du = slice_thickness(frame.dims, &frame.bbox, opts);
+        let image = self
+            .view
+            .dispatch_in(ctx, grid, medium, &self.env_buffer, camera, du)?;
+        stats.crm.view_seconds = t.elapsed().as_secs_f64();
+        stats.gpu = ctx.take_stage_times()?;
+        Ok((image, stats))
+    }
+
+    /// The sources at the centers for `frame` (the last frame's when their key holds):
+    /// their key, the buffer, whether it was kept, and the environment pass's copy of the
+    /// light in SH. Checks `opts` first ([`check_options`]).
+    fn sources(
+        &mut self,
+        ctx: &GpuContext,
+        frame: &GpuFrame<'_>,
+        medium: &Medium,
+        opts: &CrmOptions,
+        stats: &mut FrameStats,
+    ) -> Result<(SourceKey, SourceBuffer, bool, Option<RgbSh>), GpuError> {
+        let t = Instant::now();
+        check_options(opts)?;
         let (kit, single, light) = match self.order.take() {
             Some(o) if o.0.order == opts.order => self.order.insert(o),
             _ => {
@@ -458,7 +496,7 @@ impl GpuRenderer {
         };
         let sources_fresh = matches!(&self.sources, Some((k, _)) if *k == key);
         let source = match self.sources.take() {
-            Some((k, buffer)) if sources_fresh => &self.sources.insert((k, buffer)).1,
+            Some((_, buffer)) if sources_fresh => buffer,
             _ if self.lighting_on.resolve(ctx) == LightingOn::Cpu => {
                 let source = source_radiance(
                     kit,
@@ -481,7 +519,7 @@ impl GpuRenderer {
                 }
                 let buffer = SourceBuffer::upload(ctx, &source, opts.order)?;
                 self.grid = None;
-                &self.sources.insert((key, buffer)).1
+                buffer
             }
             _ => {
                 let grid_env = matches!(opts.env_source, EnvSource::Grid(_));
@@ -513,148 +551,208 @@ impl GpuRenderer {
                     } else {
                         None
                     };
-                    self.diffusion_gpu(ctx, frame, medium, &buffer, opts, &mut stats)?;
+                    self.diffusion_gpu(ctx, frame, medium, &buffer, opts, stats)?;
                     if let Some(copy) = copy {
                         self.remove_single.run(ctx, &buffer, &copy)?;
                     }
                     stats.solved = true;
                 }
                 self.grid = None;
-                &self.sources.insert((key, buffer)).1
+                buffer
             }
         };
-
-        // The grids: the eye matters unless the phase function is isotropic (the lights
-        // pass's phase too: `p = 1` at g = 0; the one voxel it skips, a voxel center the
-        // eye sits on exactly, is left out of this reasoning). The lights are in the key
-        // through the lighting generation.
-        let eye = (medium.g != 0.0).then_some(camera.eye);
-        let grid_key = (
-            SourceKey {
-                opts: CrmOptions {
-                    residual: opts.residual,
-                    ..key.opts
-                },
-                ..key
-            },
-            eye,
-        );
-        let grid_fresh = matches!(&self.grid, Some((k, e, _)) if (*k, *e) == grid_key);
-        let grid = match self.grid.take() {
-            Some(g) if grid_fresh => &self.grid.insert(g).2,
-            _ => {
-                let t = Instant::now();
-                let residual = if opts.residual { frame.residual } else { None };
-                let grid = self.volume.run_on(
-                    ctx,
-                    frame.rbfs,
-                    source,
-                    frame.dims,
-                    &frame.bbox,
-                    residual,
-                    camera.eye,
-                )?;
-                stats.crm.volume_seconds = t.elapsed().as_secs_f64();
-                if let (EnvSource::Grid(g), Some(light)) = (&opts.env_source, &env_light) {
-                    let t = Instant::now();
-                    let key = EnvGridKey {
-                        frame: frame.key,
-                        residual: opts.residual,
-                        sigma_t: medium.sigma_t,
-                        distant: self.distant,
-                        order: opts.order,
-                        grid: *g,
-                    };
-                    let shadow = match self.env_grid.take() {
-                        Some((k, shadow)) if k == key => &self.env_grid.insert((k, shadow)).1,
-                        _ => {
-                            let shadow = self.env_pass.grid(
-                                ctx,
-                                &grid,
-                                &self.env,
-                                medium.sigma_t,
-                                opts.order,
-                                g,
-                            )?;
-                            self.env_grid_builds += 1;
-                            &self.env_grid.insert((key, shadow)).1
-                        }
-                    };
-                    self.env_pass
-                        .apply(ctx, &grid, shadow, light, medium, camera.eye)?;
-                    stats.crm.env_seconds = t.elapsed().as_secs_f64();
-                }
-                let t = Instant::now();
-                if self.env.has_lights() && medium.albedo != 0.0 && !frame.dims.contains(&0) {
-                    let key = (frame.key, opts.residual);
-                    let kept = matches!(&self.light_shadow,
-                        Some((k, s)) if *k == key && s.fits(&grid, &self.env, medium.sigma_t));
-                    let shadow = match self.light_shadow.take() {
-                        Some(kept_shadow) if kept => &self.light_shadow.insert(kept_shadow).1,
-                        _ => {
-                            let shadow =
-                                self.lights.shadow(ctx, &grid, &self.env, medium.sigma_t)?;
-                            self.light_shadow_builds += 1;
-                            &self.light_shadow.insert((key, shadow)).1
-                        }
-                    };
-                    self.lights
-                        .apply(ctx, &grid, shadow, &self.env, medium, camera.eye)?;
-                }
-                stats.crm.lights_seconds = t.elapsed().as_secs_f64();
-                let t = Instant::now();
-                if let (
-                    true,
-                    MsDiffusion::Orders { factor, orders },
-                    Some((_, shadow)),
-                    Some(light),
-                ) = (opts.multiple, opts.diffusion, &self.env_grid, &env_light)
-                    && medium.albedo > 0.0
-                    && medium.sigma_t > 0.0
-                    && !frame.dims.contains(&0)
-                {
-                    let kept = matches!(&self.orders_media, Some((k, _)) if *k == grid_key.0);
-                    let media = match self.orders_media.take() {
-                        Some(m) if kept => &self.orders_media.insert(m).1,
-                        _ => {
-                            let media = self.orders.gather(
-                                ctx,
-                                &grid,
-                                shadow,
-                                light,
-                                &self.env,
-                                &self.lights,
-                                medium,
-                                factor,
-                                orders,
-                            )?;
-                            self.orders
-                                .diffuse(ctx, &grid, shadow, &media, &opts.grid_solve)?;
-                            self.orders_builds += 1;
-                            self.last_solve = Some(LastSolve::Orders(opts.grid_solve.tolerance));
-                            stats.solved = true;
-                            &self.orders_media.insert((grid_key.0, media)).1
-                        }
-                    };
-                    self.orders.apply(ctx, &grid, shadow, media, camera.eye)?;
-                    stats.crm.multiple_seconds = t.elapsed().as_secs_f64();
-                }
-                &self.grid.insert((grid_key.0, grid_key.1, grid)).2
-            }
-        };
-        stats.reuse = match (sources_fresh, grid_fresh) {
-            (_, true) => Reuse::Grids,
-            (true, false) => Reuse::Sources,
-            (false, false) => Reuse::Nothing,
-        };
-
-        let t = Instant::now();
-        let du = slice_thickness(frame.dims, &frame.bbox, opts);
-        let image = self
-            .view
-            .dispatch_in(ctx, grid, medium, &self.env_buffer, camera, du)?;
-        stats.crm.view_seconds = t.elapsed().as_secs_f64();
-        stats.gpu = ctx.take_stage_times()?;
-        Ok((image, stats))
+        Ok((key, source, sources_fresh, env_light))
     }
+
+    /// The volume pass's grids of `frame` from `source`, with the environment's single
+    /// scattering, the suns and point lights, and the gathered orders added.
+    #[allow(clippy::too_many_arguments)]
+    fn build_grid(
+        &mut self,
+        ctx: &GpuContext,
+        frame: &GpuFrame<'_>,
+        source: &SourceBuffer,
+        medium: &Medium,
+        camera: &Camera,
+        opts: &CrmOptions,
+        key: SourceKey,
+        env_light: Option<&RgbSh>,
+        stats: &mut FrameStats,
+    ) -> Result<GridBuffer, GpuError> {
+        let t = Instant::now();
+        let residual = if opts.residual { frame.residual } else { None };
+        let grid = self.volume.run_on(
+            ctx,
+            frame.rbfs,
+            source,
+            frame.dims,
+            &frame.bbox,
+            residual,
+            camera.eye,
+        )?;
+        stats.crm.volume_seconds = t.elapsed().as_secs_f64();
+        self.apply_env(ctx, frame, &grid, medium, camera, opts, env_light, stats)?;
+        self.apply_lights(ctx, frame, &grid, medium, camera, opts, stats)?;
+        self.apply_orders(
+            ctx, frame, &grid, medium, camera, opts, key, env_light, stats,
+        )?;
+        Ok(grid)
+    }
+
+    /// Adds the environment's single scattering to `grid` (with [`EnvSource::Grid`]),
+    /// its grid of the sky per voxel kept while its key holds.
+    #[allow(clippy::too_many_arguments)]
+    fn apply_env(
+        &mut self,
+        ctx: &GpuContext,
+        frame: &GpuFrame<'_>,
+        grid: &GridBuffer,
+        medium: &Medium,
+        camera: &Camera,
+        opts: &CrmOptions,
+        env_light: Option<&RgbSh>,
+        stats: &mut FrameStats,
+    ) -> Result<(), GpuError> {
+        if let (EnvSource::Grid(g), Some(light)) = (&opts.env_source, env_light) {
+            let t = Instant::now();
+            let key = EnvGridKey {
+                frame: frame.key,
+                residual: opts.residual,
+                sigma_t: medium.sigma_t,
+                distant: self.distant,
+                order: opts.order,
+                grid: *g,
+            };
+            let shadow = match self.env_grid.take() {
+                Some((k, shadow)) if k == key => &self.env_grid.insert((k, shadow)).1,
+                _ => {
+                    let shadow =
+                        self.env_pass
+                            .grid(ctx, grid, &self.env, medium.sigma_t, opts.order, g)?;
+                    self.env_grid_builds += 1;
+                    &self.env_grid.insert((key, shadow)).1
+                }
+            };
+            self.env_pass
+                .apply(ctx, grid, shadow, light, medium, camera.eye)?;
+            stats.crm.env_seconds = t.elapsed().as_secs_f64();
+        }
+        Ok(())
+    }
+
+    /// Adds the suns' and point lights' single scattering to `grid`, their shadow volume
+    /// kept while the frame, the residual toggle and the lights hold.
+    #[allow(clippy::too_many_arguments)]
+    fn apply_lights(
+        &mut self,
+        ctx: &GpuContext,
+        frame: &GpuFrame<'_>,
+        grid: &GridBuffer,
+        medium: &Medium,
+        camera: &Camera,
+        opts: &CrmOptions,
+        stats: &mut FrameStats,
+    ) -> Result<(), GpuError> {
+        let t = Instant::now();
+        if self.env.has_lights() && medium.albedo != 0.0 && !frame.dims.contains(&0) {
+            let key = (frame.key, opts.residual);
+            let kept = matches!(&self.light_shadow,
+                Some((k, s)) if *k == key && s.fits(grid, &self.env, medium.sigma_t));
+            let shadow = match self.light_shadow.take() {
+                Some(kept_shadow) if kept => &self.light_shadow.insert(kept_shadow).1,
+                _ => {
+                    let shadow = self.lights.shadow(ctx, grid, &self.env, medium.sigma_t)?;
+                    self.light_shadow_builds += 1;
+                    &self.light_shadow.insert((key, shadow)).1
+                }
+            };
+            self.lights
+                .apply(ctx, grid, shadow, &self.env, medium, camera.eye)?;
+        }
+        stats.crm.lights_seconds = t.elapsed().as_secs_f64();
+        Ok(())
+    }
+
+    /// Adds the gathered orders of multiple scattering to `grid` ([`MsDiffusion::Orders`]),
+    /// the cells' radiance kept for the grids of `key`.
+    #[allow(clippy::too_many_arguments)]
+    fn apply_orders(
+        &mut self,
+        ctx: &GpuContext,
+        frame: &GpuFrame<'_>,
+        grid: &GridBuffer,
+        medium: &Medium,
+        camera: &Camera,
+        opts: &CrmOptions,
+        key: SourceKey,
+        env_light: Option<&RgbSh>,
+        stats: &mut FrameStats,
+    ) -> Result<(), GpuError> {
+        let t = Instant::now();
+        if let (true, MsDiffusion::Orders { factor, orders }, Some((_, shadow)), Some(light)) =
+            (opts.multiple, opts.diffusion, &self.env_grid, env_light)
+            && medium.albedo > 0.0
+            && medium.sigma_t > 0.0
+            && !frame.dims.contains(&0)
+        {
+            let kept = matches!(&self.orders_media, Some((k, _)) if *k == key);
+            let media = match self.orders_media.take() {
+                Some(m) if kept => &self.orders_media.insert(m).1,
+                _ => {
+                    let media = self.orders.gather(
+                        ctx,
+                        grid,
+                        shadow,
+                        light,
+                        &self.env,
+                        &self.lights,
+                        medium,
+                        factor,
+                        orders,
+                    )?;
+                    self.orders
+                        .diffuse(ctx, grid, shadow, &media, &opts.grid_solve)?;
+                    self.orders_builds += 1;
+                    self.last_solve = Some(LastSolve::Orders(opts.grid_solve.tolerance));
+                    stats.solved = true;
+                    &self.orders_media.insert((key, media)).1
+                }
+            };
+            self.orders.apply(ctx, grid, shadow, media, camera.eye)?;
+            stats.crm.multiple_seconds = t.elapsed().as_secs_f64();
+        }
+        Ok(())
+    }
+}
+
+/// Refuses options the GPU renderer cannot follow: an SH order outside 1..=6, the grid's
+/// diffusion (CPU only), the explicit orders without the environment pass's grid, and
+/// diffusion settings out of range.
+fn check_options(opts: &CrmOptions) -> Result<(), GpuError> {
+    if !(1..=sh::MAX_ORDER).contains(&opts.order) {
+        return Err(GpuError::Input(format!(
+            "SH order {} is outside 1..={}",
+            opts.order,
+            sh::MAX_ORDER
+        )));
+    }
+    if opts.multiple && matches!(opts.diffusion, MsDiffusion::Grid { .. }) {
+        return Err(GpuError::Input(
+            "the grid diffusion runs on the CPU only; the GPU gathers orders or solves on the centers"
+                .into(),
+        ));
+    }
+    if opts.multiple
+        && matches!(opts.diffusion, MsDiffusion::Orders { .. })
+        && !matches!(opts.env_source, EnvSource::Grid(_))
+    {
+        return Err(GpuError::Input(
+            "the explicit orders on the GPU are lit by the environment pass's grid (the sky per voxel), not by the centers"
+                .into(),
+        ));
+    }
+    if let Err(e) = opts.diffusion.check() {
+        return Err(GpuError::Input(e));
+    }
+    Ok(())
 }

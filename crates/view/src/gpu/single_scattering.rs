@@ -16,20 +16,23 @@
 //! centers, 6 over the footprint), `L/64` per invocation, plus per RBF and point one
 //! `exp*` of `k + terms` triple products of `|Γ|/n²` multiply-adds per invocation.
 
-use super::{GpuContext, GpuError, SourceBuffer, buffer_init, compute_pipeline, submit_pass};
+use super::SourceBuffer;
 use crate::Medium;
 use crate::lighting::single::{RgbSh, ShKit, SingleScattering, SourcePoints};
 use crate::lighting::zh_table::SAMPLES;
 use crate::sh::{self, ExpMethod, MAX_ORDER};
+use haze_gpu::wgsl::Variant;
+use haze_gpu::{GpuContext, GpuError, buffer_init, compute_pipeline, submit_pass};
 use haze_volume::Rbf;
 use std::f64::consts::PI;
 use std::sync::OnceLock;
 
-/// The shader: `crates/view/shaders/sh_basis.wgsl` followed by `single_scattering.wgsl`.
-pub const SHADER: &str = concat!(
-    include_str!("../../shaders/sh_basis.wgsl"),
-    include_str!("../../shaders/single_scattering.wgsl")
-);
+/// The shader: `crates/view/shaders/single_scattering.wgsl`, importing `sh_basis`.
+pub const SHADER: Variant = Variant {
+    label: "single scattering",
+    entry: include_str!("../../shaders/single_scattering.wgsl"),
+    defines: &[],
+};
 
 /// The shader's `Params` uniform, 32 bytes.
 #[repr(C)]
@@ -90,7 +93,11 @@ impl SingleScatteringPass {
         let zh: Vec<f32> = kit.table.rows().iter().map(|&v| v as f32).collect();
         debug_assert_eq!(zh.len(), SAMPLES * order);
         let gamma = gamma_words(kit);
-        let pipeline = compute_pipeline(ctx, "single scattering pipeline creation", SHADER)?;
+        let pipeline = compute_pipeline(
+            ctx,
+            "single scattering pipeline creation",
+            &super::shaders::source(&SHADER)?,
+        )?;
         let storage = wgpu::BufferUsages::STORAGE;
         ctx.scoped("single scattering tables", || SingleScatteringPass {
             pipeline,
@@ -192,39 +199,8 @@ impl SingleScatteringPass {
             groups_x,
             neg_sigma_t: (-medium.sigma_t) as f32,
         };
-        // Centers relative to the first one: distances are all the shader needs, and
-        // smoke far from the origin keeps its f32 precision.
-        let origin = rbfs.first().map_or([0.0; 3], |b| b.center);
-        let mut rbf_data: Vec<[f32; 4]> = Vec::with_capacity(2 * rbfs.len().max(1));
-        for b in rbfs {
-            let c = [0, 1, 2].map(|a| (b.center[a] - origin[a]) as f32);
-            rbf_data.push([c[0], c[1], c[2], b.radius as f32]);
-            rbf_data.push([b.weight as f32, 0.0, 0.0, 0.0]);
-        }
-        if rbf_data.is_empty() {
-            rbf_data.push([0.0; 4]);
-        }
-        // L_in per coefficient, then the convolution factors (Ω/4π)·√(4π/(2l+1))·p_l.
-        let phase = sh::hg_zh(medium.g, n);
-        let mut light_data: Vec<[f32; 4]> = (0..n2)
-            .map(|k| {
-                [
-                    light[0][k] as f32,
-                    light[1][k] as f32,
-                    light[2][k] as f32,
-                    0.0,
-                ]
-            })
-            .collect();
-        light_data.extend((0..n).map(|l| {
-            let band = (4.0 * PI / (2 * l + 1) as f64).sqrt();
-            [
-                (medium.albedo / (4.0 * PI) * band * phase[l]) as f32,
-                0.0,
-                0.0,
-                0.0,
-            ]
-        }));
+        let rbf_data = rbf_records(rbfs);
+        let light_data = light_records(light, medium, n);
         ctx.check_storage_size(
             "the RBFs",
             std::mem::size_of_val(rbf_data.as_slice()) as u64,
@@ -281,6 +257,50 @@ pub fn single_scattering(
     SingleScatteringPass::new(ctx, kit)?
         .run(ctx, kit, rbfs, medium, light, method, points)?
         .read(ctx)
+}
+
+/// Two records per RBF: (center relative to the first one's, radius), (weight, -, -, -).
+/// Distances are all the shader needs, and smoke far from the origin keeps its `f32`
+/// precision. One zero record for no RBF (wgpu binds no empty buffers).
+fn rbf_records(rbfs: &[Rbf]) -> Vec<[f32; 4]> {
+    let origin = rbfs.first().map_or([0.0; 3], |b| b.center);
+    let mut rbf_data: Vec<[f32; 4]> = Vec::with_capacity(2 * rbfs.len().max(1));
+    for b in rbfs {
+        let c = [0, 1, 2].map(|a| (b.center[a] - origin[a]) as f32);
+        rbf_data.push([c[0], c[1], c[2], b.radius as f32]);
+        rbf_data.push([b.weight as f32, 0.0, 0.0, 0.0]);
+    }
+    if rbf_data.is_empty() {
+        rbf_data.push([0.0; 4]);
+    }
+    rbf_data
+}
+
+/// The light's records for order `n`: `L_in` per coefficient, then per band `l` the
+/// convolution factor `(Ω/4π)·√(4π/(2l+1))·p_l` of the medium's albedo and phase.
+fn light_records(light: &RgbSh, medium: &Medium, n: usize) -> Vec<[f32; 4]> {
+    let n2 = n * n;
+    let phase = sh::hg_zh(medium.g, n);
+    let mut light_data: Vec<[f32; 4]> = (0..n2)
+        .map(|k| {
+            [
+                light[0][k] as f32,
+                light[1][k] as f32,
+                light[2][k] as f32,
+                0.0,
+            ]
+        })
+        .collect();
+    light_data.extend((0..n).map(|l| {
+        let band = (4.0 * PI / (2 * l + 1) as f64).sqrt();
+        [
+            (medium.albedo / (4.0 * PI) * band * phase[l]) as f32,
+            0.0,
+            0.0,
+            0.0,
+        ]
+    }));
+    light_data
 }
 
 #[cfg(test)]

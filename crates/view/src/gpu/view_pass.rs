@@ -22,14 +22,20 @@
 //! a [`GridBuffer`]: uploaded from CPU [`VolumeGrids`] by [`ViewPass::run`], or left on
 //! the GPU by the volume pass and read by [`ViewPass::run_on`].
 
-use super::{GpuContext, GpuError, GridBuffer, buffer_init, compute_pipeline, submit_pass};
+use super::GridBuffer;
 use crate::Camera;
 use crate::env::{Distant, Environment};
 use crate::medium::Medium;
 use crate::render::crm::VolumeGrids;
+use haze_gpu::wgsl::Variant;
+use haze_gpu::{GpuContext, GpuError, buffer_init, compute_pipeline, submit_pass};
 
 /// The shader, `crates/view/shaders/view_pass.wgsl`.
-pub const SHADER: &str = include_str!("../../shaders/view_pass.wgsl");
+pub const SHADER: Variant = Variant {
+    label: "view pass",
+    entry: include_str!("../../shaders/view_pass.wgsl"),
+    defines: &[],
+};
 
 /// Pixels per workgroup side (`@workgroup_size(8, 8)` in the shader).
 const TILE: u32 = 8;
@@ -80,7 +86,11 @@ pub struct ViewPass {
 impl ViewPass {
     /// Compiles the shader and builds the pipeline.
     pub fn new(ctx: &GpuContext) -> Result<ViewPass, GpuError> {
-        let pipeline = compute_pipeline(ctx, "view pass pipeline creation", SHADER)?;
+        let pipeline = compute_pipeline(
+            ctx,
+            "view pass pipeline creation",
+            &super::shaders::source(&SHADER)?,
+        )?;
         Ok(ViewPass { pipeline })
     }
 

@@ -23,21 +23,21 @@
 //! `Σ_ℓ (voxels in the support of ℓ)·3n²`, up to the tile's rounding, plus the culling's
 //! `O(voxels·L/64)`.
 
-use super::{
-    GpuContext, GpuError, GridBuffer, SourceBuffer, buffer_init, compute_pipeline, submit_pass,
-    voxel_groups,
-};
+use super::{GridBuffer, SourceBuffer};
 use crate::lighting::single::RgbSh;
 use crate::render::crm::VolumeGrids;
 use crate::stream::ResidualSlot;
+use haze_gpu::wgsl::Variant;
+use haze_gpu::{GpuContext, GpuError, buffer_init, compute_pipeline, submit_pass, voxel_groups};
 use haze_hash::tile::{bricks_per_frame, tile_origin};
 use haze_volume::{Bbox, Rbf};
 
-/// The shader: `crates/view/shaders/sh_basis.wgsl` followed by `volume_pass.wgsl`.
-pub const SHADER: &str = concat!(
-    include_str!("../../shaders/sh_basis.wgsl"),
-    include_str!("../../shaders/volume_pass.wgsl")
-);
+/// The shader: `crates/view/shaders/volume_pass.wgsl`, importing `sh_basis`.
+pub const SHADER: Variant = Variant {
+    label: "volume pass",
+    entry: include_str!("../../shaders/volume_pass.wgsl"),
+    defines: &[],
+};
 
 /// Voxels per workgroup side (`@workgroup_size(4, 4, 4)` in the shader).
 const SIDE: usize = 4;
@@ -146,7 +146,11 @@ pub struct VolumePass {
 impl VolumePass {
     /// Compiles the shader and builds the pipeline.
     pub fn new(ctx: &GpuContext) -> Result<VolumePass, GpuError> {
-        let pipeline = compute_pipeline(ctx, "volume pass pipeline creation", SHADER)?;
+        let pipeline = compute_pipeline(
+            ctx,
+            "volume pass pipeline creation",
+            &super::shaders::source(&SHADER)?,
+        )?;
         Ok(VolumePass { pipeline })
     }
 

@@ -89,24 +89,7 @@ pub fn gather(
     assert!(sources.j0.len() == n && sources.j1.len() == n);
     assert!(suns.iter().all(|s| s.transmittance.len() == n));
     let stride = BASE + suns.len();
-    let mut rec = vec![0.0f64; n * stride];
-    for (i, r) in rec.chunks_mut(stride).enumerate() {
-        let d = grid.density[i];
-        if !(d > 0.0 && d.is_finite()) {
-            continue;
-        }
-        r[0] = d;
-        for c in 0..3 {
-            r[1 + c] = d * finite(sources.j0[i][c]);
-            for a in 0..3 {
-                r[4 + 3 * c + a] = d * finite(sources.j1[i][c][a]);
-            }
-        }
-        for (k, s) in suns.iter().enumerate() {
-            r[BASE + k] = d * finite(s.transmittance[i]).clamp(0.0, 1.0);
-        }
-    }
-    let h = grid.h[0].min(grid.h[1]).min(grid.h[2]);
+    let rec = cell_records(grid, sources, suns, stride);
     let (occ_lo, occ_hi) = occupied(grid);
     let sigma_t = if sigma_t.is_finite() {
         sigma_t.max(0.0)
@@ -137,40 +120,17 @@ pub fn gather(
             for (&(w, wt), y) in dirs.iter().zip(&ys) {
                 // Light arriving along w comes from x − s·w.
                 let back = w.map(|v| -v);
-                let len = grid.exit_distance(x, back);
-                let steps = (len / h).ceil().max(1.0) as usize;
-                let step = len / steps as f64;
-                // The same steps, those beyond the occupied box (density 0) skipped.
-                let mut reach = f64::INFINITY;
-                for a in 0..3 {
-                    if back[a] > 0.0 {
-                        reach = reach.min((occ_hi[a] - x[a]) / back[a]);
-                    } else if back[a] < 0.0 {
-                        reach = reach.min((occ_lo[a] - x[a]) / back[a]);
-                    }
-                }
-                let steps = steps.min((reach / step + 0.5).ceil().max(0.0) as usize);
-                acc.fill(0.0);
-                let mut t = 1.0;
-                for k in 0..steps {
-                    let s = (k as f64 + 0.5) * step;
-                    let p = [0, 1, 2].map(|a| x[a] + s * back[a]);
-                    trilinear(grid, &rec, stride, p, &mut sample);
-                    let d = sample[0];
-                    if d <= 0.0 {
-                        continue;
-                    }
-                    let dtau = sigma_t * d * step;
-                    let share = t * -(-dtau).exp_m1() / d;
-                    for (a, v) in acc.iter_mut().zip(&sample).skip(1) {
-                        *a += share * v;
-                    }
-                    t *= (-dtau).exp();
-                    if t < T_MIN {
-                        t = 0.0;
-                        break;
-                    }
-                }
+                let t = march_back(
+                    grid,
+                    &rec,
+                    stride,
+                    x,
+                    back,
+                    sigma_t,
+                    (occ_lo, occ_hi),
+                    &mut acc,
+                    &mut sample,
+                );
                 escape += wt * t;
                 for c in 0..3 {
                     let mut l = acc[1 + c] + (0..3).map(|a| acc[4 + 3 * c + a] * w[a]).sum::<f64>();
@@ -243,4 +203,87 @@ fn trilinear(grid: &CoarseGrid, rec: &[f64], stride: usize, p: [f64; 3], out: &m
             *o += w * v;
         }
     }
+}
+
+/// Per cell `stride` values, the density `D` first, then `D·J⁰` and `D·J¹` per channel
+/// and `D·T` per sun (0 in an empty cell): what the gathers' rays interpolate.
+fn cell_records(
+    grid: &CoarseGrid,
+    sources: &Sources,
+    suns: &[SunSource],
+    stride: usize,
+) -> Vec<f64> {
+    let n = grid.len();
+    let mut rec = vec![0.0f64; n * stride];
+    for (i, r) in rec.chunks_mut(stride).enumerate() {
+        let d = grid.density[i];
+        if !(d > 0.0 && d.is_finite()) {
+            continue;
+        }
+        r[0] = d;
+        for c in 0..3 {
+            r[1 + c] = d * finite(sources.j0[i][c]);
+            for a in 0..3 {
+                r[4 + 3 * c + a] = d * finite(sources.j1[i][c][a]);
+            }
+        }
+        for (k, s) in suns.iter().enumerate() {
+            r[BASE + k] = d * finite(s.transmittance[i]).clamp(0.0, 1.0);
+        }
+    }
+    rec
+}
+
+/// Marches back from `x` along `back` to the grid's edge (steps of the finest cell side,
+/// those beyond the occupied box `occ` skipped): accumulates into `acc` the records of
+/// `rec` weighted by each step's share of the light, and returns the transmittance left
+/// (0 once below [`T_MIN`]).
+#[allow(clippy::too_many_arguments)]
+fn march_back(
+    grid: &CoarseGrid,
+    rec: &[f64],
+    stride: usize,
+    x: [f64; 3],
+    back: [f64; 3],
+    sigma_t: f64,
+    (occ_lo, occ_hi): ([f64; 3], [f64; 3]),
+    acc: &mut [f64],
+    sample: &mut [f64],
+) -> f64 {
+    let h = grid.h[0].min(grid.h[1]).min(grid.h[2]);
+    let len = grid.exit_distance(x, back);
+    let steps = (len / h).ceil().max(1.0) as usize;
+    let step = len / steps as f64;
+    // The same steps, those beyond the occupied box (density 0) skipped.
+    let mut reach = f64::INFINITY;
+    for a in 0..3 {
+        if back[a] > 0.0 {
+            reach = reach.min((occ_hi[a] - x[a]) / back[a]);
+        } else if back[a] < 0.0 {
+            reach = reach.min((occ_lo[a] - x[a]) / back[a]);
+        }
+    }
+    let steps = steps.min((reach / step + 0.5).ceil().max(0.0) as usize);
+    acc.fill(0.0);
+    let mut t = 1.0;
+    for k in 0..steps {
+        let s = (k as f64 + 0.5) * step;
+        let p = [0, 1, 2].map(|a| x[a] + s * back[a]);
+        trilinear(grid, rec, stride, p, sample);
+        let d = sample[0];
+        if d <= 0.0 {
+            continue;
+        }
+        let dtau = sigma_t * d * step;
+        let share = t * -(-dtau).exp_m1() / d;
+        for (a, v) in acc.iter_mut().zip(sample.iter()).skip(1) {
+            *a += share * v;
+        }
+        t *= (-dtau).exp();
+        if t < T_MIN {
+            t = 0.0;
+            break;
+        }
+    }
+    t
 }

@@ -3,7 +3,7 @@
 // Each test file is its own crate and uses only some of these.
 #![allow(dead_code)]
 
-use haze_view::gpu::GpuContext;
+use haze_gpu::GpuContext;
 use haze_volume::{Bbox, Rbf};
 
 /// The GPU device (a CPU one will do: Mesa's lavapipe, which `scripts/test.sh`

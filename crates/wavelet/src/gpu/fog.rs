@@ -16,14 +16,19 @@
 //! layer's bottom), computed in `f64` on the host, so a fog far from the world's origin
 //! loses no `f32` precision.
 
-use super::{GpuContext, GpuError};
 use crate::lod::{Fog, MAX_LEVELS, Mode};
 use crate::render::{Scene, SmokeSample};
 use haze_camera::LookAt;
-use haze_view::gpu::buffer_init;
+use haze_gpu::buffer_init;
+use haze_gpu::wgsl::Variant;
+use haze_gpu::{GpuContext, GpuError};
 
-/// The shader, `crates/wavelet/shaders/wavelet_fog.wgsl`.
-pub const SHADER: &str = include_str!("../../shaders/wavelet_fog.wgsl");
+/// The shader, `crates/wavelet/shaders/wavelet_fog.wgsl` (no imports).
+pub const SHADER: Variant = Variant {
+    label: "wavelet fog",
+    entry: include_str!("../../shaders/wavelet_fog.wgsl"),
+    defines: &[],
+};
 
 /// Pixels per workgroup side (`@workgroup_size(8, 8)` of `main`).
 const TILE: u32 = 8;
@@ -271,13 +276,14 @@ fn to_i32(v: i64, what: &str) -> Result<i32, GpuError> {
 impl FogRenderer {
     /// Compiles both passes.
     pub fn new(ctx: &GpuContext) -> Result<FogRenderer, GpuError> {
+        let source = SHADER.source(&[])?;
         let pipeline = |entry: &'static str| {
             ctx.scoped("wavelet fog shader", || {
                 let module = ctx
                     .device
                     .create_shader_module(wgpu::ShaderModuleDescriptor {
                         label: Some("wavelet fog"),
-                        source: wgpu::ShaderSource::Wgsl(SHADER.into()),
+                        source: wgpu::ShaderSource::Wgsl(source.as_str().into()),
                     });
                 ctx.device
                     .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
@@ -315,73 +321,13 @@ impl FogRenderer {
                     .to_string(),
             ));
         }
-        let layers = fog.layers();
-        debug_assert!(layers.len() == fog.levels() + 1 && layers.len() <= MAX_LEVELS + 1);
-        let mut levels = Vec::with_capacity(layers.len());
-        let mut coef: Vec<f32> = Vec::new();
-        let mut pieces = None;
-        for layer in layers {
-            let [term] = layer.terms() else {
-                return Err(GpuError::Input(format!(
-                    "a deconstructed level has one scaling basis, this one {}",
-                    layer.terms().len()
-                )));
-            };
-            let t = term.view();
-            if t.stride != 1 {
-                return Err(GpuError::Input(format!(
-                    "a level's scaling functions are on its own grid (stride 1), not stride {}",
-                    t.stride
-                )));
-            }
-            // One basis for every level: the pieces, first cells and supports agree.
-            let shape = (*t.pieces, t.first, t.support);
-            match &pieces {
-                None => pieces = Some(shape),
-                Some(p) if *p == shape => {}
-                Some(_) => {
-                    return Err(GpuError::Input(
-                        "every level must share one scaling basis".to_string(),
-                    ));
-                }
-            }
-            if let Some(c) = t.coef.iter().find(|c| c.abs() > f64::from(f32::MAX) / 16.0) {
-                return Err(GpuError::Input(format!(
-                    "coefficient {c:e} is beyond the GPU's 32-bit floats"
-                )));
-            }
-            let coef_at = u32::try_from(coef.len()).map_err(|_| {
-                GpuError::Input("more coefficients than 32-bit indices reach".to_string())
-            })?;
-            levels.push(Level {
-                cells: [
-                    to_i32(layer.cells[0], "cell")?,
-                    to_i32(layer.cells[1], "cell")?,
-                    to_i32(layer.cells[2], "cell")?,
-                    to_i32(layer.cells[3], "cell")?,
-                ],
-                k0: [to_i32(t.k0[0], "index")?, to_i32(t.k0[1], "index")?],
-                n: [
-                    to_i32(t.n[0] as i64, "width")?,
-                    to_i32(t.n[1] as i64, "height")?,
-                ],
-                scale: layer.scale as f32,
-                floor: layer.floor as f32,
-                coef_at,
-                _pad: 0,
-            });
-            coef.extend(t.coef.iter().map(|&c| c as f32));
-        }
-        let (table, first, support) =
-            pieces.ok_or_else(|| GpuError::Input("the fog has no levels".to_string()))?;
-        let table: Vec<f32> = table
-            .iter()
-            .flat_map(|axis| axis.iter().flatten().map(|&c| c as f32))
-            .collect();
-        if coef.is_empty() {
-            // wgpu binds no empty buffers.
-            coef.push(0.0);
-        }
+        let Levels {
+            records: levels,
+            coef,
+            table,
+            first,
+            support,
+        } = Levels::of(fog)?;
         let p = fog.placement();
         let settings = fog.settings();
         if p.density > f64::from(f32::MAX) {
@@ -737,6 +683,100 @@ impl GpuFog {
     }
 }
 
+/// A fog's levels as the shader reads them: a record per level, every level's
+/// coefficients end to end (one zero for none: wgpu binds no empty buffers), and the
+/// scaling basis they all share (its polynomial pieces in `f32`, first cell and support
+/// per axis).
+struct Levels {
+    records: Vec<Level>,
+    coef: Vec<f32>,
+    table: Vec<f32>,
+    first: [i64; 2],
+    support: [usize; 2],
+}
+
+impl Levels {
+    /// `fog`'s levels, or why the GPU cannot take them: a level of several scaling bases
+    /// or off its own grid, levels of different bases, values beyond `f32` and indices
+    /// beyond `i32`.
+    fn of(fog: &Fog) -> Result<Levels, GpuError> {
+        let layers = fog.layers();
+        debug_assert!(layers.len() == fog.levels() + 1 && layers.len() <= MAX_LEVELS + 1);
+        let mut levels = Vec::with_capacity(layers.len());
+        let mut coef: Vec<f32> = Vec::new();
+        let mut pieces = None;
+        for layer in layers {
+            let [term] = layer.terms() else {
+                return Err(GpuError::Input(format!(
+                    "a deconstructed level has one scaling basis, this one {}",
+                    layer.terms().len()
+                )));
+            };
+            let t = term.view();
+            if t.stride != 1 {
+                return Err(GpuError::Input(format!(
+                    "a level's scaling functions are on its own grid (stride 1), not stride {}",
+                    t.stride
+                )));
+            }
+            // One basis for every level: the pieces, first cells and supports agree.
+            let shape = (*t.pieces, t.first, t.support);
+            match &pieces {
+                None => pieces = Some(shape),
+                Some(p) if *p == shape => {}
+                Some(_) => {
+                    return Err(GpuError::Input(
+                        "every level must share one scaling basis".to_string(),
+                    ));
+                }
+            }
+            if let Some(c) = t.coef.iter().find(|c| c.abs() > f64::from(f32::MAX) / 16.0) {
+                return Err(GpuError::Input(format!(
+                    "coefficient {c:e} is beyond the GPU's 32-bit floats"
+                )));
+            }
+            let coef_at = u32::try_from(coef.len()).map_err(|_| {
+                GpuError::Input("more coefficients than 32-bit indices reach".to_string())
+            })?;
+            levels.push(Level {
+                cells: [
+                    to_i32(layer.cells[0], "cell")?,
+                    to_i32(layer.cells[1], "cell")?,
+                    to_i32(layer.cells[2], "cell")?,
+                    to_i32(layer.cells[3], "cell")?,
+                ],
+                k0: [to_i32(t.k0[0], "index")?, to_i32(t.k0[1], "index")?],
+                n: [
+                    to_i32(t.n[0] as i64, "width")?,
+                    to_i32(t.n[1] as i64, "height")?,
+                ],
+                scale: layer.scale as f32,
+                floor: layer.floor as f32,
+                coef_at,
+                _pad: 0,
+            });
+            coef.extend(t.coef.iter().map(|&c| c as f32));
+        }
+        let (table, first, support) =
+            pieces.ok_or_else(|| GpuError::Input("the fog has no levels".to_string()))?;
+        let table: Vec<f32> = table
+            .iter()
+            .flat_map(|axis| axis.iter().flatten().map(|&c| c as f32))
+            .collect();
+        if coef.is_empty() {
+            // wgpu binds no empty buffers.
+            coef.push(0.0);
+        }
+        Ok(Levels {
+            records: levels,
+            coef,
+            table,
+            first,
+            support,
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -747,7 +787,21 @@ mod tests {
         assert_eq!(std::mem::size_of::<Params>(), 224);
         assert_eq!(std::mem::size_of::<Level>(), 48);
         assert_eq!(std::mem::size_of::<Query>(), 32);
-        assert!(SHADER.contains("@binding(5) var<storage, read> queries: array<Query>"));
-        assert!(SHADER.contains("@binding(6) var<storage, read> smoke: array<vec4<f32>>"));
+        assert!(
+            SHADER
+                .entry
+                .contains("@binding(5) var<storage, read> queries: array<Query>")
+        );
+        assert!(
+            SHADER
+                .entry
+                .contains("@binding(6) var<storage, read> smoke: array<vec4<f32>>")
+        );
+    }
+
+    /// The shader validates on the CPU (no device needed).
+    #[test]
+    fn the_shader_validates() {
+        haze_gpu::wgsl::assert_variants_valid(&[SHADER], &[]);
     }
 }

@@ -1,4 +1,5 @@
-//! The scene renderer on the GPU (`shaders/render.wgsl`, wgpu compute): the twin of
+//! The scene renderers on the GPU. Here paper C's (`shaders/render.wgsl` through the
+//! entry `paper_c.wgsl`, wgpu compute): the twin of
 //! [`crate::render::render`] with the [`Analytic`] model — paper C's airlight of point
 //! lights through the `K` table, suns, the medium's transmittance, planes, spheres and meshes lit
 //! by Lambert + normalized Phong with the light scattered onto them through the `G0`/`Gn`
@@ -13,6 +14,11 @@
 //! triangles (storage, traversed as [`crate::mesh::Mesh::intersect`] does), all positions
 //! relative to the eye so that `f32` keeps its precision wherever the scene lies.
 //!
+//! The other renderers reuse its tables and buffers: paper D's composite
+//! ([`analytic`]), the march through voxel media and analytic fogs ([`march`]), paper B's
+//! Gaussian media ([`paper_b`]) and primary hits from the rasterizer ([`raster`]); their
+//! shaders are composed from `render.wgsl` and short entry files ([`shaders`]).
+//!
 //! What differs from the CPU beyond `f32` rounding: shadow rays leave a surface
 //! [`SHADOW_OFFSET`] (relative) off it instead of the CPU's `10⁻⁹` and ignore surfaces
 //! within that distance of their ends (the CPU: `10⁻⁷`), since a smaller offset is
@@ -25,10 +31,13 @@ use crate::htable::HTable;
 use crate::mesh::Mesh;
 use crate::render::{Analytic, Image};
 use crate::scene::{Environment, Light, Scene, Shape};
-use haze_view::gpu::{GpuContext, GpuError, buffer_init, compute_pipeline, submit_pass};
+use haze_gpu::{GpuContext, GpuError, buffer_init, compute_pipeline, submit_pass};
 
-/// The shader, `crates/scene/shaders/render.wgsl`.
-pub const SHADER: &str = include_str!("../shaders/render.wgsl");
+pub mod analytic;
+pub mod march;
+pub mod paper_b;
+pub mod raster;
+pub mod shaders;
 
 /// Relative offset of shadow rays off the surface (and the margin they keep from their
 /// ends): `(1 + |p|)·SHADOW_OFFSET`, `p` relative to the eye.
@@ -65,12 +74,12 @@ pub struct GpuRenderer {
     g_size: (u32, u32),
     /// The exponents of the `Gn` tables, in upload order (table `i + 1`).
     exponents: Vec<f64>,
-    /// The march of scenes with voxel media ([`crate::gpu_march`]), compiled for the first.
+    /// The march of scenes with voxel media ([`crate::gpu::march`]), compiled for the first.
     march: std::sync::OnceLock<wgpu::ComputePipeline>,
     /// The environment's light on the voxel media, kept between frames.
     env: crate::env_smoke::Cache,
-    /// The rasterized renderer's passes ([`crate::raster`]), compiled for its first frame.
-    raster: std::sync::OnceLock<crate::raster::RasterPipelines>,
+    /// The rasterized renderer's passes ([`crate::gpu::raster`]), compiled for its first frame.
+    raster: std::sync::OnceLock<crate::gpu::raster::RasterPipelines>,
     /// The `K` table, for the environment's glow ([`EnvGlow`](envglow::EnvGlow)).
     h: HTable,
     /// The environment's glow, kept between frames ([`envglow::Cache`]).
@@ -98,6 +107,47 @@ fn bits(v: [f64; 3], w: u32) -> [u32; 4] {
         (v[2] as f32).to_bits(),
         w,
     ]
+}
+
+/// Three records per light (layout in `render.wgsl`: kind and position or direction,
+/// The surfaces' records (`f32`) and the meshes' hierarchies and triangles (`u32`).
+type SurfaceRecords = (Vec<[f32; 4]>, Vec<[u32; 4]>);
+
+/// intensity or disk radiance, a sun's irradiance and disk), positions relative to `eye`.
+fn light_records(scene: &Scene, eye: [f64; 3]) -> Vec<[f32; 4]> {
+    let rel = |p: [f64; 3]| [0, 1, 2].map(|a| p[a] - eye[a]);
+    let mut lights: Vec<[f32; 4]> = Vec::with_capacity(3 * scene.lights.len().max(1));
+    for light in &scene.lights {
+        match *light {
+            Light::Point {
+                position,
+                intensity,
+            } => {
+                lights.push(tagged(0.0, rel(position)));
+                lights.push(vec4(intensity, 0.0));
+                lights.push([0.0; 4]);
+            }
+            Light::Sun {
+                direction,
+                radiance,
+                angle,
+            } => {
+                let disk = if angle > 0.0 {
+                    (0.5 * angle).cos()
+                } else {
+                    2.0
+                };
+                lights.push(tagged(1.0, direction));
+                lights.push(vec4(radiance, 0.0));
+                lights.push(vec4(Light::sun_irradiance(radiance, angle), disk));
+            }
+        }
+    }
+    // wgpu binds no empty buffers.
+    if lights.is_empty() {
+        lights.push([0.0; 4]);
+    }
+    lights
 }
 
 /// Appends `mesh`'s records to `out` (the shader's `meshes` layout), positions relative
@@ -154,7 +204,11 @@ impl GpuRenderer {
         }
         let bytes = std::mem::size_of_val(data.as_slice()) as u64;
         ctx.check_storage_size("the K and G tables", bytes)?;
-        let pipeline = compute_pipeline(ctx, "scene render pipeline creation", SHADER)?;
+        let pipeline = compute_pipeline(
+            ctx,
+            "scene render pipeline creation",
+            &shaders::source(&shaders::PAPER_C)?,
+        )?;
         let tables = ctx.scoped("scene tables upload", || {
             buffer_init(
                 ctx,
@@ -248,7 +302,7 @@ impl GpuRenderer {
         Ok(self.frame(ctx, scene, lim, false)?.0)
     }
 
-    /// [`GpuRenderer::render`] with the surfaces rasterized ([`crate::raster`]): the same
+    /// [`GpuRenderer::render`] with the surfaces rasterized ([`crate::gpu::raster`]): the same
     /// picture but where a pixel's center lies within rounding of a silhouette.
     pub fn render_rasterized(
         &self,
@@ -291,9 +345,9 @@ impl GpuRenderer {
         if scene.hetero.is_empty() {
             return self.pass(ctx, scene, lim, &self.pipeline, None, &[], rasterize, None);
         }
-        // Scenes with voxel media or analytic fogs: the march (crate::gpu_march) instead
+        // Scenes with voxel media or analytic fogs: the march (crate::gpu::march) instead
         // of paper C; other heterogeneous media (paper B's Gaussians:
-        // [`crate::gpu_paper_b`]) are refused here rather than rendered without them.
+        // [`crate::gpu::paper_b`]) are refused here rather than rendered without them.
         if let Some(m) = scene
             .hetero
             .iter()
@@ -306,16 +360,16 @@ impl GpuRenderer {
         }
         let mut opt = crate::asset_medium::march_steps(scene, false);
         opt.env = self.env.light(scene);
-        let Some(march) = crate::gpu_march::MarchInput::of(scene, scene.camera.eye, &opt)? else {
+        let Some(march) = crate::gpu::march::MarchInput::of(scene, scene.camera.eye, &opt)? else {
             return self.pass(ctx, scene, lim, &self.pipeline, None, &[], rasterize, None);
         };
         march.check(ctx)?;
         if self.march.get().is_none() {
-            let _ = self.march.set(crate::gpu_march::pipeline(ctx)?);
+            let _ = self.march.set(crate::gpu::march::pipeline(ctx)?);
         }
         let pipeline = self.march.get().expect("set above");
         let [grid, records] = march.buffers(ctx);
-        let chunks = crate::gpu_march::chunks(scene, &opt);
+        let chunks = crate::gpu::march::chunks(scene, &opt);
         self.pass(
             ctx,
             scene,
@@ -345,10 +399,10 @@ impl GpuRenderer {
             .0)
     }
 
-    /// [`GpuRenderer::render_pass`], its primary hits rasterized ([`crate::raster`]) when
+    /// [`GpuRenderer::render_pass`], its primary hits rasterized ([`crate::gpu::raster`]) when
     /// `rasterize` (then `pipeline` and `extra` are not used: the raster pass shades with
     /// `render.wgsl`); the G-buffer when one was drawn. `chunks`: the march's
-    /// `(steps per dispatch, dispatches)` ([`crate::gpu_march::chunks`]), its state kept
+    /// `(steps per dispatch, dispatches)` ([`crate::gpu::march::chunks`]), its state kept
     /// after the image between dispatches.
     #[allow(clippy::too_many_arguments)]
     fn pass(
@@ -374,132 +428,19 @@ impl GpuRenderer {
         let out_bytes = 16 * pixels as u64 * if chunk > 0 { 3 } else { 1 };
         ctx.check_storage_size("the image", out_bytes)?;
         let eye = cam.eye;
-        let rel = |p: [f64; 3]| [0, 1, 2].map(|a| p[a] - eye[a]);
-        let mut lights: Vec<[f32; 4]> = Vec::with_capacity(3 * scene.lights.len().max(1));
-        for light in &scene.lights {
-            match *light {
-                Light::Point {
-                    position,
-                    intensity,
-                } => {
-                    lights.push(tagged(0.0, rel(position)));
-                    lights.push(vec4(intensity, 0.0));
-                    lights.push([0.0; 4]);
-                }
-                Light::Sun {
-                    direction,
-                    radiance,
-                    angle,
-                } => {
-                    let disk = if angle > 0.0 {
-                        (0.5 * angle).cos()
-                    } else {
-                        2.0
-                    };
-                    lights.push(tagged(1.0, direction));
-                    lights.push(vec4(radiance, 0.0));
-                    lights.push(vec4(Light::sun_irradiance(radiance, angle), disk));
-                }
-            }
-        }
-        let mut surfaces: Vec<[f32; 4]> = Vec::with_capacity(4 * scene.surfaces.len().max(1));
-        let mut meshes: Vec<[u32; 4]> = Vec::new();
-        for (i, s) in scene.surfaces.iter().enumerate() {
-            let m = &s.material;
-            let gn = if m.is_specular() {
-                self.gn_index(m.shininess).ok_or_else(|| {
-                    GpuError::Input(format!(
-                        "surfaces[{i}]: no G table for the Phong exponent {}",
-                        m.shininess
-                    ))
-                })? as f64
-            } else {
-                -1.0
-            };
-            match &s.shape {
-                Shape::Mesh(mesh) => {
-                    let (nodes, tris) = mesh_records(mesh, eye, &mut meshes);
-                    // Record indices travel as f32 in the surface record: exact below 2²⁴.
-                    if tris.max(nodes) >= 1 << 24 {
-                        return Err(GpuError::Input(format!(
-                            "surfaces[{i}]: the scene's meshes are too large for the GPU renderer"
-                        )));
-                    }
-                    surfaces.push([2.0, nodes as f32, tris as f32, 0.0]);
-                    surfaces.push([0.0; 4]);
-                }
-                &Shape::Plane { point, normal } => {
-                    surfaces.push(tagged(0.0, rel(point)));
-                    surfaces.push(vec4(normal, 0.0));
-                }
-                &Shape::Sphere { center, radius } => {
-                    surfaces.push(tagged(1.0, rel(center)));
-                    surfaces.push(vec4([0.0; 3], radius));
-                }
-            }
-            surfaces.push(vec4(m.diffuse, m.shininess));
-            surfaces.push(vec4(m.specular, gn));
-        }
-        // wgpu binds no empty buffers.
-        for list in [&mut lights, &mut surfaces] {
-            if list.is_empty() {
-                list.push([0.0; 4]);
-            }
-        }
-        if meshes.is_empty() {
-            meshes.push([0; 4]);
-        }
+        let lights = light_records(scene, eye);
+        let (surfaces, meshes) = self.surface_records(scene, eye)?;
         ctx.check_storage_size("the meshes", 16 * meshes.len() as u64)?;
-        let (env_kind, env_color) = match &scene.environment {
-            Environment::Black => (0, [0.0; 3]),
-            Environment::Sky => (1, [0.0; 3]),
-            Environment::Constant(c) => (2, *c),
-            Environment::Map(_) => (3, [0.0; 3]),
-        };
-        let (envdata, env, env_at) = self.env_records(scene)?;
+        let (params, envdata) = self.params(scene, lim, (sigma_t, sigma_s), chunk)?;
         ctx.check_storage_size("the environment", 16 * envdata.len() as u64)?;
-        let gamma_min = lim.gamma_min.max(0.5 * cam.pixel_radius());
-        let far = scene.environment_distance;
-        let count = |n: usize, what: &str| {
-            u32::try_from(n).map_err(|_| GpuError::Input(format!("{n} {what} are too many")))
-        };
-        let params = Params {
-            forward: vec4(cam.forward(), cam.tan_half()),
-            right: vec4(cam.right(), w as f64 / h as f64),
-            up: vec4(cam.up(), gamma_min),
-            sigma_t: vec4(sigma_t, lim.r_min),
-            sigma_s: vec4(
-                sigma_s,
-                // Beyond f32's range a finite distance would read as ∞ in the shader.
-                if far.is_finite() { far.min(1e30) } else { 0.0 },
-            ),
-            albedo: {
-                let [a, b, c] = f32x3(scene.medium.albedo);
-                [a, b, c, SHADOW_OFFSET]
-            },
-            env_color: vec4(env_color, 0.0),
-            size: [
-                count(w, "columns")?,
-                count(h, "rows")?,
-                count(scene.lights.len(), "lights")?,
-                count(scene.surfaces.len(), "surfaces")?,
-            ],
-            flags: [
-                env_kind,
-                u32::from(!far.is_finite()),
-                self.k_side,
-                self.g_size.0,
-            ],
-            tables: [self.g_size.1, self.k_side * self.k_side, chunk, 0],
-            env,
-            env_at,
-        };
         let groups = [w.div_ceil(SIDE) as u32, h.div_ceil(SIDE) as u32, 1];
         let raster = if rasterize {
             if self.raster.get().is_none() {
-                let _ = self.raster.set(crate::raster::RasterPipelines::new(ctx)?);
+                let _ = self
+                    .raster
+                    .set(crate::gpu::raster::RasterPipelines::new(ctx)?);
             }
-            let vertices = crate::raster::vertices(scene, eye)?;
+            let vertices = crate::gpu::raster::vertices(scene, eye)?;
             self.raster.get().map(|r| (r, vertices))
         } else {
             None
@@ -509,7 +450,7 @@ impl GpuRenderer {
                 ctx,
                 "scene params",
                 bytemuck::bytes_of(&params),
-                // Storage for the rasterized renderer (crate::raster::shader).
+                // Storage for the rasterized renderer (crate::gpu::raster::shader).
                 wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::STORAGE,
             );
             let lights = buffer_init(
@@ -577,5 +518,116 @@ impl GpuRenderer {
             pixels: rgba.into_iter().map(|p| [p[0], p[1], p[2]]).collect(),
         };
         Ok((image, gbuffer))
+    }
+
+    /// Four records per surface (layout in `render.wgsl`: shape, its parameters, the
+    /// diffuse colour and shininess, the specular colour and its `Gn` table), positions
+    /// relative to `eye`, and the meshes' hierarchies and triangles (each one zero record
+    /// when empty).
+    fn surface_records(&self, scene: &Scene, eye: [f64; 3]) -> Result<SurfaceRecords, GpuError> {
+        let rel = |p: [f64; 3]| [0, 1, 2].map(|a| p[a] - eye[a]);
+        let mut surfaces: Vec<[f32; 4]> = Vec::with_capacity(4 * scene.surfaces.len().max(1));
+        let mut meshes: Vec<[u32; 4]> = Vec::new();
+        for (i, s) in scene.surfaces.iter().enumerate() {
+            let m = &s.material;
+            let gn = if m.is_specular() {
+                self.gn_index(m.shininess).ok_or_else(|| {
+                    GpuError::Input(format!(
+                        "surfaces[{i}]: no G table for the Phong exponent {}",
+                        m.shininess
+                    ))
+                })? as f64
+            } else {
+                -1.0
+            };
+            match &s.shape {
+                Shape::Mesh(mesh) => {
+                    let (nodes, tris) = mesh_records(mesh, eye, &mut meshes);
+                    // Record indices travel as f32 in the surface record: exact below 2²⁴.
+                    if tris.max(nodes) >= 1 << 24 {
+                        return Err(GpuError::Input(format!(
+                            "surfaces[{i}]: the scene's meshes are too large for the GPU renderer"
+                        )));
+                    }
+                    surfaces.push([2.0, nodes as f32, tris as f32, 0.0]);
+                    surfaces.push([0.0; 4]);
+                }
+                &Shape::Plane { point, normal } => {
+                    surfaces.push(tagged(0.0, rel(point)));
+                    surfaces.push(vec4(normal, 0.0));
+                }
+                &Shape::Sphere { center, radius } => {
+                    surfaces.push(tagged(1.0, rel(center)));
+                    surfaces.push(vec4([0.0; 3], radius));
+                }
+            }
+            surfaces.push(vec4(m.diffuse, m.shininess));
+            surfaces.push(vec4(m.specular, gn));
+        }
+        // wgpu binds no empty buffers.
+        if surfaces.is_empty() {
+            surfaces.push([0.0; 4]);
+        }
+        if meshes.is_empty() {
+            meshes.push([0; 4]);
+        }
+        Ok((surfaces, meshes))
+    }
+
+    /// The shader's parameters (camera, medium `(σt, σs)`, environment, sizes, tables,
+    /// `chunk` steps per dispatch) and the environment's records.
+    fn params(
+        &self,
+        scene: &Scene,
+        lim: &Limits,
+        (sigma_t, sigma_s): ([f64; 3], [f64; 3]),
+        chunk: u32,
+    ) -> Result<(Params, Vec<[f32; 4]>), GpuError> {
+        let cam = &scene.camera;
+        let (w, h) = (cam.width, cam.height);
+        let (env_kind, env_color) = match &scene.environment {
+            Environment::Black => (0, [0.0; 3]),
+            Environment::Sky => (1, [0.0; 3]),
+            Environment::Constant(c) => (2, *c),
+            Environment::Map(_) => (3, [0.0; 3]),
+        };
+        let (envdata, env, env_at) = self.env_records(scene)?;
+        let gamma_min = lim.gamma_min.max(0.5 * cam.pixel_radius());
+        let far = scene.environment_distance;
+        let count = |n: usize, what: &str| {
+            u32::try_from(n).map_err(|_| GpuError::Input(format!("{n} {what} are too many")))
+        };
+        let params = Params {
+            forward: vec4(cam.forward(), cam.tan_half()),
+            right: vec4(cam.right(), w as f64 / h as f64),
+            up: vec4(cam.up(), gamma_min),
+            sigma_t: vec4(sigma_t, lim.r_min),
+            sigma_s: vec4(
+                sigma_s,
+                // Beyond f32's range a finite distance would read as ∞ in the shader.
+                if far.is_finite() { far.min(1e30) } else { 0.0 },
+            ),
+            albedo: {
+                let [a, b, c] = f32x3(scene.medium.albedo);
+                [a, b, c, SHADOW_OFFSET]
+            },
+            env_color: vec4(env_color, 0.0),
+            size: [
+                count(w, "columns")?,
+                count(h, "rows")?,
+                count(scene.lights.len(), "lights")?,
+                count(scene.surfaces.len(), "surfaces")?,
+            ],
+            flags: [
+                env_kind,
+                u32::from(!far.is_finite()),
+                self.k_side,
+                self.g_size.0,
+            ],
+            tables: [self.g_size.1, self.k_side * self.k_side, chunk, 0],
+            env,
+            env_at,
+        };
+        Ok((params, envdata))
     }
 }

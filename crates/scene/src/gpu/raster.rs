@@ -12,8 +12,8 @@
 //! file order) keeps the nearest — a tie to the first, as the ray tracer. The G-buffer
 //! (`Rgba32Uint`) holds per pixel the hit's distance `t`, its surface and triangle.
 //!
-//! **Shading pass.** `render.wgsl` itself, its primary `intersect` replaced by the read of
-//! the G-buffer (a mesh's barycentrics recomputed on the triangle found there): the
+//! **Shading pass.** `render.wgsl` itself, composed with its primary `intersect` replaced
+//! by the read of the G-buffer (a mesh's barycentrics recomputed on the triangle found there): the
 //! airlight to that depth, the surfaces' shading, the environment's glow, and the shadow
 //! rays towards the lights, which stay ray-traced through the hierarchies.
 //!
@@ -24,23 +24,12 @@
 //! differently, so a pixel whose center lies within rounding of an edge may take the
 //! neighbouring primitive; surfaces nearer than `RASTER_NEAR` (10⁻⁴ scene units) along the
 //! view axis are clipped. Scenes with voxel media take the ray-traced march
-//! ([`crate::gpu_march`]) unchanged.
+//! ([`crate::gpu::march`]) unchanged.
 
+use super::shaders;
 use crate::mesh::Mesh;
 use crate::scene::{Scene, Shape};
-use haze_view::gpu::{GpuContext, GpuError, buffer_init};
-
-/// The raster pass's part of the shader, `crates/scene/shaders/raster.wgsl`.
-const RASTER: &str = include_str!("../shaders/raster.wgsl");
-
-/// `render.wgsl`'s primary ray, replaced by the G-buffer's hit.
-const PRIMARY: &str = "let hit = intersect(vec3<f32>(0.0), dir, 0.0, t_max);";
-
-/// `render.wgsl`'s parameters, read from a storage buffer here: Mesa's lavapipe inlines
-/// the values of uniforms that steer branches into a new shader variant, compiled (for
-/// seconds) per new set of values, and did so for the camera of the raster pass — every
-/// orbiting picture. It never inlines storage buffers.
-const PARAMS: &str = "@group(0) @binding(0) var<uniform> P: Params;";
+use haze_gpu::{GpuContext, GpuError, buffer_init};
 
 /// The G-buffer's format: (bits of `t`, surface + 1 or 0, triangle, 0).
 const GBUFFER: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Uint;
@@ -52,24 +41,6 @@ const GBUFFER: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Uint;
 pub struct Vertex {
     pub p: [f32; 4],
     pub id: [u32; 2],
-}
-
-/// The whole shader: `render.wgsl` with its primary hit read from the G-buffer and its
-/// parameters from a storage buffer ([`PARAMS`]), then `raster.wgsl`.
-pub fn shader() -> Result<String, GpuError> {
-    let base = crate::gpu::SHADER;
-    if base.matches(PRIMARY).count() != 1 || base.matches(PARAMS).count() != 1 {
-        return Err(GpuError::Input(
-            "render.wgsl's primary ray or parameters changed: the rasterized renderer cannot replace them".into(),
-        ));
-    }
-    let base = base
-        .replace(PRIMARY, "let hit = gbuffer_hit(id, dir, t_max);")
-        .replace(
-            PARAMS,
-            "@group(0) @binding(0) var<storage, read> P: Params;",
-        );
-    Ok(format!("{base}\n{RASTER}"))
 }
 
 /// The triangles of the scene's surfaces, positions relative to `eye`, in surface order.
@@ -149,9 +120,13 @@ pub struct RasterPipelines {
 }
 
 impl RasterPipelines {
-    /// Compiles both from [`shader`].
+    /// Compiles both from [`shaders::RASTER`]: `render.wgsl` with its primary hit read
+    /// from the G-buffer and its parameters from a storage buffer (Mesa's lavapipe inlines
+    /// the values of uniforms that steer branches into a new shader variant, compiled for
+    /// seconds per new set of values, and did so for the camera of the raster pass — every
+    /// orbiting picture; it never inlines storage buffers), then `raster.wgsl`.
     pub fn new(ctx: &GpuContext) -> Result<RasterPipelines, GpuError> {
-        let source = shader()?;
+        let source = shaders::source(&shaders::RASTER)?;
         ctx.scoped("rasterized scene pipelines creation", || {
             let module = ctx
                 .device

@@ -3,11 +3,11 @@
 //! ([`crate::voxel_grid::VoxelGrid`], smoke assets) and analytic fogs
 //! ([`crate::analytic::AnalyticMedium`], paper D), alone or together.
 //! [`crate::gpu::GpuRenderer::render`] takes this path for such scenes (paper D's
-//! composite of analytic fogs alone is [`crate::gpu_analytic`]'s); the camera, lights,
+//! composite of analytic fogs alone is [`crate::gpu::analytic`]'s); the camera, lights,
 //! surfaces and meshes travel in the
-//! buffers of paper C's renderer, and the shader reuses `render.wgsl`'s surfaces, shadow
-//! rays, BRDF and environment (the march is appended to it, its entry point renamed), and
-//! `haze_fogfn`'s WGSL closed forms (`fog_depth_at` from any point, `fog_density_at`), their
+//! buffers of paper C's renderer, and the shader ([`super::shaders::MARCH`]) imports
+//! `render.wgsl`'s surfaces, shadow rays, BRDF and environment, and `haze_fogfn`'s WGSL
+//! closed forms (`fog_depth_at` from any point, `fog_density_at`), their
 //! records after the grids' in the same buffer (the device has no ninth storage binding).
 //!
 //! Per pixel, as on the CPU: midpoint steps of [`crate::march::MarchOptions::step`] over
@@ -31,17 +31,12 @@
 //! dispatch has its own budget. Real GPUs have no such limit (the extra dispatches cost
 //! them a primary ray per pixel each).
 
+use super::shaders;
 use crate::env_smoke::EnvLight;
 use crate::march::MarchOptions;
 use crate::scene::Scene;
 use crate::vec3::Vec3;
-use haze_view::gpu::{GpuContext, GpuError, buffer_init, compute_pipeline};
-
-/// The march's own part of the shader.
-const MARCH: &str = include_str!("../shaders/march.wgsl");
-
-/// The environment's light on the media ([`crate::env_smoke`]), appended after the march.
-const ENV_SMOKE: &str = include_str!("../shaders/env_smoke.wgsl");
+use haze_gpu::{GpuContext, GpuError, buffer_init, compute_pipeline};
 
 /// The march's `(steps per dispatch, dispatches)` for `scene` marched with `opt`: a
 /// dispatch's loop iterations kept below lavapipe's 65535 by a model of a step's cost —
@@ -92,30 +87,13 @@ const MAX_DISPATCHES: f64 = 256.0;
 /// Analytic fogs one march takes at most (`FOG_MAX_MEDIA` in `shaders/march.wgsl`).
 pub const MAX_FOGS: usize = 8;
 
-/// `render.wgsl`'s entry point, renamed to a plain function in the march's module.
-const ENTRY: &str =
-    "@compute @workgroup_size(8, 8, 1)\nfn main(@builtin(global_invocation_id) id: vec3<u32>)";
-
-/// The march's whole shader: `render.wgsl` with its entry point renamed, then
-/// `march.wgsl`, `env_smoke.wgsl` and `haze_fogfn`'s `fogfn.wgsl`.
-pub fn shader() -> Result<String, GpuError> {
-    let base = crate::gpu::SHADER;
-    if !base.contains(ENTRY) {
-        return Err(GpuError::Input(
-            "render.wgsl's entry point changed: the march cannot rename it".into(),
-        ));
-    }
-    // fogfn.wgsl reads the includer's `fog_terms`: here the records' array `media`.
-    let fogfn = haze_fogfn::gpu::LIBRARY.replace("fog_terms", "media");
-    Ok(format!(
-        "{}\n{MARCH}\n{ENV_SMOKE}\n{fogfn}",
-        base.replace(ENTRY, "fn analytic_main(id: vec3<u32>)")
-    ))
-}
-
 /// Compiles the march's pipeline.
 pub fn pipeline(ctx: &GpuContext) -> Result<wgpu::ComputePipeline, GpuError> {
-    compute_pipeline(ctx, "scene march pipeline creation", &shader()?)
+    compute_pipeline(
+        ctx,
+        "scene march pipeline creation",
+        &shaders::source(&shaders::MARCH)?,
+    )
 }
 
 /// What the march adds to paper C's buffers: the grids' values and their records (the

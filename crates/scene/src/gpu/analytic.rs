@@ -1,7 +1,7 @@
-//! Paper D's composite on the GPU (`shaders/analytic.wgsl`): the twin of
-//! [`crate::analytic::render`] in `f32`. One pass per frame: `render.wgsl`'s paper C pixel
-//! (its entry point renamed, the scene's analytic media left out as the CPU's first pass
-//! leaves them out), then in the same invocation the primary hit found again, each
+//! Paper D's composite on the GPU (`shaders/analytic.wgsl`, [`super::shaders::ANALYTIC`]):
+//! the twin of [`crate::analytic::render`] in `f32`. One pass per frame: `render.wgsl`'s
+//! paper C pixel (`paper_c_main`, the scene's analytic media left out as the CPU's first
+//! pass leaves them out), then in the same invocation the primary hit found again, each
 //! analytic fog's exact optical depth to it by `haze_fogfn`'s WGSL closed forms
 //! (`fog_depth_from`), and `C_fin = τ C_in + (1 − τ) C_fog` per channel with the fogs'
 //! depths added and their colours weighted by depth, as [`crate::analytic::composite`].
@@ -11,34 +11,12 @@
 //! ([`crate::analytic::fog_colours`]: the ambient light is an average over the sphere,
 //! computed once per frame, not per pixel).
 
+use super::GpuRenderer;
+use super::shaders;
 use crate::airlight::Limits;
-use crate::gpu::GpuRenderer;
 use crate::render::Image;
 use crate::scene::Scene;
-use haze_view::gpu::{GpuContext, GpuError, buffer_init, compute_pipeline};
-
-/// `shaders/analytic.wgsl`.
-pub const SHADER: &str = include_str!("../shaders/analytic.wgsl");
-
-/// `render.wgsl`'s entry point, renamed to a plain function in the composite's module.
-const ENTRY: &str =
-    "@compute @workgroup_size(8, 8, 1)\nfn main(@builtin(global_invocation_id) id: vec3<u32>)";
-
-/// The composite's whole shader: `render.wgsl` with its entry point renamed, then
-/// `fogfn.wgsl` and `analytic.wgsl`.
-pub fn shader() -> Result<String, GpuError> {
-    let base = crate::gpu::SHADER;
-    if !base.contains(ENTRY) {
-        return Err(GpuError::Input(
-            "render.wgsl's entry point changed: the fog composite cannot rename it".into(),
-        ));
-    }
-    Ok(format!(
-        "{}\n{}\n{SHADER}",
-        base.replace(ENTRY, "fn paper_c_main(id: vec3<u32>)"),
-        haze_fogfn::gpu::LIBRARY
-    ))
-}
+use haze_gpu::{GpuContext, GpuError, buffer_init, compute_pipeline};
 
 /// The compiled composite; the tables are paper C's renderer's.
 #[derive(Debug)]
@@ -49,7 +27,11 @@ pub struct GpuAnalytic {
 impl GpuAnalytic {
     pub fn new(ctx: &GpuContext) -> Result<GpuAnalytic, GpuError> {
         Ok(GpuAnalytic {
-            pipeline: compute_pipeline(ctx, "analytic fog pipeline creation", &shader()?)?,
+            pipeline: compute_pipeline(
+                ctx,
+                "analytic fog pipeline creation",
+                &shaders::source(&shaders::ANALYTIC)?,
+            )?,
         })
     }
 

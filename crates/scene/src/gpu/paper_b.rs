@@ -1,4 +1,4 @@
-//! Paper B on the GPU (`shaders/paper_b.wgsl` appended to `shaders/render.wgsl`, whose
+//! Paper B on the GPU (`shaders/paper_b.wgsl` over `shaders/render.wgsl`, whose
 //! helpers — intersections, shadow rays, paper C's airlight and tables, the BRDF, the
 //! environment — it shares): the `f32` twin of [`crate::paper_b::Prepared::radiance`],
 //! one invocation per pixel. The CPU prepares the frame as for its own render (the
@@ -36,32 +36,20 @@
 //! scale `gain·rᵢ/|v − bᵢ|` (in `f64` on the CPU), and the shader perturbs the direction
 //! of `Tᵢ(v,p)` in the camera frame as [`haze_gaussians::noise::Noise::perturb`] does.
 
+use super::GpuRenderer;
+use super::shaders;
 use crate::airlight::Limits;
-use crate::gpu::GpuRenderer;
 use crate::paper_b::Prepared;
 use crate::render::Image;
 use haze_gaussians::airlight::cull_radius;
 use haze_gaussians::noise::{Noise, Perlin};
 use haze_gaussians::vec::{norm, sub};
-use haze_view::gpu::{GpuContext, GpuError, buffer_init, compute_pipeline};
+use haze_gpu::wgsl::Variant;
+use haze_gpu::{GpuContext, GpuError, buffer_init, compute_pipeline_with};
 
-/// `shaders/paper_b.wgsl`.
-pub const SHADER: &str = include_str!("../shaders/paper_b.wgsl");
-
-/// `shaders/paper_b.wgsl`'s count up to which every pixel loops over all Gaussians.
-const DIRECT_LINE: &str = "const DIRECT_MAX: u32 = 32u;";
-
-/// The shader's [`DIRECT_LINE`] count: up to it frames take the untiled pipeline.
+/// Up to this many Gaussians every pixel loops over all of them, without the tile lists
+/// (`paper_b.wgsl`'s `DIRECT_MAX`, set from here when the tiled pipeline is made).
 const DIRECT_MAX: usize = 32;
-
-/// paper_b.wgsl without the tile lists: every count direct, the (then unreached)
-/// workgroup barriers removed — on lavapipe a shader with barriers runs ~30 % slower
-/// even where it reaches none, which the lists repay only beyond a few dozen Gaussians.
-fn untiled(shader: &str) -> String {
-    shader
-        .replace(DIRECT_LINE, "const DIRECT_MAX: u32 = 4294967295u;")
-        .replace("workgroupBarrier();", "")
-}
 
 /// The compiled paper B pipelines (tiled, and untiled for a few Gaussians); the tables
 /// are the paper C renderer's.
@@ -72,29 +60,42 @@ pub struct GpuPaperB {
 }
 
 impl GpuPaperB {
-    /// Compiles render.wgsl (its entry point renamed) with paper_b.wgsl's, tiled and not.
+    /// Compiles [`shaders::PAPER_B_TILED`] and [`shaders::PAPER_B_UNTILED`] (the
+    /// latter's `DIRECT_MAX` is every count: no tile lists, no workgroup barriers — on
+    /// lavapipe a shader with barriers runs ~30 % slower even where it reaches none, which
+    /// the lists repay only beyond a few dozen Gaussians).
     pub fn new(ctx: &GpuContext) -> Result<GpuPaperB, GpuError> {
         Ok(GpuPaperB {
-            tiled: Self::compile(ctx, SHADER)?,
-            untiled: Self::compile(ctx, &untiled(SHADER))?,
+            tiled: Self::compile(ctx, &shaders::PAPER_B_TILED, DIRECT_MAX as u32)?,
+            untiled: Self::compile(ctx, &shaders::PAPER_B_UNTILED, u32::MAX)?,
         })
     }
 
-    fn compile(ctx: &GpuContext, shader: &str) -> Result<wgpu::ComputePipeline, GpuError> {
+    /// `variant`'s pipeline with its overridable constants: Perlin's vector offsets (the
+    /// CPU's [`Perlin::VECTOR_OFFSETS`] in `f32`) and `DIRECT_MAX`.
+    fn compile(
+        ctx: &GpuContext,
+        variant: &Variant,
+        direct_max: u32,
+    ) -> Result<wgpu::ComputePipeline, GpuError> {
         let off = Perlin::VECTOR_OFFSETS;
-        let source = format!(
-            "{}\nconst NOISE_OFFSET_1 = vec3<f32>({:?}, {:?}, {:?});\n\
-             const NOISE_OFFSET_2 = vec3<f32>({:?}, {:?}, {:?});\n{}",
-            crate::gpu::SHADER.replacen("fn main(", "fn main_paper_c(", 1),
-            off[1][0] as f32,
-            off[1][1] as f32,
-            off[1][2] as f32,
-            off[2][0] as f32,
-            off[2][1] as f32,
-            off[2][2] as f32,
-            shader
-        );
-        compute_pipeline(ctx, "paper B pipeline creation", &source)
+        let f = |v: f64| f64::from(v as f32);
+        let constants = [
+            ("NOISE_OFFSET_1_X", f(off[1][0])),
+            ("NOISE_OFFSET_1_Y", f(off[1][1])),
+            ("NOISE_OFFSET_1_Z", f(off[1][2])),
+            ("NOISE_OFFSET_2_X", f(off[2][0])),
+            ("NOISE_OFFSET_2_Y", f(off[2][1])),
+            ("NOISE_OFFSET_2_Z", f(off[2][2])),
+            ("DIRECT_MAX", f64::from(direct_max)),
+        ];
+        compute_pipeline_with(
+            ctx,
+            "paper B pipeline creation",
+            &shaders::source(variant)?,
+            "main",
+            &constants,
+        )
     }
 
     /// Renders `prep`'s scene (as [`crate::paper_b::render`] with `lim`) with the tables
@@ -253,18 +254,4 @@ fn noise_records(prep: &Prepared<'_>, blobs: &mut Vec<[f32; 4]>) -> Result<(), G
         )));
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_untiled_shader_is_the_tiled_one_without_lists() {
-        assert_eq!(SHADER.matches(DIRECT_LINE).count(), 1);
-        assert!(SHADER.contains("workgroupBarrier();"));
-        let u = untiled(SHADER);
-        assert!(!u.contains("workgroupBarrier") && !u.contains(DIRECT_LINE));
-        assert!(u.contains("const DIRECT_MAX: u32 = 4294967295u;"));
-    }
 }

@@ -1,0 +1,49 @@
+//! The smoke renderer's WGSL (`crates/view/shaders/`): one entry file per pass, composed
+//! with the modules they import (`haze_gpu::wgsl`).
+
+use haze_gpu::GpuError;
+use haze_gpu::wgsl::{Module, Variant};
+
+/// The modules the passes import.
+pub const MODULES: &[Module] = &[
+    Module {
+        name: "sh_basis",
+        source: include_str!("../../shaders/sh_basis.wgsl"),
+    },
+    Module {
+        name: "grid_march",
+        source: include_str!("../../shaders/grid_march.wgsl"),
+    },
+    Module {
+        name: "disk_phase",
+        source: include_str!("../../shaders/disk_phase.wgsl"),
+    },
+];
+
+/// Every shader the smoke renderer compiles.
+pub const VARIANTS: &[Variant] = &[
+    super::single_scattering::SHADER,
+    super::volume_pass::SHADER,
+    super::env_pass::SHADER,
+    super::env_pass::REMOVE_SHADER,
+    super::lights_pass::SHADER,
+    super::orders::SHADER,
+    super::diffusion::SHADER,
+    super::view_pass::SHADER,
+];
+
+/// `variant`'s whole source.
+pub fn source(variant: &Variant) -> Result<String, GpuError> {
+    variant.source(&[MODULES])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every pass's shader composes and validates on the CPU (no device needed).
+    #[test]
+    fn every_variant_validates() {
+        haze_gpu::wgsl::assert_variants_valid(VARIANTS, &[MODULES]);
+    }
+}
