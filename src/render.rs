@@ -284,22 +284,23 @@ mod tests {
     use clap::Parser;
     use haze_view::render::MsDiffusion;
 
+    /// `haze render`'s flags alone.
+    #[derive(Parser)]
+    struct Flags {
+        #[command(flatten)]
+        render: RenderCli,
+    }
+
+    /// The options of `haze render smoke.vdb --out out.png EXTRA…`.
     fn render_args(extra: &[&str]) -> RenderOptions {
-        let argv = [
-            &["haze", "render", "smoke.vdb", "--out", "out.png"][..],
-            extra,
-        ]
-        .concat();
-        match crate::cli::Cli::try_parse_from(argv).unwrap().command {
-            crate::cli::Command::Render(r) => r.into_args().0,
-            _ => unreachable!("parsed a render command"),
-        }
+        let argv = [&["render", "smoke.vdb", "--out", "out.png"][..], extra].concat();
+        Flags::try_parse_from(argv).unwrap().render.into_args().0
     }
 
     /// The CPU and the GPU render with the gathered orders by default (the GPU's with the
     /// sky per voxel, `--source grid`, which lights them), and so does a render for a
     /// budget or a target error until the choice sets the sweep's `diffusion` knob
-    /// (`render::apply_choice`); an explicit `--diffusion` is parsed as given.
+    /// (`haze_tradeoff::render_choice`); an explicit `--diffusion` is parsed as given.
     #[test]
     fn the_diffusion_follows_the_renderer_and_the_goal() {
         assert_eq!(render_args(&[]).diffusion, MsDiffusion::DEFAULT);
