@@ -1,21 +1,312 @@
-//! `haze bake`: the bake of `haze_bake` with progress bars, a summary line and the report.
+//! `haze bake`: its flags converted into `haze_bake`'s options, the bake with progress
+//! bars, a summary line and the report.
 
-use crate::output;
-use crate::progress;
+use crate::import_args::ImportArgs;
 use anyhow::Result;
 use haze_bake::{Bake, BakeOptions, Baked, Event};
+use haze_render::{output, progress};
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
-/// Everything `haze bake` was asked to do.
-#[derive(Debug)]
-pub struct BakeArgs {
-    pub options: BakeOptions,
-    /// Where to write the JSON report, if anywhere.
-    pub report: Option<PathBuf>,
+#[derive(Debug, clap::Args)]
+pub struct BakeCli {
+    /// File, directory or glob of numbered frames.
+    input: PathBuf,
+    /// The .haze file to write.
+    #[arg(long, short)]
+    out: PathBuf,
+    /// Frame range to bake, inclusive: A..B, A.., ..B or A. A chunk starts with a full
+    /// first-frame fit; `haze merge` joins chunks baked separately (on a render farm, say).
+    #[arg(long, value_name = "A..B")]
+    frames: Option<haze_volume::import::FrameRange>,
+    /// Continue an interrupted bake of --out from its journal (OUT.partial, written as
+    /// frames finish), with the same input and settings. Without it, a bake starts over.
+    #[arg(long)]
+    resume: bool,
+    /// RBFs of the first frame (later frames vary by deletions and insertions).
+    #[arg(long, value_name = "N", conflicts_with = "target_error")]
+    rbfs: Option<usize>,
+    /// Instead of --rbfs: the smallest RBF count whose first-frame fit reaches this
+    /// rel_l2 (searched by doubling then bisection; each probe is a full fit).
+    #[arg(long, value_name = "E")]
+    target_error: Option<f64>,
+    /// Most RBFs a frame may have: where later frames stop inserting and move RBFs
+    /// instead [default: 8 × the first frame's count], and the --target-error search's
+    /// ceiling [default: 4096].
+    #[arg(long, value_name = "N")]
+    max_rbfs: Option<usize>,
+    /// Local minimizer.
+    #[arg(long, value_enum, default_value_t = OptimizerArg::Lbfgsb)]
+    optimizer: OptimizerArg,
+    /// Smallest RBF radius, as a fraction of the grid's longest side; never below the
+    /// grid's Nyquist radius 2h/π (h the voxel side), which 0 leaves as the floor.
+    #[arg(long, default_value_t = 0.0)]
+    radius_min: f64,
+    /// Largest RBF radius, as a fraction of the grid's longest side.
+    #[arg(long, default_value_t = 0.09)]
+    radius_max: f64,
+    /// Fit first frames without teleportation (faster, usually a higher error).
+    #[arg(long)]
+    no_teleport: bool,
+    /// Iteration budget of a first-frame fit.
+    #[arg(long, default_value_t = 1000)]
+    max_iterations: u64,
+    /// Stop a minimization when an iteration lowers the error by less than this fraction
+    /// (larger: faster, slightly less accurate; see BENCHMARKS.md).
+    #[arg(long, default_value_t = 1e-6)]
+    tolerance: f64,
+    /// Iteration budget of each minimization of a warm-started frame.
+    #[arg(long, default_value_t = 200)]
+    warm_iterations: u64,
+    /// Stop a warm-started minimization when its last 10 iterations together lowered the
+    /// error by less than this fraction (0: only --tolerance stops it; see BENCHMARKS.md).
+    #[arg(long, default_value_t = haze_fit::sequence::WARM_WINDOW_GAIN, value_name = "F")]
+    warm_tolerance: f64,
+    /// Fit first frames on the half-resolution grid, then polish at full resolution:
+    /// `auto` on grids of 64³ voxels or more.
+    #[arg(long, value_enum, default_value_t = CoarseArg::Auto)]
+    coarse_to_fine: CoarseArg,
+    /// RBFs deleted at the start of each later frame.
+    #[arg(long, default_value_t = 3)]
+    delete: usize,
+    /// Most RBFs inserted in a later frame [default: as many as keep the previous frame's
+    /// RBFs per voxel of smoke as the smoke grows or as its excess error asks for, at
+    /// least an eighth of --rbfs and 16]. A frame that hits it moves its weakest RBFs to
+    /// where they lower the error more; if still over --threshold, it is reported.
+    #[arg(long, value_name = "M")]
+    max_insert: Option<usize>,
+    /// How later frames get RBFs where the smoke grew: `batch` sizes each round by the
+    /// excess error; `single` inserts one at a time (paper A).
+    #[arg(long, value_enum, default_value_t = InsertionArg::Batch)]
+    insertion: InsertionArg,
+    /// Insert RBFs while a frame's rel_l2 exceeds the first frame's by this ratio.
+    #[arg(long, default_value_t = 1.1)]
+    threshold: f64,
+    /// Insert an RBF only where it is predicted to lower the squared error by at least
+    /// this fraction of what the first frame's next RBFs would (its marginal gain); a
+    /// frame whose proposals all fall short stops inserting and is reported (0: off).
+    #[arg(long, default_value_t = haze_fit::sequence::MARGINAL_GAIN, value_name = "F")]
+    marginal_gain: f64,
+    /// Seed of the random teleports (same seed, same input: same asset).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Largest error of the stored volume, as a fraction of each frame's peak density: the
+    /// residual D − D̃ is quantized with a step of twice that, and nothing is stored where
+    /// the RBFs alone are within it. 0 = lossless (the residual's f32 values); the default
+    /// 1/255 is what 8-bit density storage promises. With --target-error and without this
+    /// flag it is chosen: the largest of 0.5/255 … 16/255 that keeps the stored density
+    /// within a quarter of the target (rel_l2, guaranteed by the quantizer's bound on the
+    /// first frame), printed and stored in the asset header with why.
+    #[arg(long, value_name = "E", value_parser = parse_error_fraction)]
+    residual_error: Option<f64>,
+    /// Widest stored residual value in bits (4..16); each brick takes the narrowest of 2, 4,
+    /// 8, 16 bits that holds its values. If the largest residual needs more at
+    /// --residual-error, the step widens (with a warning).
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u8).range(4..=16))]
+    quant_bits: u8,
+    /// Side of the voxel bricks the residual is hashed by (1, 2, 4 or 8).
+    #[arg(long, default_value_t = haze_hash::tile::DEFAULT_BRICK, value_parser = parse_brick)]
+    residual_brick: u32,
+    /// Also write a JSON report of every frame's fit.
+    #[arg(long, value_name = "REPORT.json")]
+    report: Option<PathBuf>,
+    /// Choose the render knobs `haze view` starts with: the most accurate setting of the
+    /// --tradeoff sweep's front that rendered within T ms; stored with why in the header.
+    #[arg(long, value_name = "T", requires = "tradeoff")]
+    view_budget_ms: Option<f64>,
+    /// The sweep (`haze tradeoff`'s tradeoff.json) for --view-budget-ms.
+    #[arg(long, value_name = "FILE", requires = "view_budget_ms")]
+    tradeoff: Option<PathBuf>,
+    #[command(flatten)]
+    import: ImportArgs,
 }
 
-pub fn run(args: BakeArgs) -> Result<()> {
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum CoarseArg {
+    Auto,
+    On,
+    Off,
+}
+
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum InsertionArg {
+    /// Rounds sized by the excess error, placed where they lower the error most.
+    Batch,
+    /// One RBF and a joint minimization per round (paper A).
+    Single,
+}
+
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum OptimizerArg {
+    /// L-BFGS-B with exact bounds (paper A).
+    Lbfgsb,
+    /// L-BFGS on a smooth (logistic) reparameterization of the bounds.
+    LbfgsReparam,
+}
+
+impl BakeCli {
+    fn into_args(self) -> Result<BakeArgs> {
+        use anyhow::bail;
+        use haze_fit::{Bounds, Coarse, FitOptions, Insertion, Optimizer, SequenceOptions, Stop};
+        let bounds = Bounds {
+            radius: (self.radius_min, self.radius_max),
+            ..Bounds::default()
+        };
+        bounds.validate().map_err(anyhow::Error::msg)?;
+        if !(self.tolerance > 0.0 && self.tolerance < 1.0) {
+            bail!("--tolerance {} must be in (0, 1)", self.tolerance);
+        }
+        if !(self.warm_tolerance >= 0.0 && self.warm_tolerance < 1.0) {
+            bail!("--warm-tolerance {} must be in [0, 1)", self.warm_tolerance);
+        }
+        if self.max_insert == Some(0) {
+            bail!("--max-insert must be at least 1 (--threshold 1e9 turns insertion off)");
+        }
+        if self.threshold.is_nan() || self.threshold < 1.0 {
+            bail!("--threshold {} must be at least 1", self.threshold);
+        }
+        if !(self.marginal_gain.is_finite() && self.marginal_gain >= 0.0) {
+            bail!(
+                "--marginal-gain {} must be a finite number ≥ 0 (0 turns the test off)",
+                self.marginal_gain
+            );
+        }
+        let count = match (self.rbfs, self.target_error) {
+            (Some(0), _) => bail!("--rbfs must be at least 1"),
+            (Some(n), _) => haze_bake::Count::Fixed(n),
+            (None, Some(e)) if e > 0.0 && e <= 1.0 => haze_bake::Count::Target {
+                rel_l2: e,
+                cap: self.max_rbfs.unwrap_or(4096).max(1),
+            },
+            (None, Some(e)) => bail!("--target-error {e} must be in (0, 1]"),
+            (None, None) => haze_bake::Count::Fixed(300),
+        };
+        let fit = FitOptions {
+            bounds,
+            optimizer: match self.optimizer {
+                OptimizerArg::Lbfgsb => Optimizer::Lbfgsb,
+                OptimizerArg::LbfgsReparam => Optimizer::LbfgsReparam,
+            },
+            teleport: !self.no_teleport,
+            max_iterations: self.max_iterations,
+            stop: Stop {
+                relative_reduction: self.tolerance,
+                ..Stop::default()
+            },
+            seed: self.seed,
+            coarse: match self.coarse_to_fine {
+                CoarseArg::Auto => Coarse::Auto,
+                CoarseArg::On => Coarse::Always,
+                CoarseArg::Off => Coarse::Never,
+            },
+            ..FitOptions::default()
+        };
+        let defaults = SequenceOptions::default();
+        let mut choices = serde_json::Map::new();
+        let residual_error = match (self.residual_error, &count) {
+            (Some(e), _) => e,
+            (None, haze_bake::Count::Target { rel_l2, .. }) => {
+                let import = self.import.options();
+                let range = self.frames.unwrap_or_default();
+                let seq = haze_volume::Sequence::open(&self.input, &import, range)?;
+                let first = seq.load(0)?;
+                match haze_bake::choice::residual_error_for(&first, *rel_l2) {
+                    Some(c) => {
+                        eprintln!("residual error chosen: {}", c.why);
+                        choices.insert("residual_error".into(), serde_json::to_value(&c)?);
+                        c.residual_error
+                    }
+                    None => haze_hash::DEFAULT_ERROR,
+                }
+            }
+            (None, _) => haze_hash::DEFAULT_ERROR,
+        };
+        if let (Some(t), Some(file)) = (self.view_budget_ms, &self.tradeoff) {
+            let c = haze_tradeoff::choice::for_view(file, t)?;
+            eprintln!("view settings chosen: {}", c.reason);
+            choices.insert("view".into(), c.to_json());
+        }
+        Ok(BakeArgs {
+            report: self.report,
+            options: haze_bake::BakeOptions {
+                input: self.input,
+                out: self.out,
+                range: self.frames.unwrap_or_default(),
+                import: self.import.options(),
+                count,
+                fit: SequenceOptions {
+                    fit,
+                    delete: self.delete,
+                    max_insert: self.max_insert,
+                    max_rbfs: self.max_rbfs.map(|n| n.max(1)),
+                    threshold: self.threshold,
+                    marginal_gain: self.marginal_gain,
+                    insertion: match self.insertion {
+                        InsertionArg::Batch => Insertion::Batch,
+                        InsertionArg::Single => Insertion::Single,
+                    },
+                    warm: Stop {
+                        max_iterations: self.warm_iterations,
+                        // The windowed test replaces the per-iteration one, as in the
+                        // library's defaults; without it, --tolerance stops a warm frame.
+                        relative_reduction: if self.warm_tolerance > 0.0 {
+                            defaults.warm.relative_reduction
+                        } else {
+                            self.tolerance
+                        },
+                        window: if self.warm_tolerance > 0.0 {
+                            defaults.warm.window
+                        } else {
+                            0
+                        },
+                        window_gain: self.warm_tolerance,
+                    },
+                    ..defaults
+                },
+                quant: haze_hash::QuantOptions {
+                    error: residual_error,
+                    bits: self.quant_bits,
+                },
+                brick: self.residual_brick,
+                resume: self.resume,
+                choices,
+            },
+        })
+    }
+}
+
+/// `--residual-error`: a finite fraction ≥ 0.
+fn parse_error_fraction(s: &str) -> Result<f64, String> {
+    let e: f64 = s.parse().map_err(|_| format!("'{s}' is not a number"))?;
+    if e.is_finite() && e >= 0.0 {
+        Ok(e)
+    } else {
+        Err(format!("{s} is not a fraction ≥ 0 of the peak density"))
+    }
+}
+
+/// `--residual-brick`: one of the supported sides.
+fn parse_brick(s: &str) -> Result<u32, String> {
+    s.parse()
+        .ok()
+        .filter(|b| haze_hash::tile::BRICK_SIDES.contains(b))
+        .ok_or_else(|| format!("'{s}' is not one of {:?}", haze_hash::tile::BRICK_SIDES))
+}
+
+/// Everything `haze bake` was asked to do.
+#[derive(Debug)]
+struct BakeArgs {
+    options: BakeOptions,
+    /// Where to write the JSON report, if anywhere.
+    report: Option<PathBuf>,
+}
+
+/// `haze bake`.
+pub fn run(cli: BakeCli) -> Result<()> {
+    bake(cli.into_args()?)
+}
+
+fn bake(args: BakeArgs) -> Result<()> {
     let input = args.options.input.clone();
     let out = args.options.out.clone();
     // The bar exists once the frame count is known; events before it use a spinner.
@@ -89,7 +380,7 @@ fn summary_line(b: &Baked) -> String {
     )
 }
 
-/// The frames whose RBFs ended over the threshold ratio (each one warned), in one clause
+/// The frames whose RBFs ended over the threshold ratio (each one logged at `-v`), in one clause
 /// for the summary line: how many, the worst ratio, how many at the `--max-rbfs` ceiling;
 /// empty when every frame held its ratio.
 fn over_threshold(records: &[haze_bake::FrameRecord]) -> String {

@@ -1,9 +1,9 @@
 //! `haze export`: one frame of a baked asset back to a dense volume, `D̃ + R̂` — what every
 //! consumer of the asset reconstructs — to check a bake against its input.
 
-use crate::output;
 use anyhow::{Context, Result, bail};
 use haze_bake::export::reconstruct_frame;
+use haze_render::output;
 use npyz::WriterBuilder;
 use serde_json::json;
 use std::path::Path;

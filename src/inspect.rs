@@ -1,8 +1,8 @@
 //! `haze inspect`: what is in a volume file, a sequence or an asset.
 
-use crate::progress;
 use anyhow::Result;
 use haze_asset::{Asset, BlockKind};
+use haze_render::progress;
 use haze_volume::import::{self, FrameRange, Sequence, vdb};
 use haze_volume::{ImportOptions, Volume, VolumeStats};
 use serde::Serialize;

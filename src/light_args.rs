@@ -2,9 +2,8 @@
 //! a lat-long map, whose sun is split off and lit exactly unless told not to), and suns
 //! and point lights given on the command line.
 
-use anyhow::{Result, bail};
-use haze_view::{Environment, LatLong, PointLight, Sky, Sun};
-use std::path::Path;
+use haze_render::lights::Lights;
+use haze_view::{PointLight, Sun};
 
 #[derive(Debug, Clone, clap::Args)]
 pub struct LightArgs {
@@ -29,62 +28,34 @@ pub struct LightArgs {
     pub light: Vec<PointLight>,
 }
 
-impl LightArgs {
-    /// The environment these flags describe. A map that is not there, or not a readable
-    /// RGB OpenEXR, is a one-line error naming it.
-    pub fn environment(&self) -> Result<Environment> {
-        let mut env = if self.env == "sky" {
-            Environment::sky(Sky::default())
-        } else {
-            let path = Path::new(&self.env);
-            if !path.exists() {
-                bail!(
-                    "{}: no such environment map (use 'sky' or a lat-long .exr)",
-                    self.env
-                );
-            }
-            let map = LatLong::load_exr(path)?;
-            if self.no_sun_extraction {
-                Environment::map(map)
-            } else {
-                let env = Environment::map_with_sun_extracted(map);
-                match env.suns.first() {
-                    Some(sun) => {
-                        let (theta, phi) = haze_view::env::angles(sun.direction);
-                        tracing::info!(
-                            "{}: sun split off at elevation {:.1}°, azimuth {:.1}°, {:.2}° wide, irradiance {:.3?}",
-                            self.env,
-                            90.0 - theta.to_degrees(),
-                            phi.to_degrees(),
-                            sun.angle.to_degrees(),
-                            sun.irradiance
-                        );
-                    }
-                    None => tracing::info!("{}: no sun found, the map is lit whole", self.env),
-                }
-                env
-            }
-        };
-        env.suns.extend(self.sun.iter().cloned());
-        env.points.extend(self.light.iter().cloned());
-        Ok(env)
+impl From<LightArgs> for Lights {
+    fn from(a: LightArgs) -> Lights {
+        Lights {
+            env: a.env,
+            no_sun_extraction: a.no_sun_extraction,
+            sun: a.sun,
+            light: a.light,
+        }
     }
+}
 
-    /// The light in words ("the built-in sky and 1 sun"), as a choice's reasons name it.
-    pub fn describe(&self) -> String {
-        let mut s = if self.env == "sky" {
-            "the built-in sky".to_string()
-        } else {
-            format!("the map {}", self.env)
-        };
-        let plural = |n: usize, what: &str| format!("{n} {what}{}", if n == 1 { "" } else { "s" });
-        if !self.sun.is_empty() {
-            s += &format!(" and {}", plural(self.sun.len(), "sun"));
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum LightingArg {
+    /// The GPU, or the CPU when the adapter is a CPU.
+    Auto,
+    /// The CPU, in f64 (the sources are then uploaded).
+    Cpu,
+    /// The GPU, in f32.
+    Gpu,
+}
+
+impl From<LightingArg> for haze_view::gpu::renderer::LightingOn {
+    fn from(a: LightingArg) -> Self {
+        match a {
+            LightingArg::Auto => Self::Auto,
+            LightingArg::Cpu => Self::Cpu,
+            LightingArg::Gpu => Self::Gpu,
         }
-        if !self.light.is_empty() {
-            s += &format!(" and {}", plural(self.light.len(), "point light"));
-        }
-        s
     }
 }
 

@@ -1,7 +1,7 @@
 //! `haze merge`: chunks baked separately joined in frame order (`haze_bake::merge`).
 
-use crate::progress;
 use anyhow::Result;
+use haze_render::progress;
 use std::path::{Path, PathBuf};
 
 pub fn run(chunks: &[PathBuf], out: &Path) -> Result<()> {

@@ -1,8 +1,8 @@
 //! `haze pack`: volumes → a lossless .haze asset of raw-volume blocks.
 
-use crate::progress;
 use anyhow::{Result, bail};
 use haze_asset::{AssetWriter, BlockKind, Scope, encode_raw_volume};
+use haze_render::progress;
 use haze_volume::ImportOptions;
 use haze_volume::import::{FrameRange, Sequence};
 use std::path::Path;

@@ -1,11 +1,15 @@
-//! One frame of a baked asset reconstructed as a dense volume, `D̃ + R̂`: what every
-//! consumer of the asset computes (`haze export`, and tests of a bake against its input).
+//! One frame of a baked asset read back: its RBFs as stored and its residual's slot in the
+//! hash volume, reconstructed as a dense volume `D̃ + R̂` — what every consumer of the
+//! asset computes (`haze export`, `haze render`, the viewer, `haze tradeoff`, and tests of
+//! a bake against its input).
 
 use crate::residual::reconstruct;
-use anyhow::{Result, anyhow, bail};
+use anyhow::{Context, Result, anyhow, bail};
 use haze_asset::{Asset, BlockKind, Scope, decode_rbfs};
-use haze_volume::Bbox;
+use haze_hash::tile::ResidualGroup;
+use haze_volume::{Bbox, Rbf, Volume, rbf};
 use std::path::Path;
+use std::sync::Arc;
 
 /// A reconstructed frame: x fastest, then y, then z, over the asset's grid.
 #[derive(Clone, Debug)]
@@ -15,27 +19,92 @@ pub struct Reconstruction {
     pub data: Vec<f32>,
 }
 
-/// Frame `frame` (its number in the input) of the asset at `path`: its RBFs evaluated as
-/// stored, plus the dequantized residual of its hash volume (none when the RBFs alone met
-/// the error on every frame of that volume).
-pub fn reconstruct_frame(path: &Path, frame: i64) -> Result<Reconstruction> {
+/// One frame of an asset as stored: its RBFs and the hash volume holding its residual.
+#[derive(Clone, Debug)]
+pub struct AssetFrame {
+    /// The source frame number.
+    pub number: i64,
+    /// The asset's grid.
+    pub dims: [usize; 3],
+    pub bbox: Bbox,
+    pub rbfs: Vec<Rbf>,
+    /// The frame's hash volume and its slot in it (none when the RBFs alone met the error
+    /// on every frame of that volume).
+    pub residual: Option<(Arc<ResidualGroup>, usize)>,
+}
+
+impl AssetFrame {
+    /// `D̃ + R̂` at every voxel, unclamped (`haze export`'s volume).
+    pub fn reconstruction(&self) -> Reconstruction {
+        let residual = self.residual.as_ref().map(|(g, j)| (&**g, *j));
+        Reconstruction {
+            dims: self.dims,
+            bbox: self.bbox,
+            data: reconstruct(self.dims, &self.bbox, &self.rbfs, residual),
+        }
+    }
+
+    /// The frame's density `D = max(D̃ + R̂, 0)` and its dequantized residual.
+    pub fn density(&self) -> Result<(Volume, Vec<f32>)> {
+        let residual = self.residual.as_ref().map(|(g, j)| (&**g, *j));
+        frame_density(self.dims, self.bbox, &self.rbfs, residual)
+    }
+}
+
+/// A baked frame's density on the asset's `dims` grid over `bbox`, `D = max(D̃ + R̂, 0)`
+/// with the RBFs as stored and the dequantized residual of slot `j` of its hash volume,
+/// and that residual (zero when the asset stores none).
+pub fn frame_density(
+    dims: [usize; 3],
+    bbox: Bbox,
+    rbfs: &[Rbf],
+    residual: Option<(&ResidualGroup, usize)>,
+) -> Result<(Volume, Vec<f32>)> {
+    let approx = rbf::evaluate_on_grid(dims, &bbox, rbfs);
+    let residual = match residual {
+        Some((group, j)) => {
+            let d = group.dims;
+            let (nx, nxy) = (d[0] as usize, (d[0] * d[1]) as usize);
+            (0..nxy * d[2] as usize)
+                .map(|i| group.lookup(j, [i % nx, (i % nxy) / nx, i / nxy].map(|c| c as u32)))
+                .collect()
+        }
+        None => vec![0.0f32; approx.len()],
+    };
+    let data: Vec<f32> = approx
+        .iter()
+        .zip(&residual)
+        .map(|(a, r)| (a + f64::from(*r)).max(0.0) as f32)
+        .collect();
+    let density = Volume::new(dims, bbox, data).context("asset grid")?;
+    Ok((density, residual))
+}
+
+/// Frame `frame` (its number in the input; the first frame when `None`) of the asset at
+/// `path`.
+pub fn read_frame(path: &Path, frame: Option<i64>) -> Result<AssetFrame> {
     let asset = Asset::open(path)?;
     let h = asset.header();
     let numbers = &h.source.frame_numbers;
-    let k = numbers.iter().position(|&n| n == frame).ok_or_else(|| {
-        let range = match (numbers.first(), numbers.last()) {
-            (Some(a), Some(b)) => format!("frames {a}..{b}"),
-            _ => "no frames".to_string(),
-        };
-        anyhow!(
-            "{}: frame {frame} is not in the asset ({range})",
-            path.display()
-        )
-    })?;
+    let k = match frame {
+        Some(frame) => numbers.iter().position(|&n| n == frame).ok_or_else(|| {
+            let range = match (numbers.first(), numbers.last()) {
+                (Some(a), Some(b)) => format!("frames {a}..{b}"),
+                _ => "no frames".to_string(),
+            };
+            anyhow!(
+                "{}: frame {frame} is not in the asset ({range})",
+                path.display()
+            )
+        })?,
+        None if numbers.is_empty() => bail!("{}: the asset has no frames", path.display()),
+        None => 0,
+    };
+    let number = numbers[k];
     let blocks = asset.frame(k)?;
     let rbf_block = blocks.find(BlockKind::Rbfs).ok_or_else(|| {
         anyhow!(
-            "{}: frame {frame} has no RBF block (not a baked asset?)",
+            "{}: frame {number} has no RBF block (not a baked asset?)",
             path.display()
         )
     })?;
@@ -47,7 +116,7 @@ pub fn reconstruct_frame(path: &Path, frame: i64) -> Result<Reconstruction> {
                 .map_err(|e| asset.block_error(&res_block, e))?;
             let Scope::Frames { first, .. } = res_block.id.scope else {
                 bail!(
-                    "{}: the residual block of frame {frame} is not per frame",
+                    "{}: the residual block of frame {number} is not per frame",
                     path.display()
                 );
             };
@@ -58,12 +127,22 @@ pub fn reconstruct_frame(path: &Path, frame: i64) -> Result<Reconstruction> {
                     group.dims
                 );
             }
-            Some((group, k - first as usize))
+            Some((Arc::new(group), k - first as usize))
         }
         None => None,
     };
-    let dims = h.grid.dims.map(|d| d as usize);
-    let bbox = Bbox::new(h.grid.bbox_min, h.grid.bbox_max);
-    let data = reconstruct(dims, &bbox, &rbfs, residual.as_ref().map(|(g, j)| (g, *j)));
-    Ok(Reconstruction { dims, bbox, data })
+    Ok(AssetFrame {
+        number,
+        dims: h.grid.dims.map(|d| d as usize),
+        bbox: Bbox::new(h.grid.bbox_min, h.grid.bbox_max),
+        rbfs,
+        residual,
+    })
+}
+
+/// Frame `frame` (its number in the input) of the asset at `path`: its RBFs evaluated as
+/// stored, plus the dequantized residual of its hash volume (none when the RBFs alone met
+/// the error on every frame of that volume).
+pub fn reconstruct_frame(path: &Path, frame: i64) -> Result<Reconstruction> {
+    Ok(read_frame(path, Some(frame))?.reconstruction())
 }

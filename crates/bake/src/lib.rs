@@ -33,7 +33,7 @@
 //! * [`residual`]: the residual stage (quantize, hash volumes of 27 frames).
 //! * [`journal`]: the append-only journal of finished frames and hash volumes.
 //! * [`merge`]: chunks baked separately joined into one asset.
-//! * [`export`]: a frame reconstructed as a dense volume.
+//! * [`export`]: a frame read back, reconstructed as a dense volume.
 //! * [`header`]: the asset header of a sequence.
 //! * [`choice`]: automatic choices (the residual error of a `--target-error` bake) and why.
 
@@ -45,6 +45,6 @@ pub mod merge;
 pub mod pipeline;
 pub mod residual;
 
-pub use export::{Reconstruction, reconstruct_frame};
+pub use export::{AssetFrame, Reconstruction, read_frame, reconstruct_frame};
 pub use merge::{Merged, merge};
 pub use pipeline::{Bake, BakeOptions, Baked, Count, Event, FrameRecord};

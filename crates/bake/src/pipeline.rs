@@ -290,8 +290,10 @@ impl Bake {
             fit.iterations,
             fit.fit_seconds
         );
+        // A frame left over the threshold is the bake working as intended (the residual
+        // stores what the RBFs miss): why, per frame, is detail; the caller sums them up.
         if fit.insertion_capped && fit.insertion_stop == Some(haze_fit::InsertionStop::Ceiling) {
-            tracing::warn!(
+            tracing::info!(
                 "{}: frame {}: error ratio {:.3} over --threshold {} at the ceiling of {} RBFs a frame (--max-rbfs; by default {}× the first frame's count) after inserting {} and moving {}: the ceiling bounds what a frame costs, and the residual stores what the RBFs miss (raise --max-rbfs to spend more RBFs)",
                 f.path.display(),
                 f.number,
@@ -303,7 +305,7 @@ impl Bake {
                 fit.exchanged
             );
         } else if fit.insertion_capped {
-            tracing::warn!(
+            tracing::info!(
                 "{}: frame {}: error ratio {:.3} over --threshold {} after inserting {} RBFs, the most this frame may insert (the smoke's growth or the error's excess, or --max-insert), and moving {}: its detail grows faster than its size, and the residual stores what the RBFs miss",
                 f.path.display(),
                 f.number,
@@ -315,7 +317,7 @@ impl Bake {
         } else if fit.insertion_stalled
             && fit.insertion_stop == Some(haze_fit::InsertionStop::MarginalGain)
         {
-            tracing::warn!(
+            tracing::info!(
                 "{}: frame {}: error ratio {:.3} over --threshold {}: insertion stopped by marginal gain after {} RBFs: the best RBF left out would lower ∫R² by {:.3e}, under the {:.3e} that --marginal-gain {} of the first frame's asks; the detail left is finer than RBFs pay for and goes to the residual (lower --marginal-gain to spend more RBFs on it)",
                 f.path.display(),
                 f.number,
@@ -327,7 +329,7 @@ impl Bake {
                 self.opts.marginal_gain
             );
         } else if fit.insertion_stalled {
-            tracing::warn!(
+            tracing::info!(
                 "{}: frame {}: error ratio {:.3} over --threshold {}: inserting RBFs stopped lowering the error ({} inserted); the detail left is finer than the smallest radius and goes to the residual",
                 f.path.display(),
                 f.number,

@@ -1,7 +1,7 @@
 //! The sweep's plots (plotters): error against render milliseconds, one chart per knob and
 //! one of the Pareto front, each as SVG and PNG, written atomically.
 
-use super::{Sweep, Why};
+use crate::sweep::{Sweep, Why};
 use anyhow::{Result, anyhow};
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -122,7 +122,7 @@ fn write_pair(
         series,
         front,
     )?;
-    crate::output::write_atomic(&dir.join(format!("{stem}.svg")), svg.as_bytes())?;
+    haze_render::output::write_atomic(&dir.join(format!("{stem}.svg")), svg.as_bytes())?;
     let mut rgb = vec![0u8; (SIZE.0 * SIZE.1 * 3) as usize];
     draw(
         BitMapBackend::with_buffer(&mut rgb, SIZE).into_drawing_area(),
@@ -136,7 +136,7 @@ fn write_pair(
     let mut png = Vec::new();
     img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
         .map_err(|e| anyhow!("plot {title}: {e}"))?;
-    crate::output::write_atomic(&dir.join(format!("{stem}.png")), &png)
+    haze_render::output::write_atomic(&dir.join(format!("{stem}.png")), &png)
 }
 
 /// Every plot of `sweep` in `dir`: `pareto.{svg,png}` and `knob-NAME.{svg,png}` per knob

@@ -1,13 +1,13 @@
-//! `haze view --scene`: a scene file shown through paper C's renderer on the GPU
+//! The scene room (`haze view --scene`): a scene file shown through paper C's renderer on the GPU
 //! (`haze_scene::gpu`), with an orbit camera and the medium and lights editable in a side
 //! panel. The surfaces are rasterized with a depth buffer (`haze_scene::gpu::raster`), the
 //! airlight and shading computed per pixel up to that depth; a panel switch (or
 //! `--ray-traced`) shows the ray tracer's picture instead, for comparison. Scenes whose
 //! heterogeneous media are all Gaussians are rendered by paper B on the GPU
 //! (`haze_scene::gpu::paper_b`, ray-traced surfaces: its raster variant does not exist),
-//! and the panel's editing tools (paper B §6, [`super::edit_tools`]) change their first
+//! and the panel's editing tools (paper B §6, [`edit_tools`]) change their first
 //! Gaussian medium, every edit re-lit in the next picture. Scenes with analytic fog
-//! (paper D) play its wind live ([`super::wind_panel`]).
+//! (paper D) play its wind live ([`wind_panel`]).
 //!
 //! The orbit starts at the scene's camera and turns about the point its central ray looks
 //! at (the first surface it meets, else the scene's middle at the same distance), Z up.
@@ -17,10 +17,13 @@
 //! BENCHMARKS.md has its time on lavapipe), so the window shows the edit it was asked for,
 //! never an older one; a slow device makes the window slow to answer rather than late.
 
-use super::edit_tools::{Editor, ScriptedStroke};
-use super::orbit::Orbit;
-use super::wind_panel::{FogRenderer, Wind};
+pub mod edit_tools;
+mod wind_panel;
+
+use crate::orbit::Orbit;
+use crate::shell::{self, Outcome, Room};
 use anyhow::{Result, anyhow, bail};
+use edit_tools::{Editor, ScriptedStroke};
 use eframe::egui;
 use haze_gpu::GpuContext;
 use haze_scene::airlight::Limits;
@@ -31,8 +34,8 @@ use haze_scene::render::{Analytic, Image};
 use haze_scene::{Light, Scene, Shape};
 use std::ops::RangeInclusive;
 use std::path::PathBuf;
-use std::sync::{Arc, Mutex};
 use std::time::Instant;
+use wind_panel::{FogRenderer, Wind};
 
 /// Everything `haze view --scene` was asked to do.
 #[derive(Debug)]
@@ -341,14 +344,8 @@ pub fn run(a: SceneViewArgs) -> Result<()> {
     }
     let title = format!("haze view — {}", a.scene.display());
     let (w, h) = renderer.size;
-    let options = eframe::NativeOptions {
-        viewport: egui::ViewportBuilder::default()
-            .with_title(title.as_str())
-            .with_inner_size([(w as f32 + 320.0).max(1000.0), (h as f32 + 40.0).max(720.0)]),
-        ..Default::default()
-    };
     let (lo, hi) = scene_box(&renderer.base);
-    let outcome: Arc<Mutex<Option<String>>> = Arc::default();
+    let outcome = Outcome::default();
     let app = SceneApp {
         renderer,
         orbit: orbit.clone(),
@@ -368,20 +365,7 @@ pub fn run(a: SceneViewArgs) -> Result<()> {
         clock: Instant::now(),
         wind_changed: false,
     };
-    eframe::run_native(&title, options, Box::new(move |_| Ok(Box::new(app)))).map_err(|e| {
-        anyhow!(
-            "cannot open the viewer window: {}",
-            one_line(&e.to_string())
-        )
-    })?;
-    if let Some(line) = outcome.lock().ok().and_then(|mut o| o.take()) {
-        println!("{line}");
-    }
-    Ok(())
-}
-
-fn one_line(text: &str) -> String {
-    text.split_whitespace().collect::<Vec<_>>().join(" ")
+    shell::open(&title, (w, h), outcome, move |_| Ok(app))
 }
 
 /// Renders pictures for `seconds`, turning the camera by a degree each (and playing the
@@ -401,7 +385,7 @@ fn turn_without_window(
         r.picture(&orbit, knobs, editor, wind.as_ref())?;
         let took = t.elapsed().as_secs_f64();
         times.push(took);
-        orbit.drag(1f64.to_radians() / super::orbit::RADIANS_PER_PIXEL, 0.0);
+        orbit.drag(1f64.to_radians() / crate::orbit::RADIANS_PER_PIXEL, 0.0);
         if let Some(w) = &mut wind {
             w.advance(&r.base, took);
         }
@@ -462,7 +446,7 @@ struct SceneApp {
     /// Seconds of each picture rendered.
     times: Vec<f64>,
     /// `--play-for`'s measurement line, printed once the window has closed.
-    outcome: Arc<Mutex<Option<String>>>,
+    outcome: Outcome,
     /// The analytic fog's wind and lit mode (wind_panel), for a scene with one.
     wind: Option<Wind>,
     /// When the wind last moved on.
@@ -596,7 +580,7 @@ impl SceneApp {
         let Some(editor) = &mut self.editor else {
             return false;
         };
-        if editor.tool == super::edit_tools::Tool::Orbit {
+        if editor.tool == edit_tools::Tool::Orbit {
             return false;
         }
         let primary = egui::PointerButton::Primary;
@@ -684,7 +668,7 @@ impl SceneApp {
         {
             Ok(rgb) => {
                 let (w, h) = self.renderer.size;
-                super::show_picture(ctx, &mut self.texture, "scene", [w, h], &rgb);
+                shell::show_picture(ctx, &mut self.texture, "scene", [w, h], &rgb);
                 self.error = None;
             }
             Err(e) => self.error = Some(e),
@@ -696,21 +680,26 @@ impl SceneApp {
     }
 }
 
-impl eframe::App for SceneApp {
-    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
-        let ctx = ui.ctx().clone();
+impl Room for SceneApp {
+    type Pass = ();
+
+    fn begin(&mut self, ctx: &egui::Context) {
         if let Some(e) = &mut self.editor {
-            e.keys(&ctx);
+            e.keys(ctx);
         }
         self.tick();
-        self.refresh(&ctx);
-        egui::Panel::left("controls")
-            .resizable(false)
-            .default_size(290.0)
-            .show(ui, |ui| {
-                egui::ScrollArea::vertical().show(ui, |ui| self.controls(ui));
-            });
-        egui::CentralPanel::default().show(ui, |ui| self.image(ui));
+        self.refresh(ctx);
+    }
+
+    fn controls(&mut self, ui: &mut egui::Ui, _: &()) {
+        self.controls(ui);
+    }
+
+    fn image(&mut self, ui: &mut egui::Ui) {
+        self.image(ui);
+    }
+
+    fn end(&mut self, ctx: &egui::Context, _: ()) {
         if let Some((opened, seconds)) = self.play_for {
             let left = seconds - opened.elapsed().as_secs_f64();
             if left <= 0.0 {
@@ -721,7 +710,7 @@ impl eframe::App for SceneApp {
                     seconds - left,
                 );
                 if let Ok(mut o) = self.outcome.lock() {
-                    o.get_or_insert(line);
+                    o.get_or_insert(Ok(line));
                 }
                 ctx.send_viewport_cmd(egui::ViewportCommand::Close);
             } else {
@@ -747,7 +736,7 @@ mod tests {
     use haze_scene::render::render;
 
     fn room() -> Scene {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/data/scenes/room.json");
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/scenes/room.json");
         haze_scene::load(std::path::Path::new(path)).unwrap()
     }
 

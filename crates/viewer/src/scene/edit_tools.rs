@@ -647,14 +647,14 @@ impl Editor {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::viewer::orbit::Orbit;
-    use crate::viewer::scene_view::{Renderer, SceneKnobs, look_target};
+    use crate::orbit::Orbit;
+    use crate::scene::{Renderer, SceneKnobs, look_target};
     use haze_scene::Light;
     use haze_scene::paper_b::{self, PaperBOptions, Prepared};
     use haze_scene::render::Image;
 
     fn scene_path() -> PathBuf {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("data/scenes/gaussians.json")
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/scenes/gaussians.json")
     }
 
     /// Where the ray through pixel `(px, py)` meets the floor `z = 0`.

@@ -8,18 +8,19 @@
 //! when a finished frame falls due.
 
 use super::Knobs;
-use super::orbit::Orbit;
 use super::playback::Playback;
-use super::player::{Player, View};
+use super::player::{Player, Update, View};
 use super::worker::{FrameCursor, Worker};
-use anyhow::{Result, anyhow};
+use crate::orbit::Orbit;
+use crate::shell::{self, Outcome, Room};
+use anyhow::Result;
 use eframe::egui;
 use haze_gpu::GpuContext;
 use haze_view::env::{angles, direction};
 use haze_view::gpu::renderer::LightingOn;
 use haze_view::{Distant, Environment};
 use std::ops::RangeInclusive;
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// What the window starts from.
@@ -52,65 +53,32 @@ pub struct Settings {
 /// Opens the window and runs it until it is closed (or `--play-for` has played), then
 /// prints the measurement line of `--play-for`.
 pub fn run_window(setup: Setup) -> Result<()> {
-    let outcome: Arc<Mutex<Option<Result<String, String>>>> = Arc::default();
+    let outcome = Outcome::default();
     let out = outcome.clone();
-    let options = eframe::NativeOptions {
-        viewport: egui::ViewportBuilder::default()
-            .with_title(setup.title.as_str())
-            // Room for the panel beside the picture, which is scaled to fit.
-            .with_inner_size([
-                (setup.settings.size.0 as f32 + 320.0).max(1000.0),
-                (setup.settings.size.1 as f32 + 40.0).max(720.0),
-            ]),
-        ..Default::default()
-    };
     let title = setup.title.clone();
-    eframe::run_native(
-        &title,
-        options,
-        Box::new(move |cc| {
-            let repaint = cc.egui_ctx.clone();
-            let Setup {
-                cursor,
-                ctx,
-                lighting,
-                playback,
-                started,
-                settings,
-                ..
-            } = setup;
-            let worker = Worker::spawn(
-                cursor,
-                ctx,
-                lighting,
-                Box::new(move || repaint.request_repaint()),
-            )?;
-            Ok(Box::new(ViewerApp::new(
-                Player::new(playback, worker, started),
-                settings,
-                out,
-            )))
-        }),
-    )
-    .map_err(|e| {
-        anyhow!(
-            "cannot open the viewer window: {}",
-            one_line(&e.to_string())
-        )
-    })?;
-    let taken = outcome.lock().map(|mut o| o.take()).unwrap_or(None);
-    match taken {
-        Some(Ok(line)) => {
-            println!("{line}");
-            Ok(())
-        }
-        Some(Err(e)) => Err(anyhow!(e)),
-        None => Ok(()),
-    }
-}
-
-fn one_line(text: &str) -> String {
-    text.split_whitespace().collect::<Vec<_>>().join(" ")
+    shell::open(&title, setup.settings.size, outcome, move |egui_ctx| {
+        let repaint = egui_ctx.clone();
+        let Setup {
+            cursor,
+            ctx,
+            lighting,
+            playback,
+            started,
+            settings,
+            ..
+        } = setup;
+        let worker = Worker::spawn(
+            cursor,
+            ctx,
+            lighting,
+            Box::new(move || repaint.request_repaint()),
+        )?;
+        Ok(ViewerApp::new(
+            Player::new(playback, worker, started),
+            settings,
+            out,
+        ))
+    })
 }
 
 /// The light of the panel: what its two sun sliders (degrees: azimuth from +X towards
@@ -207,16 +175,12 @@ struct ViewerApp {
     target_fps: f64,
     ranges: Ranges,
     /// Where `--play-for` leaves its line (or its error).
-    outcome: Arc<Mutex<Option<Result<String, String>>>>,
+    outcome: Outcome,
     done: bool,
 }
 
 impl ViewerApp {
-    fn new(
-        player: Player,
-        settings: Settings,
-        outcome: Arc<Mutex<Option<Result<String, String>>>>,
-    ) -> ViewerApp {
+    fn new(player: Player, settings: Settings, outcome: Outcome) -> ViewerApp {
         let light = Light::of(&settings.env);
         let fps = player.playback.fps();
         let k = &settings.knobs;
@@ -517,33 +481,48 @@ impl ViewerApp {
     }
 }
 
-impl eframe::App for ViewerApp {
-    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
-        let ctx = ui.ctx().clone();
+/// What the start of a pass hands the rest of it.
+struct SmokePass {
+    now: Instant,
+    /// The view before this pass's keys and knobs.
+    before: View,
+    update: Update,
+}
+
+impl Room for ViewerApp {
+    type Pass = SmokePass;
+
+    fn begin(&mut self, ctx: &egui::Context) -> SmokePass {
         let now = Instant::now();
-        self.keys(&ctx);
+        self.keys(ctx);
         let before = self.view();
         let update = self.player.update(now, &before);
-        if let Some(p) = update.shown {
-            super::show_picture(
-                &ctx,
-                &mut self.texture,
-                "smoke",
-                [p.width, p.height],
-                &p.rgb,
-            );
+        if let Some(p) = &update.shown {
+            shell::show_picture(ctx, &mut self.texture, "smoke", [p.width, p.height], &p.rgb);
             self.showing = Some(p.number);
         }
-        self.check_play_for(&ctx, now);
+        self.check_play_for(ctx, now);
+        SmokePass {
+            now,
+            before,
+            update,
+        }
+    }
 
-        egui::Panel::left("controls")
-            .resizable(false)
-            .default_size(290.0)
-            .show(ui, |ui| {
-                egui::ScrollArea::vertical().show(ui, |ui| self.controls(ui, now));
-            });
-        egui::CentralPanel::default().show(ui, |ui| self.image(ui));
+    fn controls(&mut self, ui: &mut egui::Ui, pass: &SmokePass) {
+        self.controls(ui, pass.now);
+    }
 
+    fn image(&mut self, ui: &mut egui::Ui) {
+        self.image(ui);
+    }
+
+    fn end(&mut self, ctx: &egui::Context, pass: SmokePass) {
+        let SmokePass {
+            now,
+            before,
+            update,
+        } = pass;
         // A knob or the camera moved during this pass: the next pass hands the new view
         // to the render thread. Otherwise the next pass comes when a picture falls due,
         // when `--play-for` ends, or after a moment while playing (to keep the figures

@@ -5,7 +5,7 @@
 //! GPU.
 
 use super::knobs::Knob;
-use super::{Lab, Sample};
+use crate::lab::{Lab, Sample};
 use anyhow::{Result, anyhow};
 use haze_bake::residual::as_stored;
 use haze_fit::{FitOptions, SequenceFitter, SequenceOptions};
@@ -45,7 +45,7 @@ impl View {
         match (self.eye, self.target) {
             (Some(e), Some(t)) => Camera::new(e, t, self.up, self.fov, w, h),
             (None, None) => {
-                let b = crate::render::smoke_bbox(density);
+                let b = haze_render::frame::smoke_bbox(density);
                 Camera::framing(b.min, b.max, self.fov, w, h)
             }
             _ => {
@@ -308,7 +308,7 @@ impl SmokeLab {
 
     /// Keeps only the knobs named in `only` (the others stay at their defaults).
     pub fn restrict(&mut self, only: &[String]) {
-        super::restrict(&mut self.knobs, only);
+        crate::lab::restrict(&mut self.knobs, only);
     }
 
     /// The setting of knob indices `s`.

@@ -1,37 +1,25 @@
-//! `haze view`: plays a baked asset in a window, lit and rendered as it plays by
-//! compensated ray marching (paper A §5–6), with an orbit camera and live knobs.
+//! The smoke room (`haze view FILE.haze`): plays a baked asset, lit and rendered as it
+//! plays by compensated ray marching (paper A §5–6), with an orbit camera and live knobs.
 //!
 //! - [`playback`]: the clock — which frame is due, what was shown on time, what dropped;
-//! - [`orbit`]: the camera around the smoke;
 //! - [`frame`]: one frame's render (sources at the centers on the CPU, volume and view
 //!   passes on the GPU), reusing what did not change;
 //! - [`worker`]: the render thread (frame stream, GPU context, renderer);
 //! - [`player`]: the clock driving the render thread, shared by the window and
 //!   `--no-window`;
-//! - [`app`]: the egui window;
-//! - [`budget`]: the starting knobs chosen for a time budget or an error target;
-//! - [`scene_view`]: `haze view --scene`, a scene file through paper C's GPU renderer
-//!   (paper B's for Gaussian media);
-//! - [`edit_tools`]: its editing tools for Gaussian media (paper B §6);
-//! - [`wind_panel`]: its wind and lit mode for scenes with analytic fog (paper D);
-//! - [`fog_view`]: `haze view --fog`, a fogmap's wavelet fog (paper E) on the GPU;
-//! - [`fly`]: its fly camera.
+//! - [`app`]: the room's panel, keys and picture in the window;
+//! - [`budget`]: the starting knobs chosen for a time budget or an error target.
 
 mod app;
 pub mod budget;
-pub mod edit_tools;
-mod fly;
-pub mod fog_view;
 pub mod frame;
-mod orbit;
 mod playback;
 mod player;
-pub mod scene_view;
 #[cfg(test)]
 mod testing;
-mod wind_panel;
 mod worker;
 
+use crate::orbit::Orbit;
 use anyhow::{Result, anyhow, bail};
 use haze_gpu::GpuContext;
 use haze_view::gpu::renderer::LightingOn;
@@ -39,7 +27,6 @@ use haze_view::render::env_pass::{EnvGridOptions, EnvSource};
 use haze_view::render::{CrmOptions, MsDiffusion};
 use haze_view::stream::FrameStream;
 use haze_view::{Environment, Medium};
-use orbit::Orbit;
 use playback::Playback;
 use player::{Player, View};
 use std::path::PathBuf;
@@ -61,7 +48,7 @@ pub struct ViewArgs {
     pub height: usize,
     /// Vertical field of view, degrees.
     pub fov: f64,
-    pub env: crate::light_args::LightArgs,
+    pub env: haze_render::lights::Lights,
     /// The starting values of the window's knobs.
     pub knobs: Knobs,
     /// Play this many seconds from the first picture, print the figures, exit.
@@ -73,7 +60,7 @@ pub struct ViewArgs {
     /// Where the lighting at the centers (single and multiple scattering) is computed.
     pub lighting: LightingOn,
     /// Start with the knobs a tradeoff sweep's front gives for this budget or target.
-    pub goal: Option<crate::tradeoff::pareto::Goal>,
+    pub goal: Option<haze_tradeoff::pareto::Goal>,
     /// The sweep for `goal`; a quick sweep of the asset when absent.
     pub tradeoff: Option<PathBuf>,
 }
@@ -118,7 +105,7 @@ impl Knobs {
             } else if self.orders_model != MsDiffusion::DEFAULT {
                 format!(
                     "single + multiple scattering ({})",
-                    crate::render::diffusion_name(self.orders_model)
+                    haze_render::smoke::diffusion_name(self.orders_model)
                 )
             } else {
                 "single + multiple scattering".to_string()
@@ -158,39 +145,7 @@ impl Knobs {
     }
 }
 
-/// Puts a picture (sRGB8 RGB, `[width, height]`) in `texture`, which is made on first use
-/// under `name`: the one way every viewer window shows what it rendered.
-fn show_picture(
-    ctx: &eframe::egui::Context,
-    texture: &mut Option<eframe::egui::TextureHandle>,
-    name: &str,
-    size: [usize; 2],
-    rgb: &[u8],
-) {
-    use eframe::egui::{ColorImage, TextureOptions};
-    let image = ColorImage::from_rgb(size, rgb);
-    match texture {
-        Some(t) => t.set(image, TextureOptions::LINEAR),
-        None => *texture = Some(ctx.load_texture(name, image, TextureOptions::LINEAR)),
-    }
-}
-
-/// Parses a render size `WxH` (or `W×H`), each side 1..=8192 pixels.
-pub fn parse_size(s: &str) -> Result<(usize, usize), String> {
-    let bad = || format!("'{s}' is not a size WxH (e.g. 800x600)");
-    let (w, h) = s.split_once(['x', 'X', '×']).ok_or_else(bad)?;
-    let side = |t: &str| {
-        t.trim()
-            .parse::<usize>()
-            .ok()
-            .filter(|n| (1..=8192).contains(n))
-    };
-    match (side(w), side(h)) {
-        (Some(w), Some(h)) => Ok((w, h)),
-        _ => Err(format!("{}: sides must be 1 to 8192 pixels", bad())),
-    }
-}
-
+/// Plays the asset `a` names: in the window, or without one for `--play-for`.
 pub fn run(mut a: ViewArgs) -> Result<()> {
     if a.input.is_dir() {
         bail!(
@@ -205,7 +160,7 @@ pub fn run(mut a: ViewArgs) -> Result<()> {
     let started = Instant::now();
     // Every knob is checked before anything opens.
     let knobs = a.knobs;
-    crate::render::check_knobs(knobs.sh_order, knobs.slices)?;
+    haze_render::smoke::check_knobs(knobs.sh_order, knobs.slices)?;
     Medium::new(knobs.sigma_t, knobs.albedo, knobs.g).map_err(|e| anyhow!("{e}"))?;
     if !(knobs.exposure > 0.0 && knobs.exposure.is_finite()) {
         bail!("--exposure {} must be positive", knobs.exposure);
@@ -228,8 +183,9 @@ pub fn run(mut a: ViewArgs) -> Result<()> {
     let (dims, bbox) = stream.grid();
     let mut cursor = FrameCursor::new(stream, READ_AHEAD);
     let first = cursor.get(0).map_err(|e| anyhow!(e))?;
-    let (density, _) = crate::render::asset_density(dims, bbox, first)?;
-    let smoke = crate::render::smoke_bbox(&density);
+    let residual = first.residual.as_ref().map(|s| (&*s.group, s.slot));
+    let (density, _) = haze_bake::export::frame_density(dims, bbox, &first.rbfs, residual)?;
+    let smoke = haze_render::frame::smoke_bbox(&density);
     let orbit = Orbit::framing(&smoke, a.fov, a.width, a.height)
         .map_err(|e| anyhow!("{}: cannot frame the smoke: {e}", a.input.display()))?;
 
@@ -337,7 +293,7 @@ fn turn_without_window(
             if start.elapsed().as_secs_f64() >= seconds && !times.is_empty() {
                 break;
             }
-            orbit.drag(1f64.to_radians() / orbit::RADIANS_PER_PIXEL, 0.0);
+            orbit.drag(1f64.to_radians() / crate::orbit::RADIANS_PER_PIXEL, 0.0);
             view.camera = orbit.camera(w, h).map_err(|e| anyhow!("camera: {e}"))?;
             continue;
         }
@@ -418,16 +374,5 @@ mod tests {
                 .describe()
                 .contains("multiple scattering (orders:3:3)")
         );
-    }
-
-    #[test]
-    fn sizes_parse_and_bad_ones_say_why() {
-        assert_eq!(parse_size("800x600"), Ok((800, 600)));
-        assert_eq!(parse_size("64×48"), Ok((64, 48)));
-        assert_eq!(parse_size(" 3 X 2 "), Ok((3, 2)));
-        for bad in ["800", "0x600", "800x", "x600", "9000x10", "-1x5", "axb"] {
-            let e = parse_size(bad).unwrap_err();
-            assert!(e.contains(bad) && e.contains("WxH"), "{bad}: {e}");
-        }
     }
 }

@@ -3,9 +3,9 @@
 //! every combination is measured.
 
 use super::knobs::Knob;
-use super::{Lab, Sample};
-use crate::fog::FogModelArgs;
+use crate::lab::{Lab, Sample};
 use anyhow::{Context, Result, anyhow};
+use haze_render::fog::FogModel;
 use haze_wavelet::{Basis, Fog, Fogmap};
 use serde_json::{Value, json};
 use std::path::Path;
@@ -21,7 +21,7 @@ const MU_QUICK: [f64; 2] = [1.0, 0.5];
 pub struct FogLab {
     fogmap: Fogmap,
     label: String,
-    model: FogModelArgs,
+    model: FogModel,
     width: usize,
     height: usize,
     repeats: usize,
@@ -31,7 +31,7 @@ pub struct FogLab {
 impl FogLab {
     pub fn open(
         path: &Path,
-        model: FogModelArgs,
+        model: FogModel,
         width: usize,
         height: usize,
         quick: bool,
@@ -75,7 +75,7 @@ impl FogLab {
 
     /// Keeps only the knobs named in `only` (the others stay at their defaults).
     pub fn restrict(&mut self, only: &[String]) {
-        super::restrict(&mut self.knobs, only);
+        crate::lab::restrict(&mut self.knobs, only);
     }
 
     /// Every combination of the knobs' values, except µ < 1 at 0 levels (µ then changes

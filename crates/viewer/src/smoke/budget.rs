@@ -6,10 +6,10 @@
 //! the window opens.
 
 use super::ViewArgs;
-use crate::tradeoff::choice::{self, Choice};
-use crate::tradeoff::pareto::Goal;
-use crate::tradeoff::smoke::{Timing, View};
 use anyhow::{Result, anyhow, bail};
+use haze_tradeoff::choice::{self, Choice};
+use haze_tradeoff::pareto::Goal;
+use haze_tradeoff::smoke::{Timing, View};
 use haze_view::render::MsDiffusion;
 
 /// The knobs the viewer can start with; a quick sweep turns these alone.
@@ -43,7 +43,7 @@ pub fn choose_knobs(a: &mut ViewArgs, goal: Goal) -> Result<()> {
             (doc, path.display().to_string())
         }
         None => {
-            let input = crate::tradeoff::SmokeInput {
+            let input = haze_tradeoff::SmokeInput {
                 lights: a.env.clone(),
                 sigma_t: a.knobs.sigma_t,
                 albedo: a.knobs.albedo,
@@ -65,7 +65,7 @@ pub fn choose_knobs(a: &mut ViewArgs, goal: Goal) -> Result<()> {
                 a.width,
                 a.height
             );
-            let doc = crate::tradeoff::quick_sweep(&a.input, None, &input, Some(&VIEW_KNOBS))?;
+            let doc = haze_tradeoff::quick_sweep(&a.input, None, &input, Some(&VIEW_KNOBS))?;
             (doc, format!("a quick sweep of {}", a.input.display()))
         }
     };
@@ -180,7 +180,7 @@ mod tests {
             width: 80,
             height: 60,
             fov: 40.0,
-            env: crate::light_args::LightArgs {
+            env: haze_render::lights::Lights {
                 env: "sky".into(),
                 no_sun_extraction: false,
                 sun: Vec::new(),

@@ -16,7 +16,6 @@
 //! ray ending where it meets the ground.
 
 use anyhow::{Result, anyhow, bail};
-use clap::Args;
 use haze_view::lighting::single::RgbSh;
 use haze_view::render::crm::{self, SmokeSample};
 use haze_view::render::{CrmOptions, crm_sources, lights_pass, slice_thickness};
@@ -24,41 +23,27 @@ use haze_view::{Camera, Environment, Medium, Sky};
 use haze_volume::{Bbox, Rbf};
 use std::path::PathBuf;
 
-/// The smoke shown with the fog.
-#[derive(Clone, Debug, Args)]
-pub struct SmokeArgs {
-    /// A baked smoke asset (.haze) shown in the fog, composited by depth: fog in front of
-    /// the smoke hides it, the smoke hides the fog behind it.
-    #[arg(long, value_name = "FILE.haze")]
+/// The smoke shown with the fog: the asset, its frame, where it goes and its medium.
+#[derive(Clone, Debug)]
+pub struct SmokePlacement {
+    /// A baked smoke asset (.haze), composited by depth; `None`: no smoke.
     pub smoke: Option<PathBuf>,
-    /// The asset's frame number to show [default: its first].
-    #[arg(long, value_name = "K", requires = "smoke")]
+    /// The asset's frame number to show (`None`: its first).
     pub smoke_frame: Option<i64>,
-    /// Where the smoke goes: a point p of the asset's world lands at scale·p + offset
-    /// (fog world: Z up, ground at z = 0).
-    #[arg(long, value_name = "X,Y,Z", value_parser = crate::import_args::parse_vec3, allow_hyphen_values = true, default_value = "0,0,0", requires = "smoke")]
+    /// A point p of the asset's world lands at scale·p + offset.
     pub smoke_offset: [f64; 3],
-    /// Uniform scale of the smoke about the asset's world origin; its extinction per world
-    /// unit is divided by it, so it looks the same, only larger.
-    #[arg(long, value_name = "S", default_value_t = 1.0, requires = "smoke")]
+    /// Uniform scale of the smoke about the asset's world origin.
     pub smoke_scale: f64,
     /// The smoke's extinction cross-section per asset unit: κt = σt · density.
-    #[arg(long, default_value_t = 4.0, requires = "smoke")]
     pub smoke_sigma_t: f64,
     /// The smoke's single-scattering albedo, 0..1.
-    #[arg(long, default_value_t = 0.8, requires = "smoke")]
     pub smoke_albedo: f64,
     /// The smoke's Henyey–Greenstein asymmetry, −1..1.
-    #[arg(
-        long,
-        default_value_t = 0.3,
-        allow_hyphen_values = true,
-        requires = "smoke"
-    )]
     pub smoke_g: f64,
 }
 
 /// A smoke frame placed in the fog's world, its source radiance computed.
+#[derive(Debug)]
 pub struct Smoke {
     rbfs: Vec<Rbf>,
     residual: Vec<f32>,
@@ -72,7 +57,7 @@ pub struct Smoke {
     pub label: String,
 }
 
-impl SmokeArgs {
+impl SmokePlacement {
     /// The smoke asked for, loaded, placed and lit; `None` without `--smoke`.
     pub fn load(&self) -> Result<Option<Smoke>> {
         let Some(path) = &self.smoke else {
@@ -93,7 +78,7 @@ impl SmokeArgs {
         }
         let medium = Medium::new(self.smoke_sigma_t / s, self.smoke_albedo, self.smoke_g)
             .map_err(|e| anyhow!("--smoke-sigma-t, --smoke-albedo, --smoke-g: {e}"))?;
-        let frame = crate::render::load_asset(path, self.smoke_frame)?;
+        let frame = crate::frame::load_asset(path, self.smoke_frame)?;
         let off = self.smoke_offset;
         let place = |p: [f64; 3]| [0, 1, 2].map(|a| s * p[a] + off[a]);
         let rbfs: Vec<Rbf> = frame

@@ -1,4 +1,4 @@
-//! `haze render --scene`: a scene file rendered by paper C's analytic single scattering
+//! A scene file rendered (`haze render --scene`) by paper C's analytic single scattering
 //! (crates/scene) on the CPU, or on the GPU with `--gpu` (its `f32` twin,
 //! `haze_scene::gpu`), or by its quadrature reference (`--reference`, CPU); analytic fog
 //! (paper D) composited over that picture at `--time` (`haze_scene::analytic`). Scenes
@@ -8,7 +8,7 @@
 //! single-scattering march through every medium (`haze_scene::march`; on the GPU
 //! `haze_scene::gpu::march`), whose reference is the same march at a quarter of the step.
 
-use crate::render::{OutKind, out_kind};
+use crate::smoke::{OutKind, out_kind};
 use anyhow::{Result, anyhow};
 use haze_gpu::{GpuContext, GpuError};
 use haze_scene::Scene;
@@ -24,9 +24,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 use std::time::Instant;
 
-/// What `haze render --scene` was asked to do.
+/// What a scene render is asked to do.
 #[derive(Debug)]
-pub struct SceneRenderArgs {
+pub struct SceneJob {
     pub scene: PathBuf,
     pub out: PathBuf,
     /// Overrides of the scene camera's image size.
@@ -41,7 +41,7 @@ pub struct SceneRenderArgs {
     pub march: bool,
 }
 
-pub fn run(a: SceneRenderArgs) -> Result<()> {
+pub fn render_scene(a: SceneJob) -> Result<()> {
     let start = Instant::now();
     let kind = out_kind(&a.out)?;
     if !a.time.is_finite() {
@@ -104,7 +104,7 @@ pub fn run(a: SceneRenderArgs) -> Result<()> {
 /// the single-scattering march through
 /// every medium (`haze_scene::march`), shadows of the media on the surfaces included, at
 /// half a voxel per step, or a quarter of that for `--reference`.
-fn run_march(a: &SceneRenderArgs, scene: &Scene, kind: OutKind, start: Instant) -> Result<()> {
+fn run_march(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Result<()> {
     let opt = haze_scene::asset_medium::march_options(scene, a.reference);
     let (w, h) = (scene.camera.width, scene.camera.height);
     let bar = ProgressBar::new(h as u64);
@@ -140,7 +140,7 @@ fn run_march(a: &SceneRenderArgs, scene: &Scene, kind: OutKind, start: Instant) 
 /// `--gpu`: the tables built on the CPU, the image rendered by `haze_scene::gpu` (analytic
 /// fog composited over it by `haze_scene::gpu::analytic`, or marched through with the other
 /// media by `haze_scene::gpu::march`).
-fn run_gpu(a: &SceneRenderArgs, scene: &Scene, kind: OutKind, start: Instant) -> Result<()> {
+fn run_gpu(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Result<()> {
     let gpu_err = |e: GpuError| anyhow!("--gpu: {e}");
     let ctx = GpuContext::new().map_err(gpu_err)?;
     let analytic = Analytic::new(scene);
@@ -192,7 +192,7 @@ fn run_gpu(a: &SceneRenderArgs, scene: &Scene, kind: OutKind, start: Instant) ->
 /// through every medium with `--reference` (a step of a fifth of the smallest Gaussian
 /// radius, at most 0.02; the environment integrated over directions at every sample and
 /// surface point, `paper_b::reference_options`).
-fn run_hetero(a: &SceneRenderArgs, scene: &Scene, kind: OutKind, start: Instant) -> Result<()> {
+fn run_hetero(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Result<()> {
     let fail = |e: String| anyhow!("{}: {e}", a.scene.display());
     let bar = rows_bar(scene.camera.height);
     let progress = |rows: usize| bar.set_position(rows as u64);
@@ -264,7 +264,7 @@ fn rows_bar(rows: usize) -> ProgressBar {
 }
 
 /// Writes the image as `kind` (temp file + rename).
-fn write(a: &SceneRenderArgs, image: Image, kind: OutKind) -> Result<()> {
+fn write(a: &SceneJob, image: Image, kind: OutKind) -> Result<()> {
     let image = haze_view::Image {
         width: image.width,
         height: image.height,

@@ -207,7 +207,10 @@ mod tests {
     use super::*;
 
     fn fog_scene() -> Scene {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/data/scenes/analytic_fog.json");
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../data/scenes/analytic_fog.json"
+        );
         haze_scene::load(std::path::Path::new(path)).unwrap()
     }
 

@@ -1,4 +1,4 @@
-//! `haze view --fog`: a fogmap's wavelet fog (paper E) flown through in a window,
+//! The fog room (`haze view --fog`): a fogmap's wavelet fog (paper E) flown through in a window,
 //! rendered by the GPU fog renderer (`haze_wavelet::gpu::fog`) over its ground and sky.
 //!
 //! The fly camera starts at the fog's default framing (`haze_wavelet::render::framing`,
@@ -11,24 +11,26 @@
 //! changed (GPU render, read back, sRGB encoding; BENCHMARKS.md has its time on
 //! lavapipe).
 //!
-//! With `--smoke FILE.haze` a baked smoke frame stands in the fog (`crate::fog_smoke`:
+//! With `--smoke FILE.haze` a baked smoke frame stands in the fog (`haze_render::fog_smoke`:
 //! placement, lighting): whenever the camera moved, its layer (radiance, transmittance
 //! and depth per pixel) is rendered on the CPU and uploaded, and the GPU composites it
 //! with the fog by depth (`FogRenderer::draw_over`, the twin of
 //! `haze_wavelet::render::shade_over`).
 
-use super::fly::Fly;
-use crate::fog::FogModelArgs;
-use crate::fog_smoke::{Smoke, SmokeArgs};
+mod fly;
+
+use crate::shell::{self, Outcome, Room};
 use anyhow::{Context, Result, anyhow, bail};
 use eframe::egui;
+use fly::Fly;
 use haze_camera::LookAt;
 use haze_gpu::GpuContext;
+use haze_render::fog::FogModel;
+use haze_render::fog_smoke::{Smoke, SmokePlacement};
 use haze_wavelet::gpu::fog::{FogImage, FogRenderer, GpuFog, SmokeLayer};
 use haze_wavelet::render::Scene;
 use haze_wavelet::{Basis, Fog, Fogmap};
 use std::path::PathBuf;
-use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 /// Everything `haze view --fog` was asked to do.
@@ -36,9 +38,9 @@ use std::time::Instant;
 pub struct FogViewArgs {
     /// A fogmap, or a directory of numbered fogmaps (an animation at `fps`).
     pub fogmap: PathBuf,
-    pub model: FogModelArgs,
+    pub model: FogModel,
     /// The smoke shown in the fog, if any.
-    pub smoke: SmokeArgs,
+    pub smoke: SmokePlacement,
     /// Fogmaps per second of a sequence.
     pub fps: f64,
     /// Render resolution.
@@ -96,7 +98,7 @@ impl FogAt {
 struct Renderer {
     /// One fogmap, or a sequence's (all of one size).
     fogmaps: Vec<Fogmap>,
-    model: FogModelArgs,
+    model: FogModel,
     scene: Scene,
     ctx: GpuContext,
     gpu: FogRenderer,
@@ -115,7 +117,7 @@ struct Renderer {
 
 impl Renderer {
     /// The fog of `knobs`, decomposed on the CPU.
-    fn decompose(fogmap: &Fogmap, model: &FogModelArgs, knobs: &FogKnobs) -> Result<Fog, String> {
+    fn decompose(fogmap: &Fogmap, model: &FogModel, knobs: &FogKnobs) -> Result<Fog, String> {
         let mut placement = model.placement(fogmap.width, fogmap.height);
         placement.density = knobs.density;
         placement.falloff = knobs.falloff;
@@ -133,7 +135,7 @@ impl Renderer {
 
     fn new(
         fogmaps: Vec<Fogmap>,
-        model: FogModelArgs,
+        model: FogModel,
         knobs: &FogKnobs,
         (width, height): (usize, usize),
         smoke: Option<Smoke>,
@@ -238,7 +240,7 @@ pub fn run(a: FogViewArgs) -> Result<()> {
     if !a.window && a.play_for.is_none() {
         bail!("--no-window plays only for a while: give --play-for SECONDS");
     }
-    let files = crate::fog::fogmap_files(&a.fogmap)?;
+    let files = haze_render::fog::fogmap_files(&a.fogmap)?;
     if files.len() > 1 && !(a.fps > 0.0 && a.fps.is_finite()) {
         bail!(
             "--fps {}: a sequence of fogmaps needs a positive rate",
@@ -263,7 +265,7 @@ pub fn run(a: FogViewArgs) -> Result<()> {
         fogmaps.push(next);
     }
     let knobs = FogKnobs {
-        basis: a.model.basis(),
+        basis: a.model.basis,
         levels: a.model.levels,
         mu: a.model.mu,
         density: a.model.density,
@@ -293,15 +295,9 @@ pub fn run(a: FogViewArgs) -> Result<()> {
     }
     let title = format!("haze view — {name}");
     let (w, h) = renderer.size();
-    let options = eframe::NativeOptions {
-        viewport: egui::ViewportBuilder::default()
-            .with_title(title.as_str())
-            .with_inner_size([(w as f32 + 320.0).max(1000.0), (h as f32 + 40.0).max(720.0)]),
-        ..Default::default()
-    };
-    let outcome: Arc<Mutex<Option<String>>> = Arc::default();
     let max_levels =
         haze_wavelet::lod::max_levels(renderer.fogmaps[0].width, renderer.fogmaps[0].height);
+    let outcome = Outcome::default();
     let app = FogApp {
         renderer,
         fly: fly.clone(),
@@ -322,19 +318,7 @@ pub fn run(a: FogViewArgs) -> Result<()> {
         times: Vec::new(),
         outcome: outcome.clone(),
     };
-    eframe::run_native(&title, options, Box::new(move |_| Ok(Box::new(app)))).map_err(|e| {
-        anyhow!(
-            "cannot open the viewer window: {}",
-            e.to_string()
-                .split_whitespace()
-                .collect::<Vec<_>>()
-                .join(" ")
-        )
-    })?;
-    if let Some(line) = outcome.lock().ok().and_then(|mut o| o.take()) {
-        println!("{line}");
-    }
-    Ok(())
+    shell::open(&title, (w, h), outcome, move |_| Ok(app))
 }
 
 /// Renders pictures for `seconds`, turning the camera by a degree and letting the fog
@@ -354,7 +338,7 @@ fn fly_without_window(
         let at = start.elapsed().as_secs_f64();
         r.picture(&fly.look_at(), knobs, FogAt::after(at, knobs.wind, fps))?;
         times.push(t.elapsed().as_secs_f64());
-        fly.turn(1f64.to_radians() / super::fly::RADIANS_PER_PIXEL, 0.0);
+        fly.turn(1f64.to_radians() / fly::RADIANS_PER_PIXEL, 0.0);
     }
     Ok(summary(r, times, start.elapsed().as_secs_f64()))
 }
@@ -418,7 +402,7 @@ struct FogApp {
     /// Seconds of each picture rendered.
     times: Vec<f64>,
     /// `--play-for`'s measurement line, printed once the window has closed.
-    outcome: Arc<Mutex<Option<String>>>,
+    outcome: Outcome,
 }
 
 /// Widens `range` to hold `v`.
@@ -551,7 +535,7 @@ impl FogApp {
         match self.renderer.picture(&now.0.look_at(), &now.1, now.2) {
             Ok(rgb) => {
                 let (w, h) = self.renderer.size();
-                super::show_picture(ctx, &mut self.texture, "fog", [w, h], &rgb);
+                shell::show_picture(ctx, &mut self.texture, "fog", [w, h], &rgb);
                 self.error = None;
             }
             Err(e) => self.error = Some(e),
@@ -563,24 +547,31 @@ impl FogApp {
     }
 }
 
-impl eframe::App for FogApp {
-    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
-        let ctx = ui.ctx().clone();
-        let moving = self.advance(&ctx);
-        self.refresh(&ctx);
-        egui::Panel::left("controls")
-            .resizable(false)
-            .default_size(290.0)
-            .show(ui, |ui| {
-                egui::ScrollArea::vertical().show(ui, |ui| self.controls(ui));
-            });
-        egui::CentralPanel::default().show(ui, |ui| self.image(ui));
+impl Room for FogApp {
+    /// Whether the fog or the camera is moving.
+    type Pass = bool;
+
+    fn begin(&mut self, ctx: &egui::Context) -> bool {
+        let moving = self.advance(ctx);
+        self.refresh(ctx);
+        moving
+    }
+
+    fn controls(&mut self, ui: &mut egui::Ui, _: &bool) {
+        self.controls(ui);
+    }
+
+    fn image(&mut self, ui: &mut egui::Ui) {
+        self.image(ui);
+    }
+
+    fn end(&mut self, ctx: &egui::Context, moving: bool) {
         if let Some((opened, seconds)) = self.play_for {
             let left = seconds - opened.elapsed().as_secs_f64();
             if left <= 0.0 {
                 let line = summary(&self.renderer, self.times.clone(), seconds - left);
                 if let Ok(mut o) = self.outcome.lock() {
-                    o.get_or_insert(line);
+                    o.get_or_insert(Ok(line));
                 }
                 ctx.send_viewport_cmd(egui::ViewportCommand::Close);
             } else {
@@ -598,17 +589,30 @@ impl eframe::App for FogApp {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use clap::Parser;
 
-    /// The model flags as `haze view --fog` parses them.
-    #[derive(Parser)]
-    struct Flags {
-        #[command(flatten)]
-        model: FogModelArgs,
+    /// The model `haze view --fog --levels 2` asks for (every other flag at its default).
+    fn levels_2() -> FogModel {
+        FogModel {
+            basis: Basis::Linear,
+            levels: 2,
+            mu: 1.0,
+            min_transmittance: 1.0 / 1024.0,
+            cell: 1.0,
+            origin: None,
+            density: 0.12,
+            bottom: 0.0,
+            top: 8.0,
+            falloff: 0.3,
+            wind: [0.0; 2],
+            fog_color: None,
+        }
     }
 
     fn fogmap() -> Fogmap {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/data/fogmap/fogmap_128.png");
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../data/fogmap/fogmap_128.png"
+        );
         Fogmap::load(std::path::Path::new(path)).unwrap()
     }
 
@@ -622,9 +626,9 @@ mod tests {
     /// of a checker line, as `haze fog wavelet --gpu` documents).
     #[test]
     fn pictures_are_the_cpu_render_of_the_knobs() {
-        let model = Flags::parse_from(["x", "--levels", "2"]).model;
+        let model = levels_2();
         let mut knobs = FogKnobs {
-            basis: model.basis(),
+            basis: model.basis,
             levels: 2,
             mu: 1.0,
             density: model.density,

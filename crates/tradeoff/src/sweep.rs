@@ -1,65 +1,15 @@
-//! `haze tradeoff`: the speed/accuracy curve of every knob on the user's own data. Each
-//! setting is baked and rendered through the code paths of `haze bake`/`haze render`
-//! (smoke) or `haze fog wavelet` (fogmaps) and timed; its error is the rel RMS
-//! (docs/conventions.md "Errors") of its picture against the most accurate setting's. Writes
-//! `tradeoff.json` (every setting and the Pareto front of render time against error) and
-//! plots; `haze render --budget-ms/--target-error` choose from it (`choice`).
+//! The sweep: every knob one at a time around the defaults, then greedy chains from the
+//! defaults towards cheaper and towards more accurate settings; each setting measured,
+//! its error taken against the most accurate setting's picture, and the Pareto front.
 
-pub mod choice;
-pub mod extremes;
-pub mod fog;
-pub mod knobs;
-pub mod pareto;
-pub mod plot;
-pub mod smoke;
-
-use anyhow::{Context, Result, anyhow, bail};
+use crate::knobs::{self, Effect, Knob, Setting};
+use crate::lab::{Lab, Sample};
+use crate::pareto;
+use anyhow::{Result, anyhow};
 use haze_view::Image;
-use knobs::{Effect, Knob, Setting};
 use serde_json::{Map, Value, json};
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
-
-/// What one setting measured.
-#[derive(Debug)]
-pub struct Sample {
-    /// The picture (its size may be a fraction of the full one: the `size` knob).
-    pub image: Image,
-    /// Render milliseconds, the time the front is drawn over.
-    pub render_ms: f64,
-    /// Milliseconds of every stage measured (`bake`, `render` and their parts).
-    pub ms: Value,
-    /// What else the stages reported (fit error, CG iterations).
-    pub detail: Value,
-}
-
-/// A sweepable model of the input: its knobs and how to measure a setting of them.
-pub trait Lab {
-    /// `smoke` or `fogmap`.
-    fn kind(&self) -> &'static str;
-    fn knobs(&self) -> &[Knob];
-    /// Bakes and renders setting `s` (knob indices).
-    fn measure(&mut self, s: &[usize]) -> Result<Sample>;
-    /// The independent reference picture at the full size (`--reference`).
-    fn reference(&mut self, spp: u32) -> Result<Image>;
-    /// The setting that renders `s`: `s` itself, or the nearest one the renderer can run
-    /// (two knob values that cannot go together are mapped as the command line maps
-    /// them), or `Err` saying why `s` cannot run.
-    fn runnable(&self, s: &[usize]) -> std::result::Result<Setting, String> {
-        Ok(s.to_vec())
-    }
-}
-
-/// Keeps only the knobs named in `only` (the others keep their default value alone).
-pub fn restrict(knobs: &mut [Knob], only: &[String]) {
-    for k in knobs.iter_mut() {
-        if !only.iter().any(|n| n == k.name) {
-            k.values = vec![k.values[k.default].clone()];
-            k.default = 0;
-            k.best = 0;
-        }
-    }
-}
+use std::path::Path;
 
 /// `img` resampled bilinearly to `w × h` (pixel centres mapped onto pixel centres), so
 /// that a picture rendered smaller is compared with the full-size one as a user would
@@ -447,7 +397,8 @@ impl Sweep {
         Value::Object(out)
     }
 
-    /// `tradeoff.json` (docs/formats.md "Trade-off sweep"). `medium` describes the scene (σt,
+    /// `tradeoff.json` (docs/formats.md "Trade-off sweep"), the file `haze render
+    /// --budget-ms` and `haze view` read back. `medium` describes the scene (σt,
     /// albedo, g and the light for smoke) and `timing` the renderer the times are of.
     pub fn to_json(&self, input: &Path, frame: Option<i64>, medium: Value, timing: &str) -> Value {
         json!({
@@ -472,221 +423,6 @@ impl Sweep {
             })).collect::<Vec<_>>(),
         })
     }
-}
-
-/// The input kind: fogmaps are images (`.png`, `.exr`) or forced by `--fogmap`.
-pub fn is_fogmap(input: &Path, forced: bool) -> bool {
-    forced
-        || input
-            .extension()
-            .and_then(|e| e.to_str())
-            .is_some_and(|e| e.eq_ignore_ascii_case("png") || e.eq_ignore_ascii_case("exr"))
-}
-
-/// Everything `haze tradeoff` was asked.
-#[derive(Debug)]
-pub struct TradeoffArgs {
-    pub input: PathBuf,
-    pub frame: Option<i64>,
-    pub out: PathBuf,
-    pub reference: bool,
-    pub spp: u32,
-    pub knobs: Option<Vec<String>>,
-    pub quick: bool,
-    pub fogmap: bool,
-    pub extremes: bool,
-    pub smoke: SmokeInput,
-    pub fog_model: crate::fog::FogModelArgs,
-}
-
-/// A smoke sweep's scene: the light, the medium, the camera and the import options.
-#[derive(Debug, Clone)]
-pub struct SmokeInput {
-    pub lights: crate::light_args::LightArgs,
-    pub sigma_t: f64,
-    pub albedo: f64,
-    pub g: f64,
-    pub view: smoke::View,
-    pub import: haze_volume::ImportOptions,
-    /// The renderer the sweep times.
-    pub timing: smoke::Timing,
-}
-
-impl SmokeInput {
-    /// The scene as `tradeoff.json` records it (`medium`): σt, albedo, g and the light
-    /// in words.
-    pub fn medium_json(&self) -> Value {
-        json!({
-            "sigma_t": self.sigma_t,
-            "albedo": self.albedo,
-            "g": self.g,
-            "light": self.lights.describe(),
-        })
-    }
-}
-
-/// Every knob a sweep of `kind` knows, for `--knobs`' message.
-fn check_knob_names(knobs: &[Knob], only: &[String]) -> Result<()> {
-    for n in only {
-        if !knobs.iter().any(|k| k.name == n) {
-            let names: Vec<&str> = knobs.iter().map(|k| k.name).collect();
-            bail!("--knobs: no knob '{n}' here (knobs: {})", names.join(", "));
-        }
-    }
-    Ok(())
-}
-
-/// Opens the smoke lab of `input` (a volume, a sequence's frame or an asset's frame).
-pub fn smoke_lab(
-    input: &Path,
-    frame: Option<i64>,
-    s: &SmokeInput,
-    quick: bool,
-) -> Result<smoke::SmokeLab> {
-    let medium = haze_view::Medium::new(s.sigma_t, s.albedo, s.g).map_err(|e| anyhow!("{e}"))?;
-    let env = s.lights.environment()?;
-    let density = crate::render::load_density(input, frame, &s.import)?;
-    let mut lab = smoke::SmokeLab::new(
-        density,
-        env,
-        medium,
-        s.view,
-        quick,
-        if quick { 1 } else { 2 },
-    );
-    lab.set_timing(s.timing)?;
-    Ok(lab)
-}
-
-/// The renderer a sweep's times are of, in words.
-pub fn timing_name(adapter: Option<String>) -> String {
-    match adapter {
-        Some(a) => format!("GPU: {a}"),
-        None => "CPU".to_string(),
-    }
-}
-
-/// A quick sweep of `input`'s smoke (`--quick`, with a progress bar) for a choice made
-/// on the spot, as `tradeoff.json` would hold it; `only` restricts it to those knobs. An
-/// asset is rendered with its own RBFs (the ones the render will use), not refitted.
-pub fn quick_sweep(
-    input: &Path,
-    frame: Option<i64>,
-    s: &SmokeInput,
-    only: Option<&[&str]>,
-) -> Result<Value> {
-    let mut lab = smoke_lab(input, frame, s, true)?;
-    if input
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("haze"))
-    {
-        lab.use_rbfs(crate::render::load_asset(input, frame)?.rbfs);
-    }
-    if let Some(only) = only {
-        lab.restrict(&only.iter().map(|n| n.to_string()).collect::<Vec<_>>());
-    }
-    let bar = crate::progress::settings_bar();
-    let sweep = run_sweep(&mut lab, smoke_plan(true), Vec::new(), None, &bar)?;
-    let timing = timing_name(lab.adapter());
-    Ok(sweep.to_json(input, frame, s.medium_json(), &timing))
-}
-
-/// The plan of a smoke sweep.
-pub fn smoke_plan(quick: bool) -> Plan {
-    Plan {
-        cheaper_steps: if quick { 3 } else { 10 },
-        accurate_steps: if quick { 1 } else { 4 },
-        factorial: None,
-    }
-}
-
-pub fn run(a: TradeoffArgs) -> Result<()> {
-    if a.extremes {
-        return extremes::run(&a.out);
-    }
-    std::fs::create_dir_all(&a.out)
-        .with_context(|| format!("{}: cannot create the output directory", a.out.display()))?;
-    let fog = is_fogmap(&a.input, a.fogmap);
-    let bar = crate::progress::settings_bar();
-    let (sweep, medium, timing) = if fog {
-        let mut lab = fog::FogLab::open(
-            &a.input,
-            a.fog_model.clone(),
-            a.smoke.view.width,
-            a.smoke.view.height,
-            a.quick,
-            if a.quick { 1 } else { 2 },
-        )?;
-        if let Some(only) = &a.knobs {
-            check_knob_names(lab.knobs(), only)?;
-            lab.restrict(only);
-        }
-        let list = lab.factorial();
-        let plan = Plan {
-            cheaper_steps: 0,
-            accurate_steps: 0,
-            factorial: Some(list.len()),
-        };
-        let sweep = run_sweep(&mut lab, plan, list, a.reference.then_some(0), &bar)?;
-        (
-            sweep,
-            json!({"density": a.fog_model.density, "falloff": a.fog_model.falloff}),
-            "CPU".to_string(),
-        )
-    } else {
-        let mut lab = smoke_lab(&a.input, a.frame, &a.smoke, a.quick)?;
-        if let Some(only) = &a.knobs {
-            check_knob_names(lab.knobs(), only)?;
-            lab.restrict(only);
-        }
-        let sweep = run_sweep(
-            &mut lab,
-            smoke_plan(a.quick),
-            Vec::new(),
-            a.reference.then_some(a.spp),
-            &bar,
-        )?;
-        let timing = timing_name(lab.adapter());
-        (sweep, a.smoke.medium_json(), timing)
-    };
-    let doc = sweep.to_json(&a.input, a.frame, medium, &timing);
-    let path = a.out.join("tradeoff.json");
-    crate::output::write_json(&path, &doc)?;
-    let plots = plot::write_all(&a.out, &sweep)?;
-    print_summary(&sweep, &path, plots, &timing);
-    Ok(())
-}
-
-fn print_summary(sweep: &Sweep, path: &Path, plots: usize, timing: &str) {
-    let default = knobs::defaults(&sweep.knobs);
-    println!(
-        "{}: {} settings measured at {} × {} ({timing}), {} on the front (render ms, error against the best setting):",
-        path.display(),
-        sweep.measured.len(),
-        sweep.size[0],
-        sweep.size[1],
-        sweep.front.len()
-    );
-    for &i in &sweep.front {
-        let m = &sweep.measured[i];
-        println!(
-            "  {:>9.1} ms  {:>7.3} %  {}",
-            m.sample.render_ms,
-            100.0 * m.error,
-            describe_short(&sweep.knobs, &m.setting, &default)
-        );
-    }
-    for (s, why) in &sweep.skipped {
-        println!(
-            "  not measured: {} ({why})",
-            describe_short(&sweep.knobs, s, &default)
-        );
-    }
-    println!(
-        "{plots} plots (SVG and PNG) in {}",
-        path.parent()
-            .map_or_else(String::new, |p| p.display().to_string())
-    );
 }
 
 #[cfg(test)]

@@ -1,0 +1,291 @@
+//! A smoke render: one frame of a baked asset, or a density volume, to an image — by
+//! compensated ray marching on the CPU (paper A §5) or the GPU (every stage), or by the
+//! reference renderer.
+
+use crate::frame::{self, FitKnobs};
+use crate::lights::Lights;
+use crate::progress;
+use anyhow::{Result, anyhow, bail};
+use haze_gpu::GpuContext;
+use haze_view::diffusion::SolveOptions;
+use haze_view::gpu::renderer::{GpuFrame, GpuRenderer, LightingOn};
+use haze_view::gpu::volume_pass::Residual;
+use haze_view::lighting::single::SourcePoints;
+use haze_view::reference::{self, RefOptions};
+use haze_view::render::env_pass::EnvSource;
+use haze_view::render::{CrmOptions, MsDiffusion, crm_render};
+use haze_view::sh::ExpMethod;
+use haze_view::{Camera, Image, Medium};
+use haze_volume::import::ImportOptions;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Everything a smoke render is asked to do.
+#[derive(Debug)]
+pub struct RenderOptions {
+    pub input: PathBuf,
+    pub frame: Option<i64>,
+    pub out: PathBuf,
+    pub width: usize,
+    pub height: usize,
+    pub eye: Option<[f64; 3]>,
+    pub target: Option<[f64; 3]>,
+    pub up: [f64; 3],
+    pub fov: f64,
+    pub env: Lights,
+    pub sigma_t: f64,
+    pub albedo: f64,
+    pub g: f64,
+    pub sh_order: usize,
+    pub multiple: bool,
+    pub residual: bool,
+    pub slices: f64,
+    pub exp: ExpMethod,
+    pub source_points: SourcePoints,
+    /// Where multiple scattering's diffusion is solved.
+    pub diffusion: MsDiffusion,
+    /// Where the environment's single scattering comes from.
+    pub env_source: EnvSource,
+    pub reference: bool,
+    /// Stopping rule of the diffusion solve.
+    pub solve: SolveOptions,
+    /// RBFs of a volume input's fit, and whether it teleports.
+    pub rbfs: usize,
+    pub teleport: bool,
+    /// Render on the GPU (every stage).
+    pub gpu: bool,
+    /// Where `gpu` solves the diffusion.
+    pub lighting: LightingOn,
+    pub spp: u32,
+    pub exposure: f64,
+    pub import: ImportOptions,
+}
+
+/// Renders the frame `a` names and writes the image, printing one line about it.
+pub fn render(a: RenderOptions) -> Result<()> {
+    let start = Instant::now();
+    let kind = out_kind(&a.out)?;
+    let medium = Medium::new(a.sigma_t, a.albedo, a.g).map_err(|e| anyhow!("{e}"))?;
+    check_knobs(a.sh_order, a.slices)?;
+    let env = a.env.environment()?;
+    a.diffusion
+        .check()
+        .map_err(|e| anyhow!("--diffusion {}: {e}", diffusion_name(a.diffusion)))?;
+    if a.gpu && !a.reference && matches!(a.diffusion, MsDiffusion::Grid { .. }) {
+        bail!(
+            "--diffusion grid runs on the CPU only; use --diffusion orders or centers with --gpu"
+        );
+    }
+    if a.gpu
+        && !a.reference
+        && a.multiple
+        && matches!(a.diffusion, MsDiffusion::Orders { .. })
+        && !matches!(a.env_source, EnvSource::Grid(_))
+    {
+        bail!(
+            "--diffusion orders with --gpu is lit by the sky per voxel (--source grid); use --diffusion centers with --source footprint or center"
+        );
+    }
+    // Before any fitting: a machine without an adapter is told at once.
+    let gpu = if a.gpu && !a.reference {
+        let ctx = GpuContext::new().map_err(|e| anyhow!("--gpu: {e}"))?;
+        tracing::info!("GPU: {} ({})", ctx.adapter_name(), ctx.backend());
+        Some(ctx)
+    } else {
+        None
+    };
+    let fit = (!a.reference).then_some(FitKnobs {
+        rbfs: a.rbfs,
+        teleport: a.teleport,
+    });
+    let frame = frame::load(&a.input, a.frame, &a.import, fit)?;
+    let camera = match (a.eye, a.target) {
+        (Some(e), Some(t)) => Camera::new(e, t, a.up, a.fov, a.width, a.height),
+        (None, None) => {
+            let b = frame::smoke_bbox(&frame.density);
+            Camera::framing(b.min, b.max, a.fov, a.width, a.height)
+        }
+        _ => bail!("give both --eye and --target, or neither (to frame the volume)"),
+    }
+    .map_err(|e| anyhow!("camera: {e}"))?;
+    let spinner = progress::spinner(&format!("rendering {}", frame.label));
+    let (image, what) = if a.reference {
+        let opts = RefOptions {
+            spp: a.spp.max(1),
+            multiple: a.multiple,
+            ..RefOptions::default()
+        };
+        let (img, noise) =
+            reference::render_with_noise(&frame.density, &medium, &env, &camera, &opts);
+        let what = format!(
+            "reference {} scattering, {} spp{}",
+            if a.multiple { "multiple" } else { "single" },
+            opts.spp.div_ceil(2) * if opts.spp > 1 { 2 } else { 1 },
+            match noise {
+                Some(n) => format!(", noise ≈ {:.1} % (two seeds)", 100.0 * n),
+                None => String::new(),
+            }
+        );
+        (img, what)
+    } else {
+        let opts = CrmOptions {
+            order: a.sh_order,
+            multiple: a.multiple,
+            residual: a.residual,
+            slices_per_voxel: a.slices,
+            exp: a.exp,
+            source_points: a.source_points,
+            env_source: a.env_source,
+            solve: a.solve,
+            diffusion: a.diffusion,
+            ..CrmOptions::default()
+        };
+        let (dims, bbox) = (frame.density.dims(), frame.density.bbox());
+        let img = if let Some(ctx) = &gpu {
+            // Every stage on the GPU (`gpu::renderer`). The
+            // residual: an asset frame's hash volume, looked up on the GPU; a fitted
+            // volume's dense residual, uploaded.
+            let gpu_err = |e| anyhow!("--gpu: {e}");
+            let t = Instant::now();
+            ctx.time_stages(true);
+            let mut renderer = GpuRenderer::new(ctx, env.clone()).map_err(gpu_err)?;
+            renderer.set_lighting(a.lighting);
+            let setup = t.elapsed().as_secs_f64();
+            let residual = match &frame.slot {
+                Some(slot) => Residual::Hash(slot),
+                None => Residual::Dense(&frame.residual),
+            };
+            let input = GpuFrame {
+                key: 0,
+                rbfs: &frame.rbfs,
+                residual: Some(residual),
+                dims,
+                bbox: *bbox,
+            };
+            let (image, mut stats) = renderer
+                .render(ctx, &input, &medium, &camera, &opts)
+                .map_err(gpu_err)?;
+            let pixels = image.read(ctx).map_err(gpu_err)?;
+            renderer.read_solve(ctx, &mut stats).map_err(gpu_err)?;
+            stats.crm.setup_seconds += setup;
+            tracing::info!("host: {}", stats.crm);
+            if !stats.gpu.is_empty() {
+                let times: Vec<String> = stats
+                    .gpu
+                    .iter()
+                    .map(|(stage, s)| format!("{stage} {:.2} ms", s * 1e3))
+                    .collect();
+                tracing::info!("GPU: {}", times.join(", "));
+            }
+            Image {
+                width: camera.width,
+                height: camera.height,
+                pixels,
+            }
+        } else {
+            let residual = a.residual.then_some(frame.residual.as_slice());
+            let (img, stats) = crm_render(
+                &frame.rbfs,
+                residual,
+                dims,
+                bbox,
+                &medium,
+                &env,
+                &camera,
+                &opts,
+            );
+            tracing::info!("{stats}");
+            img
+        };
+        let what = format!(
+            "compensated ray marching{}, SH order {}, {}{}",
+            match &gpu {
+                Some(ctx) => format!(
+                    " on the GPU ({}; lighting at the centers on the {})",
+                    ctx.adapter_name(),
+                    match a.lighting.resolve(ctx) {
+                        LightingOn::Cpu => "CPU",
+                        _ => "GPU",
+                    }
+                ),
+                None => String::new(),
+            },
+            a.sh_order,
+            if a.multiple {
+                format!(
+                    "single + multiple scattering ({})",
+                    diffusion_name(a.diffusion)
+                )
+            } else {
+                "single scattering".into()
+            },
+            if a.residual { ", residual" } else { "" }
+        );
+        (img, what)
+    };
+    spinner.finish_and_clear();
+    match kind {
+        OutKind::Exr => image.write_exr(&a.out)?,
+        OutKind::Png => image.write_png(&a.out, a.exposure)?,
+    }
+    eprintln!(
+        "{}: {}×{}, {}, {:.2} s",
+        a.out.display(),
+        image.width,
+        image.height,
+        what,
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// The image types a render writes.
+#[derive(Clone, Copy, Debug)]
+pub enum OutKind {
+    Exr,
+    Png,
+}
+
+/// The image type of `out` by its extension.
+pub fn out_kind(out: &Path) -> Result<OutKind> {
+    match out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .as_deref()
+    {
+        Some("exr") => Ok(OutKind::Exr),
+        Some("png") => Ok(OutKind::Png),
+        _ => bail!(
+            "{}: unknown image type (use .exr for linear radiance or .png, tone-mapped)",
+            out.display()
+        ),
+    }
+}
+
+/// Refuses an SH order outside 1..=6 and a slice count per voxel that is not positive.
+pub fn check_knobs(sh_order: usize, slices: f64) -> Result<()> {
+    if !(1..=haze_view::sh::MAX_ORDER).contains(&sh_order) {
+        bail!(
+            "--sh-order {sh_order} must be between 1 and {}",
+            haze_view::sh::MAX_ORDER
+        );
+    }
+    if !(slices > 0.0 && slices.is_finite()) {
+        bail!("--slices {slices} must be a positive number of slices per voxel");
+    }
+    Ok(())
+}
+
+/// `--diffusion`'s spelling of `d`.
+pub fn diffusion_name(d: MsDiffusion) -> String {
+    match d {
+        MsDiffusion::Centers => "centers".into(),
+        MsDiffusion::Grid { factor } => format!("grid:{factor}"),
+        MsDiffusion::Orders {
+            factor: MsDiffusion::AUTO,
+            orders,
+        } => format!("orders:auto:{orders}"),
+        MsDiffusion::Orders { factor, orders } => format!("orders:{factor}:{orders}"),
+    }
+}

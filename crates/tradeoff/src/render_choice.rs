@@ -1,0 +1,297 @@
+//! `--budget-ms`/`--target-error` of a smoke render: the knobs of a render chosen from a
+//! sweep's front.
+
+use super::choice;
+use super::pareto::Goal;
+use anyhow::{Result, anyhow, bail};
+use haze_render::frame::is_asset;
+use haze_render::smoke::RenderOptions;
+use haze_view::lighting::single::SourcePoints;
+use haze_view::render::MsDiffusion;
+use haze_view::render::env_pass::{EnvGridOptions, EnvSource};
+use haze_view::sh::ExpMethod;
+use std::path::Path;
+
+/// Picks the setting for `goal` from the sweep (read, or a quick
+/// one run here) and sets the knobs of `a` to it, printing the choice and why. A sweep
+/// measured at another picture size has its view-pass times rescaled (with a warning).
+pub fn choose_knobs(a: &mut RenderOptions, goal: Goal, tradeoff: Option<&Path>) -> Result<()> {
+    choice::check_goal(goal)?;
+    let (doc, source) = match tradeoff {
+        Some(path) => {
+            let mut doc = choice::read(path)?;
+            if doc.get("kind").and_then(|k| k.as_str()) == Some("fogmap") {
+                bail!(
+                    "{}: a fogmap's sweep cannot choose a smoke render's knobs",
+                    path.display()
+                );
+            }
+            if let Some(warning) = choice::rescale(&mut doc, a.width, a.height)
+                .map_err(|e| anyhow!("{}: {e}", path.display()))?
+            {
+                eprintln!("warning: {}: {warning}", path.display());
+            }
+            if let Some(warning) = choice::timing_mismatch(&doc, false) {
+                eprintln!("warning: {}: {warning}", path.display());
+            }
+            (doc, path.display().to_string())
+        }
+        None => {
+            let input = super::SmokeInput {
+                lights: a.env.clone(),
+                sigma_t: a.sigma_t,
+                albedo: a.albedo,
+                g: a.g,
+                view: super::smoke::View {
+                    eye: a.eye,
+                    target: a.target,
+                    up: a.up,
+                    fov: a.fov,
+                    width: a.width,
+                    height: a.height,
+                },
+                import: a.import.clone(),
+                timing: super::smoke::Timing::Cpu,
+            };
+            // An asset's bake knobs are its own: only the render's are swept.
+            let doc = super::quick_sweep(
+                &a.input,
+                a.frame,
+                &input,
+                is_asset(&a.input).then_some(&RENDER_KNOBS[..]),
+            )?;
+            (doc, format!("a quick sweep of {}", a.input.display()))
+        }
+    };
+    let c = choice::choose(&doc, goal).map_err(|e| anyhow!("{source}: {e}"))?;
+    let asset = is_asset(&a.input);
+    apply_choice(a, &c, !asset);
+    let note = if asset {
+        " (RBF count, teleportation and residual error are the asset's own: bake with them to get the measured error)"
+    } else {
+        ""
+    };
+    eprintln!("choice from {source}: {}{note}", c.reason);
+    Ok(())
+}
+
+/// The knobs of a render (the others are the bake's).
+const RENDER_KNOBS: [&str; 9] = [
+    "sh_order",
+    "exp",
+    "source",
+    "cg_iterations",
+    "slices",
+    "size",
+    "multiple",
+    "residual",
+    "diffusion",
+];
+
+/// Sets the knobs of `a` that choice `c` names; the fit's (RBF count, teleportation)
+/// only when `fit` (a volume input, fitted here).
+fn apply_choice(a: &mut RenderOptions, c: &choice::Choice, fit: bool) {
+    if let Some(v) = choice::f64_knob(c, "sh_order") {
+        a.sh_order = v as usize;
+    }
+    if let Some(v) = choice::str_knob(c, "exp") {
+        a.exp = if v == "linear" {
+            ExpMethod::OptimalLinear
+        } else {
+            ExpMethod::ScaleSquareAuto
+        };
+    }
+    if let Some(v) = choice::str_knob(c, "source") {
+        // "grid": the environment pass (at the spacing asked for, else the default);
+        // "footprint" and "center": paper A's sources at the centers.
+        a.source_points = if v == "center" {
+            SourcePoints::Center
+        } else {
+            SourcePoints::Footprint
+        };
+        if v != "grid" {
+            a.env_source = EnvSource::Centers;
+        } else if a.env_source == EnvSource::Centers {
+            a.env_source = EnvSource::Grid(EnvGridOptions::default());
+        }
+    }
+    if let Some(v) = choice::f64_knob(c, "cg_iterations") {
+        a.solve.max_iterations = v as u32;
+    }
+    if let Some(v) = choice::f64_knob(c, "slices") {
+        a.slices = v;
+    }
+    if let Some(v) = choice::bool_knob(c, "multiple") {
+        a.multiple = v;
+    }
+    if let Some(v) = choice::bool_knob(c, "residual") {
+        a.residual = v;
+    }
+    // The multiple-scattering model the chosen setting was measured with; a sweep
+    // without the knob (written before it) timed the centers' diffusion.
+    a.diffusion = match choice::str_knob(c, "diffusion") {
+        Some(v) => v.parse().unwrap_or(a.diffusion),
+        None => MsDiffusion::Centers,
+    };
+    if let Some(v) = choice::f64_knob(c, "size") {
+        a.width = ((a.width as f64 * v).round() as usize).max(8);
+        a.height = ((a.height as f64 * v).round() as usize).max(8);
+    }
+    if fit {
+        if let Some(v) = choice::f64_knob(c, "rbfs") {
+            a.rbfs = v as usize;
+        }
+        if let Some(v) = choice::bool_knob(c, "teleport") {
+            a.teleport = v;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use haze_render::lights::Lights;
+    use haze_view::diffusion::SolveOptions;
+    use haze_view::gpu::renderer::LightingOn;
+    use haze_volume::import::ImportOptions;
+    use serde_json::{Value, json};
+    use std::path::PathBuf;
+
+    fn args() -> RenderOptions {
+        RenderOptions {
+            input: PathBuf::from("smoke.vdb"),
+            frame: None,
+            out: PathBuf::from("out.png"),
+            width: 400,
+            height: 300,
+            eye: None,
+            target: None,
+            up: [0.0, 0.0, 1.0],
+            fov: 40.0,
+            env: Lights {
+                env: "sky".into(),
+                no_sun_extraction: false,
+                sun: Vec::new(),
+                light: Vec::new(),
+            },
+            sigma_t: 4.0,
+            albedo: 0.8,
+            g: 0.3,
+            sh_order: 4,
+            multiple: true,
+            diffusion: MsDiffusion::DEFAULT,
+            env_source: EnvSource::Grid(EnvGridOptions::default()),
+            residual: true,
+            slices: 2.0,
+            exp: ExpMethod::ScaleSquareAuto,
+            source_points: SourcePoints::Footprint,
+            reference: false,
+            solve: SolveOptions::default(),
+            rbfs: 300,
+            teleport: true,
+            gpu: false,
+            lighting: LightingOn::Auto,
+            spp: 64,
+            exposure: 1.0,
+            import: ImportOptions::default(),
+        }
+    }
+
+    /// A sweep of the `exp`, `source` and `cg_iterations` knobs where changing `knob` to
+    /// `value` alone is the fastest setting: the best (slow, exact), the defaults, and
+    /// that change.
+    fn front_decided_by(knob: &str, value: Value) -> Value {
+        let defaults = json!({"exp": "square", "source": "footprint", "cg_iterations": 20,
+                              "diffusion": "orders:auto:4"});
+        let best = json!({"exp": "square", "source": "footprint", "cg_iterations": 500,
+                          "diffusion": "orders:auto:4"});
+        let mut changed = defaults.clone();
+        changed[knob] = value;
+        json!({
+            "kind": "smoke",
+            "size": [400, 300],
+            "knobs": [
+                {"name": "exp", "values": ["square", "linear"], "default": "square", "best": "square"},
+                {"name": "source", "values": ["footprint", "center"], "default": "footprint", "best": "footprint"},
+                {"name": "cg_iterations", "values": [5, 20, 500], "default": 20, "best": 500},
+                {"name": "diffusion", "values": ["centers", "orders:3:3", "orders:auto:4"],
+                 "default": "orders:auto:4", "best": "orders:auto:4"},
+            ],
+            "settings": [
+                {"knobs": best, "ms": {"render": 300.0, "view": 100.0}, "error": 0.0},
+                {"knobs": defaults, "ms": {"render": 100.0, "view": 100.0}, "error": 0.01},
+                {"knobs": changed, "ms": {"render": 50.0, "view": 50.0}, "error": 0.02},
+            ],
+        })
+    }
+
+    /// Each of the exp variant, the source placement, the CG iterations and the
+    /// multiple-scattering model, when it is the knob that meets the budget, is chosen and
+    /// reaches the render's options; a sweep without the `diffusion` knob (which timed
+    /// the centers' diffusion) renders with the centers.
+    #[test]
+    fn exp_source_cg_and_diffusion_choices_reach_the_render() {
+        type Applied = fn(&RenderOptions) -> bool;
+        let cases: [(&str, Value, Applied); 5] = [
+            ("exp", json!("linear"), |a| {
+                a.exp == ExpMethod::OptimalLinear
+            }),
+            ("source", json!("center"), |a| {
+                a.source_points == SourcePoints::Center
+            }),
+            ("cg_iterations", json!(5), |a| a.solve.max_iterations == 5),
+            ("diffusion", json!("centers"), |a| {
+                a.diffusion == MsDiffusion::Centers
+            }),
+            ("diffusion", json!("orders:3:3"), |a| {
+                a.diffusion
+                    == MsDiffusion::Orders {
+                        factor: 3,
+                        orders: 3,
+                    }
+            }),
+        ];
+        for (knob, value, applied) in cases {
+            let doc = front_decided_by(knob, value.clone());
+            let mut a = args();
+            assert!(!applied(&a), "{knob}: already at the choice");
+            // Within 60 ms only the change is; within 150 ms the defaults are better.
+            let c = choice::choose(&doc, Goal::BudgetMs(60.0)).unwrap();
+            assert_eq!(c.knobs[knob], value);
+            apply_choice(&mut a, &c, true);
+            assert!(applied(&a), "{knob}: {a:?}");
+            assert!(c.reason.contains("50.0 ms at 2.00 %"), "{}", c.reason);
+            let mut a = args();
+            let c = choice::choose(&doc, Goal::BudgetMs(150.0)).unwrap();
+            apply_choice(&mut a, &c, true);
+            assert!(!applied(&a), "{knob}: {a:?}");
+            // A target of 1.5 % is met by the defaults alone.
+            let c = choice::choose(&doc, Goal::TargetError(0.015)).unwrap();
+            assert_ne!(c.knobs[knob], value);
+        }
+        let mut old = front_decided_by("exp", json!("linear"));
+        for s in old["settings"].as_array_mut().unwrap() {
+            s["knobs"].as_object_mut().unwrap().remove("diffusion");
+        }
+        let mut a = args();
+        apply_choice(
+            &mut a,
+            &choice::choose(&old, Goal::BudgetMs(150.0)).unwrap(),
+            true,
+        );
+        assert_eq!(a.diffusion, MsDiffusion::Centers);
+        // The reason names the model in words.
+        let c = choice::choose(
+            &front_decided_by("diffusion", json!("orders:3:3")),
+            Goal::BudgetMs(60.0),
+        )
+        .unwrap();
+        assert!(
+            c.reason.contains(
+                "multiple scattering by explicit orders (3 orders on cells of 3³ voxels)"
+            ),
+            "{}",
+            c.reason
+        );
+    }
+}

@@ -1,0 +1,131 @@
+//! `haze tradeoff`'s flags, converted into `haze_tradeoff`'s options.
+
+use crate::fog::FogModelArgs;
+use crate::import_args::{ImportArgs, parse_vec3};
+use crate::light_args::{LightArgs, LightingArg};
+use anyhow::Result;
+use haze_tradeoff::smoke::{Timing, View};
+use haze_tradeoff::{SmokeInput, TradeoffArgs};
+use std::path::PathBuf;
+
+#[derive(Debug, clap::Args)]
+pub struct TradeoffCli {
+    /// A volume file, a directory or glob of numbered frames, a .haze asset, or a fogmap.
+    #[arg(required_unless_present = "extremes")]
+    input: Option<PathBuf>,
+    /// Source frame number (default: the first).
+    #[arg(long)]
+    frame: Option<i64>,
+    /// Directory for tradeoff.json and the plots (created if missing).
+    #[arg(long, short)]
+    out: PathBuf,
+    /// Also measure every setting against the reference renderer (path tracing at --spp;
+    /// for a fogmap the exact integral of the map).
+    #[arg(long)]
+    reference: bool,
+    /// Samples per pixel of --reference.
+    #[arg(long, default_value_t = 64)]
+    spp: u32,
+    /// Sweep only these knobs (comma-separated names, as tradeoff.json lists them); the
+    /// others keep their defaults.
+    #[arg(long, value_delimiter = ',', value_name = "LIST")]
+    knobs: Option<Vec<String>>,
+    /// Fewer values per knob and shorter chains (seconds instead of minutes).
+    #[arg(long)]
+    quick: bool,
+    /// Treat INPUT as a fogmap (.png and .exr always are).
+    #[arg(long)]
+    fogmap: bool,
+    /// Run the extreme cases instead (no INPUT).
+    #[arg(long, conflicts_with_all = ["input", "reference", "knobs", "quick", "gpu"])]
+    extremes: bool,
+    /// Time the renders with every stage on the GPU (`haze render --gpu`, the viewer's
+    /// renderer; each render a new frame) instead of on the CPU.
+    #[arg(long)]
+    gpu: bool,
+    /// With --gpu: where the lighting at the RBF centers is computed (as `haze render`).
+    #[arg(long, value_enum, default_value_t = LightingArg::Auto, requires = "gpu")]
+    lighting: LightingArg,
+    /// Full picture width (the size knob renders fractions of it).
+    #[arg(long, default_value_t = 160)]
+    width: usize,
+    /// Full picture height.
+    #[arg(long, default_value_t = 120)]
+    height: usize,
+    /// Camera position (world units), with --target.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
+    eye: Option<[f64; 3]>,
+    /// Point the camera looks at, with --eye.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
+    target: Option<[f64; 3]>,
+    /// Camera up vector.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, default_value = "0,0,1", allow_hyphen_values = true)]
+    up: [f64; 3],
+    /// Vertical field of view, degrees.
+    #[arg(long, default_value_t = 40.0)]
+    fov: f64,
+    #[command(flatten)]
+    lights: LightArgs,
+    /// Extinction cross-section: κt = σt · density.
+    #[arg(long, default_value_t = 4.0)]
+    sigma_t: f64,
+    /// Single-scattering albedo, 0..1.
+    #[arg(long, default_value_t = 0.8)]
+    albedo: f64,
+    /// Henyey–Greenstein asymmetry, −1..1.
+    #[arg(long, default_value_t = 0.3, allow_hyphen_values = true)]
+    g: f64,
+    #[command(flatten)]
+    import: ImportArgs,
+    #[command(flatten, next_help_heading = "Fog (fogmap input)")]
+    fog_model: FogModelArgs,
+}
+
+impl TradeoffCli {
+    fn into_args(self) -> Result<TradeoffArgs> {
+        if !(1..=4096).contains(&self.width) || !(1..=4096).contains(&self.height) {
+            anyhow::bail!(
+                "--width {} --height {}: each must be between 1 and 4096",
+                self.width,
+                self.height
+            );
+        }
+        Ok(TradeoffArgs {
+            input: self.input.unwrap_or_default(),
+            frame: self.frame,
+            out: self.out,
+            reference: self.reference,
+            spp: self.spp,
+            knobs: self.knobs,
+            quick: self.quick,
+            fogmap: self.fogmap,
+            extremes: self.extremes,
+            smoke: SmokeInput {
+                lights: self.lights.into(),
+                sigma_t: self.sigma_t,
+                albedo: self.albedo,
+                g: self.g,
+                view: View {
+                    eye: self.eye,
+                    target: self.target,
+                    up: self.up,
+                    fov: self.fov,
+                    width: self.width,
+                    height: self.height,
+                },
+                import: self.import.options(),
+                timing: if self.gpu {
+                    Timing::Gpu(self.lighting.into())
+                } else {
+                    Timing::Cpu
+                },
+            },
+            fog_model: self.fog_model.into(),
+        })
+    }
+}
+
+/// `haze tradeoff`: the sweep (or the extreme cases), its file and plots.
+pub fn run(t: TradeoffCli) -> Result<()> {
+    haze_tradeoff::run(t.into_args()?)
+}
