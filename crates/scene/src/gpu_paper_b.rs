@@ -40,9 +40,9 @@ use crate::airlight::Limits;
 use crate::gpu::GpuRenderer;
 use crate::paper_b::Prepared;
 use crate::render::Image;
+use crate::vec3::{norm, sub};
 use haze_gaussians::airlight::cull_radius;
 use haze_gaussians::noise::{Noise, Perlin};
-use haze_gaussians::vec::{norm, sub};
 use haze_view::gpu::{GpuContext, GpuError, buffer_init, compute_pipeline};
 
 /// `shaders/paper_b.wgsl`.

@@ -35,9 +35,9 @@ pub mod render;
 pub mod scene;
 pub mod special;
 pub mod table;
-pub mod vec3;
 pub mod voxel_grid;
 
 pub use file::{SceneError, load};
 pub use haze_camera::Camera;
+pub use haze_core::vec3;
 pub use scene::{Environment, Light, Material, Medium, Rgb, Scene, Shape, Surface};

@@ -29,35 +29,7 @@ use rayon::prelude::*;
 use std::f64::consts::PI;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-/// Linear RGB radiance, row 0 the top.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Image {
-    pub width: usize,
-    pub height: usize,
-    pub pixels: Vec<[f32; 3]>,
-}
-
-impl Image {
-    /// DESIGN.md's image error against `reference`: `sqrt(Σ|a − b|²/Σ|b|²)` over all
-    /// channels (0 for two black images).
-    pub fn rel_rms(&self, reference: &Image) -> f64 {
-        let (mut d, mut n) = (0.0, 0.0);
-        for (a, b) in self.pixels.iter().zip(&reference.pixels) {
-            for c in 0..3 {
-                let (a, b) = (f64::from(a[c]), f64::from(b[c]));
-                d += (a - b) * (a - b);
-                n += b * b;
-            }
-        }
-        if n > 0.0 {
-            (d / n).sqrt()
-        } else if d == 0.0 {
-            0.0
-        } else {
-            f64::INFINITY
-        }
-    }
-}
+pub use haze_core::Image;
 
 /// How the point lights' scattered terms are computed, per unit intensity and channel.
 pub trait Model: Sync {

@@ -7,8 +7,7 @@ use crate::vec3::{Vec3, dot, sub};
 use haze_view::LatLong;
 use std::sync::Arc;
 
-/// Linear RGB.
-pub type Rgb = [f64; 3];
+pub use haze_core::Rgb;
 
 /// A whole scene.
 #[derive(Clone, Debug, PartialEq)]
@@ -27,7 +26,9 @@ pub struct Scene {
     pub surfaces: Vec<Surface>,
 }
 
-/// Radiance seen where rays leave the scene.
+/// Radiance seen where rays leave the scene: the scene file's `"environment"`, distant
+/// radiance only (the scene's suns and point lights are its [`Light`]s; not
+/// `haze_view::Environment`, which lights a smoke asset and carries its own lights).
 #[derive(Clone, Debug, PartialEq)]
 pub enum Environment {
     /// `null`: black.
