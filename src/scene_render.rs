@@ -11,13 +11,13 @@
 use crate::render::{OutKind, out_kind};
 use anyhow::{Result, anyhow};
 use haze_scene::Scene;
-use haze_scene::airlight::Limits;
 use haze_scene::analytic;
 use haze_scene::gpu::GpuRenderer;
 use haze_scene::gpu_analytic::GpuAnalytic;
 use haze_scene::gpu_paper_b::GpuPaperB;
 use haze_scene::march;
 use haze_scene::paper_b::{self, PaperBOptions, Prepared};
+use haze_scene::paper_c::airlight::Limits;
 use haze_scene::render::{Analytic, Image, Model, Reference};
 use haze_view::gpu::{GpuContext, GpuError};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -105,7 +105,7 @@ pub fn run(a: SceneRenderArgs) -> Result<()> {
 /// every medium (`haze_scene::march`), shadows of the media on the surfaces included, at
 /// half a voxel per step, or a quarter of that for `--reference`.
 fn run_march(a: &SceneRenderArgs, scene: &Scene, kind: OutKind, start: Instant) -> Result<()> {
-    let opt = haze_scene::asset_medium::march_options(scene, a.reference);
+    let opt = haze_scene::march::march_options(scene, a.reference);
     let (w, h) = (scene.camera.width, scene.camera.height);
     let bar = ProgressBar::new(h as u64);
     bar.set_style(
@@ -199,7 +199,7 @@ fn run_hetero(a: &SceneRenderArgs, scene: &Scene, kind: OutKind, start: Instant)
     let (image, what) = if a.reference {
         let opt = paper_b::reference_options(scene, paper_b::REFERENCE_THETA);
         let image = march::render(scene, &Limits::default(), &opt, &progress);
-        let env = if opt.env == haze_scene::env_smoke::EnvLight::None {
+        let env = if opt.env == haze_scene::march::env_smoke::EnvLight::None {
             String::new()
         } else {
             format!(

@@ -18,8 +18,8 @@ use haze_scene::edit::emitter::{EmitParams, Emitter};
 use haze_scene::edit::eraser::{EraseParams, Eraser};
 use haze_scene::edit::paintbrush::{PaintParams, Paintbrush};
 use haze_scene::edit::{Document, Draft, Target, file, plane};
-use haze_scene::gaussian_medium::GaussianMediumOf;
 use haze_scene::media::HeteroMedium;
+use haze_scene::media::gaussians::GaussianMediumOf;
 use haze_scene::{Camera, Scene};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -755,7 +755,11 @@ mod tests {
         let cpu = |knobs: &SceneKnobs, editor: &Editor| {
             let scene = r.scene(&orbit, knobs, Some(editor)).unwrap();
             let prep = Prepared::new(&scene, &r.analytic, PaperBOptions::default()).unwrap();
-            paper_b::render(&prep, &haze_scene::airlight::Limits::default(), &|_| {})
+            paper_b::render(
+                &prep,
+                &haze_scene::paper_c::airlight::Limits::default(),
+                &|_| {},
+            )
         };
         let n = after.pixels.len();
         assert!(differ(&after, &cpu(&knobs, &editor), 1e-3) <= n / 100);

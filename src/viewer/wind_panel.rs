@@ -14,11 +14,11 @@
 
 use eframe::egui;
 use haze_scene::Scene;
-use haze_scene::airlight::Limits;
-use haze_scene::analytic::AnalyticMedium;
 use haze_scene::gpu::GpuRenderer;
 use haze_scene::gpu_analytic::GpuAnalytic;
 use haze_scene::media::HeteroMedium;
+use haze_scene::media::analytic::AnalyticMedium;
+use haze_scene::paper_c::airlight::Limits;
 use haze_scene::render::Image;
 use haze_view::gpu::{GpuContext, GpuError};
 use std::sync::Arc;

@@ -15,8 +15,8 @@
 //! (rayon on every core). As a check, the share of pixels where GPU and CPU differ beyond
 //! crates/scene's test tolerance is printed.
 
-use haze_scene::airlight::Limits;
 use haze_scene::gpu::GpuRenderer;
+use haze_scene::paper_c::airlight::Limits;
 use haze_scene::render::{Analytic, Image, render};
 use haze_scene::{Light, Scene};
 use haze_view::gpu::GpuContext;

@@ -31,11 +31,11 @@
 //! `--scene FILE` times that scene instead (its camera at `--size`).
 
 use haze_gaussians::cloud;
-use haze_scene::airlight::Limits;
 use haze_scene::gpu::GpuRenderer;
 use haze_scene::gpu_paper_b::GpuPaperB;
 use haze_scene::march;
 use haze_scene::paper_b::{self, PaperBOptions, Prepared};
+use haze_scene::paper_c::airlight::Limits;
 use haze_scene::render::{Analytic, Image};
 use haze_scene::{Scene, file};
 use haze_view::gpu::GpuContext;

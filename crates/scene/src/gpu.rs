@@ -6,7 +6,7 @@
 //!
 //! Uploads (once, [`GpuRenderer::new`]): the tables in one storage buffer, `K` then `G0`
 //! then the `Gn` of the scene's Phong exponents, read by bilinear interpolation in the
-//! shader exactly as [`crate::table::Table2::at`] reads them on the CPU (a filtered
+//! shader exactly as [`crate::paper_c::table::Table2::at`] reads them on the CPU (a filtered
 //! texture would not do: GPUs interpolate with 8-bit fractions, an error of up to 1/512
 //! of a cell's difference). Per frame ([`GpuRenderer::render`]): the camera, medium and
 //! environment (a uniform), the lights and surfaces (storage), the meshes' hierarchies and
@@ -19,10 +19,10 @@
 //! below `f32`'s resolution; and environments at `∞` are flagged, not carried as `∞`
 //! (WGSL does not promise infinities), finite ones beyond `10³⁰` clamped there.
 
-use crate::airlight::Limits;
-use crate::envglow;
-use crate::htable::HTable;
 use crate::mesh::Mesh;
+use crate::paper_c::airlight::Limits;
+use crate::paper_c::envglow;
+use crate::paper_c::htable::HTable;
 use crate::render::{Analytic, Image};
 use crate::scene::{Environment, Light, Scene, Shape};
 use haze_view::gpu::{GpuContext, GpuError, buffer_init, compute_pipeline, submit_pass};
@@ -68,7 +68,7 @@ pub struct GpuRenderer {
     /// The march of scenes with voxel media ([`crate::gpu_march`]), compiled for the first.
     march: std::sync::OnceLock<wgpu::ComputePipeline>,
     /// The environment's light on the voxel media, kept between frames.
-    env: crate::env_smoke::Cache,
+    env: crate::march::env_smoke::Cache,
     /// The rasterized renderer's passes ([`crate::raster`]), compiled for its first frame.
     raster: std::sync::OnceLock<crate::raster::RasterPipelines>,
     /// The `K` table, for the environment's glow ([`EnvGlow`](envglow::EnvGlow)).
@@ -304,7 +304,7 @@ impl GpuRenderer {
                 m.name()
             )));
         }
-        let mut opt = crate::asset_medium::march_steps(scene, false);
+        let mut opt = crate::march::march_steps(scene, false);
         opt.env = self.env.light(scene);
         let Some(march) = crate::gpu_march::MarchInput::of(scene, scene.camera.eye, &opt)? else {
             return self.pass(ctx, scene, lim, &self.pipeline, None, &[], rasterize, None);

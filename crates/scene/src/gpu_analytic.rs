@@ -11,8 +11,8 @@
 //! ([`crate::analytic::fog_colours`]: the ambient light is an average over the sphere,
 //! computed once per frame, not per pixel).
 
-use crate::airlight::Limits;
 use crate::gpu::GpuRenderer;
+use crate::paper_c::airlight::Limits;
 use crate::render::Image;
 use crate::scene::Scene;
 use haze_view::gpu::{GpuContext, GpuError, buffer_init, compute_pipeline};

@@ -1,7 +1,7 @@
 //! The single-scattering march on the GPU (`shaders/march.wgsl`): the `f32` twin of
 //! [`crate::march::radiance`] for scenes whose heterogeneous media are voxel grids
-//! ([`crate::voxel_grid::VoxelGrid`], smoke assets) and analytic fogs
-//! ([`crate::analytic::AnalyticMedium`], paper D), alone or together.
+//! ([`crate::media::voxel_grid::VoxelGrid`], smoke assets) and analytic fogs
+//! ([`crate::media::analytic::AnalyticMedium`], paper D), alone or together.
 //! [`crate::gpu::GpuRenderer::render`] takes this path for such scenes (paper D's
 //! composite of analytic fogs alone is [`crate::gpu_analytic`]'s); the camera, lights,
 //! surfaces and meshes travel in the
@@ -16,7 +16,7 @@
 //! with Simpson's rule per piece ([`VoxelGrid::density_integral`]) —, shadow rays towards
 //! every light through the grids (smoke → surfaces and smoke → itself), Henyey–Greenstein
 //! phase, and the environment's light from the precomputed SH grid
-//! ([`crate::env_smoke`], `shaders/env_smoke.wgsl`). What differs from the CPU beyond `f32`: a surface point's shadow rays test the
+//! ([`crate::march::env_smoke`], `shaders/env_smoke.wgsl`). What differs from the CPU beyond `f32`: a surface point's shadow rays test the
 //! surfaces' visibility from [`crate::gpu::SHADOW_OFFSET`] (relative) off it, as paper
 //! C's renderer does, the media's optical depth still from the point itself (from the
 //! offset point the shadow of dense smoke would move by as much, a visible error at its
@@ -31,8 +31,8 @@
 //! dispatch has its own budget. Real GPUs have no such limit (the extra dispatches cost
 //! them a primary ray per pixel each).
 
-use crate::env_smoke::EnvLight;
 use crate::march::MarchOptions;
+use crate::march::env_smoke::EnvLight;
 use crate::scene::Scene;
 use crate::vec3::Vec3;
 use haze_view::gpu::{GpuContext, GpuError, buffer_init, compute_pipeline};
@@ -40,7 +40,7 @@ use haze_view::gpu::{GpuContext, GpuError, buffer_init, compute_pipeline};
 /// The march's own part of the shader.
 const MARCH: &str = include_str!("../shaders/march.wgsl");
 
-/// The environment's light on the media ([`crate::env_smoke`]), appended after the march.
+/// The environment's light on the media ([`crate::march::env_smoke`]), appended after the march.
 const ENV_SMOKE: &str = include_str!("../shaders/env_smoke.wgsl");
 
 /// The march's `(steps per dispatch, dispatches)` for `scene` marched with `opt`: a
@@ -120,7 +120,7 @@ pub fn pipeline(ctx: &GpuContext) -> Result<wgpu::ComputePipeline, GpuError> {
 
 /// What the march adds to paper C's buffers: the grids' values and their records (the
 /// shader's `grid` and `media` bindings), the environment's grid of SH coefficients
-/// ([`crate::env_smoke::EnvGrid`]) after the voxel grids, the analytic fogs' records
+/// ([`crate::march::env_smoke::EnvGrid`]) after the voxel grids, the analytic fogs' records
 /// after the grids' (layout in `shaders/march.wgsl`).
 #[derive(Clone, Debug)]
 pub struct MarchInput {

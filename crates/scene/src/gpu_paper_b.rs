@@ -23,7 +23,7 @@
 //! Frames of at most 32 Gaussians take the same shader without the lists (every sum
 //! exact, no workgroup barriers: on lavapipe their mere presence costs ~30 %).
 //!
-//! The environment ([`crate::gaussian_env`]): the CPU uploads each Gaussian's
+//! The environment ([`crate::paper_b::gaussian_env`]): the CPU uploads each Gaussian's
 //! `αᵢ·Ēᵢ·e^{Eᵢ}` and `(Ē, β_bg·D)`; the shader adds `e^{−Tᵢ(v,bᵢʳ) − T̄ᵢ(bᵢʳ)}·Tᵢ(v,p)`
 //! times it per Gaussian the ray gathers, and dims render.wgsl's SH lighting of surfaces
 //! (paper C's, the same `EnvGlow`) by `e^{−T̄(p)}`, `T̄(p)` summed over the Gaussians
@@ -36,9 +36,9 @@
 //! scale `gain·rᵢ/|v − bᵢ|` (in `f64` on the CPU), and the shader perturbs the direction
 //! of `Tᵢ(v,p)` in the camera frame as [`haze_gaussians::noise::Noise::perturb`] does.
 
-use crate::airlight::Limits;
 use crate::gpu::GpuRenderer;
 use crate::paper_b::Prepared;
+use crate::paper_c::airlight::Limits;
 use crate::render::Image;
 use crate::vec3::{norm, sub};
 use haze_gaussians::airlight::cull_radius;
@@ -141,7 +141,7 @@ impl GpuPaperB {
         for l in &prep.lights {
             bexp.push([l.c_sv as f32, 0.0, 0.0, 0.0]);
         }
-        // The environment (crate::gaussian_env): αᵢ·Ēᵢ·e^{Eᵢ} per Gaussian, then (Ē, β_bg·D).
+        // The environment (crate::paper_b::gaussian_env): αᵢ·Ēᵢ·e^{Eᵢ} per Gaussian, then (Ē, β_bg·D).
         let env_flag = match &prep.env {
             Some(env) => {
                 for e in &env.center {

@@ -24,10 +24,10 @@
 //! REL·|L_traced| + FLOOR·L̄`, `L̄` the traced image's mean; `REL = 10⁻⁴` (measured on
 //! lavapipe: 0, the pictures bit-identical, printed per case), `FLOOR = 10⁻⁶`.
 
-use haze_scene::airlight::Limits;
 use haze_scene::gpu::GpuRenderer;
+use haze_scene::paper_c::airlight::Limits;
 use haze_scene::render::Analytic;
-use haze_scene::{Scene, model};
+use haze_scene::{Scene, mesh::model};
 use haze_view::gpu::GpuContext;
 
 mod common;

@@ -4,9 +4,9 @@
 //! Gaussians, and the noise's switches.
 
 use haze_gaussians::cloud;
-use haze_scene::airlight::Limits;
 use haze_scene::march::{self, MarchOptions};
 use haze_scene::paper_b::{self, PaperBOptions, Prepared};
+use haze_scene::paper_c::airlight::Limits;
 use haze_scene::render::{self, Analytic, Image};
 use haze_scene::scene::Environment;
 use haze_scene::{Scene, file};

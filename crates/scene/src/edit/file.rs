@@ -4,7 +4,7 @@
 //! through a temporary file beside the destination renamed over it; [`load`] reads the
 //! Gaussians of a scene file's `which`-th Gaussian medium.
 
-use crate::gaussian_medium::GaussianMediumOf;
+use crate::media::gaussians::GaussianMediumOf;
 use crate::scene::Scene;
 use haze_gaussians::Gaussian;
 use serde_json::{Value, json};

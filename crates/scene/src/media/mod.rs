@@ -5,6 +5,11 @@
 //! in [`crate::Medium`] (paper C's analytic model); these add their extinction where they
 //! overlap it.
 
+pub mod analytic;
+pub mod asset;
+pub mod gaussians;
+pub mod voxel_grid;
+
 use crate::scene::Rgb;
 use crate::vec3::Vec3;
 use std::fmt;
@@ -61,15 +66,15 @@ pub trait Heterogeneous: Send + Sync + fmt::Debug {
     fn bounds(&self) -> Option<Aabb>;
     /// The extinction as a voxel grid when that is what the medium is (a smoke asset):
     /// the GPU renderer uploads it. `None` for media of another kind.
-    fn voxels(&self) -> Option<&crate::voxel_grid::VoxelGrid> {
+    fn voxels(&self) -> Option<&crate::media::voxel_grid::VoxelGrid> {
         None
     }
     /// The medium as a sum of Gaussians, for paper B's renderer ([`crate::paper_b`]).
-    fn gaussians(&self) -> Option<&crate::gaussian_medium::GaussianMediumOf> {
+    fn gaussians(&self) -> Option<&crate::media::gaussians::GaussianMediumOf> {
         None
     }
     /// The medium as paper D's analytic fog, when it is one ([`crate::analytic`]).
-    fn as_analytic(&self) -> Option<&crate::analytic::AnalyticMedium> {
+    fn as_analytic(&self) -> Option<&crate::media::analytic::AnalyticMedium> {
         None
     }
 }

@@ -8,7 +8,7 @@
 //! `T(a, b) = exp(−∫_a^b σt)` with `σt` the sum of every medium's extinction, `Lₗ(x)` a
 //! point light's `I·T(x → light)/d²` or a sun's irradiance `E·T(x → ∞)` (the
 //! homogeneous medium does not attenuate suns: paper C's convention, see
-//! [`crate::airlight`]), each zero when a surface blocks the light. The integral is the
+//! [`crate::paper_c::airlight`]), each zero when a surface blocks the light. The integral is the
 //! midpoint rule on steps of at most [`MarchOptions::step`], every step's transmittance
 //! from the media's own optical depths (closed forms where they have them), so the only
 //! discretization is that of the in-scattered light. A surface at `t_end` reflects the
@@ -16,13 +16,15 @@
 //! it through the media; light scattered onto surfaces by the medium is not included.
 //! Where a homogeneous medium fills space the march ends where the transmittance falls
 //! below [`MarchOptions::min_transmittance`]. The environment lights the heterogeneous
-//! media too, by [`MarchOptions::env`] ([`crate::env_smoke`]), added to `Σ_l`, and the
+//! media too, by [`MarchOptions::env`] ([`crate::march::env_smoke`]), added to `Σ_l`, and the
 //! surfaces by [`MarchOptions::env_surfaces`] when set, each direction attenuated by the
-//! media ([`crate::env_smoke::Direct::surface`]).
+//! media ([`crate::march::env_smoke::Direct::surface`]).
 
-use crate::airlight::Limits;
-use crate::env_smoke::EnvLight;
+pub mod env_smoke;
+
+use crate::march::env_smoke::EnvLight;
 use crate::media::henyey_greenstein;
+use crate::paper_c::airlight::Limits;
 use crate::render::Image;
 use crate::scene::{Light, Rgb, Scene};
 use crate::vec3::{Vec3, axpy, dot, norm, reflect, scale, sub};
@@ -38,11 +40,11 @@ pub struct MarchOptions {
     pub min_transmittance: f64,
     /// Most steps along one ray (a guard against a tiny `step` on a long ray).
     pub max_steps: usize,
-    /// The environment's light on the heterogeneous media ([`crate::env_smoke`]).
+    /// The environment's light on the heterogeneous media ([`crate::march::env_smoke`]).
     pub env: EnvLight,
     /// The environment's light on the surfaces, by direct quadrature
-    /// ([`crate::env_smoke::Direct::surface`]; paper B's reference), or none.
-    pub env_surfaces: Option<std::sync::Arc<crate::env_smoke::Direct>>,
+    /// ([`crate::march::env_smoke::Direct::surface`]; paper B's reference), or none.
+    pub env_surfaces: Option<std::sync::Arc<crate::march::env_smoke::Direct>>,
 }
 
 impl Default for MarchOptions {
@@ -276,6 +278,42 @@ pub fn render(
         height: h,
         pixels: rows.into_iter().flatten().collect(),
     }
+}
+
+/// The march's settings for `scene` ([`crate::march`]): steps of half the smallest voxel
+/// of its voxel media (a trilinear field varies over a voxel; the midpoint rule's error
+/// then stays ~`h²/24` of the in-scattered light's curvature) and an eighth of its
+/// analytic fogs' finest feature, whichever is smaller, or the default step
+/// when it has neither; `fine` (the reference) takes a quarter of that. The environment
+/// lights the media through [`crate::march::env_smoke::light`], computed here (once per render).
+pub fn march_options(scene: &crate::Scene, fine: bool) -> crate::march::MarchOptions {
+    let mut opt = march_steps(scene, fine);
+    opt.env = crate::march::env_smoke::light(scene);
+    opt
+}
+
+/// [`march_options`] without the environment's light on the media.
+pub fn march_steps(scene: &crate::Scene, fine: bool) -> crate::march::MarchOptions {
+    let mut opt = crate::march::MarchOptions::default();
+    let voxel = scene
+        .hetero
+        .iter()
+        .filter_map(|m| m.voxels())
+        .flat_map(|g| g.voxel)
+        .fold(f64::INFINITY, f64::min);
+    // Analytic fogs: an eighth of their finest feature (haze_fogfn::Fog::feature_size).
+    let fog = scene
+        .analytic_media()
+        .map(|a| 0.125 * a.fog.feature_size())
+        .fold(f64::INFINITY, f64::min);
+    let step = (0.5 * voxel).min(fog);
+    if step.is_finite() {
+        opt.step = step;
+    }
+    if fine {
+        opt.step *= 0.25;
+    }
+    opt
 }
 
 #[cfg(test)]
