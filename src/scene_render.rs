@@ -61,14 +61,13 @@ pub fn run(a: SceneRenderArgs) -> Result<()> {
     }
     // Gaussian media alone: paper B; analytic fog: paper C's picture with paper D's fog
     // composited; any other heterogeneous medium: the march.
-    if !a.march && !scene.hetero.is_empty() && scene.hetero.iter().all(|m| m.gaussians().is_some())
-    {
+    if !a.march && !scene.hetero.is_empty() && scene.hetero.iter().all(|m| m.is_gaussians()) {
         return run_hetero(&a, &scene, kind, start);
     }
     if a.gpu {
         return run_gpu(&a, &scene, kind, start);
     }
-    if scene.hetero.iter().any(|m| m.as_analytic().is_none()) {
+    if scene.hetero.iter().any(|m| !m.is_analytic()) {
         return run_march(&a, &scene, kind, start);
     }
     let model: Box<dyn Model> = if a.reference {
@@ -148,9 +147,7 @@ fn run_gpu(a: &SceneRenderArgs, scene: &Scene, kind: OutKind, start: Instant) ->
     // Analytic fog alone: paper C's picture with paper D's fog composited on the GPU, or
     // with --march the lit picture (the march, as every scene with other heterogeneous
     // media: smoke assets alone or in analytic fog).
-    let fog = !a.march
-        && !scene.hetero.is_empty()
-        && scene.hetero.iter().all(|m| m.as_analytic().is_some());
+    let fog = !a.march && !scene.hetero.is_empty() && scene.hetero.iter().all(|m| m.is_analytic());
     let composite = if fog {
         Some(GpuAnalytic::new(&ctx).map_err(gpu_err)?)
     } else {

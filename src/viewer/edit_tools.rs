@@ -215,7 +215,7 @@ impl Editor {
     /// The editor of the scene's first Gaussian medium (`None` when it has none), saving
     /// to `SCENE.edited.json` beside `source`, the scene's file.
     pub fn new(scene: &Scene, source: &Path) -> Option<Editor> {
-        let m = scene.hetero.iter().find_map(|m| m.gaussians())?;
+        let m = scene.gaussian_media().next()?;
         let gs = m.medium.gaussians();
         let r = if gs.is_empty() {
             0.1
@@ -283,8 +283,8 @@ impl Editor {
             medium: GaussianMedium::new(t.sigma_t, t.albedo, t.background, self.gaussians())?,
             noise: self.template.noise.clone(),
         };
-        if let Some(slot) = scene.hetero.iter_mut().find(|m| m.gaussians().is_some()) {
-            *slot = HeteroMedium(Arc::new(medium));
+        if let Some(slot) = scene.hetero.iter_mut().find(|m| m.is_gaussians()) {
+            *slot = HeteroMedium::Gaussians(Arc::new(medium));
         }
         Ok(())
     }

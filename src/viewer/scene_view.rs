@@ -193,8 +193,7 @@ impl Renderer {
             Some(_) => Some(FogRenderer::new(&ctx).map_err(|e| anyhow!("GPU: {e}"))?),
             None => None,
         };
-        let gaussian =
-            !base.hetero.is_empty() && base.hetero.iter().all(|m| m.gaussians().is_some());
+        let gaussian = !base.hetero.is_empty() && base.hetero.iter().all(|m| m.is_gaussians());
         let paper_b = if gaussian {
             Some(GpuPaperB::new(&ctx).map_err(|e| anyhow!("GPU: {e}"))?)
         } else {

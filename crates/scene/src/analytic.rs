@@ -15,31 +15,10 @@
 //! The lit picture — single scattering of the scene's lights through every medium, the
 //! analytic fog included — is [`crate::march`]'s.
 
-use crate::media::HeteroMedium;
-use crate::media::analytic::AnalyticMedium;
 use crate::render::{Image, Model};
 use crate::scene::{Environment, Light, Rgb, Scene};
 use crate::vec3::Vec3;
 use rayon::prelude::*;
-use std::sync::Arc;
-
-impl Scene {
-    /// The scene at time `t` (seconds): every analytic medium carried by its wind.
-    pub fn at_time(&self, t: f64) -> Scene {
-        let mut s = self.clone();
-        for m in &mut s.hetero {
-            if let Some(a) = m.as_analytic() {
-                *m = HeteroMedium(Arc::new(a.at(t)));
-            }
-        }
-        s
-    }
-
-    /// The scene's analytic media.
-    pub fn analytic_media(&self) -> impl Iterator<Item = &AnalyticMedium> {
-        self.hetero.iter().filter_map(|m| m.as_analytic())
-    }
-}
 
 /// The ambient in-scattered radiance per unit albedo (module docs): the environment
 /// averaged over the sphere by the midpoint rule in `(cos θ, φ)` on 64 × 128 cells (the

@@ -1,10 +1,11 @@
-//! The scene file (DESIGN.md "Scene file"): one JSON object read into a [`Scene`].
+//! The scene file: one JSON object read into a [`Scene`].
 //!
 //! Every object refuses keys it does not know; every problem — a missing file, bad JSON,
 //! an unknown key, a wrong type, a negative radius, a zero normal, a type not supported
 //! yet — is one line naming the file, the place in it and the problem.
 
 use crate::Camera;
+use crate::media::HeteroMedium;
 use crate::mesh::Mesh;
 use crate::mesh::model;
 use crate::scene::{Environment, Light, Material, Medium, Rgb, Scene, Shape, Surface};
@@ -223,19 +224,20 @@ pub fn parse_in(text: &str, base: &Path) -> Result<Scene, String> {
         if k == "asset" {
             let m = crate::media::asset::AssetMedium::from_json(v, base)
                 .map_err(|e| format!("media[{i}]: {e}"))?;
-            hetero.push(crate::media::HeteroMedium(Arc::new(m)));
+            hetero.push(HeteroMedium::Asset(Arc::new(m)));
             continue;
         }
         // Paper B's Gaussian media ([`crate::media::gaussians`]).
         if k == "gaussians" {
             let m =
                 crate::media::gaussians::parse(v, base).map_err(|e| format!("media[{i}]: {e}"))?;
-            hetero.push(crate::media::HeteroMedium(Arc::new(m)));
+            hetero.push(HeteroMedium::Gaussians(Arc::new(m)));
             continue;
         }
-        // Paper D's analytic fog ([`crate::analytic`]).
+        // Paper D's analytic fog ([`crate::media::analytic`]).
         if k == "analytic" {
-            hetero.push(crate::media::analytic::parse(v).map_err(|e| format!("media[{i}]: {e}"))?);
+            let m = crate::media::analytic::parse(v).map_err(|e| format!("media[{i}]: {e}"))?;
+            hetero.push(HeteroMedium::Analytic(Arc::new(m)));
             continue;
         }
         let (st, ss) = homogeneous(v).map_err(|e| format!("media[{i}]: {e}"))?;

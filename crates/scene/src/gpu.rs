@@ -19,6 +19,7 @@
 //! below `f32`'s resolution; and environments at `∞` are flagged, not carried as `∞`
 //! (WGSL does not promise infinities), finite ones beyond `10³⁰` clamped there.
 
+use crate::media::HeteroMedium;
 use crate::mesh::Mesh;
 use crate::paper_c::airlight::Limits;
 use crate::paper_c::envglow;
@@ -297,7 +298,7 @@ impl GpuRenderer {
         if let Some(m) = scene
             .hetero
             .iter()
-            .find(|m| m.voxels().is_none() && m.as_analytic().is_none())
+            .find(|m| !matches!(m, HeteroMedium::Asset(_) | HeteroMedium::Analytic(_)))
         {
             return Err(GpuError::Input(format!(
                 "this renderer does not render heterogeneous media ({})",

@@ -63,7 +63,7 @@ impl GpuAnalytic {
         scene: &Scene,
         lim: &Limits,
     ) -> Result<Image, GpuError> {
-        if let Some(m) = scene.hetero.iter().find(|m| m.as_analytic().is_none()) {
+        if let Some(m) = scene.hetero.iter().find(|m| !m.is_analytic()) {
             return Err(GpuError::Input(format!(
                 "the fog composite renders analytic media only, not {}",
                 m.name()

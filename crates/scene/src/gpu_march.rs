@@ -33,6 +33,7 @@
 
 use crate::march::MarchOptions;
 use crate::march::env_smoke::EnvLight;
+use crate::media::HeteroMedium;
 use crate::scene::Scene;
 use crate::vec3::Vec3;
 use haze_view::gpu::{GpuContext, GpuError, buffer_init, compute_pipeline};
@@ -61,7 +62,7 @@ pub fn chunks(scene: &Scene, opt: &MarchOptions) -> (u32, u32) {
     let eye = scene.camera.eye;
     let mut reach: f64 = 0.0;
     for m in &scene.hetero {
-        if let Some(a) = m.as_analytic() {
+        if let HeteroMedium::Analytic(a) = m {
             reach = reach.max(a.far);
         } else if let Some(b) = m.bounds() {
             let corner =
@@ -151,16 +152,19 @@ impl MarchInput {
         let f = |v: Vec3, w: f64| [v[0] as f32, v[1] as f32, v[2] as f32, w as f32];
         let mut fogs = Vec::new();
         for m in &scene.hetero {
-            if let Some(a) = m.as_analytic() {
-                fogs.push(a);
-                continue;
-            }
-            let g = m.voxels().ok_or_else(|| {
-                GpuError::Input(format!(
-                    "the GPU renderer marches voxel media and analytic fogs only, not {}",
-                    m.name()
-                ))
-            })?;
+            let g = match m {
+                HeteroMedium::Analytic(a) => {
+                    fogs.push(&**a);
+                    continue;
+                }
+                HeteroMedium::Asset(a) => a.grid(),
+                _ => {
+                    return Err(GpuError::Input(format!(
+                        "the GPU renderer marches voxel media and analytic fogs only, not {}",
+                        m.name()
+                    )));
+                }
+            };
             // Indices travel as f32: exact below 2²⁴.
             if grid.len() + g.data.len() >= 1 << 24 {
                 return Err(GpuError::Input(format!(

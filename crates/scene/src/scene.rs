@@ -2,6 +2,9 @@
 //! (all homogeneous media summed) and surfaces. [`crate::file`] reads it from JSON.
 
 use crate::Camera;
+use crate::media::HeteroMedium;
+use crate::media::analytic::AnalyticMedium;
+use crate::media::gaussians::GaussianMediumOf;
 use crate::mesh::Mesh;
 use crate::vec3::{Vec3, dot, sub};
 use haze_view::LatLong;
@@ -22,8 +25,37 @@ pub struct Scene {
     pub medium: Medium,
     /// Media whose extinction varies in space (smoke assets, Gaussians, analytic fog),
     /// adding to `medium` where they overlap.
-    pub hetero: Vec<crate::media::HeteroMedium>,
+    pub hetero: Vec<HeteroMedium>,
     pub surfaces: Vec<Surface>,
+}
+
+impl Scene {
+    /// The scene at time `t` (seconds): every analytic medium carried by its wind.
+    pub fn at_time(&self, t: f64) -> Scene {
+        let mut s = self.clone();
+        for m in &mut s.hetero {
+            if let HeteroMedium::Analytic(a) = m {
+                *a = Arc::new(a.at(t));
+            }
+        }
+        s
+    }
+
+    /// The scene's analytic media (paper D).
+    pub fn analytic_media(&self) -> impl Iterator<Item = &AnalyticMedium> {
+        self.hetero.iter().filter_map(|m| match m {
+            HeteroMedium::Analytic(a) => Some(&**a),
+            _ => None,
+        })
+    }
+
+    /// The scene's Gaussian media (paper B).
+    pub fn gaussian_media(&self) -> impl Iterator<Item = &GaussianMediumOf> {
+        self.hetero.iter().filter_map(|m| match m {
+            HeteroMedium::Gaussians(g) => Some(&**g),
+            _ => None,
+        })
+    }
 }
 
 /// Radiance seen where rays leave the scene: the scene file's `"environment"`, distant

@@ -5,13 +5,12 @@
 //! environment at `∞` and the suns' shadow rays have a finite depth. [`crate::analytic`]
 //! renders it as paper D does; [`crate::march`] lights it like every medium.
 
-use super::{Aabb, HeteroMedium, Heterogeneous};
-use crate::scene::Rgb;
+use super::{Aabb, Heterogeneous};
 use crate::vec3::Vec3;
+use haze_core::Rgb;
 use haze_fogfn::Fog;
 use serde::Deserialize;
 use serde_json::Value;
-use std::sync::Arc;
 
 /// One analytic medium, frozen at `time`.
 #[derive(Clone, Debug, PartialEq)]
@@ -68,9 +67,6 @@ impl Heterogeneous for AnalyticMedium {
     fn bounds(&self) -> Option<Aabb> {
         None
     }
-    fn as_analytic(&self) -> Option<&AnalyticMedium> {
-        Some(self)
-    }
 }
 
 #[derive(Deserialize)]
@@ -113,7 +109,7 @@ struct AnalyticSpec {
 }
 
 /// Reads an `"analytic"` medium of the scene file.
-pub fn parse(v: &Value) -> Result<HeteroMedium, String> {
+pub fn parse(v: &Value) -> Result<AnalyticMedium, String> {
     let s = AnalyticSpec::deserialize(v).map_err(|e| e.to_string())?;
     let sigma_t = s.sigma_t.rgb();
     if !sigma_t.iter().all(|x| x.is_finite() && *x >= 0.0) {
@@ -140,7 +136,7 @@ pub fn parse(v: &Value) -> Result<HeteroMedium, String> {
         return Err("an analytic medium needs at least one term".to_string());
     }
     let fog = haze_fogfn::spec::fog(s.wind, &s.terms)?;
-    Ok(HeteroMedium(Arc::new(AnalyticMedium {
+    Ok(AnalyticMedium {
         fog,
         sigma_t,
         albedo,
@@ -148,5 +144,5 @@ pub fn parse(v: &Value) -> Result<HeteroMedium, String> {
         colour: s.colour,
         far: s.far,
         time: 0.0,
-    })))
+    })
 }

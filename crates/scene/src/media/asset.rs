@@ -1,4 +1,4 @@
-//! A baked smoke asset placed in a scene (DESIGN.md "Scene file", media type `"asset"`):
+//! A baked smoke asset placed in a scene (the scene file's media type `"asset"`):
 //! one frame of a `.haze` file, its density `D = max(D̃ + R, 0)` — the frame's RBFs
 //! (paper A §5) evaluated at the asset's voxel centers plus its dequantized residual
 //! (§5.3), exactly as `haze render` reconstructs a frame — resampled once into a
@@ -6,11 +6,11 @@
 //! renderers then light it by its point lights and suns, and its optical depth shadows
 //! the surfaces (paper A §6, smoke → surfaces).
 
-use crate::media::voxel_grid::VoxelGrid;
-use crate::media::{Aabb, Heterogeneous};
-use crate::scene::Rgb;
+use super::voxel_grid::VoxelGrid;
+use super::{Aabb, Heterogeneous};
 use crate::vec3::Vec3;
 use haze_asset::Asset;
+use haze_core::Rgb;
 use haze_view::stream::{FrameDecoder, StreamFrame};
 use haze_volume::{Bbox, rbf};
 use serde::Deserialize;
@@ -185,8 +185,5 @@ impl Heterogeneous for AssetMedium {
     }
     fn bounds(&self) -> Option<Aabb> {
         Some(self.grid.bounds())
-    }
-    fn voxels(&self) -> Option<&VoxelGrid> {
-        Some(&self.grid)
     }
 }

@@ -28,11 +28,12 @@
 
 pub mod gaussian_env;
 
-use crate::paper_b::gaussian_env::GaussianEnv;
+use crate::media::HeteroMedium;
 use crate::paper_c::airlight::{self, Limits, attenuated_length, effective_light, light_off_point};
 use crate::render::{Analytic, Image, Model, background};
 use crate::scene::{Light, Rgb, Scene};
 use crate::vec3::{Vec3, axpy, dot, norm, reflect, scale, sub};
+use gaussian_env::GaussianEnv;
 use haze_gaussians::airlight::{GaussianSet, Source, factored, projection};
 use haze_gaussians::average::gaussian_mean_depth;
 use haze_gaussians::line;
@@ -97,12 +98,13 @@ impl<'a> Prepared<'a> {
     ) -> Result<Prepared<'a>, String> {
         let mut media = Vec::new();
         for m in &scene.hetero {
-            media.push(m.gaussians().ok_or_else(|| {
-                format!(
+            let HeteroMedium::Gaussians(g) = m else {
+                return Err(format!(
                     "paper B's renderer lights Gaussian media only, not {} (use --reference)",
                     m.name()
-                )
-            })?);
+                ));
+            };
+            media.push(&**g);
         }
         let mut beta0 = scene.medium.sigma_t;
         let mut sigma_s0 = scene.medium.sigma_s();
@@ -386,11 +388,9 @@ impl<'a> Prepared<'a> {
 /// march's default 0.02.
 pub fn march_step(scene: &Scene) -> f64 {
     let mut step = crate::march::MarchOptions::default().step;
-    for m in &scene.hetero {
-        if let Some(g) = m.gaussians() {
-            for x in g.medium.gaussians() {
-                step = step.min(0.2 * x.radius);
-            }
+    for g in scene.gaussian_media() {
+        for x in g.medium.gaussians() {
+            step = step.min(0.2 * x.radius);
         }
     }
     step

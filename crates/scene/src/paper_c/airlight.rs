@@ -31,7 +31,7 @@
 //! (the homogeneous medium is the local fog around the scene, lit from outside it), so
 //! `La = σs·E/(4π)·∫₀^{t_end} e^{−βx} dx = σs·E/(4π)·(1 − e^{−β t_end})/β`.
 
-use crate::paper_c::htable::HTable;
+use super::htable::HTable;
 use crate::vec3::{Vec3, axpy, cos_sin, dot, norm, normalize, perpendicular, scale, sub};
 use std::f64::consts::PI;
 
@@ -52,7 +52,7 @@ pub struct ExactK;
 
 impl KFunction for ExactK {
     fn k(&self, rho: f64, delta: f64) -> f64 {
-        crate::paper_c::hfunc::k_exact(rho, delta.clamp(0.0, std::f64::consts::FRAC_PI_2))
+        super::hfunc::k_exact(rho, delta.clamp(0.0, std::f64::consts::FRAC_PI_2))
     }
 }
 

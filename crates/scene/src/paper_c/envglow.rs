@@ -36,8 +36,8 @@
 //! `L·e^{−βD}·dω`); `β = 0` gives `λ = 0` and `L_in = L`. The environment's own radiance
 //! along escaping rays, `e^{−βD}·L(ω)`, stays exact ([`crate::render::background`]).
 
-use crate::paper_c::airlight::{self, KFunction};
-use crate::paper_c::quad::{composite, gauss_legendre};
+use super::airlight::{self, KFunction};
+use super::quad::{composite, gauss_legendre};
 use crate::scene::{Environment, Material, Rgb, Scene};
 use crate::vec3::Vec3;
 use haze_view::sh;

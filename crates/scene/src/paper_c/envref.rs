@@ -16,9 +16,9 @@
 //!   hemisphere about `n` (Gauss–Legendre in `cos θ` × midpoint azimuths), the specular
 //!   lobe about `r` on panels scaled by its width `1/√(m + 2)`.
 
-use crate::paper_c::envglow::gamma_rule;
-use crate::paper_c::quad::gauss_legendre;
-use crate::paper_c::reference::point_airlight;
+use super::envglow::gamma_rule;
+use super::quad::gauss_legendre;
+use super::reference::point_airlight;
 use crate::scene::{Environment, Material, Rgb, Scene};
 use crate::vec3::{Vec3, axpy, cross, dot, perpendicular, scale};
 use haze_view::LatLong;

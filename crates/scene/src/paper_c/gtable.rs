@@ -23,9 +23,9 @@
 //! on `x = T/(1 + T)` uniform over `[0, T_MAX/(1 + T_MAX)]` and `θ` uniform over `[0, π]`;
 //! beyond `T_MAX = 50` the scattered light (`< e^{−50}·I/Dsp`) is 0.
 
-use crate::paper_c::htable::HTable;
-use crate::paper_c::quad::{adaptive_pieces, composite, gauss_legendre};
-use crate::paper_c::table::Table2;
+use super::htable::HTable;
+use super::quad::{adaptive_pieces, composite, gauss_legendre};
+use super::table::Table2;
 use std::f64::consts::PI;
 
 /// Largest optical distance light–surface the table covers.

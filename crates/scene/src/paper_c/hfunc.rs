@@ -17,7 +17,7 @@
 //! `δ ∈ [0, π/2]`: `K(0, δ) = 1`, `K(∞, δ) = sin δ/δ`, `K(ρ, 0) = (1 + ρ)·g(ρ)` with
 //! `g(c) = 1 − c·e^c·E₁(c)`. [`crate::paper_c::htable`] tabulates `K`.
 
-use crate::paper_c::quad::adaptive_pieces;
+use super::quad::adaptive_pieces;
 use std::f64::consts::FRAC_PI_2;
 
 /// Relative tolerance of the quadratures here.

@@ -11,8 +11,8 @@
 //! tables") measures the three parameterizations against quadrature; 128² `f32` samples
 //! (64 KiB) keep the relative error of `H` below 2·10⁻⁴ everywhere.
 
-use crate::paper_c::hfunc::k_exact;
-use crate::paper_c::table::Table2;
+use super::hfunc::k_exact;
+use super::table::Table2;
 use std::f64::consts::FRAC_PI_2;
 
 /// Default side of the table (128² `f32`, 64 KiB).

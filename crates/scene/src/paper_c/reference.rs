@@ -12,7 +12,7 @@
 //!   airlight along each direction by the quadrature above, times the material's lobes
 //!   evaluated on the direction vectors themselves.
 
-use crate::paper_c::quad::{adaptive, adaptive_pieces, composite, gauss_legendre};
+use super::quad::{adaptive, adaptive_pieces, composite, gauss_legendre};
 use crate::scene::Material;
 use crate::vec3::{Vec3, axpy, cos_sin, cross, dot, norm, normalize, perpendicular, scale, sub};
 use std::f64::consts::{FRAC_PI_2, PI};
