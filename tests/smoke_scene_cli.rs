@@ -4,8 +4,8 @@
 //! and the smoke casts a shadow on the ground; `haze view --scene` renders it on the GPU.
 
 use assert_cmd::Command;
-use haze_scene::airlight::Limits;
-use haze_scene::asset_medium::march_options;
+use haze_scene::march::march_options;
+use haze_scene::paper_c::airlight::Limits;
 use std::path::{Path, PathBuf};
 
 fn smoke() -> PathBuf {

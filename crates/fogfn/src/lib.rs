@@ -26,7 +26,8 @@ pub mod height;
 pub mod polynomial;
 pub mod quadratic;
 pub mod spec;
-pub mod vec3;
+
+pub use haze_core::vec3;
 
 use vec3::{Vec3, scale, sub};
 

@@ -32,7 +32,7 @@
 use crate::bvh::SphereBvh;
 use crate::line;
 use crate::medium::{DEPTH_EPSILON, GaussianMedium};
-use crate::vec::{Vec3, axpy, dot, norm, sub};
+use haze_core::vec3::{Vec3, axpy, dot, norm, sub};
 use std::f64::consts::PI;
 
 /// Paper B's cull density `ε = e^{−9}` (eq. 30), world units⁻¹.
@@ -225,7 +225,7 @@ pub fn factored(
 mod tests {
     use super::*;
     use crate::medium::Gaussian;
-    use crate::vec::normalize;
+    use haze_core::vec3::normalize;
 
     fn set(gs: &[(Vec3, f64, f64)], albedo: f64) -> (GaussianMedium, GaussianSet) {
         let m = GaussianMedium::new(

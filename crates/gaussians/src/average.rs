@@ -10,7 +10,7 @@
 //! (`𝒯(0) = √π/2`, `𝒯(ρ) ~ √π/(4ρ²)` far away). The paper tabulates `𝒯`; here it is
 //! evaluated directly ([`mean_depth`]), checked against the quadrature in `μ`.
 
-use crate::vec::{Vec3, norm, sub};
+use haze_core::vec3::{Vec3, norm, sub};
 use std::f64::consts::PI;
 
 /// Rybicki's step `h`: the sum's error is `~e^{−(π/2h)²}` (`e^{−39}` at 0.25).

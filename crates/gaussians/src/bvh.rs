@@ -4,7 +4,7 @@
 //! nodes hold the box of their spheres. Queries are exact: a sphere is reported iff the
 //! segment passes within its radius (the point lies inside).
 
-use crate::vec::{Vec3, axpy, dot, sub};
+use haze_core::vec3::{Vec3, axpy, dot, sub};
 
 /// Most spheres in a leaf.
 pub const LEAF: usize = 4;
@@ -180,7 +180,7 @@ fn build(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::vec::normalize;
+    use haze_core::vec3::normalize;
 
     /// A small deterministic generator (64-bit LCG, high bits) for test data.
     fn lcg(state: &mut u64) -> f64 {

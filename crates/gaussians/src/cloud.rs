@@ -4,7 +4,7 @@
 //! factorization is accurate below about 0.2, see [`crate::airlight`]).
 
 use crate::medium::Gaussian;
-use crate::vec::Vec3;
+use haze_core::vec3::Vec3;
 use std::f64::consts::PI;
 
 /// A SplitMix64 stream of uniform numbers in `[0, 1)`.

@@ -20,6 +20,5 @@ pub mod erf;
 pub mod line;
 pub mod medium;
 pub mod noise;
-pub mod vec;
 
 pub use medium::{Gaussian, GaussianMedium};

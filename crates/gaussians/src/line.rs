@@ -11,7 +11,7 @@
 //! segments). `L` may be `+∞`.
 
 use crate::erf::erf_diff;
-use crate::vec::{Vec3, axpy, dot, sub};
+use haze_core::vec3::{Vec3, axpy, dot, sub};
 use std::f64::consts::PI;
 
 /// `∫₀^len c·exp(−a²|o + t·d − b|²) dt` for unit `d` (module docs); 0 for `len ≤ 0`.
@@ -46,7 +46,7 @@ pub fn negligible_radius(c: f64, a: f64, delta: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::vec::normalize;
+    use haze_core::vec3::normalize;
 
     /// The integral by composite Simpson with a breakpoint at the foot of the
     /// perpendicular (each side smooth; 4000 panels each, error ≪ 1e-12 relative for

@@ -11,7 +11,7 @@
 
 use crate::bvh::SphereBvh;
 use crate::line;
-use crate::vec::{Vec3, dot, sub};
+use haze_core::vec3::{Vec3, dot, sub};
 
 /// Optical depth below which a Gaussian's contribution to a line is dropped.
 pub const DEPTH_EPSILON: f64 = 1e-10;
@@ -167,7 +167,7 @@ impl GaussianMedium {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::vec::{axpy, normalize};
+    use haze_core::vec3::{axpy, normalize};
 
     fn medium() -> GaussianMedium {
         let gs = (0..40)

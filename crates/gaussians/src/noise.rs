@@ -9,7 +9,14 @@
 //! with period 256 in every axis (tileable). A vector of three values reads the same field
 //! at three fixed offsets.
 
-use crate::vec::{Vec3, axpy, normalize};
+use haze_core::vec3::{Vec3, axpy, norm};
+
+/// `a/|a|` by a division per component (not [`haze_core::vec3::normalize`]'s product with
+/// `1/|a|`, which rounds differently), `None` for a zero or non-finite vector.
+fn normalize(a: Vec3) -> Option<Vec3> {
+    let n = norm(a);
+    (n > 0.0 && n.is_finite()).then(|| [a[0] / n, a[1] / n, a[2] / n])
+}
 
 /// Seeded, tileable 3D gradient noise.
 #[derive(Clone, Debug)]

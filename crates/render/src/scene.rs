@@ -12,13 +12,13 @@ use crate::smoke::{OutKind, out_kind};
 use anyhow::{Result, anyhow};
 use haze_gpu::{GpuContext, GpuError};
 use haze_scene::Scene;
-use haze_scene::airlight::Limits;
 use haze_scene::analytic;
 use haze_scene::gpu::GpuRenderer;
 use haze_scene::gpu::analytic::GpuAnalytic;
 use haze_scene::gpu::paper_b::GpuPaperB;
 use haze_scene::march;
 use haze_scene::paper_b::{self, PaperBOptions, Prepared};
+use haze_scene::paper_c::airlight::Limits;
 use haze_scene::render::{Analytic, Image, Model, Reference};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
@@ -61,14 +61,13 @@ pub fn render_scene(a: SceneJob) -> Result<()> {
     }
     // Gaussian media alone: paper B; analytic fog: paper C's picture with paper D's fog
     // composited; any other heterogeneous medium: the march.
-    if !a.march && !scene.hetero.is_empty() && scene.hetero.iter().all(|m| m.gaussians().is_some())
-    {
+    if !a.march && !scene.hetero.is_empty() && scene.hetero.iter().all(|m| m.is_gaussians()) {
         return run_hetero(&a, &scene, kind, start);
     }
     if a.gpu {
         return run_gpu(&a, &scene, kind, start);
     }
-    if scene.hetero.iter().any(|m| m.as_analytic().is_none()) {
+    if scene.hetero.iter().any(|m| !m.is_analytic()) {
         return run_march(&a, &scene, kind, start);
     }
     let model: Box<dyn Model> = if a.reference {
@@ -105,7 +104,7 @@ pub fn render_scene(a: SceneJob) -> Result<()> {
 /// every medium (`haze_scene::march`), shadows of the media on the surfaces included, at
 /// half a voxel per step, or a quarter of that for `--reference`.
 fn run_march(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Result<()> {
-    let opt = haze_scene::asset_medium::march_options(scene, a.reference);
+    let opt = haze_scene::march::march_options(scene, a.reference);
     let (w, h) = (scene.camera.width, scene.camera.height);
     let bar = ProgressBar::new(h as u64);
     bar.set_style(
@@ -148,9 +147,7 @@ fn run_gpu(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Result
     // Analytic fog alone: paper C's picture with paper D's fog composited on the GPU, or
     // with --march the lit picture (the march, as every scene with other heterogeneous
     // media: smoke assets alone or in analytic fog).
-    let fog = !a.march
-        && !scene.hetero.is_empty()
-        && scene.hetero.iter().all(|m| m.as_analytic().is_some());
+    let fog = !a.march && !scene.hetero.is_empty() && scene.hetero.iter().all(|m| m.is_analytic());
     let composite = if fog {
         Some(GpuAnalytic::new(&ctx).map_err(gpu_err)?)
     } else {
@@ -199,7 +196,7 @@ fn run_hetero(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Res
     let (image, what) = if a.reference {
         let opt = paper_b::reference_options(scene, paper_b::REFERENCE_THETA);
         let image = march::render(scene, &Limits::default(), &opt, &progress);
-        let env = if opt.env == haze_scene::env_smoke::EnvLight::None {
+        let env = if opt.env == haze_scene::march::env_smoke::EnvLight::None {
             String::new()
         } else {
             format!(

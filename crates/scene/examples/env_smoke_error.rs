@@ -1,4 +1,4 @@
-//! The error of the environment's light on smoke ([`haze_scene::env_smoke`]): the march
+//! The error of the environment's light on smoke ([`haze_scene::march::env_smoke`]): the march
 //! with the precomputed SH grid against the same march whose environment term is
 //! integrated by direct quadrature over 2·32² directions at every sample (no SH, no grid),
 //! on a small image of the bundled plume under the sky over a ground plane, for several
@@ -8,10 +8,10 @@
 //!
 //! `cargo run --release -p haze-scene --example env_smoke_error`
 
-use haze_scene::airlight::Limits;
-use haze_scene::asset_medium::march_options;
-use haze_scene::env_smoke::{Direct, EnvGrid, EnvLight, EnvOptions};
+use haze_scene::march::env_smoke::{Direct, EnvGrid, EnvLight, EnvOptions};
+use haze_scene::march::march_options;
 use haze_scene::march::{MarchOptions, render};
+use haze_scene::paper_c::airlight::Limits;
 use haze_scene::render::Image;
 use std::path::Path;
 use std::sync::Arc;

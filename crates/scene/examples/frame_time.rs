@@ -16,8 +16,8 @@
 //! crates/scene's test tolerance is printed.
 
 use haze_gpu::GpuContext;
-use haze_scene::airlight::Limits;
 use haze_scene::gpu::GpuRenderer;
+use haze_scene::paper_c::airlight::Limits;
 use haze_scene::render::{Analytic, Image, render};
 use haze_scene::{Light, Scene};
 use std::time::Instant;

@@ -5,8 +5,8 @@
 //!
 //! `cargo run --release -p haze-scene --example glow_error -- data/scenes/glow.json 80 60 4,6,8,10`
 
-use haze_scene::airlight::Limits;
-use haze_scene::envglow::EnvGlow;
+use haze_scene::paper_c::airlight::Limits;
+use haze_scene::paper_c::envglow::EnvGlow;
 use haze_scene::render::{Analytic, EnvLight, Model, Reference, render};
 use haze_scene::scene::{Material, Scene};
 use haze_scene::vec3::Vec3;

@@ -3,9 +3,9 @@
 //!
 //! `cargo run --release -p haze-scene --example gtable_error`
 
-use haze_scene::gtable::{GTable, g_quadrature};
-use haze_scene::hfunc::h_exact;
-use haze_scene::htable::HTable;
+use haze_scene::paper_c::gtable::{GTable, g_quadrature};
+use haze_scene::paper_c::hfunc::h_exact;
+use haze_scene::paper_c::htable::HTable;
 use rayon::prelude::*;
 use std::f64::consts::PI;
 

@@ -32,11 +32,11 @@
 
 use haze_gaussians::cloud;
 use haze_gpu::GpuContext;
-use haze_scene::airlight::Limits;
 use haze_scene::gpu::GpuRenderer;
 use haze_scene::gpu::paper_b::GpuPaperB;
 use haze_scene::march;
 use haze_scene::paper_b::{self, PaperBOptions, Prepared};
+use haze_scene::paper_c::airlight::Limits;
 use haze_scene::render::{Analytic, Image};
 use haze_scene::{Scene, file};
 use std::time::Instant;

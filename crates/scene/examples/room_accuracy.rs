@@ -3,7 +3,7 @@
 //!
 //! `cargo run --release -p haze-scene --example room_accuracy -- data/scenes/room.json 160 120`
 
-use haze_scene::airlight::Limits;
+use haze_scene::paper_c::airlight::Limits;
 use haze_scene::render::{Analytic, Reference, render};
 use std::time::Instant;
 

@@ -5,9 +5,9 @@
 //!
 //! `cargo run --release -p haze-scene --example table_error`
 
-use haze_scene::hfunc::{f_exact, h_oracle, k_exact};
-use haze_scene::htable::{HTable, measurement_grid};
-use haze_scene::table::Table2;
+use haze_scene::paper_c::hfunc::{f_exact, h_oracle, k_exact};
+use haze_scene::paper_c::htable::{HTable, measurement_grid};
+use haze_scene::paper_c::table::Table2;
 use rayon::prelude::*;
 use std::f64::consts::FRAC_PI_2;
 

@@ -6,7 +6,7 @@
 //! cargo run -p haze-scene --example write_torus -- data/scenes/torus.glb
 //! ```
 
-use haze_scene::model::{TriangleList, glb};
+use haze_scene::mesh::model::{TriangleList, glb};
 use std::f32::consts::TAU;
 
 fn main() {

@@ -5,8 +5,9 @@
 //! yet — is one line naming the file, the place in it and the problem.
 
 use crate::Camera;
+use crate::media::HeteroMedium;
 use crate::mesh::Mesh;
-use crate::model;
+use crate::mesh::model;
 use crate::scene::{Environment, Light, Material, Medium, Rgb, Scene, Shape, Surface};
 use crate::vec3::{Vec3, normalize};
 use haze_view::LatLong;
@@ -219,23 +220,24 @@ pub fn parse_in(text: &str, base: &Path) -> Result<Scene, String> {
     let mut hetero = Vec::new();
     for (i, v) in spec.media.iter().enumerate() {
         let k = kind(v).map_err(|e| format!("media[{i}]: {e}"))?;
-        // A smoke asset's density ([`crate::asset_medium`]).
+        // A smoke asset's density ([`crate::media::asset`]).
         if k == "asset" {
-            let m = crate::asset_medium::AssetMedium::from_json(v, base)
+            let m = crate::media::asset::AssetMedium::from_json(v, base)
                 .map_err(|e| format!("media[{i}]: {e}"))?;
-            hetero.push(crate::media::HeteroMedium(Arc::new(m)));
+            hetero.push(HeteroMedium::Asset(Arc::new(m)));
             continue;
         }
-        // Paper B's Gaussian media ([`crate::gaussian_medium`]).
+        // Paper B's Gaussian media ([`crate::media::gaussians`]).
         if k == "gaussians" {
             let m =
-                crate::gaussian_medium::parse(v, base).map_err(|e| format!("media[{i}]: {e}"))?;
-            hetero.push(crate::media::HeteroMedium(Arc::new(m)));
+                crate::media::gaussians::parse(v, base).map_err(|e| format!("media[{i}]: {e}"))?;
+            hetero.push(HeteroMedium::Gaussians(Arc::new(m)));
             continue;
         }
-        // Paper D's analytic fog ([`crate::analytic`]).
+        // Paper D's analytic fog ([`crate::media::analytic`]).
         if k == "analytic" {
-            hetero.push(crate::analytic::parse(v).map_err(|e| format!("media[{i}]: {e}"))?);
+            let m = crate::media::analytic::parse(v).map_err(|e| format!("media[{i}]: {e}"))?;
+            hetero.push(HeteroMedium::Analytic(Arc::new(m)));
             continue;
         }
         let (st, ss) = homogeneous(v).map_err(|e| format!("media[{i}]: {e}"))?;

@@ -1,13 +1,13 @@
 //! Rendering a scene: per pixel `L = Σ_lights La + e^{−β·t}·Lp` (paper C, eq. 19), with
-//! `La` the airlight ([`crate::airlight`]), `t` the distance to the surface hit and `Lp`
+//! `La` the airlight ([`crate::paper_c::airlight`]), `t` the distance to the surface hit and `Lp`
 //! the light the surface reflects towards the eye — direct light attenuated by the medium
 //! and shadowed by the scene's surfaces, plus light scattered once onto it (unshadowed, as
 //! in paper C). Rays that hit nothing end at the environment distance and see the
 //! environment (and the suns' disks) attenuated. The environment also glows through the
 //! medium and lights the surfaces, directly and scattered once ([`EnvLight`], paper C
 //! §6.4). Two models fill in the scattered terms: [`Analytic`] (paper C's tables, the
-//! environment in SH: [`crate::envglow`]) and [`Reference`] (quadrature:
-//! [`crate::reference`], [`crate::envref`]).
+//! environment in SH: [`crate::paper_c::envglow`]) and [`Reference`] (quadrature:
+//! [`crate::paper_c::reference`], [`crate::paper_c::envref`]).
 //!
 //! Per channel `c`: extinction `β = σt[c]`, scattering `σs = albedo[c]·β`. A surface's
 //! reflected radiance from a light of irradiance `E` at direction `l` is
@@ -17,47 +17,19 @@
 //! `σs·E/(4π)·∫e^{−βx}dx` towards the eye, and `αE/(4π)·[ρd + ks(m + 2)/(m + 1)]` onto a
 //! surface (the medium's in-scattering integrated over the lobes, rays to infinity).
 
-use crate::airlight::{self, Limits, attenuated_length, effective_light, light_off_point};
-use crate::envglow::{self, EnvGlow};
-use crate::envref::EnvReference;
-use crate::gtable::{self, GTable};
-use crate::htable::HTable;
-use crate::reference::{self, RefOptions};
+use crate::paper_c::airlight::{self, Limits, attenuated_length, effective_light, light_off_point};
+use crate::paper_c::envglow::{self, EnvGlow};
+use crate::paper_c::envref::EnvReference;
+use crate::paper_c::gtable::{self, GTable};
+use crate::paper_c::htable::HTable;
+use crate::paper_c::reference::{self, RefOptions};
 use crate::scene::{Environment, Light, Material, Rgb, Scene};
 use crate::vec3::{Vec3, axpy, cos_sin, dot, norm, reflect, scale, sub};
 use rayon::prelude::*;
 use std::f64::consts::PI;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-/// Linear RGB radiance, row 0 the top.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Image {
-    pub width: usize,
-    pub height: usize,
-    pub pixels: Vec<[f32; 3]>,
-}
-
-impl Image {
-    /// The image error (docs/conventions.md) against `reference`: `sqrt(Σ|a − b|²/Σ|b|²)` over all
-    /// channels (0 for two black images).
-    pub fn rel_rms(&self, reference: &Image) -> f64 {
-        let (mut d, mut n) = (0.0, 0.0);
-        for (a, b) in self.pixels.iter().zip(&reference.pixels) {
-            for c in 0..3 {
-                let (a, b) = (f64::from(a[c]), f64::from(b[c]));
-                d += (a - b) * (a - b);
-                n += b * b;
-            }
-        }
-        if n > 0.0 {
-            (d / n).sqrt()
-        } else if d == 0.0 {
-            0.0
-        } else {
-            f64::INFINITY
-        }
-    }
-}
+pub use haze_core::Image;
 
 /// How the point lights' scattered terms are computed, per unit intensity and channel.
 pub trait Model: Sync {
@@ -83,7 +55,7 @@ pub trait Model: Sync {
     fn environment(&self, scene: &Scene) -> Option<Box<dyn EnvLight>>;
 }
 
-/// The environment's light through the medium ([`crate::envglow`]): its airlight along a
+/// The environment's light through the medium ([`crate::paper_c::envglow`]): its airlight along a
 /// view ray and the light it sends onto surfaces, direct and scattered.
 pub trait EnvLight: Sync {
     /// Airlight along `eye + x·dir`, `x ∈ [0, t]`.
@@ -169,7 +141,7 @@ impl Model for Analytic {
     }
 
     /// `σs·I/(2π Dsp)·[ρd/π·G0(T, θs) + ks(m + 2)/(2π)·Gm(T, θ′s)]` (paper C eq. 17–18,
-    /// [`crate::gtable`]).
+    /// [`crate::paper_c::gtable`]).
     fn surface(
         &self,
         p: Vec3,
@@ -223,7 +195,7 @@ impl Model for Analytic {
     }
 }
 
-/// The quadrature reference ([`crate::reference`]).
+/// The quadrature reference ([`crate::paper_c::reference`]).
 #[derive(Debug, Default)]
 pub struct Reference {
     pub options: RefOptions,

@@ -2,13 +2,15 @@
 //! (all homogeneous media summed) and surfaces. [`crate::file`] reads it from JSON.
 
 use crate::Camera;
+use crate::media::HeteroMedium;
+use crate::media::analytic::AnalyticMedium;
+use crate::media::gaussians::GaussianMediumOf;
 use crate::mesh::Mesh;
 use crate::vec3::{Vec3, dot, sub};
 use haze_view::LatLong;
 use std::sync::Arc;
 
-/// Linear RGB.
-pub type Rgb = [f64; 3];
+pub use haze_core::Rgb;
 
 /// A whole scene.
 #[derive(Clone, Debug, PartialEq)]
@@ -23,11 +25,42 @@ pub struct Scene {
     pub medium: Medium,
     /// Media whose extinction varies in space (smoke assets, Gaussians, analytic fog),
     /// adding to `medium` where they overlap.
-    pub hetero: Vec<crate::media::HeteroMedium>,
+    pub hetero: Vec<HeteroMedium>,
     pub surfaces: Vec<Surface>,
 }
 
-/// Radiance seen where rays leave the scene.
+impl Scene {
+    /// The scene at time `t` (seconds): every analytic medium carried by its wind.
+    pub fn at_time(&self, t: f64) -> Scene {
+        let mut s = self.clone();
+        for m in &mut s.hetero {
+            if let HeteroMedium::Analytic(a) = m {
+                *a = Arc::new(a.at(t));
+            }
+        }
+        s
+    }
+
+    /// The scene's analytic media (paper D).
+    pub fn analytic_media(&self) -> impl Iterator<Item = &AnalyticMedium> {
+        self.hetero.iter().filter_map(|m| match m {
+            HeteroMedium::Analytic(a) => Some(&**a),
+            _ => None,
+        })
+    }
+
+    /// The scene's Gaussian media (paper B).
+    pub fn gaussian_media(&self) -> impl Iterator<Item = &GaussianMediumOf> {
+        self.hetero.iter().filter_map(|m| match m {
+            HeteroMedium::Gaussians(g) => Some(&**g),
+            _ => None,
+        })
+    }
+}
+
+/// Radiance seen where rays leave the scene: the scene file's `"environment"`, distant
+/// radiance only (the scene's suns and point lights are its [`Light`]s; not
+/// `haze_view::Environment`, which lights a smoke asset and carries its own lights).
 #[derive(Clone, Debug, PartialEq)]
 pub enum Environment {
     /// `null`: black.

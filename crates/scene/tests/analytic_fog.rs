@@ -2,8 +2,9 @@
 //! equation integrated independently (midpoint rule on the fog's density, constant source
 //! `C_fog`), the wind through `Scene::at_time`, and bad media refused by name.
 
-use haze_scene::analytic::{self, AnalyticMedium};
+use haze_scene::analytic;
 use haze_scene::file;
+use haze_scene::media::analytic::AnalyticMedium;
 use haze_scene::render::Analytic;
 
 const SCENE: &str = r#"{

@@ -4,8 +4,8 @@
 //! trilinear blend of those brute-force values, its optical depth against fine midpoint
 //! quadrature of its own extinction; and bad assets as one-line errors.
 
-use haze_scene::asset_medium::AssetMedium;
 use haze_scene::media::Heterogeneous;
+use haze_scene::media::asset::AssetMedium;
 use haze_view::stream::FrameDecoder;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

@@ -9,12 +9,12 @@
 //! `c·D·σs/2·∫₀^t e^{−βx}·[E₁(β(D − x)) − E₁(β(D + x))]/x dx` — a 1D integral done here by
 //! adaptive quadrature.
 
-use haze_scene::envglow::{DEFAULT_ORDER, EnvGlow, lobe_factors};
-use haze_scene::envref::EnvReference;
-use haze_scene::htable::HTable;
-use haze_scene::quad::adaptive_pieces;
+use haze_scene::paper_c::envglow::{DEFAULT_ORDER, EnvGlow, lobe_factors};
+use haze_scene::paper_c::envref::EnvReference;
+use haze_scene::paper_c::htable::HTable;
+use haze_scene::paper_c::quad::adaptive_pieces;
+use haze_scene::paper_c::special::exp_e1;
 use haze_scene::scene::{Environment, Material, Medium, Scene};
-use haze_scene::special::exp_e1;
 use haze_scene::{Camera, file};
 use std::f64::consts::PI;
 use std::sync::OnceLock;
@@ -289,7 +289,7 @@ fn scene_files_read_exr_environments_and_name_bad_ones() {
 /// environment distance rebuild the glow (from the kept projection); the exponents too.
 #[test]
 fn the_kept_glow_is_rebuilt_only_when_its_inputs_change() {
-    use haze_scene::envglow::Cache;
+    use haze_scene::paper_c::envglow::Cache;
     let cache = Cache::default();
     let mut s = scene(Environment::Sky, 0.2, 0.9, 8.0);
     let fresh = |s: &Scene, e: &[f64]| EnvGlow::new(s, h(), 4, e).unwrap();

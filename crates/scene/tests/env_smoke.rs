@@ -10,10 +10,10 @@
 //! than a quarter of the largest contribution.
 
 use haze_scene::Scene;
-use haze_scene::airlight::Limits;
-use haze_scene::asset_medium::{march_options, march_steps};
-use haze_scene::env_smoke::{Direct, EnvGrid, EnvLight, EnvOptions};
+use haze_scene::march::env_smoke::{Direct, EnvGrid, EnvLight, EnvOptions};
 use haze_scene::march::render;
+use haze_scene::march::{march_options, march_steps};
+use haze_scene::paper_c::airlight::Limits;
 use std::path::Path;
 use std::sync::Arc;
 

@@ -4,6 +4,7 @@
 
 use haze_asset::{AssetWriter, BlockKind, GridInfo, Header, Scope, SourceInfo, encode_rbfs};
 use haze_scene::file;
+use haze_scene::media::HeteroMedium;
 use haze_volume::Rbf;
 use std::path::Path;
 
@@ -66,7 +67,9 @@ fn an_asset_frame_is_a_gaussian_medium() {
             "gaussians": [{"center": [0, 0, 0], "radius": 0.3, "weight": 0.2}]}"#,
     );
     let s = file::parse_in(&text, dir.path()).unwrap();
-    let m = s.hetero[0].gaussians().unwrap();
+    let HeteroMedium::Gaussians(m) = &s.hetero[0] else {
+        panic!("not a Gaussian medium")
+    };
     let gs = m.medium.gaussians();
     assert_eq!(gs.len(), 6);
     // The frame's RBFs (stored as f32), moved by the offset, after the listed Gaussian.
@@ -101,7 +104,10 @@ fn an_asset_frame_is_a_gaussian_medium() {
         dir.path(),
     )
     .unwrap();
-    let g0 = first.hetero[0].gaussians().unwrap().medium.gaussians()[0];
+    let HeteroMedium::Gaussians(m) = &first.hetero[0] else {
+        panic!("not a Gaussian medium")
+    };
+    let g0 = m.medium.gaussians()[0];
     assert_eq!(
         g0.center,
         haze_asset::decode_rbfs(&encode_rbfs(&rbfs(0))).unwrap()[0].center

@@ -20,10 +20,10 @@
 //! silhouette may take the other side in `f32`: at most `OUTLIERS` of them (the count per
 //! case is printed). Measured on lavapipe: at most 7·10⁻⁶ relative, no outliers.
 
-use haze_scene::airlight::Limits;
 use haze_scene::analytic;
 use haze_scene::gpu::GpuRenderer;
 use haze_scene::gpu::analytic::GpuAnalytic;
+use haze_scene::paper_c::airlight::Limits;
 use haze_scene::render::Analytic;
 use haze_scene::{Scene, file};
 use std::sync::OnceLock;

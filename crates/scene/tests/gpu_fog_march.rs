@@ -19,9 +19,9 @@
 //! differ by whole terms: at most `OUTLIERS` of them.
 
 use haze_scene::Scene;
-use haze_scene::airlight::Limits;
-use haze_scene::asset_medium::march_options;
 use haze_scene::gpu::GpuRenderer;
+use haze_scene::march::march_options;
+use haze_scene::paper_c::airlight::Limits;
 use haze_scene::render::Analytic;
 use std::path::Path;
 

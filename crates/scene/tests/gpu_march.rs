@@ -18,10 +18,10 @@
 //! `OUTLIERS` of them (none did on lavapipe).
 
 use haze_scene::Scene;
-use haze_scene::airlight::Limits;
-use haze_scene::asset_medium::march_options;
-use haze_scene::env_smoke::EnvLight;
 use haze_scene::gpu::GpuRenderer;
+use haze_scene::march::env_smoke::EnvLight;
+use haze_scene::march::march_options;
+use haze_scene::paper_c::airlight::Limits;
 use haze_scene::render::{Analytic, Image};
 use std::path::Path;
 use std::sync::OnceLock;

@@ -29,10 +29,10 @@
 //! shadow rays grazing an occluder; none did).
 
 use haze_gaussians::cloud;
-use haze_scene::airlight::Limits;
 use haze_scene::gpu::GpuRenderer;
 use haze_scene::gpu::paper_b::GpuPaperB;
 use haze_scene::paper_b::{self, PaperBOptions, Prepared};
+use haze_scene::paper_c::airlight::Limits;
 use haze_scene::render::{Analytic, Image};
 use haze_scene::{Scene, file};
 use std::sync::OnceLock;

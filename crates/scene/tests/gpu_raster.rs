@@ -25,10 +25,10 @@
 //! lavapipe: 0, the pictures bit-identical, printed per case), `FLOOR = 10⁻⁶`.
 
 use haze_gpu::GpuContext;
-use haze_scene::airlight::Limits;
 use haze_scene::gpu::GpuRenderer;
+use haze_scene::paper_c::airlight::Limits;
 use haze_scene::render::Analytic;
-use haze_scene::{Scene, model};
+use haze_scene::{Scene, mesh::model};
 
 mod common;
 use common::context;

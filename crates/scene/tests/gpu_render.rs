@@ -28,8 +28,8 @@
 //! ray holds both to `γ_min` exactly: rounding noise once put the CPU's effective light at
 //! a quarter of it.
 
-use haze_scene::airlight::Limits;
 use haze_scene::gpu::GpuRenderer;
+use haze_scene::paper_c::airlight::Limits;
 use haze_scene::render::{Analytic, Image, render};
 use haze_scene::{Scene, file};
 use std::sync::OnceLock;
@@ -183,7 +183,7 @@ fn a_missing_phong_table_is_refused() {
 /// eye close to a mesh, most rays crossing the hierarchy's boxes near their edges.
 #[test]
 fn gpu_matches_the_cpu_with_meshes() {
-    use haze_scene::model;
+    use haze_scene::mesh::model;
     let dir = tempfile::tempdir().unwrap();
     let smooth = model::uv_sphere([0.0, 0.0, 0.0], 0.6, 8, [0.7, 0.3, 0.2]);
     let mut faceted = model::uv_sphere([0.0, 0.0, 0.0], 0.5, 5, [0.2, 0.5, 0.7]);

@@ -3,7 +3,7 @@
 //! transforms applied, bad models refused in one line, and a tessellated sphere rendered
 //! against the analytic sphere it approximates.
 
-use haze_scene::model::{self, TriangleList};
+use haze_scene::mesh::model::{self, TriangleList};
 use haze_scene::render::{Analytic, render};
 use haze_scene::{Scene, Shape, file};
 use std::path::Path;

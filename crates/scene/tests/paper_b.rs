@@ -4,9 +4,9 @@
 //! Gaussians, and the noise's switches.
 
 use haze_gaussians::cloud;
-use haze_scene::airlight::Limits;
 use haze_scene::march::{self, MarchOptions};
 use haze_scene::paper_b::{self, PaperBOptions, Prepared};
+use haze_scene::paper_c::airlight::Limits;
 use haze_scene::render::{self, Analytic, Image};
 use haze_scene::scene::Environment;
 use haze_scene::{Scene, file};
@@ -199,7 +199,7 @@ fn other_media_are_refused_by_paper_b() {
     let mut s = scene(&gaussians(3, 0.1, (0.2, 0.3), ""), (8, 6));
     assert!(Prepared::new(&s, analytic(), PaperBOptions::default()).is_ok());
     s.hetero
-        .push(haze_scene::media::HeteroMedium(std::sync::Arc::new(
+        .push(haze_scene::media::HeteroMedium::Other(std::sync::Arc::new(
             Uniform,
         )));
     let e = Prepared::new(&s, analytic(), PaperBOptions::default()).unwrap_err();

@@ -1,11 +1,11 @@
 //! Paper C against the quadrature reference: the airlight's stable form (exact and
 //! tabulated), whole images, and the extremes.
 
-use haze_scene::airlight::{self, ExactK, Limits, effective_light};
-use haze_scene::htable::HTable;
-use haze_scene::reference::{self, RefOptions};
+use haze_scene::paper_c::airlight::{self, ExactK, Limits, effective_light};
+use haze_scene::paper_c::htable::HTable;
+use haze_scene::paper_c::reference::{self, RefOptions};
+use haze_scene::paper_c::special::g_edge;
 use haze_scene::render::{Analytic, Reference, render};
-use haze_scene::special::g_edge;
 use haze_scene::vec3::{Vec3, axpy, norm, normalize};
 use std::f64::consts::PI;
 use std::sync::OnceLock;

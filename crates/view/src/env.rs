@@ -9,8 +9,7 @@ use crate::lights::{PointLight, Sun};
 use std::f64::consts::PI;
 use std::path::Path;
 
-/// Linear RGB.
-pub type Rgb = [f64; 3];
+pub use haze_core::Rgb;
 
 /// Unit direction of polar angle `theta` (from +Z) and azimuth `phi` (from +X to +Y).
 pub fn direction(theta: f64, phi: f64) -> [f64; 3] {
@@ -342,5 +341,24 @@ mod tests {
         let z = s.radiance([0.0, 0.0, 1.0]);
         assert!(z[2] > z[0], "{z:?}");
         assert_eq!(s.radiance([0.0; 3]), s.zenith);
+    }
+
+    #[test]
+    fn exr_round_trips_linear_values_exactly() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.exr");
+        let mut im = crate::Image::new(5, 3);
+        for (i, p) in im.pixels.iter_mut().enumerate() {
+            *p = [i as f32 * 0.25, 1.0, 0.5 / (1.0 + i as f32)];
+        }
+        im.write_exr(&path).unwrap();
+        let back = LatLong::load_exr(&path).unwrap();
+        assert_eq!((back.width, back.height), (5, 3));
+        assert_eq!(back.texels, im.pixels);
+        assert_eq!(
+            std::fs::read_dir(dir.path()).unwrap().count(),
+            1,
+            "no temp file left"
+        );
     }
 }

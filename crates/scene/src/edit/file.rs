@@ -4,7 +4,7 @@
 //! through a temporary file beside the destination renamed over it; [`load`] reads the
 //! Gaussians of a scene file's `which`-th Gaussian medium.
 
-use crate::gaussian_medium::GaussianMediumOf;
+use crate::media::gaussians::GaussianMediumOf;
 use crate::scene::Scene;
 use haze_gaussians::Gaussian;
 use serde_json::{Value, json};
@@ -13,7 +13,7 @@ use std::path::Path;
 
 /// The `which`-th Gaussian medium of a loaded scene.
 pub fn medium_of(scene: &Scene, which: usize) -> Option<&GaussianMediumOf> {
-    scene.hetero.iter().filter_map(|m| m.gaussians()).nth(which)
+    scene.gaussian_media().nth(which)
 }
 
 /// Writes the scene file `source` to `dest` (the same path or another; relative paths in

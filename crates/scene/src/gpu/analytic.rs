@@ -13,7 +13,7 @@
 
 use super::GpuRenderer;
 use super::shaders;
-use crate::airlight::Limits;
+use crate::paper_c::airlight::Limits;
 use crate::render::Image;
 use crate::scene::Scene;
 use haze_gpu::{GpuContext, GpuError, buffer_init, compute_pipeline};
@@ -45,7 +45,7 @@ impl GpuAnalytic {
         scene: &Scene,
         lim: &Limits,
     ) -> Result<Image, GpuError> {
-        if let Some(m) = scene.hetero.iter().find(|m| m.as_analytic().is_none()) {
+        if let Some(m) = scene.hetero.iter().find(|m| !m.is_analytic()) {
             return Err(GpuError::Input(format!(
                 "the fog composite renders analytic media only, not {}",
                 m.name()

@@ -1,7 +1,7 @@
 //! The single-scattering march on the GPU (`shaders/march.wgsl`): the `f32` twin of
 //! [`crate::march::radiance`] for scenes whose heterogeneous media are voxel grids
-//! ([`crate::voxel_grid::VoxelGrid`], smoke assets) and analytic fogs
-//! ([`crate::analytic::AnalyticMedium`], paper D), alone or together.
+//! ([`crate::media::voxel_grid::VoxelGrid`], smoke assets) and analytic fogs
+//! ([`crate::media::analytic::AnalyticMedium`], paper D), alone or together.
 //! [`crate::gpu::GpuRenderer::render`] takes this path for such scenes (paper D's
 //! composite of analytic fogs alone is [`crate::gpu::analytic`]'s); the camera, lights,
 //! surfaces and meshes travel in the
@@ -16,7 +16,7 @@
 //! with Simpson's rule per piece ([`VoxelGrid::density_integral`]) —, shadow rays towards
 //! every light through the grids (smoke → surfaces and smoke → itself), Henyey–Greenstein
 //! phase, and the environment's light from the precomputed SH grid
-//! ([`crate::env_smoke`], `shaders/env_smoke.wgsl`). What differs from the CPU beyond `f32`: a surface point's shadow rays test the
+//! ([`crate::march::env_smoke`], `shaders/env_smoke.wgsl`). What differs from the CPU beyond `f32`: a surface point's shadow rays test the
 //! surfaces' visibility from [`crate::gpu::SHADOW_OFFSET`] (relative) off it, as paper
 //! C's renderer does, the media's optical depth still from the point itself (from the
 //! offset point the shadow of dense smoke would move by as much, a visible error at its
@@ -32,8 +32,9 @@
 //! them a primary ray per pixel each).
 
 use super::shaders;
-use crate::env_smoke::EnvLight;
 use crate::march::MarchOptions;
+use crate::march::env_smoke::EnvLight;
+use crate::media::HeteroMedium;
 use crate::scene::Scene;
 use crate::vec3::Vec3;
 use haze_gpu::{GpuContext, GpuError, buffer_init, compute_pipeline};
@@ -56,7 +57,7 @@ pub fn chunks(scene: &Scene, opt: &MarchOptions) -> (u32, u32) {
     let eye = scene.camera.eye;
     let mut reach: f64 = 0.0;
     for m in &scene.hetero {
-        if let Some(a) = m.as_analytic() {
+        if let HeteroMedium::Analytic(a) = m {
             reach = reach.max(a.far);
         } else if let Some(b) = m.bounds() {
             let corner =
@@ -98,7 +99,7 @@ pub fn pipeline(ctx: &GpuContext) -> Result<wgpu::ComputePipeline, GpuError> {
 
 /// What the march adds to paper C's buffers: the grids' values and their records (the
 /// shader's `grid` and `media` bindings), the environment's grid of SH coefficients
-/// ([`crate::env_smoke::EnvGrid`]) after the voxel grids, the analytic fogs' records
+/// ([`crate::march::env_smoke::EnvGrid`]) after the voxel grids, the analytic fogs' records
 /// after the grids' (layout in `shaders/march.wgsl`).
 #[derive(Clone, Debug)]
 pub struct MarchInput {
@@ -129,16 +130,19 @@ impl MarchInput {
         let f = |v: Vec3, w: f64| [v[0] as f32, v[1] as f32, v[2] as f32, w as f32];
         let mut fogs = Vec::new();
         for m in &scene.hetero {
-            if let Some(a) = m.as_analytic() {
-                fogs.push(a);
-                continue;
-            }
-            let g = m.voxels().ok_or_else(|| {
-                GpuError::Input(format!(
-                    "the GPU renderer marches voxel media and analytic fogs only, not {}",
-                    m.name()
-                ))
-            })?;
+            let g = match m {
+                HeteroMedium::Analytic(a) => {
+                    fogs.push(&**a);
+                    continue;
+                }
+                HeteroMedium::Asset(a) => a.grid(),
+                _ => {
+                    return Err(GpuError::Input(format!(
+                        "the GPU renderer marches voxel media and analytic fogs only, not {}",
+                        m.name()
+                    )));
+                }
+            };
             // Indices travel as f32: exact below 2²⁴.
             if grid.len() + g.data.len() >= 1 << 24 {
                 return Err(GpuError::Input(format!(

@@ -7,7 +7,7 @@
 //!
 //! Uploads (once, [`GpuRenderer::new`]): the tables in one storage buffer, `K` then `G0`
 //! then the `Gn` of the scene's Phong exponents, read by bilinear interpolation in the
-//! shader exactly as [`crate::table::Table2::at`] reads them on the CPU (a filtered
+//! shader exactly as [`crate::paper_c::table::Table2::at`] reads them on the CPU (a filtered
 //! texture would not do: GPUs interpolate with 8-bit fractions, an error of up to 1/512
 //! of a cell's difference). Per frame ([`GpuRenderer::render`]): the camera, medium and
 //! environment (a uniform), the lights and surfaces (storage), the meshes' hierarchies and
@@ -25,10 +25,11 @@
 //! below `f32`'s resolution; and environments at `∞` are flagged, not carried as `∞`
 //! (WGSL does not promise infinities), finite ones beyond `10³⁰` clamped there.
 
-use crate::airlight::Limits;
-use crate::envglow;
-use crate::htable::HTable;
+use crate::media::HeteroMedium;
 use crate::mesh::Mesh;
+use crate::paper_c::airlight::Limits;
+use crate::paper_c::envglow;
+use crate::paper_c::htable::HTable;
 use crate::render::{Analytic, Image};
 use crate::scene::{Environment, Light, Scene, Shape};
 use haze_gpu::{GpuContext, GpuError, buffer_init, compute_pipeline, submit_pass};
@@ -77,7 +78,7 @@ pub struct GpuRenderer {
     /// The march of scenes with voxel media ([`crate::gpu::march`]), compiled for the first.
     march: std::sync::OnceLock<wgpu::ComputePipeline>,
     /// The environment's light on the voxel media, kept between frames.
-    env: crate::env_smoke::Cache,
+    env: crate::march::env_smoke::Cache,
     /// The rasterized renderer's passes ([`crate::gpu::raster`]), compiled for its first frame.
     raster: std::sync::OnceLock<crate::gpu::raster::RasterPipelines>,
     /// The `K` table, for the environment's glow ([`EnvGlow`](envglow::EnvGlow)).
@@ -351,14 +352,14 @@ impl GpuRenderer {
         if let Some(m) = scene
             .hetero
             .iter()
-            .find(|m| m.voxels().is_none() && m.as_analytic().is_none())
+            .find(|m| !matches!(m, HeteroMedium::Asset(_) | HeteroMedium::Analytic(_)))
         {
             return Err(GpuError::Input(format!(
                 "this renderer does not render heterogeneous media ({})",
                 m.name()
             )));
         }
-        let mut opt = crate::asset_medium::march_steps(scene, false);
+        let mut opt = crate::march::march_steps(scene, false);
         opt.env = self.env.light(scene);
         let Some(march) = crate::gpu::march::MarchInput::of(scene, scene.camera.eye, &opt)? else {
             return self.pass(ctx, scene, lim, &self.pipeline, None, &[], rasterize, None);

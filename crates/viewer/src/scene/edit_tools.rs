@@ -18,8 +18,8 @@ use haze_scene::edit::emitter::{EmitParams, Emitter};
 use haze_scene::edit::eraser::{EraseParams, Eraser};
 use haze_scene::edit::paintbrush::{PaintParams, Paintbrush};
 use haze_scene::edit::{Document, Draft, Target, file, plane};
-use haze_scene::gaussian_medium::GaussianMediumOf;
 use haze_scene::media::HeteroMedium;
+use haze_scene::media::gaussians::GaussianMediumOf;
 use haze_scene::{Camera, Scene};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -215,7 +215,7 @@ impl Editor {
     /// The editor of the scene's first Gaussian medium (`None` when it has none), saving
     /// to `SCENE.edited.json` beside `source`, the scene's file.
     pub fn new(scene: &Scene, source: &Path) -> Option<Editor> {
-        let m = scene.hetero.iter().find_map(|m| m.gaussians())?;
+        let m = scene.gaussian_media().next()?;
         let gs = m.medium.gaussians();
         let r = if gs.is_empty() {
             0.1
@@ -283,8 +283,8 @@ impl Editor {
             medium: GaussianMedium::new(t.sigma_t, t.albedo, t.background, self.gaussians())?,
             noise: self.template.noise.clone(),
         };
-        if let Some(slot) = scene.hetero.iter_mut().find(|m| m.gaussians().is_some()) {
-            *slot = HeteroMedium(Arc::new(medium));
+        if let Some(slot) = scene.hetero.iter_mut().find(|m| m.is_gaussians()) {
+            *slot = HeteroMedium::Gaussians(Arc::new(medium));
         }
         Ok(())
     }
@@ -755,7 +755,11 @@ mod tests {
         let cpu = |knobs: &SceneKnobs, editor: &Editor| {
             let scene = r.scene(&orbit, knobs, Some(editor)).unwrap();
             let prep = Prepared::new(&scene, &r.analytic, PaperBOptions::default()).unwrap();
-            paper_b::render(&prep, &haze_scene::airlight::Limits::default(), &|_| {})
+            paper_b::render(
+                &prep,
+                &haze_scene::paper_c::airlight::Limits::default(),
+                &|_| {},
+            )
         };
         let n = after.pixels.len();
         assert!(differ(&after, &cpu(&knobs, &editor), 1e-3) <= n / 100);

@@ -26,10 +26,10 @@ use anyhow::{Result, anyhow, bail};
 use edit_tools::{Editor, ScriptedStroke};
 use eframe::egui;
 use haze_gpu::GpuContext;
-use haze_scene::airlight::Limits;
 use haze_scene::gpu::GpuRenderer;
 use haze_scene::gpu::paper_b::GpuPaperB;
 use haze_scene::paper_b::{PaperBOptions, Prepared};
+use haze_scene::paper_c::airlight::Limits;
 use haze_scene::render::{Analytic, Image};
 use haze_scene::{Light, Scene, Shape};
 use std::ops::RangeInclusive;
@@ -196,8 +196,7 @@ impl Renderer {
             Some(_) => Some(FogRenderer::new(&ctx).map_err(|e| anyhow!("GPU: {e}"))?),
             None => None,
         };
-        let gaussian =
-            !base.hetero.is_empty() && base.hetero.iter().all(|m| m.gaussians().is_some());
+        let gaussian = !base.hetero.is_empty() && base.hetero.iter().all(|m| m.is_gaussians());
         let paper_b = if gaussian {
             Some(GpuPaperB::new(&ctx).map_err(|e| anyhow!("GPU: {e}"))?)
         } else {

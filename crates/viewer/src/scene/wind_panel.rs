@@ -15,11 +15,11 @@
 use eframe::egui;
 use haze_gpu::{GpuContext, GpuError};
 use haze_scene::Scene;
-use haze_scene::airlight::Limits;
-use haze_scene::analytic::AnalyticMedium;
 use haze_scene::gpu::GpuRenderer;
 use haze_scene::gpu::analytic::GpuAnalytic;
 use haze_scene::media::HeteroMedium;
+use haze_scene::media::analytic::AnalyticMedium;
+use haze_scene::paper_c::airlight::Limits;
 use haze_scene::render::Image;
 use std::sync::Arc;
 
@@ -106,7 +106,9 @@ impl Wind {
         let mut s = scene.clone();
         let mut k = 0;
         for m in &mut s.hetero {
-            let Some(a) = m.as_analytic() else { continue };
+            let HeteroMedium::Analytic(a) = m else {
+                continue;
+            };
             let d = self.drift.get(k).copied().unwrap_or_default();
             k += 1;
             let mut fog = a.fog.clone();
@@ -115,11 +117,11 @@ impl Wind {
             } else {
                 self.velocity(a.fog.wind)
             };
-            *m = HeteroMedium(Arc::new(AnalyticMedium {
+            *a = Arc::new(AnalyticMedium {
                 fog,
                 time: self.time,
-                ..a.clone()
-            }));
+                ..AnalyticMedium::clone(a)
+            });
         }
         s
     }
@@ -194,7 +196,7 @@ impl FogRenderer {
         lim: &Limits,
     ) -> Result<Image, GpuError> {
         let s = wind.apply(scene);
-        if wind.lit || s.hetero.iter().any(|m| m.as_analytic().is_none()) {
+        if wind.lit || s.hetero.iter().any(|m| !m.is_analytic()) {
             gpu.render(ctx, &s, lim)
         } else {
             self.composite.render(ctx, gpu, &s, lim)

@@ -1,11 +1,11 @@
 //! Paper B (Zhou et al. 2007, §4–5): a scene whose media are Gaussian sums
-//! ([`crate::gaussian_medium`]) over an optional homogeneous part, rendered per pixel as
+//! ([`crate::media::gaussians`]) over an optional homogeneous part, rendered per pixel as
 //! `L = La + e^{−T(v,p)}·Lp` (eq. 29), on the CPU.
 //!
 //! * **Homogeneous part** `β0` = the scene's homogeneous media plus every Gaussian
 //!   medium's background (per channel, with its scattering `σs0`).
 //! * **Airlight** of each point light: `L0 + Σᵢ Lᵢ`. The homogeneous term is paper C's
-//!   airlight ([`crate::airlight::point`], the same `K` table as [`crate::render`]) with
+//!   airlight ([`crate::paper_c::airlight::point`], the same `K` table as [`crate::render`]) with
 //!   `β0`, times `C_sv = e^{−Σᵢ Tᵢ(s, v)}` (eq. 15–17); each Gaussian the view ray passes
 //!   within its cull radius adds `αᵢ·f0·f1·Tᵢ(v,p)` ([`haze_gaussians::airlight`]), its
 //!   ray-independent exponent `Eᵢ` computed once per frame and light. A sun is a light at
@@ -20,17 +20,20 @@
 //!   path-averaged `β̄ = T(s,p)/d` and `σ̄s = S(s,p)/d` (the notes' "Tsp → T(s,p)").
 //!   [`PaperBOptions::surface_scattering`] turns that term off (the march reference has
 //!   none).
-//! * **Environment** (§4.2, [`crate::gaussian_env`]): the Gaussians scatter it towards
+//! * **Environment** (§4.2, [`crate::paper_b::gaussian_env`]): the Gaussians scatter it towards
 //!   the eye and dim it on surfaces through the average optical depth `T̄`; its light
 //!   scattered onto surfaces follows [`PaperBOptions::surface_scattering`].
 //! * **Noise** (§5.5): a medium's `noise` perturbs the direction along which its
 //!   Gaussians' `Tᵢ(v,p)` is integrated ([`haze_gaussians::noise`]).
 
-use crate::airlight::{self, Limits, attenuated_length, effective_light, light_off_point};
-use crate::gaussian_env::GaussianEnv;
+pub mod gaussian_env;
+
+use crate::media::HeteroMedium;
+use crate::paper_c::airlight::{self, Limits, attenuated_length, effective_light, light_off_point};
 use crate::render::{Analytic, Image, Model, background};
 use crate::scene::{Light, Rgb, Scene};
 use crate::vec3::{Vec3, axpy, dot, norm, reflect, scale, sub};
+use gaussian_env::GaussianEnv;
 use haze_gaussians::airlight::{GaussianSet, Source, factored, projection};
 use haze_gaussians::average::gaussian_mean_depth;
 use haze_gaussians::line;
@@ -95,12 +98,13 @@ impl<'a> Prepared<'a> {
     ) -> Result<Prepared<'a>, String> {
         let mut media = Vec::new();
         for m in &scene.hetero {
-            media.push(m.gaussians().ok_or_else(|| {
-                format!(
+            let HeteroMedium::Gaussians(g) = m else {
+                return Err(format!(
                     "paper B's renderer lights Gaussian media only, not {} (use --reference)",
                     m.name()
-                )
-            })?);
+                ));
+            };
+            media.push(&**g);
         }
         let mut beta0 = scene.medium.sigma_t;
         let mut sigma_s0 = scene.medium.sigma_s();
@@ -384,25 +388,23 @@ impl<'a> Prepared<'a> {
 /// march's default 0.02.
 pub fn march_step(scene: &Scene) -> f64 {
     let mut step = crate::march::MarchOptions::default().step;
-    for m in &scene.hetero {
-        if let Some(g) = m.gaussians() {
-            for x in g.medium.gaussians() {
-                step = step.min(0.2 * x.radius);
-            }
+    for g in scene.gaussian_media() {
+        for x in g.medium.gaussians() {
+            step = step.min(0.2 * x.radius);
         }
     }
     step
 }
 
 /// Gauss–Legendre nodes in `cos θ` of the reference's environment rule
-/// ([`crate::env_smoke::Direct`], `2·8²` directions per march sample and surface point).
+/// ([`crate::march::env_smoke::Direct`], `2·8²` directions per march sample and surface point).
 pub const REFERENCE_THETA: usize = 8;
 
 /// The reference's march for a scene of Gaussian media: a step of [`march_step`], the
 /// environment integrated over `2θ²` directions at every sample and surface point
-/// ([`crate::env_smoke::Direct`]; none for a black environment).
+/// ([`crate::march::env_smoke::Direct`]; none for a black environment).
 pub fn reference_options(scene: &Scene, theta: usize) -> crate::march::MarchOptions {
-    use crate::env_smoke::{Direct, EnvLight};
+    use crate::march::env_smoke::{Direct, EnvLight};
     let mut opt = crate::march::MarchOptions {
         step: march_step(scene),
         ..Default::default()

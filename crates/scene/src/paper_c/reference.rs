@@ -12,7 +12,7 @@
 //!   airlight along each direction by the quadrature above, times the material's lobes
 //!   evaluated on the direction vectors themselves.
 
-use crate::quad::{adaptive, adaptive_pieces, composite, gauss_legendre};
+use super::quad::{adaptive, adaptive_pieces, composite, gauss_legendre};
 use crate::scene::Material;
 use crate::vec3::{Vec3, axpy, cos_sin, cross, dot, norm, normalize, perpendicular, scale, sub};
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -161,7 +161,7 @@ pub fn surface_scattered(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::quad::adaptive_pieces;
+    use crate::paper_c::quad::adaptive_pieces;
 
     /// The θ form against plain quadrature in `x` of eq. 5.
     #[test]

@@ -42,7 +42,7 @@ pub fn exp_e1(x: f64) -> f64 {
 }
 
 /// `g(c) = 1 − c·e^c·E₁(c)` (`g(0) = 1`, `g ≈ 1/c − 2/c²` for large `c`): the value of
-/// `H(u, w)·(1 + ρ)/(π/2 − w)` at `w = π/2` (see [`crate::hfunc`]). For large `c` the
+/// `H(u, w)·(1 + ρ)/(π/2 − w)` at `w = π/2` (see [`crate::paper_c::hfunc`]). For large `c` the
 /// asymptotic series is used (the difference cancels there).
 pub fn g_edge(c: f64) -> f64 {
     if c <= 0.0 {
@@ -59,7 +59,7 @@ pub fn g_edge(c: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::quad::adaptive;
+    use crate::paper_c::quad::adaptive;
 
     #[test]
     fn exp_e1_matches_quadrature() {

@@ -7,10 +7,10 @@
 //! `L_env(ω)·T(x, ω)`, `T(x, ω) = exp(−τ_het(x, ω, ∞))·e^{−σt·D}·V(x, ω)`: `τ_het` the
 //! heterogeneous media's optical depth along the whole ray (exact, as every shadow ray of
 //! [`crate::march`]), `e^{−σt·D}` the homogeneous fog between the smoke and an environment
-//! of sources `D = environment_distance` away (paper C §6.4's model, [`crate::envglow`]:
+//! of sources `D = environment_distance` away (paper C §6.4's model, [`crate::paper_c::envglow`]:
 //! `D = ∞` hides the environment behind any fog; no fog: 1), `V` zero where a surface
 //! blocks the ray. Light the fog scatters towards the smoke from the environment (the glow
-//! `λ_l(D)` of [`crate::envglow`]) would be scattered twice before reaching the eye and is
+//! `λ_l(D)` of [`crate::paper_c::envglow`]) would be scattered twice before reaching the eye and is
 //! left out, as single scattering demands; so is the fog's own airlight of the
 //! environment, which the march of today does not include either.
 //!
@@ -267,8 +267,8 @@ impl Direct {
     /// unit normal `n` (`r` the view's mirror direction) by the rule:
     /// `Σ_ω w·L_env(ω)·e^{−σt·D}·e^{−τ_het(p, ω, ∞)}·f(n, r, ω)·cos θ` — each direction
     /// attenuated exactly by the heterogeneous media, unshadowed by surfaces (paper C §6.4's
-    /// convention for environment maps, as [`crate::envglow`]). The reference of
-    /// [`crate::gaussian_env`]'s surfaces; the Lambert lobe's kink at the horizon makes
+    /// convention for environment maps, as [`crate::paper_c::envglow`]). The reference of
+    /// [`crate::paper_b::gaussian_env`]'s surfaces; the Lambert lobe's kink at the horizon makes
     /// the product rule converge as `~1/n²`.
     pub fn surface(&self, scene: &Scene, p: Vec3, n: Vec3, r: Vec3, m: &Material) -> Rgb {
         if matches!(scene.environment, Environment::Black) {

@@ -1,12 +1,22 @@
-//! Media whose extinction varies in space — a smoke asset (paper A), a sum of Gaussians
-//! (paper B), analytic fog functions (paper D) — as every renderer of a scene sees them:
-//! the extinction at a point, the optical depth along a segment (in closed form where the
-//! model has one), the albedo and the phase function. The scene's homogeneous media stay
-//! in [`crate::Medium`] (paper C's analytic model); these add their extinction where they
-//! overlap it.
+//! Media whose extinction varies in space, one kind each — a smoke asset on a voxel grid
+//! (paper A, [`asset`], [`voxel_grid`]), a sum of Gaussians (paper B, [`gaussians`]),
+//! analytic fog functions (paper D, [`analytic`]) — held by a scene as a
+//! [`HeteroMedium`]. What every renderer needs of any of them is [`Heterogeneous`]: the
+//! extinction at a point, the optical depth along a segment (in closed form where the
+//! model has one), the albedo and the phase function; a renderer of one kind only matches
+//! on the [`HeteroMedium`]. The scene's homogeneous media stay in [`crate::Medium`] (paper
+//! C's analytic model); these add their extinction where they overlap it.
 
-use crate::scene::Rgb;
+pub mod analytic;
+pub mod asset;
+pub mod gaussians;
+pub mod voxel_grid;
+
 use crate::vec3::Vec3;
+use analytic::AnalyticMedium;
+use asset::AssetMedium;
+use gaussians::GaussianMediumOf;
+use haze_core::Rgb;
 use std::fmt;
 use std::sync::Arc;
 
@@ -59,41 +69,62 @@ pub trait Heterogeneous: Send + Sync + fmt::Debug {
     }
     /// A box outside which `σt = 0`, or `None` when the medium fills space.
     fn bounds(&self) -> Option<Aabb>;
-    /// The extinction as a voxel grid when that is what the medium is (a smoke asset):
-    /// the GPU renderer uploads it. `None` for media of another kind.
-    fn voxels(&self) -> Option<&crate::voxel_grid::VoxelGrid> {
-        None
+}
+
+/// A heterogeneous medium of a scene, by kind, shared: two are equal when they hold the
+/// same object. It dereferences to its [`Heterogeneous`] self.
+#[derive(Clone)]
+pub enum HeteroMedium {
+    /// A baked smoke asset resampled on a voxel grid (paper A).
+    Asset(Arc<AssetMedium>),
+    /// A sum of Gaussians (paper B).
+    Gaussians(Arc<GaussianMediumOf>),
+    /// Analytic fog functions carried by a wind (paper D).
+    Analytic(Arc<AnalyticMedium>),
+    /// Any other medium: the march, which needs nothing but [`Heterogeneous`], renders it;
+    /// the renderers of one kind refuse it.
+    Other(Arc<dyn Heterogeneous>),
+}
+
+impl HeteroMedium {
+    /// Whether it is a sum of Gaussians, the only kind paper B's renderer takes.
+    pub fn is_gaussians(&self) -> bool {
+        matches!(self, HeteroMedium::Gaussians(_))
     }
-    /// The medium as a sum of Gaussians, for paper B's renderer ([`crate::paper_b`]).
-    fn gaussians(&self) -> Option<&crate::gaussian_medium::GaussianMediumOf> {
-        None
-    }
-    /// The medium as paper D's analytic fog, when it is one ([`crate::analytic`]).
-    fn as_analytic(&self) -> Option<&crate::analytic::AnalyticMedium> {
-        None
+
+    /// Whether it is analytic fog, the only kind paper D's composite takes.
+    pub fn is_analytic(&self) -> bool {
+        matches!(self, HeteroMedium::Analytic(_))
     }
 }
 
-/// A shared heterogeneous medium of a scene; two are equal when they are the same object.
-#[derive(Clone)]
-pub struct HeteroMedium(pub Arc<dyn Heterogeneous>);
-
 impl PartialEq for HeteroMedium {
     fn eq(&self, other: &Self) -> bool {
-        Arc::ptr_eq(&self.0, &other.0)
+        match (self, other) {
+            (HeteroMedium::Asset(a), HeteroMedium::Asset(b)) => Arc::ptr_eq(a, b),
+            (HeteroMedium::Gaussians(a), HeteroMedium::Gaussians(b)) => Arc::ptr_eq(a, b),
+            (HeteroMedium::Analytic(a), HeteroMedium::Analytic(b)) => Arc::ptr_eq(a, b),
+            (HeteroMedium::Other(a), HeteroMedium::Other(b)) => Arc::ptr_eq(a, b),
+            _ => false,
+        }
     }
 }
 
 impl fmt::Debug for HeteroMedium {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        self.0.fmt(f)
+        (**self).fmt(f)
     }
 }
 
 impl std::ops::Deref for HeteroMedium {
     type Target = dyn Heterogeneous;
     fn deref(&self) -> &Self::Target {
-        &*self.0
+        match self {
+            HeteroMedium::Asset(m) => &**m,
+            HeteroMedium::Gaussians(m) => &**m,
+            HeteroMedium::Analytic(m) => &**m,
+            HeteroMedium::Other(m) => &**m,
+        }
     }
 }
 

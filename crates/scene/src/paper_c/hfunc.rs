@@ -8,16 +8,16 @@
 //! `H(u, w) = ∫_w^{π/2} exp(−u·(tan ξ − tan w)) dξ = e^{u·tan w}·[F(u, π/2) − F(u, w)]`,
 //!
 //! lies in `(0, π/2 − w]`, never overflows and needs no difference of two table values
-//! (`crate::airlight` writes the airlight with it). With `δ = π/2 − w`, `ξ = w + sδ`
+//! (`crate::paper_c::airlight` writes the airlight with it). With `δ = π/2 − w`, `ξ = w + sδ`
 //! and `ρ = u / cos w = u / sin δ`:
 //!
 //! `H = δ·∫₀¹ exp(−ρ·sin(sδ)/sin((1−s)δ)) ds`,
 //!
 //! so `K(ρ, δ) = (1 + ρ)·H/δ` is bounded on the whole quarter plane `ρ ≥ 0`,
 //! `δ ∈ [0, π/2]`: `K(0, δ) = 1`, `K(∞, δ) = sin δ/δ`, `K(ρ, 0) = (1 + ρ)·g(ρ)` with
-//! `g(c) = 1 − c·e^c·E₁(c)`. [`crate::htable`] tabulates `K`.
+//! `g(c) = 1 − c·e^c·E₁(c)`. [`crate::paper_c::htable`] tabulates `K`.
 
-use crate::quad::adaptive_pieces;
+use super::quad::adaptive_pieces;
 use std::f64::consts::FRAC_PI_2;
 
 /// Relative tolerance of the quadratures here.
@@ -128,7 +128,7 @@ pub fn f_exact(u: f64, v: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::special::g_edge;
+    use crate::paper_c::special::g_edge;
 
     #[test]
     fn h_agrees_with_its_oracle_and_limits() {

@@ -13,6 +13,8 @@
 //! distance widened by a few ulps, so rounding never culls a triangle the brute-force
 //! loop would hit).
 
+pub mod model;
+
 use crate::vec3::{Vec3, cross, dot, normalize, sub};
 
 /// At most this many triangles in a leaf.

@@ -4,7 +4,7 @@
 //! From a surface point `p` at distance `Dsp` (optical `T = β·Dsp`) of the light, the
 //! airlight arriving along a direction at angle `γ′` from the light direction is paper C's
 //! airlight of an infinite ray, `σs·I/(2π Dsp sin γ′)·e^{−T}·H(T sin γ′, γ′/2)` (stable form,
-//! [`crate::hfunc`]). Integrated against a lobe `max(0, cos ψ)ⁿ` about an axis at angle
+//! [`crate::paper_c::hfunc`]). Integrated against a lobe `max(0, cos ψ)ⁿ` about an axis at angle
 //! `θ` from the light (the normal, `n = 1`: Lambert's `cos θᵢ`; the mirror direction of the
 //! view: Phong), in coordinates about the light direction the solid angle's `sin γ′`
 //! cancels the `1/sin γ′`:
@@ -23,9 +23,9 @@
 //! on `x = T/(1 + T)` uniform over `[0, T_MAX/(1 + T_MAX)]` and `θ` uniform over `[0, π]`;
 //! beyond `T_MAX = 50` the scattered light (`< e^{−50}·I/Dsp`) is 0.
 
-use crate::htable::HTable;
-use crate::quad::{adaptive_pieces, composite, gauss_legendre};
-use crate::table::Table2;
+use super::htable::HTable;
+use super::quad::{adaptive_pieces, composite, gauss_legendre};
+use super::table::Table2;
 use std::f64::consts::PI;
 
 /// Largest optical distance light–surface the table covers.
@@ -187,7 +187,7 @@ impl GTable {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::hfunc::h_exact;
+    use crate::paper_c::hfunc::h_exact;
     use std::f64::consts::FRAC_PI_2;
 
     /// The values of docs/papers-bcd (§1.8), and the closed forms at T = 0:

@@ -6,11 +6,11 @@
 //! renderers then light it by its point lights and suns, and its optical depth shadows
 //! the surfaces (paper A §6, smoke → surfaces).
 
-use crate::media::{Aabb, Heterogeneous};
-use crate::scene::Rgb;
+use super::voxel_grid::VoxelGrid;
+use super::{Aabb, Heterogeneous};
 use crate::vec3::Vec3;
-use crate::voxel_grid::VoxelGrid;
 use haze_asset::Asset;
+use haze_core::Rgb;
 use haze_view::stream::{FrameDecoder, StreamFrame};
 use haze_volume::{Bbox, rbf};
 use serde::Deserialize;
@@ -186,43 +186,4 @@ impl Heterogeneous for AssetMedium {
     fn bounds(&self) -> Option<Aabb> {
         Some(self.grid.bounds())
     }
-    fn voxels(&self) -> Option<&VoxelGrid> {
-        Some(&self.grid)
-    }
-}
-
-/// The march's settings for `scene` ([`crate::march`]): steps of half the smallest voxel
-/// of its voxel media (a trilinear field varies over a voxel; the midpoint rule's error
-/// then stays ~`h²/24` of the in-scattered light's curvature) and an eighth of its
-/// analytic fogs' finest feature, whichever is smaller, or the default step
-/// when it has neither; `fine` (the reference) takes a quarter of that. The environment
-/// lights the media through [`crate::env_smoke::light`], computed here (once per render).
-pub fn march_options(scene: &crate::Scene, fine: bool) -> crate::march::MarchOptions {
-    let mut opt = march_steps(scene, fine);
-    opt.env = crate::env_smoke::light(scene);
-    opt
-}
-
-/// [`march_options`] without the environment's light on the media.
-pub fn march_steps(scene: &crate::Scene, fine: bool) -> crate::march::MarchOptions {
-    let mut opt = crate::march::MarchOptions::default();
-    let voxel = scene
-        .hetero
-        .iter()
-        .filter_map(|m| m.voxels())
-        .flat_map(|g| g.voxel)
-        .fold(f64::INFINITY, f64::min);
-    // Analytic fogs: an eighth of their finest feature (haze_fogfn::Fog::feature_size).
-    let fog = scene
-        .analytic_media()
-        .map(|a| 0.125 * a.fog.feature_size())
-        .fold(f64::INFINITY, f64::min);
-    let step = (0.5 * voxel).min(fog);
-    if step.is_finite() {
-        opt.step = step;
-    }
-    if fine {
-        opt.step *= 0.25;
-    }
-    opt
 }

@@ -9,7 +9,7 @@
 //!
 //! Paper C's substitutions (`z = βx − Tsv cos γ = h·tan η`, `η = 2ξ − π/2`) turn it
 //! into `A0·[F(A1, v1) − F(A1, γ/2)]` (eq. 7–12). We use the equivalent stable form of
-//! [`crate::hfunc`]: with `h = Dsv·sin γ` (the light's distance from the ray's line) and,
+//! [`crate::paper_c::hfunc`]: with `h = Dsv·sin γ` (the light's distance from the ray's line) and,
 //! for each end `k` of the segment (0: the eye, 1: the far end `p`), `y_k` the signed
 //! distance along the ray from the foot of that perpendicular to the end (`y₀ = −Dsv cos γ`,
 //! `y₁ = t_end − Dsv cos γ`), `r_k` the end's distance to the light (`r₀ = Dsv`,
@@ -31,7 +31,7 @@
 //! (the homogeneous medium is the local fog around the scene, lit from outside it), so
 //! `La = σs·E/(4π)·∫₀^{t_end} e^{−βx} dx = σs·E/(4π)·(1 − e^{−β t_end})/β`.
 
-use crate::htable::HTable;
+use super::htable::HTable;
 use crate::vec3::{Vec3, axpy, cos_sin, dot, norm, normalize, perpendicular, scale, sub};
 use std::f64::consts::PI;
 
@@ -46,13 +46,13 @@ impl KFunction for HTable {
     }
 }
 
-/// `K` by adaptive quadrature ([`crate::hfunc::k_exact`]): slow, exact to 1e-11.
+/// `K` by adaptive quadrature ([`crate::paper_c::hfunc::k_exact`]): slow, exact to 1e-11.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct ExactK;
 
 impl KFunction for ExactK {
     fn k(&self, rho: f64, delta: f64) -> f64 {
-        crate::hfunc::k_exact(rho, delta.clamp(0.0, std::f64::consts::FRAC_PI_2))
+        super::hfunc::k_exact(rho, delta.clamp(0.0, std::f64::consts::FRAC_PI_2))
     }
 }
 

@@ -1,4 +1,4 @@
-//! Three-component `f64` vectors as plain arrays, and the few operations the scene needs.
+//! Three-component `f64` vectors as plain arrays, and the few operations the crates need.
 
 /// A point or direction in world space (Z up).
 pub type Vec3 = [f64; 3];
@@ -32,6 +32,11 @@ pub fn cross(a: Vec3, b: Vec3) -> Vec3 {
     ]
 }
 
+/// `|a|²`.
+pub fn norm2(a: Vec3) -> f64 {
+    dot(a, a)
+}
+
 pub fn norm(a: Vec3) -> f64 {
     dot(a, a).sqrt()
 }
@@ -40,6 +45,11 @@ pub fn norm(a: Vec3) -> f64 {
 pub fn normalize(a: Vec3) -> Option<Vec3> {
     let n = norm(a);
     (n > 0.0 && n.is_finite()).then(|| scale(a, 1.0 / n))
+}
+
+/// The part of `a` perpendicular to the unit vector `u`.
+pub fn perp(a: Vec3, u: Vec3) -> Vec3 {
+    axpy(a, -dot(a, u), u)
 }
 
 /// A unit vector perpendicular to the unit vector `a` (any one).

@@ -30,14 +30,14 @@
 //!   lights' direct term is).
 //!
 //! `λ_l(t)` is tabulated at `t = D·j/(N − 1)` and read linearly in `t`; `k_t` comes from
-//! paper C's airlight in its stable form ([`crate::airlight::point`]) through the `K`
+//! paper C's airlight in its stable form ([`crate::paper_c::airlight::point`]) through the `K`
 //! table, integrated over γ by Gauss–Legendre on panels graded towards `γ = 0`. Limits:
 //! `D = ∞` with `β > 0` gives `e^{−βD} = 0` and `λ = 0` (the sources deliver
 //! `L·e^{−βD}·dω`); `β = 0` gives `λ = 0` and `L_in = L`. The environment's own radiance
 //! along escaping rays, `e^{−βD}·L(ω)`, stays exact ([`crate::render::background`]).
 
-use crate::airlight::{self, KFunction};
-use crate::quad::{composite, gauss_legendre};
+use super::airlight::{self, KFunction};
+use super::quad::{composite, gauss_legendre};
 use crate::scene::{Environment, Material, Rgb, Scene};
 use crate::vec3::Vec3;
 use haze_view::sh;

@@ -1,5 +1,5 @@
 //! The reference for the environment's light through the medium: the single-scattering
-//! model of [`crate::envglow`] (sources on a sphere at the environment distance `D`)
+//! model of [`crate::paper_c::envglow`] (sources on a sphere at the environment distance `D`)
 //! integrated directly on the sphere of directions, independent of spherical harmonics,
 //! of the `λ_l` table and of paper C's special function.
 //!
@@ -7,7 +7,7 @@
 //!   `L_a(ω, t) = ∫₀^π k_t(γ)·[∫₀^{2π} L(ω′(γ, φ)) dφ]·sin γ dγ`, `ω′(γ, φ)` the direction at
 //!   angle `γ` from `ω` and azimuth `φ` about it. The kernel `k_t = D²·(airlight of a unit
 //!   point light at distance D, angle γ)` is the quadrature of eq. 5
-//!   ([`crate::reference::point_airlight`]); `γ` by composite Gauss–Legendre (16 nodes on
+//!   ([`crate::paper_c::reference::point_airlight`]); `γ` by composite Gauss–Legendre (16 nodes on
 //!   panels graded towards the `1/γ` peak), `φ` by the midpoint rule.
 //! - Light on a surface point: `L_in(ω) = e^{−βD}·L(ω) + L_a(ω, D)`, the second term
 //!   precomputed by the quadrature above on a lat-long grid and read bilinearly (it is
@@ -16,9 +16,9 @@
 //!   hemisphere about `n` (Gauss–Legendre in `cos θ` × midpoint azimuths), the specular
 //!   lobe about `r` on panels scaled by its width `1/√(m + 2)`.
 
-use crate::envglow::gamma_rule;
-use crate::quad::gauss_legendre;
-use crate::reference::point_airlight;
+use super::envglow::gamma_rule;
+use super::quad::gauss_legendre;
+use super::reference::point_airlight;
 use crate::scene::{Environment, Material, Rgb, Scene};
 use crate::vec3::{Vec3, axpy, cross, dot, perpendicular, scale};
 use haze_view::LatLong;

@@ -11,9 +11,9 @@
 //! (a 3D DDA, Amanatides–Woo) and sums Simpson's rule per piece, so the only error is
 //! rounding.
 
-use crate::media::Aabb;
-use crate::scene::Rgb;
+use super::Aabb;
 use crate::vec3::{Vec3, axpy};
+use haze_core::Rgb;
 
 /// Extinction on a grid of voxels (x fastest).
 #[derive(Clone, Debug, PartialEq)]

@@ -16,9 +16,9 @@
 //! the smoke's density — to the listed `gaussians`. The RBFs' 3r cut-off of paper A is
 //! not applied (it drops at most `w·e⁻⁹` of density); the residual is not used.
 
-use crate::media::{Aabb, Heterogeneous};
-use crate::scene::Rgb;
+use super::{Aabb, Heterogeneous};
 use crate::vec3::Vec3;
+use haze_core::Rgb;
 use haze_gaussians::noise::{Noise, Perlin};
 use haze_gaussians::{Gaussian, GaussianMedium};
 use serde::Deserialize;
@@ -47,9 +47,6 @@ impl Heterogeneous for GaussianMediumOf {
     }
     fn bounds(&self) -> Option<Aabb> {
         self.medium.bounds().map(|(min, max)| Aabb { min, max })
-    }
-    fn gaussians(&self) -> Option<&GaussianMediumOf> {
-        Some(self)
     }
 }
 

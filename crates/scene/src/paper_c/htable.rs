@@ -1,4 +1,4 @@
-//! Paper C's special function as a table: `K(ρ, δ) = (1 + ρ)·H/δ` of [`crate::hfunc`],
+//! Paper C's special function as a table: `K(ρ, δ) = (1 + ρ)·H/δ` of [`crate::paper_c::hfunc`],
 //! on a grid uniform in `x = √(ρ/(1 + ρ))` and `y = 2w/π = 1 − 2δ/π`.
 //!
 //! Why this and not the paper's `F(u, v)` on a box of `u` (§5, a 64² texture): the
@@ -11,8 +11,8 @@
 //! tables") measures the three parameterizations against quadrature; 128² `f32` samples
 //! (64 KiB) keep the relative error of `H` below 2·10⁻⁴ everywhere.
 
-use crate::hfunc::k_exact;
-use crate::table::Table2;
+use super::hfunc::k_exact;
+use super::table::Table2;
 use std::f64::consts::FRAC_PI_2;
 
 /// Default side of the table (128² `f32`, 64 KiB).
@@ -99,7 +99,7 @@ pub fn measurement_grid() -> Vec<(f64, f64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::hfunc::h_oracle;
+    use crate::paper_c::hfunc::h_oracle;
     use rayon::prelude::*;
 
     /// The default table's largest relative error of `H` over the measurement grid,

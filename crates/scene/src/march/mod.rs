@@ -8,7 +8,7 @@
 //! `T(a, b) = exp(−∫_a^b σt)` with `σt` the sum of every medium's extinction, `Lₗ(x)` a
 //! point light's `I·T(x → light)/d²` or a sun's irradiance `E·T(x → ∞)` (the
 //! homogeneous medium does not attenuate suns: paper C's convention, see
-//! [`crate::airlight`]), each zero when a surface blocks the light. The integral is the
+//! [`crate::paper_c::airlight`]), each zero when a surface blocks the light. The integral is the
 //! midpoint rule on steps of at most [`MarchOptions::step`], every step's transmittance
 //! from the media's own optical depths (closed forms where they have them), so the only
 //! discretization is that of the in-scattered light. A surface at `t_end` reflects the
@@ -16,16 +16,18 @@
 //! it through the media; light scattered onto surfaces by the medium is not included.
 //! Where a homogeneous medium fills space the march ends where the transmittance falls
 //! below [`MarchOptions::min_transmittance`]. The environment lights the heterogeneous
-//! media too, by [`MarchOptions::env`] ([`crate::env_smoke`]), added to `Σ_l`, and the
+//! media too, by [`MarchOptions::env`] ([`env_smoke`]), added to `Σ_l`, and the
 //! surfaces by [`MarchOptions::env_surfaces`] when set, each direction attenuated by the
-//! media ([`crate::env_smoke::Direct::surface`]).
+//! media ([`env_smoke::Direct::surface`]).
 
-use crate::airlight::Limits;
-use crate::env_smoke::EnvLight;
-use crate::media::henyey_greenstein;
+pub mod env_smoke;
+
+use crate::media::{HeteroMedium, henyey_greenstein};
+use crate::paper_c::airlight::Limits;
 use crate::render::Image;
 use crate::scene::{Light, Rgb, Scene};
 use crate::vec3::{Vec3, axpy, dot, norm, reflect, scale, sub};
+use env_smoke::EnvLight;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -38,11 +40,11 @@ pub struct MarchOptions {
     pub min_transmittance: f64,
     /// Most steps along one ray (a guard against a tiny `step` on a long ray).
     pub max_steps: usize,
-    /// The environment's light on the heterogeneous media ([`crate::env_smoke`]).
+    /// The environment's light on the heterogeneous media ([`env_smoke`]).
     pub env: EnvLight,
     /// The environment's light on the surfaces, by direct quadrature
-    /// ([`crate::env_smoke::Direct::surface`]; paper B's reference), or none.
-    pub env_surfaces: Option<std::sync::Arc<crate::env_smoke::Direct>>,
+    /// ([`env_smoke::Direct::surface`]; paper B's reference), or none.
+    pub env_surfaces: Option<std::sync::Arc<env_smoke::Direct>>,
 }
 
 impl Default for MarchOptions {
@@ -167,11 +169,11 @@ fn medium_span(scene: &Scene, eye: Vec3, dir: Vec3, t_end: f64) -> Option<(f64, 
     }
     let mut span: Option<(f64, f64)> = None;
     for m in &scene.hetero {
-        let s = match (m.bounds(), m.as_analytic()) {
+        let s = match (m.bounds(), m) {
             (Some(b), _) => b.clip(eye, dir, 0.0, t_end),
-            // An analytic fog ends at its `far` from the eye (crate::analytic).
-            (None, Some(a)) => Some((0.0, t_end.min(a.far))),
-            (None, None) => Some((0.0, t_end)),
+            // An analytic fog ends at its `far` from the eye (crate::media::analytic).
+            (None, HeteroMedium::Analytic(a)) => Some((0.0, t_end.min(a.far))),
+            (None, _) => Some((0.0, t_end)),
         };
         if let Some((a, b)) = s {
             span = Some(span.map_or((a, b), |(x, y)| (x.min(a), y.max(b))));
@@ -278,10 +280,49 @@ pub fn render(
     }
 }
 
+/// The march's settings for `scene`: steps of half the smallest voxel
+/// of its voxel media (a trilinear field varies over a voxel; the midpoint rule's error
+/// then stays ~`h²/24` of the in-scattered light's curvature) and an eighth of its
+/// analytic fogs' finest feature, whichever is smaller, or the default step
+/// when it has neither; `fine` (the reference) takes a quarter of that. The environment
+/// lights the media through [`env_smoke::light`], computed here (once per render).
+pub fn march_options(scene: &Scene, fine: bool) -> MarchOptions {
+    let mut opt = march_steps(scene, fine);
+    opt.env = env_smoke::light(scene);
+    opt
+}
+
+/// [`march_options`] without the environment's light on the media.
+pub fn march_steps(scene: &Scene, fine: bool) -> MarchOptions {
+    let mut opt = MarchOptions::default();
+    let voxel = scene
+        .hetero
+        .iter()
+        .filter_map(|m| match m {
+            HeteroMedium::Asset(a) => Some(a.grid()),
+            _ => None,
+        })
+        .flat_map(|g| g.voxel)
+        .fold(f64::INFINITY, f64::min);
+    // Analytic fogs: an eighth of their finest feature (haze_fogfn::Fog::feature_size).
+    let fog = scene
+        .analytic_media()
+        .map(|a| 0.125 * a.fog.feature_size())
+        .fold(f64::INFINITY, f64::min);
+    let step = (0.5 * voxel).min(fog);
+    if step.is_finite() {
+        opt.step = step;
+    }
+    if fine {
+        opt.step *= 0.25;
+    }
+    opt
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::media::{Aabb, HeteroMedium, Heterogeneous};
+    use crate::media::{Aabb, Heterogeneous};
     use std::sync::Arc;
 
     /// A box of constant extinction — its optical depth in closed form (the clipped
@@ -320,7 +361,7 @@ mod tests {
                "environment": [0.5, 0.5, 0.5], "lights": [{json_lights}]}}"#
         );
         let mut s = crate::file::parse(&text).unwrap();
-        s.hetero.push(HeteroMedium(Arc::new(slab)));
+        s.hetero.push(HeteroMedium::Other(Arc::new(slab)));
         s
     }
 

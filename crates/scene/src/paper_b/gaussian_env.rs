@@ -14,20 +14,20 @@
 //! * **Airlight of the Gaussians**, single scattering (isotropic phase): a point `x`
 //!   scatters `σs(x)·e^{−T̄(x)}·Ē(x)` towards the eye, `Ē(x) = (1/4π)∫L(ω)·V(x, ω) dω`
 //!   with `V` the surfaces' visibility and the scene fog's `e^{−σt·D}` (as
-//!   [`crate::env_smoke`]). As the point lights' `f0·f1` ([`haze_gaussians::airlight`]),
+//!   [`crate::march::env_smoke`]). As the point lights' `f0·f1` ([`haze_gaussians::airlight`]),
 //!   everything but Gaussian `i`'s own density is sampled once per frame at its centre:
 //!   `Lᵢ ≈ αᵢ·Ēᵢ·e^{Eᵢ}·e^{−Tᵢ(v,bᵢʳ) − T̄ᵢ(bᵢʳ)}·Tᵢ(v,p)` with
 //!   `Eᵢ = −Σ_{j≠i}[Tⱼ(v,bᵢ) + T̄ⱼ(bᵢ)] − β0·|v − bᵢ| − β_bg·D` and `Ēᵢ = Ē(bᵢ)` by the
-//!   product rule of [`ENV_THETA`] nodes ([`crate::env_smoke::directions`]). The
+//!   product rule of [`ENV_THETA`] nodes ([`crate::march::env_smoke::directions`]). The
 //!   homogeneous part's own airlight of the environment is left out, as in the march
-//!   ([`crate::env_smoke`]).
+//!   ([`crate::march::env_smoke`]).
 //!
 //! Errors (measured against the march with the environment integrated over directions,
 //! BENCHMARKS.md "Paper B"): `e^{−T̄}` for the average of `e^{−T(x,ω)}` over `L(ω)`
 //! (Jensen: darker, by ~`Var(T)/2`), `Ē` and `T̄ⱼ` sampled at the centres.
 
-use crate::env_smoke::directions;
-use crate::envglow::{self, EnvGlow};
+use crate::march::env_smoke::directions;
+use crate::paper_c::envglow::{self, EnvGlow};
 use crate::scene::{Environment, Material, Rgb, Scene};
 use crate::vec3::{Vec3, norm, sub};
 use haze_gaussians::airlight::GaussianSet;

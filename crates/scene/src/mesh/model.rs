@@ -6,9 +6,9 @@
 //! the world by the scene file's transform times the node's transforms from the root down,
 //! `x ↦ T·N₁·…·Nₖ·x`; normals by the inverse transpose of that matrix's 3 × 3 part.
 
-use crate::mesh::Triangle;
-use crate::scene::Rgb;
+use super::Triangle;
 use crate::vec3::{Vec3, normalize};
+use haze_core::Rgb;
 use std::path::Path;
 
 /// A 4 × 4 affine transform, row-major: `y_i = Σ_j m[i][j]·x_j + m[i][3]`.

@@ -1,0 +1,11 @@
+//! The types every haze crate shares: points and directions as `[f64; 3]` with their
+//! few operations ([`vec3`]), linear RGB ([`Rgb`]), and rendered images ([`Image`]) with
+//! their OpenEXR and PNG writers.
+
+mod image;
+pub mod vec3;
+
+pub use image::{Image, ImageError};
+
+/// Linear RGB, per channel.
+pub type Rgb = [f64; 3];
