@@ -35,7 +35,7 @@
 use haze_fit::{SequenceFitter, SequenceOptions};
 use haze_gpu::GpuContext;
 use haze_view::diffusion::SolveOptions;
-use haze_view::env::direction;
+use haze_view::distant::direction;
 use haze_view::gpu::renderer::{GpuFrame, GpuRenderer};
 use haze_view::gpu::volume_pass::Residual;
 use haze_view::lighting::single::SourcePoints;

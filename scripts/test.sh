@@ -37,6 +37,9 @@ if ! command -v cargo >/dev/null 2>&1; then
 fi
 
 cargo fmt --all -- --check
+# The layout's invariants (ARCHITECTURE.md): a thin binary, no import circle between
+# rooms, no shader text edited by string replacement, no renderer function over 120 lines.
+python3 scripts/check_layout.py
 cargo clippy --workspace --all-targets --locked -- -D warnings
 
 log=$(mktemp)

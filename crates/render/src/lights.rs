@@ -41,7 +41,7 @@ impl Lights {
                 let env = Environment::map_with_sun_extracted(map);
                 match env.suns.first() {
                     Some(sun) => {
-                        let (theta, phi) = haze_view::env::angles(sun.direction);
+                        let (theta, phi) = haze_view::distant::angles(sun.direction);
                         tracing::info!(
                             "{}: sun split off at elevation {:.1}°, azimuth {:.1}°, {:.2}° wide, irradiance {:.3?}",
                             self.env,

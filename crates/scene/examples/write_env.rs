@@ -6,7 +6,7 @@
 //!
 //! `cargo run -p haze-scene --example write_env -- data/scenes/glow_env.exr`
 
-use haze_view::env::{LatLong, direction};
+use haze_view::distant::{LatLong, direction};
 
 fn main() {
     let path = std::env::args()

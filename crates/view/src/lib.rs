@@ -4,10 +4,10 @@
 //! stage runs on the CPU (rayon) and is the oracle of its GPU twin.
 
 pub mod diffusion;
+pub mod distant;
 pub mod env;
 pub mod field;
 pub mod gpu;
-pub mod grid_diffusion;
 pub mod lighting;
 pub mod lights;
 pub mod medium;
@@ -17,7 +17,8 @@ pub mod sh;
 pub mod stream;
 
 pub use diffusion::{DiffusionSolver, Solution, SolveOptions, Sources};
-pub use env::{Distant, Environment, LatLong, Rgb, Sky};
+pub use distant::{Distant, LatLong, Rgb, Sky};
+pub use env::Environment;
 pub use haze_camera::Camera;
 pub use haze_core::{Image, ImageError};
 pub use lights::{PointLight, Sun};

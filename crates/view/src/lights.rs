@@ -15,7 +15,7 @@
 //! `1/r²` over a ball of radius `a` about the light, so that a voxel holding the light
 //! stays finite.
 
-use crate::env::{LatLong, Rgb};
+use crate::distant::{LatLong, Rgb};
 use crate::medium::hg;
 use std::f64::consts::PI;
 

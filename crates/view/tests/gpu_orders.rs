@@ -31,13 +31,13 @@ use haze_view::gpu::GridBuffer;
 use haze_view::gpu::env_pass::EnvPass;
 use haze_view::gpu::lights_pass::LightsPass;
 use haze_view::gpu::orders::{AUTO_FACTOR, CellRadiance, OrdersPass};
-use haze_view::grid_diffusion::{
-    CoarseGrid, GATHER_LATER_THETA, GATHER_THETA, GridSolveOptions, HIGH, MediaRadiance,
-    add_lights, add_to_grids, env_grid_sources, explicit_media_radiance, gather, sun_sources,
-};
 use haze_view::render::MsDiffusion;
 use haze_view::render::crm::{self, VolumeGrids};
 use haze_view::render::env_pass::{EnvGridOptions, directions, grid_frame};
+use haze_view::render::grid_diffusion::{
+    CoarseGrid, GATHER_LATER_THETA, GATHER_THETA, GridSolveOptions, HIGH, MediaRadiance,
+    add_lights, add_to_grids, env_grid_sources, explicit_media_radiance, gather, sun_sources,
+};
 use haze_view::sh::{self, ShGrid};
 use haze_view::{Environment, Medium, PointLight, Sky, Sources, Sun};
 
@@ -92,7 +92,7 @@ struct Scene {
     orders: OrdersPass,
     coarse: CoarseGrid,
     sources: Sources,
-    suns: Vec<haze_view::grid_diffusion::SunSource>,
+    suns: Vec<haze_view::render::grid_diffusion::SunSource>,
 }
 
 fn scene(env: &Environment, m: &Medium, factor: usize) -> Scene {

@@ -6,8 +6,8 @@
 //! [`crate::render::crm::volume_pass`], `lights_pass.wgsl` ↔
 //! [`crate::render::lights_pass::lights_pass`], `diffusion.wgsl` ↔
 //! [`crate::render::add_multiple_scattering`], `orders.wgsl` ↔
-//! [`crate::grid_diffusion::explicit_media_radiance`] and
-//! [`crate::grid_diffusion::add_to_grids`]; the modules `sh_basis.wgsl` ↔
+//! [`crate::render::grid_diffusion::explicit_media_radiance`] and
+//! [`crate::render::grid_diffusion::add_to_grids`]; the modules `sh_basis.wgsl` ↔
 //! [`crate::sh::eval_into`], the shadow march `grid_march.wgsl` and the phase functions
 //! `disk_phase.wgsl` are imported by the shaders that need them ([`shaders`]). Single scattering leaves the sources at the
 //! centers on the GPU in a [`SourceBuffer`], which the volume pass reads; the volume pass

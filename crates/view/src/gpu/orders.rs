@@ -1,5 +1,5 @@
 //! Explicit scattering orders on the GPU (`shaders/orders.wgsl`), the twin of
-//! [`crate::grid_diffusion::explicit_media_radiance`] fed as
+//! [`crate::render::grid_diffusion::explicit_media_radiance`] fed as
 //! [`crate::render::crm_grids`] feeds it with the environment pass's grid: multiple
 //! scattering on the coarse grid of `f³`-voxel cells, its first `K` orders gathered along
 //! the environment pass's direction rules and the rest by the finite-volume diffusion,
@@ -8,26 +8,26 @@
 //! Three steps, each submitted without a wait:
 //! - [`OrdersPass::gather`]: the coarse density and the first source per cell from what
 //!   the GPU passes hold — the environment pass's grid of `S_lm` ([`EnvShadow`], the
-//!   sky's single scattering per voxel, [`crate::grid_diffusion::env_grid_sources`]), the
+//!   sky's single scattering per voxel, [`crate::render::grid_diffusion::env_grid_sources`]), the
 //!   point lights' moments and each sun's transmittance from the cell center, marched
 //!   through the volume pass's `D` as the lights pass marches
-//!   ([`crate::grid_diffusion::add_lights`], [`crate::grid_diffusion::sun_sources`]) —
+//!   ([`crate::render::grid_diffusion::add_lights`], [`crate::render::grid_diffusion::sun_sources`]) —
 //!   then the box of the cells with smoke, where the rays stop (one workgroup), and one
-//!   pass per order ([`crate::grid_diffusion::gather`]: 72 directions for the first, 32
+//!   pass per order ([`crate::render::grid_diffusion::gather`]: 72 directions for the first, 32
 //!   for the later, 8 per dispatch);
 //! - [`OrdersPass::diffuse`]: the finite-volume system of the light after the gathered
 //!   orders, one invocation per cell, solved by Jacobi-preconditioned conjugate gradients
-//!   ([`crate::grid_diffusion::solve`]) with one workgroup per colour channel, in chunks
+//!   ([`crate::render::grid_diffusion::solve`]) with one workgroup per colour channel, in chunks
 //!   of iterations per dispatch sized by the cells (as the centers' diffusion: no
 //!   dispatch long enough for a watchdog, no host round trip), then `L⁰`, `L¹` per cell
 //!   with the flux moment and the clamp `|L¹| ≤ 3L⁰`;
 //! - [`OrdersPass::apply`]: `J_ms = Ω (L⁰ − g L¹·d + Σ_{l=2,3} g^l c_lm Y_lm(−d))` per
 //!   voxel towards the eye, with the gathered orders' bands 2–3 `c_lm`
-//!   ([`crate::grid_diffusion::add_to_grids`]).
+//!   ([`crate::render::grid_diffusion::add_to_grids`]).
 //!
 //! The cells' `L⁰`, `L¹` and escape probabilities stay on the GPU ([`MediaBuffer`]) and
 //! can be read back for tests. Cells of the diffusion that the CPU leaves out (thinner
-//! than [`crate::grid_diffusion::THIN`]) are identity rows with no source here, which
+//! than [`crate::render::grid_diffusion::THIN`]) are identity rows with no source here, which
 //! gives the same solution.
 //!
 //! lavapipe ends the loops nested in an outermost loop once they have run 65535
@@ -38,11 +38,11 @@ use super::GridBuffer;
 use super::env_pass::EnvShadow;
 use super::lights_pass::LightsPass;
 use crate::env::Environment;
-use crate::grid_diffusion::{GATHER_LATER_THETA, GATHER_THETA, GridSolveOptions, HIGH};
 use crate::lighting::single::RgbSh;
 use crate::medium::{FOUR_PI, Medium};
 use crate::render::MsDiffusion;
 use crate::render::env_pass::{directions, phase_factors};
+use crate::render::grid_diffusion::{GATHER_LATER_THETA, GATHER_THETA, GridSolveOptions, HIGH};
 use haze_gpu::wgsl::Variant;
 use haze_gpu::{
     ComputeLayout, GpuContext, GpuError, bind_buffers, buffer_init, compute_layout, voxel_groups,
@@ -785,7 +785,7 @@ mod tests {
 
     #[test]
     fn the_shader_keeps_the_cpu_constants() {
-        use crate::grid_diffusion::{T_MIN, THIN};
+        use crate::render::grid_diffusion::{T_MIN, THIN};
         assert!(
             SHADER
                 .entry

@@ -24,7 +24,8 @@
 
 use super::GridBuffer;
 use crate::Camera;
-use crate::env::{Distant, Environment};
+use crate::distant::Distant;
+use crate::env::Environment;
 use crate::medium::Medium;
 use crate::render::crm::VolumeGrids;
 use haze_gpu::wgsl::Variant;
@@ -244,7 +245,7 @@ pub struct EnvBuffer {
     kind: u32,
     size: [u32; 2],
     /// The sky (the default for a map, unused).
-    sky: crate::env::Sky,
+    sky: crate::distant::Sky,
     buffer: wgpu::Buffer,
     /// Suns with a disk (zero-angle suns have none).
     suns: u32,
@@ -306,7 +307,7 @@ impl EnvBuffer {
                 1,
                 [m.width as u32, m.height as u32],
                 &m.texels[..],
-                crate::env::Sky::default(),
+                crate::distant::Sky::default(),
             ),
         };
         ctx.check_storage_size("the environment map", std::mem::size_of_val(texels) as u64)?;

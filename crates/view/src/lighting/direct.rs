@@ -118,9 +118,9 @@ pub fn add_light_moments(sources: &mut Sources, rbfs: &[Rbf], env: &Environment,
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::lighting::single::moments;
     use crate::lights::{PointLight, Sun};
     use crate::medium::hg;
-    use crate::render::moments;
     use crate::sh;
 
     #[test]
@@ -154,7 +154,7 @@ mod tests {
         }
     }
 
-    /// `J⁰`, `J¹` against `render::moments` of the SH projection of the scattered light
+    /// `J⁰`, `J¹` against `lighting::single::moments` of the SH projection of the scattered light
     /// as a function of the viewing direction (another route to the same moments).
     #[test]
     fn moments_match_the_projected_phase_function() {

@@ -28,6 +28,7 @@
 //! towards the viewer travels along `−d`): forward scattering peaks when `d` points at the
 //! light. Evaluate `J` at the view ray's direction.
 
+use crate::diffusion::Sources;
 use crate::lighting::zh_table::ZhTable;
 use crate::medium::Medium;
 use crate::sh::{self, ExpMethod, ShExp, TripleProduct};
@@ -175,4 +176,21 @@ pub fn single_scattering(
         })
         .unzip();
     SingleScattering { source, escape }
+}
+
+/// `J⁰` and `J¹` (direction of propagation) of each center's single-scattering source,
+/// from its SH vector, which is a function of the viewing direction `d = −ω`:
+/// `J⁰ = J_00/√(4π)`, `J¹ = (3/4π)∫J(ω)ω dω = −√(3/4π)·(J_11, J_1−1, J_10)`.
+pub fn moments(source: &[RgbSh]) -> Sources {
+    let mut s = Sources::zeros(source.len());
+    let k1 = -(3.0 / (4.0 * PI)).sqrt();
+    for (l, j) in source.iter().enumerate() {
+        for (c, jc) in j.iter().enumerate() {
+            s.j0[l][c] = jc[0] / (4.0 * PI).sqrt();
+            if jc.len() >= 4 {
+                s.j1[l][c] = [k1 * jc[3], k1 * jc[1], k1 * jc[2]];
+            }
+        }
+    }
+    s
 }

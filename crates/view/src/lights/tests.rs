@@ -1,5 +1,5 @@
 use super::*;
-use crate::env::direction;
+use crate::distant::direction;
 
 #[test]
 fn cone_solid_angle_matches_the_textbook_form_and_limits() {

@@ -36,7 +36,7 @@
 
 use std::f64::consts::PI;
 
-use crate::env::{Distant, LatLong, Sky, angles};
+use crate::distant::{Distant, LatLong, Sky, angles};
 
 /// Rec. 709 luminance of linear RGB.
 pub(crate) fn luminance(c: [f64; 3]) -> f64 {
@@ -271,7 +271,8 @@ mod tests {
         let (w, h) = (map.width as f64, map.height as f64);
         let mut s = 0.0;
         for (fx, fy) in [(0.25, 0.25), (0.75, 0.25), (0.25, 0.75), (0.75, 0.75)] {
-            let d = crate::env::direction(PI * (y as f64 + fy) / h, 2.0 * PI * (x as f64 + fx) / w);
+            let d =
+                crate::distant::direction(PI * (y as f64 + fy) / h, 2.0 * PI * (x as f64 + fx) / w);
             s += 0.25 * luminance(map.radiance(d));
         }
         s
@@ -322,7 +323,7 @@ mod tests {
             let omega = 2.0 * PI / (w * k) as f64 * (t0.cos() - t1.cos());
             for sx in 0..w * k {
                 let phi = 2.0 * PI * (sx as f64 + 0.5) / (w * k) as f64;
-                integral += s.pdf(crate::env::direction(0.5 * (t0 + t1), phi)) * omega;
+                integral += s.pdf(crate::distant::direction(0.5 * (t0 + t1), phi)) * omega;
             }
         }
         assert!((integral - 1.0).abs() < 1e-9, "∫pdf dω = {integral}");

@@ -4,7 +4,7 @@
 use rand::SeedableRng;
 
 use super::*;
-use crate::env::direction;
+use crate::distant::direction;
 use crate::medium::hg;
 use crate::{LatLong, Sun};
 

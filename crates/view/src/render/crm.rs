@@ -24,7 +24,8 @@
 //! of a thin slice is `J̃_D σt Δs`, so `J̃` at a sample is `J̃_D/D`.
 
 use crate::Camera;
-use crate::env::{Environment, Rgb};
+use crate::distant::Rgb;
+use crate::env::Environment;
 use crate::field;
 use crate::lighting::single::RgbSh;
 use crate::medium::Medium;

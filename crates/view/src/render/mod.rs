@@ -3,17 +3,18 @@
 
 pub mod crm;
 pub mod env_pass;
+pub mod grid_diffusion;
 pub mod lights_pass;
 
 use crate::diffusion::{DiffusionSolver, Operators, SolveOptions, Sources};
-use crate::grid_diffusion::{self, GridSolveOptions};
 use crate::lighting::direct::add_light_moments;
+use crate::lighting::single::moments;
 use crate::lighting::single::{RgbSh, ShKit, SourcePoints, single_scattering};
 use crate::sh::{self, ExpMethod};
 use crate::{Camera, Environment, Image, Medium};
 use env_pass::{EnvGridOptions, EnvSource};
+use grid_diffusion::GridSolveOptions;
 use haze_volume::{Bbox, Rbf};
-use std::f64::consts::PI;
 use std::time::Instant;
 
 /// Knobs of the fast renderer.
@@ -54,15 +55,15 @@ pub enum MsDiffusion {
     /// with the escape-probability vacuum correction; its source joins the centers'.
     Centers,
     /// By finite volumes on the volume pass's density averaged over `factor³` voxels,
-    /// the first collision kept per cell (`crate::grid_diffusion`); added per voxel
+    /// the first collision kept per cell (`crate::render::grid_diffusion`); added per voxel
     /// after the lights pass. CPU only.
     Grid { factor: usize },
     /// On the same coarse grid, the first `orders` scattering orders gathered explicitly
     /// along 72 directions from every cell and the rest by the grid's diffusion
-    /// (`crate::grid_diffusion::explicit_media_radiance`; on the GPU
+    /// (`crate::render::grid_diffusion::explicit_media_radiance`; on the GPU
     /// `crate::gpu::orders`, lit by the environment pass's grid); `factor`
     /// [`MsDiffusion::AUTO`] chooses it from the amount of smoke
-    /// (`crate::grid_diffusion::auto_grid`).
+    /// (`crate::render::grid_diffusion::auto_grid`).
     Orders { factor: usize, orders: usize },
 }
 
@@ -201,23 +202,6 @@ impl std::fmt::Display for CrmStats {
             self.view_seconds
         )
     }
-}
-
-/// `J⁰` and `J¹` (direction of propagation) of each center's single-scattering source,
-/// from its SH vector, which is a function of the viewing direction `d = −ω`:
-/// `J⁰ = J_00/√(4π)`, `J¹ = (3/4π)∫J(ω)ω dω = −√(3/4π)·(J_11, J_1−1, J_10)`.
-pub fn moments(source: &[RgbSh]) -> Sources {
-    let mut s = Sources::zeros(source.len());
-    let k1 = -(3.0 / (4.0 * PI)).sqrt();
-    for (l, j) in source.iter().enumerate() {
-        for (c, jc) in j.iter().enumerate() {
-            s.j0[l][c] = jc[0] / (4.0 * PI).sqrt();
-            if jc.len() >= 4 {
-                s.j1[l][c] = [k1 * jc[3], k1 * jc[1], k1 * jc[2]];
-            }
-        }
-    }
-    s
 }
 
 /// Source radiance `J̃ = J̃ss + J̃ms` at every center (RGB SH of `kit.order`, functions of

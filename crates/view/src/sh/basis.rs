@@ -22,7 +22,7 @@ pub fn index(l: usize, m: i64) -> usize {
 }
 
 /// The SH basis of order `order` at direction `dir` (need not be normalized; the zero
-/// or a non-finite vector evaluates at +Z, as `env::angles` does).
+/// or a non-finite vector evaluates at +Z, as `distant::angles` does).
 pub fn eval(order: usize, dir: [f64; 3]) -> Vec<f64> {
     let mut out = vec![0.0; count(order)];
     eval_into(order, dir, &mut out);
@@ -123,7 +123,7 @@ pub fn band_of(i: usize) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::env::direction;
+    use crate::distant::direction;
     use crate::sh::quad::SphereGrid;
 
     #[test]

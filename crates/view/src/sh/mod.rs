@@ -4,7 +4,7 @@
 //! Conventions: "order n" means `n²` coefficients, bands `l = 0..n−1`, stored as
 //! `Vec<f64>` at index `l(l+1) + m`, `m ∈ [−l, l]`; `∫ Y_i Y_j dω = δ_ij`; real basis
 //! without the Condon–Shortley phase (band 1 is `√(3/4π)·(y, z, x)`; see [`basis`]).
-//! Directions are Z-up world directions (`env::direction`). Orders 1..=[`MAX_ORDER`]
+//! Directions are Z-up world directions (`distant::direction`). Orders 1..=[`MAX_ORDER`]
 //! are supported everywhere; 4 is the viewer's default.
 
 pub mod basis;

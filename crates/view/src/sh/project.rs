@@ -6,7 +6,8 @@ use rayon::prelude::*;
 
 use super::basis::{band_of, count, eval_into};
 use super::quad::{SphereGrid, gauss_legendre};
-use crate::env::{Distant, Environment, LatLong, Sky, direction};
+use crate::distant::{Distant, LatLong, Sky, direction};
+use crate::env::Environment;
 
 /// Projection of `f` by `n_theta` Gauss–Legendre latitudes (in `cos θ`) × `n_phi`
 /// uniform azimuths: exact for products `f·Y_i` that are polynomials of degree

@@ -8,7 +8,7 @@
 
 use std::f64::consts::PI;
 
-use crate::env::direction;
+use crate::distant::direction;
 
 /// Nodes and weights of the `n`-point Gauss–Legendre rule on `[−1, 1]`, by Newton's
 /// iteration on `P_n` from Tricomi's initial guesses (converges to machine precision

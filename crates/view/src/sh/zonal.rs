@@ -8,7 +8,7 @@ use std::f64::consts::PI;
 
 use super::basis::{band_of, eval_into, index, order_of};
 use super::quad::gauss_legendre;
-use crate::env::direction;
+use crate::distant::direction;
 
 /// `√(4π/(2l+1))`, the factor of rotation and convolution.
 fn band_factor(l: usize) -> f64 {

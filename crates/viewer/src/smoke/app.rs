@@ -16,7 +16,7 @@ use crate::shell::{self, Outcome, Room};
 use anyhow::Result;
 use eframe::egui;
 use haze_gpu::GpuContext;
-use haze_view::env::{angles, direction};
+use haze_view::distant::{angles, direction};
 use haze_view::gpu::renderer::LightingOn;
 use haze_view::{Distant, Environment};
 use std::ops::RangeInclusive;

@@ -8,11 +8,11 @@ use super::gather::SunSource;
 use crate::diffusion::Sources;
 use crate::env::Environment;
 use crate::lighting::single::RgbSh;
+use crate::lighting::single::moments;
 use crate::lights::{DiskPhase, unit};
 use crate::medium::{FOUR_PI, Medium};
 use crate::render::env_pass::phase_factors;
 use crate::render::lights_pass::transmittance;
-use crate::render::moments;
 use crate::sh::{self, ShGrid};
 use haze_volume::rbf::voxel_span;
 use haze_volume::{Rbf, Volume};
@@ -152,7 +152,7 @@ pub fn add_lights(
 /// The environment pass's single scattering as moments per cell: at every fine voxel `v`
 /// with smoke, `J(v, d) = Ω Σ_{l≤1} g^l (L_lm − S_lm(v)) Y_lm(d)` from the grid `env_grid`
 /// of the light the smoke takes away and `light`, the environment's projection
-/// (`render::env_pass`), turned into `J⁰`, `J¹` (`render::moments`), then averaged over
+/// (`render::env_pass`), turned into `J⁰`, `J¹` (`lighting::single::moments`), then averaged over
 /// the cell weighted by the density (the cell's `D·J` is the mean of its voxels' `D·J`).
 pub fn env_grid_sources(
     grid: &CoarseGrid,

@@ -1,0 +1,290 @@
+//! Distant radiance `L(ω)`: a lat-long map or the built-in sky (what [`crate::env`] lights
+//! with, beside its suns and point lights).
+//!
+//! Lat-long convention (docs/conventions.md), Z up: pixel column `u ∈ [0,1)` → azimuth `φ = 2πu`
+//! from +X towards +Y; row `v ∈ [0,1]` → polar angle `θ = πv` from +Z (row 0 is the
+//! zenith). Values are linear RGB radiance, looked up bilinearly between pixel centers
+//! (wrapping in azimuth, clamped at the poles).
+
+use std::f64::consts::PI;
+use std::path::Path;
+
+pub use haze_core::Rgb;
+
+/// Unit direction of polar angle `theta` (from +Z) and azimuth `phi` (from +X to +Y).
+pub fn direction(theta: f64, phi: f64) -> [f64; 3] {
+    let s = theta.sin();
+    [s * phi.cos(), s * phi.sin(), theta.cos()]
+}
+
+/// `(θ, φ)` of a direction (need not be normalized; the zero vector gives the zenith).
+pub fn angles(d: [f64; 3]) -> (f64, f64) {
+    let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    if n <= 0.0 || !n.is_finite() {
+        return (0.0, 0.0);
+    }
+    let theta = (d[2] / n).clamp(-1.0, 1.0).acos();
+    let mut phi = d[1].atan2(d[0]);
+    if phi < 0.0 {
+        phi += 2.0 * PI;
+    }
+    (theta, phi)
+}
+
+/// A lat-long environment map.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LatLong {
+    pub width: usize,
+    pub height: usize,
+    /// Row-major from the top row (the zenith), `width × height` texels.
+    pub texels: Vec<[f32; 3]>,
+}
+
+/// Why an environment map cannot be used.
+#[derive(Debug, thiserror::Error)]
+#[error("{path}: {problem}")]
+pub struct EnvError {
+    pub path: String,
+    pub problem: String,
+}
+
+impl LatLong {
+    /// A map from texels (row 0 = zenith); refuses empty maps and non-finite or negative
+    /// radiance.
+    pub fn new(width: usize, height: usize, texels: Vec<[f32; 3]>) -> Result<Self, String> {
+        if width == 0 || height == 0 {
+            return Err(format!(
+                "environment map of {width}×{height} texels is empty"
+            ));
+        }
+        if texels.len() != width * height {
+            return Err(format!(
+                "{} texels for a {width}×{height} map",
+                texels.len()
+            ));
+        }
+        if let Some(i) = texels
+            .iter()
+            .position(|t| t.iter().any(|c| !c.is_finite() || *c < 0.0))
+        {
+            return Err(format!(
+                "texel ({}, {}) is {:?}: radiance must be finite and non-negative",
+                i % width,
+                i / width,
+                texels[i]
+            ));
+        }
+        Ok(LatLong {
+            width,
+            height,
+            texels,
+        })
+    }
+
+    /// Reads the first RGB(A) layer of an OpenEXR file.
+    pub fn load_exr(path: &Path) -> Result<Self, EnvError> {
+        use exr::prelude::*;
+        let err = |problem: String| EnvError {
+            path: path.display().to_string(),
+            problem,
+        };
+        let image = read_first_rgba_layer_from_file(
+            path,
+            |res, _| {
+                let (w, h) = (res.width(), res.height());
+                (w, h, vec![[0.0f32; 3]; w * h])
+            },
+            |(w, _, px): &mut (usize, usize, Vec<[f32; 3]>),
+             pos,
+             (r, g, b, _a): (f32, f32, f32, f32)| {
+                px[pos.y() * *w + pos.x()] = [r, g, b];
+            },
+        )
+        .map_err(|e| err(format!("not a readable RGB OpenEXR image ({e})")))?;
+        let (w, h, px) = image.layer_data.channel_data.pixels;
+        LatLong::new(w, h, px).map_err(err)
+    }
+
+    fn texel(&self, x: usize, y: usize) -> Rgb {
+        let t = self.texels[y * self.width + x];
+        [f64::from(t[0]), f64::from(t[1]), f64::from(t[2])]
+    }
+
+    /// Radiance arriving from direction `d` (bilinear between pixel centers).
+    pub fn radiance(&self, d: [f64; 3]) -> Rgb {
+        let (theta, phi) = angles(d);
+        let (w, h) = (self.width as f64, self.height as f64);
+        // Continuous texel coordinates with centers at integers.
+        let fx = phi / (2.0 * PI) * w - 0.5;
+        let fy = (theta / PI * h - 0.5).clamp(0.0, h - 1.0);
+        let (x0, y0) = (fx.floor(), fy.floor());
+        let (tx, ty) = (fx - x0, fy - y0);
+        let xi = |x: f64| (x.rem_euclid(w) as usize).min(self.width - 1);
+        let (xa, xb) = (xi(x0), xi(x0 + 1.0));
+        let ya = y0 as usize;
+        let yb = (ya + 1).min(self.height - 1);
+        let mut out = [0.0; 3];
+        for (x, y, wgt) in [
+            (xa, ya, (1.0 - tx) * (1.0 - ty)),
+            (xb, ya, tx * (1.0 - ty)),
+            (xa, yb, (1.0 - tx) * ty),
+            (xb, yb, tx * ty),
+        ] {
+            let t = self.texel(x, y);
+            for c in 0..3 {
+                out[c] += wgt * t[c];
+            }
+        }
+        out
+    }
+
+    /// Direction through the center of texel `(x, y)` and the texel's solid angle.
+    pub fn texel_direction(&self, x: usize, y: usize) -> ([f64; 3], f64) {
+        let (w, h) = (self.width as f64, self.height as f64);
+        let phi = 2.0 * PI * (x as f64 + 0.5) / w;
+        let (t0, t1) = (PI * y as f64 / h, PI * (y as f64 + 1.0) / h);
+        let solid = (2.0 * PI / w) * (t0.cos() - t1.cos());
+        (direction(0.5 * (t0 + t1), phi), solid)
+    }
+}
+
+/// The built-in sky: a smooth, band-limited-looking sky that SH of low order represent
+/// well, so that it serves both the viewer and accuracy comparisons. Above the horizon it
+/// blends `horizon` to `zenith` with `cos θ`; below, a constant `ground`; plus a broad sun
+/// glow `sun · max(0, ω·s)^sharpness`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sky {
+    pub zenith: Rgb,
+    pub horizon: Rgb,
+    pub ground: Rgb,
+    /// Unit direction towards the sun.
+    pub sun_direction: [f64; 3],
+    pub sun: Rgb,
+    pub sharpness: f64,
+}
+
+impl Default for Sky {
+    fn default() -> Self {
+        let s: [f64; 3] = [0.5, 0.3, 0.8];
+        let n = (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt();
+        Sky {
+            zenith: [0.25, 0.45, 0.9],
+            horizon: [0.8, 0.85, 0.9],
+            ground: [0.25, 0.22, 0.2],
+            sun_direction: [s[0] / n, s[1] / n, s[2] / n],
+            sun: [4.0, 3.6, 3.0],
+            sharpness: 8.0,
+        }
+    }
+}
+
+impl Sky {
+    pub fn radiance(&self, d: [f64; 3]) -> Rgb {
+        let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        if n <= 0.0 || !n.is_finite() {
+            return self.zenith;
+        }
+        let d = [d[0] / n, d[1] / n, d[2] / n];
+        let mut out = if d[2] >= 0.0 {
+            let t = d[2];
+            [0, 1, 2].map(|c| self.horizon[c] * (1.0 - t) + self.zenith[c] * t)
+        } else {
+            self.ground
+        };
+        let s = self.sun_direction;
+        let c = (d[0] * s[0] + d[1] * s[1] + d[2] * s[2]).max(0.0);
+        let glow = c.powf(self.sharpness);
+        for (o, s) in out.iter_mut().zip(self.sun) {
+            *o += s * glow;
+        }
+        out
+    }
+}
+
+/// Distant radiance: what a ray sees where it leaves the scene, apart from the suns.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Distant {
+    Sky(Sky),
+    Map(LatLong),
+}
+
+impl Distant {
+    /// Radiance arriving from direction `d` (pointing away from the scene).
+    pub fn radiance(&self, d: [f64; 3]) -> Rgb {
+        match self {
+            Distant::Sky(s) => s.radiance(d),
+            Distant::Map(m) => m.radiance(d),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn angles_invert_direction() {
+        for &(t, p) in &[(0.3, 0.1), (1.5, 3.0), (2.9, 6.0), (PI / 2.0, PI)] {
+            let (t2, p2) = angles(direction(t, p));
+            assert!((t - t2).abs() < 1e-12 && (p - p2).abs() < 1e-12, "{t} {p}");
+        }
+        assert_eq!(angles([0.0, 0.0, 0.0]), (0.0, 0.0));
+    }
+
+    #[test]
+    fn texel_centers_return_their_texel_and_solid_angles_sum_to_4pi() {
+        let (w, h) = (8, 4);
+        let texels: Vec<[f32; 3]> = (0..w * h).map(|i| [i as f32, 0.0, 1.0]).collect();
+        let m = LatLong::new(w, h, texels).unwrap();
+        let mut total = 0.0;
+        for y in 0..h {
+            for x in 0..w {
+                let (d, s) = m.texel_direction(x, y);
+                total += s;
+                let r = m.radiance(d);
+                assert!((r[0] - (y * w + x) as f64).abs() < 1e-9, "{x} {y} {r:?}");
+            }
+        }
+        assert!((total - 4.0 * PI).abs() < 1e-12);
+        // Halfway between two texel centers of a row: their mean (wrapping at φ = 0).
+        let r = m.radiance(direction(PI * 0.375, 0.0));
+        assert!((r[0] - 0.5 * (8.0 + 15.0)).abs() < 1e-9, "{r:?}");
+    }
+
+    #[test]
+    fn bad_maps_are_refused() {
+        assert!(LatLong::new(0, 4, vec![]).is_err());
+        assert!(LatLong::new(1, 1, vec![[f32::NAN, 0.0, 0.0]]).is_err());
+        assert!(LatLong::new(1, 1, vec![[-1.0, 0.0, 0.0]]).is_err());
+        assert!(LatLong::new(2, 1, vec![[1.0, 0.0, 0.0]]).is_err());
+    }
+
+    #[test]
+    fn sky_is_continuous_at_the_horizon_from_above_and_positive() {
+        let s = Sky::default();
+        let up = s.radiance([1.0, 0.0, 1e-9]);
+        assert!(up.iter().all(|v| *v > 0.0));
+        let z = s.radiance([0.0, 0.0, 1.0]);
+        assert!(z[2] > z[0], "{z:?}");
+        assert_eq!(s.radiance([0.0; 3]), s.zenith);
+    }
+
+    #[test]
+    fn exr_round_trips_linear_values_exactly() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.exr");
+        let mut im = crate::Image::new(5, 3);
+        for (i, p) in im.pixels.iter_mut().enumerate() {
+            *p = [i as f32 * 0.25, 1.0, 0.5 / (1.0 + i as f32)];
+        }
+        im.write_exr(&path).unwrap();
+        let back = LatLong::load_exr(&path).unwrap();
+        assert_eq!((back.width, back.height), (5, 3));
+        assert_eq!(back.texels, im.pixels);
+        assert_eq!(
+            std::fs::read_dir(dir.path()).unwrap().count(),
+            1,
+            "no temp file left"
+        );
+    }
+}
