@@ -11,6 +11,10 @@ if ! command -v cc >/dev/null 2>&1; then
     need_apt+=(gcc libc6-dev)
     why+=("a C compiler for the Blosc decoder")
 fi
+if ! command -v python3 >/dev/null 2>&1; then
+    need_apt+=(python3)
+    why+=("Python 3 for the layout check")
+fi
 # The GPU tests need a Vulkan device and fail (never skip) without one; on a machine
 # without a GPU that is Mesa's lavapipe, a Vulkan driver running on the CPU.
 if ! ls /usr/share/vulkan/icd.d/lvp_icd*.json >/dev/null 2>&1 &&
