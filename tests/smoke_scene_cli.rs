@@ -129,7 +129,7 @@ fn views_the_smoke_scene_without_a_window() {
     let err = String::from_utf8(o.stderr).unwrap();
     assert!(o.status.success(), "{err}");
     // One picture or more: the whole march of one may take longer than 0.3 s on a
-    // loaded 2-core machine (lavapipe marches it in chunks, gpu_march::chunks).
+    // loaded 2-core machine (lavapipe marches it in chunks, gpu::march::chunks).
     assert!(out.contains(" of 32×24"), "{out}");
     assert!(out.contains("with ray-traced surfaces"), "{out}");
 }

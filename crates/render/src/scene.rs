@@ -3,7 +3,7 @@
 //! `haze_scene::gpu`), or by its quadrature reference (`--reference`, CPU); analytic fog
 //! (paper D) composited over that picture at `--time` (`haze_scene::analytic`). Scenes
 //! whose heterogeneous media are all Gaussians are rendered by paper B
-//! (`haze_scene::paper_b`, `gpu_paper_b`), with the march as reference; scenes with other
+//! (`haze_scene::paper_b`, `gpu::paper_b`), with the march as reference; scenes with other
 //! heterogeneous media (a smoke asset), and every scene with `--march`, by the
 //! single-scattering march through every medium (`haze_scene::march`; on the GPU
 //! `haze_scene::gpu::march`), whose reference is the same march at a quarter of the step.

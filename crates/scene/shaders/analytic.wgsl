@@ -1,4 +1,4 @@
-// Paper D's composite on the GPU (haze_scene::gpu_analytic), over render.wgsl and
+// Paper D's composite on the GPU (haze_scene::gpu::analytic), over render.wgsl and
 // haze_fogfn's fogfn.wgsl. Per pixel: paper C's picture (`paper_c_main`), then the analytic fogs' exact optical depth from the eye to the primary
 // hit and C_fin = τ C_in + (1 − τ) C_fog per channel (haze_scene::analytic::composite).
 

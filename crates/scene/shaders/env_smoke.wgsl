@@ -2,7 +2,7 @@
 // transmitted environment's SH coefficients E_lm on a grid of nodes, trilinear between
 // them, scattered towards −dir as Σ_media σs(x)·Σ_l g^l·Σ_m E_lm(x)·Y_lm(dir). A module
 // of march.wgsl, whose `grid` and `media` bindings and grid helpers it reads; see
-// `src/gpu_march.rs`.
+// `src/gpu/march.rs`.
 
 // The environment's grid lies in march.wgsl's `grid` after the voxel grids, from the
 // index in the record after the media's: (first node relative to the eye, nodes per

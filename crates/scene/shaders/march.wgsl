@@ -3,7 +3,7 @@
 // (paper D), one invocation per pixel, in f32. Over render.wgsl (its bindings, surfaces,
 // shadow rays, BRDF and environment are shared), env_smoke.wgsl (the environment's light
 // on the media) and haze_fogfn's fogfn.wgsl (which reads its records from `media`
-// through `fog_record`); see `src/gpu_march.rs`.
+// through `fog_record`); see `src/gpu/march.rs`.
 //
 // Positions are relative to the eye, as in render.wgsl.
 
@@ -27,7 +27,7 @@ fn fog_record(i: u32) -> vec4<f32> {
     return media[i];
 }
 
-// Analytic fogs a march takes at most (gpu_march::MarchInput::of refuses more).
+// Analytic fogs a march takes at most (gpu::march::MarchInput::of refuses more).
 const FOG_MAX_MEDIA: u32 = 8u;
 
 fn grid_base(i: u32) -> u32 {
@@ -317,7 +317,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     // the same pass: its state after the image, two vec4 per pixel — (radiance so far, t),
     // (transmittance, steps taken + 1; 0 before the first dispatch, −1 once done).
     // Lavapipe ends an invocation's loops after 65535 iterations in all; a dispatch per
-    // chunk of steps gives each its own budget (gpu_march module docs).
+    // chunk of steps gives each its own budget (gpu::march module docs).
     let idx = id.y * w + id.x;
     let chunk = P.tables.z;
     let at = w * h + 2u * idx;

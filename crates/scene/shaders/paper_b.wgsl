@@ -1,5 +1,5 @@
 // Paper B on the GPU: the twin of crates/scene's `paper_b::Prepared::radiance`, over
-// render.wgsl (whose helpers it calls) — see `src/gpu_paper_b.rs`. Positions are relative to the eye. P.sigma_t/P.sigma_s carry the
+// render.wgsl (whose helpers it calls) — see `src/gpu/paper_b.rs`. Positions are relative to the eye. P.sigma_t/P.sigma_s carry the
 // homogeneous part β0, σs0 (the scene's homogeneous media plus the Gaussian backgrounds).
 
 // Two records per Gaussian: (centre, a = 1/r), (c = peak extinction, albedo, cull radius², -).
@@ -258,7 +258,7 @@ const CHUNK: u32 = 256u;
 // CHUNK / 64 invocations.
 const PER_INVOCATION: u32 = 4u;
 // Up to this many Gaussians every pixel loops over all of them (the same sums in the same
-// order as through the lists, without the lists' barriers): gpu_paper_b::DIRECT_MAX, set
+// order as through the lists, without the lists' barriers): gpu::paper_b::DIRECT_MAX, set
 // by the pipeline (the UNTILED variant's: all of them).
 override DIRECT_MAX: u32;
 

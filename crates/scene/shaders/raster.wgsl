@@ -1,4 +1,4 @@
-// The rasterized scene renderer (see `src/raster.rs`): render.wgsl's `paper_c_main`,
+// The rasterized scene renderer (see `src/gpu/raster.rs`): render.wgsl's `paper_c_main`,
 // composed with GBUFFER and PARAMS_IN_STORAGE defined, takes each pixel's primary hit from
 // the G-buffer this file's raster pass writes instead of ray-tracing it; the airlight to
 // that depth, the shading and the shadow rays are render.wgsl's own.

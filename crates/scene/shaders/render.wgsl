@@ -1,6 +1,6 @@
 // The scene renderer on the GPU: the twin of crates/scene's `render::render` with the
 // `Analytic` model (paper C), one invocation per pixel (`paper_c_main`), in f32. See
-// `src/gpu.rs` for the buffers' layout and what differs from the CPU (offsets of shadow
+// `src/gpu/mod.rs` for the buffers' layout and what differs from the CPU (offsets of shadow
 // rays).
 //
 // A module, imported by the entry files of every scene renderer: `paper_c.wgsl` (paper C

@@ -1,4 +1,4 @@
-//! Paper D's composite on the GPU (`gpu_analytic`) against the CPU's
+//! Paper D's composite on the GPU (`gpu::analytic`) against the CPU's
 //! (`analytic::render` with paper C's `Analytic` model), pixel by pixel, on small
 //! images: the bundled analytic fog (every family, the sky, a sun, a point light) late in
 //! its wind; two analytic fogs of different colours over a homogeneous medium with the

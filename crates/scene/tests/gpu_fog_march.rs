@@ -1,4 +1,4 @@
-//! The GPU march through analytic fogs (`gpu_march` with paper D's closed forms, the lit
+//! The GPU march through analytic fogs (`gpu::march` with paper D's closed forms, the lit
 //! picture of `render --scene --gpu --march`) against its CPU twin (`march::render`),
 //! pixel by pixel, on small images: the bundled analytic fog (every family, the sky, a
 //! sun and a point light, late in its wind), and the bundled plume in an analytic fog

@@ -1,4 +1,4 @@
-//! The GPU march (`gpu_march`, taken by `GpuRenderer::render` for scenes with a smoke
+//! The GPU march (`gpu::march`, taken by `GpuRenderer::render` for scenes with a smoke
 //! asset) against its CPU twin (`march::render`), pixel by pixel, on small images of the
 //! bundled plume over a ground plane: lit by a point light and a sun (shadows of the
 //! smoke on the ground and on itself), anisotropic scattering, a homogeneous fog around
