@@ -2,12 +2,12 @@
 //! for every basis × levels × µ (`haze fog wavelet`'s code path); the space is small, so
 //! every combination is measured.
 
-use super::knobs::Knob;
+use super::knobs::{Knob, KnobValue};
 use crate::lab::{Lab, Sample};
 use anyhow::{Context, Result, anyhow};
 use haze_render::fog::FogModel;
 use haze_wavelet::{Basis, Fog, Fogmap};
-use serde_json::{Value, json};
+use serde_json::json;
 use std::path::Path;
 use std::time::Instant;
 
@@ -39,23 +39,20 @@ impl FogLab {
     ) -> Result<FogLab> {
         let fogmap = Fogmap::load(path)?;
         let max = haze_wavelet::lod::max_levels(fogmap.width, fogmap.height);
-        let levels: Vec<Value> = if quick {
+        let levels: Vec<KnobValue> = if quick {
             &LEVELS_QUICK[..]
         } else {
             &LEVELS[..]
         }
         .iter()
         .filter(|&&l| l <= max)
-        .map(|l| json!(l))
+        .map(|&l| KnobValue::Count(l as u64))
         .collect();
-        let mu: Vec<Value> = if quick { &MU_QUICK[..] } else { &MU[..] }
-            .iter()
-            .map(|m| json!(m))
-            .collect();
+        let mu = KnobValue::numbers(if quick { &MU_QUICK[..] } else { &MU[..] });
         let knobs = vec![
             Knob::new(
                 "basis",
-                vec![json!("haar"), json!("linear"), json!("quadratic")],
+                KnobValue::names(&["haar", "linear", "quadratic"]),
                 1,
                 1,
             ),
@@ -85,7 +82,7 @@ impl FogLab {
         for b in 0..self.knobs[0].values.len() {
             for l in 0..self.knobs[1].values.len() {
                 for m in 0..self.knobs[2].values.len() {
-                    let at_zero = self.knobs[1].values[l] == json!(0);
+                    let at_zero = self.knobs[1].values[l] == KnobValue::Count(0);
                     if at_zero && m != self.knobs[2].default {
                         continue;
                     }
@@ -107,14 +104,14 @@ impl Lab for FogLab {
     }
 
     fn measure(&mut self, s: &[usize]) -> Result<Sample> {
-        let v = |k: usize| &self.knobs[k].values[s[k]];
-        let basis = match v(0).as_str() {
+        let v = |k: usize| self.knobs[k].values[s[k]];
+        let basis = match v(0).name() {
             Some("haar") => Basis::Haar,
             Some("quadratic") => Basis::Quadratic,
             _ => Basis::Linear,
         };
-        let levels = v(1).as_u64().unwrap_or(0) as usize;
-        let mu = v(2).as_f64().unwrap_or(1.0);
+        let levels = v(1).count().unwrap_or(0) as usize;
+        let mu = v(2).number().unwrap_or(1.0);
         let placement = self.model.placement(self.fogmap.width, self.fogmap.height);
         let settings = haze_wavelet::Settings {
             mu,

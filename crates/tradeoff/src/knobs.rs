@@ -2,14 +2,102 @@
 //! the defaults, then the combinations a Pareto front needs (greedy chains from the
 //! default towards cheaper and towards more accurate settings).
 
+use serde::Serialize;
 use serde_json::{Map, Value};
+use std::fmt;
+
+/// One value of a knob, written to `tradeoff.json` as the JSON number, boolean or string
+/// it holds (a count as an integer, a number as a float).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum KnobValue {
+    /// A count: RBFs, bits, an SH order, iterations, levels.
+    Count(u64),
+    /// A real number: an error, slices per voxel, a size fraction, µ.
+    Number(f64),
+    /// On or off.
+    Flag(bool),
+    /// A named choice, spelled as on the command line.
+    Name(&'static str),
+}
+
+impl KnobValue {
+    /// A count, or a number's value (as `f64`); `None` for a flag or a name.
+    pub fn number(self) -> Option<f64> {
+        match self {
+            KnobValue::Count(n) => Some(n as f64),
+            KnobValue::Number(x) => Some(x),
+            KnobValue::Flag(_) | KnobValue::Name(_) => None,
+        }
+    }
+
+    /// A count; `None` for anything else.
+    pub fn count(self) -> Option<u64> {
+        match self {
+            KnobValue::Count(n) => Some(n),
+            _ => None,
+        }
+    }
+
+    /// A flag; `None` for anything else.
+    pub fn flag(self) -> Option<bool> {
+        match self {
+            KnobValue::Flag(b) => Some(b),
+            _ => None,
+        }
+    }
+
+    /// A name; `None` for anything else.
+    pub fn name(self) -> Option<&'static str> {
+        match self {
+            KnobValue::Name(n) => Some(n),
+            _ => None,
+        }
+    }
+
+    /// Counts.
+    pub fn counts<T: Copy + Into<u64>>(values: &[T]) -> Vec<KnobValue> {
+        values.iter().map(|&v| KnobValue::Count(v.into())).collect()
+    }
+
+    /// Numbers.
+    pub fn numbers(values: &[f64]) -> Vec<KnobValue> {
+        values.iter().map(|&v| KnobValue::Number(v)).collect()
+    }
+
+    /// Names.
+    pub fn names(values: &[&'static str]) -> Vec<KnobValue> {
+        values.iter().map(|&v| KnobValue::Name(v)).collect()
+    }
+
+    /// Off, then on.
+    pub fn flags() -> Vec<KnobValue> {
+        vec![KnobValue::Flag(false), KnobValue::Flag(true)]
+    }
+}
+
+/// As in a setting's short description: a name bare, a number with at most four
+/// decimals and no trailing zeros.
+impl fmt::Display for KnobValue {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            KnobValue::Count(n) => write!(f, "{n}"),
+            KnobValue::Number(x) => {
+                let s = format!("{x:.4}");
+                f.write_str(s.trim_end_matches('0').trim_end_matches('.'))
+            }
+            KnobValue::Flag(b) => write!(f, "{b}"),
+            KnobValue::Name(n) => f.write_str(n),
+        }
+    }
+}
 
 /// One knob: its candidate values (as written in `tradeoff.json`), the default and the
 /// most accurate of them.
 #[derive(Clone, Debug)]
 pub struct Knob {
     pub name: &'static str,
-    pub values: Vec<Value>,
+    pub values: Vec<KnobValue>,
     pub default: usize,
     pub best: usize,
     /// The knob acts on the bake alone and cannot change the render time (the residual's
@@ -18,7 +106,7 @@ pub struct Knob {
 }
 
 impl Knob {
-    pub fn new(name: &'static str, values: Vec<Value>, default: usize, best: usize) -> Knob {
+    pub fn new(name: &'static str, values: Vec<KnobValue>, default: usize, best: usize) -> Knob {
         debug_assert!(default < values.len() && best < values.len());
         Knob {
             name,
@@ -54,7 +142,7 @@ pub fn describe(knobs: &[Knob], s: &[usize]) -> Map<String, Value> {
     knobs
         .iter()
         .zip(s)
-        .map(|(k, &i)| (k.name.to_string(), k.values[i].clone()))
+        .map(|(k, &i)| (k.name.to_string(), serde_json::json!(k.values[i])))
         .collect()
 }
 
@@ -143,8 +231,8 @@ mod tests {
 
     fn two() -> Vec<Knob> {
         vec![
-            Knob::new("a", vec![json!(1), json!(2), json!(3)], 1, 2),
-            Knob::new("b", vec![json!(false), json!(true)], 1, 1),
+            Knob::new("a", KnobValue::counts(&[1u32, 2, 3]), 1, 2),
+            Knob::new("b", KnobValue::flags(), 1, 1),
         ]
     }
 

@@ -39,7 +39,7 @@ pub trait Lab {
 pub fn restrict(knobs: &mut [Knob], only: &[String]) {
     for k in knobs.iter_mut() {
         if !only.iter().any(|n| n == k.name) {
-            k.values = vec![k.values[k.default].clone()];
+            k.values = vec![k.values[k.default]];
             k.default = 0;
             k.best = 0;
         }

@@ -4,7 +4,7 @@
 //! stage on the GPU (`haze render --gpu`, the viewer's renderer) when the sweep times the
 //! GPU.
 
-use super::knobs::Knob;
+use super::knobs::{Knob, KnobValue};
 use crate::lab::{Lab, Sample};
 use anyhow::{Result, anyhow};
 use haze_bake::residual::as_stored;
@@ -21,7 +21,7 @@ use haze_view::render::{CrmOptions, MsDiffusion, crm_render};
 use haze_view::sh::ExpMethod;
 use haze_view::{Camera, Environment, Image, Medium};
 use haze_volume::{Rbf, Volume, rbf};
-use serde_json::{Value, json};
+use serde_json::json;
 use std::collections::HashMap;
 use std::time::Instant;
 
@@ -177,12 +177,15 @@ impl SmokeLab {
             }
         };
         let d = CrmOptions::default();
-        let nums = |v: &[f64]| v.iter().map(|x| json!(x)).collect::<Vec<Value>>();
         let last = |n: usize| n - 1;
         let knobs = vec![
             Knob::new(
                 "rbfs",
-                tables.rbfs.iter().map(|x| json!(x)).collect(),
+                tables
+                    .rbfs
+                    .iter()
+                    .map(|&x| KnobValue::Count(x as u64))
+                    .collect(),
                 if quick {
                     1
                 } else {
@@ -190,58 +193,56 @@ impl SmokeLab {
                 },
                 last(tables.rbfs.len()),
             ),
-            Knob::new("teleport", vec![json!(false), json!(true)], 1, 1).render_neutral(),
+            Knob::new("teleport", KnobValue::flags(), 1, 1).render_neutral(),
             Knob::new(
                 "residual_error",
-                nums(&RESIDUAL_ERROR),
+                KnobValue::numbers(&RESIDUAL_ERROR),
                 index_of(&RESIDUAL_ERROR, &haze_hash::DEFAULT_ERROR),
                 0,
             )
             .render_neutral(),
-            Knob::new(
-                "quant_bits",
-                QUANT_BITS.iter().map(|x| json!(x)).collect(),
-                1,
-                2,
-            )
-            .render_neutral(),
+            Knob::new("quant_bits", KnobValue::counts(&QUANT_BITS), 1, 2).render_neutral(),
             Knob::new(
                 "sh_order",
-                tables.sh.iter().map(|x| json!(x)).collect(),
+                tables
+                    .sh
+                    .iter()
+                    .map(|&x| KnobValue::Count(x as u64))
+                    .collect(),
                 index_of(&tables.sh, &d.order),
                 last(tables.sh.len()),
             ),
-            Knob::new("exp", vec![json!("square"), json!("linear")], 0, 0),
+            Knob::new("exp", KnobValue::names(&["square", "linear"]), 0, 0),
             Knob::new(
                 "source",
-                vec![json!("grid"), json!("footprint"), json!("center")],
+                KnobValue::names(&["grid", "footprint", "center"]),
                 0,
                 0,
             ),
             Knob::new(
                 "cg_iterations",
-                tables.cg.iter().map(|x| json!(x)).collect(),
+                KnobValue::counts(&tables.cg),
                 index_of(&tables.cg, &d.solve.max_iterations),
                 last(tables.cg.len()),
             ),
             Knob::new(
                 "slices",
-                nums(&tables.slices),
+                KnobValue::numbers(&tables.slices),
                 index_of(&tables.slices, &d.slices_per_voxel),
                 last(tables.slices.len()),
             ),
             Knob::new(
                 "size",
-                nums(&tables.size),
+                KnobValue::numbers(&tables.size),
                 last(tables.size.len()),
                 last(tables.size.len()),
             ),
-            Knob::new("multiple", vec![json!(false), json!(true)], 1, 1),
-            Knob::new("residual", vec![json!(false), json!(true)], 1, 1),
+            Knob::new("multiple", KnobValue::flags(), 1, 1),
+            Knob::new("residual", KnobValue::flags(), 1, 1),
             // The renderers' default model is the most accurate one swept.
             Knob::new(
                 "diffusion",
-                tables.diffusion.iter().map(|x| json!(x)).collect(),
+                KnobValue::names(&tables.diffusion),
                 last(tables.diffusion.len()),
                 last(tables.diffusion.len()),
             ),
@@ -299,7 +300,7 @@ impl SmokeLab {
     /// knob has their count for its one value, and no fit is timed.
     pub fn use_rbfs(&mut self, rbfs: Vec<Rbf>) {
         let n = rbfs.len();
-        self.knobs[0] = Knob::new("rbfs", vec![json!(n)], 0, 0);
+        self.knobs[0] = Knob::new("rbfs", vec![KnobValue::Count(n as u64)], 0, 0);
         for teleport in [false, true] {
             self.fits
                 .insert((n, teleport), (rbfs.clone(), 0.0, f64::NAN));
@@ -313,9 +314,9 @@ impl SmokeLab {
 
     /// The setting of knob indices `s`.
     pub fn decode(&self, s: &[usize]) -> SmokeSetting {
-        let v = |k: usize| &self.knobs[k].values[s[k]];
-        let f = |k: usize| v(k).as_f64().unwrap_or(0.0);
-        let b = |k: usize| v(k).as_bool().unwrap_or(true);
+        let v = |k: usize| self.knobs[k].values[s[k]];
+        let f = |k: usize| v(k).number().unwrap_or(0.0);
+        let b = |k: usize| v(k).flag().unwrap_or(true);
         SmokeSetting {
             rbfs: f(0) as usize,
             teleport: b(1),
@@ -323,19 +324,19 @@ impl SmokeLab {
             quant_bits: f(3) as u8,
             crm: CrmOptions {
                 order: f(4) as usize,
-                exp: if v(5) == "linear" {
+                exp: if v(5).name() == Some("linear") {
                     ExpMethod::OptimalLinear
                 } else {
                     ExpMethod::ScaleSquareAuto
                 },
-                source_points: if v(6) == "center" {
+                source_points: if v(6).name() == Some("center") {
                     SourcePoints::Center
                 } else {
                     SourcePoints::Footprint
                 },
                 // "grid" is the environment pass; "footprint" and "center" are paper A's
                 // sources at the centers.
-                env_source: if v(6) == "grid" {
+                env_source: if v(6).name() == Some("grid") {
                     EnvSource::Grid(EnvGridOptions::default())
                 } else {
                     EnvSource::Centers
@@ -348,7 +349,7 @@ impl SmokeLab {
                 multiple: b(10),
                 residual: b(11),
                 diffusion: v(DIFFUSION_KNOB)
-                    .as_str()
+                    .name()
                     .and_then(|d| d.parse().ok())
                     .unwrap_or(MsDiffusion::DEFAULT),
                 ..CrmOptions::default()
@@ -397,18 +398,18 @@ impl SmokeLab {
 /// returned says so), or cannot run when the sweep has no `centers` value (`Err` says
 /// why).
 fn gpu_runnable(knobs: &[Knob], s: &[usize]) -> std::result::Result<Vec<usize>, String> {
-    let value = |k: usize| &knobs[k].values[s[k]];
+    let value = |k: usize| knobs[k].values[s[k]];
     let orders = value(DIFFUSION_KNOB)
-        .as_str()
+        .name()
         .is_some_and(|d| d.starts_with("orders"));
-    let multiple = value(MULTIPLE).as_bool().unwrap_or(true);
-    if !orders || !multiple || value(SOURCE) == "grid" {
+    let multiple = value(MULTIPLE).flag().unwrap_or(true);
+    if !orders || !multiple || value(SOURCE).name() == Some("grid") {
         return Ok(s.to_vec());
     }
     match knobs[DIFFUSION_KNOB]
         .values
         .iter()
-        .position(|v| v == "centers")
+        .position(|v| v.name() == Some("centers"))
     {
         Some(c) => {
             let mut out = s.to_vec();
@@ -417,7 +418,7 @@ fn gpu_runnable(knobs: &[Knob], s: &[usize]) -> std::result::Result<Vec<usize>, 
         }
         None => Err(format!(
             "source={}: the explicit orders on the GPU need source=grid",
-            value(SOURCE).as_str().unwrap_or("?")
+            value(SOURCE).name().unwrap_or("?")
         )),
     }
 }
@@ -635,7 +636,7 @@ mod tests {
             ]
         );
         let footprint = with(SOURCE, 1);
-        assert_eq!(full.knobs[SOURCE].values[1], "footprint");
+        assert_eq!(full.knobs[SOURCE].values[1], KnobValue::Name("footprint"));
         let mapped = gpu_runnable(&full.knobs, &footprint).unwrap();
         assert_eq!(
             mapped,

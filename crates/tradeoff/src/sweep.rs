@@ -283,26 +283,13 @@ fn share_render_times(knobs: &[Knob], measured: &mut [Measured]) {
     }
 }
 
-/// A knob value for people: names unquoted, fractions to 4 significant digits.
-fn short(v: &Value) -> String {
-    match v {
-        Value::String(s) => s.clone(),
-        Value::Number(n) if n.is_f64() => {
-            let x = n.as_f64().unwrap_or(0.0);
-            let s = format!("{x:.4}");
-            s.trim_end_matches('0').trim_end_matches('.').to_string()
-        }
-        other => other.to_string(),
-    }
-}
-
 /// "sh_order=2" for the knobs of `s` that differ from `default` ("defaults" if none).
 pub fn describe_short(knobs: &[Knob], s: &[usize], default: &[usize]) -> String {
     let parts: Vec<String> = knobs
         .iter()
         .enumerate()
         .filter(|&(k, _)| s[k] != default[k])
-        .map(|(k, knob)| format!("{}={}", knob.name, short(&knob.values[s[k]])))
+        .map(|(k, knob)| format!("{}={}", knob.name, knob.values[s[k]]))
         .collect();
     if parts.is_empty() {
         "defaults".to_string()
@@ -428,6 +415,7 @@ impl Sweep {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::knobs::KnobValue;
 
     /// A lab of two knobs, `model` (changes the render's work and its picture) and
     /// `stored` (bake-only: changes the picture, not the work), whose pictures are flat at
@@ -475,8 +463,8 @@ mod tests {
     fn flat() -> Flat {
         Flat {
             knobs: vec![
-                Knob::new("model", vec![json!(0), json!(1), json!(2)], 1, 2),
-                Knob::new("stored", vec![json!(0), json!(1)], 0, 1).render_neutral(),
+                Knob::new("model", KnobValue::counts(&[0u32, 1, 2]), 1, 2),
+                Knob::new("stored", KnobValue::counts(&[0u32, 1]), 0, 1).render_neutral(),
             ],
             calls: 0.0,
             cannot: None,
