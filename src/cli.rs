@@ -78,7 +78,7 @@ pub enum Command {
     /// the default camera frames the smoke (voxels above 1 % of the peak density).
     ///
     /// `--scene SCENE.json` renders a scene file instead (camera, lights, homogeneous fog,
-    /// planes and spheres; README "Scenes"): paper C's analytic single scattering on the
+    /// planes and spheres; docs/formats.md "Scene file"): paper C's analytic single scattering on the
     /// CPU, on the GPU with `--gpu` (the same model in f32), or with `--reference` the
     /// same model integrated by quadrature.
     Render(RenderCli),

@@ -15,7 +15,7 @@ pub struct ViewCli {
     /// A baked .haze asset (`haze bake` makes one).
     #[arg(required_unless_present_any = ["scene", "fog"], conflicts_with_all = ["scene", "fog"])]
     input: Option<PathBuf>,
-    /// Show a scene file (README "Scenes") instead: paper C's renderer on the GPU, the
+    /// Show a scene file (docs/formats.md "Scene file") instead: paper C's renderer on the GPU, the
     /// orbit camera starting at the scene's, fog and lights in the panel, the surfaces
     /// rasterized with a depth buffer. Gaussian media are rendered by paper B (surfaces
     /// ray-traced) and edited with the panel's tools (paper B §6): paintbrush, airbrush,
