@@ -1,6 +1,7 @@
 //! `haze render`'s flags, converted into `haze_render`'s options.
 
-use crate::import_args::{ImportArgs, parse_vec3};
+use crate::camera_medium_args::{CameraArgs, MediumArgs};
+use crate::import_args::ImportArgs;
 use crate::light_args::{LightArgs, LightingArg};
 use anyhow::Result;
 use haze_render::scene::SceneJob;
@@ -29,29 +30,12 @@ pub struct RenderCli {
     /// Image height [default: 300, or the scene camera's].
     #[arg(long)]
     height: Option<usize>,
-    /// Camera position (world units), with --target.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
-    eye: Option<[f64; 3]>,
-    /// Point the camera looks at, with --eye.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
-    target: Option<[f64; 3]>,
-    /// Camera up vector.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, default_value = "0,0,1", allow_hyphen_values = true)]
-    up: [f64; 3],
-    /// Vertical field of view, degrees.
-    #[arg(long, default_value_t = 40.0)]
-    fov: f64,
+    #[command(flatten)]
+    camera: CameraArgs,
     #[command(flatten)]
     lights: LightArgs,
-    /// Extinction cross-section: κt = σt · density.
-    #[arg(long, default_value_t = 4.0)]
-    sigma_t: f64,
-    /// Single-scattering albedo, 0..1.
-    #[arg(long, default_value_t = 0.8)]
-    albedo: f64,
-    /// Henyey–Greenstein asymmetry, −1..1.
-    #[arg(long, default_value_t = 0.3, allow_hyphen_values = true)]
-    g: f64,
+    #[command(flatten)]
+    medium: MediumArgs,
     /// Spherical-harmonic order (bands), 1..6.
     #[arg(long, default_value_t = 4)]
     sh_order: usize,
@@ -164,14 +148,14 @@ impl RenderCli {
             out: self.out,
             width: self.width.unwrap_or(400),
             height: self.height.unwrap_or(300),
-            eye: self.eye,
-            target: self.target,
-            up: self.up,
-            fov: self.fov,
+            eye: self.camera.eye,
+            target: self.camera.target,
+            up: self.camera.up,
+            fov: self.camera.fov,
             env: self.lights.into(),
-            sigma_t: self.sigma_t,
-            albedo: self.albedo,
-            g: self.g,
+            sigma_t: self.medium.sigma_t,
+            albedo: self.medium.albedo,
+            g: self.medium.g,
             sh_order: self.sh_order,
             multiple: !self.no_multiple,
             residual: !self.no_residual,

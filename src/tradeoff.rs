@@ -1,7 +1,8 @@
 //! `haze tradeoff`'s flags, converted into `haze_tradeoff`'s options.
 
+use crate::camera_medium_args::{CameraArgs, MediumArgs};
 use crate::fog::FogModelArgs;
-use crate::import_args::{ImportArgs, parse_vec3};
+use crate::import_args::ImportArgs;
 use crate::light_args::{LightArgs, LightingArg};
 use anyhow::Result;
 use haze_tradeoff::smoke::{Timing, View};
@@ -52,29 +53,12 @@ pub struct TradeoffCli {
     /// Full picture height.
     #[arg(long, default_value_t = 120)]
     height: usize,
-    /// Camera position (world units), with --target.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
-    eye: Option<[f64; 3]>,
-    /// Point the camera looks at, with --eye.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
-    target: Option<[f64; 3]>,
-    /// Camera up vector.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, default_value = "0,0,1", allow_hyphen_values = true)]
-    up: [f64; 3],
-    /// Vertical field of view, degrees.
-    #[arg(long, default_value_t = 40.0)]
-    fov: f64,
+    #[command(flatten)]
+    camera: CameraArgs,
     #[command(flatten)]
     lights: LightArgs,
-    /// Extinction cross-section: κt = σt · density.
-    #[arg(long, default_value_t = 4.0)]
-    sigma_t: f64,
-    /// Single-scattering albedo, 0..1.
-    #[arg(long, default_value_t = 0.8)]
-    albedo: f64,
-    /// Henyey–Greenstein asymmetry, −1..1.
-    #[arg(long, default_value_t = 0.3, allow_hyphen_values = true)]
-    g: f64,
+    #[command(flatten)]
+    medium: MediumArgs,
     #[command(flatten)]
     import: ImportArgs,
     #[command(flatten, next_help_heading = "Fog (fogmap input)")]
@@ -102,14 +86,14 @@ impl TradeoffCli {
             extremes: self.extremes,
             smoke: SmokeInput {
                 lights: self.lights.into(),
-                sigma_t: self.sigma_t,
-                albedo: self.albedo,
-                g: self.g,
+                sigma_t: self.medium.sigma_t,
+                albedo: self.medium.albedo,
+                g: self.medium.g,
                 view: View {
-                    eye: self.eye,
-                    target: self.target,
-                    up: self.up,
-                    fov: self.fov,
+                    eye: self.camera.eye,
+                    target: self.camera.target,
+                    up: self.camera.up,
+                    fov: self.camera.fov,
                     width: self.width,
                     height: self.height,
                 },

@@ -1,5 +1,6 @@
 //! `haze view`'s flags, converted into `haze_viewer`'s options.
 
+use crate::camera_medium_args::MediumArgs;
 use crate::fog::{FogModelArgs, SmokeArgs};
 use crate::light_args::{LightArgs, LightingArg};
 use anyhow::Result;
@@ -44,15 +45,8 @@ pub struct ViewCli {
     fov: f64,
     #[command(flatten)]
     lights: LightArgs,
-    /// Extinction cross-section: κt = σt · density.
-    #[arg(long, default_value_t = 4.0)]
-    sigma_t: f64,
-    /// Single-scattering albedo, 0..1.
-    #[arg(long, default_value_t = 0.8)]
-    albedo: f64,
-    /// Henyey–Greenstein asymmetry, −1..1.
-    #[arg(long, default_value_t = 0.3, allow_hyphen_values = true)]
-    g: f64,
+    #[command(flatten)]
+    medium: MediumArgs,
     /// Spherical-harmonic order (bands), 1..6.
     #[arg(long, default_value_t = 4)]
     sh_order: usize,
@@ -222,9 +216,9 @@ impl ViewCli {
             fov: self.fov,
             env: self.lights.into(),
             knobs: Knobs {
-                sigma_t: self.sigma_t,
-                albedo: self.albedo,
-                g: self.g,
+                sigma_t: self.medium.sigma_t,
+                albedo: self.medium.albedo,
+                g: self.medium.g,
                 sh_order: self.sh_order,
                 slices: self.slices,
                 multiple: !self.no_multiple,
