@@ -104,3 +104,24 @@ pub fn show_picture(
         None => *texture = Some(ctx.load_texture(name, image, TextureOptions::LINEAR)),
     }
 }
+
+/// Paints `texture` as large as the space left allows, centred, its aspect kept, over an
+/// area the user can drag: the area's response, and where the picture landed and at what
+/// scale (`None` before the first picture).
+pub fn fitted_picture(
+    ui: &mut egui::Ui,
+    texture: Option<&egui::TextureHandle>,
+) -> (egui::Response, Option<(egui::Rect, f32)>) {
+    let avail = ui.available_size();
+    let (rect, response) = ui.allocate_exact_size(avail, egui::Sense::drag());
+    let placed = texture.map(|tex| {
+        let [w, h] = tex.size().map(|n| n as f32);
+        let scale = (rect.width() / w).min(rect.height() / h);
+        let shown = egui::Rect::from_center_size(rect.center(), egui::vec2(w, h) * scale);
+        let uv = egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0));
+        ui.painter()
+            .image(tex.id(), shown, uv, egui::Color32::WHITE);
+        (shown, scale)
+    });
+    (response, placed)
+}

@@ -473,16 +473,7 @@ impl FogApp {
     }
 
     fn image(&mut self, ui: &mut egui::Ui) {
-        let avail = ui.available_size();
-        let (rect, response) = ui.allocate_exact_size(avail, egui::Sense::drag());
-        if let Some(tex) = &self.texture {
-            let [w, h] = tex.size().map(|n| n as f32);
-            let scale = (rect.width() / w).min(rect.height() / h);
-            let shown = egui::Rect::from_center_size(rect.center(), egui::vec2(w, h) * scale);
-            let uv = egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0));
-            ui.painter()
-                .image(tex.id(), shown, uv, egui::Color32::WHITE);
-        }
+        let (response, _) = shell::fitted_picture(ui, self.texture.as_ref());
         if response.dragged() {
             let d = response.drag_delta();
             self.fly.turn(f64::from(d.x), f64::from(d.y));
