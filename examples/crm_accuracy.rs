@@ -4,7 +4,7 @@
 //! ```text
 //! cargo run --release --example crm_accuracy -- VOLUME [--size WxH] [--spp N]
 //!     [--sigma-t S] [--albedo A] [--g G] [--rbfs N] [--eye X,Y,Z --target X,Y,Z]
-//!     [--sun-map ELEV,AZIM,ANGLE,RATIO [--no-sun-extraction]]
+//!     [--sun-map ELEV,AZIM,ANGLE,RATIO | --sky CLASS,ELEV,AZIM [--max-lights N] [--no-sun-extraction]]
 //!     [--table fig6|order|rbfs|slices|cg|sun|ms|reference|all] [--cache DIR]
 //!     [--diffusion centers|grid[:F]|orders[:F[:K]]]
 //!     [--env centers|grid] [--env-spacing VOXELS] [--env-theta N] [--gpu]
@@ -39,6 +39,7 @@ use haze_view::distant::direction;
 use haze_view::gpu::renderer::{GpuFrame, GpuRenderer};
 use haze_view::gpu::volume_pass::Residual;
 use haze_view::lighting::single::SourcePoints;
+use haze_view::lights::decompose::{DecomposeOptions, luminance};
 use haze_view::reference::{self, RefOptions, rbf_volume};
 use haze_view::render::env_pass::{EnvGridOptions, EnvSource};
 use haze_view::render::{CrmOptions, CrmStats, MsDiffusion, crm_render};
@@ -60,6 +61,8 @@ struct Args {
     eye: Option<[f64; 3]>,
     target: Option<[f64; 3]>,
     sun_map: Option<[f64; 4]>,
+    sky: Option<(String, f64, f64)>,
+    max_lights: usize,
     extract: bool,
     cache: Option<std::path::PathBuf>,
     diffusion: MsDiffusion,
@@ -93,6 +96,8 @@ fn parse() -> Result<Args, String> {
         eye: None,
         target: None,
         sun_map: None,
+        sky: None,
+        max_lights: DecomposeOptions::default().max_lights,
         extract: true,
         gpu: false,
         cache: None,
@@ -142,6 +147,22 @@ fn parse() -> Result<Args, String> {
                 let l = list(v()?, 4)?;
                 a.sun_map = Some([l[0], l[1], l[2], l[3]]);
             }
+            "--sky" => {
+                let v = v()?;
+                let parts: Vec<&str> = v.split(',').collect();
+                if parts.len() != 3 || !SKY_CLASSES.contains(&parts[0]) {
+                    return Err(format!(
+                        "--sky {v}: CLASS,ELEV,AZIM with CLASS one of {}",
+                        SKY_CLASSES.join(", ")
+                    ));
+                }
+                a.sky = Some((
+                    parts[0].to_string(),
+                    num(parts[1].into())?,
+                    num(parts[2].into())?,
+                ));
+            }
+            "--max-lights" => a.max_lights = num(v()?)? as usize,
             "--no-sun-extraction" => a.extract = false,
             "--gpu" => a.gpu = true,
             "--cache" => a.cache = Some(v()?.into()),
@@ -163,7 +184,7 @@ fn parse() -> Result<Args, String> {
         *g = grid;
     }
     if a.input.is_empty() {
-        return Err("usage: crm_accuracy VOLUME [--size WxH] [--spp N] [--sigma-t S] [--albedo A] [--g G] [--rbfs N] [--eye X,Y,Z --target X,Y,Z] [--sun-map ELEV,AZIM,ANGLE,RATIO [--no-sun-extraction]] [--table fig6|order|rbfs|slices|cg|sun|ms|reference|all] [--cache DIR] [--diffusion centers|grid[:F]|orders[:F[:K]]] [--env centers|grid] [--env-spacing VOXELS] [--env-theta N] [--gpu]".into());
+        return Err("usage: crm_accuracy VOLUME [--size WxH] [--spp N] [--sigma-t S] [--albedo A] [--g G] [--rbfs N] [--eye X,Y,Z --target X,Y,Z] [--sun-map ELEV,AZIM,ANGLE,RATIO | --sky CLASS,ELEV,AZIM [--max-lights N] [--no-sun-extraction]] [--table fig6|order|rbfs|slices|cg|sun|ms|reference|all] [--cache DIR] [--diffusion centers|grid[:F]|orders[:F[:K]]] [--env centers|grid] [--env-spacing VOXELS] [--env-theta N] [--gpu]".into());
     }
     Ok(a)
 }
@@ -288,31 +309,38 @@ fn main() {
     }
     .expect("camera");
     let medium = Medium::new(a.sigma_t, a.albedo, a.g).expect("medium");
-    let (env, ref_env) = match a.sun_map {
-        None => {
+    let (env, ref_env) = match (a.sun_map, &a.sky) {
+        (None, None) => {
             let sky = Environment::sky(Sky::default());
             (sky.clone(), sky)
         }
-        Some([elev, azim, angle, ratio]) => {
+        (Some([elev, azim, angle, ratio]), _) => {
             let (map, sky, sun) = sun_map(elev, azim, angle, ratio);
-            let env = if a.extract {
-                Environment::map_with_sun_extracted(map)
-            } else {
-                Environment::map(map)
-            };
-            if let Some(found) = env.suns.first() {
-                let off = dot(found.direction, sun.direction).clamp(-1.0, 1.0).acos();
+            let env = user_env(map, a.extract, a.max_lights);
+            let (c, total) = sun_centroid(&env.suns);
+            if total > 0.0 {
                 println!(
-                    "# sun split off: {:.2}° from the painted one, {:.2}° wide (painted {angle}°), irradiance {:.4} (painted {:.4})",
-                    off.to_degrees(),
-                    found.angle.to_degrees(),
-                    found.irradiance[0],
+                    "# {} sun(s) split off: their centroid {:.2}° from the painted one, irradiance {:.4} (painted {:.4})",
+                    env.suns.len(),
+                    dot(c, sun.direction).clamp(-1.0, 1.0).acos().to_degrees(),
+                    total,
                     sun.irradiance[0]
                 );
             }
             let mut ref_env = Environment::map(sky);
             ref_env.suns.push(sun);
             (env, ref_env)
+        }
+        (None, Some((class, elev, azim))) => {
+            let map = sky_map(class, *elev, *azim);
+            let t = Instant::now();
+            let env = user_env(map.clone(), a.extract, a.max_lights);
+            println!(
+                "# sky {class} at elevation {elev}°, azimuth {azim}°: {} sun(s) split off ({:.1} ms)",
+                env.suns.len(),
+                1e3 * t.elapsed().as_secs_f64()
+            );
+            (env, Environment::map(map))
         }
     };
     if a.table == "reference" {
@@ -329,7 +357,10 @@ fn main() {
             a.albedo,
             a.g,
             match (a.sun_map, env.suns.is_empty()) {
-                (None, _) => "sky".to_string(),
+                (None, _) => a
+                    .sky
+                    .as_ref()
+                    .map_or("sky".to_string(), |s| format!("sky {}", s.0)),
                 (Some(s), whole) => format!(
                     "sun map (elevation {}°, azimuth {}°, {}°, {}× the zenith), {}",
                     s[0],
@@ -393,7 +424,10 @@ fn main() {
         a.albedo,
         a.g,
         match a.sun_map {
-            None => "sky".to_string(),
+            None => a.sky.as_ref().map_or("sky".to_string(), |s| format!(
+                "sky class {} at {}°, {}°",
+                s.0, s.1, s.2
+            )),
             Some(s) => format!(
                 "sun map (elevation {}°, azimuth {}°, {}°, {}× the zenith){}",
                 s[0],
@@ -423,7 +457,7 @@ fn main() {
             a.sigma_t,
             a.albedo,
             a.g,
-            a.sun_map,
+            (a.sun_map, &a.sky),
             a.eye,
             a.target,
             // The density rendered: the original or the fit's approximation.
@@ -925,4 +959,146 @@ fn rms_over_max(d: &Volume, x: &Volume) -> f64 {
         .map(|(a, b)| f64::from(a - b).powi(2))
         .sum();
     (se / d.len() as f64).sqrt() / f64::from(peak).max(1e-30)
+}
+
+/// The environment a user's `--env` map gives the fast renderer: its concentrated light
+/// split off into at most `max_lights` suns, or (`extract` false) whole.
+fn user_env(map: LatLong, extract: bool, max_lights: usize) -> Environment {
+    if extract {
+        let opts = DecomposeOptions {
+            max_lights,
+            ..DecomposeOptions::default()
+        };
+        Environment::map_decomposed(&map, &opts).0
+    } else {
+        Environment::map(map)
+    }
+}
+
+/// The suns' luminance-weighted mean direction and total red irradiance.
+fn sun_centroid(suns: &[Sun]) -> ([f64; 3], f64) {
+    let (mut c, mut total) = ([0.0; 3], 0.0);
+    for s in suns {
+        let y = luminance(s.irradiance);
+        for k in 0..3 {
+            c[k] += y * s.direction[k];
+        }
+        total += s.irradiance[0];
+    }
+    let n = dot(c, c).sqrt().max(1e-300);
+    (c.map(|v| v / n), total)
+}
+
+/// The sky classes of `--sky`.
+const SKY_CLASSES: [&str; 7] = ["sharp", "soft6", "soft8", "two", "cloud", "overcast", "low"];
+
+/// A 1024 × 512 lat-long map of a sky class, its main light at elevation `elev`, azimuth
+/// `azim` (degrees), over a clear sky (the built-in sky's colours without its glow) and a
+/// dark ground; each texel the mean of 2 × 2 subsamples:
+/// - `sharp`: a sun disk 0.75° wide at 40 000× the zenith;
+/// - `soft6`, `soft8`: a hazy sun, a Gaussian lobe of σ 6° / 8° at 840× / 450× the zenith;
+/// - `two`: a sun (a lobe of σ 1°) and, 110° away in azimuth and 20° lower, a bright window
+///   (15° × 10° at 40×), a key and a fill;
+/// - `cloud`: a sun (σ 0.5°) and a bright cloud edge, an arc 25° long and 3° thick at 60×,
+///   curving 10° from it;
+/// - `overcast`: an even grey sky (1 + 2 cos θ above the horizon), no sun;
+/// - `low`: a sharp sun (σ 0.3°) at the given elevation beside a glowing horizon (4× the
+///   zenith) and a broad bluish lobe (σ 20°) above it.
+fn sky_map(class: &str, elev: f64, azim: f64) -> LatLong {
+    let (w, h) = (1024, 512);
+    let sky = Sky {
+        sun: [0.0; 3],
+        ground: [0.05, 0.045, 0.04],
+        ..Sky::default()
+    };
+    let z = sky.zenith;
+    let main = direction((90.0 - elev).to_radians(), azim.to_radians());
+    let other = direction(
+        (90.0 - (elev - 20.0).max(2.0)).to_radians(),
+        (azim + 110.0).to_radians(),
+    );
+    let lobe = |d: [f64; 3], at: [f64; 3], sigma_deg: f64| {
+        let a = dot(d, at).clamp(-1.0, 1.0).acos();
+        (-0.5 * (a / sigma_deg.to_radians()).powi(2)).exp()
+    };
+    let radiance = |d: [f64; 3]| -> [f64; 3] {
+        let base = if class == "overcast" {
+            let v = if d[2] >= 0.0 {
+                0.4 * (1.0 + 2.0 * d[2])
+            } else {
+                0.06
+            };
+            [v, v, v]
+        } else {
+            sky.radiance(d)
+        };
+        let add = |k: f64, tint: [f64; 3]| [0, 1, 2].map(|c| base[c] + k * tint[c]);
+        let warm = [1.0, 0.93, 0.85].map(|c| c * z[2]);
+        match class {
+            "sharp" => {
+                let inside = dot(d, main) >= (0.375f64).to_radians().cos();
+                add(if inside { 40_000.0 } else { 0.0 }, warm)
+            }
+            "soft6" => add(840.0 * lobe(d, main, 6.0), warm),
+            "soft8" => add(450.0 * lobe(d, main, 8.0), warm),
+            "two" => {
+                let (theta, phi) = haze_view::distant::angles(d);
+                let (t0, p0) = haze_view::distant::angles(other);
+                let dp = (phi - p0 + PI).rem_euclid(2.0 * PI) - PI;
+                let window = ((theta - t0).abs() < 5f64.to_radians()
+                    && (dp * theta.sin()).abs() < 7.5f64.to_radians())
+                    as u8 as f64;
+                let k = 6000.0 * lobe(d, main, 1.0);
+                [0, 1, 2].map(|c| base[c] + k * warm[c] + 40.0 * window * z[2])
+            }
+            "cloud" => {
+                // The arc: directions 10° from the sun, within ±12.5° of azimuth about it
+                // around the sun, 3° thick.
+                let a = dot(d, main).clamp(-1.0, 1.0).acos().to_degrees();
+                let (_, phi) = haze_view::distant::angles(d);
+                let near = ((phi - azim.to_radians() + PI).rem_euclid(2.0 * PI) - PI).abs() < 0.6;
+                let arc = (((a - 10.0) / 1.5).powi(2) < 1.0 && near && d[2] > main[2]) as u8 as f64;
+                let k = 25_000.0 * lobe(d, main, 0.5);
+                [0, 1, 2].map(|c| base[c] + k * warm[c] + 60.0 * arc * z[2])
+            }
+            "overcast" => base,
+            _ => {
+                // low: a sharp sun, a glowing horizon, a broad bluish lobe above the sun.
+                let (theta, _) = haze_view::distant::angles(d);
+                let glow = if d[2] >= 0.0 {
+                    4.0 * (-((theta - 0.5 * PI) / 0.1).powi(2)).exp()
+                } else {
+                    0.0
+                };
+                let up = direction((90.0 - elev - 25.0).to_radians(), azim.to_radians());
+                let k = 100_000.0 * lobe(d, main, 0.3);
+                [0, 1, 2].map(|c| {
+                    base[c]
+                        + k * warm[c]
+                        + glow * z[2]
+                        + 6.0 * lobe(d, up, 20.0) * [0.6, 0.8, 1.0][c]
+                })
+            }
+        }
+    };
+    let mut texels = Vec::with_capacity(w * h);
+    for y in 0..h {
+        for x in 0..w {
+            let (mut acc, mut wsum) = ([0.0f64; 3], 0.0);
+            for sy in 0..2 {
+                for sx in 0..2 {
+                    let theta = PI * (y as f64 + (sy as f64 + 0.5) / 2.0) / h as f64;
+                    let phi = 2.0 * PI * (x as f64 + (sx as f64 + 0.5) / 2.0) / w as f64;
+                    let wt = theta.sin();
+                    let l = radiance(direction(theta, phi));
+                    for c in 0..3 {
+                        acc[c] += wt * l[c];
+                    }
+                    wsum += wt;
+                }
+            }
+            texels.push(acc.map(|c| (c / wsum) as f32));
+        }
+    }
+    LatLong::new(w, h, texels).expect("map")
 }

@@ -1,6 +1,6 @@
 //! The lighting flags `haze render` and `haze view` share: the environment (built-in sky or
-//! a lat-long map, whose sun is split off and lit exactly unless told not to), and suns
-//! and point lights given on the command line.
+//! a lat-long map, whose concentrated light is split off into suns lit exactly unless
+//! told not to), and suns and point lights given on the command line.
 
 use haze_render::lights::Lights;
 use haze_view::{PointLight, Sun};
@@ -8,12 +8,14 @@ use haze_view::{PointLight, Sun};
 #[derive(Debug, Clone, clap::Args)]
 pub struct LightArgs {
     /// Distant lighting: the built-in sky, or a lat-long OpenEXR map (Z up, row 0 the
-    /// zenith). A map's sun (its brightest compact region) is split off and lit exactly,
-    /// like --sun.
+    /// zenith, twice as wide as tall). The map's concentrated light (a sharp or soft
+    /// sun, several suns, a bright window or cloud edge) is split off into up to 8 suns
+    /// lit exactly, like --sun; -v lists them. The smooth rest stays in the map. The
+    /// reference renderer (--reference) lights with the map whole.
     #[arg(long, default_value = "sky", value_name = "sky|ENV.exr")]
     pub env: String,
-    /// Keep an environment map whole: its sun stays in the spherical harmonics (blurred
-    /// over a few bands) instead of being lit as a sun.
+    /// Keep an environment map whole: no suns are split off it (its light is integrated
+    /// over the environment pass's directions and the spherical harmonics only).
     #[arg(long)]
     pub no_sun_extraction: bool,
     /// A sun, lit exactly (sharp shadows, the phase function at its true direction):

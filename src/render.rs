@@ -111,6 +111,17 @@ pub struct RenderCli {
     /// it a quick sweep of INPUT is run first, at this render's size.
     #[arg(long, value_name = "FILE")]
     tradeoff: Option<PathBuf>,
+    /// Estimate this render's error: compare N of its smoke pixels with the reference
+    /// renderer (64 samples each, lit by the environment as given: a map whole) and print
+    /// "estimated error x %" (its noise discounted) in the summary line; with
+    /// --target-error, warn when the estimate exceeds it. 256 pixels take a second or two.
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 0,
+        conflicts_with = "reference"
+    )]
+    check: usize,
     /// Exposure applied before PNG tone mapping.
     #[arg(long, default_value_t = 1.0)]
     exposure: f64,
@@ -198,6 +209,8 @@ impl RenderCli {
             gpu: self.gpu && !self.cpu,
             lighting: self.lighting.into(),
             spp: self.spp,
+            check: self.check,
+            target_error: self.target_error,
             exposure: self.exposure,
             import: self.import.options(),
         };

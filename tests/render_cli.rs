@@ -244,6 +244,34 @@ fn bad_render_requests_fail_on_one_line() {
         &["render", &vol, "--out", out, "--env", "nowhere.exr"],
         "nowhere.exr",
     );
+    // Maps that are not lat-long, or hold a bad texel.
+    let bad_map = |name: &str, w: usize, h: usize, v: f32| {
+        let p = tmp(&dir, name);
+        exr::prelude::write_rgb_file(&p, w, h, |x, _| {
+            if x == 1 {
+                (v, 0.0, 0.0)
+            } else {
+                (1.0, 1.0, 1.0)
+            }
+        })
+        .unwrap();
+        p.to_str().unwrap().to_string()
+    };
+    let wide = bad_map("wide.exr", 30, 10, 1.0);
+    fails(
+        &["render", &vol, "--out", out, "--env", &wide],
+        "not lat-long",
+    );
+    let nan = bad_map("nan.exr", 8, 4, f32::NAN);
+    fails(
+        &["render", &vol, "--out", out, "--env", &nan],
+        "finite and non-negative",
+    );
+    let negative = bad_map("negative.exr", 8, 4, -1.0);
+    fails(
+        &["render", &vol, "--out", out, "--env", &negative],
+        "finite and non-negative",
+    );
     fails(&["render", &vol, "--out", out, "--albedo", "1.5"], "albedo");
     fails(&["render", &vol, "--out", out, "--slices", "0"], "--slices");
     fails(
@@ -355,6 +383,8 @@ fn suns_lights_and_a_maps_sun_reach_the_render() {
     exr::prelude::write_rgb_file(&map, w, h, |x, y| {
         if (x, y) == (10, 8) || (x, y) == (11, 8) {
             (500.0f32, 480.0, 450.0)
+        } else if (x, y) == (42, 12) {
+            (300.0f32, 320.0, 400.0)
         } else {
             (0.3f32, 0.4, 0.6)
         }
@@ -362,7 +392,28 @@ fn suns_lights_and_a_maps_sun_reach_the_render() {
     .unwrap();
     let map = map.to_str().unwrap();
     let (split, log) = render("split.exr", &["--env", map]);
-    assert!(log.contains("sun split off"), "{log}");
+    assert!(log.contains("2 suns split off"), "{log}");
+    assert!(log.contains("sun 2: elevation"), "{log}");
+    // The GPU lights with the same suns and map: the same picture within 1 %.
+    let (split_gpu, log) = render("split-gpu.exr", &["--env", map, "--gpu"]);
+    assert!(log.contains("on the GPU"), "{log}");
+    let (mut diff, mut norm) = (0.0f64, 0.0f64);
+    for (g, c) in split_gpu.iter().zip(&split) {
+        for k in 0..3 {
+            diff += f64::from(g[k] - c[k]).powi(2);
+            norm += f64::from(c[k]).powi(2);
+        }
+    }
+    assert!(
+        (diff / norm).sqrt() < 0.01,
+        "GPU vs CPU: {}",
+        (diff / norm).sqrt()
+    );
+    // A black map lights nothing, and says so.
+    let black = tmp(&dir, "black.exr");
+    exr::prelude::write_rgb_file(&black, 8, 4, |_, _| (0.0f32, 0.0, 0.0)).unwrap();
+    let (_, log) = render("lit-by-black.exr", &["--env", black.to_str().unwrap()]);
+    assert!(log.contains("the map is black"), "{log}");
     let (whole, log) = render("whole.exr", &["--env", map, "--no-sun-extraction"]);
     assert!(!log.contains("sun split off"), "{log}");
     // The same light either way: the images agree in the mean within the SH blur.

@@ -2,6 +2,7 @@
 //! compensated ray marching on the CPU (paper A §5) or the GPU (every stage), or by the
 //! reference renderer.
 
+use crate::check;
 use crate::frame::{self, FitKnobs};
 use crate::lights::Lights;
 use crate::progress;
@@ -57,6 +58,10 @@ pub struct RenderOptions {
     /// Where `gpu` solves the diffusion.
     pub lighting: LightingOn,
     pub spp: u32,
+    /// Pixels of the error check against the reference (0: none; [`crate::check`]).
+    pub check: usize,
+    /// The error the render was asked to meet (rel RMS): the check warns above it.
+    pub target_error: Option<f64>,
     pub exposure: f64,
     pub import: ImportOptions,
 }
@@ -67,7 +72,13 @@ pub fn render(a: RenderOptions) -> Result<()> {
     let kind = out_kind(&a.out)?;
     let medium = Medium::new(a.sigma_t, a.albedo, a.g).map_err(|e| anyhow!("{e}"))?;
     check_knobs(a.sh_order, a.slices)?;
-    let env = a.env.environment()?;
+    // The reference lights with a map whole (the truth); the fast renderers with its
+    // concentrated light split off into suns.
+    let env = if a.reference {
+        a.env.environment_whole()?
+    } else {
+        a.env.environment()?
+    };
     a.diffusion
         .check()
         .map_err(|e| anyhow!("--diffusion {}: {e}", diffusion_name(a.diffusion)))?;
@@ -224,6 +235,10 @@ pub fn render(a: RenderOptions) -> Result<()> {
         (img, what)
     };
     spinner.finish_and_clear();
+    let what = match check_error(&a, &image, &frame.density, &medium, &camera)? {
+        Some(e) => format!("{what}, {e}"),
+        None => what,
+    };
     match kind {
         OutKind::Exr => image.write_exr(&a.out)?,
         OutKind::Png => image.write_png(&a.out, a.exposure)?,
@@ -237,6 +252,50 @@ pub fn render(a: RenderOptions) -> Result<()> {
         start.elapsed().as_secs_f64()
     );
     Ok(())
+}
+
+/// The render's estimate of its own error (`--check`), warned about above
+/// `--target-error`; `None` without a check or where no pixel shows smoke.
+fn check_error(
+    a: &RenderOptions,
+    image: &Image,
+    density: &haze_volume::Volume,
+    medium: &Medium,
+    camera: &Camera,
+) -> Result<Option<String>> {
+    if a.check == 0 || a.reference {
+        return Ok(None);
+    }
+    let env = a.env.environment_whole()?;
+    let spinner = progress::spinner(&format!(
+        "checking {} pixels against the reference",
+        a.check
+    ));
+    let est = check::estimate(
+        image,
+        density,
+        medium,
+        &env,
+        camera,
+        a.multiple,
+        a.check,
+        check::CHECK_SAMPLES,
+    );
+    spinner.finish_and_clear();
+    let Some(est) = est else {
+        return Ok(Some("no smoke pixel to check".into()));
+    };
+    if let Some(target) = a.target_error
+        && est.error > target
+    {
+        tracing::warn!(
+            "{}: estimated error {:.1} % is above the target {:.1} %",
+            a.out.display(),
+            100.0 * est.error,
+            100.0 * target
+        );
+    }
+    Ok(Some(est.to_string()))
 }
 
 /// The image types a render writes.

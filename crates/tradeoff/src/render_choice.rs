@@ -192,6 +192,8 @@ mod tests {
             gpu: false,
             lighting: LightingOn::Auto,
             spp: 64,
+            check: 0,
+            target_error: None,
             exposure: 1.0,
             import: ImportOptions::default(),
         }

@@ -3,6 +3,7 @@
 //! exactly.
 
 use crate::distant::{Distant, LatLong, Rgb, Sky};
+use crate::lights::decompose::{DecomposeOptions, Decomposition, decompose};
 use crate::lights::{PointLight, Sun};
 
 /// What lights the smoke: distant radiance (projected on SH by the fast renderer), and
@@ -20,22 +21,22 @@ impl Environment {
         Environment::from(Distant::Sky(sky))
     }
 
-    /// A lat-long map as it is (see [`Environment::map_with_sun_extracted`]), no lights.
+    /// A lat-long map as it is (see [`Environment::map_decomposed`]), no lights.
     pub fn map(map: LatLong) -> Environment {
         Environment::from(Distant::Map(map))
     }
 
-    /// A lat-long map whose sun, if it has one ([`crate::lights::extract_sun`]), is split
-    /// off into a [`Sun`] lit exactly; the rest stays the distant map.
-    pub fn map_with_sun_extracted(map: LatLong) -> Environment {
-        match crate::lights::extract_sun(&map) {
-            Some((sun, rest)) => Environment {
-                distant: Distant::Map(rest),
-                suns: vec![sun],
-                points: Vec::new(),
-            },
-            None => Environment::map(map),
-        }
+    /// A lat-long map whose concentrated light is split off into suns lit exactly
+    /// ([`crate::lights::decompose`]); the smooth rest stays the distant map. Returns the
+    /// decomposition too (what was found, for the user).
+    pub fn map_decomposed(map: &LatLong, opts: &DecomposeOptions) -> (Environment, Decomposition) {
+        let d = decompose(map, opts);
+        let env = Environment {
+            distant: Distant::Map(d.rest.clone()),
+            suns: d.suns.clone(),
+            points: Vec::new(),
+        };
+        (env, d)
     }
 
     /// Radiance a ray sees where it leaves the scene in direction `d`: the distant

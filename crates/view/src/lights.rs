@@ -1,5 +1,6 @@
 //! Lights lit exactly, beside the environment's SH: suns (distant disks) and point lights,
-//! the disk-averaged phase function of a sun, and the extraction of a lat-long map's sun.
+//! the disk-averaged phase function of a sun, and the decomposition of a lat-long map's
+//! concentrated light into suns ([`decompose`]).
 //!
 //! A sun of radiance `L` and apparent (apex) angle `α` covers the solid angle
 //! `Ω☉ = 2π(1 − cos(α/2))` and gives the irradiance `E = L·Ω☉` on a surface facing it. Its
@@ -15,9 +16,11 @@
 //! `1/r²` over a ball of radius `a` about the light, so that a voxel holding the light
 //! stays finite.
 
-use crate::distant::{LatLong, Rgb};
+use crate::distant::Rgb;
 use crate::medium::hg;
 use std::f64::consts::PI;
+
+pub mod decompose;
 
 /// A distant light: a uniformly bright disk in the sky.
 #[derive(Clone, Debug, PartialEq)]
@@ -236,185 +239,6 @@ fn gauss_legendre_01(n: usize) -> (Vec<f64>, Vec<f64>) {
         w.push(1.0 / ((1.0 - z * z) * dp * dp));
     }
     (x, w)
-}
-
-/// The smallest ratio of the peak luminance to the map's median [`extract_sun`] calls a
-/// sun.
-pub const SUN_CONTRAST: f64 = 10.0;
-/// The smallest ratio of the peak luminance to the sky around it [`extract_sun`] calls a
-/// sun (a disk 20× the zenith's radiance beside a horizon 6× brighter than the zenith).
-pub const SUN_LOCAL_CONTRAST: f64 = 3.0;
-/// The largest solid angle (sr) [`extract_sun`] calls compact: a disk of about 29°.
-pub const SUN_MAX_SOLID_ANGLE: f64 = 0.2;
-
-/// Splits the sun off a lat-long map: the brightest compact region, if it is at least
-/// clearly brighter than the sky around it.
-///
-/// The region is grown from the brightest texel (8-neighbours, wrapping in azimuth): first
-/// over the texels of at least half the peak, then, with `sky` the median luminance of
-/// the texels around that core, over those above `sky + 5 % (peak − sky)` — the local sky,
-/// so a bright horizon beside a low sun is not taken for it; the peak must be
-/// [`SUN_LOCAL_CONTRAST`] times that sky and [`SUN_CONTRAST`] times the map's median. The sky behind the region is the
-/// mean of the ring of texels around it; the excess over that sky,
-/// `Σ (L − L_sky)·Ω_texel`, becomes the sun's irradiance, its luminance-weighted mean
-/// direction the sun's, and its angular spread the disk's angle (a uniform disk of
-/// angular radius `ρ` has `⟨θ²⟩ = ρ²/2`). The region's texels are set to the sky, so the
-/// map and the sun together carry the map's power. `None` when no region qualifies (an
-/// overcast map, or a bright region larger than [`SUN_MAX_SOLID_ANGLE`]).
-pub fn extract_sun(map: &LatLong) -> Option<(Sun, LatLong)> {
-    let (w, h) = (map.width, map.height);
-    let lum = |t: &[f32; 3]| {
-        0.2126 * f64::from(t[0]) + 0.7152 * f64::from(t[1]) + 0.0722 * f64::from(t[2])
-    };
-    let y: Vec<f64> = map.texels.iter().map(lum).collect();
-    let solid: Vec<f64> = (0..h).map(|r| map.texel_direction(0, r).1).collect();
-    // Median luminance per solid angle.
-    let mut order: Vec<usize> = (0..w * h).collect();
-    order.sort_by(|a, b| y[*a].total_cmp(&y[*b]));
-    let total: f64 = order.iter().map(|&i| solid[i / w]).sum();
-    let mut acc = 0.0;
-    let mut sky = 0.0;
-    for &i in &order {
-        acc += solid[i / w];
-        if acc >= 0.5 * total {
-            sky = y[i];
-            break;
-        }
-    }
-    let peak_i = *order.last()?;
-    let peak = y[peak_i];
-    if !(peak > SUN_CONTRAST * sky && peak > 0.0) {
-        return None;
-    }
-    let neighbours = |i: usize| {
-        let (x, r) = ((i % w) as i64, (i / w) as i64);
-        let mut out = Vec::with_capacity(8);
-        for dr in -1..=1i64 {
-            for dx in -1..=1i64 {
-                if (dr, dx) == (0, 0) {
-                    continue;
-                }
-                let rr = r + dr;
-                if rr < 0 || rr >= h as i64 {
-                    continue;
-                }
-                let xx = (x + dx).rem_euclid(w as i64);
-                out.push(rr as usize * w + xx as usize);
-            }
-        }
-        out
-    };
-    // Grows the connected region of texels at or above `threshold` from `seed`; `None`
-    // once it is larger than a sun.
-    let grow = |seed: &[usize], threshold: f64| -> Option<(Vec<usize>, Vec<bool>)> {
-        let mut inside = vec![false; w * h];
-        let mut region = seed.to_vec();
-        let mut area = 0.0;
-        for &i in seed {
-            inside[i] = true;
-            area += solid[i / w];
-        }
-        let mut k = 0;
-        while k < region.len() {
-            for n in neighbours(region[k]) {
-                if !inside[n] && y[n] >= threshold {
-                    inside[n] = true;
-                    region.push(n);
-                    area += solid[n / w];
-                    if area > SUN_MAX_SOLID_ANGLE {
-                        return None;
-                    }
-                }
-            }
-            k += 1;
-        }
-        Some((region, inside))
-    };
-    // The ring of texels around a region (8-neighbours not in it).
-    let ring = |region: &[usize], inside: &[bool]| {
-        let mut seen = inside.to_vec();
-        let mut out = Vec::new();
-        for &i in region {
-            for n in neighbours(i) {
-                if !seen[n] {
-                    seen[n] = true;
-                    out.push(n);
-                }
-            }
-        }
-        out
-    };
-    // The core (at least half the peak), the sky around it (the ring's median), then the
-    // whole disk: the core grown over the texels above 5 % of the peak's excess over that
-    // sky — relative to the local sky, so a bright horizon near a low sun stays sky.
-    let (core, core_inside) = grow(&[peak_i], 0.5 * peak)?;
-    let mut around: Vec<f64> = ring(&core, &core_inside).iter().map(|&i| y[i]).collect();
-    around.sort_by(f64::total_cmp);
-    let local = around.get(around.len() / 2).copied().unwrap_or(0.0);
-    if peak <= SUN_LOCAL_CONTRAST * local {
-        return None;
-    }
-    let (region, in_region) = grow(&core, local + 0.05 * (peak - local))?;
-    // The sky behind the sun: the mean of the ring around the region.
-    let outer = ring(&region, &in_region);
-    sun_of_region(map, &region, &outer)
-}
-
-/// The sun held by the texels of `region` above the sky behind it (the mean of the texels
-/// of `outer`, the ring around it): its irradiance, mean direction and angle (twice the
-/// RMS angle from that direction), and the map with the excess removed.
-fn sun_of_region(map: &LatLong, region: &[usize], outer: &[usize]) -> Option<(Sun, LatLong)> {
-    let w = map.width;
-    let ring_n = outer.len();
-    let mut ring_sum = [0.0f64; 3];
-    for &n in outer {
-        for (s, t) in ring_sum.iter_mut().zip(map.texels[n]) {
-            *s += f64::from(t);
-        }
-    }
-    let behind = if ring_n > 0 {
-        ring_sum.map(|s| s / ring_n as f64)
-    } else {
-        [0.0; 3]
-    };
-    let mut rest = map.clone();
-    let mut irradiance = [0.0f64; 3];
-    let mut mean_dir = [0.0f64; 3];
-    let mut weights = Vec::with_capacity(region.len());
-    for &i in region {
-        let (d, omega) = map.texel_direction(i % w, i / w);
-        let t = map.texels[i];
-        let mut excess = [0.0; 3];
-        for c in 0..3 {
-            let keep = f64::from(t[c]).min(behind[c]);
-            excess[c] = f64::from(t[c]) - keep;
-            rest.texels[i][c] = keep as f32;
-            irradiance[c] += excess[c] * omega;
-        }
-        let wgt = (0.2126 * excess[0] + 0.7152 * excess[1] + 0.0722 * excess[2]) * omega;
-        for a in 0..3 {
-            mean_dir[a] += wgt * d[a];
-        }
-        weights.push((d, wgt));
-    }
-    let direction = unit(mean_dir)?;
-    let (mut m2, mut wsum) = (0.0, 0.0);
-    for (d, wgt) in weights {
-        let theta = dot(d, direction).clamp(-1.0, 1.0).acos();
-        m2 += wgt * theta * theta;
-        wsum += wgt;
-    }
-    let rho = if wsum > 0.0 {
-        (2.0 * m2 / wsum).sqrt()
-    } else {
-        0.0
-    };
-    let sun = Sun {
-        direction,
-        irradiance,
-        angle: (2.0 * rho).min(PI),
-    };
-    Some((sun, rest))
 }
 
 /// `a·b`.

@@ -176,6 +176,56 @@ fn render_scene(scene: &Scene<'_>, camera: &Camera, opts: &RefOptions) -> Image 
     image
 }
 
+/// The radiance through each of `pixels` (`(x, y)`) by `opts.spp` independent samples,
+/// with the variance of that mean per channel (the samples' variance over their count):
+/// a few pixels' reference, with the noise to discount, for a render's estimate of its
+/// own error. Each pixel draws from the generator [`render`] gives it.
+pub fn render_pixels(
+    volume: &Volume,
+    medium: &Medium,
+    env: &Environment,
+    camera: &Camera,
+    pixels: &[(usize, usize)],
+    opts: &RefOptions,
+) -> Vec<(Rgb, Rgb)> {
+    let sampler = sampler_for(env, opts);
+    let scene = Scene {
+        volume,
+        medium,
+        env,
+        sampler: sampler.as_ref(),
+    };
+    let one = RefOptions { spp: 1, ..*opts };
+    let n = opts.spp.max(1);
+    pixels
+        .par_iter()
+        .map(|&(x, y)| {
+            let mut rng = pixel_rng(opts.seed, (y * camera.width + x) as u64);
+            let d = camera.pixel_ray(x, y);
+            let (mut sum, mut sq) = ([0.0f64; 3], [0.0f64; 3]);
+            for _ in 0..n {
+                let l = if opts.multiple {
+                    path::radiance(&scene, camera.eye, d, &one, &mut rng)
+                } else {
+                    single::radiance(&scene, camera.eye, d, &one, &mut rng)
+                };
+                for c in 0..3 {
+                    sum[c] += l[c];
+                    sq[c] += l[c] * l[c];
+                }
+            }
+            let nf = f64::from(n);
+            let mean = sum.map(|v| v / nf);
+            let var = if n > 1 {
+                [0, 1, 2].map(|c| ((sq[c] - nf * mean[c] * mean[c]) / (nf - 1.0)).max(0.0) / nf)
+            } else {
+                [0.0; 3]
+            };
+            (mean, var)
+        })
+        .collect()
+}
+
 /// [`render`] with its own noise estimate: two half-runs of `opts.spp / 2` samples (rounded
 /// up) from different seeds, averaged into the image, whose noise is then
 /// `rel_rms(A, B)/2` (the mean of two independent estimates has half the variance of

@@ -494,3 +494,58 @@ fn the_noise_estimate_of_two_half_runs_predicts_the_error() {
     let (_, zero) = render_with_noise(&v, &medium(3.0, 0.0, 0.0), &env, &cam, &opts(8, false));
     assert_eq!(zero, Some(0.0));
 }
+
+#[test]
+fn pixel_estimates_match_the_image_and_their_variance_the_spread_of_seeds() {
+    let v = blob();
+    let camera = Camera::new([0.0, -4.0, 0.5], [0.0; 3], [0.0, 0.0, 1.0], 40.0, 12, 9).unwrap();
+    let m = medium(4.0, 0.8, 0.3);
+    let env = sky();
+    // A pixel through the smoke and a corner pixel that misses the box.
+    let pixels = [(6, 4), (0, 0)];
+    for multiple in [false, true] {
+        let o = opts(32, multiple);
+        let image = render(&v, &m, &env, &camera, &o);
+        let est = render_pixels(&v, &m, &env, &camera, &pixels, &o);
+        // The same draws as the image's pixel: the same mean (summation order aside).
+        for (&(x, y), (mean, _)) in pixels.iter().zip(&est) {
+            let p = image.pixels[y * camera.width + x];
+            for c in 0..3 {
+                assert!(
+                    close(p[c], mean[c], 1e-5),
+                    "{multiple} ({x}, {y}) {p:?} {mean:?}"
+                );
+            }
+        }
+        // No randomness outside the smoke (rounding of Σl² − n·mean² aside); some inside.
+        assert!(
+            (0..3).all(|c| est[1].1[c] <= 1e-12 * est[1].0[c].powi(2)),
+            "{:?}",
+            est[1]
+        );
+        assert!(est[0].1.iter().all(|v| *v > 0.0));
+        // The variance of the mean predicts the spread of means over seeds: over 40
+        // seeds the sample variance of the means is within a factor 2 of the mean
+        // predicted variance (a χ² of 39 degrees of freedom lies in [0.55, 1.5]× its
+        // mean with probability > 0.99).
+        let seeds: Vec<(Rgb, Rgb)> = (0..40)
+            .map(|s| {
+                render_pixels(
+                    &v,
+                    &m,
+                    &env,
+                    &camera,
+                    &pixels[..1],
+                    &RefOptions { seed: 100 + s, ..o },
+                )[0]
+            })
+            .collect();
+        let mean: f64 = seeds.iter().map(|e| e.0[0]).sum::<f64>() / 40.0;
+        let spread: f64 = seeds.iter().map(|e| (e.0[0] - mean).powi(2)).sum::<f64>() / 39.0;
+        let predicted: f64 = seeds.iter().map(|e| e.1[0]).sum::<f64>() / 40.0;
+        assert!(
+            spread / predicted > 0.5 && spread / predicted < 2.0,
+            "{multiple}: {spread} vs {predicted}"
+        );
+    }
+}

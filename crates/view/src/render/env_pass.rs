@@ -30,12 +30,14 @@
 
 use super::crm::VolumeGrids;
 use super::lights_pass::{occupied_box, optical_depth_within};
+use crate::distant::{Distant, LatLong};
 use crate::env::Environment;
 use crate::lighting::single::RgbSh;
 use crate::medium::Medium;
 use crate::sh::{self, ShGrid, quad::SphereGrid};
 use haze_volume::{Bbox, Volume};
 use rayon::prelude::*;
+use std::f64::consts::PI;
 
 /// Settings of the environment's grid.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -103,21 +105,99 @@ pub fn grid_frame(dims: [usize; 3], bbox: &Bbox, spacing: f64, order: usize) -> 
     }
 }
 
-/// The rule's directions that bring light: `(ω, w·L(ω), Y(ω))` of `env`'s distant
-/// radiance at `order`.
+/// The rule's directions that bring light: `(ω, P(ω), Y(ω))` with `P` the distant
+/// radiance's power in the direction's cell of the rule, `Y` the SH at `order`.
+///
+/// A cell spans its latitude's share of `cos θ` (the Gauss–Legendre weights laid end to
+/// end from the pole of its hemisphere: each node lies inside its span) × its azimuth's
+/// `2π/n_φ`, so the cells tile the sphere and their solid angles are the rule's weights.
+/// A map's power per cell is its integral over the cell ([`cell_powers`]): the map is
+/// band-limited to the rule's cells before the rule
+/// integrates it, so a bright region narrower than the rule's spacing keeps its power
+/// instead of being missed or multiplied by a whole cell's weight (aliasing). The
+/// built-in sky, smooth by construction, is taken at the nodes: `w·L(ω)`.
 pub fn lit_directions(
     env: &Environment,
     theta: usize,
     order: usize,
 ) -> Vec<([f64; 3], [f64; 3], Vec<f64>)> {
-    directions(theta)
-        .points()
-        .map(|(w, wt)| {
-            let l = env.distant.radiance(w);
-            (w, l.map(|c| wt * c), sh::eval(order, w))
-        })
+    let rule = directions(theta);
+    let powers: Vec<[f64; 3]> = match &env.distant {
+        Distant::Map(map) => cell_powers(map, theta),
+        Distant::Sky(sky) => rule
+            .points()
+            .map(|(w, wt)| sky.radiance(w).map(|c| wt * c))
+            .collect(),
+    };
+    rule.points()
+        .zip(powers)
+        .map(|((w, _), p)| (w, p, sh::eval(order, w)))
         .filter(|(_, l, _)| l.iter().any(|&c| c != 0.0))
         .collect()
+}
+
+/// `∫ L dω` of `map` over each cell of [`directions`]`(theta)`, in the rule's order
+/// (see [`lit_directions`]): each texel, constant over its span of `φ` and `cos θ`,
+/// gives `L·Δφ·Δμ` of its overlap with each cell (exact for the piecewise-constant map,
+/// whatever its size: a one-texel map gives every cell `L·w`).
+pub fn cell_powers(map: &LatLong, theta: usize) -> Vec<[f64; 3]> {
+    let t = theta.max(1);
+    let n_phi = 4 * t;
+    // The latitudes in the rule's order, and their spans of μ = cos θ laid end to end
+    // from μ = −1 in increasing μ.
+    let lats = SphereGrid::hemisphere_latitudes(t);
+    let mut by_mu: Vec<usize> = (0..lats.len()).collect();
+    by_mu.sort_by(|a, b| lats[*a].0.total_cmp(&lats[*b].0));
+    let mut spans = vec![(0.0, 0.0); lats.len()];
+    let mut lo = -1.0;
+    for &k in &by_mu {
+        spans[k] = (lo, lo + lats[k].1);
+        lo += lats[k].1;
+    }
+    let overlap = |a: (f64, f64), b: (f64, f64)| (a.1.min(b.1) - a.0.max(b.0)).max(0.0);
+    let (w, h) = (map.width, map.height);
+    // Per texel column, the azimuth cells it overlaps and by how much.
+    let dphi_cell = 2.0 * PI / n_phi as f64;
+    let columns: Vec<Vec<(usize, f64)>> = (0..w)
+        .map(|x| {
+            let span = (
+                2.0 * PI * x as f64 / w as f64,
+                2.0 * PI * (x + 1) as f64 / w as f64,
+            );
+            (0..n_phi)
+                .map(|j| {
+                    (
+                        j,
+                        overlap(span, (dphi_cell * j as f64, dphi_cell * (j + 1) as f64)),
+                    )
+                })
+                .filter(|(_, o)| *o > 0.0)
+                .collect()
+        })
+        .collect();
+    let mut out = vec![[0.0; 3]; lats.len() * n_phi];
+    for y in 0..h {
+        let mu = (
+            (PI * (y + 1) as f64 / h as f64).cos(),
+            (PI * y as f64 / h as f64).cos(),
+        );
+        let rows: Vec<(usize, f64)> = (0..lats.len())
+            .map(|k| (k, overlap(mu, spans[k])))
+            .filter(|(_, o)| *o > 0.0)
+            .collect();
+        for (x, cols) in columns.iter().enumerate() {
+            let c = map.texels[y * w + x];
+            for &(k, dmu) in &rows {
+                for &(j, dphi) in cols {
+                    let cell = &mut out[k * n_phi + j];
+                    for (o, v) in cell.iter_mut().zip(c) {
+                        *o += f64::from(v) * dmu * dphi;
+                    }
+                }
+            }
+        }
+    }
+    out
 }
 
 /// The grid of `S_lm` (module docs) of `env`'s distant light through `density` (σt
@@ -273,4 +353,61 @@ pub fn env_pass(
             }
         });
     grid
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn map(w: usize, h: usize, f: impl Fn(usize, usize) -> f32) -> LatLong {
+        let texels = (0..w * h).map(|i| [f(i % w, i / w), 1.0, 0.5]).collect();
+        LatLong::new(w, h, texels).unwrap()
+    }
+
+    #[test]
+    fn cells_tile_the_sphere_and_keep_a_maps_power() {
+        for theta in [1, 3, 4] {
+            let rule: Vec<f64> = directions(theta).points().map(|(_, w)| w).collect();
+            // A constant map of any size, one texel included, gives every cell L·w: the
+            // cells' solid angles are the rule's weights.
+            for (w, h) in [(1, 1), (5, 3), (64, 32), (100, 50)] {
+                let cells = cell_powers(&map(w, h, |_, _| 2.0), theta);
+                for (c, wt) in cells.iter().zip(&rule) {
+                    assert!((c[0] - 2.0 * wt).abs() < 1e-12, "{w}×{h}, θ {theta}");
+                    assert!((c[1] - wt).abs() < 1e-12);
+                }
+            }
+            // Any map: the cells share its power exactly (Σ L·Ω of its texels).
+            let m = map(37, 19, |x, y| ((x * 7 + y * 3) % 11) as f32);
+            let cells = cell_powers(&m, theta);
+            let total: f64 = cells.iter().map(|c| c[0]).sum();
+            let mut want = 0.0;
+            for y in 0..m.height {
+                for x in 0..m.width {
+                    want += f64::from(m.texels[y * m.width + x][0]) * m.texel_direction(x, y).1;
+                }
+            }
+            assert!(
+                (total - want).abs() < 1e-9 * want,
+                "θ {theta}: {total} vs {want}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_bright_texel_between_nodes_keeps_its_power() {
+        // One bright texel in a black map, away from every node: point samples at the
+        // nodes see nothing of it (the aliasing this fixes); one cell gets all its power.
+        let (w, h) = (256, 128);
+        let (x, y) = (10, 40);
+        let mut texels = vec![[0.0f32; 3]; w * h];
+        texels[y * w + x] = [1000.0, 0.0, 0.0];
+        let m = LatLong::new(w, h, texels).unwrap();
+        let omega = m.texel_direction(x, y).1;
+        let nodes_see: f64 = directions(3).points().map(|(n, _)| m.radiance(n)[0]).sum();
+        assert_eq!(nodes_see, 0.0);
+        let lit = lit_directions(&Environment::map(m), 3, 2);
+        assert_eq!(lit.len(), 1);
+        assert!((lit[0].1[0] - 1000.0 * omega).abs() < 1e-9 * lit[0].1[0]);
+    }
 }

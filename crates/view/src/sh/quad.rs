@@ -56,11 +56,16 @@ impl SphereGrid {
     /// As [`SphereGrid::new`] with a separate `n`-point rule on each hemisphere, for
     /// functions with a jump at the horizon (`cos θ = 0`).
     pub fn hemispheres(n: usize, n_phi: usize) -> SphereGrid {
-        let half: Vec<(f64, f64)> = gauss_legendre(n)
+        Self::from_latitudes(&Self::hemisphere_latitudes(n), n_phi)
+    }
+
+    /// The latitudes `(cos θ, weight)` of [`SphereGrid::hemispheres`], in its order (the
+    /// grid's points are these × the azimuths, latitude-major).
+    pub fn hemisphere_latitudes(n: usize) -> Vec<(f64, f64)> {
+        gauss_legendre(n)
             .into_iter()
             .flat_map(|(x, w)| [(0.5 * (x - 1.0), 0.5 * w), (0.5 * (x + 1.0), 0.5 * w)])
-            .collect();
-        Self::from_latitudes(&half, n_phi)
+            .collect()
     }
 
     fn from_latitudes(lat: &[(f64, f64)], n_phi: usize) -> SphereGrid {

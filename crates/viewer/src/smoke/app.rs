@@ -125,17 +125,28 @@ impl Light {
 
 /// `env` with its sun towards `azimuth`, `elevation` (degrees), or `None` when that
 /// changes nothing. With suns, the first one — the real light, lit exactly — and, under
-/// the built-in sky, the sky's glow with it (the sky's picture of that sun); without
-/// suns, the built-in sky's glow (a map without suns has nothing to move). Everything
-/// else (the other suns, the point lights, the map) is kept.
+/// the built-in sky, the sky's glow with it (the sky's picture of that sun); under a map,
+/// every sun turns with the first (the suns split off a map are one light, a soft sun a
+/// cluster of them); without suns, the built-in sky's glow (a map without suns has
+/// nothing to move). Everything else (under the sky the other suns; the point lights,
+/// the map) is kept.
 pub(super) fn move_sun(env: &Environment, azimuth: f64, elevation: f64) -> Option<Environment> {
     let d = direction((90.0 - elevation).to_radians(), azimuth.to_radians());
     let mut out = env.clone();
     let mut changed = false;
-    if let Some(sun) = out.suns.first_mut()
-        && sun.direction != d
+    if let Some(first) = out.suns.first().map(|s| s.direction)
+        && first != d
     {
-        sun.direction = d;
+        if matches!(out.distant, Distant::Map(_)) {
+            // The suns split off a map are one light (a soft sun is a cluster): they
+            // turn together, by the rotation taking the first to `d`.
+            for sun in &mut out.suns {
+                sun.direction = rotate_towards(first, d, sun.direction);
+            }
+            out.suns[0].direction = d;
+        } else {
+            out.suns[0].direction = d;
+        }
         changed = true;
     }
     if let Distant::Sky(sky) = &mut out.distant
@@ -145,6 +156,74 @@ pub(super) fn move_sun(env: &Environment, azimuth: f64, elevation: f64) -> Optio
         changed = true;
     }
     changed.then_some(out)
+}
+
+/// What the panel says of the suns split off a map: a count, then per sun its elevation,
+/// azimuth, width and share of the map's light (luminance). Nothing under the built-in
+/// sky.
+fn suns_found(env: &Environment) -> Vec<String> {
+    let Distant::Map(rest) = &env.distant else {
+        return Vec::new();
+    };
+    if env.suns.is_empty() {
+        return vec!["no sun split off the map".into()];
+    }
+    let y = haze_view::lights::decompose::luminance;
+    let total = y(haze_view::lights::decompose::map_power(rest))
+        + env.suns.iter().map(|s| y(s.irradiance)).sum::<f64>();
+    let mut out = vec![format!("{} sun(s) split off the map:", env.suns.len())];
+    for s in &env.suns {
+        let (theta, phi) = angles(s.direction);
+        out.push(format!(
+            "  elev {:.1}°, azim {:.1}°, {:.1}° wide, {:.0} %",
+            90.0 - theta.to_degrees(),
+            phi.to_degrees(),
+            s.angle.to_degrees(),
+            if total > 0.0 {
+                100.0 * y(s.irradiance) / total
+            } else {
+                0.0
+            }
+        ));
+    }
+    out
+}
+
+/// `v` turned by the rotation that takes the unit `from` to the unit `to` about their
+/// common normal (Rodrigues' formula); `v` itself when they are equal, a half-turn about
+/// a normal of `from` when they are opposite.
+fn rotate_towards(from: [f64; 3], to: [f64; 3], v: [f64; 3]) -> [f64; 3] {
+    let cross = |a: [f64; 3], b: [f64; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let axis = cross(from, to);
+    let s = dot(axis, axis).sqrt();
+    let c = dot(from, to);
+    if s < 1e-12 {
+        if c > 0.0 {
+            return v;
+        }
+        // Opposite: a half-turn about a normal of `from`.
+        let n = if from[0].abs() < 0.9 {
+            [1.0, 0.0, 0.0]
+        } else {
+            [0.0, 1.0, 0.0]
+        };
+        let k = cross(from, n);
+        let kn = dot(k, k).sqrt();
+        let k = k.map(|x| x / kn);
+        let kv = dot(k, v);
+        return [0, 1, 2].map(|i| 2.0 * kv * k[i] - v[i]);
+    }
+    let k = axis.map(|x| x / s);
+    let kxv = cross(k, v);
+    let kv = dot(k, v);
+    [0, 1, 2].map(|i| v[i] * c + kxv[i] * s + k[i] * kv * (1.0 - c))
 }
 
 /// The sliders' ranges: the usual span, widened to hold the value given on the command
@@ -165,6 +244,8 @@ struct ViewerApp {
     settings: Settings,
     initial_orbit: Orbit,
     light: Light,
+    /// The suns split off the map, one line each (empty under the built-in sky).
+    found: Vec<String>,
     /// The sliders' values last applied to the environment: it changes only when they
     /// move (the light given on the command line stays as given until then).
     light_applied: (f64, f64),
@@ -182,6 +263,7 @@ struct ViewerApp {
 impl ViewerApp {
     fn new(player: Player, settings: Settings, outcome: Outcome) -> ViewerApp {
         let light = Light::of(&settings.env);
+        let found = suns_found(&settings.env);
         let fps = player.playback.fps();
         let k = &settings.knobs;
         let ranges = Ranges {
@@ -202,6 +284,7 @@ impl ViewerApp {
             settings,
             light_applied: light.sliders(),
             light,
+            found,
             texture: None,
             showing: None,
             outcome,
@@ -424,6 +507,9 @@ impl ViewerApp {
                 ui.label("light: environment map (--env)");
             }
         }
+        for line in &self.found {
+            ui.small(line);
+        }
         self.update_light();
         ui.separator();
 
@@ -586,6 +672,23 @@ mod tests {
         assert!(close(moved.suns[0].direction, d));
         assert_eq!(moved.distant, Distant::Map(map.clone()));
         assert!(move_sun(&moved, 40.0, 60.0).is_none());
+        // A cluster split off a map turns as one: the angles between its suns are kept.
+        let mut env = Environment::map(map.clone());
+        env.suns.push(sun_towards([0.0, -1.0, 1.0]));
+        env.suns.push(sun_towards([0.1, -1.0, 0.9]));
+        let moved = move_sun(&env, 40.0, 60.0).unwrap();
+        assert!(close(moved.suns[0].direction, d));
+        let angle = |s: &[Sun]| {
+            let (a, b) = (s[0].direction, s[1].direction);
+            let n = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+            ((a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) / (n(a) * n(b))).acos()
+        };
+        assert!((angle(&moved.suns) - angle(&env.suns)).abs() < 1e-9);
+        // Opposite directions and the identity.
+        let v = [0.3, -0.4, 0.5];
+        let flipped = rotate_towards([0.0, 0.0, 1.0], [0.0, 0.0, -1.0], v);
+        assert!((flipped[2] + 0.5).abs() < 1e-12);
+        assert_eq!(rotate_towards([0.0, 0.0, 1.0], [0.0, 0.0, 1.0], v), v);
 
         // No suns: the sky's glow, as before; a map has nothing to move.
         let env = Environment::sky(Sky::default());

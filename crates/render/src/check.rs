@@ -1,0 +1,194 @@
+//! A render's estimate of its own error (`haze render --check N`): the fast picture
+//! compared, on `N` of its smoke pixels, with the reference renderer at a few samples each
+//! — lit by the environment as given (a map whole), so the estimate also covers what
+//! splitting the map into suns changed.
+//!
+//! With `f_p` the fast renderer's pixel, `r_p` the reference's mean of `S` samples and `v_p`
+//! the variance of that mean (per channel), `E[(f − r)²] = (f − μ)² + v`, so
+//! `e² = (Σ (f_p − r_p)² − Σ v_p) / Σ r_p²` estimates docs/conventions.md's `rel_rms` of the
+//! picture over those pixels without the reference's noise (clamped at 0); the noise left
+//! in the estimate, `√(Σ v_p / Σ r_p²)`, is printed beside it. The pixels are every k-th of
+//! those where the smoke blocks at least 2 % of the light behind it (the exact
+//! transmittance along each pixel's ray), so they spread over the smoke.
+
+use haze_view::reference::{self, RefOptions};
+use haze_view::{Camera, Environment, Image, Medium};
+use haze_volume::Volume;
+use std::time::Instant;
+
+/// Samples per checked pixel: with the noise discounted, 256 pixels of 64 samples estimate
+/// a few-percent error to about ±1 % (the printed noise says how well).
+pub const CHECK_SAMPLES: u32 = 64;
+
+/// What [`estimate`] found.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ErrorEstimate {
+    /// Estimated `rel_rms` of the picture over the checked pixels, noise discounted.
+    pub error: f64,
+    /// The reference's noise left in the estimate (same units).
+    pub noise: f64,
+    /// Pixels checked.
+    pub pixels: usize,
+    /// Reference samples per pixel.
+    pub samples: u32,
+    pub seconds: f64,
+}
+
+impl std::fmt::Display for ErrorEstimate {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "estimated error {:.1} % (± {:.1} %, {} pixels × {} reference samples, {:.1} s)",
+            100.0 * self.error,
+            100.0 * self.noise,
+            self.pixels,
+            self.samples,
+            self.seconds
+        )
+    }
+}
+
+/// The error of `image` (rendered of `density` with `medium` through `camera`, `multiple`
+/// scattering or single) on up to `n` of its smoke pixels against the reference lit by
+/// `env` (the environment as given). `None` when no pixel shows smoke or `n` is 0.
+#[allow(clippy::too_many_arguments)]
+pub fn estimate(
+    image: &Image,
+    density: &Volume,
+    medium: &Medium,
+    env: &Environment,
+    camera: &Camera,
+    multiple: bool,
+    n: usize,
+    samples: u32,
+) -> Option<ErrorEstimate> {
+    let start = Instant::now();
+    let pixels = smoke_pixels(density, medium, camera, n);
+    if pixels.is_empty() {
+        return None;
+    }
+    let opts = RefOptions {
+        spp: samples.max(2),
+        multiple,
+        seed: 0x636b_6563,
+        ..RefOptions::default()
+    };
+    let reference = reference::render_pixels(density, medium, env, camera, &pixels, &opts);
+    let (mut diff, mut var, mut norm) = (0.0f64, 0.0f64, 0.0f64);
+    for (&(x, y), (r, v)) in pixels.iter().zip(&reference) {
+        let f = image.pixels[y * camera.width + x];
+        for c in 0..3 {
+            diff += (f64::from(f[c]) - r[c]).powi(2);
+            var += v[c];
+            norm += r[c] * r[c];
+        }
+    }
+    if !(norm > 0.0 && norm.is_finite()) {
+        return None;
+    }
+    Some(ErrorEstimate {
+        error: ((diff - var).max(0.0) / norm).sqrt(),
+        noise: (var / norm).sqrt(),
+        pixels: pixels.len(),
+        samples: opts.spp,
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// Up to `n` pixels, every k-th in scan order of those whose ray's transmittance through
+/// `density` is below 0.98.
+fn smoke_pixels(
+    density: &Volume,
+    medium: &Medium,
+    camera: &Camera,
+    n: usize,
+) -> Vec<(usize, usize)> {
+    if n == 0 {
+        return Vec::new();
+    }
+    // Transmittance only: no scattering, a white environment, one exact sample.
+    let absorbing = Medium::new(medium.sigma_t, 0.0, 0.0).expect("an absorbing medium is valid");
+    let white = Environment::constant([1.0; 3]);
+    let t = reference::render(
+        density,
+        &absorbing,
+        &white,
+        camera,
+        &RefOptions {
+            spp: 1,
+            multiple: false,
+            ..RefOptions::default()
+        },
+    );
+    let smoke: Vec<(usize, usize)> = t
+        .pixels
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p[0] < 0.98)
+        .map(|(i, _)| (i % camera.width, i / camera.width))
+        .collect();
+    let step = smoke.len().div_ceil(n).max(1);
+    smoke.into_iter().step_by(step).take(n).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use haze_view::Sky;
+    use haze_volume::Bbox;
+
+    fn ball() -> Volume {
+        let n = 12;
+        let data = (0..n * n * n)
+            .map(|i| {
+                let p =
+                    [i % n, (i / n) % n, i / (n * n)].map(|k| (k as f64 + 0.5) / n as f64 - 0.5);
+                (1.0 - 4.0 * (p[0] * p[0] + p[1] * p[1] + p[2] * p[2])).max(0.0) as f32
+            })
+            .collect();
+        Volume::new([n; 3], Bbox::new([-1.0; 3], [1.0; 3]), data).unwrap()
+    }
+
+    #[test]
+    fn the_estimate_finds_a_known_error_and_none_in_the_reference_itself() {
+        let v = ball();
+        let m = Medium::new(3.0, 0.8, 0.3).unwrap();
+        let env = Environment::sky(Sky::default());
+        let cam = Camera::new([0.0, -4.0, 0.3], [0.0; 3], [0.0, 0.0, 1.0], 35.0, 24, 18).unwrap();
+        // A converged reference picture: its error is only the reference's noise.
+        let truth = reference::render(
+            &v,
+            &m,
+            &env,
+            &cam,
+            &RefOptions {
+                spp: 2048,
+                multiple: false,
+                ..RefOptions::default()
+            },
+        );
+        let e = estimate(&truth, &v, &m, &env, &cam, false, 64, 256).expect("smoke");
+        assert!(e.pixels > 16 && e.pixels <= 64, "{e}");
+        // The truth's own noise at 2048 samples is about a third of the check's at 256.
+        assert!(e.error < 0.02 + 2.0 * e.noise, "{e}");
+        // The same picture 10 % too bright everywhere: an error of 10 %.
+        let mut bright = truth.clone();
+        for p in &mut bright.pixels {
+            *p = p.map(|c| 1.1 * c);
+        }
+        let e = estimate(&bright, &v, &m, &env, &cam, false, 64, 256).expect("smoke");
+        assert!((e.error - 0.1).abs() < 0.02 + 2.0 * e.noise, "{e}");
+        // Nothing to check.
+        assert!(estimate(&truth, &v, &m, &env, &cam, false, 0, 64).is_none());
+        let away = Camera::new(
+            [0.0, -4.0, 0.3],
+            [0.0, -8.0, 0.3],
+            [0.0, 0.0, 1.0],
+            35.0,
+            8,
+            6,
+        )
+        .unwrap();
+        assert!(estimate(&truth, &v, &m, &env, &away, false, 16, 8).is_none());
+    }
+}
