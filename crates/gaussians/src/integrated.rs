@@ -86,7 +86,9 @@ pub fn bound(b: &Blob, light: Source) -> f64 {
 /// light's power and `e^{Eᵢ}` (the other Gaussians only). `beta0` is the homogeneous
 /// extinction per channel; its path is `t + |s − x|` for a point light and `t` for a sun
 /// (whose attenuation by a background the caller handles, as for the closed form);
-/// `d` is floored at `r_min`.
+/// `d` is floored at `r_min`. `others(t)` is added to the exponent at `v + t·dir` (the
+/// renderer's hosts; 0 for none).
+#[allow(clippy::too_many_arguments)]
 pub fn integrated(
     b: &Blob,
     v: Vec3,

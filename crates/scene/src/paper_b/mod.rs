@@ -203,53 +203,8 @@ impl<'a> Prepared<'a> {
                         })
                     })
                     .collect();
-                let hosts = hosts_of(&set, source, options.target);
-                // Tₖ(s, bᵢ) + Tₖ(bᵢ, v) of the hosts, taken out of Eᵢ (evaluated per node).
-                let host_share = |i: usize| -> f64 {
-                    let (Source::Point(s), b) = (source, set.blobs()[i].center) else {
-                        return 0.0;
-                    };
-                    let (u, d) = (sub(s, b), norm(sub(s, b)));
-                    let (w, dw) = (sub(eye, b), norm(sub(eye, b)));
-                    hosts
-                        .iter()
-                        .filter(|&&k| k != i)
-                        .map(|&k| {
-                            let h = &set.blobs()[k];
-                            let mut t = 0.0;
-                            if d > 0.0 {
-                                t += line::gaussian(h.c, h.a, h.center, b, u.map(|c| c / d), d);
-                            }
-                            if dw > 0.0 {
-                                t += line::gaussian(h.c, h.a, h.center, b, w.map(|c| c / dw), dw);
-                            }
-                            t
-                        })
-                        .sum()
-                };
-                let integrated = set
-                    .blobs()
-                    .iter()
-                    .zip(&g)
-                    .enumerate()
-                    .map(|(i, (b, e))| {
-                        let sun_hidden = matches!(source, Source::Sun(_)) && bg > 0.0;
-                        (bound(b, source) > options.target && !sun_hidden)
-                            .then(|| (e + host_share(i)).exp())
-                    })
-                    .collect();
-                let (c_sv, c_sv_rest) = match source.path(eye) {
-                    Some((d, len)) => {
-                        let mut rest = 0.0;
-                        let all = set.depth(eye, d, len, None).0;
-                        for &k in &hosts {
-                            let h = &set.blobs()[k];
-                            rest += line::gaussian(h.c, h.a, h.center, eye, d, len);
-                        }
-                        ((-all).exp(), (-(all - rest).max(0.0)).exp())
-                    }
-                    None => (1.0, 1.0),
-                };
+                let (integrated, hosts, c_sv, c_sv_rest) =
+                    pair_terms(&set, source, eye, &g, bg > 0.0, options.target);
                 Lit {
                     source,
                     power,
@@ -315,6 +270,54 @@ impl<'a> Prepared<'a> {
         out
     }
 
+    /// Gaussian `i`'s airlight of light `l` integrated along the ray
+    /// ([`haze_gaussians::integrated::integrated`], the hosts per node) times the pair's
+    /// exponent `e`, per unit power; with noise (`noisy`) scaled as `Tᵢ(v,p) = vp` is.
+    #[allow(clippy::too_many_arguments)]
+    fn integrated_pair(
+        &self,
+        lim: &Limits,
+        l: &Lit,
+        i: usize,
+        e: f64,
+        dir: Vec3,
+        t_end: f64,
+        noisy: bool,
+        vp: f64,
+    ) -> Rgb {
+        let eye = self.scene.camera.eye;
+        let b = &self.set.blobs()[i];
+        let others = |t: f64| match l.source {
+            Source::Point(sp) if !l.hosts.is_empty() => {
+                let x = axpy(eye, t, dir);
+                let ls = sub(sp, x);
+                let d = norm(ls);
+                let mut depth = 0.0;
+                for &k in l.hosts.iter().filter(|&&k| k != i) {
+                    let h = &self.set.blobs()[k];
+                    depth += line::gaussian(h.c, h.a, h.center, eye, dir, t);
+                    if d > 0.0 {
+                        depth += line::gaussian(h.c, h.a, h.center, x, ls.map(|c| c / d), d);
+                    }
+                }
+                -depth
+            }
+            _ => 0.0,
+        };
+        let e = if noisy {
+            let straight = line::gaussian(b.c, b.a, b.center, eye, dir, t_end);
+            if straight > 0.0 {
+                e * vp / straight
+            } else {
+                0.0
+            }
+        } else {
+            e
+        };
+        let li = integrated(b, eye, dir, t_end, l.source, lim.r_min, self.beta0, &others);
+        li.map(|x| e * x)
+    }
+
     /// Radiance along the camera ray of unit direction `dir`.
     pub fn radiance(&self, lim: &Limits, dir: Vec3) -> Rgb {
         let scene = self.scene;
@@ -343,40 +346,9 @@ impl<'a> Prepared<'a> {
             tau += vp;
             for l in &self.lights {
                 if let Some(e) = l.integrated[i] {
-                    let hosts = &l.hosts;
-                    let others = |t: f64| match l.source {
-                        Source::Point(sp) if !hosts.is_empty() => {
-                            let x = axpy(eye, t, dir);
-                            let ls = sub(sp, x);
-                            let d = norm(ls);
-                            let mut depth = 0.0;
-                            for &k in hosts.iter().filter(|&&k| k != i) {
-                                let h = &self.set.blobs()[k];
-                                depth += line::gaussian(h.c, h.a, h.center, eye, dir, t);
-                                if d > 0.0 {
-                                    depth +=
-                                        line::gaussian(h.c, h.a, h.center, x, ls.map(|c| c / d), d);
-                                }
-                            }
-                            -depth
-                        }
-                        _ => 0.0,
-                    };
-                    // Noise scales the integral as it scales Tᵢ(v,p).
-                    let e = if along == dir {
-                        e
-                    } else {
-                        let straight = line::gaussian(b.c, b.a, b.center, eye, dir, t_end);
-                        if straight > 0.0 {
-                            e * vp / straight
-                        } else {
-                            0.0
-                        }
-                    };
-                    let li =
-                        integrated(b, eye, dir, t_end, l.source, lim.r_min, self.beta0, &others);
+                    let li = self.integrated_pair(lim, l, i, e, dir, t_end, along != dir, vp);
                     for (c, o) in out.iter_mut().enumerate() {
-                        *o += l.power[c] * e * li[c];
+                        *o += l.power[c] * li[c];
                     }
                     continue;
                 }
@@ -527,6 +499,67 @@ impl<'a> Prepared<'a> {
             self.analytic.name()
         )
     }
+}
+
+/// The integrated path's terms of one light (module docs): per Gaussian the pair's
+/// `e^{Eᵢ}` without the hosts where its bound exceeds `target`, the light's hosts, `C_sv`
+/// and `C_sv` without the hosts; `g` holds the Gaussians' `Eᵢ`, `background` whether a
+/// background hides the suns.
+fn pair_terms(
+    set: &GaussianSet,
+    source: Source,
+    eye: Vec3,
+    g: &[f64],
+    background: bool,
+    target: f64,
+) -> (Vec<Option<f64>>, Vec<usize>, f64, f64) {
+    let hosts = hosts_of(set, source, target);
+    // Tₖ(s, bᵢ) + Tₖ(bᵢ, v) of the hosts, taken out of Eᵢ (evaluated per node).
+    let host_share = |i: usize| -> f64 {
+        let (Source::Point(s), b) = (source, set.blobs()[i].center) else {
+            return 0.0;
+        };
+        let (u, d) = (sub(s, b), norm(sub(s, b)));
+        let (w, dw) = (sub(eye, b), norm(sub(eye, b)));
+        hosts
+            .iter()
+            .filter(|&&k| k != i)
+            .map(|&k| {
+                let h = &set.blobs()[k];
+                let mut t = 0.0;
+                if d > 0.0 {
+                    t += line::gaussian(h.c, h.a, h.center, b, u.map(|c| c / d), d);
+                }
+                if dw > 0.0 {
+                    t += line::gaussian(h.c, h.a, h.center, b, w.map(|c| c / dw), dw);
+                }
+                t
+            })
+            .sum()
+    };
+    let integrated = set
+        .blobs()
+        .iter()
+        .zip(g)
+        .enumerate()
+        .map(|(i, (b, e))| {
+            let sun_hidden = matches!(source, Source::Sun(_)) && background;
+            (bound(b, source) > target && !sun_hidden).then(|| (e + host_share(i)).exp())
+        })
+        .collect();
+    let (c_sv, c_sv_rest) = match source.path(eye) {
+        Some((d, len)) => {
+            let mut rest = 0.0;
+            let all = set.depth(eye, d, len, None).0;
+            for &k in &hosts {
+                let h = &set.blobs()[k];
+                rest += line::gaussian(h.c, h.a, h.center, eye, d, len);
+            }
+            ((-all).exp(), (-(all - rest).max(0.0)).exp())
+        }
+        None => (1.0, 1.0),
+    };
+    (integrated, hosts, c_sv, c_sv_rest)
 }
 
 /// The Gaussians a point light sits inside ([`haze_gaussians::integrated::host_depth`]),
