@@ -46,6 +46,28 @@ fn renders_the_bundled_gaussians_and_their_reference() {
         err.contains("16×12") && err.contains("paper B, 150 gaussians"),
         "{err}"
     );
+    // The pairs over the factorization's error bound, counted on the summary line and
+    // listed with -v (the bundled cloud's peak optical depth 0.12 and its lights a few
+    // radii from the nearest Gaussians flag some of its 300 pairs).
+    let counted = err
+        .split(", ")
+        .find_map(|part| {
+            part.split(" light–gaussian pairs integrated")
+                .nth(1)
+                .map(|_| part)
+        })
+        .and_then(|part| part.split(" light–gaussian").next())
+        .unwrap_or_else(|| panic!("no pair count: {err}"));
+    let k: usize = counted.split(" of ").next().unwrap().parse().unwrap();
+    assert!(counted.ends_with(" of 300") && k > 0, "{counted}");
+    let verbose = render(
+        &[
+            &["-v", "--scene", &s, "--out", a.to_str().unwrap()][..],
+            &size[..],
+        ]
+        .concat(),
+    );
+    assert_eq!(verbose.matches("paper B: light ").count(), k, "{verbose}");
     let err = render(
         &[
             &["--scene", &s, "--reference", "--out", r.to_str().unwrap()],

@@ -213,6 +213,7 @@ fn run_hetero(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Res
         let ctx = GpuContext::new().map_err(gpu_err)?;
         let analytic = Analytic::new(scene);
         let prep = Prepared::new(scene, &analytic, PaperBOptions::default()).map_err(fail)?;
+        log_integrated(&prep);
         let tables = GpuRenderer::new(&ctx, &analytic).map_err(gpu_err)?;
         let frame = Instant::now();
         let image = GpuPaperB::new(&ctx)
@@ -228,6 +229,7 @@ fn run_hetero(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Res
     } else {
         let analytic = Analytic::new(scene);
         let prep = Prepared::new(scene, &analytic, PaperBOptions::default()).map_err(fail)?;
+        log_integrated(&prep);
         let image = paper_b::render(&prep, &Limits::default(), &progress);
         (image, prep.name())
     };
@@ -247,6 +249,19 @@ fn run_hetero(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Res
         start.elapsed().as_secs_f64()
     );
     Ok(())
+}
+
+/// With `-v`: each (light, Gaussian) pair paper B integrates along the ray and its bound
+/// on the factorization's error (the summary line gives their count).
+fn log_integrated(prep: &Prepared<'_>) {
+    for (l, i, bound) in prep.integrated_list() {
+        let why = if bound.is_finite() {
+            format!("error bound {:.1} %", 100.0 * bound)
+        } else {
+            "the light is inside it".to_string()
+        };
+        tracing::info!("paper B: light {l}, gaussian {i} integrated along the ray ({why})");
+    }
 }
 
 /// A progress bar over the image's rows.

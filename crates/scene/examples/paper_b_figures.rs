@@ -8,6 +8,7 @@
 //!     [--no-environment] [--scene FILE]
 //! cargo run --release -p haze-scene --example paper_b_figures -- environment [--size 48x36]
 //!     [--theta 8]
+//! cargo run --release -p haze-scene --example paper_b_figures -- lamps [--check] FILE...
 //! cargo run --release -p haze-scene --example paper_b_figures -- scene data/scenes/gaussians.json
 //! cargo run --release -p haze-scene --example paper_b_figures -- sky-scene data/scenes/gaussians_sky.json
 //! ```
@@ -28,7 +29,13 @@
 //! on every core; with `--gpu` the frame on the GPU (`haze_scene::gpu::paper_b`: the same
 //! preparation on the CPU, upload, pass, read-back), the tables uploaded beforehand;
 //! `--no-environment` makes the room's environment black (no §4.2 terms, no `T̄(p)`);
-//! `--scene FILE` times that scene instead (its camera at `--size`).
+//! `--scene FILE` times that scene instead (its camera at `--size`). **Lamps**: scene files
+//! (`data/scenes/lamps/`: lights inside, at the edge of and outside dense Gaussians)
+//! rendered by the paper's closed form everywhere and with the pairs over the bound
+//! integrated (`PaperBOptions::target`), both against `--reference`'s march (relative
+//! RMS outside 4 pixels of each light's image, `lamp_error`), with the
+//! median of 3 frame times; `--check` also holds that march to one of uniform steps of
+//! a twentieth of the smallest radius, at 40 × 30.
 
 use haze_gaussians::cloud;
 use haze_gpu::GpuContext;
@@ -140,8 +147,11 @@ fn scene(cloud: &Cloud, lights: usize, size: (usize, usize), black: bool, albedo
 }
 
 fn paper_b(s: &Scene, analytic: &Analytic, surface_scattering: bool) -> Image {
-    let prep = Prepared::new(s, analytic, PaperBOptions { surface_scattering })
-        .unwrap_or_else(|e| fail(e));
+    let options = PaperBOptions {
+        surface_scattering,
+        ..Default::default()
+    };
+    let prep = Prepared::new(s, analytic, options).unwrap_or_else(|e| fail(e));
     paper_b::render(&prep, &Limits::default(), &|_| {})
 }
 
@@ -467,12 +477,116 @@ fn timing(args: &[String]) {
     }
 }
 
+/// Pixels this close to a point light's image are left out of [`lamp_error`] (pixels).
+const LIGHT_MASK: f64 = 4.0;
+
+/// Relative RMS of `a` against the reference `r` over the pixels farther than
+/// [`LIGHT_MASK`] from every point light's image: there the glow's `1/γ` peak is paper C's
+/// mean over the pixel's disc of rays and the march's centre ray, a few pixels that would
+/// otherwise decide the figure (docs/conventions.md's relative RMS otherwise).
+fn lamp_error(s: &Scene, a: &Image, r: &Image) -> f64 {
+    let lights: Vec<(f64, f64)> = s
+        .lights
+        .iter()
+        .filter_map(|l| match l {
+            haze_scene::scene::Light::Point { position, .. } => s.camera.project(*position),
+            _ => None,
+        })
+        .collect();
+    let (mut diff, mut norm) = (0.0f64, 0.0f64);
+    for y in 0..r.height {
+        for x in 0..r.width {
+            let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
+            if lights
+                .iter()
+                .any(|&(lx, ly)| (px - lx).hypot(py - ly) < LIGHT_MASK)
+            {
+                continue;
+            }
+            let k = y * r.width + x;
+            for c in 0..3 {
+                let (p, q) = (f64::from(a.pixels[k][c]), f64::from(r.pixels[k][c]));
+                diff += (p - q) * (p - q);
+                norm += q * q;
+            }
+        }
+    }
+    if norm > 0.0 {
+        (diff / norm).sqrt()
+    } else {
+        0.0
+    }
+}
+
+/// The median of 3 CPU frames of `s` at `target` (ms), and the last image.
+fn timed(s: &Scene, analytic: &Analytic, target: f64) -> (f64, Image, (usize, usize)) {
+    // The march has no light scattered onto surfaces.
+    let options = PaperBOptions {
+        target,
+        surface_scattering: false,
+    };
+    let mut times = Vec::new();
+    let mut last = None;
+    for _ in 0..3 {
+        let t = Instant::now();
+        let prep = Prepared::new(s, analytic, options).unwrap_or_else(|e| fail(e));
+        let image = paper_b::render(&prep, &Limits::default(), &|_| {});
+        times.push(t.elapsed().as_secs_f64() * 1e3);
+        last = Some((image, prep.integrated_pairs()));
+    }
+    let (image, pairs) = last.unwrap_or_else(|| fail("no frame"));
+    (median(times), image, pairs)
+}
+
+fn lamps(args: &[String]) {
+    let check = args.iter().any(|a| a == "--check");
+    println!(
+        "| scene | closed form | integrated pairs | with them | closed form ms | with them ms | reference s |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    for path in args[1..].iter().filter(|a| !a.starts_with("--")) {
+        let s = file::load(std::path::Path::new(path)).unwrap_or_else(|e| fail(e));
+        let analytic = Analytic::new(&s);
+        let t = Instant::now();
+        let r = reference(&s);
+        let tr = t.elapsed().as_secs_f64();
+        let (t0, closed, _) = timed(&s, &analytic, f64::INFINITY);
+        let (t1, acc, (k, n)) = timed(&s, &analytic, paper_b::DEFAULT_TARGET);
+        println!(
+            "| {path} | {:.2} % | {k} of {n} | {:.2} % | {t0:.0} | {t1:.0} | {tr:.1} |",
+            100.0 * lamp_error(&s, &closed, &r),
+            100.0 * lamp_error(&s, &acc, &r)
+        );
+        if check {
+            let mut s = s.clone();
+            s.camera = s
+                .camera
+                .clone()
+                .with_size(40, 30)
+                .unwrap_or_else(|e| fail(e));
+            let r = reference(&s);
+            let mut opt = paper_b::reference_options(&s, paper_b::REFERENCE_THETA);
+            opt.steps = None;
+            opt.step = 0.25 * paper_b::march_step(&s);
+            let t = Instant::now();
+            let fine = march::render(&s, &Limits::default(), &opt, &|_| {});
+            println!(
+                "  reference against uniform steps of {:.4}: {:.3} % ({:.1} s)",
+                opt.step,
+                100.0 * lamp_error(&s, &r, &fine),
+                t.elapsed().as_secs_f64()
+            );
+        }
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
         Some("accuracy") => accuracy(&args),
         Some("timing") => timing(&args),
         Some("environment") => environment(&args),
+        Some("lamps") => lamps(&args),
         Some("scene") => {
             let path = args.get(1).unwrap_or_else(|| fail("scene PATH"));
             let cloud = Cloud {

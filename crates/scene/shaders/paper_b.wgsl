@@ -22,8 +22,10 @@ override NOISE_OFFSET_2_X: f32;
 override NOISE_OFFSET_2_Y: f32;
 override NOISE_OFFSET_2_Z: f32;
 @group(0) @binding(7) var<storage, read> blobs: array<vec4<f32>>;
-// Per light l and Gaussian i at l·n + i: e^{Eᵢ} per channel; then per light (C_sv, -, -, -);
-// with an environment, per Gaussian (αᵢ·Ēᵢ·e^{Eᵢ}, -) and (Ē, β_bg·D) (gaussian_env);
+// Per light l and Gaussian i at l·n + i: e^{Eᵢ} per channel and, when the pair is
+// integrated along the ray (haze_gaussians::integrated), e^{Eᵢ} of the Gaussians alone
+// without the hosts (−1: the closed form); then per light (C_sv, C_sv without the hosts, host count, -);
+// then per light its hosts' indices (h0, h1, h2, -); with an environment, per Gaussian (αᵢ·Ēᵢ·e^{Eᵢ}, -) and (Ē, β_bg·D) (gaussian_env);
 // then (n, 1 if a background hides the suns, 1 if noise records follow, environment: 0
 // none, 1 without, 2 with its light scattered onto surfaces) and (σs of the scene's
 // homogeneous media, -).
@@ -220,7 +222,210 @@ fn env_mode() -> u32 {
 }
 
 fn env_base(n_g: u32) -> u32 {
-    return P.size.z * n_g + P.size.z;
+    return P.size.z * n_g + 2u * P.size.z;
+}
+
+// haze_gaussians::integrated: Gauss–Legendre on [−1, 1] (6 nodes), the chord in radii,
+// the host ratio's sub-panels a side.
+const GL_X = array<f32, 6>(-0.93246951, -0.66120939, -0.23861919, 0.23861919, 0.66120939, 0.93246951);
+const GL_W = array<f32, 6>(0.17132449, 0.36076157, 0.46791393, 0.46791393, 0.36076157, 0.17132449);
+const SUPPORT: f32 = 3.0;
+const HOST_NODES: u32 = 2u;
+
+// Σ over light l's hosts but `skip` of Tₖ(v, x) + Tₖ(x, s), x = t·dir
+// (paper_b::Prepared::radiance's `others`).
+fn host_depth_to(l: u32, n_g: u32, skip: u32, dir: vec3<f32>, t: f32, s: vec3<f32>) -> f32 {
+    let n_l = P.size.z;
+    let count = u32(bexp[n_l * n_g + l].z);
+    if (count == 0u) {
+        return 0.0;
+    }
+    let x = t * dir;
+    let ls = s - x;
+    let d = length(ls);
+    let ids = bexp[n_l * n_g + n_l + l];
+    var depth = 0.0;
+    for (var k = 0u; k < count; k++) {
+        let j = u32(ids[k]);
+        if (j != skip) {
+            let h0 = blobs[2u * j];
+            let hc = blobs[2u * j + 1u].x;
+            depth += line_gauss(hc, h0.w, h0.xyz, vec3<f32>(0.0), dir, t);
+            if (d > 0.0) {
+                depth += line_gauss(hc, h0.w, h0.xyz, x, ls / d, d);
+            }
+        }
+    }
+    return depth;
+}
+
+// haze_gaussians::integrated::integrated for Gaussian i and light l, per channel, with the
+// hosts' depth towards the light and the eye per node; the caller multiplies by the light's power and
+// the pair's exponent.
+fn pair_integral(i: u32, l: u32, n_g: u32, dir: vec3<f32>, t_end: f32, beta: vec3<f32>) -> vec3<f32> {
+    let b0 = blobs[2u * i];
+    let b1 = blobs[2u * i + 1u];
+    let b = b0.xyz;
+    let a = b0.w;
+    let c = b1.x;
+    var out = vec3<f32>(0.0);
+    if (b1.y <= 0.0 || c <= 0.0 || t_end <= 0.0) {
+        return out;
+    }
+    let m = dot(b, dir);
+    let h2 = max(dot(b, b) - m * m, 0.0);
+    let reach = SUPPORT / a;
+    if (h2 >= reach * reach) {
+        return out;
+    }
+    let half = sqrt(reach * reach - h2);
+    let lo = max(m - half, 0.0);
+    let hi = min(m + half, t_end);
+    if (hi <= lo) {
+        return out;
+    }
+    let la = lights[3u * l];
+    let point = la.x == 0.0;
+    let s = la.yzw;
+    let r_min = P.sigma_t.w;
+    var ts = 0.0;
+    var hs = 1.0;
+    if (point) {
+        ts = dot(s, dir);
+        hs = max(sqrt(max(dot(s, s) - ts * ts, 0.0)), r_min);
+    }
+    var cuts = array<f32, 4>(lo, hi, hi, hi);
+    var n = 1u;
+    if (point && ts > lo && ts < hi) {
+        cuts[n] = ts;
+        n++;
+    }
+    if (m > lo && m < hi) {
+        cuts[n] = m;
+        n++;
+    }
+    cuts[n] = hi;
+    if (n == 3u && cuts[1] > cuts[2]) {
+        let q = cuts[1];
+        cuts[1] = cuts[2];
+        cuts[2] = q;
+    }
+    for (var k = 0u; k < n; k++) {
+        let p0 = cuts[k];
+        let p1 = cuts[k + 1u];
+        if (p1 <= p0) {
+            continue;
+        }
+        var th0 = 0.0;
+        var th1 = 0.0;
+        if (point) {
+            th0 = atan((p0 - ts) / hs);
+            th1 = atan((p1 - ts) / hs);
+        }
+        for (var q = 0u; q < 6u; q++) {
+            var t = 0.0;
+            var weight = 0.0;
+            if (point) {
+                // t = t_s + h_s·tan θ, dt = d²/h_s dθ.
+                let th = 0.5 * (th0 + th1) + 0.5 * (th1 - th0) * GL_X[q];
+                t = ts + hs * tan(th);
+                let cs = cos(th);
+                let d2 = max(hs * hs / (cs * cs), r_min * r_min);
+                weight = 0.5 * (th1 - th0) * GL_W[q] * d2 / hs;
+            } else {
+                t = 0.5 * (p0 + p1) + 0.5 * (p1 - p0) * GL_X[q];
+                weight = 0.5 * (p1 - p0) * GL_W[q];
+            }
+            let x = t * dir;
+            let dx = x - b;
+            let density = c * exp(-a * a * dot(dx, dx));
+            let own_v = line_gauss(c, a, b, vec3<f32>(0.0), dir, t);
+            var inv_d2 = 1.0;
+            var own_s = 0.0;
+            var path = t;
+            var others = 0.0;
+            if (point) {
+                let ls = s - x;
+                let d = length(ls);
+                if (d > 0.0) {
+                    own_s = line_gauss(c, a, b, x, ls / d, d);
+                }
+                let dd = max(d, r_min);
+                inv_d2 = 1.0 / (dd * dd);
+                path = t + d;
+                others = host_depth_to(l, n_g, i, dir, t, s);
+            } else {
+                own_s = line_gauss(c, a, b, x, s, LONG);
+            }
+            let f = weight * b1.y * density * inv_d2 / (4.0 * PI) * exp(-others - own_v - own_s);
+            for (var ch = 0u; ch < 3u; ch++) {
+                var e = 0.0;
+                if (beta[ch] > 0.0) {
+                    e = beta[ch] * path;
+                }
+                out[ch] += f * exp(-e);
+            }
+        }
+    }
+    return out;
+}
+
+// haze_gaussians::integrated::host_ratio for point light l at s (0 hosts: 1).
+fn host_ratio(l: u32, n_g: u32, dir: vec3<f32>, t_end: f32, s: vec3<f32>, beta0: f32) -> f32 {
+    let n_l = P.size.z;
+    let count = u32(bexp[n_l * n_g + l].z);
+    if (count == 0u || t_end <= 0.0) {
+        return 1.0;
+    }
+    let ids = bexp[n_l * n_g + n_l + l];
+    let ts = dot(s, dir);
+    let hs = max(sqrt(max(dot(s, s) - ts * ts, 0.0)), P.sigma_t.w);
+    let lo = atan(-ts / hs);
+    let hi = atan((t_end - ts) / hs);
+    let pieces = array<f32, 3>(lo, clamp(0.0, lo, hi), hi);
+    var num = 0.0;
+    var den = 0.0;
+    for (var side = 0u; side < 2u; side++) {
+        let w0 = pieces[side];
+        let w1 = pieces[side + 1u];
+        for (var k = 0u; k < HOST_NODES; k++) {
+            let a0 = w0 + (w1 - w0) * f32(k) / f32(HOST_NODES);
+            let a1 = w0 + (w1 - w0) * f32(k + 1u) / f32(HOST_NODES);
+            if (a1 <= a0) {
+                continue;
+            }
+            for (var q = 0u; q < 6u; q++) {
+                let th = 0.5 * (a0 + a1) + 0.5 * (a1 - a0) * GL_X[q];
+                let t = ts + hs * tan(th);
+                let p = t * dir;
+                let ls = s - p;
+                let d = length(ls);
+                var g = GL_W[q] * (a1 - a0);
+                if (beta0 > 0.0) {
+                    g *= exp(-beta0 * (t + d));
+                }
+                if (!(g > 0.0)) {
+                    continue;
+                }
+                var depth = 0.0;
+                for (var j = 0u; j < count; j++) {
+                    let h = u32(ids[j]);
+                    let h0 = blobs[2u * h];
+                    let hc = blobs[2u * h + 1u].x;
+                    depth += line_gauss(hc, h0.w, h0.xyz, vec3<f32>(0.0), dir, t);
+                    if (d > 0.0) {
+                        depth += line_gauss(hc, h0.w, h0.xyz, p, ls / d, d);
+                    }
+                }
+                num += g * exp(-depth);
+                den += g;
+            }
+        }
+    }
+    if (den > 0.0) {
+        return num / den;
+    }
+    return 1.0;
 }
 
 // GaussianEnv::surface: the SH environment on the surface dimmed by e^{−T̄(p)}, `mean`
@@ -691,6 +896,22 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_
             let br = t_r * dir;
             for (var l = 0u; l < n_l; l++) {
                 let la = lights[3u * l];
+                let pair = bexp[l * n_g + i].w;
+                if (pair >= 0.0) {
+                    // Integrated along the ray, noise scaling the integral as it scales
+                    // Tᵢ(v,p).
+                    var f = pair;
+                    if (noisy) {
+                        let straight = line_gauss(b1.x, a, b, vec3<f32>(0.0), dir, t_end);
+                        f = select(0.0, f * vp / straight, straight > 0.0);
+                    }
+                    var power = lights[3u * l + 2u].xyz;
+                    if (la.x == 0.0) {
+                        power = lights[3u * l + 1u].xyz;
+                    }
+                    out += power * f * pair_integral(i, l, n_g, dir, t_end, beta);
+                    continue;
+                }
                 var f0 = 1.0 / (4.0 * PI);
                 var sr = 0.0;
                 var e = lights[3u * l + 2u].xyz;
@@ -718,8 +939,12 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_
     // The homogeneous term of each light.
     for (var l = 0u; l < n_l; l++) {
         let la = lights[3u * l];
-        let c_sv = bexp[n_l * n_g + l].x;
+        var c_sv = bexp[n_l * n_g + l].x;
         if (la.x == 0.0) {
+            if (bexp[n_l * n_g + l].z > 0.0) {
+                let b0 = (beta.x + beta.y + beta.z) / 3.0;
+                c_sv = bexp[n_l * n_g + l].y * host_ratio(l, n_g, dir, t_end, la.yzw, b0);
+            }
             let e = lights[3u * l + 1u].xyz;
             let s = effective_light(dir, la.yzw);
             for (var c = 0u; c < 3u; c++) {

@@ -1,7 +1,9 @@
 //! Paper B's GPU renderer against its CPU twin (`paper_b::render`), pixel by pixel, on
 //! small images: a cloud of 100 Gaussians with two point lights, the same with a sun, a
 //! background and a homogeneous medium, dense Gaussians with a light beside one, an
-//! empty Gaussian medium, the eye inside the cloud, two noisy media (§5.5), the sky
+//! empty Gaussian medium, the eye inside the cloud (the dense cloud's pairs and the wide
+//! scene's light inside a Gaussian take the integrated path,
+//! `haze_gaussians::integrated`, whose 6-node rule and hosts the shader repeats in `f32`), two noisy media (§5.5), the sky
 //! through the average optical depth (§4.2; the others have a faint constant
 //! environment), and for the shader's tile lists a wide sparse scene (most Gaussians
 //! outside a tile's cone, most far from its surface points), a Gaussian covering the
@@ -101,6 +103,8 @@ fn compare(name: &str, s: &Scene) -> Image {
 fn compare_with(name: &str, s: &Scene, outliers_allowed: f64) -> Image {
     let (analytic, tables) = tables();
     let prep = Prepared::new(s, analytic, PaperBOptions::default()).unwrap();
+    let (k, n) = prep.integrated_pairs();
+    println!("{name}: {k} of {n} light–gaussian pairs integrated along the ray");
     let lim = Limits::default();
     let cpu = paper_b::render(&prep, &lim, &|_| {});
     let gpu = GpuPaperB::new(context())
@@ -156,6 +160,7 @@ fn sky_through_the_average_optical_depth() {
         analytic,
         PaperBOptions {
             surface_scattering: false,
+            ..Default::default()
         },
     )
     .unwrap();

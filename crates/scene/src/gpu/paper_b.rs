@@ -23,6 +23,12 @@
 //! Frames of at most 32 Gaussians take the same shader without the lists (every sum
 //! exact, no workgroup barriers: on lavapipe their mere presence costs ~30 %).
 //!
+//! Pairs integrated along the ray ([`haze_gaussians::integrated`], where the bound on the
+//! factorization's error exceeds [`crate::paper_b::PaperBOptions::target`]): the CPU
+//! uploads each pair's exponent without the hosts and each light's hosts; the shader
+//! integrates as the CPU does (6-node Gauss–Legendre in the angle from the light, the
+//! hosts' depths per node) and scales the homogeneous term by the hosts' ratio.
+//!
 //! The environment ([`crate::paper_b::gaussian_env`]): the CPU uploads each Gaussian's
 //! `αᵢ·Ēᵢ·e^{Eᵢ}` and `(Ē, β_bg·D)`; the shader adds `e^{−Tᵢ(v,bᵢʳ) − T̄ᵢ(bᵢʳ)}·Tᵢ(v,p)`
 //! times it per Gaussian the ray gathers, and dims render.wgsl's SH lighting of surfaces
@@ -135,12 +141,20 @@ impl GpuPaperB {
         }
         let mut bexp: Vec<[f32; 4]> = Vec::new();
         for l in &prep.lights {
-            for e in &l.center {
-                bexp.push([e[0] as f32, e[1] as f32, e[2] as f32, 0.0]);
+            for (e, pair) in l.center.iter().zip(&l.integrated) {
+                let pair = pair.map_or(-1.0, |p| p as f32);
+                bexp.push([e[0] as f32, e[1] as f32, e[2] as f32, pair]);
             }
         }
         for l in &prep.lights {
-            bexp.push([l.c_sv as f32, 0.0, 0.0, 0.0]);
+            bexp.push([l.c_sv as f32, l.c_sv_rest as f32, l.hosts.len() as f32, 0.0]);
+        }
+        for l in &prep.lights {
+            let mut ids = [0.0f32; 4];
+            for (k, &h) in l.hosts.iter().enumerate() {
+                ids[k] = h as f32;
+            }
+            bexp.push(ids);
         }
         // The environment (crate::paper_b::gaussian_env): αᵢ·Ēᵢ·e^{Eᵢ} per Gaussian, then (Ē, β_bg·D).
         let env_flag = match &prep.env {

@@ -21,6 +21,7 @@
 //! media ([`env_smoke::Direct::surface`]).
 
 pub mod env_smoke;
+pub mod steps;
 
 use crate::media::{HeteroMedium, henyey_greenstein};
 use crate::paper_c::airlight::Limits;
@@ -45,6 +46,9 @@ pub struct MarchOptions {
     /// The environment's light on the surfaces, by direct quadrature
     /// ([`env_smoke::Direct::surface`]; paper B's reference), or none.
     pub env_surfaces: Option<std::sync::Arc<env_smoke::Direct>>,
+    /// Steps from the Gaussians' radii, the lights' distances and the homogeneous
+    /// extinction ([`steps`]; paper B's reference) instead of [`MarchOptions::step`].
+    pub steps: Option<std::sync::Arc<steps::GaussianSteps>>,
 }
 
 impl Default for MarchOptions {
@@ -55,6 +59,7 @@ impl Default for MarchOptions {
             max_steps: 200_000,
             env: EnvLight::None,
             env_surfaces: None,
+            steps: None,
         }
     }
 }
@@ -194,10 +199,18 @@ pub fn radiance(scene: &Scene, lim: &Limits, opt: &MarchOptions, dir: Vec3) -> R
         // Transmittance from the eye to where the extinction starts.
         let tau = optical_depth(scene, eye, dir, t0);
         trans = tau.map(|t| (-t).exp());
+        let spans = opt
+            .steps
+            .as_ref()
+            .map_or_else(Vec::new, |s| s.spans(eye, dir, t1));
         let mut t = t0;
         let mut steps = 0;
         while t < t1 && steps < opt.max_steps {
-            let h = opt.step.min(t1 - t);
+            let h = match &opt.steps {
+                Some(s) => s.step(&spans, t, axpy(eye, t, dir)),
+                None => opt.step,
+            }
+            .min(t1 - t);
             let mid = axpy(eye, t + 0.5 * h, dir);
             // Transmittance to the midpoint, then over the rest of the step.
             let first = optical_depth(scene, axpy(eye, t, dir), dir, 0.5 * h);

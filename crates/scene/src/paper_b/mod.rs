@@ -8,7 +8,16 @@
 //!   airlight ([`crate::paper_c::airlight::point`], the same `K` table as [`crate::render`]) with
 //!   `β0`, times `C_sv = e^{−Σᵢ Tᵢ(s, v)}` (eq. 15–17); each Gaussian the view ray passes
 //!   within its cull radius adds `αᵢ·f0·f1·Tᵢ(v,p)` ([`haze_gaussians::airlight`]), its
-//!   ray-independent exponent `Eᵢ` computed once per frame and light. A sun is a light at
+//!   ray-independent exponent `Eᵢ` computed once per frame and light. Where the bound on
+//!   that factorization's error ([`haze_gaussians::integrated::bound`], from the light's
+//!   distance to the centre in radii and the Gaussian's optical depth) exceeds
+//!   [`PaperBOptions::target`] — a light inside or near a Gaussian, a dense Gaussian —
+//!   the pair's `Lᵢ` is integrated along the ray instead
+//!   ([`haze_gaussians::integrated::integrated`]: the Gaussian's own attenuation, the
+//!   light's hosts' — the Gaussians it sits inside — and the homogeneous part exact along
+//!   `s → x → v` at every node, the others' through `Eᵢ`), and the homogeneous term's
+//!   `C_sv` takes the hosts' attenuation along the ray
+//!   ([`haze_gaussians::integrated::host_ratio`]). A sun is a light at
 //!   infinity: Gaussians and backgrounds attenuate it, the scene's homogeneous media do
 //!   not (paper C's convention, as in [`crate::march`]).
 //! * **Screen optical depth** `T(v,p) = β0·dr + Σᵢ Tᵢ(v,p)` over the same Gaussians;
@@ -36,6 +45,7 @@ use crate::vec3::{Vec3, axpy, dot, norm, reflect, scale, sub};
 use gaussian_env::GaussianEnv;
 use haze_gaussians::airlight::{GaussianSet, Source, factored, projection};
 use haze_gaussians::average::gaussian_mean_depth;
+use haze_gaussians::integrated::{MAX_HOSTS, bound, host_depth, host_ratio, integrated};
 use haze_gaussians::line;
 use haze_gaussians::noise::Noise;
 use rayon::prelude::*;
@@ -47,12 +57,21 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 pub struct PaperBOptions {
     /// Include the light the medium scatters onto surfaces (paper C's `G` terms).
     pub surface_scattering: bool,
+    /// The relative error the one-point factorization may make on a (light, Gaussian)
+    /// pair (by [`haze_gaussians::integrated::bound`]); pairs above it are integrated.
+    /// `∞`: the paper's closed form everywhere.
+    pub target: f64,
 }
+
+/// The default [`PaperBOptions::target`]: 2 %, inside the 3 % goal with room for
+/// the other Gaussians' attenuation, taken through the centre either way.
+pub const DEFAULT_TARGET: f64 = 0.02;
 
 impl Default for PaperBOptions {
     fn default() -> Self {
         PaperBOptions {
             surface_scattering: true,
+            target: DEFAULT_TARGET,
         }
     }
 }
@@ -65,8 +84,18 @@ pub(crate) struct Lit {
     pub(crate) power: Rgb,
     /// `e^{Eᵢ}` per Gaussian and channel.
     pub(crate) center: Vec<Rgb>,
+    /// Per Gaussian: `e^{Eᵢ}` of the Gaussians but the hosts (whose depths towards the
+    /// light and the eye are taken per node) when the pair is integrated along the ray
+    /// ([`PaperBOptions::target`]), `None` where the closed form serves.
+    pub(crate) integrated: Vec<Option<f64>>,
     /// `e^{−Σᵢ Tᵢ(s, v)}` (a sun: the Gaussians from the eye towards it).
     pub(crate) c_sv: f64,
+    /// The Gaussians the point light sits inside (`haze_gaussians::integrated`'s hosts),
+    /// at most `MAX_HOSTS`, nearest first; their `Tₖ(s, ·)` and `Tₖ(·, v)` are left out of
+    /// [`Lit::integrated`]'s exponents and of `c_sv_rest`.
+    pub(crate) hosts: Vec<usize>,
+    /// `C_sv` without the hosts (the homogeneous term takes theirs per ray).
+    pub(crate) c_sv_rest: f64,
 }
 
 /// A scene prepared for paper B: the Gaussians merged, the homogeneous part summed, the
@@ -174,15 +203,16 @@ impl<'a> Prepared<'a> {
                         })
                     })
                     .collect();
-                let c_sv = match source.path(eye) {
-                    Some((d, len)) => (-set.depth(eye, d, len, None).0).exp(),
-                    None => 1.0,
-                };
+                let (integrated, hosts, c_sv, c_sv_rest) =
+                    pair_terms(&set, source, eye, &g, bg > 0.0, options.target);
                 Lit {
                     source,
                     power,
                     center,
+                    integrated,
                     c_sv,
+                    hosts,
+                    c_sv_rest,
                 }
             })
             .collect();
@@ -215,6 +245,79 @@ impl<'a> Prepared<'a> {
         self.set.blobs().len()
     }
 
+    /// How many (light, Gaussian) pairs are integrated along the ray, of how many.
+    pub fn integrated_pairs(&self) -> (usize, usize) {
+        let n = self.lights.iter().map(|l| l.integrated.len()).sum();
+        let k = self
+            .lights
+            .iter()
+            .flat_map(|l| &l.integrated)
+            .filter(|e| e.is_some())
+            .count();
+        (k, n)
+    }
+
+    /// The integrated pairs: `(light index, Gaussian index, bound)`.
+    pub fn integrated_list(&self) -> Vec<(usize, usize, f64)> {
+        let mut out = Vec::new();
+        for (l, lit) in self.lights.iter().enumerate() {
+            for (i, e) in lit.integrated.iter().enumerate() {
+                if e.is_some() {
+                    out.push((l, i, bound(&self.set.blobs()[i], lit.source)));
+                }
+            }
+        }
+        out
+    }
+
+    /// Gaussian `i`'s airlight of light `l` integrated along the ray
+    /// ([`haze_gaussians::integrated::integrated`], the hosts per node) times the pair's
+    /// exponent `e`, per unit power; with noise (`noisy`) scaled as `Tᵢ(v,p) = vp` is.
+    #[allow(clippy::too_many_arguments)]
+    fn integrated_pair(
+        &self,
+        lim: &Limits,
+        l: &Lit,
+        i: usize,
+        e: f64,
+        dir: Vec3,
+        t_end: f64,
+        noisy: bool,
+        vp: f64,
+    ) -> Rgb {
+        let eye = self.scene.camera.eye;
+        let b = &self.set.blobs()[i];
+        let others = |t: f64| match l.source {
+            Source::Point(sp) if !l.hosts.is_empty() => {
+                let x = axpy(eye, t, dir);
+                let ls = sub(sp, x);
+                let d = norm(ls);
+                let mut depth = 0.0;
+                for &k in l.hosts.iter().filter(|&&k| k != i) {
+                    let h = &self.set.blobs()[k];
+                    depth += line::gaussian(h.c, h.a, h.center, eye, dir, t);
+                    if d > 0.0 {
+                        depth += line::gaussian(h.c, h.a, h.center, x, ls.map(|c| c / d), d);
+                    }
+                }
+                -depth
+            }
+            _ => 0.0,
+        };
+        let e = if noisy {
+            let straight = line::gaussian(b.c, b.a, b.center, eye, dir, t_end);
+            if straight > 0.0 {
+                e * vp / straight
+            } else {
+                0.0
+            }
+        } else {
+            e
+        };
+        let li = integrated(b, eye, dir, t_end, l.source, lim.r_min, self.beta0, &others);
+        li.map(|x| e * x)
+    }
+
     /// Radiance along the camera ray of unit direction `dir`.
     pub fn radiance(&self, lim: &Limits, dir: Vec3) -> Rgb {
         let scene = self.scene;
@@ -242,6 +345,13 @@ impl<'a> Prepared<'a> {
             let vp = line::gaussian(b.c, b.a, b.center, eye, along, t_end);
             tau += vp;
             for l in &self.lights {
+                if let Some(e) = l.integrated[i] {
+                    let li = self.integrated_pair(lim, l, i, e, dir, t_end, along != dir, vp);
+                    for (c, o) in out.iter_mut().enumerate() {
+                        *o += l.power[c] * li[c];
+                    }
+                    continue;
+                }
                 let base = factored(b, eye, dir, proj, vp, l.source, lim.r_min, 0.0);
                 for (c, o) in out.iter_mut().enumerate() {
                     *o += l.power[c] * base * l.center[i][c];
@@ -261,11 +371,18 @@ impl<'a> Prepared<'a> {
         for l in &self.lights {
             match l.source {
                 Source::Point(s) => {
+                    let c_sv = if l.hosts.is_empty() {
+                        l.c_sv
+                    } else {
+                        let hosts: Vec<_> = l.hosts.iter().map(|&k| self.set.blobs()[k]).collect();
+                        let b0 = self.beta0.iter().sum::<f64>() / 3.0;
+                        l.c_sv_rest * host_ratio(&hosts, eye, dir, t_end, s, lim.r_min, b0)
+                    };
                     let s = effective_light(eye, dir, s, lim);
                     for (c, o) in out.iter_mut().enumerate() {
                         if l.power[c] > 0.0 && self.sigma_s0[c] > 0.0 {
                             *o += l.power[c]
-                                * l.c_sv
+                                * c_sv
                                 * airlight::point(
                                     &self.analytic.h,
                                     eye,
@@ -375,12 +492,94 @@ impl<'a> Prepared<'a> {
 
     /// What it is, for summaries.
     pub fn name(&self) -> String {
+        let (k, n) = self.integrated_pairs();
         format!(
-            "paper B, {} gaussians ({})",
+            "paper B, {} gaussians, {k} of {n} light–gaussian pairs integrated along the ray ({})",
             self.gaussian_count(),
             self.analytic.name()
         )
     }
+}
+
+/// The integrated path's terms of one light (module docs): per Gaussian the pair's
+/// `e^{Eᵢ}` without the hosts where its bound exceeds `target`, the light's hosts, `C_sv`
+/// and `C_sv` without the hosts; `g` holds the Gaussians' `Eᵢ`, `background` whether a
+/// background hides the suns.
+fn pair_terms(
+    set: &GaussianSet,
+    source: Source,
+    eye: Vec3,
+    g: &[f64],
+    background: bool,
+    target: f64,
+) -> (Vec<Option<f64>>, Vec<usize>, f64, f64) {
+    let hosts = hosts_of(set, source, target);
+    // Tₖ(s, bᵢ) + Tₖ(bᵢ, v) of the hosts, taken out of Eᵢ (evaluated per node).
+    let host_share = |i: usize| -> f64 {
+        let (Source::Point(s), b) = (source, set.blobs()[i].center) else {
+            return 0.0;
+        };
+        let (u, d) = (sub(s, b), norm(sub(s, b)));
+        let (w, dw) = (sub(eye, b), norm(sub(eye, b)));
+        hosts
+            .iter()
+            .filter(|&&k| k != i)
+            .map(|&k| {
+                let h = &set.blobs()[k];
+                let mut t = 0.0;
+                if d > 0.0 {
+                    t += line::gaussian(h.c, h.a, h.center, b, u.map(|c| c / d), d);
+                }
+                if dw > 0.0 {
+                    t += line::gaussian(h.c, h.a, h.center, b, w.map(|c| c / dw), dw);
+                }
+                t
+            })
+            .sum()
+    };
+    let integrated = set
+        .blobs()
+        .iter()
+        .zip(g)
+        .enumerate()
+        .map(|(i, (b, e))| {
+            let sun_hidden = matches!(source, Source::Sun(_)) && background;
+            (bound(b, source) > target && !sun_hidden).then(|| (e + host_share(i)).exp())
+        })
+        .collect();
+    let (c_sv, c_sv_rest) = match source.path(eye) {
+        Some((d, len)) => {
+            let mut rest = 0.0;
+            let all = set.depth(eye, d, len, None).0;
+            for &k in &hosts {
+                let h = &set.blobs()[k];
+                rest += line::gaussian(h.c, h.a, h.center, eye, d, len);
+            }
+            ((-all).exp(), (-(all - rest).max(0.0)).exp())
+        }
+        None => (1.0, 1.0),
+    };
+    (integrated, hosts, c_sv, c_sv_rest)
+}
+
+/// The Gaussians a point light sits inside ([`haze_gaussians::integrated::host_depth`]),
+/// at most [`MAX_HOSTS`], nearest (in radii) first; none for a sun or an infinite target.
+fn hosts_of(set: &GaussianSet, source: Source, target: f64) -> Vec<usize> {
+    let Source::Point(s) = source else {
+        return Vec::new();
+    };
+    if target.is_infinite() {
+        return Vec::new();
+    }
+    let mut hosts: Vec<(f64, usize)> = set
+        .blobs()
+        .iter()
+        .enumerate()
+        .filter_map(|(i, b)| host_depth(b, s).map(|rho| (rho, i)))
+        .collect();
+    hosts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    hosts.truncate(MAX_HOSTS);
+    hosts.into_iter().map(|(_, i)| i).collect()
 }
 
 /// The march step that resolves every Gaussian medium of the scene: a fifth of the
@@ -400,13 +599,16 @@ pub fn march_step(scene: &Scene) -> f64 {
 /// ([`crate::march::env_smoke::Direct`], `2·8²` directions per march sample and surface point).
 pub const REFERENCE_THETA: usize = 8;
 
-/// The reference's march for a scene of Gaussian media: a step of [`march_step`], the
-/// environment integrated over `2θ²` directions at every sample and surface point
+/// The reference's march for a scene of Gaussian media: steps from the Gaussians' radii,
+/// the lights' distances and the homogeneous extinction
+/// ([`crate::march::steps::GaussianSteps`]; [`march_step`] where another medium is
+/// present), the environment integrated over `2θ²` directions at every sample and surface point
 /// ([`crate::march::env_smoke::Direct`]; none for a black environment).
 pub fn reference_options(scene: &Scene, theta: usize) -> crate::march::MarchOptions {
     use crate::march::env_smoke::{Direct, EnvLight};
     let mut opt = crate::march::MarchOptions {
         step: march_step(scene),
+        steps: crate::march::steps::GaussianSteps::new(scene).map(std::sync::Arc::new),
         ..Default::default()
     };
     if !matches!(scene.environment, crate::scene::Environment::Black) {
