@@ -112,7 +112,7 @@ pub struct RenderCli {
     #[arg(long, value_name = "FILE")]
     tradeoff: Option<PathBuf>,
     /// Estimate this render's error: compare N of its smoke pixels with the reference
-    /// renderer (64 samples each, lit by the environment as given: a map whole) and print
+    /// renderer (128 samples each, lit by the environment as given: a map whole) and print
     /// "estimated error x %" (its noise discounted) in the summary line; with
     /// --target-error, warn when the estimate exceeds it. 256 pixels take a second or two.
     #[arg(

@@ -409,6 +409,10 @@ fn suns_lights_and_a_maps_sun_reach_the_render() {
         "GPU vs CPU: {}",
         (diff / norm).sqrt()
     );
+    // The render's estimate of its own error, in the summary line.
+    let (_, log) = render("checked.exr", &["--check", "32"]);
+    assert!(log.contains("estimated error"), "{log}");
+    assert!(log.contains("pixels × 128 reference samples"), "{log}");
     // A black map lights nothing, and says so.
     let black = tmp(&dir, "black.exr");
     exr::prelude::write_rgb_file(&black, 8, 4, |_, _| (0.0f32, 0.0, 0.0)).unwrap();
