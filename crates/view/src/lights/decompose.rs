@@ -132,8 +132,8 @@ pub fn decompose(map: &LatLong, opts: &DecomposeOptions) -> Decomposition {
         }
         for t in &piece.texels {
             let cell = &mut rest.texels[t.index];
-            for c in 0..3 {
-                cell[c] = (f64::from(cell[c]) - t.excess[c] / t.omega).max(0.0) as f32;
+            for (v, e) in cell.iter_mut().zip(t.excess) {
+                *v = (f64::from(*v) - e / t.omega).max(0.0) as f32;
             }
         }
         pieces.push(piece);
@@ -172,7 +172,7 @@ struct Coarse {
 impl Coarse {
     fn of(map: &LatLong) -> Coarse {
         let width = map.width.min(COARSE_WIDTH);
-        let height = map.height.min(COARSE_WIDTH / 2).max(1);
+        let height = map.height.clamp(1, COARSE_WIDTH / 2);
         let mut sum = vec![[0.0f64; 3]; width * height];
         let mut area = vec![0.0f64; width * height];
         for y in 0..map.height {
@@ -529,8 +529,8 @@ impl Piece {
         for t in &texels {
             let y = luminance(t.excess);
             weight += y;
-            for a in 0..3 {
-                sum[a] += y * t.direction[a];
+            for (s, d) in sum.iter_mut().zip(t.direction) {
+                *s += y * d;
             }
         }
         let direction = unit(sum).unwrap_or([0.0, 0.0, 1.0]);
@@ -593,8 +593,8 @@ impl Piece {
     fn sun(&self) -> Option<Sun> {
         let mut irradiance = [0.0; 3];
         for t in &self.texels {
-            for c in 0..3 {
-                irradiance[c] += t.excess[c];
+            for (e, x) in irradiance.iter_mut().zip(t.excess) {
+                *e += x;
             }
         }
         (self.weight > 0.0).then(|| Sun {

@@ -88,8 +88,8 @@ fn centroid(suns: &[Sun]) -> ([f64; 3], f64) {
     for sun in suns {
         let y = luminance(sun.irradiance);
         total += y;
-        for a in 0..3 {
-            s[a] += y * sun.direction[a];
+        for (v, d) in s.iter_mut().zip(sun.direction) {
+            *v += y * d;
         }
     }
     (unit(s).unwrap_or([0.0, 0.0, 1.0]), total)
