@@ -270,6 +270,8 @@ fn read_raw(path: &Path) -> Result<Pixels, String> {
     let sidecar = path.with_extension("json");
     let text = std::fs::read_to_string(&sidecar)
         .map_err(|e| format!("sidecar {}: {e}", sidecar.display()))?;
+    haze_core::json::unique_keys(&text)
+        .map_err(|e| format!("sidecar {}: {e}", sidecar.display()))?;
     let sc: Sidecar =
         serde_json::from_str(&text).map_err(|e| format!("sidecar {}: {e}", sidecar.display()))?;
     let [w, h] = match sc.dims[..] {

@@ -137,6 +137,25 @@ pub fn henyey_greenstein(g: f64, cos_theta: f64) -> f64 {
     (1.0 - g2) / (4.0 * std::f64::consts::PI * den * den.sqrt())
 }
 
+/// The largest extinction coefficient a scene file may give (per world unit). A medium
+/// this dense is opaque within a micron of a metre-sized scene; beyond it optical
+/// depths overflow `f32` on the GPU (`e^-τ` of an infinite τ times zero radiance is NaN)
+/// and every picture would be black or NaN.
+pub const MAX_SIGMA_T: f64 = 1e6;
+
+/// Refuses an extinction outside `[0, MAX_SIGMA_T]`, the range in the message.
+pub fn check_sigma_t(v: &[f64]) -> Result<(), String> {
+    if v.iter().all(|x| (0.0..=MAX_SIGMA_T).contains(x)) {
+        Ok(())
+    } else {
+        let shown: Vec<String> = v.iter().map(|x| x.to_string()).collect();
+        Err(format!(
+            "sigma_t {} must be in [0, {MAX_SIGMA_T:e}] per world unit",
+            shown.join(", ")
+        ))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
