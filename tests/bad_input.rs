@@ -150,9 +150,14 @@ fn apply(text: &str, m: &Mutation) -> Vec<u8> {
     }
 }
 
+/// 32 cases per property, or `PROPTEST_CASES`.
 fn config() -> Config {
+    let cases = std::env::var("PROPTEST_CASES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(32);
     Config {
-        cases: 32,
+        cases,
         failure_persistence: None,
         ..Config::default()
     }

@@ -73,14 +73,6 @@ fn an_output_that_is_an_input_is_refused_before_any_work() {
             "--out",
             s(&p("a.haze")),
         ],
-        vec![
-            "export",
-            s(&p("a.haze")),
-            "--frame",
-            "0",
-            "--out",
-            s(&p("v.f32")),
-        ],
         vec!["merge", s(&p("a.haze")), "--out", s(&p("a.haze"))],
         vec![
             "render",
@@ -91,7 +83,6 @@ fn an_output_that_is_an_input_is_refused_before_any_work() {
             s(&p("e.exr")),
         ],
         vec!["fog", "wavelet", s(&fogs), "--out", s(&fogs.join("x.png"))],
-        vec!["tradeoff", s(&p("f.png")), "--out", s(d)],
     ]
     .into_iter()
     .map(|v| v.into_iter().map(String::from).collect())
