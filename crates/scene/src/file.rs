@@ -512,6 +512,24 @@ mod tests {
         ]
     }"#;
 
+    /// A repeated key is refused by name and line; an array one number too long is said
+    /// in words, and text after the JSON keeps serde's own message.
+    #[test]
+    fn repeated_keys_and_long_arrays_are_named() {
+        let twice = GOOD.replace(r#""albedo": 0.8,"#, r#""albedo": 0.8, "albedo": 0.1,"#);
+        let e = parse(&twice).unwrap_err();
+        assert!(e.starts_with("duplicate key \"albedo\" at line 9"), "{e}");
+        let long = GOOD.replace("[0, -5, 1]", "[0, -5, 1, 7]");
+        let e = parse(&long).unwrap_err();
+        assert!(
+            e.starts_with("an array has more numbers than its key takes"),
+            "{e}"
+        );
+        assert!(e.contains("at line 2"), "{e}");
+        let e = parse(&format!("{GOOD} x")).unwrap_err();
+        assert!(e.starts_with("trailing characters"), "{e}");
+    }
+
     #[test]
     fn reads_every_supported_key() {
         let s = parse(GOOD).unwrap();

@@ -171,6 +171,34 @@ pub fn check_sigma_t(v: &[f64]) -> Result<(), String> {
 mod tests {
     use super::*;
 
+    /// The range's ends are in, everything past them (NaN and infinity too) is out, and
+    /// the message shows the value and the range.
+    #[test]
+    fn extinction_is_checked_at_its_extremes() {
+        for ok in [[0.0; 3], [MAX_SIGMA_T; 3], [-0.0, 1e-300, 5.0]] {
+            assert!(check_sigma_t(&ok).is_ok(), "{ok:?}");
+        }
+        for bad in [
+            1e308,
+            -1.0,
+            f64::NAN,
+            f64::INFINITY,
+            MAX_SIGMA_T * (1.0 + 1e-15),
+        ] {
+            let e = check_sigma_t(&[bad; 3]).unwrap_err();
+            assert!(e.ends_with("must be in [0, 1e6] per world unit"), "{e}");
+        }
+        assert_eq!(
+            check_sigma_t(&[1e308; 3]).unwrap_err(),
+            "sigma_t 1e308 must be in [0, 1e6] per world unit"
+        );
+        assert!(
+            check_sigma_t(&[1.0, -2.0, 3.0])
+                .unwrap_err()
+                .starts_with("sigma_t 1, -2, 3 ")
+        );
+    }
+
     #[test]
     fn clip_matches_point_sampling() {
         let b = Aabb {
