@@ -361,3 +361,24 @@ fn trailing_data_after_an_asset_is_reported() {
         "{e}"
     );
 }
+
+/// Found by the fogmap fuzz target: a 173-byte `.npy` whose header nests brackets kept
+/// the header parser busy for minutes (as a volume and as a fogmap); now refused at once.
+#[test]
+fn a_npy_header_that_nests_brackets_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let npy = d.join("v.npy");
+    std::fs::copy(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/regressions/npy_nested_brackets.npy"),
+        &npy,
+    )
+    .unwrap();
+    let e = refused(d, &["inspect", s(&npy)]);
+    assert!(e.contains("v.npy") && e.contains("nests brackets"), "{e}");
+    let e = refused(
+        d,
+        &["fog", "wavelet", s(&npy), "--out", s(&d.join("o.png"))],
+    );
+    assert!(e.contains("v.npy") && e.contains("nests brackets"), "{e}");
+}

@@ -223,6 +223,7 @@ fn read_exr(path: &Path) -> Result<Pixels, String> {
 fn read_npy(path: &Path) -> Result<Pixels, String> {
     use npyz::{DType, NpyFile, Order, TypeChar};
     let bytes = std::fs::read(path).map_err(|e| format!("cannot read: {e}"))?;
+    haze_core::npy_header::check(&bytes)?;
     let npy = NpyFile::new(&bytes[..]).map_err(|e| format!("not a readable .npy file: {e}"))?;
     let shape = npy.shape().to_vec();
     if shape.len() != 2 {
