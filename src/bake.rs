@@ -4,7 +4,8 @@
 use crate::import_args::ImportArgs;
 use anyhow::Result;
 use haze_bake::{Bake, BakeOptions, Baked, Event};
-use haze_render::{output, progress};
+use haze_render::output::{self, Outputs};
+use haze_render::progress;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
@@ -17,7 +18,7 @@ pub struct BakeCli {
     out: PathBuf,
     /// Frame range to bake, inclusive: A..B, A.., ..B or A. A chunk starts with a full
     /// first-frame fit; `haze merge` joins chunks baked separately (on a render farm, say).
-    #[arg(long, value_name = "A..B")]
+    #[arg(long, value_name = "A..B", allow_hyphen_values = true)]
     frames: Option<haze_volume::import::FrameRange>,
     /// Continue an interrupted bake of --out from its journal (OUT.partial, written as
     /// frames finish), with the same input and settings. Without it, a bake starts over.
@@ -171,8 +172,20 @@ impl BakeCli {
                 self.marginal_gain
             );
         }
+        let max = haze_bake::MAX_RBFS;
+        for (flag, n) in [("--rbfs", self.rbfs), ("--max-rbfs", self.max_rbfs)] {
+            if let Some(n) = n
+                && !(1..=max).contains(&n)
+            {
+                bail!("{flag} {n} must be between 1 and {max}");
+            }
+        }
+        if let (Some(n), Some(m)) = (self.rbfs, self.max_rbfs)
+            && m < n
+        {
+            bail!("--max-rbfs {m} is below --rbfs {n}: a frame may hold at most --max-rbfs RBFs");
+        }
         let count = match (self.rbfs, self.target_error) {
-            (Some(0), _) => bail!("--rbfs must be at least 1"),
             (Some(n), _) => haze_bake::Count::Fixed(n),
             (None, Some(e)) if e > 0.0 && e <= 1.0 => haze_bake::Count::Target {
                 rel_l2: e,
@@ -303,6 +316,17 @@ struct BakeArgs {
 
 /// `haze bake`.
 pub fn run(cli: BakeCli) -> Result<()> {
+    let mut files = Outputs::new()
+        .input(&cli.input)
+        .output("--out", &cli.out)
+        .output("the bake journal", &haze_bake::journal::path_for(&cli.out));
+    if let Some(report) = &cli.report {
+        files = files.output("--report", report);
+    }
+    if let Some(tradeoff) = &cli.tradeoff {
+        files = files.input(tradeoff);
+    }
+    files.check()?;
     bake(cli.into_args()?)
 }
 
@@ -344,9 +368,19 @@ fn bake(args: BakeArgs) -> Result<()> {
     let b = progress::frames(bake.sequence().len(), "fitting");
     b.set_position(bake.finished() as u64);
     *bar.lock().unwrap_or_else(|p| p.into_inner()) = Some(b.clone());
+    let mut failed = None;
     for frame in bake.by_ref() {
-        frame?;
-        b.inc(1);
+        match frame {
+            Ok(_) => b.inc(1),
+            Err(e) => {
+                failed = Some(e);
+                break;
+            }
+        }
+    }
+    if let Some(e) = failed {
+        b.finish_and_clear();
+        return Err(bake.abandon(e));
     }
     b.finish_and_clear();
     let baked = bake.finish()?;

@@ -35,6 +35,7 @@ pub enum Command {
     /// Reports dims, world box, voxel size, the grids in a VDB file, frame count and gaps,
     /// value range, active (non-zero) voxels and memory. For an asset, every block's
     /// checksum is verified.
+    #[command(allow_negative_numbers = true)]
     Inspect {
         /// File, directory, glob, or .haze asset.
         path: PathBuf,
@@ -42,7 +43,7 @@ pub enum Command {
         #[arg(long)]
         json: bool,
         /// Frame range of a sequence to inspect, inclusive: A..B, A.., ..B or A.
-        #[arg(long, value_name = "A..B")]
+        #[arg(long, value_name = "A..B", allow_hyphen_values = true)]
         frames: Option<haze_volume::import::FrameRange>,
         #[command(flatten)]
         import: ImportArgs,
@@ -54,6 +55,7 @@ pub enum Command {
     /// get up to --max-insert new RBFs while their error exceeds the first frame's by more
     /// than --threshold. Errors: rel_l2 = sqrt(Σ(D−D̃)²/ΣD²), rms_over_max =
     /// sqrt(mean((D−D̃)²))/max D. Radii are fractions of the grid's longest side.
+    #[command(allow_negative_numbers = true)]
     Bake(BakeCli),
     /// Join chunks of one sequence baked separately (`haze bake --frames A..B`) into one
     /// asset, in frame order.
@@ -61,6 +63,7 @@ pub enum Command {
     /// The chunks may be given in any order; they must cover contiguous, non-overlapping
     /// frame ranges and be compatible (same grid, same settings, except the RBF count a
     /// --target-error search picked per chunk). Every block is verified before it is copied.
+    #[command(allow_negative_numbers = true)]
     Merge {
         /// The chunk assets.
         #[arg(required = true, value_name = "CHUNK")]
@@ -81,6 +84,7 @@ pub enum Command {
     /// planes and spheres; docs/formats.md "Scene file"): paper C's analytic single scattering on the
     /// CPU, on the GPU with `--gpu` (the same model in f32), or with `--reference` the
     /// same model integrated by quadrature.
+    #[command(allow_negative_numbers = true)]
     Render(RenderCli),
     /// Play a baked asset in a window, lit and rendered as it plays.
     ///
@@ -117,9 +121,11 @@ pub enum Command {
     /// exposure. A directory of numbered fogmaps plays at --fps, each decomposed when it
     /// differs from the last. With --play-for it turns the camera a degree per picture,
     /// the fog drifting with the wind, and prints the pictures' median time.
+    #[command(allow_negative_numbers = true)]
     View(ViewCli),
     /// Reconstruct one frame of a baked asset (RBFs + dequantized residual) as a dense
     /// volume, to compare a bake with its input.
+    #[command(allow_negative_numbers = true)]
     Export {
         /// The baked .haze asset.
         asset: PathBuf,
@@ -134,6 +140,7 @@ pub enum Command {
     ///
     /// The reference asset of a sequence: no fitting, no compression. The asset is written
     /// to a temporary file beside OUT and renamed when complete.
+    #[command(allow_negative_numbers = true)]
     Pack {
         /// File, directory or glob of numbered frames.
         input: PathBuf,
@@ -141,7 +148,7 @@ pub enum Command {
         #[arg(long, short)]
         out: PathBuf,
         /// Frame range to pack, inclusive: A..B, A.., ..B or A.
-        #[arg(long, value_name = "A..B")]
+        #[arg(long, value_name = "A..B", allow_hyphen_values = true)]
         frames: Option<haze_volume::import::FrameRange>,
         #[command(flatten)]
         import: ImportArgs,
@@ -172,6 +179,7 @@ pub enum Command {
     /// --extremes instead bakes and renders tiny cases at the edges of every knob and of
     /// the medium and reports NaN/Inf counts, energy against the reference and the
     /// diffusion solve's convergence (DIR/extremes.json).
+    #[command(allow_negative_numbers = true)]
     Tradeoff(TradeoffCli),
 }
 

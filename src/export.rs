@@ -3,19 +3,24 @@
 
 use anyhow::{Context, Result, bail};
 use haze_bake::export::reconstruct_frame;
-use haze_render::output;
+use haze_render::output::{self, Outputs};
 use npyz::WriterBuilder;
 use serde_json::json;
 use std::path::Path;
 
 pub fn run(path: &Path, frame: i64, out: &Path) -> Result<()> {
-    let r = reconstruct_frame(path, frame)?;
-    let (dims, bbox, data) = (r.dims, r.bbox, r.data);
     let ext = out
         .extension()
         .and_then(|e| e.to_str())
         .unwrap_or("")
         .to_ascii_lowercase();
+    let mut files = Outputs::new().input(path).output("--out", out);
+    if matches!(ext.as_str(), "f32" | "raw") {
+        files = files.output("--out's sidecar", &out.with_extension("json"));
+    }
+    files.check()?;
+    let r = reconstruct_frame(path, frame)?;
+    let (dims, bbox, data) = (r.dims, r.bbox, r.data);
     match ext.as_str() {
         "npy" => {
             let mut buf = Vec::new();

@@ -48,6 +48,7 @@ pub enum FogCommand {
         haze fog wavelet data/fogmap/fogmap_128.png --gpu --width 1920 --height 1080 --out hd.exr\n  \
         haze fog wavelet fog.png --gpu --wind 3,1 --frames 48 --fps 24 --out drift.png\n  \
         haze fog wavelet data/fogmap/fogmap_128.png --smoke plume.haze --smoke-scale 3 --eye 0,-40,10 --target 0,0,5 --out smoke.png")]
+    #[command(allow_negative_numbers = true)]
     Wavelet(WaveletArgs),
 }
 

@@ -41,6 +41,13 @@ pub fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
             .ok()
             .filter(|x| x.is_finite())
             .ok_or_else(|| format!("'{p}' is not a finite number"))?;
+        let max = haze_volume::import::raw::MAX_COORDINATE;
+        if o.abs() > max {
+            return Err(format!(
+                "'{}' is out of range: coordinates lie within ±{max:e}",
+                p.trim()
+            ));
+        }
     }
     Ok(v)
 }

@@ -32,7 +32,15 @@ fn main() -> ExitCode {
             .unwrap_or_default();
         eprintln!("error: internal error: {msg}{at}");
     }));
-    let cli = cli::Cli::parse();
+    let cli = match cli::Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) if e.use_stderr() => {
+            eprintln!("{}", usage_line(&e));
+            return ExitCode::from(2);
+        }
+        // --help and --version.
+        Err(e) => e.exit(),
+    };
     init_logging(cli.verbose, cli.quiet);
     match cli::run(cli) {
         Ok(()) => ExitCode::SUCCESS,
@@ -42,6 +50,18 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// A usage error on one line, as every other error: clap's first line (which names the
+/// flag and the value) and where the options are listed, without its usage block.
+fn usage_line(e: &clap::Error) -> String {
+    let text = e.render().to_string();
+    let first = text
+        .lines()
+        .next()
+        .unwrap_or("error: bad arguments")
+        .trim_end();
+    format!("{first} (--help lists the options)")
 }
 
 /// Logs go to stderr: warnings by default, more with `-v`/`-vv`, `RUST_LOG` overrides.

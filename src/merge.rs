@@ -1,10 +1,16 @@
 //! `haze merge`: chunks baked separately joined in frame order (`haze_bake::merge`).
 
 use anyhow::Result;
+use haze_render::output::Outputs;
 use haze_render::progress;
 use std::path::{Path, PathBuf};
 
 pub fn run(chunks: &[PathBuf], out: &Path) -> Result<()> {
+    chunks
+        .iter()
+        .fold(Outputs::new(), |o, c| o.input(c))
+        .output("--out", out)
+        .check()?;
     let m = haze_bake::merge(chunks, out)?;
     let n = &m.frames;
     eprintln!(

@@ -2,12 +2,14 @@
 
 use anyhow::{Result, bail};
 use haze_asset::{AssetWriter, BlockKind, Scope, encode_raw_volume};
+use haze_render::output::Outputs;
 use haze_render::progress;
 use haze_volume::ImportOptions;
 use haze_volume::import::{FrameRange, Sequence};
 use std::path::Path;
 
 pub fn run(input: &Path, out: &Path, range: FrameRange, opts: &ImportOptions) -> Result<()> {
+    Outputs::new().input(input).output("--out", out).check()?;
     let seq = Sequence::open(input, opts, range)?;
     if seq.dims().contains(&0) {
         bail!("{}: every frame is empty; nothing to pack", input.display());

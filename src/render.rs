@@ -4,6 +4,7 @@ use crate::camera_medium_args::{CameraArgs, MediumArgs};
 use crate::import_args::ImportArgs;
 use crate::light_args::{LightArgs, LightingArg};
 use anyhow::Result;
+use haze_render::output::Outputs;
 use haze_render::scene::SceneJob;
 use haze_render::smoke::RenderOptions;
 use haze_tradeoff::pareto::Goal;
@@ -253,6 +254,22 @@ fn positive_f64(s: &str) -> Result<f64, String> {
 
 /// `haze render`: a scene file, or a smoke frame (its knobs first chosen for a goal).
 pub fn run(r: RenderCli) -> Result<()> {
+    let mut files = Outputs::new();
+    if let Some(input) = &r.input {
+        files = files.input(input);
+    }
+    if let Some(scene) = &r.scene {
+        files = haze_render::scene::files_named(scene)
+            .iter()
+            .fold(files.input(scene), |f, p| f.input(p));
+    }
+    if r.lights.env != "sky" {
+        files = files.input(std::path::Path::new(&r.lights.env));
+    }
+    if let Some(t) = &r.tradeoff {
+        files = files.input(t);
+    }
+    files.output("--out", &r.out).check()?;
     match r.scene {
         Some(scene) => haze_render::scene::render_scene(SceneJob {
             scene,
@@ -268,6 +285,8 @@ pub fn run(r: RenderCli) -> Result<()> {
         None => {
             let (mut options, goal, tradeoff) = r.into_args();
             if let Some(goal) = goal {
+                // The values a choice keeps are checked before its sweep.
+                haze_render::smoke::check_exposure(options.exposure)?;
                 render_choice::choose_knobs(&mut options, goal, tradeoff.as_deref())?;
             }
             haze_render::smoke::render(options)

@@ -4,6 +4,7 @@ use crate::camera_medium_args::MediumArgs;
 use crate::fog::{FogModelArgs, SmokeArgs};
 use crate::light_args::{LightArgs, LightingArg};
 use anyhow::Result;
+use haze_render::output::Outputs;
 use haze_tradeoff::pareto::Goal;
 use haze_view::render::MsDiffusion;
 use haze_viewer::fog::FogViewArgs;
@@ -257,6 +258,13 @@ pub fn run(v: ViewCli) -> Result<()> {
         anyhow::bail!(
             "--smoke shows a smoke asset in a fog: give --fog FOGMAP too (`haze view FILE.haze` shows the asset alone)"
         );
+    }
+    if let (Some(scene), Some(save)) = (&v.scene, &v.save_edits) {
+        haze_render::scene::files_named(scene)
+            .iter()
+            .fold(Outputs::new().input(scene), |f, p| f.input(p))
+            .output("--save-edits", save)
+            .check()?;
     }
     match v.scene {
         Some(scene) => haze_viewer::scene::run(SceneViewArgs {

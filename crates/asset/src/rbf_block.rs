@@ -69,7 +69,11 @@ pub fn decode_rbfs(bytes: &[u8]) -> Result<Vec<Rbf>, String> {
         let rbf = Rbf::new([f(o), f(o + 4), f(o + 8)], f(o + 12), f(o + 16));
         let finite = rbf.center.iter().all(|c| c.is_finite()) && rbf.weight.is_finite();
         if !(finite && rbf.radius > 0.0 && rbf.radius.is_finite()) {
-            return Err(format!("RBF {k} is invalid ({rbf:?})"));
+            let c = rbf.center;
+            return Err(format!(
+                "RBF {k} is invalid (center {}, {}, {}, radius {}, weight {})",
+                c[0], c[1], c[2], rbf.radius, rbf.weight
+            ));
         }
         out.push(rbf);
     }

@@ -179,6 +179,16 @@ impl Asset {
             .checked_mul(ENTRY_LEN as u64)
             .ok_or_else(|| corrupt("preamble", "block count overflows".to_string()))?;
         let (i0, i1) = span("block index", index_offset, index_len)?;
+        // The writer ends the file with the index: bytes after it are in no checksum.
+        if (i1 as u64) < file_len && i1 >= h1 {
+            return Err(corrupt(
+                "file",
+                format!(
+                    "trailing data: {} bytes after the block index, which ends at byte {i1}",
+                    file_len - i1 as u64
+                ),
+            ));
+        }
         let hc = crc32fast::hash(&b[h0..h1]);
         if hc != header_crc {
             return Err(corrupt(

@@ -152,6 +152,30 @@ fn every_truncation_is_an_error() {
     }
 }
 
+/// Bytes appended after the block index (which ends the file) are in no checksum: the
+/// reader names them instead of ignoring them.
+#[test]
+fn bytes_after_the_asset_are_trailing_data() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("t.haze");
+    write_sample(&p);
+    let bytes = std::fs::read(&p).unwrap();
+    assert!(Asset::from_bytes(&p, &bytes).is_ok());
+    for extra in [&b"\0"[..], b"appended", &[0u8; 64]] {
+        let mut longer = bytes.clone();
+        longer.extend_from_slice(extra);
+        let e = Asset::from_bytes(&p, &longer).expect_err("trailing bytes opened");
+        let msg = e.to_string();
+        assert!(
+            msg.contains(&format!(
+                "trailing data: {} bytes after the block index",
+                extra.len()
+            )),
+            "{msg}"
+        );
+    }
+}
+
 #[test]
 fn every_bit_flip_is_detected_and_blocks_are_named() {
     let dir = tempfile::tempdir().unwrap();

@@ -47,4 +47,4 @@ pub mod residual;
 
 pub use export::{AssetFrame, Reconstruction, read_frame, reconstruct_frame};
 pub use merge::{Merged, merge};
-pub use pipeline::{Bake, BakeOptions, Baked, Count, Event, FrameRecord};
+pub use pipeline::{Bake, BakeOptions, Baked, Count, Event, FrameRecord, MAX_RBFS};

@@ -149,6 +149,11 @@ struct Done {
     state: FitterState,
 }
 
+/// The most RBFs a frame may have (`--rbfs`, `--max-rbfs`): each costs a minimization's
+/// worth of work per frame, and the asset stores every one; larger counts are refused
+/// rather than left to run for days.
+pub const MAX_RBFS: usize = 65_536;
+
 impl Bake {
     /// Opens the input and the journal of an interrupted bake when `options.resume` (else
     /// starts one, running the RBF-count search of `Count::Target` first); `events` hears
@@ -371,6 +376,25 @@ impl Bake {
         }
         self.next += 1;
         Ok(done.records[i].clone())
+    }
+
+    /// Gives the bake up after `error`: a journal that holds no finished frame is
+    /// removed (nothing to resume, nothing left behind); one that holds some is kept for
+    /// `--resume`, and the error says so.
+    pub fn abandon(self, error: anyhow::Error) -> anyhow::Error {
+        let path = journal::path_for(&self.options.out);
+        let finished = self.done.records.len();
+        if finished == 0 {
+            if let Err(e) = self.journal.remove() {
+                tracing::warn!("{e:#}");
+            }
+            return error;
+        }
+        anyhow::anyhow!(
+            "{error:#} ({finished} finished frame{} kept in {} for --resume)",
+            if finished == 1 { "" } else { "s" },
+            path.display()
+        )
     }
 
     /// Fits the frames not yet fitted, then writes the asset (atomically) and removes the

@@ -24,6 +24,28 @@ pub struct ImageError {
     pub problem: String,
 }
 
+/// A rendered picture that holds NaN or infinite values ([`Image::check_finite`]).
+#[derive(Debug)]
+pub struct NonFinite {
+    pub stage: String,
+    pub values: usize,
+    pub total: usize,
+    /// The first such pixel, `(x, y)` with row 0 on top.
+    pub first: (usize, usize),
+}
+
+impl std::fmt::Display for NonFinite {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} made {} of {} values NaN or infinite (the first at pixel {}, {}); no picture written",
+            self.stage, self.values, self.total, self.first.0, self.first.1
+        )
+    }
+}
+
+impl std::error::Error for NonFinite {}
+
 impl Image {
     /// A black image.
     pub fn new(width: usize, height: usize) -> Image {
@@ -69,6 +91,40 @@ impl Image {
         }
     }
 
+    /// Refuses a picture holding a NaN or an infinite value: the error names `stage`, the
+    /// renderer that made it, how many values are not finite and the first pixel (row 0
+    /// on top). Called before any image is written, so no NaN ever reaches a file.
+    pub fn check_finite(&self, stage: &str) -> Result<(), NonFinite> {
+        let bad = self
+            .pixels
+            .iter()
+            .map(|p| p.iter().filter(|c| !c.is_finite()).count())
+            .sum::<usize>();
+        if bad == 0 {
+            return Ok(());
+        }
+        let first = self
+            .pixels
+            .iter()
+            .position(|p| p.iter().any(|c| !c.is_finite()))
+            .unwrap_or(0);
+        Err(NonFinite {
+            stage: stage.to_string(),
+            values: bad,
+            total: 3 * self.pixels.len(),
+            first: (first % self.width.max(1), first / self.width.max(1)),
+        })
+    }
+
+    /// The writers' last guard: a picture with a non-finite value is not written (the
+    /// renderers check first, naming their stage).
+    fn writable(&self, path: &Path) -> Result<(), ImageError> {
+        self.check_finite("the renderer").map_err(|e| ImageError {
+            path: path.display().to_string(),
+            problem: e.to_string(),
+        })
+    }
+
     /// Writes linear RGB `f32` OpenEXR.
     pub fn write_exr(&self, path: &Path) -> Result<(), ImageError> {
         use exr::prelude::{Image as ExrImage, SpecificChannels, Vec2, WritableImage};
@@ -77,6 +133,7 @@ impl Image {
             (p[0], p[1], p[2])
         });
         let image = ExrImage::from_channels((self.width, self.height), channels);
+        self.writable(path)?;
         write_atomically(path, |out| {
             image
                 .write()
@@ -105,6 +162,13 @@ impl Image {
 
     /// Writes an 8-bit sRGB PNG of [`Image::to_srgb8`].
     pub fn write_png(&self, path: &Path, exposure: f64) -> Result<(), ImageError> {
+        self.writable(path)?;
+        if !(exposure.is_finite() && exposure > 0.0) {
+            return Err(ImageError {
+                path: path.display().to_string(),
+                problem: format!("exposure {exposure} must be a finite number > 0"),
+            });
+        }
         let bytes = self.to_srgb8(exposure);
         let (w, h) = (self.width, self.height);
         write_atomically(path, |out| {
@@ -150,7 +214,17 @@ fn write_atomically(
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
-    let mut tmp = tempfile::NamedTempFile::new_in(dir)
+    let mut builder = tempfile::Builder::new();
+    // Created 0644 less the umask, as every other output (a plain temporary file is 0600).
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o644));
+    }
+    let mut tmp = builder
+        .prefix(".haze-out.")
+        .suffix(".tmp")
+        .tempfile_in(dir)
         .map_err(|e| err(format!("cannot create a temporary file ({e})")))?;
     {
         let mut out = BufWriter::new(tmp.as_file_mut());
@@ -192,6 +266,41 @@ mod tests {
         let black = Image::new(5, 3);
         assert_eq!(black.rel_rms(&black), 0.0);
         assert_eq!(r.rel_rms(&black), f64::INFINITY);
+    }
+
+    #[test]
+    fn a_picture_with_nan_or_infinity_is_refused_by_stage_and_pixel() {
+        let mut im = gradient();
+        assert!(im.check_finite("test").is_ok());
+        im.pixels[7][2] = f32::NAN;
+        im.pixels[9] = [f32::INFINITY, f32::NEG_INFINITY, 0.0];
+        let e = im.check_finite("paper C's airlight").unwrap_err();
+        // Pixel 7 of a 5-wide image is (2, 1); three values of 45 are not finite.
+        assert_eq!((e.values, e.total, e.first), (3, 45, (2, 1)));
+        let msg = e.to_string();
+        assert!(
+            msg.starts_with("paper C's airlight made 3 of 45 values"),
+            "{msg}"
+        );
+        // The largest finite f32 is a value like any other.
+        im.pixels[7][2] = f32::MAX;
+        im.pixels[9] = [f32::MIN_POSITIVE, -f32::MAX, 0.0];
+        assert!(im.check_finite("test").is_ok());
+    }
+
+    /// Images are created 0644 less the umask, as the JSON outputs are (not 0600).
+    #[cfg(unix)]
+    #[test]
+    fn images_have_the_mode_of_other_outputs() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.exr");
+        gradient().write_exr(&path).unwrap();
+        let mode = std::fs::metadata(&path).unwrap().permissions().mode() & 0o777;
+        // Group and others may read unless the umask forbids it; never write.
+        assert_eq!(mode & 0o600, 0o600, "{mode:o}");
+        assert_eq!(mode & 0o133, 0, "{mode:o}");
+        assert_ne!(mode & 0o044, 0, "{mode:o} (umask 077?)");
     }
 
     #[test]

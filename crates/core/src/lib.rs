@@ -1,11 +1,15 @@
 //! The types every haze crate shares: points and directions as `[f64; 3]` with their
 //! few operations ([`vec3`]), linear RGB ([`Rgb`]), and rendered images ([`Image`]) with
-//! their OpenEXR and PNG writers.
+//! their OpenEXR and PNG writers, which refuse a picture holding NaN or infinity; and
+//! the JSON reader's guard against repeated keys ([`json`]) and the `.npy` reader's
+//! against headers that would keep it busy ([`npy_header`]).
 
 mod image;
+pub mod json;
+pub mod npy_header;
 pub mod vec3;
 
-pub use image::{Image, ImageError};
+pub use image::{Image, ImageError, NonFinite};
 
 /// Linear RGB, per channel.
 pub type Rgb = [f64; 3];

@@ -2,6 +2,7 @@
 //! simple outdoor scene (paper E).
 
 use crate::fog_smoke::SmokePlacement;
+use crate::output::{Created, Outputs};
 use anyhow::{Context, Result, bail};
 use haze_camera::LookAt;
 use haze_volume::import::sequence::frame_number;
@@ -152,6 +153,15 @@ pub fn wavelet(args: WaveletJob) -> Result<()> {
     if !(1..=100_000).contains(&frames) {
         bail!("--frames {frames}: must be between 1 and 100000");
     }
+    let mut check = files.iter().fold(Outputs::new(), |o, f| o.input(f));
+    if let Some(smoke) = &args.smoke.smoke {
+        check = check.input(smoke);
+    }
+    (0..frames)
+        .fold(check, |o, k| {
+            o.output("--out", &frame_path(&args.out, k, frames))
+        })
+        .check()?;
     let mut fogmap = Fogmap::load(&files[0])?;
     let basis = args.model.basis;
     let placement = args.model.placement(fogmap.width, fogmap.height);
@@ -205,6 +215,13 @@ pub fn wavelet(args: WaveletJob) -> Result<()> {
     let mut fog = fog;
     let mut moved = [0.0; 2];
     let (mut shown, mut decompositions) = (0, 1);
+    // The frames written so far are removed if a later one fails.
+    let mut written = Created::new();
+    let stage = if gpu.is_some() {
+        "the wavelet fog on the GPU"
+    } else {
+        "the wavelet fog on the CPU"
+    };
     let start = Instant::now();
     for k in 0..frames {
         if k % files.len() != shown {
@@ -258,13 +275,24 @@ pub fn wavelet(args: WaveletJob) -> Result<()> {
             }
         };
         let out = frame_path(&args.out, k, frames);
+        let picture = haze_view::Image {
+            width: args.width,
+            height: args.height,
+            pixels,
+        };
+        picture
+            .check_finite(stage)
+            .with_context(|| format!("{}", out.display()))?;
+        let pixels = picture.pixels;
         let bytes = match format {
             Format::Exr => encode_exr(&pixels, args.width, args.height),
             Format::Png => encode_png(&pixels, args.width, args.height),
         }
         .with_context(|| format!("{}: cannot encode", out.display()))?;
         crate::output::write_atomic(&out, &bytes)?;
+        written.push(out);
     }
+    written.keep();
     let seconds = start.elapsed().as_secs_f64();
     let rays = (args.width * args.height * frames) as f64;
     let mut counts = String::new();

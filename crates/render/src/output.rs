@@ -1,31 +1,236 @@
-//! Files the CLI writes besides assets (reports, exported volumes): always to a temporary
-//! file beside the destination, renamed into place when complete.
+//! Files the commands write: checked before any work ([`Outputs`]), written to a
+//! temporary file beside the destination and renamed into place when complete
+//! ([`write_atomic`]), and removed again when the run that created them fails
+//! ([`Created`]).
+//!
+//! The promise every command keeps: no input is ever overwritten, no output overwrites
+//! another, and an output that cannot be written is refused before the work that would
+//! have made it.
 
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// The files a command reads and the files it will write, checked together by
+/// [`Outputs::check`] before any work.
+#[derive(Debug, Default)]
+pub struct Outputs {
+    inputs: Vec<PathBuf>,
+    outputs: Vec<(String, PathBuf)>,
+}
+
+impl Outputs {
+    pub fn new() -> Outputs {
+        Outputs::default()
+    }
+
+    /// An input file; a raw `.f32`/`.raw` volume or fogmap and a `.npy` bring their `.json`
+    /// sidecar (when there is one). A directory or
+    /// a glob of frames: every frame file in it (`haze_volume`'s discovery). Inputs that do
+    /// not exist are left to the reader, which names them.
+    pub fn input(mut self, path: &Path) -> Outputs {
+        let files = match haze_volume::import::sequence::discover(path) {
+            Ok(frames) if path.is_dir() || !path.exists() => {
+                frames.into_iter().map(|f| f.path).collect()
+            }
+            _ => vec![path.to_path_buf()],
+        };
+        for f in files {
+            let sidecar = f.extension().and_then(|e| e.to_str()).is_some_and(|e| {
+                ["f32", "raw", "npy"]
+                    .iter()
+                    .any(|s| e.eq_ignore_ascii_case(s))
+            });
+            if sidecar {
+                self.inputs.push(f.with_extension("json"));
+            }
+            self.inputs.push(f);
+        }
+        self
+    }
+
+    /// A file to be written, named by the flag that gives it (`--out`, `--report`).
+    pub fn output(mut self, flag: &str, path: &Path) -> Outputs {
+        self.outputs.push((flag.to_string(), path.to_path_buf()));
+        self
+    }
+
+    /// Refuses, in one line: an output that is one of the inputs (the same path once
+    /// links are resolved, or the same file by device and inode: a hard link) or
+    /// another output; an output that is a directory; an output whose folder is missing
+    /// or not writable (probed by creating and removing a temporary file in it).
+    pub fn check(&self) -> Result<()> {
+        let mut inputs = Seen::default();
+        for p in &self.inputs {
+            if let Some(id) = Identity::of(p) {
+                inputs.insert(&id, ("the input", p.as_path()));
+            }
+        }
+        let mut outputs = Seen::default();
+        let mut probed = std::collections::HashSet::new();
+        for (flag, out) in &self.outputs {
+            if out.is_dir() {
+                bail!("{}: {flag} is a directory; give a file name", out.display());
+            }
+            let dir = folder(out);
+            if !dir.is_dir() {
+                bail!(
+                    "{}: {flag}'s folder {} does not exist",
+                    out.display(),
+                    dir.display()
+                );
+            }
+            let key = Identity::of(out).unwrap_or_else(|| Identity::unborn(&dir, out));
+            if let Some((_, input)) = inputs.find(&key) {
+                bail!(
+                    "{}: {flag} is the input {}; inputs are never overwritten (choose another {flag})",
+                    out.display(),
+                    input.display()
+                );
+            }
+            if let Some((other, path)) = outputs.find(&key) {
+                bail!(
+                    "{}: {flag} is the same file as {other} {}; give them different files",
+                    out.display(),
+                    path.display()
+                );
+            }
+            if probed.insert(dir.clone()) {
+                tempfile::Builder::new()
+                    .prefix(".haze-probe.")
+                    .tempfile_in(&dir)
+                    .map_err(|e| {
+                        anyhow::anyhow!(
+                            "{}: {flag} cannot be written in {} ({e})",
+                            out.display(),
+                            dir.display()
+                        )
+                    })?;
+            }
+            outputs.insert(&key, (flag.as_str(), out.as_path()));
+        }
+        Ok(())
+    }
+}
+
+/// Files met so far, by canonical path and by device and inode, with the flag that
+/// named each.
+#[derive(Default)]
+struct Seen<'a> {
+    by_path: std::collections::HashMap<PathBuf, (&'a str, &'a Path)>,
+    by_inode: std::collections::HashMap<(u64, u64), (&'a str, &'a Path)>,
+}
+
+impl<'a> Seen<'a> {
+    fn insert(&mut self, id: &Identity, what: (&'a str, &'a Path)) {
+        self.by_path.insert(id.path.clone(), what);
+        if let Some(inode) = id.inode {
+            self.by_inode.insert(inode, what);
+        }
+    }
+
+    fn find(&self, id: &Identity) -> Option<(&'a str, &'a Path)> {
+        self.by_path
+            .get(&id.path)
+            .or_else(|| id.inode.and_then(|i| self.by_inode.get(&i)))
+            .copied()
+    }
+}
+
+/// The folder `path` is written in (`.` for a bare file name).
+fn folder(path: &Path) -> PathBuf {
+    match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    }
+}
+
+/// What makes two paths one file: the canonical path, and on Unix the device and inode.
+#[derive(Debug, Clone)]
+struct Identity {
+    path: PathBuf,
+    inode: Option<(u64, u64)>,
+}
+
+impl Identity {
+    /// The identity of an existing file (`None` if it does not exist).
+    fn of(path: &Path) -> Option<Identity> {
+        let meta = std::fs::metadata(path).ok()?;
+        let path = std::fs::canonicalize(path).ok()?;
+        #[cfg(unix)]
+        let inode = {
+            use std::os::unix::fs::MetadataExt;
+            Some((meta.dev(), meta.ino()))
+        };
+        #[cfg(not(unix))]
+        let inode = {
+            let _ = meta;
+            None
+        };
+        Some(Identity { path, inode })
+    }
+
+    /// The identity a file not yet written will have: its folder's canonical path and
+    /// its name.
+    fn unborn(dir: &Path, path: &Path) -> Identity {
+        let dir = std::fs::canonicalize(dir).unwrap_or_else(|_| dir.to_path_buf());
+        Identity {
+            path: dir.join(path.file_name().unwrap_or_default()),
+            inode: None,
+        }
+    }
+}
+
+/// Files a run has written so far, removed again unless the run ends with
+/// [`Created::keep`] (the first frames of a sequence whose later frame failed).
+#[derive(Debug, Default)]
+pub struct Created {
+    files: Vec<PathBuf>,
+}
+
+impl Created {
+    pub fn new() -> Created {
+        Created::default()
+    }
+
+    /// `path` was written by this run.
+    pub fn push(&mut self, path: PathBuf) {
+        self.files.push(path);
+    }
+
+    /// The run succeeded: its files stay.
+    pub fn keep(mut self) {
+        self.files.clear();
+    }
+}
+
+impl Drop for Created {
+    fn drop(&mut self) {
+        for f in &self.files {
+            if let Err(e) = std::fs::remove_file(f) {
+                tracing::warn!("{}: cannot remove ({e})", f.display());
+            }
+        }
+    }
+}
 
 /// Writes `bytes` to `path` atomically.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
+    let dir = folder(path);
     let ctx = || format!("{}: cannot write", path.display());
-    let mut tmp = tempfile::Builder::new()
-        .prefix(".haze-out.")
-        .suffix(".tmp")
-        .tempfile_in(dir)
-        .with_context(ctx)?;
-    tmp.write_all(bytes).with_context(ctx)?;
-    // Temporary files are created private (0600); outputs are normal files.
+    let mut builder = tempfile::Builder::new();
+    // Created 0644 less the umask (a plain temporary file is 0600).
     #[cfg(unix)]
     {
         use std::os::unix::fs::PermissionsExt;
-        tmp.as_file()
-            .set_permissions(std::fs::Permissions::from_mode(0o644))
-            .with_context(ctx)?;
+        builder.permissions(std::fs::Permissions::from_mode(0o644));
     }
+    let mut tmp = builder
+        .prefix(".haze-out.")
+        .suffix(".tmp")
+        .tempfile_in(&dir)
+        .with_context(ctx)?;
+    tmp.write_all(bytes).with_context(ctx)?;
     tmp.persist(path).map_err(|e| e.error).with_context(ctx)?;
     Ok(())
 }
@@ -35,4 +240,108 @@ pub fn write_json(path: &Path, value: &serde_json::Value) -> Result<()> {
     let mut text = serde_json::to_vec_pretty(value)?;
     text.push(b'\n');
     write_atomic(path, &text)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn err(o: Outputs) -> String {
+        o.check().unwrap_err().to_string()
+    }
+
+    #[test]
+    fn an_output_that_is_an_input_or_another_output_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let input = d.join("v.f32");
+        std::fs::write(&input, [0u8; 4]).unwrap();
+        std::fs::write(d.join("v.json"), "{}").unwrap();
+        // The same file by another spelling, its sidecar, a hard link, a symlink.
+        let dotted = d.join(".").join("v.f32");
+        let e = err(Outputs::new().input(&input).output("--out", &dotted));
+        assert!(e.contains("--out is the input"), "{e}");
+        let e = err(Outputs::new()
+            .input(&input)
+            .output("--out", &d.join("v.json")));
+        assert!(e.contains("v.json: --out is the input"), "{e}");
+        std::fs::hard_link(&input, d.join("hard.f32")).unwrap();
+        let e = err(Outputs::new()
+            .input(&input)
+            .output("--out", &d.join("hard.f32")));
+        assert!(e.contains("is the input"), "{e}");
+        #[cfg(unix)]
+        {
+            std::os::unix::fs::symlink(&input, d.join("soft.npy")).unwrap();
+            let e = err(Outputs::new()
+                .input(&input)
+                .output("--out", &d.join("soft.npy")));
+            assert!(e.contains("is the input"), "{e}");
+        }
+        // Two outputs on one file not yet written.
+        let e = err(Outputs::new()
+            .input(&input)
+            .output("--out", &d.join("o.haze"))
+            .output("--report", &d.join("sub/../o.haze")));
+        assert!(
+            e.contains("does not exist") || e.contains("same file"),
+            "{e}"
+        );
+        let e = err(Outputs::new()
+            .input(&input)
+            .output("--out", &d.join("o.haze"))
+            .output("--report", &d.join("./o.haze")));
+        assert!(e.contains("--report is the same file as --out"), "{e}");
+        // A frame of a directory input.
+        let frames = d.join("frames");
+        std::fs::create_dir(&frames).unwrap();
+        std::fs::write(frames.join("f_0001.npy"), b"x").unwrap();
+        let e = err(Outputs::new()
+            .input(&frames)
+            .output("--out", &frames.join("f_0001.npy")));
+        assert!(e.contains("is the input"), "{e}");
+        // Different files pass, and the probe leaves nothing behind.
+        Outputs::new()
+            .input(&input)
+            .output("--out", &d.join("o.haze"))
+            .output("--report", &d.join("r.json"))
+            .check()
+            .unwrap();
+        let names: Vec<_> = std::fs::read_dir(d).unwrap().collect();
+        assert_eq!(names.len(), 5, "{names:?}");
+    }
+
+    #[test]
+    fn an_output_that_cannot_be_written_is_refused_before_the_work() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let e = err(Outputs::new().output("--report", &d.join("missing/r.json")));
+        assert!(
+            e.contains("--report's folder") && e.contains("does not exist"),
+            "{e}"
+        );
+        let e = err(Outputs::new().output("--out", d));
+        assert!(e.contains("is a directory"), "{e}");
+        // /proc takes no new files, whoever runs the test.
+        if Path::new("/proc/self").exists() {
+            let e = err(Outputs::new().output("--report", Path::new("/proc/r.json")));
+            assert!(e.contains("cannot be written in /proc"), "{e}");
+        }
+    }
+
+    #[test]
+    fn created_files_are_removed_unless_kept() {
+        let dir = tempfile::tempdir().unwrap();
+        let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+        std::fs::write(&a, b"1").unwrap();
+        std::fs::write(&b, b"2").unwrap();
+        let mut failed = Created::new();
+        failed.push(a.clone());
+        drop(failed);
+        assert!(!a.exists());
+        let mut done = Created::new();
+        done.push(b.clone());
+        done.keep();
+        assert!(b.exists());
+    }
 }

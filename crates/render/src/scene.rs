@@ -21,7 +21,7 @@ use haze_scene::paper_b::{self, PaperBOptions, Prepared};
 use haze_scene::paper_c::airlight::Limits;
 use haze_scene::render::{Analytic, Image, Model, Reference};
 use indicatif::{ProgressBar, ProgressStyle};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// What a scene render is asked to do.
@@ -41,9 +41,35 @@ pub struct SceneJob {
     pub march: bool,
 }
 
+/// The files a scene file names (its models, maps and assets, relative to its folder):
+/// every string in it that is the path of an existing file. Read before a render so
+/// that no output replaces one of them; a file that cannot be read names none.
+pub fn files_named(scene: &Path) -> Vec<PathBuf> {
+    fn walk(v: &serde_json::Value, base: &Path, out: &mut Vec<PathBuf>) {
+        match v {
+            serde_json::Value::String(s) => {
+                let p = base.join(s);
+                if p.is_file() {
+                    out.push(p);
+                }
+            }
+            serde_json::Value::Array(a) => a.iter().for_each(|v| walk(v, base, out)),
+            serde_json::Value::Object(m) => m.values().for_each(|v| walk(v, base, out)),
+            _ => {}
+        }
+    }
+    let mut files = Vec::new();
+    let text = std::fs::read_to_string(scene).unwrap_or_default();
+    if let Ok(v) = serde_json::from_str(&text) {
+        walk(&v, scene.parent().unwrap_or(Path::new("")), &mut files);
+    }
+    files
+}
+
 pub fn render_scene(a: SceneJob) -> Result<()> {
     let start = Instant::now();
     let kind = out_kind(&a.out)?;
+    crate::smoke::check_exposure(a.exposure)?;
     if !a.time.is_finite() {
         anyhow::bail!("--time {} must be finite", a.time);
     }
@@ -84,7 +110,7 @@ pub fn render_scene(a: SceneJob) -> Result<()> {
     let progress = |rows: usize| bar.set_position(rows as u64);
     let image = analytic::render(&scene, model.as_ref(), &Limits::default(), &progress);
     bar.finish_and_clear();
-    write(&a, image, kind)?;
+    write(&a, image, kind, &model.name())?;
     eprintln!(
         "{}: {}×{}, scene {} ({} lights, {} surfaces), {}, {:.2} s",
         a.out.display(),
@@ -118,7 +144,7 @@ fn run_march(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Resu
     });
     let frame = frame.elapsed().as_secs_f64();
     bar.finish_and_clear();
-    write(a, image, kind)?;
+    write(a, image, kind, "the single-scattering march")?;
     let media: Vec<String> = scene.hetero.iter().map(|m| m.name()).collect();
     eprintln!(
         "{}: {}×{}, scene {} ({} lights, {} surfaces, {}), single-scattering march at step {:.4}, frame {:.3} s, {:.2} s in all",
@@ -161,7 +187,7 @@ fn run_gpu(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Result
     .map_err(|e| anyhow!("--gpu: {}: {e}", a.scene.display()))?;
     let frame = frame.elapsed().as_secs_f64();
     let (w, h) = (image.width, image.height);
-    write(a, image, kind)?;
+    write(a, image, kind, "the GPU renderer")?;
     eprintln!(
         "{}: {}×{}, scene {} ({} lights, {} surfaces), {} on the GPU ({}), frame {:.3} s, {:.2} s in all",
         a.out.display(),
@@ -235,7 +261,7 @@ fn run_hetero(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Res
     };
     bar.finish_and_clear();
     let (w, h) = (image.width, image.height);
-    write(a, image, kind)?;
+    write(a, image, kind, &what)?;
     eprintln!(
         "{}: {}×{}, scene {} ({} lights, {} surfaces, {} heterogeneous media), {}, {:.2} s",
         a.out.display(),
@@ -275,13 +301,12 @@ fn rows_bar(rows: usize) -> ProgressBar {
     bar
 }
 
-/// Writes the image as `kind` (temp file + rename).
-fn write(a: &SceneJob, image: Image, kind: OutKind) -> Result<()> {
-    let image = haze_view::Image {
-        width: image.width,
-        height: image.height,
-        pixels: image.pixels,
-    };
+/// Writes the image as `kind` (temp file + rename); a picture with a NaN or an infinite
+/// value is refused, naming `stage`, the renderer that made it, and the scene file.
+fn write(a: &SceneJob, image: Image, kind: OutKind, stage: &str) -> Result<()> {
+    image
+        .check_finite(stage)
+        .map_err(|e| anyhow!("{}: {e}", a.scene.display()))?;
     match kind {
         OutKind::Exr => image.write_exr(&a.out)?,
         OutKind::Png => image.write_png(&a.out, a.exposure)?,

@@ -70,6 +70,16 @@ pub struct RenderOptions {
 pub fn render(a: RenderOptions) -> Result<()> {
     let start = Instant::now();
     let kind = out_kind(&a.out)?;
+    check_exposure(a.exposure)?;
+    if a.check > MAX_CHECK_PIXELS {
+        bail!(
+            "--check {} must be at most {MAX_CHECK_PIXELS} pixels",
+            a.check
+        );
+    }
+    if a.reference && !(1..=MAX_SPP).contains(&a.spp) {
+        bail!("--spp {} must be between 1 and {MAX_SPP}", a.spp);
+    }
     let medium = Medium::new(a.sigma_t, a.albedo, a.g).map_err(|e| anyhow!("{e}"))?;
     check_knobs(a.sh_order, a.slices)?;
     // The reference lights with a map whole (the truth); the fast renderers with its
@@ -122,7 +132,7 @@ pub fn render(a: RenderOptions) -> Result<()> {
     let spinner = progress::spinner(&format!("rendering {}", frame.label));
     let (image, what) = if a.reference {
         let opts = RefOptions {
-            spp: a.spp.max(1),
+            spp: a.spp,
             multiple: a.multiple,
             ..RefOptions::default()
         };
@@ -235,6 +245,7 @@ pub fn render(a: RenderOptions) -> Result<()> {
         (img, what)
     };
     spinner.finish_and_clear();
+    image.check_finite(&what)?;
     let what = match check_error(&a, &image, &frame.density, &medium, &camera)? {
         Some(e) => format!("{what}, {e}"),
         None => what,
@@ -253,6 +264,9 @@ pub fn render(a: RenderOptions) -> Result<()> {
     );
     Ok(())
 }
+
+/// The most pixels `--check` compares (each costs 128 reference paths).
+pub const MAX_CHECK_PIXELS: usize = 65_536;
 
 /// The render's estimate of its own error (`--check`), warned about above
 /// `--target-error`; `None` without a check or where no pixel shows smoke.
@@ -322,7 +336,28 @@ pub fn out_kind(out: &Path) -> Result<OutKind> {
     }
 }
 
-/// Refuses an SH order outside 1..=6 and a slice count per voxel that is not positive.
+/// The most samples per pixel `--reference` takes (a 400 × 300 picture at this many is
+/// hours of path tracing already).
+pub const MAX_SPP: u32 = 1 << 16;
+
+/// The largest exposure a PNG is tone-mapped with: beyond it a radiance of 1e-6 is
+/// already white.
+pub const MAX_EXPOSURE: f64 = 1e6;
+
+/// Refuses an exposure that is not a finite number in (0, 1e6] (NaN would make every
+/// pixel black, 0 every pixel black, infinity every lit pixel white).
+pub fn check_exposure(exposure: f64) -> Result<()> {
+    if !(exposure > 0.0 && exposure <= MAX_EXPOSURE) {
+        bail!("--exposure {exposure} must be a number in (0, {MAX_EXPOSURE:e}]");
+    }
+    Ok(())
+}
+
+/// The most view-pass slices per voxel: 2 is the paper's, 8 is already within rounding of
+/// the exact march; beyond 64 only the time grows.
+pub const MAX_SLICES: f64 = 64.0;
+
+/// Refuses an SH order outside 1..=6 and a slice count per voxel outside (0, 64].
 pub fn check_knobs(sh_order: usize, slices: f64) -> Result<()> {
     if !(1..=haze_view::sh::MAX_ORDER).contains(&sh_order) {
         bail!(
@@ -330,8 +365,8 @@ pub fn check_knobs(sh_order: usize, slices: f64) -> Result<()> {
             haze_view::sh::MAX_ORDER
         );
     }
-    if !(slices > 0.0 && slices.is_finite()) {
-        bail!("--slices {slices} must be a positive number of slices per voxel");
+    if !(slices > 0.0 && slices <= MAX_SLICES) {
+        bail!("--slices {slices} must be in (0, {MAX_SLICES}] slices per voxel");
     }
     Ok(())
 }

@@ -172,6 +172,19 @@ struct TransformSpec {
     scale: Option<Scalar3>,
 }
 
+/// A JSON error in words: serde reports an array with one number too many (an `eye` of
+/// four numbers) as "trailing characters", as it does text after the JSON; the text
+/// parsing as JSON tells the two apart.
+fn json_error(text: &str, e: &serde_json::Error) -> String {
+    let msg = e.to_string();
+    match msg.strip_prefix("trailing characters") {
+        Some(at) if serde_json::from_str::<Value>(text).is_ok() => {
+            format!("an array has more numbers than its key takes (X,Y,Z and R,G,B take 3){at}")
+        }
+        _ => msg,
+    }
+}
+
 /// Reads and validates the scene file at `path`.
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
     let file = path.display().to_string();
@@ -196,7 +209,8 @@ pub fn parse(text: &str) -> Result<Scene, String> {
 /// Parses and validates a scene from JSON text, its files (models) relative to `base`;
 /// the error is the problem alone (the caller names the scene file).
 pub fn parse_in(text: &str, base: &Path) -> Result<Scene, String> {
-    let spec: FileSpec = serde_json::from_str(text).map_err(|e| e.to_string())?;
+    haze_core::json::unique_keys(text).map_err(|e| json_error(text, &e))?;
+    let spec: FileSpec = serde_json::from_str(text).map_err(|e| json_error(text, &e))?;
     let c = &spec.camera;
     for (name, v) in [("eye", c.eye), ("target", c.target), ("up", c.up)] {
         finite(&format!("camera.{name}"), &v)?;
@@ -368,7 +382,7 @@ fn homogeneous(v: &Value) -> Result<(Rgb, Rgb), String> {
                 Scalar3::One(s) => [s; 3],
                 Scalar3::Rgb(c) => c,
             };
-            non_negative("sigma_t", &st)?;
+            crate::media::check_sigma_t(&st)?;
             if !(0.0..=1.0).contains(&h.albedo) {
                 return Err(format!("albedo {} must be in [0, 1]", h.albedo));
             }
@@ -497,6 +511,24 @@ mod tests {
              "material": {"diffuse": [0.8, 0.2, 0.2], "specular": [0.2, 0.2, 0.2], "shininess": 20}}
         ]
     }"#;
+
+    /// A repeated key is refused by name and line; an array one number too long is said
+    /// in words, and text after the JSON keeps serde's own message.
+    #[test]
+    fn repeated_keys_and_long_arrays_are_named() {
+        let twice = GOOD.replace(r#""albedo": 0.8,"#, r#""albedo": 0.8, "albedo": 0.1,"#);
+        let e = parse(&twice).unwrap_err();
+        assert!(e.starts_with("duplicate key \"albedo\" at line 9"), "{e}");
+        let long = GOOD.replace("[0, -5, 1]", "[0, -5, 1, 7]");
+        let e = parse(&long).unwrap_err();
+        assert!(
+            e.starts_with("an array has more numbers than its key takes"),
+            "{e}"
+        );
+        assert!(e.contains("at line 2"), "{e}");
+        let e = parse(&format!("{GOOD} x")).unwrap_err();
+        assert!(e.starts_with("trailing characters"), "{e}");
+    }
 
     #[test]
     fn reads_every_supported_key() {

@@ -151,7 +151,32 @@ pub fn smoke_plan(quick: bool) -> Plan {
     }
 }
 
+/// Before any work: `--out` is a directory (or will be made one), and none of the files
+/// the sweep writes there is its input.
+fn check_out_dir(a: &TradeoffArgs) -> Result<()> {
+    if a.out.exists() && !a.out.is_dir() {
+        bail!(
+            "{}: --out is a file; the sweep writes a directory of files",
+            a.out.display()
+        );
+    }
+    if !a.out.is_dir() {
+        // A directory still to be made holds no input.
+        return Ok(());
+    }
+    let names = ["tradeoff.json", "pareto.svg", "pareto.png", "extremes.json"];
+    let mut files = haze_render::output::Outputs::new();
+    if !a.extremes {
+        files = files.input(&a.input);
+    }
+    names
+        .iter()
+        .fold(files, |f, n| f.output("--out", &a.out.join(n)))
+        .check()
+}
+
 pub fn run(a: TradeoffArgs) -> Result<()> {
+    check_out_dir(&a)?;
     if a.extremes {
         return extremes::run(&a.out);
     }

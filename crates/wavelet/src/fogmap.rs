@@ -223,6 +223,7 @@ fn read_exr(path: &Path) -> Result<Pixels, String> {
 fn read_npy(path: &Path) -> Result<Pixels, String> {
     use npyz::{DType, NpyFile, Order, TypeChar};
     let bytes = std::fs::read(path).map_err(|e| format!("cannot read: {e}"))?;
+    haze_core::npy_header::check(&bytes)?;
     let npy = NpyFile::new(&bytes[..]).map_err(|e| format!("not a readable .npy file: {e}"))?;
     let shape = npy.shape().to_vec();
     if shape.len() != 2 {
@@ -269,6 +270,8 @@ struct Sidecar {
 fn read_raw(path: &Path) -> Result<Pixels, String> {
     let sidecar = path.with_extension("json");
     let text = std::fs::read_to_string(&sidecar)
+        .map_err(|e| format!("sidecar {}: {e}", sidecar.display()))?;
+    haze_core::json::unique_keys(&text)
         .map_err(|e| format!("sidecar {}: {e}", sidecar.display()))?;
     let sc: Sidecar =
         serde_json::from_str(&text).map_err(|e| format!("sidecar {}: {e}", sidecar.display()))?;

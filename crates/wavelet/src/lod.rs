@@ -91,7 +91,7 @@ pub enum FogError {
         max: usize,
     },
     /// A placement value is out of range.
-    #[error("{0}")]
+    #[error(transparent)]
     Placement(#[from] crate::placement::PlacementError),
     /// A coefficient is NaN or infinite.
     #[error("coefficient ({x}, {y}) is {value}")]

@@ -112,11 +112,7 @@ struct AnalyticSpec {
 pub fn parse(v: &Value) -> Result<AnalyticMedium, String> {
     let s = AnalyticSpec::deserialize(v).map_err(|e| e.to_string())?;
     let sigma_t = s.sigma_t.rgb();
-    if !sigma_t.iter().all(|x| x.is_finite() && *x >= 0.0) {
-        return Err(format!(
-            "sigma_t {sigma_t:?} must be finite and not negative"
-        ));
-    }
+    crate::media::check_sigma_t(&sigma_t)?;
     let albedo = s.albedo.map_or([1.0; 3], |a| a.rgb());
     if !albedo.iter().all(|a| (0.0..=1.0).contains(a)) {
         return Err(format!("albedo {albedo:?} must be in [0, 1]"));

@@ -137,6 +137,11 @@ fn asset_gaussians(path: &Path, frame: Option<i64>, offset: Vec3) -> Result<Vec<
         .collect())
 }
 
+/// The most Gaussians one medium may hold: the most RBFs a bake keeps per frame
+/// (`--max-rbfs` 4096 × 8). A picture's time grows with their number (each pixel's
+/// airlight sums over the Gaussians its ray meets).
+pub const MAX_GAUSSIANS: usize = 32_768;
+
 /// Reads a `"gaussians"` medium, its asset (if any) relative to `base`; the error is one
 /// line naming the key.
 pub fn parse(v: &Value, base: &Path) -> Result<GaussianMediumOf, String> {
@@ -167,6 +172,13 @@ pub fn parse(v: &Value, base: &Path) -> Result<GaussianMediumOf, String> {
         (None, Some(_), _) => return Err("\"frame\" needs \"asset\"".to_string()),
         (None, _, Some(_)) => return Err("\"offset\" needs \"asset\"".to_string()),
         (None, None, None) => {}
+    }
+    crate::media::check_sigma_t(&[s.sigma_t])?;
+    if gaussians.len() > MAX_GAUSSIANS {
+        return Err(format!(
+            "{} Gaussians; at most {MAX_GAUSSIANS} (paper B's cost grows with their number: split the medium or bake it as an asset)",
+            gaussians.len()
+        ));
     }
     let medium = GaussianMedium::new(s.sigma_t, s.albedo, s.background, gaussians)?;
     let noise = match s.noise {

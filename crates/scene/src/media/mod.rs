@@ -137,9 +137,67 @@ pub fn henyey_greenstein(g: f64, cos_theta: f64) -> f64 {
     (1.0 - g2) / (4.0 * std::f64::consts::PI * den * den.sqrt())
 }
 
+/// The largest extinction coefficient a scene file may give (per world unit). A medium
+/// this dense is opaque within a micron of a metre-sized scene; beyond it optical
+/// depths overflow `f32` on the GPU (`e^-τ` of an infinite τ times zero radiance is NaN)
+/// and every picture would be black or NaN.
+pub const MAX_SIGMA_T: f64 = 1e6;
+
+/// Refuses an extinction outside `[0, MAX_SIGMA_T]`, the range in the message.
+pub fn check_sigma_t(v: &[f64]) -> Result<(), String> {
+    if v.iter().all(|x| (0.0..=MAX_SIGMA_T).contains(x)) {
+        Ok(())
+    } else {
+        // One number when the channels agree; large and tiny ones as 1e308.
+        let same = v.windows(2).all(|w| w[0] == w[1]);
+        let shown: Vec<String> = v[..if same { v.len().min(1) } else { v.len() }]
+            .iter()
+            .map(|&x| {
+                if x != 0.0 && !(1e-4..1e6).contains(&x.abs()) {
+                    format!("{x:e}")
+                } else {
+                    x.to_string()
+                }
+            })
+            .collect();
+        Err(format!(
+            "sigma_t {} must be in [0, {MAX_SIGMA_T:e}] per world unit",
+            shown.join(", ")
+        ))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The range's ends are in, everything past them (NaN and infinity too) is out, and
+    /// the message shows the value and the range.
+    #[test]
+    fn extinction_is_checked_at_its_extremes() {
+        for ok in [[0.0; 3], [MAX_SIGMA_T; 3], [-0.0, 1e-300, 5.0]] {
+            assert!(check_sigma_t(&ok).is_ok(), "{ok:?}");
+        }
+        for bad in [
+            1e308,
+            -1.0,
+            f64::NAN,
+            f64::INFINITY,
+            MAX_SIGMA_T * (1.0 + 1e-15),
+        ] {
+            let e = check_sigma_t(&[bad; 3]).unwrap_err();
+            assert!(e.ends_with("must be in [0, 1e6] per world unit"), "{e}");
+        }
+        assert_eq!(
+            check_sigma_t(&[1e308; 3]).unwrap_err(),
+            "sigma_t 1e308 must be in [0, 1e6] per world unit"
+        );
+        assert!(
+            check_sigma_t(&[1.0, -2.0, 3.0])
+                .unwrap_err()
+                .starts_with("sigma_t 1, -2, 3 ")
+        );
+    }
 
     #[test]
     fn clip_matches_point_sampling() {

@@ -19,6 +19,7 @@ fn fmt_err(path: &Path, why: impl Into<String>) -> ImportError {
 /// Reads a `.npy` volume.
 pub fn read(path: &Path) -> Result<Volume, ImportError> {
     let bytes = std::fs::read(path).map_err(|e| ImportError::new(path, e.into()))?;
+    haze_core::npy_header::check(&bytes).map_err(|e| fmt_err(path, e))?;
     let npy = NpyFile::new(&bytes[..])
         .map_err(|e| fmt_err(path, format!("not a readable .npy file: {e}")))?;
     let shape = npy.shape().to_vec();

@@ -21,6 +21,10 @@ pub struct Sidecar {
     pub dtype: Option<String>,
 }
 
+/// The largest world coordinate of a sidecar's box: positions are `f32` in assets and on
+/// the GPU, where 1e9 still resolves 64 units, and RBF radii and weights stay finite.
+pub const MAX_COORDINATE: f64 = 1e9;
+
 /// `NAME.json` beside `NAME.f32`.
 pub fn sidecar_path(raw: &Path) -> PathBuf {
     raw.with_extension("json")
@@ -41,6 +45,7 @@ fn sidecar_err(raw: &Path, sidecar: &Path, why: impl Into<String>) -> ImportErro
 pub fn read_sidecar(raw: &Path) -> Result<Sidecar, ImportError> {
     let sc = sidecar_path(raw);
     let text = std::fs::read_to_string(&sc).map_err(|e| sidecar_err(raw, &sc, e.to_string()))?;
+    haze_core::json::unique_keys(&text).map_err(|e| sidecar_err(raw, &sc, e.to_string()))?;
     let s: Sidecar =
         serde_json::from_str(&text).map_err(|e| sidecar_err(raw, &sc, e.to_string()))?;
     if let Some(dt) = &s.dtype {
@@ -57,11 +62,28 @@ pub fn read_sidecar(raw: &Path) -> Result<Sidecar, ImportError> {
     let bbox = Bbox::new(s.world_bbox_min, s.world_bbox_max);
     let ordered = (0..3)
         .all(|a| bbox.min[a].is_finite() && bbox.max[a].is_finite() && bbox.max[a] > bbox.min[a]);
+    let show = |v: [f64; 3]| format!("({}, {}, {})", v[0], v[1], v[2]);
     if !ordered {
         return Err(sidecar_err(
             raw,
             &sc,
-            format!("world box {:?}..{:?} is not ordered", bbox.min, bbox.max),
+            format!(
+                "world box {}..{} is not ordered",
+                show(bbox.min),
+                show(bbox.max)
+            ),
+        ));
+    }
+    let inside = |v: [f64; 3]| v.iter().all(|x| x.abs() <= MAX_COORDINATE);
+    if !(inside(bbox.min) && inside(bbox.max)) {
+        return Err(sidecar_err(
+            raw,
+            &sc,
+            format!(
+                "world box {}..{} must lie within ±{MAX_COORDINATE:e} world units",
+                show(bbox.min),
+                show(bbox.max)
+            ),
         ));
     }
     if let Some(vs) = s.voxel_size {

@@ -35,6 +35,25 @@ impl FrameRange {
     }
 }
 
+/// `A..B`, `A..`, `..B`, `A` (one frame) or `..` (every frame): the syntax it parses from.
+impl std::fmt::Display for FrameRange {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match (self.first, self.last) {
+            (Some(a), Some(b)) if a == b => write!(f, "{a}"),
+            (a, b) => {
+                if let Some(a) = a {
+                    write!(f, "{a}")?;
+                }
+                f.write_str("..")?;
+                if let Some(b) = b {
+                    write!(f, "{b}")?;
+                }
+                Ok(())
+            }
+        }
+    }
+}
+
 impl FromStr for FrameRange {
     type Err = String;
 
@@ -197,12 +216,19 @@ impl Sequence {
     /// (for VDB, the union of the frames' recorded boxes; the first frame is read).
     pub fn open(path: &Path, opts: &ImportOptions, range: FrameRange) -> Result<Self, ImportError> {
         let all = discover(path)?;
+        let numbers = match (all.first(), all.last()) {
+            (Some(a), Some(b)) => format!(" (the files hold frames {}..{})", a.number, b.number),
+            _ => String::new(),
+        };
         let frames: Vec<FrameFile> = all
             .into_iter()
             .filter(|f| range.contains(f.number))
             .collect();
         if frames.is_empty() {
-            return Err(seq_err(path, format!("no frames in the range {range:?}")));
+            return Err(seq_err(
+                path,
+                format!("no frames in the range {range}{numbers}"),
+            ));
         }
         let format = format_of(&frames[0].path)?;
         let vdb_box = if format == Format::Vdb {
@@ -320,6 +346,15 @@ fn union_box(frames: &[FrameFile], opts: &ImportOptions) -> Result<Option<IndexB
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Messages print a range as it is written on the command line, never as a Rust value.
+    #[test]
+    fn ranges_print_as_they_parse() {
+        for s in ["3..7", "-3..2", "99..", "..5", "12", ".."] {
+            let r: FrameRange = s.parse().unwrap();
+            assert_eq!(r.to_string(), s);
+        }
+    }
 
     #[test]
     fn frame_numbers_from_names() {

@@ -1,0 +1,384 @@
+//! Nothing silent: no NaN picture, every value checked against its range (the range in
+//! the message), contradictory options and absurd work refused, negative numbers read as
+//! values, repeated JSON keys refused by name, and messages in words on one line (issue
+//! 38's classes "silent NaN pictures", "no progress, no bound", "duplicate JSON keys",
+//! "values accepted without a word", "negative values after a space", "unclear
+//! messages", and trailing data after an asset).
+
+mod support;
+
+use std::path::Path;
+use support::*;
+
+/// A scene file `s.json` in `d` holding `text`; its path.
+fn scene(d: &Path, text: &str) -> String {
+    let p = d.join("s.json");
+    std::fs::write(&p, text).unwrap();
+    s(&p).to_string()
+}
+
+/// "silent NaN pictures": an extinction of 1e308 is refused with its range in analytic
+/// fog and in Gaussian media (CPU and `--gpu` alike: the scene is read first), and a
+/// picture that still comes out with NaN (a fog term of weight 1e308 times the
+/// extinction) is refused naming the stage that made it.
+#[test]
+fn no_nan_leaves_the_renderer() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = d.join("o.exr");
+    let sc = scene(d, &fog_scene(&analytic("1e308", "1")));
+    let e = refused(d, &["render", "--scene", &sc, "--out", s(&out)]);
+    assert!(e.contains("sigma_t 1e308 must be in [0, 1e6]"), "{e}");
+    let gauss = r#"{"type": "gaussians", "sigma_t": 1e308, "gaussians": [{"center": [0, 0, 1], "radius": 0.5, "weight": 1}]}"#;
+    let sc = scene(d, &fog_scene(gauss));
+    for gpu in [false, true] {
+        let mut args = vec!["render", "--scene", &sc, "--out", s(&out)];
+        if gpu {
+            args.push("--gpu");
+        }
+        let e = refused(d, &args);
+        assert!(e.contains("media[0]: sigma_t 1e308 must be in"), "{e}");
+    }
+    let sc = scene(d, &fog_scene(&analytic("1", "1e308")));
+    let run = haze()
+        .args(["render", "--scene", &sc, "--out", s(&out)])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&run.stderr);
+    if run.status.success() {
+        // Then every value written is finite.
+        let img = exr::prelude::read_first_rgba_layer_from_file(
+            &out,
+            |r, _| vec![[0f32; 3]; r.width() * r.height()],
+            |px: &mut Vec<[f32; 3]>, p, (r, g, b, _): (f32, f32, f32, f32)| {
+                px[p.y() * 8 + p.x()] = [r, g, b]
+            },
+        )
+        .unwrap();
+        assert!(
+            img.layer_data
+                .channel_data
+                .pixels
+                .iter()
+                .flatten()
+                .all(|v| v.is_finite())
+        );
+    } else {
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(err.contains("NaN or infinite") && !out.exists(), "{err}");
+    }
+    let e = refused(
+        d,
+        &[
+            "render",
+            "--scene",
+            &sc,
+            "--out",
+            s(&d.join("o.png")),
+            "--exposure",
+            "nan",
+        ],
+    );
+    assert!(
+        e.contains("--exposure NaN must be a number in (0, 1e6]"),
+        "{e}"
+    );
+}
+
+/// "no progress, no bound": 100 000 Gaussians and 10⁹ slices per voxel are refused with
+/// the limit.
+#[test]
+fn absurd_work_is_refused_with_the_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let g = r#"{"center": [0, 0, 1], "radius": 0.1, "weight": 1}"#;
+    let many = vec![g; 100_000].join(",");
+    let medium = format!(r#"{{"type": "gaussians", "sigma_t": 1, "gaussians": [{many}]}}"#);
+    let sc = scene(d, &fog_scene(&medium));
+    let e = refused(d, &["render", "--scene", &sc, "--out", s(&d.join("o.png"))]);
+    assert!(e.contains("100000 Gaussians; at most 32768"), "{e}");
+    let a = data("scenes/plume.haze");
+    let e = refused(
+        d,
+        &[
+            "render",
+            s(&a),
+            "--slices",
+            "1000000000",
+            "--out",
+            s(&d.join("o.png")),
+        ],
+    );
+    assert!(e.contains("--slices 1000000000 must be in (0, 64]"), "{e}");
+    let e = refused(
+        d,
+        &[
+            "bake",
+            s(&a),
+            "--rbfs",
+            "10000000",
+            "--out",
+            s(&d.join("o.haze")),
+        ],
+    );
+    assert!(
+        e.contains("--rbfs 10000000 must be between 1 and 65536"),
+        "{e}"
+    );
+}
+
+/// "duplicate JSON keys": refused by name in scene files, volume sidecars and fogmap
+/// sidecars (a duplicate `camera` always was).
+#[test]
+fn repeated_json_keys_are_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = d.join("o.png");
+    let twice = r#"{"type": "homogeneous", "sigma_t": 0.1, "sigma_t": 0.5}"#;
+    let sc = scene(d, &fog_scene(twice));
+    let e = refused(d, &["render", "--scene", &sc, "--out", s(&out)]);
+    assert!(
+        e.contains("s.json: duplicate key \"sigma_t\" at line"),
+        "{e}"
+    );
+    let text = fog_scene(&analytic("0.3", "0.1")).replace(
+        r#""position": [1, -1, 2]"#,
+        r#""position": [1, -1, 2], "position": [0, 0, 9]"#,
+    );
+    let sc = scene(d, &text);
+    let e = refused(d, &["render", "--scene", &sc, "--out", s(&out)]);
+    assert!(e.contains("duplicate key \"position\""), "{e}");
+    write_raw(&d.join("v"), 8, &blob(8));
+    std::fs::write(
+        d.join("v.json"),
+        r#"{"dims": [8, 8, 8], "dims": [4, 4, 4], "world_bbox_min": [0,0,0], "world_bbox_max": [1,1,1]}"#,
+    )
+    .unwrap();
+    let e = refused(d, &["inspect", s(&d.join("v.f32"))]);
+    assert!(
+        e.contains("v.json") && e.contains("duplicate key \"dims\""),
+        "{e}"
+    );
+    let bytes: Vec<u8> = [0.5f32; 4].iter().flat_map(|v| v.to_le_bytes()).collect();
+    std::fs::write(d.join("m.f32"), bytes).unwrap();
+    std::fs::write(d.join("m.json"), r#"{"dims": [2, 2], "dims": [4, 1]}"#).unwrap();
+    let e = refused(
+        d,
+        &["fog", "wavelet", s(&d.join("m.f32")), "--out", s(&out)],
+    );
+    assert!(e.contains("duplicate key \"dims\""), "{e}");
+}
+
+/// "values accepted without a word": contradictory and out-of-range values are refused
+/// with the range.
+#[test]
+fn values_are_checked_against_their_range() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_npy(&d.join("v.npy"), [8; 3], &blob(8));
+    let v = d.join("v.npy");
+    let o = d.join("o.haze");
+    let e = refused(
+        d,
+        &[
+            "bake",
+            s(&v),
+            "--max-rbfs",
+            "4",
+            "--rbfs",
+            "16",
+            "--out",
+            s(&o),
+        ],
+    );
+    assert!(e.contains("--max-rbfs 4 is below --rbfs 16"), "{e}");
+    let a = data("scenes/plume.haze");
+    let png = d.join("o.png");
+    let e = refused(
+        d,
+        &[
+            "render",
+            s(&a),
+            "--reference",
+            "--spp",
+            "0",
+            "--out",
+            s(&png),
+        ],
+    );
+    assert!(e.contains("--spp 0 must be between 1 and 65536"), "{e}");
+    let e = refused(d, &["render", s(&a), "--exposure", "nan", "--out", s(&png)]);
+    assert!(
+        e.contains("--exposure NaN must be a number in (0, 1e6]"),
+        "{e}"
+    );
+    let e = refused(d, &["render", s(&a), "--exposure", "0", "--out", s(&png)]);
+    assert!(e.contains("--exposure 0 must be"), "{e}");
+}
+
+/// "negative values after a space": `--mu -1` reaches the real check (exit 1 with the
+/// range) instead of clap's "use '-- -1'"; `--frames -3..2` is a range.
+#[test]
+fn negative_numbers_after_a_space_are_values() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let fog = data("fogmap/fogmap_128.png");
+    let png = d.join("o.png");
+    let a = data("scenes/plume.haze");
+    let frames = d.join("frames");
+    std::fs::create_dir(&frames).unwrap();
+    write_npy(&frames.join("f_0001.npy"), [8; 3], &blob(8));
+    for (args, needle) in [
+        (
+            vec!["fog", "wavelet", s(&fog), "--mu", "-1", "--out", s(&png)],
+            "-1",
+        ),
+        (
+            vec!["render", s(&a), "--sigma-t", "-1", "--out", s(&png)],
+            "-1",
+        ),
+        (
+            vec!["render", s(&a), "--budget-ms", "-5", "--out", s(&png)],
+            "-5",
+        ),
+        (vec!["inspect", s(&frames), "--frames", "-3..-2"], "-3..-2"),
+    ] {
+        let e = refused(d, &args);
+        assert!(
+            !e.contains("tip") && !e.contains("unexpected argument"),
+            "{args:?}: {e}"
+        );
+        assert!(e.contains(needle), "{args:?}: {e}");
+    }
+    let e = refused(
+        d,
+        &[
+            "pack",
+            s(&frames),
+            "--frames",
+            "-3..-1",
+            "--out",
+            s(&d.join("p.haze")),
+        ],
+    );
+    assert!(
+        e.contains("no frames in the range -3..-1 (the files hold frames 1..1)"),
+        "{e}"
+    );
+}
+
+/// "unclear messages": no Rust `Debug` print, the file named, the problem in words, said
+/// once.
+#[test]
+fn messages_are_in_words_and_name_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let frames = d.join("frames");
+    std::fs::create_dir(&frames).unwrap();
+    write_npy(&frames.join("f_0001.npy"), [8; 3], &blob(8));
+    let e = refused(
+        d,
+        &[
+            "bake",
+            s(&frames),
+            "--frames",
+            "99..",
+            "--out",
+            s(&d.join("o.haze")),
+        ],
+    );
+    assert!(
+        e.contains("no frames in the range 99..") && !e.contains("Some("),
+        "{e}"
+    );
+    let fog = data("fogmap/fogmap_128.png");
+    let png = d.join("o.png");
+    let e = refused(
+        d,
+        &[
+            "fog",
+            "wavelet",
+            s(&fog),
+            "--eye",
+            "1e308,0,0",
+            "--out",
+            s(&png),
+        ],
+    );
+    assert!(e.contains("'1e308' is out of range"), "{e}");
+    write_raw(&d.join("v"), 8, &blob(8));
+    std::fs::write(
+        d.join("v.json"),
+        r#"{"dims": [8, 8, 8], "world_bbox_min": [0,0,0], "world_bbox_max": [1e308,1,1]}"#,
+    )
+    .unwrap();
+    let e = refused(
+        d,
+        &["bake", s(&d.join("v.f32")), "--out", s(&d.join("o.haze"))],
+    );
+    assert!(
+        e.contains("v.json") && e.contains("must lie within ±1e9"),
+        "{e}"
+    );
+    assert!(!e.contains("Rbf {") && !e.contains("inf"), "{e}");
+    let text = fog_scene(&analytic("0.3", "0.1")).replace("[0, -6, 1.5]", "[0, -6, 1.5, 2]");
+    let sc = scene(d, &text);
+    let e = refused(d, &["render", "--scene", &sc, "--out", s(&png)]);
+    assert!(e.contains("more numbers than its key takes"), "{e}");
+    // The fog's own checks, said once.
+    for (flag, value) in [
+        ("--mu", "2"),
+        ("--density", "-1"),
+        ("--levels", "40"),
+        ("--cell", "0"),
+    ] {
+        let e = refused(
+            d,
+            &["fog", "wavelet", s(&fog), flag, value, "--out", s(&png)],
+        );
+        let body = e.trim_start_matches("error: ");
+        let halves: Vec<&str> = body.split(": ").collect();
+        let mut seen = std::collections::HashSet::new();
+        assert!(
+            halves.iter().all(|h| seen.insert(*h)),
+            "{flag}: said twice: {e}"
+        );
+    }
+}
+
+/// Bytes appended after an asset are reported as trailing data.
+#[test]
+fn trailing_data_after_an_asset_is_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let a = d.join("a.haze");
+    let mut bytes = std::fs::read(data("scenes/plume.haze")).unwrap();
+    bytes.extend_from_slice(b"appended");
+    std::fs::write(&a, bytes).unwrap();
+    let e = refused(d, &["inspect", s(&a)]);
+    assert!(
+        e.contains("a.haze: file is corrupt: trailing data: 8 bytes"),
+        "{e}"
+    );
+}
+
+/// Found by the fogmap fuzz target: a 173-byte `.npy` whose header nests brackets kept
+/// the header parser busy for minutes (as a volume and as a fogmap); now refused at once.
+#[test]
+fn a_npy_header_that_nests_brackets_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let npy = d.join("v.npy");
+    std::fs::copy(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/regressions/npy_nested_brackets.npy"),
+        &npy,
+    )
+    .unwrap();
+    let e = refused(d, &["inspect", s(&npy)]);
+    assert!(e.contains("v.npy") && e.contains("nests brackets"), "{e}");
+    let e = refused(
+        d,
+        &["fog", "wavelet", s(&npy), "--out", s(&d.join("o.png"))],
+    );
+    assert!(e.contains("v.npy") && e.contains("nests brackets"), "{e}");
+}
