@@ -980,8 +980,8 @@ fn sun_centroid(suns: &[Sun]) -> ([f64; 3], f64) {
     let (mut c, mut total) = ([0.0; 3], 0.0);
     for s in suns {
         let y = luminance(s.irradiance);
-        for k in 0..3 {
-            c[k] += y * s.direction[k];
+        for (v, d) in c.iter_mut().zip(s.direction) {
+            *v += y * d;
         }
         total += s.irradiance[0];
     }
