@@ -4,7 +4,7 @@
 //! ```text
 //! cargo run --release --example crm_accuracy -- VOLUME [--size WxH] [--spp N]
 //!     [--sigma-t S] [--albedo A] [--g G] [--rbfs N] [--eye X,Y,Z --target X,Y,Z]
-//!     [--sun-map ELEV,AZIM,ANGLE,RATIO | --sky CLASS,ELEV,AZIM [--max-lights N] [--no-sun-extraction]]
+//!     [--sun-map ELEV,AZIM,ANGLE,RATIO | --sky CLASS,ELEV,AZIM [--max-lights N] [--save-sky FILE.exr] [--no-sun-extraction]]
 //!     [--table fig6|order|rbfs|slices|cg|sun|ms|reference|all] [--cache DIR]
 //!     [--diffusion centers|grid[:F]|orders[:F[:K]]]
 //!     [--env centers|grid] [--env-spacing VOXELS] [--env-theta N] [--gpu]
@@ -63,6 +63,7 @@ struct Args {
     sun_map: Option<[f64; 4]>,
     sky: Option<(String, f64, f64)>,
     max_lights: usize,
+    save_sky: Option<std::path::PathBuf>,
     extract: bool,
     cache: Option<std::path::PathBuf>,
     diffusion: MsDiffusion,
@@ -72,10 +73,12 @@ struct Args {
 }
 
 impl Args {
-    /// The fast renderer's defaults with this run's environment source.
+    /// The fast renderer's defaults with this run's environment source and diffusion
+    /// (`--diffusion`; paper A's `centers` unless given, not `haze render`'s default).
     fn base(&self) -> CrmOptions {
         CrmOptions {
             env_source: self.env_source,
+            diffusion: self.diffusion,
             ..CrmOptions::default()
         }
     }
@@ -98,6 +101,7 @@ fn parse() -> Result<Args, String> {
         sun_map: None,
         sky: None,
         max_lights: DecomposeOptions::default().max_lights,
+        save_sky: None,
         extract: true,
         gpu: false,
         cache: None,
@@ -163,6 +167,7 @@ fn parse() -> Result<Args, String> {
                 ));
             }
             "--max-lights" => a.max_lights = num(v()?)? as usize,
+            "--save-sky" => a.save_sky = Some(v()?.into()),
             "--no-sun-extraction" => a.extract = false,
             "--gpu" => a.gpu = true,
             "--cache" => a.cache = Some(v()?.into()),
@@ -184,7 +189,7 @@ fn parse() -> Result<Args, String> {
         *g = grid;
     }
     if a.input.is_empty() {
-        return Err("usage: crm_accuracy VOLUME [--size WxH] [--spp N] [--sigma-t S] [--albedo A] [--g G] [--rbfs N] [--eye X,Y,Z --target X,Y,Z] [--sun-map ELEV,AZIM,ANGLE,RATIO | --sky CLASS,ELEV,AZIM [--max-lights N] [--no-sun-extraction]] [--table fig6|order|rbfs|slices|cg|sun|ms|reference|all] [--cache DIR] [--diffusion centers|grid[:F]|orders[:F[:K]]] [--env centers|grid] [--env-spacing VOXELS] [--env-theta N] [--gpu]".into());
+        return Err("usage: crm_accuracy VOLUME [--size WxH] [--spp N] [--sigma-t S] [--albedo A] [--g G] [--rbfs N] [--eye X,Y,Z --target X,Y,Z] [--sun-map ELEV,AZIM,ANGLE,RATIO | --sky CLASS,ELEV,AZIM [--max-lights N] [--save-sky FILE.exr] [--no-sun-extraction]] [--table fig6|order|rbfs|slices|cg|sun|ms|reference|all] [--cache DIR] [--diffusion centers|grid[:F]|orders[:F[:K]]] [--env centers|grid] [--env-spacing VOXELS] [--env-theta N] [--gpu]".into());
     }
     Ok(a)
 }
@@ -333,6 +338,17 @@ fn main() {
         }
         (None, Some((class, elev, azim))) => {
             let map = sky_map(class, *elev, *azim);
+            if let Some(path) = &a.save_sky {
+                let image = Image {
+                    width: map.width,
+                    height: map.height,
+                    pixels: map.texels.clone(),
+                };
+                image
+                    .write_exr(path)
+                    .expect("--save-sky: the map is written");
+                println!("# sky written to {}", path.display());
+            }
             let t = Instant::now();
             let env = user_env(map.clone(), a.extract, a.max_lights);
             println!(
