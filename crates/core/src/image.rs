@@ -214,17 +214,7 @@ fn write_atomically(
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
-    let mut builder = tempfile::Builder::new();
-    // Created 0644 less the umask, as every other output (a plain temporary file is 0600).
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        builder.permissions(std::fs::Permissions::from_mode(0o644));
-    }
-    let mut tmp = builder
-        .prefix(".haze-out.")
-        .suffix(".tmp")
-        .tempfile_in(dir)
+    let mut tmp = crate::temp_output::temp_output(dir)
         .map_err(|e| err(format!("cannot create a temporary file ({e})")))?;
     {
         let mut out = BufWriter::new(tmp.as_file_mut());

@@ -7,6 +7,7 @@
 mod image;
 pub mod json;
 pub mod npy_header;
+pub mod temp_output;
 pub mod vec3;
 
 pub use image::{Image, ImageError, NonFinite};

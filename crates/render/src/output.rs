@@ -218,18 +218,7 @@ impl Drop for Created {
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     let dir = folder(path);
     let ctx = || format!("{}: cannot write", path.display());
-    let mut builder = tempfile::Builder::new();
-    // Created 0644 less the umask (a plain temporary file is 0600).
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        builder.permissions(std::fs::Permissions::from_mode(0o644));
-    }
-    let mut tmp = builder
-        .prefix(".haze-out.")
-        .suffix(".tmp")
-        .tempfile_in(&dir)
-        .with_context(ctx)?;
+    let mut tmp = haze_core::temp_output::temp_output(&dir).with_context(ctx)?;
     tmp.write_all(bytes).with_context(ctx)?;
     tmp.persist(path).map_err(|e| e.error).with_context(ctx)?;
     Ok(())

@@ -115,27 +115,13 @@ impl LatLong {
         let (theta, phi) = angles(d);
         let (w, h) = (self.width as f64, self.height as f64);
         // Continuous texel coordinates with centers at integers.
-        let fx = phi / (2.0 * PI) * w - 0.5;
-        let fy = (theta / PI * h - 0.5).clamp(0.0, h - 1.0);
-        let (x0, y0) = (fx.floor(), fy.floor());
-        let (tx, ty) = (fx - x0, fy - y0);
-        let xi = |x: f64| (x.rem_euclid(w) as usize).min(self.width - 1);
-        let (xa, xb) = (xi(x0), xi(x0 + 1.0));
-        let ya = y0 as usize;
-        let yb = (ya + 1).min(self.height - 1);
-        let mut out = [0.0; 3];
-        for (x, y, wgt) in [
-            (xa, ya, (1.0 - tx) * (1.0 - ty)),
-            (xb, ya, tx * (1.0 - ty)),
-            (xa, yb, (1.0 - tx) * ty),
-            (xb, yb, tx * ty),
-        ] {
-            let t = self.texel(x, y);
-            for c in 0..3 {
-                out[c] += wgt * t[c];
-            }
-        }
-        out
+        bilinear(
+            self.width,
+            self.height,
+            phi / (2.0 * PI) * w - 0.5,
+            theta / PI * h - 0.5,
+            |x, y| self.texel(x, y),
+        )
     }
 
     /// Direction through the center of texel `(x, y)` and the texel's solid angle.
@@ -146,6 +132,39 @@ impl LatLong {
         let solid = (2.0 * PI / w) * (t0.cos() - t1.cos());
         (direction(0.5 * (t0 + t1), phi), solid)
     }
+}
+
+/// The bilinear interpolation between the centers of a `width × height` lat-long grid at
+/// continuous texel coordinates `(fx, fy)` (centers at integers), wrapping in azimuth and
+/// clamped at the poles; `texel(x, y)` gives a texel's value.
+pub fn bilinear(
+    width: usize,
+    height: usize,
+    fx: f64,
+    fy: f64,
+    texel: impl Fn(usize, usize) -> Rgb,
+) -> Rgb {
+    let (w, h) = (width as f64, height as f64);
+    let fy = fy.clamp(0.0, h - 1.0);
+    let (x0, y0) = (fx.floor(), fy.floor());
+    let (tx, ty) = (fx - x0, fy - y0);
+    let xi = |x: f64| (x.rem_euclid(w) as usize).min(width - 1);
+    let (xa, xb) = (xi(x0), xi(x0 + 1.0));
+    let ya = y0 as usize;
+    let yb = (ya + 1).min(height - 1);
+    let mut out = [0.0; 3];
+    for (x, y, wgt) in [
+        (xa, ya, (1.0 - tx) * (1.0 - ty)),
+        (xb, ya, tx * (1.0 - ty)),
+        (xa, yb, (1.0 - tx) * ty),
+        (xb, yb, tx * ty),
+    ] {
+        let t = texel(x, y);
+        for c in 0..3 {
+            out[c] += wgt * t[c];
+        }
+    }
+    out
 }
 
 /// The built-in sky: a smooth, band-limited-looking sky that SH of low order represent

@@ -40,7 +40,7 @@
 //! disk of angular radius `ρ`: angle `2ρ = 2√(2⟨θ²⟩)`).
 
 use super::{Sun, basis, dot, unit};
-use crate::distant::{LatLong, Rgb};
+use crate::distant::{LatLong, Rgb, bilinear};
 use std::f64::consts::PI;
 
 /// Width of the coarse map the background and regions are found on (2.8° texels).
@@ -399,28 +399,13 @@ impl Coarse {
     /// (wrapping in azimuth, clamped at the poles), as [`LatLong::radiance`] looks up.
     fn background_at(&self, background: &[Rgb], x: usize, y: usize) -> Rgb {
         let (fw, fh) = (self.fine.0 as f64, self.fine.1 as f64);
-        let (w, h) = (self.width as f64, self.height as f64);
-        let fx = (x as f64 + 0.5) / fw * w - 0.5;
-        let fy = ((y as f64 + 0.5) / fh * h - 0.5).clamp(0.0, h - 1.0);
-        let (x0, y0) = (fx.floor(), fy.floor());
-        let (tx, ty) = (fx - x0, fy - y0);
-        let xi = |v: f64| (v.rem_euclid(w) as usize).min(self.width - 1);
-        let (xa, xb) = (xi(x0), xi(x0 + 1.0));
-        let ya = y0 as usize;
-        let yb = (ya + 1).min(self.height - 1);
-        let mut out = [0.0; 3];
-        for (cx, cy, wgt) in [
-            (xa, ya, (1.0 - tx) * (1.0 - ty)),
-            (xb, ya, tx * (1.0 - ty)),
-            (xa, yb, (1.0 - tx) * ty),
-            (xb, yb, tx * ty),
-        ] {
-            let b = background[cy * self.width + cx];
-            for c in 0..3 {
-                out[c] += wgt * b[c];
-            }
-        }
-        out
+        bilinear(
+            self.width,
+            self.height,
+            (x as f64 + 0.5) / fw * self.width as f64 - 0.5,
+            (y as f64 + 0.5) / fh * self.height as f64 - 0.5,
+            |cx, cy| background[cy * self.width + cx],
+        )
     }
 }
 
