@@ -420,6 +420,10 @@ fn suns_lights_and_a_maps_sun_reach_the_render() {
     assert!(log.contains("the map is black"), "{log}");
     let (whole, log) = render("whole.exr", &["--env", map, "--no-sun-extraction"]);
     assert!(!log.contains("sun split off"), "{log}");
+    assert!(
+        log.contains("kept whole by --no-sun-extraction it is blurred"),
+        "{log}"
+    );
     // The same light either way: the images agree in the mean within the SH blur.
     let (a, b) = (mean(&split), mean(&whole));
     assert!((a / b - 1.0).abs() < 0.2, "{a} vs {b}");
