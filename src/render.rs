@@ -140,6 +140,12 @@ pub struct RenderCli {
     /// the GPU with --gpu), instead of paper C's airlight and paper D's fog colour.
     #[arg(long, requires = "scene", conflicts_with = "reference")]
     march: bool,
+    /// With --scene, Gaussian media (paper B): at most this many Gaussians whose shadows
+    /// or hosting of a light paper B takes exactly along each integrated (light,
+    /// Gaussian) pair (0-16; more is more exact and slower) [default: 16; 4 with --gpu
+    /// on a CPU device such as lavapipe, whose shader loops are limited]
+    #[arg(long, requires = "scene", value_parser = clap::value_parser!(u8).range(0..=16))]
+    exact_per_pair: Option<u8>,
     #[command(flatten)]
     import: ImportArgs,
 }
@@ -281,6 +287,7 @@ pub fn run(r: RenderCli) -> Result<()> {
             exposure: r.exposure,
             time: r.time,
             march: r.march,
+            exact_per_pair: r.exact_per_pair.map(usize::from),
         }),
         None => {
             let (mut options, goal, tradeoff) = r.into_args();

@@ -135,6 +135,12 @@ impl GaussianSet {
         (t, s)
     }
 
+    /// The Gaussians whose negligible radius (where their optical depth falls below
+    /// `DEPTH_EPSILON`) plus `margin` the segment `o + t·d`, `t ∈ [0, len]`, passes within.
+    pub fn near_segment(&self, o: Vec3, d: Vec3, len: f64, margin: f64, f: impl FnMut(usize)) {
+        self.exact.segment_within(o, d, len, margin, f);
+    }
+
     /// The Gaussians whose cull sphere the segment crosses.
     pub fn on_segment(&self, o: Vec3, d: Vec3, len: f64, f: impl FnMut(usize)) {
         self.cull.segment(o, d, len, f);

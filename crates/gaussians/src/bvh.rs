@@ -53,15 +53,28 @@ impl SphereBvh {
 
     /// Calls `f(i)` for every sphere within its radius of the segment `o + t·d`,
     /// `t ∈ [0, len]` (unit `d`; `len` may be `∞`).
-    pub fn segment(&self, o: Vec3, d: Vec3, len: f64, mut f: impl FnMut(usize)) {
-        if self.nodes.is_empty() || len.is_nan() || len < 0.0 {
+    pub fn segment(&self, o: Vec3, d: Vec3, len: f64, f: impl FnMut(usize)) {
+        self.segment_within(o, d, len, 0.0, f);
+    }
+
+    /// Calls `f(i)` for every sphere within its radius plus `margin` (`≥ 0`) of the
+    /// segment `o + t·d`, `t ∈ [0, len]` (unit `d`; `len` may be `∞`).
+    pub fn segment_within(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        len: f64,
+        margin: f64,
+        mut f: impl FnMut(usize),
+    ) {
+        if self.nodes.is_empty() || len.is_nan() || len < 0.0 || margin.is_nan() || margin < 0.0 {
             return;
         }
         let inv = d.map(|x| 1.0 / x);
         let mut stack = vec![0usize];
         while let Some(k) = stack.pop() {
             let node = &self.nodes[k];
-            if !slab(node, o, inv, len) {
+            if !slab(node, o, inv, len, margin) {
                 continue;
             }
             if node.count > 0 {
@@ -69,7 +82,8 @@ impl SphereBvh {
                     let bp = sub(self.centers[i], o);
                     let t = dot(bp, d).clamp(0.0, len);
                     let x = axpy(bp, -t, d);
-                    if dot(x, x) <= self.radii[i] * self.radii[i] {
+                    let r = self.radii[i] + margin;
+                    if dot(x, x) <= r * r {
                         f(i);
                     }
                 }
@@ -106,19 +120,20 @@ impl SphereBvh {
     }
 }
 
-/// Whether the segment meets the node's box (slab method; `inv` = `1/d`, infinite for a
-/// zero component, where `0·∞` gives NaN and the origin's own slab decides).
-fn slab(node: &Node, o: Vec3, inv: Vec3, len: f64) -> bool {
+/// Whether the segment meets the node's box grown by `margin` (slab method; `inv` = `1/d`,
+/// infinite for a zero component, where `0·∞` gives NaN and the origin's own slab decides).
+fn slab(node: &Node, o: Vec3, inv: Vec3, len: f64, margin: f64) -> bool {
     let (mut t0, mut t1) = (0.0f64, len);
     for k in 0..3 {
+        let (lo, hi) = (node.min[k] - margin, node.max[k] + margin);
         if inv[k].is_infinite() {
-            if o[k] < node.min[k] || o[k] > node.max[k] {
+            if o[k] < lo || o[k] > hi {
                 return false;
             }
             continue;
         }
-        let a = (node.min[k] - o[k]) * inv[k];
-        let b = (node.max[k] - o[k]) * inv[k];
+        let a = (lo - o[k]) * inv[k];
+        let b = (hi - o[k]) * inv[k];
         t0 = t0.max(a.min(b));
         t1 = t1.min(a.max(b));
         if t0 > t1 {
@@ -224,6 +239,21 @@ mod tests {
                 })
                 .collect();
             assert_eq!(got, want, "segment {o:?} {d:?} {len}");
+            // The same with every radius grown by a margin.
+            let margin = lcg(&mut s) * 0.7;
+            let mut got = Vec::new();
+            bvh.segment_within(o, d, len, margin, |i| got.push(i));
+            got.sort_unstable();
+            let want: Vec<usize> = (0..n)
+                .filter(|&i| {
+                    let bp = sub(centers[i], o);
+                    let t = dot(bp, d).clamp(0.0, len);
+                    let x = axpy(bp, -t, d);
+                    let r = radii[i] + margin;
+                    radii[i] > 0.0 && dot(x, x) <= r * r
+                })
+                .collect();
+            assert_eq!(got, want, "segment within {margin} {o:?} {d:?} {len}");
             let mut got = Vec::new();
             bvh.point(o, |i| got.push(i));
             got.sort_unstable();

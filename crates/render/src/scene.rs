@@ -39,6 +39,8 @@ pub struct SceneJob {
     pub time: f64,
     /// Single scattering through every medium by `haze_scene::march`.
     pub march: bool,
+    /// Paper B's `PaperBOptions::max_exact`; `None`: the device's default.
+    pub exact_per_pair: Option<usize>,
 }
 
 /// The files a scene file names (its models, maps and assets, relative to its folder):
@@ -238,7 +240,11 @@ fn run_hetero(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Res
         let gpu_err = |e: GpuError| anyhow!("--gpu: {}: {e}", a.scene.display());
         let ctx = GpuContext::new().map_err(gpu_err)?;
         let analytic = Analytic::new(scene);
-        let prep = Prepared::new(scene, &analytic, PaperBOptions::default()).map_err(fail)?;
+        let mut options = haze_scene::gpu::paper_b::options(&ctx);
+        if let Some(n) = a.exact_per_pair {
+            options.max_exact = n;
+        }
+        let prep = Prepared::new(scene, &analytic, options).map_err(fail)?;
         log_integrated(&prep);
         let tables = GpuRenderer::new(&ctx, &analytic).map_err(gpu_err)?;
         let frame = Instant::now();
@@ -254,7 +260,11 @@ fn run_hetero(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Res
         (image, what)
     } else {
         let analytic = Analytic::new(scene);
-        let prep = Prepared::new(scene, &analytic, PaperBOptions::default()).map_err(fail)?;
+        let mut options = PaperBOptions::default();
+        if let Some(n) = a.exact_per_pair {
+            options.max_exact = n;
+        }
+        let prep = Prepared::new(scene, &analytic, options).map_err(fail)?;
         log_integrated(&prep);
         let image = paper_b::render(&prep, &Limits::default(), &progress);
         (image, prep.name())
@@ -278,8 +288,22 @@ fn run_hetero(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Res
 }
 
 /// With `-v`: each (light, Gaussian) pair paper B integrates along the ray and its bound
-/// on the factorization's error (the summary line gives their count).
+/// on the factorization's error (the summary line gives their count). Always: a warning
+/// when the pairs' lists had no room for every Gaussian whose shadow crosses them.
 fn log_integrated(prep: &Prepared<'_>) {
+    let left = prep.left_at_centres();
+    if left.shadows > 0 {
+        tracing::warn!(
+            "paper B: {} Gaussian shadows across {} integrated pairs taken at the pairs' centres \
+             (more than {} a pair; the largest errs by {:.1} % there): \
+             the picture may be off where they fall partly across a lit Gaussian; --reference \
+             renders it exactly",
+            left.shadows,
+            left.pairs,
+            paper_b::MAX_EXACT,
+            100.0 * left.largest
+        );
+    }
     for (l, i, bound) in prep.integrated_list() {
         let why = if bound.is_finite() {
             format!("error bound {:.1} %", 100.0 * bound)

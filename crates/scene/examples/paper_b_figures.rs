@@ -40,7 +40,7 @@
 use haze_gaussians::cloud;
 use haze_gpu::GpuContext;
 use haze_scene::gpu::GpuRenderer;
-use haze_scene::gpu::paper_b::GpuPaperB;
+use haze_scene::gpu::paper_b::{CPU_DEVICE_EXACT, GpuPaperB};
 use haze_scene::march;
 use haze_scene::paper_b::{self, PaperBOptions, Prepared};
 use haze_scene::paper_c::airlight::Limits;
@@ -520,10 +520,21 @@ fn lamp_error(s: &Scene, a: &Image, r: &Image) -> f64 {
 
 /// The median of 3 CPU frames of `s` at `target` (ms), and the last image.
 fn timed(s: &Scene, analytic: &Analytic, target: f64) -> (f64, Image, (usize, usize)) {
+    timed_with(s, analytic, target, paper_b::MAX_EXACT)
+}
+
+/// [`timed`] with at most `max_exact` Gaussians exact per integrated pair.
+fn timed_with(
+    s: &Scene,
+    analytic: &Analytic,
+    target: f64,
+    max_exact: usize,
+) -> (f64, Image, (usize, usize)) {
     // The march has no light scattered onto surfaces.
     let options = PaperBOptions {
         target,
         surface_scattering: false,
+        max_exact,
     };
     let mut times = Vec::new();
     let mut last = None;
@@ -541,9 +552,9 @@ fn timed(s: &Scene, analytic: &Analytic, target: f64) -> (f64, Image, (usize, us
 fn lamps(args: &[String]) {
     let check = args.iter().any(|a| a == "--check");
     println!(
-        "| scene | closed form | integrated pairs | with them | closed form ms | with them ms | reference s |"
+        "| scene | closed form | integrated pairs | with them | with them, {CPU_DEVICE_EXACT} exact | closed form ms | with them ms | {CPU_DEVICE_EXACT} exact ms | reference s |"
     );
-    println!("|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|");
     for path in args[1..].iter().filter(|a| !a.starts_with("--")) {
         let s = file::load(std::path::Path::new(path)).unwrap_or_else(|e| fail(e));
         let analytic = Analytic::new(&s);
@@ -552,10 +563,12 @@ fn lamps(args: &[String]) {
         let tr = t.elapsed().as_secs_f64();
         let (t0, closed, _) = timed(&s, &analytic, f64::INFINITY);
         let (t1, acc, (k, n)) = timed(&s, &analytic, paper_b::DEFAULT_TARGET);
+        let (t4, four, _) = timed_with(&s, &analytic, paper_b::DEFAULT_TARGET, CPU_DEVICE_EXACT);
         println!(
-            "| {path} | {:.2} % | {k} of {n} | {:.2} % | {t0:.0} | {t1:.0} | {tr:.1} |",
+            "| {path} | {:.2} % | {k} of {n} | {:.2} % | {:.2} % | {t0:.0} | {t1:.0} | {t4:.0} | {tr:.1} |",
             100.0 * lamp_error(&s, &closed, &r),
-            100.0 * lamp_error(&s, &acc, &r)
+            100.0 * lamp_error(&s, &acc, &r),
+            100.0 * lamp_error(&s, &four, &r)
         );
         if check {
             let mut s = s.clone();

@@ -24,8 +24,10 @@ override NOISE_OFFSET_2_Z: f32;
 @group(0) @binding(7) var<storage, read> blobs: array<vec4<f32>>;
 // Per light l and Gaussian i at l·n + i: e^{Eᵢ} per channel and, when the pair is
 // integrated along the ray (haze_gaussians::integrated), e^{Eᵢ} of the Gaussians alone
-// without the hosts (−1: the closed form); then per light (C_sv, C_sv without the hosts, host count, -);
-// then per light its hosts' indices (h0, h1, h2, -); with an environment, per Gaussian (αᵢ·Ēᵢ·e^{Eᵢ}, -) and (Ē, β_bg·D) (gaussian_env);
+// without the light's exact list (−1: the closed form); then per light (C_sv, C_sv without
+// the exact list, its length, -); then per light the list's indices in EXACT_RECORDS
+// records (four a record); then per light l and Gaussian i at l·n + i the pair's list in
+// EXACT_RECORDS records (−1 past its end); with an environment, per Gaussian (αᵢ·Ēᵢ·e^{Eᵢ}, -) and (Ē, β_bg·D) (gaussian_env);
 // then (n, 1 if a background hides the suns, 1 if noise records follow, environment: 0
 // none, 1 without, 2 with its light scattered onto surfaces) and (σs of the scene's
 // homogeneous media, -).
@@ -222,7 +224,8 @@ fn env_mode() -> u32 {
 }
 
 fn env_base(n_g: u32) -> u32 {
-    return P.size.z * n_g + 2u * P.size.z;
+    let n_l = P.size.z;
+    return n_l * n_g + (1u + EXACT_RECORDS) * n_l + EXACT_RECORDS * n_l * n_g;
 }
 
 // haze_gaussians::integrated: Gauss–Legendre on [−1, 1] (6 nodes), the chord in radii,
@@ -231,36 +234,49 @@ const GL_X = array<f32, 6>(-0.93246951, -0.66120939, -0.23861919, 0.23861919, 0.
 const GL_W = array<f32, 6>(0.17132449, 0.36076157, 0.46791393, 0.46791393, 0.36076157, 0.17132449);
 const SUPPORT: f32 = 3.0;
 const HOST_NODES: u32 = 2u;
+// haze_gaussians::integrated::MAX_EXACT ids a list, four a record.
+const MAX_EXACT: u32 = 16u;
+const EXACT_RECORDS: u32 = 4u;
 
-// Σ over light l's hosts but `skip` of Tₖ(v, x) + Tₖ(x, s), x = t·dir
-// (paper_b::Prepared::radiance's `others`).
-fn host_depth_to(l: u32, n_g: u32, skip: u32, dir: vec3<f32>, t: f32, s: vec3<f32>) -> f32 {
+// The k-th Gaussian of light l's list for the homogeneous term (Lit::exact).
+fn exact_id(l: u32, n_g: u32, k: u32) -> u32 {
+    let rec = bexp[P.size.z * n_g + P.size.z + EXACT_RECORDS * l + k / 4u];
+    return u32(rec[k % 4u]);
+}
+
+// The k-th entry of the list of the pair (light l, Gaussian i) (Lit::pair_exact); −1
+// past its end.
+fn pair_entry(l: u32, i: u32, n_g: u32, k: u32) -> f32 {
     let n_l = P.size.z;
-    let count = u32(bexp[n_l * n_g + l].z);
-    if (count == 0u) {
-        return 0.0;
-    }
+    let base = n_l * n_g + (1u + EXACT_RECORDS) * n_l + EXACT_RECORDS * (l * n_g + i);
+    return bexp[base + k / 4u][k % 4u];
+}
+
+// Σ over the list of the pair (light l, Gaussian i) of Tₖ(v, x) + Tₖ(x, s), x = t·dir
+// (paper_b::Prepared::integrated_pair's `others`).
+fn pair_depth_to(l: u32, i: u32, n_g: u32, dir: vec3<f32>, t: f32, s: vec3<f32>) -> f32 {
     let x = t * dir;
     let ls = s - x;
     let d = length(ls);
-    let ids = bexp[n_l * n_g + n_l + l];
     var depth = 0.0;
-    for (var k = 0u; k < count; k++) {
-        let j = u32(ids[k]);
-        if (j != skip) {
-            let h0 = blobs[2u * j];
-            let hc = blobs[2u * j + 1u].x;
-            depth += line_gauss(hc, h0.w, h0.xyz, vec3<f32>(0.0), dir, t);
-            if (d > 0.0) {
-                depth += line_gauss(hc, h0.w, h0.xyz, x, ls / d, d);
-            }
+    for (var k = 0u; k < MAX_EXACT; k++) {
+        let e = pair_entry(l, i, n_g, k);
+        if (e < 0.0) {
+            break;
+        }
+        let j = u32(e);
+        let h0 = blobs[2u * j];
+        let hc = blobs[2u * j + 1u].x;
+        depth += line_gauss(hc, h0.w, h0.xyz, vec3<f32>(0.0), dir, t);
+        if (d > 0.0) {
+            depth += line_gauss(hc, h0.w, h0.xyz, x, ls / d, d);
         }
     }
     return depth;
 }
 
 // haze_gaussians::integrated::integrated for Gaussian i and light l, per channel, with the
-// hosts' depth towards the light and the eye per node; the caller multiplies by the light's power and
+// exact list's depth towards the light and the eye per node; the caller multiplies by the light's power and
 // the pair's exponent.
 fn pair_integral(i: u32, l: u32, n_g: u32, dir: vec3<f32>, t_end: f32, beta: vec3<f32>) -> vec3<f32> {
     let b0 = blobs[2u * i];
@@ -353,7 +369,7 @@ fn pair_integral(i: u32, l: u32, n_g: u32, dir: vec3<f32>, t_end: f32, beta: vec
                 let dd = max(d, r_min);
                 inv_d2 = 1.0 / (dd * dd);
                 path = t + d;
-                others = host_depth_to(l, n_g, i, dir, t, s);
+                others = pair_depth_to(l, i, n_g, dir, t, s);
             } else {
                 own_s = line_gauss(c, a, b, x, s, LONG);
             }
@@ -370,14 +386,14 @@ fn pair_integral(i: u32, l: u32, n_g: u32, dir: vec3<f32>, t_end: f32, beta: vec
     return out;
 }
 
-// haze_gaussians::integrated::host_ratio for point light l at s (0 hosts: 1).
+// haze_gaussians::integrated::host_ratio of light l's exact list, point light at s (an
+// empty list: 1).
 fn host_ratio(l: u32, n_g: u32, dir: vec3<f32>, t_end: f32, s: vec3<f32>, beta0: f32) -> f32 {
     let n_l = P.size.z;
     let count = u32(bexp[n_l * n_g + l].z);
     if (count == 0u || t_end <= 0.0) {
         return 1.0;
     }
-    let ids = bexp[n_l * n_g + n_l + l];
     let ts = dot(s, dir);
     let hs = max(sqrt(max(dot(s, s) - ts * ts, 0.0)), P.sigma_t.w);
     let lo = atan(-ts / hs);
@@ -409,7 +425,7 @@ fn host_ratio(l: u32, n_g: u32, dir: vec3<f32>, t_end: f32, s: vec3<f32>, beta0:
                 }
                 var depth = 0.0;
                 for (var j = 0u; j < count; j++) {
-                    let h = u32(ids[j]);
+                    let h = exact_id(l, n_g, j);
                     let h0 = blobs[2u * h];
                     let hc = blobs[2u * h + 1u].x;
                     depth += line_gauss(hc, h0.w, h0.xyz, vec3<f32>(0.0), dir, t);

@@ -102,7 +102,9 @@ fn compare(name: &str, s: &Scene) -> Image {
 /// [`compare`] with at most `outliers` of the pixels allowed to differ.
 fn compare_with(name: &str, s: &Scene, outliers_allowed: f64) -> Image {
     let (analytic, tables) = tables();
-    let prep = Prepared::new(s, analytic, PaperBOptions::default()).unwrap();
+    // The device's options (fewer Gaussians exact per pair on lavapipe), the CPU twin
+    // prepared with the same.
+    let prep = Prepared::new(s, analytic, haze_scene::gpu::paper_b::options(context())).unwrap();
     let (k, n) = prep.integrated_pairs();
     println!("{name}: {k} of {n} light–gaussian pairs integrated along the ray");
     let lim = Limits::default();
@@ -160,7 +162,7 @@ fn sky_through_the_average_optical_depth() {
         analytic,
         PaperBOptions {
             surface_scattering: false,
-            ..Default::default()
+            ..haze_scene::gpu::paper_b::options(context())
         },
     )
     .unwrap();

@@ -76,6 +76,7 @@ fn options(target: f64) -> PaperBOptions {
     PaperBOptions {
         surface_scattering: false,
         target,
+        ..Default::default()
     }
 }
 
@@ -178,6 +179,54 @@ fn dense_gaussian_near_a_light_is_integrated() {
     );
     assert!(closed > 0.5, "closed form: rel RMS {closed}");
     assert!(e < 0.03, "integrated: rel RMS {e}");
+}
+
+#[test]
+fn shadows_across_lit_gaussians_and_in_the_fog_are_exact() {
+    // A lamp inside a dense Gaussian (peak depth 3.7) lighting four dense neighbours, two
+    // of which shade others, in a background fog (0.15): taken at the centres as in the
+    // paper, the neighbours' shadows across the lit Gaussians are all or nothing and the
+    // fog's light shafts are missing. With the pairs' shadowers and the fog's casters
+    // exact per node the image is within 3 % of the march (measured 0.05 %); with no
+    // Gaussian exact (`max_exact` 0: the hosts too at the centre) it is 89 % off.
+    // The lamp is above the view (its glow on the pixels is a disc mean for paper C and
+    // a centre ray for the march).
+    let text = r#"{"camera": {"eye": [1.5, -4.5, 1.6], "target": [-0.2, 0.4, 0.2], "fov": 26, "width": 20, "height": 15},
+        "environment": [0, 0, 0],
+        "lights": [{"type": "point", "position": [-0.9, 0.5, 1.9], "intensity": [5, 4, 2.5]}],
+        "media": [{"type": "gaussians", "sigma_t": 1.0, "albedo": 0.8, "background": 0.15, "gaussians": [
+            {"center": [-1.0, 0.6, 1.8], "radius": 0.7, "weight": 3.0},
+            {"center": [0.3, 0.0, 1.2], "radius": 0.4, "weight": 1.2},
+            {"center": [-0.4, 0.3, 0.6], "radius": 0.35, "weight": 4.0},
+            {"center": [0.1, 1.2, 0.5], "radius": 0.8, "weight": 0.6},
+            {"center": [-0.2, -0.6, 1.3], "radius": 0.3, "weight": 2.5}]}],
+        "surfaces": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1], "material": {"diffuse": [0.5, 0.5, 0.5]}}]}"#;
+    let s = file::parse(text).unwrap();
+    assert!(
+        s.camera
+            .project([-0.9, 0.5, 1.9])
+            .is_none_or(|(_, y)| y < -2.0)
+    );
+    let r = march::render(
+        &s,
+        &Limits::default(),
+        &paper_b::reference_options(&s, 6),
+        &|_| {},
+    );
+    let at = |max_exact: usize| {
+        let options = PaperBOptions {
+            max_exact,
+            ..options(paper_b::DEFAULT_TARGET)
+        };
+        let prep = Prepared::new(&s, analytic(), options).unwrap();
+        paper_b::render(&prep, &Limits::default(), &|_| {}).rel_rms(&r)
+    };
+    let (none, exact) = (at(0), at(paper_b::MAX_EXACT));
+    println!(
+        "lamp among dense Gaussians in fog: rel RMS {none:.4} at the centres, {exact:.4} exact"
+    );
+    assert!(none > 0.1, "at the centres: rel RMS {none}");
+    assert!(exact < 0.03, "exact: rel RMS {exact}");
 }
 
 #[test]

@@ -25,9 +25,10 @@
 //!
 //! Pairs integrated along the ray ([`haze_gaussians::integrated`], where the bound on the
 //! factorization's error exceeds [`crate::paper_b::PaperBOptions::target`]): the CPU
-//! uploads each pair's exponent without the hosts and each light's hosts; the shader
-//! integrates as the CPU does (6-node Gauss–Legendre in the angle from the light, the
-//! hosts' depths per node) and scales the homogeneous term by the hosts' ratio.
+//! uploads each pair's exponent without the light's exact list (its hosts, shadowers and
+//! fog casters) and that list; the shader integrates as the CPU does (6-node
+//! Gauss–Legendre in the angle from the light, the list's depths per node) and scales
+//! the homogeneous term by the list's ratio.
 //!
 //! The environment ([`crate::paper_b::gaussian_env`]): the CPU uploads each Gaussian's
 //! `αᵢ·Ēᵢ·e^{Eᵢ}` and `(Ē, β_bg·D)`; the shader adds `e^{−Tᵢ(v,bᵢʳ) − T̄ᵢ(bᵢʳ)}·Tᵢ(v,p)`
@@ -44,7 +45,7 @@
 
 use super::GpuRenderer;
 use super::shaders;
-use crate::paper_b::Prepared;
+use crate::paper_b::{PaperBOptions, Prepared};
 use crate::paper_c::airlight::Limits;
 use crate::render::Image;
 use crate::vec3::{norm, sub};
@@ -147,14 +148,17 @@ impl GpuPaperB {
             }
         }
         for l in &prep.lights {
-            bexp.push([l.c_sv as f32, l.c_sv_rest as f32, l.hosts.len() as f32, 0.0]);
+            bexp.push([l.c_sv as f32, l.c_sv_rest as f32, l.exact.len() as f32, 0.0]);
+        }
+        // Each light's list for the homogeneous term, then each pair's list, in
+        // MAX_EXACT / 4 records (paper_b.wgsl's EXACT_RECORDS; −1 past a pair's end).
+        for l in &prep.lights {
+            push_ids(&mut bexp, &l.exact, 0.0);
         }
         for l in &prep.lights {
-            let mut ids = [0.0f32; 4];
-            for (k, &h) in l.hosts.iter().enumerate() {
-                ids[k] = h as f32;
+            for list in &l.pair_exact {
+                push_ids(&mut bexp, list, -1.0);
             }
-            bexp.push(ids);
         }
         // The environment (crate::paper_b::gaussian_env): αᵢ·Ēᵢ·e^{Eᵢ} per Gaussian, then (Ē, β_bg·D).
         let env_flag = match &prep.env {
@@ -220,6 +224,41 @@ impl GpuPaperB {
             Some((prep.beta0, prep.sigma_s0)),
             &[&blobs, &bexp],
         )
+    }
+}
+
+/// The most Gaussians an integrated pair takes exactly per node on a CPU device
+/// (lavapipe): Mesa's CPU driver ends an invocation's loops after 65535 iterations in
+/// all (`crate::gpu::march`'s module docs), and each entry costs every node of every
+/// integrated pair a ray crosses an iteration — with 16 the 150 dense Gaussians around a
+/// lamp of `tests/gpu_paper_b.rs`'s wide scene left two tiles black, with 8 one, with 4
+/// none.
+pub const CPU_DEVICE_EXACT: usize = 4;
+
+/// Paper B's default options for rendering on `ctx`'s device: [`CPU_DEVICE_EXACT`] Gaussians
+/// exact per integrated pair on a CPU device, `MAX_EXACT` elsewhere. Prepare the scene
+/// with these (and the CPU twin with the same, to compare).
+pub fn options(ctx: &GpuContext) -> PaperBOptions {
+    let max_exact = if ctx.adapter_info().device_type == wgpu::DeviceType::Cpu {
+        CPU_DEVICE_EXACT
+    } else {
+        crate::paper_b::MAX_EXACT
+    };
+    PaperBOptions {
+        max_exact,
+        ..PaperBOptions::default()
+    }
+}
+
+/// Appends a list of Gaussian indices (at most `MAX_EXACT`) as `MAX_EXACT / 4` records,
+/// `fill` past its end.
+fn push_ids(bexp: &mut Vec<[f32; 4]>, list: &[usize], fill: f32) {
+    let mut ids = [fill; crate::paper_b::MAX_EXACT];
+    for (slot, &h) in ids.iter_mut().zip(list) {
+        *slot = h as f32;
+    }
+    for rec in ids.chunks(4) {
+        bexp.push([rec[0], rec[1], rec[2], rec[3]]);
     }
 }
 

@@ -36,6 +36,7 @@
 //!   Gaussians' `Tᵢ(v,p)` is integrated ([`haze_gaussians::noise`]).
 
 pub mod gaussian_env;
+mod pairs;
 
 use crate::media::HeteroMedium;
 use crate::paper_c::airlight::{self, Limits, attenuated_length, effective_light, light_off_point};
@@ -45,9 +46,13 @@ use crate::vec3::{Vec3, axpy, dot, norm, reflect, scale, sub};
 use gaussian_env::GaussianEnv;
 use haze_gaussians::airlight::{GaussianSet, Source, factored, projection};
 use haze_gaussians::average::gaussian_mean_depth;
-use haze_gaussians::integrated::{MAX_HOSTS, bound, host_depth, host_ratio, integrated};
+/// The most Gaussians an integrated pair (and the homogeneous term) takes exactly per node.
+pub use haze_gaussians::integrated::MAX_EXACT;
+use haze_gaussians::integrated::{bound, host_ratio, integrated};
 use haze_gaussians::line;
 use haze_gaussians::noise::Noise;
+pub use pairs::LeftAtCentres;
+use pairs::{PairTerms, pair_terms};
 use rayon::prelude::*;
 use std::f64::consts::PI;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -61,6 +66,10 @@ pub struct PaperBOptions {
     /// pair (by [`haze_gaussians::integrated::bound`]); pairs above it are integrated.
     /// `∞`: the paper's closed form everywhere.
     pub target: f64,
+    /// The most Gaussians an integrated pair (and the homogeneous term) takes exactly per
+    /// node, at most [`MAX_EXACT`]; fewer on a device that limits a shader's loops
+    /// (`crate::gpu::paper_b::options`).
+    pub max_exact: usize,
 }
 
 /// The default [`PaperBOptions::target`]: 2 %, inside the issue's 3 % goal with room for
@@ -72,6 +81,7 @@ impl Default for PaperBOptions {
         PaperBOptions {
             surface_scattering: true,
             target: DEFAULT_TARGET,
+            max_exact: MAX_EXACT,
         }
     }
 }
@@ -84,17 +94,26 @@ pub(crate) struct Lit {
     pub(crate) power: Rgb,
     /// `e^{Eᵢ}` per Gaussian and channel.
     pub(crate) center: Vec<Rgb>,
-    /// Per Gaussian: `e^{Eᵢ}` of the Gaussians but the hosts (whose depths towards the
+    /// Per Gaussian: `e^{Eᵢ}` of the Gaussians but [`Lit::pair_exact`] (whose depths towards the
     /// light and the eye are taken per node) when the pair is integrated along the ray
     /// ([`PaperBOptions::target`]), `None` where the closed form serves.
     pub(crate) integrated: Vec<Option<f64>>,
     /// `e^{−Σᵢ Tᵢ(s, v)}` (a sun: the Gaussians from the eye towards it).
     pub(crate) c_sv: f64,
-    /// The Gaussians the point light sits inside (`haze_gaussians::integrated`'s hosts),
-    /// at most `MAX_HOSTS`, nearest first; their `Tₖ(s, ·)` and `Tₖ(·, v)` are left out of
-    /// [`Lit::integrated`]'s exponents and of `c_sv_rest`.
-    pub(crate) hosts: Vec<usize>,
-    /// `C_sv` without the hosts (the homogeneous term takes theirs per ray).
+    /// Per Gaussian whose pair is integrated: the Gaussians whose attenuation the pair
+    /// takes per node, at most `MAX_EXACT` — the hosts the point light sits inside
+    /// (`haze_gaussians::integrated`'s, at most `MAX_HOSTS`, nearest first) but itself,
+    /// then the pair's shadowers ([`haze_gaussians::integrated::shadowers`]); left out of
+    /// its exponent in [`Lit::integrated`]. Empty elsewhere.
+    pub(crate) pair_exact: Vec<Vec<usize>>,
+    /// The shadowers the pairs' lists had no room for.
+    pub(crate) left: LeftAtCentres,
+    /// The homogeneous term's list, at most `MAX_EXACT`: the hosts and, where the
+    /// homogeneous part scatters, the Gaussians that shade it
+    /// ([`haze_gaussians::integrated::fog_casters`]); their `Tₖ(s, v)` is left out of
+    /// `c_sv_rest` and their attenuation taken per node by `host_ratio`.
+    pub(crate) exact: Vec<usize>,
+    /// `C_sv` without the exact list (the homogeneous term takes theirs per ray).
     pub(crate) c_sv_rest: f64,
 }
 
@@ -187,31 +206,25 @@ impl<'a> Prepared<'a> {
                     .into_par_iter()
                     .map(|i| -(set.depth_to_light(i, source) + to_eye[i]))
                     .collect();
-                let center = set
-                    .blobs()
-                    .iter()
-                    .zip(&g)
-                    .map(|(b, e)| {
-                        let to_eye = norm(sub(eye, b.center));
-                        [0, 1, 2].map(|c| {
-                            let path = match source {
-                                Source::Point(s) => beta0[c] * (norm(sub(s, b.center)) + to_eye),
-                                Source::Sun(_) if bg > 0.0 => f64::INFINITY,
-                                Source::Sun(_) => beta0[c] * to_eye,
-                            };
-                            (e - path).exp()
-                        })
-                    })
-                    .collect();
-                let (integrated, hosts, c_sv, c_sv_rest) =
-                    pair_terms(&set, source, eye, &g, bg > 0.0, options.target);
+                let center = center_factors(&set, source, eye, &g, beta0, bg > 0.0);
+                let fog = sigma_s0.iter().any(|&x| x > 0.0);
+                let PairTerms {
+                    integrated,
+                    pair_exact,
+                    left,
+                    exact,
+                    c_sv,
+                    c_sv_rest,
+                } = pair_terms(&set, source, eye, &g, bg > 0.0, fog, &options);
                 Lit {
                     source,
                     power,
                     center,
                     integrated,
                     c_sv,
-                    hosts,
+                    pair_exact,
+                    left,
+                    exact,
                     c_sv_rest,
                 }
             })
@@ -257,6 +270,17 @@ impl<'a> Prepared<'a> {
         (k, n)
     }
 
+    /// The shadowers the integrated pairs' lists had no room for, over every light.
+    pub fn left_at_centres(&self) -> LeftAtCentres {
+        let mut all = LeftAtCentres::default();
+        for l in &self.lights {
+            all.pairs += l.left.pairs;
+            all.shadows += l.left.shadows;
+            all.largest = all.largest.max(l.left.largest);
+        }
+        all
+    }
+
     /// The integrated pairs: `(light index, Gaussian index, bound)`.
     pub fn integrated_list(&self) -> Vec<(usize, usize, f64)> {
         let mut out = Vec::new();
@@ -288,12 +312,12 @@ impl<'a> Prepared<'a> {
         let eye = self.scene.camera.eye;
         let b = &self.set.blobs()[i];
         let others = |t: f64| match l.source {
-            Source::Point(sp) if !l.hosts.is_empty() => {
+            Source::Point(sp) if !l.pair_exact[i].is_empty() => {
                 let x = axpy(eye, t, dir);
                 let ls = sub(sp, x);
                 let d = norm(ls);
                 let mut depth = 0.0;
-                for &k in l.hosts.iter().filter(|&&k| k != i) {
+                for &k in &l.pair_exact[i] {
                     let h = &self.set.blobs()[k];
                     depth += line::gaussian(h.c, h.a, h.center, eye, dir, t);
                     if d > 0.0 {
@@ -371,10 +395,10 @@ impl<'a> Prepared<'a> {
         for l in &self.lights {
             match l.source {
                 Source::Point(s) => {
-                    let c_sv = if l.hosts.is_empty() {
+                    let c_sv = if l.exact.is_empty() {
                         l.c_sv
                     } else {
-                        let hosts: Vec<_> = l.hosts.iter().map(|&k| self.set.blobs()[k]).collect();
+                        let hosts: Vec<_> = l.exact.iter().map(|&k| self.set.blobs()[k]).collect();
                         let b0 = self.beta0.iter().sum::<f64>() / 3.0;
                         l.c_sv_rest * host_ratio(&hosts, eye, dir, t_end, s, lim.r_min, b0)
                     };
@@ -494,92 +518,40 @@ impl<'a> Prepared<'a> {
     pub fn name(&self) -> String {
         let (k, n) = self.integrated_pairs();
         format!(
-            "paper B, {} gaussians, {k} of {n} light–gaussian pairs integrated along the ray ({})",
+            "paper B, {} gaussians, {k} of {n} light–gaussian pairs integrated along the ray \
+             (at most {} gaussians exact a pair) ({})",
             self.gaussian_count(),
+            self.options.max_exact.min(MAX_EXACT),
             self.analytic.name()
         )
     }
 }
 
-/// The integrated path's terms of one light (module docs): per Gaussian the pair's
-/// `e^{Eᵢ}` without the hosts where its bound exceeds `target`, the light's hosts, `C_sv`
-/// and `C_sv` without the hosts; `g` holds the Gaussians' `Eᵢ`, `background` whether a
-/// background hides the suns.
-fn pair_terms(
+/// `e^{Eᵢ}` per Gaussian and channel: the Gaussians' exponents `g` plus the homogeneous
+/// part `β0` along `s → bᵢ → v` (a sun: along `bᵢ → v`, and hidden by a `background`).
+fn center_factors(
     set: &GaussianSet,
     source: Source,
     eye: Vec3,
     g: &[f64],
+    beta0: Rgb,
     background: bool,
-    target: f64,
-) -> (Vec<Option<f64>>, Vec<usize>, f64, f64) {
-    let hosts = hosts_of(set, source, target);
-    // Tₖ(s, bᵢ) + Tₖ(bᵢ, v) of the hosts, taken out of Eᵢ (evaluated per node).
-    let host_share = |i: usize| -> f64 {
-        let (Source::Point(s), b) = (source, set.blobs()[i].center) else {
-            return 0.0;
-        };
-        let (u, d) = (sub(s, b), norm(sub(s, b)));
-        let (w, dw) = (sub(eye, b), norm(sub(eye, b)));
-        hosts
-            .iter()
-            .filter(|&&k| k != i)
-            .map(|&k| {
-                let h = &set.blobs()[k];
-                let mut t = 0.0;
-                if d > 0.0 {
-                    t += line::gaussian(h.c, h.a, h.center, b, u.map(|c| c / d), d);
-                }
-                if dw > 0.0 {
-                    t += line::gaussian(h.c, h.a, h.center, b, w.map(|c| c / dw), dw);
-                }
-                t
-            })
-            .sum()
-    };
-    let integrated = set
-        .blobs()
+) -> Vec<Rgb> {
+    set.blobs()
         .iter()
         .zip(g)
-        .enumerate()
-        .map(|(i, (b, e))| {
-            let sun_hidden = matches!(source, Source::Sun(_)) && background;
-            (bound(b, source) > target && !sun_hidden).then(|| (e + host_share(i)).exp())
+        .map(|(b, e)| {
+            let to_eye = norm(sub(eye, b.center));
+            [0, 1, 2].map(|c| {
+                let path = match source {
+                    Source::Point(s) => beta0[c] * (norm(sub(s, b.center)) + to_eye),
+                    Source::Sun(_) if background => f64::INFINITY,
+                    Source::Sun(_) => beta0[c] * to_eye,
+                };
+                (e - path).exp()
+            })
         })
-        .collect();
-    let (c_sv, c_sv_rest) = match source.path(eye) {
-        Some((d, len)) => {
-            let mut rest = 0.0;
-            let all = set.depth(eye, d, len, None).0;
-            for &k in &hosts {
-                let h = &set.blobs()[k];
-                rest += line::gaussian(h.c, h.a, h.center, eye, d, len);
-            }
-            ((-all).exp(), (-(all - rest).max(0.0)).exp())
-        }
-        None => (1.0, 1.0),
-    };
-    (integrated, hosts, c_sv, c_sv_rest)
-}
-
-/// The Gaussians a point light sits inside ([`haze_gaussians::integrated::host_depth`]),
-/// at most [`MAX_HOSTS`], nearest (in radii) first; none for a sun or an infinite target.
-fn hosts_of(set: &GaussianSet, source: Source, target: f64) -> Vec<usize> {
-    let Source::Point(s) = source else {
-        return Vec::new();
-    };
-    if target.is_infinite() {
-        return Vec::new();
-    }
-    let mut hosts: Vec<(f64, usize)> = set
-        .blobs()
-        .iter()
-        .enumerate()
-        .filter_map(|(i, b)| host_depth(b, s).map(|rho| (rho, i)))
-        .collect();
-    hosts.sort_by(|a, b| a.0.total_cmp(&b.0));
-    hosts.truncate(MAX_HOSTS);
-    hosts.into_iter().map(|(_, i)| i).collect()
+        .collect()
 }
 
 /// The march step that resolves every Gaussian medium of the scene: a fifth of the

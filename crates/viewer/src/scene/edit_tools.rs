@@ -650,7 +650,7 @@ mod tests {
     use crate::orbit::Orbit;
     use crate::scene::{Renderer, SceneKnobs, look_target};
     use haze_scene::Light;
-    use haze_scene::paper_b::{self, PaperBOptions, Prepared};
+    use haze_scene::paper_b::{self, Prepared};
     use haze_scene::render::Image;
 
     fn scene_path() -> PathBuf {
@@ -754,7 +754,8 @@ mod tests {
         let after = r.image(&orbit, &knobs, Some(&editor), None).unwrap();
         let cpu = |knobs: &SceneKnobs, editor: &Editor| {
             let scene = r.scene(&orbit, knobs, Some(editor)).unwrap();
-            let prep = Prepared::new(&scene, &r.analytic, PaperBOptions::default()).unwrap();
+            let options = haze_scene::gpu::paper_b::options(&r.ctx);
+            let prep = Prepared::new(&scene, &r.analytic, options).unwrap();
             paper_b::render(
                 &prep,
                 &haze_scene::paper_c::airlight::Limits::default(),

@@ -28,7 +28,7 @@ use eframe::egui;
 use haze_gpu::GpuContext;
 use haze_scene::gpu::GpuRenderer;
 use haze_scene::gpu::paper_b::GpuPaperB;
-use haze_scene::paper_b::{PaperBOptions, Prepared};
+use haze_scene::paper_b::Prepared;
 use haze_scene::paper_c::airlight::Limits;
 use haze_scene::render::{Analytic, Image};
 use haze_scene::{Light, Scene, Shape};
@@ -256,7 +256,8 @@ impl Renderer {
         let scene = self.scene(orbit, knobs, editor)?;
         let lim = Limits::default();
         let img = if let Some(pb) = &self.paper_b {
-            let prep = Prepared::new(&scene, &self.analytic, PaperBOptions::default())?;
+            let options = haze_scene::gpu::paper_b::options(&self.ctx);
+            let prep = Prepared::new(&scene, &self.analytic, options)?;
             pb.render(&self.ctx, &self.gpu, &prep, &lim)
         } else if let (Some(fog), Some(wind)) = (&self.fog, wind) {
             fog.render(&self.ctx, &self.gpu, &scene, wind, &lim)
