@@ -123,11 +123,12 @@ pub enum Command {
     /// the fog drifting with the wind, and prints the pictures' median time.
     #[command(allow_negative_numbers = true)]
     View(ViewCli),
-    /// Reconstruct one frame of a baked asset (RBFs + dequantized residual) as a dense
-    /// volume, to compare a bake with its input.
+    /// Reconstruct one frame of a baked asset (RBFs + dequantized residual, negatives
+    /// clamped to 0 as every renderer does) as a dense volume, to compare a bake with its
+    /// input; a packed asset's frame comes back as it was packed.
     #[command(allow_negative_numbers = true)]
     Export {
-        /// The baked .haze asset.
+        /// The .haze asset (baked, or packed by `haze pack`).
         asset: PathBuf,
         /// Source frame number (as `haze inspect` lists them).
         #[arg(long)]

@@ -1,5 +1,6 @@
-//! `haze export`: one frame of a baked asset back to a dense volume, `D̃ + R̂` — what every
-//! consumer of the asset reconstructs — to check a bake against its input.
+//! `haze export`: one frame of a baked asset back to a dense volume, `max(D̃ + R̂, 0)` —
+//! what every consumer of the asset reconstructs — to check a bake against its input; or a
+//! packed asset's frame as packed.
 
 use anyhow::{Context, Result, bail};
 use haze_bake::export::reconstruct_frame;

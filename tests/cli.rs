@@ -170,6 +170,47 @@ fn pack_then_inspect_asset_and_read_it_back() {
     let truth = std::fs::read(data("plume-a/dense/density_0024.f32")).unwrap();
     let got: Vec<u8> = raw.data.iter().flat_map(|v| v.to_le_bytes()).collect();
     assert!(got == truth);
+
+    // Every command takes the packed asset: export gives the frame back bit for bit,
+    // render fits it as it fits a volume file (300 RBFs), and the viewer, which plays
+    // baked RBFs, says in one line to bake it.
+    let f32 = tmp.path().join("f24.f32");
+    haze()
+        .args(["export", out.to_str().unwrap(), "--frame", "24"])
+        .args(["--out", f32.to_str().unwrap()])
+        .assert()
+        .success();
+    assert!(std::fs::read(&f32).unwrap() == truth);
+    let png = tmp.path().join("r.png");
+    let o = haze()
+        .args(["render", out.to_str().unwrap(), "--frame", "24"])
+        .args([
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--out",
+            png.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(png.is_file());
+    let o = haze()
+        .args([
+            "view",
+            out.to_str().unwrap(),
+            "--no-window",
+            "--play-for",
+            "0.1",
+        ])
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && e.contains("haze bake") && e.contains("plume.haze"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -621,6 +662,8 @@ fn bake_stores_the_residual_and_export_reconstructs_within_the_error() {
     );
     // The error asked for, plus the f32 rounding of D̃ + R̂ (6e-8 of the peak).
     assert!(worst <= target + 1e-6, "worst {worst}, target {target}");
+    // No negative values (the density every renderer takes), so the export bakes again.
+    assert!(a.chunks_exact(4).all(|c| f(c) >= 0.0));
     assert!(tmp.path().join("f24.json").exists());
     // .npy too, and a frame that is not there.
     let npy = tmp.path().join("f24.npy");

@@ -1,11 +1,11 @@
 //! One frame of a baked asset read back: its RBFs as stored and its residual's slot in the
-//! hash volume, reconstructed as a dense volume `D̃ + R̂` — what every consumer of the
+//! hash volume, reconstructed as a dense volume `max(D̃ + R̂, 0)` — what every consumer of the
 //! asset computes (`haze export`, `haze render`, the viewer, `haze tradeoff`, and tests of
 //! a bake against its input).
 
 use crate::residual::reconstruct;
 use anyhow::{Context, Result, anyhow, bail};
-use haze_asset::{Asset, BlockKind, Scope, decode_rbfs};
+use haze_asset::{Asset, BlockKind, BlockView, Scope, decode_raw_volume, decode_rbfs};
 use haze_hash::tile::ResidualGroup;
 use haze_volume::{Bbox, Rbf, Volume, rbf};
 use std::path::Path;
@@ -34,13 +34,19 @@ pub struct AssetFrame {
 }
 
 impl AssetFrame {
-    /// `D̃ + R̂` at every voxel, unclamped (`haze export`'s volume).
+    /// `max(D̃ + R̂, 0)` at every voxel, the density every consumer renders (`haze
+    /// export`'s volume; a lossless bake's rounding, −10⁻¹¹ where the input is 0, would
+    /// otherwise make `haze bake` refuse the export as input).
     pub fn reconstruction(&self) -> Reconstruction {
         let residual = self.residual.as_ref().map(|(g, j)| (&**g, *j));
+        let mut data = reconstruct(self.dims, &self.bbox, &self.rbfs, residual);
+        for x in &mut data {
+            *x = x.max(0.0);
+        }
         Reconstruction {
             dims: self.dims,
             bbox: self.bbox,
-            data: reconstruct(self.dims, &self.bbox, &self.rbfs, residual),
+            data,
         }
     }
 
@@ -81,11 +87,51 @@ pub fn frame_density(
 }
 
 /// Frame `frame` (its number in the input; the first frame when `None`) of the asset at
-/// `path`.
+/// `path`: a baked frame (an error for a packed asset: see [`read_raw_frame`]).
 pub fn read_frame(path: &Path, frame: Option<i64>) -> Result<AssetFrame> {
     let asset = Asset::open(path)?;
+    let (k, number) = frame_index(&asset, path, frame)?;
+    let blocks = asset.frame(k)?;
+    let rbf_block = blocks.find(BlockKind::Rbfs).ok_or_else(|| {
+        if blocks.find(BlockKind::RawVolume).is_some() {
+            anyhow!(
+                "{}: frame {number} is a raw volume (a packed asset, `haze pack`): bake its \
+                 source ({}) with `haze bake` to play it",
+                path.display(),
+                asset.header().source.path
+            )
+        } else {
+            anyhow!(
+                "{}: frame {number} has no RBF block (not a baked asset?)",
+                path.display()
+            )
+        }
+    })?;
+    baked_frame(&asset, path, k, number, rbf_block)
+}
+
+/// Frame `frame` (its number in the input; the first when `None`) of a packed asset
+/// (`haze pack`: the frames' raw volumes, lossless) as its volume over the asset's grid,
+/// with its number; `None` when that frame holds no raw volume (a baked asset).
+pub fn read_raw_frame(path: &Path, frame: Option<i64>) -> Result<Option<(i64, Volume)>> {
+    let asset = Asset::open(path)?;
     let h = asset.header();
-    let numbers = &h.source.frame_numbers;
+    let (k, number) = frame_index(&asset, path, frame)?;
+    let blocks = asset.frame(k)?;
+    let Some(block) = blocks.find(BlockKind::RawVolume) else {
+        return Ok(None);
+    };
+    let view = decode_raw_volume(block.bytes).map_err(|e| asset.block_error(&block, e))?;
+    let volume = view
+        .to_volume(Bbox::new(h.grid.bbox_min, h.grid.bbox_max))
+        .map_err(|e| anyhow!("{}: frame {number}: {e}", path.display()))?;
+    Ok(Some((number, volume)))
+}
+
+/// The index of frame `frame` (its number; the first when `None`) in the asset, and its
+/// number.
+fn frame_index(asset: &Asset, path: &Path, frame: Option<i64>) -> Result<(usize, i64)> {
+    let numbers = &asset.header().source.frame_numbers;
     let k = match frame {
         Some(frame) => numbers.iter().position(|&n| n == frame).ok_or_else(|| {
             let range = match (numbers.first(), numbers.last()) {
@@ -100,14 +146,19 @@ pub fn read_frame(path: &Path, frame: Option<i64>) -> Result<AssetFrame> {
         None if numbers.is_empty() => bail!("{}: the asset has no frames", path.display()),
         None => 0,
     };
-    let number = numbers[k];
+    Ok((k, numbers[k]))
+}
+
+/// Frame `k` (number `number`) of a baked asset from its RBF block and its hash volume.
+fn baked_frame(
+    asset: &Asset,
+    path: &Path,
+    k: usize,
+    number: i64,
+    rbf_block: BlockView<'_>,
+) -> Result<AssetFrame> {
+    let h = asset.header();
     let blocks = asset.frame(k)?;
-    let rbf_block = blocks.find(BlockKind::Rbfs).ok_or_else(|| {
-        anyhow!(
-            "{}: frame {number} has no RBF block (not a baked asset?)",
-            path.display()
-        )
-    })?;
     let rbfs = decode_rbfs(rbf_block.bytes).map_err(|e| asset.block_error(&rbf_block, e))?;
     // No residual block: the RBFs alone met the error on every frame of its hash volume.
     let residual = match blocks.find(BlockKind::ResidualHash) {
@@ -143,6 +194,14 @@ pub fn read_frame(path: &Path, frame: Option<i64>) -> Result<AssetFrame> {
 /// Frame `frame` (its number in the input) of the asset at `path`: its RBFs evaluated as
 /// stored, plus the dequantized residual of its hash volume (none when the RBFs alone met
 /// the error on every frame of that volume).
+/// A packed asset's frame is its raw volume, as packed.
 pub fn reconstruct_frame(path: &Path, frame: i64) -> Result<Reconstruction> {
+    if let Some((_, v)) = read_raw_frame(path, Some(frame))? {
+        return Ok(Reconstruction {
+            dims: v.dims(),
+            bbox: *v.bbox(),
+            data: v.data().to_vec(),
+        });
+    }
     Ok(read_frame(path, Some(frame))?.reconstruction())
 }

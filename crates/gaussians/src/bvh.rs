@@ -227,33 +227,26 @@ mod tests {
             } else {
                 lcg(&mut s) * 8.0
             };
-            let mut got = Vec::new();
-            bvh.segment(o, d, len, |i| got.push(i));
-            got.sort_unstable();
-            let want: Vec<usize> = (0..n)
-                .filter(|&i| {
-                    let bp = sub(centers[i], o);
-                    let t = dot(bp, d).clamp(0.0, len);
-                    let x = axpy(bp, -t, d);
-                    radii[i] > 0.0 && dot(x, x) <= radii[i] * radii[i]
-                })
-                .collect();
-            assert_eq!(got, want, "segment {o:?} {d:?} {len}");
-            // The same with every radius grown by a margin.
-            let margin = lcg(&mut s) * 0.7;
-            let mut got = Vec::new();
-            bvh.segment_within(o, d, len, margin, |i| got.push(i));
-            got.sort_unstable();
-            let want: Vec<usize> = (0..n)
-                .filter(|&i| {
-                    let bp = sub(centers[i], o);
-                    let t = dot(bp, d).clamp(0.0, len);
-                    let x = axpy(bp, -t, d);
-                    let r = radii[i] + margin;
-                    radii[i] > 0.0 && dot(x, x) <= r * r
-                })
-                .collect();
-            assert_eq!(got, want, "segment within {margin} {o:?} {d:?} {len}");
+            // Plain, and with every radius grown by a margin.
+            for margin in [0.0, lcg(&mut s) * 0.7] {
+                let mut got = Vec::new();
+                if margin == 0.0 {
+                    bvh.segment(o, d, len, |i| got.push(i));
+                } else {
+                    bvh.segment_within(o, d, len, margin, |i| got.push(i));
+                }
+                got.sort_unstable();
+                let want: Vec<usize> = (0..n)
+                    .filter(|&i| {
+                        let bp = sub(centers[i], o);
+                        let t = dot(bp, d).clamp(0.0, len);
+                        let x = axpy(bp, -t, d);
+                        let r = radii[i] + margin;
+                        radii[i] > 0.0 && dot(x, x) <= r * r
+                    })
+                    .collect();
+                assert_eq!(got, want, "segment within {margin} {o:?} {d:?} {len}");
+            }
             let mut got = Vec::new();
             bvh.point(o, |i| got.push(i));
             got.sort_unstable();

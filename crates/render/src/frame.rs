@@ -1,9 +1,10 @@
 //! The frame a render, a sweep or the viewer starts from: a baked asset's frame (read by
-//! `haze_bake::export`), or a volume file or a sequence's frame, fitted here.
+//! `haze_bake::export`), or a volume file, a sequence's frame or a packed asset's frame,
+//! fitted here.
 
 use crate::progress;
 use anyhow::{Result, anyhow};
-use haze_bake::export::read_frame;
+use haze_bake::export::{read_frame, read_raw_frame};
 use haze_bake::residual::as_stored;
 use haze_fit::{FitOptions, SequenceFitter, SequenceOptions};
 use haze_view::stream::ResidualSlot;
@@ -45,19 +46,20 @@ pub fn load(
     opts: &ImportOptions,
     fit: Option<FitKnobs>,
 ) -> Result<FrameData> {
-    if is_asset(input) {
-        return load_asset(input, frame);
-    }
-    let path = volume_path(input, frame, opts)?;
-    let density = import::import(&path, opts)?;
+    // A packed asset's frame (`haze pack`'s raw volume) is taken as a volume file is.
+    let (density, label) = if is_asset(input) {
+        match read_raw_frame(input, frame)? {
+            Some((n, v)) => (v, format!("{} frame {n}", input.display())),
+            None => return load_asset(input, frame),
+        }
+    } else {
+        let path = volume_path(input, frame, opts)?;
+        (import::import(&path, opts)?, path.display().to_string())
+    };
     let mut rbfs = Vec::new();
     let mut residual = vec![0.0f32; density.len()];
     if let Some(knobs) = fit {
-        let spinner = progress::spinner(&format!(
-            "fitting {} with {} RBFs",
-            path.display(),
-            knobs.rbfs
-        ));
+        let spinner = progress::spinner(&format!("fitting {label} with {} RBFs", knobs.rbfs));
         let opts = SequenceOptions {
             rbfs: knobs.rbfs,
             fit: FitOptions {
@@ -68,7 +70,7 @@ pub fn load(
         };
         let fit = SequenceFitter::new(opts)
             .fit(&density)
-            .map_err(|e| anyhow!("{}: {e}", path.display()))?;
+            .map_err(|e| anyhow!("{label}: {e}"))?;
         spinner.finish_and_clear();
         rbfs = as_stored(&fit.rbfs)?;
         let approx = rbf::evaluate_on_grid(density.dims(), density.bbox(), &rbfs);
@@ -81,7 +83,7 @@ pub fn load(
         rbfs,
         residual,
         slot: None,
-        label: path.display().to_string(),
+        label,
     })
 }
 
@@ -106,10 +108,13 @@ fn volume_path(input: &Path, frame: Option<i64>, opts: &ImportOptions) -> Result
     Ok(seq.frames()[i].path.clone())
 }
 
-/// The density of one frame: a volume file's, a sequence's frame, or an asset's
-/// reconstruction `max(D̃ + R̂, 0)` (`haze tradeoff`'s input).
+/// The density of one frame: a volume file's, a sequence's frame, a packed asset's raw
+/// volume or a baked asset's reconstruction `max(D̃ + R̂, 0)` (`haze tradeoff`'s input).
 pub fn load_density(input: &Path, frame: Option<i64>, opts: &ImportOptions) -> Result<Volume> {
     if is_asset(input) {
+        if let Some((_, v)) = read_raw_frame(input, frame)? {
+            return Ok(v);
+        }
         return Ok(load_asset(input, frame)?.density);
     }
     Ok(import::import(&volume_path(input, frame, opts)?, opts)?)

@@ -95,7 +95,15 @@ impl FrameDecoder {
         };
         let rbf_index = covering(BlockKind::Rbfs).ok_or_else(|| AssetError::Invalid {
             path: a.path().to_path_buf(),
-            what: format!("frame {number} has no RBF block (not a baked asset?)"),
+            what: if covering(BlockKind::RawVolume).is_some() {
+                format!(
+                    "frame {number} is a raw volume (a packed asset, `haze pack`): bake its \
+                     source ({}) with `haze bake` to play it",
+                    a.header().source.path
+                )
+            } else {
+                format!("frame {number} has no RBF block (not a baked asset?)")
+            },
         })?;
         let block = a.block(rbf_index)?;
         let rbfs = decode_rbfs(block.bytes).map_err(|e| a.block_error(&block, e))?;
