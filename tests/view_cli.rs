@@ -104,7 +104,7 @@ fn bad_files_and_knobs_fail_on_one_line() {
         .output()
         .unwrap();
     assert!(o.status.success());
-    fails(&["view", packed.to_str().unwrap()], "no RBF block");
+    fails(&["view", packed.to_str().unwrap()], "a packed asset");
     // A truncated asset.
     let asset = bake(dir.path());
     let bytes = std::fs::read(&asset).unwrap();
