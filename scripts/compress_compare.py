@@ -110,8 +110,8 @@ def quant_row(truth, bound):
 
     def enc():
         q = np.rint(truth / step).astype(np.uint8 if truth.max() / step < 255.5 else np.uint16)
-        return q.dtype, blosc2.compress2(q.tobytes(), typesize=q.dtype.itemsize,
-                                         cparams={"codec": blosc2.Codec.ZSTD, "clevel": 9})
+        cparams = blosc2.CParams(codec=blosc2.Codec.ZSTD, clevel=9, typesize=q.dtype.itemsize)
+        return q.dtype, blosc2.compress2(q.tobytes(), cparams=cparams)
 
     (dtype, packed), te = timed(enc)
 
