@@ -287,12 +287,7 @@ mod tests {
             let ts = m.optical_depth(x, ls.map(|c| c / d), d);
             m.albedo * density(m, x) / (4.0 * PI * d * d) * (-tv - ts).exp()
         };
-        let h = dr / n as f64;
-        let mut sum = f(0.0) + f(dr);
-        for k in 1..n {
-            sum += f(k as f64 * h) * if k % 2 == 1 { 4.0 } else { 2.0 };
-        }
-        sum * h / 3.0
+        crate::simpson(f, 0.0, dr, n)
     }
 
     #[test]

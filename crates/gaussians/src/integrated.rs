@@ -422,13 +422,7 @@ mod tests {
             b.albedo * b.c * (-b.a * b.a * dot(dx, dx)).exp() / (4.0 * PI * d * d)
                 * (-tv - ts - beta0 * (t + d)).exp()
         };
-        let n = 200_000;
-        let h = dr / n as f64;
-        let mut sum = f(0.0) + f(dr);
-        for k in 1..n {
-            sum += f(k as f64 * h) * if k % 2 == 1 { 4.0 } else { 2.0 };
-        }
-        sum * h / 3.0
+        crate::simpson(f, 0.0, dr, 200_000)
     }
 
     #[test]
@@ -588,19 +582,12 @@ mod tests {
         assert!(v_edge > 0.02 && v_edge > 10.0 * v_even, "{v_edge}");
         // The edge's error by quadrature of its density along the 14 segments.
         let simpson = |b: &Blob, o: Vec3, x: Vec3| -> f64 {
-            let n = 20_000;
             let u = sub(x, o);
             let f = |t: f64| {
-                let q = axpy(o, t, u);
-                let dq = sub(q, b.center);
+                let dq = sub(axpy(o, t, u), b.center);
                 b.c * (-b.a * b.a * dot(dq, dq)).exp()
             };
-            let h = 1.0 / n as f64;
-            let mut sum = f(0.0) + f(1.0);
-            for k in 1..n {
-                sum += f(k as f64 * h) * if k % 2 == 1 { 4.0 } else { 2.0 };
-            }
-            sum * h / 3.0 * norm(u)
+            crate::simpson(f, 0.0, 1.0, 20_000) * norm(u)
         };
         let r = 1.0 / p.a;
         let mut depths = Vec::new();

@@ -23,4 +23,16 @@ pub mod line;
 pub mod medium;
 pub mod noise;
 
+/// Composite Simpson's rule for the tests' independent integrals.
+#[cfg(test)]
+pub(crate) fn simpson(f: impl Fn(f64) -> f64, a: f64, b: f64, n: usize) -> f64 {
+    let n = n + n % 2;
+    let h = (b - a) / n as f64;
+    let mut sum = f(a) + f(b);
+    for k in 1..n {
+        sum += f(a + k as f64 * h) * if k % 2 == 1 { 4.0 } else { 2.0 };
+    }
+    sum * h / 3.0
+}
+
 pub use medium::{Gaussian, GaussianMedium};

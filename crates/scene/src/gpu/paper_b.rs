@@ -140,26 +140,7 @@ impl GpuPaperB {
         if blobs.is_empty() {
             blobs.push([0.0; 4]);
         }
-        let mut bexp: Vec<[f32; 4]> = Vec::new();
-        for l in &prep.lights {
-            for (e, pair) in l.center.iter().zip(&l.integrated) {
-                let pair = pair.map_or(-1.0, |p| p as f32);
-                bexp.push([e[0] as f32, e[1] as f32, e[2] as f32, pair]);
-            }
-        }
-        for l in &prep.lights {
-            bexp.push([l.c_sv as f32, l.c_sv_rest as f32, l.exact.len() as f32, 0.0]);
-        }
-        // Each light's list for the homogeneous term, then each pair's list, in
-        // MAX_EXACT / 4 records (paper_b.wgsl's EXACT_RECORDS; −1 past a pair's end).
-        for l in &prep.lights {
-            push_ids(&mut bexp, &l.exact, 0.0);
-        }
-        for l in &prep.lights {
-            for list in &l.pair_exact {
-                push_ids(&mut bexp, list, -1.0);
-            }
-        }
+        let mut bexp = light_records(prep);
         // The environment (crate::paper_b::gaussian_env): αᵢ·Ēᵢ·e^{Eᵢ} per Gaussian, then (Ē, β_bg·D).
         let env_flag = match &prep.env {
             Some(env) => {
@@ -225,6 +206,39 @@ impl GpuPaperB {
             &[&blobs, &bexp],
         )
     }
+}
+
+/// The lights' records of the exponents buffer (paper_b.wgsl's `bexp`, up to the
+/// environment's): per light and Gaussian `e^{Eᵢ}` and the pair's exponent (−1: the closed
+/// form), per light `(C_sv, C_sv without its list, the list's length, -)`, then the
+/// homogeneous term's lists and the pairs' lists.
+fn light_records(prep: &Prepared<'_>) -> Vec<[f32; 4]> {
+    let mut bexp: Vec<[f32; 4]> = Vec::new();
+    for l in &prep.lights {
+        for (e, pair) in l.center.iter().zip(&l.pairs.integrated) {
+            let pair = pair.map_or(-1.0, |p| p as f32);
+            bexp.push([e[0] as f32, e[1] as f32, e[2] as f32, pair]);
+        }
+    }
+    for l in &prep.lights {
+        bexp.push([
+            l.pairs.c_sv as f32,
+            l.pairs.c_sv_rest as f32,
+            l.pairs.exact.len() as f32,
+            0.0,
+        ]);
+    }
+    // Each light's list for the homogeneous term, then each pair's list, in
+    // MAX_EXACT / 4 records (paper_b.wgsl's EXACT_RECORDS; −1 past a pair's end).
+    for l in &prep.lights {
+        push_ids(&mut bexp, &l.pairs.exact, 0.0);
+    }
+    for l in &prep.lights {
+        for list in &l.pairs.pair_exact {
+            push_ids(&mut bexp, list, -1.0);
+        }
+    }
+    bexp
 }
 
 /// The most Gaussians an integrated pair takes exactly per node on a CPU device

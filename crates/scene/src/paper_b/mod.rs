@@ -94,27 +94,8 @@ pub(crate) struct Lit {
     pub(crate) power: Rgb,
     /// `e^{Eᵢ}` per Gaussian and channel.
     pub(crate) center: Vec<Rgb>,
-    /// Per Gaussian: `e^{Eᵢ}` of the Gaussians but [`Lit::pair_exact`] (whose depths towards the
-    /// light and the eye are taken per node) when the pair is integrated along the ray
-    /// ([`PaperBOptions::target`]), `None` where the closed form serves.
-    pub(crate) integrated: Vec<Option<f64>>,
-    /// `e^{−Σᵢ Tᵢ(s, v)}` (a sun: the Gaussians from the eye towards it).
-    pub(crate) c_sv: f64,
-    /// Per Gaussian whose pair is integrated: the Gaussians whose attenuation the pair
-    /// takes per node, at most `MAX_EXACT` — the hosts the point light sits inside
-    /// (`haze_gaussians::integrated`'s, at most `MAX_HOSTS`, nearest first) but itself,
-    /// then the pair's shadowers ([`haze_gaussians::integrated::shadowers`]); left out of
-    /// its exponent in [`Lit::integrated`]. Empty elsewhere.
-    pub(crate) pair_exact: Vec<Vec<usize>>,
-    /// The shadowers the pairs' lists had no room for.
-    pub(crate) left: LeftAtCentres,
-    /// The homogeneous term's list, at most `MAX_EXACT`: the hosts and, where the
-    /// homogeneous part scatters, the Gaussians that shade it
-    /// ([`haze_gaussians::integrated::fog_casters`]); their `Tₖ(s, v)` is left out of
-    /// `c_sv_rest` and their attenuation taken per node by `host_ratio`.
-    pub(crate) exact: Vec<usize>,
-    /// `C_sv` without the exact list (the homogeneous term takes theirs per ray).
-    pub(crate) c_sv_rest: f64,
+    /// The integrated path's terms: pairs, their lists, `C_sv`.
+    pub(crate) pairs: PairTerms,
 }
 
 /// A scene prepared for paper B: the Gaussians merged, the homogeneous part summed, the
@@ -208,24 +189,12 @@ impl<'a> Prepared<'a> {
                     .collect();
                 let center = center_factors(&set, source, eye, &g, beta0, bg > 0.0);
                 let fog = sigma_s0.iter().any(|&x| x > 0.0);
-                let PairTerms {
-                    integrated,
-                    pair_exact,
-                    left,
-                    exact,
-                    c_sv,
-                    c_sv_rest,
-                } = pair_terms(&set, source, eye, &g, bg > 0.0, fog, &options);
+                let pairs = pair_terms(&set, source, eye, &g, bg > 0.0, fog, &options);
                 Lit {
                     source,
                     power,
                     center,
-                    integrated,
-                    c_sv,
-                    pair_exact,
-                    left,
-                    exact,
-                    c_sv_rest,
+                    pairs,
                 }
             })
             .collect();
@@ -260,11 +229,11 @@ impl<'a> Prepared<'a> {
 
     /// How many (light, Gaussian) pairs are integrated along the ray, of how many.
     pub fn integrated_pairs(&self) -> (usize, usize) {
-        let n = self.lights.iter().map(|l| l.integrated.len()).sum();
+        let n = self.lights.iter().map(|l| l.pairs.integrated.len()).sum();
         let k = self
             .lights
             .iter()
-            .flat_map(|l| &l.integrated)
+            .flat_map(|l| &l.pairs.integrated)
             .filter(|e| e.is_some())
             .count();
         (k, n)
@@ -274,9 +243,9 @@ impl<'a> Prepared<'a> {
     pub fn left_at_centres(&self) -> LeftAtCentres {
         let mut all = LeftAtCentres::default();
         for l in &self.lights {
-            all.pairs += l.left.pairs;
-            all.shadows += l.left.shadows;
-            all.largest = all.largest.max(l.left.largest);
+            all.pairs += l.pairs.left.pairs;
+            all.shadows += l.pairs.left.shadows;
+            all.largest = all.largest.max(l.pairs.left.largest);
         }
         all
     }
@@ -285,7 +254,7 @@ impl<'a> Prepared<'a> {
     pub fn integrated_list(&self) -> Vec<(usize, usize, f64)> {
         let mut out = Vec::new();
         for (l, lit) in self.lights.iter().enumerate() {
-            for (i, e) in lit.integrated.iter().enumerate() {
+            for (i, e) in lit.pairs.integrated.iter().enumerate() {
                 if e.is_some() {
                     out.push((l, i, bound(&self.set.blobs()[i], lit.source)));
                 }
@@ -312,12 +281,12 @@ impl<'a> Prepared<'a> {
         let eye = self.scene.camera.eye;
         let b = &self.set.blobs()[i];
         let others = |t: f64| match l.source {
-            Source::Point(sp) if !l.pair_exact[i].is_empty() => {
+            Source::Point(sp) if !l.pairs.pair_exact[i].is_empty() => {
                 let x = axpy(eye, t, dir);
                 let ls = sub(sp, x);
                 let d = norm(ls);
                 let mut depth = 0.0;
-                for &k in &l.pair_exact[i] {
+                for &k in &l.pairs.pair_exact[i] {
                     let h = &self.set.blobs()[k];
                     depth += line::gaussian(h.c, h.a, h.center, eye, dir, t);
                     if d > 0.0 {
@@ -369,7 +338,7 @@ impl<'a> Prepared<'a> {
             let vp = line::gaussian(b.c, b.a, b.center, eye, along, t_end);
             tau += vp;
             for l in &self.lights {
-                if let Some(e) = l.integrated[i] {
+                if let Some(e) = l.pairs.integrated[i] {
                     let li = self.integrated_pair(lim, l, i, e, dir, t_end, along != dir, vp);
                     for (c, o) in out.iter_mut().enumerate() {
                         *o += l.power[c] * li[c];
@@ -395,12 +364,13 @@ impl<'a> Prepared<'a> {
         for l in &self.lights {
             match l.source {
                 Source::Point(s) => {
-                    let c_sv = if l.exact.is_empty() {
-                        l.c_sv
+                    let c_sv = if l.pairs.exact.is_empty() {
+                        l.pairs.c_sv
                     } else {
-                        let hosts: Vec<_> = l.exact.iter().map(|&k| self.set.blobs()[k]).collect();
+                        let hosts: Vec<_> =
+                            l.pairs.exact.iter().map(|&k| self.set.blobs()[k]).collect();
                         let b0 = self.beta0.iter().sum::<f64>() / 3.0;
-                        l.c_sv_rest * host_ratio(&hosts, eye, dir, t_end, s, lim.r_min, b0)
+                        l.pairs.c_sv_rest * host_ratio(&hosts, eye, dir, t_end, s, lim.r_min, b0)
                     };
                     let s = effective_light(eye, dir, s, lim);
                     for (c, o) in out.iter_mut().enumerate() {
@@ -423,7 +393,8 @@ impl<'a> Prepared<'a> {
                 Source::Sun(_) if !self.background => {
                     let ss = scene.medium.sigma_s();
                     for c in 0..3 {
-                        out[c] += l.c_sv * airlight::sun(t_end, l.power[c], self.beta0[c], ss[c]);
+                        out[c] +=
+                            l.pairs.c_sv * airlight::sun(t_end, l.power[c], self.beta0[c], ss[c]);
                     }
                 }
                 Source::Sun(_) => {}

@@ -27,21 +27,37 @@ pub struct LeftAtCentres {
     pub largest: f64,
 }
 
-/// The integrated path's terms of one light (the fields of `Lit` of the same names).
-pub(super) struct PairTerms {
-    pub(super) integrated: Vec<Option<f64>>,
-    pub(super) pair_exact: Vec<Vec<usize>>,
-    pub(super) left: LeftAtCentres,
-    pub(super) exact: Vec<usize>,
-    pub(super) c_sv: f64,
-    pub(super) c_sv_rest: f64,
+/// The integrated path's terms of one light, prepared once per frame.
+#[derive(Debug)]
+pub(crate) struct PairTerms {
+    /// Per Gaussian: `e^{Eᵢ}` of the Gaussians but [`PairTerms::pair_exact`] (whose depths towards the
+    /// light and the eye are taken per node) when the pair is integrated along the ray
+    /// ([`PaperBOptions::target`]), `None` where the closed form serves.
+    pub(crate) integrated: Vec<Option<f64>>,
+    /// `e^{−Σᵢ Tᵢ(s, v)}` (a sun: the Gaussians from the eye towards it).
+    pub(crate) c_sv: f64,
+    /// Per Gaussian whose pair is integrated: the Gaussians whose attenuation the pair
+    /// takes per node, at most `MAX_EXACT` — the hosts the point light sits inside
+    /// (`haze_gaussians::integrated`'s, at most `MAX_HOSTS`, nearest first) but itself,
+    /// then the pair's shadowers ([`haze_gaussians::integrated::shadowers`]); left out of
+    /// its exponent in [`PairTerms::integrated`]. Empty elsewhere.
+    pub(crate) pair_exact: Vec<Vec<usize>>,
+    /// The shadowers the pairs' lists had no room for.
+    pub(crate) left: LeftAtCentres,
+    /// The homogeneous term's list, at most `MAX_EXACT`: the hosts and, where the
+    /// homogeneous part scatters, the Gaussians that shade it
+    /// ([`haze_gaussians::integrated::fog_casters`]); their `Tₖ(s, v)` is left out of
+    /// `c_sv_rest` and their attenuation taken per node by `host_ratio`.
+    pub(crate) exact: Vec<usize>,
+    /// `C_sv` without the exact list (the homogeneous term takes theirs per ray).
+    pub(crate) c_sv_rest: f64,
 }
 
 /// The integrated path's terms of one light (module docs): per Gaussian the pair's
 /// `e^{Eᵢ}` without the exact list where its bound exceeds `target`, the light's exact
 /// list, `C_sv` and `C_sv` without the list; `g` holds the Gaussians' `Eᵢ`, `background`
 /// whether a background hides the suns, `fog` whether the homogeneous part scatters.
-pub(super) fn pair_terms(
+pub(crate) fn pair_terms(
     set: &GaussianSet,
     source: Source,
     eye: Vec3,
