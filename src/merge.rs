@@ -2,7 +2,6 @@
 
 use anyhow::Result;
 use haze_render::output::Outputs;
-use haze_render::progress;
 use std::path::{Path, PathBuf};
 
 pub fn run(chunks: &[PathBuf], out: &Path) -> Result<()> {
@@ -16,10 +15,10 @@ pub fn run(chunks: &[PathBuf], out: &Path) -> Result<()> {
     eprintln!(
         "{}: {} ({}..{}) from {}",
         out.display(),
-        progress::count(n.len(), "frame"),
+        haze_bake::inspect::count(n.len(), "frame"),
         n[0],
         n[n.len() - 1],
-        progress::count(m.chunks, "chunk")
+        haze_bake::inspect::count(m.chunks, "chunk")
     );
     Ok(())
 }

@@ -38,7 +38,7 @@ pub fn run(input: &Path, out: &Path, range: FrameRange, opts: &ImportOptions) ->
     tracing::info!(
         "{}: {} packed",
         out.display(),
-        progress::count(seq.len(), "frame")
+        haze_bake::inspect::count(seq.len(), "frame")
     );
     Ok(())
 }

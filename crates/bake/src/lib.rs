@@ -35,11 +35,13 @@
 //! * [`merge`]: chunks baked separately joined into one asset.
 //! * [`export`]: a frame read back, reconstructed as a dense volume.
 //! * [`header`]: the asset header of a sequence.
+//! * [`inspect`]: what is in a volume file, a sequence or an asset (`haze inspect`).
 //! * [`choice`]: automatic choices (the residual error of a `--target-error` bake) and why.
 
 pub mod choice;
 pub mod export;
 pub mod header;
+pub mod inspect;
 pub mod journal;
 pub mod merge;
 pub mod pipeline;

@@ -19,7 +19,8 @@
 //!
 //! Each renderer crate lists its modules ([`Module`]) and its variants ([`Variant`]: an
 //! entry file and its defines); its unit test composes every variant and calls
-//! [`validate`].
+//! [`validate`]. The modules every renderer may import are [`SHARED`]
+//! (`crates/gpu/shaders/`).
 
 use crate::GpuError;
 use std::collections::HashSet;
@@ -31,6 +32,28 @@ pub struct Module {
     pub name: &'static str,
     pub source: &'static str,
 }
+
+/// The modules of `crates/gpu/shaders/`, for every renderer's module list:
+///
+/// - `optics`: `PI`, the Henyey–Greenstein lobe `hg_lobe(g, c)` and phase
+///   `hg_phase(g, c)`;
+/// - `finite`: `finite(v)` and `finite_or_zero(v)`, for values that overflowed or are NaN;
+/// - `workgroup_sum`: a workgroup's sum of a `vec2<f32>` per invocation (the importer
+///   defines `WG`, its workgroup size).
+pub const SHARED: &[Module] = &[
+    Module {
+        name: "optics",
+        source: include_str!("../shaders/optics.wgsl"),
+    },
+    Module {
+        name: "finite",
+        source: include_str!("../shaders/finite.wgsl"),
+    },
+    Module {
+        name: "workgroup_sum",
+        source: include_str!("../shaders/workgroup_sum.wgsl"),
+    },
+];
 
 /// One shader a renderer compiles: an entry file composed with a set of defines.
 #[derive(Clone, Copy, Debug)]

@@ -31,15 +31,6 @@ pub fn spinner(what: &str) -> ProgressBar {
     s
 }
 
-/// "1 frame", "2 frames".
-pub fn count(n: usize, noun: &str) -> String {
-    if n == 1 {
-        format!("1 {noun}")
-    } else {
-        format!("{n} {noun}s")
-    }
-}
-
 /// A bar over the settings of a sweep with ETA, the setting being measured as message.
 pub fn settings_bar() -> ProgressBar {
     let bar = ProgressBar::new(0);

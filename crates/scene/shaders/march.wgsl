@@ -189,13 +189,6 @@ fn total_depth(o: vec3<f32>, d: vec3<f32>, len: f32) -> vec3<f32> {
     return max(P.sigma_t.xyz, vec3<f32>(0.0)) * len + hetero_depth(o, d, len);
 }
 
-// media::henyey_greenstein.
-fn hg(g: f32, cos_theta: f32) -> f32 {
-    let g2 = g * g;
-    let den = max(1.0 + g2 - 2.0 * g * cos_theta, 1e-30);
-    return (1.0 - g2) / (4.0 * PI * den * sqrt(den));
-}
-
 // The light arriving at x from light i (march::lights_at): xyz the unit direction
 // towards it, and the radiance scale in `scale`; false when a surface blocks it.
 struct Arrival {
@@ -263,12 +256,12 @@ fn in_scattered(x: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
             let b = grid_base(m);
             let rho = grid_density(m, x);
             if (rho > 0.0) {
-                s += media[b + 3u].xyz * rho * media[b + 4u].xyz * hg(media[b].w, c);
+                s += media[b + 3u].xyz * rho * media[b + 4u].xyz * hg_phase(media[b].w, c);
             }
         }
         for (var k = 0u; k < min(fogs, FOG_MAX_MEDIA); k++) {
             let b = fog_base(k);
-            s += media[b].xyz * fog_k[k] * media[b + 1u].xyz * hg(media[b + 1u].w, c);
+            s += media[b].xyz * fog_k[k] * media[b + 1u].xyz * hg_phase(media[b + 1u].w, c);
         }
         out += s * arr.e;
     }

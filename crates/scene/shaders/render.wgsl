@@ -16,7 +16,8 @@
 // Coordinates are relative to the eye (the eye is the origin), so f32 keeps its
 // precision wherever the scene is placed.
 
-const PI: f32 = 3.14159265358979;
+#import optics
+
 const HALF_PI: f32 = 1.5707963267949;
 // The G tables' largest optical distance (gtable::T_MAX).
 const T_MAX: f32 = 50.0;

@@ -77,20 +77,13 @@ struct Entry {
 @group(0) @binding(6) var<storage, read> direct: array<vec4<f32>>;
 
 const WG: u32 = 256u;
+
+#import finite
+#import workgroup_sum
 // A least-squares optimum is reached when ‖Mᵀ R r‖ ≤ LS_OPTIMAL ‖M‖_F ‖R r‖ (the CPU's
 // 1e-12 is below f32 rounding; this is a few ulps).
 const LS_OPTIMAL: f32 = 1e-6;
 
-var<workgroup> reduce_buf: array<vec2<f32>, 256>;
-
-fn finite(v: f32) -> bool {
-    // False for NaN (every comparison is) and ±inf.
-    return abs(v) <= 3.4028235e38;
-}
-
-fn finite_or_zero(v: f32) -> f32 {
-    return select(0.0, v, finite(v));
-}
 
 fn escape(h: u32) -> f32 {
     let p = sources[h * params.n2].w;
@@ -139,22 +132,6 @@ fn coef(k: u32, h: u32) -> f32 {
 fn inverse_norm(sq: f32) -> f32 {
     let norm = sqrt(sq);
     return select(1.0, 1.0 / norm, norm > 0.0 && finite(1.0 / norm));
-}
-
-// The workgroup's sum of `v`, the same in every invocation.
-fn reduce(lid: u32, v: vec2<f32>) -> vec2<f32> {
-    reduce_buf[lid] = v;
-    workgroupBarrier();
-    for (var stride = WG / 2u; stride > 0u; stride = stride / 2u) {
-        if lid < stride {
-            reduce_buf[lid] = reduce_buf[lid] + reduce_buf[lid + stride];
-        }
-        workgroupBarrier();
-    }
-    let total = workgroupUniformLoad(&reduce_buf[0]);
-    // No invocation may write the next sum's partial before every one has read this one.
-    workgroupBarrier();
-    return total;
 }
 
 // Offsets of channel c's vectors in `work`.
@@ -257,7 +234,7 @@ fn setup(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) 
         part.y += select(0.0, 1.0, sq > 0.0);
     }
     storageBarrier();
-    let totals = reduce(lid, part);
+    let totals = workgroup_sum(lid, part);
     let b_norm = sqrt(totals.x);
     let m_norm = sqrt(totals.y);
     let solving = b_norm > 0.0 && finite(b_norm);
@@ -286,14 +263,14 @@ fn setup(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) 
         part.y += r * r;
     }
     storageBarrier();
-    let sums = reduce(lid, part);
+    let sums = workgroup_sum(lid, part);
     // ‖b − A x‖ = ‖R⁻¹ r‖.
     part = vec2<f32>(0.0);
     for (var h = lid; h < n; h += WG) {
         let u = work[v.r + h] / work[v.row + h];
         part.x += u * u;
     }
-    let residual = select(0.0, sqrt(reduce(lid, part).x) / b_norm, solving);
+    let residual = select(0.0, sqrt(workgroup_sum(lid, part).x) / b_norm, solving);
     let converged = !solving || done(residual, sums.x, m_norm, sqrt(sums.y));
     if lid == 0u {
         let st = state_at(c);
@@ -342,7 +319,7 @@ fn iterate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index
             part.x += q * q;
         }
         storageBarrier();
-        let alpha = gamma / reduce(lid, part).x;
+        let alpha = gamma / workgroup_sum(lid, part).x;
         if !finite(alpha) {
             stopped = true;
             break;
@@ -357,7 +334,7 @@ fn iterate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index
             part += vec2<f32>(u * u, r * r);
         }
         storageBarrier();
-        let sums = reduce(lid, part);
+        let sums = workgroup_sum(lid, part);
         // s = Mᵀ r, γ' = ‖s‖².
         part = vec2<f32>(0.0);
         for (var l = lid; l < n; l += WG) {
@@ -366,7 +343,7 @@ fn iterate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index
             part.x += s * s;
         }
         storageBarrier();
-        let gamma_next = reduce(lid, part).x;
+        let gamma_next = workgroup_sum(lid, part).x;
         iterations += 1u;
         if !(finite(gamma_next) && finite(sums.x)) {
             stopped = true;

@@ -1,16 +1,9 @@
 // The phase functions shared by the lights pass and the gathered orders (a module imported by each;
-// both declare `p` with the HG asymmetry `g`, and `word(i)`, the f32 at word i of the
-// lights' records, where the suns' `DiskPhase` tables are).
+// both declare `p` with the HG asymmetry `g`, and bind the lights' records, where the suns'
+// `DiskPhase` tables are, as `lights: array<u32>`).
 
-const PI: f32 = 3.14159265358979;
-
-// `medium::hg`, with 1 + g² − 2gc written as (1 − g)² + 2g(1 − c) (no cancellation in
-// 1 + g² − 2g for a forward peak).
-fn hg(c: f32) -> f32 {
-    let g = p.g;
-    let denom = max((1.0 - g) * (1.0 - g) + 2.0 * g * (1.0 - clamp(c, -1.0, 1.0)), 1e-37);
-    return (1.0 - g * g) / (denom * sqrt(denom));
-}
+#import optics
+#import light_records
 
 // atan(a) for a in [0, 1], to a few ulp (Cephes' atanf): the built-in atan2 may be off by
 // thousands of ulp (Vulkan allows 4096; lavapipe's is ≈ 1e-5 relative), which the steep
@@ -51,7 +44,7 @@ fn angle_between(s: vec3<f32>, d: vec3<f32>) -> f32 {
 fn disk_phase(at: u32, len: u32, s: vec3<f32>, d: vec3<f32>) -> f32 {
     let c = dot(s, d);
     if len == 0u {
-        return hg(c);
+        return hg_lobe(p.g, c);
     }
     let theta = angle_between(s, d);
     let f = clamp(theta / PI, 0.0, 1.0) * f32(len - 1u);

@@ -71,3 +71,11 @@ fn optical_depth(u: vec3<f32>, s: vec3<f32>, max_len: f32) -> f32 {
     }
     return depth;
 }
+
+// `lights_pass::transmittance`: exp(−σt·τ) from u along s to the face or max_len.
+fn transmittance(u: vec3<f32>, s: vec3<f32>, max_len: f32) -> f32 {
+    if p.sigma_t == 0.0 {
+        return 1.0;
+    }
+    return exp(-optical_depth(u, s, max_len));
+}

@@ -62,22 +62,6 @@ const NONE: u32 = 0xffffffffu;
 // where D > 0, `main` reads it.
 @group(0) @binding(3) var<storage, read_write> shadow_t: array<f32>;
 
-fn word(i: u32) -> f32 {
-    return bitcast<f32>(lights[i]);
-}
-
-fn light_vec(i: u32) -> vec3<f32> {
-    return vec3<f32>(word(i), word(i + 1u), word(i + 2u));
-}
-
-// `lights_pass::transmittance`: exp(−σt·τ) from u along s to the face or max_len.
-fn transmittance(u: vec3<f32>, s: vec3<f32>, max_len: f32) -> f32 {
-    if p.sigma_t == 0.0 {
-        return 1.0;
-    }
-    return exp(-optical_depth(u, s, max_len));
-}
-
 // The voxel index of invocation i when it is a voxel with D > 0, else NONE.
 fn smoke_voxel(i: vec3<u32>) -> u32 {
     if any(i >= p.dims) {
@@ -152,7 +136,7 @@ fn main(@builtin(global_invocation_id) i: vec3<u32>) {
         }
         let s = v / sqrt(r2);
         let t = shadow_t[lin * n + p.suns + l];
-        add += intensity * (t * hg(dot(s, d)) / (r2 + p.soft));
+        add += intensity * (t * hg_lobe(p.g, dot(s, d)) / (r2 + p.soft));
     }
     for (var c = 0u; c < 3u; c++) {
         grid[4u * lin + c] += p.k * add[c];

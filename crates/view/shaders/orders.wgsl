@@ -55,6 +55,8 @@
 #import grid_march
 #import disk_phase
 #import sh_basis
+#import finite
+#import workgroup_sum
 
 struct Params {
     eye: vec3<f32>,
@@ -136,26 +138,9 @@ const WG: u32 = 256u;
 // cells with smoke (6 words).
 @group(0) @binding(7) var<storage, read_write> work: array<f32>;
 
-var<workgroup> reduce_buf: array<vec2<f32>, WG>;
 var<workgroup> state: array<f32, 8>;
 var<workgroup> occ_lo: array<vec3<u32>, WG>;
 var<workgroup> occ_hi: array<vec3<u32>, WG>;
-
-fn word(i: u32) -> f32 {
-    return bitcast<f32>(lights[i]);
-}
-
-fn light_vec(i: u32) -> vec3<f32> {
-    return vec3<f32>(word(i), word(i + 1u), word(i + 2u));
-}
-
-fn finite(x: f32) -> bool {
-    return abs(x) <= 3.4e38;
-}
-
-fn finite_or_zero(x: f32) -> f32 {
-    return select(0.0, x, finite(x));
-}
 
 fn total_cells() -> u32 {
     return p.cells.x * p.cells.y * p.cells.z;
@@ -172,13 +157,6 @@ fn cell_index(c: vec3<u32>) -> u32 {
 // The cell of a flat dispatch of 64-invocation groups (x, then rows of x groups).
 fn invocation_cell(gid: vec3<u32>, ng: vec3<u32>) -> u32 {
     return gid.x + 64u * ng.x * gid.y;
-}
-
-fn transmittance(u: vec3<f32>, s: vec3<f32>, max_len: f32) -> f32 {
-    if p.sigma_t == 0.0 {
-        return 1.0;
-    }
-    return exp(-optical_depth(u, s, max_len));
 }
 
 // J_j = Ω g^l (L_j − S_j(u)) for j < 4 (zero beyond order²) at box-local u, S trilinear
@@ -623,20 +601,6 @@ fn system(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     }
 }
 
-fn reduce(lid: u32, v: vec2<f32>) -> vec2<f32> {
-    reduce_buf[lid] = v;
-    workgroupBarrier();
-    for (var s = WG / 2u; s > 0u; s = s / 2u) {
-        if lid < s {
-            reduce_buf[lid] = reduce_buf[lid] + reduce_buf[lid + s];
-        }
-        workgroupBarrier();
-    }
-    let total = workgroupUniformLoad(&reduce_buf[0]);
-    workgroupBarrier();
-    return total;
-}
-
 fn state_at(c: u32) -> u32 {
     return ROW * total_cells() + 8u * c;
 }
@@ -659,7 +623,7 @@ fn cg_start(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_inde
         let b = work[i * ROW + 7u + c];
         part += vec2<f32>(b * b, b * b / work[i * ROW]);
     }
-    let sums = reduce(lid, part);
+    let sums = workgroup_sum(lid, part);
     if lid == 0u {
         let st = state_at(c);
         let bn = sqrt(sums.x);
@@ -701,7 +665,7 @@ fn cg_iterate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_in
             work[r + 37u + c] = ap;
             part.x += pi * ap;
         }
-        let pap = reduce(lid, part).x;
+        let pap = workgroup_sum(lid, part).x;
         if !(pap > 0.0 && finite(pap)) {
             stopped = true;
             break;
@@ -715,7 +679,7 @@ fn cg_iterate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_in
             work[r + 31u + c] = rr;
             part += vec2<f32>(rr * rr, rr * rr / work[r]);
         }
-        let sums = reduce(lid, part);
+        let sums = workgroup_sum(lid, part);
         iterations += 1u;
         residual = select(0.0, sqrt(sums.x) / bn, bn > 0.0);
         let beta = select(0.0, sums.y / rz, rz > 0.0);

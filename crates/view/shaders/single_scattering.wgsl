@@ -42,7 +42,7 @@ struct Params {
     neg_sigma_t: f32,
 }
 
-const PI: f32 = 3.14159265358979;
+#import optics
 // √(4π).
 const SQRT_4PI: f32 = 3.5449077018110318;
 // ZH table samples of β (`zh_table::SAMPLES`).

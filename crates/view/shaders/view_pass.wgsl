@@ -51,7 +51,7 @@ struct Params {
 
 // Transmittance below which the march stops (`crm::OPAQUE`).
 const OPAQUE: f32 = 1e-4;
-const PI: f32 = 3.14159265358979;
+#import optics
 
 @group(0) @binding(0) var<uniform> p: Params;
 // Per voxel (x fastest): J̃ in xyz, D in w.

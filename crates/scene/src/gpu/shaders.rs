@@ -14,7 +14,8 @@
 use haze_gpu::GpuError;
 use haze_gpu::wgsl::{Module, Variant};
 
-/// The modules the entry files import: this crate's, then `haze_fogfn`'s (`fogfn`).
+/// This crate's modules (with `haze_fogfn`'s `fogfn` and [`haze_gpu::wgsl::SHARED`], the
+/// modules the entry files import).
 const OWN: &[Module] = &[
     Module {
         name: "render",
@@ -79,8 +80,9 @@ pub const VARIANTS: &[Variant] = &[
     PAPER_B_UNTILED,
 ];
 
-/// Every module the variants may import.
-pub const MODULES: &[&[Module]] = &[OWN, haze_fogfn::gpu::MODULES];
+/// Every module the variants may import: this crate's, `haze_fogfn`'s, then the shared
+/// ones.
+pub const MODULES: &[&[Module]] = &[OWN, haze_fogfn::gpu::MODULES, haze_gpu::wgsl::SHARED];
 
 /// `variant`'s whole source.
 pub fn source(variant: &Variant) -> Result<String, GpuError> {

@@ -4,7 +4,7 @@
 use haze_gpu::GpuError;
 use haze_gpu::wgsl::{Module, Variant};
 
-/// The modules the passes import.
+/// The modules the passes import, besides [`haze_gpu::wgsl::SHARED`].
 pub const MODULES: &[Module] = &[
     Module {
         name: "sh_basis",
@@ -18,7 +18,14 @@ pub const MODULES: &[Module] = &[
         name: "disk_phase",
         source: include_str!("../../shaders/disk_phase.wgsl"),
     },
+    Module {
+        name: "light_records",
+        source: include_str!("../../shaders/light_records.wgsl"),
+    },
 ];
+
+/// Every module the passes may import: this crate's, then the shared ones.
+const ALL: &[&[Module]] = &[MODULES, haze_gpu::wgsl::SHARED];
 
 /// Every shader the smoke renderer compiles.
 pub const VARIANTS: &[Variant] = &[
@@ -34,7 +41,7 @@ pub const VARIANTS: &[Variant] = &[
 
 /// `variant`'s whole source.
 pub fn source(variant: &Variant) -> Result<String, GpuError> {
-    variant.source(&[MODULES])
+    variant.source(ALL)
 }
 
 #[cfg(test)]
@@ -44,6 +51,6 @@ mod tests {
     /// Every pass's shader composes and validates on the CPU (no device needed).
     #[test]
     fn every_variant_validates() {
-        haze_gpu::wgsl::assert_variants_valid(VARIANTS, &[MODULES]);
+        haze_gpu::wgsl::assert_variants_valid(VARIANTS, ALL);
     }
 }

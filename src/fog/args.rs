@@ -4,7 +4,7 @@
 use crate::import_args::parse_vec3;
 use anyhow::Result;
 use clap::{Args, Subcommand, ValueEnum};
-use haze_render::fog::{FogModel, WaveletJob};
+use haze_render::fog::FogModel;
 use haze_render::fog_smoke::SmokePlacement;
 use haze_wavelet::Basis;
 use std::path::PathBuf;
@@ -111,52 +111,52 @@ pub struct FogModelArgs {
 pub struct WaveletArgs {
     /// The fogmap: .png, .exr, .npy or .f32 (+ .json sidecar), or a directory of numbered
     /// fogmaps of one size (an animation: frame k shows fogmap k, looping).
-    fogmap: PathBuf,
+    pub(crate) fogmap: PathBuf,
     #[command(flatten)]
-    model: FogModelArgs,
+    pub(crate) model: FogModelArgs,
     #[command(flatten, next_help_heading = "Smoke in the fog")]
-    smoke: SmokeArgs,
+    pub(crate) smoke: SmokeArgs,
     /// Output image: .exr (linear RGB, 32-bit float) or .png (sRGB, 8-bit).
     #[arg(long, short)]
-    out: PathBuf,
+    pub(crate) out: PathBuf,
     /// Integrate the detail bases as wavelets (the paper's Algorithm 1) instead of
     /// re-synthesizing them into one scaling basis per level; same image, slower, no
     /// early exit. CPU only: it is the reference the deconstructed levels (which --gpu
     /// integrates) are tested against.
     #[arg(long)]
-    direct: bool,
+    pub(crate) direct: bool,
     /// Render on the GPU (headless; same image as the CPU's within f32 rounding).
     #[arg(long)]
-    gpu: bool,
+    pub(crate) gpu: bool,
     /// Image width in pixels.
     #[arg(long, default_value_t = 800)]
-    width: usize,
+    pub(crate) width: usize,
     /// Image height in pixels.
     #[arg(long, default_value_t = 600)]
-    height: usize,
+    pub(crate) height: usize,
     /// Camera position (default: framing the fog, see above).
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
-    eye: Option<[f64; 3]>,
+    pub(crate) eye: Option<[f64; 3]>,
     /// Point looked at (default: framing the fog).
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
-    target: Option<[f64; 3]>,
+    pub(crate) target: Option<[f64; 3]>,
     /// Camera up direction.
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true, default_value = "0,0,1")]
-    up: [f64; 3],
+    pub(crate) up: [f64; 3],
     /// Vertical field of view in degrees.
     #[arg(long, default_value_t = 50.0)]
-    fov: f64,
+    pub(crate) fov: f64,
     /// Time of the (first) frame in seconds: the fog has drifted by wind × time.
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-    time: f64,
+    pub(crate) time: f64,
     /// Frames to render, 1/fps s apart, written to OUT with the frame number before the
     /// extension (fog.png → fog_0000.png, fog_0001.png …) [default: 1, or the number of
     /// fogmaps when FOGMAP is a directory].
     #[arg(long)]
-    frames: Option<usize>,
+    pub(crate) frames: Option<usize>,
     /// Frames per second of --frames.
     #[arg(long, default_value_t = 24.0)]
-    fps: f64,
+    pub(crate) fps: f64,
 }
 
 /// Parses "x,y" into two finite numbers.
@@ -234,28 +234,6 @@ impl From<SmokeArgs> for SmokePlacement {
             smoke_albedo: a.smoke_albedo,
             smoke_g: a.smoke_g,
         }
-    }
-}
-
-pub fn run(cmd: FogCommand) -> Result<()> {
-    match cmd {
-        FogCommand::Wavelet(a) => haze_render::fog::wavelet(WaveletJob {
-            fogmap: a.fogmap,
-            model: a.model.into(),
-            smoke: a.smoke.into(),
-            out: a.out,
-            direct: a.direct,
-            gpu: a.gpu,
-            width: a.width,
-            height: a.height,
-            eye: a.eye,
-            target: a.target,
-            up: a.up,
-            fov: a.fov,
-            time: a.time,
-            frames: a.frames,
-            fps: a.fps,
-        }),
     }
 }
 

@@ -4,11 +4,8 @@ use crate::camera_medium_args::MediumArgs;
 use crate::fog::{FogModelArgs, SmokeArgs};
 use crate::light_args::{LightArgs, LightingArg};
 use anyhow::Result;
-use haze_render::output::Outputs;
 use haze_tradeoff::pareto::Goal;
 use haze_view::render::MsDiffusion;
-use haze_viewer::fog::FogViewArgs;
-use haze_viewer::scene::SceneViewArgs;
 use haze_viewer::smoke::{Knobs, ViewArgs};
 use std::path::PathBuf;
 
@@ -16,7 +13,7 @@ use std::path::PathBuf;
 pub struct ViewCli {
     /// A baked .haze asset (`haze bake` makes one).
     #[arg(required_unless_present_any = ["scene", "fog"], conflicts_with_all = ["scene", "fog"])]
-    input: Option<PathBuf>,
+    pub(crate) input: Option<PathBuf>,
     /// Show a scene file (docs/formats.md "Scene file") instead: paper C's renderer on the GPU, the
     /// orbit camera starting at the scene's, fog and lights in the panel, the surfaces
     /// rasterized with a depth buffer. Gaussian media are rendered by paper B (surfaces
@@ -26,46 +23,46 @@ pub struct ViewCli {
     /// into SCENE.edited.json (the panel's file; "load" reads one back). Of the options
     /// below only --size, --exposure, --play-for, --no-window and --ray-traced apply.
     #[arg(long, value_name = "SCENE.json", conflicts_with = "fog")]
-    scene: Option<PathBuf>,
+    pub(crate) scene: Option<PathBuf>,
     /// Fly through a fogmap's wavelet fog instead (as `haze fog wavelet` renders it), on
     /// the GPU: WASD and Q/E fly, dragging looks around; basis, levels, µ, density,
     /// falloff and wind in the panel. FOGMAP may be a directory of numbered fogmaps, shown
     /// at --fps. The "Fog" options below apply, and --fps, --size, --exposure, --play-for
     /// and --no-window.
     #[arg(long, value_name = "FOGMAP")]
-    fog: Option<PathBuf>,
+    pub(crate) fog: Option<PathBuf>,
     /// Playback rate in frames per second; 0 plays every frame as fast as it renders.
     #[arg(long, default_value_t = 24.0)]
-    fps: f64,
+    pub(crate) fps: f64,
     /// Render resolution (the picture is scaled to the window; larger costs more, in the
     /// view pass mostly).
     #[arg(long, value_name = "WxH", default_value = "400x300", value_parser = parse_size)]
-    size: (usize, usize),
+    pub(crate) size: (usize, usize),
     /// Vertical field of view, degrees.
     #[arg(long, default_value_t = 40.0)]
-    fov: f64,
+    pub(crate) fov: f64,
     #[command(flatten)]
-    lights: LightArgs,
+    pub(crate) lights: LightArgs,
     #[command(flatten)]
-    medium: MediumArgs,
+    pub(crate) medium: MediumArgs,
     /// Spherical-harmonic order (bands), 1..6.
     #[arg(long, default_value_t = 4)]
-    sh_order: usize,
+    pub(crate) sh_order: usize,
     /// View-pass slices per voxel (2: half a voxel apart, as in the paper).
     #[arg(long, default_value_t = 2.0)]
-    slices: f64,
+    pub(crate) slices: f64,
     /// Start with single scattering only.
     #[arg(long)]
-    no_multiple: bool,
+    pub(crate) no_multiple: bool,
     /// Start without the residual (the RBF approximation alone).
     #[arg(long)]
-    no_residual: bool,
+    pub(crate) no_residual: bool,
     /// Start with the sky's single scattering at the RBF centers (paper A, `haze render
     /// --source footprint`) instead of per voxel by the environment pass: about half the
     /// frame time on lavapipe, 9–11 % darker single scattering on sky-lit smoke
     /// (BENCHMARKS.md, "Environment pass"); a panel switch too.
     #[arg(long)]
-    sky_at_centers: bool,
+    pub(crate) sky_at_centers: bool,
     /// Multiple scattering by paper A's diffusion at the RBF centers (`haze render
     /// --diffusion centers`) instead of the explicit orders on a grid of 2³-voxel cells
     /// (`orders`, the default, which takes the sky per voxel): less than half the frame
@@ -73,70 +70,70 @@ pub struct ViewCli {
     /// scattering: explicit orders"); a panel switch too. A setting chosen for a budget
     /// or a target error brings its own model (the sweep's `diffusion` knob).
     #[arg(long)]
-    ms_at_centers: bool,
+    pub(crate) ms_at_centers: bool,
     /// The explicit orders' model an asset's stored choice names (not a flag).
     #[arg(skip)]
-    orders_model: Option<MsDiffusion>,
+    pub(crate) orders_model: Option<MsDiffusion>,
     /// Start with the knobs (SH order, slices, multiple scattering, residual, render
     /// size) of the most accurate setting of a tradeoff sweep's front that renders within
     /// T milliseconds; prints the choice and why.
     #[arg(long, value_name = "T", group = "goal", conflicts_with_all = ["scene", "fog"])]
-    budget_ms: Option<f64>,
+    pub(crate) budget_ms: Option<f64>,
     /// Start with the fastest front setting whose error against the sweep's best is at
     /// most E (rel RMS, 0.02 = 2 %), the models the scene does not need turned off.
     #[arg(long, value_name = "E", group = "goal", conflicts_with_all = ["scene", "fog"])]
-    target_error: Option<f64>,
+    pub(crate) target_error: Option<f64>,
     /// The sweep for --budget-ms/--target-error (`haze tradeoff`'s tradeoff.json; its
     /// view-pass times are rescaled to --size); without it a quick sweep of the asset is
     /// measured first, at --size on the viewer's GPU renderer.
     #[arg(long, value_name = "FILE", requires = "goal")]
-    tradeoff: Option<PathBuf>,
+    pub(crate) tradeoff: Option<PathBuf>,
     /// Exposure applied before the sRGB encoding.
     #[arg(long, default_value_t = 1.0)]
-    exposure: f64,
+    pub(crate) exposure: f64,
     /// Play for SECONDS from the first picture, print one line of playback figures to
     /// stdout and exit.
     #[arg(long, value_name = "SECONDS")]
-    play_for: Option<f64>,
+    pub(crate) play_for: Option<f64>,
     /// With --play-for: play without opening a window (the render thread and the clock
     /// alone, no display needed).
     #[arg(long, requires = "play_for")]
-    no_window: bool,
+    pub(crate) no_window: bool,
     /// With --no-window and an asset: pause on the first frame and turn the camera a
     /// degree per picture instead of playing (what a camera drag costs); prints the
     /// pictures' median time.
     #[arg(long, requires = "no_window", conflicts_with_all = ["scene", "fog"])]
-    orbit: bool,
+    pub(crate) orbit: bool,
     /// With --scene: start with the surfaces ray-traced per pixel instead of rasterized
     /// (the panel switches between the two).
     #[arg(long, requires = "scene")]
-    ray_traced: bool,
+    pub(crate) ray_traced: bool,
     /// With --scene: a scripted stroke of the Gaussian editing tools, applied before the
     /// first picture with the scene's camera, at the render size: TOOL (paint, airbrush,
     /// erase, emit, copy, cut, paste) then the cursor's picture points `X,Y` (pixels,
     /// from the top left), e.g. `paint:10,40:50,40`; the panel's default settings;
     /// airbrush and emitter strokes run 0.05 s per point. Repeat for more strokes.
     #[arg(long, value_name = "TOOL:X,Y[:X,Y…]", requires = "scene", value_parser = haze_viewer::scene::edit_tools::parse_stroke)]
-    stroke: Vec<haze_viewer::scene::edit_tools::ScriptedStroke>,
+    pub(crate) stroke: Vec<haze_viewer::scene::edit_tools::ScriptedStroke>,
     /// With --scene: after the --stroke edits, save the edited Gaussian medium into a copy
     /// of the scene file at FILE (as the panel's "save").
     #[arg(long, value_name = "FILE", requires = "scene")]
-    save_edits: Option<PathBuf>,
+    pub(crate) save_edits: Option<PathBuf>,
     /// Where the lighting at the RBF centers (single scattering and the diffusion of
     /// multiple scattering) is computed. `auto`: on the GPU, unless the adapter is a CPU
     /// (lavapipe), where the CPU's own code is several times faster.
     #[arg(long, value_enum, default_value_t = LightingArg::Auto)]
-    lighting: LightingArg,
+    pub(crate) lighting: LightingArg,
     #[command(flatten, next_help_heading = "Fog (with --fog)")]
-    fog_model: FogModelArgs,
+    pub(crate) fog_model: FogModelArgs,
     #[command(flatten, next_help_heading = "Smoke in the fog (with --fog)")]
-    fog_smoke: SmokeArgs,
+    pub(crate) fog_smoke: SmokeArgs,
 }
 
 impl ViewCli {
     /// The knobs an asset's header chose for the viewer (`haze bake --view-budget-ms`),
     /// applied where the command line left the default.
-    fn apply_stored_choice(&mut self) {
+    pub(crate) fn apply_stored_choice(&mut self) {
         let Some(input) = &self.input else { return };
         let Some((knobs, why)) = haze_tradeoff::choice::stored_view_knobs(input) else {
             return;
@@ -198,7 +195,7 @@ impl ViewCli {
         }
     }
 
-    fn into_args(mut self) -> ViewArgs {
+    pub(crate) fn into_args(mut self) -> ViewArgs {
         let goal = match (self.budget_ms, self.target_error) {
             (Some(t), _) => Some(Goal::BudgetMs(t)),
             (None, Some(e)) => Some(Goal::TargetError(e)),
@@ -239,49 +236,6 @@ impl ViewCli {
     }
 }
 
-/// `haze view`: a fog, a scene file or a smoke asset in the window.
-pub fn run(v: ViewCli) -> Result<()> {
-    if let Some(fogmap) = v.fog {
-        return haze_viewer::fog::run(FogViewArgs {
-            fogmap,
-            model: v.fog_model.into(),
-            smoke: v.fog_smoke.into(),
-            fps: v.fps,
-            width: v.size.0,
-            height: v.size.1,
-            exposure: v.exposure,
-            play_for: v.play_for,
-            window: !v.no_window,
-        });
-    }
-    if v.fog_smoke.smoke.is_some() {
-        anyhow::bail!(
-            "--smoke shows a smoke asset in a fog: give --fog FOGMAP too (`haze view FILE.haze` shows the asset alone)"
-        );
-    }
-    if let (Some(scene), Some(save)) = (&v.scene, &v.save_edits) {
-        haze_render::scene::files_named(scene)
-            .iter()
-            .fold(Outputs::new().input(scene), |f, p| f.input(p))
-            .output("--save-edits", save)
-            .check()?;
-    }
-    match v.scene {
-        Some(scene) => haze_viewer::scene::run(SceneViewArgs {
-            scene,
-            width: v.size.0,
-            height: v.size.1,
-            exposure: v.exposure,
-            play_for: v.play_for,
-            window: !v.no_window,
-            ray_traced: v.ray_traced,
-            strokes: v.stroke,
-            save_edits: v.save_edits,
-        }),
-        None => haze_viewer::smoke::run(v.into_args()),
-    }
-}
-
 /// Parses a render size `WxH` (or `W×H`), each side 1..=8192 pixels.
 fn parse_size(s: &str) -> Result<(usize, usize), String> {
     let bad = || format!("'{s}' is not a size WxH (e.g. 800x600)");
@@ -303,7 +257,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn sizes_parse_and_bad_ones_say_why() {
+    pub(crate) fn sizes_parse_and_bad_ones_say_why() {
         assert_eq!(parse_size("800x600"), Ok((800, 600)));
         assert_eq!(parse_size("64×48"), Ok((64, 48)));
         assert_eq!(parse_size(" 3 X 2 "), Ok((3, 2)));

@@ -4,62 +4,59 @@ use crate::camera_medium_args::{CameraArgs, MediumArgs};
 use crate::import_args::ImportArgs;
 use crate::light_args::{LightArgs, LightingArg};
 use anyhow::Result;
-use haze_render::output::Outputs;
-use haze_render::scene::SceneJob;
 use haze_render::smoke::RenderOptions;
 use haze_tradeoff::pareto::Goal;
-use haze_tradeoff::render_choice;
 use std::path::PathBuf;
 
 #[derive(Debug, clap::Args)]
 pub struct RenderCli {
     /// A .haze asset, or a volume file / directory of frames.
     #[arg(required_unless_present = "scene", conflicts_with = "scene")]
-    input: Option<PathBuf>,
+    pub(crate) input: Option<PathBuf>,
     /// Render a scene file (JSON: camera, environment, lights, media, surfaces) instead.
     #[arg(long, value_name = "SCENE.json")]
-    scene: Option<PathBuf>,
+    pub(crate) scene: Option<PathBuf>,
     /// Source frame number (default: the first).
     #[arg(long)]
-    frame: Option<i64>,
+    pub(crate) frame: Option<i64>,
     /// Output image: IMG.exr (linear radiance) or IMG.png (exposure, sRGB).
     #[arg(long, short)]
-    out: PathBuf,
+    pub(crate) out: PathBuf,
     /// Image width [default: 400, or the scene camera's].
     #[arg(long)]
-    width: Option<usize>,
+    pub(crate) width: Option<usize>,
     /// Image height [default: 300, or the scene camera's].
     #[arg(long)]
-    height: Option<usize>,
+    pub(crate) height: Option<usize>,
     #[command(flatten)]
-    camera: CameraArgs,
+    pub(crate) camera: CameraArgs,
     #[command(flatten)]
-    lights: LightArgs,
+    pub(crate) lights: LightArgs,
     #[command(flatten)]
-    medium: MediumArgs,
+    pub(crate) medium: MediumArgs,
     /// Spherical-harmonic order (bands), 1..6.
     #[arg(long, default_value_t = 4)]
-    sh_order: usize,
+    pub(crate) sh_order: usize,
     /// Single scattering only.
     #[arg(long)]
-    no_multiple: bool,
+    pub(crate) no_multiple: bool,
     /// Ignore the residual (render the RBF approximation alone).
     #[arg(long)]
-    no_residual: bool,
+    pub(crate) no_residual: bool,
     /// View-pass slices per voxel (2: half a voxel apart, as in the paper).
     #[arg(long, default_value_t = 2.0)]
-    slices: f64,
+    pub(crate) slices: f64,
     /// SH exponentiation of the transmittance: scaling and squaring (accurate for thick
     /// smoke) or the paper's optimal linear approximation (faster, thin smoke only).
     #[arg(long, value_enum, default_value_t = ExpArg::Square)]
-    exp: ExpArg,
+    pub(crate) exp: ExpArg,
     /// Where the environment's single scattering comes from: a coarse grid of the
     /// transmitted environment's SH marched through the smoke, added per voxel (grid);
     /// or paper A's source at the RBF centers, their transmittance averaged over each
     /// footprint (footprint) or taken at the center (center). The diffusion starts from
     /// the centers' single scattering either way (footprint for grid).
     #[arg(long, value_enum, default_value_t = SourceArg::Grid)]
-    source: SourceArg,
+    pub(crate) source: SourceArg,
     /// How multiple scattering is computed: `orders[:F[:K]]` (the default: the first K
     /// scattering orders gathered explicitly along 72 directions, 32 after the first, on
     /// the density averaged over F³ voxels, and the rest by diffusion on that grid; K = 4;
@@ -71,47 +68,47 @@ pub struct RenderCli {
     /// center) or `grid[:F]` (the diffusion alone on the F³ grid, CPU only, refused with
     /// --gpu). BENCHMARKS.md "Multiple scattering: explicit orders" compares them.
     #[arg(long, value_parser = parse_diffusion)]
-    diffusion: Option<haze_view::render::MsDiffusion>,
+    pub(crate) diffusion: Option<haze_view::render::MsDiffusion>,
     /// Voxels between the nodes of `--source grid`'s grid (smaller: sharper self-shadowing,
     /// more time; the time grows as the inverse cube).
     #[arg(long, default_value_t = haze_view::render::env_pass::EnvGridOptions::default().spacing, value_parser = positive_f64)]
-    env_grid_spacing: f64,
+    pub(crate) env_grid_spacing: f64,
     /// Render with the reference path tracer instead (slow).
     #[arg(long, conflicts_with = "gpu")]
-    reference: bool,
+    pub(crate) reference: bool,
     /// Compensated ray marching entirely on the CPU (the default).
     #[arg(long, conflicts_with_all = ["gpu", "reference"])]
-    cpu: bool,
+    pub(crate) cpu: bool,
     /// Render on the GPU: single scattering, multiple scattering (the explicit orders or
     /// the centers' diffusion, --diffusion), the volume and view passes (in f32); with --scene, paper C's airlight and surface
     /// shading. Needs a GPU adapter; Mesa's lavapipe (mesa-vulkan-drivers) works without
     /// a GPU.
     #[arg(long)]
-    gpu: bool,
+    pub(crate) gpu: bool,
     /// With --gpu: where the lighting at the RBF centers (single scattering and the
     /// diffusion of multiple scattering) is computed. `auto`: on the GPU, unless the
     /// adapter is a CPU (lavapipe), where the CPU's own code is several times faster.
     #[arg(long, value_enum, default_value_t = LightingArg::Auto, requires = "gpu")]
-    lighting: LightingArg,
+    pub(crate) lighting: LightingArg,
     /// Samples per pixel of --reference.
     #[arg(long, default_value_t = 64)]
-    spp: u32,
+    pub(crate) spp: u32,
     /// Choose the knobs automatically: the most accurate setting of a tradeoff sweep's
     /// Pareto front that renders within T milliseconds (the sweep's machine and size).
     /// The choice sets the knobs the sweep turned, the multiple-scattering model
     /// (--diffusion) among them; a sweep written before its `diffusion` knob timed
     /// `centers`, which it then uses.
     #[arg(long, value_name = "T", conflicts_with_all = ["target_error", "reference", "gpu"])]
-    budget_ms: Option<f64>,
+    pub(crate) budget_ms: Option<f64>,
     /// Choose the knobs automatically: the fastest setting of the front whose error
     /// against the sweep's best setting is at most E (rel RMS, 0.02 = 2 %); the knobs are
     /// set as with --budget-ms.
     #[arg(long, value_name = "E", conflicts_with_all = ["reference", "gpu"])]
-    target_error: Option<f64>,
+    pub(crate) target_error: Option<f64>,
     /// The sweep for --budget-ms/--target-error (`haze tradeoff`'s tradeoff.json); without
     /// it a quick sweep of INPUT is run first, at this render's size.
     #[arg(long, value_name = "FILE")]
-    tradeoff: Option<PathBuf>,
+    pub(crate) tradeoff: Option<PathBuf>,
     /// Estimate this render's error: compare N of its smoke pixels with the reference
     /// renderer (128 samples each, lit by the environment as given: a map whole) and print
     /// "estimated error x %" (its noise discounted) in the summary line; with
@@ -122,10 +119,10 @@ pub struct RenderCli {
         default_value_t = 0,
         conflicts_with = "reference"
     )]
-    check: usize,
+    pub(crate) check: usize,
     /// Exposure applied before PNG tone mapping.
     #[arg(long, default_value_t = 1.0)]
-    exposure: f64,
+    pub(crate) exposure: f64,
     /// With --scene: the time in seconds at which the analytic fog is rendered (its wind
     /// has carried it for this long).
     #[arg(
@@ -134,25 +131,25 @@ pub struct RenderCli {
         requires = "scene",
         allow_hyphen_values = true
     )]
-    time: f64,
+    pub(crate) time: f64,
     /// With --scene: single scattering of the scene's lights through every medium (the
     /// analytic fog included) by ray marching with exact transmittance, on the CPU (on
     /// the GPU with --gpu), instead of paper C's airlight and paper D's fog colour.
     #[arg(long, requires = "scene", conflicts_with = "reference")]
-    march: bool,
+    pub(crate) march: bool,
     /// With --scene, Gaussian media (paper B): at most this many Gaussians whose shadows
     /// or hosting of a light paper B takes exactly along each integrated (light,
     /// Gaussian) pair (0-16; more is more exact and slower) [default: 16; 4 with --gpu
     /// on a CPU device such as lavapipe, whose shader loops are limited]
     #[arg(long, requires = "scene", value_parser = clap::value_parser!(u8).range(0..=16))]
-    exact_per_pair: Option<u8>,
+    pub(crate) exact_per_pair: Option<u8>,
     #[command(flatten)]
-    import: ImportArgs,
+    pub(crate) import: ImportArgs,
 }
 
 impl RenderCli {
     /// The render's options, and the goal (with its sweep) its knobs are chosen for.
-    fn into_args(self) -> (RenderOptions, Option<Goal>, Option<PathBuf>) {
+    pub(crate) fn into_args(self) -> (RenderOptions, Option<Goal>, Option<PathBuf>) {
         let goal = match (self.budget_ms, self.target_error) {
             (Some(t), _) => Some(Goal::BudgetMs(t)),
             (None, Some(e)) => Some(Goal::TargetError(e)),
@@ -231,7 +228,7 @@ fn parse_diffusion(s: &str) -> Result<haze_view::render::MsDiffusion, String> {
 }
 
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
-enum SourceArg {
+pub(crate) enum SourceArg {
     /// Per voxel, from a grid of the transmitted environment's SH.
     Grid,
     /// At the RBF centers, mean over six cubature points of each RBF's footprint.
@@ -241,7 +238,7 @@ enum SourceArg {
 }
 
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
-enum ExpArg {
+pub(crate) enum ExpArg {
     /// exp(f/2^k)^(2^k) with ‖f̂‖/2^k ≤ 1, by triple products.
     Square,
     /// a(‖f̂‖) + b(‖f̂‖)·f̂ (paper A §5.3).
@@ -255,49 +252,6 @@ fn positive_f64(s: &str) -> Result<f64, String> {
         Ok(v)
     } else {
         Err(format!("{s} must be a finite number > 0"))
-    }
-}
-
-/// `haze render`: a scene file, or a smoke frame (its knobs first chosen for a goal).
-pub fn run(r: RenderCli) -> Result<()> {
-    let mut files = Outputs::new();
-    if let Some(input) = &r.input {
-        files = files.input(input);
-    }
-    if let Some(scene) = &r.scene {
-        files = haze_render::scene::files_named(scene)
-            .iter()
-            .fold(files.input(scene), |f, p| f.input(p));
-    }
-    if r.lights.env != "sky" {
-        files = files.input(std::path::Path::new(&r.lights.env));
-    }
-    if let Some(t) = &r.tradeoff {
-        files = files.input(t);
-    }
-    files.output("--out", &r.out).check()?;
-    match r.scene {
-        Some(scene) => haze_render::scene::render_scene(SceneJob {
-            scene,
-            out: r.out,
-            width: r.width,
-            height: r.height,
-            reference: r.reference,
-            gpu: r.gpu,
-            exposure: r.exposure,
-            time: r.time,
-            march: r.march,
-            exact_per_pair: r.exact_per_pair.map(usize::from),
-        }),
-        None => {
-            let (mut options, goal, tradeoff) = r.into_args();
-            if let Some(goal) = goal {
-                // The values a choice keeps are checked before its sweep.
-                haze_render::smoke::check_exposure(options.exposure)?;
-                render_choice::choose_knobs(&mut options, goal, tradeoff.as_deref())?;
-            }
-            haze_render::smoke::render(options)
-        }
     }
 }
 

@@ -1,96 +1,92 @@
-//! `haze bake`: its flags converted into `haze_bake`'s options, the bake with progress
-//! bars, a summary line and the report.
+//! `haze bake`'s flags, converted into `haze_bake`'s options.
 
 use crate::import_args::ImportArgs;
 use anyhow::Result;
-use haze_bake::{Bake, BakeOptions, Baked, Event};
-use haze_render::output::{self, Outputs};
-use haze_render::progress;
+use haze_bake::BakeOptions;
 use std::path::PathBuf;
-use std::sync::{Arc, Mutex};
 
 #[derive(Debug, clap::Args)]
 pub struct BakeCli {
     /// File, directory or glob of numbered frames.
-    input: PathBuf,
+    pub(crate) input: PathBuf,
     /// The .haze file to write.
     #[arg(long, short)]
-    out: PathBuf,
+    pub(crate) out: PathBuf,
     /// Frame range to bake, inclusive: A..B, A.., ..B or A. A chunk starts with a full
     /// first-frame fit; `haze merge` joins chunks baked separately (on a render farm, say).
     #[arg(long, value_name = "A..B", allow_hyphen_values = true)]
-    frames: Option<haze_volume::import::FrameRange>,
+    pub(crate) frames: Option<haze_volume::import::FrameRange>,
     /// Continue an interrupted bake of --out from its journal (OUT.partial, written as
     /// frames finish), with the same input and settings. Without it, a bake starts over.
     #[arg(long)]
-    resume: bool,
+    pub(crate) resume: bool,
     /// RBFs of the first frame (later frames vary by deletions and insertions).
     #[arg(long, value_name = "N", conflicts_with = "target_error")]
-    rbfs: Option<usize>,
+    pub(crate) rbfs: Option<usize>,
     /// Instead of --rbfs: the smallest RBF count whose first-frame fit reaches this
     /// rel_l2 (searched by doubling then bisection; each probe is a full fit).
     #[arg(long, value_name = "E")]
-    target_error: Option<f64>,
+    pub(crate) target_error: Option<f64>,
     /// Most RBFs a frame may have: where later frames stop inserting and move RBFs
     /// instead [default: 8 × the first frame's count], and the --target-error search's
     /// ceiling [default: 4096].
     #[arg(long, value_name = "N")]
-    max_rbfs: Option<usize>,
+    pub(crate) max_rbfs: Option<usize>,
     /// Local minimizer.
     #[arg(long, value_enum, default_value_t = OptimizerArg::Lbfgsb)]
-    optimizer: OptimizerArg,
+    pub(crate) optimizer: OptimizerArg,
     /// Smallest RBF radius, as a fraction of the grid's longest side; never below the
     /// grid's Nyquist radius 2h/π (h the voxel side), which 0 leaves as the floor.
     #[arg(long, default_value_t = 0.0)]
-    radius_min: f64,
+    pub(crate) radius_min: f64,
     /// Largest RBF radius, as a fraction of the grid's longest side.
     #[arg(long, default_value_t = 0.09)]
-    radius_max: f64,
+    pub(crate) radius_max: f64,
     /// Fit first frames without teleportation (faster, usually a higher error).
     #[arg(long)]
-    no_teleport: bool,
+    pub(crate) no_teleport: bool,
     /// Iteration budget of a first-frame fit.
     #[arg(long, default_value_t = 1000)]
-    max_iterations: u64,
+    pub(crate) max_iterations: u64,
     /// Stop a minimization when an iteration lowers the error by less than this fraction
     /// (larger: faster, slightly less accurate; see BENCHMARKS.md).
     #[arg(long, default_value_t = 1e-6)]
-    tolerance: f64,
+    pub(crate) tolerance: f64,
     /// Iteration budget of each minimization of a warm-started frame.
     #[arg(long, default_value_t = 200)]
-    warm_iterations: u64,
+    pub(crate) warm_iterations: u64,
     /// Stop a warm-started minimization when its last 10 iterations together lowered the
     /// error by less than this fraction (0: only --tolerance stops it; see BENCHMARKS.md).
     #[arg(long, default_value_t = haze_fit::sequence::WARM_WINDOW_GAIN, value_name = "F")]
-    warm_tolerance: f64,
+    pub(crate) warm_tolerance: f64,
     /// Fit first frames on the half-resolution grid, then polish at full resolution:
     /// `auto` on grids of 64³ voxels or more.
     #[arg(long, value_enum, default_value_t = CoarseArg::Auto)]
-    coarse_to_fine: CoarseArg,
+    pub(crate) coarse_to_fine: CoarseArg,
     /// RBFs deleted at the start of each later frame.
     #[arg(long, default_value_t = 3)]
-    delete: usize,
+    pub(crate) delete: usize,
     /// Most RBFs inserted in a later frame [default: as many as keep the previous frame's
     /// RBFs per voxel of smoke as the smoke grows or as its excess error asks for, at
     /// least an eighth of --rbfs and 16]. A frame that hits it moves its weakest RBFs to
     /// where they lower the error more; if still over --threshold, it is reported.
     #[arg(long, value_name = "M")]
-    max_insert: Option<usize>,
+    pub(crate) max_insert: Option<usize>,
     /// How later frames get RBFs where the smoke grew: `batch` sizes each round by the
     /// excess error; `single` inserts one at a time (paper A).
     #[arg(long, value_enum, default_value_t = InsertionArg::Batch)]
-    insertion: InsertionArg,
+    pub(crate) insertion: InsertionArg,
     /// Insert RBFs while a frame's rel_l2 exceeds the first frame's by this ratio.
     #[arg(long, default_value_t = 1.1)]
-    threshold: f64,
+    pub(crate) threshold: f64,
     /// Insert an RBF only where it is predicted to lower the squared error by at least
     /// this fraction of what the first frame's next RBFs would (its marginal gain); a
     /// frame whose proposals all fall short stops inserting and is reported (0: off).
     #[arg(long, default_value_t = haze_fit::sequence::MARGINAL_GAIN, value_name = "F")]
-    marginal_gain: f64,
+    pub(crate) marginal_gain: f64,
     /// Seed of the random teleports (same seed, same input: same asset).
     #[arg(long, default_value_t = 1)]
-    seed: u64,
+    pub(crate) seed: u64,
     /// Largest error of the stored volume, as a fraction of each frame's peak density: the
     /// residual D − D̃ is quantized with a step of twice that, and nothing is stored where
     /// the RBFs alone are within it. 0 = lossless (the residual's f32 values); the default
@@ -99,38 +95,38 @@ pub struct BakeCli {
     /// within a quarter of the target (rel_l2, guaranteed by the quantizer's bound on the
     /// first frame), printed and stored in the asset header with why.
     #[arg(long, value_name = "E", value_parser = parse_error_fraction)]
-    residual_error: Option<f64>,
+    pub(crate) residual_error: Option<f64>,
     /// Widest stored residual value in bits (4..16); each brick takes the narrowest of 2, 4,
     /// 8, 16 bits that holds its values. If the largest residual needs more at
     /// --residual-error, the step widens (with a warning).
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u8).range(4..=16))]
-    quant_bits: u8,
+    pub(crate) quant_bits: u8,
     /// Side of the voxel bricks the residual is hashed by (1, 2, 4 or 8).
     #[arg(long, default_value_t = haze_hash::tile::DEFAULT_BRICK, value_parser = parse_brick)]
-    residual_brick: u32,
+    pub(crate) residual_brick: u32,
     /// Also write a JSON report of every frame's fit.
     #[arg(long, value_name = "REPORT.json")]
-    report: Option<PathBuf>,
+    pub(crate) report: Option<PathBuf>,
     /// Choose the render knobs `haze view` starts with: the most accurate setting of the
     /// --tradeoff sweep's front that rendered within T ms; stored with why in the header.
     #[arg(long, value_name = "T", requires = "tradeoff")]
-    view_budget_ms: Option<f64>,
+    pub(crate) view_budget_ms: Option<f64>,
     /// The sweep (`haze tradeoff`'s tradeoff.json) for --view-budget-ms.
     #[arg(long, value_name = "FILE", requires = "view_budget_ms")]
-    tradeoff: Option<PathBuf>,
+    pub(crate) tradeoff: Option<PathBuf>,
     #[command(flatten)]
-    import: ImportArgs,
+    pub(crate) import: ImportArgs,
 }
 
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
-enum CoarseArg {
+pub(crate) enum CoarseArg {
     Auto,
     On,
     Off,
 }
 
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
-enum InsertionArg {
+pub(crate) enum InsertionArg {
     /// Rounds sized by the excess error, placed where they lower the error most.
     Batch,
     /// One RBF and a joint minimization per round (paper A).
@@ -138,7 +134,7 @@ enum InsertionArg {
 }
 
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
-enum OptimizerArg {
+pub(crate) enum OptimizerArg {
     /// L-BFGS-B with exact bounds (paper A).
     Lbfgsb,
     /// L-BFGS on a smooth (logistic) reparameterization of the bounds.
@@ -146,7 +142,7 @@ enum OptimizerArg {
 }
 
 impl BakeCli {
-    fn into_args(self) -> Result<BakeArgs> {
+    pub(crate) fn into_args(self) -> Result<BakeArgs> {
         use anyhow::bail;
         use haze_fit::{Bounds, Coarse, FitOptions, Insertion, Optimizer, SequenceOptions, Stop};
         let bounds = Bounds {
@@ -308,130 +304,8 @@ fn parse_brick(s: &str) -> Result<u32, String> {
 
 /// Everything `haze bake` was asked to do.
 #[derive(Debug)]
-struct BakeArgs {
-    options: BakeOptions,
+pub(crate) struct BakeArgs {
+    pub(crate) options: BakeOptions,
     /// Where to write the JSON report, if anywhere.
-    report: Option<PathBuf>,
-}
-
-/// `haze bake`.
-pub fn run(cli: BakeCli) -> Result<()> {
-    let mut files = Outputs::new()
-        .input(&cli.input)
-        .output("--out", &cli.out)
-        .output("the bake journal", &haze_bake::journal::path_for(&cli.out));
-    if let Some(report) = &cli.report {
-        files = files.output("--report", report);
-    }
-    if let Some(tradeoff) = &cli.tradeoff {
-        files = files.input(tradeoff);
-    }
-    files.check()?;
-    bake(cli.into_args()?)
-}
-
-fn bake(args: BakeArgs) -> Result<()> {
-    let input = args.options.input.clone();
-    let out = args.options.out.clone();
-    // The bar exists once the frame count is known; events before it use a spinner.
-    let bar: Arc<Mutex<Option<indicatif::ProgressBar>>> = Arc::default();
-    let spinner: Arc<Mutex<Option<indicatif::ProgressBar>>> = Arc::default();
-    let (bar_e, spinner_e, out_e) = (bar.clone(), spinner.clone(), out.clone());
-    let events = move |e: Event<'_>| match e {
-        Event::Resumed { finished, total } => eprintln!(
-            "{}: resuming after {} of {total}",
-            out_e.display(),
-            progress::count(finished, "finished frame"),
-        ),
-        Event::Searching { frame, target } => {
-            *spinner_e.lock().unwrap_or_else(|p| p.into_inner()) = Some(progress::spinner(
-                &format!("choosing the RBF count for rel_l2 ≤ {target} on frame {frame}"),
-            ));
-        }
-        Event::Searched(_) => {
-            if let Some(s) = spinner_e.lock().unwrap_or_else(|p| p.into_inner()).take() {
-                s.finish_and_clear();
-            }
-        }
-        Event::Fitting { frame, .. } => {
-            if let Some(b) = bar_e.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
-                b.set_message(format!("frame {frame}"));
-            }
-        }
-        Event::Hashing => {
-            if let Some(b) = bar_e.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
-                b.set_message("hashing");
-            }
-        }
-    };
-    let mut bake = Bake::new(args.options, events)?;
-    let b = progress::frames(bake.sequence().len(), "fitting");
-    b.set_position(bake.finished() as u64);
-    *bar.lock().unwrap_or_else(|p| p.into_inner()) = Some(b.clone());
-    let mut failed = None;
-    for frame in bake.by_ref() {
-        match frame {
-            Ok(_) => b.inc(1),
-            Err(e) => {
-                failed = Some(e);
-                break;
-            }
-        }
-    }
-    if let Some(e) = failed {
-        b.finish_and_clear();
-        return Err(bake.abandon(e));
-    }
-    b.finish_and_clear();
-    let baked = bake.finish()?;
-    eprintln!("{}", summary_line(&baked));
-    if let Some(path) = &args.report {
-        output::write_json(path, &baked.report(&input))?;
-    }
-    Ok(())
-}
-
-fn summary_line(b: &Baked) -> String {
-    let records = &b.records;
-    let n = records.len().max(1) as f64;
-    let mean = |f: fn(&haze_bake::FrameRecord) -> f64| records.iter().map(f).sum::<f64>() / n;
-    let met = records
-        .iter()
-        .filter(|r| r.residual.rbfs_meet_error)
-        .count();
-    format!(
-        "{}: {}, {:.0} RBFs/frame, mean rel_l2 {:.4}, mean rms/max {:.4}, residual {}/frame ({} met by the RBFs alone), {}, {:.1} s{}",
-        b.out.display(),
-        progress::count(records.len(), "frame"),
-        mean(|r| r.rbfs as f64),
-        mean(|r| r.fit.rel_l2),
-        mean(|r| r.fit.rms_over_max),
-        crate::inspect::bytes(mean(|r| r.residual.hash_bytes) as u64),
-        met,
-        crate::inspect::bytes(b.bytes),
-        b.seconds,
-        over_threshold(records)
-    )
-}
-
-/// The frames whose RBFs ended over the threshold ratio (each one logged at `-v`), in one clause
-/// for the summary line: how many, the worst ratio, how many at the `--max-rbfs` ceiling;
-/// empty when every frame held its ratio.
-fn over_threshold(records: &[haze_bake::FrameRecord]) -> String {
-    let over: Vec<_> = records
-        .iter()
-        .filter(|r| r.fit.insertion_capped || r.fit.insertion_stalled)
-        .collect();
-    if over.is_empty() {
-        return String::new();
-    }
-    let worst = over.iter().map(|r| r.fit.error_ratio).fold(0.0, f64::max);
-    let ceiling = over
-        .iter()
-        .filter(|r| r.fit.insertion_stop == Some(haze_fit::InsertionStop::Ceiling))
-        .count();
-    format!(
-        "; {} over the threshold ratio (worst {worst:.3}; {ceiling} at the --max-rbfs ceiling): the residual holds their error",
-        progress::count(over.len(), "frame")
-    )
+    pub(crate) report: Option<PathBuf>,
 }

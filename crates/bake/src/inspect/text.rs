@@ -1,0 +1,188 @@
+//! The reports as text: a title line, then aligned `key: value` lines.
+
+use super::Report;
+
+impl Report {
+    /// The report as a title line and aligned `key: value` lines.
+    pub fn text(&self) -> String {
+        let mut out = String::new();
+        match self {
+            Report::File(r) => {
+                let what = match &r.vdb {
+                    Some(v) => format!(
+                        "OpenVDB, file version {}, library {}",
+                        v.file_version, v.library_version
+                    ),
+                    None => format!("{} volume", r.format.name()),
+                };
+                out.push_str(&format!("{}  ({what}, {})\n", r.path, bytes(r.file_bytes)));
+                if let Some(v) = &r.vdb {
+                    for g in &v.grids {
+                        let class = g.class.as_deref().unwrap_or("unknown class");
+                        let active = g
+                            .active_voxels
+                            .map(|n| format!(", {n} active"))
+                            .unwrap_or_default();
+                        let half = if g.half_float { ", half" } else { "" };
+                        line(
+                            &mut out,
+                            "grid",
+                            format!("{} ({}, {class}{active}{half})", g.name, g.grid_type),
+                        );
+                    }
+                }
+                if let Some(g) = &r.grid {
+                    line(&mut out, "read", g.clone());
+                }
+                r.values.text(&mut out);
+            }
+            Report::Sequence(r) => {
+                out.push_str(&format!(
+                    "{}  ({} sequence, {})\n",
+                    r.path,
+                    r.format.name(),
+                    count(r.frames, "frame")
+                ));
+                let gaps = if r.gaps.is_empty() {
+                    "no gaps".to_string()
+                } else {
+                    format!("{} missing: {}", r.missing_frames, gap_text(&r.gaps))
+                };
+                line(
+                    &mut out,
+                    "frames",
+                    format!(
+                        "{}..{}, {}, {gaps}",
+                        r.first_frame,
+                        r.last_frame,
+                        count(r.frames, "frame")
+                    ),
+                );
+                let d = r.dims;
+                line(&mut out, "dims", format!("{} × {} × {}", d[0], d[1], d[2]));
+                line(
+                    &mut out,
+                    "world box",
+                    format!("{} .. {}", vec3(r.bbox_min), vec3(r.bbox_max)),
+                );
+                line(&mut out, "voxel size", vec3(r.voxel_size));
+                line(
+                    &mut out,
+                    "values",
+                    format!("{} .. {}", r.value_min, r.value_max),
+                );
+                line(
+                    &mut out,
+                    "active",
+                    format!(
+                        "{} .. {} voxels per frame",
+                        r.active_voxels_min, r.active_voxels_max
+                    ),
+                );
+                line(
+                    &mut out,
+                    "memory",
+                    format!(
+                        "{} per frame, {} in all (dense f32)",
+                        bytes(r.memory_bytes_per_frame as u64),
+                        bytes(r.memory_bytes_total as u64)
+                    ),
+                );
+            }
+            Report::Asset(r) => {
+                out.push_str(&format!(
+                    "{}  (haze asset, format {}, {}, written by {})\n",
+                    r.path,
+                    r.format_version,
+                    bytes(r.file_bytes as u64),
+                    r.header.generator
+                ));
+                let g = &r.header.grid;
+                line(&mut out, "frames", r.header.frame_count.to_string());
+                line(
+                    &mut out,
+                    "dims",
+                    format!("{} × {} × {}", g.dims[0], g.dims[1], g.dims[2]),
+                );
+                line(
+                    &mut out,
+                    "world box",
+                    format!("{} .. {}", vec3(g.bbox_min), vec3(g.bbox_max)),
+                );
+                let src = &r.header.source;
+                line(
+                    &mut out,
+                    "source",
+                    format!("{} (grid '{}')", src.path, src.grid),
+                );
+                for (kind, k) in &r.blocks_by_kind {
+                    line(
+                        &mut out,
+                        "blocks",
+                        format!("{} × {kind}, {}", k.blocks, bytes(k.bytes)),
+                    );
+                }
+                line(&mut out, "checksums", "all blocks verified".to_string());
+                for f in &r.frames {
+                    if let (Some(n), Some(e), Some(m)) = (f.rbfs, f.rel_l2, f.rms_over_max) {
+                        let residual = f
+                            .hash_bytes
+                            .map_or(String::new(), |b| format!(", residual {}", bytes(b as u64)));
+                        line(
+                            &mut out,
+                            &format!("frame {}", f.frame),
+                            format!("{n} RBFs, rel_l2 {e:.4}, rms/max {m:.4}{residual}"),
+                        );
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
+pub(super) fn line(out: &mut String, key: &str, value: String) {
+    out.push_str(&format!("  {:<11} {value}\n", format!("{key}:")));
+}
+
+pub(super) fn vec3(v: [f64; 3]) -> String {
+    format!("({}, {}, {})", v[0], v[1], v[2])
+}
+
+pub(super) fn gap_text(gaps: &[[i64; 2]]) -> String {
+    gaps.iter()
+        .map(|g| {
+            if g[0] == g[1] {
+                g[0].to_string()
+            } else {
+                format!("{}..{}", g[0], g[1])
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Human-readable byte count.
+pub fn bytes(n: u64) -> String {
+    const UNITS: [&str; 5] = ["B", "KiB", "MiB", "GiB", "TiB"];
+    let mut v = n as f64;
+    let mut u = 0;
+    while v >= 1024.0 && u + 1 < UNITS.len() {
+        v /= 1024.0;
+        u += 1;
+    }
+    if u == 0 {
+        format!("{n} B")
+    } else {
+        format!("{v:.1} {}", UNITS[u])
+    }
+}
+
+/// "1 frame", "2 frames".
+pub fn count(n: usize, noun: &str) -> String {
+    if n == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{n} {noun}s")
+    }
+}

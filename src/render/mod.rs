@@ -1,0 +1,54 @@
+//! `haze render`: a scene file or a smoke frame rendered to an image; its flags and their
+//! conversion into `haze_render`'s options are in [`args`].
+
+mod args;
+
+pub use args::*;
+
+use anyhow::Result;
+use haze_render::output::Outputs;
+use haze_render::scene::SceneJob;
+use haze_tradeoff::render_choice;
+
+/// `haze render`: a scene file, or a smoke frame (its knobs first chosen for a goal).
+pub fn run(r: RenderCli) -> Result<()> {
+    let mut files = Outputs::new();
+    if let Some(input) = &r.input {
+        files = files.input(input);
+    }
+    if let Some(scene) = &r.scene {
+        files = haze_render::scene::files_named(scene)
+            .iter()
+            .fold(files.input(scene), |f, p| f.input(p));
+    }
+    if r.lights.env != "sky" {
+        files = files.input(std::path::Path::new(&r.lights.env));
+    }
+    if let Some(t) = &r.tradeoff {
+        files = files.input(t);
+    }
+    files.output("--out", &r.out).check()?;
+    match r.scene {
+        Some(scene) => haze_render::scene::render_scene(SceneJob {
+            scene,
+            out: r.out,
+            width: r.width,
+            height: r.height,
+            reference: r.reference,
+            gpu: r.gpu,
+            exposure: r.exposure,
+            time: r.time,
+            march: r.march,
+            exact_per_pair: r.exact_per_pair.map(usize::from),
+        }),
+        None => {
+            let (mut options, goal, tradeoff) = r.into_args();
+            if let Some(goal) = goal {
+                // The values a choice keeps are checked before its sweep.
+                haze_render::smoke::check_exposure(options.exposure)?;
+                render_choice::choose_knobs(&mut options, goal, tradeoff.as_deref())?;
+            }
+            haze_render::smoke::render(options)
+        }
+    }
+}
