@@ -5,10 +5,11 @@ use serde::{Deserialize, Serialize};
 /// File magic: "HAZE", a NUL, CR LF and ^Z, so that text-mode transfers and `type`
 /// corrupt it visibly.
 pub const MAGIC: [u8; 8] = *b"HAZE\0\r\n\x1a";
-/// Format version this build writes and the newest it reads. Version 2 stores the residual
-/// as a hash of voxel bricks (`haze_hash::block` layout 2); version 1 files still open, and
-/// their residual blocks are refused with a message to bake again.
-pub const FORMAT_VERSION: u32 = 2;
+/// Format version this build writes and the newest it reads. Version 3 codes the RBF
+/// blocks (16-bit channels) and residual blocks (`haze_hash::block` layout 3) with zstd;
+/// files of versions 1 and 2 still open (raw volumes read as before), and their RBF and
+/// residual blocks are refused with a message to bake again.
+pub const FORMAT_VERSION: u32 = 3;
 /// Alignment of every block, in bytes.
 pub const ALIGN: u64 = 64;
 /// Size of the preamble.

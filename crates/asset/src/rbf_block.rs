@@ -1,72 +1,151 @@
-//! The RBF block: the Gaussian RBFs of one frame, ready for GPU upload.
+//! The RBF block: the Gaussian RBFs of one frame, quantized and entropy-coded.
 //!
-//! Payload: `count: u32`, `stride: u32` (= 32), 8 reserved bytes, then `count` records of
-//! eight little-endian `f32`: center x, y, z, radius, weight, and three zeros (two `vec4`s
-//! in a storage buffer). World coordinates and density units. Values are rounded to `f32`
-//! here: anything computed from the RBFs after the bake (the residual, lighting) must use
-//! the decoded values.
+//! Payload (little-endian):
+//!
+//! ```text
+//! u32 count, u32 layout (2), u32 coded bytes, u32 reserved (0)
+//! f64 lo[5], hi[5]         each channel's range: center x, y, z, radius, weight
+//! zstd frame of `coded bytes`: for each channel in that order, the `count` values'
+//!   u16 q = round(65535 (v − lo) / (hi − lo)), as two byte planes (all low bytes,
+//!   then all high bytes)
+//! ```
+//!
+//! A value decodes to `lo (1 − t) + hi t`, `t = q / 65535` (the extremes exactly): a center
+//! moves by at most 1/131070 of the centers' span, a radius or weight by as little of its
+//! channel's span. World coordinates and density units. Anything computed from the RBFs
+//! after the bake (the residual, lighting) must use the decoded values, which
+//! [`decode_rbfs`] of [`encode_rbfs`] gives; the residual is taken against them, so the
+//! bake's error bound holds for the reconstruction a reader makes. Layout 1 (32-byte
+//! `f32` records; haze format 2) is refused with a message to bake again.
 
 use haze_volume::Rbf;
 
-const PREFIX: usize = 16;
-const STRIDE: usize = 32;
+const PREFIX: usize = 16 + 2 * 8 * CHANNELS;
+const CHANNELS: usize = 5;
+const LAYOUT: u32 = 2;
+/// The quantization's largest level.
+const LEVELS: f64 = 65535.0;
+/// zstd's level (decoding speed does not depend on it).
+const ZSTD_LEVEL: i32 = 19;
+/// The largest ratio of plain to coded bytes a block may claim.
+const RATIO: u64 = 1024;
+
+fn channels(r: &Rbf) -> [f64; CHANNELS] {
+    [r.center[0], r.center[1], r.center[2], r.radius, r.weight]
+}
 
 /// Encodes RBFs as an RBF-block payload.
 pub fn encode_rbfs(rbfs: &[Rbf]) -> Vec<u8> {
-    let mut out = Vec::with_capacity(PREFIX + STRIDE * rbfs.len());
-    out.extend_from_slice(&(rbfs.len() as u32).to_le_bytes());
-    out.extend_from_slice(&(STRIDE as u32).to_le_bytes());
-    out.extend_from_slice(&[0u8; 8]);
+    let n = rbfs.len();
+    let mut lo = [f64::INFINITY; CHANNELS];
+    let mut hi = [f64::NEG_INFINITY; CHANNELS];
     for r in rbfs {
-        let v = [
-            r.center[0],
-            r.center[1],
-            r.center[2],
-            r.radius,
-            r.weight,
-            0.0,
-            0.0,
-            0.0,
-        ];
-        for x in v {
-            out.extend_from_slice(&(x as f32).to_le_bytes());
+        for (c, v) in channels(r).into_iter().enumerate() {
+            lo[c] = lo[c].min(v);
+            hi[c] = hi[c].max(v);
         }
     }
+    if n == 0 {
+        lo = [0.0; CHANNELS];
+        hi = [0.0; CHANNELS];
+    }
+    let mut planes = vec![0u8; 2 * CHANNELS * n];
+    for (k, r) in rbfs.iter().enumerate() {
+        for (c, v) in channels(r).into_iter().enumerate() {
+            let span = hi[c] - lo[c];
+            let q = if span > 0.0 {
+                ((v - lo[c]) / span * LEVELS).round().clamp(0.0, LEVELS) as u16
+            } else {
+                0
+            };
+            let [l, h] = q.to_le_bytes();
+            planes[2 * c * n + k] = l;
+            planes[(2 * c + 1) * n + k] = h;
+        }
+    }
+    let coded =
+        zstd::bulk::compress(&planes, ZSTD_LEVEL).expect("zstd codes any bytes at a valid level");
+    let mut out = Vec::with_capacity(PREFIX + coded.len());
+    for v in [n as u32, LAYOUT, coded.len() as u32, 0] {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    for v in lo.iter().chain(&hi) {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    out.extend_from_slice(&coded);
     out
 }
 
-/// Decodes an RBF-block payload, checking its length and that every RBF is finite with a
+/// The zstd frame `coded`, decompressed: its declared size must be known, at most `most`
+/// and within 1024× the coded bytes (no block of real data comes near that; a larger
+/// claim is damage), so a bad block cannot make the reader allocate more than that.
+fn inflate(coded: &[u8], most: usize) -> Result<Vec<u8>, String> {
+    let size = zstd::zstd_safe::get_frame_content_size(coded)
+        .ok()
+        .flatten()
+        .ok_or("its coded part has no zstd frame size")?;
+    let cap = (most as u64).min(RATIO * coded.len() as u64 + 4096);
+    if size > cap {
+        return Err(format!(
+            "its coded part claims {size} bytes (at most {cap})"
+        ));
+    }
+    zstd::bulk::decompress(coded, size as usize)
+        .map_err(|e| format!("its coded part does not decompress ({e})"))
+}
+
+/// Decodes an RBF-block payload, checking its sizes and that every RBF is finite with a
 /// positive radius.
 pub fn decode_rbfs(bytes: &[u8]) -> Result<Vec<Rbf>, String> {
-    if bytes.len() < PREFIX {
+    if bytes.len() < 8 {
         return Err(format!("RBF block of {} bytes has no header", bytes.len()));
     }
     let u = |i: usize| u32::from_le_bytes([bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]]);
-    let (count, stride) = (u(0) as usize, u(4) as usize);
-    if stride != STRIDE {
-        return Err(format!("RBF block stride {stride} (expected {STRIDE})"));
+    let (count, layout) = (u(0) as usize, u(4));
+    if layout == 32 {
+        return Err(
+            "RBF block layout 1 (haze format 2) is no longer read: bake the asset again"
+                .to_string(),
+        );
     }
-    let need = count
-        .checked_mul(STRIDE)
-        .and_then(|n| n.checked_add(PREFIX));
-    if need != Some(bytes.len()) {
+    if layout != LAYOUT {
+        return Err(format!("RBF block layout {layout} is unknown"));
+    }
+    if bytes.len() < PREFIX {
+        return Err(format!("RBF block of {} bytes has no header", bytes.len()));
+    }
+    let coded = u(8) as usize;
+    if bytes.len() != PREFIX + coded {
         return Err(format!(
-            "RBF block of {} bytes cannot hold {count} RBFs of {STRIDE} bytes",
+            "RBF block of {} bytes does not match its header ({coded} coded bytes)",
             bytes.len()
         ));
     }
-    let f = |i: usize| {
-        f64::from(f32::from_le_bytes([
-            bytes[i],
-            bytes[i + 1],
-            bytes[i + 2],
-            bytes[i + 3],
-        ]))
+    let f = |i: usize| f64::from_le_bytes(bytes[i..i + 8].try_into().unwrap_or([0; 8]));
+    let lo: [f64; CHANNELS] = std::array::from_fn(|c| f(16 + 8 * c));
+    let hi: [f64; CHANNELS] = std::array::from_fn(|c| f(16 + 8 * (CHANNELS + c)));
+    let want = count
+        .checked_mul(2 * CHANNELS)
+        .ok_or(format!("RBF block claims {count} RBFs"))?;
+    let planes = inflate(&bytes[PREFIX..], want).map_err(|e| format!("RBF block: {e}"))?;
+    if planes.len() != want {
+        return Err(format!(
+            "RBF block holds {} bytes of values for {count} RBFs",
+            planes.len()
+        ));
+    }
+    let value = |c: usize, k: usize| {
+        let q = u16::from_le_bytes([planes[2 * c * count + k], planes[(2 * c + 1) * count + k]]);
+        let t = f64::from(q) / LEVELS;
+        lo[c] * (1.0 - t) + hi[c] * t
     };
     let mut out = Vec::with_capacity(count);
     for k in 0..count {
-        let o = PREFIX + k * STRIDE;
-        let rbf = Rbf::new([f(o), f(o + 4), f(o + 8)], f(o + 12), f(o + 16));
+        let rbf = Rbf::new(
+            [value(0, k), value(1, k), value(2, k)],
+            value(3, k),
+            value(4, k),
+        );
         let finite = rbf.center.iter().all(|c| c.is_finite()) && rbf.weight.is_finite();
         if !(finite && rbf.radius > 0.0 && rbf.radius.is_finite()) {
             let c = rbf.center;
@@ -84,30 +163,60 @@ pub fn decode_rbfs(bytes: &[u8]) -> Result<Vec<Rbf>, String> {
 mod tests {
     use super::*;
 
+    /// Decoded RBFs lie within half a level of each channel's span of the encoded ones,
+    /// the channels' extremes exactly; damage and the old layout are refused.
     #[test]
-    fn rbfs_round_trip_through_f32() {
-        let rbfs = vec![
-            Rbf::new([0.5, -1.25, 3.0], 0.0625, 0.75),
-            Rbf::new([1e-3, 2.0, 4.0], 0.1, 1e-4),
-        ];
+    fn rbfs_round_trip_within_half_a_level() {
+        let rbfs: Vec<Rbf> = (0..50)
+            .map(|i| {
+                let t = i as f64 / 49.0;
+                Rbf::new(
+                    [0.5 + 2.0 * t, -1.25 + (7.0 * t).sin(), 3.0 - t * t],
+                    0.0625 + 0.5 * (3.0 * t).cos().abs(),
+                    -0.2 + 1.1 * (5.0 * t).sin().abs(),
+                )
+            })
+            .collect();
         let enc = encode_rbfs(&rbfs);
-        assert_eq!(enc.len(), 16 + 64);
-        assert_eq!(
-            decode_rbfs(&enc).unwrap(),
-            rbfs.iter()
-                .map(|r| {
-                    let f = |x: f64| f64::from(x as f32);
-                    Rbf::new(r.center.map(f), f(r.radius), f(r.weight))
-                })
-                .collect::<Vec<_>>()
-        );
+        let dec = decode_rbfs(&enc).unwrap();
+        assert_eq!(dec.len(), rbfs.len());
+        for c in 0..CHANNELS {
+            let v: Vec<f64> = rbfs.iter().map(|r| channels(r)[c]).collect();
+            let (lo, hi) = v
+                .iter()
+                .fold((f64::MAX, f64::MIN), |(a, b), &x| (a.min(x), b.max(x)));
+            let half = 0.5 * (hi - lo) / LEVELS * (1.0 + 1e-9);
+            for (r, d) in rbfs.iter().zip(&dec) {
+                let (x, y) = (channels(r)[c], channels(d)[c]);
+                assert!(
+                    (x - y).abs() <= half,
+                    "channel {c}: {x} → {y} (half a level {half})"
+                );
+                if x == lo || x == hi {
+                    assert_eq!(x, y, "an extreme of channel {c} is kept exactly");
+                }
+            }
+        }
+        // Decoding is a function of the bytes: a second round trip changes nothing.
+        assert_eq!(decode_rbfs(&encode_rbfs(&dec)).unwrap(), dec);
         assert_eq!(decode_rbfs(&encode_rbfs(&[])).unwrap(), vec![]);
+        let one = [Rbf::new([1.0, 2.0, 3.0], 0.25, 0.5)];
+        assert_eq!(decode_rbfs(&encode_rbfs(&one)).unwrap(), one.to_vec());
         assert!(decode_rbfs(&enc[..enc.len() - 4]).is_err());
-        let mut bad = enc.clone();
-        bad[16 + 12..16 + 16].copy_from_slice(&0f32.to_le_bytes());
-        assert!(decode_rbfs(&bad).unwrap_err().contains("RBF 0 is invalid"));
-        let mut huge = enc;
+        assert!(decode_rbfs(&enc[..10]).is_err());
+        let mut huge = enc.clone();
         huge[0..4].copy_from_slice(&u32::MAX.to_le_bytes());
         assert!(decode_rbfs(&huge).is_err());
+        // A radius range reaching zero gives an RBF of radius 0.
+        let mut bad = enc.clone();
+        bad[16 + 8 * 3..16 + 8 * 4].copy_from_slice(&0f64.to_le_bytes());
+        assert!(decode_rbfs(&bad).unwrap_err().contains("is invalid"));
+        let mut old = vec![0u8; 16 + 32];
+        old[4..8].copy_from_slice(&32u32.to_le_bytes());
+        assert!(
+            decode_rbfs(&old)
+                .unwrap_err()
+                .contains("bake the asset again")
+        );
     }
 }

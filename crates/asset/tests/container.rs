@@ -1,7 +1,7 @@
 //! The container end to end: round trips, and every way a file can be damaged.
 
 use haze_asset::{
-    Asset, AssetError, AssetWriter, BlockKind, GridInfo, Header, Scope, SourceInfo,
+    Asset, AssetError, AssetWriter, BlockKind, FORMAT_VERSION, GridInfo, Header, Scope, SourceInfo,
     decode_raw_volume, encode_raw_volume,
 };
 use haze_volume::{Bbox, Volume};
@@ -237,12 +237,15 @@ fn future_versions_and_foreign_files_are_refused() {
     let p = dir.path().join("v.haze");
     write_sample(&p);
     let mut b = std::fs::read(&p).unwrap();
-    b[8..12].copy_from_slice(&3u32.to_le_bytes());
+    b[8..12].copy_from_slice(&(FORMAT_VERSION + 1).to_le_bytes());
     let crc = crc32fast::hash(&b[0..56]);
     b[56..60].copy_from_slice(&crc.to_le_bytes());
     let e = Asset::from_bytes(&p, &b).unwrap_err().to_string();
     assert!(
-        e.contains("format version 3 is newer than this haze reads (up to 2)"),
+        e.contains(&format!(
+            "format version {} is newer than this haze reads (up to {FORMAT_VERSION})",
+            FORMAT_VERSION + 1
+        )),
         "{e}"
     );
     let e = Asset::from_bytes(&p, b"OpenVDB and other things entirely").unwrap_err();

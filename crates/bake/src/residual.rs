@@ -90,7 +90,8 @@ impl HashVolume {
     }
 }
 
-/// The RBFs as a reader of the asset sees them (rounded to f32 by the block encoding).
+/// The RBFs as a reader of the asset sees them (quantized by the block encoding,
+/// `haze_asset::rbf_block`): the residual is taken against these.
 pub fn as_stored(rbfs: &[Rbf]) -> Result<Vec<Rbf>> {
     decode_rbfs(&encode_rbfs(rbfs)).map_err(|e| anyhow!("RBFs do not encode: {e}"))
 }
@@ -193,9 +194,10 @@ impl ResidualStage {
         } else {
             let g = ResidualGroup::build(self.dims, self.brick, &frames, BuildOptions::default())?;
             let bricks: Vec<usize> = (0..count).map(|j| g.bricks_of(j)).collect();
-            // A frame's share: its packed words plus its bricks' key and payload.
+            // A frame's share: its packed words plus its bricks' list entries (a width
+            // byte and a key delta of about a byte: half a word each).
             let weights = (0..count)
-                .map(|j| (g.words_of(j) + 2 * bricks[j]) as f64)
+                .map(|j| g.words_of(j) as f64 + 0.5 * bricks[j] as f64)
                 .collect();
             (block::encode(&g), bricks, weights)
         };

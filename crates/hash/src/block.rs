@@ -1,31 +1,82 @@
-//! The residual-hash block of the asset: one [`ResidualGroup`] as flat little-endian
-//! `u32` arrays, ready for a GPU upload.
+//! The residual-hash block of the asset: one [`ResidualGroup`], entropy-coded on disk and
+//! decoded into the flat `u32` arrays a GPU uploads.
+//!
+//! A hash's key and payload tables are mostly empty slots, and every stored brick's slot
+//! follows from its key and the offset table `Φ` (`h(p)`, [`crate::psh`]). So the block
+//! stores `Φ`, the bricks as a list and their packed values, coded with zstd, and
+//! [`decode`] puts every brick back in its slot: the decoded group is the one encoded,
+//! table for table.
 //!
 //! ```text
-//! u32 layout version (2), bits, frames (1..=27), brick side
-//! u32 dims[3], m̄, r̄, data words
+//! u32 layout version (3), bits, frames (1..=27), brick side
+//! u32 dims[3], m̄, r̄, data words, bricks, coded bytes
 //! f32 steps[27]                       (unused slots 0)
-//! u32 offsets[r̄³]                     Φ, packed x | y << 10 | z << 20
-//! u32 keys[m̄³]                        linear brick index in the hash domain + 1, 0 = empty
-//! u32 payloads[m̄³]                    first data word << 3 | width code (haze_hash::pack)
-//! u32 data[words]                     the bricks' packed values
+//! zstd frame of `coded bytes`:
+//!   u32 offsets[r̄³]                   Φ, packed x | y << 10 | z << 20
+//!   u8  widths[bricks]                each brick's width code (haze_hash::pack)
+//!   key deltas[bricks]                zigzag LEB128 varints: each brick's key (linear
+//!                                     index in the hash domain + 1) minus the previous
+//!                                     brick's (the first: minus 0)
+//!   u32 data[data words]              the bricks' packed values, brick after brick
 //! ```
 //!
-//! Layout 1 (haze format 1: one hashed cell per voxel, `i8`/`i16` values) is refused with a
-//! message that says to bake the asset again.
+//! Bricks are listed in the order of their values in `data`, so a brick's payload (first
+//! word, width) is the running sum of the words before it. Layouts 1 (a cell hash, haze
+//! format 1) and 2 (the tables uncoded, haze format 2) are refused with a message that
+//! says to bake the asset again.
 
 use crate::pack::Width;
 use crate::psh::{MAX_SIDE, PerfectHash};
 use crate::quantize::BITS;
-use crate::tile::{BRICK_SIDES, GROUP, ResidualGroup, bricks_per_frame, unpayload};
+use crate::tile::{BRICK_SIDES, GROUP, ResidualGroup, bricks_per_frame, payload, unpayload};
 
-const VERSION: u32 = 2;
-const HEADER: usize = 4 * 10 + 4 * GROUP;
+const VERSION: u32 = 3;
+const HEADER: usize = 4 * 12 + 4 * GROUP;
+/// zstd's level for the coded part: its strongest regular level (decoding speed does not
+/// depend on it; a 27-frame group of 128³ frames codes in well under a second).
+const LEVEL: i32 = 19;
+/// The largest ratio of plain to coded bytes a block may claim.
+const RATIO: u64 = 1024;
 
 /// Encodes a hash volume.
 pub fn encode(g: &ResidualGroup) -> Vec<u8> {
     let h = &g.hash;
-    let mut out = Vec::with_capacity(HEADER + h.bytes() + 4 * g.data.len());
+    // The bricks in the order of their values.
+    let mut bricks: Vec<(u32, u32)> = h
+        .keys
+        .iter()
+        .zip(&h.payloads)
+        .filter(|(k, _)| **k != 0)
+        .map(|(&k, &p)| (p, k))
+        .collect();
+    bricks.sort_unstable();
+    let per = (g.brick * g.brick * g.brick) as usize;
+    let mut plain = Vec::with_capacity(4 * h.offsets.len() + 6 * bricks.len() + 4 * g.data.len());
+    for o in &h.offsets {
+        plain.extend_from_slice(&o.to_le_bytes());
+    }
+    let parts: Vec<(u32, Width)> = bricks
+        .iter()
+        .map(|&(p, _)| unpayload(p).unwrap_or((0, Width::F32)))
+        .collect();
+    plain.extend(parts.iter().map(|&(_, w)| w.code() as u8));
+    let mut previous = 0i64;
+    for &(_, k) in &bricks {
+        let delta = i64::from(k) - previous;
+        previous = i64::from(k);
+        put_varint(&mut plain, ((delta << 1) ^ (delta >> 63)) as u64);
+    }
+    let mut words = 0u32;
+    for &(first, width) in &parts {
+        let n = width.words(per);
+        let span = (first as usize)..(first as usize + n).min(g.data.len());
+        for v in &g.data[span] {
+            plain.extend_from_slice(&v.to_le_bytes());
+        }
+        words += n as u32;
+    }
+    let coded = zstd::bulk::compress(&plain, LEVEL).expect("zstd codes any bytes at a valid level");
+    let mut out = Vec::with_capacity(HEADER + coded.len());
     let mut u = |v: u32| out.extend_from_slice(&v.to_le_bytes());
     for v in [VERSION, u32::from(g.bits), g.steps.len() as u32, g.brick] {
         u(v);
@@ -36,35 +87,76 @@ pub fn encode(g: &ResidualGroup) -> Vec<u8> {
         g.dims[2],
         h.m,
         h.r,
-        g.data.len() as u32,
+        words,
+        bricks.len() as u32,
+        coded.len() as u32,
     ] {
         u(v);
     }
     for j in 0..GROUP {
         u(g.steps.get(j).copied().unwrap_or(0.0).to_bits());
     }
-    for v in h
-        .offsets
-        .iter()
-        .chain(&h.keys)
-        .chain(&h.payloads)
-        .chain(&g.data)
-    {
-        out.extend_from_slice(&v.to_le_bytes());
-    }
+    out.extend_from_slice(&coded);
     out
 }
 
+fn put_varint(out: &mut Vec<u8>, mut v: u64) {
+    loop {
+        let b = (v & 0x7f) as u8;
+        v >>= 7;
+        if v == 0 {
+            out.push(b);
+            return;
+        }
+        out.push(b | 0x80);
+    }
+}
+
+/// A LEB128 varint at `at`, and where the next value starts; `None` past the end or
+/// beyond 64 bits.
+fn get_varint(bytes: &[u8], mut at: usize) -> Option<(u64, usize)> {
+    let mut v = 0u64;
+    for shift in (0..64).step_by(7) {
+        let b = *bytes.get(at)?;
+        at += 1;
+        v |= u64::from(b & 0x7f) << shift;
+        if b & 0x80 == 0 {
+            return Some((v, at));
+        }
+    }
+    None
+}
+
+/// The zstd frame `coded`, decompressed: its declared size must be known, at most `most`
+/// and within 1024× the coded bytes (no block of real data comes near that; a larger
+/// claim is damage), so a bad block cannot make the reader allocate more than that.
+fn inflate(coded: &[u8], most: usize) -> Result<Vec<u8>, String> {
+    let size = zstd::zstd_safe::get_frame_content_size(coded)
+        .ok()
+        .flatten()
+        .ok_or("its coded part has no zstd frame size")?;
+    let cap = (most as u64).min(RATIO * coded.len() as u64 + 4096);
+    if size > cap {
+        return Err(format!(
+            "its coded part claims {size} bytes (at most {cap})"
+        ));
+    }
+    zstd::bulk::decompress(coded, size as usize)
+        .map_err(|e| format!("its coded part does not decompress ({e})"))
+}
+
 /// Decodes and validates a hash volume: every offset inside the table, every key inside
-/// the domain and every brick's values inside the data, so lookups cannot leave their
-/// arrays.
+/// the domain and its frames, every brick in a slot of its own, its width matching its
+/// frame (`f32` exactly for a lossless frame) and its values inside the data, so lookups
+/// cannot leave their arrays.
 pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
     let u = |i: usize| u32::from_le_bytes([bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]]);
-    if bytes.len() >= 4 && u(0) == 1 {
-        return Err(
-            "residual block layout 1 (a cell hash, from haze format 1) is no longer read: bake the asset again"
-                .to_string(),
-        );
+    if bytes.len() >= 4 && (u(0) == 1 || u(0) == 2) {
+        return Err(format!(
+            "residual block layout {} (haze format {}) is no longer read: bake the asset again",
+            u(0),
+            u(0)
+        ));
     }
     if bytes.len() < HEADER {
         return Err(format!(
@@ -87,31 +179,37 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
         return Err(format!("residual block: brick side {brick}"));
     }
     let dims = [u(16), u(20), u(24)];
-    let (m, r, words) = (u(28), u(32), u(36) as usize);
+    let (m, r, words, count, coded) = (u(28), u(32), u(36) as usize, u(40) as usize, u(44));
     if dims.iter().any(|&d| d == 0 || d > u32::MAX / 3)
         || m == 0
         || m > MAX_SIDE
         || r == 0
         || r > 1 << 11
+        || m != PerfectHash::side_for(count)
     {
         return Err(format!(
-            "residual block sizes are invalid (dims {dims:?}, m̄ {m}, r̄ {r})"
+            "residual block sizes are invalid (dims {dims:?}, m̄ {m}, r̄ {r}, {count} bricks)"
         ));
     }
-    let steps: Vec<f32> = (0..frames).map(|j| f32::from_bits(u(40 + 4 * j))).collect();
+    let steps: Vec<f32> = (0..frames).map(|j| f32::from_bits(u(48 + 4 * j))).collect();
     if steps.iter().any(|s| !(s.is_finite() && *s >= 0.0)) {
         return Err("residual block has an invalid quantization step".to_string());
     }
-    let (nr, nm) = ((r as usize).pow(3), (m as usize).pow(3));
-    let need = HEADER + 4 * (nr + 2 * nm + words);
-    if bytes.len() != need {
+    if bytes.len() != HEADER + coded as usize {
         return Err(format!(
-            "residual block of {} bytes does not match its tables (m̄ {m}, r̄ {r}, {words} data words: {need} bytes)",
+            "residual block of {} bytes does not match its header ({coded} coded bytes)",
             bytes.len()
         ));
     }
-    let array = |start: usize, n: usize| -> Vec<u32> { (0..n).map(|k| u(start + 4 * k)).collect() };
-    let offsets = array(HEADER, nr);
+    let (nr, nm) = ((r as usize).pow(3), (m as usize).pow(3));
+    // At most 10 bytes a key delta; a longer plain part is corrupt.
+    let most = 4 * nr + 11 * count + 4 * words;
+    let plain = inflate(&bytes[HEADER..], most).map_err(|e| format!("residual block: {e}"))?;
+    let word = |i: usize| u32::from_le_bytes([plain[i], plain[i + 1], plain[i + 2], plain[i + 3]]);
+    if plain.len() < 4 * nr + count + 4 * words {
+        return Err("residual block's coded part is too short".to_string());
+    }
+    let offsets: Vec<u32> = (0..nr).map(|k| word(4 * k)).collect();
     if offsets.iter().any(|o| {
         [o & 1023, (o >> 10) & 1023, (o >> 20) & 1023]
             .iter()
@@ -119,43 +217,62 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
     }) {
         return Err("residual block has an offset outside its table".to_string());
     }
-    let keys = array(HEADER + 4 * nr, nm);
-    let payloads = array(HEADER + 4 * (nr + nm), nm);
-    let data = array(HEADER + 4 * (nr + 2 * nm), words);
+    let widths = &plain[4 * nr..4 * nr + count];
     let domain = bricks_per_frame(dims, brick).map(|d| 3 * d);
     let cells = u64::from(domain[0]) * u64::from(domain[1]) * u64::from(domain[2]);
     let per = (brick * brick * brick) as usize;
-    for (&k, &p) in keys.iter().zip(&payloads) {
-        if k == 0 {
-            continue;
-        }
-        if u64::from(k) > cells {
-            return Err(format!("residual block has a key ({k}) outside its domain"));
-        }
-        let j = frame_of(k - 1, domain, dims, brick);
-        let ok = j < frames
-            && unpayload(p).is_some_and(|(w, width)| {
-                (width == Width::F32) == (steps[j] == 0.0) && w as usize + width.words(per) <= words
-            });
-        if !ok {
+    let mut hash = PerfectHash {
+        domain,
+        m,
+        r,
+        offsets,
+        keys: vec![0; nm],
+        payloads: vec![0; nm],
+    };
+    let (mut at, mut key, mut first) = (4 * nr + count, 0i64, 0usize);
+    for &code in widths {
+        let (z, next) = get_varint(&plain, at).ok_or("residual block's brick list is cut short")?;
+        at = next;
+        key += ((z >> 1) as i64) ^ -((z & 1) as i64);
+        if key < 1 || key as u64 > cells {
             return Err(format!(
-                "residual block has a brick payload ({p:#x}) outside its data"
+                "residual block has a key ({key}) outside its domain"
             ));
         }
+        let k = key as u32;
+        let width = Width::from_code(u32::from(code))
+            .ok_or(format!("residual block has a brick of width code {code}"))?;
+        let j = frame_of(k - 1, domain, dims, brick);
+        if j >= frames
+            || (width == Width::F32) != (steps[j] == 0.0)
+            || first + width.words(per) > words
+        {
+            return Err(format!(
+                "residual block has a brick (key {k}, width {} bits) outside its frames or data",
+                width.bits()
+            ));
+        }
+        let slot = hash.slot(hash.cell_of_key(k));
+        if hash.keys[slot] != 0 {
+            return Err(format!("residual block has two bricks in slot {slot}"));
+        }
+        hash.keys[slot] = k;
+        hash.payloads[slot] = payload(first as u32, width);
+        first += width.words(per);
     }
+    if first != words || plain.len() != at + 4 * words {
+        return Err(format!(
+            "residual block's bricks take {first} data words of {words}, in {} coded bytes",
+            plain.len()
+        ));
+    }
+    let data = (0..words).map(|k| word(at + 4 * k)).collect();
     Ok(ResidualGroup {
         dims,
         brick,
         bits,
         steps,
-        hash: PerfectHash {
-            domain,
-            m,
-            r,
-            offsets,
-            keys,
-            payloads,
-        },
+        hash,
         data,
     })
 }
@@ -202,6 +319,20 @@ mod tests {
         ResidualGroup::build([5, 4, 3], 2, &[q, exact], BuildOptions::default()).unwrap()
     }
 
+    /// The coded part of a block, decompressed.
+    fn plain_of(bytes: &[u8]) -> Vec<u8> {
+        zstd::bulk::decompress(&bytes[HEADER..], 1 << 20).unwrap()
+    }
+
+    /// `bytes` with its coded part replaced by `plain`, coded again.
+    fn with_plain(bytes: &[u8], plain: &[u8]) -> Vec<u8> {
+        let coded = zstd::bulk::compress(plain, 3).unwrap();
+        let mut out = bytes[..HEADER].to_vec();
+        out[44..48].copy_from_slice(&(coded.len() as u32).to_le_bytes());
+        out.extend_from_slice(&coded);
+        out
+    }
+
     #[test]
     fn groups_round_trip_and_damage_is_refused() {
         let g = group();
@@ -210,24 +341,94 @@ mod tests {
         assert!(decode(&bytes[..bytes.len() - 4]).is_err());
         assert!(decode(&bytes[..10]).is_err());
         let mut bad = bytes.clone();
-        bad[HEADER..HEADER + 4].copy_from_slice(&0x3ff_u32.to_le_bytes());
-        assert!(decode(&bad).unwrap_err().contains("offset outside"));
-        let mut bad = bytes.clone();
         bad[4..8].copy_from_slice(&3u32.to_le_bytes());
         assert!(decode(&bad).is_err());
-        // A payload pointing past the data.
-        let nr = (g.hash.r as usize).pow(3);
-        let nm = (g.hash.m as usize).pow(3);
-        let slot = g.hash.keys.iter().position(|&k| k != 0).unwrap();
-        let at = HEADER + 4 * (nr + nm + slot);
+        // Damaged coded bytes: zstd's frame check or the sizes catch them.
         let mut bad = bytes.clone();
-        bad[at..at + 4].copy_from_slice(&(u32::MAX - 7).to_le_bytes());
-        assert!(decode(&bad).unwrap_err().contains("outside its data"));
-        // A key outside the domain.
-        let at = HEADER + 4 * (nr + slot);
-        let mut bad = bytes;
-        bad[at..at + 4].copy_from_slice(&u32::MAX.to_le_bytes());
-        assert!(decode(&bad).unwrap_err().contains("outside its domain"));
+        let mid = HEADER + (bytes.len() - HEADER) / 2;
+        bad[mid] ^= 0x5a;
+        assert!(decode(&bad).is_err());
+        let plain = plain_of(&bytes);
+        assert_eq!(decode(&with_plain(&bytes, &plain)).unwrap(), g);
+        let nr = (g.hash.r as usize).pow(3);
+        let count = g.hash.len();
+        // An offset outside the table.
+        let mut p = plain.clone();
+        p[0..4].copy_from_slice(&0x3ff_u32.to_le_bytes());
+        assert!(
+            decode(&with_plain(&bytes, &p))
+                .unwrap_err()
+                .contains("offset outside")
+        );
+        // A width code that does not exist, and one that does not match its frame.
+        let mut p = plain.clone();
+        p[4 * nr] = 7;
+        assert!(
+            decode(&with_plain(&bytes, &p))
+                .unwrap_err()
+                .contains("width code 7")
+        );
+        let mut p = plain.clone();
+        p[4 * nr] = Width::F32.code() as u8;
+        assert!(
+            decode(&with_plain(&bytes, &p))
+                .unwrap_err()
+                .contains("outside its frames")
+        );
+        // A second brick with the first one's key (delta 0): the same slot.
+        let mut p = plain.clone();
+        p[4 * nr + count + 1] = 0;
+        let e = decode(&with_plain(&bytes, &p)).unwrap_err();
+        assert!(e.contains("two bricks") || e.contains("data words"), "{e}");
+        // A first key far outside the domain.
+        let mut p = plain.clone();
+        let at = 4 * nr + count;
+        p.splice(at..at + 1, [0xfe, 0xff, 0xff, 0xff, 0x0f]);
+        assert!(
+            decode(&with_plain(&bytes, &p))
+                .unwrap_err()
+                .contains("outside its domain")
+        );
+        // Data words missing.
+        let p = &plain[..plain.len() - 4];
+        assert!(decode(&with_plain(&bytes, p)).is_err());
+    }
+
+    /// Every slot of the decoded tables matches the built ones on real-sized groups,
+    /// lossless frames (f32 bricks) included, and the coded block is smaller than the
+    /// tables it replaces.
+    #[test]
+    fn sparse_groups_decode_to_their_tables_and_code_smaller() {
+        let dims = [24, 20, 16];
+        let n = (dims[0] * dims[1] * dims[2]) as usize;
+        let frames: Vec<_> = (0..5)
+            .map(|f| {
+                let r: Vec<f32> = (0..n)
+                    .map(|i| {
+                        let hot = (i * 7 + f * 13) % 29 == 0 || (i / 97) % 11 == f;
+                        if hot {
+                            ((i % 23) as f32 - 11.0) * 0.003
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect();
+                let error = if f == 2 { 0.0 } else { 0.004 };
+                quantize(&r, 1.0, QuantOptions { error, bits: 8 }).unwrap()
+            })
+            .collect();
+        let g = ResidualGroup::build(dims, 4, &frames, BuildOptions::default()).unwrap();
+        let bytes = encode(&g);
+        assert_eq!(decode(&bytes).unwrap(), g);
+        let tables = g.hash.bytes() + 4 * g.data.len();
+        assert!(bytes.len() < tables, "{} ≥ {tables}", bytes.len());
+    }
+
+    #[test]
+    fn layout_two_is_refused_clearly() {
+        let mut old = vec![0u8; 200];
+        old[0] = 2;
+        assert!(decode(&old).unwrap_err().contains("bake the asset again"));
     }
 
     #[test]

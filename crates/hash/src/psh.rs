@@ -114,10 +114,7 @@ impl PerfectHash {
             )));
         }
         let k = cells.len();
-        let mut m = (k as f64).cbrt().ceil().max(1.0) as u32;
-        while u64::from(m).pow(3) < k as u64 {
-            m += 1;
-        }
+        let m = Self::side_for(k);
         if m > MAX_SIDE {
             return Err(HashError::Invalid(format!(
                 "{k} cells need a table side over {MAX_SIDE}"
@@ -136,6 +133,18 @@ impl PerfectHash {
             r,
             attempts: opts.max_attempts,
         })
+    }
+
+    /// The hash table side for `k` cells: the least `m̄ ≥ 1` with `m̄³ ≥ k`.
+    pub fn side_for(k: usize) -> u32 {
+        let mut m = (k as f64).cbrt().ceil().max(1.0) as u32;
+        while u64::from(m).pow(3) < k as u64 {
+            m += 1;
+        }
+        while m > 1 && u64::from(m - 1).pow(3) >= k as u64 {
+            m -= 1;
+        }
+        m
     }
 
     fn try_build(
@@ -229,12 +238,26 @@ impl PerfectHash {
         if p[0] >= d[0] || p[1] >= d[1] || p[2] >= d[2] {
             return None;
         }
+        let s = self.slot(p);
+        (self.keys[s] == p[0] + d[0] * (p[1] + d[1] * p[2]) + 1).then(|| self.payloads[s])
+    }
+
+    /// The table slot of cell `p`, `h(p) = (p mod m̄ + Φ[p mod r̄]) mod m̄` as a linear
+    /// index (x fastest); `p` inside the domain, `Φ` of `r̄³` entries.
+    #[inline]
+    pub fn slot(&self, p: [u32; 3]) -> usize {
         let (m, r) = (self.m, self.r);
         let b = p[0] % r + r * (p[1] % r + r * (p[2] % r));
         let phi = unpack(self.offsets[b as usize]);
         let h = [0, 1, 2].map(|a| (p[a] % m + phi[a]) % m);
-        let s = (h[0] + m * (h[1] + m * h[2])) as usize;
-        (self.keys[s] == p[0] + d[0] * (p[1] + d[1] * p[2]) + 1).then(|| self.payloads[s])
+        (h[0] + m * (h[1] + m * h[2])) as usize
+    }
+
+    /// The coordinates of the cell whose key is `key` (its linear index plus one).
+    #[inline]
+    pub fn cell_of_key(&self, key: u32) -> [u32; 3] {
+        let (d, i) = (self.domain, key - 1);
+        [i % d[0], (i / d[0]) % d[1], i / (d[0] * d[1])]
     }
 
     /// Stored cells.
