@@ -143,7 +143,8 @@ pub enum Command {
     /// to a temporary file beside OUT and renamed when complete.
     #[command(allow_negative_numbers = true)]
     Pack {
-        /// File, directory or glob of numbered frames.
+        /// File, directory or glob of numbered frames, or a packed asset (a frame range
+        /// of it).
         input: PathBuf,
         /// The .haze file to write.
         #[arg(long, short)]

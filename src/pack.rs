@@ -1,16 +1,18 @@
-//! `haze pack`: volumes → a lossless .haze asset of raw-volume blocks.
+//! `haze pack`: volumes (or another packed asset's frames) → a lossless .haze asset of
+//! raw-volume blocks.
 
 use anyhow::{Result, bail};
 use haze_asset::{AssetWriter, BlockKind, Scope, encode_raw_volume};
+use haze_bake::source::Frames;
 use haze_render::output::Outputs;
 use haze_render::progress;
 use haze_volume::ImportOptions;
-use haze_volume::import::{FrameRange, Sequence};
+use haze_volume::import::FrameRange;
 use std::path::Path;
 
 pub fn run(input: &Path, out: &Path, range: FrameRange, opts: &ImportOptions) -> Result<()> {
     Outputs::new().input(input).output("--out", out).check()?;
-    let seq = Sequence::open(input, opts, range)?;
+    let seq = Frames::open(input, opts, range)?;
     if seq.dims().contains(&0) {
         bail!("{}: every frame is empty; nothing to pack", input.display());
     }

@@ -211,6 +211,48 @@ fn pack_then_inspect_asset_and_read_it_back() {
         !o.status.success() && e.contains("haze bake") && e.contains("plume.haze"),
         "{e}"
     );
+
+    // `haze bake` takes the packed asset as it takes the files it was packed from: the
+    // same frames baked either way reconstruct bit for bit alike; a baked asset is no
+    // input, and the error says what to bake instead.
+    let bake = |input: &Path, name: &str| {
+        let asset = tmp.path().join(name);
+        haze()
+            .args([
+                "bake",
+                input.to_str().unwrap(),
+                "--frames",
+                "24..25",
+                "--rbfs",
+                "40",
+            ])
+            .args(["--out", asset.to_str().unwrap()])
+            .assert()
+            .success();
+        let f = tmp.path().join(format!("{name}.f32"));
+        haze()
+            .args(["export", asset.to_str().unwrap(), "--frame", "25"])
+            .args(["--out", f.to_str().unwrap()])
+            .assert()
+            .success();
+        (asset, std::fs::read(&f).unwrap())
+    };
+    let (baked, from_packed) = bake(&out, "from_packed.haze");
+    let (_, from_files) = bake(&dir, "from_files.haze");
+    assert!(from_packed == from_files);
+    let e = fails_with_one_line(
+        &[
+            "bake",
+            baked.to_str().unwrap(),
+            "--out",
+            tmp.path().join("again.haze").to_str().unwrap(),
+        ],
+        &baked,
+    );
+    assert!(
+        e.contains("has no raw volume") && e.contains("bake its source"),
+        "{e}"
+    );
 }
 
 #[test]

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 #[derive(Debug, clap::Args)]
 pub struct BakeCli {
-    /// File, directory or glob of numbered frames.
+    /// File, directory or glob of numbered frames, or a packed asset (`haze pack`).
     pub(crate) input: PathBuf,
     /// The .haze file to write.
     #[arg(long, short)]
@@ -217,7 +217,7 @@ impl BakeCli {
             (None, haze_bake::Count::Target { rel_l2, .. }) => {
                 let import = self.import.options();
                 let range = self.frames.unwrap_or_default();
-                let seq = haze_volume::Sequence::open(&self.input, &import, range)?;
+                let seq = haze_bake::source::Frames::open(&self.input, &import, range)?;
                 let first = seq.load(0)?;
                 match haze_bake::choice::residual_error_for(&first, *rel_l2) {
                     Some(c) => {

@@ -1,14 +1,14 @@
 //! The asset header every command writes for a sequence.
 
+use crate::source::Frames;
 use anyhow::Result;
 use haze_asset::{GridInfo, Header, SourceInfo};
 use haze_volume::ImportOptions;
-use haze_volume::import::{Format, Sequence};
 use std::path::Path;
 
 /// Header of an asset holding every frame of `seq`, read from `input` with `opts`; the
 /// caller adds its stage's settings.
-pub fn for_sequence(seq: &Sequence, input: &Path, opts: &ImportOptions) -> Result<Header> {
+pub fn for_sequence(seq: &Frames, input: &Path, opts: &ImportOptions) -> Result<Header> {
     let d = seq.dims();
     Ok(Header {
         generator: format!("haze {}", env!("CARGO_PKG_VERSION")),
@@ -24,12 +24,8 @@ pub fn for_sequence(seq: &Sequence, input: &Path, opts: &ImportOptions) -> Resul
         },
         source: SourceInfo {
             path: input.display().to_string(),
-            grid: if seq.format() == Format::Vdb {
-                opts.grid.clone()
-            } else {
-                String::new()
-            },
-            frame_numbers: seq.frames().iter().map(|f| f.number).collect(),
+            grid: seq.grid_name(opts),
+            frame_numbers: (0..seq.len()).map(|i| seq.number(i)).collect(),
         },
         settings: Default::default(),
         extra: Default::default(),

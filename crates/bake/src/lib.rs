@@ -34,6 +34,7 @@
 //! * [`journal`]: the append-only journal of finished frames and hash volumes.
 //! * [`merge`]: chunks baked separately joined into one asset.
 //! * [`export`]: a frame read back, reconstructed as a dense volume.
+//! * [`source`]: the frames of a bake: volume files, or a packed asset's raw volumes.
 //! * [`header`]: the asset header of a sequence.
 //! * [`inspect`]: what is in a volume file, a sequence or an asset (`haze inspect`).
 //! * [`choice`]: automatic choices (the residual error of a `--target-error` bake) and why.
@@ -46,6 +47,7 @@ pub mod journal;
 pub mod merge;
 pub mod pipeline;
 pub mod residual;
+pub mod source;
 
 pub use export::{AssetFrame, Reconstruction, read_frame, reconstruct_frame};
 pub use merge::{Merged, merge};

@@ -8,13 +8,14 @@
 
 use crate::journal::{self, Journal, Record, Tag};
 use crate::residual::{HashVolume, ResidualRecord, ResidualStage};
+use crate::source::Frames;
 use anyhow::{Context, Result, bail};
 use haze_asset::{AssetWriter, BlockKind, Scope, decode_rbfs, encode_rbfs};
 use haze_fit::{
     FitGrid, FitterState, FrameFit, Search, SequenceFitter, SequenceOptions, rbfs_for_target,
 };
 use haze_volume::ImportOptions;
-use haze_volume::import::{FrameRange, Sequence};
+use haze_volume::import::FrameRange;
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -114,7 +115,7 @@ impl Baked {
 /// A bake in progress: an iterator of finished frames.
 pub struct Bake {
     options: BakeOptions,
-    seq: Sequence,
+    seq: Frames,
     journal: Journal,
     done: Done,
     /// The sequence options with the chosen RBF count.
@@ -164,7 +165,7 @@ impl Bake {
     ) -> Result<Bake> {
         let args = options;
         let start = Instant::now();
-        let seq = Sequence::open(&args.input, &args.import, args.range)?;
+        let seq = Frames::open(&args.input, &args.import, args.range)?;
         if seq.dims().contains(&0) {
             bail!(
                 "{}: every frame is empty; nothing to bake",
@@ -253,8 +254,8 @@ impl Bake {
         })
     }
 
-    /// The input sequence.
-    pub fn sequence(&self) -> &Sequence {
+    /// The input frames.
+    pub fn sequence(&self) -> &Frames {
         &self.seq
     }
 
@@ -272,19 +273,19 @@ impl Bake {
     fn step(&mut self) -> Result<FrameRecord> {
         let i = self.next;
         let seq = &self.seq;
-        let f = &seq.frames()[i];
+        let number = seq.number(i);
         (self.events)(Event::Fitting {
             index: i,
-            frame: f.number,
+            frame: number,
         });
         let v = seq.load(i)?;
         let fit = self
             .fitter
             .fit(&v)
-            .map_err(|e| anyhow::anyhow!("{}: {e}", f.path.display()))?;
+            .map_err(|e| anyhow::anyhow!("{}: {e}", seq.label(i)))?;
         tracing::info!(
             "frame {}: {} RBFs (+{} −{}, {} moved), rel_l2 {:.4} (ratio {:.3}), rms/max {:.4}, {} iterations, {:.2} s",
-            f.number,
+            number,
             fit.rbfs.len(),
             fit.inserted,
             fit.deleted,
@@ -299,9 +300,8 @@ impl Bake {
         // stores what the RBFs miss): why, per frame, is detail; the caller sums them up.
         if fit.insertion_capped && fit.insertion_stop == Some(haze_fit::InsertionStop::Ceiling) {
             tracing::info!(
-                "{}: frame {}: error ratio {:.3} over --threshold {} at the ceiling of {} RBFs a frame (--max-rbfs; by default {}× the first frame's count) after inserting {} and moving {}: the ceiling bounds what a frame costs, and the residual stores what the RBFs miss (raise --max-rbfs to spend more RBFs)",
-                f.path.display(),
-                f.number,
+                "{}: error ratio {:.3} over --threshold {} at the ceiling of {} RBFs a frame (--max-rbfs; by default {}× the first frame's count) after inserting {} and moving {}: the ceiling bounds what a frame costs, and the residual stores what the RBFs miss (raise --max-rbfs to spend more RBFs)",
+                seq.label(i),
                 fit.error_ratio,
                 self.opts.threshold,
                 fit.rbfs.len(),
@@ -311,9 +311,8 @@ impl Bake {
             );
         } else if fit.insertion_capped {
             tracing::info!(
-                "{}: frame {}: error ratio {:.3} over --threshold {} after inserting {} RBFs, the most this frame may insert (the smoke's growth or the error's excess, or --max-insert), and moving {}: its detail grows faster than its size, and the residual stores what the RBFs miss",
-                f.path.display(),
-                f.number,
+                "{}: error ratio {:.3} over --threshold {} after inserting {} RBFs, the most this frame may insert (the smoke's growth or the error's excess, or --max-insert), and moving {}: its detail grows faster than its size, and the residual stores what the RBFs miss",
+                seq.label(i),
                 fit.error_ratio,
                 self.opts.threshold,
                 fit.inserted,
@@ -323,9 +322,8 @@ impl Bake {
             && fit.insertion_stop == Some(haze_fit::InsertionStop::MarginalGain)
         {
             tracing::info!(
-                "{}: frame {}: error ratio {:.3} over --threshold {}: insertion stopped by marginal gain after {} RBFs: the best RBF left out would lower ∫R² by {:.3e}, under the {:.3e} that --marginal-gain {} of the first frame's asks; the detail left is finer than RBFs pay for and goes to the residual (lower --marginal-gain to spend more RBFs on it)",
-                f.path.display(),
-                f.number,
+                "{}: error ratio {:.3} over --threshold {}: insertion stopped by marginal gain after {} RBFs: the best RBF left out would lower ∫R² by {:.3e}, under the {:.3e} that --marginal-gain {} of the first frame's asks; the detail left is finer than RBFs pay for and goes to the residual (lower --marginal-gain to spend more RBFs on it)",
+                seq.label(i),
                 fit.error_ratio,
                 self.opts.threshold,
                 fit.inserted,
@@ -335,9 +333,8 @@ impl Bake {
             );
         } else if fit.insertion_stalled {
             tracing::info!(
-                "{}: frame {}: error ratio {:.3} over --threshold {}: inserting RBFs stopped lowering the error ({} inserted); the detail left is finer than the smallest radius and goes to the residual",
-                f.path.display(),
-                f.number,
+                "{}: error ratio {:.3} over --threshold {}: inserting RBFs stopped lowering the error ({} inserted); the detail left is finer than the smallest radius and goes to the residual",
+                seq.label(i),
                 fit.error_ratio,
                 self.opts.threshold,
                 fit.inserted
@@ -346,7 +343,7 @@ impl Bake {
         let rbf_block = encode_rbfs(&fit.rbfs);
         let residual = self.residuals.push(&v, &fit.rbfs)?;
         let record = FrameRecord {
-            frame: f.number,
+            frame: number,
             rbfs: fit.rbfs.len(),
             fit,
             residual,
@@ -367,7 +364,7 @@ impl Bake {
                                     "bricks": h.bricks});
                 self.journal.append(Tag::Group, &shares, &h.bytes)?;
                 apply(&mut done.records, &h);
-                warn_widened(&done.records[h.first..h.first + h.count], seq.frames());
+                warn_widened(&done.records[h.first..h.first + h.count], seq);
                 if !h.bytes.is_empty() {
                     done.blocks
                         .push((BlockKind::ResidualHash, h.scope(), h.bytes));
@@ -485,17 +482,8 @@ fn apply(records: &mut [FrameRecord], h: &HashVolume) {
 
 /// What a journal must match to be resumed: the inputs (names and sizes of the frame
 /// files) and every setting that changes the result.
-fn inputs(seq: &Sequence, args: &BakeOptions) -> Result<serde_json::Value> {
-    let frames = seq
-        .frames()
-        .iter()
-        .map(|f| {
-            let size = std::fs::metadata(&f.path)
-                .with_context(|| format!("{}: cannot read", f.path.display()))?
-                .len();
-            Ok(json!([f.number, f.path.display().to_string(), size]))
-        })
-        .collect::<Result<Vec<_>>>()?;
+fn inputs(seq: &Frames, args: &BakeOptions) -> Result<serde_json::Value> {
+    let frames = seq.identity()?;
     Ok(json!({
         "generator": env!("CARGO_PKG_VERSION"),
         "frames": frames,
@@ -610,7 +598,7 @@ fn frame_rbfs(done: &Done, k: usize) -> Result<Vec<haze_volume::Rbf>> {
 
 /// Runs the RBF-count search on the first non-empty frame.
 fn choose_count(
-    seq: &Sequence,
+    seq: &Frames,
     target: f64,
     cap: usize,
     opts: &SequenceOptions,
@@ -618,13 +606,13 @@ fn choose_count(
 ) -> Result<Search> {
     for i in 0..seq.len() {
         let v = seq.load(i)?;
-        let grid = FitGrid::from_volume(&v)
-            .map_err(|e| anyhow::anyhow!("{}: {e}", seq.frames()[i].path.display()))?;
+        let grid =
+            FitGrid::from_volume(&v).map_err(|e| anyhow::anyhow!("{}: {e}", seq.label(i)))?;
         if grid.sum_sq <= 0.0 {
             continue;
         }
         events(Event::Searching {
-            frame: seq.frames()[i].number,
+            frame: seq.number(i),
             target,
         });
         let s = rbfs_for_target(&grid, target, cap, &opts.fit);
@@ -688,7 +676,7 @@ fn temporal(records: &[FrameRecord], threshold: f64) -> serde_json::Value {
 }
 
 /// Warns about the frames whose residual could not be stored at the error asked for.
-fn warn_widened(records: &[FrameRecord], frames: &[haze_volume::import::FrameFile]) {
+fn warn_widened(records: &[FrameRecord], frames: &Frames) {
     let widened: Vec<i64> = records
         .iter()
         .filter(|r| r.residual.quant_widened)
@@ -698,12 +686,11 @@ fn warn_widened(records: &[FrameRecord], frames: &[haze_volume::import::FrameFil
         widened.first(),
         records.iter().find(|r| r.residual.quant_widened),
     ) {
-        let path = frames
-            .iter()
-            .find(|f| f.number == *first)
-            .map_or(String::new(), |f| format!("{}: ", f.path.display()));
+        let place = (0..frames.len())
+            .find(|&i| frames.number(i) == *first)
+            .map_or(String::new(), |i| format!("{}: ", frames.label(i)));
         tracing::warn!(
-            "{path}frames {widened:?}: the residual's largest value ({:.3} of the peak) needs more than --quant-bits at the asked --residual-error; the step was widened (raise --quant-bits to keep the error)",
+            "{place}frames {widened:?}: the residual's largest value ({:.3} of the peak) needs more than --quant-bits at the asked --residual-error; the step was widened (raise --quant-bits to keep the error)",
             r.residual.rbf_max_error
         );
     }
