@@ -155,6 +155,17 @@ pub enum Command {
         #[command(flatten)]
         import: ImportArgs,
     },
+    /// Time the GPU renderer on fixed synthetic workloads, on whatever adapter is here.
+    ///
+    /// Seven workloads vary one thing each from 1000 RBFs on a 128 × 128 × 170 grid at
+    /// 800 × 600, SH order 4, with multiple scattering: 100 and 4000 RBFs, a 256-class
+    /// grid, 1920 × 1080, SH 2, single scattering only. Each is timed as a new frame, as
+    /// the next frame of a playback (warm-started) and as a camera orbit (lighting
+    /// reused); the table gives medians with the adapter's name, per-pass GPU times
+    /// where the adapter has timestamp queries, and fps. On a CPU adapter (lavapipe) the
+    /// grids and picture sides are halved unless --full. Paste yours beside
+    /// BENCHMARKS.md's.
+    Bench(crate::bench::BenchCli),
     /// Fog models: `haze fog wavelet` renders a fogmap as a wavelet fog.
     #[command(subcommand)]
     Fog(crate::fog::FogCommand),
@@ -206,5 +217,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         } => crate::pack::run(&input, &out, frames.unwrap_or_default(), &import.options()),
         Command::Fog(fog) => crate::fog::run(fog),
         Command::Tradeoff(t) => crate::tradeoff::run(t),
+        Command::Bench(b) => crate::bench::run(b),
     }
 }

@@ -1,6 +1,7 @@
 //! `haze`: bake smoke simulations into compact assets and inspect them.
 
 mod bake;
+mod bench;
 mod camera_medium_args;
 mod cli;
 mod export;

@@ -83,8 +83,12 @@ fn one_line(text: &str) -> String {
 impl GpuContext {
     /// The first adapter found, Vulkan preferred (then whatever else this build supports:
     /// Metal on Apple platforms, DX12 on Windows), with a device whose storage buffers may
-    /// be as large as the adapter allows.
+    /// be as large as the adapter allows. wgpu's `WGPU_BACKEND` (e.g. `vulkan`, `dx12`)
+    /// narrows the search to the backends it names; one this build lacks finds no adapter.
     pub fn new() -> Result<GpuContext, GpuError> {
+        if let Some(asked) = wgpu::Backends::from_env() {
+            return GpuContext::with_backends(asked);
+        }
         let available = wgpu::Instance::enabled_backend_features();
         for backends in [wgpu::Backends::VULKAN, available - wgpu::Backends::VULKAN] {
             match GpuContext::with_backends(backends & available) {
@@ -196,6 +200,11 @@ impl GpuContext {
         self.info.backend
     }
 
+    /// Whether the adapter is a CPU (a software rasterizer such as Mesa's lavapipe).
+    pub fn is_cpu_adapter(&self) -> bool {
+        self.info.device_type == wgpu::DeviceType::Cpu
+    }
+
     /// Everything wgpu says about the adapter.
     pub fn adapter_info(&self) -> &wgpu::AdapterInfo {
         &self.info
@@ -233,10 +242,15 @@ impl GpuContext {
         }
     }
 
+    /// The largest storage buffer a pass may bind, in bytes.
+    pub fn storage_limit(&self) -> u64 {
+        let l = self.device.limits();
+        l.max_storage_buffer_binding_size.min(l.max_buffer_size)
+    }
+
     /// Refuses a buffer of `bytes` that the device cannot bind as storage.
     pub fn check_storage_size(&self, what: &'static str, bytes: u64) -> Result<(), GpuError> {
-        let l = self.device.limits();
-        let limit = l.max_storage_buffer_binding_size.min(l.max_buffer_size);
+        let limit = self.storage_limit();
         if bytes > limit {
             return Err(GpuError::TooLarge { what, bytes, limit });
         }

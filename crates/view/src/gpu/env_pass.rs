@@ -58,6 +58,9 @@ struct Params {
     _pad2: u32,
 }
 
+/// Times the environment's grid may be made coarser to fit the device's buffers.
+const MAX_WIDENINGS: usize = 8;
+
 /// `S_lm` at the grid's nodes on the GPU (`3·order²` `f32` per node, channel fastest, as
 /// [`crate::sh::ShGrid::coeffs`]), with the grid's frame: what [`EnvPass::grid`] computed,
 /// ready for any number of [`EnvPass::apply`] (it depends on the density, σt, the
@@ -188,10 +191,25 @@ impl EnvPass {
         let n2 = check_order(order)?;
         let dims = grid.dims();
         let bbox = *grid.bbox();
-        let frame = env_pass::grid_frame(dims, &bbox, opts.spacing, order);
+        let bytes_at = |spacing: f64| {
+            let frame = env_pass::grid_frame(dims, &bbox, spacing, order);
+            let bytes = (frame.len() * 3 * n2).max(1) as u64 * 4;
+            (frame, bytes)
+        };
+        // A grid larger than the device's buffers is made coarser until it fits (lavapipe
+        // allows 128 MiB: a 128 × 128 × 170 grid at 1.5 voxels and order 4 needs 162 MB).
+        let mut spacing = opts.spacing;
+        let (mut frame, mut bytes) = bytes_at(spacing);
+        let limit = ctx.storage_limit();
+        for _ in 0..MAX_WIDENINGS {
+            if bytes <= limit {
+                break;
+            }
+            spacing *= 1.1 * (bytes as f64 / limit as f64).cbrt();
+            (frame, bytes) = bytes_at(spacing);
+        }
         let total = frame.len();
         let len = total * 3 * n2;
-        let bytes = (len.max(1) * 4) as u64;
         ctx.check_storage_size("the environment's grid", bytes)?;
         let rule = env_pass::lit_directions(env, opts.theta, order);
         let mut table: Vec<f32> = Vec::with_capacity(rule.len() * (8 + n2));

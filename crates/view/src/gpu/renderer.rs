@@ -115,9 +115,7 @@ impl LightingOn {
     /// `Cpu` or `Gpu` for the adapter of `ctx`.
     pub fn resolve(self, ctx: &GpuContext) -> LightingOn {
         match self {
-            LightingOn::Auto if ctx.adapter_info().device_type == wgpu::DeviceType::Cpu => {
-                LightingOn::Cpu
-            }
+            LightingOn::Auto if ctx.is_cpu_adapter() => LightingOn::Cpu,
             LightingOn::Auto => LightingOn::Gpu,
             on => on,
         }
