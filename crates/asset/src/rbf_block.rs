@@ -25,10 +25,6 @@ const CHANNELS: usize = 5;
 const LAYOUT: u32 = 2;
 /// The quantization's largest level.
 const LEVELS: f64 = 65535.0;
-/// zstd's level (decoding speed does not depend on it).
-const ZSTD_LEVEL: i32 = 19;
-/// The largest ratio of plain to coded bytes a block may claim.
-const RATIO: u64 = 1024;
 
 fn channels(r: &Rbf) -> [f64; CHANNELS] {
     [r.center[0], r.center[1], r.center[2], r.radius, r.weight]
@@ -63,8 +59,7 @@ pub fn encode_rbfs(rbfs: &[Rbf]) -> Vec<u8> {
             planes[(2 * c + 1) * n + k] = h;
         }
     }
-    let coded =
-        zstd::bulk::compress(&planes, ZSTD_LEVEL).expect("zstd codes any bytes at a valid level");
+    let coded = haze_core::coded::deflate(&planes);
     let mut out = Vec::with_capacity(PREFIX + coded.len());
     for v in [n as u32, LAYOUT, coded.len() as u32, 0] {
         out.extend_from_slice(&v.to_le_bytes());
@@ -74,24 +69,6 @@ pub fn encode_rbfs(rbfs: &[Rbf]) -> Vec<u8> {
     }
     out.extend_from_slice(&coded);
     out
-}
-
-/// The zstd frame `coded`, decompressed: its declared size must be known, at most `most`
-/// and within 1024× the coded bytes (no block of real data comes near that; a larger
-/// claim is damage), so a bad block cannot make the reader allocate more than that.
-fn inflate(coded: &[u8], most: usize) -> Result<Vec<u8>, String> {
-    let size = zstd::zstd_safe::get_frame_content_size(coded)
-        .ok()
-        .flatten()
-        .ok_or("its coded part has no zstd frame size")?;
-    let cap = (most as u64).min(RATIO * coded.len() as u64 + 4096);
-    if size > cap {
-        return Err(format!(
-            "its coded part claims {size} bytes (at most {cap})"
-        ));
-    }
-    zstd::bulk::decompress(coded, size as usize)
-        .map_err(|e| format!("its coded part does not decompress ({e})"))
 }
 
 /// Decodes an RBF-block payload, checking its sizes and that every RBF is finite with a
@@ -127,7 +104,8 @@ pub fn decode_rbfs(bytes: &[u8]) -> Result<Vec<Rbf>, String> {
     let want = count
         .checked_mul(2 * CHANNELS)
         .ok_or(format!("RBF block claims {count} RBFs"))?;
-    let planes = inflate(&bytes[PREFIX..], want).map_err(|e| format!("RBF block: {e}"))?;
+    let planes =
+        haze_core::coded::inflate(&bytes[PREFIX..], want).map_err(|e| format!("RBF block: {e}"))?;
     if planes.len() != want {
         return Err(format!(
             "RBF block holds {} bytes of values for {count} RBFs",

@@ -2,8 +2,10 @@
 //! few operations ([`vec3`]), linear RGB ([`Rgb`]), and rendered images ([`Image`]) with
 //! their OpenEXR and PNG writers, which refuse a picture holding NaN or infinity; and
 //! the JSON reader's guard against repeated keys ([`json`]) and the `.npy` reader's
-//! against headers that would keep it busy ([`npy_header`]).
+//! against headers that would keep it busy ([`npy_header`]); and the coded blocks'
+//! zstd frames with their guard against implausible sizes ([`coded`]).
 
+pub mod coded;
 mod image;
 pub mod json;
 pub mod npy_header;

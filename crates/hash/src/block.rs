@@ -32,11 +32,6 @@ use crate::tile::{BRICK_SIDES, GROUP, ResidualGroup, bricks_per_frame, payload, 
 
 const VERSION: u32 = 3;
 const HEADER: usize = 4 * 12 + 4 * GROUP;
-/// zstd's level for the coded part: its strongest regular level (decoding speed does not
-/// depend on it; a 27-frame group of 128³ frames codes in well under a second).
-const LEVEL: i32 = 19;
-/// The largest ratio of plain to coded bytes a block may claim.
-const RATIO: u64 = 1024;
 
 /// Encodes a hash volume.
 pub fn encode(g: &ResidualGroup) -> Vec<u8> {
@@ -75,7 +70,7 @@ pub fn encode(g: &ResidualGroup) -> Vec<u8> {
         }
         words += n as u32;
     }
-    let coded = zstd::bulk::compress(&plain, LEVEL).expect("zstd codes any bytes at a valid level");
+    let coded = haze_core::coded::deflate(&plain);
     let mut out = Vec::with_capacity(HEADER + coded.len());
     let mut u = |v: u32| out.extend_from_slice(&v.to_le_bytes());
     for v in [VERSION, u32::from(g.bits), g.steps.len() as u32, g.brick] {
@@ -125,24 +120,6 @@ fn get_varint(bytes: &[u8], mut at: usize) -> Option<(u64, usize)> {
         }
     }
     None
-}
-
-/// The zstd frame `coded`, decompressed: its declared size must be known, at most `most`
-/// and within 1024× the coded bytes (no block of real data comes near that; a larger
-/// claim is damage), so a bad block cannot make the reader allocate more than that.
-fn inflate(coded: &[u8], most: usize) -> Result<Vec<u8>, String> {
-    let size = zstd::zstd_safe::get_frame_content_size(coded)
-        .ok()
-        .flatten()
-        .ok_or("its coded part has no zstd frame size")?;
-    let cap = (most as u64).min(RATIO * coded.len() as u64 + 4096);
-    if size > cap {
-        return Err(format!(
-            "its coded part claims {size} bytes (at most {cap})"
-        ));
-    }
-    zstd::bulk::decompress(coded, size as usize)
-        .map_err(|e| format!("its coded part does not decompress ({e})"))
 }
 
 /// Decodes and validates a hash volume: every offset inside the table, every key inside
@@ -204,7 +181,8 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
     let (nr, nm) = ((r as usize).pow(3), (m as usize).pow(3));
     // At most 10 bytes a key delta; a longer plain part is corrupt.
     let most = 4 * nr + 11 * count + 4 * words;
-    let plain = inflate(&bytes[HEADER..], most).map_err(|e| format!("residual block: {e}"))?;
+    let plain = haze_core::coded::inflate(&bytes[HEADER..], most)
+        .map_err(|e| format!("residual block: {e}"))?;
     let word = |i: usize| u32::from_le_bytes([plain[i], plain[i + 1], plain[i + 2], plain[i + 3]]);
     if plain.len() < 4 * nr + count + 4 * words {
         return Err("residual block's coded part is too short".to_string());

@@ -1,0 +1,60 @@
+//! zstd-coded parts of the asset's blocks (`haze-asset`'s RBF block, `haze-hash`'s
+//! residual block): coded at one level, and decoded only when the frame's declared size
+//! is plausible, so a damaged block cannot make a reader allocate gigabytes.
+
+/// zstd's level for coded blocks: its strongest regular level (decoding speed does not
+/// depend on it; a 27-frame hash volume of 128³ frames codes in well under a second).
+pub const LEVEL: i32 = 19;
+
+/// The largest ratio of plain to coded bytes a block may claim (no block of real data
+/// comes near it: the RBF planes code at about 1:1, a residual at 2–3:1).
+pub const RATIO: u64 = 1024;
+
+/// `plain`, coded as one zstd frame that records its size.
+pub fn deflate(plain: &[u8]) -> Vec<u8> {
+    zstd::bulk::compress(plain, LEVEL).expect("zstd codes any bytes at a valid level")
+}
+
+/// The zstd frame `coded`, decoded: its declared size must be known, at most `most` and
+/// within [`RATIO`]× the coded bytes (plus 4 KiB), else the frame is refused unread.
+pub fn inflate(coded: &[u8], most: usize) -> Result<Vec<u8>, String> {
+    let size = zstd::zstd_safe::get_frame_content_size(coded)
+        .ok()
+        .flatten()
+        .ok_or("its coded part has no zstd frame size")?;
+    let cap = (most as u64).min(RATIO * coded.len() as u64 + 4096);
+    if size > cap {
+        return Err(format!(
+            "its coded part claims {size} bytes (at most {cap})"
+        ));
+    }
+    zstd::bulk::decompress(coded, size as usize)
+        .map_err(|e| format!("its coded part does not decompress ({e})"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Round trips; a frame claiming more than the caller allows, or more than RATIO× its
+    /// bytes (a megabyte of zeros codes to a few dozen bytes), is refused before any
+    /// allocation; a cut frame is refused. (Flipped bits inside a frame are the asset's
+    /// per-block CRC-32's to catch: zstd frames carry no checksum here.)
+    #[test]
+    fn frames_round_trip_and_implausible_sizes_are_refused() {
+        let plain: Vec<u8> = (0..5000u32).map(|i| (i * 7 % 251) as u8).collect();
+        let coded = deflate(&plain);
+        assert_eq!(inflate(&coded, plain.len()).unwrap(), plain);
+        assert!(
+            inflate(&coded, plain.len() - 1)
+                .unwrap_err()
+                .contains("claims")
+        );
+        let zeros = deflate(&vec![0u8; 1 << 20]);
+        assert!(zeros.len() < 1024);
+        assert!(inflate(&zeros, usize::MAX).unwrap_err().contains("at most"));
+        assert!(inflate(&coded[..4], plain.len()).is_err());
+        assert!(inflate(&coded[..coded.len() - 3], plain.len()).is_err());
+        assert!(inflate(&[], 10).is_err());
+    }
+}
