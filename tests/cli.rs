@@ -444,6 +444,13 @@ fn bake_writes_rbfs_report_and_inspectable_asset() {
 
     let j = json_of(&["inspect", out.to_str().unwrap(), "--json"]);
     assert_eq!(j["blocks_by_kind"]["rbfs"]["blocks"], 3);
+    // Decoded, the RBFs take 32 bytes each on the GPU, more than their coded block.
+    let rbfs: u64 = (0..3)
+        .map(|k| j["frames"][k]["rbfs"].as_u64().unwrap())
+        .sum();
+    let kind = &j["blocks_by_kind"]["rbfs"];
+    assert_eq!(kind["decoded_bytes"].as_u64().unwrap(), 32 * rbfs);
+    assert!(kind["bytes"].as_u64().unwrap() < 32 * rbfs, "{kind}");
     assert_eq!(j["frames"][0]["rbfs"], 80);
     assert_eq!(j["frames"][2]["frame"], 23);
     let asset = haze_asset::Asset::open(&out).unwrap();

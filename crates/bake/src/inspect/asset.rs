@@ -8,11 +8,20 @@ use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::Path;
 
+/// The blocks of one kind.
 #[derive(Debug, Serialize)]
 pub struct KindSummary {
     pub blocks: usize,
+    /// Bytes in the file.
     pub bytes: u64,
+    /// Bytes once decoded, as the GPU holds them: a raw volume as stored, RBFs as two
+    /// `vec4<f32>` records each, a residual as its hash's offset, key and payload tables
+    /// and packed values.
+    pub decoded_bytes: u64,
 }
+
+/// Bytes of one RBF on the GPU: two `vec4<f32>` records (center and radius; weight).
+const GPU_RBF_BYTES: u64 = 32;
 
 #[derive(Debug, Serialize)]
 pub struct AssetReport {
@@ -41,13 +50,15 @@ pub(super) fn report(path: &Path, progress: Progress<'_>) -> Result<AssetReport>
     let asset = Asset::open(path)?;
     let blocks = asset.entries().len();
     let mut rbfs_per_frame = vec![None; asset.frame_count()];
-    for i in 0..blocks {
+    let mut decoded = vec![0u64; blocks];
+    for (i, size) in decoded.iter_mut().enumerate() {
         progress("verifying", i, blocks);
         let view = asset.block(i)?;
-        match view.kind() {
+        *size = match view.kind() {
             BlockKind::RawVolume => {
                 haze_asset::decode_raw_volume(view.bytes)
                     .map_err(|e| asset.block_error(&view, e))?;
+                view.bytes.len() as u64
             }
             BlockKind::Rbfs => {
                 let rbfs =
@@ -55,12 +66,15 @@ pub(super) fn report(path: &Path, progress: Progress<'_>) -> Result<AssetReport>
                 if let haze_asset::Scope::Frames { first, .. } = view.id.scope {
                     rbfs_per_frame[first as usize] = Some(rbfs.len());
                 }
+                GPU_RBF_BYTES * rbfs.len() as u64
             }
             BlockKind::ResidualHash => {
-                haze_hash::block::decode(view.bytes).map_err(|e| asset.block_error(&view, e))?;
+                let g = haze_hash::block::decode(view.bytes)
+                    .map_err(|e| asset.block_error(&view, e))?;
+                (g.hash.bytes() + 4 * g.data.len()) as u64
             }
-            BlockKind::Unknown(_) => {}
-        }
+            BlockKind::Unknown(_) => view.bytes.len() as u64,
+        };
     }
     progress("verifying", blocks, blocks);
     let fits = asset
@@ -90,13 +104,15 @@ pub(super) fn report(path: &Path, progress: Progress<'_>) -> Result<AssetReport>
         })
         .collect();
     let mut by_kind: BTreeMap<String, KindSummary> = BTreeMap::new();
-    for e in asset.entries() {
+    for (e, size) in asset.entries().iter().zip(decoded) {
         let k = by_kind.entry(e.kind.name()).or_insert(KindSummary {
             blocks: 0,
             bytes: 0,
+            decoded_bytes: 0,
         });
         k.blocks += 1;
         k.bytes += e.len;
+        k.decoded_bytes += size;
     }
     Ok(AssetReport {
         path: path.display().to_string(),

@@ -119,7 +119,16 @@ impl Report {
                     line(
                         &mut out,
                         "blocks",
-                        format!("{} × {kind}, {}", k.blocks, bytes(k.bytes)),
+                        if k.decoded_bytes == k.bytes {
+                            format!("{} × {kind}, {}", k.blocks, bytes(k.bytes))
+                        } else {
+                            format!(
+                                "{} × {kind}, {} ({} decoded)",
+                                k.blocks,
+                                bytes(k.bytes),
+                                bytes(k.decoded_bytes)
+                            )
+                        },
                     );
                 }
                 line(&mut out, "checksums", "all blocks verified".to_string());
