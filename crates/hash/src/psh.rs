@@ -274,3 +274,19 @@ impl PerfectHash {
         4 * (self.offsets.len() + self.keys.len() + self.payloads.len())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::PerfectHash;
+
+    /// `side_for` is the least side whose cube holds k (brute force, float cube roots
+    /// near perfect cubes included), and 1 for no cells.
+    #[test]
+    fn side_for_is_the_least_cube_side() {
+        for k in (0..20_000usize).chain([999_999, 1_000_000, 1_000_001, 1 << 30]) {
+            let m = u64::from(PerfectHash::side_for(k));
+            let least = (1u64..).find(|&s| s * s * s >= k.max(1) as u64).unwrap();
+            assert_eq!(m, least, "k = {k}");
+        }
+    }
+}

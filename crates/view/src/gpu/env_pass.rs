@@ -19,10 +19,11 @@ use crate::env::Environment;
 use crate::lighting::single::RgbSh;
 use crate::medium::Medium;
 use crate::render::env_pass::{self, EnvGridOptions};
-use crate::sh;
+use crate::sh::{self, ShGrid};
 use haze_gpu::wgsl::Variant;
 use haze_gpu::{GpuContext, GpuError, buffer_init, compute_pipeline_at, submit_pass, voxel_groups};
 use haze_volume::Bbox;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// The shader: `crates/view/shaders/env_pass.wgsl`, importing `sh_basis` and the shadow
 /// march shared with the lights pass (`grid_march`).
@@ -60,6 +61,38 @@ struct Params {
 
 /// Times the environment's grid may be made coarser to fit the device's buffers.
 const MAX_WIDENINGS: usize = 8;
+
+/// Whether the widening of the environment's grid was said already (once a process: a
+/// viewer would say it every frame).
+static WIDENED_SAID: AtomicBool = AtomicBool::new(false);
+
+/// The environment grid's nodes over a `dims` grid on `bbox`, `spacing` voxels apart,
+/// made coarser until its `3·n2` f32 a node fit `limit` bytes: each time by the cube
+/// root of the excess and a tenth more, at most [`MAX_WIDENINGS`] times. The frame, its
+/// bytes and the spacing it has (a frame still over `limit` is the caller's to refuse).
+fn fitting_frame(
+    dims: [usize; 3],
+    bbox: &Bbox,
+    spacing: f64,
+    order: usize,
+    n2: usize,
+    limit: u64,
+) -> (ShGrid, u64, f64) {
+    let at = |spacing: f64| {
+        let frame = env_pass::grid_frame(dims, bbox, spacing, order);
+        let bytes = (frame.len() * 3 * n2).max(1) as u64 * 4;
+        (frame, bytes)
+    };
+    let (mut spacing, (mut frame, mut bytes)) = (spacing, at(spacing));
+    for _ in 0..MAX_WIDENINGS {
+        if bytes <= limit {
+            break;
+        }
+        spacing *= 1.1 * (bytes as f64 / limit.max(1) as f64).cbrt();
+        (frame, bytes) = at(spacing);
+    }
+    (frame, bytes, spacing)
+}
 
 /// `S_lm` at the grid's nodes on the GPU (`3·order²` `f32` per node, channel fastest, as
 /// [`crate::sh::ShGrid::coeffs`]), with the grid's frame: what [`EnvPass::grid`] computed,
@@ -191,22 +224,15 @@ impl EnvPass {
         let n2 = check_order(order)?;
         let dims = grid.dims();
         let bbox = *grid.bbox();
-        let bytes_at = |spacing: f64| {
-            let frame = env_pass::grid_frame(dims, &bbox, spacing, order);
-            let bytes = (frame.len() * 3 * n2).max(1) as u64 * 4;
-            (frame, bytes)
-        };
-        // A grid larger than the device's buffers is made coarser until it fits (lavapipe
-        // allows 128 MiB: a 128 × 128 × 170 grid at 1.5 voxels and order 4 needs 162 MB).
-        let mut spacing = opts.spacing;
-        let (mut frame, mut bytes) = bytes_at(spacing);
-        let limit = ctx.storage_limit();
-        for _ in 0..MAX_WIDENINGS {
-            if bytes <= limit {
-                break;
-            }
-            spacing *= 1.1 * (bytes as f64 / limit as f64).cbrt();
-            (frame, bytes) = bytes_at(spacing);
+        let (frame, bytes, spacing) =
+            fitting_frame(dims, &bbox, opts.spacing, order, n2, ctx.storage_limit());
+        if spacing != opts.spacing && !WIDENED_SAID.swap(true, Ordering::Relaxed) {
+            tracing::warn!(
+                "the environment's grid is spaced {spacing:.2} voxels, not {}, to fit the device's {} MiB buffers: the sky's light through the smoke is coarser (a device with larger buffers, or the CPU, keeps {})",
+                opts.spacing,
+                ctx.storage_limit() >> 20,
+                opts.spacing
+            );
         }
         let total = frame.len();
         let len = total * 3 * n2;
@@ -439,6 +465,30 @@ impl RemoveSingle {
 
 #[cfg(test)]
 mod tests {
+    use super::fitting_frame;
+
+    /// A grid over the device's buffers gets the coarsest spacing it needs and not much
+    /// more: lavapipe's 128 MiB and a 128 × 128 × 170 grid at 1.5 voxels, SH order 4
+    /// (162 MB), land between 1.5 and 1.5 · 1.1 · ∛(162/128) ≈ 1.78; a grid that fits
+    /// keeps its spacing; a limit nothing meets stops after the widenings, finite.
+    #[test]
+    fn the_environment_grid_widens_just_enough_to_fit() {
+        let bbox = haze_volume::Bbox::new([0.0; 3], [1.0, 1.0, 1.33]);
+        let dims = [128, 128, 170];
+        let (_, full, same) = fitting_frame(dims, &bbox, 1.5, 4, 16, u64::MAX);
+        assert_eq!(same, 1.5);
+        assert!(full > 128 << 20, "{full}");
+        let (frame, bytes, spacing) = fitting_frame(dims, &bbox, 1.5, 4, 16, 128 << 20);
+        assert!(bytes <= 128 << 20 && bytes == frame.len() as u64 * 3 * 16 * 4);
+        let most = 1.5 * 1.1 * (full as f64 / (128u64 << 20) as f64).cbrt();
+        assert!(
+            spacing > 1.5 && spacing <= most * 1.0001,
+            "{spacing} (at most {most})"
+        );
+        let (_, tiny, wide) = fitting_frame(dims, &bbox, 1.5, 4, 16, 4);
+        assert!(tiny > 4 && wide.is_finite());
+    }
+
     use super::*;
 
     #[test]
