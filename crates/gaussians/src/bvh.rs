@@ -71,7 +71,7 @@ impl SphereBvh {
             return;
         }
         let inv = d.map(|x| 1.0 / x);
-        let mut stack = vec![0usize];
+        let mut stack = Stack::default();
         while let Some(k) = stack.pop() {
             let node = &self.nodes[k];
             if !slab(node, o, inv, len, margin) {
@@ -99,7 +99,7 @@ impl SphereBvh {
         if self.nodes.is_empty() {
             return;
         }
-        let mut stack = vec![0usize];
+        let mut stack = Stack::default();
         while let Some(k) = stack.pop() {
             let node = &self.nodes[k];
             if (0..3).any(|j| x[j] < node.min[j] || x[j] > node.max[j]) {
@@ -117,6 +117,35 @@ impl SphereBvh {
                 stack.push(node.first + 1);
             }
         }
+    }
+}
+
+/// The nodes still to visit, on the stack of the caller (no allocation a query): median
+/// splits keep the depth at `⌈log₂(n/LEAF)⌉ + 1`, and a depth-first walk holds at most one
+/// node more than the depth, so 64 serve any count that fits in memory. Starts with the root.
+pub(crate) struct Stack {
+    nodes: [usize; 64],
+    top: usize,
+}
+
+impl Default for Stack {
+    fn default() -> Self {
+        Stack {
+            nodes: [0; 64],
+            top: 1,
+        }
+    }
+}
+
+impl Stack {
+    pub(crate) fn push(&mut self, k: usize) {
+        self.nodes[self.top] = k;
+        self.top += 1;
+    }
+
+    pub(crate) fn pop(&mut self) -> Option<usize> {
+        self.top = self.top.checked_sub(1)?;
+        Some(self.nodes[self.top])
     }
 }
 

@@ -9,7 +9,8 @@
 //! of a Gaussian in closed form ([`line`]), the erf it needs ([`erf`]), a bounding-sphere
 //! hierarchy to find the Gaussians along a segment ([`bvh`]), the medium ([`medium`]),
 //! paper B's per-Gaussian airlight factored at the centre ([`airlight`]) and, where a bound on
-//! that factorization's error says so, integrated along the ray ([`integrated`]), the average optical depth that dims the environment ([`average`]) and its Perlin
+//! that factorization's error says so, integrated along the ray ([`integrated`]), the average optical depth that dims the environment ([`average`], summed over many
+//! Gaussians by a Barnes–Hut tree in [`mean_tree`]) and its Perlin
 //! noise perturbation ([`noise`]). Lights, surfaces and the homogeneous term (paper C)
 //! belong to the scene crate, which depends on this one.
 
@@ -20,6 +21,7 @@ pub mod cloud;
 pub mod erf;
 pub mod integrated;
 pub mod line;
+pub mod mean_tree;
 pub mod medium;
 pub mod noise;
 

@@ -1,6 +1,8 @@
 //! The environment's light on Gaussian media and on surfaces inside them (paper B §4.2,
 //! eq. 26–27), through the average optical depth `T̄(p) = β_bg·D + Σᵢ cᵢ𝒯(aᵢ|p − bᵢ|)/aᵢ`
-//! ([`haze_gaussians::average`]): light from a distant environment `L(ω)` reaches `p`
+//! ([`haze_gaussians::average`]), the sum over the Gaussians taken by a Barnes–Hut tree
+//! ([`haze_gaussians::mean_tree`]: far groups by their moments, within 1 % of their share,
+//! measured ≤ 10⁻⁴ over a cloud): light from a distant environment `L(ω)` reaches `p`
 //! attenuated by `e^{−T̄(p)}` whatever its direction.
 //!
 //! * **Surfaces** (eq. 27 shaded by eq. 20): the environment's SH lighting of paper C
@@ -31,7 +33,7 @@ use crate::paper_c::envglow::{self, EnvGlow};
 use crate::scene::{Environment, Material, Rgb, Scene};
 use crate::vec3::{Vec3, norm, sub};
 use haze_gaussians::airlight::GaussianSet;
-use haze_gaussians::average::gaussian_mean_depth;
+use haze_gaussians::mean_tree::MeanDepthTree;
 use rayon::prelude::*;
 use std::f64::consts::PI;
 
@@ -49,6 +51,8 @@ pub struct GaussianEnv {
     pub center: Vec<Rgb>,
     /// `β_bg·D`, the Gaussian media's backgrounds out to the environment.
     pub background_depth: f64,
+    /// The Gaussians' `T̄ⱼ` and `αⱼT̄ⱼ` summed by a Barnes–Hut tree.
+    tree: MeanDepthTree,
 }
 
 /// `e^{−σt·D}` of the scene's fog per channel (1 without fog, 0 for `D = ∞`).
@@ -94,6 +98,7 @@ impl GaussianEnv {
         let rule = directions(ENV_THETA);
         let eye = scene.camera.eye;
         let blobs = set.blobs();
+        let tree = MeanDepthTree::new(blobs);
         let center = (0..blobs.len())
             .into_par_iter()
             .map(|i| {
@@ -109,12 +114,7 @@ impl GaussianEnv {
                         }
                     }
                 }
-                let others: f64 = blobs
-                    .iter()
-                    .enumerate()
-                    .filter(|&(j, _)| j != i)
-                    .map(|(_, o)| gaussian_mean_depth(o.c, o.a, o.center, x))
-                    .sum();
+                let others = tree.at(x, Some(i)).0;
                 let lv = norm(sub(eye, x));
                 let to_eye = to_eye[i];
                 [0, 1, 2].map(|c| {
@@ -130,33 +130,21 @@ impl GaussianEnv {
             mean,
             center,
             background_depth,
+            tree,
         })
     }
 
     /// `(T̄(p), S̄(p))`: the average optical depth around `p` and its scattering part.
-    pub fn mean_depth(&self, set: &GaussianSet, p: Vec3) -> (f64, f64) {
-        let (mut t, mut s) = (self.background_depth, 0.0);
-        for b in set.blobs() {
-            let ti = gaussian_mean_depth(b.c, b.a, b.center, p);
-            t += ti;
-            s += b.albedo * ti;
-        }
-        (t, s)
+    pub fn mean_depth(&self, p: Vec3) -> (f64, f64) {
+        let (t, s) = self.tree.at(p, None);
+        (self.background_depth + t, s)
     }
 
     /// The environment's light reflected towards the viewer by the surface point `p` of
     /// unit normal `n` (`r` the view's mirror direction), with the light the Gaussians
     /// scatter onto it when `scattering` (module docs).
-    pub fn surface(
-        &self,
-        set: &GaussianSet,
-        p: Vec3,
-        n: Vec3,
-        r: Vec3,
-        m: &Material,
-        scattering: bool,
-    ) -> Rgb {
-        let (t, s) = self.mean_depth(set, p);
+    pub fn surface(&self, p: Vec3, n: Vec3, r: Vec3, m: &Material, scattering: bool) -> Rgb {
+        let (t, s) = self.mean_depth(p);
         let att = (-t).exp();
         let direct = self.glow.surface(n, r, m);
         [0, 1, 2].map(|c| {

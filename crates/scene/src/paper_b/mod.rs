@@ -426,7 +426,7 @@ impl<'a> Prepared<'a> {
         let r = reflect(scale(dir, -1.0), n);
         let p_off = axpy(p, 1e-9 * (1.0 + norm(p)), n);
         let mut out = match &self.env {
-            Some(env) => env.surface(&self.set, p, n, r, m, self.options.surface_scattering),
+            Some(env) => env.surface(p, n, r, m, self.options.surface_scattering),
             None => [0.0; 3],
         };
         for l in &self.lights {
