@@ -14,7 +14,12 @@ use crate::erf::erf_diff;
 use haze_core::vec3::{Vec3, axpy, dot, sub};
 use std::f64::consts::PI;
 
-/// `∫₀^len c·exp(−a²|o + t·d − b|²) dt` for unit `d` (module docs); 0 for `len ≤ 0`.
+/// Lines farther from the centre than `√FAR` radii count as missing it: they pick up at
+/// most `e^{−40} ≈ 4·10⁻¹⁸` of the depth through the centre (the WGSL twin's cut too).
+pub const FAR: f64 = 40.0;
+
+/// `∫₀^len c·exp(−a²|o + t·d − b|²) dt` for unit `d` (module docs); 0 for `len ≤ 0` and
+/// for lines beyond [`FAR`].
 pub fn gaussian(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3, len: f64) -> f64 {
     if len <= 0.0 || c == 0.0 {
         return 0.0;
@@ -22,11 +27,11 @@ pub fn gaussian(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3, len: f64) -> f64 {
     let bp = sub(b, o);
     let m = dot(bp, d);
     let perp = axpy(bp, -m, d);
-    let h2 = dot(perp, perp);
-    let side = (-a * a * h2).exp();
-    if side == 0.0 {
+    let q = a * a * dot(perp, perp);
+    if q > FAR {
         return 0.0;
     }
+    let side = (-q).exp();
     c * side * PI.sqrt() / (2.0 * a) * erf_diff(-a * m, a * (len - m))
 }
 
@@ -130,6 +135,15 @@ mod tests {
             gaussian(1.0, 1e8, [0.0, 1.0, 0.0], [0.0; 3], [1.0, 0.0, 0.0], 1.0),
             0.0
         );
+        // Just inside √FAR radii the line counts (the closed form, against quadrature),
+        // just beyond it does not: a step of e⁻⁴⁰ of the centre line's depth.
+        let o = [-20.0, 39.9f64.sqrt(), 0.0];
+        let near = gaussian(1.0, 1.0, [0.0; 3], o, [1.0, 0.0, 0.0], 40.0);
+        let q = quadrature(1.0, 1.0, [0.0; 3], o, [1.0, 0.0, 0.0], 40.0);
+        assert!(near > 0.0 && (near / q - 1.0).abs() < 1e-8, "{near:e} {q:e}");
+        let o = [-20.0, 40.1f64.sqrt(), 0.0];
+        assert_eq!(gaussian(1.0, 1.0, [0.0; 3], o, [1.0, 0.0, 0.0], 40.0), 0.0);
+        assert!(gaussian(1.0, 1.0, [0.0; 3], [0.0, f64::NAN, 0.0], [1.0, 0.0, 0.0], 1.0).is_nan());
         // A very wide Gaussian over a short segment: c·L (the short-interval branch).
         let w = gaussian(1.5, 1e-7, [0.0; 3], [0.0; 3], [1.0, 0.0, 0.0], 2.0);
         assert!((w - 3.0).abs() < 1e-12, "{w}");
