@@ -113,13 +113,9 @@ pub struct RenderCli {
     /// renderer (128 samples each, lit by the environment as given: a map whole) and print
     /// "estimated error x %" (its noise discounted) in the summary line; with
     /// --target-error, warn when the estimate exceeds it. 256 pixels take a second or two.
-    #[arg(
-        long,
-        value_name = "N",
-        default_value_t = 0,
-        conflicts_with = "reference"
-    )]
-    pub(crate) check: usize,
+    /// Default: none, but 256 with --target-error (--check 0 skips it).
+    #[arg(long, value_name = "N", conflicts_with = "reference")]
+    pub(crate) check: Option<usize>,
     /// Exposure applied before PNG tone mapping.
     #[arg(long, default_value_t = 1.0)]
     pub(crate) exposure: f64,
@@ -213,7 +209,11 @@ impl RenderCli {
             gpu: self.gpu && !self.cpu,
             lighting: self.lighting.into(),
             spp: self.spp,
-            check: self.check,
+            check: self.check.unwrap_or(if self.target_error.is_some() {
+                TARGET_CHECK
+            } else {
+                0
+            }),
             target_error: self.target_error,
             exposure: self.exposure,
             import: self.import.options(),
@@ -221,6 +221,10 @@ impl RenderCli {
         (options, goal, tradeoff)
     }
 }
+
+/// The pixels `--target-error` checks when `--check` is not given: a render asked to meet
+/// an error says whether it did (a second or two, `--check`'s help).
+const TARGET_CHECK: usize = 256;
 
 /// `centers`, `grid[:F]` or `orders[:F[:K]]` (`MsDiffusion`'s syntax).
 fn parse_diffusion(s: &str) -> Result<haze_view::render::MsDiffusion, String> {
@@ -272,6 +276,22 @@ mod tests {
     fn render_args(extra: &[&str]) -> RenderOptions {
         let argv = [&["render", "smoke.vdb", "--out", "out.png"][..], extra].concat();
         Flags::try_parse_from(argv).unwrap().render.into_args().0
+    }
+
+    /// A render asked for a target error checks itself unless told not to.
+    #[test]
+    fn a_target_error_checks_the_render() {
+        assert_eq!(render_args(&[]).check, 0);
+        assert_eq!(render_args(&["--check", "64"]).check, 64);
+        assert_eq!(render_args(&["--target-error", "0.05"]).check, TARGET_CHECK);
+        assert_eq!(
+            render_args(&["--target-error", "0.05", "--check", "0"]).check,
+            0
+        );
+        assert_eq!(
+            render_args(&["--target-error", "0.05", "--check", "32"]).check,
+            32
+        );
     }
 
     /// The CPU and the GPU render with the gathered orders by default (the GPU's with the

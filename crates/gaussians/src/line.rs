@@ -140,10 +140,23 @@ mod tests {
         let o = [-20.0, 39.9f64.sqrt(), 0.0];
         let near = gaussian(1.0, 1.0, [0.0; 3], o, [1.0, 0.0, 0.0], 40.0);
         let q = quadrature(1.0, 1.0, [0.0; 3], o, [1.0, 0.0, 0.0], 40.0);
-        assert!(near > 0.0 && (near / q - 1.0).abs() < 1e-8, "{near:e} {q:e}");
+        assert!(
+            near > 0.0 && (near / q - 1.0).abs() < 1e-8,
+            "{near:e} {q:e}"
+        );
         let o = [-20.0, 40.1f64.sqrt(), 0.0];
         assert_eq!(gaussian(1.0, 1.0, [0.0; 3], o, [1.0, 0.0, 0.0], 40.0), 0.0);
-        assert!(gaussian(1.0, 1.0, [0.0; 3], [0.0, f64::NAN, 0.0], [1.0, 0.0, 0.0], 1.0).is_nan());
+        assert!(
+            gaussian(
+                1.0,
+                1.0,
+                [0.0; 3],
+                [0.0, f64::NAN, 0.0],
+                [1.0, 0.0, 0.0],
+                1.0
+            )
+            .is_nan()
+        );
         // A very wide Gaussian over a short segment: c·L (the short-interval branch).
         let w = gaussian(1.5, 1e-7, [0.0; 3], [0.0; 3], [1.0, 0.0, 0.0], 2.0);
         assert!((w - 3.0).abs() < 1e-12, "{w}");
