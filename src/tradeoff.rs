@@ -5,6 +5,7 @@ use crate::fog::FogModelArgs;
 use crate::import_args::ImportArgs;
 use crate::light_args::{LightArgs, LightingArg};
 use anyhow::Result;
+use haze_render::smoke::MAX_CHECK_PIXELS;
 use haze_tradeoff::smoke::{Timing, View};
 use haze_tradeoff::{SmokeInput, TradeoffArgs};
 use std::path::PathBuf;
@@ -27,6 +28,17 @@ pub struct TradeoffCli {
     /// Samples per pixel of --reference.
     #[arg(long, default_value_t = 64)]
     spp: u32,
+    /// Smoke: every error of the sweep is against its best setting; estimate that
+    /// setting's own error against the reference renderer on N of its smoke pixels (128
+    /// samples each, `haze render --check`), printed and stored as best_estimated_error.
+    /// 0: none; --reference measures every setting against the reference instead.
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 256,
+        conflicts_with = "reference"
+    )]
+    check: usize,
     /// Sweep only these knobs (comma-separated names, as tradeoff.json lists them); the
     /// others keep their defaults.
     #[arg(long, value_delimiter = ',', value_name = "LIST")]
@@ -74,12 +86,19 @@ impl TradeoffCli {
                 self.height
             );
         }
+        if self.check > MAX_CHECK_PIXELS {
+            anyhow::bail!(
+                "--check {} must be at most {MAX_CHECK_PIXELS} pixels",
+                self.check
+            );
+        }
         Ok(TradeoffArgs {
             input: self.input.unwrap_or_default(),
             frame: self.frame,
             out: self.out,
             reference: self.reference,
             spp: self.spp,
+            check: self.check,
             knobs: self.knobs,
             quick: self.quick,
             fogmap: self.fogmap,

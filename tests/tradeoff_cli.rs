@@ -547,6 +547,15 @@ fn a_low_albedo_turns_multiple_scattering_off_and_a_high_one_keeps_it() {
             .unwrap();
         assert!((single["error"].as_f64().unwrap() - change).abs() < 1e-12);
         assert_eq!(change < 0.02, off, "albedo {albedo}: {change}");
+        // Without --reference the best setting is checked against the reference: an
+        // estimate with its noise, on some of the puff's pixels.
+        let best = &doc["best_estimated_error"];
+        let (e, noise) = (
+            best["error"].as_f64().unwrap(),
+            best["noise"].as_f64().unwrap(),
+        );
+        assert!((0.0..1.0).contains(&e) && noise > 0.0, "{best}");
+        assert!(best["pixels"].as_u64().unwrap() > 10, "{best}");
         let img = dir.path().join("x.png");
         let mut args = vec!["render", &vol, "--out", img.to_str().unwrap()];
         args.extend([

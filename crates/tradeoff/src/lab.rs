@@ -2,6 +2,7 @@
 
 use crate::knobs::{Knob, Setting};
 use anyhow::Result;
+use haze_render::check::ErrorEstimate;
 use haze_view::Image;
 use serde_json::Value;
 
@@ -27,6 +28,12 @@ pub trait Lab {
     fn measure(&mut self, s: &[usize]) -> Result<Sample>;
     /// The independent reference picture at the full size (`--reference`).
     fn reference(&mut self, spp: u32) -> Result<Image>;
+    /// The error of `image` (a setting's picture) against the reference, estimated on `n`
+    /// of its smoke pixels as `haze render --check` does; `None` where the lab has no
+    /// reference renderer or no pixel shows smoke.
+    fn check(&mut self, _image: &Image, _n: usize) -> Option<ErrorEstimate> {
+        None
+    }
     /// The setting that renders `s`: `s` itself, or the nearest one the renderer can run
     /// (two knob values that cannot go together are mapped as the command line maps
     /// them), or `Err` saying why `s` cannot run.

@@ -42,6 +42,8 @@ pub struct TradeoffArgs {
     pub out: PathBuf,
     pub reference: bool,
     pub spp: u32,
+    /// Pixels of the best setting's check against the reference (0: none).
+    pub check: usize,
     pub knobs: Option<Vec<String>>,
     pub quick: bool,
     pub fogmap: bool,
@@ -215,13 +217,21 @@ pub fn run(a: TradeoffArgs) -> Result<()> {
             check_knob_names(lab.knobs(), only)?;
             lab.restrict(only);
         }
-        let sweep = run_sweep(
+        let mut sweep = run_sweep(
             &mut lab,
             smoke_plan(a.quick),
             Vec::new(),
             a.reference.then_some(a.spp),
             &bar,
         )?;
+        if !a.reference && a.check > 0 {
+            let spinner = haze_render::progress::spinner(&format!(
+                "checking the best setting's {} pixels against the reference",
+                a.check
+            ));
+            sweep.check_best(&mut lab, a.check);
+            spinner.finish_and_clear();
+        }
         let timing = timing_name(lab.adapter());
         (sweep, a.smoke.medium_json(), timing)
     };
@@ -243,6 +253,9 @@ fn print_summary(sweep: &Sweep, path: &Path, plots: usize, timing: &str) {
         sweep.size[1],
         sweep.front.len()
     );
+    if let Some(e) = &sweep.best_check {
+        println!("  the best setting against the reference: {e}");
+    }
     for &i in &sweep.front {
         let m = &sweep.measured[i];
         println!(

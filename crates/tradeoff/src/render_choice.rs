@@ -64,6 +64,9 @@ pub fn choose_knobs(a: &mut RenderOptions, goal: Goal, tradeoff: Option<&Path>) 
         }
     };
     let c = choice::choose(&doc, goal).map_err(|e| anyhow!("{source}: {e}"))?;
+    if let Some(warning) = best_above_target(&doc, goal) {
+        eprintln!("warning: {source}: {warning}");
+    }
     let asset = is_asset(&a.input);
     apply_choice(a, &c, !asset);
     let note = if asset {
@@ -73,6 +76,23 @@ pub fn choose_knobs(a: &mut RenderOptions, goal: Goal, tradeoff: Option<&Path>) 
     };
     eprintln!("choice from {source}: {}{note}", c.reason);
     Ok(())
+}
+
+/// Where a target error is below the sweep's best setting's own estimated error against
+/// the reference (`haze tradeoff --check`): the sweep's errors are against that setting,
+/// so no choice from it can promise the target against the truth.
+fn best_above_target(doc: &serde_json::Value, goal: Goal) -> Option<String> {
+    let Goal::TargetError(target) = goal else {
+        return None;
+    };
+    let best = doc["best_estimated_error"]["error"].as_f64()?;
+    (best > target).then(|| {
+        format!(
+            "the best setting itself is estimated {:.1} % off the reference, above the target {:.1} %: the choice is within the target of the best setting, not of the truth",
+            100.0 * best,
+            100.0 * target
+        )
+    })
 }
 
 /// The knobs of a render (the others are the bake's).
@@ -156,6 +176,19 @@ mod tests {
     use haze_volume::import::ImportOptions;
     use serde_json::{Value, json};
     use std::path::PathBuf;
+
+    #[test]
+    fn a_target_below_the_best_settings_own_error_is_warned_about() {
+        let doc = json!({"best_estimated_error": {"error": 0.04, "noise": 0.03}});
+        let w = best_above_target(&doc, Goal::TargetError(0.02)).unwrap();
+        assert!(w.contains("4.0 %") && w.contains("2.0 %"), "{w}");
+        assert!(best_above_target(&doc, Goal::TargetError(0.05)).is_none());
+        assert!(best_above_target(&doc, Goal::BudgetMs(10.0)).is_none());
+        // A sweep without the check (or written before it) says nothing.
+        assert!(best_above_target(&json!({}), Goal::TargetError(0.001)).is_none());
+        let unchecked = json!({"best_estimated_error": null});
+        assert!(best_above_target(&unchecked, Goal::TargetError(0.001)).is_none());
+    }
 
     fn args() -> RenderOptions {
         RenderOptions {

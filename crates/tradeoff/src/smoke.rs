@@ -11,6 +11,7 @@ use haze_bake::residual::as_stored;
 use haze_fit::{FitOptions, SequenceFitter, SequenceOptions};
 use haze_gpu::GpuContext;
 use haze_hash::QuantOptions;
+use haze_render::check::{self, ErrorEstimate};
 use haze_view::diffusion::SolveOptions;
 use haze_view::gpu::renderer::{GpuFrame, GpuRenderer, LightingOn};
 use haze_view::gpu::volume_pass::Residual;
@@ -570,6 +571,25 @@ impl Lab for SmokeLab {
             &camera,
             &opts,
         ))
+    }
+
+    fn check(&mut self, image: &Image, n: usize) -> Option<ErrorEstimate> {
+        // The picture may be a fraction of the full size (the `size` knob).
+        let scale = image.width as f64 / self.view.width.max(1) as f64;
+        let camera = self.view.camera(&self.density, scale).ok()?;
+        if (camera.width, camera.height) != (image.width, image.height) {
+            return None;
+        }
+        check::estimate(
+            image,
+            &self.density,
+            &self.medium,
+            &self.env,
+            &camera,
+            true,
+            n,
+            check::CHECK_SAMPLES,
+        )
     }
 }
 

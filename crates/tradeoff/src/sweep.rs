@@ -6,6 +6,7 @@ use crate::knobs::{self, Effect, Knob, Setting};
 use crate::lab::{Lab, Sample};
 use crate::pareto;
 use anyhow::{Result, anyhow};
+use haze_render::check::ErrorEstimate;
 use haze_view::Image;
 use serde_json::{Map, Value, json};
 use std::collections::HashMap;
@@ -79,6 +80,9 @@ pub struct Sweep {
     pub reference_spp: Option<u32>,
     /// Settings the renderer cannot run, with why.
     pub skipped: Vec<(Setting, String)>,
+    /// The best setting's own error against the reference, estimated on a few of its
+    /// pixels ([`Sweep::check_best`]): every error of the sweep is against the best.
+    pub best_check: Option<ErrorEstimate>,
 }
 
 /// How long a sweep may search for combinations.
@@ -243,6 +247,7 @@ pub fn run_sweep(
         measured,
         reference_spp: reference,
         skipped,
+        best_check: None,
     })
 }
 
@@ -299,6 +304,16 @@ pub fn describe_short(knobs: &[Knob], s: &[usize], default: &[usize]) -> String 
 }
 
 impl Sweep {
+    /// Estimates the best setting's error against `lab`'s reference on `n` of its pixels
+    /// (none for `n = 0` or a lab without a reference).
+    pub fn check_best(&mut self, lab: &mut dyn Lab, n: usize) {
+        if n == 0 {
+            return;
+        }
+        let best = self.measured.iter().find(|m| matches!(m.why, Why::Best));
+        self.best_check = best.and_then(|m| lab.check(&m.sample.image, n));
+    }
+
     fn entry(&self, i: usize) -> Value {
         let m = &self.measured[i];
         let default = knobs::defaults(&self.knobs);
@@ -400,6 +415,9 @@ impl Sweep {
             "front_over": "render",
             "error_against": "best",
             "reference_spp": self.reference_spp,
+            "best_estimated_error": self.best_check.map(|e| json!({
+                "error": e.error, "noise": e.noise, "pixels": e.pixels, "samples": e.samples,
+            })),
             "knobs": self.knobs.iter().map(|k| json!({
                 "name": k.name, "values": k.values, "default": k.values[k.default], "best": k.values[k.best],
             })).collect::<Vec<_>>(),
