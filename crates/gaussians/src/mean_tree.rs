@@ -31,7 +31,7 @@
 use crate::airlight::Blob;
 use crate::average::gaussian_mean_depth;
 use crate::bvh::Stack;
-use haze_core::vec3::{Vec3, dot, sub};
+use haze_core::vec3::{Vec3, axpy, dot, sub};
 use std::f64::consts::PI;
 
 /// Most Gaussians in a leaf.
@@ -67,10 +67,8 @@ impl Moments {
         self.w += w;
         self.s0 += w * var;
         self.q0 += 3.0 * w * var * var;
-        for k in 0..3 {
-            self.m1[k] += w * delta[k];
-            self.s1[k] += w * var * delta[k];
-        }
+        self.m1 = axpy(self.m1, w, delta);
+        self.s1 = axpy(self.s1, w * var, delta);
         for (m, v) in self
             .m2
             .iter_mut()
@@ -183,9 +181,7 @@ impl MeanDepthTree {
             let b = &self.blobs[j];
             let wj = weight(b);
             w += wj;
-            for k in 0..3 {
-                x[k] += wj * b.center[k];
-            }
+            x = axpy(x, wj, b.center);
             a_min = a_min.min(b.a);
         }
         // The weighted centre (M₁ = 0 for T̄); the first centre if the weights underflow.
