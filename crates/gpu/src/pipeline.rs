@@ -142,9 +142,11 @@ pub struct ComputeLayout {
     pub module: wgpu::ShaderModule,
 }
 
-/// The bind group layout of a compute pass — binding 0 a uniform buffer, binding `i ≥ 1`
-/// a storage buffer, read-only where `read_only[i − 1]` — the pipeline layout over it and
-/// the module of `source`, all labelled `label`.
+/// The bind group layout of a compute pass — binding 0 the parameters, a read-only
+/// storage buffer (not a uniform one: lavapipe compiles a new variant of a shader for
+/// every uniform value that steers a branch or a loop), binding `i ≥ 1` a storage buffer,
+/// read-only where `read_only[i − 1]` — the pipeline layout over it and the module of
+/// `source`, all labelled `label`.
 pub fn compute_layout(
     d: &wgpu::Device,
     label: &'static str,
@@ -162,7 +164,7 @@ pub fn compute_layout(
         count: None,
     };
     let entries: Vec<wgpu::BindGroupLayoutEntry> =
-        std::iter::once(buffer(0, wgpu::BufferBindingType::Uniform))
+        std::iter::once(buffer(0, wgpu::BufferBindingType::Storage { read_only: true }))
             .chain(read_only.iter().enumerate().map(|(i, &read_only)| {
                 buffer(i + 1, wgpu::BufferBindingType::Storage { read_only })
             }))

@@ -64,7 +64,7 @@ struct Entry {
     _p1: f32,
 };
 
-@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(0) var<storage, read> params: Params;
 @group(0) @binding(1) var<storage, read_write> sources: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> work: array<f32>;
 // Row starts (n + 1), column starts (n + 1), then per column its (row, entry) pairs.

@@ -46,7 +46,7 @@ struct Params {
     _pad2: u32,
 }
 
-@group(0) @binding(0) var<uniform> p: Params;
+@group(0) @binding(0) var<storage, read> p: Params;
 // `shadow`: per direction 4 + 4 + order² words: ω x y z, 0, w·L r g b, 0, Y_j(ω).
 // `apply`: per coefficient j (order² of them) L_j r g b, Ω·g^l.
 @group(0) @binding(1) var<storage, read> table: array<f32>;

@@ -50,7 +50,7 @@ struct Params {
 
 const NONE: u32 = 0xffffffffu;
 
-@group(0) @binding(0) var<uniform> p: Params;
+@group(0) @binding(0) var<storage, read> p: Params;
 // Eight words per light, suns first: a sun (direction towards it, x y z; its table's first
 // word; irradiance r g b; its table's length, 0 for exact HG), a point light (position
 // relative to the box, x y z; the linear index of the voxel whose center it is, NONE if

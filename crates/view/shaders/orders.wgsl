@@ -123,7 +123,7 @@ const MEDIA: u32 = 16u + 3u * HIGH;
 const ROW: u32 = 40u;
 const WG: u32 = 256u;
 
-@group(0) @binding(0) var<uniform> p: Params;
+@group(0) @binding(0) var<storage, read> p: Params;
 // The lights pass's records (eight words per light, suns first) and the suns' tables.
 @group(0) @binding(1) var<storage, read> lights: array<u32>;
 // The volume pass's grid: per voxel J̃ r g b, D.

@@ -53,7 +53,7 @@ const TAYLOR_TERMS: u32 = 24u;
 const THREADS: u32 = 64u;
 const MAXC: u32 = 36u;
 
-@group(0) @binding(0) var<uniform> p: Params;
+@group(0) @binding(0) var<storage, read> p: Params;
 // Per RBF two vec4: (center, r), (w, 0, 0, 0); centers relative to any common origin.
 @group(0) @binding(1) var<storage, read> rbfs: array<vec4<f32>>;
 // `ZhTable::rows`: SAMPLES rows of `order` zonal coefficients.

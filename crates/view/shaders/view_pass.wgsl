@@ -53,7 +53,7 @@ struct Params {
 const OPAQUE: f32 = 1e-4;
 #import optics
 
-@group(0) @binding(0) var<uniform> p: Params;
+@group(0) @binding(0) var<storage, read> p: Params;
 // Per voxel (x fastest): J̃ in xyz, D in w.
 @group(0) @binding(1) var<storage, read> grid: array<vec4<f32>>;
 // Lat-long texels, RGB, row 0 at the zenith.

@@ -62,7 +62,7 @@ const CUTOFF2: f32 = 9.0;
 const SIDE: u32 = 4u;
 const CHUNK: u32 = 64u;
 
-@group(0) @binding(0) var<uniform> p: Params;
+@group(0) @binding(0) var<storage, read> p: Params;
 // Per RBF two vec4: (center relative to the box, 1/r), (w, culling radius², 0, 0); the
 // culling radius² is (3r)² with a margin, or −1 for an RBF without support.
 @group(0) @binding(1) var<storage, read> rbfs: array<vec4<f32>>;

@@ -404,7 +404,7 @@ impl DiffusionPass {
                 ctx,
                 "diffusion parameters",
                 bytemuck::bytes_of(&params),
-                wgpu::BufferUsages::UNIFORM,
+                wgpu::BufferUsages::STORAGE,
             );
             let buffers = [
                 &uniform,

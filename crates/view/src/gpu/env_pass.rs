@@ -285,7 +285,7 @@ impl EnvPass {
                 ctx,
                 "environment grid parameters",
                 bytemuck::bytes_of(&params),
-                wgpu::BufferUsages::UNIFORM,
+                wgpu::BufferUsages::STORAGE,
             );
             let rule = buffer_init(
                 ctx,
@@ -372,7 +372,7 @@ impl EnvPass {
                 ctx,
                 "environment pass parameters",
                 bytemuck::bytes_of(&params),
-                wgpu::BufferUsages::UNIFORM,
+                wgpu::BufferUsages::STORAGE,
             );
             let factors = buffer_init(
                 ctx,

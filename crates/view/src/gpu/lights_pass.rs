@@ -188,7 +188,7 @@ fn submit(
         ctx,
         "lights parameters",
         bytemuck::bytes_of(params),
-        wgpu::BufferUsages::UNIFORM,
+        wgpu::BufferUsages::STORAGE,
     );
     let lights = buffer_init(
         ctx,

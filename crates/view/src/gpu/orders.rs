@@ -274,7 +274,7 @@ impl OrdersPass {
             ctx,
             "orders parameters",
             &bytes,
-            wgpu::BufferUsages::UNIFORM,
+            wgpu::BufferUsages::STORAGE,
         )
     }
 

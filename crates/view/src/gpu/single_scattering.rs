@@ -212,7 +212,7 @@ impl SingleScatteringPass {
                 ctx,
                 "single scattering parameters",
                 bytemuck::bytes_of(&params),
-                wgpu::BufferUsages::UNIFORM,
+                wgpu::BufferUsages::STORAGE,
             );
             let rbf_buf = buffer_init(
                 ctx,

@@ -209,7 +209,7 @@ impl ViewPass {
                 ctx,
                 "view pass parameters",
                 bytemuck::bytes_of(&params),
-                wgpu::BufferUsages::UNIFORM,
+                wgpu::BufferUsages::STORAGE,
             );
             let output = ctx.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("view pass image"),

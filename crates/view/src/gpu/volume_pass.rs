@@ -272,7 +272,7 @@ impl VolumePass {
                 ctx,
                 "volume pass parameters",
                 bytemuck::bytes_of(&params),
-                wgpu::BufferUsages::UNIFORM,
+                wgpu::BufferUsages::STORAGE,
             );
             let rbf_buf = buffer_init(
                 ctx,
