@@ -163,12 +163,17 @@ pub fn compute_layout(
         },
         count: None,
     };
-    let entries: Vec<wgpu::BindGroupLayoutEntry> =
-        std::iter::once(buffer(0, wgpu::BufferBindingType::Storage { read_only: true }))
-            .chain(read_only.iter().enumerate().map(|(i, &read_only)| {
-                buffer(i + 1, wgpu::BufferBindingType::Storage { read_only })
-            }))
-            .collect();
+    let entries: Vec<wgpu::BindGroupLayoutEntry> = std::iter::once(buffer(
+        0,
+        wgpu::BufferBindingType::Storage { read_only: true },
+    ))
+    .chain(
+        read_only
+            .iter()
+            .enumerate()
+            .map(|(i, &read_only)| buffer(i + 1, wgpu::BufferBindingType::Storage { read_only })),
+    )
+    .collect();
     let layout = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some(label),
         entries: &entries,

@@ -278,6 +278,7 @@ fn frames_lit_by_a_sun_and_a_point_light_match_crm_render() {
                     "diffusion",
                     "remove single",
                     "volume pass",
+                    "grid occupancy",
                     "environment grid",
                     "environment pass",
                     "lights shadow volume",
@@ -366,6 +367,7 @@ fn stage_times_come_from_timestamps_where_the_device_has_them() {
                 "diffusion",
                 "remove single",
                 "volume pass",
+                "grid occupancy",
                 "environment grid",
                 "environment pass",
                 "view pass"

@@ -22,6 +22,7 @@ use crate::render::env_pass::{self, EnvGridOptions};
 use crate::sh::{self, ShGrid};
 use haze_gpu::wgsl::Variant;
 use haze_gpu::{GpuContext, GpuError, buffer_init, compute_pipeline_at, submit_pass, voxel_groups};
+
 use haze_volume::Bbox;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -32,6 +33,27 @@ pub const SHADER: Variant = Variant {
     entry: include_str!("../../shaders/env_pass.wgsl"),
     defines: &[],
 };
+
+/// The occupancy of the grid's blocks that the environment grid's march skips by:
+/// `crates/view/shaders/occupancy.wgsl`.
+pub const OCCUPANCY_SHADER: Variant = Variant {
+    label: "grid occupancy",
+    entry: include_str!("../../shaders/occupancy.wgsl"),
+    defines: &[],
+};
+
+/// Voxels per block side of the occupancy (`occupancy.wgsl`'s `BLOCK`).
+const BLOCK: usize = 4;
+
+/// `occupancy.wgsl`'s parameters.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct OccupancyParams {
+    dims: [u32; 3],
+    _pad0: u32,
+    blocks: [u32; 3],
+    _pad1: u32,
+}
 
 /// Voxels per workgroup side of `apply` (`@workgroup_size(4, 4, 4)`).
 const SIDE: usize = 4;
@@ -142,6 +164,7 @@ impl EnvShadow {
 /// The compiled environment pass, reusable across frames.
 #[derive(Debug)]
 pub struct EnvPass {
+    occupancy: wgpu::ComputePipeline,
     shadow: wgpu::ComputePipeline,
     apply: wgpu::ComputePipeline,
 }
@@ -161,6 +184,12 @@ impl EnvPass {
     pub fn new(ctx: &GpuContext) -> Result<EnvPass, GpuError> {
         let source = super::shaders::source(&SHADER)?;
         Ok(EnvPass {
+            occupancy: compute_pipeline_at(
+                ctx,
+                "grid occupancy pipeline creation",
+                &super::shaders::source(&OCCUPANCY_SHADER)?,
+                "main",
+            )?,
             shadow: compute_pipeline_at(
                 ctx,
                 "environment grid pipeline creation",
@@ -304,11 +333,12 @@ impl EnvPass {
             } else {
                 [gx as u32, gy as u32, 1]
             };
+            let occupancy = self.occupancy(ctx, grid, max_groups);
             submit_pass(
                 ctx,
                 &self.shadow,
                 "environment grid",
-                &[&uniform, &rule, grid.buffer(), &shadow],
+                &[&uniform, &rule, grid.buffer(), &shadow, &occupancy],
                 groups,
             );
             EnvShadow {
@@ -320,6 +350,48 @@ impl EnvPass {
                 bbox,
             }
         })
+    }
+
+    /// Which blocks of [`BLOCK`]³ voxels of `grid` hold density within a voxel of them,
+    /// the buffer the environment grid's march skips by (submitted; one word a block).
+    fn occupancy(&self, ctx: &GpuContext, grid: &GridBuffer, max_groups: usize) -> wgpu::Buffer {
+        let dims = grid.dims();
+        let blocks = dims.map(|n| n.div_ceil(BLOCK));
+        let count = blocks.iter().product::<usize>();
+        let params = OccupancyParams {
+            dims: dims.map(|n| n as u32),
+            _pad0: 0,
+            blocks: blocks.map(|n| n as u32),
+            _pad1: 0,
+        };
+        let uniform = buffer_init(
+            ctx,
+            "grid occupancy parameters",
+            bytemuck::bytes_of(&params),
+            wgpu::BufferUsages::STORAGE,
+        );
+        let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("grid occupancy"),
+            size: (count.max(1) * 4) as u64,
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
+        let groups = count.div_ceil(NODES);
+        let gx = groups.clamp(1, max_groups);
+        let gy = groups.div_ceil(gx).max(1);
+        let groups = if count == 0 {
+            [0, 0, 0]
+        } else {
+            [gx as u32, gy as u32, 1]
+        };
+        submit_pass(
+            ctx,
+            &self.occupancy,
+            "grid occupancy",
+            &[&uniform, grid.buffer(), &buffer],
+            groups,
+        );
+        buffer
     }
 
     /// The `apply` dispatch alone (submitted): adds to `grid`'s `J̃`, camera at `eye`,
