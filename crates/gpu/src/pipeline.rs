@@ -108,6 +108,31 @@ pub fn voxel_groups(ctx: &GpuContext, dims: [usize; 3], side: usize) -> Result<[
     Ok(groups.map(|n| n as u32))
 }
 
+/// The workgroups of `per_group` invocations covering `n` items numbered along one line,
+/// spread over two dimensions (`[x, y, 1]`, `x·y·per_group ≥ n`, `x` at most the device's
+/// workgroups per dimension); `[0, 0, 0]` for no item; or why the device cannot dispatch
+/// them (`what` names the items in the message).
+pub fn line_groups(
+    ctx: &GpuContext,
+    n: usize,
+    per_group: usize,
+    what: &str,
+) -> Result<[u32; 3], GpuError> {
+    if n == 0 {
+        return Ok([0, 0, 0]);
+    }
+    let groups = n.div_ceil(per_group.max(1));
+    let max_groups = ctx.device.limits().max_compute_workgroups_per_dimension as usize;
+    let gx = groups.clamp(1, max_groups);
+    let gy = groups.div_ceil(gx);
+    if gy > max_groups {
+        return Err(GpuError::Input(format!(
+            "{n} {what} are more than the device dispatches"
+        )));
+    }
+    Ok([gx as u32, gy as u32, 1])
+}
+
 /// Binds `buffers` (binding `i` to `buffers[i]`) as group 0 of `pipeline` and submits one
 /// compute pass of `groups` workgroups (none when a count is 0), timed as `label` while
 /// [`GpuContext::time_stages`] is on. Call inside [`GpuContext::scoped`].

@@ -21,7 +21,9 @@ use crate::medium::Medium;
 use crate::render::env_pass::{self, EnvGridOptions};
 use crate::sh::{self, ShGrid};
 use haze_gpu::wgsl::Variant;
-use haze_gpu::{GpuContext, GpuError, buffer_init, compute_pipeline_at, submit_pass, voxel_groups};
+use haze_gpu::{
+    GpuContext, GpuError, buffer_init, compute_pipeline_at, line_groups, submit_pass, voxel_groups,
+};
 
 use haze_volume::Bbox;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -300,15 +302,9 @@ impl EnvPass {
             nodes: frame.nodes.map(|n| n as u32),
             _pad2: 0,
         };
-        let max_groups = ctx.device.limits().max_compute_workgroups_per_dimension as usize;
-        let node_groups = total.div_ceil(NODES);
-        let gx = node_groups.clamp(1, max_groups);
-        let gy = node_groups.div_ceil(gx);
-        if gy > max_groups {
-            return Err(GpuError::Input(format!(
-                "a grid of {dims:?} voxels is larger than the device dispatches"
-            )));
-        }
+        let groups = line_groups(ctx, total, NODES, "environment grid nodes")?;
+        let blocks = dims.map(|n| n.div_ceil(BLOCK));
+        let block_groups = line_groups(ctx, blocks.iter().product(), NODES, "occupancy blocks")?;
         ctx.scoped("the environment grid", || {
             let uniform = buffer_init(
                 ctx,
@@ -328,12 +324,7 @@ impl EnvPass {
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             });
-            let groups = if total == 0 {
-                [0, 0, 0]
-            } else {
-                [gx as u32, gy as u32, 1]
-            };
-            let occupancy = self.occupancy(ctx, grid, max_groups);
+            let occupancy = self.occupancy(ctx, grid, blocks, block_groups);
             submit_pass(
                 ctx,
                 &self.shadow,
@@ -354,9 +345,15 @@ impl EnvPass {
 
     /// Which blocks of [`BLOCK`]³ voxels of `grid` hold density within a voxel of them,
     /// the buffer the environment grid's march skips by (submitted; one word a block).
-    fn occupancy(&self, ctx: &GpuContext, grid: &GridBuffer, max_groups: usize) -> wgpu::Buffer {
+    /// `blocks` per axis, dispatched as `groups`.
+    fn occupancy(
+        &self,
+        ctx: &GpuContext,
+        grid: &GridBuffer,
+        blocks: [usize; 3],
+        groups: [u32; 3],
+    ) -> wgpu::Buffer {
         let dims = grid.dims();
-        let blocks = dims.map(|n| n.div_ceil(BLOCK));
         let count = blocks.iter().product::<usize>();
         let params = OccupancyParams {
             dims: dims.map(|n| n as u32),
@@ -376,14 +373,6 @@ impl EnvPass {
             usage: wgpu::BufferUsages::STORAGE,
             mapped_at_creation: false,
         });
-        let groups = count.div_ceil(NODES);
-        let gx = groups.clamp(1, max_groups);
-        let gy = groups.div_ceil(gx).max(1);
-        let groups = if count == 0 {
-            [0, 0, 0]
-        } else {
-            [gx as u32, gy as u32, 1]
-        };
         submit_pass(
             ctx,
             &self.occupancy,
@@ -519,17 +508,14 @@ impl RemoveSingle {
         copy: &wgpu::Buffer,
     ) -> Result<(), GpuError> {
         let words = (sources.buffer().size() / 4) as usize;
-        let groups = words.div_ceil(NODES);
-        let max_groups = ctx.device.limits().max_compute_workgroups_per_dimension as usize;
-        let gx = groups.clamp(1, max_groups);
-        let gy = groups.div_ceil(gx);
+        let groups = line_groups(ctx, words.max(1), NODES, "source words")?;
         ctx.scoped("removing the single scattering", || {
             submit_pass(
                 ctx,
                 &self.pipeline,
                 "remove single",
                 &[sources.buffer(), copy],
-                [gx as u32, gy as u32, 1],
+                groups,
             );
         })
     }

@@ -209,16 +209,7 @@ fn coefficients(m: &Medium) -> Option<(f64, f64, f64)> {
 
 /// Groups of 64 invocations covering `n` cells: `[x, y, 1]` with `x·y·64 ≥ n`.
 fn cell_groups(ctx: &GpuContext, n: usize) -> Result<[u32; 3], GpuError> {
-    let groups = n.div_ceil(CELLS);
-    let max_groups = ctx.device.limits().max_compute_workgroups_per_dimension as usize;
-    let gx = groups.clamp(1, max_groups);
-    let gy = groups.div_ceil(gx);
-    if gy > max_groups {
-        return Err(GpuError::Input(format!(
-            "{n} cells are more than the device dispatches"
-        )));
-    }
-    Ok([gx as u32, gy as u32, 1])
+    haze_gpu::line_groups(ctx, n.max(1), CELLS, "cells")
 }
 
 impl OrdersPass {
