@@ -128,13 +128,12 @@ impl std::ops::Deref for HeteroMedium {
     }
 }
 
-/// The Henyey–Greenstein phase function `p(cos θ) = (1 − g²)/(4π(1 + g² − 2g·cos θ)^{3/2})`,
-/// `cos θ` between the direction of travel before and after scattering (forward: `+1`).
-/// The denominator is `≥ (1 − |g|)² > 0` for `|g| < 1`.
+/// The Henyey–Greenstein phase function per steradian, `p(cos θ) = (1 − g²)/(4π(1 + g² −
+/// 2g·cos θ)^{3/2})` (`∫p dω = 1`), `cos θ` between the direction of travel before and
+/// after scattering (forward: `+1`): the smoke renderer's [`haze_view::medium::hg`]
+/// (normalized to `4π`) over `4π`.
 pub fn henyey_greenstein(g: f64, cos_theta: f64) -> f64 {
-    let g2 = g * g;
-    let den = (1.0 + g2 - 2.0 * g * cos_theta).max(1e-300);
-    (1.0 - g2) / (4.0 * std::f64::consts::PI * den * den.sqrt())
+    haze_view::medium::hg(g, cos_theta) / haze_view::medium::FOUR_PI
 }
 
 /// The largest extinction coefficient a scene file may give (per world unit). A medium
