@@ -300,13 +300,20 @@ fn check_error(
         return Ok(Some("no smoke pixel to check".into()));
     };
     if let Some(target) = a.target_error
-        && est.error > target
+        && let Some(surely) = est.above(target)
     {
         tracing::warn!(
-            "{}: estimated error {:.1} % is above the target {:.1} %",
+            "{}: estimated error {:.1} % ± {:.1} % {} the target {:.1} %{}",
             a.out.display(),
             100.0 * est.error,
-            100.0 * target
+            100.0 * est.spread,
+            if surely { "is above" } else { "may be above" },
+            100.0 * target,
+            if surely {
+                ""
+            } else {
+                " (a larger --check narrows it)"
+            }
         );
     }
     Ok(Some(est.to_string()))
