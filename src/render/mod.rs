@@ -42,13 +42,15 @@ pub fn run(r: RenderCli) -> Result<()> {
             exact_per_pair: r.exact_per_pair.map(usize::from),
         }),
         None => {
-            let (mut options, goal, tradeoff) = r.into_args();
-            if let Some(goal) = goal {
-                // The values a choice keeps are checked before its sweep.
-                haze_render::smoke::check_exposure(options.exposure)?;
-                render_choice::choose_knobs(&mut options, goal, tradeoff.as_deref())?;
+            let (options, goal, tradeoff) = r.into_args();
+            match goal {
+                Some(goal) => {
+                    // The values a choice keeps are checked before its sweep.
+                    haze_render::smoke::check_exposure(options.exposure)?;
+                    render_choice::render_for_goal(options, goal, tradeoff.as_deref())
+                }
+                None => haze_render::smoke::render(options).map(|_| ()),
             }
-            haze_render::smoke::render(options)
         }
     }
 }

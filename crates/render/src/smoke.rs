@@ -2,7 +2,7 @@
 //! compensated ray marching on the CPU (paper A §5) or the GPU (every stage), or by the
 //! reference renderer.
 
-use crate::check;
+use crate::check::{self, ErrorEstimate};
 use crate::frame::{self, FitKnobs};
 use crate::lights::Lights;
 use crate::progress;
@@ -22,7 +22,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Everything a smoke render is asked to do.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct RenderOptions {
     pub input: PathBuf,
     pub frame: Option<i64>,
@@ -66,8 +66,9 @@ pub struct RenderOptions {
     pub import: ImportOptions,
 }
 
-/// Renders the frame `a` names and writes the image, printing one line about it.
-pub fn render(a: RenderOptions) -> Result<()> {
+/// Renders the frame `a` names and writes the image, printing one line about it; returns
+/// the error check's estimate ([`RenderOptions::check`]), if one was made.
+pub fn render(a: RenderOptions) -> Result<Option<ErrorEstimate>> {
     let start = Instant::now();
     let kind = out_kind(&a.out)?;
     check_exposure(a.exposure)?;
@@ -246,7 +247,8 @@ pub fn render(a: RenderOptions) -> Result<()> {
     };
     spinner.finish_and_clear();
     image.check_finite(&what)?;
-    let what = match check_error(&a, &image, &frame.density, &medium, &camera)? {
+    let (checked, estimate) = check_error(&a, &image, &frame.density, &medium, &camera)?;
+    let what = match checked {
         Some(e) => format!("{what}, {e}"),
         None => what,
     };
@@ -262,23 +264,24 @@ pub fn render(a: RenderOptions) -> Result<()> {
         what,
         start.elapsed().as_secs_f64()
     );
-    Ok(())
+    Ok(estimate)
 }
 
 /// The most pixels `--check` compares (each costs 128 reference paths).
 pub const MAX_CHECK_PIXELS: usize = 65_536;
 
 /// The render's estimate of its own error (`--check`), warned about above
-/// `--target-error`; `None` without a check or where no pixel shows smoke.
+/// `--target-error`: what the summary line says of it (nothing without a check) and the
+/// estimate (none without a check or where no pixel shows smoke).
 fn check_error(
     a: &RenderOptions,
     image: &Image,
     density: &haze_volume::Volume,
     medium: &Medium,
     camera: &Camera,
-) -> Result<Option<String>> {
+) -> Result<(Option<String>, Option<ErrorEstimate>)> {
     if a.check == 0 || a.reference {
-        return Ok(None);
+        return Ok((None, None));
     }
     let env = a.env.environment_whole()?;
     let spinner = progress::spinner(&format!(
@@ -297,7 +300,7 @@ fn check_error(
     );
     spinner.finish_and_clear();
     let Some(est) = est else {
-        return Ok(Some("no smoke pixel to check".into()));
+        return Ok((Some("no smoke pixel to check".into()), None));
     };
     if let Some(target) = a.target_error
         && let Some(surely) = est.above(target)
@@ -316,7 +319,7 @@ fn check_error(
             }
         );
     }
-    Ok(Some(est.to_string()))
+    Ok((Some(est.to_string()), Some(est)))
 }
 
 /// The image types a render writes.

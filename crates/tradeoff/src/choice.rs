@@ -19,6 +19,9 @@ pub struct Choice {
     pub reason: String,
     /// The per-knob reasons alone (also in `reason`).
     pub reasons: Vec<String>,
+    /// The setting's error against the sweep's best setting (estimated where a model the
+    /// scene does not need was turned off).
+    pub error: f64,
 }
 
 impl Choice {
@@ -198,7 +201,9 @@ pub fn choose(doc: &Value, goal: Goal) -> Result<Choice> {
             front.len()
         ),
         Goal::TargetError(x) => format!(
-            "target error {x}: the fastest of the {} front settings reaching it",
+            "target error {}: the fastest of the {} front settings reaching it",
+            // As given, or to four decimals where a render chose again for less.
+            (x * 1e4).round() / 1e4,
             front.len()
         ),
     };
@@ -220,6 +225,7 @@ pub fn choose(doc: &Value, goal: Goal) -> Result<Choice> {
         knobs,
         reason,
         reasons,
+        error,
     })
 }
 
