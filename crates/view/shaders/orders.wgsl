@@ -372,7 +372,7 @@ fn occupied(@builtin(local_invocation_index) lid: u32) {
     }
 }
 
-// One dispatch gathers the uniform's rule (a share of an order's directions, few enough
+// One dispatch gathers the parameters' rule (a share of an order's directions, few enough
 // that an invocation's loops stay within lavapipe's budget of 65535 iterations per
 // outermost loop): it adds its part of L⁰, L¹ to `media` (and of P for the first order),
 // and of the next source to `rec_out`, which its order's first dispatch clears.

@@ -48,7 +48,7 @@ const MAX_CHUNKS: u32 = 64;
 /// Fewest CGLS iterations per `iterate` dispatch.
 const MIN_CHUNK: u32 = 16;
 
-/// The shader's `Params` uniform, 64 bytes.
+/// The shader's `Params` (a read-only storage buffer), 64 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 struct Params {
@@ -400,14 +400,14 @@ impl DiffusionPass {
             _pad: [0; 3],
         };
         ctx.scoped("diffusion", || {
-            let uniform = buffer_init(
+            let params_buffer = buffer_init(
                 ctx,
                 "diffusion parameters",
                 bytemuck::bytes_of(&params),
                 wgpu::BufferUsages::STORAGE,
             );
             let buffers = [
-                &uniform,
+                &params_buffer,
                 sources.buffer(),
                 work,
                 &ops.index,

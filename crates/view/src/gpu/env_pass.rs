@@ -24,7 +24,6 @@ use haze_gpu::wgsl::Variant;
 use haze_gpu::{
     GpuContext, GpuError, buffer_init, compute_pipeline_at, line_groups, submit_pass, voxel_groups,
 };
-
 use haze_volume::Bbox;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -63,7 +62,7 @@ const SIDE: usize = 4;
 /// Nodes per workgroup of `shadow` (`@workgroup_size(64)`).
 const NODES: usize = 64;
 
-/// The shader's `Params` uniform (WGSL layout), 112 bytes.
+/// The shader's `Params` (a read-only storage buffer) (WGSL layout), 112 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 struct Params {
@@ -306,7 +305,7 @@ impl EnvPass {
         let blocks = dims.map(|n| n.div_ceil(BLOCK));
         let block_groups = line_groups(ctx, blocks.iter().product(), NODES, "occupancy blocks")?;
         ctx.scoped("the environment grid", || {
-            let uniform = buffer_init(
+            let params_buffer = buffer_init(
                 ctx,
                 "environment grid parameters",
                 bytemuck::bytes_of(&params),
@@ -329,7 +328,7 @@ impl EnvPass {
                 ctx,
                 &self.shadow,
                 "environment grid",
-                &[&uniform, &rule, grid.buffer(), &shadow, &occupancy],
+                &[&params_buffer, &rule, grid.buffer(), &shadow, &occupancy],
                 groups,
             );
             EnvShadow {
@@ -361,7 +360,7 @@ impl EnvPass {
             blocks: blocks.map(|n| n as u32),
             _pad1: 0,
         };
-        let uniform = buffer_init(
+        let params_buffer = buffer_init(
             ctx,
             "grid occupancy parameters",
             bytemuck::bytes_of(&params),
@@ -377,7 +376,7 @@ impl EnvPass {
             ctx,
             &self.occupancy,
             "grid occupancy",
-            &[&uniform, grid.buffer(), &buffer],
+            &[&params_buffer, grid.buffer(), &buffer],
             groups,
         );
         buffer
@@ -429,7 +428,7 @@ impl EnvPass {
             return Ok(());
         }
         ctx.scoped("the environment pass", || {
-            let uniform = buffer_init(
+            let params_buffer = buffer_init(
                 ctx,
                 "environment pass parameters",
                 bytemuck::bytes_of(&params),
@@ -445,7 +444,7 @@ impl EnvPass {
                 ctx,
                 &self.apply,
                 "environment pass",
-                &[&uniform, &factors, grid.buffer(), &shadow.buffer],
+                &[&params_buffer, &factors, grid.buffer(), &shadow.buffer],
                 groups,
             );
         })

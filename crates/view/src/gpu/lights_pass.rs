@@ -65,7 +65,7 @@ pub const UNIT_TOLERANCE: f64 = 1e-6;
 /// "No voxel" in a point light's record.
 const NONE: u32 = u32::MAX;
 
-/// The shader's `Params` uniform: WGSL's layout (a `vec3` is 16-byte aligned and the
+/// The shader's `Params` (a read-only storage buffer): WGSL's layout (a `vec3` is 16-byte aligned and the
 /// scalar after it fills its fourth slot), 80 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
@@ -184,7 +184,7 @@ fn submit(
     shadow: &LightShadow,
     groups: [u32; 3],
 ) {
-    let uniform = buffer_init(
+    let params_buffer = buffer_init(
         ctx,
         "lights parameters",
         bytemuck::bytes_of(params),
@@ -200,7 +200,7 @@ fn submit(
         ctx,
         pipeline,
         label,
-        &[&uniform, &lights, grid.buffer(), &shadow.buffer],
+        &[&params_buffer, &lights, grid.buffer(), &shadow.buffer],
         groups,
     );
 }

@@ -58,7 +58,7 @@ pub const SHADER: Variant = Variant {
 
 /// Most suns in the first source (the shader's records hold `13 + 8` words).
 pub const MAX_SUNS: usize = 8;
-/// Directions per gather dispatch (what the uniform holds): lavapipe ends the loops nested
+/// Directions per gather dispatch (what the parameters buffer holds): lavapipe ends the loops nested
 /// in an outermost loop after 65535 iterations together (module docs of the shader), and
 /// a cell's march of 8 directions stays within that up to ~2000 cells a side.
 const DIRECTIONS_PER_DISPATCH: usize = 8;
@@ -76,7 +76,7 @@ const ROW: usize = 40;
 const CELLS: usize = 64;
 const SIDE: usize = 4;
 
-/// The shader's `Params` (WGSL layout), 256 bytes, followed in the uniform by a share of
+/// The shader's `Params` (WGSL layout), 256 bytes, followed in the parameters buffer by a share of
 /// the direction rule ([`DIRECTIONS_PER_DISPATCH`] `vec4`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
@@ -117,7 +117,7 @@ struct Params {
 /// `L⁰`, `L¹` and the escape probability per coarse cell on the GPU (`MEDIA` `f32` per
 /// cell: `L⁰` RGB, `L¹` `[channel][axis]`, `P`, the cell's mean density, two unused, bands
 /// 2–3 `[channel][HIGH]` of the gathered orders), with the
-/// last gathered order's scattered source (the diffusion's input) and the uniform of the
+/// last gathered order's scattered source (the diffusion's input) and the parameters buffer of the
 /// grid they belong to.
 #[derive(Debug)]
 pub struct MediaBuffer {
@@ -253,8 +253,8 @@ impl OrdersPass {
         })
     }
 
-    /// A uniform of `params` and the rule `rule` (`(ω, weight)`).
-    fn uniform(ctx: &GpuContext, params: &Params, rule: &[([f64; 3], f64)]) -> wgpu::Buffer {
+    /// A parameters buffer of `params` and the rule `rule` (`(ω, weight)`).
+    fn params_buffer(ctx: &GpuContext, params: &Params, rule: &[([f64; 3], f64)]) -> wgpu::Buffer {
         let mut bytes = bytemuck::bytes_of(params).to_vec();
         let mut table = [[0.0f32; 4]; DIRECTIONS_PER_DISPATCH];
         for (t, (w, wt)) in table.iter_mut().zip(rule) {
@@ -270,7 +270,7 @@ impl OrdersPass {
     }
 
     /// One compute pass of `pipeline` over `groups` (repeated `times`), binding in order
-    /// the uniform, the lights, the grid, the environment's `S`, the record read, the
+    /// the parameters, the lights, the grid, the environment's `S`, the record read, the
     /// record written, the cells' radiance and the work buffer. Call inside
     /// [`GpuContext::scoped`].
     fn dispatch(
@@ -312,8 +312,8 @@ impl OrdersPass {
                     directions: part.len() as u32,
                     ..*params
                 };
-                let uniform = OrdersPass::uniform(ctx, &p, part);
-                let mut all = vec![&uniform];
+                let params_buffer = OrdersPass::params_buffer(ctx, &p, part);
+                let mut all = vec![&params_buffer];
                 all.extend(buffers);
                 bind_buffers(ctx, "orders gather", &self.layout, &all)
             })
@@ -400,14 +400,14 @@ impl OrdersPass {
                 wgpu::BufferUsages::STORAGE,
             );
             let (ro, rw) = (buffer("orders' unused", 16), buffer("orders' unused", 16));
-            let cells_uniform = OrdersPass::uniform(ctx, &params, &[]);
+            let cells_params = OrdersPass::params_buffer(ctx, &params, &[]);
             // `cells` writes the first source into rec[1] (read as the input below).
             self.dispatch(
                 ctx,
                 "orders cells",
                 &self.cells,
                 &[
-                    &cells_uniform,
+                    &cells_params,
                     &lights_buf,
                     grid.buffer(),
                     shadow.buffer(),
@@ -426,7 +426,7 @@ impl OrdersPass {
                 "orders occupied",
                 &self.occupied,
                 &[
-                    &cells_uniform,
+                    &cells_params,
                     &lights_buf,
                     grid.buffer(),
                     shadow.buffer(),
@@ -514,7 +514,7 @@ impl OrdersPass {
                     mapped_at_creation: false,
                 }),
             };
-            let uniform = OrdersPass::uniform(ctx, &params, &[]);
+            let params_buffer = OrdersPass::params_buffer(ctx, &params, &[]);
             let dummy = ctx.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("orders' unused"),
                 size: 16,
@@ -522,7 +522,7 @@ impl OrdersPass {
                 mapped_at_creation: false,
             });
             let buffers = [
-                &uniform,
+                &params_buffer,
                 &dummy,
                 grid.buffer(),
                 shadow.buffer(),
@@ -597,7 +597,7 @@ impl OrdersPass {
             ..media.params
         };
         ctx.scoped("the orders' light per voxel", || {
-            let uniform = OrdersPass::uniform(ctx, &params, &[]);
+            let params_buffer = OrdersPass::params_buffer(ctx, &params, &[]);
             let unused = || {
                 ctx.device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("orders' unused"),
@@ -612,7 +612,7 @@ impl OrdersPass {
                 "orders apply",
                 &self.apply,
                 &[
-                    &uniform,
+                    &params_buffer,
                     &ro,
                     grid.buffer(),
                     shadow.buffer(),

@@ -34,7 +34,7 @@ pub const SHADER: Variant = Variant {
     defines: &[],
 };
 
-/// The shader's `Params` uniform, 32 bytes.
+/// The shader's `Params` (a read-only storage buffer), 32 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 struct Params {
@@ -208,7 +208,7 @@ impl SingleScatteringPass {
         let out = SourceBuffer::create(ctx, rbfs.len(), n)?;
         ctx.scoped("single scattering", || {
             let storage = wgpu::BufferUsages::STORAGE;
-            let uniform = buffer_init(
+            let params_buffer = buffer_init(
                 ctx,
                 "single scattering parameters",
                 bytemuck::bytes_of(&params),
@@ -227,7 +227,7 @@ impl SingleScatteringPass {
                 storage,
             );
             let buffers = [
-                &uniform,
+                &params_buffer,
                 &rbf_buf,
                 &self.zh,
                 &self.gamma,

@@ -41,7 +41,7 @@ pub const SHADER: Variant = Variant {
 /// Pixels per workgroup side (`@workgroup_size(8, 8)` in the shader).
 const TILE: u32 = 8;
 
-/// The shader's `Params` uniform: WGSL's layout (a `vec3` is 16-byte aligned and the
+/// The shader's `Params` (a read-only storage buffer): WGSL's layout (a `vec3` is 16-byte aligned and the
 /// scalar after it fills its fourth slot), 208 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
@@ -205,7 +205,7 @@ impl ViewPass {
         };
 
         let output = ctx.scoped("the view pass", || {
-            let uniform = buffer_init(
+            let params_buffer = buffer_init(
                 ctx,
                 "view pass parameters",
                 bytemuck::bytes_of(&params),
@@ -218,7 +218,7 @@ impl ViewPass {
                 mapped_at_creation: false,
             });
             let buffers = [
-                &uniform,
+                &params_buffer,
                 grid.buffer(),
                 &env.buffer,
                 &output,

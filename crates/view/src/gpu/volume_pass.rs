@@ -55,7 +55,7 @@ pub enum Residual<'a> {
     Hash(&'a ResidualSlot),
 }
 
-/// The shader's `Params` uniform: WGSL's layout (a `vec3` is 16-byte aligned and the
+/// The shader's `Params` (a read-only storage buffer): WGSL's layout (a `vec3` is 16-byte aligned and the
 /// scalar after it fills its fourth slot), 112 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
@@ -85,7 +85,7 @@ struct ResidualWords {
 }
 
 /// The hash volume of `slot` as one `u32` array (Φ, keys, payloads, packed values) and the
-/// uniform fields that find its parts; a slot past the group's frames reads 0 everywhere,
+/// parameter fields that find its parts; a slot past the group's frames reads 0 everywhere,
 /// as `ResidualGroup::lookup` does.
 fn hash_words(
     slot: &ResidualSlot,
@@ -268,7 +268,7 @@ impl VolumePass {
 
         ctx.scoped("the volume pass", || {
             let storage = wgpu::BufferUsages::STORAGE;
-            let uniform = buffer_init(
+            let params_buffer = buffer_init(
                 ctx,
                 "volume pass parameters",
                 bytemuck::bytes_of(&params),
@@ -287,7 +287,7 @@ impl VolumePass {
                 storage,
             );
             let buffers = [
-                &uniform,
+                &params_buffer,
                 &rbf_buf,
                 source.buffer(),
                 &residual_buf,
