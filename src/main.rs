@@ -53,16 +53,26 @@ fn main() -> ExitCode {
     }
 }
 
-/// A usage error on one line, as every other error: clap's first line (which names the
-/// flag and the value) and where the options are listed, without its usage block.
+/// A usage error on one line, as every other error: clap's message up to its first blank
+/// line (the flag and the value, or the list of missing arguments) joined into one line,
+/// and where the options are listed, without its usage block.
 fn usage_line(e: &clap::Error) -> String {
-    let text = e.render().to_string();
-    let first = text
+    one_line(&e.render().to_string())
+}
+
+/// [`usage_line`] of clap's rendered text.
+fn one_line(text: &str) -> String {
+    let message: Vec<&str> = text
         .lines()
-        .next()
-        .unwrap_or("error: bad arguments")
-        .trim_end();
-    format!("{first} (--help lists the options)")
+        .map(str::trim)
+        .take_while(|l| !l.is_empty())
+        .collect();
+    let message = if message.is_empty() {
+        "error: bad arguments".to_string()
+    } else {
+        message.join(" ")
+    };
+    format!("{message} (--help lists the options)")
 }
 
 /// Logs go to stderr: warnings by default, more with `-v`/`-vv`, `RUST_LOG` overrides.
@@ -91,4 +101,28 @@ fn init_logging(verbose: u8, quiet: bool) {
         .without_time()
         .with_target(false)
         .init();
+}
+
+#[cfg(test)]
+mod tests {
+    use super::one_line;
+
+    /// The names of missing arguments, on the lines after clap's first, are kept.
+    #[test]
+    fn a_usage_error_keeps_its_message_and_drops_the_usage() {
+        let missing = "error: the following required arguments were not provided:\n  --out <OUT>\n  <INPUT>\n\nUsage: haze render --out <OUT> [INPUT]\n\nFor more information, try '--help'.\n";
+        assert_eq!(
+            one_line(missing),
+            "error: the following required arguments were not provided: --out <OUT> <INPUT> (--help lists the options)"
+        );
+        let bad = "error: invalid value 'x' for '--width <WIDTH>': invalid digit\n\nFor more information, try '--help'.\n";
+        assert_eq!(
+            one_line(bad),
+            "error: invalid value 'x' for '--width <WIDTH>': invalid digit (--help lists the options)"
+        );
+        assert_eq!(
+            one_line(""),
+            "error: bad arguments (--help lists the options)"
+        );
+    }
 }

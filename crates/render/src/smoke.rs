@@ -9,14 +9,16 @@ use crate::progress;
 use anyhow::{Result, anyhow, bail};
 use haze_gpu::GpuContext;
 use haze_view::diffusion::SolveOptions;
+use haze_view::gpu::GridBuffer;
 use haze_view::gpu::renderer::{GpuFrame, GpuRenderer, LightingOn};
 use haze_view::gpu::volume_pass::Residual;
 use haze_view::lighting::single::SourcePoints;
 use haze_view::reference::{self, RefOptions};
 use haze_view::render::env_pass::EnvSource;
-use haze_view::render::{CrmOptions, MsDiffusion, crm_render};
+use haze_view::render::{CrmOptions, MsDiffusion, crm_render, supersample};
 use haze_view::sh::ExpMethod;
 use haze_view::{Camera, Image, Medium};
+use haze_volume::Volume;
 use haze_volume::import::ImportOptions;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -64,6 +66,35 @@ pub struct RenderOptions {
     pub target_error: Option<f64>,
     pub exposure: f64,
     pub import: ImportOptions,
+    /// The grid the fast renderer lights on ([`Supersample`]).
+    pub supersample: Supersample,
+}
+
+/// How much finer than the volume's voxels the fast renderer lights the smoke
+/// (`haze_view::render::supersample`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Supersample {
+    /// Fine enough that a voxel is at most `TAU_PER_VOXEL` optical depths thick, within
+    /// the memory budget.
+    Auto,
+    /// `n` times finer per axis (1: the volume's own voxels).
+    Times(usize),
+}
+
+impl std::str::FromStr for Supersample {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        if s == "auto" {
+            return Ok(Supersample::Auto);
+        }
+        match s.parse::<usize>() {
+            Ok(n) if (1..=supersample::MAX_FACTOR).contains(&n) => Ok(Supersample::Times(n)),
+            _ => Err(format!(
+                "{s}: expected auto or a whole number from 1 to {}",
+                supersample::MAX_FACTOR
+            )),
+        }
+    }
 }
 
 /// Renders the frame `a` names and writes the image, printing one line about it; returns
@@ -163,6 +194,18 @@ pub fn render(a: RenderOptions) -> Result<Option<ErrorEstimate>> {
             ..CrmOptions::default()
         };
         let (dims, bbox) = (frame.density.dims(), frame.density.bbox());
+        let (n, tau) = refinement(
+            a.supersample,
+            &frame.density,
+            a.sigma_t,
+            gpu.as_ref(),
+            &frame.label,
+        )?;
+        // Lit on the grid `n` times finer: the RBFs are evaluated at its voxel centers,
+        // the residual resampled to them (`supersample` module docs).
+        let refined = (n > 1).then(|| supersample::refine(&frame.residual, dims, bbox, n));
+        let dense = refined.as_deref().unwrap_or(&frame.residual);
+        let dims = supersample::fine_dims(dims, n);
         let img = if let Some(ctx) = &gpu {
             // Every stage on the GPU (`gpu::renderer`). The
             // residual: an asset frame's hash volume, looked up on the GPU; a fitted
@@ -174,8 +217,8 @@ pub fn render(a: RenderOptions) -> Result<Option<ErrorEstimate>> {
             renderer.set_lighting(a.lighting);
             let setup = t.elapsed().as_secs_f64();
             let residual = match &frame.slot {
-                Some(slot) => Residual::Hash(slot),
-                None => Residual::Dense(&frame.residual),
+                Some(slot) if n == 1 => Residual::Hash(slot),
+                _ => Residual::Dense(dense),
             };
             let input = GpuFrame {
                 key: 0,
@@ -205,7 +248,7 @@ pub fn render(a: RenderOptions) -> Result<Option<ErrorEstimate>> {
                 pixels,
             }
         } else {
-            let residual = a.residual.then_some(frame.residual.as_slice());
+            let residual = a.residual.then_some(dense);
             let (img, stats) = crm_render(
                 &frame.rbfs,
                 residual,
@@ -220,7 +263,7 @@ pub fn render(a: RenderOptions) -> Result<Option<ErrorEstimate>> {
             img
         };
         let what = format!(
-            "compensated ray marching{}, SH order {}, {}{}",
+            "compensated ray marching{}{}, SH order {}, {}{}",
             match &gpu {
                 Some(ctx) => format!(
                     " on the GPU ({}; lighting at the centers on the {})",
@@ -231,6 +274,11 @@ pub fn render(a: RenderOptions) -> Result<Option<ErrorEstimate>> {
                     }
                 ),
                 None => String::new(),
+            },
+            if n > 1 {
+                format!(" on a {n}× finer grid ({tau:.1} optical depths per voxel)")
+            } else {
+                String::new()
             },
             a.sh_order,
             if a.multiple {
@@ -265,6 +313,51 @@ pub fn render(a: RenderOptions) -> Result<Option<ErrorEstimate>> {
         start.elapsed().as_secs_f64()
     );
     Ok(estimate)
+}
+
+/// The refinement the fast renderer lights `density` on (`choice`; σt `sigma_t`) and the
+/// optical depth of its voxels ([`supersample::tau_per_voxel`]), warning when even the
+/// refined voxels are thicker than [`supersample::TAU_PER_VOXEL`]: the picture is then too
+/// dark (BENCHMARKS.md "Thick voxels").
+fn refinement(
+    choice: Supersample,
+    density: &Volume,
+    sigma_t: f64,
+    gpu: Option<&GpuContext>,
+    label: &str,
+) -> Result<(usize, f64)> {
+    let tau = supersample::tau_per_voxel(density, sigma_t);
+    let dims = density.dims();
+    let budget = gpu.map_or(usize::MAX, GridBuffer::max_voxels);
+    let n = match choice {
+        Supersample::Auto => supersample::factor_for(tau, dims, budget).0,
+        Supersample::Times(n) if supersample::fits(dims, n, budget) => n,
+        Supersample::Times(n) => bail!(
+            "--supersample {n}: {label}'s {} × {} × {} voxels refined {n}× exceed the {:.1} M voxels the renderer allows{}",
+            dims[0],
+            dims[1],
+            dims[2],
+            supersample::MAX_FINE_VOXELS.min(budget) as f64 / 1048576.0,
+            if gpu.is_some() { " on this GPU" } else { "" }
+        ),
+    };
+    let fine = tau / n as f64;
+    if !supersample::thin_enough(fine) {
+        let advice = if n < supersample::MAX_FACTOR && choice != Supersample::Auto {
+            "--supersample auto refines further"
+        } else {
+            "no finer grid fits: a lower --sigma-t, smaller voxels, or --reference"
+        };
+        tracing::warn!(
+            "{label}: the smoke is {tau:.1} optical depths per voxel (σt × density × voxel side){}: the fast renderer lights each voxel at its center, so thick voxels come out too dark (about 12 % at 4 on a plume's single scattering); {advice}",
+            if n > 1 {
+                format!(", {fine:.1} on the {n}× finer grid")
+            } else {
+                String::new()
+            }
+        );
+    }
+    Ok((n, tau))
 }
 
 /// The most pixels `--check` compares (each costs 128 reference paths).

@@ -225,6 +225,7 @@ fn apply_choice(a: &mut RenderOptions, c: &choice::Choice, fit: bool) {
 mod tests {
     use super::*;
     use haze_render::lights::Lights;
+    use haze_render::smoke::Supersample;
     use haze_view::diffusion::SolveOptions;
     use haze_view::gpu::renderer::LightingOn;
     use haze_volume::import::ImportOptions;
@@ -313,6 +314,7 @@ mod tests {
             target_error: None,
             exposure: 1.0,
             import: ImportOptions::default(),
+            supersample: Supersample::Auto,
         }
     }
 

@@ -45,6 +45,11 @@ pub struct GridBuffer {
 }
 
 impl GridBuffer {
+    /// The most voxels a grid may have on `ctx`'s device (16 bytes each).
+    pub fn max_voxels(ctx: &GpuContext) -> usize {
+        usize::try_from(ctx.storage_limit() / 16).unwrap_or(usize::MAX)
+    }
+
     /// Bytes of buffer for a `dims` grid.
     fn bytes(dims: [usize; 3]) -> u64 {
         (dims.iter().product::<usize>().max(1) * 16) as u64

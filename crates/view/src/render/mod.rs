@@ -5,6 +5,7 @@ pub mod crm;
 pub mod env_pass;
 pub mod grid_diffusion;
 pub mod lights_pass;
+pub mod supersample;
 
 use crate::diffusion::{DiffusionSolver, Operators, SolveOptions, Sources};
 use crate::lighting::direct::add_light_moments;
