@@ -12,8 +12,11 @@ if ! command -v cc >/dev/null 2>&1; then
     why+=("a C compiler for the Blosc decoder")
 fi
 if ! command -v python3 >/dev/null 2>&1; then
-    need_apt+=(python3)
-    why+=("Python 3 for the layout check")
+    need_apt+=(python3 python3-venv)
+    why+=("Python 3 for the layout check and the Python package's tests")
+elif ! python3 -c 'import ensurepip' >/dev/null 2>&1; then
+    need_apt+=(python3-venv)
+    why+=("Python's venv for the Python package's tests")
 fi
 # The GPU tests need a Vulkan device and fail (never skip) without one; on a machine
 # without a GPU that is Mesa's lavapipe, a Vulkan driver running on the CPU.
@@ -50,6 +53,20 @@ log=$(mktemp)
 trap 'rm -f "$log"' EXIT
 cargo test --workspace --doc --locked 2>&1 | tee "$log"
 cargo test --workspace --all-targets --locked 2>&1 | tee -a "$log"
-# One closing line for the whole suite, summed over every test binary.
+
+# The Python package (python/): its wheel built by maturin from the build above (the same
+# dev profile and target folder, so only the native module is linked again), installed in
+# a virtual environment of its own, then its tests, which also run the `haze` binary.
+venv=target/py-venv
+[ -x "$venv/bin/python" ] || python3 -m venv "$venv"
+"$venv/bin/python" -m pip install -q --disable-pip-version-check \
+    'maturin>=1.9,<2' numpy pytest OpenEXR 'dask[distributed]>=2024.1'
+rm -rf target/wheels
+(cd python && "../$venv/bin/maturin" build --profile dev --locked --out ../target/wheels 2>&1 | tail -n 3)
+"$venv/bin/python" -m pip install -q --disable-pip-version-check --force-reinstall --no-deps target/wheels/haze-*.whl
+HAZE_BIN="$PWD/target/debug/haze" "$venv/bin/python" -m pytest -q -p no:cacheprovider python/tests 2>&1 | tee -a "$log"
+
+# One closing line for the whole suite, summed over every test binary and pytest's run.
 awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^failed/) f += $i } }
+     /^[0-9]+ (passed|failed).* in [0-9.]+s/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^failed/) f += $i } }
      END { printf "%d passed, %d failed\n", p, f }' "$log"

@@ -309,3 +309,27 @@ pub(crate) struct BakeArgs {
     /// Where to write the JSON report, if anywhere.
     pub(crate) report: Option<PathBuf>,
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Flags {
+        #[command(flatten)]
+        bake: BakeCli,
+    }
+
+    /// `haze bake` without flags bakes as `BakeOptions::new` does (the Python package's
+    /// `haze.bake` defaults), knob for knob.
+    #[test]
+    fn the_command_lines_defaults_are_the_librarys() {
+        let cli = Flags::try_parse_from(["bake", "cache/", "--out", "smoke.haze"])
+            .unwrap()
+            .bake;
+        let from_cli = cli.into_args().unwrap().options;
+        let library = BakeOptions::new("cache/", "smoke.haze");
+        assert_eq!(format!("{from_cli:?}"), format!("{library:?}"));
+    }
+}

@@ -291,6 +291,15 @@ mod tests {
         Flags::try_parse_from(argv).unwrap().render.into_args().0
     }
 
+    /// `haze render` without flags renders as `RenderOptions::new` does (the Python
+    /// package's `haze.render` defaults), knob for knob.
+    #[test]
+    fn the_command_lines_defaults_are_the_librarys() {
+        let from_cli = render_args(&[]);
+        let library = RenderOptions::new("smoke.vdb", "out.png");
+        assert_eq!(format!("{from_cli:?}"), format!("{library:?}"));
+    }
+
     /// A render asked for a target error checks itself unless told not to.
     #[test]
     fn a_target_error_checks_the_render() {

@@ -54,6 +54,27 @@ pub struct BakeOptions {
     pub choices: serde_json::Map<String, serde_json::Value>,
 }
 
+impl BakeOptions {
+    /// The bake of `input` into `out` with every default of `haze bake INPUT --out OUT`:
+    /// 300 RBFs a first frame, the fitter's defaults, the residual to
+    /// [`haze_hash::DEFAULT_ERROR`] of each frame's peak in bricks of
+    /// [`haze_hash::tile::DEFAULT_BRICK`], every frame, no resume.
+    pub fn new(input: impl Into<PathBuf>, out: impl Into<PathBuf>) -> BakeOptions {
+        BakeOptions {
+            input: input.into(),
+            out: out.into(),
+            range: FrameRange::default(),
+            import: ImportOptions::default(),
+            count: Count::Fixed(300),
+            fit: SequenceOptions::default(),
+            quant: haze_hash::QuantOptions::default(),
+            brick: haze_hash::tile::DEFAULT_BRICK,
+            resume: false,
+            choices: serde_json::Map::new(),
+        }
+    }
+}
+
 /// One frame's line in the report and in the asset header.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct FrameRecord {

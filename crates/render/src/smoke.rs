@@ -70,6 +70,55 @@ pub struct RenderOptions {
     pub supersample: Supersample,
 }
 
+impl RenderOptions {
+    /// The render of `input`'s first frame into `out` with every default of `haze render
+    /// INPUT --out OUT`: 400 × 300, the camera framing the smoke, the built-in sky, σt 4,
+    /// albedo 0.8, g 0.3, the fast renderer on the CPU with its default knobs.
+    pub fn new(input: impl Into<PathBuf>, out: impl Into<PathBuf>) -> RenderOptions {
+        let crm = CrmOptions::default();
+        RenderOptions {
+            input: input.into(),
+            frame: None,
+            out: out.into(),
+            width: 400,
+            height: 300,
+            eye: None,
+            target: None,
+            up: [0.0, 0.0, 1.0],
+            fov: 40.0,
+            env: Lights {
+                env: "sky".into(),
+                no_sun_extraction: false,
+                sun: Vec::new(),
+                light: Vec::new(),
+            },
+            sigma_t: 4.0,
+            albedo: 0.8,
+            g: 0.3,
+            sh_order: crm.order,
+            multiple: true,
+            residual: true,
+            slices: crm.slices_per_voxel,
+            exp: crm.exp,
+            source_points: crm.source_points,
+            diffusion: MsDiffusion::DEFAULT,
+            env_source: crm.env_source,
+            reference: false,
+            solve: crm.solve,
+            rbfs: 300,
+            teleport: true,
+            gpu: false,
+            lighting: LightingOn::Auto,
+            spp: 64,
+            check: 0,
+            target_error: None,
+            exposure: 1.0,
+            import: ImportOptions::default(),
+            supersample: Supersample::Auto,
+        }
+    }
+}
+
 /// How much finer than the volume's voxels the fast renderer lights the smoke
 /// (`haze_view::render::supersample`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -103,6 +152,38 @@ pub fn render(a: RenderOptions) -> Result<Option<ErrorEstimate>> {
     let start = Instant::now();
     let kind = out_kind(&a.out)?;
     check_exposure(a.exposure)?;
+    let Rendered {
+        image,
+        what,
+        estimate,
+    } = render_image(&a)?;
+    match kind {
+        OutKind::Exr => image.write_exr(&a.out)?,
+        OutKind::Png => image.write_png(&a.out, a.exposure)?,
+    }
+    eprintln!(
+        "{}: {}×{}, {}, {:.2} s",
+        a.out.display(),
+        image.width,
+        image.height,
+        what,
+        start.elapsed().as_secs_f64()
+    );
+    Ok(estimate)
+}
+
+/// A rendered frame, not yet written.
+#[derive(Debug)]
+pub struct Rendered {
+    pub image: Image,
+    /// What rendered it (renderer, knobs, the check's estimate), for a summary line.
+    pub what: String,
+    /// The error check's estimate ([`RenderOptions::check`]), if one was made.
+    pub estimate: Option<ErrorEstimate>,
+}
+
+/// Renders the frame `a` names (`a.out` only names the image in warnings).
+pub fn render_image(a: &RenderOptions) -> Result<Rendered> {
     if a.check > MAX_CHECK_PIXELS {
         bail!(
             "--check {} must be at most {MAX_CHECK_PIXELS} pixels",
@@ -295,24 +376,16 @@ pub fn render(a: RenderOptions) -> Result<Option<ErrorEstimate>> {
     };
     spinner.finish_and_clear();
     image.check_finite(&what)?;
-    let (checked, estimate) = check_error(&a, &image, &frame.density, &medium, &camera)?;
+    let (checked, estimate) = check_error(a, &image, &frame.density, &medium, &camera)?;
     let what = match checked {
         Some(e) => format!("{what}, {e}"),
         None => what,
     };
-    match kind {
-        OutKind::Exr => image.write_exr(&a.out)?,
-        OutKind::Png => image.write_png(&a.out, a.exposure)?,
-    }
-    eprintln!(
-        "{}: {}×{}, {}, {:.2} s",
-        a.out.display(),
-        image.width,
-        image.height,
+    Ok(Rendered {
+        image,
         what,
-        start.elapsed().as_secs_f64()
-    );
-    Ok(estimate)
+        estimate,
+    })
 }
 
 /// The refinement the fast renderer lights `density` on (`choice`; σt `sigma_t`) and the

@@ -1,0 +1,132 @@
+//! `haze.Asset`: a baked `.haze` asset's frames — their RBFs and their reconstructed
+//! density — as NumPy arrays.
+
+use crate::to_py;
+use haze_bake::export::{read_frame, read_raw_frame};
+use numpy::ndarray::{Array2, Array3};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3};
+use pyo3::prelude::*;
+use std::path::PathBuf;
+
+/// A baked or packed `.haze` asset, opened for reading.
+#[derive(Debug)]
+#[pyclass(frozen, module = "haze._haze")]
+pub struct Asset {
+    path: PathBuf,
+    /// The source frame numbers, in asset order.
+    numbers: Vec<i64>,
+    dims: [usize; 3],
+    bbox_min: [f64; 3],
+    bbox_max: [f64; 3],
+}
+
+/// A frame's RBFs as arrays: centers `(N, 3)`, radii `(N,)`, weights `(N,)`.
+type Rbfs<'py> = (
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<f64>>,
+);
+
+/// `v` (x fastest) as a `(z, y, x)` array, moved into NumPy without a copy.
+fn zyx(py: Python<'_>, dims: [usize; 3], v: Vec<f32>) -> PyResult<Bound<'_, PyArray3<f32>>> {
+    let a = Array3::from_shape_vec((dims[2], dims[1], dims[0]), v)
+        .map_err(|e| to_py(anyhow::anyhow!("volume shape: {e}")))?;
+    Ok(a.into_pyarray(py))
+}
+
+#[pymethods]
+impl Asset {
+    #[new]
+    fn new(py: Python<'_>, path: PathBuf) -> PyResult<Asset> {
+        let opened = py
+            .detach(|| haze_asset::Asset::open(&path))
+            .map_err(|e| to_py(anyhow::anyhow!(e)))?;
+        let h = opened.header();
+        Ok(Asset {
+            numbers: h.source.frame_numbers.clone(),
+            dims: h.grid.dims.map(|d| d as usize),
+            bbox_min: h.grid.bbox_min,
+            bbox_max: h.grid.bbox_max,
+            path,
+        })
+    }
+
+    /// The asset's path.
+    #[getter]
+    fn path(&self) -> PathBuf {
+        self.path.clone()
+    }
+
+    /// The source frame numbers, in order.
+    #[getter]
+    fn frames(&self) -> Vec<i64> {
+        self.numbers.clone()
+    }
+
+    /// The grid's voxel counts `(nx, ny, nz)`; a frame's array is shaped `(nz, ny, nx)`.
+    #[getter]
+    fn dims(&self) -> (usize, usize, usize) {
+        (self.dims[0], self.dims[1], self.dims[2])
+    }
+
+    /// The grid's world box: `((x0, y0, z0), (x1, y1, z1))`.
+    #[getter]
+    fn bbox(&self) -> ([f64; 3], [f64; 3]) {
+        (self.bbox_min, self.bbox_max)
+    }
+
+    fn __len__(&self) -> usize {
+        self.numbers.len()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "haze.Asset({:?}: {} frames, {} × {} × {})",
+            self.path.display().to_string(),
+            self.numbers.len(),
+            self.dims[0],
+            self.dims[1],
+            self.dims[2]
+        )
+    }
+
+    /// Frame `number`'s RBFs: `(centers (N, 3), radii (N,), weights (N,))`, float64, world
+    /// units; `D̃(x) = Σ wᵢ·exp(−|x − cᵢ|²/rᵢ²)`.
+    fn rbfs<'py>(
+        &self,
+        py: Python<'py>,
+        number: i64,
+    ) -> PyResult<Rbfs<'py>> {
+        let frame = py
+            .detach(|| read_frame(&self.path, Some(number)))
+            .map_err(to_py)?;
+        let n = frame.rbfs.len();
+        let centers: Vec<f64> = frame.rbfs.iter().flat_map(|r| r.center).collect();
+        let centers = Array2::from_shape_vec((n, 3), centers)
+            .map_err(|e| to_py(anyhow::anyhow!("RBF centers: {e}")))?;
+        let radii: Vec<f64> = frame.rbfs.iter().map(|r| r.radius).collect();
+        let weights: Vec<f64> = frame.rbfs.iter().map(|r| r.weight).collect();
+        Ok((
+            centers.into_pyarray(py),
+            radii.into_pyarray(py),
+            weights.into_pyarray(py),
+        ))
+    }
+
+    /// Frame `number`'s density, float32 shaped `(nz, ny, nx)`: the RBFs plus the
+    /// dequantized residual, negatives clamped to 0 (`haze export`), or a packed frame's
+    /// volume as packed.
+    fn frame<'py>(&self, py: Python<'py>, number: i64) -> PyResult<Bound<'py, PyArray3<f32>>> {
+        let path = &self.path;
+        let (dims, data) = py
+            .detach(|| -> anyhow::Result<_> {
+                if let Some((_, v)) = read_raw_frame(path, Some(number))? {
+                    return Ok((v.dims(), v.into_data()));
+                }
+                let (v, _) = read_frame(path, Some(number))?.density()?;
+                Ok((v.dims(), v.into_data()))
+            })
+            .map_err(to_py)?;
+        zyx(py, dims, data)
+    }
+}

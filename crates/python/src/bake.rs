@@ -1,0 +1,125 @@
+//! `haze.inspect` and `haze.bake`: `haze_bake`'s report and its bake, frame by frame,
+//! with a Python callback between frames.
+
+use crate::to_py;
+use haze_bake::{Bake, BakeOptions, Count};
+use haze_render::output::Outputs;
+use haze_volume::ImportOptions;
+use haze_volume::import::FrameRange;
+use pyo3::exceptions::PyKeyboardInterrupt;
+use pyo3::prelude::*;
+use std::path::PathBuf;
+
+/// `frames` as a range: `None` (every frame) or `"A..B"`, `"A.."`, `"..B"`, `"A"`.
+fn range(frames: Option<&str>) -> PyResult<FrameRange> {
+    match frames {
+        None => Ok(FrameRange::default()),
+        Some(s) => s
+            .parse()
+            .map_err(|e| to_py(anyhow::anyhow!("frames={s:?}: {e}"))),
+    }
+}
+
+/// `json.loads(text)`.
+fn from_json<'py>(py: Python<'py>, text: &str) -> PyResult<Bound<'py, PyAny>> {
+    py.import("json")?.call_method1("loads", (text,))
+}
+
+/// What `haze inspect --json PATH` prints, as a JSON string.
+#[pyfunction]
+#[pyo3(signature = (path, frames=None))]
+pub fn inspect(py: Python<'_>, path: PathBuf, frames: Option<&str>) -> PyResult<Py<PyAny>> {
+    let range = range(frames)?;
+    let text = py
+        .detach(|| {
+            let report = haze_bake::inspect::inspect(
+                &path,
+                range,
+                &ImportOptions::default(),
+                &mut |_, _, _| {},
+            )?;
+            Ok(serde_json::to_string(&report)?)
+        })
+        .map_err(to_py)?;
+    Ok(from_json(py, &text)?.unbind())
+}
+
+/// Bakes `src` into `out` (`haze bake`'s defaults for what is not given); calls
+/// `progress(record)` after every frame with its report line as a dict; returns the
+/// report (`haze bake --report`) as a dict.
+#[pyfunction]
+#[pyo3(signature = (src, out, frames=None, rbfs=None, residual_error=None, resume=false, progress=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn bake(
+    py: Python<'_>,
+    src: PathBuf,
+    out: PathBuf,
+    frames: Option<&str>,
+    rbfs: Option<usize>,
+    residual_error: Option<f64>,
+    resume: bool,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Py<PyAny>> {
+    let mut options = BakeOptions::new(&src, &out);
+    options.range = range(frames)?;
+    options.resume = resume;
+    if let Some(n) = rbfs {
+        if !(1..=haze_bake::MAX_RBFS).contains(&n) {
+            return Err(to_py(anyhow::anyhow!(
+                "rbfs={n} must be between 1 and {}",
+                haze_bake::MAX_RBFS
+            )));
+        }
+        options.count = Count::Fixed(n);
+    }
+    if let Some(e) = residual_error {
+        if !(e.is_finite() && e >= 0.0) {
+            return Err(to_py(anyhow::anyhow!(
+                "residual_error={e} must be a fraction ≥ 0 of the peak density"
+            )));
+        }
+        options.quant.error = e;
+    }
+    // Nothing lost: the asset and its journal never replace an input.
+    Outputs::new()
+        .input(&src)
+        .output("out", &out)
+        .output("the bake journal", &haze_bake::journal::path_for(&out))
+        .check()
+        .map_err(to_py)?;
+    let mut job = py.detach(|| Bake::new(options, |_| {})).map_err(to_py)?;
+    loop {
+        let next = py.detach(|| job.next());
+        let record = match next {
+            None => break,
+            Some(Ok(record)) => record,
+            Some(Err(e)) => return Err(to_py(job.abandon(e))),
+        };
+        // Ctrl-C while a frame was fitting: stop, keeping the finished frames.
+        if let Err(interrupt) = py.check_signals() {
+            let kept = job.abandon(anyhow::anyhow!("{}: interrupted", out.display()));
+            return Err(if interrupt.is_instance_of::<PyKeyboardInterrupt>(py) {
+                PyKeyboardInterrupt::new_err(format!("{kept:#}"))
+            } else {
+                interrupt
+            });
+        }
+        if let Some(callback) = &progress {
+            let line = serde_json::to_string(&record).map_err(|e| to_py(e.into()))?;
+            let called = from_json(py, &line).and_then(|r| callback.call1(py, (r,)));
+            if let Err(raised) = called {
+                // The callback's own exception stops the bake the same way.
+                let kept = job.abandon(anyhow::anyhow!("{}: stopped by progress", out.display()));
+                // Where the finished frames are kept, as a note on the exception (Python
+                // 3.11 and later have notes).
+                let _ = raised
+                    .value(py)
+                    .call_method1("add_note", (format!("{kept:#}"),));
+                return Err(raised);
+            }
+        }
+    }
+    let baked = py.detach(|| job.finish()).map_err(to_py)?;
+    let report = serde_json::to_string(&baked.report(&src)).map_err(|e| to_py(e.into()))?;
+    Ok(from_json(py, &report)?.unbind())
+}

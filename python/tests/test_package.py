@@ -1,0 +1,230 @@
+"""The `haze` Python package end to end: inspect, bake (progress, interruption, resume,
+nothing lost), assets as arrays (checked against NumPy's own evaluation and the source
+volume), renders (checked against the command line's image) and errors."""
+
+import _thread
+import json
+import os
+import subprocess
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import haze
+
+ROOT = Path(__file__).resolve().parents[2]
+DENSE = ROOT / "data" / "plume-a" / "dense"
+SCENES = ROOT / "data" / "scenes"
+
+
+def haze_bin() -> str:
+    """The command-line tool of the same build (CI builds it before the wheel)."""
+    return os.environ.get("HAZE_BIN", str(ROOT / "target" / "debug" / "haze"))
+
+
+def source_frame() -> np.ndarray:
+    """Bundled plume-a frame 24, (z, y, x), from its raw file."""
+    meta = json.loads((DENSE / "density_0024.json").read_text())
+    nx, ny, nz = meta["dims"]
+    return np.fromfile(DENSE / "density_0024.f32", dtype="<f4").reshape(nz, ny, nx)
+
+
+def write_sequence(folder: Path, count: int) -> np.ndarray:
+    """`count` raw frames (plume-a 24, shifted one voxel up per frame) with their
+    sidecars; returns them stacked (frame, z, y, x)."""
+    meta = json.loads((DENSE / "density_0024.json").read_text())
+    base = source_frame()
+    frames = []
+    for k in range(count):
+        v = np.roll(base, k, axis=0)
+        v[:k] = 0.0
+        stem = folder / f"density_{k + 1:04d}"
+        v.astype("<f4").tofile(stem.with_suffix(".f32"))
+        stem.with_suffix(".json").write_text(
+            json.dumps(
+                {
+                    "dims": meta["dims"],
+                    "world_bbox_min": meta["world_bbox_min"],
+                    "world_bbox_max": meta["world_bbox_max"],
+                }
+            )
+        )
+        frames.append(v)
+    return np.stack(frames)
+
+
+def rbf_density(asset: "haze.Asset", number: int) -> np.ndarray:
+    """The RBFs of a frame summed by NumPy at the voxel centers (cut off at 3 radii),
+    independently of the library's own evaluation."""
+    centers, radii, weights = asset.rbfs(number)
+    (x0, y0, z0), (x1, y1, z1) = asset.bbox
+    nx, ny, nz = asset.dims
+    axes = [
+        lo + (np.arange(n) + 0.5) * (hi - lo) / n
+        for lo, hi, n in ((z0, z1, nz), (y0, y1, ny), (x0, x1, nx))
+    ]
+    z, y, x = np.meshgrid(*axes, indexing="ij")
+    total = np.zeros_like(x)
+    for (cx, cy, cz), r, w in zip(centers, radii, weights):
+        q2 = ((x - cx) ** 2 + (y - cy) ** 2 + (z - cz) ** 2) / (r * r)
+        total += np.where(q2 < 9.0, w * np.exp(-q2), 0.0)
+    return total
+
+
+@pytest.fixture(scope="module")
+def baked(tmp_path_factory):
+    """Three frames baked with 60 RBFs, the progress records kept."""
+    folder = tmp_path_factory.mktemp("seq")
+    source = write_sequence(folder, 3)
+    out = folder.parent / "seq.haze"
+    seen = []
+    report = haze.bake(folder, out, rbfs=60, progress=seen.append)
+    return source, out, report, seen
+
+
+def test_inspect_describes_volumes_and_names_a_missing_file(tmp_path):
+    info = haze.inspect(DENSE / "density_0024.f32")
+    assert json.dumps(info)  # plain JSON types
+    text = json.dumps(info)
+    assert "48" in text and "64" in text
+    missing = tmp_path / "nothing.vdb"
+    with pytest.raises(haze.HazeError, match="nothing.vdb"):
+        haze.inspect(missing)
+
+
+def test_a_bake_reports_every_frame_and_keeps_its_error(baked):
+    source, out, report, seen = baked
+    assert [r["frame"] for r in seen] == [1, 2, 3]
+    assert report["totals"]["frames"] == 3
+    assert report["totals"]["bytes"] == out.stat().st_size
+    assert all(r["rbfs"] > 0 for r in report["frames"])
+    asset = haze.Asset(out)
+    assert asset.frames == [1, 2, 3] and len(asset) == 3
+    assert asset.dims == (48, 48, 64)
+    for k, number in enumerate(asset.frames):
+        density = asset.frame(number)
+        assert density.dtype == np.float32 and density.shape == (64, 48, 48)
+        # The bake's bound: every voxel within the residual error (1/255 of the peak)
+        # of the source, plus float32 rounding.
+        peak = float(source[k].max())
+        assert np.abs(density - source[k]).max() <= peak / 255.0 + 1e-5
+
+
+def test_rbfs_are_what_the_asset_reconstructs(tmp_path):
+    # With a residual error of the whole peak nothing is stored beyond the RBFs: the
+    # frame is exactly their sum (clamped at 0), as NumPy evaluates it.
+    folder = tmp_path / "one"
+    folder.mkdir()
+    write_sequence(folder, 1)
+    out = tmp_path / "rbfs.haze"
+    haze.bake(folder, out, rbfs=40, residual_error=1.0)
+    asset = haze.Asset(out)
+    centers, radii, weights = asset.rbfs(1)
+    assert centers.shape == (len(radii), 3) and len(radii) == len(weights) >= 40
+    want = np.maximum(rbf_density(asset, 1), 0.0)
+    got = asset.frame(1)
+    assert np.abs(got - want).max() <= 1e-5 * max(1.0, want.max())
+
+
+def test_an_output_naming_an_input_is_refused_untouched(tmp_path):
+    src = tmp_path / "density_0001.f32"
+    write_sequence(tmp_path, 1)
+    before = src.read_bytes()
+    with pytest.raises(haze.HazeError, match="density_0001"):
+        haze.bake(src, src)
+    assert src.read_bytes() == before
+    with pytest.raises(haze.HazeError, match="rbfs=0"):
+        haze.bake(src, tmp_path / "x.haze", rbfs=0)
+
+
+def test_a_progress_exception_stops_and_resume_finishes(tmp_path):
+    folder = tmp_path / "seq"
+    folder.mkdir()
+    write_sequence(folder, 3)
+    out = tmp_path / "stop.haze"
+
+    def stop(record):
+        if record["frame"] == 2:
+            raise RuntimeError("enough")
+
+    with pytest.raises(RuntimeError, match="enough"):
+        haze.bake(folder, out, rbfs=30, progress=stop)
+    assert not out.exists()
+    journal = Path(str(out) + ".partial")
+    assert journal.exists()
+    seen = []
+    haze.bake(folder, out, rbfs=30, resume=True, progress=seen.append)
+    # The two finished frames are not fitted again.
+    assert [r["frame"] for r in seen] == [3]
+    assert haze.Asset(out).frames == [1, 2, 3] and not journal.exists()
+
+
+def test_ctrl_c_stops_after_the_frame_and_keeps_it(tmp_path):
+    folder = tmp_path / "seq"
+    folder.mkdir()
+    write_sequence(folder, 3)
+    out = tmp_path / "int.haze"
+    # Ctrl-C arrives while the first frame is being fitted (the GIL released).
+    timer = threading.Timer(0.05, _thread.interrupt_main)
+    timer.start()
+    with pytest.raises(KeyboardInterrupt, match="for --resume"):
+        haze.bake(folder, out, rbfs=30)
+    timer.join()
+    assert not out.exists() and Path(str(out) + ".partial").exists()
+    haze.bake(folder, out, rbfs=30, resume=True)
+    assert haze.Asset(out).frames == [1, 2, 3]
+
+
+def read_exr(path):
+    import OpenEXR
+
+    with OpenEXR.File(str(path)) as f:
+        channels = f.channels()
+        if "RGB" in channels:
+            return np.asarray(channels["RGB"].pixels, dtype=np.float32)
+        return np.stack([np.asarray(channels[c].pixels) for c in "RGB"], axis=-1)
+
+
+def test_render_is_the_command_lines_image(tmp_path):
+    asset = SCENES / "plume.haze"
+    image = haze.render(asset, width=40, height=30, suns=[(0.3, 1, 0.6, 30, 28, 26, 2)])
+    assert image.dtype == np.float32 and image.shape == (30, 40, 3)
+    assert np.isfinite(image).all() and image.min() >= 0.0
+    out = tmp_path / "cli.exr"
+    subprocess.run(
+        [haze_bin(), "render", str(asset), "--out", str(out), "--width", "40",
+         "--height", "30", "--sun", "0.3,1,0.6,30,28,26,2", "-q"],
+        check=True,
+    )
+    np.testing.assert_array_equal(image, read_exr(out))
+
+
+def test_render_errors_are_haze_errors(tmp_path):
+    with pytest.raises(haze.HazeError, match="missing.haze"):
+        haze.render(tmp_path / "missing.haze")
+    with pytest.raises(haze.HazeError, match="supersample"):
+        haze.render(SCENES / "plume.haze", width=8, height=6, supersample=9)
+    with pytest.raises(haze.HazeError, match="suns"):
+        haze.render(SCENES / "plume.haze", suns=[(0, 0, 1)])
+
+
+def test_a_scene_renders_from_its_file_and_from_a_dict():
+    path = SCENES / "room.json"
+    from_file = haze.render_scene(path, width=32, height=24)
+    assert from_file.shape == (24, 32, 3) and np.isfinite(from_file).all()
+    scene = json.loads(path.read_text())
+    from_dict = haze.render_scene(scene, width=32, height=24, base=SCENES)
+    np.testing.assert_array_equal(from_file, from_dict)
+    assert not list(SCENES.glob(".haze-scene-*"))
+
+
+def test_help_explains_every_argument():
+    import inspect as pyinspect
+
+    for fn in (haze.bake, haze.render, haze.render_scene, haze.inspect):
+        doc = pyinspect.getdoc(fn)
+        for name in pyinspect.signature(fn).parameters:
+            assert name in doc, f"{fn.__name__}: {name} undocumented"
+    assert haze.__version__
