@@ -222,6 +222,42 @@ fn chunks_merge_in_frame_order_and_mismatches_are_refused() {
         );
     }
 
+    // A chunk warmed up on the frames before it is fitted as in one bake of the whole
+    // sequence: the same RBFs, so the same reconstruction, frame for frame.
+    bake("24..28", "w2.haze", &["--warm-up", "3"]);
+    bake("21..28", "all.haze", &[]);
+    ok(&[
+        "merge",
+        &p("c1.haze"),
+        &p("w2.haze"),
+        "--out",
+        &p("mw.haze"),
+    ]);
+    for frame in [24, 26, 28] {
+        let f = frame.to_string();
+        ok(&["export", &p("mw.haze"), "--frame", &f, "--out", &p("w.npy")]);
+        ok(&[
+            "export",
+            &p("all.haze"),
+            "--frame",
+            &f,
+            "--out",
+            &p("a.npy"),
+        ]);
+        ok(&["export", &p("m.haze"), "--frame", &f, "--out", &p("m.npy")]);
+        let (w, a, m) = (
+            std::fs::read(p("w.npy")).unwrap(),
+            std::fs::read(p("a.npy")).unwrap(),
+            std::fs::read(p("m.npy")).unwrap(),
+        );
+        assert!(
+            w == a,
+            "frame {frame}: the warmed chunk differs from one bake"
+        );
+        // Cold, the chunk's frames are fitted otherwise (so the test can tell).
+        assert!(m != a, "frame {frame}: a cold chunk equals one bake");
+    }
+
     bake("26..28", "c3.haze", &[]);
     let err = fails(
         &["merge", &p("c1.haze"), &p("c3.haze"), "--out", &p("x.haze")],

@@ -15,7 +15,7 @@ float32 ``(height, width, 3)`` linear radiance. World units are the volume's; Z 
 from __future__ import annotations
 
 import os
-from typing import Any, Callable, Dict, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -27,6 +27,7 @@ __all__ = [
     "HazeError",
     "bake",
     "inspect",
+    "merge",
     "render",
     "render_scene",
     "__version__",
@@ -77,6 +78,7 @@ def bake(
     residual_error: Optional[float] = None,
     resume: bool = False,
     progress: Optional[Callable[[Dict[str, Any]], None]] = None,
+    warm_up: int = 0,
 ) -> Dict[str, Any]:
     """Bake a sequence of density volumes into one ``.haze`` asset (``haze bake``).
 
@@ -101,6 +103,9 @@ def bake(
             ``frame``, ``rbfs``, ``rel_l2``, ``rms_over_max``, the residual's figures
             and times). An exception it raises stops the bake, keeping the finished
             frames for ``resume=True``.
+        warm_up: with ``frames`` starting at A, first fit the ``warm_up`` frames before
+            A and drop them, so that A is fitted warm as in one bake of the whole
+            sequence (a chunk of a bake spread over machines: see ``haze.cluster``).
 
     Returns:
         The report (``haze bake --report``): ``settings``, ``frames`` (one dict per
@@ -119,7 +124,25 @@ def bake(
         residual_error,
         resume,
         progress,
+        warm_up,
     )
+
+
+def merge(chunks: Sequence[PathLike], out: PathLike) -> List[int]:
+    """Join chunks of one sequence baked separately (``haze merge``).
+
+    Args:
+        chunks: the chunks' assets, in any order; together they must hold consecutive
+            frames, each once, baked with the same settings.
+        out: the asset to write (not one of the chunks).
+
+    Returns:
+        The merged asset's frame numbers, in order.
+
+    Raises:
+        HazeError: a gap, an overlap, other settings or a damaged chunk, named.
+    """
+    return _haze.merge([os.fspath(c) for c in chunks], os.fspath(out))
 
 
 def render(

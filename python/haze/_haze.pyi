@@ -19,7 +19,10 @@ def bake(
     residual_error: Optional[float] = None,
     resume: bool = False,
     progress: Optional[Callable[[Dict[str, Any]], Any]] = None,
+    warm_up: int = 0,
 ) -> Dict[str, Any]: ...
+def merge(chunks: Sequence[str], out: str) -> List[int]: ...
+def frame_numbers(src: str, frames: Optional[str] = None) -> List[int]: ...
 def render(
     input: str,
     frame: Optional[int] = None,

@@ -13,9 +13,15 @@ pub struct BakeCli {
     #[arg(long, short)]
     pub(crate) out: PathBuf,
     /// Frame range to bake, inclusive: A..B, A.., ..B or A. A chunk starts with a full
-    /// first-frame fit; `haze merge` joins chunks baked separately (on a render farm, say).
+    /// first-frame fit (see --warm-up); `haze merge` joins chunks baked separately (on a
+    /// render farm, say).
     #[arg(long, value_name = "A..B", allow_hyphen_values = true)]
     pub(crate) frames: Option<haze_volume::import::FrameRange>,
+    /// With --frames A..B: first fit the K frames before A and drop them, so that frame A
+    /// is fitted warm as in a bake of the whole sequence (chunks then join without a cold
+    /// start at their boundary). Frames the input does not have are skipped.
+    #[arg(long, value_name = "K", default_value_t = 0, requires = "frames")]
+    pub(crate) warm_up: usize,
     /// Continue an interrupted bake of --out from its journal (OUT.partial, written as
     /// frames finish), with the same input and settings. Without it, a bake starts over.
     #[arg(long)]
@@ -278,6 +284,7 @@ impl BakeCli {
                 },
                 brick: self.residual_brick,
                 resume: self.resume,
+                warm_up: self.warm_up,
                 choices,
             },
         })

@@ -51,9 +51,17 @@ fn bake(args: BakeArgs) -> Result<()> {
             }
         }
         Event::Fitting { frame, .. } => {
+            if let Some(s) = spinner_e.lock().unwrap_or_else(|p| p.into_inner()).take() {
+                s.finish_and_clear();
+            }
             if let Some(b) = bar_e.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
                 b.set_message(format!("frame {frame}"));
             }
+        }
+        Event::WarmingUp { frame } => {
+            *spinner_e.lock().unwrap_or_else(|p| p.into_inner()) = Some(progress::spinner(
+                &format!("warming up on frame {frame} (fitted, not kept)"),
+            ));
         }
         Event::Hashing => {
             if let Some(b) = bar_e.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {

@@ -70,6 +70,7 @@ fn main() {
         quant,
         brick: haze_hash::tile::DEFAULT_BRICK,
         resume: false,
+        warm_up: 0,
         choices: Default::default(),
     };
     let bake = Bake::new(options, |_| {}).unwrap_or_else(|e| fail(format!("{e:#}")));

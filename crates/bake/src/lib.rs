@@ -7,18 +7,9 @@
 //! ```no_run
 //! use haze_bake::{Bake, BakeOptions, Count, Event};
 //! # fn main() -> anyhow::Result<()> {
-//! let options = BakeOptions {
-//!     input: "cache/".into(),
-//!     out: "smoke.haze".into(),
-//!     range: Default::default(),
-//!     import: Default::default(),
-//!     count: Count::Fixed(300),
-//!     fit: Default::default(),
-//!     quant: Default::default(),
-//!     brick: haze_hash::tile::DEFAULT_BRICK,
-//!     resume: false,
-//!     choices: Default::default(),
-//! };
+//! // `haze bake cache/ --out smoke.haze --rbfs 400`: the command line's defaults but one.
+//! let mut options = BakeOptions::new("cache/", "smoke.haze");
+//! options.count = Count::Fixed(400);
 //! let mut bake = Bake::new(options, |e: Event<'_>| eprintln!("{e:?}"))?;
 //! for frame in bake.by_ref() {
 //!     let f = frame?;

@@ -108,6 +108,11 @@ fn comparable(h: &Header) -> Value {
     let mut s = Value::Object(h.settings.clone());
     if let Some(fit) = s.get_mut("fit").and_then(Value::as_object_mut) {
         fit.remove("frames");
+        // How many frames a chunk warmed up on is its own (its first chunk has none
+        // before it).
+        if let Some(settings) = fit.get_mut("settings").and_then(Value::as_object_mut) {
+            settings.remove("warm_up");
+        }
         if let Some(settings) = fit.get_mut("settings").and_then(Value::as_object_mut)
             && !settings.get("search").is_none_or(Value::is_null)
         {

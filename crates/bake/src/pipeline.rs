@@ -49,6 +49,12 @@ pub struct BakeOptions {
     pub brick: u32,
     /// Continue the interrupted bake of `out` from its journal.
     pub resume: bool,
+    /// Frames fitted before the range's first and dropped, so that its first frame is
+    /// fitted warm, as in a bake of the whole sequence (a chunk of a bake spread over
+    /// machines: no cold start, no flicker at the chunk's boundary). Only the frames the
+    /// input has before the range are used; none on a resume (the journal holds the
+    /// fitter's state).
+    pub warm_up: usize,
     /// Automatic choices made for this bake and why (`choice`), stored in the header's
     /// `extra.choices` for every reader (`haze inspect`, `haze view`).
     pub choices: serde_json::Map<String, serde_json::Value>,
@@ -70,9 +76,46 @@ impl BakeOptions {
             quant: haze_hash::QuantOptions::default(),
             brick: haze_hash::tile::DEFAULT_BRICK,
             resume: false,
+            warm_up: 0,
             choices: serde_json::Map::new(),
         }
     }
+}
+
+/// Fits the [`BakeOptions::warm_up`] frames of the input just before its range with
+/// `fitter`, dropping them: the range's first frame is then fitted warm.
+fn warm_up(
+    args: &BakeOptions,
+    fitter: &mut SequenceFitter,
+    events: &mut impl FnMut(Event<'_>),
+) -> Result<()> {
+    let Some(first) = args.range.first else {
+        return Ok(());
+    };
+    if args.warm_up == 0 {
+        return Ok(());
+    }
+    // The frames before the range, the last `warm_up` of them that exist.
+    let before = FrameRange {
+        first: None,
+        last: Some(first.saturating_sub(1)),
+    };
+    let all = match Frames::open(&args.input, &args.import, before) {
+        Ok(f) => f,
+        // No frame before the range (its first is the input's first): nothing to warm.
+        Err(_) => return Ok(()),
+    };
+    let skip = all.len().saturating_sub(args.warm_up);
+    for i in skip..all.len() {
+        events(Event::WarmingUp {
+            frame: all.number(i),
+        });
+        let v = all.load(i)?;
+        fitter
+            .fit(&v)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", all.label(i)))?;
+    }
+    Ok(())
 }
 
 /// One frame's line in the report and in the asset header.
@@ -100,6 +143,9 @@ pub enum Event<'a> {
     Searched(&'a Search),
     /// Frame `frame` (asset index `index`) is being fitted.
     Fitting { index: usize, frame: i64 },
+    /// Frame `frame`, before the range, is being fitted to warm the fitter
+    /// ([`BakeOptions::warm_up`]) and will be dropped.
+    WarmingUp { frame: i64 },
     /// A hash volume is being built.
     Hashing,
 }
@@ -207,6 +253,7 @@ impl Bake {
         } else {
             None
         };
+        let resumed = previous.is_some();
         let (journal, mut done) = match previous {
             Some((j, records)) => {
                 let done = restore(&journal_path, &inputs, records)?;
@@ -252,7 +299,10 @@ impl Bake {
             rbfs: done.rbfs,
             ..args.fit.clone()
         };
-        let fitter = SequenceFitter::resume(opts.clone(), std::mem::take(&mut done.state));
+        let mut fitter = SequenceFitter::resume(opts.clone(), std::mem::take(&mut done.state));
+        if !resumed {
+            warm_up(&args, &mut fitter, &mut events)?;
+        }
         let mut residuals = ResidualStage::new(args.quant, args.brick, seq.dims(), done.hashed)?;
         // Frames finished but not yet hashed: their quantized residuals again (deterministic).
         for i in done.hashed..done.records.len() {
@@ -435,6 +485,7 @@ impl Bake {
             "quant_bits": args.quant.bits,
             "residual_error": args.quant.error,
             "residual_brick": args.brick,
+            "warm_up": args.warm_up,
         });
         let records = &done.records;
         let mut header = crate::header::for_sequence(seq, &args.input, &args.import)?;

@@ -34,6 +34,7 @@ fn options(out: &Path, resume: bool) -> BakeOptions {
         },
         brick: 4,
         resume,
+        warm_up: 0,
         choices: Default::default(),
     }
 }

@@ -92,11 +92,7 @@ impl Asset {
 
     /// Frame `number`'s RBFs: `(centers (N, 3), radii (N,), weights (N,))`, float64, world
     /// units; `D̃(x) = Σ wᵢ·exp(−|x − cᵢ|²/rᵢ²)`.
-    fn rbfs<'py>(
-        &self,
-        py: Python<'py>,
-        number: i64,
-    ) -> PyResult<Rbfs<'py>> {
+    fn rbfs<'py>(&self, py: Python<'py>, number: i64) -> PyResult<Rbfs<'py>> {
         let frame = py
             .detach(|| read_frame(&self.path, Some(number)))
             .map_err(to_py)?;

@@ -44,11 +44,40 @@ pub fn inspect(py: Python<'_>, path: PathBuf, frames: Option<&str>) -> PyResult<
     Ok(from_json(py, &text)?.unbind())
 }
 
+/// The frame numbers of `src` (a volume, a frame sequence or a packed asset) in
+/// `frames`, in order, as a bake would take them.
+#[pyfunction]
+#[pyo3(signature = (src, frames=None))]
+pub fn frame_numbers(py: Python<'_>, src: PathBuf, frames: Option<&str>) -> PyResult<Vec<i64>> {
+    let range = range(frames)?;
+    py.detach(|| {
+        let seq = haze_bake::source::Frames::open(&src, &ImportOptions::default(), range)?;
+        Ok((0..seq.len()).map(|i| seq.number(i)).collect())
+    })
+    .map_err(to_py)
+}
+
+/// Joins chunks of one sequence baked separately into `out` (`haze merge`); returns the
+/// merged asset's frame numbers.
+#[pyfunction]
+pub fn merge(py: Python<'_>, chunks: Vec<PathBuf>, out: PathBuf) -> PyResult<Vec<i64>> {
+    chunks
+        .iter()
+        .fold(Outputs::new(), |o, c| o.input(c))
+        .output("out", &out)
+        .check()
+        .map_err(to_py)?;
+    let merged = py
+        .detach(|| haze_bake::merge(&chunks, &out))
+        .map_err(to_py)?;
+    Ok(merged.frames)
+}
+
 /// Bakes `src` into `out` (`haze bake`'s defaults for what is not given); calls
 /// `progress(record)` after every frame with its report line as a dict; returns the
 /// report (`haze bake --report`) as a dict.
 #[pyfunction]
-#[pyo3(signature = (src, out, frames=None, rbfs=None, residual_error=None, resume=false, progress=None))]
+#[pyo3(signature = (src, out, frames=None, rbfs=None, residual_error=None, resume=false, progress=None, warm_up=0))]
 #[allow(clippy::too_many_arguments)]
 pub fn bake(
     py: Python<'_>,
@@ -59,10 +88,12 @@ pub fn bake(
     residual_error: Option<f64>,
     resume: bool,
     progress: Option<Py<PyAny>>,
+    warm_up: usize,
 ) -> PyResult<Py<PyAny>> {
     let mut options = BakeOptions::new(&src, &out);
     options.range = range(frames)?;
     options.resume = resume;
+    options.warm_up = warm_up;
     if let Some(n) = rbfs {
         if !(1..=haze_bake::MAX_RBFS).contains(&n) {
             return Err(to_py(anyhow::anyhow!(

@@ -1,0 +1,201 @@
+"""Bakes spread over a Dask cluster: chunks of frames baked as tasks, then merged.
+
+A sequence is cut into chunks of consecutive frames. Each chunk is one Dask task that
+runs :func:`haze.bake` on its frames. It first fits the ``overlap`` frames before its
+first and drops them, so its first kept frame is fitted warm, as in one bake of the
+whole sequence. The asset then has no cold start, and no flicker, at chunk boundaries.
+The chunks are written next to the output (shared storage) and joined by
+:func:`haze.merge` into one asset; then they are removed.
+
+Why Dask (``distributed``) rather than Ray: it is plain Python with no daemon to
+install. The same code runs on a laptop (``LocalCluster``), on an HPC batch system
+(``dask-jobqueue``: SLURM, PBS, SGE), on Kubernetes (``dask-kubernetes``) or on a
+cluster started by hand (``dask scheduler`` / ``dask worker``). Its scheduler retries
+failed tasks and reschedules those of lost workers. Our tasks are coarse (minutes of
+native code that releases the GIL) and exchange only file paths, so Ray's fine-grained
+actors and shared object store would bring nothing here.
+
+Real cluster recipe::
+
+    # on the scheduler machine
+    dask scheduler                       # listens on tcp://HOST:8786
+    # on every worker machine, with the smoke cache and the output on shared storage
+    # (NFS, Lustre, ...) at the same path, and haze installed (pip install ./python)
+    RAYON_NUM_THREADS=8 dask worker tcp://HOST:8786 --nworkers 1 --nthreads 1
+
+    # anywhere
+    from distributed import Client
+    import haze.cluster
+    haze.cluster.bake("/shared/cache", "/shared/smoke.haze", Client("tcp://HOST:8786"))
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import time
+from pathlib import Path
+from typing import Any, Callable, Dict, List, Optional, Tuple, Union
+
+from . import _haze
+
+__all__ = ["bake", "plan"]
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+def plan(numbers: List[int], chunk: int, overlap: int) -> List[Tuple[int, int, int]]:
+    """The chunks of a bake of frames ``numbers`` (in order): ``(first, last, warm_up)``
+    per chunk, ``chunk`` frames each (the last may be shorter), each warmed up on the
+    ``overlap`` frames before it (none for the first).
+    """
+    if chunk < 1:
+        raise _haze.HazeError(f"chunk={chunk} must be at least 1 frame")
+    if overlap < 0:
+        raise _haze.HazeError(f"overlap={overlap} must be 0 or more frames")
+    out = []
+    for start in range(0, len(numbers), chunk):
+        part = numbers[start : start + chunk]
+        out.append((part[0], part[-1], min(overlap, start)))
+    return out
+
+
+def _bake_chunk(
+    src: str,
+    part: str,
+    first: int,
+    last: int,
+    warm_up: int,
+    rbfs: Optional[int],
+    residual_error: Optional[float],
+) -> Tuple[str, Any]:
+    """One chunk, on a worker. Bad input is returned, not raised: the engine retries a
+    raised exception, and bad input fails the same way every time."""
+    from . import bake as bake_frames
+
+    try:
+        report = bake_frames(
+            src,
+            part,
+            frames=f"{first}..{last}",
+            rbfs=rbfs,
+            residual_error=residual_error,
+            warm_up=warm_up,
+        )
+    except _haze.HazeError as e:
+        return ("error", str(e))
+    return ("ok", report)
+
+
+def bake(
+    src: PathLike,
+    out: PathLike,
+    client: Any = None,
+    *,
+    frames: Union[None, int, str, Tuple[int, int]] = None,
+    chunk: int = 24,
+    overlap: int = 3,
+    rbfs: Optional[int] = None,
+    residual_error: Optional[float] = None,
+    workdir: Optional[PathLike] = None,
+    retries: int = 2,
+    progress: Optional[Callable[[Dict[str, Any]], None]] = None,
+) -> Dict[str, Any]:
+    """Bake ``src`` into ``out`` on a Dask cluster, chunk by chunk, then merge.
+
+    Args:
+        src: a frame directory or glob (or a packed asset), at a path every worker
+            can read.
+        out: the asset to write, on storage the driver can write (it must not be an
+            input).
+        client: a ``distributed.Client``; the current one by default.
+        frames: which frames (as :func:`haze.bake` takes them); all by default.
+        chunk: frames per task (24). Smaller chunks spread wider and cost more
+            warm-up.
+        overlap: frames fitted before each chunk and dropped (3). The first kept
+            frame then starts warm. 0 starts every chunk cold: expect a jump in the
+            error and in the RBFs at each boundary.
+        rbfs, residual_error: as :func:`haze.bake`.
+        workdir: where the chunks are written, visible to every worker and to the
+            driver. By default ``.OUT.chunks`` beside ``out``. The chunks are removed
+            when done, and the folder too if the bake made it.
+        retries: how often the engine reruns a chunk that raised (a worker lost or
+            out of memory). A chunk that fails on bad input is not retried: the bake
+            stops with that input's one-line error.
+        progress: called as each chunk finishes, with ``{"first", "last",
+            "warm_up", "report"}`` (the chunk's :func:`haze.bake` report).
+
+    Returns:
+        ``{"output", "frames", "chunks", "seconds"}``: the merged asset, its frame
+        numbers, each chunk's ``(first, last, warm_up)`` and report, and the wall
+        time.
+
+    Raises:
+        HazeError: bad input (the first failing chunk's message), or no client.
+    """
+    from distributed import as_completed, get_client
+
+    start = time.monotonic()
+    src, out = os.fspath(src), os.fspath(out)
+    if client is None:
+        try:
+            client = get_client()
+        except ValueError:
+            raise _haze.HazeError(
+                "haze.cluster.bake: no Dask client: pass client=, or create one "
+                "(distributed.Client(...))"
+            ) from None
+    from . import _frames
+
+    numbers = _haze.frame_numbers(src, _frames(frames))
+    chunks = plan(numbers, chunk, overlap)
+    folder = Path(workdir) if workdir is not None else Path(out).parent / f".{Path(out).name}.chunks"
+    created = not folder.exists()
+    folder.mkdir(parents=True, exist_ok=True)
+    parts = [str(folder / f"chunk_{first}_{last}.haze") for first, last, _ in chunks]
+    futures = {
+        client.submit(
+            _bake_chunk,
+            src,
+            part,
+            first,
+            last,
+            warm,
+            rbfs,
+            residual_error,
+            key=f"haze-bake-{first}-{last}-{time.time_ns()}",
+            retries=retries,
+            pure=False,
+        ): (first, last, warm)
+        for part, (first, last, warm) in zip(parts, chunks)
+    }
+    done: Dict[Tuple[int, int, int], Any] = {}
+    try:
+        for future in as_completed(list(futures)):
+            status, value = future.result()
+            if status == "error":
+                raise _haze.HazeError(value)
+            spec = futures[future]
+            done[spec] = value
+            if progress is not None:
+                progress({"first": spec[0], "last": spec[1], "warm_up": spec[2], "report": value})
+        merged = _haze.merge(parts, out)
+    except BaseException:
+        for f in futures:
+            f.cancel()
+        raise
+    finally:
+        # Only what this bake wrote: the chunks, their journals, the folder if it made it.
+        for part in parts:
+            for leftover in (Path(part), Path(part + ".partial")):
+                leftover.unlink(missing_ok=True)
+        if created:
+            shutil.rmtree(folder, ignore_errors=True)
+    return {
+        "output": out,
+        "frames": merged,
+        "chunks": [
+            {"first": c[0], "last": c[1], "warm_up": c[2], "report": done[c]} for c in chunks
+        ],
+        "seconds": time.monotonic() - start,
+    }

@@ -1,0 +1,100 @@
+"""`haze.cluster.bake` on a LocalCluster of two worker processes: the chunks, warmed up
+on the frames before them, merge into an asset as accurate as one sequential bake's;
+bad input stops the bake with its one-line error and leaves nothing behind."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import haze
+import haze.cluster
+from test_package import write_sequence
+
+distributed = pytest.importorskip("distributed")
+
+PLUME = Path(__file__).resolve().parents[2] / "data" / "plume-a" / "vdb"
+
+
+@pytest.fixture(scope="module")
+def client():
+    cluster = distributed.LocalCluster(
+        n_workers=2,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=None,
+        env={"RAYON_NUM_THREADS": "1"},
+    )
+    with distributed.Client(cluster) as c:
+        yield c
+    cluster.close()
+
+
+def test_plan_cuts_chunks_and_warms_all_but_the_first():
+    assert haze.cluster.plan([1, 2, 3, 4, 5, 6, 7], 3, 2) == [(1, 3, 0), (4, 6, 2), (7, 7, 2)]
+    assert haze.cluster.plan([5, 6], 1, 4) == [(5, 5, 0), (6, 6, 1)]
+    with pytest.raises(haze.HazeError, match="chunk=0"):
+        haze.cluster.plan([1], 0, 0)
+
+
+def rel_l2(report):
+    """Each frame's rel_l2 of a bake report, or of a cluster bake's chunks."""
+    if "chunks" in report:
+        return {f["frame"]: f["rel_l2"] for c in report["chunks"] for f in c["report"]["frames"]}
+    return {f["frame"]: f["rel_l2"] for f in report["frames"]}
+
+
+def test_a_cluster_bake_keeps_the_sequential_bakes_error(client, tmp_path):
+    seen = []
+    result = haze.cluster.bake(
+        PLUME, tmp_path / "cluster.haze", client, chunk=3, overlap=3, rbfs=60,
+        progress=seen.append,
+    )
+    assert result["frames"] == list(range(21, 29))
+    assert sorted((c["first"], c["last"], c["warm_up"]) for c in seen) == [
+        (21, 23, 0), (24, 26, 3), (27, 28, 3)
+    ]
+    assert [p.name for p in tmp_path.iterdir()] == ["cluster.haze"]
+    one = haze.bake(PLUME, tmp_path / "one.haze", rbfs=60)
+    spread, whole = haze.Asset(tmp_path / "cluster.haze"), haze.Asset(tmp_path / "one.haze")
+    # The second chunk's warm-up covers every frame before it: it is the sequential
+    # bake's, voxel for voxel.
+    for n in (24, 25, 26):
+        np.testing.assert_array_equal(spread.frame(n), whole.frame(n), err_msg=f"frame {n}")
+    # The third chunk warms up on 24..26 only: within 5 % of the sequential error
+    # (measured: 3.6 % on frame 27).
+    warm, seq = rel_l2(result), rel_l2(one)
+    assert all(warm[n] <= 1.05 * seq[n] for n in seq), (warm, seq)
+    # Started cold, the chunks drift further (measured: 15 % on frame 28).
+    cold = rel_l2(haze.cluster.bake(PLUME, tmp_path / "cold.haze", client, chunk=3,
+                                    overlap=0, rbfs=60))
+    assert max(cold[n] / seq[n] for n in seq) > 1.05, (cold, seq)
+
+
+def test_bad_input_stops_the_bake_with_its_error(client, tmp_path):
+    folder = tmp_path / "seq"
+    folder.mkdir()
+    write_sequence(folder, 4)
+    broken = folder / "density_0003.f32"
+    broken.write_bytes(broken.read_bytes()[:1000])
+    out = tmp_path / "bad.haze"
+    with pytest.raises(haze.HazeError, match="density_0003"):
+        haze.cluster.bake(folder, out, client, chunk=2, overlap=1, rbfs=20)
+    assert not out.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["seq"]
+
+
+def test_no_client_is_a_clear_error(tmp_path):
+    # In a fresh interpreter: this module's cluster would be the current client here.
+    code = (
+        "import haze, haze.cluster, sys\n"
+        "try:\n"
+        f"    haze.cluster.bake({str(PLUME)!r}, {str(tmp_path / 'x.haze')!r})\n"
+        "except haze.HazeError as e:\n"
+        "    print(e)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert "no Dask client" in out.stdout, out.stderr
+    assert not (tmp_path / "x.haze").exists()
