@@ -66,6 +66,12 @@ rm -rf target/wheels
 "$venv/bin/python" -m pip install -q --disable-pip-version-check --force-reinstall --no-deps target/wheels/haze-*.whl
 HAZE_BIN="$PWD/target/debug/haze" "$venv/bin/python" -m pytest -q -p no:cacheprovider python/tests 2>&1 | tee -a "$log"
 
+# The Blender add-on (blender/haze_bake), headless with Blender as a Python module (bpy
+# from PyPI, for CPython 3.11): it bakes a small Mantaflow domain, then runs the add-on's
+# operators on it.
+"$venv/bin/python" -m pip install -q --disable-pip-version-check 'bpy==5.0.1'
+"$venv/bin/python" blender/tests/test_addon.py 2>&1 | grep -E '^(ok|FAILED|Error)|passed' | tee -a "$log"
+
 # One closing line for the whole suite, summed over every test binary and pytest's run.
 awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^failed/) f += $i } }
      /^[0-9]+ (passed|failed).* in [0-9.]+s/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^failed/) f += $i } }

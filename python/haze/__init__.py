@@ -79,6 +79,7 @@ def bake(
     resume: bool = False,
     progress: Optional[Callable[[Dict[str, Any]], None]] = None,
     warm_up: int = 0,
+    domain_offset: Optional[Sequence[float]] = None,
 ) -> Dict[str, Any]:
     """Bake a sequence of density volumes into one ``.haze`` asset (``haze bake``).
 
@@ -106,6 +107,9 @@ def bake(
         warm_up: with ``frames`` starting at A, first fit the ``warm_up`` frames before
             A and drop them, so that A is fitted warm as in one bake of the whole
             sequence (a chunk of a bake spread over machines: see ``haze.cluster``).
+        domain_offset: ``(x, y, z)`` added to OpenVDB grids' world coordinates, whose
+            transforms are often local to the simulation domain (Blender's: the
+            domain object's lower corner); none by default.
 
     Returns:
         The report (``haze bake --report``): ``settings``, ``frames`` (one dict per
@@ -125,6 +129,7 @@ def bake(
         resume,
         progress,
         warm_up,
+        None if domain_offset is None else [float(v) for v in domain_offset],
     )
 
 

@@ -77,7 +77,7 @@ pub fn merge(py: Python<'_>, chunks: Vec<PathBuf>, out: PathBuf) -> PyResult<Vec
 /// `progress(record)` after every frame with its report line as a dict; returns the
 /// report (`haze bake --report`) as a dict.
 #[pyfunction]
-#[pyo3(signature = (src, out, frames=None, rbfs=None, residual_error=None, resume=false, progress=None, warm_up=0))]
+#[pyo3(signature = (src, out, frames=None, rbfs=None, residual_error=None, resume=false, progress=None, warm_up=0, domain_offset=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn bake(
     py: Python<'_>,
@@ -89,8 +89,17 @@ pub fn bake(
     resume: bool,
     progress: Option<Py<PyAny>>,
     warm_up: usize,
+    domain_offset: Option<[f64; 3]>,
 ) -> PyResult<Py<PyAny>> {
     let mut options = BakeOptions::new(&src, &out);
+    if let Some(offset) = domain_offset {
+        if offset.iter().any(|v| !v.is_finite()) {
+            return Err(to_py(anyhow::anyhow!(
+                "domain_offset={offset:?} must be finite"
+            )));
+        }
+        options.import.domain_offset = offset;
+    }
     options.range = range(frames)?;
     options.resume = resume;
     options.warm_up = warm_up;

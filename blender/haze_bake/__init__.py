@@ -1,0 +1,311 @@
+"""haze for Blender: bake a smoke domain's cache to a .haze asset, and preview it.
+
+In Properties > Physics of a fluid domain of type Gas, the "haze" panel:
+- **Bake to .haze** bakes the domain's OpenVDB cache (Cache > Directory, its ``data``
+  folder) into the asset named in the panel, frame by frame. Progress shows in the
+  status bar; Esc (or "Cancel" in the panel) stops after the frame being fitted and keeps
+  the finished frames, which the next bake of the same asset resumes.
+- **Preview** renders the current frame of the asset through the scene camera (or the
+  default camera that frames the smoke) into the image "haze preview", shown in any open
+  Image Editor.
+
+The asset sits where the domain is: the cache's grids are local to the domain, so the
+bake adds the domain's lower corner in world space (``haze bake --domain-offset``).
+
+Needs the ``haze`` Python package in Blender's Python
+(``<blender>/python/bin/python3 -m pip install ./python``).
+"""
+
+import os
+import threading
+
+import bpy
+
+bl_info = {
+    "name": "haze: bake smoke to .haze",
+    "author": "haze",
+    "version": (0, 1, 0),
+    "blender": (4, 2, 0),
+    "location": "Properties > Physics > haze (on a Gas fluid domain)",
+    "description": "Bake a smoke domain's OpenVDB cache into a compact .haze asset and preview it",
+    "category": "Physics",
+}
+
+
+def fluid_domain(obj):
+    """The domain settings of ``obj``'s Gas fluid domain, or None."""
+    if obj is None:
+        return None
+    for mod in obj.modifiers:
+        if mod.type == "FLUID" and mod.fluid_type == "DOMAIN":
+            ds = mod.domain_settings
+            if ds.domain_type == "GAS":
+                return ds
+    return None
+
+
+def cache_data_dir(ds):
+    """Where Mantaflow writes the domain's density grids (``CACHE/data``)."""
+    return os.path.join(bpy.path.abspath(ds.cache_directory), "data")
+
+
+def domain_offset(obj):
+    """The domain's lower corner in world space: what the cache's local grids are shifted
+    by (the domain's transform is a translation and a scale for a fluid domain)."""
+    corners = [obj.matrix_world @ v.co for v in obj.data.vertices] if obj.data else []
+    if not corners:
+        return (0.0, 0.0, 0.0)
+    return tuple(min(c[i] for c in corners) for i in range(3))
+
+
+class HazeSettings(bpy.types.PropertyGroup):
+    output: bpy.props.StringProperty(
+        name="Asset",
+        description="The .haze asset to write (// is the .blend file's folder)",
+        default="//smoke.haze",
+        subtype="FILE_PATH",
+    )
+    rbfs: bpy.props.IntProperty(
+        name="RBFs",
+        description="RBFs fitted to the first frame; later frames insert and delete as the smoke changes",
+        default=300,
+        min=1,
+        max=65536,
+    )
+    residual_error: bpy.props.FloatProperty(
+        name="Residual error",
+        description="Error bound of the stored residual, a fraction of each frame's peak density (0: lossless)",
+        default=1.0 / 255.0,
+        min=0.0,
+        max=1.0,
+        precision=4,
+    )
+    preview_width: bpy.props.IntProperty(name="Width", default=400, min=8, max=4096)
+    preview_height: bpy.props.IntProperty(name="Height", default=300, min=8, max=4096)
+
+
+class _Job:
+    """A bake running in a thread: its progress and its end, read by the modal timer."""
+
+    def __init__(self):
+        self.done = 0
+        self.total = 0
+        self.last = ""
+        self.error = None
+        self.finished = False
+        self.cancel = threading.Event()
+
+
+class HAZE_OT_bake(bpy.types.Operator):
+    """Bake the domain's smoke cache into a .haze asset (Esc cancels, keeping the finished frames)"""
+
+    bl_idname = "haze.bake"
+    bl_label = "Bake to .haze"
+
+    _job = None
+    _timer = None
+
+    @classmethod
+    def poll(cls, context):
+        return fluid_domain(context.object) is not None
+
+    def arguments(self, context):
+        ds = fluid_domain(context.object)
+        settings = context.scene.haze
+        src = cache_data_dir(ds)
+        out = bpy.path.abspath(settings.output)
+        if not os.path.isdir(src):
+            raise RuntimeError(f"{src}: no cache here: bake the domain first (Cache > Bake All)")
+        journal = out + ".partial"
+        return dict(
+            src=src,
+            out=out,
+            rbfs=settings.rbfs,
+            residual_error=settings.residual_error,
+            resume=os.path.exists(journal),
+            domain_offset=domain_offset(context.object),
+        )
+
+    def execute(self, context):
+        """Blocking bake (scripts, headless Blender)."""
+        import haze
+
+        try:
+            args = self.arguments(context)
+            report = haze.bake(**args)
+        except (haze.HazeError, RuntimeError) as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"{args['out']}: {report['totals']['frames']} frames")
+        return {"FINISHED"}
+
+    def invoke(self, context, event):
+        """Bake in a thread, with progress in the status bar and Esc to cancel."""
+        import haze
+
+        try:
+            args = self.arguments(context)
+            total = len(haze._haze.frame_numbers(args["src"]))
+        except (haze.HazeError, RuntimeError) as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        job = _Job()
+        job.total = total
+
+        def progress(record):
+            job.done += 1
+            job.last = f"frame {record['frame']}: {record['rbfs']} RBFs, rel_l2 {record['rel_l2']:.4f}"
+            if job.cancel.is_set():
+                raise KeyboardInterrupt("cancelled")
+
+        def run():
+            try:
+                haze.bake(progress=progress, **args)
+            except BaseException as e:  # noqa: BLE001 — reported on the main thread
+                job.error = e
+            job.finished = True
+
+        self._job = job
+        threading.Thread(target=run, daemon=True).start()
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(0.25, window=context.window)
+        wm.progress_begin(0, max(total, 1))
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        job = self._job
+        if event.type == "ESC":
+            job.cancel.set()
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        wm = context.window_manager
+        wm.progress_update(job.done)
+        status = f"haze: baking {job.done}/{job.total} frames"
+        if job.last:
+            status += f" ({job.last})"
+        if job.cancel.is_set():
+            status += ", cancelling after this frame"
+        context.workspace.status_text_set(status)
+        if not job.finished:
+            return {"RUNNING_MODAL"}
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        context.workspace.status_text_set(None)
+        if job.error is not None:
+            self.report({"WARNING" if job.cancel.is_set() else "ERROR"}, str(job.error))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"haze: {job.done} frames baked")
+        return {"FINISHED"}
+
+
+class HAZE_OT_preview(bpy.types.Operator):
+    """Render the current frame of the .haze asset into the image "haze preview\""""
+
+    bl_idname = "haze.preview"
+    bl_label = "Preview"
+
+    @classmethod
+    def poll(cls, context):
+        return fluid_domain(context.object) is not None
+
+    def execute(self, context):
+        import haze
+
+        scene = context.scene
+        settings = scene.haze
+        path = bpy.path.abspath(settings.output)
+        w, h = settings.preview_width, settings.preview_height
+        camera = {}
+        cam = scene.camera
+        if cam is not None and cam.type == "CAMERA":
+            m = cam.matrix_world
+            eye = m.translation
+            forward = -(m.to_3x3().col[2])
+            camera = dict(
+                eye=tuple(eye),
+                target=tuple(eye + forward),
+                up=tuple(m.to_3x3().col[1]),
+                fov=_vertical_fov(cam.data, w, h),
+            )
+        try:
+            frames = haze.Asset(path).frames
+            frame = scene.frame_current if scene.frame_current in frames else frames[0]
+            image = haze.render(path, frame, width=w, height=h, **camera)
+        except haze.HazeError as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        show(image, "haze preview")
+        self.report({"INFO"}, f"haze preview: {path} frame {frame}")
+        return {"FINISHED"}
+
+
+def _vertical_fov(cam, width, height):
+    """The camera's vertical field of view in degrees for a ``width × height`` image."""
+    import math
+
+    sensor = cam.sensor_width if cam.sensor_fit != "VERTICAL" else cam.sensor_height
+    fov = 2.0 * math.atan(sensor / (2.0 * cam.lens))
+    if cam.sensor_fit == "VERTICAL" or (cam.sensor_fit == "AUTO" and height > width):
+        return math.degrees(fov)
+    return math.degrees(2.0 * math.atan(math.tan(fov / 2.0) * height / width))
+
+
+def show(image, name):
+    """``image`` (H, W, 3, linear, row 0 on top) as the Blender image ``name`` (float,
+    bottom row first), shown in every open Image Editor."""
+    import numpy as np
+
+    h, w, _ = image.shape
+    img = bpy.data.images.get(name)
+    if img is None or tuple(img.size) != (w, h):
+        if img is not None:
+            bpy.data.images.remove(img)
+        img = bpy.data.images.new(name, w, h, float_buffer=True, alpha=True)
+    rgba = np.ones((h, w, 4), dtype=np.float32)
+    rgba[:, :, :3] = image[::-1]
+    img.pixels.foreach_set(rgba.ravel())
+    img.update()
+    for window in getattr(bpy.context.window_manager, "windows", []):
+        for area in window.screen.areas:
+            if area.type == "IMAGE_EDITOR":
+                area.spaces.active.image = img
+    return img
+
+
+class HAZE_PT_domain(bpy.types.Panel):
+    bl_label = "haze"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "physics"
+
+    @classmethod
+    def poll(cls, context):
+        return fluid_domain(context.object) is not None
+
+    def draw(self, context):
+        settings = context.scene.haze
+        col = self.layout.column()
+        col.prop(settings, "output")
+        col.prop(settings, "rbfs")
+        col.prop(settings, "residual_error")
+        col.operator(HAZE_OT_bake.bl_idname, icon="PHYSICS")
+        row = col.row(align=True)
+        row.prop(settings, "preview_width")
+        row.prop(settings, "preview_height")
+        col.operator(HAZE_OT_preview.bl_idname, icon="RENDER_STILL")
+
+
+classes = (HazeSettings, HAZE_OT_bake, HAZE_OT_preview, HAZE_PT_domain)
+
+
+def register():
+    for c in classes:
+        bpy.utils.register_class(c)
+    bpy.types.Scene.haze = bpy.props.PointerProperty(type=HazeSettings)
+
+
+def unregister():
+    del bpy.types.Scene.haze
+    for c in reversed(classes):
+        bpy.utils.unregister_class(c)

@@ -1,0 +1,165 @@
+"""The Blender add-on, headless, with bpy from PyPI: bakes a small Mantaflow smoke domain,
+runs "Bake to .haze" and "Preview" on it, and checks the asset and the image.
+
+    python blender/tests/test_addon.py        # a Python with bpy, numpy and haze installed
+
+A plain script, not pytest: bpy as a module aborts while freeing a fluid domain at exit,
+so it ends with os._exit (0 when every check passed). Prints one line per check and a
+closing "N passed, 0 failed in T s".
+"""
+
+import math
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+sys.path.insert(0, str(HERE.parent))
+
+import manta_fix  # noqa: E402
+
+manta_fix.apply()
+
+import bpy  # noqa: E402
+import numpy as np  # noqa: E402
+from mathutils import Matrix  # noqa: E402
+
+import haze  # noqa: E402
+import haze_bake  # noqa: E402
+
+passed = 0
+START = time.monotonic()
+
+
+def check(what, ok, detail=""):
+    global passed
+    if not ok:
+        print(f"FAILED: {what} {detail}", flush=True)
+        print(f"{passed} passed, 1 failed in {time.monotonic() - START:.2f}s", flush=True)
+        os._exit(1)
+    passed += 1
+    print(f"ok: {what}", flush=True)
+
+
+def smoke_domain(cache):
+    """A 2 × 2 × 3 domain centred at (1, -2, 1.5) (so its cache's local grids need the
+    offset), res 16, with a smoke emitter near its floor, baked for frames 1..6."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(1.0, -2.0, 1.5))
+    domain = bpy.context.active_object
+    domain.name = "Domain"
+    domain.data.transform(Matrix.Diagonal((2.0, 2.0, 3.0, 1.0)))
+    domain.data.update()
+    mod = domain.modifiers.new("Fluid", "FLUID")
+    mod.fluid_type = "DOMAIN"
+    ds = mod.domain_settings
+    ds.domain_type = "GAS"
+    ds.resolution_max = 16
+    ds.use_adaptive_domain = False
+    ds.use_noise = False
+    ds.cache_directory = str(cache)
+    ds.cache_type = "ALL"
+    ds.cache_data_format = "OPENVDB"
+    ds.cache_frame_start = 1
+    ds.cache_frame_end = 6
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.35, location=(1.0, -2.0, 0.5))
+    emitter = bpy.context.active_object
+    flow = emitter.modifiers.new("Fluid", "FLUID")
+    flow.fluid_type = "FLOW"
+    fs = flow.flow_settings
+    fs.flow_type = "SMOKE"
+    fs.flow_behavior = "INFLOW"
+    fs.flow_source = "MESH"
+    fs.surface_distance = 1.5
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, 6
+    scene.frame_set(1)
+    for o in bpy.context.view_layer.objects:
+        o.select_set(False)
+    domain.select_set(True)
+    bpy.context.view_layer.objects.active = domain
+    with bpy.context.temp_override(object=domain, active_object=domain, selected_objects=[domain]):
+        bpy.ops.fluid.bake_all()
+    return domain
+
+
+def main():
+    work = Path(tempfile.mkdtemp(prefix="haze-blender-"))
+    domain = smoke_domain(work / "cache")
+    vdbs = sorted((work / "cache" / "data").glob("*.vdb"))
+    check("Mantaflow baked the domain's cache", len(vdbs) >= 5, f"{vdbs}")
+
+    haze_bake.register()
+    scene = bpy.context.scene
+    scene.haze.output = str(work / "smoke.haze")
+    scene.haze.rbfs = 30
+    check("the operators show on a smoke domain", bpy.ops.haze.bake.poll())
+
+    result = bpy.ops.haze.bake()
+    out = work / "smoke.haze"
+    check("Bake to .haze finished", result == {"FINISHED"} and out.exists(), f"{result}")
+    asset = haze.Asset(out)
+    numbers = haze._haze.frame_numbers(str(work / "cache" / "data"))
+    check("the asset holds every cached frame", asset.frames == numbers, f"{asset.frames} vs {numbers}")
+    # The domain spans (0, -3, 0)..(2, -1, 3) in the world; the cache's grids are local
+    # to it, so the asset is shifted there (within a cell: the grid covers the domain's
+    # cells).
+    (lo, hi) = asset.bbox
+    cell = 3.0 / 16
+    check(
+        "the asset sits where the domain is",
+        all(abs(a - b) <= cell for a, b in zip(lo, (0.0, -3.0, 0.0)))
+        and all(abs(a - b) <= cell for a, b in zip(hi, (2.0, -1.0, 3.0))),
+        f"{asset.bbox}",
+    )
+    last = asset.frame(asset.frames[-1])
+    check("the smoke is in the asset", last.max() > 0.1, f"peak {last.max()}")
+
+    # Preview through a camera looking at the domain from the side.
+    bpy.ops.object.camera_add(location=(1.0, -12.0, 1.5))
+    cam = bpy.context.active_object
+    cam.rotation_euler = (math.pi / 2, 0.0, 0.0)
+    scene.camera = cam
+    bpy.context.view_layer.objects.active = domain
+    scene.haze.preview_width, scene.haze.preview_height = 64, 48
+    scene.frame_set(asset.frames[-1])
+    result = bpy.ops.haze.preview()
+    img = bpy.data.images.get("haze preview")
+    check("Preview made the image", result == {"FINISHED"} and img is not None, f"{result}")
+    check("the preview has the panel's size", tuple(img.size) == (64, 48), f"{tuple(img.size)}")
+    pixels = np.empty(64 * 48 * 4, dtype=np.float32)
+    img.pixels.foreach_get(pixels)
+    shown = pixels.reshape(48, 64, 4)[::-1, :, :3]
+    m = cam.matrix_world.to_3x3()
+    eye = tuple(cam.matrix_world.translation)
+    forward = tuple(-m.col[2])
+    want = haze.render(
+        out, asset.frames[-1], width=64, height=48, eye=eye,
+        target=tuple(e + f for e, f in zip(eye, forward)), up=tuple(m.col[1]),
+        fov=haze_bake._vertical_fov(cam.data, 64, 48),
+    )
+    check(
+        "the preview is the frame rendered through the scene camera, top row on top",
+        np.allclose(shown, want, rtol=0, atol=1e-6),
+        f"max diff {np.abs(shown - want).max()}",
+    )
+    check("the smoke shows in the preview", np.ptp(want.mean(-1)) > 1e-3)
+
+    # A missing cache is an error in Blender's report, not a crash.
+    domain.modifiers["Fluid"].domain_settings.cache_directory = str(work / "nothing")
+    try:
+        result = bpy.ops.haze.bake()
+    except RuntimeError as e:  # bpy raises the operator's error report
+        result = str(e)
+    check("a domain without a cache is refused", "no cache here" in str(result), f"{result}")
+
+    haze_bake.unregister()
+    print(f"{passed} passed, 0 failed in {time.monotonic() - START:.2f}s", flush=True)
+    os._exit(0)
+
+
+if __name__ == "__main__":
+    main()
