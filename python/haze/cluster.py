@@ -3,7 +3,10 @@
 A sequence is cut into chunks of consecutive frames. Each chunk is one Dask task that
 runs :func:`haze.bake` on its frames. It first fits the ``overlap`` frames before its
 first and drops them, so its first kept frame is fitted warm, as in one bake of the
-whole sequence. The asset then has no cold start, and no flicker, at chunk boundaries.
+whole sequence. Every chunk holds its frames to the sequence's first frame's error
+(its baseline, fitted once before the chunks), as one bake of the whole sequence does:
+without it a chunk's RBF count restarts from its own cold start, and the error jumps at
+its boundary.
 The chunks are written next to the output (shared storage) and joined by
 :func:`haze.merge` into one asset; then they are removed.
 
@@ -60,6 +63,14 @@ def plan(numbers: List[int], chunk: int, overlap: int) -> List[Tuple[int, int, i
     return out
 
 
+def _baseline(src: str, frames: Optional[str], rbfs: Optional[int]) -> Tuple[str, Any]:
+    """The sequence's first-frame figures, on a worker (bad input returned, as below)."""
+    try:
+        return ("ok", _haze.baseline(src, frames, rbfs))
+    except _haze.HazeError as e:
+        return ("error", str(e))
+
+
 def _bake_chunk(
     src: str,
     part: str,
@@ -68,6 +79,7 @@ def _bake_chunk(
     warm_up: int,
     rbfs: Optional[int],
     residual_error: Optional[float],
+    baseline: Optional[Tuple[float, float, float]],
 ) -> Tuple[str, Any]:
     """One chunk, on a worker. Bad input is returned, not raised: the engine retries a
     raised exception, and bad input fails the same way every time."""
@@ -81,6 +93,7 @@ def _bake_chunk(
             rbfs=rbfs,
             residual_error=residual_error,
             warm_up=warm_up,
+            baseline=baseline,
         )
     except _haze.HazeError as e:
         return ("error", str(e))
@@ -149,6 +162,12 @@ def bake(
 
     numbers = _haze.frame_numbers(src, _frames(frames))
     chunks = plan(numbers, chunk, overlap)
+    # The whole sequence's first frame, fitted once: every chunk holds its frames to it.
+    status, base = client.submit(
+        _baseline, src, _frames(frames), rbfs, retries=retries, pure=False
+    ).result()
+    if status == "error":
+        raise _haze.HazeError(base)
     folder = Path(workdir) if workdir is not None else Path(out).parent / f".{Path(out).name}.chunks"
     created = not folder.exists()
     folder.mkdir(parents=True, exist_ok=True)
@@ -163,6 +182,8 @@ def bake(
             warm,
             rbfs,
             residual_error,
+            # The first chunk starts where the sequence does: its own cold start is it.
+            base if warm > 0 or first != numbers[0] else None,
             key=f"haze-bake-{first}-{last}-{time.time_ns()}",
             retries=retries,
             pure=False,

@@ -285,6 +285,7 @@ impl BakeCli {
                 brick: self.residual_brick,
                 resume: self.resume,
                 warm_up: self.warm_up,
+                baseline: None,
                 choices,
             },
         })

@@ -71,6 +71,7 @@ fn main() {
         brick: haze_hash::tile::DEFAULT_BRICK,
         resume: false,
         warm_up: 0,
+        baseline: None,
         choices: Default::default(),
     };
     let bake = Bake::new(options, |_| {}).unwrap_or_else(|e| fail(format!("{e:#}")));

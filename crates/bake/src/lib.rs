@@ -42,4 +42,4 @@ pub mod source;
 
 pub use export::{AssetFrame, Reconstruction, read_frame, reconstruct_frame};
 pub use merge::{Merged, merge};
-pub use pipeline::{Bake, BakeOptions, Baked, Count, Event, FrameRecord, MAX_RBFS};
+pub use pipeline::{Bake, BakeOptions, Baked, Count, Event, FrameRecord, MAX_RBFS, baseline};

@@ -55,6 +55,10 @@ pub struct BakeOptions {
     /// input has before the range are used; none on a resume (the journal holds the
     /// fitter's state).
     pub warm_up: usize,
+    /// The whole sequence's first-frame figures, which a chunk baked apart holds its
+    /// frames to ([`haze_fit::Baseline`], from [`baseline`]); none: the range's own first
+    /// frame's. Not used on a resume (the journal holds them).
+    pub baseline: Option<haze_fit::Baseline>,
     /// Automatic choices made for this bake and why (`choice`), stored in the header's
     /// `extra.choices` for every reader (`haze inspect`, `haze view`).
     pub choices: serde_json::Map<String, serde_json::Value>,
@@ -77,9 +81,38 @@ impl BakeOptions {
             brick: haze_hash::tile::DEFAULT_BRICK,
             resume: false,
             warm_up: 0,
+            baseline: None,
             choices: serde_json::Map::new(),
         }
     }
+}
+
+/// The first-frame figures a bake of `options` holds its frames to: its range's first
+/// frame fitted cold with `options.count`'s fixed count (one frame's fit). What chunks of
+/// the sequence baked apart are given ([`BakeOptions::baseline`]).
+pub fn baseline(options: &BakeOptions) -> Result<haze_fit::Baseline> {
+    let seq = Frames::open(&options.input, &options.import, options.range)?;
+    let rbfs = match options.count {
+        Count::Fixed(n) => n,
+        Count::Target { .. } => bail!(
+            "{}: a baseline needs a fixed RBF count, not a target error",
+            options.input.display()
+        ),
+    };
+    let mut fitter = SequenceFitter::new(SequenceOptions {
+        rbfs,
+        ..options.fit.clone()
+    });
+    let v = seq.load(0)?;
+    fitter
+        .fit(&v)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", seq.label(0)))?;
+    fitter.baseline().ok_or_else(|| {
+        anyhow::anyhow!(
+            "{}: the first frame is empty: no baseline to hold the others to",
+            seq.label(0)
+        )
+    })
 }
 
 /// Fits the [`BakeOptions::warm_up`] frames of the input just before its range with
@@ -301,6 +334,9 @@ impl Bake {
         };
         let mut fitter = SequenceFitter::resume(opts.clone(), std::mem::take(&mut done.state));
         if !resumed {
+            if let Some(b) = args.baseline {
+                fitter.pin(b);
+            }
             warm_up(&args, &mut fitter, &mut events)?;
         }
         let mut residuals = ResidualStage::new(args.quant, args.brick, seq.dims(), done.hashed)?;

@@ -35,6 +35,7 @@ fn options(out: &Path, resume: bool) -> BakeOptions {
         brick: 4,
         resume,
         warm_up: 0,
+        baseline: None,
         choices: Default::default(),
     }
 }

@@ -20,7 +20,7 @@ pub mod local;
 pub mod sequence;
 
 pub use sequence::{
-    FitterState, FrameFit, Insertion, InsertionStop, SequenceFitter, SequenceOptions,
+    Baseline, FitterState, FrameFit, Insertion, InsertionStop, SequenceFitter, SequenceOptions,
 };
 pub mod search;
 

@@ -397,6 +397,20 @@ pub struct SequenceFitter {
     support: Option<usize>,
     /// The current run's first frame's marginal gain (`∫R² dV`, world units).
     first_gain: Option<f64>,
+    /// A first frame's figures that a cold start keeps instead of its own ([`Baseline`]).
+    pinned: Option<Baseline>,
+}
+
+/// What later frames of a sequence are held to: its first frame's rel_l2 and insertion
+/// radius (the threshold ratio and insertion test) and its marginal gain. A chunk of a
+/// sequence baked apart, pinned to the sequence's baseline, inserts RBFs towards the same
+/// error as one bake of the whole sequence would, instead of towards its own cold start's.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Baseline {
+    pub rel_l2: f64,
+    /// World units.
+    pub radius: f64,
+    pub gain: f64,
 }
 
 /// What a [`SequenceFitter`] carries from one frame to the next: enough to continue an
@@ -430,6 +444,25 @@ impl SequenceFitter {
             first: state.first,
             support: state.support,
             first_gain: state.first_gain,
+            pinned: None,
+        }
+    }
+
+    /// Holds every later frame to `baseline` (a cold start fits its frame as usual but
+    /// keeps `baseline` as its first frame's figures).
+    pub fn pin(&mut self, baseline: Baseline) {
+        self.pinned = Some(baseline);
+    }
+
+    /// The current run's first frame's figures, once a frame has been fitted.
+    pub fn baseline(&self) -> Option<Baseline> {
+        match (self.first, self.first_gain) {
+            (Some((rel_l2, radius)), Some(gain)) => Some(Baseline {
+                rel_l2,
+                radius,
+                gain,
+            }),
+            _ => None,
         }
     }
 
@@ -488,8 +521,12 @@ impl SequenceFitter {
             world_gain(grid, gains.iter().sum::<f64>() / gains.len() as f64)
         };
         self.first_gain = Some(gain);
+        if let Some(b) = self.pinned {
+            self.first = Some((b.rel_l2, b.radius));
+            self.first_gain = Some(b.gain);
+        }
         let mut f = finish(grid, &params, &self.opts, stats, rel_l2, rms);
-        f.gain_floor = gain;
+        f.gain_floor = self.first_gain.unwrap_or(gain);
         f
     }
 

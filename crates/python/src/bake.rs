@@ -57,6 +57,25 @@ pub fn frame_numbers(py: Python<'_>, src: PathBuf, frames: Option<&str>) -> PyRe
     .map_err(to_py)
 }
 
+/// The first-frame figures `(rel_l2, radius, gain)` a bake of `src`'s `frames` with
+/// `rbfs` RBFs holds its frames to (`haze_bake::baseline`: one frame's fit).
+#[pyfunction]
+#[pyo3(signature = (src, frames=None, rbfs=None))]
+pub fn baseline(
+    py: Python<'_>,
+    src: PathBuf,
+    frames: Option<&str>,
+    rbfs: Option<usize>,
+) -> PyResult<(f64, f64, f64)> {
+    let mut options = BakeOptions::new(&src, "");
+    options.range = range(frames)?;
+    if let Some(n) = rbfs {
+        options.count = Count::Fixed(n);
+    }
+    let b = py.detach(|| haze_bake::baseline(&options)).map_err(to_py)?;
+    Ok((b.rel_l2, b.radius, b.gain))
+}
+
 /// Joins chunks of one sequence baked separately into `out` (`haze merge`); returns the
 /// merged asset's frame numbers.
 #[pyfunction]
@@ -77,7 +96,7 @@ pub fn merge(py: Python<'_>, chunks: Vec<PathBuf>, out: PathBuf) -> PyResult<Vec
 /// `progress(record)` after every frame with its report line as a dict; returns the
 /// report (`haze bake --report`) as a dict.
 #[pyfunction]
-#[pyo3(signature = (src, out, frames=None, rbfs=None, residual_error=None, resume=false, progress=None, warm_up=0, domain_offset=None))]
+#[pyo3(signature = (src, out, frames=None, rbfs=None, residual_error=None, resume=false, progress=None, warm_up=0, domain_offset=None, baseline=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn bake(
     py: Python<'_>,
@@ -90,8 +109,14 @@ pub fn bake(
     progress: Option<Py<PyAny>>,
     warm_up: usize,
     domain_offset: Option<[f64; 3]>,
+    baseline: Option<[f64; 3]>,
 ) -> PyResult<Py<PyAny>> {
     let mut options = BakeOptions::new(&src, &out);
+    options.baseline = baseline.map(|[rel_l2, radius, gain]| haze_fit::Baseline {
+        rel_l2,
+        radius,
+        gain,
+    });
     if let Some(offset) = domain_offset {
         if offset.iter().any(|v| !v.is_finite()) {
             return Err(to_py(anyhow::anyhow!(
