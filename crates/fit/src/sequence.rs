@@ -906,6 +906,44 @@ mod tests {
         FitGrid::from_volume(&Volume::new([n; 3], b, data).unwrap()).unwrap()
     }
 
+    /// A pinned fitter fits its cold frame as an unpinned one does, but holds the next
+    /// frames to the pinned figures: its state and its baseline are the pin's.
+    #[test]
+    fn a_pinned_baseline_outlives_the_cold_start() {
+        use super::{Baseline, SequenceFitter, SequenceOptions};
+        let b = Bbox::new([0.0; 3], [16.0; 3]);
+        let rbfs = [Rbf::new([6.0, 7.0, 8.0], 2.0, 0.8), Rbf::new([10.0, 9.0, 8.0], 1.5, 0.5)];
+        let data = rbf::evaluate_on_grid([16; 3], &b, &rbfs)
+            .iter()
+            .map(|&v| v as f32)
+            .collect();
+        let v = Volume::new([16; 3], b, data).unwrap();
+        let opts = SequenceOptions {
+            rbfs: 4,
+            ..SequenceOptions::default()
+        };
+        let mut free = SequenceFitter::new(opts.clone());
+        let own = free.fit(&v).unwrap();
+        let theirs = free.baseline().unwrap();
+        assert_eq!(theirs.rel_l2, own.rel_l2);
+        let pin = Baseline {
+            rel_l2: 0.5 * theirs.rel_l2,
+            radius: 2.0 * theirs.radius,
+            gain: 3.0 * theirs.gain + 1.0,
+        };
+        let mut pinned = SequenceFitter::new(opts);
+        pinned.pin(pin);
+        let cold = pinned.fit(&v).unwrap();
+        // The cold frame itself is fitted as before...
+        assert_eq!(cold.rbfs, own.rbfs);
+        // ...and the pin, not its figures, is what the next frames are held to.
+        assert_eq!(pinned.baseline(), Some(pin));
+        assert_eq!(pinned.state().first, Some((pin.rel_l2, pin.radius)));
+        assert_eq!(cold.gain_floor, pin.gain);
+        // Before any frame there is no baseline.
+        assert_eq!(SequenceFitter::new(SequenceOptions::default()).baseline(), None);
+    }
+
     /// The undo path of an exchange round: two of four blobs fitted, two RBFs on empty
     /// space, two blobs bare. A round moves the empty ones onto the bare blobs; where the
     /// minimization after it does not lower the error (here it shrinks every weight a
