@@ -912,7 +912,10 @@ mod tests {
     fn a_pinned_baseline_outlives_the_cold_start() {
         use super::{Baseline, SequenceFitter, SequenceOptions};
         let b = Bbox::new([0.0; 3], [16.0; 3]);
-        let rbfs = [Rbf::new([6.0, 7.0, 8.0], 2.0, 0.8), Rbf::new([10.0, 9.0, 8.0], 1.5, 0.5)];
+        let rbfs = [
+            Rbf::new([6.0, 7.0, 8.0], 2.0, 0.8),
+            Rbf::new([10.0, 9.0, 8.0], 1.5, 0.5),
+        ];
         let data = rbf::evaluate_on_grid([16; 3], &b, &rbfs)
             .iter()
             .map(|&v| v as f32)
@@ -941,7 +944,10 @@ mod tests {
         assert_eq!(pinned.state().first, Some((pin.rel_l2, pin.radius)));
         assert_eq!(cold.gain_floor, pin.gain);
         // Before any frame there is no baseline.
-        assert_eq!(SequenceFitter::new(SequenceOptions::default()).baseline(), None);
+        assert_eq!(
+            SequenceFitter::new(SequenceOptions::default()).baseline(),
+            None
+        );
     }
 
     /// The undo path of an exchange round: two of four blobs fitted, two RBFs on empty
