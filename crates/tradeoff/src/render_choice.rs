@@ -224,13 +224,7 @@ fn apply_choice(a: &mut RenderOptions, c: &choice::Choice, fit: bool) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use haze_render::lights::Lights;
-    use haze_render::smoke::Supersample;
-    use haze_view::diffusion::SolveOptions;
-    use haze_view::gpu::renderer::LightingOn;
-    use haze_volume::import::ImportOptions;
     use serde_json::{Value, json};
-    use std::path::PathBuf;
 
     #[test]
     fn a_missed_target_chooses_again_for_less() {
@@ -275,47 +269,9 @@ mod tests {
         assert!(best_above_target(&unchecked, Goal::TargetError(0.001)).is_none());
     }
 
+    /// `haze render smoke.vdb --out out.png`'s options.
     fn args() -> RenderOptions {
-        RenderOptions {
-            input: PathBuf::from("smoke.vdb"),
-            frame: None,
-            out: PathBuf::from("out.png"),
-            width: 400,
-            height: 300,
-            eye: None,
-            target: None,
-            up: [0.0, 0.0, 1.0],
-            fov: 40.0,
-            env: Lights {
-                env: "sky".into(),
-                no_sun_extraction: false,
-                sun: Vec::new(),
-                light: Vec::new(),
-            },
-            sigma_t: 4.0,
-            albedo: 0.8,
-            g: 0.3,
-            sh_order: 4,
-            multiple: true,
-            diffusion: MsDiffusion::DEFAULT,
-            env_source: EnvSource::Grid(EnvGridOptions::default()),
-            residual: true,
-            slices: 2.0,
-            exp: ExpMethod::ScaleSquareAuto,
-            source_points: SourcePoints::Footprint,
-            reference: false,
-            solve: SolveOptions::default(),
-            rbfs: 300,
-            teleport: true,
-            gpu: false,
-            lighting: LightingOn::Auto,
-            spp: 64,
-            check: 0,
-            target_error: None,
-            exposure: 1.0,
-            import: ImportOptions::default(),
-            supersample: Supersample::Auto,
-        }
+        RenderOptions::new("smoke.vdb", "out.png")
     }
 
     /// A sweep of the `exp`, `source` and `cg_iterations` knobs where changing `knob` to
