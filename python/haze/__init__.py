@@ -80,7 +80,7 @@ def bake(
     progress: Optional[Callable[[Dict[str, Any]], None]] = None,
     warm_up: int = 0,
     domain_offset: Optional[Sequence[float]] = None,
-    baseline: Optional[Tuple[float, float, float]] = None,
+    baseline: Optional[Tuple[float, float, float, int, int]] = None,
 ) -> Dict[str, Any]:
     """Bake a sequence of density volumes into one ``.haze`` asset (``haze bake``).
 
@@ -111,10 +111,11 @@ def bake(
         domain_offset: ``(x, y, z)`` added to OpenVDB grids' world coordinates, whose
             transforms are often local to the simulation domain (Blender's: the
             domain object's lower corner); none by default.
-        baseline: ``(rel_l2, radius, gain)`` of the whole sequence's first frame
-            (``haze._haze.baseline``), which later frames are held to instead of the
-            range's own first frame's: a chunk then inserts RBFs towards the error one
-            bake of the whole sequence reaches (see ``haze.cluster``).
+        baseline: ``(rel_l2, radius, gain, rbfs, support)`` of the whole sequence's
+            first frame (``haze._haze.baseline``), which later frames are held to
+            instead of the range's own first frame's: a chunk then starts with the
+            sequence's RBFs per voxel of smoke and inserts towards the error one bake of
+            the whole sequence reaches (see ``haze.cluster``).
 
     Returns:
         The report (``haze bake --report``): ``settings``, ``frames`` (one dict per
@@ -135,7 +136,7 @@ def bake(
         progress,
         warm_up,
         None if domain_offset is None else [float(v) for v in domain_offset],
-        None if baseline is None else [float(v) for v in baseline],
+        None if baseline is None else tuple(baseline),
     )
 
 

@@ -3,10 +3,10 @@
 A sequence is cut into chunks of consecutive frames. Each chunk is one Dask task that
 runs :func:`haze.bake` on its frames. It first fits the ``overlap`` frames before its
 first and drops them, so its first kept frame is fitted warm, as in one bake of the
-whole sequence. Every chunk holds its frames to the sequence's first frame's error
-(its baseline, fitted once before the chunks), as one bake of the whole sequence does:
-without it a chunk's RBF count restarts from its own cold start, and the error jumps at
-its boundary.
+whole sequence. Every chunk starts with the sequence's first frame's RBFs per voxel of
+smoke and holds its frames to that frame's error (its baseline, fitted once before the
+chunks), as one bake of the whole sequence does: without it a chunk's RBF count restarts
+from its own cold start, and the error jumps at its boundary.
 The chunks are written next to the output (shared storage) and joined by
 :func:`haze.merge` into one asset; then they are removed.
 
@@ -47,19 +47,42 @@ __all__ = ["bake", "plan"]
 PathLike = Union[str, "os.PathLike[str]"]
 
 
-def plan(numbers: List[int], chunk: int, overlap: int) -> List[Tuple[int, int, int]]:
+def plan(
+    numbers: List[int], chunk: int, overlap: int, sizes: Optional[List[float]] = None
+) -> List[Tuple[int, int, int]]:
     """The chunks of a bake of frames ``numbers`` (in order): ``(first, last, warm_up)``
-    per chunk, ``chunk`` frames each (the last may be shorter), each warmed up on the
-    ``overlap`` frames before it (none for the first).
+    per chunk, each warmed up on the ``overlap`` frames before it (none for the first).
+
+    There are ``ceil(len(numbers) / chunk)`` chunks. Without ``sizes`` each has
+    ``chunk`` frames (the last may be shorter). With ``sizes`` (a frame's cost, e.g. its
+    file's bytes) the cuts fall where the cumulative cost crosses equal shares. Growing
+    smoke then gets shorter chunks late, where a frame holds more RBFs.
     """
     if chunk < 1:
         raise _haze.HazeError(f"chunk={chunk} must be at least 1 frame")
     if overlap < 0:
         raise _haze.HazeError(f"overlap={overlap} must be 0 or more frames")
+    n = len(numbers)
+    count = -(-n // chunk) if n else 0
+    if sizes is None or count <= 1:
+        starts = list(range(0, n, chunk))
+    else:
+        weights = [max(float(w), 0.0) for w in sizes]
+        total = sum(weights) or float(n)
+        if not sum(weights):
+            weights = [1.0] * n
+        starts, acc, k = [0], 0.0, 1
+        for i, w in enumerate(weights[:-1]):
+            acc += w
+            # A cut after frame i once the cost so far reaches the k-th share, keeping
+            # at least one frame a chunk.
+            if k < count and acc >= total * k / count and i + 1 > starts[-1]:
+                starts.append(i + 1)
+                k += 1
     out = []
-    for start in range(0, len(numbers), chunk):
-        part = numbers[start : start + chunk]
-        out.append((part[0], part[-1], min(overlap, start)))
+    for c, start in enumerate(starts):
+        end = starts[c + 1] if c + 1 < len(starts) else n
+        out.append((numbers[start], numbers[end - 1], min(overlap, start)))
     return out
 
 
@@ -79,7 +102,7 @@ def _bake_chunk(
     warm_up: int,
     rbfs: Optional[int],
     residual_error: Optional[float],
-    baseline: Optional[Tuple[float, float, float]],
+    baseline: Optional[Tuple[float, float, float, int, int]],
 ) -> Tuple[str, Any]:
     """One chunk, on a worker. Bad input is returned, not raised: the engine retries a
     raised exception, and bad input fails the same way every time."""
@@ -123,8 +146,10 @@ def bake(
             input).
         client: a ``distributed.Client``; the current one by default.
         frames: which frames (as :func:`haze.bake` takes them); all by default.
-        chunk: frames per task (24). Smaller chunks spread wider and cost more
-            warm-up.
+        chunk: frames per task on average (24): the sequence is cut into
+            ``ceil(frames / chunk)`` chunks of about equal cost (each frame's file
+            size), and the dearest run first. Smaller chunks spread wider and cost
+            more warm-up.
         overlap: frames fitted before each chunk and dropped (3). The first kept
             frame then starts warm. 0 starts every chunk cold: expect a jump in the
             error and in the RBFs at each boundary.
@@ -160,8 +185,16 @@ def bake(
             ) from None
     from . import _frames
 
-    numbers = _haze.frame_numbers(src, _frames(frames))
-    chunks = plan(numbers, chunk, overlap)
+    sized = _haze.frame_sizes(src, _frames(frames))
+    numbers = [number for number, _ in sized]
+    sizes = [size for _, size in sized]
+    chunks = plan(numbers, chunk, overlap, sizes)
+    # A chunk's cost: its frames' sizes, warm-up included. The dearest start first, so a
+    # worker that finishes early is left the cheap ones.
+    index = {number: i for i, number in enumerate(numbers)}
+
+    def cost(first: int, last: int, warm: int) -> float:
+        return float(sum(sizes[index[first] - warm : index[last] + 1]))
     # The whole sequence's first frame, fitted once: every chunk holds its frames to it.
     status, base = client.submit(
         _baseline, src, _frames(frames), rbfs, retries=retries, pure=False
@@ -187,6 +220,7 @@ def bake(
             key=f"haze-bake-{first}-{last}-{time.time_ns()}",
             retries=retries,
             pure=False,
+            priority=cost(first, last, warm),
         ): (first, last, warm)
         for part, (first, last, warm) in zip(parts, chunks)
     }

@@ -399,18 +399,26 @@ pub struct SequenceFitter {
     first_gain: Option<f64>,
     /// A first frame's figures that a cold start keeps instead of its own ([`Baseline`]).
     pinned: Option<Baseline>,
+    /// The current run's first frame's RBF count and voxels of smoke.
+    first_size: Option<(usize, usize)>,
 }
 
 /// What later frames of a sequence are held to: its first frame's rel_l2 and insertion
-/// radius (the threshold ratio and insertion test) and its marginal gain. A chunk of a
-/// sequence baked apart, pinned to the sequence's baseline, inserts RBFs towards the same
-/// error as one bake of the whole sequence would, instead of towards its own cold start's.
+/// radius (the threshold ratio and insertion test), its marginal gain, and its RBFs per
+/// voxel of smoke. A chunk of a sequence baked apart, pinned to the sequence's baseline,
+/// starts cold with as many RBFs per voxel of smoke ([`smoke_support`]) as the sequence's
+/// first frame had — the density the sequence's own insertion cap keeps — and inserts
+/// towards the same error as one bake of the whole sequence would, instead of towards
+/// its own cold start's.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Baseline {
     pub rel_l2: f64,
     /// World units.
     pub radius: f64,
     pub gain: f64,
+    /// The first frame's RBF count and its voxels of smoke.
+    pub rbfs: usize,
+    pub support: usize,
 }
 
 /// What a [`SequenceFitter`] carries from one frame to the next: enough to continue an
@@ -445,6 +453,7 @@ impl SequenceFitter {
             support: state.support,
             first_gain: state.first_gain,
             pinned: None,
+            first_size: None,
         }
     }
 
@@ -454,15 +463,31 @@ impl SequenceFitter {
         self.pinned = Some(baseline);
     }
 
-    /// The current run's first frame's figures, once a frame has been fitted.
+    /// The current run's first frame's figures, once it has been fitted in this fitter.
     pub fn baseline(&self) -> Option<Baseline> {
-        match (self.first, self.first_gain) {
-            (Some((rel_l2, radius)), Some(gain)) => Some(Baseline {
+        match (self.first, self.first_gain, self.first_size) {
+            (Some((rel_l2, radius)), Some(gain), Some((rbfs, support))) => Some(Baseline {
                 rel_l2,
                 radius,
                 gain,
+                rbfs,
+                support,
             }),
             _ => None,
+        }
+    }
+
+    /// The RBFs of a cold start on `grid`: the options' count, or pinned, the baseline's
+    /// RBFs per voxel of smoke (within 1 and the growth ceiling).
+    fn cold_count(&self, grid: &FitGrid) -> usize {
+        let o = &self.opts;
+        match self.pinned {
+            Some(b) if b.rbfs > 0 && b.support > 0 => {
+                let ceiling = o.max_rbfs.unwrap_or(o.rbfs.saturating_mul(GROWTH_LIMIT));
+                let n = b.rbfs as f64 * smoke_support(grid) as f64 / b.support as f64;
+                (n.round() as usize).clamp(1, ceiling.max(1))
+            }
+            _ => o.rbfs,
         }
     }
 
@@ -502,7 +527,7 @@ impl SequenceFitter {
     }
 
     fn cold(&mut self, grid: &FitGrid) -> FrameFit {
-        let (params, stats) = fit_first_frame(grid, self.opts.rbfs, &self.opts.fit);
+        let (params, stats) = fit_first_frame(grid, self.cold_count(grid), &self.opts.fit);
         let (rel_l2, rms) = errors(grid, &params);
         let n = (params.len() / PARAMS_PER_RBF).max(1);
         let radius = initial_radius(grid, n, &self.opts.fit.bounds) * grid.unit;
@@ -521,6 +546,7 @@ impl SequenceFitter {
             world_gain(grid, gains.iter().sum::<f64>() / gains.len() as f64)
         };
         self.first_gain = Some(gain);
+        self.first_size = Some((params.len() / PARAMS_PER_RBF, smoke_support(grid)));
         if let Some(b) = self.pinned {
             self.first = Some((b.rel_l2, b.radius));
             self.first_gain = Some(b.gain);
@@ -929,20 +955,33 @@ mod tests {
         let own = free.fit(&v).unwrap();
         let theirs = free.baseline().unwrap();
         assert_eq!(theirs.rel_l2, own.rel_l2);
+        assert_eq!(theirs.rbfs, own.rbfs.len());
+        assert_eq!(
+            theirs.support,
+            super::smoke_support(&FitGrid::from_volume(&v).unwrap())
+        );
         let pin = Baseline {
             rel_l2: 0.5 * theirs.rel_l2,
             radius: 2.0 * theirs.radius,
             gain: 3.0 * theirs.gain + 1.0,
+            ..theirs
         };
-        let mut pinned = SequenceFitter::new(opts);
+        let mut pinned = SequenceFitter::new(opts.clone());
         pinned.pin(pin);
         let cold = pinned.fit(&v).unwrap();
-        // The cold frame itself is fitted as before...
+        // The cold frame itself is fitted as before (the same RBFs per voxel of smoke)...
         assert_eq!(cold.rbfs, own.rbfs);
         // ...and the pin, not its figures, is what the next frames are held to.
         assert_eq!(pinned.baseline(), Some(pin));
         assert_eq!(pinned.state().first, Some((pin.rel_l2, pin.radius)));
         assert_eq!(cold.gain_floor, pin.gain);
+        // A baseline of twice the RBFs per voxel of smoke starts with twice the RBFs.
+        let mut denser = SequenceFitter::new(opts);
+        denser.pin(Baseline {
+            rbfs: 2 * theirs.rbfs,
+            ..pin
+        });
+        assert_eq!(denser.fit(&v).unwrap().rbfs.len(), 2 * own.rbfs.len());
         // Before any frame there is no baseline.
         assert_eq!(
             SequenceFitter::new(SequenceOptions::default()).baseline(),

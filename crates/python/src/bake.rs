@@ -57,8 +57,34 @@ pub fn frame_numbers(py: Python<'_>, src: PathBuf, frames: Option<&str>) -> PyRe
     .map_err(to_py)
 }
 
-/// The first-frame figures `(rel_l2, radius, gain)` a bake of `src`'s `frames` with
-/// `rbfs` RBFs holds its frames to (`haze_bake::baseline`: one frame's fit).
+/// `(number, bytes)` of every frame of `src` in `frames`: each frame's file size on disk,
+/// a cheap measure of how much smoke it holds (an OpenVDB file stores only the active
+/// voxels), which a cluster bake balances its chunks by.
+#[pyfunction]
+#[pyo3(signature = (src, frames=None))]
+pub fn frame_sizes(
+    py: Python<'_>,
+    src: PathBuf,
+    frames: Option<&str>,
+) -> PyResult<Vec<(i64, u64)>> {
+    let range = range(frames)?;
+    py.detach(|| {
+        let seq = haze_bake::source::Frames::open(&src, &ImportOptions::default(), range)?;
+        (0..seq.len())
+            .map(|i| {
+                let path = seq.path(i);
+                let bytes = std::fs::metadata(path)
+                    .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?
+                    .len();
+                Ok((seq.number(i), bytes))
+            })
+            .collect::<anyhow::Result<Vec<_>>>()
+    })
+    .map_err(to_py)
+}
+
+/// The first-frame figures `(rel_l2, radius, gain, rbfs, support)` a bake of `src`'s
+/// `frames` with `rbfs` RBFs holds its frames to (`haze_bake::baseline`: one frame's fit).
 #[pyfunction]
 #[pyo3(signature = (src, frames=None, rbfs=None))]
 pub fn baseline(
@@ -66,14 +92,14 @@ pub fn baseline(
     src: PathBuf,
     frames: Option<&str>,
     rbfs: Option<usize>,
-) -> PyResult<(f64, f64, f64)> {
+) -> PyResult<(f64, f64, f64, usize, usize)> {
     let mut options = BakeOptions::new(&src, "");
     options.range = range(frames)?;
     if let Some(n) = rbfs {
         options.count = Count::Fixed(n);
     }
     let b = py.detach(|| haze_bake::baseline(&options)).map_err(to_py)?;
-    Ok((b.rel_l2, b.radius, b.gain))
+    Ok((b.rel_l2, b.radius, b.gain, b.rbfs, b.support))
 }
 
 /// Joins chunks of one sequence baked separately into `out` (`haze merge`); returns the
@@ -109,13 +135,15 @@ pub fn bake(
     progress: Option<Py<PyAny>>,
     warm_up: usize,
     domain_offset: Option<[f64; 3]>,
-    baseline: Option<[f64; 3]>,
+    baseline: Option<(f64, f64, f64, usize, usize)>,
 ) -> PyResult<Py<PyAny>> {
     let mut options = BakeOptions::new(&src, &out);
-    options.baseline = baseline.map(|[rel_l2, radius, gain]| haze_fit::Baseline {
+    options.baseline = baseline.map(|(rel_l2, radius, gain, rbfs, support)| haze_fit::Baseline {
         rel_l2,
         radius,
         gain,
+        rbfs,
+        support,
     });
     if let Some(offset) = domain_offset {
         if offset.iter().any(|v| !v.is_finite()) {

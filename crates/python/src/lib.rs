@@ -39,6 +39,7 @@ fn _haze(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(bake::merge, m)?)?;
     m.add_function(wrap_pyfunction!(bake::frame_numbers, m)?)?;
     m.add_function(wrap_pyfunction!(bake::baseline, m)?)?;
+    m.add_function(wrap_pyfunction!(bake::frame_sizes, m)?)?;
     m.add_function(wrap_pyfunction!(render::render, m)?)?;
     m.add_function(wrap_pyfunction!(render::render_scene, m)?)?;
     m.add_class::<asset::Asset>()?;
