@@ -145,7 +145,7 @@ class HAZE_OT_bake(bpy.types.Operator):
 
         try:
             args = self.arguments(context)
-            total = len(haze._haze.frame_numbers(args["src"]))
+            total = len(haze._haze.frame_sizes(args["src"]))
         except (haze.HazeError, RuntimeError) as e:
             self.report({"ERROR"}, str(e))
             return {"CANCELLED"}

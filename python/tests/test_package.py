@@ -228,3 +228,11 @@ def test_help_explains_every_argument():
         for name in pyinspect.signature(fn).parameters:
             assert name in doc, f"{fn.__name__}: {name} undocumented"
     assert haze.__version__
+
+
+def test_a_bad_baseline_is_refused(tmp_path):
+    write_sequence(tmp_path, 1)
+    for bad in [(float("nan"), 1.0, 1.0, 10, 10), (0.1, 1.0, 1.0, 0, 10), (0.1, -1.0, 1.0, 5, 5)]:
+        with pytest.raises(haze.HazeError, match="baseline="):
+            haze.bake(tmp_path, tmp_path / "x.haze", baseline=bad)
+        assert not (tmp_path / "x.haze").exists()

@@ -44,19 +44,6 @@ pub fn inspect(py: Python<'_>, path: PathBuf, frames: Option<&str>) -> PyResult<
     Ok(from_json(py, &text)?.unbind())
 }
 
-/// The frame numbers of `src` (a volume, a frame sequence or a packed asset) in
-/// `frames`, in order, as a bake would take them.
-#[pyfunction]
-#[pyo3(signature = (src, frames=None))]
-pub fn frame_numbers(py: Python<'_>, src: PathBuf, frames: Option<&str>) -> PyResult<Vec<i64>> {
-    let range = range(frames)?;
-    py.detach(|| {
-        let seq = haze_bake::source::Frames::open(&src, &ImportOptions::default(), range)?;
-        Ok((0..seq.len()).map(|i| seq.number(i)).collect())
-    })
-    .map_err(to_py)
-}
-
 /// `(number, bytes)` of every frame of `src` in `frames`: each frame's file size on disk,
 /// a cheap measure of how much smoke it holds (an OpenVDB file stores only the active
 /// voxels), which a cluster bake balances its chunks by.
@@ -138,6 +125,15 @@ pub fn bake(
     baseline: Option<(f64, f64, f64, usize, usize)>,
 ) -> PyResult<Py<PyAny>> {
     let mut options = BakeOptions::new(&src, &out);
+    if let Some((rel_l2, radius, gain, rbfs, support)) = baseline {
+        let finite = [rel_l2, radius, gain].iter().all(|v| v.is_finite() && *v >= 0.0);
+        if !finite || rbfs == 0 || support == 0 {
+            return Err(to_py(anyhow::anyhow!(
+                "baseline={:?}: expected (rel_l2, radius, gain) finite and ≥ 0 and (rbfs, support) ≥ 1, as haze._haze.baseline returns",
+                (rel_l2, radius, gain, rbfs, support)
+            )));
+        }
+    }
     options.baseline = baseline.map(|(rel_l2, radius, gain, rbfs, support)| haze_fit::Baseline {
         rel_l2,
         radius,

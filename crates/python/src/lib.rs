@@ -37,7 +37,6 @@ fn _haze(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(bake::inspect, m)?)?;
     m.add_function(wrap_pyfunction!(bake::bake, m)?)?;
     m.add_function(wrap_pyfunction!(bake::merge, m)?)?;
-    m.add_function(wrap_pyfunction!(bake::frame_numbers, m)?)?;
     m.add_function(wrap_pyfunction!(bake::baseline, m)?)?;
     m.add_function(wrap_pyfunction!(bake::frame_sizes, m)?)?;
     m.add_function(wrap_pyfunction!(render::render, m)?)?;
