@@ -126,7 +126,9 @@ pub fn bake(
 ) -> PyResult<Py<PyAny>> {
     let mut options = BakeOptions::new(&src, &out);
     if let Some((rel_l2, radius, gain, rbfs, support)) = baseline {
-        let finite = [rel_l2, radius, gain].iter().all(|v| v.is_finite() && *v >= 0.0);
+        let finite = [rel_l2, radius, gain]
+            .iter()
+            .all(|v| v.is_finite() && *v >= 0.0);
         if !finite || rbfs == 0 || support == 0 {
             return Err(to_py(anyhow::anyhow!(
                 "baseline={:?}: expected (rel_l2, radius, gain) finite and ≥ 0 and (rbfs, support) ≥ 1, as haze._haze.baseline returns",
