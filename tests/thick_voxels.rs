@@ -75,3 +75,47 @@ fn bad_refinements_are_refused() {
         assert!(err.contains("--supersample"), "{err}");
     }
 }
+
+/// `haze view` lights an asset of thick voxels on the same finer grid, and its
+/// `--play-for` line says so; held to the asset's own voxels it warns that the picture
+/// is too dark.
+#[test]
+fn the_viewer_lights_thick_voxels_on_a_finer_grid() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("blob.npy");
+    write_npy(&input, [20; 3], &blob(20));
+    let asset = dir.path().join("blob.haze");
+    let o = haze()
+        .args(["bake", s(&input), "--out", s(&asset), "--rbfs", "12"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let view = |extra: &[&str]| {
+        let mut args = vec![
+            "view",
+            s(&asset),
+            "--no-window",
+            "--play-for",
+            "0.2",
+            "--size",
+            "32x24",
+            "--sigma-t",
+            "3",
+            "--no-multiple",
+        ];
+        args.extend_from_slice(extra);
+        let o = haze().args(&args).output().unwrap();
+        let (out, err) = (
+            String::from_utf8(o.stdout).unwrap(),
+            String::from_utf8(o.stderr).unwrap(),
+        );
+        assert!(o.status.success(), "{args:?}: {err}");
+        (out, err)
+    };
+    let (out, err) = view(&[]);
+    assert!(out.contains("lit on a 3× finer grid"), "{out}");
+    assert!(!err.contains("too dark"), "{err}");
+    let (out, err) = view(&["--supersample", "1"]);
+    assert!(out.contains("voxels 2.") && !out.contains("finer"), "{out}");
+    assert!(err.contains("too dark"), "{err}");
+}

@@ -4,6 +4,7 @@ use crate::camera_medium_args::MediumArgs;
 use crate::fog::{FogModelArgs, SmokeArgs};
 use crate::light_args::{LightArgs, LightingArg};
 use anyhow::Result;
+use haze_render::smoke::Supersample;
 use haze_tradeoff::pareto::Goal;
 use haze_view::render::MsDiffusion;
 use haze_viewer::smoke::{Knobs, ViewArgs};
@@ -124,6 +125,14 @@ pub struct ViewCli {
     /// (lavapipe), where the CPU's own code is several times faster.
     #[arg(long, value_enum, default_value_t = LightingArg::Auto)]
     pub(crate) lighting: LightingArg,
+    /// With an asset: light each frame on a grid N times finer than its voxels (1..4), or
+    /// `auto`: fine enough that a voxel is at most one optical depth thick (σt × density ×
+    /// voxel side, at the 99th percentile of the frame's density; it follows the σt
+    /// slider), within the GPU's largest grid. Each voxel is lit at its center, so thicker
+    /// voxels come out too dark; time grows as N³. The panel and the --play-for line say
+    /// which grid, and warn when its voxels stay too thick.
+    #[arg(long, value_name = "auto|N", default_value = "auto", value_parser = parse_supersample, conflicts_with_all = ["scene", "fog"])]
+    pub(crate) supersample: Supersample,
     #[command(flatten, next_help_heading = "Fog (with --fog)")]
     pub(crate) fog_model: FogModelArgs,
     #[command(flatten, next_help_heading = "Smoke in the fog (with --fog)")]
@@ -230,10 +239,16 @@ impl ViewCli {
             window: !self.no_window,
             orbit: self.orbit,
             lighting: self.lighting.into(),
+            supersample: self.supersample,
             goal,
             tradeoff: self.tradeoff,
         }
     }
+}
+
+/// `auto` or a whole number 1..4.
+fn parse_supersample(s: &str) -> Result<Supersample, String> {
+    s.parse()
 }
 
 /// Parses a render size `WxH` (or `W×H`), each side 1..=8192 pixels.

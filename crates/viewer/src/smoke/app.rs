@@ -30,6 +30,8 @@ pub struct Setup {
     pub ctx: GpuContext,
     /// Where the lighting at the centers is computed.
     pub lighting: LightingOn,
+    /// How much finer than the asset's voxels frames are lit.
+    pub supersample: haze_render::smoke::Supersample,
     pub playback: Playback,
     /// When the command started (the first picture is timed from there).
     pub started: Instant,
@@ -62,6 +64,7 @@ pub fn run_window(setup: Setup) -> Result<()> {
             cursor,
             ctx,
             lighting,
+            supersample,
             playback,
             started,
             settings,
@@ -71,6 +74,7 @@ pub fn run_window(setup: Setup) -> Result<()> {
             cursor,
             ctx,
             lighting,
+            supersample,
             Box::new(move || repaint.request_repaint()),
         )?;
         Ok(ViewerApp::new(
@@ -486,6 +490,12 @@ impl ViewerApp {
             None => {
                 ui.small("rendering the first frame…");
             }
+        }
+        if let Some(g) = &self.player.grid {
+            match g.warning() {
+                Some(w) => ui.colored_label(egui::Color32::LIGHT_RED, w),
+                None => ui.small(g.describe()),
+            };
         }
         if let Some(e) = &self.player.error {
             ui.colored_label(egui::Color32::LIGHT_RED, e);

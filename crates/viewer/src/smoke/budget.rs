@@ -191,6 +191,7 @@ mod tests {
             window: false,
             orbit: false,
             lighting: haze_view::gpu::renderer::LightingOn::Cpu,
+            supersample: haze_render::smoke::Supersample::Auto,
             goal: Some(Goal::BudgetMs(60.0)),
             tradeoff: Some(tradeoff.to_path_buf()),
         };

@@ -8,7 +8,8 @@
 //! - [`player`]: the clock driving the render thread, shared by the window and
 //!   `--no-window`;
 //! - [`app`]: the room's panel, keys and picture in the window;
-//! - [`budget`]: the starting knobs chosen for a time budget or an error target.
+//! - [`budget`]: the starting knobs chosen for a time budget or an error target;
+//! - [`thick`]: the grid each frame is lit on, finer where its voxels are optically thick.
 
 mod app;
 pub mod budget;
@@ -17,6 +18,7 @@ mod playback;
 mod player;
 #[cfg(test)]
 mod testing;
+mod thick;
 mod worker;
 
 use crate::orbit::Orbit;
@@ -59,6 +61,8 @@ pub struct ViewArgs {
     pub orbit: bool,
     /// Where the lighting at the centers (single and multiple scattering) is computed.
     pub lighting: LightingOn,
+    /// How much finer than the asset's voxels each frame is lit (`thick` module).
+    pub supersample: haze_render::smoke::Supersample,
     /// Start with the knobs a tradeoff sweep's front gives for this budget or target.
     pub goal: Option<haze_tradeoff::pareto::Goal>,
     /// The sweep for `goal`; a quick sweep of the asset when absent.
@@ -190,6 +194,12 @@ pub fn run(mut a: ViewArgs) -> Result<()> {
         .map_err(|e| anyhow!("{}: cannot frame the smoke: {e}", a.input.display()))?;
 
     let ctx = GpuContext::new().map_err(|e| anyhow!("GPU: {e}"))?;
+    thick::Refiner::check(
+        a.supersample,
+        dims,
+        haze_view::gpu::GridBuffer::max_voxels(&ctx),
+    )
+    .map_err(|e| anyhow!("{}: {e}", a.input.display()))?;
     let adapter = format!(
         "{} ({}); lighting on the {}",
         ctx.adapter_name(),
@@ -211,14 +221,15 @@ pub fn run(mut a: ViewArgs) -> Result<()> {
 
     if !a.window {
         let play_for = a.play_for.unwrap_or_default();
-        let worker = Worker::spawn(cursor, ctx, a.lighting, Box::new(|| {}))?;
+        let worker = Worker::spawn(cursor, ctx, a.lighting, a.supersample, Box::new(|| {}))?;
         let mut player = Player::new(playback, worker, started);
         let line = if a.orbit {
             turn_without_window(&mut player, orbit, initial, play_for)?
         } else {
             play_without_window(&mut player, &initial, play_for)?
         };
-        println!("{line}; {}", knobs.describe());
+        let grid = player.grid.map(|g| format!("; {}", g.describe()));
+        println!("{line}; {}{}", knobs.describe(), grid.unwrap_or_default());
         return Ok(());
     }
     app::run_window(app::Setup {
@@ -226,6 +237,7 @@ pub fn run(mut a: ViewArgs) -> Result<()> {
         cursor,
         ctx,
         lighting: a.lighting,
+        supersample: a.supersample,
         playback,
         started,
         settings: app::Settings {

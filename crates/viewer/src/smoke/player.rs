@@ -56,6 +56,8 @@ pub struct Player {
     render_seconds: f64,
     /// The latest stage times, and the latest job's error until a picture is shown.
     pub times: Option<super::frame::StageTimes>,
+    /// The grid the picture on screen was lit on.
+    pub grid: Option<super::thick::Grid>,
     pub error: Option<String>,
     /// Jobs that failed, and the first one's error.
     pub failures: u64,
@@ -79,6 +81,7 @@ impl Player {
             renders: 0,
             render_seconds: 0.0,
             times: None,
+            grid: None,
             error: None,
             failures: 0,
             first_failure: None,
@@ -168,6 +171,12 @@ impl Player {
             self.render_seconds += done.seconds;
             self.times = Some(t.clone());
         }
+        if self.grid.is_none_or(|g| g != picture.grid)
+            && let Some(w) = picture.grid.warning()
+        {
+            tracing::warn!("{w}");
+        }
+        self.grid = Some(picture.grid);
         self.error = None;
         self.first_picture
             .get_or_insert_with(|| now.saturating_duration_since(self.created));
@@ -219,6 +228,7 @@ mod tests {
     use super::super::worker::FrameCursor;
     use super::*;
     use haze_gpu::GpuContext;
+    use haze_render::smoke::Supersample;
     use haze_view::gpu::renderer::LightingOn;
     use haze_view::render::CrmOptions;
     use haze_view::stream::FrameStream;
@@ -264,7 +274,14 @@ mod tests {
         let path = write_asset(dir.path(), "a.haze", 4);
         let ctx = GpuContext::new().unwrap_or_else(|e| panic!("{e}"));
         let cursor = FrameCursor::new(FrameStream::open(&path, 2, true).unwrap(), 2);
-        let worker = Worker::spawn(cursor, ctx, LightingOn::Auto, Box::new(|| {})).unwrap();
+        let worker = Worker::spawn(
+            cursor,
+            ctx,
+            LightingOn::Auto,
+            Supersample::Auto,
+            Box::new(|| {}),
+        )
+        .unwrap();
         let mut playback = Playback::new(4, 24.0).unwrap();
         playback.pause();
         let mut p = Player::new(playback, worker, Instant::now());

@@ -7,7 +7,10 @@
 
 use super::frame::{FrameRenderer, StageTimes};
 use super::playback::Tick;
+use super::thick::{Grid, Refiner};
 use haze_gpu::GpuContext;
+use haze_render::smoke::Supersample;
+use haze_view::gpu::GridBuffer;
 use haze_view::gpu::renderer::LightingOn;
 use haze_view::gpu::volume_pass::Residual;
 use haze_view::render::CrmOptions;
@@ -49,6 +52,8 @@ pub struct Picture {
     pub rgb: Vec<u8>,
     /// The stages' times, `None` when the previous render was only tone-mapped again.
     pub times: Option<StageTimes>,
+    /// The grid the frame was lit on (`thick` module).
+    pub grid: Grid,
 }
 
 /// A job done, with how long it took on the render thread.
@@ -129,19 +134,23 @@ struct Kept {
     scene: Scene,
     image: Image,
     number: i64,
+    grid: Grid,
 }
 
 impl Worker {
     /// Compiles the GPU passes on `ctx` and starts the thread, which reads frames through
-    /// `cursor` and calls `wake` after every job (to repaint a window).
+    /// `cursor`, lights each on the grid `supersample` asks for (`thick` module) and calls
+    /// `wake` after every job (to repaint a window).
     pub fn spawn(
         mut cursor: FrameCursor,
         ctx: GpuContext,
         lighting: LightingOn,
+        supersample: Supersample,
         wake: Box<dyn Fn() + Send>,
     ) -> anyhow::Result<Worker> {
         let renderer =
             FrameRenderer::new(&ctx, lighting).map_err(|e| anyhow::anyhow!("GPU: {e}"))?;
+        let mut refiner = Refiner::new(supersample, GridBuffer::max_voxels(&ctx));
         let (jobs, inbox) = channel::<Job>();
         let (outbox, done) = channel();
         let thread = std::thread::Builder::new()
@@ -151,7 +160,14 @@ impl Worker {
                 let mut kept = None;
                 while let Ok(job) = inbox.recv() {
                     let t = Instant::now();
-                    let picture = run_job(&ctx, &mut renderer, &mut cursor, &job, &mut kept);
+                    let picture = run_job(
+                        &ctx,
+                        &mut renderer,
+                        &mut refiner,
+                        &mut cursor,
+                        &job,
+                        &mut kept,
+                    );
                     let done = Done {
                         tick: job.tick,
                         seconds: t.elapsed().as_secs_f64(),
@@ -228,6 +244,7 @@ impl Drop for Worker {
 fn run_job(
     ctx: &GpuContext,
     renderer: &mut FrameRenderer,
+    refiner: &mut Refiner,
     cursor: &mut FrameCursor,
     job: &Job,
     kept: &mut Option<Kept>,
@@ -240,12 +257,17 @@ fn run_job(
             *kept = None;
             let (dims, bbox) = cursor.stream().grid();
             let frame = cursor.get(job.frame)?;
+            let (grid, fine) = refiner.prepare(frame, dims, bbox, job.scene.medium.sigma_t)?;
+            let residual = match fine {
+                Some(values) => Some(Residual::Dense(values)),
+                None => frame.residual.as_ref().map(Residual::Hash),
+            };
             let (pixels, times) = renderer
                 .render(
                     ctx,
                     &frame.rbfs,
-                    frame.residual.as_ref().map(Residual::Hash),
-                    dims,
+                    residual,
+                    haze_view::render::supersample::fine_dims(dims, grid.n),
                     &bbox,
                     &job.scene.medium,
                     &job.scene.env,
@@ -264,6 +286,7 @@ fn run_job(
                     pixels,
                 },
                 number: frame.number,
+                grid,
             });
             Some(times)
         }
@@ -275,6 +298,7 @@ fn run_job(
         height,
         rgb: k.image.to_srgb8(job.exposure),
         times,
+        grid: k.grid,
     })
 }
 
@@ -312,7 +336,14 @@ mod tests {
         let path = write_asset(dir.path(), "a.haze", 3);
         let ctx = GpuContext::new().unwrap_or_else(|e| panic!("{e}"));
         let cursor = FrameCursor::new(FrameStream::open(&path, 2, true).unwrap(), 2);
-        let mut w = Worker::spawn(cursor, ctx, LightingOn::Auto, Box::new(|| {})).unwrap();
+        let mut w = Worker::spawn(
+            cursor,
+            ctx,
+            LightingOn::Auto,
+            Supersample::Auto,
+            Box::new(|| {}),
+        )
+        .unwrap();
         let mut run = |job: Job| {
             w.submit(job);
             assert!(w.busy());
