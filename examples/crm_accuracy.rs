@@ -772,7 +772,8 @@ fn multiple_part(a: &Args, scene: &Scene, finals: [&Image; 2], single_ref: &Imag
                 side.pixels[y * 4 * w * k + x] = p.map(|c| c * scale);
             }
         }
-        side.write_png(&dir.join("ms.png"), exposure).expect("png");
+        side.write_png(&dir.join("ms.png"), exposure, haze_view::ToneMap::Clip)
+            .expect("png");
     }
 }
 

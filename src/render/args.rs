@@ -119,6 +119,11 @@ pub struct RenderCli {
     /// Exposure applied before PNG tone mapping.
     #[arg(long, default_value_t = 1.0)]
     pub(crate) exposure: f64,
+    /// The tone curve of a PNG: `filmic` (ACES-like: a toe, and highlights rolled off to
+    /// white at 7.24× the exposure's white instead of clipped) or `clip` (linear values
+    /// clipped at 1/exposure, to read pixel values back). EXR stays linear.
+    #[arg(long, value_name = "filmic|clip", default_value = "filmic", value_parser = parse_tone)]
+    pub(crate) tone: haze_core::ToneMap,
     /// With --scene: the time in seconds at which the analytic fog is rendered (its wind
     /// has carried it for this long).
     #[arg(
@@ -146,6 +151,13 @@ pub struct RenderCli {
     /// memory grow as N³. A render whose voxels stay thicker says so.
     #[arg(long, value_name = "auto|N", default_value = "auto", value_parser = parse_supersample)]
     pub(crate) supersample: Supersample,
+    /// A ground under the smoke: a grey diffuse plane at the floor of the volume's box,
+    /// lit by the suns, point lights and sky, carrying the smoke's shadow (the sky's
+    /// light on it is not shadowed). `auto`: under the built-in sky (`--env sky` or
+    /// `glow`), not under a map, which has its own ground. Camera rays see it; it does
+    /// not light the smoke. The reference renders the same ground.
+    #[arg(long, value_name = "auto|on|off", default_value = "auto", value_parser = parse_ground)]
+    pub(crate) ground: haze_render::lights::GroundChoice,
     #[command(flatten)]
     pub(crate) import: ImportArgs,
 }
@@ -223,8 +235,10 @@ impl RenderCli {
             }),
             target_error: self.target_error,
             exposure: self.exposure,
+            tone: self.tone,
             import: self.import.options(),
             supersample: self.supersample,
+            ground: self.ground,
         };
         (options, goal, tradeoff)
     }
@@ -233,6 +247,16 @@ impl RenderCli {
 /// The pixels `--target-error` checks when `--check` is not given: a render asked to meet
 /// an error says whether it did (a second or two, `--check`'s help).
 const TARGET_CHECK: usize = 256;
+
+/// `filmic` or `clip`.
+pub(crate) fn parse_tone(s: &str) -> Result<haze_core::ToneMap, String> {
+    s.parse()
+}
+
+/// `auto`, `on` or `off`.
+pub(crate) fn parse_ground(s: &str) -> Result<haze_render::lights::GroundChoice, String> {
+    s.parse()
+}
 
 /// `auto` or a whole number 1..4.
 fn parse_supersample(s: &str) -> Result<Supersample, String> {

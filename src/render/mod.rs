@@ -1,7 +1,7 @@
 //! `haze render`: a scene file or a smoke frame rendered to an image; its flags and their
 //! conversion into `haze_render`'s options are in [`args`].
 
-mod args;
+pub(crate) mod args;
 
 pub use args::*;
 
@@ -21,7 +21,7 @@ pub fn run(r: RenderCli) -> Result<()> {
             .iter()
             .fold(files.input(scene), |f, p| f.input(p));
     }
-    if r.lights.env != "sky" {
+    if r.lights.env != "sky" && r.lights.env != "glow" {
         files = files.input(std::path::Path::new(&r.lights.env));
     }
     if let Some(t) = &r.tradeoff {
@@ -37,6 +37,7 @@ pub fn run(r: RenderCli) -> Result<()> {
             reference: r.reference,
             gpu: r.gpu,
             exposure: r.exposure,
+            tone: r.tone,
             time: r.time,
             march: r.march,
             exact_per_pair: r.exact_per_pair.map(usize::from),

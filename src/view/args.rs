@@ -89,9 +89,13 @@ pub struct ViewCli {
     /// measured first, at --size on the viewer's GPU renderer.
     #[arg(long, value_name = "FILE", requires = "goal")]
     pub(crate) tradeoff: Option<PathBuf>,
-    /// Exposure applied before the sRGB encoding.
+    /// Exposure applied before the tone curve and the sRGB encoding.
     #[arg(long, default_value_t = 1.0)]
     pub(crate) exposure: f64,
+    /// With an asset: the picture's tone curve, `filmic` (ACES-like: a toe, highlights
+    /// rolled off) or `clip` (linear values clipped at 1/exposure); the panel switches it.
+    #[arg(long, value_name = "filmic|clip", default_value = "filmic", value_parser = crate::render::args::parse_tone)]
+    pub(crate) tone: haze_core::ToneMap,
     /// Play for SECONDS from the first picture, print one line of playback figures to
     /// stdout and exit.
     #[arg(long, value_name = "SECONDS")]
@@ -133,6 +137,10 @@ pub struct ViewCli {
     /// which grid, and warn when its voxels stay too thick.
     #[arg(long, value_name = "auto|N", default_value = "auto", value_parser = parse_supersample, conflicts_with_all = ["scene", "fog"])]
     pub(crate) supersample: Supersample,
+    /// With an asset: a ground under the smoke, as `haze render --ground` (`auto`: under
+    /// the built-in sky); the panel switches it.
+    #[arg(long, value_name = "auto|on|off", default_value = "auto", value_parser = crate::render::args::parse_ground, conflicts_with_all = ["scene", "fog"])]
+    pub(crate) ground: haze_render::lights::GroundChoice,
     #[command(flatten, next_help_heading = "Fog (with --fog)")]
     pub(crate) fog_model: FogModelArgs,
     #[command(flatten, next_help_heading = "Smoke in the fog (with --fog)")]
@@ -234,12 +242,15 @@ impl ViewCli {
                 orders: !self.ms_at_centers,
                 orders_model: self.orders_model.unwrap_or(MsDiffusion::DEFAULT),
                 exposure: self.exposure,
+                tone: self.tone,
+                ground: None,
             },
             play_for: self.play_for,
             window: !self.no_window,
             orbit: self.orbit,
             lighting: self.lighting.into(),
             supersample: self.supersample,
+            ground: self.ground,
             goal,
             tradeoff: self.tradeoff,
         }

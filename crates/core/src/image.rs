@@ -4,6 +4,7 @@
 //! Both writers go through a temporary file beside the destination that is renamed into
 //! place, so a reader never sees a half-written image.
 
+use crate::ToneMap;
 use rayon::prelude::*;
 use std::io::{BufWriter, Write};
 use std::path::Path;
@@ -162,25 +163,25 @@ impl Image {
     }
 
     /// The 8-bit sRGB encoding of the image, three bytes per pixel in pixel order: each
-    /// linear channel is multiplied by `exposure`, clipped to [0, 1] and encoded with the
-    /// sRGB transfer function (no other tone curve, so a linear value `1/exposure` is
-    /// white). What [`Image::write_png`] writes and the viewer shows; pixels are converted
-    /// in parallel.
-    pub fn to_srgb8(&self, exposure: f64) -> Vec<u8> {
+    /// linear channel is multiplied by `exposure`, taken through the tone curve `tone`
+    /// ([`ToneMap`]: with [`ToneMap::Clip`] a linear value `1/exposure` is white) and
+    /// encoded with the sRGB transfer function. What [`Image::write_png`] writes and the
+    /// viewer shows; pixels are converted in parallel.
+    pub fn to_srgb8(&self, exposure: f64, tone: ToneMap) -> Vec<u8> {
         let mut bytes = vec![0u8; 3 * self.pixels.len()];
         bytes
             .par_chunks_mut(3)
             .zip(self.pixels.par_iter())
             .for_each(|(out, p)| {
                 for (o, c) in out.iter_mut().zip(p) {
-                    *o = srgb8(f64::from(*c) * exposure);
+                    *o = srgb8(tone.apply(f64::from(*c) * exposure));
                 }
             });
         bytes
     }
 
     /// Writes an 8-bit sRGB PNG of [`Image::to_srgb8`].
-    pub fn write_png(&self, path: &Path, exposure: f64) -> Result<(), ImageError> {
+    pub fn write_png(&self, path: &Path, exposure: f64, tone: ToneMap) -> Result<(), ImageError> {
         self.writable(path)?;
         if !(exposure.is_finite() && exposure > 0.0) {
             return Err(ImageError {
@@ -188,7 +189,7 @@ impl Image {
                 problem: format!("exposure {exposure} must be a finite number > 0"),
             });
         }
-        let bytes = self.to_srgb8(exposure);
+        let bytes = self.to_srgb8(exposure, tone);
         let (w, h) = (self.width, self.height);
         write_atomically(path, |out| {
             let size = |n: usize| u32::try_from(n).map_err(|_| format!("{n} pixels is too wide"));
@@ -340,22 +341,31 @@ mod tests {
         assert_eq!(srgb8(0.18), 118);
         // The whole image, pixel by pixel and channel by channel, exposure applied.
         let im = gradient();
-        let bytes = im.to_srgb8(2.0);
+        let bytes = im.to_srgb8(2.0, ToneMap::Clip);
         assert_eq!(bytes.len(), 3 * 15);
+        let filmic = im.to_srgb8(2.0, ToneMap::Filmic);
         for (i, p) in im.pixels.iter().enumerate() {
             for c in 0..3 {
-                assert_eq!(bytes[3 * i + c], srgb8(2.0 * f64::from(p[c])), "pixel {i}");
+                let x = 2.0 * f64::from(p[c]);
+                assert_eq!(bytes[3 * i + c], srgb8(x), "pixel {i}");
+                assert_eq!(
+                    filmic[3 * i + c],
+                    srgb8(ToneMap::Filmic.apply(x)),
+                    "pixel {i}"
+                );
             }
         }
         assert_eq!(&bytes[3..6], &[srgb8(0.5), 255, srgb8(0.5)]);
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("a.png");
-        gradient().write_png(&path, 1.0).unwrap();
+        gradient().write_png(&path, 1.0, ToneMap::Filmic).unwrap();
         let bytes = std::fs::read(&path).unwrap();
         assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
         let missing = dir.path().join("no/such/dir/a.png");
-        let e = gradient().write_png(&missing, 1.0).unwrap_err();
+        let e = gradient()
+            .write_png(&missing, 1.0, ToneMap::Filmic)
+            .unwrap_err();
         assert!(e.to_string().contains("no/such/dir"), "{e}");
     }
 }

@@ -3,16 +3,19 @@
 //! their OpenEXR and PNG writers, which refuse a picture holding NaN or infinity; and
 //! the JSON reader's guard against repeated keys ([`json`]) and the `.npy` reader's
 //! against headers that would keep it busy ([`npy_header`]); and the coded blocks'
-//! zstd frames with their guard against implausible sizes ([`coded`]).
+//! zstd frames with their guard against implausible sizes ([`coded`]); and the tone
+//! curves of displayed pictures ([`tone`]).
 
 pub mod coded;
 mod image;
 pub mod json;
 pub mod npy_header;
 pub mod temp_output;
+pub mod tone;
 pub mod vec3;
 
 pub use image::{Image, ImageError, NonFinite};
+pub use tone::ToneMap;
 
 /// Linear RGB, per channel.
 pub type Rgb = [f64; 3];

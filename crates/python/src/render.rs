@@ -137,6 +137,7 @@ pub fn render_scene<'py>(
                 reference,
                 gpu,
                 exposure: 1.0,
+                tone: haze_core::ToneMap::Filmic,
                 time,
                 march: false,
                 exact_per_pair: None,

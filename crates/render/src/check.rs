@@ -70,13 +70,15 @@ impl std::fmt::Display for ErrorEstimate {
 
 /// The error of `image` (rendered of `density` with `medium` through `camera`, `multiple`
 /// scattering or single) on up to `n` of its smoke pixels against the reference lit by
-/// `env` (the environment as given). `None` when no pixel shows smoke or `n` is 0.
+/// `env` (the environment as given) over the same `ground`, if any. `None` when no pixel
+/// shows smoke or `n` is 0.
 #[allow(clippy::too_many_arguments)]
 pub fn estimate(
     image: &Image,
     density: &Volume,
     medium: &Medium,
     env: &Environment,
+    ground: Option<haze_view::ground::Ground>,
     camera: &Camera,
     multiple: bool,
     n: usize,
@@ -91,6 +93,7 @@ pub fn estimate(
         spp: samples.max(2),
         multiple,
         seed: 0x636b_6563,
+        ground,
         ..RefOptions::default()
     };
     let reference = reference::render_pixels(density, medium, env, camera, &pixels, &opts);
@@ -276,7 +279,7 @@ mod tests {
                 ..RefOptions::default()
             },
         );
-        let e = estimate(&truth, &v, &m, &env, &cam, false, 64, 256).expect("smoke");
+        let e = estimate(&truth, &v, &m, &env, None, &cam, false, 64, 256).expect("smoke");
         assert!(e.pixels > 16 && e.pixels <= 64, "{e}");
         // The truth's own noise at 2048 samples is about a third of the check's at 256.
         assert!(e.error < 0.02 + 2.0 * e.noise, "{e}");
@@ -285,10 +288,10 @@ mod tests {
         for p in &mut bright.pixels {
             *p = p.map(|c| 1.1 * c);
         }
-        let e = estimate(&bright, &v, &m, &env, &cam, false, 64, 256).expect("smoke");
+        let e = estimate(&bright, &v, &m, &env, None, &cam, false, 64, 256).expect("smoke");
         assert!((e.error - 0.1).abs() < 0.02 + 2.0 * e.noise, "{e}");
         // Nothing to check.
-        assert!(estimate(&truth, &v, &m, &env, &cam, false, 0, 64).is_none());
+        assert!(estimate(&truth, &v, &m, &env, None, &cam, false, 0, 64).is_none());
         let away = Camera::new(
             [0.0, -4.0, 0.3],
             [0.0, -8.0, 0.3],
@@ -298,6 +301,6 @@ mod tests {
             6,
         )
         .unwrap();
-        assert!(estimate(&truth, &v, &m, &env, &away, false, 16, 8).is_none());
+        assert!(estimate(&truth, &v, &m, &env, None, &away, false, 16, 8).is_none());
     }
 }

@@ -1,11 +1,88 @@
 //! The lights of a smoke render or the viewer: the environment (built-in sky or a lat-long
 //! map, whose concentrated light is split off into suns lit exactly unless told not to),
-//! and suns and point lights.
+//! and suns and point lights; and the ground under the smoke ([`GroundChoice`]).
+//!
+//! **The built-in sky** (`--env sky`, the default) is a clear day with a low sun: the sky
+//! of [`Sky::default`]'s colours with its glow around [`SUN_DIRECTION`] (25° above the
+//! horizon, from the left of the default camera and a little behind the smoke, so the
+//! smoke shows a lit and a shaded side and casts its shadow towards the camera's right),
+//! and that sun lit exactly ([`SUN_IRRADIANCE`], the real sun's 0.53°). A `--sun` given
+//! replaces it; `--env glow` is the same sky with its glow only, no sun.
 
 use anyhow::{Result, bail};
+use haze_view::ground::Ground;
 use haze_view::lights::decompose::{DecomposeOptions, Decomposition, decompose, map_power};
 use haze_view::{Distant, Environment, LatLong, PointLight, Sky, Sun};
 use std::path::Path;
+
+/// The built-in sky's sun, towards it: azimuth 150° from +X towards +Y, elevation 25°
+/// (module docs).
+pub const SUN_DIRECTION: [f64; 3] = [
+    -0.784_885_567_221_395_8,
+    0.453_153_893_518_324_9,
+    0.422_618_261_740_699_4,
+];
+
+/// The built-in sky's sun: irradiance on a surface facing it, a warm white about 2.5×
+/// the sky's own irradiance on the ground, so its shadow is clear.
+pub const SUN_IRRADIANCE: [f64; 3] = [12.0, 10.8, 9.0];
+
+/// The built-in sky's sun's apparent diameter, degrees (the real sun's).
+pub const SUN_ANGLE_DEGREES: f64 = 0.53;
+
+/// The built-in sky of `--env sky` without its sun: [`Sky::default`]'s colours, its glow
+/// around [`SUN_DIRECTION`].
+pub fn builtin_sky() -> Sky {
+    Sky {
+        sun_direction: SUN_DIRECTION,
+        ..Sky::default()
+    }
+}
+
+/// The sun of `--env sky`.
+pub fn builtin_sun() -> Sun {
+    Sun {
+        direction: SUN_DIRECTION,
+        irradiance: SUN_IRRADIANCE,
+        angle: SUN_ANGLE_DEGREES.to_radians(),
+    }
+}
+
+/// Whether a smoke render shows a ground under the smoke ([`haze_view::ground`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum GroundChoice {
+    /// Under the built-in sky (`sky`, `glow`); not under a map, which has a ground of
+    /// its own below its horizon.
+    #[default]
+    Auto,
+    On,
+    Off,
+}
+
+impl GroundChoice {
+    /// The ground at the floor `floor` (the lowest `z` of the volume's box) under `lights`,
+    /// or none.
+    pub fn ground(self, lights: &Lights, floor: f64) -> Option<Ground> {
+        let on = match self {
+            GroundChoice::Auto => lights.builtin(),
+            GroundChoice::On => true,
+            GroundChoice::Off => false,
+        };
+        (on && floor.is_finite()).then(|| Ground::at(floor))
+    }
+}
+
+impl std::str::FromStr for GroundChoice {
+    type Err = String;
+    fn from_str(s: &str) -> Result<GroundChoice, String> {
+        match s {
+            "auto" => Ok(GroundChoice::Auto),
+            "on" => Ok(GroundChoice::On),
+            "off" => Ok(GroundChoice::Off),
+            _ => Err(format!("{s}: expected auto, on or off")),
+        }
+    }
+}
 
 #[derive(Debug, Clone)]
 pub struct Lights {
@@ -54,9 +131,18 @@ impl Lights {
         self.build(false)
     }
 
+    /// The environment is one of the built-in skies (`sky`, `glow`), not a map.
+    pub fn builtin(&self) -> bool {
+        self.env == "sky" || self.env == "glow"
+    }
+
     fn build(&self, split: bool) -> Result<Environment> {
-        let mut env = if self.env == "sky" {
-            Environment::sky(Sky::default())
+        let mut env = if self.builtin() {
+            let mut env = Environment::sky(builtin_sky());
+            if self.env == "sky" && self.sun.is_empty() {
+                env.suns.push(builtin_sun());
+            }
+            env
         } else {
             let map = self.load_map()?;
             if split {
@@ -76,7 +162,7 @@ impl Lights {
         let path = Path::new(&self.env);
         if !path.exists() {
             bail!(
-                "{}: no such environment map (use 'sky' or a lat-long .exr)",
+                "{}: no such environment map (use 'sky', 'glow' or a lat-long .exr)",
                 self.env
             );
         }
@@ -96,7 +182,9 @@ impl Lights {
 
     /// The light in words ("the built-in sky and 1 sun"), as a choice's reasons name it.
     pub fn describe(&self) -> String {
-        let mut s = if self.env == "sky" {
+        let mut s = if self.env == "sky" && self.sun.is_empty() {
+            "the built-in sky and its sun".to_string()
+        } else if self.builtin() {
             "the built-in sky".to_string()
         } else {
             format!("the map {}", self.env)
@@ -135,5 +223,73 @@ fn log_decomposition(path: &str, d: &Decomposition) {
             sun.angle.to_degrees(),
             100.0 * d.share(k)
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lights(env: &str, sun: Vec<Sun>) -> Lights {
+        Lights {
+            env: env.into(),
+            no_sun_extraction: false,
+            sun,
+            light: Vec::new(),
+        }
+    }
+
+    /// The built-in sun is at azimuth 150°, elevation 25°, a unit vector; the sky's glow
+    /// is around it; `--env sky` has it, `glow` not, and a given sun replaces it.
+    #[test]
+    fn the_builtin_sky_has_its_low_sun() {
+        let (a, e) = (150f64.to_radians(), 25f64.to_radians());
+        let want = [a.cos() * e.cos(), a.sin() * e.cos(), e.sin()];
+        for c in 0..3 {
+            assert!((SUN_DIRECTION[c] - want[c]).abs() < 1e-15, "{c}");
+        }
+        assert_eq!(builtin_sky().sun_direction, SUN_DIRECTION);
+        let env = lights("sky", Vec::new()).environment().unwrap();
+        assert_eq!(env.suns, vec![builtin_sun()]);
+        assert!(
+            lights("glow", Vec::new())
+                .environment()
+                .unwrap()
+                .suns
+                .is_empty()
+        );
+        let mine = Sun {
+            direction: [0.0, 0.0, 1.0],
+            irradiance: [1.0; 3],
+            angle: 0.0,
+        };
+        let env = lights("sky", vec![mine.clone()]).environment().unwrap();
+        assert_eq!(env.suns, vec![mine]);
+        assert_eq!(
+            lights("sky", Vec::new()).describe(),
+            "the built-in sky and its sun"
+        );
+    }
+
+    /// The ground is under the built-in skies by default, not under a map; on and off
+    /// force it; a non-finite floor has none.
+    #[test]
+    fn the_ground_follows_the_choice() {
+        let sky = lights("sky", Vec::new());
+        let map = lights("x.exr", Vec::new());
+        assert_eq!(
+            GroundChoice::Auto.ground(&sky, -1.0),
+            Some(Ground::at(-1.0))
+        );
+        assert_eq!(
+            GroundChoice::Auto.ground(&lights("glow", Vec::new()), 0.0),
+            Some(Ground::at(0.0))
+        );
+        assert_eq!(GroundChoice::Auto.ground(&map, 0.0), None);
+        assert_eq!(GroundChoice::On.ground(&map, 2.0), Some(Ground::at(2.0)));
+        assert_eq!(GroundChoice::Off.ground(&sky, 0.0), None);
+        assert_eq!(GroundChoice::On.ground(&sky, f64::NAN), None);
+        assert_eq!("on".parse(), Ok(GroundChoice::On));
+        assert!("yes".parse::<GroundChoice>().is_err());
     }
 }

@@ -35,6 +35,8 @@ pub struct SceneJob {
     pub reference: bool,
     pub gpu: bool,
     pub exposure: f64,
+    /// The tone curve of a PNG output.
+    pub tone: haze_core::ToneMap,
     /// Seconds of wind for the analytic fog.
     pub time: f64,
     /// Single scattering through every medium by `haze_scene::march`.
@@ -333,7 +335,7 @@ fn write(a: &SceneJob, image: Image, kind: OutKind, stage: &str) -> Result<()> {
         .map_err(|e| anyhow!("{}: {e}", a.scene.display()))?;
     match kind {
         OutKind::Exr => image.write_exr(&a.out)?,
-        OutKind::Png => image.write_png(&a.out, a.exposure)?,
+        OutKind::Png => image.write_png(&a.out, a.exposure, a.tone)?,
     }
     Ok(())
 }

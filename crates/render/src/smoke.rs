@@ -4,7 +4,7 @@
 
 use crate::check::{self, ErrorEstimate};
 use crate::frame::{self, FitKnobs};
-use crate::lights::Lights;
+use crate::lights::{GroundChoice, Lights};
 use crate::progress;
 use anyhow::{Result, anyhow, bail};
 use haze_gpu::GpuContext;
@@ -65,9 +65,13 @@ pub struct RenderOptions {
     /// The error the render was asked to meet (rel RMS): the check warns above it.
     pub target_error: Option<f64>,
     pub exposure: f64,
+    /// The tone curve of a PNG output.
+    pub tone: haze_core::ToneMap,
     pub import: ImportOptions,
     /// The grid the fast renderer lights on ([`Supersample`]).
     pub supersample: Supersample,
+    /// Whether a ground shows under the smoke ([`GroundChoice`]).
+    pub ground: GroundChoice,
 }
 
 impl RenderOptions {
@@ -113,8 +117,10 @@ impl RenderOptions {
             check: 0,
             target_error: None,
             exposure: 1.0,
+            tone: haze_core::ToneMap::Filmic,
             import: ImportOptions::default(),
             supersample: Supersample::Auto,
+            ground: GroundChoice::Auto,
         }
     }
 }
@@ -159,7 +165,7 @@ pub fn render(a: RenderOptions) -> Result<Option<ErrorEstimate>> {
     } = render_image(&a)?;
     match kind {
         OutKind::Exr => image.write_exr(&a.out)?,
-        OutKind::Png => image.write_png(&a.out, a.exposure)?,
+        OutKind::Png => image.write_png(&a.out, a.exposure, a.tone)?,
     }
     eprintln!(
         "{}: {}×{}, {}, {:.2} s",
@@ -242,11 +248,13 @@ pub fn render_image(a: &RenderOptions) -> Result<Rendered> {
         _ => bail!("give both --eye and --target, or neither (to frame the volume)"),
     }
     .map_err(|e| anyhow!("camera: {e}"))?;
+    let ground = a.ground.ground(&a.env, frame.density.bbox().min[2]);
     let spinner = progress::spinner(&format!("rendering {}", frame.label));
     let (image, what) = if a.reference {
         let opts = RefOptions {
             spp: a.spp,
             multiple: a.multiple,
+            ground,
             ..RefOptions::default()
         };
         let (img, noise) =
@@ -272,6 +280,7 @@ pub fn render_image(a: &RenderOptions) -> Result<Rendered> {
             env_source: a.env_source,
             solve: a.solve,
             diffusion: a.diffusion,
+            ground,
             ..CrmOptions::default()
         };
         let (dims, bbox) = (frame.density.dims(), frame.density.bbox());
@@ -376,7 +385,7 @@ pub fn render_image(a: &RenderOptions) -> Result<Rendered> {
     };
     spinner.finish_and_clear();
     image.check_finite(&what)?;
-    let (checked, estimate) = check_error(a, &image, &frame.density, &medium, &camera)?;
+    let (checked, estimate) = check_error(a, &image, &frame.density, &medium, ground, &camera)?;
     let what = match checked {
         Some(e) => format!("{what}, {e}"),
         None => what,
@@ -444,6 +453,7 @@ fn check_error(
     image: &Image,
     density: &haze_volume::Volume,
     medium: &Medium,
+    ground: Option<haze_view::ground::Ground>,
     camera: &Camera,
 ) -> Result<(Option<String>, Option<ErrorEstimate>)> {
     if a.check == 0 || a.reference {
@@ -459,6 +469,7 @@ fn check_error(
         density,
         medium,
         &env,
+        ground,
         camera,
         a.multiple,
         a.check,

@@ -585,6 +585,7 @@ impl Lab for SmokeLab {
             &self.density,
             &self.medium,
             &self.env,
+            None,
             &camera,
             true,
             n,

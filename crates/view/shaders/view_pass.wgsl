@@ -34,19 +34,25 @@ struct Params {
     // Suns whose disks are in `suns`.
     suns: u32,
     dims: vec3<u32>,
-    _pad1: u32,
+    // Lights of the ground in `ground_lights`.
+    ground_lights: u32,
     image: vec2<u32>,
     env_size: vec2<u32>,
     zenith: vec3<f32>,
     sharpness: f32,
     horizon: vec3<f32>,
-    _pad2: f32,
+    // The ground's height, box-local.
+    ground_z: f32,
     ground: vec3<f32>,
-    _pad3: f32,
+    // 1: camera rays meet a ground (`ground::GroundLight`), 0: none.
+    has_ground: u32,
     sun_direction: vec3<f32>,
     _pad4: f32,
     sun: vec3<f32>,
     _pad5: f32,
+    // ρ/π · E_sky of the ground.
+    ground_sky: vec3<f32>,
+    _pad6: f32,
 }
 
 // Transmittance below which the march stops (`crm::OPAQUE`).
@@ -62,6 +68,9 @@ const OPAQUE: f32 = 1e-4;
 // Two per sun with a disk (`Environment::radiance`): (unit direction towards it,
 // cos(angle/2)), (disk radiance, 0).
 @group(0) @binding(4) var<storage, read> suns: array<vec4<f32>>;
+// Two per light of the ground: (unit direction towards a sun, 0) or (box-local position
+// of a point light, 1); (ρ/π · irradiance or intensity, 0).
+@group(0) @binding(5) var<storage, read> ground_lights: array<vec4<f32>>;
 
 // `Camera::pixel_ray`: through the center of pixel (x, y), row 0 at the top.
 fn pixel_ray(x: u32, y: u32) -> vec3<f32> {
@@ -191,13 +200,66 @@ fn environment(d: vec3<f32>) -> vec3<f32> {
     return out;
 }
 
+// `ground::marched_transmittance`: exp(−σt ∫ D) from box-local x along the unit w over
+// the distance len, by the midpoint rule in steps of half the smallest voxel side.
+fn shadow(x: vec3<f32>, w: vec3<f32>, len: f32) -> f32 {
+    let hit = ray_box(x, w);
+    if hit.z == 0.0 {
+        return 1.0;
+    }
+    let t0 = hit.x;
+    let t1 = min(hit.y, len);
+    let h = 0.5 * min(p.voxel.x, min(p.voxel.y, p.voxel.z));
+    if !(p.sigma_t > 0.0 && h > 0.0 && t1 > t0) {
+        return 1.0;
+    }
+    let steps = u32(min(ceil((t1 - t0) / h), 1.0e6));
+    let dt = (t1 - t0) / f32(steps);
+    var depth = 0.0;
+    for (var k = 0u; k < steps; k++) {
+        depth += sample_grid(x + (t0 + (f32(k) + 0.5) * dt) * w).w;
+    }
+    if depth > 0.0 {
+        return exp(-p.sigma_t * depth * dt);
+    }
+    return 1.0;
+}
+
+// `GroundLight::radiance` at the box-local ground point x, the smoke's shadow marched.
+fn ground_radiance(x: vec3<f32>) -> vec3<f32> {
+    var out = p.ground_sky;
+    for (var i = 0u; i < p.ground_lights; i++) {
+        let a = ground_lights[2u * i];
+        let e = ground_lights[2u * i + 1u].xyz;
+        if a.w == 0.0 {
+            if a.z > 0.0 {
+                out += e * (a.z * shadow(x, a.xyz, 3.0e38));
+            }
+        } else {
+            let v = a.xyz - x;
+            let r2 = dot(v, v);
+            if r2 > 0.0 && v.z > 0.0 {
+                let r = sqrt(r2);
+                let w = v / r;
+                out += e * (w.z / r2 * shadow(x, w, r));
+            }
+        }
+    }
+    return out;
+}
+
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= p.image.x || id.y >= p.image.y {
         return;
     }
     let d = pixel_ray(id.x, id.y);
-    let background = environment(d);
+    var background = environment(d);
+    // `GroundLight::hit`: the ground replaces the environment where the ray meets it.
+    if p.has_ground == 1u && d.z < 0.0 && p.eye.z > p.ground_z {
+        let t = (p.eye.z - p.ground_z) / -d.z;
+        background = ground_radiance(vec3<f32>(p.eye.xy + t * d.xy, p.ground_z));
+    }
     let cos_g = max(dot(d, p.forward), 1e-6);
     let hit = ray_box(p.eye, d);
     var out = vec3<f32>(0.0);

@@ -647,7 +647,7 @@ fn the_view_layer_is_the_view_pass_split_into_smoke_and_background() {
     )
     .unwrap();
     let du = default_slice([n; 3], &bbox) / 4.0;
-    let image = view_pass(&grids, &medium, &env, &camera, du);
+    let image = view_pass(&grids, &medium, &env, &camera, du, None);
     let layer = view_layer(&grids, &medium, &camera, du, &|_| f64::INFINITY);
     for (i, (px, s)) in image.iter().zip(&layer).enumerate() {
         let bg = env.radiance(camera.pixel_ray(i % 9, i / 9));

@@ -7,6 +7,7 @@
 use haze_gpu::{GpuContext, GpuError};
 use haze_view::diffusion::DiffusionSolver;
 use haze_view::gpu::view_pass::{ViewPass, view_pass};
+use haze_view::ground::{Ground, GroundLight};
 use haze_view::lighting::single::ShKit;
 use haze_view::render::crm::{self, OPAQUE, VolumeGrids};
 use haze_view::render::{CrmOptions, CrmStats, source_radiance};
@@ -97,14 +98,32 @@ fn compare(
     cam: &Camera,
     du: f64,
 ) -> (f64, f64) {
+    compare_over(ctx, g, medium, env, cam, du, None)
+}
+
+/// [`compare`] with a ground behind the smoke.
+fn compare_over(
+    ctx: &GpuContext,
+    g: &VolumeGrids,
+    medium: &Medium,
+    env: &Environment,
+    cam: &Camera,
+    du: f64,
+    ground: Option<&GroundLight>,
+) -> (f64, f64) {
     let t = Instant::now();
-    let cpu = crm::view_pass(g, medium, env, cam, du);
+    let cpu = crm::view_pass(g, medium, env, cam, du, ground);
     let cpu_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let gpu = view_pass(ctx, g, medium, env, cam, du).unwrap_or_else(|e| panic!("{e}"));
+    let gpu = view_pass(ctx, g, medium, env, cam, du, ground).unwrap_or_else(|e| panic!("{e}"));
     let gpu_s = t.elapsed().as_secs_f64();
     assert_eq!(gpu.len(), cpu.len());
-    let slack = OPAQUE * brightest(env, g, cam);
+    let slack = OPAQUE
+        * brightest(env, g, cam).max(
+            cpu.iter()
+                .flatten()
+                .fold(0.0f64, |m, v| m.max(f64::from(*v))),
+        );
     let (mut max_abs, mut max_ref) = (0.0f64, 0.0f64);
     for (i, (p, q)) in gpu.iter().zip(&cpu).enumerate() {
         for c in 0..3 {
@@ -149,6 +168,50 @@ fn sky_seen_through_smoke_matches_the_cpu() {
     let g = grids(&rbfs, [32; 3], &bbox, &medium, &env, cam.eye);
     let du = crm::default_slice([32; 3], &bbox);
     compare(&ctx, &g, &medium, &env, &cam, du);
+}
+
+/// A ground at the floor of a box far from the origin, lit by the sky, a low sun whose
+/// shadow of the smoke falls across the picture and a point light above it: the marched
+/// shadow is the CPU's, and the ground is darker in the shadow than beside it.
+#[test]
+fn the_ground_and_its_shadow_match_the_cpu() {
+    let ctx = context();
+    let bbox = Bbox::new([40.0, -20.0, 5.0], [41.0, -19.0, 6.0]);
+    let rbfs = cluster(&bbox);
+    let mut env = Environment::sky(Sky::default());
+    let e = 25f64.to_radians();
+    env.suns.push(Sun {
+        direction: [-e.cos(), 0.0, e.sin()],
+        irradiance: [8.0, 7.0, 6.0],
+        angle: 0.01,
+    });
+    env.points
+        .push(haze_view::PointLight::new([40.5, -19.5, 7.0], [2.0, 2.0, 2.0]).unwrap());
+    let medium = Medium::new(8.0, 0.8, 0.3).unwrap();
+    let cam = Camera::new(
+        [40.5, -21.5, 6.6],
+        [40.8, -19.5, 5.2],
+        [0.0, 0.0, 1.0],
+        50.0,
+        45,
+        35,
+    )
+    .unwrap();
+    let g = grids(&rbfs, [20; 3], &bbox, &medium, &env, cam.eye);
+    let du = crm::default_slice([20; 3], &bbox);
+    let ground = Ground::at(bbox.min[2]).lit(&env);
+    compare_over(&ctx, &g, &medium, &env, &cam, du, Some(&ground));
+    // The sun comes from −x: the smoke's shadow lies on the ground at +x of it.
+    let shaded = ground.radiance([41.3, -19.5, 5.0], |x, w, l| {
+        haze_view::ground::marched_transmittance(&g.density, medium.sigma_t, x, w, l)
+    });
+    let open = ground.radiance([39.3, -19.5, 5.0], |x, w, l| {
+        haze_view::ground::marched_transmittance(&g.density, medium.sigma_t, x, w, l)
+    });
+    assert!(
+        shaded[0] < 0.9 * open[0],
+        "shadow {shaded:?}, beside it {open:?}"
+    );
 }
 
 #[test]
@@ -292,9 +355,9 @@ fn suns_disks_in_the_background_match_the_cpu() {
     // The disks are drawn: without them the images differ.
     let medium = Medium::new(0.0, 0.8, 0.3).unwrap();
     let g = grids(&rbfs, [8; 3], &bbox, &medium, &env, cam.eye);
-    let with = view_pass(&ctx, &g, &medium, &env, &cam, 0.05).unwrap();
+    let with = view_pass(&ctx, &g, &medium, &env, &cam, 0.05, None).unwrap();
     let bare = Environment::sky(Sky::default());
-    let without = view_pass(&ctx, &g, &medium, &bare, &cam, 0.05).unwrap();
+    let without = view_pass(&ctx, &g, &medium, &bare, &cam, 0.05, None).unwrap();
     let brighter = with
         .iter()
         .zip(&without)
@@ -313,20 +376,24 @@ fn a_compiled_pass_renders_many_frames_and_refuses_bad_input() {
     let medium = Medium::new(4.0, 0.8, 0.3).unwrap();
     let cam = Camera::framing(bbox.min, bbox.max, 40.0, 16, 12).unwrap();
     let g = grids(&rbfs, [16; 3], &bbox, &medium, &env, cam.eye);
-    let a = pass.run(&ctx, &g, &medium, &env, &cam, 0.03).unwrap();
-    let b = pass.run(&ctx, &g, &medium, &env, &cam, 0.03).unwrap();
+    let a = pass.run(&ctx, &g, &medium, &env, &cam, 0.03, None).unwrap();
+    let b = pass.run(&ctx, &g, &medium, &env, &cam, 0.03, None).unwrap();
     assert_eq!(a, b, "the same frame twice");
 
     let mut bad = g.clone();
     bad.radiance.pop();
-    let e = pass.run(&ctx, &bad, &medium, &env, &cam, 0.03).unwrap_err();
+    let e = pass
+        .run(&ctx, &bad, &medium, &env, &cam, 0.03, None)
+        .unwrap_err();
     assert!(matches!(e, GpuError::Input(_)), "{e}");
     assert_eq!(
         e.to_string(),
         "the radiance grid has 4095 voxels, the density grid 4096"
     );
     for du in [0.0, -1.0, f64::NAN] {
-        let e = pass.run(&ctx, &g, &medium, &env, &cam, du).unwrap_err();
+        let e = pass
+            .run(&ctx, &g, &medium, &env, &cam, du, None)
+            .unwrap_err();
         assert!(e.to_string().contains("must be positive and finite"), "{e}");
     }
 }

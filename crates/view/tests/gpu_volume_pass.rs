@@ -448,7 +448,7 @@ fn chained_gpu_passes_match_crm_render() {
             .unwrap_or_else(|e| panic!("{e}"));
         let du = slice_thickness(dims, &bbox, &o);
         let gpu = view
-            .run_on(&ctx, &grid, &medium, &env, &cam, du)
+            .run_on(&ctx, &grid, &medium, &env, &cam, du, None)
             .unwrap_or_else(|e| panic!("{e}"));
         let gpu_s = t.elapsed().as_secs_f64();
         let mut brightest: f64 = 0.0;

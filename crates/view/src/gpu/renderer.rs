@@ -446,9 +446,16 @@ impl GpuRenderer {
 
         let t = Instant::now();
         let du = slice_thickness(frame.dims, &frame.bbox, opts);
-        let image = self
-            .view
-            .dispatch_in(ctx, grid, medium, &self.env_buffer, camera, du)?;
+        let ground = opts.ground.map(|g| g.lit(&self.env));
+        let image = self.view.dispatch_in(
+            ctx,
+            grid,
+            medium,
+            &self.env_buffer,
+            camera,
+            du,
+            ground.as_ref(),
+        )?;
         stats.crm.view_seconds = t.elapsed().as_secs_f64();
         stats.gpu = ctx.take_stage_times()?;
         Ok((image, stats))

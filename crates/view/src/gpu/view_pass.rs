@@ -26,6 +26,7 @@ use super::GridBuffer;
 use crate::Camera;
 use crate::distant::Distant;
 use crate::env::Environment;
+use crate::ground::GroundLight;
 use crate::medium::Medium;
 use crate::render::crm::VolumeGrids;
 use haze_gpu::wgsl::Variant;
@@ -42,7 +43,7 @@ pub const SHADER: Variant = Variant {
 const TILE: u32 = 8;
 
 /// The shader's `Params` (a read-only storage buffer): WGSL's layout (a `vec3` is 16-byte aligned and the
-/// scalar after it fills its fourth slot), 208 bytes.
+/// scalar after it fills its fourth slot), 224 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 struct Params {
@@ -59,19 +60,21 @@ struct Params {
     voxel: [f32; 3],
     suns: u32,
     dims: [u32; 3],
-    _pad1: u32,
+    ground_lights: u32,
     image: [u32; 2],
     env_size: [u32; 2],
     zenith: [f32; 3],
     sharpness: f32,
     horizon: [f32; 3],
-    _pad2: f32,
+    ground_z: f32,
     ground: [f32; 3],
-    _pad3: f32,
+    has_ground: u32,
     sun_direction: [f32; 3],
     _pad4: f32,
     sun: [f32; 3],
     _pad5: f32,
+    ground_sky: [f32; 3],
+    _pad6: f32,
 }
 
 fn f32x3(v: [f64; 3]) -> [f32; 3] {
@@ -100,6 +103,7 @@ impl ViewPass {
     /// grids whose radiance does not match the density's voxels, a `du` that is not
     /// positive and finite, a sky with a negative sun sharpness, and buffers beyond the
     /// device's limits.
+    #[allow(clippy::too_many_arguments)]
     pub fn run(
         &self,
         ctx: &GpuContext,
@@ -108,14 +112,16 @@ impl ViewPass {
         env: &Environment,
         camera: &Camera,
         du: f64,
+        ground: Option<&GroundLight>,
     ) -> Result<Vec<[f32; 3]>, GpuError> {
         let grid = GridBuffer::upload(ctx, g)?;
-        self.run_on(ctx, &grid, medium, env, camera, du)
+        self.run_on(ctx, &grid, medium, env, camera, du, ground)
     }
 
     /// The image of grids already on the GPU (those a
     /// [`VolumePass`](super::volume_pass::VolumePass) wrote), as [`ViewPass::run`]:
     /// [`ViewPass::dispatch`], then [`ImageBuffer::read`].
+    #[allow(clippy::too_many_arguments)]
     pub fn run_on(
         &self,
         ctx: &GpuContext,
@@ -124,12 +130,15 @@ impl ViewPass {
         env: &Environment,
         camera: &Camera,
         du: f64,
+        ground: Option<&GroundLight>,
     ) -> Result<Vec<[f32; 3]>, GpuError> {
-        self.dispatch(ctx, grid, medium, env, camera, du)?.read(ctx)
+        self.dispatch(ctx, grid, medium, env, camera, du, ground)?
+            .read(ctx)
     }
 
     /// Submits the view pass of grids on the GPU and leaves the image there (a frame
     /// that is displayed or timed need not come back to the host).
+    #[allow(clippy::too_many_arguments)]
     pub fn dispatch(
         &self,
         ctx: &GpuContext,
@@ -138,13 +147,16 @@ impl ViewPass {
         env: &Environment,
         camera: &Camera,
         du: f64,
+        ground: Option<&GroundLight>,
     ) -> Result<ImageBuffer, GpuError> {
         let env = EnvBuffer::upload(ctx, env)?;
-        self.dispatch_in(ctx, grid, medium, &env, camera, du)
+        self.dispatch_in(ctx, grid, medium, &env, camera, du, ground)
     }
 
     /// [`ViewPass::dispatch`] with the environment already on the GPU (uploaded once for
-    /// many frames).
+    /// many frames). Camera rays that meet `ground` see it instead of the environment
+    /// ([`crate::ground`]).
+    #[allow(clippy::too_many_arguments)]
     pub fn dispatch_in(
         &self,
         ctx: &GpuContext,
@@ -153,6 +165,7 @@ impl ViewPass {
         env: &EnvBuffer,
         camera: &Camera,
         du: f64,
+        ground: Option<&GroundLight>,
     ) -> Result<ImageBuffer, GpuError> {
         let dims = grid.dims();
         if !(du > 0.0 && du.is_finite()) {
@@ -175,6 +188,11 @@ impl ViewPass {
 
         let bbox = grid.bbox();
         let eye = [0, 1, 2].map(|a| camera.eye[a] - bbox.min[a]);
+        let lights = ground_lights(ground, bbox.min)?;
+        ctx.check_storage_size(
+            "the ground's lights",
+            std::mem::size_of_val(lights.as_slice()) as u64,
+        )?;
         let params = Params {
             eye: f32x3(eye),
             tan_half: camera.tan_half() as f32,
@@ -189,19 +207,21 @@ impl ViewPass {
             voxel: f32x3(grid.voxel_size()),
             suns: env.suns,
             dims: dims.map(|n| n as u32),
-            _pad1: 0,
+            ground_lights: ((lights.len() - 1) / 2) as u32,
             image: [width as u32, height as u32],
             env_size: env.size,
             zenith: f32x3(sky.zenith),
             sharpness: sky.sharpness as f32,
             horizon: f32x3(sky.horizon),
-            _pad2: 0.0,
+            ground_z: ground.map_or(0.0, |g| (g.height - bbox.min[2]) as f32),
             ground: f32x3(sky.ground),
-            _pad3: 0.0,
+            has_ground: u32::from(ground.is_some()),
             sun_direction: f32x3(sky.sun_direction),
             _pad4: 0.0,
             sun: f32x3(sky.sun),
             _pad5: 0.0,
+            ground_sky: f32x3(ground.map_or([0.0; 3], |g| g.sky)),
+            _pad6: 0.0,
         };
 
         let output = ctx.scoped("the view pass", || {
@@ -217,12 +237,19 @@ impl ViewPass {
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             });
+            let lights_buffer = buffer_init(
+                ctx,
+                "view pass ground lights",
+                bytemuck::cast_slice(&lights),
+                wgpu::BufferUsages::STORAGE,
+            );
             let buffers = [
                 &params_buffer,
                 grid.buffer(),
                 &env.buffer,
                 &output,
                 &env.sun_buffer,
+                &lights_buffer,
             ];
             let groups = [groups[0] as u32, groups[1] as u32, 1];
             submit_pass(ctx, &self.pipeline, "view pass", &buffers, groups);
@@ -234,6 +261,43 @@ impl ViewPass {
             height,
         })
     }
+}
+
+/// The ground's lights as `view_pass.wgsl` reads them: per light `(direction towards a
+/// sun, 0)` or `(box-local position of a point light, 1)`, then `(ρ/π·E or ρ/π·I, 0)`;
+/// after them one zero `vec4` (a buffer is never empty). Refuses non-finite values.
+fn ground_lights(
+    ground: Option<&GroundLight>,
+    origin: [f64; 3],
+) -> Result<Vec<[f32; 4]>, GpuError> {
+    let mut out = Vec::new();
+    if let Some(g) = ground {
+        let finite = [g.height].iter().chain(&g.sky).all(|c| c.is_finite())
+            && g.suns
+                .iter()
+                .chain(&g.points)
+                .all(|(a, e)| a.iter().chain(e).all(|c| c.is_finite()));
+        if !finite {
+            return Err(GpuError::Input(format!(
+                "the ground at height {} has a non-finite light",
+                g.height
+            )));
+        }
+        for (w, e) in &g.suns {
+            let w = f32x3(*w);
+            out.push([w[0], w[1], w[2], 0.0]);
+            let e = f32x3(*e);
+            out.push([e[0], e[1], e[2], 0.0]);
+        }
+        for (q, i) in &g.points {
+            let q = f32x3([0, 1, 2].map(|a| q[a] - origin[a]));
+            out.push([q[0], q[1], q[2], 1.0]);
+            let i = f32x3(*i);
+            out.push([i[0], i[1], i[2], 0.0]);
+        }
+    }
+    out.push([0.0; 4]);
+    Ok(out)
 }
 
 /// The environment on the GPU as the view pass reads it: the sky's parameters (evaluated
@@ -375,8 +439,9 @@ pub fn view_pass(
     env: &Environment,
     camera: &Camera,
     du: f64,
+    ground: Option<&GroundLight>,
 ) -> Result<Vec<[f32; 3]>, GpuError> {
-    ViewPass::new(ctx)?.run(ctx, g, medium, env, camera, du)
+    ViewPass::new(ctx)?.run(ctx, g, medium, env, camera, du, ground)
 }
 
 #[cfg(test)]
@@ -386,7 +451,8 @@ mod tests {
     #[test]
     fn params_match_the_wgsl_layout() {
         // Offsets of the WGSL struct: vec3 at 16-byte boundaries, vec2<u32> at 8.
-        assert_eq!(std::mem::size_of::<Params>(), 208);
+        assert_eq!(std::mem::size_of::<Params>(), 224);
+        assert_eq!(std::mem::offset_of!(Params, ground_sky), 208);
         assert_eq!(std::mem::offset_of!(Params, image), 112);
         assert_eq!(std::mem::offset_of!(Params, zenith), 128);
         assert_eq!(std::mem::offset_of!(Params, sun), 192);

@@ -106,6 +106,7 @@ fn check_in_scattering(
         medium: &medium,
         env,
         sampler: sampler.as_ref(),
+        ground: None,
     };
     let without = Scene {
         sampler: None,
@@ -288,6 +289,7 @@ fn both_estimators_with_mis_match_quadrature_in_a_slab_under_a_ring() {
             medium: &m,
             env: &env,
             sampler: sampler.as_ref(),
+            ground: None,
         };
         for multiple in [false, true] {
             let opts = RefOptions {
@@ -328,6 +330,7 @@ fn path_tracing_with_and_without_mis_agree_under_a_patch() {
         medium: &m,
         env: &env,
         sampler: sampler.as_ref(),
+        ground: None,
     };
     let without = Scene {
         sampler: None,

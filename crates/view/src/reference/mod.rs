@@ -35,6 +35,7 @@ use rand_pcg::Pcg64;
 use rayon::prelude::*;
 
 use crate::field::ray_box;
+use crate::ground::GroundLight;
 use crate::lights::dot;
 use crate::medium::{FOUR_PI, Medium, hg, sample_hg_cos};
 use crate::{Camera, Environment, Image, Rgb};
@@ -42,7 +43,7 @@ use env_sampling::{EnvSampler, power_heuristic};
 use rand::RngExt;
 
 /// Sample counts and switches of the reference renderer.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RefOptions {
     /// Samples per pixel: scattering points along the camera ray (single scattering) or
     /// paths (multiple scattering). At least 1 is used.
@@ -64,6 +65,9 @@ pub struct RefOptions {
     /// that brings less light than the suns, are sampled by the phase function either way
     /// (`sampler_for`).
     pub env_sampling: bool,
+    /// A ground under the smoke, seen by camera rays, its shadow exact
+    /// ([`crate::ground`]); none by default.
+    pub ground: Option<crate::ground::Ground>,
 }
 
 impl Default for RefOptions {
@@ -81,6 +85,7 @@ impl Default for RefOptions {
             multiple: true,
             max_bounces: 256,
             env_sampling: true,
+            ground: None,
         }
     }
 }
@@ -93,6 +98,8 @@ pub(crate) struct Scene<'a> {
     pub env: &'a Environment,
     /// The distribution the distant environment is sampled from, if it is.
     pub sampler: Option<&'a EnvSampler>,
+    /// The ground camera rays see, lit.
+    pub ground: Option<&'a GroundLight>,
 }
 
 impl<'a> Scene<'a> {
@@ -102,6 +109,15 @@ impl<'a> Scene<'a> {
             sigma_t: self.medium.sigma_t,
             o,
             d,
+        }
+    }
+
+    /// What the camera ray from `o` along the unit `d` sees behind the smoke: the ground
+    /// where it meets it, its shadow exact, else the environment.
+    fn background(&self, o: [f64; 3], d: [f64; 3]) -> Rgb {
+        match self.ground.and_then(|g| Some((g, g.hit(o, d)?))) {
+            Some((g, x)) => g.radiance(x, |x, w, len| self.transmittance(x, w, len)),
+            None => self.env.radiance(d),
         }
     }
 
@@ -144,11 +160,13 @@ pub fn render(
     opts: &RefOptions,
 ) -> Image {
     let sampler = sampler_for(env, opts);
+    let ground = opts.ground.map(|g| g.lit(env));
     let scene = Scene {
         volume,
         medium,
         env,
         sampler: sampler.as_ref(),
+        ground: ground.as_ref(),
     };
     render_scene(&scene, camera, opts)
 }
@@ -189,11 +207,13 @@ pub fn render_pixels(
     opts: &RefOptions,
 ) -> Vec<(Rgb, Rgb)> {
     let sampler = sampler_for(env, opts);
+    let ground = opts.ground.map(|g| g.lit(env));
     let scene = Scene {
         volume,
         medium,
         env,
         sampler: sampler.as_ref(),
+        ground: ground.as_ref(),
     };
     let one = RefOptions { spp: 1, ..*opts };
     let n = opts.spp.max(1);
@@ -247,11 +267,13 @@ pub fn render_with_noise(
         ..*opts
     };
     let sampler = sampler_for(env, opts);
+    let ground = opts.ground.map(|g| g.lit(env));
     let scene = Scene {
         volume,
         medium,
         env,
         sampler: sampler.as_ref(),
+        ground: ground.as_ref(),
     };
     let a = render_scene(&scene, camera, &half);
     let b = render_scene(

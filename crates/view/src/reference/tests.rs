@@ -4,6 +4,7 @@ use super::*;
 use crate::Sky;
 use crate::field::ray_box;
 use crate::medium::{FOUR_PI, hg};
+use std::f64::consts::PI;
 
 fn cube() -> Bbox {
     Bbox::new([-1.0; 3], [1.0; 3])
@@ -36,6 +37,7 @@ fn opts(spp: u32, multiple: bool) -> RefOptions {
         multiple,
         max_bounces: 256,
         env_sampling: true,
+        ground: None,
     }
 }
 
@@ -119,6 +121,69 @@ fn without_albedo_a_box_only_attenuates() {
         }
         assert!(through > 50, "the box covers much of the image");
     }
+}
+
+/// The ground under an absorbing box (albedo 0), seen through it and beside it, lit by
+/// a uniform sky (`E = πc`) and a sun at 40° straight through the box: each pixel is
+/// `T_view · ρ/π · (πc + E_sun sin 40° · T_sun)` with both transmittances in closed form
+/// (the density is constant, the paths straight), for both estimators.
+#[test]
+fn the_ground_under_an_absorbing_box_has_its_exact_shadow() {
+    let c = 0.6;
+    let mut env = Environment::constant([c; 3]);
+    let e = 40f64.to_radians();
+    env.suns.push(crate::Sun {
+        direction: [e.cos(), 0.0, e.sin()],
+        irradiance: [5.0; 3],
+        angle: 0.0,
+    });
+    let v = constant_box([3, 3, 3], cube(), 0.7);
+    let m = medium(1.3, 0.0, 0.3);
+    let ground = crate::ground::Ground {
+        height: -1.0,
+        albedo: [0.4, 0.3, 0.2],
+    };
+    let cam = Camera::new(
+        [0.0, -4.0, 2.0],
+        [0.0, 0.0, -1.0],
+        [0.0, 0.0, 1.0],
+        60.0,
+        24,
+        18,
+    )
+    .unwrap();
+    let path = |o: [f64; 3], d: [f64; 3]| ray_box(o, d, v.bbox()).map_or(0.0, |(a, b)| b - a);
+    let sun = [e.cos(), 0.0, e.sin()];
+    let (mut shaded, mut seen) = (0, 0);
+    for multiple in [false, true] {
+        let o = RefOptions {
+            ground: Some(ground),
+            ..opts(2, multiple)
+        };
+        let im = render(&v, &m, &env, &cam, &o);
+        for y in 0..cam.height {
+            for x in 0..cam.width {
+                let d = cam.pixel_ray(x, y);
+                let t_view = (-1.3 * 0.7 * path(cam.eye, d)).exp();
+                let want: [f64; 3] = if d[2] < 0.0 {
+                    let t = (cam.eye[2] + 1.0) / -d[2];
+                    let p = [cam.eye[0] + t * d[0], cam.eye[1] + t * d[1], -1.0];
+                    let t_sun = (-1.3 * 0.7 * path(p, sun)).exp();
+                    shaded += usize::from(t_sun < 0.5);
+                    seen += 1;
+                    ground
+                        .albedo
+                        .map(|a| a / PI * (PI * c + 5.0 * e.sin() * t_sun) * t_view)
+                } else {
+                    [c * t_view; 3]
+                };
+                for (k, (p, w)) in im.get(x, y).into_iter().zip(want).enumerate() {
+                    assert!(close(p, w, 1e-5), "{x} {y} {k}: {p} vs {w}");
+                }
+            }
+        }
+    }
+    assert!(shaded > 20 && seen > shaded + 20, "{shaded} of {seen}");
 }
 
 #[test]

@@ -27,6 +27,7 @@ use crate::Camera;
 use crate::distant::Rgb;
 use crate::env::Environment;
 use crate::field;
+use crate::ground::{GroundLight, marched_transmittance};
 use crate::lighting::single::RgbSh;
 use crate::medium::Medium;
 use crate::sh;
@@ -274,12 +275,15 @@ fn march(
 }
 
 /// View pass: the image of the volume-pass grids, slice thickness `du` (world units).
+/// The background is the environment, or the `ground` where a ray meets it, with the
+/// smoke's shadow marched through the grids' density ([`crate::ground`]).
 pub fn view_pass(
     g: &VolumeGrids,
     medium: &Medium,
     env: &Environment,
     camera: &Camera,
     du: f64,
+    ground: Option<&GroundLight>,
 ) -> Vec<[f32; 3]> {
     let w = camera.width;
     let axis = camera.forward();
@@ -287,7 +291,12 @@ pub fn view_pass(
         .into_par_iter()
         .map(|i| {
             let d = camera.pixel_ray(i % w, i / w);
-            let background = env.radiance(d);
+            let background = match ground.and_then(|gr| Some((gr, gr.hit(camera.eye, d)?))) {
+                Some((gr, x)) => gr.radiance(x, |x, w, len| {
+                    marched_transmittance(&g.density, medium.sigma_t, x, w, len)
+                }),
+                None => env.radiance(d),
+            };
             let (out, tau, _) = march(g, medium, camera.eye, d, axis, du, f64::INFINITY);
             [0, 1, 2].map(|c| (out[c] + tau * background[c]) as f32)
         })

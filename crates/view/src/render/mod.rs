@@ -47,6 +47,9 @@ pub struct CrmOptions {
     pub diffusion: MsDiffusion,
     /// Stopping rule of the grid's diffusion solve ([`MsDiffusion::Grid`]).
     pub grid_solve: GridSolveOptions,
+    /// A ground under the smoke, seen by the view pass ([`crate::ground`]); none by
+    /// default.
+    pub ground: Option<crate::ground::Ground>,
 }
 
 /// Where multiple scattering's diffusion is solved.
@@ -157,6 +160,7 @@ impl Default for CrmOptions {
             solve: SolveOptions::default(),
             diffusion: MsDiffusion::Centers,
             grid_solve: GridSolveOptions::default(),
+            ground: None,
         }
     }
 }
@@ -451,7 +455,8 @@ pub fn crm_render(
     let (grids, du, mut stats) =
         crm_grids(rbfs, residual, dims, bbox, medium, env, camera.eye, opts);
     let t = Instant::now();
-    let pixels = crm::view_pass(&grids, medium, env, camera, du);
+    let ground = opts.ground.map(|g| g.lit(env));
+    let pixels = crm::view_pass(&grids, medium, env, camera, du, ground.as_ref());
     stats.view_seconds = t.elapsed().as_secs_f64();
     (
         Image {

@@ -219,7 +219,7 @@ impl Renderer {
             height,
             pixels: pixels.iter().map(|p| [p[0], p[1], p[2]]).collect(),
         };
-        Ok(image.to_srgb8(knobs.exposure))
+        Ok(image.to_srgb8(knobs.exposure, haze_core::ToneMap::Clip))
     }
 
     fn size(&self) -> (usize, usize) {
@@ -661,7 +661,7 @@ mod tests {
             height: h,
             pixels: px,
         }
-        .to_srgb8(1.0);
+        .to_srgb8(1.0, haze_core::ToneMap::Clip);
         let off = got
             .iter()
             .zip(&want)
@@ -684,7 +684,7 @@ mod tests {
             height: h,
             pixels: px,
         }
-        .to_srgb8(1.0);
+        .to_srgb8(1.0, haze_core::ToneMap::Clip);
         let off = got
             .iter()
             .zip(&want)

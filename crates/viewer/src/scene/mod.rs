@@ -242,7 +242,7 @@ impl Renderer {
             height: img.height,
             pixels: img.pixels,
         };
-        Ok(image.to_srgb8(knobs.exposure))
+        Ok(image.to_srgb8(knobs.exposure, haze_core::ToneMap::Filmic))
     }
 
     /// Renders the edited scene, its analytic fogs carried by `wind`; its linear radiance.

@@ -47,6 +47,8 @@ pub struct Settings {
     pub orbit: Orbit,
     pub knobs: Knobs,
     pub env: Arc<Environment>,
+    /// The ground the panel's "ground" switch shows (at the floor of the asset's box).
+    pub floor: haze_view::ground::Ground,
     /// Render resolution.
     pub size: (usize, usize),
     pub play_for: Option<f64>,
@@ -314,6 +316,7 @@ impl ViewerApp {
             camera,
             scene,
             exposure: self.settings.knobs.exposure,
+            tone: self.settings.knobs.tone,
         }
     }
 
@@ -546,6 +549,16 @@ impl ViewerApp {
                 .logarithmic(true)
                 .text("exposure"),
         );
+        let mut ground = k.ground.is_some();
+        ui.checkbox(&mut ground, "ground (with the smoke's shadow)");
+        k.ground = ground.then_some(self.settings.floor);
+        let mut filmic = k.tone == haze_core::ToneMap::Filmic;
+        ui.checkbox(&mut filmic, "filmic tone map (off: clipped)");
+        k.tone = if filmic {
+            haze_core::ToneMap::Filmic
+        } else {
+            haze_core::ToneMap::Clip
+        };
         ui.separator();
         if ui.button("reset camera").clicked() {
             self.settings.orbit = self.initial_orbit.clone();

@@ -173,6 +173,8 @@ mod tests {
             orders: true,
             orders_model: MsDiffusion::DEFAULT,
             exposure: 1.0,
+            tone: haze_core::ToneMap::Filmic,
+            ground: None,
         };
         let args = |tradeoff: &std::path::Path| ViewArgs {
             input: asset.clone(),
@@ -192,6 +194,7 @@ mod tests {
             orbit: false,
             lighting: haze_view::gpu::renderer::LightingOn::Cpu,
             supersample: haze_render::smoke::Supersample::Auto,
+            ground: haze_render::lights::GroundChoice::Auto,
             goal: Some(Goal::BudgetMs(60.0)),
             tradeoff: Some(tradeoff.to_path_buf()),
         };

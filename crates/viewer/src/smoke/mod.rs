@@ -23,6 +23,7 @@ mod worker;
 
 use crate::orbit::Orbit;
 use anyhow::{Result, anyhow, bail};
+pub use haze_core::ToneMap;
 use haze_gpu::GpuContext;
 use haze_view::gpu::renderer::LightingOn;
 use haze_view::render::env_pass::{EnvGridOptions, EnvSource};
@@ -63,6 +64,8 @@ pub struct ViewArgs {
     pub lighting: LightingOn,
     /// How much finer than the asset's voxels each frame is lit (`thick` module).
     pub supersample: haze_render::smoke::Supersample,
+    /// Whether a ground shows under the smoke, at the floor of the asset's box.
+    pub ground: haze_render::lights::GroundChoice,
     /// Start with the knobs a tradeoff sweep's front gives for this budget or target.
     pub goal: Option<haze_tradeoff::pareto::Goal>,
     /// The sweep for `goal`; a quick sweep of the asset when absent.
@@ -90,6 +93,11 @@ pub struct Knobs {
     /// choice named others).
     pub orders_model: MsDiffusion,
     pub exposure: f64,
+    /// The picture's tone curve (the panel's "filmic tone map").
+    pub tone: ToneMap,
+    /// The ground under the smoke (the panel's "ground"), set from
+    /// [`ViewArgs::ground`] and the asset's box.
+    pub ground: Option<haze_view::ground::Ground>,
 }
 
 impl Knobs {
@@ -143,6 +151,7 @@ impl Knobs {
                 } else {
                     MsDiffusion::Centers
                 },
+                ground: self.ground,
                 ..CrmOptions::default()
             },
         })
@@ -163,7 +172,7 @@ pub fn run(mut a: ViewArgs) -> Result<()> {
     // The viewer's own start (a choice's sweep is not part of its first picture).
     let started = Instant::now();
     // Every knob is checked before anything opens.
-    let knobs = a.knobs;
+    let mut knobs = a.knobs;
     haze_render::smoke::check_knobs(knobs.sh_order, knobs.slices)?;
     Medium::new(knobs.sigma_t, knobs.albedo, knobs.g).map_err(|e| anyhow!("{e}"))?;
     if !(knobs.exposure > 0.0 && knobs.exposure.is_finite()) {
@@ -185,6 +194,7 @@ pub fn run(mut a: ViewArgs) -> Result<()> {
     let numbers = stream.frame_numbers().to_vec();
     let playback = Playback::new(stream.frame_count(), a.fps).map_err(|e| anyhow!(e))?;
     let (dims, bbox) = stream.grid();
+    knobs.ground = a.ground.ground(&a.env, bbox.min[2]);
     let mut cursor = FrameCursor::new(stream, READ_AHEAD);
     let first = cursor.get(0).map_err(|e| anyhow!(e))?;
     let residual = first.residual.as_ref().map(|s| (&*s.group, s.slot));
@@ -217,6 +227,7 @@ pub fn run(mut a: ViewArgs) -> Result<()> {
             .map_err(|e| anyhow!("camera: {e}"))?,
         scene: knobs.scene(env.clone()).map_err(|e| anyhow!(e))?,
         exposure: knobs.exposure,
+        tone: knobs.tone,
     };
 
     if !a.window {
@@ -246,6 +257,7 @@ pub fn run(mut a: ViewArgs) -> Result<()> {
             orbit,
             knobs,
             env,
+            floor: haze_view::ground::Ground::at(bbox.min[2]),
             size: (a.width, a.height),
             play_for: a.play_for,
         },
@@ -342,6 +354,8 @@ mod tests {
             orders: true,
             orders_model: MsDiffusion::DEFAULT,
             exposure: 1.0,
+            tone: ToneMap::Filmic,
+            ground: None,
         };
         let off = Knobs {
             sky_per_voxel: false,

@@ -23,6 +23,7 @@ pub struct View {
     pub camera: Camera,
     pub scene: Scene,
     pub exposure: f64,
+    pub tone: haze_core::ToneMap,
 }
 
 /// What [`Player::update`] did.
@@ -135,6 +136,7 @@ impl Player {
                     camera: view.camera.clone(),
                     scene: view.scene.clone(),
                     exposure: view.exposure,
+                    tone: view.tone,
                 });
                 self.submitted = Some((frame, view.clone()));
             }
@@ -251,6 +253,7 @@ mod tests {
                 opts: CrmOptions::default(),
             },
             exposure,
+            tone: haze_core::ToneMap::Filmic,
         }
     }
 

@@ -38,8 +38,9 @@ pub struct Job {
     pub frame: usize,
     pub camera: Camera,
     pub scene: Scene,
-    /// Linear radiance is multiplied by it before the sRGB encoding.
+    /// Linear radiance is multiplied by it before the tone curve and the sRGB encoding.
     pub exposure: f64,
+    pub tone: haze_core::ToneMap,
 }
 
 /// A finished picture: 8-bit sRGB, three bytes per pixel, row 0 at the top.
@@ -296,7 +297,7 @@ fn run_job(
         number: k.number,
         width,
         height,
-        rgb: k.image.to_srgb8(job.exposure),
+        rgb: k.image.to_srgb8(job.exposure, job.tone),
         times,
         grid: k.grid,
     })
@@ -326,6 +327,7 @@ mod tests {
                 opts: CrmOptions::default(),
             },
             exposure,
+            tone: haze_core::ToneMap::Filmic,
         }
     }
 
@@ -385,7 +387,7 @@ mod tests {
             height: 18,
             pixels,
         };
-        assert_eq!(b.rgb, image.to_srgb8(4.0));
+        assert_eq!(b.rgb, image.to_srgb8(4.0, haze_core::ToneMap::Filmic));
         assert_ne!(a.rgb, b.rgb);
         // Another camera or frame renders again.
         assert!(run(view_job(2, 0.9, 4.0)).times.is_some());
