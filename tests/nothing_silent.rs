@@ -382,3 +382,38 @@ fn a_npy_header_that_nests_brackets_is_refused() {
     );
     assert!(e.contains("v.npy") && e.contains("nests brackets"), "{e}");
 }
+
+/// A phase function too forward for the SH order (HG g 0.8 at order 4: sky-lit
+/// scattering 15 % off on a held-out plume) is warned about with what to do; g 0.3 is
+/// not.
+#[test]
+fn a_phase_function_the_sh_order_truncates_is_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("o.exr");
+    let asset = data("scenes/plume.haze");
+    let render = |g: &str| {
+        let o = haze()
+            .args([
+                "render",
+                s(&asset),
+                "--out",
+                s(&out),
+                "--width",
+                "8",
+                "--height",
+                "6",
+                "--g",
+                g,
+            ])
+            .output()
+            .unwrap();
+        assert!(o.status.success());
+        String::from_utf8(o.stderr).unwrap()
+    };
+    let e = render("0.8");
+    assert!(
+        e.contains("HG g 0.8 is too forward for SH order 4") && e.contains("--check"),
+        "{e}"
+    );
+    assert!(!render("0.3").contains("too forward"));
+}

@@ -181,6 +181,7 @@ def render(
     spp: int = 64,
     check: int = 0,
     supersample: Union[str, int] = "auto",
+    ground: str = "auto",
 ) -> np.ndarray:
     """Render one frame of an asset or a volume (``haze render``).
 
@@ -193,8 +194,10 @@ def render(
             neither; without them the camera frames the smoke.
         up: the camera's up vector.
         fov: vertical field of view, degrees.
-        env: ``"sky"`` (the built-in sky) or a lat-long OpenEXR map (Z up, row 0 the
-            zenith); a map's concentrated light is split off into suns lit exactly.
+        env: ``"sky"`` (the built-in sky and its low sun, lit exactly; a sun given in
+            ``suns`` replaces it), ``"glow"`` (the sky without its sun) or a lat-long
+            OpenEXR map (Z up, row 0 the zenith); a map's concentrated light is split
+            off into suns lit exactly.
         suns: suns lit exactly, each ``(x, y, z, r, g, b[, angle])``: the direction
             towards it, its disk's radiance and apparent diameter in degrees (0.53).
         lights: point lights, each ``(x, y, z, r, g, b)``: position and intensity.
@@ -211,6 +214,9 @@ def render(
             estimated error (0: none).
         supersample: ``"auto"`` or 1..4: light the smoke on a grid this much finer
             than its voxels (``auto``: where voxels are optically thick).
+        ground: ``"auto"``, ``"on"`` or ``"off"``: a ground under the smoke with its
+            shadow, at the floor of the volume's box (``auto``: under the built-in
+            skies, not under a map).
 
     Returns:
         float32 array ``(height, width, 3)`` of linear radiance, row 0 at the top.
@@ -241,6 +247,7 @@ def render(
         spp,
         check,
         supersample,
+        ground,
     )
 
 

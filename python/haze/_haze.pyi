@@ -51,6 +51,7 @@ def render(
     spp: int = 64,
     check: int = 0,
     supersample_: Union[str, int, None] = None,
+    ground: str = "auto",
 ) -> npt.NDArray[np.float32]: ...
 def render_scene(
     scene: str,

@@ -199,6 +199,16 @@ def test_render_is_the_command_lines_image(tmp_path):
         check=True,
     )
     np.testing.assert_array_equal(image, read_exr(out))
+    # The ground: on by default under the built-in sky, the same as the command line's.
+    bare = haze.render(asset, width=40, height=30, suns=[(0.3, 1, 0.6, 30, 28, 26, 2)],
+                       ground="off")
+    assert not np.array_equal(bare, image)
+    subprocess.run(
+        [haze_bin(), "render", str(asset), "--out", str(out), "--width", "40",
+         "--height", "30", "--sun", "0.3,1,0.6,30,28,26,2", "--ground", "off", "-q"],
+        check=True,
+    )
+    np.testing.assert_array_equal(bare, read_exr(out))
 
 
 def test_render_errors_are_haze_errors(tmp_path):
@@ -206,6 +216,8 @@ def test_render_errors_are_haze_errors(tmp_path):
         haze.render(tmp_path / "missing.haze")
     with pytest.raises(haze.HazeError, match="supersample"):
         haze.render(SCENES / "plume.haze", width=8, height=6, supersample=9)
+    with pytest.raises(haze.HazeError, match="ground"):
+        haze.render(SCENES / "plume.haze", width=8, height=6, ground="maybe")
     with pytest.raises(haze.HazeError, match="suns"):
         haze.render(SCENES / "plume.haze", suns=[(0, 0, 1)])
 

@@ -67,7 +67,7 @@ fn supersample(given: &Bound<'_, PyAny>) -> PyResult<Supersample> {
     input, frame=None, width=400, height=300, eye=None, target=None, up=[0.0, 0.0, 1.0],
     fov=40.0, env="sky".to_string(), suns_=Vec::new(), lights_=Vec::new(), sigma_t=4.0,
     albedo=0.8, g=0.3, multiple=true, residual=true, sh_order=4, gpu=false,
-    reference=false, spp=64, check=0, supersample_=None
+    reference=false, spp=64, check=0, supersample_=None, ground="auto".to_string()
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn render<'py>(
@@ -94,6 +94,7 @@ pub fn render<'py>(
     spp: u32,
     check: usize,
     supersample_: Option<Bound<'py, PyAny>>,
+    ground: String,
 ) -> PyResult<Bound<'py, PyArray3<f32>>> {
     let mut a = RenderOptions::new(&input, "haze.render");
     a.frame = frame;
@@ -108,6 +109,9 @@ pub fn render<'py>(
     if let Some(s) = supersample_ {
         a.supersample = supersample(&s)?;
     }
+    a.ground = ground
+        .parse()
+        .map_err(|e: String| to_py(anyhow::anyhow!("ground: {e}")))?;
     let rendered = py.detach(|| render_image(&a)).map_err(to_py)?;
     to_array(py, rendered.image)
 }

@@ -249,6 +249,11 @@ pub fn render_image(a: &RenderOptions) -> Result<Rendered> {
     }
     .map_err(|e| anyhow!("camera: {e}"))?;
     let ground = a.ground.ground(&a.env, frame.density.bbox().min[2]);
+    if !a.reference
+        && let Some(w) = haze_view::sh::phase_cut_warning(a.g, a.sh_order)
+    {
+        tracing::warn!("{}: {w}", frame.label);
+    }
     let spinner = progress::spinner(&format!("rendering {}", frame.label));
     let (image, what) = if a.reference {
         let opts = RefOptions {

@@ -536,6 +536,9 @@ impl ViewerApp {
         );
         ui.add(egui::Slider::new(&mut k.albedo, 0.0..=1.0).text("albedo"));
         ui.add(egui::Slider::new(&mut k.g, r.g.clone()).text("HG g"));
+        if let Some(w) = haze_view::sh::phase_cut_warning(k.g, k.sh_order) {
+            ui.colored_label(egui::Color32::LIGHT_RED, w);
+        }
         ui.separator();
         ui.label("quality");
         ui.add(egui::Slider::new(&mut k.sh_order, 1..=6).text("SH order"));
