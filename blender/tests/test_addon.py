@@ -143,7 +143,10 @@ def main():
     )
     check(
         "the preview is the frame rendered through the scene camera, top row on top",
-        np.allclose(shown, want, rtol=0, atol=1e-6),
+        # The add-on sums eye + forward in Blender's float32 vectors, this test in
+        # Python floats: the cameras differ in the last bits of f32, which a sharp
+        # shadow edge on the ground turns into a few 1e-6 of a pixel.
+        np.allclose(shown, want, rtol=1e-5, atol=1e-6),
         f"max diff {np.abs(shown - want).max()}",
     )
     check("the smoke shows in the preview", np.ptp(want.mean(-1)) > 1e-3)
