@@ -4,13 +4,15 @@ These are the sequences that the figures in BENCHMARKS.md marked "held out" come
 other emitters, wind, obstacles and resolutions than the bundled plume-a, so that no
 constant is tuned to one simulation. Too large to commit; this script remakes them.
 
-Usage (Blender 5.0.1 as a Python module, from PyPI; the helpers live in the shared
-Mantaflow tools folder):
+Usage (Blender 5.0.1 as a Python module, from PyPI; the scene helpers are
+scripts/mantaflow_helpers.py, the Mantaflow fix for bpy blender/tests/manta_fix.py):
 
     python3 -m venv bpyenv && bpyenv/bin/pip install bpy==5.0.1
-    bpyenv/bin/python scripts/bake_heldout.py CASE OUT_DIR [--tools ../shared/tools/mantaflow]
+    bpyenv/bin/python scripts/bake_heldout.py CASE OUT_DIR
 
 CASE is one of:
+  plume-a   48 x 48 x 64,  48 frames: the bundled sample's whole simulation (data/plume-a
+            holds its frames 21..28): a centred emitter, a tilted box obstacle above
   plume-b   72 x 72 x 96,  50 frames: off-centre emitter, side wind, vorticity 0.3
   plume-c   96 x 96 x 128, 50 frames: two emitters, wind, a tilted slab obstacle
   plume-d   96 x 96 x 128, 50 frames: a wide low emitter, gusty turbulence, vorticity 0.05
@@ -42,6 +44,12 @@ import sys
 import time
 
 CASES = {
+    "plume-a": dict(
+        res=64, size=(3.0, 3.0, 4.0), frames=48, vorticity=0.15,
+        emitters=[(0.35, (0.0, 0.0, 0.5), (0.0, 0.0, 0.5))],
+        wind=None, turbulence=None,
+        obstacle=((0.8, 0.8, 0.25), (0.35, 0.1, 2.0), (0.3, 0.2, 0.5)),
+    ),
     "plume-b": dict(
         res=96, size=(3.0, 3.0, 4.0), frames=50, vorticity=0.3,
         emitters=[(0.3, (0.6, -0.4, 0.5), (0.0, 0.0, 0.6))],
@@ -105,15 +113,15 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("case", choices=sorted(CASES))
     ap.add_argument("out")
-    here = os.path.dirname(os.path.abspath(__file__))
-    ap.add_argument("--tools", default=os.path.join(here, "..", "..", "shared", "tools", "mantaflow"))
     args = ap.parse_args()
-    sys.path.insert(0, os.path.abspath(args.tools))
+    here = os.path.dirname(os.path.abspath(__file__))
+    sys.path.insert(0, here)
+    sys.path.insert(0, os.path.join(here, "..", "blender", "tests"))
     import manta_fix  # noqa: E402
 
     manta_fix.apply()  # before `import bpy`: see manta_fix.py
     import bpy  # noqa: E402
-    import sa_common as C  # noqa: E402
+    import mantaflow_helpers as C  # noqa: E402
 
     case = CASES[args.case]
     out = os.path.abspath(os.path.join(args.out, args.case))
