@@ -336,45 +336,20 @@ mod tests {
     fn the_marched_shadow_matches_the_slabs_closed_form() {
         let bbox = Bbox::new([0.0, 0.0, 0.0], [40.0, 40.0, 2.0]);
         let v = Volume::new([20, 20, 4], bbox, vec![0.5; 20 * 20 * 4]).unwrap();
-        let up = marched_transmittance(&v, 3.0, [20.0, 20.0, 0.0], [0.0, 0.0, 1.0], f64::INFINITY);
-        assert!((up - (-3.0f64).exp()).abs() < 1e-12, "{up}");
+        let up = |sigma_t: f64, from: [f64; 3], len: f64| {
+            marched_transmittance(&v, sigma_t, from, [0.0, 0.0, 1.0], len)
+        };
+        let floor = [20.0, 20.0, 0.0];
+        assert!((up(3.0, floor, f64::INFINITY) - (-3.0f64).exp()).abs() < 1e-12);
         let a = 60f64.to_radians();
         let w = [a.sin(), 0.0, a.cos()];
         let slant = marched_transmittance(&v, 3.0, [10.0, 20.0, 0.0], w, f64::INFINITY);
         assert!((slant - (-6.0f64).exp()).abs() < 1e-9, "{slant}");
-        let half = marched_transmittance(&v, 3.0, [20.0, 20.0, 0.0], [0.0, 0.0, 1.0], 1.0);
-        assert!((half - (-1.5f64).exp()).abs() < 1e-12, "{half}");
-        assert_eq!(
-            marched_transmittance(&v, 3.0, [20.0, 20.0, 5.0], [0.0, 0.0, 1.0], f64::INFINITY),
-            1.0
-        );
-        assert_eq!(
-            marched_transmittance(&v, 0.0, [20.0, 20.0, 0.0], [0.0, 0.0, 1.0], f64::INFINITY),
-            1.0
-        );
-        assert_eq!(
-            marched_transmittance(
-                &v,
-                f64::INFINITY,
-                [20.0, 20.0, 0.0],
-                [0.0, 0.0, 1.0],
-                f64::INFINITY
-            ),
-            0.0
-        );
-        assert_eq!(
-            marched_transmittance(
-                &v,
-                f64::NAN,
-                [20.0, 20.0, 0.0],
-                [0.0, 0.0, 1.0],
-                f64::INFINITY
-            ),
-            1.0
-        );
-        assert_eq!(
-            marched_transmittance(&v, 1e300, [20.0, 20.0, 0.0], [0.0, 0.0, 1.0], f64::INFINITY),
-            0.0
-        );
+        assert!((up(3.0, floor, 1.0) - (-1.5f64).exp()).abs() < 1e-12);
+        assert_eq!(up(3.0, [20.0, 20.0, 5.0], f64::INFINITY), 1.0);
+        assert_eq!(up(0.0, floor, f64::INFINITY), 1.0);
+        assert_eq!(up(f64::NAN, floor, f64::INFINITY), 1.0);
+        assert_eq!(up(f64::INFINITY, floor, f64::INFINITY), 0.0);
+        assert_eq!(up(1e300, floor, f64::INFINITY), 0.0);
     }
 }
