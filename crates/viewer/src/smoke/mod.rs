@@ -175,6 +175,9 @@ pub fn run(mut a: ViewArgs) -> Result<()> {
     let mut knobs = a.knobs;
     haze_render::smoke::check_knobs(knobs.sh_order, knobs.slices)?;
     Medium::new(knobs.sigma_t, knobs.albedo, knobs.g).map_err(|e| anyhow!("{e}"))?;
+    if let Some(w) = haze_view::sh::phase_cut_warning(knobs.g, knobs.sh_order) {
+        tracing::warn!("{w}");
+    }
     if !(knobs.exposure > 0.0 && knobs.exposure.is_finite()) {
         bail!("--exposure {} must be positive", knobs.exposure);
     }
