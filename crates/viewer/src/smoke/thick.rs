@@ -107,8 +107,7 @@ impl Refiner {
         let depth = match self.depth.get(&frame.index) {
             Some(d) => *d,
             None => {
-                let (density, _) = density(frame, dims, bbox)?;
-                let d = supersample::tau_per_voxel(&density, 1.0);
+                let d = supersample::tau_per_voxel(&density(frame, dims, bbox)?, 1.0);
                 self.depth.insert(frame.index, d);
                 d
             }
@@ -125,7 +124,11 @@ impl Refiner {
         }
         let fresh = matches!(&self.refined, Some((i, m, _)) if *i == frame.index && *m == n);
         if !fresh {
-            let (_, residual) = density(frame, dims, bbox)?;
+            // The residual alone: the RBFs are evaluated at the fine centers on the GPU.
+            let residual = match &frame.residual {
+                Some(slot) => slot.dense(),
+                None => vec![0.0; dims.iter().product()],
+            };
             let fine = supersample::refine(&residual, dims, &bbox, n);
             self.refined = Some((frame.index, n, fine));
         }
@@ -134,14 +137,15 @@ impl Refiner {
     }
 }
 
-/// The density `frame` reconstructs and its dense residual.
+/// The density `frame` reconstructs (RBFs plus residual, negatives clamped).
 fn density(
     frame: &StreamFrame,
     dims: [usize; 3],
     bbox: Bbox,
-) -> Result<(haze_volume::Volume, Vec<f32>), String> {
+) -> Result<haze_volume::Volume, String> {
     let residual = frame.residual.as_ref().map(|s| (&*s.group, s.slot));
     haze_bake::export::frame_density(dims, bbox, &frame.rbfs, residual)
+        .map(|(density, _)| density)
         .map_err(|e| format!("frame {}: {e}", frame.number))
 }
 
@@ -174,8 +178,7 @@ mod tests {
     fn the_grid_follows_sigma_t_and_the_density() {
         let dims = [8, 8, 8];
         let f = frame(2.0);
-        let (d, _) = density(&f, dims, unit()).unwrap();
-        let d99 = supersample::tau_per_voxel(&d, 1.0);
+        let d99 = supersample::tau_per_voxel(&density(&f, dims, unit()).unwrap(), 1.0);
         assert!(d99 > 0.0 && d99 < 2.0 / 8.0 + 1e-9, "{d99}");
         let mut r = Refiner::new(Supersample::Auto, usize::MAX);
         let (thin, fine) = r.prepare(&f, dims, unit(), 0.5 / d99).unwrap();
