@@ -1,10 +1,11 @@
 #!/usr/bin/env python3
-"""Single scattering of one scene by Mitsuba 3 and by haze's reference renderer, compared.
+"""One scene lit by a sky map, by Mitsuba 3 and by haze's renderers, compared.
 
     pip install mitsuba numpy
     cargo build --release
     scripts/mitsuba_check.py [--haze target/release/haze] [--spp 1024] [--mitsuba-spp 8192]
                              [--size 64x48] [--variant scalar_rgb] [--keep DIR]
+                             [--multiple] [--sigma-t S] [--albedo A] [--g G]
 
 The scene (written to a temporary folder): a density grid of three Gaussians (40³ over
 [−1, 1]³, a raw float32 file with its JSON sidecar), σt 4, albedo 0.8, HG g 0.5, under a
@@ -15,6 +16,12 @@ renders it with `render --reference --no-multiple --no-sun-extraction` (the map 
 importance-sampled); Mitsuba with `volpath` at `max_depth` 2 (one scattering event),
 the grid as a `gridvolume` (trilinear, clamped past the outer voxel centers, as haze's
 field), the map as an `envmap` turned from Mitsuba's Y-up frame into haze's Z-up one.
+
+`--multiple` compares every scattering order instead: haze's `--reference` with
+multiple scattering, Mitsuba's `volpath` without a depth limit, and haze's fast renderer
+as a user runs it (`haze render --env MAP`: the sun found in the map and lit exactly,
+the rest in SH, multiple scattering by explicit orders). `--sigma-t`, `--albedo` and
+`--g` change the medium.
 
 Prints `rel_rms` (docs/conventions.md: RMS of the difference over the RMS of the reference, here
 Mitsuba's image) over the pixels where the smoke changes the background by more than 1 %,
@@ -96,7 +103,7 @@ def read_exr(path):
     return np.array(bmp)
 
 
-def mitsuba_render(vol, env_path, size, spp, seed):
+def mitsuba_render(vol, env_path, size, spp, seed, medium, max_depth):
     w, h = size
     grid_to_world = mi.ScalarTransform4f().translate([-1.0, -1.0, -1.0]).scale(2.0)
     # Mitsuba's envmap: θ from local +Y, u = atan2(x, −z)/2π. Local (y_w, z_w, −x_w) puts
@@ -107,7 +114,7 @@ def mitsuba_render(vol, env_path, size, spp, seed):
     scene = mi.load_dict(
         {
             "type": "scene",
-            "integrator": {"type": "volpath", "max_depth": 2},
+            "integrator": {"type": "volpath", "max_depth": max_depth},
             "sensor": {
                 "type": "perspective",
                 "fov": FOV,
@@ -130,8 +137,8 @@ def mitsuba_render(vol, env_path, size, spp, seed):
                 "bsdf": {"type": "null"},
                 "interior": {
                     "type": "heterogeneous",
-                    "albedo": ALBEDO,
-                    "scale": SIGMA_T,
+                    "albedo": medium[1],
+                    "scale": medium[0],
                     "sigma_t": {
                         "type": "gridvolume",
                         "grid": mi.VolumeGrid(vol[..., None]),
@@ -139,7 +146,7 @@ def mitsuba_render(vol, env_path, size, spp, seed):
                         "filter_type": "trilinear",
                         "wrap_mode": "clamp",
                     },
-                    "phase": {"type": "hg", "g": G},
+                    "phase": {"type": "hg", "g": medium[2]},
                 },
             },
         }
@@ -160,6 +167,11 @@ def main():
     ap.add_argument("--size", default="64x48")
     ap.add_argument("--variant", default="scalar_rgb")
     ap.add_argument("--keep", help="write the scene and images to this folder")
+    ap.add_argument("--multiple", action="store_true",
+                    help="every scattering order, and haze's fast renderer too")
+    ap.add_argument("--sigma-t", type=float, default=SIGMA_T)
+    ap.add_argument("--albedo", type=float, default=ALBEDO)
+    ap.add_argument("--g", type=float, default=G)
     a = ap.parse_args()
     w, h = (int(v) for v in a.size.split("x"))
     mi.set_variant(a.variant)
@@ -181,29 +193,38 @@ def compare(a, folder, w, h):
     env_path = os.path.join(folder, "env.exr")
     mi.Bitmap(env_map()).write(env_path)
 
-    def haze(out, spp, sigma_t):
+    def haze(out, spp, sigma_t, fast=False):
         cmd = [
-            a.haze, "render", vol_path, "--out", out, "--reference", "--no-multiple",
-            "--spp", str(spp), "--env", env_path, "--no-sun-extraction",
+            a.haze, "render", vol_path, "--out", out, "--env", env_path,
             "--width", str(w), "--height", str(h),
             "--eye", ",".join(map(str, EYE)), "--target", ",".join(map(str, TARGET)),
-            "--fov", str(FOV), "--sigma-t", str(sigma_t), "--albedo", str(ALBEDO),
-            "--g", str(G),
+            "--fov", str(FOV), "--sigma-t", str(sigma_t), "--albedo", str(a.albedo),
+            "--g", str(a.g), "-v",
         ]
+        if not fast:
+            cmd += ["--reference", "--spp", str(spp), "--no-sun-extraction"]
+        if not a.multiple:
+            cmd += ["--no-multiple"]
         run = subprocess.run(cmd, capture_output=True, text=True)
         if run.returncode != 0:
             sys.exit(f"haze failed:\n{run.stderr}")
         return read_exr(out).astype(np.float64), (run.stdout + run.stderr).strip()
 
-    haze_img, said = haze(os.path.join(folder, "haze.exr"), a.spp, SIGMA_T)
+    haze_img, said = haze(os.path.join(folder, "haze.exr"), a.spp, a.sigma_t)
     print("haze:", said.splitlines()[-1] if said else "")
+    fast_img = None
+    if a.multiple:
+        fast_img, said = haze(os.path.join(folder, "haze-fast.exr"), 1, a.sigma_t, fast=True)
+        print("haze fast:", said.splitlines()[-1] if said else "")
     # The background each pixel would show without smoke: σt = 0, exact.
     bg, _ = haze(os.path.join(folder, "background.exr"), 1, 0.0)
     mask = np.abs(haze_img - bg).sum(axis=2) > 0.01 * np.abs(bg).sum(axis=2)
 
     half = max(a.mitsuba_spp // 2, 1)
-    m1 = mitsuba_render(vol, env_path, (w, h), half, 1)
-    m2 = mitsuba_render(vol, env_path, (w, h), half, 2)
+    medium = (a.sigma_t, a.albedo, a.g)
+    depth = -1 if a.multiple else 2
+    m1 = mitsuba_render(vol, env_path, (w, h), half, 1, medium, depth)
+    m2 = mitsuba_render(vol, env_path, (w, h), half, 2, medium, depth)
     mits = 0.5 * (m1 + m2)
     if a.keep:
         mi.Bitmap(mits.astype(np.float32)).write(os.path.join(folder, "mitsuba.exr"))
@@ -215,8 +236,14 @@ def compare(a, folder, w, h):
     ratio = haze_img[mask].sum() / mits[mask].sum()
     print(f"{mask.sum()} smoke pixels of {w * h}")
     print(f"Mitsuba ({a.variant}, {a.mitsuba_spp} spp) noise {100 * noise_m:.2f} %")
-    print(f"haze vs Mitsuba: rel_rms {100 * err:.2f} %, mean ratio {ratio:.4f}"
+    what = "every order" if a.multiple else "single scattering"
+    print(f"medium σt {a.sigma_t}, albedo {a.albedo}, g {a.g}; {what}")
+    print(f"haze reference vs Mitsuba: rel_rms {100 * err:.2f} %, mean ratio {ratio:.4f}"
           f" (mirrored: {100 * flipped:.1f} %, a check of the orientation)")
+    if fast_img is not None:
+        err = masked_rel_rms(fast_img, mits, mask)
+        ratio = fast_img[mask].sum() / mits[mask].sum()
+        print(f"haze fast vs Mitsuba: rel_rms {100 * err:.2f} %, mean ratio {ratio:.4f}")
 
 
 if __name__ == "__main__":

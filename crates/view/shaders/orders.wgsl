@@ -3,7 +3,13 @@
 // `env_grid_sources`, `add_lights`, `sun_sources`, `gather`, `FvSystem`, `solve` and
 // `add_to_grids`), in f32 (prepended with `grid_march.wgsl`, `disk_phase.wgsl` and
 // `sh_basis.wgsl`).
-// Positions are relative to the box's minimum corner. Entry points, in order:
+// Positions are relative to the box's minimum corner. The light is carried through the
+// medium's delta-Eddington transport medium (`Medium::delta_eddington`): σt, Ω and g of
+// the parameters are the medium's own (the lights' transmittance, the first source and
+// the light towards the eye), `transport_*` and the diffusion's coefficients the
+// transport medium's (the gathers and the diffusion), and the first source is scaled by
+// `first_scale` = 1/(1 − Ωf) to the transport's optical depth.
+// Entry points, in order:
 //
 // `cells`, one invocation per coarse cell c (blocks of f³ voxels): the cell's mean density
 // D_c (positive finite voxel densities over the block's voxels) and the record of the first
@@ -12,7 +18,7 @@
 // nodes, turned into moments J⁰ = J_00/√4π, J¹ = −√(3/4π)(J_11, J_1−1, J_10) and averaged
 // weighted by D) plus the point lights' moments at the cell center (J⁰ = (Ω/4π) I T/(r² +
 // soft), J¹ = −3g J⁰ s), then D_c·T toward each sun, T marched through the fine D from
-// the cell center (`grid_march.wgsl`).
+// the cell center (`grid_march.wgsl`), every word but D_c scaled by `first_scale`.
 //
 // `occupied`, one workgroup: the box of the cells with smoke, widened by a cell on each
 // side and clipped to the grid (`gather`'s `occupied`), as positions lo, hi in `work`'s
@@ -101,6 +107,12 @@ struct Params {
     rec_suns: u32,
     // 1 for the first dispatch of an order (its directions come in several).
     chunk_first: u32,
+    // The delta-Eddington transport medium's σt', Ω', g' (σs, σa, σtr above are its own).
+    transport_sigma_t: f32,
+    transport_albedo: f32,
+    transport_g: f32,
+    // The first source's factor 1/(1 − Ωf).
+    first_scale: f32,
     // L_j r g b and Ω g^l of the environment's coefficients j < 4.
     env: array<vec4<f32>, 4>,
     // This dispatch's directions of the order's rule: ω x y z, weight (summing to 4π
@@ -269,15 +281,16 @@ fn cells(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
         }
     }
     rec_out[base] = dc;
+    let ds = dc * p.first_scale;
     for (var ch = 0u; ch < 3u; ch++) {
-        rec_out[base + 1u + ch] = dc * finite_or_zero(j0[ch]);
+        rec_out[base + 1u + ch] = ds * finite_or_zero(j0[ch]);
         for (var a = 0u; a < 3u; a++) {
-            rec_out[base + 4u + 3u * ch + a] = dc * finite_or_zero(j1[ch][a]);
+            rec_out[base + 4u + 3u * ch + a] = ds * finite_or_zero(j1[ch][a]);
         }
     }
     for (var l = 0u; l < p.rec_suns; l++) {
         let t = transmittance(u, light_vec(8u * l), 3.0e38);
-        rec_out[base + 13u + l] = dc * clamp(finite_or_zero(t), 0.0, 1.0);
+        rec_out[base + 13u + l] = ds * clamp(finite_or_zero(t), 0.0, 1.0);
     }
 }
 
@@ -447,7 +460,7 @@ fn gather(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
             if !(d > 0.0) {
                 continue;
             }
-            let dtau = p.sigma_t * d * step;
+            let dtau = p.transport_sigma_t * d * step;
             let share = t * one_minus_exp(dtau) / d;
             let a = add_moments(
                 add_moments(add_moments(moments_at(k0, k0.w), moments_at(k1, k1.w)),
@@ -493,10 +506,10 @@ fn gather(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         let a0 = l0[ch] / FOUR_PI;
         let a1 = l1[ch] / FOUR_PI;
         media[m + ch] += a0;
-        rec_out[next + 1u + ch] += dc * p.albedo * a0;
+        rec_out[next + 1u + ch] += dc * p.transport_albedo * a0;
         for (var a = 0u; a < 3u; a++) {
             media[m + 3u + 3u * ch + a] += a1[a];
-            rec_out[next + 4u + 3u * ch + a] += dc * p.albedo * p.g * a1[a];
+            rec_out[next + 4u + 3u * ch + a] += dc * p.transport_albedo * p.transport_g * a1[a];
         }
         for (var j = 0u; j < HIGH; j++) {
             media[m + 16u + HIGH * ch + j] += high[ch][j];
@@ -568,7 +581,7 @@ fn system(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     var diag = (p.sigma_a + p.sigma_s * pi) * di;
     var b = vec3<f32>(0.0);
     for (var ch = 0u; ch < 3u; ch++) {
-        b[ch] = p.sigma_t * di * (1.0 - pi) * source_j0(i, ch);
+        b[ch] = p.transport_sigma_t * di * (1.0 - pi) * source_j0(i, ch);
     }
     for (var f = 0u; f < 6u; f++) {
         let j = neighbour(c, f);
@@ -587,7 +600,7 @@ fn system(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         work[r + 1u + f] = g;
         for (var ch = 0u; ch < 3u; ch++) {
             let flux = 0.5 * ((1.0 - pi) * source_j1(i, ch, a) + (1.0 - pj) * source_j1(j, ch, a)) * n;
-            let drive = finite_or_zero(p.sigma_t / (3.0 * p.sigma_tr * h) * flux);
+            let drive = finite_or_zero(p.transport_sigma_t / (3.0 * p.sigma_tr * h) * flux);
             work[r + 10u + 3u * f + ch] = drive;
             b[ch] -= drive;
         }
@@ -791,13 +804,14 @@ fn apply(@builtin(global_invocation_id) v: vec3<u32>) {
     let d = view / len;
     // Bands 2–3 towards the eye, ω = −d, each scaled by g^l (Funk–Hecke on HG).
     sh_eval(4u, -d);
-    let g2 = p.g * p.g;
+    let g = p.g;
+    let g2 = g * g;
     for (var ch = 0u; ch < 3u; ch++) {
         var bands = 0.0;
         for (var j = 0u; j < HIGH; j++) {
-            bands += select(g2 * p.g, g2, j < 5u) * high[ch][j] * ysh[4u + j];
+            bands += select(g2 * g, g2, j < 5u) * high[ch][j] * ysh[4u + j];
         }
-        let j = p.albedo * (l0[ch] - p.g * dot(l1[ch], d) + bands) / ws;
+        let j = p.albedo * (l0[ch] - g * dot(l1[ch], d) + bands) / ws;
         grid[4u * lin + ch] += max(j, 0.0);
     }
 }

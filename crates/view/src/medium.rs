@@ -28,6 +28,38 @@ impl Medium {
         }
         Ok(Medium { sigma_t, albedo, g })
     }
+
+    /// The delta-Eddington transport medium of the multiple scattering and the factor of
+    /// its first source. HG's forward peak is split off as a fraction `f = max(g, 0)²` of
+    /// the scattering that goes straight on, `p = f δ + (1 − f) p'`, which turns the
+    /// transport equation into one of a medium with
+    ///
+    /// ```text
+    /// σt' = σt (1 − Ωf),   Ω' = Ω (1 − f) / (1 − Ωf),   g' = (g − f) / (1 − f) = g / (1 + g)
+    /// ```
+    ///
+    /// (the first two moments of `p` kept). Light scattered once from the direct light
+    /// keeps the full phase function (its forward peak included): its emission per unit
+    /// length `σt J` stays, so its source per unit of the new optical depth is
+    /// `J / (1 − Ωf)`, the returned factor. Bands 0–1 of HG with g ≳ 0.5 represent its
+    /// peak badly, and the later orders' sources are bands 0–1: with the peak counted as
+    /// unscattered they no longer smear it sideways. `g ≤ 0` (no forward peak) returns
+    /// the medium unchanged and 1. `1 − Ωf` is kept ≥ 1e-6 for media built without
+    /// [`Medium::new`]'s checks.
+    pub fn delta_eddington(&self) -> (Medium, f64) {
+        let f = if self.g > 0.0 && self.g.is_finite() {
+            (self.g * self.g).min(1.0)
+        } else {
+            return (*self, 1.0);
+        };
+        let kept = (1.0 - self.albedo * f).max(1e-6);
+        let transport = Medium {
+            sigma_t: self.sigma_t * kept,
+            albedo: (self.albedo * (1.0 - f) / kept).clamp(0.0, 1.0),
+            g: self.g / (1.0 + self.g),
+        };
+        (transport, 1.0 / kept)
+    }
 }
 
 /// Henyey–Greenstein phase `p(cos θ) = (1 − g²) / (1 + g² − 2g cos θ)^{3/2}`, with
@@ -86,6 +118,48 @@ mod tests {
                 assert!((cdf - u).abs() < 2e-3, "g {g} u {u}: {cdf}");
             }
         }
+    }
+
+    #[test]
+    fn delta_eddington_keeps_absorption_transport_and_the_mean_cosine() {
+        for (albedo, g) in [(0.9, 0.8), (0.5, 0.3), (1.0, 0.6), (0.0, 0.7)] {
+            let m = Medium::new(2.0, albedo, g).unwrap();
+            let (t, scale) = m.delta_eddington();
+            let f = g * g;
+            // Absorption σt(1 − Ω) and the diffusion's transport σt Ω (1 − g) unchanged.
+            let absorb = |m: &Medium| m.sigma_t * (1.0 - m.albedo);
+            let transport = |m: &Medium| m.sigma_t * m.albedo * (1.0 - m.g);
+            assert!((absorb(&t) - absorb(&m)).abs() < 1e-12, "{m:?} {t:?}");
+            assert!((transport(&t) - transport(&m)).abs() < 1e-12, "{m:?} {t:?}");
+            // The mixture f δ + (1 − f) HG(g') has HG(g)'s mean cosine, by quadrature.
+            let n = 20000;
+            let mean: f64 = (0..n)
+                .map(|i| {
+                    let mu = -1.0 + (i as f64 + 0.5) * 2.0 / n as f64;
+                    0.5 * hg(t.g, mu) * mu * 2.0 / n as f64
+                })
+                .sum();
+            assert!((f + (1.0 - f) * mean - g).abs() < 2e-3, "g {g}: {mean}");
+            // The first source's emission per unit length σt J is kept.
+            assert!((t.sigma_t * scale - m.sigma_t).abs() < 1e-12);
+        }
+        // No forward peak: unchanged.
+        for g in [0.0, -0.5] {
+            let m = Medium::new(3.0, 0.8, g).unwrap();
+            assert_eq!(m.delta_eddington(), (m, 1.0));
+        }
+        // The ends: g → 1 with Ω = 1 leaves a finite factor; a medium built by hand with
+        // g = 1 is held at the floor.
+        let (t, scale) = Medium::new(1.0, 1.0, 0.999).unwrap().delta_eddington();
+        assert!(t.sigma_t > 0.0 && scale.is_finite() && (0.0..=1.0).contains(&t.albedo));
+        let hand = Medium {
+            sigma_t: 1.0,
+            albedo: 1.0,
+            g: 1.0,
+        };
+        let (t, scale) = hand.delta_eddington();
+        assert_eq!(scale, 1e6);
+        assert!(t.sigma_t > 0.0 && t.albedo == 0.0 && t.g == 0.5);
     }
 
     #[test]

@@ -35,7 +35,7 @@ use haze_view::render::MsDiffusion;
 use haze_view::render::crm::{self, VolumeGrids};
 use haze_view::render::env_pass::{EnvGridOptions, directions, grid_frame};
 use haze_view::render::grid_diffusion::{
-    CoarseGrid, GATHER_LATER_THETA, GATHER_THETA, GridSolveOptions, HIGH, MediaRadiance,
+    CoarseGrid, GATHER_LATER_THETA, GATHER_THETA, GridSolveOptions, HIGH, MediaRadiance, SunSource,
     add_lights, add_to_grids, env_grid_sources, explicit_media_radiance, gather, sun_sources,
 };
 use haze_view::sh::{self, ShGrid};
@@ -219,12 +219,33 @@ fn gathered_orders_match(factor: usize) {
     let s = scene(&env, &m, factor);
     let first: Vec<_> = directions(GATHER_THETA).points().collect();
     let later: Vec<_> = directions(GATHER_LATER_THETA).points().collect();
-    // The CPU's first and second orders, summed.
-    let g1 = gather(&s.coarse, m.sigma_t, &s.sources, &s.suns, &first);
+    // The CPU's first and second orders, summed, through the delta-Eddington transport
+    // medium `t` with the first source scaled by `k` (as `explicit_media_radiance`).
+    let (t, k) = m.delta_eddington();
+    assert!(k > 1.0, "the test's medium has no forward peak");
+    let sources = Sources {
+        j0: s.sources.j0.iter().map(|c| c.map(|v| k * v)).collect(),
+        j1: s
+            .sources
+            .j1
+            .iter()
+            .map(|c| c.map(|a| a.map(|v| k * v)))
+            .collect(),
+        escape: Vec::new(),
+    };
+    let suns: Vec<SunSource> = s
+        .suns
+        .iter()
+        .map(|sun| SunSource {
+            emit: sun.emit.map(|e| k * e),
+            ..sun.clone()
+        })
+        .collect();
+    let g1 = gather(&s.coarse, t.sigma_t, &sources, &suns, &first);
     let g2 = gather(
         &s.coarse,
-        m.sigma_t,
-        &scattered(&g1.l0, &g1.l1, &m),
+        t.sigma_t,
+        &scattered(&g1.l0, &g1.l1, &t),
         &[],
         &later,
     );

@@ -25,6 +25,9 @@
 //!   voxel towards the eye, with the gathered orders' bands 2–3 `c_lm`
 //!   ([`crate::render::grid_diffusion::add_to_grids`]).
 //!
+//! The light travels through the medium's delta-Eddington transport medium, as on the
+//! CPU ([`Medium::delta_eddington`]).
+//!
 //! The cells' `L⁰`, `L¹` and escape probabilities stay on the GPU ([`MediaBuffer`]) and
 //! can be read back for tests. Cells of the diffusion that the CPU leaves out (thinner
 //! than [`crate::render::grid_diffusion::THIN`]) are identity rows with no source here, which
@@ -76,7 +79,7 @@ const ROW: usize = 40;
 const CELLS: usize = 64;
 const SIDE: usize = 4;
 
-/// The shader's `Params` (WGSL layout), 256 bytes, followed in the parameters buffer by a share of
+/// The shader's `Params` (WGSL layout), 272 bytes, followed in the parameters buffer by a share of
 /// the direction rule ([`DIRECTIONS_PER_DISPATCH`] `vec4`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
@@ -111,6 +114,10 @@ struct Params {
     sigma_tr: f32,
     rec_suns: u32,
     chunk_first: u32,
+    transport_sigma_t: f32,
+    transport_albedo: f32,
+    transport_g: f32,
+    first_scale: f32,
     env: [[f32; 4]; 4],
 }
 
@@ -482,7 +489,7 @@ impl OrdersPass {
         media: &MediaBuffer,
         opts: &GridSolveOptions,
     ) -> Result<(), GpuError> {
-        if media.params.sigma_tr <= 0.0 || media.params.albedo <= 0.0 {
+        if media.params.sigma_tr <= 0.0 || media.params.transport_albedo <= 0.0 {
             return Ok(());
         }
         let n = media.len();
@@ -698,7 +705,9 @@ fn check_gather(
 }
 
 /// The gathers' parameters for `grid` in cells of `factor` voxels a side (the first
-/// order's: its records carry the suns).
+/// order's: its records carry the suns): `medium`'s σt, Ω, g (the lights'
+/// transmittance, the first source, the light towards the eye), its delta-Eddington
+/// transport medium's with the diffusion's coefficients, and the first source's factor.
 fn gather_params(
     grid: &GridBuffer,
     shadow: &EnvShadow,
@@ -722,7 +731,8 @@ fn gather_params(
         *e = [light[0][j], light[1][j], light[2][j], a[j]].map(|v| v as f32);
     }
     let stride = 13 + env.suns.len();
-    let (sigma_s, sigma_a, sigma_tr) = coefficients(medium).unwrap_or_default();
+    let (transport, first_scale) = medium.delta_eddington();
+    let (sigma_s, sigma_a, sigma_tr) = coefficients(&transport).unwrap_or_default();
     Params {
         eye: [0.0; 3],
         sigma_t: medium.sigma_t as f32,
@@ -754,6 +764,10 @@ fn gather_params(
         sigma_tr: sigma_tr as f32,
         rec_suns: env.suns.len() as u32,
         chunk_first: 1,
+        transport_sigma_t: transport.sigma_t as f32,
+        transport_albedo: transport.albedo as f32,
+        transport_g: transport.g as f32,
+        first_scale: first_scale as f32,
         env: env_coeffs,
     }
 }
@@ -765,13 +779,14 @@ mod tests {
     #[test]
     fn params_match_the_wgsl_layout() {
         assert_eq!(std::mem::offset_of!(Params, chunk_first), 188);
-        assert_eq!(std::mem::size_of::<Params>(), 192 + 64);
+        assert_eq!(std::mem::offset_of!(Params, transport_sigma_t), 192);
+        assert_eq!(std::mem::size_of::<Params>(), 208 + 64);
         assert_eq!(std::mem::offset_of!(Params, dims), 48);
         assert_eq!(std::mem::offset_of!(Params, cell), 80);
         assert_eq!(std::mem::offset_of!(Params, g), 96);
         assert_eq!(std::mem::offset_of!(Params, node_min), 128);
         assert_eq!(std::mem::offset_of!(Params, nodes), 160);
-        assert_eq!(std::mem::offset_of!(Params, env), 192);
+        assert_eq!(std::mem::offset_of!(Params, env), 208);
     }
 
     #[test]
