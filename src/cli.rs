@@ -89,12 +89,15 @@ pub enum Command {
     /// Play a baked asset in a window, lit and rendered as it plays.
     ///
     /// Every shown frame is rendered by compensated ray marching (paper A §5) on the GPU
-    /// (Vulkan, Metal or DX12; Mesa's lavapipe works without a GPU): single scattering at
-    /// the RBF centers, multiple scattering by diffusion, the volume and view passes (the
-    /// first two on the CPU when the adapter is itself a CPU: --lighting). Frames stream
-    /// from the file on a background thread and play at --fps, looping; a frame that cannot be rendered in time is skipped (dropped). Only
-    /// what changed is recomputed: a camera move re-runs the two passes, a new frame or
-    /// light also the lighting. The camera starts framing the smoke of the first frame.
+    /// (Vulkan, Metal or DX12; Mesa's lavapipe works without a GPU): the lighting (single
+    /// and multiple scattering, as `haze render` lights a frame; on the CPU when the
+    /// adapter is itself a CPU: --lighting), then the volume and view passes. Frames
+    /// stream from the file on a background thread and play at --fps, looping; a frame
+    /// that cannot be rendered in time is skipped (dropped). Only what changed is
+    /// recomputed: a camera move re-runs the two passes, a new frame or light also the
+    /// lighting. The camera starts framing the smoke of the first frame. A packed asset
+    /// (`haze pack`) plays as it was packed: no RBFs, its density exact (a lossless
+    /// residual, hashed as each frame is read).
     ///
     /// Window: drag the image to orbit, scroll to zoom; the side panel plays, pauses,
     /// steps and scrubs, shows the measured fps, dropped frames and the time of each

@@ -128,3 +128,41 @@ fn opening_a_missing_or_foreign_file_is_an_error() {
     let e = FrameStream::open(&junk, 2, false).unwrap_err();
     assert!(e.to_string().contains("junk.haze"), "{e}");
 }
+
+/// A packed asset's frames stream as frames with no RBFs whose residual is the packed
+/// density itself, bit for bit (negative and zero voxels included), compared with the
+/// bundled frame's raw `f32` file.
+#[test]
+fn a_packed_frame_streams_as_its_exact_density() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = dir.path().join("packed.haze");
+    let o = Command::cargo_bin("haze")
+        .unwrap()
+        .args(["pack", root.join("data/plume-a/vdb").to_str().unwrap()])
+        .args(["--frames", "24..24", "-q", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let truth: Vec<f32> = std::fs::read(root.join("data/plume-a/dense/density_0024.f32"))
+        .unwrap()
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect();
+    let mut s = FrameStream::open(&out, 2, false).unwrap();
+    let f = s.next_frame().unwrap().unwrap();
+    assert_eq!(f.number, 24);
+    assert!(f.rbfs.is_empty());
+    let dense = f.residual.unwrap().dense();
+    assert_eq!(dense.len(), truth.len());
+    assert!(
+        dense
+            .iter()
+            .zip(&truth)
+            .all(|(a, b)| a.to_bits() == b.to_bits() || (*a == 0.0 && *b == 0.0)),
+        "the streamed density differs from the packed one"
+    );
+    assert!(truth.iter().any(|v| *v > 0.0));
+    assert!(s.next_frame().is_none());
+}

@@ -164,17 +164,26 @@ def test_a_progress_exception_stops_and_resume_finishes(tmp_path):
 def test_ctrl_c_stops_after_the_frame_and_keeps_it(tmp_path):
     folder = tmp_path / "seq"
     folder.mkdir()
-    write_sequence(folder, 3)
+    write_sequence(folder, 8)
     out = tmp_path / "int.haze"
-    # Ctrl-C arrives while the first frame is being fitted (the GIL released).
-    timer = threading.Timer(0.05, _thread.interrupt_main)
-    timer.start()
+    # Ctrl-C arrives while a frame is being fitted (the GIL released): 10 ms after the
+    # first frame is reported, while the seven frames after it still have to be fitted.
+    # A timer from the start fired after the last frame on a fast machine (the bake
+    # then finished); one without a delay would fire in the callback itself.
+    timers = []
+
+    def ctrl_c_soon(report):
+        if report["frame"] == 1:
+            timers.append(threading.Timer(0.01, _thread.interrupt_main))
+            timers[-1].start()
+
     with pytest.raises(KeyboardInterrupt, match="for --resume"):
-        haze.bake(folder, out, rbfs=30)
-    timer.join()
+        haze.bake(folder, out, rbfs=30, progress=ctrl_c_soon)
+    for t in timers:
+        t.join()
     assert not out.exists() and Path(str(out) + ".partial").exists()
     haze.bake(folder, out, rbfs=30, resume=True)
-    assert haze.Asset(out).frames == [1, 2, 3]
+    assert haze.Asset(out).frames == list(range(1, 9))
 
 
 def read_exr(path):

@@ -5,7 +5,7 @@
 //! cargo run --release -p haze-scene --example paper_b_figures -- accuracy [--size 64x48]
 //! cargo run --release -p haze-scene --example paper_b_figures -- timing [--size 320x240]
 //!     [--counts 10,100,1000,5000] [--lights 1,2,4] [--repeat 3] [--gpu [--prep]]
-//!     [--no-environment] [--scene FILE]
+//!     [--no-environment] [--scene FILE] [--spread R]
 //! cargo run --release -p haze-scene --example paper_b_figures -- environment [--size 48x36]
 //!     [--theta 8]
 //! cargo run --release -p haze-scene --example paper_b_figures -- lamps [--check] FILE...
@@ -29,6 +29,8 @@
 //! on every core; with `--gpu` the frame on the GPU (`haze_scene::gpu::paper_b`: the same
 //! preparation on the CPU, upload, pass, read-back), the tables uploaded beforehand;
 //! `--no-environment` makes the room's environment black (no §4.2 terms, no `T̄(p)`);
+//! `--spread R` puts the cloud in a ball of radius R (default 1.4, where every Gaussian
+//! overlaps every other on screen; 2.5 fills the picture, each Gaussian a small part);
 //! `--scene FILE` times that scene instead (its camera at `--size`). **Lamps**: scene files
 //! (`data/scenes/lamps/`: lights inside, at the edge of and outside dense Gaussians)
 //! rendered by the paper's closed form everywhere and with the pairs over the bound
@@ -400,6 +402,12 @@ fn timing(args: &[String]) {
     let lights = list(args, "--lights", &[1, 2, 4]);
     let repeat = list(args, "--repeat", &[3])[0].max(1);
     let no_environment = args.iter().any(|a| a == "--no-environment");
+    let spread = arg(args, "--spread").map_or(1.4, |s| {
+        s.parse::<f64>()
+            .ok()
+            .filter(|r| *r > 0.0 && r.is_finite())
+            .unwrap_or_else(|| fail("--spread R: a positive radius"))
+    });
     let gpu = args.iter().any(|a| a == "--gpu").then(|| {
         let ctx = GpuContext::new().unwrap_or_else(|e| fail(e));
         let pipeline = GpuPaperB::new(&ctx).unwrap_or_else(|e| fail(e));
@@ -407,13 +415,13 @@ fn timing(args: &[String]) {
     });
     match &gpu {
         Some((ctx, _)) => println!(
-            "paper B on the GPU ({}), {}×{}, median of {repeat} frames (ms)",
+            "paper B on the GPU ({}), {}×{}, cloud of radius {spread}, median of {repeat} frames (ms)",
             ctx.adapter_name(),
             sz.0,
             sz.1
         ),
         None => println!(
-            "paper B on the CPU ({} threads), {}×{}, median of {repeat} frames (ms)",
+            "paper B on the CPU ({} threads), {}×{}, cloud of radius {spread}, median of {repeat} frames (ms)",
             rayon::current_num_threads(),
             sz.0,
             sz.1
@@ -446,7 +454,7 @@ fn timing(args: &[String]) {
     for &n in &counts {
         let cloud = Cloud {
             n,
-            spread: 1.4,
+            spread,
             radii: (0.06, 0.2),
             tau: 0.05,
             centre: [0.0, 0.0, 1.2],

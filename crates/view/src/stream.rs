@@ -9,9 +9,13 @@
 //! two are alive in order playback. Scrubbing ([`FrameStream::seek`]) restarts the reader
 //! at the new frame and discards what it had read ahead. A damaged block is reported on
 //! its frame, with the file and the block named, and playback goes on.
+//!
+//! A packed asset's frame (`haze pack`: a raw volume) plays as a frame with no RBFs and
+//! the whole density as a lossless residual, hashed as it is read (tens of ms a frame).
 
-use haze_asset::{Asset, AssetError, BlockKind, Scope, decode_rbfs};
-use haze_hash::tile::ResidualGroup;
+use haze_asset::{Asset, AssetError, BlockKind, Scope, decode_raw_volume, decode_rbfs};
+use haze_hash::tile::{DEFAULT_BRICK, ResidualGroup};
+use haze_hash::{BuildOptions, QuantOptions, quantize};
 use haze_volume::{Bbox, Rbf};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
@@ -93,18 +97,15 @@ impl FrameDecoder {
                 .iter()
                 .position(|e| e.kind == kind && e.scope.covers(k as u32) && e.scope != Scope::Asset)
         };
-        let rbf_index = covering(BlockKind::Rbfs).ok_or_else(|| AssetError::Invalid {
-            path: a.path().to_path_buf(),
-            what: if covering(BlockKind::RawVolume).is_some() {
-                format!(
-                    "frame {number} is a raw volume (a packed asset, `haze pack`): bake its \
-                     source ({}) with `haze bake` to play it",
-                    a.header().source.path
-                )
-            } else {
-                format!("frame {number} has no RBF block (not a baked asset?)")
-            },
-        })?;
+        let Some(rbf_index) = covering(BlockKind::Rbfs) else {
+            return match covering(BlockKind::RawVolume) {
+                Some(i) => self.decode_raw(k, number, i),
+                None => Err(AssetError::Invalid {
+                    path: a.path().to_path_buf(),
+                    what: format!("frame {number} has neither RBFs nor a raw volume"),
+                }),
+            };
+        };
         let block = a.block(rbf_index)?;
         let rbfs = decode_rbfs(block.bytes).map_err(|e| a.block_error(&block, e))?;
         let residual = match covering(BlockKind::ResidualHash) {
@@ -141,6 +142,52 @@ impl FrameDecoder {
             number,
             rbfs,
             residual,
+        })
+    }
+}
+
+impl FrameDecoder {
+    /// Frame `k` (number `number`) of a packed asset, from its raw-volume block `block`: no
+    /// RBFs and the whole density as a lossless residual (its `f32` values in a hash
+    /// volume of its own), so every renderer plays it as it was packed.
+    fn decode_raw(
+        &mut self,
+        k: usize,
+        number: i64,
+        block: usize,
+    ) -> Result<StreamFrame, AssetError> {
+        let a = &*self.asset;
+        let block = a.block(block)?;
+        let view = decode_raw_volume(block.bytes).map_err(|e| a.block_error(&block, e))?;
+        let dims = a.header().grid.dims;
+        if view.dims != dims.map(|d| d as usize) {
+            return Err(a.block_error(
+                &block,
+                format!(
+                    "frame {number}'s volume is {:?}, the grid {dims:?}",
+                    view.dims
+                ),
+            ));
+        }
+        let peak = view.data.iter().copied().fold(0.0f32, f32::max);
+        let lossless = QuantOptions {
+            error: 0.0,
+            ..QuantOptions::default()
+        };
+        let group = quantize(&view.data, peak, lossless)
+            .map_err(|e| a.block_error(&block, format!("frame {number}: {e}")))
+            .and_then(|q| {
+                ResidualGroup::build(dims, DEFAULT_BRICK, &[q], BuildOptions::default())
+                    .map_err(|e| a.block_error(&block, format!("frame {number}: {e}")))
+            })?;
+        Ok(StreamFrame {
+            index: k,
+            number,
+            rbfs: Vec::new(),
+            residual: Some(ResidualSlot {
+                group: Arc::new(group),
+                slot: 0,
+            }),
         })
     }
 }
