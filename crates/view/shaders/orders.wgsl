@@ -29,7 +29,7 @@
 // coarse box's face in n = ⌈ℓ/h⌉ equal steps (h the smallest cell side), the record
 // trilinear between cell centers, each step's share T(1 − e^{−Δτ})·(D·J)/D, stopping
 // below T_MIN; L = J⁰-part + J¹-part·ω + Σ_suns (Ω E/4π)·(D·T)-part·p̄(s·(−ω)), clamped
-// ≥ 0; L⁰ = Σ w L/4π, L¹ = 3 Σ w L ω/4π, bands 2–3 c_lm = Σ w L Y_lm(ω), P = Σ w T/4π
+// ≥ 0; L⁰ = Σ w L/4π, L¹ = 3 Σ w L ω/4π, bands 2–4 c_lm = Σ w L Y_lm(ω), P = Σ w T/4π
 // (first order). It adds L⁰, L¹, c_lm (and P) to `media`, which `cells` cleared, and the
 // next order's record
 // D·(Ω L⁰, Ω g L¹) to `rec_out`.
@@ -55,7 +55,7 @@
 // opposite faces' flux densities G(x_i − x_j) + drive, then L⁰ ≥ 0 and |L¹| ≤ 3L⁰.
 //
 // `apply`, one invocation per voxel with D > 0: L⁰, L¹, c_lm trilinear between cell
-// centers weighted by D_c, J̃ += max(0, Ω (L⁰ − g L¹·d + Σ_{l=2,3} g^l c_lm Y_lm(−d)))
+// centers weighted by D_c, J̃ += max(0, Ω (L⁰ − g L¹·d + Σ_{l=2}^{4} g^l c_lm Y_lm(−d)))
 // towards the eye (d from the eye).
 
 #import grid_march
@@ -128,9 +128,9 @@ const FOUR_PI: f32 = 12.5663706144;
 // Records hold at most 13 + 8 words (eight suns).
 const MAX_RECORD: u32 = 21u;
 // Words per cell of `media` (L⁰ rgb, L¹ [channel][axis], P, D, 2 unused, c_lm of bands
-// 2–3 [channel][HIGH] from word 16) and of the system in `work` (diag, G ×6, b ×3, drive
+// 2–4 [channel][HIGH] from word 16) and of the system in `work` (diag, G ×6, b ×3, drive
 // [face][channel], x, r, p, Ap per channel).
-const HIGH: u32 = 12u;
+const HIGH: u32 = 21u;
 const MEDIA: u32 = 16u + 3u * HIGH;
 const ROW: u32 = 40u;
 const WG: u32 = 256u;
@@ -419,7 +419,7 @@ fn gather(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     let occ_b = vec3<f32>(work[3], work[4], work[5]);
     var l0 = vec3<f32>(0.0);
     var l1 = array<vec3<f32>, 3>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
-    var high: array<array<f32, 12>, 3>;
+    var high: array<array<f32, 21>, 3>;
     var escape = 0.0;
     for (var k = 0u; k < p.directions; k++) {
         let w = p.rule[k].xyz;
@@ -494,7 +494,7 @@ fn gather(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         l1[0] += (3.0 * wt * l.x) * w;
         l1[1] += (3.0 * wt * l.y) * w;
         l1[2] += (3.0 * wt * l.z) * w;
-        sh_eval(4u, w);
+        sh_eval(5u, w);
         for (var j = 0u; j < HIGH; j++) {
             let y = wt * ysh[4u + j];
             high[0][j] += y * l.x;
@@ -774,7 +774,7 @@ fn apply(@builtin(global_invocation_id) v: vec3<u32>) {
     var ws = 0.0;
     var l0 = vec3<f32>(0.0);
     var l1 = array<vec3<f32>, 3>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
-    var high: array<array<f32, 12>, 3>;
+    var high: array<array<f32, 21>, 3>;
     for (var corner = 0u; corner < 8u; corner++) {
         let o = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, corner >> 2u);
         let cc = min(c0 + o, n - 1u);
@@ -802,14 +802,14 @@ fn apply(@builtin(global_invocation_id) v: vec3<u32>) {
         return;
     }
     let d = view / len;
-    // Bands 2–3 towards the eye, ω = −d, each scaled by g^l (Funk–Hecke on HG).
-    sh_eval(4u, -d);
+    // Bands 2–4 towards the eye, ω = −d, each scaled by g^l (Funk–Hecke on HG).
+    sh_eval(5u, -d);
     let g = p.g;
     let g2 = g * g;
     for (var ch = 0u; ch < 3u; ch++) {
         var bands = 0.0;
         for (var j = 0u; j < HIGH; j++) {
-            bands += select(g2 * g, g2, j < 5u) * high[ch][j] * ysh[4u + j];
+            bands += select(select(g2 * g2, g2 * g, j < 12u), g2, j < 5u) * high[ch][j] * ysh[4u + j];
         }
         let j = p.albedo * (l0[ch] - g * dot(l1[ch], d) + bands) / ws;
         grid[4u * lin + ch] += max(j, 0.0);

@@ -127,14 +127,14 @@ fn scene(env: &Environment, m: &Medium, factor: usize) -> Scene {
     }
 }
 
-/// The CPU's moments of the cells: `L⁰`, `L¹` and bands 2–3.
+/// The CPU's moments of the cells: `L⁰`, `L¹` and bands 2–4.
 struct Moments<'a> {
     l0: &'a [[f64; 3]],
     l1: &'a [[[f64; 3]; 3]],
     high: &'a [[[f64; HIGH]; 3]],
 }
 
-/// The worst `|Δ|/max` of `L⁰`, `L¹`, the escape probability and bands 2–3 between the
+/// The worst `|Δ|/max` of `L⁰`, `L¹`, the escape probability and bands 2–4 between the
 /// GPU's cells and the CPU's, after checking the coarse density.
 fn differences(
     gpu: &CellRadiance,
@@ -181,7 +181,7 @@ fn differences(
         .flatten()
         .flatten()
         .fold(0.0f64, |m, v| m.max(v.abs()));
-    assert!(maxh > 0.0, "no bands 2–3 gathered");
+    assert!(maxh > 0.0, "no bands 2–4 gathered");
     let dh = gpu
         .high
         .iter()

@@ -21,8 +21,8 @@
 //!   of iterations per dispatch sized by the cells (as the centers' diffusion: no
 //!   dispatch long enough for a watchdog, no host round trip), then `L⁰`, `L¹` per cell
 //!   with the flux moment and the clamp `|L¹| ≤ 3L⁰`;
-//! - [`OrdersPass::apply`]: `J_ms = Ω (L⁰ − g L¹·d + Σ_{l=2,3} g^l c_lm Y_lm(−d))` per
-//!   voxel towards the eye, with the gathered orders' bands 2–3 `c_lm`
+//! - [`OrdersPass::apply`]: `J_ms = Ω (L⁰ − g L¹·d + Σ_{l=2}^{4} g^l c_lm Y_lm(−d))` per
+//!   voxel towards the eye, with the gathered orders' bands 2–4 `c_lm`
 //!   ([`crate::render::grid_diffusion::add_to_grids`]).
 //!
 //! The light travels through the medium's delta-Eddington transport medium, as on the
@@ -123,7 +123,7 @@ struct Params {
 
 /// `L⁰`, `L¹` and the escape probability per coarse cell on the GPU (`MEDIA` `f32` per
 /// cell: `L⁰` RGB, `L¹` `[channel][axis]`, `P`, the cell's mean density, two unused, bands
-/// 2–3 `[channel][HIGH]` of the gathered orders), with the
+/// 2–4 `[channel][HIGH]` of the gathered orders), with the
 /// last gathered order's scattered source (the diffusion's input) and the parameters buffer of the
 /// grid they belong to.
 #[derive(Debug)]
@@ -145,7 +145,7 @@ pub struct CellRadiance {
     pub cells: [usize; 3],
     pub l0: Vec<[f64; 3]>,
     pub l1: Vec<[[f64; 3]; 3]>,
-    /// Bands 2–3 of the gathered orders (`grid_diffusion::Gathered::high`).
+    /// Bands 2–4 of the gathered orders (`grid_diffusion::Gathered::high`).
     pub high: Vec<[[f64; HIGH]; 3]>,
     pub escape: Vec<f64>,
     pub density: Vec<f64>,
@@ -573,7 +573,7 @@ impl OrdersPass {
         Ok(Some(out))
     }
 
-    /// Adds `J_ms = Ω (L⁰ − g L¹·d + Σ_{l=2,3} g^l c_lm Y_lm(−d))` of `media` to every voxel of `grid` with smoke, the
+    /// Adds `J_ms = Ω (L⁰ − g L¹·d + Σ_{l=2}^{4} g^l c_lm Y_lm(−d))` of `media` to every voxel of `grid` with smoke, the
     /// camera at `eye` (submitted). Refuses a grid other than `media`'s and a non-finite
     /// eye.
     pub fn apply(
@@ -805,5 +805,17 @@ mod tests {
         assert!(SHADER.entry.contains(&format!(
             "rule: array<vec4<f32>, {DIRECTIONS_PER_DISPATCH}>"
         )));
+        assert!(
+            SHADER
+                .entry
+                .contains(&format!("const HIGH: u32 = {HIGH}u;"))
+        );
+        assert_eq!(
+            SHADER
+                .entry
+                .matches(&format!("var high: array<array<f32, {HIGH}>, 3>;"))
+                .count(),
+            2
+        );
     }
 }

@@ -21,7 +21,7 @@
 //! direction exactly (`p̄` does not vary along the ray, so the march sums `T` alone).
 //! The mean of the rays' final transmittance is the escape probability `P` of the cell.
 //!
-//! Bands 2–3 of the gathered radiance, `c_lm = ∫L Y_lm dω` ([`HIGH`] per channel), are
+//! Bands 2–4 of the gathered radiance, `c_lm = ∫L Y_lm dω` ([`HIGH`] per channel), are
 //! kept too: not for the next order (its source stays bands 0–1), but for the light the
 //! smoke finally scatters towards the eye, `J(ω) = Ω Σ_lm g^l c_lm Y_lm(ω)`, where bands
 //! 0–1 alone are wrong by up to ±20 % for light that arrives from one side (a sun's
@@ -50,16 +50,16 @@ pub struct SunSource {
     pub transmittance: Vec<f64>,
 }
 
-/// Coefficients of bands 2–3 (`Y_lm` at `sh::index(l, m) − 4`).
-pub const HIGH: usize = 12;
+/// Coefficients of bands 2–4 (`Y_lm` at `sh::index(l, m) − 4`).
+pub const HIGH: usize = 21;
 
-/// `L⁰`, `L¹` of the gathered light per cell, bands 2–3 of it, and the escape probability.
+/// `L⁰`, `L¹` of the gathered light per cell, bands 2–4 of it, and the escape probability.
 #[derive(Clone, Debug)]
 pub struct Gathered {
     pub l0: Vec<[f64; 3]>,
     /// `[channel][axis]`.
     pub l1: Vec<[[f64; 3]; 3]>,
-    /// `c_lm = ∫L Y_lm dω` for `l = 2, 3`, `[channel][sh::index(l, m) − 4]`.
+    /// `c_lm = ∫L Y_lm dω` for `l = 2, 3, 4`, `[channel][sh::index(l, m) − 4]`.
     pub high: Vec<[[f64; HIGH]; 3]>,
     /// `P = (1/4π)∫T(x → outside) dω` per cell (1 without smoke).
     pub escape: Vec<f64>,
@@ -96,12 +96,12 @@ pub fn gather(
     } else {
         0.0
     };
-    // Bands 2–3 of the SH basis at every direction.
+    // Bands 2–4 of the SH basis at every direction.
     let ys: Vec<[f64; HIGH]> = dirs
         .iter()
         .map(|(w, _)| {
-            let mut y = [0.0; 16];
-            sh::eval_into(4, *w, &mut y);
+            let mut y = [0.0; 25];
+            sh::eval_into(5, *w, &mut y);
             std::array::from_fn(|k| y[4 + k])
         })
         .collect();

@@ -56,8 +56,8 @@
 //! bound of a non-negative radiance) are interpolated trilinearly from the cells, weighted
 //! by their density (a voxel next to empty cells keeps its smoke's value, as
 //! `crm::sample_radiance`), and every voxel with smoke gains the multiple-scattering
-//! source `J_ms(ω) = Ω (L⁰ + g L¹·ω + Σ_{l=2,3} g^l Σ_m c_lm Y_lm(ω))` (Funk–Hecke on
-//! HG) towards the eye, `ω = −d`, with bands 2–3 `c_lm` of the gathered orders
+//! source `J_ms(ω) = Ω (L⁰ + g L¹·ω + Σ_{l=2}^{4} g^l Σ_m c_lm Y_lm(ω))` (Funk–Hecke on
+//! HG) towards the eye, `ω = −d`, with bands 2–4 `c_lm` of the gathered orders
 //! ([`Gathered::high`]; the diffusion's light has none). Bands 0–1 alone made the
 //! multiple part 5–10 % too bright where a sun's scattered light is seen across its
 //! flow (BENCHMARKS.md, "Multiple scattering: the light towards the eye").
@@ -96,7 +96,7 @@ pub struct MediaRadiance {
     pub l0: Vec<[f64; 3]>,
     /// `L¹` per cell, `[channel][axis]`, clamped to `|L¹| ≤ 3 L⁰`.
     pub l1: Vec<[[f64; 3]; 3]>,
-    /// Bands 2–3 of the gathered orders' radiance per cell ([`Gathered::high`]; 0 for
+    /// Bands 2–4 of the gathered orders' radiance per cell ([`Gathered::high`]; 0 for
     /// the diffusions, whose light is bands 0–1).
     pub high: Vec<[[f64; HIGH]; 3]>,
     pub iterations: u32,
@@ -384,7 +384,7 @@ pub fn frame_media_radiance(
     media_radiance(grid, medium, &sources, &p, opts)
 }
 
-/// Adds `J_ms(−d) = Ω (L⁰ − g L¹·d + Σ_{l=2,3} g^l c_lm Y_lm(−d))` of `ms` to the
+/// Adds `J_ms(−d) = Ω (L⁰ − g L¹·d + Σ_{l=2}^{4} g^l c_lm Y_lm(−d))` of `ms` to the
 /// radiance of every voxel of `grids` with smoke, `d` the unit direction from `eye` to
 /// the voxel (module docs).
 pub fn add_to_grids(grids: &mut VolumeGrids, ms: &MediaRadiance, medium: &Medium, eye: [f64; 3]) {
@@ -445,11 +445,19 @@ pub fn add_to_grids(grids: &mut VolumeGrids, ms: &MediaRadiance, medium: &Medium
                 let Some(d) = crate::lights::unit([0, 1, 2].map(|a| p[a] - eye[a])) else {
                     continue;
                 };
-                // Bands 2–3 towards the eye, ω = −d, each scaled by g^l (Funk–Hecke).
-                let mut y = [0.0; 16];
-                crate::sh::eval_into(4, d.map(|v| -v), &mut y);
-                // Band 2 is the first 5 coefficients, band 3 the next 7.
-                let gl = |k: usize| medium.g.powi(if k < 5 { 2 } else { 3 });
+                // Bands 2–4 towards the eye, ω = −d, each scaled by g^l (Funk–Hecke).
+                let mut y = [0.0; 25];
+                crate::sh::eval_into(5, d.map(|v| -v), &mut y);
+                // Band 2 is the first 5 coefficients, band 3 the next 7, band 4 the last 9.
+                let gl = |k: usize| {
+                    medium.g.powi(if k < 5 {
+                        2
+                    } else if k < 12 {
+                        3
+                    } else {
+                        4
+                    })
+                };
                 for ch in 0..3 {
                     let flux = l1[ch][0] * d[0] + l1[ch][1] * d[1] + l1[ch][2] * d[2];
                     let bands: f64 = (0..HIGH).map(|k| gl(k) * high[ch][k] * y[4 + k]).sum();
