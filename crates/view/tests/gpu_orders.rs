@@ -35,8 +35,9 @@ use haze_view::render::MsDiffusion;
 use haze_view::render::crm::{self, VolumeGrids};
 use haze_view::render::env_pass::{EnvGridOptions, directions, grid_frame};
 use haze_view::render::grid_diffusion::{
-    CoarseGrid, GATHER_LATER_THETA, GATHER_THETA, GridSolveOptions, HIGH, MediaRadiance, SunSource,
-    add_lights, add_to_grids, env_grid_sources, explicit_media_radiance, gather, sun_sources,
+    CoarseGrid, GATHER_LATER_THETA, GATHER_THETA, GridSolveOptions, HIGH, MediaRadiance,
+    add_lights, add_to_grids, env_grid_sources, explicit_media_radiance, gather,
+    scaled_first_sources, sun_sources,
 };
 use haze_view::sh::{self, ShGrid};
 use haze_view::{Environment, Medium, PointLight, Sky, Sources, Sun};
@@ -223,24 +224,7 @@ fn gathered_orders_match(factor: usize) {
     // medium `t` with the first source scaled by `k` (as `explicit_media_radiance`).
     let (t, k) = m.delta_eddington();
     assert!(k > 1.0, "the test's medium has no forward peak");
-    let sources = Sources {
-        j0: s.sources.j0.iter().map(|c| c.map(|v| k * v)).collect(),
-        j1: s
-            .sources
-            .j1
-            .iter()
-            .map(|c| c.map(|a| a.map(|v| k * v)))
-            .collect(),
-        escape: Vec::new(),
-    };
-    let suns: Vec<SunSource> = s
-        .suns
-        .iter()
-        .map(|sun| SunSource {
-            emit: sun.emit.map(|e| k * e),
-            ..sun.clone()
-        })
-        .collect();
+    let (sources, suns) = scaled_first_sources(&s.sources, &s.suns, k);
     let g1 = gather(&s.coarse, t.sigma_t, &sources, &suns, &first);
     let g2 = gather(
         &s.coarse,

@@ -241,22 +241,7 @@ pub fn explicit_media_radiance(
         return out;
     }
     let (transport, scale) = medium.delta_eddington();
-    let first_sources = Sources {
-        j0: sources.j0.iter().map(|c| c.map(|v| v * scale)).collect(),
-        j1: sources
-            .j1
-            .iter()
-            .map(|c| c.map(|a| a.map(|v| v * scale)))
-            .collect(),
-        escape: sources.escape.clone(),
-    };
-    let first_suns: Vec<SunSource> = suns
-        .iter()
-        .map(|s| SunSource {
-            emit: s.emit.map(|e| e * scale),
-            ..s.clone()
-        })
-        .collect();
+    let (first_sources, first_suns) = scaled_first_sources(sources, suns, scale);
     let medium = &transport;
     let mut last = gather(
         &out.grid,
@@ -290,6 +275,33 @@ pub fn explicit_media_radiance(
     diffuse_rest(&mut out, medium, &scattered(&last, medium), &escape, opts);
     clamp_moments(&mut out);
     out
+}
+
+/// The first sources `sources` and `suns` times `scale`: in the delta-Eddington transport
+/// medium ([`Medium::delta_eddington`]'s factor `1/(1 − Ωf)`), what `explicit_media_radiance`
+/// gathers first.
+pub fn scaled_first_sources(
+    sources: &Sources,
+    suns: &[SunSource],
+    scale: f64,
+) -> (Sources, Vec<SunSource>) {
+    let first = Sources {
+        j0: sources.j0.iter().map(|c| c.map(|v| v * scale)).collect(),
+        j1: sources
+            .j1
+            .iter()
+            .map(|c| c.map(|a| a.map(|v| v * scale)))
+            .collect(),
+        escape: sources.escape.clone(),
+    };
+    let suns = suns
+        .iter()
+        .map(|s| SunSource {
+            emit: s.emit.map(|e| e * scale),
+            ..s.clone()
+        })
+        .collect();
+    (first, suns)
 }
 
 /// Scattering orders gathered explicitly on the coarse grid of `factor` of `grids`' density
