@@ -129,7 +129,7 @@ fn main() {
     );
     let on = lighting.resolve(&ctx);
     println!(
-        "lighting at the centers on the {}: single scattering and diffusion are {}",
+        "lighting on the {}: the stages before the view pass are {}",
         if on == LightingOn::Cpu { "CPU" } else { "GPU" },
         if on == LightingOn::Cpu {
             "host times (f64, all cores)"

@@ -47,7 +47,7 @@ impl From<LightArgs> for Lights {
 pub enum LightingArg {
     /// The GPU, or the CPU when the adapter is a CPU.
     Auto,
-    /// The CPU, in f64 (the sources are then uploaded).
+    /// The CPU, in f64: every stage before the view pass, the grids then uploaded.
     Cpu,
     /// The GPU, in f32.
     Gpu,

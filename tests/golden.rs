@@ -203,7 +203,13 @@ fn plume_asset_cpu() {
 
 #[test]
 fn plume_asset_gpu() {
-    asset("plume_asset_gpu", &["--gpu"], GPU_TOLERANCE);
+    // Every stage in the shaders (on a CPU adapter `auto` lights on the CPU, which
+    // `plume_asset_cpu` holds).
+    asset(
+        "plume_asset_gpu",
+        &["--gpu", "--lighting", "gpu"],
+        GPU_TOLERANCE,
+    );
 }
 
 #[test]

@@ -95,9 +95,8 @@ fn renders_a_baked_frame_and_a_volume() {
     );
     let crm = read_exr(&exr, 40, 30);
     assert!(crm.iter().flatten().all(|c| c.is_finite() && *c >= 0.0));
-    // On the GPU (every stage), the residual looked up in the asset's hash
-    // volume there, the lighting at the centers where `auto` puts it and on either side:
-    // the same image (`assert_close`).
+    // On the GPU, the residual looked up in the asset's hash volume, the light computed
+    // where `auto` puts it and on either side: the same image (`assert_close`).
     for lighting in ["auto", "cpu", "gpu"] {
         let gpu_exr = tmp(&dir, &format!("gpu-{lighting}.exr"));
         let mut args = vec!["render", asset.to_str().unwrap(), "--frame", "22", "--gpu"];
@@ -108,7 +107,7 @@ fn renders_a_baked_frame_and_a_volume() {
         assert!(err.contains("on the GPU"), "{err}");
         if lighting != "auto" {
             let side = lighting.to_uppercase();
-            assert!(err.contains(&format!("centers on the {side}")), "{err}");
+            assert!(err.contains(&format!("lighting on the {side}")), "{err}");
         }
         assert_close(&read_exr(&gpu_exr, 40, 30), &crm);
     }

@@ -361,7 +361,7 @@ pub fn render_image(a: &RenderOptions) -> Result<Rendered> {
             "compensated ray marching{}{}, SH order {}, {}{}",
             match &gpu {
                 Some(ctx) => format!(
-                    " on the GPU ({}; lighting at the centers on the {})",
+                    " on the GPU ({}; lighting on the {})",
                     ctx.adapter_name(),
                     match a.lighting.resolve(ctx) {
                         LightingOn::Cpu => "CPU",

@@ -98,7 +98,7 @@ pub struct SmokeSetting {
 pub enum Timing {
     /// `crm_render` on the CPU.
     Cpu,
-    /// `GpuRenderer` (every stage on the GPU, the lighting at the centers where told),
+    /// `GpuRenderer` (the view pass on the GPU, the stages before it where told),
     /// each render a new frame: no reuse and no warm start from the setting before.
     Gpu(LightingOn),
 }
@@ -286,7 +286,7 @@ impl SmokeLab {
     pub fn adapter(&self) -> Option<String> {
         self.gpu.as_ref().map(|g| {
             format!(
-                "{} ({}), lighting at the centers on the {}",
+                "{} ({}), lighting on the {}",
                 g.ctx.adapter_name(),
                 g.ctx.backend(),
                 match g.lighting.resolve(&g.ctx) {

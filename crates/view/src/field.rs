@@ -4,7 +4,9 @@
 
 use haze_volume::{Bbox, Volume};
 
-/// Density at world point `p` (0 outside the box).
+/// Density at world point `p` (0 outside the box): trilinear between voxel centers,
+/// constant to the faces. The marches of the lighting call this for every step, so the
+/// stencil is unrolled; a corner of zero weight is skipped (a NaN there stays out).
 pub fn sample(v: &Volume, p: [f64; 3]) -> f64 {
     let b = v.bbox();
     let d = v.dims();
@@ -12,25 +14,25 @@ pub fn sample(v: &Volume, p: [f64; 3]) -> f64 {
         return 0.0;
     }
     let vs = v.voxel_size();
-    let mut i0 = [0usize; 3];
-    let mut t = [0.0f64; 3];
+    // Per axis: the offsets (in the data) of the lower and upper corner, and the weights.
+    let stride = [1, d[0], d[0] * d[1]];
+    let mut off = [[0usize; 2]; 3];
+    let mut w = [[0.0f64; 2]; 3];
     for a in 0..3 {
+        // Clamped to ≥ 0, so the cast is the floor.
         let f = ((p[a] - b.min[a]) / vs[a] - 0.5).clamp(0.0, (d[a] - 1) as f64);
-        let i = (f.floor() as usize).min(d[a].saturating_sub(2));
-        i0[a] = i;
-        t[a] = f - i as f64;
+        let i = (f as usize).min(d[a].saturating_sub(2));
+        let t = f - i as f64;
+        off[a] = [i * stride[a], (i + 1).min(d[a] - 1) * stride[a]];
+        w[a] = [1.0 - t, t];
     }
+    let data = v.data();
     let mut s = 0.0;
     for corner in 0..8 {
-        let mut w = 1.0;
-        let mut idx = [0usize; 3];
-        for a in 0..3 {
-            let hi = corner >> a & 1 == 1;
-            idx[a] = (i0[a] + usize::from(hi)).min(d[a] - 1);
-            w *= if hi { t[a] } else { 1.0 - t[a] };
-        }
-        if w != 0.0 {
-            s += w * f64::from(v.get(idx[0], idx[1], idx[2]));
+        let (x, y, z) = (corner & 1, corner >> 1 & 1, corner >> 2);
+        let weight = 1.0 * w[0][x] * w[1][y] * w[2][z];
+        if weight != 0.0 {
+            s += weight * f64::from(data[off[0][x] + off[1][y] + off[2][z]]);
         }
     }
     s

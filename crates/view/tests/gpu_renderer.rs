@@ -71,7 +71,7 @@ fn frames_match_crm_render_at_every_setting() {
         dims,
         bbox,
     };
-    // The lighting at the centers on either side of the bus.
+    // The light on either side of the bus.
     for on in [LightingOn::Gpu, LightingOn::Cpu] {
         let mut r = GpuRenderer::new(&ctx, env.clone()).unwrap();
         r.set_lighting(on);
@@ -126,7 +126,9 @@ fn camera_moves_reuse_what_does_not_depend_on_the_camera() {
     let (a, b) = (camera([0.5, -1.3, 0.85]), camera([1.8, 0.2, 0.6]));
     for g in [0.0, 0.6] {
         let medium = Medium::new(6.0, 0.9, g).unwrap();
+        // The GPU's own passes (the CPU's grids: `cpu_grids_are_kept_while_their_frame_holds`).
         let mut r = GpuRenderer::new(&ctx, env.clone()).unwrap();
+        r.set_lighting(LightingOn::Gpu);
         let (_, first) = r.render(&ctx, &frame, &medium, &a, &opts).unwrap();
         assert_eq!(first.reuse, Reuse::Nothing);
         let (moved, stats) = r.render(&ctx, &frame, &medium, &b, &opts).unwrap();
@@ -138,6 +140,7 @@ fn camera_moves_reuse_what_does_not_depend_on_the_camera() {
         assert_eq!(stats.reuse, expect, "g {g}");
         // The reused image is the fresh one: a new renderer computes everything.
         let mut fresh = GpuRenderer::new(&ctx, env.clone()).unwrap();
+        fresh.set_lighting(LightingOn::Gpu);
         let (again, _) = fresh.render(&ctx, &frame, &medium, &b, &opts).unwrap();
         let (moved, again) = (moved.read(&ctx).unwrap(), again.read(&ctx).unwrap());
         let (cpu, _) = crm_render(&rbfs, None, dims, &bbox, &medium, &env, &b, &opts);
@@ -174,6 +177,69 @@ fn camera_moves_reuse_what_does_not_depend_on_the_camera() {
         .unwrap();
         let (_, s) = r.render(&ctx, &next, &thicker, &b, &opts).unwrap();
         assert_eq!(s.reuse, Reuse::Nothing);
+    }
+}
+
+#[test]
+fn cpu_grids_are_kept_while_their_frame_holds() {
+    // `LightingOn::Cpu`: every grid of light from the CPU (gpu::host_grids), lit by a sky,
+    // a sun and a point light with the explicit orders; a camera move keeps the frame's
+    // light and rebuilds the grids from the new eye, `g = 0` keeps the grids too, a new
+    // albedo and g keep the environment grid; each image is the CPU renderer's from its
+    // camera within the view pass's bound.
+    let ctx = context();
+    let rbfs = cluster();
+    let bbox = unit_box();
+    let dims = [16, 18, 20];
+    let env = sky_sun_and_point(3.0, ([0.7, 0.3, 0.6], [0.5, 0.4, 0.3]));
+    let frame = GpuFrame {
+        key: 9,
+        rbfs: &rbfs,
+        residual: None,
+        dims,
+        bbox,
+    };
+    let opts = CrmOptions::default();
+    let (a, b) = (camera([0.5, -1.3, 0.85]), camera([1.8, 0.2, 0.6]));
+    for g in [0.6, 0.0] {
+        let medium = Medium::new(8.0, 0.9, g).unwrap();
+        let mut r = GpuRenderer::new(&ctx, env.clone()).unwrap();
+        r.set_lighting(LightingOn::Cpu);
+        let mut check = |cam: &Camera, reuse: Reuse, what: &str| {
+            let (image, stats) = r.render(&ctx, &frame, &medium, cam, &opts).unwrap();
+            assert_eq!(stats.reuse, reuse, "{what}, g {g}");
+            assert_eq!(stats.solved, reuse == Reuse::Nothing, "{what}, g {g}");
+            let (cpu, _) = crm_render(&rbfs, None, dims, &bbox, &medium, &env, cam, &opts);
+            compare(
+                &image.read(&ctx).unwrap(),
+                &cpu.pixels,
+                &format!("{what}, g {g}"),
+            );
+        };
+        check(&a, Reuse::Nothing, "first");
+        check(&a, Reuse::Grids, "again");
+        let moved = if g == 0.0 {
+            Reuse::Grids
+        } else {
+            Reuse::Sources
+        };
+        check(&b, moved, "moved");
+        let solve = r.diffusion_stats(&ctx).unwrap().unwrap();
+        assert!(solve.converged && solve.iterations > 0, "{solve:?}");
+        assert_eq!(r.env_grid_builds(), 1);
+        // A new albedo and g: the frame's light again, on the same environment grid.
+        let other = Medium::new(8.0, 0.7, -0.3).unwrap();
+        let (image, s) = r.render(&ctx, &frame, &other, &b, &opts).unwrap();
+        assert_eq!((s.reuse, r.env_grid_builds()), (Reuse::Nothing, 1));
+        let (cpu, _) = crm_render(&rbfs, None, dims, &bbox, &other, &env, &b, &opts);
+        compare(&image.read(&ctx).unwrap(), &cpu.pixels, "new albedo and g");
+        // A new σt or frame computes everything, its environment grid included.
+        let thick = Medium::new(10.0, 0.7, -0.3).unwrap();
+        r.render(&ctx, &frame, &thick, &b, &opts).unwrap();
+        assert_eq!(r.env_grid_builds(), 2);
+        let next = GpuFrame { key: 10, ..frame };
+        let (_, s) = r.render(&ctx, &next, &thick, &b, &opts).unwrap();
+        assert_eq!((s.reuse, r.env_grid_builds()), (Reuse::Nothing, 3));
     }
 }
 
@@ -467,6 +533,7 @@ fn frames_with_the_explicit_orders_match_crm_render_and_keep_their_cells() {
     let (a, b) = (camera([0.5, -1.3, 0.85]), camera([1.8, 0.2, 0.6]));
     let medium = Medium::new(8.0, 0.9, 0.5).unwrap();
     let mut r = GpuRenderer::new(&ctx, env.clone()).unwrap();
+    r.set_lighting(LightingOn::Gpu);
     let (image, stats) = r.render(&ctx, &frame, &medium, &a, &opts).unwrap();
     assert!(stats.solved);
     let gpu = image.read(&ctx).unwrap();

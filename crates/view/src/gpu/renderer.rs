@@ -33,8 +33,9 @@
 //! 7. **View pass**: GPU ([`ViewPass::dispatch`]); the image stays on the GPU until
 //!    [`ImageBuffer::read`].
 //!
-//! On an adapter that is a CPU (lavapipe) stages 1 and 2 run on the CPU instead
-//! ([`LightingOn`]: their `f64` twins on every core, the sources then uploaded).
+//! On an adapter that is a CPU (lavapipe) stages 1–6 run on the CPU instead
+//! ([`LightingOn`], [`HostGrids`]: their `f64` twins on every core, the grids then
+//! uploaded), and the GPU runs the view pass.
 //!
 //! **Reuse** (the paper's): the sources at the centers depend on the frame, the medium,
 //! the lighting and the SH knobs, not on the camera, so a new camera reuses them; the
@@ -55,17 +56,18 @@
 
 use super::diffusion::{DiffusionPass, DiffusionStats, DirectBuffer, OperatorBuffers};
 use super::env_pass::{EnvPass, EnvShadow, RemoveSingle};
+use super::host_grids::HostGrids;
 use super::lights_pass::{LightShadow, LightsPass};
 use super::orders::{MediaBuffer, OrdersPass};
 use super::single_scattering::SingleScatteringPass;
 use super::view_pass::{EnvBuffer, ImageBuffer, ViewPass};
 use super::volume_pass::{Residual, VolumePass};
 use super::{GridBuffer, SourceBuffer};
-use crate::diffusion::{DiffusionSolver, Operators, Sources};
+use crate::diffusion::{Operators, Sources};
 use crate::lighting::direct::add_light_moments;
 use crate::lighting::single::{RgbSh, ShKit};
 use crate::render::env_pass::{EnvGridOptions, EnvSource};
-use crate::render::{CrmOptions, CrmStats, MsDiffusion, slice_thickness, source_radiance};
+use crate::render::{CrmOptions, CrmStats, MsDiffusion, slice_thickness};
 use crate::sh;
 use crate::{Camera, Environment, Medium};
 use haze_gpu::{GpuContext, GpuError};
@@ -96,8 +98,8 @@ pub enum Reuse {
     Grids,
 }
 
-/// Where the renderer computes the lighting at the RBF centers: single scattering and the
-/// diffusion of multiple scattering (the volume and view passes always run on the GPU).
+/// Where the renderer computes a frame's light: the stages before the view pass, which
+/// always runs on the GPU.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum LightingOn {
     /// The GPU, unless the adapter is a CPU (a software rasterizer such as Mesa's
@@ -105,9 +107,10 @@ pub enum LightingOn {
     /// (`BENCHMARKS.md`, "GPU frame time").
     #[default]
     Auto,
-    /// The CPU ([`source_radiance`], `f64`), the sources then uploaded.
+    /// The CPU ([`HostGrids`]: [`crate::render::crm_grids`]'s stages, `f64`), the grids
+    /// then uploaded.
     Cpu,
-    /// The GPU ([`SingleScatteringPass`], [`DiffusionPass`]), in `f32`.
+    /// The GPU (the passes of the module docs), in `f32`.
     Gpu,
 }
 
@@ -155,7 +158,7 @@ struct SourceKey {
 /// Where the last multiple-scattering solve ran.
 #[derive(Clone, Copy, Debug)]
 enum LastSolve {
-    /// The centers' diffusion on the CPU, and how it ended.
+    /// The multiple scattering on the CPU ([`HostGrids`]), and how it ended.
     Cpu(DiffusionStats),
     /// The centers' diffusion on the GPU ([`DiffusionPass`]).
     Gpu,
@@ -199,9 +202,9 @@ pub struct GpuRenderer {
     lights: LightsPass,
     view: ViewPass,
     lighting_on: LightingOn,
+    /// The grids computed on the CPU, for [`LightingOn::Cpu`].
+    host: HostGrids,
     diffusion: DiffusionPass,
-    /// The CPU's solver (its warm start), for [`LightingOn::Cpu`].
-    solver: DiffusionSolver,
     /// Where the last diffusion solve ran, and how it ended when that was the CPU.
     last_solve: Option<LastSolve>,
     /// The diffusion operators of the frame with this key.
@@ -241,8 +244,8 @@ impl GpuRenderer {
             lights: LightsPass::new(ctx)?,
             view: ViewPass::new(ctx)?,
             lighting_on: LightingOn::default(),
+            host: HostGrids::default(),
             diffusion: DiffusionPass::new(ctx)?,
-            solver: DiffusionSolver::new(),
             last_solve: None,
             operators: None,
             sources: None,
@@ -258,11 +261,12 @@ impl GpuRenderer {
     }
 
     /// How many environment-pass grids ([`EnvPass::grid`], the march of every direction
-    /// from every node) this renderer has computed: it grows when the frame, the
+    /// from every node; on the CPU with [`LightingOn::Cpu`]) this renderer has computed:
+    /// it grows when the frame, the
     /// residual toggle, σt, the distant environment, the order or the grid's settings
     /// change, not with the camera, the albedo or `g`.
     pub fn env_grid_builds(&self) -> u64 {
-        self.env_grid_builds
+        self.env_grid_builds + self.host.env_grid_builds()
     }
 
     /// How many shadow volumes of the lights pass ([`LightsPass::shadow`]) this renderer
@@ -306,7 +310,7 @@ impl GpuRenderer {
     /// Forgets the previous frame: no reuse and no warm start for the next one.
     pub fn reset(&mut self) {
         self.diffusion.reset();
-        self.solver.reset();
+        self.host.reset();
         self.sources = None;
         self.grid = None;
         self.env_grid = None;
@@ -314,13 +318,11 @@ impl GpuRenderer {
         self.orders_media = None;
     }
 
-    /// Where the next frames compute the lighting at the centers (the sources are
-    /// recomputed).
+    /// Where the next frames compute their light (everything is recomputed).
     pub fn set_lighting(&mut self, on: LightingOn) {
         if on != self.lighting_on {
             self.lighting_on = on;
-            self.sources = None;
-            self.grid = None;
+            self.reset();
         }
     }
 
@@ -404,6 +406,39 @@ impl GpuRenderer {
         opts: &CrmOptions,
     ) -> Result<(ImageBuffer, FrameStats), GpuError> {
         let mut stats = FrameStats::default();
+        if self.lighting_on.resolve(ctx) == LightingOn::Cpu {
+            check_options(opts)?;
+            let grid = self.host.grids(
+                ctx,
+                frame,
+                &self.env,
+                (self.lighting, self.distant),
+                medium,
+                camera,
+                opts,
+                &mut stats,
+            )?;
+            let t = Instant::now();
+            let du = slice_thickness(frame.dims, &frame.bbox, opts);
+            let ground = opts.ground.map(|g| g.lit(&self.env));
+            let image = self.view.dispatch_in(
+                ctx,
+                grid,
+                medium,
+                &self.env_buffer,
+                camera,
+                du,
+                ground.as_ref(),
+            )?;
+            stats.crm.view_seconds = t.elapsed().as_secs_f64();
+            stats.gpu = ctx.take_stage_times()?;
+            if stats.solved
+                && let Some(solve) = self.host.last_solve()
+            {
+                self.last_solve = Some(LastSolve::Cpu(solve));
+            }
+            return Ok((image, stats));
+        }
         let (key, source, sources_fresh, env_light) =
             self.sources(ctx, frame, medium, opts, &mut stats)?;
         // The grids: the eye matters unless the phase function is isotropic (the lights
@@ -502,30 +537,6 @@ impl GpuRenderer {
         let sources_fresh = matches!(&self.sources, Some((k, _)) if *k == key);
         let source = match self.sources.take() {
             Some((_, buffer)) if sources_fresh => buffer,
-            _ if self.lighting_on.resolve(ctx) == LightingOn::Cpu => {
-                let source = source_radiance(
-                    kit,
-                    frame.rbfs,
-                    medium,
-                    light,
-                    &self.env,
-                    opts,
-                    &mut self.solver,
-                    &mut stats.crm,
-                );
-                if opts.multiple && !frame.rbfs.is_empty() {
-                    stats.solved = true;
-                    let solve = DiffusionStats {
-                        iterations: stats.crm.cg_iterations,
-                        residual: stats.crm.cg_residual,
-                        converged: stats.crm.cg_residual <= opts.solve.tolerance,
-                    };
-                    self.last_solve = Some(LastSolve::Cpu(solve));
-                }
-                let buffer = SourceBuffer::upload(ctx, &source, opts.order)?;
-                self.grid = None;
-                buffer
-            }
             _ => {
                 let grid_env = matches!(opts.env_source, EnvSource::Grid(_));
                 let diffuse = opts.multiple

@@ -163,7 +163,7 @@ pub fn sample_radiance(g: &VolumeGrids, p: [f64; 3]) -> Rgb {
     let mut t = [0.0f64; 3];
     for a in 0..3 {
         let f = ((p[a] - b.min[a]) / vs[a] - 0.5).clamp(0.0, (d[a] - 1) as f64);
-        let i = (f.floor() as usize).min(d[a].saturating_sub(2));
+        let i = (f as usize).min(d[a].saturating_sub(2));
         i0[a] = i;
         t[a] = f - i as f64;
     }

@@ -15,7 +15,8 @@
 //! takes away, which the grid stores at its nodes, by the product rule of
 //! `2·theta` Gauss–Legendre latitudes (`theta` per hemisphere: the sky jumps at the
 //! horizon) × `4·theta` azimuths, `1 − T = −expm1(−σt·τ)` marched with the lights pass's
-//! midpoint rule ([`super::lights_pass::optical_depth`]). Written so, the rule's error is
+//! midpoint rule ([`super::lights_pass::optical_depth`]; the samples in blocks without
+//! density skipped, [`Occupancy`], the same sum). Written so, the rule's error is
 //! proportional to the shadowing: thin smoke (`T → 1`) gets `L_lm` exactly, where the
 //! centers' interpolated source was biased. Nodes span the voxel centers, `spacing`
 //! voxels apart (rounded to fit the box), trilinear between ([`ShGrid`]).
@@ -29,7 +30,8 @@
 //! The GPU twin is `shaders/env_pass.wgsl` (`gpu::env_pass`).
 
 use super::crm::VolumeGrids;
-use super::lights_pass::{occupied_box, optical_depth_within};
+use super::lights_pass::optical_depth_within;
+use super::occupancy::Occupancy;
 use crate::distant::{Distant, LatLong};
 use crate::env::Environment;
 use crate::lighting::single::RgbSh;
@@ -217,7 +219,7 @@ pub fn env_grid(
     let h0 = vs[0].min(vs[1]).min(vs[2]);
     let rule = lit_directions(env, opts.theta, order);
     let total = grid.len();
-    let occupied = occupied_box(density);
+    let occupied = Occupancy::new(density);
     let needed = needed_nodes(density, &grid);
     let coeffs: Vec<f32> = match occupied {
         Some(occupied) if sigma_t > 0.0 => (0..total)
@@ -303,8 +305,8 @@ pub fn phase_factors(medium: &Medium, order: usize) -> Vec<f64> {
 
 /// Adds the environment's single scattering to the radiance of `grids` (camera at `eye`),
 /// from [`env_grid`] of `opts` and `light`, the environment's projection at `order`
-/// (module docs). Returns the grid (for inspection and the GPU twin's tests); nothing
-/// is added with albedo 0.
+/// (module docs). Returns the grid (for inspection, the GPU twin's tests, and
+/// [`add_env_grid`] from another camera); nothing is added with albedo 0.
 pub fn env_pass(
     grids: &mut VolumeGrids,
     env: &Environment,
@@ -315,8 +317,24 @@ pub fn env_pass(
     opts: &EnvGridOptions,
 ) -> ShGrid {
     let grid = env_grid(&grids.density, medium.sigma_t, env, order, opts);
+    add_env_grid(grids, &grid, light, medium, eye, order);
+    grid
+}
+
+/// The second half of [`env_pass`]: adds the single scattering of the environment's
+/// projection `light` less the blocked light of `grid` (its [`env_grid`] for the density
+/// of `grids`) towards `eye`. The grid does not depend on the camera, so a camera move
+/// only repeats this.
+pub fn add_env_grid(
+    grids: &mut VolumeGrids,
+    grid: &ShGrid,
+    light: &RgbSh,
+    medium: &Medium,
+    eye: [f64; 3],
+    order: usize,
+) {
     if medium.albedo == 0.0 {
-        return grid;
+        return;
     }
     let n2 = sh::count(order);
     let a = phase_factors(medium, order);
@@ -352,7 +370,6 @@ pub fn env_pass(
                 }
             }
         });
-    grid
 }
 
 #[cfg(test)]

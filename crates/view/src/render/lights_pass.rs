@@ -13,6 +13,7 @@
 //! The GPU twin is `shaders/lights_pass.wgsl` (`gpu::lights_pass`).
 
 use super::crm::VolumeGrids;
+use super::occupancy::Occupancy;
 use crate::env::Environment;
 use crate::field;
 use crate::lights::{DiskPhase, dot};
@@ -115,12 +116,12 @@ pub fn optical_depth(
     max_len: f64,
     h0: f64,
 ) -> f64 {
-    optical_depth_within(density, sigma_t, u, s, max_len, h0, density.bbox())
+    march(density, sigma_t, u, s, max_len, h0, density.bbox(), None)
 }
 
-/// [`optical_depth`] with the samples outside `occupied` skipped: the same sum when the
-/// trilinear density is zero outside `occupied` ([`occupied_box`]), the same steps and
-/// sample points, only fewer of them visited.
+/// [`optical_depth`] with the samples outside `occupied`'s box and in its empty blocks
+/// skipped: the same sum, since the trilinear density is zero there ([`Occupancy`]), the
+/// same steps and sample points, only fewer of them visited.
 pub fn optical_depth_within(
     density: &Volume,
     sigma_t: f64,
@@ -128,7 +129,32 @@ pub fn optical_depth_within(
     s: [f64; 3],
     max_len: f64,
     h0: f64,
-    occupied: &Bbox,
+    occupied: &Occupancy,
+) -> f64 {
+    march(
+        density,
+        sigma_t,
+        u,
+        s,
+        max_len,
+        h0,
+        occupied.bbox(),
+        Some(occupied),
+    )
+}
+
+/// The midpoint march of [`optical_depth`] over the samples within `bbox` (a step to
+/// spare on each side), those `blocks` says are zero skipped.
+#[allow(clippy::too_many_arguments)]
+fn march(
+    density: &Volume,
+    sigma_t: f64,
+    u: [f64; 3],
+    s: [f64; 3],
+    max_len: f64,
+    h0: f64,
+    bbox: &Bbox,
+    blocks: Option<&Occupancy>,
 ) -> f64 {
     if sigma_t == 0.0 {
         return 0.0;
@@ -140,7 +166,7 @@ pub fn optical_depth_within(
     if len.is_nan() || len <= 0.0 {
         return 0.0;
     }
-    let Some((ta, tb)) = field::ray_box(u, s, occupied) else {
+    let Some((ta, tb)) = field::ray_box(u, s, bbox) else {
         return 0.0;
     };
     let n = (len / h0).ceil().max(1.0);
@@ -152,6 +178,9 @@ pub fn optical_depth_within(
     for k in k0..k1 {
         let t = (k as f64 + 0.5) * h;
         let p = [0, 1, 2].map(|a| u[a] + t * s[a]);
+        if blocks.is_some_and(|b| !b.may_hold(p)) {
+            continue;
+        }
         depth += sigma_t * field::sample(density, p) * h;
         if depth > SHADOW_CUTOFF {
             break;

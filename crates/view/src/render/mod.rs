@@ -3,8 +3,10 @@
 
 pub mod crm;
 pub mod env_pass;
+pub mod frame_light;
 pub mod grid_diffusion;
 pub mod lights_pass;
+pub mod occupancy;
 pub mod supersample;
 
 use crate::diffusion::{DiffusionSolver, Operators, SolveOptions, Sources};
@@ -14,6 +16,7 @@ use crate::lighting::single::{RgbSh, ShKit, SourcePoints, single_scattering};
 use crate::sh::{self, ExpMethod};
 use crate::{Camera, Environment, Image, Medium};
 use env_pass::{EnvGridOptions, EnvSource};
+use frame_light::{FrameInput, FrameLight, Kept};
 use grid_diffusion::GridSolveOptions;
 use haze_volume::{Bbox, Rbf};
 use std::time::Instant;
@@ -357,63 +360,27 @@ pub fn crm_grids(
     eye: [f64; 3],
     opts: &CrmOptions,
 ) -> (crm::VolumeGrids, f64, CrmStats) {
-    let (source, mut stats) = crm_sources(rbfs, medium, env, opts);
-    let t = Instant::now();
-    let residual = if opts.residual { residual } else { None };
-    let mut grids = crm::volume_pass(rbfs, &source, opts.order, dims, bbox, residual, eye);
-    stats.volume_seconds = t.elapsed().as_secs_f64();
-    let mut env_grid = None;
-    if let EnvSource::Grid(g) = &opts.env_source {
-        let t = Instant::now();
-        let light = sh::project_env(env, opts.order);
-        let grid = env_pass::env_pass(&mut grids, env, &light, medium, eye, opts.order, g);
-        env_grid = Some((grid, light));
-        stats.env_seconds = t.elapsed().as_secs_f64();
-    }
-    let t = Instant::now();
-    lights_pass::lights_pass(&mut grids, env, medium, eye);
-    stats.lights_seconds = t.elapsed().as_secs_f64();
-    let t = Instant::now();
-    let ms = match (opts.multiple, opts.diffusion) {
-        (true, MsDiffusion::Grid { factor }) => Some(grid_diffusion::frame_media_radiance(
-            &grids,
-            rbfs,
-            &moments(&centers_single(rbfs, medium, env, opts, source)),
-            env,
-            medium,
-            factor,
-            &opts.grid_solve,
-        )),
-        (true, MsDiffusion::Orders { factor, orders }) => {
-            // The environment pass's grid lights the cells; without it, the centers.
-            let centers = match &env_grid {
-                Some(_) => Sources::zeros(rbfs.len()),
-                None => moments(&source),
-            };
-            Some(grid_diffusion::frame_explicit_media_radiance(
-                &grids,
-                rbfs,
-                &centers,
-                env_grid.as_ref().map(|(g, l)| (g, l)),
-                env,
-                medium,
-                factor,
-                orders,
-                &opts.grid_solve,
-            ))
-        }
-        _ => None,
+    let frame = FrameInput {
+        rbfs,
+        residual,
+        dims,
+        bbox,
     };
-    if let Some(ms) = ms {
-        grid_diffusion::add_to_grids(&mut grids, &ms, medium, eye);
-        if matches!(opts.diffusion, MsDiffusion::Orders { .. }) {
-            stats.ms_factor = ms.grid.factor;
-            stats.ms_work = grid_diffusion::gather_work(&ms.grid);
-        }
-        stats.cg_iterations = ms.iterations;
-        stats.cg_residual = ms.residual;
-        stats.multiple_seconds = t.elapsed().as_secs_f64();
-    }
+    let t = Instant::now();
+    let kit = ShKit::new(opts.order);
+    let light = sh::project_env(env, opts.order);
+    let setup_seconds = t.elapsed().as_secs_f64();
+    let mut solver = DiffusionSolver::new();
+    let kept = Kept {
+        kit: &kit,
+        projected: &light,
+        env_grid: None,
+    };
+    let (_, grids, stats) = FrameLight::new(&frame, medium, env, eye, opts, kept, &mut solver);
+    let stats = CrmStats {
+        setup_seconds,
+        ..stats
+    };
     (grids, slice_thickness(dims, bbox, opts), stats)
 }
 

@@ -52,7 +52,7 @@ impl ShGrid {
             }
             let u = ((x[a] - self.min[a]) / self.cell[a]).clamp(0.0, (n - 1) as f64);
             let u = if u.is_nan() { 0.0 } else { u };
-            i0[a] = (u.floor() as usize).min(n - 2);
+            i0[a] = (u as usize).min(n - 2);
             f[a] = u - i0[a] as f64;
         }
         (i0, f)

@@ -28,7 +28,7 @@ pub struct Setup {
     pub title: String,
     pub cursor: FrameCursor,
     pub ctx: GpuContext,
-    /// Where the lighting at the centers is computed.
+    /// Where a frame's light is computed.
     pub lighting: LightingOn,
     /// How much finer than the asset's voxels frames are lit.
     pub supersample: haze_render::smoke::Supersample,

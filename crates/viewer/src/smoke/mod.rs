@@ -2,8 +2,8 @@
 //! plays by compensated ray marching (paper A §5–6), with an orbit camera and live knobs.
 //!
 //! - [`playback`]: the clock — which frame is due, what was shown on time, what dropped;
-//! - [`frame`]: one frame's render (sources at the centers on the CPU, volume and view
-//!   passes on the GPU), reusing what did not change;
+//! - [`frame`]: one frame's render (the light on the CPU or the GPU, the view pass on the
+//!   GPU), reusing what did not change;
 //! - [`worker`]: the render thread (frame stream, GPU context, renderer);
 //! - [`player`]: the clock driving the render thread, shared by the window and
 //!   `--no-window`;
@@ -60,7 +60,7 @@ pub struct ViewArgs {
     pub window: bool,
     /// Without a window: turn the camera on the first frame, paused, instead of playing.
     pub orbit: bool,
-    /// Where the lighting at the centers (single and multiple scattering) is computed.
+    /// Where a frame's light (every stage before the view pass) is computed.
     pub lighting: LightingOn,
     /// How much finer than the asset's voxels each frame is lit (`thick` module).
     pub supersample: haze_render::smoke::Supersample,

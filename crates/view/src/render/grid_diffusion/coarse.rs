@@ -113,7 +113,7 @@ impl CoarseGrid {
                 return None;
             }
             let c = (u - 0.5).clamp(0.0, (self.dims[a] - 1) as f64);
-            lo[a] = (c.floor() as usize).min(self.dims[a].saturating_sub(2));
+            lo[a] = (c as usize).min(self.dims[a].saturating_sub(2));
             t[a] = c - lo[a] as f64;
         }
         Some(std::array::from_fn(|corner| {

@@ -422,7 +422,7 @@ pub fn add_to_grids(grids: &mut VolumeGrids, ms: &MediaRadiance, medium: &Medium
                 let mut t = [0.0f64; 3];
                 for a in 0..3 {
                     let c = ((v[a] as f64 + 0.5) / f - 0.5).clamp(0.0, (g.dims[a] - 1) as f64);
-                    lo[a] = (c.floor() as usize).min(g.dims[a].saturating_sub(2));
+                    lo[a] = (c as usize).min(g.dims[a].saturating_sub(2));
                     t[a] = c - lo[a] as f64;
                 }
                 let (mut l0, mut l1, mut ws) = ([0.0; 3], [[0.0; 3]; 3], 0.0);
