@@ -17,11 +17,11 @@
 
 use super::GridBuffer;
 use super::diffusion::DiffusionStats;
-use super::renderer::{FrameStats, GpuFrame, Reuse};
+use super::renderer::{EnvGridKey, FrameStats, GpuFrame, Reuse};
 use super::volume_pass::Residual;
 use crate::diffusion::DiffusionSolver;
 use crate::lighting::single::{RgbSh, ShKit};
-use crate::render::env_pass::{EnvGridOptions, EnvSource};
+use crate::render::env_pass::EnvSource;
 use crate::render::frame_light::{FrameInput, FrameLight, Kept};
 use crate::render::{CrmOptions, CrmStats, MsDiffusion};
 use crate::sh::{self, ShGrid};
@@ -38,19 +38,6 @@ struct LightKey {
     lighting: u64,
     medium: Medium,
     opts: CrmOptions,
-}
-
-/// What the environment pass's grid depends on: the density (the frame and the residual
-/// toggle), σt, the distant environment's generation, the order and the grid's options —
-/// not the camera, the albedo or `g`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct EnvGridKey {
-    frame: u64,
-    residual: bool,
-    sigma_t: f64,
-    distant: u64,
-    order: usize,
-    grid: EnvGridOptions,
 }
 
 /// The CPU's grids of light and what carries from one frame to the next (module docs).

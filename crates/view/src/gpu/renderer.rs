@@ -170,15 +170,16 @@ enum LastSolve {
 /// What the environment pass's grid of `S_lm` ([`EnvShadow`]) depends on: the density
 /// `D = D̃ + R` (the frame and whether the residual is in), σt, the distant environment
 /// (its generation), the SH order and the grid's settings — not the camera, the albedo
-/// or `g`, which enter only at the per-voxel evaluation ([`EnvPass::apply`]).
+/// or `g`, which enter only at the per-voxel evaluation ([`EnvPass::apply`]); the CPU's
+/// grid ([`HostGrids`]) is kept by the same key.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct EnvGridKey {
-    frame: u64,
-    residual: bool,
-    sigma_t: f64,
-    distant: u64,
-    order: usize,
-    grid: EnvGridOptions,
+pub(super) struct EnvGridKey {
+    pub(super) frame: u64,
+    pub(super) residual: bool,
+    pub(super) sigma_t: f64,
+    pub(super) distant: u64,
+    pub(super) order: usize,
+    pub(super) grid: EnvGridOptions,
 }
 
 /// A GPU renderer of frames, keeping what carries from one frame to the next: the SH
@@ -418,20 +419,8 @@ impl GpuRenderer {
                 opts,
                 &mut stats,
             )?;
-            let t = Instant::now();
-            let du = slice_thickness(frame.dims, &frame.bbox, opts);
-            let ground = opts.ground.map(|g| g.lit(&self.env));
-            let image = self.view.dispatch_in(
-                ctx,
-                grid,
-                medium,
-                &self.env_buffer,
-                camera,
-                du,
-                ground.as_ref(),
-            )?;
-            stats.crm.view_seconds = t.elapsed().as_secs_f64();
-            stats.gpu = ctx.take_stage_times()?;
+            let view = (&self.view, &self.env, &self.env_buffer);
+            let image = view_frame(ctx, view, grid, frame, medium, camera, opts, &mut stats)?;
             if stats.solved
                 && let Some(solve) = self.host.last_solve()
             {
@@ -479,20 +468,8 @@ impl GpuRenderer {
             (false, false) => Reuse::Nothing,
         };
 
-        let t = Instant::now();
-        let du = slice_thickness(frame.dims, &frame.bbox, opts);
-        let ground = opts.ground.map(|g| g.lit(&self.env));
-        let image = self.view.dispatch_in(
-            ctx,
-            grid,
-            medium,
-            &self.env_buffer,
-            camera,
-            du,
-            ground.as_ref(),
-        )?;
-        stats.crm.view_seconds = t.elapsed().as_secs_f64();
-        stats.gpu = ctx.take_stage_times()?;
+        let view = (&self.view, &self.env, &self.env_buffer);
+        let image = view_frame(ctx, view, grid, frame, medium, camera, opts, &mut stats)?;
         Ok((image, stats))
     }
 
@@ -739,6 +716,29 @@ impl GpuRenderer {
         }
         Ok(())
     }
+}
+
+/// The view pass of `grid` (the grids of `frame`) seen by `camera`, through the view
+/// pass, environment and environment buffer of `view`; its time and the frame's GPU
+/// stage times go to `stats`.
+#[allow(clippy::too_many_arguments)]
+fn view_frame(
+    ctx: &GpuContext,
+    (view, env, env_buffer): (&ViewPass, &Environment, &EnvBuffer),
+    grid: &GridBuffer,
+    frame: &GpuFrame<'_>,
+    medium: &Medium,
+    camera: &Camera,
+    opts: &CrmOptions,
+    stats: &mut FrameStats,
+) -> Result<ImageBuffer, GpuError> {
+    let t = Instant::now();
+    let du = slice_thickness(frame.dims, &frame.bbox, opts);
+    let ground = opts.ground.map(|g| g.lit(env));
+    let image = view.dispatch_in(ctx, grid, medium, env_buffer, camera, du, ground.as_ref())?;
+    stats.crm.view_seconds = t.elapsed().as_secs_f64();
+    stats.gpu = ctx.take_stage_times()?;
+    Ok(image)
 }
 
 /// Refuses options the GPU renderer cannot follow: an SH order outside 1..=6, the grid's
