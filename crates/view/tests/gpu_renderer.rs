@@ -244,6 +244,35 @@ fn cpu_grids_are_kept_while_their_frame_holds() {
 }
 
 #[test]
+fn a_grid_over_the_devices_buffers_is_refused_on_either_side() {
+    // One voxel more than the device's storage buffers hold (16 bytes each): a one-line
+    // `TooLarge`, whichever side computes the light (the CPU's before computing it).
+    let ctx = context();
+    let voxels = ctx.storage_limit() / 16 + 1;
+    let dims = [256, 256, voxels.div_ceil(256 * 256) as usize];
+    let frame = GpuFrame {
+        key: 0,
+        rbfs: &[],
+        residual: None,
+        dims,
+        bbox: unit_box(),
+    };
+    let medium = Medium::new(5.0, 0.9, 0.3).unwrap();
+    for on in [LightingOn::Cpu, LightingOn::Gpu] {
+        let mut r = GpuRenderer::new(&ctx, Environment::sky(Sky::default())).unwrap();
+        r.set_lighting(on);
+        let cam = camera([0.5, -1.3, 0.85]);
+        match r.render(&ctx, &frame, &medium, &cam, &CrmOptions::default()) {
+            Err(e @ haze_gpu::GpuError::TooLarge { .. }) => {
+                let line = e.to_string();
+                assert!(line.contains("volume") && !line.contains('\n'), "{line}");
+            }
+            other => panic!("{on:?}: {:?}", other.map(|(_, s)| s.reuse)),
+        }
+    }
+}
+
+#[test]
 fn a_lat_long_map_lights_and_fills_the_background_as_on_the_cpu() {
     let ctx = context();
     let rbfs = cluster();

@@ -95,6 +95,11 @@ impl HostGrids {
         opts: &CrmOptions,
         stats: &mut FrameStats,
     ) -> Result<&GridBuffer, GpuError> {
+        // A grid the device cannot hold is refused before its light is computed.
+        ctx.check_storage_size(
+            "the volume (density and radiance)",
+            GridBuffer::bytes(frame.dims),
+        )?;
         let key = LightKey {
             frame: frame.key,
             lighting,
