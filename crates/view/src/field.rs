@@ -101,6 +101,21 @@ mod tests {
     }
 
     #[test]
+    fn one_voxel_axes_and_a_nan_at_zero_weight() {
+        // An axis of one voxel is constant along it; a NaN voxel whose weight is zero
+        // stays out of the sum, one with weight reaches it.
+        let b = Bbox::new([0.0; 3], [2.0, 1.0, 1.0]);
+        let v = Volume::new([2, 1, 1], b, vec![3.0, f32::NAN]).unwrap();
+        assert_eq!(sample(&v, [0.5, 0.2, 0.9]), 3.0);
+        assert_eq!(sample(&v, [0.1, 0.5, 0.5]), 3.0);
+        assert!(sample(&v, [1.0, 0.5, 0.5]).is_nan());
+        let w = Volume::new([1, 1, 1], Bbox::new([0.0; 3], [1.0; 3]), vec![2.5]).unwrap();
+        for p in [[0.0; 3], [0.3, 0.9, 1.0], [1.0; 3]] {
+            assert_eq!(sample(&w, p), 2.5, "{p:?}");
+        }
+    }
+
+    #[test]
     fn ray_box_clips_including_axis_parallel_rays() {
         let b = Bbox::new([0.0; 3], [1.0; 3]);
         assert_eq!(

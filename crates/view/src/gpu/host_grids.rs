@@ -17,7 +17,7 @@
 
 use super::GridBuffer;
 use super::diffusion::DiffusionStats;
-use super::renderer::{EnvGridKey, FrameStats, GpuFrame, Reuse};
+use super::renderer::{EnvGridKey, FrameStats, GpuFrame, Reuse, SourceKey};
 use super::volume_pass::Residual;
 use crate::diffusion::DiffusionSolver;
 use crate::lighting::single::{RgbSh, ShKit};
@@ -30,25 +30,15 @@ use haze_gpu::{GpuContext, GpuError};
 use std::sync::Arc;
 use std::time::Instant;
 
-/// What the frame's light depends on: the frame, the lighting's generation, the medium
-/// and the knobs but the view pass's slices.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct LightKey {
-    frame: u64,
-    lighting: u64,
-    medium: Medium,
-    opts: CrmOptions,
-}
-
 /// The CPU's grids of light and what carries from one frame to the next (module docs).
 #[derive(Debug, Default)]
 pub struct HostGrids {
     /// The centers' diffusion's warm start.
     solver: DiffusionSolver,
     /// The light of the frame with this key and the frame's residual per voxel.
-    light: Option<(LightKey, FrameLight, Option<Vec<f32>>)>,
+    light: Option<(SourceKey, FrameLight, Option<Vec<f32>>)>,
     /// The uploaded grids of that light seen from this eye (`None`: any eye, `g = 0`).
-    grids: Option<(LightKey, Option<[f64; 3]>, GridBuffer)>,
+    grids: Option<(SourceKey, Option<[f64; 3]>, GridBuffer)>,
     /// How the last multiple-scattering solve ended.
     last_solve: Option<DiffusionStats>,
     /// The SH tables of an order, and the environment of a distant generation projected
@@ -100,7 +90,7 @@ impl HostGrids {
             "the volume (density and radiance)",
             GridBuffer::bytes(frame.dims),
         )?;
-        let key = LightKey {
+        let key = SourceKey {
             frame: frame.key,
             lighting,
             medium: *medium,

@@ -146,13 +146,14 @@ pub struct FrameStats {
     pub gpu: Vec<(&'static str, f64)>,
 }
 
-/// The sources' dependencies besides the frame.
+/// The sources' dependencies besides the frame (the CPU's light, [`HostGrids`], is kept
+/// by the same key with the view pass's slices left out).
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct SourceKey {
-    frame: u64,
-    lighting: u64,
-    medium: Medium,
-    opts: CrmOptions,
+pub(super) struct SourceKey {
+    pub(super) frame: u64,
+    pub(super) lighting: u64,
+    pub(super) medium: Medium,
+    pub(super) opts: CrmOptions,
 }
 
 /// Where the last multiple-scattering solve ran.
