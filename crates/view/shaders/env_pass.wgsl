@@ -22,6 +22,7 @@
 
 #import sh_basis
 #import grid_march
+#import lit
 
 struct Params {
     // Eye relative to the box's minimum corner.
@@ -109,15 +110,18 @@ fn blocked_depth(u: vec3<f32>, s: vec3<f32>) -> f32 {
 }
 
 // Voxel index range (inclusive) along axis a whose centers lie strictly within one cell
-// of the node coordinate x; lo > hi when none. An axis of one node covers every voxel.
+// and one voxel of the node coordinate x; lo > hi when none. An axis of one node covers
+// every voxel. A voxel with D > 0 there puts a lit voxel (`lit`: it or its neighbour
+// towards x) within one cell of the node: `env_pass::needed_nodes`.
 fn voxel_range(a: u32, x: f32) -> vec2<i32> {
     let last = i32(p.dims[a]) - 1;
     if p.nodes[a] < 2u || !(p.cell[a] > 0.0) {
         return vec2<i32>(0, last);
     }
-    // Center k at (k + ½)·voxel: |(k + ½)·voxel − x| < cell.
-    let lo = i32(floor((x - p.cell[a]) / p.voxel[a] - 0.5)) + 1;
-    let hi = i32(ceil((x + p.cell[a]) / p.voxel[a] - 0.5)) - 1;
+    // Center k at (k + ½)·voxel: |(k + ½)·voxel − x| < cell + voxel.
+    let reach = p.cell[a] + p.voxel[a];
+    let lo = i32(floor((x - reach) / p.voxel[a] - 0.5)) + 1;
+    let hi = i32(ceil((x + reach) / p.voxel[a] - 0.5)) - 1;
     return vec2<i32>(max(lo, 0), min(hi, last));
 }
 
@@ -181,7 +185,7 @@ fn apply(@builtin(global_invocation_id) i: vec3<u32>) {
         return;
     }
     let lin = i.x + p.dims.x * (i.y + p.dims.y * i.z);
-    if !(grid[4u * lin + 3u] > 0.0) {
+    if !lit(i) {
         return;
     }
     let u = (vec3<f32>(i) + 0.5) * p.voxel;

@@ -25,6 +25,7 @@
 // Positions are relative to the box's minimum corner (f32 precision far from the origin).
 
 #import grid_march
+#import lit
 #import disk_phase
 
 struct Params {
@@ -59,19 +60,16 @@ const NONE: u32 = 0xffffffffu;
 // Per voxel (x fastest): J̃ r g b, D.
 @group(0) @binding(2) var<storage, read_write> grid: array<f32>;
 // T per voxel (x fastest) and light (suns then point lights, fastest): `shadow` writes it
-// where D > 0, `main` reads it.
+// at the lit voxels, `main` reads it.
 @group(0) @binding(3) var<storage, read_write> shadow_t: array<f32>;
 
-// The voxel index of invocation i when it is a voxel with D > 0, else NONE.
+// The voxel index of invocation i when it is a lit voxel (D > 0 or the smoke's shell,
+// `lit`), else NONE.
 fn smoke_voxel(i: vec3<u32>) -> u32 {
-    if any(i >= p.dims) {
+    if any(i >= p.dims) || !lit(i) {
         return NONE;
     }
-    let lin = i.x + p.dims.x * (i.y + p.dims.y * i.z);
-    if !(grid[4u * lin + 3u] > 0.0) {
-        return NONE;
-    }
-    return lin;
+    return i.x + p.dims.x * (i.y + p.dims.y * i.z);
 }
 
 @compute @workgroup_size(4, 4, 4)

@@ -59,6 +59,7 @@
 // towards the eye (d from the eye).
 
 #import grid_march
+#import lit
 #import disk_phase
 #import sh_basis
 #import finite
@@ -764,7 +765,7 @@ fn apply(@builtin(global_invocation_id) v: vec3<u32>) {
         return;
     }
     let lin = v.x + p.dims.x * (v.y + p.dims.y * v.z);
-    if !(grid[4u * lin + 3u] > 0.0) {
+    if !lit(v) {
         return;
     }
     let n = p.cells;

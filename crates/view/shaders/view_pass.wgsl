@@ -105,13 +105,10 @@ fn ray_box(o: vec3<f32>, d: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(0.0);
 }
 
-// (J̃_D = D·J̃, D) of a voxel: eq. 15's product is what is interpolated.
-fn voxel(i: vec3<u32>) -> vec4<f32> {
-    let v = grid[i.x + p.dims.x * (i.y + p.dims.y * i.z)];
-    return vec4<f32>(v.xyz * v.w, v.w);
-}
-
-// Trilinear (J̃_D, D) at box-local point q, zero outside the box.
+// `crm::sample_radiance` and `field::sample` at box-local point q, zero outside the box:
+// (J̃, D), J̃ the mean of the stencil's corners weighed by their trilinear weight times
+// max(D_k, D(q)) — eq. 15's D·J̃ over D between smoke voxels, the sample's own density for
+// a thinner corner (the smoke's shell, lit at its center).
 fn sample_grid(q: vec3<f32>) -> vec4<f32> {
     let n = p.dims;
     if any(n == vec3<u32>(0u)) || !(all(q >= vec3<f32>(0.0)) && all(q <= p.size)) {
@@ -121,11 +118,30 @@ fn sample_grid(q: vec3<f32>) -> vec4<f32> {
     let i0 = min(vec3<u32>(floor(f)), max(n, vec3<u32>(2u)) - 2u);
     let t = f - vec3<f32>(i0);
     let i1 = min(i0 + 1u, n - 1u);
-    let c00 = mix(voxel(i0), voxel(vec3<u32>(i1.x, i0.y, i0.z)), t.x);
-    let c10 = mix(voxel(vec3<u32>(i0.x, i1.y, i0.z)), voxel(vec3<u32>(i1.x, i1.y, i0.z)), t.x);
-    let c01 = mix(voxel(vec3<u32>(i0.x, i0.y, i1.z)), voxel(vec3<u32>(i1.x, i0.y, i1.z)), t.x);
-    let c11 = mix(voxel(vec3<u32>(i0.x, i1.y, i1.z)), voxel(i1), t.x);
-    return mix(mix(c00, c10, t.y), mix(c01, c11, t.y), t.z);
+    var corners: array<vec4<f32>, 8>;
+    var weights: array<f32, 8>;
+    var dq = 0.0;
+    for (var c = 0u; c < 8u; c++) {
+        let hi = vec3<u32>(c & 1u, (c >> 1u) & 1u, c >> 2u) == vec3<u32>(1u);
+        let k = select(i0, i1, hi);
+        let w = select(1.0 - t, t, hi);
+        corners[c] = grid[k.x + n.x * (k.y + n.y * k.z)];
+        weights[c] = w.x * w.y * w.z;
+        dq += weights[c] * corners[c].w;
+    }
+    if !(dq > 0.0) {
+        return vec4<f32>(0.0);
+    }
+    var j = vec3<f32>(0.0);
+    var ws = 0.0;
+    for (var c = 0u; c < 8u; c++) {
+        let wd = weights[c] * max(corners[c].w, dq);
+        if wd > 0.0 {
+            j += wd * corners[c].xyz;
+            ws += wd;
+        }
+    }
+    return vec4<f32>(j / ws, dq);
 }
 
 // `Sky::radiance`.
@@ -281,7 +297,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
                 continue;
             }
             let dt = exp(-p.sigma_t * s.w * ds);
-            out += tau * (s.xyz / s.w) * (1.0 - dt);
+            out += tau * s.xyz * (1.0 - dt);
             tau *= dt;
             if tau < OPAQUE {
                 tau = 0.0;

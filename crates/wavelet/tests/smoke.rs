@@ -106,7 +106,7 @@ fn brute_force(
         let tau_f = fog.optical_depth_span(eye, d, len, t0, t1);
         let dens = field::sample(&smoke.density, p);
         let tau_s = medium.sigma_t * dens * dt;
-        let j = crm::sample_radiance(smoke, p);
+        let j = crm::sample_radiance(smoke, p, dens);
         let tau = tau_f + tau_s;
         if tau > 0.0 {
             let a = -(-tau).exp_m1();

@@ -22,6 +22,10 @@ pub const MODULES: &[Module] = &[
         name: "light_records",
         source: include_str!("../../shaders/light_records.wgsl"),
     },
+    Module {
+        name: "lit",
+        source: include_str!("../../shaders/lit.wgsl"),
+    },
 ];
 
 /// Every module the passes may import: this crate's, then the shared ones.

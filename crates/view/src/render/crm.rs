@@ -147,15 +147,26 @@ pub fn volume_pass(
     }
 }
 
-/// `J̃` at world point `p` (0 outside the box) as eq. 15 stores it: the trilinear `J̃_D =
-/// D·J̃` over the trilinear `D`, with the same stencil as [`field::sample`] (so a sample
-/// between a smoke voxel and an empty one keeps the smoke's source radiance instead of
-/// halving it, which darkened thin smoke and edges).
-pub fn sample_radiance(g: &VolumeGrids, p: [f64; 3]) -> Rgb {
+/// `J̃` at world point `p` (0 outside the box), `dp` the density there
+/// ([`field::sample`]): the mean of the 8 corners' `J̃` of [`field::sample`]'s stencil,
+/// each weighed by its trilinear weight times `max(D_k, dp)`.
+///
+/// Between smoke voxels that is eq. 15's `D·J̃` over `D` (the denser corner counts for
+/// more, as the RBFs' interpolated source does); a corner thinner than the sample counts
+/// as if it held the sample's density. The empty corners of a cell with smoke are the
+/// smoke's shell, lit at their own centers ([`super::shell`]), so the band beyond the
+/// last smoke voxel takes the light that reaches it instead of its neighbour's: an
+/// edge-on sun's light climbs towards 1 there, where the neighbour's center is shadowed.
+/// With `dp ≤ 0` (no smoke at `p`) the result is 0.
+pub fn sample_radiance(g: &VolumeGrids, p: [f64; 3], dp: f64) -> Rgb {
     let v = &g.density;
     let b = v.bbox();
     let d = v.dims();
-    if d.contains(&0) || (0..3).any(|a| !(p[a] >= b.min[a] && p[a] <= b.max[a])) {
+    if d.contains(&0)
+        || (0..3).any(|a| !(p[a] >= b.min[a] && p[a] <= b.max[a]))
+        || dp.is_nan()
+        || dp <= 0.0
+    {
         return [0.0; 3];
     }
     let vs = v.voxel_size();
@@ -177,8 +188,8 @@ pub fn sample_radiance(g: &VolumeGrids, p: [f64; 3]) -> Rgb {
             w *= if hi { t[a] } else { 1.0 - t[a] };
         }
         let i = v.index(idx[0], idx[1], idx[2]);
-        let wd = w * f64::from(v.data()[i]);
-        if wd != 0.0 {
+        let wd = w * f64::from(v.data()[i]).max(dp);
+        if wd > 0.0 {
             let r = g.radiance[i];
             for c in 0..3 {
                 s[c] += wd * f64::from(r[c]);
@@ -257,7 +268,7 @@ fn march(
             continue;
         }
         let dt = (-medium.sigma_t * dens * ds).exp();
-        let j = sample_radiance(g, p);
+        let j = sample_radiance(g, p, dens);
         let w = tau * (1.0 - dt);
         for c in 0..3 {
             out[c] += w * j[c];

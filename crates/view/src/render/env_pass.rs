@@ -21,7 +21,8 @@
 //! centers' interpolated source was biased. Nodes span the voxel centers, `spacing`
 //! voxels apart (rounded to fit the box), trilinear between ([`ShGrid`]).
 //!
-//! **The pass** ([`env_pass`]). At every voxel center `u` with `D(u) > 0`, seen along
+//! **The pass** ([`env_pass`]). At every voxel center `u` with `D(u) > 0` and of the
+//! smoke's one-voxel shell ([`super::shell`]), seen along
 //! `d = (u − eye)/|u − eye|`, `J̃(u, d) += max(0, Ω·Σ_l g^l Σ_m (L_lm − S_lm(u))·Y_lm(d))`
 //! (the clamp removes the truncation's ringing where the smoke is almost black), after
 //! the volume pass and before the lights pass. The centers then carry the multiple
@@ -32,6 +33,7 @@
 use super::crm::VolumeGrids;
 use super::lights_pass::optical_depth_within;
 use super::occupancy::Occupancy;
+use super::shell::lit_voxels;
 use crate::distant::{Distant, LatLong};
 use crate::env::Environment;
 use crate::lighting::single::RgbSh;
@@ -255,9 +257,11 @@ pub fn env_grid(
     ShGrid { coeffs, ..grid }
 }
 
-/// Which nodes the pass reads: those within one cell (per axis, strictly) of a voxel
-/// center with `D > 0` — the nodes of its trilinear stencil with a non-zero weight. The
-/// others are left at zero and cost nothing.
+/// Which nodes the pass reads: those within one cell (per axis, strictly) of the center
+/// of a voxel it lights (`D > 0` or the smoke's shell, [`super::shell`]) — the nodes of
+/// its trilinear stencil with a non-zero weight. The others are left at zero and cost
+/// nothing. (The GPU twin asks the same of each node as: a voxel with `D > 0` within one
+/// cell and one voxel, per axis — the shell voxel between them is then within one cell.)
 pub fn needed_nodes(density: &Volume, grid: &ShGrid) -> Vec<bool> {
     let mut needed = vec![false; grid.len()];
     let dims = density.dims();
@@ -275,8 +279,8 @@ pub fn needed_nodes(density: &Volume, grid: &ShGrid) -> Vec<bool> {
         let top = (n[a] - 1) as f64;
         (lo.clamp(0.0, top) as usize, hi.clamp(0.0, top) as usize)
     };
-    for (idx, &d) in density.data().iter().enumerate() {
-        if d.is_nan() || d <= 0.0 {
+    for (idx, &lit) in lit_voxels(density).iter().enumerate() {
+        if !lit {
             continue;
         }
         let k = [
@@ -343,6 +347,7 @@ pub fn add_env_grid(
     let bbox = *density.bbox();
     let vs = density.voxel_size();
     let plane = dims[0] * dims[1];
+    let lit = lit_voxels(density);
     grids
         .radiance
         .par_chunks_mut(plane.max(1))
@@ -351,7 +356,7 @@ pub fn add_env_grid(
             let mut s = vec![0.0; 3 * n2];
             let mut y = vec![0.0; n2];
             for (i, out) in slice.iter_mut().enumerate() {
-                if density.data()[z * plane + i] <= 0.0 {
+                if !lit[z * plane + i] {
                     continue;
                 }
                 let (x, yy) = (i % dims[0], i / dims[0]);

@@ -14,6 +14,7 @@
 
 use super::crm::VolumeGrids;
 use super::occupancy::Occupancy;
+use super::shell::lit_voxels;
 use crate::env::Environment;
 use crate::field;
 use crate::lights::{DiskPhase, dot};
@@ -43,6 +44,7 @@ pub fn lights_pass(grids: &mut VolumeGrids, env: &Environment, medium: &Medium, 
     let soft = (0.5 * h0).powi(2) / 3.0;
     let plane = dims[0] * dims[1];
     let k = medium.albedo / FOUR_PI;
+    let lit = lit_voxels(density);
     grids
         .radiance
         .par_chunks_mut(plane.max(1))
@@ -50,7 +52,7 @@ pub fn lights_pass(grids: &mut VolumeGrids, env: &Environment, medium: &Medium, 
         .for_each(|(z, slice)| {
             for (i, out) in slice.iter_mut().enumerate() {
                 let idx = z * plane + i;
-                if density.data()[idx] <= 0.0 {
+                if !lit[idx] {
                     continue;
                 }
                 let (x, y) = (i % dims[0], i / dims[0]);

@@ -7,6 +7,7 @@ pub mod frame_light;
 pub mod grid_diffusion;
 pub mod lights_pass;
 pub mod occupancy;
+pub mod shell;
 pub mod supersample;
 
 use crate::diffusion::{DiffusionSolver, Operators, SolveOptions, Sources};

@@ -397,8 +397,8 @@ pub fn frame_media_radiance(
 }
 
 /// Adds `J_ms(−d) = Ω (L⁰ − g L¹·d + Σ_{l=2}^{4} g^l c_lm Y_lm(−d))` of `ms` to the
-/// radiance of every voxel of `grids` with smoke, `d` the unit direction from `eye` to
-/// the voxel (module docs).
+/// radiance of every voxel of `grids` with smoke and of its shell ([`crate::render::shell`]),
+/// `d` the unit direction from `eye` to the voxel (module docs).
 pub fn add_to_grids(grids: &mut VolumeGrids, ms: &MediaRadiance, medium: &Medium, eye: [f64; 3]) {
     let density = &grids.density;
     let dims = density.dims();
@@ -407,6 +407,7 @@ pub fn add_to_grids(grids: &mut VolumeGrids, ms: &MediaRadiance, medium: &Medium
     let g = &ms.grid;
     let f = g.factor as f64;
     let plane = dims[0] * dims[1];
+    let lit = crate::render::shell::lit_voxels(density);
     grids
         .radiance
         .par_chunks_mut(plane.max(1))
@@ -414,7 +415,7 @@ pub fn add_to_grids(grids: &mut VolumeGrids, ms: &MediaRadiance, medium: &Medium
         .for_each(|(z, slice)| {
             for (i, out) in slice.iter_mut().enumerate() {
                 let idx = z * plane + i;
-                if density.data()[idx].is_nan() || density.data()[idx] <= 0.0 {
+                if !lit[idx] {
                     continue;
                 }
                 let v = [i % dims[0], i / dims[0], z];
