@@ -23,6 +23,7 @@
 #import sh_basis
 #import grid_march
 #import lit
+#import optics
 
 struct Params {
     // Eye relative to the box's minimum corner.
@@ -40,7 +41,8 @@ struct Params {
     directions: u32,
     // The first node, relative to the box.
     node_min: vec3<f32>,
-    _pad0: u32,
+    // `apply`: Ω·f of the forward peak (`env_pass::peak_share`), 0 for none.
+    peak: f32,
     // Distance between nodes per axis (0 on an axis of one node).
     cell: vec3<f32>,
     _pad1: u32,
@@ -50,7 +52,8 @@ struct Params {
 
 @group(0) @binding(0) var<storage, read> p: Params;
 // `shadow`: per direction 4 + 4 + order² words: ω x y z, 0, w·L r g b, 0, Y_j(ω).
-// `apply`: per coefficient j (order² of them) L_j r g b, Ω·g^l.
+// `apply`: per coefficient j (order² of them) L_j r g b, Ω·(g^l − f); then the forward
+// peak's sky (`env_pass::peak_sky`), PEAK_W × PEAK_H texels r g b from the zenith row.
 @group(0) @binding(1) var<storage, read> table: array<f32>;
 // Per voxel (x fastest): J̃ r g b, D.
 @group(0) @binding(2) var<storage, read_write> grid: array<f32>;
@@ -62,6 +65,39 @@ struct Params {
 
 // `occupancy.wgsl`'s BLOCK.
 const OCCUPANCY_BLOCK: u32 = 4u;
+
+// `env_pass::PEAK_SKY`.
+const PEAK_W: u32 = 64u;
+const PEAK_H: u32 = 32u;
+
+fn peak_texel(x: u32, y: u32) -> vec3<f32> {
+    let i = 4u * p.order * p.order + 3u * (y * PEAK_W + x);
+    return vec3<f32>(table[i], table[i + 1u], table[i + 2u]);
+}
+
+// `LatLong::radiance` of the forward peak's sky: column u → φ = 2πu from +X towards +Y,
+// row v → θ = πv from +Z, bilinear between texel centers, wrapping in φ and clamped at
+// the poles.
+fn peak_sky(d: vec3<f32>) -> vec3<f32> {
+    let theta = atan2(length(d.xy), d.z);
+    var phi = atan2(d.y, d.x);
+    if phi < 0.0 {
+        phi += 2.0 * PI;
+    }
+    let w = f32(PEAK_W);
+    let h = f32(PEAK_H);
+    let fx = phi / (2.0 * PI) * w - 0.5;
+    let fy = clamp(theta / PI * h - 0.5, 0.0, h - 1.0);
+    let x0 = floor(fx);
+    let y0 = floor(fy);
+    let tx = fx - x0;
+    let ty = fy - y0;
+    let xa = min(u32(x0 - w * floor(x0 / w)), PEAK_W - 1u);
+    let xb = min(u32((x0 + 1.0) - w * floor((x0 + 1.0) / w)), PEAK_W - 1u);
+    let ya = u32(y0);
+    let yb = min(ya + 1u, PEAK_H - 1u);
+    return mix(mix(peak_texel(xa, ya), peak_texel(xb, ya), tx), mix(peak_texel(xa, yb), peak_texel(xb, yb), tx), ty);
+}
 
 // `grid_march::optical_depth` from u along s to the box's face, skipping the samples
 // that fall in empty blocks: the same samples, summed in the same order, less exact
@@ -231,7 +267,12 @@ fn apply(@builtin(global_invocation_id) i: vec3<u32>) {
     for (var j = 0u; j < n2; j++) {
         acc += table[4u * j + 3u] * ysh[j] * vec3<f32>(table[4u * j], table[4u * j + 1u], table[4u * j + 2u]);
     }
-    let add = max(acc, vec3<f32>(0.0));
+    var add = max(acc, vec3<f32>(0.0));
+    if p.peak > 0.0 {
+        // The forward peak: the light straight behind u, through the smoke.
+        let d = normalize(view);
+        add += p.peak * peak_sky(d) * transmittance(u, d, 3.0e38);
+    }
     for (var c = 0u; c < 3u; c++) {
         grid[4u * lin + c] += add[c];
     }

@@ -125,6 +125,12 @@ fn the_gpu_pass_matches_the_cpu() {
             "sky, order 6, g < 0",
         ),
         (&map, Medium::new(4.0, 0.8, 0.6).unwrap(), 3, "map, order 3"),
+        (
+            &sky,
+            Medium::new(6.0, 0.9, 0.8).unwrap(),
+            4,
+            "sky, g 0.8: the forward peak",
+        ),
         (&sky, Medium::new(1e4, 0.8, 0.3).unwrap(), 4, "σt 1e4"),
     ] {
         let (rs, rj) = compare(&g, env, &m, eye, order, what);

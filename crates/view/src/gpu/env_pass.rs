@@ -15,6 +15,7 @@
 //! read back for tests.
 
 use super::{GridBuffer, SourceBuffer};
+use crate::distant::Distant;
 use crate::env::Environment;
 use crate::lighting::single::RgbSh;
 use crate::medium::Medium;
@@ -75,7 +76,8 @@ struct Params {
     dims: [u32; 3],
     directions: u32,
     node_min: [f32; 3],
-    _pad0: u32,
+    /// `Ω·f` of the forward peak (`env_pass::peak_share`); 0 for none.
+    peak: f32,
     cell: [f32; 3],
     _pad1: u32,
     nodes: [u32; 3],
@@ -235,7 +237,7 @@ impl EnvPass {
             return Err(GpuError::Input(format!("the eye {eye:?} is not finite")));
         }
         let shadow = self.grid(ctx, grid, env, medium.sigma_t, order, opts)?;
-        self.apply(ctx, grid, &shadow, light, medium, eye)?;
+        self.apply(ctx, grid, &shadow, light, medium, eye, &env.distant)?;
         Ok(shadow)
     }
 
@@ -295,7 +297,7 @@ impl EnvPass {
             dims: dims.map(|n| n as u32),
             directions: count(rule.len(), "directions")?,
             node_min: [0, 1, 2].map(|k| (frame.min[k] - bbox.min[k]) as f32),
-            _pad0: 0,
+            peak: 0.0,
             cell: frame.cell.map(|c| c as f32),
             _pad1: 0,
             nodes: frame.nodes.map(|n| n as u32),
@@ -384,9 +386,11 @@ impl EnvPass {
 
     /// The `apply` dispatch alone (submitted): adds to `grid`'s `J̃`, camera at `eye`,
     /// the environment's single scattering from `shadow` (an [`EnvPass::grid`] of a grid
-    /// with the same `D`) and `light`, the environment's projection at `shadow`'s order;
+    /// with the same `D`), `light`, the environment's projection at `shadow`'s order, and
+    /// `distant`, whose radiance HG's forward peak sees (`env_pass`'s module docs);
     /// nothing with albedo 0. Refuses a grid of other dims or box than `shadow`'s, a
     /// `light` of another order, a non-finite eye and sizes beyond the device's limits.
+    #[allow(clippy::too_many_arguments)]
     pub fn apply(
         &self,
         ctx: &GpuContext,
@@ -395,6 +399,7 @@ impl EnvPass {
         light: &RgbSh,
         medium: &Medium,
         eye: [f64; 3],
+        distant: &Distant,
     ) -> Result<(), GpuError> {
         let order = shadow.order;
         let n2 = check_order(order)?;
@@ -414,13 +419,23 @@ impl EnvPass {
                 shadow.dims
             )));
         }
-        let a = env_pass::phase_factors(medium, order);
+        let a = env_pass::env_phase_factors(medium, order);
+        let f = env_pass::peak_share(medium, order);
         let mut factors: Vec<f32> = Vec::with_capacity(4 * n2);
         for (j, aj) in a.iter().enumerate() {
             factors.extend([light[0][j], light[1][j], light[2][j], *aj].map(|v| v as f32));
         }
+        // The forward peak's sky after the factors (`env_pass.wgsl`'s PEAK_*).
+        if f > 0.0 {
+            for t in env_pass::peak_sky(distant).texels {
+                factors.extend(t);
+            }
+        } else {
+            factors.extend([0.0; 3]);
+        }
         let params = Params {
             eye: [0, 1, 2].map(|k| (eye[k] - bbox.min[k]) as f32),
+            peak: (medium.albedo * f) as f32,
             ..shadow.params
         };
         let groups = voxel_groups(ctx, dims, SIDE)?;

@@ -627,8 +627,15 @@ impl GpuRenderer {
                     &self.env_grid.insert((key, shadow)).1
                 }
             };
-            self.env_pass
-                .apply(ctx, grid, shadow, light, medium, camera.eye)?;
+            self.env_pass.apply(
+                ctx,
+                grid,
+                shadow,
+                light,
+                medium,
+                camera.eye,
+                &self.env.distant,
+            )?;
             stats.crm.env_seconds = t.elapsed().as_secs_f64();
         }
         Ok(())

@@ -28,6 +28,19 @@
 //! the volume pass and before the lights pass. The centers then carry the multiple
 //! scattering only; their single scattering still feeds the diffusion.
 //!
+//! **The forward peak** (delta-M, [`peak_share`]). Cut after band `order − 1`, HG's
+//! series loses bands that weigh `g^order` and more: at g 0.8 and order 4 the first cut
+//! band weighs 41 % of band 0, and the sky seen through the smoke's forward peak comes out
+//! blurred (15 % off a path tracer on a held-out front-lit plume). So, for `g > 0`, the
+//! pass splits `p = f·4πδ(ω − d) + (1 − f)·p*` with `f = g^order` (Wiscombe's delta-M):
+//! `p*`'s bands `l < order` are `(g^l − f)/(1 − f)`, so the SH sum takes the factors
+//! `Ω(g^l − f)`, and the peak adds `Ω·f·L(d)·T(u, d)`: the distant light straight behind
+//! the voxel (seen from the eye), through the smoke behind it, marched like the grid's
+//! own directions. `L` is read from [`PeakSky`], the distant radiance averaged on a coarse
+//! lat-long (the peak is a few degrees wide, not a ray). With `f` below [`PEAK_MIN`] the
+//! peak is left in the series (no march). On the held-out front-lit plume at g 0.8:
+//! single scattering 16.4 → 7.9 % off; at g ≤ 0.5 the sky cases move by ≤ 0.4 points.
+//!
 //! The GPU twin is `shaders/env_pass.wgsl` (`gpu::env_pass`).
 
 use super::crm::VolumeGrids;
@@ -300,6 +313,63 @@ pub fn needed_nodes(density: &Volume, grid: &ShGrid) -> Vec<bool> {
     needed
 }
 
+/// `f` below which the environment pass keeps HG's forward peak in its SH series: the
+/// peak's light is then at most 1 % of the single scattering it would correct.
+pub const PEAK_MIN: f64 = 0.01;
+
+/// Size of [`PeakSky`]'s lat-long, texels (about 5.6° each).
+pub const PEAK_SKY: [usize; 2] = [64, 32];
+
+/// The share `f = g^order` of HG's phase function that the environment pass takes as its
+/// forward peak (module docs): 0 for `g ≤ 0` or `f <` [`PEAK_MIN`].
+pub fn peak_share(medium: &Medium, order: usize) -> f64 {
+    if medium.g.is_nan() || medium.g <= 0.0 {
+        return 0.0;
+    }
+    let f = medium.g.powi(order as i32);
+    if f >= PEAK_MIN { f } else { 0.0 }
+}
+
+/// The environment pass's per-coefficient factors `Ω·(g^l − f)`, `f` its
+/// [`peak_share`] (module docs).
+pub fn env_phase_factors(medium: &Medium, order: usize) -> Vec<f64> {
+    let f = peak_share(medium, order);
+    phase_factors(medium, order)
+        .into_iter()
+        .map(|a| a - medium.albedo * f)
+        .collect()
+}
+
+/// The distant radiance the forward peak sees: `distant` averaged over each texel of a
+/// [`PEAK_SKY`] lat-long (4 × 4 samples a texel), read bilinearly
+/// ([`LatLong::radiance`]). The GPU twin reads the same texels.
+pub fn peak_sky(distant: &Distant) -> LatLong {
+    const SUB: usize = 4;
+    let [w, h] = PEAK_SKY;
+    let texels = (0..w * h)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            let mut sum = [0.0f64; 3];
+            for sy in 0..SUB {
+                for sx in 0..SUB {
+                    let phi = 2.0 * PI * (x as f64 + (sx as f64 + 0.5) / SUB as f64) / w as f64;
+                    let theta = PI * (y as f64 + (sy as f64 + 0.5) / SUB as f64) / h as f64;
+                    let l = distant.radiance(crate::distant::direction(theta, phi));
+                    for c in 0..3 {
+                        sum[c] += l[c];
+                    }
+                }
+            }
+            sum.map(|v| (v / (SUB * SUB) as f64) as f32)
+        })
+        .collect();
+    LatLong {
+        width: w,
+        height: h,
+        texels,
+    }
+}
+
 /// The per-coefficient factors `Ω·g^l` of `J = Σ_j Ω g^l E_j Y_j(d)` at `order`.
 pub fn phase_factors(medium: &Medium, order: usize) -> Vec<f64> {
     (0..sh::count(order))
@@ -321,7 +391,7 @@ pub fn env_pass(
     opts: &EnvGridOptions,
 ) -> ShGrid {
     let grid = env_grid(&grids.density, medium.sigma_t, env, order, opts);
-    add_env_grid(grids, &grid, light, medium, eye, order);
+    add_env_grid(grids, &grid, light, medium, eye, order, &env.distant);
     grid
 }
 
@@ -336,16 +406,21 @@ pub fn add_env_grid(
     medium: &Medium,
     eye: [f64; 3],
     order: usize,
+    distant: &Distant,
 ) {
     if medium.albedo == 0.0 {
         return;
     }
     let n2 = sh::count(order);
-    let a = phase_factors(medium, order);
+    let a = env_phase_factors(medium, order);
+    let f = peak_share(medium, order);
+    let sky = (f > 0.0).then(|| peak_sky(distant));
     let density = &grids.density;
+    let occupied = Occupancy::new(density);
     let dims = density.dims();
     let bbox = *density.bbox();
     let vs = density.voxel_size();
+    let h0 = vs[0].min(vs[1]).min(vs[2]);
     let plane = dims[0] * dims[1];
     let lit = lit_voxels(density);
     grids
@@ -372,6 +447,16 @@ pub fn add_env_grid(
                         .map(|k| a[k] * (light[c][k] - s[3 * k + c]) * y[k])
                         .sum();
                     out[c] = (f64::from(out[c]) + j.max(0.0)) as f32;
+                }
+                if let (Some(sky), Some(occupied)) = (&sky, &occupied) {
+                    // The forward peak: the light straight behind u, through the smoke.
+                    let tau =
+                        optical_depth_within(density, medium.sigma_t, u, d, f64::MAX, h0, occupied);
+                    let t = (-tau).exp();
+                    let l = sky.radiance(d);
+                    for c in 0..3 {
+                        out[c] = (f64::from(out[c]) + medium.albedo * f * l[c] * t) as f32;
+                    }
                 }
             }
         });

@@ -94,7 +94,15 @@ impl FrameLight {
                     g,
                 )),
             };
-            env_pass::add_env_grid(&mut grids, &grid, projected, medium, eye, opts.order);
+            env_pass::add_env_grid(
+                &mut grids,
+                &grid,
+                projected,
+                medium,
+                eye,
+                opts.order,
+                &env.distant,
+            );
             env_grid = Some((grid, projected.clone()));
             stats.env_seconds = t.elapsed().as_secs_f64();
         }
@@ -173,7 +181,15 @@ impl FrameLight {
         stats.volume_seconds = t.elapsed().as_secs_f64();
         if let Some((grid, light)) = &self.env_grid {
             let t = Instant::now();
-            env_pass::add_env_grid(&mut grids, grid, light, medium, eye, opts.order);
+            env_pass::add_env_grid(
+                &mut grids,
+                grid,
+                light,
+                medium,
+                eye,
+                opts.order,
+                &env.distant,
+            );
             stats.env_seconds = t.elapsed().as_secs_f64();
         }
         let t = Instant::now();
