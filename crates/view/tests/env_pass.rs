@@ -276,12 +276,12 @@ fn rms_against_brute_force(g: &VolumeGrids, env: &Environment, m: &Medium) -> (f
     let (mut num, mut den, mut got, mut want_sum) = (0.0, 0.0, 0.0, 0.0);
     for i in smoke_voxels(g, 29) {
         let want = brute_force(&g.density, env, m, voxel_center(g, i), true);
-        for c in 0..3 {
-            let v = f64::from(g.radiance[i][c]);
-            num += (v - want[c]).powi(2);
-            den += want[c].powi(2);
+        for (v, w) in g.radiance[i].iter().zip(want) {
+            let v = f64::from(*v);
+            num += (v - w).powi(2);
+            den += w * w;
             got += v;
-            want_sum += want[c];
+            want_sum += w;
         }
     }
     ((num / den).sqrt(), got / want_sum)
