@@ -32,7 +32,7 @@
 //! series loses bands that weigh `g^order` and more: at g 0.8 and order 4 the first cut
 //! band weighs 41 % of band 0, and the sky seen through the smoke's forward peak comes out
 //! blurred (15 % off a path tracer on a held-out front-lit plume). So, for `g > 0`, the
-//! pass splits `p = f·4πδ(ω − d) + (1 − f)·p*` with `f = g^order` (Wiscombe's delta-M):
+//! pass splits `p = f·4πδ(ω − d) + (1 − f)·p*` with `f = g^order` (delta-M):
 //! `p*`'s bands `l < order` are `(g^l − f)/(1 − f)`, so the SH sum takes the factors
 //! `Ω(g^l − f)`, and the peak adds `Ω·f·L(d)·T(u, d)`: the distant light straight behind
 //! the voxel (seen from the eye), through the smoke behind it, marched like the grid's

@@ -33,9 +33,11 @@ pub const DEFAULT_ORDER: usize = 4;
 /// ([`hg_zh`]), so with the basis' `√(2l+1)` divided out band `order` weighs
 /// `|g|^order`. What is cut is the
 /// forward peak: the sky's light scattered through small angles is blurred over the
-/// smoke. Measured (BENCHMARKS.md "Skies of every shape"): at `g` 0.5 and order 4
-/// (`0.06`) sky-lit single scattering is within 2–4 %; at `g` 0.8 (`0.41`) a held-out
-/// plume's is 15 % off, 7.8 % at order 6 (`0.26`). 0 for `g` 0 or NaN.
+/// smoke. The environment pass takes the peak apart (delta-M, `render::env_pass`), but
+/// the shadow's bands beyond the order stay cut. Measured (BENCHMARKS.md "Skies of every
+/// shape"): at `g` 0.5 and order 4 (`0.06`) sky-lit single scattering is within 1–2 %;
+/// at `g` 0.8 (`0.41`) a held-out front-lit plume's is 7.9 % off (15 % before the
+/// peak was taken apart) and its final image 12.7 %. 0 for `g` 0 or NaN.
 pub fn phase_cut(g: f64, order: usize) -> f64 {
     if g.is_nan() {
         return 0.0;
@@ -62,7 +64,7 @@ pub fn phase_cut_warning(g: f64, order: usize) -> Option<String> {
             "a check against the reference (--check) says how far".to_string()
         };
         format!(
-            "HG g {g} is too forward for SH order {order}: the cut band weighs {:.0} % of the phase function's first, so sky-lit scattering is blurred and can be 10–30 % off (15 % at g 0.8 and order 4 on a held-out plume); {better}",
+            "HG g {g} is too forward for SH order {order}: the cut band weighs {:.0} % of the phase function's first, so sky-lit scattering is approximate (at g 0.8 and order 4 on a held-out plume: 8 % off in single scattering, 13 % in the final image); {better}",
             100.0 * c
         )
     })
