@@ -24,6 +24,7 @@ import subprocess
 
 import numpy as np
 import OpenEXR
+from sky_speed import load, rel_rms
 
 # name, plume, frame, lobes (elevation, azimuth, sigma in degrees, peak, colour), sky
 # (horizon, zenith, ground), sigma_t, albedo, g
@@ -42,14 +43,6 @@ def write_exr(path, pixels):
         f.write(path)
 
 
-def load(path):
-    with OpenEXR.File(path) as f:
-        ch = f.channels()
-        if "RGB" in ch:
-            return np.array(ch["RGB"].pixels, dtype=np.float64)
-        return np.stack([np.array(ch[c].pixels, dtype=np.float64) for c in "RGB"], -1)
-
-
 def sky(path, lobes, base):
     """Z up, row 0 the zenith, column u at azimuth 2*pi*u from +X towards +Y."""
     w, h = 1024, 512
@@ -66,11 +59,6 @@ def sky(path, lobes, base):
         angle = np.arccos(np.clip(d @ s, -1, 1))
         img = img + peak * np.exp(-0.5 * (angle / math.radians(sigma)) ** 2)[..., None] * np.array(colour)
     write_exr(path, img)
-
-
-def rel_rms(a, b, mask):
-    d = a[mask] - b[mask]
-    return 100.0 * math.sqrt((d**2).sum() / max((b[mask] ** 2).sum(), 1e-300))
 
 
 def main():

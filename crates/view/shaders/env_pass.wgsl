@@ -23,7 +23,7 @@
 #import sh_basis
 #import grid_march
 #import lit
-#import optics
+#import lat_long
 
 struct Params {
     // Eye relative to the box's minimum corner.
@@ -75,28 +75,10 @@ fn peak_texel(x: u32, y: u32) -> vec3<f32> {
     return vec3<f32>(table[i], table[i + 1u], table[i + 2u]);
 }
 
-// `LatLong::radiance` of the forward peak's sky: column u → φ = 2πu from +X towards +Y,
-// row v → θ = πv from +Z, bilinear between texel centers, wrapping in φ and clamped at
-// the poles.
+// `LatLong::radiance` of the forward peak's sky.
 fn peak_sky(d: vec3<f32>) -> vec3<f32> {
-    let theta = atan2(length(d.xy), d.z);
-    var phi = atan2(d.y, d.x);
-    if phi < 0.0 {
-        phi += 2.0 * PI;
-    }
-    let w = f32(PEAK_W);
-    let h = f32(PEAK_H);
-    let fx = phi / (2.0 * PI) * w - 0.5;
-    let fy = clamp(theta / PI * h - 0.5, 0.0, h - 1.0);
-    let x0 = floor(fx);
-    let y0 = floor(fy);
-    let tx = fx - x0;
-    let ty = fy - y0;
-    let xa = min(u32(x0 - w * floor(x0 / w)), PEAK_W - 1u);
-    let xb = min(u32((x0 + 1.0) - w * floor((x0 + 1.0) / w)), PEAK_W - 1u);
-    let ya = u32(y0);
-    let yb = min(ya + 1u, PEAK_H - 1u);
-    return mix(mix(peak_texel(xa, ya), peak_texel(xb, ya), tx), mix(peak_texel(xa, yb), peak_texel(xb, yb), tx), ty);
+    let s = lat_long_stencil(d, vec2<u32>(PEAK_W, PEAK_H));
+    return lat_long_blend(s, peak_texel(s.xa, s.ya), peak_texel(s.xb, s.ya), peak_texel(s.xa, s.yb), peak_texel(s.xb, s.yb));
 }
 
 // `grid_march::optical_depth` from u along s to the box's face, skipping the samples

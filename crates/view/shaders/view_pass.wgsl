@@ -58,6 +58,7 @@ struct Params {
 // Transmittance below which the march stops (`crm::OPAQUE`).
 const OPAQUE: f32 = 1e-4;
 #import optics
+#import lat_long
 
 @group(0) @binding(0) var<storage, read> p: Params;
 // Per voxel (x fastest): J̃ in xyz, D in w.
@@ -170,32 +171,10 @@ fn texel(x: u32, y: u32) -> vec3<f32> {
     return vec3<f32>(env_map[i], env_map[i + 1u], env_map[i + 2u]);
 }
 
-fn wrap_column(x: f32, w: f32) -> u32 {
-    return min(u32(x - w * floor(x / w)), p.env_size.x - 1u);
-}
-
-// `LatLong::radiance`: column u → φ = 2πu from +X towards +Y, row v → θ = πv from +Z,
-// bilinear between texel centers, wrapping in φ and clamped at the poles.
+// `LatLong::radiance` of the environment map.
 fn lat_long(d: vec3<f32>) -> vec3<f32> {
-    // θ by atan2 rather than acos: well conditioned at the poles too.
-    let theta = atan2(length(d.xy), d.z);
-    var phi = atan2(d.y, d.x);
-    if phi < 0.0 {
-        phi += 2.0 * PI;
-    }
-    let w = f32(p.env_size.x);
-    let h = f32(p.env_size.y);
-    let fx = phi / (2.0 * PI) * w - 0.5;
-    let fy = clamp(theta / PI * h - 0.5, 0.0, h - 1.0);
-    let x0 = floor(fx);
-    let y0 = floor(fy);
-    let tx = fx - x0;
-    let ty = fy - y0;
-    let xa = wrap_column(x0, w);
-    let xb = wrap_column(x0 + 1.0, w);
-    let ya = u32(y0);
-    let yb = min(ya + 1u, p.env_size.y - 1u);
-    return mix(mix(texel(xa, ya), texel(xb, ya), tx), mix(texel(xa, yb), texel(xb, yb), tx), ty);
+    let s = lat_long_stencil(d, p.env_size);
+    return lat_long_blend(s, texel(s.xa, s.ya), texel(s.xb, s.ya), texel(s.xa, s.yb), texel(s.xb, s.yb));
 }
 
 // `Environment::radiance`: the distant radiance plus the disks of the suns (`Sun::covers`)

@@ -461,6 +461,28 @@ fn crm_lit(medium: &Medium, env: &Environment, cam: &Camera, multiple: bool) -> 
     crm(&cluster(), medium, env, cam, opts)
 }
 
+/// The reference's single scattering at `spp` (seed 1), the pixels it changes, and its
+/// noise (the relative RMS of a second seed's picture against it over √2).
+fn single_reference(
+    volume: &haze_volume::Volume,
+    medium: &Medium,
+    env: &Environment,
+    cam: &Camera,
+    spp: u32,
+) -> (Image, Vec<bool>, f64) {
+    let opts = |seed| RefOptions {
+        spp,
+        multiple: false,
+        seed,
+        ..RefOptions::default()
+    };
+    let r = reference::render(volume, medium, env, cam, &opts(1));
+    let r2 = reference::render(volume, medium, env, cam, &opts(2));
+    let mask = smoke_pixels(&r, env, cam);
+    let noise = masked_rel_rms(&r2, &r, &mask) / 2f64.sqrt();
+    (r, mask, noise)
+}
+
 /// Single scattering of a sun and of a point light against the reference (the same
 /// trilinear density: the RBFs on the 32³ grid, no residual). The lights pass marches
 /// the shadow at one voxel per step through the same field and takes the disk's phase
@@ -495,17 +517,8 @@ fn lights_match_the_reference_in_single_scattering() {
         ),
     ];
     for (name, env) in cases {
-        let opts = |seed| RefOptions {
-            spp: 128,
-            multiple: false,
-            seed,
-            ..RefOptions::default()
-        };
-        let r = reference::render(&volume, &medium, &env, &cam, &opts(1));
-        let r2 = reference::render(&volume, &medium, &env, &cam, &opts(2));
-        let mask = smoke_pixels(&r, &env, &cam);
+        let (r, mask, noise) = single_reference(&volume, &medium, &env, &cam, 128);
         assert!(mask.iter().filter(|m| **m).count() > 100, "{name}");
-        let noise = masked_rel_rms(&r2, &r, &mask) / 2f64.sqrt();
         let e = masked_rel_rms(&crm_lit(&medium, &env, &cam, false), &r, &mask);
         println!("{name}: rel RMS {e:.4}, reference noise {noise:.4}");
         assert!(e < 0.04, "{name}: {e} (noise {noise})");
@@ -727,17 +740,8 @@ fn a_sun_skimming_a_face_lights_its_outer_band() {
         default_slice(dims, &bbox),
         None,
     );
-    let opts = |seed| RefOptions {
-        spp: 256,
-        multiple: false,
-        seed,
-        ..RefOptions::default()
-    };
-    let r = reference::render(&volume, &medium, &env, &cam, &opts(1));
-    let r2 = reference::render(&volume, &medium, &env, &cam, &opts(2));
-    let mask = smoke_pixels(&r, &env, &cam);
+    let (r, mask, noise) = single_reference(&volume, &medium, &env, &cam, 256);
     assert!(mask.iter().filter(|m| **m).count() > 300);
-    let noise = masked_rel_rms(&r2, &r, &mask) / 2f64.sqrt();
     let fast = Image {
         width: cam.width,
         height: cam.height,

@@ -26,6 +26,10 @@ pub const MODULES: &[Module] = &[
         name: "lit",
         source: include_str!("../../shaders/lit.wgsl"),
     },
+    Module {
+        name: "lat_long",
+        source: include_str!("../../shaders/lat_long.wgsl"),
+    },
 ];
 
 /// Every module the passes may import: this crate's, then the shared ones.
