@@ -5,37 +5,84 @@
 use haze_volume::{Bbox, Volume};
 
 /// Density at world point `p` (0 outside the box): trilinear between voxel centers,
-/// constant to the faces. The marches of the lighting call this for every step, so the
-/// stencil is unrolled; a corner of zero weight is skipped (a NaN there stays out).
+/// constant to the faces. [`Sampler`] is the same with the grid's constants taken once.
 pub fn sample(v: &Volume, p: [f64; 3]) -> f64 {
-    let b = v.bbox();
-    let d = v.dims();
-    if d.contains(&0) || (0..3).any(|a| !(p[a] >= b.min[a] && p[a] <= b.max[a])) {
-        return 0.0;
-    }
-    let vs = v.voxel_size();
-    // Per axis: the offsets (in the data) of the lower and upper corner, and the weights.
-    let stride = [1, d[0], d[0] * d[1]];
-    let mut off = [[0usize; 2]; 3];
-    let mut w = [[0.0f64; 2]; 3];
-    for a in 0..3 {
-        // Clamped to ≥ 0, so the cast is the floor.
-        let f = ((p[a] - b.min[a]) / vs[a] - 0.5).clamp(0.0, (d[a] - 1) as f64);
-        let i = (f as usize).min(d[a].saturating_sub(2));
-        let t = f - i as f64;
-        off[a] = [i * stride[a], (i + 1).min(d[a] - 1) * stride[a]];
-        w[a] = [1.0 - t, t];
-    }
-    let data = v.data();
-    let mut s = 0.0;
-    for corner in 0..8 {
-        let (x, y, z) = (corner & 1, corner >> 1 & 1, corner >> 2);
-        let weight = 1.0 * w[0][x] * w[1][y] * w[2][z];
-        if weight != 0.0 {
-            s += weight * f64::from(data[off[0][x] + off[1][y] + off[2][z]]);
+    Sampler::new(v).at(p)
+}
+
+/// [`sample`] of one grid, its constants (box, voxel size, strides) taken once: the
+/// marches of the lighting sample it at every step. The stencil is unrolled; a corner of
+/// zero weight is skipped (a NaN there stays out).
+#[derive(Clone, Copy, Debug)]
+pub struct Sampler<'a> {
+    data: &'a [f32],
+    min: [f64; 3],
+    max: [f64; 3],
+    /// `1/voxel` per axis.
+    inv_voxel: [f64; 3],
+    dims: [usize; 3],
+    stride: [usize; 3],
+    empty: bool,
+}
+
+impl<'a> Sampler<'a> {
+    pub fn new(v: &'a Volume) -> Sampler<'a> {
+        let d = v.dims();
+        let b = v.bbox();
+        Sampler {
+            data: v.data(),
+            min: b.min,
+            max: b.max,
+            inv_voxel: v.voxel_size().map(|s| 1.0 / s),
+            dims: d,
+            stride: [1, d[0], d[0] * d[1]],
+            empty: d.contains(&0),
         }
     }
-    s
+
+    /// The density at world point `p` ([`sample`]).
+    #[inline]
+    pub fn at(&self, p: [f64; 3]) -> f64 {
+        self.coords(p).map_or(0.0, |q| self.at_coords(q))
+    }
+
+    /// `p`'s voxel coordinates `(p − min)·(1/voxel)` (voxel `k`'s center at `k + ½`), `None`
+    /// outside the box or for an empty grid (where the density is 0).
+    #[inline]
+    pub fn coords(&self, p: [f64; 3]) -> Option<[f64; 3]> {
+        if self.empty || (0..3).any(|a| !(p[a] >= self.min[a] && p[a] <= self.max[a])) {
+            return None;
+        }
+        Some(std::array::from_fn(|a| {
+            (p[a] - self.min[a]) * self.inv_voxel[a]
+        }))
+    }
+
+    /// The density at voxel coordinates `q` from [`Sampler::coords`].
+    #[inline]
+    pub fn at_coords(&self, q: [f64; 3]) -> f64 {
+        let d = self.dims;
+        // Per axis: the offsets (in the data) of the lower and upper corner, and the weights.
+        let mut off = [[0usize; 2]; 3];
+        let mut w = [[0.0f64; 2]; 3];
+        for a in 0..3 {
+            // Clamped to ≥ 0, so the cast is the floor.
+            let f = (q[a] - 0.5).clamp(0.0, (d[a] - 1) as f64);
+            let i = (f as usize).min(d[a].saturating_sub(2));
+            let t = f - i as f64;
+            off[a] = [i * self.stride[a], (i + 1).min(d[a] - 1) * self.stride[a]];
+            w[a] = [1.0 - t, t];
+        }
+        let mut s = 0.0;
+        for corner in 0..8 {
+            let (x, y, z) = (corner & 1, corner >> 1 & 1, corner >> 2);
+            let weight = 1.0 * w[0][x] * w[1][y] * w[2][z];
+            if weight != 0.0 {
+                s += weight * f64::from(self.data[off[0][x] + off[1][y] + off[2][z]]);
+            }
+        }
+        s
+    }
 }
 
 /// Parameters `t0 ≤ t1` (with `t0 ≥ 0`) where the ray `o + t·d` is inside the box, if it

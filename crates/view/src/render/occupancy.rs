@@ -18,7 +18,8 @@ pub const BLOCK: usize = 4;
 pub struct Occupancy {
     bbox: Bbox,
     min: [f64; 3],
-    voxel: [f64; 3],
+    /// `1/voxel` per axis, as [`crate::field::Sampler`] has it.
+    inv_voxel: [f64; 3],
     dims: [usize; 3],
     blocks: [usize; 3],
     marked: Vec<bool>,
@@ -55,7 +56,7 @@ impl Occupancy {
         Some(Occupancy {
             bbox,
             min: density.bbox().min,
-            voxel: density.voxel_size(),
+            inv_voxel: density.voxel_size().map(|s| 1.0 / s),
             dims,
             blocks,
             marked,
@@ -70,12 +71,19 @@ impl Occupancy {
     /// Whether the trilinear density at `p` may be non-zero; `false` only where it is
     /// exactly zero (module docs).
     pub fn may_hold(&self, p: [f64; 3]) -> bool {
-        // The block of the voxel that holds p per axis (a negative or NaN coordinate casts
+        self.may_hold_coords(std::array::from_fn(|a| {
+            (p[a] - self.min[a]) * self.inv_voxel[a]
+        }))
+    }
+
+    /// [`Occupancy::may_hold`] at voxel coordinates `q = (p − min)·(1/voxel)` (as
+    /// [`crate::field::Sampler::coords`] gives them).
+    #[inline]
+    pub fn may_hold_coords(&self, q: [f64; 3]) -> bool {
+        // The block of the voxel that holds q per axis (a negative or NaN coordinate casts
         // to 0).
-        let block: [usize; 3] = std::array::from_fn(|a| {
-            let v = ((p[a] - self.min[a]) / self.voxel[a]) as usize;
-            v.min(self.dims[a] - 1) / BLOCK
-        });
+        let block: [usize; 3] =
+            std::array::from_fn(|a| (q[a] as usize).min(self.dims[a] - 1) / BLOCK);
         self.marked[block[0] + self.blocks[0] * (block[1] + self.blocks[1] * block[2])]
     }
 }
