@@ -416,7 +416,12 @@ pub fn add_env_grid(
     let f = peak_share(medium, order);
     let sky = (f > 0.0).then(|| peak_sky(distant));
     let density = &grids.density;
-    let occupied = Occupancy::new(density);
+    // The peak's marches skip empty blocks; without a peak nothing marches here.
+    let occupied = if f > 0.0 {
+        Occupancy::new(density)
+    } else {
+        None
+    };
     let dims = density.dims();
     let bbox = *density.bbox();
     let vs = density.voxel_size();
