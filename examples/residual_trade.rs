@@ -203,7 +203,7 @@ fn row(
     let t = Instant::now();
     let g = ResidualGroup::build(dims.map(|d| d as u32), brick, &qs, BuildOptions::default())
         .unwrap_or_else(|e| fail(&e.to_string()));
-    let bytes = block::encode(&g).len();
+    let bytes = block::encode(&g).unwrap_or_else(|e| fail(&e)).len();
     let hash_s = t.elapsed().as_secs_f64() + quant_s;
 
     // Random lookups over the frames (hits and misses alike).

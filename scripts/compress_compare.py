@@ -18,11 +18,17 @@ takes), the script:
   table with encode/decode times (the haze column's encode time is the whole bake,
   fitting included).
 
+With `--sequence A..B` it bakes each input's frames A..B into one asset instead (the
+bake's defaults, as a user stores a sequence: temporal coherence, hash volumes of up to
+27 frames) and prints the asset's bytes per frame against the other compressors' mean
+bytes per frame over the same frames, every frame checked within its bound.
+
 Not part of the test suite. Needs `pip install numpy pysz zfpy blosc2 zstandard` and a
 built `haze` (`cargo build --release`, or pass --haze).
 
     python3 scripts/compress_compare.py --haze target/release/haze \\
         --frames 30,60 DIR [DIR ...] [--error 0.00392]
+    python3 scripts/compress_compare.py --haze target/release/haze --sequence 20..45 DIR
 """
 
 import argparse
@@ -123,13 +129,55 @@ def quant_row(truth, bound):
     return len(packed), te, td, float(np.abs(back - truth).max())
 
 
+def sequence_rows(a, tmp):
+    first, last = (int(v) for v in a.sequence.split(".."))
+    print("| sequence | frames | haze asset a frame | SZ3 (abs) | 8-bit + Blosc2/zstd "
+          "| zfp (accuracy) | haze / SZ3 | haze bake s |")
+    print("|---|---|---|---|---|---|---|---|")
+    for src in a.inputs:
+        asset = os.path.join(tmp, "sequence.haze")
+        t = time.perf_counter()
+        run([a.haze, "bake", src, "--frames", f"{first}..{last}", "--residual-error",
+             str(a.error), "--out", asset, "-q"])
+        bake = time.perf_counter() - t
+        n = last - first + 1
+        others = {"SZ3": 0, "8-bit": 0, "zfp": 0}
+        for frame in range(first, last + 1):
+            truth = exact_frame(a.haze, src, frame, tmp)
+            bound = a.error * float(truth.max())
+            back = os.path.join(tmp, "back.f32")
+            run([a.haze, "export", asset, "--frame", str(frame), "--out", back])
+            got = np.fromfile(back, dtype="<f4").reshape(truth.shape)
+            errs = {"haze": float(np.abs(got - truth).max())}
+            s, _, _, errs["SZ3"] = sz3_row(truth, bound)
+            q, _, _, errs["8-bit"] = quant_row(truth, bound)
+            z, _, _, errs["zfp"] = zfp_row(truth, bound)
+            others["SZ3"] += s
+            others["8-bit"] += q
+            others["zfp"] += z
+            for name, err in errs.items():
+                if err > bound * (1 + 1e-4) + 1e-6 * float(truth.max()):
+                    print(f"warning: {name} exceeds the bound on {src} frame {frame}: "
+                          f"{err:.3g} > {bound:.3g}", file=sys.stderr)
+        h = os.path.getsize(asset) / n
+        kb = lambda v: f"{v / 1000:.1f} kB"
+        print(f"| {os.path.basename(os.path.normpath(src))} | {first}..{last} | {kb(h)} | "
+              f"{kb(others['SZ3'] / n)} | {kb(others['8-bit'] / n)} | {kb(others['zfp'] / n)} | "
+              f"{h / (others['SZ3'] / n):.2f} | {bake:.1f} |", flush=True)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("inputs", nargs="+", help="directories of numbered frames")
     ap.add_argument("--frames", default="30", help="frame numbers, comma separated")
     ap.add_argument("--error", type=float, default=1 / 255, help="max error relative to the peak")
     ap.add_argument("--haze", default="target/release/haze")
+    ap.add_argument("--sequence", help="A..B: bake these frames as one asset (bytes a frame)")
     a = ap.parse_args()
+    if a.sequence:
+        with tempfile.TemporaryDirectory() as tmp:
+            sequence_rows(a, tmp)
+        return
     print(f"| frame | dims | haze asset | haze through zstd -19 | SZ3 (abs) | 8-bit + Blosc2/zstd "
           f"| zfp (accuracy) | haze encode / decode s | SZ3 | 8-bit | zfp |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")

@@ -5,11 +5,12 @@ use serde::{Deserialize, Serialize};
 /// File magic: "HAZE", a NUL, CR LF and ^Z, so that text-mode transfers and `type`
 /// corrupt it visibly.
 pub const MAGIC: [u8; 8] = *b"HAZE\0\r\n\x1a";
-/// Format version this build writes and the newest it reads. Version 3 codes the RBF
-/// blocks (16-bit channels) and residual blocks (`haze_hash::block` layout 3) with zstd;
-/// files of versions 1 and 2 still open (raw volumes read as before), and their RBF and
-/// residual blocks are refused with a message to bake again.
-pub const FORMAT_VERSION: u32 = 3;
+/// Format version this build writes and the newest it reads. Version 4 range-codes the
+/// residual's values under context models (`haze_hash::block` layout 4) and codes the RBF
+/// blocks (16-bit channels) with zstd; files of versions 1 to 3 still open (raw volumes
+/// read as before), and the blocks they hold in an older layout are refused with a
+/// message to bake again.
+pub const FORMAT_VERSION: u32 = 4;
 /// Alignment of every block, in bytes.
 pub const ALIGN: u64 = 64;
 /// Size of the preamble.

@@ -25,6 +25,9 @@ impl Storage {
     }
 }
 
+/// The largest header JSON a reader decodes (a few hundred bytes a frame in practice).
+const MAX_HEADER: usize = 1 << 28;
+
 /// An opened asset: header and index verified, blocks verified as they are handed out.
 #[derive(Debug)]
 pub struct Asset {
@@ -196,7 +199,16 @@ impl Asset {
                 format!("checksum mismatch (stored {header_crc:08x}, computed {hc:08x})"),
             ));
         }
-        let header: Header = serde_json::from_slice(&b[h0..h1])
+        // From format 4 on the header's JSON is zstd-coded.
+        let json = if version >= 4 {
+            std::borrow::Cow::Owned(
+                haze_core::coded::inflate(&b[h0..h1], MAX_HEADER)
+                    .map_err(|e| corrupt("header", format!("unreadable: {e}")))?,
+            )
+        } else {
+            std::borrow::Cow::Borrowed(&b[h0..h1])
+        };
+        let header: Header = serde_json::from_slice(&json)
             .map_err(|e| corrupt("header", format!("unreadable: {e}")))?;
         let ic = crc32fast::hash(&b[i0..i1]);
         if ic != index_crc {

@@ -110,10 +110,11 @@ impl AssetWriter {
             path: self.path.clone(),
             what: format!("header not serializable: {e}"),
         })?;
+        let header_coded = haze_core::coded::deflate(&header_json);
         self.pad_to_alignment()?;
         let header_offset = self.pos;
-        self.out.write_all(&header_json).map_err(|e| self.io(e))?;
-        self.pos += header_json.len() as u64;
+        self.out.write_all(&header_coded).map_err(|e| self.io(e))?;
+        self.pos += header_coded.len() as u64;
         self.pad_to_alignment()?;
         let index_offset = self.pos;
         let mut index = Vec::with_capacity(self.entries.len() * crate::format::ENTRY_LEN);
@@ -127,10 +128,10 @@ impl AssetWriter {
         pre[8..12].copy_from_slice(&FORMAT_VERSION.to_le_bytes());
         // 12..16: flags, none defined.
         pre[16..24].copy_from_slice(&header_offset.to_le_bytes());
-        pre[24..32].copy_from_slice(&(header_json.len() as u64).to_le_bytes());
+        pre[24..32].copy_from_slice(&(header_coded.len() as u64).to_le_bytes());
         pre[32..40].copy_from_slice(&index_offset.to_le_bytes());
         pre[40..48].copy_from_slice(&(self.entries.len() as u64).to_le_bytes());
-        pre[48..52].copy_from_slice(&crc32fast::hash(&header_json).to_le_bytes());
+        pre[48..52].copy_from_slice(&crc32fast::hash(&header_coded).to_le_bytes());
         pre[52..56].copy_from_slice(&crc32fast::hash(&index).to_le_bytes());
         let pre_crc = crc32fast::hash(&pre[0..56]);
         pre[56..60].copy_from_slice(&pre_crc.to_le_bytes());

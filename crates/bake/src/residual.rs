@@ -194,12 +194,13 @@ impl ResidualStage {
         } else {
             let g = ResidualGroup::build(self.dims, self.brick, &frames, BuildOptions::default())?;
             let bricks: Vec<usize> = (0..count).map(|j| g.bricks_of(j)).collect();
-            // A frame's share: its packed words plus its bricks' list entries (a width
-            // byte and a key delta of about a byte: half a word each).
+            // A frame's share of the block: its packed words plus its bricks' list
+            // entries (a key delta of about a byte: a quarter word each), an estimate.
             let weights = (0..count)
-                .map(|j| g.words_of(j) as f64 + 0.5 * bricks[j] as f64)
+                .map(|j| g.words_of(j) as f64 + 0.25 * bricks[j] as f64)
                 .collect();
-            (block::encode(&g), bricks, weights)
+            let bytes = block::encode(&g).map_err(|e| anyhow!("residual block: {e}"))?;
+            (bytes, bricks, weights)
         };
         let build = t.elapsed().as_secs_f64();
         let total: f64 = weights.iter().sum();

@@ -1,13 +1,13 @@
-//! zstd-coded parts of the asset's blocks (`haze-asset`'s RBF block, `haze-hash`'s
-//! residual block): coded at one level, and decoded only when the frame's declared size
-//! is plausible, so a damaged block cannot make a reader allocate gigabytes.
+//! zstd-coded parts of the asset (its header's JSON, a residual block's lossless values,
+//! the RBF blocks of format 3): coded at one level, and decoded only when the frame's
+//! declared size is plausible, so a damaged block cannot make a reader allocate gigabytes.
 
 /// zstd's level for coded blocks: its strongest regular level (decoding speed does not
 /// depend on it; a 27-frame hash volume of 128³ frames codes in well under a second).
 pub const LEVEL: i32 = 19;
 
-/// The largest ratio of plain to coded bytes a block may claim (no block of real data
-/// comes near it: the RBF planes code at about 1:1, a residual at 2–3:1).
+/// The largest ratio of plain to coded bytes a block may claim (no real data comes near
+/// it: JSON headers code at about 3:1, lossless residual values at 1–2:1).
 pub const RATIO: u64 = 1024;
 
 /// `plain`, coded as one zstd frame that records its size.

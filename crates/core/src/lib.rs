@@ -3,9 +3,11 @@
 //! their OpenEXR and PNG writers, which refuse a picture holding NaN or infinity; and
 //! the JSON reader's guard against repeated keys ([`json`]) and the `.npy` reader's
 //! against headers that would keep it busy ([`npy_header`]); and the coded blocks'
-//! zstd frames with their guard against implausible sizes ([`coded`]); and the tone
+//! zstd frames with their guard against implausible sizes ([`coded`]) and the range
+//! coder of their binary adaptive models ([`adaptive`]); and the tone
 //! curves of displayed pictures ([`tone`]).
 
+pub mod adaptive;
 pub mod coded;
 mod image;
 pub mod json;

@@ -3,38 +3,67 @@
 //!
 //! A hash's key and payload tables are mostly empty slots, and every stored brick's slot
 //! follows from its key and the offset table `Φ` (`h(p)`, [`crate::psh`]). So the block
-//! stores `Φ`, the bricks as a list and their packed values, coded with zstd, and
-//! [`decode`] puts every brick back in its slot: the decoded group is the one encoded,
-//! table for table.
+//! stores `Φ`, the bricks as a list and their quantized values, range-coded under
+//! adaptive models ([`haze_core::adaptive`]; the values under their neighbours' context,
+//! [`crate::context_coder`]); [`decode`] packs every brick again and puts it back in its
+//! slot: the decoded group is the one encoded, table for table.
 //!
 //! ```text
-//! u32 layout version (3), bits, frames (1..=27), brick side
-//! u32 dims[3], m̄, r̄, data words, bricks, coded bytes
+//! u32 layout version (4), bits, frames (1..=27), brick side
+//! u32 dims[3], m̄, r̄, data words, bricks, zstd bytes, range bytes
 //! f32 steps[27]                       (unused slots 0)
-//! zstd frame of `coded bytes`:
-//!   u32 offsets[r̄³]                   Φ, packed x | y << 10 | z << 20
-//!   u8  widths[bricks]                each brick's width code (haze_hash::pack)
-//!   key deltas[bricks]                zigzag LEB128 varints: each brick's key (linear
-//!                                     index in the hash domain + 1) minus the previous
-//!                                     brick's (the first: minus 0)
-//!   u32 data[data words]              the bricks' packed values, brick after brick
+//! `zstd bytes` (0 when no frame is lossless): a zstd frame of the lossless frames'
+//!   bricks' `f32` values, in list order
+//! `range bytes`, range-coded:
+//!   offsets[r̄³]                       Φ: each component (< m̄) through a binary tree of
+//!                                     adaptive models, one tree an axis
+//!   key deltas[bricks]                each brick's key (linear index in the hash domain
+//!                                     + 1) minus the previous brick's (the first: minus
+//!                                     0), zigzag, as adaptive Elias-gamma codes
+//!   values                            every lossy brick's b³ quantized values, in list
+//!                                     order (context_coder)
 //! ```
 //!
-//! Bricks are listed in the order of their values in `data`, so a brick's payload (first
-//! word, width) is the running sum of the words before it. Layouts 1 (a cell hash, haze
-//! format 1) and 2 (the tables uncoded, haze format 2) are refused with a message that
+//! Bricks are listed in the order of their values in `data` (frame by frame, bricks
+//! ascending `z, y, x`), so a brick's payload (first word, width) is the running sum of
+//! the words before it. A brick's width is not stored: it is the narrowest that holds
+//! its values (as [`ResidualGroup::build`] packs them), or `f32` in a lossless frame.
+//! Layouts 1 (a cell hash, haze format 1), 2 (the tables uncoded, haze format 2) and 3
+//! (values zstd-coded as packed words, haze format 3) are refused with a message that
 //! says to bake the asset again.
 
-use crate::pack::Width;
+use crate::context_coder;
+use crate::pack::{self, Width};
 use crate::psh::{MAX_SIDE, PerfectHash};
 use crate::quantize::BITS;
-use crate::tile::{BRICK_SIDES, GROUP, ResidualGroup, bricks_per_frame, payload, unpayload};
+use crate::tile::{
+    BRICK_SIDES, GROUP, ResidualGroup, bricks_per_frame, payload, tile_origin, unpayload,
+};
+use haze_core::adaptive::{Bit, BitIo, BitReader, BitWriter, Gamma};
 
-const VERSION: u32 = 3;
-const HEADER: usize = 4 * 12 + 4 * GROUP;
+const VERSION: u32 = 4;
+const HEADER: usize = 4 * 13 + 4 * GROUP;
 
-/// Encodes a hash volume.
-pub fn encode(g: &ResidualGroup) -> Vec<u8> {
+/// The largest magnitude a value quantized for `bits` may have.
+fn limit(bits: u8) -> u32 {
+    (1u32 << (bits - 1)) - 1
+}
+
+/// Where brick `key` lies: its frame slot and its brick position in that frame.
+fn place(key: u32, domain: [u32; 3], dims: [u32; 3], brick: u32) -> (usize, [u32; 3]) {
+    let i = key - 1;
+    let j = frame_of(i, domain, dims, brick);
+    let p = [
+        i % domain[0],
+        (i / domain[0]) % domain[1],
+        i / (domain[0] * domain[1]),
+    ];
+    let o = tile_origin(j, bricks_per_frame(dims, brick));
+    (j, [0, 1, 2].map(|a| p[a] - o[a]))
+}
+
+/// Encodes a hash volume (built by [`ResidualGroup::build`]).
+pub fn encode(g: &ResidualGroup) -> Result<Vec<u8>, String> {
     let h = &g.hash;
     // The bricks in the order of their values.
     let mut bricks: Vec<(u32, u32)> = h
@@ -46,32 +75,57 @@ pub fn encode(g: &ResidualGroup) -> Vec<u8> {
         .collect();
     bricks.sort_unstable();
     let per = (g.brick * g.brick * g.brick) as usize;
-    let mut plain = Vec::with_capacity(4 * h.offsets.len() + 6 * bricks.len() + 4 * g.data.len());
-    for o in &h.offsets {
-        plain.extend_from_slice(&o.to_le_bytes());
+    let mut io = BitWriter::new();
+    let mut axes = offset_trees(h.m);
+    for &o in &h.offsets {
+        for (a, tree) in axes.iter_mut().enumerate() {
+            io.tree(tree, tree_depth(h.m), (o >> (10 * a)) & 1023)?;
+        }
     }
-    let parts: Vec<(u32, Width)> = bricks
-        .iter()
-        .map(|&(p, _)| unpayload(p).unwrap_or((0, Width::F32)))
-        .collect();
-    plain.extend(parts.iter().map(|&(_, w)| w.code() as u8));
+    let mut deltas = Gamma::default();
     let mut previous = 0i64;
     for &(_, k) in &bricks {
         let delta = i64::from(k) - previous;
         previous = i64::from(k);
-        put_varint(&mut plain, ((delta << 1) ^ (delta >> 63)) as u64);
+        deltas.code(&mut io, ((delta << 1) ^ (delta >> 63)) as u64)?;
     }
+    let mut lossless = Vec::new();
     let mut words = 0u32;
-    for &(first, width) in &parts {
+    let mut coded: Vec<(usize, [u32; 3], Vec<i32>)> = Vec::new();
+    for &(p, k) in &bricks {
+        let (first, width) =
+            unpayload(p).ok_or_else(|| format!("brick {k} has an unknown width code"))?;
+        let first = first as usize;
         let n = width.words(per);
-        let span = (first as usize)..(first as usize + n).min(g.data.len());
-        for v in &g.data[span] {
-            plain.extend_from_slice(&v.to_le_bytes());
+        if first + n > g.data.len() {
+            return Err(format!("brick {k} reaches past the group's data"));
+        }
+        if width == Width::F32 {
+            for v in &g.data[first..first + n] {
+                lossless.extend_from_slice(&v.to_le_bytes());
+            }
+        } else {
+            let (j, at) = place(k, h.domain, g.dims, g.brick);
+            let values = (0..per)
+                .map(|l| pack::get(&g.data, first, width, l))
+                .collect();
+            coded.push((j, at, values));
         }
         words += n as u32;
     }
-    let coded = haze_core::coded::deflate(&plain);
-    let mut out = Vec::with_capacity(HEADER + coded.len());
+    let list: Vec<(usize, [u32; 3], &[i32])> = coded
+        .iter()
+        .map(|(j, at, v)| (*j, *at, v.as_slice()))
+        .collect();
+    let nb = bricks_per_frame(g.dims, g.brick);
+    context_coder::encode(&mut io, nb, g.brick, limit(g.bits), &list)?;
+    let ranged = io.finish()?;
+    let zipped = if lossless.is_empty() {
+        Vec::new()
+    } else {
+        haze_core::coded::deflate(&lossless)
+    };
+    let mut out = Vec::with_capacity(HEADER + zipped.len() + ranged.len());
     let mut u = |v: u32| out.extend_from_slice(&v.to_le_bytes());
     for v in [VERSION, u32::from(g.bits), g.steps.len() as u32, g.brick] {
         u(v);
@@ -84,51 +138,34 @@ pub fn encode(g: &ResidualGroup) -> Vec<u8> {
         h.r,
         words,
         bricks.len() as u32,
-        coded.len() as u32,
+        zipped.len() as u32,
+        ranged.len() as u32,
     ] {
         u(v);
     }
     for j in 0..GROUP {
         u(g.steps.get(j).copied().unwrap_or(0.0).to_bits());
     }
-    out.extend_from_slice(&coded);
-    out
+    out.extend_from_slice(&zipped);
+    out.extend_from_slice(&ranged);
+    Ok(out)
 }
 
-fn put_varint(out: &mut Vec<u8>, mut v: u64) {
-    loop {
-        let b = (v & 0x7f) as u8;
-        v >>= 7;
-        if v == 0 {
-            out.push(b);
-            return;
-        }
-        out.push(b | 0x80);
-    }
+/// Bits of an offset component (`< m̄`), at least one.
+fn tree_depth(m: u32) -> u32 {
+    (32 - (m.max(2) - 1).leading_zeros()).max(1)
 }
 
-/// A LEB128 varint at `at`, and where the next value starts; `None` past the end or
-/// beyond 64 bits.
-fn get_varint(bytes: &[u8], mut at: usize) -> Option<(u64, usize)> {
-    let mut v = 0u64;
-    for shift in (0..64).step_by(7) {
-        let b = *bytes.get(at)?;
-        at += 1;
-        v |= u64::from(b & 0x7f) << shift;
-        if b & 0x80 == 0 {
-            return Some((v, at));
-        }
-    }
-    None
+/// One binary tree of models per axis for the offsets' components.
+fn offset_trees(m: u32) -> [Vec<Bit>; 3] {
+    std::array::from_fn(|_| vec![Bit::default(); (1 << tree_depth(m)) - 1])
 }
 
-/// Decodes and validates a hash volume: every offset inside the table, every key inside
-/// the domain and its frames, every brick in a slot of its own, its width matching its
-/// frame (`f32` exactly for a lossless frame) and its values inside the data, so lookups
-/// cannot leave their arrays.
+/// Decodes a residual-hash block into the group [`encode`] was given, checking every size
+/// and index against the block's own header.
 pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
     let u = |i: usize| u32::from_le_bytes([bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]]);
-    if bytes.len() >= 4 && (u(0) == 1 || u(0) == 2) {
+    if bytes.len() >= 4 && (1..=3).contains(&u(0)) {
         return Err(format!(
             "residual block layout {} (haze format {}) is no longer read: bake the asset again",
             u(0),
@@ -156,7 +193,8 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
         return Err(format!("residual block: brick side {brick}"));
     }
     let dims = [u(16), u(20), u(24)];
-    let (m, r, words, count, coded) = (u(28), u(32), u(36) as usize, u(40) as usize, u(44));
+    let (m, r, words, count) = (u(28), u(32), u(36) as usize, u(40) as usize);
+    let (zipped, ranged) = (u(44) as usize, u(48) as usize);
     if dims.iter().any(|&d| d == 0 || d > u32::MAX / 3)
         || m == 0
         || m > MAX_SIDE
@@ -168,37 +206,80 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
             "residual block sizes are invalid (dims {dims:?}, m̄ {m}, r̄ {r}, {count} bricks)"
         ));
     }
-    let steps: Vec<f32> = (0..frames).map(|j| f32::from_bits(u(48 + 4 * j))).collect();
+    let steps: Vec<f32> = (0..frames).map(|j| f32::from_bits(u(52 + 4 * j))).collect();
     if steps.iter().any(|s| !(s.is_finite() && *s >= 0.0)) {
         return Err("residual block has an invalid quantization step".to_string());
     }
-    if bytes.len() != HEADER + coded as usize {
+    if Some(bytes.len())
+        != HEADER
+            .checked_add(zipped)
+            .and_then(|v| v.checked_add(ranged))
+    {
         return Err(format!(
-            "residual block of {} bytes does not match its header ({coded} coded bytes)",
+            "residual block of {} bytes does not match its header ({zipped} + {ranged} coded bytes)",
             bytes.len()
         ));
     }
     let (nr, nm) = ((r as usize).pow(3), (m as usize).pow(3));
-    // At most 10 bytes a key delta; a longer plain part is corrupt.
-    let most = 4 * nr + 11 * count + 4 * words;
-    let plain = haze_core::coded::inflate(&bytes[HEADER..], most)
-        .map_err(|e| format!("residual block: {e}"))?;
-    let word = |i: usize| u32::from_le_bytes([plain[i], plain[i + 1], plain[i + 2], plain[i + 3]]);
-    if plain.len() < 4 * nr + count + 4 * words {
-        return Err("residual block's coded part is too short".to_string());
+    let lossless = if zipped == 0 {
+        Vec::new()
+    } else {
+        haze_core::coded::inflate(&bytes[HEADER..HEADER + zipped], 4 * words)
+            .map_err(|e| format!("residual block: {e}"))?
+    };
+    let wrap = |e: String| format!("residual block: {e}");
+    let mut io = BitReader::new(&bytes[HEADER + zipped..]).map_err(wrap)?;
+    let mut axes = offset_trees(m);
+    let mut offsets = Vec::with_capacity(nr);
+    for _ in 0..nr {
+        let mut o = 0;
+        for (a, tree) in axes.iter_mut().enumerate() {
+            let c = io.tree(tree, tree_depth(m), 0).map_err(wrap)?;
+            if c >= m {
+                return Err("residual block has an offset outside its table".to_string());
+            }
+            o |= c << (10 * a);
+        }
+        offsets.push(o);
     }
-    let offsets: Vec<u32> = (0..nr).map(|k| word(4 * k)).collect();
-    if offsets.iter().any(|o| {
-        [o & 1023, (o >> 10) & 1023, (o >> 20) & 1023]
-            .iter()
-            .any(|&c| c >= m)
-    }) {
-        return Err("residual block has an offset outside its table".to_string());
-    }
-    let widths = &plain[4 * nr..4 * nr + count];
     let domain = bricks_per_frame(dims, brick).map(|d| 3 * d);
     let cells = u64::from(domain[0]) * u64::from(domain[1]) * u64::from(domain[2]);
+    let mut deltas = Gamma::default();
+    let mut key = 0i64;
+    let mut keys = Vec::with_capacity(count.min(nm));
+    for _ in 0..count {
+        let z = deltas.code(&mut io, 0).map_err(wrap)?;
+        key = key.saturating_add(((z >> 1) as i64) ^ -((z & 1) as i64));
+        if key < 1 || key as u64 > cells {
+            return Err(format!(
+                "residual block has a key ({key}) outside its domain"
+            ));
+        }
+        let k = key as u32;
+        let (j, place) = place(k, domain, dims, brick);
+        if j >= frames {
+            return Err(format!(
+                "residual block has a brick (key {k}) outside its frames"
+            ));
+        }
+        keys.push((k, j, place));
+    }
     let per = (brick * brick * brick) as usize;
+    let lossy: Vec<(usize, [u32; 3])> = keys
+        .iter()
+        .filter(|(_, j, _)| steps[*j] != 0.0)
+        .map(|&(_, j, p)| (j, p))
+        .collect();
+    if lossless.len() != 4 * per * (count - lossy.len()) {
+        return Err(format!(
+            "residual block holds {} bytes of lossless values for {} lossless bricks",
+            lossless.len(),
+            count - lossy.len()
+        ));
+    }
+    let nb = bricks_per_frame(dims, brick);
+    let decoded = context_coder::decode(&mut io, nb, brick, limit(bits), &lossy)
+        .map_err(|e| format!("residual block's values: {e}"))?;
     let mut hash = PerfectHash {
         domain,
         m,
@@ -207,27 +288,29 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
         keys: vec![0; nm],
         payloads: vec![0; nm],
     };
-    let (mut at, mut key, mut first) = (4 * nr + count, 0i64, 0usize);
-    for &code in widths {
-        let (z, next) = get_varint(&plain, at).ok_or("residual block's brick list is cut short")?;
-        at = next;
-        key += ((z >> 1) as i64) ^ -((z & 1) as i64);
-        if key < 1 || key as u64 > cells {
+    let mut data = Vec::with_capacity(words);
+    let (mut next_lossy, mut next_lossless) = (decoded.iter(), lossless.chunks_exact(4));
+    for &(k, j, _) in &keys {
+        let first = data.len();
+        let width = if steps[j] == 0.0 {
+            for _ in 0..per {
+                let w = next_lossless
+                    .next()
+                    .ok_or("residual block's values are cut short")?;
+                data.push(u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
+            }
+            Width::F32
+        } else {
+            let values = next_lossy
+                .next()
+                .ok_or("residual block's values are cut short")?;
+            let width = Width::narrowest(values);
+            pack::pack_into(values, width, &mut data);
+            width
+        };
+        if data.len() > words {
             return Err(format!(
-                "residual block has a key ({key}) outside its domain"
-            ));
-        }
-        let k = key as u32;
-        let width = Width::from_code(u32::from(code))
-            .ok_or(format!("residual block has a brick of width code {code}"))?;
-        let j = frame_of(k - 1, domain, dims, brick);
-        if j >= frames
-            || (width == Width::F32) != (steps[j] == 0.0)
-            || first + width.words(per) > words
-        {
-            return Err(format!(
-                "residual block has a brick (key {k}, width {} bits) outside its frames or data",
-                width.bits()
+                "residual block's bricks take more than its {words} data words"
             ));
         }
         let slot = hash.slot(hash.cell_of_key(k));
@@ -236,15 +319,13 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
         }
         hash.keys[slot] = k;
         hash.payloads[slot] = payload(first as u32, width);
-        first += width.words(per);
     }
-    if first != words || plain.len() != at + 4 * words {
+    if data.len() != words {
         return Err(format!(
-            "residual block's bricks take {first} data words of {words}, in {} coded bytes",
-            plain.len()
+            "residual block's bricks take {} data words of {words}",
+            data.len()
         ));
     }
-    let data = (0..words).map(|k| word(at + 4 * k)).collect();
     Ok(ResidualGroup {
         dims,
         brick,
@@ -297,79 +378,88 @@ mod tests {
         ResidualGroup::build([5, 4, 3], 2, &[q, exact], BuildOptions::default()).unwrap()
     }
 
-    /// The coded part of a block, decompressed.
+    /// The zstd part of a block (the lossless values), decompressed.
     fn plain_of(bytes: &[u8]) -> Vec<u8> {
-        zstd::bulk::decompress(&bytes[HEADER..], 1 << 20).unwrap()
+        let zipped = u32::from_le_bytes(bytes[44..48].try_into().unwrap()) as usize;
+        zstd::bulk::decompress(&bytes[HEADER..HEADER + zipped], 1 << 20).unwrap()
     }
 
-    /// `bytes` with its coded part replaced by `plain`, coded again.
+    /// `bytes` with its zstd part replaced by `plain`, coded again (the rest kept).
     fn with_plain(bytes: &[u8], plain: &[u8]) -> Vec<u8> {
+        let zipped = u32::from_le_bytes(bytes[44..48].try_into().unwrap()) as usize;
         let coded = zstd::bulk::compress(plain, 3).unwrap();
         let mut out = bytes[..HEADER].to_vec();
         out[44..48].copy_from_slice(&(coded.len() as u32).to_le_bytes());
         out.extend_from_slice(&coded);
+        out.extend_from_slice(&bytes[HEADER + zipped..]);
         out
     }
 
     #[test]
     fn groups_round_trip_and_damage_is_refused() {
         let g = group();
-        let bytes = encode(&g);
+        let bytes = encode(&g).unwrap();
         assert_eq!(decode(&bytes).unwrap(), g);
         assert!(decode(&bytes[..bytes.len() - 4]).is_err());
         assert!(decode(&bytes[..10]).is_err());
         let mut bad = bytes.clone();
         bad[4..8].copy_from_slice(&3u32.to_le_bytes());
         assert!(decode(&bad).is_err());
-        // Damaged coded bytes: zstd's frame check or the sizes catch them.
+        // Damaged zstd bytes: zstd's frame check or the sizes catch them.
         let mut bad = bytes.clone();
-        let mid = HEADER + (bytes.len() - HEADER) / 2;
-        bad[mid] ^= 0x5a;
+        bad[HEADER + 6] ^= 0x5a;
         assert!(decode(&bad).is_err());
         let plain = plain_of(&bytes);
         assert_eq!(decode(&with_plain(&bytes, &plain)).unwrap(), g);
-        let nr = (g.hash.r as usize).pow(3);
-        let count = g.hash.len();
-        // An offset outside the table.
-        let mut p = plain.clone();
-        p[0..4].copy_from_slice(&0x3ff_u32.to_le_bytes());
+        // Lossless words missing.
+        let p = &plain[..plain.len() - 4];
         assert!(
-            decode(&with_plain(&bytes, &p))
+            decode(&with_plain(&bytes, p))
+                .unwrap_err()
+                .contains("lossless")
+        );
+        // Damaged range-coded bytes decode to an error or to another group, never a
+        // panic (the asset's CRC catches them before this is reached); the last word
+        // holds the coder's slack, whose bits may decode the same.
+        let zipped = u32::from_le_bytes(bytes[44..48].try_into().unwrap()) as usize;
+        for at in HEADER + zipped..bytes.len() - 4 {
+            for flip in [0x01, 0x80, 0xff] {
+                let mut bad = bytes.clone();
+                bad[at] ^= flip;
+                if let Ok(other) = decode(&bad) {
+                    assert_ne!(other, g, "byte {at} ^ {flip:#x} changed nothing");
+                }
+            }
+        }
+    }
+
+    /// What the decoder checks that the encoder can still write: an offset component past
+    /// the table, a brick in a frame the block does not hold.
+    #[test]
+    fn impossible_tables_are_refused() {
+        let mut g = group();
+        g.hash.offsets[0] = g.hash.m;
+        assert!(
+            decode(&encode(&g).unwrap())
                 .unwrap_err()
                 .contains("offset outside")
         );
-        // A width code that does not exist, and one that does not match its frame.
-        let mut p = plain.clone();
-        p[4 * nr] = 7;
+        // The lossless second frame's bricks, in a block that says it holds one frame.
+        let mut g = group();
+        g.steps.truncate(1);
         assert!(
-            decode(&with_plain(&bytes, &p))
-                .unwrap_err()
-                .contains("width code 7")
-        );
-        let mut p = plain.clone();
-        p[4 * nr] = Width::F32.code() as u8;
-        assert!(
-            decode(&with_plain(&bytes, &p))
+            decode(&encode(&g).unwrap())
                 .unwrap_err()
                 .contains("outside its frames")
         );
-        // A second brick with the first one's key (delta 0): the same slot.
-        let mut p = plain.clone();
-        p[4 * nr + count + 1] = 0;
-        let e = decode(&with_plain(&bytes, &p)).unwrap_err();
-        assert!(e.contains("two bricks") || e.contains("data words"), "{e}");
-        // A first key far outside the domain.
-        let mut p = plain.clone();
-        let at = 4 * nr + count;
-        p.splice(at..at + 1, [0xfe, 0xff, 0xff, 0xff, 0x0f]);
-        assert!(
-            decode(&with_plain(&bytes, &p))
-                .unwrap_err()
-                .contains("outside its domain")
-        );
-        // Data words missing.
-        let p = &plain[..plain.len() - 4];
-        assert!(decode(&with_plain(&bytes, p)).is_err());
+    }
+
+    /// Values beyond what the group's bits allow cannot be encoded.
+    #[test]
+    fn values_beyond_the_bits_are_refused() {
+        let mut g = group();
+        g.bits = 4;
+        assert!(encode(&g).unwrap_err().contains("exceeds"));
     }
 
     /// Every slot of the decoded tables matches the built ones on real-sized groups,
@@ -396,17 +486,19 @@ mod tests {
             })
             .collect();
         let g = ResidualGroup::build(dims, 4, &frames, BuildOptions::default()).unwrap();
-        let bytes = encode(&g);
+        let bytes = encode(&g).unwrap();
         assert_eq!(decode(&bytes).unwrap(), g);
         let tables = g.hash.bytes() + 4 * g.data.len();
         assert!(bytes.len() < tables, "{} ≥ {tables}", bytes.len());
     }
 
     #[test]
-    fn layout_two_is_refused_clearly() {
-        let mut old = vec![0u8; 200];
-        old[0] = 2;
-        assert!(decode(&old).unwrap_err().contains("bake the asset again"));
+    fn layouts_two_and_three_are_refused_clearly() {
+        for layout in [2, 3] {
+            let mut old = vec![0u8; 200];
+            old[0] = layout;
+            assert!(decode(&old).unwrap_err().contains("bake the asset again"));
+        }
     }
 
     #[test]

@@ -8,9 +8,10 @@
 //! * [`PerfectHash`]: the hash of a sparse set of integer cells with exact lookups.
 //! * [`tile`]: up to 27 frames tiled 3×3×3 into one hashed domain of bricks, as in the
 //!   paper, and the lookup.
-//! * [`block`]: the asset block of one hash volume.
+//! * [`block`]: the asset block of one hash volume, its values coded by [`context_coder`].
 
 pub mod block;
+pub mod context_coder;
 pub mod pack;
 pub mod psh;
 pub mod quantize;

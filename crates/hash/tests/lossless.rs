@@ -129,7 +129,7 @@ fn groups_tile_27_frames_and_look_each_voxel_up_within_the_error() {
     assert_eq!(tile_origin(26, dims), [12, 10, 18]);
     for brick in BRICK_SIDES {
         let g = ResidualGroup::build(dims, brick, &frames, BuildOptions::default()).unwrap();
-        let g = haze_hash::block::decode(&haze_hash::block::encode(&g)).unwrap();
+        let g = haze_hash::block::decode(&haze_hash::block::encode(&g).unwrap()).unwrap();
         for (j, (f, r)) in frames.iter().zip(&truth).enumerate() {
             for z in 0..dims[2] {
                 for y in 0..dims[1] {

@@ -314,7 +314,7 @@ fn residual_group(
         assert_eq!(widths.len(), 5, "widths {widths:?}");
     }
     // As an asset stores and a reader decodes it.
-    let decoded = haze_hash::block::decode(&haze_hash::block::encode(&group)).unwrap();
+    let decoded = haze_hash::block::decode(&haze_hash::block::encode(&group).unwrap()).unwrap();
     assert_eq!(decoded, group);
     Arc::new(decoded)
 }

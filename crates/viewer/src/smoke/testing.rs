@@ -83,7 +83,7 @@ pub fn write_asset(dir: &Path, name: &str, frames: usize) -> PathBuf {
             first: 0,
             count: frames as u32,
         },
-        &haze_hash::block::encode(&group),
+        &haze_hash::block::encode(&group).unwrap(),
     )
     .unwrap();
     w.finish(&Header {
