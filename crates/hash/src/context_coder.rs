@@ -143,20 +143,12 @@ impl FrameBricks {
         (b[0] + self.nb[0] * (b[1] + self.nb[1] * b[2])) as usize
     }
 
-    /// The value at voxel `p` of the frame, from `values`; 0 where no brick is stored.
-    fn at(&self, values: &[i32], p: [i64; 3]) -> i32 {
-        if p.iter().any(|&c| c < 0) {
-            return 0;
-        }
-        let b = self.brick;
-        let p = p.map(|c| c as u32);
-        let slot = self.slot(p.map(|c| c / b));
-        match self.index.get(slot) {
-            Some(&first) if first > 0 => {
-                let l = p[0] % b + b * (p[1] % b + b * (p[2] % b));
-                values[(first - 1) as usize + l as usize]
-            }
-            _ => 0,
+    /// Where the brick at brick position `p` starts in the frame's values, if it is
+    /// stored (and already coded).
+    fn first(&self, p: [u32; 3]) -> Option<usize> {
+        match self.index[self.slot(p)] {
+            0 => None,
+            f => Some(f as usize - 1),
         }
     }
 }
@@ -171,11 +163,6 @@ impl Frame {
     fn clear(&mut self) {
         self.bricks.clear();
         self.values.clear();
-    }
-
-    /// The value at voxel `p` (0 where no brick is stored).
-    fn at(&self, p: [i64; 3]) -> i32 {
-        self.bricks.at(&self.values, p)
     }
 }
 
@@ -222,20 +209,38 @@ impl Coding {
             self.now.clear();
             self.current = Some(j);
         }
-        let b = self.now.bricks.brick;
+        let b = self.now.bricks.brick as usize;
+        let (bb, per) = (b * b, b * b * b);
         let first = self.now.values.len();
         let slot = self.now.bricks.slot(at);
         self.now.bricks.index[slot] = first as u32 + 1;
-        for l in 0..b * b * b {
-            let local = [l % b, (l / b) % b, l / (b * b)];
-            let p = [0, 1, 2].map(|i| i64::from(at[i] * b + local[i]));
-            let n = [[-1, 0, 0], [0, -1, 0], [0, 0, -1]]
-                .map(|d| self.now.at([p[0] + d[0], p[1] + d[1], p[2] + d[2]]));
-            let past = self.before.at(p);
-            // Not yet written: reads of this voxel's own slot see the zero pushed here.
-            self.now.values.push(0);
-            let v = given.map_or(0, |g| g[l as usize]);
-            self.now.values[first + l as usize] = self.models.value(io, v, n, past, self.limit)?;
+        self.now.values.resize(first + per, 0);
+        // The bricks before this one along each axis, and this brick in the frame before.
+        let side = |axis: usize| {
+            let mut p = at;
+            if p[axis] == 0 {
+                return None;
+            }
+            p[axis] -= 1;
+            self.now.bricks.first(p)
+        };
+        let sides = [side(0), side(1), side(2)];
+        let past = self.before.bricks.first(at);
+        let values = &mut self.now.values;
+        for l in 0..per {
+            let local = [l % b, (l / b) % b, l / bb];
+            // A neighbour inside the brick, else in the brick before along its axis (at
+            // the far face: b − 1 along that axis).
+            let n = [(0, 1), (1, b), (2, bb)].map(|(axis, stride)| {
+                if local[axis] > 0 {
+                    values[first + l - stride]
+                } else {
+                    sides[axis].map_or(0, |f| values[f + l + stride * (b - 1)])
+                }
+            });
+            let before = past.map_or(0, |f| self.before.values[f + l]);
+            let v = given.map_or(0, |g| g[l]);
+            values[first + l] = self.models.value(io, v, n, before, self.limit)?;
         }
         Ok(first)
     }
