@@ -1,5 +1,6 @@
 //! What both asset-reader targets do with an input: open it, verify every block, and
-//! decode the blocks of every frame. Never a panic, never an out-of-bounds read.
+//! decode the blocks of every frame (raw volumes, RBFs, residual hash volumes). Never a
+//! panic, never an out-of-bounds read.
 
 use haze_asset::{Asset, BlockKind, decode_raw_volume, decode_rbfs};
 use std::path::Path;
@@ -16,6 +17,9 @@ pub fn exercise(data: &[u8]) {
             }
             if let Some(rbfs) = frame.find(BlockKind::Rbfs) {
                 let _ = decode_rbfs(rbfs.bytes);
+            }
+            if let Some(residual) = frame.find(BlockKind::ResidualHash) {
+                let _ = haze_hash::block::decode(residual.bytes);
             }
         }
     }

@@ -5,8 +5,10 @@
 //!
 //! Memory is bounded whatever the sequence length: at most `ahead` decoded frames wait in
 //! the queue, one more is being decoded and one is held by the caller; a hash volume is
-//! decoded once and shared (`Arc`) by the frames of its 27 that are in flight, so at most
-//! two are alive in order playback. Scrubbing ([`FrameStream::seek`]) restarts the reader
+//! decoded once and shared (`Arc`) by the frames of its 27 that are in flight, and the
+//! stream decodes the next hash volume on a thread of its own as soon as it enters one
+//! (its values are range-coded, tens of ms a volume; playback would otherwise wait at
+//! each volume's first frame), so at most three are alive in order playback. Scrubbing ([`FrameStream::seek`]) restarts the reader
 //! at the new frame and discards what it had read ahead. A damaged block is reported on
 //! its frame, with the file and the block named, and playback goes on.
 //!
@@ -59,19 +61,37 @@ pub struct StreamFrame {
     pub residual: Option<ResidualSlot>,
 }
 
+/// A hash volume being decoded on a thread of its own: its block index and the thread.
+type Pending = (usize, JoinHandle<Result<ResidualGroup, AssetError>>);
+
 /// Reads frames out of an asset, reusing the hash volume while consecutive frames share it.
 #[derive(Debug)]
 pub struct FrameDecoder {
     asset: Arc<Asset>,
     /// The last hash volume decoded: its block index and contents.
     cached: Option<(usize, Arc<ResidualGroup>)>,
+    /// Whether to decode the hash volume after the cached one ahead (playback).
+    prefetch: bool,
+    next: Option<Pending>,
 }
 
 impl FrameDecoder {
+    /// A decoder that decodes what it is asked for (single frames, scrubbing).
     pub fn new(asset: Arc<Asset>) -> FrameDecoder {
         FrameDecoder {
             asset,
             cached: None,
+            prefetch: false,
+            next: None,
+        }
+    }
+
+    /// A decoder for playback in order: entering a hash volume starts decoding the next
+    /// one (the first again after the last) on a thread of its own.
+    pub fn prefetching(asset: Arc<Asset>) -> FrameDecoder {
+        FrameDecoder {
+            prefetch: true,
+            ..FrameDecoder::new(asset)
         }
     }
 
@@ -79,9 +99,15 @@ impl FrameDecoder {
         &self.asset
     }
 
+    /// The block index of the hash volume being decoded ahead, if any.
+    pub fn decoding_ahead(&self) -> Option<usize> {
+        self.next.as_ref().map(|(j, _)| *j)
+    }
+
     /// Frame `k`: its RBFs and residual slot, blocks verified.
     pub fn decode(&mut self, k: usize) -> Result<StreamFrame, AssetError> {
-        let a = &*self.asset;
+        let asset = self.asset.clone();
+        let a = &*asset;
         let number =
             *a.header()
                 .source
@@ -115,22 +141,7 @@ impl FrameDecoder {
                 let Scope::Frames { first, .. } = entry.scope else {
                     unreachable!("covering() excludes asset-wide blocks")
                 };
-                let group = match &self.cached {
-                    Some((c, g)) if *c == i => g.clone(),
-                    _ => {
-                        let block = a.block(i)?;
-                        let g = haze_hash::block::decode(block.bytes)
-                            .map_err(|e| a.block_error(&block, e))?;
-                        if g.dims != a.header().grid.dims {
-                            return Err(
-                                a.block_error(&block, "residual dims differ from the grid's")
-                            );
-                        }
-                        let g = Arc::new(g);
-                        self.cached = Some((i, g.clone()));
-                        g
-                    }
-                };
+                let group = self.group(i)?;
                 Some(ResidualSlot {
                     group,
                     slot: k - first as usize,
@@ -147,6 +158,52 @@ impl FrameDecoder {
 }
 
 impl FrameDecoder {
+    /// Hash volume `i` (a block index): cached, taken from the thread that decoded it ahead,
+    /// or decoded now.
+    fn group(&mut self, i: usize) -> Result<Arc<ResidualGroup>, AssetError> {
+        if let Some((c, g)) = &self.cached
+            && *c == i
+        {
+            return Ok(g.clone());
+        }
+        let g = match self.next.take() {
+            Some((n, thread)) if n == i => thread.join().unwrap_or_else(|_| {
+                Err(AssetError::Invalid {
+                    path: self.asset.path().to_path_buf(),
+                    what: format!("the thread decoding block {i} failed"),
+                })
+            })?,
+            _ => decode_group(&self.asset, i)?,
+        };
+        let g = Arc::new(g);
+        self.cached = Some((i, g.clone()));
+        if self.prefetch {
+            self.next = self.volume_after(i).map(|j| {
+                let asset = self.asset.clone();
+                (j, std::thread::spawn(move || decode_group(&asset, j)))
+            });
+        }
+        Ok(g)
+    }
+
+    /// The hash volume holding the frame after volume `i`'s last (frame 0 after the
+    /// asset's last), if it is another one.
+    fn volume_after(&self, i: usize) -> Option<usize> {
+        let a = &*self.asset;
+        let Scope::Frames { first, count } = a.entries()[i].scope else {
+            return None;
+        };
+        let next = (first as usize + count as usize) % a.frame_count().max(1);
+        a.entries()
+            .iter()
+            .position(|e| {
+                e.kind == BlockKind::ResidualHash
+                    && e.scope.covers(next as u32)
+                    && e.scope != Scope::Asset
+            })
+            .filter(|&j| j != i)
+    }
+
     /// Frame `k` (number `number`) of a packed asset, from its raw-volume block `block`: no
     /// RBFs and the whole density as a lossless residual (its `f32` values in a hash
     /// volume of its own), so every renderer plays it as it was packed.
@@ -190,6 +247,17 @@ impl FrameDecoder {
             }),
         })
     }
+}
+
+/// Hash volume `i` of `a` (a block index), its checksum verified, decoded into the GPU's
+/// tables.
+fn decode_group(a: &Asset, i: usize) -> Result<ResidualGroup, AssetError> {
+    let block = a.block(i)?;
+    let g = haze_hash::block::decode(block.bytes).map_err(|e| a.block_error(&block, e))?;
+    if g.dims != a.header().grid.dims {
+        return Err(a.block_error(&block, "residual dims differ from the grid's"));
+    }
+    Ok(g)
 }
 
 /// What the reader thread is asked to do.
@@ -242,7 +310,7 @@ impl FrameStream {
         let c = control.clone();
         let reader = std::thread::Builder::new()
             .name("haze-stream".into())
-            .spawn(move || read_frames(FrameDecoder::new(asset), tx, &c, looping))
+            .spawn(move || read_frames(FrameDecoder::prefetching(asset), tx, &c, looping))
             .map_err(|e| AssetError::Invalid {
                 path: path.to_path_buf(),
                 what: format!("cannot start the reader thread: {e}"),

@@ -1,10 +1,11 @@
 //! A small baked asset for the viewer's tests, written the way `haze bake` writes one
-//! (an RBF block per frame, the residuals in one hash volume) without the fitting: a
+//! (an RBF block per frame, the residuals in hash volumes of 27 frames) without the
+//! fitting: a
 //! cluster of RBFs drifting along +X from frame to frame, and per frame a rippled residual
 //! of both signs, quantized to 8 bits.
 
 use haze_asset::{AssetWriter, BlockKind, GridInfo, Header, Scope, SourceInfo, encode_rbfs};
-use haze_hash::tile::ResidualGroup;
+use haze_hash::tile::{GROUP, ResidualGroup};
 use haze_hash::{BuildOptions, QuantOptions, quantize};
 use haze_volume::{Bbox, Rbf, rbf};
 use std::path::{Path, PathBuf};
@@ -70,22 +71,20 @@ pub fn write_asset(dir: &Path, name: &str, frames: usize) -> PathBuf {
         )
         .unwrap();
     }
-    let group = ResidualGroup::build(
-        DIMS.map(|n| n as u32),
-        4,
-        &quantized,
-        BuildOptions::default(),
-    )
-    .unwrap();
-    w.write_block(
-        BlockKind::ResidualHash,
-        Scope::Frames {
-            first: 0,
-            count: frames as u32,
-        },
-        &haze_hash::block::encode(&group).unwrap(),
-    )
-    .unwrap();
+    // Hash volumes of up to 27 frames, as `haze bake` writes them.
+    for (v, chunk) in quantized.chunks(GROUP).enumerate() {
+        let group = ResidualGroup::build(DIMS.map(|n| n as u32), 4, chunk, BuildOptions::default())
+            .unwrap();
+        w.write_block(
+            BlockKind::ResidualHash,
+            Scope::Frames {
+                first: (v * GROUP) as u32,
+                count: chunk.len() as u32,
+            },
+            &haze_hash::block::encode(&group).unwrap(),
+        )
+        .unwrap();
+    }
     w.finish(&Header {
         generator: "haze viewer tests".into(),
         frame_count: frames as u32,

@@ -417,4 +417,22 @@ mod tests {
             assert_eq!(g.group.steps, w.group.steps);
         }
     }
+
+    /// Played in order across two hash volumes, a prefetching decoder gives every frame
+    /// as a plain one does, and starts on the next volume as soon as it enters one.
+    #[test]
+    fn playback_decodes_the_next_hash_volume_ahead() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = write_asset(dir.path(), "a.haze", 30);
+        let asset = Arc::new(haze_asset::Asset::open(&path).unwrap());
+        let mut plain = FrameDecoder::new(asset.clone());
+        let mut ahead = FrameDecoder::prefetching(asset);
+        for k in (0..30).chain([0, 29]) {
+            let (a, b) = (ahead.decode(k).unwrap(), plain.decode(k).unwrap());
+            let (ra, rb) = (a.residual.unwrap(), b.residual.unwrap());
+            assert_eq!((ra.slot, ra.dense()), (rb.slot, rb.dense()), "frame {k}");
+            assert!(ahead.decoding_ahead().is_some(), "frame {k}");
+            assert!(plain.decoding_ahead().is_none());
+        }
+    }
 }
