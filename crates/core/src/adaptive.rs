@@ -20,6 +20,13 @@ const ONE: u16 = 1 << PRECISION;
 /// A model moves `1/2^RATE` of the way towards each coded bit.
 const RATE: u16 = 5;
 
+/// The least a bit coded under a [`Bit`] costs: `−log₂(4065/4096)` bits, the model's
+/// probability of either bit never exceeding 4065/4096. A stream of `n` coded bytes holds
+/// at most `(8n + 64) / LEAST_BITS` bits (a range coder's output is never shorter than the
+/// information it codes, less its last words), so readers bound what a damaged header
+/// claims by the bytes it brings.
+pub const LEAST_BITS: f64 = 0.010_96;
+
 /// A binary adaptive model (the probability of a 0).
 #[derive(Clone, Copy, Debug)]
 pub struct Bit {
@@ -283,6 +290,26 @@ mod tests {
         for &v in &values {
             assert_eq!(g.code(&mut r, 0).unwrap(), v);
         }
+    }
+
+    /// A long run of the likelier bit costs no less than LEAST_BITS a bit, and the model's
+    /// bound is where its steps vanish.
+    #[test]
+    fn a_bit_costs_at_least_the_least() {
+        let least = -(4065.0f64 / 4096.0).log2();
+        assert!(LEAST_BITS <= least && least - LEAST_BITS < 1e-5);
+        let n = 200_000;
+        let mut w = BitWriter::new();
+        let mut m = Bit::default();
+        for _ in 0..n {
+            w.code(&mut m, false).unwrap();
+        }
+        let bits = 8.0 * w.finish().unwrap().len() as f64;
+        assert!(bits + 64.0 >= LEAST_BITS * n as f64, "{bits} bits for {n}");
+        assert!(
+            bits <= 1.2 * LEAST_BITS * n as f64 + 200.0,
+            "{bits} bits for {n}"
+        );
     }
 
     /// A model never makes a bit impossible, however long the run against it.

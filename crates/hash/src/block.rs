@@ -39,7 +39,7 @@ use crate::quantize::BITS;
 use crate::tile::{
     BRICK_SIDES, GROUP, ResidualGroup, bricks_per_frame, payload, tile_origin, unpayload,
 };
-use haze_core::adaptive::{Bit, BitIo, BitReader, BitWriter, Gamma};
+use haze_core::adaptive::{Bit, BitIo, BitReader, BitWriter, Gamma, LEAST_BITS};
 
 const VERSION: u32 = 4;
 const HEADER: usize = 4 * 13 + 4 * GROUP;
@@ -195,7 +195,10 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
     let dims = [u(16), u(20), u(24)];
     let (m, r, words, count) = (u(28), u(32), u(36) as usize, u(40) as usize);
     let (zipped, ranged) = (u(44) as usize, u(48) as usize);
+    // Keys are linear indices into the tiled brick domain: it must number under 2³² bricks.
+    let tiled = bricks_per_frame(dims, brick).map(|d| 3 * u64::from(d));
     if dims.iter().any(|&d| d == 0 || d > u32::MAX / 3)
+        || tiled[0] * tiled[1] * tiled[2] >= u64::from(u32::MAX)
         || m == 0
         || m > MAX_SIDE
         || r == 0
@@ -221,6 +224,16 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
         ));
     }
     let (nr, nm) = ((r as usize).pow(3), (m as usize).pow(3));
+    // Every offset codes three bits at least, every brick a key delta, every lossy brick
+    // b³ values, and a brick takes a data word at least: what the bytes can hold bounds
+    // what the header may claim (adaptive::LEAST_BITS).
+    let per = (brick * brick * brick) as usize;
+    let bits_held = (8 * ranged + 64) as f64 / LEAST_BITS;
+    if (3 * nr + count) as f64 > bits_held || count > words || words > count * per {
+        return Err(format!(
+            "residual block claims {nr} offsets, {count} bricks and {words} data words in {ranged} coded bytes"
+        ));
+    }
     let lossless = if zipped == 0 {
         Vec::new()
     } else {
@@ -264,12 +277,17 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
         }
         keys.push((k, j, place));
     }
-    let per = (brick * brick * brick) as usize;
     let lossy: Vec<(usize, [u32; 3])> = keys
         .iter()
         .filter(|(_, j, _)| steps[*j] != 0.0)
         .map(|&(_, j, p)| (j, p))
         .collect();
+    if (lossy.len() * per) as f64 > bits_held {
+        return Err(format!(
+            "residual block claims {} lossy bricks in {ranged} coded bytes",
+            lossy.len()
+        ));
+    }
     if lossless.len() != 4 * per * (count - lossy.len()) {
         return Err(format!(
             "residual block holds {} bytes of lossless values for {} lossless bricks",
@@ -288,7 +306,7 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
         keys: vec![0; nm],
         payloads: vec![0; nm],
     };
-    let mut data = Vec::with_capacity(words);
+    let mut data = Vec::new();
     let (mut next_lossy, mut next_lossless) = (decoded.iter(), lossless.chunks_exact(4));
     for &(k, j, _) in &keys {
         let first = data.len();
@@ -452,6 +470,25 @@ mod tests {
                 .unwrap_err()
                 .contains("outside its frames")
         );
+    }
+
+    /// A header claiming more than its bytes can hold is refused before anything that
+    /// size is allocated: a frame of 688 million bricks' rows (what a fuzzer found to
+    /// exhaust memory), a hundred million bricks or data words in a few coded bytes.
+    #[test]
+    fn claims_beyond_the_bytes_are_refused_without_allocating() {
+        let bytes = encode(&group()).unwrap();
+        let mut tall = bytes.clone();
+        tall[20..24].copy_from_slice(&0x2900_0008u32.to_le_bytes());
+        assert!(decode(&tall).is_err());
+        let mut many = bytes.clone();
+        let count = 100_000_000u32;
+        many[40..44].copy_from_slice(&count.to_le_bytes());
+        many[28..32].copy_from_slice(&PerfectHash::side_for(count as usize).to_le_bytes());
+        assert!(decode(&many).unwrap_err().contains("claims"));
+        let mut words = bytes.clone();
+        words[36..40].copy_from_slice(&u32::MAX.to_le_bytes());
+        assert!(decode(&words).unwrap_err().contains("claims"));
     }
 
     /// Values beyond what the group's bits allow cannot be encoded.

@@ -23,6 +23,7 @@
 //! are always already decoded. Lossless (`f32`) frames are not coded here.
 
 use haze_core::adaptive::{Bit, BitIo, BitReader, BitWriter};
+use std::collections::HashMap;
 
 /// Scale contexts.
 const SCALES: usize = 16;
@@ -113,43 +114,41 @@ fn scale(m: u32) -> usize {
 
 /// Where the values of one frame's stored bricks live while they are coded: each brick's
 /// first value in one flat list, by its place in the frame, so that a voxel's neighbours
-/// are found in O(1).
+/// are found in O(1). A map, not a table of the frame's bricks: its memory follows the
+/// bricks a block holds, whatever dims a damaged block claims.
 struct FrameBricks {
     /// Bricks per axis of the frame.
     nb: [u32; 3],
     brick: u32,
-    /// `index[bx + nb₀ (by + nb₁ bz)]`: the brick's first value in the list + 1, 0 if the
-    /// brick is not stored (or not coded yet).
-    index: Vec<u32>,
+    /// The first value of each stored (and already coded) brick, by
+    /// `bx + nb₀ (by + nb₁ bz)`.
+    index: HashMap<u64, usize>,
 }
 
 impl FrameBricks {
     /// Room for a frame of `nb` bricks a side of `brick` voxels.
     fn new(nb: [u32; 3], brick: u32) -> Self {
-        let n = nb.iter().map(|&v| v as usize).product();
         FrameBricks {
             nb,
             brick,
-            index: vec![0; n],
+            index: HashMap::new(),
         }
     }
 
     /// Forgets every brick (the next frame begins).
     fn clear(&mut self) {
-        self.index.fill(0);
+        self.index.clear();
     }
 
-    fn slot(&self, b: [u32; 3]) -> usize {
-        (b[0] + self.nb[0] * (b[1] + self.nb[1] * b[2])) as usize
+    fn slot(&self, b: [u32; 3]) -> u64 {
+        let [x, y, z] = b.map(u64::from);
+        x + u64::from(self.nb[0]) * (y + u64::from(self.nb[1]) * z)
     }
 
     /// Where the brick at brick position `p` starts in the frame's values, if it is
     /// stored (and already coded).
     fn first(&self, p: [u32; 3]) -> Option<usize> {
-        match self.index[self.slot(p)] {
-            0 => None,
-            f => Some(f as usize - 1),
-        }
+        self.index.get(&self.slot(p)).copied()
     }
 }
 
@@ -213,7 +212,7 @@ impl Coding {
         let (bb, per) = (b * b, b * b * b);
         let first = self.now.values.len();
         let slot = self.now.bricks.slot(at);
-        self.now.bricks.index[slot] = first as u32 + 1;
+        self.now.bricks.index.insert(slot, first);
         self.now.values.resize(first + per, 0);
         // The bricks before this one along each axis, and this brick in the frame before.
         let side = |axis: usize| {
