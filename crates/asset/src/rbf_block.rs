@@ -16,16 +16,16 @@
 //!
 //! A value decodes to `lo (1 − t) + hi t`, `t = q / L` (the extremes exactly): a center
 //! moves by at most `1/(2L)` of the centers' span (1/8190: a hundredth of a voxel for a
-//! 96-voxel span), a radius or weight by as little of its channel's span (a weight in
-//! `[0, 1]` by 1.2·10⁻⁴, a thirtieth of the default error bound). Finer levels would not
-//! pay: at 16 bits a channel the RBFs of a 96 × 96 × 128 frame take 3.0 kB and its
-//! residual the same bytes as at 12 bits, where they take 2.3 kB (the residual absorbs
-//! the difference, 0.1 % more bytes). World coordinates and density units. Anything
-//! computed from the RBFs after the bake (the residual, lighting) must use the decoded
-//! values, which [`decode_rbfs`] of [`encode_rbfs`] gives; the residual is taken against
-//! them, so the bake's error bound holds for the reconstruction a reader makes. Layout 2
-//! (16 bits a channel as zstd-coded byte planes, haze format 3) still reads; layout 1 (32-byte `f32` records, haze
-//! format 2) is refused with a message to bake again.
+//! 96-voxel span, 0.06 voxel for 512), a radius or weight by as little of its channel's
+//! span (a weight in `[0, 1]` by 1.2·10⁻⁴, a thirtieth of the default error bound).
+//! Finer levels would not pay: at 16 bits a channel the RBFs of a 96 × 96 × 128 frame
+//! take 3.0 kB and its residual 0.1 % fewer bytes than at 12 bits, where they take
+//! 2.2 kB. World coordinates and density units. Anything computed from the RBFs after
+//! the bake (the residual, lighting) must use the decoded values, which [`decode_rbfs`]
+//! of [`encode_rbfs`] gives; the residual is taken against them, so the bake's error
+//! bound holds for the reconstruction a reader makes, whatever the grid's size. Layout 2
+//! (16 bits a channel as zstd-coded byte planes, haze format 3) still reads; layout 1
+//! (32-byte `f32` records, haze format 2) is refused with a message to bake again.
 
 use haze_core::adaptive::{Bit, BitIo, BitReader, BitWriter};
 use haze_volume::Rbf;

@@ -35,7 +35,7 @@
 use crate::context_coder;
 use crate::pack::{self, Width};
 use crate::psh::{MAX_SIDE, PerfectHash};
-use crate::quantize::BITS;
+use crate::quantize::{BITS, largest_value};
 use crate::tile::{
     BRICK_SIDES, GROUP, ResidualGroup, bricks_per_frame, payload, tile_origin, unpayload,
 };
@@ -43,11 +43,6 @@ use haze_core::adaptive::{Bit, BitIo, BitReader, BitWriter, Gamma, LEAST_BITS};
 
 const VERSION: u32 = 4;
 const HEADER: usize = 4 * 13 + 4 * GROUP;
-
-/// The largest magnitude a value quantized for `bits` may have.
-fn limit(bits: u8) -> u32 {
-    (1u32 << (bits - 1)) - 1
-}
 
 /// Where brick `key` lies: its frame slot and its brick position in that frame.
 fn place(key: u32, domain: [u32; 3], dims: [u32; 3], brick: u32) -> (usize, [u32; 3]) {
@@ -118,7 +113,7 @@ pub fn encode(g: &ResidualGroup) -> Result<Vec<u8>, String> {
         .map(|(j, at, v)| (*j, *at, v.as_slice()))
         .collect();
     let nb = bricks_per_frame(g.dims, g.brick);
-    context_coder::encode(&mut io, nb, g.brick, limit(g.bits), &list)?;
+    context_coder::encode(&mut io, nb, g.brick, largest_value(g.bits), &list)?;
     let ranged = io.finish()?;
     let zipped = if lossless.is_empty() {
         Vec::new()
@@ -296,7 +291,7 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
         ));
     }
     let nb = bricks_per_frame(dims, brick);
-    let decoded = context_coder::decode(&mut io, nb, brick, limit(bits), &lossy)
+    let decoded = context_coder::decode(&mut io, nb, brick, largest_value(bits), &lossy)
         .map_err(|e| format!("residual block's values: {e}"))?;
     let mut hash = PerfectHash {
         domain,

@@ -301,6 +301,34 @@ mod tests {
         decode(&mut BitReader::new(bytes).unwrap(), nb, b, limit, stored)
     }
 
+    /// Every brick of a frame of `nb` bricks a side `b`, in coding order, with the values
+    /// `value(voxel)` at their voxels.
+    fn every_brick(
+        nb: [u32; 3],
+        b: u32,
+        value: impl Fn([u32; 3]) -> i32,
+    ) -> (Vec<[u32; 3]>, Vec<Vec<i32>>) {
+        let mut stored = Vec::new();
+        let mut given = Vec::new();
+        for bz in 0..nb[2] {
+            for by in 0..nb[1] {
+                for bx in 0..nb[0] {
+                    let at = [bx, by, bz];
+                    stored.push(at);
+                    given.push(
+                        (0..b * b * b)
+                            .map(|l| {
+                                let loc = [l % b, (l / b) % b, l / (b * b)];
+                                value([0, 1, 2].map(|i| at[i] * b + loc[i]))
+                            })
+                            .collect(),
+                    );
+                }
+            }
+        }
+        (stored, given)
+    }
+
     /// A brick pattern with smooth and noisy parts, zeros, both signs and the extremes.
     fn values(b: u32, seed: i32, limit: u32) -> Vec<i32> {
         (0..(b * b * b) as i32)
@@ -373,24 +401,8 @@ mod tests {
             let s = (p[0] as f64 * 0.4).sin() + (p[1] as f64 * 0.3).cos() + p[2] as f64 * 0.05;
             (s * 30.0).round() as i32
         };
-        let mut given = Vec::new();
-        let mut stored = Vec::new();
-        for bz in 0..nb[2] {
-            for by in 0..nb[1] {
-                for bx in 0..nb[0] {
-                    let at = [bx, by, bz];
-                    stored.push((0, at));
-                    given.push(
-                        (0..b * b * b)
-                            .map(|l| {
-                                let loc = [l % b, (l / b) % b, l / (b * b)];
-                                field([0, 1, 2].map(|i| at[i] * b + loc[i]))
-                            })
-                            .collect::<Vec<i32>>(),
-                    );
-                }
-            }
-        }
+        let (at, given) = every_brick(nb, b, field);
+        let stored: Vec<(usize, [u32; 3])> = at.into_iter().map(|at| (0, at)).collect();
         let list: Vec<_> = stored
             .iter()
             .zip(&given)
@@ -426,22 +438,7 @@ mod tests {
                 _ => (h % 3) as i32 - 1,
             }
         };
-        let mut stored = Vec::new();
-        let mut given = Vec::new();
-        for bz in 0..nb[2] {
-            for by in 0..nb[1] {
-                for bx in 0..nb[0] {
-                    let at = [bx, by, bz];
-                    let k = bx + nb[0] * (by + nb[1] * bz);
-                    stored.push(at);
-                    given.push(
-                        (0..b * b * b)
-                            .map(|l| noise(k * 64 + l))
-                            .collect::<Vec<_>>(),
-                    );
-                }
-            }
-        }
+        let (stored, given) = every_brick(nb, b, |p| noise(p[0] + 16 * (p[1] + 16 * p[2])));
         let size = |second: usize| {
             let list: Vec<(usize, [u32; 3], &[i32])> = [0, second]
                 .iter()

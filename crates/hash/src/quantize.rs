@@ -85,6 +85,11 @@ pub struct Quantized {
     pub rms_error: f64,
 }
 
+/// The largest `|q|` a frame quantized for `bits` stores: `2^(bits−1) − 1`.
+pub fn largest_value(bits: u8) -> u32 {
+    (1u32 << (bits.clamp(1, 32) - 1)) - 1
+}
+
 /// The largest `f32` not above `x` (`x ≥ 0`, finite).
 fn f32_at_most(x: f64) -> f32 {
     let s = x as f32;
@@ -132,7 +137,7 @@ pub fn quantize(residual: &[f32], peak: f32, opts: QuantOptions) -> Result<Quant
             rms_error: 0.0,
         });
     }
-    let qmax = f64::from((1u32 << (opts.bits - 1)) - 1);
+    let qmax = f64::from(largest_value(opts.bits));
     let (step, widened) = if rbf_error / f64::from(step) > qmax + 0.5 {
         // The widest value cannot hold the largest residual at this step.
         ((rbf_error / qmax) as f32, true)
