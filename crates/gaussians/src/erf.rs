@@ -1,7 +1,10 @@
 //! The error function as paper B's line integral needs it (appendix A, eq. 31).
 //!
-//! * [`erf_diff`]: `erf(x1) − erf(x0)` without cancellation, from libm's `erf`/`erfc`
-//!   (accurate to a few ulp). This is what the CPU renderer uses.
+//! * [`erf_diff`]: `erf(x1) − erf(x0)` without cancellation, from the platform C math
+//!   library's `erf`/`erfc` ([`erf`], [`erfc`]: glibc, musl, Apple's libm and the UCRT all
+//!   give them to about 1 ulp). This is what the CPU renderer uses; [`erf_diff_from`]
+//!   takes the start's tail `erfc(|x0|)` from the caller, so a line integral whose start
+//!   is fixed (the depth along one ray up to many ends) costs one `erfc` an end.
 //! * [`erf_paper`]: the paper's "fast Chebyshev approximation" `erf(x) ≈ x·P(z)`,
 //!   `z = 0.289226x² − 1` for `|x| ≤ 2.629639`, `±1` beyond. The coefficients of `P` are
 //!   lost in the text; these are a degree-6 least-squares re-fit on `z ∈ [−1, 1]`. Measured
@@ -11,9 +14,11 @@
 //! * [`erf_as`]: Abramowitz & Stegun 7.1.26, `1 − (a₁t + … + a₅t⁵)e^{−x²}`,
 //!   `t = 1/(1 + px)`: absolute error `≤ 1.5·10⁻⁷`, what the WGSL shader can afford in `f32`.
 //!
-//! libm is kept on the CPU (eleven orders of magnitude better than the paper's, no slower
-//! in the renderer's profile); an absolute `2·10⁻⁴` error is large relative to the line
-//! integral of a thin or short crossing (2 % at `a·dr = 0.01`).
+//! The C library's `erf` is kept on the CPU (eleven orders of magnitude better than the
+//! paper's; an absolute `2·10⁻⁴` error is large relative to the line integral of a thin
+//! or short crossing, 2 % at `a·dr = 0.01`). It is also the fastest measured: the pure-Rust
+//! `libm` crate's `erfc`, with its own software `exp`, was a third of a 5000-Gaussian frame
+//! (BENCHMARKS "Paper B: many Gaussians").
 
 use std::f64::consts::PI;
 
@@ -54,29 +59,53 @@ pub fn erf_as(x: f64) -> f64 {
     if x < 0.0 { -y } else { y }
 }
 
+unsafe extern "C" {
+    /// The platform C math library's error function (C99 `erf`, about 1 ulp).
+    pub safe fn erf(x: f64) -> f64;
+    /// The platform C math library's complementary error function (C99 `erfc`, about
+    /// 1 ulp, relative in the upper tail down to its underflow near `x = 27`).
+    pub safe fn erfc(x: f64) -> f64;
+}
+
 /// `erf(x1) − erf(x0)` for `x0 ≤ x1` (either may be infinite), without cancellation:
 /// through `erfc` of the tail when both lie on one side of 0, by the midpoint expansion
 /// `(2/√π)e^{−m²}Δ·(1 + (2m² − 1)Δ²/12)` (`m` the midpoint, `Δ = x1 − x0`) when the
 /// interval is so short that `Δ·max(1, |m|) < 10⁻³` (the next term is `O(Δ⁴m⁴) < 10⁻¹²`
 /// relative).
 pub fn erf_diff(x0: f64, x1: f64) -> f64 {
+    short_interval(x0, x1).unwrap_or_else(|| tails(x0, erfc(x0.abs()), x1))
+}
+
+/// [`erf_diff`] with the start's tail `tail0 = erfc(|x0|)` given (module docs): the same
+/// value, one `erfc` fewer.
+pub fn erf_diff_from(x0: f64, tail0: f64, x1: f64) -> f64 {
+    short_interval(x0, x1).unwrap_or_else(|| tails(x0, tail0, x1))
+}
+
+/// [`erf_diff`]'s empty and short intervals; `None` for the rest.
+fn short_interval(x0: f64, x1: f64) -> Option<f64> {
     let delta = x1 - x0;
     if delta <= 0.0 || delta.is_nan() {
-        return 0.0;
+        return Some(0.0);
     }
     let mid = 0.5 * (x0 + x1);
-    if delta.is_finite() && delta * mid.abs().max(1.0) < 1e-3 {
-        return 2.0 / PI.sqrt()
+    (delta.is_finite() && delta * mid.abs().max(1.0) < 1e-3).then(|| {
+        2.0 / PI.sqrt()
             * (-mid * mid).exp()
             * delta
-            * (1.0 + (2.0 * mid * mid - 1.0) * delta * delta / 12.0);
-    }
+            * (1.0 + (2.0 * mid * mid - 1.0) * delta * delta / 12.0)
+    })
+}
+
+/// `erf(x1) − erf(x0)` from `tail0 = erfc(|x0|)`: the difference of the two tails when
+/// both ends lie on one side of 0 (exact far out), `erf(x1) + erf(|x0|)` across it.
+fn tails(x0: f64, tail0: f64, x1: f64) -> f64 {
     if x0 >= 0.0 {
-        libm::erfc(x0) - libm::erfc(x1)
+        tail0 - erfc(x1)
     } else if x1 <= 0.0 {
-        libm::erfc(-x1) - libm::erfc(-x0)
+        erfc(-x1) - tail0
     } else {
-        libm::erf(x1) - libm::erf(x0)
+        erf(x1) + (1.0 - tail0)
     }
 }
 
@@ -135,6 +164,10 @@ mod tests {
     fn erf_diff_matches_quadrature_in_the_tails_and_for_short_intervals() {
         for (x0, x1) in [
             (-1.0, 2.0),
+            // Across 0 with one end near it (the `1 − erfc(|x0|)` form), and far tails.
+            (-0.01, 2.0),
+            (-3.0, 0.05),
+            (-5.5, 4.0),
             (3.0, 3.5),
             (6.0, 7.0),
             (-9.0, -8.0),
@@ -156,5 +189,25 @@ mod tests {
         assert_eq!(erf_diff(2.0, 1.0), 0.0);
         assert_eq!(erf_diff(f64::NEG_INFINITY, f64::INFINITY), 2.0);
         assert!((erf_diff(-1.0, f64::INFINITY) - libm::erfc(-1.0)).abs() < 4.5e-16);
+    }
+
+    #[test]
+    fn the_platform_erf_matches_libm() {
+        // Two independent implementations (the C library's and the libm crate's).
+        for i in -3000..=3000 {
+            let x = f64::from(i) / 250.0;
+            assert!(
+                (erf(x) - libm::erf(x)).abs() <= 4.0 * f64::EPSILON,
+                "erf {x}"
+            );
+            let (a, b) = (erfc(x), libm::erfc(x));
+            assert!(
+                (a - b).abs() <= 4.0 * f64::EPSILON * b,
+                "erfc {x}: {a:e} {b:e}"
+            );
+        }
+        assert!(erf(f64::NAN).is_nan() && erfc(f64::NAN).is_nan());
+        assert_eq!((erf(f64::INFINITY), erfc(f64::INFINITY)), (1.0, 0.0));
+        assert_eq!(erfc(30.0), 0.0);
     }
 }

@@ -155,11 +155,12 @@ pub fn integrated(
     }
     cuts[n] = hi;
     cuts[..=n].sort_by(f64::total_cmp);
+    let own = line::AlongRay::new(b.c, b.a, b.center, v, dir);
     let at = |t: f64, weight: f64| {
         let x = axpy(v, t, dir);
         let dx = sub(x, b.center);
         let density = b.c * (-b.a * b.a * dot(dx, dx)).exp();
-        let own_v = line::gaussian(b.c, b.a, b.center, v, dir, t);
+        let own_v = own.to(t);
         let (inv_d2, own_s, path) = match light {
             Source::Point(s) => {
                 let ls = sub(s, x);
@@ -193,16 +194,21 @@ pub fn integrated(
                 Some((ts, hs)) => {
                     let (th0, th1) = (((p0 - ts) / hs).atan(), ((p1 - ts) / hs).atan());
                     let th = 0.5 * (th0 + th1) + 0.5 * (th1 - th0) * x;
-                    let t = ts + hs * th.tan();
-                    let c = th.cos();
+                    let (sin, c) = th.sin_cos();
+                    let t = ts + hs * sin / c;
                     let d2 = (hs * hs / (c * c)).max(r_min * r_min);
                     at(t, 0.5 * (th1 - th0) * wq * d2 / hs)
                 }
                 None => at(0.5 * (p0 + p1) + 0.5 * (p1 - p0) * x, 0.5 * (p1 - p0) * wq),
             };
+            let mut last = (f64::NAN, 0.0);
             for (c, o) in out.iter_mut().enumerate() {
-                let e = if beta0[c] > 0.0 { beta0[c] * path } else { 0.0 };
-                *o += f * (-e).exp();
+                // One exp per distinct β0 (a grey background: one for the three).
+                if beta0[c] != last.0 {
+                    let e = if beta0[c] > 0.0 { beta0[c] * path } else { 0.0 };
+                    last = (beta0[c], f * (-e).exp());
+                }
+                *o += last.1;
             }
         }
     }
@@ -361,6 +367,10 @@ pub fn host_ratio(
     let hs = (dot(sv, sv) - ts * ts).max(0.0).sqrt().max(r_min);
     let (lo, hi) = ((-ts / hs).atan(), ((dr - ts) / hs).atan());
     let (mut num, mut den) = (0.0, 0.0);
+    let along: Vec<line::AlongRay> = hosts
+        .iter()
+        .map(|b| line::AlongRay::new(b.c, b.a, b.center, v, dir))
+        .collect();
     let pieces = [lo, 0.0f64.clamp(lo, hi), hi];
     for w in pieces.windows(2) {
         for k in 0..HOST_NODES {
@@ -388,8 +398,8 @@ pub fn host_ratio(
                     continue;
                 }
                 let mut depth = 0.0;
-                for b in hosts {
-                    depth += line::gaussian(b.c, b.a, b.center, v, dir, t);
+                for (b, along) in hosts.iter().zip(&along) {
+                    depth += along.to(t);
                     if d > 0.0 {
                         depth += line::gaussian(b.c, b.a, b.center, p, ls.map(|c| c / d), d);
                     }

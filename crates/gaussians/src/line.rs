@@ -7,10 +7,10 @@
 //!
 //! `∫₀^L f dt = c·e^{−a²h²}·(√π/2a)·[erf(a(L − m)) − erf(−a·m)]`,
 //!
-//! the difference taken by [`crate::erf::erf_diff`] (exact in the tails and for short
+//! the difference taken by [`crate::erf::erf_diff_from`] (exact in the tails and for short
 //! segments). `L` may be `+∞`.
 
-use crate::erf::erf_diff;
+use crate::erf::{erf_diff_from, erfc};
 use haze_core::vec3::{Vec3, axpy, dot, sub};
 use std::f64::consts::PI;
 
@@ -24,15 +24,47 @@ pub fn gaussian(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3, len: f64) -> f64 {
     if len <= 0.0 || c == 0.0 {
         return 0.0;
     }
-    let bp = sub(b, o);
-    let m = dot(bp, d);
-    let perp = axpy(bp, -m, d);
-    let q = a * a * dot(perp, perp);
-    if q > FAR {
-        return 0.0;
+    AlongRay::new(c, a, b, o, d).to(len)
+}
+
+/// One Gaussian's depth along a fixed ray `o + t·d` from `0` up to any end `t`:
+/// [`gaussian`] with its ray-constant parts — `c·e^{−a²h²}·√π/2a`, the foot `m` and the
+/// start's tail `erfc(a·|m|)` — taken once, so each end costs one `erfc`
+/// ([`crate::erf::erf_diff_from`]). What an integrated pair asks at every node of a ray.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct AlongRay {
+    /// `c·e^{−a²h²}·√π/2a`; 0 for a line beyond [`FAR`] or a zero Gaussian.
+    scale: f64,
+    a: f64,
+    m: f64,
+    tail0: f64,
+}
+
+impl AlongRay {
+    /// The Gaussian `c·exp(−a²|x − b|²)` along `o + t·d` (unit `d`).
+    pub fn new(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3) -> AlongRay {
+        let bp = sub(b, o);
+        let m = dot(bp, d);
+        let perp = axpy(bp, -m, d);
+        let q = a * a * dot(perp, perp);
+        if c == 0.0 || q > FAR {
+            return AlongRay::default();
+        }
+        AlongRay {
+            scale: c * (-q).exp() * PI.sqrt() / (2.0 * a),
+            a,
+            m,
+            tail0: erfc((a * m).abs()),
+        }
     }
-    let side = (-q).exp();
-    c * side * PI.sqrt() / (2.0 * a) * erf_diff(-a * m, a * (len - m))
+
+    /// `∫₀^len c·exp(−a²|o + t·d − b|²) dt`, as [`gaussian`] gives it.
+    pub fn to(&self, len: f64) -> f64 {
+        if len <= 0.0 || self.scale == 0.0 {
+            return 0.0;
+        }
+        self.scale * erf_diff_from(-self.a * self.m, self.tail0, self.a * (len - self.m))
+    }
 }
 
 /// The most a Gaussian of peak `c` and inverse radius `a` can add to the optical depth of
@@ -96,6 +128,43 @@ mod tests {
                 "{c} {a} {b:?} {len}: {got:e} vs {want:e}"
             );
         }
+    }
+
+    #[test]
+    fn along_a_fixed_ray_matches_quadrature_at_every_end() {
+        let d = normalize([0.3, -0.5, 0.8]).unwrap();
+        let o = [0.1, 0.2, -0.3];
+        for (c, a, b) in [
+            (1.0, 1.0, [0.5, 0.0, 0.4]),
+            (2.5, 4.0, [0.4, -0.4, 0.9]),
+            (0.7, 2.0, [-0.5, 0.8, -1.0]),
+            (1.0, 10.0, [0.33, -0.5, 0.52]),
+        ] {
+            let along = AlongRay::new(c, a, b, o, d);
+            for len in [0.0, 1e-4, 0.3, 1.0, 1.5, 4.0] {
+                let want = if len > 0.0 {
+                    quadrature(c, a, b, o, d, len)
+                } else {
+                    0.0
+                };
+                let got = along.to(len);
+                // Relative 1e-9: the last case's short ends lie 1e-31 deep in the tail,
+                // where Simpson's rule itself keeps about 10 digits.
+                assert!(
+                    (got - want).abs() <= 1e-9 * want + 1e-300,
+                    "{c} {a} {b:?} {len}: {got:e} vs {want:e}"
+                );
+            }
+            assert!(
+                (along.to(f64::INFINITY) - gaussian(c, a, b, o, d, f64::INFINITY)).abs() < 1e-15
+            );
+        }
+        // Beyond FAR and for a zero Gaussian: nothing, as `gaussian`.
+        assert_eq!(
+            AlongRay::new(1.0, 10.0, [5.0, 0.0, 0.0], o, d).to(10.0),
+            0.0
+        );
+        assert_eq!(AlongRay::new(0.0, 1.0, o, o, d).to(10.0), 0.0);
     }
 
     #[test]

@@ -390,7 +390,19 @@ fn frame(
                 .unwrap_or_else(|e| fail(e));
         }
         _ => {
-            let _ = paper_b(s, analytic, true);
+            let p =
+                Prepared::new(s, analytic, PaperBOptions::default()).unwrap_or_else(|e| fail(e));
+            if prep {
+                eprintln!(
+                    "{} gaussians, {} lights: preparation {:.0} ms, {} of {} pairs integrated",
+                    p.gaussian_count(),
+                    s.lights.len(),
+                    t.elapsed().as_secs_f64() * 1e3,
+                    p.integrated_pairs().0,
+                    p.integrated_pairs().1,
+                );
+            }
+            let _ = paper_b::render(&p, &Limits::default(), &|_| {});
         }
     }
     t.elapsed().as_secs_f64() * 1e3

@@ -280,15 +280,22 @@ impl<'a> Prepared<'a> {
     ) -> Rgb {
         let eye = self.scene.camera.eye;
         let b = &self.set.blobs()[i];
+        let exact = &l.pairs.pair_exact[i];
+        // Each listed Gaussian's depth along the camera ray, its ray-constant parts once.
+        let mut along = [line::AlongRay::default(); MAX_EXACT];
+        for (a, &k) in along.iter_mut().zip(exact) {
+            let h = &self.set.blobs()[k];
+            *a = line::AlongRay::new(h.c, h.a, h.center, eye, dir);
+        }
         let others = |t: f64| match l.source {
-            Source::Point(sp) if !l.pairs.pair_exact[i].is_empty() => {
+            Source::Point(sp) if !exact.is_empty() => {
                 let x = axpy(eye, t, dir);
                 let ls = sub(sp, x);
                 let d = norm(ls);
                 let mut depth = 0.0;
-                for &k in &l.pairs.pair_exact[i] {
+                for (&k, a) in exact.iter().zip(&along) {
                     let h = &self.set.blobs()[k];
-                    depth += line::gaussian(h.c, h.a, h.center, eye, dir, t);
+                    depth += a.to(t);
                     if d > 0.0 {
                         depth += line::gaussian(h.c, h.a, h.center, x, ls.map(|c| c / d), d);
                     }
@@ -367,10 +374,9 @@ impl<'a> Prepared<'a> {
                     let c_sv = if l.pairs.exact.is_empty() {
                         l.pairs.c_sv
                     } else {
-                        let hosts: Vec<_> =
-                            l.pairs.exact.iter().map(|&k| self.set.blobs()[k]).collect();
+                        let hosts = &l.pairs.exact_blobs;
                         let b0 = self.beta0.iter().sum::<f64>() / 3.0;
-                        l.pairs.c_sv_rest * host_ratio(&hosts, eye, dir, t_end, s, lim.r_min, b0)
+                        l.pairs.c_sv_rest * host_ratio(hosts, eye, dir, t_end, s, lim.r_min, b0)
                     };
                     let s = effective_light(eye, dir, s, lim);
                     for (c, o) in out.iter_mut().enumerate() {

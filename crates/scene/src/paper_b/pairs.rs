@@ -7,7 +7,7 @@
 
 use super::PaperBOptions;
 use crate::vec3::{Vec3, norm, sub};
-use haze_gaussians::airlight::{GaussianSet, Source};
+use haze_gaussians::airlight::{Blob, GaussianSet, Source};
 use haze_gaussians::integrated::{
     MAX_EXACT, MAX_HOSTS, SUPPORT, bound, fog_casters, host_depth, shadowers,
 };
@@ -49,6 +49,8 @@ pub(crate) struct PairTerms {
     /// ([`haze_gaussians::integrated::fog_casters`]); their `Tₖ(s, v)` is left out of
     /// `c_sv_rest` and their attenuation taken per node by `host_ratio`.
     pub(crate) exact: Vec<usize>,
+    /// The Gaussians of [`PairTerms::exact`], copied for the per-ray `host_ratio`.
+    pub(crate) exact_blobs: Vec<Blob>,
     /// `C_sv` without the exact list (the homogeneous term takes theirs per ray).
     pub(crate) c_sv_rest: f64,
 }
@@ -124,6 +126,7 @@ pub(crate) fn pair_terms(
         integrated,
         pair_exact,
         left,
+        exact_blobs: exact.iter().map(|&k| set.blobs()[k]).collect(),
         exact,
         c_sv,
         c_sv_rest,
