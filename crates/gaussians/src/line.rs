@@ -7,10 +7,10 @@
 //!
 //! `∫₀^L f dt = c·e^{−a²h²}·(√π/2a)·[erf(a(L − m)) − erf(−a·m)]`,
 //!
-//! the difference taken by [`crate::erf::erf_diff_from`] (exact in the tails and for short
+//! the difference taken by [`crate::erf::erf_diff`] (exact in the tails and for short
 //! segments). `L` may be `+∞`.
 
-use crate::erf::{erf_diff_from, erfc};
+use crate::erf::{erf_diff, erf_diff_from, erfc};
 use haze_core::vec3::{Vec3, axpy, dot, sub};
 use std::f64::consts::PI;
 
@@ -21,10 +21,28 @@ pub const FAR: f64 = 40.0;
 /// `∫₀^len c·exp(−a²|o + t·d − b|²) dt` for unit `d` (module docs); 0 for `len ≤ 0` and
 /// for lines beyond [`FAR`].
 pub fn gaussian(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3, len: f64) -> f64 {
-    if len <= 0.0 || c == 0.0 {
+    if len <= 0.0 {
         return 0.0;
     }
-    AlongRay::new(c, a, b, o, d).to(len)
+    match foot(c, a, b, o, d) {
+        Some((scale, m)) => scale * erf_diff(-a * m, a * (len - m)),
+        None => 0.0,
+    }
+}
+
+/// The line's ray-constant parts: `c·e^{−a²h²}·√π/2a` and the foot `m`; `None` for a
+/// zero Gaussian or a line beyond [`FAR`].
+fn foot(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3) -> Option<(f64, f64)> {
+    let bp = sub(b, o);
+    let m = dot(bp, d);
+    let perp = axpy(bp, -m, d);
+    let q = a * a * dot(perp, perp);
+    // A NaN input stays NaN (the comparison lets it through).
+    if c == 0.0 || q > FAR {
+        None
+    } else {
+        Some((c * (-q).exp() * PI.sqrt() / (2.0 * a), m))
+    }
 }
 
 /// One Gaussian's depth along a fixed ray `o + t·d` from `0` up to any end `t`:
@@ -43,18 +61,14 @@ pub struct AlongRay {
 impl AlongRay {
     /// The Gaussian `c·exp(−a²|x − b|²)` along `o + t·d` (unit `d`).
     pub fn new(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3) -> AlongRay {
-        let bp = sub(b, o);
-        let m = dot(bp, d);
-        let perp = axpy(bp, -m, d);
-        let q = a * a * dot(perp, perp);
-        if c == 0.0 || q > FAR {
-            return AlongRay::default();
-        }
-        AlongRay {
-            scale: c * (-q).exp() * PI.sqrt() / (2.0 * a),
-            a,
-            m,
-            tail0: erfc((a * m).abs()),
+        match foot(c, a, b, o, d) {
+            Some((scale, m)) => AlongRay {
+                scale,
+                a,
+                m,
+                tail0: erfc((a * m).abs()),
+            },
+            None => AlongRay::default(),
         }
     }
 
