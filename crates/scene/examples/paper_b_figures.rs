@@ -373,35 +373,23 @@ fn frame(
     prep: bool,
 ) -> f64 {
     let t = Instant::now();
+    let p = Prepared::new(s, analytic, PaperBOptions::default()).unwrap_or_else(|e| fail(e));
+    if prep {
+        let (k, n) = p.integrated_pairs();
+        eprintln!(
+            "{} gaussians, {} lights: preparation {:.0} ms, {k} of {n} pairs integrated",
+            p.gaussian_count(),
+            s.lights.len(),
+            t.elapsed().as_secs_f64() * 1e3,
+        );
+    }
     match (gpu, tables) {
         (Some((ctx, pipeline)), Some(tables)) => {
-            let p =
-                Prepared::new(s, analytic, PaperBOptions::default()).unwrap_or_else(|e| fail(e));
-            if prep {
-                eprintln!(
-                    "{} gaussians, {} lights: preparation {:.0} ms",
-                    p.gaussian_count(),
-                    s.lights.len(),
-                    t.elapsed().as_secs_f64() * 1e3
-                );
-            }
             pipeline
                 .render(ctx, tables, &p, &Limits::default())
                 .unwrap_or_else(|e| fail(e));
         }
         _ => {
-            let p =
-                Prepared::new(s, analytic, PaperBOptions::default()).unwrap_or_else(|e| fail(e));
-            if prep {
-                eprintln!(
-                    "{} gaussians, {} lights: preparation {:.0} ms, {} of {} pairs integrated",
-                    p.gaussian_count(),
-                    s.lights.len(),
-                    t.elapsed().as_secs_f64() * 1e3,
-                    p.integrated_pairs().0,
-                    p.integrated_pairs().1,
-                );
-            }
             let _ = paper_b::render(&p, &Limits::default(), &|_| {});
         }
     }
