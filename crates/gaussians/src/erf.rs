@@ -85,8 +85,10 @@ pub fn erf_diff(x0: f64, x1: f64) -> f64 {
     })
 }
 
-/// [`erf_diff`] with the start's tail `tail0 = erfc(|x0|)` given (module docs): the same
-/// value, one `erfc` fewer.
+/// [`erf_diff`] with the start's tail `tail0 = erfc(|x0|)` given (module docs), one error
+/// function fewer: the same value in the tails, and within `10⁻¹²` of it relative across
+/// 0, where it takes `erf(|x0|)` as `1 − tail0` (test
+/// `a_given_start_tail_gives_the_same_difference`).
 pub fn erf_diff_from(x0: f64, tail0: f64, x1: f64) -> f64 {
     short_interval(x0, x1).unwrap_or_else(|| {
         if x0 >= 0.0 {
@@ -169,7 +171,7 @@ mod tests {
     fn erf_diff_matches_quadrature_in_the_tails_and_for_short_intervals() {
         for (x0, x1) in [
             (-1.0, 2.0),
-            // Across 0 with one end near it (the `1 − erfc(|x0|)` form), and far tails.
+            // Across 0 with one end near it, and far on both sides.
             (-0.01, 2.0),
             (-3.0, 0.05),
             (-5.5, 4.0),
