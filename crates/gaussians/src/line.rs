@@ -47,7 +47,7 @@ fn foot(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3) -> Option<(f64, f64)> {
 
 /// One Gaussian's depth along a fixed ray `o + t·d` from `0` up to any end `t`:
 /// [`gaussian`] with its ray-constant parts — `c·e^{−a²h²}·√π/2a`, the foot `m` and the
-/// start's tail `erfc(a·|m|)` — taken once, so each end costs one `erfc`
+/// start's tail `erfc(a·|m|)` — taken once, so each end costs one error function
 /// ([`crate::erf::erf_diff_from`]). What an integrated pair asks at every node of a ray.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct AlongRay {
