@@ -281,6 +281,7 @@ impl<'a> Prepared<'a> {
         let eye = self.scene.camera.eye;
         let b = &self.set.blobs()[i];
         let exact = &l.pairs.pair_exact[i];
+        debug_assert!(exact.len() <= MAX_EXACT, "pair_terms caps the lists");
         // Each listed Gaussian's depth along the camera ray, its ray-constant parts once.
         let mut along = [line::AlongRay::default(); MAX_EXACT];
         for (a, &k) in along.iter_mut().zip(exact) {
