@@ -135,6 +135,23 @@ impl GaussianSet {
         (t, s)
     }
 
+    /// The Gaussians' optical depth along `o + t·d`, `t ∈ [0, len]`, leaving out `skip`,
+    /// each taken only where the segment crosses its cull sphere ([`cull_radius`]): short
+    /// of [`GaussianSet::depth`] by at most `ε√π/a` a Gaussian (`ε` = [`CULL_EPSILON`], its
+    /// line depth at the cull radius), for about a third of the candidates.
+    pub fn cull_depth(&self, o: Vec3, d: Vec3, len: f64, skip: Option<usize>) -> f64 {
+        let mut t = 0.0;
+        if len > 0.0 {
+            self.cull.segment(o, d, len, |i| {
+                if Some(i) != skip {
+                    let b = &self.blobs[i];
+                    t += line::gaussian(b.c, b.a, b.center, o, d, len);
+                }
+            });
+        }
+        t
+    }
+
     /// The Gaussians whose negligible radius (where their optical depth falls below
     /// `DEPTH_EPSILON`) plus `margin` the segment `o + t·d`, `t ∈ [0, len]`, passes within.
     pub fn near_segment(&self, o: Vec3, d: Vec3, len: f64, margin: f64, f: impl FnMut(usize)) {

@@ -377,10 +377,12 @@ fn frame(
     if prep {
         let (k, n) = p.integrated_pairs();
         eprintln!(
-            "{} gaussians, {} lights: preparation {:.0} ms, {k} of {n} pairs integrated",
+            "{} gaussians, {} lights: preparation {:.0} ms, {k} of {n} pairs integrated, {} \
+             shadows on the sky exact",
             p.gaussian_count(),
             s.lights.len(),
             t.elapsed().as_secs_f64() * 1e3,
+            p.exact_sky(),
         );
     }
     match (gpu, tables) {

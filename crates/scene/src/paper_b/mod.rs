@@ -164,7 +164,7 @@ impl<'a> Prepared<'a> {
             .into_par_iter()
             .map(|i| set.depth_to_point(i, eye))
             .collect();
-        let lights = scene
+        let lights: Vec<Lit> = scene
             .lights
             .iter()
             .map(|l| {
@@ -198,6 +198,7 @@ impl<'a> Prepared<'a> {
                 }
             })
             .collect();
+        let lit = lit_at_centres(&set, &lights);
         let env = GaussianEnv::new(
             scene,
             analytic,
@@ -206,6 +207,8 @@ impl<'a> Prepared<'a> {
             beta0,
             bg,
             &analytic.exponents(),
+            &lit,
+            options.target,
         );
         Ok(Prepared {
             scene,
@@ -237,6 +240,12 @@ impl<'a> Prepared<'a> {
             .filter(|e| e.is_some())
             .count();
         (k, n)
+    }
+
+    /// How many Gaussians took the others' shadow on the sky exactly (0 without an
+    /// environment; [`gaussian_env`]).
+    pub fn exact_sky(&self) -> usize {
+        self.env.as_ref().map_or(0, |e| e.exact_sky)
     }
 
     /// The shadowers the integrated pairs' lists had no room for, over every light.
@@ -495,14 +504,49 @@ impl<'a> Prepared<'a> {
     /// What it is, for summaries.
     pub fn name(&self) -> String {
         let (k, n) = self.integrated_pairs();
+        let sky = match &self.env {
+            Some(env) => format!(
+                ", {} of {} gaussians' shadows on the sky taken exactly",
+                env.exact_sky,
+                self.gaussian_count()
+            ),
+            None => String::new(),
+        };
         format!(
             "paper B, {} gaussians, {k} of {n} light–gaussian pairs integrated along the ray \
-             (at most {} gaussians exact a pair) ({})",
+             (at most {} gaussians exact a pair){sky} ({})",
             self.gaussian_count(),
             self.options.max_exact.min(MAX_EXACT),
             self.analytic.name()
         )
     }
+}
+
+/// Each centre's single-scattered light from the point lights and suns, summed over the
+/// channels: `αᵢ·Σₗ Φₗ·e^{Eᵢ}/(4πd²)` (a sun: `1/4π` for `1/4πd²`), `d` the light's
+/// distance from the centre, at least the Gaussian's radius `1/a`. What the environment's
+/// share of a Gaussian's light is weighed against ([`GaussianEnv::new`]).
+fn lit_at_centres(set: &GaussianSet, lights: &[Lit]) -> Vec<f64> {
+    set.blobs()
+        .iter()
+        .enumerate()
+        .map(|(i, b)| {
+            lights
+                .iter()
+                .map(|l| {
+                    let r2 = match l.source {
+                        Source::Point(s) => {
+                            let d = norm(sub(s, b.center)).max(1.0 / b.a);
+                            d * d
+                        }
+                        Source::Sun(_) => 1.0,
+                    };
+                    let e: f64 = (0..3).map(|c| l.power[c] * l.center[i][c]).sum();
+                    b.albedo * e / (4.0 * PI * r2)
+                })
+                .sum()
+        })
+        .collect()
 }
 
 /// `e^{Eᵢ}` per Gaussian and channel: the Gaussians' exponents `g` plus the homogeneous
