@@ -248,6 +248,12 @@ impl<'a> Prepared<'a> {
         self.env.as_ref().map_or(0, |e| e.exact_sky)
     }
 
+    /// With an environment, the mean over the Gaussians of the others' average depth
+    /// around each, to hold against [`gaussian_env::VALID_MEAN_DEPTH`].
+    pub fn env_mean_depth(&self) -> Option<f64> {
+        self.env.as_ref().map(|e| e.mean_depth_around)
+    }
+
     /// The shadowers the integrated pairs' lists had no room for, over every light.
     pub fn left_at_centres(&self) -> LeftAtCentres {
         let mut all = LeftAtCentres::default();
