@@ -172,25 +172,27 @@ impl GaussianSet {
     }
 
     /// `Σ_{j≠i} Tⱼ(bᵢ, v)`: the other Gaussians' optical depth from Gaussian `i`'s centre
-    /// to the point `v` (0 at the centre itself).
+    /// to the point `v` (0 at the centre itself), each where the path crosses its cull
+    /// sphere ([`GaussianSet::cull_depth`], as eq. 30 takes every term of the model).
     pub fn depth_to_point(&self, i: usize, v: Vec3) -> f64 {
         let b = self.blobs[i].center;
         let dv = sub(v, b);
         let lv = norm(dv);
         if lv > 0.0 {
-            self.depth(b, dv.map(|c| c / lv), lv, Some(i)).0
+            self.cull_depth(b, dv.map(|c| c / lv), lv, Some(i))
         } else {
             0.0
         }
     }
 
     /// `Σ_{j≠i} Tⱼ(s, bᵢ)`: the other Gaussians' optical depth from Gaussian `i`'s centre
-    /// to the light (a sun: towards it, to infinity).
+    /// to the light (a sun: towards it, to infinity), each where the path crosses its
+    /// cull sphere.
     pub fn depth_to_light(&self, i: usize, light: Source) -> f64 {
         let b = self.blobs[i].center;
         light
             .path(b)
-            .map_or(0.0, |(d, len)| self.depth(b, d, len, Some(i)).0)
+            .map_or(0.0, |(d, len)| self.cull_depth(b, d, len, Some(i)))
     }
 }
 
