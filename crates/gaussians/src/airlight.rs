@@ -135,21 +135,23 @@ impl GaussianSet {
         (t, s)
     }
 
-    /// The Gaussians' optical depth along `o + t·d`, `t ∈ [0, len]`, leaving out `skip`,
-    /// each taken only where the segment crosses its cull sphere ([`cull_radius`]): short
+    /// The Gaussians' optical depth along `o + t·d`, `t ∈ [0, len]`, and its scattering
+    /// part, leaving out `skip`, each taken only where the segment crosses its cull sphere ([`cull_radius`]): short
     /// of [`GaussianSet::depth`] by at most `ε√π/a` a Gaussian (`ε` = [`CULL_EPSILON`], its
     /// line depth at the cull radius), for about a third of the candidates.
-    pub fn cull_depth(&self, o: Vec3, d: Vec3, len: f64, skip: Option<usize>) -> f64 {
-        let mut t = 0.0;
+    pub fn cull_depth(&self, o: Vec3, d: Vec3, len: f64, skip: Option<usize>) -> (f64, f64) {
+        let (mut t, mut s) = (0.0, 0.0);
         if len > 0.0 {
             self.cull.segment(o, d, len, |i| {
                 if Some(i) != skip {
                     let b = &self.blobs[i];
-                    t += line::gaussian(b.c, b.a, b.center, o, d, len);
+                    let ti = line::gaussian(b.c, b.a, b.center, o, d, len);
+                    t += ti;
+                    s += b.albedo * ti;
                 }
             });
         }
-        t
+        (t, s)
     }
 
     /// The Gaussians whose negligible radius (where their optical depth falls below
@@ -179,7 +181,7 @@ impl GaussianSet {
         let dv = sub(v, b);
         let lv = norm(dv);
         if lv > 0.0 {
-            self.cull_depth(b, dv.map(|c| c / lv), lv, Some(i))
+            self.cull_depth(b, dv.map(|c| c / lv), lv, Some(i)).0
         } else {
             0.0
         }
@@ -192,7 +194,7 @@ impl GaussianSet {
         let b = self.blobs[i].center;
         light
             .path(b)
-            .map_or(0.0, |(d, len)| self.cull_depth(b, d, len, Some(i)))
+            .map_or(0.0, |(d, len)| self.cull_depth(b, d, len, Some(i)).0)
     }
 }
 

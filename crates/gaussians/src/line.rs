@@ -21,24 +21,37 @@ pub const FAR: f64 = 40.0;
 /// `∫₀^len c·exp(−a²|o + t·d − b|²) dt` for unit `d` (module docs); 0 for `len ≤ 0` and
 /// for lines beyond [`FAR`].
 pub fn gaussian(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3, len: f64) -> f64 {
+    gaussian_within(c, a, b, o, d, len, FAR)
+}
+
+/// [`gaussian`] with lines farther than `√far` radii from the centre counted as missing
+/// it (`far` from [`far_for`]: what a caller that can drop depths below some `δ` skips).
+pub fn gaussian_within(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3, len: f64, far: f64) -> f64 {
     if len <= 0.0 {
         return 0.0;
     }
-    match foot(c, a, b, o, d) {
+    match foot(c, a, b, o, d, far) {
         Some((scale, m)) => scale * erf_diff(-a * m, a * (len - m)),
         None => 0.0,
     }
 }
 
+/// The `far` (squared distance in radii, `a²h²`) beyond which a whole line picks up less
+/// than `delta` of the Gaussian's depth: `ln(c√π/(a·δ))` (the squared
+/// [`negligible_radius`] in radii), at most [`FAR`]; 0 when even the centre line does.
+pub fn far_for(c: f64, a: f64, delta: f64) -> f64 {
+    (c * PI.sqrt() / (a * delta)).ln().clamp(0.0, FAR)
+}
+
 /// The line's ray-constant parts: `c·e^{−a²h²}·√π/2a` and the foot `m`; `None` for a
-/// zero Gaussian or a line beyond [`FAR`].
-fn foot(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3) -> Option<(f64, f64)> {
+/// zero Gaussian or a line beyond `√far` radii.
+fn foot(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3, far: f64) -> Option<(f64, f64)> {
     let bp = sub(b, o);
     let m = dot(bp, d);
     let perp = axpy(bp, -m, d);
     let q = a * a * dot(perp, perp);
     // A NaN input stays NaN (the comparison lets it through).
-    if c == 0.0 || q > FAR {
+    if c == 0.0 || q > far {
         None
     } else {
         Some((c * (-q).exp() * PI.sqrt() / (2.0 * a), m))
@@ -61,7 +74,13 @@ pub struct AlongRay {
 impl AlongRay {
     /// The Gaussian `c·exp(−a²|x − b|²)` along `o + t·d` (unit `d`).
     pub fn new(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3) -> AlongRay {
-        match foot(c, a, b, o, d) {
+        AlongRay::within(c, a, b, o, d, FAR)
+    }
+
+    /// [`AlongRay::new`] with the ray counted as missing the Gaussian beyond `√far` radii
+    /// (as [`gaussian_within`]).
+    pub fn within(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3, far: f64) -> AlongRay {
+        match foot(c, a, b, o, d, far) {
             Some((scale, m)) => AlongRay {
                 scale,
                 a,
@@ -98,6 +117,37 @@ pub fn negligible_radius(c: f64, a: f64, delta: f64) -> f64 {
 mod tests {
     use super::*;
     use haze_core::vec3::normalize;
+
+    #[test]
+    fn lines_beyond_the_cut_drop_less_than_delta() {
+        // For Gaussians of line depth 10⁻⁶..10 through the centre and cuts δ = 10⁻¹⁰..10⁻³:
+        // a whole line at distance h picks up c√π/a·e^{−a²h²} (line_bound), so beyond
+        // √far_for radii the dropped depth is below δ, and within it nothing changes.
+        for &(c, a) in &[(0.01, 2.0), (1.0, 1.0), (5.0, 0.5), (1e-6, 1.0)] {
+            for &delta in &[1e-10, 1e-7, 1e-3] {
+                let far = far_for(c, a, delta);
+                assert!((0.0..=FAR).contains(&far), "{far}");
+                for k in 0..40 {
+                    let h = 0.2 * k as f64 / a;
+                    let o = [-20.0 / a, h, 0.0];
+                    let (full, cut) = (
+                        gaussian(c, a, [0.0; 3], o, [1.0, 0.0, 0.0], 40.0 / a),
+                        gaussian_within(c, a, [0.0; 3], o, [1.0, 0.0, 0.0], 40.0 / a, far),
+                    );
+                    let along = AlongRay::within(c, a, [0.0; 3], o, [1.0, 0.0, 0.0], far);
+                    assert_eq!(cut, along.to(40.0 / a), "c {c} a {a} h {h}");
+                    if a * a * h * h <= far {
+                        assert_eq!(cut, full, "c {c} a {a} h {h}");
+                    } else {
+                        assert_eq!(cut, 0.0);
+                        assert!(full <= delta * (1.0 + 1e-9), "c {c} a {a} h {h}: {full}");
+                    }
+                }
+            }
+        }
+        // Below δ through the centre: every line is dropped.
+        assert_eq!(far_for(1e-9, 1.0, 1e-7), 0.0);
+    }
 
     /// The integral by composite Simpson with a breakpoint at the foot of the
     /// perpendicular (each side smooth; 4000 panels each, error ≪ 1e-12 relative for

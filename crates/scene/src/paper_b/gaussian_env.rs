@@ -124,7 +124,7 @@ fn sky_attenuation(
     for (w, wt) in rule {
         if visible(x, *w) {
             let l = scene.environment.radiance(*w);
-            let t = (-set.cull_depth(x, *w, f64::INFINITY, Some(i))).exp();
+            let t = (-set.cull_depth(x, *w, f64::INFINITY, Some(i)).0).exp();
             for c in 0..3 {
                 num[c] += wt * l[c] * t;
                 den[c] += wt * l[c];

@@ -23,8 +23,9 @@
 //! * **Screen optical depth** `T(v,p) = β0·dr + Σᵢ Tᵢ(v,p)` over the same Gaussians;
 //!   rays that escape see the environment through it.
 //! * **Surfaces** (§4.3, with paper C's tables): the optical depth `T(s,p)` from each
-//!   light to the surface point is accumulated per Gaussian in closed form (plus
-//!   `β0·|s − p|`); the direct light is `I·e^{−T(s,p)}·f·cos θ/d²` (shadowed by surfaces),
+//!   light to the surface point is accumulated in closed form over the Gaussians whose
+//!   cull sphere the path crosses (eq. 30; each other one misses at most `√π·ε/a`), plus
+//!   `β0·|s − p|`; the direct light is `I·e^{−T(s,p)}·f·cos θ/d²` (shadowed by surfaces),
 //!   the light the medium scatters onto the surface is paper C's `G0`/`Gn` terms with the
 //!   path-averaged `β̄ = T(s,p)/d` and `σ̄s = S(s,p)/d` (the notes' "Tsp → T(s,p)").
 //!   [`PaperBOptions::surface_scattering`] turns that term off (the march reference has
@@ -46,6 +47,10 @@ use crate::vec3::{Vec3, axpy, dot, norm, reflect, scale, sub};
 use gaussian_env::GaussianEnv;
 use haze_gaussians::airlight::{GaussianSet, Source, factored, projection};
 use haze_gaussians::average::gaussian_mean_depth;
+/// The optical depth below which an integrated pair's listed Gaussian is dropped from a
+/// line (towards the eye or the light): at most `MAX_EXACT·10⁻⁷` of a node's exponent.
+const LIST_DELTA: f64 = 1e-7;
+
 /// The most Gaussians an integrated pair (and the homogeneous term) takes exactly per node.
 pub use haze_gaussians::integrated::MAX_EXACT;
 use haze_gaussians::integrated::{bound, host_ratio, integrated};
@@ -297,11 +302,14 @@ impl<'a> Prepared<'a> {
         let b = &self.set.blobs()[i];
         let exact = &l.pairs.pair_exact[i];
         debug_assert!(exact.len() <= MAX_EXACT, "pair_terms caps the lists");
-        // Each listed Gaussian's depth along the camera ray, its ray-constant parts once.
+        // Each listed Gaussian's depth along the camera ray, its ray-constant parts once;
+        // lines where it adds less than LIST_DELTA skipped.
         let mut along = [line::AlongRay::default(); MAX_EXACT];
-        for (a, &k) in along.iter_mut().zip(exact) {
+        let mut far = [0.0; MAX_EXACT];
+        for ((a, f), &k) in along.iter_mut().zip(&mut far).zip(exact) {
             let h = &self.set.blobs()[k];
-            *a = line::AlongRay::new(h.c, h.a, h.center, eye, dir);
+            *f = line::far_for(h.c, h.a, LIST_DELTA);
+            *a = line::AlongRay::within(h.c, h.a, h.center, eye, dir, *f);
         }
         let others = |t: f64| match l.source {
             Source::Point(sp) if !exact.is_empty() => {
@@ -309,11 +317,12 @@ impl<'a> Prepared<'a> {
                 let ls = sub(sp, x);
                 let d = norm(ls);
                 let mut depth = 0.0;
-                for (&k, a) in exact.iter().zip(&along) {
+                for ((&k, a), &f) in exact.iter().zip(&along).zip(&far) {
                     let h = &self.set.blobs()[k];
                     depth += a.to(t);
                     if d > 0.0 {
-                        depth += line::gaussian(h.c, h.a, h.center, x, ls.map(|c| c / d), d);
+                        let u = ls.map(|c| c / d);
+                        depth += line::gaussian_within(h.c, h.a, h.center, x, u, d, f);
                     }
                 }
                 -depth
@@ -459,7 +468,7 @@ impl<'a> Prepared<'a> {
                     let d = norm(v);
                     let u = scale(v, 1.0 / d);
                     let lit = dot(n, u) > 0.0 && scene.visible(p_off, s);
-                    let (tg, sg) = self.set.depth(p, u, d, None);
+                    let (tg, sg) = self.set.cull_depth(p, u, d, None);
                     for (c, o) in out.iter_mut().enumerate() {
                         if l.power[c] <= 0.0 {
                             continue;
@@ -481,7 +490,7 @@ impl<'a> Prepared<'a> {
                         && scene.intersect(p_off, sun, 0.0, f64::INFINITY).is_none()
                         && !self.background;
                     let t = if lit {
-                        self.set.depth(p, sun, f64::INFINITY, None).0
+                        self.set.cull_depth(p, sun, f64::INFINITY, None).0
                     } else {
                         0.0
                     };
