@@ -45,7 +45,7 @@ use crate::render::{Analytic, Image, Model, background};
 use crate::scene::{Light, Rgb, Scene};
 use crate::vec3::{Vec3, axpy, dot, norm, reflect, scale, sub};
 use gaussian_env::GaussianEnv;
-use haze_gaussians::airlight::{GaussianSet, Source, factored, projection};
+use haze_gaussians::airlight::{GaussianSet, Source, factored};
 use haze_gaussians::average::gaussian_mean_depth;
 /// The optical depth below which an integrated pair's listed Gaussian is dropped from a
 /// line (towards the eye or the light): at most `MAX_EXACT·10⁻⁷` of a node's exponent.
@@ -356,7 +356,10 @@ impl<'a> Prepared<'a> {
         let mut tau = 0.0;
         self.set.on_segment(eye, dir, t_end, |i| {
             let b = &self.set.blobs()[i];
-            let proj = projection(b, eye, dir, t_end);
+            // Tᵢ(v, bᵢʳ) and, without noise, Tᵢ(v, p) from one line's constant parts.
+            let line = line::AlongRay::new(b.c, b.a, b.center, eye, dir);
+            let t_r = dot(sub(b.center, eye), dir).clamp(0.0, t_end);
+            let proj = (t_r, line.to(t_r));
             let along = match self.noise[i] {
                 Some(n) => n.perturb(
                     dir,
@@ -367,7 +370,11 @@ impl<'a> Prepared<'a> {
                 ),
                 None => dir,
             };
-            let vp = line::gaussian(b.c, b.a, b.center, eye, along, t_end);
+            let vp = if along == dir {
+                line.to(t_end)
+            } else {
+                line::gaussian(b.c, b.a, b.center, eye, along, t_end)
+            };
             tau += vp;
             for l in &self.lights {
                 if let Some(e) = l.pairs.integrated[i] {
