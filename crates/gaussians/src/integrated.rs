@@ -156,10 +156,11 @@ pub fn integrated(
     cuts[n] = hi;
     cuts[..=n].sort_by(f64::total_cmp);
     let own = line::AlongRay::new(b.c, b.a, b.center, v, dir);
+    // A node's `(prefactor, exponent, path)`: its integrand is
+    // `prefactor·e^{exponent − β0_c·path}` (one exp a node for a grey β0).
     let at = |t: f64, weight: f64| {
         let x = axpy(v, t, dir);
         let dx = sub(x, b.center);
-        let density = b.c * (-b.a * b.a * dot(dx, dx)).exp();
         let own_v = own.to(t);
         let (inv_d2, own_s, path) = match light {
             Source::Point(s) => {
@@ -179,9 +180,9 @@ pub fn integrated(
                 t,
             ),
         };
-        let f =
-            weight * b.albedo * density * inv_d2 / (4.0 * PI) * (others(t) - own_v - own_s).exp();
-        (f, path)
+        let pre = weight * b.albedo * b.c * inv_d2 / (4.0 * PI);
+        let exponent = others(t) - own_v - own_s - b.a * b.a * dot(dx, dx);
+        (pre, exponent, path)
     };
     for w in cuts[..=n].windows(2) {
         let (p0, p1) = (w[0], w[1]);
@@ -189,7 +190,7 @@ pub fn integrated(
             continue;
         }
         for &(x, wq) in &GAUSS_LEGENDRE_6 {
-            let (f, path) = match foot {
+            let (pre, exponent, path) = match foot {
                 // t = t_s + h_s·tan θ: dt = d²/h_s dθ with d² = h_s²/cos²θ.
                 Some((ts, hs)) => {
                     let (th0, th1) = (((p0 - ts) / hs).atan(), ((p1 - ts) / hs).atan());
@@ -206,7 +207,7 @@ pub fn integrated(
                 // One exp per distinct β0 (a grey background: one for the three).
                 if beta0[c] != last.0 {
                     let e = if beta0[c] > 0.0 { beta0[c] * path } else { 0.0 };
-                    last = (beta0[c], f * (-e).exp());
+                    last = (beta0[c], pre * (exponent - e).exp());
                 }
                 *o += last.1;
             }
