@@ -362,7 +362,7 @@ fn dense_gaussians_under_a_sky_are_warned_about() {
     // The bundled sky scene with every Gaussian ten times as dense (peak depth 0.05 →
     // 0.5): the others' mean depth around each is then above VALID_MEAN_DEPTH, where
     // paper B's environment terms measured 5–6 % off (crates/scene/tests/paper_b.rs
-    // holds the same cloud class at 6.9 %). The render still completes.
+    // holds the same cloud class at 6.9 %). The render still completes, and says so.
     let dir = tempfile::tempdir().unwrap();
     let text = std::fs::read_to_string(
         Path::new(env!("CARGO_MANIFEST_DIR")).join("data/scenes/gaussians_sky.json"),
@@ -391,4 +391,13 @@ fn dense_gaussians_under_a_sky_are_warned_about() {
         "{err}"
     );
     assert!(out.exists());
+    // The viewer says it too (its panel shows the same lines).
+    let o = haze()
+        .args(["view", "--scene", path.to_str().unwrap(), "--size", "16x12"])
+        .args(["--no-window", "--play-for", "0.01"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("dense for the environment's light"), "{err}");
 }

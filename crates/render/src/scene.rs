@@ -290,33 +290,11 @@ fn run_hetero(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Res
 }
 
 /// With `-v`: each (light, Gaussian) pair paper B integrates along the ray and its bound
-/// on the factorization's error (the summary line gives their count). Always: a warning
-/// when the pairs' lists had no room for every Gaussian whose shadow crosses them, and
-/// one when the Gaussians are too dense for paper B's environment terms.
+/// on the factorization's error (the summary line gives their count). Always: where the
+/// picture may be wrong ([`Prepared::warnings`]).
 fn log_integrated(prep: &Prepared<'_>) {
-    let left = prep.left_at_centres();
-    if left.shadows > 0 {
-        tracing::warn!(
-            "paper B: {} Gaussian shadows across {} integrated pairs taken at the pairs' centres \
-             (more than {} a pair; the largest errs by {:.1} % there): \
-             the picture may be off where they fall partly across a lit Gaussian; --reference \
-             renders it exactly",
-            left.shadows,
-            left.pairs,
-            paper_b::MAX_EXACT,
-            100.0 * left.largest
-        );
-    }
-    if let Some(m) = prep.env_mean_depth()
-        && m > paper_b::gaussian_env::VALID_MEAN_DEPTH
-    {
-        tracing::warn!(
-            "paper B: the Gaussians are dense for the environment's light (the others' \
-             average optical depth around each is {m:.2}, above {}): such clouds measured \
-             5–6 % off under a sky, their own glow 14–44 % where each Gaussian's peak depth \
-             is 0.2–1; --reference renders it exactly",
-            paper_b::gaussian_env::VALID_MEAN_DEPTH
-        );
+    for w in prep.warnings() {
+        tracing::warn!("{w}");
     }
     for (l, i, bound) in prep.integrated_list() {
         let why = if bound.is_finite() {

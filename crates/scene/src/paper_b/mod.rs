@@ -259,6 +259,38 @@ impl<'a> Prepared<'a> {
         self.env.as_ref().map(|e| e.mean_depth_around)
     }
 
+    /// Where this frame's picture may be wrong, one line each (the CLI logs them, the
+    /// viewer shows them): pairs whose lists had no room for every Gaussian whose shadow
+    /// crosses them, and Gaussians too dense for the environment's terms
+    /// ([`gaussian_env::VALID_MEAN_DEPTH`]).
+    pub fn warnings(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        let left = self.left_at_centres();
+        if left.shadows > 0 {
+            out.push(format!(
+                "paper B: {} Gaussian shadows across {} integrated pairs taken at the pairs' \
+                 centres (more than {MAX_EXACT} a pair; the largest errs by {:.1} % there): \
+                 the picture may be off where they fall partly across a lit Gaussian; \
+                 --reference renders it exactly",
+                left.shadows,
+                left.pairs,
+                100.0 * left.largest
+            ));
+        }
+        if let Some(m) = self.env_mean_depth()
+            && m > gaussian_env::VALID_MEAN_DEPTH
+        {
+            out.push(format!(
+                "paper B: the Gaussians are dense for the environment's light (the others' \
+                 average optical depth around each is {m:.2}, above {}): such clouds \
+                 measured 5–6 % off under a sky, their own glow 14–44 % where each \
+                 Gaussian's peak depth is 0.2–1; --reference renders it exactly",
+                gaussian_env::VALID_MEAN_DEPTH
+            ));
+        }
+        out
+    }
+
     /// The shadowers the integrated pairs' lists had no room for, over every light.
     pub fn left_at_centres(&self) -> LeftAtCentres {
         let mut all = LeftAtCentres::default();

@@ -719,7 +719,7 @@ mod tests {
         let mut editor = Editor::new(&base, &scene_path()).unwrap();
         let first = editor.gaussians();
         let r = Renderer::new(base, (64, 48)).unwrap();
-        let before = r.image(&orbit, &knobs, Some(&editor), None).unwrap();
+        let before = r.image(&orbit, &knobs, Some(&editor), None).unwrap().0;
 
         editor.tool = Tool::Paint;
         editor.knobs.paint = PaintParams {
@@ -751,7 +751,7 @@ mod tests {
             }
         }
 
-        let after = r.image(&orbit, &knobs, Some(&editor), None).unwrap();
+        let after = r.image(&orbit, &knobs, Some(&editor), None).unwrap().0;
         let cpu = |knobs: &SceneKnobs, editor: &Editor| {
             let scene = r.scene(&orbit, knobs, Some(editor)).unwrap();
             let options = haze_scene::gpu::paper_b::options(&r.ctx);
@@ -771,14 +771,14 @@ mod tests {
             panic!("the scene's first light is a point")
         };
         knobs.lights[0].position = [position[0] + 1.0, position[1], position[2] - 1.5];
-        let moved = r.image(&orbit, &knobs, Some(&editor), None).unwrap();
+        let moved = r.image(&orbit, &knobs, Some(&editor), None).unwrap().0;
         assert!(differ(&moved, &cpu(&knobs, &editor), 1e-3) <= n / 100);
         assert!(differ(&moved, &after, 0.02) > n / 50);
         knobs.lights[0].position = *position;
 
         editor.undo();
         assert_eq!(editor.gaussians(), first);
-        let undone = r.image(&orbit, &knobs, Some(&editor), None).unwrap();
+        let undone = r.image(&orbit, &knobs, Some(&editor), None).unwrap().0;
         assert_eq!(undone.pixels, before.pixels);
         editor.redo();
         assert_eq!(editor.gaussians(), now);

@@ -228,36 +228,42 @@ impl Renderer {
     }
 
     /// Renders the edited scene, its analytic fogs carried by `wind`; the sRGB bytes of
-    /// the picture.
+    /// the picture and where it may be wrong ([`Renderer::image`]).
     pub(super) fn picture(
         &self,
         orbit: &Orbit,
         knobs: &SceneKnobs,
         editor: Option<&Editor>,
         wind: Option<&Wind>,
-    ) -> Result<Vec<u8>, String> {
-        let img = self.image(orbit, knobs, editor, wind)?;
+    ) -> Result<(Vec<u8>, Vec<String>), String> {
+        let (img, warnings) = self.image(orbit, knobs, editor, wind)?;
         let image = haze_view::Image {
             width: img.width,
             height: img.height,
             pixels: img.pixels,
         };
-        Ok(image.to_srgb8(knobs.exposure, haze_core::ToneMap::Filmic))
+        Ok((
+            image.to_srgb8(knobs.exposure, haze_core::ToneMap::Filmic),
+            warnings,
+        ))
     }
 
-    /// Renders the edited scene, its analytic fogs carried by `wind`; its linear radiance.
+    /// Renders the edited scene, its analytic fogs carried by `wind`; its linear radiance,
+    /// and where paper B's picture may be wrong ([`Prepared::warnings`]; none otherwise).
     pub(super) fn image(
         &self,
         orbit: &Orbit,
         knobs: &SceneKnobs,
         editor: Option<&Editor>,
         wind: Option<&Wind>,
-    ) -> Result<Image, String> {
+    ) -> Result<(Image, Vec<String>), String> {
         let scene = self.scene(orbit, knobs, editor)?;
         let lim = Limits::default();
+        let mut warnings = Vec::new();
         let img = if let Some(pb) = &self.paper_b {
             let options = haze_scene::gpu::paper_b::options(&self.ctx);
             let prep = Prepared::new(&scene, &self.analytic, options)?;
+            warnings = prep.warnings();
             pb.render(&self.ctx, &self.gpu, &prep, &lim)
         } else if let (Some(fog), Some(wind)) = (&self.fog, wind) {
             fog.render(&self.ctx, &self.gpu, &scene, wind, &lim)
@@ -267,7 +273,7 @@ impl Renderer {
             self.gpu.render(&self.ctx, &scene, &lim)
         }
         .map_err(|e| e.to_string())?;
-        Ok(img)
+        Ok((img, warnings))
     }
 }
 
@@ -325,10 +331,13 @@ pub fn run(a: SceneViewArgs) -> Result<()> {
     }
     let wind = Wind::of(&base);
     let renderer = Renderer::new(base, (a.width, a.height))?;
-    // The first picture, also the proof that the scene renders.
-    renderer
+    // The first picture, also the proof that the scene renders; where it may be wrong.
+    let (_, warnings) = renderer
         .picture(&orbit, &knobs, editor.as_ref(), wind.as_ref())
         .map_err(|e| anyhow!("{}: {e}", a.scene.display()))?;
+    for w in &warnings {
+        tracing::warn!("{w}");
+    }
     if !a.window {
         let line = turn_without_window(
             &renderer,
@@ -358,6 +367,7 @@ pub fn run(a: SceneViewArgs) -> Result<()> {
         last_tick: Instant::now(),
         frame_ms: 0.0,
         error: None,
+        warnings,
         play_for: a.play_for.map(|s| (Instant::now(), s)),
         times: Vec::new(),
         outcome: outcome.clone(),
@@ -441,6 +451,8 @@ struct SceneApp {
     last_tick: Instant,
     frame_ms: f64,
     error: Option<String>,
+    /// Where the picture shown may be wrong (paper B's [`Prepared::warnings`]).
+    warnings: Vec<String>,
     /// `--play-for`: close the window that long after it opened.
     play_for: Option<(Instant, f64)>,
     /// Seconds of each picture rendered.
@@ -471,6 +483,9 @@ impl SceneApp {
         ui.label(format!("GPU: {}", self.renderer.ctx.adapter_name()));
         if let Some(e) = &self.error {
             ui.colored_label(egui::Color32::RED, e);
+        }
+        for w in &self.warnings {
+            ui.colored_label(egui::Color32::YELLOW, w);
         }
         ui.checkbox(&mut self.knobs.rasterized, "rasterize surfaces")
             .on_hover_text("off: every pixel's ray traced through the surfaces instead");
@@ -659,10 +674,11 @@ impl SceneApp {
             .renderer
             .picture(&now.0, &now.1, self.editor.as_ref(), self.wind.as_ref())
         {
-            Ok(rgb) => {
+            Ok((rgb, warnings)) => {
                 let (w, h) = self.renderer.size;
                 shell::show_picture(ctx, &mut self.texture, "scene", [w, h], &rgb);
                 self.error = None;
+                self.warnings = warnings;
             }
             Err(e) => self.error = Some(e),
         }
