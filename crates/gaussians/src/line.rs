@@ -69,34 +69,67 @@ pub struct AlongRay {
     a: f64,
     m: f64,
     tail0: f64,
+    /// Past `a(t − m) > cut` the depth is taken whole (`full`), below `−cut` as 0.
+    cut: f64,
+    /// The whole ray's depth, `scale·erfc(−a·m)`.
+    full: f64,
 }
 
 impl AlongRay {
     /// The Gaussian `c·exp(−a²|x − b|²)` along `o + t·d` (unit `d`).
     pub fn new(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3) -> AlongRay {
-        AlongRay::within(c, a, b, o, d, FAR)
+        AlongRay::cut(c, a, b, o, d, FAR, f64::INFINITY)
     }
 
-    /// [`AlongRay::new`] with the ray counted as missing the Gaussian beyond `√far` radii
-    /// (as [`gaussian_within`]).
-    pub fn within(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3, far: f64) -> AlongRay {
+    /// [`AlongRay::new`] for a caller that can drop `delta` of depth: the ray misses the
+    /// Gaussian beyond `√far_for(c, a, delta)` radii (as [`gaussian_within`]), and an end
+    /// more than `x = √ln(scale/δ)` of the foot away, in units of `1/a`, takes the depth
+    /// whole (past it) or as none (before it), off by `scale·erfc(x) < scale·e^{−x²} = δ`
+    /// at most: no error function there.
+    pub fn within(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3, delta: f64) -> AlongRay {
+        let far = far_for(c, a, delta);
         match foot(c, a, b, o, d, far) {
-            Some((scale, m)) => AlongRay {
-                scale,
-                a,
-                m,
-                tail0: erfc((a * m).abs()),
-            },
+            Some((scale, _)) => {
+                let x = (scale / delta).ln().max(0.0).sqrt();
+                AlongRay::cut(c, a, b, o, d, far, x)
+            }
             None => AlongRay::default(),
         }
     }
 
-    /// `∫₀^len c·exp(−a²|o + t·d − b|²) dt`, as [`gaussian`] gives it.
+    fn cut(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3, far: f64, cut: f64) -> AlongRay {
+        match foot(c, a, b, o, d, far) {
+            Some((scale, m)) => {
+                let tail0 = erfc((a * m).abs());
+                // erfc(−a·m): the tail when the foot lies behind the start, 2 − it ahead.
+                let whole = if m <= 0.0 { tail0 } else { 2.0 - tail0 };
+                AlongRay {
+                    scale,
+                    a,
+                    m,
+                    tail0,
+                    cut,
+                    full: scale * whole,
+                }
+            }
+            None => AlongRay::default(),
+        }
+    }
+
+    /// `∫₀^len c·exp(−a²|o + t·d − b|²) dt`, as [`gaussian`] gives it (within `δ` for
+    /// [`AlongRay::within`]).
     pub fn to(&self, len: f64) -> f64 {
         if len <= 0.0 || self.scale == 0.0 {
             return 0.0;
         }
-        self.scale * erf_diff_from(-self.a * self.m, self.tail0, self.a * (len - self.m))
+        let x1 = self.a * (len - self.m);
+        if x1 > self.cut {
+            return self.full;
+        }
+        if x1 < -self.cut {
+            return 0.0;
+        }
+        self.scale * erf_diff_from(-self.a * self.m, self.tail0, x1)
     }
 }
 
@@ -134,8 +167,16 @@ mod tests {
                         gaussian(c, a, [0.0; 3], o, [1.0, 0.0, 0.0], 40.0 / a),
                         gaussian_within(c, a, [0.0; 3], o, [1.0, 0.0, 0.0], 40.0 / a, far),
                     );
-                    let along = AlongRay::within(c, a, [0.0; 3], o, [1.0, 0.0, 0.0], far);
-                    assert_eq!(cut, along.to(40.0 / a), "c {c} a {a} h {h}");
+                    let along = AlongRay::within(c, a, [0.0; 3], o, [1.0, 0.0, 0.0], delta);
+                    for &end in &[0.0, 10.0, 19.0, 20.0, 21.0, 22.0, 23.0, 25.0, 30.0, 40.0] {
+                        let exact =
+                            gaussian_within(c, a, [0.0; 3], o, [1.0, 0.0, 0.0], end / a, far);
+                        let got = along.to(end / a);
+                        assert!(
+                            (got - exact).abs() <= delta,
+                            "c {c} a {a} h {h} end {end}: {got} vs {exact}"
+                        );
+                    }
                     if a * a * h * h <= far {
                         assert_eq!(cut, full, "c {c} a {a} h {h}");
                     } else {
