@@ -21,17 +21,39 @@ pub const FAR: f64 = 40.0;
 /// `∫₀^len c·exp(−a²|o + t·d − b|²) dt` for unit `d` (module docs); 0 for `len ≤ 0` and
 /// for lines beyond [`FAR`].
 pub fn gaussian(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3, len: f64) -> f64 {
-    gaussian_within(c, a, b, o, d, len, FAR)
+    if len <= 0.0 {
+        return 0.0;
+    }
+    match foot(c, a, b, o, d, FAR) {
+        Some((scale, m, _)) => scale * erf_diff(-a * m, a * (len - m)),
+        None => 0.0,
+    }
 }
 
-/// [`gaussian`] with lines farther than `√far` radii from the centre counted as missing
-/// it (`far` from [`far_for`]: what a caller that can drop depths below some `δ` skips).
+/// [`gaussian`] for a caller that drops `δ` of depth, `far` = [`far_for`]`(c, a, δ)`:
+/// lines farther than `√far` radii from the centre count as missing it, and a line at
+/// `a²h² = q` whose ends both lie more than `x = √(far − q)` (in units of `1/a`) from the
+/// foot takes the whole line's depth (ends on either side) or none (one side), with no
+/// error function: each end's tail is `scale·erfc(x) < scale·e^{−x²} = δ/2` (as
+/// `scale = (c√π/2a)e^{−q}` and `e^{far} = c√π/(aδ)`; when `far` is capped at [`FAR`], at
+/// most `e^{−40}` of the depth through the centre).
 pub fn gaussian_within(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3, len: f64, far: f64) -> f64 {
     if len <= 0.0 {
         return 0.0;
     }
     match foot(c, a, b, o, d, far) {
-        Some((scale, m)) => scale * erf_diff(-a * m, a * (len - m)),
+        Some((scale, m, q)) => {
+            let (x0, x1) = (-a * m, a * (len - m));
+            let cut2 = far - q;
+            let beyond = |x: f64| x * x >= cut2;
+            if (x1 <= 0.0 && beyond(x1)) || (x0 >= 0.0 && beyond(x0)) {
+                0.0
+            } else if x0 < 0.0 && x1 > 0.0 && beyond(x0) && beyond(x1) {
+                2.0 * scale
+            } else {
+                scale * erf_diff(x0, x1)
+            }
+        }
         None => 0.0,
     }
 }
@@ -43,9 +65,9 @@ pub fn far_for(c: f64, a: f64, delta: f64) -> f64 {
     (c * PI.sqrt() / (a * delta)).ln().clamp(0.0, FAR)
 }
 
-/// The line's ray-constant parts: `c·e^{−a²h²}·√π/2a` and the foot `m`; `None` for a
-/// zero Gaussian or a line beyond `√far` radii.
-fn foot(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3, far: f64) -> Option<(f64, f64)> {
+/// The line's ray-constant parts: `c·e^{−a²h²}·√π/2a`, the foot `m` and `q = a²h²`;
+/// `None` for a zero Gaussian or a line beyond `√far` radii.
+fn foot(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3, far: f64) -> Option<(f64, f64, f64)> {
     let bp = sub(b, o);
     let m = dot(bp, d);
     let perp = axpy(bp, -m, d);
@@ -54,7 +76,7 @@ fn foot(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3, far: f64) -> Option<(f64, f64
     if c == 0.0 || q > far {
         None
     } else {
-        Some((c * (-q).exp() * PI.sqrt() / (2.0 * a), m))
+        Some((c * (-q).exp() * PI.sqrt() / (2.0 * a), m, q))
     }
 }
 
@@ -89,7 +111,7 @@ impl AlongRay {
     pub fn within(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3, delta: f64) -> AlongRay {
         let far = far_for(c, a, delta);
         match foot(c, a, b, o, d, far) {
-            Some((scale, _)) => {
+            Some((scale, _, _)) => {
                 let x = (scale / delta).ln().max(0.0).sqrt();
                 AlongRay::cut(c, a, b, o, d, far, x)
             }
@@ -99,7 +121,7 @@ impl AlongRay {
 
     fn cut(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3, far: f64, cut: f64) -> AlongRay {
         match foot(c, a, b, o, d, far) {
-            Some((scale, m)) => {
+            Some((scale, m, _)) => {
                 let tail0 = erfc((a * m).abs());
                 // erfc(−a·m): the tail when the foot lies behind the start, 2 − it ahead.
                 let whole = if m <= 0.0 { tail0 } else { 2.0 - tail0 };
@@ -155,7 +177,8 @@ mod tests {
     fn lines_beyond_the_cut_drop_less_than_delta() {
         // For Gaussians of line depth 10⁻⁶..10 through the centre and cuts δ = 10⁻¹⁰..10⁻³:
         // a whole line at distance h picks up c√π/a·e^{−a²h²} (line_bound), so beyond
-        // √far_for radii the dropped depth is below δ, and within it nothing changes.
+        // √far_for radii the dropped depth is below δ; within it, the ends' tails cut by
+        // gaussian_within and AlongRay::within move any segment's depth by at most δ.
         for &(c, a) in &[(0.01, 2.0), (1.0, 1.0), (5.0, 0.5), (1e-6, 1.0)] {
             for &delta in &[1e-10, 1e-7, 1e-3] {
                 let far = far_for(c, a, delta);
@@ -169,16 +192,21 @@ mod tests {
                     );
                     let along = AlongRay::within(c, a, [0.0; 3], o, [1.0, 0.0, 0.0], delta);
                     for &end in &[0.0, 10.0, 19.0, 20.0, 21.0, 22.0, 23.0, 25.0, 30.0, 40.0] {
-                        let exact =
-                            gaussian_within(c, a, [0.0; 3], o, [1.0, 0.0, 0.0], end / a, far);
+                        let x = [1.0, 0.0, 0.0];
+                        let exact = if a * a * h * h <= far {
+                            gaussian(c, a, [0.0; 3], o, x, end / a)
+                        } else {
+                            0.0
+                        };
+                        let within = gaussian_within(c, a, [0.0; 3], o, x, end / a, far);
                         let got = along.to(end / a);
                         assert!(
-                            (got - exact).abs() <= delta,
-                            "c {c} a {a} h {h} end {end}: {got} vs {exact}"
+                            (got - exact).abs() <= delta && (within - exact).abs() <= delta,
+                            "c {c} a {a} h {h} end {end}: {got}, {within} vs {exact}"
                         );
                     }
                     if a * a * h * h <= far {
-                        assert_eq!(cut, full, "c {c} a {a} h {h}");
+                        assert!((cut - full).abs() <= delta, "c {c} a {a} h {h}");
                     } else {
                         assert_eq!(cut, 0.0);
                         assert!(full <= delta * (1.0 + 1e-9), "c {c} a {a} h {h}: {full}");
