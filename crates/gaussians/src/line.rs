@@ -103,16 +103,15 @@ impl AlongRay {
         AlongRay::cut(c, a, b, o, d, FAR, f64::INFINITY)
     }
 
-    /// [`AlongRay::new`] for a caller that can drop `delta` of depth: the ray misses the
-    /// Gaussian beyond `√far_for(c, a, delta)` radii (as [`gaussian_within`]), and an end
-    /// more than `x = √ln(scale/δ)` of the foot away, in units of `1/a`, takes the depth
-    /// whole (past it) or as none (before it), off by `scale·erfc(x) < scale·e^{−x²} = δ`
-    /// at most: no error function there.
-    pub fn within(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3, delta: f64) -> AlongRay {
-        let far = far_for(c, a, delta);
+    /// [`AlongRay::new`] for a caller that drops `δ` of depth, `far` =
+    /// [`far_for`]`(c, a, δ)` (as [`gaussian_within`]): the ray misses the Gaussian beyond
+    /// `√far` radii, and an end more than `x = √(far − q − ln 2) = √ln(scale/δ)` of the foot
+    /// away, in units of `1/a`, takes the depth whole (past it) or as none (before it), off
+    /// by `scale·erfc(x) < scale·e^{−x²} = δ` at most: no error function there.
+    pub fn within(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3, far: f64) -> AlongRay {
         match foot(c, a, b, o, d, far) {
-            Some((scale, _, _)) => {
-                let x = (scale / delta).ln().max(0.0).sqrt();
+            Some((_, _, q)) => {
+                let x = (far - q - std::f64::consts::LN_2).max(0.0).sqrt();
                 AlongRay::cut(c, a, b, o, d, far, x)
             }
             None => AlongRay::default(),
@@ -190,7 +189,7 @@ mod tests {
                         gaussian(c, a, [0.0; 3], o, [1.0, 0.0, 0.0], 40.0 / a),
                         gaussian_within(c, a, [0.0; 3], o, [1.0, 0.0, 0.0], 40.0 / a, far),
                     );
-                    let along = AlongRay::within(c, a, [0.0; 3], o, [1.0, 0.0, 0.0], delta);
+                    let along = AlongRay::within(c, a, [0.0; 3], o, [1.0, 0.0, 0.0], far);
                     for &end in &[0.0, 10.0, 19.0, 20.0, 21.0, 22.0, 23.0, 25.0, 30.0, 40.0] {
                         let x = [1.0, 0.0, 0.0];
                         let exact = if a * a * h * h <= far {

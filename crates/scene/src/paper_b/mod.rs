@@ -341,7 +341,7 @@ impl<'a> Prepared<'a> {
         for ((a, f), &k) in along.iter_mut().zip(&mut far).zip(exact) {
             let h = &self.set.blobs()[k];
             *f = line::far_for(h.c, h.a, LIST_DELTA);
-            *a = line::AlongRay::within(h.c, h.a, h.center, eye, dir, LIST_DELTA);
+            *a = line::AlongRay::within(h.c, h.a, h.center, eye, dir, *f);
         }
         let others = |t: f64| match l.source {
             Source::Point(sp) if !exact.is_empty() => {
