@@ -6,8 +6,8 @@
 //!              block index are, their CRC-32s, and the preamble's own CRC-32
 //! offset 64    blocks, each starting on a 64-byte boundary (so typed views of f32/u32/f64
 //!              arrays need no copy, and GPU uploads can come straight from the mapping)
-//! then         header (JSON, serde, zstd-coded from format 4 on): grid, source, settings
-//!              of each baking stage
+//! then         header (JSON, serde, zstd-coded from format 4 on, against a fixed
+//!              dictionary from format 5 on): grid, source, settings of each baking stage
 //! then         block index: one 40-byte entry per block: kind, frames covered,
 //!              offset, length, CRC-32
 //! ```
@@ -21,6 +21,7 @@
 
 mod error;
 mod format;
+mod header_dictionary;
 mod raw_volume;
 mod rbf_block;
 mod reader;

@@ -3,44 +3,81 @@
 //! Payload (little-endian):
 //!
 //! ```text
-//! u32 count, u32 layout (3), u32 coded bytes, u32 bits (12)
+//! u32 count, u32 layout (4), u32 coded bytes, u32 bits (5 bits a channel: bits_c at 5c)
 //! f64 lo[5], hi[5]         each channel's range: center x, y, z, radius, weight
 //! `coded bytes` range-coded (haze_core::adaptive): for each channel in that order, the
-//!   `count` values' q = round(L (v − lo) / (hi − lo)), L = 2^bits − 1: the bits above
-//!   the low 8 through a binary tree of adaptive models (one tree a channel), the low 8
-//!   as equally likely bits
+//!   `count` values' q = round(L (v − lo) / (hi − lo)), L = 2^bits_c − 1: the top
+//!   min(bits_c, 4) bits through a binary tree of adaptive models (one tree a channel),
+//!   the rest as equally likely bits
 //! ```
 //!
-//! The high bits follow how the RBFs spread over each range (centers where the smoke is,
+//! The top bits follow how the RBFs spread over each range (centers where the smoke is,
 //! radii and weights skewed to one end); the low bits are noise.
 //!
-//! A value decodes to `lo (1 − t) + hi t`, `t = q / L` (the extremes exactly): a center
-//! moves by at most `1/(2L)` of the centers' span (1/8190: a hundredth of a voxel for a
-//! 96-voxel span, 0.06 voxel for 512), a radius or weight by as little of its channel's
-//! span (a weight in `[0, 1]` by 1.2·10⁻⁴, a thirtieth of the default error bound).
-//! Finer levels would not pay: at 16 bits a channel the RBFs of a 96 × 96 × 128 frame
-//! take 3.0 kB and its residual 0.1 % fewer bytes than at 12 bits, where they take
-//! 2.2 kB. World coordinates and density units. Anything computed from the RBFs after
-//! the bake (the residual, lighting) must use the decoded values, which [`decode_rbfs`]
-//! of [`encode_rbfs`] gives; the residual is taken against them, so the bake's error
-//! bound holds for the reconstruction a reader makes, whatever the grid's size. Layout 2
-//! (16 bits a channel as zstd-coded byte planes, haze format 3) still reads; layout 1
-//! (32-byte `f32` records, haze format 2) is refused with a message to bake again.
+//! A value decodes to `lo (1 − t) + hi t`, `t = q / L` (the extremes exactly), so it
+//! moves by at most `1/(2L)` of its channel's span. The encoder gives each channel the
+//! fewest bits (at most 16, [`bits_for`]) that keep that move within a share of the RBFs'
+//! own scale: a center within 1/32 of the smallest radius, a radius within 1/32 of the
+//! smallest radius, a weight within 1/64 of the largest weight. A Gaussian of weight `w`
+//! and radius `r` then changes by at most `0.86 w/32`, `0.74 w/32` and `w_max/64`
+//! anywhere (its steepest slopes along the center and the radius are `√2 e^{−1/2} w/r`
+//! and `2 e^{−1} w/r`): a few hundredths of the largest weight, well below the RBFs' own
+//! misfit to the smoke (a tenth of the density or more), and the residual takes the
+//! change: it is taken against the decoded RBFs, so the bake's error bound holds for the
+//! reconstruction a reader makes, whatever the grid's size. On held-out frames of 72–104
+//! voxels a side this is 9–10 bits a center, 6–7 a radius and 6 a weight (9–10 bytes an
+//! RBF become 5.6–6.0); pictures lit from the RBFs move by less than 0.1 % (BENCHMARKS.md,
+//! "Against established compressors"), and a 512-voxel grid with one-voxel radii takes 13
+//! bits a center. World coordinates and density units. Anything computed from the RBFs
+//! after the bake (the residual, lighting) must use the decoded values, which
+//! [`decode_rbfs`] of [`encode_rbfs`] gives. Layout 3 (one bit count for every channel, 8
+//! low bits raw; haze format 4) and layout 2 (16 bits a channel as zstd-coded byte planes,
+//! haze format 3) still read; layout 1 (32-byte `f32` records, haze format 2) is refused
+//! with a message to bake again.
 
-use haze_core::adaptive::{Bit, BitIo, BitReader, BitWriter};
+use haze_core::adaptive::{Bit, BitIo, BitReader, BitWriter, LEAST_BITS};
 use haze_volume::Rbf;
 
 const PREFIX: usize = 16 + 2 * 8 * CHANNELS;
 const CHANNELS: usize = 5;
-const LAYOUT: u32 = 3;
-/// Bits a channel value is quantized to.
-const BITS: u32 = 12;
-/// The quantization's largest level.
-const LEVELS: f64 = ((1u32 << BITS) - 1) as f64;
-/// The low bits of a value, coded as equally likely; the `HIGH` above them go through a
-/// tree of adaptive models.
-const LOW: u32 = 8;
-const HIGH: u32 = BITS - LOW;
+const LAYOUT: u32 = 4;
+/// The most bits a channel value is quantized to.
+const MOST_BITS: u32 = 16;
+/// A center or a radius moves by at most this share of the smallest radius.
+const RADIUS_SHARE: f64 = 1.0 / 32.0;
+/// A weight moves by at most this share of the largest weight.
+const WEIGHT_SHARE: f64 = 1.0 / 64.0;
+/// Bits of a value at the top that go through a tree of adaptive models (layout 4); the
+/// bits below them are coded as equally likely.
+const TREE: u32 = 4;
+/// Layout 3's equally likely low bits.
+const LAYOUT_3_LOW: u32 = 8;
+
+/// The quantization's largest level at `bits`.
+fn levels(bits: u32) -> f64 {
+    f64::from((1u32 << bits) - 1)
+}
+
+/// The fewest bits (1 to 16; 16 when none suffices, 1 for a span of 0) with which a
+/// value of a channel spanning `span` moves by at most `most`.
+fn bits_for(span: f64, most: f64) -> u32 {
+    (1..=MOST_BITS)
+        .find(|&b| span / (2.0 * levels(b)) <= most)
+        .unwrap_or(MOST_BITS)
+}
+
+/// Each channel's bits for RBFs whose channels span `lo..hi`.
+fn channel_bits(lo: &[f64; CHANNELS], hi: &[f64; CHANNELS]) -> [u32; CHANNELS] {
+    let center_span = (0..3).map(|c| hi[c] - lo[c]).fold(0.0, f64::max);
+    let center = bits_for(center_span, RADIUS_SHARE * lo[3]);
+    [
+        center,
+        center,
+        center,
+        bits_for(hi[3] - lo[3], RADIUS_SHARE * lo[3]),
+        bits_for(hi[4] - lo[4], WEIGHT_SHARE * hi[4].abs().max(lo[4].abs())),
+    ]
+}
 
 fn channels(r: &Rbf) -> [f64; CHANNELS] {
     [r.center[0], r.center[1], r.center[2], r.radius, r.weight]
@@ -61,25 +98,29 @@ pub fn encode_rbfs(rbfs: &[Rbf]) -> Vec<u8> {
         lo = [0.0; CHANNELS];
         hi = [0.0; CHANNELS];
     }
+    let bits = channel_bits(&lo, &hi);
     let mut io = BitWriter::new();
     for c in 0..CHANNELS {
         let span = hi[c] - lo[c];
-        let mut tree = [Bit::default(); (1 << HIGH) - 1];
+        let top = levels(bits[c]);
+        let high = bits[c].min(TREE);
+        let mut tree = vec![Bit::default(); (1 << high) - 1];
         for r in rbfs {
             let v = channels(r)[c];
             let q = if span > 0.0 {
-                ((v - lo[c]) / span * LEVELS).round().clamp(0.0, LEVELS) as u32
+                ((v - lo[c]) / span * top).round().clamp(0.0, top) as u32
             } else {
                 0
             };
-            let _ = io.tree(&mut tree, HIGH, q >> LOW);
-            let _ = io.raw(LOW, q);
+            let _ = io.tree(&mut tree, high, q >> (bits[c] - high));
+            let _ = io.raw(bits[c] - high, q);
         }
     }
     // A writer fails only on a bit it cannot code, and every bit here has a probability.
     let coded = io.finish().unwrap_or_default();
     let mut out = Vec::with_capacity(PREFIX + coded.len());
-    for v in [n as u32, LAYOUT, coded.len() as u32, BITS] {
+    let packed = (0..CHANNELS).fold(0, |w, c| w | bits[c] << (5 * c));
+    for v in [n as u32, LAYOUT, coded.len() as u32, packed] {
         out.extend_from_slice(&v.to_le_bytes());
     }
     for v in lo.iter().chain(&hi) {
@@ -103,7 +144,7 @@ pub fn decode_rbfs(bytes: &[u8]) -> Result<Vec<Rbf>, String> {
                 .to_string(),
         );
     }
-    if layout != 2 && layout != LAYOUT {
+    if !(2..=LAYOUT).contains(&layout) {
         return Err(format!("RBF block layout {layout} is unknown"));
     }
     if bytes.len() < PREFIX {
@@ -120,35 +161,52 @@ pub fn decode_rbfs(bytes: &[u8]) -> Result<Vec<Rbf>, String> {
     let lo: [f64; CHANNELS] = std::array::from_fn(|c| f(16 + 8 * c));
     let hi: [f64; CHANNELS] = std::array::from_fn(|c| f(16 + 8 * (CHANNELS + c)));
     let (levels, q) = if layout == 2 {
-        (65535.0, sixteen_bit_planes(&bytes[PREFIX..], count)?)
+        (
+            [65535.0; CHANNELS],
+            sixteen_bit_planes(&bytes[PREFIX..], count)?,
+        )
     } else {
-        let bits = u(12);
-        if !(LOW + 1..=16).contains(&bits) {
-            return Err(format!("RBF block of {bits} bits a channel"));
-        }
-        // Each value takes at least its LOW equally likely bits: a count the coded
-        // bytes cannot hold is corrupt.
-        if count.saturating_mul(CHANNELS * LOW as usize) > 8 * coded + 64 {
+        // Each channel's (tree bits, equally likely bits).
+        let split: [(u32, u32); CHANNELS] = if layout == 3 {
+            let bits = u(12);
+            if !(LAYOUT_3_LOW + 1..=MOST_BITS).contains(&bits) {
+                return Err(format!("RBF block of {bits} bits a channel"));
+            }
+            [(bits - LAYOUT_3_LOW, LAYOUT_3_LOW); CHANNELS]
+        } else {
+            let mut split = [(0, 0); CHANNELS];
+            for (c, s) in split.iter_mut().enumerate() {
+                let bits = (u(12) >> (5 * c)) & 31;
+                if !(1..=MOST_BITS).contains(&bits) {
+                    return Err(format!("RBF block of {bits} bits in channel {c}"));
+                }
+                *s = (bits.min(TREE), bits - bits.min(TREE));
+            }
+            split
+        };
+        // Every value codes one bit at least: a count the coded bytes cannot hold is
+        // corrupt.
+        if (count.saturating_mul(CHANNELS) as f64) * LEAST_BITS > (8 * coded + 64) as f64 {
             return Err(format!(
                 "RBF block claims {count} RBFs in {coded} coded bytes"
             ));
         }
         let mut io = BitReader::new(&bytes[PREFIX..]).map_err(|e| format!("RBF block: {e}"))?;
         let mut q = vec![0u32; CHANNELS * count];
-        for c in 0..CHANNELS {
-            let mut tree = vec![Bit::default(); (1 << (bits - LOW)) - 1];
+        for (c, &(high, low)) in split.iter().enumerate() {
+            let mut tree = vec![Bit::default(); (1 << high) - 1];
             for k in 0..count {
-                let high = io
-                    .tree(&mut tree, bits - LOW, 0)
+                let top = io
+                    .tree(&mut tree, high, 0)
                     .map_err(|e| format!("RBF block: {e}"))?;
-                let low = io.raw(LOW, 0).map_err(|e| format!("RBF block: {e}"))?;
-                q[c * count + k] = high << LOW | low;
+                let rest = io.raw(low, 0).map_err(|e| format!("RBF block: {e}"))?;
+                q[c * count + k] = top << low | rest;
             }
         }
-        (f64::from((1u32 << bits) - 1), q)
+        (split.map(|(high, low)| levels(high + low)), q)
     };
     let value = |c: usize, k: usize| {
-        let t = f64::from(q[c * count + k]) / levels;
+        let t = f64::from(q[c * count + k]) / levels[c];
         lo[c] * (1.0 - t) + hi[c] * t
     };
     let mut out = Vec::with_capacity(count);
@@ -215,12 +273,12 @@ mod tests {
         let enc = encode_rbfs(&rbfs);
         let dec = decode_rbfs(&enc).unwrap();
         assert_eq!(dec.len(), rbfs.len());
-        for c in 0..CHANNELS {
+        for (c, bits) in bits_of(&enc).into_iter().enumerate() {
             let v: Vec<f64> = rbfs.iter().map(|r| channels(r)[c]).collect();
             let (lo, hi) = v
                 .iter()
                 .fold((f64::MAX, f64::MIN), |(a, b), &x| (a.min(x), b.max(x)));
-            let half = 0.5 * (hi - lo) / LEVELS * (1.0 + 1e-9);
+            let half = 0.5 * (hi - lo) / levels(bits) * (1.0 + 1e-9);
             for (r, d) in rbfs.iter().zip(&dec) {
                 let (x, y) = (channels(r)[c], channels(d)[c]);
                 assert!(
@@ -247,8 +305,19 @@ mod tests {
         bad[16 + 8 * 3..16 + 8 * 4].copy_from_slice(&0f64.to_le_bytes());
         assert!(decode_rbfs(&bad).unwrap_err().contains("is invalid"));
         let mut bits = enc.clone();
-        bits[12..16].copy_from_slice(&17u32.to_le_bytes());
-        assert!(decode_rbfs(&bits).unwrap_err().contains("17 bits"));
+        bits[12..16].copy_from_slice(&(17u32 << 15 | 9 << 5).to_le_bytes());
+        assert!(
+            decode_rbfs(&bits)
+                .unwrap_err()
+                .contains("0 bits in channel 0")
+        );
+        let nine_but_17 = (0..5).fold(0u32, |w, c| w | if c == 2 { 17 } else { 9 } << (5 * c));
+        bits[12..16].copy_from_slice(&nine_but_17.to_le_bytes());
+        assert!(
+            decode_rbfs(&bits)
+                .unwrap_err()
+                .contains("17 bits in channel 2")
+        );
         let mut old = vec![0u8; 16 + 32];
         old[4..8].copy_from_slice(&32u32.to_le_bytes());
         assert!(
@@ -256,6 +325,100 @@ mod tests {
                 .unwrap_err()
                 .contains("bake the asset again")
         );
+    }
+
+    /// Each channel's bits, as the block's header packs them.
+    fn bits_of(enc: &[u8]) -> [u32; CHANNELS] {
+        let w = u32::from_le_bytes(enc[12..16].try_into().unwrap());
+        std::array::from_fn(|c| (w >> (5 * c)) & 31)
+    }
+
+    /// The encoder gives each channel the fewest bits that keep every decoded center and
+    /// radius within 1/32 of the smallest radius and every weight within 1/64 of the
+    /// largest, whatever the grid's span: checked on the decoded values, and one bit fewer
+    /// would not do.
+    #[test]
+    fn channels_move_by_at_most_a_share_of_the_rbfs_scale() {
+        for (span, radius, want) in [(2.0, 0.0625, 10), (64.0, 1.0, 11), (511.0, 1.0, 13)] {
+            // Centers over [0, span]³ (both ends), radii from `radius` to `radius + 1`,
+            // weights over [0, 1].
+            let rbfs: Vec<Rbf> = (0..300)
+                .map(|i| {
+                    let t = (f64::from(i) * 0.618_034).fract();
+                    let u = (f64::from(i) * 0.414_214).fract();
+                    Rbf::new([span * t, span * u, span * (1.0 - t)], radius + u, t)
+                })
+                .chain([Rbf::new([span; 3], radius + 1.0, 1.0)])
+                .collect();
+            let enc = encode_rbfs(&rbfs);
+            let bits = bits_of(&enc);
+            assert_eq!(
+                bits[..3],
+                [want; 3],
+                "span {span}, smallest radius {radius}"
+            );
+            let dec = decode_rbfs(&enc).unwrap();
+            let worst = |c: usize| {
+                rbfs.iter()
+                    .zip(&dec)
+                    .map(|(r, d)| (channels(r)[c] - channels(d)[c]).abs())
+                    .fold(0.0, f64::max)
+            };
+            let most = [radius * RADIUS_SHARE; 4]
+                .into_iter()
+                .chain([WEIGHT_SHARE])
+                .collect::<Vec<_>>();
+            let spans = [span, span, span, 1.0, 1.0];
+            for c in 0..CHANNELS {
+                assert!(
+                    worst(c) <= most[c],
+                    "channel {c}: {} at {} bits",
+                    worst(c),
+                    bits[c]
+                );
+                assert!(spans[c] / (2.0 * levels(bits[c] - 1)) > most[c]);
+            }
+        }
+        assert_eq!(bits_for(1.0, 0.0), 16);
+        assert_eq!(bits_for(0.0, 0.0), 1);
+        // One RBF: every span is 0, and it comes back exactly.
+        let one = [Rbf::new([0.5, 1.5, 2.5], 0.125, 0.75)];
+        assert_eq!(bits_of(&encode_rbfs(&one)), [1; CHANNELS]);
+    }
+
+    /// A layout-3 block (haze format 4: 12 bits a channel, the top 4 through a tree, the
+    /// low 8 equally likely) still decodes.
+    #[test]
+    fn layout_three_reads() {
+        let (lo, hi) = ([0.0, 1.0, 2.0, 0.1, 0.0], [1.0, 3.0, 4.0, 0.5, 2.0]);
+        let levels_12 = [0u32, 4095, 1234];
+        let mut io = BitWriter::new();
+        for _ in 0..CHANNELS {
+            let mut tree = vec![Bit::default(); 15];
+            for &q in &levels_12 {
+                io.tree(&mut tree, 4, q >> 8).unwrap();
+                io.raw(8, q).unwrap();
+            }
+        }
+        let coded = io.finish().unwrap();
+        let mut b = Vec::new();
+        for v in [3u32, 3, coded.len() as u32, 12] {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+        for v in lo.iter().chain(&hi) {
+            b.extend_from_slice(&f64::to_le_bytes(*v));
+        }
+        b.extend_from_slice(&coded);
+        let r = decode_rbfs(&b).unwrap();
+        for (k, &q) in levels_12.iter().enumerate() {
+            let t = f64::from(q) / 4095.0;
+            for c in 0..CHANNELS {
+                let want = lo[c] * (1.0 - t) + hi[c] * t;
+                assert!((channels(&r[k])[c] - want).abs() < 1e-12);
+            }
+        }
+        b[12..16].copy_from_slice(&8u32.to_le_bytes());
+        assert!(decode_rbfs(&b).unwrap_err().contains("8 bits a channel"));
     }
 
     /// A layout-2 block (16 bits a channel, haze format 3) still decodes.

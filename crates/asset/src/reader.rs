@@ -4,6 +4,7 @@ use crate::error::{AssetError, BlockId};
 use crate::format::{
     ALIGN, BlockEntry, BlockKind, ENTRY_LEN, FORMAT_VERSION, Header, MAGIC, PREAMBLE_LEN, Scope,
 };
+use crate::header_dictionary::HEADER_DICTIONARY;
 use memmap2::Mmap;
 use std::fs::File;
 use std::path::{Path, PathBuf};
@@ -199,10 +200,12 @@ impl Asset {
                 format!("checksum mismatch (stored {header_crc:08x}, computed {hc:08x})"),
             ));
         }
-        // From format 4 on the header's JSON is zstd-coded.
+        // From format 4 on the header's JSON is zstd-coded, from format 5 against the
+        // header dictionary.
         let json = if version >= 4 {
+            let dictionary = if version >= 5 { HEADER_DICTIONARY } else { &[] };
             std::borrow::Cow::Owned(
-                haze_core::coded::inflate(&b[h0..h1], MAX_HEADER)
+                haze_core::coded::inflate_with(&b[h0..h1], MAX_HEADER, dictionary)
                     .map_err(|e| corrupt("header", format!("unreadable: {e}")))?,
             )
         } else {

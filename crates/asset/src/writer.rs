@@ -110,7 +110,10 @@ impl AssetWriter {
             path: self.path.clone(),
             what: format!("header not serializable: {e}"),
         })?;
-        let header_coded = haze_core::coded::deflate(&header_json);
+        let header_coded = haze_core::coded::deflate_with(
+            &header_json,
+            crate::header_dictionary::HEADER_DICTIONARY,
+        );
         self.pad_to_alignment()?;
         let header_offset = self.pos;
         self.out.write_all(&header_coded).map_err(|e| self.io(e))?;

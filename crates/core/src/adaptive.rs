@@ -100,6 +100,16 @@ pub trait BitIo {
         Ok(node as u32 - (1 << n))
     }
 
+    /// Codes `bit` (a reader: returns the next bit) with the probability `p_one` (in
+    /// `1/4096`, clamped to `1..=4095`) that it is 1: a prediction made elsewhere, such
+    /// as a [`crate::mixing::Mixer`]'s.
+    fn code_probability(&mut self, p_one: u16, bit: bool) -> Result<bool, String> {
+        let mut fixed = Bit {
+            p: ONE - p_one.clamp(1, ONE - 1),
+        };
+        self.code(&mut fixed, bit)
+    }
+
     /// Codes the `n` low bits of `v` as equally likely bits.
     fn raw(&mut self, n: u32, v: u32) -> Result<u32, String> {
         let mut out = 0;

@@ -12,12 +12,26 @@ pub const RATIO: u64 = 1024;
 
 /// `plain`, coded as one zstd frame that records its size.
 pub fn deflate(plain: &[u8]) -> Vec<u8> {
-    zstd::bulk::compress(plain, LEVEL).expect("zstd codes any bytes at a valid level")
+    deflate_with(plain, &[])
+}
+
+/// `plain`, coded as one zstd frame that records its size, against `dictionary` (zstd's
+/// raw-content dictionary: bytes the frame may refer back to as if they came before it;
+/// empty for none). The same dictionary must be given to [`inflate_with`].
+pub fn deflate_with(plain: &[u8], dictionary: &[u8]) -> Vec<u8> {
+    zstd::bulk::Compressor::with_dictionary(LEVEL, dictionary)
+        .and_then(|mut c| c.compress(plain))
+        .expect("zstd codes any bytes at a valid level")
 }
 
 /// The zstd frame `coded`, decoded: its declared size must be known, at most `most` and
 /// within [`RATIO`]× the coded bytes (plus 4 KiB), else the frame is refused unread.
 pub fn inflate(coded: &[u8], most: usize) -> Result<Vec<u8>, String> {
+    inflate_with(coded, most, &[])
+}
+
+/// [`inflate`] of a frame [`deflate_with`] coded against `dictionary`.
+pub fn inflate_with(coded: &[u8], most: usize, dictionary: &[u8]) -> Result<Vec<u8>, String> {
     let size = zstd::zstd_safe::get_frame_content_size(coded)
         .ok()
         .flatten()
@@ -28,7 +42,8 @@ pub fn inflate(coded: &[u8], most: usize) -> Result<Vec<u8>, String> {
             "its coded part claims {size} bytes (at most {cap})"
         ));
     }
-    zstd::bulk::decompress(coded, size as usize)
+    zstd::bulk::Decompressor::with_dictionary(dictionary)
+        .and_then(|mut d| d.decompress(coded, size as usize))
         .map_err(|e| format!("its coded part does not decompress ({e})"))
 }
 
@@ -56,5 +71,20 @@ mod tests {
         assert!(inflate(&coded[..4], plain.len()).is_err());
         assert!(inflate(&coded[..coded.len() - 3], plain.len()).is_err());
         assert!(inflate(&[], 10).is_err());
+    }
+
+    /// A dictionary that shares the text's words shrinks it, and the frame reads back only
+    /// with that dictionary.
+    #[test]
+    fn dictionaries_shrink_what_they_share() {
+        let dictionary = br#"{"generator":"haze","settings":{"fit":{"rbfs":300,"seed":1}}}"#;
+        let plain = br#"{"generator":"haze","settings":{"fit":{"rbfs":450,"seed":1}}}"#;
+        let with = deflate_with(plain, dictionary);
+        assert!(with.len() < deflate(plain).len(), "{} bytes", with.len());
+        assert_eq!(inflate_with(&with, plain.len(), dictionary).unwrap(), plain);
+        assert_ne!(
+            inflate(&with, plain.len()).ok().as_deref(),
+            Some(&plain[..])
+        );
     }
 }

@@ -4,13 +4,15 @@
 //! the JSON reader's guard against repeated keys ([`json`]) and the `.npy` reader's
 //! against headers that would keep it busy ([`npy_header`]); and the coded blocks'
 //! zstd frames with their guard against implausible sizes ([`coded`]) and the range
-//! coder of their binary adaptive models ([`adaptive`]); and the tone
+//! coder of their binary adaptive models ([`adaptive`]) and the logistic mixing of
+//! several such predictions ([`mixing`]); and the tone
 //! curves of displayed pictures ([`tone`]).
 
 pub mod adaptive;
 pub mod coded;
 mod image;
 pub mod json;
+pub mod mixing;
 pub mod npy_header;
 pub mod temp_output;
 pub mod tone;

@@ -2,21 +2,21 @@
 //! decoded into the flat `u32` arrays a GPU uploads.
 //!
 //! A hash's key and payload tables are mostly empty slots, and every stored brick's slot
-//! follows from its key and the offset table `Φ` (`h(p)`, [`crate::psh`]). So the block
-//! stores `Φ`, the bricks as a list and their quantized values, range-coded under
-//! adaptive models ([`haze_core::adaptive`]; the values under their neighbours' context,
-//! [`crate::context_coder`]); [`decode`] packs every brick again and puts it back in its
-//! slot: the decoded group is the one encoded, table for table.
+//! follows from its key and the offset table `Φ` (`h(p)`, [`crate::psh`]), which itself
+//! follows from the bricks: [`ResidualGroup::build`] builds it from the brick list alone,
+//! deterministically. So the block stores only the bricks, as a list, and their quantized
+//! values, range-coded under adaptive models ([`haze_core::adaptive`]; the values under
+//! their neighbours' mixed contexts, [`crate::context_coder`]); [`decode`] packs every
+//! brick again and builds the hash again from the same list with the same options: the
+//! decoded group is the one encoded, table for table.
 //!
 //! ```text
-//! u32 layout version (4), bits, frames (1..=27), brick side
-//! u32 dims[3], m̄, r̄, data words, bricks, zstd bytes, range bytes
-//! f32 steps[27]                       (unused slots 0)
+//! u32 layout version (5), bits, frames (1..=27), brick side
+//! u32 dims[3], m̄, data words, bricks, zstd bytes, range bytes
+//! f32 steps[frames]
 //! `zstd bytes` (0 when no frame is lossless): a zstd frame of the lossless frames'
 //!   bricks' `f32` values, in list order
 //! `range bytes`, range-coded:
-//!   offsets[r̄³]                       Φ: each component (< m̄) through a binary tree of
-//!                                     adaptive models, one tree an axis
 //!   key deltas[bricks]                each brick's key (linear index in the hash domain
 //!                                     + 1) minus the previous brick's (the first: minus
 //!                                     0), zigzag, as adaptive Elias-gamma codes
@@ -28,21 +28,28 @@
 //! ascending `z, y, x`), so a brick's payload (first word, width) is the running sum of
 //! the words before it. A brick's width is not stored: it is the narrowest that holds
 //! its values (as [`ResidualGroup::build`] packs them), or `f32` in a lossless frame.
-//! Layouts 1 (a cell hash, haze format 1), 2 (the tables uncoded, haze format 2) and 3
-//! (values zstd-coded as packed words, haze format 3) are refused with a message that
-//! says to bake the asset again.
+//! Layouts 1 (a cell hash, haze format 1), 2 (the tables uncoded, haze format 2), 3
+//! (values zstd-coded as packed words, haze format 3) and 4 (`Φ` stored, the values under
+//! one context each, haze format 4) are refused with a message that says to bake the
+//! asset again.
 
 use crate::context_coder;
 use crate::pack::{self, Width};
-use crate::psh::{MAX_SIDE, PerfectHash};
+use crate::psh::{BuildOptions, MAX_SIDE, PerfectHash};
 use crate::quantize::{BITS, largest_value};
 use crate::tile::{
     BRICK_SIDES, GROUP, ResidualGroup, bricks_per_frame, payload, tile_origin, unpayload,
 };
-use haze_core::adaptive::{Bit, BitIo, BitReader, BitWriter, Gamma, LEAST_BITS};
+use haze_core::adaptive::{BitReader, BitWriter, Gamma, LEAST_BITS};
 
-const VERSION: u32 = 4;
-const HEADER: usize = 4 * 13 + 4 * GROUP;
+const VERSION: u32 = 5;
+/// The header's fixed words; the frames' steps follow.
+const FIXED: usize = 4 * 12;
+
+/// The header's bytes for a block of `frames` frames.
+fn header_len(frames: usize) -> usize {
+    FIXED + 4 * frames
+}
 
 /// Where brick `key` lies: its frame slot and its brick position in that frame.
 fn place(key: u32, domain: [u32; 3], dims: [u32; 3], brick: u32) -> (usize, [u32; 3]) {
@@ -71,12 +78,6 @@ pub fn encode(g: &ResidualGroup) -> Result<Vec<u8>, String> {
     bricks.sort_unstable();
     let per = (g.brick * g.brick * g.brick) as usize;
     let mut io = BitWriter::new();
-    let mut axes = offset_trees(h.m);
-    for &o in &h.offsets {
-        for (a, tree) in axes.iter_mut().enumerate() {
-            io.tree(tree, tree_depth(h.m), (o >> (10 * a)) & 1023)?;
-        }
-    }
     let mut deltas = Gamma::default();
     let mut previous = 0i64;
     for &(_, k) in &bricks {
@@ -120,7 +121,7 @@ pub fn encode(g: &ResidualGroup) -> Result<Vec<u8>, String> {
     } else {
         haze_core::coded::deflate(&lossless)
     };
-    let mut out = Vec::with_capacity(HEADER + zipped.len() + ranged.len());
+    let mut out = Vec::with_capacity(header_len(g.steps.len()) + zipped.len() + ranged.len());
     let mut u = |v: u32| out.extend_from_slice(&v.to_le_bytes());
     for v in [VERSION, u32::from(g.bits), g.steps.len() as u32, g.brick] {
         u(v);
@@ -130,7 +131,6 @@ pub fn encode(g: &ResidualGroup) -> Result<Vec<u8>, String> {
         g.dims[1],
         g.dims[2],
         h.m,
-        h.r,
         words,
         bricks.len() as u32,
         zipped.len() as u32,
@@ -138,36 +138,26 @@ pub fn encode(g: &ResidualGroup) -> Result<Vec<u8>, String> {
     ] {
         u(v);
     }
-    for j in 0..GROUP {
-        u(g.steps.get(j).copied().unwrap_or(0.0).to_bits());
+    for s in &g.steps {
+        u(s.to_bits());
     }
     out.extend_from_slice(&zipped);
     out.extend_from_slice(&ranged);
     Ok(out)
 }
 
-/// Bits of an offset component (`< m̄`), at least one.
-fn tree_depth(m: u32) -> u32 {
-    (32 - (m.max(2) - 1).leading_zeros()).max(1)
-}
-
-/// One binary tree of models per axis for the offsets' components.
-fn offset_trees(m: u32) -> [Vec<Bit>; 3] {
-    std::array::from_fn(|_| vec![Bit::default(); (1 << tree_depth(m)) - 1])
-}
-
 /// Decodes a residual-hash block into the group [`encode`] was given, checking every size
 /// and index against the block's own header.
 pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
     let u = |i: usize| u32::from_le_bytes([bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]]);
-    if bytes.len() >= 4 && (1..=3).contains(&u(0)) {
+    if bytes.len() >= 4 && (1..=4).contains(&u(0)) {
         return Err(format!(
             "residual block layout {} (haze format {}) is no longer read: bake the asset again",
             u(0),
             u(0)
         ));
     }
-    if bytes.len() < HEADER {
+    if bytes.len() < FIXED {
         return Err(format!(
             "residual block of {} bytes has no header",
             bytes.len()
@@ -187,29 +177,36 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
     if !BRICK_SIDES.contains(&brick) {
         return Err(format!("residual block: brick side {brick}"));
     }
+    let header = header_len(frames);
+    if bytes.len() < header {
+        return Err(format!(
+            "residual block of {} bytes has no room for its {frames} steps",
+            bytes.len()
+        ));
+    }
     let dims = [u(16), u(20), u(24)];
-    let (m, r, words, count) = (u(28), u(32), u(36) as usize, u(40) as usize);
-    let (zipped, ranged) = (u(44) as usize, u(48) as usize);
+    let (m, words, count) = (u(28), u(32) as usize, u(36) as usize);
+    let (zipped, ranged) = (u(40) as usize, u(44) as usize);
     // Keys are linear indices into the tiled brick domain: it must number under 2³² bricks.
     let tiled = bricks_per_frame(dims, brick).map(|d| 3 * u64::from(d));
     if dims.iter().any(|&d| d == 0 || d > u32::MAX / 3)
         || tiled[0] * tiled[1] * tiled[2] >= u64::from(u32::MAX)
         || m == 0
         || m > MAX_SIDE
-        || r == 0
-        || r > 1 << 11
         || m != PerfectHash::side_for(count)
     {
         return Err(format!(
-            "residual block sizes are invalid (dims {dims:?}, m̄ {m}, r̄ {r}, {count} bricks)"
+            "residual block sizes are invalid (dims {dims:?}, m̄ {m}, {count} bricks)"
         ));
     }
-    let steps: Vec<f32> = (0..frames).map(|j| f32::from_bits(u(52 + 4 * j))).collect();
+    let steps: Vec<f32> = (0..frames)
+        .map(|j| f32::from_bits(u(FIXED + 4 * j)))
+        .collect();
     if steps.iter().any(|s| !(s.is_finite() && *s >= 0.0)) {
         return Err("residual block has an invalid quantization step".to_string());
     }
     if Some(bytes.len())
-        != HEADER
+        != header
             .checked_add(zipped)
             .and_then(|v| v.checked_add(ranged))
     {
@@ -218,43 +215,29 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
             bytes.len()
         ));
     }
-    let (nr, nm) = ((r as usize).pow(3), (m as usize).pow(3));
-    // Every offset codes three bits at least, every brick a key delta, every lossy brick
-    // b³ values, and a brick takes a data word at least: what the bytes can hold bounds
-    // what the header may claim (adaptive::LEAST_BITS).
+    // Every brick codes a key delta and every lossy brick b³ values, and a brick takes a
+    // data word at least: what the bytes can hold bounds what the header may claim
+    // (adaptive::LEAST_BITS).
     let per = (brick * brick * brick) as usize;
     let bits_held = (8 * ranged + 64) as f64 / LEAST_BITS;
-    if (3 * nr + count) as f64 > bits_held || count > words || words > count * per {
+    if count as f64 > bits_held || count > words || words > count * per {
         return Err(format!(
-            "residual block claims {nr} offsets, {count} bricks and {words} data words in {ranged} coded bytes"
+            "residual block claims {count} bricks and {words} data words in {ranged} coded bytes"
         ));
     }
     let lossless = if zipped == 0 {
         Vec::new()
     } else {
-        haze_core::coded::inflate(&bytes[HEADER..HEADER + zipped], 4 * words)
+        haze_core::coded::inflate(&bytes[header..header + zipped], 4 * words)
             .map_err(|e| format!("residual block: {e}"))?
     };
     let wrap = |e: String| format!("residual block: {e}");
-    let mut io = BitReader::new(&bytes[HEADER + zipped..]).map_err(wrap)?;
-    let mut axes = offset_trees(m);
-    let mut offsets = Vec::with_capacity(nr);
-    for _ in 0..nr {
-        let mut o = 0;
-        for (a, tree) in axes.iter_mut().enumerate() {
-            let c = io.tree(tree, tree_depth(m), 0).map_err(wrap)?;
-            if c >= m {
-                return Err("residual block has an offset outside its table".to_string());
-            }
-            o |= c << (10 * a);
-        }
-        offsets.push(o);
-    }
+    let mut io = BitReader::new(&bytes[header + zipped..]).map_err(wrap)?;
     let domain = bricks_per_frame(dims, brick).map(|d| 3 * d);
     let cells = u64::from(domain[0]) * u64::from(domain[1]) * u64::from(domain[2]);
     let mut deltas = Gamma::default();
     let mut key = 0i64;
-    let mut keys = Vec::with_capacity(count.min(nm));
+    let mut keys = Vec::with_capacity(count);
     for _ in 0..count {
         let z = deltas.code(&mut io, 0).map_err(wrap)?;
         key = key.saturating_add(((z >> 1) as i64) ^ -((z & 1) as i64));
@@ -269,6 +252,10 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
             return Err(format!(
                 "residual block has a brick (key {k}) outside its frames"
             ));
+        }
+        // Frame by frame, each frame's bricks ascending: no brick twice.
+        if keys.last().is_some_and(|&(pk, pj, _)| (j, k) <= (pj, pk)) {
+            return Err(format!("residual block lists brick {k} out of order"));
         }
         keys.push((k, j, place));
     }
@@ -293,15 +280,8 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
     let nb = bricks_per_frame(dims, brick);
     let decoded = context_coder::decode(&mut io, nb, brick, largest_value(bits), &lossy)
         .map_err(|e| format!("residual block's values: {e}"))?;
-    let mut hash = PerfectHash {
-        domain,
-        m,
-        r,
-        offsets,
-        keys: vec![0; nm],
-        payloads: vec![0; nm],
-    };
     let mut data = Vec::new();
+    let mut cells = Vec::with_capacity(count);
     let (mut next_lossy, mut next_lossless) = (decoded.iter(), lossless.chunks_exact(4));
     for &(k, j, _) in &keys {
         let first = data.len();
@@ -326,12 +306,13 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
                 "residual block's bricks take more than its {words} data words"
             ));
         }
-        let slot = hash.slot(hash.cell_of_key(k));
-        if hash.keys[slot] != 0 {
-            return Err(format!("residual block has two bricks in slot {slot}"));
-        }
-        hash.keys[slot] = k;
-        hash.payloads[slot] = payload(first as u32, width);
+        let i = k - 1;
+        let at = [
+            i % domain[0],
+            (i / domain[0]) % domain[1],
+            i / (domain[0] * domain[1]),
+        ];
+        cells.push((at, payload(first as u32, width)));
     }
     if data.len() != words {
         return Err(format!(
@@ -339,6 +320,8 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
             data.len()
         ));
     }
+    let hash = PerfectHash::build(domain, &cells, BuildOptions::default())
+        .map_err(|e| format!("residual block's bricks do not hash: {e}"))?;
     Ok(ResidualGroup {
         dims,
         brick,
@@ -391,20 +374,29 @@ mod tests {
         ResidualGroup::build([5, 4, 3], 2, &[q, exact], BuildOptions::default()).unwrap()
     }
 
+    /// The header's length of a coded block.
+    fn header_of(bytes: &[u8]) -> usize {
+        header_len(u32::from_le_bytes(bytes[8..12].try_into().unwrap()) as usize)
+    }
+
     /// The zstd part of a block (the lossless values), decompressed.
     fn plain_of(bytes: &[u8]) -> Vec<u8> {
-        let zipped = u32::from_le_bytes(bytes[44..48].try_into().unwrap()) as usize;
-        zstd::bulk::decompress(&bytes[HEADER..HEADER + zipped], 1 << 20).unwrap()
+        let (h, zipped) = (header_of(bytes), u32_at(bytes, 40) as usize);
+        zstd::bulk::decompress(&bytes[h..h + zipped], 1 << 20).unwrap()
+    }
+
+    fn u32_at(bytes: &[u8], i: usize) -> u32 {
+        u32::from_le_bytes(bytes[i..i + 4].try_into().unwrap())
     }
 
     /// `bytes` with its zstd part replaced by `plain`, coded again (the rest kept).
     fn with_plain(bytes: &[u8], plain: &[u8]) -> Vec<u8> {
-        let zipped = u32::from_le_bytes(bytes[44..48].try_into().unwrap()) as usize;
+        let (h, zipped) = (header_of(bytes), u32_at(bytes, 40) as usize);
         let coded = zstd::bulk::compress(plain, 3).unwrap();
-        let mut out = bytes[..HEADER].to_vec();
-        out[44..48].copy_from_slice(&(coded.len() as u32).to_le_bytes());
+        let mut out = bytes[..h].to_vec();
+        out[40..44].copy_from_slice(&(coded.len() as u32).to_le_bytes());
         out.extend_from_slice(&coded);
-        out.extend_from_slice(&bytes[HEADER + zipped..]);
+        out.extend_from_slice(&bytes[h + zipped..]);
         out
     }
 
@@ -420,7 +412,7 @@ mod tests {
         assert!(decode(&bad).is_err());
         // Damaged zstd bytes: zstd's frame check or the sizes catch them.
         let mut bad = bytes.clone();
-        bad[HEADER + 6] ^= 0x5a;
+        bad[header_of(&bytes) + 6] ^= 0x5a;
         assert!(decode(&bad).is_err());
         let plain = plain_of(&bytes);
         assert_eq!(decode(&with_plain(&bytes, &plain)).unwrap(), g);
@@ -434,8 +426,8 @@ mod tests {
         // Damaged range-coded bytes decode to an error or to another group, never a
         // panic (the asset's CRC catches them before this is reached); the last word
         // holds the coder's slack, whose bits may decode the same.
-        let zipped = u32::from_le_bytes(bytes[44..48].try_into().unwrap()) as usize;
-        for at in HEADER + zipped..bytes.len() - 4 {
+        let zipped = u32_at(&bytes, 40) as usize;
+        for at in header_of(&bytes) + zipped..bytes.len() - 4 {
             for flip in [0x01, 0x80, 0xff] {
                 let mut bad = bytes.clone();
                 bad[at] ^= flip;
@@ -446,17 +438,10 @@ mod tests {
         }
     }
 
-    /// What the decoder checks that the encoder can still write: an offset component past
-    /// the table, a brick in a frame the block does not hold.
+    /// What the decoder checks that the encoder can still write: a brick in a frame the
+    /// block does not hold.
     #[test]
     fn impossible_tables_are_refused() {
-        let mut g = group();
-        g.hash.offsets[0] = g.hash.m;
-        assert!(
-            decode(&encode(&g).unwrap())
-                .unwrap_err()
-                .contains("offset outside")
-        );
         // The lossless second frame's bricks, in a block that says it holds one frame.
         let mut g = group();
         g.steps.truncate(1);
@@ -478,11 +463,11 @@ mod tests {
         assert!(decode(&tall).is_err());
         let mut many = bytes.clone();
         let count = 100_000_000u32;
-        many[40..44].copy_from_slice(&count.to_le_bytes());
+        many[36..40].copy_from_slice(&count.to_le_bytes());
         many[28..32].copy_from_slice(&PerfectHash::side_for(count as usize).to_le_bytes());
         assert!(decode(&many).unwrap_err().contains("claims"));
         let mut words = bytes.clone();
-        words[36..40].copy_from_slice(&u32::MAX.to_le_bytes());
+        words[32..36].copy_from_slice(&u32::MAX.to_le_bytes());
         assert!(decode(&words).unwrap_err().contains("claims"));
     }
 
@@ -525,8 +510,8 @@ mod tests {
     }
 
     #[test]
-    fn layouts_two_and_three_are_refused_clearly() {
-        for layout in [2, 3] {
+    fn layouts_two_to_four_are_refused_clearly() {
+        for layout in [2, 3, 4] {
             let mut old = vec![0u8; 200];
             old[0] = layout;
             assert!(decode(&old).unwrap_err().contains("bake the asset again"));
