@@ -33,7 +33,6 @@
 
 use haze_core::adaptive::{BitIo, BitReader, BitWriter};
 use haze_core::mixing::{Counter, Mixer};
-use std::collections::HashMap;
 
 /// Scale contexts.
 const SCALES: usize = 16;
@@ -45,7 +44,7 @@ const MAX_EXP: usize = 15;
 const SHAPES: usize = 64;
 /// The six further causal neighbours, offsets `(x, y, z)` from the voxel: the two beside
 /// `b` along `x`, and four around `c`.
-const WIDE: [[i64; 3]; 6] = [
+const WIDE: [[isize; 3]; 6] = [
     [-1, -1, 0],
     [1, -1, 0],
     [-1, 0, -1],
@@ -234,16 +233,17 @@ fn scale(m: u32) -> usize {
 }
 
 /// Where the values of one frame's stored bricks live while they are coded: each brick's
-/// first value in one flat list, by its place in the frame, so that a voxel's neighbours
-/// are found in O(1). A map, not a table of the frame's bricks: its memory follows the
-/// bricks a block holds, whatever dims a damaged block claims.
+/// first value in one flat list, by its place in the frame. A list of the stored bricks
+/// in coding order (ascending place, which [`FrameBricks::add`] holds to), searched by
+/// bisection, not a table of the frame's bricks: its memory follows the bricks a block
+/// holds, whatever dims a damaged block claims.
 struct FrameBricks {
     /// Bricks per axis of the frame.
     nb: [u32; 3],
     brick: u32,
-    /// The first value of each stored (and already coded) brick, by
-    /// `bx + nb₀ (by + nb₁ bz)`.
-    index: HashMap<u64, usize>,
+    /// `(bx + nb₀ (by + nb₁ bz), first value)` of each stored (and already coded) brick,
+    /// ascending.
+    index: Vec<(u64, usize)>,
 }
 
 impl FrameBricks {
@@ -252,7 +252,7 @@ impl FrameBricks {
         FrameBricks {
             nb,
             brick,
-            index: HashMap::new(),
+            index: Vec::new(),
         }
     }
 
@@ -266,10 +266,25 @@ impl FrameBricks {
         x + u64::from(self.nb[0]) * (y + u64::from(self.nb[1]) * z)
     }
 
+    /// Records that the brick at `p` starts at value `first`; bricks come in ascending
+    /// place within a frame.
+    fn add(&mut self, p: [u32; 3], first: usize) -> Result<(), String> {
+        let slot = self.slot(p);
+        if self.index.last().is_some_and(|&(last, _)| last >= slot) {
+            return Err(format!("brick {p:?} comes out of order"));
+        }
+        self.index.push((slot, first));
+        Ok(())
+    }
+
     /// Where the brick at brick position `p` starts in the frame's values, if it is
     /// stored (and already coded).
     fn first(&self, p: [u32; 3]) -> Option<usize> {
-        self.index.get(&self.slot(p)).copied()
+        let slot = self.slot(p);
+        self.index
+            .binary_search_by_key(&slot, |&(s, _)| s)
+            .ok()
+            .map(|i| self.index[i].1)
     }
 }
 
@@ -289,6 +304,8 @@ impl Frame {
 /// The coder's state: its models, the frame being coded and the frame before it.
 struct Coding {
     models: Models,
+    /// The brick being coded, with its causal halo.
+    halo: Vec<i32>,
     now: Frame,
     before: Frame,
     current: Option<usize>,
@@ -303,6 +320,7 @@ impl Coding {
         };
         Coding {
             models: Models::new(),
+            halo: Vec::new(),
             now: frame(),
             before: frame(),
             current: None,
@@ -332,11 +350,10 @@ impl Coding {
         let b = self.now.bricks.brick as usize;
         let (bb, per) = (b * b, b * b * b);
         let first = self.now.values.len();
-        let slot = self.now.bricks.slot(at);
-        self.now.bricks.index.insert(slot, first);
+        self.now.bricks.add(at, first)?;
         self.now.values.resize(first + per, 0);
-        // The 27 bricks around this one (those stored and already coded; this one's own
-        // values not yet coded are still 0), and this brick in the frame before.
+        // The 27 bricks around this one (those stored and already coded), and this brick
+        // in the frame before.
         let around: [Option<usize>; 27] = std::array::from_fn(|i| {
             let d = [i % 3, (i / 3) % 3, i / 9];
             let mut p = at;
@@ -349,28 +366,52 @@ impl Coding {
             self.now.bricks.first(p)
         });
         let past = self.before.bricks.first(at);
+        // The brick with a causal halo: x and y from −1 to b, z from −1 to b − 1, the
+        // neighbours' values where they are coded, 0 elsewhere and in this brick until
+        // each value is coded.
+        let (hx, hxy) = (b + 2, (b + 2) * (b + 2));
+        let halo = &mut self.halo;
+        halo.clear();
+        halo.resize(hxy * (b + 1), 0);
+        // Along one axis, a halo coordinate's brick (0, 1, 2 for before, this, after) and
+        // its coordinate in that brick.
+        let cell = |q: usize| match q {
+            0 => (0, b - 1),
+            q if q <= b => (1, q - 1),
+            _ => (2, 0),
+        };
         let values = &mut self.now.values;
-        let bi = b as i64;
+        for hz in 0..b + 1 {
+            let (sz, iz) = cell(hz);
+            for hy in 0..b + 2 {
+                let (sy, iy) = cell(hy);
+                for hx_ in 0..b + 2 {
+                    let (sx, ix) = cell(hx_);
+                    if (sx, sy, sz) == (1, 1, 1) {
+                        continue;
+                    }
+                    if let Some(f) = around[sx + 3 * sy + 9 * sz] {
+                        halo[hx_ + hx * hy + hxy * hz] = values[f + ix + b * iy + bb * iz];
+                    }
+                }
+            }
+        }
+        let wide = WIDE.map(|[x, y, z]| x + hx as isize * y + hxy as isize * z);
         for l in 0..per {
-            let local = [l % b, (l / b) % b, l / bb].map(|c| c as i64);
-            // The value at `local + d` (the neighbouring brick's where it crosses a face).
-            let at_offset = |values: &[i32], d: [i64; 3]| {
-                let q = [0, 1, 2].map(|a| local[a] + d[a]);
-                let side = q.map(|c| usize::from(c >= 0) + usize::from(c >= bi));
-                let inside = q.map(|c| c.rem_euclid(bi) as usize);
-                around[side[0] + 3 * side[1] + 9 * side[2]].map_or(0, |f| {
-                    values[f + inside[0] + b * inside[1] + bb * inside[2]]
-                })
-            };
-            let n = [[-1, 0, 0], [0, -1, 0], [0, 0, -1]].map(|d| at_offset(values, d));
-            let wide = WIDE
+            let (x, y, z) = (l % b, (l / b) % b, l / bb);
+            let h = (x + 1) + hx * (y + 1) + hxy * (z + 1);
+            let n = [halo[h - 1], halo[h - hx], halo[h - hxy]];
+            let wide = wide
                 .iter()
-                .map(|&d| at_offset(values, d).unsigned_abs())
+                .map(|&d| halo[h.wrapping_add_signed(d)].unsigned_abs())
                 .sum();
             let before = past.map_or(0, |f| self.before.values[f + l]);
             let x = Context::new(n, wide, before);
-            let v = given.map_or(0, |g| g[l]);
-            values[first + l] = self.models.value(io, v, &x, self.limit)?;
+            let v = self
+                .models
+                .value(io, given.map_or(0, |g| g[l]), &x, self.limit)?;
+            values[first + l] = v;
+            halo[h] = v;
         }
         Ok(first)
     }

@@ -192,22 +192,23 @@ impl PerfectHash {
                 // Offsets in a fixed pseudo-random order (an LCG over the table), seeded by
                 // the bucket so that neighbouring buckets do not probe alike.
                 let mut state = (b as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+                // The members' coordinates mod m̄, once (a table side is at most 1024, so
+                // the table's size and every sum below fit 32 bits).
+                let at: Vec<[u32; 3]> = members
+                    .iter()
+                    .map(|&i| cells[i as usize].0.map(|c| c % m))
+                    .collect();
+                let wrap = |v: u32| if v >= m { v - m } else { v };
                 let mut found = None;
                 for _ in 0..tries.min(u32::try_from(table).unwrap_or(u32::MAX)) {
                     state = state
                         .wrapping_mul(6364136223846793005)
                         .wrapping_add(1442695040888963407);
-                    let o = (state >> 33) % table;
-                    let phi = [
-                        o % m as u64,
-                        (o / m as u64) % m as u64,
-                        o / (m as u64 * m as u64),
-                    ]
-                    .map(|v| v as u32);
+                    let o = ((state >> 33) % table) as u32;
+                    let phi = [o % m, (o / m) % m, o / (m * m)];
                     slots.clear();
-                    let fits = members.iter().all(|&i| {
-                        let p = cells[i as usize].0;
-                        let s = slot([0, 1, 2].map(|a| (p[a] % m + phi[a]) % m));
+                    let fits = at.iter().all(|q| {
+                        let s = slot([0, 1, 2].map(|a| wrap(q[a] + phi[a])));
                         let ok = h.keys[s] == 0 && !slots.contains(&s);
                         slots.push(s);
                         ok
