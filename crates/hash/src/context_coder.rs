@@ -543,6 +543,27 @@ mod tests {
         );
     }
 
+    /// A frame's bricks come in ascending place: one out of order (or twice) is refused,
+    /// coding or decoding, where a map would have let it overwrite another's place.
+    #[test]
+    fn bricks_out_of_order_are_refused() {
+        let v = values(2, 0, 7);
+        let list = [(0, [1, 0, 0], v.as_slice()), (0, [0, 0, 0], v.as_slice())];
+        let mut io = BitWriter::new();
+        assert!(
+            encode(&mut io, [2, 1, 1], 2, 7, &list)
+                .unwrap_err()
+                .contains("out of order")
+        );
+        let twice = [(0, [0, 0, 0]), (0, [0, 0, 0])];
+        let ok = coded([2, 1, 1], 2, 7, &[(0, [0, 0, 0], v.as_slice())]);
+        assert!(
+            decoded(&ok, [2, 1, 1], 2, 7, &twice)
+                .unwrap_err()
+                .contains("out of order")
+        );
+    }
+
     #[test]
     fn the_widest_values_round_trip() {
         let limit = (1 << 15) - 1;
