@@ -165,16 +165,18 @@ pub fn matched_with_gains(
         .map(|k| k.iter().map(|v| v * v).sum::<f64>())
         .product();
     let corr = correlate(grid, &taps);
-    let mut candidates: Vec<(f64, usize)> = corr
+    let candidates: Vec<(f64, usize)> = corr
         .iter()
         .enumerate()
         .filter(|(_, v)| **v > 0.0)
         .map(|(i, v)| (*v, i))
         .collect();
-    candidates.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
     let mut taken = vec![false; grid.len()];
     let keep = [0, 1, 2].map(|a| (1.5 * radius / grid.h[a]).ceil() as usize);
-    for (v, i) in candidates {
+    // Each pick takes a box of this many voxels out: the first picks' share of the
+    // candidates, sorted, is enough.
+    let per_pick = keep.iter().map(|&k| 2 * k + 1).product::<usize>();
+    for (v, i) in LargestFirst::new(candidates, n.saturating_mul(per_pick)) {
         if params.len() / PARAMS_PER_RBF >= n {
             break;
         }
@@ -197,6 +199,53 @@ pub fn matched_with_gains(
         }
     }
     (params, gains)
+}
+
+/// `(value, index)` pairs in descending value (ascending index among equals), sorted a
+/// batch at a time: the largest `batch` first, then twice as many of the rest, and so on,
+/// so that a caller that stops after a few takes does not sort them all. The order is the
+/// full sort's.
+struct LargestFirst {
+    items: Vec<(f64, usize)>,
+    /// `items[..sorted]` are the largest, in order.
+    sorted: usize,
+    next: usize,
+    batch: usize,
+}
+
+impl LargestFirst {
+    fn new(items: Vec<(f64, usize)>, batch: usize) -> Self {
+        LargestFirst {
+            items,
+            sorted: 0,
+            next: 0,
+            batch: batch.max(1),
+        }
+    }
+
+    fn order(a: &(f64, usize), b: &(f64, usize)) -> std::cmp::Ordering {
+        b.0.total_cmp(&a.0).then(a.1.cmp(&b.1))
+    }
+}
+
+impl Iterator for LargestFirst {
+    type Item = (f64, usize);
+
+    fn next(&mut self) -> Option<(f64, usize)> {
+        if self.next == self.sorted && self.sorted < self.items.len() {
+            let rest = &mut self.items[self.sorted..];
+            let k = self.batch.min(rest.len());
+            if k < rest.len() {
+                rest.select_nth_unstable_by(k - 1, Self::order);
+            }
+            rest[..k].sort_by(Self::order);
+            self.sorted += k;
+            self.batch = self.batch.saturating_mul(2);
+        }
+        let item = self.items.get(self.next).copied();
+        self.next += usize::from(item.is_some());
+        item
+    }
 }
 
 /// Support of the correlation kernel, in radii (the RBFs' cut-off).
@@ -222,21 +271,54 @@ fn correlate(grid: &FitGrid, taps: &[Vec<f64>; 3]) -> Vec<f64> {
 }
 
 /// `v` correlated with the symmetric kernel `k` (odd length, centered) along axis `a`
-/// of a grid of `dims` (x fastest); outside the grid counts as zero.
+/// of a grid of `dims` (x fastest); outside the grid counts as zero. Along `y` and `z`
+/// whole x-rows are weighed and added, row after row (a voxel's taps in the same order
+/// as along `x`, so the sums are the same to the bit), which reads memory in order where
+/// a voxel-by-voxel walk would stride across the grid. Rows of zeros (the air around the
+/// smoke) add nothing and are skipped.
 fn blur_axis(v: &[f64], dims: [usize; 3], a: usize, k: &[f64]) -> Vec<f64> {
-    let reach = (k.len() / 2) as isize;
-    let stride = [1, dims[0], dims[0] * dims[1]][a];
-    let n = dims[a] as isize;
+    let reach = k.len() / 2;
+    let n = dims[a];
+    let taps = |pos: usize| (pos.saturating_sub(reach), (pos + reach).min(n - 1));
     let mut out = vec![0.0; v.len()];
-    out.par_iter_mut().enumerate().for_each(|(i, o)| {
-        let pos = ((i / stride) % dims[a]) as isize;
-        let base = i as isize - pos * stride as isize;
-        let (t0, t1) = ((-reach).max(-pos), reach.min(n - 1 - pos));
-        let mut s = 0.0;
-        for t in t0..=t1 {
-            s += k[(t + reach) as usize] * v[(base + (pos + t) * stride as isize) as usize];
+    let live: Vec<bool> = v
+        .par_chunks(dims[0])
+        .map(|row| row.iter().any(|&x| x != 0.0))
+        .collect();
+    if a == 0 {
+        out.par_chunks_mut(dims[0])
+            .zip(v.par_chunks(dims[0]))
+            .zip(&live)
+            .filter(|(_, live)| **live)
+            .for_each(|((o, row), _)| {
+                for (pos, o) in o.iter_mut().enumerate() {
+                    let (lo, hi) = taps(pos);
+                    let mut s = 0.0;
+                    for (q, &x) in row[lo..=hi].iter().enumerate() {
+                        s += k[lo + q + reach - pos] * x;
+                    }
+                    *o = s;
+                }
+            });
+        return out;
+    }
+    let stride = if a == 1 { dims[0] } else { dims[0] * dims[1] };
+    out.par_chunks_mut(dims[0]).enumerate().for_each(|(r, o)| {
+        // Row r = y + dims₁ z; its place along the axis, and where the axis starts.
+        let pos = if a == 1 { r % dims[1] } else { r / dims[1] };
+        let start = r * dims[0] - pos * stride;
+        let (lo, hi) = taps(pos);
+        for q in lo..=hi {
+            let first = start + q * stride;
+            if !live[first / dims[0]] {
+                continue;
+            }
+            let w = k[q + reach - pos];
+            let src = &v[first..first + dims[0]];
+            for (o, &x) in o.iter_mut().zip(src) {
+                *o += w * x;
+            }
         }
-        *o = s;
     });
     out
 }
@@ -254,6 +336,20 @@ mod tests {
             v.data_mut()[i] = f(x, y, z);
         }
         FitGrid::from_volume(&v).unwrap()
+    }
+
+    /// Batches of the largest give the full sort's order, ties by index, whatever the
+    /// batch.
+    #[test]
+    fn largest_first_is_the_full_sort() {
+        let items: Vec<(f64, usize)> = (0..1000).map(|i| (((i * 7919) % 97) as f64, i)).collect();
+        let mut want = items.clone();
+        want.sort_by(LargestFirst::order);
+        for batch in [0, 1, 3, 64, 999, 1000, 5000] {
+            let got: Vec<_> = LargestFirst::new(items.clone(), batch).collect();
+            assert_eq!(got, want, "batch {batch}");
+        }
+        assert_eq!(LargestFirst::new(Vec::new(), 4).next(), None);
     }
 
     /// The correlation pass against a brute-force `Σ_v R_v g(x_v − c)` with the same
