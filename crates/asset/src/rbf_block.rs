@@ -386,6 +386,25 @@ mod tests {
         assert_eq!(bits_of(&encode_rbfs(&one)), [1; CHANNELS]);
     }
 
+    /// An RBF block of `count`, `layout` and the `bits` word, the channels' ranges and the
+    /// coded values, as an older writer laid it out.
+    fn block(
+        [count, layout, bits]: [u32; 3],
+        lo: &[f64; CHANNELS],
+        hi: &[f64; CHANNELS],
+        coded: &[u8],
+    ) -> Vec<u8> {
+        let mut b = Vec::new();
+        for v in [count, layout, coded.len() as u32, bits] {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+        for v in lo.iter().chain(hi) {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+        b.extend_from_slice(coded);
+        b
+    }
+
     /// A layout-3 block (haze format 4: 12 bits a channel, the top 4 through a tree, the
     /// low 8 equally likely) still decodes.
     #[test]
@@ -400,15 +419,7 @@ mod tests {
                 io.raw(8, q).unwrap();
             }
         }
-        let coded = io.finish().unwrap();
-        let mut b = Vec::new();
-        for v in [3u32, 3, coded.len() as u32, 12] {
-            b.extend_from_slice(&v.to_le_bytes());
-        }
-        for v in lo.iter().chain(&hi) {
-            b.extend_from_slice(&f64::to_le_bytes(*v));
-        }
-        b.extend_from_slice(&coded);
+        let mut b = block([3, 3, 12], &lo, &hi, &io.finish().unwrap());
         let r = decode_rbfs(&b).unwrap();
         for (k, &q) in levels_12.iter().enumerate() {
             let t = f64::from(q) / 4095.0;
@@ -427,15 +438,7 @@ mod tests {
         let (lo, hi) = ([0.0, 1.0, 2.0, 0.1, 0.0], [1.0, 3.0, 4.0, 0.5, 2.0]);
         // One RBF at level 0x8000 of every channel: just past the middle.
         let planes = [0x00u8, 0x80].repeat(CHANNELS);
-        let coded = haze_core::coded::deflate(&planes);
-        let mut b = Vec::new();
-        for v in [1u32, 2, coded.len() as u32, 0] {
-            b.extend_from_slice(&v.to_le_bytes());
-        }
-        for v in lo.iter().chain(&hi) {
-            b.extend_from_slice(&f64::to_le_bytes(*v));
-        }
-        b.extend_from_slice(&coded);
+        let b = block([1, 2, 0], &lo, &hi, &haze_core::coded::deflate(&planes));
         let r = decode_rbfs(&b).unwrap();
         let t = 32768.0 / 65535.0;
         let want: Vec<f64> = (0..CHANNELS)
