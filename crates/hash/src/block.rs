@@ -259,31 +259,25 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
         }
         keys.push((k, j, place));
     }
-    let lossy: Vec<(usize, [u32; 3])> = keys
-        .iter()
-        .filter(|(_, j, _)| steps[*j] != 0.0)
-        .map(|&(_, j, p)| (j, p))
-        .collect();
-    if (lossy.len() * per) as f64 > bits_held {
+    let lossy = keys.iter().filter(|(_, j, _)| steps[*j] != 0.0).count();
+    if (lossy * per) as f64 > bits_held {
         return Err(format!(
-            "residual block claims {} lossy bricks in {ranged} coded bytes",
-            lossy.len()
+            "residual block claims {lossy} lossy bricks in {ranged} coded bytes"
         ));
     }
-    if lossless.len() != 4 * per * (count - lossy.len()) {
+    if lossless.len() != 4 * per * (count - lossy) {
         return Err(format!(
             "residual block holds {} bytes of lossless values for {} lossless bricks",
             lossless.len(),
-            count - lossy.len()
+            count - lossy
         ));
     }
     let nb = bricks_per_frame(dims, brick);
-    let decoded = context_coder::decode(&mut io, nb, brick, largest_value(bits), &lossy)
-        .map_err(|e| format!("residual block's values: {e}"))?;
+    let mut decoder = context_coder::Decoder::new(nb, brick, largest_value(bits));
     let mut data = Vec::new();
     let mut cells = Vec::with_capacity(count);
-    let (mut next_lossy, mut next_lossless) = (decoded.iter(), lossless.chunks_exact(4));
-    for &(k, j, _) in &keys {
+    let mut next_lossless = lossless.chunks_exact(4);
+    for &(k, j, at) in &keys {
         let first = data.len();
         let width = if steps[j] == 0.0 {
             for _ in 0..per {
@@ -294,9 +288,9 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
             }
             Width::F32
         } else {
-            let values = next_lossy
-                .next()
-                .ok_or("residual block's values are cut short")?;
+            let values = decoder
+                .brick(&mut io, j, at)
+                .map_err(|e| format!("residual block's values: {e}"))?;
             let width = Width::narrowest(values);
             pack::pack_into(values, width, &mut data);
             width

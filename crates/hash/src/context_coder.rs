@@ -434,23 +434,27 @@ pub fn encode(
     Ok(())
 }
 
-/// Decodes from `io` what [`encode`] wrote for bricks at `(frame slot, brick position)`,
-/// in the same order: each brick's `b³` values.
-pub fn decode(
-    io: &mut BitReader,
-    nb: [u32; 3],
-    b: u32,
-    limit: u32,
-    bricks: &[(usize, [u32; 3])],
-) -> Result<Vec<Vec<i32>>, String> {
-    let mut coding = Coding::new(nb, b, limit);
-    let per = (b * b * b) as usize;
-    let mut out = Vec::with_capacity(bricks.len());
-    for &(j, at) in bricks {
-        let first = coding.brick(io, j, at, None)?;
-        out.push(coding.now.values[first..first + per].to_vec());
+/// Decodes what [`encode`] wrote, brick by brick in the same order, keeping only the
+/// frame being decoded and the frame before it (a caller packs each brick as it comes,
+/// so a hash volume's values are never all held as `i32`).
+pub(crate) struct Decoder {
+    coding: Coding,
+}
+
+impl Decoder {
+    /// A decoder for frames of `nb` bricks a side of `b` voxels, values up to `limit`.
+    pub fn new(nb: [u32; 3], b: u32, limit: u32) -> Self {
+        Decoder {
+            coding: Coding::new(nb, b, limit),
+        }
     }
-    Ok(out)
+
+    /// The `b³` values of the next brick, at frame slot `j` and brick position `at`.
+    pub fn brick(&mut self, io: &mut BitReader, j: usize, at: [u32; 3]) -> Result<&[i32], String> {
+        let per = self.coding.now.bricks.brick.pow(3) as usize;
+        let first = self.coding.brick(io, j, at, None)?;
+        Ok(&self.coding.now.values[first..first + per])
+    }
 }
 
 #[cfg(test)]
@@ -470,7 +474,12 @@ mod tests {
         limit: u32,
         stored: &[(usize, [u32; 3])],
     ) -> Result<Vec<Vec<i32>>, String> {
-        decode(&mut BitReader::new(bytes).unwrap(), nb, b, limit, stored)
+        let mut io = BitReader::new(bytes).unwrap();
+        let mut decoder = Decoder::new(nb, b, limit);
+        stored
+            .iter()
+            .map(|&(j, at)| decoder.brick(&mut io, j, at).map(<[i32]>::to_vec))
+            .collect()
     }
 
     /// Every brick of a frame of `nb` bricks a side `b`, in coding order, with the values
