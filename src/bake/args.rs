@@ -58,8 +58,9 @@ pub struct BakeCli {
     /// (larger: faster, slightly less accurate; see BENCHMARKS.md).
     #[arg(long, default_value_t = 1e-6)]
     pub(crate) tolerance: f64,
-    /// Iteration budget of each minimization of a warm-started frame.
-    #[arg(long, default_value_t = 200)]
+    /// Iteration budget of each minimization of a warm-started frame (more: a few fewer
+    /// RBFs on fast-moving smoke, slower; see BENCHMARKS.md).
+    #[arg(long, default_value_t = haze_fit::sequence::WARM_ITERATIONS)]
     pub(crate) warm_iterations: u64,
     /// Stop a warm-started minimization when its last 10 iterations together lowered the
     /// error by less than this fraction (0: only --tolerance stops it; see BENCHMARKS.md).
