@@ -41,6 +41,7 @@ impl Default for Bit {
 }
 
 impl Bit {
+    #[inline]
     fn update(&mut self, bit: bool) {
         if bit {
             self.p -= self.p >> RATE;
@@ -49,6 +50,7 @@ impl Bit {
         }
     }
 
+    #[inline]
     fn nonzero(p: u16) -> NonZeroU16 {
         NonZeroU16::new(p).unwrap_or(NonZeroU16::MIN)
     }
@@ -60,6 +62,7 @@ impl EntropyModel<PRECISION> for Bit {
 }
 
 impl EncoderModel<PRECISION> for Bit {
+    #[inline]
     fn left_cumulative_and_probability(
         &self,
         symbol: impl std::borrow::Borrow<bool>,
@@ -73,6 +76,7 @@ impl EncoderModel<PRECISION> for Bit {
 }
 
 impl DecoderModel<PRECISION> for Bit {
+    #[inline]
     fn quantile_function(&self, quantile: u16) -> (bool, u16, NonZeroU16) {
         if quantile < self.p {
             (false, 0, Bit::nonzero(self.p))
@@ -103,6 +107,7 @@ pub trait BitIo {
     /// Codes `bit` (a reader: returns the next bit) with the probability `p_one` (in
     /// `1/4096`, clamped to `1..=4095`) that it is 1: a prediction made elsewhere, such
     /// as a [`crate::mixing::Mixer`]'s.
+    #[inline]
     fn code_probability(&mut self, p_one: u16, bit: bool) -> Result<bool, String> {
         let mut fixed = Bit {
             p: ONE - p_one.clamp(1, ONE - 1),
@@ -185,6 +190,7 @@ impl BitWriter {
 }
 
 impl BitIo for BitWriter {
+    #[inline]
     fn code(&mut self, model: &mut Bit, bit: bool) -> Result<bool, String> {
         self.0
             .encode_symbol(bit, *model)
@@ -220,6 +226,7 @@ impl BitReader {
 }
 
 impl BitIo for BitReader {
+    #[inline]
     fn code(&mut self, model: &mut Bit, _: bool) -> Result<bool, String> {
         let bit = self
             .0

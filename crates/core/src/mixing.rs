@@ -31,6 +31,7 @@ const SQUASH_KNOTS: [i32; 33] = [
 ];
 
 /// The probability (in `1/4096`, within `1..=4095`) of a logit `x` in `1/256`.
+#[inline]
 pub const fn squash(x: i32) -> i32 {
     let x = if x > LOGIT_MAX {
         LOGIT_MAX
@@ -66,6 +67,7 @@ const STRETCH: [i16; 4096] = {
 };
 
 /// The logit (in `1/256`) of a probability `p` in `1/4096`.
+#[inline]
 pub fn stretch(p: i32) -> i32 {
     i32::from(STRETCH[p.clamp(0, 4095) as usize])
 }
@@ -97,11 +99,13 @@ impl Default for Counter {
 
 impl Counter {
     /// The probability of a 1, in `1/4096`.
+    #[inline]
     pub fn p(self) -> i32 {
         i32::from(self.p >> 4)
     }
 
     /// Moves towards `bit`.
+    #[inline]
     pub fn update(&mut self, bit: bool) {
         let step = STEP[usize::from(self.n)];
         let p = u32::from(self.p);
