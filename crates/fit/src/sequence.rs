@@ -218,11 +218,12 @@ pub const EXCHANGE_SHARE: usize = 4;
 
 /// An insertion round must remove at least this share of the excess error
 /// (`rel_l2 − target`) for another round to follow; below it the frame is reported as
-/// over the threshold (`insertion_stalled`). Close to the target a round is a few RBFs
-/// ([`batch_size`]) and removes less of the excess than the `n^(−1/3)` curve predicts: at
-/// a quarter, 9 of 25 frames of a held-out growing plume stopped at 1.101–1.109 of the
-/// first frame's error; at a tenth 2 stay over, stopped by the cap and the marginal gain
-/// instead, at the same median seconds (BENCHMARKS.md).
+/// over the threshold (`insertion_stalled`). Exchange rounds stop by the same share. Close
+/// to the target a round is a few RBFs ([`batch_size`]) and removes less of the excess
+/// than the `n^(−1/3)` curve predicts: at a quarter, 9 of 25 frames of a held-out growing
+/// plume stopped at 1.101–1.109 of the first frame's error; at a tenth 2 stayed over
+/// (stopped by the cap and the marginal gain instead) at the same median seconds, and
+/// none with today's [`WARM_ITERATIONS`] (BENCHMARKS.md).
 pub const MIN_ROUND_GAIN: f64 = 0.1;
 
 /// How a warm frame gets RBFs where its error is too high (see the module docs).
