@@ -1,11 +1,12 @@
-//! The environment pass's grid on the CPU (`render::env_pass::env_grid`): a node's 72
-//! shadow marches through the trilinear density, what a new frame of the CPU lighting
-//! waits for most (BENCHMARKS.md "`haze bench` on lavapipe"). A smooth plume that fills
-//! most of a 48 × 48 × 64 box (the marches skip no block), σt 4, the built-in sky,
-//! order 4, the default spacing (1.5 voxels) and rule (72 directions).
+//! The environment pass's grid on the CPU (`render::env_pass::env_grid`): every node's
+//! optical depth towards the rule's 72 directions through the trilinear density, by the
+//! sweep (the default, `render::env_sweep`) and by a march per node (the GPU's rule),
+//! what a new frame of the CPU lighting waited for most (BENCHMARKS.md "`haze bench` on
+//! lavapipe"). A smooth plume that fills most of a 48 × 48 × 64 box (the marches skip no
+//! block), σt 4, the built-in sky, order 4, the default spacing (1.5 voxels) and rule.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use haze_view::render::env_pass::{EnvGridOptions, env_grid};
+use haze_view::render::env_pass::{EnvDepths, EnvGridOptions, env_grid};
 use haze_view::{Environment, Sky};
 use haze_volume::{Bbox, Volume};
 use std::hint::black_box;
@@ -29,12 +30,17 @@ fn plume(dims: [usize; 3]) -> Volume {
 fn bench(c: &mut Criterion) {
     let density = plume([48, 48, 64]);
     let env = Environment::sky(Sky::default());
-    let opts = EnvGridOptions::default();
     let mut g = c.benchmark_group("env_grid");
     g.sample_size(10);
-    g.bench_function("48x48x64, sigma_t 4, order 4", |b| {
-        b.iter(|| black_box(env_grid(black_box(&density), 4.0, &env, 4, &opts)))
-    });
+    for (name, depths) in [("sweep", EnvDepths::Sweep), ("march", EnvDepths::March)] {
+        let opts = EnvGridOptions {
+            depths,
+            ..Default::default()
+        };
+        g.bench_function(format!("48x48x64, sigma_t 4, order 4, {name}"), |b| {
+            b.iter(|| black_box(env_grid(black_box(&density), 4.0, &env, 4, &opts)))
+        });
+    }
     g.finish();
 }
 

@@ -22,7 +22,7 @@ use haze_gpu::GpuError;
 use haze_view::gpu::GridBuffer;
 use haze_view::gpu::env_pass::EnvPass;
 use haze_view::render::crm::{self, VolumeGrids};
-use haze_view::render::env_pass::{EnvGridOptions, env_pass};
+use haze_view::render::env_pass::{EnvDepths, EnvGridOptions, env_pass};
 use haze_view::sh;
 use haze_view::{Environment, LatLong, Medium, Sky};
 use haze_volume::Bbox;
@@ -47,7 +47,10 @@ fn compare(
 ) -> (f64, f64) {
     let ctx = context();
     let light = sh::project_env(env, order);
-    let opts = EnvGridOptions::default();
+    let opts = EnvGridOptions {
+        depths: EnvDepths::March,
+        ..Default::default()
+    };
     let mut cpu = g.clone();
     let grid = env_pass(&mut cpu, env, &light, m, eye, order, &opts);
     let pass = EnvPass::new(&ctx).unwrap();

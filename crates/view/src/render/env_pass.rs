@@ -14,9 +14,12 @@
 //! (exact, `sh::project_env`), `S_lm(x) = ∫ L·(1 − T)·Y_lm dω` the light the smoke
 //! takes away, which the grid stores at its nodes, by the product rule of
 //! `2·theta` Gauss–Legendre latitudes (`theta` per hemisphere: the sky jumps at the
-//! horizon) × `4·theta` azimuths, `1 − T = −expm1(−σt·τ)` marched with the lights pass's
-//! midpoint rule ([`super::lights_pass::optical_depth`]; the samples in blocks without
-//! density skipped, [`Occupancy`], the same sum). Written so, the rule's error is
+//! horizon) × `4·theta` azimuths, `1 − T = −expm1(−σt·τ)`. The depths `τ` come from a
+//! sweep over the node planes, each node's from the depths of nodes nearer the face
+//! ([`super::env_sweep`], [`EnvDepths::Sweep`], the default), or from a march per node
+//! with the lights pass's midpoint rule ([`super::lights_pass::optical_depth`]; the
+//! samples in blocks without density skipped, [`Occupancy`], the same sum;
+//! [`EnvDepths::March`], the GPU twin's rule). Written so, the rule's error is
 //! proportional to the shadowing: thin smoke (`T → 1`) gets `L_lm` exactly, where the
 //! centers' interpolated source was biased. Nodes span the voxel centers, `spacing`
 //! voxels apart (rounded to fit the box), trilinear between ([`ShGrid`]).
@@ -44,6 +47,7 @@
 //! The GPU twin is `shaders/env_pass.wgsl` (`gpu::env_pass`).
 
 use super::crm::VolumeGrids;
+use super::env_sweep::sweep_depths;
 use super::lights_pass::optical_depth_within;
 use super::occupancy::Occupancy;
 use super::shell::lit_voxels;
@@ -65,6 +69,20 @@ pub struct EnvGridOptions {
     /// Gauss–Legendre latitudes per hemisphere of the direction rule
     /// (`2·theta × 2·theta` directions).
     pub theta: usize,
+    /// How each node's optical depth towards each direction is found.
+    pub depths: EnvDepths,
+}
+
+/// How [`env_grid`] finds the optical depth from each node towards each direction.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum EnvDepths {
+    /// A march of its own from every node to the box's face (the GPU's rule).
+    March,
+    /// From the upstream nodes' depths, one node plane at a time
+    /// ([`super::env_sweep`]): the same sums to the sweep's interpolation, several
+    /// times faster on large grids.
+    #[default]
+    Sweep,
 }
 
 impl Default for EnvGridOptions {
@@ -72,6 +90,7 @@ impl Default for EnvGridOptions {
         EnvGridOptions {
             spacing: 1.5,
             theta: 3,
+            depths: EnvDepths::default(),
         }
     }
 }
@@ -237,37 +256,106 @@ pub fn env_grid(
     let occupied = Occupancy::new(density);
     let needed = needed_nodes(density, &grid);
     let coeffs: Vec<f32> = match occupied {
-        Some(occupied) if sigma_t > 0.0 => (0..total)
-            .into_par_iter()
-            .flat_map_iter(|i| {
-                let mut s = vec![0.0f64; 3 * n2];
-                if needed[i] {
-                    let x = grid.node([
-                        i % nodes[0],
-                        (i / nodes[0]) % nodes[1],
-                        i / (nodes[0] * nodes[1]),
-                    ]);
-                    for (w, l, y) in &rule {
-                        let tau =
-                            optical_depth_within(density, sigma_t, x, *w, f64::MAX, h0, &occupied);
-                        // 1 − T, exact for small τ.
-                        let lost = -(-tau).exp_m1();
-                        if lost == 0.0 {
-                            continue;
-                        }
-                        for (j, yj) in y.iter().enumerate() {
-                            for c in 0..3 {
-                                s[3 * j + c] += lost * l[c] * yj;
-                            }
+        Some(occupied) if sigma_t > 0.0 => match opts.depths {
+            EnvDepths::March => (0..total)
+                .into_par_iter()
+                .flat_map_iter(|i| {
+                    let mut s = vec![0.0f64; 3 * n2];
+                    if needed[i] {
+                        let x = grid.node([
+                            i % nodes[0],
+                            (i / nodes[0]) % nodes[1],
+                            i / (nodes[0] * nodes[1]),
+                        ]);
+                        for (w, l, y) in &rule {
+                            let tau = optical_depth_within(
+                                density,
+                                sigma_t,
+                                x,
+                                *w,
+                                f64::MAX,
+                                h0,
+                                &occupied,
+                            );
+                            add_lost(&mut s, tau, l, y);
                         }
                     }
+                    s.into_iter().map(|v| v as f32)
+                })
+                .collect(),
+            EnvDepths::Sweep => {
+                let Some(domain) = node_domain(&needed, nodes) else {
+                    return ShGrid {
+                        coeffs: vec![0.0; total * 3 * n2],
+                        ..grid
+                    };
+                };
+                let mut coeffs = vec![0.0f32; total * 3 * n2];
+                // A few directions' depths at a time (each a sweep on its own thread),
+                // added to the nodes' sums: memory for SWEEP_BATCH depths a node.
+                for batch in rule.chunks(SWEEP_BATCH) {
+                    let taus: Vec<Vec<f32>> = batch
+                        .par_iter()
+                        .map(|(w, _, _)| {
+                            sweep_depths(density, sigma_t, &grid, domain, *w, h0, &occupied)
+                        })
+                        .collect();
+                    coeffs
+                        .par_chunks_mut(3 * n2)
+                        .enumerate()
+                        .filter(|(i, _)| needed[*i])
+                        .for_each(|(i, out)| {
+                            let mut s: Vec<f64> = out.iter().map(|&v| f64::from(v)).collect();
+                            for ((_, l, y), tau) in batch.iter().zip(&taus) {
+                                add_lost(&mut s, f64::from(tau[i]), l, y);
+                            }
+                            for (o, v) in out.iter_mut().zip(s) {
+                                *o = v as f32;
+                            }
+                        });
                 }
-                s.into_iter().map(|v| v as f32)
-            })
-            .collect(),
+                coeffs
+            }
+        },
         _ => vec![0.0; total * 3 * n2],
     };
     ShGrid { coeffs, ..grid }
+}
+
+/// The box of node indices (per axis the first and last) holding every needed node;
+/// `None` without one.
+fn node_domain(needed: &[bool], nodes: [usize; 3]) -> Option<[(usize, usize); 3]> {
+    let mut domain: Option<[(usize, usize); 3]> = None;
+    for (i, _) in needed.iter().enumerate().filter(|(_, n)| **n) {
+        let k = [
+            i % nodes[0],
+            (i / nodes[0]) % nodes[1],
+            i / (nodes[0] * nodes[1]),
+        ];
+        let d = domain.get_or_insert([(k[0], k[0]), (k[1], k[1]), (k[2], k[2])]);
+        for a in 0..3 {
+            d[a] = (d[a].0.min(k[a]), d[a].1.max(k[a]));
+        }
+    }
+    domain
+}
+
+/// Directions swept at once by [`EnvDepths::Sweep`].
+const SWEEP_BATCH: usize = 8;
+
+/// Adds to a node's sums `s` (3 per coefficient) the light lost along one direction of
+/// the rule, power `l` and SH `y`, through optical depth `tau`: `1 − T = −expm1(−τ)`,
+/// exact for small τ.
+fn add_lost(s: &mut [f64], tau: f64, l: &[f64; 3], y: &[f64]) {
+    let lost = -(-tau).exp_m1();
+    if lost == 0.0 {
+        return;
+    }
+    for (j, yj) in y.iter().enumerate() {
+        for c in 0..3 {
+            s[3 * j + c] += lost * l[c] * yj;
+        }
+    }
 }
 
 /// Which nodes the pass reads: those within one cell (per axis, strictly) of the center

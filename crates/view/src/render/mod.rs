@@ -3,6 +3,7 @@
 
 pub mod crm;
 pub mod env_pass;
+pub mod env_sweep;
 pub mod frame_light;
 pub mod grid_diffusion;
 pub mod lights_pass;

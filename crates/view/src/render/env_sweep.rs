@@ -1,0 +1,340 @@
+//! The environment grid's optical depths by a sweep: `σt·τ(x, ω)` from every node `x` of
+//! the grid to the box's face along one direction `ω`, each node's depth built from the
+//! depths of nodes nearer the face instead of a march of its own.
+//!
+//! **Recurrence.** Take the axis `k` along which `ω` crosses node planes fastest (the
+//! largest `|ω_k|/cell_k`). From node `x` the ray `x + sω` meets the node plane
+//! [`STRIDE`] planes further towards the face it leaves by at `s₁ = STRIDE·cell_k/|ω_k|`,
+//! at a point `p` within `STRIDE` cells of `x` on the other two axes. Then, exactly,
+//! `τ(x) = ∫₀^{s₁} σt·D(x + sω) ds + τ(p)`: the segment is summed by the midpoint rule at
+//! the lights pass's step or less (its samples in empty blocks skipped, [`Occupancy`]),
+//! and `τ(p)` is read bilinearly from that plane's nodes, already swept. Planes are
+//! visited from the face the rays leave by; the first `STRIDE` planes, and the nodes
+//! whose `p` falls outside the swept nodes (the ray leaves them through a side), march to
+//! the face ([`super::lights_pass::optical_depth_within`], a short march).
+//!
+//! **Cost and error.** A node costs its segment (`STRIDE·1.5` to `STRIDE·2.6` voxels at
+//! nodes 1.5 voxels apart) and four reads instead of a march of its whole way out (tens
+//! to hundreds of voxels). Each bilinear read blurs `τ` sideways by up to a quarter of
+//! a cell² in variance, so after `n` planes a shadow's edge is spread over about
+//! `0.5·√(n/STRIDE)` cells; and since `1 − e^{−τ}` is concave, a blurred edge loses more
+//! light than a sharp one (the grid comes out darker). Against the march on a held-out
+//! plume at σt 10 (BENCHMARKS "The environment grid by a sweep"), the final image's
+//! relative RMS over the smoke was 1.1 %, 0.58 % and 0.17 % at a stride of 1, 2 and 4.
+//!
+//! [`Occupancy`]: super::occupancy::Occupancy
+
+use super::lights_pass::optical_depth_within;
+use super::occupancy::Occupancy;
+use crate::field::Sampler;
+use crate::sh::ShGrid;
+use haze_volume::Volume;
+
+/// Node planes between a node and the plane its depth is read from (module docs).
+pub const STRIDE: usize = 4;
+
+/// `σt·τ` from the nodes of `grid` within `domain` (per axis the first and last node
+/// index) along the unit `w` to the box's face (module docs), in node order (`x`
+/// fastest; 0 outside `domain`); `h0` the march's step. Rays that leave `domain` through
+/// a side within one cell, and the plane at its far end, march to the box's face. Each
+/// node's depth is summed in `f64` and kept in `f32` (a relative `6·10⁻⁸` a plane).
+pub fn sweep_depths(
+    density: &Volume,
+    sigma_t: f64,
+    grid: &ShGrid,
+    domain: [(usize, usize); 3],
+    w: [f64; 3],
+    h0: f64,
+    occupied: &Occupancy,
+) -> Vec<f32> {
+    let n = grid.nodes;
+    let mut tau = vec![0.0f32; grid.len()];
+    let index = |i: [usize; 3]| i[0] + n[0] * (i[1] + n[1] * i[2]);
+    let march = |x: [f64; 3]| optical_depth_within(density, sigma_t, x, w, f64::MAX, h0, occupied);
+    // The sweep's axis: the one whose node planes the ray crosses fastest.
+    let rate = |a: usize| {
+        if domain[a].1 > domain[a].0 && grid.cell[a] > 0.0 {
+            w[a].abs() / grid.cell[a]
+        } else {
+            0.0
+        }
+    };
+    let k = (0..3).fold(0, |best, a| if rate(a) > rate(best) { a } else { best });
+    let (a, b) = ((k + 1) % 3, (k + 2) % 3);
+    // Without a plane to cross along the ray every node marches.
+    let sweep = rate(k) > 0.0 && rate(k).is_finite();
+    let mut planes: Vec<usize> = (domain[k].0..=domain[k].1).collect();
+    if sweep && w[k] > 0.0 {
+        // From the face the rays leave by.
+        planes.reverse();
+    }
+    let stride = STRIDE;
+    let s1 = if sweep {
+        stride as f64 * grid.cell[k] / w[k].abs()
+    } else {
+        0.0
+    };
+    let segment = Segment::new(density, sigma_t, occupied, w, s1, h0);
+    for (step, &plane) in planes.iter().enumerate() {
+        let up = if w[k] > 0.0 {
+            plane + stride
+        } else {
+            plane.wrapping_sub(stride)
+        };
+        for ib in domain[b].0..=domain[b].1 {
+            for ia in domain[a].0..=domain[a].1 {
+                let mut i = [0usize; 3];
+                i[k] = plane;
+                i[a] = ia;
+                i[b] = ib;
+                let x = grid.node(i);
+                let read = if step < stride || !sweep {
+                    None
+                } else {
+                    let p = [0, 1, 2].map(|c| x[c] + s1 * w[c]);
+                    stencil(grid, domain, a, p[a]).zip(stencil(grid, domain, b, p[b]))
+                };
+                let depth = match read {
+                    None => march(x),
+                    Some(((ja, fa), (jb, fb))) => {
+                        let at = |da: usize, db: usize| {
+                            let mut j = [0usize; 3];
+                            j[k] = up;
+                            j[a] = (ja + da).min(domain[a].1);
+                            j[b] = (jb + db).min(domain[b].1);
+                            f64::from(tau[index(j)])
+                        };
+                        let t = (1.0 - fa) * (1.0 - fb) * at(0, 0)
+                            + fa * (1.0 - fb) * at(1, 0)
+                            + (1.0 - fa) * fb * at(0, 1)
+                            + fa * fb * at(1, 1);
+                        segment.depth(x) + t
+                    }
+                };
+                tau[index(i)] = depth as f32;
+            }
+        }
+    }
+    tau
+}
+
+/// The midpoint rule along a sweep's segments: `m = ⌈s₁/h0⌉` samples `s₁/m` apart.
+struct Segment<'a> {
+    sampler: Sampler<'a>,
+    occupied: &'a Occupancy,
+    sigma_t: f64,
+    w: [f64; 3],
+    m: usize,
+    h: f64,
+}
+
+impl<'a> Segment<'a> {
+    fn new(
+        density: &'a Volume,
+        sigma_t: f64,
+        occupied: &'a Occupancy,
+        w: [f64; 3],
+        s1: f64,
+        h0: f64,
+    ) -> Segment<'a> {
+        let m = (s1 / h0).ceil().max(1.0);
+        Segment {
+            sampler: Sampler::new(density),
+            occupied,
+            sigma_t,
+            w,
+            m: m as usize,
+            h: s1 / m,
+        }
+    }
+
+    /// `σt·∫₀^{s₁} D(x + sω) ds`, the samples in empty blocks skipped (zeros).
+    fn depth(&self, x: [f64; 3]) -> f64 {
+        let mut depth = 0.0;
+        for j in 0..self.m {
+            let t = (j as f64 + 0.5) * self.h;
+            let p = [0, 1, 2].map(|c| x[c] + t * self.w[c]);
+            let Some(q) = self.sampler.coords(p) else {
+                continue;
+            };
+            if self.occupied.may_hold_coords(q) {
+                depth += self.sampler.at_coords(q);
+            }
+        }
+        self.sigma_t * depth * self.h
+    }
+}
+
+/// Where `x` on axis `ax` falls among `domain`'s nodes: the lower node and the fraction
+/// towards the next; `None` outside the domain (or off its one node, on an axis of one).
+fn stencil(grid: &ShGrid, domain: [(usize, usize); 3], ax: usize, x: f64) -> Option<(usize, f64)> {
+    let (lo, hi) = domain[ax];
+    if hi == lo || grid.cell[ax] <= 0.0 {
+        // One node across: `x` must lie on it (a ray along the others' planes).
+        let on = grid.min[ax] + lo as f64 * grid.cell[ax];
+        let slack = 1e-9 * grid.cell.iter().fold(1.0, |m: f64, c| m.max(*c));
+        return ((x - on).abs() <= slack).then_some((lo, 0.0));
+    }
+    let f = (x - grid.min[ax]) / grid.cell[ax];
+    // A hair of slack for rounding on the domain's edge.
+    if !(lo as f64 - 1e-9..=hi as f64 + 1e-9).contains(&f) {
+        return None;
+    }
+    let f = f.clamp(lo as f64, hi as f64);
+    let i0 = (f.floor() as usize).min(hi - 1);
+    Some((i0, f - i0 as f64))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::env_pass::{directions, grid_frame};
+    use crate::render::lights_pass::optical_depth;
+    use haze_volume::Bbox;
+
+    fn full(grid: &ShGrid) -> [(usize, usize); 3] {
+        grid.nodes.map(|n| (0, n - 1))
+    }
+
+    fn volume(dims: [usize; 3], size: [f64; 3], d: impl Fn([f64; 3]) -> f64) -> Volume {
+        let bbox = Bbox::new([0.0; 3], size);
+        let vs = [0, 1, 2].map(|a| size[a] / dims[a] as f64);
+        let data = (0..dims.iter().product::<usize>())
+            .map(|i| {
+                let k = [
+                    i % dims[0],
+                    (i / dims[0]) % dims[1],
+                    i / (dims[0] * dims[1]),
+                ];
+                d([0, 1, 2].map(|a| (k[a] as f64 + 0.5) * vs[a])) as f32
+            })
+            .collect();
+        Volume::new(dims, bbox, data).unwrap()
+    }
+
+    fn node_index(grid: &ShGrid, i: usize) -> [usize; 3] {
+        let n = grid.nodes;
+        [i % n[0], (i / n[0]) % n[1], i / (n[0] * n[1])]
+    }
+
+    #[test]
+    fn layered_smoke_is_swept_exactly() {
+        // D(z) linear in z between the voxel centers (constant to the faces), so every
+        // node's depth towards the top face along a steep oblique ray is a closed form:
+        // σt/ω_z · ∫ D dz from the node's height to the top. The bilinear reads of a depth
+        // that does not change sideways are exact, so the sweep must match it to the
+        // midpoint rule's error on the kink at the last center (≤ 10⁻⁶ here) and the
+        // depths' f32 (10⁻⁷ relative), on every node whose ray and reads stay clear of
+        // the sides (four cells from the faces the ray drifts towards).
+        let dims = [24, 24, 48];
+        let size = [1.0, 1.0, 2.0];
+        let slope = |z: f64| 0.3 + 0.7 * z;
+        let v = volume(dims, size, |p| slope(p[2]));
+        let occupied = Occupancy::new(&v).unwrap();
+        let grid = grid_frame(dims, v.bbox(), 1.5, 1);
+        let w = {
+            let r = [0.05f64, 0.03, 1.0];
+            let n = r.iter().map(|c| c * c).sum::<f64>().sqrt();
+            r.map(|c| c / n)
+        };
+        let sigma_t = 2.0;
+        let vz = size[2] / dims[2] as f64;
+        let (z_lo, z_hi) = (0.5 * vz, size[2] - 0.5 * vz);
+        // ∫ D dz from z to the top: linear between the outer centers, constant beyond.
+        let column = |z: f64| {
+            let clamp = |z: f64| z.clamp(z_lo, z_hi);
+            let lin = |a: f64, b: f64| 0.3 * (b - a) + 0.35 * (b * b - a * a);
+            let below = (z_lo - z).max(0.0) * slope(z_lo);
+            below + lin(clamp(z), z_hi) + 0.5 * vz * slope(z_hi)
+        };
+        let tau = sweep_depths(&v, sigma_t, &grid, full(&grid), w, 0.5 * vz, &occupied);
+        let mut checked = 0;
+        let mut worst = 0.0f64;
+        for (i, &t) in tau.iter().enumerate() {
+            let k = node_index(&grid, i);
+            if k[0] + 12 >= grid.nodes[0] || k[1] + 12 >= grid.nodes[1] {
+                continue;
+            }
+            let x = grid.node(k);
+            let want = sigma_t * column(x[2]) / w[2];
+            worst = worst.max((f64::from(t) - want).abs() - 1e-7 * want);
+            checked += 1;
+        }
+        let kink = sigma_t * 0.7 * (0.5 * vz).powi(2) / 8.0 / w[2];
+        assert!(checked > 500, "{checked}");
+        assert!(worst <= kink, "{worst} > {kink}");
+    }
+
+    #[test]
+    fn a_blob_matches_the_march() {
+        // A dense Gaussian blob (peak optical depth across it ≈ 6) off the box's center:
+        // the sweep's depths against each node's own march along every direction of the
+        // rule, compared as transmittance (what the grid keeps). The bilinear reads blur
+        // the shadow's edge over `0.5·√(n/STRIDE)` cells: measured 0.056 at worst (a node
+        // whose ray grazes the blob's edge) and 1.3·10⁻³ on average; held to 0.08 and
+        // 3·10⁻³. The nodes' march takes the
+        // lights pass's step of one voxel; so does the sweep's segment, at most.
+        let dims = [32, 32, 40];
+        let size = [1.0, 1.0, 1.25];
+        let c = [0.45, 0.55, 0.6];
+        let v = volume(dims, size, |p| {
+            let r2: f64 = (0..3).map(|a| (p[a] - c[a]).powi(2)).sum();
+            (-r2 / (2.0 * 0.12f64.powi(2))).exp()
+        });
+        let occupied = Occupancy::new(&v).unwrap();
+        let grid = grid_frame(dims, v.bbox(), 1.5, 1);
+        let h0 = size[0] / dims[0] as f64;
+        let sigma_t = 20.0;
+        let (mut worst, mut sum, mut count) = (0.0f64, 0.0, 0usize);
+        for (w, _) in directions(3).points() {
+            let tau = sweep_depths(&v, sigma_t, &grid, full(&grid), w, h0, &occupied);
+            for (i, &t) in tau.iter().enumerate() {
+                let x = grid.node(node_index(&grid, i));
+                let want = (-optical_depth(&v, sigma_t, x, w, f64::MAX, h0)).exp();
+                let e = ((-f64::from(t)).exp() - want).abs();
+                worst = worst.max(e);
+                sum += e;
+                count += 1;
+            }
+        }
+        let mean = sum / count as f64;
+        println!("transmittance off the march: worst {worst:.3e}, mean {mean:.3e}");
+        assert!(worst < 0.08, "{worst}");
+        assert!(mean < 3e-3, "{mean}");
+    }
+
+    #[test]
+    fn axis_rays_flat_grids_and_domains_march_where_they_cannot_sweep() {
+        // Rays along an axis (reads exactly at nodes), a grid one node thick along the
+        // ray (nothing to sweep: every node marches) and a domain of one node, in smoke
+        // of density 1: each node's depth is σt times its way out of the box (f32).
+        let v = volume([8, 8, 1], [1.0, 1.0, 0.125], |_| 1.0);
+        let occupied = Occupancy::new(&v).unwrap();
+        let grid = grid_frame([8, 8, 1], v.bbox(), 1.0, 1);
+        let h0 = 0.125;
+        for w in [
+            [1.0, 0.0, 0.0],
+            [0.0, -1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [0.6, 0.0, 0.8],
+        ] {
+            for domain in [full(&grid), [(3, 3), (5, 5), (0, 0)]] {
+                let tau = sweep_depths(&v, 3.0, &grid, domain, w, h0, &occupied);
+                for (i, &t) in tau.iter().enumerate() {
+                    let k = node_index(&grid, i);
+                    let inside = (0..3).all(|a| (domain[a].0..=domain[a].1).contains(&k[a]));
+                    let want = if inside {
+                        3.0 * crate::field::ray_box(grid.node(k), w, v.bbox()).unwrap().1
+                    } else {
+                        0.0
+                    };
+                    assert!(t.is_finite());
+                    assert!(
+                        (f64::from(t) - want).abs() <= 1e-6 * want.max(1.0),
+                        "{w:?} {domain:?} {k:?}: {t} vs {want}"
+                    );
+                }
+            }
+        }
+    }
+}
