@@ -2,16 +2,15 @@
 //! the grid to the box's face along one direction `ω`, each node's depth built from the
 //! depths of nodes nearer the face instead of a march of its own.
 //!
-//! **Recurrence.** Take the axis `k` along which `ω` crosses node planes fastest (the
-//! largest `|ω_k|/cell_k`). From node `x` the ray `x + sω` meets the node plane
-//! [`STRIDE`] planes further towards the face it leaves by at `s₁ = STRIDE·cell_k/|ω_k|`,
-//! at a point `p` within `STRIDE` cells of `x` on the other two axes. Then, exactly,
+//! **Recurrence.** The ray `x + sω` from node `x` meets the node plane [`STRIDE`] planes
+//! further towards the face it leaves by at `s₁`, at a point `p` (the geometry and the
+//! order of the planes: [`super::plane_sweep`]). Then, exactly,
 //! `τ(x) = ∫₀^{s₁} σt·D(x + sω) ds + τ(p)`: the segment is summed by the midpoint rule at
 //! the lights pass's step or less (its samples in empty blocks skipped, [`Occupancy`]),
-//! and `τ(p)` is read bilinearly from that plane's nodes, already swept. Planes are
-//! visited from the face the rays leave by; the first `STRIDE` planes, and the nodes
-//! whose `p` falls outside the swept nodes (the ray leaves them through a side), march to
-//! the face ([`super::lights_pass::optical_depth_within`], a short march).
+//! and `τ(p)` is read bilinearly from that plane's nodes, already swept. The first
+//! `STRIDE` planes, and the nodes whose `p` falls outside the swept nodes (the ray leaves
+//! them through a side), march to the face
+//! ([`super::lights_pass::optical_depth_within`], a short march).
 //!
 //! **Cost and error.** A node costs its segment (`STRIDE·1.5` to `STRIDE·2.6` voxels at
 //! nodes 1.5 voxels apart) and four reads instead of a march of its whole way out (tens
@@ -26,6 +25,7 @@
 
 use super::lights_pass::optical_depth_within;
 use super::occupancy::Occupancy;
+use super::plane_sweep::{Lattice, Sweep};
 use crate::field::Sampler;
 use crate::sh::ShGrid;
 use haze_volume::Volume;
@@ -47,74 +47,28 @@ pub fn sweep_depths(
     h0: f64,
     occupied: &Occupancy,
 ) -> Vec<f32> {
-    let n = grid.nodes;
     let mut tau = vec![0.0f32; grid.len()];
-    let index = |i: [usize; 3]| i[0] + n[0] * (i[1] + n[1] * i[2]);
     let march = |x: [f64; 3]| optical_depth_within(density, sigma_t, x, w, f64::MAX, h0, occupied);
-    // The sweep's axis: the one whose node planes the ray crosses fastest.
-    let rate = |a: usize| {
-        if domain[a].1 > domain[a].0 && grid.cell[a] > 0.0 {
-            w[a].abs() / grid.cell[a]
-        } else {
-            0.0
-        }
+    let lattice = Lattice {
+        min: grid.min,
+        cell: grid.cell,
+        dims: grid.nodes,
     };
-    let k = (0..3).fold(0, |best, a| if rate(a) > rate(best) { a } else { best });
-    let (a, b) = ((k + 1) % 3, (k + 2) % 3);
-    // Without a plane to cross along the ray every node marches.
-    let sweep = rate(k) > 0.0 && rate(k).is_finite();
-    let mut planes: Vec<usize> = (domain[k].0..=domain[k].1).collect();
-    if sweep && w[k] > 0.0 {
-        // From the face the rays leave by.
-        planes.reverse();
-    }
-    let stride = STRIDE;
-    let s1 = if sweep {
-        stride as f64 * grid.cell[k] / w[k].abs()
-    } else {
-        0.0
-    };
-    let segment = Segment::new(density, sigma_t, occupied, w, s1, h0);
-    for (step, &plane) in planes.iter().enumerate() {
-        let up = if w[k] > 0.0 {
-            plane + stride
-        } else {
-            plane.wrapping_sub(stride)
-        };
-        for ib in domain[b].0..=domain[b].1 {
-            for ia in domain[a].0..=domain[a].1 {
-                let mut i = [0usize; 3];
-                i[k] = plane;
-                i[a] = ia;
-                i[b] = ib;
-                let x = grid.node(i);
-                let read = if step < stride || !sweep {
-                    None
-                } else {
-                    let p = [0, 1, 2].map(|c| x[c] + s1 * w[c]);
-                    stencil(grid, domain, a, p[a]).zip(stencil(grid, domain, b, p[b]))
-                };
-                let depth = match read {
-                    None => march(x),
-                    Some(((ja, fa), (jb, fb))) => {
-                        let at = |da: usize, db: usize| {
-                            let mut j = [0usize; 3];
-                            j[k] = up;
-                            j[a] = (ja + da).min(domain[a].1);
-                            j[b] = (jb + db).min(domain[b].1);
-                            f64::from(tau[index(j)])
-                        };
-                        let t = (1.0 - fa) * (1.0 - fb) * at(0, 0)
-                            + fa * (1.0 - fb) * at(1, 0)
-                            + (1.0 - fa) * fb * at(0, 1)
-                            + fa * fb * at(1, 1);
-                        segment.depth(x) + t
-                    }
-                };
-                tau[index(i)] = depth as f32;
+    let sweep = Sweep::new(lattice, domain, w, STRIDE);
+    let segment = Segment::new(density, sigma_t, occupied, w, sweep.segment(), h0);
+    sweep.run(|i, x, reads| {
+        let depth = match reads {
+            None => march(x),
+            Some(reads) => {
+                segment.depth(x)
+                    + reads
+                        .iter()
+                        .map(|&(j, wt)| wt * f64::from(tau[j]))
+                        .sum::<f64>()
             }
-        }
-    }
+        };
+        tau[i] = depth as f32;
+    });
     tau
 }
 
@@ -163,26 +117,6 @@ impl<'a> Segment<'a> {
         }
         self.sigma_t * depth * self.h
     }
-}
-
-/// Where `x` on axis `ax` falls among `domain`'s nodes: the lower node and the fraction
-/// towards the next; `None` outside the domain (or off its one node, on an axis of one).
-fn stencil(grid: &ShGrid, domain: [(usize, usize); 3], ax: usize, x: f64) -> Option<(usize, f64)> {
-    let (lo, hi) = domain[ax];
-    if hi == lo || grid.cell[ax] <= 0.0 {
-        // One node across: `x` must lie on it (a ray along the others' planes).
-        let on = grid.min[ax] + lo as f64 * grid.cell[ax];
-        let slack = 1e-9 * grid.cell.iter().fold(1.0, |m: f64, c| m.max(*c));
-        return ((x - on).abs() <= slack).then_some((lo, 0.0));
-    }
-    let f = (x - grid.min[ax]) / grid.cell[ax];
-    // A hair of slack for rounding on the domain's edge.
-    if !(lo as f64 - 1e-9..=hi as f64 + 1e-9).contains(&f) {
-        return None;
-    }
-    let f = f.clamp(lo as f64, hi as f64);
-    let i0 = (f.floor() as usize).min(hi - 1);
-    Some((i0, f - i0 as f64))
 }
 
 #[cfg(test)]
