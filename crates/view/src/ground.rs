@@ -165,10 +165,11 @@ pub fn marched_transmittance(
     }
     let steps = ((t1 - t0) / h).ceil().min(1e6) as usize;
     let dt = (t1 - t0) / steps as f64;
+    let sampler = field::Sampler::new(density);
     let mut depth = 0.0;
     for k in 0..steps {
         let t = t0 + (k as f64 + 0.5) * dt;
-        depth += field::sample(density, [0, 1, 2].map(|a| x[a] + t * w[a]));
+        depth += sampler.at([0, 1, 2].map(|a| x[a] + t * w[a]));
     }
     if depth > 0.0 {
         (-sigma_t * depth * dt).exp()

@@ -257,13 +257,14 @@ fn march(
     let k1 = (t1 * cos_g / du).ceil() as i64;
     let (mut tau, mut out) = (1.0f64, [0.0f64; 3]);
     let (mut depth, mut weight) = (0.0f64, 0.0f64);
+    let sampler = field::Sampler::new(&g.density);
     for k in k0.max(0)..=k1 {
         let t = (k as f64 + 0.5) * ds;
         if t < t0 || t > t1 {
             continue;
         }
         let p = [eye[0] + t * d[0], eye[1] + t * d[1], eye[2] + t * d[2]];
-        let dens = field::sample(&g.density, p);
+        let dens = sampler.at(p);
         if dens <= 0.0 {
             continue;
         }
