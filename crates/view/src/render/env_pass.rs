@@ -304,15 +304,20 @@ pub fn env_grid(
                         .par_chunks_mut(3 * n2)
                         .enumerate()
                         .filter(|(i, _)| needed[*i])
-                        .for_each(|(i, out)| {
-                            let mut s: Vec<f64> = out.iter().map(|&v| f64::from(v)).collect();
-                            for ((_, l, y), tau) in batch.iter().zip(&taus) {
-                                add_lost(&mut s, f64::from(tau[i]), l, y);
-                            }
-                            for (o, v) in out.iter_mut().zip(s) {
-                                *o = v as f32;
-                            }
-                        });
+                        .for_each_init(
+                            || vec![0.0f64; 3 * n2],
+                            |s, (i, out)| {
+                                for (a, &v) in s.iter_mut().zip(out.iter()) {
+                                    *a = f64::from(v);
+                                }
+                                for ((_, l, y), tau) in batch.iter().zip(&taus) {
+                                    add_lost(s, f64::from(tau[i]), l, y);
+                                }
+                                for (o, &v) in out.iter_mut().zip(s.iter()) {
+                                    *o = v as f32;
+                                }
+                            },
+                        );
                 }
                 coeffs
             }

@@ -31,6 +31,9 @@ use crate::field::Sampler;
 use crate::sh::ShGrid;
 use haze_volume::Volume;
 
+/// The largest depth kept (`e^{−10³⁰}` is 0; a NaN depth is kept as this too).
+const DEPTH_CAP: f64 = 1e30;
+
 /// Node planes between a node and the plane its depth is read from (module docs).
 pub const STRIDE: usize = 4;
 
@@ -76,7 +79,9 @@ pub fn sweep_depths(
                         .sum::<f64>()
             }
         };
-        tau[i] = depth as f32;
+        // Capped where `e^{−τ}` is 0 anyway: a depth beyond f32's range would be ∞, and a
+        // read's zero weight times ∞ is NaN.
+        tau[i] = depth.min(DEPTH_CAP) as f32;
     });
     tau
 }
@@ -246,6 +251,39 @@ mod tests {
         println!("transmittance off the march: worst {worst:.3e}, mean {mean:.3e}");
         assert!(worst < 0.08, "{worst}");
         assert!(mean < 3e-3, "{mean}");
+    }
+
+    #[test]
+    fn extreme_extinction_stays_finite() {
+        // σt at f64's edge (every accepted `Medium`): depths past f32's range, which a
+        // read's zero weight would turn into NaN, are capped; empty space stays at 0.
+        let v = volume(
+            [16, 16, 16],
+            [1.0; 3],
+            |p| if p[2] < 0.5 { 1.0 } else { 0.0 },
+        );
+        let occupied = Occupancy::new(&v).unwrap();
+        let grid = grid_frame([16, 16, 16], v.bbox(), 1.5, 1);
+        for sigma_t in [1e40, 1e300, f64::MAX] {
+            for w in [
+                [0.3, 0.2, 0.93],
+                [0.0, 0.0, 1.0],
+                [0.0, 0.0, -1.0],
+                [0.6, -0.8, 0.0],
+            ] {
+                let n = w.iter().map(|c: &f64| c * c).sum::<f64>().sqrt();
+                let w = w.map(|c| c / n);
+                let tau = sweep_depths(&v, sigma_t, &grid, full(&grid), w, 1.0 / 16.0, &occupied);
+                for (i, &t) in tau.iter().enumerate() {
+                    assert!(t.is_finite() && t >= 0.0, "σt {sigma_t} {w:?}: {t}");
+                    let x = grid.node(node_index(&grid, i));
+                    // Upwards from above the smoke nothing is in the way.
+                    if w == [0.0, 0.0, 1.0] && x[2] > 0.6 {
+                        assert_eq!(t, 0.0);
+                    }
+                }
+            }
+        }
     }
 
     #[test]
