@@ -41,6 +41,7 @@ pub fn run(r: RenderCli) -> Result<()> {
             time: r.time,
             march: r.march,
             exact_per_pair: r.exact_per_pair.map(usize::from),
+            pair_reuse: usize::from(r.pair_reuse),
         }),
         None => {
             let (options, goal, tradeoff) = r.into_args();

@@ -145,6 +145,7 @@ pub fn render_scene<'py>(
                 time,
                 march: false,
                 exact_per_pair: None,
+                pair_reuse: haze_render::scene::DEFAULT_PAIR_REUSE,
             })?;
             Ok(Image::read_exr(&out)?)
         })

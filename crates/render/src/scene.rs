@@ -43,7 +43,12 @@ pub struct SceneJob {
     pub march: bool,
     /// Paper B's `PaperBOptions::max_exact`; `None`: the device's default.
     pub exact_per_pair: Option<usize>,
+    /// Paper B's `PaperBOptions::reuse` on the CPU (the GPU integrates every pixel).
+    pub pair_reuse: usize,
 }
+
+/// The default of [`SceneJob::pair_reuse`].
+pub const DEFAULT_PAIR_REUSE: usize = haze_scene::paper_b::reuse::DEFAULT_STRIDE;
 
 /// The files a scene file names (its models, maps and assets, relative to its folder):
 /// every string in it that is the path of an existing file. Read before a render so
@@ -262,7 +267,10 @@ fn run_hetero(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Res
         (image, what)
     } else {
         let analytic = Analytic::new(scene);
-        let mut options = PaperBOptions::default();
+        let mut options = PaperBOptions {
+            reuse: a.pair_reuse.max(1),
+            ..PaperBOptions::default()
+        };
         if let Some(n) = a.exact_per_pair {
             options.max_exact = n;
         }

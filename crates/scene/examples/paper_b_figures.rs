@@ -9,6 +9,8 @@
 //! cargo run --release -p haze-scene --example paper_b_figures -- environment [--size 48x36]
 //!     [--theta 8]
 //! cargo run --release -p haze-scene --example paper_b_figures -- lamps [--check] FILE...
+//! cargo run --release -p haze-scene --example paper_b_figures -- reuse [--counts 1000,5000]
+//!     [--lights 1,4] [--spread R] [--size 320x240] [FILE...]
 //! cargo run --release -p haze-scene --example paper_b_figures -- scene data/scenes/gaussians.json
 //! cargo run --release -p haze-scene --example paper_b_figures -- sky-scene data/scenes/gaussians_sky.json
 //! ```
@@ -37,7 +39,11 @@
 //! integrated (`PaperBOptions::target`), both against `--reference`'s march (relative
 //! RMS outside 4 pixels of each light's image, `lamp_error`), with the
 //! median of 3 frame times; `--check` also holds that march to one of uniform steps of
-//! a twentieth of the smallest radius, at 40 × 30.
+//! a twentieth of the smallest radius, at 40 × 30. **Reuse**: the CPU's screen-space
+//! reuse of the integrated pairs (`paper_b::reuse`) against every pixel integrating them,
+//! on the timing room (`--counts`, `--lights`, `--spread`) and on scene files (at their
+//! own size): frame times (median of 3) and the reused picture's relative RMS and
+//! largest pixel error against the other's.
 
 use haze_gaussians::cloud;
 use haze_gpu::GpuContext;
@@ -528,23 +534,12 @@ fn lamp_error(s: &Scene, a: &Image, r: &Image) -> f64 {
     }
 }
 
-/// The median of 3 CPU frames of `s` at `target` (ms), and the last image.
-fn timed(s: &Scene, analytic: &Analytic, target: f64) -> (f64, Image, (usize, usize)) {
-    timed_with(s, analytic, target, paper_b::MAX_EXACT)
-}
-
-/// [`timed`] with at most `max_exact` Gaussians exact per integrated pair.
-fn timed_with(
-    s: &Scene,
-    analytic: &Analytic,
-    target: f64,
-    max_exact: usize,
-) -> (f64, Image, (usize, usize)) {
-    // The march has no light scattered onto surfaces.
+/// The median of 3 CPU frames of `s` with `options` (ms), and the last image. The march
+/// has no light scattered onto surfaces, so neither do these.
+fn timed(s: &Scene, analytic: &Analytic, options: PaperBOptions) -> (f64, Image, (usize, usize)) {
     let options = PaperBOptions {
-        target,
         surface_scattering: false,
-        max_exact,
+        ..options
     };
     let mut times = Vec::new();
     let mut last = None;
@@ -562,22 +557,36 @@ fn timed_with(
 fn lamps(args: &[String]) {
     let check = args.iter().any(|a| a == "--check");
     println!(
-        "| scene | closed form | integrated pairs | with them | with them, {CPU_DEVICE_EXACT} exact | closed form ms | with them ms | {CPU_DEVICE_EXACT} exact ms | reference s |"
+        "| scene | closed form | integrated pairs | every pixel | reused | {CPU_DEVICE_EXACT} exact | closed form ms | every pixel ms | reused ms | {CPU_DEVICE_EXACT} exact ms | reference s |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    let closed = PaperBOptions {
+        target: f64::INFINITY,
+        ..Default::default()
+    };
+    let every = PaperBOptions {
+        reuse: 1,
+        ..Default::default()
+    };
+    let device = PaperBOptions {
+        max_exact: CPU_DEVICE_EXACT,
+        ..every
+    };
     for path in args[1..].iter().filter(|a| !a.starts_with("--")) {
         let s = file::load(std::path::Path::new(path)).unwrap_or_else(|e| fail(e));
         let analytic = Analytic::new(&s);
         let t = Instant::now();
         let r = reference(&s);
         let tr = t.elapsed().as_secs_f64();
-        let (t0, closed, _) = timed(&s, &analytic, f64::INFINITY);
-        let (t1, acc, (k, n)) = timed(&s, &analytic, paper_b::DEFAULT_TARGET);
-        let (t4, four, _) = timed_with(&s, &analytic, paper_b::DEFAULT_TARGET, CPU_DEVICE_EXACT);
+        let (t0, closed, _) = timed(&s, &analytic, closed);
+        let (t1, acc, (k, n)) = timed(&s, &analytic, every);
+        let (t2, reused, _) = timed(&s, &analytic, PaperBOptions::default());
+        let (t4, four, _) = timed(&s, &analytic, device);
         println!(
-            "| {path} | {:.2} % | {k} of {n} | {:.2} % | {:.2} % | {t0:.0} | {t1:.0} | {t4:.0} | {tr:.1} |",
+            "| {path} | {:.2} % | {k} of {n} | {:.2} % | {:.2} % | {:.2} % | {t0:.0} | {t1:.0} | {t2:.0} | {t4:.0} | {tr:.1} |",
             100.0 * lamp_error(&s, &closed, &r),
             100.0 * lamp_error(&s, &acc, &r),
+            100.0 * lamp_error(&s, &reused, &r),
             100.0 * lamp_error(&s, &four, &r)
         );
         if check {
@@ -603,6 +612,77 @@ fn lamps(args: &[String]) {
     }
 }
 
+/// The reused picture against every pixel integrating: `(rel. RMS, largest relative
+/// pixel error over pixels above a tenth of the image's mean)` (a lamp's glow makes the
+/// peak no measure).
+fn reuse_error(a: &Image, every: &Image) -> (f64, f64) {
+    let values = every.pixels.iter().flat_map(|p| p.iter());
+    let mean = values.clone().sum::<f32>() / values.count().max(1) as f32;
+    let mut worst = 0.0f64;
+    for (p, q) in a.pixels.iter().zip(&every.pixels) {
+        for c in 0..3 {
+            if q[c] > 0.1 * mean {
+                worst = worst.max(f64::from((p[c] - q[c]).abs() / q[c]));
+            }
+        }
+    }
+    (a.rel_rms(every), worst)
+}
+
+fn reuse(args: &[String]) {
+    let sz = size(args, (320, 240));
+    let counts = list(args, "--counts", &[1000, 5000]);
+    let lights = list(args, "--lights", &[1, 4]);
+    let spread = arg(args, "--spread").map_or(1.4, |s| {
+        s.parse::<f64>()
+            .ok()
+            .filter(|r| *r > 0.0 && r.is_finite())
+            .unwrap_or_else(|| fail("--spread R: a positive radius"))
+    });
+    println!(
+        "| scene | pairs integrated | every pixel ms | reused ms | rel. RMS | largest pixel error |"
+    );
+    println!("|---|---|---|---|---|---|");
+    let row = |name: &str, s: &Scene| {
+        let analytic = Analytic::new(s);
+        let every = PaperBOptions {
+            reuse: 1,
+            ..Default::default()
+        };
+        let (t1, a, (k, n)) = timed(s, &analytic, every);
+        let (t2, b, _) = timed(s, &analytic, PaperBOptions::default());
+        let (rms, worst) = reuse_error(&b, &a);
+        println!(
+            "| {name} | {k} of {n} | {t1:.0} | {t2:.0} | {:.3} % | {:.2} % |",
+            100.0 * rms,
+            100.0 * worst
+        );
+    };
+    let files: Vec<&String> = args[1..].iter().filter(|a| a.ends_with(".json")).collect();
+    for path in &files {
+        let s = file::load(std::path::Path::new(path.as_str())).unwrap_or_else(|e| fail(e));
+        row(path, &s);
+    }
+    if !files.is_empty() && arg(args, "--counts").is_none() {
+        return;
+    }
+    for &n in &counts {
+        let cloud = Cloud {
+            n,
+            spread,
+            radii: (0.06, 0.2),
+            tau: 0.05,
+            centre: [0.0, 0.0, 1.2],
+        };
+        for &l in &lights {
+            row(
+                &format!("room, {n} gaussians, {l} lights"),
+                &scene(&cloud, l, sz, false, 0.9),
+            );
+        }
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
@@ -610,6 +690,7 @@ fn main() {
         Some("timing") => timing(&args),
         Some("environment") => environment(&args),
         Some("lamps") => lamps(&args),
+        Some("reuse") => reuse(&args),
         Some("scene") => {
             let path = args.get(1).unwrap_or_else(|| fail("scene PATH"));
             let cloud = Cloud {

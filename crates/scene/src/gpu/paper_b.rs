@@ -250,8 +250,9 @@ fn light_records(prep: &Prepared<'_>) -> Vec<[f32; 4]> {
 pub const CPU_DEVICE_EXACT: usize = 4;
 
 /// Paper B's default options for rendering on `ctx`'s device: [`CPU_DEVICE_EXACT`] Gaussians
-/// exact per integrated pair on a CPU device, `MAX_EXACT` elsewhere. Prepare the scene
-/// with these (and the CPU twin with the same, to compare).
+/// exact per integrated pair on a CPU device, `MAX_EXACT` elsewhere, and every pixel
+/// integrating its pairs (the GPU does not reuse them across the screen). Prepare the
+/// scene with these (and the CPU twin with the same, to compare).
 pub fn options(ctx: &GpuContext) -> PaperBOptions {
     let max_exact = if ctx.adapter_info().device_type == wgpu::DeviceType::Cpu {
         CPU_DEVICE_EXACT
@@ -260,6 +261,7 @@ pub fn options(ctx: &GpuContext) -> PaperBOptions {
     };
     PaperBOptions {
         max_exact,
+        reuse: 1,
         ..PaperBOptions::default()
     }
 }

@@ -17,7 +17,9 @@
 //!   light's hosts' — the Gaussians it sits inside — and the homogeneous part exact along
 //!   `s → x → v` at every node, the others' through `Eᵢ`), and the homogeneous term's
 //!   `C_sv` takes the hosts' attenuation along the ray
-//!   ([`haze_gaussians::integrated::host_ratio`]). A sun is a light at
+//!   ([`haze_gaussians::integrated::host_ratio`]). On the CPU both are integrated on a
+//!   grid of pixels and reused between where smooth ([`reuse`], [`PaperBOptions::reuse`]).
+//!   A sun is a light at
 //!   infinity: Gaussians and backgrounds attenuate it, the scene's homogeneous media do
 //!   not (paper C's convention, as in [`crate::march`]).
 //! * **Screen optical depth** `T(v,p) = β0·dr + Σᵢ Tᵢ(v,p)` over the same Gaussians;
@@ -38,6 +40,7 @@
 
 pub mod gaussian_env;
 mod pairs;
+pub mod reuse;
 
 use crate::media::HeteroMedium;
 use crate::paper_c::airlight::{self, Limits, attenuated_length, effective_light, light_off_point};
@@ -53,12 +56,13 @@ const LIST_DELTA: f64 = 1e-7;
 
 /// The most Gaussians an integrated pair (and the homogeneous term) takes exactly per node.
 pub use haze_gaussians::integrated::MAX_EXACT;
-use haze_gaussians::integrated::{bound, host_ratio, integrated};
+use haze_gaussians::integrated::{bound, host_ratio, integrated, unattenuated};
 use haze_gaussians::line;
 use haze_gaussians::noise::Noise;
 pub use pairs::LeftAtCentres;
 use pairs::{PairTerms, pair_terms};
 use rayon::prelude::*;
+use reuse::PairMode;
 use std::f64::consts::PI;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -75,6 +79,10 @@ pub struct PaperBOptions {
     /// node, at most [`MAX_EXACT`]; fewer on a device that limits a shader's loops
     /// (`crate::gpu::paper_b::options`).
     pub max_exact: usize,
+    /// The CPU's screen-space reuse of the integrated pairs ([`reuse`]): their ratio to the
+    /// closed form integrated every `reuse` pixels and interpolated between where it
+    /// varies smoothly; 1: every pixel integrates.
+    pub reuse: usize,
 }
 
 /// The default [`PaperBOptions::target`]: 2 %, inside the issue's 3 % goal with room for
@@ -87,6 +95,7 @@ impl Default for PaperBOptions {
             surface_scattering: true,
             target: DEFAULT_TARGET,
             max_exact: MAX_EXACT,
+            reuse: reuse::DEFAULT_STRIDE,
         }
     }
 }
@@ -317,8 +326,7 @@ impl<'a> Prepared<'a> {
 
     /// Gaussian `i`'s airlight of light `l` integrated along the ray
     /// ([`haze_gaussians::integrated::integrated`], the hosts per node) times the pair's
-    /// exponent `e`, per unit power; with noise (`noisy`) scaled as `Tᵢ(v,p) = vp` is.
-    #[allow(clippy::too_many_arguments)]
+    /// exponent `e`, per unit power, without noise (the caller scales it).
     fn integrated_pair(
         &self,
         lim: &Limits,
@@ -327,8 +335,6 @@ impl<'a> Prepared<'a> {
         e: f64,
         dir: Vec3,
         t_end: f64,
-        noisy: bool,
-        vp: f64,
     ) -> Rgb {
         let eye = self.scene.camera.eye;
         let b = &self.set.blobs()[i];
@@ -361,28 +367,26 @@ impl<'a> Prepared<'a> {
             }
             _ => 0.0,
         };
-        let e = if noisy {
-            let straight = line::gaussian(b.c, b.a, b.center, eye, dir, t_end);
-            if straight > 0.0 {
-                e * vp / straight
-            } else {
-                0.0
-            }
-        } else {
-            e
-        };
         let li = integrated(b, eye, dir, t_end, l.source, lim.r_min, self.beta0, &others);
         li.map(|x| e * x)
     }
 
     /// Radiance along the camera ray of unit direction `dir`.
     pub fn radiance(&self, lim: &Limits, dir: Vec3) -> Rgb {
+        self.radiance_with(lim, dir, &mut PairMode::Exact)
+    }
+
+    /// [`Prepared::radiance`], the integrated pairs and the homogeneous term's hosts taken
+    /// as `mode` says ([`reuse`]).
+    pub(crate) fn radiance_with(&self, lim: &Limits, dir: Vec3, mode: &mut PairMode<'_>) -> Rgb {
         let scene = self.scene;
         let cam = &scene.camera;
         let eye = cam.eye;
         let frame = [cam.right(), cam.up(), cam.forward()];
         let hit = scene.intersect(eye, dir, 0.0, scene.environment_distance);
         let t_end = hit.map_or(scene.environment_distance, |h| h.t);
+        mode.hit(hit.map(|h| h.surface));
+        let n = self.set.blobs().len();
         let mut out = [0.0; 3];
         // The Gaussians along the ray: Tᵢ(v,p) and their airlight.
         let mut tau = 0.0;
@@ -408,11 +412,31 @@ impl<'a> Prepared<'a> {
                 line::gaussian(b.c, b.a, b.center, eye, along, t_end)
             };
             tau += vp;
-            for l in &self.lights {
+            // An integrated pair with noise is scaled as `Tᵢ(v,p) = vp` is.
+            let noise = if along == dir {
+                1.0
+            } else {
+                let straight = line.to(t_end);
+                if straight > 0.0 { vp / straight } else { 0.0 }
+            };
+            for (k, l) in self.lights.iter().enumerate() {
                 if let Some(e) = l.pairs.integrated[i] {
-                    let li = self.integrated_pair(lim, l, i, e, dir, t_end, along != dir, vp);
+                    let id = reuse::pair_id(n, k, i);
+                    let closed = || [unattenuated(b, eye, dir, t_end, l.source, lim.r_min); 3];
+                    let li = match mode.ratio(id, k) {
+                        Some(r) => {
+                            let f = closed();
+                            [0, 1, 2].map(|c| f[c] * r[c])
+                        }
+                        None => {
+                            let li = self.integrated_pair(lim, l, i, e, dir, t_end);
+                            let add = [0, 1, 2].map(|c| noise * l.power[c] * li[c]);
+                            mode.record(id, li, closed, add);
+                            li
+                        }
+                    };
                     for (c, o) in out.iter_mut().enumerate() {
-                        *o += l.power[c] * li[c];
+                        *o += noise * l.power[c] * li[c];
                     }
                     continue;
                 }
@@ -432,32 +456,12 @@ impl<'a> Prepared<'a> {
             }
         });
         // The homogeneous term of each light.
-        for l in &self.lights {
+        for (k, l) in self.lights.iter().enumerate() {
             match l.source {
                 Source::Point(s) => {
-                    let c_sv = if l.pairs.exact.is_empty() {
-                        l.pairs.c_sv
-                    } else {
-                        let hosts = &l.pairs.exact_blobs;
-                        let b0 = self.beta0.iter().sum::<f64>() / 3.0;
-                        l.pairs.c_sv_rest * host_ratio(hosts, eye, dir, t_end, s, lim.r_min, b0)
-                    };
-                    let s = effective_light(eye, dir, s, lim);
-                    for (c, o) in out.iter_mut().enumerate() {
-                        if l.power[c] > 0.0 && self.sigma_s0[c] > 0.0 {
-                            *o += l.power[c]
-                                * c_sv
-                                * airlight::point(
-                                    &self.analytic.h,
-                                    eye,
-                                    dir,
-                                    t_end,
-                                    s,
-                                    1.0,
-                                    self.beta0[c],
-                                    self.sigma_s0[c],
-                                );
-                        }
+                    let add = self.homogeneous(lim, mode, k, dir, t_end, s);
+                    for (o, a) in out.iter_mut().zip(add) {
+                        *o += a;
                     }
                 }
                 Source::Sun(_) if !self.background => {
@@ -486,6 +490,50 @@ impl<'a> Prepared<'a> {
             }
         }
         out
+    }
+
+    /// Point light `k`'s homogeneous term along the ray (paper C's airlight times `C_sv`,
+    /// the hosts' share of it per ray as `mode` says).
+    fn homogeneous(
+        &self,
+        lim: &Limits,
+        mode: &mut PairMode<'_>,
+        k: usize,
+        dir: Vec3,
+        t_end: f64,
+        s: Vec3,
+    ) -> Rgb {
+        let l = &self.lights[k];
+        let eye = self.scene.camera.eye;
+        let mut exact = None;
+        let c_sv = if l.pairs.exact.is_empty() {
+            l.pairs.c_sv
+        } else {
+            let id = reuse::host_id(self.set.blobs().len(), self.lights.len(), k);
+            let ratio = mode.ratio(id, k).map(|r| r[0]).unwrap_or_else(|| {
+                let hosts = &l.pairs.exact_blobs;
+                let b0 = self.beta0.iter().sum::<f64>() / 3.0;
+                let r = host_ratio(hosts, eye, dir, t_end, s, lim.r_min, b0);
+                exact = Some((id, r));
+                r
+            });
+            l.pairs.c_sv_rest * ratio
+        };
+        let s = effective_light(eye, dir, s, lim);
+        let add = [0, 1, 2].map(|c| {
+            if l.power[c] > 0.0 && self.sigma_s0[c] > 0.0 {
+                let h = &self.analytic.h;
+                let a =
+                    airlight::point(h, eye, dir, t_end, s, 1.0, self.beta0[c], self.sigma_s0[c]);
+                l.power[c] * c_sv * a
+            } else {
+                0.0
+            }
+        });
+        if let Some((id, r)) = exact {
+            mode.record(id, [r; 3], || [1.0; 3], add);
+        }
+        add
     }
 
     /// Radiance leaving the surface hit towards the eye (module docs).
@@ -566,9 +614,17 @@ impl<'a> Prepared<'a> {
             ),
             None => String::new(),
         };
+        let reuse = if self.options.reuse > 1 && k > 0 {
+            format!(
+                ", reused from a {}-pixel grid where smooth",
+                self.options.reuse
+            )
+        } else {
+            String::new()
+        };
         format!(
             "paper B, {} gaussians, {k} of {n} light–gaussian pairs integrated along the ray \
-             (at most {} gaussians exact a pair){sky} ({})",
+             (at most {} gaussians exact a pair{reuse}){sky} ({})",
             self.gaussian_count(),
             self.options.max_exact.min(MAX_EXACT),
             self.analytic.name()
@@ -668,6 +724,7 @@ pub fn reference_options(scene: &Scene, theta: usize) -> crate::march::MarchOpti
 }
 
 /// Renders the scene's camera image with paper B; `progress` hears the rows finished.
+/// With [`PaperBOptions::reuse`] above 1 and pairs to integrate, through [`reuse::render`].
 pub fn render(prep: &Prepared<'_>, lim: &Limits, progress: &(dyn Fn(usize) + Sync)) -> Image {
     let cam = &prep.scene.camera;
     let (w, h) = (cam.width, cam.height);
@@ -675,6 +732,9 @@ pub fn render(prep: &Prepared<'_>, lim: &Limits, progress: &(dyn Fn(usize) + Syn
         gamma_min: lim.gamma_min.max(0.5 * cam.pixel_radius()),
         ..*lim
     };
+    if prep.options.reuse > 1 && prep.integrated_pairs().0 > 0 {
+        return reuse::render(prep, &lim, progress);
+    }
     let done = AtomicUsize::new(0);
     let rows: Vec<Vec<[f32; 3]>> = (0..h)
         .into_par_iter()

@@ -1,0 +1,538 @@
+//! The integrated pairs reused across the screen (CPU).
+//!
+//! An integrated pair's airlight `Lᵢ` ([`crate::paper_b`]'s module docs) costs every ray
+//! that crosses the Gaussian a dozen quadrature nodes, each with the pair's list of
+//! Gaussians exact: 15–40× the closed form's frame where every pair is flagged. What the
+//! integral adds to the closed form varies slowly across the screen, though: the ratio
+//! `ρ = Lᵢ / L̂ᵢ` of the integrated airlight to the paper's one-point factorization `L̂ᵢ`
+//! (eq. 24–25, computed at every pixel anyway) changes on the scale of the Gaussians
+//! involved — the pair's own and its list's — and of the light's distance, not of a
+//! pixel. The homogeneous term's ratio `C_sv(ray) / C_sv,rest`
+//! ([`haze_gaussians::integrated::host_ratio`]) likewise.
+//!
+//! So the renderer integrates exactly on a coarse grid of pixels, every [`DEFAULT_STRIDE`]
+//! pixels (and the last row and column), and records each crossed pair's ratio `ρ = Lᵢ/Uᵢ`
+//! per channel, where `Uᵢ` is the same chord integral without any attenuation
+//! ([`haze_gaussians::integrated::unattenuated`]: one `exp` a node, no error functions).
+//! `ρ` is then the attenuation of the pair's light averaged along the ray, weighted by
+//! `βᵢ/d²`; it varies on the scale of the Gaussians involved, while `Uᵢ`, computed at every
+//! pixel, carries the light's `1/d²` and the Gaussian's footprint. (Against paper B's
+//! closed form instead, `ρ` changed by 5–20 % from one grid pixel to the next: the
+//! closed form samples the light's `1/d²` at one point, which moves across the Gaussian.)
+//! The homogeneous term's `C_sv(ray)/C_sv,rest`
+//! ([`haze_gaussians::integrated::host_ratio`]) is reused likewise.
+//!
+//! Every other pixel takes a term's `ρ` bilinearly from the four grid pixels around it
+//! where that is safe, and integrates the term itself elsewhere:
+//!
+//! * all four corners recorded the term (a corner outside the Gaussian's support, or
+//!   with `Uᵢ = 0`, records nothing): a Gaussian's edge is integrated;
+//! * the interpolation's error, estimated from the grid's second differences beside the
+//!   block (`Δ²ρ = h²ρ''`; bilinear interpolation errs by up to `h²|ρ''|/8` along each
+//!   axis, taken twice, [`CURVATURE`], because `ρ''` at the grid pixels underestimates
+//!   it between them — for a Gaussian bump of radius `h` centred between two grid pixels
+//!   by 2.6×), or the corners' range where the grid has no neighbour, is at most
+//!   [`MAX_RATIO_ERROR`] of `ρ`, and times the term's share of the corners' radiance at
+//!   most [`PIXEL_TOLERANCE`] — a term that adds little to a pixel may be reused where
+//!   its ratio bends more;
+//! * the term's Gaussians — the pair's own and its list's — each subtend at least
+//!   [`MIN_SCALE`] blocks of radius seen from the eye, so that a shadow or a Gaussian
+//!   narrower than the grid cannot pass between the corners unseen;
+//! * no point light's image lies within a block of it: there the integral's `∫dt/d²` has
+//!   its `1/h` peak, which no corner sees (every term of that light is integrated);
+//! * the pixel's ray ends on the same surface as all four corners' (or on none): a
+//!   surface's silhouette cuts the ray's chord.
+//!
+//! The constants were chosen on six of the lamp scenes and the timing room (BENCHMARKS
+//! "Paper B: lights inside the fog"). Suns have no image; a pair of a sun reuses the same
+//! way. The GPU integrates every pixel (`crate::gpu::paper_b::options` sets a stride of 1).
+
+use super::Prepared;
+use crate::paper_c::airlight::Limits;
+use crate::render::Image;
+use crate::scene::{Light, Rgb};
+use crate::vec3::{norm, sub};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// The default stride of the grid integrated exactly, in pixels.
+pub const DEFAULT_STRIDE: usize = 4;
+
+/// The most a reused term's estimated interpolation error, times its share of the pixel,
+/// may be (relative).
+pub const PIXEL_TOLERANCE: f64 = 0.005;
+
+/// The interpolation's error per second difference along an axis (bilinear
+/// interpolation's `1/8`, doubled: module docs).
+pub const CURVATURE: f64 = 0.25;
+
+/// The largest interpolation error of a ratio, relative, whatever its share of the pixel.
+pub const MAX_RATIO_ERROR: f64 = 0.2;
+
+/// The smallest radius, in blocks seen from the eye, of a Gaussian that a reused pair
+/// involves.
+pub const MIN_SCALE: f64 = 0.75;
+
+/// Pair `(light, i)`'s key among `n` Gaussians.
+pub(crate) fn pair_id(n: usize, light: usize, i: usize) -> usize {
+    light * n + i
+}
+
+/// The homogeneous term's key of `light` of `lights`, after every pair's.
+pub(crate) fn host_id(n: usize, lights: usize, light: usize) -> usize {
+    lights * n + light
+}
+
+/// What a grid pixel recorded: its radiance, the surface its ray ends on and each
+/// integrated term's ratio to the closed form, sorted by key.
+#[derive(Debug, Default)]
+pub(crate) struct Sample {
+    radiance: [f32; 3],
+    surface: Option<usize>,
+    ratios: Vec<Entry>,
+}
+
+/// A term's record at a grid pixel.
+#[derive(Clone, Copy, Debug)]
+struct Entry {
+    id: usize,
+    /// The integrated value over its closed form, per channel.
+    ratio: [f32; 3],
+    /// What the term added to the pixel's radiance, per channel.
+    added: [f32; 3],
+}
+
+/// The grid pixels around a pixel and what it may take from them.
+pub(crate) struct Corners<'r> {
+    /// The grid's samples, `nx` a row.
+    grid: &'r [Sample],
+    nx: usize,
+    /// The block: grid pixels `(kx, ky)` to `(kx1, ky1)`.
+    k: (usize, usize),
+    k1: (usize, usize),
+    /// Bilinear weights of the block's corners, in [`Corners::corners`]' order.
+    weights: [f64; 4],
+    /// Per key: whether the pair's Gaussians are large enough to reuse ([`reusable`]).
+    reusable: &'r [bool],
+    /// Bit `l`: light `l`'s image lies near this block (its terms integrated here); lights
+    /// past 63 are always integrated.
+    near_light: u64,
+}
+
+/// How [`Prepared::radiance_with`] takes the integrated terms.
+pub(crate) enum PairMode<'r> {
+    /// Integrated at every pixel.
+    Exact,
+    /// Integrated, and each term's ratio to its closed form recorded.
+    Record(&'r mut Sample),
+    /// Interpolated from the corners where safe (`off`: the ray ends on another surface
+    /// than a corner's; everything integrated), counted.
+    Reuse {
+        corners: &'r Corners<'r>,
+        off: bool,
+        count: &'r mut ReuseCount,
+    },
+}
+
+impl PairMode<'_> {
+    /// The surface the pixel's ray ends on.
+    pub(crate) fn hit(&mut self, surface: Option<usize>) {
+        match self {
+            PairMode::Exact => {}
+            PairMode::Record(s) => s.surface = surface,
+            PairMode::Reuse { corners, off, .. } => {
+                *off = corners.corners().iter().any(|s| s.surface != surface);
+            }
+        }
+    }
+
+    /// Term `id`'s (of light `light`) ratio to its closed form, interpolated; `None`:
+    /// integrate it.
+    pub(crate) fn ratio(&mut self, id: usize, light: usize) -> Option<[f64; 3]> {
+        match self {
+            PairMode::Reuse {
+                corners,
+                off,
+                count,
+            } => {
+                count.terms += 1;
+                let r = if *off { None } else { corners.ratio(id, light) };
+                count.reused += usize::from(r.is_some());
+                r
+            }
+            _ => None,
+        }
+    }
+
+    /// Records term `id`'s integrated value `exact` against its `closed` form (when
+    /// recording; a term whose closed form is 0 in a channel records nothing).
+    pub(crate) fn record(
+        &mut self,
+        id: usize,
+        exact: Rgb,
+        closed: impl FnOnce() -> Rgb,
+        added: Rgb,
+    ) {
+        if let PairMode::Record(s) = self {
+            let f = closed();
+            let mut r = [0.0f32; 3];
+            for c in 0..3 {
+                let q = exact[c] / f[c];
+                if !(f[c] > 0.0 && q.is_finite()) {
+                    return;
+                }
+                r[c] = q as f32;
+            }
+            s.ratios.push(Entry {
+                id,
+                ratio: r,
+                added: added.map(|a| a as f32),
+            });
+        }
+    }
+}
+
+impl Corners<'_> {
+    /// The block's four grid pixels.
+    fn corners(&self) -> [&Sample; 4] {
+        let (x0, y0, x1, y1) = (self.k.0, self.k.1, self.k1.0, self.k1.1);
+        [(x0, y0), (x1, y0), (x0, y1), (x1, y1)].map(|(x, y)| &self.grid[y * self.nx + x])
+    }
+
+    fn sample(&self, x: isize, y: isize) -> Option<&Sample> {
+        let ny = self.grid.len() / self.nx;
+        if x < 0 || y < 0 || x as usize >= self.nx || y as usize >= ny {
+            return None;
+        }
+        Some(&self.grid[y as usize * self.nx + x as usize])
+    }
+
+    /// Term `id`'s ratio at grid pixel `(x, y)` and its share of the pixel, per channel.
+    fn at(&self, id: usize, x: isize, y: isize) -> Option<([f64; 3], [f64; 3])> {
+        let s = self.sample(x, y)?;
+        let k = s.ratios.binary_search_by_key(&id, |e| e.id).ok()?;
+        let e = &s.ratios[k];
+        let share = |c: usize| {
+            let r = f64::from(s.radiance[c]);
+            if r > 0.0 {
+                f64::from(e.added[c]) / r
+            } else {
+                1.0
+            }
+        };
+        Some((e.ratio.map(f64::from), [0, 1, 2].map(share)))
+    }
+
+    /// The interpolated ratio of term `id` (of light `light`), `None` where it is not safe
+    /// (module docs).
+    fn ratio(&self, id: usize, light: usize) -> Option<[f64; 3]> {
+        if light >= 64 || self.near_light & (1 << light) != 0 || !self.reusable[id] {
+            return None;
+        }
+        let (x0, y0) = (self.k.0 as isize, self.k.1 as isize);
+        let (x1, y1) = (self.k1.0 as isize, self.k1.1 as isize);
+        let corners = [
+            self.at(id, x0, y0)?,
+            self.at(id, x1, y0)?,
+            self.at(id, x0, y1)?,
+            self.at(id, x1, y1)?,
+        ];
+        let c = corners.map(|e| e.0);
+        let ratio = |x: isize, y: isize| self.at(id, x, y).map(|e| e.0);
+        // Along x, each of the block's rows: its second differences at the block's two
+        // corners (the grid pixel beyond each as the third point); along y, each column.
+        let rows = [
+            (c[0], c[1], ratio(x0 - 1, y0), ratio(x1 + 1, y0)),
+            (c[2], c[3], ratio(x0 - 1, y1), ratio(x1 + 1, y1)),
+        ];
+        let columns = [
+            (c[0], c[2], ratio(x0, y0 - 1), ratio(x0, y1 + 1)),
+            (c[1], c[3], ratio(x1, y0 - 1), ratio(x1, y1 + 1)),
+        ];
+        let mut sum = [0.0; 3];
+        for ch in 0..3 {
+            let err = axis_error(&rows, ch) + axis_error(&columns, ch);
+            let scale = c.iter().map(|r| r[ch]).fold(0.0f64, f64::max);
+            let rel = if err == 0.0 { 0.0 } else { err / scale };
+            let share = corners.iter().map(|e| e.1[ch]).fold(0.0f64, f64::max);
+            if !(rel <= MAX_RATIO_ERROR && rel * share.min(1.0) <= PIXEL_TOLERANCE) {
+                return None;
+            }
+            sum[ch] = c.iter().zip(self.weights).map(|(r, w)| w * r[ch]).sum();
+        }
+        Some(sum)
+    }
+}
+
+/// Two corners of a block along an axis and the grid pixels beyond each, if recorded.
+type Line = ([f64; 3], [f64; 3], Option<[f64; 3]>, Option<[f64; 3]>);
+
+/// The interpolation's estimated error along an axis in channel `ch`, over the block's two
+/// lines along it: [`CURVATURE`] times the largest second difference at the corners, or
+/// the corners' difference where neither has a neighbour beyond.
+fn axis_error(lines: &[Line; 2], ch: usize) -> f64 {
+    lines
+        .iter()
+        .map(|&(a, b, before, after)| {
+            let d0 = before.map(|p| (p[ch] - 2.0 * a[ch] + b[ch]).abs());
+            let d1 = after.map(|q| (a[ch] - 2.0 * b[ch] + q[ch]).abs());
+            match (d0, d1) {
+                (None, None) => (a[ch] - b[ch]).abs(),
+                (d0, d1) => CURVATURE * d0.unwrap_or(0.0).max(d1.unwrap_or(0.0)),
+            }
+        })
+        .fold(0.0f64, f64::max)
+}
+
+/// The grid's pixels along an axis of `len` pixels: every `stride`th and the last.
+pub(crate) fn grid(len: usize, stride: usize) -> Vec<usize> {
+    let mut g: Vec<usize> = (0..len).step_by(stride.max(1)).collect();
+    if len > 0 && g.last() != Some(&(len - 1)) {
+        g.push(len - 1);
+    }
+    g
+}
+
+/// The grid interval holding pixel `v`: `(k, t)` with `v = g[k] + t·(g[k+1] − g[k])`,
+/// `t ∈ [0, 1)`; `(k, 0)` at a grid pixel (the last included).
+pub(crate) fn cell(g: &[usize], v: usize) -> (usize, f64) {
+    let k = g.partition_point(|&p| p <= v) - 1;
+    if g[k] == v || k + 1 == g.len() {
+        return (k, 0.0);
+    }
+    (k, (v - g[k]) as f64 / (g[k + 1] - g[k]) as f64)
+}
+
+/// Per key ([`pair_id`], [`host_id`]): whether every Gaussian the term involves subtends
+/// at least [`MIN_SCALE`] blocks of `stride` pixels (its radius `1/a` over its distance
+/// from the eye, against a pixel's angle).
+pub(crate) fn reusable(prep: &Prepared<'_>, stride: usize) -> Vec<bool> {
+    let cam = &prep.scene.camera;
+    let blobs = prep.set.blobs();
+    let n = blobs.len();
+    let lights = prep.lights.len();
+    let least = MIN_SCALE * stride as f64 * 2.0 * cam.pixel_radius();
+    let large = |j: usize| {
+        let d = norm(sub(blobs[j].center, cam.eye));
+        let r = 1.0 / blobs[j].a;
+        d > r && r / d >= least
+    };
+    let mut out = vec![false; lights * n + lights];
+    for (l, lit) in prep.lights.iter().enumerate() {
+        for (i, e) in lit.pairs.integrated.iter().enumerate() {
+            if e.is_some() {
+                out[pair_id(n, l, i)] =
+                    large(i) && lit.pairs.pair_exact[i].iter().all(|&k| large(k));
+            }
+        }
+        out[host_id(n, lights, l)] = lit.pairs.exact.iter().all(|&k| large(k));
+    }
+    out
+}
+
+/// Each light's image in pixels (`None` for a sun or a point behind the eye).
+fn light_images(prep: &Prepared<'_>) -> Vec<Option<(f64, f64)>> {
+    prep.scene
+        .lights
+        .iter()
+        .map(|l| match l {
+            Light::Point { position, .. } => prep.scene.camera.project(*position),
+            Light::Sun { .. } => None,
+        })
+        .collect()
+}
+
+/// Bit `l` set where light `l`'s image lies within `margin` pixels of the block of pixels
+/// `x0..=x1 × y0..=y1`; bits past 63 are not kept (those lights' terms are integrated).
+fn near_lights(
+    images: &[Option<(f64, f64)>],
+    (x0, x1): (usize, usize),
+    (y0, y1): (usize, usize),
+    margin: f64,
+) -> u64 {
+    let mut bits = 0;
+    for (l, img) in images.iter().enumerate().take(64) {
+        if let Some((px, py)) = *img {
+            let inside =
+                |p: f64, a: usize, b: usize| p >= a as f64 - margin && p <= (b + 1) as f64 + margin;
+            if inside(px, x0, x1) && inside(py, y0, y1) {
+                bits |= 1 << l;
+            }
+        }
+    }
+    bits
+}
+
+/// How often the fine pass took an integrated term from the grid.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ReuseCount {
+    /// Integrated terms met by the pixels off the grid.
+    pub terms: usize,
+    /// Of those, the ones interpolated from the grid.
+    pub reused: usize,
+}
+
+/// [`crate::paper_b::render`] with the integrated terms reused (module docs), at
+/// [`crate::paper_b::PaperBOptions::reuse`]'s stride; `lim` already holds the pixel's
+/// `γ_min`. Logs how often the terms were reused.
+pub(crate) fn render(
+    prep: &Prepared<'_>,
+    lim: &Limits,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Image {
+    let (image, n) = render_counted(prep, lim, progress);
+    tracing::info!(
+        "paper B: integrated terms taken from a {}-pixel grid at {} of the {} pixel crossings \
+         off it",
+        prep.options.reuse,
+        n.reused,
+        n.terms
+    );
+    image
+}
+
+/// [`render`], and how often it reused.
+pub fn render_counted(
+    prep: &Prepared<'_>,
+    lim: &Limits,
+    progress: &(dyn Fn(usize) + Sync),
+) -> (Image, ReuseCount) {
+    let cam = &prep.scene.camera;
+    let (w, h) = (cam.width, cam.height);
+    let stride = prep.options.reuse;
+    let (gx, gy) = (grid(w, stride), grid(h, stride));
+    let nx = gx.len();
+    let samples: Vec<Sample> = (0..nx * gy.len())
+        .into_par_iter()
+        .map(|k| {
+            let mut s = Sample::default();
+            let dir = cam.pixel_ray(gx[k % nx], gy[k / nx]);
+            let r = prep.radiance_with(lim, dir, &mut PairMode::Record(&mut s));
+            s.radiance = r.map(|c| c as f32);
+            s.ratios.sort_unstable_by_key(|e| e.id);
+            s
+        })
+        .collect();
+    let reusable = reusable(prep, stride);
+    let images = light_images(prep);
+    let done = AtomicUsize::new(0);
+    let rows: Vec<(Vec<[f32; 3]>, ReuseCount)> = (0..h)
+        .into_par_iter()
+        .map(|y| {
+            let (ky, ty) = cell(&gy, y);
+            let ky1 = (ky + 1).min(gy.len() - 1);
+            let mut count = ReuseCount::default();
+            let row = (0..w)
+                .map(|x| {
+                    let (kx, tx) = cell(&gx, x);
+                    if tx == 0.0 && ty == 0.0 {
+                        return samples[ky * nx + kx].radiance;
+                    }
+                    let kx1 = (kx + 1).min(nx - 1);
+                    let corners = Corners {
+                        grid: &samples,
+                        nx,
+                        k: (kx, ky),
+                        k1: (kx1, ky1),
+                        weights: [
+                            (1.0 - tx) * (1.0 - ty),
+                            tx * (1.0 - ty),
+                            (1.0 - tx) * ty,
+                            tx * ty,
+                        ],
+                        reusable: &reusable,
+                        near_light: near_lights(
+                            &images,
+                            (gx[kx], gx[kx1]),
+                            (gy[ky], gy[ky1]),
+                            stride as f64,
+                        ),
+                    };
+                    let mut mode = PairMode::Reuse {
+                        corners: &corners,
+                        off: false,
+                        count: &mut count,
+                    };
+                    let r = prep.radiance_with(lim, cam.pixel_ray(x, y), &mut mode);
+                    r.map(|c| c as f32)
+                })
+                .collect();
+            progress(done.fetch_add(1, Ordering::Relaxed) + 1);
+            (row, count)
+        })
+        .collect();
+    let mut count = ReuseCount::default();
+    let mut pixels = Vec::with_capacity(w * h);
+    for (row, n) in rows {
+        pixels.extend(row);
+        count.terms += n.terms;
+        count.reused += n.reused;
+    }
+    let image = Image {
+        width: w,
+        height: h,
+        pixels,
+    };
+    (image, count)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_grid_takes_every_stride_and_the_last_pixel() {
+        assert_eq!(grid(10, 4), vec![0, 4, 8, 9]);
+        assert_eq!(grid(9, 4), vec![0, 4, 8]);
+        assert_eq!(grid(1, 4), vec![0]);
+        assert_eq!(grid(3, 1), vec![0, 1, 2]);
+        assert!(grid(0, 4).is_empty());
+    }
+
+    #[test]
+    fn a_pixel_falls_in_the_interval_that_holds_it() {
+        let g = grid(10, 4);
+        assert_eq!(cell(&g, 0), (0, 0.0));
+        assert_eq!(cell(&g, 2), (0, 0.5));
+        assert_eq!(cell(&g, 4), (1, 0.0));
+        assert_eq!(cell(&g, 7), (1, 0.75));
+        assert_eq!(cell(&g, 8), (2, 0.0));
+        assert_eq!(cell(&g, 9), (3, 0.0));
+        assert_eq!(cell(&[0], 0), (0, 0.0));
+    }
+
+    #[test]
+    fn the_axis_error_sees_curvature_not_slope() {
+        let line = |f: &dyn Fn(f64) -> f64, before: bool, after: bool| -> Line {
+            let v = |x: f64| [f(x); 3];
+            (
+                v(0.0),
+                v(1.0),
+                before.then(|| v(-1.0)),
+                after.then(|| v(2.0)),
+            )
+        };
+        // A ratio linear across the grid interpolates exactly: no error, however steep.
+        let steep = |x: f64| 1.0 + 0.4 * x;
+        assert!(axis_error(&[line(&steep, true, true); 2], 0) < 1e-12);
+        // A parabola `x²`: second difference 2 at both corners, CURVATURE·2 (bilinear
+        // interpolation's true error at the middle is 1/4 = 2/8).
+        let bowl = |x: f64| x * x;
+        let e = axis_error(&[line(&bowl, true, false), line(&bowl, false, true)], 1);
+        assert!((e - 2.0 * CURVATURE).abs() < 1e-12, "{e}");
+        assert!(e >= 0.25);
+        // No grid pixel beyond the block: the corners' whole difference.
+        assert!((axis_error(&[line(&steep, false, false); 2], 2) - 0.4).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_light_near_a_block_sets_its_bit() {
+        let images = [Some((5.5, 5.5)), None, Some((30.0, 2.0))];
+        assert_eq!(near_lights(&images, (4, 8), (4, 8), 4.0), 0b001);
+        assert_eq!(near_lights(&images, (12, 16), (0, 4), 4.0), 0);
+        assert_eq!(near_lights(&images, (20, 24), (0, 4), 6.0), 0b100);
+        // The image just past the margin.
+        assert_eq!(near_lights(&images, (10, 14), (4, 8), 4.4), 0);
+        assert_eq!(near_lights(&images, (10, 14), (4, 8), 4.6), 0b001);
+    }
+}
