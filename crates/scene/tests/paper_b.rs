@@ -510,3 +510,41 @@ fn pairs_reused_across_the_screen_match_every_pixel_integrating() {
         reused.pixels
     );
 }
+
+#[test]
+fn pairs_reused_on_pictures_smaller_than_the_grid_stay_exact_or_close() {
+    // The grid takes every 4th pixel and the last row and column: pictures of 1 × 1,
+    // 2 × 3 and 5 × 5 pixels are all or mostly grid pixels; every one finite, and within
+    // the reuse's tolerance of every pixel integrating (a 1 × 1 picture exactly).
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../data/scenes/lamps/held_out.json"
+    );
+    let base = file::load(std::path::Path::new(path)).unwrap();
+    for (w, h) in [(1, 1), (2, 3), (5, 5), (9, 4)] {
+        let mut s = base.clone();
+        s.camera = s.camera.clone().with_size(w, h).unwrap();
+        let at = |reuse: usize| {
+            let options = PaperBOptions {
+                reuse,
+                ..PaperBOptions::default()
+            };
+            let prep = Prepared::new(&s, analytic(), options).unwrap();
+            paper_b::render(&prep, &Limits::default(), &|_| {})
+        };
+        let (every, reused) = (at(1), at(paper_b::reuse::DEFAULT_STRIDE));
+        assert_eq!(reused.pixels.len(), w * h);
+        assert!(
+            reused
+                .pixels
+                .iter()
+                .flatten()
+                .all(|v| v.is_finite() && *v >= 0.0)
+        );
+        let e = reused.rel_rms(&every);
+        assert!(e < 5e-3, "{w} × {h}: rel RMS {e}");
+        if w * h == 1 {
+            assert_eq!(reused.pixels, every.pixels);
+        }
+    }
+}
