@@ -422,16 +422,16 @@ impl<'a> Prepared<'a> {
             for (k, l) in self.lights.iter().enumerate() {
                 if let Some(e) = l.pairs.integrated[i] {
                     let id = reuse::pair_id(n, k, i);
-                    let closed = || [unattenuated(b, eye, dir, t_end, l.source, lim.r_min); 3];
+                    let base = || [unattenuated(b, eye, dir, t_end, l.source, lim.r_min); 3];
                     let li = match mode.ratio(id, k) {
                         Some(r) => {
-                            let f = closed();
+                            let f = base();
                             [0, 1, 2].map(|c| f[c] * r[c])
                         }
                         None => {
                             let li = self.integrated_pair(lim, l, i, e, dir, t_end);
                             let add = [0, 1, 2].map(|c| noise * l.power[c] * li[c]);
-                            mode.record(id, li, closed, add);
+                            mode.record(id, li, base, add);
                             li
                         }
                     };

@@ -2,25 +2,21 @@
 //!
 //! An integrated pair's airlight `Lᵢ` ([`crate::paper_b`]'s module docs) costs every ray
 //! that crosses the Gaussian a dozen quadrature nodes, each with the pair's list of
-//! Gaussians exact: 15–40× the closed form's frame where every pair is flagged. What the
-//! integral adds to the closed form varies slowly across the screen, though: the ratio
-//! `ρ = Lᵢ / L̂ᵢ` of the integrated airlight to the paper's one-point factorization `L̂ᵢ`
-//! (eq. 24–25, computed at every pixel anyway) changes on the scale of the Gaussians
-//! involved — the pair's own and its list's — and of the light's distance, not of a
-//! pixel. The homogeneous term's ratio `C_sv(ray) / C_sv,rest`
-//! ([`haze_gaussians::integrated::host_ratio`]) likewise.
+//! Gaussians exact: 15–40× the closed form's frame where every pair is flagged. Most of
+//! that cost buys the attenuation along the light's and the eye's paths, which varies on
+//! the scale of the Gaussians involved — the pair's own and its list's — not of a pixel.
 //!
 //! So the renderer integrates exactly on a coarse grid of pixels, every [`DEFAULT_STRIDE`]
 //! pixels (and the last row and column), and records each crossed pair's ratio `ρ = Lᵢ/Uᵢ`
 //! per channel, where `Uᵢ` is the same chord integral without any attenuation
 //! ([`haze_gaussians::integrated::unattenuated`]: one `exp` a node, no error functions).
 //! `ρ` is then the attenuation of the pair's light averaged along the ray, weighted by
-//! `βᵢ/d²`; it varies on the scale of the Gaussians involved, while `Uᵢ`, computed at every
-//! pixel, carries the light's `1/d²` and the Gaussian's footprint. (Against paper B's
-//! closed form instead, `ρ` changed by 5–20 % from one grid pixel to the next: the
-//! closed form samples the light's `1/d²` at one point, which moves across the Gaussian.)
-//! The homogeneous term's `C_sv(ray)/C_sv,rest`
-//! ([`haze_gaussians::integrated::host_ratio`]) is reused likewise.
+//! `βᵢ/d²`, while `Uᵢ`, computed at every pixel, carries the light's `1/d²` and the
+//! Gaussian's footprint. (Against paper B's closed form `L̂ᵢ` instead, `ρ` changed by
+//! 5–20 % from one grid pixel to the next: the closed form samples the light's `1/d²` at
+//! one point, which moves across the Gaussian.) The homogeneous term's ratio
+//! `C_sv(ray)/C_sv,rest` ([`haze_gaussians::integrated::host_ratio`]) is recorded and
+//! reused likewise.
 //!
 //! Every other pixel takes a term's `ρ` bilinearly from the four grid pixels around it
 //! where that is safe, and integrates the term itself elsewhere:
@@ -43,8 +39,8 @@
 //! * the pixel's ray ends on the same surface as all four corners' (or on none): a
 //!   surface's silhouette cuts the ray's chord.
 //!
-//! The constants were chosen on six of the lamp scenes and the timing room (BENCHMARKS
-//! "Paper B: lights inside the fog"). Suns have no image; a pair of a sun reuses the same
+//! The constants were chosen on the lamp scenes and checked on the bundled noisy scene
+//! (BENCHMARKS "The integrated pairs reused across the screen"). Suns have no image; a pair of a sun reuses the same
 //! way. The GPU integrates every pixel (`crate::gpu::paper_b::options` sets a stride of 1).
 
 use super::Prepared;
@@ -84,7 +80,7 @@ pub(crate) fn host_id(n: usize, lights: usize, light: usize) -> usize {
 }
 
 /// What a grid pixel recorded: its radiance, the surface its ray ends on and each
-/// integrated term's ratio to the closed form, sorted by key.
+/// integrated term's ratio (module docs), sorted by key.
 #[derive(Debug, Default)]
 pub(crate) struct Sample {
     radiance: [f32; 3],
@@ -96,7 +92,8 @@ pub(crate) struct Sample {
 #[derive(Clone, Copy, Debug)]
 struct Entry {
     id: usize,
-    /// The integrated value over its closed form, per channel.
+    /// The integrated value over its unattenuated one (a pair) or the host ratio (the
+    /// homogeneous term), per channel.
     ratio: [f32; 3],
     /// What the term added to the pixel's radiance, per channel.
     added: [f32; 3],
@@ -123,7 +120,7 @@ pub(crate) struct Corners<'r> {
 pub(crate) enum PairMode<'r> {
     /// Integrated at every pixel.
     Exact,
-    /// Integrated, and each term's ratio to its closed form recorded.
+    /// Integrated, and each term's ratio recorded.
     Record(&'r mut Sample),
     /// Interpolated from the corners where safe (`off`: the ray ends on another surface
     /// than a corner's; everything integrated), counted.
@@ -146,8 +143,8 @@ impl PairMode<'_> {
         }
     }
 
-    /// Term `id`'s (of light `light`) ratio to its closed form, interpolated; `None`:
-    /// integrate it.
+    /// Term `id`'s (of light `light`) ratio (module docs), interpolated; `None`: integrate
+    /// it.
     pub(crate) fn ratio(&mut self, id: usize, light: usize) -> Option<[f64; 3]> {
         match self {
             PairMode::Reuse {
@@ -164,17 +161,12 @@ impl PairMode<'_> {
         }
     }
 
-    /// Records term `id`'s integrated value `exact` against its `closed` form (when
-    /// recording; a term whose closed form is 0 in a channel records nothing).
-    pub(crate) fn record(
-        &mut self,
-        id: usize,
-        exact: Rgb,
-        closed: impl FnOnce() -> Rgb,
-        added: Rgb,
-    ) {
+    /// Records term `id`'s integrated value `exact` over `base` (its unattenuated value;
+    /// 1 for a ratio already) and what it `added` to the pixel (when recording; a term
+    /// whose base is 0 in a channel records nothing).
+    pub(crate) fn record(&mut self, id: usize, exact: Rgb, base: impl FnOnce() -> Rgb, added: Rgb) {
         if let PairMode::Record(s) = self {
-            let f = closed();
+            let f = base();
             let mut r = [0.0f32; 3];
             for c in 0..3 {
                 let q = exact[c] / f[c];
