@@ -314,7 +314,8 @@ fn non_negative(what: &str, v: &[f64]) -> Result<(), String> {
 }
 
 /// `null`, `"sky"`, `[r, g, b]` or a lat-long `.exr` map, its path relative to `base`
-/// (read by crates/view's [`LatLong::load_exr`]).
+/// (read by crates/view's [`LatLong::load_exr`]); `[0, 0, 0]` is black, as `null` (no
+/// environment terms computed, no warning about them).
 fn environment(v: &Value, base: &Path) -> Result<Environment, String> {
     match v {
         Value::Null => Ok(Environment::Black),
@@ -337,7 +338,11 @@ fn environment(v: &Value, base: &Path) -> Result<Environment, String> {
         _ => {
             let c: Rgb = typed(v).map_err(|e| format!("environment: {e}"))?;
             non_negative("environment", &c)?;
-            Ok(Environment::Constant(c))
+            Ok(if c == [0.0; 3] {
+                Environment::Black
+            } else {
+                Environment::Constant(c)
+            })
         }
     }
 }
@@ -554,6 +559,15 @@ mod tests {
         let m = parse(r#"{"camera": {"eye": [0, 0, 0], "target": [1, 0, 0]}}"#).unwrap();
         assert_eq!((m.camera.width, m.camera.height), (320, 240));
         assert_eq!(m.environment, Environment::Black);
+        // A black constant is no environment.
+        let text =
+            r#"{"camera": {"eye": [0, 0, 0], "target": [1, 0, 0]}, "environment": [0, 0, 0]}"#;
+        assert_eq!(parse(text).unwrap().environment, Environment::Black);
+        let text = text.replace("[0, 0, 0]", "[0, 0, 0.5]");
+        assert_eq!(
+            parse(&text).unwrap().environment,
+            Environment::Constant([0.0, 0.0, 0.5])
+        );
     }
 
     fn problem(edit: (&str, &str)) -> String {
