@@ -211,6 +211,19 @@ pub fn projection(b: &Blob, v: Vec3, dir: Vec3, dr: f64) -> (f64, f64) {
     (t_r, line::gaussian(b.c, b.a, b.center, v, dir, t_r))
 }
 
+/// The distance from `x` to `s` and Gaussian `b`'s own optical depth along the segment
+/// between them (0 for a point on the light).
+pub fn own_depth_between(b: &Blob, x: Vec3, s: Vec3) -> (f64, f64) {
+    let ls = sub(s, x);
+    let d = norm(ls);
+    let t = if d > 0.0 {
+        line::gaussian(b.c, b.a, b.center, x, ls.map(|c| c / d), d)
+    } else {
+        0.0
+    };
+    (d, t)
+}
+
 /// Paper B's `αᵢ·f0·f1·Tᵢ(v,p)` for unit intensity (module docs): `depth_vp = Tᵢ(v,p)`,
 /// `(t_r, depth_vr)` from [`projection`], `rest = Eᵢ` (Gaussians and homogeneous part),
 /// `r_min` the closest the light is taken to be to `bʳ` (`f0 ∝ 1/d²` diverges there).
@@ -231,13 +244,7 @@ pub fn factored(
     let br = axpy(v, t_r, dir);
     let (f0, depth_sr) = match light {
         Source::Point(s) => {
-            let ls = sub(br, s);
-            let d = norm(ls);
-            let t = if d > 0.0 {
-                line::gaussian(b.c, b.a, b.center, s, ls.map(|c| c / d), d)
-            } else {
-                0.0
-            };
+            let (d, t) = own_depth_between(b, br, s);
             let d = d.max(r_min);
             (1.0 / (4.0 * PI * d * d), t)
         }

@@ -51,7 +51,7 @@
 //! *exact* list of at most [`MAX_EXACT`] Gaussians, whose depths the pair takes per node.
 //! The homogeneous term's own list is the hosts and [`fog_casters`].
 
-use crate::airlight::{Blob, Source};
+use crate::airlight::{Blob, Source, own_depth_between};
 use crate::line;
 use haze_core::vec3::{Vec3, axpy, dot, norm, sub};
 use std::f64::consts::PI;
@@ -132,13 +132,7 @@ pub fn integrated(
         let own_v = own.to(t);
         let (inv_d2, own_s, path) = match light {
             Source::Point(s) => {
-                let ls = sub(s, x);
-                let d = norm(ls);
-                let own = if d > 0.0 {
-                    line::gaussian(b.c, b.a, b.center, x, ls.map(|c| c / d), d)
-                } else {
-                    0.0
-                };
+                let (d, own) = own_depth_between(b, x, s);
                 let dd = d.max(r_min);
                 (1.0 / (dd * dd), own, t + d)
             }

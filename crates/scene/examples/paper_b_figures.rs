@@ -70,6 +70,20 @@ struct Cloud {
     centre: [f64; 3],
 }
 
+impl Cloud {
+    /// The timing room's cloud: `n` Gaussians of radii 0.06–0.2 and peak depth 0.05 in a
+    /// ball of radius `spread`.
+    fn timing_room(n: usize, spread: f64) -> Cloud {
+        Cloud {
+            n,
+            spread,
+            radii: (0.06, 0.2),
+            tau: 0.05,
+            centre: [0.0, 0.0, 1.2],
+        }
+    }
+}
+
 const LIGHTS: [([f64; 3], [f64; 3]); 4] = [
     ([-1.6, -0.8, 2.6], [8.0, 7.0, 6.0]),
     ([1.8, 1.0, 0.9], [2.0, 3.0, 6.0]),
@@ -460,13 +474,7 @@ fn timing(args: &[String]) {
     println!();
     println!("|---|{}", "---|".repeat(lights.len()));
     for &n in &counts {
-        let cloud = Cloud {
-            n,
-            spread,
-            radii: (0.06, 0.2),
-            tau: 0.05,
-            centre: [0.0, 0.0, 1.2],
-        };
+        let cloud = Cloud::timing_room(n, spread);
         print!("| {n} |");
         for &l in &lights {
             let s = if no_environment {
@@ -667,13 +675,7 @@ fn reuse(args: &[String]) {
         return;
     }
     for &n in &counts {
-        let cloud = Cloud {
-            n,
-            spread,
-            radii: (0.06, 0.2),
-            tau: 0.05,
-            centre: [0.0, 0.0, 1.2],
-        };
+        let cloud = Cloud::timing_room(n, spread);
         for &l in &lights {
             row(
                 &format!("room, {n} gaussians, {l} lights"),
