@@ -423,7 +423,11 @@ impl<'a> Prepared<'a> {
                 if let Some(e) = l.pairs.integrated[i] {
                     let id = reuse::pair_id(n, k, i);
                     let base = || [unattenuated(b, eye, dir, t_end, l.source, lim.r_min); 3];
-                    let li = match mode.ratio(id, k) {
+                    let scale = || {
+                        let u = base()[0];
+                        [0, 1, 2].map(|c| noise * l.power[c] * u)
+                    };
+                    let li = match mode.ratio(id, k, scale) {
                         Some(r) => {
                             let f = base();
                             [0, 1, 2].map(|c| f[c] * r[c])
@@ -510,13 +514,16 @@ impl<'a> Prepared<'a> {
             l.pairs.c_sv
         } else {
             let id = reuse::host_id(self.set.blobs().len(), self.lights.len(), k);
-            let ratio = mode.ratio(id, k).map(|r| r[0]).unwrap_or_else(|| {
-                let hosts = &l.pairs.exact_blobs;
-                let b0 = self.beta0.iter().sum::<f64>() / 3.0;
-                let r = host_ratio(hosts, eye, dir, t_end, s, lim.r_min, b0);
-                exact = Some((id, r));
-                r
-            });
+            let ratio = mode
+                .ratio(id, k, || [f64::INFINITY; 3])
+                .map(|r| r[0])
+                .unwrap_or_else(|| {
+                    let hosts = &l.pairs.exact_blobs;
+                    let b0 = self.beta0.iter().sum::<f64>() / 3.0;
+                    let r = host_ratio(hosts, eye, dir, t_end, s, lim.r_min, b0);
+                    exact = Some((id, r));
+                    r
+                });
             l.pairs.c_sv_rest * ratio
         };
         let s = effective_light(eye, dir, s, lim);

@@ -22,7 +22,10 @@
 //! where that is safe, and integrates the term itself elsewhere:
 //!
 //! * all four corners recorded the term (a corner outside the Gaussian's support, or
-//!   with `Uᵢ = 0`, records nothing): a Gaussian's edge is integrated;
+//!   with `Uᵢ = 0`, records nothing) — or, at a Gaussian's edge where some did not, the
+//!   term is faint: the pixel's `Uᵢ` times the largest present ratio is at most
+//!   [`PIXEL_TOLERANCE`] of the darkest corner's radiance, and the present corners'
+//!   mean ratio serves;
 //! * the interpolation's error, estimated from the grid's second differences beside the
 //!   block (`Δ²ρ = h²ρ''`; bilinear interpolation errs by up to `h²|ρ''|/8` along each
 //!   axis, taken twice, [`CURVATURE`], because `ρ''` at the grid pixels underestimates
@@ -145,7 +148,12 @@ impl PairMode<'_> {
 
     /// Term `id`'s (of light `light`) ratio (module docs), interpolated; `None`: integrate
     /// it.
-    pub(crate) fn ratio(&mut self, id: usize, light: usize) -> Option<[f64; 3]> {
+    pub(crate) fn ratio(
+        &mut self,
+        id: usize,
+        light: usize,
+        scale: impl FnOnce() -> Rgb,
+    ) -> Option<[f64; 3]> {
         match self {
             PairMode::Reuse {
                 corners,
@@ -153,7 +161,11 @@ impl PairMode<'_> {
                 count,
             } => {
                 count.terms += 1;
-                let r = if *off { None } else { corners.ratio(id, light) };
+                let r = if *off {
+                    None
+                } else {
+                    corners.ratio(id, light, scale)
+                };
                 count.reused += usize::from(r.is_some());
                 r
             }
@@ -217,18 +229,22 @@ impl Corners<'_> {
 
     /// The interpolated ratio of term `id` (of light `light`), `None` where it is not safe
     /// (module docs).
-    fn ratio(&self, id: usize, light: usize) -> Option<[f64; 3]> {
+    fn ratio(&self, id: usize, light: usize, scale: impl FnOnce() -> Rgb) -> Option<[f64; 3]> {
         if light >= 64 || self.near_light & (1 << light) != 0 || !self.reusable[id] {
             return None;
         }
         let (x0, y0) = (self.k.0 as isize, self.k.1 as isize);
         let (x1, y1) = (self.k1.0 as isize, self.k1.1 as isize);
-        let corners = [
-            self.at(id, x0, y0)?,
-            self.at(id, x1, y0)?,
-            self.at(id, x0, y1)?,
-            self.at(id, x1, y1)?,
+        let found = [
+            self.at(id, x0, y0),
+            self.at(id, x1, y0),
+            self.at(id, x0, y1),
+            self.at(id, x1, y1),
         ];
+        if found.iter().any(Option::is_none) {
+            return self.faint(&found, scale);
+        }
+        let corners = found.map(|e| e.unwrap_or_default());
         let c = corners.map(|e| e.0);
         let ratio = |x: isize, y: isize| self.at(id, x, y).map(|e| e.0);
         // Along x, each of the block's rows: its second differences at the block's two
@@ -274,6 +290,40 @@ fn axis_error(lines: &[Line; 2], ch: usize) -> f64 {
             }
         })
         .fold(0.0f64, f64::max)
+}
+
+impl Corners<'_> {
+    /// At a Gaussian's edge, where some corners did not record the term: the present
+    /// corners' mean ratio, if even the largest of them times the pixel's `scale` (the
+    /// term's unattenuated contribution) is at most [`PIXEL_TOLERANCE`] of the darkest
+    /// corner's radiance — then the term itself is that small.
+    fn faint(
+        &self,
+        found: &[Option<([f64; 3], [f64; 3])>; 4],
+        scale: impl FnOnce() -> Rgb,
+    ) -> Option<[f64; 3]> {
+        let present: Vec<[f64; 3]> = found.iter().flatten().map(|e| e.0).collect();
+        if present.is_empty() {
+            return None;
+        }
+        let scale = scale();
+        let dark = self.corners().map(|s| s.radiance);
+        let mut mean = [0.0; 3];
+        for c in 0..3 {
+            let top = present.iter().map(|r| r[c]).fold(0.0f64, f64::max);
+            let floor = dark
+                .iter()
+                .map(|r| f64::from(r[c]))
+                .fold(f64::INFINITY, f64::min);
+            // False for NaN: integrate.
+            let faint = scale[c] * top <= PIXEL_TOLERANCE * floor;
+            if !faint {
+                return None;
+            }
+            mean[c] = present.iter().map(|r| r[c]).sum::<f64>() / present.len() as f64;
+        }
+        Some(mean)
+    }
 }
 
 /// The grid's pixels along an axis of `len` pixels: every `stride`th and the last.
