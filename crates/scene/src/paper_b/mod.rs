@@ -80,8 +80,8 @@ pub struct PaperBOptions {
     /// (`crate::gpu::paper_b::options`).
     pub max_exact: usize,
     /// The CPU's screen-space reuse of the integrated pairs ([`reuse`]): their ratio to the
-    /// closed form integrated every `reuse` pixels and interpolated between where it
-    /// varies smoothly; 1: every pixel integrates.
+    /// unattenuated chord integral integrated every `reuse` pixels and interpolated
+    /// between where it varies smoothly; 1: every pixel integrates.
     pub reuse: usize,
 }
 
@@ -422,11 +422,12 @@ impl<'a> Prepared<'a> {
             for (k, l) in self.lights.iter().enumerate() {
                 if let Some(e) = l.pairs.integrated[i] {
                     let id = reuse::pair_id(n, k, i);
-                    let base = || [unattenuated(b, eye, dir, t_end, l.source, lim.r_min); 3];
-                    let scale = || {
-                        let u = base()[0];
-                        [0, 1, 2].map(|c| noise * l.power[c] * u)
-                    };
+                    // The unattenuated integral, once a pair and ray whoever asks first.
+                    let u = std::cell::OnceCell::new();
+                    let unatt =
+                        || *u.get_or_init(|| unattenuated(b, eye, dir, t_end, l.source, lim.r_min));
+                    let base = || [unatt(); 3];
+                    let scale = || [0, 1, 2].map(|c| noise * l.power[c] * unatt());
                     let li = match mode.ratio(id, k, scale) {
                         Some(r) => {
                             let f = base();
