@@ -20,6 +20,7 @@ pub mod bvh;
 pub mod cloud;
 pub mod erf;
 pub mod integrated;
+pub mod light_view;
 pub mod line;
 pub mod mean_tree;
 pub mod medium;

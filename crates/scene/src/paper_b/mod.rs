@@ -57,6 +57,7 @@ const LIST_DELTA: f64 = 1e-7;
 /// The most Gaussians an integrated pair (and the homogeneous term) takes exactly per node.
 pub use haze_gaussians::integrated::MAX_EXACT;
 use haze_gaussians::integrated::{bound, host_ratio, integrated, unattenuated};
+use haze_gaussians::light_view::LightView;
 use haze_gaussians::line;
 use haze_gaussians::noise::Noise;
 pub use pairs::LeftAtCentres;
@@ -110,6 +111,9 @@ pub(crate) struct Lit {
     pub(crate) center: Vec<Rgb>,
     /// The integrated path's terms: pairs, their lists, `C_sv`.
     pub(crate) pairs: PairTerms,
+    /// A point light's view of the Gaussians: the segments that end at it (shadow rays
+    /// from surfaces and centres) find their Gaussians from it.
+    pub(crate) view: Option<LightView>,
 }
 
 /// A scene prepared for paper B: the Gaussians merged, the homogeneous part summed, the
@@ -196,10 +200,23 @@ impl<'a> Prepared<'a> {
                         Light::sun_irradiance(*radiance, *angle),
                     ),
                 };
+                let view = match source {
+                    Source::Point(s) => Some(LightView::new(set.blobs(), s)),
+                    Source::Sun(_) => None,
+                };
                 // GaussianSet::center_exponents, in parallel and sharing `to_eye`.
                 let g: Vec<f64> = (0..n)
                     .into_par_iter()
-                    .map(|i| -(set.depth_to_light(i, source) + to_eye[i]))
+                    .map(|i| {
+                        let to_light = match (&view, source.path(set.blobs()[i].center)) {
+                            (Some(v), Some((d, len))) => {
+                                v.cull_depth(set.blobs(), set.blobs()[i].center, d, len, Some(i))
+                                    .0
+                            }
+                            _ => set.depth_to_light(i, source),
+                        };
+                        -(to_light + to_eye[i])
+                    })
                     .collect();
                 let center = center_factors(&set, source, eye, &g, beta0, bg > 0.0);
                 let fog = sigma_s0.iter().any(|&x| x > 0.0);
@@ -209,6 +226,7 @@ impl<'a> Prepared<'a> {
                     power,
                     center,
                     pairs,
+                    view,
                 }
             })
             .collect();
@@ -563,7 +581,12 @@ impl<'a> Prepared<'a> {
                     let d = norm(v);
                     let u = scale(v, 1.0 / d);
                     let lit = dot(n, u) > 0.0 && scene.visible(p_off, s);
-                    let (tg, sg) = self.set.cull_depth(p, u, d, None);
+                    let (tg, sg) = match &l.view {
+                        Some(view) if s == position => {
+                            view.cull_depth(self.set.blobs(), p, u, d, None)
+                        }
+                        _ => self.set.cull_depth(p, u, d, None),
+                    };
                     for (c, o) in out.iter_mut().enumerate() {
                         if l.power[c] <= 0.0 {
                             continue;
