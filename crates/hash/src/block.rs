@@ -11,18 +11,30 @@
 //! decoded group is the one encoded, table for table.
 //!
 //! ```text
-//! u32 layout version (5), bits, frames (1..=27), brick side
+//! u32 layout version (6), bits, frames (1..=27), brick side
 //! u32 dims[3], m̄, data words, bricks, zstd bytes, range bytes
+//! u32 streams S (1..=4), then per stream: its bricks' x end, its range bytes
 //! f32 steps[frames]
 //! `zstd bytes` (0 when no frame is lossless): a zstd frame of the lossless frames'
 //!   bricks' `f32` values, in list order
-//! `range bytes`, range-coded:
+//! `range bytes`: S range-coded streams, one after the other (their lengths sum to it)
+//!   stream 0 starts with
 //!   key deltas[bricks]                each brick's key (linear index in the hash domain
 //!                                     + 1) minus the previous brick's (the first: minus
 //!                                     0), zigzag, as adaptive Elias-gamma codes
-//!   values                            every lossy brick's b³ quantized values, in list
-//!                                     order (context_coder)
+//!   stream s: values                  the b³ quantized values of every lossy brick whose
+//!                                     x position in its frame is below stream s's x end
+//!                                     and not below stream s − 1's, in list order
+//!                                     (context_coder, with models of its own)
 //! ```
+//!
+//! The streams cut every frame into slabs of brick columns along `x`, the same for every
+//! frame of the group (so a voxel's value in the frame before lies in its own stream).
+//! Each stream's coder sees only its own bricks: a neighbour across a cut counts as
+//! uncoded (0), and each stream learns its models alone. So the streams decode apart, on
+//! as many cores as there are streams. A group is split only where its values are many
+//! ([`STREAM_NONZERO`] non-zero values a stream), at cuts that share the non-zero values
+//! out evenly. Layout 5 is layout 6 without the streams' table, one stream.
 //!
 //! Bricks are listed in the order of their values in `data` (frame by frame, bricks
 //! ascending `z, y, x`), so a brick's payload (first word, width) is the running sum of
@@ -41,14 +53,29 @@ use crate::tile::{
     BRICK_SIDES, GROUP, ResidualGroup, bricks_per_frame, payload, tile_origin, unpayload,
 };
 use haze_core::adaptive::{BitReader, BitWriter, Gamma, LEAST_BITS};
+use rayon::prelude::*;
 
-const VERSION: u32 = 5;
-/// The header's fixed words; the frames' steps follow.
+const VERSION: u32 = 6;
+/// The layout before the values were split into streams: still read, as one stream.
+const ONE_STREAM: u32 = 5;
+/// The header's fixed words; the streams' table (layout 6) and the frames' steps follow.
 const FIXED: usize = 4 * 12;
+/// Most value streams a block splits into.
+pub const MAX_STREAMS: usize = 4;
+/// A group's non-zero values a stream holds at least before the group splits: about
+/// 0.2 MB of coded values, a tenth of a second's decode on one core, so groups that
+/// decode fast enough on one core stay one stream and pay no bytes for the split.
+const STREAM_NONZERO: usize = 1 << 18;
 
-/// The header's bytes for a block of `frames` frames.
-fn header_len(frames: usize) -> usize {
-    FIXED + 4 * frames
+/// The header's bytes for a block of `frames` frames and `streams` value streams in
+/// layout `version`.
+fn header_len(version: u32, frames: usize, streams: usize) -> usize {
+    let table = if version == ONE_STREAM {
+        0
+    } else {
+        4 + 8 * streams
+    };
+    FIXED + table + 4 * frames
 }
 
 /// Where brick `key` lies: its frame slot and its brick position in that frame.
@@ -66,6 +93,11 @@ fn place(key: u32, domain: [u32; 3], dims: [u32; 3], brick: u32) -> (usize, [u32
 
 /// Encodes a hash volume (built by [`ResidualGroup::build`]).
 pub fn encode(g: &ResidualGroup) -> Result<Vec<u8>, String> {
+    encode_streams(g, STREAM_NONZERO)
+}
+
+/// [`encode`], a stream for every `stream_nonzero` non-zero values.
+fn encode_streams(g: &ResidualGroup, stream_nonzero: usize) -> Result<Vec<u8>, String> {
     let h = &g.hash;
     // The bricks in the order of their values.
     let mut bricks: Vec<(u32, u32)> = h
@@ -77,13 +109,13 @@ pub fn encode(g: &ResidualGroup) -> Result<Vec<u8>, String> {
         .collect();
     bricks.sort_unstable();
     let per = (g.brick * g.brick * g.brick) as usize;
-    let mut io = BitWriter::new();
+    let mut keys = BitWriter::new();
     let mut deltas = Gamma::default();
     let mut previous = 0i64;
     for &(_, k) in &bricks {
         let delta = i64::from(k) - previous;
         previous = i64::from(k);
-        deltas.code(&mut io, ((delta << 1) ^ (delta >> 63)) as u64)?;
+        deltas.code(&mut keys, ((delta << 1) ^ (delta >> 63)) as u64)?;
     }
     let mut lossless = Vec::new();
     let mut words = 0u32;
@@ -109,19 +141,29 @@ pub fn encode(g: &ResidualGroup) -> Result<Vec<u8>, String> {
         }
         words += n as u32;
     }
-    let list: Vec<(usize, [u32; 3], &[i32])> = coded
-        .iter()
-        .map(|(j, at, v)| (*j, *at, v.as_slice()))
-        .collect();
     let nb = bricks_per_frame(g.dims, g.brick);
-    context_coder::encode(&mut io, nb, g.brick, largest_value(g.bits), &list)?;
-    let ranged = io.finish()?;
+    let cuts = stream_cuts(&coded, nb[0], stream_nonzero);
+    let mut streams: Vec<(u32, Vec<u8>)> = Vec::with_capacity(cuts.len());
+    let mut io = Some(keys);
+    for (s, &end) in cuts.iter().enumerate() {
+        let start = if s == 0 { 0 } else { cuts[s - 1] };
+        let list: Vec<(usize, [u32; 3], &[i32])> = coded
+            .iter()
+            .filter(|(_, at, _)| (start..end).contains(&at[0]))
+            .map(|(j, at, v)| (*j, *at, v.as_slice()))
+            .collect();
+        let mut w = io.take().unwrap_or_default();
+        context_coder::encode(&mut w, nb, g.brick, largest_value(g.bits), &list)?;
+        streams.push((end, w.finish()?));
+    }
+    let ranged: usize = streams.iter().map(|(_, b)| b.len()).sum();
     let zipped = if lossless.is_empty() {
         Vec::new()
     } else {
         haze_core::coded::deflate(&lossless)
     };
-    let mut out = Vec::with_capacity(header_len(g.steps.len()) + zipped.len() + ranged.len());
+    let header = header_len(VERSION, g.steps.len(), streams.len());
+    let mut out = Vec::with_capacity(header + zipped.len() + ranged);
     let mut u = |v: u32| out.extend_from_slice(&v.to_le_bytes());
     for v in [VERSION, u32::from(g.bits), g.steps.len() as u32, g.brick] {
         u(v);
@@ -134,16 +176,47 @@ pub fn encode(g: &ResidualGroup) -> Result<Vec<u8>, String> {
         words,
         bricks.len() as u32,
         zipped.len() as u32,
-        ranged.len() as u32,
+        ranged as u32,
+        streams.len() as u32,
     ] {
         u(v);
+    }
+    for (end, bytes) in &streams {
+        u(*end);
+        u(bytes.len() as u32);
     }
     for s in &g.steps {
         u(s.to_bits());
     }
     out.extend_from_slice(&zipped);
-    out.extend_from_slice(&ranged);
+    for (_, bytes) in &streams {
+        out.extend_from_slice(bytes);
+    }
     Ok(out)
+}
+
+/// The streams' x ends for the lossy bricks `coded` of frames `nbx` brick columns wide:
+/// one stream for every `per_stream` non-zero values (at most [`MAX_STREAMS`]), cut
+/// between columns where the running count of non-zero values passes each stream's even
+/// share (fewer streams where one column holds several shares).
+fn stream_cuts(coded: &[(usize, [u32; 3], Vec<i32>)], nbx: u32, per_stream: usize) -> Vec<u32> {
+    let mut columns = vec![0usize; nbx as usize];
+    for (_, at, values) in coded {
+        columns[at[0] as usize] += values.iter().filter(|&&v| v != 0).count();
+    }
+    let total: usize = columns.iter().sum();
+    let streams = (total / per_stream.max(1)).clamp(1, MAX_STREAMS);
+    let mut cuts = Vec::with_capacity(streams);
+    let mut sum = 0;
+    for (c, n) in columns.iter().enumerate() {
+        sum += n;
+        if cuts.len() + 1 < streams && sum * streams >= (cuts.len() + 1) * total {
+            cuts.push(c as u32 + 1);
+        }
+    }
+    cuts.push(nbx);
+    cuts.dedup();
+    cuts
 }
 
 /// Decodes a residual-hash block into the group [`encode`] was given, checking every size
@@ -164,7 +237,7 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
         ));
     }
     let (version, bits, frames, brick) = (u(0), u(4), u(8) as usize, u(12));
-    if version != VERSION {
+    if version != VERSION && version != ONE_STREAM {
         return Err(format!("residual block layout {version} is unknown"));
     }
     let bits = u8::try_from(bits)
@@ -177,7 +250,17 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
     if !BRICK_SIDES.contains(&brick) {
         return Err(format!("residual block: brick side {brick}"));
     }
-    let header = header_len(frames);
+    let streams = if version == ONE_STREAM {
+        1
+    } else if bytes.len() < FIXED + 4 {
+        return Err("residual block has no streams' table".to_string());
+    } else {
+        u(FIXED) as usize
+    };
+    if !(1..=MAX_STREAMS).contains(&streams) {
+        return Err(format!("residual block holds {streams} value streams"));
+    }
+    let header = header_len(version, frames, streams);
     if bytes.len() < header {
         return Err(format!(
             "residual block of {} bytes has no room for its {frames} steps",
@@ -200,7 +283,7 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
         ));
     }
     let steps: Vec<f32> = (0..frames)
-        .map(|j| f32::from_bits(u(FIXED + 4 * j)))
+        .map(|j| f32::from_bits(u(header - 4 * frames + 4 * j)))
         .collect();
     if steps.iter().any(|s| !(s.is_finite() && *s >= 0.0)) {
         return Err("residual block has an invalid quantization step".to_string());
@@ -232,14 +315,39 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
             .map_err(|e| format!("residual block: {e}"))?
     };
     let wrap = |e: String| format!("residual block: {e}");
-    let mut io = BitReader::new(&bytes[header + zipped..]).map_err(wrap)?;
+    let nb = bricks_per_frame(dims, brick);
+    let table: Vec<(u32, usize)> = if version == ONE_STREAM {
+        vec![(nb[0], ranged)]
+    } else {
+        (0..streams)
+            .map(|s| (u(FIXED + 4 + 8 * s), u(FIXED + 8 + 8 * s) as usize))
+            .collect()
+    };
+    let ends: Vec<u32> = table.iter().map(|t| t.0).collect();
+    if ends.windows(2).any(|w| w[0] >= w[1])
+        || ends[0] == 0
+        || ends.last() != Some(&nb[0])
+        || table.iter().map(|t| t.1).sum::<usize>() != ranged
+    {
+        return Err(format!(
+            "residual block's streams table is invalid ({table:?} for {} brick columns, {ranged} bytes)",
+            nb[0]
+        ));
+    }
+    let mut readers = Vec::with_capacity(streams);
+    let mut at = header + zipped;
+    for &(_, len) in &table {
+        readers.push(BitReader::new(&bytes[at..at + len]).map_err(wrap)?);
+        at += len;
+    }
+    let io = &mut readers[0];
     let domain = bricks_per_frame(dims, brick).map(|d| 3 * d);
     let cells = u64::from(domain[0]) * u64::from(domain[1]) * u64::from(domain[2]);
     let mut deltas = Gamma::default();
     let mut key = 0i64;
     let mut keys = Vec::with_capacity(count);
     for _ in 0..count {
-        let z = deltas.code(&mut io, 0).map_err(wrap)?;
+        let z = deltas.code(io, 0).map_err(wrap)?;
         key = key.saturating_add(((z >> 1) as i64) ^ -((z & 1) as i64));
         if key < 1 || key as u64 > cells {
             return Err(format!(
@@ -272,11 +380,25 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
             count - lossy
         ));
     }
-    let nb = bricks_per_frame(dims, brick);
-    let mut decoder = context_coder::Decoder::new(nb, brick, largest_value(bits));
-    let mut data = Vec::new();
+    let limit = largest_value(bits);
+    let lists: Vec<Vec<(usize, [u32; 3])>> = (0..streams)
+        .map(|s| {
+            let start = if s == 0 { 0 } else { ends[s - 1] };
+            keys.iter()
+                .filter(|(_, j, at)| steps[*j] != 0.0 && (start..ends[s]).contains(&at[0]))
+                .map(|&(_, j, at)| (j, at))
+                .collect()
+        })
+        .collect();
+    let packed: Vec<Packed> = readers
+        .into_par_iter()
+        .zip(lists.par_iter())
+        .map(|(mut io, list)| Packed::decode(&mut io, nb, brick, limit, list, words))
+        .collect::<Result<_, _>>()?;
+    let mut data = Vec::with_capacity(words);
     let mut cells = Vec::with_capacity(count);
     let mut next_lossless = lossless.chunks_exact(4);
+    let mut next = vec![0usize; streams];
     for &(k, j, at) in &keys {
         let first = data.len();
         let width = if steps[j] == 0.0 {
@@ -288,18 +410,18 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
             }
             Width::F32
         } else {
-            let values = decoder
-                .brick(&mut io, j, at)
-                .map_err(|e| format!("residual block's values: {e}"))?;
-            let width = Width::narrowest(values);
-            pack::pack_into(values, width, &mut data);
+            let s = ends.iter().position(|&e| at[0] < e).unwrap_or(0);
+            let (from, width) = packed[s].bricks[next[s]];
+            next[s] += 1;
+            let n = width.words(per);
+            if data.len() + n > words {
+                return Err(format!(
+                    "residual block's bricks take more than its {words} data words"
+                ));
+            }
+            data.extend_from_slice(&packed[s].data[from..from + n]);
             width
         };
-        if data.len() > words {
-            return Err(format!(
-                "residual block's bricks take more than its {words} data words"
-            ));
-        }
         let i = k - 1;
         let at = [
             i % domain[0],
@@ -324,6 +446,46 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
         hash,
         data,
     })
+}
+
+/// One stream's bricks decoded and packed, in the stream's list order: each brick's
+/// first word in `data` and its width.
+struct Packed {
+    data: Vec<u32>,
+    bricks: Vec<(usize, Width)>,
+}
+
+impl Packed {
+    /// Decodes the lossy bricks `list` (frame slot, brick position) of one stream from
+    /// `io`, refusing more than `words` data words in all.
+    fn decode(
+        io: &mut BitReader,
+        nb: [u32; 3],
+        brick: u32,
+        limit: u32,
+        list: &[(usize, [u32; 3])],
+        words: usize,
+    ) -> Result<Packed, String> {
+        let mut decoder = context_coder::Decoder::new(nb, brick, limit);
+        let mut out = Packed {
+            data: Vec::new(),
+            bricks: Vec::with_capacity(list.len()),
+        };
+        for &(j, at) in list {
+            let values = decoder
+                .brick(io, j, at)
+                .map_err(|e| format!("residual block's values: {e}"))?;
+            let width = Width::narrowest(values);
+            out.bricks.push((out.data.len(), width));
+            pack::pack_into(values, width, &mut out.data);
+            if out.data.len() > words {
+                return Err(format!(
+                    "residual block's bricks take more than its {words} data words"
+                ));
+            }
+        }
+        Ok(out)
+    }
 }
 
 /// The frame slot whose tile holds brick `i` (linear index in the hash domain).
@@ -370,7 +532,12 @@ mod tests {
 
     /// The header's length of a coded block.
     fn header_of(bytes: &[u8]) -> usize {
-        header_len(u32::from_le_bytes(bytes[8..12].try_into().unwrap()) as usize)
+        let streams = if u32_at(bytes, 0) == ONE_STREAM {
+            1
+        } else {
+            u32_at(bytes, FIXED) as usize
+        };
+        header_len(u32_at(bytes, 0), u32_at(bytes, 8) as usize, streams)
     }
 
     /// The zstd part of a block (the lossless values), decompressed.
@@ -501,6 +668,59 @@ mod tests {
         assert_eq!(decode(&bytes).unwrap(), g);
         let tables = g.hash.bytes() + 4 * g.data.len();
         assert!(bytes.len() < tables, "{} ≥ {tables}", bytes.len());
+    }
+
+    /// A group split into value streams decodes to the same tables as one stream, its
+    /// streams cut where the non-zero values share out, and a damaged streams' table is
+    /// refused; a layout 5 block (one stream, no table) still decodes.
+    #[test]
+    fn streams_decode_apart_to_the_same_group() {
+        let dims = [40, 12, 12];
+        let n = (dims[0] * dims[1] * dims[2]) as usize;
+        let frames: Vec<_> = (0..3)
+            .map(|f| {
+                let r: Vec<f32> = (0..n)
+                    .map(|i| ((i * 31 + f * 7) % 13) as f32 * 0.002 - 0.01)
+                    .collect();
+                quantize(
+                    &r,
+                    1.0,
+                    QuantOptions {
+                        error: 0.004,
+                        bits: 8,
+                    },
+                )
+                .unwrap()
+            })
+            .collect();
+        let g = ResidualGroup::build(dims, 4, &frames, BuildOptions::default()).unwrap();
+        let one = encode_streams(&g, usize::MAX).unwrap();
+        assert_eq!(u32_at(&one, FIXED), 1);
+        let nonzero = g.data.len(); // more than the non-zero values: 4 streams at a quarter
+        let split = encode_streams(&g, nonzero / 8).unwrap();
+        assert_eq!(u32_at(&split, FIXED), 4);
+        let ends: Vec<u32> = (0..4).map(|s| u32_at(&split, FIXED + 4 + 8 * s)).collect();
+        assert_eq!(ends[3], 10, "{ends:?}");
+        assert!(ends.windows(2).all(|w| w[0] < w[1]), "{ends:?}");
+        assert_eq!(decode(&one).unwrap(), g);
+        assert_eq!(decode(&split).unwrap(), g);
+        // Streams learn apart and lose the neighbours across the cuts: more bytes (on a
+        // group this small, 22 % more; BENCHMARKS.md has real groups).
+        assert!(split.len() > one.len(), "{} vs {}", split.len(), one.len());
+        for (at, value) in [(FIXED, 0u32), (FIXED, 5), (FIXED + 4, 0), (FIXED + 4, 11)] {
+            let mut bad = split.clone();
+            bad[at..at + 4].copy_from_slice(&value.to_le_bytes());
+            assert!(decode(&bad).is_err(), "word {at} = {value}");
+        }
+        let mut bad = split.clone();
+        let len = u32_at(&split, FIXED + 8);
+        bad[FIXED + 8..FIXED + 12].copy_from_slice(&(len + 4).to_le_bytes());
+        assert!(decode(&bad).unwrap_err().contains("streams table"));
+        // Layout 5: the one-stream block without its table.
+        let mut old = one[..FIXED].to_vec();
+        old[0..4].copy_from_slice(&ONE_STREAM.to_le_bytes());
+        old.extend_from_slice(&one[FIXED + 12..]);
+        assert_eq!(decode(&old).unwrap(), g);
     }
 
     #[test]

@@ -72,6 +72,8 @@ pub struct FrameDecoder {
     cached: Option<(usize, Arc<ResidualGroup>)>,
     /// Whether to decode the hash volume after the cached one ahead (playback).
     prefetch: bool,
+    /// Whether the volume after the last is the first again (looping playback).
+    wrap: bool,
     next: Option<Pending>,
 }
 
@@ -82,15 +84,17 @@ impl FrameDecoder {
             asset,
             cached: None,
             prefetch: false,
+            wrap: false,
             next: None,
         }
     }
 
     /// A decoder for playback in order: entering a hash volume starts decoding the next
-    /// one (the first again after the last) on a thread of its own.
-    pub fn prefetching(asset: Arc<Asset>) -> FrameDecoder {
+    /// one on a thread of its own (after the last, the first again when `looping`).
+    pub fn prefetching(asset: Arc<Asset>, looping: bool) -> FrameDecoder {
         FrameDecoder {
             prefetch: true,
+            wrap: looping,
             ..FrameDecoder::new(asset)
         }
     }
@@ -187,13 +191,17 @@ impl FrameDecoder {
     }
 
     /// The hash volume holding the frame after volume `i`'s last (frame 0 after the
-    /// asset's last), if it is another one.
+    /// asset's last when looping), if it is another one.
     fn volume_after(&self, i: usize) -> Option<usize> {
         let a = &*self.asset;
         let Scope::Frames { first, count } = a.entries()[i].scope else {
             return None;
         };
-        let next = (first as usize + count as usize) % a.frame_count().max(1);
+        let after = first as usize + count as usize;
+        if after >= a.frame_count() && !self.wrap {
+            return None;
+        }
+        let next = after % a.frame_count().max(1);
         a.entries()
             .iter()
             .position(|e| {
@@ -310,7 +318,7 @@ impl FrameStream {
         let c = control.clone();
         let reader = std::thread::Builder::new()
             .name("haze-stream".into())
-            .spawn(move || read_frames(FrameDecoder::prefetching(asset), tx, &c, looping))
+            .spawn(move || read_frames(FrameDecoder::prefetching(asset, looping), tx, &c, looping))
             .map_err(|e| AssetError::Invalid {
                 path: path.to_path_buf(),
                 what: format!("cannot start the reader thread: {e}"),

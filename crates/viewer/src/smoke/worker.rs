@@ -426,7 +426,7 @@ mod tests {
         let path = write_asset(dir.path(), "a.haze", 30);
         let asset = Arc::new(haze_asset::Asset::open(&path).unwrap());
         let mut plain = FrameDecoder::new(asset.clone());
-        let mut ahead = FrameDecoder::prefetching(asset);
+        let mut ahead = FrameDecoder::prefetching(asset, true);
         for k in (0..30).chain([0, 29]) {
             let (a, b) = (ahead.decode(k).unwrap(), plain.decode(k).unwrap());
             let (ra, rb) = (a.residual.unwrap(), b.residual.unwrap());
