@@ -6,7 +6,7 @@
 //! cargo run --release -p haze-scene --example paper_b_figures -- timing [--size 320x240]
 //!     [--counts 10,100,1000,5000] [--lights 1,2,4] [--repeat 3] [--gpu [--prep]]
 //!     [--no-environment] [--scene FILE] [--spread R]
-//! cargo run --release -p haze-scene --example paper_b_figures -- environment [--size 48x36]
+//! cargo run --release -p haze-scene --example paper_b_figures -- environment [--size 48x36] [--held-out]
 //!     [--theta 8]
 //! cargo run --release -p haze-scene --example paper_b_figures -- lamps [--check] FILE...
 //! cargo run --release -p haze-scene --example paper_b_figures -- reuse [--counts 1000,5000]
@@ -26,7 +26,9 @@
 //! Gaussians). The march has no light scattered onto
 //! surfaces, so paper B's is off in the comparison; its share of paper B's image is
 //! printed apart. **Environment**: the built-in sky alone over a floor (§4.2, the average
-//! optical depth) against the march integrating it over directions. **Timing**: the median of `--repeat` frames, per-frame preparation
+//! optical depth) against the march integrating it over directions, with the surfaces
+//! under the others' exact shadow on the sky where its bound says so and under
+//! `e^{−T̄(p)}` alone; `--held-out` takes three denser clouds never tuned on. **Timing**: the median of `--repeat` frames, per-frame preparation
 //! (the exponents `Eᵢ` per light, the environment's `Ēᵢ` and `T̄ⱼ(bᵢ)`) included, rayon
 //! on every core; with `--gpu` the frame on the GPU (`haze_scene::gpu::paper_b`: the same
 //! preparation on the CPU, upload, pass, read-back), the tables uploaded beforehand;
@@ -173,8 +175,38 @@ fn paper_b(s: &Scene, analytic: &Analytic, surface_scattering: bool) -> Image {
         surface_scattering,
         ..Default::default()
     };
+    paper_b_with(s, analytic, options)
+}
+
+fn paper_b_with(s: &Scene, analytic: &Analytic, options: PaperBOptions) -> Image {
     let prep = Prepared::new(s, analytic, options).unwrap_or_else(|e| fail(e));
     paper_b::render(&prep, &Limits::default(), &|_| {})
+}
+
+/// Clouds made after the environment terms' choices, never tuned on (`environment
+/// --held-out`): denser than [`cases`]' around each Gaussian.
+fn held_out_skies() -> Vec<(&'static str, Cloud)> {
+    let cloud = |n, spread, radii, tau| Cloud {
+        n,
+        spread,
+        radii,
+        tau,
+        centre: [0.0, 0.0, 1.2],
+    };
+    vec![
+        (
+            "2000 gaussians, peak depth 0.05, ball of 1.4",
+            cloud(2000, 1.4, (0.06, 0.2), 0.05),
+        ),
+        (
+            "300 gaussians, peak depth 0.2, ball of 1.2",
+            cloud(300, 1.2, (0.1, 0.25), 0.2),
+        ),
+        (
+            "30 gaussians, peak depth 1, ball of 1.0",
+            cloud(30, 1.0, (0.2, 0.4), 1.0),
+        ),
+    ]
 }
 
 /// `--reference`'s march: the environment integrated over directions at every sample and
@@ -320,9 +352,14 @@ fn environment(args: &[String]) {
         sz.1
     );
     println!(
-        "| scene | image | airlight only | surfaces only (albedo 0) | surface scattering's share | paper B s | reference s |"
+        "| scene | image | image, surfaces under e^(-T̄) | airlight only | surfaces only (albedo 0) | surfaces only, under e^(-T̄) | surface scattering's share | paper B s | reference s |"
     );
-    println!("|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|");
+    let mean_sky = PaperBOptions {
+        surface_scattering: false,
+        surface_sky: false,
+        ..Default::default()
+    };
     let sky = |cloud: &Cloud, albedo: f64, floor: bool| {
         let mut s = scene(cloud, 0, sz, false, albedo);
         s.environment = haze_scene::Environment::Sky;
@@ -337,7 +374,12 @@ fn environment(args: &[String]) {
             &|_| {},
         )
     };
-    for (name, cloud) in cases().into_iter().take(4) {
+    let clouds = if args.iter().any(|a| a == "--held-out") {
+        held_out_skies()
+    } else {
+        cases().into_iter().take(4).collect()
+    };
+    for (name, cloud) in clouds {
         let s = sky(&cloud, 0.9, true);
         let analytic = Analytic::new(&s);
         let t = Instant::now();
@@ -353,7 +395,10 @@ fn environment(args: &[String]) {
         let air_b = paper_b(&air, &analytic, false);
         let air_r = reference(&air);
         let surf = sky(&cloud, 0.0, true);
-        let surf_e = paper_b(&surf, &analytic, false).rel_rms(&reference(&surf));
+        let surf_r = reference(&surf);
+        let surf_e = paper_b(&surf, &analytic, false).rel_rms(&surf_r);
+        let surf_mean = paper_b_with(&surf, &analytic, mean_sky).rel_rms(&surf_r);
+        let image_mean = paper_b_with(&s, &analytic, mean_sky).rel_rms(&r);
         let air_only = |img: &Image, no_albedo: &Image| Image {
             width: img.width,
             height: img.height,
@@ -369,10 +414,12 @@ fn environment(args: &[String]) {
         let dark_r = reference(&dark);
         let air_e = air_only(&air_b, &dark_b).rel_rms(&air_only(&air_r, &dark_r));
         println!(
-            "| {name} | {:.2} % | {:.2} % | {:.2} % | {:.1} % | {tb:.2} | {tr:.1} |",
+            "| {name} | {:.2} % | {:.2} % | {:.2} % | {:.2} % | {:.2} % | {:.1} % | {tb:.2} | {tr:.1} |",
             100.0 * b.rel_rms(&r),
+            100.0 * image_mean,
             100.0 * air_e,
             100.0 * surf_e,
+            100.0 * surf_mean,
             100.0 * share
         );
     }

@@ -262,6 +262,7 @@ pub fn options(ctx: &GpuContext) -> PaperBOptions {
     PaperBOptions {
         max_exact,
         reuse: 1,
+        surface_sky: false,
         ..PaperBOptions::default()
     }
 }

@@ -84,6 +84,12 @@ pub struct PaperBOptions {
     /// unattenuated chord integral integrated every `reuse` pixels and interpolated
     /// between where it varies smoothly; 1: every pixel integrates.
     pub reuse: usize,
+    /// The others' shadow on the sky at the surfaces taken over exact directions where
+    /// `e^{−T̄(p)}`'s bound exceeds [`PaperBOptions::target`]
+    /// ([`gaussian_env::GaussianEnv::surface_sky`]): on the grid of `reuse` pixels and
+    /// interpolated between on the same surface, or at every pixel when `reuse` is 1.
+    /// The GPU keeps `e^{−T̄(p)}` (`crate::gpu::paper_b::options` turns it off).
+    pub surface_sky: bool,
 }
 
 /// The default [`PaperBOptions::target`]: 2 %, inside the 3 % goal with room for
@@ -97,6 +103,7 @@ impl Default for PaperBOptions {
             target: DEFAULT_TARGET,
             max_exact: MAX_EXACT,
             reuse: reuse::DEFAULT_STRIDE,
+            surface_sky: true,
         }
     }
 }
@@ -498,7 +505,7 @@ impl<'a> Prepared<'a> {
             }
         }
         let behind = match hit {
-            Some(h) => self.surface(lim, dir, h),
+            Some(h) => self.surface(lim, dir, h, mode),
             None if t_end.is_infinite() && self.beta0.iter().all(|&b| b > 0.0) => [0.0; 3],
             None => background(scene, dir),
         };
@@ -563,14 +570,27 @@ impl<'a> Prepared<'a> {
     }
 
     /// Radiance leaving the surface hit towards the eye (module docs).
-    fn surface(&self, lim: &Limits, dir: Vec3, hit: crate::scene::Hit) -> Rgb {
+    fn surface(
+        &self,
+        lim: &Limits,
+        dir: Vec3,
+        hit: crate::scene::Hit,
+        mode: &mut PairMode<'_>,
+    ) -> Rgb {
         let scene = self.scene;
         let m = &scene.surfaces[hit.surface].material;
         let (p, n) = (hit.point, hit.normal);
         let r = reflect(scale(dir, -1.0), n);
         let p_off = axpy(p, 1e-9 * (1.0 + norm(p)), n);
         let mut out = match &self.env {
-            Some(env) => env.surface(p, n, r, m, self.options.surface_scattering),
+            Some(env) => {
+                let sky = if self.options.surface_sky {
+                    mode.sky(|| env.surface_sky(scene, &self.set, p, n, self.options.target))
+                } else {
+                    [1.0; 3]
+                };
+                env.surface(p, n, r, m, self.options.surface_scattering, sky)
+            }
             None => [0.0; 3],
         };
         for l in &self.lights {
@@ -763,7 +783,8 @@ pub fn render(prep: &Prepared<'_>, lim: &Limits, progress: &(dyn Fn(usize) + Syn
         gamma_min: lim.gamma_min.max(0.5 * cam.pixel_radius()),
         ..*lim
     };
-    if prep.options.reuse > 1 && prep.integrated_pairs().0 > 0 {
+    let sky = prep.options.surface_sky && prep.env.is_some() && !prep.scene.surfaces.is_empty();
+    if prep.options.reuse > 1 && (prep.integrated_pairs().0 > 0 || sky) {
         return reuse::render(prep, &lim, progress);
     }
     let done = AtomicUsize::new(0);
