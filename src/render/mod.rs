@@ -42,6 +42,7 @@ pub fn run(r: RenderCli) -> Result<()> {
             march: r.march,
             exact_per_pair: r.exact_per_pair.map(usize::from),
             pair_reuse: usize::from(r.pair_reuse),
+            sky_shadow: r.sky_shadow == args::SkyShadowArg::Exact,
         }),
         None => {
             let (options, goal, tradeoff) = r.into_args();

@@ -146,6 +146,7 @@ pub fn render_scene<'py>(
                 march: false,
                 exact_per_pair: None,
                 pair_reuse: haze_render::scene::DEFAULT_PAIR_REUSE,
+                sky_shadow: true,
             })?;
             Ok(Image::read_exr(&out)?)
         })

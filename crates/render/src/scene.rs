@@ -45,6 +45,9 @@ pub struct SceneJob {
     pub exact_per_pair: Option<usize>,
     /// Paper B's `PaperBOptions::reuse` on the CPU (the GPU integrates every pixel).
     pub pair_reuse: usize,
+    /// Paper B's `PaperBOptions::surface_sky` on the CPU: the surfaces take the others'
+    /// exact shadow on the sky where its bound asks (the GPU keeps `e^{−T̄}`).
+    pub sky_shadow: bool,
 }
 
 /// The default of [`SceneJob::pair_reuse`].
@@ -269,6 +272,7 @@ fn run_hetero(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Res
         let analytic = Analytic::new(scene);
         let mut options = PaperBOptions {
             reuse: a.pair_reuse.max(1),
+            surface_sky: a.sky_shadow,
             ..PaperBOptions::default()
         };
         if let Some(n) = a.exact_per_pair {

@@ -659,9 +659,14 @@ impl<'a> Prepared<'a> {
         let (k, n) = self.integrated_pairs();
         let sky = match &self.env {
             Some(env) => format!(
-                ", {} of {} gaussians' shadows on the sky taken exactly",
+                ", {} of {} gaussians' shadows on the sky taken exactly{}",
                 env.exact_sky,
-                self.gaussian_count()
+                self.gaussian_count(),
+                if self.options.surface_sky && !self.scene.surfaces.is_empty() {
+                    ", the surfaces' where their bound asks"
+                } else {
+                    ""
+                }
             ),
             None => String::new(),
         };
