@@ -273,7 +273,7 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
     // Keys are linear indices into the tiled brick domain: it must number under 2³² bricks.
     let tiled = bricks_per_frame(dims, brick).map(|d| 3 * u64::from(d));
     if dims.iter().any(|&d| d == 0 || d > u32::MAX / 3)
-        || tiled[0] * tiled[1] * tiled[2] >= u64::from(u32::MAX)
+        || tiled[0].saturating_mul(tiled[1]).saturating_mul(tiled[2]) >= u64::from(u32::MAX)
         || m == 0
         || m > MAX_SIDE
         || m != PerfectHash::side_for(count)
@@ -630,6 +630,13 @@ mod tests {
         let mut words = bytes.clone();
         words[32..36].copy_from_slice(&u32::MAX.to_le_bytes());
         assert!(decode(&words).unwrap_err().contains("claims"));
+        // Three sides each within the bound alone whose tiled domain overflows 64 bits
+        // (what a fuzzer found: the product overflowed before it was compared).
+        let mut wide = bytes.clone();
+        for at in [16, 20, 24] {
+            wide[at..at + 4].copy_from_slice(&(u32::MAX / 3).to_le_bytes());
+        }
+        assert!(decode(&wide).unwrap_err().contains("sizes are invalid"));
     }
 
     /// Values beyond what the group's bits allow cannot be encoded.
