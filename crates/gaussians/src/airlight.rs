@@ -140,19 +140,9 @@ impl GaussianSet {
         len: f64,
         skip: Option<usize>,
     ) -> (f64, f64) {
-        let (mut t, mut s) = (0.0, 0.0);
-        if len <= 0.0 {
-            return (t, s);
-        }
-        spheres.segment(o, d, len, |i| {
-            if Some(i) != skip {
-                let b = &self.blobs[i];
-                let ti = line::gaussian(b.c, b.a, b.center, o, d, len);
-                t += ti;
-                s += b.albedo * ti;
-            }
-        });
-        (t, s)
+        depth_of_found(&self.blobs, o, d, len, skip, |f| {
+            spheres.segment(o, d, len, f)
+        })
     }
 
     /// The Gaussians whose negligible radius (where their optical depth falls below
@@ -197,6 +187,32 @@ impl GaussianSet {
             .path(b)
             .map_or(0.0, |(d, len)| self.cull_depth(b, d, len, Some(i)).0)
     }
+}
+
+/// The optical depth along `o + t·d`, `t ∈ [0, len]`, of the Gaussians of `blobs` that
+/// `find` reports (calling its argument with each index), leaving out `skip`, and its
+/// scattering part `Σ αᵢTᵢ`; nothing for `len ≤ 0`.
+pub(crate) fn depth_of_found(
+    blobs: &[Blob],
+    o: Vec3,
+    d: Vec3,
+    len: f64,
+    skip: Option<usize>,
+    find: impl FnOnce(&mut dyn FnMut(usize)),
+) -> (f64, f64) {
+    let (mut t, mut s) = (0.0, 0.0);
+    if len <= 0.0 {
+        return (t, s);
+    }
+    find(&mut |i| {
+        if Some(i) != skip {
+            let b = &blobs[i];
+            let ti = line::gaussian(b.c, b.a, b.center, o, d, len);
+            t += ti;
+            s += b.albedo * ti;
+        }
+    });
+    (t, s)
 }
 
 /// The paper's cull radius `√(ln c − ln ε)/a` (0 when the peak is below `ε`).

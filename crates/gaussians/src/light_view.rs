@@ -19,8 +19,7 @@
 //! azimuth. Both ranges are widened by [`SLACK`] radians, so rounding never drops a
 //! candidate the exact test would keep.
 
-use crate::airlight::{Blob, cull_radius};
-use crate::line;
+use crate::airlight::{Blob, cull_radius, depth_of_found};
 use haze_core::vec3::{Vec3, axpy, dot, norm, sub};
 use std::f64::consts::PI;
 
@@ -149,19 +148,7 @@ impl LightView {
         len: f64,
         skip: Option<usize>,
     ) -> (f64, f64) {
-        let (mut t, mut s) = (0.0, 0.0);
-        if len <= 0.0 {
-            return (t, s);
-        }
-        self.segment(o, d, len, |i| {
-            if Some(i) != skip {
-                let b = &blobs[i];
-                let ti = line::gaussian(b.c, b.a, b.center, o, d, len);
-                t += ti;
-                s += b.albedo * ti;
-            }
-        });
-        (t, s)
+        depth_of_found(blobs, o, d, len, skip, |f| self.segment(o, d, len, f))
     }
 }
 
@@ -237,25 +224,18 @@ impl Cap {
 mod tests {
     use super::*;
     use crate::airlight::GaussianSet;
+    use crate::cloud::Uniform;
     use crate::medium::{Gaussian, GaussianMedium};
     use haze_core::vec3::normalize;
 
-    /// A small deterministic generator (64-bit LCG, high bits) for test data.
-    fn lcg(state: &mut u64) -> f64 {
-        *state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (*state >> 11) as f64 / (1u64 << 53) as f64
-    }
-
     /// A crowd of Gaussians of varied sizes and weights, some at the poles of the lights
     /// below, one of zero weight.
-    fn crowd(s: &mut u64) -> GaussianSet {
+    fn crowd(s: &mut Uniform) -> GaussianSet {
         let mut gaussians: Vec<Gaussian> = (0..400)
             .map(|i| Gaussian {
-                center: [0, 1, 2].map(|_| lcg(s) * 4.0 - 2.0),
-                radius: 0.02 + 0.3 * lcg(s),
-                weight: if i == 7 { 0.0 } else { 0.2 + 4.0 * lcg(s) },
+                center: [0, 1, 2].map(|_| s.sample() * 4.0 - 2.0),
+                radius: 0.02 + 0.3 * s.sample(),
+                weight: if i == 7 { 0.0 } else { 0.2 + 4.0 * s.sample() },
             })
             .collect();
         for z in [0.9, -1.3] {
@@ -271,7 +251,7 @@ mod tests {
 
     #[test]
     fn segments_to_the_light_find_what_the_hierarchy_finds() {
-        let mut s = 11u64;
+        let mut s = Uniform::new(11);
         let set = crowd(&mut s);
         // Lights inside the crowd, inside a Gaussian, right under a pole sphere, outside.
         let lights = [
@@ -285,9 +265,9 @@ mod tests {
             for q in 0..400 {
                 // Ends everywhere: in the crowd, far out, on the poles' axis, at the light.
                 let p = match q % 8 {
-                    0 => [light[0], light[1], light[2] + 3.0 * (lcg(&mut s) - 0.5)],
+                    0 => [light[0], light[1], light[2] + 3.0 * (s.sample() - 0.5)],
                     1 => light,
-                    _ => [0, 1, 2].map(|_| lcg(&mut s) * 8.0 - 4.0),
+                    _ => [0, 1, 2].map(|_| s.sample() * 8.0 - 4.0),
                 };
                 let v = sub(light, p);
                 let len = norm(v);
@@ -313,12 +293,12 @@ mod tests {
         // Every direction lands in a bin, and the bins' shares of directions spread
         // uniformly over the sphere are equal: each band of z and sector of φ has the
         // same solid angle (Archimedes), so counts differ by sampling noise only.
-        let mut s = 5u64;
+        let mut s = Uniform::new(5);
         let mut counts = vec![0usize; ROWS * COLUMNS];
         let n = 400 * ROWS * COLUMNS;
         for _ in 0..n {
-            let z = 2.0 * lcg(&mut s) - 1.0;
-            let phi = 2.0 * PI * lcg(&mut s) - PI;
+            let z = 2.0 * s.sample() - 1.0;
+            let phi = 2.0 * PI * s.sample() - PI;
             let h = (1.0 - z * z).max(0.0).sqrt();
             counts[bin([h * phi.cos(), h * phi.sin(), z])] += 1;
         }
