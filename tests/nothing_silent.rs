@@ -17,6 +17,32 @@ fn scene(d: &Path, text: &str) -> String {
     s(&p).to_string()
 }
 
+/// Flags that only apply to a scene file are refused without `--scene` (naming it), and a
+/// volume with `--scene` is refused: neither is silently ignored.
+#[test]
+fn scene_flags_need_a_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = d.join("o.png");
+    for flag in [
+        ["--exact-per-pair", "3"],
+        ["--pair-reuse", "2"],
+        ["--sky-shadow", "mean"],
+    ] {
+        let e = refused(
+            d,
+            &["render", "smoke.vdb", "--out", s(&out), flag[0], flag[1]],
+        );
+        assert!(e.contains("--scene"), "{flag:?}: {e}");
+    }
+    let sc = scene(d, "{}");
+    let e = refused(
+        d,
+        &["render", "smoke.vdb", "--scene", &sc, "--out", s(&out)],
+    );
+    assert!(e.contains("not both"), "{e}");
+}
+
 /// "silent NaN pictures": an extinction of 1e308 is refused with its range in analytic
 /// fog and in Gaussian media (CPU and `--gpu` alike: the scene is read first), and a
 /// picture that still comes out with NaN (a fog term of weight 1e308 times the

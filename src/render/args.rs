@@ -11,7 +11,9 @@ use std::path::PathBuf;
 #[derive(Debug, clap::Args)]
 pub struct RenderCli {
     /// A .haze asset, or a volume file / directory of frames.
-    #[arg(required_unless_present = "scene", conflicts_with = "scene")]
+    // Not `conflicts_with = "scene"`: clap then waives every `requires = "scene"` when
+    // INPUT is given, so the scene-only flags would pass unseen; `run` refuses the pair.
+    #[arg(required_unless_present = "scene")]
     pub(crate) input: Option<PathBuf>,
     /// Render a scene file (JSON: camera, environment, lights, media, surfaces) instead.
     #[arg(long, value_name = "SCENE.json")]

@@ -12,6 +12,13 @@ use haze_tradeoff::render_choice;
 
 /// `haze render`: a scene file, or a smoke frame (its knobs first chosen for a goal).
 pub fn run(r: RenderCli) -> Result<()> {
+    if let (Some(input), Some(scene)) = (&r.input, &r.scene) {
+        anyhow::bail!(
+            "{} and --scene {}: render a volume or asset, or a scene file, not both",
+            input.display(),
+            scene.display()
+        );
+    }
     let mut files = Outputs::new();
     if let Some(input) = &r.input {
         files = files.input(input);
