@@ -165,9 +165,6 @@ fn gpu_renders_the_bundled_gaussians_with_their_noise() {
                 c.to_str().unwrap(),
                 "--exact-per-pair",
                 exact,
-                // The GPU dims the sky on the surfaces by the average depth.
-                "--sky-shadow",
-                "mean",
             ],
             &size[..],
         ]
@@ -181,11 +178,12 @@ fn gpu_renders_the_bundled_gaussians_with_their_noise() {
         for k in 0..3 {
             let (a, b) = (f64::from(a[k]), f64::from(b[k]));
             assert!(a.is_finite() && a >= 0.0, "{a}");
-            worst = worst.max((a - b).abs() / (b.abs() + 1e-4 * mean));
+            // |a − b| ≤ 2·10⁻⁴·|b| + 10⁻⁴·mean, as a fraction of that bound.
+            worst = worst.max((a - b).abs() / (2e-4 * b.abs() + 1e-4 * mean));
         }
     }
-    println!("GPU vs CPU: worst relative {worst:.2e}");
-    assert!(worst < 2e-4, "{worst}");
+    println!("GPU vs CPU: worst {worst:.3} of the tolerance");
+    assert!(worst <= 1.0, "{worst}");
     let o = haze()
         .args([
             "view",
@@ -317,7 +315,8 @@ fn sky_scene_matches_its_reference_on_cpu_and_gpu() {
     // point. Rel RMS measured 3.5 % at 12×9, which counts against paper B the light the
     // medium scatters onto surfaces (the march has none) and the sphere's shadow in the
     // sunlit medium (paper B has no volume shadows); within 5 %. The GPU twin matches
-    // the CPU within 10⁻³ (measured 1.4·10⁻⁷).
+    // the CPU within 10⁻³, the surfaces' shadow on the sky read from the CPU's table
+    // (measured 1.4·10⁻⁷).
     let dir = tempfile::tempdir().unwrap();
     let s = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("data/scenes/gaussians_sky.json")
@@ -342,7 +341,7 @@ fn sky_scene_matches_its_reference_on_cpu_and_gpu() {
     assert!(err.contains("the environment over 128 directions"), "{err}");
     let (gpu, err) = out("g.exr", &["--gpu"]);
     assert!(err.contains("on the GPU"), "{err}");
-    // The GPU dims the sky on the surfaces by the average depth, as the CPU's `mean`.
+    // The surfaces under the average depth alone (paper B's form).
     let (mean, _) = out("m.exr", &["--sky-shadow", "mean"]);
     let rel = |a: &[[f32; 3]], b: &[[f32; 3]]| {
         let (mut d, mut n) = (0.0, 0.0);
@@ -357,7 +356,7 @@ fn sky_scene_matches_its_reference_on_cpu_and_gpu() {
     };
     let e = rel(&cpu, &reference);
     let e_mean = rel(&mean, &reference);
-    let g = rel(&gpu, &mean);
+    let g = rel(&gpu, &cpu);
     println!(
         "sky scene: paper B vs reference {e:.4} ({e_mean:.4} under the average depth), GPU vs CPU {g:.2e}"
     );

@@ -146,16 +146,18 @@ pub struct RenderCli {
     /// on a CPU device such as lavapipe, whose shader loops are limited]
     #[arg(long, requires = "scene", value_parser = clap::value_parser!(u8).range(0..=16))]
     pub(crate) exact_per_pair: Option<u8>,
-    /// With --scene, Gaussian media (paper B) on the CPU: integrate the (light, Gaussian)
-    /// pairs exactly on a grid every N pixels and take each pair's ratio to its
-    /// unattenuated integral from that grid at the pixels between, where the grid shows
-    /// it smooth (an estimated error of at most 0.5 % of the pixel); 1 integrates every
-    /// pixel (slower; the GPU always does). `-v` says how often the grid served
+    /// With --scene, Gaussian media (paper B): integrate the (light, Gaussian) pairs
+    /// exactly on a grid every N pixels and take each pair's ratio to its unattenuated
+    /// integral from that grid at the pixels between, where the grid shows it smooth (an
+    /// estimated error of at most 0.5 % of the pixel), on the CPU (the GPU integrates
+    /// every pixel); the surfaces' exact shadow on the sky (--sky-shadow) on the same
+    /// grid, CPU and GPU. 1 takes every pixel exactly (slower). `-v` says how often the
+    /// grid served
     #[arg(long, requires = "scene", value_name = "N", default_value_t = 4,
           value_parser = clap::value_parser!(u8).range(1..=16))]
     pub(crate) pair_reuse: u8,
-    /// With --scene, Gaussian media (paper B) on the CPU under an environment: how the
-    /// Gaussians shadow the sky's light on the surfaces
+    /// With --scene, Gaussian media (paper B) under an environment: how the Gaussians
+    /// shadow the sky's light on the surfaces
     #[arg(long, requires = "scene", value_enum, default_value_t = SkyShadowArg::Exact)]
     pub(crate) sky_shadow: SkyShadowArg,
     /// Light the smoke on a grid N times finer than the volume's voxels (1..4), or `auto`:
@@ -287,8 +289,8 @@ pub(crate) enum SkyShadowArg {
     /// Over 72 directions through the Gaussians where the average depth could be more
     /// than 2 % off (on the --pair-reuse grid, interpolated on the same surface)
     Exact,
-    /// Dimmed by the average optical depth around the point, as paper B does and the GPU
-    /// always does (faster; the floor under a dense cloud can be 5 % off)
+    /// Dimmed by the average optical depth around the point, as paper B does (faster; the
+    /// floor under a dense cloud can be 5 % off)
     Mean,
 }
 

@@ -43,10 +43,11 @@ pub struct SceneJob {
     pub march: bool,
     /// Paper B's `PaperBOptions::max_exact`; `None`: the device's default.
     pub exact_per_pair: Option<usize>,
-    /// Paper B's `PaperBOptions::reuse` on the CPU (the GPU integrates every pixel).
+    /// Paper B's `PaperBOptions::reuse` on the CPU (the GPU integrates every pixel) and
+    /// `PaperBOptions::sky_stride` on both.
     pub pair_reuse: usize,
-    /// Paper B's `PaperBOptions::surface_sky` on the CPU: the surfaces take the others'
-    /// exact shadow on the sky where its bound asks (the GPU keeps `e^{−T̄}`).
+    /// Paper B's `PaperBOptions::surface_sky`: the surfaces take the others' exact shadow
+    /// on the sky where its bound asks.
     pub sky_shadow: bool,
 }
 
@@ -250,7 +251,11 @@ fn run_hetero(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Res
         let gpu_err = |e: GpuError| anyhow!("--gpu: {}: {e}", a.scene.display());
         let ctx = GpuContext::new().map_err(gpu_err)?;
         let analytic = Analytic::new(scene);
-        let mut options = haze_scene::gpu::paper_b::options(&ctx);
+        let mut options = PaperBOptions {
+            surface_sky: a.sky_shadow,
+            sky_stride: a.pair_reuse.max(1),
+            ..haze_scene::gpu::paper_b::options(&ctx)
+        };
         if let Some(n) = a.exact_per_pair {
             options.max_exact = n;
         }
@@ -273,6 +278,7 @@ fn run_hetero(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Res
         let mut options = PaperBOptions {
             reuse: a.pair_reuse.max(1),
             surface_sky: a.sky_shadow,
+            sky_stride: a.pair_reuse.max(1),
             ..PaperBOptions::default()
         };
         if let Some(n) = a.exact_per_pair {

@@ -444,14 +444,29 @@ fn host_ratio(l: u32, n_g: u32, dir: vec3<f32>, t_end: f32, s: vec3<f32>, beta0:
     return 1.0;
 }
 
-// GaussianEnv::surface: the SH environment on the surface dimmed by e^{−T̄(p)}, `mean`
-// the Gaussians' (T̄, S̄) at p (tile_mean_depth).
-fn env_surface_b(mean: vec2<f32>, n: vec3<f32>, r: vec3<f32>, diffuse: vec3<f32>, specular: vec3<f32>, m: f32, gn: f32) -> vec3<f32> {
+// The surfaces' exact shadow on the sky relative to e^{−T̄} at pixel `px` (the CPU's
+// table, paper_b::sky_grid: its records start at the header's second record's w, −1
+// without a table), where the pixel's ray ends on the table's surface; 1 elsewhere.
+fn sky_ratio(px: vec2<u32>, surface: i32) -> vec3<f32> {
+    let at = bexp[arrayLength(&bexp) - 1u].w;
+    if (at < 0.0) {
+        return vec3<f32>(1.0);
+    }
+    let rec = bexp[u32(at) + px.y * P.size.x + px.x];
+    if (i32(rec.w) != surface) {
+        return vec3<f32>(1.0);
+    }
+    return rec.xyz;
+}
+
+// GaussianEnv::surface: the SH environment on the surface dimmed by e^{−T̄(p)} times `sky`
+// (sky_ratio), `mean` the Gaussians' (T̄, S̄) at p (tile_mean_depth).
+fn env_surface_b(mean: vec2<f32>, sky: vec3<f32>, n: vec3<f32>, r: vec3<f32>, diffuse: vec3<f32>, specular: vec3<f32>, m: f32, gn: f32) -> vec3<f32> {
     let n_g = gaussian_count();
     let rec = bexp[env_base(n_g) + n_g];
     let t = rec.w + mean.x;
     let s = mean.y;
-    let att = exp(-t);
+    let att = exp(-t) * sky;
     var out = vec3<f32>(0.0);
     if (P.env.z > 0u) {
         out += diffuse / PI * env_lobe(n, 0u);
@@ -753,7 +768,7 @@ fn gauss_depth_tiled(o: vec3<f32>, u: vec3<f32>, len: f32, shading: bool, lid: u
 // paper_b::Prepared::surface: the surface lit through T(s,p), for every invocation
 // where `shading` (the others pass along for the tile's lists). (cb, rb): a sphere
 // holding the tile's surface points (rb < 0: none).
-fn shade_surface_b(dir: vec3<f32>, p: vec3<f32>, n: vec3<f32>, s: u32, shading: bool, lid: u32, cb: vec3<f32>, rb: f32) -> vec3<f32> {
+fn shade_surface_b(dir: vec3<f32>, p: vec3<f32>, n: vec3<f32>, s: u32, shading: bool, sky: vec3<f32>, lid: u32, cb: vec3<f32>, rb: f32) -> vec3<f32> {
     // A scene without surfaces has one empty record: read materials where shading only.
     var mat = array<vec4<f32>, 2>(vec4<f32>(0.0), vec4<f32>(0.0, 0.0, 0.0, -1.0));
     if (shading) {
@@ -773,7 +788,7 @@ fn shade_surface_b(dir: vec3<f32>, p: vec3<f32>, n: vec3<f32>, s: u32, shading: 
     if (env_mode() > 0u) {
         let mean = tile_mean_depth(p, shading, lid, cb, rb);
         if (shading) {
-            out = env_surface_b(mean, n, r, diffuse, specular, m, gn);
+            out = env_surface_b(mean, sky, n, r, diffuse, specular, m, gn);
         }
     }
     for (var i = 0u; i < P.size.z; i++) {
@@ -1020,7 +1035,11 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_
         cb = tile_points[0].xyz;
         rb = tile_points[0].w;
     }
-    var behind = shade_surface_b(dir, p, n, surf_id, on_surface, lid, cb, rb);
+    var sky = vec3<f32>(1.0);
+    if (on_surface) {
+        sky = sky_ratio(id.xy, hit.surface);
+    }
+    var behind = shade_surface_b(dir, p, n, surf_id, on_surface, sky, lid, cb, rb);
     if (!on_surface && (finite_end || any(beta <= vec3<f32>(0.0)))) {
         behind = background(dir);
     }

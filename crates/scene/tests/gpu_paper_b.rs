@@ -5,7 +5,8 @@
 //! scene's light inside a Gaussian take the integrated path,
 //! `haze_gaussians::integrated`, whose 6-node rule and hosts the shader repeats in `f32`), two noisy media (§5.5), the sky
 //! through the average optical depth (§4.2; the others have a faint constant
-//! environment), and for the shader's tile lists a wide sparse scene (most Gaussians
+//! environment) and dense Gaussians' exact shadow on the sky at the surfaces (the CPU's
+//! table, `paper_b::sky_grid`), and for the shader's tile lists a wide sparse scene (most Gaussians
 //! outside a tile's cone, most far from its surface points), a Gaussian covering the
 //! view with a light inside it, and none at all.
 //!
@@ -175,6 +176,31 @@ fn sky_through_the_average_optical_depth() {
     let e = gpu.rel_rms(&cpu);
     println!("sky without surface scattering: rel RMS {e:.2e}");
     assert!(e < REL, "{e}");
+}
+
+#[test]
+fn dense_cloud_shadows_the_sky_on_the_surfaces() {
+    // Dense Gaussians under the built-in sky: where e^{−T̄(p)}'s bound exceeds the target,
+    // the floor and the sphere take the others' exact shadow on the sky from the CPU's
+    // table (paper_b::sky_grid, 4-pixel grid), which the shader reads per pixel. The
+    // table must move the picture (else this would not see a shader that ignores it).
+    let mut s = scene("", &gaussians(40, 1.5, ""), "[0, -6, 1.6]");
+    s.environment = haze_scene::Environment::Sky;
+    let exact = compare("dense under the sky", &s);
+    let (analytic, _) = tables();
+    let mean = Prepared::new(
+        &s,
+        analytic,
+        PaperBOptions {
+            surface_sky: false,
+            ..haze_scene::gpu::paper_b::options(context())
+        },
+    )
+    .unwrap();
+    let mean = paper_b::render(&mean, &Limits::default(), &|_| {});
+    let moved = exact.rel_rms(&mean);
+    println!("the exact shadow on the sky against e^(-T̄): rel RMS {moved:.4}");
+    assert!(moved > 0.01, "{moved}");
 }
 
 #[test]

@@ -35,7 +35,11 @@
 //! times it per Gaussian the ray gathers, and dims render.wgsl's SH lighting of surfaces
 //! (paper C's, the same `EnvGlow`) by `e^{−T̄(p)}`, `T̄(p)` summed over the Gaussians
 //! (above) with Dawson's integral by Rybicki's sum at `h = 0.4` (`~2·10⁻⁷`, Numerical
-//! Recipes).
+//! Recipes). Where the surfaces take the others' exact shadow on the sky
+//! ([`crate::paper_b::sky_grid`]), the CPU builds the frame's table of ratios per pixel
+//! and uploads it after the environment's records; the shader multiplies `e^{−T̄(p)}` by
+//! the pixel's ratio where its ray ends on the table's surface (1 where `f32` found
+//! another surface than the CPU, at a silhouette).
 //!
 //! Noise (§5.5): the shader's `perlin_value` is [`Perlin::value`] in `f32`, reading the
 //! permutation the CPU drew from the medium's seed (uploaded once per distinct medium);
@@ -45,6 +49,7 @@
 
 use super::GpuRenderer;
 use super::shaders;
+use crate::paper_b::sky_grid::sky_table;
 use crate::paper_b::{PaperBOptions, Prepared};
 use crate::paper_c::airlight::Limits;
 use crate::render::Image;
@@ -162,6 +167,7 @@ impl GpuPaperB {
             }
             None => 0.0,
         };
+        let sky_at = sky_records(prep, &mut bexp)?;
         bexp.push([
             blobs_in.len() as f32,
             if prep.background { 1.0 } else { 0.0 },
@@ -169,11 +175,13 @@ impl GpuPaperB {
             env_flag,
         ]);
         let ss = prep.scene.medium.sigma_s();
-        bexp.push([ss[0] as f32, ss[1] as f32, ss[2] as f32, 0.0]);
-        for (what, n) in [
-            ("the Gaussians", blobs.len()),
-            ("their exponents", bexp.len()),
-        ] {
+        bexp.push([ss[0] as f32, ss[1] as f32, ss[2] as f32, sky_at]);
+        let exponents = if sky_at < 0.0 {
+            "their exponents"
+        } else {
+            "their exponents and the surfaces' shadow on the sky per pixel"
+        };
+        for (what, n) in [("the Gaussians", blobs.len()), (exponents, bexp.len())] {
             ctx.check_storage_size(what, 16 * n as u64)?;
         }
         let (blobs, bexp) = ctx.scoped("paper B upload", || {
@@ -251,7 +259,8 @@ pub const CPU_DEVICE_EXACT: usize = 4;
 
 /// Paper B's default options for rendering on `ctx`'s device: [`CPU_DEVICE_EXACT`] Gaussians
 /// exact per integrated pair on a CPU device, `MAX_EXACT` elsewhere, and every pixel
-/// integrating its pairs (the GPU does not reuse them across the screen). Prepare the
+/// integrating its pairs (the GPU does not reuse them across the screen; the surfaces'
+/// shadow on the sky comes from the CPU's table, `crate::paper_b::sky_grid`). Prepare the
 /// scene with these (and the CPU twin with the same, to compare).
 pub fn options(ctx: &GpuContext) -> PaperBOptions {
     let max_exact = if ctx.adapter_info().device_type == wgpu::DeviceType::Cpu {
@@ -262,9 +271,31 @@ pub fn options(ctx: &GpuContext) -> PaperBOptions {
     PaperBOptions {
         max_exact,
         reuse: 1,
-        surface_sky: false,
         ..PaperBOptions::default()
     }
+}
+
+/// Appends the surfaces' shadow on the sky per pixel ([`sky_table`] at
+/// [`PaperBOptions::sky_stride`]): `(ratio, surface)`, the surface −1 where the pixel's
+/// ray ends on none. Returns where the records start, −1 without a table (paper_b.wgsl's
+/// `sky_ratio`); an error when that index would not be exact in `f32` (`2²⁴`).
+fn sky_records(prep: &Prepared<'_>, bexp: &mut Vec<[f32; 4]>) -> Result<f32, GpuError> {
+    let Some(table) = sky_table(prep, prep.options.sky_stride) else {
+        return Ok(-1.0);
+    };
+    let start = bexp.len();
+    if start + table.pixels.len() >= 1 << 24 {
+        return Err(GpuError::Input(format!(
+            "a picture of {} pixels is too large for the GPU's shadow on the sky \
+             (--sky-shadow mean renders without it)",
+            table.pixels.len()
+        )));
+    }
+    bexp.extend(table.pixels.iter().map(|p| match *p {
+        Some((s, r)) => [r[0] as f32, r[1] as f32, r[2] as f32, s as f32],
+        None => [1.0, 1.0, 1.0, -1.0],
+    }));
+    Ok(start as f32)
 }
 
 /// Appends a list of Gaussian indices (at most `MAX_EXACT`) as `MAX_EXACT / 4` records,

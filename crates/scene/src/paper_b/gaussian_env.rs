@@ -41,8 +41,8 @@
 //!   `p ∝ L(ω)V(ω)(n·ω)⁺`, not `e^{−T̄(p)}`: under a dense cloud the floor sees the
 //!   cloud's shadow where the sky is bright and none below the horizon. Where
 //!   [`shadow_bound`]`(κ, T̄(p))` exceeds the target, `A/e^{−T̄(p)}` is taken on
-//!   [`SURFACE_THETA`]'s rule; the renderer does so on its grid of pixels
-//!   ([`super::reuse`]) and interpolates the ratio between grid pixels on the same
+//!   [`SURFACE_THETA`]'s rule; the renderers (CPU and GPU) do so on a grid of pixels
+//!   ([`super::sky_grid`]) and interpolate the ratio between grid pixels on the same
 //!   surface (`PaperBOptions::surface_sky`).
 //!
 //! Errors (measured against the march with the environment integrated over directions,

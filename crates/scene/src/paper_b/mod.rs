@@ -41,6 +41,7 @@
 pub mod gaussian_env;
 mod pairs;
 pub mod reuse;
+pub mod sky_grid;
 
 use crate::media::HeteroMedium;
 use crate::paper_c::airlight::{self, Limits, attenuated_length, effective_light, light_off_point};
@@ -86,10 +87,13 @@ pub struct PaperBOptions {
     pub reuse: usize,
     /// The others' shadow on the sky at the surfaces taken over exact directions where
     /// `e^{−T̄(p)}`'s bound exceeds [`PaperBOptions::target`]
-    /// ([`gaussian_env::GaussianEnv::surface_sky`]): on the grid of `reuse` pixels and
-    /// interpolated between on the same surface, or at every pixel when `reuse` is 1.
-    /// The GPU keeps `e^{−T̄(p)}` (`crate::gpu::paper_b::options` turns it off).
+    /// ([`gaussian_env::GaussianEnv::surface_sky`]), on the grid of
+    /// [`PaperBOptions::sky_stride`] pixels ([`sky_grid`]); off: `e^{−T̄(p)}` alone. The
+    /// GPU reads the same table.
     pub surface_sky: bool,
+    /// The stride of the grid of pixels that take the surfaces' shadow on the sky exactly
+    /// ([`sky_grid`]); 1: every pixel.
+    pub sky_stride: usize,
 }
 
 /// The default [`PaperBOptions::target`]: 2 %, inside the 3 % goal with room for
@@ -104,6 +108,7 @@ impl Default for PaperBOptions {
             max_exact: MAX_EXACT,
             reuse: reuse::DEFAULT_STRIDE,
             surface_sky: true,
+            sky_stride: reuse::DEFAULT_STRIDE,
         }
     }
 }
@@ -397,14 +402,22 @@ impl<'a> Prepared<'a> {
         li.map(|x| e * x)
     }
 
-    /// Radiance along the camera ray of unit direction `dir`.
+    /// Radiance along the camera ray of unit direction `dir` (a surface's shadow on the sky
+    /// taken exactly at the ray's end).
     pub fn radiance(&self, lim: &Limits, dir: Vec3) -> Rgb {
-        self.radiance_with(lim, dir, &mut PairMode::Exact)
+        self.radiance_with(lim, dir, &mut PairMode::Exact, None)
     }
 
     /// [`Prepared::radiance`], the integrated pairs and the homogeneous term's hosts taken
-    /// as `mode` says ([`reuse`]).
-    pub(crate) fn radiance_with(&self, lim: &Limits, dir: Vec3, mode: &mut PairMode<'_>) -> Rgb {
+    /// as `mode` says ([`reuse`]), and the surface's shadow on the sky from `table` (its
+    /// pixel's entry, where the ray ends on that entry's surface; [`sky_grid`]) or exactly.
+    pub(crate) fn radiance_with(
+        &self,
+        lim: &Limits,
+        dir: Vec3,
+        mode: &mut PairMode<'_>,
+        table: Option<(&sky_grid::SkyTable, usize, usize)>,
+    ) -> Rgb {
         let scene = self.scene;
         let cam = &scene.camera;
         let eye = cam.eye;
@@ -486,27 +499,15 @@ impl<'a> Prepared<'a> {
                 }
             }
         });
-        // The homogeneous term of each light.
-        for (k, l) in self.lights.iter().enumerate() {
-            match l.source {
-                Source::Point(s) => {
-                    let add = self.homogeneous(lim, mode, k, dir, t_end, s);
-                    for (o, a) in out.iter_mut().zip(add) {
-                        *o += a;
-                    }
-                }
-                Source::Sun(_) if !self.background => {
-                    let ss = scene.medium.sigma_s();
-                    for c in 0..3 {
-                        out[c] +=
-                            l.pairs.c_sv * airlight::sun(t_end, l.power[c], self.beta0[c], ss[c]);
-                    }
-                }
-                Source::Sun(_) => {}
-            }
+        let homogeneous = self.homogeneous_terms(lim, mode, dir, t_end);
+        for (o, a) in out.iter_mut().zip(homogeneous) {
+            *o += a;
         }
         let behind = match hit {
-            Some(h) => self.surface(lim, dir, h, mode),
+            Some(h) => {
+                let sky = table.and_then(|(t, x, y)| t.at(x, y, h.surface));
+                self.surface(lim, dir, h, sky)
+            }
             None if t_end.is_infinite() && self.beta0.iter().all(|&b| b > 0.0) => [0.0; 3],
             None => background(scene, dir),
         };
@@ -518,6 +519,36 @@ impl<'a> Prepared<'a> {
                     0.0
                 } + tau;
                 out[c] += (-t).exp() * behind[c];
+            }
+        }
+        out
+    }
+
+    /// The homogeneous term of every light along the ray to `t_end`.
+    fn homogeneous_terms(
+        &self,
+        lim: &Limits,
+        mode: &mut PairMode<'_>,
+        dir: Vec3,
+        t_end: f64,
+    ) -> Rgb {
+        let mut out = [0.0; 3];
+        for (k, l) in self.lights.iter().enumerate() {
+            match l.source {
+                Source::Point(s) => {
+                    let add = self.homogeneous(lim, mode, k, dir, t_end, s);
+                    for (o, a) in out.iter_mut().zip(add) {
+                        *o += a;
+                    }
+                }
+                Source::Sun(_) if !self.background => {
+                    let ss = self.scene.medium.sigma_s();
+                    for c in 0..3 {
+                        out[c] +=
+                            l.pairs.c_sv * airlight::sun(t_end, l.power[c], self.beta0[c], ss[c]);
+                    }
+                }
+                Source::Sun(_) => {}
             }
         }
         out
@@ -570,14 +601,9 @@ impl<'a> Prepared<'a> {
         add
     }
 
-    /// Radiance leaving the surface hit towards the eye (module docs).
-    fn surface(
-        &self,
-        lim: &Limits,
-        dir: Vec3,
-        hit: crate::scene::Hit,
-        mode: &mut PairMode<'_>,
-    ) -> Rgb {
+    /// Radiance leaving the surface hit towards the eye (module docs), `sky` its shadow on
+    /// the sky from the table (`None`: taken here).
+    fn surface(&self, lim: &Limits, dir: Vec3, hit: crate::scene::Hit, sky: Option<Rgb>) -> Rgb {
         let scene = self.scene;
         let m = &scene.surfaces[hit.surface].material;
         let (p, n) = (hit.point, hit.normal);
@@ -585,10 +611,12 @@ impl<'a> Prepared<'a> {
         let p_off = axpy(p, 1e-9 * (1.0 + norm(p)), n);
         let mut out = match &self.env {
             Some(env) => {
-                let sky = if self.options.surface_sky {
-                    mode.sky(|| env.surface_sky(scene, &self.set, p, n, self.options.target))
-                } else {
-                    [1.0; 3]
+                let sky = match sky {
+                    Some(r) => r,
+                    None if self.options.surface_sky => {
+                        env.surface_sky(scene, &self.set, p, n, self.options.target)
+                    }
+                    None => [1.0; 3],
                 };
                 env.surface(p, n, r, m, self.options.surface_scattering, sky)
             }
@@ -781,7 +809,8 @@ pub fn reference_options(scene: &Scene, theta: usize) -> crate::march::MarchOpti
 }
 
 /// Renders the scene's camera image with paper B; `progress` hears the rows finished.
-/// With [`PaperBOptions::reuse`] above 1 and pairs to integrate, through [`reuse::render`].
+/// With [`PaperBOptions::reuse`] above 1 and pairs to integrate, through [`reuse::render`];
+/// the surfaces' shadow on the sky from [`sky_grid::sky_table`].
 pub fn render(prep: &Prepared<'_>, lim: &Limits, progress: &(dyn Fn(usize) + Sync)) -> Image {
     let cam = &prep.scene.camera;
     let (w, h) = (cam.width, cam.height);
@@ -789,16 +818,21 @@ pub fn render(prep: &Prepared<'_>, lim: &Limits, progress: &(dyn Fn(usize) + Syn
         gamma_min: lim.gamma_min.max(0.5 * cam.pixel_radius()),
         ..*lim
     };
-    let sky = prep.options.surface_sky && prep.env.is_some() && !prep.scene.surfaces.is_empty();
-    if prep.options.reuse > 1 && (prep.integrated_pairs().0 > 0 || sky) {
-        return reuse::render(prep, &lim, progress);
+    let sky = sky_grid::sky_table(prep, prep.options.sky_stride);
+    if prep.options.reuse > 1 && prep.integrated_pairs().0 > 0 {
+        return reuse::render(prep, &lim, sky.as_ref(), progress);
     }
     let done = AtomicUsize::new(0);
     let rows: Vec<Vec<[f32; 3]>> = (0..h)
         .into_par_iter()
         .map(|y| {
             let row = (0..w)
-                .map(|x| prep.radiance(&lim, cam.pixel_ray(x, y)).map(|c| c as f32))
+                .map(|x| {
+                    let table = sky.as_ref().map(|t| (t, x, y));
+                    let dir = cam.pixel_ray(x, y);
+                    let r = prep.radiance_with(&lim, dir, &mut PairMode::Exact, table);
+                    r.map(|c| c as f32)
+                })
                 .collect();
             progress(done.fetch_add(1, Ordering::Relaxed) + 1);
             row

@@ -42,17 +42,14 @@
 //! * the pixel's ray ends on the same surface as all four corners' (or on none): a
 //!   surface's silhouette cuts the ray's chord.
 //!
-//! The surfaces' exact shadow on the sky (`GaussianEnv::surface_sky`, where its bound
-//! asks for it) is taken the same way: at the grid pixels, then bilinearly from the four
-//! corners where all end on the pixel's surface, and at the pixel itself elsewhere. A
-//! scene with an environment and surfaces renders through the grid even without
-//! integrated pairs.
+//! The surfaces' exact shadow on the sky comes from its own grid ([`super::sky_grid`]).
 //!
 //! The constants were chosen on the lamp scenes and checked on the bundled noisy scene
 //! (BENCHMARKS "The integrated pairs reused across the screen"). Suns have no image; a pair of a sun reuses the same
 //! way. The GPU integrates every pixel (`crate::gpu::paper_b::options` sets a stride of 1).
 
 use super::Prepared;
+use super::sky_grid::SkyTable;
 use crate::paper_c::airlight::Limits;
 use crate::render::Image;
 use crate::scene::{Light, Rgb};
@@ -95,9 +92,6 @@ pub(crate) struct Sample {
     radiance: [f32; 3],
     surface: Option<usize>,
     ratios: Vec<Entry>,
-    /// The surface's exact shadow on the sky relative to `e^{−T̄}`
-    /// (`GaussianEnv::surface_sky`), where the ray ends on a surface under a sky.
-    sky: Option<[f32; 3]>,
 }
 
 /// A term's record at a grid pixel.
@@ -179,33 +173,6 @@ impl PairMode<'_> {
                 r
             }
             _ => None,
-        }
-    }
-
-    /// The surface's shadow on the sky relative to `e^{−T̄}` at the pixel: `exact()` at a
-    /// grid pixel (recorded) and wherever a block's corners end on other surfaces,
-    /// bilinear from the corners elsewhere.
-    pub(crate) fn sky(&mut self, exact: impl FnOnce() -> Rgb) -> Rgb {
-        match self {
-            PairMode::Exact => exact(),
-            PairMode::Record(s) => {
-                let r = exact();
-                s.sky = Some(r.map(|c| c as f32));
-                r
-            }
-            PairMode::Reuse { corners, off, .. } => {
-                let c = corners.corners();
-                match (*off, c.map(|s| s.sky)) {
-                    (false, [Some(a), Some(b), Some(d), Some(e)]) => [0, 1, 2].map(|ch| {
-                        [a, b, d, e]
-                            .iter()
-                            .zip(corners.weights)
-                            .map(|(r, w)| w * f64::from(r[ch]))
-                            .sum()
-                    }),
-                    _ => exact(),
-                }
-            }
         }
     }
 
@@ -451,14 +418,15 @@ pub struct ReuseCount {
 }
 
 /// [`crate::paper_b::render`] with the integrated terms reused (module docs), at
-/// [`crate::paper_b::PaperBOptions::reuse`]'s stride; `lim` already holds the pixel's
-/// `γ_min`. Logs how often the terms were reused.
+/// [`crate::paper_b::PaperBOptions::reuse`]'s stride, the surfaces' shadow on the sky from
+/// `sky`; `lim` already holds the pixel's `γ_min`. Logs how often the terms were reused.
 pub(crate) fn render(
     prep: &Prepared<'_>,
     lim: &Limits,
+    sky: Option<&SkyTable>,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Image {
-    let (image, n) = render_counted(prep, lim, progress);
+    let (image, n) = render_counted(prep, lim, sky, progress);
     tracing::info!(
         "paper B: integrated terms taken from a {}-pixel grid at {} of the {} pixel crossings \
          off it",
@@ -473,6 +441,7 @@ pub(crate) fn render(
 pub fn render_counted(
     prep: &Prepared<'_>,
     lim: &Limits,
+    sky: Option<&SkyTable>,
     progress: &(dyn Fn(usize) + Sync),
 ) -> (Image, ReuseCount) {
     let cam = &prep.scene.camera;
@@ -484,8 +453,14 @@ pub fn render_counted(
         .into_par_iter()
         .map(|k| {
             let mut s = Sample::default();
-            let dir = cam.pixel_ray(gx[k % nx], gy[k / nx]);
-            let r = prep.radiance_with(lim, dir, &mut PairMode::Record(&mut s));
+            let (x, y) = (gx[k % nx], gy[k / nx]);
+            let table = sky.map(|t| (t, x, y));
+            let r = prep.radiance_with(
+                lim,
+                cam.pixel_ray(x, y),
+                &mut PairMode::Record(&mut s),
+                table,
+            );
             s.radiance = r.map(|c| c as f32);
             s.ratios.sort_unstable_by_key(|e| e.id);
             s
@@ -531,7 +506,8 @@ pub fn render_counted(
                         off: false,
                         count: &mut count,
                     };
-                    let r = prep.radiance_with(lim, cam.pixel_ray(x, y), &mut mode);
+                    let table = sky.map(|t| (t, x, y));
+                    let r = prep.radiance_with(lim, cam.pixel_ray(x, y), &mut mode, table);
                     r.map(|c| c as f32)
                 })
                 .collect();
