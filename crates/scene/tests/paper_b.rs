@@ -468,7 +468,8 @@ fn the_sky_table_interpolates_on_each_surface_and_takes_the_rest_exactly() {
     // the table on a 4-pixel grid (`paper_b::sky_grid`) against every pixel taken
     // exactly. The grid pixels and every pixel whose four corners do not all end on its
     // surface (the sphere's silhouette, the horizon) are exact; the rest are the
-    // corners' exact ratios weighted bilinearly (recomputed here from the exact table).
+    // corners' exact ratios weighted bilinearly (recomputed here from the exact table)
+    // or, where the corners straddle a shadow's edge that matters, exact.
     let mut s = scene(&gaussians(100, 0.5, (0.2, 0.35), ""), (48, 36));
     s.environment = Environment::Sky;
     s.lights.clear();
@@ -477,8 +478,8 @@ fn the_sky_table_interpolates_on_each_surface_and_takes_the_rest_exactly() {
         ..options(paper_b::DEFAULT_TARGET)
     };
     let prep = Prepared::new(&s, analytic(), opt(4)).unwrap();
-    let every = paper_b::sky_grid::sky_table(&prep, 1).unwrap();
-    let table = paper_b::sky_grid::sky_table(&prep, 4).unwrap();
+    let every = paper_b::sky_grid::sky_table(&prep, &Limits::default(), 1).unwrap();
+    let table = paper_b::sky_grid::sky_table(&prep, &Limits::default(), 4).unwrap();
     let (w, h) = (48, 36);
     let on_grid = |v: usize, n: usize| v.is_multiple_of(4) || v == n - 1;
     let at = |t: &paper_b::sky_grid::SkyTable, x: usize, y: usize| t.pixels[y * w + x];
@@ -507,7 +508,6 @@ fn the_sky_table_interpolates_on_each_surface_and_takes_the_rest_exactly() {
                 exact_off_grid += usize::from(!(on_grid(x, w) && on_grid(y, h)));
                 continue;
             }
-            interpolated += 1;
             let tx = (x - x0) as f64 / (x1 - x0).max(1) as f64;
             let ty = (y - y0) as f64 / (y1 - y0).max(1) as f64;
             let weights = [
@@ -516,22 +516,23 @@ fn the_sky_table_interpolates_on_each_surface_and_takes_the_rest_exactly() {
                 (1.0 - tx) * ty,
                 tx * ty,
             ];
-            for c in 0..3 {
+            let bilinear = (0..3).all(|c| {
                 let want: f64 = corners
                     .iter()
                     .zip(weights)
                     .map(|(k, wt)| wt * k.map_or(f64::NAN, |k| k.1[c]))
                     .sum();
-                assert!(
-                    (ra[c] - want).abs() <= 1e-12 * want.abs(),
-                    "({x}, {y}): {ra:?}"
-                );
-            }
+                (ra[c] - want).abs() <= 1e-12 * want.abs()
+            });
+            // Where the corners straddle a shadow's edge that matters, the pixel's own.
+            assert!(bilinear || ra == rb, "({x}, {y}): {ra:?} {rb:?}");
+            interpolated += usize::from(bilinear);
+            exact_off_grid += usize::from(!bilinear);
         }
     }
-    // The picture with the table against every pixel exact: measured rel RMS 2.0 % (the
-    // floor seen at a grazing angle behind the cloud, where a block spans its shadow's
-    // edge; the grid's cost against its error, BENCHMARKS.md).
+    // The picture with the table against every pixel exact: measured rel RMS 0.36 %
+    // (2.0 % before the error estimate sent the blocks of floor seen at a grazing angle
+    // behind the cloud, which span its shadow's edge, to take their own); within 1 %.
     let render = |stride| {
         let prep = Prepared::new(&s, analytic(), opt(stride)).unwrap();
         paper_b::render(&prep, &Limits::default(), &|_| {})
@@ -541,8 +542,8 @@ fn the_sky_table_interpolates_on_each_surface_and_takes_the_rest_exactly() {
         "sky table at 4 px: {interpolated} interpolated, {exact_off_grid} off the grid exact, \
          {sky} on no surface, {shadowed} shadowed > 10 %; picture against every pixel {e:.4}"
     );
-    assert!(interpolated > w * h / 3 && exact_off_grid > 0 && sky > 0 && shadowed > 0);
-    assert!(e > 0.0 && e < 0.03, "{e}");
+    assert!(interpolated > 100 && exact_off_grid > 0 && sky > 0 && shadowed > 0);
+    assert!(e > 0.0 && e < 0.01, "{e}");
 }
 
 #[test]
@@ -597,7 +598,7 @@ fn pairs_reused_across_the_screen_match_every_pixel_integrating() {
     let prep = Prepared::new(&s, analytic(), every).unwrap();
     let exact = paper_b::render(&prep, &Limits::default(), &|_| {});
     let prep = Prepared::new(&s, analytic(), PaperBOptions::default()).unwrap();
-    let sky = paper_b::sky_grid::sky_table(&prep, paper_b::reuse::DEFAULT_STRIDE);
+    let sky = paper_b::sky_grid::sky_table(&prep, &lim, paper_b::reuse::DEFAULT_STRIDE);
     let (reused, n) = paper_b::reuse::render_counted(&prep, &lim, sky.as_ref(), &|_| {});
     let vals = exact.pixels.iter().flatten();
     let mean = vals.clone().sum::<f32>() / vals.count() as f32;

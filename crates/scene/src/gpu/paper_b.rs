@@ -167,7 +167,7 @@ impl GpuPaperB {
             }
             None => 0.0,
         };
-        let sky_at = sky_records(prep, &mut bexp)?;
+        let sky_at = sky_records(prep, lim, &mut bexp)?;
         bexp.push([
             blobs_in.len() as f32,
             if prep.background { 1.0 } else { 0.0 },
@@ -279,8 +279,12 @@ pub fn options(ctx: &GpuContext) -> PaperBOptions {
 /// [`PaperBOptions::sky_stride`]): `(ratio, surface)`, the surface −1 where the pixel's
 /// ray ends on none. Returns where the records start, −1 without a table (paper_b.wgsl's
 /// `sky_ratio`); an error when that index would not be exact in `f32` (`2²⁴`).
-fn sky_records(prep: &Prepared<'_>, bexp: &mut Vec<[f32; 4]>) -> Result<f32, GpuError> {
-    let Some(table) = sky_table(prep, prep.options.sky_stride) else {
+fn sky_records(
+    prep: &Prepared<'_>,
+    lim: &Limits,
+    bexp: &mut Vec<[f32; 4]>,
+) -> Result<f32, GpuError> {
+    let Some(table) = sky_table(prep, lim, prep.options.sky_stride) else {
         return Ok(-1.0);
     };
     let start = bexp.len();

@@ -818,7 +818,7 @@ pub fn render(prep: &Prepared<'_>, lim: &Limits, progress: &(dyn Fn(usize) + Syn
         gamma_min: lim.gamma_min.max(0.5 * cam.pixel_radius()),
         ..*lim
     };
-    let sky = sky_grid::sky_table(prep, prep.options.sky_stride);
+    let sky = sky_grid::sky_table(prep, &lim, prep.options.sky_stride);
     if prep.options.reuse > 1 && prep.integrated_pairs().0 > 0 {
         return reuse::render(prep, &lim, sky.as_ref(), progress);
     }

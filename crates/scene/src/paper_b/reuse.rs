@@ -276,12 +276,12 @@ impl Corners<'_> {
 }
 
 /// Two corners of a block along an axis and the grid pixels beyond each, if recorded.
-type Line = ([f64; 3], [f64; 3], Option<[f64; 3]>, Option<[f64; 3]>);
+pub(crate) type Line = ([f64; 3], [f64; 3], Option<[f64; 3]>, Option<[f64; 3]>);
 
 /// The interpolation's estimated error along an axis in channel `ch`, over the block's two
 /// lines along it: [`CURVATURE`] times the largest second difference at the corners, or
 /// the corners' difference where neither has a neighbour beyond.
-fn axis_error(lines: &[Line; 2], ch: usize) -> f64 {
+pub(crate) fn axis_error(lines: &[Line; 2], ch: usize) -> f64 {
     lines
         .iter()
         .map(|&(a, b, before, after)| {
