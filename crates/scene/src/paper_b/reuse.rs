@@ -338,6 +338,17 @@ pub(crate) fn grid(len: usize, stride: usize) -> Vec<usize> {
     g
 }
 
+/// Bilinear weights at `(tx, ty)` within a block, for its corners in the order `(0, 0)`,
+/// `(1, 0)`, `(0, 1)`, `(1, 1)`.
+pub(crate) fn bilinear(tx: f64, ty: f64) -> [f64; 4] {
+    [
+        (1.0 - tx) * (1.0 - ty),
+        tx * (1.0 - ty),
+        (1.0 - tx) * ty,
+        tx * ty,
+    ]
+}
+
 /// The grid interval holding pixel `v`: `(k, t)` with `v = g[k] + t·(g[k+1] − g[k])`,
 /// `t ∈ [0, 1)`; `(k, 0)` at a grid pixel (the last included).
 pub(crate) fn cell(g: &[usize], v: usize) -> (usize, f64) {
@@ -487,12 +498,7 @@ pub fn render_counted(
                         nx,
                         k: (kx, ky),
                         k1: (kx1, ky1),
-                        weights: [
-                            (1.0 - tx) * (1.0 - ty),
-                            tx * (1.0 - ty),
-                            (1.0 - tx) * ty,
-                            tx * ty,
-                        ],
+                        weights: bilinear(tx, ty),
                         reusable: &reusable,
                         near_light: near_lights(
                             &images,

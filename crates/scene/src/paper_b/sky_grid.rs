@@ -27,7 +27,7 @@
 
 use super::Prepared;
 use super::gaussian_env::GaussianEnv;
-use super::reuse::{Line, axis_error, cell, grid};
+use super::reuse::{Line, axis_error, bilinear, cell, grid};
 use crate::paper_c::airlight::Limits;
 use crate::scene::{Hit, Rgb};
 use crate::vec3::{Vec3, reflect, scale};
@@ -108,15 +108,9 @@ pub fn sky_table(prep: &Prepared<'_>, lim: &Limits, stride: usize) -> Option<Sky
                         k: (kx, ky),
                         k1: (kx1, ky1),
                     };
-                    let weights = [
-                        (1.0 - tx) * (1.0 - ty),
-                        tx * (1.0 - ty),
-                        (1.0 - tx) * ty,
-                        tx * ty,
-                    ];
                     Some(
                         block
-                            .interpolated(weights, hit.surface, prep.options.target)
+                            .interpolated(bilinear(tx, ty), hit.surface, prep.options.target)
                             .map_or_else(|| exact(hit), |r| (hit.surface, r)),
                     )
                 })
