@@ -1,6 +1,6 @@
 //! Nothing lost: no command overwrites one of its inputs or another of its outputs, an
 //! output that cannot be written is refused before the work, and a failed run leaves
-//! nothing behind (issue 38's classes "output = input", "report = asset", "failed bake
+//! nothing behind (the classes "output = input", "report = asset", "failed bake
 //! leaves OUT.partial", "report path fails after the whole bake", "a fogmap folder of
 //! mixed sizes", and the images' mode). Every refusal is checked against the promise
 //! (`support::refused`: exit 1 or 2, one line, no panic, the folder unchanged).

@@ -53,7 +53,7 @@ pub struct GpuContext {
 }
 
 /// Passes timed between two [`GpuContext::take_stage_times`].
-const TIMED_PASSES: u32 = 16;
+const TIMED_PASSES: u32 = 64;
 
 /// A query set of `2 × TIMED_PASSES` timestamps (start and end of each pass) and the
 /// buffer they resolve into.
@@ -263,7 +263,7 @@ impl GpuContext {
     }
 
     /// Turns GPU timing of the passes on or off (off by default); returns whether the
-    /// device can time them. While on, every pass submitted is timed (the first 16
+    /// device can time them. While on, every pass submitted is timed (the first 64
     /// between two [`GpuContext::take_stage_times`]).
     pub fn time_stages(&self, on: bool) -> bool {
         let Some(t) = &self.timer else {
@@ -344,7 +344,17 @@ impl GpuContext {
     /// Copies a storage buffer (created with `COPY_SRC`) back to the host: through a
     /// mappable staging buffer, waiting for the queue.
     pub fn read_buffer(&self, source: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
-        let size = source.size();
+        self.read_range(source, 0, source.size())
+    }
+
+    /// [`GpuContext::read_buffer`] of `size` bytes from byte `offset` (both multiples of
+    /// 4, within the buffer).
+    pub fn read_range(
+        &self,
+        source: &wgpu::Buffer,
+        offset: u64,
+        size: u64,
+    ) -> Result<Vec<u8>, GpuError> {
         let staging = self.scoped("readback", || {
             let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("haze readback"),
@@ -357,7 +367,7 @@ impl GpuContext {
                 .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                     label: Some("haze readback"),
                 });
-            enc.copy_buffer_to_buffer(source, 0, &staging, 0, size);
+            enc.copy_buffer_to_buffer(source, offset, &staging, 0, size);
             self.queue.submit([enc.finish()]);
             staging
         })?;

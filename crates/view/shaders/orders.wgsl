@@ -39,17 +39,25 @@
 // diag = (σa + σs P) D + Σ G, G = (1 − P̄)/(3σtr D̄ h_a²), b = σt D (1 − P) J⁰ − Σ drive,
 // drive = σt/(3σtr h_a)·((1 − P)J¹)̄_a·n; a cell with σtr D h_min ≤ THIN (or no smoke)
 // is an identity row with b = 0 (its L = 0, as the CPU leaves it out). G < 0 marks a face
-// without a neighbouring unknown. Then x = 0, r = b, p = r/diag.
+// without a neighbouring unknown. Then x = 0, r = b, p = 0.
 //
-// `cg_start`, `cg_iterate`: Jacobi-preconditioned conjugate gradients, one workgroup per
-// colour channel (each its own step lengths, as the CPU's), `cg_iterate` carrying on from
-// the state in `work` for `chunk` iterations per dispatch until ‖r‖/‖b‖ ≤ tolerance.
+// `cg_update`, `cg_start`, then per iteration `cg_product`, `cg_alpha`, `cg_update`,
+// `cg_beta`: Jacobi-preconditioned conjugate gradients (z = r/diag), the three colour
+// channels each with its own step lengths (as the CPU's), spread over every cell: the
+// cell dispatches (`cg_product`: p = z + βp and Ap; `cg_update`: x += αp, r −= αAp) write
+// each workgroup's partial dot products, and one workgroup (`cg_start`, `cg_alpha`,
+// `cg_beta`) adds them up into α, β and the residual ‖r‖/‖b‖. p has two slots per row,
+// the current one read and the next written, so a cell's new direction and its product
+// need no wait for the neighbours'. A channel is done at ‖r‖/‖b‖ ≤ tolerance, after
+// `max_iterations` or at a breakdown (p·Ap not positive and finite); once all three are,
+// the reductions empty the cell dispatches' indirect arguments, so the iterations the host
+// recorded beyond convergence cost next to nothing.
 //
 // lavapipe ends every loop nested in an outermost loop once they have run 65535 iterations
 // together (gallivm's loop limiter), silently: so the corners of a sample and the faces
 // of a row are written out, the gather's directions come in dispatches of 8, the CG's
-// iterations in chunks sized by the cells (`gpu::orders`), and the host keeps the cell
-// factor ≤ 8 (≤ 512 voxels per cell in `cells`).
+// loops are over one partial sum per 256 cells, and the host keeps the cell factor ≤ 8
+// (≤ 512 voxels per cell in `cells`).
 //
 // `finish`, one invocation per cell: L⁰ += max(x, 0), L¹ += 3× the mean of the two
 // opposite faces' flux densities G(x_i − x_j) + drive, then L⁰ ≥ 0 and |L¹| ≤ 3L⁰.
@@ -97,7 +105,8 @@ struct Params {
     directions: u32,
     max_iterations: u32,
     node_min: vec3<f32>,
-    chunk: u32,
+    // Padding after node_min.
+    pad0: u32,
     node_cell: vec3<f32>,
     tolerance: f32,
     nodes: vec3<u32>,
@@ -130,15 +139,20 @@ const FOUR_PI: f32 = 12.5663706144;
 const MAX_RECORD: u32 = 21u;
 // Words per cell of `media` (L⁰ rgb, L¹ [channel][axis], P, D, 2 unused, c_lm of bands
 // 2–4 [channel][HIGH] from word 16) and of the system in `work` (diag, G ×6, b ×3, drive
-// [face][channel], x, r, p, Ap per channel).
+// [face][channel], x, r, two slots of p, Ap per channel).
 const HIGH: u32 = 21u;
 const MEDIA: u32 = 16u + 3u * HIGH;
-const ROW: u32 = 40u;
+const ROW: u32 = 43u;
+// The first of a row's two slots of the search direction p (3 words each).
+const P_SLOTS: u32 = 34u;
+// Words of the CG's state in `work` after the rows (3 channels × 8, the current p slot).
+const STATE: u32 = 32u;
 const WG: u32 = 256u;
 
 @group(0) @binding(0) var<storage, read> p: Params;
-// The lights pass's records (eight words per light, suns first) and the suns' tables.
-@group(0) @binding(1) var<storage, read> lights: array<u32>;
+// The lights pass's records (eight words per light, suns first) and the suns' tables; in
+// the CG's reductions, the cell dispatches' indirect arguments (x, y, z workgroups).
+@group(0) @binding(1) var<storage, read_write> lights: array<u32>;
 // The volume pass's grid: per voxel J̃ r g b, D.
 @group(0) @binding(2) var<storage, read_write> grid: array<f32>;
 // The environment grid's S per node (3·order² words, channel fastest).
@@ -146,12 +160,13 @@ const WG: u32 = 256u;
 @group(0) @binding(4) var<storage, read> rec_in: array<f32>;
 @group(0) @binding(5) var<storage, read_write> rec_out: array<f32>;
 @group(0) @binding(6) var<storage, read_write> media: array<f32>;
-// The rows and CG vectors (ROW words per cell), then per channel 8 words of state:
-// iterations, ‖r‖/‖b‖, r·z, ‖b‖, stopped; in `occupied` and `gather`, the box of the
-// cells with smoke (6 words).
+// The rows and CG vectors (ROW words per cell, stored word by word: `at`), then the
+// CG's state (STATE words: `state_at`, `parity_at`), then 8 words of partial sums per
+// workgroup of a CG cell dispatch; in `occupied` and `gather`, the box of the cells with
+// smoke (6 words).
 @group(0) @binding(7) var<storage, read_write> work: array<f32>;
 
-var<workgroup> state: array<f32, 8>;
+var<workgroup> cg_flag: u32;
 var<workgroup> occ_lo: array<vec3<u32>, WG>;
 var<workgroup> occ_hi: array<vec3<u32>, WG>;
 
@@ -565,14 +580,21 @@ fn system(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     if i >= total_cells() {
         return;
     }
-    let r = i * ROW;
+    if i == 0u {
+        // α = β = 0 and slot 0 current for `cg_update`'s first sums (`cg_start` sets the rest).
+        for (var c = 0u; c < 3u; c++) {
+            work[state_at(c) + 5u] = 0.0;
+            work[state_at(c) + 6u] = 0.0;
+        }
+        work[parity_at()] = 0.0;
+    }
     for (var k = 0u; k < ROW; k++) {
-        work[r + k] = 0.0;
+        work[at(i, k)] = 0.0;
     }
     if !unknown(i) {
-        work[r] = 1.0;
+        work[at(i, 0u)] = 1.0;
         for (var f = 0u; f < 6u; f++) {
-            work[r + 1u + f] = -1.0;
+            work[at(i, 1u + f)] = -1.0;
         }
         return;
     }
@@ -587,7 +609,7 @@ fn system(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     for (var f = 0u; f < 6u; f++) {
         let j = neighbour(c, f);
         if j == NONE || !unknown(j) {
-            work[r + 1u + f] = -1.0;
+            work[at(i, 1u + f)] = -1.0;
             continue;
         }
         let a = f / 2u;
@@ -598,118 +620,264 @@ fn system(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         let kept = 1.0 - 0.5 * (pi + pj);
         let g = finite_or_zero(kept / (3.0 * p.sigma_tr * df * h * h));
         diag += g;
-        work[r + 1u + f] = g;
+        work[at(i, 1u + f)] = g;
         for (var ch = 0u; ch < 3u; ch++) {
             let flux = 0.5 * ((1.0 - pi) * source_j1(i, ch, a) + (1.0 - pj) * source_j1(j, ch, a)) * n;
             let drive = finite_or_zero(p.transport_sigma_t / (3.0 * p.sigma_tr * h) * flux);
-            work[r + 10u + 3u * f + ch] = drive;
+            work[at(i, 10u + 3u * f + ch)] = drive;
             b[ch] -= drive;
         }
     }
-    work[r] = diag;
+    work[at(i, 0u)] = diag;
     for (var ch = 0u; ch < 3u; ch++) {
-        work[r + 7u + ch] = b[ch];
-        // x = 0, r = b, p = b/diag.
-        work[r + 31u + ch] = b[ch];
-        work[r + 34u + ch] = b[ch] / diag;
+        work[at(i, 7u + ch)] = b[ch];
+        // x = 0, r = b, both p slots and Ap 0.
+        work[at(i, 31u + ch)] = b[ch];
     }
 }
 
+// Word k of cell i's row of the system: the rows are stored word by word (k·n + i), so
+// that neighbouring invocations read neighbouring words.
+fn at(i: u32, k: u32) -> u32 {
+    return k * total_cells() + i;
+}
+
+// The CG's state of channel c in `work`, after the rows: iterations, ‖r‖/‖b‖, r·z, ‖b‖,
+// done (converged, out of iterations or broken down), α, β.
 fn state_at(c: u32) -> u32 {
     return ROW * total_cells() + 8u * c;
 }
 
-// G p_j through face f of the row at r (0 without a neighbouring unknown); the product
-// unrolls the six faces, so that an iteration's loops are over the cells alone.
-fn face_term(r: u32, cc: vec3<u32>, f: u32, c: u32) -> f32 {
-    let g = work[r + 1u + f];
+// Which of the two `p` slots of a row holds the current search direction (0 or 1).
+fn parity_at() -> u32 {
+    return ROW * total_cells() + 24u;
+}
+
+// The partial sums of workgroup w of a CG cell dispatch (8 words: p·Ap or r·r per channel,
+// then r·z per channel from word 4).
+fn partial_at(w: u32) -> u32 {
+    return ROW * total_cells() + STATE + 8u * w;
+}
+
+// Workgroups of a CG cell dispatch that hold cells (those that write partial sums).
+fn partial_groups() -> u32 {
+    return (total_cells() + WG - 1u) / WG;
+}
+
+// The cell and the flat workgroup index of a CG cell dispatch (WG invocations a group).
+fn cg_cell(gid: vec3<u32>, ng: vec3<u32>) -> u32 {
+    return gid.x + WG * ng.x * gid.y;
+}
+
+fn cg_group(wg: vec3<u32>, ng: vec3<u32>) -> u32 {
+    return wg.x + ng.x * wg.y;
+}
+
+// z_j + β p_j of cell j (z = r/diag): its next search direction, from the current slot
+// `old`.
+fn next_p(j: u32, old: u32, ch: u32, beta: f32) -> f32 {
+    return work[at(j, 31u + ch)] / work[at(j, 0u)] + beta * work[at(j, P_SLOTS + 3u * old + ch)];
+}
+
+// G (z_j + β p_j) through face f of cell i's row (0 without a neighbouring unknown).
+fn face_term(i: u32, cc: vec3<u32>, f: u32, old: u32, ch: u32, beta: f32) -> f32 {
+    let g = work[at(i, 1u + f)];
     if !(g > 0.0) {
         return 0.0;
     }
-    return g * work[neighbour(cc, f) * ROW + 34u + c];
+    return g * next_p(neighbour(cc, f), old, ch, beta);
 }
 
-@compute @workgroup_size(256)
-fn cg_start(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
-    let c = wg.x;
-    var part = vec2<f32>(0.0);
-    for (var i = lid; i < total_cells(); i += WG) {
-        let b = work[i * ROW + 7u + c];
-        part += vec2<f32>(b * b, b * b / work[i * ROW]);
-    }
-    let sums = workgroup_sum(lid, part);
-    if lid == 0u {
-        let st = state_at(c);
-        let bn = sqrt(sums.x);
-        work[st] = 0.0;
-        work[st + 1u] = select(0.0, 1.0, bn > 0.0);
-        work[st + 2u] = sums.y;
-        work[st + 3u] = bn;
-        work[st + 4u] = 0.0;
+// The three channels' sums of `v` (one vec3 per invocation) over the workgroup, written to
+// the workgroup's partial sums from word `at` (groups past the cells write nothing).
+fn write_partial3(lid: u32, w: u32, at: u32, v: vec3<f32>) {
+    let s01 = workgroup_sum(lid, v.xy);
+    let s2 = workgroup_sum(lid, vec2<f32>(v.z, 0.0)).x;
+    if lid == 0u && w < partial_groups() {
+        let o = partial_at(w) + at;
+        work[o] = s01.x;
+        work[o + 1u] = s01.y;
+        work[o + 2u] = s2;
     }
 }
 
-@compute @workgroup_size(256)
-fn cg_iterate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
-    let c = wg.x;
-    let st = state_at(c);
-    let n = total_cells();
-    if lid < 8u {
-        state[lid] = work[st + lid];
+// The sum over every cell workgroup's partial sums from word `at`, per channel (one
+// workgroup; every invocation gets it).
+fn total3(lid: u32, at: u32) -> vec3<f32> {
+    var a = vec3<f32>(0.0);
+    for (var w = lid; w < partial_groups(); w += WG) {
+        let o = partial_at(w) + at;
+        a += vec3<f32>(work[o], work[o + 1u], work[o + 2u]);
     }
-    var iterations = u32(workgroupUniformLoad(&state[0]));
-    var residual = workgroupUniformLoad(&state[1]);
-    var rz = workgroupUniformLoad(&state[2]);
-    let bn = workgroupUniformLoad(&state[3]);
-    var stopped = workgroupUniformLoad(&state[4]) == 1.0;
-    let end = min(p.max_iterations, iterations + p.chunk);
-    loop {
-        if stopped || iterations >= end || !(residual > p.tolerance) {
-            break;
-        }
-        // Ap, p·Ap.
-        var part = vec2<f32>(0.0);
-        for (var i = lid; i < n; i += WG) {
-            let r = i * ROW;
-            let pi = work[r + 34u + c];
-            let cc = cell_coords(i);
-            let ap = work[r] * pi - face_term(r, cc, 0u, c) - face_term(r, cc, 1u, c)
-                - face_term(r, cc, 2u, c) - face_term(r, cc, 3u, c) - face_term(r, cc, 4u, c)
-                - face_term(r, cc, 5u, c);
-            work[r + 37u + c] = ap;
-            part.x += pi * ap;
-        }
-        let pap = workgroup_sum(lid, part).x;
-        if !(pap > 0.0 && finite(pap)) {
-            stopped = true;
-            break;
-        }
-        let alpha = rz / pap;
-        part = vec2<f32>(0.0);
-        for (var i = lid; i < n; i += WG) {
-            let r = i * ROW;
-            work[r + 28u + c] += alpha * work[r + 34u + c];
-            let rr = work[r + 31u + c] - alpha * work[r + 37u + c];
-            work[r + 31u + c] = rr;
-            part += vec2<f32>(rr * rr, rr * rr / work[r]);
-        }
-        let sums = workgroup_sum(lid, part);
-        iterations += 1u;
-        residual = select(0.0, sqrt(sums.x) / bn, bn > 0.0);
-        let beta = select(0.0, sums.y / rz, rz > 0.0);
-        rz = sums.y;
-        for (var i = lid; i < n; i += WG) {
-            let r = i * ROW;
-            work[r + 34u + c] = work[r + 31u + c] / work[r] + beta * work[r + 34u + c];
-        }
-        // Every p written before the next product reads the neighbours'.
-        storageBarrier();
-    }
+    let s01 = workgroup_sum(lid, a.xy);
+    let s2 = workgroup_sum(lid, vec2<f32>(a.z, 0.0)).x;
+    return vec3<f32>(s01, s2);
+}
+
+// 1 when every channel is done (read by every invocation of a reduction; uniform).
+fn all_done(lid: u32) -> bool {
     if lid == 0u {
-        work[st] = f32(iterations);
-        work[st + 1u] = residual;
-        work[st + 2u] = rz;
-        work[st + 4u] = select(0.0, 1.0, stopped);
+        var done = 1u;
+        for (var c = 0u; c < 3u; c++) {
+            if work[state_at(c) + 4u] != 1.0 {
+                done = 0u;
+            }
+        }
+        cg_flag = done;
+    }
+    return workgroupUniformLoad(&cg_flag) == 1u;
+}
+
+// After a reduction: once every channel is done, the cell dispatches' indirect arguments
+// become empty (`lights` holds them in the CG's reductions).
+fn close_if_done() {
+    var done = true;
+    for (var c = 0u; c < 3u; c++) {
+        done = done && work[state_at(c) + 4u] == 1.0;
+    }
+    if done {
+        lights[0] = 0u;
+        lights[1] = 0u;
+    }
+}
+
+// The search direction p = z + βp into the other slot and Ap, and p·Ap per workgroup.
+@compute @workgroup_size(256)
+fn cg_product(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) ng: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+) {
+    let i = cg_cell(gid, ng);
+    let old = u32(work[parity_at()]);
+    var pap = vec3<f32>(0.0);
+    if i < total_cells() {
+        let cc = cell_coords(i);
+        for (var ch = 0u; ch < 3u; ch++) {
+            let beta = work[state_at(ch) + 6u];
+            let pi = next_p(i, old, ch, beta);
+            let ap = work[at(i, 0u)] * pi - face_term(i, cc, 0u, old, ch, beta)
+                - face_term(i, cc, 1u, old, ch, beta) - face_term(i, cc, 2u, old, ch, beta)
+                - face_term(i, cc, 3u, old, ch, beta) - face_term(i, cc, 4u, old, ch, beta)
+                - face_term(i, cc, 5u, old, ch, beta);
+            work[at(i, P_SLOTS + 3u * (1u - old) + ch)] = pi;
+            work[at(i, 40u + ch)] = ap;
+            pap[ch] = pi * ap;
+        }
+    }
+    write_partial3(lid, cg_group(wg, ng), 0u, pap);
+}
+
+// α = r·z / p·Ap per channel (a breakdown, p·Ap not positive and finite, ends the channel);
+// the new direction becomes the current slot.
+@compute @workgroup_size(256)
+fn cg_alpha(@builtin(local_invocation_index) lid: u32) {
+    if all_done(lid) {
+        return;
+    }
+    let pap = total3(lid, 0u);
+    if lid == 0u {
+        for (var c = 0u; c < 3u; c++) {
+            let st = state_at(c);
+            if work[st + 4u] == 1.0 {
+                continue;
+            }
+            if pap[c] > 0.0 && finite(pap[c]) {
+                work[st + 5u] = work[st + 2u] / pap[c];
+            } else {
+                work[st + 4u] = 1.0;
+                work[st + 5u] = 0.0;
+                work[st + 6u] = 0.0;
+            }
+        }
+        work[parity_at()] = 1.0 - work[parity_at()];
+        close_if_done();
+    }
+}
+
+// x += αp, r −= αAp, and r·r, r·z per workgroup (α = 0 before the first iteration: the
+// sums of b).
+@compute @workgroup_size(256)
+fn cg_update(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) ng: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+) {
+    let i = cg_cell(gid, ng);
+    let cur = u32(work[parity_at()]);
+    var rr = vec3<f32>(0.0);
+    var rz = vec3<f32>(0.0);
+    if i < total_cells() {
+        for (var ch = 0u; ch < 3u; ch++) {
+            let alpha = work[state_at(ch) + 5u];
+            work[at(i, 28u + ch)] += alpha * work[at(i, P_SLOTS + 3u * cur + ch)];
+            let ri = work[at(i, 31u + ch)] - alpha * work[at(i, 40u + ch)];
+            work[at(i, 31u + ch)] = ri;
+            rr[ch] = ri * ri;
+            rz[ch] = ri * ri / work[at(i, 0u)];
+        }
+    }
+    let w = cg_group(wg, ng);
+    write_partial3(lid, w, 0u, rr);
+    write_partial3(lid, w, 4u, rz);
+}
+
+// The first state from r = b: ‖b‖, r·z, a channel with b = 0 (or no iterations allowed)
+// done at once.
+@compute @workgroup_size(256)
+fn cg_start(@builtin(local_invocation_index) lid: u32) {
+    let bb = total3(lid, 0u);
+    let rz = total3(lid, 4u);
+    if lid == 0u {
+        for (var c = 0u; c < 3u; c++) {
+            let st = state_at(c);
+            let bn = sqrt(bb[c]);
+            let residual = select(0.0, 1.0, bn > 0.0);
+            work[st] = 0.0;
+            work[st + 1u] = residual;
+            work[st + 2u] = rz[c];
+            work[st + 3u] = bn;
+            let done = p.max_iterations == 0u || !(residual > p.tolerance);
+            work[st + 4u] = select(0.0, 1.0, done);
+            work[st + 5u] = 0.0;
+            work[st + 6u] = 0.0;
+        }
+        close_if_done();
+    }
+}
+
+// An iteration's end per channel: ‖r‖/‖b‖, β = r·z / the last r·z, done once the residual
+// is at the tolerance or the iterations at their most.
+@compute @workgroup_size(256)
+fn cg_beta(@builtin(local_invocation_index) lid: u32) {
+    if all_done(lid) {
+        return;
+    }
+    let rr = total3(lid, 0u);
+    let rz = total3(lid, 4u);
+    if lid == 0u {
+        for (var c = 0u; c < 3u; c++) {
+            let st = state_at(c);
+            if work[st + 4u] == 1.0 {
+                work[st + 5u] = 0.0;
+                work[st + 6u] = 0.0;
+                continue;
+            }
+            let iterations = work[st] + 1.0;
+            let bn = work[st + 3u];
+            let residual = select(0.0, sqrt(rr[c]) / bn, bn > 0.0);
+            let last = work[st + 2u];
+            work[st] = iterations;
+            work[st + 1u] = residual;
+            work[st + 2u] = rz[c];
+            work[st + 5u] = 0.0;
+            work[st + 6u] = select(0.0, rz[c] / last, last > 0.0);
+            let done = u32(iterations) >= p.max_iterations || !(residual > p.tolerance);
+            work[st + 4u] = select(0.0, 1.0, done);
+        }
+        close_if_done();
     }
 }
 
@@ -727,19 +895,18 @@ fn finish(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         vec3<f32>(media[m + 9u], media[m + 10u], media[m + 11u]),
     );
     if unknown(i) {
-        let r = i * ROW;
         let cc = cell_coords(i);
         for (var ch = 0u; ch < 3u; ch++) {
-            let x = finite_or_zero(work[r + 28u + ch]);
+            let x = finite_or_zero(work[at(i, 28u + ch)]);
             l0[ch] += max(x, 0.0);
             for (var f = 0u; f < 6u; f++) {
-                let g = work[r + 1u + f];
+                let g = work[at(i, 1u + f)];
                 if g < 0.0 {
                     continue;
                 }
                 let a = f / 2u;
-                let xj = finite_or_zero(work[neighbour(cc, f) * ROW + 28u + ch]);
-                let q = g * (x - xj) + work[r + 10u + 3u * f + ch];
+                let xj = finite_or_zero(work[at(neighbour(cc, f), 28u + ch)]);
+                let q = g * (x - xj) + work[at(i, 10u + 3u * f + ch)];
                 let s = select(-1.0, 1.0, f % 2u == 1u);
                 l1[ch][a] += 1.5 * s * q * p.cell[a];
             }

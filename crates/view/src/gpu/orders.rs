@@ -17,10 +17,13 @@
 //!   for the later, 8 per dispatch);
 //! - [`OrdersPass::diffuse`]: the finite-volume system of the light after the gathered
 //!   orders, one invocation per cell, solved by Jacobi-preconditioned conjugate gradients
-//!   ([`crate::render::grid_diffusion::solve`]) with one workgroup per colour channel, in chunks
-//!   of iterations per dispatch sized by the cells (as the centers' diffusion: no
-//!   dispatch long enough for a watchdog, no host round trip), then `L⁰`, `L¹` per cell
-//!   with the flux moment and the clamp `|L¹| ≤ 3L⁰`;
+//!   ([`crate::render::grid_diffusion::solve`]) spread over every cell: per iteration two
+//!   cell dispatches that leave a partial dot product per workgroup and two one-workgroup
+//!   reductions; the iterations go in batches with a look at the state after each (the
+//!   first batch as long as the last solve, so most solves wait once), and once every
+//!   channel has converged the reductions empty the cell dispatches' indirect arguments,
+//!   so a batch's iterations past convergence cost empty dispatches; then `L⁰`, `L¹` per
+//!   cell with the flux moment and the clamp `|L¹| ≤ 3L⁰`;
 //! - [`OrdersPass::apply`]: `J_ms = Ω (L⁰ − g L¹·d + Σ_{l=2}^{4} g^l c_lm Y_lm(−d))` per
 //!   voxel towards the eye, with the gathered orders' bands 2–4 `c_lm`
 //!   ([`crate::render::grid_diffusion::add_to_grids`]).
@@ -35,7 +38,7 @@
 //!
 //! lavapipe ends the loops nested in an outermost loop once they have run 65535
 //! iterations together, silently (`shaders/orders.wgsl`): the split of the directions
-//! into dispatches, the CG's chunks and [`MAX_FACTOR`] keep every invocation within it.
+//! into dispatches and [`MAX_FACTOR`] keep every invocation within it.
 
 use super::GridBuffer;
 use super::env_pass::EnvShadow;
@@ -50,6 +53,7 @@ use haze_gpu::wgsl::Variant;
 use haze_gpu::{
     ComputeLayout, GpuContext, GpuError, bind_buffers, buffer_init, compute_layout, voxel_groups,
 };
+use std::sync::atomic::{AtomicU32, Ordering};
 
 /// The shader: `crates/view/shaders/orders.wgsl`, importing the fine march
 /// (`grid_march`), the phase functions (`disk_phase`) and `sh_basis`.
@@ -67,14 +71,18 @@ pub const MAX_SUNS: usize = 8;
 const DIRECTIONS_PER_DISPATCH: usize = 8;
 /// Most voxels per cell side on the GPU (`cells` visits ≤ 512 voxels per invocation).
 pub const MAX_FACTOR: usize = 8;
-/// Loop iterations one `cg_iterate` dispatch may spend (below lavapipe's 65535).
-const CG_LOOP_BUDGET: usize = 40_000;
 /// Words per cell of the cells' radiance and of the system.
 const MEDIA: usize = 16 + 3 * HIGH;
 /// The cell size [`MsDiffusion::AUTO`] stands for on the GPU (the CPU's measured
 /// default; the GPU's march is not bound by the CPU's budget).
 pub const AUTO_FACTOR: usize = 2;
-const ROW: usize = 40;
+const ROW: usize = 43;
+/// Words of the CG's state after the rows (the shader's `STATE`).
+const STATE: usize = 32;
+/// Invocations per group of the CG's cell dispatches (the shader's `WG`).
+const CG_GROUP: usize = 256;
+/// The least CG iterations between two looks at the state ([`OrdersPass::diffuse`]).
+const CG_BATCH: u32 = 32;
 /// Invocations per group of the per-cell dispatches, and per side of `apply`.
 const CELLS: usize = 64;
 const SIDE: usize = 4;
@@ -105,7 +113,7 @@ struct Params {
     directions: u32,
     max_iterations: u32,
     node_min: [f32; 3],
-    chunk: u32,
+    pad0: u32,
     node_cell: [f32; 3],
     tolerance: f32,
     nodes: [u32; 3],
@@ -194,12 +202,36 @@ pub struct OrdersPass {
     gather: wgpu::ComputePipeline,
     system: wgpu::ComputePipeline,
     cg_start: wgpu::ComputePipeline,
-    cg_iterate: wgpu::ComputePipeline,
+    cg_product: wgpu::ComputePipeline,
+    cg_alpha: wgpu::ComputePipeline,
+    cg_update: wgpu::ComputePipeline,
+    cg_beta: wgpu::ComputePipeline,
     occupied: wgpu::ComputePipeline,
     finish: wgpu::ComputePipeline,
     apply: wgpu::ComputePipeline,
     /// The work buffer of the last solve (rows, vectors, state) and its cell count.
     work: std::sync::Mutex<Option<(usize, wgpu::Buffer)>>,
+    /// The CG iterations the last solve took (the next one's first batch).
+    expected: AtomicU32,
+}
+
+/// How the CG in `work` (of `n` cells) stands, and whether every channel is done (a
+/// wait).
+fn solve_state(
+    ctx: &GpuContext,
+    work: &wgpu::Buffer,
+    n: usize,
+) -> Result<(OrdersSolve, bool), GpuError> {
+    let bytes = ctx.read_range(work, (4 * ROW * n) as u64, (4 * 24) as u64)?;
+    let words: Vec<f32> = bytemuck::pod_collect_to_vec(&bytes);
+    let mut out = OrdersSolve::default();
+    let mut done = true;
+    for state in words.chunks(8) {
+        out.iterations = out.iterations.max(state[0] as u32);
+        out.residual = out.residual.max(f64::from(state[1]));
+        done &= state[4] == 1.0;
+    }
+    Ok((out, done))
 }
 
 /// `(σs, σa, σtr)` of a medium that scatters, as the CPU's system takes them.
@@ -233,7 +265,7 @@ impl OrdersPass {
                 d,
                 "orders",
                 &source,
-                &[true, false, true, true, false, false, false],
+                &[false, false, true, true, false, false, false],
             );
             let pipeline = |entry: &'static str| {
                 d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
@@ -250,12 +282,16 @@ impl OrdersPass {
                 gather: pipeline("gather"),
                 system: pipeline("system"),
                 cg_start: pipeline("cg_start"),
-                cg_iterate: pipeline("cg_iterate"),
+                cg_product: pipeline("cg_product"),
+                cg_alpha: pipeline("cg_alpha"),
+                cg_update: pipeline("cg_update"),
+                cg_beta: pipeline("cg_beta"),
                 occupied: pipeline("occupied"),
                 finish: pipeline("finish"),
                 apply: pipeline("apply"),
                 layout,
                 work: std::sync::Mutex::new(None),
+                expected: AtomicU32::new(0),
             }
         })
     }
@@ -493,17 +529,13 @@ impl OrdersPass {
             return Ok(());
         }
         let n = media.len();
-        let words = (ROW * n + 24) as u64;
+        let words = (ROW * n + STATE + 8 * n.div_ceil(CG_GROUP)) as u64;
         ctx.check_storage_size("the orders' diffusion", 4 * words)?;
         let groups = cell_groups(ctx, n)?;
-        // An iteration loops over the cells three times (256 invocations) and reduces
-        // twice (8 rounds each).
-        let per_iteration = 3 * n.div_ceil(256) + 20;
-        let chunk = u32::try_from((CG_LOOP_BUDGET / per_iteration).max(1)).unwrap_or(u32::MAX);
+        let cg_groups = haze_gpu::line_groups(ctx, n.max(1), CG_GROUP, "cells")?;
         let params = Params {
             stride: 13,
             max_iterations: opts.max_iterations,
-            chunk,
             tolerance: opts.tolerance as f32,
             ..media.params
         };
@@ -511,7 +543,7 @@ impl OrdersPass {
             during: "the orders' diffusion",
             reason: "a previous solve panicked".into(),
         })?;
-        ctx.scoped("the orders' diffusion", || {
+        let (work, args, cells, reduce) = ctx.scoped("the orders' diffusion", || {
             let work = match kept.take() {
                 Some((m, w)) if m == n => w,
                 _ => ctx.device.create_buffer(&wgpu::BufferDescriptor {
@@ -528,30 +560,126 @@ impl OrdersPass {
                 usage: wgpu::BufferUsages::STORAGE,
                 mapped_at_creation: false,
             });
-            let buffers = [
-                &params_buffer,
-                &dummy,
-                grid.buffer(),
-                shadow.buffer(),
-                &media.last,
-                &media.spare,
-                &media.media,
-                &work,
-            ];
-            self.dispatch(ctx, "orders system", &self.system, &buffers, groups, 1);
-            self.dispatch(ctx, "orders cg", &self.cg_start, &buffers, [3, 1, 1], 1);
-            let times = opts.max_iterations.div_ceil(chunk);
-            self.dispatch(
+            // The CG cell dispatches' workgroups, emptied by the reductions once every
+            // channel is done.
+            let args = buffer_init(
                 ctx,
-                "orders cg",
-                &self.cg_iterate,
-                &buffers,
-                [3, 1, 1],
-                times,
+                "orders' CG dispatch",
+                bytemuck::cast_slice(&cg_groups),
+                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT,
             );
-            self.dispatch(ctx, "orders finish", &self.finish, &buffers, groups, 1);
-            *kept = Some((n, work));
-        })
+            let with = |second: &wgpu::Buffer| {
+                bind_buffers(
+                    ctx,
+                    "orders' diffusion",
+                    &self.layout,
+                    &[
+                        &params_buffer,
+                        second,
+                        grid.buffer(),
+                        shadow.buffer(),
+                        &media.last,
+                        &media.spare,
+                        &media.media,
+                        &work,
+                    ],
+                )
+            };
+            let (cells, reduce) = (with(&dummy), with(&args));
+            self.dispatch_each(
+                ctx,
+                "orders system",
+                &self.system,
+                std::slice::from_ref(&cells),
+                groups,
+            );
+            (work, args, cells, reduce)
+        })?;
+        let solved = self.solve(
+            ctx,
+            (&work, n),
+            opts.max_iterations,
+            cg_groups,
+            &args,
+            [&cells, &reduce],
+        );
+        let finished = solved.and_then(|()| {
+            ctx.scoped("the orders' diffusion", || {
+                self.dispatch_each(
+                    ctx,
+                    "orders finish",
+                    &self.finish,
+                    std::slice::from_ref(&cells),
+                    groups,
+                );
+            })
+        });
+        *kept = Some((n, work));
+        finished
+    }
+
+    /// The CG (module docs) in batches of iterations, each submitted as one timed pass
+    /// ("orders cg") and followed by a look at the state (a wait): the first batch the
+    /// iterations the last solve took and a quarter more, the later ones half of those
+    /// run so far, at least [`CG_BATCH`], until every channel is done or `max`
+    /// iterations ran. The cell dispatches go indirect through `args`; `binds`: the bind
+    /// group of the cell dispatches and that of the reductions (binding 1: `args`).
+    fn solve(
+        &self,
+        ctx: &GpuContext,
+        (work, n): (&wgpu::Buffer, usize),
+        max: u32,
+        groups: [u32; 3],
+        args: &wgpu::Buffer,
+        [cells, reduce]: [&wgpu::BindGroup; 2],
+    ) -> Result<(), GpuError> {
+        let label = "orders cg";
+        let expected = self.expected.load(Ordering::Relaxed);
+        let mut batch = (expected + expected / 4).max(CG_BATCH);
+        let mut ran = 0u32;
+        loop {
+            let now = batch.min(max - ran);
+            ctx.scoped("the orders' diffusion", || {
+                let mut enc = ctx
+                    .device
+                    .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
+                {
+                    let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some(label),
+                        timestamp_writes: ctx.timestamp_writes(label),
+                    });
+                    if ran == 0 {
+                        pass.set_pipeline(&self.cg_update);
+                        pass.set_bind_group(0, cells, &[]);
+                        pass.dispatch_workgroups(groups[0], groups[1], groups[2]);
+                        pass.set_pipeline(&self.cg_start);
+                        pass.set_bind_group(0, reduce, &[]);
+                        pass.dispatch_workgroups(1, 1, 1);
+                    }
+                    for _ in 0..now {
+                        for (cell_step, reduction) in [
+                            (&self.cg_product, &self.cg_alpha),
+                            (&self.cg_update, &self.cg_beta),
+                        ] {
+                            pass.set_pipeline(cell_step);
+                            pass.set_bind_group(0, cells, &[]);
+                            pass.dispatch_workgroups_indirect(args, 0);
+                            pass.set_pipeline(reduction);
+                            pass.set_bind_group(0, reduce, &[]);
+                            pass.dispatch_workgroups(1, 1, 1);
+                        }
+                    }
+                }
+                ctx.queue.submit([enc.finish()]);
+            })?;
+            ran += now;
+            let (solve, done) = solve_state(ctx, work, n)?;
+            if done || ran >= max {
+                self.expected.store(solve.iterations, Ordering::Relaxed);
+                return Ok(());
+            }
+            batch = CG_BATCH.max(ran / 2);
+        }
     }
 
     /// How the last [`OrdersPass::diffuse`] ended (a wait); `None` before the first.
@@ -563,13 +691,7 @@ impl OrdersPass {
         let Some((n, work)) = kept.as_ref() else {
             return Ok(None);
         };
-        let words: Vec<f32> = bytemuck::pod_collect_to_vec(&ctx.read_buffer(work)?);
-        let mut out = OrdersSolve::default();
-        for c in 0..3 {
-            let at = ROW * n + 8 * c;
-            out.iterations = out.iterations.max(words[at] as u32);
-            out.residual = out.residual.max(f64::from(words[at + 1]));
-        }
+        let (out, _) = solve_state(ctx, work, *n)?;
         Ok(Some(out))
     }
 
@@ -755,7 +877,7 @@ fn gather_params(
         directions: 0,
         max_iterations: 0,
         node_min,
-        chunk: 0,
+        pad0: 0,
         node_cell,
         tolerance: 0.0,
         nodes,
