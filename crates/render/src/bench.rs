@@ -8,7 +8,8 @@
 //! scattering (the explicit orders, `MsDiffusion::DEFAULT`). Per workload: one warm-up
 //! frame (pipelines, SH tables), then `repeat` frames of each kind, medians reported:
 //!
-//! - **frame**: a new density frame from scratch (lighting, volume pass, view pass);
+//! - **frame**: a new density frame from scratch (lighting, volume pass, view pass; the
+//!   renderer reset before it);
 //! - **playback**: the next frame of an animation (the plume risen a little), the
 //!   diffusion warm-started from the previous frame, as the viewer plays;
 //! - **orbit**: the camera moved around the same frame (the lighting's grids reused).
@@ -252,8 +253,12 @@ fn time_workload(ctx: &GpuContext, w: &Workload, repeat: usize, on: LightingOn) 
     };
     let mut r = GpuRenderer::new(ctx, Environment::sky(Sky::default()))?;
     r.set_lighting(on);
-    let mut render = |key: u64, f: usize, cam: &Camera| -> Result<(f64, FrameStats)> {
+    // `fresh`: the renderer forgets the frames before (no reuse, no warm start).
+    let mut render = |key: u64, f: usize, cam: &Camera, fresh: bool| -> Result<(f64, FrameStats)> {
         let (rbfs, slot) = &frames[f];
+        if fresh {
+            r.reset();
+        }
         let input = GpuFrame {
             key,
             rbfs,
@@ -276,19 +281,19 @@ fn time_workload(ctx: &GpuContext, w: &Workload, repeat: usize, on: LightingOn) 
         );
         Ok((t.elapsed().as_secs_f64(), stats))
     };
-    render(0, 2, &camera)?;
+    render(0, 2, &camera, true)?;
     let mut key = 1;
     let mut frame = Vec::new();
     let mut playback = Vec::new();
     let mut orbit = Vec::new();
     for k in 0..repeat {
         // A density frame the renderer has not seen (a fresh key).
-        frame.push(render(key, 0, &camera)?);
+        frame.push(render(key, 0, &camera, true)?);
         // The animation's next frame after it: the diffusion warm-started.
-        playback.push(render(key + 1, 1, &camera)?);
+        playback.push(render(key + 1, 1, &camera, false)?);
         // The camera moved around the frame just shown: the lighting's grids reused.
         let turned = orbit_camera(&camera, &bbox, 5.0 * (k + 1) as f64)?;
-        orbit.push(render(key + 1, 1, &turned)?);
+        orbit.push(render(key + 1, 1, &turned, false)?);
         key += 2;
     }
     Ok(Row {

@@ -39,7 +39,8 @@
 // diag = (σa + σs P) D + Σ G, G = (1 − P̄)/(3σtr D̄ h_a²), b = σt D (1 − P) J⁰ − Σ drive,
 // drive = σt/(3σtr h_a)·((1 − P)J¹)̄_a·n; a cell with σtr D h_min ≤ THIN (or no smoke)
 // is an identity row with b = 0 (its L = 0, as the CPU leaves it out). G < 0 marks a face
-// without a neighbouring unknown. Then x = 0, r = b, p = 0.
+// without a neighbouring unknown. Then x = 0 (or, with `warm`, the last solve's x), r =
+// b − Ax, p = 0.
 //
 // `cg_update`, `cg_start`, then per iteration `cg_product`, `cg_alpha`, `cg_update`,
 // `cg_beta`: Jacobi-preconditioned conjugate gradients (z = r/diag), the three colour
@@ -105,8 +106,8 @@ struct Params {
     directions: u32,
     max_iterations: u32,
     node_min: vec3<f32>,
-    // Padding after node_min.
-    pad0: u32,
+    // 1: the diffusion's CG starts from the x in `work` (the last solve's, warm start).
+    warm: u32,
     node_cell: vec3<f32>,
     tolerance: f32,
     nodes: vec3<u32>,
@@ -588,8 +589,21 @@ fn system(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         }
         work[parity_at()] = 0.0;
     }
+    // A warm start keeps an unknown's x (made finite: a neighbour reading it before or
+    // after this write reads the same value through `finite_or_zero`).
+    let keep = p.warm == 1u && unknown(i);
+    let x0 = select(vec3<f32>(0.0), vec3<f32>(finite_or_zero(work[at(i, 28u)]),
+        finite_or_zero(work[at(i, 29u)]), finite_or_zero(work[at(i, 30u)])), keep);
     for (var k = 0u; k < ROW; k++) {
-        work[at(i, k)] = 0.0;
+        // A kept x is never zeroed, not even for a moment: the neighbours read it.
+        if !(keep && k >= 28u && k < 31u) {
+            work[at(i, k)] = 0.0;
+        }
+    }
+    if keep {
+        for (var ch = 0u; ch < 3u; ch++) {
+            work[at(i, 28u + ch)] = x0[ch];
+        }
     }
     if !unknown(i) {
         work[at(i, 0u)] = 1.0;
@@ -606,6 +620,8 @@ fn system(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     for (var ch = 0u; ch < 3u; ch++) {
         b[ch] = p.transport_sigma_t * di * (1.0 - pi) * source_j0(i, ch);
     }
+    // Σ G x_j over the faces with a neighbouring unknown (the warm start's A x0).
+    var gx = vec3<f32>(0.0);
     for (var f = 0u; f < 6u; f++) {
         let j = neighbour(c, f);
         if j == NONE || !unknown(j) {
@@ -621,6 +637,11 @@ fn system(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         let g = finite_or_zero(kept / (3.0 * p.sigma_tr * df * h * h));
         diag += g;
         work[at(i, 1u + f)] = g;
+        if keep {
+            for (var ch = 0u; ch < 3u; ch++) {
+                gx[ch] += g * finite_or_zero(work[at(j, 28u + ch)]);
+            }
+        }
         for (var ch = 0u; ch < 3u; ch++) {
             let flux = 0.5 * ((1.0 - pi) * source_j1(i, ch, a) + (1.0 - pj) * source_j1(j, ch, a)) * n;
             let drive = finite_or_zero(p.transport_sigma_t / (3.0 * p.sigma_tr * h) * flux);
@@ -631,8 +652,8 @@ fn system(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     work[at(i, 0u)] = diag;
     for (var ch = 0u; ch < 3u; ch++) {
         work[at(i, 7u + ch)] = b[ch];
-        // x = 0, r = b, both p slots and Ap 0.
-        work[at(i, 31u + ch)] = b[ch];
+        // r = b − A x0 (x0 = 0 cold), both p slots and Ap 0.
+        work[at(i, 31u + ch)] = b[ch] - (diag * x0[ch] - gx[ch]);
     }
 }
 
@@ -824,17 +845,25 @@ fn cg_update(
     write_partial3(lid, w, 4u, rz);
 }
 
-// The first state from r = b: ‖b‖, r·z, a channel with b = 0 (or no iterations allowed)
-// done at once.
+// The first state from r = b − A x0: ‖b‖ (summed over the rows here), ‖r‖/‖b‖, r·z, a
+// channel with b = 0, already within the tolerance or with no iterations allowed done at
+// once.
 @compute @workgroup_size(256)
 fn cg_start(@builtin(local_invocation_index) lid: u32) {
-    let bb = total3(lid, 0u);
+    let rr = total3(lid, 0u);
     let rz = total3(lid, 4u);
+    var part = vec3<f32>(0.0);
+    for (var i = lid; i < total_cells(); i += WG) {
+        let b = vec3<f32>(work[at(i, 7u)], work[at(i, 8u)], work[at(i, 9u)]);
+        part += b * b;
+    }
+    let b01 = workgroup_sum(lid, part.xy);
+    let bb = vec3<f32>(b01, workgroup_sum(lid, vec2<f32>(part.z, 0.0)).x);
     if lid == 0u {
         for (var c = 0u; c < 3u; c++) {
             let st = state_at(c);
             let bn = sqrt(bb[c]);
-            let residual = select(0.0, 1.0, bn > 0.0);
+            let residual = select(0.0, sqrt(rr[c]) / bn, bn > 0.0);
             work[st] = 0.0;
             work[st + 1u] = residual;
             work[st + 2u] = rz[c];

@@ -451,3 +451,66 @@ fn extremes_add_nothing_or_are_refused() {
         .unwrap_err();
     assert!(e.to_string().contains("another volume grid"), "{e}");
 }
+
+/// The cells' `L⁰` after the orders and the diffusion of `env` on `pass` (solved from
+/// where its last solve ended, if any), with the CG's iterations.
+fn solved(s: &Scene, pass: &OrdersPass, env: &Environment) -> (Vec<[f64; 3]>, u32) {
+    let m = medium();
+    let media = pass
+        .gather(
+            &s.ctx, &s.buf, &s.shadow, &s.light, env, &s.lights, &m, FACTOR, 2,
+        )
+        .unwrap();
+    pass.diffuse(
+        &s.ctx,
+        &s.buf,
+        &s.shadow,
+        &media,
+        &GridSolveOptions::default(),
+    )
+    .unwrap();
+    let iterations = pass.solve_stats(&s.ctx).unwrap().unwrap().iterations;
+    (media.read(&s.ctx).unwrap().l0, iterations)
+}
+
+/// Playback's warm start: a solve that starts from the last one's solution ends where a
+/// solve from zero does (both at the relative residual 1e-5, so within `κ·1e-5`, held to
+/// 1e-3 of the largest `L⁰` as the twin test's 1e-2 is for `f32` against `f64`), in fewer
+/// iterations; the same frame again needs next to none; `reset` makes it cold again.
+#[test]
+fn a_warm_start_ends_where_a_cold_one_does() {
+    let env0 = env();
+    let s = scene(&env0, &medium(), FACTOR);
+    // The next frame's light: the sun and the lamp a little brighter, the lamp moved.
+    let mut env1 = env0.clone();
+    env1.suns[0].irradiance = [6.6, 5.4, 4.5];
+    env1.points[0].intensity = [0.25, 0.33, 0.42];
+    env1.points[0].position = [0.35, 0.66, 0.55];
+    let fresh = OrdersPass::new(&s.ctx).unwrap();
+    let (cold, cold_iterations) = solved(&s, &fresh, &env1);
+
+    let (_, first) = solved(&s, &s.orders, &env0);
+    let (warm, warm_iterations) = solved(&s, &s.orders, &env1);
+    let max = cold.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+    let d = cold
+        .iter()
+        .flatten()
+        .zip(warm.iter().flatten())
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    println!(
+        "cold {cold_iterations} iterations ({first} for the frame before), warm \
+         {warm_iterations}; |ΔL⁰|/max {:.2e}",
+        d / max
+    );
+    assert!(max > 0.0 && d <= 1e-3 * max, "{}", d / max);
+    assert!(
+        warm_iterations < cold_iterations,
+        "{warm_iterations} vs {cold_iterations}"
+    );
+
+    let (_, again) = solved(&s, &s.orders, &env1);
+    assert!(again <= cold_iterations / 4, "{again} vs {cold_iterations}");
+    s.orders.reset();
+    let (_, after_reset) = solved(&s, &s.orders, &env1);
+    assert_eq!(after_reset, cold_iterations);
+}

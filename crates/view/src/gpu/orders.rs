@@ -19,7 +19,9 @@
 //!   orders, one invocation per cell, solved by Jacobi-preconditioned conjugate gradients
 //!   ([`crate::render::grid_diffusion::solve`]) spread over every cell: per iteration two
 //!   cell dispatches that leave a partial dot product per workgroup and two one-workgroup
-//!   reductions; the iterations go in batches with a look at the state after each (the
+//!   reductions, from the last solve's solution when it had as many cells (playback's
+//!   warm start: the next frame's light is close to this one's); the iterations go in
+//!   batches with a look at the state after each (the
 //!   first batch as long as the last solve, so most solves wait once), and once every
 //!   channel has converged the reductions empty the cell dispatches' indirect arguments,
 //!   so a batch's iterations past convergence cost empty dispatches; then `L⁰`, `L¹` per
@@ -113,7 +115,7 @@ struct Params {
     directions: u32,
     max_iterations: u32,
     node_min: [f32; 3],
-    pad0: u32,
+    warm: u32,
     node_cell: [f32; 3],
     tolerance: f32,
     nodes: [u32; 3],
@@ -516,7 +518,9 @@ impl OrdersPass {
     }
 
     /// Adds to `media` the diffusion of the light after its gathered orders (module docs),
-    /// solved with `opts` (submitted). Nothing to add when the medium does not scatter.
+    /// solved with `opts`, from the last solve's solution when it had as many cells and
+    /// [`OrdersPass::reset`] came not between. Nothing to add when the medium does not
+    /// scatter.
     pub fn diffuse(
         &self,
         ctx: &GpuContext,
@@ -533,16 +537,19 @@ impl OrdersPass {
         ctx.check_storage_size("the orders' diffusion", 4 * words)?;
         let groups = cell_groups(ctx, n)?;
         let cg_groups = haze_gpu::line_groups(ctx, n.max(1), CG_GROUP, "cells")?;
-        let params = Params {
-            stride: 13,
-            max_iterations: opts.max_iterations,
-            tolerance: opts.tolerance as f32,
-            ..media.params
-        };
         let mut kept = self.work.lock().map_err(|_| GpuError::Gpu {
             during: "the orders' diffusion",
             reason: "a previous solve panicked".into(),
         })?;
+        // The last solve's x is the start when it had as many cells (module docs).
+        let warm = matches!(kept.as_ref(), Some((m, _)) if *m == n);
+        let params = Params {
+            stride: 13,
+            max_iterations: opts.max_iterations,
+            tolerance: opts.tolerance as f32,
+            warm: u32::from(warm),
+            ..media.params
+        };
         let (work, args, cells, reduce) = ctx.scoped("the orders' diffusion", || {
             let work = match kept.take() {
                 Some((m, w)) if m == n => w,
@@ -679,6 +686,13 @@ impl OrdersPass {
                 return Ok(());
             }
             batch = CG_BATCH.max(ran / 2);
+        }
+    }
+
+    /// Forgets the last solve: the next [`OrdersPass::diffuse`] starts from `x = 0`.
+    pub fn reset(&self) {
+        if let Ok(mut kept) = self.work.lock() {
+            *kept = None;
         }
     }
 
@@ -877,7 +891,7 @@ fn gather_params(
         directions: 0,
         max_iterations: 0,
         node_min,
-        pad0: 0,
+        warm: 0,
         node_cell,
         tolerance: 0.0,
         nodes,

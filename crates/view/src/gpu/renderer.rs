@@ -318,6 +318,7 @@ impl GpuRenderer {
         self.env_grid = None;
         self.light_shadow = None;
         self.orders_media = None;
+        self.orders.reset();
     }
 
     /// Where the next frames compute their light (everything is recomputed).
