@@ -18,7 +18,9 @@
 
 use crate::distant::Rgb;
 use crate::medium::hg;
+use rayon::prelude::*;
 use std::f64::consts::PI;
+use std::sync::{Arc, Mutex};
 
 pub mod decompose;
 
@@ -159,6 +161,12 @@ pub struct DiskPhase {
 /// HG's forward peak at `g = 0.95` (`≈ (1 − g)` rad).
 pub const DISK_PHASE_ENTRIES: usize = 512;
 
+/// Tables [`DiskPhase::shared`] keeps, the most recently asked for last.
+const KEPT_TABLES: usize = 16;
+
+/// The tables built so far by [`DiskPhase::shared`], keyed by `(g, angle)`'s bits.
+static TABLES: Mutex<Vec<(u64, u64, Arc<DiskPhase>)>> = Mutex::new(Vec::new());
+
 impl DiskPhase {
     /// The table of HG(`g`) averaged over a disk of apex angle `angle` (radians), by a
     /// product rule over the disk: Gauss–Legendre in `1 − cos θ` (uniform per solid
@@ -175,6 +183,7 @@ impl DiskPhase {
         let h = 2.0 * (0.25 * angle).sin().powi(2); // 1 − cos(α/2)
         let n = DISK_PHASE_ENTRIES;
         let table = (0..n)
+            .into_par_iter()
             .map(|k| {
                 let tc = PI * k as f64 / (n - 1) as f64;
                 // Disk about +Z; viewing direction at polar angle tc in the XZ plane.
@@ -195,6 +204,31 @@ impl DiskPhase {
             })
             .collect();
         DiskPhase { g, table }
+    }
+
+    /// [`DiskPhase::new`], built once per `(g, angle)` while it is among the last
+    /// [`KEPT_TABLES`] asked for: a table is ~1.2 million phase evaluations, and a frame
+    /// asks for each sun's several times (the lights pass, the orders' first source, the
+    /// GPU's shadow volume at `g = 0` beside its lights pass), so playback and camera
+    /// moves would otherwise build them again every picture.
+    pub fn shared(g: f64, angle: f64) -> Arc<DiskPhase> {
+        let key = (g.to_bits(), angle.to_bits());
+        let mut kept = TABLES
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner());
+        if let Some(i) = kept.iter().position(|(a, b, _)| (*a, *b) == key) {
+            let entry = kept.remove(i);
+            let table = Arc::clone(&entry.2);
+            kept.push(entry);
+            return table;
+        }
+        // Built under the lock: two threads asking for the same table build it once.
+        let table = Arc::new(DiskPhase::new(g, angle));
+        if kept.len() >= KEPT_TABLES {
+            kept.remove(0);
+        }
+        kept.push((key.0, key.1, Arc::clone(&table)));
+        table
     }
 
     /// `p̄` for `cos θc` (clamped to [−1, 1]).

@@ -19,11 +19,11 @@
 //!
 //! Uploads: the lights, positions relative to the box's minimum corner (as every pass:
 //! `f32` keeps its precision for boxes far from the origin), eight words each, then the
-//! suns' phase tables (512 `f32` per sun with a disk, built once per `(g, angle)` and kept
-//! for the next frames). A point light that sits exactly on a voxel center (in the CPU's
-//! `f64` arithmetic) is flagged with that voxel's index, so the GPU adds the CPU's
-//! isotropic, unshadowed `I/(a²/3)` there even where `f32` rounding puts the two points an
-//! ulp apart.
+//! suns' phase tables (512 `f32` per sun with a disk, [`DiskPhase::shared`]: built once
+//! per `(g, angle)` and kept for the next frames). A point light that sits exactly on a
+//! voxel center (in the CPU's `f64` arithmetic) is flagged with that voxel's index, so the
+//! GPU adds the CPU's isotropic, unshadowed `I/(a²/3)` there even where `f32` rounding puts
+//! the two points an ulp apart.
 //!
 //! Cost: per voxel and light one shadow march of up to `ℓ/h₀` trilinear samples (eight
 //! density reads each); neighbouring invocations march parallel (a sun) or converging (a
@@ -41,7 +41,6 @@ use haze_gpu::{
     voxel_groups,
 };
 use haze_volume::Bbox;
-use std::sync::Mutex;
 
 /// The shader: `crates/view/shaders/lights_pass.wgsl`, importing the shadow march shared
 /// with the environment pass (`grid_march`) and the phase functions shared with the
@@ -84,21 +83,12 @@ struct Params {
     _pad: u32,
 }
 
-/// A sun's phase table as uploaded, for the `g` and disk angle it was built for.
-#[derive(Debug)]
-struct Table {
-    g: u64,
-    angle: u64,
-    values: Vec<f32>,
-}
-
-/// The compiled lights pass, reusable across frames; it keeps the suns' phase tables of
-/// the last run.
+/// The compiled lights pass, reusable across frames (the suns' phase tables are
+/// [`DiskPhase::shared`]).
 #[derive(Debug)]
 pub struct LightsPass {
     pipeline: wgpu::ComputePipeline,
     shadow: wgpu::ComputePipeline,
-    tables: Mutex<Vec<Table>>,
 }
 
 /// The lights' shadow volume on the GPU: `T = exp(−σt·τ)` toward each light at every
@@ -235,50 +225,18 @@ impl LightsPass {
         let pipeline = compute_pipeline(ctx, "lights pass pipeline creation", &source)?;
         let shadow =
             compute_pipeline_at(ctx, "lights shadow pipeline creation", &source, "shadow")?;
-        Ok(LightsPass {
-            pipeline,
-            shadow,
-            tables: Mutex::new(Vec::new()),
-        })
+        Ok(LightsPass { pipeline, shadow })
     }
 
-    /// The phase tables of the suns of `env` for `g` (empty for a zero-angle sun), from
-    /// the last run's where they match.
-    fn tables(&self, env: &Environment, g: f64) -> Vec<Vec<f32>> {
-        let mut kept: Vec<Table> = self
-            .tables
-            .lock()
-            .map(|mut t| std::mem::take(&mut *t))
-            .unwrap_or_default();
-        let mut out = Vec::with_capacity(env.suns.len());
-        for sun in &env.suns {
-            let (gb, ab) = (g.to_bits(), sun.angle.to_bits());
-            let i = match kept.iter().position(|t| t.g == gb && t.angle == ab) {
-                Some(i) => i,
-                None => {
-                    let values = DiskPhase::new(g, sun.angle)
-                        .table()
-                        .iter()
-                        .map(|v| *v as f32)
-                        .collect();
-                    kept.push(Table {
-                        g: gb,
-                        angle: ab,
-                        values,
-                    });
-                    kept.len() - 1
-                }
-            };
-            out.push(kept[i].values.clone());
-        }
-        // Keep the tables of these suns only.
-        kept.retain(|t| {
-            t.g == g.to_bits() && env.suns.iter().any(|s| s.angle.to_bits() == t.angle)
-        });
-        if let Ok(mut t) = self.tables.lock() {
-            *t = kept;
-        }
-        out
+    /// The phase tables of the suns of `env` for `g` (empty for a zero-angle sun).
+    fn tables(env: &Environment, g: f64) -> Vec<Vec<f32>> {
+        env.suns
+            .iter()
+            .map(|sun| {
+                let phase = DiskPhase::shared(g, sun.angle);
+                phase.table().iter().map(|v| *v as f32).collect()
+            })
+            .collect()
     }
 
     /// Adds the suns and point lights of `env` to the grids on the GPU (those a
@@ -437,7 +395,7 @@ impl LightsPass {
         let bits = |v: [f64; 3]| v.map(|c| (c as f32).to_bits());
 
         // The records, then the tables.
-        let tables = self.tables(env, g);
+        let tables = LightsPass::tables(env, g);
         let mut words: Vec<u32> =
             Vec::with_capacity(RECORD * (env.suns.len() + env.points.len()) + 512 * tables.len());
         let mut at = RECORD * (env.suns.len() + env.points.len());

@@ -110,3 +110,21 @@ fn disk_phase_matches_brute_force_and_stays_normalized() {
     assert_eq!(z.eval(0.7), hg(0.9, 0.7));
     assert!(DiskPhase::new(0.9, 6f64.to_radians()).eval(1.0) < 0.9 * hg(0.9, 1.0));
 }
+
+/// A shared table is the one [`DiskPhase::new`] builds, built once (asked for again at
+/// once, the same table), and built again after `KEPT_TABLES` others pushed it out (tests
+/// running beside this one only push it out sooner).
+#[test]
+fn shared_disk_phases_are_built_once_and_pushed_out_by_others() {
+    use std::sync::Arc;
+    let (g, angle) = (0.123_456_789, 4f64.to_radians());
+    let a = DiskPhase::shared(g, angle);
+    assert_eq!(*a, DiskPhase::new(g, angle));
+    assert!(Arc::ptr_eq(&a, &DiskPhase::shared(g, angle)));
+    for k in 1..=super::KEPT_TABLES {
+        let _ = DiskPhase::shared(g, angle + k as f64 * 1e-3);
+    }
+    let again = DiskPhase::shared(g, angle);
+    assert!(!Arc::ptr_eq(&a, &again));
+    assert_eq!(*again, *a);
+}

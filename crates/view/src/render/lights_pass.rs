@@ -21,6 +21,7 @@ use crate::lights::{DiskPhase, dot};
 use crate::medium::{FOUR_PI, Medium, hg};
 use haze_volume::{Bbox, Volume};
 use rayon::prelude::*;
+use std::sync::Arc;
 
 /// Optical depth (σt·τ) beyond which the shadow march stops.
 pub const SHADOW_CUTOFF: f64 = 20.0;
@@ -30,10 +31,10 @@ pub fn lights_pass(grids: &mut VolumeGrids, env: &Environment, medium: &Medium, 
     if !env.has_lights() || medium.albedo == 0.0 {
         return;
     }
-    let phases: Vec<DiskPhase> = env
+    let phases: Vec<Arc<DiskPhase>> = env
         .suns
         .iter()
-        .map(|s| DiskPhase::new(medium.g, s.angle))
+        .map(|s| DiskPhase::shared(medium.g, s.angle))
         .collect();
     let density = &grids.density;
     let dims = density.dims();

@@ -33,6 +33,7 @@ use crate::lights::DiskPhase;
 use crate::medium::FOUR_PI;
 use crate::sh;
 use rayon::prelude::*;
+use std::sync::Arc;
 
 /// Transmittance below which a ray stops.
 pub const T_MIN: f64 = 1e-4;
@@ -45,7 +46,7 @@ pub struct SunSource {
     /// Unit direction towards the sun.
     pub direction: [f64; 3],
     /// HG averaged over the disk ([`DiskPhase`]).
-    pub phase: DiskPhase,
+    pub phase: Arc<DiskPhase>,
     /// Transmittance from each cell center to the sun (one per cell).
     pub transmittance: Vec<f64>,
 }

@@ -65,7 +65,7 @@ fn first_order_matches_the_closed_form_in_a_uniform_box() {
     let sun = SunSource {
         emit: [0.3, 0.2, 0.1],
         direction: s,
-        phase: DiskPhase::new(0.6, 0.1),
+        phase: std::sync::Arc::new(DiskPhase::new(0.6, 0.1)),
         transmittance: vec![0.7; cells],
     };
     let out = gather(&g, sigma_t, &src, std::slice::from_ref(&sun), &rule(12));
@@ -232,7 +232,7 @@ fn light_towards_the_eye_keeps_bands_two_to_four() {
     let sun = SunSource {
         emit: [emit; 3],
         direction: s,
-        phase: DiskPhase::new(g_hg, 0.0),
+        phase: std::sync::Arc::new(DiskPhase::new(g_hg, 0.0)),
         transmittance: vec![1.0; cells],
     };
     let gathered = gather(

@@ -235,7 +235,7 @@ pub fn sun_sources(
         .map(|sun| SunSource {
             emit: sun.irradiance.map(|e| medium.albedo * e / FOUR_PI),
             direction: sun.direction,
-            phase: DiskPhase::new(medium.g, sun.angle),
+            phase: DiskPhase::shared(medium.g, sun.angle),
             transmittance: (0..grid.len())
                 .into_par_iter()
                 .map(|i| {
