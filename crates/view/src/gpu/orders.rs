@@ -217,6 +217,26 @@ pub struct OrdersPass {
     expected: AtomicU32,
 }
 
+/// One compute pass timed as `label`, recorded by `record`, submitted. Call inside
+/// [`GpuContext::scoped`].
+fn timed_pass(
+    ctx: &GpuContext,
+    label: &'static str,
+    record: impl FnOnce(&mut wgpu::ComputePass<'_>),
+) {
+    let mut enc = ctx
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
+    {
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(label),
+            timestamp_writes: ctx.timestamp_writes(label),
+        });
+        record(&mut pass);
+    }
+    ctx.queue.submit([enc.finish()]);
+}
+
 /// How the CG in `work` (of `n` cells) stands, and whether every channel is done (a
 /// wait).
 fn solve_state(
@@ -373,21 +393,13 @@ impl OrdersPass {
         binds: &[wgpu::BindGroup],
         groups: [u32; 3],
     ) {
-        let mut enc = ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
-        {
-            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some(label),
-                timestamp_writes: ctx.timestamp_writes(label),
-            });
+        timed_pass(ctx, label, |pass| {
             pass.set_pipeline(pipeline);
             for bind in binds {
                 pass.set_bind_group(0, bind, &[]);
                 pass.dispatch_workgroups(groups[0], groups[1], groups[2]);
             }
-        }
-        ctx.queue.submit([enc.finish()]);
+        });
     }
 
     /// The first `orders` scattering orders on the coarse grid of `factor` over `grid`'s
@@ -647,14 +659,7 @@ impl OrdersPass {
         loop {
             let now = batch.min(max - ran);
             ctx.scoped("the orders' diffusion", || {
-                let mut enc = ctx
-                    .device
-                    .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
-                {
-                    let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                        label: Some(label),
-                        timestamp_writes: ctx.timestamp_writes(label),
-                    });
+                timed_pass(ctx, label, |pass| {
                     if ran == 0 {
                         pass.set_pipeline(&self.cg_update);
                         pass.set_bind_group(0, cells, &[]);
@@ -676,8 +681,7 @@ impl OrdersPass {
                             pass.dispatch_workgroups(1, 1, 1);
                         }
                     }
-                }
-                ctx.queue.submit([enc.finish()]);
+                });
             })?;
             ran += now;
             let (solve, done) = solve_state(ctx, work, n)?;
