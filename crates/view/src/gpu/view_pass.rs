@@ -414,14 +414,18 @@ pub struct ImageBuffer {
 impl ImageBuffer {
     /// Copies the pixels back to the host (waits for the GPU).
     pub fn read(&self, ctx: &GpuContext) -> Result<Vec<[f32; 3]>, GpuError> {
-        let bytes = ctx.read_buffer(&self.buffer)?;
-        // Copied rather than cast: the bytes come without `f32` alignment.
-        let pixels: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&bytes);
-        Ok(pixels
-            .iter()
-            .take(self.width * self.height)
-            .map(|p| [p[0], p[1], p[2]])
-            .collect())
+        let n = self.width * self.height;
+        let size = (16 * n as u64).min(self.buffer.size());
+        // Read in place from the mapped bytes (which need not be `f32`-aligned), one pass.
+        ctx.read_with(&self.buffer, 0, size, |bytes| {
+            let word = |b: &[u8], k: usize| {
+                f32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]])
+            };
+            bytes
+                .chunks_exact(16)
+                .map(|p| [word(p, 0), word(p, 1), word(p, 2)])
+                .collect()
+        })
     }
 
     /// `(width, height)` in pixels.
