@@ -514,3 +514,34 @@ fn a_warm_start_ends_where_a_cold_one_does() {
     let (_, after_reset) = solved(&s, &s.orders, &env1);
     assert_eq!(after_reset, cold_iterations);
 }
+
+/// The batches' ends: no iterations allowed ends at once with nothing solved, a cap
+/// below convergence (37 iterations here) stops at exactly the cap with the residual
+/// still above the tolerance, and the cells' light stays finite either way.
+#[test]
+fn the_cg_stops_at_its_most_iterations() {
+    let env = env();
+    let m = medium();
+    let s = scene(&env, &m, FACTOR);
+    for max in [0, 1, 5] {
+        let pass = OrdersPass::new(&s.ctx).unwrap();
+        let media = pass
+            .gather(
+                &s.ctx, &s.buf, &s.shadow, &s.light, &env, &s.lights, &m, FACTOR, 2,
+            )
+            .unwrap();
+        let opts = GridSolveOptions {
+            max_iterations: max,
+            ..GridSolveOptions::default()
+        };
+        pass.diffuse(&s.ctx, &s.buf, &s.shadow, &media, &opts)
+            .unwrap();
+        let solve = pass.solve_stats(&s.ctx).unwrap().unwrap();
+        assert_eq!(solve.iterations, max);
+        if max > 0 {
+            assert!(solve.residual > opts.tolerance, "{max}: {}", solve.residual);
+        }
+        let l0 = media.read(&s.ctx).unwrap().l0;
+        assert!(l0.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+    }
+}

@@ -21,8 +21,8 @@
 //!   cell dispatches that leave a partial dot product per workgroup and two one-workgroup
 //!   reductions, from the last solve's solution when it had as many cells (playback's
 //!   warm start: the next frame's light is close to this one's); the iterations go in
-//!   batches with a look at the state after each (the
-//!   first batch as long as the last solve, so most solves wait once), and once every
+//!   batches with a look at the state after each (the first batch as long as the last
+//!   solve, so most solves wait once), and once every
 //!   channel has converged the reductions empty the cell dispatches' indirect arguments,
 //!   so a batch's iterations past convergence cost empty dispatches; then `L⁰`, `L¹` per
 //!   cell with the flux moment and the clamp `|L¹| ≤ 3L⁰`;
