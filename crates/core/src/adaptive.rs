@@ -9,9 +9,9 @@
 //! [`BitReader`] implement [`BitIo`], so one function that codes a value bit by bit both
 //! writes and reads it, and the two can never disagree.
 
+use constriction::stream::Encode;
 use constriction::stream::model::{EncoderModel, EntropyModel};
 use constriction::stream::queue::DefaultRangeEncoder;
-use constriction::stream::Encode;
 use std::num::NonZeroU16;
 
 /// Bits of a model's probability.
@@ -344,7 +344,11 @@ mod tests {
             for (i, &b) in bits.iter().enumerate() {
                 assert_eq!(r.code_probability(ONE - p_of(i as u32), false).unwrap(), b);
             }
-            assert_eq!(twin(&bytes, n + 100), n + 100, "{n} bits read on past the end");
+            assert_eq!(
+                twin(&bytes, n + 100),
+                n + 100,
+                "{n} bits read on past the end"
+            );
         }
         for len in [0usize, 4, 12, 4096] {
             let garbage: Vec<u8> = (0..len as u32)
@@ -355,7 +359,6 @@ mod tests {
         // A point past the range from the first word on: both refuse the first bit.
         assert_eq!(twin(&[0xff; 8], 10), 0);
     }
-
 
     /// Bits and trees come back as written, and a skewed source costs what its entropy
     /// says (the adaptive model's price: within 10 % for 20 000 bits at p = 0.05).
