@@ -5,15 +5,17 @@ use serde::{Deserialize, Serialize};
 /// File magic: "HAZE", a NUL, CR LF and ^Z, so that text-mode transfers and `type`
 /// corrupt it visibly.
 pub const MAGIC: [u8; 8] = *b"HAZE\0\r\n\x1a";
-/// Format version this build writes and the newest it reads. Version 6 splits a large
-/// hash volume's residual values into streams that decode apart (`haze_hash::block`
-/// layout 6); version 5 codes the header's JSON against a fixed zstd dictionary and the
+/// Format version this build writes and the newest it reads. Version 7 codes each
+/// residual value's magnitude class stepped to from its scale context's likeliest class
+/// (`haze_hash::block` layout 7: fewer coded bits, a faster decode); version 6 splits a
+/// large hash volume's residual values into streams that decode apart (layout 6, still
+/// read); version 5 codes the header's JSON against a fixed zstd dictionary and the
 /// residual's values under mixed context models in one stream (layout 5, still read);
 /// version 4 range-coded the residual's values under
 /// one context model (layout 4) and the RBFs (layout 3). Files of versions 1 to 4 still
 /// open (raw volumes and RBF blocks of layout 2 and 3 read as before), and the blocks they
 /// hold in an older layout are refused with a message to bake again.
-pub const FORMAT_VERSION: u32 = 6;
+pub const FORMAT_VERSION: u32 = 7;
 /// Alignment of every block, in bytes.
 pub const ALIGN: u64 = 64;
 /// Size of the preamble.

@@ -1,4 +1,4 @@
-//! The residual block's coding (`haze_hash::block`, asset format 6): encoding and decoding
+//! The residual block's coding (`haze_hash::block`, asset format 7): encoding and decoding
 //! one hash volume of 27 frames of 96 × 96 × 128 voxels, what a bake writes every 27
 //! frames and what playback decodes ahead (BENCHMARKS.md "Against established
 //! compressors"). The residual is a misfit of the kind RBFs leave: a smooth field of both

@@ -11,7 +11,7 @@
 //! decoded group is the one encoded, table for table.
 //!
 //! ```text
-//! u32 layout version (6), bits, frames (1..=27), brick side
+//! u32 layout version (7), bits, frames (1..=27), brick side
 //! u32 dims[3], m̄, data words, bricks, zstd bytes, range bytes
 //! u32 streams S (1..=4), then per stream: its bricks' x end, its range bytes
 //! f32 steps[frames]
@@ -34,7 +34,9 @@
 //! uncoded (0), and each stream learns its models alone. So the streams decode apart, on
 //! as many cores as there are streams. A group is split only where its values are many
 //! ([`STREAM_NONZERO`] non-zero values a stream), at cuts that share the non-zero values
-//! out evenly. Layout 5 is layout 6 without the streams' table, one stream.
+//! out evenly. Layout 6 is layout 7 with each value's magnitude binarized as an
+//! Elias-gamma code ([`Binarization`]), layout 5 is layout 6 without the streams' table,
+//! one stream; both still decode.
 //!
 //! Bricks are listed in the order of their values in `data` (frame by frame, bricks
 //! ascending `z, y, x`), so a brick's payload (first word, width) is the running sum of
@@ -45,7 +47,7 @@
 //! one context each, haze format 4) are refused with a message that says to bake the
 //! asset again.
 
-use crate::context_coder;
+use crate::context_coder::{self, Binarization};
 use crate::pack::{self, Width};
 use crate::psh::{BuildOptions, MAX_SIDE, PerfectHash};
 use crate::quantize::{BITS, largest_value};
@@ -55,8 +57,12 @@ use crate::tile::{
 use haze_core::adaptive::{BitReader, BitWriter, Gamma, LEAST_BITS};
 use rayon::prelude::*;
 
-const VERSION: u32 = 6;
-/// The layout before the values were split into streams: still read, as one stream.
+const VERSION: u32 = 7;
+/// The layout before the values' classes were coded from a pivot: still read, each
+/// value's magnitude binarized as an Elias-gamma code.
+const GAMMA: u32 = 6;
+/// The layout before the values were split into streams: still read, as one stream of
+/// gamma-binarized values.
 const ONE_STREAM: u32 = 5;
 /// The header's fixed words; the streams' table (layout 6) and the frames' steps follow.
 const FIXED: usize = 4 * 12;
@@ -78,6 +84,15 @@ fn header_len(version: u32, frames: usize, streams: usize) -> usize {
     FIXED + table + 4 * frames
 }
 
+/// How layout `version`'s values are binarized.
+fn binarization(version: u32) -> Binarization {
+    if version == VERSION {
+        Binarization::Pivot
+    } else {
+        Binarization::Gamma
+    }
+}
+
 /// Where brick `key` lies: its frame slot and its brick position in that frame.
 fn place(key: u32, domain: [u32; 3], dims: [u32; 3], brick: u32) -> (usize, [u32; 3]) {
     let i = key - 1;
@@ -93,11 +108,16 @@ fn place(key: u32, domain: [u32; 3], dims: [u32; 3], brick: u32) -> (usize, [u32
 
 /// Encodes a hash volume (built by [`ResidualGroup::build`]).
 pub fn encode(g: &ResidualGroup) -> Result<Vec<u8>, String> {
-    encode_streams(g, STREAM_NONZERO)
+    encode_streams(g, STREAM_NONZERO, VERSION)
 }
 
-/// [`encode`], a stream for every `stream_nonzero` non-zero values.
-fn encode_streams(g: &ResidualGroup, stream_nonzero: usize) -> Result<Vec<u8>, String> {
+/// [`encode`] in `layout` (this one, or [`GAMMA`] to write what older builds wrote), a
+/// stream for every `stream_nonzero` non-zero values.
+fn encode_streams(
+    g: &ResidualGroup,
+    stream_nonzero: usize,
+    layout: u32,
+) -> Result<Vec<u8>, String> {
     let h = &g.hash;
     // The bricks in the order of their values.
     let mut bricks: Vec<(u32, u32)> = h
@@ -153,7 +173,14 @@ fn encode_streams(g: &ResidualGroup, stream_nonzero: usize) -> Result<Vec<u8>, S
             .map(|(j, at, v)| (*j, *at, v.as_slice()))
             .collect();
         let mut w = io.take().unwrap_or_default();
-        context_coder::encode(&mut w, nb, g.brick, largest_value(g.bits), &list)?;
+        context_coder::encode(
+            &mut w,
+            nb,
+            g.brick,
+            largest_value(g.bits),
+            binarization(layout),
+            &list,
+        )?;
         streams.push((end, w.finish()?));
     }
     let ranged: usize = streams.iter().map(|(_, b)| b.len()).sum();
@@ -162,10 +189,10 @@ fn encode_streams(g: &ResidualGroup, stream_nonzero: usize) -> Result<Vec<u8>, S
     } else {
         haze_core::coded::deflate(&lossless)
     };
-    let header = header_len(VERSION, g.steps.len(), streams.len());
+    let header = header_len(layout, g.steps.len(), streams.len());
     let mut out = Vec::with_capacity(header + zipped.len() + ranged);
     let mut u = |v: u32| out.extend_from_slice(&v.to_le_bytes());
-    for v in [VERSION, u32::from(g.bits), g.steps.len() as u32, g.brick] {
+    for v in [layout, u32::from(g.bits), g.steps.len() as u32, g.brick] {
         u(v);
     }
     for v in [
@@ -237,7 +264,7 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
         ));
     }
     let (version, bits, frames, brick) = (u(0), u(4), u(8) as usize, u(12));
-    if version != VERSION && version != ONE_STREAM {
+    if ![VERSION, GAMMA, ONE_STREAM].contains(&version) {
         return Err(format!("residual block layout {version} is unknown"));
     }
     let bits = u8::try_from(bits)
@@ -390,10 +417,11 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
                 .collect()
         })
         .collect();
+    let how = binarization(version);
     let packed: Vec<Packed> = readers
         .into_par_iter()
         .zip(lists.par_iter())
-        .map(|(mut io, list)| Packed::decode(&mut io, nb, brick, limit, list, words))
+        .map(|(mut io, list)| Packed::decode(&mut io, nb, brick, limit, how, list, words))
         .collect::<Result<_, _>>()?;
     let mut data = Vec::with_capacity(words);
     let mut cells = Vec::with_capacity(count);
@@ -463,10 +491,11 @@ impl Packed {
         nb: [u32; 3],
         brick: u32,
         limit: u32,
+        how: Binarization,
         list: &[(usize, [u32; 3])],
         words: usize,
     ) -> Result<Packed, String> {
-        let mut decoder = context_coder::Decoder::new(nb, brick, limit);
+        let mut decoder = context_coder::Decoder::new(nb, brick, limit, how);
         let mut out = Packed {
             data: Vec::new(),
             bricks: Vec::with_capacity(list.len()),
@@ -701,10 +730,10 @@ mod tests {
             })
             .collect();
         let g = ResidualGroup::build(dims, 4, &frames, BuildOptions::default()).unwrap();
-        let one = encode_streams(&g, usize::MAX).unwrap();
+        let one = encode_streams(&g, usize::MAX, VERSION).unwrap();
         assert_eq!(u32_at(&one, FIXED), 1);
         let nonzero = g.data.len(); // more than the non-zero values: 4 streams at a quarter
-        let split = encode_streams(&g, nonzero / 8).unwrap();
+        let split = encode_streams(&g, nonzero / 8, VERSION).unwrap();
         assert_eq!(u32_at(&split, FIXED), 4);
         let ends: Vec<u32> = (0..4).map(|s| u32_at(&split, FIXED + 4 + 8 * s)).collect();
         assert_eq!(ends[3], 10, "{ends:?}");
@@ -723,7 +752,12 @@ mod tests {
         let len = u32_at(&split, FIXED + 8);
         bad[FIXED + 8..FIXED + 12].copy_from_slice(&(len + 4).to_le_bytes());
         assert!(decode(&bad).unwrap_err().contains("streams table"));
-        // Layout 5: the one-stream block without its table.
+        // Layout 6 (values binarized as gamma codes) and layout 5 (its one-stream block
+        // without the table) still decode.
+        let gamma = encode_streams(&g, nonzero / 8, GAMMA).unwrap();
+        assert_eq!(u32_at(&gamma, 0), GAMMA);
+        assert_eq!(decode(&gamma).unwrap(), g);
+        let one = encode_streams(&g, usize::MAX, GAMMA).unwrap();
         let mut old = one[..FIXED].to_vec();
         old[0..4].copy_from_slice(&ONE_STREAM.to_le_bytes());
         old.extend_from_slice(&one[FIXED + 12..]);
