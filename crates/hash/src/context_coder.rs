@@ -833,6 +833,36 @@ mod tests {
         }
     }
 
+    /// Every class round-trips from every pivot: up to 15 (where no step past it is
+    /// asked) and down to 0; the pivots are `⌊(k − 1)/2⌋`.
+    #[test]
+    fn every_class_round_trips_from_every_pivot() {
+        let pivots: Vec<usize> = (0..SCALES).map(pivot).collect();
+        assert_eq!(pivots, [0, 0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 5, 5, 6, 6, 7]);
+        let at = |k: usize| Context {
+            t: k % PAST,
+            k,
+            shape: (7 * k) % SHAPES,
+            wide: (3 * k) % SCALES,
+            sum_sign: 1,
+            signs: 13,
+        };
+        let all: Vec<(usize, usize)> = (0..SCALES)
+            .flat_map(|k| (0..CLASSES).map(move |c| (k, c)))
+            .collect();
+        let mut w = BitWriter::new();
+        let mut m = Models::new(Binarization::Pivot);
+        for &(k, c) in &all {
+            assert_eq!(m.class(&mut w, &at(k), c).unwrap(), c);
+        }
+        let bytes = w.finish().unwrap();
+        let mut r = BitReader::new(&bytes).unwrap();
+        let mut m = Models::new(Binarization::Pivot);
+        for &(k, c) in &all {
+            assert_eq!(m.class(&mut r, &at(k), 0).unwrap(), c, "class {c} at k {k}");
+        }
+    }
+
     #[test]
     fn scale_buckets_are_half_octaves() {
         let got: Vec<usize> = [0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 191, 192, 100_000]
