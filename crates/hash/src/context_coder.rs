@@ -252,42 +252,6 @@ impl Models {
         }
     }
 
-    /// Codes one value under its context `x` in layout 7's binarization: its class, its
-    /// sign, the highest bit of `|v|` below the leading one under mixed models, the rest
-    /// as equally likely bits.
-    fn value_by_class<I: BitIo>(
-        &mut self,
-        io: &mut I,
-        v: i32,
-        x: &Context,
-        limit: u32,
-    ) -> Result<i32, String> {
-        let n = v.unsigned_abs();
-        let c = self.class(io, x, if n == 0 { 0 } else { 1 + n.ilog2() as usize })?;
-        if c == 0 {
-            return Ok(0);
-        }
-        let negative = self.sign(io, x, v < 0)?;
-        let e = c - 1;
-        let mut magnitude = 1u32;
-        if e >= 1 {
-            let slot = e * MAX_EXP + e - 1;
-            let [m0, m1] = &mut self.mantissa;
-            let bit = self.mantissa_mix.code(
-                io,
-                slot,
-                [&mut m0[slot], &mut m1[slot * SCALES + x.k]],
-                (n >> (e - 1)) & 1 == 1,
-            )?;
-            magnitude = magnitude << 1 | u32::from(bit);
-            for i in (0..e - 1).rev() {
-                let bit = io.code_probability(HALF, (n >> i) & 1 == 1)?;
-                magnitude = magnitude << 1 | u32::from(bit);
-            }
-        }
-        signed(magnitude, negative, limit)
-    }
-
     /// Codes the sign of a non-zero value (true: negative) under its two contexts.
     fn sign<I: BitIo>(&mut self, io: &mut I, x: &Context, negative: bool) -> Result<bool, String> {
         let coarse = x.coarse();
@@ -303,7 +267,26 @@ impl Models {
         )
     }
 
-    /// Codes one value under its context `x`; `limit` is the largest `|v|`.
+    /// Codes bit `i` of a magnitude whose leading one is bit `e`, under the mantissa's
+    /// two models.
+    fn mantissa_bit<I: BitIo>(
+        &mut self,
+        io: &mut I,
+        x: &Context,
+        e: usize,
+        i: usize,
+        bit: bool,
+    ) -> Result<bool, String> {
+        let slot = e * MAX_EXP + i;
+        let [m0, m1] = &mut self.mantissa;
+        self.mantissa_mix
+            .code(io, slot, [&mut m0[slot], &mut m1[slot * SCALES + x.k]], bit)
+    }
+
+    /// Codes one value under its context `x`; `limit` is the largest `|v|`. Layout 7:
+    /// its class, its sign, the bit of `|v|` below the leading one under mixed models
+    /// and the rest as equally likely bits. Layouts 5 and 6: `v = 0?`, its sign, the
+    /// exponent in unary, every bit below the leading one under mixed models.
     fn value<I: BitIo>(
         &mut self,
         io: &mut I,
@@ -311,29 +294,42 @@ impl Models {
         x: &Context,
         limit: u32,
     ) -> Result<i32, String> {
-        if self.binarization == Binarization::Pivot {
-            return self.value_by_class(io, v, x, limit);
-        }
-        if !self.magnitude(io, x, None, v != 0)? {
-            return Ok(0);
-        }
-        let negative = self.sign(io, x, v < 0)?;
         let n = v.unsigned_abs();
-        let e = if n == 0 { 0 } else { n.ilog2() as usize };
-        let mut got = 0;
-        while got < MAX_EXP && self.magnitude(io, x, Some(got), got < e)? {
-            got += 1;
-        }
+        let class = if n == 0 { 0 } else { 1 + n.ilog2() as usize };
+        let (c, negative) = match self.binarization {
+            Binarization::Pivot => {
+                let c = self.class(io, x, class)?;
+                if c == 0 {
+                    return Ok(0);
+                }
+                (c, self.sign(io, x, v < 0)?)
+            }
+            Binarization::Gamma => {
+                if !self.magnitude(io, x, None, v != 0)? {
+                    return Ok(0);
+                }
+                let negative = self.sign(io, x, v < 0)?;
+                let e = class.saturating_sub(1);
+                let mut got = 0;
+                while got < MAX_EXP && self.magnitude(io, x, Some(got), got < e)? {
+                    got += 1;
+                }
+                (got + 1, negative)
+            }
+        };
+        let e = c - 1;
+        let modeled = match self.binarization {
+            Binarization::Pivot => e.min(1),
+            Binarization::Gamma => e,
+        };
         let mut magnitude = 1u32;
-        for i in (0..got).rev() {
-            let slot = got * MAX_EXP + i;
-            let [m0, m1] = &mut self.mantissa;
-            let bit = self.mantissa_mix.code(
-                io,
-                slot,
-                [&mut m0[slot], &mut m1[slot * SCALES + x.k]],
-                (n >> i) & 1 == 1,
-            )?;
+        for i in (0..e).rev() {
+            let bit = (n >> i) & 1 == 1;
+            let bit = if i + modeled >= e {
+                self.mantissa_bit(io, x, e, i, bit)?
+            } else {
+                io.code_probability(HALF, bit)?
+            };
             magnitude = magnitude << 1 | u32::from(bit);
         }
         signed(magnitude, negative, limit)
