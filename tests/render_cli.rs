@@ -87,7 +87,8 @@ fn renders_a_baked_frame_and_a_volume() {
     // The centers' diffusion, the GPU's (the CPU's default gathers orders on a grid).
     let mut args = vec!["render", asset.to_str().unwrap(), "--frame", "22"];
     args.extend(["--diffusion", "centers", "--out", exr.to_str().unwrap()]);
-    args.extend(size);
+    // The size as `haze view` takes it (the GPU renders below take --width, --height).
+    args.extend(["--size", "40x30"]);
     let err = ok(&args);
     assert!(
         err.contains("compensated ray marching") && err.contains("40×30"),
@@ -243,6 +244,20 @@ fn bad_render_requests_fail_on_one_line() {
         &["render", &vol, "--out", out, "--env", "nowhere.exr"],
         "nowhere.exr",
     );
+    // --size conflicts with --width and must be WxH: clap's one-line usage errors (exit 2).
+    for (size, needle) in [
+        (["--size", "40x30", "--width", "40"], "cannot be used with"),
+        (["--size", "40", "--sh-order", "4"], "not a size WxH"),
+    ] {
+        let o = haze()
+            .args(["render", &vol, "--out", out])
+            .args(size)
+            .output()
+            .unwrap();
+        let err = String::from_utf8(o.stderr).unwrap();
+        assert_eq!(o.status.code(), Some(2), "{size:?}: {err}");
+        assert!(err.lines().count() == 1 && err.contains(needle), "{err}");
+    }
     // Maps that are not lat-long, or hold a bad texel.
     let bad_map = |name: &str, w: usize, h: usize, v: f32| {
         let p = tmp(&dir, name);

@@ -25,11 +25,14 @@ pub struct RenderCli {
     #[arg(long, short)]
     pub(crate) out: PathBuf,
     /// Image width [default: 400, or the scene camera's].
-    #[arg(long)]
-    pub(crate) width: Option<usize>,
+    #[arg(long, conflicts_with = "size")]
+    width: Option<usize>,
     /// Image height [default: 300, or the scene camera's].
-    #[arg(long)]
-    pub(crate) height: Option<usize>,
+    #[arg(long, conflicts_with = "size")]
+    height: Option<usize>,
+    /// Image size WxH, as `haze view` takes it (instead of --width and --height).
+    #[arg(long, value_name = "WxH", value_parser = crate::view::args::parse_size)]
+    size: Option<(usize, usize)>,
     #[command(flatten)]
     pub(crate) camera: CameraArgs,
     #[command(flatten)]
@@ -179,6 +182,16 @@ pub struct RenderCli {
 }
 
 impl RenderCli {
+    /// The width asked for, by --width or --size.
+    pub(crate) fn width(&self) -> Option<usize> {
+        self.width.or(self.size.map(|s| s.0))
+    }
+
+    /// The height asked for, by --height or --size.
+    pub(crate) fn height(&self) -> Option<usize> {
+        self.height.or(self.size.map(|s| s.1))
+    }
+
     /// The render's options, and the goal (with its sweep) its knobs are chosen for.
     pub(crate) fn into_args(self) -> (RenderOptions, Option<Goal>, Option<PathBuf>) {
         let goal = match (self.budget_ms, self.target_error) {
@@ -187,13 +200,14 @@ impl RenderCli {
             (None, None) => None,
         };
         let tradeoff = self.tradeoff.clone();
+        let (width, height) = (self.width(), self.height());
         let options = RenderOptions {
             // clap requires the input without --scene.
             input: self.input.unwrap_or_default(),
             frame: self.frame,
+            width: width.unwrap_or(400),
+            height: height.unwrap_or(300),
             out: self.out,
-            width: self.width.unwrap_or(400),
-            height: self.height.unwrap_or(300),
             eye: self.camera.eye,
             target: self.camera.target,
             up: self.camera.up,

@@ -35,12 +35,13 @@ pub fn run(r: RenderCli) -> Result<()> {
         files = files.input(t);
     }
     files.output("--out", &r.out).check()?;
+    let (width, height) = (r.width(), r.height());
     match r.scene {
         Some(scene) => haze_render::scene::render_scene(SceneJob {
             scene,
+            width,
+            height,
             out: r.out,
-            width: r.width,
-            height: r.height,
             reference: r.reference,
             gpu: r.gpu,
             exposure: r.exposure,

@@ -263,7 +263,7 @@ fn parse_supersample(s: &str) -> Result<Supersample, String> {
 }
 
 /// Parses a render size `WxH` (or `W×H`), each side 1..=8192 pixels.
-fn parse_size(s: &str) -> Result<(usize, usize), String> {
+pub(crate) fn parse_size(s: &str) -> Result<(usize, usize), String> {
     let bad = || format!("'{s}' is not a size WxH (e.g. 800x600)");
     let (w, h) = s.split_once(['x', 'X', '×']).ok_or_else(bad)?;
     let side = |t: &str| {
