@@ -61,10 +61,9 @@ pub enum Binarization {
 /// Scale contexts.
 const SCALES: usize = 16;
 /// Magnitude classes `c = 1 + ⌊log₂|v|⌋` (0 for `v = 0`): `|v| ≤ 2¹⁵ − 1` gives `c ≤ 15`.
+/// Also the slots of a class step, the question `c > g` for `g` in `0..15` (with the
+/// scale context, which fixes the pivot, `g` also tells whether the step is up or down).
 const CLASSES: usize = 16;
-/// A class step's slots: the question `c > g`, `g` in `0..15` (with the scale context,
-/// which fixes the pivot, `g` also tells whether the step is up or down).
-const STEPS: usize = CLASSES;
 /// Classes of the value at the voxel in the frame before (0, 1, 2–3, ≥ 4 in magnitude).
 const PAST: usize = 4;
 /// Largest `⌊log₂ |v|⌋`: `|v| ≤ 2¹⁵ − 1`.
@@ -165,9 +164,9 @@ impl Models {
             exponent: by_context(gamma * MAX_EXP),
             // One weight set per (past, scale) for `v = 0?`, then per (scale, bit index).
             magnitude_mix: Mixer::new(gamma * (PAST * SCALES + SCALES * MAX_EXP)),
-            class: by_context(pivot * STEPS),
+            class: by_context(pivot * CLASSES),
             // One weight set per (scale, step).
-            class_mix: Mixer::new(pivot * SCALES * STEPS),
+            class_mix: Mixer::new(pivot * SCALES * CLASSES),
             sign: [counters(9), counters(3 * 27)],
             sign_mix: Mixer::new(3),
             mantissa: [
@@ -215,17 +214,17 @@ impl Models {
         &mut self,
         io: &mut I,
         x: &Context,
-        q: usize,
+        g: usize,
         answer: bool,
     ) -> Result<bool, String> {
         let [t0, t1, t2] = &mut self.class;
         self.class_mix.code(
             io,
-            x.k * STEPS + q,
+            x.k * CLASSES + g,
             [
-                &mut t0[(x.t * SCALES + x.k) * STEPS + q],
-                &mut t1[(x.t * SHAPES + x.shape) * STEPS + q],
-                &mut t2[((x.t * SCALES + x.k) * SCALES + x.wide) * STEPS + q],
+                &mut t0[(x.t * SCALES + x.k) * CLASSES + g],
+                &mut t1[(x.t * SHAPES + x.shape) * CLASSES + g],
+                &mut t2[((x.t * SCALES + x.k) * SCALES + x.wide) * CLASSES + g],
             ],
             answer,
         )
