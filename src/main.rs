@@ -12,6 +12,7 @@ mod light_args;
 mod merge;
 mod pack;
 mod render;
+mod size_arg;
 mod tradeoff;
 mod view;
 

@@ -31,7 +31,7 @@ pub struct RenderCli {
     #[arg(long, conflicts_with = "size")]
     height: Option<usize>,
     /// Image size WxH, as `haze view` takes it (instead of --width and --height).
-    #[arg(long, value_name = "WxH", value_parser = crate::view::args::parse_size)]
+    #[arg(long, value_name = "WxH", value_parser = crate::size_arg::parse_size)]
     size: Option<(usize, usize)>,
     #[command(flatten)]
     pub(crate) camera: CameraArgs,

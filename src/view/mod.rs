@@ -1,7 +1,7 @@
 //! `haze view`: a fog, a scene or a smoke asset in the window; its flags and their
 //! conversion into `haze_viewer`'s options are in [`args`].
 
-pub(crate) mod args;
+mod args;
 
 pub use args::*;
 
