@@ -246,10 +246,12 @@ impl BitReader {
         }
         let cut = scale * u64::from(p0);
         let bit = x >= cut;
-        // Both outcomes' state computed and one kept by a mask, with no branch on the bit.
-        let mask = u64::from(bit).wrapping_neg();
-        self.lower = self.lower.wrapping_add(cut & mask);
-        self.range = ((scale * u64::from(ONE - p0)) & mask) | (cut & !mask);
+        if bit {
+            self.lower = self.lower.wrapping_add(cut);
+            self.range = scale * u64::from(ONE - p0);
+        } else {
+            self.range = cut;
+        }
         if self.range < 1 << 32 {
             self.lower <<= 32;
             self.range <<= 32;

@@ -83,13 +83,6 @@ const STEP: [u32; LIMIT as usize + 1] = {
     t
 };
 
-/// `a` if `bit`, else `b`, by a mask rather than a branch.
-#[inline]
-fn select(bit: bool, a: u32, b: u32) -> u32 {
-    let mask = u32::from(bit).wrapping_neg();
-    (a & mask) | (b & !mask)
-}
-
 /// An adaptive probability of a 1 under one context (see the module's documentation).
 #[derive(Clone, Copy, Debug)]
 pub struct Counter {
@@ -116,11 +109,11 @@ impl Counter {
     pub fn update(&mut self, bit: bool) {
         let step = STEP[usize::from(self.n)];
         let p = u32::from(self.p);
-        // Both moves computed and one chosen, with no branch on the bit (a decoder's bits
-        // are what a branch predictor cannot guess).
-        let up = p + (((65535 - p) * step) >> 16);
-        let down = p - ((p * step) >> 16);
-        self.p = select(bit, up, down) as u16;
+        self.p = if bit {
+            p + (((65535 - p) * step) >> 16)
+        } else {
+            p - ((p * step) >> 16)
+        } as u16;
         self.n = (self.n + 1).min(LIMIT);
     }
 }
