@@ -1,16 +1,24 @@
 // Environment pass of the fast renderer: the GPU twin of `render::env_pass`, in f32, on the
-// volume pass's grid (prepended with `sh_basis.wgsl`). Two entry points:
+// volume pass's grid (prepended with `sh_basis.wgsl`). Three entry points:
 //
-// `shadow`, one invocation per node x of the environment's grid: where some voxel center
-// with D > 0 lies within one cell of the node (per axis, strictly), the light the smoke
-// takes away
+// `needed`, one invocation per node x of the environment's grid: whether some voxel
+// center with D > 0 lies within one cell and one voxel of the node (per axis, strictly),
+// so that the pass reads it, and the box of node indices holding those nodes (the
+// domain).
+//
+// `sweep`, dispatched once per block of STRIDE node planes and per group of directions
+// (those crossing the same axis's planes fastest, in the same sense), one invocation per
+// node: at the needed nodes the light the smoke takes away
 //
 //     S_lm(x) = Σ_k w_k·L(ω_k)·(1 − T(x, ω_k))·Y_lm(ω_k)
 //
-// over the direction rule (uploaded: ω, w·L(ω), Y(ω)), T = exp(−σt·τ) marched through the
-// grid's D with `lights_pass::optical_depth`'s midpoint rule (n = ⌈ℓ/h0⌉ equal steps to the
-// box's face, trilinear D, stopping once σt·τ > SHADOW_CUTOFF; the samples in blocks
-// without density passed over, `blocked_depth`); 0 at the other nodes.
+// over the direction rule (uploaded: ω, w·L(ω), Y(ω)), T = exp(−σt·τ), the depths τ by
+// `render::env_sweep`'s sweep: a segment of STRIDE planes by the midpoint rule plus the
+// depth read bilinearly from the plane there, or a march through the grid's D with
+// `lights_pass::optical_depth`'s midpoint rule (n = ⌈ℓ/h0⌉ equal steps to the box's
+// face, trilinear D, stopping once σt·τ > SHADOW_CUTOFF; the samples in blocks without
+// density passed over, `blocked_depth`) for the domain's first STRIDE planes and the
+// rays that leave it through a side; 0 at the other nodes.
 //
 // `apply`, one invocation per voxel center u with D(u) > 0, seen along d (from the eye):
 //
@@ -159,27 +167,211 @@ fn node_needed(x: vec3<f32>) -> bool {
     return false;
 }
 
+// `needed`'s and `sweep`'s words before the nodes' flags: the domain, per axis the
+// first (words 0..2) and the last (words 3..5) index of a needed node (first > last
+// without one).
+const DOMAIN_WORDS: u32 = 6u;
+
+// `env_sweep::STRIDE`: a node's depth is read from the node plane STRIDE planes nearer
+// the face its ray leaves by.
+const STRIDE: u32 = 4u;
+
+// Node planes a direction's ring keeps: the block being swept and the one it reads.
+const RING: u32 = 8u;
+
+// `env_sweep::DEPTH_CAP`: the largest depth kept (a NaN one too).
+const DEPTH_CAP: f32 = 1.0e30;
+
+// Node units of slack on the domain's edge for a read's rounding (`plane_sweep`'s
+// `stencil`).
+const EDGE: f32 = 1.0e-4;
+
+// `sweep`'s record for one dispatch: one block of STRIDE node planes of one group of
+// directions, those the host found sweeping along the same axis in the same sense.
+struct Block {
+    // The sweep's axis k (the axis whose node planes the group's rays cross fastest).
+    axis: u32,
+    // 1 when the rays leave by k's far face (ω_k > 0): the planes from the last.
+    descending: u32,
+    // The group's directions: the rule's entries first .. first + count.
+    first: u32,
+    count: u32,
+    // The block's first plane in sweep order (a multiple of STRIDE).
+    start: u32,
+    // Nodes in a plane across this axis: nodes[k + 1]·nodes[k + 2].
+    plane: u32,
+    // Words per ring plane: the largest plane over the axes.
+    ring_plane: u32,
+    _pad: u32,
+}
+
+// `needed`: DOMAIN_WORDS words, then per node 1 where the pass reads it.
+@group(0) @binding(5) var<storage, read_write> state: array<atomic<u32>>;
+// `sweep`: per direction of the rule RING planes of ring_plane depths σt·τ.
+@group(0) @binding(6) var<storage, read_write> ring: array<f32>;
+@group(0) @binding(7) var<storage, read> block: Block;
+
+var<workgroup> wg_lo: array<atomic<u32>, 3>;
+var<workgroup> wg_hi: array<atomic<u32>, 3>;
+
+fn node_of(node: u32) -> vec3<u32> {
+    return vec3<u32>(node % p.nodes.x, (node / p.nodes.x) % p.nodes.y, node / (p.nodes.x * p.nodes.y));
+}
+
+// One invocation per node: whether the pass reads it (`node_needed`), and the domain of
+// the nodes it reads (reduced in the workgroup first).
 @compute @workgroup_size(64)
-fn shadow(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) ng: vec3<u32>) {
+fn needed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) li: u32, @builtin(num_workgroups) ng: vec3<u32>) {
+    if li < 3u {
+        atomicStore(&wg_lo[li], 0xffffffffu);
+        atomicStore(&wg_hi[li], 0u);
+    }
+    workgroupBarrier();
     let node = gid.x + 64u * ng.x * gid.y;
-    let total = p.nodes.x * p.nodes.y * p.nodes.z;
-    if node >= total {
+    if node < p.nodes.x * p.nodes.y * p.nodes.z {
+        let idx = node_of(node);
+        let need = node_needed(p.node_min + vec3<f32>(idx) * p.cell);
+        atomicStore(&state[DOMAIN_WORDS + node], select(0u, 1u, need));
+        if need {
+            for (var a = 0u; a < 3u; a++) {
+                atomicMin(&wg_lo[a], idx[a]);
+                atomicMax(&wg_hi[a], idx[a]);
+            }
+        }
+    }
+    workgroupBarrier();
+    if li < 3u {
+        let lo = atomicLoad(&wg_lo[li]);
+        let hi = atomicLoad(&wg_hi[li]);
+        if lo <= hi {
+            atomicMin(&state[li], lo);
+            atomicMax(&state[3u + li], hi);
+        }
+    }
+}
+
+struct Stencil {
+    ok: bool,
+    i0: u32,
+    f: f32,
+}
+
+// `plane_sweep::Sweep::stencil`: where x (box-relative) falls on axis a among the
+// domain's nodes lo..=hi: the lower node and the fraction to the next; not ok outside
+// the domain (or off its one node, on an axis of one).
+fn stencil(a: u32, x: f32, lo: u32, hi: u32) -> Stencil {
+    let cell = p.cell[a];
+    if hi == lo || !(cell > 0.0) {
+        let on = p.node_min[a] + f32(lo) * cell;
+        let scale = max(max(max(p.cell.x, p.cell.y), p.cell.z), max(max(p.voxel.x, p.voxel.y), p.voxel.z));
+        return Stencil(abs(x - on) <= 1.0e-5 * scale, lo, 0.0);
+    }
+    let f = (x - p.node_min[a]) / cell;
+    if !(f >= f32(lo) - EDGE && f <= f32(hi) + EDGE) {
+        return Stencil(false, 0u, 0.0);
+    }
+    let c = clamp(f, f32(lo), f32(hi));
+    let i0 = min(u32(floor(c)), hi - 1u);
+    return Stencil(true, i0, c - f32(i0));
+}
+
+// `env_sweep`'s segment: σt·∫₀^{s1} D(x + sω) ds by the midpoint rule, m = ⌈s1/step⌉
+// samples, step the smallest node cell but never finer than h0.
+fn segment_depth(x: vec3<f32>, w: vec3<f32>, s1: f32) -> f32 {
+    var cell = 3.0e38;
+    for (var a = 0u; a < 3u; a++) {
+        if p.cell[a] > 0.0 {
+            cell = min(cell, p.cell[a]);
+        }
+    }
+    let step = select(p.h0, max(cell, p.h0), cell < 3.0e38);
+    let m = max(ceil(s1 / step), 1.0);
+    let h = s1 / m;
+    var sum = 0.0;
+    for (var j = 0u; j < u32(m); j++) {
+        sum += sample_density(x + (f32(j) + 0.5) * h * w);
+    }
+    return p.sigma_t * sum * h;
+}
+
+// One invocation per node of the block's STRIDE planes (within the domain): for each of
+// the group's directions ω its depth σt·τ(x, ω) — the segment to the plane STRIDE planes
+// on plus the depth there read bilinearly from that plane's nodes (swept by an earlier
+// dispatch), or a march to the face for the domain's first STRIDE planes and the rays
+// whose read point leaves the domain (`env_sweep::sweep_depths`) — kept in the
+// direction's ring, and at a needed node the light lost added to its S.
+@compute @workgroup_size(64)
+fn sweep(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) ng: vec3<u32>) {
+    let id = gid.x + 64u * ng.x * gid.y;
+    if id >= STRIDE * block.plane {
         return;
     }
+    let k = block.axis;
+    let a = (k + 1u) % 3u;
+    let b = (k + 2u) % 3u;
+    let inplane = id % block.plane;
+    let ia = inplane % p.nodes[a];
+    let ib = inplane / p.nodes[a];
+    let at_order = block.start + id / block.plane;
+    if at_order >= p.nodes[k] {
+        return;
+    }
+    let descending = block.descending == 1u;
+    let plane = select(at_order, p.nodes[k] - 1u - at_order, descending);
+    let lo = vec3<u32>(atomicLoad(&state[0]), atomicLoad(&state[1]), atomicLoad(&state[2]));
+    let hi = vec3<u32>(atomicLoad(&state[3]), atomicLoad(&state[4]), atomicLoad(&state[5]));
+    if plane < lo[k] || plane > hi[k] || ia < lo[a] || ia > hi[a] || ib < lo[b] || ib > hi[b] {
+        return;
+    }
+    var idx = vec3<u32>(0u);
+    idx[k] = plane;
+    idx[a] = ia;
+    idx[b] = ib;
+    let node = idx.x + p.nodes.x * (idx.y + p.nodes.y * idx.z);
+    let x = p.node_min + vec3<f32>(idx) * p.cell;
+    let need = atomicLoad(&state[DOMAIN_WORDS + node]) == 1u;
+    let step = select(plane - lo[k], hi[k] - plane, descending);
+    let sweeps = step >= STRIDE && p.cell[k] > 0.0;
+    let up = select(plane - STRIDE, plane + STRIDE, descending) % RING;
     let n2 = p.order * p.order;
     let k3 = 3u * n2;
+    let stride = 8u + n2;
     var s: array<f32, 108>;
     for (var j = 0u; j < k3; j++) {
         s[j] = 0.0;
     }
-    let idx = vec3<u32>(node % p.nodes.x, (node / p.nodes.x) % p.nodes.y, node / (p.nodes.x * p.nodes.y));
-    let x = p.node_min + vec3<f32>(idx) * p.cell;
-    if p.sigma_t > 0.0 && node_needed(x) {
-        let stride = 8u + n2;
-        for (var k = 0u; k < p.directions; k++) {
-            let at = k * stride;
-            let w = vec3<f32>(table[at], table[at + 1u], table[at + 2u]);
-            let lost = one_minus_exp(blocked_depth(x, w));
+    for (var d = block.first; d < block.first + block.count; d++) {
+        let at = d * stride;
+        let w = vec3<f32>(table[at], table[at + 1u], table[at + 2u]);
+        var tau = 0.0;
+        var read = false;
+        if sweeps && w[k] != 0.0 {
+            let s1 = f32(STRIDE) * p.cell[k] / abs(w[k]);
+            let q = x + s1 * w;
+            let sa = stencil(a, q[a], lo[a], hi[a]);
+            let sb = stencil(b, q[b], lo[b], hi[b]);
+            if sa.ok && sb.ok {
+                read = true;
+                let base = (d * RING + up) * block.ring_plane;
+                let a1 = min(sa.i0 + 1u, hi[a]);
+                let b1 = min(sb.i0 + 1u, hi[b]);
+                let na = p.nodes[a];
+                let reads = (1.0 - sa.f) * (1.0 - sb.f) * ring[base + sa.i0 + na * sb.i0]
+                    + sa.f * (1.0 - sb.f) * ring[base + a1 + na * sb.i0]
+                    + (1.0 - sa.f) * sb.f * ring[base + sa.i0 + na * b1]
+                    + sa.f * sb.f * ring[base + a1 + na * b1];
+                tau = segment_depth(x, w, s1) + reads;
+            }
+        }
+        if !read {
+            tau = blocked_depth(x, w);
+        }
+        if !(tau < DEPTH_CAP) {
+            tau = DEPTH_CAP;
+        }
+        ring[(d * RING + plane % RING) * block.ring_plane + inplane] = tau;
+        if need {
+            let lost = one_minus_exp(tau);
             if lost == 0.0 {
                 continue;
             }
@@ -192,8 +384,10 @@ fn shadow(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
             }
         }
     }
-    for (var j = 0u; j < k3; j++) {
-        shadow_sh[node * k3 + j] = s[j];
+    if need {
+        for (var j = 0u; j < k3; j++) {
+            shadow_sh[node * k3 + j] += s[j];
+        }
     }
 }
 

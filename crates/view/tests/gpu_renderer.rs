@@ -17,31 +17,17 @@
 //! per pixel and channel leaves a margin of more than 1.5 over the sum. The environment
 //! pass of the default `EnvSource::Grid` adds at most 5e-3 of its own brightest `J`
 //! (`gpu_env_pass.rs`; measured 2e-4 at this optical depth), a part of the light that the
-//! view pass attenuates, within the same bound. The CPU takes the environment grid's
-//! depths by the GPU's rule, a march from every node (`EnvDepths::March`, [`twin`]): its
-//! default sweep reads them from the nodes nearer the face, within 0.2 % of the march
-//! but not within these `f32` margins.
+//! view pass attenuates, within the same bound. Both take the environment grid's depths
+//! by the same sweep (`EnvDepths::Sweep`, the default).
 
 use haze_view::gpu::renderer::{GpuFrame, GpuRenderer, LightingOn, Reuse};
-use haze_view::render::env_pass::{EnvDepths, EnvGridOptions, EnvSource};
+use haze_view::render::env_pass::EnvSource;
 use haze_view::render::{CrmOptions, MsDiffusion, crm_render};
 use haze_view::{Camera, Distant, Environment, LatLong, Medium, PointLight, Sky, Sun};
 use haze_volume::Rbf;
 
 mod common;
 use common::{context, unit_box};
-
-/// The renderer's defaults with the environment grid's depths marched from every node,
-/// as the GPU takes them (module docs).
-fn twin() -> CrmOptions {
-    CrmOptions {
-        env_source: EnvSource::Grid(EnvGridOptions {
-            depths: EnvDepths::March,
-            ..Default::default()
-        }),
-        ..CrmOptions::default()
-    }
-}
 
 fn cluster() -> Vec<Rbf> {
     common::cluster(&unit_box())
@@ -100,7 +86,7 @@ fn frames_match_crm_render_at_every_setting() {
             let opts = CrmOptions {
                 order,
                 multiple,
-                ..twin()
+                ..CrmOptions::default()
             };
             let medium = Medium::new(sigma_t, 0.9, g).unwrap();
             let (cpu, _) = crm_render(&rbfs, None, dims, &bbox, &medium, &env, &cam, &opts);
@@ -130,7 +116,7 @@ fn camera_moves_reuse_what_does_not_depend_on_the_camera() {
     let bbox = unit_box();
     let dims = [16, 16, 16];
     let env = Environment::sky(Sky::default());
-    let opts = twin();
+    let opts = CrmOptions::default();
     let frame = GpuFrame {
         key: 7,
         rbfs: &rbfs,
@@ -214,7 +200,7 @@ fn cpu_grids_are_kept_while_their_frame_holds() {
         dims,
         bbox,
     };
-    let opts = twin();
+    let opts = CrmOptions::default();
     let (a, b) = (camera([0.5, -1.3, 0.85]), camera([1.8, 0.2, 0.6]));
     for g in [0.6, 0.0] {
         let medium = Medium::new(8.0, 0.9, g).unwrap();
@@ -277,7 +263,7 @@ fn a_grid_over_the_devices_buffers_is_refused_on_either_side() {
         let mut r = GpuRenderer::new(&ctx, Environment::sky(Sky::default())).unwrap();
         r.set_lighting(on);
         let cam = camera([0.5, -1.3, 0.85]);
-        match r.render(&ctx, &frame, &medium, &cam, &twin()) {
+        match r.render(&ctx, &frame, &medium, &cam, &CrmOptions::default()) {
             Err(e @ haze_gpu::GpuError::TooLarge { .. }) => {
                 let line = e.to_string();
                 assert!(line.contains("volume") && !line.contains('\n'), "{line}");
@@ -309,7 +295,7 @@ fn a_lat_long_map_lights_and_fills_the_background_as_on_the_cpu() {
         .collect();
     let env = Environment::map(LatLong::new(w, h, texels).unwrap());
     let medium = Medium::new(6.0, 0.9, 0.3).unwrap();
-    let opts = twin();
+    let opts = CrmOptions::default();
     let cam = camera([0.5, -1.3, 0.85]);
     let mut r = GpuRenderer::new(&ctx, Environment::sky(Sky::default())).unwrap();
     r.set_environment(&ctx, env.clone()).unwrap();
@@ -372,7 +358,7 @@ fn frames_lit_by_a_sun_and_a_point_light_match_crm_render() {
             let opts = CrmOptions {
                 order,
                 multiple,
-                ..twin()
+                ..CrmOptions::default()
             };
             let medium = Medium::new(6.0, 0.9, g).unwrap();
             let what = format!("lit, lighting {on:?}, order {order}, multiple {multiple}, g {g}");
@@ -420,7 +406,7 @@ fn frames_lit_by_a_sun_and_a_point_light_match_crm_render() {
         }
         // The sun is most of the light: moving it changes the image.
         let medium = Medium::new(6.0, 0.9, 0.0).unwrap();
-        let opts = twin();
+        let opts = CrmOptions::default();
         let (lit, _) = r.render(&ctx, &frame, &medium, &a, &opts).unwrap();
         let mut moved = env.clone();
         moved.suns[0].direction = [-0.6, 0.1, 0.8].map(|c| c / 1.01f64.sqrt());
@@ -460,7 +446,13 @@ fn stage_times_come_from_timestamps_where_the_device_has_them() {
     };
     let medium = Medium::new(5.0, 0.9, 0.0).unwrap();
     let (_, stats) = r
-        .render(&ctx, &frame, &medium, &camera([0.5, -1.3, 0.85]), &twin())
+        .render(
+            &ctx,
+            &frame,
+            &medium,
+            &camera([0.5, -1.3, 0.85]),
+            &CrmOptions::default(),
+        )
         .unwrap();
     if on {
         let names: Vec<&str> = stats.gpu.iter().map(|(n, _)| *n).collect();
@@ -485,7 +477,13 @@ fn stage_times_come_from_timestamps_where_the_device_has_them() {
     // Off again: nothing is timed.
     ctx.time_stages(false);
     let (_, stats) = r
-        .render(&ctx, &frame, &medium, &camera([0.4, -1.3, 0.85]), &twin())
+        .render(
+            &ctx,
+            &frame,
+            &medium,
+            &camera([0.4, -1.3, 0.85]),
+            &CrmOptions::default(),
+        )
         .unwrap();
     assert!(stats.gpu.is_empty());
 }
@@ -560,7 +558,7 @@ fn frames_with_the_explicit_orders_match_crm_render_and_keep_their_cells() {
             factor: 2,
             orders: 2,
         },
-        ..twin()
+        ..CrmOptions::default()
     };
     let (a, b) = (camera([0.5, -1.3, 0.85]), camera([1.8, 0.2, 0.6]));
     let medium = Medium::new(8.0, 0.9, 0.5).unwrap();

@@ -2,24 +2,30 @@
 //! [`crate::render::env_pass::env_pass`]: the distant environment's single scattering
 //! added per voxel to the volume pass's grids, in `f32`, in place on a [`GridBuffer`].
 //!
-//! Two dispatches: `shadow`, one invocation per node of the grid
-//! ([`env_pass::grid_frame`]), marches the uploaded direction rule through the grid's `D`
-//! and writes `S_lm` at the nodes the pass reads (the CPU's [`env_pass::needed_nodes`]
-//! criterion, tested per node on the GPU by a scan of the voxels within a cell); `apply`,
+//! Three dispatches: `needed`, one invocation per node of the grid
+//! ([`env_pass::grid_frame`]), marks the nodes the pass reads (the CPU's
+//! [`env_pass::needed_nodes`] criterion, tested per node on the GPU by a scan of the
+//! voxels within a cell) and reduces their domain; `sweep` writes `S_lm` at those nodes
+//! from their optical depths towards each direction of the rule, found by the CPU's
+//! default sweep ([`EnvDepths::Sweep`]; its dispatches: [`super::env_sweep`]); `apply`,
 //! one invocation per voxel with `D > 0`, adds `max(0, Σ Ω g^l (L_j − S_j(u)) Y_j(d))`.
-//! The march visits every sample to the box's face (the CPU skips the samples outside the
-//! smoke's box, which are zeros: the same sum). It is the CPU's [`EnvDepths::March`]
-//! whatever the options' `depths`: the CPU's default sweep reads each node's depth from
-//! nodes nearer the face, which a GPU would take one plane per dispatch; its grid is
-//! within 0.2 % of the march's in the final image (BENCHMARKS "The environment grid by a
-//! sweep").
+//! The marches (the domain's first planes, the rays that leave it through a side) visit
+//! every sample to the box's face (the CPU skips the samples outside the smoke's box,
+//! which are zeros: the same sum).
 //!
+//! A march from every node instead (the CPU's [`EnvDepths::March`]) cost 113 ms a new
+//! frame of a 128 × 128 × 170 grid on an NVIDIA H200 (BENCHMARKS "`haze bench` on an
+//! NVIDIA H200"): each node's way out, tens to hundreds of voxels, for 72 directions at
+//! 843 000 nodes, where the sweep takes a segment of a few samples and four reads.
+//!
+//! [`EnvDepths::Sweep`]: crate::render::env_pass::EnvDepths::Sweep
 //! [`EnvDepths::March`]: crate::render::env_pass::EnvDepths::March
 //!
 //! Uploads: per direction `ω`, `w·L(ω)` and `Y(ω)` (`8 + order²` words); per coefficient
 //! `L_j` and `Ω g^l` (4 words). The nodes' `S` stays on the GPU ([`EnvShadow`]) and can be
 //! read back for tests.
 
+use super::env_sweep::{SweepBuffers, SweepPlan};
 use super::{GridBuffer, SourceBuffer};
 use crate::distant::Distant;
 use crate::env::Environment;
@@ -66,7 +72,7 @@ struct OccupancyParams {
 /// Voxels per workgroup side of `apply` (`@workgroup_size(4, 4, 4)`).
 const SIDE: usize = 4;
 
-/// Nodes per workgroup of `shadow` (`@workgroup_size(64)`).
+/// Nodes per workgroup of `needed` and `sweep` (`@workgroup_size(64)`).
 const NODES: usize = 64;
 
 /// The shader's `Params` (a read-only storage buffer) (WGSL layout), 112 bytes.
@@ -133,7 +139,7 @@ fn fitting_frame(
 pub struct EnvShadow {
     buffer: wgpu::Buffer,
     len: usize,
-    /// The `shadow` dispatch's parameters (the eye left at zero): the nodes' frame and
+    /// The `needed` and `sweep` dispatches' parameters (the eye left at zero): the nodes' frame and
     /// the volume grid's size, which `apply` shares.
     params: Params,
     order: usize,
@@ -174,7 +180,8 @@ impl EnvShadow {
 #[derive(Debug)]
 pub struct EnvPass {
     occupancy: wgpu::ComputePipeline,
-    shadow: wgpu::ComputePipeline,
+    needed: wgpu::ComputePipeline,
+    sweep: wgpu::ComputePipeline,
     apply: wgpu::ComputePipeline,
 }
 
@@ -189,7 +196,7 @@ fn check_order(order: usize) -> Result<usize, GpuError> {
 }
 
 impl EnvPass {
-    /// Compiles the shader and builds its two pipelines.
+    /// Compiles the shader and builds its pipelines.
     pub fn new(ctx: &GpuContext) -> Result<EnvPass, GpuError> {
         let source = super::shaders::source(&SHADER)?;
         Ok(EnvPass {
@@ -199,11 +206,17 @@ impl EnvPass {
                 &super::shaders::source(&OCCUPANCY_SHADER)?,
                 "main",
             )?,
-            shadow: compute_pipeline_at(
+            needed: compute_pipeline_at(
+                ctx,
+                "environment grid nodes pipeline creation",
+                &source,
+                "needed",
+            )?,
+            sweep: compute_pipeline_at(
                 ctx,
                 "environment grid pipeline creation",
                 &source,
-                "shadow",
+                "sweep",
             )?,
             apply: compute_pipeline_at(
                 ctx,
@@ -247,9 +260,10 @@ impl EnvPass {
         Ok(shadow)
     }
 
-    /// The `shadow` dispatch alone (submitted): `S_lm` at the nodes of the environment's
-    /// grid over `grid`'s `D`, for σt `sigma_t` (module docs). Refuses an order outside
-    /// 1..=6 and sizes beyond the device's limits.
+    /// The `needed` and `sweep` dispatches alone (one timed pass, submitted): `S_lm` at
+    /// the nodes of the environment's grid over `grid`'s `D`, for σt `sigma_t` (module
+    /// docs); none without extinction or light (`S = 0`). Refuses an order outside 1..=6
+    /// and sizes beyond the device's limits.
     pub fn grid(
         &self,
         ctx: &GpuContext,
@@ -276,23 +290,8 @@ impl EnvPass {
         let len = total * 3 * n2;
         ctx.check_storage_size("the environment's grid", bytes)?;
         let rule = env_pass::lit_directions(env, opts.theta, order);
-        let mut table: Vec<f32> = Vec::with_capacity(rule.len() * (8 + n2));
-        for (w, l, y) in &rule {
-            table.extend(w.map(|c| c as f32));
-            table.push(0.0);
-            table.extend(l.map(|c| c as f32));
-            table.push(0.0);
-            table.extend(y.iter().map(|v| *v as f32));
-        }
-        if table.is_empty() {
-            table.push(0.0);
-        }
-        ctx.check_storage_size("the direction rule", (table.len() * 4) as u64)?;
-
+        let plan = SweepPlan::new(ctx, &frame, &rule, NODES)?;
         let vs = grid.voxel_size();
-        let count = |n: usize, what: &str| {
-            u32::try_from(n).map_err(|_| GpuError::Input(format!("{n} {what} are too many")))
-        };
         let params = Params {
             eye: [0.0; 3],
             sigma_t: sigma_t as f32,
@@ -301,7 +300,7 @@ impl EnvPass {
             size: bbox.size().map(|v| v as f32),
             order: order as u32,
             dims: dims.map(|n| n as u32),
-            directions: count(rule.len(), "directions")?,
+            directions: plan.directions(),
             node_min: [0, 1, 2].map(|k| (frame.min[k] - bbox.min[k]) as f32),
             peak: 0.0,
             cell: frame.cell.map(|c| c as f32),
@@ -309,36 +308,36 @@ impl EnvPass {
             nodes: frame.nodes.map(|n| n as u32),
             _pad2: 0,
         };
-        let groups = line_groups(ctx, total, NODES, "environment grid nodes")?;
         let blocks = dims.map(|n| n.div_ceil(BLOCK));
         let block_groups = line_groups(ctx, blocks.iter().product(), NODES, "occupancy blocks")?;
+        // Nothing is taken away without extinction or light: the grid stays zero.
+        let sweeps = params.sigma_t > 0.0 && !rule.is_empty();
         ctx.scoped("the environment grid", || {
-            let params_buffer = buffer_init(
-                ctx,
-                "environment grid parameters",
-                bytemuck::bytes_of(&params),
-                wgpu::BufferUsages::STORAGE,
-            );
-            let rule = buffer_init(
-                ctx,
-                "environment direction rule",
-                bytemuck::cast_slice(&table),
-                wgpu::BufferUsages::STORAGE,
-            );
             let shadow = ctx.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("environment grid"),
                 size: bytes,
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             });
-            let occupancy = self.occupancy(ctx, grid, blocks, block_groups);
-            submit_pass(
-                ctx,
-                &self.shadow,
-                "environment grid",
-                &[&params_buffer, &rule, grid.buffer(), &shadow, &occupancy],
-                groups,
-            );
+            if sweeps {
+                let params_buffer = buffer_init(
+                    ctx,
+                    "environment grid parameters",
+                    bytemuck::bytes_of(&params),
+                    wgpu::BufferUsages::STORAGE,
+                );
+                let occupancy = self.occupancy(ctx, grid, blocks, block_groups);
+                plan.submit(
+                    ctx,
+                    [&self.needed, &self.sweep],
+                    SweepBuffers {
+                        params: &params_buffer,
+                        grid: grid.buffer(),
+                        shadow: &shadow,
+                        occupancy: &occupancy,
+                    },
+                );
+            }
             EnvShadow {
                 buffer: shadow,
                 len,

@@ -19,6 +19,7 @@
 
 pub mod diffusion;
 pub mod env_pass;
+pub mod env_sweep;
 pub mod host_grids;
 pub mod lights_pass;
 pub mod orders;

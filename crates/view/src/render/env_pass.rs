@@ -16,10 +16,11 @@
 //! `2·theta` Gauss–Legendre latitudes (`theta` per hemisphere: the sky jumps at the
 //! horizon) × `4·theta` azimuths, `1 − T = −expm1(−σt·τ)`. The depths `τ` come from a
 //! sweep over the node planes, each node's from the depths of nodes nearer the face
-//! ([`super::env_sweep`], [`EnvDepths::Sweep`], the default), or from a march per node
-//! with the lights pass's midpoint rule ([`super::lights_pass::optical_depth`]; the
-//! samples in blocks without density skipped, [`Occupancy`], the same sum;
-//! [`EnvDepths::March`], the GPU twin's rule). Written so, the rule's error is
+//! ([`super::env_sweep`], [`EnvDepths::Sweep`], the default and the GPU twin's rule), or
+//! from a march per node with the lights pass's midpoint rule
+//! ([`super::lights_pass::optical_depth`]; the samples in blocks without density skipped,
+//! [`Occupancy`], the same sum; [`EnvDepths::March`], the reference the sweep's error is
+//! measured against: `benches/env_grid.rs`). Written so, the rule's error is
 //! proportional to the shadowing: thin smoke (`T → 1`) gets `L_lm` exactly, where the
 //! centers' interpolated source was biased. Nodes span the voxel centers, `spacing`
 //! voxels apart (rounded to fit the box), trilinear between ([`ShGrid`]).
@@ -76,11 +77,11 @@ pub struct EnvGridOptions {
 /// How [`env_grid`] finds the optical depth from each node towards each direction.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum EnvDepths {
-    /// A march of its own from every node to the box's face (the GPU's rule).
+    /// A march of its own from every node to the box's face (the reference).
     March,
     /// From the upstream nodes' depths, one node plane at a time
     /// ([`super::env_sweep`]): the same sums to the sweep's interpolation, several
-    /// times faster on large grids.
+    /// times faster on large grids (the GPU's rule).
     #[default]
     Sweep,
 }

@@ -36,6 +36,28 @@ impl Lattice {
     }
 }
 
+/// Node planes crossed per unit length along `r` on axis `a` of `domain` (0 on an axis
+/// the domain is one node across).
+fn rate(lattice: &Lattice, domain: [(usize, usize); 3], r: [f64; 3], a: usize) -> f64 {
+    if domain[a].1 > domain[a].0 && lattice.cell[a] > 0.0 {
+        r[a].abs() / lattice.cell[a]
+    } else {
+        0.0
+    }
+}
+
+/// The sweep's axis for the ray direction `r` over `domain`: the one whose node planes
+/// the ray crosses fastest (the first of equals; 0 where none is crossed).
+pub fn axis(lattice: &Lattice, domain: [(usize, usize); 3], r: [f64; 3]) -> usize {
+    (0..3).fold(0, |best, a| {
+        if rate(lattice, domain, r, a) > rate(lattice, domain, r, best) {
+            a
+        } else {
+            best
+        }
+    })
+}
+
 /// Four nodes of an upstream plane and their bilinear weights.
 pub type Reads = [(usize, f64); 4];
 
@@ -57,17 +79,11 @@ impl Sweep {
     /// The sweep of `domain` along the unit ray direction `r`, reading `stride ≥ 1` planes
     /// on.
     pub fn new(lattice: Lattice, domain: [(usize, usize); 3], r: [f64; 3], stride: usize) -> Sweep {
-        let rate = |a: usize| {
-            if domain[a].1 > domain[a].0 && lattice.cell[a] > 0.0 {
-                r[a].abs() / lattice.cell[a]
-            } else {
-                0.0
-            }
-        };
-        let k = (0..3).fold(0, |best, a| if rate(a) > rate(best) { a } else { best });
+        let k = axis(&lattice, domain, r);
+        let rate = rate(&lattice, domain, r, k);
         let stride = stride.max(1);
-        let s1 = (rate(k) > 0.0 && rate(k).is_finite())
-            .then(|| stride as f64 * lattice.cell[k] / r[k].abs());
+        let s1 =
+            (rate > 0.0 && rate.is_finite()).then(|| stride as f64 * lattice.cell[k] / r[k].abs());
         Sweep {
             lattice,
             domain,
