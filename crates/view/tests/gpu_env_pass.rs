@@ -175,6 +175,21 @@ fn far_boxes_with_uneven_voxels_keep_their_precision() {
     assert!(rs <= 1e-2 && rj <= 5e-3, "{rs} {rj}");
 }
 
+/// Grids one voxel thick along an axis (one node across it, a cell of 0): no direction of
+/// the rule lies in the slab's plane, so every read point leaves it and both twins march
+/// every node; a grid two voxels thick sweeps along the other axes.
+#[test]
+fn slabs_one_node_thick_march_on_both_twins() {
+    let env = Environment::sky(Sky::default());
+    let m = Medium::new(6.0, 0.8, 0.3).unwrap();
+    for dims in [[20, 18, 1], [1, 18, 22], [20, 2, 22]] {
+        let eye = [0.5, -2.0, 0.6];
+        let g = dark_grids(&unit_box(), dims, eye);
+        let (rs, rj) = compare(&g, &env, &m, eye, 4, &format!("slab {dims:?}"));
+        assert!(rs <= 1e-2 && rj <= 5e-3, "{dims:?}: {rs} {rj}");
+    }
+}
+
 #[test]
 fn albedo_zero_leaves_the_grids_and_bad_input_is_refused() {
     let ctx = context();

@@ -276,7 +276,21 @@ fn run_job(
                     &job.scene.opts,
                 )
                 .map_err(|e| format!("frame {}: {e}", frame.number))?;
-            tracing::debug!("frame {}: {}", frame.number, times.crm);
+            let gpu: Vec<String> = times
+                .gpu
+                .iter()
+                .map(|(pass, s)| format!("{pass} {:.1} ms", 1e3 * s))
+                .collect();
+            tracing::debug!(
+                "frame {}: {}; GPU: {}",
+                frame.number,
+                times.crm,
+                if gpu.is_empty() {
+                    "no timestamps".to_string()
+                } else {
+                    gpu.join(", ")
+                }
+            );
             *kept = Some(Kept {
                 frame: job.frame,
                 camera: job.camera.clone(),
