@@ -1,6 +1,7 @@
 //! The environment pass's grid on the CPU (`render::env_pass::env_grid`): every node's
 //! optical depth towards the rule's 72 directions through the trilinear density, by the
-//! sweep (the default, `render::env_sweep`) and by a march per node (the GPU's rule),
+//! sweep (the default and the GPU's rule, `render::env_sweep`) and by a march per node
+//! (the reference),
 //! what a new frame of the CPU lighting waited for most (BENCHMARKS.md "`haze bench` on
 //! lavapipe"). A smooth plume that fills most of a 48 × 48 × 64 box (the marches skip no
 //! block), σt 4, the built-in sky, order 4, the default spacing (1.5 voxels) and rule.
