@@ -25,7 +25,7 @@
 //! `L_j` and `Ω g^l` (4 words). The nodes' `S` stays on the GPU ([`EnvShadow`]) and can be
 //! read back for tests.
 
-use super::env_sweep::{SweepBuffers, SweepPlan};
+use super::env_sweep::{self, SweepBuffers, SweepPlan};
 use super::{GridBuffer, SourceBuffer};
 use crate::distant::Distant;
 use crate::env::Environment;
@@ -104,29 +104,33 @@ const MAX_WIDENINGS: usize = 8;
 static WIDENED_SAID: AtomicBool = AtomicBool::new(false);
 
 /// The environment grid's nodes over a `dims` grid on `bbox`, `spacing` voxels apart,
-/// made coarser until its `3·n2` f32 a node fit `limit` bytes: each time by the cube
-/// root of the excess and a tenth more, at most [`MAX_WIDENINGS`] times. The frame, its
-/// bytes and the spacing it has (a frame still over `limit` is the caller's to refuse).
+/// made coarser until both its `3·n2` f32 a node and the sweep's rings for `directions`
+/// directions ([`env_sweep::ring_bytes`], planes of nodes) fit `limit` bytes: each time by
+/// the larger of the cube root of the nodes' excess and the square root of the rings',
+/// and a tenth more, at most [`MAX_WIDENINGS`] times. The frame, the nodes' bytes and the
+/// spacing it has (a frame still over `limit` is the caller's to refuse).
 fn fitting_frame(
     dims: [usize; 3],
     bbox: &Bbox,
     spacing: f64,
-    order: usize,
-    n2: usize,
+    (order, n2): (usize, usize),
+    directions: usize,
     limit: u64,
 ) -> (ShGrid, u64, f64) {
     let at = |spacing: f64| {
         let frame = env_pass::grid_frame(dims, bbox, spacing, order);
         let bytes = (frame.len() * 3 * n2).max(1) as u64 * 4;
-        (frame, bytes)
+        let ring = env_sweep::ring_bytes(frame.nodes, directions);
+        (frame, bytes, ring)
     };
-    let (mut spacing, (mut frame, mut bytes)) = (spacing, at(spacing));
+    let (mut spacing, (mut frame, mut bytes, mut ring)) = (spacing, at(spacing));
     for _ in 0..MAX_WIDENINGS {
-        if bytes <= limit {
+        if bytes <= limit && ring <= limit {
             break;
         }
-        spacing *= 1.1 * (bytes as f64 / limit.max(1) as f64).cbrt();
-        (frame, bytes) = at(spacing);
+        let excess = |b: u64| b as f64 / limit.max(1) as f64;
+        spacing *= 1.1 * excess(bytes).cbrt().max(excess(ring).sqrt()).max(1.0);
+        (frame, bytes, ring) = at(spacing);
     }
     (frame, bytes, spacing)
 }
@@ -276,8 +280,15 @@ impl EnvPass {
         let n2 = check_order(order)?;
         let dims = grid.dims();
         let bbox = *grid.bbox();
-        let (frame, bytes, spacing) =
-            fitting_frame(dims, &bbox, opts.spacing, order, n2, ctx.storage_limit());
+        let rule = env_pass::lit_directions(env, opts.theta, order);
+        let (frame, bytes, spacing) = fitting_frame(
+            dims,
+            &bbox,
+            opts.spacing,
+            (order, n2),
+            rule.len(),
+            ctx.storage_limit(),
+        );
         if spacing != opts.spacing && !WIDENED_SAID.swap(true, Ordering::Relaxed) {
             tracing::warn!(
                 "the environment's grid is spaced {spacing:.2} voxels, not {}, to fit the device's {} MiB buffers: the sky's light through the smoke is coarser (a device with larger buffers, or the CPU, keeps {})",
@@ -289,7 +300,6 @@ impl EnvPass {
         let total = frame.len();
         let len = total * 3 * n2;
         ctx.check_storage_size("the environment's grid", bytes)?;
-        let rule = env_pass::lit_directions(env, opts.theta, order);
         let plan = SweepPlan::new(ctx, &frame, &rule, NODES)?;
         let vs = grid.voxel_size();
         let params = Params {
@@ -552,18 +562,42 @@ mod tests {
     fn the_environment_grid_widens_just_enough_to_fit() {
         let bbox = haze_volume::Bbox::new([0.0; 3], [1.0, 1.0, 1.33]);
         let dims = [128, 128, 170];
-        let (_, full, same) = fitting_frame(dims, &bbox, 1.5, 4, 16, u64::MAX);
+        let (_, full, same) = fitting_frame(dims, &bbox, 1.5, (4, 16), 72, u64::MAX);
         assert_eq!(same, 1.5);
         assert!(full > 128 << 20, "{full}");
-        let (frame, bytes, spacing) = fitting_frame(dims, &bbox, 1.5, 4, 16, 128 << 20);
+        let (frame, bytes, spacing) = fitting_frame(dims, &bbox, 1.5, (4, 16), 72, 128 << 20);
         assert!(bytes <= 128 << 20 && bytes == frame.len() as u64 * 3 * 16 * 4);
         let most = 1.5 * 1.1 * (full as f64 / (128u64 << 20) as f64).cbrt();
         assert!(
             spacing > 1.5 && spacing <= most * 1.0001,
             "{spacing} (at most {most})"
         );
-        let (_, tiny, wide) = fitting_frame(dims, &bbox, 1.5, 4, 16, 4);
+        let (_, tiny, wide) = fitting_frame(dims, &bbox, 1.5, (4, 16), 72, 4);
         assert!(tiny > 4 && wide.is_finite());
+    }
+
+    /// A wide flat grid at SH order 1: its nodes' 3 words fit 128 MiB at 1.5 voxels, the
+    /// sweep's rings (8 planes of 1000 × 1000-odd nodes for 72 directions, ~2 GB) do not;
+    /// the grid widens until they do, by about the square root of their excess.
+    #[test]
+    fn the_sweeps_rings_widen_a_flat_grid_too() {
+        let bbox = haze_volume::Bbox::new([0.0; 3], [10.0, 10.0, 0.1]);
+        let dims = [1500, 1500, 15];
+        let limit = 128u64 << 20;
+        let (frame, bytes, same) = fitting_frame(dims, &bbox, 1.5, (1, 1), 72, u64::MAX);
+        let full = crate::gpu::env_sweep::ring_bytes(frame.nodes, 72);
+        assert!(
+            same == 1.5 && bytes <= limit && full > limit,
+            "{bytes} {full}"
+        );
+        let (frame, bytes, spacing) = fitting_frame(dims, &bbox, 1.5, (1, 1), 72, limit);
+        let ring = crate::gpu::env_sweep::ring_bytes(frame.nodes, 72);
+        assert!(bytes <= limit && ring <= limit, "{bytes} {ring}");
+        let most = 1.5 * 1.1 * (full as f64 / limit as f64).sqrt();
+        assert!(
+            spacing > 1.5 && spacing <= most * 1.0001,
+            "{spacing} (at most {most})"
+        );
     }
 
     use super::*;

@@ -107,6 +107,16 @@ fn bind_at(
     })
 }
 
+/// The bytes of the sweep's rings over a grid of `nodes` for `directions` directions:
+/// [`RING`] planes of the largest plane across an axis, `f32`, per direction.
+pub fn ring_bytes(nodes: [usize; 3], directions: usize) -> u64 {
+    let plane = (0..3)
+        .map(|k| nodes[(k + 1) % 3] * nodes[(k + 2) % 3])
+        .max()
+        .unwrap_or(1);
+    (directions * RING * plane).max(1) as u64 * 4
+}
+
 /// The buffers a sweep binds besides its own: the parameters (`env_pass.wgsl`'s
 /// `Params`), the volume pass's grid, the nodes' `S` (zeroed, written) and the grid's
 /// occupancy.
@@ -170,7 +180,7 @@ impl SweepPlan {
         let n = frame.nodes;
         let plane = |k: usize| n[(k + 1) % 3] * n[(k + 2) % 3];
         let ring_plane = (0..3).map(plane).max().unwrap_or(1);
-        let ring_bytes = (rule.len() * RING * ring_plane).max(1) as u64 * 4;
+        let ring_bytes = ring_bytes(n, rule.len());
         ctx.check_storage_size("the environment grid's sweep", ring_bytes)?;
         let total = frame.len();
         let state_bytes = (DOMAIN_WORDS + total) as u64 * 4;
