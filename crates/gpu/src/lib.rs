@@ -16,5 +16,5 @@ pub mod wgsl;
 pub use context::{GpuContext, GpuError};
 pub use pipeline::{
     ComputeLayout, bind_buffers, buffer_init, compute_layout, compute_pipeline,
-    compute_pipeline_at, compute_pipeline_with, line_groups, submit_pass, voxel_groups,
+    compute_pipeline_at, compute_pipeline_with, line_groups, submit_pass, timed_pass, voxel_groups,
 };

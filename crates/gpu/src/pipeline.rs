@@ -159,6 +159,26 @@ pub fn submit_pass(
     ctx.queue.submit([enc.finish()]);
 }
 
+/// One compute pass timed as `label`, recorded by `record`, submitted. Call inside
+/// [`GpuContext::scoped`].
+pub fn timed_pass(
+    ctx: &GpuContext,
+    label: &'static str,
+    record: impl FnOnce(&mut wgpu::ComputePass<'_>),
+) {
+    let mut enc = ctx
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
+    {
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(label),
+            timestamp_writes: ctx.timestamp_writes(label),
+        });
+        record(&mut pass);
+    }
+    ctx.queue.submit([enc.finish()]);
+}
+
 /// What a compute pass with one explicit bind group compiles before its pipelines.
 #[derive(Debug)]
 pub struct ComputeLayout {

@@ -24,7 +24,7 @@
 use crate::render::env_sweep;
 use crate::render::plane_sweep::{self, Lattice};
 use crate::sh::ShGrid;
-use haze_gpu::{GpuContext, GpuError, buffer_init, line_groups};
+use haze_gpu::{GpuContext, GpuError, buffer_init, line_groups, timed_pass};
 
 /// `env_pass.wgsl`'s STRIDE: node planes between a node and the plane its depth is read
 /// from (the CPU's sweep's).
@@ -294,15 +294,7 @@ impl SweepPlan {
                 )
             })
             .collect();
-        let label = "environment grid";
-        let mut enc = ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
-        {
-            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some(label),
-                timestamp_writes: ctx.timestamp_writes(label),
-            });
+        timed_pass(ctx, "environment grid", |pass| {
             pass.set_pipeline(needed);
             pass.set_bind_group(0, &needed_bind, &[]);
             let g = self.node_groups;
@@ -312,8 +304,7 @@ impl SweepPlan {
                 pass.set_bind_group(0, bind, &[]);
                 pass.dispatch_workgroups(g[0], g[1], g[2]);
             }
-        }
-        ctx.queue.submit([enc.finish()]);
+        });
     }
 }
 

@@ -53,7 +53,8 @@ use crate::render::env_pass::{directions, phase_factors};
 use crate::render::grid_diffusion::{GATHER_LATER_THETA, GATHER_THETA, GridSolveOptions, HIGH};
 use haze_gpu::wgsl::Variant;
 use haze_gpu::{
-    ComputeLayout, GpuContext, GpuError, bind_buffers, buffer_init, compute_layout, voxel_groups,
+    ComputeLayout, GpuContext, GpuError, bind_buffers, buffer_init, compute_layout, timed_pass,
+    voxel_groups,
 };
 use std::sync::atomic::{AtomicU32, Ordering};
 
@@ -215,26 +216,6 @@ pub struct OrdersPass {
     work: std::sync::Mutex<Option<(usize, wgpu::Buffer)>>,
     /// The CG iterations the last solve took (the next one's first batch).
     expected: AtomicU32,
-}
-
-/// One compute pass timed as `label`, recorded by `record`, submitted. Call inside
-/// [`GpuContext::scoped`].
-fn timed_pass(
-    ctx: &GpuContext,
-    label: &'static str,
-    record: impl FnOnce(&mut wgpu::ComputePass<'_>),
-) {
-    let mut enc = ctx
-        .device
-        .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
-    {
-        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some(label),
-            timestamp_writes: ctx.timestamp_writes(label),
-        });
-        record(&mut pass);
-    }
-    ctx.queue.submit([enc.finish()]);
 }
 
 /// How the CG in `work` (of `n` cells) stands, and whether every channel is done (a
