@@ -6,7 +6,7 @@
 //! default sweep ([`crate::render::env_sweep`]): each node's depth is a segment of
 //! [`STRIDE`] node planes plus the depth read bilinearly from the plane there. On the
 //! GPU the rule's directions are grouped by the axis whose node planes they cross
-//! fastest and their sense along it ([`sweep_groups`]), and each group is dispatched
+//! fastest and their sense along it (`sweep_groups`), and each group is dispatched
 //! once per block of `STRIDE` planes in sweep order: every read then comes from a plane
 //! an earlier dispatch wrote (WebGPU orders the dispatches of a pass), and a ring of
 //! [`RING`] planes per direction is all the depths that must be kept (22.6 MB for 72

@@ -44,8 +44,8 @@
 //! the lights pass's phase `p(s·d)` is 1) removes, so a new camera with `g = 0` reuses the
 //! grids too and runs the view pass only. The lights belong to the environment, whose
 //! generation is part of both keys: new lights recompute the sources and the grids.
-//! The environment pass's grid of `S_lm` ([`EnvShadow`], the march of every direction
-//! from every node: most of a frame on lavapipe) has a key of its own, [`EnvGridKey`] —
+//! The environment pass's grid of `S_lm` ([`EnvShadow`], every direction's depth at
+//! every node, by the sweep) has a key of its own, `EnvGridKey` —
 //! the frame, the residual toggle, σt, the distant environment, the order and the grid's
 //! settings — so rebuilt volume grids (a camera move with `g ≠ 0`, a new albedo or `g`,
 //! new lights) reuse it and only its per-voxel evaluation runs again. The lights pass's

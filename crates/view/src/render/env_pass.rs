@@ -40,7 +40,7 @@
 //! `p*`'s bands `l < order` are `(g^l − f)/(1 − f)`, so the SH sum takes the factors
 //! `Ω(g^l − f)`, and the peak adds `Ω·f·L(d)·T(u, d)`: the distant light straight behind
 //! the voxel (seen from the eye), through the smoke behind it, marched like the grid's
-//! own directions. `L` is read from [`PeakSky`], the distant radiance averaged on a coarse
+//! own directions. `L` is read from [`peak_sky`], the distant radiance averaged on a coarse
 //! lat-long (the peak is a few degrees wide, not a ray). With `f` below [`PEAK_MIN`] the
 //! peak is left in the series (no march). On the held-out front-lit plume at g 0.8:
 //! single scattering 16.4 → 7.9 % off; at g ≤ 0.5 the sky cases move by ≤ 0.4 points.
@@ -411,7 +411,7 @@ pub fn needed_nodes(density: &Volume, grid: &ShGrid) -> Vec<bool> {
 /// peak's light is then at most 1 % of the single scattering it would correct.
 pub const PEAK_MIN: f64 = 0.01;
 
-/// Size of [`PeakSky`]'s lat-long, texels (about 5.6° each).
+/// Size of [`peak_sky`]'s lat-long, texels (about 5.6° each).
 pub const PEAK_SKY: [usize; 2] = [64, 32];
 
 /// The share `f = g^order` of HG's phase function that the environment pass takes as its
