@@ -432,6 +432,14 @@ fn suns_lights_and_a_maps_sun_reach_the_render() {
     exr::prelude::write_rgb_file(&black, 8, 4, |_, _| (0.0f32, 0.0, 0.0)).unwrap();
     let (_, log) = render("lit-by-black.exr", &["--env", black.to_str().unwrap()]);
     assert!(log.contains("the map is black"), "{log}");
+    // A 1 × 1 map is accepted as a uniform sky, and says so.
+    let uniform = tmp(&dir, "uniform.exr");
+    exr::prelude::write_rgb_file(&uniform, 1, 1, |_, _| (0.5f32, 0.6, 0.7)).unwrap();
+    let (_, log) = render("lit-by-uniform.exr", &["--env", uniform.to_str().unwrap()]);
+    assert!(
+        log.contains("the same radiance from every direction"),
+        "{log}"
+    );
     let (whole, log) = render("whole.exr", &["--env", map, "--no-sun-extraction"]);
     assert!(!log.contains("sun split off"), "{log}");
     assert!(

@@ -174,6 +174,12 @@ impl Lights {
                 self.env
             );
         }
+        if (w, h) == (1, 1) {
+            tracing::info!(
+                "{}: a 1×1 map: the same radiance from every direction",
+                self.env
+            );
+        }
         if map_power(&map).iter().all(|&p| p <= 0.0) {
             tracing::warn!("{}: the map is black: no distant light", self.env);
         }
