@@ -110,11 +110,15 @@ fn bind_at(
 /// The bytes of the sweep's rings over a grid of `nodes` for `directions` directions:
 /// [`RING`] planes of the largest plane across an axis, `f32`, per direction.
 pub fn ring_bytes(nodes: [usize; 3], directions: usize) -> u64 {
-    let plane = (0..3)
+    (directions * RING * largest_plane(nodes)).max(1) as u64 * 4
+}
+
+/// Nodes in the largest plane across an axis of a grid of `nodes`: a ring plane's words.
+fn largest_plane(nodes: [usize; 3]) -> usize {
+    (0..3)
         .map(|k| nodes[(k + 1) % 3] * nodes[(k + 2) % 3])
         .max()
-        .unwrap_or(1);
-    (directions * RING * plane).max(1) as u64 * 4
+        .unwrap_or(1)
 }
 
 /// The buffers a sweep binds besides its own: the parameters (`env_pass.wgsl`'s
@@ -179,7 +183,7 @@ impl SweepPlan {
         ctx.check_storage_size("the direction rule", (table.len() * 4) as u64)?;
         let n = frame.nodes;
         let plane = |k: usize| n[(k + 1) % 3] * n[(k + 2) % 3];
-        let ring_plane = (0..3).map(plane).max().unwrap_or(1);
+        let ring_plane = largest_plane(n);
         let ring_bytes = ring_bytes(n, rule.len());
         ctx.check_storage_size("the environment grid's sweep", ring_bytes)?;
         let total = frame.len();
