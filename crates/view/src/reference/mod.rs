@@ -104,12 +104,7 @@ pub(crate) struct Scene<'a> {
 
 impl<'a> Scene<'a> {
     fn track(&self, o: [f64; 3], d: [f64; 3]) -> track::Track<'a> {
-        track::Track {
-            volume: self.volume,
-            sigma_t: self.medium.sigma_t,
-            o,
-            d,
-        }
+        track::Track::new(self.volume, self.medium.sigma_t, o, d)
     }
 
     /// What the camera ray from `o` along the unit `d` sees behind the smoke: the ground

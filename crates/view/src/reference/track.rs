@@ -23,10 +23,12 @@ const KAPPA_MAX: f64 = 1e250;
 /// A ray through a volume with an extinction cross-section: `κt(t) = σt·D(o + t·d)`.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Track<'a> {
-    pub volume: &'a Volume,
+    volume: &'a Volume,
+    /// The volume's sampler, its constants taken once per ray.
+    field: field::Sampler<'a>,
     pub sigma_t: f64,
-    pub o: [f64; 3],
-    pub d: [f64; 3],
+    o: [f64; 3],
+    d: [f64; 3],
 }
 
 /// `(1 ∓ 1/√3)/2`: the two Gauss–Legendre nodes on [0, 1].
@@ -38,14 +40,25 @@ fn ordered(t0: f64, t1: f64) -> bool {
     t0 < t1
 }
 
-impl Track<'_> {
+impl<'a> Track<'a> {
+    /// The ray `o + t·d` through `volume` of extinction cross-section `sigma_t`.
+    pub fn new(volume: &'a Volume, sigma_t: f64, o: [f64; 3], d: [f64; 3]) -> Track<'a> {
+        Track {
+            volume,
+            field: field::Sampler::new(volume),
+            sigma_t,
+            o,
+            d,
+        }
+    }
+
     fn point(&self, t: f64) -> [f64; 3] {
         [0, 1, 2].map(|a| self.o[a] + t * self.d[a])
     }
 
     /// `κt` at parameter `t`.
     pub fn kappa(&self, t: f64) -> f64 {
-        (self.sigma_t * field::sample(self.volume, self.point(t))).min(KAPPA_MAX)
+        (self.sigma_t * self.field.at(self.point(t))).min(KAPPA_MAX)
     }
 
     /// `∫ₐᵇ κt dt` for `[a, b]` inside one polynomial piece (exact: Gauss–Legendre, 2 nodes).
@@ -57,15 +70,14 @@ impl Track<'_> {
         0.5 * h * (self.kappa(a + GL_LO * h) + self.kappa(a + GL_HI * h))
     }
 
-    /// `t0`, every crossing of a plane of voxel centers strictly between, and `t1`, sorted:
-    /// the pieces on which the density is one cubic in `t`.
-    fn breaks(&self, t0: f64, t1: f64) -> Vec<f64> {
+    /// `t0`, every crossing of a plane of voxel centers strictly between, and `t1`, in
+    /// ascending order: the pieces on which the density is one cubic in `t`.
+    fn breaks(&self, t0: f64, t1: f64) -> Breaks {
         let v = self.volume;
         let (dims, bbox, vs) = (v.dims(), v.bbox(), v.voxel_size());
-        let mut out = vec![t0];
-        for a in 0..3 {
+        let axes = std::array::from_fn(|a| {
             if self.d[a] == 0.0 || dims[a] == 0 {
-                continue;
+                return None;
             }
             // Continuous voxel coordinate: center i at f = i.
             let f = |t: f64| (self.o[a] + t * self.d[a] - bbox.min[a]) / vs[a] - 0.5;
@@ -74,19 +86,41 @@ impl Track<'_> {
             let first = (lo.floor() + 1.0).max(0.0);
             let last = (hi.ceil() - 1.0).min(dims[a] as f64 - 1.0);
             if first > last {
-                continue;
+                return None;
             }
-            for i in first as usize..=last as usize {
-                let c = bbox.min[a] + (i as f64 + 0.5) * vs[a];
-                let t = (c - self.o[a]) / self.d[a];
-                if t > t0 && t < t1 {
-                    out.push(t);
-                }
-            }
+            // The centers' planes in the order the ray meets them.
+            let (from, to) = (first as i64, last as i64);
+            let step = if self.d[a] > 0.0 { 1 } else { -1 };
+            let start = if step > 0 { from } else { to };
+            Some(Crossings {
+                next: start,
+                left: (to - from + 1) as u64,
+                step,
+                min: bbox.min[a],
+                voxel: vs[a],
+                o: self.o[a],
+                d: self.d[a],
+            })
+        });
+        Breaks {
+            axes,
+            t0,
+            t1,
+            started: false,
+            done: false,
         }
-        out.push(t1);
-        out.sort_by(f64::total_cmp);
-        out
+    }
+
+    /// The consecutive pairs of [`Track::breaks`].
+    fn pieces(&self, t0: f64, t1: f64) -> impl Iterator<Item = (f64, f64)> {
+        let mut breaks = self.breaks(t0, t1);
+        let mut a = breaks.next();
+        std::iter::from_fn(move || {
+            let b = breaks.next()?;
+            let piece = (a?, b);
+            a = Some(b);
+            Some(piece)
+        })
     }
 
     /// Optical depth `τ(t0, t1)` (`t0 ≤ t1`), exact up to rounding.
@@ -94,9 +128,8 @@ impl Track<'_> {
         if self.sigma_t == 0.0 || !ordered(t0, t1) {
             return 0.0;
         }
-        self.breaks(t0, t1)
-            .windows(2)
-            .map(|w| self.piece_depth(w[0], w[1]))
+        self.pieces(t0, t1)
+            .map(|(a, b)| self.piece_depth(a, b))
             .sum()
     }
 
@@ -107,8 +140,7 @@ impl Track<'_> {
             return None;
         }
         let mut left = tau;
-        for w in self.breaks(t0, t1).windows(2) {
-            let (a, b) = (w[0], w[1]);
+        for (a, b) in self.pieces(t0, t1) {
             let piece = self.piece_depth(a, b);
             if piece < left {
                 left -= piece;
@@ -132,6 +164,81 @@ impl Track<'_> {
             return Some(hi);
         }
         None
+    }
+}
+
+/// The crossings of one axis's planes of voxel centers by a ray, in the order it meets
+/// them: `t = (min + (i + ½)·voxel − o)/d` for `i` from `next` by `step`, `left` more.
+#[derive(Clone, Copy, Debug)]
+struct Crossings {
+    next: i64,
+    left: u64,
+    step: i64,
+    min: f64,
+    voxel: f64,
+    o: f64,
+    d: f64,
+}
+
+impl Crossings {
+    /// The next crossing's `t`, if any is left.
+    fn peek(&self) -> Option<f64> {
+        (self.left > 0).then(|| {
+            let c = self.min + (self.next as f64 + 0.5) * self.voxel;
+            (c - self.o) / self.d
+        })
+    }
+
+    fn advance(&mut self) {
+        self.next += self.step;
+        self.left -= 1;
+    }
+}
+
+/// [`Track::breaks`]: `t0`, the three axes' crossings strictly between `t0` and `t1`
+/// merged in ascending order (each axis's already is), then `t1`. Crossings that rounding
+/// puts outside `(t0, t1)` are left out, as are NaNs.
+#[derive(Clone, Copy, Debug)]
+struct Breaks {
+    axes: [Option<Crossings>; 3],
+    t0: f64,
+    t1: f64,
+    started: bool,
+    done: bool,
+}
+
+impl Iterator for Breaks {
+    type Item = f64;
+
+    fn next(&mut self) -> Option<f64> {
+        if !self.started {
+            self.started = true;
+            return Some(self.t0);
+        }
+        if self.done {
+            return None;
+        }
+        loop {
+            // The axis whose next crossing comes first (`total_cmp`, as a sort would).
+            let mut best: Option<(usize, f64)> = None;
+            for (a, axis) in self.axes.iter().enumerate() {
+                if let Some(t) = axis.as_ref().and_then(Crossings::peek)
+                    && best.is_none_or(|(_, b)| t.total_cmp(&b).is_lt())
+                {
+                    best = Some((a, t));
+                }
+            }
+            let Some((a, t)) = best else {
+                self.done = true;
+                return Some(self.t1);
+            };
+            if let Some(axis) = self.axes[a].as_mut() {
+                axis.advance();
+            }
+            if t > self.t0 && t < self.t1 {
+                return Some(t);
+            }
+        }
     }
 }
 
@@ -159,12 +266,7 @@ mod tests {
         let o = [0.6, 0.7, 0.8];
         let n = (5.7f64 * 5.7 + 3.6 * 3.6 + 4.4 * 4.4).sqrt();
         let d = [5.7 / n, 3.6 / n, 4.4 / n];
-        let track = Track {
-            volume: &v,
-            sigma_t: 0.3,
-            o,
-            d,
-        };
+        let track = Track::new(&v, 0.3, o, d);
         // ∫₀ᴸ Π(oₐ + t dₐ) dt expanded: the ray stays within the hull of the centers.
         let (a, b, c) = (o, d, n);
         let poly = |t: f64| {
@@ -203,12 +305,7 @@ mod tests {
         let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
         let d = d.map(|c: f64| c / n);
         let (t0, t1) = field::ray_box(o, d, v.bbox()).unwrap();
-        let track = Track {
-            volume: &v,
-            sigma_t: 1.0,
-            o,
-            d,
-        };
+        let track = Track::new(&v, 1.0, o, d);
         let steps = 200_000;
         let h = (t1 - t0) / steps as f64;
         let march: f64 = (0..steps)
@@ -221,12 +318,7 @@ mod tests {
     #[test]
     fn zero_extinction_empty_volumes_and_huge_extinction_are_finite() {
         let v = product();
-        let mut t = Track {
-            volume: &v,
-            sigma_t: 0.0,
-            o: [0.5; 3],
-            d: [0.0, 0.0, 1.0],
-        };
+        let mut t = Track::new(&v, 0.0, [0.5; 3], [0.0, 0.0, 1.0]);
         assert_eq!(t.depth(0.0, 5.0), 0.0);
         assert_eq!(t.reach(0.0, 5.0, 0.0), None);
         t.sigma_t = f64::MAX;
@@ -237,13 +329,52 @@ mod tests {
         let hit = t.reach(0.0, 5.0, 3.0).unwrap();
         assert!((0.0..2e-14).contains(&hit), "{hit}");
         let empty = Volume::new([0, 0, 0], Bbox::new([0.0; 3], [1.0; 3]), vec![]).unwrap();
-        let e = Track {
-            volume: &empty,
-            sigma_t: 5.0,
-            o: [0.5; 3],
-            d: [1.0, 0.0, 0.0],
-        };
+        let e = Track::new(&empty, 5.0, [0.5; 3], [1.0, 0.0, 0.0]);
         assert_eq!(e.depth(0.0, 0.5), 0.0);
         assert_eq!(e.reach(0.0, 0.5, 1e-3), None);
+    }
+
+    /// The merged breaks are every plane crossing strictly inside `(t0, t1)`, found by
+    /// trying every plane of every axis, sorted: rays along and against the axes, oblique,
+    /// parallel to a plane, from outside the box and from inside.
+    #[test]
+    fn breaks_are_every_crossing_in_order() {
+        let v = product();
+        let (dims, bbox, vs) = (v.dims(), v.bbox(), v.voxel_size());
+        let rays = [
+            ([0.6, 0.7, 0.8], [0.7f64, 0.5, 0.51]),
+            ([6.9, 4.3, 5.5], [-0.3, -0.8, -0.52]),
+            ([-1.0, 2.5, 3.0], [1.0, 0.0, 0.0]),
+            ([3.5, 9.0, 3.0], [0.0, -1.0, 0.0]),
+            ([2.0, 2.0, -3.0], [0.1, -0.2, 0.97]),
+        ];
+        for (o, d) in rays {
+            let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            let d = d.map(|x| x / n);
+            let track = Track::new(&v, 1.0, o, d);
+            for (t0, t1) in [(0.0, 3.0), (0.5, 12.0), (2.25, 2.5), (4.0, 4.0)] {
+                let mut want = vec![t0];
+                for a in 0..3 {
+                    for i in 0..dims[a] {
+                        let t = (bbox.min[a] + (i as f64 + 0.5) * vs[a] - o[a]) / d[a];
+                        if t > t0 && t < t1 {
+                            want.push(t);
+                        }
+                    }
+                }
+                want.push(t1);
+                want.sort_by(f64::total_cmp);
+                let got: Vec<f64> = track.breaks(t0, t1).collect();
+                assert_eq!(got, want, "ray {o:?} {d:?} over [{t0}, {t1}]");
+                let pieces: Vec<(f64, f64)> = track.pieces(t0, t1).collect();
+                assert_eq!(pieces.len(), want.len() - 1);
+                assert!(
+                    pieces
+                        .iter()
+                        .zip(want.windows(2))
+                        .all(|(p, w)| *p == (w[0], w[1]))
+                );
+            }
+        }
     }
 }
