@@ -409,9 +409,8 @@ fn a_npy_header_that_nests_brackets_is_refused() {
     assert!(e.contains("v.npy") && e.contains("nests brackets"), "{e}");
 }
 
-/// A phase function too forward for the SH order (HG g 0.8 at order 4: sky-lit
-/// scattering 15 % off on a held-out plume) is warned about with what to do; g 0.3 is
-/// not.
+/// A phase function too forward for the SH order (HG g 0.8 at order 4: the final image
+/// of held-out plumes about 10 % bright) is warned about with what to do; g 0.3 is not.
 #[test]
 fn a_phase_function_the_sh_order_truncates_is_warned_about() {
     let dir = tempfile::tempdir().unwrap();

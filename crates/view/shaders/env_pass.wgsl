@@ -53,15 +53,18 @@ struct Params {
     peak: f32,
     // Distance between nodes per axis (0 on an axis of one node).
     cell: vec3<f32>,
-    _pad1: u32,
+    // `apply`: cells of the forward peak's rule (`render::peak_rule`).
+    peak_cells: u32,
     nodes: vec3<u32>,
-    _pad2: u32,
+    // `apply`: directions per cell of the peak's rule.
+    peak_azimuths: u32,
 }
 
 @group(0) @binding(0) var<storage, read> p: Params;
 // `shadow`: per direction 4 + 4 + order² words: ω x y z, 0, w·L r g b, 0, Y_j(ω).
 // `apply`: per coefficient j (order² of them) L_j r g b, Ω·(g^l − f); then the forward
-// peak's sky (`env_pass::peak_sky`), PEAK_W × PEAK_H texels r g b from the zenith row.
+// peak's sky (`env_pass::peak_sky`), PEAK_W × PEAK_H texels r g b from the zenith row;
+// then per cell of the peak's rule cos θ, sin θ, Ω·weight, 0.
 @group(0) @binding(1) var<storage, read> table: array<f32>;
 // Per voxel (x fastest): J̃ r g b, D.
 @group(0) @binding(2) var<storage, read_write> grid: array<f32>;
@@ -87,6 +90,32 @@ fn peak_texel(x: u32, y: u32) -> vec3<f32> {
 fn peak_sky(d: vec3<f32>) -> vec3<f32> {
     let s = lat_long_stencil(d, vec2<u32>(PEAK_W, PEAK_H));
     return lat_long_blend(s, peak_texel(s.xa, s.ya), peak_texel(s.xb, s.ya), peak_texel(s.xa, s.yb), peak_texel(s.xb, s.yb));
+}
+
+// The forward peak's light at u seen along the unit d (`render::peak_rule`): over the
+// rule's cells and azimuths around d, turned by voxel lin's spin, the light behind u
+// through the smoke; the δ (one cell at θ 0, one azimuth) is d itself.
+fn peak_light(u: vec3<f32>, d: vec3<f32>, lin: u32, n2: u32) -> vec3<f32> {
+    // `peak_rule::tangents`.
+    let a = select(vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(1.0, 0.0, 0.0), abs(d.x) < 0.9);
+    let c = cross(d, a);
+    let n = length(c);
+    let t1 = select(vec3<f32>(0.0), c / n, n > 0.0);
+    let t2 = cross(d, t1);
+    // `peak_rule::spin`.
+    let spin = f32(lin * 0x9E3779B9u) * (1.0 / 4294967296.0);
+    let k = p.peak_azimuths;
+    let base = 4u * n2 + 3u * PEAK_W * PEAK_H;
+    var light = vec3<f32>(0.0);
+    for (var r = 0u; r < p.peak_cells; r++) {
+        let cell = vec3<f32>(table[base + 4u * r], table[base + 4u * r + 1u], table[base + 4u * r + 2u]);
+        for (var j = 0u; j < k; j++) {
+            let phi = 6.283185307179586 * (f32(j) + 0.5 * f32(r) + spin) / f32(k);
+            let w = cell.x * d + cell.y * (cos(phi) * t1 + sin(phi) * t2);
+            light += (cell.z / f32(k)) * peak_sky(w) * transmittance(u, w, 3.0e38);
+        }
+    }
+    return light;
 }
 
 // `grid_march::optical_depth` from u along s to the box's face, skipping the samples
@@ -445,9 +474,7 @@ fn apply(@builtin(global_invocation_id) i: vec3<u32>) {
     }
     var add = max(acc, vec3<f32>(0.0));
     if p.peak > 0.0 {
-        // The forward peak: the light straight behind u, through the smoke.
-        let d = normalize(view);
-        add += p.peak * peak_sky(d) * transmittance(u, d, 3.0e38);
+        add += peak_light(u, normalize(view), lin, n2);
     }
     for (var c = 0u; c < 3u; c++) {
         grid[4u * lin + c] += add[c];

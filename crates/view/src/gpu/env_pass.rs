@@ -32,6 +32,7 @@ use crate::env::Environment;
 use crate::lighting::single::RgbSh;
 use crate::medium::Medium;
 use crate::render::env_pass::{self, EnvGridOptions};
+use crate::render::peak_rule::PeakRule;
 use crate::sh::{self, ShGrid};
 use haze_gpu::wgsl::Variant;
 use haze_gpu::{
@@ -91,9 +92,11 @@ struct Params {
     /// `Ω·f` of the forward peak (`env_pass::peak_share`); 0 for none.
     peak: f32,
     cell: [f32; 3],
-    _pad1: u32,
+    /// `apply`: cells of the forward peak's rule (`render::peak_rule`); 0 for none.
+    peak_cells: u32,
     nodes: [u32; 3],
-    _pad2: u32,
+    /// `apply`: directions per cell of the peak's rule.
+    peak_azimuths: u32,
 }
 
 /// Times the environment's grid may be made coarser to fit the device's buffers.
@@ -314,9 +317,9 @@ impl EnvPass {
             node_min: [0, 1, 2].map(|k| (frame.min[k] - bbox.min[k]) as f32),
             peak: 0.0,
             cell: frame.cell.map(|c| c as f32),
-            _pad1: 0,
+            peak_cells: 0,
             nodes: frame.nodes.map(|n| n as u32),
-            _pad2: 0,
+            peak_azimuths: 0,
         };
         let blocks = dims.map(|n| n.div_ceil(BLOCK));
         let block_groups = line_groups(ctx, blocks.iter().product(), NODES, "occupancy blocks")?;
@@ -440,10 +443,15 @@ impl EnvPass {
         for (j, aj) in a.iter().enumerate() {
             factors.extend([light[0][j], light[1][j], light[2][j], *aj].map(|v| v as f32));
         }
-        // The forward peak's sky after the factors (`env_pass.wgsl`'s PEAK_*).
+        // The forward peak's sky after the factors (`env_pass.wgsl`'s PEAK_*), then its
+        // rule's cells: cos θ, sin θ, Ω·weight, 0.
+        let rule = PeakRule::new(medium.g, order, f);
         if f > 0.0 {
             for t in env_pass::peak_sky(distant).texels {
                 factors.extend(t);
+            }
+            for c in &rule.cells {
+                factors.extend([c.cos, c.sin, medium.albedo * c.weight, 0.0].map(|v| v as f32));
             }
         } else {
             factors.extend([0.0; 3]);
@@ -451,6 +459,8 @@ impl EnvPass {
         let params = Params {
             eye: [0, 1, 2].map(|k| (eye[k] - bbox.min[k]) as f32),
             peak: (medium.albedo * f) as f32,
+            peak_cells: rule.cells.len() as u32,
+            peak_azimuths: rule.azimuths as u32,
             ..shadow.params
         };
         let groups = voxel_groups(ctx, dims, SIDE)?;
