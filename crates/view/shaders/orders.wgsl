@@ -999,16 +999,18 @@ fn apply(@builtin(global_invocation_id) v: vec3<u32>) {
         return;
     }
     let d = view / len;
-    // Bands 2–4 towards the eye, ω = −d, each scaled by g^l (Funk–Hecke on HG).
+    // Bands 2–4 towards the eye, ω = −d, each scaled by g^l − f (Funk–Hecke on HG less
+    // its peak f = g⁵, `grid_diffusion::eye_peak_share`).
     sh_eval(5u, -d);
     let g = p.g;
     let g2 = g * g;
+    let peak = select(0.0, g2 * g2 * g, g > 0.0);
     for (var ch = 0u; ch < 3u; ch++) {
         var bands = 0.0;
         for (var j = 0u; j < HIGH; j++) {
-            bands += select(select(g2 * g2, g2 * g, j < 12u), g2, j < 5u) * high[ch][j] * ysh[4u + j];
+            bands += (select(select(g2 * g2, g2 * g, j < 12u), g2, j < 5u) - peak) * high[ch][j] * ysh[4u + j];
         }
-        let j = p.albedo * (l0[ch] - g * dot(l1[ch], d) + bands) / ws;
+        let j = p.albedo * ((1.0 - peak) * l0[ch] - (g - peak) * dot(l1[ch], d) + bands) / ws;
         grid[4u * lin + ch] += max(j, 0.0);
     }
 }

@@ -8,6 +8,10 @@
 //
 //     L = L_env(d)·Π Δτ_j + Σ_i J̃(u_i)·(1 − Δτ_i)·Π_{j<i} Δτ_j
 //
+// where multiple scattering left HG's forward peak f to the eye's ray (`keep = 1 − Ωf`,
+// `grid_diffusion::add_to_grids`), J̃'s light goes through σt·keep instead:
+// J̃(u_i)·(1 − Δτ_i^keep)/keep·Π_{j<i} Δτ_j^keep, and the march stops on that transmittance.
+//
 // D and J̃_D = D·J̃ (eq. 15) are trilinear between voxel centers, J̃ = J̃_D/D, with the
 // stencil of `field::sample`
 // (constant to the box's faces, zero outside), done by hand on a storage buffer so the
@@ -47,7 +51,9 @@ struct Params {
     // 1: camera rays meet a ground (`ground::GroundLight`), 0: none.
     has_ground: u32,
     sun_direction: vec3<f32>,
-    _pad4: f32,
+    // 1 − Ωf: the scattered light's share of σt on the way to the eye
+    // (`VolumeGrids::eye_peak`; 1 for single scattering).
+    keep: f32,
     sun: vec3<f32>,
     _pad5: f32,
     // ρ/π · E_sky of the ground.
@@ -259,6 +265,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let hit = ray_box(p.eye, d);
     var out = vec3<f32>(0.0);
     var tau = 1.0;
+    // The scattered light's transmittance, through σt·keep (`VolumeGrids::eye_peak`).
+    var tau_j = 1.0;
     if hit.z > 0.0 {
         let ds = p.du / cos_g;
         // Slice planes at axis distances k·du from the eye; the ray meets plane k at
@@ -275,10 +283,17 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             if s.w <= 0.0 {
                 continue;
             }
-            let dt = exp(-p.sigma_t * s.w * ds);
-            out += tau * s.xyz * (1.0 - dt);
+            let a = p.sigma_t * s.w * ds;
+            let dt = exp(-a);
+            // `crm::scattered_step`: (1 − e^{−x})/keep with x = keep·a, by its series
+            // a(1 − x/2) below x = 10⁻³ (f32's 1 − e^{−x} cancels there).
+            let x = p.keep * a;
+            let dt_j = exp(-x);
+            let share = select(select((1.0 - dt_j) / p.keep, a * (1.0 - 0.5 * x), x < 1e-3), 1.0 - dt, p.keep == 1.0);
+            out += tau_j * s.xyz * share;
             tau *= dt;
-            if tau < OPAQUE {
+            tau_j *= dt_j;
+            if tau_j < OPAQUE {
                 tau = 0.0;
                 break;
             }

@@ -646,6 +646,7 @@ fn the_view_layer_is_the_view_pass_split_into_smoke_and_background() {
     let grids = VolumeGrids {
         density,
         radiance: vec![[0.7, 0.4, 0.2]; n * n * n],
+        eye_peak: 0.0,
     };
     let medium = Medium::new(0.9, 0.8, 0.0).unwrap();
     let env = Environment::sky(Sky::default());
@@ -730,6 +731,7 @@ fn a_sun_skimming_a_face_lights_its_outer_band() {
     let mut grids = VolumeGrids {
         density: volume.clone(),
         radiance: vec![[0.0; 3]; n * n * n],
+        eye_peak: 0.0,
     };
     lights_pass(&mut grids, &env, &medium, cam.eye);
     let fast = view_pass(

@@ -233,6 +233,7 @@ fn an_empty_volume_adds_nothing() {
     let mut g = VolumeGrids {
         density: empty,
         radiance: Vec::new(),
+        eye_peak: 0.0,
     };
     env_pass(&mut g, &env, &light, &m, EYE, 4, &EnvGridOptions::default());
 }

@@ -339,6 +339,14 @@ fn the_diffusion_after_the_orders_and_the_voxels_match_the_cpu() {
         .fold(0.0f64, |a, (x, y)| a.max(f64::from((x - y).abs())));
     println!("per voxel: |ΔJ|/max {:.2e}", dj / jmax);
     assert!(dj <= 1e-2 * jmax, "{}", dj / jmax);
+    // The peak's share left to the eye's ray: Ωf, `f32` against `f64`.
+    assert!(want.eye_peak > 0.0);
+    assert!(
+        (got.eye_peak - want.eye_peak).abs() <= 1e-6,
+        "{} vs {}",
+        got.eye_peak,
+        want.eye_peak
+    );
 }
 
 #[test]

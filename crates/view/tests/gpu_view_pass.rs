@@ -170,6 +170,45 @@ fn sky_seen_through_smoke_matches_the_cpu() {
     compare(&ctx, &g, &medium, &env, &cam, du);
 }
 
+/// Multiple scattering's light carried to the eye through `σt(1 − Ωf)`
+/// (`VolumeGrids::eye_peak`): at g 0.8's `Ωf` = 0.8·0.8⁵, and near `keep` = 0 where the
+/// step's share is taken by its series (`crm::scattered_step`); the scattered light
+/// grows with the share given back, the background's transmittance does not change.
+#[test]
+fn scattered_light_through_the_peaks_extinction_matches_the_cpu() {
+    let ctx = context();
+    let bbox = unit_box();
+    let rbfs = cluster(&bbox);
+    let env = Environment::sky(Sky::default());
+    let medium = Medium::new(6.0, 0.8, 0.8).unwrap();
+    let cam = Camera::new(
+        [0.5, -1.3, 0.85],
+        [0.5, 0.5, 0.52],
+        [0.0, 0.0, 1.0],
+        40.0,
+        40,
+        30,
+    )
+    .unwrap();
+    let mut g = grids(&rbfs, [24; 3], &bbox, &medium, &env, cam.eye);
+    let du = crm::default_slice([24; 3], &bbox);
+    let sum = |g: &VolumeGrids| -> f64 {
+        crm::view_pass(g, &medium, &env, &cam, du, None)
+            .iter()
+            .flatten()
+            .map(|&v| f64::from(v))
+            .sum()
+    };
+    let mut last = sum(&g);
+    for peak in [0.8 * 0.8f64.powi(5), 1.0 - 1e-7] {
+        g.eye_peak = peak;
+        compare(&ctx, &g, &medium, &env, &cam, du);
+        let now = sum(&g);
+        assert!(now > last, "Ωf {peak}: {now} after {last}");
+        last = now;
+    }
+}
+
 /// A ground at the floor of a box far from the origin, lit by the sky, a low sun whose
 /// shadow of the smoke falls across the picture and a point light above it: the marched
 /// shadow is the CPU's, and the ground is darker in the shadow than beside it.

@@ -49,7 +49,11 @@ fn blob() -> VolumeGrids {
     }
     let density = Volume::new([n; 3], bbox, data).unwrap();
     let radiance = vec![J; n * n * n];
-    VolumeGrids { density, radiance }
+    VolumeGrids {
+        density,
+        radiance,
+        eye_peak: 0.0,
+    }
 }
 
 fn fog() -> Fog {

@@ -38,12 +38,14 @@ use haze_volume::{Bbox, Volume};
 /// (RGB) in `xyz` and `D` in `w`, over a `dims` grid on `bbox` — what
 /// [`volume_pass::VolumePass`] writes, [`lights_pass::LightsPass`] adds to and
 /// [`view_pass::ViewPass`] reads. An empty grid
-/// still has one (zero) voxel of buffer: wgpu binds no empty buffers.
+/// still has one (zero) voxel of buffer: wgpu binds no empty buffers. `eye_peak` is
+/// [`VolumeGrids::eye_peak`]: [`orders::OrdersPass::apply`] sets it with the light it adds.
 #[derive(Debug)]
 pub struct GridBuffer {
     buffer: wgpu::Buffer,
     dims: [usize; 3],
     bbox: Bbox,
+    eye_peak: std::cell::Cell<f64>,
 }
 
 impl GridBuffer {
@@ -69,7 +71,12 @@ impl GridBuffer {
                 mapped_at_creation: false,
             })
         })?;
-        Ok(GridBuffer { buffer, dims, bbox })
+        Ok(GridBuffer {
+            buffer,
+            dims,
+            bbox,
+            eye_peak: std::cell::Cell::new(0.0),
+        })
     }
 
     /// Uploads CPU grids. Refuses grids whose radiance does not match the density's voxels
@@ -105,6 +112,7 @@ impl GridBuffer {
             buffer,
             dims,
             bbox: *g.density.bbox(),
+            eye_peak: std::cell::Cell::new(g.eye_peak),
         })
     }
 
@@ -120,7 +128,13 @@ impl GridBuffer {
             density: Volume::new(self.dims, self.bbox, density)
                 .map_err(|e| GpuError::Input(format!("grid of {:?} voxels: {e}", self.dims)))?,
             radiance,
+            eye_peak: self.eye_peak.get(),
         })
+    }
+
+    /// [`VolumeGrids::eye_peak`] of the light in the grid.
+    pub fn eye_peak(&self) -> f64 {
+        self.eye_peak.get()
     }
 
     /// Voxels per axis.

@@ -26,9 +26,10 @@
 //!   channel has converged the reductions empty the cell dispatches' indirect arguments,
 //!   so a batch's iterations past convergence cost empty dispatches; then `L⁰`, `L¹` per
 //!   cell with the flux moment and the clamp `|L¹| ≤ 3L⁰`;
-//! - [`OrdersPass::apply`]: `J_ms = Ω (L⁰ − g L¹·d + Σ_{l=2}^{4} g^l c_lm Y_lm(−d))` per
-//!   voxel towards the eye, with the gathered orders' bands 2–4 `c_lm`
-//!   ([`crate::render::grid_diffusion::add_to_grids`]).
+//! - [`OrdersPass::apply`]: `J_ms = Ω ((1 − f) L⁰ − (g − f) L¹·d + Σ_{l=2}^{4} (g^l − f)
+//!   c_lm Y_lm(−d))` per voxel towards the eye, with the gathered orders' bands 2–4
+//!   `c_lm` and HG's peak `f = g⁵` left to the view pass, which the grid's
+//!   [`GridBuffer::eye_peak`] tells ([`crate::render::grid_diffusion::add_to_grids`]).
 //!
 //! The light travels through the medium's delta-Eddington transport medium, as on the
 //! CPU ([`Medium::delta_eddington`]).
@@ -752,7 +753,11 @@ impl OrdersPass {
                 groups,
                 1,
             );
-        })
+        })?;
+        let (albedo, g) = (f64::from(media.params.albedo), f64::from(media.params.g));
+        grid.eye_peak
+            .set(albedo * crate::render::grid_diffusion::eye_peak_share(g));
+        Ok(())
     }
 
     /// The three steps in a row: [`OrdersPass::gather`], [`OrdersPass::diffuse`],

@@ -35,11 +35,12 @@ pub const DEFAULT_ORDER: usize = 4;
 /// forward peak: the sky's light scattered through small angles is blurred over the
 /// smoke. The environment pass takes the peak apart (delta-M, `render::env_pass`) and,
 /// above [`PHASE_CUT_WARNING`], integrates it by its shape (`render::peak_rule`); the
-/// multiple scattering's light towards the eye keeps its bands 0–4. Measured
-/// (BENCHMARKS.md "Skies of every shape"): at `g` 0.5 and order 4 (`0.06`) sky-lit
-/// single scattering is within 1–2 %; at `g` 0.8 (`0.41`) thick front-lit plumes' is
-/// within 2.6–3.3 % (8–12 % with the peak as a δ) and their final images 13 % off,
-/// 10 % bright. 0 for `g` 0 or NaN.
+/// multiple scattering's light towards the eye keeps its bands 0–4 and leaves the peak
+/// beyond them to the eye's ray (`render::grid_diffusion`). Measured (BENCHMARKS.md
+/// "Skies of every shape"): at `g` 0.5 and order 4 (`0.06`) sky-lit single scattering is
+/// within 1–2 %; at `g` 0.8 (`0.41`) thick front-lit plumes' is within 2.6–3.3 % (8–12 %
+/// with the peak as a δ), and the final images of thick smoke are 5–7 % off front- and
+/// side-lit, 6–9 % back-lit, 17 % beside a bright cloud edge. 0 for `g` 0 or NaN.
 pub fn phase_cut(g: f64, order: usize) -> f64 {
     if g.is_nan() {
         return 0.0;
@@ -58,7 +59,7 @@ pub fn phase_cut_warning(g: f64, order: usize) -> Option<String> {
     let c = phase_cut(g, order);
     (c > PHASE_CUT_WARNING).then(|| {
         format!(
-            "HG g {g} is too forward for SH order {order}: the cut band weighs {:.0} % of the phase function's first, so sky-lit multiple scattering is approximate (at g 0.8 and order 4 on held-out plumes: single scattering within 3 %, the final image about 10 % bright, whatever the order); a check against the reference (--check) says how far",
+            "HG g {g} is too forward for SH order {order}: the cut band weighs {:.0} % of the phase function's first, so sky-lit multiple scattering is approximate (at g 0.8 and order 4 on held-out plumes: single scattering within 3 %, the final image 5–17 % off, whatever the order); a check against the reference (--check) says how far",
             100.0 * c
         )
     })

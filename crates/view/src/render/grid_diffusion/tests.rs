@@ -206,6 +206,7 @@ pub(super) fn blob(sky: [f64; 3]) -> (VolumeGrids, Environment) {
     let grids = VolumeGrids {
         density: Volume::new([n; 3], bbox, data).unwrap(),
         radiance: vec![[0.0; 3]; n * n * n],
+        eye_peak: 0.0,
     };
     let mut env = Environment::constant(sky);
     env.suns.push(Sun {
