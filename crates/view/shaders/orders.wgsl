@@ -126,6 +126,9 @@ struct Params {
     first_scale: f32,
     // L_j r g b and Ω g^l of the environment's coefficients j < 4.
     env: array<vec4<f32>, 4>,
+    // Per sun of the first order, the factor that makes its phase function integrate to
+    // 4π on the first order's rule (`grid_diffusion::phase_norm`), four to a vec4.
+    sun_norm: array<vec4<f32>, 2>,
     // This dispatch's directions of the order's rule: ω x y z, weight (summing to 4π
     // over the order's dispatches).
     rule: array<vec4<f32>, 8>,
@@ -504,7 +507,8 @@ fn gather(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
         for (var sun = 0u; sun < p.rec_suns; sun++) {
             let at = 8u * sun;
             let phase = disk_phase(lights[at + 3u], lights[at + 7u], light_vec(at), back);
-            l += (p.k * acc_sun[sun] * phase) * light_vec(at + 4u);
+            let norm = p.sun_norm[sun / 4u][sun % 4u];
+            l += (p.k * norm * acc_sun[sun] * phase) * light_vec(at + 4u);
         }
         l = max(l, vec3<f32>(0.0));
         l0 += wt * l;

@@ -48,10 +48,13 @@ use super::env_pass::EnvShadow;
 use super::lights_pass::LightsPass;
 use crate::env::Environment;
 use crate::lighting::single::RgbSh;
+use crate::lights::DiskPhase;
 use crate::medium::{FOUR_PI, Medium};
 use crate::render::MsDiffusion;
 use crate::render::env_pass::{directions, phase_factors};
-use crate::render::grid_diffusion::{GATHER_LATER_THETA, GATHER_THETA, GridSolveOptions, HIGH};
+use crate::render::grid_diffusion::{
+    GATHER_LATER_THETA, GATHER_THETA, GridSolveOptions, HIGH, phase_norm,
+};
 use haze_gpu::wgsl::Variant;
 use haze_gpu::{
     ComputeLayout, GpuContext, GpuError, bind_buffers, buffer_init, compute_layout, timed_pass,
@@ -131,6 +134,9 @@ struct Params {
     transport_g: f32,
     first_scale: f32,
     env: [[f32; 4]; 4],
+    /// Per sun of the first order, its phase function's factor on the first order's rule
+    /// ([`crate::render::grid_diffusion::phase_norm`]), four to a `vec4`.
+    sun_norm: [[f32; 4]; 2],
 }
 
 /// `L⁰`, `L¹` and the escape probability per coarse cell on the GPU (`MEDIA` `f32` per
@@ -857,6 +863,12 @@ fn gather_params(
         *e = [light[0][j], light[1][j], light[2][j], a[j]].map(|v| v as f32);
     }
     let stride = 13 + env.suns.len();
+    let first_rule: Vec<_> = directions(GATHER_THETA).points().collect();
+    let mut sun_norm = [[0.0f32; 4]; 2];
+    for (k, sun) in env.suns.iter().enumerate().take(MAX_SUNS) {
+        let phase = DiskPhase::shared(medium.g, sun.angle);
+        sun_norm[k / 4][k % 4] = phase_norm(&phase, sun.direction, &first_rule) as f32;
+    }
     let (transport, first_scale) = medium.delta_eddington();
     let (sigma_s, sigma_a, sigma_tr) = coefficients(&transport).unwrap_or_default();
     Params {
@@ -895,6 +907,7 @@ fn gather_params(
         transport_g: transport.g as f32,
         first_scale: first_scale as f32,
         env: env_coeffs,
+        sun_norm,
     }
 }
 
@@ -906,7 +919,7 @@ mod tests {
     fn params_match_the_wgsl_layout() {
         assert_eq!(std::mem::offset_of!(Params, chunk_first), 188);
         assert_eq!(std::mem::offset_of!(Params, transport_sigma_t), 192);
-        assert_eq!(std::mem::size_of::<Params>(), 208 + 64);
+        assert_eq!(std::mem::size_of::<Params>(), 208 + 64 + 32);
         assert_eq!(std::mem::offset_of!(Params, dims), 48);
         assert_eq!(std::mem::offset_of!(Params, cell), 80);
         assert_eq!(std::mem::offset_of!(Params, g), 96);

@@ -39,8 +39,8 @@ pub const DEFAULT_ORDER: usize = 4;
 /// beyond them to the eye's ray (`render::grid_diffusion`). Measured (BENCHMARKS.md
 /// "Skies of every shape"): at `g` 0.5 and order 4 (`0.06`) sky-lit single scattering is
 /// within 1–2 %; at `g` 0.8 (`0.41`) thick front-lit plumes' is within 2.6–3.3 % (8–12 %
-/// with the peak as a δ), and the final images of thick smoke are 5–7 % off front- and
-/// side-lit, 6–9 % back-lit, 17 % beside a bright cloud edge. 0 for `g` 0 or NaN.
+/// with the peak as a δ), and the final images of thick smoke are 3–7 % off, front-,
+/// side- and back-lit. 0 for `g` 0 or NaN.
 pub fn phase_cut(g: f64, order: usize) -> f64 {
     if g.is_nan() {
         return 0.0;
@@ -59,7 +59,7 @@ pub fn phase_cut_warning(g: f64, order: usize) -> Option<String> {
     let c = phase_cut(g, order);
     (c > PHASE_CUT_WARNING).then(|| {
         format!(
-            "HG g {g} is too forward for SH order {order}: the cut band weighs {:.0} % of the phase function's first, so sky-lit multiple scattering is approximate (at g 0.8 and order 4 on held-out plumes: single scattering within 3 %, the final image 5–17 % off, whatever the order); a check against the reference (--check) says how far",
+            "HG g {g} is too forward for SH order {order}: the cut band weighs {:.0} % of the phase function's first, so sky-lit multiple scattering is approximate (at g 0.8 and order 4 on held-out plumes: single scattering within 3 %, the final image 3–7 % off, whatever the order); a check against the reference (--check) says how far",
             100.0 * c
         )
     })

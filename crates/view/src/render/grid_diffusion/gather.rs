@@ -18,7 +18,10 @@
 //! transmittance [`T_MIN`]. `J` is given per cell as its moments `J⁰ + J¹·ω` (the sky's
 //! and point lights' share) plus, per sun, the transmittance towards it: a sun's source
 //! `(Ω/4π) E T(y) p̄(−s·ω)` is evaluated with the disk-averaged phase in the gathered
-//! direction exactly (`p̄` does not vary along the ray, so the march sums `T` alone).
+//! direction exactly (`p̄` does not vary along the ray, so the march sums `T` alone),
+//! scaled so that the rule integrates `p̄` to `4π` ([`phase_norm`]): a peak sharper than
+//! the rule's spacing would otherwise gain or lose light by where the sun stands among
+//! its directions.
 //! The mean of the rays' final transmittance is the escape probability `P` of the cell.
 //!
 //! Bands 2–4 of the gathered radiance, `c_lm = ∫L Y_lm dω` ([`HIGH`] per channel), are
@@ -73,6 +76,23 @@ fn finite(x: f64) -> f64 {
     if x.is_finite() { x } else { 0.0 }
 }
 
+/// The factor that makes a sun's phase function `phase` conserve its light on the rule
+/// `dirs`: `4π / Σ_k w_k p̄(−s·ω_k)` for the sun towards `s` (1 where the sum is not
+/// positive). HG 0.8 sums to 0.67–1.36 of `4π` over the first order's 72 directions by
+/// where the sun stands among them, so the light the smoke scatters once — all the later
+/// orders' source — would be that much too weak or strong (module docs).
+pub fn phase_norm(phase: &DiskPhase, s: [f64; 3], dirs: &[([f64; 3], f64)]) -> f64 {
+    let sum: f64 = dirs
+        .iter()
+        .map(|(w, wt)| wt * phase.eval(-(s[0] * w[0] + s[1] * w[1] + s[2] * w[2])))
+        .sum();
+    if sum > 0.0 && sum.is_finite() {
+        FOUR_PI / sum
+    } else {
+        1.0
+    }
+}
+
 /// The light `sources` (moments per cell) and `suns` scatter into every cell with smoke
 /// of `grid`, gathered along `dirs` (`(ω, weight)`, weights summing to `4π`) through σt
 /// `sigma_t` (module docs).
@@ -106,6 +126,10 @@ pub fn gather(
             std::array::from_fn(|k| y[4 + k])
         })
         .collect();
+    let norms: Vec<f64> = suns
+        .iter()
+        .map(|sun| phase_norm(&sun.phase, sun.direction, dirs))
+        .collect();
     type Cell = ([f64; 3], [[f64; 3]; 3], [[f64; HIGH]; 3], f64);
     let cells: Vec<Cell> = (0..n)
         .into_par_iter()
@@ -137,7 +161,7 @@ pub fn gather(
                     let mut l = acc[1 + c] + (0..3).map(|a| acc[4 + 3 * c + a] * w[a]).sum::<f64>();
                     for (k, sun) in suns.iter().enumerate() {
                         let cos = -(0..3).map(|a| sun.direction[a] * w[a]).sum::<f64>();
-                        l += sun.emit[c] * acc[BASE + k] * sun.phase.eval(cos);
+                        l += norms[k] * sun.emit[c] * acc[BASE + k] * sun.phase.eval(cos);
                     }
                     let l = l.max(0.0);
                     l0[c] += wt * l;

@@ -94,7 +94,7 @@ mod tests;
 
 pub use coarse::CoarseGrid;
 pub use escape::{escape, fibonacci_directions};
-pub use gather::{Gathered, HIGH, SunSource, T_MIN, gather};
+pub use gather::{Gathered, HIGH, SunSource, T_MIN, gather, phase_norm};
 pub use solve::{FvSystem, GridSolution, GridSolveOptions, THIN, solve};
 pub use source::{add_lights, env_grid_sources, interpolate_centers, sun_sources};
 
