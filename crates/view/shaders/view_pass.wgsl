@@ -289,7 +289,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             // a(1 − x/2) below x = 10⁻³ (f32's 1 − e^{−x} cancels there).
             let x = p.keep * a;
             let dt_j = exp(-x);
-            let share = select(select((1.0 - dt_j) / p.keep, a * (1.0 - 0.5 * x), x < 1e-3), 1.0 - dt, p.keep == 1.0);
+            let share = select((1.0 - dt_j) / p.keep, a * (1.0 - 0.5 * x), x < 1e-3);
             out += tau_j * s.xyz * share;
             tau *= dt;
             tau_j *= dt_j;

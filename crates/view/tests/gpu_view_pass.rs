@@ -148,6 +148,19 @@ fn compare_over(
     (max_abs, rel)
 }
 
+/// The unit box seen from the front, slightly from above, 40° vertical field of view.
+fn front_camera(width: usize, height: usize) -> Camera {
+    Camera::new(
+        [0.5, -1.3, 0.85],
+        [0.5, 0.5, 0.52],
+        [0.0, 0.0, 1.0],
+        40.0,
+        width,
+        height,
+    )
+    .unwrap()
+}
+
 #[test]
 fn sky_seen_through_smoke_matches_the_cpu() {
     let ctx = context();
@@ -156,15 +169,7 @@ fn sky_seen_through_smoke_matches_the_cpu() {
     let env = Environment::sky(Sky::default());
     let medium = Medium::new(4.0, 0.8, 0.3).unwrap();
     // 36 rows: not a multiple of the 8×8 workgroups.
-    let cam = Camera::new(
-        [0.5, -1.3, 0.85],
-        [0.5, 0.5, 0.52],
-        [0.0, 0.0, 1.0],
-        40.0,
-        48,
-        36,
-    )
-    .unwrap();
+    let cam = front_camera(48, 36);
     let g = grids(&rbfs, [32; 3], &bbox, &medium, &env, cam.eye);
     let du = crm::default_slice([32; 3], &bbox);
     compare(&ctx, &g, &medium, &env, &cam, du);
@@ -181,15 +186,7 @@ fn scattered_light_through_the_peaks_extinction_matches_the_cpu() {
     let rbfs = cluster(&bbox);
     let env = Environment::sky(Sky::default());
     let medium = Medium::new(6.0, 0.8, 0.8).unwrap();
-    let cam = Camera::new(
-        [0.5, -1.3, 0.85],
-        [0.5, 0.5, 0.52],
-        [0.0, 0.0, 1.0],
-        40.0,
-        40,
-        30,
-    )
-    .unwrap();
+    let cam = front_camera(40, 30);
     let mut g = grids(&rbfs, [24; 3], &bbox, &medium, &env, cam.eye);
     let du = crm::default_slice([24; 3], &bbox);
     let sum = |g: &VolumeGrids| -> f64 {

@@ -279,10 +279,12 @@ fn march(
         if dens <= 0.0 {
             continue;
         }
-        let dt = (-medium.sigma_t * dens * ds).exp();
+        let a = medium.sigma_t * dens * ds;
+        let (share, dt_j) = scattered_step(a, keep);
+        // Nothing given back: the background's transmittance is the scattered light's.
+        let dt = if keep == 1.0 { dt_j } else { (-a).exp() };
         let j = sample_radiance(g, p, dens);
         let w = tau * (1.0 - dt);
-        let (share, dt_j) = scattered_step(medium.sigma_t * dens * ds, keep);
         for c in 0..3 {
             out[c] += tau_j * share * j[c];
         }
@@ -305,13 +307,14 @@ fn march(
 /// transmittance `e^{−keep·a}`. At `keep = 1` the view pass's own `1 − Δτ`, `Δτ`.
 pub fn scattered_step(a: f64, keep: f64) -> (f64, f64) {
     let x = keep * a;
+    let e = (-x).exp_m1();
     let share = if x > 1e-12 {
-        -(-x).exp_m1() / keep
+        -e / keep
     } else {
         // (1 − e^{−x})/keep = a(1 − x/2 + …), within x²/6 (relative).
         a * (1.0 - 0.5 * x)
     };
-    (share, (-x).exp())
+    (share, 1.0 + e)
 }
 
 /// View pass: the image of the volume-pass grids, slice thickness `du` (world units).

@@ -157,6 +157,8 @@ fn a_sharp_suns_first_order_keeps_its_light_on_the_coarse_rule() {
         assert!((phase_norm(&phase, s, &fine) - 1.0).abs() < 1e-3);
         let flat = DiskPhase::new(0.0, 0.0);
         assert!((phase_norm(&flat, s, &coarse) - 1.0).abs() < 1e-9);
+        // No directions: nothing to scale.
+        assert_eq!(phase_norm(&phase, s, &[]), 1.0);
     }
     println!("raw sums {lo:.3}–{hi:.3}");
     assert!(
