@@ -63,6 +63,10 @@ struct Params {
 
 // Transmittance below which the march stops (`crm::OPAQUE`).
 const OPAQUE: f32 = 1e-4;
+// `crm::MAX_SPAN`: the largest ratio across a cell the geometric mean of J̃ spans.
+const MAX_SPAN: f32 = 1e3;
+// The smallest normal f32: the floor of a cell whose brightest corner is subnormal.
+const MIN_NORMAL: f32 = 1.17549435e-38;
 #import optics
 #import lat_long
 
@@ -113,9 +117,10 @@ fn ray_box(o: vec3<f32>, d: vec3<f32>) -> vec3<f32> {
 }
 
 // `crm::sample_radiance` and `field::sample` at box-local point q, zero outside the box:
-// (J̃, D), J̃ the mean of the stencil's corners weighed by their trilinear weight times
-// max(D_k, D(q)) — eq. 15's D·J̃ over D between smoke voxels, the sample's own density for
-// a thinner corner (the smoke's shell, lit at its center).
+// (J̃, D), J̃ per channel the geometric mean of the stencil's corners by their trilinear
+// weights, exp(Σ w_k ln max(J̃_k, J̃_max/MAX_SPAN)) (decision 0049: the light falls as
+// e^{−τ} and τ is what is smooth across a cell); the empty corners are the smoke's shell,
+// lit at their own centers. 0 where D(q) ≤ 0 or every corner is unlit.
 fn sample_grid(q: vec3<f32>) -> vec4<f32> {
     let n = p.dims;
     if any(n == vec3<u32>(0u)) || !(all(q >= vec3<f32>(0.0)) && all(q <= p.size)) {
@@ -139,16 +144,19 @@ fn sample_grid(q: vec3<f32>) -> vec4<f32> {
     if !(dq > 0.0) {
         return vec4<f32>(0.0);
     }
-    var j = vec3<f32>(0.0);
-    var ws = 0.0;
+    // J̃: the corners' geometric mean by their trilinear weights, each corner floored
+    // at the cell's brightest over MAX_SPAN (`crm::sample_radiance`, decision 0049).
+    var top = vec3<f32>(0.0);
     for (var c = 0u; c < 8u; c++) {
-        let wd = weights[c] * max(corners[c].w, dq);
-        if wd > 0.0 {
-            j += wd * corners[c].xyz;
-            ws += wd;
-        }
+        top = max(top, corners[c].xyz);
     }
-    return vec4<f32>(j / ws, dq);
+    let floor_j = max(top / MAX_SPAN, vec3<f32>(MIN_NORMAL));
+    var ln_j = vec3<f32>(0.0);
+    for (var c = 0u; c < 8u; c++) {
+        ln_j += weights[c] * log(max(corners[c].xyz, floor_j));
+    }
+    let j = select(vec3<f32>(0.0), exp(ln_j), top > vec3<f32>(0.0));
+    return vec4<f32>(j, dq);
 }
 
 // `Sky::radiance`.

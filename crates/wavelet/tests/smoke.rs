@@ -23,7 +23,7 @@
 use haze_camera::LookAt;
 use haze_view::Medium;
 use haze_view::field;
-use haze_view::render::crm::{self, SmokeSample, VolumeGrids};
+use haze_view::render::crm::{self, RadianceField, SmokeSample, VolumeGrids};
 use haze_volume::{Bbox, Volume};
 use haze_wavelet::lod::{Fog, Mode, Settings};
 use haze_wavelet::render::{self, Scene};
@@ -83,7 +83,7 @@ fn fog() -> Fog {
 fn brute_force(
     fog: &Fog,
     scene: &Scene,
-    smoke: &VolumeGrids,
+    smoke: &RadianceField<'_>,
     medium: &Medium,
     eye: [f64; 3],
     d: [f64; 3],
@@ -108,9 +108,9 @@ fn brute_force(
         let tm = 0.5 * (t0 + t1);
         let p = [eye[0] + tm * d[0], eye[1] + tm * d[1], eye[2] + tm * d[2]];
         let tau_f = fog.optical_depth_span(eye, d, len, t0, t1);
-        let dens = field::sample(&smoke.density, p);
+        let dens = field::sample(&smoke.grids().density, p);
         let tau_s = medium.sigma_t * dens * dt;
-        let j = crm::sample_radiance(smoke, p, dens);
+        let j = smoke.sample(p, dens);
         let tau = tau_f + tau_s;
         if tau > 0.0 {
             let a = -(-tau).exp_m1();
@@ -157,6 +157,7 @@ fn smoke_composited_by_depth_matches_both_media_marched_together() {
     let end = |d: [f64; 3]| render::ground_distance(eye, d).unwrap_or(f64::INFINITY);
     let layer = crm::view_layer(&smoke, &medium, &camera, du, &end);
     let image = render::render_over(&fog, &camera, &scene, &layer, &|| {});
+    let radiance = RadianceField::new(&smoke);
     let (mut through, mut worse_front, mut worse_back) = (0, 0, 0);
     let (mut err_sum, mut front_sum, mut back_sum) = (0.0, 0.0, 0.0);
     let mut worst_ratio = 0.0f64;
@@ -164,7 +165,7 @@ fn smoke_composited_by_depth_matches_both_media_marched_together() {
         for x in 0..w {
             let i = y * w + x;
             let d = camera.pixel_ray(x, y);
-            let (want, (ls, ts)) = brute_force(&fog, &scene, &smoke, &medium, eye, d);
+            let (want, (ls, ts)) = brute_force(&fog, &scene, &radiance, &medium, eye, d);
             let s = layer[i];
             // The smoke's own march against the fine one.
             let e_s = (0..3)

@@ -20,8 +20,11 @@
 //! which is eq. 16's `Σ J̃_D σt Δs Π Δτ` with each slice's emission integrated exactly
 //! for constant `D` and `J̃` across it (`∫₀^Δs σt D J̃ e^{−σt D s} ds = J̃ (1 − Δτ)`): the
 //! same for thin slices, and bounded for opaque ones (huge σt gives `J̃`, never a blow-up).
-//! `D` between voxel centers is trilinear, and so is `J̃_D = D·J̃` (eq. 15): the emission
-//! of a thin slice is `J̃_D σt Δs`, so `J̃` at a sample is `J̃_D/D`.
+//! `D` between voxel centers is trilinear. `J̃` between them is interpolated
+//! geometrically, `J̃ = Π_k J̃_k^{w_k}` with the trilinear weights `w_k` (decision 0049,
+//! [`RadianceField`]), where paper A's eq. 15 takes `J̃_D = D·J̃` trilinear: the light
+//! a voxel receives falls as `e^{−τ}` with the optical depth `τ` towards its source,
+//! and `τ`, an integral of the trilinear density, is what varies smoothly across a cell.
 
 use crate::Camera;
 use crate::distant::Rgb;
@@ -153,60 +156,99 @@ pub fn volume_pass(
     }
 }
 
-/// `J̃` at world point `p` (0 outside the box), `dp` the density there
-/// ([`field::sample`]): the mean of the 8 corners' `J̃` of [`field::sample`]'s stencil,
-/// each weighed by its trilinear weight times `max(D_k, dp)`.
-///
-/// Between smoke voxels that is eq. 15's `D·J̃` over `D` (the denser corner counts for
-/// more, as the RBFs' interpolated source does); a corner thinner than the sample counts
-/// as if it held the sample's density. The empty corners of a cell with smoke are the
-/// smoke's shell, lit at their own centers ([`super::shell`]), so the band beyond the
-/// last smoke voxel takes the light that reaches it instead of its neighbour's: an
-/// edge-on sun's light climbs towards 1 there, where the neighbour's center is shadowed.
-/// With `dp ≤ 0` (no smoke at `p`) the result is 0.
-pub fn sample_radiance(g: &VolumeGrids, p: [f64; 3], dp: f64) -> Rgb {
-    let v = &g.density;
-    let b = v.bbox();
-    let d = v.dims();
-    if d.contains(&0)
-        || (0..3).any(|a| !(p[a] >= b.min[a] && p[a] <= b.max[a]))
-        || dp.is_nan()
-        || dp <= 0.0
-    {
-        return [0.0; 3];
+/// The ratio across a cell that [`RadianceField::sample`]'s geometric mean spans at most: a
+/// corner below `1/MAX_SPAN` of the cell's brightest (per channel) counts as that.
+pub const MAX_SPAN: f64 = 1e3;
+
+/// `J̃` between voxel centers, as the view pass reads it: the grids with the logarithm
+/// of every voxel's `J̃` taken once ([`RadianceField::sample`] has the rule).
+#[derive(Debug)]
+pub struct RadianceField<'a> {
+    grids: &'a VolumeGrids,
+    /// `ln J̃` per voxel and channel (`−∞` where `J̃ = 0`).
+    ln: Vec<[f64; 3]>,
+}
+
+impl<'a> RadianceField<'a> {
+    /// The field of `grids`' radiance.
+    pub fn new(grids: &'a VolumeGrids) -> Self {
+        let ln = grids
+            .radiance
+            .par_iter()
+            .map(|r| r.map(|c| f64::from(c).ln()))
+            .collect();
+        RadianceField { grids, ln }
     }
-    let vs = v.voxel_size();
-    let mut i0 = [0usize; 3];
-    let mut t = [0.0f64; 3];
-    for a in 0..3 {
-        let f = ((p[a] - b.min[a]) / vs[a] - 0.5).clamp(0.0, (d[a] - 1) as f64);
-        let i = (f as usize).min(d[a].saturating_sub(2));
-        i0[a] = i;
-        t[a] = f - i as f64;
+
+    /// The grids the field reads.
+    pub fn grids(&self) -> &'a VolumeGrids {
+        self.grids
     }
-    let (mut s, mut ws) = ([0.0; 3], 0.0);
-    for corner in 0..8 {
-        let mut w = 1.0;
-        let mut idx = [0usize; 3];
+
+    /// `J̃` at world point `p` (0 outside the box), `dp` the density there
+    /// ([`field::sample`]): per channel, the geometric mean of the 8 corners' `J̃` of
+    /// [`field::sample`]'s stencil weighed by their trilinear weights `w_k`,
+    /// `exp(Σ w_k ln max(J̃_k, J̃_max/MAX_SPAN))`, `J̃_max` the cell's brightest corner.
+    ///
+    /// **Why geometric** (decision 0049). A voxel's light from a sun or the sky is
+    /// `J̃ ∝ e^{−τ}`, `τ` the optical depth towards the light, and `τ` — an integral of
+    /// the trilinear density — is what is smooth across a cell. Where `τ` changes by about
+    /// one or more between voxel centers (smoke a few optical depths a voxel thick along
+    /// the light: the lit face of dense smoke, a back-lit silhouette) a linear mean of
+    /// `J̃` is too bright inside the cell, and paper A's eq. 15 (`D·J̃` trilinear) also
+    /// pulls the thin outer band towards its denser, more shadowed neighbour. The
+    /// geometric mean is exact where `ln J̃` is linear. The floor at `J̃_max/MAX_SPAN`
+    /// bounds what an unlit corner (`J̃ = 0`: a shadow past the march's cut-off, or no
+    /// light at all) takes from a lit cell: at most a factor `MAX_SPAN^{w_k}`.
+    ///
+    /// Every corner of a cell with smoke is lit: the empty ones are the smoke's shell, lit
+    /// at their own centers ([`super::shell`]), so the band beyond the last smoke voxel
+    /// takes the light that reaches it. With `dp ≤ 0` (no smoke at `p`) the result is 0.
+    /// The GPU twin is `sample_grid` in `shaders/view_pass.wgsl`.
+    pub fn sample(&self, p: [f64; 3], dp: f64) -> Rgb {
+        let v = &self.grids.density;
+        let b = v.bbox();
+        let d = v.dims();
+        if d.contains(&0)
+            || (0..3).any(|a| !(p[a] >= b.min[a] && p[a] <= b.max[a]))
+            || dp.is_nan()
+            || dp <= 0.0
+        {
+            return [0.0; 3];
+        }
+        let vs = v.voxel_size();
+        let mut i0 = [0usize; 3];
+        let mut t = [0.0f64; 3];
         for a in 0..3 {
-            let hi = corner >> a & 1 == 1;
-            idx[a] = (i0[a] + usize::from(hi)).min(d[a] - 1);
-            w *= if hi { t[a] } else { 1.0 - t[a] };
+            let f = ((p[a] - b.min[a]) / vs[a] - 0.5).clamp(0.0, (d[a] - 1) as f64);
+            let i = (f as usize).min(d[a].saturating_sub(2));
+            i0[a] = i;
+            t[a] = f - i as f64;
         }
-        let i = v.index(idx[0], idx[1], idx[2]);
-        let wd = w * f64::from(v.data()[i]).max(dp);
-        if wd > 0.0 {
-            let r = g.radiance[i];
-            for c in 0..3 {
-                s[c] += wd * f64::from(r[c]);
+        let mut corners = [([0.0f64; 3], 0.0f64); 8];
+        let mut top = [f64::NEG_INFINITY; 3];
+        for (corner, slot) in corners.iter_mut().enumerate() {
+            let mut w = 1.0;
+            let mut idx = [0usize; 3];
+            for a in 0..3 {
+                let hi = corner >> a & 1 == 1;
+                idx[a] = (i0[a] + usize::from(hi)).min(d[a] - 1);
+                w *= if hi { t[a] } else { 1.0 - t[a] };
             }
-            ws += wd;
+            let ln = self.ln[v.index(idx[0], idx[1], idx[2])];
+            for c in 0..3 {
+                top[c] = top[c].max(ln[c]);
+            }
+            *slot = (ln, w);
         }
-    }
-    if ws > 0.0 {
-        s.map(|c| c / ws)
-    } else {
-        [0.0; 3]
+        std::array::from_fn(|c| {
+            if top[c] == f64::NEG_INFINITY || top[c].is_nan() {
+                return 0.0;
+            }
+            let floor = top[c] - MAX_SPAN.ln();
+            let ln: f64 = corners.iter().map(|(r, w)| w * r[c].max(floor)).sum();
+            ln.exp()
+        })
     }
 }
 
@@ -244,7 +286,7 @@ pub struct SmokeSample {
 /// light carried to the eye through `σt(1 − Ωf)` ([`VolumeGrids::eye_peak`],
 /// [`scattered_step`]), the transmittance it returns (the background's) through `σt`.
 fn march(
-    g: &VolumeGrids,
+    field: &RadianceField<'_>,
     medium: &Medium,
     eye: [f64; 3],
     d: [f64; 3],
@@ -252,6 +294,7 @@ fn march(
     du: f64,
     t_end: f64,
 ) -> ([f64; 3], f64, f64) {
+    let g = field.grids;
     let bbox = *g.density.bbox();
     let cos_g = (d[0] * axis[0] + d[1] * axis[1] + d[2] * axis[2]).max(1e-6);
     let Some((t0, t1)) = field::ray_box(eye, d, &bbox) else {
@@ -283,7 +326,7 @@ fn march(
         let (share, dt_j) = scattered_step(a, keep);
         // Nothing given back: the background's transmittance is the scattered light's.
         let dt = if keep == 1.0 { dt_j } else { (-a).exp() };
-        let j = sample_radiance(g, p, dens);
+        let j = field.sample(p, dens);
         let w = tau * (1.0 - dt);
         for c in 0..3 {
             out[c] += tau_j * share * j[c];
@@ -330,6 +373,7 @@ pub fn view_pass(
 ) -> Vec<[f32; 3]> {
     let w = camera.width;
     let axis = camera.forward();
+    let field = RadianceField::new(g);
     (0..w * camera.height)
         .into_par_iter()
         .map(|i| {
@@ -340,7 +384,7 @@ pub fn view_pass(
                 }),
                 None => env.radiance(d),
             };
-            let (out, tau, _) = march(g, medium, camera.eye, d, axis, du, f64::INFINITY);
+            let (out, tau, _) = march(&field, medium, camera.eye, d, axis, du, f64::INFINITY);
             [0, 1, 2].map(|c| (out[c] + tau * background[c]) as f32)
         })
         .collect()
@@ -358,11 +402,12 @@ pub fn view_layer(
 ) -> Vec<SmokeSample> {
     let w = camera.width;
     let axis = camera.forward();
+    let field = RadianceField::new(g);
     (0..w * camera.height)
         .into_par_iter()
         .map(|i| {
             let d = camera.pixel_ray(i % w, i / w);
-            let (out, tau, depth) = march(g, medium, camera.eye, d, axis, du, t_end(d));
+            let (out, tau, depth) = march(&field, medium, camera.eye, d, axis, du, t_end(d));
             SmokeSample {
                 radiance: out.map(|c| c as f32),
                 transmittance: tau as f32,
@@ -383,7 +428,93 @@ pub fn default_slice(dims: [usize; 3], bbox: &Bbox) -> f64 {
 
 #[cfg(test)]
 mod tests {
-    use super::scattered_step;
+    use super::{MAX_SPAN, RadianceField, VolumeGrids, scattered_step};
+    use haze_volume::{Bbox, Volume};
+
+    /// A 4 × 3 × 5 grid of unit density over `[0, 4] × [0, 3] × [0, 5]` with radiance
+    /// `f(center)` per voxel.
+    fn grids(f: impl Fn([f64; 3]) -> [f32; 3]) -> VolumeGrids {
+        let dims = [4, 3, 5];
+        let bbox = Bbox {
+            min: [0.0; 3],
+            max: [4.0, 3.0, 5.0],
+        };
+        let n = dims.iter().product();
+        let radiance = (0..n)
+            .map(|i| {
+                let c = [i % 4, i / 4 % 3, i / 12].map(|a| a as f64 + 0.5);
+                f(c)
+            })
+            .collect();
+        VolumeGrids {
+            density: Volume::new(dims, bbox, vec![1.0; n]).unwrap(),
+            radiance,
+            eye_peak: 0.0,
+        }
+    }
+
+    /// Light falling as `e^{−τ}` with `τ` linear in the position (a sun's beam into
+    /// uniform smoke, up to 3 optical depths a voxel) is interpolated exactly between the
+    /// voxel centers, against the closed form at points across the cells; a constant is
+    /// kept to the last bits.
+    #[test]
+    fn the_radiance_between_centers_is_exact_for_exponential_light() {
+        let k = [0.7, -1.3, 3.0];
+        let at = |c: [f64; 3]| (-(k[0] * c[0] + k[1] * c[1] + k[2] * c[2]) * 0.5).exp();
+        let g = grids(|c| [at(c), 2.0 * at(c), 0.25].map(|v| v as f32));
+        let field = RadianceField::new(&g);
+        for p in [
+            [0.5, 0.5, 0.5],
+            [1.2, 1.7, 2.9],
+            [3.49, 0.51, 4.4],
+            [2.0, 2.5, 1.0],
+        ] {
+            let j = field.sample(p, 1.0);
+            // The voxels hold f32: their logarithms are exact to ~6e-8 each.
+            let want = at(p);
+            assert!(
+                (j[0] / want - 1.0).abs() < 1e-6,
+                "{p:?}: {} vs {want}",
+                j[0]
+            );
+            assert!((j[1] / (2.0 * want) - 1.0).abs() < 1e-6, "{p:?}");
+            assert!((j[2] - 0.25).abs() < 1e-15, "{p:?}: {}", j[2]);
+        }
+    }
+
+    /// An unlit corner (`J̃ = 0`) counts as the cell's brightest over `MAX_SPAN`: at a
+    /// cell's middle, where every corner weighs ⅛, one dark corner among seven of 1 gives
+    /// `MAX_SPAN^{−1/8}`. A cell with every corner dark, a sample without smoke and one
+    /// outside the box give 0.
+    #[test]
+    fn unlit_corners_take_a_bounded_share() {
+        let g = grids(|c| {
+            if c == [1.5, 1.5, 1.5] {
+                [0.0; 3]
+            } else {
+                [1.0, 0.0, 3.0]
+            }
+        });
+        let field = RadianceField::new(&g);
+        let j = field.sample([2.0, 2.0, 2.0], 1.0);
+        let want = MAX_SPAN.powf(-0.125);
+        assert!((j[0] - want).abs() < 1e-12, "{} vs {want}", j[0]);
+        assert_eq!(j[1], 0.0);
+        assert!((j[2] - 3.0 * want).abs() < 1e-12);
+        assert_eq!(field.sample([2.0, 2.0, 2.0], 0.0), [0.0; 3]);
+        assert_eq!(field.sample([2.0, 2.0, 2.0], f64::NAN), [0.0; 3]);
+        assert_eq!(field.sample([5.0, 2.0, 2.0], 1.0), [0.0; 3]);
+        // Extremes of the stored range stay finite.
+        let g = grids(|c| {
+            if c[0] < 2.0 {
+                [f32::MAX; 3]
+            } else {
+                [f32::MIN_POSITIVE; 3]
+            }
+        });
+        let j = RadianceField::new(&g).sample([2.0, 1.5, 2.5], 1.0);
+        assert!(j.iter().all(|v| v.is_finite() && *v > 0.0), "{j:?}");
+    }
 
     /// The step's share against `∫₀^a e^{−keep·t} dt` by the midpoint rule (10⁵ nodes:
     /// relative error ≈ (keep·a/10⁵)²/24 ≤ 10⁻⁸), at `keep` 1, ½, 10⁻⁹ and 0 and optical

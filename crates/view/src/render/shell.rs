@@ -16,9 +16,8 @@
 //! lights pass, the multiple scattering's orders) also lights the empty voxels next to the
 //! smoke: those with a voxel of `D > 0` among their 26 neighbours, each at its own
 //! center, as if it held smoke. Every corner of a cell with `D > 0` somewhere in it is
-//! then lit, so the view pass ([`super::crm::sample_radiance`]) interpolates radiance
-//! that was computed where the band is, and weighs an empty corner by the density of
-//! the sample ([`super::crm::sample_radiance`] has the rule). The shell is the smoke's
+//! then lit, so the view pass ([`super::crm::RadianceField`], which has the rule)
+//! interpolates radiance that was computed where the band is. The shell is the smoke's
 //! surface, one voxel thick: on a held-out 104 × 104 × 130 plume frame it made the
 //! environment pass 19 % and the lights pass 30 % slower, the whole CPU frame 5 %; the
 //! soft back-lit sun's single scattering went from 4.0 % to 2.2 % off the path tracer.

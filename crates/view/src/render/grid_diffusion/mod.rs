@@ -54,8 +54,7 @@
 //!
 //! **Read per voxel.** `L⁰ = L⁰₁ + L⁰₂`, `L¹ = L¹₁ + L¹₂` (clamped to `|L¹| ≤ 3L⁰`, the
 //! bound of a non-negative radiance) are interpolated trilinearly from the cells, weighted
-//! by their density (a voxel next to empty cells keeps its smoke's value, as
-//! `crm::sample_radiance`), and every voxel with smoke gains the multiple-scattering
+//! by their density (a voxel next to empty cells keeps its smoke's value), and every voxel with smoke gains the multiple-scattering
 //! source towards the eye, `ω = −d`, with bands 2–4 `c_lm` of the gathered orders
 //! ([`Gathered::high`]; the diffusion's light has none). Bands 0–1 alone made the
 //! multiple part 5–10 % too bright where a sun's scattered light is seen across its
