@@ -25,7 +25,7 @@
 use super::GridBuffer;
 use crate::Camera;
 use crate::distant::Distant;
-use crate::env::Environment;
+use crate::env::{Backdrop, Environment};
 use crate::ground::GroundLight;
 use crate::medium::Medium;
 use crate::render::crm::VolumeGrids;
@@ -301,7 +301,8 @@ fn ground_lights(
 }
 
 /// The environment on the GPU as the view pass reads it: the sky's parameters (evaluated
-/// analytically), or a lat-long map's texels; and the disks of the suns
+/// analytically), or a lat-long map's texels (the backdrop's where a map was split into
+/// suns); and the disks of the suns that are not in the backdrop
 /// ([`Environment::radiance`]).
 #[derive(Debug)]
 pub struct EnvBuffer {
@@ -323,6 +324,7 @@ impl EnvBuffer {
     /// vector, and a map beyond the device's limits.
     pub fn upload(ctx: &GpuContext, env: &Environment) -> Result<EnvBuffer, GpuError> {
         let mut disks: Vec<[f32; 4]> = Vec::with_capacity(2 * env.suns.len());
+        let own = env.backdrop.as_ref().map_or(0, |b| b.suns);
         for (i, sun) in env.suns.iter().enumerate() {
             let finite = sun
                 .direction
@@ -343,7 +345,8 @@ impl EnvBuffer {
                     sun.direction
                 )));
             }
-            if sun.angle <= 0.0 {
+            // Zero-angle suns have no disk; the suns split off a backdrop are in its texels.
+            if sun.angle <= 0.0 || i < own {
                 continue;
             }
             let d = f32x3(sun.direction);
@@ -357,8 +360,16 @@ impl EnvBuffer {
             disks.push([0.0; 4]);
         }
         ctx.check_storage_size("the suns", std::mem::size_of_val(disks.as_slice()) as u64)?;
-        let (kind, size, texels, sky) = match &env.distant {
-            Distant::Sky(s) => {
+        // What a ray leaving the scene sees: a backdrop (the map as given, where it was
+        // split into suns) before the distant radiance (`Environment::radiance`).
+        let (kind, size, texels, sky) = match (&env.backdrop, &env.distant) {
+            (Some(Backdrop { map: m, .. }), _) | (None, Distant::Map(m)) => (
+                1,
+                [m.width as u32, m.height as u32],
+                &m.texels[..],
+                crate::distant::Sky::default(),
+            ),
+            (None, Distant::Sky(s)) => {
                 if !(s.sharpness >= 0.0 && s.sharpness.is_finite()) {
                     return Err(GpuError::Input(format!(
                         "sky sun sharpness {} must be finite and ≥ 0",
@@ -367,12 +378,6 @@ impl EnvBuffer {
                 }
                 (0, [0, 0], &[[0.0f32; 3]][..], s.clone())
             }
-            Distant::Map(m) => (
-                1,
-                [m.width as u32, m.height as u32],
-                &m.texels[..],
-                crate::distant::Sky::default(),
-            ),
         };
         ctx.check_storage_size("the environment map", std::mem::size_of_val(texels) as u64)?;
         let (buffer, sun_buffer) = ctx.scoped("environment upload", || {

@@ -135,7 +135,8 @@ impl Light {
 /// every sun turns with the first (the suns split off a map are one light, a soft sun a
 /// cluster of them); without suns, the built-in sky's glow (a map without suns has
 /// nothing to move). Everything else (under the sky the other suns; the point lights,
-/// the map) is kept.
+/// the map) is kept, but a map's backdrop (`Environment::backdrop`, the map as given with
+/// its sun where it was) is dropped once its suns turn.
 pub(super) fn move_sun(env: &Environment, azimuth: f64, elevation: f64) -> Option<Environment> {
     let d = direction((90.0 - elevation).to_radians(), azimuth.to_radians());
     let mut out = env.clone();
@@ -150,6 +151,9 @@ pub(super) fn move_sun(env: &Environment, azimuth: f64, elevation: f64) -> Optio
                 sun.direction = rotate_towards(first, d, sun.direction);
             }
             out.suns[0].direction = d;
+            // The map as given shows its sun where it was: the background now shows
+            // the suns where they are (their disks over the rest of the map).
+            out.backdrop = None;
         } else {
             out.suns[0].direction = d;
         }
@@ -702,8 +706,14 @@ mod tests {
         let mut env = Environment::map(map.clone());
         env.suns.push(sun_towards([0.0, -1.0, 1.0]));
         env.suns.push(sun_towards([0.1, -1.0, 0.9]));
+        // Seen as the map as given until its suns turn.
+        env.backdrop = Some(haze_view::env::Backdrop {
+            map: map.clone(),
+            suns: 2,
+        });
         let moved = move_sun(&env, 40.0, 60.0).unwrap();
         assert!(close(moved.suns[0].direction, d));
+        assert_eq!(moved.backdrop, None);
         let angle = |s: &[Sun]| {
             let (a, b) = (s[0].direction, s[1].direction);
             let n = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();

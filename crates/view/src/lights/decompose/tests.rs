@@ -329,3 +329,55 @@ fn running_windows_match_brute_force() {
         }
     }
 }
+
+/// A camera ray sees a map split into suns as the map itself (`Environment::backdrop`),
+/// texel for texel, while the suns light the smoke; a sun added after the split (`--sun`)
+/// keeps its disk. The suns' disks over the rest of the map, which the background showed
+/// before, are a different picture of a soft sun: more than 10 % off it somewhere in the
+/// lobe.
+#[test]
+fn a_map_split_into_suns_is_seen_as_given() {
+    let dir = direction(0.9, 2.2);
+    let mut s = Synth::sky(1.0);
+    s.lobes.push((dir, 840.0, 6f64.to_radians()));
+    let (map, _) = s.map(256, 128, 4);
+    let (mut env, found) = crate::Environment::map_decomposed(&map, &DecomposeOptions::default());
+    assert!(found.suns.len() > 1, "{} suns", found.suns.len());
+    let extra = Sun::from_radiance(direction(2.0, 0.5), [5.0, 4.0, 3.0], 4.0).unwrap();
+    env.suns.push(extra.clone());
+    let disks = |d: [f64; 3]| {
+        let mut out = env.distant.radiance(d);
+        for sun in env.suns.iter().filter(|s| s.covers(d)) {
+            (0..3).for_each(|c| out[c] += sun.radiance()[c]);
+        }
+        out
+    };
+    let mut worst = 0.0f64;
+    for i in 0..400 {
+        let z = 1.0 - (i as f64 + 0.5) / 200.0;
+        let phi = i as f64 * 2.399_963;
+        let r = (1.0 - z * z).sqrt();
+        let d = [r * phi.cos(), r * phi.sin(), z];
+        let want = map.radiance(d);
+        let extra_disk = if extra.covers(d) {
+            extra.radiance()
+        } else {
+            [0.0; 3]
+        };
+        let got = env.radiance(d);
+        for c in 0..3 {
+            assert_eq!(got[c], want[c] + extra_disk[c], "{d:?}");
+        }
+    }
+    // Around the lobe: the old picture against the map.
+    for k in 0..200 {
+        let (th, ph) = (
+            0.9 + 0.15 * ((k % 20) as f64 / 10.0 - 1.0),
+            2.2 + 0.15 * ((k / 20) as f64 / 5.0 - 1.0),
+        );
+        let d = direction(th, ph);
+        let (a, b) = (disks(d)[1], map.radiance(d)[1]);
+        worst = worst.max((a - b).abs() / b);
+    }
+    assert!(worst > 0.1, "the disks are within {worst} of the lobe");
+}
