@@ -12,21 +12,8 @@ use haze_view::{Camera, Environment, Image, LatLong, Medium, PointLight, Sky, Su
 use haze_volume::{Bbox, Rbf};
 use std::f64::consts::PI;
 
-/// A small smoke-like cluster of Gaussians in the unit cube.
-fn cluster() -> Vec<Rbf> {
-    vec![
-        Rbf::new([0.50, 0.50, 0.40], 0.14, 1.0),
-        Rbf::new([0.62, 0.45, 0.55], 0.10, 0.8),
-        Rbf::new([0.40, 0.58, 0.60], 0.11, 0.7),
-        Rbf::new([0.52, 0.50, 0.75], 0.08, 0.9),
-        Rbf::new([0.35, 0.40, 0.45], 0.07, 1.2),
-        Rbf::new([0.66, 0.62, 0.35], 0.09, 0.6),
-    ]
-}
-
-fn unit_box() -> Bbox {
-    Bbox::new([0.0; 3], [1.0; 3])
-}
+mod common;
+use common::{cluster, front_camera, unit_box};
 
 /// `∫₀^∞ Σ B_h(x + sω) ds` by 32-point Gauss–Legendre on each RBF's chord through its
 /// support sphere (the cut-off at 3r is where the integrand jumps, so each piece is
@@ -100,7 +87,7 @@ fn fibonacci_sphere(n: usize) -> Vec<[f64; 3]> {
 /// band-1 light `L(ω) = 1 + 0.6 ω_z + 0.3 ω_x` (exact in SH, so what is measured is the
 /// transmittance and phase machinery).
 fn single_scattering_error(order: usize, medium: &Medium, k: usize) -> f64 {
-    let rbfs = cluster();
+    let rbfs = cluster(&unit_box());
     let light_fn = |w: [f64; 3]| 1.0 + 0.6 * w[2] + 0.3 * w[0];
     let mut l = vec![0.0; order * order];
     l[0] = (4.0 * PI).sqrt();
@@ -167,18 +154,6 @@ fn constant_env(c: f32) -> Environment {
     Environment::map(LatLong::new(8, 4, vec![[c; 3]; 32]).unwrap())
 }
 
-fn camera(w: usize, h: usize) -> Camera {
-    Camera::new(
-        [0.5, -1.3, 0.85],
-        [0.5, 0.5, 0.52],
-        [0.0, 0.0, 1.0],
-        40.0,
-        w,
-        h,
-    )
-    .unwrap()
-}
-
 /// `rel_rms` over the pixels whose ray meets the smoke (`mask`).
 fn masked_rel_rms(a: &Image, reference: &Image, mask: &[bool]) -> f64 {
     let (mut num, mut den) = (0.0, 0.0);
@@ -217,11 +192,11 @@ fn crm(rbfs: &[Rbf], medium: &Medium, env: &Environment, cam: &Camera, opts: Crm
 /// vacuum correction, multiple scattering was off by more than 100 % on plume-a.
 #[test]
 fn crm_matches_the_reference_on_an_rbf_scene() {
-    let rbfs = cluster();
+    let rbfs = cluster(&unit_box());
     let volume = rbf_volume(&rbfs, [32; 3], unit_box()).unwrap();
     let medium = Medium::new(4.0, 0.8, 0.3).unwrap();
     let env = Environment::sky(Sky::default());
-    let cam = camera(48, 36);
+    let cam = front_camera(48, 36);
     let mask = smoke_mask(&volume, medium.sigma_t, &cam);
     assert!(mask.iter().filter(|m| **m).count() > 100);
     let reference = |multiple: bool, spp: u32| {
@@ -275,9 +250,9 @@ fn finite_nonnegative(img: &Image) -> bool {
 #[test]
 fn no_extinction_shows_the_background_exactly() {
     let env = Environment::sky(Sky::default());
-    let cam = camera(24, 18);
+    let cam = front_camera(24, 18);
     let medium = Medium::new(0.0, 0.8, 0.3).unwrap();
-    for rbfs in [cluster(), Vec::new()] {
+    for rbfs in [cluster(&unit_box()), Vec::new()] {
         let img = crm(&rbfs, &medium, &env, &cam, CrmOptions::default());
         for (i, p) in img.pixels.iter().enumerate() {
             let b = env.radiance(cam.pixel_ray(i % 24, i / 24));
@@ -296,10 +271,10 @@ fn albedo_zero_is_the_exact_transmittance() {
     // Without scattering the image is T·L_env; the reference integrates the optical depth
     // of the same trilinear field exactly, the view pass with half-voxel slices (midpoint
     // rule, error O(Δu²)): measured 2e-4.
-    let rbfs = cluster();
+    let rbfs = cluster(&unit_box());
     let volume = rbf_volume(&rbfs, [32; 3], unit_box()).unwrap();
     let env = Environment::sky(Sky::default());
-    let cam = camera(32, 24);
+    let cam = front_camera(32, 24);
     for sigma_t in [4.0, 12.0] {
         let medium = Medium::new(sigma_t, 0.0, 0.0).unwrap();
         let opts = RefOptions {
@@ -316,9 +291,9 @@ fn albedo_zero_is_the_exact_transmittance() {
 
 #[test]
 fn huge_extinction_is_opaque_and_finite() {
-    let rbfs = cluster();
+    let rbfs = cluster(&unit_box());
     let env = Environment::sky(Sky::default());
-    let cam = camera(24, 18);
+    let cam = front_camera(24, 18);
     let medium = Medium::new(1e6, 0.9, 0.3).unwrap();
     for order in [1, 4] {
         let opts = CrmOptions {
@@ -348,7 +323,7 @@ fn huge_extinction_is_opaque_and_finite() {
 fn strong_phase_functions_keep_their_direction() {
     // Looking towards the sun through thin smoke, forward scattering (g = 0.95) is
     // brighter than back scattering (g = −0.95); looking away from it, the opposite.
-    let rbfs = cluster();
+    let rbfs = cluster(&unit_box());
     let sky = Sky::default();
     let s = sky.sun_direction;
     let env = Environment::sky(sky);
@@ -378,7 +353,7 @@ fn strong_phase_functions_keep_their_direction() {
 
 #[test]
 fn camera_inside_the_smoke_and_every_order_agree_with_the_reference() {
-    let rbfs = cluster();
+    let rbfs = cluster(&unit_box());
     let volume = rbf_volume(&rbfs, [32; 3], unit_box()).unwrap();
     let env = Environment::sky(Sky::default());
     let medium = Medium::new(2.0, 0.8, 0.3).unwrap();
@@ -420,9 +395,9 @@ fn camera_inside_the_smoke_and_every_order_agree_with_the_reference() {
 fn albedo_one_with_multiple_scattering_is_finite() {
     // The uncorrected diffusion system is singular at Ω = 1; with the escape term it is
     // not, and the image stays finite and brighter than single scattering alone.
-    let rbfs = cluster();
+    let rbfs = cluster(&unit_box());
     let env = Environment::sky(Sky::default());
-    let cam = camera(24, 18);
+    let cam = front_camera(24, 18);
     let medium = Medium::new(8.0, 1.0, 0.0).unwrap();
     let ms = crm(&rbfs, &medium, &env, &cam, CrmOptions::default());
     let ss = crm(
@@ -458,7 +433,7 @@ fn crm_lit(medium: &Medium, env: &Environment, cam: &Camera, multiple: bool) -> 
         multiple,
         ..CrmOptions::default()
     };
-    crm(&cluster(), medium, env, cam, opts)
+    crm(&cluster(&unit_box()), medium, env, cam, opts)
 }
 
 /// The reference's single scattering at `spp` (seed 1), the pixels it changes, and its
@@ -490,8 +465,8 @@ fn single_reference(
 /// noise (measured 2 seeds): measured 1.2–2.0 % on noise of 0.4–0.8 %, bound 4 %.
 #[test]
 fn lights_match_the_reference_in_single_scattering() {
-    let volume = rbf_volume(&cluster(), [32; 3], unit_box()).unwrap();
-    let cam = camera(40, 30);
+    let volume = rbf_volume(&cluster(&unit_box()), [32; 3], unit_box()).unwrap();
+    let cam = front_camera(40, 30);
     let medium = Medium::new(6.0, 0.9, 0.5).unwrap();
     let cases = [
         (
@@ -531,8 +506,8 @@ fn lights_match_the_reference_in_single_scattering() {
 /// the diffusion's error, not the lights', dominates it (BENCHMARKS.md "Lights").
 #[test]
 fn a_sun_lit_final_image_matches_the_path_tracer() {
-    let volume = rbf_volume(&cluster(), [32; 3], unit_box()).unwrap();
-    let cam = camera(40, 30);
+    let volume = rbf_volume(&cluster(&unit_box()), [32; 3], unit_box()).unwrap();
+    let cam = front_camera(40, 30);
     let medium = Medium::new(4.0, 0.9, 0.3).unwrap();
     let env = lit(
         vec![Sun::from_radiance([0.6, -0.4, 0.7], [2000.0; 3], 3.0).unwrap()],
@@ -557,7 +532,7 @@ fn a_sun_lit_final_image_matches_the_path_tracer() {
 
 #[test]
 fn extreme_lights_stay_finite_and_physical() {
-    let cam = camera(24, 18);
+    let cam = front_camera(24, 18);
     let medium = Medium::new(4.0, 0.8, 0.3).unwrap();
     let base = crm_lit(&medium, &lit(vec![], vec![]), &cam, true);
     let sum = |im: &Image| im.pixels.iter().map(|p| f64::from(p[0])).sum::<f64>();

@@ -17,7 +17,7 @@ use haze_volume::{Bbox, Rbf};
 use std::time::Instant;
 
 mod common;
-use common::{cluster, context, unit_box};
+use common::{cluster, context, front_camera, unit_box};
 
 /// Source radiance at the centers (single + multiple scattering, order 4), then the CPU
 /// volume pass: the grids both view passes read.
@@ -146,19 +146,6 @@ fn compare_over(
         cam.width, cam.height
     );
     (max_abs, rel)
-}
-
-/// The unit box seen from the front, slightly from above, 40° vertical field of view.
-fn front_camera(width: usize, height: usize) -> Camera {
-    Camera::new(
-        [0.5, -1.3, 0.85],
-        [0.5, 0.5, 0.52],
-        [0.0, 0.0, 1.0],
-        40.0,
-        width,
-        height,
-    )
-    .unwrap()
 }
 
 #[test]

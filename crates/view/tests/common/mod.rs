@@ -1,9 +1,11 @@
-//! What the GPU tests share: the device, and the small RBF scene of `tests/crm.rs`.
+//! What the renderer's tests share: the device, a small RBF scene in the unit cube and the
+//! camera that frames it.
 
 // Each test file is its own crate and uses only some of these.
 #![allow(dead_code)]
 
 use haze_gpu::GpuContext;
+use haze_view::Camera;
 use haze_volume::{Bbox, Rbf};
 
 /// The GPU device (a CPU one will do: Mesa's lavapipe, which `scripts/test.sh`
@@ -18,7 +20,7 @@ pub fn context() -> GpuContext {
     }
 }
 
-/// The cluster of `tests/crm.rs`, mapped from the unit cube into `bbox`.
+/// A small smoke-like cluster of Gaussians in the unit cube, mapped into `bbox`.
 pub fn cluster(bbox: &Bbox) -> Vec<Rbf> {
     let s = bbox.size();
     let scale = s[0].min(s[1]).min(s[2]);
@@ -41,4 +43,17 @@ pub fn cluster(bbox: &Bbox) -> Vec<Rbf> {
 /// The unit cube.
 pub fn unit_box() -> Bbox {
     Bbox::new([0.0; 3], [1.0; 3])
+}
+
+/// The unit box seen from the front, slightly from above, 40° vertical field of view.
+pub fn front_camera(width: usize, height: usize) -> Camera {
+    Camera::new(
+        [0.5, -1.3, 0.85],
+        [0.5, 0.5, 0.52],
+        [0.0, 0.0, 1.0],
+        40.0,
+        width,
+        height,
+    )
+    .unwrap()
 }
