@@ -95,13 +95,8 @@ fn binarization(version: u32) -> Binarization {
 
 /// Where brick `key` lies: its frame slot and its brick position in that frame.
 fn place(key: u32, domain: [u32; 3], dims: [u32; 3], brick: u32) -> (usize, [u32; 3]) {
-    let i = key - 1;
-    let j = frame_of(i, domain, dims, brick);
-    let p = [
-        i % domain[0],
-        (i / domain[0]) % domain[1],
-        i / (domain[0] * domain[1]),
-    ];
+    let p = domain_cell(key, domain);
+    let j = frame_of(p, dims, brick);
     let o = tile_origin(j, bricks_per_frame(dims, brick));
     (j, [0, 1, 2].map(|a| p[a] - o[a]))
 }
@@ -418,16 +413,28 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
         })
         .collect();
     let how = binarization(version);
-    let packed: Vec<Packed> = readers
-        .into_par_iter()
-        .zip(lists.par_iter())
-        .map(|(mut io, list)| Packed::decode(&mut io, nb, brick, limit, how, list, words))
-        .collect::<Result<_, _>>()?;
+    // Where a brick lands in the hash depends on the bricks' places alone, so the hash is
+    // built beside the streams' decoding and each brick's payload set once it is packed.
+    let places: Vec<([u32; 3], u32)> = keys
+        .iter()
+        .map(|&(k, _, _)| (domain_cell(k, domain), 0))
+        .collect();
+    let (hash, packed) = rayon::join(
+        || PerfectHash::build(domain, &places, BuildOptions::default()),
+        || {
+            readers
+                .into_par_iter()
+                .zip(lists.par_iter())
+                .map(|(mut io, list)| Packed::decode(&mut io, nb, brick, limit, how, list, words))
+                .collect::<Result<Vec<Packed>, _>>()
+        },
+    );
+    let mut hash = hash.map_err(|e| format!("residual block's bricks do not hash: {e}"))?;
+    let packed = packed?;
     let mut data = Vec::with_capacity(words);
-    let mut cells = Vec::with_capacity(count);
     let mut next_lossless = lossless.chunks_exact(4);
     let mut next = vec![0usize; streams];
-    for &(k, j, at) in &keys {
+    for (&(_, j, at), &(cell, _)) in keys.iter().zip(&places) {
         let first = data.len();
         let width = if steps[j] == 0.0 {
             for _ in 0..per {
@@ -450,13 +457,11 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
             data.extend_from_slice(&packed[s].data[from..from + n]);
             width
         };
-        let i = k - 1;
-        let at = [
-            i % domain[0],
-            (i / domain[0]) % domain[1],
-            i / (domain[0] * domain[1]),
-        ];
-        cells.push((at, payload(first as u32, width)));
+        if !hash.set_payload(cell, payload(first as u32, width)) {
+            return Err(format!(
+                "residual block's brick {cell:?} is not in its hash"
+            ));
+        }
     }
     if data.len() != words {
         return Err(format!(
@@ -464,8 +469,6 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
             data.len()
         ));
     }
-    let hash = PerfectHash::build(domain, &cells, BuildOptions::default())
-        .map_err(|e| format!("residual block's bricks do not hash: {e}"))?;
     Ok(ResidualGroup {
         dims,
         brick,
@@ -474,6 +477,16 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
         hash,
         data,
     })
+}
+
+/// The cell of the tiled brick domain whose key (linear index plus one) is `k`.
+fn domain_cell(k: u32, domain: [u32; 3]) -> [u32; 3] {
+    let i = k - 1;
+    [
+        i % domain[0],
+        (i / domain[0]) % domain[1],
+        i / (domain[0] * domain[1]),
+    ]
 }
 
 /// One stream's bricks decoded and packed, in the stream's list order: each brick's
@@ -517,14 +530,9 @@ impl Packed {
     }
 }
 
-/// The frame slot whose tile holds brick `i` (linear index in the hash domain).
-fn frame_of(i: u32, domain: [u32; 3], dims: [u32; 3], brick: u32) -> usize {
+/// The frame slot whose tile holds the brick at `p` in the hash domain.
+fn frame_of(p: [u32; 3], dims: [u32; 3], brick: u32) -> usize {
     let nb = bricks_per_frame(dims, brick);
-    let p = [
-        i % domain[0],
-        (i / domain[0]) % domain[1],
-        i / (domain[0] * domain[1]),
-    ];
     let t = [0, 1, 2].map(|a| (p[a] / nb[a]) as usize);
     t[0] + 3 * t[1] + 9 * t[2]
 }

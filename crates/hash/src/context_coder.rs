@@ -44,7 +44,7 @@
 //! voxel or counts as 0 on both sides. Lossless (`f32`) frames are not coded here.
 
 use haze_core::adaptive::{BitIo, BitReader, BitWriter};
-use haze_core::mixing::{Counter, Mixer};
+use haze_core::mixing::{Counter, Mixer, PAD, table};
 
 /// How a value's magnitude is turned into bits: the block's layout chooses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -145,7 +145,7 @@ struct Models {
 
 impl Models {
     fn new(binarization: Binarization) -> Self {
-        let counters = |n: usize| vec![Counter::default(); n];
+        let counters = |n: usize| table(n, Counter::default());
         let by_context = |per: usize| {
             [
                 counters(PAST * SCALES * per),
@@ -335,6 +335,9 @@ impl Models {
     }
 }
 
+/// Values a frame's list keeps spare past its end: [`PAD`] bytes.
+const SPARE_VALUES: usize = PAD / std::mem::size_of::<i32>();
+
 /// An equally likely bit's probability, in `1/4096`.
 const HALF: u16 = 2048;
 
@@ -438,7 +441,10 @@ impl Frame {
     }
 }
 
-/// The coder's state: its models, the frame being coded and the frame before it.
+/// The coder's state: its models, the frame being coded and the frame before it. Every
+/// buffer written value by value keeps [`PAD`] bytes spare at its end, as the models'
+/// tables do, so that coders of streams on other threads never write to its cache lines
+/// ([`haze_core::mixing`]).
 struct Coding {
     models: Models,
     /// The brick being coded, with its causal halo.
@@ -455,9 +461,10 @@ impl Coding {
             bricks: FrameBricks::new(nb, b),
             values: Vec::new(),
         };
+        let b = b as usize;
         Coding {
             models: Models::new(binarization),
-            halo: Vec::new(),
+            halo: table((b + 2) * (b + 2) * (b + 1), 0),
             now: frame(),
             before: frame(),
             current: None,
@@ -488,11 +495,15 @@ impl Coding {
         let (bb, per) = (b * b, b * b * b);
         let first = self.now.values.len();
         self.now.bricks.add(at, first)?;
+        self.now.values.reserve(per + SPARE_VALUES);
         self.now.values.resize(first + per, 0);
-        // The 27 bricks around this one (those stored and already coded), and this brick
-        // in the frame before.
-        let around: [Option<usize>; 27] = std::array::from_fn(|i| {
+        // The 18 bricks around this one at its `z` and below (those stored and already
+        // coded: this one is copied from no one), and this brick in the frame before.
+        let around: [Option<usize>; 18] = std::array::from_fn(|i| {
             let d = [i % 3, (i / 3) % 3, i / 9];
+            if d == [1, 1, 1] {
+                return None;
+            }
             let mut p = at;
             for a in 0..3 {
                 p[a] = (p[a] + d[a] as u32).checked_sub(1)?;
@@ -510,26 +521,24 @@ impl Coding {
         let halo = &mut self.halo;
         halo.clear();
         halo.resize(hxy * (b + 1), 0);
-        // Along one axis, a halo coordinate's brick (0, 1, 2 for before, this, after) and
-        // its coordinate in that brick.
-        let cell = |q: usize| match q {
-            0 => (0, b - 1),
-            q if q <= b => (1, q - 1),
-            _ => (2, 0),
+        // Along one axis, the neighbour brick at offset `s` (0, 1, 2 for before, this,
+        // after) covers `len` halo coordinates from `start`, its own from `from` (along `z`
+        // the halo ends at this brick's last plane).
+        let span = |s: usize| match s {
+            0 => (0, 1, b - 1),
+            1 => (1, b, 0),
+            _ => (b + 1, 1, 0),
         };
         let values = &mut self.now.values;
-        for hz in 0..b + 1 {
-            let (sz, iz) = cell(hz);
-            for hy in 0..b + 2 {
-                let (sy, iy) = cell(hy);
-                for hx_ in 0..b + 2 {
-                    let (sx, ix) = cell(hx_);
-                    if (sx, sy, sz) == (1, 1, 1) {
-                        continue;
-                    }
-                    if let Some(f) = around[sx + 3 * sy + 9 * sz] {
-                        halo[hx_ + hx * hy + hxy * hz] = values[f + ix + b * iy + bb * iz];
-                    }
+        for (i, f) in around.iter().enumerate() {
+            let (sx, sy, sz) = (i % 3, (i / 3) % 3, i / 9);
+            let Some(f) = *f else { continue };
+            let ((x0, nx, ix), (y0, ny, iy), (z0, nz, iz)) = (span(sx), span(sy), span(sz));
+            for dz in 0..nz {
+                for dy in 0..ny {
+                    let from = f + ix + b * (iy + dy) + bb * (iz + dz);
+                    let to = x0 + hx * (y0 + dy) + hxy * (z0 + dz);
+                    halo[to..to + nx].copy_from_slice(&values[from..from + nx]);
                 }
             }
         }

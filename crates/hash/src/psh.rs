@@ -175,13 +175,17 @@ impl PerfectHash {
         };
         let key = |p: [u32; 3]| p[0] + domain[0] * (p[1] + domain[1] * p[2]) + 1;
         let table = (mu * mu * mu) as u64;
+        // Which slots are taken, a bit each: the trials below test slots at random, and
+        // this fits in a core's cache where the keys (32 bits a slot) do not.
+        let mut taken = vec![0u64; (mu * mu * mu).div_ceil(64)];
+        let is_taken = |taken: &[u64], s: usize| taken[s / 64] >> (s % 64) & 1 == 1;
         let mut free_cursor = 0usize;
         let mut slots = Vec::new();
         for &b in &order {
             let members = &buckets[b];
             let phi = if members.len() == 1 {
                 // Any free slot will do: point the offset at it.
-                while h.keys[free_cursor] != 0 {
+                while is_taken(&taken, free_cursor) {
                     free_cursor += 1;
                 }
                 let p = cells[members[0] as usize].0;
@@ -209,7 +213,7 @@ impl PerfectHash {
                     slots.clear();
                     let fits = at.iter().all(|q| {
                         let s = slot([0, 1, 2].map(|a| wrap(q[a] + phi[a])));
-                        let ok = h.keys[s] == 0 && !slots.contains(&s);
+                        let ok = !is_taken(&taken, s) && !slots.contains(&s);
                         slots.push(s);
                         ok
                     });
@@ -226,6 +230,7 @@ impl PerfectHash {
                 let s = slot([0, 1, 2].map(|a| (p[a] % m + phi[a]) % m));
                 h.keys[s] = key(p);
                 h.payloads[s] = v;
+                taken[s / 64] |= 1 << (s % 64);
             }
         }
         Some(h)
@@ -254,6 +259,22 @@ impl PerfectHash {
         (h[0] + m * (h[1] + m * h[2])) as usize
     }
 
+    /// Sets the payload of the stored cell `p` (a cell the hash was built with; the hash's
+    /// placement does not depend on payloads, so it can be built before they are known).
+    /// Returns whether `p` is stored; nothing changes where it is not.
+    pub fn set_payload(&mut self, p: [u32; 3], payload: u32) -> bool {
+        let d = self.domain;
+        if p[0] >= d[0] || p[1] >= d[1] || p[2] >= d[2] {
+            return false;
+        }
+        let s = self.slot(p);
+        let stored = self.keys[s] == p[0] + d[0] * (p[1] + d[1] * p[2]) + 1;
+        if stored {
+            self.payloads[s] = payload;
+        }
+        stored
+    }
+
     /// The coordinates of the cell whose key is `key` (its linear index plus one).
     #[inline]
     pub fn cell_of_key(&self, key: u32) -> [u32; 3] {
@@ -278,7 +299,36 @@ impl PerfectHash {
 
 #[cfg(test)]
 mod tests {
-    use super::PerfectHash;
+    use super::{BuildOptions, PerfectHash};
+
+    /// A hash built without payloads, then given them one by one, is the hash built with
+    /// them (placement depends on the cells alone); a cell not stored, or outside the
+    /// domain, is refused and changes nothing.
+    #[test]
+    fn payloads_set_after_the_build_are_the_payloads_built_with() {
+        let domain = [40, 30, 20];
+        // Dense enough that buckets need several trials: every third cell of the domain.
+        let cells: Vec<([u32; 3], u32)> = (0..40 * 30 * 20u32)
+            .filter(|i| i % 3 == 0)
+            .map(|i| {
+                (
+                    [i % 40, (i / 40) % 30, i / 1200],
+                    i.wrapping_mul(2_654_435_761),
+                )
+            })
+            .collect();
+        let with = PerfectHash::build(domain, &cells, BuildOptions::default()).unwrap();
+        let places: Vec<([u32; 3], u32)> = cells.iter().map(|&(p, _)| (p, 0)).collect();
+        let mut later = PerfectHash::build(domain, &places, BuildOptions::default()).unwrap();
+        for &(p, v) in &cells {
+            assert!(later.set_payload(p, v));
+        }
+        assert_eq!(later, with);
+        for p in [[1, 0, 0], [40, 0, 0], [0, 30, 0], [0, 0, 20], [u32::MAX; 3]] {
+            assert!(!later.set_payload(p, 7), "{p:?}");
+        }
+        assert_eq!(later, with);
+    }
 
     /// `side_for` is the least side whose cube holds k (brute force, float cube roots
     /// near perfect cubes included), and 1 for no cells.
