@@ -19,8 +19,9 @@
 //! tables on every bit. Tables that shared a cache line with another thread's would make
 //! the two cores pass that line back and forth on every write: two streams decoding at
 //! once each ran 1.6× slower than alone. So every table is made by [`table`], which keeps
-//! [`PAD`] bytes of its allocation unused after its entries: no other allocation's data
-//! can then share a cache line with them.
+//! [`PAD`] bytes of its allocation unused after its entries: of two such tables, the one
+//! lower in memory ends at least `PAD` bytes before the other begins, so they never share
+//! a cache line.
 
 use crate::adaptive::BitIo;
 
@@ -29,8 +30,8 @@ use crate::adaptive::BitIo;
 pub const PAD: usize = 128;
 
 /// A table of `len` entries `value` whose allocation keeps at least [`PAD`] bytes unused
-/// after them, so that no table or buffer of another thread shares a cache line with its
-/// entries (module docs).
+/// after them, so that it shares no cache line with another table made here or another
+/// buffer padded the same way (module docs).
 pub fn table<T: Clone>(len: usize, value: T) -> Vec<T> {
     let spare = PAD.div_ceil(std::mem::size_of::<T>().max(1));
     let mut t = Vec::with_capacity(len + spare);

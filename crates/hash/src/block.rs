@@ -403,15 +403,14 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
         ));
     }
     let limit = largest_value(bits);
-    let lists: Vec<Vec<(usize, [u32; 3])>> = (0..streams)
-        .map(|s| {
-            let start = if s == 0 { 0 } else { ends[s - 1] };
-            keys.iter()
-                .filter(|(_, j, at)| steps[*j] != 0.0 && (start..ends[s]).contains(&at[0]))
-                .map(|&(_, j, at)| (j, at))
-                .collect()
-        })
-        .collect();
+    // A lossy brick's stream: the slab of brick columns its `x` falls in.
+    let stream_of = |at: [u32; 3]| ends.iter().position(|&e| at[0] < e).unwrap_or(0);
+    let mut lists: Vec<Vec<(usize, [u32; 3])>> = vec![Vec::new(); streams];
+    for &(_, j, at) in &keys {
+        if steps[j] != 0.0 {
+            lists[stream_of(at)].push((j, at));
+        }
+    }
     let how = binarization(version);
     // Where a brick lands in the hash depends on the bricks' places alone, so the hash is
     // built beside the streams' decoding and each brick's payload set once it is packed.
@@ -445,7 +444,7 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
             }
             Width::F32
         } else {
-            let s = ends.iter().position(|&e| at[0] < e).unwrap_or(0);
+            let s = stream_of(at);
             let (from, width) = packed[s].bricks[next[s]];
             next[s] += 1;
             let n = width.words(per);

@@ -497,8 +497,8 @@ impl Coding {
         self.now.bricks.add(at, first)?;
         self.now.values.reserve(per + SPARE_VALUES);
         self.now.values.resize(first + per, 0);
-        // The 18 bricks around this one at its `z` and below (those stored and already
-        // coded: this one is copied from no one), and this brick in the frame before.
+        // The 17 bricks around this one at its `z` and below (those stored and already
+        // coded; this one's own slot stays empty), and this brick in the frame before.
         let around: [Option<usize>; 18] = std::array::from_fn(|i| {
             let d = [i % 3, (i / 3) % 3, i / 9];
             if d == [1, 1, 1] {
