@@ -413,13 +413,19 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
     }
     let how = binarization(version);
     // Where a brick lands in the hash depends on the bricks' places alone, so the hash is
-    // built beside the streams' decoding and each brick's payload set once it is packed.
+    // built (and each brick's slot found) beside the streams' decoding, and each brick's
+    // payload is written to its slot once it is packed.
     let places: Vec<([u32; 3], u32)> = keys
         .iter()
         .map(|&(k, _, _)| (domain_cell(k, domain), 0))
         .collect();
     let (hash, packed) = rayon::join(
-        || PerfectHash::build(domain, &places, BuildOptions::default()),
+        || {
+            PerfectHash::build(domain, &places, BuildOptions::default()).map(|h| {
+                let slots: Vec<usize> = places.iter().map(|&(p, _)| h.slot(p)).collect();
+                (h, slots)
+            })
+        },
         || {
             readers
                 .into_par_iter()
@@ -428,12 +434,13 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
                 .collect::<Result<Vec<Packed>, _>>()
         },
     );
-    let mut hash = hash.map_err(|e| format!("residual block's bricks do not hash: {e}"))?;
+    let (mut hash, slots) =
+        hash.map_err(|e| format!("residual block's bricks do not hash: {e}"))?;
     let packed = packed?;
     let mut data = Vec::with_capacity(words);
     let mut next_lossless = lossless.chunks_exact(4);
     let mut next = vec![0usize; streams];
-    for (&(_, j, at), &(cell, _)) in keys.iter().zip(&places) {
+    for (&(_, j, at), &slot) in keys.iter().zip(&slots) {
         let first = data.len();
         let width = if steps[j] == 0.0 {
             for _ in 0..per {
@@ -456,11 +463,7 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
             data.extend_from_slice(&packed[s].data[from..from + n]);
             width
         };
-        if !hash.set_payload(cell, payload(first as u32, width)) {
-            return Err(format!(
-                "residual block's brick {cell:?} is not in its hash"
-            ));
-        }
+        hash.payloads[slot] = payload(first as u32, width);
     }
     if data.len() != words {
         return Err(format!(

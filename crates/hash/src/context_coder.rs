@@ -426,6 +426,27 @@ impl FrameBricks {
             .ok()
             .map(|i| self.index[i].1)
     }
+
+    /// [`FrameBricks::first`] of the bricks at `x − 1`, `x` and `x + 1` in the row of
+    /// `p`: one search, as a row's bricks are consecutive in the list.
+    fn row(&self, p: [u32; 3]) -> [Option<usize>; 3] {
+        let mut i = self
+            .index
+            .partition_point(|&(s, _)| s < self.slot([p[0].saturating_sub(1), p[1], p[2]]));
+        std::array::from_fn(|d| {
+            let x = (p[0] + d as u32)
+                .checked_sub(1)
+                .filter(|&x| x < self.nb[0])?;
+            let slot = self.slot([x, p[1], p[2]]);
+            while self.index.get(i).is_some_and(|&(s, _)| s < slot) {
+                i += 1;
+            }
+            self.index
+                .get(i)
+                .filter(|&&(s, _)| s == slot)
+                .map(|&(_, first)| first)
+        })
+    }
 }
 
 /// One frame's coded bricks and their values.
@@ -499,20 +520,24 @@ impl Coding {
         self.now.values.resize(first + per, 0);
         // The 17 bricks around this one at its `z` and below (those stored and already
         // coded; this one's own slot stays empty), and this brick in the frame before.
-        let around: [Option<usize>; 18] = std::array::from_fn(|i| {
-            let d = [i % 3, (i / 3) % 3, i / 9];
-            if d == [1, 1, 1] {
-                return None;
+        let mut around = [None; 18];
+        for (r, row) in around.chunks_exact_mut(3).enumerate() {
+            let (dy, dz) = (r % 3, r / 3);
+            let (Some(y), Some(z)) = (
+                (at[1] + dy as u32).checked_sub(1),
+                (at[2] + dz as u32).checked_sub(1),
+            ) else {
+                continue;
+            };
+            // In this brick's plane, the rows from its own on are not coded before it.
+            if y < self.now.bricks.nb[1] && (dz == 0 || dy == 0) {
+                row.copy_from_slice(&self.now.bricks.row([at[0], y, z]));
             }
-            let mut p = at;
-            for a in 0..3 {
-                p[a] = (p[a] + d[a] as u32).checked_sub(1)?;
-                if p[a] >= self.now.bricks.nb[a] {
-                    return None;
-                }
-            }
-            self.now.bricks.first(p)
-        });
+        }
+        // Its own row: only the brick before it is coded.
+        if at[0] > 0 {
+            around[12] = self.now.bricks.first([at[0] - 1, at[1], at[2]]);
+        }
         let past = self.before.bricks.first(at);
         // The brick with a causal halo: x and y from −1 to b, z from −1 to b − 1, the
         // neighbours' values where they are coded, 0 elsewhere and in this brick until
