@@ -186,13 +186,18 @@ impl ResidualStage {
             return Ok(None);
         }
         let t = Instant::now();
-        let frames: Vec<Quantized> = self.pending.iter().map(|(q, _)| q.clone()).collect();
-        let count = self.pending.len();
+        // Taken, not copied: in turbulent smoke the pending frames are most of the bake's
+        // memory (8 bytes a stored voxel, nearly every voxel).
+        let (frames, secs): (Vec<Quantized>, Vec<f64>) =
+            std::mem::take(&mut self.pending).into_iter().unzip();
+        let count = frames.len();
         let (bytes, bricks, weights) = if frames.iter().all(|q| q.cells.is_empty()) {
             // Nothing to store: no block at all.
             (Vec::new(), vec![0; count], vec![0.0; count])
         } else {
             let g = ResidualGroup::build(self.dims, self.brick, &frames, BuildOptions::default())?;
+            // The volume holds them now; the encoding below needs room of its own.
+            drop(frames);
             let bricks: Vec<usize> = (0..count).map(|j| g.bricks_of(j)).collect();
             // A frame's share of the block: its packed words plus its bricks' list
             // entries (a key delta of about a byte: a quarter word each), an estimate.
@@ -204,11 +209,10 @@ impl ResidualStage {
         };
         let build = t.elapsed().as_secs_f64();
         let total: f64 = weights.iter().sum();
-        let shares = self
-            .pending
+        let shares = secs
             .iter()
             .zip(&weights)
-            .map(|((_, secs), w)| {
+            .map(|(secs, w)| {
                 let share = if total > 0.0 {
                     w / total
                 } else {
@@ -225,7 +229,6 @@ impl ResidualStage {
             bricks,
         };
         self.first += count;
-        self.pending.clear();
         Ok(Some(out))
     }
 }
