@@ -267,6 +267,29 @@ mod tests {
 
     /// A counter's first steps are a running mean (1/1.5, then 1/2.5 of the way), and it
     /// never reaches either end.
+    /// A table holds its entries and at least `PAD` spare bytes past them, whatever the
+    /// entry's size (zero-sized entries included) and for no entries at all.
+    #[test]
+    fn tables_keep_their_spare_bytes() {
+        fn spare<T: Clone + PartialEq + std::fmt::Debug>(len: usize, value: T) {
+            let t = table(len, value.clone());
+            assert_eq!(t.len(), len);
+            assert!(t.iter().all(|v| *v == value));
+            let size = std::mem::size_of::<T>();
+            if size > 0 {
+                assert!(
+                    (t.capacity() - t.len()) * size >= PAD,
+                    "{len} of {size} bytes"
+                );
+            }
+        }
+        spare(0, 1u8);
+        spare(1, Counter::default().p());
+        spare(37, [WEIGHT_START; 3]);
+        spare(4096, 5i64);
+        spare(3, ());
+    }
+
     #[test]
     fn counters_average_then_decay() {
         let mut c = Counter::default();
