@@ -186,6 +186,11 @@ impl<const N: usize> Mixer<N> {
 
     /// Codes `bit` (a reader: returns the next bit) with the probability mixed from the
     /// `counters` under weight set `set`, then trains the weights and the counters.
+    ///
+    /// Always inlined: a value coder calls it for every bit, and as a call the range
+    /// coder's state and the tables' addresses went through memory on every one (the
+    /// residual's decode was 4–8 % slower).
+    #[inline(always)]
     pub fn code<I: BitIo>(
         &mut self,
         io: &mut I,

@@ -209,7 +209,9 @@ impl Models {
         )
     }
 
-    /// Codes one answer to `c > g` under the three contexts of `x`.
+    /// Codes one answer to `c > g` under the three contexts of `x`. Inlined, as
+    /// [`Mixer::code`] is, into the loop over a brick's values.
+    #[inline(always)]
     fn class_step<I: BitIo>(
         &mut self,
         io: &mut I,
@@ -251,7 +253,9 @@ impl Models {
         }
     }
 
-    /// Codes the sign of a non-zero value (true: negative) under its two contexts.
+    /// Codes the sign of a non-zero value (true: negative) under its two contexts
+    /// (inlined, as [`Models::class_step`]).
+    #[inline(always)]
     fn sign<I: BitIo>(&mut self, io: &mut I, x: &Context, negative: bool) -> Result<bool, String> {
         let coarse = x.coarse();
         let [s0, s1] = &mut self.sign;
