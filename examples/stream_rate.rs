@@ -57,6 +57,8 @@ fn main() {
         n as f64 / dt
     );
 
+    // The drained stream's frames go before playback opens its own: a player holds one.
+    drop(s);
     let mut s = open(true);
     let period = Duration::from_secs_f64(1.0 / fps);
     // A player shows its first frame when it is ready; the clock starts there.

@@ -189,6 +189,13 @@ impl BitIo for BitWriter {
     }
 }
 
+/// Word `i` of `bytes` (little-endian), if the bytes hold it whole.
+#[inline]
+fn word_at(bytes: &[u8], i: usize) -> Option<u32> {
+    let w = bytes.get(4 * i..4 * i + 4)?;
+    Some(u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
+}
+
 /// Reads the bits a [`BitWriter`] wrote. Past the end of its bytes it reads on as if
 /// they went on with zeros; callers bound what they read.
 ///
@@ -200,9 +207,13 @@ impl BitIo for BitWriter {
 /// then moves exactly as the general decoder's does. The residual's value coder decodes
 /// millions of bits a frame, and the division was a sixth of its time. A test decodes the
 /// same streams with both and compares every bit and the errors on garbage.
+///
+/// It reads its words in place from the bytes it is given (no copy: a hash volume's
+/// streams are tens of MB at production sizes).
 #[derive(Debug)]
-pub struct BitReader {
-    words: Vec<u32>,
+pub struct BitReader<'a> {
+    /// The stream, whole little-endian 32-bit words.
+    bytes: &'a [u8],
     /// The next word to read.
     next: usize,
     lower: u64,
@@ -211,25 +222,21 @@ pub struct BitReader {
     point: u64,
 }
 
-impl BitReader {
+impl<'a> BitReader<'a> {
     /// A reader of `bytes` (whole words, as [`BitWriter::finish`] gives them).
-    pub fn new(bytes: &[u8]) -> Result<Self, String> {
+    pub fn new(bytes: &'a [u8]) -> Result<Self, String> {
         if !bytes.len().is_multiple_of(4) {
             return Err(format!(
                 "its {} range-coded bytes are not whole words",
                 bytes.len()
             ));
         }
-        let words: Vec<u32> = bytes
-            .chunks_exact(4)
-            .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
-            .collect();
         // The first two words, the first one high; missing words read as zeros.
-        let word = |i: usize| u64::from(words.get(i).copied().unwrap_or(0));
+        let word = |i: usize| u64::from(word_at(bytes, i).unwrap_or(0));
         let point = word(0) << 32 | word(1);
         Ok(BitReader {
-            next: words.len().min(2),
-            words,
+            next: (bytes.len() / 4).min(2),
+            bytes,
             lower: 0,
             range: u64::MAX,
             point,
@@ -256,7 +263,7 @@ impl BitReader {
             self.lower <<= 32;
             self.range <<= 32;
             self.point <<= 32;
-            if let Some(&w) = self.words.get(self.next) {
+            if let Some(w) = word_at(self.bytes, self.next) {
                 self.point |= u64::from(w);
                 self.next += 1;
             }
@@ -265,7 +272,7 @@ impl BitReader {
     }
 }
 
-impl BitIo for BitReader {
+impl BitIo for BitReader<'_> {
     #[inline]
     fn code(&mut self, model: &mut Bit, _: bool) -> Result<bool, String> {
         let bit = self.bit(model.p.max(1))?;

@@ -367,7 +367,10 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
     let cells = u64::from(domain[0]) * u64::from(domain[1]) * u64::from(domain[2]);
     let mut deltas = Gamma::default();
     let mut key = 0i64;
-    let mut keys = Vec::with_capacity(count);
+    // Each brick's key alone (4 bytes; its frame and place are found from it again where
+    // they are needed): a production-size volume holds millions of bricks.
+    let mut keys: Vec<u32> = Vec::with_capacity(count);
+    let mut last: Option<(usize, u32)> = None;
     for _ in 0..count {
         let z = deltas.code(io, 0).map_err(wrap)?;
         key = key.saturating_add(((z >> 1) as i64) ^ -((z & 1) as i64));
@@ -377,19 +380,21 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
             ));
         }
         let k = key as u32;
-        let (j, place) = place(k, domain, dims, brick);
+        let (j, _) = place(k, domain, dims, brick);
         if j >= frames {
             return Err(format!(
                 "residual block has a brick (key {k}) outside its frames"
             ));
         }
         // Frame by frame, each frame's bricks ascending: no brick twice.
-        if keys.last().is_some_and(|&(pk, pj, _)| (j, k) <= (pj, pk)) {
+        if last.is_some_and(|l| (j, k) <= l) {
             return Err(format!("residual block lists brick {k} out of order"));
         }
-        keys.push((k, j, place));
+        last = Some((j, k));
+        keys.push(k);
     }
-    let lossy = keys.iter().filter(|(_, j, _)| steps[*j] != 0.0).count();
+    let place = |k: u32| place(k, domain, dims, brick);
+    let lossy = keys.iter().filter(|&&k| steps[place(k).0] != 0.0).count();
     if (lossy * per) as f64 > bits_held {
         return Err(format!(
             "residual block claims {lossy} lossy bricks in {ranged} coded bytes"
@@ -405,24 +410,24 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
     let limit = largest_value(bits);
     // A lossy brick's stream: the slab of brick columns its `x` falls in.
     let stream_of = |at: [u32; 3]| ends.iter().position(|&e| at[0] < e).unwrap_or(0);
-    let mut lists: Vec<Vec<(usize, [u32; 3])>> = vec![Vec::new(); streams];
-    for &(_, j, at) in &keys {
+    let mut lists: Vec<Vec<u32>> = vec![Vec::new(); streams];
+    for &k in &keys {
+        let (j, at) = place(k);
         if steps[j] != 0.0 {
-            lists[stream_of(at)].push((j, at));
+            lists[stream_of(at)].push(k);
         }
     }
     let how = binarization(version);
     // Where a brick lands in the hash depends on the bricks' places alone, so the hash is
     // built (and each brick's slot found) beside the streams' decoding, and each brick's
     // payload is written to its slot once it is packed.
-    let places: Vec<([u32; 3], u32)> = keys
-        .iter()
-        .map(|&(k, _, _)| (domain_cell(k, domain), 0))
-        .collect();
     let (hash, packed) = rayon::join(
         || {
+            let places: Vec<([u32; 3], u32)> =
+                keys.iter().map(|&k| (domain_cell(k, domain), 0)).collect();
             PerfectHash::build(domain, &places, BuildOptions::default()).map(|h| {
-                let slots: Vec<usize> = places.iter().map(|&(p, _)| h.slot(p)).collect();
+                // Slots number under 2³² (the table's side is at most `MAX_SIDE`).
+                let slots: Vec<u32> = places.iter().map(|&(p, _)| h.slot(p) as u32).collect();
                 (h, slots)
             })
         },
@@ -430,17 +435,22 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
             readers
                 .into_par_iter()
                 .zip(lists.par_iter())
-                .map(|(mut io, list)| Packed::decode(&mut io, nb, brick, limit, how, list, words))
+                .map(|(mut io, list)| {
+                    let list = list.iter().map(|&k| place(k));
+                    Packed::decode(&mut io, nb, brick, limit, how, list, words)
+                })
                 .collect::<Result<Vec<Packed>, _>>()
         },
     );
+    drop(lists);
     let (mut hash, slots) =
         hash.map_err(|e| format!("residual block's bricks do not hash: {e}"))?;
     let packed = packed?;
     let mut data = Vec::with_capacity(words);
     let mut next_lossless = lossless.chunks_exact(4);
     let mut next = vec![0usize; streams];
-    for (&(_, j, at), &slot) in keys.iter().zip(&slots) {
+    for (&k, &slot) in keys.iter().zip(&slots) {
+        let (j, at) = place(k);
         let first = data.len();
         let width = if steps[j] == 0.0 {
             for _ in 0..per {
@@ -453,6 +463,7 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
         } else {
             let s = stream_of(at);
             let (from, width) = packed[s].bricks[next[s]];
+            let from = from as usize;
             next[s] += 1;
             let n = width.words(per);
             if data.len() + n > words {
@@ -463,7 +474,7 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
             data.extend_from_slice(&packed[s].data[from..from + n]);
             width
         };
-        hash.payloads[slot] = payload(first as u32, width);
+        hash.payloads[slot as usize] = payload(first as u32, width);
     }
     if data.len() != words {
         return Err(format!(
@@ -495,19 +506,19 @@ fn domain_cell(k: u32, domain: [u32; 3]) -> [u32; 3] {
 /// first word in `data` and its width.
 struct Packed {
     data: Vec<u32>,
-    bricks: Vec<(usize, Width)>,
+    bricks: Vec<(u32, Width)>,
 }
 
 impl Packed {
     /// Decodes the lossy bricks `list` (frame slot, brick position) of one stream from
     /// `io`, refusing more than `words` data words in all.
     fn decode(
-        io: &mut BitReader,
+        io: &mut BitReader<'_>,
         nb: [u32; 3],
         brick: u32,
         limit: u32,
         how: Binarization,
-        list: &[(usize, [u32; 3])],
+        list: impl ExactSizeIterator<Item = (usize, [u32; 3])>,
         words: usize,
     ) -> Result<Packed, String> {
         let mut decoder = context_coder::Decoder::new(nb, brick, limit, how);
@@ -515,12 +526,13 @@ impl Packed {
             data: Vec::new(),
             bricks: Vec::with_capacity(list.len()),
         };
-        for &(j, at) in list {
+        for (j, at) in list {
             let values = decoder
                 .brick(io, j, at)
                 .map_err(|e| format!("residual block's values: {e}"))?;
             let width = Width::narrowest(values);
-            out.bricks.push((out.data.len(), width));
+            // `data` holds at most `words < 2³²` words (checked below, brick by brick).
+            out.bricks.push((out.data.len() as u32, width));
             pack::pack_into(values, width, &mut out.data);
             if out.data.len() > words {
                 return Err(format!(

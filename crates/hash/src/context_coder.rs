@@ -629,7 +629,12 @@ impl Decoder {
     }
 
     /// The `b³` values of the next brick, at frame slot `j` and brick position `at`.
-    pub fn brick(&mut self, io: &mut BitReader, j: usize, at: [u32; 3]) -> Result<&[i32], String> {
+    pub fn brick(
+        &mut self,
+        io: &mut BitReader<'_>,
+        j: usize,
+        at: [u32; 3],
+    ) -> Result<&[i32], String> {
         let per = self.coding.now.bricks.brick.pow(3) as usize;
         let first = self.coding.brick(io, j, at, None)?;
         Ok(&self.coding.now.values[first..first + per])
