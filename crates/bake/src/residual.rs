@@ -2,11 +2,14 @@
 //! exactly as stored (f32), quantized to the error asked for; every 27 frames (and at the
 //! end), one hash volume of bricks — or none, when the RBFs alone met the error on every
 //! frame of the group.
+//!
+//! Each frame's bricks are packed into its hash volume as soon as it is quantized
+//! ([`GroupBuilder`]), so a volume waits as packed words, not as the frames' cells.
 
 use anyhow::{Result, anyhow};
 use haze_asset::{Scope, decode_rbfs, encode_rbfs};
-use haze_hash::tile::{GROUP, ResidualGroup};
-use haze_hash::{BuildOptions, QuantOptions, Quantized, block, quantize};
+use haze_hash::tile::{GROUP, GroupBuilder, ResidualGroup};
+use haze_hash::{BuildOptions, QuantOptions, block, quantize};
 use haze_volume::{Rbf, Volume, rbf};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
@@ -37,7 +40,8 @@ pub struct ResidualRecord {
     pub quant_widened: bool,
     /// The frame's share of its hash volume's block, by its share of the cells.
     pub hash_bytes: f64,
-    /// Quantization time plus the frame's share of the hash volume's build time.
+    /// Quantization and packing time plus the frame's share of the hash volume's build
+    /// time.
     pub hash_seconds: f64,
     /// Dequantization step, largest and RMS reconstruction error (density units).
     pub quant_step: f32,
@@ -52,7 +56,10 @@ pub struct ResidualStage {
     brick: u32,
     dims: [u32; 3],
     first: usize,
-    pending: Vec<(Quantized, f64)>,
+    /// The hash volume being filled: each frame's bricks packed as it is quantized.
+    group: GroupBuilder,
+    /// Each pending frame's seconds (its quantization and packing).
+    seconds: Vec<f64>,
 }
 
 /// A finished hash volume: its block and its frames' shares of bytes and seconds.
@@ -127,7 +134,8 @@ impl ResidualStage {
             brick,
             dims,
             first,
-            pending: Vec::new(),
+            group: GroupBuilder::new(dims, brick).map_err(|e| anyhow!("residual: {e}"))?,
+            seconds: Vec::new(),
         })
     }
 
@@ -171,33 +179,34 @@ impl ResidualStage {
             quant_rms_error: q.rms_error,
             ..ResidualRecord::default()
         };
-        self.pending.push((q, t.elapsed().as_secs_f64()));
+        // Packed now and let go: the volume waits as packed words, not as cells.
+        self.group.push(&q).map_err(|e| anyhow!("residual: {e}"))?;
+        drop(q);
+        self.seconds.push(t.elapsed().as_secs_f64());
         Ok(record)
     }
 
     /// Whether a hash volume is complete.
     pub fn full(&self) -> bool {
-        self.pending.len() == GROUP
+        self.seconds.len() == GROUP
     }
 
     /// Hashes the pending frames into one hash volume (`None` when none are pending).
     pub fn flush(&mut self) -> Result<Option<HashVolume>> {
-        if self.pending.is_empty() {
+        if self.seconds.is_empty() {
             return Ok(None);
         }
         let t = Instant::now();
-        // Taken, not copied: in turbulent smoke the pending frames are most of the bake's
-        // memory (8 bytes a stored voxel, nearly every voxel).
-        let (frames, secs): (Vec<Quantized>, Vec<f64>) =
-            std::mem::take(&mut self.pending).into_iter().unzip();
-        let count = frames.len();
-        let (bytes, bricks, weights) = if frames.iter().all(|q| q.cells.is_empty()) {
+        let secs = std::mem::take(&mut self.seconds);
+        let next =
+            GroupBuilder::new(self.dims, self.brick).map_err(|e| anyhow!("residual: {e}"))?;
+        let group = std::mem::replace(&mut self.group, next);
+        let count = secs.len();
+        let (bytes, bricks, weights) = if group.is_empty() {
             // Nothing to store: no block at all.
             (Vec::new(), vec![0; count], vec![0.0; count])
         } else {
-            let g = ResidualGroup::build(self.dims, self.brick, &frames, BuildOptions::default())?;
-            // The volume holds them now; the encoding below needs room of its own.
-            drop(frames);
+            let g = group.finish(BuildOptions::default())?;
             let bricks: Vec<usize> = (0..count).map(|j| g.bricks_of(j)).collect();
             // A frame's share of the block: its packed words plus its bricks' list
             // entries (a key delta of about a byte: a quarter word each), an estimate.

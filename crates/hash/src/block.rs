@@ -134,7 +134,10 @@ fn encode_streams(
     }
     let mut lossless = Vec::new();
     let mut words = 0u32;
-    let mut coded: Vec<(usize, [u32; 3], Vec<i32>)> = Vec::new();
+    // Each lossy brick's frame slot, place, first word, width and count of non-zero
+    // values: its values are unpacked again as its stream codes them, so that they are
+    // never all held as `i32` (a production-size volume holds millions of bricks).
+    let mut coded: Vec<LossyBrick> = Vec::new();
     for &(p, k) in &bricks {
         let (first, width) =
             unpayload(p).ok_or_else(|| format!("brick {k} has an unknown width code"))?;
@@ -149,35 +152,51 @@ fn encode_streams(
             }
         } else {
             let (j, at) = place(k, h.domain, g.dims, g.brick);
-            let values = (0..per)
-                .map(|l| pack::get(&g.data, first, width, l))
-                .collect();
-            coded.push((j, at, values));
+            let nonzero = (0..per)
+                .filter(|&l| pack::get(&g.data, first, width, l) != 0)
+                .count();
+            coded.push(LossyBrick {
+                j,
+                at,
+                first,
+                width,
+                nonzero,
+            });
         }
         words += n as u32;
     }
     let nb = bricks_per_frame(g.dims, g.brick);
     let cuts = stream_cuts(&coded, nb[0], stream_nonzero);
-    let mut streams: Vec<(u32, Vec<u8>)> = Vec::with_capacity(cuts.len());
-    let mut io = Some(keys);
-    for (s, &end) in cuts.iter().enumerate() {
-        let start = if s == 0 { 0 } else { cuts[s - 1] };
-        let list: Vec<(usize, [u32; 3], &[i32])> = coded
-            .iter()
-            .filter(|(_, at, _)| (start..end).contains(&at[0]))
-            .map(|(j, at, v)| (*j, *at, v.as_slice()))
-            .collect();
-        let mut w = io.take().unwrap_or_default();
-        context_coder::encode(
-            &mut w,
-            nb,
-            g.brick,
-            largest_value(g.bits),
-            binarization(layout),
-            &list,
-        )?;
-        streams.push((end, w.finish()?));
-    }
+    // The keys open the first stream; the streams are coded apart, at once.
+    let mut keys = Some(keys);
+    let writers: Vec<BitWriter> = (0..cuts.len())
+        .map(|_| keys.take().unwrap_or_default())
+        .collect();
+    let streams = writers
+        .into_par_iter()
+        .enumerate()
+        .map(|(s, mut w)| {
+            let start = if s == 0 { 0 } else { cuts[s - 1] };
+            let list = coded
+                .iter()
+                .filter(|c| (start..cuts[s]).contains(&c.at[0]))
+                .map(|c| {
+                    let values: Vec<i32> = (0..per)
+                        .map(|l| pack::get(&g.data, c.first, c.width, l))
+                        .collect();
+                    (c.j, c.at, values)
+                });
+            context_coder::encode(
+                &mut w,
+                nb,
+                g.brick,
+                largest_value(g.bits),
+                binarization(layout),
+                list,
+            )?;
+            Ok((cuts[s], w.finish()?))
+        })
+        .collect::<Result<Vec<(u32, Vec<u8>)>, String>>()?;
     let ranged: usize = streams.iter().map(|(_, b)| b.len()).sum();
     let zipped = if lossless.is_empty() {
         Vec::new()
@@ -217,14 +236,24 @@ fn encode_streams(
     Ok(out)
 }
 
+/// A lossy brick as the encoder lists it: its frame slot and place in the frame, where its
+/// packed values start in the volume's data and at what width, and how many are not zero.
+struct LossyBrick {
+    j: usize,
+    at: [u32; 3],
+    first: usize,
+    width: Width,
+    nonzero: usize,
+}
+
 /// The streams' x ends for the lossy bricks `coded` of frames `nbx` brick columns wide:
 /// one stream for every `per_stream` non-zero values (at most [`MAX_STREAMS`]), cut
 /// between columns where the running count of non-zero values passes each stream's even
 /// share (fewer streams where one column holds several shares).
-fn stream_cuts(coded: &[(usize, [u32; 3], Vec<i32>)], nbx: u32, per_stream: usize) -> Vec<u32> {
+fn stream_cuts(coded: &[LossyBrick], nbx: u32, per_stream: usize) -> Vec<u32> {
     let mut columns = vec![0usize; nbx as usize];
-    for (_, at, values) in coded {
-        columns[at[0] as usize] += values.iter().filter(|&&v| v != 0).count();
+    for c in coded {
+        columns[c.at[0] as usize] += c.nonzero;
     }
     let total: usize = columns.iter().sum();
     let streams = (total / per_stream.max(1)).clamp(1, MAX_STREAMS);

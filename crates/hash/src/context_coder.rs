@@ -596,18 +596,20 @@ impl Coding {
 
 /// Encodes bricks into `io`: for each, its frame slot `j`, its brick position in that
 /// frame and its `b³` values (`x` fastest), in coding order. `nb` is the frame's bricks
-/// per axis and `limit` the largest magnitude a value may have.
-pub fn encode(
+/// per axis and `limit` the largest magnitude a value may have. The bricks may come from
+/// an iterator that unpacks each one as it is asked for, so that a hash volume's values
+/// are never all held as `i32`.
+pub fn encode<V: AsRef<[i32]>>(
     io: &mut BitWriter,
     nb: [u32; 3],
     b: u32,
     limit: u32,
     binarization: Binarization,
-    bricks: &[(usize, [u32; 3], &[i32])],
+    bricks: impl IntoIterator<Item = (usize, [u32; 3], V)>,
 ) -> Result<(), String> {
     let mut coding = Coding::new(nb, b, limit, binarization);
-    for &(j, at, given) in bricks {
-        coding.brick(io, j, at, Some(given))?;
+    for (j, at, given) in bricks {
+        coding.brick(io, j, at, Some(given.as_ref()))?;
     }
     Ok(())
 }
@@ -655,7 +657,7 @@ mod tests {
         list: &[(usize, [u32; 3], &[i32])],
     ) -> Vec<u8> {
         let mut io = BitWriter::new();
-        encode(&mut io, nb, b, limit, how, list).unwrap();
+        encode(&mut io, nb, b, limit, how, list.iter().copied()).unwrap();
         io.finish().unwrap()
     }
 
@@ -756,7 +758,7 @@ mod tests {
             let list = [(0, [1, 0, 0], v.as_slice()), (0, [0, 0, 0], v.as_slice())];
             let mut io = BitWriter::new();
             assert!(
-                encode(&mut io, [2, 1, 1], 2, 7, how, &list)
+                encode(&mut io, [2, 1, 1], 2, 7, how, list.iter().copied())
                     .unwrap_err()
                     .contains("out of order")
             );

@@ -71,7 +71,8 @@ pub struct ResidualGroup {
 }
 
 impl ResidualGroup {
-    /// Tiles, bricks and hashes the quantized frames (at most 27, each of `dims`).
+    /// Tiles, bricks and hashes the quantized frames (at most 27, each of `dims`), as a
+    /// [`GroupBuilder`] given them one by one.
     pub fn build(
         dims: [u32; 3],
         brick: u32,
@@ -84,66 +85,11 @@ impl ResidualGroup {
                 frames.len()
             )));
         }
-        if !BRICK_SIDES.contains(&brick) {
-            return Err(HashError::Invalid(format!(
-                "brick side {brick} is not one of {BRICK_SIDES:?}"
-            )));
+        let mut group = GroupBuilder::new(dims, brick)?;
+        for f in frames {
+            group.push(f)?;
         }
-        let bits = frames[0].bits;
-        if frames.iter().any(|f| f.bits != bits) {
-            return Err(HashError::Invalid(
-                "frames of a hash volume differ in bits".into(),
-            ));
-        }
-        if dims.iter().any(|&d| d == 0 || d > u32::MAX / 3) {
-            return Err(HashError::Invalid(format!(
-                "frame dims {dims:?} cannot be tiled"
-            )));
-        }
-        let nb = bricks_per_frame(dims, brick);
-        let per = (brick * brick * brick) as usize;
-        let (nx, nxy) = (dims[0], dims[0] * dims[1]);
-        let mut cells = Vec::new();
-        let mut data = Vec::new();
-        for (j, f) in frames.iter().enumerate() {
-            // The frame's bricks in ascending brick order (deterministic layout).
-            let mut bricks: BTreeMap<[u32; 3], Vec<i32>> = BTreeMap::new();
-            for &(i, q) in &f.cells {
-                let p = [i % nx, (i % nxy) / nx, i / nxy];
-                let b = [p[2] / brick, p[1] / brick, p[0] / brick];
-                let l = p[0] % brick + brick * (p[1] % brick + brick * (p[2] % brick));
-                bricks.entry(b).or_insert_with(|| vec![0; per])[l as usize] = q;
-            }
-            let o = tile_origin(j, nb);
-            for (zyx, values) in bricks {
-                let width = if f.lossless {
-                    Width::F32
-                } else {
-                    Width::narrowest(&values)
-                };
-                let word = u32::try_from(data.len())
-                    .ok()
-                    .filter(|&w| w <= MAX_WORD)
-                    .ok_or_else(|| {
-                        HashError::Invalid(format!(
-                            "{} words of packed residual exceed the {MAX_WORD} a block can index",
-                            data.len()
-                        ))
-                    })?;
-                pack::pack_into(&values, width, &mut data);
-                let b = [o[0] + zyx[2], o[1] + zyx[1], o[2] + zyx[0]];
-                cells.push((b, payload(word, width)));
-            }
-        }
-        let domain = nb.map(|d| 3 * d);
-        Ok(ResidualGroup {
-            dims,
-            brick,
-            bits,
-            steps: frames.iter().map(|f| f.step).collect(),
-            hash: PerfectHash::build(domain, &cells, opts)?,
-            data,
-        })
+        group.finish(opts)
     }
 
     /// Frames in the group.
@@ -211,5 +157,123 @@ impl ResidualGroup {
         } else {
             q as f32 * self.steps[j]
         }
+    }
+}
+
+/// A hash volume built a frame at a time: each frame's bricks are packed as it is pushed,
+/// so its quantized cells (8 bytes a stored voxel, nearly every voxel in turbulent smoke)
+/// can go before the next frame is quantized, and the volume waits as its packed words
+/// (a byte or less a voxel). [`ResidualGroup::build`] is this over a list of frames.
+#[derive(Debug)]
+pub struct GroupBuilder {
+    dims: [u32; 3],
+    brick: u32,
+    bits: Option<u8>,
+    steps: Vec<f32>,
+    /// Each stored brick's cell in the tiled brick domain and its payload.
+    cells: Vec<([u32; 3], u32)>,
+    data: Vec<u32>,
+}
+
+impl GroupBuilder {
+    /// An empty volume of frames of `dims` voxels, in bricks of side `brick`.
+    pub fn new(dims: [u32; 3], brick: u32) -> Result<GroupBuilder, HashError> {
+        if !BRICK_SIDES.contains(&brick) {
+            return Err(HashError::Invalid(format!(
+                "brick side {brick} is not one of {BRICK_SIDES:?}"
+            )));
+        }
+        if dims.iter().any(|&d| d == 0 || d > u32::MAX / 3) {
+            return Err(HashError::Invalid(format!(
+                "frame dims {dims:?} cannot be tiled"
+            )));
+        }
+        Ok(GroupBuilder {
+            dims,
+            brick,
+            bits: None,
+            steps: Vec::new(),
+            cells: Vec::new(),
+            data: Vec::new(),
+        })
+    }
+
+    /// Frames pushed so far.
+    pub fn frames(&self) -> usize {
+        self.steps.len()
+    }
+
+    /// Whether no pushed frame stores a brick.
+    pub fn is_empty(&self) -> bool {
+        self.cells.is_empty()
+    }
+
+    /// Packs frame `f` (the next of the volume) brick by brick, in ascending brick order.
+    pub fn push(&mut self, f: &Quantized) -> Result<(), HashError> {
+        let j = self.steps.len();
+        if j == GROUP {
+            return Err(HashError::Invalid(format!(
+                "a hash volume holds 1 to {GROUP} frames, not {}",
+                j + 1
+            )));
+        }
+        if self.bits.is_some_and(|b| b != f.bits) {
+            return Err(HashError::Invalid(
+                "frames of a hash volume differ in bits".into(),
+            ));
+        }
+        self.bits = Some(f.bits);
+        let (brick, dims) = (self.brick, self.dims);
+        let per = (brick * brick * brick) as usize;
+        let (nx, nxy) = (dims[0], dims[0] * dims[1]);
+        // The frame's bricks in ascending brick order (deterministic layout).
+        let mut bricks: BTreeMap<[u32; 3], Vec<i32>> = BTreeMap::new();
+        for &(i, q) in &f.cells {
+            let p = [i % nx, (i % nxy) / nx, i / nxy];
+            let b = [p[2] / brick, p[1] / brick, p[0] / brick];
+            let l = p[0] % brick + brick * (p[1] % brick + brick * (p[2] % brick));
+            bricks.entry(b).or_insert_with(|| vec![0; per])[l as usize] = q;
+        }
+        let o = tile_origin(j, bricks_per_frame(dims, brick));
+        for (zyx, values) in bricks {
+            let width = if f.lossless {
+                Width::F32
+            } else {
+                Width::narrowest(&values)
+            };
+            let word = u32::try_from(self.data.len())
+                .ok()
+                .filter(|&w| w <= MAX_WORD)
+                .ok_or_else(|| {
+                    HashError::Invalid(format!(
+                        "{} words of packed residual exceed the {MAX_WORD} a block can index",
+                        self.data.len()
+                    ))
+                })?;
+            pack::pack_into(&values, width, &mut self.data);
+            let b = [o[0] + zyx[2], o[1] + zyx[1], o[2] + zyx[0]];
+            self.cells.push((b, payload(word, width)));
+        }
+        self.steps.push(f.step);
+        Ok(())
+    }
+
+    /// Hashes the packed bricks into the volume.
+    pub fn finish(self, opts: BuildOptions) -> Result<ResidualGroup, HashError> {
+        let Some(bits) = self.bits else {
+            return Err(HashError::Invalid(format!(
+                "a hash volume holds 1 to {GROUP} frames, not 0"
+            )));
+        };
+        let domain = bricks_per_frame(self.dims, self.brick).map(|d| 3 * d);
+        let hash = PerfectHash::build(domain, &self.cells, opts)?;
+        Ok(ResidualGroup {
+            dims: self.dims,
+            brick: self.brick,
+            bits,
+            steps: self.steps,
+            hash,
+            data: self.data,
+        })
     }
 }

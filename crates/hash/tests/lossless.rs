@@ -1,7 +1,7 @@
 //! Exactness of the perfect spatial hash over every cell of its domain, and of the bricked
 //! residual groups over every voxel of their frames.
 
-use haze_hash::tile::{BRICK_SIDES, GROUP, ResidualGroup, tile_origin};
+use haze_hash::tile::{BRICK_SIDES, GROUP, GroupBuilder, ResidualGroup, tile_origin};
 use haze_hash::{BuildOptions, HashError, PerfectHash, QuantOptions, quantize};
 
 /// Deterministic pseudo-random numbers.
@@ -180,4 +180,51 @@ fn one_voxel_and_empty_frames_cost_what_they_hold() {
     assert_eq!(g.lookup(0, [8, 8, 8]), 0.0);
     let none = ResidualGroup::build(dims, 4, &[empty], BuildOptions::default()).unwrap();
     assert_eq!(none.data.len(), 0);
+}
+
+/// A volume filled a frame at a time (as a bake fills it, letting each frame's cells go)
+/// counts its frames and whether any brick is stored, and refuses a 28th frame, frames
+/// of other widths, an empty finish and frames it cannot tile, with a message.
+#[test]
+fn a_volume_filled_frame_by_frame_refuses_what_it_cannot_hold() {
+    let dims = [9, 9, 9];
+    let opts = |bits| QuantOptions {
+        error: 1.0 / 255.0,
+        bits,
+    };
+    let mut r = vec![0.0f32; 729];
+    let empty = quantize(&r, 1.0, opts(8)).unwrap();
+    r[3] = 0.5;
+    let one = quantize(&r, 1.0, opts(8)).unwrap();
+    let wider = quantize(&r, 1.0, opts(12)).unwrap();
+
+    let mut b = GroupBuilder::new(dims, 4).unwrap();
+    assert!(b.is_empty() && b.frames() == 0);
+    b.push(&empty).unwrap();
+    assert!(b.is_empty() && b.frames() == 1);
+    b.push(&one).unwrap();
+    assert!(!b.is_empty());
+    for _ in 2..GROUP {
+        b.push(&empty).unwrap();
+    }
+    assert_eq!(b.frames(), GROUP);
+    let err = b.push(&empty).unwrap_err().to_string();
+    assert!(err.contains("1 to 27 frames, not 28"), "{err}");
+    let g = b.finish(BuildOptions::default()).unwrap();
+    assert_eq!((g.frames(), g.bricks_of(1), g.words_of(1)), (GROUP, 1, 16));
+    assert!((g.lookup(1, [3, 0, 0]) - 0.5).abs() <= 1.0 / 255.0);
+
+    let mut b = GroupBuilder::new(dims, 4).unwrap();
+    b.push(&one).unwrap();
+    let err = b.push(&wider).unwrap_err().to_string();
+    assert!(err.contains("differ in bits"), "{err}");
+    let err = GroupBuilder::new(dims, 4)
+        .unwrap()
+        .finish(BuildOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("not 0"), "{err}");
+    assert!(GroupBuilder::new(dims, 3).is_err());
+    assert!(GroupBuilder::new([0, 9, 9], 4).is_err());
+    assert!(GroupBuilder::new([u32::MAX, 9, 9], 4).is_err());
 }
