@@ -111,6 +111,14 @@ pub struct BakeCli {
     /// Side of the voxel bricks the residual is hashed by (1, 2, 4 or 8).
     #[arg(long, default_value_t = haze_hash::tile::DEFAULT_BRICK, value_parser = parse_brick)]
     pub(crate) residual_brick: u32,
+    /// Largest decoded size of a residual hash volume, in MiB. A volume holds up to 27
+    /// frames and closes early, with fewer, before another frame would take it past this:
+    /// playback holds up to three volumes at once and the bake one, so this bounds the
+    /// memory both need for the residual whatever the frames' size (turbulent smoke at
+    /// 256³ takes about 10 MiB a frame). Larger volumes code a little smaller: the coder
+    /// adapts over more frames.
+    #[arg(long, value_name = "MIB", default_value_t = (haze_hash::tile::VOLUME_BYTES >> 20) as f64, value_parser = parse_volume_mib)]
+    pub(crate) volume_mib: f64,
     /// Also write a JSON report of every frame's fit.
     #[arg(long, value_name = "REPORT.json")]
     pub(crate) report: Option<PathBuf>,
@@ -284,6 +292,7 @@ impl BakeCli {
                     bits: self.quant_bits,
                 },
                 brick: self.residual_brick,
+                volume_bytes: (self.volume_mib * 1_048_576.0).round() as usize,
                 resume: self.resume,
                 warm_up: self.warm_up,
                 baseline: None,
@@ -309,6 +318,15 @@ fn parse_brick(s: &str) -> Result<u32, String> {
         .ok()
         .filter(|b| haze_hash::tile::BRICK_SIDES.contains(b))
         .ok_or_else(|| format!("'{s}' is not one of {:?}", haze_hash::tile::BRICK_SIDES))
+}
+
+/// A volume size in MiB, from a thousandth to 2048 (a block indexes at most 2²⁹ packed
+/// words, 2 GiB).
+fn parse_volume_mib(s: &str) -> Result<f64, String> {
+    s.parse::<f64>()
+        .ok()
+        .filter(|v| (0.001..=2048.0).contains(v))
+        .ok_or_else(|| format!("'{s}' is not a size in MiB from 0.001 to 2048"))
 }
 
 /// Everything `haze bake` was asked to do.

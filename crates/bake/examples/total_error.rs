@@ -69,6 +69,7 @@ fn main() {
         fit,
         quant,
         brick: haze_hash::tile::DEFAULT_BRICK,
+        volume_bytes: haze_hash::tile::VOLUME_BYTES,
         resume: false,
         warm_up: 0,
         baseline: None,

@@ -47,6 +47,9 @@ pub struct BakeOptions {
     pub quant: haze_hash::QuantOptions,
     /// Brick side of the residual hash.
     pub brick: u32,
+    /// A hash volume closes (with fewer than 27 frames) before its decoded tables would
+    /// pass this many bytes: what playback and the bake hold of the residual at once.
+    pub volume_bytes: usize,
     /// Continue the interrupted bake of `out` from its journal.
     pub resume: bool,
     /// Frames fitted before the range's first and dropped, so that its first frame is
@@ -68,7 +71,8 @@ impl BakeOptions {
     /// The bake of `input` into `out` with every default of `haze bake INPUT --out OUT`:
     /// 300 RBFs a first frame, the fitter's defaults, the residual to
     /// [`haze_hash::DEFAULT_ERROR`] of each frame's peak in bricks of
-    /// [`haze_hash::tile::DEFAULT_BRICK`], every frame, no resume.
+    /// [`haze_hash::tile::DEFAULT_BRICK`] and volumes of at most
+    /// [`haze_hash::tile::VOLUME_BYTES`], every frame, no resume.
     pub fn new(input: impl Into<PathBuf>, out: impl Into<PathBuf>) -> BakeOptions {
         BakeOptions {
             input: input.into(),
@@ -79,6 +83,7 @@ impl BakeOptions {
             fit: SequenceOptions::default(),
             quant: haze_hash::QuantOptions::default(),
             brick: haze_hash::tile::DEFAULT_BRICK,
+            volume_bytes: haze_hash::tile::VOLUME_BYTES,
             resume: false,
             warm_up: 0,
             baseline: None,
@@ -339,7 +344,13 @@ impl Bake {
             }
             warm_up(&args, &mut fitter, &mut events)?;
         }
-        let mut residuals = ResidualStage::new(args.quant, args.brick, seq.dims(), done.hashed)?;
+        let mut residuals = ResidualStage::new(
+            args.quant,
+            args.brick,
+            args.volume_bytes,
+            seq.dims(),
+            done.hashed,
+        )?;
         // Frames finished but not yet hashed: their quantized residuals again (deterministic).
         for i in done.hashed..done.records.len() {
             let v = seq.load(i)?;
@@ -592,7 +603,7 @@ fn apply(records: &mut [FrameRecord], h: &HashVolume) {
 /// files) and every setting that changes the result.
 fn inputs(seq: &Frames, args: &BakeOptions) -> Result<serde_json::Value> {
     let frames = seq.identity()?;
-    Ok(json!({
+    let mut inputs = json!({
         "generator": env!("CARGO_PKG_VERSION"),
         "frames": frames,
         "import": args.import,
@@ -601,7 +612,13 @@ fn inputs(seq: &Frames, args: &BakeOptions) -> Result<serde_json::Value> {
         "quant_bits": args.quant.bits,
         "residual_error": args.quant.error,
         "residual_brick": args.brick,
-    }))
+    });
+    // Named only when not the default, so that journals written before volumes had a
+    // size limit (all at the default) still resume.
+    if args.volume_bytes != haze_hash::tile::VOLUME_BYTES {
+        inputs["residual_volume_bytes"] = json!(args.volume_bytes);
+    }
+    Ok(inputs)
 }
 
 /// The finished part of an interrupted bake, from its journal.
@@ -617,6 +634,7 @@ fn restore(path: &Path, inputs: &serde_json::Value, records: Vec<Record>) -> Res
             "quant_bits",
             "residual_error",
             "residual_brick",
+            "residual_volume_bytes",
             "generator",
         ]
         .into_iter()
@@ -633,6 +651,7 @@ fn restore(path: &Path, inputs: &serde_json::Value, records: Vec<Record>) -> Res
                 "quant_bits" => "--quant-bits",
                 "residual_error" => "--residual-error",
                 "residual_brick" => "--residual-brick",
+                "residual_volume_bytes" => "--volume-mib",
                 "generator" => "haze version",
                 other => other,
             }

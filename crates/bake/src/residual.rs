@@ -4,11 +4,13 @@
 //! frame of the group.
 //!
 //! Each frame's bricks are packed into its hash volume as soon as it is quantized
-//! ([`GroupBuilder`]), so a volume waits as packed words, not as the frames' cells.
+//! ([`GroupBuilder`]), so a volume waits as packed words, not as the frames' cells. A
+//! volume closes early, with fewer frames, where another frame would take its decoded
+//! tables past the bake's `volume_bytes` ([`haze_hash::tile::VOLUME_BYTES`] unless set).
 
 use anyhow::{Result, anyhow};
 use haze_asset::{Scope, decode_rbfs, encode_rbfs};
-use haze_hash::tile::{GROUP, GroupBuilder, ResidualGroup};
+use haze_hash::tile::{GroupBuilder, ResidualGroup};
 use haze_hash::{BuildOptions, QuantOptions, block, quantize};
 use haze_volume::{Rbf, Volume, rbf};
 use serde::{Deserialize, Serialize};
@@ -56,6 +58,8 @@ pub struct ResidualStage {
     brick: u32,
     dims: [u32; 3],
     first: usize,
+    /// The decoded size a hash volume closes before ([`GroupBuilder::has_room`]).
+    volume_bytes: usize,
     /// The hash volume being filled: each frame's bricks packed as it is quantized.
     group: GroupBuilder,
     /// Each pending frame's seconds (its quantization and packing).
@@ -125,8 +129,16 @@ pub fn reconstruct(
 }
 
 impl ResidualStage {
-    /// A stage whose next frame is asset frame `first`, the start of a hash volume.
-    pub fn new(opts: QuantOptions, brick: u32, dims: [usize; 3], first: usize) -> Result<Self> {
+    /// A stage whose next frame is asset frame `first`, the start of a hash volume, and
+    /// whose volumes close at 27 frames or before their decoded tables would pass
+    /// `volume_bytes`.
+    pub fn new(
+        opts: QuantOptions,
+        brick: u32,
+        volume_bytes: usize,
+        dims: [usize; 3],
+        first: usize,
+    ) -> Result<Self> {
         let dims = dims.map(|d| d as u32);
         opts.validate().map_err(|e| anyhow!("{e}"))?;
         Ok(ResidualStage {
@@ -134,6 +146,7 @@ impl ResidualStage {
             brick,
             dims,
             first,
+            volume_bytes,
             group: GroupBuilder::new(dims, brick).map_err(|e| anyhow!("residual: {e}"))?,
             seconds: Vec::new(),
         })
@@ -186,9 +199,10 @@ impl ResidualStage {
         Ok(record)
     }
 
-    /// Whether a hash volume is complete.
+    /// Whether a hash volume is complete: 27 frames, or no room for another frame of
+    /// its frames' mean size.
     pub fn full(&self) -> bool {
-        self.seconds.len() == GROUP
+        !self.group.has_room(self.volume_bytes)
     }
 
     /// Hashes the pending frames into one hash volume (`None` when none are pending).

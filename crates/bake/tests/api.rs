@@ -33,6 +33,7 @@ fn options(out: &Path, resume: bool) -> BakeOptions {
             bits: 8,
         },
         brick: 4,
+        volume_bytes: haze_hash::tile::VOLUME_BYTES,
         resume,
         warm_up: 0,
         baseline: None,
@@ -111,4 +112,42 @@ fn frames_stream_out_and_an_interrupted_bake_resumes_to_the_same_asset() {
         "worst {worst}, peak {peak}"
     );
     assert!(reconstruct_frame(&whole, 99).is_err());
+}
+
+/// Hash volumes closed by size rather than by count: with room for one frame each, the
+/// three frames take three residual blocks, and every frame reconstructs exactly as from
+/// one volume of three (the residual is quantized per frame; only its coding differs).
+#[test]
+fn volumes_closed_by_their_size_hold_the_same_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let one = dir.path().join("one.haze");
+    Bake::new(options(&one, false), |_: Event<'_>| {})
+        .unwrap()
+        .finish()
+        .unwrap();
+    let small = dir.path().join("small.haze");
+    let tiny = BakeOptions {
+        volume_bytes: 1,
+        ..options(&small, false)
+    };
+    Bake::new(tiny, |_: Event<'_>| {})
+        .unwrap()
+        .finish()
+        .unwrap();
+    let residual_blocks = |p: &Path| {
+        haze_asset::Asset::open(p)
+            .unwrap()
+            .entries()
+            .iter()
+            .filter(|e| e.kind == haze_asset::BlockKind::ResidualHash)
+            .count()
+    };
+    assert_eq!((residual_blocks(&one), residual_blocks(&small)), (1, 3));
+    for frame in 23..=25 {
+        let (a, b) = (
+            reconstruct_frame(&one, frame).unwrap(),
+            reconstruct_frame(&small, frame).unwrap(),
+        );
+        assert_eq!(a.data, b.data, "frame {frame}");
+    }
 }

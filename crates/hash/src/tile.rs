@@ -16,8 +16,17 @@ use crate::psh::{BuildOptions, HashError, PerfectHash};
 use crate::quantize::Quantized;
 use std::collections::BTreeMap;
 
-/// Frames per hash volume.
+/// Frames per hash volume, at most.
 pub const GROUP: usize = 27;
+
+/// The decoded size a hash volume stops growing at by default (128 MiB): a bake closes a
+/// volume early, with fewer than [`GROUP`] frames, rather than let another frame take it
+/// past this ([`GroupBuilder::has_room`]). Playback holds up to three volumes at once
+/// (the one playing, the one before it until its last frame is let go, the next one
+/// decoding), so this bounds its cache at about 384 MiB whatever the frames' size, and
+/// bounds the bake's volume waiting to be hashed the same way. Smooth 128³-class smoke
+/// fills 27 frames with a few MiB; turbulent 256³-class smoke takes about 10 MiB a frame.
+pub const VOLUME_BYTES: usize = 128 << 20;
 
 /// Brick sides the residual may be stored with.
 pub const BRICK_SIDES: [u32; 4] = [1, 2, 4, 8];
@@ -95,6 +104,12 @@ impl ResidualGroup {
     /// Frames in the group.
     pub fn frames(&self) -> usize {
         self.steps.len()
+    }
+
+    /// Bytes of its decoded tables, as the GPU holds them: the hash's arrays and the
+    /// packed words.
+    pub fn bytes(&self) -> usize {
+        self.hash.bytes() + 4 * self.data.len()
     }
 
     /// Bricks stored for frame `j`.
@@ -206,6 +221,24 @@ impl GroupBuilder {
     /// Whether no pushed frame stores a brick.
     pub fn is_empty(&self) -> bool {
         self.cells.is_empty()
+    }
+
+    /// The bytes the volume's decoded tables will take ([`ResidualGroup::bytes`]) if no
+    /// frame is added: its packed words, and a key and a payload for each of the `m³`
+    /// slots ([`PerfectHash::side_for`] its bricks) plus the offset table, whose side is
+    /// at least `∛(bricks/5)` (the build's first try).
+    pub fn decoded_bytes(&self) -> usize {
+        let k = self.cells.len();
+        let m = PerfectHash::side_for(k) as usize;
+        4 * self.data.len() + 8 * m * m * m + 4 * k.div_ceil(5)
+    }
+
+    /// Whether one more frame fits: fewer than [`GROUP`] frames, and one more of the
+    /// frames' mean decoded size keeps the volume within `limit` bytes. An empty volume
+    /// always has room (a frame larger than `limit` makes a volume of its own).
+    pub fn has_room(&self, limit: usize) -> bool {
+        let n = self.frames();
+        n == 0 || (n < GROUP && self.decoded_bytes() + self.decoded_bytes() / n <= limit)
     }
 
     /// Packs frame `f` (the next of the volume) brick by brick, in ascending brick order.

@@ -228,3 +228,47 @@ fn a_volume_filled_frame_by_frame_refuses_what_it_cannot_hold() {
     assert!(GroupBuilder::new([0, 9, 9], 4).is_err());
     assert!(GroupBuilder::new([u32::MAX, 9, 9], 4).is_err());
 }
+
+/// A filling volume's decoded size, as the bake closes volumes by it: never above the
+/// built volume's tables and within the offset table's share (at most a fifth of a word a
+/// brick more, as the build may widen it) below; room for another frame while one more of
+/// the mean size fits the limit and fewer than 27 frames are held, always for a first.
+#[test]
+fn a_filling_volume_knows_its_decoded_size() {
+    let dims = [24, 20, 28];
+    let n = (dims[0] * dims[1] * dims[2]) as usize;
+    let opts = QuantOptions {
+        error: 1.0 / 255.0,
+        bits: 8,
+    };
+    let mut rng = Lcg(7);
+    let mut b = GroupBuilder::new(dims, 4).unwrap();
+    assert!(b.has_room(0));
+    let mut frames = Vec::new();
+    for _ in 0..5 {
+        let r: Vec<f32> = (0..n)
+            .map(|_| {
+                let u = rng.next() as f64 / (1u64 << 31) as f64;
+                if u < 0.3 { (u * 2.0) as f32 } else { 0.0 }
+            })
+            .collect();
+        let q = quantize(&r, 1.0, opts).unwrap();
+        b.push(&q).unwrap();
+        frames.push(q);
+    }
+    let estimate = b.decoded_bytes();
+    let mean = estimate / 5;
+    assert!(b.has_room(estimate + mean) && !b.has_room(estimate + mean - 1));
+    let g = b.finish(BuildOptions::default()).unwrap();
+    let bricks = g.hash.keys.iter().filter(|&&k| k != 0).count();
+    let actual = g.bytes();
+    assert!(
+        estimate <= actual && actual - estimate <= 4 * bricks,
+        "estimate {estimate}, built {actual}, {bricks} bricks"
+    );
+    let mut full = GroupBuilder::new(dims, 4).unwrap();
+    for _ in 0..GROUP {
+        full.push(&frames[0]).unwrap();
+    }
+    assert!(!full.has_room(usize::MAX));
+}

@@ -5,12 +5,14 @@
 //!
 //! Memory is bounded whatever the sequence length: at most `ahead` decoded frames wait in
 //! the queue, one more is being decoded and one is held by the caller; a hash volume is
-//! decoded once and shared (`Arc`) by the frames of its 27 that are in flight, and the
-//! stream decodes the next hash volume on a thread of its own as soon as it enters one
-//! (its values are range-coded, tens of ms a volume; playback would otherwise wait at
-//! each volume's first frame), so at most three are alive in order playback. Scrubbing ([`FrameStream::seek`]) restarts the reader
-//! at the new frame and discards what it had read ahead. A damaged block is reported on
-//! its frame, with the file and the block named, and playback goes on.
+//! decoded once and shared (`Arc`) by those of its frames (up to 27) that are in flight,
+//! and the stream decodes the next hash volume on a thread of its own as soon as it
+//! enters one (playback would otherwise wait at each volume's first frame), so at most
+//! three are alive in order playback, each within the size its bake closed volumes at
+//! (`haze bake --volume-mib`, 128 MiB by default). Scrubbing ([`FrameStream::seek`])
+//! restarts the reader at the new frame and discards what it had read ahead. A damaged
+//! block is reported on its frame, with the file and the block named, and playback goes
+//! on.
 //!
 //! A packed asset's frame (`haze pack`: a raw volume) plays as a frame with no RBFs and
 //! the whole density as a lossless residual, hashed as it is read (tens of ms a frame).

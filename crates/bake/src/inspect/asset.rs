@@ -71,7 +71,7 @@ pub(super) fn report(path: &Path, progress: Progress<'_>) -> Result<AssetReport>
             BlockKind::ResidualHash => {
                 let g = haze_hash::block::decode(view.bytes)
                     .map_err(|e| asset.block_error(&view, e))?;
-                (g.hash.bytes() + 4 * g.data.len()) as u64
+                g.bytes() as u64
             }
             BlockKind::Unknown(_) => view.bytes.len() as u64,
         };
