@@ -49,13 +49,13 @@ fn main() {
         rbfs += f.rbfs.len();
     }
     let dt = t.elapsed().as_secs_f64();
-    println!(
+    say(format!(
         "{}: {n} frames, {:.0} RBFs/frame, drained in {:.1} ms: {:.0} frames/s",
         path.display(),
         rbfs as f64 / n as f64,
         dt * 1e3,
         n as f64 / dt
-    );
+    ));
 
     // The drained stream's frames go before playback opens its own: a player holds one.
     drop(s);
@@ -80,9 +80,18 @@ fn main() {
         }
         worst = worst.max(asked.elapsed());
     }
-    println!(
+    say(format!(
         "playback at {fps} fps, {ahead} ahead, {total} frames: first after {:.2} ms, then {late} late, longest wait {:.3} ms",
         startup.as_secs_f64() * 1e3,
         worst.as_secs_f64() * 1e3
-    );
+    ));
+}
+
+/// Prints a result line; a closed pipe (the output piped into `head`) ends the run
+/// quietly instead of panicking.
+fn say(line: String) {
+    use std::io::Write;
+    if writeln!(std::io::stdout(), "{line}").is_err() {
+        std::process::exit(0);
+    }
 }
