@@ -478,6 +478,17 @@ impl Bake {
         if self.residuals.full() || i + 1 == seq.len() {
             (self.events)(Event::Hashing);
             if let Some(h) = self.residuals.flush()? {
+                // Before 27 frames and before the sequence's end: closed by its size.
+                if h.count < haze_hash::tile::GROUP && i + 1 < seq.len() {
+                    tracing::info!(
+                        "frames {}..{}: hash volume closed at {} frame{}, as another would take it past --volume-mib {}",
+                        seq.number(h.first),
+                        seq.number(h.first + h.count - 1),
+                        h.count,
+                        if h.count == 1 { "" } else { "s" },
+                        (self.options.volume_bytes as f64 / 1_048_576.0 * 1e3).round() / 1e3
+                    );
+                }
                 let shares = json!({"first": h.first, "count": h.count, "shares": h.shares,
                                     "bricks": h.bricks});
                 self.journal.append(Tag::Group, &shares, &h.bytes)?;
