@@ -194,7 +194,6 @@ impl ResidualStage {
         };
         // Packed now and let go: the volume waits as packed words, not as cells.
         self.group.push(&q).map_err(|e| anyhow!("residual: {e}"))?;
-        drop(q);
         self.seconds.push(t.elapsed().as_secs_f64());
         Ok(record)
     }

@@ -238,7 +238,11 @@ impl GroupBuilder {
     /// always has room (a frame larger than `limit` makes a volume of its own).
     pub fn has_room(&self, limit: usize) -> bool {
         let n = self.frames();
-        n == 0 || (n < GROUP && self.decoded_bytes() + self.decoded_bytes() / n <= limit)
+        if n == 0 {
+            return true;
+        }
+        let d = self.decoded_bytes();
+        n < GROUP && d + d / n <= limit
     }
 
     /// Packs frame `f` (the next of the volume) brick by brick, in ascending brick order.
