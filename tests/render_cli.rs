@@ -288,6 +288,12 @@ fn bad_render_requests_fail_on_one_line() {
     );
     fails(&["render", &vol, "--out", out, "--albedo", "1.5"], "albedo");
     fails(&["render", &vol, "--out", out, "--slices", "0"], "--slices");
+    for detail in ["0", "1.5", "-1", "nan"] {
+        fails(
+            &["render", &vol, "--out", out, "--lighting-detail", detail],
+            "--lighting-detail",
+        );
+    }
     fails(
         &["render", &vol, "--out", out, "--eye", "1,2,3"],
         "--target",

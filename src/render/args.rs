@@ -78,6 +78,13 @@ pub struct RenderCli {
     /// more time; the time grows as the inverse cube).
     #[arg(long, default_value_t = haze_view::render::env_pass::EnvGridOptions::default().spacing, value_parser = positive_f64)]
     pub(crate) env_grid_spacing: f64,
+    /// The lighting's detail, above 0 and at most 1: below 1 the environment grid's
+    /// spacing is divided by it and the explicit orders' automatic cells grow as
+    /// 1/detail, so a new frame's lighting costs about detail³ as much (BENCHMARKS.md
+    /// "Viewer playback: the lighting's detail" measures the error); the viewer lowers it
+    /// while playback cannot keep up.
+    #[arg(long, default_value_t = 1.0, value_name = "D")]
+    pub(crate) lighting_detail: f64,
     /// Render with the reference path tracer instead (slow).
     #[arg(long, conflicts_with = "gpu")]
     pub(crate) reference: bool,
@@ -269,6 +276,7 @@ impl RenderCli {
             import: self.import.options(),
             supersample: self.supersample,
             ground: self.ground,
+            detail: self.lighting_detail,
         };
         (options, goal, tradeoff)
     }

@@ -72,6 +72,8 @@ pub struct RenderOptions {
     pub supersample: Supersample,
     /// Whether a ground shows under the smoke ([`GroundChoice`]).
     pub ground: GroundChoice,
+    /// The fast renderer's lighting detail, `(0, 1]` (`CrmOptions::detail`).
+    pub detail: f64,
 }
 
 impl RenderOptions {
@@ -121,6 +123,7 @@ impl RenderOptions {
             import: ImportOptions::default(),
             supersample: Supersample::Auto,
             ground: GroundChoice::Auto,
+            detail: crm.detail,
         }
     }
 }
@@ -201,6 +204,7 @@ pub fn render_image(a: &RenderOptions) -> Result<Rendered> {
     }
     let medium = Medium::new(a.sigma_t, a.albedo, a.g).map_err(|e| anyhow!("{e}"))?;
     check_knobs(a.sh_order, a.slices)?;
+    CrmOptions::check_detail(a.detail).map_err(|e| anyhow!("--lighting-detail: {e}"))?;
     // The reference lights with a map whole (the truth); the fast renderers with its
     // concentrated light split off into suns.
     let env = if a.reference {
@@ -286,6 +290,7 @@ pub fn render_image(a: &RenderOptions) -> Result<Rendered> {
             solve: a.solve,
             diffusion: a.diffusion,
             ground,
+            detail: a.detail,
             ..CrmOptions::default()
         };
         let (dims, bbox) = (frame.density.dims(), frame.density.bbox());

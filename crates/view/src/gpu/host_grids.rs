@@ -21,7 +21,6 @@ use super::renderer::{EnvGridKey, FrameStats, GpuFrame, Reuse, SourceKey};
 use super::volume_pass::Residual;
 use crate::diffusion::DiffusionSolver;
 use crate::lighting::single::{RgbSh, ShKit};
-use crate::render::env_pass::EnvSource;
 use crate::render::frame_light::{FrameInput, FrameLight, Kept};
 use crate::render::{CrmOptions, CrmStats, MsDiffusion};
 use crate::sh::{self, ShGrid};
@@ -134,17 +133,14 @@ impl HostGrids {
                     )),
                 };
                 let setup_seconds = t.elapsed().as_secs_f64();
-                let grid_key = match opts.env_source {
-                    EnvSource::Grid(grid) => Some(EnvGridKey {
-                        frame: frame.key,
-                        residual: opts.residual,
-                        sigma_t: medium.sigma_t,
-                        distant,
-                        order: opts.order,
-                        grid,
-                    }),
-                    EnvSource::Centers => None,
-                };
+                let grid_key = opts.env_grid().map(|grid| EnvGridKey {
+                    frame: frame.key,
+                    residual: opts.residual,
+                    sigma_t: medium.sigma_t,
+                    distant,
+                    order: opts.order,
+                    grid,
+                });
                 let kept_grid = match (&self.env_grid, grid_key) {
                     (Some((k, g)), Some(key)) if *k == key => Some(g.clone()),
                     _ => None,

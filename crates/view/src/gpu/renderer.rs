@@ -608,7 +608,7 @@ impl GpuRenderer {
         env_light: Option<&RgbSh>,
         stats: &mut FrameStats,
     ) -> Result<(), GpuError> {
-        if let (EnvSource::Grid(g), Some(light)) = (&opts.env_source, env_light) {
+        if let (Some(g), Some(light)) = (&opts.env_grid(), env_light) {
             let t = Instant::now();
             let key = EnvGridKey {
                 frame: frame.key,
@@ -709,7 +709,7 @@ impl GpuRenderer {
                         &self.env,
                         &self.lights,
                         medium,
-                        factor,
+                        gpu_orders_factor(factor, opts.detail),
                         orders,
                     )?;
                     self.orders
@@ -780,4 +780,16 @@ fn check_options(opts: &CrmOptions) -> Result<(), GpuError> {
         return Err(GpuError::Input(e));
     }
     Ok(())
+}
+
+/// The gathered orders' factor on the GPU at the lighting's `detail`
+/// (`CrmOptions::detail`): a given factor as it is; [`MsDiffusion::AUTO`] at detail 1 as
+/// it is (the pass's own choice), below 1 the CPU's smallest automatic side there
+/// (`grid_diffusion::auto_min_factor`), at most the pass's largest.
+fn gpu_orders_factor(factor: usize, detail: f64) -> usize {
+    let detail = crate::render::detail_or_one(detail);
+    if factor != MsDiffusion::AUTO || detail >= 1.0 {
+        return factor;
+    }
+    crate::render::grid_diffusion::auto_min_factor(detail).min(crate::gpu::orders::MAX_FACTOR)
 }

@@ -336,7 +336,7 @@ pub fn env_grid(
 
 /// The box of node indices (per axis the first and last) holding every needed node;
 /// `None` without one.
-fn node_domain(needed: &[bool], nodes: [usize; 3]) -> Option<[(usize, usize); 3]> {
+pub(crate) fn node_domain(needed: &[bool], nodes: [usize; 3]) -> Option<[(usize, usize); 3]> {
     let mut domain: Option<[(usize, usize); 3]> = None;
     for (i, _) in needed.iter().enumerate().filter(|(_, n)| **n) {
         let k = [

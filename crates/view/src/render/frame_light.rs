@@ -7,7 +7,7 @@
 //! light towards the eye, added in that order. The two together are [`super::crm_grids`].
 
 use super::crm::{self, VolumeGrids};
-use super::env_pass::{self, EnvSource};
+use super::env_pass;
 use super::grid_diffusion::{self, MediaRadiance};
 use super::{CrmOptions, CrmStats, MsDiffusion, centers_single, lights_pass, source_radiance};
 use crate::diffusion::{DiffusionSolver, Sources};
@@ -82,7 +82,7 @@ impl FrameLight {
         let mut grids = volume(frame, &source, eye, opts);
         stats.volume_seconds = t.elapsed().as_secs_f64();
         let mut env_grid = None;
-        if let EnvSource::Grid(g) = &opts.env_source {
+        if let Some(g) = &opts.env_grid() {
             let t = Instant::now();
             let grid = match kept_grid {
                 Some(grid) => grid,
@@ -107,7 +107,7 @@ impl FrameLight {
             stats.env_seconds = t.elapsed().as_secs_f64();
         }
         let t = Instant::now();
-        lights_pass::lights_pass(&mut grids, env, medium, eye);
+        lights_pass::lights_pass_at(&mut grids, env, medium, eye, opts.detail);
         stats.lights_seconds = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let rbfs = frame.rbfs;
@@ -136,6 +136,7 @@ impl FrameLight {
                     medium,
                     factor,
                     orders,
+                    opts.detail,
                     &opts.grid_solve,
                 ))
             }
@@ -159,7 +160,7 @@ impl FrameLight {
         (light, grids, stats)
     }
 
-    /// The environment pass's grid of the frame (with [`EnvSource::Grid`]).
+    /// The environment pass's grid of the frame (with [`env_pass::EnvSource::Grid`]).
     pub fn env_grid(&self) -> Option<&Arc<ShGrid>> {
         self.env_grid.as_ref().map(|(g, _)| g)
     }
@@ -193,7 +194,7 @@ impl FrameLight {
             stats.env_seconds = t.elapsed().as_secs_f64();
         }
         let t = Instant::now();
-        lights_pass::lights_pass(&mut grids, env, medium, eye);
+        lights_pass::lights_pass_at(&mut grids, env, medium, eye, opts.detail);
         stats.lights_seconds = t.elapsed().as_secs_f64();
         if let Some(ms) = &self.ms {
             let t = Instant::now();

@@ -8,7 +8,15 @@
 //! volume, residual included): `τ = Σ_k D(u + (k + ½)h·s)·h` over `n = ⌈ℓ/h₀⌉` equal
 //! steps `h = ℓ/n`, `h₀` the smallest voxel side, `ℓ` the distance to the box's face (or
 //! to a point light inside the box), `D` trilinear (`field::sample`); the march stops
-//! once `σt·τ > 20` (`T < 2·10⁻⁹`). Voxels with `D = 0` emit nothing and are skipped.
+//! once `σt·τ > 20` (`T < 2·10⁻⁹`), and skips its samples in blocks without density
+//! ([`Occupancy`]: the same sum). Voxels with `D = 0` emit nothing and are skipped.
+//!
+//! **At a lower detail** ([`lights_pass_at`], `CrmOptions::detail` below 1) a sun's `τ`
+//! comes instead from a sweep over the voxel planes ([`super::env_sweep`], its nodes the
+//! voxel centers): each voxel's depth from its segment to the plane four voxels nearer
+//! the face and that plane's swept depths, read bilinearly — one sweep a sun instead of
+//! a march a voxel, its shadows' edges blurred by about half a voxel per `√(n/4)` planes
+//! crossed. Point lights still march.
 //!
 //! The GPU twin is `shaders/lights_pass.wgsl` (`gpu::lights_pass`).
 
@@ -26,11 +34,29 @@ use std::sync::Arc;
 /// Optical depth (σt·τ) beyond which the shadow march stops.
 pub const SHADOW_CUTOFF: f64 = 20.0;
 
-/// Adds the suns and point lights of `env` to the radiance of `grids` (camera at `eye`).
+/// Adds the suns and point lights of `env` to the radiance of `grids` (camera at `eye`),
+/// every shadow marched (module docs).
 pub fn lights_pass(grids: &mut VolumeGrids, env: &Environment, medium: &Medium, eye: [f64; 3]) {
+    lights_pass_at(grids, env, medium, eye, 1.0);
+}
+
+/// [`lights_pass`] at the lighting's `detail` (`CrmOptions::detail`): below 1 the suns'
+/// shadows come from a sweep over the voxel planes (module docs).
+pub fn lights_pass_at(
+    grids: &mut VolumeGrids,
+    env: &Environment,
+    medium: &Medium,
+    eye: [f64; 3],
+    detail: f64,
+) {
     if !env.has_lights() || medium.albedo == 0.0 {
         return;
     }
+    // No density: nothing to light (the lit voxels are those with `D > 0` and their
+    // shell).
+    let Some(occupied) = Occupancy::new(&grids.density) else {
+        return;
+    };
     let phases: Vec<Arc<DiskPhase>> = env
         .suns
         .iter()
@@ -46,6 +72,16 @@ pub fn lights_pass(grids: &mut VolumeGrids, env: &Environment, medium: &Medium, 
     let plane = dims[0] * dims[1];
     let k = medium.albedo / FOUR_PI;
     let lit = lit_voxels(density);
+    // Per sun, at a lower detail, σt·τ at every voxel center by a sweep.
+    let swept: Vec<Option<Vec<f32>>> = env
+        .suns
+        .iter()
+        .map(|sun| {
+            (super::detail_or_one(detail) < 1.0)
+                .then(|| sun_depths(density, medium.sigma_t, &lit, sun.direction, &occupied))
+                .flatten()
+        })
+        .collect();
     grids
         .radiance
         .par_chunks_mut(plane.max(1))
@@ -63,8 +99,20 @@ pub fn lights_pass(grids: &mut VolumeGrids, env: &Environment, medium: &Medium, 
                     continue;
                 };
                 let mut add = [0.0f64; 3];
-                for (sun, phase) in env.suns.iter().zip(&phases) {
-                    let t = transmittance(density, medium.sigma_t, u, sun.direction, f64::MAX, h0);
+                for ((sun, phase), swept) in env.suns.iter().zip(&phases).zip(&swept) {
+                    let t = match swept {
+                        Some(depths) => (-f64::from(depths[idx])).exp(),
+                        None => (-optical_depth_within(
+                            density,
+                            medium.sigma_t,
+                            u,
+                            sun.direction,
+                            f64::MAX,
+                            h0,
+                            &occupied,
+                        ))
+                        .exp(),
+                    };
                     if t <= 0.0 {
                         continue;
                     }
@@ -83,7 +131,16 @@ pub fn lights_pass(grids: &mut VolumeGrids, env: &Environment, medium: &Medium, 
                         }
                         continue;
                     };
-                    let t = transmittance(density, medium.sigma_t, u, s, r2.sqrt(), h0);
+                    let t = (-optical_depth_within(
+                        density,
+                        medium.sigma_t,
+                        u,
+                        s,
+                        r2.sqrt(),
+                        h0,
+                        &occupied,
+                    ))
+                    .exp();
                     let p = hg(medium.g, dot(s, d));
                     for (a, i) in add.iter_mut().zip(light.intensity) {
                         *a += i / (r2 + soft) * t * p;
@@ -94,6 +151,28 @@ pub fn lights_pass(grids: &mut VolumeGrids, env: &Environment, medium: &Medium, 
                 }
             }
         });
+}
+
+/// `σt·τ` from every voxel center towards the sun along the unit `w` to the box's face,
+/// by a sweep over the voxel planes ([`super::env_sweep::sweep_depths`] on a grid whose
+/// nodes are the voxel centers), swept over the box of the `lit` voxels; `None` when none
+/// is lit.
+fn sun_depths(
+    density: &Volume,
+    sigma_t: f64,
+    lit: &[bool],
+    w: [f64; 3],
+    occupied: &Occupancy,
+) -> Option<Vec<f32>> {
+    let dims = density.dims();
+    let grid = super::env_pass::grid_frame(dims, density.bbox(), 1.0, 1);
+    debug_assert_eq!(grid.nodes, dims, "one node a voxel");
+    let domain = super::env_pass::node_domain(lit, dims)?;
+    let vs = density.voxel_size();
+    let h0 = vs[0].min(vs[1]).min(vs[2]);
+    Some(super::env_sweep::sweep_depths(
+        density, sigma_t, &grid, domain, w, h0, occupied,
+    ))
 }
 
 /// `exp(−σt·τ)` from `u` along the unit `s` to the box's face or `max_len`, whichever is

@@ -57,6 +57,51 @@ pub struct CrmOptions {
     /// A ground under the smoke, seen by the view pass ([`crate::ground`]); none by
     /// default.
     pub ground: Option<crate::ground::Ground>,
+    /// The lighting's detail, in `(0, 1]` ([`CrmOptions::check_detail`]): 1 lights as
+    /// the other knobs say (the default); below 1 the environment pass's grid is
+    /// coarser, its spacing divided by `detail` ([`CrmOptions::env_grid`]), and the
+    /// automatic cells of the explicit orders larger, their work budget times
+    /// `detail⁴` and their side at least `2/detail` voxels
+    /// ([`grid_diffusion::auto_grid`]). A new frame's lighting then costs about
+    /// `detail³` as much; what it costs in error is measured in BENCHMARKS.md ("Viewer
+    /// playback: the lighting's detail"). The viewer lowers it while playback cannot keep
+    /// up.
+    pub detail: f64,
+}
+
+impl CrmOptions {
+    /// The environment pass's grid options at this detail (`None` with
+    /// [`EnvSource::Centers`]): the spacing divided by [`CrmOptions::detail`].
+    pub fn env_grid(&self) -> Option<EnvGridOptions> {
+        match self.env_source {
+            EnvSource::Grid(g) => Some(EnvGridOptions {
+                spacing: g.spacing / detail_or_one(self.detail),
+                ..g
+            }),
+            EnvSource::Centers => None,
+        }
+    }
+
+    /// `Err` with a one-line reason when [`CrmOptions::detail`] is outside `(0, 1]`.
+    pub fn check_detail(detail: f64) -> Result<(), String> {
+        if detail > 0.0 && detail <= 1.0 {
+            Ok(())
+        } else {
+            Err(format!(
+                "the lighting detail {detail} must be above 0 and at most 1"
+            ))
+        }
+    }
+}
+
+/// `detail` where it is valid, else 1 (the renderer never divides by a bad one; the
+/// command lines refuse it with [`CrmOptions::check_detail`]).
+pub fn detail_or_one(detail: f64) -> f64 {
+    if CrmOptions::check_detail(detail).is_ok() {
+        detail
+    } else {
+        1.0
+    }
 }
 
 /// Where multiple scattering's diffusion is solved.
@@ -168,6 +213,7 @@ impl Default for CrmOptions {
             diffusion: MsDiffusion::Centers,
             grid_solve: GridSolveOptions::default(),
             ground: None,
+            detail: 1.0,
         }
     }
 }
@@ -467,5 +513,35 @@ mod tests {
             assert!(p(bad).unwrap_err().contains("orders"), "{bad}");
         }
         assert_eq!(p("grid"), Ok(MsDiffusion::Grid { factor: 2 }));
+    }
+
+    /// The detail divides the environment grid's spacing; a bad one is refused by the
+    /// check and lights as detail 1; without the grid there is nothing to scale.
+    #[test]
+    fn the_detail_widens_the_environment_grid() {
+        use super::env_pass::{EnvGridOptions, EnvSource};
+        use super::{CrmOptions, detail_or_one};
+        let opts = |detail| CrmOptions {
+            detail,
+            ..CrmOptions::default()
+        };
+        let base = EnvGridOptions::default();
+        assert_eq!(opts(1.0).env_grid(), Some(base));
+        let half = opts(0.5).env_grid().unwrap();
+        assert_eq!(half.spacing, 2.0 * base.spacing);
+        assert_eq!((half.theta, half.depths), (base.theta, base.depths));
+        for bad in [0.0, -0.5, 1.5, f64::NAN, f64::INFINITY] {
+            assert!(CrmOptions::check_detail(bad).is_err(), "{bad}");
+            assert_eq!(detail_or_one(bad), 1.0);
+            assert_eq!(opts(bad).env_grid(), Some(base));
+        }
+        for good in [1e-9, 0.25, 1.0] {
+            assert_eq!(CrmOptions::check_detail(good), Ok(()));
+        }
+        let centers = CrmOptions {
+            env_source: EnvSource::Centers,
+            ..opts(0.5)
+        };
+        assert_eq!(centers.env_grid(), None);
     }
 }

@@ -478,6 +478,10 @@ impl ViewerApp {
                         "volume pass",
                         format!("{:.1}{grids}", s.volume_seconds * 1e3),
                     );
+                    row(
+                        "environment pass",
+                        format!("{:.1}{grids}", s.env_seconds * 1e3),
+                    );
                     if self.settings.env.has_lights() {
                         row(
                             "lights pass",
@@ -497,6 +501,12 @@ impl ViewerApp {
             None => {
                 ui.small("rendering the first frame…");
             }
+        }
+        if self.player.shown_detail < 1.0 {
+            ui.small(format!(
+                "lit at detail {} to keep up with playback (full detail when paused)",
+                self.player.shown_detail
+            ));
         }
         if let Some(g) = &self.player.grid {
             match g.warning() {

@@ -7,12 +7,15 @@
 //! - [`worker`]: the render thread (frame stream, GPU context, renderer);
 //! - [`player`]: the clock driving the render thread, shared by the window and
 //!   `--no-window`;
+//! - [`detail`]: the lighting's detail while playing, lowered while the lighting holds
+//!   playback back;
 //! - [`app`]: the room's panel, keys and picture in the window;
 //! - [`budget`]: the starting knobs chosen for a time budget or an error target;
 //! - [`thick`]: the grid each frame is lit on, finer where its voxels are optically thick.
 
 mod app;
 pub mod budget;
+mod detail;
 pub mod frame;
 mod playback;
 mod player;

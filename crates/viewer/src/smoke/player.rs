@@ -10,8 +10,11 @@
 //! frame rate works a frame ahead and shows every frame on time, and a slower one skips to
 //! the frames it can still show (`playback` module docs: what counts as dropped). While
 //! paused, the frame on screen is rendered again only when the camera, the scene or the
-//! exposure changed (a change of exposure alone is only tone-mapped again).
+//! exposure changed (a change of exposure alone is only tone-mapped again), or when it
+//! was lit at a lower detail while playing (`detail` module: playback lowers the
+//! lighting's detail while the lighting holds it back).
 
+use super::detail::{DetailControl, FrameCost};
 use super::playback::{PlayReport, Playback};
 use super::worker::{Done, Job, Picture, Scene, Worker};
 use haze_view::Camera;
@@ -48,8 +51,11 @@ pub struct Player {
     arrived: Option<Done>,
     /// A finished picture of a tick that is not due yet.
     pending: Option<Done>,
-    /// The frame and view of the last job handed to the thread.
+    /// The frame and view (its lighting detail applied) of the last job handed to the
+    /// thread.
     submitted: Option<(usize, View)>,
+    /// The lighting's detail for playback frames (`detail` module).
+    pub detail: DetailControl,
     /// Expected seconds per job.
     lead: f64,
     /// Jobs that rendered (not only tone-mapped) and their seconds, for the report.
@@ -59,6 +65,8 @@ pub struct Player {
     pub times: Option<super::frame::StageTimes>,
     /// The grid the picture on screen was lit on.
     pub grid: Option<super::thick::Grid>,
+    /// The lighting's detail of the picture on screen (`CrmOptions::detail`).
+    pub shown_detail: f64,
     pub error: Option<String>,
     /// Jobs that failed, and the first one's error.
     pub failures: u64,
@@ -78,11 +86,13 @@ impl Player {
             arrived: None,
             pending: None,
             submitted: None,
+            detail: DetailControl::default(),
             lead: 0.0,
             renders: 0,
             render_seconds: 0.0,
             times: None,
             grid: None,
+            shown_detail: 1.0,
             error: None,
             failures: 0,
             first_failure: None,
@@ -128,6 +138,11 @@ impl Player {
             let lead = Duration::from_secs_f64(self.lead);
             let next = self.playback.next_request(now, lead);
             let frame = next.map_or(self.playback.current(), |t| t.frame);
+            // Playback frames at the control's detail, a still at the view's own (full).
+            let mut view = view.clone();
+            if next.is_some() {
+                view.scene.opts.detail = self.detail.detail();
+            }
             let stale = self.submitted.as_ref() != Some(&(frame, view.clone()));
             if next.is_some() || (!self.playback.playing() && stale) {
                 self.worker.submit(Job {
@@ -138,7 +153,7 @@ impl Player {
                     exposure: view.exposure,
                     tone: view.tone,
                 });
-                self.submitted = Some((frame, view.clone()));
+                self.submitted = Some((frame, view));
             }
         }
         out
@@ -150,6 +165,14 @@ impl Player {
         } else {
             LEAD_WEIGHT * done.seconds + (1.0 - LEAD_WEIGHT) * self.lead
         };
+        if let (Some(_), Ok(Picture { times: Some(t), .. })) = (done.tick, &done.picture) {
+            let fps = self.playback.fps();
+            self.detail.observe(
+                done.detail,
+                FrameCost::of(done.seconds, t),
+                (fps > 0.0).then(|| 1.0 / fps),
+            );
+        }
         match (&done.picture, done.tick) {
             (Err(e), tick) => {
                 if let Some(t) = tick {
@@ -167,6 +190,7 @@ impl Player {
     }
 
     fn show(&mut self, done: Done, now: Instant, out: &mut Update) {
+        self.shown_detail = done.detail;
         let Ok(picture) = done.picture else { return };
         if let Some(t) = &picture.times {
             self.renders += 1;
@@ -220,7 +244,17 @@ impl Player {
             r.fps,
             self.mean_render_seconds() * 1e3,
             self.first_picture.unwrap_or_default().as_secs_f64()
-        )
+        ) + &self.detail_words()
+    }
+
+    /// "; lighting detail 0.5 while playing (lowest 0.35)" once playback lowered it,
+    /// else nothing.
+    fn detail_words(&self) -> String {
+        let (now, lowest) = (self.detail.detail(), self.detail.lowest());
+        if lowest >= 1.0 {
+            return String::new();
+        }
+        format!("; lighting detail {now} while playing (lowest {lowest})")
     }
 }
 
@@ -326,6 +360,38 @@ mod tests {
         let line = p.summary(Instant::now(), 16, 12);
         assert!(
             line.contains("as fast as possible, 16×12: 6 frames shown, 6 due, 0 dropped"),
+            "{line}"
+        );
+        assert!(!line.contains("detail"), "{line}");
+
+        // Playback at a lower detail (as after late frames whose lighting outweighed the
+        // view pass): the frames are lit at it; paused, the frame on screen is lit again
+        // at full detail.
+        p.detail.observe(
+            1.0,
+            super::super::detail::FrameCost {
+                view_seconds: 1.0,
+                lighting_seconds: 5.0,
+            },
+            Some(1.0 / 24.0),
+        );
+        assert_eq!(p.detail.detail(), 0.75);
+        let mut low = Vec::new();
+        while low.len() < 3 {
+            if let Some(x) = p.update(Instant::now(), &v).shown {
+                low.push((x.number, p.shown_detail));
+            }
+            p.wait(Duration::from_millis(100));
+        }
+        // The first may have been submitted before the step.
+        assert!(low[1..].iter().all(|(_, d)| *d == 0.75), "{low:?}");
+        p.playback.pause();
+        let still = settle(&mut p, &v);
+        assert_eq!(p.shown_detail, 1.0);
+        assert!(still.last().unwrap().times.is_some(), "lit again");
+        let line = p.summary(Instant::now(), 16, 12);
+        assert!(
+            line.ends_with("; lighting detail 0.75 while playing (lowest 0.75)"),
             "{line}"
         );
     }

@@ -62,6 +62,8 @@ pub struct Picture {
 pub struct Done {
     pub tick: Option<Tick>,
     pub seconds: f64,
+    /// The lighting's detail the job asked for (`CrmOptions::detail`).
+    pub detail: f64,
     /// The picture, or why there is none (a damaged frame, a GPU error), on one line.
     pub picture: Result<Picture, String>,
 }
@@ -172,6 +174,7 @@ impl Worker {
                     let done = Done {
                         tick: job.tick,
                         seconds: t.elapsed().as_secs_f64(),
+                        detail: job.scene.opts.detail,
                         picture,
                     };
                     if outbox.send(done).is_err() {
@@ -225,6 +228,7 @@ impl Worker {
                 Done {
                     tick: None,
                     seconds: 0.0,
+                    detail: 1.0,
                     picture: Err("the render thread stopped".into()),
                 }
             }),

@@ -263,6 +263,7 @@ fn frame_orders_extremes() {
             m,
             2,
             2,
+            1.0,
             &GridSolveOptions::default(),
         );
         ms.l0

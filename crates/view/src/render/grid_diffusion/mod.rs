@@ -338,10 +338,11 @@ pub fn frame_explicit_media_radiance(
     medium: &Medium,
     factor: usize,
     orders: usize,
+    detail: f64,
     opts: &GridSolveOptions,
 ) -> MediaRadiance {
     let grid = if factor == 0 {
-        auto_grid(&grids.density)
+        auto_grid(&grids.density, detail)
     } else {
         CoarseGrid::new(&grids.density, factor)
     };
@@ -373,18 +374,30 @@ pub fn gather_work(grid: &CoarseGrid) -> f64 {
 /// "Multiple scattering: the cell size").
 pub const GATHER_BUDGET: f64 = 6e5;
 
-/// The coarse grid of the automatic cell size: cells of 2³ voxels (the measured
-/// default), or the smallest larger side up to 8 whose [`gather_work`] is within
-/// [`GATHER_BUDGET`] (the work falls as `F⁻⁴`: `F⁻³` cells, `F⁻¹` steps per ray).
-pub fn auto_grid(fine: &Volume) -> CoarseGrid {
-    let mut grid = CoarseGrid::new(fine, 2);
-    for f in 3..=8 {
-        if gather_work(&grid) <= GATHER_BUDGET {
+/// The coarse grid of the automatic cell size at the lighting's `detail` (`(0, 1]`,
+/// `CrmOptions::detail`; 1 as measured): cells of `⌈2/detail⌉` voxels a side (2, the
+/// measured default, at detail 1), or the smallest larger side up to 8 whose
+/// [`gather_work`] is within [`GATHER_BUDGET`]` × detail⁴` (the work falls as `F⁻⁴`:
+/// `F⁻³` cells, `F⁻¹` steps per ray), so cells grow as `1/detail` either way.
+pub fn auto_grid(fine: &Volume, detail: f64) -> CoarseGrid {
+    let detail = crate::render::detail_or_one(detail);
+    let first = auto_min_factor(detail);
+    let budget = GATHER_BUDGET * detail.powi(4);
+    let mut grid = CoarseGrid::new(fine, first);
+    for f in first + 1..=8 {
+        if gather_work(&grid) <= budget {
             break;
         }
         grid = CoarseGrid::new(fine, f);
     }
     grid
+}
+
+/// The smallest automatic cell side at `detail` (`(0, 1]`): `⌈2/detail⌉` voxels, at
+/// most 8 (2 at detail 1; the `1e-9` keeps `2/0.5` at 4).
+pub fn auto_min_factor(detail: f64) -> usize {
+    let detail = crate::render::detail_or_one(detail);
+    ((2.0 / detail - 1e-9).ceil() as usize).clamp(2, 8)
 }
 
 /// Gauss–Legendre latitudes per hemisphere of the first order's directions

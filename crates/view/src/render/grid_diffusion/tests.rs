@@ -289,18 +289,31 @@ fn the_automatic_cell_size_follows_the_amount_of_smoke() {
             .collect(),
     )
     .unwrap();
-    assert_eq!(auto_grid(&small).factor, 2);
+    assert_eq!(auto_grid(&small, 1.0).factor, 2);
     let n = 128usize;
     let full = Volume::new([n; 3], Bbox::new([0.0; 3], [1.0; 3]), vec![0.5; n * n * n]).unwrap();
     let expected = (2..=8)
         .find(|&f| (n.div_ceil(f) as f64).powi(4) <= GATHER_BUDGET)
         .unwrap_or(8);
     assert!(expected > 2, "the test needs a volume over the budget");
-    let grid = auto_grid(&full);
+    let grid = auto_grid(&full, 1.0);
     assert_eq!(grid.factor, expected);
     assert_eq!(gather_work(&grid), (n.div_ceil(expected) as f64).powi(4));
     // No smoke: no work, the default size.
     let empty = Volume::new([8; 3], Bbox::new([0.0; 3], [1.0; 3]), vec![0.0; 512]).unwrap();
     assert_eq!(gather_work(&CoarseGrid::new(&empty, 2)), 0.0);
-    assert_eq!(auto_grid(&empty).factor, 2);
+    assert_eq!(auto_grid(&empty, 1.0).factor, 2);
+    // A lower detail: at least ⌈2/detail⌉ voxels a side, and the budget times detail⁴.
+    assert_eq!(auto_grid(&small, 0.5).factor, 4);
+    assert_eq!(auto_grid(&small, 0.3).factor, 7);
+    assert_eq!(auto_grid(&small, 1e-6).factor, 8);
+    let half = (4..=8)
+        .find(|&f| (n.div_ceil(f) as f64).powi(4) <= GATHER_BUDGET / 16.0)
+        .unwrap_or(8);
+    assert!(half > expected, "{half} {expected}");
+    assert_eq!(auto_grid(&full, 0.5).factor, half);
+    // An invalid detail lights as detail 1.
+    for bad in [0.0, -1.0, 2.0, f64::NAN, f64::INFINITY] {
+        assert_eq!(auto_grid(&full, bad).factor, expected, "{bad}");
+    }
 }

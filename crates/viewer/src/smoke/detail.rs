@@ -1,0 +1,204 @@
+//! The lighting's detail while playing (`CrmOptions::detail`): where a new frame's
+//! lighting costs more than its view pass and the frame misses its slot at the playback
+//! rate (playing as fast as possible has no slot, and keeps the detail), the player
+//! lights the next frames at a lower detail — a coarser environment grid and larger
+//! cells for the explicit orders, about `detail³` of the work — one step of [`LEVELS`]
+//! at a time, and raises it again once the lighting costs less than [`RAISE_BELOW`] of
+//! the view pass (the step up costs about three times as much). Paused, a frame is lit
+//! at full detail: the picture a user stops on is the one the renderer's figures are
+//! measured for, and the player renders it again when playback stopped on a lower
+//! detail. What each level costs in error against the full detail is in BENCHMARKS.md
+//! ("Viewer playback: the lighting's detail").
+
+use super::frame::StageTimes;
+
+/// The details playback steps through, full first. Each step cuts a new frame's
+/// lighting work to about a third (`(d₁/d₀)³` ≈ 0.3–0.42).
+pub const LEVELS: [f64; 5] = [1.0, 0.75, 0.5, 0.35, 0.25];
+
+/// The detail rises a step when the lighting costs less than this share of the view
+/// pass: the finer step costs about 3× as much, so it still stays below the view pass.
+pub const RAISE_BELOW: f64 = 0.25;
+
+/// The player's choice of detail for playback (module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DetailControl {
+    /// Index into [`LEVELS`].
+    level: usize,
+    /// The lowest level index reached, for the report.
+    lowest: usize,
+}
+
+/// Where a rendered frame's time went, as the control weighs it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameCost {
+    /// The view pass (GPU time where the device has timestamps).
+    pub view_seconds: f64,
+    /// The stages the detail steers: the lighting before the view pass.
+    pub lighting_seconds: f64,
+}
+
+impl FrameCost {
+    /// The cost of a job of `seconds` whose stages took `times`. The lighting: the
+    /// host's lighting stages (single and multiple scattering, the volume, environment
+    /// and lights passes) or the GPU's passes before the view pass, whichever took
+    /// longer (each is the real cost where that side lights the frame, the other only
+    /// submits or waits). The view pass: its GPU time from timestamps, else the job less
+    /// the host's stages.
+    pub fn of(seconds: f64, times: &StageTimes) -> FrameCost {
+        let c = &times.crm;
+        let host = c.single_seconds
+            + c.multiple_seconds
+            + c.volume_seconds
+            + c.env_seconds
+            + c.lights_seconds;
+        let gpu_lighting: f64 = times
+            .gpu
+            .iter()
+            .filter(|(pass, _)| *pass != "view pass")
+            .map(|(_, s)| s)
+            .sum();
+        let view_seconds = match times.gpu.iter().find(|(pass, _)| *pass == "view pass") {
+            Some((_, s)) => *s,
+            None => (seconds - c.setup_seconds - host).max(c.view_seconds),
+        };
+        FrameCost {
+            view_seconds,
+            lighting_seconds: host.max(gpu_lighting),
+        }
+    }
+}
+
+impl DetailControl {
+    /// The detail the next playback frame is lit at.
+    pub fn detail(&self) -> f64 {
+        LEVELS[self.level]
+    }
+
+    /// The lowest detail playback has used so far.
+    pub fn lowest(&self) -> f64 {
+        LEVELS[self.lowest]
+    }
+
+    /// Weighs a playback frame lit at `detail` that took `cost` against its slot of
+    /// `slot_seconds` (`None`: playing as fast as possible, with no slot to meet, which
+    /// changes nothing): one step down when it was late and its lighting cost more than
+    /// its view pass, one up when the lighting cost less than [`RAISE_BELOW`] of the
+    /// view pass. A frame lit at another detail than the current one (submitted before
+    /// the last step) changes nothing.
+    pub fn observe(&mut self, detail: f64, cost: FrameCost, slot_seconds: Option<f64>) {
+        let Some(slot) = slot_seconds else { return };
+        if detail != self.detail() {
+            return;
+        }
+        let late = cost.view_seconds + cost.lighting_seconds > slot;
+        if late && cost.lighting_seconds > cost.view_seconds && self.level + 1 < LEVELS.len() {
+            self.level += 1;
+            self.lowest = self.lowest.max(self.level);
+        } else if self.level > 0 && cost.lighting_seconds < RAISE_BELOW * cost.view_seconds {
+            self.level -= 1;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use haze_view::render::CrmStats;
+
+    fn cost(view: f64, lighting: f64) -> FrameCost {
+        FrameCost {
+            view_seconds: view,
+            lighting_seconds: lighting,
+        }
+    }
+
+    /// Late frames whose lighting outweighs the view pass step the detail down, one
+    /// level a frame, to the last level; cheap lighting steps it back up; frames on time
+    /// or lit at a stale detail leave it.
+    #[test]
+    fn the_detail_steps_down_while_lighting_holds_playback_back() {
+        let mut c = DetailControl::default();
+        assert_eq!((c.detail(), c.lowest()), (1.0, 1.0));
+        let slot = Some(1.0 / 24.0);
+        // On time: nothing, however costly the lighting.
+        c.observe(1.0, cost(0.01, 0.02), slot);
+        assert_eq!(c.detail(), 1.0);
+        // Late, but the view pass is the cost: nothing to gain from the lighting.
+        c.observe(1.0, cost(1.0, 0.9), slot);
+        assert_eq!(c.detail(), 1.0);
+        // As fast as possible: no slot, nothing changes.
+        c.observe(1.0, cost(1.0, 5.0), None);
+        assert_eq!(c.detail(), 1.0);
+        // Late and the lighting outweighs the view pass: down a step per frame.
+        for (k, want) in LEVELS.iter().enumerate().skip(1) {
+            c.observe(LEVELS[k - 1], cost(1.0, 5.0), slot);
+            assert_eq!(c.detail(), *want);
+        }
+        c.observe(0.25, cost(1.0, 5.0), slot);
+        assert_eq!(
+            (c.detail(), c.lowest()),
+            (0.25, 0.25),
+            "the last level holds"
+        );
+        // A frame lit at a stale detail changes nothing.
+        c.observe(1.0, cost(1.0, 0.0), slot);
+        assert_eq!(c.detail(), 0.25);
+        // Between RAISE_BELOW and 1× the view pass: it stays.
+        c.observe(0.25, cost(1.0, 0.5), slot);
+        assert_eq!(c.detail(), 0.25);
+        // Cheap lighting: back up, one step a frame; the lowest is remembered.
+        c.observe(0.25, cost(1.0, 0.1), slot);
+        assert_eq!(c.detail(), 0.35);
+        c.observe(0.35, cost(1.0, 0.1), slot);
+        assert_eq!((c.detail(), c.lowest()), (0.5, 0.25));
+    }
+
+    /// The view pass comes from the GPU's timestamps when there are some, else from the
+    /// job less its host stages; the lighting is the larger of the host's lighting
+    /// stages and the GPU's passes before the view pass.
+    #[test]
+    fn a_frame_cost_splits_the_job_at_the_view_pass() {
+        let crm = CrmStats {
+            setup_seconds: 0.5,
+            multiple_seconds: 2.0,
+            env_seconds: 1.5,
+            lights_seconds: 0.5,
+            volume_seconds: 0.25,
+            view_seconds: 0.01,
+            ..CrmStats::default()
+        };
+        // Lit on the host.
+        let cpu = StageTimes {
+            crm: crm.clone(),
+            gpu: vec![("view pass", 1.25)],
+            ..StageTimes::default()
+        };
+        assert_eq!(FrameCost::of(6.0, &cpu), cost(1.25, 4.25));
+        // Lit on the GPU: the host only submitted.
+        let gpu = StageTimes {
+            crm: CrmStats {
+                multiple_seconds: 0.01,
+                env_seconds: 0.02,
+                ..CrmStats::default()
+            },
+            gpu: vec![
+                ("environment grid", 0.1),
+                ("orders gather", 0.05),
+                ("view pass", 0.002),
+            ],
+            ..StageTimes::default()
+        };
+        let c = FrameCost::of(0.2, &gpu);
+        assert_eq!(c.view_seconds, 0.002);
+        assert!((c.lighting_seconds - 0.15).abs() < 1e-12, "{c:?}");
+        // No timestamps: the view pass is the job less the host's stages, at least the
+        // host's own count of it.
+        let host_only = StageTimes {
+            crm,
+            ..StageTimes::default()
+        };
+        assert_eq!(FrameCost::of(6.0, &host_only), cost(1.25, 4.25));
+        assert_eq!(FrameCost::of(1.0, &host_only), cost(0.01, 4.25));
+    }
+}
