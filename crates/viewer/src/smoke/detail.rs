@@ -4,7 +4,9 @@
 //! lights the next frames at a lower detail — a coarser environment grid and larger
 //! cells for the explicit orders, about `detail³` of the work — one step of [`LEVELS`]
 //! at a time, and raises it again once the lighting costs less than [`RAISE_BELOW`] of
-//! the view pass (the step up costs about three times as much). Paused, a frame is lit
+//! the view pass (the step up costs about three times as much). It never goes below
+//! [`floor`]: the environment grid's cells stay within [`MAX_CELL_TAU`] optical depths
+//! across, where the lower details' error stayed small. Paused, a frame is lit
 //! at full detail: the picture a user stops on is the one the renderer's figures are
 //! measured for, and the player renders it again when playback stopped on a lower
 //! detail. What each level costs in error against the full detail is in BENCHMARKS.md
@@ -19,6 +21,25 @@ pub const LEVELS: [f64; 5] = [1.0, 0.75, 0.5, 0.35, 0.25];
 /// The detail rises a step when the lighting costs less than this share of the view
 /// pass: the finer step costs about 3× as much, so it still stays below the view pass.
 pub const RAISE_BELOW: f64 = 0.25;
+
+/// The optical depth across one cell of the environment grid that a lower detail may
+/// reach. On 16 held-out sky cases (BENCHMARKS.md "Viewer playback: the lighting's
+/// detail") a detail whose cells stayed within half an optical depth added at most 1.5
+/// points of error against the path tracer; cells of 0.75–1.25 added up to 7.
+pub const MAX_CELL_TAU: f64 = 0.5;
+
+/// The lowest detail for smoke whose lit voxels are `tau` optical depths across (the
+/// `thick` module's figure): the environment grid's default spacing, divided by the
+/// detail, times `tau` within [`MAX_CELL_TAU`]; between the last level and 1 (1 for a
+/// `tau` that is not a positive number).
+pub fn floor(tau: f64) -> f64 {
+    let spacing = haze_view::render::env_pass::EnvGridOptions::default().spacing;
+    let d = spacing * tau / MAX_CELL_TAU;
+    if d.is_nan() || d <= 0.0 {
+        return 1.0;
+    }
+    d.clamp(LEVELS[LEVELS.len() - 1], 1.0)
+}
 
 /// The player's choice of detail for playback (module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -82,20 +103,26 @@ impl DetailControl {
 
     /// Weighs a playback frame lit at `detail` that took `cost` against its slot of
     /// `slot_seconds` (`None`: playing as fast as possible, with no slot to meet, which
-    /// changes nothing): one step down when it was late and its lighting cost more than
-    /// its view pass, one up when the lighting cost less than [`RAISE_BELOW`] of the
-    /// view pass. A frame lit at another detail than the current one (submitted before
-    /// the last step) changes nothing.
-    pub fn observe(&mut self, detail: f64, cost: FrameCost, slot_seconds: Option<f64>) {
+    /// changes nothing), its smoke's lit voxels `tau` optical depths across: one step
+    /// down when it was late and its lighting cost more than its view pass, unless the
+    /// step would pass [`floor`]`(tau)`; one up when the lighting cost less than
+    /// [`RAISE_BELOW`] of the view pass, or the detail is below the floor (thicker
+    /// smoke). A frame lit at another detail than the current one (submitted before the
+    /// last step) changes nothing.
+    pub fn observe(&mut self, detail: f64, cost: FrameCost, slot_seconds: Option<f64>, tau: f64) {
         let Some(slot) = slot_seconds else { return };
         if detail != self.detail() {
             return;
         }
+        let lowest = floor(tau);
         let late = cost.view_seconds + cost.lighting_seconds > slot;
-        if late && cost.lighting_seconds > cost.view_seconds && self.level + 1 < LEVELS.len() {
+        let down = self.level + 1 < LEVELS.len() && LEVELS[self.level + 1] >= lowest;
+        if late && cost.lighting_seconds > cost.view_seconds && down {
             self.level += 1;
             self.lowest = self.lowest.max(self.level);
-        } else if self.level > 0 && cost.lighting_seconds < RAISE_BELOW * cost.view_seconds {
+        } else if self.level > 0
+            && (cost.lighting_seconds < RAISE_BELOW * cost.view_seconds || self.detail() < lowest)
+        {
             self.level -= 1;
         }
     }
@@ -105,6 +132,9 @@ impl DetailControl {
 mod tests {
     use super::*;
     use haze_view::render::CrmStats;
+
+    /// Smoke thin enough for every level: cells of 6 voxels within 0.5 optical depths.
+    const THIN: f64 = 0.05;
 
     fn cost(view: f64, lighting: f64) -> FrameCost {
         FrameCost {
@@ -122,36 +152,71 @@ mod tests {
         assert_eq!((c.detail(), c.lowest()), (1.0, 1.0));
         let slot = Some(1.0 / 24.0);
         // On time: nothing, however costly the lighting.
-        c.observe(1.0, cost(0.01, 0.02), slot);
+        c.observe(1.0, cost(0.01, 0.02), slot, THIN);
         assert_eq!(c.detail(), 1.0);
         // Late, but the view pass is the cost: nothing to gain from the lighting.
-        c.observe(1.0, cost(1.0, 0.9), slot);
+        c.observe(1.0, cost(1.0, 0.9), slot, THIN);
         assert_eq!(c.detail(), 1.0);
         // As fast as possible: no slot, nothing changes.
-        c.observe(1.0, cost(1.0, 5.0), None);
+        c.observe(1.0, cost(1.0, 5.0), None, THIN);
         assert_eq!(c.detail(), 1.0);
         // Late and the lighting outweighs the view pass: down a step per frame.
         for (k, want) in LEVELS.iter().enumerate().skip(1) {
-            c.observe(LEVELS[k - 1], cost(1.0, 5.0), slot);
+            c.observe(LEVELS[k - 1], cost(1.0, 5.0), slot, THIN);
             assert_eq!(c.detail(), *want);
         }
-        c.observe(0.25, cost(1.0, 5.0), slot);
+        c.observe(0.25, cost(1.0, 5.0), slot, THIN);
         assert_eq!(
             (c.detail(), c.lowest()),
             (0.25, 0.25),
             "the last level holds"
         );
         // A frame lit at a stale detail changes nothing.
-        c.observe(1.0, cost(1.0, 0.0), slot);
+        c.observe(1.0, cost(1.0, 0.0), slot, THIN);
         assert_eq!(c.detail(), 0.25);
         // Between RAISE_BELOW and 1× the view pass: it stays.
-        c.observe(0.25, cost(1.0, 0.5), slot);
+        c.observe(0.25, cost(1.0, 0.5), slot, THIN);
         assert_eq!(c.detail(), 0.25);
         // Cheap lighting: back up, one step a frame; the lowest is remembered.
-        c.observe(0.25, cost(1.0, 0.1), slot);
+        c.observe(0.25, cost(1.0, 0.1), slot, THIN);
         assert_eq!(c.detail(), 0.35);
-        c.observe(0.35, cost(1.0, 0.1), slot);
+        c.observe(0.35, cost(1.0, 0.1), slot, THIN);
         assert_eq!((c.detail(), c.lowest()), (0.5, 0.25));
+    }
+
+    /// The floor keeps the environment grid's cells within half an optical depth:
+    /// thin smoke may go to the last level, thicker smoke stops higher, and a detail
+    /// below the floor (the smoke thickened, σt rose) steps back up.
+    #[test]
+    fn thick_smoke_keeps_more_detail() {
+        // 1.5 voxels × τ / detail ≤ 0.5.
+        assert_eq!(floor(0.05), 0.25);
+        assert!((floor(0.1) - 0.3).abs() < 1e-12);
+        assert_eq!(floor(0.5), 1.0);
+        for bad in [0.0, -1.0, f64::NAN] {
+            assert_eq!(floor(bad), 1.0, "{bad}");
+        }
+        assert_eq!(floor(f64::INFINITY), 1.0);
+        let slot = Some(1.0 / 24.0);
+        let late = cost(1.0, 5.0);
+        // τ 0.2: floor 0.6, so one step (0.75) and no further.
+        let mut c = DetailControl::default();
+        c.observe(1.0, late, slot, 0.2);
+        assert_eq!(c.detail(), 0.75);
+        c.observe(0.75, late, slot, 0.2);
+        assert_eq!(c.detail(), 0.75);
+        // τ 0.1: floor 0.3, down to 0.35.
+        for d in [0.5, 0.35, 0.35] {
+            c.observe(c.detail(), late, slot, 0.1);
+            assert_eq!(c.detail(), d);
+        }
+        // The smoke thickens (τ 0.2): back up a step a frame to the floor, however late.
+        c.observe(0.35, late, slot, 0.2);
+        assert_eq!(c.detail(), 0.5);
+        c.observe(0.5, late, slot, 0.2);
+        assert_eq!(c.detail(), 0.75);
+        c.observe(0.75, late, slot, 0.2);
+        assert_eq!(c.detail(), 0.75);
     }
 
     /// The view pass comes from the GPU's timestamps when there are some, else from the

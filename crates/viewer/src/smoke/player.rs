@@ -165,12 +165,13 @@ impl Player {
         } else {
             LEAD_WEIGHT * done.seconds + (1.0 - LEAD_WEIGHT) * self.lead
         };
-        if let (Some(_), Ok(Picture { times: Some(t), .. })) = (done.tick, &done.picture) {
+        if let (Some(_), Ok(p @ Picture { times: Some(t), .. })) = (done.tick, &done.picture) {
             let fps = self.playback.fps();
             self.detail.observe(
                 done.detail,
                 FrameCost::of(done.seconds, t),
                 (fps > 0.0).then(|| 1.0 / fps),
+                p.grid.tau / p.grid.n.max(1) as f64,
             );
         }
         match (&done.picture, done.tick) {
@@ -374,6 +375,7 @@ mod tests {
                 lighting_seconds: 5.0,
             },
             Some(1.0 / 24.0),
+            0.05,
         );
         assert_eq!(p.detail.detail(), 0.75);
         let mut low = Vec::new();
