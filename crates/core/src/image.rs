@@ -233,6 +233,41 @@ fn srgb8(v: f64) -> u8 {
     srgb8_steps().partition_point(|&step| step <= v) as u8
 }
 
+/// The 8-bit code [`Image::to_srgb8`] gives the stored (`f32`) linear value `x` at
+/// `exposure` under `tone`.
+pub fn srgb8_code(x: f32, exposure: f64, tone: ToneMap) -> u8 {
+    srgb8(tone.apply(f64::from(x) * exposure))
+}
+
+/// The stored values where [`srgb8_code`] at `exposure` and `tone` steps up: entry `k`
+/// (0–254) is the smallest `f32` `x ≥ 0` whose code is above `k` (`+∞` where no finite
+/// one is), so the code of any `x` is the number of entries at or below it — exactly, in
+/// `f32` comparisons (a NaN or negative `x` is below every entry: code 0, as
+/// [`srgb8_code`]'s; `+∞` is at or above every one: 255). The code is non-decreasing in
+/// `x` (the tone curve and the sRGB steps both are), so each entry is found by bisection
+/// on the bits of the non-negative `f32`s, whose order is theirs. For a GPU to encode a
+/// picture with one table a frame ([`Image::to_srgb8`] per pixel without the host).
+pub fn srgb8_thresholds(exposure: f64, tone: ToneMap) -> [f32; 255] {
+    let top = f32::MAX.to_bits();
+    std::array::from_fn(|k| {
+        let above = |bits: u32| srgb8_code(f32::from_bits(bits), exposure, tone) as usize > k;
+        if !above(top) {
+            return f32::INFINITY;
+        }
+        // The smallest bit pattern in [0, top] whose code is above k.
+        let (mut lo, mut hi) = (0u32, top);
+        while lo < hi {
+            let mid = lo + (hi - lo) / 2;
+            if above(mid) {
+                hi = mid;
+            } else {
+                lo = mid + 1;
+            }
+        }
+        f32::from_bits(lo)
+    })
+}
+
 /// Runs `encode` on a temporary file in the destination's folder, then renames it to
 /// `path`.
 fn write_atomically(
@@ -348,6 +383,44 @@ mod tests {
     /// a million values over [0, 1] (denser at the dark end, where codes are closest),
     /// every code, and values within 1e-12 of a step (where the two roundings may part by
     /// an ulp of the step itself) off by at most one.
+    #[test]
+    fn srgb8_thresholds_reproduce_every_code() {
+        // Against the per-value encoding on values around each threshold, at several
+        // exposures and both curves, and at the extremes.
+        for tone in [ToneMap::Filmic, ToneMap::Clip] {
+            for exposure in [1.0, 0.37, 5.5, 1e-6, 3e5] {
+                let t = srgb8_thresholds(exposure, tone);
+                let code = |x: f32| t.iter().filter(|&&s| s <= x).count();
+                assert!(t.windows(2).all(|w| w[0] <= w[1]), "{exposure} {tone:?}");
+                for (k, &s) in t.iter().enumerate() {
+                    if s.is_finite() {
+                        let below = f32::from_bits(s.to_bits().saturating_sub(1));
+                        assert!(srgb8_code(s, exposure, tone) as usize > k);
+                        assert!(srgb8_code(below, exposure, tone) as usize <= k || s == 0.0);
+                    }
+                }
+                let mut x = 1e-9f32;
+                while x < 1e9 {
+                    assert_eq!(code(x), srgb8_code(x, exposure, tone) as usize, "{x}");
+                    x *= 1.013;
+                }
+                for x in [
+                    0.0,
+                    -1.0,
+                    f32::NAN,
+                    f32::INFINITY,
+                    f32::MAX,
+                    f32::MIN_POSITIVE,
+                ] {
+                    assert_eq!(code(x), srgb8_code(x, exposure, tone) as usize, "{x}");
+                }
+            }
+        }
+        // A tiny exposure never reaches the top codes with a finite value.
+        let t = srgb8_thresholds(1e-40, ToneMap::Clip);
+        assert!(t[254].is_infinite());
+    }
+
     #[test]
     fn srgb8_steps_round_as_the_transfer_function() {
         // The sRGB opto-electronic transfer function, rounded to 8 bits.

@@ -18,7 +18,7 @@ pub mod temp_output;
 pub mod tone;
 pub mod vec3;
 
-pub use image::{Image, ImageError, NonFinite};
+pub use image::{Image, ImageError, NonFinite, srgb8_code, srgb8_thresholds};
 pub use tone::ToneMap;
 
 /// Linear RGB, per channel.

@@ -26,6 +26,7 @@ pub mod orders;
 pub mod renderer;
 pub mod shaders;
 pub mod single_scattering;
+pub mod tone_pass;
 pub mod view_pass;
 pub mod volume_pass;
 

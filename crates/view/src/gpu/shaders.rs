@@ -46,6 +46,7 @@ pub const VARIANTS: &[Variant] = &[
     super::orders::SHADER,
     super::diffusion::SHADER,
     super::view_pass::SHADER,
+    super::tone_pass::SHADER,
 ];
 
 /// `variant`'s whole source.

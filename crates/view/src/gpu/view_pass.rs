@@ -437,6 +437,42 @@ impl ImageBuffer {
     pub fn size(&self) -> (usize, usize) {
         (self.width, self.height)
     }
+
+    /// An image of `pixels` (row 0 at the top, `width × height` of them) put on the
+    /// device, as a view pass would have left it there.
+    pub fn upload(
+        ctx: &GpuContext,
+        width: usize,
+        height: usize,
+        pixels: &[[f32; 3]],
+    ) -> Result<ImageBuffer, GpuError> {
+        if pixels.len() != width * height {
+            return Err(GpuError::Input(format!(
+                "{} pixels for an image of {width}×{height}",
+                pixels.len()
+            )));
+        }
+        let data: Vec<[f32; 4]> = pixels.iter().map(|p| [p[0], p[1], p[2], 0.0]).collect();
+        ctx.check_storage_size("the image", std::mem::size_of_val(data.as_slice()) as u64)?;
+        let buffer = ctx.scoped("image upload", || {
+            buffer_init(
+                ctx,
+                "uploaded image",
+                bytemuck::cast_slice(&data),
+                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            )
+        })?;
+        Ok(ImageBuffer {
+            buffer,
+            width,
+            height,
+        })
+    }
+
+    /// The pixels on the device (`vec4<f32>` each), for the passes that read them.
+    pub(crate) fn buffer(&self) -> &wgpu::Buffer {
+        &self.buffer
+    }
 }
 
 /// [`crate::render::crm::view_pass`] on the GPU: compiles the pass and runs it once (keep

@@ -2,8 +2,9 @@
 //! seam between the viewer and the GPU pipeline, a thin layer over
 //! [`haze_view::gpu::renderer::GpuRenderer`] (the view pass on the GPU, the stages before it
 //! where [`LightingOn`] says) that takes a frame (RBFs and residual on a grid), a
-//! medium, an environment, a camera and the [`CrmOptions`], and gives linear RGB pixels
-//! and where the time went.
+//! medium, an environment, a camera and the [`CrmOptions`], and gives the linear picture
+//! on the GPU and where the time went; [`FrameRenderer::encode`] turns it into the 8-bit
+//! sRGB picture shown (on a GPU there, `haze_view::gpu::tone_pass`), any number of times.
 //!
 //! What carries between calls is the renderer's — the paper's reuse across frames: the
 //! compiled passes, the SH tables of the order and the projected light (rebuilt when the
@@ -19,6 +20,8 @@
 
 use haze_gpu::{GpuContext, GpuError};
 use haze_view::gpu::renderer::{GpuFrame, GpuRenderer, LightingOn, Reuse};
+use haze_view::gpu::tone_pass::TonePass;
+use haze_view::gpu::view_pass::ImageBuffer;
 use haze_view::gpu::volume_pass::Residual;
 use haze_view::render::{CrmOptions, CrmStats};
 use haze_view::{Camera, Environment, Medium, Sky};
@@ -47,6 +50,7 @@ pub struct StageTimes {
 #[derive(Debug)]
 pub struct FrameRenderer {
     inner: GpuRenderer,
+    tone: TonePass,
 }
 
 /// A key for the frame: equal for equal RBFs, grid and residual.
@@ -83,7 +87,36 @@ impl FrameRenderer {
         ctx.time_stages(true);
         let mut inner = GpuRenderer::new(ctx, Environment::sky(Sky::default()))?;
         inner.set_lighting(lighting);
-        Ok(FrameRenderer { inner })
+        Ok(FrameRenderer {
+            inner,
+            tone: TonePass::new(ctx)?,
+        })
+    }
+
+    /// `image` (a [`FrameRenderer::render`]'s) at `exposure` under `tone` as 8-bit sRGB,
+    /// three bytes a pixel: `haze_core::Image::to_srgb8` of its pixels. On a GPU it is
+    /// encoded there and read back at 4 bytes a pixel instead of 16 (the same bytes:
+    /// `crates/view/tests/gpu_tone_pass.rs`); on a CPU adapter (lavapipe), where the
+    /// shader's table search costs more than the host's (54 against 36 ms a 1920 × 1080
+    /// picture, BENCHMARKS.md "Viewer playback"), read back and encoded on the host.
+    pub fn encode(
+        &self,
+        ctx: &GpuContext,
+        image: &ImageBuffer,
+        exposure: f64,
+        tone: haze_core::ToneMap,
+    ) -> Result<Vec<u8>, GpuError> {
+        if ctx.is_cpu_adapter() {
+            let (width, height) = image.size();
+            let pixels = image.read(ctx)?;
+            return Ok(haze_core::Image {
+                width,
+                height,
+                pixels,
+            }
+            .to_srgb8(exposure, tone));
+        }
+        self.tone.encode(ctx, image, exposure, tone)
     }
 
     /// How many environment-pass grids were computed so far: the grid is kept across
@@ -104,7 +137,8 @@ impl FrameRenderer {
 
     /// The image of a frame — `rbfs` and `residual` on a `dims` grid over `bbox` — lit by
     /// `env` through `medium`, seen by `camera` (RGB per pixel, row 0 at the top), as
-    /// [`haze_view::render::crm_render`] computes it, read back from the GPU. The residual
+    /// [`haze_view::render::crm_render`] computes it, left on the GPU
+    /// ([`ImageBuffer::read`] brings it back, [`FrameRenderer::encode`] encodes it). The residual
     /// is left out when `opts.residual` is off. Errors are the GPU stages' (bad input,
     /// device limits, device errors).
     #[allow(clippy::too_many_arguments)]
@@ -119,7 +153,7 @@ impl FrameRenderer {
         env: &Environment,
         camera: &Camera,
         opts: &CrmOptions,
-    ) -> Result<(Vec<[f32; 3]>, StageTimes), GpuError> {
+    ) -> Result<(ImageBuffer, StageTimes), GpuError> {
         if self.inner.environment() != env {
             self.inner.set_environment(ctx, env.clone())?;
         }
@@ -131,10 +165,9 @@ impl FrameRenderer {
             bbox: *bbox,
         };
         let (image, mut stats) = self.inner.render(ctx, &frame, medium, camera, opts)?;
-        let pixels = image.read(ctx)?;
         self.inner.read_solve(ctx, &mut stats)?;
         Ok((
-            pixels,
+            image,
             StageTimes {
                 crm: stats.crm,
                 sources_reused: stats.reuse != Reuse::Nothing,
@@ -203,18 +236,20 @@ mod tests {
     ) -> (Vec<[f32; 3]>, StageTimes) {
         let medium = Medium::new(6.0, 0.85, 0.3).unwrap();
         let residual = f.residual.as_ref().map(Residual::Hash);
-        r.render(
-            ctx,
-            &f.rbfs,
-            residual,
-            DIMS,
-            &bbox(),
-            &medium,
-            env,
-            camera,
-            opts,
-        )
-        .unwrap()
+        let (image, times) = r
+            .render(
+                ctx,
+                &f.rbfs,
+                residual,
+                DIMS,
+                &bbox(),
+                &medium,
+                env,
+                camera,
+                opts,
+            )
+            .unwrap();
+        (image.read(ctx).unwrap(), times)
     }
 
     #[test]
@@ -325,8 +360,10 @@ mod tests {
                     o: &CrmOptions| {
             let f = &frames[k];
             let residual = f.residual.as_ref().map(Residual::Hash);
-            r.render(&ctx, &f.rbfs, residual, DIMS, &bbox(), m, env, cam, o)
-                .unwrap()
+            let (image, times) = r
+                .render(&ctx, &f.rbfs, residual, DIMS, &bbox(), m, env, cam, o)
+                .unwrap();
+            (image.read(&ctx).unwrap(), times)
         };
         // Each picture against a fresh renderer's, which builds its one grid.
         let fresh = |k: usize, m: &Medium, env: &Environment, cam: &Camera, o: &CrmOptions| {

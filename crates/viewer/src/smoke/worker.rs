@@ -3,7 +3,8 @@
 //! picture, so the window stays responsive while a frame renders.
 //!
 //! A job whose frame, camera and scene equal the previous job's is not rendered again:
-//! the kept linear pixels are only tone-mapped with the new exposure.
+//! the kept linear picture, still on the GPU, is only encoded again at the new exposure
+//! (`FrameRenderer::encode`).
 
 use super::frame::{FrameRenderer, StageTimes};
 use super::playback::Tick;
@@ -12,10 +13,11 @@ use haze_gpu::GpuContext;
 use haze_render::smoke::Supersample;
 use haze_view::gpu::GridBuffer;
 use haze_view::gpu::renderer::LightingOn;
+use haze_view::gpu::view_pass::ImageBuffer;
 use haze_view::gpu::volume_pass::Residual;
 use haze_view::render::CrmOptions;
 use haze_view::stream::{FrameStream, StreamFrame};
-use haze_view::{Camera, Environment, Image, Medium};
+use haze_view::{Camera, Environment, Medium};
 use std::sync::Arc;
 use std::sync::mpsc::{Receiver, Sender, channel};
 use std::thread::JoinHandle;
@@ -135,7 +137,7 @@ struct Kept {
     frame: usize,
     camera: Camera,
     scene: Scene,
-    image: Image,
+    image: ImageBuffer,
     number: i64,
     grid: Grid,
 }
@@ -267,7 +269,7 @@ fn run_job(
                 Some(values) => Some(Residual::Dense(values)),
                 None => frame.residual.as_ref().map(Residual::Hash),
             };
-            let (pixels, times) = renderer
+            let (image, times) = renderer
                 .render(
                     ctx,
                     &frame.rbfs,
@@ -299,11 +301,7 @@ fn run_job(
                 frame: job.frame,
                 camera: job.camera.clone(),
                 scene: job.scene.clone(),
-                image: Image {
-                    width,
-                    height,
-                    pixels,
-                },
+                image,
                 number: frame.number,
                 grid,
             });
@@ -315,7 +313,9 @@ fn run_job(
         number: k.number,
         width,
         height,
-        rgb: k.image.to_srgb8(job.exposure, job.tone),
+        rgb: renderer
+            .encode(ctx, &k.image, job.exposure, job.tone)
+            .map_err(|e| format!("frame {}: {e}", k.number))?,
         times,
         grid: k.grid,
     })
@@ -387,7 +387,7 @@ mod tests {
             haze_view::stream::FrameDecoder::new(Arc::new(haze_asset::Asset::open(&path).unwrap()));
         let f = d.decode(2).unwrap();
         let job = view_job(2, 0.3, 4.0);
-        let (pixels, _) = r
+        let (image, _) = r
             .render(
                 &ctx,
                 &f.rbfs,
@@ -400,10 +400,11 @@ mod tests {
                 &job.scene.opts,
             )
             .unwrap();
-        let image = Image {
+        // The worker's picture, encoded on the GPU, byte for byte the host's encoding.
+        let image = haze_view::Image {
             width: 24,
             height: 18,
-            pixels,
+            pixels: image.read(&ctx).unwrap(),
         };
         assert_eq!(b.rgb, image.to_srgb8(4.0, haze_core::ToneMap::Filmic));
         assert_ne!(a.rgb, b.rgb);
