@@ -62,7 +62,16 @@ impl ShGrid {
     /// (`3·order²` entries, channel fastest; the rest untouched).
     pub fn at(&self, x: [f64; 3], out: &mut [f64]) {
         let k3 = 3 * count(self.order);
-        out[..k3].fill(0.0);
+        self.at_first(x, &mut out[..k3]);
+    }
+
+    /// The first `out.len()` entries of [`ShGrid::at`] (at most `3·order²`: the lowest
+    /// bands, channel fastest), the same sums, the others not interpolated.
+    pub fn at_first(&self, x: [f64; 3], out: &mut [f64]) {
+        let k3 = 3 * count(self.order);
+        let n = out.len().min(k3);
+        let out = &mut out[..n];
+        out.fill(0.0);
         if self.is_empty() {
             return;
         }

@@ -8,7 +8,6 @@ use super::gather::SunSource;
 use crate::diffusion::Sources;
 use crate::env::Environment;
 use crate::lighting::single::RgbSh;
-use crate::lighting::single::moments;
 use crate::lights::{DiskPhase, unit};
 use crate::medium::{FOUR_PI, Medium};
 use crate::render::env_pass::phase_factors;
@@ -17,6 +16,7 @@ use crate::sh::{self, ShGrid};
 use haze_volume::rbf::voxel_span;
 use haze_volume::{Rbf, Volume};
 use rayon::prelude::*;
+use std::f64::consts::PI;
 
 /// `J¹` of one point, `[channel][axis]`.
 type Moment1 = [[f64; 3]; 3];
@@ -164,7 +164,9 @@ pub fn env_grid_sources(
     let order = env_grid.order.min(2);
     let n2 = sh::count(order);
     let a = phase_factors(medium, order);
-    let k3 = 3 * sh::count(env_grid.order);
+    // Bands 0–1 only: the first `3·n2` coefficients of each node.
+    let k3 = 3 * n2;
+    let (r0, k1) = ((4.0 * PI).sqrt(), -(3.0 / (4.0 * PI)).sqrt());
     let dims = fine.dims();
     let bbox = *fine.bbox();
     let vs = fine.voxel_size();
@@ -187,19 +189,16 @@ pub fn env_grid_sources(
                         }
                         let u = [x, y, z];
                         let u = [0, 1, 2].map(|k| bbox.min[k] + (u[k] as f64 + 0.5) * vs[k]);
-                        env_grid.at(u, &mut s);
-                        let j: RgbSh = [0, 1, 2].map(|ch| {
-                            (0..n2)
-                                .map(|k| a[k] * (light[ch][k] - s[3 * k + ch]))
-                                .collect()
-                        });
-                        let m = moments(&[j]);
+                        env_grid.at_first(u, &mut s);
                         w += d;
+                        // `lighting::single::moments` of the SH source `j`, inline.
                         for (ch, (s0, s1)) in j0.iter_mut().zip(&mut j1).enumerate() {
-                            *s0 += d * m.j0[0][ch];
-                            s1.iter_mut()
-                                .zip(m.j1[0][ch])
-                                .for_each(|(s, v)| *s += d * v);
+                            let j = |k: usize| a[k] * (light[ch][k] - s[3 * k + ch]);
+                            *s0 += d * (j(0) / r0);
+                            if n2 >= 4 {
+                                let m1 = [k1 * j(3), k1 * j(1), k1 * j(2)];
+                                s1.iter_mut().zip(m1).for_each(|(s, v)| *s += d * v);
+                            }
                         }
                     }
                 }
