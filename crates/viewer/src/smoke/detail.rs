@@ -1,8 +1,9 @@
 //! The lighting's detail while playing (`CrmOptions::detail`): where a new frame's
 //! lighting costs more than its view pass and the frame misses its slot at the playback
 //! rate (playing as fast as possible has no slot, and keeps the detail), the player
-//! lights the next frames at a lower detail — a coarser environment grid and larger
-//! cells for the explicit orders, about `detail³` of the work — one step of [`LEVELS`]
+//! lights the next frames at a lower detail — a coarser environment grid, larger cells
+//! for the explicit orders and the suns' shadows swept, about a third of the work a
+//! step — one step of [`LEVELS`]
 //! at a time, and raises it again once the lighting costs less than [`RAISE_BELOW`] of
 //! the view pass (the step up costs about three times as much). It never goes below
 //! [`floor`]: the environment grid's cells stay within [`MAX_CELL_TAU`] optical depths
