@@ -31,7 +31,7 @@ CASE is one of:
             keyed on at frame 15, a sphere obstacle high up (the next sequence kept out of
             every tuning loop: report on it, never tune on it; the bake's warm iteration
             budget and an insertion round's minimum gain were chosen on it since)
-  plume-h   96 x 96 x 128, 40 frames: the issue's kind of case, a steady plume from a
+  plume-h   96 x 96 x 128, 40 frames: the reported kind of case, a steady plume from a
             centred emitter bent by a gusting wind under a slab obstacle, vorticity 0.35
             (kept for one measurement with the final defaults; looked at once more, for the
             bake's warm iteration budget, which was chosen on plume-d and plume-g)

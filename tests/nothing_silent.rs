@@ -1,7 +1,7 @@
 //! Nothing silent: no NaN picture, every value checked against its range (the range in
 //! the message), contradictory options and absurd work refused, negative numbers read as
-//! values, repeated JSON keys refused by name, and messages in words on one line (issue
-//! 38's classes "silent NaN pictures", "no progress, no bound", "duplicate JSON keys",
+//! values, repeated JSON keys refused by name, and messages in words on one line (the
+//! classes "silent NaN pictures", "no progress, no bound", "duplicate JSON keys",
 //! "values accepted without a word", "negative values after a space", "unclear
 //! messages", and trailing data after an asset).
 

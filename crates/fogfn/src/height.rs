@@ -1,4 +1,4 @@
-//! Height falloff (the exponential fog the issue asks for; paper D cites it, refs 3 and 8):
+//! Height falloff (the common exponential fog; paper D cites it, refs 3 and 8):
 //! `γ(x) = exp(−b (n·x − h₀))`, `n` the unit "up" of the layer, `b` its falloff (per world
 //! unit), `h₀` its base.
 //!

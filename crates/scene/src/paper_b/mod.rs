@@ -96,7 +96,7 @@ pub struct PaperBOptions {
     pub sky_stride: usize,
 }
 
-/// The default [`PaperBOptions::target`]: 2 %, inside the 3 % goal with room for
+/// The default [`PaperBOptions::target`]: 2 %, inside the 3 % goal with room for
 /// the other Gaussians' attenuation, taken through the centre either way.
 pub const DEFAULT_TARGET: f64 = 0.02;
 
