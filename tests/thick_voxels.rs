@@ -120,3 +120,47 @@ fn the_viewer_lights_thick_voxels_on_a_finer_grid() {
     assert!(out.contains("voxels 2.") && !out.contains("finer"), "{out}");
     assert!(err.contains("too dark"), "{err}");
 }
+
+/// `--lighting-detail` below the smoke's floor (`CrmOptions::detail_floor`: the
+/// environment grid's cells thicker than half an optical depth) is warned about with the
+/// detail to use; at or above the floor it is not. The blob at σt 3 is about 1 optical
+/// depth per voxel on the 3× finer grid (floor 1); at σt 0.05 about 0.05 on its own grid
+/// (floor ≈ 0.15).
+#[test]
+fn a_detail_below_the_floor_is_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("blob.npy");
+    write_npy(&input, [20; 3], &blob(20));
+    let out = dir.path().join("out.exr");
+    let run = |sigma_t: &str, detail: &str| {
+        let args = [
+            "render",
+            s(&input),
+            "--out",
+            s(&out),
+            "--width",
+            "24",
+            "--height",
+            "18",
+            "--no-multiple",
+            "--sigma-t",
+            sigma_t,
+            "--lighting-detail",
+            detail,
+        ];
+        let o = haze().args(args).output().unwrap();
+        let err = String::from_utf8(o.stderr).unwrap();
+        assert!(o.status.success(), "{args:?}: {err}");
+        err
+    };
+    let thick = run("3", "0.5");
+    assert!(
+        thick.contains("--lighting-detail 0.5 makes the environment grid's cells")
+            && thick.contains("use at least 1.00"),
+        "{thick}"
+    );
+    assert!(!run("3", "1").contains("--lighting-detail"));
+    assert!(!run("0.05", "0.5").contains("WARN"));
+    let thin = run("0.05", "0.1");
+    assert!(thin.contains("use at least 0.1"), "{thin}");
+}

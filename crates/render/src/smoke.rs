@@ -301,6 +301,7 @@ pub fn render_image(a: &RenderOptions) -> Result<Rendered> {
             gpu.as_ref(),
             &frame.label,
         )?;
+        warn_below_detail_floor(&opts, tau / n as f64, &frame.label);
         // Lit on the grid `n` times finer: the RBFs are evaluated at its voxel centers,
         // the residual resampled to them (`supersample` module docs).
         let refined = (n > 1).then(|| supersample::refine(&frame.residual, dims, bbox, n));
@@ -450,6 +451,26 @@ fn refinement(
         );
     }
     Ok((n, tau))
+}
+
+/// Warns when `--lighting-detail` lies below [`CrmOptions::detail_floor`] for lit voxels
+/// `tau` optical depths thick: the environment grid's cells are then thicker than
+/// [`haze_view::render::MAX_CELL_TAU`], where a lower detail's error grew to several
+/// points (BENCHMARKS.md "Viewer playback: the lighting's detail"). Returns whether it
+/// warned.
+fn warn_below_detail_floor(opts: &CrmOptions, tau: f64, label: &str) -> bool {
+    let floor = opts.detail_floor(tau);
+    if opts.detail >= floor {
+        return false;
+    }
+    tracing::warn!(
+        "{label}: --lighting-detail {} makes the environment grid's cells {:.2} optical depths across (voxels {tau:.2} thick); on held-out smoke cells over {} added up to 7 points of error: use at least {:.2}",
+        opts.detail,
+        opts.env_cell_tau(tau),
+        haze_view::render::MAX_CELL_TAU,
+        (floor * 100.0).ceil() / 100.0
+    );
+    true
 }
 
 /// The most pixels `--check` compares (each costs 128 reference paths).

@@ -798,3 +798,88 @@ fn swept_sun_shadows_follow_the_march() {
     lights_pass_at(&mut b, &env, &medium, eye, 0.5);
     assert_eq!(a.radiance, b.radiance);
 }
+
+/// The lights pass at its extremes, marched (detail 1) and swept (detail 0.5), under suns
+/// along an axis, along a diagonal and grazing a face: an empty box lights nothing; a
+/// full box at σt 0 is lit without shadow (every voxel the same multiple of HG toward
+/// the eye, to f32 rounding) and at 1e-12 within 1e-9 of it; at σt 4 every
+/// value is finite and non-negative and the far side darker than the near; at σt 1e12
+/// the box is opaque: no voxel center sees the sun (its half voxel alone is 5e11
+/// optical depths).
+#[test]
+fn the_lights_pass_at_its_extremes() {
+    use haze_view::render::crm::VolumeGrids;
+    use haze_view::render::lights_pass::lights_pass_at;
+    let n = 16;
+    let grids = |d: f32| VolumeGrids {
+        density: haze_volume::Volume::new([n; 3], unit_box(), vec![d; n * n * n]).unwrap(),
+        radiance: vec![[0.0; 3]; n * n * n],
+        eye_peak: 0.0,
+    };
+    let eye = [2.0, -1.0, 0.8];
+    let lit = |d: f32, sigma_t: f64, dir: [f64; 3], detail: f64| {
+        let medium = Medium::new(sigma_t, 0.9, 0.3).unwrap();
+        let mut env = Environment::constant([0.0; 3]);
+        env.suns = vec![Sun::from_radiance(dir, [20.0; 3], 0.0).unwrap()];
+        let mut g = grids(d);
+        lights_pass_at(&mut g, &env, &medium, eye, detail);
+        g.radiance
+            .iter()
+            .map(|r| f64::from(r[0]))
+            .collect::<Vec<f64>>()
+    };
+    let s = 0.5f64.sqrt();
+    let a = 0.05f64;
+    let dirs = [
+        [0.0, 0.0, 1.0],
+        [1.0, 0.0, 0.0],
+        [1.0 / 3f64.sqrt(); 3],
+        [(1.0 - a * a).sqrt() * s, (1.0 - a * a).sqrt() * s, a],
+    ];
+    for dir in dirs {
+        for detail in [1.0, 0.5] {
+            let what = format!("sun {dir:?}, detail {detail}");
+            assert!(
+                lit(0.0, 4.0, dir, detail).iter().all(|&v| v == 0.0),
+                "{what}"
+            );
+            let clear = lit(1.0, 0.0, dir, detail);
+            let faint = lit(1.0, 1e-12, dir, detail);
+            // Unshadowed, each voxel's light is `Ω·E·p(μ)/4π`, μ between the sun's
+            // light (−s) and the way to the eye: the same multiple of HG everywhere.
+            let ratio: Vec<f64> = (0..n * n * n)
+                .map(|i| {
+                    let x = [i % n, i / n % n, i / (n * n)].map(|a| (a as f64 + 0.5) / n as f64);
+                    let to_eye = [0, 1, 2].map(|k| eye[k] - x[k]);
+                    let len = to_eye.iter().map(|c| c * c).sum::<f64>().sqrt();
+                    let mu = -(0..3).map(|k| dir[k] * to_eye[k]).sum::<f64>() / len;
+                    clear[i] / hg(0.3, mu)
+                })
+                .collect();
+            let r0 = ratio[0];
+            assert!(r0 > 0.0 && r0.is_finite(), "{what}: {r0}");
+            for (i, r) in ratio.iter().enumerate() {
+                assert!(
+                    (r - r0).abs() <= 1e-5 * r0,
+                    "{what}: voxel {i}: {r} vs {r0}"
+                );
+                let f = faint[i];
+                assert!(
+                    (f - clear[i]).abs() <= 1e-9 * clear[i],
+                    "{what}: {f} vs {}",
+                    clear[i]
+                );
+            }
+            let thick = lit(1.0, 4.0, dir, detail);
+            assert!(thick.iter().all(|v| v.is_finite() && *v >= 0.0), "{what}");
+            // The voxel nearest the sun against the one farthest from it.
+            let corner = |toward: bool| {
+                let pick = |c: f64| usize::from((c > 0.0) == toward) * (n - 1);
+                pick(dir[0]) + n * pick(dir[1]) + n * n * pick(dir[2])
+            };
+            assert!(thick[corner(true)] > thick[corner(false)], "{what}");
+            let opaque = lit(1.0, 1e12, dir, detail);
+            assert!(opaque.iter().all(|&v| v == 0.0), "{what}: {opaque:?}");
+        }
+    }
+}

@@ -6,7 +6,7 @@
 //! step — one step of [`LEVELS`]
 //! at a time, and raises it again once the lighting costs less than [`RAISE_BELOW`] of
 //! the view pass (the step up costs about three times as much). It never goes below
-//! [`floor`]: the environment grid's cells stay within [`MAX_CELL_TAU`] optical depths
+//! [`floor`]: the environment grid's cells stay within [`MAX_CELL_TAU`](haze_view::render::MAX_CELL_TAU) optical depths
 //! across, where the lower details' error stayed small. Paused, a frame is lit
 //! at full detail: the picture a user stops on is the one the renderer's figures are
 //! measured for, and the player renders it again when playback stopped on a lower
@@ -14,6 +14,7 @@
 //! ("Viewer playback: the lighting's detail").
 
 use super::frame::StageTimes;
+use haze_view::render::CrmOptions;
 
 /// The details playback steps through, full first. Each step cuts a new frame's
 /// lighting work to about a third (`(d₁/d₀)³` ≈ 0.3–0.42).
@@ -23,23 +24,14 @@ pub const LEVELS: [f64; 5] = [1.0, 0.75, 0.5, 0.35, 0.25];
 /// pass: the finer step costs about 3× as much, so it still stays below the view pass.
 pub const RAISE_BELOW: f64 = 0.25;
 
-/// The optical depth across one cell of the environment grid that a lower detail may
-/// reach. On 16 held-out sky cases (BENCHMARKS.md "Viewer playback: the lighting's
-/// detail") a detail whose cells stayed within half an optical depth added at most 1.5
-/// points of error against the path tracer; cells of 0.75–1.25 added up to 7.
-pub const MAX_CELL_TAU: f64 = 0.5;
-
 /// The lowest detail for smoke whose lit voxels are `tau` optical depths across (the
-/// `thick` module's figure): the environment grid's default spacing, divided by the
-/// detail, times `tau` within [`MAX_CELL_TAU`]; between the last level and 1 (1 for a
-/// `tau` that is not a positive number).
+/// `thick` module's figure): the renderer's floor ([`CrmOptions::detail_floor`], the
+/// environment grid's cells within [`MAX_CELL_TAU`](haze_view::render::MAX_CELL_TAU) optical depths across), not below
+/// the last level (1 for a `tau` that is not a positive number).
 pub fn floor(tau: f64) -> f64 {
-    let spacing = haze_view::render::env_pass::EnvGridOptions::default().spacing;
-    let d = spacing * tau / MAX_CELL_TAU;
-    if d.is_nan() || d <= 0.0 {
-        return 1.0;
-    }
-    d.clamp(LEVELS[LEVELS.len() - 1], 1.0)
+    CrmOptions::default()
+        .detail_floor(tau)
+        .max(LEVELS[LEVELS.len() - 1])
 }
 
 /// The player's choice of detail for playback (module docs).
