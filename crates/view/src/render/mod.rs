@@ -72,11 +72,21 @@ pub struct CrmOptions {
 
 impl CrmOptions {
     /// The environment pass's grid options at this detail (`None` with
-    /// [`EnvSource::Centers`]): the spacing divided by [`CrmOptions::detail`].
+    /// [`EnvSource::Centers`]): the spacing divided by [`CrmOptions::detail`], and the
+    /// direction rule's latitudes per hemisphere times the detail, rounded up, at least
+    /// [`MIN_DETAIL_THETA`] (the default 3 — 72 directions — stays at 0.75 and becomes 2
+    /// — 32 directions — at 0.5 and below; a rule already below the minimum is kept).
+    /// Fewer directions cost 0–0.4 points of error at detail 0.5 on the held-out sky
+    /// cases of BENCHMARKS.md ("Viewer playback: the lighting's detail") and take about
+    /// a third off the environment grid's sweeps.
     pub fn env_grid(&self) -> Option<EnvGridOptions> {
+        let detail = detail_or_one(self.detail);
         match self.env_source {
             EnvSource::Grid(g) => Some(EnvGridOptions {
-                spacing: g.spacing / detail_or_one(self.detail),
+                spacing: g.spacing / detail,
+                theta: ((g.theta as f64 * detail).ceil() as usize)
+                    .max(MIN_DETAIL_THETA)
+                    .min(g.theta),
                 ..g
             }),
             EnvSource::Centers => None,
@@ -94,6 +104,12 @@ impl CrmOptions {
         }
     }
 }
+
+/// The fewest latitudes per hemisphere a lower [`CrmOptions::detail`] leaves the
+/// environment grid's direction rule (2: 4 × 8 directions, enough for the SH of order 4
+/// it projects on: the Gauss–Legendre latitudes integrate `cos θ` polynomials to degree 3
+/// per hemisphere exactly, the 8 azimuths `e^{imφ}` up to |m| = 7).
+pub const MIN_DETAIL_THETA: usize = 2;
 
 /// The optical depth across one cell of the environment grid that a lower
 /// [`CrmOptions::detail`] may reach. On 16 held-out sky cases (BENCHMARKS.md "Viewer
@@ -528,7 +544,10 @@ pub fn crm_render(
 
 #[cfg(test)]
 mod tests {
-    use super::{CrmOptions, EnvGridOptions, EnvSource, MAX_CELL_TAU, MsDiffusion, detail_or_one};
+    use super::{
+        CrmOptions, EnvGridOptions, EnvSource, MAX_CELL_TAU, MIN_DETAIL_THETA, MsDiffusion,
+        detail_or_one,
+    };
 
     /// `orders` chooses its cell size unless given one; `auto` only where allowed.
     #[test]
@@ -568,7 +587,25 @@ mod tests {
         assert_eq!(opts(1.0).env_grid(), Some(base));
         let half = opts(0.5).env_grid().unwrap();
         assert_eq!(half.spacing, 2.0 * base.spacing);
-        assert_eq!((half.theta, half.depths), (base.theta, base.depths));
+        assert_eq!((half.theta, half.depths), (2, base.depths));
+        // The directions follow the detail, rounded up, never below the minimum nor
+        // above the rule given.
+        let theta = |detail, theta| {
+            CrmOptions {
+                env_source: EnvSource::Grid(EnvGridOptions { theta, ..base }),
+                ..opts(detail)
+            }
+            .env_grid()
+            .unwrap()
+            .theta
+        };
+        assert_eq!(base.theta, 3);
+        assert_eq!(theta(0.75, 3), 3);
+        assert_eq!(theta(0.25, 3), MIN_DETAIL_THETA);
+        assert_eq!(theta(0.5, 8), 4);
+        assert_eq!(theta(0.6, 8), 5);
+        assert_eq!(theta(1.0, 8), 8);
+        assert_eq!(theta(0.25, 1), 1);
         for bad in [0.0, -0.5, 1.5, f64::NAN, f64::INFINITY] {
             assert!(CrmOptions::check_detail(bad).is_err(), "{bad}");
             assert_eq!(detail_or_one(bad), 1.0);
