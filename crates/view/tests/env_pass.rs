@@ -10,7 +10,9 @@
 use haze_view::field;
 use haze_view::medium::{FOUR_PI, hg};
 use haze_view::render::crm::{self, VolumeGrids};
-use haze_view::render::env_pass::{self, EnvGridOptions, directions, env_grid, env_pass};
+use haze_view::render::env_pass::{
+    self, EnvGridOptions, directions, env_grid, env_pass, sky_cell_powers,
+};
 use haze_view::sh::{self, quad::SphereGrid};
 use haze_view::{Environment, Medium, Sky};
 use haze_volume::{Bbox, Rbf, Volume};
@@ -180,8 +182,9 @@ fn thin_smoke_gets_the_unshadowed_light_exactly() {
 #[test]
 fn opaque_smoke_takes_all_the_light_the_rule_sees() {
     // σt = 1e6: from a node deep inside the cluster every direction is black (T = 0), so
-    // its S_lm is the rule's own projection Σ_k w_k L(ω_k) Y_lm(ω_k), summed here
-    // independently; every voxel stays finite and ≥ 0.
+    // its S_lm is the rule's own projection Σ_k P_k Y_lm(ω_k), P_k the sky's power in
+    // the direction's cell (`sky_cell_powers`), summed here apart from the pass; every
+    // voxel stays finite and ≥ 0.
     let rbfs = cluster(&unit_box());
     let env = Environment::sky(Sky::default());
     let m = Medium::new(1e6, 0.9, 0.5).unwrap();
@@ -190,12 +193,12 @@ fn opaque_smoke_takes_all_the_light_the_rule_sees() {
     let opts = EnvGridOptions::default();
     let grid = env_pass(&mut g, &env, &light, &m, EYE, 4, &opts);
     let mut rule = vec![0.0f64; 3 * 16];
-    for (w, wt) in directions(opts.theta).points() {
-        let l = env.distant.radiance(w);
+    let powers = sky_cell_powers(&Sky::default(), opts.theta);
+    for ((w, _), p) in directions(opts.theta).points().zip(powers) {
         let y = sh::eval(4, w);
         for j in 0..16 {
             for c in 0..3 {
-                rule[3 * j + c] += wt * l[c] * y[j];
+                rule[3 * j + c] += p[c] * y[j];
             }
         }
     }
