@@ -44,7 +44,7 @@ pub fn lights_pass(grids: &mut VolumeGrids, env: &Environment, medium: &Medium, 
 }
 
 /// [`lights_pass`] at the lighting's `detail` (`CrmOptions::detail`): below 1 the suns'
-/// shadows come from a sweep over the voxel planes (module docs).
+/// shadows come from a sweep over a lattice `1/detail` voxels apart (module docs).
 pub fn lights_pass_at(
     grids: &mut VolumeGrids,
     env: &Environment,
