@@ -82,6 +82,12 @@ const MIN_NORMAL: f32 = 1.17549435e-38;
 // Two per light of the ground: (unit direction towards a sun, 0) or (box-local position
 // of a point light, 1); (ρ/π · irradiance or intensity, 0).
 @group(0) @binding(5) var<storage, read> ground_lights: array<vec4<f32>>;
+// Per block of OCCUPANCY_BLOCK³ voxels (x fastest) whether a sample there may see
+// density (`occupancy.wgsl`): in an empty block `sample_grid` is exactly 0.
+@group(0) @binding(6) var<storage, read> occupancy: array<u32>;
+
+// `occupancy.wgsl`'s BLOCK.
+const OCCUPANCY_BLOCK: u32 = 4u;
 
 // `Camera::pixel_ray`: through the center of pixel (x, y), row 0 at the top.
 fn pixel_ray(x: u32, y: u32) -> vec3<f32> {
@@ -275,20 +281,47 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     var tau = 1.0;
     // The scattered light's transmittance, through σt·keep (`VolumeGrids::eye_peak`).
     var tau_j = 1.0;
-    if hit.z > 0.0 {
+    // A grid without voxels has no density to sample (`sample_grid` is 0 everywhere).
+    if hit.z > 0.0 && all(p.dims > vec3<u32>(0u)) {
         let ds = p.du / cos_g;
         // Slice planes at axis distances k·du from the eye; the ray meets plane k at
         // t = k·du / cos γ. An integer counter: a float one stalls past 2²⁴.
         let k0 = max(floor(hit.x * cos_g / p.du), 0.0);
         let k1 = ceil(hit.y * cos_g / p.du);
         let count = u32(max(k1 - k0, 0.0));
-        for (var i = 0u; i <= count; i++) {
+        let side = f32(OCCUPANCY_BLOCK) * p.voxel;
+        let blocks = (p.dims + OCCUPANCY_BLOCK - 1u) / OCCUPANCY_BLOCK;
+        var i = 0u;
+        loop {
+            if i > count {
+                break;
+            }
             let t = (k0 + f32(i) + 0.5) * ds;
             if t < hit.x || t > hit.y {
+                i++;
                 continue;
             }
-            let s = sample_grid(p.eye + t * d);
+            let q = p.eye + t * d;
+            // A sample in an empty block adds nothing (`sample_grid` is 0 there): jump to
+            // the last slice before the block's exit (rounded down, at least one on), so
+            // the samples that count are the same, in the same order.
+            let b = min(vec3<u32>(max(floor(q / side), vec3<f32>(0.0))), blocks - 1u);
+            if occupancy[b.x + blocks.x * (b.y + blocks.y * b.z)] == 0u {
+                var out = 3.0e38;
+                for (var a = 0u; a < 3u; a++) {
+                    if d[a] > 0.0 {
+                        out = min(out, (f32(b[a] + 1u) * side[a] - q[a]) / d[a]);
+                    } else if d[a] < 0.0 {
+                        out = min(out, (f32(b[a]) * side[a] - q[a]) / d[a]);
+                    }
+                }
+                let next = floor((t + max(out, 0.0)) / ds - 0.5 - k0);
+                i = max(u32(max(next, 0.0)), i + 1u);
+                continue;
+            }
+            let s = sample_grid(q);
             if s.w <= 0.0 {
+                i++;
                 continue;
             }
             let a = p.sigma_t * s.w * ds;
@@ -305,6 +338,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
                 tau = 0.0;
                 break;
             }
+            i++;
         }
     }
     pixels[id.y * p.image.x + id.x] = vec4<f32>(out + tau * background, 1.0);

@@ -379,6 +379,7 @@ fn frames_lit_by_a_sun_and_a_point_light_match_crm_render() {
                     "environment pass",
                     "lights shadow volume",
                     "lights pass",
+                    "view pass occupancy",
                     "view pass",
                 ]
                 .into_iter()
@@ -466,6 +467,7 @@ fn stage_times_come_from_timestamps_where_the_device_has_them() {
                 "grid occupancy",
                 "environment grid",
                 "environment pass",
+                "view pass occupancy",
                 "view pass"
             ]
         );

@@ -26,6 +26,7 @@
 //! read back for tests.
 
 use super::env_sweep::{self, SweepBuffers, SweepPlan};
+use super::occupancy::OccupancyPass;
 use super::{GridBuffer, SourceBuffer};
 use crate::distant::Distant;
 use crate::env::Environment;
@@ -48,27 +49,6 @@ pub const SHADER: Variant = Variant {
     entry: include_str!("../../shaders/env_pass.wgsl"),
     defines: &[],
 };
-
-/// The occupancy of the grid's blocks that the environment grid's march skips by:
-/// `crates/view/shaders/occupancy.wgsl`.
-pub const OCCUPANCY_SHADER: Variant = Variant {
-    label: "grid occupancy",
-    entry: include_str!("../../shaders/occupancy.wgsl"),
-    defines: &[],
-};
-
-/// Voxels per block side of the occupancy (`occupancy.wgsl`'s `BLOCK`).
-const BLOCK: usize = 4;
-
-/// `occupancy.wgsl`'s parameters.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-struct OccupancyParams {
-    dims: [u32; 3],
-    _pad0: u32,
-    blocks: [u32; 3],
-    _pad1: u32,
-}
 
 /// Voxels per workgroup side of `apply` (`@workgroup_size(4, 4, 4)`).
 const SIDE: usize = 4;
@@ -186,7 +166,7 @@ impl EnvShadow {
 /// The compiled environment pass, reusable across frames.
 #[derive(Debug)]
 pub struct EnvPass {
-    occupancy: wgpu::ComputePipeline,
+    occupancy: OccupancyPass,
     needed: wgpu::ComputePipeline,
     sweep: wgpu::ComputePipeline,
     apply: wgpu::ComputePipeline,
@@ -207,12 +187,7 @@ impl EnvPass {
     pub fn new(ctx: &GpuContext) -> Result<EnvPass, GpuError> {
         let source = super::shaders::source(&SHADER)?;
         Ok(EnvPass {
-            occupancy: compute_pipeline_at(
-                ctx,
-                "grid occupancy pipeline creation",
-                &super::shaders::source(&OCCUPANCY_SHADER)?,
-                "main",
-            )?,
+            occupancy: OccupancyPass::new(ctx)?,
             needed: compute_pipeline_at(
                 ctx,
                 "environment grid nodes pipeline creation",
@@ -321,10 +296,9 @@ impl EnvPass {
             nodes: frame.nodes.map(|n| n as u32),
             peak_azimuths: 0,
         };
-        let blocks = dims.map(|n| n.div_ceil(BLOCK));
-        let block_groups = line_groups(ctx, blocks.iter().product(), NODES, "occupancy blocks")?;
         // Nothing is taken away without extinction or light: the grid stays zero.
         let sweeps = params.sigma_t > 0.0 && !rule.is_empty();
+        let block_groups = OccupancyPass::groups(ctx, dims)?;
         ctx.scoped("the environment grid", || {
             let shadow = ctx.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("environment grid"),
@@ -339,7 +313,9 @@ impl EnvPass {
                     bytemuck::bytes_of(&params),
                     wgpu::BufferUsages::STORAGE,
                 );
-                let occupancy = self.occupancy(ctx, grid, blocks, block_groups);
+                let occupancy = self
+                    .occupancy
+                    .submit(ctx, grid, block_groups, "grid occupancy");
                 plan.submit(
                     ctx,
                     [&self.needed, &self.sweep],
@@ -360,46 +336,6 @@ impl EnvPass {
                 bbox,
             }
         })
-    }
-
-    /// Which blocks of [`BLOCK`]³ voxels of `grid` hold density within a voxel of them,
-    /// the buffer the environment grid's march skips by (submitted; one word a block).
-    /// `blocks` per axis, dispatched as `groups`.
-    fn occupancy(
-        &self,
-        ctx: &GpuContext,
-        grid: &GridBuffer,
-        blocks: [usize; 3],
-        groups: [u32; 3],
-    ) -> wgpu::Buffer {
-        let dims = grid.dims();
-        let count = blocks.iter().product::<usize>();
-        let params = OccupancyParams {
-            dims: dims.map(|n| n as u32),
-            _pad0: 0,
-            blocks: blocks.map(|n| n as u32),
-            _pad1: 0,
-        };
-        let params_buffer = buffer_init(
-            ctx,
-            "grid occupancy parameters",
-            bytemuck::bytes_of(&params),
-            wgpu::BufferUsages::STORAGE,
-        );
-        let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("grid occupancy"),
-            size: (count.max(1) * 4) as u64,
-            usage: wgpu::BufferUsages::STORAGE,
-            mapped_at_creation: false,
-        });
-        submit_pass(
-            ctx,
-            &self.occupancy,
-            "grid occupancy",
-            &[&params_buffer, grid.buffer(), &buffer],
-            groups,
-        );
-        buffer
     }
 
     /// The `apply` dispatch alone (submitted): adds to `grid`'s `J̃`, camera at `eye`,

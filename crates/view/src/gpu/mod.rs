@@ -22,6 +22,7 @@ pub mod env_pass;
 pub mod env_sweep;
 pub mod host_grids;
 pub mod lights_pass;
+pub mod occupancy;
 pub mod orders;
 pub mod renderer;
 pub mod shaders;

@@ -41,7 +41,7 @@ pub const VARIANTS: &[Variant] = &[
     super::volume_pass::SHADER,
     super::env_pass::SHADER,
     super::env_pass::REMOVE_SHADER,
-    super::env_pass::OCCUPANCY_SHADER,
+    super::occupancy::SHADER,
     super::lights_pass::SHADER,
     super::orders::SHADER,
     super::diffusion::SHADER,

@@ -66,15 +66,23 @@ impl FrameCost {
             + c.volume_seconds
             + c.env_seconds
             + c.lights_seconds;
+        // The view pass and the occupancy it skips by ("view pass occupancy").
+        let is_view = |pass: &str| pass.starts_with("view pass");
         let gpu_lighting: f64 = times
             .gpu
             .iter()
-            .filter(|(pass, _)| *pass != "view pass")
+            .filter(|(pass, _)| !is_view(pass))
             .map(|(_, s)| s)
             .sum();
-        let view_seconds = match times.gpu.iter().find(|(pass, _)| *pass == "view pass") {
-            Some((_, s)) => *s,
-            None => (seconds - c.setup_seconds - host).max(c.view_seconds),
+        let view_seconds = if times.gpu.iter().any(|(pass, _)| *pass == "view pass") {
+            times
+                .gpu
+                .iter()
+                .filter(|(pass, _)| is_view(pass))
+                .map(|(_, s)| s)
+                .sum()
+        } else {
+            (seconds - c.setup_seconds - host).max(c.view_seconds)
         };
         FrameCost {
             view_seconds,
@@ -229,9 +237,10 @@ mod tests {
         // Lit on the host.
         let cpu = StageTimes {
             crm: crm.clone(),
-            gpu: vec![("view pass", 1.25)],
+            gpu: vec![("view pass occupancy", 0.25), ("view pass", 1.0)],
             ..StageTimes::default()
         };
+        // The view pass with the occupancy it skips by.
         assert_eq!(FrameCost::of(6.0, &cpu), cost(1.25, 4.25));
         // Lit on the GPU: the host only submitted.
         let gpu = StageTimes {
