@@ -30,6 +30,7 @@
 
 #import sh_basis
 #import grid_march
+#import block_skip
 #import lit
 #import lat_long
 
@@ -73,9 +74,6 @@ struct Params {
 // `shadow`: per block of OCCUPANCY_BLOCK³ voxels (x fastest) whether the march must
 // sample it (`occupancy.wgsl`).
 @group(0) @binding(4) var<storage, read> occupancy: array<u32>;
-
-// `occupancy.wgsl`'s BLOCK.
-const OCCUPANCY_BLOCK: u32 = 4u;
 
 // `env_pass::PEAK_SKY`.
 const PEAK_W: u32 = 64u;
@@ -140,17 +138,9 @@ fn blocked_depth(u: vec3<f32>, s: vec3<f32>) -> f32 {
         }
         let t = (f32(k) + 0.5) * h;
         let q = u + t * s;
-        let b = min(vec3<u32>(max(floor(q / side), vec3<f32>(0.0))), blocks - 1u);
+        let b = block_of(q, side, blocks);
         if occupancy[b.x + blocks.x * (b.y + blocks.y * b.z)] == 0u {
-            // Distance along s from q to the block's far faces.
-            var out = 3.0e38;
-            for (var a = 0u; a < 3u; a++) {
-                if s[a] > 0.0 {
-                    out = min(out, (f32(b[a] + 1u) * side[a] - q[a]) / s[a]);
-                } else if s[a] < 0.0 {
-                    out = min(out, (f32(b[a]) * side[a] - q[a]) / s[a]);
-                }
-            }
+            let out = block_exit(q, s, b, side);
             let next = floor((t + max(out, 0.0)) / h - 0.5);
             k = max(u32(max(next, 0.0)), k + 1u);
             continue;

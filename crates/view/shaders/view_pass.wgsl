@@ -69,6 +69,7 @@ const MAX_SPAN: f32 = 1e3;
 const MIN_NORMAL: f32 = 1.17549435e-38;
 #import optics
 #import lat_long
+#import block_skip
 
 @group(0) @binding(0) var<storage, read> p: Params;
 // Per voxel (x fastest): J̃ in xyz, D in w.
@@ -86,8 +87,6 @@ const MIN_NORMAL: f32 = 1.17549435e-38;
 // density (`occupancy.wgsl`): in an empty block `sample_grid` is exactly 0.
 @group(0) @binding(6) var<storage, read> occupancy: array<u32>;
 
-// `occupancy.wgsl`'s BLOCK.
-const OCCUPANCY_BLOCK: u32 = 4u;
 
 // `Camera::pixel_ray`: through the center of pixel (x, y), row 0 at the top.
 fn pixel_ray(x: u32, y: u32) -> vec3<f32> {
@@ -305,16 +304,9 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             // A sample in an empty block adds nothing (`sample_grid` is 0 there): jump to
             // the last slice before the block's exit (rounded down, at least one on), so
             // the samples that count are the same, in the same order.
-            let b = min(vec3<u32>(max(floor(q / side), vec3<f32>(0.0))), blocks - 1u);
+            let b = block_of(q, side, blocks);
             if occupancy[b.x + blocks.x * (b.y + blocks.y * b.z)] == 0u {
-                var out = 3.0e38;
-                for (var a = 0u; a < 3u; a++) {
-                    if d[a] > 0.0 {
-                        out = min(out, (f32(b[a] + 1u) * side[a] - q[a]) / d[a]);
-                    } else if d[a] < 0.0 {
-                        out = min(out, (f32(b[a]) * side[a] - q[a]) / d[a]);
-                    }
-                }
+                let out = block_exit(q, d, b, side);
                 let next = floor((t + max(out, 0.0)) / ds - 0.5 - k0);
                 i = max(u32(max(next, 0.0)), i + 1u);
                 continue;

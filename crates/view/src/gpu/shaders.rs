@@ -15,6 +15,10 @@ pub const MODULES: &[Module] = &[
         source: include_str!("../../shaders/grid_march.wgsl"),
     },
     Module {
+        name: "block_skip",
+        source: include_str!("../../shaders/block_skip.wgsl"),
+    },
+    Module {
         name: "disk_phase",
         source: include_str!("../../shaders/disk_phase.wgsl"),
     },
