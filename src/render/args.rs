@@ -79,9 +79,9 @@ pub struct RenderCli {
     #[arg(long, default_value_t = haze_view::render::env_pass::EnvGridOptions::default().spacing, value_parser = positive_f64)]
     pub(crate) env_grid_spacing: f64,
     /// The lighting's detail, above 0 and at most 1: below 1 the environment grid's
-    /// spacing is divided by it, the explicit orders' automatic cells and the suns'
-    /// shadow lattice grow as 1/detail and at 0.5 and below the sky takes fewer
-    /// directions, so a new frame's lighting costs about detail³ as much (BENCHMARKS.md
+    /// spacing is divided by it, the explicit orders' automatic cells grow as 1/detail,
+    /// the suns' shadows are swept over the voxel planes instead of marched and at 0.5
+    /// and below the sky takes fewer directions, so a new frame's lighting costs about detail³ as much (BENCHMARKS.md
     /// "Viewer playback: the lighting's detail" measures the error). Below the smoke's
     /// floor (environment-grid cells over half an optical depth across) the render warns
     /// and names the lowest detail to use; the viewer lowers it while playback cannot

@@ -11,15 +11,12 @@
 //! once `σt·τ > 20` (`T < 2·10⁻⁹`), and skips its samples in blocks without density
 //! ([`Occupancy`]: the same sum). Voxels with `D = 0` emit nothing and are skipped.
 //!
-//! **At a lower detail** `D` ([`lights_pass_at`], `CrmOptions::detail` below 1) a sun's
-//! `τ` comes instead from a sweep over the planes of a lattice of nodes `1/D` voxels
-//! apart ([`super::env_sweep`]): each node's depth from its segment to the plane four
-//! nodes nearer the face and that plane's swept depths, read bilinearly, and each voxel's
-//! read trilinearly from the nodes around it — one sweep a sun over `D³` of the voxels'
-//! count instead of a march a voxel, its shadows' edges blurred by about half a node
-//! spacing per `√(n/4)` planes crossed. The lattice is finer than the environment grid's
-//! (`1.5/D` voxels), whose cells the detail's floor keeps within half an optical depth.
-//! Point lights still march.
+//! **At a lower detail** ([`lights_pass_at`], `CrmOptions::detail` below 1) a sun's `τ`
+//! comes instead from a sweep over the voxel planes ([`super::env_sweep`], its nodes the
+//! voxel centers): each voxel's depth from its segment to the plane four voxels nearer
+//! the face and that plane's swept depths, read bilinearly — one sweep a sun instead of
+//! a march a voxel, its shadows' edges blurred by about half a voxel per `√(n/4)` planes
+//! crossed. Point lights still march.
 //!
 //! The GPU twin is `shaders/lights_pass.wgsl` (`gpu::lights_pass`).
 
@@ -44,7 +41,7 @@ pub fn lights_pass(grids: &mut VolumeGrids, env: &Environment, medium: &Medium, 
 }
 
 /// [`lights_pass`] at the lighting's `detail` (`CrmOptions::detail`): below 1 the suns'
-/// shadows come from a sweep over a lattice `1/detail` voxels apart (module docs).
+/// shadows come from a sweep over the voxel planes (module docs).
 pub fn lights_pass_at(
     grids: &mut VolumeGrids,
     env: &Environment,
@@ -76,13 +73,12 @@ pub fn lights_pass_at(
     let k = medium.albedo / FOUR_PI;
     let lit = lit_voxels(density);
     // Per sun, at a lower detail, σt·τ at every voxel center by a sweep.
-    let detail = super::detail_or_one(detail);
-    let swept: Vec<Option<SunDepths>> = env
+    let swept: Vec<Option<Vec<f32>>> = env
         .suns
         .iter()
         .map(|sun| {
-            (detail < 1.0)
-                .then(|| SunDepths::new(density, medium.sigma_t, sun.direction, &occupied, detail))
+            (super::detail_or_one(detail) < 1.0)
+                .then(|| sun_depths(density, medium.sigma_t, &lit, sun.direction, &occupied))
                 .flatten()
         })
         .collect();
@@ -105,7 +101,7 @@ pub fn lights_pass_at(
                 let mut add = [0.0f64; 3];
                 for ((sun, phase), swept) in env.suns.iter().zip(&phases).zip(&swept) {
                     let t = match swept {
-                        Some(depths) => (-depths.at(u)).exp(),
+                        Some(depths) => (-f64::from(depths[idx])).exp(),
                         None => (-optical_depth_within(
                             density,
                             medium.sigma_t,
@@ -157,55 +153,26 @@ pub fn lights_pass_at(
         });
 }
 
-/// A sun's `σt·τ` on a lattice of nodes `1/detail` voxels apart, swept
-/// ([`super::env_sweep::sweep_depths`]) over the nodes around the lit voxels and read
-/// trilinearly at each voxel center ([`SunDepths::at`]).
-struct SunDepths {
-    /// The lattice (one coefficient per node, unused: the depths are kept apart).
-    grid: crate::sh::ShGrid,
-    tau: Vec<f32>,
-}
-
-impl SunDepths {
-    /// The depths towards the sun along the unit `w`, on nodes `1/detail` voxels apart
-    /// (`detail` in `(0, 1)`); `None` when no voxel is lit.
-    fn new(
-        density: &Volume,
-        sigma_t: f64,
-        w: [f64; 3],
-        occupied: &Occupancy,
-        detail: f64,
-    ) -> Option<SunDepths> {
-        let dims = density.dims();
-        let grid = super::env_pass::grid_frame(dims, density.bbox(), 1.0 / detail, 1);
-        let needed = super::env_pass::needed_nodes(density, &grid);
-        let domain = super::env_pass::node_domain(&needed, grid.nodes)?;
-        let vs = density.voxel_size();
-        let h0 = vs[0].min(vs[1]).min(vs[2]);
-        let tau = super::env_sweep::sweep_depths(density, sigma_t, &grid, domain, w, h0, occupied);
-        Some(SunDepths { grid, tau })
-    }
-
-    /// `σt·τ` at `x`, trilinear between the nodes (every node around a lit voxel is
-    /// swept, [`super::env_pass::needed_nodes`]).
-    fn at(&self, x: [f64; 3]) -> f64 {
-        let (i0, f) = self.grid.stencil(x);
-        let [nx, ny, nz] = self.grid.nodes;
-        let mut tau = 0.0;
-        for corner in 0..8 {
-            let d = [corner & 1, (corner >> 1) & 1, corner >> 2];
-            let mut w = 1.0;
-            for a in 0..3 {
-                w *= if d[a] == 1 { f[a] } else { 1.0 - f[a] };
-            }
-            if w == 0.0 {
-                continue;
-            }
-            let idx = [0, 1, 2].map(|a| (i0[a] + d[a]).min([nx, ny, nz][a] - 1));
-            tau += w * f64::from(self.tau[idx[0] + nx * (idx[1] + ny * idx[2])]);
-        }
-        tau
-    }
+/// `σt·τ` from every voxel center towards the sun along the unit `w` to the box's face,
+/// by a sweep over the voxel planes ([`super::env_sweep::sweep_depths`] on a grid whose
+/// nodes are the voxel centers), swept over the box of the `lit` voxels; `None` when none
+/// is lit.
+fn sun_depths(
+    density: &Volume,
+    sigma_t: f64,
+    lit: &[bool],
+    w: [f64; 3],
+    occupied: &Occupancy,
+) -> Option<Vec<f32>> {
+    let dims = density.dims();
+    let grid = super::env_pass::grid_frame(dims, density.bbox(), 1.0, 1);
+    debug_assert_eq!(grid.nodes, dims, "one node a voxel");
+    let domain = super::env_pass::node_domain(lit, dims)?;
+    let vs = density.voxel_size();
+    let h0 = vs[0].min(vs[1]).min(vs[2]);
+    Some(super::env_sweep::sweep_depths(
+        density, sigma_t, &grid, domain, w, h0, occupied,
+    ))
 }
 
 /// `exp(−σt·τ)` from `u` along the unit `s` to the box's face or `max_len`, whichever is

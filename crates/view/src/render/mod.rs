@@ -62,10 +62,10 @@ pub struct CrmOptions {
     /// coarser, its spacing divided by `detail` ([`CrmOptions::env_grid`]), and the
     /// automatic cells of the explicit orders larger, their work budget times
     /// `detail⁴` and their side at least `2/detail` voxels
-    /// ([`grid_diffusion::auto_grid`]), and on the CPU the suns' shadows swept over a
-    /// lattice `1/detail` voxels apart instead of marched per voxel
-    /// ([`lights_pass::lights_pass_at`]); at 0.5 and below the environment grid also
-    /// takes fewer directions ([`CrmOptions::env_grid`]). A
+    /// ([`grid_diffusion::auto_grid`]), and on the CPU the suns' shadows swept over the
+    /// voxel planes instead of marched per voxel ([`lights_pass::lights_pass_at`]); at
+    /// 0.5 and below the environment grid also takes fewer directions
+    /// ([`CrmOptions::env_grid`]). A
     /// new frame's lighting then costs about a third per step of 0.75, 0.5, 0.35; what it
     /// costs in error is measured in BENCHMARKS.md ("Viewer playback: the lighting's
     /// detail"). The viewer lowers it while playback cannot keep up.
