@@ -68,13 +68,7 @@ pub fn frame_density(
 ) -> Result<(Volume, Vec<f32>)> {
     let approx = rbf::evaluate_on_grid(dims, &bbox, rbfs);
     let residual = match residual {
-        Some((group, j)) => {
-            let d = group.dims;
-            let (nx, nxy) = (d[0] as usize, (d[0] * d[1]) as usize);
-            (0..nxy * d[2] as usize)
-                .map(|i| group.lookup(j, [i % nx, (i % nxy) / nx, i / nxy].map(|c| c as u32)))
-                .collect()
-        }
+        Some((group, j)) => group.dense(j),
         None => vec![0.0f32; approx.len()],
     };
     let data: Vec<f32> = approx

@@ -14,6 +14,7 @@
 use crate::pack::{self, Width};
 use crate::psh::{BuildOptions, HashError, PerfectHash};
 use crate::quantize::Quantized;
+use rayon::prelude::*;
 use std::collections::BTreeMap;
 
 /// Frames per hash volume, at most.
@@ -172,6 +173,24 @@ impl ResidualGroup {
         } else {
             q as f32 * self.steps[j]
         }
+    }
+
+    /// Dequantized residual of every voxel of frame `j` ([`ResidualGroup::lookup`] at each,
+    /// `x` fastest), the `z` slices looked up in parallel.
+    pub fn dense(&self, j: usize) -> Vec<f32> {
+        let [nx, ny, nz] = self.dims.map(|d| d as usize);
+        let mut out = vec![0.0f32; nx * ny * nz];
+        if nx * ny == 0 {
+            return out;
+        }
+        out.par_chunks_mut(nx * ny)
+            .enumerate()
+            .for_each(|(z, slice)| {
+                for (i, v) in slice.iter_mut().enumerate() {
+                    *v = self.lookup(j, [i % nx, i / nx, z].map(|c| c as u32));
+                }
+            });
+        out
     }
 }
 

@@ -130,12 +130,17 @@ fn groups_tile_27_frames_and_look_each_voxel_up_within_the_error() {
     for brick in BRICK_SIDES {
         let g = ResidualGroup::build(dims, brick, &frames, BuildOptions::default()).unwrap();
         let g = haze_hash::block::decode(&haze_hash::block::encode(&g).unwrap()).unwrap();
+        // A frame past the group's: zeros, as `lookup` gives.
+        assert!(g.dense(frames.len()).iter().all(|v| *v == 0.0));
         for (j, (f, r)) in frames.iter().zip(&truth).enumerate() {
+            let dense = g.dense(j);
+            assert_eq!(dense.len(), r.len());
             for z in 0..dims[2] {
                 for y in 0..dims[1] {
                     for x in 0..dims[0] {
                         let i = (x + dims[0] * (y + dims[1] * z)) as usize;
                         let got = g.lookup(j, [x, y, z]);
+                        assert_eq!(got.to_bits(), dense[i].to_bits(), "dense, voxel {i}");
                         if f.lossless {
                             assert_eq!(got, r[i], "brick {brick} frame {j} voxel {i}");
                         } else {

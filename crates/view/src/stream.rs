@@ -43,11 +43,7 @@ impl ResidualSlot {
 
     /// The dequantized residual at every voxel (x fastest), as the volume pass takes it.
     pub fn dense(&self) -> Vec<f32> {
-        let d = self.group.dims;
-        let (nx, nxy) = (d[0] as usize, (d[0] * d[1]) as usize);
-        (0..nxy * d[2] as usize)
-            .map(|i| self.lookup([i % nx, (i % nxy) / nx, i / nxy].map(|c| c as u32)))
-            .collect()
+        self.group.dense(self.slot)
     }
 }
 

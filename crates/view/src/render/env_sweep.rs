@@ -68,7 +68,7 @@ pub fn sweep_depths(
         .fold(f64::INFINITY, |m, c| m.min(*c));
     let step = if cell.is_finite() { cell.max(h0) } else { h0 };
     let segment = Segment::new(density, sigma_t, occupied, w, sweep.segment(), step);
-    sweep.run(|i, x, reads| {
+    sweep.fill(&mut tau, |x, reads, tau| {
         let depth = match reads {
             None => march(x),
             Some(reads) => {
@@ -81,7 +81,7 @@ pub fn sweep_depths(
         };
         // Capped where `e^{−τ}` is 0 anyway: a depth beyond f32's range would be ∞, and a
         // read's zero weight times ∞ is NaN.
-        tau[i] = depth.min(DEPTH_CAP) as f32;
+        depth.min(DEPTH_CAP) as f32
     });
     tau
 }

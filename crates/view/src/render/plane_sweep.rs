@@ -12,9 +12,14 @@
 //! are done first. The first `stride` planes, and the nodes whose `p` falls outside the
 //! swept domain (the ray leaves it through a side), get no reads: they march.
 //!
+//! A plane's nodes read only the plane `stride` upstream, so [`Sweep::fill`] computes
+//! each plane's nodes in parallel; the values are the same as node by node, to the bit.
+//!
 //! Each bilinear read blurs what it reads sideways (a variance of up to a quarter of a
 //! cell² per read), so a larger stride, with fewer reads over a ray, blurs less and costs
 //! a longer segment.
+
+use rayon::prelude::*;
 
 /// Nodes at `min + i·cell`, `dims` per axis (node index `x` fastest).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -100,55 +105,81 @@ impl Sweep {
         self.s1.unwrap_or(0.0)
     }
 
-    /// Visits every node of the domain in the sweep's order: `visit(index, x, reads)`,
-    /// `reads` the upstream nodes (all visited before) or `None` where the node must
-    /// march.
-    pub fn run(&self, mut visit: impl FnMut(usize, [f64; 3], Option<Reads>)) {
+    /// Fills `out` (one value a lattice node) over the domain in the sweep's order:
+    /// `out[i] = value(x, reads, out)` at node `i` at `x`, `reads` the upstream nodes (all
+    /// filled before) or `None` where the node must march. The nodes of one plane read
+    /// only planes `stride` upstream, so each plane's nodes are computed in parallel
+    /// (`rayon`) and written when the plane is done.
+    pub fn fill(
+        &self,
+        out: &mut [f32],
+        value: impl Fn([f64; 3], Option<Reads>, &[f32]) -> f32 + Sync,
+    ) {
         let [k, a, b] = self.axes;
-        let (d, l) = (self.domain, &self.lattice);
+        let d = self.domain;
         let mut planes: Vec<usize> = (d[k].0..=d[k].1).collect();
         if self.s1.is_some() && self.r[k] > 0.0 {
             // From the face the rays leave by.
             planes.reverse();
         }
+        let row = d[a].1 + 1 - d[a].0;
+        let mut values = Vec::new();
         for (step, &plane) in planes.iter().enumerate() {
-            let up = if self.r[k] > 0.0 {
-                plane + self.stride
-            } else {
-                plane.wrapping_sub(self.stride)
-            };
-            for ib in d[b].0..=d[b].1 {
-                for ia in d[a].0..=d[a].1 {
-                    let mut i = [0usize; 3];
-                    (i[k], i[a], i[b]) = (plane, ia, ib);
-                    let x = l.point(i);
-                    let reads = match self.s1 {
-                        Some(s1) if step >= self.stride => {
-                            let p = [0, 1, 2].map(|c| x[c] + s1 * self.r[c]);
-                            self.stencil(a, p[a]).zip(self.stencil(b, p[b])).map(
-                                |((ja, fa), (jb, fb))| {
-                                    let at = |da: usize, db: usize, w: f64| {
-                                        let mut j = [0usize; 3];
-                                        j[k] = up;
-                                        j[a] = (ja + da).min(d[a].1);
-                                        j[b] = (jb + db).min(d[b].1);
-                                        (l.index(j), w)
-                                    };
-                                    [
-                                        at(0, 0, (1.0 - fa) * (1.0 - fb)),
-                                        at(1, 0, fa * (1.0 - fb)),
-                                        at(0, 1, (1.0 - fa) * fb),
-                                        at(1, 1, fa * fb),
-                                    ]
-                                },
-                            )
-                        }
-                        _ => None,
-                    };
-                    visit(l.index(i), x, reads);
-                }
+            let read = &*out;
+            let nodes = row * (d[b].1 + 1 - d[b].0);
+            (0..nodes)
+                .into_par_iter()
+                .with_min_len(row)
+                .map(|j| {
+                    let (x, reads) = self.node(step, plane, d[a].0 + j % row, d[b].0 + j / row);
+                    value(x, reads, read)
+                })
+                .collect_into_vec(&mut values);
+            for (j, v) in values.iter().enumerate() {
+                let mut i = [0usize; 3];
+                (i[k], i[a], i[b]) = (plane, d[a].0 + j % row, d[b].0 + j / row);
+                out[self.lattice.index(i)] = *v;
             }
         }
+    }
+
+    /// Node `(ia, ib)` of the `step`-th plane visited (`plane` its index on the sweep's
+    /// axis): its position and reads.
+    fn node(&self, step: usize, plane: usize, ia: usize, ib: usize) -> ([f64; 3], Option<Reads>) {
+        let [k, a, b] = self.axes;
+        let (d, l) = (self.domain, &self.lattice);
+        let up = if self.r[k] > 0.0 {
+            plane + self.stride
+        } else {
+            plane.wrapping_sub(self.stride)
+        };
+        let mut i = [0usize; 3];
+        (i[k], i[a], i[b]) = (plane, ia, ib);
+        let x = l.point(i);
+        let reads = match self.s1 {
+            Some(s1) if step >= self.stride => {
+                let p = [0, 1, 2].map(|c| x[c] + s1 * self.r[c]);
+                self.stencil(a, p[a])
+                    .zip(self.stencil(b, p[b]))
+                    .map(|((ja, fa), (jb, fb))| {
+                        let at = |da: usize, db: usize, w: f64| {
+                            let mut j = [0usize; 3];
+                            j[k] = up;
+                            j[a] = (ja + da).min(d[a].1);
+                            j[b] = (jb + db).min(d[b].1);
+                            (l.index(j), w)
+                        };
+                        [
+                            at(0, 0, (1.0 - fa) * (1.0 - fb)),
+                            at(1, 0, fa * (1.0 - fb)),
+                            at(0, 1, (1.0 - fa) * fb),
+                            at(1, 1, fa * fb),
+                        ]
+                    })
+            }
+            _ => None,
+        };
+        (x, reads)
     }
 
     /// Where `x` on axis `ax` falls among the domain's nodes: the lower node and the
