@@ -3,15 +3,17 @@
 //! rate (playing as fast as possible has no slot, and keeps the detail), the player
 //! lights the next frames at a lower detail — a coarser environment grid, larger cells
 //! for the explicit orders and the suns' shadows swept, about a third of the work a
-//! step — one step of [`LEVELS`]
-//! at a time, and raises it again once the lighting costs less than [`RAISE_BELOW`] of
-//! the view pass (the step up costs about three times as much). It never goes below
-//! [`floor`]: the environment grid's cells stay within [`MAX_CELL_TAU`](haze_view::render::MAX_CELL_TAU) optical depths
-//! across, where the lower details' error stayed small. Paused, a frame is lit
-//! at full detail: the picture a user stops on is the one the renderer's figures are
-//! measured for, and the player renders it again when playback stopped on a lower
-//! detail. What each level costs in error against the full detail is in BENCHMARKS.md
-//! ("Viewer playback: the lighting's detail").
+//! step — one step of [`LEVELS`] at a time, and raises it again once the lighting costs
+//! less than [`RAISE_BELOW`] of the view pass (the step up costs about three times as
+//! much). It never goes below [`floor`]: the environment grid's cells stay within
+//! [`MAX_CELL_TAU`](haze_view::render::MAX_CELL_TAU) optical depths across, where the
+//! lower details' error stayed small. Where the next level would pass the floor, the
+//! last step goes to the floor itself (when that is at least [`MIN_STEP`] lower): smoke
+//! whose floor is 0.38 plays at 0.38, not stuck at 0.5. Paused, a frame is lit at full
+//! detail: the picture a user stops on is the one the renderer's figures are measured
+//! for, and the player renders it again when playback stopped on a lower detail. What
+//! each level costs in error against the full detail is in BENCHMARKS.md ("Viewer
+//! playback: the lighting's detail").
 
 use super::frame::StageTimes;
 use haze_view::render::CrmOptions;
@@ -34,13 +36,26 @@ pub fn floor(tau: f64) -> f64 {
         .max(LEVELS[LEVELS.len() - 1])
 }
 
+/// The smallest step down worth taking: a step to the floor is taken when the floor is
+/// below this share of the current detail (about a sixth less work, `0.95³`).
+pub const MIN_STEP: f64 = 0.95;
+
 /// The player's choice of detail for playback (module docs).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DetailControl {
-    /// Index into [`LEVELS`].
-    level: usize,
-    /// The lowest level index reached, for the report.
-    lowest: usize,
+    /// The detail the next frame is lit at: one of [`LEVELS`], or a floor between two.
+    detail: f64,
+    /// The lowest detail used, for the report.
+    lowest: f64,
+}
+
+impl Default for DetailControl {
+    fn default() -> DetailControl {
+        DetailControl {
+            detail: LEVELS[0],
+            lowest: LEVELS[0],
+        }
+    }
 }
 
 /// Where a rendered frame's time went, as the control weighs it.
@@ -94,37 +109,47 @@ impl FrameCost {
 impl DetailControl {
     /// The detail the next playback frame is lit at.
     pub fn detail(&self) -> f64 {
-        LEVELS[self.level]
+        self.detail
     }
 
     /// The lowest detail playback has used so far.
     pub fn lowest(&self) -> f64 {
-        LEVELS[self.lowest]
+        self.lowest
     }
 
     /// Weighs a playback frame lit at `detail` that took `cost` against its slot of
     /// `slot_seconds` (`None`: playing as fast as possible, with no slot to meet, which
     /// changes nothing), its smoke's lit voxels `tau` optical depths across: one step
-    /// down when it was late and its lighting cost more than its view pass, unless the
-    /// step would pass [`floor`]`(tau)`; one up when the lighting cost less than
-    /// [`RAISE_BELOW`] of the view pass, or the detail is below the floor (thicker
-    /// smoke). A frame lit at another detail than the current one (submitted before the
-    /// last step) changes nothing.
+    /// down when it was late and its lighting cost more than its view pass — to the next
+    /// of [`LEVELS`], or to [`floor`]`(tau)` where that level would pass it and the floor
+    /// is at least [`MIN_STEP`] lower; one up (to the next level above) when the lighting
+    /// cost less than [`RAISE_BELOW`] of the view pass; to the floor at once when the
+    /// detail is below it (thicker smoke). A frame lit at another detail than the current
+    /// one (submitted before the last step) changes nothing.
     pub fn observe(&mut self, detail: f64, cost: FrameCost, slot_seconds: Option<f64>, tau: f64) {
         let Some(slot) = slot_seconds else { return };
-        if detail != self.detail() {
+        if detail != self.detail {
             return;
         }
         let lowest = floor(tau);
         let late = cost.view_seconds + cost.lighting_seconds > slot;
-        let down = self.level + 1 < LEVELS.len() && LEVELS[self.level + 1] >= lowest;
-        if late && cost.lighting_seconds > cost.view_seconds && down {
-            self.level += 1;
-            self.lowest = self.lowest.max(self.level);
-        } else if self.level > 0
-            && (cost.lighting_seconds < RAISE_BELOW * cost.view_seconds || self.detail() < lowest)
+        let down = LEVELS
+            .iter()
+            .find(|l| **l < self.detail)
+            .map(|l| l.max(lowest))
+            .filter(|d| *d <= MIN_STEP * self.detail);
+        let up = LEVELS.iter().rev().find(|l| **l > self.detail);
+        if self.detail < lowest {
+            // Thicker smoke: up to its floor at once (a floor that differs a little from
+            // frame to frame then settles on the highest, instead of leaving the floor).
+            self.detail = lowest;
+        } else if let (Some(d), true) = (down, late && cost.lighting_seconds > cost.view_seconds) {
+            self.detail = d;
+            self.lowest = self.lowest.min(d);
+        } else if let (Some(u), true) =
+            (up, cost.lighting_seconds < RAISE_BELOW * cost.view_seconds)
         {
-            self.level -= 1;
+            self.detail = *u;
         }
     }
 }
@@ -200,24 +225,46 @@ mod tests {
         assert_eq!(floor(f64::INFINITY), 1.0);
         let slot = Some(1.0 / 24.0);
         let late = cost(1.0, 5.0);
-        // τ 0.2: floor 0.6, so one step (0.75) and no further.
+        // τ 0.2: floor 0.6, so one level (0.75), then the floor, and no further.
         let mut c = DetailControl::default();
-        c.observe(1.0, late, slot, 0.2);
-        assert_eq!(c.detail(), 0.75);
-        c.observe(0.75, late, slot, 0.2);
-        assert_eq!(c.detail(), 0.75);
-        // τ 0.1: floor 0.3, down to 0.35.
-        for d in [0.5, 0.35, 0.35] {
-            c.observe(c.detail(), late, slot, 0.1);
-            assert_eq!(c.detail(), d);
+        for d in [0.75, 0.6, 0.6] {
+            c.observe(c.detail(), late, slot, 0.2);
+            assert!((c.detail() - d).abs() < 1e-12, "{} for {d}", c.detail());
         }
-        // The smoke thickens (τ 0.2): back up a step a frame to the floor, however late.
-        c.observe(0.35, late, slot, 0.2);
+        // τ 0.1: floor 0.3, down to 0.35, then to the floor itself (0.3 < 0.95 × 0.35).
+        for d in [0.5, 0.35, 0.3, 0.3] {
+            c.observe(c.detail(), late, slot, 0.1);
+            assert!((c.detail() - d).abs() < 1e-12, "{} for {d}", c.detail());
+        }
+        assert_eq!(c.lowest(), c.detail());
+        // The smoke thickens (τ 0.2): back up to its floor at once, however late, and
+        // no lower.
+        for d in [0.6, 0.6] {
+            c.observe(c.detail(), late, slot, 0.2);
+            assert!((c.detail() - d).abs() < 1e-12, "{} for {d}", c.detail());
+        }
+        // τ 0.13 (floor 0.39): from 0.5 to the floor, not the level below it; back up to
+        // 0.5 once the lighting is cheap.
+        let mut c = DetailControl::default();
+        for _ in 0..4 {
+            c.observe(c.detail(), late, slot, 0.13);
+        }
+        assert!((c.detail() - floor(0.13)).abs() < 1e-12, "{}", c.detail());
+        // A frame whose floor is a little lower leaves it there; one a little higher
+        // raises it to that floor, not a level.
+        c.observe(c.detail(), late, slot, 0.128);
+        assert!((c.detail() - floor(0.13)).abs() < 1e-12, "{}", c.detail());
+        c.observe(c.detail(), late, slot, 0.132);
+        assert!((c.detail() - floor(0.132)).abs() < 1e-12, "{}", c.detail());
+        c.observe(c.detail(), cost(1.0, 0.1), slot, 0.13);
         assert_eq!(c.detail(), 0.5);
-        c.observe(0.5, late, slot, 0.2);
-        assert_eq!(c.detail(), 0.75);
-        c.observe(0.75, late, slot, 0.2);
-        assert_eq!(c.detail(), 0.75);
+        // A floor within MIN_STEP of the level above is not worth a step: τ 0.16 (floor
+        // 0.48) stays at 0.5.
+        let mut c = DetailControl::default();
+        for _ in 0..4 {
+            c.observe(c.detail(), late, slot, 0.16);
+        }
+        assert_eq!(c.detail(), 0.5);
     }
 
     /// The view pass comes from the GPU's timestamps when there are some, else from the

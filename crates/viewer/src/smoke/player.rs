@@ -248,14 +248,14 @@ impl Player {
         ) + &self.detail_words()
     }
 
-    /// "; lighting detail 0.5 while playing (lowest 0.35)" once playback lowered it,
+    /// "; lighting detail 0.50 while playing (lowest 0.35)" once playback lowered it,
     /// else nothing.
     fn detail_words(&self) -> String {
         let (now, lowest) = (self.detail.detail(), self.detail.lowest());
         if lowest >= 1.0 {
             return String::new();
         }
-        format!("; lighting detail {now} while playing (lowest {lowest})")
+        format!("; lighting detail {now:.2} while playing (lowest {lowest:.2})")
     }
 }
 

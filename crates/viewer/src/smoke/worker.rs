@@ -288,8 +288,9 @@ fn run_job(
                 .map(|(pass, s)| format!("{pass} {:.1} ms", 1e3 * s))
                 .collect();
             tracing::debug!(
-                "frame {}: {}; GPU: {}",
+                "frame {} (lighting detail {:.2}): {}; GPU: {}",
                 frame.number,
+                job.scene.opts.detail,
                 times.crm,
                 if gpu.is_empty() {
                     "no timestamps".to_string()
