@@ -63,16 +63,20 @@ struct Params {
 
 // Transmittance below which the march stops (`crm::OPAQUE`).
 const OPAQUE: f32 = 1e-4;
-// `crm::MAX_SPAN`: the largest ratio across a cell the geometric mean of J̃ spans.
-const MAX_SPAN: f32 = 1e3;
-// The smallest normal f32: the floor of a cell whose brightest corner is subnormal.
-const MIN_NORMAL: f32 = 1.17549435e-38;
+// ln `crm::MAX_SPAN` (10³): the largest ratio across a cell the geometric mean of J̃
+// spans.
+const LN_MAX_SPAN: f32 = 6.9077552789821;
+// ln of the smallest normal f32 (1.17549435e-38): the floor of a cell whose brightest
+// corner is subnormal.
+const LN_MIN_NORMAL: f32 = -87.336544750553;
+// `view_grid.wgsl`'s logarithm of an unlit channel (J̃ = 0).
+const UNLIT: f32 = -3.0e38;
 #import optics
 #import lat_long
 #import block_skip
 
 @group(0) @binding(0) var<storage, read> p: Params;
-// Per voxel (x fastest): J̃ in xyz, D in w.
+// Per voxel (x fastest): ln J̃ in xyz (UNLIT where J̃ = 0; `view_grid.wgsl`), D in w.
 @group(0) @binding(1) var<storage, read> grid: array<vec4<f32>>;
 // Lat-long texels, RGB, row 0 at the zenith.
 @group(0) @binding(2) var<storage, read> env_map: array<f32>;
@@ -150,17 +154,18 @@ fn sample_grid(q: vec3<f32>) -> vec4<f32> {
         return vec4<f32>(0.0);
     }
     // J̃: the corners' geometric mean by their trilinear weights, each corner floored
-    // at the cell's brightest over MAX_SPAN (`crm::sample_radiance`, decision 0049).
-    var top = vec3<f32>(0.0);
+    // at the cell's brightest over MAX_SPAN (`crm::sample_radiance`, decision 0049), in
+    // logarithms (`view_grid.wgsl` took them once a voxel).
+    var top = vec3<f32>(UNLIT);
     for (var c = 0u; c < 8u; c++) {
         top = max(top, corners[c].xyz);
     }
-    let floor_j = max(top / MAX_SPAN, vec3<f32>(MIN_NORMAL));
+    let floor_ln = max(top - LN_MAX_SPAN, vec3<f32>(LN_MIN_NORMAL));
     var ln_j = vec3<f32>(0.0);
     for (var c = 0u; c < 8u; c++) {
-        ln_j += weights[c] * log(max(corners[c].xyz, floor_j));
+        ln_j += weights[c] * max(corners[c].xyz, floor_ln);
     }
-    let j = select(vec3<f32>(0.0), exp(ln_j), top > vec3<f32>(0.0));
+    let j = select(vec3<f32>(0.0), exp(ln_j), top > vec3<f32>(UNLIT));
     return vec4<f32>(j, dq);
 }
 

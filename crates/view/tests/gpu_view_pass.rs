@@ -237,6 +237,36 @@ fn the_ground_and_its_shadow_match_the_cpu() {
     );
 }
 
+/// The radiance at its extremes, through the view pass's logarithms (`view_grid.wgsl`
+/// takes `ln J̃` once a voxel; an unlit channel is its sentinel): voxels unlit in one
+/// channel or all three, subnormal, 10⁻³⁰ and 10³⁰ beside ordinary ones, so cells whose
+/// corners span more than `MAX_SPAN` meet the floor — the same pixels as the CPU's `f64`
+/// logarithms.
+#[test]
+fn radiance_at_its_extremes_matches_the_cpu() {
+    let ctx = context();
+    let bbox = unit_box();
+    let rbfs = cluster(&bbox);
+    let env = Environment::sky(Sky::default());
+    let medium = Medium::new(4.0, 0.9, 0.3).unwrap();
+    let cam = front_camera(31, 23);
+    let dims = [20, 18, 16];
+    let mut g = grids(&rbfs, dims, &bbox, &medium, &env, cam.eye);
+    for (i, r) in g.radiance.iter_mut().enumerate() {
+        match i % 11 {
+            0 => *r = [0.0; 3],
+            1 => r[1] = 0.0,
+            2 => *r = [1e-40, 1e-39, 1e-41],
+            3 => r[2] = 1e-30,
+            4 => r[0] = 1e30,
+            _ => {}
+        }
+    }
+    let du = crm::default_slice(dims, &bbox);
+    let (_, rel) = compare(&ctx, &g, &medium, &env, &cam, du);
+    assert!(rel < 1e-4, "{rel}");
+}
+
 #[test]
 fn lat_long_map_and_opaque_smoke_from_inside_match_the_cpu() {
     let ctx = context();

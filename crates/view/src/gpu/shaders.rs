@@ -50,6 +50,7 @@ pub const VARIANTS: &[Variant] = &[
     super::orders::SHADER,
     super::diffusion::SHADER,
     super::view_pass::SHADER,
+    super::view_pass::GRID_SHADER,
     super::tone_pass::SHADER,
 ];
 
