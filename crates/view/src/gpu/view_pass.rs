@@ -274,29 +274,7 @@ impl ViewPass {
                 .occupancy
                 .submit(ctx, grid, block_groups, "view pass occupancy");
             // The grid with each voxel's `ln J̃` taken once (`view_grid.wgsl`).
-            let ln_params = GridParams {
-                count: voxels as u32,
-                _pad: [0; 3],
-            };
-            let ln_params = buffer_init(
-                ctx,
-                "view pass grid parameters",
-                bytemuck::bytes_of(&ln_params),
-                wgpu::BufferUsages::STORAGE,
-            );
-            let ln_grid = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("view pass grid"),
-                size: grid.buffer().size(),
-                usage: wgpu::BufferUsages::STORAGE,
-                mapped_at_creation: false,
-            });
-            submit_pass(
-                ctx,
-                &self.ln_pipeline,
-                "view pass grid",
-                &[&ln_params, grid.buffer(), &ln_grid],
-                voxel_groups,
-            );
+            let ln_grid = self.ln_grid(ctx, grid, voxels, voxel_groups);
             let params_buffer = buffer_init(
                 ctx,
                 "view pass parameters",
@@ -333,6 +311,42 @@ impl ViewPass {
             width,
             height,
         })
+    }
+
+    /// Submits the copy of `grid` (`voxels` voxels, dispatched as `groups`) with each
+    /// voxel's `ln J̃` in place of `J̃` (`view_grid.wgsl`); call inside
+    /// [`GpuContext::scoped`].
+    fn ln_grid(
+        &self,
+        ctx: &GpuContext,
+        grid: &GridBuffer,
+        voxels: usize,
+        groups: [u32; 3],
+    ) -> wgpu::Buffer {
+        let params = GridParams {
+            count: voxels as u32,
+            _pad: [0; 3],
+        };
+        let params = buffer_init(
+            ctx,
+            "view pass grid parameters",
+            bytemuck::bytes_of(&params),
+            wgpu::BufferUsages::STORAGE,
+        );
+        let ln_grid = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("view pass grid"),
+            size: grid.buffer().size(),
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        });
+        submit_pass(
+            ctx,
+            &self.ln_pipeline,
+            "view pass grid",
+            &[&params, grid.buffer(), &ln_grid],
+            groups,
+        );
+        ln_grid
     }
 }
 
