@@ -380,6 +380,7 @@ fn frames_lit_by_a_sun_and_a_point_light_match_crm_render() {
                     "lights shadow volume",
                     "lights pass",
                     "view pass occupancy",
+                    "view pass grid",
                     "view pass",
                 ]
                 .into_iter()
@@ -468,6 +469,7 @@ fn stage_times_come_from_timestamps_where_the_device_has_them() {
                 "environment grid",
                 "environment pass",
                 "view pass occupancy",
+                "view pass grid",
                 "view pass"
             ]
         );
