@@ -449,6 +449,17 @@ pub fn add_to_grids(grids: &mut VolumeGrids, ms: &MediaRadiance, medium: &Medium
     let f = g.factor as f64;
     let plane = dims[0] * dims[1];
     let lit = crate::render::shell::lit_voxels(density);
+    // Bands 2–4's factors `g^l − f` (Funk–Hecke on HG less its peak): band 2 is the first
+    // 5 of the high coefficients, band 3 the next 7, band 4 the last 9.
+    let gl: [f64; HIGH] = std::array::from_fn(|k| {
+        medium.g.powi(if k < 5 {
+            2
+        } else if k < 12 {
+            3
+        } else {
+            4
+        }) - peak
+    });
     grids
         .radiance
         .par_chunks_mut(plane.max(1))
@@ -499,23 +510,12 @@ pub fn add_to_grids(grids: &mut VolumeGrids, ms: &MediaRadiance, medium: &Medium
                 let Some(d) = crate::lights::unit([0, 1, 2].map(|a| p[a] - eye[a])) else {
                     continue;
                 };
-                // Bands 2–4 towards the eye, ω = −d, each scaled by g^l − f (Funk–Hecke
-                // on HG less its peak).
+                // Bands 2–4 towards the eye, ω = −d, each scaled by `gl`.
                 let mut y = [0.0; 25];
                 crate::sh::eval_into(5, d.map(|v| -v), &mut y);
-                // Band 2 is the first 5 coefficients, band 3 the next 7, band 4 the last 9.
-                let gl = |k: usize| {
-                    medium.g.powi(if k < 5 {
-                        2
-                    } else if k < 12 {
-                        3
-                    } else {
-                        4
-                    }) - peak
-                };
                 for ch in 0..3 {
                     let flux = l1[ch][0] * d[0] + l1[ch][1] * d[1] + l1[ch][2] * d[2];
-                    let bands: f64 = (0..HIGH).map(|k| gl(k) * high[ch][k] * y[4 + k]).sum();
+                    let bands: f64 = (0..HIGH).map(|k| gl[k] * high[ch][k] * y[4 + k]).sum();
                     let j = medium.albedo
                         * ((1.0 - peak) * l0[ch] - (medium.g - peak) * flux + bands)
                         / ws;
