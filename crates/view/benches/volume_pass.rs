@@ -1,12 +1,17 @@
 //! The per-voxel work of a new frame's CPU lighting that does not march: the volume pass
 //! (`render::crm::volume_pass`: every RBF splatted with its source radiance, then `J̃`
-//! towards the eye) and the SH basis it and the passes after it evaluate once a voxel
-//! (`sh::eval_into`, orders 4 and 5). 300 RBFs of radii 2–5 voxels in a 96 × 96 × 128
-//! box (a 128³-class frame), order 4.
+//! towards the eye), the SH basis it and the passes after it evaluate once a voxel
+//! (`sh::eval_into`, orders 4 and 5), and the two passes that add a coarse grid's light
+//! towards the eye at every lit voxel (`env_pass::add_env_grid`, nodes 4 voxels apart;
+//! `grid_diffusion::add_to_grids`, cells of 8³ voxels — what playback's lowest detail
+//! uses). 300 RBFs of radii 2–5 voxels in a 96 × 96 × 128 box (a 128³-class frame),
+//! order 4.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use haze_view::render::crm::volume_pass;
-use haze_view::sh;
+use haze_view::render::env_pass::{EnvGridOptions, add_env_grid, env_grid};
+use haze_view::render::grid_diffusion::{CoarseGrid, HIGH, MediaRadiance, add_to_grids};
+use haze_view::{Environment, Medium, Sky, sh};
 use haze_volume::{Bbox, Rbf};
 use std::hint::black_box;
 
@@ -63,6 +68,51 @@ fn bench(c: &mut Criterion) {
             })
         });
     }
+    let grids = volume_pass(&rbfs, &source, order, dims, &bbox, None, eye);
+    let env = Environment::sky(Sky::default());
+    let medium = Medium {
+        sigma_t: 4.0,
+        albedo: 0.9,
+        g: 0.0,
+    };
+    let opts = EnvGridOptions {
+        spacing: 4.0,
+        ..Default::default()
+    };
+    let nodes = env_grid(&grids.density, medium.sigma_t, &env, order, &opts);
+    let light = sh::project_env(&env, order);
+    g.bench_function(
+        "environment grid towards the eye, nodes 4 voxels apart",
+        |b| {
+            b.iter(|| {
+                let mut out = grids.clone();
+                add_env_grid(&mut out, &nodes, &light, &medium, eye, order, &env.distant);
+                black_box(out)
+            })
+        },
+    );
+    let cells = CoarseGrid::new(&grids.density, 8);
+    let n = cells.len();
+    let ms = MediaRadiance {
+        l0: (0..n).map(|k| [0.1 + (k % 7) as f64 * 0.01; 3]).collect(),
+        l1: (0..n).map(|k| [[0.01 * (k % 3) as f64; 3]; 3]).collect(),
+        high: (0..n)
+            .map(|k| [[0.001 * (k % 5) as f64; HIGH]; 3])
+            .collect(),
+        grid: cells,
+        iterations: 0,
+        residual: 0.0,
+    };
+    g.bench_function(
+        "multiple scattering towards the eye, cells of 8³ voxels",
+        |b| {
+            b.iter(|| {
+                let mut out = grids.clone();
+                add_to_grids(&mut out, &ms, &medium, eye);
+                black_box(out)
+            })
+        },
+    );
     g.finish();
 }
 

@@ -57,6 +57,7 @@ use super::env_sweep::sweep_depths;
 use super::lights_pass::optical_depth_within;
 use super::occupancy::Occupancy;
 use super::peak_rule::{self, PeakRule};
+use super::separable::{Separable, Stencil};
 use super::shell::lit_voxels;
 use crate::distant::{Distant, LatLong, Sky, direction};
 use crate::env::Environment;
@@ -569,49 +570,77 @@ pub fn add_env_grid(
     let h0 = vs[0].min(vs[1]).min(vs[2]);
     let plane = dims[0] * dims[1];
     let lit = lit_voxels(density);
+    // The grid's SH at the voxel centers, one axis at a time ([`super::separable`]).
+    let axes = [0, 1, 2].map(|a| {
+        (0..dims[a])
+            .map(|v| {
+                let (lo, t) = grid.axis_stencil(a, bbox.min[a] + (v as f64 + 0.5) * vs[a]);
+                Stencil {
+                    lo,
+                    hi: (lo + 1).min(grid.nodes[a] - 1),
+                    t,
+                }
+            })
+            .collect()
+    });
+    let nodes = (!grid.is_empty()).then(|| Separable::new(&grid.coeffs, 3 * n2, grid.nodes, axes));
     grids
         .radiance
         .par_chunks_mut(plane.max(1))
         .enumerate()
         .for_each(|(z, slice)| {
+            let lit = &lit[z * plane..(z + 1) * plane];
+            if !lit.contains(&true) {
+                return;
+            }
+            let mut nodes = nodes.as_ref().map(|n| n.slice(z));
             let mut s = vec![0.0; 3 * n2];
             let mut y = vec![0.0; n2];
-            for (i, out) in slice.iter_mut().enumerate() {
-                if !lit[z * plane + i] {
+            let rows = slice.chunks_mut(dims[0]).zip(lit.chunks(dims[0]));
+            for (yy, (row, lit)) in rows.enumerate() {
+                if !lit.contains(&true) {
                     continue;
                 }
-                let (x, yy) = (i % dims[0], i / dims[0]);
-                let u = [x, yy, z].map(|k| k as f64 + 0.5);
-                let u = [0, 1, 2].map(|k| bbox.min[k] + u[k] * vs[k]);
-                let Some(d) = crate::lights::unit([0, 1, 2].map(|k| u[k] - eye[k])) else {
-                    continue;
-                };
-                grid.at(u, &mut s);
-                sh::eval_into(order, d, &mut y);
-                for c in 0..3 {
-                    let j: f64 = (0..n2)
-                        .map(|k| a[k] * (light[c][k] - s[3 * k + c]) * y[k])
-                        .sum();
-                    out[c] = (f64::from(out[c]) + j.max(0.0)) as f32;
+                if let Some(nodes) = &mut nodes {
+                    nodes.row(yy);
                 }
-                if let (Some(sky), Some(occupied)) = (&sky, &occupied) {
-                    // The forward peak: the light behind u, through the smoke, over the
-                    // peak's rule (its δ: straight behind).
-                    let spin = peak_rule::spin((z * plane + i) as u32);
-                    for (w, weight) in rule.directions(d, spin) {
-                        let tau = optical_depth_within(
-                            density,
-                            medium.sigma_t,
-                            u,
-                            w,
-                            f64::MAX,
-                            h0,
-                            occupied,
-                        );
-                        let t = (-tau).exp();
-                        let l = sky.radiance(w);
-                        for c in 0..3 {
-                            out[c] = (f64::from(out[c]) + medium.albedo * weight * l[c] * t) as f32;
+                for (x, out) in row.iter_mut().enumerate().filter(|(x, _)| lit[*x]) {
+                    if let Some(nodes) = &nodes {
+                        nodes.at(x, &mut s);
+                    }
+                    let i = x + dims[0] * yy;
+                    let u = [x, yy, z].map(|k| k as f64 + 0.5);
+                    let u = [0, 1, 2].map(|k| bbox.min[k] + u[k] * vs[k]);
+                    let Some(d) = crate::lights::unit([0, 1, 2].map(|k| u[k] - eye[k])) else {
+                        continue;
+                    };
+                    sh::eval_into(order, d, &mut y);
+                    for c in 0..3 {
+                        let j: f64 = (0..n2)
+                            .map(|k| a[k] * (light[c][k] - s[3 * k + c]) * y[k])
+                            .sum();
+                        out[c] = (f64::from(out[c]) + j.max(0.0)) as f32;
+                    }
+                    if let (Some(sky), Some(occupied)) = (&sky, &occupied) {
+                        // The forward peak: the light behind u, through the smoke, over the
+                        // peak's rule (its δ: straight behind).
+                        let spin = peak_rule::spin((z * plane + i) as u32);
+                        for (w, weight) in rule.directions(d, spin) {
+                            let tau = optical_depth_within(
+                                density,
+                                medium.sigma_t,
+                                u,
+                                w,
+                                f64::MAX,
+                                h0,
+                                occupied,
+                            );
+                            let t = (-tau).exp();
+                            let l = sky.radiance(w);
+                            for c in 0..3 {
+                                out[c] =
+                                    (f64::from(out[c]) + medium.albedo * weight * l[c] * t) as f32;
+                            }
                         }
                     }
                 }

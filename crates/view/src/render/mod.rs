@@ -10,6 +10,7 @@ pub mod lights_pass;
 pub mod occupancy;
 pub mod peak_rule;
 pub mod plane_sweep;
+pub mod separable;
 pub mod shell;
 pub mod supersample;
 

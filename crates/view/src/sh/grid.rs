@@ -46,16 +46,21 @@ impl ShGrid {
         let mut i0 = [0usize; 3];
         let mut f = [0.0; 3];
         for a in 0..3 {
-            let n = self.nodes[a];
-            if n < 2 || self.cell[a].is_nan() || self.cell[a] <= 0.0 {
-                continue;
-            }
-            let u = ((x[a] - self.min[a]) / self.cell[a]).clamp(0.0, (n - 1) as f64);
-            let u = if u.is_nan() { 0.0 } else { u };
-            i0[a] = (u as usize).min(n - 2);
-            f[a] = u - i0[a] as f64;
+            (i0[a], f[a]) = self.axis_stencil(a, x[a]);
         }
         (i0, f)
+    }
+
+    /// [`ShGrid::stencil`] along axis `a` at coordinate `x`.
+    pub fn axis_stencil(&self, a: usize, x: f64) -> (usize, f64) {
+        let n = self.nodes[a];
+        if n < 2 || self.cell[a].is_nan() || self.cell[a] <= 0.0 {
+            return (0, 0.0);
+        }
+        let u = ((x - self.min[a]) / self.cell[a]).clamp(0.0, (n - 1) as f64);
+        let u = if u.is_nan() { 0.0 } else { u };
+        let i0 = (u as usize).min(n - 2);
+        (i0, u - i0 as f64)
     }
 
     /// `E_lm(x)` trilinear between the nodes (clamped to the box), into `out`

@@ -103,6 +103,7 @@ use crate::lighting::single::RgbSh;
 use crate::medium::Medium;
 use crate::render::crm::VolumeGrids;
 use crate::render::env_pass::directions;
+use crate::render::separable::{Separable, Stencil};
 use crate::sh::ShGrid;
 use haze_volume::{Rbf, Volume};
 use rayon::prelude::*;
@@ -460,66 +461,90 @@ pub fn add_to_grids(grids: &mut VolumeGrids, ms: &MediaRadiance, medium: &Medium
             4
         }) - peak
     });
+    // Per cell `D·(1, L⁰, L¹, bands 2–4)` per channel, interpolated one axis at a time
+    // ([`crate::render::separable`]): the cells' trilinear weights times their density.
+    const K: usize = 1 + 3 * (4 + HIGH);
+    let values: Vec<f64> = (0..g.len())
+        .flat_map(|k| {
+            let rho = if g.density[k] > 0.0 {
+                g.density[k]
+            } else {
+                0.0
+            };
+            let mut v = [0.0; K];
+            v[0] = rho;
+            for ch in 0..3 {
+                let at = 1 + ch * (4 + HIGH);
+                v[at] = rho * ms.l0[k][ch];
+                for a in 0..3 {
+                    v[at + 1 + a] = rho * ms.l1[k][ch][a];
+                }
+                for (h, x) in v[at + 4..at + 4 + HIGH].iter_mut().zip(&ms.high[k][ch]) {
+                    *h = rho * x;
+                }
+            }
+            v
+        })
+        .collect();
+    let axes = [0, 1, 2].map(|a| {
+        (0..dims[a])
+            .map(|v| {
+                let c = ((v as f64 + 0.5) / f - 0.5).clamp(0.0, (g.dims[a] - 1) as f64);
+                let lo = (c as usize).min(g.dims[a].saturating_sub(2));
+                Stencil {
+                    lo,
+                    hi: (lo + 1).min(g.dims[a] - 1),
+                    t: c - lo as f64,
+                }
+            })
+            .collect()
+    });
+    let cells = Separable::new(&values, K, g.dims, axes);
     grids
         .radiance
         .par_chunks_mut(plane.max(1))
         .enumerate()
         .for_each(|(z, slice)| {
-            for (i, out) in slice.iter_mut().enumerate() {
-                let idx = z * plane + i;
-                if !lit[idx] {
+            let lit = &lit[z * plane..(z + 1) * plane];
+            if !lit.contains(&true) {
+                return;
+            }
+            let mut nodes = cells.slice(z);
+            let mut v = [0.0; K];
+            for (y, (row, lit)) in slice
+                .chunks_mut(dims[0])
+                .zip(lit.chunks(dims[0]))
+                .enumerate()
+            {
+                if !lit.contains(&true) {
                     continue;
                 }
-                let v = [i % dims[0], i / dims[0], z];
-                let mut lo = [0usize; 3];
-                let mut t = [0.0f64; 3];
-                for a in 0..3 {
-                    let c = ((v[a] as f64 + 0.5) / f - 0.5).clamp(0.0, (g.dims[a] - 1) as f64);
-                    lo[a] = (c as usize).min(g.dims[a].saturating_sub(2));
-                    t[a] = c - lo[a] as f64;
-                }
-                let (mut l0, mut l1, mut ws) = ([0.0; 3], [[0.0; 3]; 3], 0.0);
-                let mut high = [[0.0; HIGH]; 3];
-                for corner in 0..8 {
-                    let mut w = 1.0;
-                    let mut c = [0usize; 3];
-                    for a in 0..3 {
-                        let hi = corner >> a & 1 == 1;
-                        c[a] = (lo[a] + usize::from(hi)).min(g.dims[a] - 1);
-                        w *= if hi { t[a] } else { 1.0 - t[a] };
+                nodes.row(y);
+                for (x, out) in row.iter_mut().enumerate().filter(|(x, _)| lit[*x]) {
+                    nodes.at(x, &mut v);
+                    let ws = v[0];
+                    if ws <= 0.0 {
+                        continue;
                     }
-                    let k = g.index(c);
-                    let wd = w * g.density[k];
-                    if wd > 0.0 {
-                        ws += wd;
-                        for (ch, (s0, s1)) in l0.iter_mut().zip(&mut l1).enumerate() {
-                            *s0 += wd * ms.l0[k][ch];
-                            s1.iter_mut()
-                                .zip(ms.l1[k][ch])
-                                .for_each(|(s, v)| *s += wd * v);
-                        }
-                        for (h, c) in high.iter_mut().zip(&ms.high[k]) {
-                            h.iter_mut().zip(c).for_each(|(h, v)| *h += wd * v);
-                        }
+                    let p = [x, y, z].map(|k| k as f64 + 0.5);
+                    let p = [0, 1, 2].map(|a| bbox.min[a] + p[a] * vs[a]);
+                    let Some(d) = crate::lights::unit([0, 1, 2].map(|a| p[a] - eye[a])) else {
+                        continue;
+                    };
+                    // Bands 2–4 towards the eye, ω = −d, each scaled by `gl`.
+                    let mut basis = [0.0; 25];
+                    crate::sh::eval_into(5, d.map(|c| -c), &mut basis);
+                    for ch in 0..3 {
+                        let at = 1 + ch * (4 + HIGH);
+                        let l1 = &v[at + 1..at + 4];
+                        let flux = l1[0] * d[0] + l1[1] * d[1] + l1[2] * d[2];
+                        let high = &v[at + 4..at + 4 + HIGH];
+                        let bands: f64 = (0..HIGH).map(|k| gl[k] * high[k] * basis[4 + k]).sum();
+                        let j = medium.albedo
+                            * ((1.0 - peak) * v[at] - (medium.g - peak) * flux + bands)
+                            / ws;
+                        out[ch] = (f64::from(out[ch]) + j.max(0.0)) as f32;
                     }
-                }
-                if ws <= 0.0 {
-                    continue;
-                }
-                let p = [0, 1, 2].map(|a| bbox.min[a] + (v[a] as f64 + 0.5) * vs[a]);
-                let Some(d) = crate::lights::unit([0, 1, 2].map(|a| p[a] - eye[a])) else {
-                    continue;
-                };
-                // Bands 2–4 towards the eye, ω = −d, each scaled by `gl`.
-                let mut y = [0.0; 25];
-                crate::sh::eval_into(5, d.map(|v| -v), &mut y);
-                for ch in 0..3 {
-                    let flux = l1[ch][0] * d[0] + l1[ch][1] * d[1] + l1[ch][2] * d[2];
-                    let bands: f64 = (0..HIGH).map(|k| gl[k] * high[ch][k] * y[4 + k]).sum();
-                    let j = medium.albedo
-                        * ((1.0 - peak) * l0[ch] - (medium.g - peak) * flux + bands)
-                        / ws;
-                    out[ch] = (f64::from(out[ch]) + j.max(0.0)) as f32;
                 }
             }
         });
