@@ -534,7 +534,7 @@ pub fn add_to_grids(grids: &mut VolumeGrids, ms: &MediaRadiance, medium: &Medium
                     // Bands 2–4 towards the eye, ω = −d, each scaled by `gl`.
                     let mut basis = [0.0; 25];
                     crate::sh::eval_into(5, d.map(|c| -c), &mut basis);
-                    for ch in 0..3 {
+                    for (ch, o) in out.iter_mut().enumerate() {
                         let at = 1 + ch * (4 + HIGH);
                         let l1 = &v[at + 1..at + 4];
                         let flux = l1[0] * d[0] + l1[1] * d[1] + l1[2] * d[2];
@@ -543,7 +543,7 @@ pub fn add_to_grids(grids: &mut VolumeGrids, ms: &MediaRadiance, medium: &Medium
                         let j = medium.albedo
                             * ((1.0 - peak) * v[at] - (medium.g - peak) * flux + bands)
                             / ws;
-                        out[ch] = (f64::from(out[ch]) + j.max(0.0)) as f32;
+                        *o = (f64::from(*o) + j.max(0.0)) as f32;
                     }
                 }
             }
