@@ -5,9 +5,7 @@
 // is `UNLIT`; a lit one below f32's smallest normal is taken at that normal, as the
 // view pass's floor takes it. One invocation per voxel.
 
-// `view_pass.wgsl`'s MIN_NORMAL and UNLIT.
-const MIN_NORMAL: f32 = 1.17549435e-38;
-const UNLIT: f32 = -3.0e38;
+#import ln_radiance
 
 struct Params {
     // Voxels in the grid.

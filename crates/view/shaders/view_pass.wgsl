@@ -66,11 +66,7 @@ const OPAQUE: f32 = 1e-4;
 // ln `crm::MAX_SPAN` (10³): the largest ratio across a cell the geometric mean of J̃
 // spans.
 const LN_MAX_SPAN: f32 = 6.9077552789821;
-// ln of the smallest normal f32 (1.17549435e-38): the floor of a cell whose brightest
-// corner is subnormal.
-const LN_MIN_NORMAL: f32 = -87.336544750553;
-// `view_grid.wgsl`'s logarithm of an unlit channel (J̃ = 0).
-const UNLIT: f32 = -3.0e38;
+#import ln_radiance
 #import optics
 #import lat_long
 #import block_skip

@@ -34,6 +34,10 @@ pub const MODULES: &[Module] = &[
         name: "lat_long",
         source: include_str!("../../shaders/lat_long.wgsl"),
     },
+    Module {
+        name: "ln_radiance",
+        source: include_str!("../../shaders/ln_radiance.wgsl"),
+    },
 ];
 
 /// Every module the passes may import: this crate's, then the shared ones.
