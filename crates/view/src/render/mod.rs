@@ -73,6 +73,19 @@ pub struct CrmOptions {
     pub detail: f64,
 }
 
+/// The fewest latitudes per hemisphere a lower [`CrmOptions::detail`] leaves the
+/// environment grid's direction rule (2: 4 × 8 directions, enough for the SH of order 4
+/// it projects on: the Gauss–Legendre latitudes integrate `cos θ` polynomials to degree 3
+/// per hemisphere exactly, the 8 azimuths `e^{imφ}` up to |m| = 7).
+pub const MIN_DETAIL_THETA: usize = 2;
+
+/// The optical depth across one cell of the environment grid that a lower
+/// [`CrmOptions::detail`] may reach. On 16 held-out sky cases (BENCHMARKS.md "Viewer
+/// playback: the lighting's detail") a detail whose cells stayed within half an optical
+/// depth added at most 1.5 points of error against the path tracer; cells of 0.75–1.25
+/// optical depths added up to 7, and 20 at detail 0.25 on the thickest smoke.
+pub const MAX_CELL_TAU: f64 = 0.5;
+
 impl CrmOptions {
     /// The environment pass's grid options at this detail (`None` with
     /// [`EnvSource::Centers`]): the spacing divided by [`CrmOptions::detail`], and the
@@ -106,22 +119,7 @@ impl CrmOptions {
             ))
         }
     }
-}
 
-/// The fewest latitudes per hemisphere a lower [`CrmOptions::detail`] leaves the
-/// environment grid's direction rule (2: 4 × 8 directions, enough for the SH of order 4
-/// it projects on: the Gauss–Legendre latitudes integrate `cos θ` polynomials to degree 3
-/// per hemisphere exactly, the 8 azimuths `e^{imφ}` up to |m| = 7).
-pub const MIN_DETAIL_THETA: usize = 2;
-
-/// The optical depth across one cell of the environment grid that a lower
-/// [`CrmOptions::detail`] may reach. On 16 held-out sky cases (BENCHMARKS.md "Viewer
-/// playback: the lighting's detail") a detail whose cells stayed within half an optical
-/// depth added at most 1.5 points of error against the path tracer; cells of 0.75–1.25
-/// optical depths added up to 7, and 20 at detail 0.25 on the thickest smoke.
-pub const MAX_CELL_TAU: f64 = 0.5;
-
-impl CrmOptions {
     /// The lowest [`CrmOptions::detail`] at which the environment grid's cells stay
     /// within [`MAX_CELL_TAU`] optical depths across, for smoke whose lit voxels are
     /// `tau` optical depths thick ([`supersample::tau_per_voxel`] on the grid the
