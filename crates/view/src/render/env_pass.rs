@@ -577,7 +577,7 @@ pub fn add_env_grid(
                 let (lo, t) = grid.axis_stencil(a, bbox.min[a] + (v as f64 + 0.5) * vs[a]);
                 Stencil {
                     lo,
-                    hi: (lo + 1).min(grid.nodes[a] - 1),
+                    hi: (lo + 1).min(grid.nodes[a].saturating_sub(1)),
                     t,
                 }
             })
