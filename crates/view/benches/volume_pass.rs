@@ -4,7 +4,8 @@
 //! (`sh::eval_into`, orders 4 and 5), and the two passes that add a coarse grid's light
 //! towards the eye at every lit voxel (`env_pass::add_env_grid`, nodes 4 voxels apart;
 //! `grid_diffusion::add_to_grids`, cells of 8³ voxels — what playback's lowest detail
-//! uses). 300 RBFs of radii 2–5 voxels in a 96 × 96 × 128 box (a 128³-class frame),
+//! uses); and the RBFs' sum alone (`haze_volume::rbf::evaluate_on_grid`, what the bake's
+//! residual and the viewer's thickness measure start from). 300 RBFs of radii 2–5 voxels in a 96 × 96 × 128 box (a 128³-class frame),
 //! order 4.
 
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -44,6 +45,15 @@ fn bench(c: &mut Criterion) {
                 &bbox,
                 None,
                 eye,
+            ))
+        })
+    });
+    g.bench_function("RBFs on the grid, 96x96x128, 300 RBFs", |b| {
+        b.iter(|| {
+            black_box(haze_volume::rbf::evaluate_on_grid(
+                dims,
+                &bbox,
+                black_box(&rbfs),
             ))
         })
     });

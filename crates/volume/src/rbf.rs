@@ -70,7 +70,8 @@ pub fn voxel_span(lo: f64, hi: f64, min: f64, voxel: f64, n: usize) -> Option<(u
 }
 
 /// Σ of `rbfs` sampled at the voxel centers of a `dims` grid over `bbox` (x fastest),
-/// accumulated in `f64`. Each RBF visits only the voxels inside its `3r` support box;
+/// accumulated in `f64`. Each RBF visits only the voxels inside its `3r` support sphere,
+/// its value there the product of per-axis factors ([`SliceSplats`]: no `exp` a voxel);
 /// z-slices are filled in parallel.
 pub fn evaluate_on_grid(dims: [usize; 3], bbox: &Bbox, rbfs: &[Rbf]) -> Vec<f64> {
     let n = dims[0] * dims[1] * dims[2];
@@ -78,40 +79,106 @@ pub fn evaluate_on_grid(dims: [usize; 3], bbox: &Bbox, rbfs: &[Rbf]) -> Vec<f64>
     if n == 0 {
         return out;
     }
-    let size = bbox.size();
-    let vs = [0, 1, 2].map(|a| size[a] / dims[a] as f64);
     let slice = dims[0] * dims[1];
     out.par_chunks_mut(slice)
         .enumerate()
         .for_each(|(z, plane)| {
-            let pz = bbox.min[2] + (z as f64 + 0.5) * vs[2];
-            for rbf in rbfs {
-                let s = rbf.support_radius();
-                if s <= 0.0 || (pz - rbf.center[2]).abs() >= s {
-                    continue;
-                }
-                let span = |a: usize| {
-                    voxel_span(
-                        rbf.center[a] - s,
-                        rbf.center[a] + s,
-                        bbox.min[a],
-                        vs[a],
-                        dims[a],
-                    )
-                };
-                let (Some((x0, x1)), Some((y0, y1))) = (span(0), span(1)) else {
-                    continue;
-                };
-                for y in y0..=y1 {
-                    let py = bbox.min[1] + (y as f64 + 0.5) * vs[1];
-                    for x in x0..=x1 {
-                        let px = bbox.min[0] + (x as f64 + 0.5) * vs[0];
-                        plane[x + dims[0] * y] += rbf.eval([px, py, pz]);
+            SliceSplats::new(rbfs, z, dims, bbox).splat(0, dims[1], |_, x, y, b| {
+                plane[x + dims[0] * y] += b;
+            });
+        });
+    out
+}
+
+/// The RBFs that reach one z-slice of voxel centers, each with its factors along x and y.
+///
+/// `B(x) = w·e^{−(Δx² + Δy² + Δz²)/r²}` is separable: a slice takes `w·e^{−Δz²/r²}` once,
+/// `e^{−Δx²/r²}` once per column and `e^{−Δy²/r²}` once per row of the RBF's span, and a
+/// voxel the product of its two — the sum [`Rbf::eval`] takes in one `exp`, rounded
+/// differently (a few ulps). The support is [`Rbf::eval`]'s: the sphere of `3r`, tested
+/// on the same `Σ (Δ/r)²`.
+#[derive(Debug)]
+pub struct SliceSplats {
+    /// Per RBF that reaches the slice.
+    reach: Vec<Reach>,
+    /// Every reaching RBF's factors along x then along y, each beside its `(Δ/r)²`, back
+    /// to back in `reach`'s order.
+    factors: Vec<(f64, f64)>,
+}
+
+/// An RBF that reaches a slice: its index, its voxel spans along x and y (inclusive),
+/// `Δz²/r²`.
+type Reach = (usize, (usize, usize), (usize, usize), f64);
+
+impl SliceSplats {
+    /// The RBFs of `rbfs` that reach voxel slice `z` of a `dims` grid over `bbox`.
+    pub fn new(rbfs: &[Rbf], z: usize, dims: [usize; 3], bbox: &Bbox) -> Self {
+        let size = bbox.size();
+        let vs = [0, 1, 2].map(|a| size[a] / dims[a].max(1) as f64);
+        let center = |a: usize, i: usize| bbox.min[a] + (i as f64 + 0.5) * vs[a];
+        let pz = center(2, z);
+        let mut reach = Vec::new();
+        let mut factors = Vec::new();
+        for (l, rbf) in rbfs.iter().enumerate() {
+            let s = rbf.support_radius();
+            if !(s > 0.0 && s.is_finite()) || (pz - rbf.center[2]).abs() >= s {
+                continue;
+            }
+            let span = |a: usize| {
+                voxel_span(
+                    rbf.center[a] - s,
+                    rbf.center[a] + s,
+                    bbox.min[a],
+                    vs[a],
+                    dims[a],
+                )
+            };
+            let (Some(sx), Some(sy)) = (span(0), span(1)) else {
+                continue;
+            };
+            let q = |a: usize, p: f64| ((p - rbf.center[a]) / rbf.radius).powi(2);
+            let qz = q(2, pz);
+            let scale = rbf.weight * (-qz).exp();
+            for x in sx.0..=sx.1 {
+                let qx = q(0, center(0, x));
+                factors.push((scale * (-qx).exp(), qx));
+            }
+            for y in sy.0..=sy.1 {
+                let qy = q(1, center(1, y));
+                factors.push(((-qy).exp(), qy));
+            }
+            reach.push((l, sx, sy, qz));
+        }
+        SliceSplats { reach, factors }
+    }
+
+    /// Calls `add(l, x, y, B_l)` for every RBF `l` and voxel `(x, y)` of rows `y0..y1`
+    /// inside its support, with a non-zero value.
+    pub fn splat(&self, y0: usize, y1: usize, mut add: impl FnMut(usize, usize, usize, f64)) {
+        let mut at = 0;
+        for &(l, (x0, x1), (ya, yb), qz) in &self.reach {
+            let (fx, rest) = self.factors[at..].split_at(x1 - x0 + 1);
+            let fy = &rest[..yb - ya + 1];
+            at += fx.len() + fy.len();
+            let (lo, hi) = (ya.max(y0), yb.min(y1.saturating_sub(1)));
+            if lo > hi {
+                continue;
+            }
+            for y in lo..=hi {
+                let (ey, qy) = fy[y - ya];
+                for (x, &(ex, qx)) in (x0..=x1).zip(fx) {
+                    // The support sphere, as `Rbf::eval`: zero from 3 radii out.
+                    if qx + qy + qz >= CUTOFF * CUTOFF {
+                        continue;
+                    }
+                    let b = ex * ey;
+                    if b != 0.0 {
+                        add(l, x, y, b);
                     }
                 }
             }
-        });
-    out
+        }
+    }
 }
 
 #[cfg(test)]
@@ -179,6 +246,7 @@ mod tests {
                     let p = [0, 1, 2].map(|a| bbox.min[a] + p[a] * vs[a]);
                     let brute: f64 = rbfs.iter().map(|b| b.eval(p)).sum();
                     let got = fast[x + dims[0] * (y + dims[1] * z)];
+                    // Per-axis factors against one `exp`: a few ulps a term.
                     assert!(
                         (got - brute).abs() <= 1e-12,
                         "({x},{y},{z}): {got} vs {brute}"

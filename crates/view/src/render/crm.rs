@@ -34,7 +34,7 @@ use crate::ground::{GroundLight, marched_transmittance};
 use crate::lighting::single::RgbSh;
 use crate::medium::Medium;
 use crate::sh;
-use haze_volume::rbf::{CUTOFF, voxel_span};
+use haze_volume::rbf::SliceSplats;
 use haze_volume::{Bbox, Rbf, Volume};
 use rayon::prelude::*;
 
@@ -82,14 +82,14 @@ pub fn volume_pass(
     let slices: Vec<(Vec<f32>, Vec<[f32; 3]>)> = (0..dims[2])
         .into_par_iter()
         .map(|z| {
-            let slice = SliceSplats::new(rbfs, z, dims, bbox, vs);
+            let slice = SliceSplats::new(rbfs, z, dims, bbox);
             let mut dens = vec![0.0f32; plane];
             let mut rad = vec![[0.0f32; 3]; plane];
             let mut band = Band::new(dims[0], order);
             for y0 in (0..dims[1]).step_by(ROWS) {
                 let y1 = (y0 + ROWS).min(dims[1]);
                 band.clear(y1 - y0);
-                slice.splat(&mut band, source, y0, y1);
+                band.splat(&slice, source, y0, y1);
                 let at = y0 * dims[0]..y1 * dims[0];
                 let r = residual.map(|r| &r[z * plane + at.start..z * plane + at.end]);
                 let eye_u = |i: usize| {
@@ -117,97 +117,6 @@ pub fn volume_pass(
     }
 }
 
-/// The RBFs that reach one slice of [`volume_pass`], with their factors along x and y
-/// (`w_ℓ e^{−Δz²/r²}` folded into x's) over their spans.
-struct SliceSplats {
-    /// Per RBF that reaches the slice.
-    reach: Vec<Reach>,
-    /// Every RBF's factors along x then along y, `(Δ/r)²` beside each, back to back in
-    /// `reach`'s order.
-    factors: Vec<(f64, f64)>,
-}
-
-/// An RBF that reaches a slice: its index, its voxel spans along x and y (inclusive),
-/// `Δz²/r²`.
-type Reach = (usize, (usize, usize), (usize, usize), f64);
-
-impl SliceSplats {
-    fn new(rbfs: &[Rbf], z: usize, dims: [usize; 3], bbox: &Bbox, vs: [f64; 3]) -> Self {
-        let center = |a: usize, i: usize| bbox.min[a] + (i as f64 + 0.5) * vs[a];
-        let pz = center(2, z);
-        let mut reach = Vec::new();
-        let mut factors = Vec::new();
-        for (l, rbf) in rbfs.iter().enumerate() {
-            let s = rbf.support_radius();
-            if !(s > 0.0 && s.is_finite()) || (pz - rbf.center[2]).abs() >= s {
-                continue;
-            }
-            let span = |a: usize| {
-                voxel_span(
-                    rbf.center[a] - s,
-                    rbf.center[a] + s,
-                    bbox.min[a],
-                    vs[a],
-                    dims[a],
-                )
-            };
-            let (Some(sx), Some(sy)) = (span(0), span(1)) else {
-                continue;
-            };
-            let q = |a: usize, p: f64| ((p - rbf.center[a]) / rbf.radius).powi(2);
-            let qz = q(2, pz);
-            let scale = rbf.weight * (-qz).exp();
-            for x in sx.0..=sx.1 {
-                let qx = q(0, center(0, x));
-                factors.push((scale * (-qx).exp(), qx));
-            }
-            for y in sy.0..=sy.1 {
-                let qy = q(1, center(1, y));
-                factors.push(((-qy).exp(), qy));
-            }
-            reach.push((l, sx, sy, qz));
-        }
-        SliceSplats { reach, factors }
-    }
-
-    /// Adds every RBF's `B_ℓ` and `B_ℓ J̃(c_ℓ)` at the rows `y0..y1` to `band`.
-    fn splat(&self, band: &mut Band, source: &[RgbSh], y0: usize, y1: usize) {
-        let (nx, n2) = (band.nx, band.n2);
-        let mut at = 0;
-        for &(l, (x0, x1), (ya, yb), qz) in &self.reach {
-            let (fx, rest) = self.factors[at..].split_at(x1 - x0 + 1);
-            let fy = &rest[..yb - ya + 1];
-            at += fx.len() + fy.len();
-            let (lo, hi) = (ya.max(y0), yb.min(y1.saturating_sub(1)));
-            if lo > hi {
-                continue;
-            }
-            let j = &source[l];
-            for y in lo..=hi {
-                let (ey, qy) = fy[y - ya];
-                for (x, &(ex, qx)) in (x0..=x1).zip(fx) {
-                    // The support sphere, as `Rbf::eval`: zero from 3 radii out.
-                    if qx + qy + qz >= CUTOFF * CUTOFF {
-                        continue;
-                    }
-                    let b = ex * ey;
-                    if b == 0.0 {
-                        continue;
-                    }
-                    let i = x + nx * (y - y0);
-                    band.dt[i] += b;
-                    let a = &mut band.acc[i * 3 * n2..(i + 1) * 3 * n2];
-                    for ch in 0..3 {
-                        for (s, v) in a[ch * n2..(ch + 1) * n2].iter_mut().zip(&j[ch]) {
-                            *s += b * v;
-                        }
-                    }
-                }
-            }
-        }
-    }
-}
-
 /// [`volume_pass`]'s sums over a band of rows: `D̃` and `Σ B_ℓ J̃(c_ℓ)` per voxel.
 struct Band {
     nx: usize,
@@ -229,6 +138,21 @@ impl Band {
             acc: vec![0.0; ROWS * nx * 3 * n2],
             y: vec![0.0; n2],
         }
+    }
+
+    /// Adds every RBF's `B_ℓ` and `B_ℓ J̃(c_ℓ)` at the rows `y0..y1` of `slice`.
+    fn splat(&mut self, slice: &SliceSplats, source: &[RgbSh], y0: usize, y1: usize) {
+        let (nx, n2) = (self.nx, self.n2);
+        slice.splat(y0, y1, |l, x, y, b| {
+            let i = x + nx * (y - y0);
+            self.dt[i] += b;
+            let a = &mut self.acc[i * 3 * n2..(i + 1) * 3 * n2];
+            for (ch, j) in source[l].iter().enumerate() {
+                for (s, v) in a[ch * n2..(ch + 1) * n2].iter_mut().zip(j) {
+                    *s += b * v;
+                }
+            }
+        });
     }
 
     /// Zeroes the sums of `rows` rows.
