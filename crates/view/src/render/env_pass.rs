@@ -575,11 +575,7 @@ pub fn add_env_grid(
         (0..dims[a])
             .map(|v| {
                 let (lo, t) = grid.axis_stencil(a, bbox.min[a] + (v as f64 + 0.5) * vs[a]);
-                Stencil {
-                    lo,
-                    hi: (lo + 1).min(grid.nodes[a].saturating_sub(1)),
-                    t,
-                }
+                Stencil::new(lo, t, grid.nodes[a])
             })
             .collect()
     });

@@ -25,6 +25,18 @@ pub struct Stencil {
     pub t: f64,
 }
 
+impl Stencil {
+    /// The stencil from lower node `lo` at fraction `t` on an axis of `nodes` nodes: the
+    /// upper node is the next, or `lo` itself on the last node (an axis of one node).
+    pub fn new(lo: usize, t: f64, nodes: usize) -> Stencil {
+        Stencil {
+            lo,
+            hi: (lo + 1).min(nodes.saturating_sub(1)),
+            t,
+        }
+    }
+}
+
 /// The numbers of a grid of nodes, `k` a node (x fastest, then y, then z), with each
 /// voxel's stencil per axis.
 #[derive(Debug)]
@@ -125,11 +137,7 @@ mod tests {
                 .map(|v| {
                     let c = ((v as f64 + 0.5) / 2.0 - 0.5).clamp(0.0, (nodes - 1) as f64);
                     let lo = (c as usize).min(nodes.saturating_sub(2));
-                    Stencil {
-                        lo,
-                        hi: (lo + 1).min(nodes - 1),
-                        t: c - lo as f64,
-                    }
+                    Stencil::new(lo, c - lo as f64, nodes)
                 })
                 .collect()
         };

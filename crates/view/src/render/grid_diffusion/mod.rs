@@ -491,11 +491,7 @@ pub fn add_to_grids(grids: &mut VolumeGrids, ms: &MediaRadiance, medium: &Medium
             .map(|v| {
                 let c = ((v as f64 + 0.5) / f - 0.5).clamp(0.0, (g.dims[a] - 1) as f64);
                 let lo = (c as usize).min(g.dims[a].saturating_sub(2));
-                Stencil {
-                    lo,
-                    hi: (lo + 1).min(g.dims[a] - 1),
-                    t: c - lo as f64,
-                }
+                Stencil::new(lo, c - lo as f64, g.dims[a])
             })
             .collect()
     });
