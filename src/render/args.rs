@@ -162,8 +162,9 @@ pub struct RenderCli {
     /// With --scene, Gaussian media (paper B): integrate the (light, Gaussian) pairs
     /// exactly on a grid every N pixels and take each pair's ratio to its unattenuated
     /// integral from that grid at the pixels between, where the grid shows it smooth (an
-    /// estimated error of at most 0.5 % of the pixel), on the CPU (the GPU integrates
-    /// every pixel); the surfaces' exact shadow on the sky (--sky-shadow) on the same
+    /// estimated error of at most 0.5 % of the pixel), through grids of half the stride
+    /// that integrate only where the coarser one was not smooth, on the CPU (the GPU
+    /// integrates every pixel); the surfaces' exact shadow on the sky (--sky-shadow) on the same
     /// grid, CPU and GPU. 1 takes every pixel exactly (slower). `-v` says how often the
     /// grid served
     #[arg(long, requires = "scene", value_name = "N", default_value_t = 4,

@@ -45,7 +45,8 @@
 //! reuse of the integrated pairs (`paper_b::reuse`) against every pixel integrating them,
 //! on the timing room (`--counts`, `--lights`, `--spread`) and on scene files (at their
 //! own size): frame times (median of 3) and the reused picture's relative RMS and
-//! largest pixel error against the other's.
+//! largest pixel error against the other's. `--stride N` (lamps and reuse) sets the
+//! reused frames' coarsest grid (`PaperBOptions::reuse`, 4 by default).
 
 use haze_gaussians::cloud;
 use haze_gpu::GpuContext;
@@ -609,8 +610,23 @@ fn timed(s: &Scene, analytic: &Analytic, options: PaperBOptions) -> (f64, Image,
     (median(times), image, pairs)
 }
 
+/// `--stride N`: the coarsest grid of the reused frames (`PaperBOptions::reuse`).
+fn reuse_options(args: &[String]) -> PaperBOptions {
+    let reuse = arg(args, "--stride").map_or(paper_b::reuse::DEFAULT_STRIDE, |s| {
+        s.parse::<usize>()
+            .ok()
+            .filter(|n| *n >= 1)
+            .unwrap_or_else(|| fail("--stride N: a whole number of pixels, at least 1"))
+    });
+    PaperBOptions {
+        reuse,
+        ..Default::default()
+    }
+}
+
 fn lamps(args: &[String]) {
     let check = args.iter().any(|a| a == "--check");
+    let reused_options = reuse_options(args);
     println!(
         "| scene | closed form | integrated pairs | every pixel | reused | {CPU_DEVICE_EXACT} exact | closed form ms | every pixel ms | reused ms | {CPU_DEVICE_EXACT} exact ms | reference s |"
     );
@@ -627,7 +643,7 @@ fn lamps(args: &[String]) {
         max_exact: CPU_DEVICE_EXACT,
         ..every
     };
-    for path in args[1..].iter().filter(|a| !a.starts_with("--")) {
+    for path in args[1..].iter().filter(|a| a.ends_with(".json")) {
         let s = file::load(std::path::Path::new(path)).unwrap_or_else(|e| fail(e));
         let analytic = Analytic::new(&s);
         let t = Instant::now();
@@ -635,7 +651,7 @@ fn lamps(args: &[String]) {
         let tr = t.elapsed().as_secs_f64();
         let (t0, closed, _) = timed(&s, &analytic, closed);
         let (t1, acc, (k, n)) = timed(&s, &analytic, every);
-        let (t2, reused, _) = timed(&s, &analytic, PaperBOptions::default());
+        let (t2, reused, _) = timed(&s, &analytic, reused_options);
         let (t4, four, _) = timed(&s, &analytic, device);
         println!(
             "| {path} | {:.2} % | {k} of {n} | {:.2} % | {:.2} % | {:.2} % | {t0:.0} | {t1:.0} | {t2:.0} | {t4:.0} | {tr:.1} |",
@@ -694,6 +710,7 @@ fn reuse(args: &[String]) {
             .filter(|r| *r > 0.0 && r.is_finite())
             .unwrap_or_else(|| fail("--spread R: a positive radius"))
     });
+    let reused_options = reuse_options(args);
     println!(
         "| scene | pairs integrated | every pixel ms | reused ms | rel. RMS | largest pixel error |"
     );
@@ -705,7 +722,7 @@ fn reuse(args: &[String]) {
             ..Default::default()
         };
         let (t1, a, (k, n)) = timed(s, &analytic, every);
-        let (t2, b, _) = timed(s, &analytic, PaperBOptions::default());
+        let (t2, b, _) = timed(s, &analytic, reused_options);
         let (rms, worst) = reuse_error(&b, &a);
         println!(
             "| {name} | {k} of {n} | {t1:.0} | {t2:.0} | {:.3} % | {:.2} % |",

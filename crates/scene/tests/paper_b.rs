@@ -576,7 +576,8 @@ fn sun_light_matches_the_reference() {
 fn pairs_reused_across_the_screen_match_every_pixel_integrating() {
     // data/scenes/lamps/inside.json (a lamp inside the largest of five dense Gaussians,
     // every pair integrated) at 160 × 120: each pixel off the 4-pixel grid takes a pair's
-    // ratio to its unattenuated integral from the grid where its estimated interpolation
+    // ratio to its unattenuated integral from the grid — the 2-pixel grid's pixels from
+    // the 4-pixel one's, the rest from the 2-pixel one — where its estimated interpolation
     // error, times its share of the pixel, is at most 0.5 % (`reuse::PIXEL_TOLERANCE`).
     // Against every pixel integrating: rel RMS within 0.5 % and every pixel above a tenth
     // of the mean within 2 % (a few terms may add their errors), with most crossings

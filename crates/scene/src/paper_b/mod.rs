@@ -57,7 +57,7 @@ const LIST_DELTA: f64 = 1e-7;
 
 /// The most Gaussians an integrated pair (and the homogeneous term) takes exactly per node.
 pub use haze_gaussians::integrated::MAX_EXACT;
-use haze_gaussians::integrated::{bound, host_ratio, integrated, unattenuated};
+use haze_gaussians::integrated::{SUPPORT, bound, host_ratio, integrated, unattenuated};
 use haze_gaussians::light_view::LightView;
 use haze_gaussians::line;
 use haze_gaussians::noise::Noise;
@@ -83,7 +83,8 @@ pub struct PaperBOptions {
     pub max_exact: usize,
     /// The CPU's screen-space reuse of the integrated pairs ([`reuse`]): their ratio to the
     /// unattenuated chord integral integrated every `reuse` pixels and interpolated
-    /// between where it varies smoothly; 1: every pixel integrates.
+    /// between where it varies smoothly, through grids of half the stride down to every
+    /// pixel ([`reuse::strides`]); 1: every pixel integrates.
     pub reuse: usize,
     /// The others' shadow on the sky at the surfaces taken over exact directions where
     /// `e^{−T̄(p)}`'s bound exceeds [`PaperBOptions::target`]
@@ -424,7 +425,7 @@ impl<'a> Prepared<'a> {
         let frame = [cam.right(), cam.up(), cam.forward()];
         let hit = scene.intersect(eye, dir, 0.0, scene.environment_distance);
         let t_end = hit.map_or(scene.environment_distance, |h| h.t);
-        mode.hit(hit.map(|h| h.surface));
+        mode.hit(hit.map(|h| h.surface), t_end);
         let n = self.set.blobs().len();
         let mut out = [0.0; 3];
         // The Gaussians along the ray: Tᵢ(v,p) and their airlight.
@@ -467,10 +468,15 @@ impl<'a> Prepared<'a> {
                         || *u.get_or_init(|| unattenuated(b, eye, dir, t_end, l.source, lim.r_min));
                     let base = || [unatt(); 3];
                     let scale = || [0, 1, 2].map(|c| noise * l.power[c] * unatt());
-                    let li = match mode.ratio(id, k, scale) {
+                    // The far end of the pair's support on any ray.
+                    let reach = norm(sub(b.center, eye)) + SUPPORT / b.a;
+                    let li = match mode.ratio(id, k, reach, scale) {
                         Some(r) => {
                             let f = base();
-                            [0, 1, 2].map(|c| f[c] * r[c])
+                            let li = [0, 1, 2].map(|c| f[c] * r[c]);
+                            let add = [0, 1, 2].map(|c| noise * l.power[c] * li[c]);
+                            mode.record_reused(id, r, add);
+                            li
                         }
                         None => {
                             let li = self.integrated_pair(lim, l, i, e, dir, t_end);
@@ -567,21 +573,21 @@ impl<'a> Prepared<'a> {
     ) -> Rgb {
         let l = &self.lights[k];
         let eye = self.scene.camera.eye;
-        let mut exact = None;
+        // The term's key and ratio, and whether it was integrated here.
+        let mut taken = None;
         let c_sv = if l.pairs.exact.is_empty() {
             l.pairs.c_sv
         } else {
             let id = reuse::host_id(self.set.blobs().len(), self.lights.len(), k);
-            let ratio = mode
-                .ratio(id, k, || [f64::INFINITY; 3])
-                .map(|r| r[0])
-                .unwrap_or_else(|| {
+            let (ratio, exact) = match mode.ratio(id, k, f64::INFINITY, || [f64::INFINITY; 3]) {
+                Some(r) => (r[0], false),
+                None => {
                     let hosts = &l.pairs.exact_blobs;
                     let b0 = self.beta0.iter().sum::<f64>() / 3.0;
-                    let r = host_ratio(hosts, eye, dir, t_end, s, lim.r_min, b0);
-                    exact = Some((id, r));
-                    r
-                });
+                    (host_ratio(hosts, eye, dir, t_end, s, lim.r_min, b0), true)
+                }
+            };
+            taken = Some((id, ratio, exact));
             l.pairs.c_sv_rest * ratio
         };
         let s = effective_light(eye, dir, s, lim);
@@ -595,8 +601,10 @@ impl<'a> Prepared<'a> {
                 0.0
             }
         });
-        if let Some((id, r)) = exact {
-            mode.record(id, [r; 3], || [1.0; 3], add);
+        match taken {
+            Some((id, r, true)) => mode.record(id, [r; 3], || [1.0; 3], add),
+            Some((id, r, false)) => mode.record_reused(id, [r; 3], add),
+            None => {}
         }
         add
     }

@@ -18,7 +18,17 @@
 //! `C_sv(ray)/C_sv,rest` ([`haze_gaussians::integrated::host_ratio`]) is recorded and
 //! reused likewise.
 //!
-//! Every other pixel takes a term's `ρ` bilinearly from the four grid pixels around it
+//! The grids are nested ([`strides`]): each finer grid, of half the stride, takes a
+//! term's `ρ` at its new pixels from the coarser one where that is safe (below), integrates
+//! it elsewhere, and records both, until the last pass, which covers every pixel. Where
+//! the attenuation is smooth over a coarse block the term is integrated only at its
+//! corners; where a shadow's edge or a small Gaussian crosses it, the finer grids close
+//! in on it, so only the pixels within a block of the finest grid around such a feature
+//! integrate everything. (Bilinear interpolation reproduces a bilinear function, so a
+//! ratio taken from the coarse grid and interpolated again at a finer one is the same as
+//! taken once.)
+//!
+//! A pixel off a grid takes a term's `ρ` bilinearly from the four grid pixels around it
 //! where that is safe, and integrates the term itself elsewhere:
 //!
 //! * all four corners recorded the term (a corner outside the Gaussian's support, or
@@ -39,8 +49,10 @@
 //!   narrower than the grid cannot pass between the corners unseen;
 //! * no point light's image lies within a block of it: there the integral's `∫dt/d²` has
 //!   its `1/h` peak, which no corner sees (every term of that light is integrated);
-//! * the pixel's ray ends on the same surface as all four corners' (or on none): a
-//!   surface's silhouette cuts the ray's chord.
+//! * the pixel's ray ends on the same surface as all four corners' (or on none), or the
+//!   term's Gaussian lies wholly nearer than every one of their ends (its distance from
+//!   the eye plus [`SUPPORT`](haze_gaussians::integrated::SUPPORT) radii): a surface's silhouette cuts the ray's chord. The
+//!   homogeneous term runs to the ray's end, so it is integrated there.
 //!
 //! The surfaces' exact shadow on the sky comes from its own grid ([`super::sky_grid`]).
 //!
@@ -87,10 +99,12 @@ pub(crate) fn host_id(n: usize, lights: usize, light: usize) -> usize {
 
 /// What a grid pixel recorded: its radiance, the surface its ray ends on and each
 /// integrated term's ratio (module docs), sorted by key.
-#[derive(Debug, Default)]
+#[derive(Clone, Debug, Default)]
 pub(crate) struct Sample {
     radiance: [f32; 3],
     surface: Option<usize>,
+    /// Where its ray ends.
+    t_end: f64,
     ratios: Vec<Entry>,
 }
 
@@ -128,43 +142,62 @@ pub(crate) enum PairMode<'r> {
     Exact,
     /// Integrated, and each term's ratio recorded.
     Record(&'r mut Sample),
-    /// Interpolated from the corners where safe (`off`: the ray ends on another surface
-    /// than a corner's; everything integrated), counted.
+    /// Interpolated from the corners where safe (`cut`: where the ray ends on another
+    /// surface than a corner's, the nearest of their ends, ∞ where they all end on the
+    /// same; a term whose support may reach it is integrated), counted; with `record`,
+    /// every term's ratio — integrated or interpolated — recorded for the next finer grid.
     Reuse {
         corners: &'r Corners<'r>,
-        off: bool,
+        cut: f64,
         count: &'r mut ReuseCount,
+        record: Option<&'r mut Sample>,
     },
 }
 
 impl PairMode<'_> {
-    /// The surface the pixel's ray ends on.
-    pub(crate) fn hit(&mut self, surface: Option<usize>) {
+    /// The surface the pixel's ray ends on, and where.
+    pub(crate) fn hit(&mut self, surface: Option<usize>, t_end: f64) {
         match self {
             PairMode::Exact => {}
-            PairMode::Record(s) => s.surface = surface,
-            PairMode::Reuse { corners, off, .. } => {
-                *off = corners.corners().iter().any(|s| s.surface != surface);
+            PairMode::Record(s) => (s.surface, s.t_end) = (surface, t_end),
+            PairMode::Reuse {
+                corners,
+                cut,
+                record,
+                ..
+            } => {
+                let ends = corners.corners();
+                *cut = if ends.iter().any(|s| s.surface != surface) {
+                    ends.iter().map(|s| s.t_end).fold(t_end, f64::min)
+                } else {
+                    f64::INFINITY
+                };
+                if let Some(s) = record {
+                    (s.surface, s.t_end) = (surface, t_end);
+                }
             }
         }
     }
 
     /// Term `id`'s (of light `light`) ratio (module docs), interpolated; `None`: integrate
-    /// it.
+    /// it. `reach`: how far along the ray the term's support may extend (∞: to the ray's
+    /// end).
     pub(crate) fn ratio(
         &mut self,
         id: usize,
         light: usize,
+        reach: f64,
         scale: impl FnOnce() -> Rgb,
     ) -> Option<[f64; 3]> {
         match self {
             PairMode::Reuse {
                 corners,
-                off,
+                cut,
                 count,
+                ..
             } => {
                 count.terms += 1;
-                let r = if *off {
+                let r = if reach > *cut {
                     None
                 } else {
                     corners.ratio(id, light, scale)
@@ -176,11 +209,22 @@ impl PairMode<'_> {
         }
     }
 
+    /// The sample this pixel records into, if it records.
+    fn recording(&mut self) -> Option<&mut Sample> {
+        match self {
+            PairMode::Record(s) => Some(s),
+            PairMode::Reuse {
+                record: Some(s), ..
+            } => Some(s),
+            _ => None,
+        }
+    }
+
     /// Records term `id`'s integrated value `exact` over `base` (its unattenuated value;
     /// 1 for a ratio already) and what it `added` to the pixel (when recording; a term
     /// whose base is 0 in a channel records nothing).
     pub(crate) fn record(&mut self, id: usize, exact: Rgb, base: impl FnOnce() -> Rgb, added: Rgb) {
-        if let PairMode::Record(s) = self {
+        if let Some(s) = self.recording() {
             let f = base();
             let mut r = [0.0f32; 3];
             for c in 0..3 {
@@ -193,6 +237,18 @@ impl PairMode<'_> {
             s.ratios.push(Entry {
                 id,
                 ratio: r,
+                added: added.map(|a| a as f32),
+            });
+        }
+    }
+
+    /// Records term `id`'s interpolated `ratio` and what it `added` to the pixel (when
+    /// recording for a finer grid).
+    pub(crate) fn record_reused(&mut self, id: usize, ratio: [f64; 3], added: Rgb) {
+        if let Some(s) = self.recording() {
+            s.ratios.push(Entry {
+                id,
+                ratio: ratio.map(|r| r as f32),
                 added: added.map(|a| a as f32),
             });
         }
@@ -448,7 +504,72 @@ pub(crate) fn render(
     image
 }
 
-/// [`render`], and how often it reused.
+/// The strides of the grids from `top` down to every pixel: `top`, then halved while it
+/// stays even, then 1 — each grid holds the coarser one's pixels ([`grid`]).
+pub(crate) fn strides(top: usize) -> Vec<usize> {
+    let mut out = vec![top.max(1)];
+    let mut s = top.max(1);
+    while s > 1 {
+        s = if s.is_multiple_of(2) { s / 2 } else { 1 };
+        out.push(s);
+    }
+    out
+}
+
+/// A grid of recorded pixels: every `stride`th column `gx` and row `gy`.
+struct Level {
+    stride: usize,
+    gx: Vec<usize>,
+    gy: Vec<usize>,
+    samples: Vec<Sample>,
+    /// Per key: [`reusable`] across this grid's blocks.
+    reusable: Vec<bool>,
+}
+
+impl Level {
+    /// The block of this grid around pixel `(x, y)`, `None` at one of its pixels.
+    fn corners<'l>(
+        &'l self,
+        x: usize,
+        y: usize,
+        images: &[Option<(f64, f64)>],
+    ) -> Option<Corners<'l>> {
+        let (kx, tx) = cell(&self.gx, x);
+        let (ky, ty) = cell(&self.gy, y);
+        if tx == 0.0 && ty == 0.0 {
+            return None;
+        }
+        let nx = self.gx.len();
+        let kx1 = (kx + 1).min(nx - 1);
+        let ky1 = (ky + 1).min(self.gy.len() - 1);
+        Some(Corners {
+            grid: &self.samples,
+            nx,
+            k: (kx, ky),
+            k1: (kx1, ky1),
+            weights: bilinear(tx, ty),
+            reusable: &self.reusable,
+            near_light: near_lights(
+                images,
+                (self.gx[kx], self.gx[kx1]),
+                (self.gy[ky], self.gy[ky1]),
+                self.stride as f64,
+            ),
+        })
+    }
+
+    /// The sample recorded at pixel `(x, y)`, one of this grid's.
+    fn at(&self, x: usize, y: usize) -> &Sample {
+        let (kx, ky) = (cell(&self.gx, x).0, cell(&self.gy, y).0);
+        &self.samples[ky * self.gx.len() + kx]
+    }
+}
+
+/// [`render`], and how often it reused: the coarsest grid ([`PaperBOptions::reuse`]'s
+/// stride) integrated, each finer grid ([`strides`]) taking its terms from the one
+/// before where smooth and recording them, the pixels from the finest.
+///
+/// [`PaperBOptions::reuse`]: super::PaperBOptions::reuse
 pub fn render_counted(
     prep: &Prepared<'_>,
     lim: &Limits,
@@ -457,8 +578,10 @@ pub fn render_counted(
 ) -> (Image, ReuseCount) {
     let cam = &prep.scene.camera;
     let (w, h) = (cam.width, cam.height);
-    let stride = prep.options.reuse;
-    let (gx, gy) = (grid(w, stride), grid(h, stride));
+    let strides = strides(prep.options.reuse);
+    let images = light_images(prep);
+    let top = strides[0];
+    let (gx, gy) = (grid(w, top), grid(h, top));
     let nx = gx.len();
     let samples: Vec<Sample> = (0..nx * gy.len())
         .into_par_iter()
@@ -477,40 +600,69 @@ pub fn render_counted(
             s
         })
         .collect();
-    let reusable = reusable(prep, stride);
-    let images = light_images(prep);
+    let mut level = Level {
+        stride: top,
+        gx,
+        gy,
+        samples,
+        reusable: reusable(prep, top),
+    };
+    let mut count = ReuseCount::default();
+    // The grids between the coarsest and every pixel.
+    for &s in &strides[1..strides.len() - 1] {
+        let (fx, fy) = (grid(w, s), grid(h, s));
+        let nx = fx.len();
+        let refined: Vec<(Sample, ReuseCount)> = (0..nx * fy.len())
+            .into_par_iter()
+            .map(|k| {
+                let (x, y) = (fx[k % nx], fy[k / nx]);
+                let mut n = ReuseCount::default();
+                let Some(corners) = level.corners(x, y, &images) else {
+                    return (level.at(x, y).clone(), n);
+                };
+                let mut sample = Sample::default();
+                let mut mode = PairMode::Reuse {
+                    corners: &corners,
+                    cut: f64::INFINITY,
+                    count: &mut n,
+                    record: Some(&mut sample),
+                };
+                let table = sky.map(|t| (t, x, y));
+                let r = prep.radiance_with(lim, cam.pixel_ray(x, y), &mut mode, table);
+                sample.radiance = r.map(|c| c as f32);
+                sample.ratios.sort_unstable_by_key(|e| e.id);
+                (sample, n)
+            })
+            .collect();
+        let mut samples = Vec::with_capacity(refined.len());
+        for (sample, n) in refined {
+            samples.push(sample);
+            count.terms += n.terms;
+            count.reused += n.reused;
+        }
+        level = Level {
+            stride: s,
+            gx: fx,
+            gy: fy,
+            samples,
+            reusable: reusable(prep, s),
+        };
+    }
     let done = AtomicUsize::new(0);
     let rows: Vec<(Vec<[f32; 3]>, ReuseCount)> = (0..h)
         .into_par_iter()
         .map(|y| {
-            let (ky, ty) = cell(&gy, y);
-            let ky1 = (ky + 1).min(gy.len() - 1);
             let mut count = ReuseCount::default();
             let row = (0..w)
                 .map(|x| {
-                    let (kx, tx) = cell(&gx, x);
-                    if tx == 0.0 && ty == 0.0 {
-                        return samples[ky * nx + kx].radiance;
-                    }
-                    let kx1 = (kx + 1).min(nx - 1);
-                    let corners = Corners {
-                        grid: &samples,
-                        nx,
-                        k: (kx, ky),
-                        k1: (kx1, ky1),
-                        weights: bilinear(tx, ty),
-                        reusable: &reusable,
-                        near_light: near_lights(
-                            &images,
-                            (gx[kx], gx[kx1]),
-                            (gy[ky], gy[ky1]),
-                            stride as f64,
-                        ),
+                    let Some(corners) = level.corners(x, y, &images) else {
+                        return level.at(x, y).radiance;
                     };
                     let mut mode = PairMode::Reuse {
                         corners: &corners,
-                        off: false,
+                        cut: f64::INFINITY,
                         count: &mut count,
+                        record: None,
                     };
                     let table = sky.map(|t| (t, x, y));
                     let r = prep.radiance_with(lim, cam.pixel_ray(x, y), &mut mode, table);
@@ -521,7 +673,6 @@ pub fn render_counted(
             (row, count)
         })
         .collect();
-    let mut count = ReuseCount::default();
     let mut pixels = Vec::with_capacity(w * h);
     for (row, n) in rows {
         pixels.extend(row);
@@ -547,6 +698,25 @@ mod tests {
         assert_eq!(grid(1, 4), vec![0]);
         assert_eq!(grid(3, 1), vec![0, 1, 2]);
         assert!(grid(0, 4).is_empty());
+    }
+
+    #[test]
+    fn the_strides_halve_to_every_pixel_through_nested_grids() {
+        assert_eq!(strides(8), vec![8, 4, 2, 1]);
+        assert_eq!(strides(4), vec![4, 2, 1]);
+        assert_eq!(strides(12), vec![12, 6, 3, 1]);
+        assert_eq!(strides(5), vec![5, 1]);
+        assert_eq!(strides(1), vec![1]);
+        assert_eq!(strides(0), vec![1]);
+        // Each grid holds the coarser one's pixels, the last row and column included.
+        for top in [16, 12, 8, 6, 5] {
+            for len in [1, 7, 16, 17, 120, 161] {
+                for pair in strides(top).windows(2) {
+                    let fine = grid(len, pair[1]);
+                    assert!(grid(len, pair[0]).iter().all(|p| fine.contains(p)));
+                }
+            }
+        }
     }
 
     #[test]
@@ -583,6 +753,73 @@ mod tests {
         assert!(e >= 0.25);
         // No grid pixel beyond the block: the corners' whole difference.
         assert!((axis_error(&[line(&steep, false, false); 2], 2) - 0.4).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_silhouette_in_the_block_sends_only_the_terms_it_may_cut_to_integration() {
+        // A block whose upper corners' rays end on surface 0 at 5 and lower ones on none
+        // (the sky): one term recorded at every corner with the same ratio, no grid
+        // pixel beyond (the corners' difference, 0, is the error).
+        let corner = |surface: Option<usize>, t_end: f64| Sample {
+            radiance: [1.0; 3],
+            surface,
+            t_end,
+            ratios: vec![Entry {
+                id: 0,
+                ratio: [0.5; 3],
+                added: [0.1; 3],
+            }],
+        };
+        let grid = vec![
+            corner(Some(0), 5.0),
+            corner(Some(0), 5.0),
+            corner(None, f64::INFINITY),
+            corner(None, f64::INFINITY),
+        ];
+        let corners = Corners {
+            grid: &grid,
+            nx: 2,
+            k: (0, 0),
+            k1: (1, 1),
+            weights: bilinear(0.5, 0.5),
+            reusable: &[true],
+            near_light: 0,
+        };
+        let mut count = ReuseCount::default();
+        let mut mode = PairMode::Reuse {
+            corners: &corners,
+            cut: f64::INFINITY,
+            count: &mut count,
+            record: None,
+        };
+        // The pixel's ray ends on the surface at 6: a Gaussian reaching 4 is before every
+        // end, one reaching 5.5 may be cut, and a term to the ray's end is.
+        mode.hit(Some(0), 6.0);
+        let got = mode.ratio(0, 0, 4.0, || [1.0; 3]).unwrap();
+        assert!(got.iter().all(|r| (r - 0.5).abs() < 1e-7), "{got:?}");
+        assert!(mode.ratio(0, 0, 5.5, || [1.0; 3]).is_none());
+        assert!(mode.ratio(0, 0, f64::INFINITY, || [1.0; 3]).is_none());
+        // A block that ends on no surface throughout reuses even a term to the ray's end.
+        let sky = vec![corner(None, f64::INFINITY); 4];
+        let corners = Corners {
+            grid: &sky,
+            ..corners
+        };
+        let mut mode = PairMode::Reuse {
+            corners: &corners,
+            cut: 0.0,
+            count: &mut count,
+            record: None,
+        };
+        mode.hit(None, f64::INFINITY);
+        assert!(mode.ratio(0, 0, f64::INFINITY, || [1.0; 3]).is_some());
+        assert_eq!(
+            count,
+            ReuseCount {
+                terms: 4,
+                reused: 2
+            }
+        );
     }
 
     #[test]
