@@ -51,8 +51,9 @@ use crate::vec3::{Vec3, axpy, dot, norm, reflect, scale, sub};
 use gaussian_env::GaussianEnv;
 use haze_gaussians::airlight::{GaussianSet, Source, factored};
 use haze_gaussians::average::gaussian_mean_depth;
-/// The optical depth below which an integrated pair's listed Gaussian is dropped from a
-/// line (towards the eye or the light): at most `MAX_EXACT·10⁻⁷` of a node's exponent.
+/// The optical depth below which an integrated pair's (or the homogeneous term's host
+/// ratio's) listed Gaussian is dropped from a line (towards the eye or the light): at
+/// most `2·MAX_EXACT·10⁻⁷` of a node's exponent.
 const LIST_DELTA: f64 = 1e-7;
 
 /// The most Gaussians an integrated pair (and the homogeneous term) takes exactly per node.
@@ -584,7 +585,10 @@ impl<'a> Prepared<'a> {
                 None => {
                     let hosts = &l.pairs.exact_blobs;
                     let b0 = self.beta0.iter().sum::<f64>() / 3.0;
-                    (host_ratio(hosts, eye, dir, t_end, s, lim.r_min, b0), true)
+                    (
+                        host_ratio(hosts, eye, dir, t_end, s, lim.r_min, b0, LIST_DELTA),
+                        true,
+                    )
                 }
             };
             taken = Some((id, ratio, exact));
