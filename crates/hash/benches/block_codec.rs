@@ -1,7 +1,8 @@
 //! The residual block's coding (`haze_hash::block`, asset format 7): encoding and decoding
 //! one hash volume of 27 frames of 96 × 96 × 128 voxels, what a bake writes every 27
 //! frames and what playback decodes ahead (BENCHMARKS.md "Against established
-//! compressors"). The residual is a misfit of the kind RBFs leave: a smooth field of both
+//! compressors"), and one frame's residual at every voxel, what the CPU's lighting reads
+//! of each new frame. The residual is a misfit of the kind RBFs leave: a smooth field of both
 //! signs over a plume-shaped region, reaching a few dozen quantization steps, plus noise
 //! of about a step, drifting from frame to frame; quantized at 1/255 of the peak.
 
@@ -56,6 +57,23 @@ fn bench(c: &mut Criterion) {
     });
     g.bench_function("decode", |b| {
         b.iter(|| haze_hash::block::decode(black_box(&bytes)))
+    });
+    // One frame's residual at every voxel, as the CPU's lighting and the viewer's
+    // thickness measure take it: brick by brick, against a lookup per voxel.
+    g.bench_function("dense frame", |b| b.iter(|| black_box(&group).dense(13)));
+    let [nx, ny, nz] = DIMS;
+    g.bench_function("lookup every voxel", |b| {
+        b.iter(|| {
+            let mut sum = 0.0f32;
+            for z in 0..nz {
+                for y in 0..ny {
+                    for x in 0..nx {
+                        sum += black_box(&group).lookup(13, [x, y, z]);
+                    }
+                }
+            }
+            sum
+        })
     });
     g.finish();
 }

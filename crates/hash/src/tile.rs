@@ -175,19 +175,47 @@ impl ResidualGroup {
         }
     }
 
-    /// Dequantized residual of every voxel of frame `j` ([`ResidualGroup::lookup`] at each,
-    /// `x` fastest), the `z` slices looked up in parallel.
+    /// Dequantized residual of every voxel of frame `j` (what [`ResidualGroup::lookup`]
+    /// gives at each, `x` fastest; all zeros for a frame the group does not hold). Decoded
+    /// a brick at a time: one hash probe per brick and its packed values read in order,
+    /// the layers of bricks along `z` in parallel.
     pub fn dense(&self, j: usize) -> Vec<f32> {
         let [nx, ny, nz] = self.dims.map(|d| d as usize);
         let mut out = vec![0.0f32; nx * ny * nz];
-        if nx * ny == 0 {
+        if nx * ny == 0 || j >= self.steps.len() {
             return out;
         }
-        out.par_chunks_mut(nx * ny)
+        let b = self.brick as usize;
+        let nb = bricks_per_frame(self.dims, self.brick);
+        let o = tile_origin(j, nb);
+        let step = self.steps[j];
+        out.par_chunks_mut(nx * ny * b)
             .enumerate()
-            .for_each(|(z, slice)| {
-                for (i, v) in slice.iter_mut().enumerate() {
-                    *v = self.lookup(j, [i % nx, i / nx, z].map(|c| c as u32));
+            .for_each(|(bz, layer)| {
+                let depth = layer.len() / (nx * ny);
+                for by in 0..nb[1] as usize {
+                    for bx in 0..nb[0] as usize {
+                        let cell = [o[0] + bx as u32, o[1] + by as u32, o[2] + bz as u32];
+                        let Some((word, width)) = self.hash.get(cell).and_then(unpayload) else {
+                            continue;
+                        };
+                        let word = word as usize;
+                        let (x0, y0) = (bx * b, by * b);
+                        for dz in 0..depth {
+                            for dy in 0..b.min(ny - y0) {
+                                let row = (dz * ny + y0 + dy) * nx + x0;
+                                for dx in 0..b.min(nx - x0) {
+                                    let q =
+                                        pack::get(&self.data, word, width, dx + b * (dy + b * dz));
+                                    layer[row + dx] = if width == Width::F32 {
+                                        f32::from_bits(q as u32)
+                                    } else {
+                                        q as f32 * step
+                                    };
+                                }
+                            }
+                        }
+                    }
                 }
             });
         out
