@@ -58,8 +58,9 @@ pub struct BakeCli {
     /// (larger: faster, slightly less accurate; see BENCHMARKS.md).
     #[arg(long, default_value_t = 1e-6)]
     pub(crate) tolerance: f64,
-    /// Iteration budget of each minimization of a warm-started frame (more: a few fewer
-    /// RBFs on fast-moving smoke, slower; see BENCHMARKS.md).
+    /// Iteration budget of each minimization of a warm-started frame (of its coarse stage
+    /// where --warm-coarse applies; more: a few fewer RBFs on fast-moving smoke, slower;
+    /// see BENCHMARKS.md).
     #[arg(long, default_value_t = haze_fit::sequence::WARM_ITERATIONS)]
     pub(crate) warm_iterations: u64,
     /// Stop a warm-started minimization when its last 10 iterations together lowered the
@@ -70,6 +71,16 @@ pub struct BakeCli {
     /// `auto` on grids of 64³ voxels or more.
     #[arg(long, value_enum, default_value_t = CoarseArg::Auto)]
     pub(crate) coarse_to_fine: CoarseArg,
+    /// Minimize warm-started frames on the half-resolution grid first (up to
+    /// --warm-iterations), then polish at full resolution (--warm-polish-iterations):
+    /// `auto` on grids of 64³ voxels or more whose RBFs are mostly two voxels wide or wider
+    /// (fast turbulent smoke: about half the time a frame; see BENCHMARKS.md).
+    #[arg(long, value_enum, default_value_t = CoarseArg::Auto)]
+    pub(crate) warm_coarse: CoarseArg,
+    /// Iteration budget of the full-resolution polish after a warm frame's coarse
+    /// minimization (at least 1).
+    #[arg(long, default_value_t = haze_fit::sequence::WARM_POLISH_ITERATIONS, value_name = "N")]
+    pub(crate) warm_polish_iterations: u64,
     /// RBFs deleted at the start of each later frame.
     #[arg(long, default_value_t = 3)]
     pub(crate) delete: usize,
@@ -140,6 +151,16 @@ pub(crate) enum CoarseArg {
     Off,
 }
 
+impl CoarseArg {
+    fn coarse(self) -> haze_fit::Coarse {
+        match self {
+            CoarseArg::Auto => haze_fit::Coarse::Auto,
+            CoarseArg::On => haze_fit::Coarse::Always,
+            CoarseArg::Off => haze_fit::Coarse::Never,
+        }
+    }
+}
+
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
 pub(crate) enum InsertionArg {
     /// Rounds sized by the excess error, placed where they lower the error most.
@@ -159,7 +180,7 @@ pub(crate) enum OptimizerArg {
 impl BakeCli {
     pub(crate) fn into_args(self) -> Result<BakeArgs> {
         use anyhow::bail;
-        use haze_fit::{Bounds, Coarse, FitOptions, Insertion, Optimizer, SequenceOptions, Stop};
+        use haze_fit::{Bounds, FitOptions, Insertion, Optimizer, SequenceOptions, Stop};
         let bounds = Bounds {
             radius: (self.radius_min, self.radius_max),
             ..Bounds::default()
@@ -218,11 +239,7 @@ impl BakeCli {
                 ..Stop::default()
             },
             seed: self.seed,
-            coarse: match self.coarse_to_fine {
-                CoarseArg::Auto => Coarse::Auto,
-                CoarseArg::On => Coarse::Always,
-                CoarseArg::Off => Coarse::Never,
-            },
+            coarse: self.coarse_to_fine.coarse(),
             ..FitOptions::default()
         };
         let defaults = SequenceOptions::default();
@@ -285,6 +302,8 @@ impl BakeCli {
                         },
                         window_gain: self.warm_tolerance,
                     },
+                    warm_coarse: self.warm_coarse.coarse(),
+                    warm_polish: self.warm_polish_iterations.max(1),
                     ..defaults
                 },
                 quant: haze_hash::QuantOptions {

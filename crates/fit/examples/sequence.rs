@@ -13,7 +13,8 @@
 //! density reaches on this frame, against which a warm frame's drift can be judged.
 //!
 //! cargo run --release -p haze-fit --example sequence -- INPUT [--frames A..B] [--rbfs N]
-//!     [--paper] [--coarse auto|on|off] [--insertion batch|single] [--max-insert M] [--max-rbfs N]
+//!     [--paper] [--coarse auto|on|off] [--warm-coarse auto|on|off] [--warm-polish N]
+//!     [--insertion batch|single] [--max-insert M] [--max-rbfs N]
 //!     [--warm-gain F] [--warm-window W] [--warm-iterations N] [--tolerance F]
 //!     [--polish-iterations N]
 //!     [--threshold T] [--marginal-gain F] [--cold-every K] [--cold-density K] [--radius-min R]
@@ -37,6 +38,15 @@ fn value<T: std::str::FromStr>(args: &[String], i: usize) -> T {
         .unwrap_or_else(|| fail(format!("{} needs a valid value", args[i])))
 }
 
+fn coarse_arg(args: &[String], i: usize) -> Coarse {
+    match args.get(i + 1).map(String::as_str) {
+        Some("auto") => Coarse::Auto,
+        Some("on") => Coarse::Always,
+        Some("off") => Coarse::Never,
+        _ => fail(format!("{} auto|on|off", args[i])),
+    }
+}
+
 fn median(mut v: Vec<f64>) -> f64 {
     if v.is_empty() {
         return f64::NAN;
@@ -49,7 +59,7 @@ fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some(input) = args.first() else {
         fail(
-            "usage: sequence INPUT [--frames A..B] [--rbfs N] [--paper] [--coarse auto|on|off] [--insertion batch|single] [--max-insert M] [--max-rbfs N] [--warm-gain F] [--warm-window W] [--warm-iterations N] [--tolerance F] [--polish-iterations N] [--threshold T] [--marginal-gain F] [--cold-every K] [--cold-density K] [--radius-min R]",
+            "usage: sequence INPUT [--frames A..B] [--rbfs N] [--paper] [--coarse auto|on|off] [--warm-coarse auto|on|off] [--warm-polish N] [--insertion batch|single] [--max-insert M] [--max-rbfs N] [--warm-gain F] [--warm-window W] [--warm-iterations N] [--tolerance F] [--polish-iterations N] [--threshold T] [--marginal-gain F] [--cold-every K] [--cold-density K] [--radius-min R]",
         )
     };
     let mut range = FrameRange::default();
@@ -72,14 +82,9 @@ fn main() {
             "--tolerance" => opts.fit.stop.relative_reduction = value(&args, i),
             "--polish-iterations" => opts.fit.polish.max_iterations = value(&args, i),
             "--radius-min" => opts.fit.bounds.radius.0 = value(&args, i),
-            "--coarse" => {
-                opts.fit.coarse = match args.get(i + 1).map(String::as_str) {
-                    Some("auto") => Coarse::Auto,
-                    Some("on") => Coarse::Always,
-                    Some("off") => Coarse::Never,
-                    _ => fail("--coarse auto|on|off"),
-                }
-            }
+            "--coarse" => opts.fit.coarse = coarse_arg(&args, i),
+            "--warm-coarse" => opts.warm_coarse = coarse_arg(&args, i),
+            "--warm-polish" => opts.warm_polish = value(&args, i),
             "--insertion" => {
                 opts.insertion = match args.get(i + 1).map(String::as_str) {
                     Some("batch") => Insertion::Batch,
@@ -91,6 +96,7 @@ fn main() {
                 opts.insertion = Insertion::Single;
                 opts.max_insert = Some(8);
                 opts.fit.coarse = Coarse::Never;
+                opts.warm_coarse = Coarse::Never;
                 opts.warm.window = 0;
                 i -= 1;
             }

@@ -18,6 +18,7 @@ pub use frame::{Coarse, FitOptions, FitStats, fit_first_frame};
 pub mod exchange;
 pub mod local;
 pub mod sequence;
+pub mod warm;
 
 pub use sequence::{
     Baseline, FitterState, FrameFit, Insertion, InsertionStop, SequenceFitter, SequenceOptions,
