@@ -1,5 +1,7 @@
 //! End-to-end tests of the `haze` binary on the bundled sample in data/.
 
+mod support;
+
 use assert_cmd::Command;
 use std::path::{Path, PathBuf};
 
@@ -533,6 +535,70 @@ fn bake_logs_and_reports_a_frame_capped_at_the_ceiling() {
             && summary.contains(&format!("worst {worst:.3}; {n} at the --max-rbfs ceiling")),
         "{summary}"
     );
+}
+
+/// Warm frames of wide RBFs on a 64³ grid walk on the half-resolution grid first and the
+/// summary line says so; `--warm-coarse off` keeps them at full resolution, and the
+/// report counts the coarse iterations either way.
+#[test]
+fn bake_says_which_warm_frames_went_coarse_first() {
+    let tmp = tempfile::tempdir().unwrap();
+    let n = 64;
+    // Two blobs of radius ~6 voxels, moving a voxel and a half between frames.
+    for (k, shift) in [0.0f32, 1.5].into_iter().enumerate() {
+        let mut v = Vec::with_capacity(n * n * n);
+        for z in 0..n {
+            for y in 0..n {
+                for x in 0..n {
+                    let p = [x, y, z].map(|i| i as f32);
+                    let blob = |c: [f32; 3]| {
+                        let d2: f32 = (0..3).map(|a| (p[a] - c[a]).powi(2)).sum();
+                        (-d2 / 36.0).exp()
+                    };
+                    v.push(
+                        blob([24.0 + shift, 30.0, 28.0]) + 0.6 * blob([40.0, 34.0 - shift, 36.0]),
+                    );
+                }
+            }
+        }
+        support::write_npy(&tmp.path().join(format!("frame_{k}.npy")), [n; 3], &v);
+    }
+    let input = tmp.path().join("frame_*.npy");
+    let bake = |coarse: &str| {
+        let out = tmp.path().join(format!("{coarse}.haze"));
+        let report = tmp.path().join(format!("{coarse}.json"));
+        let run = haze()
+            .args(["bake", input.to_str().unwrap(), "--rbfs", "6"])
+            .args(["--warm-coarse", coarse, "--out", out.to_str().unwrap()])
+            .args(["--report", report.to_str().unwrap()])
+            .output()
+            .unwrap();
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        let r: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+        let summary = String::from_utf8_lossy(&run.stderr)
+            .lines()
+            .last()
+            .unwrap_or("")
+            .to_string();
+        (
+            summary,
+            r["frames"][1]["coarse_iterations"].as_u64().unwrap(),
+        )
+    };
+    let (summary, iterations) = bake("auto");
+    assert!(iterations > 0, "{summary}");
+    assert!(
+        summary.contains("1 of 1 warm frames minimized on the half-resolution grid first"),
+        "{summary}"
+    );
+    let (summary, iterations) = bake("off");
+    assert_eq!(iterations, 0, "{summary}");
+    assert!(!summary.contains("half-resolution"), "{summary}");
 }
 
 #[test]

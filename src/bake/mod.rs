@@ -105,7 +105,7 @@ fn summary_line(b: &Baked) -> String {
         .filter(|r| r.residual.rbfs_meet_error)
         .count();
     format!(
-        "{}: {}, {:.0} RBFs/frame, mean rel_l2 {:.4}, mean rms/max {:.4}, residual {}/frame ({} met by the RBFs alone), {}, {:.1} s{}",
+        "{}: {}, {:.0} RBFs/frame, mean rel_l2 {:.4}, mean rms/max {:.4}, residual {}/frame ({} met by the RBFs alone), {}, {:.1} s{}{}",
         b.out.display(),
         haze_bake::inspect::count(records.len(), "frame"),
         mean(|r| r.rbfs as f64),
@@ -115,8 +115,24 @@ fn summary_line(b: &Baked) -> String {
         met,
         haze_bake::inspect::bytes(b.bytes),
         b.seconds,
+        coarse_first(records),
         over_threshold(records)
     )
+}
+
+/// The warm frames whose minimizations walked on the half-resolution grid first
+/// (`--warm-coarse`: wide RBFs on a large grid), in one clause for the summary line;
+/// empty when none did.
+fn coarse_first(records: &[haze_bake::FrameRecord]) -> String {
+    let warm = records.iter().filter(|r| r.fit.warm_started).count();
+    let coarse = records
+        .iter()
+        .filter(|r| r.fit.warm_started && r.fit.coarse_iterations > 0)
+        .count();
+    if coarse == 0 {
+        return String::new();
+    }
+    format!("; {coarse} of {warm} warm frames minimized on the half-resolution grid first")
 }
 
 /// The frames whose RBFs ended over the threshold ratio (each one logged at `-v`), in one clause
