@@ -2,7 +2,8 @@
 //! inserted and moved (after insertion stopped over the threshold), iterations (at half
 //! and at full resolution), objective passes and seconds, where a warm frame's seconds
 //! went (the minimizations after the deletions, insertion rounds and exchange rounds with
-//! their passes; matching pursuit; removal costs), then a summary line. `--paper`
+//! their passes; matching pursuit; removal costs), then a summary line (with how many
+//! warm frames went coarse first, `--warm-coarse`). `--paper`
 //! runs paper A's warm frames (one insertion at a time, at most 8, full resolution only, per-iteration convergence test) for a before/after.
 //! `--cold-every K` also fits every K-th warm frame from scratch with the warm fit's RBF
 //! count and prints the warm error over the cold one: above 1 is drift that the warm
@@ -121,6 +122,7 @@ fn main() {
     let mut fitter = SequenceFitter::new(opts.clone());
     let (mut warm_s, mut rms, mut first_s) = (Vec::new(), Vec::new(), Vec::new());
     let (mut over, mut worst, mut capped, mut moved) = (0, 0.0f64, 0, Vec::new());
+    let mut warm_coarse = 0usize;
     let (mut marginal, mut iterations) = (0, 0u64);
     let (mut cold_ratio, mut density_ratio) = (Vec::new(), Vec::new());
     let mut first: Option<(usize, usize)> = None;
@@ -184,6 +186,7 @@ fn main() {
         rms.push(f.rms_over_max);
         if f.warm_started {
             warm_s.push(f.fit_seconds);
+            warm_coarse += usize::from(f.coarse_iterations > 0);
         } else {
             first_s.push(f.fit_seconds);
         }
@@ -195,12 +198,13 @@ fn main() {
         moved.extend(f.mean_center_displacement);
     }
     println!(
-        "summary: first frame {:.2} s; warm frames median {:.2} s, max {:.2} s; median rms/max {:.2} %; {over} frames over the threshold ratio ({capped} capped, {marginal} stopped by marginal gain), worst ratio {worst:.3}; mean center displacement {:.4}; {iterations} iterations in all",
+        "summary: first frame {:.2} s; warm frames median {:.2} s, max {:.2} s; median rms/max {:.2} %; {over} frames over the threshold ratio ({capped} capped, {marginal} stopped by marginal gain), worst ratio {worst:.3}; mean center displacement {:.4}; {iterations} iterations in all; {warm_coarse} of {} warm frames coarse first",
         first_s.first().copied().unwrap_or(f64::NAN),
         median(warm_s.clone()),
         warm_s.iter().copied().fold(f64::NAN, f64::max),
         median(rms) * 100.0,
         moved.iter().sum::<f64>() / moved.len().max(1) as f64,
+        warm_s.len(),
     );
     if !density_ratio.is_empty() {
         println!(
