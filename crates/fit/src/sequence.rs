@@ -56,8 +56,11 @@
 //!
 //! Warm minimizations stop by the windowed test of [`Stop`]: a warm start sits near its
 //! optimum, and the last iterations of a tight per-iteration test buy nothing visible.
-//! They run at full resolution: a warm start is already near the fine optimum, and a
-//! detour through the coarse one costs more polish than it saves (BENCHMARKS.md).
+//! Where the RBFs are narrow they run at full resolution: a warm start is already near
+//! the fine optimum, and a detour through the coarse one costs more polish than it saves;
+//! where they are wide (fast turbulent smoke, whose warm starts sit far from their
+//! optimum) they run on the half-resolution grid first and polish briefly
+//! ([`crate::warm`], BENCHMARKS.md).
 //!
 //! An all-zero frame has no RBFs; the next non-empty frame starts afresh as a first frame.
 
@@ -285,9 +288,11 @@ pub const WARM_ITERATIONS: u64 = 80;
 
 /// The iteration budget of the full-resolution polish after a warm minimization's
 /// coarse stage ([`crate::warm`]). On a held-out turbulent plume (96 × 96 × 128, frames
-/// 20..45) the coarse stage at [`WARM_ITERATIONS`] and a polish of 20 take the warm frames
-/// from 1.08 s to 0.61 s (median) and 1.78 s to 0.96 s (slowest), with 2 % fewer RBFs
-/// and the same error; a polish of 30 is slower for nothing more (BENCHMARKS.md).
+/// 20..45, `haze bake`) the coarse stage at [`WARM_ITERATIONS`] and a polish of 20 take
+/// the warm frames from 1.08 s to 0.61 s (median) and 1.79 s to 0.96 s (slowest), with
+/// 2 % fewer RBFs and the same error; a polish of 10 is faster still but left two frames
+/// of another plume over the threshold, one of 40 is slower for no fewer RBFs
+/// (BENCHMARKS.md).
 pub const WARM_POLISH_ITERATIONS: u64 = 20;
 
 /// The windowed test of a warm minimization: stop when the last 10 iterations together
