@@ -9,9 +9,8 @@
 //! both) has an eighth of the voxels, and its optimum lies within a fraction of a fine
 //! voxel of the fine one for RBFs wider than a coarse voxel: the long walk is taken there
 //! at an eighth of the cost, and `polish` iterations at full resolution finish it. On a
-//! held-out turbulent plume that halves the warm frames' time at the same RBF count and
-//! error; on slow smoke, whose warm starts converge in a few dozen iterations either way,
-//! the polish's budget bounds what the coarse walk may leave undone (BENCHMARKS.md).
+//! held-out turbulent plume that cuts the warm frames' time by 40–45 % at the same RBF
+//! count and error (BENCHMARKS.md, decision 0057).
 //! [`Coarse::Auto`] follows the frame ([`coarse_suits`]): below [`Coarse::AUTO_VOXELS`] a
 //! pass is cheap, and RBFs narrower than a coarse voxel are blurred and aliased by the
 //! coarse grid, so there every iteration runs at full resolution.
