@@ -13,6 +13,22 @@ fn haze() -> Command {
     Command::cargo_bin("haze").unwrap()
 }
 
+/// Runs `haze bake ARGS --out OUT --report REPORT`, expecting success: its stderr and the
+/// report.
+fn bake_with_report(args: &[&str], out: &Path, report: &Path) -> (String, serde_json::Value) {
+    let run = haze()
+        .arg("bake")
+        .args(args)
+        .args(["--out", out.to_str().unwrap()])
+        .args(["--report", report.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&run.stderr).to_string();
+    assert!(run.status.success(), "{args:?}: {log}");
+    let r = serde_json::from_str(&std::fs::read_to_string(report).unwrap()).unwrap();
+    (log, r)
+}
+
 /// Runs haze expecting failure; returns stderr after checking it is one line naming `file`,
 /// with no panic or backtrace.
 fn fails_with_one_line(args: &[&str], file: &Path) -> String {
@@ -567,24 +583,18 @@ fn bake_says_which_warm_frames_went_coarse_first() {
     let bake = |coarse: &str| {
         let out = tmp.path().join(format!("{coarse}.haze"));
         let report = tmp.path().join(format!("{coarse}.json"));
-        let run = haze()
-            .args(["bake", input.to_str().unwrap(), "--rbfs", "6"])
-            .args(["--warm-coarse", coarse, "--out", out.to_str().unwrap()])
-            .args(["--report", report.to_str().unwrap()])
-            .output()
-            .unwrap();
-        assert!(
-            run.status.success(),
-            "{}",
-            String::from_utf8_lossy(&run.stderr)
+        let (log, r) = bake_with_report(
+            &[
+                input.to_str().unwrap(),
+                "--rbfs",
+                "6",
+                "--warm-coarse",
+                coarse,
+            ],
+            &out,
+            &report,
         );
-        let r: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
-        let summary = String::from_utf8_lossy(&run.stderr)
-            .lines()
-            .last()
-            .unwrap_or("")
-            .to_string();
+        let summary = log.lines().last().unwrap_or("").to_string();
         (
             summary,
             r["frames"][1]["coarse_iterations"].as_u64().unwrap(),
@@ -869,19 +879,11 @@ fn bake_defaults_are_the_librarys() {
     let out = tmp.path().join("d.haze");
     let report = tmp.path().join("d.json");
     let dir = data("plume-a/vdb");
-    let run = haze()
-        .args(["bake", dir.to_str().unwrap(), "--frames", "21..22", "-q"])
-        .args(["--out", out.to_str().unwrap()])
-        .args(["--report", report.to_str().unwrap()])
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
+    let (_, r) = bake_with_report(
+        &[dir.to_str().unwrap(), "--frames", "21..22", "-q"],
+        &out,
+        &report,
     );
-    let r: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     let library = serde_json::to_value(haze_fit::SequenceOptions::default()).unwrap();
     assert_eq!(r["settings"]["options"], library);
 }

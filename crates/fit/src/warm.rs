@@ -204,18 +204,23 @@ mod tests {
             .collect()
     }
 
+    /// A per-iteration stop at `10⁻¹²` (to convergence) with at most `max_iterations`.
+    fn tight(max_iterations: u64) -> Stop {
+        Stop {
+            max_iterations,
+            relative_reduction: 1e-12,
+            window: 0,
+            window_gain: 0.0,
+        }
+    }
+
     /// Coarse then fine reaches the full-resolution minimization's minimum, the cost it
     /// reports is the fine grid's, and the fine stage keeps to the polish's budget.
     #[test]
     fn coarse_then_polish_reaches_the_fine_optimum_and_reports_the_fine_cost() {
         let grid = blobs();
         let bounds = Bounds::default();
-        let stop = Stop {
-            max_iterations: 200,
-            relative_reduction: 1e-12,
-            window: 0,
-            window_gain: 0.0,
-        };
+        let stop = tight(200);
         let start = moved(&grid);
         let start_cost = objective::cost(&grid, &start);
         let fine_only = WarmMinimizer::new(
@@ -275,12 +280,7 @@ mod tests {
     fn a_free_minimization_leaves_the_frozen_rbfs_on_both_stages() {
         let grid = blobs();
         let bounds = Bounds::default();
-        let stop = Stop {
-            max_iterations: 50,
-            relative_reduction: 1e-12,
-            window: 0,
-            window_gain: 0.0,
-        };
+        let stop = tight(50);
         let start = moved(&grid);
         let two = WarmMinimizer::new(
             &grid,
