@@ -306,6 +306,34 @@ mod tests {
         assert!(w.cost() < objective::cost(&grid, &start));
     }
 
+    /// A polish budget of 0 is taken as 1: the fine stage still runs, so the cost reported
+    /// is the full-resolution objective at the parameters returned, not the coarse one.
+    #[test]
+    fn a_zero_polish_still_reports_the_fine_cost() {
+        let grid = blobs();
+        let bounds = Bounds::default();
+        let start = moved(&grid);
+        let two = WarmMinimizer::new(
+            &grid,
+            Coarse::Always,
+            &start,
+            &bounds,
+            Default::default(),
+            tight(30),
+            0,
+        );
+        let mut p = start.clone();
+        let w = two.all(&mut p);
+        assert!(w.coarse.is_some() && w.fine.iterations <= 1, "{w:?}");
+        let exact = objective::cost(&grid, &p);
+        assert!(
+            (w.cost() - exact).abs() <= 1e-12 * exact,
+            "{} {exact}",
+            w.cost()
+        );
+        assert!(w.cost() < objective::cost(&grid, &start));
+    }
+
     /// `Auto` goes coarse only on a grid of 64³ voxels or more whose RBFs are a coarse
     /// voxel wide or wider in three quarters of them; `Always` and `Never` as they say.
     #[test]
