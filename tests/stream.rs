@@ -62,6 +62,28 @@ fn streams_frames_in_order_with_scrubbing_and_bounded_read_ahead() {
     }
     assert!(s.next_frame().is_none(), "a non-looping stream ends");
 
+    // A volume met without a decode ahead is decoded up to the frame asked for: the same
+    // residual, the later frames not yet there; a later frame decodes the whole volume,
+    // which then serves the earlier ones too. A prefetching decoder decodes the rest of
+    // the volume on a thread of its own meanwhile.
+    let whole = direct.decode(n - 1).unwrap().residual.unwrap().group;
+    assert_eq!(whole.frames(), n);
+    let mut single = FrameDecoder::new(Arc::new(Asset::open(&path).unwrap()));
+    let first = single.decode(2).unwrap().residual.unwrap();
+    assert_eq!(first.group.frames(), 3);
+    assert_eq!(first.dense(), whole.dense(2));
+    let later = single.decode(4).unwrap().residual.unwrap();
+    assert_eq!((later.group.frames(), later.dense()), (n, whole.dense(4)));
+    let again = single.decode(1).unwrap().residual.unwrap();
+    assert!(Arc::ptr_eq(&again.group, &later.group));
+    let mut ahead = FrameDecoder::prefetching(Arc::new(Asset::open(&path).unwrap()), false);
+    let first = ahead.decode(1).unwrap().residual.unwrap();
+    assert_eq!((first.group.frames(), first.dense()), (2, whole.dense(1)));
+    assert!(ahead.decoding_ahead().is_some(), "the rest of the volume");
+    let next = ahead.decode(2).unwrap().residual.unwrap();
+    assert_eq!((next.group.frames(), next.dense()), (n, whole.dense(2)));
+    assert!(ahead.decoding_ahead().is_none(), "one volume, not looping");
+
     // Scrubbing back, then forward.
     s.seek(4);
     assert_eq!(s.next_frame().unwrap().unwrap().index, 4);

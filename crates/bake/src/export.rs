@@ -157,14 +157,15 @@ fn baked_frame(
     // No residual block: the RBFs alone met the error on every frame of its hash volume.
     let residual = match blocks.find(BlockKind::ResidualHash) {
         Some(res_block) => {
-            let group = haze_hash::block::decode(res_block.bytes)
-                .map_err(|e| asset.block_error(&res_block, e))?;
             let Scope::Frames { first, .. } = res_block.id.scope else {
                 bail!(
                     "{}: the residual block of frame {number} is not per frame",
                     path.display()
                 );
             };
+            // The volume's frames up to this one: the values after it are not needed.
+            let group = haze_hash::block::decode_through(res_block.bytes, k - first as usize)
+                .map_err(|e| asset.block_error(&res_block, e))?;
             if group.dims != h.grid.dims {
                 bail!(
                     "{}: residual block dims {:?} differ from the grid's",

@@ -1,10 +1,11 @@
 //! The residual block's coding (`haze_hash::block`, asset format 7): encoding and decoding
 //! one hash volume of 27 frames of 96 × 96 × 128 voxels, what a bake writes every 27
 //! frames and what playback decodes ahead (BENCHMARKS.md "Against established
-//! compressors"), and one frame's residual at every voxel, what the CPU's lighting reads
-//! of each new frame. The residual is a misfit of the kind RBFs leave: a smooth field of both
-//! signs over a plume-shaped region, reaching a few dozen quantization steps, plus noise
-//! of about a step, drifting from frame to frame; quantized at 1/255 of the peak.
+//! compressors"), the frames up to one of them (a single frame's render or export), and
+//! one frame's residual at every voxel, what the CPU's lighting reads of each new frame.
+//! The residual is a misfit of the kind RBFs leave: a smooth field of both signs over a
+//! plume-shaped region, reaching a few dozen quantization steps, plus noise of about a
+//! step, drifting from frame to frame; quantized at 1/255 of the peak.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use haze_hash::tile::ResidualGroup;
@@ -58,6 +59,12 @@ fn bench(c: &mut Criterion) {
     g.bench_function("decode", |b| {
         b.iter(|| haze_hash::block::decode(black_box(&bytes)))
     });
+    // A single frame's render or export decodes only the frames up to its own.
+    for through in [0, 13] {
+        g.bench_function(format!("decode through frame {through}"), |b| {
+            b.iter(|| haze_hash::block::decode_through(black_box(&bytes), through))
+        });
+    }
     // One frame's residual at every voxel, as the CPU's lighting and the viewer's
     // thickness measure take it: brick by brick, against a lookup per voxel.
     g.bench_function("dense frame", |b| b.iter(|| black_box(&group).dense(13)));

@@ -273,6 +273,16 @@ fn stream_cuts(coded: &[LossyBrick], nbx: u32, per_stream: usize) -> Vec<u32> {
 /// Decodes a residual-hash block into the group [`encode`] was given, checking every size
 /// and index against the block's own header.
 pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
+    decode_through(bytes, usize::MAX)
+}
+
+/// The group's frames `0..=through` (all of them when `through` reaches past its last): the
+/// group [`ResidualGroup::build`] makes of those frames alone, its tables built from their
+/// bricks. The values are coded frame after frame, so a frame's are decoded without those
+/// after it: one frame early in a volume of 27 costs a fraction of the whole volume's
+/// decode (`haze render --frame`, `haze export`). The whole block is checked as
+/// [`decode`] checks it, but the values past frame `through` are not read.
+pub fn decode_through(bytes: &[u8], through: usize) -> Result<ResidualGroup, String> {
     let u = |i: usize| u32::from_le_bytes([bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]]);
     if bytes.len() >= 4 && (1..=4).contains(&u(0)) {
         return Err(format!(
@@ -437,6 +447,11 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
         ));
     }
     let limit = largest_value(bits);
+    // The bricks are listed frame by frame: those of the frames kept are a prefix.
+    let kept = frames.min(through.saturating_add(1));
+    let whole = kept == frames;
+    keys.truncate(keys.partition_point(|&k| place(k).0 < kept));
+    let steps = steps[..kept].to_vec();
     // A lossy brick's stream: the slab of brick columns its `x` falls in.
     let stream_of = |at: [u32; 3]| ends.iter().position(|&e| at[0] < e).unwrap_or(0);
     let mut lists: Vec<Vec<u32>> = vec![Vec::new(); streams];
@@ -505,7 +520,7 @@ pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
         };
         hash.payloads[slot as usize] = payload(first as u32, width);
     }
-    if data.len() != words {
+    if whole && data.len() != words {
         return Err(format!(
             "residual block's bricks take {} data words of {words}",
             data.len()
@@ -755,6 +770,44 @@ mod tests {
         assert_eq!(decode(&bytes).unwrap(), g);
         let tables = g.bytes();
         assert!(bytes.len() < tables, "{} ≥ {tables}", bytes.len());
+    }
+
+    /// The frames up to each slot decode to the group built of those frames alone, table
+    /// for table, in one stream and in four, a lossless frame and an empty one among
+    /// them; past the last slot the whole group comes back.
+    #[test]
+    fn a_prefix_of_the_frames_decodes_alone() {
+        let dims = [40, 12, 12];
+        let n = (dims[0] * dims[1] * dims[2]) as usize;
+        let frames: Vec<_> = (0..5)
+            .map(|f| {
+                let r: Vec<f32> = (0..n)
+                    .map(|i| match f {
+                        3 => 0.0,
+                        _ => ((i * 31 + f * 7) % 13) as f32 * 0.002 - 0.01,
+                    })
+                    .collect();
+                let error = if f == 1 { 0.0 } else { 0.004 };
+                quantize(&r, 1.0, QuantOptions { error, bits: 8 }).unwrap()
+            })
+            .collect();
+        let g = ResidualGroup::build(dims, 4, &frames, BuildOptions::default()).unwrap();
+        let one = encode_streams(&g, usize::MAX, VERSION).unwrap();
+        let split = encode_streams(&g, g.data.len() / 8, VERSION).unwrap();
+        assert_eq!((u32_at(&one, FIXED), u32_at(&split, FIXED)), (1, 4));
+        for bytes in [&one, &split] {
+            for j in 0..frames.len() {
+                let want =
+                    ResidualGroup::build(dims, 4, &frames[..=j], BuildOptions::default()).unwrap();
+                let got = decode_through(bytes, j).unwrap();
+                assert_eq!(got, want, "frames 0..={j}");
+                assert_eq!(got.dense(j), g.dense(j), "slot {j}");
+            }
+            assert_eq!(decode_through(bytes, usize::MAX).unwrap(), g);
+            assert_eq!(decode_through(bytes, frames.len()).unwrap(), g);
+            // The whole block is still checked: a cut block is refused for any prefix.
+            assert!(decode_through(&bytes[..bytes.len() - 4], 0).is_err());
+        }
     }
 
     /// A group split into value streams decodes to the same tables as one stream, its

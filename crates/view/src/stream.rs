@@ -9,7 +9,10 @@
 //! and the stream decodes the next hash volume on a thread of its own as soon as it
 //! enters one (playback would otherwise wait at each volume's first frame), so at most
 //! three are alive in order playback, each within the size its bake closed volumes at
-//! (`haze bake --volume-mib`, 128 MiB by default). Scrubbing ([`FrameStream::seek`])
+//! (`haze bake --volume-mib`, 128 MiB by default). A volume met without a decode ahead
+//! (the first frame, a seek, `haze render --frame`) is decoded first only up to the frame
+//! asked for — its values are coded frame after frame — and whole after that (on its own
+//! thread in playback), so a picture never waits for the frames after its own. Scrubbing ([`FrameStream::seek`])
 //! restarts the reader at the new frame and discards what it had read ahead. A damaged
 //! block is reported on its frame, with the file and the block named, and playback goes
 //! on.
@@ -143,11 +146,9 @@ impl FrameDecoder {
                 let Scope::Frames { first, .. } = entry.scope else {
                     unreachable!("covering() excludes asset-wide blocks")
                 };
-                let group = self.group(i)?;
-                Some(ResidualSlot {
-                    group,
-                    slot: k - first as usize,
-                })
+                let slot = k - first as usize;
+                let group = self.group(i, slot)?;
+                Some(ResidualSlot { group, slot })
             }
         };
         Ok(StreamFrame {
@@ -160,14 +161,19 @@ impl FrameDecoder {
 }
 
 impl FrameDecoder {
-    /// Hash volume `i` (a block index): cached, taken from the thread that decoded it ahead,
-    /// or decoded now.
-    fn group(&mut self, i: usize) -> Result<Arc<ResidualGroup>, AssetError> {
-        if let Some((c, g)) = &self.cached
-            && *c == i
-        {
-            return Ok(g.clone());
-        }
+    /// Hash volume `i` (a block index) holding at least its frames up to `slot`: cached,
+    /// taken from the thread that decoded it ahead, or decoded now. A volume met without a
+    /// decode ahead is decoded now only up to `slot` (a single frame's render, the first
+    /// picture and a seek need not wait for the volume's later frames); a prefetching
+    /// decoder then decodes the whole volume on a thread of its own, and one that does not
+    /// prefetch decodes it when a later frame of it is asked for: at most two decodes a
+    /// volume. Once a volume is whole, a prefetching decoder starts on the one after.
+    fn group(&mut self, i: usize, slot: usize) -> Result<Arc<ResidualGroup>, AssetError> {
+        let partial = match &self.cached {
+            Some((c, g)) if *c == i && g.frames() > slot => return Ok(g.clone()),
+            Some((c, _)) => *c == i,
+            None => false,
+        };
         let g = match self.next.take() {
             Some((n, thread)) if n == i => thread.join().unwrap_or_else(|_| {
                 Err(AssetError::Invalid {
@@ -175,14 +181,25 @@ impl FrameDecoder {
                     what: format!("the thread decoding block {i} failed"),
                 })
             })?,
-            _ => decode_group(&self.asset, i)?,
+            _ => {
+                let through = if partial { usize::MAX } else { slot };
+                decode_group(&self.asset, i, through)?
+            }
         };
         let g = Arc::new(g);
         self.cached = Some((i, g.clone()));
         if self.prefetch {
-            self.next = self.volume_after(i).map(|j| {
+            let whole = match self.asset.entries()[i].scope {
+                Scope::Frames { count, .. } => g.frames() >= count as usize,
+                _ => true,
+            };
+            let ahead = if whole { self.volume_after(i) } else { Some(i) };
+            self.next = ahead.map(|j| {
                 let asset = self.asset.clone();
-                (j, std::thread::spawn(move || decode_group(&asset, j)))
+                (
+                    j,
+                    std::thread::spawn(move || decode_group(&asset, j, usize::MAX)),
+                )
             });
         }
         Ok(g)
@@ -256,10 +273,11 @@ impl FrameDecoder {
 }
 
 /// Hash volume `i` of `a` (a block index), its checksum verified, decoded into the GPU's
-/// tables.
-fn decode_group(a: &Asset, i: usize) -> Result<ResidualGroup, AssetError> {
+/// tables: its frames up to slot `through` ([`haze_hash::block::decode_through`]).
+fn decode_group(a: &Asset, i: usize, through: usize) -> Result<ResidualGroup, AssetError> {
     let block = a.block(i)?;
-    let g = haze_hash::block::decode(block.bytes).map_err(|e| a.block_error(&block, e))?;
+    let g = haze_hash::block::decode_through(block.bytes, through)
+        .map_err(|e| a.block_error(&block, e))?;
     if g.dims != a.header().grid.dims {
         return Err(a.block_error(&block, "residual dims differ from the grid's"));
     }
