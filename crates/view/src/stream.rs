@@ -174,25 +174,27 @@ impl FrameDecoder {
             Some((c, _)) => *c == i,
             None => false,
         };
-        let g = match self.next.take() {
-            Some((n, thread)) if n == i => thread.join().unwrap_or_else(|_| {
-                Err(AssetError::Invalid {
-                    path: self.asset.path().to_path_buf(),
-                    what: format!("the thread decoding block {i} failed"),
-                })
-            })?,
+        let (g, whole) = match self.next.take() {
+            Some((n, thread)) if n == i => {
+                let g = thread.join().unwrap_or_else(|_| {
+                    Err(AssetError::Invalid {
+                        path: self.asset.path().to_path_buf(),
+                        what: format!("the thread decoding block {i} failed"),
+                    })
+                })?;
+                (g, true)
+            }
+            _ if partial => (decode_group(&self.asset, i, usize::MAX)?, true),
             _ => {
-                let through = if partial { usize::MAX } else { slot };
-                decode_group(&self.asset, i, through)?
+                let g = decode_group(&self.asset, i, slot)?;
+                let more = matches!(self.asset.entries()[i].scope,
+                    Scope::Frames { count, .. } if g.frames() < count as usize);
+                (g, !more)
             }
         };
         let g = Arc::new(g);
         self.cached = Some((i, g.clone()));
         if self.prefetch {
-            let whole = match self.asset.entries()[i].scope {
-                Scope::Frames { count, .. } => g.frames() >= count as usize,
-                _ => true,
-            };
             let ahead = if whole { self.volume_after(i) } else { Some(i) };
             self.next = ahead.map(|j| {
                 let asset = self.asset.clone();
