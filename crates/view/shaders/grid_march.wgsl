@@ -11,8 +11,7 @@ fn one_minus_exp(x: f32) -> f32 {
     return 1.0 - exp(-x);
 }
 
-// `lights_pass::SHADOW_CUTOFF`: a march stops once σt·τ passes it (e^−20 ≈ 2e-9).
-const SHADOW_CUTOFF: f32 = 20.0;
+#import shadow_cutoff
 
 fn density(i: vec3<u32>) -> f32 {
     return grid[4u * (i.x + p.dims.x * (i.y + p.dims.y * i.z)) + 3u];

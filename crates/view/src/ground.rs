@@ -19,11 +19,10 @@
 //! darkening under dense smoke that the model does not show). A sun's disk is taken
 //! at its center.
 //!
-//! **Who computes `T`.** The fast renderers march it: samples at the midpoints of steps of
-//! half the smallest voxel side from `x` to the box's exit (or the light), the
-//! trilinear density of [`crate::field::sample`] — [`marched_transmittance`] on the
-//! CPU, its twin in `view_pass.wgsl` on the GPU. The reference renderer integrates the
-//! same field exactly.
+//! **Who computes `T`.** The fast renderers march it through the density grid
+//! ([`crate::render::ground_shadow`]: the midpoint rule in steps of half the smallest
+//! voxel side, on the CPU and in `view_pass.wgsl` on the GPU). The reference renderer
+//! integrates the same field exactly.
 //!
 //! **`E_sky`.** For the built-in sky (smooth), a midpoint rule on 64 × 128 cells of the
 //! upper hemisphere in `(θ, φ)` (relative error below 10⁻³ on a constant sky, tested);
@@ -33,8 +32,6 @@
 use crate::Rgb;
 use crate::distant::{Distant, LatLong, Sky};
 use crate::env::Environment;
-use crate::field;
-use haze_volume::Volume;
 use std::f64::consts::PI;
 
 /// The ground's albedo by default: a darkish, slightly warm grey (asphalt or dark earth),
@@ -140,44 +137,6 @@ impl GroundLight {
     }
 }
 
-/// `exp(−σt ∫₀^len D(x + t·w) dt)` through `density` by the midpoint rule, steps of half
-/// the smallest voxel side, from `x` to where the ray leaves the box or `len`: what the
-/// fast renderers' ground shadow uses (`view_pass.wgsl` is its twin). 1 for no smoke
-/// in the way, a `σt` of 0 or NaN, or an empty grid; 0 through smoke at an infinite `σt`.
-pub fn marched_transmittance(
-    density: &Volume,
-    sigma_t: f64,
-    x: [f64; 3],
-    w: [f64; 3],
-    len: f64,
-) -> f64 {
-    let Some((t0, t1)) = field::ray_box(x, w, density.bbox()) else {
-        return 1.0;
-    };
-    let t1 = t1.min(len);
-    let h = 0.5
-        * density
-            .voxel_size()
-            .into_iter()
-            .fold(f64::INFINITY, f64::min);
-    if !(sigma_t > 0.0 && h > 0.0 && h.is_finite() && t1 > t0) {
-        return 1.0;
-    }
-    let steps = ((t1 - t0) / h).ceil().min(1e6) as usize;
-    let dt = (t1 - t0) / steps as f64;
-    let sampler = field::Sampler::new(density);
-    let mut depth = 0.0;
-    for k in 0..steps {
-        let t = t0 + (k as f64 + 0.5) * dt;
-        depth += sampler.at([0, 1, 2].map(|a| x[a] + t * w[a]));
-    }
-    if depth > 0.0 {
-        (-sigma_t * depth * dt).exp()
-    } else {
-        1.0
-    }
-}
-
 /// `E_sky = ∫_{ω_z > 0} L(ω)·ω_z dω` of the distant light (module docs).
 pub fn sky_irradiance(distant: &Distant) -> Rgb {
     match distant {
@@ -237,7 +196,6 @@ fn map_sum(m: &LatLong) -> Rgb {
 mod tests {
     use super::*;
     use crate::{PointLight, Sun};
-    use haze_volume::Bbox;
 
     fn constant_sky(l: f64) -> Sky {
         Sky {
@@ -327,30 +285,5 @@ mod tests {
         assert!(g.hit([0.0, 0.0, 3.0], [1.0, 0.0, 0.0]).is_none());
         assert!(g.hit([0.0, 0.0, 3.0], [0.0, 0.0, 1.0]).is_none());
         assert!(g.hit([0.0, 0.0, 0.5], [0.0, 0.0, -1.0]).is_none());
-    }
-
-    /// The marched shadow of a uniform slab of density 0.5 and thickness 2 at σt 3 is
-    /// `e^{−3}` vertically and `e^{−3/cos 60°}` at 60° from the vertical (the density is
-    /// constant to the faces, so the midpoint rule is exact); nothing in the way or σt 0
-    /// cast no shadow, an infinite σt a black one.
-    #[test]
-    fn the_marched_shadow_matches_the_slabs_closed_form() {
-        let bbox = Bbox::new([0.0, 0.0, 0.0], [40.0, 40.0, 2.0]);
-        let v = Volume::new([20, 20, 4], bbox, vec![0.5; 20 * 20 * 4]).unwrap();
-        let up = |sigma_t: f64, from: [f64; 3], len: f64| {
-            marched_transmittance(&v, sigma_t, from, [0.0, 0.0, 1.0], len)
-        };
-        let floor = [20.0, 20.0, 0.0];
-        assert!((up(3.0, floor, f64::INFINITY) - (-3.0f64).exp()).abs() < 1e-12);
-        let a = 60f64.to_radians();
-        let w = [a.sin(), 0.0, a.cos()];
-        let slant = marched_transmittance(&v, 3.0, [10.0, 20.0, 0.0], w, f64::INFINITY);
-        assert!((slant - (-6.0f64).exp()).abs() < 1e-9, "{slant}");
-        assert!((up(3.0, floor, 1.0) - (-1.5f64).exp()).abs() < 1e-12);
-        assert_eq!(up(3.0, [20.0, 20.0, 5.0], f64::INFINITY), 1.0);
-        assert_eq!(up(0.0, floor, f64::INFINITY), 1.0);
-        assert_eq!(up(f64::NAN, floor, f64::INFINITY), 1.0);
-        assert_eq!(up(f64::INFINITY, floor, f64::INFINITY), 0.0);
-        assert_eq!(up(1e300, floor, f64::INFINITY), 0.0);
     }
 }

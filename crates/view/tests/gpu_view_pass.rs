@@ -224,12 +224,19 @@ fn the_ground_and_its_shadow_match_the_cpu() {
     let du = crm::default_slice([20; 3], &bbox);
     let ground = Ground::at(bbox.min[2]).lit(&env);
     compare_over(&ctx, &g, &medium, &env, &cam, du, Some(&ground));
+    // The same smoke in a grid four times as wide, mostly air: the shadow rays pass over
+    // its empty blocks (`ground::ShadowMarch`) on both sides.
+    let wide = Bbox::new([39.5, -20.5, 5.0], [41.5, -18.5, 6.2]);
+    let dims = [40, 40, 24];
+    let sparse = grids(&rbfs, dims, &wide, &medium, &env, cam.eye);
+    let du = crm::default_slice(dims, &wide);
+    compare_over(&ctx, &sparse, &medium, &env, &cam, du, Some(&ground));
     // The sun comes from −x: the smoke's shadow lies on the ground at +x of it.
     let shaded = ground.radiance([41.3, -19.5, 5.0], |x, w, l| {
-        haze_view::ground::marched_transmittance(&g.density, medium.sigma_t, x, w, l)
+        haze_view::render::ground_shadow::marched_transmittance(&g.density, medium.sigma_t, x, w, l)
     });
     let open = ground.radiance([39.3, -19.5, 5.0], |x, w, l| {
-        haze_view::ground::marched_transmittance(&g.density, medium.sigma_t, x, w, l)
+        haze_view::render::ground_shadow::marched_transmittance(&g.density, medium.sigma_t, x, w, l)
     });
     assert!(
         shaded[0] < 0.9 * open[0],

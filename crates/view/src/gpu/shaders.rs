@@ -35,6 +35,10 @@ pub const MODULES: &[Module] = &[
         source: include_str!("../../shaders/lat_long.wgsl"),
     },
     Module {
+        name: "shadow_cutoff",
+        source: include_str!("../../shaders/shadow_cutoff.wgsl"),
+    },
+    Module {
         name: "ln_radiance",
         source: include_str!("../../shaders/ln_radiance.wgsl"),
     },

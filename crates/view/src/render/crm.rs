@@ -26,11 +26,12 @@
 //! a voxel receives falls as `e^{−τ}` with the optical depth `τ` towards its source,
 //! and `τ`, an integral of the trilinear density, is what varies smoothly across a cell.
 
+use super::ground_shadow::ShadowMarch;
 use crate::Camera;
 use crate::distant::Rgb;
 use crate::env::Environment;
 use crate::field;
-use crate::ground::{GroundLight, marched_transmittance};
+use crate::ground::GroundLight;
 use crate::lighting::single::RgbSh;
 use crate::medium::Medium;
 use crate::sh;
@@ -411,14 +412,17 @@ pub fn view_pass(
     let w = camera.width;
     let axis = camera.forward();
     let field = RadianceField::new(g);
+    let shadows = ground.map(|_| ShadowMarch::new(&g.density, medium.sigma_t));
     (0..w * camera.height)
         .into_par_iter()
         .map(|i| {
             let d = camera.pixel_ray(i % w, i / w);
-            let background = match ground.and_then(|gr| Some((gr, gr.hit(camera.eye, d)?))) {
-                Some((gr, x)) => gr.radiance(x, |x, w, len| {
-                    marched_transmittance(&g.density, medium.sigma_t, x, w, len)
-                }),
+            let hit = ground.zip(shadows.as_ref()).and_then(|(gr, sh)| {
+                let x = gr.hit(camera.eye, d)?;
+                Some((gr, sh, x))
+            });
+            let background = match hit {
+                Some((gr, sh, x)) => gr.radiance(x, |x, w, len| sh.transmittance(x, w, len)),
                 None => env.radiance(d),
             };
             let (out, tau, _) = march(&field, medium, camera.eye, d, axis, du, f64::INFINITY);

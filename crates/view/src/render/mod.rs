@@ -6,6 +6,7 @@ pub mod env_pass;
 pub mod env_sweep;
 pub mod frame_light;
 pub mod grid_diffusion;
+pub mod ground_shadow;
 pub mod lights_pass;
 pub mod occupancy;
 pub mod peak_rule;
