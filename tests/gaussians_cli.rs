@@ -200,8 +200,12 @@ fn gpu_renders_the_bundled_gaussians_with_their_noise() {
     let err = String::from_utf8(o.stderr).unwrap();
     assert!(o.status.success(), "{err}");
     let out = String::from_utf8(o.stdout).unwrap();
+    // Paper B's shader on a GPU, its CPU renderer beside a CPU adapter (decision 0058).
     assert!(
-        out.contains("(GPU render with paper B's Gaussians and ray-traced surfaces"),
+        out.contains("(GPU render with paper B's Gaussians and ray-traced surfaces, read back")
+            || out.contains(
+                "(CPU render with paper B's Gaussians and ray-traced surfaces, sRGB) beside "
+            ),
         "{out}"
     );
 }

@@ -261,6 +261,14 @@ fn run_hetero(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Res
         }
         let prep = Prepared::new(scene, &analytic, options).map_err(fail)?;
         log_integrated(&prep);
+        if ctx.is_cpu_adapter() && !prep.integrated_list().is_empty() {
+            tracing::warn!(
+                "--gpu: {} is a CPU adapter, where paper B's shader takes at most {} Gaussians exact an integrated pair and integrates every pixel; without --gpu the CPU renderer takes {} and is faster on this machine",
+                ctx.adapter_name(),
+                options.max_exact,
+                paper_b::MAX_EXACT
+            );
+        }
         let tables = GpuRenderer::new(&ctx, &analytic).map_err(gpu_err)?;
         let frame = Instant::now();
         let image = GpuPaperB::new(&ctx)

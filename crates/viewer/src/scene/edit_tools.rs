@@ -703,12 +703,12 @@ mod tests {
         }
     }
 
-    /// The viewer's editing path on the bundled Gaussian scene, on the GPU: one scripted
+    /// The viewer's editing path on the bundled Gaussian scene: one scripted
     /// paintbrush stroke across the floor (press, ten moves, release through the hooks
     /// the window calls) adds the Gaussians the stroke implies — one every 0.75 radius of
     /// the floor segment under the cursor, on it — the next picture is paper B's render
-    /// of the edited medium (GPU against the CPU, 10⁻³ relative but for 1 % of the
-    /// pixels) and differs from the picture before; a light moved re-lights the edit; undo
+    /// of the edited medium (where it renders, against the CPU renderer with the same
+    /// options: 10⁻³ relative but for 1 % of the pixels) and differs from the picture before; a light moved re-lights the edit; undo
     /// gives back the first Gaussians and the first picture, bit for bit.
     #[test]
     fn a_paint_stroke_is_shown_relit_and_undone() {
@@ -754,8 +754,7 @@ mod tests {
         let after = r.image(&orbit, &knobs, Some(&editor), None).unwrap().0;
         let cpu = |knobs: &SceneKnobs, editor: &Editor| {
             let scene = r.scene(&orbit, knobs, Some(editor)).unwrap();
-            let options = haze_scene::gpu::paper_b::options(&r.ctx);
-            let prep = Prepared::new(&scene, &r.analytic, options).unwrap();
+            let prep = Prepared::new(&scene, &r.analytic, r.paper_b_options()).unwrap();
             paper_b::render(
                 &prep,
                 &haze_scene::paper_c::airlight::Limits::default(),

@@ -4,8 +4,9 @@
 //! airlight and shading computed per pixel up to that depth; a panel switch (or
 //! `--ray-traced`) shows the ray tracer's picture instead, for comparison. Scenes whose
 //! heterogeneous media are all Gaussians are rendered by paper B on the GPU
-//! (`haze_scene::gpu::paper_b`, ray-traced surfaces: its raster variant does not exist),
-//! and the panel's editing tools (paper B §6, [`edit_tools`]) change their first
+//! (`haze_scene::gpu::paper_b`, ray-traced surfaces: its raster variant does not exist) —
+//! on an adapter that is a CPU (lavapipe) by paper B's CPU renderer instead
+//! ([`PaperB`]) — and the panel's editing tools (paper B §6, [`edit_tools`]) change their first
 //! Gaussian medium, every edit re-lit in the next picture. Scenes with analytic fog
 //! (paper D) play its wind live ([`wind_panel`]).
 //!
@@ -28,7 +29,7 @@ use eframe::egui;
 use haze_gpu::GpuContext;
 use haze_scene::gpu::GpuRenderer;
 use haze_scene::gpu::paper_b::GpuPaperB;
-use haze_scene::paper_b::Prepared;
+use haze_scene::paper_b::{self, PaperBOptions, Prepared};
 use haze_scene::paper_c::airlight::Limits;
 use haze_scene::render::{Analytic, Image};
 use haze_scene::{Light, Scene, Shape};
@@ -36,6 +37,19 @@ use std::ops::RangeInclusive;
 use std::path::PathBuf;
 use std::time::Instant;
 use wind_panel::{FogRenderer, Wind};
+
+/// Where paper B renders a Gaussian scene (decision 0058). On a GPU, its shader. On an
+/// adapter that is a CPU (Mesa's lavapipe), paper B's CPU renderer: the device ends an
+/// invocation's loops early, so its shader takes at most
+/// `haze_scene::gpu::paper_b::CPU_DEVICE_EXACT` Gaussians exact a pair (a held-out scene
+/// with lamps among dense Gaussians 35 % off the reference, against 2 % with the CPU's 16)
+/// and every pixel integrates its pairs, where the CPU reuses them across the screen (that
+/// scene 16.5 s a picture on lavapipe, 1.0 s on the CPU; BENCHMARKS "Paper B on a CPU
+/// adapter").
+pub(super) enum PaperB {
+    Gpu(GpuPaperB),
+    Cpu,
+}
 
 /// Everything `haze view --scene` was asked to do.
 #[derive(Debug)]
@@ -180,7 +194,7 @@ pub(super) struct Renderer {
     /// Paper C's tables (paper B's CPU side uses them too).
     pub(super) analytic: Analytic,
     /// Paper B's renderer, for a scene whose heterogeneous media are all Gaussians.
-    paper_b: Option<GpuPaperB>,
+    paper_b: Option<PaperB>,
     /// Paper D's composite, for a scene with analytic fog.
     fog: Option<FogRenderer>,
     pub(super) size: (usize, usize),
@@ -197,10 +211,12 @@ impl Renderer {
             None => None,
         };
         let gaussian = !base.hetero.is_empty() && base.hetero.iter().all(|m| m.is_gaussians());
-        let paper_b = if gaussian {
-            Some(GpuPaperB::new(&ctx).map_err(|e| anyhow!("GPU: {e}"))?)
-        } else {
-            None
+        let paper_b = match (gaussian, ctx.is_cpu_adapter()) {
+            (false, _) => None,
+            (true, true) => Some(PaperB::Cpu),
+            (true, false) => Some(PaperB::Gpu(
+                GpuPaperB::new(&ctx).map_err(|e| anyhow!("GPU: {e}"))?,
+            )),
         };
         Ok(Renderer {
             base,
@@ -211,6 +227,21 @@ impl Renderer {
             fog,
             size,
         })
+    }
+
+    /// Paper B's options where it renders ([`PaperB`]): the device's
+    /// (`haze_scene::gpu::paper_b::options`) on a GPU, the CPU renderer's defaults on the
+    /// CPU.
+    pub(super) fn paper_b_options(&self) -> PaperBOptions {
+        match self.paper_b {
+            Some(PaperB::Gpu(_)) => haze_scene::gpu::paper_b::options(&self.ctx),
+            _ => PaperBOptions::default(),
+        }
+    }
+
+    /// Whether the pictures are paper B's CPU renderer's ([`PaperB::Cpu`]).
+    fn on_the_cpu(&self) -> bool {
+        matches!(self.paper_b, Some(PaperB::Cpu))
     }
 
     /// The scene the panel, the orbit and the editor (if any) describe.
@@ -261,10 +292,12 @@ impl Renderer {
         let lim = Limits::default();
         let mut warnings = Vec::new();
         let img = if let Some(pb) = &self.paper_b {
-            let options = haze_scene::gpu::paper_b::options(&self.ctx);
-            let prep = Prepared::new(&scene, &self.analytic, options)?;
+            let prep = Prepared::new(&scene, &self.analytic, self.paper_b_options())?;
             warnings = prep.warnings();
-            pb.render(&self.ctx, &self.gpu, &prep, &lim)
+            match pb {
+                PaperB::Gpu(r) => r.render(&self.ctx, &self.gpu, &prep, &lim),
+                PaperB::Cpu => Ok(paper_b::render(&prep, &lim, &|_| {})),
+            }
         } else if let (Some(fog), Some(wind)) = (&self.fog, wind) {
             fog.render(&self.ctx, &self.gpu, &scene, wind, &lim)
         } else if knobs.rasterized {
@@ -408,13 +441,14 @@ fn summary(r: &Renderer, knobs: &SceneKnobs, mut times: Vec<f64>, seconds: f64) 
     times.sort_by(f64::total_cmp);
     let median = times.get(times.len() / 2).copied().unwrap_or(0.0);
     format!(
-        "{} picture{} of {}×{} in {:.2} s, median {:.1} ms each (GPU render with {} surfaces{}, read back, sRGB) on {}",
+        "{} picture{} of {}×{} in {:.2} s, median {:.1} ms each ({} render with {} surfaces{}{}, sRGB) {}",
         times.len(),
         if times.len() == 1 { "" } else { "s" },
         r.size.0,
         r.size.1,
         seconds,
         1e3 * median,
+        if r.on_the_cpu() { "CPU" } else { "GPU" },
         // GpuRenderer::render_rasterized ray-traces scenes with voxel media (the march);
         // paper B ray-traces.
         if r.paper_b.is_some() {
@@ -429,7 +463,12 @@ fn summary(r: &Renderer, knobs: &SceneKnobs, mut times: Vec<f64>, seconds: f64) 
         } else {
             ""
         },
-        r.ctx.adapter_name()
+        if r.on_the_cpu() { "" } else { ", read back" },
+        if r.on_the_cpu() {
+            format!("beside {}, a CPU adapter", r.ctx.adapter_name())
+        } else {
+            format!("on {}", r.ctx.adapter_name())
+        }
     )
 }
 
@@ -490,7 +529,11 @@ impl SceneApp {
         ui.checkbox(&mut self.knobs.rasterized, "rasterize surfaces")
             .on_hover_text("off: every pixel's ray traced through the surfaces instead");
         if self.renderer.paper_b.is_some() {
-            ui.small("Gaussian media: paper B, surfaces ray-traced");
+            ui.small(if self.renderer.on_the_cpu() {
+                "Gaussian media: paper B on the CPU (the adapter is a CPU), surfaces ray-traced"
+            } else {
+                "Gaussian media: paper B, surfaces ray-traced"
+            });
         }
         ui.separator();
         ui.label("medium");
