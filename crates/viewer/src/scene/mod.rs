@@ -8,7 +8,9 @@
 //! on an adapter that is a CPU (lavapipe) by paper B's CPU renderer instead
 //! ([`PaperB`]) — and the panel's editing tools (paper B §6, [`edit_tools`]) change their first
 //! Gaussian medium, every edit re-lit in the next picture. Scenes with analytic fog
-//! (paper D) play its wind live ([`wind_panel`]).
+//! (paper D) play its wind live ([`wind_panel`]). Scenes with a smoke asset are marched
+//! (`haze_scene::gpu::march`; beside a CPU adapter on the CPU,
+//! [`Renderer::marched_on_the_cpu`]).
 //!
 //! The orbit starts at the scene's camera and turns about the point its central ray looks
 //! at (the first surface it meets, else the scene's middle at the same distance), Z up.
@@ -29,6 +31,8 @@ use eframe::egui;
 use haze_gpu::GpuContext;
 use haze_scene::gpu::GpuRenderer;
 use haze_scene::gpu::paper_b::GpuPaperB;
+use haze_scene::march::env_smoke;
+use haze_scene::media::HeteroMedium;
 use haze_scene::paper_b::{self, PaperBOptions, Prepared};
 use haze_scene::paper_c::airlight::Limits;
 use haze_scene::render::{Analytic, Image};
@@ -44,8 +48,8 @@ use wind_panel::{FogRenderer, Wind};
 /// `haze_scene::gpu::paper_b::CPU_DEVICE_EXACT` Gaussians exact a pair (a held-out scene
 /// with lamps among dense Gaussians 35 % off the reference, against 2 % with the CPU's 16)
 /// and every pixel integrates its pairs, where the CPU reuses them across the screen (that
-/// scene 16.5 s a picture on lavapipe, 1.0 s on the CPU; BENCHMARKS "Paper B on a CPU
-/// adapter").
+/// scene 16.5 s a picture on lavapipe, 1.0 s on the CPU; BENCHMARKS "Paper B and the
+/// march on a CPU adapter").
 pub(super) enum PaperB {
     Gpu(GpuPaperB),
     Cpu,
@@ -197,6 +201,9 @@ pub(super) struct Renderer {
     paper_b: Option<PaperB>,
     /// Paper D's composite, for a scene with analytic fog.
     fog: Option<FogRenderer>,
+    /// The environment's light on the media of a scene marched on the CPU
+    /// ([`Renderer::marched_on_the_cpu`]), kept while what it depends on holds.
+    march_env: env_smoke::Cache,
     pub(super) size: (usize, usize),
 }
 
@@ -225,6 +232,7 @@ impl Renderer {
             analytic,
             paper_b,
             fog,
+            march_env: env_smoke::Cache::default(),
             size,
         })
     }
@@ -239,9 +247,23 @@ impl Renderer {
         }
     }
 
-    /// Whether the pictures are paper B's CPU renderer's ([`PaperB::Cpu`]).
+    /// Whether a scene with voxel media or analytic fogs, which the GPU marches, is
+    /// marched on the CPU instead (`haze_scene::march`, the same steps): on an adapter that
+    /// is a CPU, where the shader's march is several times slower (decision 0058).
+    fn marched_on_the_cpu(&self) -> bool {
+        let hetero = &self.base.hetero;
+        self.ctx.is_cpu_adapter()
+            && self.fog.is_none()
+            && !hetero.is_empty()
+            && hetero
+                .iter()
+                .all(|m| matches!(m, HeteroMedium::Asset(_) | HeteroMedium::Analytic(_)))
+    }
+
+    /// Whether the pictures are the CPU's ([`PaperB::Cpu`],
+    /// [`Renderer::marched_on_the_cpu`]).
     fn on_the_cpu(&self) -> bool {
-        matches!(self.paper_b, Some(PaperB::Cpu))
+        matches!(self.paper_b, Some(PaperB::Cpu)) || self.marched_on_the_cpu()
     }
 
     /// The scene the panel, the orbit and the editor (if any) describe.
@@ -300,6 +322,10 @@ impl Renderer {
             }
         } else if let (Some(fog), Some(wind)) = (&self.fog, wind) {
             fog.render(&self.ctx, &self.gpu, &scene, wind, &lim)
+        } else if self.marched_on_the_cpu() {
+            let mut opt = haze_scene::march::march_steps(&scene, false);
+            opt.env = self.march_env.light(&scene);
+            Ok(haze_scene::march::render(&scene, &lim, &opt, &|_| {}))
         } else if knobs.rasterized {
             self.gpu.render_rasterized(&self.ctx, &scene, &lim)
         } else {
@@ -809,6 +835,37 @@ mod tests {
             .intersect(s.camera.eye, s.camera.forward(), 0.0, f64::INFINITY)
             .unwrap();
         assert!((o.distance - hit.t).abs() < 1e-9);
+    }
+
+    /// A scene with a smoke asset is the march's picture wherever the viewer renders it:
+    /// marched on the CPU beside a CPU adapter (decision 0058; then the CPU march's own
+    /// picture), by the shader's march on a GPU (its twin: within 10⁻³ relative of the
+    /// brightest pixel, but for 1 % of the pixels).
+    #[test]
+    fn a_smoke_scene_is_the_marchs_picture() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/scenes/smoke.json");
+        let base = haze_scene::load(std::path::Path::new(path)).unwrap();
+        let fov = 2.0 * base.camera.tan_half().atan().to_degrees();
+        let orbit = Orbit::looking(base.camera.eye, look_target(&base), fov).unwrap();
+        let knobs = SceneKnobs::of(&base, 1.0);
+        let r = Renderer::new(base, (40, 30)).unwrap();
+        assert_eq!(r.marched_on_the_cpu(), r.ctx.is_cpu_adapter());
+        let shown = r.image(&orbit, &knobs, None, None).unwrap().0;
+        let scene = r.scene(&orbit, &knobs, None).unwrap();
+        let opt = haze_scene::march::march_options(&scene, false);
+        let cpu = haze_scene::march::render(&scene, &Limits::default(), &opt, &|_| {});
+        let peak = cpu.pixels.iter().flatten().fold(0.0f32, |m, v| m.max(*v));
+        assert!(peak > 0.0);
+        let off = shown
+            .pixels
+            .iter()
+            .zip(&cpu.pixels)
+            .filter(|(a, b)| (0..3).any(|c| (a[c] - b[c]).abs() > 1e-3 * peak))
+            .count();
+        assert!(off <= cpu.pixels.len() / 100, "{off} pixels off");
+        if r.marched_on_the_cpu() {
+            assert_eq!(shown.pixels, cpu.pixels);
+        }
     }
 
     /// The panel's edits reach the scene, and its GPU pictures, rasterized and ray-traced,
