@@ -192,6 +192,12 @@ fn run_gpu(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Result
     } else {
         None
     };
+    if ctx.is_cpu_adapter() && !fog && !scene.hetero.is_empty() {
+        tracing::warn!(
+            "--gpu: {} is a CPU adapter, where the march runs as an emulated shader; without --gpu the CPU marches the same steps several times faster",
+            ctx.adapter_name()
+        );
+    }
     let frame = Instant::now();
     let image = match &composite {
         Some(c) => c.render(&ctx, &renderer, scene, &Limits::default()),
