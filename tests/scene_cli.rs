@@ -317,8 +317,9 @@ fn renders_analytic_fog_on_the_gpu_as_on_the_cpu() {
     assert!(outside * 100 <= w * h, "{outside} pixels differ");
 }
 
-/// `haze view --scene` without a window: the scene loads, renders on the GPU while the
-/// camera turns, and the figures come out on one line; a bad scene is a one-line error.
+/// `haze view --scene` without a window: the scene loads, renders (on the GPU, or on the
+/// CPU beside a CPU adapter) while the camera turns, and the figures come out on one
+/// line; a bad scene is a one-line error.
 #[test]
 fn views_the_room_without_a_window() {
     let o = haze()
@@ -333,7 +334,13 @@ fn views_the_room_without_a_window() {
         out.contains("pictures of 48×36") && out.contains("median"),
         "{out}"
     );
-    assert!(out.contains("with rasterized surfaces"), "{out}");
+    // The shader rasterizes the surfaces on a GPU; beside a CPU adapter the CPU renderer
+    // ray-traces them (decision 0059).
+    assert!(
+        out.contains("(GPU render with rasterized surfaces")
+            || out.contains("(CPU render with ray-traced surfaces, sRGB) beside "),
+        "{out}"
+    );
     let o = haze()
         .args([
             "view",
@@ -460,7 +467,8 @@ fn marches_smoke_in_analytic_fog_on_the_gpu() {
 }
 
 /// `haze view --scene` on the bundled analytic fog without a window: the fog composited
-/// on the GPU as its wind plays, the figures on one line.
+/// (on the GPU, or on the CPU beside a CPU adapter) as its wind plays, the figures on one
+/// line.
 #[test]
 fn views_the_analytic_fog_without_a_window() {
     let o = haze()

@@ -21,8 +21,10 @@ pub struct ViewCli {
     /// ray-traced) and edited with the panel's tools (paper B §6): paintbrush, airbrush,
     /// eraser, particle emitter, copy/cut/paste of a dragged rectangle; left drag = stroke,
     /// right drag = orbit, Ctrl+Z / Ctrl+Y undo and redo, Ctrl+S saves the edited medium
-    /// into SCENE.edited.json (the panel's file; "load" reads one back). Of the options
-    /// below only --size, --exposure, --play-for, --no-window and --ray-traced apply.
+    /// into SCENE.edited.json (the panel's file; "load" reads one back). Beside an adapter
+    /// that is a CPU (Mesa's lavapipe) every picture is the CPU renderer's, several times
+    /// faster there, surfaces ray-traced. Of the options below only --size, --exposure,
+    /// --play-for, --no-window and --ray-traced apply.
     #[arg(long, value_name = "SCENE.json", conflicts_with = "fog")]
     pub(crate) scene: Option<PathBuf>,
     /// Fly through a fogmap's wavelet fog instead (as `haze fog wavelet` renders it), on
@@ -110,7 +112,8 @@ pub struct ViewCli {
     #[arg(long, requires = "no_window", conflicts_with_all = ["scene", "fog"])]
     pub(crate) orbit: bool,
     /// With --scene: start with the surfaces ray-traced per pixel instead of rasterized
-    /// (the panel switches between the two).
+    /// (the panel switches between the two; beside a CPU adapter they are always
+    /// ray-traced).
     #[arg(long, requires = "scene")]
     pub(crate) ray_traced: bool,
     /// With --scene: a scripted stroke of the Gaussian editing tools, applied before the

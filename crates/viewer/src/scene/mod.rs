@@ -4,19 +4,22 @@
 //! airlight and shading computed per pixel up to that depth; a panel switch (or
 //! `--ray-traced`) shows the ray tracer's picture instead, for comparison. Scenes whose
 //! heterogeneous media are all Gaussians are rendered by paper B on the GPU
-//! (`haze_scene::gpu::paper_b`, ray-traced surfaces: its raster variant does not exist) —
-//! on an adapter that is a CPU (lavapipe) by paper B's CPU renderer instead
-//! ([`PaperB`]) — and the panel's editing tools (paper B §6, [`edit_tools`]) change their first
-//! Gaussian medium, every edit re-lit in the next picture. Scenes with analytic fog
-//! (paper D) play its wind live ([`wind_panel`]). Scenes with a smoke asset are marched
-//! (`haze_scene::gpu::march`; beside a CPU adapter on the CPU,
-//! [`Renderer::marched_on_the_cpu`]).
+//! (`haze_scene::gpu::paper_b`, ray-traced surfaces: its raster variant does not exist), and
+//! the panel's editing tools (paper B §6, [`edit_tools`]) change their first Gaussian
+//! medium, every edit re-lit in the next picture. Scenes with analytic fog (paper D) play
+//! its wind live ([`wind_panel`]). Scenes with a smoke asset are marched
+//! (`haze_scene::gpu::march`).
+//!
+//! Beside an adapter that is a CPU (Mesa's lavapipe) every picture is rendered by the CPU
+//! renderer of the same model instead, surfaces ray-traced (decisions 0058 and 0059,
+//! [`Renderer::on_the_cpu`]): paper B's, paper C's with paper D's fog composited, or the
+//! march.
 //!
 //! The orbit starts at the scene's camera and turns about the point its central ray looks
 //! at (the first surface it meets, else the scene's middle at the same distance), Z up.
 //! The panel scales the medium's extinction and albedo, moves each point light, and
 //! scales each light's power. A picture is rendered on the window's thread whenever the
-//! camera or a knob changed (the GPU render, its read back and the sRGB encoding;
+//! camera or a knob changed (the render, on the GPU its read back, and the sRGB encoding;
 //! BENCHMARKS.md has its time on lavapipe), so the window shows the edit it was asked for,
 //! never an older one; a slow device makes the window slow to answer rather than late.
 
@@ -32,7 +35,6 @@ use haze_gpu::GpuContext;
 use haze_scene::gpu::GpuRenderer;
 use haze_scene::gpu::paper_b::GpuPaperB;
 use haze_scene::march::env_smoke;
-use haze_scene::media::HeteroMedium;
 use haze_scene::paper_b::{self, PaperBOptions, Prepared};
 use haze_scene::paper_c::airlight::Limits;
 use haze_scene::render::{Analytic, Image};
@@ -199,10 +201,12 @@ pub(super) struct Renderer {
     pub(super) analytic: Analytic,
     /// Paper B's renderer, for a scene whose heterogeneous media are all Gaussians.
     paper_b: Option<PaperB>,
-    /// Paper D's composite, for a scene with analytic fog.
+    /// Paper D's composite on the GPU, for a scene with analytic fog (none on the CPU).
     fog: Option<FogRenderer>,
-    /// The environment's light on the media of a scene marched on the CPU
-    /// ([`Renderer::marched_on_the_cpu`]), kept while what it depends on holds.
+    /// Whether the pictures are the CPU's ([`Renderer::on_the_cpu`]).
+    cpu: bool,
+    /// The environment's light on the media of a scene marched on the CPU, kept while
+    /// what it depends on holds.
     march_env: env_smoke::Cache,
     pub(super) size: (usize, usize),
 }
@@ -213,12 +217,13 @@ impl Renderer {
         let ctx = GpuContext::new().map_err(|e| anyhow!("GPU: {e}"))?;
         let analytic = Analytic::new(&base);
         let gpu = GpuRenderer::new(&ctx, &analytic).map_err(|e| anyhow!("GPU: {e}"))?;
+        let cpu = ctx.is_cpu_adapter();
         let fog = match Wind::of(&base) {
-            Some(_) => Some(FogRenderer::new(&ctx).map_err(|e| anyhow!("GPU: {e}"))?),
-            None => None,
+            Some(_) if !cpu => Some(FogRenderer::new(&ctx).map_err(|e| anyhow!("GPU: {e}"))?),
+            _ => None,
         };
         let gaussian = !base.hetero.is_empty() && base.hetero.iter().all(|m| m.is_gaussians());
-        let paper_b = match (gaussian, ctx.is_cpu_adapter()) {
+        let paper_b = match (gaussian, cpu) {
             (false, _) => None,
             (true, true) => Some(PaperB::Cpu),
             (true, false) => Some(PaperB::Gpu(
@@ -232,6 +237,7 @@ impl Renderer {
             analytic,
             paper_b,
             fog,
+            cpu,
             march_env: env_smoke::Cache::default(),
             size,
         })
@@ -247,23 +253,17 @@ impl Renderer {
         }
     }
 
-    /// Whether a scene with voxel media or analytic fogs, which the GPU marches, is
-    /// marched on the CPU instead (`haze_scene::march`, the same steps): on an adapter that
-    /// is a CPU, where the shader's march is several times slower (decision 0058).
-    fn marched_on_the_cpu(&self) -> bool {
-        let hetero = &self.base.hetero;
-        self.ctx.is_cpu_adapter()
-            && self.fog.is_none()
-            && !hetero.is_empty()
-            && hetero
-                .iter()
-                .all(|m| matches!(m, HeteroMedium::Asset(_) | HeteroMedium::Analytic(_)))
+    /// Whether the pictures are rendered on the CPU: beside an adapter that is a CPU,
+    /// where the emulated shaders are several times slower than the CPU renderers of the
+    /// same models (decisions 0058, 0059; BENCHMARKS "Paper B and the march on a CPU
+    /// adapter", "Paper C and paper D on a CPU adapter").
+    fn on_the_cpu(&self) -> bool {
+        self.cpu
     }
 
-    /// Whether the pictures are the CPU's ([`PaperB::Cpu`],
-    /// [`Renderer::marched_on_the_cpu`]).
-    fn on_the_cpu(&self) -> bool {
-        matches!(self.paper_b, Some(PaperB::Cpu)) || self.marched_on_the_cpu()
+    /// Whether the scene has analytic fog, whose wind the panel plays.
+    fn has_fog(&self) -> bool {
+        self.base.analytic_media().next().is_some()
     }
 
     /// The scene the panel, the orbit and the editor (if any) describe.
@@ -320,12 +320,10 @@ impl Renderer {
                 PaperB::Gpu(r) => r.render(&self.ctx, &self.gpu, &prep, &lim),
                 PaperB::Cpu => Ok(paper_b::render(&prep, &lim, &|_| {})),
             }
+        } else if self.cpu {
+            Ok(self.cpu_image(scene, wind, &lim))
         } else if let (Some(fog), Some(wind)) = (&self.fog, wind) {
             fog.render(&self.ctx, &self.gpu, &scene, wind, &lim)
-        } else if self.marched_on_the_cpu() {
-            let mut opt = haze_scene::march::march_steps(&scene, false);
-            opt.env = self.march_env.light(&scene);
-            Ok(haze_scene::march::render(&scene, &lim, &opt, &|_| {}))
         } else if knobs.rasterized {
             self.gpu.render_rasterized(&self.ctx, &scene, &lim)
         } else {
@@ -333,6 +331,27 @@ impl Renderer {
         }
         .map_err(|e| e.to_string())?;
         Ok((img, warnings))
+    }
+
+    /// The CPU's picture of a scene without Gaussian media ([`Renderer::on_the_cpu`]), its
+    /// analytic fogs carried by `wind`: paper C's (`haze_scene::render::render`, surfaces
+    /// ray-traced) with paper D's fog composited over it (`haze_scene::analytic::render`),
+    /// or the march when the fog is lit or other heterogeneous media are there
+    /// (`haze_scene::march::render`, the steps of the GPU's march) — what the GPU's
+    /// renderers compute, their twins.
+    fn cpu_image(&self, scene: Scene, wind: Option<&Wind>, lim: &Limits) -> Image {
+        let scene = match wind {
+            Some(w) => w.apply(&scene),
+            None => scene,
+        };
+        let lit = wind.is_some_and(|w| w.lit);
+        if !lit && scene.hetero.iter().all(|m| m.is_analytic()) {
+            haze_scene::analytic::render(&scene, &self.analytic, lim, &|_| {})
+        } else {
+            let mut opt = haze_scene::march::march_steps(&scene, false);
+            opt.env = self.march_env.light(&scene);
+            haze_scene::march::render(&scene, lim, &opt, &|_| {})
+        }
     }
 }
 
@@ -476,15 +495,15 @@ fn summary(r: &Renderer, knobs: &SceneKnobs, mut times: Vec<f64>, seconds: f64) 
         1e3 * median,
         if r.on_the_cpu() { "CPU" } else { "GPU" },
         // GpuRenderer::render_rasterized ray-traces scenes with voxel media (the march);
-        // paper B ray-traces.
+        // paper B and the CPU ray-trace.
         if r.paper_b.is_some() {
             "paper B's Gaussians and ray-traced"
-        } else if knobs.rasterized && r.base.hetero.is_empty() {
+        } else if knobs.rasterized && r.base.hetero.is_empty() && !r.on_the_cpu() {
             "rasterized"
         } else {
             "ray-traced"
         },
-        if r.fog.is_some() {
+        if r.has_fog() {
             ", analytic fog composited as its wind plays"
         } else {
             ""
@@ -552,14 +571,14 @@ impl SceneApp {
         for w in &self.warnings {
             ui.colored_label(egui::Color32::YELLOW, w);
         }
-        ui.checkbox(&mut self.knobs.rasterized, "rasterize surfaces")
-            .on_hover_text("off: every pixel's ray traced through the surfaces instead");
+        if self.renderer.on_the_cpu() {
+            ui.small("rendered on the CPU (the adapter is a CPU), surfaces ray-traced");
+        } else {
+            ui.checkbox(&mut self.knobs.rasterized, "rasterize surfaces")
+                .on_hover_text("off: every pixel's ray traced through the surfaces instead");
+        }
         if self.renderer.paper_b.is_some() {
-            ui.small(if self.renderer.on_the_cpu() {
-                "Gaussian media: paper B on the CPU (the adapter is a CPU), surfaces ray-traced"
-            } else {
-                "Gaussian media: paper B, surfaces ray-traced"
-            });
+            ui.small("Gaussian media: paper B, surfaces ray-traced");
         }
         ui.separator();
         ui.label("medium");
@@ -849,7 +868,7 @@ mod tests {
         let orbit = Orbit::looking(base.camera.eye, look_target(&base), fov).unwrap();
         let knobs = SceneKnobs::of(&base, 1.0);
         let r = Renderer::new(base, (40, 30)).unwrap();
-        assert_eq!(r.marched_on_the_cpu(), r.ctx.is_cpu_adapter());
+        assert_eq!(r.on_the_cpu(), r.ctx.is_cpu_adapter());
         let shown = r.image(&orbit, &knobs, None, None).unwrap().0;
         let scene = r.scene(&orbit, &knobs, None).unwrap();
         let opt = haze_scene::march::march_options(&scene, false);
@@ -863,8 +882,71 @@ mod tests {
             .filter(|(a, b)| (0..3).any(|c| (a[c] - b[c]).abs() > 1e-3 * peak))
             .count();
         assert!(off <= cpu.pixels.len() / 100, "{off} pixels off");
-        if r.marched_on_the_cpu() {
+        if r.on_the_cpu() {
             assert_eq!(shown.pixels, cpu.pixels);
+        }
+    }
+
+    /// Pixels of `shown` more than `rel` of the brightest pixel of `want` away from it.
+    fn pixels_off(shown: &Image, want: &Image, rel: f32) -> usize {
+        let peak = want.pixels.iter().flatten().fold(0.0f32, |m, v| m.max(*v));
+        assert!(peak > 0.0);
+        shown
+            .pixels
+            .iter()
+            .zip(&want.pixels)
+            .filter(|(a, b)| (0..3).any(|c| (a[c] - b[c]).abs() > rel * peak))
+            .count()
+    }
+
+    /// Paper C's picture and paper D's fog, composited or lit, are their CPU renderers'
+    /// wherever the viewer renders them: the CPU's own pictures beside a CPU adapter
+    /// (decision 0059), the shaders' on a GPU (their twins: within 10⁻³ of the brightest
+    /// pixel but for 1 % of the pixels, silhouettes and shadow edges).
+    #[test]
+    fn paper_c_and_the_fog_are_their_cpu_renderers_pictures() {
+        let fog_path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../data/scenes/analytic_fog.json"
+        );
+        let fog = haze_scene::load(std::path::Path::new(fog_path)).unwrap();
+        for base in [room(), fog] {
+            let fov = 2.0 * base.camera.tan_half().atan().to_degrees();
+            let orbit = Orbit::looking(base.camera.eye, look_target(&base), fov).unwrap();
+            let knobs = SceneKnobs {
+                rasterized: false,
+                ..SceneKnobs::of(&base, 1.0)
+            };
+            let mut wind = Wind::of(&base);
+            let r = Renderer::new(base, (40, 30)).unwrap();
+            assert_eq!(r.on_the_cpu(), r.ctx.is_cpu_adapter());
+            let scene = r.scene(&orbit, &knobs, None).unwrap();
+            // The composite, the fog carried 3 s by its wind; then the lit fog (the march).
+            if let Some(w) = &mut wind {
+                w.advance(&scene, 3.0);
+            }
+            let moved = wind.as_ref().map_or(scene.clone(), |w| w.apply(&scene));
+            let composite =
+                haze_scene::analytic::render(&moved, &r.analytic, &Limits::default(), &|_| {});
+            let shown = r.image(&orbit, &knobs, None, wind.as_ref()).unwrap().0;
+            let mut cases = vec![(shown, composite)];
+            if let Some(w) = &mut wind {
+                w.lit = true;
+                let opt = haze_scene::march::march_options(&moved, false);
+                let march = haze_scene::march::render(&moved, &Limits::default(), &opt, &|_| {});
+                cases.push((
+                    r.image(&orbit, &knobs, None, wind.as_ref()).unwrap().0,
+                    march,
+                ));
+            }
+            for (shown, want) in cases {
+                if r.on_the_cpu() {
+                    assert_eq!(shown.pixels, want.pixels);
+                } else {
+                    let off = pixels_off(&shown, &want, 1e-3);
+                    assert!(off <= want.pixels.len() / 100, "{off} pixels off");
+                }
+            }
         }
     }
 
