@@ -4,7 +4,8 @@
 //! lighting against 19 s of environment grid, orders and volume pass on lavapipe,
 //! `BENCHMARKS.md` "Viewer playback"), so everything but the view pass runs on the CPU:
 //! [`FrameLight`] (the same code as [`crate::render::crm_grids`], so the grids are the CPU
-//! renderer's), then [`GridBuffer::upload`].
+//! renderer's), then [`GridBuffer::upload`] — or, for a view pass on the CPU too
+//! ([`HostGrids::volume_grids`], the viewer's on a CPU adapter), kept on the host.
 //!
 //! **Reuse**, as on the GPU path: the frame's light ([`FrameLight`]: the sources at the
 //! centers, the environment pass's grid, the multiple scattering's cells) is kept while
@@ -21,6 +22,7 @@ use super::renderer::{EnvGridKey, FrameStats, GpuFrame, Reuse, SourceKey};
 use super::volume_pass::Residual;
 use crate::diffusion::DiffusionSolver;
 use crate::lighting::single::{RgbSh, ShKit};
+use crate::render::crm::VolumeGrids;
 use crate::render::frame_light::{FrameInput, FrameLight, Kept};
 use crate::render::{CrmOptions, CrmStats, MsDiffusion};
 use crate::sh::{self, ShGrid};
@@ -29,6 +31,10 @@ use haze_gpu::{GpuContext, GpuError};
 use std::sync::Arc;
 use std::time::Instant;
 
+/// A frame's grids of light: their key, the eye they were seen from (`None`: any eye),
+/// the grids, and their upload once asked for.
+type SeenGrids = (SourceKey, Option<[f64; 3]>, VolumeGrids, Option<GridBuffer>);
+
 /// The CPU's grids of light and what carries from one frame to the next (module docs).
 #[derive(Debug, Default)]
 pub struct HostGrids {
@@ -36,8 +42,9 @@ pub struct HostGrids {
     solver: DiffusionSolver,
     /// The light of the frame with this key and the frame's residual per voxel.
     light: Option<(SourceKey, FrameLight, Option<Vec<f32>>)>,
-    /// The uploaded grids of that light seen from this eye (`None`: any eye, `g = 0`).
-    grids: Option<(SourceKey, Option<[f64; 3]>, GridBuffer)>,
+    /// The grids of that light seen from this eye (`None`: any eye, `g = 0`), and once
+    /// asked for, their upload.
+    grids: Option<SeenGrids>,
     /// How the last multiple-scattering solve ended.
     last_solve: Option<DiffusionStats>,
     /// The SH tables of an order, and the environment of a distant generation projected
@@ -70,15 +77,15 @@ impl HostGrids {
     }
 
     /// The grids of `frame` lit by `env` (whose generation is `lighting`, and its distant
-    /// part's `distant`) seen from `camera`, reusing what the last call computed where it
-    /// still holds; the time of each stage run and what was reused go to `stats`.
+    /// part's `distant`) seen from `camera`, uploaded, reusing what the last call computed
+    /// where it still holds; the time of each stage run and what was reused go to `stats`.
     #[allow(clippy::too_many_arguments)]
     pub fn grids(
         &mut self,
         ctx: &GpuContext,
         frame: &GpuFrame<'_>,
         env: &Environment,
-        (lighting, distant): (u64, u64),
+        generations: (u64, u64),
         medium: &Medium,
         camera: &Camera,
         opts: &CrmOptions,
@@ -89,6 +96,43 @@ impl HostGrids {
             "the volume (density and radiance)",
             GridBuffer::bytes(frame.dims),
         )?;
+        self.light(frame, env, generations, medium, camera, opts, stats);
+        let (_, _, grids, buffer) = self.grids.as_mut().expect("lit above");
+        match buffer {
+            Some(b) => Ok(b),
+            None => Ok(buffer.insert(GridBuffer::upload(ctx, grids)?)),
+        }
+    }
+
+    /// [`HostGrids::grids`] left on the host, for a view pass on the CPU
+    /// ([`crate::render::crm::view_pass`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn volume_grids(
+        &mut self,
+        frame: &GpuFrame<'_>,
+        env: &Environment,
+        generations: (u64, u64),
+        medium: &Medium,
+        camera: &Camera,
+        opts: &CrmOptions,
+        stats: &mut FrameStats,
+    ) -> &VolumeGrids {
+        self.light(frame, env, generations, medium, camera, opts, stats);
+        &self.grids.as_ref().expect("lit above").2
+    }
+
+    /// Makes `self.grids` the grids of `frame` ([`HostGrids::grids`]), not uploaded.
+    #[allow(clippy::too_many_arguments)]
+    fn light(
+        &mut self,
+        frame: &GpuFrame<'_>,
+        env: &Environment,
+        (lighting, distant): (u64, u64),
+        medium: &Medium,
+        camera: &Camera,
+        opts: &CrmOptions,
+        stats: &mut FrameStats,
+    ) {
         let key = SourceKey {
             frame: frame.key,
             lighting,
@@ -100,9 +144,9 @@ impl HostGrids {
         };
         // The eye matters unless the phase function is isotropic (as on the GPU path).
         let eye = (medium.g != 0.0).then_some(camera.eye);
-        if matches!(&self.grids, Some((k, e, _)) if *k == key && *e == eye) {
+        if matches!(&self.grids, Some((k, e, _, _)) if *k == key && *e == eye) {
             stats.reuse = Reuse::Grids;
-            return Ok(&self.grids.as_ref().expect("matched above").2);
+            return;
         }
         self.grids = None;
         let kept = matches!(&self.light, Some((k, _, _)) if *k == key);
@@ -185,8 +229,7 @@ impl HostGrids {
                 grids
             }
         };
-        let buffer = GridBuffer::upload(ctx, &grids)?;
-        Ok(&self.grids.insert((key, eye, buffer)).2)
+        self.grids = Some((key, eye, grids, None));
     }
 }
 

@@ -395,6 +395,45 @@ impl GpuRenderer {
         Ok(())
     }
 
+    /// Renders `frame` seen by `camera` on the host alone: the lighting as
+    /// [`LightingOn::Cpu`] computes it, then the CPU's view pass
+    /// ([`crate::render::crm::view_pass`], the twin of the GPU's) — for an adapter that is
+    /// a CPU, where the view pass's shader runs emulated on the same cores (the viewer's
+    /// choice there). The picture is [`crate::render::crm_render`]'s; the grids and the
+    /// frame's light are kept and reused as for [`GpuRenderer::render`], and a GPU render
+    /// after it reuses them too. Refuses what [`GpuRenderer::render`] refuses.
+    pub fn render_on_host(
+        &mut self,
+        frame: &GpuFrame<'_>,
+        medium: &Medium,
+        camera: &Camera,
+        opts: &CrmOptions,
+    ) -> Result<(Vec<[f32; 3]>, FrameStats), GpuError> {
+        check_options(opts)?;
+        let mut stats = FrameStats::default();
+        let env = &self.env;
+        let grids = self.host.volume_grids(
+            frame,
+            env,
+            (self.lighting, self.distant),
+            medium,
+            camera,
+            opts,
+            &mut stats,
+        );
+        let t = Instant::now();
+        let du = slice_thickness(frame.dims, &frame.bbox, opts);
+        let ground = opts.ground.map(|g| g.lit(env));
+        let pixels = crate::render::crm::view_pass(grids, medium, env, camera, du, ground.as_ref());
+        stats.crm.view_seconds = t.elapsed().as_secs_f64();
+        if stats.solved
+            && let Some(solve) = self.host.last_solve()
+        {
+            self.last_solve = Some(LastSolve::Cpu(solve));
+        }
+        Ok((pixels, stats))
+    }
+
     /// Renders `frame` seen by `camera` into an image on the GPU (submitted; read it with
     /// [`ImageBuffer::read`]). Refuses what the stages refuse (an order outside 1..=6, a
     /// residual of other dims, sizes beyond the device's limits, multiple scattering by

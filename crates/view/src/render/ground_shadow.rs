@@ -39,6 +39,8 @@ pub struct ShadowMarch<'a> {
     density: &'a Volume,
     sampler: field::Sampler<'a>,
     occupied: Option<Occupancy>,
+    /// No voxel holds density: every ray's transmittance is 1, nothing to march.
+    empty: bool,
     sigma_t: f64,
 }
 
@@ -46,8 +48,10 @@ impl<'a> ShadowMarch<'a> {
     /// The shadow rays through `density` at extinction `sigma_t`, passing over its empty
     /// blocks.
     pub fn new(density: &'a Volume, sigma_t: f64) -> ShadowMarch<'a> {
+        let occupied = Occupancy::new(density);
         ShadowMarch {
-            occupied: Occupancy::new(density),
+            empty: occupied.is_none(),
+            occupied,
             ..ShadowMarch::visiting_every_step(density, sigma_t)
         }
     }
@@ -58,12 +62,16 @@ impl<'a> ShadowMarch<'a> {
             density,
             sampler: field::Sampler::new(density),
             occupied: None,
+            empty: false,
             sigma_t,
         }
     }
 
     /// `T(x, w, len)` (module docs; [`marched_transmittance`]).
     pub fn transmittance(&self, x: [f64; 3], w: [f64; 3], len: f64) -> f64 {
+        if self.empty {
+            return 1.0;
+        }
         let density = self.density;
         let Some((t0, t1)) = field::ray_box(x, w, density.bbox()) else {
             return 1.0;
@@ -80,7 +88,7 @@ impl<'a> ShadowMarch<'a> {
         let steps = ((t1 - t0) / h).ceil().min(1e6) as usize;
         let dt = (t1 - t0) / steps as f64;
         // The steps that may see density: those whose midpoints lie in the occupied box
-        // and one to spare on each side (an empty grid has none).
+        // and one to spare on each side.
         let (k0, k1) = match &self.occupied {
             None => (0, steps),
             Some(o) => match field::ray_box(x, w, o.bbox()) {

@@ -3,8 +3,12 @@
 //! [`haze_view::gpu::renderer::GpuRenderer`] (the view pass on the GPU, the stages before it
 //! where [`LightingOn`] says) that takes a frame (RBFs and residual on a grid), a
 //! medium, an environment, a camera and the [`CrmOptions`], and gives the linear picture
-//! on the GPU and where the time went; [`FrameRenderer::encode`] turns it into the 8-bit
-//! sRGB picture shown (on a GPU there, `haze_view::gpu::tone_pass`), any number of times.
+//! ([`FrameImage`]) and where the time went; [`FrameRenderer::encode`] turns it into the
+//! 8-bit sRGB picture shown (on a GPU there, `haze_view::gpu::tone_pass`), any number of
+//! times. Beside an adapter that is a CPU (lavapipe), with the lighting on the CPU, the
+//! view pass runs on the CPU too ([`view_on_host`]): its shader there is emulated on the
+//! same cores, about twice as slow as the CPU's own twin (BENCHMARKS.md "Viewer
+//! playback").
 //!
 //! What carries between calls is the renderer's — the paper's reuse across frames: the
 //! compiled passes, the SH tables of the order and the projected light (rebuilt when the
@@ -51,6 +55,31 @@ pub struct StageTimes {
 pub struct FrameRenderer {
     inner: GpuRenderer,
     tone: TonePass,
+    /// The view pass runs on the host ([`view_on_host`]).
+    on_host: bool,
+}
+
+/// Whether the view pass runs on the host: beside an adapter that is a CPU, with the
+/// lighting on the CPU (module docs). `--lighting gpu` keeps the shaders.
+pub fn view_on_host(ctx: &GpuContext, lighting: LightingOn) -> bool {
+    ctx.is_cpu_adapter() && lighting.resolve(ctx) == LightingOn::Cpu
+}
+
+/// A frame's linear picture: on the GPU, or on the host ([`view_on_host`]).
+#[derive(Debug)]
+pub enum FrameImage {
+    Gpu(ImageBuffer),
+    Host(haze_core::Image),
+}
+
+impl FrameImage {
+    /// The pixels (RGB, row 0 at the top), read back from the GPU where they are there.
+    pub fn pixels(&self, ctx: &GpuContext) -> Result<Vec<[f32; 3]>, GpuError> {
+        match self {
+            FrameImage::Gpu(b) => b.read(ctx),
+            FrameImage::Host(i) => Ok(i.pixels.clone()),
+        }
+    }
 }
 
 /// A key for the frame: equal for equal RBFs, grid and residual.
@@ -90,6 +119,7 @@ impl FrameRenderer {
         Ok(FrameRenderer {
             inner,
             tone: TonePass::new(ctx)?,
+            on_host: view_on_host(ctx, lighting),
         })
     }
 
@@ -102,10 +132,14 @@ impl FrameRenderer {
     pub fn encode(
         &self,
         ctx: &GpuContext,
-        image: &ImageBuffer,
+        image: &FrameImage,
         exposure: f64,
         tone: haze_core::ToneMap,
     ) -> Result<Vec<u8>, GpuError> {
+        let image = match image {
+            FrameImage::Host(i) => return Ok(i.to_srgb8(exposure, tone)),
+            FrameImage::Gpu(b) => b,
+        };
         if ctx.is_cpu_adapter() {
             let (width, height) = image.size();
             let pixels = image.read(ctx)?;
@@ -137,8 +171,8 @@ impl FrameRenderer {
 
     /// The image of a frame — `rbfs` and `residual` on a `dims` grid over `bbox` — lit by
     /// `env` through `medium`, seen by `camera` (RGB per pixel, row 0 at the top), as
-    /// [`haze_view::render::crm_render`] computes it, left on the GPU
-    /// ([`ImageBuffer::read`] brings it back, [`FrameRenderer::encode`] encodes it). The residual
+    /// [`haze_view::render::crm_render`] computes it, left on the GPU or on the host
+    /// ([`FrameImage::pixels`] brings it back, [`FrameRenderer::encode`] encodes it). The residual
     /// is left out when `opts.residual` is off. Errors are the GPU stages' (bad input,
     /// device limits, device errors).
     #[allow(clippy::too_many_arguments)]
@@ -153,7 +187,7 @@ impl FrameRenderer {
         env: &Environment,
         camera: &Camera,
         opts: &CrmOptions,
-    ) -> Result<(ImageBuffer, StageTimes), GpuError> {
+    ) -> Result<(FrameImage, StageTimes), GpuError> {
         if self.inner.environment() != env {
             self.inner.set_environment(ctx, env.clone())?;
         }
@@ -164,7 +198,18 @@ impl FrameRenderer {
             dims,
             bbox: *bbox,
         };
-        let (image, mut stats) = self.inner.render(ctx, &frame, medium, camera, opts)?;
+        let (image, mut stats) = if self.on_host {
+            let (pixels, stats) = self.inner.render_on_host(&frame, medium, camera, opts)?;
+            let image = haze_core::Image {
+                width: camera.width,
+                height: camera.height,
+                pixels,
+            };
+            (FrameImage::Host(image), stats)
+        } else {
+            let (image, stats) = self.inner.render(ctx, &frame, medium, camera, opts)?;
+            (FrameImage::Gpu(image), stats)
+        };
         self.inner.read_solve(ctx, &mut stats)?;
         Ok((
             image,
@@ -249,7 +294,7 @@ mod tests {
                 opts,
             )
             .unwrap();
-        (image.read(ctx).unwrap(), times)
+        (image.pixels(ctx).unwrap(), times)
     }
 
     #[test]
@@ -276,6 +321,10 @@ mod tests {
             &opts,
         );
         assert_close(&a, &cpu.pixels);
+        if view_on_host(&ctx, LightingOn::Auto) {
+            // Beside a CPU adapter the picture is the CPU renderer's own.
+            assert_eq!(a, cpu.pixels);
+        }
         // The smoke is in the picture: the middle differs from the empty sky's.
         let (sky, _) = crm_render(
             &[],
@@ -363,7 +412,7 @@ mod tests {
             let (image, times) = r
                 .render(&ctx, &f.rbfs, residual, DIMS, &bbox(), m, env, cam, o)
                 .unwrap();
-            (image.read(&ctx).unwrap(), times)
+            (image.pixels(&ctx).unwrap(), times)
         };
         // Each picture against a fresh renderer's, which builds its one grid.
         let fresh = |k: usize, m: &Medium, env: &Environment, cam: &Camera, o: &CrmOptions| {

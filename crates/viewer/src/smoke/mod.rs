@@ -217,9 +217,14 @@ pub fn run(mut a: ViewArgs) -> Result<()> {
     )
     .map_err(|e| anyhow!("{}: {e}", a.input.display()))?;
     let adapter = format!(
-        "{} ({}); lighting on the {}",
+        "{} ({}); {} on the {}",
         ctx.adapter_name(),
         ctx.backend(),
+        if frame::view_on_host(&ctx, a.lighting) {
+            "lighting and view pass"
+        } else {
+            "lighting"
+        },
         match a.lighting.resolve(&ctx) {
             LightingOn::Cpu => "CPU",
             _ => "GPU",

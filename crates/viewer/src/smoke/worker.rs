@@ -6,14 +6,13 @@
 //! the kept linear picture, still on the GPU, is only encoded again at the new exposure
 //! (`FrameRenderer::encode`).
 
-use super::frame::{FrameRenderer, StageTimes};
+use super::frame::{FrameImage, FrameRenderer, StageTimes};
 use super::playback::Tick;
 use super::thick::{Grid, Refiner};
 use haze_gpu::GpuContext;
 use haze_render::smoke::Supersample;
 use haze_view::gpu::GridBuffer;
 use haze_view::gpu::renderer::LightingOn;
-use haze_view::gpu::view_pass::ImageBuffer;
 use haze_view::gpu::volume_pass::Residual;
 use haze_view::render::CrmOptions;
 use haze_view::stream::{FrameStream, StreamFrame};
@@ -137,7 +136,7 @@ struct Kept {
     frame: usize,
     camera: Camera,
     scene: Scene,
-    image: ImageBuffer,
+    image: FrameImage,
     number: i64,
     grid: Grid,
 }
@@ -405,7 +404,7 @@ mod tests {
         let image = haze_view::Image {
             width: 24,
             height: 18,
-            pixels: image.read(&ctx).unwrap(),
+            pixels: image.pixels(&ctx).unwrap(),
         };
         assert_eq!(b.rgb, image.to_srgb8(4.0, haze_core::ToneMap::Filmic));
         assert_ne!(a.rgb, b.rgb);
