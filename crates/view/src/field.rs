@@ -61,6 +61,14 @@ impl<'a> Sampler<'a> {
     /// The density at voxel coordinates `q` from [`Sampler::coords`].
     #[inline]
     pub fn at_coords(&self, q: [f64; 3]) -> f64 {
+        self.stencil(q).sum(self.data)
+    }
+
+    /// The trilinear stencil at voxel coordinates `q` from [`Sampler::coords`]: the eight
+    /// corners' offsets in the grid's data and their weights, for [`Stencil::sum`] over
+    /// this grid's density or over any other grid of the same dimensions.
+    #[inline]
+    pub fn stencil(&self, q: [f64; 3]) -> Stencil {
         let d = self.dims;
         // Per axis: the offsets (in the data) of the lower and upper corner, and the weights.
         let mut off = [[0usize; 2]; 3];
@@ -73,12 +81,40 @@ impl<'a> Sampler<'a> {
             off[a] = [i * self.stride[a], (i + 1).min(d[a] - 1) * self.stride[a]];
             w[a] = [1.0 - t, t];
         }
-        let mut s = 0.0;
-        for corner in 0..8 {
+        Stencil { off, w }
+    }
+}
+
+/// The trilinear stencil of one point ([`Sampler::stencil`]): per axis the offsets in the
+/// data (x fastest) of the lower and upper corner and their weights `1 − t`, `t`.
+#[derive(Clone, Copy, Debug)]
+pub struct Stencil {
+    off: [[usize; 2]; 3],
+    w: [[f64; 2]; 3],
+}
+
+impl Stencil {
+    /// The eight corners, `corner = x + 2y + 4z` (0: lower, 1: upper on each axis): each
+    /// one's offset in the data and its weight `w_x·w_y·w_z`.
+    #[inline]
+    pub fn corners(&self) -> impl Iterator<Item = (usize, f64)> + '_ {
+        (0..8).map(|corner| {
             let (x, y, z) = (corner & 1, corner >> 1 & 1, corner >> 2);
-            let weight = 1.0 * w[0][x] * w[1][y] * w[2][z];
+            (
+                self.off[0][x] + self.off[1][y] + self.off[2][z],
+                1.0 * self.w[0][x] * self.w[1][y] * self.w[2][z],
+            )
+        })
+    }
+
+    /// `Σ w_k·data_k` over the corners, a corner of zero weight skipped (a NaN there
+    /// stays out).
+    #[inline]
+    pub fn sum(&self, data: &[f32]) -> f64 {
+        let mut s = 0.0;
+        for (offset, weight) in self.corners() {
             if weight != 0.0 {
-                s += weight * f64::from(self.data[off[0][x] + off[1][y] + off[2][z]]);
+                s += weight * f64::from(data[offset]);
             }
         }
         s

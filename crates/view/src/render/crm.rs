@@ -209,6 +209,8 @@ pub struct RadianceField<'a> {
     /// The density's blocks that may hold density (`None`: no voxel does), so that the
     /// view rays pass over the steps whose trilinear density is exactly zero.
     occupied: Option<Occupancy>,
+    /// The density's sampler, whose stencils the radiance shares.
+    sampler: field::Sampler<'a>,
 }
 
 impl<'a> RadianceField<'a> {
@@ -224,6 +226,7 @@ impl<'a> RadianceField<'a> {
             grids,
             ln,
             occupied,
+            sampler: field::Sampler::new(&grids.density),
         }
     }
 
@@ -253,36 +256,23 @@ impl<'a> RadianceField<'a> {
     /// takes the light that reaches it. With `dp ≤ 0` (no smoke at `p`) the result is 0.
     /// The GPU twin is `sample_grid` in `shaders/view_pass.wgsl`.
     pub fn sample(&self, p: [f64; 3], dp: f64) -> Rgb {
-        let v = &self.grids.density;
-        let b = v.bbox();
-        let d = v.dims();
-        if d.contains(&0)
-            || (0..3).any(|a| !(p[a] >= b.min[a] && p[a] <= b.max[a]))
-            || dp.is_nan()
-            || dp <= 0.0
-        {
-            return [0.0; 3];
+        match self.sampler.coords(p) {
+            Some(q) => self.sample_stencil(&self.sampler.stencil(q), dp),
+            None => [0.0; 3],
         }
-        let vs = v.voxel_size();
-        let mut i0 = [0usize; 3];
-        let mut t = [0.0f64; 3];
-        for a in 0..3 {
-            let f = ((p[a] - b.min[a]) / vs[a] - 0.5).clamp(0.0, (d[a] - 1) as f64);
-            let i = (f as usize).min(d[a].saturating_sub(2));
-            i0[a] = i;
-            t[a] = f - i as f64;
+    }
+
+    /// [`RadianceField::sample`] at the point whose trilinear stencil in the density grid
+    /// is `s` (the view pass takes the density and the radiance from one stencil).
+    #[inline]
+    pub fn sample_stencil(&self, s: &field::Stencil, dp: f64) -> Rgb {
+        if dp.is_nan() || dp <= 0.0 {
+            return [0.0; 3];
         }
         let mut corners = [([0.0f64; 3], 0.0f64); 8];
         let mut top = [f64::NEG_INFINITY; 3];
-        for (corner, slot) in corners.iter_mut().enumerate() {
-            let mut w = 1.0;
-            let mut idx = [0usize; 3];
-            for a in 0..3 {
-                let hi = corner >> a & 1 == 1;
-                idx[a] = (i0[a] + usize::from(hi)).min(d[a] - 1);
-                w *= if hi { t[a] } else { 1.0 - t[a] };
-            }
-            let ln = self.ln[v.index(idx[0], idx[1], idx[2])];
+        for (slot, (offset, w)) in corners.iter_mut().zip(s.corners()) {
+            let ln = self.ln[offset];
             for c in 0..3 {
                 top[c] = top[c].max(ln[c]);
             }
@@ -366,7 +356,7 @@ fn march(
     // The scattered light's transmittance, through σt(1 − Ωf) (`VolumeGrids::eye_peak`).
     let keep = 1.0 - g.eye_peak;
     let mut tau_j = 1.0f64;
-    let sampler = field::Sampler::new(&g.density);
+    let (sampler, data) = (&field.sampler, g.density.data());
     for k in k0.max(0)..=k1 {
         let t = (k as f64 + 0.5) * ds;
         if t < t0 || t > t1 {
@@ -378,7 +368,8 @@ fn march(
         if !occupied.may_hold_coords(q) {
             continue;
         }
-        let dens = sampler.at_coords(q);
+        let stencil = sampler.stencil(q);
+        let dens = stencil.sum(data);
         if dens <= 0.0 {
             continue;
         }
@@ -386,7 +377,7 @@ fn march(
         let (share, dt_j) = scattered_step(a, keep);
         // Nothing given back: the background's transmittance is the scattered light's.
         let dt = if keep == 1.0 { dt_j } else { (-a).exp() };
-        let j = field.sample(p, dens);
+        let j = field.sample_stencil(&stencil, dens);
         let w = tau * (1.0 - dt);
         for c in 0..3 {
             out[c] += tau_j * share * j[c];
