@@ -5,10 +5,11 @@
 //!
 //! Scheduling: one job at a time on the render thread, and at most one finished picture
 //! waiting for its due time. While playing, the next tick is asked for as soon as the
-//! thread is free and nothing waits, aimed at the slot the render will end in (the
-//! expected render time is a running mean of the last jobs), so a renderer faster than the
-//! frame rate works a frame ahead and shows every frame on time, and a slower one skips to
-//! the frames it can still show (`playback` module docs: what counts as dropped). While
+//! thread is free — also while a finished picture waits for its slot, so the thread never
+//! idles while its pictures take longer than a slot — aimed at the slot the render will
+//! end in (the expected render time is a running mean of the last jobs), so a renderer
+//! faster than the frame rate works a frame or two ahead and shows every frame on time, and
+//! a slower one skips to the frames it can still show (`playback` module docs: what counts as dropped). While
 //! paused, the frame on screen is rendered again only when the camera, the scene or the
 //! exposure changed (a change of exposure alone is only tone-mapped again), or when it
 //! was lit at a lower detail while playing (`detail` module: playback lowers the
@@ -106,6 +107,10 @@ impl Player {
     pub fn wait(&mut self, timeout: Duration) {
         if self.arrived.is_none() {
             self.arrived = self.worker.wait(timeout);
+        } else {
+            // A finished job already waits behind the picture due next: nothing can
+            // happen before `timeout` (the caller's next due time) but that.
+            std::thread::sleep(timeout);
         }
     }
 
@@ -113,28 +118,39 @@ impl Player {
     /// render thread (module docs).
     pub fn update(&mut self, now: Instant, view: &View) -> Update {
         let mut out = Update::default();
-        while let Some(done) = self
-            .arrived
-            .take()
-            .or_else(|| self.worker.wait(Duration::ZERO))
-        {
-            self.finished(done, now, &mut out);
-        }
-        if let Some(done) = self.pending.take() {
-            let tick = done.tick.expect("only ticks wait");
-            match self.playback.due_at(tick.n) {
-                Some(due) if due > now => {
-                    out.wake_at = Some(due);
-                    self.pending = Some(done);
-                }
-                _ => {
-                    if self.playback.present(tick, now) {
-                        self.show(done, now, &mut out);
+        loop {
+            if let Some(done) = self.pending.take() {
+                let tick = done.tick.expect("only ticks wait");
+                match self.playback.due_at(tick.n) {
+                    Some(due) if due > now => {
+                        out.wake_at = Some(due);
+                        self.pending = Some(done);
+                        // The next picture stays with the thread (or in `arrived`) until
+                        // this one is shown.
+                        break;
+                    }
+                    _ => {
+                        if self.playback.present(tick, now) {
+                            self.show(done, now, &mut out);
+                        }
                     }
                 }
             }
+            if out.shown.is_some() {
+                // One picture a call: a job finished since waits for the next one.
+                out.wake_at = Some(now);
+                break;
+            }
+            match self
+                .arrived
+                .take()
+                .or_else(|| self.worker.wait(Duration::ZERO))
+            {
+                Some(done) => self.finished(done, now, &mut out),
+                None => break,
+            }
         }
-        if !self.worker.busy() && self.pending.is_none() {
+        if !self.worker.busy() && self.arrived.is_none() {
             let lead = Duration::from_secs_f64(self.lead);
             let next = self.playback.next_request(now, lead);
             let frame = next.map_or(self.playback.current(), |t| t.frame);
@@ -364,6 +380,30 @@ mod tests {
             "{line}"
         );
         assert!(!line.contains("detail"), "{line}");
+
+        // At 4 frames a second each picture (milliseconds here) waits for its slot, and
+        // meanwhile the thread renders the next one: the frames in turn, none dropped.
+        p.playback.set_fps(4.0).unwrap();
+        let (mut shown, mut overlapped) = (Vec::new(), false);
+        while shown.len() < 4 {
+            let now = Instant::now();
+            let u = p.update(now, &v);
+            shown.extend(u.shown);
+            overlapped |= p.pending.is_some() && (p.worker.busy() || p.arrived.is_some());
+            let wait = u.wake_at.map_or(Duration::from_millis(100), |at| {
+                at.saturating_duration_since(now)
+            });
+            p.wait(wait.min(Duration::from_millis(100)));
+        }
+        assert!(overlapped, "the thread idled while a picture waited");
+        let n = numbers(&shown);
+        assert!(
+            n.windows(2)
+                .all(|w| w[1] == if w[0] == 104 { 101 } else { w[0] + 1 }),
+            "{n:?}"
+        );
+        assert_eq!(p.report(Instant::now()).dropped, 0);
+        p.playback.set_fps(0.0).unwrap();
 
         // Playback at a lower detail (as after late frames whose lighting outweighed the
         // view pass): the frames are lit at it; paused, the frame on screen is lit again
