@@ -265,7 +265,7 @@ impl<'a> RadianceField<'a> {
     /// [`RadianceField::sample`] at the point whose trilinear stencil in the density grid
     /// is `s` (the view pass takes the density and the radiance from one stencil).
     #[inline]
-    pub fn sample_stencil(&self, s: &field::Stencil, dp: f64) -> Rgb {
+    fn sample_stencil(&self, s: &field::Stencil, dp: f64) -> Rgb {
         if dp.is_nan() || dp <= 0.0 {
             return [0.0; 3];
         }
