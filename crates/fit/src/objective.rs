@@ -135,8 +135,8 @@ impl Tables {
 ///
 /// The x-row `(j, k)` holds the table positions `i` with `qx_i + s < 9`, `s = qy_j + qz_k`.
 /// `qx` does not increase up to `mid` and does not decrease after it, so the row is one
-/// range `[a, b)`: `a` the length of the left half's prefix where `q + s ≥ 9`, `b − (mid
-/// + 1)` that of the right half's prefix where `q + s < 9` (both prefixes by monotone
+/// range `[a, b)`: `a` the length of the left half's prefix where `q + s ≥ 9`,
+/// `b − mid − 1` that of the right half's prefix where `q + s < 9` (both prefixes by monotone
 /// rounding). From one row to the next `s` changes a little, and so do the ends: walking
 /// them from where they were costs a step or two a row, where a binary search per row
 /// (5–46 voxels across) was a tenth of a bake. The result is the per-voxel test's range
