@@ -103,7 +103,10 @@ fn npy_errors_are_clear() {
     let e = import::import(&p, &ImportOptions::default())
         .unwrap_err()
         .to_string();
-    assert!(e.contains("not supported"), "{e}");
+    assert!(
+        e.contains("dtype '<i4' is not supported: use float16, float32, float64, uint8 or uint16"),
+        "{e}"
+    );
     let p = tmp.path().join("junk.npy");
     std::fs::write(&p, b"\x93NUMPY garbage").unwrap();
     let e = import::import(&p, &ImportOptions::default())
@@ -116,6 +119,73 @@ fn npy_errors_are_clear() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("voxel (1, 0, 0) is NaN"), "{e}");
+}
+
+/// 8- and 16-bit unsigned samples come in as fractions of 255 / 65535 and half floats as
+/// they are, from `.npy` and from raw files whose sidecar names the type, with the values
+/// written here independently (the integers' ends and the half-float bit patterns of 0.5,
+/// 1 and 2).
+#[test]
+fn integer_and_half_samples() {
+    let tmp = tempfile::tempdir().unwrap();
+    let want = [0.0f32, 0.2, 0.4, 1.0];
+    let p = tmp.path().join("u8.npy");
+    write_npy(&p, &[1, 2, 2], npyz::Order::C, &[0u8, 51, 102, 255]);
+    assert_eq!(
+        import::import(&p, &ImportOptions::default())
+            .unwrap()
+            .data(),
+        &want
+    );
+    let p = tmp.path().join("u16.npy");
+    write_npy(&p, &[1, 2, 2], npyz::Order::C, &[0u16, 13107, 26214, 65535]);
+    assert_eq!(
+        import::import(&p, &ImportOptions::default())
+            .unwrap()
+            .data(),
+        &want
+    );
+    let halves = [0.5f32, 1.0, 2.0, 0.0].map(half::f16::from_f32);
+    let p = tmp.path().join("f16.npy");
+    write_npy(&p, &[2, 2, 1], npyz::Order::Fortran, &halves);
+    assert_eq!(
+        import::import(&p, &ImportOptions::default())
+            .unwrap()
+            .data(),
+        &[0.5, 1.0, 2.0, 0.0]
+    );
+    let box_of = |dtype: &str| {
+        format!(
+            r#"{{"dims": [2, 2, 1], "world_bbox_min": [0,0,0], "world_bbox_max": [2,2,1], "dtype": "{dtype}"}}"#
+        )
+    };
+    let p = tmp.path().join("r8.raw");
+    std::fs::write(&p, [0u8, 51, 102, 255]).unwrap();
+    sidecar(&p, &box_of("uint8"));
+    assert_eq!(
+        import::import(&p, &ImportOptions::default())
+            .unwrap()
+            .data(),
+        &want
+    );
+    let p = tmp.path().join("r16.raw");
+    std::fs::write(&p, [0u8, 0, 0x33, 0x33, 0x66, 0x66, 0xff, 0xff]).unwrap();
+    sidecar(&p, &box_of("<u2"));
+    assert_eq!(
+        import::import(&p, &ImportOptions::default())
+            .unwrap()
+            .data(),
+        &want
+    );
+    let p = tmp.path().join("rh.raw");
+    std::fs::write(&p, [0x00, 0x38, 0x00, 0x3c, 0x00, 0x40, 0x00, 0x00]).unwrap();
+    sidecar(&p, &box_of("float16"));
+    assert_eq!(
+        import::import(&p, &ImportOptions::default())
+            .unwrap()
+            .data(),
+        &[0.5, 1.0, 2.0, 0.0]
+    );
 }
 
 #[test]
@@ -138,8 +208,16 @@ fn raw_sidecar_errors_are_clear() {
             "voxel_size",
         ),
         (
-            r#"{"dims": [2, 2, 2], "world_bbox_min": [0,0,0], "world_bbox_max": [1,1,1], "dtype": "float64"}"#,
-            "dtype 'float64'",
+            r#"{"dims": [2, 2, 2], "world_bbox_min": [0,0,0], "world_bbox_max": [1,1,1], "dtype": "int16"}"#,
+            "dtype 'int16' is not supported: use little-endian float16, float32, float64, uint8",
+        ),
+        (
+            r#"{"dims": [2, 2, 2], "world_bbox_min": [0,0,0], "world_bbox_max": [1,1,1], "dtype": "float32 big-endian"}"#,
+            "dtype 'float32 big-endian'",
+        ),
+        (
+            r#"{"dims": [2, 2, 2], "world_bbox_min": [0,0,0], "world_bbox_max": [1,1,1], "dtype": "uint16"}"#,
+            "need 16 bytes of uint16 but the file has 32 bytes",
         ),
     ] {
         sidecar(&p, body);

@@ -4,6 +4,7 @@
 mod guard;
 pub mod npy;
 pub mod raw;
+pub mod samples;
 pub mod sequence;
 pub mod vdb;
 
@@ -19,7 +20,8 @@ use std::path::Path;
 pub enum Format {
     /// OpenVDB (`.vdb`).
     Vdb,
-    /// Raw little-endian `f32` with a JSON sidecar (`.f32`, `.raw`).
+    /// Raw little-endian samples (`float32` unless the sidecar says otherwise) with a JSON
+    /// sidecar (`.f32`, `.raw`).
     Raw,
     /// NumPy (`.npy`).
     Npy,

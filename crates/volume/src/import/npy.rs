@@ -1,12 +1,14 @@
 //! NumPy `.npy` volumes (through npyz).
 //!
-//! A 3-D array of `float32` (or `float64`, converted) in either memory order:
+//! A 3-D array of any type of [`super::samples`] (`float32`; `float16` and `float64`
+//! converted; `uint8` and `uint16` read as fractions of 255 / 65535) in either memory order:
 //! a C-order array is indexed `[z, y, x]` and a Fortran-order array `[x, y, z]`, so that in
 //! both cases x varies fastest in the file, as in every haze grid. The world box comes from
 //! an optional JSON sidecar `NAME.json` (`world_bbox_min`, `world_bbox_max`, and `dims` if
 //! given must match); without one the box is `[0, dims]` (unit voxels at the origin).
 
 use super::raw::{read_sidecar, sidecar_path};
+use super::samples::{SUPPORTED, SampleType, unorm8, unorm16};
 use crate::error::{ImportError, Problem};
 use crate::volume::{Bbox, Volume, voxel_count};
 use npyz::{DType, NpyFile, Order, TypeChar};
@@ -35,28 +37,40 @@ pub fn read(path: &Path) -> Result<Volume, ImportError> {
         Order::Fortran => s,
     };
     let n = voxel_count(dims).ok_or_else(|| fmt_err(path, "shape overflows"))?;
-    let (kind, size) = match npy.dtype() {
-        DType::Plain(ts) => (ts.type_char(), ts.size_field()),
-        other => {
-            return Err(fmt_err(
-                path,
-                format!("dtype {} is not a float array", other.descr()),
-            ));
-        }
+    let descr = npy.dtype().descr();
+    let ty = match npy.dtype() {
+        DType::Plain(ts) => match (ts.type_char(), ts.size_field()) {
+            (TypeChar::Float, 2) => Some(SampleType::F16),
+            (TypeChar::Float, 4) => Some(SampleType::F32),
+            (TypeChar::Float, 8) => Some(SampleType::F64),
+            (TypeChar::Uint, 1) => Some(SampleType::U8),
+            (TypeChar::Uint, 2) => Some(SampleType::U16),
+            _ => None,
+        },
+        _ => None,
     };
-    let data: Vec<f32> = match (kind, size) {
-        (TypeChar::Float, 4) => npy.into_vec::<f32>(),
-        (TypeChar::Float, 8) => npy
+    let Some(ty) = ty else {
+        return Err(fmt_err(
+            path,
+            format!("dtype {descr} is not supported: use {SUPPORTED}"),
+        ));
+    };
+    let data: Result<Vec<f32>, _> = match ty {
+        SampleType::F16 => npy
+            .into_vec::<half::f16>()
+            .map(|v| v.into_iter().map(f32::from).collect()),
+        SampleType::F32 => npy.into_vec::<f32>(),
+        SampleType::F64 => npy
             .into_vec::<f64>()
             .map(|v| v.into_iter().map(|x| x as f32).collect()),
-        _ => {
-            return Err(fmt_err(
-                path,
-                format!("dtype {kind:?}{size} is not supported (float32 or float64)"),
-            ));
-        }
-    }
-    .map_err(|e| fmt_err(path, format!("array data unreadable: {e}")))?;
+        SampleType::U8 => npy
+            .into_vec::<u8>()
+            .map(|v| v.into_iter().map(unorm8).collect()),
+        SampleType::U16 => npy
+            .into_vec::<u16>()
+            .map(|v| v.into_iter().map(unorm16).collect()),
+    };
+    let data = data.map_err(|e| fmt_err(path, format!("array data unreadable: {e}")))?;
     if data.len() != n {
         return Err(fmt_err(
             path,

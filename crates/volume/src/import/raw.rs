@@ -1,9 +1,12 @@
-//! Raw little-endian `f32` grids with a JSON sidecar (`NAME.json` beside `NAME.f32`).
+//! Raw little-endian grids with a JSON sidecar (`NAME.json` beside `NAME.f32`).
 //!
 //! The sidecar needs `dims` (x, y, z) and the world box `world_bbox_min` /
-//! `world_bbox_max`; `voxel_size` and `dtype` are optional and checked when present; any
-//! other key is ignored. Samples are x fastest, then y, then z.
+//! `world_bbox_max`; `voxel_size` is optional and checked when present; `dtype` is
+//! optional, `float32` when absent, and may name any type of [`super::samples`]
+//! (`uint8` and `uint16` read as fractions of 255 / 65535); any other key is ignored.
+//! Samples are x fastest, then y, then z.
 
+use super::samples::{SUPPORTED, SampleType};
 use crate::error::{ImportError, Problem};
 use crate::volume::{Bbox, Volume, voxel_count};
 use serde::Deserialize;
@@ -48,16 +51,14 @@ pub fn read_sidecar(raw: &Path) -> Result<Sidecar, ImportError> {
     haze_core::json::unique_keys(&text).map_err(|e| sidecar_err(raw, &sc, e.to_string()))?;
     let s: Sidecar =
         serde_json::from_str(&text).map_err(|e| sidecar_err(raw, &sc, e.to_string()))?;
-    if let Some(dt) = &s.dtype {
-        let d = dt.to_ascii_lowercase();
-        let ok = d == "<f4" || d == "f4" || (d.contains("float32") && !d.contains("big"));
-        if !ok {
-            return Err(sidecar_err(
-                raw,
-                &sc,
-                format!("dtype '{dt}' is not supported (expected \"float32 little-endian\")"),
-            ));
-        }
+    if let Some(dt) = &s.dtype
+        && SampleType::from_sidecar(dt).is_none()
+    {
+        return Err(sidecar_err(
+            raw,
+            &sc,
+            format!("dtype '{dt}' is not supported: use little-endian {SUPPORTED}"),
+        ));
     }
     let bbox = Bbox::new(s.world_bbox_min, s.world_bbox_max);
     let ordered = (0..3)
@@ -106,11 +107,20 @@ pub fn read_sidecar(raw: &Path) -> Result<Sidecar, ImportError> {
     Ok(s)
 }
 
-/// Reads a raw `f32` volume and its sidecar.
+/// The sample type a checked sidecar names (`float32` when it names none).
+pub fn sample_type(sc: &Sidecar) -> SampleType {
+    sc.dtype
+        .as_deref()
+        .and_then(SampleType::from_sidecar)
+        .unwrap_or(SampleType::F32)
+}
+
+/// Reads a raw volume and its sidecar.
 pub fn read(path: &Path) -> Result<Volume, ImportError> {
     let sc = read_sidecar(path)?;
+    let ty = sample_type(&sc);
     let n = voxel_count(sc.dims)
-        .and_then(|n| n.checked_mul(4))
+        .and_then(|n| n.checked_mul(ty.size()))
         .ok_or_else(|| sidecar_err(path, &sidecar_path(path), "dims overflow"))?;
     let len = std::fs::metadata(path)
         .map_err(|e| ImportError::new(path, e.into()))?
@@ -120,16 +130,17 @@ pub fn read(path: &Path) -> Result<Volume, ImportError> {
             path,
             &sidecar_path(path),
             format!(
-                "dims {}×{}×{} need {} bytes of float32 but the file has {len} bytes",
-                sc.dims[0], sc.dims[1], sc.dims[2], n
+                "dims {}×{}×{} need {} bytes of {} but the file has {len} bytes",
+                sc.dims[0],
+                sc.dims[1],
+                sc.dims[2],
+                n,
+                ty.name()
             ),
         ));
     }
     let bytes = std::fs::read(path).map_err(|e| ImportError::new(path, e.into()))?;
-    let data: Vec<f32> = bytes
-        .chunks_exact(4)
-        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-        .collect();
+    let data = ty.decode_le(&bytes);
     Volume::new(
         sc.dims,
         Bbox::new(sc.world_bbox_min, sc.world_bbox_max),
