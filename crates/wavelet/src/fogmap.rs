@@ -7,9 +7,12 @@
 //!   greyscale with alpha is refused (alpha has no meaning in a fogmap).
 //! * `.exr`: the first layer's `Y` channel, or its only channel, or `R` when `R = G = B`
 //!   everywhere; values as stored (linear extinction coefficients).
-//! * `.npy`: a 2-D float32 or float64 array, C order `[row, column]` or Fortran order.
-//! * `.f32`: raw little-endian float32, rows of `width` values, with a JSON sidecar
-//!   `NAME.json` holding `"dims": [width, height]`.
+//! * `.npy`: a 2-D array, C order `[row, column]` or Fortran order, of float16, float32
+//!   or float64, or of uint8 or uint16 scaled to `[0, 1]` as a PNG's are
+//!   ([`haze_volume::import::samples`]).
+//! * `.f32`: raw little-endian samples, rows of `width` values, with a JSON sidecar
+//!   `NAME.json` holding `"dims": [width, height]` and optionally `"dtype"` (float32 when
+//!   absent; the types and names of a raw volume's sidecar).
 //!
 //! In every format row 0 is the map's north (top) edge, as an image is shown: pixel
 //! `(column i, row r)` becomes coefficient `(i, height − 1 − r)`, so `+y` is north. Values
@@ -17,6 +20,7 @@
 //! refused. Every error names the file and the problem on one line.
 
 use crate::mallat::Grid;
+use haze_volume::import::samples::{SUPPORTED, SampleType};
 use std::path::{Path, PathBuf};
 use thiserror::Error;
 
@@ -221,6 +225,7 @@ fn read_exr(path: &Path) -> Result<Pixels, String> {
 }
 
 fn read_npy(path: &Path) -> Result<Pixels, String> {
+    use haze_volume::import::samples::{unorm8, unorm16};
     use npyz::{DType, NpyFile, Order, TypeChar};
     let bytes = std::fs::read(path).map_err(|e| format!("cannot read: {e}"))?;
     haze_core::npy_header::check(&bytes)?;
@@ -234,14 +239,29 @@ fn read_npy(path: &Path) -> Result<Pixels, String> {
     let dim = |i: usize| usize::try_from(shape[i]).map_err(|_| "shape too large".to_string());
     let (rows, cols) = (dim(0)?, dim(1)?);
     let fortran = npy.order() == Order::Fortran;
-    let values: Vec<f64> = match npy.dtype() {
-        DType::Plain(ts) if ts.type_char() == TypeChar::Float && ts.size_field() == 4 => npy
-            .into_vec::<f32>()
+    let kind = match npy.dtype() {
+        DType::Plain(ts) => Some((ts.type_char(), ts.size_field())),
+        _ => None,
+    };
+    let widen = |v: Vec<f32>| v.into_iter().map(f64::from).collect::<Vec<f64>>();
+    let values: Vec<f64> = match kind {
+        Some((TypeChar::Float, 2)) => npy
+            .into_vec::<half::f16>()
             .map(|v| v.into_iter().map(f64::from).collect()),
-        DType::Plain(ts) if ts.type_char() == TypeChar::Float && ts.size_field() == 8 => {
-            npy.into_vec::<f64>()
+        Some((TypeChar::Float, 4)) => npy.into_vec::<f32>().map(widen),
+        Some((TypeChar::Float, 8)) => npy.into_vec::<f64>(),
+        Some((TypeChar::Uint, 1)) => npy
+            .into_vec::<u8>()
+            .map(|v| v.into_iter().map(|x| f64::from(unorm8(x))).collect()),
+        Some((TypeChar::Uint, 2)) => npy
+            .into_vec::<u16>()
+            .map(|v| v.into_iter().map(|x| f64::from(unorm16(x))).collect()),
+        _ => {
+            return Err(format!(
+                "dtype {} is not supported: use {SUPPORTED}",
+                npy.dtype().descr()
+            ));
         }
-        other => return Err(format!("dtype {} is not float32 or float64", other.descr())),
     }
     .map_err(|e| format!("array data unreadable: {e}"))?;
     if values.len() != rows * cols {
@@ -265,6 +285,8 @@ fn read_npy(path: &Path) -> Result<Pixels, String> {
 #[derive(serde::Deserialize)]
 struct Sidecar {
     dims: Vec<usize>,
+    #[serde(default)]
+    dtype: Option<String>,
 }
 
 fn read_raw(path: &Path) -> Result<Pixels, String> {
@@ -285,18 +307,32 @@ fn read_raw(path: &Path) -> Result<Pixels, String> {
             ));
         }
     };
+    let ty = match &sc.dtype {
+        None => SampleType::F32,
+        Some(dt) => SampleType::from_sidecar(dt).ok_or_else(|| {
+            format!(
+                "sidecar {}: dtype '{dt}' is not supported: use little-endian {SUPPORTED}",
+                sidecar.display()
+            )
+        })?,
+    };
     let bytes = std::fs::read(path).map_err(|e| format!("cannot read: {e}"))?;
-    let expected = w.checked_mul(h).and_then(|n| n.checked_mul(4));
+    let expected = w.checked_mul(h).and_then(|n| n.checked_mul(ty.size()));
     if expected != Some(bytes.len()) {
         return Err(format!(
-            "{} bytes, but dims {w} × {h} need {} float32 values",
+            "{} bytes, but dims {w} × {h} need {} {} values",
             bytes.len(),
-            w.saturating_mul(h)
+            w.saturating_mul(h),
+            ty.name()
         ));
     }
-    let values = bytes
-        .chunks_exact(4)
-        .map(|b| f64::from(f32::from_le_bytes([b[0], b[1], b[2], b[3]])))
-        .collect();
+    // float64 kept exact; the other types through the volumes' decoding.
+    let values = match ty {
+        SampleType::F64 => bytes
+            .chunks_exact(8)
+            .map(|b| f64::from_le_bytes(b.try_into().unwrap_or([0; 8])))
+            .collect(),
+        _ => ty.decode_le(&bytes).into_iter().map(f64::from).collect(),
+    };
     Ok((w, h, values))
 }

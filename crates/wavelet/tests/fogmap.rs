@@ -163,6 +163,53 @@ fn npy_c_and_fortran_order() {
     assert!(error_of(&cube).contains("needs 2 dimensions"));
 }
 
+/// 8- and 16-bit NumPy and raw fogmaps are scaled to `[0, 1]` as a PNG's are, and a
+/// signed type is refused with its name.
+#[test]
+fn integer_fogmaps_scale_as_pngs_do() {
+    use npyz::WriterBuilder;
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("u8.npy");
+    let mut out = Vec::new();
+    let mut w = npyz::WriteOptions::new()
+        .default_dtype()
+        .shape(&[1, 3])
+        .writer(&mut out)
+        .begin_nd()
+        .unwrap();
+    w.extend([0u8, 51, 255]).unwrap();
+    w.finish().unwrap();
+    std::fs::write(&p, out).unwrap();
+    let f = Fogmap::load(&p).unwrap();
+    let want = [0.0, 51.0f32 / 255.0, 1.0].map(f64::from);
+    assert_eq!(f.values, want);
+    let p = dir.path().join("u16.f32");
+    let bytes: Vec<u8> = [0u16, 13107, 65535]
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    std::fs::write(&p, bytes).unwrap();
+    std::fs::write(
+        p.with_extension("json"),
+        r#"{"dims": [3, 1], "dtype": "uint16"}"#,
+    )
+    .unwrap();
+    let want = [0.0, 13107.0f32 / 65535.0, 1.0].map(f64::from);
+    assert_eq!(Fogmap::load(&p).unwrap().values, want);
+    let p = dir.path().join("i4.npy");
+    let mut out = Vec::new();
+    let mut w = npyz::WriteOptions::new()
+        .default_dtype()
+        .shape(&[1, 2])
+        .writer(&mut out)
+        .begin_nd()
+        .unwrap();
+    w.extend([1i32, 2]).unwrap();
+    w.finish().unwrap();
+    std::fs::write(&p, out).unwrap();
+    assert!(error_of(&p).contains("dtype '<i4' is not supported: use float16"));
+}
+
 #[test]
 fn raw_float32_with_sidecar_and_its_refusals() {
     let dir = tempfile::tempdir().unwrap();
@@ -189,6 +236,12 @@ fn raw_float32_with_sidecar_and_its_refusals() {
     assert!(error_of(&inf).contains("not a finite number"));
     let short = raw("short", &[1.0], Some(r#"{"dims": [2, 2]}"#));
     assert!(error_of(&short).contains("need 4 float32 values"));
+    let int16 = raw(
+        "int16",
+        &[1.0],
+        Some(r#"{"dims": [1, 1], "dtype": "int16"}"#),
+    );
+    assert!(error_of(&int16).contains("dtype 'int16' is not supported"));
     let empty = raw("empty", &[], Some(r#"{"dims": [0, 0]}"#));
     assert!(error_of(&empty).contains("empty fogmap"));
     let no_sidecar = raw("lonely", &[1.0], None);
