@@ -82,6 +82,35 @@ fn inspect_vdb_reports_dims_range_and_grids() {
     assert_eq!(j["voxel_size"], serde_json::json!([0.0625, 0.0625, 0.0625]));
     assert_eq!(j["vdb"]["grids"].as_array().unwrap().len(), 5);
     assert_eq!(j["memory_bytes"], 48 * 48 * 64 * 4);
+    assert!(
+        j.get("samples").is_none(),
+        "a VDB's grids say their own type"
+    );
+}
+
+/// An 8-bit raw volume is read as fractions of 255, and `inspect` says so.
+#[test]
+fn inspect_says_how_integer_samples_are_read() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = tmp.path().join("u8.raw");
+    std::fs::write(&p, [0u8, 51, 102, 255]).unwrap();
+    std::fs::write(
+        p.with_extension("json"),
+        r#"{"dims": [2, 2, 1], "world_bbox_min": [0,0,0], "world_bbox_max": [1,1,1], "dtype": "uint8"}"#,
+    )
+    .unwrap();
+    let j = json_of(&["inspect", p.to_str().unwrap(), "--json"]);
+    assert_eq!(j["samples"], "uint8");
+    assert_eq!(j["value_max"], 1.0);
+    let out = haze()
+        .args(["inspect", p.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        text.contains("samples:    uint8, read as fractions of 255"),
+        "{text}"
+    );
 }
 
 #[test]
@@ -108,6 +137,7 @@ fn inspect_raw_with_sidecar_and_domain_offset() {
     let raw = data("plume-a/dense/density_0024.f32");
     let j = json_of(&["inspect", raw.to_str().unwrap(), "--json"]);
     assert_eq!(j["format"], "raw");
+    assert_eq!(j["samples"], "float32");
     assert_eq!(j["bbox_min"], serde_json::json!([-1.5, -1.5, 0.0]));
     assert!((j["value_sum"].as_f64().unwrap() - 3606.951126572968).abs() < 1e-9);
     let vdb = data("plume-a/vdb/fluid_data_0024.vdb");

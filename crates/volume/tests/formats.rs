@@ -1,6 +1,7 @@
 //! NumPy and raw imports on synthetic files, including every documented error.
 
 use haze_volume::ImportOptions;
+use haze_volume::import::samples::SampleType;
 use haze_volume::import::{self, Sequence};
 use npyz::WriterBuilder;
 use std::path::Path;
@@ -139,6 +140,7 @@ fn integer_and_half_samples() {
     );
     let p = tmp.path().join("u16.npy");
     write_npy(&p, &[1, 2, 2], npyz::Order::C, &[0u16, 13107, 26214, 65535]);
+    assert_eq!(import::samples_of(&p).unwrap(), Some(SampleType::U16));
     assert_eq!(
         import::import(&p, &ImportOptions::default())
             .unwrap()
@@ -162,6 +164,7 @@ fn integer_and_half_samples() {
     let p = tmp.path().join("r8.raw");
     std::fs::write(&p, [0u8, 51, 102, 255]).unwrap();
     sidecar(&p, &box_of("uint8"));
+    assert_eq!(import::samples_of(&p).unwrap(), Some(SampleType::U8));
     assert_eq!(
         import::import(&p, &ImportOptions::default())
             .unwrap()

@@ -34,6 +34,9 @@ impl Report {
                 if let Some(g) = &r.grid {
                     line(&mut out, "read", g.clone());
                 }
+                if let Some(s) = r.reading {
+                    line(&mut out, "samples", s.to_string());
+                }
                 r.values.text(&mut out);
             }
             Report::Sequence(r) => {

@@ -93,6 +93,12 @@ pub struct FileReport {
     pub vdb: Option<vdb::VdbFileInfo>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub grid: Option<String>,
+    /// A raw or NumPy file's sample type (`float32`, `uint8`, …).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub samples: Option<&'static str>,
+    /// How those samples become densities, in words.
+    #[serde(skip)]
+    pub reading: Option<&'static str>,
     #[serde(flatten)]
     pub values: GridReport,
 }
@@ -104,11 +110,14 @@ pub(super) fn file_report(path: &Path, opts: &ImportOptions) -> Result<FileRepor
         _ => None,
     };
     let v = import::import(path, opts)?;
+    let samples = import::samples_of(path)?;
     Ok(FileReport {
         path: path.display().to_string(),
         format,
         file_bytes: std::fs::metadata(path)?.len(),
         grid: vdb_info.as_ref().map(|_| opts.grid.clone()),
+        samples: samples.map(|t| t.name()),
+        reading: samples.map(|t| t.reading()),
         vdb: vdb_info,
         values: GridReport::of(&v),
     })

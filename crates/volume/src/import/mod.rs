@@ -78,6 +78,16 @@ pub fn import(path: &Path, opts: &ImportOptions) -> Result<Volume, ImportError> 
     Ok(v)
 }
 
+/// The sample type of a raw or NumPy volume file (`None` for OpenVDB, whose grids say
+/// their own type, and for a type the import refuses).
+pub fn samples_of(path: &Path) -> Result<Option<samples::SampleType>, ImportError> {
+    match format_of(path)? {
+        Format::Vdb => Ok(None),
+        Format::Raw => Ok(Some(raw::sample_type(&raw::read_sidecar(path)?))),
+        Format::Npy => npy::samples(path),
+    }
+}
+
 /// The format of `path`, or an error naming the supported extensions.
 pub fn format_of(path: &Path) -> Result<Format, ImportError> {
     Format::of(path).ok_or_else(|| {

@@ -38,18 +38,7 @@ pub fn read(path: &Path) -> Result<Volume, ImportError> {
     };
     let n = voxel_count(dims).ok_or_else(|| fmt_err(path, "shape overflows"))?;
     let descr = npy.dtype().descr();
-    let ty = match npy.dtype() {
-        DType::Plain(ts) => match (ts.type_char(), ts.size_field()) {
-            (TypeChar::Float, 2) => Some(SampleType::F16),
-            (TypeChar::Float, 4) => Some(SampleType::F32),
-            (TypeChar::Float, 8) => Some(SampleType::F64),
-            (TypeChar::Uint, 1) => Some(SampleType::U8),
-            (TypeChar::Uint, 2) => Some(SampleType::U16),
-            _ => None,
-        },
-        _ => None,
-    };
-    let Some(ty) = ty else {
+    let Some(ty) = sample_type(&npy.dtype()) else {
         return Err(fmt_err(
             path,
             format!("dtype {descr} is not supported: use {SUPPORTED}"),
@@ -94,6 +83,29 @@ pub fn read(path: &Path) -> Result<Volume, ImportError> {
         Bbox::new([0.0; 3], dims.map(|d| d.max(1) as f64))
     };
     Volume::new(dims, bbox, data).map_err(|e| fmt_err(path, e.to_string()))
+}
+
+/// The sample type of a NumPy dtype, if supported.
+fn sample_type(dtype: &DType) -> Option<SampleType> {
+    match dtype {
+        DType::Plain(ts) => match (ts.type_char(), ts.size_field()) {
+            (TypeChar::Float, 2) => Some(SampleType::F16),
+            (TypeChar::Float, 4) => Some(SampleType::F32),
+            (TypeChar::Float, 8) => Some(SampleType::F64),
+            (TypeChar::Uint, 1) => Some(SampleType::U8),
+            (TypeChar::Uint, 2) => Some(SampleType::U16),
+            _ => None,
+        },
+        _ => None,
+    }
+}
+
+/// The sample type of a `.npy` file, from its header alone (`None`: not supported).
+pub fn samples(path: &Path) -> Result<Option<SampleType>, ImportError> {
+    let file = std::fs::File::open(path).map_err(|e| ImportError::new(path, e.into()))?;
+    let npy = NpyFile::new(std::io::BufReader::new(file))
+        .map_err(|e| fmt_err(path, format!("not a readable .npy file: {e}")))?;
+    Ok(sample_type(&npy.dtype()))
 }
 
 trait ShapeExt {

@@ -43,6 +43,17 @@ impl SampleType {
         }
     }
 
+    /// How samples of this type become densities, in words (`inspect`).
+    pub fn reading(self) -> &'static str {
+        match self {
+            SampleType::F16 => "float16",
+            SampleType::F32 => "float32",
+            SampleType::F64 => "float64, read as float32",
+            SampleType::U8 => "uint8, read as fractions of 255",
+            SampleType::U16 => "uint16, read as fractions of 65535",
+        }
+    }
+
     /// The type a sidecar's `dtype` names, little-endian: NumPy's codes (`<f4`, `f4`,
     /// `|u1`, `<u2`, `<f2`, `<f8`) or words (`float32`, `"float32 little-endian"`,
     /// `uint8`, `uint16`, `float16`, `half`, `float64`, `double`). `None` for anything
