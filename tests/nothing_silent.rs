@@ -442,3 +442,50 @@ fn a_phase_function_the_sh_order_truncates_is_warned_about() {
     );
     assert!(!render("0.3").contains("too forward"));
 }
+
+/// "values accepted without a word": baking a grid that is zero everywhere (the sample's
+/// `flame` grid) says so, naming the grid, and the summary counts the all-zero frames of
+/// a sequence with one.
+#[test]
+fn an_all_zero_bake_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let vdb = data("plume-a/vdb/fluid_data_0021.vdb");
+    let out = haze()
+        .args([
+            "bake",
+            s(&vdb),
+            "--grid",
+            "flame",
+            "--out",
+            s(&d.join("f.haze")),
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        e.contains("every frame is all zero (OpenVDB grid 'flame'; --grid picks another)"),
+        "{e}"
+    );
+    let seq = d.join("seq");
+    std::fs::create_dir(&seq).unwrap();
+    for (k, v) in [(1, blob(12)), (2, vec![0.0; 12 * 12 * 12]), (3, blob(12))] {
+        write_npy(&seq.join(format!("f_{k}.npy")), [12; 3], &v);
+    }
+    let out = haze()
+        .args([
+            "bake",
+            s(&seq),
+            "--rbfs",
+            "20",
+            "--out",
+            s(&d.join("s.haze")),
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(e.contains("; 1 frame all zero"), "{e}");
+    assert!(!e.contains("every frame"), "{e}");
+}
