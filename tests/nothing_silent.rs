@@ -443,9 +443,9 @@ fn a_phase_function_the_sh_order_truncates_is_warned_about() {
     assert!(!render("0.3").contains("too forward"));
 }
 
-/// "values accepted without a word": baking a grid that is zero everywhere (the sample's
-/// `flame` grid) says so, naming the grid, and the summary counts the all-zero frames of
-/// a sequence with one.
+/// "values accepted without a word": baking or rendering a grid that is zero everywhere
+/// (the sample's `flame` grid) says so, naming the grid, and the bake's summary counts
+/// the all-zero frames of a sequence with one.
 #[test]
 fn an_all_zero_bake_is_named() {
     let dir = tempfile::tempdir().unwrap();
@@ -466,6 +466,25 @@ fn an_all_zero_bake_is_named() {
     let e = String::from_utf8_lossy(&out.stderr);
     assert!(
         e.contains("every frame is all zero (OpenVDB grid 'flame'; --grid picks another)"),
+        "{e}"
+    );
+    let out = haze()
+        .args([
+            "render",
+            s(&vdb),
+            "--grid",
+            "flame",
+            "--cpu",
+            "--width",
+            "16",
+        ])
+        .args(["--height", "12", "--out", s(&d.join("f.exr"))])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        e.contains("the density is zero everywhere (OpenVDB grid 'flame'"),
         "{e}"
     );
     let seq = d.join("seq");

@@ -50,7 +50,7 @@ pub fn load(
     let (density, label) = if is_asset(input) {
         match read_raw_frame(input, frame)? {
             Some((n, v)) => (v, format!("{} frame {n}", input.display())),
-            None => return load_asset(input, frame),
+            None => return load_asset(input, frame).map(|f| warn_if_empty(f, None)),
         }
     } else {
         let path = volume_path(input, frame, opts)?;
@@ -78,13 +78,32 @@ pub fn load(
             *r = (f64::from(*d) - x) as f32;
         }
     }
-    Ok(FrameData {
-        density,
-        rbfs,
-        residual,
-        slot: None,
-        label,
-    })
+    let grid = (import::format_of(input).ok() == Some(import::Format::Vdb)).then_some(&opts.grid);
+    Ok(warn_if_empty(
+        FrameData {
+            density,
+            rbfs,
+            residual,
+            slot: None,
+            label,
+        },
+        grid.map(String::as_str),
+    ))
+}
+
+/// `f`, after a warning when its density is zero everywhere (the picture then shows no
+/// smoke; from an OpenVDB file, often the wrong `grid`).
+fn warn_if_empty(f: FrameData, grid: Option<&str>) -> FrameData {
+    if f.density.data().iter().all(|&d| d <= 0.0) {
+        let which = grid
+            .map(|g| format!(" (OpenVDB grid '{g}'; --grid picks another)"))
+            .unwrap_or_default();
+        tracing::warn!(
+            "{}: the density is zero everywhere{which}: the picture shows no smoke",
+            f.label
+        );
+    }
+    f
 }
 
 /// The file of frame `frame` of `input` (a volume file, or a directory or glob of
