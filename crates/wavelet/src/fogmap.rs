@@ -226,7 +226,7 @@ fn read_exr(path: &Path) -> Result<Pixels, String> {
 
 fn read_npy(path: &Path) -> Result<Pixels, String> {
     use haze_volume::import::samples::{unorm8, unorm16};
-    use npyz::{DType, NpyFile, Order, TypeChar};
+    use npyz::{NpyFile, Order};
     let bytes = std::fs::read(path).map_err(|e| format!("cannot read: {e}"))?;
     haze_core::npy_header::check(&bytes)?;
     let npy = NpyFile::new(&bytes[..]).map_err(|e| format!("not a readable .npy file: {e}"))?;
@@ -239,29 +239,26 @@ fn read_npy(path: &Path) -> Result<Pixels, String> {
     let dim = |i: usize| usize::try_from(shape[i]).map_err(|_| "shape too large".to_string());
     let (rows, cols) = (dim(0)?, dim(1)?);
     let fortran = npy.order() == Order::Fortran;
-    let kind = match npy.dtype() {
-        DType::Plain(ts) => Some((ts.type_char(), ts.size_field())),
-        _ => None,
+    let Some(ty) = haze_volume::import::npy::sample_type(&npy.dtype()) else {
+        return Err(format!(
+            "dtype {} is not supported: use {SUPPORTED}",
+            npy.dtype().descr()
+        ));
     };
-    let widen = |v: Vec<f32>| v.into_iter().map(f64::from).collect::<Vec<f64>>();
-    let values: Vec<f64> = match kind {
-        Some((TypeChar::Float, 2)) => npy
+    let values: Vec<f64> = match ty {
+        SampleType::F16 => npy
             .into_vec::<half::f16>()
             .map(|v| v.into_iter().map(f64::from).collect()),
-        Some((TypeChar::Float, 4)) => npy.into_vec::<f32>().map(widen),
-        Some((TypeChar::Float, 8)) => npy.into_vec::<f64>(),
-        Some((TypeChar::Uint, 1)) => npy
+        SampleType::F32 => npy
+            .into_vec::<f32>()
+            .map(|v| v.into_iter().map(f64::from).collect()),
+        SampleType::F64 => npy.into_vec::<f64>(),
+        SampleType::U8 => npy
             .into_vec::<u8>()
             .map(|v| v.into_iter().map(|x| f64::from(unorm8(x))).collect()),
-        Some((TypeChar::Uint, 2)) => npy
+        SampleType::U16 => npy
             .into_vec::<u16>()
             .map(|v| v.into_iter().map(|x| f64::from(unorm16(x))).collect()),
-        _ => {
-            return Err(format!(
-                "dtype {} is not supported: use {SUPPORTED}",
-                npy.dtype().descr()
-            ));
-        }
     }
     .map_err(|e| format!("array data unreadable: {e}"))?;
     if values.len() != rows * cols {

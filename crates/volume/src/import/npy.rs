@@ -85,8 +85,8 @@ pub fn read(path: &Path) -> Result<Volume, ImportError> {
     Volume::new(dims, bbox, data).map_err(|e| fmt_err(path, e.to_string()))
 }
 
-/// The sample type of a NumPy dtype, if supported.
-fn sample_type(dtype: &DType) -> Option<SampleType> {
+/// The sample type of a NumPy dtype, if supported (also the fogmaps').
+pub fn sample_type(dtype: &DType) -> Option<SampleType> {
     match dtype {
         DType::Plain(ts) => match (ts.type_char(), ts.size_field()) {
             (TypeChar::Float, 2) => Some(SampleType::F16),
