@@ -10,12 +10,12 @@ pub struct LightArgs {
     /// Distant lighting: `sky`, the built-in clear sky with a low sun (25° up, from the
     /// left of the default camera and a little behind the smoke, lit exactly; a --sun
     /// given replaces it); `glow`, the same sky without its sun; or a lat-long OpenEXR
-    /// map (Z up, row 0 the zenith, twice as wide as tall; a 1 × 1 map is the same
+    /// or Radiance .hdr map (Z up, row 0 the zenith, twice as wide as tall; a 1 × 1 map is the same
     /// radiance from every direction). The map's concentrated light
     /// (a sharp or soft sun, several suns, a bright window or cloud edge) is split off
     /// into up to 8 suns lit exactly, like --sun; -v lists them. The smooth rest stays in
     /// the map. The reference renderer (--reference) lights with the map whole.
-    #[arg(long, default_value = "sky", value_name = "sky|glow|ENV.exr")]
+    #[arg(long, default_value = "sky", value_name = "sky|glow|ENV.exr|ENV.hdr")]
     pub env: String,
     /// Keep an environment map whole: no suns are split off it (its light is integrated
     /// over the environment pass's directions and the spherical harmonics only).

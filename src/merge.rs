@@ -12,7 +12,7 @@ pub fn run(chunks: &[PathBuf], out: &Path) -> Result<()> {
         .check()?;
     let m = haze_bake::merge(chunks, out)?;
     let n = &m.frames;
-    eprintln!(
+    haze_render::say!(
         "{}: {} ({}..{}) from {}",
         out.display(),
         haze_bake::inspect::count(n.len(), "frame"),

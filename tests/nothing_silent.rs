@@ -443,9 +443,9 @@ fn a_phase_function_the_sh_order_truncates_is_warned_about() {
     assert!(!render("0.3").contains("too forward"));
 }
 
-/// "values accepted without a word": baking or rendering a grid that is zero everywhere
-/// (the sample's `flame` grid) says so, naming the grid, and the bake's summary counts
-/// the all-zero frames of a sequence with one.
+/// "values accepted without a word": baking, rendering or viewing a grid that is zero
+/// everywhere (the sample's `flame` grid) says so, naming the grid, and the bake's
+/// summary counts the all-zero frames of a sequence with one.
 #[test]
 fn an_all_zero_bake_is_named() {
     let dir = tempfile::tempdir().unwrap();
@@ -466,6 +466,23 @@ fn an_all_zero_bake_is_named() {
     let e = String::from_utf8_lossy(&out.stderr);
     assert!(
         e.contains("every frame is all zero (OpenVDB grid 'flame'; --grid picks another)"),
+        "{e}"
+    );
+    let out = haze()
+        .args([
+            "view",
+            s(&d.join("f.haze")),
+            "--no-window",
+            "--play-for",
+            "0.2",
+        ])
+        .args(["--size", "32x24"])
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{e}");
+    assert!(
+        e.contains("its first frame (21) holds no smoke, so the camera frames the whole grid and the picture shows none"),
         "{e}"
     );
     let out = haze()
@@ -507,4 +524,52 @@ fn an_all_zero_bake_is_named() {
     let e = String::from_utf8_lossy(&out.stderr);
     assert!(e.contains("; 1 frame all zero"), "{e}");
     assert!(!e.contains("every frame"), "{e}");
+}
+
+/// The other side of nothing silent: `-q` asks for errors only, so a bake and a render
+/// print nothing on stderr (no summary line, no warning, no bar) where the same render
+/// without it says what it wrote, and an error still gets its one line.
+#[test]
+fn quiet_prints_only_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let v = d.join("v.npy");
+    write_npy(&v, [12; 3], &blob(12));
+    let asset = d.join("b.haze");
+    let bake = ["bake", s(&v), "--rbfs", "20", "--out", s(&asset)];
+    let out = haze().arg("-q").args(bake).output().unwrap();
+    assert!(out.status.success() && asset.exists());
+    assert_eq!(String::from_utf8_lossy(&out.stderr), "");
+    let render = |quiet: bool, to: &str| {
+        let mut cmd = haze();
+        if quiet {
+            cmd.arg("-q");
+        }
+        cmd.args([
+            "render",
+            s(&asset),
+            "--cpu",
+            "--width",
+            "16",
+            "--height",
+            "12",
+        ])
+        .args(["--out", s(&d.join(to))])
+        .output()
+        .unwrap()
+    };
+    let out = render(true, "q.exr");
+    assert!(out.status.success() && d.join("q.exr").exists());
+    assert_eq!(String::from_utf8_lossy(&out.stderr), "");
+    let out = render(false, "l.exr");
+    assert!(String::from_utf8_lossy(&out.stderr).contains("l.exr: 16×12"));
+    let out = haze()
+        .args(["-q", "render", s(&d.join("missing.haze")), "--cpu"])
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && e.starts_with("error: ") && e.lines().count() == 1,
+        "{e}"
+    );
 }

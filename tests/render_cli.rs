@@ -373,7 +373,8 @@ fn mean(px: &[[f32; 3]]) -> f64 {
 }
 
 /// Suns and point lights from the command line, a map's sun split off (and kept whole
-/// with --no-sun-extraction), and the reference's noise in its summary line.
+/// with --no-sun-extraction), the same map as a Radiance .hdr, and the reference's noise
+/// in its summary line.
 #[test]
 fn suns_lights_and_a_maps_sun_reach_the_render() {
     let dir = tempfile::tempdir().unwrap();
@@ -446,6 +447,31 @@ fn suns_lights_and_a_maps_sun_reach_the_render() {
         log.contains("the same radiance from every direction"),
         "{log}"
     );
+    // The same sky as a Radiance .hdr (RGBE, values exact in both formats) lights the
+    // smoke as its OpenEXR twin does, to the bit.
+    let texel = |x: usize, y: usize| match (x, y) {
+        (10 | 11, 8) => ([500.0f32, 480.0, 450.0], [250u8, 240, 225, 137]),
+        (42, 12) => ([300.0, 320.0, 400.0], [150, 160, 200, 137]),
+        _ => ([0.3125, 0.4375, 0.625], [80, 112, 160, 128]),
+    };
+    let twin = tmp(&dir, "twin.exr");
+    exr::prelude::write_rgb_file(&twin, w, h, |x, y| {
+        let [r, g, b] = texel(x, y).0;
+        (r, g, b)
+    })
+    .unwrap();
+    let hdr = tmp(&dir, "twin.hdr");
+    let mut rgbe = format!("#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n").into_bytes();
+    for y in 0..h {
+        for x in 0..w {
+            rgbe.extend(texel(x, y).1);
+        }
+    }
+    std::fs::write(&hdr, rgbe).unwrap();
+    let (from_exr, _) = render("from-exr.exr", &["--env", twin.to_str().unwrap()]);
+    let (from_hdr, log) = render("from-hdr.exr", &["--env", hdr.to_str().unwrap()]);
+    assert!(log.contains("2 suns split off"), "{log}");
+    assert_eq!(from_exr, from_hdr);
     let (whole, log) = render("whole.exr", &["--env", map, "--no-sun-extraction"]);
     assert!(!log.contains("sun split off"), "{log}");
     assert!(

@@ -196,7 +196,7 @@ def render(
         fov: vertical field of view, degrees.
         env: ``"sky"`` (the built-in sky and its low sun, lit exactly; a sun given in
             ``suns`` replaces it), ``"glow"`` (the sky without its sun) or a lat-long
-            OpenEXR map (Z up, row 0 the zenith); a map's concentrated light is split
+            OpenEXR or Radiance .hdr map (Z up, row 0 the zenith); a map's concentrated light is split
             off into suns lit exactly.
         suns: suns lit exactly, each ``(x, y, z, r, g, b[, angle])``: the direction
             towards it, its disk's radiance and apparent diameter in degrees (0.53).

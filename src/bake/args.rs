@@ -253,7 +253,7 @@ impl BakeCli {
                 let first = seq.load(0)?;
                 match haze_bake::choice::residual_error_for(&first, *rel_l2) {
                     Some(c) => {
-                        eprintln!("residual error chosen: {}", c.why);
+                        haze_render::say!("residual error chosen: {}", c.why);
                         choices.insert("residual_error".into(), serde_json::to_value(&c)?);
                         c.residual_error
                     }
@@ -264,7 +264,7 @@ impl BakeCli {
         };
         if let (Some(t), Some(file)) = (self.view_budget_ms, &self.tradeoff) {
             let c = haze_tradeoff::choice::for_view(file, t)?;
-            eprintln!("view settings chosen: {}", c.reason);
+            haze_render::say!("view settings chosen: {}", c.reason);
             choices.insert("view".into(), c.to_json());
         }
         Ok(BakeArgs {

@@ -35,7 +35,7 @@ fn bake(args: BakeArgs) -> Result<()> {
     let spinner: Arc<Mutex<Option<indicatif::ProgressBar>>> = Arc::default();
     let (bar_e, spinner_e, out_e) = (bar.clone(), spinner.clone(), out.clone());
     let events = move |e: Event<'_>| match e {
-        Event::Resumed { finished, total } => eprintln!(
+        Event::Resumed { finished, total } => haze_render::say!(
             "{}: resuming after {} of {total}",
             out_e.display(),
             haze_bake::inspect::count(finished, "finished frame"),
@@ -91,7 +91,7 @@ fn bake(args: BakeArgs) -> Result<()> {
     }
     b.finish_and_clear();
     let baked = bake.finish()?;
-    eprintln!("{}", summary_line(&baked));
+    haze_render::say!("{}", summary_line(&baked));
     if let Some(w) = all_empty(&baked.records, &input, &grid) {
         tracing::warn!("{w}");
     }

@@ -208,7 +208,7 @@ impl ViewCli {
             _ => {}
         }
         if !used.is_empty() {
-            eprintln!(
+            haze_render::say!(
                 "{}: starting with the asset's choice ({}): {why}",
                 input.display(),
                 used.join(", ")

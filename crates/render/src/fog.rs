@@ -262,7 +262,7 @@ pub fn wavelet(args: WaveletJob) -> Result<()> {
                 g.render(&camera, &scene, layer, args.width, args.height)?
             }
             None => {
-                let bar = rows_bar(args.height);
+                let bar = crate::progress::rows(args.height, "rendering");
                 let done = || bar.inc(1);
                 let px = match &smoke {
                     Some((_, layer, _)) => {
@@ -305,7 +305,7 @@ pub fn wavelet(args: WaveletJob) -> Result<()> {
     if let Some((label, _, seconds)) = &smoke {
         counts += &format!(", with {label} (smoke lit and rendered in {seconds:.3} s)");
     }
-    eprintln!(
+    crate::say!(
         "{}: {} × {}, {} fogmap {} × {}, {} level{}, µ {}{}, decomposed in {:.3} s, rendered in {:.3} s{} ({:.2} Mrays/s, {})",
         frame_path(&args.out, 0, frames).display(),
         args.width,
@@ -418,20 +418,6 @@ impl GpuFog {
         };
         Ok(pixels.iter().map(|p| [p[0], p[1], p[2]]).collect())
     }
-}
-
-/// A progress bar over image rows (hidden when stderr is not a terminal).
-fn rows_bar(rows: usize) -> indicatif::ProgressBar {
-    let bar = indicatif::ProgressBar::new(rows as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{msg:>10} [{bar:30}] {pos}/{len} rows, {elapsed} elapsed, ETA {eta}",
-        )
-        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-        .progress_chars("=> "),
-    );
-    bar.set_message("rendering");
-    bar
 }
 
 fn encode_exr(pixels: &[[f32; 3]], w: usize, h: usize) -> Result<Vec<u8>> {

@@ -86,8 +86,8 @@ impl std::str::FromStr for GroundChoice {
 
 #[derive(Debug, Clone)]
 pub struct Lights {
-    /// Distant lighting: `"sky"` (the built-in sky) or the path of a lat-long OpenEXR map
-    /// (Z up, row 0 the zenith), whose concentrated light (suns, bright lobes) is split
+    /// Distant lighting: `"sky"` (the built-in sky) or the path of a lat-long OpenEXR or
+    /// Radiance `.hdr` map (Z up, row 0 the zenith), whose concentrated light (suns, bright lobes) is split
     /// off into suns lit exactly.
     pub env: String,
     /// Keep an environment map whole: no suns are split off it.
@@ -102,9 +102,9 @@ impl Lights {
     /// The environment the fast renderers light with: a map's concentrated light split
     /// off into suns lit exactly ([`haze_view::lights::decompose`]; what was found is
     /// logged at `-v`), unless [`Lights::no_sun_extraction`]; then the given suns and
-    /// point lights. A map that is not there, not a readable RGB OpenEXR, not lat-long
-    /// (twice as wide as tall, or one texel), or without finite non-negative radiance is
-    /// a one-line error naming it.
+    /// point lights. A map that is not there, not a readable RGB OpenEXR or Radiance
+    /// `.hdr`, not lat-long (twice as wide as tall, or one texel), or without finite
+    /// non-negative radiance is a one-line error naming it.
     pub fn environment(&self) -> Result<Environment> {
         let env = self.build(!self.no_sun_extraction)?;
         if self.no_sun_extraction
@@ -162,11 +162,11 @@ impl Lights {
         let path = Path::new(&self.env);
         if !path.exists() {
             bail!(
-                "{}: no such environment map (use 'sky', 'glow' or a lat-long .exr)",
+                "{}: no such environment map (use 'sky', 'glow' or a lat-long .exr or .hdr)",
                 self.env
             );
         }
-        let map = LatLong::load_exr(path)?;
+        let map = LatLong::load(path)?;
         let (w, h) = (map.width, map.height);
         if (w, h) != (1, 1) && w != 2 * h {
             bail!(

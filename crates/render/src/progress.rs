@@ -1,11 +1,53 @@
-//! Progress bars for long work: shown on a terminal, silent otherwise.
+//! What a command tells its user on stderr besides errors and logs: progress bars for
+//! long work (shown on a terminal, silent otherwise), summary lines and plain warnings.
+//! `haze -q` ("only errors") silences all of them through [`set_quiet`].
 
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::fmt::Display;
+use std::sync::atomic::{AtomicBool, Ordering};
 
-/// A bar over `len` frames with rate and ETA. Hidden when stderr is not a terminal (logs
-/// and scripts get no control characters).
+/// Whether this process was asked for errors only (`haze -q`).
+static QUIET: AtomicBool = AtomicBool::new(false);
+
+/// Asks for errors only: no bars, summary lines or warnings from here on.
+pub fn set_quiet(quiet: bool) {
+    QUIET.store(quiet, Ordering::Relaxed);
+}
+
+/// Whether [`set_quiet`] asked for errors only.
+pub fn quiet() -> bool {
+    QUIET.load(Ordering::Relaxed)
+}
+
+/// A summary, status or warning line on stderr ("out.png: 640×480, …, 1.2 s"), unless
+/// quiet; [`say!`](crate::say) formats it.
+pub fn say(line: impl Display) {
+    if !quiet() {
+        eprintln!("{line}");
+    }
+}
+
+/// `eprintln!` unless `haze -q` asked for errors only ([`progress::say`](say)).
+#[macro_export]
+macro_rules! say {
+    ($($arg:tt)*) => {
+        $crate::progress::say(format_args!($($arg)*))
+    };
+}
+
+/// A bar of `len` steps that draws nothing when quiet (and, as every bar, nothing when
+/// stderr is not a terminal: logs and scripts get no control characters).
+fn bar(len: u64) -> ProgressBar {
+    let bar = ProgressBar::new(len);
+    if quiet() {
+        bar.set_draw_target(ProgressDrawTarget::hidden());
+    }
+    bar
+}
+
+/// A bar over `len` frames with rate and ETA.
 pub fn frames(len: usize, what: &str) -> ProgressBar {
-    let bar = ProgressBar::new(len as u64);
+    let bar = bar(len as u64);
     bar.set_style(
         ProgressStyle::with_template(
             "{msg:>10} [{bar:30}] {pos}/{len} frames, {elapsed} elapsed, ETA {eta}",
@@ -22,6 +64,9 @@ pub fn frames(len: usize, what: &str) -> ProgressBar {
 /// A spinner with elapsed time for work of unknown length.
 pub fn spinner(what: &str) -> ProgressBar {
     let s = ProgressBar::new_spinner();
+    if quiet() {
+        s.set_draw_target(ProgressDrawTarget::hidden());
+    }
     s.set_style(
         ProgressStyle::with_template("{spinner} {msg} ({elapsed})")
             .unwrap_or_else(|_| ProgressStyle::default_spinner()),
@@ -33,7 +78,7 @@ pub fn spinner(what: &str) -> ProgressBar {
 
 /// A bar over the settings of a sweep with ETA, the setting being measured as message.
 pub fn settings_bar() -> ProgressBar {
-    let bar = ProgressBar::new(0);
+    let bar = bar(0);
     bar.set_style(
         ProgressStyle::with_template(
             "[{bar:30}] {pos}/{len} settings, {elapsed} elapsed, ETA {eta} {wide_msg}",
@@ -42,5 +87,19 @@ pub fn settings_bar() -> ProgressBar {
         .progress_chars("=> "),
     );
     bar.enable_steady_tick(std::time::Duration::from_millis(500));
+    bar
+}
+
+/// A bar over an image's `rows` with ETA, `what` ("rendering", "marching") as message.
+pub fn rows(rows: usize, what: &str) -> ProgressBar {
+    let bar = bar(rows as u64);
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{msg} [{bar:30}] {pos}/{len} rows, {elapsed} elapsed, ETA {eta}",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar())
+        .progress_chars("=> "),
+    );
+    bar.set_message(what.to_string());
     bar
 }

@@ -20,7 +20,6 @@ use haze_scene::march;
 use haze_scene::paper_b::{self, PaperBOptions, Prepared};
 use haze_scene::paper_c::airlight::Limits;
 use haze_scene::render::{Analytic, Image, Model, Reference};
-use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -114,17 +113,12 @@ pub fn render_scene(a: SceneJob) -> Result<()> {
     } else {
         Box::new(Analytic::new(&scene))
     };
-    let bar = ProgressBar::new(h as u64);
-    bar.set_style(
-        ProgressStyle::with_template("rendering [{bar:30}] {pos}/{len} rows, ETA {eta}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
+    let bar = crate::progress::rows(h, "rendering");
     let progress = |rows: usize| bar.set_position(rows as u64);
     let image = analytic::render(&scene, model.as_ref(), &Limits::default(), &progress);
     bar.finish_and_clear();
     write(&a, image, kind, &model.name())?;
-    eprintln!(
+    crate::say!(
         "{}: {}×{}, scene {} ({} lights, {} surfaces), {}, {:.2} s",
         a.out.display(),
         w,
@@ -145,12 +139,7 @@ pub fn render_scene(a: SceneJob) -> Result<()> {
 fn run_march(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Result<()> {
     let opt = haze_scene::march::march_options(scene, a.reference);
     let (w, h) = (scene.camera.width, scene.camera.height);
-    let bar = ProgressBar::new(h as u64);
-    bar.set_style(
-        ProgressStyle::with_template("marching [{bar:30}] {pos}/{len} rows, ETA {eta}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
+    let bar = crate::progress::rows(h, "marching");
     let frame = Instant::now();
     let image = haze_scene::march::render(scene, &Limits::default(), &opt, &|rows| {
         bar.set_position(rows as u64)
@@ -159,7 +148,7 @@ fn run_march(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Resu
     bar.finish_and_clear();
     write(a, image, kind, "the single-scattering march")?;
     let media: Vec<String> = scene.hetero.iter().map(|m| m.name()).collect();
-    eprintln!(
+    crate::say!(
         "{}: {}×{}, scene {} ({} lights, {} surfaces, {}), single-scattering march at step {:.4}, frame {:.3} s, {:.2} s in all",
         a.out.display(),
         w,
@@ -207,7 +196,7 @@ fn run_gpu(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Result
     let frame = frame.elapsed().as_secs_f64();
     let (w, h) = (image.width, image.height);
     write(a, image, kind, "the GPU renderer")?;
-    eprintln!(
+    crate::say!(
         "{}: {}×{}, scene {} ({} lights, {} surfaces), {} on the GPU ({}), frame {:.3} s, {:.2} s in all",
         a.out.display(),
         w,
@@ -236,7 +225,7 @@ fn run_gpu(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Result
 /// surface point, `paper_b::reference_options`).
 fn run_hetero(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Result<()> {
     let fail = |e: String| anyhow!("{}: {e}", a.scene.display());
-    let bar = rows_bar(scene.camera.height);
+    let bar = crate::progress::rows(scene.camera.height, "rendering");
     let progress = |rows: usize| bar.set_position(rows as u64);
     let (image, what) = if a.reference {
         let opt = paper_b::reference_options(scene, paper_b::REFERENCE_THETA);
@@ -306,7 +295,7 @@ fn run_hetero(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Res
     bar.finish_and_clear();
     let (w, h) = (image.width, image.height);
     write(a, image, kind, &what)?;
-    eprintln!(
+    crate::say!(
         "{}: {}×{}, scene {} ({} lights, {} surfaces, {} heterogeneous media), {}, {:.2} s",
         a.out.display(),
         w,
@@ -336,17 +325,6 @@ fn log_integrated(prep: &Prepared<'_>) {
         };
         tracing::info!("paper B: light {l}, gaussian {i} integrated along the ray ({why})");
     }
-}
-
-/// A progress bar over the image's rows.
-fn rows_bar(rows: usize) -> ProgressBar {
-    let bar = ProgressBar::new(rows as u64);
-    bar.set_style(
-        ProgressStyle::with_template("rendering [{bar:30}] {pos}/{len} rows, ETA {eta}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
-    bar
 }
 
 /// Writes the image as `kind` (temp file + rename); a picture with a NaN or an infinite

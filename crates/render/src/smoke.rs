@@ -170,7 +170,7 @@ pub fn render(a: RenderOptions) -> Result<Option<ErrorEstimate>> {
         OutKind::Exr => image.write_exr(&a.out)?,
         OutKind::Png => image.write_png(&a.out, a.exposure, a.tone)?,
     }
-    eprintln!(
+    crate::say!(
         "{}: {}×{}, {}, {:.2} s",
         a.out.display(),
         image.width,

@@ -313,14 +313,18 @@ fn non_negative(what: &str, v: &[f64]) -> Result<(), String> {
     }
 }
 
-/// `null`, `"sky"`, `[r, g, b]` or a lat-long `.exr` map, its path relative to `base`
-/// (read by crates/view's [`LatLong::load_exr`]); `[0, 0, 0]` is black, as `null` (no
+/// `null`, `"sky"`, `[r, g, b]` or a lat-long `.exr` or `.hdr` map, its path relative to
+/// `base` (read by crates/view's [`LatLong::load`]); `[0, 0, 0]` is black, as `null` (no
 /// environment terms computed, no warning about them).
 fn environment(v: &Value, base: &Path) -> Result<Environment, String> {
     match v {
         Value::Null => Ok(Environment::Black),
         Value::String(s) if s == "sky" => Ok(Environment::Sky),
-        Value::String(s) if s.to_ascii_lowercase().ends_with(".exr") => {
+        Value::String(s)
+            if [".exr", ".hdr"]
+                .iter()
+                .any(|e| s.to_ascii_lowercase().ends_with(e)) =>
+        {
             let path = base.join(s);
             if !path.is_file() {
                 return Err(format!(
@@ -328,12 +332,12 @@ fn environment(v: &Value, base: &Path) -> Result<Environment, String> {
                     path.display()
                 ));
             }
-            LatLong::load_exr(&path)
+            LatLong::load(&path)
                 .map(|m| Environment::Map(Arc::new(m)))
                 .map_err(|e| format!("environment \"{s}\": {}", e.problem))
         }
         Value::String(s) => Err(format!(
-            "environment \"{s}\" must be \"sky\", an .exr map, [r, g, b] or null"
+            "environment \"{s}\" must be \"sky\", an .exr or .hdr map, [r, g, b] or null"
         )),
         _ => {
             let c: Rgb = typed(v).map_err(|e| format!("environment: {e}"))?;

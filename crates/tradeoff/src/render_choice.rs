@@ -23,7 +23,7 @@ pub fn render_for_goal(a: RenderOptions, goal: Goal, tradeoff: Option<&Path>) ->
     choice::check_goal(goal)?;
     let (doc, source) = sweep(&a, tradeoff)?;
     if let Some(warning) = best_above_target(&doc, goal) {
-        eprintln!("warning: {source}: {warning}");
+        haze_render::say!("warning: {source}: {warning}");
     }
     let mut want = goal;
     for round in 0..=RECHOICES {
@@ -36,7 +36,7 @@ pub fn render_for_goal(a: RenderOptions, goal: Goal, tradeoff: Option<&Path>) ->
         let Some(next) = choose_again(target, &e, against_best, round) else {
             return Ok(());
         };
-        eprintln!(
+        haze_render::say!(
             "the check found {:.1} % ± {:.1} % against the target {:.1} %: choosing again, within {:.2} % of the best setting",
             100.0 * e.error,
             100.0 * e.spread,
@@ -76,10 +76,10 @@ fn sweep(a: &RenderOptions, tradeoff: Option<&Path>) -> Result<(serde_json::Valu
             if let Some(warning) = choice::rescale(&mut doc, a.width, a.height)
                 .map_err(|e| anyhow!("{}: {e}", path.display()))?
             {
-                eprintln!("warning: {}: {warning}", path.display());
+                haze_render::say!("warning: {}: {warning}", path.display());
             }
             if let Some(warning) = choice::timing_mismatch(&doc, false) {
-                eprintln!("warning: {}: {warning}", path.display());
+                haze_render::say!("warning: {}: {warning}", path.display());
             }
             Ok((doc, path.display().to_string()))
         }
@@ -128,7 +128,7 @@ fn apply_goal(
     } else {
         ""
     };
-    eprintln!("choice from {source}: {}{note}", c.reason);
+    haze_render::say!("choice from {source}: {}{note}", c.reason);
     Ok(c.error)
 }
 

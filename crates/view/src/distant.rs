@@ -31,6 +31,10 @@ pub fn angles(d: [f64; 3]) -> (f64, f64) {
     (theta, phi)
 }
 
+/// The most texels [`LatLong::load_hdr`] reads (2²⁸, 3 GiB of RGB f32): a header that
+/// claims more is refused before anything is allocated.
+pub const MAX_HDR_TEXELS: usize = 1 << 28;
+
 /// A lat-long environment map.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LatLong {
@@ -79,6 +83,71 @@ impl LatLong {
             height,
             texels,
         })
+    }
+
+    /// Reads a lat-long map from an OpenEXR file ([`LatLong::load_exr`]) or a Radiance
+    /// `.hdr` (RGBE) file ([`LatLong::load_hdr`]), told apart by their first bytes (the
+    /// name's extension is not trusted: downloaded maps are often renamed).
+    pub fn load(path: &Path) -> Result<Self, EnvError> {
+        use std::io::Read;
+        let mut magic = [0u8; 4];
+        let read = std::fs::File::open(path)
+            .and_then(|mut f| f.read(&mut magic))
+            .map_err(|e| EnvError {
+                path: path.display().to_string(),
+                problem: format!("cannot read it ({e})"),
+            })?;
+        if magic[..read.min(2)] == *b"#?" {
+            Self::load_hdr(path)
+        } else {
+            Self::load_exr(path)
+        }
+    }
+
+    /// Reads a Radiance `.hdr` (RGBE, `FORMAT=32-bit_rle_rgbe`) file through the `image`
+    /// crate: the texels as stored, `c·2^(e−136)` per channel (an `EXPOSURE` line is not
+    /// applied; `-v` says when one is there). Files signed `#?RGBE` instead of
+    /// `#?RADIANCE` are read too; XYZE files and orientations other than the standard
+    /// `-Y H +X W` (row 0 at the top) are refused.
+    pub fn load_hdr(path: &Path) -> Result<Self, EnvError> {
+        use image::ImageDecoder;
+        use image::codecs::hdr::{HdrDecoder, SIGNATURE};
+        use std::io::{BufReader, Read};
+        let err = |problem: String| EnvError {
+            path: path.display().to_string(),
+            problem,
+        };
+        let open = || {
+            std::fs::File::open(path)
+                .map(BufReader::new)
+                .map_err(|e| err(format!("cannot read it ({e})")))
+        };
+        let mut signature = Vec::new();
+        open()?
+            .take(SIGNATURE.len() as u64)
+            .read_to_end(&mut signature)
+            .map_err(|e| err(format!("cannot read it ({e})")))?;
+        let bad = |e: image::ImageError| err(format!("not a readable Radiance .hdr image ({e})"));
+        let decoder = HdrDecoder::with_strictness(open()?, signature == SIGNATURE).map_err(bad)?;
+        let meta = decoder.metadata();
+        if let Some(k) = meta.exposure.filter(|&k| k != 1.0) {
+            tracing::info!(
+                "{}: EXPOSURE={k} in its header is not applied (texels read as stored)",
+                path.display()
+            );
+        }
+        let (w, h) = (meta.width as usize, meta.height as usize);
+        if w.saturating_mul(h) > MAX_HDR_TEXELS {
+            return Err(err(format!(
+                "a {w}×{h} map is over the {MAX_HDR_TEXELS} texels read (a 16k map has 134 M)"
+            )));
+        }
+        // Decoded straight into the texels: RGB f32 in native byte order.
+        let mut texels = vec![[0.0f32; 3]; w * h];
+        decoder
+            .read_image(bytemuck::cast_slice_mut(&mut texels))
+            .map_err(bad)?;
+        LatLong::new(w, h, texels).map_err(err)
     }
 
     /// Reads the first RGB(A) layer of an OpenEXR file.
@@ -286,6 +355,75 @@ mod tests {
         let z = s.radiance([0.0, 0.0, 1.0]);
         assert!(z[2] > z[0], "{z:?}");
         assert_eq!(s.radiance([0.0; 3]), s.zenith);
+    }
+
+    /// A Radiance file of `texels` (RGBE, flat scanlines) under `signature` with the
+    /// header lines `extra`.
+    fn write_rgbe(path: &Path, signature: &str, extra: &str, w: usize, texels: &[[u8; 4]]) {
+        let mut bytes = format!(
+            "{signature}\nFORMAT=32-bit_rle_rgbe\n{extra}\n-Y {} +X {w}\n",
+            texels.len() / w
+        )
+        .into_bytes();
+        bytes.extend(texels.iter().flatten());
+        std::fs::write(path, bytes).unwrap();
+    }
+
+    /// RGBE texels decode to `c·2^(e−136)` (values chosen exact in both), under either
+    /// signature, with an EXPOSURE line left unapplied; `load` tells the formats apart by
+    /// their bytes, not their names; a broken header is one message naming the format.
+    #[test]
+    fn radiance_hdr_maps_read_as_stored() {
+        let dir = tempfile::tempdir().unwrap();
+        let texels = [
+            [128, 64, 32, 129],  // 1, 0.5, 0.25
+            [192, 0, 255, 130],  // 3, 0, 3.984375
+            [80, 112, 160, 128], // 0.3125, 0.4375, 0.625
+            [0, 0, 0, 0],        // e = 0 is black
+        ];
+        let want = [
+            [1.0, 0.5, 0.25],
+            [3.0, 0.0, 3.984375],
+            [0.3125, 0.4375, 0.625],
+            [0.0; 3],
+        ];
+        for (signature, extra) in [("#?RADIANCE", ""), ("#?RGBE", "EXPOSURE=2.5\n")] {
+            let path = dir.path().join("sky.hdr");
+            write_rgbe(&path, signature, extra, 2, &texels);
+            let map = LatLong::load(&path).unwrap();
+            assert_eq!((map.width, map.height), (2, 2), "{signature}");
+            assert_eq!(map.texels, want, "{signature}");
+        }
+        // An OpenEXR file named .hdr is still read as OpenEXR.
+        let renamed = dir.path().join("renamed.hdr");
+        let mut im = crate::Image::new(2, 1);
+        im.pixels = vec![[0.5, 1.5, 2.5], [3.0, 0.0, 1.0]];
+        im.write_exr(&renamed).unwrap();
+        assert_eq!(LatLong::load(&renamed).unwrap().texels, im.pixels);
+        let broken = dir.path().join("broken.hdr");
+        std::fs::write(&broken, "#?RADIANCE\nFORMAT=32-bit_rle_xyze\n\n-Y 1 +X 2\n").unwrap();
+        let e = LatLong::load(&broken).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("broken.hdr: not a readable Radiance .hdr image"),
+            "{e}"
+        );
+        let huge = dir.path().join("huge.hdr");
+        std::fs::write(
+            &huge,
+            "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 16384 +X 32768\n",
+        )
+        .unwrap();
+        let e = LatLong::load(&huge).unwrap_err();
+        assert!(
+            e.to_string().contains("a 32768×16384 map is over the"),
+            "{e}"
+        );
+        let missing = LatLong::load(&dir.path().join("none.hdr")).unwrap_err();
+        assert!(
+            missing.to_string().contains("none.hdr: cannot read it"),
+            "{missing}"
+        );
     }
 
     #[test]

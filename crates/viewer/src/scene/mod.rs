@@ -391,7 +391,7 @@ pub fn run(a: SceneViewArgs) -> Result<()> {
             e.script(&base, &cam, s)
                 .map_err(|e| anyhow!("{}: --stroke {s}: {e}", a.scene.display()))?;
         }
-        eprintln!(
+        haze_render::say!(
             "{} stroke{}: {before} → {} Gaussians",
             a.strokes.len(),
             if a.strokes.len() == 1 { "" } else { "s" },
@@ -404,7 +404,7 @@ pub fn run(a: SceneViewArgs) -> Result<()> {
             if !said.starts_with("saved") {
                 bail!("--save-edits: {said}");
             }
-            eprintln!("{said}");
+            haze_render::say!("{said}");
         }
     }
     let wind = Wind::of(&base);

@@ -35,10 +35,10 @@ pub fn choose_knobs(a: &mut ViewArgs, goal: Goal) -> Result<()> {
             if let Some(warning) = choice::rescale(&mut doc, a.width, a.height)
                 .map_err(|e| anyhow!("{}: {e}", path.display()))?
             {
-                eprintln!("warning: {}: {warning}", path.display());
+                haze_render::say!("warning: {}: {warning}", path.display());
             }
             if let Some(warning) = choice::timing_mismatch(&doc, true) {
-                eprintln!("warning: {}: {warning}", path.display());
+                haze_render::say!("warning: {}: {warning}", path.display());
             }
             (doc, path.display().to_string())
         }
@@ -59,7 +59,7 @@ pub fn choose_knobs(a: &mut ViewArgs, goal: Goal) -> Result<()> {
                 import: Default::default(),
                 timing: Timing::Gpu(a.lighting),
             };
-            eprintln!(
+            haze_render::say!(
                 "measuring a quick sweep of {} at {}×{} for the choice",
                 a.input.display(),
                 a.width,
@@ -71,8 +71,8 @@ pub fn choose_knobs(a: &mut ViewArgs, goal: Goal) -> Result<()> {
     };
     let c = choice::choose(&doc, goal).map_err(|e| anyhow!("{source}: {e}"))?;
     apply(a, &c);
-    eprintln!("choice from {source}: {}", c.reason);
-    eprintln!(
+    haze_render::say!("choice from {source}: {}", c.reason);
+    haze_render::say!(
         "starting with {}, {}×{}",
         a.knobs.describe(),
         a.width,

@@ -205,6 +205,18 @@ pub fn run(mut a: ViewArgs) -> Result<()> {
     let first = cursor.get(0).map_err(|e| anyhow!(e))?;
     let residual = first.residual.as_ref().map(|s| (&*s.group, s.slot));
     let (density, _) = haze_bake::export::frame_density(dims, bbox, &first.rbfs, residual)?;
+    if density.data().iter().all(|&d| d <= 0.0) {
+        tracing::warn!(
+            "{}: its first frame ({}) holds no smoke, so the camera frames the whole grid{}",
+            a.input.display(),
+            numbers.first().copied().unwrap_or_default(),
+            if numbers.len() > 1 {
+                ""
+            } else {
+                " and the picture shows none"
+            }
+        );
+    }
     let smoke = haze_render::frame::smoke_bbox(&density);
     let orbit = Orbit::framing(&smoke, a.fov, a.width, a.height)
         .map_err(|e| anyhow!("{}: cannot frame the smoke: {e}", a.input.display()))?;
