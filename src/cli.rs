@@ -127,16 +127,28 @@ pub enum Command {
     /// the fog drifting with the wind, and prints the pictures' median time.
     #[command(allow_negative_numbers = true)]
     View(ViewCli),
-    /// Reconstruct one frame of a baked asset (RBFs + dequantized residual, negatives
-    /// clamped to 0 as every renderer does) as a dense volume, to compare a bake with its
-    /// input; a packed asset's frame comes back as it was packed.
+    /// Reconstruct frames of a baked asset (RBFs + dequantized residual, negatives clamped
+    /// to 0 as every renderer does) as dense volumes, to compare a bake with its input or
+    /// take it into another tool: one frame (--frame), or every frame as a numbered
+    /// sequence; a packed asset's frames come back as they were packed.
     #[command(allow_negative_numbers = true)]
     Export {
         /// The .haze asset (baked, or packed by `haze pack`).
         asset: PathBuf,
-        /// Source frame number (as `haze inspect` lists them).
-        #[arg(long)]
-        frame: i64,
+        /// Source frame number (as `haze inspect` lists them), written to OUT. Without it,
+        /// every frame (or those of --frames), each to OUT with `_NNNN`, its number, before
+        /// the extension (vol.npy → vol_0021.npy, …): a numbered sequence `haze bake` reads
+        /// back. An asset of one frame writes OUT itself.
+        #[arg(long, allow_hyphen_values = true)]
+        frame: Option<i64>,
+        /// Frame range to export, inclusive: A..B, A.., ..B or A.
+        #[arg(
+            long,
+            value_name = "A..B",
+            allow_hyphen_values = true,
+            conflicts_with = "frame"
+        )]
+        frames: Option<haze_volume::import::FrameRange>,
         /// Output: VOL.npy, or VOL.f32 (written with its VOL.json sidecar).
         #[arg(long, short)]
         out: PathBuf,
@@ -206,7 +218,12 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Render(r) => crate::render::run(r),
         Command::View(v) => crate::view::run(v),
         Command::Merge { chunks, out } => crate::merge::run(&chunks, &out),
-        Command::Export { asset, frame, out } => crate::export::run(&asset, frame, &out),
+        Command::Export {
+            asset,
+            frame,
+            frames,
+            out,
+        } => crate::export::run(&asset, frame, frames, &out),
         Command::Inspect {
             path,
             json,

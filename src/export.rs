@@ -1,29 +1,138 @@
-//! `haze export`: one frame of a baked asset back to a dense volume, `max(D̃ + R̂, 0)` —
-//! what every consumer of the asset reconstructs — to check a bake against its input; or a
-//! packed asset's frame as packed.
+//! `haze export`: frames of a baked asset back to dense volumes, `max(D̃ + R̂, 0)` — what
+//! every consumer of the asset reconstructs — to check a bake against its input or to
+//! take it into another tool; or a packed asset's frames as packed. One frame (`--frame`)
+//! goes to `--out` itself; several (every frame, or `--frames`) each to `--out` with
+//! `_NNNN`, the frame's number, before the extension (`vol.npy` → `vol_0021.npy`): a
+//! numbered sequence that `haze bake` and `haze inspect` read back.
 
 use anyhow::{Context, Result, bail};
-use haze_bake::export::reconstruct_frame;
-use haze_render::output::{self, Outputs};
+use haze_asset::Asset;
+use haze_bake::export::{Reconstruction, reconstruct_frame};
+use haze_render::output::{self, Created, Outputs};
+use haze_render::progress;
+use haze_volume::import::FrameRange;
 use npyz::WriterBuilder;
 use serde_json::json;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-pub fn run(path: &Path, frame: i64, out: &Path) -> Result<()> {
-    let ext = out
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_ascii_lowercase();
-    let mut files = Outputs::new().input(path).output("--out", out);
-    if matches!(ext.as_str(), "f32" | "raw") {
-        files = files.output("--out's sidecar", &out.with_extension("json"));
+/// The volume types `--out` may name.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Kind {
+    Npy,
+    /// Raw little-endian f32 with a `.json` sidecar.
+    Raw,
+}
+
+impl Kind {
+    fn of(out: &Path) -> Result<Kind> {
+        let ext = out
+            .extension()
+            .and_then(|e| e.to_str())
+            .unwrap_or("")
+            .to_ascii_lowercase();
+        match ext.as_str() {
+            "npy" => Ok(Kind::Npy),
+            "f32" | "raw" => Ok(Kind::Raw),
+            _ => bail!(
+                "{}: unknown output type (use .npy, or .f32 with a .json sidecar)",
+                out.display()
+            ),
+        }
+    }
+}
+
+/// Exports frame `frame` of the asset at `path` to `out`, or without it the frames of
+/// `range` (module docs).
+pub fn run(path: &Path, frame: Option<i64>, range: Option<FrameRange>, out: &Path) -> Result<()> {
+    let kind = Kind::of(out)?;
+    let numbers = match frame {
+        Some(n) => vec![n],
+        None => {
+            let asset = Asset::open(path)?;
+            let all = &asset.header().source.frame_numbers;
+            let range = range.unwrap_or_default();
+            let chosen: Vec<i64> = all.iter().copied().filter(|&n| range.contains(n)).collect();
+            if chosen.is_empty() {
+                bail!(
+                    "{}: no frame in {range} (the asset holds frames {})",
+                    path.display(),
+                    span(all)
+                );
+            }
+            chosen
+        }
+    };
+    // One file: `out` itself; several: numbered after `out`.
+    let targets: Vec<(i64, PathBuf)> = if frame.is_some() || numbers.len() == 1 {
+        vec![(numbers[0], out.to_path_buf())]
+    } else {
+        numbers.iter().map(|&n| (n, numbered(out, n))).collect()
+    };
+    let mut files = Outputs::new().input(path);
+    for (_, file) in &targets {
+        files = files.output("--out", file);
+        if kind == Kind::Raw {
+            files = files.output("--out's sidecar", &file.with_extension("json"));
+        }
     }
     files.check()?;
-    let r = reconstruct_frame(path, frame)?;
-    let (dims, bbox, data) = (r.dims, r.bbox, r.data);
-    match ext.as_str() {
-        "npy" => {
+    let bar = progress::frames(targets.len(), "exporting");
+    let mut created = Created::new();
+    for (n, file) in &targets {
+        let r = reconstruct_frame(path, *n)?;
+        write(kind, &r, file, path, *n, &mut created)?;
+        tracing::info!("{}: frame {n} written", file.display());
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    created.keep();
+    if targets.len() > 1 {
+        haze_render::say!(
+            "{} frames ({}) written: {} … {}",
+            targets.len(),
+            span(&numbers),
+            targets[0].1.display(),
+            targets[targets.len() - 1].1.display()
+        );
+    }
+    Ok(())
+}
+
+/// `out` with `_NNNN` (the frame number, four digits at least) before its extension.
+fn numbered(out: &Path, n: i64) -> PathBuf {
+    let stem = out
+        .file_stem()
+        .map(|s| s.to_string_lossy())
+        .unwrap_or_default();
+    let ext = out
+        .extension()
+        .map(|s| s.to_string_lossy())
+        .unwrap_or_default();
+    out.with_file_name(format!("{stem}_{n:04}.{ext}"))
+}
+
+/// "21..28" (or "21" for one frame, "none" for no frame), from the first and last number.
+fn span(numbers: &[i64]) -> String {
+    match (numbers.first(), numbers.last()) {
+        (Some(a), Some(b)) if a == b => a.to_string(),
+        (Some(a), Some(b)) => format!("{a}..{b}"),
+        _ => "none".into(),
+    }
+}
+
+/// Writes frame `n`'s reconstruction `r` to `file` (and a raw file's sidecar), each
+/// through a temporary file; what was written is added to `created`.
+fn write(
+    kind: Kind,
+    r: &Reconstruction,
+    file: &Path,
+    asset: &Path,
+    n: i64,
+    created: &mut Created,
+) -> Result<()> {
+    let (dims, bbox, data) = (r.dims, r.bbox, &r.data);
+    match kind {
+        Kind::Npy => {
             let mut buf = Vec::new();
             let mut w = npyz::WriteOptions::new()
                 .default_dtype()
@@ -33,9 +142,10 @@ pub fn run(path: &Path, frame: i64, out: &Path) -> Result<()> {
                 .context("npy header")?;
             w.extend(data.iter().copied()).context("npy data")?;
             w.finish().context("npy data")?;
-            output::write_atomic(out, &buf)?;
+            output::write_atomic(file, &buf)?;
+            created.push(file.to_path_buf());
         }
-        "f32" | "raw" => {
+        Kind::Raw => {
             let bytes: Vec<u8> = data.iter().flat_map(|v| v.to_le_bytes()).collect();
             let size = bbox.size();
             let voxel: [f64; 3] = [0, 1, 2].map(|a| size[a] / dims[a] as f64);
@@ -45,17 +155,35 @@ pub fn run(path: &Path, frame: i64, out: &Path) -> Result<()> {
                 "world_bbox_max": bbox.max,
                 "voxel_size": voxel,
                 "dtype": "float32 little-endian",
-                "source": path.display().to_string(),
-                "frame": frame,
+                "source": asset.display().to_string(),
+                "frame": n,
             });
-            output::write_atomic(out, &bytes)?;
-            output::write_json(&out.with_extension("json"), &sidecar)?;
+            output::write_atomic(file, &bytes)?;
+            created.push(file.to_path_buf());
+            let side = file.with_extension("json");
+            output::write_json(&side, &sidecar)?;
+            created.push(side);
         }
-        _ => bail!(
-            "{}: unknown output type (use .npy, or .f32 with a .json sidecar)",
-            out.display()
-        ),
     }
-    tracing::info!("{}: frame {frame} written", out.display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbered_outputs_carry_the_frame_number() {
+        assert_eq!(
+            numbered(Path::new("d/vol.npy"), 21),
+            Path::new("d/vol_0021.npy")
+        );
+        assert_eq!(
+            numbered(Path::new("vol.f32"), 12345),
+            Path::new("vol_12345.f32")
+        );
+        assert_eq!(span(&[21, 22, 28]), "21..28");
+        assert_eq!(span(&[7]), "7");
+        assert!(Kind::of(Path::new("x.vdb")).is_err());
+    }
 }

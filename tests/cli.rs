@@ -229,6 +229,40 @@ fn pack_then_inspect_asset_and_read_it_back() {
         .assert()
         .success();
     assert!(std::fs::read(&f32).unwrap() == truth);
+    // Without --frame every frame comes out, numbered: frame 24 the same bytes, the
+    // sidecars beside them, and the sequence reads back as three frames 23..25.
+    let seq = tmp.path().join("seq");
+    std::fs::create_dir(&seq).unwrap();
+    let o = haze()
+        .args(["export", out.to_str().unwrap()])
+        .args(["--out", seq.join("vol.f32").to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("3 frames (23..25) written: "));
+    assert!(std::fs::read(seq.join("vol_0024.f32")).unwrap() == truth);
+    assert!(seq.join("vol_0025.json").is_file());
+    let j = json_of(&["inspect", seq.to_str().unwrap(), "--json"]);
+    assert_eq!(
+        (&j["frames"], &j["first_frame"]),
+        (&3.into(), &23.into()),
+        "{j}"
+    );
+    let e = fails_with_one_line(
+        &[
+            "export",
+            out.to_str().unwrap(),
+            "--frames",
+            "40..50",
+            "--out",
+            seq.join("none.npy").to_str().unwrap(),
+        ],
+        &out,
+    );
+    assert!(
+        e.contains("no frame in 40..50 (the asset holds frames 23..25)"),
+        "{e}"
+    );
     let png = tmp.path().join("r.png");
     let o = haze()
         .args(["render", out.to_str().unwrap(), "--frame", "24"])
