@@ -35,25 +35,27 @@ macro_rules! say {
     };
 }
 
-/// A bar of `len` steps that draws nothing when quiet (and, as every bar, nothing when
-/// stderr is not a terminal: logs and scripts get no control characters).
-fn bar(len: u64) -> ProgressBar {
+/// A bar of `len` steps drawn by `template` (`[{bar:30}]` filled with `=> `), which
+/// draws nothing when quiet (and, as every bar, nothing when stderr is not a terminal:
+/// logs and scripts get no control characters).
+fn bar(len: u64, template: &str) -> ProgressBar {
     let bar = ProgressBar::new(len);
     if quiet() {
         bar.set_draw_target(ProgressDrawTarget::hidden());
     }
+    bar.set_style(
+        ProgressStyle::with_template(template)
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
     bar
 }
 
 /// A bar over `len` frames with rate and ETA.
 pub fn frames(len: usize, what: &str) -> ProgressBar {
-    let bar = bar(len as u64);
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{msg:>10} [{bar:30}] {pos}/{len} frames, {elapsed} elapsed, ETA {eta}",
-        )
-        .unwrap_or_else(|_| ProgressStyle::default_bar())
-        .progress_chars("=> "),
+    let bar = bar(
+        len as u64,
+        "{msg:>10} [{bar:30}] {pos}/{len} frames, {elapsed} elapsed, ETA {eta}",
     );
     bar.set_message(what.to_string());
     // Redraw while a long frame is in progress, so the clock keeps moving.
@@ -78,13 +80,9 @@ pub fn spinner(what: &str) -> ProgressBar {
 
 /// A bar over the settings of a sweep with ETA, the setting being measured as message.
 pub fn settings_bar() -> ProgressBar {
-    let bar = bar(0);
-    bar.set_style(
-        ProgressStyle::with_template(
-            "[{bar:30}] {pos}/{len} settings, {elapsed} elapsed, ETA {eta} {wide_msg}",
-        )
-        .unwrap_or_else(|_| ProgressStyle::default_bar())
-        .progress_chars("=> "),
+    let bar = bar(
+        0,
+        "[{bar:30}] {pos}/{len} settings, {elapsed} elapsed, ETA {eta} {wide_msg}",
     );
     bar.enable_steady_tick(std::time::Duration::from_millis(500));
     bar
@@ -92,13 +90,9 @@ pub fn settings_bar() -> ProgressBar {
 
 /// A bar over an image's `rows` with ETA, `what` ("rendering", "marching") as message.
 pub fn rows(rows: usize, what: &str) -> ProgressBar {
-    let bar = bar(rows as u64);
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{msg} [{bar:30}] {pos}/{len} rows, {elapsed} elapsed, ETA {eta}",
-        )
-        .unwrap_or_else(|_| ProgressStyle::default_bar())
-        .progress_chars("=> "),
+    let bar = bar(
+        rows as u64,
+        "{msg} [{bar:30}] {pos}/{len} rows, {elapsed} elapsed, ETA {eta}",
     );
     bar.set_message(what.to_string());
     bar
