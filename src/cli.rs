@@ -29,16 +29,18 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Describe a volume file, a frame sequence or a .haze asset.
+    /// Describe a volume file, a frame sequence, a .haze asset or an environment map.
     ///
     /// PATH may be a .vdb, .f32/.raw (with its .json sidecar) or .npy file; a directory or
     /// a quoted glob of numbered frames ("cache/fluid_data_*.vdb"); or a .haze asset.
     /// Reports dims, world box, voxel size, the grids in a VDB file, frame count and gaps,
     /// value range, active (non-zero) voxels and memory. For an asset, every block's
-    /// checksum is verified.
+    /// checksum is verified. For a lat-long map (.exr or .hdr, as --env takes it): its
+    /// size, brightest texel and power, and the suns its concentrated light is split into
+    /// for the render, each with its direction, width and share of the power.
     #[command(allow_negative_numbers = true)]
     Inspect {
-        /// File, directory, glob, or .haze asset.
+        /// File, directory, glob, .haze asset, or environment map.
         path: PathBuf,
         /// Print one JSON object instead of text.
         #[arg(long)]

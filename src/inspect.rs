@@ -1,5 +1,6 @@
 //! `haze inspect`: what is in a volume file, a sequence or an asset
-//! (`haze_bake::inspect`), as text or JSON.
+//! (`haze_bake::inspect`), or an environment map (`haze_render::map_report`), as text or
+//! JSON.
 
 use anyhow::Result;
 use haze_render::progress;
@@ -9,6 +10,16 @@ use indicatif::ProgressBar;
 use std::path::Path;
 
 pub fn run(path: &Path, json: bool, range: FrameRange, opts: &ImportOptions) -> Result<()> {
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+    if ["exr", "hdr"].contains(&ext.to_ascii_lowercase().as_str()) {
+        let report = haze_render::map_report::inspect_map(path)?;
+        if json {
+            println!("{}", serde_json::to_string_pretty(&report)?);
+        } else {
+            print!("{}", report.text());
+        }
+        return Ok(());
+    }
     let mut bar: Option<ProgressBar> = None;
     let report = haze_bake::inspect::inspect(path, range, opts, &mut |what, done, total| {
         let b = bar.get_or_insert_with(|| progress::frames(total, what));

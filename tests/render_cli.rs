@@ -276,11 +276,13 @@ fn bad_render_requests_fail_on_one_line() {
         &["render", &vol, "--out", out, "--env", &wide],
         "not lat-long",
     );
+    fails(&["inspect", &wide], "not lat-long");
     let nan = bad_map("nan.exr", 8, 4, f32::NAN);
     fails(
         &["render", &vol, "--out", out, "--env", &nan],
         "finite and non-negative",
     );
+    fails(&["inspect", &nan], "finite and non-negative");
     let negative = bad_map("negative.exr", 8, 4, -1.0);
     fails(
         &["render", &vol, "--out", out, "--env", &negative],
@@ -472,6 +474,17 @@ fn suns_lights_and_a_maps_sun_reach_the_render() {
     let (from_hdr, log) = render("from-hdr.exr", &["--env", hdr.to_str().unwrap()]);
     assert!(log.contains("2 suns split off"), "{log}");
     assert_eq!(from_exr, from_hdr);
+    // `haze inspect` of the map says the same before any render.
+    let o = haze()
+        .args(["inspect", hdr.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        said.contains("environment map (Radiance HDR), 64 × 32, lat-long")
+            && said.contains("light: 2 suns split off"),
+        "{said}"
+    );
     let (whole, log) = render("whole.exr", &["--env", map, "--no-sun-extraction"]);
     assert!(!log.contains("sun split off"), "{log}");
     assert!(

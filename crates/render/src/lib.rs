@@ -18,6 +18,7 @@ pub mod fog;
 pub mod fog_smoke;
 pub mod frame;
 pub mod lights;
+pub mod map_report;
 pub mod output;
 pub mod progress;
 pub mod scene;

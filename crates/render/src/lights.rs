@@ -158,7 +158,8 @@ impl Lights {
         Ok(env)
     }
 
-    fn load_map(&self) -> Result<LatLong> {
+    /// The map [`Lights::env`] names, read and checked (module docs of [`Lights`]).
+    pub(crate) fn load_map(&self) -> Result<LatLong> {
         let path = Path::new(&self.env);
         if !path.exists() {
             bail!(
@@ -208,28 +209,38 @@ impl Lights {
 
 /// Logs what the decomposition of the map at `path` found (`-v`).
 fn log_decomposition(path: &str, d: &Decomposition) {
+    for line in decomposition_lines(path, d) {
+        tracing::info!("{line}");
+    }
+}
+
+/// What the decomposition of the map at `path` found, in lines: the suns' count and share
+/// of the map's power, then each sun's direction, width and share.
+pub(crate) fn decomposition_lines(path: &str, d: &Decomposition) -> Vec<String> {
     if d.suns.is_empty() {
-        tracing::info!("{path}: no concentrated light found, the map is lit whole");
-        return;
+        return vec![format!(
+            "{path}: no concentrated light found, the map is lit whole"
+        )];
     }
     let carried: f64 = (0..d.suns.len()).map(|k| d.share(k)).sum();
-    tracing::info!(
+    let mut lines = vec![format!(
         "{path}: {} sun{} split off, {:.1} % of the map's power; the rest stays in the map",
         d.suns.len(),
         if d.suns.len() == 1 { "" } else { "s" },
         100.0 * carried
-    );
+    )];
     for (k, sun) in d.suns.iter().enumerate() {
         let (theta, phi) = haze_view::distant::angles(sun.direction);
-        tracing::info!(
+        lines.push(format!(
             "  sun {}: elevation {:.1}°, azimuth {:.1}°, {:.2}° wide, {:.1} % of the power",
             k + 1,
             90.0 - theta.to_degrees(),
             phi.to_degrees(),
             sun.angle.to_degrees(),
             100.0 * d.share(k)
-        );
+        ));
     }
+    lines
 }
 
 #[cfg(test)]
