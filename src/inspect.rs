@@ -10,8 +10,7 @@ use indicatif::ProgressBar;
 use std::path::Path;
 
 pub fn run(path: &Path, json: bool, range: FrameRange, opts: &ImportOptions) -> Result<()> {
-    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
-    if ["exr", "hdr"].contains(&ext.to_ascii_lowercase().as_str()) {
+    if haze_render::map_report::is_map(path) {
         let report = haze_render::map_report::inspect_map(path)?;
         if json {
             println!("{}", serde_json::to_string_pretty(&report)?);

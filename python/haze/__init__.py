@@ -52,15 +52,18 @@ def _frames(frames: Frames) -> Optional[str]:
 
 
 def inspect(path: PathLike, frames: Frames = None) -> Dict[str, Any]:
-    """What is in a volume file, a frame sequence or a ``.haze`` asset.
+    """What is in a volume file, a frame sequence, a ``.haze`` asset or an environment map.
 
     Returns what ``haze inspect --json PATH`` prints, as a dict: for an asset its
     frames, grid, blocks and per-frame figures; for volumes their dims, world box,
-    value range and active voxels.
+    value range and active voxels; for a lat-long map (``.exr`` or ``.hdr``) its size,
+    brightest texel, power and the suns a render splits off it (``kind`` is
+    ``"environment-map"``).
 
     Args:
         path: a volume file (OpenVDB ``.vdb``, NumPy ``.npy``, raw ``.f32`` with its
-            ``.json`` sidecar), a directory or glob of numbered frames, or an asset.
+            ``.json`` sidecar), a directory or glob of numbered frames, an asset, or an
+            environment map.
         frames: for a sequence, which frames to read: an int, ``(first, last)``
             (inclusive; ``None`` for open ends) or ``"A..B"``; all by default.
 

@@ -95,6 +95,23 @@ def test_inspect_describes_volumes_and_names_a_missing_file(tmp_path):
         haze.inspect(missing)
 
 
+def test_inspect_describes_an_environment_map(tmp_path):
+    # A 16 x 8 Radiance map (flat RGBE scanlines): a sky of 0.3125 with one bright texel
+    # of 500 (250 * 2^(137 - 136)) that carries most of the power.
+    sky, sun = bytes([80, 80, 80, 128]), bytes([250, 250, 250, 137])
+    texels = [sun if (x, y) == (5, 2) else sky for y in range(8) for x in range(16)]
+    path = tmp_path / "sky.hdr"
+    path.write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 8 +X 16\n" + b"".join(texels))
+    info = haze.inspect(path)
+    assert info["kind"] == "environment-map" and info["format"] == "Radiance HDR"
+    assert (info["width"], info["height"], info["max_radiance"]) == (16, 8, 500.0)
+    assert len(info["suns"]) == 1 and info["sun_share"] > 0.5
+    bad = tmp_path / "wide.hdr"
+    bad.write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 3\n" + sky * 3)
+    with pytest.raises(haze.HazeError, match="not lat-long"):
+        haze.inspect(bad)
+
+
 def test_a_bake_reports_every_frame_and_keeps_its_error(baked):
     source, out, report, seen = baked
     assert [r["frame"] for r in seen] == [1, 2, 3]

@@ -1,5 +1,6 @@
-//! `haze.inspect` and `haze.bake`: `haze_bake`'s report and its bake, frame by frame,
-//! with a Python callback between frames.
+//! `haze.inspect` and `haze.bake`: `haze_bake`'s report (or an environment map's,
+//! `haze_render::map_report`) and its bake, frame by frame, with a Python callback
+//! between frames.
 
 use crate::to_py;
 use haze_bake::{Bake, BakeOptions, Count};
@@ -32,6 +33,10 @@ pub fn inspect(py: Python<'_>, path: PathBuf, frames: Option<&str>) -> PyResult<
     let range = range(frames)?;
     let text = py
         .detach(|| {
+            if haze_render::map_report::is_map(&path) {
+                let report = haze_render::map_report::inspect_map(&path)?;
+                return Ok(serde_json::to_string(&report)?);
+            }
             let report = haze_bake::inspect::inspect(
                 &path,
                 range,

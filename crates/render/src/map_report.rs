@@ -51,6 +51,13 @@ impl MapReport {
     }
 }
 
+/// Whether `haze inspect` takes `path` for an environment map: an `.exr` or `.hdr` name
+/// (no volume format uses either).
+pub fn is_map(path: &Path) -> bool {
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+    ["exr", "hdr"].contains(&ext.to_ascii_lowercase().as_str())
+}
+
 /// Reads, checks and decomposes the map at `path` (the same checks and errors as `--env`).
 pub fn inspect_map(path: &Path) -> Result<MapReport> {
     let name = path.display().to_string();
