@@ -44,7 +44,8 @@ impl Kind {
 /// Exports frame `frame` of the asset at `path` to `out`, or without it the frames of
 /// `range` (module docs).
 pub fn run(path: &Path, frame: Option<i64>, range: Option<FrameRange>, out: &Path) -> Result<()> {
-    let kind = Kind::of(out)?;
+    // An output that is an input is named first, whatever its type.
+    let kind = Kind::of(out);
     let numbers = match frame {
         Some(n) => vec![n],
         None => {
@@ -71,11 +72,12 @@ pub fn run(path: &Path, frame: Option<i64>, range: Option<FrameRange>, out: &Pat
     let mut files = Outputs::new().input(path);
     for (_, file) in &targets {
         files = files.output("--out", file);
-        if kind == Kind::Raw {
+        if matches!(kind, Ok(Kind::Raw)) {
             files = files.output("--out's sidecar", &file.with_extension("json"));
         }
     }
     files.check()?;
+    let kind = kind?;
     let bar = progress::frames(targets.len(), "exporting");
     let mut created = Created::new();
     for (n, file) in &targets {
