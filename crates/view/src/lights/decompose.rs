@@ -25,7 +25,9 @@
 //! is 99 % of its power; a sun beside a glowing horizon band stands alone at a higher
 //! floor. Light broader than that is smooth enough for the rule and stays in the map. A
 //! region becomes light when it carries at least [`DecomposeOptions::min_share`] of the
-//! map's power.
+//! map's power — on the coarse map, and again on the full-resolution one below (a soft
+//! sun's faint fringe passes the first and not the second: it stays in the map instead
+//! of taking a sun from the budget).
 //!
 //! **Suns.** On the full-resolution map, every texel of a region gives its excess over
 //! the background (bilinear between the coarse texels' centers), per channel, `≥ 0`:
@@ -33,7 +35,8 @@
 //! map's power exactly. A region whose RMS radius exceeds
 //! [`DecomposeOptions::split_degrees`] is cut by a median cut (Debevec 2005: at the
 //! weighted median of its longer axis in the plane tangent to its mean direction), the
-//! widest piece first, while the light budget lasts — a soft sun becomes a cluster of
+//! widest piece first, while the light budget lasts and both halves would carry
+//! `min_share` — a soft sun becomes a cluster of
 //! suns and keeps its soft shadow and its spread of phase angles. Each piece is a
 //! [`Sun`]: the irradiance `Σ E·Ω_texel`, the luminance-weighted mean direction, and the
 //! apex angle of the uniform disk with the same mean squared angle (`⟨θ²⟩ = ρ²/2` for a
@@ -114,10 +117,11 @@ pub fn decompose(map: &LatLong, opts: &DecomposeOptions) -> Decomposition {
     let coarse = Coarse::of(map);
     let background = coarse.opening(opts.scale_degrees.max(0.0).to_radians());
     let power = luminance(map_power(map));
+    let min_power = power * opts.min_share.max(0.0);
     let regions = if opts.max_lights == 0 || power <= 0.0 || !power.is_finite() {
         Vec::new()
     } else {
-        coarse.regions(&background, power * opts.min_share.max(0.0))
+        coarse.regions(&background, min_power)
     };
     let mut rest = map.clone();
     let mut pieces: Vec<Piece> = Vec::new();
@@ -127,7 +131,13 @@ pub fn decompose(map: &LatLong, opts: &DecomposeOptions) -> Decomposition {
         }
         let texels = excess_texels(map, &coarse, &background, &region);
         let piece = Piece::new(texels);
-        if piece.weight <= 0.0 || piece.rms > MAX_SPREAD_DEGREES.to_radians() {
+        // The coarse map passed the region at `min_share`; its excess over the
+        // full-resolution background may fall under it (a soft sun's faint fringe), and
+        // then it stays in the map rather than take a sun from the budget.
+        if piece.weight <= 0.0
+            || piece.weight < min_power
+            || piece.rms > MAX_SPREAD_DEGREES.to_radians()
+        {
             continue;
         }
         for t in &piece.texels {
@@ -138,7 +148,7 @@ pub fn decompose(map: &LatLong, opts: &DecomposeOptions) -> Decomposition {
         }
         pieces.push(piece);
     }
-    split_widest(&mut pieces, opts);
+    split_widest(&mut pieces, opts, min_power);
     let mut suns: Vec<Sun> = pieces.iter().filter_map(Piece::sun).collect();
     suns.sort_by(|a, b| luminance(b.irradiance).total_cmp(&luminance(a.irradiance)));
     Decomposition { suns, rest, power }
@@ -591,14 +601,15 @@ impl Piece {
 }
 
 /// Splits the widest piece (largest `weight·rms²`, the spread its single direction
-/// misses) while the budget lasts and it is wider than `split_degrees`.
-fn split_widest(pieces: &mut Vec<Piece>, opts: &DecomposeOptions) {
+/// misses) while the budget lasts and it is wider than `split_degrees` — and heavy enough
+/// that both halves of a median cut carry `min_power` (a sun must).
+fn split_widest(pieces: &mut Vec<Piece>, opts: &DecomposeOptions, min_power: f64) {
     let limit = opts.split_degrees.max(0.0).to_radians();
     while pieces.len() < opts.max_lights {
         let widest = pieces
             .iter()
             .enumerate()
-            .filter(|(_, p)| p.rms > limit && p.texels.len() >= 2)
+            .filter(|(_, p)| p.rms > limit && p.texels.len() >= 2 && p.weight >= 2.0 * min_power)
             .max_by(|a, b| {
                 (a.1.weight * a.1.rms.powi(2)).total_cmp(&(b.1.weight * b.1.rms.powi(2)))
             });
