@@ -5,6 +5,7 @@
 
 use crate::lights::{Lights, decomposition_lines};
 use anyhow::Result;
+use haze_view::distant::MapFormat;
 use haze_view::lights::decompose::{DecomposeOptions, decompose, luminance, map_power};
 use serde::Serialize;
 use std::f64::consts::PI;
@@ -68,16 +69,7 @@ pub fn inspect_map(path: &Path) -> Result<MapReport> {
         light: Vec::new(),
     };
     let map = lights.load_map()?;
-    // `LatLong::load` told the formats apart by the same two bytes.
-    let mut magic = [0u8; 2];
-    std::fs::File::open(path)
-        .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut magic))
-        .map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
-    let format = if magic == *b"#?" {
-        "Radiance HDR"
-    } else {
-        "OpenEXR"
-    };
+    let format = MapFormat::of(path)?.name();
     let found = decompose(&map, &DecomposeOptions::default());
     let power = luminance(map_power(&map));
     let max_radiance = map

@@ -7,6 +7,8 @@
 //! (wrapping in azimuth, clamped at the poles).
 
 use std::f64::consts::PI;
+use std::fs::File;
+use std::io::{BufRead, BufReader};
 use std::path::Path;
 
 pub use haze_core::Rgb;
@@ -29,6 +31,60 @@ pub fn angles(d: [f64; 3]) -> (f64, f64) {
         phi += 2.0 * PI;
     }
     (theta, phi)
+}
+
+/// The file formats a lat-long map is read from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MapFormat {
+    /// OpenEXR (`.exr`).
+    OpenExr,
+    /// Radiance RGBE (`.hdr`).
+    RadianceHdr,
+}
+
+impl MapFormat {
+    /// The format's name as users know it.
+    pub fn name(self) -> &'static str {
+        match self {
+            MapFormat::OpenExr => "OpenEXR",
+            MapFormat::RadianceHdr => "Radiance HDR",
+        }
+    }
+
+    /// The format of the file `reader` reads (at its start, nothing consumed): Radiance
+    /// files begin `#?`, anything else is taken for OpenEXR (whose reader names what is
+    /// wrong with it).
+    pub fn sniff(path: &Path, reader: &mut BufReader<File>) -> Result<MapFormat, EnvError> {
+        Ok(if peek(path, reader, 2)?.starts_with(b"#?") {
+            MapFormat::RadianceHdr
+        } else {
+            MapFormat::OpenExr
+        })
+    }
+
+    /// The format of the map at `path`.
+    pub fn of(path: &Path) -> Result<MapFormat, EnvError> {
+        Self::sniff(path, &mut open_map(path)?)
+    }
+}
+
+fn cannot_read(path: &Path, e: std::io::Error) -> EnvError {
+    EnvError {
+        path: path.display().to_string(),
+        problem: format!("cannot read it ({e})"),
+    }
+}
+
+fn open_map(path: &Path) -> Result<BufReader<File>, EnvError> {
+    File::open(path)
+        .map(BufReader::new)
+        .map_err(|e| cannot_read(path, e))
+}
+
+/// Up to `n` of the reader's next bytes, left unconsumed (fewer at the end of the file).
+fn peek<'r>(path: &Path, reader: &'r mut BufReader<File>, n: usize) -> Result<&'r [u8], EnvError> {
+    let buf = reader.fill_buf().map_err(|e| cannot_read(path, e))?;
+    Ok(&buf[..n.min(buf.len())])
 }
 
 /// The most texels [`LatLong::load_hdr`] reads (2²⁸, 3 GiB of RGB f32): a header that
@@ -86,21 +142,14 @@ impl LatLong {
     }
 
     /// Reads a lat-long map from an OpenEXR file ([`LatLong::load_exr`]) or a Radiance
-    /// `.hdr` (RGBE) file ([`LatLong::load_hdr`]), told apart by their first bytes (the
-    /// name's extension is not trusted: downloaded maps are often renamed).
+    /// `.hdr` (RGBE) file ([`LatLong::load_hdr`]), told apart by their first bytes
+    /// ([`MapFormat::sniff`]; the name's extension is not trusted: downloaded maps are often
+    /// renamed). The file is opened once.
     pub fn load(path: &Path) -> Result<Self, EnvError> {
-        use std::io::Read;
-        let mut magic = [0u8; 4];
-        let read = std::fs::File::open(path)
-            .and_then(|mut f| f.read(&mut magic))
-            .map_err(|e| EnvError {
-                path: path.display().to_string(),
-                problem: format!("cannot read it ({e})"),
-            })?;
-        if magic[..read.min(2)] == *b"#?" {
-            Self::load_hdr(path)
-        } else {
-            Self::load_exr(path)
+        let mut reader = open_map(path)?;
+        match MapFormat::sniff(path, &mut reader)? {
+            MapFormat::RadianceHdr => Self::read_hdr(path, reader),
+            MapFormat::OpenExr => Self::read_exr(path, reader),
         }
     }
 
@@ -110,25 +159,20 @@ impl LatLong {
     /// `#?RADIANCE` are read too; XYZE files and orientations other than the standard
     /// `-Y H +X W` (row 0 at the top) are refused.
     pub fn load_hdr(path: &Path) -> Result<Self, EnvError> {
+        Self::read_hdr(path, open_map(path)?)
+    }
+
+    fn read_hdr(path: &Path, mut reader: BufReader<File>) -> Result<Self, EnvError> {
         use image::ImageDecoder;
         use image::codecs::hdr::{HdrDecoder, SIGNATURE};
-        use std::io::{BufReader, Read};
         let err = |problem: String| EnvError {
             path: path.display().to_string(),
             problem,
         };
-        let open = || {
-            std::fs::File::open(path)
-                .map(BufReader::new)
-                .map_err(|e| err(format!("cannot read it ({e})")))
-        };
-        let mut signature = Vec::new();
-        open()?
-            .take(SIGNATURE.len() as u64)
-            .read_to_end(&mut signature)
-            .map_err(|e| err(format!("cannot read it ({e})")))?;
+        // The standard signature is checked strictly; `#?RGBE` and others leniently.
+        let strict = peek(path, &mut reader, SIGNATURE.len())?.starts_with(SIGNATURE);
         let bad = |e: image::ImageError| err(format!("not a readable Radiance .hdr image ({e})"));
-        let decoder = HdrDecoder::with_strictness(open()?, signature == SIGNATURE).map_err(bad)?;
+        let decoder = HdrDecoder::with_strictness(reader, strict).map_err(bad)?;
         let meta = decoder.metadata();
         if let Some(k) = meta.exposure.filter(|&k| k != 1.0) {
             tracing::info!(
@@ -152,24 +196,33 @@ impl LatLong {
 
     /// Reads the first RGB(A) layer of an OpenEXR file.
     pub fn load_exr(path: &Path) -> Result<Self, EnvError> {
+        Self::read_exr(path, open_map(path)?)
+    }
+
+    fn read_exr(path: &Path, reader: BufReader<File>) -> Result<Self, EnvError> {
         use exr::prelude::*;
         let err = |problem: String| EnvError {
             path: path.display().to_string(),
             problem,
         };
-        let image = read_first_rgba_layer_from_file(
-            path,
-            |res, _| {
-                let (w, h) = (res.width(), res.height());
-                (w, h, vec![[0.0f32; 3]; w * h])
-            },
-            |(w, _, px): &mut (usize, usize, Vec<[f32; 3]>),
-             pos,
-             (r, g, b, _a): (f32, f32, f32, f32)| {
-                px[pos.y() * *w + pos.x()] = [r, g, b];
-            },
-        )
-        .map_err(|e| err(format!("not a readable RGB OpenEXR image ({e})")))?;
+        let image = read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .rgba_channels(
+                |res, _| {
+                    let (w, h) = (res.width(), res.height());
+                    (w, h, vec![[0.0f32; 3]; w * h])
+                },
+                |(w, _, px): &mut (usize, usize, Vec<[f32; 3]>),
+                 pos,
+                 (r, g, b, _a): (f32, f32, f32, f32)| {
+                    px[pos.y() * *w + pos.x()] = [r, g, b];
+                },
+            )
+            .first_valid_layer()
+            .all_attributes()
+            .from_buffered(reader)
+            .map_err(|e| err(format!("not a readable RGB OpenEXR image ({e})")))?;
         let (w, h, px) = image.layer_data.channel_data.pixels;
         LatLong::new(w, h, px).map_err(err)
     }
