@@ -129,10 +129,10 @@ pub struct WaveletArgs {
     #[arg(long)]
     pub(crate) gpu: bool,
     /// Image width in pixels.
-    #[arg(long, default_value_t = 800)]
+    #[arg(long, default_value_t = 800, value_parser = crate::size_arg::parse_side)]
     pub(crate) width: usize,
     /// Image height in pixels.
-    #[arg(long, default_value_t = 600)]
+    #[arg(long, default_value_t = 600, value_parser = crate::size_arg::parse_side)]
     pub(crate) height: usize,
     /// Camera position (default: framing the fog, see above).
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]

@@ -25,10 +25,10 @@ pub struct RenderCli {
     #[arg(long, short)]
     pub(crate) out: PathBuf,
     /// Image width [default: 400, or the scene camera's].
-    #[arg(long, conflicts_with = "size")]
+    #[arg(long, conflicts_with = "size", value_parser = crate::size_arg::parse_side)]
     width: Option<usize>,
     /// Image height [default: 300, or the scene camera's].
-    #[arg(long, conflicts_with = "size")]
+    #[arg(long, conflicts_with = "size", value_parser = crate::size_arg::parse_side)]
     height: Option<usize>,
     /// Image size WxH, as `haze view` takes it (instead of --width and --height).
     #[arg(long, value_name = "WxH", value_parser = crate::size_arg::parse_size)]
