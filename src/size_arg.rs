@@ -45,7 +45,10 @@ mod tests {
         assert_eq!(parse_side("8192"), Ok(8192));
         for bad in ["0", "8193", "-3", "1.5", ""] {
             let e = parse_side(bad).unwrap_err();
-            assert!(e.contains(&format!("'{bad}'")) && e.contains("8192"), "{bad}: {e}");
+            assert!(
+                e.contains(&format!("'{bad}'")) && e.contains("8192"),
+                "{bad}: {e}"
+            );
         }
     }
 }

@@ -3,9 +3,11 @@
 //! rate (playing as fast as possible has no slot, and keeps the detail), the player
 //! lights the next frames at a lower detail — a coarser environment grid, larger cells
 //! for the explicit orders and the suns' shadows swept, about a third of the work a
-//! step — one step of [`LEVELS`] at a time, and raises it again once the lighting costs
-//! less than [`RAISE_BELOW`] of the view pass (the step up costs about three times as
-//! much). It never goes below [`floor`]: the environment grid's cells stay within
+//! step — down [`LEVELS`] to the one whose lighting would fit beside the view pass
+//! (one step when the frame is a little over, several at once when its lighting is many
+//! times the view pass, as a first frame's is on a CPU adapter), and raises it again
+//! once the lighting costs less than [`RAISE_BELOW`] of the view pass (the step up costs
+//! about three times as much). It never goes below [`floor`]: the environment grid's cells stay within
 //! [`MAX_CELL_TAU`](haze_view::render::MAX_CELL_TAU) optical depths across, where the
 //! lower details' error stayed small. Where the next level would pass the floor, the
 //! last step goes to the floor itself (when that is at least [`MIN_STEP`] lower): smoke
@@ -119,10 +121,11 @@ impl DetailControl {
 
     /// Weighs a playback frame lit at `detail` that took `cost` against its slot of
     /// `slot_seconds` (`None`: playing as fast as possible, with no slot to meet, which
-    /// changes nothing), its smoke's lit voxels `tau` optical depths across: one step
-    /// down when it was late and its lighting cost more than its view pass — to the next
-    /// of [`LEVELS`], or to [`floor`]`(tau)` where that level would pass it and the floor
-    /// is at least [`MIN_STEP`] lower; one up (to the next level above) when the lighting
+    /// changes nothing), its smoke's lit voxels `tau` optical depths across: a step
+    /// down when it was late and its lighting cost more than its view pass — to the level
+    /// whose lighting would fit ([`step_down`]: the next of [`LEVELS`], or further when
+    /// the lighting is several times over), or to [`floor`]`(tau)` where that level would
+    /// pass it and the floor is at least [`MIN_STEP`] lower; one up (to the next level above) when the lighting
     /// cost less than [`RAISE_BELOW`] of the view pass; to the floor at once when the
     /// detail is below it (thicker smoke). A frame lit at another detail than the current
     /// one (submitted before the last step) changes nothing.
@@ -133,9 +136,7 @@ impl DetailControl {
         }
         let lowest = floor(tau);
         let late = cost.view_seconds + cost.lighting_seconds > slot;
-        let down = LEVELS
-            .iter()
-            .find(|l| **l < self.detail)
+        let down = step_down(self.detail, cost, slot)
             .map(|l| l.max(lowest))
             .filter(|d| *d <= MIN_STEP * self.detail);
         let up = LEVELS.iter().rev().find(|l| **l > self.detail);
@@ -152,6 +153,25 @@ impl DetailControl {
             self.detail = *u;
         }
     }
+}
+
+/// The level a late frame lit at `detail` steps down to: the lighting's work goes as the
+/// detail cubed ([`LEVELS`]), so the detail whose lighting would take the view pass's
+/// time (or the rest of the slot, where that is longer) is
+/// `detail·(goal/lighting)^{1/3}`; the step goes to the highest level at or below it —
+/// at least the next one, at most the last. A first frame whose lighting is ten times
+/// its view pass goes from 1 to 0.35 at once instead of through 0.75 and 0.5, each of
+/// which would take seconds on a CPU adapter. `None` at the last level.
+fn step_down(detail: f64, cost: FrameCost, slot: f64) -> Option<f64> {
+    let goal = cost.view_seconds.max(slot - cost.view_seconds);
+    let wanted = if cost.lighting_seconds > 0.0 && goal.is_finite() {
+        detail * (goal.max(0.0) / cost.lighting_seconds).cbrt()
+    } else {
+        detail
+    };
+    let below: Vec<f64> = LEVELS.iter().copied().filter(|l| *l < detail).collect();
+    let last = *below.last()?;
+    Some(below.into_iter().find(|l| *l <= wanted).unwrap_or(last))
 }
 
 #[cfg(test)]
@@ -186,12 +206,12 @@ mod tests {
         // As fast as possible: no slot, nothing changes.
         c.observe(1.0, cost(1.0, 5.0), None, THIN);
         assert_eq!(c.detail(), 1.0);
-        // Late and the lighting outweighs the view pass: down a step per frame.
+        // Late and the lighting a little over the view pass: down a step per frame.
         for (k, want) in LEVELS.iter().enumerate().skip(1) {
-            c.observe(LEVELS[k - 1], cost(1.0, 5.0), slot, THIN);
+            c.observe(LEVELS[k - 1], cost(1.0, 1.2), slot, THIN);
             assert_eq!(c.detail(), *want);
         }
-        c.observe(0.25, cost(1.0, 5.0), slot, THIN);
+        c.observe(0.25, cost(1.0, 1.2), slot, THIN);
         assert_eq!(
             (c.detail(), c.lowest()),
             (0.25, 0.25),
@@ -210,6 +230,34 @@ mod tests {
         assert_eq!((c.detail(), c.lowest()), (0.5, 0.25));
     }
 
+    /// A frame whose lighting is many times its view pass steps down to the level whose
+    /// lighting (the detail cubed) would fit beside the view pass, or the rest of a long
+    /// slot: several levels at once, never below the floor or the last level.
+    #[test]
+    fn lighting_far_over_the_view_pass_steps_down_several_levels() {
+        let slot = 1.0 / 24.0;
+        // 10× the view pass: (1/10)^(1/3) = 0.46, so 0.35.
+        assert_eq!(step_down(1.0, cost(0.4, 4.0), slot), Some(0.35));
+        // 100×: below every level, so the last.
+        assert_eq!(step_down(1.0, cost(0.1, 10.0), slot), Some(0.25));
+        // 1.2×: the next level; from the last, none.
+        assert_eq!(step_down(0.5, cost(1.0, 1.2), slot), Some(0.35));
+        assert_eq!(step_down(0.25, cost(1.0, 100.0), slot), None);
+        // A slot of a second with a view pass of 0.1 s leaves 0.9 s for lighting of 2 s:
+        // (0.45)^(1/3) = 0.77, one step.
+        assert_eq!(step_down(1.0, cost(0.1, 2.0), 1.0), Some(0.75));
+        // No lighting time, or a zero view pass: one step, no division by zero.
+        assert_eq!(step_down(1.0, cost(0.0, 0.0), slot), Some(0.75));
+        assert_eq!(step_down(0.75, cost(0.0, 1.0), slot), Some(0.25));
+        // Through the control: the floor holds (τ 0.13: 0.39), the lowest is kept.
+        let mut c = DetailControl::default();
+        c.observe(1.0, cost(0.4, 4.0), Some(slot), THIN);
+        assert_eq!((c.detail(), c.lowest()), (0.35, 0.35));
+        let mut c = DetailControl::default();
+        c.observe(1.0, cost(0.4, 4.0), Some(slot), 0.13);
+        assert!((c.detail() - floor(0.13)).abs() < 1e-12, "{}", c.detail());
+    }
+
     /// The floor keeps the environment grid's cells within half an optical depth:
     /// thin smoke may go to the last level, thicker smoke stops higher, and a detail
     /// below the floor (the smoke thickened, σt rose) steps back up.
@@ -224,7 +272,8 @@ mod tests {
         }
         assert_eq!(floor(f64::INFINITY), 1.0);
         let slot = Some(1.0 / 24.0);
-        let late = cost(1.0, 5.0);
+        // A little over: one step a frame.
+        let late = cost(1.0, 1.2);
         // τ 0.2: floor 0.6, so one level (0.75), then the floor, and no further.
         let mut c = DetailControl::default();
         for d in [0.75, 0.6, 0.6] {

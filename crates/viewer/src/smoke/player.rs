@@ -412,7 +412,7 @@ mod tests {
             1.0,
             super::super::detail::FrameCost {
                 view_seconds: 1.0,
-                lighting_seconds: 5.0,
+                lighting_seconds: 1.2,
             },
             Some(1.0 / 24.0),
             0.05,
