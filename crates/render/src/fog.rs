@@ -5,7 +5,7 @@ use crate::fog_smoke::SmokePlacement;
 use crate::output::{Created, Outputs};
 use anyhow::{Context, Result, bail};
 use haze_camera::LookAt;
-use haze_volume::import::sequence::frame_number;
+use haze_volume::import::sequence::frame_numbers;
 use haze_wavelet::render::Scene;
 use haze_wavelet::{Basis, Fog, Fogmap, Mode, Placement, Settings};
 use std::path::{Path, PathBuf};
@@ -327,12 +327,13 @@ pub fn wavelet(args: WaveletJob) -> Result<()> {
 }
 
 /// The fogmaps to render: `path` itself, or the numbered fogmaps (`.png`, `.exr`, `.npy`,
-/// `.f32`) of the directory `path`, ordered by the last number in their names.
+/// `.f32`) of the directory `path`, ordered by their frame numbers
+/// ([`frame_numbers`]: the last number that differs between their names).
 pub fn fogmap_files(path: &Path) -> Result<Vec<PathBuf>> {
     if !path.is_dir() {
         return Ok(vec![path.to_path_buf()]);
     }
-    let mut files = Vec::new();
+    let mut paths = Vec::new();
     for entry in std::fs::read_dir(path).with_context(|| format!("{}", path.display()))? {
         let p = entry.with_context(|| format!("{}", path.display()))?.path();
         let ext = p
@@ -340,14 +341,18 @@ pub fn fogmap_files(path: &Path) -> Result<Vec<PathBuf>> {
             .and_then(|e| e.to_str())
             .map(str::to_ascii_lowercase);
         if p.is_file() && matches!(ext.as_deref(), Some("png" | "exr" | "npy" | "f32")) {
-            let n = frame_number(&p).with_context(|| {
-                format!(
-                    "{}: a fogmap of a sequence needs a frame number in its name",
-                    p.display()
-                )
-            })?;
-            files.push((n, p));
+            paths.push(p);
         }
+    }
+    let mut files = Vec::with_capacity(paths.len());
+    for (n, p) in frame_numbers(&paths).into_iter().zip(paths) {
+        let n = n.with_context(|| {
+            format!(
+                "{}: a fogmap of a sequence needs a frame number in its name",
+                p.display()
+            )
+        })?;
+        files.push((n, p));
     }
     files.sort();
     if let Some(w) = files.windows(2).find(|w| w[0].0 == w[1].0) {

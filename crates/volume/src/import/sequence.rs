@@ -92,12 +92,44 @@ impl FromStr for FrameRange {
 
 /// The frame number in a file name: its last run of ASCII digits.
 pub fn frame_number(path: &Path) -> Option<i64> {
+    digit_runs(path)?.last().copied()
+}
+
+/// The runs of ASCII digits in a file name's stem, left to right (`None`: a stem that is
+/// not UTF-8, or a run too long for an `i64`).
+fn digit_runs(path: &Path) -> Option<Vec<i64>> {
     let stem = path.file_stem()?.to_str()?;
-    let end = stem.rfind(|c: char| c.is_ascii_digit())? + 1;
-    let start = stem[..end]
-        .rfind(|c: char| !c.is_ascii_digit())
-        .map_or(0, |i| i + 1);
-    stem[start..end].parse().ok()
+    stem.split(|c: char| !c.is_ascii_digit())
+        .filter(|run| !run.is_empty())
+        .map(|run| run.parse().ok())
+        .collect()
+}
+
+/// The frame numbers of a sequence's files: the last run of digits that differs between
+/// their names (`s_0001_v2.npy`, `s_0002_v2.npy`: 1 and 2, not 2 and 2), where every
+/// name has as many runs; otherwise, and where no run differs, each name's last run
+/// ([`frame_number`]).
+pub fn frame_numbers(paths: &[PathBuf]) -> Vec<Option<i64>> {
+    let runs: Vec<Option<Vec<i64>>> = paths.iter().map(|p| digit_runs(p)).collect();
+    let last = || runs.iter().map(|r| r.as_ref()?.last().copied()).collect();
+    let Some(Some(first)) = runs.first() else {
+        return last();
+    };
+    let k = first.len();
+    if !runs
+        .iter()
+        .all(|r| r.as_ref().is_some_and(|r| r.len() == k))
+    {
+        return last();
+    }
+    let runs: Vec<&Vec<i64>> = runs.iter().flatten().collect();
+    match (0..k)
+        .rev()
+        .find(|&j| runs.iter().any(|r| r[j] != first[j]))
+    {
+        Some(j) => runs.iter().map(|r| Some(r[j])).collect(),
+        None => last(),
+    }
 }
 
 fn seq_err(path: &Path, why: impl Into<String>) -> ImportError {
@@ -166,10 +198,9 @@ pub fn discover(path: &Path) -> Result<Vec<FrameFile>, ImportError> {
         ));
     }
     let mut frames = Vec::with_capacity(files.len());
-    for p in files {
-        let number = match frame_number(&p) {
-            Some(n) => n,
-            None => return Err(seq_err(&p, "has no frame number in its name")),
+    for (number, p) in frame_numbers(&files).into_iter().zip(files) {
+        let Some(number) = number else {
+            return Err(seq_err(&p, "has no frame number in its name"));
         };
         frames.push(FrameFile { number, path: p });
     }
@@ -365,6 +396,50 @@ mod tests {
             Some(24)
         );
         assert_eq!(frame_number(Path::new("v2/density.npy")), None);
+    }
+
+    /// In a sequence the frame number is the last run of digits that differs between
+    /// the names; a run that is the same in every name (a version, a level) is not it.
+    #[test]
+    fn a_sequence_numbers_its_frames_by_the_digits_that_differ() {
+        let paths = |names: &[&str]| -> Vec<PathBuf> { names.iter().map(PathBuf::from).collect() };
+        assert_eq!(
+            frame_numbers(&paths(&["s_0001_v2.npy", "s_0002_v2.npy", "s_0010_v2.npy"])),
+            vec![Some(1), Some(2), Some(10)]
+        );
+        // The last run differs: it, as before.
+        assert_eq!(
+            frame_numbers(&paths(&["v2/a_lod1_0007.vdb", "v2/a_lod1_0008.vdb"])),
+            vec![Some(7), Some(8)]
+        );
+        // Two runs differ: the last of them.
+        assert_eq!(
+            frame_numbers(&paths(&["c3_0001_t9.npy", "c4_0002_t9.npy"])),
+            vec![Some(1), Some(2)]
+        );
+        // Names with different counts of runs, or none differing: each name's last run.
+        assert_eq!(
+            frame_numbers(&paths(&["a_0001.npy", "a_v2_0002.npy"])),
+            vec![Some(1), Some(2)]
+        );
+        assert_eq!(
+            frame_numbers(&paths(&["a_1_2.npy", "b_3.npy"])),
+            vec![Some(2), Some(3)]
+        );
+        assert_eq!(
+            frame_numbers(&paths(&["a_v2.npy", "b_v2.npy"])),
+            vec![Some(2), Some(2)]
+        );
+        assert_eq!(
+            frame_numbers(&paths(&["x.npy", "x_3.npy"])),
+            vec![None, Some(3)]
+        );
+        assert_eq!(frame_numbers(&[]), Vec::<Option<i64>>::new());
+        // A run too long for an i64 is no number.
+        assert_eq!(
+            frame_numbers(&paths(&["f_99999999999999999999.npy"])),
+            vec![None]
+        );
     }
 
     #[test]
