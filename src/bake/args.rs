@@ -7,7 +7,8 @@ use std::path::PathBuf;
 
 #[derive(Debug, clap::Args)]
 pub struct BakeCli {
-    /// File, directory or glob of numbered frames, or a packed asset (`haze pack`).
+    /// File, directory or glob of numbered frames (a frame's number is the last run of
+    /// digits that differs between the names), or a packed asset (`haze pack`).
     pub(crate) input: PathBuf,
     /// The .haze file to write.
     #[arg(long, short)]
