@@ -139,8 +139,9 @@ pub enum Command {
         asset: PathBuf,
         /// Source frame number (as `haze inspect` lists them), written to OUT. Without it,
         /// every frame (or those of --frames), each to OUT with `_NNNN`, its number, before
-        /// the extension (vol.npy → vol_0021.npy, …): a numbered sequence `haze bake` reads
-        /// back. An asset of one frame writes OUT itself.
+        /// the extension (vol.npy → vol_0021.npy, …; a name ending in `_`, `-` or `.` takes
+        /// the number alone: vol_.npy → vol_0021.npy): a numbered sequence `haze bake`
+        /// reads back. An asset of one frame writes OUT itself.
         #[arg(long, allow_hyphen_values = true)]
         frame: Option<i64>,
         /// Frame range to export, inclusive: A..B, A.., ..B or A.

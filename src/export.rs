@@ -2,8 +2,9 @@
 //! every consumer of the asset reconstructs — to check a bake against its input or to
 //! take it into another tool; or a packed asset's frames as packed. One frame (`--frame`)
 //! goes to `--out` itself; several (every frame, or `--frames`) each to `--out` with
-//! `_NNNN`, the frame's number, before the extension (`vol.npy` → `vol_0021.npy`): a
-//! numbered sequence that `haze bake` and `haze inspect` read back.
+//! `_NNNN`, the frame's number, before the extension (`vol.npy` → `vol_0021.npy`; `vol_.npy`
+//! the same, no second `_`): a numbered sequence that `haze bake` and `haze inspect` read
+//! back.
 
 use anyhow::{Context, Result, bail};
 use haze_asset::Asset;
@@ -100,7 +101,9 @@ pub fn run(path: &Path, frame: Option<i64>, range: Option<FrameRange>, out: &Pat
     Ok(())
 }
 
-/// `out` with `_NNNN` (the frame number, four digits at least) before its extension.
+/// `out` with `_NNNN` (the frame number, four digits at least) before its extension; a
+/// name that already ends in a separator (`vol_.npy`, `vol-.npy`, `vol..npy`) takes the
+/// number alone (`vol_0021.npy`).
 fn numbered(out: &Path, n: i64) -> PathBuf {
     let stem = out
         .file_stem()
@@ -110,7 +113,12 @@ fn numbered(out: &Path, n: i64) -> PathBuf {
         .extension()
         .map(|s| s.to_string_lossy())
         .unwrap_or_default();
-    out.with_file_name(format!("{stem}_{n:04}.{ext}"))
+    let sep = if stem.ends_with(['_', '-', '.']) {
+        ""
+    } else {
+        "_"
+    };
+    out.with_file_name(format!("{stem}{sep}{n:04}.{ext}"))
 }
 
 /// "21..28" (or "21" for one frame, "none" for no frame), from the first and last number.
@@ -183,6 +191,14 @@ mod tests {
         assert_eq!(
             numbered(Path::new("vol.f32"), 12345),
             Path::new("vol_12345.f32")
+        );
+        assert_eq!(
+            numbered(Path::new("d/vol_.npy"), 21),
+            Path::new("d/vol_0021.npy")
+        );
+        assert_eq!(
+            numbered(Path::new("vol-.vdb"), 3),
+            Path::new("vol-0003.vdb")
         );
         assert_eq!(span(&[21, 22, 28]), "21..28");
         assert_eq!(span(&[7]), "7");
