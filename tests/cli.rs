@@ -417,7 +417,11 @@ fn bad_inputs_fail_with_one_line_naming_the_file() {
     );
     assert!(e.contains("no such file"), "{e}");
     std::fs::write(t("x.txt"), "hello").unwrap();
-    fails_with_one_line(&["inspect", t("x.txt").to_str().unwrap()], &t("x.txt"));
+    let e = fails_with_one_line(&["inspect", t("x.txt").to_str().unwrap()], &t("x.txt"));
+    assert!(
+        e.contains("unknown file type") && e.contains(".haze assets") && e.contains(".hdr"),
+        "{e}"
+    );
 }
 
 #[test]
