@@ -258,7 +258,8 @@ pub fn render_image(a: &RenderOptions) -> Result<Rendered> {
     {
         tracing::warn!("{}: {w}", frame.label);
     }
-    let spinner = progress::spinner(&format!("rendering {}", frame.label));
+    // The path tracer shows its rows with an ETA (it can take minutes); the others spin.
+    let spinner = (!a.reference).then(|| progress::spinner(&format!("rendering {}", frame.label)));
     let (image, what) = if a.reference {
         let opts = RefOptions {
             spp: a.spp,
@@ -266,8 +267,19 @@ pub fn render_image(a: &RenderOptions) -> Result<Rendered> {
             ground,
             ..RefOptions::default()
         };
-        let (img, noise) =
-            reference::render_with_noise(&frame.density, &medium, &env, &camera, &opts);
+        let bar = progress::rows(
+            reference::rows_to_render(&camera, opts.spp),
+            &format!("path tracing {}", frame.label),
+        );
+        let (img, noise) = reference::render_with_noise_rows(
+            &frame.density,
+            &medium,
+            &env,
+            &camera,
+            &opts,
+            &|| bar.inc(1),
+        );
+        bar.finish_and_clear();
         let what = format!(
             "reference {} scattering, {} spp{}",
             if a.multiple { "multiple" } else { "single" },
@@ -394,7 +406,9 @@ pub fn render_image(a: &RenderOptions) -> Result<Rendered> {
         );
         (img, what)
     };
-    spinner.finish_and_clear();
+    if let Some(s) = spinner {
+        s.finish_and_clear();
+    }
     image.check_finite(&what)?;
     let (checked, estimate) = check_error(a, &image, &frame.density, &medium, ground, &camera)?;
     let what = match checked {

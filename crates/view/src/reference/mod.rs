@@ -163,11 +163,17 @@ pub fn render(
         sampler: sampler.as_ref(),
         ground: ground.as_ref(),
     };
-    render_scene(&scene, camera, opts)
+    render_scene(&scene, camera, opts, &|| {})
 }
 
-/// [`render`] of a scene whose sampler is built.
-fn render_scene(scene: &Scene<'_>, camera: &Camera, opts: &RefOptions) -> Image {
+/// [`render`] of a scene whose sampler is built; `on_row` is called as each row of pixels
+/// is done (from the worker threads).
+fn render_scene(
+    scene: &Scene<'_>,
+    camera: &Camera,
+    opts: &RefOptions,
+    on_row: &(dyn Fn() + Sync),
+) -> Image {
     let (w, h) = (camera.width, camera.height);
     let mut image = Image::new(w, h);
     image
@@ -185,6 +191,7 @@ fn render_scene(scene: &Scene<'_>, camera: &Camera, opts: &RefOptions) -> Image 
                 };
                 *px = l.map(|c| c as f32);
             }
+            on_row();
         });
     image
 }
@@ -254,13 +261,25 @@ pub fn render_with_noise(
     camera: &Camera,
     opts: &RefOptions,
 ) -> (Image, Option<f64>) {
-    if opts.spp <= 1 {
-        return (render(volume, medium, env, camera, opts), None);
-    }
-    let half = RefOptions {
-        spp: opts.spp.div_ceil(2),
-        ..*opts
-    };
+    render_with_noise_rows(volume, medium, env, camera, opts, &|| {})
+}
+
+/// The rows [`render_with_noise`] renders for `camera` at `spp` samples: the height,
+/// twice over for its two half-runs.
+pub fn rows_to_render(camera: &Camera, spp: u32) -> usize {
+    camera.height * if spp > 1 { 2 } else { 1 }
+}
+
+/// [`render_with_noise`], calling `on_row` as each of its [`rows_to_render`] rows is done
+/// (from the worker threads): for a progress bar.
+pub fn render_with_noise_rows(
+    volume: &Volume,
+    medium: &Medium,
+    env: &Environment,
+    camera: &Camera,
+    opts: &RefOptions,
+    on_row: &(dyn Fn() + Sync),
+) -> (Image, Option<f64>) {
     let sampler = sampler_for(env, opts);
     let ground = opts.ground.map(|g| g.lit(env));
     let scene = Scene {
@@ -270,7 +289,14 @@ pub fn render_with_noise(
         sampler: sampler.as_ref(),
         ground: ground.as_ref(),
     };
-    let a = render_scene(&scene, camera, &half);
+    if opts.spp <= 1 {
+        return (render_scene(&scene, camera, opts, on_row), None);
+    }
+    let half = RefOptions {
+        spp: opts.spp.div_ceil(2),
+        ..*opts
+    };
+    let a = render_scene(&scene, camera, &half, on_row);
     let b = render_scene(
         &scene,
         camera,
@@ -278,6 +304,7 @@ pub fn render_with_noise(
             seed: opts.seed ^ 0x5eed_0001,
             ..half
         },
+        on_row,
     );
     let mut image = Image::new(camera.width, camera.height);
     for ((p, q), o) in a.pixels.iter().zip(&b.pixels).zip(&mut image.pixels) {
