@@ -2,10 +2,10 @@
 //! (`haze_bake::inspect`), or an environment map (`haze_render::map_report`), as text or
 //! JSON.
 
-use anyhow::{Result, bail};
+use anyhow::Result;
 use haze_render::progress;
 use haze_volume::ImportOptions;
-use haze_volume::import::{Format, FrameRange};
+use haze_volume::import::FrameRange;
 use indicatif::ProgressBar;
 use std::path::Path;
 
@@ -18,17 +18,6 @@ pub fn run(path: &Path, json: bool, range: FrameRange, opts: &ImportOptions) -> 
             print!("{}", report.text());
         }
         return Ok(());
-    }
-    let asset = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("haze"));
-    if path.is_file() && !asset && Format::of(path).is_none() {
-        bail!(
-            "{}: unknown file type: haze inspect reads volumes (.vdb, .f32/.raw with a .json \
-             sidecar, .npy), a directory or glob of them, .haze assets and environment maps \
-             (.exr, .hdr)",
-            path.display()
-        );
     }
     let mut bar: Option<ProgressBar> = None;
     let report = haze_bake::inspect::inspect(path, range, opts, &mut |what, done, total| {

@@ -15,7 +15,7 @@ pub use text::{bytes, count};
 pub use volume::{FileReport, GridReport, SequenceReport};
 
 use haze_volume::ImportOptions;
-use haze_volume::import::FrameRange;
+use haze_volume::import::{Format, FrameRange};
 use serde::Serialize;
 use std::path::Path;
 
@@ -44,6 +44,14 @@ pub fn inspect(
     Ok(if is_asset(path) {
         Report::Asset(asset::report(path, progress)?)
     } else if path.is_file() {
+        if Format::of(path).is_none() {
+            anyhow::bail!(
+                "{}: unknown file type: haze inspect reads volumes (.vdb, .f32/.raw with a \
+                 .json sidecar, .npy), a directory or glob of them, .haze assets and \
+                 environment maps (.exr, .hdr)",
+                path.display()
+            );
+        }
         Report::File(volume::file_report(path, opts)?)
     } else {
         Report::Sequence(volume::sequence_report(path, range, opts, progress)?)

@@ -36,8 +36,8 @@
 //! [`DecomposeOptions::split_degrees`] is cut by a median cut (Debevec 2005: at the
 //! weighted median of its longer axis in the plane tangent to its mean direction), the
 //! widest piece first, while the light budget lasts and both halves would carry
-//! `min_share` — a soft sun becomes a cluster of
-//! suns and keeps its soft shadow and its spread of phase angles. Each piece is a
+//! `min_share` — a soft sun becomes a cluster of suns and keeps its soft shadow and its
+//! spread of phase angles. Each piece is a
 //! [`Sun`]: the irradiance `Σ E·Ω_texel`, the luminance-weighted mean direction, and the
 //! apex angle of the uniform disk with the same mean squared angle (`⟨θ²⟩ = ρ²/2` for a
 //! disk of angular radius `ρ`: angle `2ρ = 2√(2⟨θ²⟩)`).

@@ -7,9 +7,9 @@
 //! (one step when the frame is a little over, several at once when its lighting is many
 //! times the view pass, as a first frame's is on a CPU adapter), and raises it again
 //! once the lighting costs less than [`RAISE_BELOW`] of the view pass (the step up costs
-//! about three times as much). It never goes below [`floor`]: the environment grid's cells stay within
-//! [`MAX_CELL_TAU`](haze_view::render::MAX_CELL_TAU) optical depths across, where the
-//! lower details' error stayed small. Where the next level would pass the floor, the
+//! about three times as much). It never goes below [`floor`]: the environment grid's
+//! cells stay within [`MAX_CELL_TAU`](haze_view::render::MAX_CELL_TAU) optical depths
+//! across, where the lower details' error stayed small. Where the next level would pass the floor, the
 //! last step goes to the floor itself (when that is at least [`MIN_STEP`] lower): smoke
 //! whose floor is 0.38 plays at 0.38, not stuck at 0.5. Paused, a frame is lit at full
 //! detail: the picture a user stops on is the one the renderer's figures are measured
@@ -125,9 +125,9 @@ impl DetailControl {
     /// down when it was late and its lighting cost more than its view pass — to the level
     /// whose lighting would fit ([`step_down`]: the next of [`LEVELS`], or further when
     /// the lighting is several times over), or to [`floor`]`(tau)` where that level would
-    /// pass it and the floor is at least [`MIN_STEP`] lower; one up (to the next level above) when the lighting
-    /// cost less than [`RAISE_BELOW`] of the view pass; to the floor at once when the
-    /// detail is below it (thicker smoke). A frame lit at another detail than the current
+    /// pass it and the floor is at least [`MIN_STEP`] lower; one up (to the next level
+    /// above) when the lighting cost less than [`RAISE_BELOW`] of the view pass; to the
+    /// floor at once when the detail is below it (thicker smoke). A frame lit at another detail than the current
     /// one (submitted before the last step) changes nothing.
     pub fn observe(&mut self, detail: f64, cost: FrameCost, slot_seconds: Option<f64>, tau: f64) {
         let Some(slot) = slot_seconds else { return };
