@@ -37,7 +37,9 @@ pub enum Command {
     /// value range, active (non-zero) voxels and memory. For an asset, every block's
     /// checksum is verified. For a lat-long map (.exr or .hdr, as --env takes it): its
     /// size, brightest texel and power, and the suns its concentrated light is split into
-    /// for the render, each with its direction, width and share of the power.
+    /// for the render, each with its direction, width and share of the power; any other
+    /// .exr or .hdr picture (a render) is described as an image: size, brightest value and
+    /// mean colour.
     #[command(allow_negative_numbers = true)]
     Inspect {
         /// File, directory, glob, .haze asset, or environment map.

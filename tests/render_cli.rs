@@ -485,6 +485,22 @@ fn suns_lights_and_a_maps_sun_reach_the_render() {
             && said.contains("light: 2 suns split off"),
         "{said}"
     );
+    // Of a rendered picture it says what it is, with its mean (the test's own sum).
+    let picture = tmp(&dir, "plain.exr");
+    let o = haze()
+        .args(["inspect", "--json", picture.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let said: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(said["kind"], "image");
+    assert_eq!(
+        (said["width"].as_u64(), said["height"].as_u64()),
+        (Some(40), Some(30))
+    );
+    let red = plain.iter().map(|p| f64::from(p[0])).sum::<f64>() / plain.len() as f64;
+    let said_red = said["mean_rgb"][0].as_f64().unwrap();
+    assert!((said_red / red - 1.0).abs() < 1e-9, "{said_red} vs {red}");
     let (whole, log) = render("whole.exr", &["--env", map, "--no-sun-extraction"]);
     assert!(!log.contains("sun split off"), "{log}");
     assert!(

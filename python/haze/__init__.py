@@ -58,7 +58,8 @@ def inspect(path: PathLike, frames: Frames = None) -> Dict[str, Any]:
     frames, grid, blocks and per-frame figures; for volumes their dims, world box,
     value range and active voxels; for a lat-long map (``.exr`` or ``.hdr``) its size,
     brightest texel, power and the suns a render splits off it (``kind`` is
-    ``"environment-map"``).
+    ``"environment-map"``); any other ``.exr`` or ``.hdr`` picture (a render) gives its
+    size, brightest value and mean colour (``kind`` is ``"image"``).
 
     Args:
         path: a volume file (OpenVDB ``.vdb``, NumPy ``.npy``, raw ``.f32`` with its

@@ -169,21 +169,13 @@ impl Lights {
         }
         let map = LatLong::load(path)?;
         let (w, h) = (map.width, map.height);
-        if (w, h) != (1, 1) && w != 2 * h {
+        if !is_lat_long(w, h) {
             bail!(
                 "{}: a {w}×{h} map is not lat-long (a lat-long map is twice as wide as it is tall)",
                 self.env
             );
         }
-        if (w, h) == (1, 1) {
-            tracing::info!(
-                "{}: a 1×1 map: the same radiance from every direction",
-                self.env
-            );
-        }
-        if map_power(&map).iter().all(|&p| p <= 0.0) {
-            tracing::warn!("{}: the map is black: no distant light", self.env);
-        }
+        note_map(&self.env, &map);
         Ok(map)
     }
 
@@ -204,6 +196,23 @@ impl Lights {
             s += &format!(" and {}", plural(self.light.len(), "point light"));
         }
         s
+    }
+}
+
+/// Whether a `w × h` map is lat-long: twice as wide as it is tall, or one texel (the same
+/// radiance from every direction).
+pub(crate) fn is_lat_long(w: usize, h: usize) -> bool {
+    (w, h) == (1, 1) || w == 2 * h
+}
+
+/// Says what is unusual about a lat-long map named `name`: one texel (`-v`), or black (a
+/// warning).
+pub(crate) fn note_map(name: &str, map: &LatLong) {
+    if (map.width, map.height) == (1, 1) {
+        tracing::info!("{name}: a 1×1 map: the same radiance from every direction");
+    }
+    if map_power(map).iter().all(|&p| p <= 0.0) {
+        tracing::warn!("{name}: the map is black: no distant light");
     }
 }
 

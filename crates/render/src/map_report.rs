@@ -1,11 +1,13 @@
 //! `haze inspect MAP.exr|MAP.hdr`: what an environment map holds and how the renderers will
 //! light with it — its size and format, its brightest texel and power, and the suns its
 //! concentrated light is split into ([`haze_view::lights::decompose`], as `haze render
-//! --env MAP` does) — so a user sees before a render whether the sun was found.
+//! --env MAP` does) — so a user sees before a render whether the sun was found. A picture
+//! that is not lat-long (a rendered image, a texture) is described as an image: its size,
+//! format, brightest pixel and mean.
 
-use crate::lights::{Lights, decomposition_lines};
-use anyhow::Result;
-use haze_view::distant::MapFormat;
+use crate::lights::{decomposition_lines, is_lat_long, note_map};
+use anyhow::{Result, bail};
+use haze_view::LatLong;
 use haze_view::lights::decompose::{DecomposeOptions, decompose, luminance, map_power};
 use serde::Serialize;
 use std::f64::consts::PI;
@@ -45,13 +47,6 @@ pub struct MapReport {
     lines: Vec<String>,
 }
 
-impl MapReport {
-    /// The report as lines of text.
-    pub fn text(&self) -> String {
-        self.lines.iter().map(|l| format!("{l}\n")).collect()
-    }
-}
-
 /// Whether `haze inspect` takes `path` for an environment map: an `.exr` or `.hdr` name
 /// (no volume format uses either).
 pub fn is_map(path: &Path) -> bool {
@@ -59,24 +54,67 @@ pub fn is_map(path: &Path) -> bool {
     ["exr", "hdr"].contains(&ext.to_ascii_lowercase().as_str())
 }
 
-/// Reads, checks and decomposes the map at `path` (the same checks and errors as `--env`).
-pub fn inspect_map(path: &Path) -> Result<MapReport> {
+/// An image that is not a lat-long map described: what `haze inspect` says of a rendered
+/// picture rather than refusing it as a map.
+#[derive(Debug, Serialize)]
+pub struct ImageReport {
+    pub kind: &'static str,
+    pub path: String,
+    /// "OpenEXR" or "Radiance HDR".
+    pub format: &'static str,
+    pub width: usize,
+    pub height: usize,
+    /// The largest channel value of any pixel.
+    pub max_value: f64,
+    /// Each channel's mean over the pixels (linear RGB).
+    pub mean_rgb: [f64; 3],
+    #[serde(skip)]
+    lines: Vec<String>,
+}
+
+/// What `haze inspect` reports of an `.exr` or `.hdr` file.
+#[derive(Debug, Serialize)]
+#[serde(untagged)]
+pub enum PictureReport {
+    /// A lat-long environment map (`kind` "environment-map").
+    Map(MapReport),
+    /// Any other picture (`kind` "image").
+    Image(ImageReport),
+}
+
+impl PictureReport {
+    /// The report as lines of text.
+    pub fn text(&self) -> String {
+        let lines = match self {
+            PictureReport::Map(m) => &m.lines,
+            PictureReport::Image(i) => &i.lines,
+        };
+        lines.iter().map(|l| format!("{l}\n")).collect()
+    }
+}
+
+/// Reads the picture at `path` (opened once); decomposes it when it is a lat-long map
+/// (the same checks and errors as `--env`), else describes it as an image.
+pub fn inspect_map(path: &Path) -> Result<PictureReport> {
     let name = path.display().to_string();
-    let lights = Lights {
-        env: name.clone(),
-        no_sun_extraction: false,
-        sun: Vec::new(),
-        light: Vec::new(),
-    };
-    let map = lights.load_map()?;
-    let format = MapFormat::of(path)?.name();
-    let found = decompose(&map, &DecomposeOptions::default());
-    let power = luminance(map_power(&map));
-    let max_radiance = map
+    if !path.exists() {
+        bail!("{name}: no such file or directory");
+    }
+    let (map, format) = LatLong::load_with_format(path)?;
+    let format = format.name();
+    let max_value = map
         .texels
         .iter()
         .flatten()
         .fold(0.0f64, |m, &c| m.max(f64::from(c)));
+    if !is_lat_long(map.width, map.height) {
+        return Ok(PictureReport::Image(image_report(
+            name, format, &map, max_value,
+        )));
+    }
+    note_map(&name, &map);
+    let found = decompose(&map, &DecomposeOptions::default());
+    let power = luminance(map_power(&map));
     let suns: Vec<SunReport> = found
         .suns
         .iter()
@@ -97,22 +135,55 @@ pub fn inspect_map(path: &Path) -> Result<MapReport> {
             map.width, map.height
         ),
         format!(
-            "radiance: brightest texel {max_radiance:.4}, power {power:.4} (luminance of ∫L dω), a uniform sky of {:.4}",
+            "radiance: brightest texel {max_value:.4}, power {power:.4} (luminance of ∫L dω), a uniform sky of {:.4}",
             power / (4.0 * PI)
         ),
     ];
     lines.extend(decomposition_lines("light", &found));
-    Ok(MapReport {
+    Ok(PictureReport::Map(MapReport {
         kind: "environment-map",
         path: name,
         format,
         width: map.width,
         height: map.height,
-        max_radiance,
+        max_radiance: max_value,
         power,
         mean_radiance: power / (4.0 * PI),
         sun_share: suns.iter().map(|s| s.share).sum(),
         suns,
         lines,
-    })
+    }))
+}
+
+/// A picture that is not lat-long: its size, brightest value and mean colour.
+fn image_report(name: String, format: &'static str, map: &LatLong, max_value: f64) -> ImageReport {
+    let mut sum = [0.0f64; 3];
+    for t in &map.texels {
+        for (s, &c) in sum.iter_mut().zip(t) {
+            *s += f64::from(c);
+        }
+    }
+    // `LatLong::load` refuses empty pictures: at least one pixel.
+    let n = map.texels.len() as f64;
+    let mean_rgb = sum.map(|s| s / n);
+    let lines = vec![
+        format!(
+            "{name}: image ({format}), {} × {}, not a lat-long environment map (a lat-long map is twice as wide as it is tall)",
+            map.width, map.height
+        ),
+        format!(
+            "values: brightest {max_value:.4}, mean RGB ({:.4}, {:.4}, {:.4})",
+            mean_rgb[0], mean_rgb[1], mean_rgb[2]
+        ),
+    ];
+    ImageReport {
+        kind: "image",
+        path: name,
+        format,
+        width: map.width,
+        height: map.height,
+        max_value,
+        mean_rgb,
+        lines,
+    }
 }

@@ -61,11 +61,6 @@ impl MapFormat {
             MapFormat::OpenExr
         })
     }
-
-    /// The format of the map at `path`.
-    pub fn of(path: &Path) -> Result<MapFormat, EnvError> {
-        Self::sniff(path, &mut open_map(path)?)
-    }
 }
 
 fn cannot_read(path: &Path, e: std::io::Error) -> EnvError {
@@ -146,11 +141,18 @@ impl LatLong {
     /// ([`MapFormat::sniff`]; the name's extension is not trusted: downloaded maps are often
     /// renamed). The file is opened once.
     pub fn load(path: &Path) -> Result<Self, EnvError> {
+        Ok(Self::load_with_format(path)?.0)
+    }
+
+    /// [`LatLong::load`], and the format the file was read as.
+    pub fn load_with_format(path: &Path) -> Result<(Self, MapFormat), EnvError> {
         let mut reader = open_map(path)?;
-        match MapFormat::sniff(path, &mut reader)? {
+        let format = MapFormat::sniff(path, &mut reader)?;
+        let map = match format {
             MapFormat::RadianceHdr => Self::read_hdr(path, reader),
             MapFormat::OpenExr => Self::read_exr(path, reader),
-        }
+        }?;
+        Ok((map, format))
     }
 
     /// Reads a Radiance `.hdr` (RGBE, `FORMAT=32-bit_rle_rgbe`) file through the `image`

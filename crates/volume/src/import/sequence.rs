@@ -90,19 +90,36 @@ impl FromStr for FrameRange {
     }
 }
 
-/// The frame number in a file name: its last run of ASCII digits.
+/// The frame number in a file name: its last run of ASCII digits ([`digit_runs`]).
 pub fn frame_number(path: &Path) -> Option<i64> {
     digit_runs(path)?.last().copied()
 }
 
-/// The runs of ASCII digits in a file name's stem, left to right (`None`: a stem that is
-/// not UTF-8, or a run too long for an `i64`).
+/// The runs of ASCII digits in a file name's stem, left to right, leaving out a second
+/// extension that names the sample type (`smoke.f32.npy`, `density.u16.raw`:
+/// [`is_type_tag`]). `None`: a stem that is not UTF-8, or a run too long for an `i64`.
 fn digit_runs(path: &Path) -> Option<Vec<i64>> {
-    let stem = path.file_stem()?.to_str()?;
+    let mut stem = path.file_stem()?.to_str()?;
+    if let Some((rest, tag)) = stem.rsplit_once('.')
+        && is_type_tag(tag)
+    {
+        stem = rest;
+    }
     stem.split(|c: char| !c.is_ascii_digit())
         .filter(|run| !run.is_empty())
         .map(|run| run.parse().ok())
         .collect()
+}
+
+/// Whether a second extension names a sample type rather than a frame: `f16`, `f32`, `f64`,
+/// `i8` … `u64`, `float32`, `int16`, `uint8` and the like, in any case.
+fn is_type_tag(token: &str) -> bool {
+    let lower = token.to_ascii_lowercase();
+    ["float", "uint", "int", "f", "u", "i"].iter().any(|kind| {
+        lower
+            .strip_prefix(kind)
+            .is_some_and(|bits| ["8", "16", "32", "64"].contains(&bits))
+    })
 }
 
 /// The frame numbers of a sequence's files: the last run of digits that differs between
@@ -396,6 +413,15 @@ mod tests {
             Some(24)
         );
         assert_eq!(frame_number(Path::new("v2/density.npy")), None);
+        // A sample type's tag is not a frame number.
+        assert_eq!(frame_number(Path::new("smoke.f32.npy")), None);
+        assert_eq!(frame_number(Path::new("smoke_0007.f32.npy")), Some(7));
+        assert_eq!(frame_number(Path::new("density_12.U16.raw")), Some(12));
+        assert_eq!(frame_number(Path::new("grid-0003.uint8.npy")), Some(3));
+        // Only as the last extension: a frame named with a letter keeps its number.
+        assert_eq!(frame_number(Path::new("smoke_f32.vdb")), Some(32));
+        assert_eq!(frame_number(Path::new("smoke.0032.vdb")), Some(32));
+        assert_eq!(frame_number(Path::new("smoke.f320.npy")), Some(320));
     }
 
     /// In a sequence the frame number is the last run of digits that differs between
