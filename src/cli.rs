@@ -73,7 +73,7 @@ pub enum Command {
         /// The chunk assets.
         #[arg(required = true, value_name = "CHUNK")]
         chunks: Vec<PathBuf>,
-        /// The .haze file to write.
+        /// The asset to write (its name must end in .haze: the other commands know an asset by it).
         #[arg(long, short)]
         out: PathBuf,
     },
@@ -167,7 +167,7 @@ pub enum Command {
         /// File, directory or glob of numbered frames, or a packed asset (a frame range
         /// of it).
         input: PathBuf,
-        /// The .haze file to write.
+        /// The asset to write (its name must end in .haze: the other commands know an asset by it).
         #[arg(long, short)]
         out: PathBuf,
         /// Frame range to pack, inclusive: A..B, A.., ..B or A.

@@ -8,7 +8,7 @@ pub fn run(chunks: &[PathBuf], out: &Path) -> Result<()> {
     chunks
         .iter()
         .fold(Outputs::new(), |o, c| o.input(c))
-        .output("--out", out)
+        .asset("--out", out)
         .check()?;
     let m = haze_bake::merge(chunks, out)?;
     let n = &m.frames;

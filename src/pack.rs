@@ -11,7 +11,7 @@ use haze_volume::import::FrameRange;
 use std::path::Path;
 
 pub fn run(input: &Path, out: &Path, range: FrameRange, opts: &ImportOptions) -> Result<()> {
-    Outputs::new().input(input).output("--out", out).check()?;
+    Outputs::new().input(input).asset("--out", out).check()?;
     let seq = Frames::open(input, opts, range)?;
     if seq.dims().contains(&0) {
         bail!("{}: every frame is empty; nothing to pack", input.display());

@@ -452,6 +452,19 @@ fn pack_failure_leaves_no_output() {
         std::fs::read_dir(tmp.path().join("out")).unwrap().count(),
         0
     );
+    // An asset named other than .haze would be refused by every command that reads one:
+    // it is refused before the work.
+    let bin = tmp.path().join("out").join("s.bin");
+    let e = fails_with_one_line(
+        &[
+            "pack",
+            pattern.to_str().unwrap(),
+            "--out",
+            bin.to_str().unwrap(),
+        ],
+        &bin,
+    );
+    assert!(e.contains("--out must end in .haze"), "{e}");
 }
 
 #[test]

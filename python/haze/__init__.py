@@ -96,8 +96,8 @@ def bake(
     Args:
         src: a volume file, a directory or a glob of numbered frames (OpenVDB, NumPy,
             raw), or a packed asset.
-        out: the asset to write. It must not be one of the inputs (refused, nothing
-            touched).
+        out: the asset to write, named ``*.haze``. It must not be one of the inputs
+            (refused, nothing touched).
         frames: which frames: an int, ``(first, last)`` inclusive, or ``"A..B"``;
             every frame by default.
         rbfs: RBFs fitted to the first frame (later frames insert and delete as the
@@ -150,7 +150,7 @@ def merge(chunks: Sequence[PathLike], out: PathLike) -> List[int]:
     Args:
         chunks: the chunks' assets, in any order; together they must hold consecutive
             frames, each once, baked with the same settings.
-        out: the asset to write (not one of the chunks).
+        out: the asset to write, named ``*.haze`` (not one of the chunks).
 
     Returns:
         The merged asset's frame numbers, in order.

@@ -106,10 +106,12 @@ def test_inspect_describes_an_environment_map(tmp_path):
     assert info["kind"] == "environment-map" and info["format"] == "Radiance HDR"
     assert (info["width"], info["height"], info["max_radiance"]) == (16, 8, 500.0)
     assert len(info["suns"]) == 1 and info["sun_share"] > 0.5
-    bad = tmp_path / "wide.hdr"
-    bad.write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 3\n" + sky * 3)
-    with pytest.raises(haze.HazeError, match="not lat-long"):
-        haze.inspect(bad)
+    # A picture that is not lat-long (3 x 1) is described as an image, not refused.
+    wide = tmp_path / "wide.hdr"
+    wide.write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 3\n" + sky * 3)
+    info = haze.inspect(wide)
+    assert info["kind"] == "image" and (info["width"], info["height"]) == (3, 1)
+    assert info["mean_rgb"] == [0.3125] * 3 and "suns" not in info
 
 
 def test_a_bake_reports_every_frame_and_keeps_its_error(baked):
@@ -155,6 +157,8 @@ def test_an_output_naming_an_input_is_refused_untouched(tmp_path):
     assert src.read_bytes() == before
     with pytest.raises(haze.HazeError, match="rbfs=0"):
         haze.bake(src, tmp_path / "x.haze", rbfs=0)
+    with pytest.raises(haze.HazeError, match=r"x.bin: out must end in \.haze"):
+        haze.bake(src, tmp_path / "x.bin")
 
 
 def test_a_progress_exception_stops_and_resume_finishes(tmp_path):

@@ -10,7 +10,7 @@ pub struct BakeCli {
     /// File, directory or glob of numbered frames (a frame's number is the last run of
     /// digits that differs between the names), or a packed asset (`haze pack`).
     pub(crate) input: PathBuf,
-    /// The .haze file to write.
+    /// The asset to write (its name must end in .haze: the other commands know an asset by it).
     #[arg(long, short)]
     pub(crate) out: PathBuf,
     /// Frame range to bake, inclusive: A..B, A.., ..B or A. A chunk starts with a full

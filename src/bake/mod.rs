@@ -15,7 +15,7 @@ use std::sync::{Arc, Mutex};
 pub fn run(cli: BakeCli) -> Result<()> {
     let mut files = Outputs::new()
         .input(&cli.input)
-        .output("--out", &cli.out)
+        .asset("--out", &cli.out)
         .output("the bake journal", &haze_bake::journal::path_for(&cli.out));
     if let Some(report) = &cli.report {
         files = files.output("--report", report);

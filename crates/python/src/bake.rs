@@ -101,7 +101,7 @@ pub fn merge(py: Python<'_>, chunks: Vec<PathBuf>, out: PathBuf) -> PyResult<Vec
     chunks
         .iter()
         .fold(Outputs::new(), |o, c| o.input(c))
-        .output("out", &out)
+        .asset("out", &out)
         .check()
         .map_err(to_py)?;
     let merged = py
@@ -179,7 +179,7 @@ pub fn bake(
     // Nothing lost: the asset and its journal never replace an input.
     Outputs::new()
         .input(&src)
-        .output("out", &out)
+        .asset("out", &out)
         .output("the bake journal", &haze_bake::journal::path_for(&out))
         .check()
         .map_err(to_py)?;

@@ -16,7 +16,9 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, Default)]
 pub struct Outputs {
     inputs: Vec<PathBuf>,
-    outputs: Vec<(String, PathBuf)>,
+    /// The flag that names each output, its path, and whether it is a `.haze` asset
+    /// ([`Outputs::asset`]).
+    outputs: Vec<(String, PathBuf, bool)>,
 }
 
 impl Outputs {
@@ -51,13 +53,23 @@ impl Outputs {
 
     /// A file to be written, named by the flag that gives it (`--out`, `--report`).
     pub fn output(mut self, flag: &str, path: &Path) -> Outputs {
-        self.outputs.push((flag.to_string(), path.to_path_buf()));
+        self.outputs
+            .push((flag.to_string(), path.to_path_buf(), false));
+        self
+    }
+
+    /// An asset to be written: an output ([`Outputs::output`]) whose name must end in
+    /// `.haze`, the extension `haze render`, `view`, `inspect` and `export` know an asset
+    /// by (a bake written to `smoke.bin` would be refused by all of them).
+    pub fn asset(mut self, flag: &str, path: &Path) -> Outputs {
+        self.outputs
+            .push((flag.to_string(), path.to_path_buf(), true));
         self
     }
 
     /// Refuses, in one line: an output that is one of the inputs (the same path once
     /// links are resolved, or the same file by device and inode: a hard link) or
-    /// another output; an output that is a directory; an output whose folder is missing
+    /// another output; an output that is a directory; an asset not named `.haze`; an output whose folder is missing
     /// or not writable (probed by creating and removing a temporary file in it).
     pub fn check(&self) -> Result<()> {
         let mut inputs = Seen::default();
@@ -68,7 +80,7 @@ impl Outputs {
         }
         let mut outputs = Seen::default();
         let mut probed = std::collections::HashSet::new();
-        for (flag, out) in &self.outputs {
+        for (flag, out, asset) in &self.outputs {
             if out.is_dir() {
                 bail!("{}: {flag} is a directory; give a file name", out.display());
             }
@@ -93,6 +105,15 @@ impl Outputs {
                     "{}: {flag} is the same file as {other} {}; give them different files",
                     out.display(),
                     path.display()
+                );
+            }
+            let haze = out
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("haze"));
+            if *asset && !haze {
+                bail!(
+                    "{}: {flag} must end in .haze (haze render, view, inspect and export know an asset by its extension)",
+                    out.display()
                 );
             }
             if probed.insert(dir.clone()) {
@@ -298,6 +319,26 @@ mod tests {
             .unwrap();
         let names: Vec<_> = std::fs::read_dir(d).unwrap().collect();
         assert_eq!(names.len(), 5, "{names:?}");
+    }
+
+    /// An asset must be named `.haze` (in any case), else nothing would read it back.
+    #[test]
+    fn an_asset_not_named_haze_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let e = err(Outputs::new().asset("--out", &d.join("smoke.bin")));
+        assert!(e.contains("smoke.bin: --out must end in .haze"), "{e}");
+        let e = err(Outputs::new().asset("--out", &d.join("smoke")));
+        assert!(e.contains("must end in .haze"), "{e}");
+        // A directory keeps its own message.
+        let e = err(Outputs::new().asset("--out", d));
+        assert!(e.contains("is a directory"), "{e}");
+        for name in ["smoke.haze", "SMOKE.HAZE"] {
+            Outputs::new()
+                .asset("--out", &d.join(name))
+                .check()
+                .unwrap();
+        }
     }
 
     #[test]
