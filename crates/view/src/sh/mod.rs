@@ -59,7 +59,8 @@ pub fn phase_cut_warning(g: f64, order: usize) -> Option<String> {
     let c = phase_cut(g, order);
     (c > PHASE_CUT_WARNING).then(|| {
         format!(
-            "HG g {g} is too forward for SH order {order}: the cut band weighs {:.0} % of the phase function's first, so sky-lit multiple scattering is approximate (at g 0.8 and order 4 on held-out plumes: single scattering within 3 %, the final image 3–7 % off, whatever the order); a check against the reference (--check) says how far",
+            "HG g {g} is too {} for SH order {order}: the cut band weighs {:.0} % of the phase function's first, so sky-lit multiple scattering is approximate (at g 0.8 and order 4 on held-out plumes: single scattering within 3 %, the final image 3–7 % off, whatever the order); a check against the reference (--check) says how far",
+            if g < 0.0 { "backward" } else { "forward" },
             100.0 * c
         )
     })
@@ -68,6 +69,24 @@ pub fn phase_cut_warning(g: f64, order: usize) -> Option<String> {
 #[cfg(test)]
 mod phase_cut_tests {
     use super::*;
+
+    /// The warning names the peak's side: a backward `g` is not "too forward".
+    #[test]
+    fn the_warning_names_the_peaks_side() {
+        let w = |g: f64| phase_cut_warning(g, 4).unwrap_or_default();
+        assert!(
+            w(0.9).contains("HG g 0.9 is too forward for SH order 4"),
+            "{}",
+            w(0.9)
+        );
+        assert!(
+            w(-0.9).contains("HG g -0.9 is too backward for SH order 4"),
+            "{}",
+            w(-0.9)
+        );
+        assert_eq!(phase_cut_warning(0.3, 4), None);
+        assert_eq!(phase_cut_warning(-0.3, 4), None);
+    }
 
     /// The cut band's weight is `|g|^order`: against the HG zonal coefficients
     /// (`hg_zh`), band `order` over band 0 divided by the basis' `√(2l+1)` ratio.
