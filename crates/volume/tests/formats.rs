@@ -57,7 +57,14 @@ fn npy_c_and_fortran_orders_both_give_x_fastest() {
         npyz::Order::Fortran,
         &c,
     );
-    for p in [&pc, &pf] {
+    // A batch axis before and a channel axis after: the same volume.
+    let pb = tmp.path().join("batch.npy");
+    let shape = [1, nz as u64, ny as u64, nx as u64, 1];
+    write_npy(&pb, &shape, npyz::Order::C, &c);
+    let pg = tmp.path().join("fortran_channel.npy");
+    let shape = [1, nx as u64, ny as u64, nz as u64, 1, 1];
+    write_npy(&pg, &shape, npyz::Order::Fortran, &c);
+    for p in [&pc, &pf, &pb, &pg] {
         let v = import::import(p, &ImportOptions::default()).unwrap();
         assert_eq!(v.dims(), [4, 3, 2]);
         assert_eq!(v.get(3, 1, 0), value(3, 1, 0));
@@ -99,6 +106,12 @@ fn npy_errors_are_clear() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("shape [6]; a volume needs 3 dimensions"), "{e}");
+    let p = tmp.path().join("wide.npy");
+    write_npy(&p, &[2, 1, 1, 1, 3], npyz::Order::C, &[0f32; 6]);
+    let e = import::import(&p, &ImportOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("shape [2, 1, 1, 1, 3]; a volume needs 3"), "{e}");
     let p = tmp.path().join("int.npy");
     write_npy(&p, &[1, 1, 2], npyz::Order::C, &[1i32, 2]);
     let e = import::import(&p, &ImportOptions::default())

@@ -230,12 +230,12 @@ fn read_npy(path: &Path) -> Result<Pixels, String> {
     let bytes = std::fs::read(path).map_err(|e| format!("cannot read: {e}"))?;
     haze_core::npy_header::check(&bytes)?;
     let npy = NpyFile::new(&bytes[..]).map_err(|e| format!("not a readable .npy file: {e}"))?;
-    let shape = npy.shape().to_vec();
-    if shape.len() != 2 {
+    let Some(shape) = haze_volume::import::npy::squeeze_to(npy.shape(), 2) else {
         return Err(format!(
-            "array has shape {shape:?}; a fogmap needs 2 dimensions"
+            "array has shape {:?}; a fogmap needs 2 dimensions (axes of length 1 before or after them are dropped)",
+            npy.shape()
         ));
-    }
+    };
     let dim = |i: usize| usize::try_from(shape[i]).map_err(|_| "shape too large".to_string());
     let (rows, cols) = (dim(0)?, dim(1)?);
     let fortran = npy.order() == Order::Fortran;

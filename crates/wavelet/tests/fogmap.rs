@@ -159,8 +159,14 @@ fn npy_c_and_fortran_order() {
     write_npy(&empty, &[0, 3], &[0f64; 0], false);
     assert!(error_of(&empty).contains("empty fogmap (3 × 0 pixels)"));
     let cube = dir.path().join("cube.npy");
-    write_npy(&cube, &[1, 1, 1], &[1.0], false);
+    write_npy(&cube, &[2, 2, 2], &[1.0; 8], false);
     assert!(error_of(&cube).contains("needs 2 dimensions"));
+    // A batch or channel axis of length 1 is dropped: the same fogmap.
+    for (name, shape) in [("batch.npy", [1, 2, 3]), ("channel.npy", [2, 3, 1])] {
+        let p = dir.path().join(name);
+        write_npy(&p, &shape, &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0], false);
+        assert_eq!(Fogmap::load(&p).unwrap(), f);
+    }
 }
 
 /// 8- and 16-bit NumPy and raw fogmaps are scaled to `[0, 1]` as a PNG's are, and a

@@ -1,6 +1,7 @@
 //! NumPy `.npy` volumes (through npyz).
 //!
-//! A 3-D array of any type of [`super::samples`] (`float32`; `float16` and `float64`
+//! A 3-D array (axes of length 1 before or after the three are dropped: `[1, z, y, x]`,
+//! `[z, y, x, 1]`) of any type of [`super::samples`] (`float32`; `float16` and `float64`
 //! converted; `uint8` and `uint16` read as fractions of 255 / 65535) in either memory order:
 //! a C-order array is indexed `[z, y, x]` and a Fortran-order array `[x, y, z]`, so that in
 //! both cases x varies fastest in the file, as in every haze grid. The world box comes from
@@ -24,12 +25,21 @@ pub fn read(path: &Path) -> Result<Volume, ImportError> {
     haze_core::npy_header::check(&bytes).map_err(|e| fmt_err(path, e))?;
     let npy = NpyFile::new(&bytes[..])
         .map_err(|e| fmt_err(path, format!("not a readable .npy file: {e}")))?;
-    let shape = npy.shape().to_vec();
-    if shape.len() != 3 {
-        return Err(fmt_err(
+    let shape = squeeze_to(npy.shape(), 3).ok_or_else(|| {
+        fmt_err(
             path,
-            format!("array has shape {shape:?}; a volume needs 3 dimensions"),
-        ));
+            format!(
+                "array has shape {:?}; a volume needs 3 dimensions (axes of length 1 before or after them are dropped)",
+                npy.shape()
+            ),
+        )
+    })?;
+    if shape.len() < npy.shape().len() {
+        tracing::info!(
+            "{}: array of shape {:?} read as {shape:?} (axes of length 1 dropped)",
+            path.display(),
+            npy.shape()
+        );
     }
     let s = shape.map_or_usize(path)?;
     let dims = match npy.order() {
@@ -83,6 +93,21 @@ pub fn read(path: &Path) -> Result<Volume, ImportError> {
         Bbox::new([0.0; 3], dims.map(|d| d.max(1) as f64))
     };
     Volume::new(dims, bbox, data).map_err(|e| fmt_err(path, e.to_string()))
+}
+
+/// The array's `n` data axes: its shape less the axes of length 1 before or after them
+/// (a batch or channel axis, `[1, z, y, x]` or `[z, y, x, 1]`; dropping an axis of length
+/// 1 leaves the values' order as it is, in either memory order). `None`: fewer than `n`
+/// axes, or more than `n` once those are dropped.
+pub fn squeeze_to(shape: &[u64], n: usize) -> Option<Vec<u64>> {
+    let mut axes = shape;
+    while axes.len() > n && axes.first() == Some(&1) {
+        axes = &axes[1..];
+    }
+    while axes.len() > n && axes.last() == Some(&1) {
+        axes = &axes[..axes.len() - 1];
+    }
+    (axes.len() == n).then(|| axes.to_vec())
 }
 
 /// The sample type of a NumPy dtype, if supported (also the fogmaps').
