@@ -11,7 +11,11 @@
 //! cells stay within [`MAX_CELL_TAU`](haze_view::render::MAX_CELL_TAU) optical depths
 //! across, where the lower details' error stayed small. Where the next level would pass the floor, the
 //! last step goes to the floor itself (when that is at least [`MIN_STEP`] lower): smoke
-//! whose floor is 0.38 plays at 0.38, not stuck at 0.5. Paused, a frame is lit at full
+//! whose floor is 0.38 plays at 0.38, not stuck at 0.5. Where the lighting runs on the
+//! CPU (beside an adapter that is a CPU), playback starts at the floor of its first
+//! frame's thickness rather than at full detail ([`DetailControl::start_at`]), and the
+//! rules above go on from there: the first picture comes in about a third of a
+//! full-detail frame's time. Paused, a frame is lit at full
 //! detail: the picture a user stops on is the one the renderer's figures are measured
 //! for, and the player renders it again when playback stopped on a lower detail. What
 //! each level costs in error against the full detail is in BENCHMARKS.md ("Viewer
@@ -117,6 +121,13 @@ impl DetailControl {
     /// The lowest detail playback has used so far.
     pub fn lowest(&self) -> f64 {
         self.lowest
+    }
+
+    /// Playback's first frame was lit at `detail` (the floor of its thickness, chosen
+    /// where the frame was lit): the control goes on from there, as if it had chosen it.
+    pub fn start_at(&mut self, detail: f64) {
+        self.detail = detail;
+        self.lowest = self.lowest.min(detail);
     }
 
     /// Weighs a playback frame lit at `detail` that took `cost` against its slot of

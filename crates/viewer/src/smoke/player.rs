@@ -57,6 +57,9 @@ pub struct Player {
     submitted: Option<(usize, View)>,
     /// The lighting's detail for playback frames (`detail` module).
     pub detail: DetailControl,
+    /// Playback's first frame was handed over to be lit at its floor, and has not come
+    /// back yet (`Job::at_floor`).
+    floor_started: bool,
     /// Expected seconds per job.
     lead: f64,
     /// Jobs that rendered (not only tone-mapped) and their seconds, for the report.
@@ -88,6 +91,7 @@ impl Player {
             pending: None,
             submitted: None,
             detail: DetailControl::default(),
+            floor_started: false,
             lead: 0.0,
             renders: 0,
             render_seconds: 0.0,
@@ -161,6 +165,13 @@ impl Player {
             }
             let stale = self.submitted.as_ref() != Some(&(frame, view.clone()));
             if next.is_some() || (!self.playback.playing() && stale) {
+                // Playback at a rate, lit on the CPU, starts at the floor's detail
+                // (`detail` module docs).
+                let at_floor = next.is_some()
+                    && self.submitted.is_none()
+                    && self.playback.fps() > 0.0
+                    && self.worker.lights_on_host();
+                self.floor_started |= at_floor;
                 self.worker.submit(Job {
                     tick: next,
                     frame,
@@ -168,6 +179,7 @@ impl Player {
                     scene: view.scene.clone(),
                     exposure: view.exposure,
                     tone: view.tone,
+                    at_floor,
                 });
                 self.submitted = Some((frame, view));
             }
@@ -181,7 +193,11 @@ impl Player {
         } else {
             LEAD_WEIGHT * done.seconds + (1.0 - LEAD_WEIGHT) * self.lead
         };
+        let from_floor = std::mem::take(&mut self.floor_started);
         if let (Some(_), Ok(p @ Picture { times: Some(t), .. })) = (done.tick, &done.picture) {
+            if from_floor {
+                self.detail.start_at(done.detail);
+            }
             let fps = self.playback.fps();
             self.detail.observe(
                 done.detail,
@@ -319,6 +335,45 @@ mod tests {
             }
             p.wait(Duration::from_millis(100));
         }
+    }
+
+    /// Playback at a rate whose lighting runs on the CPU starts at the floor of its first
+    /// frame's thickness, and the control goes on from there; paused, the frame is lit
+    /// again at full detail. Needs a GPU adapter (lavapipe will do).
+    #[test]
+    fn playback_lit_on_the_cpu_starts_at_the_floor() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = write_asset(dir.path(), "a.haze", 4);
+        let ctx = GpuContext::new().unwrap_or_else(|e| panic!("{e}"));
+        let cursor = FrameCursor::new(FrameStream::open(&path, 2, true).unwrap(), 2);
+        let worker = Worker::spawn(
+            cursor,
+            ctx,
+            LightingOn::Cpu,
+            Supersample::Auto,
+            Box::new(|| {}),
+        )
+        .unwrap();
+        assert!(worker.lights_on_host());
+        let mut p = Player::new(Playback::new(4, 24.0).unwrap(), worker, Instant::now());
+        // Thin smoke, whose floor is below full detail.
+        let mut v = view(0.2, 1.0);
+        v.scene.medium = Medium::new(0.5, 0.85, 0.3).unwrap();
+        let first = loop {
+            if let Some(x) = p.update(Instant::now(), &v).shown {
+                break x;
+            }
+            p.wait(Duration::from_millis(100));
+        };
+        let floor = super::super::detail::floor(first.grid.tau / first.grid.n.max(1) as f64);
+        assert!(floor < 1.0, "the test's smoke is thin: {floor}");
+        assert_eq!((first.detail, p.shown_detail), (floor, floor));
+        assert_eq!(p.detail.lowest(), floor);
+        assert!(p.detail.detail() >= floor, "{:?}", p.detail);
+        p.playback.pause();
+        let still = settle(&mut p, &v);
+        assert_eq!(p.shown_detail, 1.0);
+        assert!(still.last().unwrap().times.is_some(), "lit again");
     }
 
     /// Needs a GPU adapter (lavapipe will do); fails without one.

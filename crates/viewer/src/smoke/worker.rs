@@ -6,6 +6,7 @@
 //! the kept linear picture, still on the GPU, is only encoded again at the new exposure
 //! (`FrameRenderer::encode`).
 
+use super::detail;
 use super::frame::{FrameImage, FrameRenderer, StageTimes};
 use super::playback::Tick;
 use super::thick::{Grid, Refiner};
@@ -42,6 +43,10 @@ pub struct Job {
     /// Linear radiance is multiplied by it before the tone curve and the sRGB encoding.
     pub exposure: f64,
     pub tone: haze_core::ToneMap,
+    /// Light at the floor of the frame's thickness ([`detail::floor`]) rather than at
+    /// `scene.opts.detail`, where that is lower: the first picture of playback where the
+    /// lighting runs on the CPU, in about a third of a full-detail frame's time.
+    pub at_floor: bool,
 }
 
 /// A finished picture: 8-bit sRGB, three bytes per pixel, row 0 at the top.
@@ -56,6 +61,8 @@ pub struct Picture {
     pub times: Option<StageTimes>,
     /// The grid the frame was lit on (`thick` module).
     pub grid: Grid,
+    /// The lighting's detail it was lit at (`CrmOptions::detail`).
+    pub detail: f64,
 }
 
 /// A job done, with how long it took on the render thread.
@@ -63,7 +70,8 @@ pub struct Picture {
 pub struct Done {
     pub tick: Option<Tick>,
     pub seconds: f64,
-    /// The lighting's detail the job asked for (`CrmOptions::detail`).
+    /// The lighting's detail the picture was lit at (`CrmOptions::detail`; the job's,
+    /// where there is no picture).
     pub detail: f64,
     /// The picture, or why there is none (a damaged frame, a GPU error), on one line.
     pub picture: Result<Picture, String>,
@@ -129,6 +137,9 @@ pub struct Worker {
     done: Receiver<Done>,
     thread: Option<JoinHandle<()>>,
     busy: bool,
+    /// The frames' lighting runs on the CPU (`LightingOn::Cpu`, as `Auto` resolves beside
+    /// an adapter that is a CPU).
+    lights_on_host: bool,
 }
 
 /// The previous render, kept to tone-map it again.
@@ -152,6 +163,7 @@ impl Worker {
         supersample: Supersample,
         wake: Box<dyn Fn() + Send>,
     ) -> anyhow::Result<Worker> {
+        let lights_on_host = lighting.resolve(&ctx) == LightingOn::Cpu;
         let renderer =
             FrameRenderer::new(&ctx, lighting).map_err(|e| anyhow::anyhow!("GPU: {e}"))?;
         let mut refiner = Refiner::new(supersample, GridBuffer::max_voxels(&ctx));
@@ -175,7 +187,7 @@ impl Worker {
                     let done = Done {
                         tick: job.tick,
                         seconds: t.elapsed().as_secs_f64(),
-                        detail: job.scene.opts.detail,
+                        detail: picture.as_ref().map_or(job.scene.opts.detail, |p| p.detail),
                         picture,
                     };
                     if outbox.send(done).is_err() {
@@ -190,7 +202,13 @@ impl Worker {
             done,
             thread: Some(thread),
             busy: false,
+            lights_on_host,
         })
+    }
+
+    /// The frames' lighting runs on the CPU.
+    pub fn lights_on_host(&self) -> bool {
+        self.lights_on_host
     }
 
     /// A job is being worked on.
@@ -264,6 +282,11 @@ fn run_job(
             let (dims, bbox) = cursor.stream().grid();
             let frame = cursor.get(job.frame)?;
             let (grid, fine) = refiner.prepare(frame, dims, bbox, job.scene.medium.sigma_t)?;
+            let mut scene = job.scene.clone();
+            if job.at_floor {
+                let floor = detail::floor(grid.tau / grid.n.max(1) as f64);
+                scene.opts.detail = scene.opts.detail.min(floor);
+            }
             let residual = match fine {
                 Some(values) => Some(Residual::Dense(values)),
                 None => frame.residual.as_ref().map(Residual::Hash),
@@ -275,10 +298,10 @@ fn run_job(
                     residual,
                     haze_view::render::supersample::fine_dims(dims, grid.n),
                     &bbox,
-                    &job.scene.medium,
-                    &job.scene.env,
+                    &scene.medium,
+                    &scene.env,
                     &job.camera,
-                    &job.scene.opts,
+                    &scene.opts,
                 )
                 .map_err(|e| format!("frame {}: {e}", frame.number))?;
             let gpu: Vec<String> = times
@@ -289,7 +312,7 @@ fn run_job(
             tracing::debug!(
                 "frame {} (lighting detail {:.2}): {}; GPU: {}",
                 frame.number,
-                job.scene.opts.detail,
+                scene.opts.detail,
                 times.crm,
                 if gpu.is_empty() {
                     "no timestamps".to_string()
@@ -300,7 +323,7 @@ fn run_job(
             *kept = Some(Kept {
                 frame: job.frame,
                 camera: job.camera.clone(),
-                scene: job.scene.clone(),
+                scene,
                 image,
                 number: frame.number,
                 grid,
@@ -318,6 +341,7 @@ fn run_job(
             .map_err(|e| format!("frame {}: {e}", k.number))?,
         times,
         grid: k.grid,
+        detail: k.scene.opts.detail,
     })
 }
 
@@ -346,6 +370,7 @@ mod tests {
             },
             exposure,
             tone: haze_core::ToneMap::Filmic,
+            at_floor: false,
         }
     }
 
