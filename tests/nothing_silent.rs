@@ -240,6 +240,11 @@ fn values_are_checked_against_their_range() {
     );
     let e = refused(d, &["render", s(&a), "--exposure", "0", "--out", s(&png)]);
     assert!(e.contains("--exposure 0 must be"), "{e}");
+    let e = refused(
+        d,
+        &["render", s(&a), "--exposure", "1e40", "--out", s(&png)],
+    );
+    assert!(e.contains("--exposure 1e40 must be"), "{e}");
 }
 
 /// "negative values after a space": `--mu -1` reaches the real check (exit 1 with the

@@ -580,7 +580,14 @@ pub const MAX_EXPOSURE: f64 = 1e6;
 /// pixel black, 0 every pixel black, infinity every lit pixel white).
 pub fn check_exposure(exposure: f64) -> Result<()> {
     if !(exposure > 0.0 && exposure <= MAX_EXPOSURE) {
-        bail!("--exposure {exposure:?} must be a number in (0, {MAX_EXPOSURE:e}]");
+        // As typed for everyday numbers, in scientific notation for huge ones (1e40, not
+        // forty digits).
+        let shown = if exposure.abs() > MAX_EXPOSURE && exposure.is_finite() {
+            format!("{exposure:e}")
+        } else {
+            format!("{exposure}")
+        };
+        bail!("--exposure {shown} must be a number in (0, {MAX_EXPOSURE:e}]");
     }
     Ok(())
 }
