@@ -416,6 +416,11 @@ fn bad_inputs_fail_with_one_line_naming_the_file() {
         &t("nope.vdb"),
     );
     assert!(e.contains("no such file"), "{e}");
+    // Every kind says it alike (an asset said "No such file or directory (os error 2)").
+    for name in ["nope.haze", "nope.exr"] {
+        let e = fails_with_one_line(&["inspect", t(name).to_str().unwrap()], &t(name));
+        assert!(e.ends_with(": no such file or directory\n"), "{e}");
+    }
     std::fs::write(t("x.txt"), "hello").unwrap();
     let e = fails_with_one_line(&["inspect", t("x.txt").to_str().unwrap()], &t("x.txt"));
     assert!(

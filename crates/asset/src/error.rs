@@ -27,7 +27,7 @@ impl fmt::Display for BlockId {
 /// What went wrong with an asset file.
 #[derive(Debug, thiserror::Error)]
 pub enum AssetError {
-    #[error("{path}: {err}")]
+    #[error("{path}: {}", io_words(.err))]
     Io { path: PathBuf, err: std::io::Error },
     #[error("{path}: not a haze asset (bad magic number)")]
     BadMagic { path: PathBuf },
@@ -61,4 +61,14 @@ pub enum AssetError {
     },
     #[error("{path}: {what}")]
     Invalid { path: PathBuf, what: String },
+}
+
+/// An I/O error in words: a missing file as every reader of haze says it ("no such file or
+/// directory", not the system's "No such file or directory (os error 2)"), else the
+/// system's message.
+fn io_words(e: &std::io::Error) -> String {
+    match e.kind() {
+        std::io::ErrorKind::NotFound => "no such file or directory".to_string(),
+        _ => e.to_string(),
+    }
 }
