@@ -324,6 +324,15 @@ mod tests {
         }
     }
 
+    /// A render thread lighting on `lighting` over a 4-frame asset written in `dir`. Needs
+    /// a GPU adapter (lavapipe will do).
+    fn worker(dir: &std::path::Path, lighting: LightingOn) -> Worker {
+        let path = write_asset(dir, "a.haze", 4);
+        let ctx = GpuContext::new().unwrap_or_else(|e| panic!("{e}"));
+        let cursor = FrameCursor::new(FrameStream::open(&path, 2, true).unwrap(), 2);
+        Worker::spawn(cursor, ctx, lighting, Supersample::Auto, Box::new(|| {})).unwrap()
+    }
+
     /// Updates until the render thread is idle and nothing waits; the pictures shown.
     fn settle(p: &mut Player, v: &View) -> Vec<Picture> {
         let mut shown = Vec::new();
@@ -343,17 +352,7 @@ mod tests {
     #[test]
     fn playback_lit_on_the_cpu_starts_at_the_floor() {
         let dir = tempfile::tempdir().unwrap();
-        let path = write_asset(dir.path(), "a.haze", 4);
-        let ctx = GpuContext::new().unwrap_or_else(|e| panic!("{e}"));
-        let cursor = FrameCursor::new(FrameStream::open(&path, 2, true).unwrap(), 2);
-        let worker = Worker::spawn(
-            cursor,
-            ctx,
-            LightingOn::Cpu,
-            Supersample::Auto,
-            Box::new(|| {}),
-        )
-        .unwrap();
+        let worker = worker(dir.path(), LightingOn::Cpu);
         assert!(worker.lights_on_host());
         let mut p = Player::new(Playback::new(4, 24.0).unwrap(), worker, Instant::now());
         // Thin smoke, whose floor is below full detail.
@@ -380,17 +379,7 @@ mod tests {
     #[test]
     fn paused_it_renders_only_what_changed_and_playing_it_plays_in_order() {
         let dir = tempfile::tempdir().unwrap();
-        let path = write_asset(dir.path(), "a.haze", 4);
-        let ctx = GpuContext::new().unwrap_or_else(|e| panic!("{e}"));
-        let cursor = FrameCursor::new(FrameStream::open(&path, 2, true).unwrap(), 2);
-        let worker = Worker::spawn(
-            cursor,
-            ctx,
-            LightingOn::Auto,
-            Supersample::Auto,
-            Box::new(|| {}),
-        )
-        .unwrap();
+        let worker = worker(dir.path(), LightingOn::Auto);
         let mut playback = Playback::new(4, 24.0).unwrap();
         playback.pause();
         let mut p = Player::new(playback, worker, Instant::now());
