@@ -276,7 +276,15 @@ fn bad_render_requests_fail_on_one_line() {
         &["render", &vol, "--out", out, "--env", &wide],
         "not lat-long",
     );
-    fails(&["inspect", &wide], "not lat-long");
+    // `inspect` describes it as the image it is, not a map.
+    let said = ok(&["-q", "inspect", &wide]);
+    assert!(said.is_empty(), "{said}");
+    let o = haze().args(["inspect", &wide]).output().unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("image (OpenEXR), 30 × 10, not a lat-long environment map"),
+        "{text}"
+    );
     let nan = bad_map("nan.exr", 8, 4, f32::NAN);
     fails(
         &["render", &vol, "--out", out, "--env", &nan],
