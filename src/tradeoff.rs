@@ -18,7 +18,8 @@ pub struct TradeoffCli {
     /// Source frame number (default: the first).
     #[arg(long)]
     frame: Option<i64>,
-    /// Directory for tradeoff.json and the plots (created if missing).
+    /// Directory for tradeoff.json and the plots: made if missing (and removed again if the
+    /// run fails), never the input's directory of frames.
     #[arg(long, short)]
     out: PathBuf,
     /// Also measure every setting against the reference renderer (path tracing at --spp;

@@ -2,7 +2,7 @@
 //! output that cannot be written is refused before the work, and a failed run leaves
 //! nothing behind (the classes "output = input", "report = asset", "failed bake
 //! leaves OUT.partial", "report path fails after the whole bake", "a fogmap folder of
-//! mixed sizes", and the images' mode). Every refusal is checked against the promise
+//! mixed sizes", a failed sweep's directory, and the images' mode). Every refusal is checked against the promise
 //! (`support::refused`: exit 1 or 2, one line, no panic, the folder unchanged).
 
 mod support;
@@ -265,6 +265,30 @@ fn a_failed_fog_sequence_removes_its_first_frames() {
         ],
     );
     assert!(e.contains("x_0001.png") && e.contains("64 × 64"), "{e}");
+}
+
+/// A sweep whose input cannot be read removes the `--out` directory it made (and its
+/// parents); one that writes into the input's directory of frames is refused.
+#[test]
+fn a_failed_sweep_leaves_no_directory_and_frames_keep_their_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("broken.vdb"), b"not a volume").unwrap();
+    let out = d.join("sweeps/broken");
+    let e = refused(d, &["tradeoff", s(&d.join("broken.vdb")), "--out", s(&out)]);
+    assert!(e.contains("broken.vdb"), "{e}");
+    assert!(!d.join("sweeps").exists());
+
+    let frames = d.join("frames");
+    std::fs::create_dir(&frames).unwrap();
+    for n in 0..2 {
+        write_npy(&frames.join(format!("v_{n:04}.npy")), [16; 3], &blob(16));
+    }
+    let e = refused(d, &["tradeoff", s(&frames), "--out", s(&frames)]);
+    assert!(
+        e.contains("--out is the input's directory of frames"),
+        "{e}"
+    );
 }
 
 /// Images are written 0644 less the umask, like every other output (they were 0600).

@@ -17,8 +17,9 @@ fn scene(d: &Path, text: &str) -> String {
     s(&p).to_string()
 }
 
-/// Flags that only apply to a scene file are refused without `--scene` (naming it), and a
-/// volume with `--scene` is refused: neither is silently ignored.
+/// Flags that only apply to a scene file are refused without `--scene` (naming it), a
+/// volume with `--scene` is refused, and so is `--frame` for a fogmap's sweep: none is
+/// silently ignored.
 #[test]
 fn scene_flags_need_a_scene() {
     let dir = tempfile::tempdir().unwrap();
@@ -41,6 +42,20 @@ fn scene_flags_need_a_scene() {
         &["render", "smoke.vdb", "--scene", &sc, "--out", s(&out)],
     );
     assert!(e.contains("not both"), "{e}");
+    // A sweep of a fogmap (one picture) is not given a frame to ignore.
+    std::fs::copy(data("fogmap/fogmap_128.png"), d.join("f.png")).unwrap();
+    let e = refused(
+        d,
+        &[
+            "tradeoff",
+            s(&d.join("f.png")),
+            "--frame",
+            "3",
+            "--out",
+            s(&d.join("t")),
+        ],
+    );
+    assert!(e.contains("a fogmap is one picture"), "{e}");
 }
 
 /// "silent NaN pictures": an extinction of 1e308 is refused with its range in analytic

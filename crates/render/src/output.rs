@@ -202,11 +202,14 @@ impl Identity {
     }
 }
 
-/// Files a run has written so far, removed again unless the run ends with
-/// [`Created::keep`] (the first frames of a sequence whose later frame failed).
+/// Files a run has written so far, and directories it made, removed again unless the run
+/// ends with [`Created::keep`] (the first frames of a sequence whose later frame failed,
+/// a sweep whose input could not be read).
 #[derive(Debug, Default)]
 pub struct Created {
     files: Vec<PathBuf>,
+    /// The outermost directory each [`Created::dir`] made; everything in it is this run's.
+    dirs: Vec<PathBuf>,
 }
 
 impl Created {
@@ -219,9 +222,26 @@ impl Created {
         self.files.push(path);
     }
 
-    /// The run succeeded: its files stay.
+    /// Makes the directory `dir` and its missing parents (`flag` names it in the error).
+    /// The outermost one that did not exist is this run's: removed with its contents if
+    /// the run fails. A directory that already existed is left as it was.
+    pub fn dir(&mut self, flag: &str, dir: &Path) -> Result<()> {
+        let outermost = dir
+            .ancestors()
+            .take_while(|a| !a.as_os_str().is_empty() && !a.exists())
+            .last()
+            .map(Path::to_path_buf);
+        std::fs::create_dir_all(dir).map_err(|e| {
+            anyhow::anyhow!("{}: cannot create {flag}'s directory ({e})", dir.display())
+        })?;
+        self.dirs.extend(outermost);
+        Ok(())
+    }
+
+    /// The run succeeded: its files and directories stay.
     pub fn keep(mut self) {
         self.files.clear();
+        self.dirs.clear();
     }
 }
 
@@ -230,6 +250,11 @@ impl Drop for Created {
         for f in &self.files {
             if let Err(e) = std::fs::remove_file(f) {
                 tracing::warn!("{}: cannot remove ({e})", f.display());
+            }
+        }
+        for d in &self.dirs {
+            if let Err(e) = std::fs::remove_dir_all(d) {
+                tracing::warn!("{}: cannot remove ({e})", d.display());
             }
         }
     }
@@ -373,5 +398,34 @@ mod tests {
         done.push(b.clone());
         done.keep();
         assert!(b.exists());
+    }
+
+    #[test]
+    fn a_directory_made_by_a_failed_run_is_removed_and_one_that_existed_stays() {
+        let root = tempfile::tempdir().unwrap();
+        let made = root.path().join("new/inner");
+        let mut failed = Created::new();
+        failed.dir("--out", &made).unwrap();
+        std::fs::write(made.join("tradeoff.json"), b"{}").unwrap();
+        drop(failed);
+        assert!(!root.path().join("new").exists());
+
+        let mut again = Created::new();
+        again.dir("--out", root.path()).unwrap();
+        drop(again);
+        assert!(root.path().is_dir());
+
+        let mut done = Created::new();
+        done.dir("--out", &made).unwrap();
+        done.keep();
+        assert!(made.is_dir());
+
+        let file = root.path().join("f");
+        std::fs::write(&file, b"1").unwrap();
+        let e = Created::new().dir("--out", &file.join("d")).unwrap_err();
+        assert!(
+            e.to_string().contains("cannot create --out's directory"),
+            "{e}"
+        );
     }
 }

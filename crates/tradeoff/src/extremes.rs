@@ -326,10 +326,8 @@ pub fn run_case(case: &Case) -> Result<Outcome> {
     })
 }
 
-/// Runs every case, prints a table and writes `DIR/extremes.json`.
+/// Runs every case, prints a table and writes `DIR/extremes.json` (`out` exists).
 pub fn run(out: &Path) -> Result<()> {
-    std::fs::create_dir_all(out)
-        .map_err(|e| anyhow!("{}: cannot create the output directory: {e}", out.display()))?;
     let all = cases();
     let bar = haze_render::progress::settings_bar();
     bar.set_length(all.len() as u64);

@@ -18,7 +18,7 @@ pub mod render_choice;
 pub mod smoke;
 pub mod sweep;
 
-use anyhow::{Context, Result, anyhow, bail};
+use anyhow::{Result, anyhow, bail};
 use knobs::Knob;
 use lab::Lab;
 use serde_json::{Value, json};
@@ -166,6 +166,12 @@ fn check_out_dir(a: &TradeoffArgs) -> Result<()> {
         // A directory still to be made holds no input.
         return Ok(());
     }
+    if !a.extremes && a.input.is_dir() && same_dir(&a.input, &a.out) {
+        bail!(
+            "{}: --out is the input's directory of frames; the sweep's files would mix with them (choose another --out)",
+            a.out.display()
+        );
+    }
     let names = ["tradeoff.json", "pareto.svg", "pareto.png", "extremes.json"];
     let mut files = haze_render::output::Outputs::new();
     if !a.extremes {
@@ -177,13 +183,35 @@ fn check_out_dir(a: &TradeoffArgs) -> Result<()> {
         .check()
 }
 
+/// Whether two existing directories are one, once links are resolved.
+fn same_dir(a: &Path, b: &Path) -> bool {
+    match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    }
+}
+
+/// Runs the sweep; `--out` is made if missing, and removed again if the run fails.
 pub fn run(a: TradeoffArgs) -> Result<()> {
     check_out_dir(&a)?;
-    if a.extremes {
-        return extremes::run(&a.out);
+    if !a.extremes && a.frame.is_some() && is_fogmap(&a.input, a.fogmap) {
+        bail!(
+            "{}: --frame picks a frame of smoke; a fogmap is one picture (leave --frame out)",
+            a.input.display()
+        );
     }
-    std::fs::create_dir_all(&a.out)
-        .with_context(|| format!("{}: cannot create the output directory", a.out.display()))?;
+    let mut created = haze_render::output::Created::new();
+    created.dir("--out", &a.out)?;
+    if a.extremes {
+        extremes::run(&a.out)?;
+    } else {
+        sweep_and_write(&a)?;
+    }
+    created.keep();
+    Ok(())
+}
+
+fn sweep_and_write(a: &TradeoffArgs) -> Result<()> {
     let fog = is_fogmap(&a.input, a.fogmap);
     let bar = haze_render::progress::settings_bar();
     let (sweep, medium, timing) = if fog {
