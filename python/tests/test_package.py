@@ -159,6 +159,11 @@ def test_an_output_naming_an_input_is_refused_untouched(tmp_path):
         haze.bake(src, tmp_path / "x.haze", rbfs=0)
     with pytest.raises(haze.HazeError, match=r"x.bin: out must end in \.haze"):
         haze.bake(src, tmp_path / "x.bin")
+    with pytest.raises(haze.HazeError, match="no chunks to merge"):
+        haze.merge([], tmp_path / "m.haze")
+    assert not (tmp_path / "m.haze").exists()
+    with pytest.raises(haze.HazeError, match="gone.haze: no such file or directory"):
+        haze.Asset(tmp_path / "gone.haze")
 
 
 def test_a_progress_exception_stops_and_resume_finishes(tmp_path):

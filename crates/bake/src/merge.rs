@@ -23,6 +23,12 @@ pub struct Merged {
 
 /// Joins `chunks` (in any order) into the asset `out`, written atomically.
 pub fn merge(chunks: &[PathBuf], out: &Path) -> Result<Merged> {
+    if chunks.is_empty() {
+        bail!(
+            "{}: no chunks to merge (give the assets `haze bake --frames A..B` wrote)",
+            out.display()
+        );
+    }
     let mut assets = chunks
         .iter()
         .map(|p| {
