@@ -283,17 +283,51 @@ def render_scene(
         HazeError: a bad scene, with the command line's one-line message.
     """
     if isinstance(scene, dict):
-        import json
-        import tempfile
-
-        folder = os.fspath(base) if base is not None else os.getcwd()
-        with tempfile.NamedTemporaryFile(
-            "w", suffix=".json", prefix=".haze-scene-", dir=folder, delete=False
-        ) as f:
-            json.dump(scene, f)
-            path = f.name
-        try:
-            return _haze.render_scene(path, width, height, gpu, reference, float(time))
-        finally:
-            os.unlink(path)
+        return _render_scene_dict(scene, width, height, gpu, reference, time, base)
     return _haze.render_scene(os.fspath(scene), width, height, gpu, reference, float(time))
+
+
+def _json_value(value: Any) -> Any:
+    """NumPy scalars and arrays in a scene dict as the JSON numbers and lists they hold."""
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"{type(value).__name__} is not a number, string, list or dict")
+
+
+def _render_scene_dict(
+    scene: Dict[str, Any],
+    width: Optional[int],
+    height: Optional[int],
+    gpu: bool,
+    reference: bool,
+    time: float,
+    base: Optional[PathLike],
+) -> np.ndarray:
+    """A scene given as a dict, written as JSON beside its relative paths (``base``)
+    for the renderer; its errors name "the scene dict", not that file."""
+    import json
+    import re
+    import tempfile
+
+    try:
+        text = json.dumps(scene, allow_nan=False, default=_json_value)
+    except (TypeError, ValueError) as e:
+        if "Out of range float" in str(e):
+            e = "a NaN or infinite number (a scene holds finite numbers)"
+        raise HazeError(f"the scene dict: {e}") from None
+    folder = os.fspath(base) if base is not None else os.getcwd()
+    with tempfile.NamedTemporaryFile(
+        "w", suffix=".json", prefix=".haze-scene-", dir=folder, delete=False
+    ) as f:
+        f.write(text)
+        path = f.name
+    try:
+        return _haze.render_scene(path, width, height, gpu, reference, float(time))
+    except HazeError as e:
+        # The line and column are the written file's, which the caller never sees.
+        message = re.sub(r" at line \d+ column \d+", "", str(e).replace(path, "the scene dict"))
+        raise HazeError(message) from None
+    finally:
+        os.unlink(path)

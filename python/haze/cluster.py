@@ -34,6 +34,7 @@ Real cluster recipe::
 
 from __future__ import annotations
 
+import math
 import os
 import shutil
 import time
@@ -63,11 +64,17 @@ def plan(
     if overlap < 0:
         raise _haze.HazeError(f"overlap={overlap} must be 0 or more frames")
     n = len(numbers)
+    if sizes is not None:
+        if len(sizes) != n:
+            raise _haze.HazeError(f"sizes holds {len(sizes)} costs for {n} frames (one a frame)")
+        bad = [w for w in sizes if not (math.isfinite(float(w)) and float(w) >= 0.0)]
+        if bad:
+            raise _haze.HazeError(f"sizes: {bad[0]} is not a cost (a finite number ≥ 0)")
     count = -(-n // chunk) if n else 0
     if sizes is None or count <= 1:
         starts = list(range(0, n, chunk))
     else:
-        weights = [max(float(w), 0.0) for w in sizes]
+        weights = [float(w) for w in sizes]
         total = sum(weights) or float(n)
         if not sum(weights):
             weights = [1.0] * n

@@ -43,6 +43,12 @@ def test_plan_cuts_chunks_and_warms_all_but_the_first():
     assert haze.cluster.plan([1, 2, 3, 4], 2, 0, [0, 0, 0, 0]) == [(1, 2, 0), (3, 4, 0)]
     with pytest.raises(haze.HazeError, match="chunk=0"):
         haze.cluster.plan([1], 0, 0)
+    # Costs that do not describe the frames are refused, not read as some other plan.
+    with pytest.raises(haze.HazeError, match="2 costs for 5 frames"):
+        haze.cluster.plan([1, 2, 3, 4, 5], 2, 1, [1, 2])
+    for bad in (float("nan"), float("inf"), -1):
+        with pytest.raises(haze.HazeError, match="is not a cost"):
+            haze.cluster.plan([1, 2, 3], 1, 0, [1, bad, 1])
 
 
 def rel_l2(report):

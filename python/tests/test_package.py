@@ -271,6 +271,22 @@ def test_a_scene_renders_from_its_file_and_from_a_dict():
     from_dict = haze.render_scene(scene, width=32, height=24, base=SCENES)
     np.testing.assert_array_equal(from_file, from_dict)
     assert not list(SCENES.glob(".haze-scene-*"))
+    # NumPy numbers and arrays are the numbers and lists they hold.
+    camera = scene["camera"]
+    camera["eye"] = np.asarray(camera["eye"])
+    camera["fov"] = np.int64(camera["fov"])
+    from_numpy = haze.render_scene(scene, width=32, height=24, base=SCENES)
+    np.testing.assert_array_equal(from_file, from_numpy)
+
+
+def test_a_bad_scene_dict_is_named_as_the_dict(tmp_path):
+    with pytest.raises(haze.HazeError, match="^the scene dict: missing field `camera`$"):
+        haze.render_scene({}, base=tmp_path)
+    with pytest.raises(haze.HazeError, match="the scene dict: a NaN or infinite number"):
+        haze.render_scene({"camera": {"fov": float("nan")}}, base=tmp_path)
+    with pytest.raises(haze.HazeError, match="the scene dict: set is not a number"):
+        haze.render_scene({"camera": {"eye": {1, 2}}}, base=tmp_path)
+    assert not list(tmp_path.iterdir())
 
 
 def test_help_explains_every_argument():
