@@ -2,7 +2,8 @@
 
 In Properties > Physics of a fluid domain of type Gas, the "haze" panel:
 - **Bake to .haze** bakes the domain's OpenVDB cache (Cache > Directory, its ``data``
-  folder) into the asset named in the panel, frame by frame. Progress shows in the
+  folder; Cache > Format Volumes must be OpenVDB) into the asset named in the panel,
+  frame by frame. Progress shows in the
   status bar; Esc (or "Cancel" in the panel) stops after the frame being fitted and keeps
   the finished frames, which the next bake of the same asset resumes.
 - **Preview** renders the current frame of the asset through the scene camera (or the
@@ -47,6 +48,15 @@ def fluid_domain(obj):
 def cache_data_dir(ds):
     """Where Mantaflow writes the domain's density grids (``CACHE/data``)."""
     return os.path.join(bpy.path.abspath(ds.cache_directory), "data")
+
+
+def volume_format_problem(ds):
+    """Why haze cannot read the domain's volume cache, or None: it reads OpenVDB, and a
+    domain may cache its grids as Uni Cache or Raw Cache instead."""
+    if ds.cache_data_format == "OPENVDB":
+        return None
+    name = ds.bl_rna.properties["cache_data_format"].enum_items[ds.cache_data_format].name
+    return f"the domain caches its volumes as {name}; haze reads OpenVDB (Cache > Format Volumes: OpenVDB, then bake the domain again)"
 
 
 def domain_offset(obj):
@@ -114,6 +124,9 @@ class HAZE_OT_bake(bpy.types.Operator):
         settings = context.scene.haze
         src = cache_data_dir(ds)
         out = bpy.path.abspath(settings.output)
+        problem = volume_format_problem(ds)
+        if problem:
+            raise RuntimeError(f"{src}: {problem}")
         if not os.path.isdir(src):
             raise RuntimeError(f"{src}: no cache here: bake the domain first (Cache > Bake All)")
         journal = out + ".partial"
@@ -286,6 +299,8 @@ class HAZE_PT_domain(bpy.types.Panel):
     def draw(self, context):
         settings = context.scene.haze
         col = self.layout.column()
+        if volume_format_problem(fluid_domain(context.object)):
+            col.label(text="Cache > Format Volumes must be OpenVDB", icon="ERROR")
         col.prop(settings, "output")
         col.prop(settings, "rbfs")
         col.prop(settings, "residual_error")

@@ -158,6 +158,17 @@ def main():
     except RuntimeError as e:  # bpy raises the operator's error report
         result = str(e)
     check("a domain without a cache is refused", "no cache here" in str(result), f"{result}")
+    # A cache haze cannot read is named with the setting to change.
+    domain.modifiers["Fluid"].domain_settings.cache_data_format = "UNI"
+    try:
+        result = bpy.ops.haze.bake()
+    except RuntimeError as e:
+        result = str(e)
+    check(
+        "a Uni Cache is refused with the setting to change",
+        "caches its volumes as Uni Cache" in str(result) and "Format Volumes: OpenVDB" in str(result),
+        f"{result}",
+    )
 
     haze_bake.unregister()
     print(f"{passed} passed, 0 failed in {time.monotonic() - START:.2f}s", flush=True)
