@@ -2,7 +2,8 @@
 
 In Properties > Physics of a fluid domain of type Gas, the "haze" panel:
 - **Bake to .haze** bakes the domain's OpenVDB cache (Cache > Directory, its ``data``
-  folder; Cache > Format Volumes must be OpenVDB) into the asset named in the panel,
+  folder; with Noise on, the high-resolution density of its ``noise`` folder; Cache >
+  Format Volumes, or Format Noise, must be OpenVDB) into the asset named in the panel,
   frame by frame. Progress shows in the
   status bar; Esc (or "Cancel" in the panel) stops after the frame being fitted and keeps
   the finished frames, which the next bake of the same asset resumes.
@@ -45,18 +46,25 @@ def fluid_domain(obj):
     return None
 
 
-def cache_data_dir(ds):
-    """Where Mantaflow writes the domain's density grids (``CACHE/data``)."""
-    return os.path.join(bpy.path.abspath(ds.cache_directory), "data")
+def density_cache(ds):
+    """Where Mantaflow writes the domain's density and the grid's name: with Noise on, the
+    high-resolution ``density_noise`` of ``CACHE/noise``; else ``density`` of
+    ``CACHE/data``."""
+    root = bpy.path.abspath(ds.cache_directory)
+    if ds.use_noise:
+        return os.path.join(root, "noise"), "density_noise"
+    return os.path.join(root, "data"), "density"
 
 
 def volume_format_problem(ds):
-    """Why haze cannot read the domain's volume cache, or None: it reads OpenVDB, and a
-    domain may cache its grids as Uni Cache or Raw Cache instead."""
-    if ds.cache_data_format == "OPENVDB":
+    """Why haze cannot read the domain's density cache, or None: it reads OpenVDB, and a
+    domain may cache its grids (or, with Noise on, its noise) as Uni Cache or Raw Cache."""
+    prop, menu = ("cache_noise_format", "Noise") if ds.use_noise else ("cache_data_format", "Volumes")
+    fmt = getattr(ds, prop)
+    if fmt == "OPENVDB":
         return None
-    name = ds.bl_rna.properties["cache_data_format"].enum_items[ds.cache_data_format].name
-    return f"the domain caches its volumes as {name}; haze reads OpenVDB (Cache > Format Volumes: OpenVDB, then bake the domain again)"
+    name = ds.bl_rna.properties[prop].enum_items[fmt].name
+    return f"the domain caches its {menu.lower()} as {name}; haze reads OpenVDB (Cache > Format {menu}: OpenVDB, then bake the domain again)"
 
 
 def domain_offset(obj):
@@ -122,16 +130,18 @@ class HAZE_OT_bake(bpy.types.Operator):
     def arguments(self, context):
         ds = fluid_domain(context.object)
         settings = context.scene.haze
-        src = cache_data_dir(ds)
+        src, grid = density_cache(ds)
         out = bpy.path.abspath(settings.output)
         problem = volume_format_problem(ds)
         if problem:
             raise RuntimeError(f"{src}: {problem}")
         if not os.path.isdir(src):
-            raise RuntimeError(f"{src}: no cache here: bake the domain first (Cache > Bake All)")
+            what = "Bake Noise" if ds.use_noise else "Bake All"
+            raise RuntimeError(f"{src}: no cache here: bake the domain first (Cache > {what})")
         journal = out + ".partial"
         return dict(
             src=src,
+            grid=grid,
             out=out,
             rbfs=settings.rbfs,
             residual_error=settings.residual_error,
@@ -299,8 +309,10 @@ class HAZE_PT_domain(bpy.types.Panel):
     def draw(self, context):
         settings = context.scene.haze
         col = self.layout.column()
-        if volume_format_problem(fluid_domain(context.object)):
-            col.label(text="Cache > Format Volumes must be OpenVDB", icon="ERROR")
+        ds = fluid_domain(context.object)
+        if volume_format_problem(ds):
+            menu = "Noise" if ds.use_noise else "Volumes"
+            col.label(text=f"Cache > Format {menu} must be OpenVDB", icon="ERROR")
         col.prop(settings, "output")
         col.prop(settings, "rbfs")
         col.prop(settings, "residual_error")

@@ -44,9 +44,10 @@ def check(what, ok, detail=""):
     print(f"ok: {what}", flush=True)
 
 
-def smoke_domain(cache):
+def smoke_domain(cache, noise=False):
     """A 2 × 2 × 3 domain centred at (1, -2, 1.5) (so its cache's local grids need the
-    offset), res 16, with a smoke emitter near its floor, baked for frames 1..6."""
+    offset), res 16, with a smoke emitter near its floor, baked for frames 1..6; with
+    `noise`, Mantaflow's noise at twice the resolution too."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.mesh.primitive_cube_add(size=1.0, location=(1.0, -2.0, 1.5))
     domain = bpy.context.active_object
@@ -59,7 +60,9 @@ def smoke_domain(cache):
     ds.domain_type = "GAS"
     ds.resolution_max = 16
     ds.use_adaptive_domain = False
-    ds.use_noise = False
+    ds.use_noise = noise
+    ds.noise_scale = 2
+    ds.cache_noise_format = "OPENVDB"
     ds.cache_directory = str(cache)
     ds.cache_type = "ALL"
     ds.cache_data_format = "OPENVDB"
@@ -170,6 +173,28 @@ def main():
         f"{result}",
     )
 
+    haze_bake.unregister()
+
+    # With Noise on, the asset is the noise cache's high-resolution density.
+    domain = smoke_domain(work / "noisy", noise=True)
+    haze_bake.register()
+    scene = bpy.context.scene
+    scene.haze.output = str(work / "noisy.haze")
+    scene.haze.rbfs = 30
+    result = bpy.ops.haze.bake()
+    noise = haze.inspect(work / "noisy" / "noise", grid="density_noise")
+    asset = haze.Asset(work / "noisy.haze")
+    check(
+        "with Noise on, the noise cache's density is baked",
+        result == {"FINISHED"} and list(asset.dims) == noise["dims"] and asset.dims[2] == 32,
+        f"{result} {asset.dims} vs {noise['dims']}",
+    )
+    (lo, hi) = asset.bbox
+    check(
+        "the noise's asset sits where the domain is",
+        all(abs(a - b) <= cell for a, b in zip(lo, (0.0, -3.0, 0.0))),
+        f"{asset.bbox}",
+    )
     haze_bake.unregister()
     print(f"{passed} passed, 0 failed in {time.monotonic() - START:.2f}s", flush=True)
     os._exit(0)

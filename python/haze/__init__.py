@@ -51,7 +51,7 @@ def _frames(frames: Frames) -> Optional[str]:
     return f"{'' if first is None else first}..{'' if last is None else last}"
 
 
-def inspect(path: PathLike, frames: Frames = None) -> Dict[str, Any]:
+def inspect(path: PathLike, frames: Frames = None, grid: str = "density") -> Dict[str, Any]:
     """What is in a volume file, a frame sequence, a ``.haze`` asset or an environment map.
 
     Returns what ``haze inspect --json PATH`` prints, as a dict: for an asset its
@@ -67,11 +67,12 @@ def inspect(path: PathLike, frames: Frames = None) -> Dict[str, Any]:
             environment map.
         frames: for a sequence, which frames to read: an int, ``(first, last)``
             (inclusive; ``None`` for open ends) or ``"A..B"``; all by default.
+        grid: the OpenVDB grid to read (``haze inspect --grid``).
 
     Raises:
         HazeError: the path is missing or unreadable (the message names it).
     """
-    return _haze.inspect(os.fspath(path), _frames(frames))
+    return _haze.inspect(os.fspath(path), _frames(frames), grid)
 
 
 def bake(
@@ -85,6 +86,7 @@ def bake(
     warm_up: int = 0,
     domain_offset: Optional[Sequence[float]] = None,
     baseline: Optional[Tuple[float, float, float, int, int]] = None,
+    grid: str = "density",
 ) -> Dict[str, Any]:
     """Bake a sequence of density volumes into one ``.haze`` asset (``haze bake``).
 
@@ -120,6 +122,8 @@ def bake(
             instead of the range's own first frame's: a chunk then starts with the
             sequence's RBFs per voxel of smoke and inserts towards the error one bake of
             the whole sequence reaches (see ``haze.cluster``).
+        grid: the OpenVDB grid to read (``haze bake --grid``): ``"density"``, or e.g.
+            ``"density_noise"`` for Blender's high-resolution noise cache.
 
     Returns:
         The report (``haze bake --report``): ``settings``, ``frames`` (one dict per
@@ -141,6 +145,7 @@ def bake(
         warm_up,
         None if domain_offset is None else [float(v) for v in domain_offset],
         None if baseline is None else tuple(baseline),
+        grid,
     )
 
 

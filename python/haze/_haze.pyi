@@ -10,7 +10,9 @@ class HazeError(Exception):
     """A haze operation failed; the message is the command line's one-line error."""
 
 def version() -> str: ...
-def inspect(path: str, frames: Optional[str] = None) -> Dict[str, Any]: ...
+def inspect(
+    path: str, frames: Optional[str] = None, grid: Optional[str] = None
+) -> Dict[str, Any]: ...
 def bake(
     src: str,
     out: str,
@@ -22,6 +24,7 @@ def bake(
     warm_up: int = 0,
     domain_offset: Optional[Sequence[float]] = None,
     baseline: Optional[Tuple[float, float, float, int, int]] = None,
+    grid: Optional[str] = None,
 ) -> Dict[str, Any]: ...
 def baseline(
     src: str, frames: Optional[str] = None, rbfs: Optional[int] = None

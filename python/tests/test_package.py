@@ -93,6 +93,10 @@ def test_inspect_describes_volumes_and_names_a_missing_file(tmp_path):
     missing = tmp_path / "nothing.vdb"
     with pytest.raises(haze.HazeError, match="nothing.vdb"):
         haze.inspect(missing)
+    vdbs = ROOT / "data" / "plume-a" / "vdb"
+    assert haze.inspect(vdbs, frames=21, grid="density")["dims"] == [48, 48, 64]
+    with pytest.raises(haze.HazeError, match="no grid named 'smoke'.*density"):
+        haze.inspect(vdbs, frames=21, grid="smoke")
 
 
 def test_inspect_describes_an_environment_map(tmp_path):

@@ -26,23 +26,27 @@ fn from_json<'py>(py: Python<'py>, text: &str) -> PyResult<Bound<'py, PyAny>> {
     py.import("json")?.call_method1("loads", (text,))
 }
 
-/// What `haze inspect --json PATH` prints, as a JSON string.
+/// What `haze inspect --json PATH [--grid GRID]` prints, as a JSON string.
 #[pyfunction]
-#[pyo3(signature = (path, frames=None))]
-pub fn inspect(py: Python<'_>, path: PathBuf, frames: Option<&str>) -> PyResult<Py<PyAny>> {
+#[pyo3(signature = (path, frames=None, grid=None))]
+pub fn inspect(
+    py: Python<'_>,
+    path: PathBuf,
+    frames: Option<&str>,
+    grid: Option<String>,
+) -> PyResult<Py<PyAny>> {
     let range = range(frames)?;
+    let mut import = ImportOptions::default();
+    if let Some(name) = grid {
+        import.grid = name;
+    }
     let text = py
         .detach(|| {
             if haze_render::map_report::is_map(&path) {
                 let report = haze_render::map_report::inspect_map(&path)?;
                 return Ok(serde_json::to_string(&report)?);
             }
-            let report = haze_bake::inspect::inspect(
-                &path,
-                range,
-                &ImportOptions::default(),
-                &mut |_, _, _| {},
-            )?;
+            let report = haze_bake::inspect::inspect(&path, range, &import, &mut |_, _, _| {})?;
             Ok(serde_json::to_string(&report)?)
         })
         .map_err(to_py)?;
@@ -114,7 +118,7 @@ pub fn merge(py: Python<'_>, chunks: Vec<PathBuf>, out: PathBuf) -> PyResult<Vec
 /// `progress(record)` after every frame with its report line as a dict; returns the
 /// report (`haze bake --report`) as a dict.
 #[pyfunction]
-#[pyo3(signature = (src, out, frames=None, rbfs=None, residual_error=None, resume=false, progress=None, warm_up=0, domain_offset=None, baseline=None))]
+#[pyo3(signature = (src, out, frames=None, rbfs=None, residual_error=None, resume=false, progress=None, warm_up=0, domain_offset=None, baseline=None, grid=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn bake(
     py: Python<'_>,
@@ -128,8 +132,12 @@ pub fn bake(
     warm_up: usize,
     domain_offset: Option<[f64; 3]>,
     baseline: Option<(f64, f64, f64, usize, usize)>,
+    grid: Option<String>,
 ) -> PyResult<Py<PyAny>> {
     let mut options = BakeOptions::new(&src, &out);
+    if let Some(name) = grid {
+        options.import.grid = name;
+    }
     if let Some((rel_l2, radius, gain, rbfs, support)) = baseline {
         let finite = [rel_l2, radius, gain]
             .iter()
