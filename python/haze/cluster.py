@@ -93,10 +93,12 @@ def plan(
     return out
 
 
-def _baseline(src: str, frames: Optional[str], rbfs: Optional[int]) -> Tuple[str, Any]:
+def _baseline(
+    src: str, frames: Optional[str], rbfs: Optional[int], grid: str
+) -> Tuple[str, Any]:
     """The sequence's first-frame figures, on a worker (bad input returned, as below)."""
     try:
-        return ("ok", _haze.baseline(src, frames, rbfs))
+        return ("ok", _haze.baseline(src, frames, rbfs, grid))
     except _haze.HazeError as e:
         return ("error", str(e))
 
@@ -110,6 +112,7 @@ def _bake_chunk(
     rbfs: Optional[int],
     residual_error: Optional[float],
     baseline: Optional[Tuple[float, float, float, int, int]],
+    grid: str,
 ) -> Tuple[str, Any]:
     """One chunk, on a worker. Bad input is returned, not raised: the engine retries a
     raised exception, and bad input fails the same way every time."""
@@ -124,6 +127,7 @@ def _bake_chunk(
             residual_error=residual_error,
             warm_up=warm_up,
             baseline=baseline,
+            grid=grid,
         )
     except _haze.HazeError as e:
         return ("error", str(e))
@@ -143,6 +147,7 @@ def bake(
     workdir: Optional[PathLike] = None,
     retries: int = 2,
     progress: Optional[Callable[[Dict[str, Any]], None]] = None,
+    grid: str = "density",
 ) -> Dict[str, Any]:
     """Bake ``src`` into ``out`` on a Dask cluster, chunk by chunk, then merge.
 
@@ -160,7 +165,7 @@ def bake(
         overlap: frames fitted before each chunk and dropped (3). The first kept
             frame then starts warm. 0 starts every chunk cold: expect a jump in the
             error and in the RBFs at each boundary.
-        rbfs, residual_error: as :func:`haze.bake`.
+        rbfs, residual_error, grid: as :func:`haze.bake`.
         workdir: where the chunks are written, visible to every worker and to the
             driver. By default ``.OUT.chunks`` beside ``out``. The chunks are removed
             when done, and the folder too if the bake made it.
@@ -204,7 +209,7 @@ def bake(
         return float(sum(sizes[index[first] - warm : index[last] + 1]))
     # The whole sequence's first frame, fitted once: every chunk holds its frames to it.
     status, base = client.submit(
-        _baseline, src, _frames(frames), rbfs, retries=retries, pure=False
+        _baseline, src, _frames(frames), rbfs, grid, retries=retries, pure=False
     ).result()
     if status == "error":
         raise _haze.HazeError(base)
@@ -224,6 +229,7 @@ def bake(
             residual_error,
             # The first chunk starts where the sequence does: its own cold start is it.
             base if warm > 0 or first != numbers[0] else None,
+            grid,
             key=f"haze-bake-{first}-{last}-{time.time_ns()}",
             retries=retries,
             pure=False,

@@ -96,6 +96,10 @@ def test_bad_input_stops_the_bake_with_its_error(client, tmp_path):
         haze.cluster.bake(folder, out, client, chunk=2, overlap=1, rbfs=20)
     assert not out.exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["seq"]
+    # The grid reaches the workers: one the files do not hold is named.
+    with pytest.raises(haze.HazeError, match="no grid named 'smoke'"):
+        haze.cluster.bake(PLUME, out, client, frames=(21, 22), rbfs=20, grid="smoke")
+    assert not out.exists()
 
 
 def test_no_client_is_a_clear_error(tmp_path):

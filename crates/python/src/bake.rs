@@ -80,16 +80,20 @@ pub fn frame_sizes(
 }
 
 /// The first-frame figures `(rel_l2, radius, gain, rbfs, support)` a bake of `src`'s
-/// `frames` with `rbfs` RBFs holds its frames to (`haze_bake::baseline`: one frame's fit).
+/// `frames` (its OpenVDB `grid`) with `rbfs` RBFs holds its frames to (`haze_bake::baseline`: one frame's fit).
 #[pyfunction]
-#[pyo3(signature = (src, frames=None, rbfs=None))]
+#[pyo3(signature = (src, frames=None, rbfs=None, grid=None))]
 pub fn baseline(
     py: Python<'_>,
     src: PathBuf,
     frames: Option<&str>,
     rbfs: Option<usize>,
+    grid: Option<String>,
 ) -> PyResult<(f64, f64, f64, usize, usize)> {
     let mut options = BakeOptions::new(&src, "");
+    if let Some(name) = grid {
+        options.import.grid = name;
+    }
     options.range = range(frames)?;
     if let Some(n) = rbfs {
         options.count = Count::Fixed(n);
