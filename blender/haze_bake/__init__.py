@@ -67,6 +67,17 @@ def volume_format_problem(ds):
     return f"the domain caches its {menu.lower()} as {name}; haze reads OpenVDB (Cache > Format {menu}: OpenVDB, then bake the domain again)"
 
 
+def asset_path(settings):
+    """The asset's path on disk. ``//`` is the saved .blend file's folder; before the file
+    is saved it has none (Blender would read it as the process's working directory)."""
+    if settings.output.startswith("//") and not bpy.data.filepath:
+        raise RuntimeError(
+            f"{settings.output}: the .blend file is not saved, so // names no folder: "
+            "save it first, or give the asset a full path"
+        )
+    return bpy.path.abspath(settings.output)
+
+
 def domain_offset(obj):
     """The domain's lower corner in world space: what the cache's local grids are shifted
     by (the domain's transform is a translation and a scale for a fluid domain)."""
@@ -79,7 +90,7 @@ def domain_offset(obj):
 class HazeSettings(bpy.types.PropertyGroup):
     output: bpy.props.StringProperty(
         name="Asset",
-        description="The .haze asset to write (// is the .blend file's folder)",
+        description="The .haze asset to write (// is the .blend file's folder: save the file first, or give a full path)",
         default="//smoke.haze",
         subtype="FILE_PATH",
     )
@@ -131,7 +142,7 @@ class HAZE_OT_bake(bpy.types.Operator):
         ds = fluid_domain(context.object)
         settings = context.scene.haze
         src, grid = density_cache(ds)
-        out = bpy.path.abspath(settings.output)
+        out = asset_path(settings)
         problem = volume_format_problem(ds)
         if problem:
             raise RuntimeError(f"{src}: {problem}")
@@ -237,7 +248,11 @@ class HAZE_OT_preview(bpy.types.Operator):
 
         scene = context.scene
         settings = scene.haze
-        path = bpy.path.abspath(settings.output)
+        try:
+            path = asset_path(settings)
+        except RuntimeError as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
         w, h = settings.preview_width, settings.preview_height
         camera = {}
         cam = scene.camera

@@ -161,6 +161,17 @@ def main():
     except RuntimeError as e:  # bpy raises the operator's error report
         result = str(e)
     check("a domain without a cache is refused", "no cache here" in str(result), f"{result}")
+    # An unsaved .blend has no folder for //: the asset is not written wherever the
+    # process happens to run.
+    scene.haze.output = "//smoke.haze"
+    for op in (bpy.ops.haze.bake, bpy.ops.haze.preview):
+        try:
+            result = op()
+        except RuntimeError as e:
+            result = str(e)
+        check(f"{op.idname_py()} refuses // before the .blend is saved", "not saved" in str(result), f"{result}")
+    check("nothing written for //", not Path("smoke.haze").exists())
+    scene.haze.output = str(out)
     # A cache haze cannot read is named with the setting to change.
     domain.modifiers["Fluid"].domain_settings.cache_data_format = "UNI"
     try:
