@@ -29,6 +29,18 @@ impl fmt::Display for ImportError {
 /// reports stay one line).
 impl std::error::Error for ImportError {}
 
+/// The grids a file holds, for an error that did not find the one asked for.
+fn grid_choice(available: &[String]) -> String {
+    if available.is_empty() {
+        "the file holds no grids".to_string()
+    } else {
+        format!(
+            "grids in the file: {}; --grid chooses one",
+            available.join(", ")
+        )
+    }
+}
+
 /// What is wrong with an input file.
 #[derive(Debug, thiserror::Error)]
 pub enum Problem {
@@ -36,7 +48,7 @@ pub enum Problem {
     Io(#[from] std::io::Error),
     #[error("not a readable OpenVDB file: {0}")]
     Vdb(String),
-    #[error("no grid named '{name}' (grids in the file: {})", available.join(", "))]
+    #[error("no grid named '{name}' ({})", grid_choice(available))]
     MissingGrid {
         name: String,
         available: Vec<String>,

@@ -113,7 +113,9 @@ fn probe_lists_grids_and_refuses_non_scalar_ones() {
     };
     let e = import::import(&p, &opts).unwrap_err().to_string();
     assert!(
-        e.contains("no grid named 'smoke'") && e.contains("density, flame"),
+        e.contains("no grid named 'smoke'")
+            && e.contains("density, flame")
+            && e.ends_with("; --grid chooses one)"),
         "{e}"
     );
 }
