@@ -25,8 +25,10 @@ pub fn run(input: &Path, out: &Path, range: FrameRange, opts: &ImportOptions) ->
     }
     let mut w = AssetWriter::create(out)?;
     let bar = progress::frames(seq.len(), "packing");
+    let mut all_zero = 0;
     for i in 0..seq.len() {
         let v = seq.load(i)?;
+        all_zero += usize::from(v.data().iter().all(|&d| d == 0.0));
         w.write_block(
             BlockKind::RawVolume,
             Scope::frame(i as u32),
@@ -37,10 +39,45 @@ pub fn run(input: &Path, out: &Path, range: FrameRange, opts: &ImportOptions) ->
     bar.finish_and_clear();
     let header = haze_bake::header::for_sequence(&seq, input, opts)?;
     w.finish(&header)?;
-    tracing::info!(
-        "{}: {} packed",
-        out.display(),
-        haze_bake::inspect::count(seq.len(), "frame")
-    );
+    if all_zero == seq.len() {
+        let grid = seq.grid_name(opts);
+        let which = if grid.is_empty() {
+            String::new()
+        } else {
+            format!(" (OpenVDB grid '{grid}'; --grid picks another)")
+        };
+        tracing::warn!(
+            "{}: every frame is all zero{which}: the asset holds no smoke",
+            input.display()
+        );
+    }
+    haze_render::say!("{}", summary(out, &seq, all_zero));
     Ok(())
+}
+
+/// "OUT: 8 frames (21..28) of 48 × 48 × 64 packed losslessly, 1.2 MiB", and how many
+/// frames were all zero when some were.
+fn summary(out: &Path, seq: &Frames, all_zero: usize) -> String {
+    let [x, y, z] = seq.dims();
+    let (first, last) = (seq.number(0), seq.number(seq.len() - 1));
+    let numbers = if first == last {
+        first.to_string()
+    } else {
+        format!("{first}..{last}")
+    };
+    let size = std::fs::metadata(out).map(|m| m.len()).unwrap_or(0);
+    let zero = if all_zero > 0 {
+        format!(
+            "; {} all zero",
+            haze_bake::inspect::count(all_zero, "frame")
+        )
+    } else {
+        String::new()
+    };
+    format!(
+        "{}: {} ({numbers}) of {x} × {y} × {z} packed losslessly, {}{zero}",
+        out.display(),
+        haze_bake::inspect::count(seq.len(), "frame"),
+        haze_bake::inspect::text::bytes(size)
+    )
 }

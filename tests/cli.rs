@@ -381,7 +381,7 @@ fn bad_inputs_fail_with_one_line_naming_the_file() {
 
     // A truncated and a bit-flipped .haze.
     let asset = t("a.haze");
-    haze()
+    let o = haze()
         .args([
             "pack",
             data("plume-a/vdb").to_str().unwrap(),
@@ -389,8 +389,15 @@ fn bad_inputs_fail_with_one_line_naming_the_file() {
             "21..22",
         ])
         .args(["--out", asset.to_str().unwrap()])
-        .assert()
-        .success();
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        o.status.success()
+            && said.contains("a.haze: 2 frames (21..22) of 48 × 48 × 64 packed losslessly, ")
+            && !said.contains("all zero"),
+        "{said}"
+    );
     let bytes = std::fs::read(&asset).unwrap();
     std::fs::write(t("cut.haze"), &bytes[..bytes.len() - 100]).unwrap();
     let e = fails_with_one_line(

@@ -463,7 +463,7 @@ fn a_phase_function_the_sh_order_truncates_is_warned_about() {
     assert!(!render("0.3").contains("too forward"));
 }
 
-/// "values accepted without a word": baking, rendering or viewing a grid that is zero
+/// "values accepted without a word": baking, packing, rendering or viewing a grid that is zero
 /// everywhere (the sample's `flame` grid) says so, naming the grid, and the bake's
 /// summary counts the all-zero frames of a sequence with one.
 #[test]
@@ -486,6 +486,19 @@ fn an_all_zero_bake_is_named() {
     let e = String::from_utf8_lossy(&out.stderr);
     assert!(
         e.contains("every frame is all zero (OpenVDB grid 'flame'; --grid picks another)"),
+        "{e}"
+    );
+    let out = haze()
+        .args(["pack", s(&vdb), "--grid", "flame"])
+        .args(["--out", s(&d.join("p.haze"))])
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success()
+            && e.contains("every frame is all zero (OpenVDB grid 'flame'; --grid picks another)")
+            && e.contains("p.haze: 1 frame (21) of ")
+            && e.contains("; 1 frame all zero"),
         "{e}"
     );
     let out = haze()
