@@ -292,7 +292,7 @@ fn pack_then_inspect_asset_and_read_it_back() {
         .unwrap();
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{e}");
-    assert!(String::from_utf8_lossy(&o.stdout).contains("frames shown"));
+    assert!(String::from_utf8_lossy(&o.stdout).contains(" shown, "));
 
     // `haze bake` takes the packed asset as it takes the files it was packed from: the
     // same frames baked either way reconstruct bit for bit alike; a baked asset is no

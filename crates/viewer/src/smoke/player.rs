@@ -262,12 +262,13 @@ impl Player {
         let r = self.report(now);
         let fps = self.playback.fps();
         let target = if fps > 0.0 {
-            format!("{fps} fps")
+            format!("at {fps} fps")
         } else {
             "as fast as possible".to_string()
         };
+        let shown = if r.shown == 1 { "frame" } else { "frames" };
         format!(
-            "played {:.2} s at {target}, {width}×{height}: {} frames shown, {} due, {} dropped; frame time mean {:.1} ms, max {:.1} ms; {:.2} fps; render mean {:.1} ms; first picture after {:.2} s",
+            "played {:.2} s {target}, {width}×{height}: {} {shown} shown, {} due, {} dropped; frame time mean {:.1} ms, max {:.1} ms; {:.2} fps; render mean {:.1} ms; first picture after {:.2} s",
             r.seconds,
             r.shown,
             r.due,
