@@ -364,9 +364,14 @@ impl Sequence {
     }
 }
 
-/// Union of the frames' dense boxes, from their headers where recorded.
+/// Union of the frames' dense boxes, from their headers where recorded. Frames whose
+/// recorded domain resolution (`file_base_resolution`) differs from the first frame's are
+/// refused: that is a Blender cache of an adaptive domain, whose grid changes size every
+/// frame and whose files record neither where it sits in the domain nor the domain's cell
+/// size (each file's transform is scaled to its own grid), so no frame could be placed.
 fn union_box(frames: &[FrameFile], opts: &ImportOptions) -> Result<Option<IndexBox>, ImportError> {
     let mut acc: Option<IndexBox> = None;
+    let mut first_domain: Option<(i64, [i64; 3])> = None;
     for f in frames {
         let info = vdb::probe(&f.path)?;
         let gi = info.grid(&opts.grid).ok_or_else(|| {
@@ -378,6 +383,23 @@ fn union_box(frames: &[FrameFile], opts: &ImportOptions) -> Result<Option<IndexB
                 },
             )
         })?;
+        if let Some(res) = gi.base_resolution {
+            match first_domain {
+                None => first_domain = Some((f.number, res)),
+                Some((n, first)) if first != res => {
+                    return Err(seq_err(
+                        &f.path,
+                        format!(
+                            "frame {}'s simulation domain is {} cells but frame {n}'s is {}: a Blender cache of an Adaptive Domain, whose files do not say where each frame's grid sits (turn the domain's Adaptive Domain off and bake it again)",
+                            f.number,
+                            cells(res),
+                            cells(first)
+                        ),
+                    ));
+                }
+                Some(_) => {}
+            }
+        }
         let b = match gi.default_box() {
             Some(b) => Some(b),
             None if gi.active_voxels == Some(0) => None,
@@ -389,6 +411,11 @@ fn union_box(frames: &[FrameFile], opts: &ImportOptions) -> Result<Option<IndexB
         }
     }
     Ok(acc)
+}
+
+/// "11 × 11 × 16".
+fn cells(r: [i64; 3]) -> String {
+    format!("{} × {} × {}", r[0], r[1], r[2])
 }
 
 #[cfg(test)]
