@@ -12,12 +12,14 @@ In Properties > Physics of a fluid domain of type Gas, the "haze" panel:
   Image Editor.
 
 The asset sits where the domain is: the cache's grids are local to the domain, so the
-bake adds the domain's lower corner in world space (``haze bake --domain-offset``).
+bake adds the domain's lower corner in world space (``haze bake --domain-offset``). An
+asset sits axis-aligned, so a rotated domain is refused.
 
 Needs the ``haze`` Python package in Blender's Python
 (``<blender>/python/bin/python3 -m pip install ./python``).
 """
 
+import math
 import os
 import threading
 
@@ -84,9 +86,23 @@ def asset_path(settings):
     return bpy.path.abspath(settings.output)
 
 
+def rotation_problem(obj):
+    """Why the domain cannot be placed, or None: a baked asset sits axis-aligned in the
+    world (shifted by the domain's lower corner), so a rotated domain's smoke would be
+    placed unrotated."""
+    rotation = obj.matrix_world.to_quaternion()
+    if rotation.angle > 1e-6:
+        return (
+            f"the domain is rotated ({math.degrees(rotation.angle):.1f}°) and an asset sits "
+            "axis-aligned: clear its rotation (or apply it: Object > Apply > Rotation), "
+            "then bake the domain again"
+        )
+    return None
+
+
 def domain_offset(obj):
     """The domain's lower corner in world space: what the cache's local grids are shifted
-    by (the domain's transform is a translation and a scale for a fluid domain)."""
+    by (the domain's transform is a translation and a scale: `rotation_problem`)."""
     corners = [obj.matrix_world @ v.co for v in obj.data.vertices] if obj.data else []
     if not corners:
         return (0.0, 0.0, 0.0)
@@ -149,7 +165,7 @@ class HAZE_OT_bake(bpy.types.Operator):
         settings = context.scene.haze
         src, grid = density_cache(ds)
         out = asset_path(settings)
-        problem = volume_format_problem(ds)
+        problem = volume_format_problem(ds) or rotation_problem(context.object)
         if problem:
             raise RuntimeError(f"{src}: {problem}")
         if not os.path.isdir(src):
@@ -286,8 +302,6 @@ class HAZE_OT_preview(bpy.types.Operator):
 
 def _vertical_fov(cam, width, height):
     """The camera's vertical field of view in degrees for a ``width × height`` image."""
-    import math
-
     sensor = cam.sensor_width if cam.sensor_fit != "VERTICAL" else cam.sensor_height
     fov = 2.0 * math.atan(sensor / (2.0 * cam.lens))
     if cam.sensor_fit == "VERTICAL" or (cam.sensor_fit == "AUTO" and height > width):

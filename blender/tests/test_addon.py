@@ -173,6 +173,16 @@ def main():
         check(f"{op.idname_py()} refuses // before the .blend is saved", "not saved" in str(result), f"{result}")
     check("nothing written for //", not Path("smoke.haze").exists())
     scene.haze.output = str(out)
+    # A rotated domain's smoke cannot be placed axis-aligned: refused, naming the fix.
+    domain.rotation_euler = (0.0, 0.0, math.radians(30.0))
+    bpy.context.view_layer.update()
+    try:
+        result = bpy.ops.haze.bake()
+    except RuntimeError as e:
+        result = str(e)
+    check("a rotated domain is refused", "the domain is rotated (30.0°)" in str(result), f"{result}")
+    domain.rotation_euler = (0.0, 0.0, 0.0)
+    bpy.context.view_layer.update()
     # A cache haze cannot read is named with the setting to change.
     domain.modifiers["Fluid"].domain_settings.cache_data_format = "UNI"
     try:
