@@ -21,6 +21,7 @@ Needs the ``haze`` Python package in Blender's Python
 
 import math
 import os
+import sys
 import threading
 
 import bpy
@@ -34,6 +35,19 @@ bl_info = {
     "description": "Bake a smoke domain's OpenVDB cache into a compact .haze asset and preview it",
     "category": "Physics",
 }
+
+
+def haze_module():
+    """The ``haze`` Python package, or a RuntimeError that says how to install it in
+    Blender's own Python (where the add-on runs)."""
+    try:
+        import haze
+    except ImportError:
+        raise RuntimeError(
+            "the haze Python package is not installed in Blender's Python: run "
+            f"{sys.executable} -m pip install haze-*.whl (or ./python from the haze sources)"
+        ) from None
+    return haze
 
 
 def fluid_domain(obj):
@@ -184,8 +198,11 @@ class HAZE_OT_bake(bpy.types.Operator):
 
     def execute(self, context):
         """Blocking bake (scripts, headless Blender)."""
-        import haze
-
+        try:
+            haze = haze_module()
+        except RuntimeError as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
         try:
             args = self.arguments(context)
             report = haze.bake(**args)
@@ -197,8 +214,11 @@ class HAZE_OT_bake(bpy.types.Operator):
 
     def invoke(self, context, event):
         """Bake in a thread, with progress in the status bar and Esc to cancel."""
-        import haze
-
+        try:
+            haze = haze_module()
+        except RuntimeError as e:
+            self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
         try:
             args = self.arguments(context)
             total = len(haze._haze.frame_sizes(args["src"]))
@@ -266,11 +286,10 @@ class HAZE_OT_preview(bpy.types.Operator):
         return fluid_domain(context.object) is not None
 
     def execute(self, context):
-        import haze
-
         scene = context.scene
         settings = scene.haze
         try:
+            haze = haze_module()
             path = asset_path(settings)
         except RuntimeError as e:
             self.report({"ERROR"}, str(e))

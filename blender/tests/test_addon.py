@@ -162,6 +162,23 @@ def main():
     except RuntimeError as e:  # bpy raises the operator's error report
         result = str(e)
     check("a domain without a cache is refused", "no cache here" in str(result), f"{result}")
+    # Without the haze package in Blender's Python, the operators say how to install it.
+    saved = sys.modules["haze"]
+    sys.modules["haze"] = None  # `import haze` now raises ImportError
+    try:
+        for op in (bpy.ops.haze.bake, bpy.ops.haze.preview):
+            try:
+                result = op()
+            except RuntimeError as e:
+                result = str(e)
+            check(
+                f"{op.idname_py()} says how to install the haze package",
+                "haze Python package is not installed in Blender's Python" in str(result)
+                and "-m pip install" in str(result),
+                f"{result}",
+            )
+    finally:
+        sys.modules["haze"] = saved
     # An unsaved .blend has no folder for //: the asset is not written wherever the
     # process happens to run.
     scene.haze.output = "//smoke.haze"
