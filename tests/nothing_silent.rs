@@ -352,6 +352,28 @@ fn messages_are_in_words_and_name_the_file() {
         ],
     );
     assert!(e.contains("'1e308' is out of range"), "{e}");
+    // A file given as --tradeoff that is not a sweep's is named as such.
+    std::fs::write(d.join("t.json"), "{}").unwrap();
+    let asset = data("scenes/plume.haze");
+    for (file, why) in [
+        (d.join("t.json"), "(no picture \"size\")"),
+        (fog.clone(), "(not text)"),
+    ] {
+        let e = refused(
+            d,
+            &[
+                "render",
+                s(&asset),
+                "--budget-ms",
+                "100",
+                "--tradeoff",
+                s(&file),
+                "--out",
+                s(&png),
+            ],
+        );
+        assert!(e.contains(&format!("not a tradeoff.json {why}")), "{e}");
+    }
     write_raw(&d.join("v"), 8, &blob(8));
     std::fs::write(
         d.join("v.json"),

@@ -33,8 +33,9 @@ impl Choice {
 
 /// Reads a `tradeoff.json`.
 pub fn read(path: &Path) -> Result<Value> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("{}: cannot read", path.display()))?;
+    let bytes = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
+    let text = String::from_utf8(bytes)
+        .map_err(|_| anyhow!("{}: not a tradeoff.json (not text)", path.display()))?;
     serde_json::from_str(&text)
         .with_context(|| format!("{}: not a tradeoff.json (invalid JSON)", path.display()))
 }
@@ -55,7 +56,7 @@ pub fn rescale(doc: &mut Value, w: usize, h: usize) -> Result<Option<String>> {
         .get("size")
         .and_then(Value::as_array)
         .and_then(|s| Some((s.first()?.as_u64()?, s.get(1)?.as_u64()?)))
-        .ok_or_else(|| anyhow!("no picture \"size\""))?;
+        .ok_or_else(|| anyhow!("not a tradeoff.json (no picture \"size\")"))?;
     if size == (w as u64, h as u64) || size.0 == 0 || size.1 == 0 {
         return Ok(None);
     }
