@@ -14,6 +14,7 @@ mod pack;
 mod render;
 mod size_arg;
 mod tradeoff;
+mod unused_flags;
 mod view;
 
 use clap::Parser;

@@ -18,8 +18,8 @@ fn scene(d: &Path, text: &str) -> String {
 }
 
 /// Flags that only apply to a scene file are refused without `--scene` (naming it), a
-/// volume with `--scene` is refused, and so is `--frame` for a fogmap's sweep: none is
-/// silently ignored.
+/// smoke render's flags with it, a volume with `--scene`, and `--frame` for a fogmap's
+/// sweep: none is silently ignored.
 #[test]
 fn scene_flags_need_a_scene() {
     let dir = tempfile::tempdir().unwrap();
@@ -42,6 +42,49 @@ fn scene_flags_need_a_scene() {
         &["render", "smoke.vdb", "--scene", &sc, "--out", s(&out)],
     );
     assert!(e.contains("not both"), "{e}");
+    // And the other way: a smoke render's flags beside --scene, whose file sets the
+    // camera, lights and media, are named rather than ignored.
+    let e = refused(
+        d,
+        &[
+            "render",
+            "--scene",
+            &sc,
+            "--sigma-t",
+            "2",
+            "--sun",
+            "0,0,1,1,1,1",
+            "--spp",
+            "8",
+        ]
+        .into_iter()
+        .chain(["--out", s(&out)])
+        .collect::<Vec<_>>(),
+    );
+    assert!(
+        e.contains("--sun, --sigma-t, --spp apply to a volume or asset, not to a scene file"),
+        "{e}"
+    );
+    // The viewer likewise, in each of its three modes.
+    let fog = data("fogmap/fogmap_128.png");
+    let asset = data("scenes/plume.haze");
+    for (args, said) in [
+        (
+            vec!["view", "--scene", &sc, "--fps", "3", "--density", "0.2"],
+            "--density, --fps apply to a smoke asset or a fog, not to a scene file",
+        ),
+        (
+            vec!["view", "--fog", s(&fog), "--g", "0.5"],
+            "--g applies to a smoke asset, not to a fog",
+        ),
+        (
+            vec!["view", s(&asset), "--wind", "1,0"],
+            "--wind applies to a fog (--fog FOGMAP), not to a smoke asset",
+        ),
+    ] {
+        let e = refused(d, &args);
+        assert!(e.contains(said), "{args:?}: {e}");
+    }
     // A sweep of a fogmap (one picture) is not given a frame to ignore.
     std::fs::copy(data("fogmap/fogmap_128.png"), d.join("f.png")).unwrap();
     let e = refused(

@@ -193,6 +193,59 @@ pub struct RenderCli {
 }
 
 impl RenderCli {
+    /// The flags of a smoke render given beside `--scene`, which would be ignored: a scene
+    /// file holds its own camera, lights and media (`--cpu`, the scene's default too, is
+    /// not counted).
+    pub(crate) fn smoke_flags_given(&self) -> Vec<&'static str> {
+        use crate::unused_flags::{defaults, differs, given};
+        let Some(d) = defaults::<RenderCli>(&["render", "--scene", "s.json", "--out", "o.png"])
+        else {
+            return Vec::new();
+        };
+        let (c, l, m, i) = (&self.camera, &self.lights, &self.medium, &self.import);
+        let (dc, dl, dm, di) = (&d.camera, &d.lights, &d.medium, &d.import);
+        given(&[
+            ("--frame", differs(&self.frame, &d.frame)),
+            ("--eye", differs(&c.eye, &dc.eye)),
+            ("--target", differs(&c.target, &dc.target)),
+            ("--up", differs(&c.up, &dc.up)),
+            ("--fov", differs(&c.fov, &dc.fov)),
+            ("--env", differs(&l.env, &dl.env)),
+            ("--no-sun-extraction", l.no_sun_extraction),
+            ("--sun", !l.sun.is_empty()),
+            ("--light", !l.light.is_empty()),
+            ("--sigma-t", differs(&m.sigma_t, &dm.sigma_t)),
+            ("--albedo", differs(&m.albedo, &dm.albedo)),
+            ("--g", differs(&m.g, &dm.g)),
+            ("--sh-order", differs(&self.sh_order, &d.sh_order)),
+            ("--no-multiple", self.no_multiple),
+            ("--no-residual", self.no_residual),
+            ("--slices", differs(&self.slices, &d.slices)),
+            ("--exp", differs(&self.exp, &d.exp)),
+            ("--source", differs(&self.source, &d.source)),
+            ("--diffusion", self.diffusion.is_some()),
+            (
+                "--env-grid-spacing",
+                differs(&self.env_grid_spacing, &d.env_grid_spacing),
+            ),
+            (
+                "--lighting-detail",
+                differs(&self.lighting_detail, &d.lighting_detail),
+            ),
+            ("--lighting", differs(&self.lighting, &d.lighting)),
+            ("--spp", differs(&self.spp, &d.spp)),
+            ("--budget-ms", self.budget_ms.is_some()),
+            ("--target-error", self.target_error.is_some()),
+            ("--tradeoff", self.tradeoff.is_some()),
+            ("--check", self.check.is_some()),
+            ("--supersample", differs(&self.supersample, &d.supersample)),
+            ("--ground", differs(&self.ground, &d.ground)),
+            ("--grid", differs(&i.grid, &di.grid)),
+            ("--clamp-negative", i.clamp_negative),
+            ("--domain-offset", i.domain_offset.is_some()),
+        ])
+    }
+
     /// The width asked for, by --width or --size.
     pub(crate) fn width(&self) -> Option<usize> {
         self.width.or(self.size.map(|s| s.0))

@@ -19,6 +19,16 @@ pub fn run(r: RenderCli) -> Result<()> {
             scene.display()
         );
     }
+    if let Some(scene) = &r.scene {
+        let ignored = r.smoke_flags_given();
+        if !ignored.is_empty() {
+            anyhow::bail!(
+                "--scene {}: {} to a volume or asset, not to a scene file (its camera, lights and media are in the file)",
+                scene.display(),
+                crate::unused_flags::apply(&ignored)
+            );
+        }
+    }
     let mut files = Outputs::new();
     if let Some(input) = &r.input {
         files = files.input(input);

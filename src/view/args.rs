@@ -152,6 +152,61 @@ pub struct ViewCli {
 }
 
 impl ViewCli {
+    /// The flags given (values other than clap's defaults) that the mode chosen would
+    /// ignore: a scene file holds its own camera, lights and media, a fog has its own
+    /// flags, and a smoke asset uses neither the fog's nor, at their defaults, the others.
+    pub(crate) fn unused_flags(&self) -> Vec<&'static str> {
+        use crate::unused_flags::{defaults, differs, given};
+        let Some(d) = defaults::<ViewCli>(&["view", "--scene", "s.json"]) else {
+            return Vec::new();
+        };
+        let (l, m, f) = (&self.lights, &self.medium, &self.fog_model);
+        let (dl, dm, df) = (&d.lights, &d.medium, &d.fog_model);
+        let smoke = [
+            ("--fov", differs(&self.fov, &d.fov)),
+            ("--env", differs(&l.env, &dl.env)),
+            ("--no-sun-extraction", l.no_sun_extraction),
+            ("--sun", !l.sun.is_empty()),
+            ("--light", !l.light.is_empty()),
+            ("--sigma-t", differs(&m.sigma_t, &dm.sigma_t)),
+            ("--albedo", differs(&m.albedo, &dm.albedo)),
+            ("--g", differs(&m.g, &dm.g)),
+            ("--sh-order", differs(&self.sh_order, &d.sh_order)),
+            ("--slices", differs(&self.slices, &d.slices)),
+            ("--no-multiple", self.no_multiple),
+            ("--no-residual", self.no_residual),
+            ("--sky-at-centers", self.sky_at_centers),
+            ("--ms-at-centers", self.ms_at_centers),
+            ("--tone", differs(&self.tone, &d.tone)),
+            ("--lighting", differs(&self.lighting, &d.lighting)),
+        ];
+        let fog = [
+            ("--basis", differs(&f.basis, &df.basis)),
+            ("--levels", differs(&f.levels, &df.levels)),
+            ("--mu", differs(&f.mu, &df.mu)),
+            (
+                "--min-transmittance",
+                differs(&f.min_transmittance, &df.min_transmittance),
+            ),
+            ("--cell", differs(&f.cell, &df.cell)),
+            ("--origin", f.origin.is_some()),
+            ("--density", differs(&f.density, &df.density)),
+            ("--bottom", differs(&f.bottom, &df.bottom)),
+            ("--top", differs(&f.top, &df.top)),
+            ("--falloff", differs(&f.falloff, &df.falloff)),
+            ("--wind", differs(&f.wind, &df.wind)),
+            ("--fog-color", f.fog_color.is_some()),
+        ];
+        let fps = [("--fps", differs(&self.fps, &d.fps))];
+        if self.scene.is_some() {
+            given(&[&smoke[..], &fog[..], &fps[..]].concat())
+        } else if self.fog.is_some() {
+            given(&smoke)
+        } else {
+            given(&fog)
+        }
+    }
+
     /// The knobs an asset's header chose for the viewer (`haze bake --view-budget-ms`),
     /// applied where the command line left the default.
     pub(crate) fn apply_stored_choice(&mut self) {

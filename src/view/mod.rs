@@ -12,6 +12,27 @@ use haze_viewer::scene::SceneViewArgs;
 
 /// `haze view`: a fog, a scene file or a smoke asset in the window.
 pub fn run(v: ViewCli) -> Result<()> {
+    let unused = v.unused_flags();
+    if !unused.is_empty() {
+        let (what, to) = match (&v.scene, &v.fog) {
+            (Some(scene), _) => (
+                format!("--scene {}", scene.display()),
+                "to a smoke asset or a fog, not to a scene file (its camera, lights and media are in the file)",
+            ),
+            (None, Some(fog)) => (
+                format!("--fog {}", fog.display()),
+                "to a smoke asset, not to a fog",
+            ),
+            (None, None) => (
+                v.input
+                    .as_ref()
+                    .map(|p| p.display().to_string())
+                    .unwrap_or_default(),
+                "to a fog (--fog FOGMAP), not to a smoke asset",
+            ),
+        };
+        anyhow::bail!("{what}: {} {to}", crate::unused_flags::apply(&unused));
+    }
     if let Some(fogmap) = v.fog {
         return haze_viewer::fog::run(FogViewArgs {
             fogmap,
