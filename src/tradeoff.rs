@@ -79,7 +79,96 @@ pub struct TradeoffCli {
 }
 
 impl TradeoffCli {
+    /// The flags given (values other than clap's defaults) that the sweep would ignore:
+    /// a fogmap's sweep renders the fog alone (no smoke camera, lights, medium or
+    /// reference samples), a smoke sweep has no fog, and `--extremes` runs fixed cases.
+    fn unused_flags(&self) -> Vec<&'static str> {
+        use crate::unused_flags::{defaults, differs, given};
+        let Some(d) = defaults::<TradeoffCli>(&["tradeoff", "x.vdb", "--out", "o"]) else {
+            return Vec::new();
+        };
+        let (c, l, m, i, f) = (
+            &self.camera,
+            &self.lights,
+            &self.medium,
+            &self.import,
+            &self.fog_model,
+        );
+        let (dc, dl, dm, di, df) = (&d.camera, &d.lights, &d.medium, &d.import, &d.fog_model);
+        let smoke = [
+            ("--spp", differs(&self.spp, &d.spp)),
+            ("--check", differs(&self.check, &d.check)),
+            ("--gpu", self.gpu),
+            ("--eye", c.eye.is_some()),
+            ("--target", c.target.is_some()),
+            ("--up", differs(&c.up, &dc.up)),
+            ("--fov", differs(&c.fov, &dc.fov)),
+            ("--env", differs(&l.env, &dl.env)),
+            ("--no-sun-extraction", l.no_sun_extraction),
+            ("--sun", !l.sun.is_empty()),
+            ("--light", !l.light.is_empty()),
+            ("--sigma-t", differs(&m.sigma_t, &dm.sigma_t)),
+            ("--albedo", differs(&m.albedo, &dm.albedo)),
+            ("--g", differs(&m.g, &dm.g)),
+            ("--grid", differs(&i.grid, &di.grid)),
+            ("--clamp-negative", i.clamp_negative),
+            ("--domain-offset", i.domain_offset.is_some()),
+        ];
+        let fog = [
+            ("--basis", differs(&f.basis, &df.basis)),
+            ("--levels", differs(&f.levels, &df.levels)),
+            ("--mu", differs(&f.mu, &df.mu)),
+            (
+                "--min-transmittance",
+                differs(&f.min_transmittance, &df.min_transmittance),
+            ),
+            ("--cell", differs(&f.cell, &df.cell)),
+            ("--origin", f.origin.is_some()),
+            ("--density", differs(&f.density, &df.density)),
+            ("--bottom", differs(&f.bottom, &df.bottom)),
+            ("--top", differs(&f.top, &df.top)),
+            ("--falloff", differs(&f.falloff, &df.falloff)),
+            ("--wind", differs(&f.wind, &df.wind)),
+            ("--fog-color", f.fog_color.is_some()),
+        ];
+        if self.extremes {
+            let size = [
+                ("--width", differs(&self.width, &d.width)),
+                ("--height", differs(&self.height, &d.height)),
+            ];
+            given(&[&smoke[..], &fog[..], &size[..]].concat())
+        } else if self.is_fog() {
+            given(&smoke)
+        } else {
+            given(&fog)
+        }
+    }
+
+    /// Whether the input is a fogmap (its sweep renders the wavelet fog).
+    fn is_fog(&self) -> bool {
+        let input = self.input.as_deref().unwrap_or(std::path::Path::new(""));
+        haze_tradeoff::is_fogmap(input, self.fogmap)
+    }
+
     fn into_args(self) -> Result<TradeoffArgs> {
+        let unused = self.unused_flags();
+        if !unused.is_empty() {
+            let flags = crate::unused_flags::apply(&unused);
+            let input = self.input.as_deref().unwrap_or(std::path::Path::new(""));
+            if self.extremes {
+                anyhow::bail!("--extremes runs fixed cases: {flags} to a sweep of an input");
+            } else if self.is_fog() {
+                anyhow::bail!(
+                    "{}: a fogmap's sweep renders the fog alone: {flags} to a smoke sweep",
+                    input.display()
+                );
+            } else {
+                anyhow::bail!(
+                    "{}: a smoke sweep has no fog: {flags} to a fogmap's sweep",
+                    input.display()
+                );
+            }
+        }
         if !(1..=4096).contains(&self.width) || !(1..=4096).contains(&self.height) {
             anyhow::bail!(
                 "--width {} --height {}: each must be between 1 and 4096",

@@ -150,6 +150,17 @@ fn inspect_raw_with_sidecar_and_domain_offset() {
     ]);
     assert_eq!(j["bbox_min"], serde_json::json!([-1.5, -1.5, 0.0]));
     assert_eq!(j["bbox_max"], serde_json::json!([1.5, 1.5, 4.0]));
+    // The offset and the grid are OpenVDB's: asked of the raw file, refused, not ignored.
+    let r = raw.to_str().unwrap();
+    let e = fails_with_one_line(&["inspect", r, "--domain-offset", "1,0,0"], &raw);
+    assert!(e.contains("a domain offset asked of a raw volume"), "{e}");
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("x.haze");
+    let e = fails_with_one_line(
+        &["bake", r, "--grid", "flame", "--out", out.to_str().unwrap()],
+        &raw,
+    );
+    assert!(e.contains("grid 'flame' asked of a raw volume"), "{e}");
 }
 
 #[test]

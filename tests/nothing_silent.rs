@@ -99,6 +99,21 @@ fn scene_flags_need_a_scene() {
         ],
     );
     assert!(e.contains("a fogmap is one picture"), "{e}");
+    let e = refused(
+        d,
+        &[
+            "tradeoff",
+            s(&d.join("f.png")),
+            "--g",
+            "0.5",
+            "--out",
+            s(&d.join("t")),
+        ],
+    );
+    assert!(
+        e.contains("a fogmap's sweep renders the fog alone: --g applies to a smoke sweep"),
+        "{e}"
+    );
 }
 
 /// "silent NaN pictures": an extinction of 1e308 is refused with its range in analytic

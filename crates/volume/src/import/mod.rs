@@ -107,11 +107,39 @@ pub(crate) fn read_unchecked(
     opts: &ImportOptions,
     vdb_box: Option<vdb::IndexBox>,
 ) -> Result<Volume, ImportError> {
-    match format_of(path)? {
+    let format = format_of(path)?;
+    if format != Format::Vdb {
+        check_vdb_only(path, format, opts)?;
+    }
+    match format {
         Format::Vdb => Ok(vdb::read(path, &opts.grid, vdb_box, opts.domain_offset)?.volume),
         Format::Raw => raw::read(path),
         Format::Npy => npy::read(path),
     }
+}
+
+/// A grid other than `density`, or a domain offset, asked of a raw or NumPy volume (one
+/// array, placed by its own box): refused rather than ignored.
+fn check_vdb_only(path: &Path, format: Format, opts: &ImportOptions) -> Result<(), ImportError> {
+    let what = if format == Format::Npy {
+        "a NumPy volume"
+    } else {
+        "a raw volume"
+    };
+    let defaults = ImportOptions::default();
+    let why = if opts.grid != defaults.grid {
+        format!(
+            "grid '{}' asked of {what}, which holds one array (grids are OpenVDB's)",
+            opts.grid
+        )
+    } else if opts.domain_offset != defaults.domain_offset {
+        format!(
+            "a domain offset asked of {what}, which is placed by its own box (the offset is for OpenVDB grids)"
+        )
+    } else {
+        return Ok(());
+    };
+    Err(ImportError::new(path, Problem::Format(why)))
 }
 
 /// Rejects NaN and ±Inf (naming the first voxel), and negative densities unless
