@@ -19,6 +19,19 @@ pub struct CameraArgs {
     pub fov: f64,
 }
 
+impl CameraArgs {
+    /// Each flag with whether it differs from `defaults` ([`crate::unused_flags`]).
+    pub fn given(&self, defaults: &CameraArgs) -> [(&'static str, bool); 4] {
+        use crate::unused_flags::differs;
+        [
+            ("--eye", self.eye.is_some()),
+            ("--target", self.target.is_some()),
+            ("--up", differs(&self.up, &defaults.up)),
+            ("--fov", differs(&self.fov, &defaults.fov)),
+        ]
+    }
+}
+
 /// The smoke's optical properties.
 #[derive(Debug, clap::Args)]
 pub struct MediumArgs {
@@ -31,4 +44,16 @@ pub struct MediumArgs {
     /// Henyey–Greenstein asymmetry, −1..1.
     #[arg(long, default_value_t = 0.3, allow_hyphen_values = true)]
     pub g: f64,
+}
+
+impl MediumArgs {
+    /// Each flag with whether it differs from `defaults` ([`crate::unused_flags`]).
+    pub fn given(&self, defaults: &MediumArgs) -> [(&'static str, bool); 3] {
+        use crate::unused_flags::differs;
+        [
+            ("--sigma-t", differs(&self.sigma_t, &defaults.sigma_t)),
+            ("--albedo", differs(&self.albedo, &defaults.albedo)),
+            ("--g", differs(&self.g, &defaults.g)),
+        ]
+    }
 }

@@ -18,6 +18,18 @@ pub struct ImportArgs {
 }
 
 impl ImportArgs {
+    /// Each flag with whether it differs from `defaults` ([`crate::unused_flags`]).
+    pub fn given(&self, defaults: &ImportArgs) -> [(&'static str, bool); 3] {
+        [
+            (
+                "--grid",
+                crate::unused_flags::differs(&self.grid, &defaults.grid),
+            ),
+            ("--clamp-negative", self.clamp_negative),
+            ("--domain-offset", self.domain_offset.is_some()),
+        ]
+    }
+
     pub fn options(&self) -> ImportOptions {
         ImportOptions {
             grid: self.grid.clone(),

@@ -33,6 +33,21 @@ pub struct LightArgs {
     pub light: Vec<PointLight>,
 }
 
+impl LightArgs {
+    /// Each flag with whether it differs from `defaults` ([`crate::unused_flags`]).
+    pub fn given(&self, defaults: &LightArgs) -> [(&'static str, bool); 4] {
+        [
+            (
+                "--env",
+                crate::unused_flags::differs(&self.env, &defaults.env),
+            ),
+            ("--no-sun-extraction", self.no_sun_extraction),
+            ("--sun", !self.sun.is_empty()),
+            ("--light", !self.light.is_empty()),
+        ]
+    }
+}
+
 impl From<LightArgs> for Lights {
     fn from(a: LightArgs) -> Lights {
         Lights {

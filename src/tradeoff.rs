@@ -87,50 +87,20 @@ impl TradeoffCli {
         let Some(d) = defaults::<TradeoffCli>(&["tradeoff", "x.vdb", "--out", "o"]) else {
             return Vec::new();
         };
-        let (c, l, m, i, f) = (
-            &self.camera,
-            &self.lights,
-            &self.medium,
-            &self.import,
-            &self.fog_model,
-        );
-        let (dc, dl, dm, di, df) = (&d.camera, &d.lights, &d.medium, &d.import, &d.fog_model);
-        let smoke = [
+        let own = [
             ("--spp", differs(&self.spp, &d.spp)),
             ("--check", differs(&self.check, &d.check)),
             ("--gpu", self.gpu),
-            ("--eye", c.eye.is_some()),
-            ("--target", c.target.is_some()),
-            ("--up", differs(&c.up, &dc.up)),
-            ("--fov", differs(&c.fov, &dc.fov)),
-            ("--env", differs(&l.env, &dl.env)),
-            ("--no-sun-extraction", l.no_sun_extraction),
-            ("--sun", !l.sun.is_empty()),
-            ("--light", !l.light.is_empty()),
-            ("--sigma-t", differs(&m.sigma_t, &dm.sigma_t)),
-            ("--albedo", differs(&m.albedo, &dm.albedo)),
-            ("--g", differs(&m.g, &dm.g)),
-            ("--grid", differs(&i.grid, &di.grid)),
-            ("--clamp-negative", i.clamp_negative),
-            ("--domain-offset", i.domain_offset.is_some()),
         ];
-        let fog = [
-            ("--basis", differs(&f.basis, &df.basis)),
-            ("--levels", differs(&f.levels, &df.levels)),
-            ("--mu", differs(&f.mu, &df.mu)),
-            (
-                "--min-transmittance",
-                differs(&f.min_transmittance, &df.min_transmittance),
-            ),
-            ("--cell", differs(&f.cell, &df.cell)),
-            ("--origin", f.origin.is_some()),
-            ("--density", differs(&f.density, &df.density)),
-            ("--bottom", differs(&f.bottom, &df.bottom)),
-            ("--top", differs(&f.top, &df.top)),
-            ("--falloff", differs(&f.falloff, &df.falloff)),
-            ("--wind", differs(&f.wind, &df.wind)),
-            ("--fog-color", f.fog_color.is_some()),
-        ];
+        let smoke = [
+            &self.camera.given(&d.camera)[..],
+            &self.lights.given(&d.lights),
+            &self.medium.given(&d.medium),
+            &self.import.given(&d.import),
+            &own,
+        ]
+        .concat();
+        let fog = self.fog_model.given(&d.fog_model);
         if self.extremes {
             let size = [
                 ("--width", differs(&self.width, &d.width)),

@@ -200,6 +200,31 @@ pub struct SmokeArgs {
     pub smoke_g: f64,
 }
 
+impl FogModelArgs {
+    /// Each flag with whether it differs from `defaults` ([`crate::unused_flags`]).
+    pub fn given(&self, defaults: &FogModelArgs) -> [(&'static str, bool); 12] {
+        use crate::unused_flags::differs;
+        let d = defaults;
+        [
+            ("--basis", differs(&self.basis, &d.basis)),
+            ("--levels", differs(&self.levels, &d.levels)),
+            ("--mu", differs(&self.mu, &d.mu)),
+            (
+                "--min-transmittance",
+                differs(&self.min_transmittance, &d.min_transmittance),
+            ),
+            ("--cell", differs(&self.cell, &d.cell)),
+            ("--origin", self.origin.is_some()),
+            ("--density", differs(&self.density, &d.density)),
+            ("--bottom", differs(&self.bottom, &d.bottom)),
+            ("--top", differs(&self.top, &d.top)),
+            ("--falloff", differs(&self.falloff, &d.falloff)),
+            ("--wind", differs(&self.wind, &d.wind)),
+            ("--fog-color", self.fog_color.is_some()),
+        ]
+    }
+}
+
 impl From<FogModelArgs> for FogModel {
     fn from(a: FogModelArgs) -> FogModel {
         FogModel {

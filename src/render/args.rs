@@ -202,21 +202,8 @@ impl RenderCli {
         else {
             return Vec::new();
         };
-        let (c, l, m, i) = (&self.camera, &self.lights, &self.medium, &self.import);
-        let (dc, dl, dm, di) = (&d.camera, &d.lights, &d.medium, &d.import);
-        given(&[
+        let own = [
             ("--frame", differs(&self.frame, &d.frame)),
-            ("--eye", differs(&c.eye, &dc.eye)),
-            ("--target", differs(&c.target, &dc.target)),
-            ("--up", differs(&c.up, &dc.up)),
-            ("--fov", differs(&c.fov, &dc.fov)),
-            ("--env", differs(&l.env, &dl.env)),
-            ("--no-sun-extraction", l.no_sun_extraction),
-            ("--sun", !l.sun.is_empty()),
-            ("--light", !l.light.is_empty()),
-            ("--sigma-t", differs(&m.sigma_t, &dm.sigma_t)),
-            ("--albedo", differs(&m.albedo, &dm.albedo)),
-            ("--g", differs(&m.g, &dm.g)),
             ("--sh-order", differs(&self.sh_order, &d.sh_order)),
             ("--no-multiple", self.no_multiple),
             ("--no-residual", self.no_residual),
@@ -240,10 +227,17 @@ impl RenderCli {
             ("--check", self.check.is_some()),
             ("--supersample", differs(&self.supersample, &d.supersample)),
             ("--ground", differs(&self.ground, &d.ground)),
-            ("--grid", differs(&i.grid, &di.grid)),
-            ("--clamp-negative", i.clamp_negative),
-            ("--domain-offset", i.domain_offset.is_some()),
-        ])
+        ];
+        given(
+            &[
+                &self.camera.given(&d.camera)[..],
+                &self.lights.given(&d.lights),
+                &self.medium.given(&d.medium),
+                &self.import.given(&d.import),
+                &own,
+            ]
+            .concat(),
+        )
     }
 
     /// The width asked for, by --width or --size.

@@ -160,17 +160,8 @@ impl ViewCli {
         let Some(d) = defaults::<ViewCli>(&["view", "--scene", "s.json"]) else {
             return Vec::new();
         };
-        let (l, m, f) = (&self.lights, &self.medium, &self.fog_model);
-        let (dl, dm, df) = (&d.lights, &d.medium, &d.fog_model);
-        let smoke = [
+        let own = [
             ("--fov", differs(&self.fov, &d.fov)),
-            ("--env", differs(&l.env, &dl.env)),
-            ("--no-sun-extraction", l.no_sun_extraction),
-            ("--sun", !l.sun.is_empty()),
-            ("--light", !l.light.is_empty()),
-            ("--sigma-t", differs(&m.sigma_t, &dm.sigma_t)),
-            ("--albedo", differs(&m.albedo, &dm.albedo)),
-            ("--g", differs(&m.g, &dm.g)),
             ("--sh-order", differs(&self.sh_order, &d.sh_order)),
             ("--slices", differs(&self.slices, &d.slices)),
             ("--no-multiple", self.no_multiple),
@@ -180,23 +171,13 @@ impl ViewCli {
             ("--tone", differs(&self.tone, &d.tone)),
             ("--lighting", differs(&self.lighting, &d.lighting)),
         ];
-        let fog = [
-            ("--basis", differs(&f.basis, &df.basis)),
-            ("--levels", differs(&f.levels, &df.levels)),
-            ("--mu", differs(&f.mu, &df.mu)),
-            (
-                "--min-transmittance",
-                differs(&f.min_transmittance, &df.min_transmittance),
-            ),
-            ("--cell", differs(&f.cell, &df.cell)),
-            ("--origin", f.origin.is_some()),
-            ("--density", differs(&f.density, &df.density)),
-            ("--bottom", differs(&f.bottom, &df.bottom)),
-            ("--top", differs(&f.top, &df.top)),
-            ("--falloff", differs(&f.falloff, &df.falloff)),
-            ("--wind", differs(&f.wind, &df.wind)),
-            ("--fog-color", f.fog_color.is_some()),
-        ];
+        let smoke = [
+            &self.lights.given(&d.lights)[..],
+            &self.medium.given(&d.medium),
+            &own,
+        ]
+        .concat();
+        let fog = self.fog_model.given(&d.fog_model);
         let fps = [("--fps", differs(&self.fps, &d.fps))];
         if self.scene.is_some() {
             given(&[&smoke[..], &fog[..], &fps[..]].concat())
