@@ -161,6 +161,24 @@ fn inspect_raw_with_sidecar_and_domain_offset() {
         &raw,
     );
     assert!(e.contains("grid 'flame' asked of a raw volume"), "{e}");
+    // Nor of an asset, whose frames were read from their grid when it was made.
+    let asset = data("scenes/plume.haze");
+    let a = asset.to_str().unwrap();
+    let e = fails_with_one_line(&["inspect", a, "--grid", "flame"], &asset);
+    assert!(e.contains("grid 'flame' asked of a .haze asset"), "{e}");
+    let png = tmp.path().join("o.png");
+    let e = fails_with_one_line(
+        &[
+            "render",
+            a,
+            "--domain-offset",
+            "0,0,1",
+            "--out",
+            png.to_str().unwrap(),
+        ],
+        &asset,
+    );
+    assert!(e.contains("a domain offset asked of a .haze asset"), "{e}");
 }
 
 #[test]

@@ -34,6 +34,8 @@ impl Frames {
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("haze"));
         if is_asset && input.is_file() {
+            use haze_volume::import::{VdbOptionsOf, vdb_options_refused};
+            vdb_options_refused(input, VdbOptionsOf::Asset, import)?;
             Ok(Frames::Packed(Packed::open(input, range)?))
         } else {
             Ok(Frames::Files(Sequence::open(input, import, range)?))

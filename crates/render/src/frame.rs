@@ -48,6 +48,8 @@ pub fn load(
 ) -> Result<FrameData> {
     // A packed asset's frame (`haze pack`'s raw volume) is taken as a volume file is.
     let (density, label) = if is_asset(input) {
+        use haze_volume::import::{VdbOptionsOf, vdb_options_refused};
+        vdb_options_refused(input, VdbOptionsOf::Asset, opts)?;
         match read_raw_frame(input, frame)? {
             Some((n, v)) => (v, format!("{} frame {n}", input.display())),
             None => return load_asset(input, frame).map(|f| warn_if_empty(f, None)),
@@ -131,6 +133,8 @@ fn volume_path(input: &Path, frame: Option<i64>, opts: &ImportOptions) -> Result
 /// volume or a baked asset's reconstruction `max(D̃ + R̂, 0)` (`haze tradeoff`'s input).
 pub fn load_density(input: &Path, frame: Option<i64>, opts: &ImportOptions) -> Result<Volume> {
     if is_asset(input) {
+        use haze_volume::import::{VdbOptionsOf, vdb_options_refused};
+        vdb_options_refused(input, VdbOptionsOf::Asset, opts)?;
         if let Some((_, v)) = read_raw_frame(input, frame)? {
             return Ok(v);
         }

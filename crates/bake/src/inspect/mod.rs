@@ -42,6 +42,8 @@ pub fn inspect(
     progress: Progress<'_>,
 ) -> anyhow::Result<Report> {
     Ok(if is_asset(path) {
+        use haze_volume::import::{VdbOptionsOf, vdb_options_refused};
+        vdb_options_refused(path, VdbOptionsOf::Asset, opts)?;
         Report::Asset(asset::report(path, progress)?)
     } else if path.is_file() {
         if Format::of(path).is_none() {

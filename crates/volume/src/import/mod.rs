@@ -108,8 +108,10 @@ pub(crate) fn read_unchecked(
     vdb_box: Option<vdb::IndexBox>,
 ) -> Result<Volume, ImportError> {
     let format = format_of(path)?;
-    if format != Format::Vdb {
-        check_vdb_only(path, format, opts)?;
+    match format {
+        Format::Npy => vdb_options_refused(path, VdbOptionsOf::Npy, opts)?,
+        Format::Raw => vdb_options_refused(path, VdbOptionsOf::Raw, opts)?,
+        Format::Vdb => {}
     }
     match format {
         Format::Vdb => Ok(vdb::read(path, &opts.grid, vdb_box, opts.domain_offset)?.volume),
@@ -118,23 +120,49 @@ pub(crate) fn read_unchecked(
     }
 }
 
+/// What, other than an OpenVDB file, a grid or a domain offset may be asked of.
+#[derive(Clone, Copy, Debug)]
+pub enum VdbOptionsOf {
+    Npy,
+    Raw,
+    /// A `.haze` asset, whose frames were read from their grid when baked or packed.
+    Asset,
+}
+
 /// A grid other than `density`, or a domain offset, asked of a raw or NumPy volume (one
-/// array, placed by its own box): refused rather than ignored.
-fn check_vdb_only(path: &Path, format: Format, opts: &ImportOptions) -> Result<(), ImportError> {
-    let what = if format == Format::Npy {
-        "a NumPy volume"
-    } else {
-        "a raw volume"
+/// array, placed by its own box) or of an asset (placed as it was baked): refused rather
+/// than ignored.
+pub fn vdb_options_refused(
+    path: &Path,
+    of: VdbOptionsOf,
+    opts: &ImportOptions,
+) -> Result<(), ImportError> {
+    let (what, one_array, own_box) = match of {
+        VdbOptionsOf::Npy => (
+            "a NumPy volume",
+            "which holds one array",
+            "placed by its own box",
+        ),
+        VdbOptionsOf::Raw => (
+            "a raw volume",
+            "which holds one array",
+            "placed by its own box",
+        ),
+        VdbOptionsOf::Asset => (
+            "a .haze asset",
+            "whose frames were read from their grid when it was made",
+            "placed as it was made",
+        ),
     };
     let defaults = ImportOptions::default();
     let why = if opts.grid != defaults.grid {
         format!(
-            "grid '{}' asked of {what}, which holds one array (grids are OpenVDB's)",
+            "grid '{}' asked of {what}, {one_array} (grids are OpenVDB's)",
             opts.grid
         )
     } else if opts.domain_offset != defaults.domain_offset {
         format!(
-            "a domain offset asked of {what}, which is placed by its own box (the offset is for OpenVDB grids)"
+            "a domain offset asked of {what}, which is {own_box} (the offset is for OpenVDB grids)"
         )
     } else {
         return Ok(());
