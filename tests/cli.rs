@@ -132,6 +132,21 @@ fn inspect_text_output_is_readable() {
     }
 }
 
+/// An empty grid (a simulation's first frames) has no voxel size and no values to show.
+#[test]
+fn inspect_of_an_empty_grid_says_it_is_empty() {
+    let p = data("synthetic/empty.vdb");
+    let out = haze()
+        .args(["inspect", p.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.contains("(0 voxels)"), "{text}");
+    assert!(text.contains("voxel size: none (no voxels)"), "{text}");
+    assert!(text.contains("values:     none (an empty frame)"), "{text}");
+}
+
 #[test]
 fn inspect_raw_with_sidecar_and_domain_offset() {
     let raw = data("plume-a/dense/density_0024.f32");

@@ -86,6 +86,12 @@ fn peek<'r>(path: &Path, reader: &'r mut BufReader<File>, n: usize) -> Result<&'
 /// claims more is refused before anything is allocated.
 pub const MAX_HDR_TEXELS: usize = 1 << 28;
 
+/// The largest texel value a map may hold. A sky is far below it (the sun's disk is about
+/// `1.6·10⁹` cd/m²), and it leaves eight orders of magnitude under `f32::MAX` (`3.4·10³⁸`)
+/// for the renderer's `f32` sums of texels times phase, solid angle and transmittance: a
+/// map of texels near `f32::MAX` made pictures of NaN.
+pub const MAX_RADIANCE: f32 = 1e30;
+
 /// A lat-long environment map.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LatLong {
@@ -104,8 +110,8 @@ pub struct EnvError {
 }
 
 impl LatLong {
-    /// A map from texels (row 0 = zenith); refuses empty maps and non-finite or negative
-    /// radiance.
+    /// A map from texels (row 0 = zenith); refuses empty maps and non-finite, negative or
+    /// over [`MAX_RADIANCE`] radiance.
     pub fn new(width: usize, height: usize, texels: Vec<[f32; 3]>) -> Result<Self, String> {
         if width == 0 || height == 0 {
             return Err(format!(
@@ -124,6 +130,17 @@ impl LatLong {
         {
             return Err(format!(
                 "texel ({}, {}) is {:?}: radiance must be finite and non-negative",
+                i % width,
+                i / width,
+                texels[i]
+            ));
+        }
+        if let Some(i) = texels
+            .iter()
+            .position(|t| t.iter().any(|c| *c > MAX_RADIANCE))
+        {
+            return Err(format!(
+                "texel ({}, {}) is {:?}: radiance above {MAX_RADIANCE:e} is beyond any sky and past what the renderer's sums hold (scale the map down)",
                 i % width,
                 i / width,
                 texels[i]
@@ -400,6 +417,12 @@ mod tests {
         assert!(LatLong::new(1, 1, vec![[f32::NAN, 0.0, 0.0]]).is_err());
         assert!(LatLong::new(1, 1, vec![[-1.0, 0.0, 0.0]]).is_err());
         assert!(LatLong::new(2, 1, vec![[1.0, 0.0, 0.0]]).is_err());
+        // The largest radiance is the limit itself; the next value up is refused, naming
+        // its texel.
+        assert!(LatLong::new(1, 1, vec![[MAX_RADIANCE; 3]]).is_ok());
+        let over = f32::from_bits(MAX_RADIANCE.to_bits() + 1);
+        let e = LatLong::new(2, 1, vec![[1.0; 3], [0.0, over, 0.0]]).unwrap_err();
+        assert!(e.starts_with("texel (1, 0)") && e.contains("1e30"), "{e}");
     }
 
     #[test]

@@ -57,15 +57,22 @@ impl GridReport {
             "world box",
             format!("{} .. {}", vec3(self.bbox_min), vec3(self.bbox_max)),
         );
-        line(out, "voxel size", vec3(self.voxel_size));
-        line(
-            out,
-            "values",
-            format!(
-                "{} .. {} (sum {:.6})",
-                self.value_min, self.value_max, self.value_sum
-            ),
-        );
+        if self.voxels == 0 {
+            // An empty grid (a simulation's first frames, an array with an axis of length
+            // 0) has no voxel size and no values; its box is a placeholder.
+            line(out, "voxel size", "none (no voxels)".to_string());
+            line(out, "values", "none (an empty frame)".to_string());
+        } else {
+            line(out, "voxel size", vec3(self.voxel_size));
+            line(
+                out,
+                "values",
+                format!(
+                    "{} .. {} (sum {:.6})",
+                    self.value_min, self.value_max, self.value_sum
+                ),
+            );
+        }
         let pct = 100.0 * self.active_voxels as f64 / self.voxels.max(1) as f64;
         let bx = match self.active_index_bbox {
             Some([lo, hi]) => format!(", index box {lo:?}..{hi:?}"),
