@@ -9,6 +9,7 @@
 use anyhow::{Context, Result, bail};
 use haze_asset::Asset;
 use haze_bake::export::{Reconstruction, reconstruct_frame};
+use haze_bake::inspect::span;
 use haze_render::output::{self, Created, Outputs};
 use haze_render::progress;
 use haze_volume::import::FrameRange;
@@ -121,15 +122,6 @@ fn numbered(out: &Path, n: i64) -> PathBuf {
     out.with_file_name(format!("{stem}{sep}{n:04}.{ext}"))
 }
 
-/// "21..28" (or "21" for one frame, "none" for no frame), from the first and last number.
-fn span(numbers: &[i64]) -> String {
-    match (numbers.first(), numbers.last()) {
-        (Some(a), Some(b)) if a == b => a.to_string(),
-        (Some(a), Some(b)) => format!("{a}..{b}"),
-        _ => "none".into(),
-    }
-}
-
 /// Writes frame `n`'s reconstruction `r` to `file` (and a raw file's sidecar), each
 /// through a temporary file; what was written is added to `created`.
 fn write(
@@ -200,8 +192,6 @@ mod tests {
             numbered(Path::new("vol-.vdb"), 3),
             Path::new("vol-0003.vdb")
         );
-        assert_eq!(span(&[21, 22, 28]), "21..28");
-        assert_eq!(span(&[7]), "7");
         assert!(Kind::of(Path::new("x.vdb")).is_err());
     }
 }

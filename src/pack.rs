@@ -3,6 +3,7 @@
 
 use anyhow::{Result, bail};
 use haze_asset::{AssetWriter, BlockKind, Scope, encode_raw_volume};
+use haze_bake::inspect::{all_zero_clause, all_zero_warning, bytes, count, span};
 use haze_bake::source::Frames;
 use haze_render::output::Outputs;
 use haze_render::progress;
@@ -40,16 +41,7 @@ pub fn run(input: &Path, out: &Path, range: FrameRange, opts: &ImportOptions) ->
     let header = haze_bake::header::for_sequence(&seq, input, opts)?;
     w.finish(&header)?;
     if all_zero == seq.len() {
-        let grid = seq.grid_name(opts);
-        let which = if grid.is_empty() {
-            String::new()
-        } else {
-            format!(" (OpenVDB grid '{grid}'; --grid picks another)")
-        };
-        tracing::warn!(
-            "{}: every frame is all zero{which}: the asset holds no smoke",
-            input.display()
-        );
+        tracing::warn!("{}", all_zero_warning(input, &seq.grid_name(opts)));
     }
     haze_render::say!("{}", summary(out, &seq, all_zero));
     Ok(())
@@ -59,25 +51,13 @@ pub fn run(input: &Path, out: &Path, range: FrameRange, opts: &ImportOptions) ->
 /// frames were all zero when some were.
 fn summary(out: &Path, seq: &Frames, all_zero: usize) -> String {
     let [x, y, z] = seq.dims();
-    let (first, last) = (seq.number(0), seq.number(seq.len() - 1));
-    let numbers = if first == last {
-        first.to_string()
-    } else {
-        format!("{first}..{last}")
-    };
+    let numbers = span(&[seq.number(0), seq.number(seq.len() - 1)]);
     let size = std::fs::metadata(out).map(|m| m.len()).unwrap_or(0);
-    let zero = if all_zero > 0 {
-        format!(
-            "; {} all zero",
-            haze_bake::inspect::count(all_zero, "frame")
-        )
-    } else {
-        String::new()
-    };
     format!(
-        "{}: {} ({numbers}) of {x} × {y} × {z} packed losslessly, {}{zero}",
+        "{}: {} ({numbers}) of {x} × {y} × {z} packed losslessly, {}{}",
         out.display(),
-        haze_bake::inspect::count(seq.len(), "frame"),
-        haze_bake::inspect::text::bytes(size)
+        count(seq.len(), "frame"),
+        bytes(size),
+        all_zero_clause(all_zero)
     )
 }

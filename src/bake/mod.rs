@@ -92,8 +92,9 @@ fn bake(args: BakeArgs) -> Result<()> {
     b.finish_and_clear();
     let baked = bake.finish()?;
     haze_render::say!("{}", summary_line(&baked));
-    if let Some(w) = all_empty(&baked.records, &input, &grid) {
-        tracing::warn!("{w}");
+    let records = &baked.records;
+    if !records.is_empty() && records.iter().all(|r| r.rbfs == 0) {
+        tracing::warn!("{}", haze_bake::inspect::all_zero_warning(&input, &grid));
     }
     if let Some(path) = &args.report {
         output::write_json(path, &baked.report(&input))?;
@@ -120,42 +121,10 @@ fn summary_line(b: &Baked) -> String {
         met,
         haze_bake::inspect::bytes(b.bytes),
         b.seconds,
-        empty_frames(records),
+        haze_bake::inspect::all_zero_clause(records.iter().filter(|r| r.rbfs == 0).count()),
         coarse_first(records),
         over_threshold(records)
     )
-}
-
-/// The frames that were all zero (fitted with no RBFs), in one clause for the summary
-/// line; empty when none was.
-fn empty_frames(records: &[haze_bake::FrameRecord]) -> String {
-    let empty = records.iter().filter(|r| r.rbfs == 0).count();
-    if empty == 0 {
-        return String::new();
-    }
-    format!("; {} all zero", haze_bake::inspect::count(empty, "frame"))
-}
-
-/// The warning for a bake whose every frame was all zero (often the wrong OpenVDB grid:
-/// `grid`, "" for other input), `None` otherwise.
-fn all_empty(
-    records: &[haze_bake::FrameRecord],
-    input: &std::path::Path,
-    grid: &str,
-) -> Option<String> {
-    if records.is_empty() || records.iter().any(|r| r.rbfs > 0) {
-        return None;
-    }
-    let which = if grid.is_empty() {
-        String::new()
-    } else {
-        format!(" (OpenVDB grid '{grid}'; --grid picks another)")
-    };
-    Some(format!(
-        "{}: every frame is all zero{which}: the asset holds no smoke; `haze inspect {}` shows the values",
-        input.display(),
-        input.display()
-    ))
 }
 
 /// The warm frames whose minimizations walked on the half-resolution grid first

@@ -166,6 +166,15 @@ fn folder(path: &Path) -> PathBuf {
     }
 }
 
+/// Whether two existing files or directories are one, once links are resolved (the same
+/// canonical path, or on Unix the same device and inode); false where either is missing.
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    match (Identity::of(a), Identity::of(b)) {
+        (Some(a), Some(b)) => a.path == b.path || (a.inode.is_some() && a.inode == b.inode),
+        _ => false,
+    }
+}
+
 /// What makes two paths one file: the canonical path, and on Unix the device and inode.
 #[derive(Debug, Clone)]
 struct Identity {
@@ -283,6 +292,28 @@ mod tests {
 
     fn err(o: Outputs) -> String {
         o.check().unwrap_err().to_string()
+    }
+
+    /// One folder or file by another spelling or through a link is the same; two
+    /// different ones, or one missing, are not.
+    #[test]
+    fn same_file_sees_through_spellings_and_links() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let (a, b) = (d.join("a"), d.join("b"));
+        std::fs::create_dir(&a).unwrap();
+        std::fs::create_dir(&b).unwrap();
+        assert!(same_file(&a, &d.join("b/../a/.")));
+        assert!(!same_file(&a, &b));
+        assert!(!same_file(&a, &d.join("missing")));
+        std::fs::write(d.join("f"), [0u8]).unwrap();
+        std::fs::hard_link(d.join("f"), d.join("g")).unwrap();
+        assert!(same_file(&d.join("f"), &d.join("g")));
+        #[cfg(unix)]
+        {
+            std::os::unix::fs::symlink(&a, d.join("link")).unwrap();
+            assert!(same_file(&a, &d.join("link")));
+        }
     }
 
     #[test]

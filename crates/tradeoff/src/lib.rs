@@ -166,7 +166,7 @@ fn check_out_dir(a: &TradeoffArgs) -> Result<()> {
         // A directory still to be made holds no input.
         return Ok(());
     }
-    if !a.extremes && a.input.is_dir() && same_dir(&a.input, &a.out) {
+    if !a.extremes && a.input.is_dir() && haze_render::output::same_file(&a.input, &a.out) {
         bail!(
             "{}: --out is the input's directory of frames; the sweep's files would mix with them (choose another --out)",
             a.out.display()
@@ -181,14 +181,6 @@ fn check_out_dir(a: &TradeoffArgs) -> Result<()> {
         .iter()
         .fold(files, |f, n| f.output("--out", &a.out.join(n)))
         .check()
-}
-
-/// Whether two existing directories are one, once links are resolved.
-fn same_dir(a: &Path, b: &Path) -> bool {
-    match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
-        (Ok(a), Ok(b)) => a == b,
-        _ => false,
-    }
 }
 
 /// Runs the sweep; `--out` is made if missing, and removed again if the run fails.

@@ -11,7 +11,7 @@ pub mod text;
 pub mod volume;
 
 pub use asset::AssetReport;
-pub use text::{bytes, count};
+pub use text::{all_zero_clause, all_zero_warning, bytes, count, span};
 pub use volume::{FileReport, GridReport, SequenceReport};
 
 use haze_volume::ImportOptions;

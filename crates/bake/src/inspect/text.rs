@@ -190,11 +190,65 @@ pub fn bytes(n: u64) -> String {
     }
 }
 
+/// "21..28" (or "21" for one frame, "none" for no frame), from the first and last number.
+pub fn span(numbers: &[i64]) -> String {
+    match (numbers.first(), numbers.last()) {
+        (Some(a), Some(b)) if a == b => a.to_string(),
+        (Some(a), Some(b)) => format!("{a}..{b}"),
+        _ => "none".into(),
+    }
+}
+
+/// "; 2 frames all zero" for a summary line, empty when none was.
+pub fn all_zero_clause(frames: usize) -> String {
+    if frames == 0 {
+        return String::new();
+    }
+    format!("; {} all zero", count(frames, "frame"))
+}
+
+/// The warning for an asset made from `input` whose every frame was all zero — often the
+/// wrong OpenVDB grid (`grid`, "" for other input).
+pub fn all_zero_warning(input: &std::path::Path, grid: &str) -> String {
+    let which = if grid.is_empty() {
+        String::new()
+    } else {
+        format!(" (OpenVDB grid '{grid}'; --grid picks another)")
+    };
+    format!(
+        "{}: every frame is all zero{which}: the asset holds no smoke; `haze inspect {}` shows the values",
+        input.display(),
+        input.display()
+    )
+}
+
 /// "1 frame", "2 frames".
 pub fn count(n: usize, noun: &str) -> String {
     if n == 1 {
         format!("1 {noun}")
     } else {
         format!("{n} {noun}s")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spans_clauses_and_warnings_read_as_sentences() {
+        assert_eq!(span(&[21, 22, 28]), "21..28");
+        assert_eq!(span(&[7]), "7");
+        assert_eq!(span(&[]), "none");
+        assert_eq!(all_zero_clause(0), "");
+        assert_eq!(all_zero_clause(1), "; 1 frame all zero");
+        assert_eq!(all_zero_clause(3), "; 3 frames all zero");
+        let w = all_zero_warning(std::path::Path::new("cache/data"), "flame");
+        assert_eq!(
+            w,
+            "cache/data: every frame is all zero (OpenVDB grid 'flame'; --grid picks another): \
+             the asset holds no smoke; `haze inspect cache/data` shows the values"
+        );
+        assert!(!all_zero_warning(std::path::Path::new("v.npy"), "").contains("grid"));
     }
 }
