@@ -126,6 +126,66 @@ fn bad_gaussian_media_are_one_line_errors() {
     }
 }
 
+/// A CPU adapter's shader loops stop silently after 65535 iterations: a scene of more
+/// Gaussians than its budget allows is refused up front under `--gpu` (the picture came out
+/// dark), and the CPU renderer takes it. CI's adapter is lavapipe; on a real GPU the
+/// `--gpu` render goes through.
+#[test]
+fn many_gaussians_on_a_cpu_adapter_are_refused_with_the_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // 100 000 faint Gaussians (the count paper B's extremes ask for) on a grid of rows
+    // 200 wide, one lamp: over one light's budget (24 000), under the CPU renderer's cap.
+    let mut g = Vec::with_capacity(100_000);
+    for k in 0..100_000 {
+        let (x, y) = ((k % 200) as f64 * 0.03 - 3.0, (k / 200) as f64 * 0.04 - 3.0);
+        g.push(format!(
+            r#"{{"center": [{x}, {y}, 1], "radius": 0.02, "weight": 0.01}}"#
+        ));
+    }
+    let scene = d.join("many.json");
+    std::fs::write(
+        &scene,
+        format!(
+            r#"{{"camera": {{"eye": [0, -8, 1.5], "target": [0, 0, 1], "fov": 50, "width": 8, "height": 6}},
+"lights": [{{"type": "point", "position": [0, -3, 8], "intensity": [40, 40, 40]}}],
+"media": [{{"type": "gaussians", "sigma_t": 0.6, "albedo": 0.9, "gaussians": [{}]}}]}}"#,
+            g.join(",")
+        ),
+    )
+    .unwrap();
+    let s = scene.to_str().unwrap();
+    let o = haze()
+        .args(["render", "--scene", s, "--gpu", "--out"])
+        .arg(d.join("g.exr"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8(o.stderr).unwrap();
+    let cpu_adapter = err.contains("more than paper B's shader renders on a CPU adapter");
+    if cpu_adapter {
+        assert!(!o.status.success());
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(
+            err.contains("many.json")
+                && err.contains("100000 Gaussians and 1 light are")
+                && err.contains("at most 24000 Gaussians with 1 light)")
+                && err.contains("leave out --gpu"),
+            "{err}"
+        );
+        assert!(!d.join("g.exr").exists());
+    } else {
+        assert!(o.status.success(), "{err}");
+    }
+    let c = d.join("c.exr");
+    render(&["--scene", s, "--out", c.to_str().unwrap()]);
+    assert!(
+        read_exr(&c)
+            .iter()
+            .flatten()
+            .all(|v| v.is_finite() && *v >= 0.0)
+    );
+}
+
 #[test]
 fn gpu_renders_the_bundled_gaussians_with_their_noise() {
     // The bundled scene, noise included, on the GPU and on the CPU: the same image within

@@ -245,6 +245,17 @@ fn run_hetero(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Res
     } else if a.gpu {
         let gpu_err = |e: GpuError| anyhow!("--gpu: {}: {e}", a.scene.display());
         let ctx = GpuContext::new().map_err(gpu_err)?;
+        // Before the preparation, which takes seconds at such counts.
+        let gaussians = scene
+            .gaussian_media()
+            .map(|m| m.medium.gaussians().len())
+            .sum();
+        haze_scene::gpu::paper_b::check_cpu_device(
+            ctx.is_cpu_adapter(),
+            gaussians,
+            scene.lights.len(),
+        )
+        .map_err(gpu_err)?;
         let analytic = Analytic::new(scene);
         let mut options = PaperBOptions {
             surface_sky: a.sky_shadow,

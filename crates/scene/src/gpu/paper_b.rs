@@ -121,6 +121,7 @@ impl GpuPaperB {
     ) -> Result<Image, GpuError> {
         let eye = prep.scene.camera.eye;
         let blobs_in = prep.set.blobs();
+        check_cpu_device(ctx.is_cpu_adapter(), blobs_in.len(), prep.lights.len())?;
         if blobs_in.len() >= 1 << 24 {
             return Err(GpuError::Input(format!(
                 "{} Gaussians are too many for the GPU renderer",
@@ -257,6 +258,40 @@ fn light_records(prep: &Prepared<'_>) -> Vec<[f32; 4]> {
 /// none.
 pub const CPU_DEVICE_EXACT: usize = 4;
 
+/// The loop iterations paper B's shader may spend in an invocation on a CPU device
+/// (lavapipe ends them silently after 65535: [`CPU_DEVICE_EXACT`]), for
+/// [`cpu_device_loops`]' model.
+pub const CPU_DEVICE_LOOP_BUDGET: f64 = 60_000.0;
+
+/// The loop iterations an invocation of paper B's shader takes at most for `gaussians`
+/// Gaussians and `lights` lights: `N·(1 + 1.5·L)`. Every pixel of a tile may meet every
+/// Gaussian (its tile lists, its surface point's paths towards each light), so the cost
+/// grows with both. Fitted on lavapipe (llvmpipe, LLVM 15) to the first counts whose
+/// pictures went dark against the CPU renderer (faint Gaussians filling the view, the
+/// default environment): 32 768 with one light, 24 000 with four, 16 384 with eight, 12 000
+/// with four over a plane; at the model's budget (24 000 / 8 500 / 4 600 Gaussians with 1 /
+/// 4 / 8 lights, a plane) the pictures equal the CPU's to `10⁻⁵`.
+pub fn cpu_device_loops(gaussians: usize, lights: usize) -> f64 {
+    gaussians as f64 * (1.0 + 1.5 * lights as f64)
+}
+
+/// Refuses a scene that paper B's shader cannot render on a CPU device (`cpu`) within
+/// its loop budget ([`cpu_device_loops`]): there the picture would come out dark without
+/// a word. A real GPU has no such limit.
+pub fn check_cpu_device(cpu: bool, gaussians: usize, lights: usize) -> Result<(), GpuError> {
+    if !cpu || cpu_device_loops(gaussians, lights) <= CPU_DEVICE_LOOP_BUDGET {
+        return Ok(());
+    }
+    let most = (CPU_DEVICE_LOOP_BUDGET / (1.0 + 1.5 * lights as f64)).floor();
+    let lights = match lights {
+        1 => "1 light".to_string(),
+        n => format!("{n} lights"),
+    };
+    Err(GpuError::Input(format!(
+        "{gaussians} Gaussians and {lights} are more than paper B's shader renders on a CPU adapter, whose loops stop after 65535 iterations (at most {most} Gaussians with {lights}); leave out --gpu: the CPU renderer takes any number"
+    )))
+}
+
 /// Paper B's default options for rendering on `ctx`'s device: [`CPU_DEVICE_EXACT`] Gaussians
 /// exact per integrated pair on a CPU device, `MAX_EXACT` elsewhere, and every pixel
 /// integrating its pairs (the GPU does not reuse them across the screen; the surfaces'
@@ -359,4 +394,27 @@ fn noise_records(prep: &Prepared<'_>, blobs: &mut Vec<[f32; 4]>) -> Result<(), G
         )));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The budget's ends as measured on lavapipe (`cpu_device_loops`' docs): the largest
+    /// counts that rendered right pass, the first that went dark are refused; a real GPU
+    /// takes any.
+    #[test]
+    fn the_cpu_devices_loop_budget_takes_what_rendered_right() {
+        for (n, lights) in [(24_000, 1), (8_500, 4), (4_600, 8)] {
+            assert!(check_cpu_device(true, n, lights).is_ok(), "{n}, {lights}");
+        }
+        for (n, lights) in [(32_768, 1), (24_000, 4), (16_384, 8), (12_000, 4)] {
+            let e = check_cpu_device(true, n, lights).unwrap_err().to_string();
+            assert!(e.contains(&format!("{n} Gaussians")), "{e}");
+            assert!(check_cpu_device(false, n, lights).is_ok());
+        }
+        let e = check_cpu_device(true, 30_000, 1).unwrap_err().to_string();
+        assert!(e.contains("30000 Gaussians and 1 light are more"), "{e}");
+        assert!(e.contains("at most 24000 Gaussians with 1 light)"), "{e}");
+    }
 }
