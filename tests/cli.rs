@@ -60,6 +60,20 @@ fn write_cube(stem: &Path, v: &[f32; 8]) {
     .unwrap();
 }
 
+/// `haze inspect PATH`'s text report, expecting success.
+fn inspect_text(p: &Path) -> String {
+    let out = haze()
+        .args(["inspect", p.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
 fn json_of(args: &[&str]) -> serde_json::Value {
     let out = haze().args(args).output().unwrap();
     assert!(
@@ -102,11 +116,7 @@ fn inspect_says_how_integer_samples_are_read() {
     let j = json_of(&["inspect", p.to_str().unwrap(), "--json"]);
     assert_eq!(j["samples"], "uint8");
     assert_eq!(j["value_max"], 1.0);
-    let out = haze()
-        .args(["inspect", p.to_str().unwrap()])
-        .output()
-        .unwrap();
-    let text = String::from_utf8(out.stdout).unwrap();
+    let text = inspect_text(&p);
     assert!(
         text.contains("samples:    uint8, read as fractions of 255"),
         "{text}"
@@ -115,13 +125,7 @@ fn inspect_says_how_integer_samples_are_read() {
 
 #[test]
 fn inspect_text_output_is_readable() {
-    let p = data("plume-a/vdb/fluid_data_0024.vdb");
-    let out = haze()
-        .args(["inspect", p.to_str().unwrap()])
-        .output()
-        .unwrap();
-    assert!(out.status.success());
-    let text = String::from_utf8(out.stdout).unwrap();
+    let text = inspect_text(&data("plume-a/vdb/fluid_data_0024.vdb"));
     for needle in [
         "48 × 48 × 64",
         "values:",
@@ -135,13 +139,7 @@ fn inspect_text_output_is_readable() {
 /// An empty grid (a simulation's first frames) has no voxel size and no values to show.
 #[test]
 fn inspect_of_an_empty_grid_says_it_is_empty() {
-    let p = data("synthetic/empty.vdb");
-    let out = haze()
-        .args(["inspect", p.to_str().unwrap()])
-        .output()
-        .unwrap();
-    assert!(out.status.success());
-    let text = String::from_utf8(out.stdout).unwrap();
+    let text = inspect_text(&data("synthetic/empty.vdb"));
     assert!(text.contains("(0 voxels)"), "{text}");
     assert!(text.contains("voxel size: none (no voxels)"), "{text}");
     assert!(text.contains("values:     none (an empty frame)"), "{text}");
