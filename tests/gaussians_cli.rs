@@ -167,7 +167,7 @@ fn many_gaussians_on_a_cpu_adapter_are_refused_with_the_limit() {
         assert_eq!(err.trim().lines().count(), 1, "{err}");
         assert!(
             err.contains("many.json")
-                && err.contains("100000 Gaussians and 1 light are")
+                && err.contains("100000 Gaussians with 1 light are")
                 && err.contains("at most 24000 Gaussians with 1 light)")
                 && err.contains("leave out --gpu"),
             "{err}"

@@ -98,7 +98,7 @@ pub struct RenderCli {
     /// the centers' diffusion, --diffusion), the volume and view passes (in f32); with --scene, paper C's airlight and surface
     /// shading. Needs a GPU adapter; Mesa's lavapipe (mesa-vulkan-drivers) works without
     /// a GPU, but its loop limit refuses paper B scenes of many Gaussians and lights
-    /// (at most 24 000 Gaussians with one light, 8 500 with four).
+    /// (at most 24 000 Gaussians with one light, 8 500 with four, fewer under a sky).
     #[arg(long)]
     pub(crate) gpu: bool,
     /// With --gpu: where the lighting at the RBF centers (single scattering and the

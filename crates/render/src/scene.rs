@@ -254,6 +254,7 @@ fn run_hetero(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Res
             ctx.is_cpu_adapter(),
             gaussians,
             scene.lights.len(),
+            !matches!(scene.environment, haze_scene::Environment::Black),
         )
         .map_err(gpu_err)?;
         let analytic = Analytic::new(scene);

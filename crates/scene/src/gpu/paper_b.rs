@@ -53,6 +53,7 @@ use crate::paper_b::sky_grid::sky_table;
 use crate::paper_b::{PaperBOptions, Prepared};
 use crate::paper_c::airlight::Limits;
 use crate::render::Image;
+use crate::scene::Environment;
 use crate::vec3::{norm, sub};
 use haze_gaussians::airlight::cull_radius;
 use haze_gaussians::noise::{Noise, Perlin};
@@ -121,7 +122,12 @@ impl GpuPaperB {
     ) -> Result<Image, GpuError> {
         let eye = prep.scene.camera.eye;
         let blobs_in = prep.set.blobs();
-        check_cpu_device(ctx.is_cpu_adapter(), blobs_in.len(), prep.lights.len())?;
+        check_cpu_device(
+            ctx.is_cpu_adapter(),
+            blobs_in.len(),
+            prep.lights.len(),
+            !matches!(prep.scene.environment, Environment::Black),
+        )?;
         if blobs_in.len() >= 1 << 24 {
             return Err(GpuError::Input(format!(
                 "{} Gaussians are too many for the GPU renderer",
@@ -264,31 +270,43 @@ pub const CPU_DEVICE_EXACT: usize = 4;
 pub const CPU_DEVICE_LOOP_BUDGET: f64 = 60_000.0;
 
 /// The loop iterations an invocation of paper B's shader takes at most for `gaussians`
-/// Gaussians and `lights` lights: `N·(1 + 1.5·L)`. Every pixel of a tile may meet every
-/// Gaussian (its tile lists, its surface point's paths towards each light), so the cost
-/// grows with both. Fitted on lavapipe (llvmpipe, LLVM 15) to the first counts whose
-/// pictures went dark against the CPU renderer (faint Gaussians filling the view, the
-/// default environment): 32 768 with one light, 24 000 with four, 16 384 with eight, 12 000
-/// with four over a plane; at the model's budget (24 000 / 8 500 / 4 600 Gaussians with 1 /
-/// 4 / 8 lights, a plane) the pictures equal the CPU's to `10⁻⁵`.
-pub fn cpu_device_loops(gaussians: usize, lights: usize) -> f64 {
-    gaussians as f64 * (1.0 + 1.5 * lights as f64)
+/// Gaussians lit by `lights` lights and, if `environment`, an environment:
+/// `N·(1 + 1.5·(L + E))` (`E` = 1 with an environment). Every pixel of a tile may meet
+/// every Gaussian (its tile lists, its surface point's paths towards each light and the
+/// sky), so the cost grows with both. Fitted on lavapipe (llvmpipe, LLVM 15) to the first
+/// counts whose pictures went dark against the CPU renderer (faint Gaussians filling the
+/// view): 32 768 with one point light, 24 000 with four, 16 384 with eight, 12 000 with four
+/// over a plane, 20 000 with one light or a sun under the built-in sky over a plane; within
+/// the model's budget (24 000 / 8 500 / 4 600 Gaussians with 1 / 4 / 8 lamps over a plane;
+/// 12 000 / 6 000 with 1 / 4 lamps and the sky) the pictures equal the CPU's to `10⁻⁵`.
+pub fn cpu_device_loops(gaussians: usize, lights: usize, environment: bool) -> f64 {
+    let lit = lights as f64 + f64::from(u8::from(environment));
+    gaussians as f64 * (1.0 + 1.5 * lit)
 }
 
 /// Refuses a scene that paper B's shader cannot render on a CPU device (`cpu`) within
 /// its loop budget ([`cpu_device_loops`]): there the picture would come out dark without
 /// a word. A real GPU has no such limit.
-pub fn check_cpu_device(cpu: bool, gaussians: usize, lights: usize) -> Result<(), GpuError> {
-    if !cpu || cpu_device_loops(gaussians, lights) <= CPU_DEVICE_LOOP_BUDGET {
+pub fn check_cpu_device(
+    cpu: bool,
+    gaussians: usize,
+    lights: usize,
+    environment: bool,
+) -> Result<(), GpuError> {
+    let loops = cpu_device_loops(gaussians, lights, environment);
+    if !cpu || loops <= CPU_DEVICE_LOOP_BUDGET {
         return Ok(());
     }
-    let most = (CPU_DEVICE_LOOP_BUDGET / (1.0 + 1.5 * lights as f64)).floor();
-    let lights = match lights {
+    let most = (CPU_DEVICE_LOOP_BUDGET * gaussians as f64 / loops).floor();
+    let mut lit = match lights {
         1 => "1 light".to_string(),
         n => format!("{n} lights"),
     };
+    if environment {
+        lit += " and an environment";
+    }
     Err(GpuError::Input(format!(
-        "{gaussians} Gaussians and {lights} are more than paper B's shader renders on a CPU adapter, whose loops stop after 65535 iterations (at most {most} Gaussians with {lights}); leave out --gpu: the CPU renderer takes any number"
+        "{gaussians} Gaussians with {lit} are more than paper B's shader renders on a CPU adapter, whose loops stop after 65535 iterations (at most {most} Gaussians with {lit}); leave out --gpu: the CPU renderer takes any number"
     )))
 }
 
@@ -400,21 +418,49 @@ fn noise_records(prep: &Prepared<'_>, blobs: &mut Vec<[f32; 4]>) -> Result<(), G
 mod tests {
     use super::*;
 
-    /// The budget's ends as measured on lavapipe (`cpu_device_loops`' docs): the largest
-    /// counts that rendered right pass, the first that went dark are refused; a real GPU
-    /// takes any.
+    /// The budget's ends as measured on lavapipe (`cpu_device_loops`' docs): the counts
+    /// that rendered right pass, the first that went dark are refused; a real GPU takes
+    /// any.
     #[test]
     fn the_cpu_devices_loop_budget_takes_what_rendered_right() {
-        for (n, lights) in [(24_000, 1), (8_500, 4), (4_600, 8)] {
-            assert!(check_cpu_device(true, n, lights).is_ok(), "{n}, {lights}");
+        let right = [
+            (24_000, 1, false),
+            (8_500, 4, false),
+            (4_600, 8, false),
+            (12_000, 1, true),
+            (6_000, 4, true),
+        ];
+        for (n, lights, env) in right {
+            assert!(
+                check_cpu_device(true, n, lights, env).is_ok(),
+                "{n}, {lights}"
+            );
         }
-        for (n, lights) in [(32_768, 1), (24_000, 4), (16_384, 8), (12_000, 4)] {
-            let e = check_cpu_device(true, n, lights).unwrap_err().to_string();
+        let dark = [
+            (32_768, 1, false),
+            (24_000, 4, false),
+            (16_384, 8, false),
+            (12_000, 4, false),
+            (20_000, 1, true),
+        ];
+        for (n, lights, env) in dark {
+            let e = check_cpu_device(true, n, lights, env)
+                .unwrap_err()
+                .to_string();
             assert!(e.contains(&format!("{n} Gaussians")), "{e}");
-            assert!(check_cpu_device(false, n, lights).is_ok());
+            assert!(check_cpu_device(false, n, lights, env).is_ok());
         }
-        let e = check_cpu_device(true, 30_000, 1).unwrap_err().to_string();
-        assert!(e.contains("30000 Gaussians and 1 light are more"), "{e}");
+        let e = check_cpu_device(true, 30_000, 1, false)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("30000 Gaussians with 1 light are more"), "{e}");
         assert!(e.contains("at most 24000 Gaussians with 1 light)"), "{e}");
+        let e = check_cpu_device(true, 20_000, 1, true)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("at most 15000 Gaussians with 1 light and an environment)"),
+            "{e}"
+        );
     }
 }
