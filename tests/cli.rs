@@ -62,15 +62,7 @@ fn write_cube(stem: &Path, v: &[f32; 8]) {
 
 /// `haze inspect PATH`'s text report, expecting success.
 fn inspect_text(p: &Path) -> String {
-    let out = haze()
-        .args(["inspect", p.to_str().unwrap()])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = support::succeeds(&["inspect", p.to_str().unwrap()]);
     String::from_utf8(out.stdout).unwrap()
 }
 

@@ -299,15 +299,7 @@ fn images_have_the_mode_of_other_outputs() {
     let d = dir.path();
     std::fs::write(d.join("s.json"), fog_scene(&analytic("0.3", "0.1"))).unwrap();
     let img = d.join("o.png");
-    let out = haze()
-        .args(["render", "--scene", s(&d.join("s.json")), "--out", s(&img)])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeds(&["render", "--scene", s(&d.join("s.json")), "--out", s(&img)]);
     let json = d.join("r.json");
     std::fs::write(&json, "{}").unwrap();
     let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;

@@ -16,6 +16,17 @@ pub fn haze() -> Command {
     Command::cargo_bin("haze").unwrap()
 }
 
+/// The output of `haze ARGS`, after checking that it succeeded (its stderr shown if not).
+pub fn succeeds<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> std::process::Output {
+    let out = haze().args(args).output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
 /// Every file under `dir` (recursively) with its bytes: compared before and after a run,
 /// it shows that no input changed and nothing was left behind.
 pub fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
