@@ -278,6 +278,75 @@ fn renders_the_room_on_the_gpu_as_on_the_cpu() {
     assert!(outside * 100 <= w * h, "{outside} pixels differ");
 }
 
+/// A CPU adapter's shader loops stop silently after 65535 iterations: 100 lights and 200
+/// surfaces (the shading went 12 % dark there) are refused up front under `--gpu`, in one
+/// line naming the way out; the CPU renders them. CI's adapter is lavapipe; on a real GPU
+/// the `--gpu` render goes through.
+#[test]
+fn many_lights_and_surfaces_on_a_cpu_adapter_are_refused_with_the_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let lights: Vec<String> = (0..100)
+        .map(|k| {
+            format!(
+                r#"{{"type": "point", "position": [{}, {}, 3], "intensity": [1, 1, 1]}}"#,
+                (k % 10) as f64 - 5.0,
+                (k / 10) as f64 - 5.0
+            )
+        })
+        .collect();
+    let mut surfaces = vec![
+        r#"{"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1], "material": {"diffuse": [0.5, 0.5, 0.5]}}"#.to_string(),
+    ];
+    for k in 0..199 {
+        surfaces.push(format!(
+            r#"{{"type": "sphere", "center": [{}, {}, 1], "radius": 0.1, "material": {{"diffuse": [0.5, 0.5, 0.5]}}}}"#,
+            (k % 20) as f64 * 0.5 - 5.0,
+            (k / 20) as f64 * 0.5 - 2.5
+        ));
+    }
+    let scene = d.join("crowd.json");
+    std::fs::write(
+        &scene,
+        format!(
+            r#"{{"camera": {{"eye": [0, -12, 3], "target": [0, 0, 1], "width": 8, "height": 6}}, "lights": [{}], "surfaces": [{}]}}"#,
+            lights.join(","),
+            surfaces.join(",")
+        ),
+    )
+    .unwrap();
+    let (sc, g) = (scene.to_str().unwrap(), d.join("g.exr"));
+    let o = haze()
+        .args([
+            "render",
+            "--scene",
+            sc,
+            "--gpu",
+            "--out",
+            g.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8(o.stderr).unwrap();
+    if err.contains("more than the shaders shade on a CPU adapter") {
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(
+            err.contains("crowd.json: 100 lights and 200 surfaces are more")
+                && err.contains("lights × surfaces at most 16666")
+                && err.contains("leave out --gpu"),
+            "{err}"
+        );
+        assert!(!g.exists());
+    } else {
+        assert!(o.status.success(), "{err}");
+    }
+    let c = d.join("c.exr");
+    render(&["--scene", sc, "--out", c.to_str().unwrap()]);
+    let (_, _, pixels) = read_exr(&c);
+    assert!(pixels.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+}
+
 /// `--gpu` on the bundled analytic fog (paper D's composite on the GPU) against the CPU
 /// render, within crates/scene's tolerance for it (`tests/gpu_analytic.rs`: `5·10⁻⁴`
 /// relative plus `10⁻⁴` of the fog's colour, here of the image's mean, which the fogged

@@ -250,7 +250,7 @@ fn run_hetero(a: &SceneJob, scene: &Scene, kind: OutKind, start: Instant) -> Res
             .gaussian_media()
             .map(|m| m.medium.gaussians().len())
             .sum();
-        haze_scene::gpu::paper_b::check_cpu_device(
+        haze_scene::gpu::cpu_device::check_gaussians(
             ctx.is_cpu_adapter(),
             gaussians,
             scene.lights.len(),

@@ -17,7 +17,9 @@
 //! The other renderers reuse its tables and buffers: paper D's composite
 //! ([`analytic`]), the march through voxel media and analytic fogs ([`march`]), paper B's
 //! Gaussian media ([`paper_b`]) and primary hits from the rasterizer ([`raster`]); their
-//! shaders are composed from `render.wgsl` and short entry files ([`shaders`]).
+//! shaders are composed from `render.wgsl` and short entry files ([`shaders`]). On a CPU
+//! adapter (lavapipe), whose loops stop silently after 65535 iterations, a scene past the
+//! shaders' budget is refused ([`cpu_device`]).
 //!
 //! What differs from the CPU beyond `f32` rounding: shadow rays leave a surface
 //! [`SHADOW_OFFSET`] (relative) off it instead of the CPU's `10⁻⁹` and ignore surfaces
@@ -35,6 +37,7 @@ use crate::scene::{Environment, Light, Scene, Shape};
 use haze_gpu::{GpuContext, GpuError, buffer_init, compute_pipeline, submit_pass};
 
 pub mod analytic;
+pub mod cpu_device;
 pub mod march;
 pub mod paper_b;
 pub mod raster;
@@ -428,6 +431,7 @@ impl GpuRenderer {
         // The march's state after the image: two vec4 per pixel.
         let out_bytes = 16 * pixels as u64 * if chunk > 0 { 3 } else { 1 };
         ctx.check_storage_size("the image", out_bytes)?;
+        cpu_device::check_shading(ctx.is_cpu_adapter(), scene)?;
         let eye = cam.eye;
         let lights = light_records(scene, eye);
         let (surfaces, meshes) = self.surface_records(scene, eye)?;

@@ -122,7 +122,7 @@ impl GpuPaperB {
     ) -> Result<Image, GpuError> {
         let eye = prep.scene.camera.eye;
         let blobs_in = prep.set.blobs();
-        check_cpu_device(
+        super::cpu_device::check_gaussians(
             ctx.is_cpu_adapter(),
             blobs_in.len(),
             prep.lights.len(),
@@ -264,52 +264,6 @@ fn light_records(prep: &Prepared<'_>) -> Vec<[f32; 4]> {
 /// none.
 pub const CPU_DEVICE_EXACT: usize = 4;
 
-/// The loop iterations paper B's shader may spend in an invocation on a CPU device
-/// (lavapipe ends them silently after 65535: [`CPU_DEVICE_EXACT`]), for
-/// [`cpu_device_loops`]' model.
-pub const CPU_DEVICE_LOOP_BUDGET: f64 = 60_000.0;
-
-/// The loop iterations an invocation of paper B's shader takes at most for `gaussians`
-/// Gaussians lit by `lights` lights and, if `environment`, an environment:
-/// `N·(1 + 1.5·(L + E))` (`E` = 1 with an environment). Every pixel of a tile may meet
-/// every Gaussian (its tile lists, its surface point's paths towards each light and the
-/// sky), so the cost grows with both. Fitted on lavapipe (llvmpipe, LLVM 15) to the first
-/// counts whose pictures went dark against the CPU renderer (faint Gaussians filling the
-/// view): 32 768 with one point light, 24 000 with four, 16 384 with eight, 12 000 with four
-/// over a plane, 20 000 with one light or a sun under the built-in sky over a plane; within
-/// the model's budget (24 000 / 8 500 / 4 600 Gaussians with 1 / 4 / 8 lamps over a plane;
-/// 12 000 / 6 000 with 1 / 4 lamps and the sky) the pictures equal the CPU's to `10⁻⁵`.
-pub fn cpu_device_loops(gaussians: usize, lights: usize, environment: bool) -> f64 {
-    let lit = lights as f64 + f64::from(u8::from(environment));
-    gaussians as f64 * (1.0 + 1.5 * lit)
-}
-
-/// Refuses a scene that paper B's shader cannot render on a CPU device (`cpu`) within
-/// its loop budget ([`cpu_device_loops`]): there the picture would come out dark without
-/// a word. A real GPU has no such limit.
-pub fn check_cpu_device(
-    cpu: bool,
-    gaussians: usize,
-    lights: usize,
-    environment: bool,
-) -> Result<(), GpuError> {
-    let loops = cpu_device_loops(gaussians, lights, environment);
-    if !cpu || loops <= CPU_DEVICE_LOOP_BUDGET {
-        return Ok(());
-    }
-    let most = (CPU_DEVICE_LOOP_BUDGET * gaussians as f64 / loops).floor();
-    let mut lit = match lights {
-        1 => "1 light".to_string(),
-        n => format!("{n} lights"),
-    };
-    if environment {
-        lit += " and an environment";
-    }
-    Err(GpuError::Input(format!(
-        "{gaussians} Gaussians with {lit} are more than paper B's shader renders on a CPU adapter, whose loops stop after 65535 iterations (at most {most} Gaussians with {lit}); leave out --gpu: the CPU renderer takes any number"
-    )))
-}
-
 /// Paper B's default options for rendering on `ctx`'s device: [`CPU_DEVICE_EXACT`] Gaussians
 /// exact per integrated pair on a CPU device, `MAX_EXACT` elsewhere, and every pixel
 /// integrating its pairs (the GPU does not reuse them across the screen; the surfaces'
@@ -412,55 +366,4 @@ fn noise_records(prep: &Prepared<'_>, blobs: &mut Vec<[f32; 4]>) -> Result<(), G
         )));
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The budget's ends as measured on lavapipe (`cpu_device_loops`' docs): the counts
-    /// that rendered right pass, the first that went dark are refused; a real GPU takes
-    /// any.
-    #[test]
-    fn the_cpu_devices_loop_budget_takes_what_rendered_right() {
-        let right = [
-            (24_000, 1, false),
-            (8_500, 4, false),
-            (4_600, 8, false),
-            (12_000, 1, true),
-            (6_000, 4, true),
-        ];
-        for (n, lights, env) in right {
-            assert!(
-                check_cpu_device(true, n, lights, env).is_ok(),
-                "{n}, {lights}"
-            );
-        }
-        let dark = [
-            (32_768, 1, false),
-            (24_000, 4, false),
-            (16_384, 8, false),
-            (12_000, 4, false),
-            (20_000, 1, true),
-        ];
-        for (n, lights, env) in dark {
-            let e = check_cpu_device(true, n, lights, env)
-                .unwrap_err()
-                .to_string();
-            assert!(e.contains(&format!("{n} Gaussians")), "{e}");
-            assert!(check_cpu_device(false, n, lights, env).is_ok());
-        }
-        let e = check_cpu_device(true, 30_000, 1, false)
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("30000 Gaussians with 1 light are more"), "{e}");
-        assert!(e.contains("at most 24000 Gaussians with 1 light)"), "{e}");
-        let e = check_cpu_device(true, 20_000, 1, true)
-            .unwrap_err()
-            .to_string();
-        assert!(
-            e.contains("at most 15000 Gaussians with 1 light and an environment)"),
-            "{e}"
-        );
-    }
 }
