@@ -22,6 +22,10 @@ pub const LOOP_BUDGET: f64 = 60_000.0;
 /// 1000 lights over a plane but not with 256, nor 64 lights over eight tori.
 pub const MESH_COST: f64 = 32.0;
 
+/// The iterations a (light, surface) pair costs `render.wgsl`'s surface shading at a
+/// pixel ([`shading_loops`]).
+pub const SHADING_COST: f64 = 3.6;
+
 /// The iterations of `render.wgsl`'s surface shading at a pixel: `3.6·L·S` for `L` lights
 /// and `S` surfaces (a plane or a sphere 1, a mesh [`MESH_COST`]): every light's shadow ray
 /// tests every surface. Measured with a plane and spheres under point lights, 32 × 24:
@@ -36,7 +40,7 @@ pub fn shading_loops(scene: &Scene) -> f64 {
             Shape::Plane { .. } | Shape::Sphere { .. } => 1.0,
         })
         .sum();
-    3.6 * scene.lights.len() as f64 * surfaces
+    SHADING_COST * scene.lights.len() as f64 * surfaces
 }
 
 /// Refuses on a CPU device (`cpu`) a scene whose surface shading is over [`LOOP_BUDGET`]
@@ -60,7 +64,7 @@ pub fn check_shading(cpu: bool, scene: &Scene) -> Result<(), GpuError> {
         "{} lights and {} surfaces are more than the shaders shade on a CPU adapter, whose loops stop after 65535 iterations (lights × surfaces at most {}{mesh_note}); leave out --gpu: the CPU renderer takes any number",
         scene.lights.len(),
         scene.surfaces.len(),
-        (LOOP_BUDGET / 3.6).floor()
+        (LOOP_BUDGET / SHADING_COST).floor()
     )))
 }
 
