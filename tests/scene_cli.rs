@@ -333,7 +333,7 @@ fn many_lights_and_surfaces_on_a_cpu_adapter_are_refused_with_the_limit() {
         assert_eq!(err.trim().lines().count(), 1, "{err}");
         assert!(
             err.contains("crowd.json: 100 lights and 200 surfaces are more")
-                && err.contains("lights × surfaces at most 16666")
+                && err.contains("at most 158 surfaces with 100 lights")
                 && err.contains("leave out --gpu"),
             "{err}"
         );

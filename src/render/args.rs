@@ -97,9 +97,10 @@ pub struct RenderCli {
     /// Render on the GPU: single scattering, multiple scattering (the explicit orders or
     /// the centers' diffusion, --diffusion), the volume and view passes (in f32); with --scene, paper C's airlight and surface
     /// shading. Needs a GPU adapter; Mesa's lavapipe (mesa-vulkan-drivers) works without
-    /// a GPU, but its loop limit refuses scenes of many lights times surfaces (at most
-    /// 16 666, a mesh counting 32) and paper B scenes of many Gaussians and lights (at
-    /// most 24 000 Gaussians with one light, 8 500 with four, fewer under a sky).
+    /// a GPU, but its loop limit refuses scenes of many lights and surfaces (at most 158
+    /// surfaces with 100 lights, a mesh counting 32) and paper B scenes of many Gaussians
+    /// and lights (at most 24 000 Gaussians with one light, 8 500 with four, fewer under a
+    /// sky).
     #[arg(long)]
     pub(crate) gpu: bool,
     /// With --gpu: where the lighting at the RBF centers (single scattering and the
