@@ -21,6 +21,7 @@ use clap::Parser;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    quiet_device_select_without_a_session();
     // Any unexpected panic is reported on one line, never as a backtrace.
     std::panic::set_hook(Box::new(|info| {
         let msg = info
@@ -53,6 +54,22 @@ fn main() -> ExitCode {
             eprintln!("error: {line}");
             ExitCode::FAILURE
         }
+    }
+}
+
+/// Mesa's Vulkan device-select layer (loaded with lavapipe and Mesa's GPU drivers) asks
+/// Wayland for the display's GPU while the adapter is sought; without a desktop session
+/// (`XDG_RUNTIME_DIR` unset or not an absolute path: a container, ssh, CI) libwayland
+/// prints `error: XDG_RUNTIME_DIR is invalid or not set in the environment.` twice on
+/// stderr, ahead of haze's own output. There is no display to pick a GPU for then, so the
+/// layer is turned off (`NODEVICE_SELECT=1`, its own switch) unless the user set it.
+fn quiet_device_select_without_a_session() {
+    let session = std::env::var_os("XDG_RUNTIME_DIR")
+        .is_some_and(|dir| std::path::Path::new(&dir).is_absolute());
+    if !session && std::env::var_os("NODEVICE_SELECT").is_none() {
+        // SAFETY: first thing in `main`, before any thread exists that could read the
+        // environment at the same time.
+        unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
     }
 }
 
