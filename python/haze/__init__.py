@@ -19,6 +19,14 @@ from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
+# Mesa's Vulkan device-select layer asks Wayland for the display's GPU while an adapter is
+# sought; without a desktop session (XDG_RUNTIME_DIR unset or not absolute: a container,
+# ssh, a cluster worker) libwayland prints two "XDG_RUNTIME_DIR is invalid" lines on
+# stderr at the first GPU render. There is no display to pick a GPU for then, so the
+# layer is turned off with its own switch, unless it was set (as the command line does).
+if not os.path.isabs(os.environ.get("XDG_RUNTIME_DIR", "")):
+    os.environ.setdefault("NODEVICE_SELECT", "1")
+
 from . import _haze
 from ._haze import Asset, HazeError
 
