@@ -94,6 +94,39 @@ fn inspect_vdb_reports_dims_range_and_grids() {
     );
 }
 
+/// A frame of a Blender Adaptive Domain is read over the whole domain, and `inspect`
+/// says where its block sat; the cache bakes as one grid.
+#[test]
+fn an_adaptive_domain_is_read_over_the_whole_domain() {
+    let frame = data("blender-adaptive/adaptive/data/fluid_data_0001.vdb");
+    let text = inspect_text(&frame);
+    assert!(
+        text.contains("placed:     a block of 13 × 14 × 13 cells at cell (8, 7, 0) of an Adaptive Domain of 21 × 21 × 32")
+            && text.contains("config_0001.uni")
+            && text.contains("dims:       21 × 21 × 32"),
+        "{text}"
+    );
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("a.haze");
+    let folder = data("blender-adaptive/adaptive/data");
+    support::succeeds(&[
+        "bake",
+        folder.to_str().unwrap(),
+        "--rbfs",
+        "20",
+        "-q",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let j = json_of(&["inspect", out.to_str().unwrap(), "--json"]);
+    assert_eq!(
+        j["header"]["grid"]["dims"],
+        serde_json::json!([21, 21, 32]),
+        "{j}"
+    );
+    assert_eq!(j["header"]["frame_count"], 2);
+}
+
 /// An 8-bit raw volume is read as fractions of 255, and `inspect` says so.
 #[test]
 fn inspect_says_how_integer_samples_are_read() {

@@ -3,7 +3,8 @@
 In Properties > Physics of a fluid domain of type Gas, the "haze" panel:
 - **Bake to .haze** bakes the domain's OpenVDB cache (Cache > Directory, its ``data``
   folder; with Noise on, the high-resolution density of its ``noise`` folder; Cache >
-  Format Volumes, or Format Noise, must be OpenVDB, and the domain not adaptive) into the
+  Format Volumes, or Format Noise, must be OpenVDB; an Adaptive Domain's frames are placed
+  in the whole domain by the cache's ``config`` folder) into the
   asset named in the panel, frame by frame. Progress shows in the
   status bar; Esc (or "Cancel" in the panel) stops after the frame being fitted and keeps
   the finished frames, which the next bake of the same asset resumes.
@@ -74,13 +75,7 @@ def density_cache(ds):
 
 def volume_format_problem(ds):
     """Why haze cannot read the domain's density cache, or None: it reads OpenVDB, and a
-    domain may cache its grids (or, with Noise on, its noise) as Uni Cache or Raw Cache;
-    an Adaptive Domain's files do not say where each frame's grid sits in the domain."""
-    if ds.use_adaptive_domain:
-        return (
-            "the domain is adaptive, and its cache's files do not say where each frame's "
-            "grid sits (Settings > Adaptive Domain off, then bake the domain again)"
-        )
+    domain may cache its grids (or, with Noise on, its noise) as Uni Cache or Raw Cache."""
     prop, menu = ("cache_noise_format", "Noise") if ds.use_noise else ("cache_data_format", "Volumes")
     fmt = getattr(ds, prop)
     if fmt == "OPENVDB":
@@ -364,9 +359,7 @@ class HAZE_PT_domain(bpy.types.Panel):
         settings = context.scene.haze
         col = self.layout.column()
         ds = fluid_domain(context.object)
-        if ds.use_adaptive_domain:
-            col.label(text="Turn Adaptive Domain off to bake to .haze", icon="ERROR")
-        elif volume_format_problem(ds):
+        if volume_format_problem(ds):
             menu = "Noise" if ds.use_noise else "Volumes"
             col.label(text=f"Cache > Format {menu} must be OpenVDB", icon="ERROR")
         col.prop(settings, "output")

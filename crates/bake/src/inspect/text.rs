@@ -1,6 +1,7 @@
 //! The reports as text: a title line, then aligned `key: value` lines.
 
 use super::Report;
+use haze_volume::import::adaptive_domain::cells;
 
 impl Report {
     /// The report as a title line and aligned `key: value` lines.
@@ -33,6 +34,26 @@ impl Report {
                 }
                 if let Some(g) = &r.grid {
                     line(&mut out, "read", g.clone());
+                    let placed = r
+                        .vdb
+                        .as_ref()
+                        .and_then(|v| v.grid(g))
+                        .and_then(|gi| Some((gi.base_resolution?, gi.placement.as_ref()?)));
+                    if let Some((block, p)) = placed {
+                        line(
+                            &mut out,
+                            "placed",
+                            format!(
+                                "a block of {} cells at cell ({}, {}, {}) of an Adaptive Domain of {} (from {})",
+                                cells(block),
+                                p.offset[0],
+                                p.offset[1],
+                                p.offset[2],
+                                cells(p.domain),
+                                p.config.display()
+                            ),
+                        );
+                    }
                 }
                 if let Some(s) = r.reading {
                     line(&mut out, "samples", s.to_string());

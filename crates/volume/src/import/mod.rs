@@ -1,6 +1,7 @@
 //! Bringing density volumes in: single files of any supported format, numbered sequences
 //! of them, and the validation every imported frame passes.
 
+pub mod adaptive_domain;
 mod guard;
 pub mod npy;
 pub mod raw;

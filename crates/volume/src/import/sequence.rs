@@ -7,6 +7,7 @@
 //! their recorded boxes, so sparse grids whose active region moves still share one grid;
 //! an empty frame is a valid all-zero frame of the sequence's grid.
 
+use super::adaptive_domain::{self, cells};
 use super::vdb::{self, IndexBox};
 use super::{Format, ImportOptions, format_of, read_unchecked, validate};
 use crate::error::{ImportError, Problem};
@@ -341,7 +342,7 @@ impl Sequence {
         if v.is_empty() && self.dims.iter().all(|&n| n > 0) {
             v = Volume::zeros(self.dims, self.bbox).map_err(|e| seq_err(&f.path, e.to_string()))?;
         }
-        if v.dims() != self.dims || !v.bbox().approx_eq(&self.bbox, 1e-9) {
+        if v.dims() != self.dims || !v.bbox().approx_eq(&self.bbox, SAME_BOX) {
             let first = &self.frames[0];
             return Err(seq_err(
                 &f.path,
@@ -359,16 +360,28 @@ impl Sequence {
                 ),
             ));
         }
+        if v.bbox() != &self.bbox {
+            // The same grid to f32 precision: every frame in the first frame's box.
+            v = Volume::new(self.dims, self.bbox, v.into_data())
+                .map_err(|e| seq_err(&f.path, e.to_string()))?;
+        }
         validate(&f.path, &mut v, self.opts.clamp_negative)?;
         Ok(v)
     }
 }
 
-/// Union of the frames' dense boxes, from their headers where recorded. Frames whose
-/// recorded domain resolution (`file_base_resolution`) differs from the first frame's are
-/// refused: that is a Blender cache of an adaptive domain, whose grid changes size every
-/// frame and whose files record neither where it sits in the domain nor the domain's cell
-/// size (each file's transform is scaled to its own grid), so no frame could be placed.
+/// Frames whose boxes agree to this fraction of the longest side share one grid. Files
+/// store their transforms in `f32`, and an Adaptive Domain's frames each derive the
+/// domain's cell from their own (a cell of `side / max(res)` times `max(res) /
+/// max(base_res)`), which agree to a few `f32` roundings (`≈ 10⁻⁷`).
+const SAME_BOX: f64 = 1e-6;
+
+/// Union of the frames' dense boxes, from their headers where recorded. An Adaptive
+/// Domain's frames are placed in the whole domain by the cache's configuration
+/// ([`super::adaptive_domain`]); frames whose domain resolution (`file_base_resolution`)
+/// still differs from the first frame's are refused: an Adaptive Domain's cache without
+/// its `config` folder, whose files record neither where each grid sits in the domain nor
+/// the domain's cell size (each file's transform is scaled to its own grid).
 fn union_box(frames: &[FrameFile], opts: &ImportOptions) -> Result<Option<IndexBox>, ImportError> {
     let mut acc: Option<IndexBox> = None;
     let mut first_domain: Option<(i64, [i64; 3])> = None;
@@ -383,17 +396,21 @@ fn union_box(frames: &[FrameFile], opts: &ImportOptions) -> Result<Option<IndexB
                 },
             )
         })?;
-        if let Some(res) = gi.base_resolution {
+        if let Some(res) = gi.domain_resolution() {
             match first_domain {
                 None => first_domain = Some((f.number, res)),
                 Some((n, first)) if first != res => {
                     return Err(seq_err(
                         &f.path,
                         format!(
-                            "frame {}'s simulation domain is {} cells but frame {n}'s is {}: a Blender cache of an Adaptive Domain, whose files do not say where each frame's grid sits (turn the domain's Adaptive Domain off and bake it again)",
+                            "frame {}'s simulation domain is {} cells but frame {n}'s is {}: a Blender cache of an Adaptive Domain without its configuration ({}), which says where each frame's grid sits (keep the cache's config folder beside its data folder, or turn the domain's Adaptive Domain off and bake it again)",
                             f.number,
                             cells(res),
-                            cells(first)
+                            cells(first),
+                            adaptive_domain::config_path(&f.path).map_or_else(
+                                || "CACHE/config/config_NNNN.uni".to_string(),
+                                |p| p.display().to_string()
+                            )
                         ),
                     ));
                 }
@@ -411,11 +428,6 @@ fn union_box(frames: &[FrameFile], opts: &ImportOptions) -> Result<Option<IndexB
         }
     }
     Ok(acc)
-}
-
-/// "11 × 11 × 16".
-fn cells(r: [i64; 3]) -> String {
-    format!("{} × {} × {}", r[0], r[1], r[2])
 }
 
 #[cfg(test)]

@@ -4,7 +4,9 @@
 //!   (`Tree_float_5_4_3`, saved in full or half precision) of class fog volume (or
 //!   unknown class) are read; anything else is refused with the reason.
 //! * **Which box**: the domain when the writer records one (`file_base_resolution`, as
-//!   Blender's Mantaflow cache does: index box `[0, res)`), joined with the file's
+//!   Blender's Mantaflow cache does: index box `[0, res)`; for a frame of an Adaptive
+//!   Domain the whole domain, its block placed by the cache's configuration:
+//!   [`super::adaptive_domain`]), joined with the file's
 //!   `file_bbox_min/max` metadata; otherwise `file_bbox_min/max` alone; otherwise the
 //!   bounding box of the stored voxels. A caller can impose a box (sequences use the union
 //!   of their frames' boxes so that every frame has the same grid).
@@ -18,6 +20,7 @@
 //! vdb-rs panics on some malformed or unsupported inputs (unknown transform maps, old file
 //! versions, inconsistent node data); those panics are caught and reported as errors.
 
+use super::adaptive_domain::{self, Placement};
 use super::guard::catch_panic;
 use crate::error::{ImportError, Problem};
 use crate::volume::{Bbox, Volume, voxel_count};
@@ -50,6 +53,14 @@ impl IndexBox {
         }
     }
 
+    /// The box moved by `by` voxels.
+    pub fn shifted(&self, by: [i64; 3]) -> IndexBox {
+        IndexBox {
+            min: [0, 1, 2].map(|a| self.min[a] + by[a]),
+            max: [0, 1, 2].map(|a| self.max[a] + by[a]),
+        }
+    }
+
     /// Voxels per axis.
     pub fn dims(&self) -> [i64; 3] {
         [0, 1, 2].map(|a| self.max[a] - self.min[a] + 1)
@@ -71,18 +82,32 @@ pub struct VdbGridInfo {
     pub grid_type: String,
     pub class: Option<String>,
     pub active_voxels: Option<i64>,
-    /// `file_bbox_min/max` when present and non-empty.
+    /// `file_bbox_min/max` when present and non-empty (in the domain's indices when the
+    /// grid is placed).
     pub file_bbox: Option<IndexBox>,
-    /// `file_base_resolution` (Blender's simulation domain), when present.
+    /// `file_base_resolution` (Blender's simulation domain, or an Adaptive Domain's block
+    /// of it), when present.
     pub base_resolution: Option<[i64; 3]>,
+    /// Where an Adaptive Domain's block sits in the whole domain, from the cache's
+    /// configuration.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub placement: Option<Placement>,
     pub half_float: bool,
     pub compression: String,
 }
 
 impl VdbGridInfo {
+    /// The simulation domain's cells: the whole domain's for a placed block.
+    pub fn domain_resolution(&self) -> Option<[i64; 3]> {
+        self.placement
+            .as_ref()
+            .map(|p| p.domain)
+            .or(self.base_resolution)
+    }
+
     /// The dense box this grid is read into when the caller imposes none.
     pub fn default_box(&self) -> Option<IndexBox> {
-        let domain = self.base_resolution.and_then(|r| {
+        let domain = self.domain_resolution().and_then(|r| {
             (r.iter().all(|&n| n > 0)).then(|| IndexBox {
                 min: [0; 3],
                 max: r.map(|n| n - 1),
@@ -251,6 +276,7 @@ fn info_of(reader: &VdbReader<BufReader<File>>) -> VdbFileInfo {
                 },
                 file_bbox,
                 base_resolution: vec3i(m.get("file_base_resolution")).map(|r| r.map(i64::from)),
+                placement: None,
                 half_float: gd.meta_data.is_half_float(),
                 compression: string("file_compression")
                     .unwrap_or_else(|| format!("{:?}", gd.compression)),
@@ -268,9 +294,28 @@ fn info_of(reader: &VdbReader<BufReader<File>>) -> VdbFileInfo {
     }
 }
 
+/// The header of `path`, each Blender grid placed in its domain where the cache's
+/// configuration says it is an Adaptive Domain's block.
+fn placed_info(
+    path: &Path,
+    reader: &VdbReader<BufReader<File>>,
+) -> Result<VdbFileInfo, ImportError> {
+    let mut info = info_of(reader);
+    for g in &mut info.grids {
+        let Some(res) = g.base_resolution else {
+            continue;
+        };
+        if let Some(p) = adaptive_domain::placement(path, res)? {
+            g.file_bbox = g.file_bbox.map(|b| b.shifted(p.offset));
+            g.placement = Some(p);
+        }
+    }
+    Ok(info)
+}
+
 /// Reads the header and grid descriptors only (cheap: no tree data).
 pub fn probe(path: &Path) -> Result<VdbFileInfo, ImportError> {
-    Ok(info_of(&open_reader(path)?))
+    placed_info(path, &open_reader(path)?)
 }
 
 /// Scale and translation of a grid's index→world map.
@@ -315,7 +360,7 @@ pub fn read(
     domain_offset: [f64; 3],
 ) -> Result<VdbFrame, ImportError> {
     let mut reader = open_reader(path)?;
-    let info = info_of(&reader);
+    let info = placed_info(path, &reader)?;
     let gi = info.require(path, name)?.clone();
     if !reader.grid_descriptors[name].instance_parent.is_empty() {
         return Err(ImportError::new(
@@ -332,11 +377,17 @@ pub fn read(
         Ok(Err(e)) => return Err(vdb_err(path, format!("grid '{name}': {}", describe(&e)))),
         Err(panic) => return Err(vdb_err(path, format!("grid '{name}': {panic}"))),
     };
-    let (voxel_size, translation) = transform_of(path, &grid.transform)?;
+    let (file_voxel, translation) = transform_of(path, &grid.transform)?;
+    // An Adaptive Domain's block: its file indices shifted into the domain's, whose cells
+    // are smaller than the block's transform says.
+    let (offset, voxel_size) = match &gi.placement {
+        Some(p) => (p.offset, file_voxel.map(|v| p.cell(v))),
+        None => ([0; 3], file_voxel),
+    };
     let origin = [0, 1, 2].map(|a| translation[a] + domain_offset[a]);
     let bx = match index_box.or_else(|| gi.default_box()) {
         Some(b) => Some(b),
-        None => stored_bbox(path, &grid)?,
+        None => stored_bbox(path, &grid)?.map(|b| b.shifted(offset)),
     };
     let Some(bx) = bx else {
         // An empty grid with no recorded box: a valid empty frame one voxel wide.
@@ -364,7 +415,7 @@ pub fn read(
     let dims = d.map(|n| n as usize);
     let mut data = vec![0.0f32; voxel_count(dims).unwrap_or(0)];
     let dense = Dense {
-        lo: bx.min,
+        lo: [0, 1, 2].map(|a| bx.min[a] - offset[a]),
         dims,
         data: &mut data,
     };
