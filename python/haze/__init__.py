@@ -7,8 +7,10 @@ A first bake, from Python::
     density = haze.Asset("smoke.haze").frame(report["frames"][0]["frame"])
 
 Every function runs the same code as the ``haze`` command line (its defaults, its
-checks, its one-line errors, raised as :class:`HazeError`), with the GIL released
-while it works. Volumes come back as float32 arrays shaped ``(nz, ny, nx)``, images as
+checks, its one-line errors, raised as :class:`HazeError`; its warnings, issued as
+:class:`HazeWarning` through :mod:`warnings` when the call returns), with the GIL released
+while it works; it prints nothing (no summary lines or progress bars: ``bake`` reports
+progress to its callback). Volumes come back as float32 arrays shaped ``(nz, ny, nx)``, images as
 float32 ``(height, width, 3)`` linear radiance. World units are the volume's; Z is up.
 """
 
@@ -28,11 +30,12 @@ if not os.path.isabs(os.environ.get("XDG_RUNTIME_DIR", "")):
     os.environ.setdefault("NODEVICE_SELECT", "1")
 
 from . import _haze
-from ._haze import Asset, HazeError
+from ._haze import Asset, HazeError, HazeWarning
 
 __all__ = [
     "Asset",
     "HazeError",
+    "HazeWarning",
     "bake",
     "inspect",
     "merge",

@@ -9,6 +9,9 @@ import numpy.typing as npt
 class HazeError(Exception):
     """A haze operation failed; the message is the command line's one-line error."""
 
+class HazeWarning(UserWarning):
+    """A haze warning: the command line's WARN line, through ``warnings.warn``."""
+
 def version() -> str: ...
 def inspect(
     path: str, frames: Optional[str] = None, grid: Optional[str] = None

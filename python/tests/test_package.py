@@ -10,6 +10,7 @@ import signal
 import subprocess
 import sys
 import threading
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -283,6 +284,32 @@ def test_a_scene_renders_from_its_file_and_from_a_dict():
     camera["fov"] = np.int64(camera["fov"])
     from_numpy = haze.render_scene(scene, width=32, height=24, base=SCENES)
     np.testing.assert_array_equal(from_file, from_numpy)
+
+
+def test_warnings_are_python_warnings_and_nothing_is_printed(tmp_path, capfd):
+    # A model outside where it holds: the bundled sky scene with every Gaussian ten times
+    # as dense is rendered, with the command line's warning as a HazeWarning.
+    scene = json.loads((SCENES / "gaussians_sky.json").read_text())
+    for g in scene["media"][0]["gaussians"]:
+        g["weight"] *= 10.0
+    with pytest.warns(haze.HazeWarning, match="dense for the environment's light") as caught:
+        image = haze.render_scene(scene, width=8, height=6, base=SCENES)
+    assert np.isfinite(image).all()
+    assert caught[0].filename == __file__, "attributed to the caller's line"
+    # Frames missing from a sequence (an Adaptive Domain's frames 1 and 6).
+    adaptive = ROOT / "data" / "blender-adaptive" / "adaptive" / "data"
+    with pytest.warns(haze.HazeWarning, match=r"missing frames \[\(2, 5\)\]"):
+        report = haze.bake(adaptive, tmp_path / "a.haze", rbfs=10)
+    assert [f["frame"] for f in report["frames"]] == [1, 6]
+    assert haze.Asset(tmp_path / "a.haze").dims == (21, 21, 32)
+    # Python's filters apply: "error" turns the warning into the call's exception.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", haze.HazeWarning)
+        with pytest.raises(haze.HazeWarning, match="dense"):
+            haze.render_scene(scene, width=8, height=6, base=SCENES)
+    # No summary lines: a call returns its result and prints nothing.
+    haze.render_scene(SCENES / "room.json", width=8, height=6)
+    assert capfd.readouterr().err == ""
 
 
 def test_a_gpu_render_is_the_cpu_render_and_quiet_without_a_session():

@@ -2,7 +2,7 @@
 //! `haze_render::map_report`) and its bake, frame by frame, with a Python callback
 //! between frames.
 
-use crate::to_py;
+use crate::{to_py, warnings};
 use haze_bake::{Bake, BakeOptions, Count};
 use haze_render::output::Outputs;
 use haze_volume::ImportOptions;
@@ -40,16 +40,16 @@ pub fn inspect(
     if let Some(name) = grid {
         import.grid = name;
     }
-    let text = py
-        .detach(|| {
-            if haze_render::map_report::is_map(&path) {
-                let report = haze_render::map_report::inspect_map(&path)?;
-                return Ok(serde_json::to_string(&report)?);
-            }
-            let report = haze_bake::inspect::inspect(&path, range, &import, &mut |_, _, _| {})?;
-            Ok(serde_json::to_string(&report)?)
-        })
-        .map_err(to_py)?;
+    let text = py.detach(|| {
+        if haze_render::map_report::is_map(&path) {
+            let report = haze_render::map_report::inspect_map(&path)?;
+            return Ok(serde_json::to_string(&report)?);
+        }
+        let report = haze_bake::inspect::inspect(&path, range, &import, &mut |_, _, _| {})?;
+        Ok(serde_json::to_string(&report)?)
+    });
+    warnings::flush(py)?;
+    let text = text.map_err(to_py)?;
     Ok(from_json(py, &text)?.unbind())
 }
 
@@ -64,7 +64,7 @@ pub fn frame_sizes(
     frames: Option<&str>,
 ) -> PyResult<Vec<(i64, u64)>> {
     let range = range(frames)?;
-    py.detach(|| {
+    let sizes = py.detach(|| {
         let seq = haze_bake::source::Frames::open(&src, &ImportOptions::default(), range)?;
         (0..seq.len())
             .map(|i| {
@@ -75,8 +75,9 @@ pub fn frame_sizes(
                 Ok((seq.number(i), bytes))
             })
             .collect::<anyhow::Result<Vec<_>>>()
-    })
-    .map_err(to_py)
+    });
+    warnings::flush(py)?;
+    sizes.map_err(to_py)
 }
 
 /// The first-frame figures `(rel_l2, radius, gain, rbfs, support)` a bake of `src`'s
@@ -98,7 +99,9 @@ pub fn baseline(
     if let Some(n) = rbfs {
         options.count = Count::Fixed(n);
     }
-    let b = py.detach(|| haze_bake::baseline(&options)).map_err(to_py)?;
+    let b = py.detach(|| haze_bake::baseline(&options));
+    warnings::flush(py)?;
+    let b = b.map_err(to_py)?;
     Ok((b.rel_l2, b.radius, b.gain, b.rbfs, b.support))
 }
 
@@ -112,9 +115,9 @@ pub fn merge(py: Python<'_>, chunks: Vec<PathBuf>, out: PathBuf) -> PyResult<Vec
         .asset("out", &out)
         .check()
         .map_err(to_py)?;
-    let merged = py
-        .detach(|| haze_bake::merge(&chunks, &out))
-        .map_err(to_py)?;
+    let merged = py.detach(|| haze_bake::merge(&chunks, &out));
+    warnings::flush(py)?;
+    let merged = merged.map_err(to_py)?;
     Ok(merged.frames)
 }
 
@@ -195,9 +198,12 @@ pub fn bake(
         .output("the bake journal", &haze_bake::journal::path_for(&out))
         .check()
         .map_err(to_py)?;
-    let mut job = py.detach(|| Bake::new(options, |_| {})).map_err(to_py)?;
+    let job = py.detach(|| Bake::new(options, |_| {}));
+    warnings::flush(py)?;
+    let mut job = job.map_err(to_py)?;
     loop {
         let next = py.detach(|| job.next());
+        warnings::flush(py)?;
         let record = match next {
             None => break,
             Some(Ok(record)) => record,
@@ -227,7 +233,9 @@ pub fn bake(
             }
         }
     }
-    let baked = py.detach(|| job.finish()).map_err(to_py)?;
+    let baked = py.detach(|| job.finish());
+    warnings::flush(py)?;
+    let baked = baked.map_err(to_py)?;
     let report = serde_json::to_string(&baked.report(&src)).map_err(|e| to_py(e.into()))?;
     Ok(from_json(py, &report)?.unbind())
 }

@@ -7,6 +7,7 @@
 mod asset;
 mod bake;
 mod render;
+mod warnings;
 
 use pyo3::create_exception;
 use pyo3::exceptions::PyException;
@@ -32,7 +33,9 @@ fn version() -> &'static str {
 
 #[pymodule]
 fn _haze(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    warnings::install();
     m.add("HazeError", m.py().get_type::<HazeError>())?;
+    m.add("HazeWarning", m.py().get_type::<warnings::HazeWarning>())?;
     m.add_function(wrap_pyfunction!(version, m)?)?;
     m.add_function(wrap_pyfunction!(bake::inspect, m)?)?;
     m.add_function(wrap_pyfunction!(bake::bake, m)?)?;

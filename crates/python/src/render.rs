@@ -1,7 +1,7 @@
 //! `haze.render` and `haze.render_scene`: `haze render`'s renderers, the image returned
 //! as a float32 `(height, width, 3)` NumPy array of linear radiance.
 
-use crate::to_py;
+use crate::{to_py, warnings};
 use haze_core::Image;
 use haze_render::output::Outputs;
 use haze_render::scene::SceneJob;
@@ -112,7 +112,9 @@ pub fn render<'py>(
     a.ground = ground
         .parse()
         .map_err(|e: String| to_py(anyhow::anyhow!("ground: {e}")))?;
-    let rendered = py.detach(|| render_image(&a)).map_err(to_py)?;
+    let rendered = py.detach(|| render_image(&a));
+    warnings::flush(py)?;
+    let rendered = rendered.map_err(to_py)?;
     to_array(py, rendered.image)
 }
 
@@ -128,28 +130,28 @@ pub fn render_scene<'py>(
     reference: bool,
     time: f64,
 ) -> PyResult<Bound<'py, PyArray3<f32>>> {
-    let image = py
-        .detach(|| -> anyhow::Result<Image> {
-            let dir = tempfile::tempdir()?;
-            let out = dir.path().join("scene.exr");
-            Outputs::new().input(&scene).output("out", &out).check()?;
-            haze_render::scene::render_scene(SceneJob {
-                scene: scene.clone(),
-                out: out.clone(),
-                width,
-                height,
-                reference,
-                gpu,
-                exposure: 1.0,
-                tone: haze_core::ToneMap::Filmic,
-                time,
-                march: false,
-                exact_per_pair: None,
-                pair_reuse: haze_render::scene::DEFAULT_PAIR_REUSE,
-                sky_shadow: true,
-            })?;
-            Ok(Image::read_exr(&out)?)
-        })
-        .map_err(to_py)?;
+    let image = py.detach(|| -> anyhow::Result<Image> {
+        let dir = tempfile::tempdir()?;
+        let out = dir.path().join("scene.exr");
+        Outputs::new().input(&scene).output("out", &out).check()?;
+        haze_render::scene::render_scene(SceneJob {
+            scene: scene.clone(),
+            out: out.clone(),
+            width,
+            height,
+            reference,
+            gpu,
+            exposure: 1.0,
+            tone: haze_core::ToneMap::Filmic,
+            time,
+            march: false,
+            exact_per_pair: None,
+            pair_reuse: haze_render::scene::DEFAULT_PAIR_REUSE,
+            sky_shadow: true,
+        })?;
+        Ok(Image::read_exr(&out)?)
+    });
+    warnings::flush(py)?;
+    let image = image.map_err(to_py)?;
     to_array(py, image)
 }
