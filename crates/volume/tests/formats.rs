@@ -248,7 +248,9 @@ fn raw_sidecar_errors_are_clear() {
 #[test]
 fn sequences_must_share_one_grid() {
     let tmp = tempfile::tempdir().unwrap();
-    for (n, max) in [(1001, 1.0), (1002, 1.0), (1004, 2.0)] {
+    // 1002 agrees with 1001 to f32 precision (5e-7 of the side, under SAME_BOX's 1e-6);
+    // 1005 is 2e-5 off.
+    for (n, max) in [(1001, 1.0), (1002, 1.0000005), (1004, 2.0), (1005, 1.00002)] {
         let p = tmp.path().join(format!("s.{n}.f32"));
         std::fs::write(&p, vec![0u8; 32]).unwrap();
         sidecar(
@@ -260,12 +262,15 @@ fn sequences_must_share_one_grid() {
     }
     let seq = Sequence::open(tmp.path(), &ImportOptions::default(), Default::default()).unwrap();
     assert_eq!(seq.gaps(), &[(1003, 1003)]);
-    assert!(seq.load(1).is_ok());
+    // The same grid: read in the first frame's box.
+    assert_eq!(seq.load(1).unwrap().bbox(), seq.bbox());
     let e = seq.load(2).unwrap_err().to_string();
     assert!(
         e.contains("s.1004.f32") && e.contains("frame 1004") && e.contains("frame 1001"),
         "{e}"
     );
+    let e = seq.load(3).unwrap_err().to_string();
+    assert!(e.contains("s.1005.f32") && e.contains("1.00002"), "{e}");
 }
 
 #[test]
