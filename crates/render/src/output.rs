@@ -27,7 +27,8 @@ impl Outputs {
     }
 
     /// An input file; a raw `.f32`/`.raw` volume or fogmap and a `.npy` bring their `.json`
-    /// sidecar (when there is one). A directory or
+    /// sidecar (when there is one), a Blender cache's `.vdb` its configuration (when there
+    /// is one). A directory or
     /// a glob of frames: every frame file in it (`haze_volume`'s discovery). Inputs that do
     /// not exist are left to the reader, which names them.
     pub fn input(mut self, path: &Path) -> Outputs {
@@ -45,6 +46,12 @@ impl Outputs {
             });
             if sidecar {
                 self.inputs.push(f.with_extension("json"));
+            }
+            // A frame of a Blender cache is placed by its configuration (an Adaptive
+            // Domain's `config/config_NNNN.uni`), read as an input too.
+            if f.extension().is_some_and(|e| e.eq_ignore_ascii_case("vdb")) {
+                let config = haze_volume::import::adaptive_domain::config_path(&f);
+                self.inputs.extend(config.filter(|c| c.is_file()));
             }
             self.inputs.push(f);
         }
@@ -366,6 +373,20 @@ mod tests {
             .input(&frames)
             .output("--out", &frames.join("f_0001.npy")));
         assert!(e.contains("is the input"), "{e}");
+        // A Blender cache's frame brings its configuration.
+        let cache = d.join("cache");
+        std::fs::create_dir_all(cache.join("data")).unwrap();
+        std::fs::create_dir_all(cache.join("config")).unwrap();
+        std::fs::write(cache.join("data/fluid_data_0007.vdb"), b"x").unwrap();
+        std::fs::write(cache.join("config/config_0007.uni"), b"x").unwrap();
+        let e = err(Outputs::new()
+            .input(&cache.join("data"))
+            .output("--report", &cache.join("config/config_0007.uni")));
+        assert!(
+            e.contains("config_0007.uni") && e.contains("is the input"),
+            "{e}"
+        );
+        std::fs::remove_dir_all(&cache).unwrap();
         // Different files pass, and the probe leaves nothing behind.
         Outputs::new()
             .input(&input)
