@@ -25,10 +25,10 @@ manta_fix.apply()
 
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
-from mathutils import Matrix  # noqa: E402
 
 import haze  # noqa: E402
 import haze_bake  # noqa: E402
+from smoke_domain import smoke_domain  # noqa: E402
 
 passed = 0
 START = time.monotonic()
@@ -42,52 +42,6 @@ def check(what, ok, detail=""):
         os._exit(1)
     passed += 1
     print(f"ok: {what}", flush=True)
-
-
-def smoke_domain(cache, noise=False, adaptive=False):
-    """A 2 × 2 × 3 domain centred at (1, -2, 1.5) (so its cache's local grids need the
-    offset), res 16, with a smoke emitter near its floor, baked for frames 1..6; with
-    `noise`, Mantaflow's noise at twice the resolution too; `adaptive`, an Adaptive
-    Domain (its grid follows the smoke, so it grows from frame to frame)."""
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(1.0, -2.0, 1.5))
-    domain = bpy.context.active_object
-    domain.name = "Domain"
-    domain.data.transform(Matrix.Diagonal((2.0, 2.0, 3.0, 1.0)))
-    domain.data.update()
-    mod = domain.modifiers.new("Fluid", "FLUID")
-    mod.fluid_type = "DOMAIN"
-    ds = mod.domain_settings
-    ds.domain_type = "GAS"
-    ds.resolution_max = 16
-    ds.use_adaptive_domain = adaptive
-    ds.use_noise = noise
-    ds.noise_scale = 2
-    ds.cache_noise_format = "OPENVDB"
-    ds.cache_directory = str(cache)
-    ds.cache_type = "ALL"
-    ds.cache_data_format = "OPENVDB"
-    ds.cache_frame_start = 1
-    ds.cache_frame_end = 6
-    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.35, location=(1.0, -2.0, 0.5))
-    emitter = bpy.context.active_object
-    flow = emitter.modifiers.new("Fluid", "FLUID")
-    flow.fluid_type = "FLOW"
-    fs = flow.flow_settings
-    fs.flow_type = "SMOKE"
-    fs.flow_behavior = "INFLOW"
-    fs.flow_source = "MESH"
-    fs.surface_distance = 1.5
-    scene = bpy.context.scene
-    scene.frame_start, scene.frame_end = 1, 6
-    scene.frame_set(1)
-    for o in bpy.context.view_layer.objects:
-        o.select_set(False)
-    domain.select_set(True)
-    bpy.context.view_layer.objects.active = domain
-    with bpy.context.temp_override(object=domain, active_object=domain, selected_objects=[domain]):
-        bpy.ops.fluid.bake_all()
-    return domain
 
 
 def main():
