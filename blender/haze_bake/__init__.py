@@ -14,7 +14,8 @@ In Properties > Physics of a fluid domain of type Gas, the "haze" panel:
 
 The asset sits where the domain is: the cache's grids are local to the domain, so the
 bake adds the domain's lower corner in world space (``haze bake --domain-offset``). An
-asset sits axis-aligned, so a rotated domain is refused.
+asset sits axis-aligned and still, so a rotated domain, and a domain that moves over its
+cache's frames, are refused.
 
 Needs the ``haze`` Python package in Blender's Python
 (``<blender>/python/bin/python3 -m pip install ./python``).
@@ -109,6 +110,47 @@ def rotation_problem(obj):
     return None
 
 
+def may_move(obj):
+    """Whether anything could move the object over time: an action or drivers, a
+    constraint, on it or on a parent."""
+    while obj is not None:
+        ad = obj.animation_data
+        if (ad and (ad.action or len(ad.drivers))) or len(obj.constraints):
+            return True
+        obj = obj.parent
+    return False
+
+
+def motion_problem(scene, obj, ds, samples=8):
+    """Why the domain cannot be placed, or None: an asset sits still at one offset, so a
+    domain that moves over its cache's frames (its smoke carried with it, or left behind
+    by Blender's shift) would be placed wrong in every frame but one. Only a domain that
+    may move is sampled: its world matrix at `samples` frames of the cache (the scene's
+    frame is restored)."""
+    if not may_move(obj):
+        return None
+    first, last = ds.cache_frame_start, ds.cache_frame_end
+    frames = sorted({round(first + (last - first) * k / (samples - 1)) for k in range(samples)})
+    now = scene.frame_current
+    try:
+        matrices = []
+        for f in frames:
+            scene.frame_set(f)
+            matrices.append((f, obj.matrix_world.copy()))
+    finally:
+        scene.frame_set(now)
+    (f0, m0) = matrices[0]
+    for f, m in matrices[1:]:
+        moved = max(abs(m[i][j] - m0[i][j]) for i in range(4) for j in range(4))
+        if moved > 1e-6:
+            return (
+                f"the domain moves during the simulation (its transform changes between "
+                f"frames {f0} and {f}) and an asset sits still: keep the domain still (clear "
+                "its animation, constraints and parent's motion), then bake the domain again"
+            )
+    return None
+
+
 def domain_offset(obj):
     """The domain's lower corner in world space: what the cache's local grids are shifted
     by (the domain's transform is a translation and a scale: `rotation_problem`)."""
@@ -174,7 +216,11 @@ class HAZE_OT_bake(bpy.types.Operator):
         settings = context.scene.haze
         src, grid = density_cache(ds)
         out = asset_path(settings)
-        problem = volume_format_problem(ds) or rotation_problem(context.object)
+        problem = (
+            volume_format_problem(ds)
+            or rotation_problem(context.object)
+            or motion_problem(context.scene, context.object, ds)
+        )
         if problem:
             raise RuntimeError(f"{src}: {problem}")
         if not os.path.isdir(src):

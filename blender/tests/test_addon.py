@@ -159,6 +159,26 @@ def main():
     check("a rotated domain is refused", "the domain is rotated (30.0°)" in str(result), f"{result}")
     domain.rotation_euler = (0.0, 0.0, 0.0)
     bpy.context.view_layer.update()
+    # A domain that moves over the cache's frames cannot sit at one offset: refused too,
+    # and the scene's frame is left where it was.
+    was = scene.frame_current
+    scene.frame_set(2)
+    domain.keyframe_insert("location", frame=1)
+    domain.location.x += 0.5
+    domain.keyframe_insert("location", frame=6)
+    try:
+        result = bpy.ops.haze.bake()
+    except RuntimeError as e:
+        result = str(e)
+    check(
+        "a moving domain is refused",
+        "the domain moves during the simulation" in str(result) and scene.frame_current == 2,
+        f"{result}",
+    )
+    domain.animation_data_clear()
+    domain.location = (1.0, -2.0, 1.5)
+    scene.frame_set(was)
+    bpy.context.view_layer.update()
     # A cache haze cannot read is named with the setting to change.
     domain.modifiers["Fluid"].domain_settings.cache_data_format = "UNI"
     try:
