@@ -44,6 +44,14 @@ def check(what, ok, detail=""):
     print(f"ok: {what}", flush=True)
 
 
+def attempt(op):
+    """What the operator returned, or the text of the error report bpy raised."""
+    try:
+        return op()
+    except RuntimeError as e:
+        return str(e)
+
+
 def main():
     work = Path(tempfile.mkdtemp(prefix="haze-blender-"))
     # Mantaflow's noise writes its tile (waveletNoiseTile.bin, 24 MiB) into the working
@@ -116,20 +124,14 @@ def main():
 
     # A missing cache is an error in Blender's report, not a crash.
     domain.modifiers["Fluid"].domain_settings.cache_directory = str(work / "nothing")
-    try:
-        result = bpy.ops.haze.bake()
-    except RuntimeError as e:  # bpy raises the operator's error report
-        result = str(e)
+    result = attempt(bpy.ops.haze.bake)
     check("a domain without a cache is refused", "no cache here" in str(result), f"{result}")
     # Without the haze package in Blender's Python, the operators say how to install it.
     saved = sys.modules["haze"]
     sys.modules["haze"] = None  # `import haze` now raises ImportError
     try:
         for op in (bpy.ops.haze.bake, bpy.ops.haze.preview):
-            try:
-                result = op()
-            except RuntimeError as e:
-                result = str(e)
+            result = attempt(op)
             check(
                 f"{op.idname_py()} says how to install the haze package",
                 "haze Python package is not installed in Blender's Python" in str(result)
@@ -142,20 +144,14 @@ def main():
     # process happens to run.
     scene.haze.output = "//smoke.haze"
     for op in (bpy.ops.haze.bake, bpy.ops.haze.preview):
-        try:
-            result = op()
-        except RuntimeError as e:
-            result = str(e)
+        result = attempt(op)
         check(f"{op.idname_py()} refuses // before the .blend is saved", "not saved" in str(result), f"{result}")
     check("nothing written for //", not Path("smoke.haze").exists())
     scene.haze.output = str(out)
     # A rotated domain's smoke cannot be placed axis-aligned: refused, naming the fix.
     domain.rotation_euler = (0.0, 0.0, math.radians(30.0))
     bpy.context.view_layer.update()
-    try:
-        result = bpy.ops.haze.bake()
-    except RuntimeError as e:
-        result = str(e)
+    result = attempt(bpy.ops.haze.bake)
     check("a rotated domain is refused", "the domain is rotated (30.0°)" in str(result), f"{result}")
     domain.rotation_euler = (0.0, 0.0, 0.0)
     bpy.context.view_layer.update()
@@ -166,10 +162,7 @@ def main():
     domain.keyframe_insert("location", frame=1)
     domain.location.x += 0.5
     domain.keyframe_insert("location", frame=6)
-    try:
-        result = bpy.ops.haze.bake()
-    except RuntimeError as e:
-        result = str(e)
+    result = attempt(bpy.ops.haze.bake)
     check(
         "a moving domain is refused",
         "the domain moves during the simulation" in str(result) and scene.frame_current == 2,
@@ -181,10 +174,7 @@ def main():
     bpy.context.view_layer.update()
     # A cache haze cannot read is named with the setting to change.
     domain.modifiers["Fluid"].domain_settings.cache_data_format = "UNI"
-    try:
-        result = bpy.ops.haze.bake()
-    except RuntimeError as e:
-        result = str(e)
+    result = attempt(bpy.ops.haze.bake)
     check(
         "a Uni Cache is refused with the setting to change",
         "caches its volumes as Uni Cache" in str(result) and "Format Volumes: OpenVDB" in str(result),
