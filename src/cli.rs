@@ -154,7 +154,9 @@ pub enum Command {
             conflicts_with = "frame"
         )]
         frames: Option<haze_volume::import::FrameRange>,
-        /// Output: VOL.npy, or VOL.f32 (written with its VOL.json sidecar).
+        /// Output: VOL.vdb (OpenVDB: one float grid, `density`, placed where the asset's box
+        /// lies, for Blender, Houdini or any OpenVDB tool), VOL.npy, or VOL.f32 (written with
+        /// its VOL.json sidecar).
         #[arg(long, short)]
         out: PathBuf,
     },

@@ -4,7 +4,8 @@
 //! goes to `--out` itself; several (every frame, or `--frames`) each to `--out` with
 //! `_NNNN`, the frame's number, before the extension (`vol.npy` → `vol_0021.npy`; `vol_.npy`
 //! the same, no second `_`): a numbered sequence that `haze bake` and `haze inspect` read
-//! back.
+//! back. A `.vdb` output is an OpenVDB file of one float grid, `density`, placed where the
+//! asset's box lies (`haze_volume::export::vdb`), for Blender, Houdini or any OpenVDB tool.
 
 use anyhow::{Context, Result, bail};
 use haze_asset::Asset;
@@ -12,6 +13,8 @@ use haze_bake::export::{Reconstruction, reconstruct_frame};
 use haze_bake::inspect::span;
 use haze_render::output::{self, Created, Outputs};
 use haze_render::progress;
+use haze_volume::Volume;
+use haze_volume::export::vdb;
 use haze_volume::import::FrameRange;
 use npyz::WriterBuilder;
 use serde_json::json;
@@ -23,6 +26,8 @@ enum Kind {
     Npy,
     /// Raw little-endian f32 with a `.json` sidecar.
     Raw,
+    /// OpenVDB: one float grid named `density`.
+    Vdb,
 }
 
 impl Kind {
@@ -35,8 +40,9 @@ impl Kind {
         match ext.as_str() {
             "npy" => Ok(Kind::Npy),
             "f32" | "raw" => Ok(Kind::Raw),
+            "vdb" => Ok(Kind::Vdb),
             _ => bail!(
-                "{}: unknown output type (use .npy, or .f32 with a .json sidecar)",
+                "{}: unknown output type (use .vdb, .npy, or .f32 with a .json sidecar)",
                 out.display()
             ),
         }
@@ -48,10 +54,10 @@ impl Kind {
 pub fn run(path: &Path, frame: Option<i64>, range: Option<FrameRange>, out: &Path) -> Result<()> {
     // An output that is an input is named first, whatever its type.
     let kind = Kind::of(out);
+    let asset = Asset::open(path)?;
     let numbers = match frame {
         Some(n) => vec![n],
         None => {
-            let asset = Asset::open(path)?;
             let all = &asset.header().source.frame_numbers;
             let range = range.unwrap_or_default();
             let chosen: Vec<i64> = all.iter().copied().filter(|&n| range.contains(n)).collect();
@@ -71,7 +77,10 @@ pub fn run(path: &Path, frame: Option<i64>, range: Option<FrameRange>, out: &Pat
     } else {
         numbers.iter().map(|&n| (n, numbered(out, n))).collect()
     };
-    let mut files = Outputs::new().input(path);
+    // The frames the asset was baked from are inputs too: an export named like them (into
+    // the cache's own folder, by the cache's own names) would replace them.
+    let source = PathBuf::from(&asset.header().source.path);
+    let mut files = Outputs::new().input(path).input(&source);
     for (_, file) in &targets {
         files = files.output("--out", file);
         if matches!(kind, Ok(Kind::Raw)) {
@@ -84,7 +93,7 @@ pub fn run(path: &Path, frame: Option<i64>, range: Option<FrameRange>, out: &Pat
     let mut created = Created::new();
     for (n, file) in &targets {
         let r = reconstruct_frame(path, *n)?;
-        write(kind, &r, file, path, *n, &mut created)?;
+        write(kind, r, file, path, *n, &mut created)?;
         tracing::info!("{}: frame {n} written", file.display());
         bar.inc(1);
     }
@@ -126,13 +135,13 @@ fn numbered(out: &Path, n: i64) -> PathBuf {
 /// through a temporary file; what was written is added to `created`.
 fn write(
     kind: Kind,
-    r: &Reconstruction,
+    r: Reconstruction,
     file: &Path,
     asset: &Path,
     n: i64,
     created: &mut Created,
 ) -> Result<()> {
-    let (dims, bbox, data) = (r.dims, r.bbox, &r.data);
+    let Reconstruction { dims, bbox, data } = r;
     match kind {
         Kind::Npy => {
             let mut buf = Vec::new();
@@ -166,6 +175,15 @@ fn write(
             output::write_json(&side, &sidecar)?;
             created.push(side);
         }
+        Kind::Vdb => {
+            let volume = Volume::new(dims, bbox, data)
+                .with_context(|| format!("frame {n} of {}", asset.display()))?;
+            let creator = format!("haze {}", env!("CARGO_PKG_VERSION"));
+            let bytes = vdb::to_bytes(&volume, "density", &creator)
+                .with_context(|| format!("{}: frame {n}", file.display()))?;
+            output::write_atomic(file, &bytes)?;
+            created.push(file.to_path_buf());
+        }
     }
     Ok(())
 }
@@ -192,6 +210,7 @@ mod tests {
             numbered(Path::new("vol-.vdb"), 3),
             Path::new("vol-0003.vdb")
         );
-        assert!(Kind::of(Path::new("x.vdb")).is_err());
+        assert_eq!(Kind::of(Path::new("x.VDB")).unwrap(), Kind::Vdb);
+        assert!(Kind::of(Path::new("x.exr")).is_err());
     }
 }

@@ -963,6 +963,24 @@ fn bake_stores_the_residual_and_export_reconstructs_within_the_error() {
         ])
         .assert()
         .success();
+    // .vdb: the same values, bit for bit, over the asset's box (read back by the importer).
+    let vdb = tmp.path().join("f24.vdb");
+    haze()
+        .args(["export", out.to_str().unwrap(), "--frame", "24"])
+        .args(["--out", vdb.to_str().unwrap()])
+        .assert()
+        .success();
+    let back = haze_volume::import::vdb::read(&vdb, "density", None, [0.0; 3]).unwrap();
+    assert_eq!(back.volume.dims(), [48, 48, 64]);
+    let want = haze_volume::Bbox::new([0.0; 3], [3.0, 3.0, 4.0]);
+    assert!(back.volume.bbox().approx_eq(&want, 1e-12));
+    let same = back
+        .volume
+        .data()
+        .iter()
+        .zip(a.chunks_exact(4))
+        .all(|(v, c)| v.to_bits() == u32::from_le_bytes([c[0], c[1], c[2], c[3]]));
+    assert!(same, "the .vdb export differs from the .f32 one");
     let e = fails_with_one_line(
         &[
             "export",

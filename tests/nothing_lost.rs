@@ -98,6 +98,43 @@ fn an_output_that_is_an_input_is_refused_before_any_work() {
     assert!(e.contains("pareto.png: --out is the input"), "{e}");
 }
 
+/// An export never replaces the frames its asset was baked from: exported into the
+/// cache's folder by the cache's own names (every frame numbered, or one), it is refused.
+#[test]
+fn an_export_named_like_the_assets_source_frames_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let frames = d.join("cache");
+    std::fs::create_dir(&frames).unwrap();
+    for k in 1..=2 {
+        write_npy(
+            &frames.join(format!("fluid_data_{k:04}.npy")),
+            [16; 3],
+            &blob(16),
+        );
+    }
+    let asset = d.join("a.haze");
+    haze()
+        .args(["pack", s(&frames), "--out", s(&asset)])
+        .assert()
+        .success();
+    for out in ["fluid_data_.npy", "fluid_data.npy"] {
+        let out = frames.join(out);
+        let e = refused(d, &["export", s(&asset), "--out", s(&out)]);
+        assert!(e.contains("fluid_data_0001.npy: --out is the input"), "{e}");
+    }
+    let one = frames.join("fluid_data_0002.npy");
+    let e = refused(d, &["export", s(&asset), "--frame", "2", "--out", s(&one)]);
+    assert!(e.contains("--out is the input"), "{e}");
+    // Beside them under other names it is written.
+    let beside = frames.join("check_.vdb");
+    haze()
+        .args(["export", s(&asset), "--out", s(&beside)])
+        .assert()
+        .success();
+    assert!(frames.join("check_0001.vdb").is_file() && frames.join("check_0002.vdb").is_file());
+}
+
 /// A scene's own files (here its environment map) are inputs as much as the scene.
 #[test]
 fn a_scene_render_never_replaces_a_file_the_scene_names() {

@@ -25,6 +25,7 @@ manta_fix.apply()
 
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
+from mathutils import Vector  # noqa: E402
 
 import haze  # noqa: E402
 import haze_bake  # noqa: E402
@@ -50,6 +51,15 @@ def attempt(op):
         return op()
     except RuntimeError as e:
         return str(e)
+
+
+def blender_openvdb():
+    """Blender's own OpenVDB Python module (pyopenvdb, bundled in bpy's Python tree)."""
+    site = sorted(Path(bpy.__file__).parents[3].glob("python/lib/python3*/site-packages"))
+    sys.path.append(str(site[0]))
+    import openvdb
+
+    return openvdb
 
 
 def main():
@@ -122,6 +132,67 @@ def main():
     )
     check("the smoke shows in the preview", np.ptp(want.mean(-1)) > 1e-3)
 
+    # Load as Volume: the frames as an OpenVDB sequence beside the asset, played by a
+    # Volume object frame for frame.
+    result = bpy.ops.haze.volume()
+    seq = sorted((work / "smoke_vdb").glob("density_*.vdb"))
+    check(
+        "Load as Volume wrote one OpenVDB file per frame",
+        result == {"FINISHED"} and [int(p.stem[-4:]) for p in seq] == asset.frames,
+        f"{result} {[p.name for p in seq]}",
+    )
+    n = asset.frames[-1]
+    g = blender_openvdb().read(str(seq[-1]), "density")
+    nx, ny, nz = asset.dims
+    dense = np.zeros((nx, ny, nz), dtype=np.float32)
+    g.copyToArray(dense, ijk=(0, 0, 0))
+    check(
+        "OpenVDB reads the file back as the asset's frame, voxel for voxel",
+        np.array_equal(dense.transpose(2, 1, 0), asset.frame(n)),
+        f"max diff {np.abs(dense.transpose(2, 1, 0) - asset.frame(n)).max()}",
+    )
+    check(
+        "the file's index 0 is the asset's box corner, index dims its far corner",
+        np.allclose(g.transform.indexToWorld((0, 0, 0)), lo, atol=1e-9)
+        and np.allclose(g.transform.indexToWorld((nx, ny, nz)), hi, atol=1e-9),
+        f"{g.transform.indexToWorld((0, 0, 0))} {g.transform.indexToWorld((nx, ny, nz))} vs {asset.bbox}",
+    )
+    bpy.ops.haze.volume()
+    loaded = [o for o in bpy.data.objects if o.name.startswith("smoke (haze)")]
+    check("loading again reuses the one Volume object", len(loaded) == 1, f"{[o.name for o in loaded]}")
+    obj = loaded[0]
+    scene.frame_set(asset.frames[1])
+    vol = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+    vol.grids.load()
+    check(
+        "the object shows the scene frame's file",
+        Path(vol.grids.frame_filepath).name == f"density_{asset.frames[1]:04d}.vdb"
+        and vol.grids.frame == asset.frames[1],
+        f"{vol.grids.frame_filepath} {vol.grids.frame}",
+    )
+    # Blender draws a voxel centred on its index: with the object half a voxel up, voxel
+    # (i, j, k) is centred on the asset's cell (i, j, k).
+    to_world = obj.matrix_world @ vol.grids["density"].matrix_object
+    cell_size = [(hi[a] - lo[a]) / asset.dims[a] for a in range(3)]
+    corners = [(0, 0, 0), (nx - 1, ny - 1, nz - 1)]
+    centres = [tuple(to_world @ Vector(c)) for c in corners]
+    want = [tuple(lo[a] + (c[a] + 0.5) * cell_size[a] for a in range(3)) for c in corners]
+    check(
+        "the object's voxels are centred on the asset's cells",
+        all(np.allclose(c, w, atol=1e-5) for c, w in zip(centres, want)),
+        f"{centres} vs {want}",
+    )
+    # Blender's own bounds of the object (whole leaves of 8 voxels, each voxel ±½ about its
+    # index) then fall on the asset's cell faces, not half a cell off them.
+    shown_obj = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    low = [min((shown_obj.matrix_world @ Vector(c))[a] for c in shown_obj.bound_box) for a in range(3)]
+    steps = [(low[a] - lo[a]) / cell_size[a] for a in range(3)]
+    check(
+        "Blender's bounds of the object lie on the asset's cell faces",
+        all(abs(t - round(t)) < 1e-4 for t in steps),
+        f"{steps}",
+    )
+
     # A missing cache is an error in Blender's report, not a crash.
     domain.modifiers["Fluid"].domain_settings.cache_directory = str(work / "nothing")
     result = attempt(bpy.ops.haze.bake)
@@ -130,7 +201,7 @@ def main():
     saved = sys.modules["haze"]
     sys.modules["haze"] = None  # `import haze` now raises ImportError
     try:
-        for op in (bpy.ops.haze.bake, bpy.ops.haze.preview):
+        for op in (bpy.ops.haze.bake, bpy.ops.haze.preview, bpy.ops.haze.volume):
             result = attempt(op)
             check(
                 f"{op.idname_py()} says how to install the haze package",
@@ -143,7 +214,7 @@ def main():
     # An unsaved .blend has no folder for //: the asset is not written wherever the
     # process happens to run.
     scene.haze.output = "//smoke.haze"
-    for op in (bpy.ops.haze.bake, bpy.ops.haze.preview):
+    for op in (bpy.ops.haze.bake, bpy.ops.haze.preview, bpy.ops.haze.volume):
         result = attempt(op)
         check(f"{op.idname_py()} refuses // before the .blend is saved", "not saved" in str(result), f"{result}")
     check("nothing written for //", not Path("smoke.haze").exists())

@@ -139,6 +139,28 @@ def test_a_bake_reports_every_frame_and_keeps_its_error(baked):
         assert np.abs(density - source[k]).max() <= peak / 255.0 + 1e-5
 
 
+def test_a_frame_written_as_openvdb_reads_back_as_the_frame(baked, tmp_path):
+    _, out, _, _ = baked
+    asset = haze.Asset(out)
+    vdb = asset.write_vdb(2, tmp_path / "f2.vdb")
+    assert vdb == tmp_path / "f2.vdb"
+    info = haze.inspect(vdb)
+    density = asset.frame(2)
+    assert info["dims"] == list(asset.dims)
+    assert (tuple(info["bbox_min"]), tuple(info["bbox_max"])) == tuple(map(tuple, asset.bbox))
+    assert info["active_voxels"] == int(np.count_nonzero(density))
+    assert np.float32(info["value_max"]) == density.max()
+    assert abs(info["value_sum"] - float(density.sum(dtype=np.float64))) <= 1e-9 * info["value_sum"]
+    grid = info["vdb"]["grids"][0]
+    assert (grid["name"], grid["class"], grid["half_float"]) == ("density", "fog volume", False)
+    # Only .vdb, written whole or not at all.
+    with pytest.raises(haze.HazeError, match=r"f2.npy: write_vdb writes OpenVDB"):
+        asset.write_vdb(2, tmp_path / "f2.npy")
+    with pytest.raises(haze.HazeError, match="frame 9 is not in the asset"):
+        asset.write_vdb(9, tmp_path / "f9.vdb")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f2.vdb"]
+
+
 def test_rbfs_are_what_the_asset_reconstructs(tmp_path):
     # With a residual error of the whole peak nothing is stored beyond the RBFs: the
     # frame is exactly their sum (clamped at 0), as NumPy evaluates it.

@@ -2,7 +2,11 @@
 //! density — as NumPy arrays.
 
 use crate::to_py;
+use anyhow::Context;
 use haze_bake::export::{read_frame, read_raw_frame};
+use haze_render::output::{Outputs, write_atomic};
+use haze_volume::Volume;
+use haze_volume::export::vdb;
 use numpy::ndarray::{Array2, Array3};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3};
 use pyo3::prelude::*;
@@ -18,6 +22,8 @@ pub struct Asset {
     dims: [usize; 3],
     bbox_min: [f64; 3],
     bbox_max: [f64; 3],
+    /// The input the asset was baked from, as recorded (an export never replaces it).
+    source: PathBuf,
 }
 
 /// A frame's RBFs as arrays: centers `(N, 3)`, radii `(N,)`, weights `(N,)`.
@@ -47,6 +53,7 @@ impl Asset {
             dims: h.grid.dims.map(|d| d as usize),
             bbox_min: h.grid.bbox_min,
             bbox_max: h.grid.bbox_max,
+            source: PathBuf::from(&h.source.path),
             path,
         })
     }
@@ -113,16 +120,48 @@ impl Asset {
     /// dequantized residual, negatives clamped to 0 (`haze export`), or a packed frame's
     /// volume as packed.
     fn frame<'py>(&self, py: Python<'py>, number: i64) -> PyResult<Bound<'py, PyArray3<f32>>> {
-        let path = &self.path;
-        let (dims, data) = py
-            .detach(|| -> anyhow::Result<_> {
-                if let Some((_, v)) = read_raw_frame(path, Some(number))? {
-                    return Ok((v.dims(), v.into_data()));
-                }
-                let (v, _) = read_frame(path, Some(number))?.density()?;
-                Ok((v.dims(), v.into_data()))
-            })
-            .map_err(to_py)?;
-        zyx(py, dims, data)
+        let v = py.detach(|| self.density(number)).map_err(to_py)?;
+        zyx(py, v.dims(), v.into_data())
+    }
+
+    /// Writes frame `number`'s density (as `frame` gives it) to `out`, an OpenVDB file of
+    /// one float grid, `density`, placed where the asset's box lies (`haze export --frame
+    /// NUMBER --out OUT.vdb`); `out` is written whole or not at all and never replaces the
+    /// asset or a file it was baked from. Returns `out`.
+    fn write_vdb(&self, py: Python<'_>, number: i64, out: PathBuf) -> PyResult<PathBuf> {
+        py.detach(|| -> anyhow::Result<()> {
+            let is_vdb = out
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("vdb"));
+            if !is_vdb {
+                anyhow::bail!(
+                    "{}: write_vdb writes OpenVDB: name the file .vdb",
+                    out.display()
+                );
+            }
+            Outputs::new()
+                .input(&self.path)
+                .input(&self.source)
+                .output("out", &out)
+                .check()?;
+            let v = self.density(number)?;
+            let creator = format!("haze {}", env!("CARGO_PKG_VERSION"));
+            let bytes = vdb::to_bytes(&v, "density", &creator)
+                .with_context(|| format!("{}: frame {number}", out.display()))?;
+            write_atomic(&out, &bytes)
+        })
+        .map_err(to_py)?;
+        Ok(out)
+    }
+}
+
+impl Asset {
+    /// Frame `number`'s density over the asset's box: a packed frame as packed, a baked
+    /// one reconstructed.
+    fn density(&self, number: i64) -> anyhow::Result<Volume> {
+        if let Some((_, v)) = read_raw_frame(&self.path, Some(number))? {
+            return Ok(v);
+        }
+        Ok(read_frame(&self.path, Some(number))?.density()?.0)
     }
 }

@@ -7,8 +7,10 @@
 //!   (paper A, §5.1), and [`rbf::evaluate_on_grid`] for sums of them.
 //! * [`import`]: OpenVDB (via vdb-rs), raw little-endian `f32` with a JSON sidecar, NumPy
 //!   `.npy`, and numbered sequences of any of those.
+//! * [`export`]: a dense volume as an OpenVDB file.
 
 pub mod error;
+pub mod export;
 pub mod import;
 pub mod rbf;
 pub mod stats;
