@@ -203,7 +203,24 @@ class _Job:
         self.cancel = threading.Event()
 
 
-class HAZE_OT_bake(bpy.types.Operator):
+class _OnDomain:
+    """What the panel's operators share: shown on a Gas fluid domain, they need the haze
+    package and the panel's asset path."""
+
+    @classmethod
+    def poll(cls, context):
+        return fluid_domain(context.object) is not None
+
+    def haze_and_asset(self, context):
+        """The haze package and the asset's path, or None once the reason is reported."""
+        try:
+            return haze_module(), asset_path(context.scene.haze)
+        except RuntimeError as e:
+            self.report({"ERROR"}, str(e))
+            return None
+
+
+class HAZE_OT_bake(_OnDomain, bpy.types.Operator):
     """Bake the domain's smoke cache into a .haze asset (Esc cancels, keeping the finished frames)"""
 
     bl_idname = "haze.bake"
@@ -211,10 +228,6 @@ class HAZE_OT_bake(bpy.types.Operator):
 
     _job = None
     _timer = None
-
-    @classmethod
-    def poll(cls, context):
-        return fluid_domain(context.object) is not None
 
     def arguments(self, context):
         ds = fluid_domain(context.object)
@@ -321,25 +334,19 @@ class HAZE_OT_bake(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class HAZE_OT_preview(bpy.types.Operator):
+class HAZE_OT_preview(_OnDomain, bpy.types.Operator):
     """Render the current frame of the .haze asset into the image "haze preview\""""
 
     bl_idname = "haze.preview"
     bl_label = "Preview"
 
-    @classmethod
-    def poll(cls, context):
-        return fluid_domain(context.object) is not None
-
     def execute(self, context):
         scene = context.scene
         settings = scene.haze
-        try:
-            haze = haze_module()
-            path = asset_path(settings)
-        except RuntimeError as e:
-            self.report({"ERROR"}, str(e))
+        found = self.haze_and_asset(context)
+        if found is None:
             return {"CANCELLED"}
+        haze, path = found
         w, h = settings.preview_width, settings.preview_height
         camera = {}
         cam = scene.camera
@@ -365,23 +372,17 @@ class HAZE_OT_preview(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class HAZE_OT_volume(bpy.types.Operator):
+class HAZE_OT_volume(_OnDomain, bpy.types.Operator):
     """Load the .haze asset into the scene as a Volume object (its frames written as an OpenVDB sequence beside it), to compare the bake with the simulation"""
 
     bl_idname = "haze.volume"
     bl_label = "Load as Volume"
 
-    @classmethod
-    def poll(cls, context):
-        return fluid_domain(context.object) is not None
-
     def execute(self, context):
-        try:
-            haze = haze_module()
-            path = asset_path(context.scene.haze)
-        except RuntimeError as e:
-            self.report({"ERROR"}, str(e))
+        found = self.haze_and_asset(context)
+        if found is None:
             return {"CANCELLED"}
+        haze, path = found
         wm = context.window_manager
         try:
             asset = haze.Asset(path)
