@@ -132,9 +132,9 @@ pub enum Command {
     #[command(allow_negative_numbers = true)]
     View(ViewCli),
     /// Reconstruct frames of a baked asset (RBFs + dequantized residual, negatives clamped
-    /// to 0 as every renderer does) as dense volumes, to compare a bake with its input or
-    /// take it into another tool: one frame (--frame), or every frame as a numbered
-    /// sequence; a packed asset's frames come back as they were packed.
+    /// to 0 as every renderer does) as volumes — OpenVDB, NumPy or raw — to compare a bake
+    /// with its input or take it into another tool: one frame (--frame), or every frame as
+    /// a numbered sequence; a packed asset's frames come back as they were packed.
     #[command(allow_negative_numbers = true)]
     Export {
         /// The .haze asset (baked, or packed by `haze pack`).
