@@ -14,17 +14,19 @@
 //! * **Metadata**: `class` (`fog volume`), `name`, `creator`, `file_base_resolution` (the
 //!   volume's dims: the box the reader reads back, as Blender records its domain),
 //!   `file_bbox_min/max` (the active voxels' index box, when there are any),
-//!   `file_voxel_count`, `file_compression` (`zip`), `is_saved_as_half_float` (false).
+//!   `file_voxel_count`, `file_compression` (`zip + active values`),
+//!   `is_saved_as_half_float` (false).
 //! * **Bytes** (all little-endian): the header (magic, file version, library version 12.0,
 //!   a grid-offsets flag, a 36-character UUID derived from the grid's bytes so that the same
 //!   volume always gives the same file), the file's metadata (none), one grid descriptor
 //!   (name, type, no instance parent, the grid's, its data blocks' and its end's offsets),
-//!   then the grid: its compression flags (zip), metadata, transform, the tree's topology
+//!   then the grid: its compression flags (zip, active values only), metadata, transform, the tree's topology
 //!   (root: background and children; each internal node: child mask, value mask, its values;
 //!   each leaf: value mask) and the leaves' buffers (value mask, values). Node tables number
-//!   a child at local `(x, y, z)` as `x·n² + y·n + z` (z fastest); each value block is a
-//!   "no mask, all values" flag byte and the zlib-compressed values behind their byte count
-//!   (negated and stored raw when zlib would not shrink them).
+//!   a child at local `(x, y, z)` as `x·n² + y·n + z` (z fastest); each value block is an
+//!   "active values only" flag byte (every inactive value is the background) and the
+//!   node's active values, zlib-compressed behind their byte count (negated and stored raw
+//!   when zlib would not shrink them): a leaf's non-zero samples, an internal node's none.
 
 use crate::volume::Volume;
 use flate2::Compression;
@@ -39,10 +41,12 @@ const MAGIC: i64 = 0x5644_4220;
 pub const FILE_VERSION: u32 = 224;
 /// The OpenVDB release whose files these are byte for byte (readers key quirks on it).
 const LIBRARY_VERSION: [u32; 2] = [12, 0];
-/// Per-grid compression flags: zip (`COMPRESS_ZIP`), no active-mask compression.
-const COMPRESS_ZIP: u32 = 1;
-/// A value block's flag byte: every value stored (`NO_MASK_AND_ALL_VALS`).
-const ALL_VALUES: u8 = 6;
+/// Per-grid compression flags: zip (`COMPRESS_ZIP`, 1) and active values only
+/// (`COMPRESS_ACTIVE_MASK`, 2).
+const COMPRESSION: u32 = 1 | 2;
+/// A value block's flag byte: the active values alone, every inactive one the background
+/// (`NO_MASK_OR_INACTIVE_VALS`).
+const ACTIVE_ONLY: u8 = 0;
 /// The grid type of a float grid of 5-4-3 trees.
 pub const GRID_TYPE: &str = "Tree_float_5_4_3";
 
@@ -171,10 +175,13 @@ fn grid_bytes(volume: &Volume, name: &str, creator: &str, leaves: &[Leaf]) -> (V
         .values()
         .flat_map(|u| u.values().flat_map(|l| l.values().copied()))
         .collect();
-    let buffers: Vec<Vec<u8>> = order.par_iter().map(|l| values_block(&l.values)).collect();
+    let buffers: Vec<Vec<u8>> = order
+        .par_iter()
+        .map(|l| values_block(&active_values(l)))
+        .collect();
 
     let mut g = Vec::new();
-    put_u32(&mut g, COMPRESS_ZIP);
+    put_u32(&mut g, COMPRESSION);
     put_metadata(&mut g, volume, name, creator, leaves);
     put_transform(&mut g, volume);
     // Topology.
@@ -182,19 +189,19 @@ fn grid_bytes(volume: &Volume, name: &str, creator: &str, leaves: &[Leaf]) -> (V
     g.extend_from_slice(&0.0f32.to_le_bytes()); // background
     put_u32(&mut g, 0); // no root tiles
     put_u32(&mut g, tree.len() as u32);
-    let upper_zeros = values_block(&vec![0.0; 1 << (3 * UPPER)]);
-    let lower_zeros = values_block(&vec![0.0; 1 << (3 * LOWER)]);
+    // An internal node's values are all inactive background: none is stored.
+    let no_values = values_block(&[]);
     for (origin, lowers) in &tree {
         for c in origin {
             g.extend_from_slice(&c.to_le_bytes());
         }
         put_mask(&mut g, UPPER, lowers.keys().copied());
         put_mask(&mut g, UPPER, std::iter::empty());
-        g.extend_from_slice(&upper_zeros);
+        g.extend_from_slice(&no_values);
         for leaves in lowers.values() {
             put_mask(&mut g, LOWER, leaves.keys().copied());
             put_mask(&mut g, LOWER, std::iter::empty());
-            g.extend_from_slice(&lower_zeros);
+            g.extend_from_slice(&no_values);
             for leaf in leaves.values() {
                 put_words(&mut g, &leaf.mask);
             }
@@ -233,7 +240,11 @@ fn put_metadata(g: &mut Vec<u8>, volume: &Volume, name: &str, creator: &str, lea
         ("class", "string", b"fog volume".to_vec()),
         ("creator", "string", creator.as_bytes().to_vec()),
         ("file_base_resolution", "vec3i", vec3i(dims)),
-        ("file_compression", "string", b"zip".to_vec()),
+        (
+            "file_compression",
+            "string",
+            b"zip + active values".to_vec(),
+        ),
         ("file_voxel_count", "int64", count.to_le_bytes().to_vec()),
         ("is_saved_as_half_float", "bool", vec![0]),
         ("name", "string", name.as_bytes().to_vec()),
@@ -295,8 +306,17 @@ fn put_words(g: &mut Vec<u8>, words: &[u64]) {
     }
 }
 
-/// A value block: the "all values" flag byte, then the zlib stream behind its byte count,
-/// or the raw values behind their negated byte count when zlib does not shrink them.
+/// A leaf's active values, in its voxel order.
+fn active_values(leaf: &Leaf) -> Vec<f32> {
+    (0..leaf.values.len())
+        .filter(|&n| leaf.mask[n >> 6] >> (n & 63) & 1 == 1)
+        .map(|n| leaf.values[n])
+        .collect()
+}
+
+/// A value block: the "active values only" flag byte, then the zlib stream of `values`
+/// behind its byte count, or the raw values behind their negated byte count when zlib does
+/// not shrink them (and for none: a count of 0).
 fn values_block(values: &[f32]) -> Vec<u8> {
     let raw: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
     let mut z = ZlibEncoder::new(Vec::new(), Compression::default());
@@ -304,7 +324,7 @@ fn values_block(values: &[f32]) -> Vec<u8> {
         .write_all(&raw)
         .and_then(|_| z.finish())
         .expect("zlib into memory cannot fail");
-    let mut out = vec![ALL_VALUES];
+    let mut out = vec![ACTIVE_ONLY];
     if zipped.len() < raw.len() {
         out.extend_from_slice(&(zipped.len() as i64).to_le_bytes());
         out.extend_from_slice(&zipped);
