@@ -186,4 +186,7 @@ impl Heterogeneous for AssetMedium {
     fn bounds(&self) -> Option<Aabb> {
         Some(self.grid.bounds())
     }
+    fn occupies(&self, b: &Aabb) -> bool {
+        self.grid.occupies(b)
+    }
 }

@@ -69,6 +69,12 @@ pub trait Heterogeneous: Send + Sync + fmt::Debug {
     }
     /// A box outside which `σt = 0`, or `None` when the medium fills space.
     fn bounds(&self) -> Option<Aabb>;
+    /// Whether `σt` may be non-zero somewhere in the closed box `b`: `false` only where it
+    /// is 0 everywhere in it (work there can be skipped); `true` when unknown.
+    fn occupies(&self, b: &Aabb) -> bool {
+        let _ = b;
+        true
+    }
 }
 
 /// A heterogeneous medium of a scene, by kind, shared: two are equal when they hold the

@@ -84,6 +84,35 @@ impl VoxelGrid {
         self.at_index(self.index_of(x))
     }
 
+    /// Whether `σt` may be non-zero somewhere in the closed box `b`: a point `x` of the box
+    /// reads the voxels around `u(x)` (trilinear, clamped to the grid), so `b` reads those
+    /// from `⌊u(b.min)⌋` to `⌊u(b.max)⌋ + 1`; `σt` is 0 everywhere in `b` when they all are,
+    /// when `b` misses the grid's box, or when `scale` is 0.
+    pub fn occupies(&self, b: &Aabb) -> bool {
+        let g = self.bounds();
+        if (0..3).any(|a| !(b.max[a] >= g.min[a] && b.min[a] <= g.max[a]))
+            || self.scale.iter().all(|&s| s == 0.0)
+            || self.data.is_empty()
+        {
+            return false;
+        }
+        let (lo, hi) = (self.index_of(b.min), self.index_of(b.max));
+        let range = [0, 1, 2].map(|a| {
+            let last = self.dims[a] as f64 - 1.0;
+            let first = lo[a].floor().clamp(0.0, last) as usize;
+            let end = (hi[a].floor() + 1.0).clamp(0.0, last) as usize;
+            (first, end)
+        });
+        (range[2].0..=range[2].1).any(|z| {
+            (range[1].0..=range[1].1).any(|y| {
+                let row = self.dims[0] * (y + self.dims[1] * z);
+                self.data[row + range[0].0..=row + range[0].1]
+                    .iter()
+                    .any(|&v| v != 0.0)
+            })
+        })
+    }
+
     /// `σt(x) = scale·ρ(x)`.
     pub fn sigma_t(&self, x: Vec3) -> Rgb {
         let r = self.density(x);
@@ -233,6 +262,72 @@ mod tests {
             .map(|i| g.density(axpy(o, t0 + (i as f64 + 0.5) * h, d)))
             .sum::<f64>()
             * h
+    }
+
+    /// `occupies` never says a box is empty where the field is not: on a grid of two
+    /// non-zero voxels, every box it calls empty reads 0 at its corners, centre and 200
+    /// random points; a box around a non-zero voxel's centre is occupied, one far from both
+    /// (and one beside the grid, and any box when the scale is 0) is not.
+    #[test]
+    fn occupancy_is_never_empty_where_the_field_is_not() {
+        let mut g = grid();
+        g.data.iter_mut().for_each(|v| *v = 0.0);
+        let at = |g: &VoxelGrid, i: [usize; 3]| i[0] + g.dims[0] * (i[1] + g.dims[1] * i[2]);
+        let (i1, i2) = (at(&g, [1, 1, 1]), at(&g, [4, 3, 5]));
+        g.data[i1] = 0.5;
+        g.data[i2] = 0.25;
+        let b = g.bounds();
+        let mut s = 99u64;
+        let mut r = || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut empty, mut full) = (0, 0);
+        for _ in 0..3000 {
+            // Boxes up to a third of the grid's box, some reaching past its faces.
+            let lo: Vec3 = [0, 1, 2].map(|a| b.min[a] + (1.2 * r() - 0.1) * (b.max[a] - b.min[a]));
+            let hi: Vec3 = [0, 1, 2].map(|a| lo[a] + r() * (b.max[a] - b.min[a]) / 3.0);
+            let bx = Aabb { min: lo, max: hi };
+            if g.occupies(&bx) {
+                full += 1;
+                continue;
+            }
+            empty += 1;
+            let mut points: Vec<Vec3> = (0..8)
+                .map(|c| [0, 1, 2].map(|a| if c >> a & 1 == 1 { hi[a] } else { lo[a] }))
+                .collect();
+            points.push([0, 1, 2].map(|a| 0.5 * (lo[a] + hi[a])));
+            for _ in 0..200 {
+                points.push([0, 1, 2].map(|a| lo[a] + r() * (hi[a] - lo[a])));
+            }
+            for p in points {
+                assert_eq!(g.density(p), 0.0, "{bx:?} called empty, ρ({p:?}) > 0");
+            }
+        }
+        assert!(empty > 300 && full > 300, "{empty} empty, {full} occupied");
+        let centre = |i: [usize; 3]| -> Vec3 {
+            [0, 1, 2].map(|a| g.min[a] + (i[a] as f64 + 0.5) * g.voxel[a])
+        };
+        let c = centre([1, 1, 1]);
+        let around = Aabb {
+            min: c.map(|v| v - 1e-3),
+            max: c.map(|v| v + 1e-3),
+        };
+        assert!(g.occupies(&around));
+        let far = centre([4, 0, 0]);
+        assert!(!g.occupies(&Aabb {
+            min: far.map(|v| v - 1e-3),
+            max: far.map(|v| v + 1e-3)
+        }));
+        let beside = Aabb {
+            min: [b.max[0] + 1.0, b.min[1], b.min[2]],
+            max: [b.max[0] + 2.0, b.max[1], b.max[2]],
+        };
+        assert!(!g.occupies(&beside));
+        g.scale = [0.0; 3];
+        assert!(!g.occupies(&around));
     }
 
     #[test]
