@@ -74,27 +74,45 @@ impl VoxelGrid {
     /// [`VoxelGrid::at_index`] picks it) and its eight voxel values, corner `k` at offset
     /// `(k & 1, k >> 1 & 1, k >> 2 & 1)` (clamped to the grid).
     fn cell_at(&self, u: [f64; 3]) -> ([usize; 3], [f64; 8]) {
-        let i0 = [0, 1, 2].map(|a| {
+        // Written out axis by axis (no closures over `[0, 1, 2]`, no `floor`: the clamped
+        // coordinate is ≥ 0, so truncation is the floor) for the shadow rays' inner loop.
+        let low = |a: usize| {
             let n = self.dims[a];
             let x = u[a].clamp(0.0, (n - 1) as f64);
-            (x.floor() as usize).min(n.saturating_sub(2))
-        });
-        let corners = std::array::from_fn(|k| {
-            let idx = [0, 1, 2].map(|a| (i0[a] + (k >> a & 1)).min(self.dims[a] - 1));
-            self.value(idx)
-        });
+            (x as usize).min(n.saturating_sub(2))
+        };
+        let i0 = [low(0), low(1), low(2)];
+        let (nx, ny) = (self.dims[0], self.dims[1]);
+        let x1 = (i0[0] + 1).min(nx - 1) - i0[0];
+        let y1 = ((i0[1] + 1).min(ny - 1) - i0[1]) * nx;
+        let z1 = ((i0[2] + 1).min(self.dims[2] - 1) - i0[2]) * nx * ny;
+        let base = i0[0] + nx * (i0[1] + ny * i0[2]);
+        let v = |o: usize| f64::from(self.data[base + o]);
+        let corners = [
+            v(0),
+            v(x1),
+            v(y1),
+            v(x1 + y1),
+            v(z1),
+            v(x1 + z1),
+            v(y1 + z1),
+            v(x1 + y1 + z1),
+        ];
         (i0, corners)
     }
 
     /// The trilinear interpolation of `corners` (of the cell at `i0`, from
     /// [`VoxelGrid::cell_at`]) at `u` (clamped to the grid, as [`VoxelGrid::at_index`]).
-    fn trilinear(&self, i0: [usize; 3], corners: &[f64; 8], u: [f64; 3]) -> f64 {
-        let f = [0, 1, 2].map(|a| u[a].clamp(0.0, (self.dims[a] - 1) as f64) - i0[a] as f64);
-        let x: [f64; 4] =
-            std::array::from_fn(|k| corners[2 * k] + f[0] * (corners[2 * k + 1] - corners[2 * k]));
-        let y0 = x[0] + f[1] * (x[1] - x[0]);
-        let y1 = x[2] + f[1] * (x[3] - x[2]);
-        y0 + f[2] * (y1 - y0)
+    fn trilinear(&self, i0: [usize; 3], c: &[f64; 8], u: [f64; 3]) -> f64 {
+        let f = |a: usize| u[a].clamp(0.0, (self.dims[a] - 1) as f64) - i0[a] as f64;
+        let (fx, fy, fz) = (f(0), f(1), f(2));
+        let x00 = c[0] + fx * (c[1] - c[0]);
+        let x10 = c[2] + fx * (c[3] - c[2]);
+        let x01 = c[4] + fx * (c[5] - c[4]);
+        let x11 = c[6] + fx * (c[7] - c[6]);
+        let y0 = x00 + fy * (x10 - x00);
+        let y1 = x01 + fy * (x11 - x01);
+        y0 + fz * (y1 - y0)
     }
 
     /// Continuous voxel coordinates of the world point `x`.
@@ -176,7 +194,7 @@ impl VoxelGrid {
         }
         let u = |t: f64| {
             let s = t - t0;
-            [0, 1, 2].map(|a| u0[a] + s * du[a])
+            [u0[0] + s * du[0], u0[1] + s * du[1], u0[2] + s * du[2]]
         };
         let mut sum = 0.0;
         let mut t = t0;
