@@ -304,6 +304,17 @@ mod tests {
         }
     }
 
+    /// Uniform numbers in `[0, 1)` from a fixed LCG seeded with `seed`.
+    fn uniform(seed: u64) -> impl FnMut() -> f64 {
+        let mut s = seed;
+        move || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
     /// `∫ρ` over `[0, len]` by the composite midpoint rule on `n` steps of the part
     /// inside the box (where `ρ` is continuous: error ~ h²·max|ρ''|, the kinks at the
     /// planes adding O(h²) too; the jumps at the faces would add O(h)).
@@ -331,13 +342,7 @@ mod tests {
         g.data[i1] = 0.5;
         g.data[i2] = 0.25;
         let b = g.bounds();
-        let mut s = 99u64;
-        let mut r = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut r = uniform(99);
         let (mut empty, mut full) = (0, 0);
         for _ in 0..3000 {
             // Boxes up to a third of the grid's box, some reaching past its faces.
@@ -397,13 +402,7 @@ mod tests {
         }
         assert!(g.data.iter().filter(|&&v| v != 0.0).count() >= 4);
         let b = g.bounds();
-        let mut s = 5u64;
-        let mut r = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut r = uniform(5);
         let mut hit = 0;
         for _ in 0..40 {
             let p: Vec3 = [0, 1, 2].map(|a| b.min[a] + r() * (b.max[a] - b.min[a]));
