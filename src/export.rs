@@ -178,9 +178,8 @@ fn write(
         Kind::Vdb => {
             let volume = Volume::new(dims, bbox, data)
                 .with_context(|| format!("frame {n} of {}", asset.display()))?;
-            let creator = format!("haze {}", env!("CARGO_PKG_VERSION"));
-            let bytes = vdb::to_bytes(&volume, "density", &creator)
-                .with_context(|| format!("{}: frame {n}", file.display()))?;
+            let bytes =
+                vdb::to_bytes(&volume).with_context(|| format!("{}: frame {n}", file.display()))?;
             output::write_atomic(file, &bytes)?;
             created.push(file.to_path_buf());
         }

@@ -145,9 +145,8 @@ impl Asset {
                 .output("out", &out)
                 .check()?;
             let v = self.density(number)?;
-            let creator = format!("haze {}", env!("CARGO_PKG_VERSION"));
-            let bytes = vdb::to_bytes(&v, "density", &creator)
-                .with_context(|| format!("{}: frame {number}", out.display()))?;
+            let bytes =
+                vdb::to_bytes(&v).with_context(|| format!("{}: frame {number}", out.display()))?;
             write_atomic(&out, &bytes)
         })
         .map_err(to_py)?;

@@ -418,6 +418,28 @@ mod tests {
         assert!(hit >= 10, "{hit} rays met the voxels");
     }
 
+    /// A grid one voxel thick along an axis (no trilinear cell across it: the field is
+    /// constant through it) integrates as its field does, and passes its zero cells.
+    #[test]
+    fn a_grid_one_voxel_thick_integrates_as_its_field() {
+        let mut g = grid();
+        g.dims = [5, 4, 1];
+        g.data.truncate(20);
+        g.data[..6].iter_mut().for_each(|v| *v = 0.0);
+        let b = g.bounds();
+        let mut r = uniform(17);
+        for _ in 0..20 {
+            let p: Vec3 = [0, 1, 2].map(|a| b.min[a] + r() * (b.max[a] - b.min[a]));
+            let Some(d) = crate::vec3::normalize([r() - 0.5, r() - 0.5, r() - 0.5]) else {
+                continue;
+            };
+            let o = axpy(p, -5.0, d);
+            let exact = quadrature(&g, o, d, 10.0, 200_000);
+            let e = g.density_integral(o, d, 10.0);
+            assert!((e - exact).abs() < 1e-7 * (1.0 + exact), "{e} vs {exact}");
+        }
+    }
+
     #[test]
     fn density_interpolates_the_voxels() {
         let g = grid();

@@ -11,8 +11,9 @@
 //! * **What**: every non-zero sample is an active voxel holding its value (a NaN too);
 //!   zeros are inactive background. Leaves (8³ voxels) holding no non-zero sample are not
 //!   stored; every internal node's own values are inactive zeros.
-//! * **Metadata**: `class` (`fog volume`), `name`, `creator`, `file_base_resolution` (the
-//!   volume's dims: the box the reader reads back, as Blender records its domain),
+//! * **Metadata**: `class` (`fog volume`), `name` (`density`), `creator` (`haze
+//!   VERSION`), `file_base_resolution` (the volume's dims: the box the reader reads back,
+//!   as Blender records its domain),
 //!   `file_bbox_min/max` (the active voxels' index box, when there are any),
 //!   `file_voxel_count`, `file_compression` (`zip + active values`),
 //!   `is_saved_as_half_float` (false).
@@ -76,9 +77,13 @@ struct Leaf {
     values: Vec<f32>,
 }
 
-/// The file bytes of `volume` as grid `name` (module docs); `creator` goes to the grid's
-/// `creator` metadata.
-pub fn to_bytes(volume: &Volume, name: &str, creator: &str) -> Result<Vec<u8>, ExportError> {
+/// The grid's name: what Blender's and Houdini's volume shaders read by default.
+pub const GRID: &str = "density";
+/// The grid's `creator` metadata.
+const CREATOR: &str = concat!("haze ", env!("CARGO_PKG_VERSION"));
+
+/// The file bytes of `volume` as the grid [`GRID`] (module docs).
+pub fn to_bytes(volume: &Volume) -> Result<Vec<u8>, ExportError> {
     let dims = volume.dims();
     if dims.contains(&0) {
         return Err(ExportError::Empty(dims));
@@ -91,7 +96,7 @@ pub fn to_bytes(volume: &Volume, name: &str, creator: &str) -> Result<Vec<u8>, E
         return Err(ExportError::BadVoxel(voxel));
     }
     let leaves = leaves_of(volume);
-    let (grid, blocks) = grid_bytes(volume, name, creator, &leaves);
+    let (grid, blocks) = grid_bytes(volume, &leaves);
 
     let mut out = Vec::with_capacity(grid.len() + 256);
     out.extend_from_slice(&MAGIC.to_le_bytes());
@@ -102,7 +107,7 @@ pub fn to_bytes(volume: &Volume, name: &str, creator: &str) -> Result<Vec<u8>, E
     out.extend_from_slice(uuid_of(&grid).as_bytes());
     put_u32(&mut out, 0); // no file metadata
     put_u32(&mut out, 1); // one grid
-    put_string(&mut out, name);
+    put_string(&mut out, GRID);
     put_string(&mut out, GRID_TYPE);
     put_string(&mut out, ""); // not an instance of another grid
     // The grid's offset, its data blocks' (the leaves' buffers) and its end, in the file.
@@ -159,7 +164,7 @@ fn slot(origin: [i32; 3], log2: u32, child: u32) -> usize {
 
 /// The grid: compression flags, metadata, transform, topology and the leaves' buffers; and
 /// where in it the buffers start.
-fn grid_bytes(volume: &Volume, name: &str, creator: &str, leaves: &[Leaf]) -> (Vec<u8>, usize) {
+fn grid_bytes(volume: &Volume, leaves: &[Leaf]) -> (Vec<u8>, usize) {
     // root child origin → lower slot → leaf slot → leaf
     let mut tree: BTreeMap<[i32; 3], BTreeMap<usize, BTreeMap<usize, &Leaf>>> = BTreeMap::new();
     let upper_span = LEAF + LOWER + UPPER;
@@ -182,7 +187,7 @@ fn grid_bytes(volume: &Volume, name: &str, creator: &str, leaves: &[Leaf]) -> (V
 
     let mut g = Vec::new();
     put_u32(&mut g, COMPRESSION);
-    put_metadata(&mut g, volume, name, creator, leaves);
+    put_metadata(&mut g, volume, leaves);
     put_transform(&mut g, volume);
     // Topology.
     put_u32(&mut g, 1); // one buffer per leaf
@@ -216,7 +221,7 @@ fn grid_bytes(volume: &Volume, name: &str, creator: &str, leaves: &[Leaf]) -> (V
 }
 
 /// The grid's metadata, in name order as OpenVDB stores it.
-fn put_metadata(g: &mut Vec<u8>, volume: &Volume, name: &str, creator: &str, leaves: &[Leaf]) {
+fn put_metadata(g: &mut Vec<u8>, volume: &Volume, leaves: &[Leaf]) {
     let dims = volume.dims().map(|n| n as i32);
     let (mut lo, mut hi, mut count) = ([i32::MAX; 3], [i32::MIN; 3], 0i64);
     for leaf in leaves {
@@ -238,7 +243,7 @@ fn put_metadata(g: &mut Vec<u8>, volume: &Volume, name: &str, creator: &str, lea
     let vec3i = |v: [i32; 3]| v.iter().flat_map(|c| c.to_le_bytes()).collect::<Vec<u8>>();
     let mut items: Vec<(&str, &str, Vec<u8>)> = vec![
         ("class", "string", b"fog volume".to_vec()),
-        ("creator", "string", creator.as_bytes().to_vec()),
+        ("creator", "string", CREATOR.as_bytes().to_vec()),
         ("file_base_resolution", "vec3i", vec3i(dims)),
         (
             "file_compression",
@@ -247,7 +252,7 @@ fn put_metadata(g: &mut Vec<u8>, volume: &Volume, name: &str, creator: &str, lea
         ),
         ("file_voxel_count", "int64", count.to_le_bytes().to_vec()),
         ("is_saved_as_half_float", "bool", vec![0]),
-        ("name", "string", name.as_bytes().to_vec()),
+        ("name", "string", GRID.as_bytes().to_vec()),
     ];
     if count > 0 {
         items.push(("file_bbox_max", "vec3i", vec3i(hi)));
@@ -393,7 +398,7 @@ mod tests {
     fn round_trip(v: &Volume) -> (reader::VdbFrame, reader::VdbFileInfo) {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("v.vdb");
-        std::fs::write(&path, to_bytes(v, "density", "test").unwrap()).unwrap();
+        std::fs::write(&path, to_bytes(v).unwrap()).unwrap();
         let info = reader::probe(&path).unwrap();
         let frame = reader::read(&path, "density", None, [0.0; 3]).unwrap();
         (frame, info)
@@ -535,11 +540,11 @@ mod tests {
         assert!(frame.volume.bbox().approx_eq(&bbox, 1e-12));
         assert!(frame.volume.data().iter().all(|&x| x == 0.0));
         assert_eq!(info.grid("density").unwrap().file_bbox, None);
+        // A box too large for f64 has no finite voxel: refused, not written as inf.
+        let huge = Volume::zeros([2, 2, 2], Bbox::new([-1e308; 3], [1e308; 3])).unwrap();
+        assert!(matches!(to_bytes(&huge), Err(ExportError::BadVoxel(_))));
         let empty = Volume::zeros([0, 5, 6], bbox).unwrap();
-        assert_eq!(
-            to_bytes(&empty, "density", "t"),
-            Err(ExportError::Empty([0, 5, 6]))
-        );
+        assert_eq!(to_bytes(&empty), Err(ExportError::Empty([0, 5, 6])));
     }
 
     #[test]
@@ -547,10 +552,10 @@ mod tests {
         let bbox = Bbox::new([0.0; 3], [1.0; 3]);
         let mut v = Volume::zeros([9, 9, 9], bbox).unwrap();
         v.data_mut()[100] = 0.25;
-        let a = to_bytes(&v, "density", "t").unwrap();
-        assert_eq!(a, to_bytes(&v, "density", "t").unwrap());
+        let a = to_bytes(&v).unwrap();
+        assert_eq!(a, to_bytes(&v).unwrap());
         v.data_mut()[101] = 0.5;
-        let b = to_bytes(&v, "density", "t").unwrap();
+        let b = to_bytes(&v).unwrap();
         // magic 8, versions 12, flag 1: the UUID's 36 characters follow.
         let uuid = |f: &[u8]| String::from_utf8(f[21..57].to_vec()).unwrap();
         assert_ne!(uuid(&a), uuid(&b));
