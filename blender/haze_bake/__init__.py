@@ -1,6 +1,9 @@
-"""haze for Blender: bake a smoke domain's cache to a .haze asset, and preview it.
+"""haze for Blender: bake smoke to a .haze asset, and preview it.
 
-In Properties > Physics of a fluid domain of type Gas, the "haze" panel:
+The "haze" panel sits in Properties > Physics of a fluid domain of type Gas (its
+Mantaflow cache is the source) and in Properties > Data of a Volume object (the OpenVDB
+file or sequence it plays: smoke from another tool, imported with Add > Volume > Import
+OpenVDB). On a domain:
 - **Bake to .haze** bakes the domain's OpenVDB cache (Cache > Directory, its ``data``
   folder; with Noise on, the high-resolution density of its ``noise`` folder; Cache >
   Format Volumes, or Format Noise, must be OpenVDB; an Adaptive Domain's frames are placed
@@ -22,12 +25,22 @@ bake adds the domain's lower corner in world space (``haze bake --domain-offset`
 asset sits axis-aligned and still, so a rotated domain, and a domain that moves over its
 cache's frames, are refused.
 
+On a Volume object the same three buttons work on the files it plays: its grid
+``density`` (or its first float grid), every file of its sequence (the file's name with
+its last run of digits as ``*``). The asset keeps the files' own coordinates, which are
+the object's local space, so nothing about the object's placement is refused: Preview
+looks through the scene camera carried into that space, and "Load as Volume" parents the
+result to the object (it follows the object wherever it is placed or animated) with the
+object's own frame mapping (start, offset, duration, mode).
+
 Needs the ``haze`` Python package in Blender's Python
 (``<blender>/python/bin/python3 -m pip install ./python``).
 """
 
+import glob
 import math
 import os
+import re
 import sys
 import threading
 
@@ -38,8 +51,8 @@ bl_info = {
     "author": "haze",
     "version": (0, 1, 0),
     "blender": (4, 2, 0),
-    "location": "Properties > Physics > haze (on a Gas fluid domain)",
-    "description": "Bake a smoke domain's OpenVDB cache into a compact .haze asset and preview it",
+    "location": "Properties > Physics > haze (a Gas fluid domain); Properties > Data > haze (a Volume object)",
+    "description": "Bake a smoke domain's cache or a Volume object's OpenVDB files into a compact .haze asset and preview it",
     "category": "Physics",
 }
 
@@ -165,6 +178,81 @@ def domain_offset(obj):
     return tuple(min(c[i] for c in corners) for i in range(3))
 
 
+def volume_data(obj):
+    """``obj``'s Volume data when ``obj`` is a Volume object that plays a file, or None."""
+    if obj is None or obj.type != "VOLUME" or obj.data is None or not obj.data.filepath:
+        return None
+    return obj.data
+
+
+def smoke_source(obj):
+    """Whether the panel's operators apply to ``obj``: a Gas fluid domain, or a Volume
+    object that plays a file."""
+    return fluid_domain(obj) is not None or volume_data(obj) is not None
+
+
+def sequence_pattern(path):
+    """The glob of a volume sequence's files from one of them: the last run of digits in
+    the file's name as ``*`` (the frame number, as Blender reads it); a name without
+    digits is the file alone."""
+    folder, name = os.path.split(path)
+    digits = list(re.finditer(r"[0-9]+", name))
+    if not digits:
+        return path
+    last = digits[-1]
+    return os.path.join(
+        glob.escape(folder), glob.escape(name[: last.start()]) + "*" + glob.escape(name[last.end() :])
+    )
+
+
+def volume_grid(vol):
+    """The grid haze bakes from Volume data ``vol``: ``density``, else its first float grid,
+    as Blender lists the grids of the frame it shows; ``density`` when it shows none (haze
+    then names the file's grids if it has no such grid). A RuntimeError when the listed
+    grids hold no float grid."""
+    vol.grids.load()
+    grids = [(g.name, g.data_type) for g in vol.grids]
+    if not grids or ("density", "FLOAT") in grids:
+        return "density"
+    for name, kind in grids:
+        if kind == "FLOAT":
+            return name
+    listed = ", ".join(f"{n} ({k.lower()})" for n, k in grids)
+    raise RuntimeError(f"no float grid to bake as density (the grids: {listed})")
+
+
+def volume_files(vol):
+    """What haze reads for Volume data ``vol``: its file, or the glob of its sequence."""
+    path = bpy.path.abspath(vol.filepath)
+    return sequence_pattern(path) if vol.is_sequence else path
+
+
+def source_arguments(context):
+    """``haze.bake``'s source arguments for the active object: ``src``, ``grid``,
+    ``domain_offset`` (a domain's cache is local to the domain; a Volume object's files
+    keep their own coordinates, the object's local space)."""
+    obj = context.object
+    vol = volume_data(obj)
+    if vol is not None:
+        src = volume_files(vol)
+        if not vol.is_sequence and not os.path.isfile(src):
+            raise RuntimeError(f"{src}: no such file (the Volume object's file)")
+        try:
+            grid = volume_grid(vol)
+        except RuntimeError as e:
+            raise RuntimeError(f"{src}: {e}") from None
+        return dict(src=src, grid=grid, domain_offset=(0.0, 0.0, 0.0))
+    ds = fluid_domain(obj)
+    src, grid = density_cache(ds)
+    problem = volume_format_problem(ds) or rotation_problem(obj) or motion_problem(context.scene, obj, ds)
+    if problem:
+        raise RuntimeError(f"{src}: {problem}")
+    if not os.path.isdir(src):
+        what = "Bake Noise" if ds.use_noise else "Bake All"
+        raise RuntimeError(f"{src}: no cache here: bake the domain first (Cache > {what})")
+    return dict(src=src, grid=grid, domain_offset=domain_offset(obj))
+
+
 class HazeSettings(bpy.types.PropertyGroup):
     output: bpy.props.StringProperty(
         name="Asset",
@@ -203,13 +291,13 @@ class _Job:
         self.cancel = threading.Event()
 
 
-class _OnDomain:
-    """What the panel's operators share: shown on a Gas fluid domain, they need the haze
-    package and the panel's asset path."""
+class _OnSource:
+    """What the panel's operators share: shown on a Gas fluid domain or a Volume object
+    that plays a file, they need the haze package and the panel's asset path."""
 
     @classmethod
     def poll(cls, context):
-        return fluid_domain(context.object) is not None
+        return smoke_source(context.object)
 
     def haze_and_asset(self, context):
         """The haze package and the asset's path, or None once the reason is reported."""
@@ -220,7 +308,7 @@ class _OnDomain:
             return None
 
 
-class HAZE_OT_bake(_OnDomain, bpy.types.Operator):
+class HAZE_OT_bake(_OnSource, bpy.types.Operator):
     """Bake the domain's smoke cache into a .haze asset (Esc cancels, keeping the finished frames)"""
 
     bl_idname = "haze.bake"
@@ -230,29 +318,15 @@ class HAZE_OT_bake(_OnDomain, bpy.types.Operator):
     _timer = None
 
     def arguments(self, context):
-        ds = fluid_domain(context.object)
         settings = context.scene.haze
-        src, grid = density_cache(ds)
         out = asset_path(settings)
-        problem = (
-            volume_format_problem(ds)
-            or rotation_problem(context.object)
-            or motion_problem(context.scene, context.object, ds)
-        )
-        if problem:
-            raise RuntimeError(f"{src}: {problem}")
-        if not os.path.isdir(src):
-            what = "Bake Noise" if ds.use_noise else "Bake All"
-            raise RuntimeError(f"{src}: no cache here: bake the domain first (Cache > {what})")
-        journal = out + ".partial"
+        args = source_arguments(context)
         return dict(
-            src=src,
-            grid=grid,
+            args,
             out=out,
             rbfs=settings.rbfs,
             residual_error=settings.residual_error,
-            resume=os.path.exists(journal),
-            domain_offset=domain_offset(context.object),
+            resume=os.path.exists(out + ".partial"),
         )
 
     def execute(self, context):
@@ -334,7 +408,7 @@ class HAZE_OT_bake(_OnDomain, bpy.types.Operator):
         return {"FINISHED"}
 
 
-class HAZE_OT_preview(_OnDomain, bpy.types.Operator):
+class HAZE_OT_preview(_OnSource, bpy.types.Operator):
     """Render the current frame of the .haze asset into the image "haze preview\""""
 
     bl_idname = "haze.preview"
@@ -348,23 +422,13 @@ class HAZE_OT_preview(_OnDomain, bpy.types.Operator):
             return {"CANCELLED"}
         haze, path = found
         w, h = settings.preview_width, settings.preview_height
-        camera = {}
-        cam = scene.camera
-        if cam is not None and cam.type == "CAMERA":
-            m = cam.matrix_world
-            eye = m.translation
-            forward = -(m.to_3x3().col[2])
-            camera = dict(
-                eye=tuple(eye),
-                target=tuple(eye + forward),
-                up=tuple(m.to_3x3().col[1]),
-                fov=_vertical_fov(cam.data, w, h),
-            )
         try:
+            camera = preview_camera(scene.camera, context.object, w, h)
             frames = haze.Asset(path).frames
-            frame = scene.frame_current if scene.frame_current in frames else frames[0]
+            frame = shown_frame(scene, context.object)
+            frame = frame if frame in frames else frames[0]
             image = haze.render(path, frame, width=w, height=h, **camera)
-        except haze.HazeError as e:
+        except (haze.HazeError, RuntimeError) as e:
             self.report({"ERROR"}, str(e))
             return {"CANCELLED"}
         show(image, "haze preview")
@@ -372,7 +436,45 @@ class HAZE_OT_preview(_OnDomain, bpy.types.Operator):
         return {"FINISHED"}
 
 
-class HAZE_OT_volume(_OnDomain, bpy.types.Operator):
+def preview_camera(cam, obj, width, height):
+    """``haze.render``'s camera arguments for the scene camera ``cam`` (none: haze's
+    default camera framing the smoke). A domain's asset is in world space; a Volume
+    object's is in the object's local space, so the camera is carried into it by the
+    object's inverse transform (a rotation, a translation and a uniform scale keep the
+    picture; a non-uniform scale would shear it and is refused)."""
+    if cam is None or cam.type != "CAMERA":
+        return {}
+    m = cam.matrix_world
+    eye = m.translation
+    forward = -(m.to_3x3().col[2])
+    target = eye + forward
+    up = m.to_3x3().col[1]
+    if volume_data(obj) is not None:
+        scale = obj.matrix_world.to_scale()
+        if max(abs(x) for x in scale) > (1.0 + 1e-6) * min(abs(x) for x in scale):
+            raise RuntimeError(
+                f"{obj.name} is scaled unevenly ({scale[0]:.3g}, {scale[1]:.3g}, {scale[2]:.3g}) "
+                "and the preview would be sheared: give it one scale on every axis"
+            )
+        inv = obj.matrix_world.inverted()
+        eye, target = inv @ eye, inv @ target
+        up = (inv.to_3x3() @ up).normalized()
+    return dict(eye=tuple(eye), target=tuple(target), up=tuple(up), fov=_vertical_fov(cam.data, width, height))
+
+
+def shown_frame(scene, obj):
+    """The asset frame that belongs to the scene's frame: a Volume object's sequence shows
+    the file its frame mapping picks (its number is the asset's frame); a domain's cache
+    is numbered by scene frames."""
+    vol = volume_data(obj)
+    if vol is None or not vol.is_sequence:
+        return scene.frame_current
+    shown = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+    shown.grids.load()
+    return shown.grids.frame
+
+
+class HAZE_OT_volume(_OnSource, bpy.types.Operator):
     """Load the .haze asset into the scene as a Volume object (its frames written as an OpenVDB sequence beside it), to compare the bake with the simulation"""
 
     bl_idname = "haze.volume"
@@ -398,34 +500,51 @@ class HAZE_OT_volume(_OnDomain, bpy.types.Operator):
             return {"CANCELLED"}
         finally:
             wm.progress_end()
-        obj = volume_object(context.scene, asset, files[0])
+        source = context.object if volume_data(context.object) is not None else None
+        obj = volume_object(context.scene, asset, files[0], source)
         self.report({"INFO"}, f"{obj.name}: {len(files)} frames from {folder}")
         return {"FINISHED"}
 
 
-def volume_object(scene, asset, first):
+def volume_object(scene, asset, first, source=None):
     """The Volume object "<asset> (haze)" (made, or reused from an earlier load) playing the
-    sequence that starts at file ``first``, numbered by the asset's frames: scene frame
-    ``n`` shows ``density_n`` (nothing outside the asset's frames). The files place index
-    ``i`` at the min corner of the asset's voxel ``i`` (as Blender writes its caches) and
-    Blender draws a voxel centred on its index, so the object sits half a voxel up each
-    axis: its voxels cover the domain's cells."""
+    sequence that starts at file ``first``, numbered by the asset's frames.
+
+    From a domain: scene frame ``n`` shows ``density_n`` (nothing outside the asset's
+    frames). The files place index ``i`` at the min corner of the asset's voxel ``i`` (as
+    Blender writes its caches) and Blender draws a voxel centred on its index, so the
+    object sits half a voxel up each axis: its voxels cover the domain's cells.
+
+    From a Volume object ``source``: the files keep the source files' transform and
+    numbers, so the object is parented to ``source`` with no transform of its own (it is
+    drawn exactly over it, wherever ``source`` goes) and takes ``source``'s frame mapping.
+    """
     name = os.path.splitext(os.path.basename(str(asset.path)))[0] + " (haze)"
     obj = bpy.data.objects.get(name)
-    if obj is None or obj.type != "VOLUME":
+    if obj is None or obj.type != "VOLUME" or obj == source:
         vol = bpy.data.volumes.new(name)
         obj = bpy.data.objects.new(name, vol)
         scene.collection.objects.link(obj)
     vol = obj.data
     vol.filepath = bpy.path.relpath(str(first)) if bpy.data.filepath else str(first)
+    vol.grids.unload()
+    if source is not None:
+        src = source.data
+        for key in ("is_sequence", "sequence_mode", "frame_start", "frame_duration", "frame_offset"):
+            setattr(vol, key, getattr(src, key))
+        obj.parent = source
+        obj.matrix_parent_inverse.identity()
+        obj.matrix_basis.identity()
+        return obj
     frames = asset.frames
     vol.is_sequence = True
     vol.sequence_mode = "CLIP"
     vol.frame_start = frames[0]
     vol.frame_duration = frames[-1] - frames[0] + 1
     vol.frame_offset = frames[0] - 1
-    vol.grids.unload()
+    obj.parent = None
     (lo, hi) = asset.bbox
+    obj.matrix_basis.identity()
     obj.location = tuple((hi[a] - lo[a]) / asset.dims[a] / 2 for a in range(3))
     return obj
 
@@ -462,6 +581,8 @@ def show(image, name):
 
 
 class HAZE_PT_domain(bpy.types.Panel):
+    """The panel on a Gas fluid domain (Properties > Physics)."""
+
     bl_label = "haze"
     bl_space_type = "PROPERTIES"
     bl_region_type = "WINDOW"
@@ -472,24 +593,44 @@ class HAZE_PT_domain(bpy.types.Panel):
         return fluid_domain(context.object) is not None
 
     def draw(self, context):
-        settings = context.scene.haze
         col = self.layout.column()
         ds = fluid_domain(context.object)
         if volume_format_problem(ds):
             menu = "Noise" if ds.use_noise else "Volumes"
             col.label(text=f"Cache > Format {menu} must be OpenVDB", icon="ERROR")
-        col.prop(settings, "output")
-        col.prop(settings, "rbfs")
-        col.prop(settings, "residual_error")
-        col.operator(HAZE_OT_bake.bl_idname, icon="PHYSICS")
-        row = col.row(align=True)
-        row.prop(settings, "preview_width")
-        row.prop(settings, "preview_height")
-        col.operator(HAZE_OT_preview.bl_idname, icon="RENDER_STILL")
-        col.operator(HAZE_OT_volume.bl_idname, icon="VOLUME_DATA")
+        draw_settings(col, context.scene.haze)
 
 
-classes = (HazeSettings, HAZE_OT_bake, HAZE_OT_preview, HAZE_OT_volume, HAZE_PT_domain)
+class HAZE_PT_volume(bpy.types.Panel):
+    """The panel on a Volume object that plays a file (Properties > Data)."""
+
+    bl_label = "haze"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "data"
+
+    @classmethod
+    def poll(cls, context):
+        return volume_data(context.object) is not None
+
+    def draw(self, context):
+        draw_settings(self.layout.column(), context.scene.haze)
+
+
+def draw_settings(col, settings):
+    """The panel's settings and buttons, the same on a domain and on a Volume object."""
+    col.prop(settings, "output")
+    col.prop(settings, "rbfs")
+    col.prop(settings, "residual_error")
+    col.operator(HAZE_OT_bake.bl_idname, icon="PHYSICS")
+    row = col.row(align=True)
+    row.prop(settings, "preview_width")
+    row.prop(settings, "preview_height")
+    col.operator(HAZE_OT_preview.bl_idname, icon="RENDER_STILL")
+    col.operator(HAZE_OT_volume.bl_idname, icon="VOLUME_DATA")
+
+
+classes = (HazeSettings, HAZE_OT_bake, HAZE_OT_preview, HAZE_OT_volume, HAZE_PT_domain, HAZE_PT_volume)
 
 
 def register():

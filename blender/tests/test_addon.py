@@ -1,5 +1,6 @@
 """The Blender add-on, headless, with bpy from PyPI: bakes a small Mantaflow smoke domain,
-runs "Bake to .haze" and "Preview" on it, and checks the asset and the image.
+runs "Bake to .haze", "Preview" and "Load as Volume" on it, and checks the asset and the
+image; then the same on a Volume object that plays another tool's OpenVDB sequence.
 
     python blender/tests/test_addon.py        # a Python with bpy, numpy and haze installed
 
@@ -306,8 +307,185 @@ def main():
     )
     check("its frames were blocks of the domain", len(blocks) > 1, f"{blocks}")
     haze_bake.unregister()
+
+    volume_source_checks(work)
     print(f"{passed} passed, 0 failed in {time.monotonic() - START:.2f}s", flush=True)
     os._exit(0)
+
+
+def foreign_sequence(folder):
+    """Three frames of a drifting blob as another tool writes them (OpenVDB's own writer):
+    grids ``density`` and ``temperature``, indices around 0, voxels of 0.1 shifted by
+    (0.3, −0.2, 0.5). Returns the densities as (z, y, x) arrays over file indices
+    (−9, −8, −10) + index, and the index→world transform's scale and translation."""
+    vdb = blender_openvdb()
+    folder.mkdir()
+    voxel, shift, first = 0.1, (0.3, -0.2, 0.5), (-9, -8, -10)
+    z, y, x = np.meshgrid(*(np.arange(k, dtype=np.float64) for k in (20, 16, 18)), indexing="ij")
+    frames = {}
+    for n in (1, 2, 3):
+        d = np.exp(-(((x - 7 - n) / 3.0) ** 2 + ((y - 7) / 3.0) ** 2 + ((z - 9) / 4.0) ** 2))
+        d[d < 0.01] = 0.0
+        frames[n] = d.astype(np.float32)
+        grids = []
+        for name, scale in (("density", 1.0), ("temperature", 300.0)):
+            g = vdb.FloatGrid()
+            g.copyFromArray(np.ascontiguousarray(frames[n].transpose(2, 1, 0)) * scale, ijk=first, tolerance=0)
+            g.name = name
+            g.gridClass = vdb.GridClass.FOG_VOLUME
+            m = [[voxel, 0, 0, 0], [0, voxel, 0, 0], [0, 0, voxel, 0], [*shift, 1]]
+            g.transform = vdb.createLinearTransform(m)
+            grids.append(g)
+        vdb.write(str(folder / f"ember.{n:04d}.vdb"), grids=grids)
+    return frames, first, voxel, shift
+
+
+def volume_source_checks(work):
+    """The panel's three operators on a Volume object (placed, rotated and scaled) that
+    plays an OpenVDB sequence written by another tool."""
+    frames, first, voxel, shift = foreign_sequence(work / "ember")
+    haze_bake.register()
+    scene = bpy.context.scene
+    vol = bpy.data.volumes.new("ember")
+    vol.filepath = str(work / "ember" / "ember.0001.vdb")
+    vol.is_sequence = True
+    vol.frame_duration = 3
+    src = bpy.data.objects.new("ember", vol)
+    scene.collection.objects.link(src)
+    src.location = (2.0, 1.0, 0.5)
+    src.rotation_euler = (0.0, 0.0, math.radians(30.0))
+    src.scale = (0.5, 0.5, 0.5)
+    bpy.context.view_layer.objects.active = src
+    bpy.context.view_layer.update()
+    check("the operators show on a Volume object that plays a file", bpy.ops.haze.bake.poll())
+
+    out = work / "ember.haze"
+    scene.haze.output = str(out)
+    scene.haze.rbfs = 20
+    result = bpy.ops.haze.bake()
+    asset = haze.Asset(out)
+    check(
+        "a rotated, scaled Volume object's sequence is baked, frame for file",
+        result == {"FINISHED"} and asset.frames == [1, 2, 3],
+        f"{result} {asset.frames if out.exists() else None}",
+    )
+    # The asset keeps the files' coordinates: its box starts at the first active index's
+    # min corner, and each frame is the file's density (not its temperature) within the
+    # residual's bound, 1/255 of the frame's peak.
+    (lo, hi) = asset.bbox
+    i0 = [round((lo[a] - shift[a]) / voxel) for a in range(3)]
+    nx, ny, nz = asset.dims
+    worst = 0.0
+    for n, d in frames.items():
+        z0, y0, x0 = (i0[2] - first[2], i0[1] - first[1], i0[0] - first[0])
+        want = d[z0 : z0 + nz, y0 : y0 + ny, x0 : x0 + nx]
+        got = asset.frame(n)
+        worst = max(worst, float(np.abs(got - want).max()) / float(d.max()))
+    check(
+        "the asset is the files' density grid where the files put it",
+        all(abs(lo[a] - (shift[a] + voxel * i0[a])) < 1e-9 for a in range(3)) and worst <= 1.0 / 255 + 1e-6,
+        f"{asset.bbox} {i0} worst {worst}",
+    )
+
+    # Preview through a camera in the world: the asset is in the object's local space, so
+    # the camera is carried there by the object's inverse transform.
+    bpy.ops.object.camera_add(location=(2.5, -4.0, 1.2))
+    cam = bpy.context.active_object
+    cam.rotation_euler = (math.radians(80.0), 0.0, math.radians(5.0))
+    scene.camera = cam
+    bpy.context.view_layer.objects.active = src
+    bpy.context.view_layer.update()
+    scene.haze.preview_width, scene.haze.preview_height = 48, 36
+    scene.frame_set(2)
+    result = bpy.ops.haze.preview()
+    img = bpy.data.images.get("haze preview")
+    pixels = np.empty(48 * 36 * 4, dtype=np.float32)
+    img.pixels.foreach_get(pixels)
+    shown = pixels.reshape(36, 48, 4)[::-1, :, :3]
+    inv = np.linalg.inv(np.array(src.matrix_world, dtype=np.float64))
+    cm = np.array(cam.matrix_world, dtype=np.float64)
+    eye, forward, up = cm[:3, 3], -cm[:3, 2], cm[:3, 1]
+
+    def local(p):
+        return tuple(inv[:3, :3] @ p + inv[:3, 3])
+
+    up_local = inv[:3, :3] @ up
+    fov = haze_bake._vertical_fov(cam.data, 48, 36)
+    want = haze.render(
+        out, 2, width=48, height=36, eye=local(eye), target=local(eye + forward),
+        up=tuple(up_local / np.linalg.norm(up_local)), fov=fov,
+    )
+    check(
+        "the preview is frame 2 seen by the scene camera in the object's space",
+        result == {"FINISHED"} and np.allclose(shown, want, rtol=1e-4, atol=1e-5),
+        f"{result} max diff {np.abs(shown - want).max()}",
+    )
+    unmoved = haze.render(
+        out, 2, width=48, height=36, eye=tuple(eye), target=tuple(eye + forward), up=tuple(up), fov=fov,
+    )
+    check(
+        "the smoke shows in the preview, where the world camera alone would not put it",
+        np.ptp(want.mean(-1)) > 1e-3 and np.abs(unmoved - want).max() > 1e-2,
+        f"ptp {np.ptp(want.mean(-1))}, unmoved diff {np.abs(unmoved - want).max()}",
+    )
+    src.scale = (0.5, 0.5, 1.0)
+    bpy.context.view_layer.update()
+    result = attempt(bpy.ops.haze.preview)
+    check("an unevenly scaled object's preview is refused", "scaled unevenly" in str(result), f"{result}")
+    src.scale = (0.5, 0.5, 0.5)
+    bpy.context.view_layer.update()
+
+    # Load as Volume: the result drawn exactly over the source, wherever it goes.
+    result = bpy.ops.haze.volume()
+    obj = bpy.data.objects.get("ember (haze)")
+    check(
+        "Load as Volume parents the result to the object, with its frame mapping",
+        result == {"FINISHED"}
+        and obj.parent == src
+        and np.allclose(np.array(obj.matrix_world), np.array(src.matrix_world), atol=1e-6)
+        and all(
+            getattr(obj.data, k) == getattr(vol, k)
+            for k in ("is_sequence", "sequence_mode", "frame_start", "frame_duration", "frame_offset")
+        ),
+        f"{result} {obj and obj.parent}",
+    )
+    scene.frame_set(3)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    shown_vol = obj.evaluated_get(depsgraph).data
+    source_vol = src.evaluated_get(depsgraph).data
+    shown_vol.grids.load()
+    source_vol.grids.load()
+    g = blender_openvdb().read(str(work / "ember_vdb" / "density_0003.vdb"), "density")
+    check(
+        "it shows the file of the source's frame, its voxels on the source's voxels",
+        shown_vol.grids.frame == source_vol.grids.frame == 3
+        and np.allclose(g.transform.indexToWorld((0, 0, 0)), [shift[a] + voxel * i0[a] for a in range(3)], atol=1e-9)
+        and np.allclose(g.transform.indexToWorld((1, 1, 1)), [shift[a] + voxel * (i0[a] + 1) for a in range(3)], atol=1e-9),
+        f"{shown_vol.grids.frame} {source_vol.grids.frame} {g.transform.indexToWorld((0, 0, 0))}",
+    )
+
+    # A sequence without a float grid is refused, naming its grids.
+    vdb = blender_openvdb()
+    (work / "wind").mkdir()
+    for n in (1, 2):
+        v = vdb.Vec3SGrid()
+        v.copyFromArray(np.ones((4, 4, 4, 3), dtype=np.float32))
+        v.name = "velocity"
+        vdb.write(str(work / "wind" / f"wind_{n:03d}.vdb"), grids=[v])
+    vol.filepath = str(work / "wind" / "wind_001.vdb")
+    vol.frame_duration = 2
+    scene.frame_set(1)
+    result = attempt(bpy.ops.haze.bake)
+    check(
+        "a sequence without a float grid is refused, naming its grids",
+        "wind_*.vdb: no float grid" in str(result) and "velocity (vector_float)" in str(result),
+        f"{result}",
+    )
+    vol.is_sequence = False
+    vol.filepath = str(work / "gone.vdb")
+    result = attempt(bpy.ops.haze.bake)
+    check("a missing file is refused, named", "gone.vdb: no such file" in str(result), f"{result}")
+    haze_bake.unregister()
 
 
 if __name__ == "__main__":

@@ -7,13 +7,22 @@ haze must import from it (x fastest, ground truth computed here with numpy).
                     translation (1, 2, -3)), data at negative indices, an active 8^3 tile
   level_set.vdb     a level-set sphere (haze refuses level sets)
   empty.vdb         a float grid with no voxels
+  fog_background.vdb  a fog volume whose background is 0.1 (haze refuses it: density
+                    everywhere outside its voxels)
+  rotated.vdb       a small fog volume under a rotated transform (an AffineMap; refused)
+  root_tile.vdb     a constant 0.25 over the root tile of indices 0..4095 and a voxel
+                    of 0.75 at index (-1, -1, -1) (read through a box given by the caller)
   ball_128.vdb      a 128^3-class smooth, noisy ball (benchmark input)
 
 uncompressed.vdb (frame 24 of plume-a without any compression) comes from
 make_uncompressed.cpp: the Python bindings cannot choose a file's compression.
 """
 import numpy as np
-import pyopenvdb as vdb
+
+try:
+    import pyopenvdb as vdb
+except ImportError:  # OpenVDB 11+ names its module openvdb (as Blender's bundled one)
+    import openvdb as vdb
 
 rng = np.random.default_rng(7)
 
@@ -63,6 +72,30 @@ e = vdb.FloatGrid()
 e.name = "density"
 e.gridClass = vdb.GridClass.FOG_VOLUME
 vdb.write("empty.vdb", grids=[e])
+
+# --- fog_background, rotated, root_tile ------------------------------------------------
+small = np.zeros((4, 4, 4), dtype=np.float32)
+small[1:3, 1:3, 1:3] = 0.5
+g = vdb.FloatGrid(0.1)
+g.copyFromArray(small)
+g.name = "density"
+g.gridClass = vdb.GridClass.FOG_VOLUME
+vdb.write("fog_background.vdb", grids=[g])
+g = vdb.FloatGrid()
+g.copyFromArray(small)
+g.name = "density"
+g.gridClass = vdb.GridClass.FOG_VOLUME
+c, s_ = np.cos(0.3), np.sin(0.3)
+g.transform = vdb.createLinearTransform(
+    np.array([[0.1 * c, 0.1 * s_, 0, 0], [-0.1 * s_, 0.1 * c, 0, 0], [0, 0, 0.1, 0], [0, 0, 0, 1]])
+)
+vdb.write("rotated.vdb", grids=[g])
+g = vdb.FloatGrid()
+g.fill((0, 0, 0), (4095, 4095, 4095), 0.25, active=True)
+g.getAccessor().setValueOn((-1, -1, -1), 0.75)
+g.name = "density"
+g.gridClass = vdb.GridClass.FOG_VOLUME
+vdb.write("root_tile.vdb", grids=[g])
 
 # --- ball_128 -------------------------------------------------------------------------
 n = 128

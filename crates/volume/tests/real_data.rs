@@ -266,6 +266,74 @@ mod synthetic {
     }
 
     #[test]
+    fn a_fog_over_a_background_is_refused_not_read_as_empty_space() {
+        // Outside its voxels the file's density is 0.1 everywhere: a volume over a
+        // background of 0 would drop that fog without a word.
+        let e = import::import(
+            &data("synthetic/fog_background.vdb"),
+            &ImportOptions::default(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("fog_background.vdb") && e.contains("its background is 0.1"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_rotated_grid_is_refused_with_what_to_do() {
+        let e = import::import(&data("synthetic/rotated.vdb"), &ImportOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("rotated.vdb")
+                && e.contains("AffineMap")
+                && e.contains("resample it onto an axis-aligned grid"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn root_tiles_read_as_their_value() {
+        // A constant 0.25 over the root tile of indices 0..4095 (no node below the root
+        // stores it) and one voxel of 0.75 at (-1, -1, -1), read through a box across
+        // the tile's corner: the tile's voxels are 0.25, the voxel 0.75, the rest 0.
+        let bx = vdb::IndexBox {
+            min: [-2; 3],
+            max: [1; 3],
+        };
+        let f = vdb::read(
+            &data("synthetic/root_tile.vdb"),
+            "density",
+            Some(bx),
+            [0.0; 3],
+        )
+        .unwrap();
+        let v = &f.volume;
+        assert_eq!(v.dims(), [4, 4, 4]);
+        for z in 0..4 {
+            for y in 0..4 {
+                for x in 0..4 {
+                    let want = if [x, y, z].iter().all(|&i| i >= 2) {
+                        0.25
+                    } else if [x, y, z] == [1, 1, 1] {
+                        0.75
+                    } else {
+                        0.0
+                    };
+                    assert_eq!(v.get(x, y, z), want, "({x}, {y}, {z})");
+                }
+            }
+        }
+        // Without a box the file's own box is the whole tile: too large, and said so.
+        let e = import::import(&data("synthetic/root_tile.vdb"), &ImportOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("too large"), "{e}");
+    }
+
+    #[test]
     fn an_empty_grid_is_an_empty_frame() {
         let v = import::import(&data("synthetic/empty.vdb"), &ImportOptions::default()).unwrap();
         assert!(v.is_empty());

@@ -330,6 +330,10 @@ impl<ValueTy> Node for Node5<ValueTy> {
 #[derive(Debug)]
 pub struct Tree<ValueTy> {
     pub root_nodes: Vec<Node5<ValueTy>>,
+    /// The value of every voxel the tree does not store (the root's background).
+    pub background: ValueTy,
+    /// The root's tiles: constant 4096³ regions (their origin, value and whether active).
+    pub root_tiles: Vec<(glam::IVec3, ValueTy, bool)>,
 }
 
 #[derive(Clone, Copy, Debug, Eq, PartialEq)]

@@ -481,16 +481,20 @@ impl<R: Read + Seek> VdbReader<R> {
         let buffer_count = reader.read_u32::<LittleEndian>()?;
         assert_eq!(buffer_count, 1, "Multi-buffer trees are not supported");
 
-        let _root_node_background_value = reader.read_u32::<LittleEndian>()?;
+        let mut background = ValueTy::zeroed();
+        reader.read_exact(bytes_of_mut(&mut background))?;
         let number_of_tiles = reader.read_u32::<LittleEndian>()?;
         let number_of_root_nodes = reader.read_u32::<LittleEndian>()?;
 
         let mut root_nodes = vec![];
+        let mut root_tiles = vec![];
 
         for _tile_idx in 0..number_of_tiles {
-            let _vec = read_i_vec3(reader)?;
-            let _value = reader.read_u32::<LittleEndian>()?;
-            let _active = reader.read_u8()?;
+            let origin = read_i_vec3(reader)?;
+            let mut value = ValueTy::zeroed();
+            reader.read_exact(bytes_of_mut(&mut value))?;
+            let active = reader.read_u8()? != 0;
+            root_tiles.push((origin, value, active));
         }
 
         for _root_idx in 0..number_of_root_nodes {
@@ -548,7 +552,11 @@ impl<R: Read + Seek> VdbReader<R> {
             root_nodes.push(root);
         }
 
-        Ok(Tree { root_nodes })
+        Ok(Tree {
+            root_nodes,
+            background,
+            root_tiles,
+        })
     }
 
     fn read_tree_data<ValueTy: Pod>(

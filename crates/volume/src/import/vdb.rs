@@ -11,8 +11,9 @@
 //!   bounding box of the stored voxels. A caller can impose a box (sequences use the union
 //!   of their frames' boxes so that every frame has the same grid).
 //! * **Which values**: every value the tree stores inside the box — leaf voxels, active or
-//!   not, and tile values of internal nodes — over a background of 0 (fog volumes). Root
-//!   tiles (constant 4096³ regions) are not exposed by vdb-rs and read as background.
+//!   not, tile values of internal nodes and of the root (constant regions of 8³, 128³ and
+//!   4096³ voxels) — over a background of 0 (fog volumes); a grid whose background is not
+//!   0 (density everywhere outside its voxels) is refused.
 //! * **Where in the world**: index `i` maps through the grid's transform to the *min corner*
 //!   of voxel `i` (Blender's convention for its fluid caches), plus the caller's domain
 //!   offset: `bbox.min = offset + T(i_min)`, `bbox.max = offset + T(i_max + 1)`.
@@ -375,8 +376,34 @@ pub fn read(
     let grid: Grid<f32> = match catch_panic(|| reader.read_grid::<f32>(name)) {
         Ok(Ok(g)) => g,
         Ok(Err(e)) => return Err(vdb_err(path, format!("grid '{name}': {}", describe(&e)))),
-        Err(panic) => return Err(vdb_err(path, format!("grid '{name}': {panic}"))),
+        Err(panic) => {
+            return Err(match panic.strip_prefix("Not supported ") {
+                // vdb-rs reads the transforms of axis-aligned grids only.
+                Some(map) => ImportError::new(
+                    path,
+                    Problem::UnsupportedGrid {
+                        name: name.to_string(),
+                        why: format!(
+                            "its transform is an {map} (rotated, sheared or in perspective); haze reads axis-aligned grids (a scale and a translation): resample it onto an axis-aligned grid first"
+                        ),
+                    },
+                ),
+                None => vdb_err(path, format!("grid '{name}': {panic}")),
+            });
+        }
     };
+    let background = grid.tree.background;
+    if background != 0.0 {
+        return Err(ImportError::new(
+            path,
+            Problem::UnsupportedGrid {
+                name: name.to_string(),
+                why: format!(
+                    "its background is {background} (the density of all space outside its voxels); haze reads fog volumes over a background of 0"
+                ),
+            },
+        ));
+    }
     let (file_voxel, translation) = transform_of(path, &grid.transform)?;
     // An Adaptive Domain's block: its file indices shifted into the domain's, whose cells
     // are smaller than the block's transform says.
@@ -475,8 +502,9 @@ fn corrupt(path: &Path, what: &str) -> ImportError {
     vdb_err(path, format!("corrupt tree: {what}"))
 }
 
-/// Visits every value `grid` stores as `(min corner, side, value)`: internal-node tiles
-/// (sides 128 and 8) and all 512 values of each leaf (side 1).
+/// Visits every value `grid` stores as `(min corner, side, value)`: the root's tiles
+/// (side 4096), internal-node tiles (sides 128 and 8) and all 512 values of each leaf
+/// (side 1).
 fn walk(
     path: &Path,
     grid: &Grid<f32>,
@@ -485,6 +513,9 @@ fn walk(
     let at = |origin: [i32; 3], l: [i64; 3], shift: u32| {
         [0, 1, 2].map(|a| i64::from(origin[a]) + (l[a] << shift))
     };
+    for (origin, value, _active) in &grid.tree.root_tiles {
+        visit(at([origin.x, origin.y, origin.z], [0; 3], 0), 4096, *value);
+    }
     for root in &grid.tree.root_nodes {
         for idx in 0..(1usize << 15) {
             let o = at(
