@@ -580,12 +580,17 @@ def show(image, name):
     return img
 
 
-class HAZE_PT_domain(bpy.types.Panel):
-    """The panel on a Gas fluid domain (Properties > Physics)."""
+class _Panel:
+    """What the two panels share: the "haze" panel of the Properties editor."""
 
     bl_label = "haze"
     bl_space_type = "PROPERTIES"
     bl_region_type = "WINDOW"
+
+
+class HAZE_PT_domain(_Panel, bpy.types.Panel):
+    """The panel on a Gas fluid domain (Properties > Physics)."""
+
     bl_context = "physics"
 
     @classmethod
@@ -601,12 +606,9 @@ class HAZE_PT_domain(bpy.types.Panel):
         draw_settings(col, context.scene.haze)
 
 
-class HAZE_PT_volume(bpy.types.Panel):
+class HAZE_PT_volume(_Panel, bpy.types.Panel):
     """The panel on a Volume object that plays a file (Properties > Data)."""
 
-    bl_label = "haze"
-    bl_space_type = "PROPERTIES"
-    bl_region_type = "WINDOW"
     bl_context = "data"
 
     @classmethod

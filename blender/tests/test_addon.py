@@ -357,7 +357,12 @@ def volume_source_checks(work):
     src.scale = (0.5, 0.5, 0.5)
     bpy.context.view_layer.objects.active = src
     bpy.context.view_layer.update()
-    check("the operators show on a Volume object that plays a file", bpy.ops.haze.bake.poll())
+    check(
+        "the operators and the Data panel show on a Volume object that plays a file",
+        bpy.ops.haze.bake.poll()
+        and haze_bake.HAZE_PT_volume.poll(bpy.context)
+        and not haze_bake.HAZE_PT_domain.poll(bpy.context),
+    )
 
     out = work / "ember.haze"
     scene.haze.output = str(out)
