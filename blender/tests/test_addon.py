@@ -346,12 +346,22 @@ def volume_source_checks(work):
     frames, first, voxel, shift = foreign_sequence(work / "ember")
     haze_bake.register()
     scene = bpy.context.scene
-    vol = bpy.data.volumes.new("ember")
-    vol.filepath = str(work / "ember" / "ember.0001.vdb")
-    vol.is_sequence = True
-    vol.frame_duration = 3
-    src = bpy.data.objects.new("ember", vol)
-    scene.collection.objects.link(src)
+    # As a user brings it in: File > Import > OpenVDB of the three files (Blender makes
+    # them one sequence).
+    names = [f"ember.{n:04d}.vdb" for n in (1, 2, 3)]
+    bpy.ops.object.volume_import(
+        filepath=str(work / "ember" / names[0]),
+        directory=str(work / "ember"),
+        files=[{"name": n} for n in names],
+        use_sequence_detection=True,
+    )
+    src = bpy.context.active_object
+    vol = src.data
+    check(
+        "Blender imported the files as one sequence",
+        src.type == "VOLUME" and vol.is_sequence and vol.frame_duration == 3,
+        f"{src.type} {vol.is_sequence} {vol.frame_duration}",
+    )
     src.location = (2.0, 1.0, 0.5)
     src.rotation_euler = (0.0, 0.0, math.radians(30.0))
     src.scale = (0.5, 0.5, 0.5)
