@@ -444,7 +444,11 @@ fn bad_inputs_fail_with_one_line_naming_the_file() {
     )
     .unwrap();
     let e = fails_with_one_line(&["inspect", t("n.f32").to_str().unwrap()], &t("n.f32"));
-    assert!(e.contains("voxel (1, 1, 1) is NaN"), "{e}");
+    // Where the voxel lies: its min corner in the sidecar's box, (1, 1, 1)·(1/2, 1/2, 1/3).
+    assert!(
+        e.contains("voxel (1, 1, 1) at world (0.5, 0.5, 0.33333334) is NaN"),
+        "{e}"
+    );
 
     // A truncated and a bit-flipped .haze.
     let asset = t("a.haze");

@@ -132,7 +132,10 @@ fn npy_errors_are_clear() {
     let e = import::import(&p, &ImportOptions::default())
         .unwrap_err()
         .to_string();
-    assert!(e.contains("voxel (1, 0, 0) is NaN"), "{e}");
+    assert!(
+        e.contains("voxel (1, 0, 0) at world (") && e.contains(") is NaN"),
+        "{e}"
+    );
 }
 
 /// 8- and 16-bit unsigned samples come in as fractions of 255 / 65535 and half floats as

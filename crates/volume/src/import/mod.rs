@@ -171,7 +171,16 @@ pub fn vdb_options_refused(
     Err(ImportError::new(path, Problem::Format(why)))
 }
 
-/// Rejects NaN and ±Inf (naming the first voxel), and negative densities unless
+/// World position of voxel `i`'s min corner, where an OpenVDB file's transform puts its
+/// index (as `f32`: an error message's precision).
+fn corner(v: &Volume, i: usize) -> [f32; 3] {
+    let (b, d, c) = (v.bbox(), v.dims(), v.coords(i));
+    std::array::from_fn(|a| {
+        (b.min[a] + c[a] as f64 * (b.max[a] - b.min[a]) / d[a].max(1) as f64) as f32
+    })
+}
+
+/// Rejects NaN and ±Inf (naming the first voxel and where it is), and negative densities unless
 /// `clamp_negative`, in which case they become 0. Returns how many voxels were clamped.
 pub fn validate(path: &Path, v: &mut Volume, clamp_negative: bool) -> Result<usize, ImportError> {
     let mut clamped = 0;
@@ -182,6 +191,7 @@ pub fn validate(path: &Path, v: &mut Volume, clamp_negative: bool) -> Result<usi
                 path,
                 Problem::NonFinite {
                     voxel: v.coords(i),
+                    at: corner(v, i),
                     value: *d,
                 },
             ));
@@ -196,6 +206,7 @@ pub fn validate(path: &Path, v: &mut Volume, clamp_negative: bool) -> Result<usi
                 path,
                 Problem::Negative {
                     voxel: v.coords(i),
+                    at: corner(v, i),
                     value: v.data()[i],
                 },
             ));
@@ -226,7 +237,10 @@ mod tests {
             let mut v = vol(vec![0.0, 0.0, bad, 1.0]);
             let e = validate(Path::new("x.f32"), &mut v, true).unwrap_err();
             let msg = e.to_string();
-            assert!(msg.starts_with("x.f32: voxel (0, 1, 0) is "), "{msg}");
+            assert!(
+                msg.starts_with("x.f32: voxel (0, 1, 0) at world (0, 0.5, 0) is "),
+                "{msg}"
+            );
         }
     }
 
@@ -234,7 +248,12 @@ mod tests {
     fn validation_of_negatives() {
         let mut v = vol(vec![0.5, -0.25, -0.0, -1.0]);
         let e = validate(Path::new("n.npy"), &mut v, false).unwrap_err();
-        assert!(e.to_string().contains("voxel (1, 0, 0) is -0.25"), "{e}");
+        // Voxel x = 1 of 2 over [0, 1]: its min corner at x = 0.5.
+        assert!(
+            e.to_string()
+                .contains("voxel (1, 0, 0) at world (0.5, 0, 0) is -0.25"),
+            "{e}"
+        );
         assert_eq!(validate(Path::new("n.npy"), &mut v, true).unwrap(), 2);
         assert_eq!(v.data(), &[0.5, 0.0, -0.0, 0.0]);
         let mut empty = Volume::zeros([0, 0, 0], Bbox::new([0.0; 3], [1.0; 3])).unwrap();
