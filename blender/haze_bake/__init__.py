@@ -193,16 +193,15 @@ def smoke_source(obj):
 
 def sequence_pattern(path):
     """The glob of a volume sequence's files from one of them: the last run of digits in
-    the file's name as ``*`` (the frame number, as Blender reads it); a name without
-    digits is the file alone."""
+    the file's name before its extension as ``*`` (the frame number, as Blender reads it);
+    a name without such digits is the file alone."""
     folder, name = os.path.split(path)
-    digits = list(re.finditer(r"[0-9]+", name))
+    stem, ext = os.path.splitext(name)
+    digits = list(re.finditer(r"[0-9]+", stem))
     if not digits:
         return path
     last = digits[-1]
-    return os.path.join(
-        glob.escape(folder), glob.escape(name[: last.start()]) + "*" + glob.escape(name[last.end() :])
-    )
+    return os.path.join(glob.escape(folder), glob.escape(stem[: last.start()]) + "*" + glob.escape(stem[last.end() :] + ext))
 
 
 def volume_grid(vol):

@@ -292,6 +292,16 @@ fn sequences_refuse_ambiguity() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("frame 1 also comes from"), "{e}");
+    // Two sequences side by side: the error says how to pick one, and the glob it gives
+    // opens that sequence alone.
+    let hint = format!(
+        "select one with a glob such as '{}'",
+        tmp.path().join("b_*.npy").display()
+    );
+    assert!(e.contains(&hint), "{e}");
+    let picked = haze_volume::import::sequence::discover(&tmp.path().join("b_*.npy")).unwrap();
+    assert_eq!(picked.len(), 1);
+    assert_eq!(picked[0].path, tmp.path().join("b_1.npy"));
     let empty = tempfile::tempdir().unwrap();
     let e = Sequence::open(empty.path(), &ImportOptions::default(), Default::default())
         .unwrap_err()

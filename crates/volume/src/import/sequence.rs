@@ -225,10 +225,17 @@ pub fn discover(path: &Path) -> Result<Vec<FrameFile>, ImportError> {
     frames.sort_by(|a, b| a.number.cmp(&b.number).then_with(|| a.path.cmp(&b.path)));
     for w in frames.windows(2) {
         if w[0].number == w[1].number {
+            let hint = match (sequence_glob(&w[0].path), sequence_glob(&w[1].path)) {
+                (Some(a), Some(b)) if a != b => format!(
+                    ": two sequences side by side? select one with a glob such as '{}'",
+                    b.display()
+                ),
+                _ => String::new(),
+            };
             return Err(seq_err(
                 &w[1].path,
                 format!(
-                    "frame {} also comes from {}",
+                    "frame {} also comes from {}{hint}",
                     w[0].number,
                     w[0].path.display()
                 ),
@@ -236,6 +243,26 @@ pub fn discover(path: &Path) -> Result<Vec<FrameFile>, ImportError> {
         }
     }
     Ok(frames)
+}
+
+/// The glob of the sequence a numbered file belongs to: the last run of digits before its
+/// extension as `*`, the rest escaped (`None` for a name without such digits).
+fn sequence_glob(path: &Path) -> Option<PathBuf> {
+    let stem = path.file_stem()?.to_str()?;
+    let ext = path
+        .extension()
+        .map(|e| format!(".{}", e.to_string_lossy()))
+        .unwrap_or_default();
+    let end = stem.rfind(|c: char| c.is_ascii_digit())? + 1;
+    let start = stem[..end]
+        .rfind(|c: char| !c.is_ascii_digit())
+        .map_or(0, |i| i + 1);
+    let pattern = format!(
+        "{}*{}",
+        glob::Pattern::escape(&stem[..start]),
+        glob::Pattern::escape(&format!("{}{ext}", &stem[end..]))
+    );
+    Some(path.with_file_name(pattern))
 }
 
 /// Missing frame numbers between consecutive frames, as inclusive ranges.
@@ -433,6 +460,16 @@ fn union_box(frames: &[FrameFile], opts: &ImportOptions) -> Result<Option<IndexB
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_sequences_glob_stars_its_last_digits_and_escapes_the_rest() {
+        let g = |p: &str| sequence_glob(Path::new(p)).map(|p| p.display().to_string());
+        assert_eq!(g("c/smoke_0001.vdb").as_deref(), Some("c/smoke_*.vdb"));
+        assert_eq!(g("c/v2_fire.0042.vdb").as_deref(), Some("c/v2_fire.*.vdb"));
+        assert_eq!(g("0007.npy").as_deref(), Some("*.npy"));
+        assert_eq!(g("c/a[1]_3.f32").as_deref(), Some("c/a[[]1[]]_*.f32"));
+        assert_eq!(g("c/smoke.vdb"), None);
+    }
 
     /// Messages print a range as it is written on the command line, never as a Rust value.
     #[test]
