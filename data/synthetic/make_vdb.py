@@ -10,6 +10,8 @@ haze must import from it (x fastest, ground truth computed here with numpy).
   fog_background.vdb  a fog volume whose background is 0.1 (haze refuses it: density
                     everywhere outside its voxels)
   rotated.vdb       a small fog volume under a rotated transform (an AffineMap; refused)
+  same_names.vdb    two fog grids both named "density" (0.5 and 0.25 over a 2^3 block),
+                    which OpenVDB lists as density[0] and density[1]
   root_tile.vdb     a constant 0.25 over the root tile of indices 0..4095 and a voxel
                     of 0.75 at index (-1, -1, -1) (read through a box given by the caller)
   ball_128.vdb      a 128^3-class smooth, noisy ball (benchmark input)
@@ -90,6 +92,14 @@ g.transform = vdb.createLinearTransform(
     np.array([[0.1 * c, 0.1 * s_, 0, 0], [-0.1 * s_, 0.1 * c, 0, 0], [0, 0, 0.1, 0], [0, 0, 0, 1]])
 )
 vdb.write("rotated.vdb", grids=[g])
+same = []
+for value in (0.5, 0.25):
+    g = vdb.FloatGrid()
+    g.copyFromArray(small * (value / 0.5))
+    g.name = "density"
+    g.gridClass = vdb.GridClass.FOG_VOLUME
+    same.append(g)
+vdb.write("same_names.vdb", grids=same)
 g = vdb.FloatGrid()
 g.fill((0, 0, 0), (4095, 4095, 4095), 0.25, active=True)
 g.getAccessor().setValueOn((-1, -1, -1), 0.75)

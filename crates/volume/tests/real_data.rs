@@ -295,6 +295,35 @@ mod synthetic {
     }
 
     #[test]
+    fn grids_of_the_same_name_are_listed_and_read_as_openvdb_shows_them() {
+        let path = data("synthetic/same_names.vdb");
+        let info = vdb::probe(&path).unwrap();
+        let names: Vec<&str> = info.grids.iter().map(|g| g.name.as_str()).collect();
+        assert_eq!(names, ["density[0]", "density[1]"]);
+        // The default name matches neither, and the error lists what does.
+        let e = import::import(&path, &ImportOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("grids in the file: density[0], density[1]"),
+            "{e}"
+        );
+        for (name, value) in [("density[0]", 0.5), ("density[1]", 0.25)] {
+            let opts = ImportOptions {
+                grid: name.to_string(),
+                ..ImportOptions::default()
+            };
+            let v = import::import(&path, &opts).unwrap();
+            assert_eq!(v.dims(), [2, 2, 2], "{name}");
+            assert!(
+                v.data().iter().all(|&d| d == value),
+                "{name}: {:?}",
+                v.data()
+            );
+        }
+    }
+
+    #[test]
     fn root_tiles_read_as_their_value() {
         // A constant 0.25 over the root tile of indices 0..4095 (no node below the root
         // stores it) and one voxel of 0.75 at (-1, -1, -1), read through a box across

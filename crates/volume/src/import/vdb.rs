@@ -79,7 +79,12 @@ impl IndexBox {
 /// What a VDB file says about one of its grids without reading the tree.
 #[derive(Clone, Debug, Serialize)]
 pub struct VdbGridInfo {
+    /// The grid's name as OpenVDB shows it: grids of the same name in one file are
+    /// `name[0]`, `name[1]`, … (the file stores them as `name`, U+001E, the index).
     pub name: String,
+    /// The name as the file stores it.
+    #[serde(skip)]
+    pub stored: String,
     pub grid_type: String,
     pub class: Option<String>,
     pub active_voxels: Option<i64>,
@@ -246,6 +251,15 @@ fn describe(e: &vdb_rs::ParseError) -> String {
     }
 }
 
+/// OpenVDB's display form of a stored grid name: a name made unique in the file by a
+/// record separator (U+001E) and an index shows as `name[index]`.
+fn shown_name(stored: &str) -> String {
+    match stored.split_once('\u{1e}') {
+        Some((base, index)) => format!("{base}[{index}]"),
+        None => stored.to_string(),
+    }
+}
+
 fn vec3i(v: Option<&MetadataValue>) -> Option<[i32; 3]> {
     match v {
         Some(MetadataValue::Vec3i(v)) => Some([v.x, v.y, v.z]),
@@ -268,7 +282,8 @@ fn info_of(reader: &VdbReader<BufReader<File>>) -> VdbFileInfo {
                 _ => None,
             };
             VdbGridInfo {
-                name: gd.name.clone(),
+                name: shown_name(&gd.name),
+                stored: gd.name.clone(),
                 grid_type: gd.grid_type.clone(),
                 class: string("class"),
                 active_voxels: match m.get("file_voxel_count") {
@@ -363,7 +378,8 @@ pub fn read(
     let mut reader = open_reader(path)?;
     let info = placed_info(path, &reader)?;
     let gi = info.require(path, name)?.clone();
-    if !reader.grid_descriptors[name].instance_parent.is_empty() {
+    let stored = gi.stored.as_str();
+    if !reader.grid_descriptors[stored].instance_parent.is_empty() {
         return Err(ImportError::new(
             path,
             Problem::UnsupportedGrid {
@@ -373,7 +389,7 @@ pub fn read(
             },
         ));
     }
-    let grid: Grid<f32> = match catch_panic(|| reader.read_grid::<f32>(name)) {
+    let grid: Grid<f32> = match catch_panic(|| reader.read_grid::<f32>(stored)) {
         Ok(Ok(g)) => g,
         Ok(Err(e)) => return Err(vdb_err(path, format!("grid '{name}': {}", describe(&e)))),
         Err(panic) => {
