@@ -56,24 +56,17 @@ pub enum Problem {
     #[error("grid '{name}' is unsupported: {why}")]
     UnsupportedGrid { name: String, why: String },
     #[error(
-        "voxel ({}, {}, {}) at world ({}, {}, {}) is {value}: densities must be finite",
+        "voxel ({}, {}, {}) at world ({}, {}, {}) is {value}: {rule}",
         voxel[0], voxel[1], voxel[2], at[0], at[1], at[2]
     )]
-    NonFinite {
+    BadVoxel {
         voxel: [usize; 3],
         /// Where the voxel's index lies in world space (its min corner as haze reads a
         /// file: the point an OpenVDB file's own transform maps the index to).
         at: [f32; 3],
         value: f32,
-    },
-    #[error(
-        "voxel ({}, {}, {}) at world ({}, {}, {}) is {value}: densities must not be negative (pass --clamp-negative to clamp them to 0)",
-        voxel[0], voxel[1], voxel[2], at[0], at[1], at[2]
-    )]
-    Negative {
-        voxel: [usize; 3],
-        at: [f32; 3],
-        value: f32,
+        /// The rule the value breaks, and what to do.
+        rule: &'static str,
     },
     #[error("sidecar {sidecar}: {why}")]
     Sidecar { sidecar: PathBuf, why: String },

@@ -189,10 +189,11 @@ pub fn validate(path: &Path, v: &mut Volume, clamp_negative: bool) -> Result<usi
         if !d.is_finite() {
             return Err(ImportError::new(
                 path,
-                Problem::NonFinite {
+                Problem::BadVoxel {
                     voxel: v.coords(i),
                     at: corner(v, i),
                     value: *d,
+                    rule: "densities must be finite",
                 },
             ));
         }
@@ -204,10 +205,11 @@ pub fn validate(path: &Path, v: &mut Volume, clamp_negative: bool) -> Result<usi
         if !clamp_negative {
             return Err(ImportError::new(
                 path,
-                Problem::Negative {
+                Problem::BadVoxel {
                     voxel: v.coords(i),
                     at: corner(v, i),
                     value: v.data()[i],
+                    rule: "densities must not be negative (pass --clamp-negative to clamp them to 0)",
                 },
             ));
         }
