@@ -26,8 +26,9 @@ asset sits axis-aligned and still, so a rotated domain, and a domain that moves 
 cache's frames, are refused.
 
 On a Volume object the same three buttons work on the files it plays: its grid
-``density`` (or its first float grid), every file of its sequence (the file's name with
-its last run of digits as ``*``). The asset keeps the files' own coordinates, which are
+``density`` (or its first float grid), the files of its sequence that it plays (the
+file's name with its last run of digits as ``*``; numbers ``frame_offset + 1`` to
+``frame_offset + frame_duration``, the span its Frames and Offset select). The asset keeps the files' own coordinates, which are
 the object's local space, so nothing about the object's placement is refused: Preview
 looks through the scene camera carried into that space, and "Load as Volume" parents the
 result to the object (it follows the object wherever it is placed or animated) with the
@@ -226,10 +227,25 @@ def volume_files(vol):
     return sequence_pattern(path) if vol.is_sequence else path
 
 
+def played_frames(vol):
+    """The file numbers Volume data ``vol`` plays, as haze's frame range ``"a..b"``, or None
+    for a single file. Blender shows the sequence's file number ``frame_offset + k`` for
+    ``k`` in ``1..=frame_duration`` (each sequence mode maps the scene's frame into that
+    span), so a sequence imported from 50 files and set to play 8 bakes those 8. A
+    RuntimeError when it plays none (Frames is 0)."""
+    if not vol.is_sequence or sequence_pattern(bpy.path.abspath(vol.filepath)) == bpy.path.abspath(vol.filepath):
+        return None
+    if vol.frame_duration < 1:
+        raise RuntimeError("the Volume object plays no file (its Frames is 0)")
+    first = vol.frame_offset + 1
+    return f"{first}..{first + vol.frame_duration - 1}"
+
+
 def source_arguments(context):
     """``haze.bake``'s source arguments for the active object: ``src``, ``grid``,
     ``domain_offset`` (a domain's cache is local to the domain; a Volume object's files
-    keep their own coordinates, the object's local space)."""
+    keep their own coordinates, the object's local space) and, for a Volume object's
+    sequence, the ``frames`` it plays."""
     obj = context.object
     vol = volume_data(obj)
     if vol is not None:
@@ -238,9 +254,10 @@ def source_arguments(context):
             raise RuntimeError(f"{src}: no such file (the Volume object's file)")
         try:
             grid = volume_grid(vol)
+            frames = played_frames(vol)
         except RuntimeError as e:
             raise RuntimeError(f"{src}: {e}") from None
-        return dict(src=src, grid=grid, domain_offset=(0.0, 0.0, 0.0))
+        return dict(src=src, grid=grid, domain_offset=(0.0, 0.0, 0.0), frames=frames)
     ds = fluid_domain(obj)
     src, grid = density_cache(ds)
     problem = volume_format_problem(ds) or rotation_problem(obj) or motion_problem(context.scene, obj, ds)

@@ -479,6 +479,20 @@ def volume_source_checks(work):
         f"{shown_vol.grids.frame} {source_vol.grids.frame} {g.transform.indexToWorld((0, 0, 0))}",
     )
 
+    # The object set to play a part of its sequence (Offset 1, Frames 2: files 2 and 3)
+    # bakes that part; playing nothing (Frames 0) is refused.
+    vol.frame_offset, vol.frame_duration = 1, 2
+    part = work / "ember_part.haze"
+    scene.haze.output = str(part)
+    result = bpy.ops.haze.bake()
+    baked = haze.Asset(part).frames if part.exists() else None
+    check("a Volume object bakes the files its frame span plays", result == {"FINISHED"} and baked == [2, 3], f"{result} {baked}")
+    vol.frame_duration = 0
+    result = attempt(bpy.ops.haze.bake)
+    check("a Volume object that plays no file is refused", "plays no file" in str(result), f"{result}")
+    vol.frame_offset, vol.frame_duration = 0, 3
+    scene.haze.output = str(out)
+
     # A sequence without a float grid is refused, naming its grids.
     vdb = blender_openvdb()
     (work / "wind").mkdir()
