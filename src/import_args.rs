@@ -2,6 +2,7 @@
 
 use clap::Args;
 use haze_volume::ImportOptions;
+use haze_volume::import::IndexAt;
 
 #[derive(Debug, Args)]
 pub struct ImportArgs {
@@ -15,11 +16,18 @@ pub struct ImportArgs {
     /// simulation domain (Blender: the domain object's min corner), as X,Y,Z.
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
     pub domain_offset: Option<[f64; 3]>,
+    /// Where an OpenVDB grid's transform puts a voxel's index: `centre` (OpenVDB's own
+    /// convention: Houdini, EmberGen, haze's exports) or `corner` (the voxel's min corner:
+    /// Blender's fluid caches). Default: the file's own word (haze's exports say it), else
+    /// `corner` for a grid that records its Blender domain (`file_base_resolution`), else
+    /// `centre`. The two place the smoke half a voxel apart.
+    #[arg(long, value_name = "centre|corner")]
+    pub vdb_index: Option<IndexAt>,
 }
 
 impl ImportArgs {
     /// Each flag with whether it differs from `defaults` ([`crate::unused_flags`]).
-    pub fn given(&self, defaults: &ImportArgs) -> [(&'static str, bool); 3] {
+    pub fn given(&self, defaults: &ImportArgs) -> [(&'static str, bool); 4] {
         [
             (
                 "--grid",
@@ -27,6 +35,7 @@ impl ImportArgs {
             ),
             ("--clamp-negative", self.clamp_negative),
             ("--domain-offset", self.domain_offset.is_some()),
+            ("--vdb-index", self.vdb_index.is_some()),
         ]
     }
 
@@ -35,6 +44,7 @@ impl ImportArgs {
             grid: self.grid.clone(),
             clamp_negative: self.clamp_negative,
             domain_offset: self.domain_offset.unwrap_or([0.0; 3]),
+            vdb_index: self.vdb_index,
         }
     }
 }

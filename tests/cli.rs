@@ -444,9 +444,9 @@ fn bad_inputs_fail_with_one_line_naming_the_file() {
     )
     .unwrap();
     let e = fails_with_one_line(&["inspect", t("n.f32").to_str().unwrap()], &t("n.f32"));
-    // Where the voxel lies: its min corner in the sidecar's box, (1, 1, 1)·(1/2, 1/2, 1/3).
+    // Where the voxel lies: its centre in the sidecar's box, (1.5, 1.5, 1.5)·(1/2, 1/2, 1/3).
     assert!(
-        e.contains("voxel (1, 1, 1) at world (0.5, 0.5, 0.33333334) is NaN"),
+        e.contains("voxel (1, 1, 1) centred at world (0.75, 0.75, 0.5) is NaN"),
         "{e}"
     );
 
@@ -974,7 +974,8 @@ fn bake_stores_the_residual_and_export_reconstructs_within_the_error() {
         .args(["--out", vdb.to_str().unwrap()])
         .assert()
         .success();
-    let back = haze_volume::import::vdb::read(&vdb, "density", None, [0.0; 3]).unwrap();
+    let back =
+        haze_volume::import::vdb::read(&vdb, &haze_volume::ImportOptions::default(), None).unwrap();
     assert_eq!(back.volume.dims(), [48, 48, 64]);
     let want = haze_volume::Bbox::new([0.0; 3], [3.0, 3.0, 4.0]);
     assert!(back.volume.bbox().approx_eq(&want, 1e-12));

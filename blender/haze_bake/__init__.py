@@ -257,7 +257,10 @@ def source_arguments(context):
             frames = played_frames(vol)
         except RuntimeError as e:
             raise RuntimeError(f"{src}: {e}") from None
-        return dict(src=src, grid=grid, domain_offset=(0.0, 0.0, 0.0), frames=frames)
+        # Blender draws a Volume object's voxel centred on its index, as OpenVDB places
+        # it: the bake takes the files as Blender shows them (a Blender cache imported
+        # as a Volume object included).
+        return dict(src=src, grid=grid, domain_offset=(0.0, 0.0, 0.0), frames=frames, vdb_index="centre")
     ds = fluid_domain(obj)
     src, grid = density_cache(ds)
     problem = volume_format_problem(ds) or rotation_problem(obj) or motion_problem(context.scene, obj, ds)
@@ -527,9 +530,9 @@ def volume_object(scene, asset, first, source=None):
     sequence that starts at file ``first``, numbered by the asset's frames.
 
     From a domain: scene frame ``n`` shows ``density_n`` (nothing outside the asset's
-    frames). The files place index ``i`` at the min corner of the asset's voxel ``i`` (as
-    Blender writes its caches) and Blender draws a voxel centred on its index, so the
-    object sits half a voxel up each axis: its voxels cover the domain's cells.
+    frames). The files place index ``i`` at the centre of the asset's voxel ``i`` and
+    Blender draws a voxel centred on its index, so the object has no transform of its own:
+    its voxels cover the domain's cells.
 
     From a Volume object ``source``: the files keep the source files' transform and
     numbers, so the object is parented to ``source`` with no transform of its own (it is
@@ -559,9 +562,7 @@ def volume_object(scene, asset, first, source=None):
     vol.frame_duration = frames[-1] - frames[0] + 1
     vol.frame_offset = frames[0] - 1
     obj.parent = None
-    (lo, hi) = asset.bbox
     obj.matrix_basis.identity()
-    obj.location = tuple((hi[a] - lo[a]) / asset.dims[a] / 2 for a in range(3))
     return obj
 
 

@@ -153,9 +153,9 @@ def main():
         f"max diff {np.abs(dense.transpose(2, 1, 0) - asset.frame(n)).max()}",
     )
     check(
-        "the file's index 0 is the asset's box corner, index dims its far corner",
-        np.allclose(g.transform.indexToWorld((0, 0, 0)), lo, atol=1e-9)
-        and np.allclose(g.transform.indexToWorld((nx, ny, nz)), hi, atol=1e-9),
+        "the file's index 0 is the centre of the asset's first voxel, index dims - 1 of its last",
+        np.allclose(g.transform.indexToWorld((-0.5, -0.5, -0.5)), lo, atol=1e-9)
+        and np.allclose(g.transform.indexToWorld((nx - 0.5, ny - 0.5, nz - 0.5)), hi, atol=1e-9),
         f"{g.transform.indexToWorld((0, 0, 0))} {g.transform.indexToWorld((nx, ny, nz))} vs {asset.bbox}",
     )
     bpy.ops.haze.volume()
@@ -171,8 +171,8 @@ def main():
         and vol.grids.frame == asset.frames[1],
         f"{vol.grids.frame_filepath} {vol.grids.frame}",
     )
-    # Blender draws a voxel centred on its index: with the object half a voxel up, voxel
-    # (i, j, k) is centred on the asset's cell (i, j, k).
+    # Blender draws a voxel centred on its index, as the file places it: with the object
+    # untransformed, voxel (i, j, k) is centred on the asset's cell (i, j, k).
     to_world = obj.matrix_world @ vol.grids["density"].matrix_object
     cell_size = [(hi[a] - lo[a]) / asset.dims[a] for a in range(3)]
     corners = [(0, 0, 0), (nx - 1, ny - 1, nz - 1)]
@@ -384,11 +384,11 @@ def volume_source_checks(work):
         result == {"FINISHED"} and asset.frames == [1, 2, 3],
         f"{result} {asset.frames if out.exists() else None}",
     )
-    # The asset keeps the files' coordinates: its box starts at the first active index's
-    # min corner, and each frame is the file's density (not its temperature) within the
+    # The asset keeps the files' coordinates: its box starts half a voxel before the first
+    # active index (OpenVDB centres a voxel on its index), and each frame is the file's density (not its temperature) within the
     # residual's bound, 1/255 of the frame's peak.
     (lo, hi) = asset.bbox
-    i0 = [round((lo[a] - shift[a]) / voxel) for a in range(3)]
+    i0 = [round((lo[a] - shift[a]) / voxel + 0.5) for a in range(3)]
     nx, ny, nz = asset.dims
     worst = 0.0
     for n, d in frames.items():
@@ -397,9 +397,18 @@ def volume_source_checks(work):
         got = asset.frame(n)
         worst = max(worst, float(np.abs(got - want).max()) / float(d.max()))
     check(
-        "the asset is the files' density grid where the files put it",
-        all(abs(lo[a] - (shift[a] + voxel * i0[a])) < 1e-9 for a in range(3)) and worst <= 1.0 / 255 + 1e-6,
+        "the asset is the files' density grid where the files put it (index at the voxel's centre)",
+        all(abs(lo[a] - (shift[a] + voxel * (i0[a] - 0.5))) < 1e-9 for a in range(3)) and worst <= 1.0 / 255 + 1e-6,
         f"{asset.bbox} {i0} worst {worst}",
+    )
+    # Where Blender draws the file's voxel i0 (its grid's index→object matrix, at the
+    # index) is the centre of the asset's voxel 0.
+    vol.grids.load()
+    drawn = vol.grids["density"].matrix_object @ Vector([float(i) for i in i0])
+    check(
+        "the asset's first voxel is centred where Blender draws the file's voxel",
+        np.allclose(tuple(drawn), [lo[a] + voxel / 2 for a in range(3)], atol=1e-6),
+        f"{tuple(drawn)} vs {lo}",
     )
 
     # Preview through a camera in the world: the asset is in the object's local space, so

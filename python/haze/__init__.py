@@ -98,6 +98,7 @@ def bake(
     domain_offset: Optional[Sequence[float]] = None,
     baseline: Optional[Tuple[float, float, float, int, int]] = None,
     grid: str = "density",
+    vdb_index: Optional[str] = None,
 ) -> Dict[str, Any]:
     """Bake a sequence of density volumes into one ``.haze`` asset (``haze bake``).
 
@@ -135,6 +136,11 @@ def bake(
             the whole sequence reaches (see ``haze.cluster``).
         grid: the OpenVDB grid to read (``haze bake --grid``): ``"density"``, or e.g.
             ``"density_noise"`` for Blender's high-resolution noise cache.
+        vdb_index: where an OpenVDB grid's transform puts a voxel's index
+            (``haze bake --vdb-index``): ``"centre"`` (OpenVDB's convention: Houdini,
+            EmberGen, haze's exports) or ``"corner"`` (Blender's fluid caches); by
+            default the file's own word, else ``"corner"`` for a grid that records its
+            Blender domain, else ``"centre"``.
 
     Returns:
         The report (``haze bake --report``): ``settings``, ``frames`` (one dict per
@@ -157,6 +163,7 @@ def bake(
         None if domain_offset is None else [float(v) for v in domain_offset],
         None if baseline is None else tuple(baseline),
         grid,
+        vdb_index,
     )
 
 

@@ -28,6 +28,7 @@ def bake(
     domain_offset: Optional[Sequence[float]] = None,
     baseline: Optional[Tuple[float, float, float, int, int]] = None,
     grid: Optional[str] = None,
+    vdb_index: Optional[str] = None,
 ) -> Dict[str, Any]: ...
 def baseline(
     src: str,

@@ -383,3 +383,19 @@ def test_a_bad_baseline_is_refused(tmp_path):
         with pytest.raises(haze.HazeError, match="baseline="):
             haze.bake(tmp_path, tmp_path / "x.haze", baseline=bad)
         assert not (tmp_path / "x.haze").exists()
+
+
+def test_vdb_index_places_another_tools_grid(tmp_path):
+    # A grid written by OpenVDB's own writer, no Blender domain recorded: its index is the
+    # voxel's centre (the box starts half a voxel, 0.05, below index 0's point); "corner"
+    # reads it as Blender's caches are read. A bad word is refused, nothing written.
+    src = ROOT / "data" / "synthetic" / "half_ball.vdb"
+    lo = {}
+    for at in (None, "corner"):
+        out = tmp_path / f"{at}.haze"
+        haze.bake(src, out, rbfs=10, vdb_index=at)
+        lo[at] = np.array(haze.Asset(out).bbox[0])
+    assert np.allclose(lo["corner"] - lo[None], 0.05, atol=1e-9), lo
+    with pytest.raises(haze.HazeError, match="vdb_index="):
+        haze.bake(src, tmp_path / "x.haze", vdb_index="middle")
+    assert not (tmp_path / "x.haze").exists()

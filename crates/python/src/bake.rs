@@ -125,7 +125,7 @@ pub fn merge(py: Python<'_>, chunks: Vec<PathBuf>, out: PathBuf) -> PyResult<Vec
 /// `progress(record)` after every frame with its report line as a dict; returns the
 /// report (`haze bake --report`) as a dict.
 #[pyfunction]
-#[pyo3(signature = (src, out, frames=None, rbfs=None, residual_error=None, resume=false, progress=None, warm_up=0, domain_offset=None, baseline=None, grid=None))]
+#[pyo3(signature = (src, out, frames=None, rbfs=None, residual_error=None, resume=false, progress=None, warm_up=0, domain_offset=None, baseline=None, grid=None, vdb_index=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn bake(
     py: Python<'_>,
@@ -140,10 +140,17 @@ pub fn bake(
     domain_offset: Option<[f64; 3]>,
     baseline: Option<(f64, f64, f64, usize, usize)>,
     grid: Option<String>,
+    vdb_index: Option<&str>,
 ) -> PyResult<Py<PyAny>> {
     let mut options = BakeOptions::new(&src, &out);
     if let Some(name) = grid {
         options.import.grid = name;
+    }
+    if let Some(at) = vdb_index {
+        options.import.vdb_index = Some(
+            at.parse()
+                .map_err(|e: String| to_py(anyhow::anyhow!("vdb_index={e}")))?,
+        );
     }
     if let Some((rel_l2, radius, gain, rbfs, support)) = baseline {
         let finite = [rel_l2, radius, gain]

@@ -56,13 +56,13 @@ pub enum Problem {
     #[error("grid '{name}' is unsupported: {why}")]
     UnsupportedGrid { name: String, why: String },
     #[error(
-        "voxel ({}, {}, {}) at world ({}, {}, {}) is {value}: {rule}",
+        "voxel ({}, {}, {}) centred at world ({}, {}, {}) is {value}: {rule}",
         voxel[0], voxel[1], voxel[2], at[0], at[1], at[2]
     )]
     BadVoxel {
         voxel: [usize; 3],
-        /// Where the voxel's index lies in world space (its min corner as haze reads a
-        /// file: the point an OpenVDB file's own transform maps the index to).
+        /// The voxel's centre in world space (inside the voxel whichever point of it the
+        /// file's transform maps the index to).
         at: [f32; 3],
         value: f32,
         /// The rule the value breaks, and what to do.

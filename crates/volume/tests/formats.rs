@@ -133,7 +133,7 @@ fn npy_errors_are_clear() {
         .unwrap_err()
         .to_string();
     assert!(
-        e.contains("voxel (1, 0, 0) at world (") && e.contains(") is NaN"),
+        e.contains("voxel (1, 0, 0) centred at world (") && e.contains(") is NaN"),
         "{e}"
     );
 }

@@ -1,6 +1,6 @@
 //! Import of the bundled Blender/Mantaflow sample against OpenVDB's own dense export.
 
-use haze_volume::import::{self, FrameRange, Sequence, vdb};
+use haze_volume::import::{self, FrameRange, IndexAt, Sequence, vdb};
 use haze_volume::{ImportOptions, VolumeStats};
 use std::path::{Path, PathBuf};
 
@@ -32,8 +32,12 @@ fn vdb_frame_24_reproduces_openvdb_dense_export_bit_for_bit() {
     assert_eq!(v.dims(), [48, 48, 64]);
     assert_eq!(v.voxel_size(), [0.0625; 3]);
     // Domain-local transform: the box starts at the index origin.
+    // Blender's cache (it records its domain, `file_base_resolution`): index i at the
+    // min corner of the domain's cell i, so the box is the domain's, [0, 3]² × [0, 4].
     assert_eq!(v.bbox().min, [0.0; 3]);
     assert_eq!(v.bbox().max, [3.0, 3.0, 4.0]);
+    let info = vdb::probe(&data("plume-a/vdb/fluid_data_0024.vdb")).unwrap();
+    assert_eq!(info.grid("density").unwrap().index_at, IndexAt::Corner);
     assert!(
         bits(&v) == dense_truth(),
         "density differs from the dense export"
@@ -229,11 +233,23 @@ mod synthetic {
         let dims: Vec<usize> = serde_json::from_value(meta["dims"].clone()).unwrap();
         assert_eq!(v.dims().to_vec(), dims);
         let lo: Vec<f64> = serde_json::from_value(meta["index_min"].clone()).unwrap();
-        // Index → min corner through the ScaleTranslateMap: translation + 0.1·i.
+        // OpenVDB's convention (the file records no Blender domain): index i is the
+        // voxel's centre, translation + 0.1·i, so the box starts half a voxel before the
+        // first index; `--vdb-index corner` puts the index at the min corner instead.
         let t = [1.0, 2.0, -3.0];
+        let info = vdb::probe(&data("synthetic/half_ball.vdb")).unwrap();
+        assert_eq!(info.grid("density").unwrap().index_at, IndexAt::Centre);
+        let corner = ImportOptions {
+            vdb_index: Some(IndexAt::Corner),
+            ..ImportOptions::default()
+        };
+        let c = import::import(&data("synthetic/half_ball.vdb"), &corner).unwrap();
         for a in 0..3 {
-            assert!((v.bbox().min[a] - (t[a] + 0.1 * lo[a])).abs() < 1e-12);
+            assert!((v.bbox().min[a] - (t[a] + 0.1 * (lo[a] - 0.5))).abs() < 1e-12);
+            assert!((c.bbox().min[a] - (t[a] + 0.1 * lo[a])).abs() < 1e-12);
+            assert!((v.bbox().max[a] - c.bbox().max[a] + 0.05).abs() < 1e-12);
         }
+        assert_eq!(bits(&c), bits(&v));
         let truth: Vec<u32> = std::fs::read(data("synthetic/half_ball_truth.bin"))
             .unwrap()
             .chunks_exact(4)
@@ -334,9 +350,8 @@ mod synthetic {
         };
         let f = vdb::read(
             &data("synthetic/root_tile.vdb"),
-            "density",
+            &ImportOptions::default(),
             Some(bx),
-            [0.0; 3],
         )
         .unwrap();
         let v = &f.volume;

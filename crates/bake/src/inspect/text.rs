@@ -1,6 +1,7 @@
 //! The reports as text: a title line, then aligned `key: value` lines.
 
 use super::Report;
+use haze_volume::import::IndexAt;
 use haze_volume::import::adaptive_domain::cells;
 
 impl Report {
@@ -34,6 +35,13 @@ impl Report {
                 }
                 if let Some(g) = &r.grid {
                     line(&mut out, "read", g.clone());
+                    if let Some(at) = r.index_at {
+                        let what = match at {
+                            IndexAt::Centre => "its voxel's centre (OpenVDB's convention)",
+                            IndexAt::Corner => "its voxel's min corner (Blender's fluid caches)",
+                        };
+                        line(&mut out, "index at", what.to_string());
+                    }
                     let placed = r
                         .vdb
                         .as_ref()

@@ -100,6 +100,10 @@ pub struct FileReport {
     pub vdb: Option<vdb::VdbFileInfo>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub grid: Option<String>,
+    /// Where the read grid's transform put a voxel's index (`--vdb-index`, else the
+    /// file's).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub index_at: Option<import::IndexAt>,
     /// A raw or NumPy file's sample type (`float32`, `uint8`, …).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub samples: Option<&'static str>,
@@ -123,6 +127,10 @@ pub(super) fn file_report(path: &Path, opts: &ImportOptions) -> Result<FileRepor
         format,
         file_bytes: std::fs::metadata(path)?.len(),
         grid: vdb_info.as_ref().map(|_| opts.grid.clone()),
+        index_at: vdb_info
+            .as_ref()
+            .and_then(|i| i.grid(&opts.grid))
+            .map(|g| opts.vdb_index.unwrap_or(g.index_at)),
         samples: samples.map(|t| t.name()),
         reading: samples.map(|t| t.reading()),
         vdb: vdb_info,

@@ -2,17 +2,17 @@
 //! volume, background 0), in the file layout OpenVDB 12 writes (file version 224,
 //! zip-compressed nodes), which OpenVDB, Blender, Houdini and haze's own reader take.
 //!
-//! * **Where**: index `(i, j, k)` is the volume's voxel `(i, j, k)`, placed by the
-//!   import's convention ([`crate::import::vdb`]): the transform maps index `i` to the
-//!   voxel's *min corner*, `bbox.min + i·voxel_size` (a `UniformScaleTranslateMap`, or a
-//!   `ScaleTranslateMap` when the voxels are not cubes), as Blender writes its fluid
-//!   caches. The file therefore lies where the file it was baked from lay, in haze and in
-//!   every other tool, and `haze` reads it back over the same box.
+//! * **Where**: index `(i, j, k)` is the volume's voxel `(i, j, k)`, placed by OpenVDB's
+//!   own convention: the transform maps index `i` to the voxel's *centre*, `bbox.min +
+//!   (i + ½)·voxel_size` (a `UniformScaleTranslateMap`, or a `ScaleTranslateMap` when the
+//!   voxels are not cubes), and the grid says so (`haze_voxel_index` = `centre`). The
+//!   file therefore lies where the volume lay, in Blender, Houdini and every other tool
+//!   that draws a voxel centred on its index, and `haze` reads it back over the same box.
 //! * **What**: every non-zero sample is an active voxel holding its value (a NaN too);
 //!   zeros are inactive background. Leaves (8³ voxels) holding no non-zero sample are not
 //!   stored; every internal node's own values are inactive zeros.
 //! * **Metadata**: `class` (`fog volume`), `name` (`density`), `creator` (`haze
-//!   VERSION`), `file_base_resolution` (the volume's dims: the box the reader reads back,
+//!   VERSION`), `haze_voxel_index` (`centre`: [`crate::import::vdb::INDEX_KEY`]), `file_base_resolution` (the volume's dims: the box the reader reads back,
 //!   as Blender records its domain),
 //!   `file_bbox_min/max` (the active voxels' index box, when there are any),
 //!   `file_voxel_count`, `file_compression` (`zip + active values`),
@@ -29,6 +29,7 @@
 //!   node's active values, zlib-compressed behind their byte count (negated and stored raw
 //!   when zlib would not shrink them): a leaf's non-zero samples, an internal node's none.
 
+use crate::import::IndexAt;
 use crate::volume::Volume;
 use flate2::Compression;
 use flate2::write::ZlibEncoder;
@@ -251,6 +252,11 @@ fn put_metadata(g: &mut Vec<u8>, volume: &Volume, leaves: &[Leaf]) {
             b"zip + active values".to_vec(),
         ),
         ("file_voxel_count", "int64", count.to_le_bytes().to_vec()),
+        (
+            crate::import::vdb::INDEX_KEY,
+            "string",
+            IndexAt::Centre.name().as_bytes().to_vec(),
+        ),
         ("is_saved_as_half_float", "bool", vec![0]),
         ("name", "string", GRID.as_bytes().to_vec()),
     ];
@@ -268,7 +274,7 @@ fn put_metadata(g: &mut Vec<u8>, volume: &Volume, leaves: &[Leaf]) {
     }
 }
 
-/// Index `i` → world `bbox.min + i·voxel_size`: a scale-and-translate map with its
+/// Index `i` → world `bbox.min + (i + ½)·voxel_size`: a scale-and-translate map with its
 /// derived terms (scale, voxel size, inverse scale, its square and half).
 fn put_transform(g: &mut Vec<u8>, volume: &Volume) {
     let s = volume.voxel_size();
@@ -281,7 +287,8 @@ fn put_transform(g: &mut Vec<u8>, volume: &Volume) {
             "ScaleTranslateMap"
         },
     );
-    let t = volume.bbox().min;
+    let min = volume.bbox().min;
+    let t: [f64; 3] = std::array::from_fn(|a| min[a] + 0.5 * s[a]);
     for v in [
         t,
         s,
@@ -400,7 +407,7 @@ mod tests {
         let path = dir.path().join("v.vdb");
         std::fs::write(&path, to_bytes(v).unwrap()).unwrap();
         let info = reader::probe(&path).unwrap();
-        let frame = reader::read(&path, "density", None, [0.0; 3]).unwrap();
+        let frame = reader::read(&path, &crate::ImportOptions::default(), None).unwrap();
         (frame, info)
     }
 

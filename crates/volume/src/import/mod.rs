@@ -59,6 +59,60 @@ pub struct ImportOptions {
     /// Added to the world coordinates of VDB grids (their transforms are often local to
     /// the simulation domain, as Blender's are).
     pub domain_offset: [f64; 3],
+    /// Where a VDB grid's transform puts a voxel's index, over what the file says
+    /// ([`vdb::VdbGridInfo::index_at`]); `None` takes the file's.
+    #[serde(default)]
+    pub vdb_index: Option<IndexAt>,
+}
+
+/// The point of a voxel that an OpenVDB grid's transform maps the voxel's index to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum IndexAt {
+    /// OpenVDB's own convention (Houdini, EmberGen, haze's exports): voxel `i` is centred
+    /// on `T(i)` and spans `T(i ± ½)`.
+    Centre,
+    /// Blender's fluid caches: voxel `i` spans `T(i)..T(i + 1)` (Mantaflow's cell `i` of a
+    /// domain whose local origin is its min corner).
+    Corner,
+}
+
+impl IndexAt {
+    /// Voxel `i`'s min corner, in voxels from `T(i)`: `−½` for a centred index.
+    pub fn corner_offset(self) -> f64 {
+        match self {
+            IndexAt::Centre => -0.5,
+            IndexAt::Corner => 0.0,
+        }
+    }
+
+    /// The name `--vdb-index` takes and `inspect` shows.
+    pub fn name(self) -> &'static str {
+        match self {
+            IndexAt::Centre => "centre",
+            IndexAt::Corner => "corner",
+        }
+    }
+}
+
+impl std::fmt::Display for IndexAt {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for IndexAt {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "centre" | "center" => Ok(IndexAt::Centre),
+            "corner" => Ok(IndexAt::Corner),
+            _ => Err(format!(
+                "'{s}': expected centre (OpenVDB's convention) or corner (Blender's fluid caches)"
+            )),
+        }
+    }
 }
 
 impl Default for ImportOptions {
@@ -67,6 +121,7 @@ impl Default for ImportOptions {
             grid: "density".to_string(),
             clamp_negative: false,
             domain_offset: [0.0; 3],
+            vdb_index: None,
         }
     }
 }
@@ -115,7 +170,7 @@ pub(crate) fn read_unchecked(
         Format::Vdb => {}
     }
     match format {
-        Format::Vdb => Ok(vdb::read(path, &opts.grid, vdb_box, opts.domain_offset)?.volume),
+        Format::Vdb => Ok(vdb::read(path, opts, vdb_box)?.volume),
         Format::Raw => raw::read(path),
         Format::Npy => npy::read(path),
     }
@@ -165,18 +220,22 @@ pub fn vdb_options_refused(
         format!(
             "a domain offset asked of {what}, which is {own_box} (the offset is for OpenVDB grids)"
         )
+    } else if let Some(at) = opts.vdb_index {
+        format!(
+            "a VDB index convention ({at}) asked of {what}, which is {own_box} (it is for OpenVDB grids)"
+        )
     } else {
         return Ok(());
     };
     Err(ImportError::new(path, Problem::Format(why)))
 }
 
-/// World position of voxel `i`'s min corner, where an OpenVDB file's transform puts its
-/// index (as `f32`: an error message's precision).
-fn corner(v: &Volume, i: usize) -> [f32; 3] {
+/// World position of voxel `i`'s centre (as `f32`: an error message's precision): inside
+/// the voxel whichever point its file's transform maps the index to.
+fn centre(v: &Volume, i: usize) -> [f32; 3] {
     let (b, d, c) = (v.bbox(), v.dims(), v.coords(i));
     std::array::from_fn(|a| {
-        (b.min[a] + c[a] as f64 * (b.max[a] - b.min[a]) / d[a].max(1) as f64) as f32
+        (b.min[a] + (c[a] as f64 + 0.5) * (b.max[a] - b.min[a]) / d[a].max(1) as f64) as f32
     })
 }
 
@@ -191,7 +250,7 @@ pub fn validate(path: &Path, v: &mut Volume, clamp_negative: bool) -> Result<usi
                 path,
                 Problem::BadVoxel {
                     voxel: v.coords(i),
-                    at: corner(v, i),
+                    at: centre(v, i),
                     value: *d,
                     rule: "densities must be finite",
                 },
@@ -207,7 +266,7 @@ pub fn validate(path: &Path, v: &mut Volume, clamp_negative: bool) -> Result<usi
                 path,
                 Problem::BadVoxel {
                     voxel: v.coords(i),
-                    at: corner(v, i),
+                    at: centre(v, i),
                     value: v.data()[i],
                     rule: "densities must not be negative (pass --clamp-negative to clamp them to 0)",
                 },
@@ -240,7 +299,7 @@ mod tests {
             let e = validate(Path::new("x.f32"), &mut v, true).unwrap_err();
             let msg = e.to_string();
             assert!(
-                msg.starts_with("x.f32: voxel (0, 1, 0) at world (0, 0.5, 0) is "),
+                msg.starts_with("x.f32: voxel (0, 1, 0) centred at world (0.25, 0.75, 0.5) is "),
                 "{msg}"
             );
         }
@@ -250,10 +309,10 @@ mod tests {
     fn validation_of_negatives() {
         let mut v = vol(vec![0.5, -0.25, -0.0, -1.0]);
         let e = validate(Path::new("n.npy"), &mut v, false).unwrap_err();
-        // Voxel x = 1 of 2 over [0, 1]: its min corner at x = 0.5.
+        // Voxel (1, 0, 0) of 2 × 2 × 1 over the unit cube: centred at (3/4, 1/4, 1/2).
         assert!(
             e.to_string()
-                .contains("voxel (1, 0, 0) at world (0.5, 0, 0) is -0.25"),
+                .contains("voxel (1, 0, 0) centred at world (0.75, 0.25, 0.5) is -0.25"),
             "{e}"
         );
         assert_eq!(validate(Path::new("n.npy"), &mut v, true).unwrap(), 2);

@@ -448,7 +448,7 @@ fn union_box(frames: &[FrameFile], opts: &ImportOptions) -> Result<Option<IndexB
             Some(b) => Some(b),
             None if gi.active_voxels == Some(0) => None,
             // No recorded box: read the grid to find where its data is.
-            None => vdb::read(&f.path, &opts.grid, None, opts.domain_offset)?.index_box,
+            None => vdb::read(&f.path, opts, None)?.index_box,
         };
         if let Some(b) = b {
             acc = Some(acc.map_or(b, |a| a.union(&b)));

@@ -14,15 +14,20 @@
 //!   not, tile values of internal nodes and of the root (constant regions of 8³, 128³ and
 //!   4096³ voxels) — over a background of 0 (fog volumes); a grid whose background is not
 //!   0 (density everywhere outside its voxels) is refused.
-//! * **Where in the world**: index `i` maps through the grid's transform to the *min corner*
-//!   of voxel `i` (Blender's convention for its fluid caches), plus the caller's domain
-//!   offset: `bbox.min = offset + T(i_min)`, `bbox.max = offset + T(i_max + 1)`.
+//! * **Where in the world**: index `i` maps through the grid's transform `T` to the
+//!   voxel's *centre* (OpenVDB's own convention: Houdini, EmberGen, haze's exports) or, in
+//!   Blender's fluid caches, to its *min corner* (Mantaflow's cell `i` of a domain whose
+//!   local origin is its min corner), plus the caller's domain offset: with `c = −½` for a
+//!   centre and `0` for a corner, `bbox.min = offset + T(i_min + c)`, `bbox.max = offset +
+//!   T(i_max + 1 + c)`. Which one a grid uses: [`VdbGridInfo::index_at`]; a caller may
+//!   impose either ([`ImportOptions::vdb_index`]).
 //!
 //! vdb-rs panics on some malformed or unsupported inputs (unknown transform maps, old file
 //! versions, inconsistent node data); those panics are caught and reported as errors.
 
 use super::adaptive_domain::{self, Placement};
 use super::guard::catch_panic;
+use super::{ImportOptions, IndexAt};
 use crate::error::{ImportError, Problem};
 use crate::volume::{Bbox, Volume, voxel_count};
 use serde::Serialize;
@@ -35,6 +40,9 @@ use vdb_rs::{Grid, Map, MetadataValue, VdbReader};
 const MAGIC: [u8; 8] = [0x20, 0x42, 0x44, 0x56, 0, 0, 0, 0];
 /// Oldest file version read: OpenVDB 3.0's (node mask compression, 2014).
 const MIN_VERSION: u32 = 222;
+/// The grid metadata in which a file says where its transform puts a voxel's index
+/// (`centre` or `corner`, [`IndexAt`]): haze's exports write it.
+pub const INDEX_KEY: &str = "haze_voxel_index";
 /// Largest dense box allocated: 2³¹ voxels (8 GiB of f32).
 pub const MAX_VOXELS: u64 = 1 << 31;
 
@@ -100,6 +108,11 @@ pub struct VdbGridInfo {
     pub placement: Option<Placement>,
     pub half_float: bool,
     pub compression: String,
+    /// Where the grid's transform puts a voxel's index: the file's own word (metadata
+    /// `haze_voxel_index`, `centre` or `corner`, which haze's exports write), else a
+    /// corner in a grid that records `file_base_resolution` (Blender's fluid caches, and
+    /// haze's exports before they wrote the word), else a centre (OpenVDB's convention).
+    pub index_at: IndexAt,
 }
 
 impl VdbGridInfo {
@@ -296,6 +309,11 @@ fn info_of(reader: &VdbReader<BufReader<File>>) -> VdbFileInfo {
                 half_float: gd.meta_data.is_half_float(),
                 compression: string("file_compression")
                     .unwrap_or_else(|| format!("{:?}", gd.compression)),
+                index_at: match string(INDEX_KEY).and_then(|s| s.parse().ok()) {
+                    Some(at) => at,
+                    None if m.contains_key("file_base_resolution") => IndexAt::Corner,
+                    None => IndexAt::Centre,
+                },
             }
         })
         .collect();
@@ -363,18 +381,20 @@ pub struct VdbFrame {
     pub index_box: Option<IndexBox>,
     /// World size of a voxel, from the transform.
     pub voxel_size: [f64; 3],
-    /// World position of index 0's min corner (transform translation + domain offset).
+    /// World position of index 0's voxel's min corner (transform translation + domain
+    /// offset, less half a voxel where the index is at the voxel's centre).
     pub origin: [f64; 3],
 }
 
-/// Reads grid `name` of `path` into a dense volume over `index_box` (or the grid's default
-/// box, see the module docs), shifted by `domain_offset` in world space.
+/// Reads grid `opts.grid` of `path` into a dense volume over `index_box` (or the grid's
+/// default box, see the module docs), shifted by `opts.domain_offset` in world space, its
+/// index placed as `opts.vdb_index` says (else as the grid does).
 pub fn read(
     path: &Path,
-    name: &str,
+    opts: &ImportOptions,
     index_box: Option<IndexBox>,
-    domain_offset: [f64; 3],
 ) -> Result<VdbFrame, ImportError> {
+    let name = opts.grid.as_str();
     let mut reader = open_reader(path)?;
     let info = placed_info(path, &reader)?;
     let gi = info.require(path, name)?.clone();
@@ -427,7 +447,8 @@ pub fn read(
         Some(p) => (p.offset, file_voxel.map(|v| p.cell(v))),
         None => ([0; 3], file_voxel),
     };
-    let origin = [0, 1, 2].map(|a| translation[a] + domain_offset[a]);
+    let at = opts.vdb_index.unwrap_or(gi.index_at).corner_offset();
+    let origin = [0, 1, 2].map(|a| translation[a] + opts.domain_offset[a] + at * voxel_size[a]);
     let bx = match index_box.or_else(|| gi.default_box()) {
         Some(b) => Some(b),
         None => stored_bbox(path, &grid)?.map(|b| b.shifted(offset)),
