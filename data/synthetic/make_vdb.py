@@ -10,6 +10,8 @@ haze must import from it (x fastest, ground truth computed here with numpy).
   fog_background.vdb  a fog volume whose background is 0.1 (haze refuses it: density
                     everywhere outside its voxels)
   rotated.vdb       a small fog volume under a rotated transform (an AffineMap; refused)
+  scale_map.vdb     the same small fog volume under voxels of 0.1 x 0.2 x 0.3 and no
+                    translation (OpenVDB stores it as a ScaleMap)
   same_names.vdb    two fog grids both named "density" (0.5 and 0.25 over a 2^3 block),
                     which OpenVDB lists as density[0] and density[1]
   root_tile.vdb     a constant 0.25 over the root tile of indices 0..4095 and a voxel
@@ -92,6 +94,12 @@ g.transform = vdb.createLinearTransform(
     np.array([[0.1 * c, 0.1 * s_, 0, 0], [-0.1 * s_, 0.1 * c, 0, 0], [0, 0, 0.1, 0], [0, 0, 0, 1]])
 )
 vdb.write("rotated.vdb", grids=[g])
+g = vdb.FloatGrid()
+g.copyFromArray(small)
+g.name = "density"
+g.gridClass = vdb.GridClass.FOG_VOLUME
+g.transform = vdb.createLinearTransform(np.diag([0.1, 0.2, 0.3, 1.0]))
+vdb.write("scale_map.vdb", grids=[g])
 same = []
 for value in (0.5, 0.25):
     g = vdb.FloatGrid()

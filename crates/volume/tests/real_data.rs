@@ -311,6 +311,23 @@ mod synthetic {
     }
 
     #[test]
+    fn a_grid_of_unequal_voxel_sides_reads_with_them() {
+        // OpenVDB stores voxels of 0.1 × 0.2 × 0.3 with no translation as a ScaleMap; the
+        // 2³ block of 0.5 at indices 1..=2, each index its voxel's centre.
+        let v =
+            import::import(&data("synthetic/scale_map.vdb"), &ImportOptions::default()).unwrap();
+        let h = [0.1, 0.2, 0.3];
+        assert_eq!(v.dims(), [2, 2, 2]);
+        let (size, b) = (v.voxel_size(), v.bbox());
+        for (a, h) in h.iter().enumerate() {
+            assert!((size[a] - h).abs() < 1e-12, "{size:?}");
+            assert!((b.min[a] - 0.5 * h).abs() < 1e-12, "{b:?}");
+            assert!((b.max[a] - 2.5 * h).abs() < 1e-12, "{b:?}");
+        }
+        assert!(v.data().iter().all(|&d| d == 0.5), "{:?}", v.data());
+    }
+
+    #[test]
     fn grids_of_the_same_name_are_listed_and_read_as_openvdb_shows_them() {
         let path = data("synthetic/same_names.vdb");
         let info = vdb::probe(&path).unwrap();

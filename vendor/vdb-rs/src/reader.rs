@@ -175,6 +175,26 @@ impl<R: Read + Seek> VdbReader<R> {
         let name = Self::read_name(reader)?;
 
         Ok(match name.as_str() {
+            // haze: a ScaleMap (unequal voxel sides, no translation) stores what a
+            // UniformScaleMap does; a TranslationMap its translation; an AffineMap (and a
+            // UnitaryMap, which wraps one) its 4 × 4 matrix, row-major, points as rows.
+            "ScaleMap" => Map::ScaleMap {
+                scale_values: read_d_vec3(reader)?,
+                voxel_size: read_d_vec3(reader)?,
+                scale_values_inverse: read_d_vec3(reader)?,
+                inv_scale_sqr: read_d_vec3(reader)?,
+                inv_twice_scale: read_d_vec3(reader)?,
+            },
+            "TranslationMap" => Map::TranslationMap {
+                translation: read_d_vec3(reader)?,
+            },
+            "AffineMap" | "UnitaryMap" => {
+                let mut matrix = [0.0; 16];
+                for m in &mut matrix {
+                    *m = reader.read_f64::<LittleEndian>()?;
+                }
+                Map::AffineMap { matrix }
+            }
             "UniformScaleMap" => Map::UniformScaleMap {
                 scale_values: read_d_vec3(reader)?,
                 voxel_size: read_d_vec3(reader)?,

@@ -14,6 +14,9 @@
 //!   not, tile values of internal nodes and of the root (constant regions of 8³, 128³ and
 //!   4096³ voxels) — over a background of 0 (fog volumes); a grid whose background is not
 //!   0 (density everywhere outside its voxels) is refused.
+//! * **Which transforms**: a scale (uniform or not), a translation, both, or an affine
+//!   map that is one of those; a rotation, shear or perspective is
+//!   refused naming it.
 //! * **Where in the world**: index `i` maps through the grid's transform `T` to the
 //!   voxel's *centre* (OpenVDB's own convention: Houdini, EmberGen, haze's exports) or, in
 //!   Blender's fluid caches, to its *min corner* (Mantaflow's cell `i` of a domain whose
@@ -352,15 +355,43 @@ pub fn probe(path: &Path) -> Result<VdbFileInfo, ImportError> {
     placed_info(path, &open_reader(path)?)
 }
 
-/// Scale and translation of a grid's index→world map.
-fn transform_of(path: &Path, map: &Map) -> Result<([f64; 3], [f64; 3]), ImportError> {
+/// What haze says of a transform it cannot read: axis-aligned grids only.
+const AXIS_ALIGNED: &str = "haze reads axis-aligned grids (a scale and a translation): resample it onto an axis-aligned grid first";
+
+/// Scale and translation of grid `name`'s index→world map: a scale (uniform or not), a
+/// translation, both, or an affine map whose linear part is diagonal (to `10⁻⁹` of its
+/// largest scale); one that rotates or shears the grid is refused.
+fn transform_of(path: &Path, name: &str, map: &Map) -> Result<([f64; 3], [f64; 3]), ImportError> {
     let (scale, translation) = match map {
-        Map::UniformScaleMap { voxel_size: v, .. } => ([v.x, v.y, v.z], [0.0; 3]),
+        Map::UniformScaleMap { voxel_size: v, .. } | Map::ScaleMap { voxel_size: v, .. } => {
+            ([v.x, v.y, v.z], [0.0; 3])
+        }
+        Map::TranslationMap { translation: t } => ([1.0; 3], [t.x, t.y, t.z]),
         Map::ScaleTranslateMap {
             voxel_size: v,
             translation: t,
             ..
         } => ([v.x, v.y, v.z], [t.x, t.y, t.z]),
+        Map::AffineMap { matrix: m } => {
+            let largest = [m[0], m[5], m[10]]
+                .iter()
+                .fold(0.0f64, |a, d| a.max(d.abs()));
+            let off = [m[1], m[2], m[4], m[6], m[8], m[9]];
+            let axis_aligned = off.iter().all(|x| x.abs() <= 1e-9 * largest)
+                && [m[3], m[7], m[11], m[15]] == [0.0, 0.0, 0.0, 1.0];
+            if !axis_aligned {
+                return Err(ImportError::new(
+                    path,
+                    Problem::UnsupportedGrid {
+                        name: name.to_string(),
+                        why: format!(
+                            "its transform (an AffineMap) rotates or shears the grid; {AXIS_ALIGNED}"
+                        ),
+                    },
+                ));
+            }
+            ([m[0], m[5], m[10]], [m[12], m[13], m[14]])
+        }
     };
     if !scale.iter().all(|s| s.is_finite() && *s > 0.0)
         || !translation.iter().all(|t| t.is_finite())
@@ -420,7 +451,7 @@ pub fn read(
                     Problem::UnsupportedGrid {
                         name: name.to_string(),
                         why: format!(
-                            "its transform is an {map} (rotated, sheared or in perspective); haze reads axis-aligned grids (a scale and a translation): resample it onto an axis-aligned grid first"
+                            "its transform is a {map}, which haze does not read (one in perspective, or of a kind OpenVDB added later); {AXIS_ALIGNED}"
                         ),
                     },
                 ),
@@ -440,7 +471,7 @@ pub fn read(
             },
         ));
     }
-    let (file_voxel, translation) = transform_of(path, &grid.transform)?;
+    let (file_voxel, translation) = transform_of(path, name, &grid.transform)?;
     // An Adaptive Domain's block: its file indices shifted into the domain's, whose cells
     // are smaller than the block's transform says.
     let (offset, voxel_size) = match &gi.placement {
@@ -624,4 +655,38 @@ fn stored_bbox(path: &Path, grid: &Grid<f32>) -> Result<Option<IndexBox>, Import
         }
     })?;
     Ok(b)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn affine(m: [f64; 16]) -> Result<([f64; 3], [f64; 3]), ImportError> {
+        transform_of(Path::new("a.vdb"), "density", &Map::AffineMap { matrix: m })
+    }
+
+    #[test]
+    fn an_affine_map_reads_when_it_is_a_scale_and_a_translation() {
+        // Rows: the index axes' images, then the translation (OpenVDB's row vectors).
+        let m = [
+            0.1, 0.0, 0.0, 0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.0, 0.3, 0.0, 1.0, 2.0, -3.0, 1.0,
+        ];
+        assert_eq!(affine(m).unwrap(), ([0.1, 0.2, 0.3], [1.0, 2.0, -3.0]));
+        // A rotation by π/2 and back leaves rounding (≈ 10⁻¹⁷) off the diagonal: read.
+        let mut near = m;
+        near[1] = 6e-18;
+        assert!(affine(near).is_ok());
+        // A rotation of 0.3 rad about z, and a perspective column, are refused by name.
+        let (c, s) = (0.3f64.cos(), 0.3f64.sin());
+        let mut rotated = m;
+        [rotated[0], rotated[1], rotated[4], rotated[5]] = [0.1 * c, 0.1 * s, -0.1 * s, 0.1 * c];
+        let e = affine(rotated).unwrap_err().to_string();
+        assert!(
+            e.starts_with("a.vdb: grid 'density' is unsupported: its transform (an AffineMap) rotates or shears the grid"),
+            "{e}"
+        );
+        let mut perspective = m;
+        perspective[3] = 0.5;
+        assert!(affine(perspective).is_err());
+    }
 }
