@@ -225,7 +225,8 @@ pub fn discover(path: &Path) -> Result<Vec<FrameFile>, ImportError> {
     frames.sort_by(|a, b| a.number.cmp(&b.number).then_with(|| a.path.cmp(&b.path)));
     for w in frames.windows(2) {
         if w[0].number == w[1].number {
-            let hint = match (sequence_glob(&w[0].path), sequence_glob(&w[1].path)) {
+            let n = w[0].number;
+            let hint = match (sequence_glob(&w[0].path, n), sequence_glob(&w[1].path, n)) {
                 (Some(a), Some(b)) if a != b => format!(
                     ": two sequences side by side? select one with a glob such as '{}'",
                     b.display()
@@ -245,22 +246,38 @@ pub fn discover(path: &Path) -> Result<Vec<FrameFile>, ImportError> {
     Ok(frames)
 }
 
-/// The glob of the sequence a numbered file belongs to: the last run of digits before its
-/// extension as `*`, the rest escaped (`None` for a name without such digits).
-fn sequence_glob(path: &Path) -> Option<PathBuf> {
-    let stem = path.file_stem()?.to_str()?;
-    let ext = path
-        .extension()
-        .map(|e| format!(".{}", e.to_string_lossy()))
-        .unwrap_or_default();
-    let end = stem.rfind(|c: char| c.is_ascii_digit())? + 1;
-    let start = stem[..end]
-        .rfind(|c: char| !c.is_ascii_digit())
-        .map_or(0, |i| i + 1);
+/// The glob of the sequence a file numbered `number` belongs to: the last run of digits
+/// of its name that reads `number` (where [`frame_numbers`] found it; a sample-type tag
+/// such as `.f32` in `smoke_0001.f32.npy` is no frame number) as `*`, the rest escaped
+/// (`None` for a name without such a run).
+fn sequence_glob(path: &Path, number: i64) -> Option<PathBuf> {
+    let name = path.file_name()?.to_str()?;
+    let mut stem = path.file_stem()?.to_str()?;
+    if let Some((rest, tag)) = stem.rsplit_once('.')
+        && is_type_tag(tag)
+    {
+        stem = rest;
+    }
+    let mut runs = Vec::new();
+    let mut start = None;
+    for (i, c) in stem.char_indices().chain([(stem.len(), '.')]) {
+        match (c.is_ascii_digit(), start) {
+            (true, None) => start = Some(i),
+            (false, Some(s)) => {
+                runs.push(s..i);
+                start = None;
+            }
+            _ => {}
+        }
+    }
+    let run = runs
+        .into_iter()
+        .rev()
+        .find(|r| stem[r.clone()].parse::<i64>().ok() == Some(number))?;
     let pattern = format!(
         "{}*{}",
-        glob::Pattern::escape(&stem[..start]),
-        glob::Pattern::escape(&format!("{}{ext}", &stem[end..]))
+        glob::Pattern::escape(&name[..run.start]),
+        glob::Pattern::escape(&name[run.end..])
     );
     Some(path.with_file_name(pattern))
 }
@@ -462,13 +479,25 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_sequences_glob_stars_its_last_digits_and_escapes_the_rest() {
-        let g = |p: &str| sequence_glob(Path::new(p)).map(|p| p.display().to_string());
-        assert_eq!(g("c/smoke_0001.vdb").as_deref(), Some("c/smoke_*.vdb"));
-        assert_eq!(g("c/v2_fire.0042.vdb").as_deref(), Some("c/v2_fire.*.vdb"));
-        assert_eq!(g("0007.npy").as_deref(), Some("*.npy"));
-        assert_eq!(g("c/a[1]_3.f32").as_deref(), Some("c/a[[]1[]]_*.f32"));
-        assert_eq!(g("c/smoke.vdb"), None);
+    fn a_sequences_glob_stars_its_frame_digits_and_escapes_the_rest() {
+        let g = |p: &str, n| sequence_glob(Path::new(p), n).map(|p| p.display().to_string());
+        assert_eq!(g("c/smoke_0001.vdb", 1).as_deref(), Some("c/smoke_*.vdb"));
+        assert_eq!(
+            g("c/v2_fire.0042.vdb", 42).as_deref(),
+            Some("c/v2_fire.*.vdb")
+        );
+        assert_eq!(g("0007.npy", 7).as_deref(), Some("*.npy"));
+        assert_eq!(g("c/a[1]_3.f32", 3).as_deref(), Some("c/a[[]1[]]_*.f32"));
+        assert_eq!(g("c/smoke.vdb", 1), None);
+        // The frame's run, not the last one: a version after it, a sample-type tag.
+        assert_eq!(g("c/s_0001_v2.npy", 1).as_deref(), Some("c/s_*_v2.npy"));
+        assert_eq!(
+            g("c/smoke_0007.f32.npy", 7).as_deref(),
+            Some("c/smoke_*.f32.npy")
+        );
+        // It selects the file's sequence and not the one beside it.
+        let p = glob::Pattern::new(&g("s_0001_v2.npy", 1).unwrap()).unwrap();
+        assert!(p.matches("s_0002_v2.npy") && !p.matches("s_0001_v3.npy"));
     }
 
     /// Messages print a range as it is written on the command line, never as a Rust value.
