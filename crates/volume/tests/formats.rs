@@ -308,3 +308,48 @@ fn sequences_refuse_ambiguity() {
         .to_string();
     assert!(e.contains("no volume files"), "{e}");
 }
+
+/// OpenVDB frames whose grid moves with the smoke (each file's indices from 0, its
+/// transform's translation following the container, by whole voxels): one grid over
+/// them all, each frame's voxels where its own transform puts them. A move by a fraction
+/// of a voxel is refused on opening, naming both frames.
+#[test]
+fn vdb_frames_whose_grid_moves_share_one_grid() {
+    use haze_volume::{Bbox, Volume};
+    let tmp = tempfile::tempdir().unwrap();
+    let frame = |n: u32, x0: f64, value: f32| {
+        let bbox = Bbox::new([x0, 0.0, 0.0], [x0 + 0.4, 0.4, 0.4]);
+        let v = Volume::new([4, 4, 4], bbox, vec![value; 64]).unwrap();
+        let bytes = haze_volume::export::vdb::to_bytes(&v).unwrap();
+        std::fs::write(tmp.path().join(format!("m_{n}.vdb")), bytes).unwrap();
+    };
+    frame(1, 0.0, 0.5);
+    frame(2, 0.3, 0.25);
+    let seq = Sequence::open(tmp.path(), &ImportOptions::default(), Default::default()).unwrap();
+    assert_eq!(seq.dims(), [7, 4, 4]);
+    assert!(
+        seq.bbox()
+            .approx_eq(&Bbox::new([0.0; 3], [0.7, 0.4, 0.4]), 1e-12)
+    );
+    let (a, b) = (seq.load(0).unwrap(), seq.load(1).unwrap());
+    for x in 0..7 {
+        // Frame 1 covers x in [0, 0.4), frame 2 x in [0.3, 0.7): voxels 0..4 and 3..7.
+        let want_a = if x < 4 { 0.5 } else { 0.0 };
+        let want_b = if x >= 3 { 0.25 } else { 0.0 };
+        assert_eq!(
+            (a.get(x, 2, 1), b.get(x, 2, 1)),
+            (want_a, want_b),
+            "x = {x}"
+        );
+    }
+    frame(3, 0.35, 0.25);
+    let e = Sequence::open(tmp.path(), &ImportOptions::default(), Default::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("m_3.vdb")
+            && e.contains("frame 3's grid is moved by (3.500, 0.000, 0.000) voxels from frame 1's")
+            && e.contains("without resampling"),
+        "{e}"
+    );
+}

@@ -162,6 +162,21 @@ impl<R: Read + Seek> VdbReader<R> {
         Self::read_grid_internal(&self.header, &mut self.reader, gd)
     }
 
+    /// haze: grid `name`'s transform alone (its tree is not read).
+    pub fn read_transform_of(&mut self, name: &str) -> Result<Map, ParseError> {
+        let gd = self
+            .grid_descriptors
+            .get(name)
+            .cloned()
+            .ok_or_else(|| ParseError::InvalidGridName(name.to_owned()))?;
+        gd.seek_to_grid(&mut self.reader)?;
+        if self.header.file_version >= OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION {
+            let _ = self.reader.read_u32::<LittleEndian>()?;
+        }
+        let _ = Self::read_metadata(&mut self.reader)?;
+        Self::read_transform(&mut self.reader)
+    }
+
     pub fn available_grids(&self) -> Vec<String> {
         self.grid_descriptors.keys().cloned().collect()
     }

@@ -300,6 +300,8 @@ pub struct Sequence {
     gaps: Vec<(i64, i64)>,
     opts: ImportOptions,
     vdb_box: Option<IndexBox>,
+    /// Where each frame's grid indices sit in the first frame's (grids that move).
+    shifts: Vec<[i64; 3]>,
     dims: [usize; 3],
     bbox: Bbox,
 }
@@ -324,11 +326,15 @@ impl Sequence {
             ));
         }
         let format = format_of(&frames[0].path)?;
-        let vdb_box = if format == Format::Vdb {
+        let lattice = if format == Format::Vdb {
             union_box(&frames, opts)?
         } else {
-            None
+            Lattice {
+                union: None,
+                shifts: vec![[0; 3]; frames.len()],
+            }
         };
+        let vdb_box = lattice.union;
         let first = read_unchecked(&frames[0].path, opts, vdb_box)?;
         Ok(Self {
             source: path.to_path_buf(),
@@ -337,6 +343,7 @@ impl Sequence {
             frames,
             opts: opts.clone(),
             vdb_box,
+            shifts: lattice.shifts,
             dims: first.dims(),
             bbox: *first.bbox(),
         })
@@ -382,7 +389,8 @@ impl Sequence {
             .frames
             .get(i)
             .ok_or_else(|| seq_err(&self.source, format!("no frame at position {i}")))?;
-        let mut v = read_unchecked(&f.path, &self.opts, self.vdb_box)?;
+        let own = self.vdb_box.map(|b| b.shifted(self.shifts[i].map(|s| -s)));
+        let mut v = read_unchecked(&f.path, &self.opts, own)?;
         if v.is_empty() && self.dims.iter().all(|&n| n > 0) {
             v = Volume::zeros(self.dims, self.bbox).map_err(|e| seq_err(&f.path, e.to_string()))?;
         }
@@ -426,9 +434,11 @@ const SAME_BOX: f64 = 1e-6;
 /// still differs from the first frame's are refused: an Adaptive Domain's cache without
 /// its `config` folder, whose files record neither where each grid sits in the domain nor
 /// the domain's cell size (each file's transform is scaled to its own grid).
-fn union_box(frames: &[FrameFile], opts: &ImportOptions) -> Result<Option<IndexBox>, ImportError> {
+fn union_box(frames: &[FrameFile], opts: &ImportOptions) -> Result<Lattice, ImportError> {
     let mut acc: Option<IndexBox> = None;
     let mut first_domain: Option<(i64, [i64; 3])> = None;
+    let mut shifts = Vec::with_capacity(frames.len());
+    let mut first_transform = None;
     for f in frames {
         let info = vdb::probe(&f.path)?;
         let gi = info.grid(&opts.grid).ok_or_else(|| {
@@ -461,17 +471,78 @@ fn union_box(frames: &[FrameFile], opts: &ImportOptions) -> Result<Option<IndexB
                 Some(_) => {}
             }
         }
+        // An Adaptive Domain's block is placed by the cache's configuration instead.
+        let shift = if gi.placement.is_none() {
+            let t = vdb::grid_transform(&f.path, &opts.grid)?;
+            match &first_transform {
+                None => {
+                    first_transform = Some((f, t));
+                    [0; 3]
+                }
+                Some((first, t0)) => lattice_shift(first, t0, f, &t)?,
+            }
+        } else {
+            [0; 3]
+        };
+        shifts.push(shift);
         let b = match gi.default_box() {
             Some(b) => Some(b),
             None if gi.active_voxels == Some(0) => None,
             // No recorded box: read the grid to find where its data is.
             None => vdb::read(&f.path, opts, None)?.index_box,
         };
-        if let Some(b) = b {
+        if let Some(b) = b.map(|b| b.shifted(shift)) {
             acc = Some(acc.map_or(b, |a| a.union(&b)));
         }
     }
-    Ok(acc)
+    Ok(Lattice { union: acc, shifts })
+}
+
+/// The frames' common box in the first frame's indices, and where each frame's indices
+/// sit in them.
+struct Lattice {
+    union: Option<IndexBox>,
+    /// Frame `k`'s index `j` is the first frame's index `j + shifts[k]`.
+    shifts: Vec<[i64; 3]>,
+}
+
+/// Where frame `f`'s index lattice (transform `t`: voxel size, translation) sits in the
+/// first frame's (`t0`): a whole number of voxels along each axis when its grid moved
+/// with the smoke (a container that follows it), `(t − t0) / h`. Voxels of another size
+/// are left to the frames' comparison (which names the change); a lattice off by a
+/// fraction of a voxel is refused: the frames could share one grid only by resampling.
+fn lattice_shift(
+    first: &FrameFile,
+    t0: &([f64; 3], [f64; 3]),
+    f: &FrameFile,
+    t: &([f64; 3], [f64; 3]),
+) -> Result<[i64; 3], ImportError> {
+    let ((h0, o0), (h, o)) = (t0, t);
+    if (0..3).any(|a| (h[a] - h0[a]).abs() > 1e-6 * h0[a]) {
+        return Ok([0; 3]);
+    }
+    let steps: [f64; 3] = std::array::from_fn(|a| (o[a] - o0[a]) / h0[a]);
+    if steps.iter().any(|s| (s - s.round()).abs() > 1e-3) {
+        return Err(seq_err(
+            &f.path,
+            format!(
+                "frame {}'s grid is moved by ({:.3}, {:.3}, {:.3}) voxels from frame {}'s ({}): not a whole number, so the frames share no grid without resampling (its transform's translation ({}, {}, {}) against ({}, {}, {}))",
+                f.number,
+                steps[0],
+                steps[1],
+                steps[2],
+                first.number,
+                first.path.display(),
+                o[0],
+                o[1],
+                o[2],
+                o0[0],
+                o0[1],
+                o0[2]
+            ),
+        ));
+    }
+    Ok(steps.map(|s| s.round() as i64))
 }
 
 #[cfg(test)]

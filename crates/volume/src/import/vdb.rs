@@ -404,6 +404,37 @@ fn transform_of(path: &Path, name: &str, map: &Map) -> Result<([f64; 3], [f64; 3
     Ok((scale, translation))
 }
 
+/// vdb-rs's panic reading grid `name` as an error: an unknown transform named (vdb-rs
+/// reads the maps [`transform_of`] takes, and panics on others), else its text.
+fn panicked(path: &Path, name: &str, panic: &str) -> ImportError {
+    match panic.strip_prefix("Not supported ") {
+        Some(map) => ImportError::new(
+            path,
+            Problem::UnsupportedGrid {
+                name: name.to_string(),
+                why: format!(
+                    "its transform is a {map}, which haze does not read (one in perspective, or of a kind OpenVDB added later); {AXIS_ALIGNED}"
+                ),
+            },
+        ),
+        None => vdb_err(path, format!("grid '{name}': {panic}")),
+    }
+}
+
+/// Voxel size and translation of grid `name`'s transform in `path` (as [`transform_of`]),
+/// read without the grid's tree.
+pub fn grid_transform(path: &Path, name: &str) -> Result<([f64; 3], [f64; 3]), ImportError> {
+    let mut reader = open_reader(path)?;
+    let info = info_of(&reader);
+    let stored = info.require(path, name)?.stored.clone();
+    let map = match catch_panic(|| reader.read_transform_of(&stored)) {
+        Ok(Ok(m)) => m,
+        Ok(Err(e)) => return Err(vdb_err(path, format!("grid '{name}': {}", describe(&e)))),
+        Err(panic) => return Err(panicked(path, name, &panic)),
+    };
+    transform_of(path, name, &map)
+}
+
 /// A grid read from a VDB file into a dense box.
 #[derive(Debug)]
 pub struct VdbFrame {
@@ -443,21 +474,7 @@ pub fn read(
     let grid: Grid<f32> = match catch_panic(|| reader.read_grid::<f32>(stored)) {
         Ok(Ok(g)) => g,
         Ok(Err(e)) => return Err(vdb_err(path, format!("grid '{name}': {}", describe(&e)))),
-        Err(panic) => {
-            return Err(match panic.strip_prefix("Not supported ") {
-                // vdb-rs reads the transforms of axis-aligned grids only.
-                Some(map) => ImportError::new(
-                    path,
-                    Problem::UnsupportedGrid {
-                        name: name.to_string(),
-                        why: format!(
-                            "its transform is a {map}, which haze does not read (one in perspective, or of a kind OpenVDB added later); {AXIS_ALIGNED}"
-                        ),
-                    },
-                ),
-                None => vdb_err(path, format!("grid '{name}': {panic}")),
-            });
-        }
+        Err(panic) => return Err(panicked(path, name, &panic)),
     };
     let background = grid.tree.background;
     if background != 0.0 {
