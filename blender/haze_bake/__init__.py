@@ -206,16 +206,17 @@ def sequence_pattern(path):
 
 
 def volume_grid(vol):
-    """The grid haze bakes from Volume data ``vol``: ``density``, else its first float grid,
-    as Blender lists the grids of the frame it shows; ``density`` when it shows none (haze
-    then names the file's grids if it has no such grid). A RuntimeError when the listed
-    grids hold no float grid."""
+    """The grid haze bakes from Volume data ``vol``: ``density``, else its first float grid
+    (32- or 64-bit), as Blender lists the grids of the frame it shows; ``density`` when it
+    shows none (haze then names the file's grids if it has no such grid). A RuntimeError
+    when the listed grids hold no float grid."""
     vol.grids.load()
     grids = [(g.name, g.data_type) for g in vol.grids]
-    if not grids or ("density", "FLOAT") in grids:
+    scalar = ("FLOAT", "DOUBLE")
+    if not grids or any(("density", k) in grids for k in scalar):
         return "density"
     for name, kind in grids:
-        if kind == "FLOAT":
+        if kind in scalar:
             return name
     listed = ", ".join(f"{n} ({k.lower()})" for n, k in grids)
     raise RuntimeError(f"no float grid to bake as density (the grids: {listed})")

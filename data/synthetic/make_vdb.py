@@ -12,6 +12,9 @@ haze must import from it (x fastest, ground truth computed here with numpy).
   rotated.vdb       a small fog volume under a rotated transform (an AffineMap; refused)
   scale_map.vdb     the same small fog volume under voxels of 0.1 x 0.2 x 0.3 and no
                     translation (OpenVDB stores it as a ScaleMap)
+  double.vdb        a fog volume of 64-bit values (a DoubleGrid, as Houdini writes at
+                    64-bit precision): 0.1 + 0.01 * (x + 10 y + 100 z) over indices
+                    0..3 in each axis, and an 8^3 tile of 0.3 at indices 8..15
   same_names.vdb    two fog grids both named "density" (0.5 and 0.25 over a 2^3 block),
                     which OpenVDB lists as density[0] and density[1]
   root_tile.vdb     a constant 0.25 over the root tile of indices 0..4095 and a voxel
@@ -100,6 +103,14 @@ g.name = "density"
 g.gridClass = vdb.GridClass.FOG_VOLUME
 g.transform = vdb.createLinearTransform(np.diag([0.1, 0.2, 0.3, 1.0]))
 vdb.write("scale_map.vdb", grids=[g])
+g = vdb.DoubleGrid()
+xs = np.arange(4, dtype=np.float64)
+g.copyFromArray(0.1 + 0.01 * (xs[:, None, None] + 10 * xs[None, :, None] + 100 * xs[None, None, :]))
+g.fill((8, 8, 8), (15, 15, 15), 0.3, active=True)
+g.name = "density"
+g.gridClass = vdb.GridClass.FOG_VOLUME
+g.transform = vdb.createLinearTransform(voxelSize=0.25)
+vdb.write("double.vdb", grids=[g])
 same = []
 for value in (0.5, 0.25):
     g = vdb.FloatGrid()

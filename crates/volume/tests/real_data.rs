@@ -328,6 +328,29 @@ mod synthetic {
     }
 
     #[test]
+    fn a_grid_of_64_bit_values_reads_rounded_to_32() {
+        // 0.1 + 0.01 (x + 10 y + 100 z) over indices 0..=3, a tile of 0.3 over 8..=15,
+        // voxels of 0.25 centred on their indices: each value the f64 rounded to f32.
+        let v = import::import(&data("synthetic/double.vdb"), &ImportOptions::default()).unwrap();
+        assert_eq!(v.dims(), [16, 16, 16]);
+        assert!((v.bbox().min[0] + 0.125).abs() < 1e-12, "{:?}", v.bbox());
+        for z in 0..16 {
+            for y in 0..16 {
+                for x in 0..16 {
+                    let want = if x < 4 && y < 4 && z < 4 {
+                        (0.1 + 0.01 * (x + 10 * y + 100 * z) as f64) as f32
+                    } else if [x, y, z].iter().all(|&i| i >= 8) {
+                        0.3f64 as f32
+                    } else {
+                        0.0
+                    };
+                    assert_eq!(v.get(x, y, z), want, "({x}, {y}, {z})");
+                }
+            }
+        }
+    }
+
+    #[test]
     fn grids_of_the_same_name_are_listed_and_read_as_openvdb_shows_them() {
         let path = data("synthetic/same_names.vdb");
         let info = vdb::probe(&path).unwrap();

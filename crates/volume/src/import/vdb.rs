@@ -1,7 +1,8 @@
 //! OpenVDB import through vdb-rs: one scalar float grid of a file, sparse tree → dense box.
 //!
 //! * **Which grid**: by name (`density` by default). Only scalar float grids
-//!   (`Tree_float_5_4_3`, saved in full or half precision) of class fog volume (or
+//!   (`Tree_float_5_4_3`, saved in full or half precision, or `Tree_double_5_4_3`,
+//!   rounded to `f32`) of class fog volume (or
 //!   unknown class) are read; anything else is refused with the reason.
 //! * **Which box**: the domain when the writer records one (`file_base_resolution`, as
 //!   Blender's Mantaflow cache does: index box `[0, res)`; for a frame of an Adaptive
@@ -144,9 +145,9 @@ impl VdbGridInfo {
     /// Why haze cannot read this grid as density, if it cannot.
     fn unsupported(&self) -> Option<String> {
         let t = self.grid_type.as_str();
-        if t != "Tree_float_5_4_3" && t != "Tree_float_5_4_3_HalfFloat" {
+        if t != "Tree_float_5_4_3" && t != "Tree_float_5_4_3_HalfFloat" && t != DOUBLE {
             return Some(format!(
-                "its type is {t}; haze reads scalar float grids (Tree_float_5_4_3)"
+                "its type is {t}; haze reads scalar float grids (Tree_float_5_4_3, or Tree_double_5_4_3 rounded to 32 bits)"
             ));
         }
         match self.class.as_deref() {
@@ -471,12 +472,19 @@ pub fn read(
             },
         ));
     }
-    let grid: Grid<f32> = match catch_panic(|| reader.read_grid::<f32>(stored)) {
+    let read = catch_panic(|| {
+        if gi.grid_type == DOUBLE {
+            reader.read_grid::<f64>(stored).map(Scalars::F64)
+        } else {
+            reader.read_grid::<f32>(stored).map(Scalars::F32)
+        }
+    });
+    let grid = match read {
         Ok(Ok(g)) => g,
         Ok(Err(e)) => return Err(vdb_err(path, format!("grid '{name}': {}", describe(&e)))),
         Err(panic) => return Err(panicked(path, name, &panic)),
     };
-    let background = grid.tree.background;
+    let background = grid.background();
     if background != 0.0 {
         return Err(ImportError::new(
             path,
@@ -488,7 +496,7 @@ pub fn read(
             },
         ));
     }
-    let (file_voxel, translation) = transform_of(path, name, &grid.transform)?;
+    let (file_voxel, translation) = transform_of(path, name, grid.transform())?;
     // An Adaptive Domain's block: its file indices shifted into the domain's, whose cells
     // are smaller than the block's transform says.
     let (offset, voxel_size) = match &gi.placement {
@@ -590,10 +598,10 @@ fn corrupt(path: &Path, what: &str) -> ImportError {
 /// Visits every value `grid` stores as `(min corner, side, value)`: the root's tiles
 /// (side 4096), internal-node tiles (sides 128 and 8) and all 512 values of each leaf
 /// (side 1).
-fn walk(
+fn walk<V: Copy>(
     path: &Path,
-    grid: &Grid<f32>,
-    mut visit: impl FnMut([i64; 3], i64, f32),
+    grid: &Grid<V>,
+    mut visit: impl FnMut([i64; 3], i64, V),
 ) -> Result<(), ImportError> {
     let at = |origin: [i32; 3], l: [i64; 3], shift: u32| {
         [0, 1, 2].map(|a| i64::from(origin[a]) + (l[a] << shift))
@@ -655,14 +663,52 @@ fn walk(
 }
 
 /// Copies every stored value of `grid` inside the box.
-fn fill(path: &Path, grid: &Grid<f32>, mut dense: Dense<'_>) -> Result<(), ImportError> {
-    walk(path, grid, |o, side, v| dense.fill_cube(o, side, v))
+fn fill(path: &Path, grid: &Scalars, mut dense: Dense<'_>) -> Result<(), ImportError> {
+    grid.walk(path, |o, side, v| dense.fill_cube(o, side, v))
+}
+
+/// OpenVDB's type name of a tree of 64-bit scalars.
+const DOUBLE: &str = "Tree_double_5_4_3";
+
+/// A scalar grid as stored: 32-bit values (full or half precision in the file), or 64-bit
+/// ones, which haze reads rounded to `f32` (the densities haze stores and renders).
+enum Scalars {
+    F32(Grid<f32>),
+    F64(Grid<f64>),
+}
+
+impl Scalars {
+    fn background(&self) -> f64 {
+        match self {
+            Scalars::F32(g) => f64::from(g.tree.background),
+            Scalars::F64(g) => g.tree.background,
+        }
+    }
+
+    fn transform(&self) -> &Map {
+        match self {
+            Scalars::F32(g) => &g.transform,
+            Scalars::F64(g) => &g.transform,
+        }
+    }
+
+    /// [`walk`] with every value as `f32`.
+    fn walk(
+        &self,
+        path: &Path,
+        mut visit: impl FnMut([i64; 3], i64, f32),
+    ) -> Result<(), ImportError> {
+        match self {
+            Scalars::F32(g) => walk(path, g, visit),
+            Scalars::F64(g) => walk(path, g, |o, side, v| visit(o, side, v as f32)),
+        }
+    }
 }
 
 /// Bounding box of every non-zero stored value, for grids that record no box.
-fn stored_bbox(path: &Path, grid: &Grid<f32>) -> Result<Option<IndexBox>, ImportError> {
+fn stored_bbox(path: &Path, grid: &Scalars) -> Result<Option<IndexBox>, ImportError> {
     let mut b: Option<IndexBox> = None;
-    walk(path, grid, |o, side, v| {
+    grid.walk(path, |o, side, v| {
         if v != 0.0 {
             let nb = IndexBox {
                 min: o,
