@@ -519,7 +519,23 @@ def volume_source_checks(work):
         "wind_*.vdb: no float grid" in str(result) and "velocity (vector_float)" in str(result),
         f"{result}",
     )
+    # A 64-bit grid (as Houdini writes at 64-bit precision), not named density: baked.
+    (work / "dbl").mkdir()
+    d = vdb.DoubleGrid()
+    d.copyFromArray(np.full((4, 4, 4), 0.5))
+    d.name = "smoke"
+    d.gridClass = vdb.GridClass.FOG_VOLUME
+    vdb.write(str(work / "dbl" / "dbl.vdb"), grids=[d])
     vol.is_sequence = False
+    vol.filepath = str(work / "dbl" / "dbl.vdb")
+    scene.haze.output = str(work / "dbl.haze")
+    result = bpy.ops.haze.bake()
+    baked = haze.Asset(work / "dbl.haze").frame(0) if (work / "dbl.haze").exists() else None
+    check(
+        "a Volume object's 64-bit grid is baked",
+        result == {"FINISHED"} and haze_bake.volume_grid(vol) == "smoke" and np.allclose(baked, 0.5, atol=0.5 / 255),
+        f"{result} {None if baked is None else (baked.min(), baked.max())}",
+    )
     vol.filepath = str(work / "gone.vdb")
     result = attempt(bpy.ops.haze.bake)
     check("a missing file is refused, named", "gone.vdb: no such file" in str(result), f"{result}")
