@@ -428,7 +428,8 @@ impl Sequence {
 /// max(base_res)`), which agree to a few `f32` roundings (`≈ 10⁻⁷`).
 const SAME_BOX: f64 = 1e-6;
 
-/// Union of the frames' dense boxes, from their headers where recorded. An Adaptive
+/// Union of the frames' dense boxes in the first frame's indices, from their headers where
+/// recorded, each frame's box moved by its grid's move ([`lattice_shift`]). An Adaptive
 /// Domain's frames are placed in the whole domain by the cache's configuration
 /// ([`super::adaptive_domain`]); frames whose domain resolution (`file_base_resolution`)
 /// still differs from the first frame's are refused: an Adaptive Domain's cache without
