@@ -2,8 +2,8 @@
 //!
 //! * **Which grid**: by name (`density` by default). Only scalar float grids
 //!   (`Tree_float_5_4_3`, saved in full or half precision, or `Tree_double_5_4_3`,
-//!   rounded to `f32`) of class fog volume (or
-//!   unknown class) are read; anything else is refused with the reason.
+//!   rounded to `f32`) of class fog volume (or unknown class) are read; anything else is
+//!   refused with the reason.
 //! * **Which box**: the domain when the writer records one (`file_base_resolution`, as
 //!   Blender's Mantaflow cache does: index box `[0, res)`; for a frame of an Adaptive
 //!   Domain the whole domain, its block placed by the cache's configuration:
@@ -16,8 +16,7 @@
 //!   4096³ voxels) — over a background of 0 (fog volumes); a grid whose background is not
 //!   0 (density everywhere outside its voxels) is refused.
 //! * **Which transforms**: a scale (uniform or not), a translation, both, or an affine
-//!   map that is one of those; a rotation, shear or perspective is
-//!   refused naming it.
+//!   map that is one of those; a rotation, shear or perspective is refused naming it.
 //! * **Where in the world**: index `i` maps through the grid's transform `T` to the
 //!   voxel's *centre* (OpenVDB's own convention: Houdini, EmberGen, haze's exports) or, in
 //!   Blender's fluid caches, to its *min corner* (Mantaflow's cell `i` of a domain whose
