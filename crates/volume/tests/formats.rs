@@ -327,6 +327,7 @@ fn vdb_frames_whose_grid_moves_share_one_grid() {
     frame(2, 0.3, 0.25);
     let seq = Sequence::open(tmp.path(), &ImportOptions::default(), Default::default()).unwrap();
     assert_eq!(seq.dims(), [7, 4, 4]);
+    assert_eq!(seq.shifts(), &[[0, 0, 0], [3, 0, 0]]);
     assert!(
         seq.bbox()
             .approx_eq(&Bbox::new([0.0; 3], [0.7, 0.4, 0.4]), 1e-12)

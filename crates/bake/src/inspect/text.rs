@@ -98,6 +98,16 @@ impl Report {
                     format!("{} .. {}", vec3(r.bbox_min), vec3(r.bbox_max)),
                 );
                 line(&mut out, "voxel size", vec3(r.voxel_size));
+                if let Some(m) = r.grid_moves {
+                    line(
+                        &mut out,
+                        "grid moves",
+                        format!(
+                            "with the smoke: each frame placed by its own transform, up to ({}, {}, {}) voxels from frame {}'s",
+                            m[0], m[1], m[2], r.first_frame
+                        ),
+                    );
+                }
                 line(
                     &mut out,
                     "values",

@@ -167,6 +167,10 @@ pub struct SequenceReport {
     pub active_voxels_max: usize,
     pub memory_bytes_per_frame: usize,
     pub memory_bytes_total: usize,
+    /// For OpenVDB frames whose grid moves with the smoke (each placed by its own
+    /// transform): the largest move from the first frame's grid along each axis, voxels.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub grid_moves: Option<[i64; 3]>,
     pub per_frame: Vec<FrameSummary>,
 }
 
@@ -223,6 +227,9 @@ pub(super) fn sequence_report(
         active_voxels_max: per_frame.iter().map(|f| f.active_voxels).max().unwrap_or(0),
         memory_bytes_per_frame: per,
         memory_bytes_total: per * seq.len(),
+        grid_moves: seq.shifts().iter().any(|s| *s != [0; 3]).then(|| {
+            std::array::from_fn(|a| seq.shifts().iter().map(|s| s[a].abs()).max().unwrap_or(0))
+        }),
         per_frame,
     })
 }

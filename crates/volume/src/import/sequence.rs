@@ -374,6 +374,12 @@ impl Sequence {
         &self.gaps
     }
 
+    /// Where each frame's grid indices sit in the first frame's: non-zero for a grid that
+    /// moves with the smoke ([`lattice_shift`]).
+    pub fn shifts(&self) -> &[[i64; 3]] {
+        &self.shifts
+    }
+
     /// The grid every frame shares.
     pub fn dims(&self) -> [usize; 3] {
         self.dims
