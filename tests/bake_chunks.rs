@@ -302,3 +302,75 @@ fn chunks_merge_in_frame_order_and_mismatches_are_refused() {
     );
     assert!(!tmp(&dir, "x.haze").exists());
 }
+
+/// Chunks of an OpenVDB sequence from another tool — no recorded domain, each frame's box
+/// its own, the grid moving with the smoke — share the whole sequence's grid, so they
+/// merge into the asset one bake of every frame makes (the same grid, the same frames).
+#[test]
+fn chunks_of_a_moving_grid_merge() {
+    use haze_volume::{Bbox, Volume};
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path().join("src");
+    std::fs::create_dir(&src).unwrap();
+    for n in 1..=4 {
+        // A blob drifting +x in a 12 × 10 × 10 container that moves 2 voxels a frame.
+        let (h, x0) = (0.1, 0.2 * f64::from(n));
+        let bbox = Bbox::new([x0, 0.0, 0.0], [x0 + 1.2, 1.0, 1.0]);
+        let data = (0..1200)
+            .map(|i| {
+                let (x, y, z) = ((i % 12) as f64, ((i / 12) % 10) as f64, (i / 120) as f64);
+                let r2 =
+                    (x - 5.0 - 0.3 * f64::from(n)).powi(2) + (y - 4.5).powi(2) + (z - 4.5).powi(2);
+                let d = (-r2 / 6.0).exp() as f32;
+                if d < 0.01 { 0.0 } else { d }
+            })
+            .collect();
+        let v = Volume::new([12, 10, 10], bbox, data).unwrap();
+        assert!((v.voxel_size()[0] - h).abs() < 1e-12);
+        let bytes = haze_volume::export::vdb::to_bytes(&v).unwrap();
+        std::fs::write(src.join(format!("blob_{n:03}.vdb")), bytes).unwrap();
+    }
+    let s = src.display().to_string();
+    let (whole, a, b, merged) = (
+        tmp(&dir, "whole.haze"),
+        tmp(&dir, "a.haze"),
+        tmp(&dir, "b.haze"),
+        tmp(&dir, "merged.haze"),
+    );
+    let bake = |frames: &str, out: &Path| {
+        ok(&[
+            "bake",
+            &s,
+            "--frames",
+            frames,
+            "--rbfs",
+            "20",
+            "--out",
+            out.to_str().unwrap(),
+            "-q",
+        ]);
+    };
+    bake("1..4", &whole);
+    bake("1..2", &a);
+    bake("3..4", &b);
+    ok(&[
+        "merge",
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        "--out",
+        merged.to_str().unwrap(),
+    ]);
+    let (w, m) = (
+        haze_asset::Asset::open(&whole).unwrap(),
+        haze_asset::Asset::open(&merged).unwrap(),
+    );
+    let (gw, gm) = (&w.header().grid, &m.header().grid);
+    // The container travels 6 voxels over the 12 a frame holds: 18 voxels along x.
+    assert_eq!((gw.dims, gm.dims), ([18, 10, 10], [18, 10, 10]));
+    let (bw, bm) = (
+        Bbox::new(gw.bbox_min, gw.bbox_max),
+        Bbox::new(gm.bbox_min, gm.bbox_max),
+    );
+    assert!(bw.approx_eq(&bm, 1e-12), "{bw:?} vs {bm:?}");
+    assert_eq!((w.header().frame_count, m.header().frame_count), (4, 4));
+}

@@ -9,6 +9,7 @@
 
 use anyhow::{Result, bail};
 use haze_asset::{Asset, AssetWriter, Header, Scope};
+use haze_volume::Bbox;
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 
@@ -133,10 +134,19 @@ fn comparable(h: &Header) -> Value {
     s
 }
 
+/// Chunks whose boxes agree to this fraction of the longest side share one grid, as the
+/// frames of one sequence do (each chunk's box comes from its own first frame's transform,
+/// which differs by rounding where the sequence's grid moves).
+const SAME_BOX: f64 = 1e-6;
+
 fn check_compatible(a: &Asset, b: &Asset) -> Result<()> {
     let (ha, hb) = (a.header(), b.header());
     let (pa, pb) = (a.path().display(), b.path().display());
-    if ha.grid != hb.grid {
+    let (ba, bb) = (
+        Bbox::new(ha.grid.bbox_min, ha.grid.bbox_max),
+        Bbox::new(hb.grid.bbox_min, hb.grid.bbox_max),
+    );
+    if ha.grid.dims != hb.grid.dims || !ba.approx_eq(&bb, SAME_BOX) {
         bail!(
             "{pb}: grid {:?} over {:?}..{:?} differs from {pa}'s {:?} over {:?}..{:?}",
             hb.grid.dims,

@@ -315,10 +315,8 @@ impl Sequence {
             (Some(a), Some(b)) => format!(" (the files hold frames {}..{})", a.number, b.number),
             _ => String::new(),
         };
-        let frames: Vec<FrameFile> = all
-            .into_iter()
-            .filter(|f| range.contains(f.number))
-            .collect();
+        let (frames, others): (Vec<FrameFile>, Vec<FrameFile>) =
+            all.into_iter().partition(|f| range.contains(f.number));
         if frames.is_empty() {
             return Err(seq_err(
                 path,
@@ -327,7 +325,7 @@ impl Sequence {
         }
         let format = format_of(&frames[0].path)?;
         let lattice = if format == Format::Vdb {
-            union_box(&frames, opts)?
+            union_box(&frames, &others, opts)?
         } else {
             Lattice {
                 union: None,
@@ -335,7 +333,8 @@ impl Sequence {
             }
         };
         let vdb_box = lattice.union;
-        let first = read_unchecked(&frames[0].path, opts, vdb_box)?;
+        let own = vdb_box.map(|b| b.shifted(lattice.shifts[0].map(|s| -s)));
+        let first = read_unchecked(&frames[0].path, opts, own)?;
         Ok(Self {
             source: path.to_path_buf(),
             format,
@@ -441,68 +440,103 @@ const SAME_BOX: f64 = 1e-6;
 /// still differs from the first frame's are refused: an Adaptive Domain's cache without
 /// its `config` folder, whose files record neither where each grid sits in the domain nor
 /// the domain's cell size (each file's transform is scaled to its own grid).
-fn union_box(frames: &[FrameFile], opts: &ImportOptions) -> Result<Lattice, ImportError> {
+///
+/// The files of the sequence outside the frames asked for (`others`) join the union too,
+/// so that every chunk of one sequence (`--frames A..B`, a farm's jobs) gets the same
+/// grid and the chunks merge; one of them that cannot join (unreadable, another domain,
+/// off the lattice) is left out, its problem for a bake that asks for it.
+fn union_box(
+    frames: &[FrameFile],
+    others: &[FrameFile],
+    opts: &ImportOptions,
+) -> Result<Lattice, ImportError> {
     let mut acc: Option<IndexBox> = None;
-    let mut first_domain: Option<(i64, [i64; 3])> = None;
+    let mut state = UnionState::default();
     let mut shifts = Vec::with_capacity(frames.len());
-    let mut first_transform = None;
     for f in frames {
-        let info = vdb::probe(&f.path)?;
-        let gi = info.grid(&opts.grid).ok_or_else(|| {
-            ImportError::new(
-                &f.path,
-                Problem::MissingGrid {
-                    name: opts.grid.clone(),
-                    available: info.grids.iter().map(|g| g.name.clone()).collect(),
-                },
-            )
-        })?;
-        if let Some(res) = gi.domain_resolution() {
-            match first_domain {
-                None => first_domain = Some((f.number, res)),
-                Some((n, first)) if first != res => {
-                    return Err(seq_err(
-                        &f.path,
-                        format!(
-                            "frame {}'s simulation domain is {} cells but frame {n}'s is {}: a Blender cache of an Adaptive Domain without its configuration ({}), which says where each frame's grid sits (keep the cache's config folder beside its data folder, or turn the domain's Adaptive Domain off and bake it again)",
-                            f.number,
-                            cells(res),
-                            cells(first),
-                            adaptive_domain::config_path(&f.path).map_or_else(
-                                || "CACHE/config/config_NNNN.uni".to_string(),
-                                |p| p.display().to_string()
-                            )
-                        ),
-                    ));
-                }
-                Some(_) => {}
-            }
-        }
-        // An Adaptive Domain's block is placed by the cache's configuration instead.
-        let shift = if gi.placement.is_none() {
-            let t = vdb::grid_transform(&f.path, &opts.grid)?;
-            match &first_transform {
-                None => {
-                    first_transform = Some((f, t));
-                    [0; 3]
-                }
-                Some((first, t0)) => lattice_shift(first, t0, f, &t)?,
-            }
-        } else {
-            [0; 3]
-        };
+        let (b, shift) = frame_box(f, opts, &mut state)?;
         shifts.push(shift);
-        let b = match gi.default_box() {
-            Some(b) => Some(b),
-            None if gi.active_voxels == Some(0) => None,
-            // No recorded box: read the grid to find where its data is.
-            None => vdb::read(&f.path, opts, None)?.index_box,
-        };
-        if let Some(b) = b.map(|b| b.shifted(shift)) {
+        if let Some(b) = b {
+            acc = Some(acc.map_or(b, |a| a.union(&b)));
+        }
+    }
+    for f in others {
+        if let Ok((Some(b), _)) = frame_box(f, opts, &mut state) {
             acc = Some(acc.map_or(b, |a| a.union(&b)));
         }
     }
     Ok(Lattice { union: acc, shifts })
+}
+
+/// A grid's index→world map: voxel size and translation ([`vdb::grid_transform`]).
+type Transform = ([f64; 3], [f64; 3]);
+
+/// What the union compares each frame with: the first frame's simulation domain and its
+/// grid's transform.
+#[derive(Default)]
+struct UnionState<'a> {
+    first_domain: Option<(i64, [i64; 3])>,
+    first_transform: Option<(&'a FrameFile, Transform)>,
+}
+
+/// Frame `f`'s dense box in the first frame's indices and its grid's move
+/// ([`lattice_shift`]).
+fn frame_box<'a>(
+    f: &'a FrameFile,
+    opts: &ImportOptions,
+    state: &mut UnionState<'a>,
+) -> Result<(Option<IndexBox>, [i64; 3]), ImportError> {
+    let info = vdb::probe(&f.path)?;
+    let gi = info.grid(&opts.grid).ok_or_else(|| {
+        ImportError::new(
+            &f.path,
+            Problem::MissingGrid {
+                name: opts.grid.clone(),
+                available: info.grids.iter().map(|g| g.name.clone()).collect(),
+            },
+        )
+    })?;
+    if let Some(res) = gi.domain_resolution() {
+        match state.first_domain {
+            None => state.first_domain = Some((f.number, res)),
+            Some((n, first)) if first != res => {
+                return Err(seq_err(
+                    &f.path,
+                    format!(
+                        "frame {}'s simulation domain is {} cells but frame {n}'s is {}: a Blender cache of an Adaptive Domain without its configuration ({}), which says where each frame's grid sits (keep the cache's config folder beside its data folder, or turn the domain's Adaptive Domain off and bake it again)",
+                        f.number,
+                        cells(res),
+                        cells(first),
+                        adaptive_domain::config_path(&f.path).map_or_else(
+                            || "CACHE/config/config_NNNN.uni".to_string(),
+                            |p| p.display().to_string()
+                        )
+                    ),
+                ));
+            }
+            Some(_) => {}
+        }
+    }
+    // An Adaptive Domain's block is placed by the cache's configuration instead.
+    let shift = if gi.placement.is_none() {
+        let t = vdb::grid_transform(&f.path, &opts.grid)?;
+        match &state.first_transform {
+            None => {
+                state.first_transform = Some((f, t));
+                [0; 3]
+            }
+            Some((first, t0)) => lattice_shift(first, t0, f, &t)?,
+        }
+    } else {
+        [0; 3]
+    };
+    let b = match gi.default_box() {
+        Some(b) => Some(b),
+        None if gi.active_voxels == Some(0) => None,
+        // No recorded box: read the grid to find where its data is.
+        None => vdb::read(&f.path, opts, None)?.index_box,
+    };
+    Ok((b.map(|b| b.shifted(shift)), shift))
 }
 
 /// The frames' common box in the first frame's indices, and where each frame's indices
@@ -520,9 +554,9 @@ struct Lattice {
 /// fraction of a voxel is refused: the frames could share one grid only by resampling.
 fn lattice_shift(
     first: &FrameFile,
-    t0: &([f64; 3], [f64; 3]),
+    t0: &Transform,
     f: &FrameFile,
-    t: &([f64; 3], [f64; 3]),
+    t: &Transform,
 ) -> Result<[i64; 3], ImportError> {
     let ((h0, o0), (h, o)) = (t0, t);
     if (0..3).any(|a| (h[a] - h0[a]).abs() > 1e-6 * h0[a]) {
