@@ -25,6 +25,7 @@
 
 use crate::grid::FitGrid;
 use haze_volume::rbf::{CUTOFF, voxel_span};
+use multiversion::multiversion;
 use rayon::prelude::*;
 
 /// Parameters per RBF in the flat parameter vector: `cx, cy, cz, r, w`.
@@ -93,7 +94,7 @@ struct Tables {
     r: f64,
     axes: [Axis; 3],
     /// For the x-row at table positions `(j, k)`, entry `k·ny + j`: the table positions
-    /// `[a, b)` inside the sphere ([`RowWalk`]; empty: `a ≥ b`). Found once per pass
+    /// `[a, b)` inside the sphere ([`SphereRows`]; empty: `a ≥ b`). Found once per pass
     /// and read by both halves of it.
     rows: Vec<(u32, u32)>,
 }
@@ -108,80 +109,69 @@ impl Tables {
         let x = Axis::new(c[0], r, grid.h[0], grid.dims[0])?;
         let y = Axis::new(c[1], r, grid.h[1], grid.dims[1])?;
         let z = Axis::new(c[2], r, grid.h[2], grid.dims[2])?;
-        let mut t = Tables {
+        let rows = sphere_rows(&x, &y, &z);
+        Some(Tables {
             w,
             r,
             axes: [x, y, z],
-            rows: Vec::new(),
-        };
-        let [ax, ay, az] = &t.axes;
-        let mut rows = Vec::with_capacity(ay.q().len() * az.q().len());
-        let mut walk = RowWalk::new(ax);
-        for &qz in az.q() {
-            for &qy in ay.q() {
-                let s = qy + qz;
-                rows.push(match (s < CUT2).then(|| walk.row(s)).flatten() {
-                    Some((a, b)) => (a as u32, b as u32),
-                    None => (0, 0),
-                });
-            }
-        }
-        t.rows = rows;
-        Some(t)
+            rows,
+        })
     }
 }
 
-/// The x-rows of one RBF's sphere, found by walking from the previous row's ends.
+/// The x-rows of one RBF's sphere: for the row `(j, k)`, the table positions `i` with
+/// `qx_i + s < 9`, `s = qy_j + qz_k`.
 ///
-/// The x-row `(j, k)` holds the table positions `i` with `qx_i + s < 9`, `s = qy_j + qz_k`.
 /// `qx` does not increase up to `mid` and does not decrease after it, so the row is one
 /// range `[a, b)`: `a` the length of the left half's prefix where `q + s ≥ 9`,
-/// `b − mid − 1` that of the right half's prefix where `q + s < 9` (both prefixes by monotone
-/// rounding). From one row to the next `s` changes a little, and so do the ends: walking
-/// them from where they were costs a step or two a row, where a binary search per row
-/// (5–46 voxels across) was a tenth of a bake. The result is the per-voxel test's range
-/// exactly, whatever the previous row was.
-struct RowWalk<'a> {
+/// `b − mid − 1` that of the right half's prefix where `q + s < 9` (both prefixes by
+/// monotone rounding). Each prefix's length is the count of its half's entries that pass
+/// the test — the per-voxel test's range exactly, found without a branch per voxel: a
+/// row is 5–46 voxels across, and a walk from the previous row's ends, branching at
+/// every step, was a fifth of a warm frame (BENCHMARKS.md).
+struct SphereRows<'a> {
     left: &'a [f64],
     right: &'a [f64],
-    a: usize,
-    b: usize,
 }
 
-impl<'a> RowWalk<'a> {
+impl<'a> SphereRows<'a> {
     fn new(ax: &'a Axis) -> Self {
         let (left, right) = ax.q().split_at(ax.mid + 1);
-        RowWalk {
-            left,
-            right,
-            a: left.len(),
-            b: 0,
-        }
+        SphereRows { left, right }
     }
 
-    /// Table positions of the x-row with `s = qy + qz < 9` whose voxels lie inside the
-    /// sphere (`None`: no voxel).
-    #[inline]
-    fn row(&mut self, s: f64) -> Option<(usize, usize)> {
-        let outside = |q: f64| q + s >= CUT2;
-        let (left, right) = (self.left, self.right);
-        while self.a < left.len() && outside(left[self.a]) {
-            self.a += 1;
-        }
-        while self.a > 0 && !outside(left[self.a - 1]) {
-            self.a -= 1;
-        }
-        if self.a == left.len() {
+    /// Table positions of the x-row with `s = qy + qz` whose voxels lie inside the sphere
+    /// (`None`: no voxel).
+    #[inline(always)]
+    fn row(&self, s: f64) -> Option<(usize, usize)> {
+        let a: usize = self.left.iter().map(|&q| usize::from(q + s >= CUT2)).sum();
+        if a == self.left.len() {
             return None;
         }
-        while self.b < right.len() && !outside(right[self.b]) {
-            self.b += 1;
-        }
-        while self.b > 0 && outside(right[self.b - 1]) {
-            self.b -= 1;
-        }
-        Some((self.a, left.len() + self.b))
+        let b: usize = self.right.iter().map(|&q| usize::from(q + s < CUT2)).sum();
+        Some((a, self.left.len() + b))
     }
+}
+
+/// Every x-row's range ([`SphereRows`]) of the sphere with axes `ax, ay, az`, entry
+/// `k·ny + j` for the row at table positions `(j, k)` (empty: `(0, 0)`).
+///
+/// Compiled for any x86-64 and for AVX2 (chosen at run time, `multiversion`; the same
+/// ranges either way: the counts are exact).
+#[multiversion(targets("x86_64+avx2+fma"))]
+fn sphere_rows(ax: &Axis, ay: &Axis, az: &Axis) -> Vec<(u32, u32)> {
+    let rows = SphereRows::new(ax);
+    let mut out = Vec::with_capacity(ay.q().len() * az.q().len());
+    for &qz in az.q() {
+        for &qy in ay.q() {
+            let s = qy + qz;
+            out.push(match (s < CUT2).then(|| rows.row(s)).flatten() {
+                Some((a, b)) => (a as u32, b as u32),
+                None => (0, 0),
+            });
+        }
+    }
+    out
 }
 
 fn tables(grid: &FitGrid, params: &[f64]) -> Vec<Option<Tables>> {
@@ -204,7 +194,9 @@ fn plane_lists(grid: &FitGrid, t: &[Option<Tables>]) -> Vec<Vec<u32>> {
     lists
 }
 
-/// Subtracts `D̃` of the RBFs in `list` from one z-plane `out` (x fastest).
+/// Subtracts `D̃` of the RBFs in `list` from one z-plane `out` (x fastest). Inlined into
+/// its callers, so that it is compiled for the CPU features they are ([`plane_share`]).
+#[inline(always)]
 fn subtract_plane(grid: &FitGrid, t: &[Option<Tables>], z: usize, list: &[u32], out: &mut [f64]) {
     for &l in list {
         let Some(tab) = &t[l as usize] else { continue };
@@ -281,32 +273,7 @@ fn residual_reached(
             if list.is_empty() {
                 return (0.0, Vec::new());
             }
-            let spans = row_spans(grid, t, list);
-            for (y, &(lo, hi)) in spans.iter().enumerate() {
-                if lo < hi {
-                    let row = grid.dims[0] * y;
-                    out[row + lo..row + hi].copy_from_slice(&density[row + lo..row + hi]);
-                }
-            }
-            subtract_plane(grid, t, z, list, out);
-            let mut delta = 0.0;
-            for (y, &(lo, hi)) in spans.iter().enumerate() {
-                if lo < hi {
-                    let row = grid.dims[0] * y;
-                    delta += row_delta(&out[row + lo..row + hi], &density[row + lo..row + hi]);
-                }
-            }
-            let plane_sums = if with_sums {
-                list.iter()
-                    .map(|&l| match &t[l as usize] {
-                        Some(tab) => plane_sums(grid, tab, z, out),
-                        None => Sums::default(),
-                    })
-                    .collect()
-            } else {
-                Vec::new()
-            };
-            (delta, plane_sums)
+            plane_share(grid, t, z, list, out, density, with_sums)
         })
         .collect();
     if let Some(sums) = sums {
@@ -321,9 +288,55 @@ fn residual_reached(
     (grid.sum_sq + partial.iter().map(|p| p.0).sum::<f64>()).max(0.0)
 }
 
+/// One z-plane's share of a pass ([`residual_reached`]): `R` written into `out` on the rows
+/// the RBFs of `list` reach, `Σ (R² − D²)` over them and, `with_sums`, each listed RBF's
+/// [`Sums`] on the plane.
+///
+/// Compiled twice, for any x86-64 and for AVX2 (chosen once at run time, `multiversion`):
+/// the loops are the same operations in the same order either way (Rust never fuses or
+/// reorders floating-point operations), so both give the same bits; AVX2 runs the rows'
+/// interleaved sums four lanes at a time instead of two.
+#[multiversion(targets("x86_64+avx2+fma"))]
+fn plane_share(
+    grid: &FitGrid,
+    t: &[Option<Tables>],
+    z: usize,
+    list: &[u32],
+    out: &mut [f64],
+    density: &[f64],
+    with_sums: bool,
+) -> (f64, Vec<Sums>) {
+    let spans = row_spans(grid, t, list);
+    for (y, &(lo, hi)) in spans.iter().enumerate() {
+        if lo < hi {
+            let row = grid.dims[0] * y;
+            out[row + lo..row + hi].copy_from_slice(&density[row + lo..row + hi]);
+        }
+    }
+    subtract_plane(grid, t, z, list, out);
+    let mut delta = 0.0;
+    for (y, &(lo, hi)) in spans.iter().enumerate() {
+        if lo < hi {
+            let row = grid.dims[0] * y;
+            delta += row_delta(&out[row + lo..row + hi], &density[row + lo..row + hi]);
+        }
+    }
+    let sums = if with_sums {
+        list.iter()
+            .map(|&l| match &t[l as usize] {
+                Some(tab) => plane_sums(grid, tab, z, out),
+                None => Sums::default(),
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    (delta, sums)
+}
+
 /// `Σ (R² − D²)` over one row, in four interleaved partial sums (one running sum waits
 /// on the previous addition at every voxel).
-#[inline]
+#[inline(always)]
 fn row_delta(r: &[f64], d: &[f64]) -> f64 {
     let mut acc = [0.0; 4];
     let (rc, dc) = (r.chunks_exact(4), d.chunks_exact(4));
@@ -355,6 +368,7 @@ impl Sums {
 }
 
 /// The share of [`Sums`] of one RBF on the z-plane `z`, whose residual is `plane`.
+#[inline(always)]
 fn plane_sums(grid: &FitGrid, tab: &Tables, z: usize, plane: &[f64]) -> Sums {
     let [ax, ay, az] = &tab.axes;
     let kz = z - az.lo;
@@ -385,7 +399,7 @@ fn plane_sums(grid: &FitGrid, tab: &Tables, z: usize, plane: &[f64]) -> Sums {
 }
 
 /// `(Σ R e, Σ R e d, Σ R e q)` over one row, in interleaved partial sums.
-#[inline]
+#[inline(always)]
 fn row_sums(r: &[f64], e: &[f64], d: &[f64], q: &[f64]) -> [f64; 3] {
     const L: usize = 4;
     let mut acc = [[0.0; L]; 3];
@@ -418,9 +432,15 @@ pub fn residual(grid: &FitGrid, params: &[f64]) -> Vec<f64> {
         r.par_chunks_mut(plane)
             .zip(lists.par_iter())
             .enumerate()
-            .for_each(|(z, (out, list))| subtract_plane(grid, &t, z, list, out));
+            .for_each(|(z, (out, list))| subtract_list(grid, &t, z, list, out));
     }
     r
+}
+
+/// [`subtract_plane`] compiled for any x86-64 and for AVX2, as [`plane_share`] is.
+#[multiversion(targets("x86_64+avx2+fma"))]
+fn subtract_list(grid: &FitGrid, t: &[Option<Tables>], z: usize, list: &[u32], out: &mut [f64]) {
+    subtract_plane(grid, t, z, list, out);
 }
 
 /// `f(θ)` = ΣR² / ΣD² (0 for an all-zero frame).
@@ -614,8 +634,8 @@ mod tests {
         }
     }
 
-    /// The walked row is exactly the range of the per-voxel sphere test, for centers on
-    /// and between voxel centers and `s` across `[0, 9)` visited in any order.
+    /// The counted row is exactly the range of the per-voxel sphere test, for centers on
+    /// and between voxel centers and `s` across `[0, 9)`.
     #[test]
     fn row_ranges_equal_the_per_voxel_test() {
         let g = grid_of([24, 3, 3], |_| 1.0);
@@ -629,9 +649,7 @@ mod tests {
             // y and z: the middle of the 3-voxel axes (the unit is the 24-voxel side).
             let tab = Tables::new(&g, &[c, 1.5 / 24.0, 1.5 / 24.0, r, 1.0]).unwrap();
             let q = tab.axes[0].q();
-            let mut walk = RowWalk::new(&tab.axes[0]);
-            // Up and down, in steps large and small, so the walk starts from rows
-            // narrower, wider and empty.
+            let rows = SphereRows::new(&tab.axes[0]);
             let steps = (0..200)
                 .chain((0..200).rev())
                 .chain((0..200).map(|k| (k * 67) % 200));
@@ -639,7 +657,7 @@ mod tests {
                 let s = 9.0 * k as f64 / 200.0;
                 let inside: Vec<usize> = (0..q.len()).filter(|&i| q[i] + s < CUT2).collect();
                 let want = inside.first().map(|&a| (a, inside[inside.len() - 1] + 1));
-                assert_eq!(walk.row(s), want, "c {c} r {r} s {s}");
+                assert_eq!(rows.row(s), want, "c {c} r {r} s {s}");
                 if let Some((a, b)) = want {
                     assert_eq!(b - a, inside.len(), "one contiguous range");
                 }
