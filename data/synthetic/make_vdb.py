@@ -12,6 +12,9 @@ haze must import from it (x fastest, ground truth computed here with numpy).
   rotated.vdb       a small fog volume under a rotated transform (an AffineMap; refused)
   scale_map.vdb     the same small fog volume under voxels of 0.1 x 0.2 x 0.3 and no
                     translation (OpenVDB stores it as a ScaleMap)
+  mirrored.vdb      a fog volume of 0.01 * (1 + x + 10 y + 100 z) over indices 0..3 in
+                    each axis under a transform that mirrors x (scale -0.1, 0.2, 0.3,
+                    translation (1, 2, 3): what a grid flipped in Houdini is saved as)
   double.vdb        a fog volume of 64-bit values (a DoubleGrid, as Houdini writes at
                     64-bit precision): 0.1 + 0.01 * (x + 10 y + 100 z) over indices
                     0..3 in each axis, and an 8^3 tile of 0.3 at indices 8..15
@@ -103,6 +106,15 @@ g.name = "density"
 g.gridClass = vdb.GridClass.FOG_VOLUME
 g.transform = vdb.createLinearTransform(np.diag([0.1, 0.2, 0.3, 1.0]))
 vdb.write("scale_map.vdb", grids=[g])
+g = vdb.FloatGrid()
+xs = np.arange(4, dtype=np.float32)
+g.copyFromArray(0.01 * (1 + xs[:, None, None] + 10 * xs[None, :, None] + 100 * xs[None, None, :]))
+g.name = "density"
+g.gridClass = vdb.GridClass.FOG_VOLUME
+m = np.diag([-0.1, 0.2, 0.3, 1.0])
+m[3, :3] = [1.0, 2.0, 3.0]
+g.transform = vdb.createLinearTransform(m)
+vdb.write("mirrored.vdb", grids=[g])
 g = vdb.DoubleGrid()
 xs = np.arange(4, dtype=np.float64)
 g.copyFromArray(0.1 + 0.01 * (xs[:, None, None] + 10 * xs[None, :, None] + 100 * xs[None, None, :]))

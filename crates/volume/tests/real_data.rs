@@ -328,6 +328,33 @@ mod synthetic {
     }
 
     #[test]
+    fn a_mirrored_grid_reads_where_its_transform_puts_each_voxel() {
+        // Scale (−0.1, 0.2, 0.3), translation (1, 2, 3): file index (i, j, k) is centred at
+        // world (1 − 0.1 i, 2 + 0.2 j, 3 + 0.3 k) and holds 0.01 (1 + i + 10 j + 100 k).
+        // OpenVDB also stores the scale's magnitude as the "voxel size": read by it, the
+        // grid sat at x 0.95..1.35 with its values in the wrong order along x.
+        let v = import::import(&data("synthetic/mirrored.vdb"), &ImportOptions::default()).unwrap();
+        assert_eq!(v.dims(), [4, 4, 4]);
+        let (h, b) = (v.voxel_size(), v.bbox());
+        let (want_h, want_min) = ([0.1, 0.2, 0.3], [0.65, 1.9, 2.85]);
+        for a in 0..3 {
+            assert!((h[a] - want_h[a]).abs() < 1e-12, "{h:?}");
+            assert!((b.min[a] - want_min[a]).abs() < 1e-12, "{b:?}");
+        }
+        for z in 0..4 {
+            for y in 0..4 {
+                for x in 0..4 {
+                    let wx = b.min[0] + (x as f64 + 0.5) * h[0];
+                    let i = ((1.0 - wx) / 0.1).round() as usize;
+                    let want = 0.01f32 * (1 + i + 10 * y + 100 * z) as f32;
+                    let got = v.get(x, y, z);
+                    assert!((got - want).abs() <= 1e-6, "({x}, {y}, {z}): {got} {want}");
+                }
+            }
+        }
+    }
+
+    #[test]
     fn a_grid_of_64_bit_values_reads_rounded_to_32() {
         // 0.1 + 0.01 (x + 10 y + 100 z) over indices 0..=3, a tile of 0.3 over 8..=15,
         // voxels of 0.25 centred on their indices: each value the f64 rounded to f32.

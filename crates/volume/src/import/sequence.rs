@@ -468,8 +468,8 @@ fn union_box(
     Ok(Lattice { union: acc, shifts })
 }
 
-/// A grid's index→world map: voxel size and translation ([`vdb::grid_transform`]).
-type Transform = ([f64; 3], [f64; 3]);
+/// A grid's index→world map ([`vdb::grid_transform`]).
+type Transform = vdb::GridTransform;
 
 /// What the union compares each frame with: the first frame's simulation domain and its
 /// grid's transform.
@@ -518,20 +518,21 @@ fn frame_box<'a>(
         }
     }
     // An Adaptive Domain's block is placed by the cache's configuration instead.
-    let shift = if gi.placement.is_none() {
-        let t = vdb::grid_transform(&f.path, &opts.grid)?;
-        match &state.first_transform {
-            None => {
-                state.first_transform = Some((f, t));
-                [0; 3]
-            }
-            Some((first, t0)) => lattice_shift(first, t0, f, &t)?,
-        }
-    } else {
-        [0; 3]
+    let t = match gi.placement {
+        None => Some(vdb::grid_transform(&f.path, &opts.grid)?),
+        Some(_) => None,
     };
+    let shift = match (&t, &state.first_transform) {
+        (None, _) => [0; 3],
+        (Some(t), None) => {
+            state.first_transform = Some((f, *t));
+            [0; 3]
+        }
+        (Some(t), Some((first, t0))) => lattice_shift(first, t0, f, t)?,
+    };
+    // The file's box in haze's indices (reversed along a mirrored axis).
     let b = match gi.default_box() {
-        Some(b) => Some(b),
+        Some(b) => Some(t.map_or(b, |t| t.index_box(b))),
         None if gi.active_voxels == Some(0) => None,
         // No recorded box: read the grid to find where its data is.
         None => vdb::read(&f.path, opts, None)?.index_box,
@@ -558,8 +559,8 @@ fn lattice_shift(
     f: &FrameFile,
     t: &Transform,
 ) -> Result<[i64; 3], ImportError> {
-    let ((h0, o0), (h, o)) = (t0, t);
-    if (0..3).any(|a| (h[a] - h0[a]).abs() > 1e-6 * h0[a]) {
+    let (h0, o0, h, o) = (t0.voxel, t0.translation, t.voxel, t.translation);
+    if (0..3).any(|a| (h[a] - h0[a]).abs() > 1e-6 * h0[a]) || t.mirrored != t0.mirrored {
         return Ok([0; 3]);
     }
     let steps: [f64; 3] = std::array::from_fn(|a| (o[a] - o0[a]) / h0[a]);

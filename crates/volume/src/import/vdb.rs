@@ -358,17 +358,70 @@ pub fn probe(path: &Path) -> Result<VdbFileInfo, ImportError> {
 /// What haze says of a transform it cannot read: axis-aligned grids only.
 const AXIS_ALIGNED: &str = "haze reads axis-aligned grids (a scale and a translation): resample it onto an axis-aligned grid first";
 
-/// Scale and translation of grid `name`'s index→world map: a scale (uniform or not), a
-/// translation, both, or an affine map whose linear part is diagonal (to `10⁻⁹` of its
-/// largest scale); one that rotates or shears the grid is refused.
-fn transform_of(path: &Path, name: &str, map: &Map) -> Result<([f64; 3], [f64; 3]), ImportError> {
-    let (scale, translation) = match map {
-        Map::UniformScaleMap { voxel_size: v, .. } | Map::ScaleMap { voxel_size: v, .. } => {
-            ([v.x, v.y, v.z], [0.0; 3])
+/// A grid's index→world map as haze reads it: `world = translation + voxel · j`, with
+/// `j` the file's index `i` along an axis whose scale is positive and `−i` along a
+/// mirrored one (a negative scale, as OpenVDB writes for a grid flipped in Houdini): the
+/// same points, so a mirrored grid is read over positive voxel sizes with its indices
+/// (its boxes, its tree's voxels) reversed along that axis ([`GridTransform::index_box`],
+/// [`GridTransform::index`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GridTransform {
+    /// World size of a voxel (positive).
+    pub voxel: [f64; 3],
+    pub translation: [f64; 3],
+    /// The axes along which the file's scale is negative.
+    pub mirrored: [bool; 3],
+}
+
+impl GridTransform {
+    /// The corner of the cube of `side` voxels at file index `o` (its lowest index on each
+    /// axis) in haze's indices.
+    pub fn index(&self, o: [i64; 3], side: i64) -> [i64; 3] {
+        std::array::from_fn(|a| {
+            if self.mirrored[a] {
+                -(o[a] + side - 1)
+            } else {
+                o[a]
+            }
+        })
+    }
+
+    /// A box of the file's indices in haze's.
+    pub fn index_box(&self, b: IndexBox) -> IndexBox {
+        let max = self.index(b.max, 1);
+        let min = self.index(b.min, 1);
+        IndexBox {
+            min: std::array::from_fn(|a| min[a].min(max[a])),
+            max: std::array::from_fn(|a| min[a].max(max[a])),
         }
+    }
+
+    /// Voxel `j`'s min corner, in voxels from haze's index `j` along each axis
+    /// ([`IndexAt::corner_offset`]) for a file whose index sits at `at`: along a mirrored
+    /// axis a file's corner index is at the voxel's max corner (`−1`), a centre stays
+    /// `−½`.
+    fn corner_offsets(&self, at: IndexAt) -> [f64; 3] {
+        let off = at.corner_offset();
+        self.mirrored.map(|m| if m { -1.0 - off } else { off })
+    }
+}
+
+/// Grid `name`'s index→world map: a scale (uniform or not), a translation, both, or an
+/// affine map whose linear part is diagonal (to `10⁻⁹` of its largest scale); one that
+/// rotates or shears the grid is refused. Scales are the file's signed ones (OpenVDB's
+/// maps also store a voxel size, which is their magnitude: a mirrored grid read by it
+/// would be silently unmirrored).
+fn transform_of(path: &Path, name: &str, map: &Map) -> Result<GridTransform, ImportError> {
+    let (scale, translation) = match map {
+        Map::UniformScaleMap {
+            scale_values: v, ..
+        }
+        | Map::ScaleMap {
+            scale_values: v, ..
+        } => ([v.x, v.y, v.z], [0.0; 3]),
         Map::TranslationMap { translation: t } => ([1.0; 3], [t.x, t.y, t.z]),
         Map::ScaleTranslateMap {
-            voxel_size: v,
+            scale_values: v,
             translation: t,
             ..
         } => ([v.x, v.y, v.z], [t.x, t.y, t.z]),
@@ -393,7 +446,7 @@ fn transform_of(path: &Path, name: &str, map: &Map) -> Result<([f64; 3], [f64; 3
             ([m[0], m[5], m[10]], [m[12], m[13], m[14]])
         }
     };
-    if !scale.iter().all(|s| s.is_finite() && *s > 0.0)
+    if !scale.iter().all(|s| s.is_finite() && *s != 0.0)
         || !translation.iter().all(|t| t.is_finite())
     {
         return Err(vdb_err(
@@ -401,7 +454,11 @@ fn transform_of(path: &Path, name: &str, map: &Map) -> Result<([f64; 3], [f64; 3
             format!("invalid transform (voxel size {scale:?}, translation {translation:?})"),
         ));
     }
-    Ok((scale, translation))
+    Ok(GridTransform {
+        voxel: scale.map(f64::abs),
+        translation,
+        mirrored: scale.map(|s| s < 0.0),
+    })
 }
 
 /// vdb-rs's panic reading grid `name` as an error: an unknown transform named (vdb-rs
@@ -421,9 +478,9 @@ fn panicked(path: &Path, name: &str, panic: &str) -> ImportError {
     }
 }
 
-/// Voxel size and translation of grid `name`'s transform in `path` (as [`transform_of`]),
-/// read without the grid's tree.
-pub fn grid_transform(path: &Path, name: &str) -> Result<([f64; 3], [f64; 3]), ImportError> {
+/// Grid `name`'s index→world map in `path` (as [`transform_of`]), read without the
+/// grid's tree.
+pub fn grid_transform(path: &Path, name: &str) -> Result<GridTransform, ImportError> {
     let mut reader = open_reader(path)?;
     let info = info_of(&reader);
     let stored = info.require(path, name)?.stored.clone();
@@ -495,18 +552,19 @@ pub fn read(
             },
         ));
     }
-    let (file_voxel, translation) = transform_of(path, name, grid.transform())?;
+    let t = transform_of(path, name, grid.transform())?;
     // An Adaptive Domain's block: its file indices shifted into the domain's, whose cells
     // are smaller than the block's transform says.
     let (offset, voxel_size) = match &gi.placement {
-        Some(p) => (p.offset, file_voxel.map(|v| p.cell(v))),
-        None => ([0; 3], file_voxel),
+        Some(p) => (p.offset, t.voxel.map(|v| p.cell(v))),
+        None => ([0; 3], t.voxel),
     };
-    let at = opts.vdb_index.unwrap_or(gi.index_at).corner_offset();
-    let origin = [0, 1, 2].map(|a| translation[a] + opts.domain_offset[a] + at * voxel_size[a]);
-    let bx = match index_box.or_else(|| gi.default_box()) {
+    let at = t.corner_offsets(opts.vdb_index.unwrap_or(gi.index_at));
+    let origin =
+        [0, 1, 2].map(|a| t.translation[a] + opts.domain_offset[a] + at[a] * voxel_size[a]);
+    let bx = match index_box.or_else(|| gi.default_box().map(|b| t.index_box(b))) {
         Some(b) => Some(b),
-        None => stored_bbox(path, &grid)?.map(|b| b.shifted(offset)),
+        None => stored_bbox(path, &grid, &t)?.map(|b| b.shifted(offset)),
     };
     let Some(bx) = bx else {
         // An empty grid with no recorded box: a valid empty frame one voxel wide.
@@ -538,7 +596,7 @@ pub fn read(
         dims,
         data: &mut data,
     };
-    fill(path, &grid, dense)?;
+    fill(path, &grid, &t, dense)?;
     let bbox = Bbox::new(
         [0, 1, 2].map(|a| origin[a] + bx.min[a] as f64 * voxel_size[a]),
         [0, 1, 2].map(|a| origin[a] + (bx.max[a] + 1) as f64 * voxel_size[a]),
@@ -661,9 +719,16 @@ fn walk<V: Copy>(
     Ok(())
 }
 
-/// Copies every stored value of `grid` inside the box.
-fn fill(path: &Path, grid: &Scalars, mut dense: Dense<'_>) -> Result<(), ImportError> {
-    grid.walk(path, |o, side, v| dense.fill_cube(o, side, v))
+/// Copies every stored value of `grid` inside the box (in haze's indices, `t`).
+fn fill(
+    path: &Path,
+    grid: &Scalars,
+    t: &GridTransform,
+    mut dense: Dense<'_>,
+) -> Result<(), ImportError> {
+    grid.walk(path, |o, side, v| {
+        dense.fill_cube(t.index(o, side), side, v)
+    })
 }
 
 /// OpenVDB's type name of a tree of 64-bit scalars.
@@ -704,11 +769,17 @@ impl Scalars {
     }
 }
 
-/// Bounding box of every non-zero stored value, for grids that record no box.
-fn stored_bbox(path: &Path, grid: &Scalars) -> Result<Option<IndexBox>, ImportError> {
+/// Bounding box of every non-zero stored value (in haze's indices, `t`), for grids that
+/// record no box.
+fn stored_bbox(
+    path: &Path,
+    grid: &Scalars,
+    t: &GridTransform,
+) -> Result<Option<IndexBox>, ImportError> {
     let mut b: Option<IndexBox> = None;
     grid.walk(path, |o, side, v| {
         if v != 0.0 {
+            let o = t.index(o, side);
             let nb = IndexBox {
                 min: o,
                 max: o.map(|c| c + side - 1),
@@ -725,6 +796,40 @@ mod tests {
 
     fn affine(m: [f64; 16]) -> Result<([f64; 3], [f64; 3]), ImportError> {
         transform_of(Path::new("a.vdb"), "density", &Map::AffineMap { matrix: m })
+            .map(|t| (t.voxel, t.translation))
+    }
+
+    /// A negative scale is a mirrored axis: read by its magnitude, the file's indices
+    /// reversed there (a cube's lowest index becomes its highest), the points unchanged.
+    /// (`synthetic/mirrored.vdb`, a `ScaleTranslateMap` as OpenVDB writes it, is read end
+    /// to end in `tests/real_data.rs`.)
+    #[test]
+    fn a_negative_scale_mirrors_the_indices_not_the_points() {
+        let m = [
+            -0.1, 0.0, 0.0, 0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.0, 0.3, 0.0, 1.0, 2.0, 3.0, 1.0,
+        ];
+        let t = transform_of(Path::new("a.vdb"), "density", &Map::AffineMap { matrix: m })
+            .unwrap();
+        assert_eq!(t.voxel, [0.1, 0.2, 0.3]);
+        assert_eq!(t.translation, [1.0, 2.0, 3.0]);
+        assert_eq!(t.mirrored, [true, false, false]);
+        // File index i along x is at 1 − 0.1 i; haze's j = −i at 1 + 0.1 j: the same point.
+        assert_eq!(t.index([7, 4, 5], 1), [-7, 4, 5]);
+        // An 8³ tile at file indices 8..=15 covers haze's −15..=−8 along x.
+        assert_eq!(t.index([8, 8, 8], 8), [-15, 8, 8]);
+        let b = t.index_box(IndexBox {
+            min: [8, 0, -2],
+            max: [15, 3, 2],
+        });
+        assert_eq!((b.min, b.max), ([-15, 0, -2], [-8, 3, 2]));
+        // Voxel j's min corner: half a voxel below a centred index, a whole one below a
+        // corner index along the mirrored axis (the file's corner is its max corner).
+        assert_eq!(t.corner_offsets(IndexAt::Centre), [-0.5; 3]);
+        assert_eq!(t.corner_offsets(IndexAt::Corner), [-1.0, 0.0, 0.0]);
+        // A zero scale is no transform.
+        let mut flat = m;
+        flat[0] = 0.0;
+        assert!(affine(flat).is_err());
     }
 
     #[test]
