@@ -94,6 +94,24 @@ fn inspect_vdb_reports_dims_range_and_grids() {
     );
 }
 
+/// A mirrored grid (a negative scale) says so, in the text and the JSON; an unmirrored
+/// one says nothing of it.
+#[test]
+fn inspect_says_a_grid_is_mirrored() {
+    let p = data("synthetic/mirrored.vdb");
+    let text = inspect_text(&p);
+    assert!(
+        text.contains("mirrored:   along x (a negative scale"),
+        "{text}"
+    );
+    let j = json_of(&["inspect", p.to_str().unwrap(), "--json"]);
+    assert_eq!(j["mirrored"], serde_json::json!(["x"]));
+    let plain = data("synthetic/scale_map.vdb");
+    assert!(!inspect_text(&plain).contains("mirrored"));
+    let j = json_of(&["inspect", plain.to_str().unwrap(), "--json"]);
+    assert!(j.get("mirrored").is_none(), "{j}");
+}
+
 /// A frame of a Blender Adaptive Domain is read over the whole domain, and `inspect`
 /// says where its block sat; the cache bakes as one grid.
 #[test]

@@ -42,6 +42,16 @@ impl Report {
                         };
                         line(&mut out, "index at", what.to_string());
                     }
+                    if !r.mirrored.is_empty() {
+                        line(
+                            &mut out,
+                            "mirrored",
+                            format!(
+                                "along {} (a negative scale: read reversed there, each voxel where the transform puts it)",
+                                r.mirrored.join(", ")
+                            ),
+                        );
+                    }
                     let placed = r
                         .vdb
                         .as_ref()

@@ -104,6 +104,10 @@ pub struct FileReport {
     /// file's).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub index_at: Option<import::IndexAt>,
+    /// The axes along which the read grid's transform mirrors it (a negative scale; read
+    /// reversed there, each voxel where the transform puts it).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub mirrored: Vec<&'static str>,
     /// A raw or NumPy file's sample type (`float32`, `uint8`, …).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub samples: Option<&'static str>,
@@ -121,6 +125,17 @@ pub(super) fn file_report(path: &Path, opts: &ImportOptions) -> Result<FileRepor
         _ => None,
     };
     let v = import::import(path, opts)?;
+    let mirrored = match &vdb_info {
+        Some(_) => {
+            let t = vdb::grid_transform(path, &opts.grid)?;
+            ["x", "y", "z"]
+                .into_iter()
+                .zip(t.mirrored)
+                .filter_map(|(axis, m)| m.then_some(axis))
+                .collect()
+        }
+        None => Vec::new(),
+    };
     let samples = import::samples_of(path)?;
     Ok(FileReport {
         path: path.display().to_string(),
@@ -131,6 +146,7 @@ pub(super) fn file_report(path: &Path, opts: &ImportOptions) -> Result<FileRepor
             .as_ref()
             .and_then(|i| i.grid(&opts.grid))
             .map(|g| opts.vdb_index.unwrap_or(g.index_at)),
+        mirrored,
         samples: samples.map(|t| t.name()),
         reading: samples.map(|t| t.reading()),
         vdb: vdb_info,

@@ -808,8 +808,7 @@ mod tests {
         let m = [
             -0.1, 0.0, 0.0, 0.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.0, 0.3, 0.0, 1.0, 2.0, 3.0, 1.0,
         ];
-        let t = transform_of(Path::new("a.vdb"), "density", &Map::AffineMap { matrix: m })
-            .unwrap();
+        let t = transform_of(Path::new("a.vdb"), "density", &Map::AffineMap { matrix: m }).unwrap();
         assert_eq!(t.voxel, [0.1, 0.2, 0.3]);
         assert_eq!(t.translation, [1.0, 2.0, 3.0]);
         assert_eq!(t.mirrored, [true, false, false]);
