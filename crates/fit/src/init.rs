@@ -390,12 +390,18 @@ mod tests {
                 }
             }),
         ] {
-            correlation_matches_brute_force(&g);
+            correlation_matches_brute_force(&g, 0.12);
         }
+        // Kernels wider than the grid (reach 13 taps across 9, 7 and 6 voxels, and across
+        // rows of one voxel): every tap that falls outside counts as zero.
+        correlation_matches_brute_force(
+            &grid([9, 7, 6], |x, y, z| (x + 2 * y + 3 * z) as f32),
+            0.5,
+        );
+        correlation_matches_brute_force(&grid([1, 5, 4], |_, y, z| (1 + y + z) as f32), 0.5);
     }
 
-    fn correlation_matches_brute_force(g: &FitGrid) {
-        let r = 0.12;
+    fn correlation_matches_brute_force(g: &FitGrid, r: f64) {
         let c = correlate(g, &gaussian_taps(g, r));
         for (i, &got) in c.iter().enumerate() {
             let p = g.center(i);
