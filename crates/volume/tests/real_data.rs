@@ -354,6 +354,54 @@ mod synthetic {
         }
     }
 
+    /// A sequence whose first frame is mirrored along x and whose second is not (its
+    /// smoke written by haze's exporter, positive scales, two voxels further along x):
+    /// one grid over both, each frame's voxels where its own transform puts them. The
+    /// mirrored frame's indices run the other way, so the frames' lattices differ by the
+    /// translations' difference and a voxel; taken as the translations' alone, the grid
+    /// was a voxel too long and the second frame a voxel off.
+    #[test]
+    fn frames_mirrored_and_not_share_one_grid() {
+        use haze_volume::{Bbox, Volume};
+        let tmp = tempfile::tempdir().unwrap();
+        std::fs::copy(data("synthetic/mirrored.vdb"), tmp.path().join("m_1.vdb")).unwrap();
+        // mirrored.vdb spans (0.65, 1.9, 2.85)..(1.05, 2.7, 4.05) in voxels (0.1, 0.2, 0.3).
+        let moved = Bbox::new([0.85, 1.9, 2.85], [1.25, 2.7, 4.05]);
+        let second = Volume::new([4, 4, 4], moved, vec![0.25; 64]).unwrap();
+        let bytes = haze_volume::export::vdb::to_bytes(&second).unwrap();
+        std::fs::write(tmp.path().join("m_2.vdb"), bytes).unwrap();
+        let seq =
+            Sequence::open(tmp.path(), &ImportOptions::default(), Default::default()).unwrap();
+        assert_eq!(seq.dims(), [6, 4, 4]);
+        let want = Bbox::new([0.65, 1.9, 2.85], [1.25, 2.7, 4.05]);
+        assert!(seq.bbox().approx_eq(&want, 1e-9), "{:?}", seq.bbox());
+        let (a, b) = (seq.load(0).unwrap(), seq.load(1).unwrap());
+        for z in 0..4 {
+            for y in 0..4 {
+                for x in 0..6 {
+                    // Voxel x is centred at world 0.7 + 0.1 x; the mirrored file's index
+                    // there is i = (1 − wx) / 0.1, its value 0.01 (1 + i + 10 y + 100 z).
+                    let i = 3 - x as i64;
+                    let want_a = if (0..4).contains(&i) {
+                        0.01f32 * (1 + i + 10 * y + 100 * z) as f32
+                    } else {
+                        0.0
+                    };
+                    let want_b = if x >= 2 { 0.25 } else { 0.0 };
+                    let (ga, gb) = (
+                        a.get(x as usize, y as usize, z as usize),
+                        b.get(x as usize, y as usize, z as usize),
+                    );
+                    assert!(
+                        (ga - want_a).abs() <= 1e-6,
+                        "frame 1 ({x}, {y}, {z}): {ga} {want_a}"
+                    );
+                    assert_eq!(gb, want_b, "frame 2 ({x}, {y}, {z})");
+                }
+            }
+        }
+    }
+
     #[test]
     fn a_grid_of_64_bit_values_reads_rounded_to_32() {
         // 0.1 + 0.01 (x + 10 y + 100 z) over indices 0..=3, a tile of 0.3 over 8..=15,

@@ -472,11 +472,20 @@ fn union_box(
 type Transform = vdb::GridTransform;
 
 /// What the union compares each frame with: the first frame's simulation domain and its
-/// grid's transform.
+/// grid's placement.
 #[derive(Default)]
 struct UnionState<'a> {
     first_domain: Option<(i64, [i64; 3])>,
-    first_transform: Option<(&'a FrameFile, Transform)>,
+    first_placement: Option<(&'a FrameFile, Placement)>,
+}
+
+/// Where a frame's voxels sit: its grid's transform and each haze index's min corner in
+/// voxels from the index ([`vdb::GridTransform::corner_offsets`]: `−½` for an index at
+/// the voxel's centre, `0` or `−1` at a corner, by the axis's mirroring).
+#[derive(Clone, Copy)]
+struct Placement {
+    transform: Transform,
+    corner: [f64; 3],
 }
 
 /// Frame `f`'s dense box in the first frame's indices and its grid's move
@@ -522,13 +531,17 @@ fn frame_box<'a>(
         None => Some(vdb::grid_transform(&f.path, &opts.grid)?),
         Some(_) => None,
     };
-    let shift = match (&t, &state.first_transform) {
+    let placed = t.map(|transform| Placement {
+        transform,
+        corner: transform.corner_offsets(opts.vdb_index.unwrap_or(gi.index_at)),
+    });
+    let shift = match (placed, &state.first_placement) {
         (None, _) => [0; 3],
-        (Some(t), None) => {
-            state.first_transform = Some((f, *t));
+        (Some(p), None) => {
+            state.first_placement = Some((f, p));
             [0; 3]
         }
-        (Some(t), Some((first, t0))) => lattice_shift(first, t0, f, t)?,
+        (Some(p), Some((first, p0))) => lattice_shift(first, p0, f, &p)?,
     };
     // The file's box in haze's indices (reversed along a mirrored axis).
     let b = match gi.default_box() {
@@ -548,22 +561,32 @@ struct Lattice {
     shifts: Vec<[i64; 3]>,
 }
 
-/// Where frame `f`'s index lattice (transform `t`: voxel size, translation) sits in the
-/// first frame's (`t0`): a whole number of voxels along each axis when its grid moved
-/// with the smoke (a container that follows it), `(t − t0) / h`. Voxels of another size
-/// are left to the frames' comparison (which names the change); a lattice off by a
-/// fraction of a voxel is refused: the frames could share one grid only by resampling.
+/// Where frame `f`'s index lattice (placement `p`: voxel size `h`, translation `o`, the
+/// corner offset `c` of its indices) sits in the first frame's (`p0`): haze's index `j`
+/// has its min corner at `o + h·(j + c)`, so `j` is the first frame's `j + s` with
+/// `s = (o − o0)/h + (c − c0)` — a whole number of voxels along each axis when the grid
+/// moved with the smoke (a container that follows it), or when a frame is mirrored where
+/// the first is not (its indices then run the other way, their corners a voxel over).
+/// Voxels of another size are left to the frames' comparison (which names the change); a
+/// lattice off by a fraction of a voxel is refused: the frames could share one grid only
+/// by resampling.
 fn lattice_shift(
     first: &FrameFile,
-    t0: &Transform,
+    p0: &Placement,
     f: &FrameFile,
-    t: &Transform,
+    p: &Placement,
 ) -> Result<[i64; 3], ImportError> {
-    let (h0, o0, h, o) = (t0.voxel, t0.translation, t.voxel, t.translation);
-    if (0..3).any(|a| (h[a] - h0[a]).abs() > 1e-6 * h0[a]) || t.mirrored != t0.mirrored {
+    let (h0, o0, h, o) = (
+        p0.transform.voxel,
+        p0.transform.translation,
+        p.transform.voxel,
+        p.transform.translation,
+    );
+    if (0..3).any(|a| (h[a] - h0[a]).abs() > 1e-6 * h0[a]) {
         return Ok([0; 3]);
     }
-    let steps: [f64; 3] = std::array::from_fn(|a| (o[a] - o0[a]) / h0[a]);
+    let steps: [f64; 3] =
+        std::array::from_fn(|a| (o[a] - o0[a]) / h0[a] + (p.corner[a] - p0.corner[a]));
     if steps.iter().any(|s| (s - s.round()).abs() > 1e-3) {
         return Err(seq_err(
             &f.path,

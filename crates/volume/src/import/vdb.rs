@@ -400,7 +400,7 @@ impl GridTransform {
     /// ([`IndexAt::corner_offset`]) for a file whose index sits at `at`: along a mirrored
     /// axis a file's corner index is at the voxel's max corner (`−1`), a centre stays
     /// `−½`.
-    fn corner_offsets(&self, at: IndexAt) -> [f64; 3] {
+    pub(crate) fn corner_offsets(&self, at: IndexAt) -> [f64; 3] {
         let off = at.corner_offset();
         self.mirrored.map(|m| if m { -1.0 - off } else { off })
     }
