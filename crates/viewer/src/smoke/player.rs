@@ -267,15 +267,24 @@ impl Player {
             "as fast as possible".to_string()
         };
         let shown = if r.shown == 1 { "frame" } else { "frames" };
+        // A frame time is the interval between two frames shown: with fewer there is none,
+        // and zeros would read as a measurement.
+        let timing = if r.shown >= 2 {
+            format!(
+                "frame time mean {:.1} ms, max {:.1} ms; {:.2} fps",
+                r.mean_frame_seconds * 1e3,
+                r.max_frame_seconds * 1e3,
+                r.fps
+            )
+        } else {
+            "no frame time (fewer than two frames shown: play for longer)".to_string()
+        };
         format!(
-            "played {:.2} s {target}, {width}×{height}: {} {shown} shown, {} due, {} dropped; frame time mean {:.1} ms, max {:.1} ms; {:.2} fps; render mean {:.1} ms; first picture after {:.2} s",
+            "played {:.2} s {target}, {width}×{height}: {} {shown} shown, {} due, {} dropped; {timing}; render mean {:.1} ms; first picture after {:.2} s",
             r.seconds,
             r.shown,
             r.due,
             r.dropped,
-            r.mean_frame_seconds * 1e3,
-            r.max_frame_seconds * 1e3,
-            r.fps,
             self.mean_render_seconds() * 1e3,
             self.first_picture.unwrap_or_default().as_secs_f64()
         ) + &self.detail_words()
