@@ -18,6 +18,8 @@ haze must import from it (x fastest, ground truth computed here with numpy).
   double.vdb        a fog volume of 64-bit values (a DoubleGrid, as Houdini writes at
                     64-bit precision): 0.1 + 0.01 * (x + 10 y + 100 z) over indices
                     0..3 in each axis, and an 8^3 tile of 0.3 at indices 8..15
+  double_half.vdb   double.vdb saved as half floats (saveFloatAsHalf), with an inactive
+                    voxel of 0.7 at index (5, 5, 5)
   same_names.vdb    two fog grids both named "density" (0.5 and 0.25 over a 2^3 block),
                     which OpenVDB lists as density[0] and density[1]
   root_tile.vdb     a constant 0.25 over the root tile of indices 0..4095 and a voxel
@@ -123,6 +125,11 @@ g.name = "density"
 g.gridClass = vdb.GridClass.FOG_VOLUME
 g.transform = vdb.createLinearTransform(voxelSize=0.25)
 vdb.write("double.vdb", grids=[g])
+# The same saved as half floats, with one inactive voxel of 0.7 at (5, 5, 5) (a leaf whose
+# inactive values are 0 and 0.7: OpenVDB stores them apart from the active ones).
+g.getAccessor().setValueOff((5, 5, 5), 0.7)
+g.saveFloatAsHalf = True
+vdb.write("double_half.vdb", grids=[g])
 same = []
 for value in (0.5, 0.25):
     g = vdb.FloatGrid()

@@ -425,6 +425,46 @@ mod synthetic {
         }
     }
 
+    /// `double.vdb` saved as half floats (`Tree_double_5_4_3_HalfFloat`; it was refused
+    /// as an unknown type), with an inactive voxel of 0.7 at (5, 5, 5): every value within
+    /// half a unit in the last place of a half float (`2⁻¹¹` relative, the values being
+    /// normal halves) of the f64 it was written from, the tile's and the inactive voxel's
+    /// too.
+    #[test]
+    fn a_grid_of_64_bit_values_saved_as_half_floats_reads() {
+        let v = import::import(
+            &data("synthetic/double_half.vdb"),
+            &ImportOptions::default(),
+        )
+        .unwrap();
+        assert_eq!(v.dims(), [16, 16, 16]);
+        assert!((v.bbox().min[0] + 0.125).abs() < 1e-12, "{:?}", v.bbox());
+        let mut rounded = 0;
+        for z in 0..16 {
+            for y in 0..16 {
+                for x in 0..16 {
+                    let want = if x < 4 && y < 4 && z < 4 {
+                        0.1 + 0.01 * (x + 10 * y + 100 * z) as f64
+                    } else if [x, y, z].iter().all(|&i| i >= 8) {
+                        0.3
+                    } else if [x, y, z] == [5, 5, 5] {
+                        0.7
+                    } else {
+                        0.0
+                    };
+                    let got = f64::from(v.get(x, y, z));
+                    assert!(
+                        (got - want).abs() <= want * 2f64.powi(-11),
+                        "({x}, {y}, {z}): {got} {want}"
+                    );
+                    rounded += usize::from(got != f64::from(want as f32));
+                }
+            }
+        }
+        // Read through halves, not as 64-bit values rounded to 32 bits.
+        assert!(rounded > 32, "{rounded}");
+    }
+
     #[test]
     fn grids_of_the_same_name_are_listed_and_read_as_openvdb_shows_them() {
         let path = data("synthetic/same_names.vdb");

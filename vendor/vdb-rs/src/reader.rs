@@ -417,6 +417,17 @@ impl<R: Read + Seek> VdbReader<R> {
                 Self::read_compressed_data::<f16>(reader, archive, gd, count)?
             };
             bytemuck::cast_vec(data.into_iter().map(f16::to_f32).collect::<Vec<f32>>())
+        } else if gd.meta_data.is_half_float()
+            && std::any::TypeId::of::<T>() == std::any::TypeId::of::<f64>()
+        {
+            // A 64-bit grid saved as half floats: its values are stored as halves too
+            // (the inactive values above stay 64-bit, as OpenVDB writes them).
+            let data = if count == 0 {
+                Vec::new()
+            } else {
+                Self::read_compressed_data::<f16>(reader, archive, gd, count)?
+            };
+            bytemuck::cast_vec(data.into_iter().map(f16::to_f64).collect::<Vec<f64>>())
         } else if !gd.meta_data.is_half_float()
             && std::any::TypeId::of::<T>() == std::any::TypeId::of::<f16>()
         {

@@ -1,8 +1,8 @@
 //! OpenVDB import through vdb-rs: one scalar float grid of a file, sparse tree → dense box.
 //!
 //! * **Which grid**: by name (`density` by default). Only scalar float grids
-//!   (`Tree_float_5_4_3`, saved in full or half precision, or `Tree_double_5_4_3`,
-//!   rounded to `f32`) of class fog volume (or unknown class) are read; anything else is
+//!   (`Tree_float_5_4_3` or `Tree_double_5_4_3`, saved in full or half precision, 64-bit
+//!   values rounded to `f32`) of class fog volume (or unknown class) are read; anything else is
 //!   refused with the reason.
 //! * **Which box**: the domain when the writer records one (`file_base_resolution`, as
 //!   Blender's Mantaflow cache does: index box `[0, res)`; for a frame of an Adaptive
@@ -144,9 +144,16 @@ impl VdbGridInfo {
     /// Why haze cannot read this grid as density, if it cannot.
     fn unsupported(&self) -> Option<String> {
         let t = self.grid_type.as_str();
-        if t != "Tree_float_5_4_3" && t != "Tree_float_5_4_3_HalfFloat" && t != DOUBLE {
+        if ![
+            "Tree_float_5_4_3",
+            "Tree_float_5_4_3_HalfFloat",
+            DOUBLE,
+            DOUBLE_HALF,
+        ]
+        .contains(&t)
+        {
             return Some(format!(
-                "its type is {t}; haze reads scalar float grids (Tree_float_5_4_3, or Tree_double_5_4_3 rounded to 32 bits)"
+                "its type is {t}; haze reads scalar float grids (Tree_float_5_4_3, or Tree_double_5_4_3 rounded to 32 bits; either saved as half floats too)"
             ));
         }
         match self.class.as_deref() {
@@ -529,7 +536,7 @@ pub fn read(
         ));
     }
     let read = catch_panic(|| {
-        if gi.grid_type == DOUBLE {
+        if gi.grid_type == DOUBLE || gi.grid_type == DOUBLE_HALF {
             reader.read_grid::<f64>(stored).map(Scalars::F64)
         } else {
             reader.read_grid::<f32>(stored).map(Scalars::F32)
@@ -733,6 +740,10 @@ fn fill(
 
 /// OpenVDB's type name of a tree of 64-bit scalars.
 const DOUBLE: &str = "Tree_double_5_4_3";
+
+/// The same tree saved as half floats (OpenVDB's `saveFloatAsHalf`): its leaves' and
+/// internal nodes' values are 16-bit in the file, its background and root tiles 64-bit.
+const DOUBLE_HALF: &str = "Tree_double_5_4_3_HalfFloat";
 
 /// A scalar grid as stored: 32-bit values (full or half precision in the file), or 64-bit
 /// ones, which haze reads rounded to `f32` (the densities haze stores and renders).
