@@ -354,3 +354,36 @@ fn vdb_frames_whose_grid_moves_share_one_grid() {
         "{e}"
     );
 }
+
+/// OpenVDB frames of different voxel sizes are refused on opening, naming both frames and
+/// both sizes (the second frame's indices, of another grid, had stretched the union the
+/// first frames were fitted over, and the bake failed only when the second frame's turn
+/// came); a chunk of the frames that share one size opens over their own grid.
+#[test]
+fn vdb_frames_of_another_voxel_size_are_refused_on_opening() {
+    use haze_volume::{Bbox, Volume};
+    let tmp = tempfile::tempdir().unwrap();
+    // Four voxels a side each (the exporter records the grid as its domain, which must
+    // not change either), over 0.4 and then 0.2.
+    let frame = |n: u32, side: f64| {
+        let v = Volume::new([4; 3], Bbox::new([0.0; 3], [side; 3]), vec![0.5; 64]).unwrap();
+        let bytes = haze_volume::export::vdb::to_bytes(&v).unwrap();
+        std::fs::write(tmp.path().join(format!("s_{n}.vdb")), bytes).unwrap();
+    };
+    frame(1, 0.4);
+    frame(2, 0.2);
+    let e = Sequence::open(tmp.path(), &ImportOptions::default(), Default::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("s_2.vdb")
+            && e.contains("frame 2's voxels are 0.05 × 0.05 × 0.05 but frame 1's")
+            && e.contains("are 0.1 × 0.1 × 0.1")
+            && e.contains("resample"),
+        "{e}"
+    );
+    let first: haze_volume::import::FrameRange = "1..1".parse().unwrap();
+    let seq = Sequence::open(tmp.path(), &ImportOptions::default(), first).unwrap();
+    assert_eq!(seq.dims(), [4, 4, 4]);
+    assert!(seq.bbox().approx_eq(&Bbox::new([0.0; 3], [0.4; 3]), 1e-9));
+}

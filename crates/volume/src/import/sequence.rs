@@ -567,9 +567,10 @@ struct Lattice {
 /// `s = (o − o0)/h + (c − c0)` — a whole number of voxels along each axis when the grid
 /// moved with the smoke (a container that follows it), or when a frame is mirrored where
 /// the first is not (its indices then run the other way, their corners a voxel over).
-/// Voxels of another size are left to the frames' comparison (which names the change); a
-/// lattice off by a fraction of a voxel is refused: the frames could share one grid only
-/// by resampling.
+/// Voxels of another size, or a lattice off by a fraction of a voxel, are refused on
+/// opening, naming both frames: the frames could share one grid only by resampling (and
+/// a frame of other voxels would have stretched the union over indices of another grid,
+/// and failed only when its turn came to be read).
 fn lattice_shift(
     first: &FrameFile,
     p0: &Placement,
@@ -583,7 +584,17 @@ fn lattice_shift(
         p.transform.translation,
     );
     if (0..3).any(|a| (h[a] - h0[a]).abs() > 1e-6 * h0[a]) {
-        return Ok([0; 3]);
+        return Err(seq_err(
+            &f.path,
+            format!(
+                "frame {}'s voxels are {} but frame {}'s ({}) are {}: a sequence's frames share one grid, so resample them to one voxel size",
+                f.number,
+                sides(h),
+                first.number,
+                first.path.display(),
+                sides(h0)
+            ),
+        ));
     }
     let steps: [f64; 3] =
         std::array::from_fn(|a| (o[a] - o0[a]) / h0[a] + (p.corner[a] - p0.corner[a]));
@@ -608,6 +619,11 @@ fn lattice_shift(
         ));
     }
     Ok(steps.map(|s| s.round() as i64))
+}
+
+/// A voxel's sides as `0.1 × 0.1 × 0.2` (world units).
+fn sides(h: [f64; 3]) -> String {
+    format!("{} × {} × {}", h[0], h[1], h[2])
 }
 
 #[cfg(test)]
