@@ -387,3 +387,44 @@ fn vdb_frames_of_another_voxel_size_are_refused_on_opening() {
     assert_eq!(seq.dims(), [4, 4, 4]);
     assert!(seq.bbox().approx_eq(&Bbox::new([0.0; 3], [0.4; 3]), 1e-9));
 }
+
+/// Files of volume formats haze does not read but smoke tools write are named with the way
+/// to OpenVDB: a NanoVDB file given alone, a folder holding only Mantaflow's `.uni` cache.
+#[test]
+fn foreign_volume_formats_say_how_to_get_openvdb() {
+    let tmp = tempfile::tempdir().unwrap();
+    let nvdb = tmp.path().join("smoke.nvdb");
+    std::fs::write(&nvdb, b"NanoVDB0").unwrap();
+    let e = haze_volume::import::import(&nvdb, &ImportOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("smoke.nvdb: unknown file type: NanoVDB; haze reads OpenVDB")
+            && e.contains("nanovdb_convert"),
+        "{e}"
+    );
+    let uni = tmp.path().join("cache");
+    std::fs::create_dir(&uni).unwrap();
+    for n in [2, 1] {
+        std::fs::write(uni.join(format!("density_{n:04}.uni")), b"MNT3").unwrap();
+    }
+    std::fs::write(uni.join("notes.txt"), b"").unwrap();
+    let e = Sequence::open(&uni, &ImportOptions::default(), Default::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("no volume files (.vdb, .f32/.raw, .npy) found, but 2 files of Mantaflow's .uni cache (density_0001.uni, …)")
+            && e.contains("Format Volumes to OpenVDB"),
+        "{e}"
+    );
+    // A folder of other files says only what it lacks.
+    std::fs::remove_file(uni.join("density_0001.uni")).unwrap();
+    std::fs::remove_file(uni.join("density_0002.uni")).unwrap();
+    let e = Sequence::open(&uni, &ImportOptions::default(), Default::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.ends_with("no volume files (.vdb, .f32/.raw, .npy) found"),
+        "{e}"
+    );
+}

@@ -47,6 +47,12 @@ pub fn inspect(
         Report::Asset(asset::report(path, progress)?)
     } else if path.is_file() {
         if Format::of(path).is_none() {
+            if let Some((kind, how)) = haze_volume::import::foreign_format(path) {
+                anyhow::bail!(
+                    "{}: unknown file type: {kind}; haze reads OpenVDB: {how}",
+                    path.display()
+                );
+            }
             anyhow::bail!(
                 "{}: unknown file type: haze inspect reads volumes (.vdb, .f32/.raw with a \
                  .json sidecar, .npy), a directory or glob of them, .haze assets and \

@@ -144,17 +144,45 @@ pub fn samples_of(path: &Path) -> Result<Option<samples::SampleType>, ImportErro
     }
 }
 
-/// The format of `path`, or an error naming the supported extensions.
+/// The format of `path`, or an error naming the supported extensions (or, for a volume
+/// format haze does not read, how to get one it does: [`foreign_format`]).
 pub fn format_of(path: &Path) -> Result<Format, ImportError> {
     Format::of(path).ok_or_else(|| {
-        ImportError::new(
-            path,
-            Problem::Format(
-                "unknown file type (expected .vdb, .f32/.raw with a .json sidecar, or .npy)"
-                    .to_string(),
-            ),
-        )
+        let why = match foreign_format(path) {
+            Some((kind, how)) => format!("unknown file type: {kind}; haze reads OpenVDB: {how}"),
+            None => "unknown file type (expected .vdb, .f32/.raw with a .json sidecar, or .npy)"
+                .to_string(),
+        };
+        ImportError::new(path, Problem::Format(why))
     })
+}
+
+/// For a file of a volume format that haze does not read but the tools it takes smoke
+/// from write (NanoVDB, Mantaflow's own cache, Houdini geometry): what it is, and how to
+/// get OpenVDB from it; `None` for any other file.
+pub fn foreign_format(path: &Path) -> Option<(&'static str, &'static str)> {
+    let name = path.file_name()?.to_str()?.to_ascii_lowercase();
+    if name.ends_with(".nvdb") {
+        Some((
+            "NanoVDB",
+            "convert it with OpenVDB's nanovdb_convert (nanovdb_convert FILE.nvdb FILE.vdb)",
+        ))
+    } else if name.ends_with(".uni") {
+        Some((
+            "Mantaflow's .uni cache",
+            "set the Blender domain's Cache > Format Volumes to OpenVDB and bake it again",
+        ))
+    } else if [".bgeo", ".bgeo.sc", ".bgeo.gz", ".geo"]
+        .iter()
+        .any(|e| name.ends_with(e))
+    {
+        Some((
+            "Houdini geometry",
+            "convert the volume to VDB (Convert VDB) and write it to a .vdb file",
+        ))
+    } else {
+        None
+    }
 }
 
 /// Reads without validation; `vdb_box` imposes the dense box of VDB grids.

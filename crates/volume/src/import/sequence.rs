@@ -160,21 +160,30 @@ fn is_glob(path: &Path) -> bool {
 
 /// Lists the frames of a directory, glob or single file, ordered by frame number.
 pub fn discover(path: &Path) -> Result<Vec<FrameFile>, ImportError> {
+    // Files of a volume format haze does not read, for the error when nothing else is.
+    let mut foreign: Vec<PathBuf> = Vec::new();
+    let mut keep = |p: PathBuf| {
+        if !p.is_file() {
+            None
+        } else if Format::of(&p).is_some() {
+            Some(p)
+        } else {
+            if super::foreign_format(&p).is_some() {
+                foreign.push(p);
+            }
+            None
+        }
+    };
     let files: Vec<PathBuf> = if is_glob(path) {
         let pattern = path.to_str().unwrap_or_default();
         let paths = glob::glob(pattern).map_err(|e| seq_err(path, format!("bad pattern: {e}")))?;
-        paths
-            .filter_map(Result::ok)
-            .filter(|p| p.is_file() && Format::of(p).is_some())
-            .collect()
+        paths.filter_map(Result::ok).filter_map(&mut keep).collect()
     } else if path.is_dir() {
         let rd = std::fs::read_dir(path).map_err(|e| ImportError::new(path, e.into()))?;
         let mut v = Vec::new();
         for entry in rd {
             let p = entry.map_err(|e| ImportError::new(path, e.into()))?.path();
-            if p.is_file() && Format::of(&p).is_some() {
-                v.push(p);
-            }
+            v.extend(keep(p));
         }
         v
     } else if path.is_file() {
@@ -193,10 +202,22 @@ pub fn discover(path: &Path) -> Result<Vec<FrameFile>, ImportError> {
         ));
     };
     if files.is_empty() {
-        return Err(seq_err(
-            path,
-            "no volume files (.vdb, .f32/.raw, .npy) found",
-        ));
+        foreign.sort();
+        let none = "no volume files (.vdb, .f32/.raw, .npy) found";
+        let why = match foreign
+            .first()
+            .and_then(|f| Some((f, super::foreign_format(f)?)))
+        {
+            Some((f, (kind, how))) => format!(
+                "{none}, but {} {} of {kind} ({}{}); haze reads OpenVDB: {how}",
+                foreign.len(),
+                if foreign.len() == 1 { "file" } else { "files" },
+                f.file_name().unwrap_or_default().to_string_lossy(),
+                if foreign.len() > 1 { ", …" } else { "" }
+            ),
+            None => none.to_string(),
+        };
+        return Err(seq_err(path, why));
     }
     let mut formats: Vec<&str> = files
         .iter()
