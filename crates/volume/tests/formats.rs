@@ -251,9 +251,15 @@ fn raw_sidecar_errors_are_clear() {
 #[test]
 fn sequences_must_share_one_grid() {
     let tmp = tempfile::tempdir().unwrap();
-    // 1002 agrees with 1001 to f32 precision (5e-7 of the side, under SAME_BOX's 1e-6);
-    // 1005 is 2e-5 off.
-    for (n, max) in [(1001, 1.0), (1002, 1.0000005), (1004, 2.0), (1005, 1.00002)] {
+    // 1002 and 1004 agree with 1001 to f32 precision (5e-7 of the side, under SAME_BOX's
+    // 1e-6); 1005 is 2e-5 off, 1006 twice as long.
+    for (n, max) in [
+        (1001, 1.0),
+        (1002, 1.0000005),
+        (1004, 1.0),
+        (1005, 1.00002),
+        (1006, 2.0),
+    ] {
         let p = tmp.path().join(format!("s.{n}.f32"));
         std::fs::write(&p, vec![0u8; 32]).unwrap();
         sidecar(
@@ -263,17 +269,52 @@ fn sequences_must_share_one_grid() {
             ),
         );
     }
-    let seq = Sequence::open(tmp.path(), &ImportOptions::default(), Default::default()).unwrap();
+    let range: haze_volume::import::FrameRange = "1001..1004".parse().unwrap();
+    let seq = Sequence::open(tmp.path(), &ImportOptions::default(), range).unwrap();
     assert_eq!(seq.gaps(), &[(1003, 1003)]);
     // The same grid: read in the first frame's box.
     assert_eq!(seq.load(1).unwrap().bbox(), seq.bbox());
-    let e = seq.load(2).unwrap_err().to_string();
+    // A frame of another grid is refused on opening (from its sidecar), before any frame
+    // is baked.
+    let open = || {
+        Sequence::open(tmp.path(), &ImportOptions::default(), Default::default())
+            .err()
+            .unwrap()
+            .to_string()
+    };
+    let e = open();
     assert!(
-        e.contains("s.1004.f32") && e.contains("frame 1004") && e.contains("frame 1001"),
+        e.contains("s.1005.f32") && e.contains("1.00002") && e.contains("frame 1001"),
         "{e}"
     );
-    let e = seq.load(3).unwrap_err().to_string();
-    assert!(e.contains("s.1005.f32") && e.contains("1.00002"), "{e}");
+    std::fs::remove_file(tmp.path().join("s.1005.f32")).unwrap();
+    let e = open();
+    assert!(
+        e.contains("s.1006.f32") && e.contains("frame 1006") && e.contains("frame 1001"),
+        "{e}"
+    );
+}
+
+/// NumPy frames of another shape are refused on opening too, from their headers.
+#[test]
+fn npy_frames_of_another_shape_are_refused_on_opening() {
+    let tmp = tempfile::tempdir().unwrap();
+    for (n, nz) in [(1, 2), (2, 2), (3, 3)] {
+        write_npy::<f32>(
+            &tmp.path().join(format!("f_{n}.npy")),
+            &[nz, 2, 2],
+            npyz::Order::C,
+            &vec![0.5; nz as usize * 4],
+        );
+    }
+    let e = Sequence::open(tmp.path(), &ImportOptions::default(), Default::default())
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("f_3.npy") && e.contains("frame 3 has grid [2, 2, 3]") && e.contains("frame 1"),
+        "{e}"
+    );
 }
 
 #[test]

@@ -25,27 +25,7 @@ pub fn read(path: &Path) -> Result<Volume, ImportError> {
     haze_core::npy_header::check(&bytes).map_err(|e| fmt_err(path, e))?;
     let npy = NpyFile::new(&bytes[..])
         .map_err(|e| fmt_err(path, format!("not a readable .npy file: {e}")))?;
-    let shape = squeeze_to(npy.shape(), 3).ok_or_else(|| {
-        fmt_err(
-            path,
-            format!(
-                "array has shape {:?}; a volume needs 3 dimensions (axes of length 1 before or after them are dropped)",
-                npy.shape()
-            ),
-        )
-    })?;
-    if shape.len() < npy.shape().len() {
-        tracing::info!(
-            "{}: array of shape {:?} read as {shape:?} (axes of length 1 dropped)",
-            path.display(),
-            npy.shape()
-        );
-    }
-    let s = shape.map_or_usize(path)?;
-    let dims = match npy.order() {
-        Order::C => [s[2], s[1], s[0]],
-        Order::Fortran => s,
-    };
+    let dims = dims_of(path, npy.shape(), npy.order(), true)?;
     let n = voxel_count(dims).ok_or_else(|| fmt_err(path, "shape overflows"))?;
     let descr = npy.dtype().descr();
     let Some(ty) = sample_type(&npy.dtype()) else {
@@ -76,7 +56,48 @@ pub fn read(path: &Path) -> Result<Volume, ImportError> {
             format!("header promises {n} values but {} were read", data.len()),
         ));
     }
-    let bbox = if sidecar_path(path).exists() {
+    let bbox = bbox_of(path, dims)?;
+    Volume::new(dims, bbox, data).map_err(|e| fmt_err(path, e.to_string()))
+}
+
+/// The grid of a `.npy` volume (its dims, x fastest, and world box) from its header and
+/// sidecar alone, as [`read`] would give it: a sequence checks every frame's on opening.
+pub fn grid(path: &Path) -> Result<([usize; 3], Bbox), ImportError> {
+    let file = std::fs::File::open(path).map_err(|e| ImportError::new(path, e.into()))?;
+    let npy = NpyFile::new(std::io::BufReader::new(file))
+        .map_err(|e| fmt_err(path, format!("not a readable .npy file: {e}")))?;
+    let dims = dims_of(path, npy.shape(), npy.order(), false)?;
+    Ok((dims, bbox_of(path, dims)?))
+}
+
+/// The dims (x fastest) of an array of `shape` in `order` ([`squeeze_to`]); `say` logs
+/// the axes of length 1 dropped.
+fn dims_of(path: &Path, shape: &[u64], order: Order, say: bool) -> Result<[usize; 3], ImportError> {
+    let squeezed = squeeze_to(shape, 3).ok_or_else(|| {
+        fmt_err(
+            path,
+            format!(
+                "array has shape {shape:?}; a volume needs 3 dimensions (axes of length 1 before or after them are dropped)"
+            ),
+        )
+    })?;
+    if say && squeezed.len() < shape.len() {
+        tracing::info!(
+            "{}: array of shape {shape:?} read as {squeezed:?} (axes of length 1 dropped)",
+            path.display(),
+        );
+    }
+    let s = squeezed.map_or_usize(path)?;
+    Ok(match order {
+        Order::C => [s[2], s[1], s[0]],
+        Order::Fortran => s,
+    })
+}
+
+/// The world box of a `.npy` volume of `dims`: its sidecar's (whose `dims` must agree), or
+/// unit voxels at the origin without one.
+fn bbox_of(path: &Path, dims: [usize; 3]) -> Result<Bbox, ImportError> {
+    if sidecar_path(path).exists() {
         let sc = read_sidecar(path)?;
         if sc.dims != dims {
             return Err(ImportError::new(
@@ -87,12 +108,11 @@ pub fn read(path: &Path) -> Result<Volume, ImportError> {
                 },
             ));
         }
-        Bbox::new(sc.world_bbox_min, sc.world_bbox_max)
+        Ok(Bbox::new(sc.world_bbox_min, sc.world_bbox_max))
     } else {
         tracing::debug!("{}: no sidecar, unit voxels at the origin", path.display());
-        Bbox::new([0.0; 3], dims.map(|d| d.max(1) as f64))
-    };
-    Volume::new(dims, bbox, data).map_err(|e| fmt_err(path, e.to_string()))
+        Ok(Bbox::new([0.0; 3], dims.map(|d| d.max(1) as f64)))
+    }
 }
 
 /// The array's `n` data axes: its shape less the axes of length 1 before or after them

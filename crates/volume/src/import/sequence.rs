@@ -356,6 +356,29 @@ impl Sequence {
         let vdb_box = lattice.union;
         let own = vdb_box.map(|b| b.shifted(lattice.shifts[0].map(|s| -s)));
         let first = read_unchecked(&frames[0].path, opts, own)?;
+        // A raw or NumPy frame of another grid is refused now, from its header or sidecar,
+        // not when its turn comes after the frames before it were baked.
+        if format != Format::Vdb {
+            for f in &frames[1..] {
+                let (dims, bbox) = match format {
+                    Format::Npy => super::npy::grid(&f.path)?,
+                    _ => {
+                        let sc = super::raw::read_sidecar(&f.path)?;
+                        (sc.dims, Bbox::new(sc.world_bbox_min, sc.world_bbox_max))
+                    }
+                };
+                if dims != first.dims() || !bbox.approx_eq(first.bbox(), SAME_BOX) {
+                    return Err(other_grid(
+                        f,
+                        dims,
+                        &bbox,
+                        &frames[0],
+                        first.dims(),
+                        first.bbox(),
+                    ));
+                }
+            }
+        }
         Ok(Self {
             source: path.to_path_buf(),
             format,
@@ -421,21 +444,13 @@ impl Sequence {
             v = Volume::zeros(self.dims, self.bbox).map_err(|e| seq_err(&f.path, e.to_string()))?;
         }
         if v.dims() != self.dims || !v.bbox().approx_eq(&self.bbox, SAME_BOX) {
-            let first = &self.frames[0];
-            return Err(seq_err(
-                &f.path,
-                format!(
-                    "frame {} has grid {:?} over {:?}..{:?} but frame {} ({}) has {:?} over {:?}..{:?}",
-                    f.number,
-                    v.dims(),
-                    v.bbox().min,
-                    v.bbox().max,
-                    first.number,
-                    first.path.display(),
-                    self.dims,
-                    self.bbox.min,
-                    self.bbox.max
-                ),
+            return Err(other_grid(
+                f,
+                v.dims(),
+                v.bbox(),
+                &self.frames[0],
+                self.dims,
+                &self.bbox,
             ));
         }
         if v.bbox() != &self.bbox {
@@ -446,6 +461,32 @@ impl Sequence {
         validate(&f.path, &mut v, self.opts.clamp_negative)?;
         Ok(v)
     }
+}
+
+/// The error of frame `f`, whose grid (`dims` over `bbox`) is not the first frame's.
+fn other_grid(
+    f: &FrameFile,
+    dims: [usize; 3],
+    bbox: &Bbox,
+    first: &FrameFile,
+    dims0: [usize; 3],
+    bbox0: &Bbox,
+) -> ImportError {
+    seq_err(
+        &f.path,
+        format!(
+            "frame {} has grid {:?} over {:?}..{:?} but frame {} ({}) has {:?} over {:?}..{:?}",
+            f.number,
+            dims,
+            bbox.min,
+            bbox.max,
+            first.number,
+            first.path.display(),
+            dims0,
+            bbox0.min,
+            bbox0.max
+        ),
+    )
 }
 
 /// Frames whose boxes agree to this fraction of the longest side share one grid. Files
