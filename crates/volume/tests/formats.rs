@@ -469,3 +469,31 @@ fn foreign_volume_formats_say_how_to_get_openvdb() {
         "{e}"
     );
 }
+
+/// haze's exports record their grid as their domain: a folder mixing the exports of two
+/// assets of different grids is named as that, not as a Blender cache without its
+/// configuration.
+#[test]
+fn exports_of_different_grids_are_named_as_exports() {
+    use haze_volume::{Bbox, Volume};
+    let tmp = tempfile::tempdir().unwrap();
+    for (n, dims) in [(1, 4), (2, 8)] {
+        let v = Volume::new(
+            [dims; 3],
+            Bbox::new([0.0; 3], [0.4; 3]),
+            vec![0.5; dims * dims * dims],
+        )
+        .unwrap();
+        let bytes = haze_volume::export::vdb::to_bytes(&v).unwrap();
+        std::fs::write(tmp.path().join(format!("e_{n}.vdb")), bytes).unwrap();
+    }
+    let e = Sequence::open(tmp.path(), &ImportOptions::default(), Default::default())
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("e_2.vdb: frame 2's grid is 8 × 8 × 8 cells but frame 1's is 4 × 4 × 4: exports of different grids")
+            && !e.contains("Adaptive Domain"),
+        "{e}"
+    );
+}

@@ -537,7 +537,8 @@ type Transform = vdb::GridTransform;
 /// grid's placement.
 #[derive(Default)]
 struct UnionState<'a> {
-    first_domain: Option<(i64, [i64; 3])>,
+    /// The first frame's number, its domain and whether haze wrote it (an export).
+    first_domain: Option<(i64, [i64; 3], bool)>,
     first_placement: Option<(&'a FrameFile, Placement)>,
 }
 
@@ -568,9 +569,21 @@ fn frame_box<'a>(
         )
     })?;
     if let Some(res) = gi.domain_resolution() {
+        let export = gi.creator.as_deref().is_some_and(|c| c.starts_with("haze"));
         match state.first_domain {
-            None => state.first_domain = Some((f.number, res)),
-            Some((n, first)) if first != res => {
+            None => state.first_domain = Some((f.number, res, export)),
+            Some((n, first, first_export)) if first != res && (export || first_export) => {
+                return Err(seq_err(
+                    &f.path,
+                    format!(
+                        "frame {}'s grid is {} cells but frame {n}'s is {}: exports of different grids (haze records an export's grid as its domain), which share no grid; bake each asset's exports apart",
+                        f.number,
+                        cells(res),
+                        cells(first),
+                    ),
+                ));
+            }
+            Some((n, first, _)) if first != res => {
                 return Err(seq_err(
                     &f.path,
                     format!(

@@ -116,6 +116,9 @@ pub struct VdbGridInfo {
     /// corner in a grid that records `file_base_resolution` (Blender's fluid caches, and
     /// haze's exports before they wrote the word), else a centre (OpenVDB's convention).
     pub index_at: IndexAt,
+    /// The grid's `creator` metadata (`haze VERSION` in haze's exports), when present.
+    #[serde(skip)]
+    pub creator: Option<String>,
 }
 
 impl VdbGridInfo {
@@ -324,6 +327,7 @@ fn info_of(reader: &VdbReader<BufReader<File>>) -> VdbFileInfo {
                     None if m.contains_key("file_base_resolution") => IndexAt::Corner,
                     None => IndexAt::Centre,
                 },
+                creator: string("creator"),
             }
         })
         .collect();
