@@ -8,7 +8,8 @@
 //!     [--no-environment] [--scene FILE] [--spread R]
 //! cargo run --release -p haze-scene --example paper_b_figures -- environment [--size 48x36] [--held-out]
 //!     [--theta 8]
-//! cargo run --release -p haze-scene --example paper_b_figures -- lamps [--check] FILE...
+//! cargo run --release -p haze-scene --example paper_b_figures -- lamps [--check] [--stride N]
+//!     [--target E] FILE...
 //! cargo run --release -p haze-scene --example paper_b_figures -- reuse [--counts 1000,5000]
 //!     [--lights 1,4] [--spread R] [--size 320x240] [FILE...]
 //! cargo run --release -p haze-scene --example paper_b_figures -- scene data/scenes/gaussians.json
@@ -46,7 +47,8 @@
 //! on the timing room (`--counts`, `--lights`, `--spread`) and on scene files (at their
 //! own size): frame times (median of 3) and the reused picture's relative RMS and
 //! largest pixel error against the other's. `--stride N` (lamps and reuse) sets the
-//! reused frames' coarsest grid (`PaperBOptions::reuse`, 4 by default).
+//! reused frames' coarsest grid (`PaperBOptions::reuse`, 4 by default), `--target E` their
+//! pairs' error bound above which a pair is integrated (`PaperBOptions::target`, 0.02).
 
 use haze_gaussians::cloud;
 use haze_gpu::GpuContext;
@@ -610,7 +612,8 @@ fn timed(s: &Scene, analytic: &Analytic, options: PaperBOptions) -> (f64, Image,
     (median(times), image, pairs)
 }
 
-/// `--stride N`: the coarsest grid of the reused frames (`PaperBOptions::reuse`).
+/// `--stride N` and `--target E`: the reused frames' coarsest grid and pair error bound
+/// (`PaperBOptions::reuse`, `PaperBOptions::target`).
 fn reuse_options(args: &[String]) -> PaperBOptions {
     let reuse = arg(args, "--stride").map_or(paper_b::reuse::DEFAULT_STRIDE, |s| {
         s.parse::<usize>()
@@ -618,8 +621,15 @@ fn reuse_options(args: &[String]) -> PaperBOptions {
             .filter(|n| *n >= 1)
             .unwrap_or_else(|| fail("--stride N: a whole number of pixels, at least 1"))
     });
+    let target = arg(args, "--target").map_or(paper_b::DEFAULT_TARGET, |s| {
+        s.parse::<f64>()
+            .ok()
+            .filter(|t| *t > 0.0)
+            .unwrap_or_else(|| fail("--target E: a positive relative error"))
+    });
     PaperBOptions {
         reuse,
+        target,
         ..Default::default()
     }
 }

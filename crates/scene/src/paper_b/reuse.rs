@@ -9,7 +9,8 @@
 //! So the renderer integrates exactly on a coarse grid of pixels, every [`DEFAULT_STRIDE`]
 //! pixels (and the last row and column), and records each crossed pair's ratio `ρ = Lᵢ/Uᵢ`
 //! per channel, where `Uᵢ` is the same chord integral without any attenuation
-//! ([`haze_gaussians::integrated::unattenuated`]: one `exp` a node, no error functions).
+//! ([`haze_gaussians::integrated::unattenuated`]: one Faddeeva function in closed form
+//! where the ray holds the whole chord).
 //! `ρ` is then the attenuation of the pair's light averaged along the ray, weighted by
 //! `βᵢ/d²`, while `Uᵢ`, computed at every pixel, carries the light's `1/d²` and the
 //! Gaussian's footprint. (Against paper B's closed form `L̂ᵢ` instead, `ρ` changed by
