@@ -145,6 +145,30 @@ fn an_adaptive_domain_is_read_over_the_whole_domain() {
     assert_eq!(j["header"]["frame_count"], 2);
 }
 
+/// A volume format haze does not read (NanoVDB, Houdini geometry) is named, with how to
+/// get OpenVDB from it, by `inspect` and `bake` alike.
+#[test]
+fn a_foreign_volume_format_says_how_to_convert_it() {
+    let tmp = tempfile::tempdir().unwrap();
+    for (name, kind, how) in [
+        ("smoke.nvdb", "NanoVDB", "nanovdb_convert"),
+        ("smoke.bgeo.sc", "Houdini geometry", "Convert VDB"),
+    ] {
+        let file = tmp.path().join(name);
+        std::fs::write(&file, b"not read").unwrap();
+        let f = file.to_str().unwrap();
+        let out = tmp.path().join("o.haze");
+        for args in [
+            vec!["inspect", f],
+            vec!["bake", f, "-q", "--out", out.to_str().unwrap()],
+        ] {
+            let err = fails_with_one_line(&args, &file);
+            assert!(err.contains(kind) && err.contains(how), "{args:?}: {err}");
+        }
+        assert!(!out.exists());
+    }
+}
+
 /// An 8-bit raw volume is read as fractions of 255, and `inspect` says so.
 #[test]
 fn inspect_says_how_integer_samples_are_read() {

@@ -47,11 +47,9 @@ pub fn inspect(
         Report::Asset(asset::report(path, progress)?)
     } else if path.is_file() {
         if Format::of(path).is_none() {
-            if let Some((kind, how)) = haze_volume::import::foreign_format(path) {
-                anyhow::bail!(
-                    "{}: unknown file type: {kind}; haze reads OpenVDB: {how}",
-                    path.display()
-                );
+            // A volume format haze does not read: the importer's error says how to convert.
+            if haze_volume::import::foreign_format(path).is_some() {
+                haze_volume::import::format_of(path)?;
             }
             anyhow::bail!(
                 "{}: unknown file type: haze inspect reads volumes (.vdb, .f32/.raw with a \
