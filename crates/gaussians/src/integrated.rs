@@ -211,28 +211,44 @@ pub fn unattenuated_whole(
     if b.c <= 0.0 || b.albedo <= 0.0 {
         return Some(0.0);
     }
-    let bv = sub(b.center, v);
-    let m = dot(bv, dir);
-    let h2 = (dot(bv, bv) - m * m).max(0.0);
-    let reach = SUPPORT / b.a;
-    if h2 >= reach * reach {
+    let Some((m, h2, half)) = support_chord(b, v, dir) else {
         return Some(0.0);
-    }
-    let half = (reach * reach - h2).sqrt();
+    };
     if m - half < 0.0 || m + half > dr {
         return None;
     }
     let scale = b.albedo * b.c * (-b.a * b.a * h2).exp();
-    Some(match light {
-        Source::Point(s) => {
-            let sv = sub(s, v);
-            let ts = dot(sv, dir);
-            let hs = (dot(sv, sv) - ts * ts).max(0.0).sqrt().max(r_min);
+    Some(match light_foot(v, dir, light, r_min) {
+        Some((ts, hs)) => {
             let z = Complex64::new(b.a * (ts - m), b.a * hs);
             scale * z.w().re / (4.0 * hs)
         }
-        Source::Sun(_) => scale * PI.sqrt() / (4.0 * PI * b.a),
+        None => scale * PI.sqrt() / (4.0 * PI * b.a),
     })
+}
+
+/// The line `v + t·dir` through `b`'s [`SUPPORT`] sphere: the centre's foot `m` on it,
+/// the centre's squared distance `h²` from it and the chord's half-length (the chord is
+/// `m ± half`); `None` where the line misses the sphere.
+fn support_chord(b: &Blob, v: Vec3, dir: Vec3) -> Option<(f64, f64, f64)> {
+    let bv = sub(b.center, v);
+    let m = dot(bv, dir);
+    let h2 = (dot(bv, bv) - m * m).max(0.0);
+    let reach = SUPPORT / b.a;
+    (h2 < reach * reach).then(|| (m, h2, (reach * reach - h2).sqrt()))
+}
+
+/// A point light's foot `t_s` on the line `v + t·dir` and its distance `h_s` from it,
+/// floored at `r_min`; `None` for a sun.
+fn light_foot(v: Vec3, dir: Vec3, light: Source, r_min: f64) -> Option<(f64, f64)> {
+    match light {
+        Source::Point(s) => {
+            let sv = sub(s, v);
+            let ts = dot(sv, dir);
+            Some((ts, (dot(sv, sv) - ts * ts).max(0.0).sqrt().max(r_min)))
+        }
+        Source::Sun(_) => None,
+    }
 }
 
 /// The quadrature of [`integrated`] (module docs): calls `visit(t, w)` for each node `t`
@@ -251,28 +267,14 @@ fn chord_nodes(
     if b.c <= 0.0 || dr <= 0.0 {
         return;
     }
-    let bv = sub(b.center, v);
-    let m = dot(bv, dir);
-    let h2 = (dot(bv, bv) - m * m).max(0.0);
-    let reach = SUPPORT / b.a;
-    if h2 >= reach * reach {
+    let Some((m, _, half)) = support_chord(b, v, dir) else {
         return;
-    }
-    let half = (reach * reach - h2).sqrt();
+    };
     let (lo, hi) = ((m - half).max(0.0), (m + half).min(dr));
     if hi <= lo {
         return;
     }
-    // The light's foot on the ray and its distance from it (a sun: none).
-    let foot = match light {
-        Source::Point(s) => {
-            let sv = sub(s, v);
-            let ts = dot(sv, dir);
-            let hs = (dot(sv, sv) - ts * ts).max(0.0).sqrt().max(r_min);
-            Some((ts, hs))
-        }
-        Source::Sun(_) => None,
-    };
+    let foot = light_foot(v, dir, light, r_min);
     let mut cuts = [lo, hi, hi, hi];
     let mut n = 1;
     for q in [foot.map(|f| f.0), Some(m)].into_iter().flatten() {
