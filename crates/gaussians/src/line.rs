@@ -31,31 +31,36 @@ pub fn gaussian(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3, len: f64) -> f64 {
 }
 
 /// [`gaussian`] for a caller that drops `δ` of depth, `far` = [`far_for`]`(c, a, δ)`:
-/// lines farther than `√far` radii from the centre count as missing it, and a line at
-/// `a²h² = q` whose ends both lie more than `x = √(far − q)` (in units of `1/a`) from the
-/// foot takes the whole line's depth (ends on either side) or none (one side), with no
-/// error function: each end's tail is `scale·erfc(x) < scale·e^{−x²} = δ/2` (as
-/// `scale = (c√π/2a)e^{−q}` and `e^{far} = c√π/(aδ)`; when `far` is capped at [`FAR`], at
-/// most `e^{−40}` of the depth through the centre).
+/// lines farther than `√far` radii from the centre count as missing it, and an end of a
+/// line at `a²h² = q` that lies more than `x = √(far − q)` (in units of `1/a`) from the
+/// foot is taken at its tail's limit, `erf(±x) = ±1`: a line with both ends there takes
+/// the whole line's depth (ends on either side) or none (one side) with no error
+/// function, a line with one end there one `erfc` (of the other end) instead of two. Each
+/// end's tail is `scale·erfc(x) < scale·e^{−x²} = δ/2` (as `scale = (c√π/2a)e^{−q}` and
+/// `e^{far} = c√π/(aδ)`; when `far` is capped at [`FAR`], at most `e^{−40}` of the depth
+/// through the centre), so the line is off by less than `δ`.
 pub fn gaussian_within(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3, len: f64, far: f64) -> f64 {
     if len <= 0.0 {
         return 0.0;
     }
-    match foot(c, a, b, o, d, far) {
-        Some((scale, m, q)) => {
-            let (x0, x1) = (-a * m, a * (len - m));
-            let cut2 = far - q;
-            let beyond = |x: f64| x * x >= cut2;
-            if (x1 <= 0.0 && beyond(x1)) || (x0 >= 0.0 && beyond(x0)) {
-                0.0
-            } else if x0 < 0.0 && x1 > 0.0 && beyond(x0) && beyond(x1) {
-                2.0 * scale
-            } else {
-                scale * erf_diff(x0, x1)
-            }
-        }
-        None => 0.0,
+    let Some((m, q)) = foot_of(a, b, o, d, far).filter(|_| c != 0.0) else {
+        return 0.0;
+    };
+    let (x0, x1) = (-a * m, a * (len - m));
+    let cut2 = far - q;
+    let (beyond0, beyond1) = (x0 * x0 >= cut2, x1 * x1 >= cut2);
+    // Both ends on one side of the foot, the nearer past the cut: none of the depth.
+    if (x1 <= 0.0 && beyond1) || (x0 >= 0.0 && beyond0) {
+        return 0.0;
     }
+    // Otherwise an end past the cut lies on its own side of the foot (x0 < 0 < x1).
+    let diff = match (beyond0, beyond1) {
+        (true, true) => 2.0,
+        (false, true) => erfc(x0),
+        (true, false) => erfc(-x1),
+        (false, false) => erf_diff(x0, x1),
+    };
+    scale_of(c, a, q) * diff
 }
 
 /// The `far` (squared distance in radii, `a²h²`) beyond which a whole line picks up less
@@ -68,16 +73,25 @@ pub fn far_for(c: f64, a: f64, delta: f64) -> f64 {
 /// The line's ray-constant parts: `c·e^{−a²h²}·√π/2a`, the foot `m` and `q = a²h²`;
 /// `None` for a zero Gaussian or a line beyond `√far` radii.
 fn foot(c: f64, a: f64, b: Vec3, o: Vec3, d: Vec3, far: f64) -> Option<(f64, f64, f64)> {
+    if c == 0.0 {
+        return None;
+    }
+    foot_of(a, b, o, d, far).map(|(m, q)| (scale_of(c, a, q), m, q))
+}
+
+/// The foot `m` of `b` on the line `o + t·d` and `q = a²h²`; `None` beyond `√far` radii.
+fn foot_of(a: f64, b: Vec3, o: Vec3, d: Vec3, far: f64) -> Option<(f64, f64)> {
     let bp = sub(b, o);
     let m = dot(bp, d);
     let perp = axpy(bp, -m, d);
     let q = a * a * dot(perp, perp);
     // A NaN input stays NaN (the comparison lets it through).
-    if c == 0.0 || q > far {
-        None
-    } else {
-        Some((c * (-q).exp() * PI.sqrt() / (2.0 * a), m, q))
-    }
+    (q <= far || q.is_nan()).then_some((m, q))
+}
+
+/// Half the whole line's depth at `a²h² = q`: `c·e^{−q}·√π/2a`.
+fn scale_of(c: f64, a: f64, q: f64) -> f64 {
+    c * (-q).exp() * PI.sqrt() / (2.0 * a)
 }
 
 /// One Gaussian's depth along a fixed ray `o + t·d` from `0` up to any end `t`:
@@ -177,7 +191,8 @@ mod tests {
         // For Gaussians of line depth 10⁻⁶..10 through the centre and cuts δ = 10⁻¹⁰..10⁻³:
         // a whole line at distance h picks up c√π/a·e^{−a²h²} (line_bound), so beyond
         // √far_for radii the dropped depth is below δ; within it, the ends' tails cut by
-        // gaussian_within and AlongRay::within move any segment's depth by at most δ.
+        // gaussian_within and AlongRay::within move any segment's depth by at most δ,
+        // whichever end lies past the cut (the start, the end, both or neither).
         for &(c, a) in &[(0.01, 2.0), (1.0, 1.0), (5.0, 0.5), (1e-6, 1.0)] {
             for &delta in &[1e-10, 1e-7, 1e-3] {
                 let far = far_for(c, a, delta);
@@ -203,6 +218,23 @@ mod tests {
                             (got - exact).abs() <= delta && (within - exact).abs() <= delta,
                             "c {c} a {a} h {h} end {end}: {got}, {within} vs {exact}"
                         );
+                    }
+                    // Segments from near the foot (start inside the cut) to far past it.
+                    for &start in &[-2.0, -0.3, 0.0, 0.7, 3.0] {
+                        let o = [start / a, h, 0.0];
+                        let x = [1.0, 0.0, 0.0];
+                        for &len in &[0.5, 2.0, 4.0, 6.0, 30.0] {
+                            let exact = if a * a * h * h <= far {
+                                gaussian(c, a, [0.0; 3], o, x, len / a)
+                            } else {
+                                0.0
+                            };
+                            let within = gaussian_within(c, a, [0.0; 3], o, x, len / a, far);
+                            assert!(
+                                (within - exact).abs() <= delta,
+                                "c {c} a {a} h {h} from {start} over {len}: {within} vs {exact}"
+                            );
+                        }
                     }
                     if a * a * h * h <= far {
                         assert!((cut - full).abs() <= delta, "c {c} a {a} h {h}");
