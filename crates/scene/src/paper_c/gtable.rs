@@ -145,8 +145,9 @@ impl GTable {
     /// Every entry uses the same `γ′` nodes (Gauss–Legendre, 4 per panel, 512 equal
     /// panels over `[0, π]`: panels of 6·10⁻³ rad resolve `H`'s fall on the scale `1/T ≥
     /// 0.02` and a Phong lobe of width `1/√n`), so the table is a matrix product
-    /// `[H(T_i, γ′_k)]·[w_k·C_n(γ′_k, θ_j)]` (nalgebra's, blocked and vectorized). The rule converges as `h²` (the lobe's
-    /// edges and `H`'s bilinear table are not smooth between nodes); against 8192 panels
+    /// `[H(T_i, γ′_k)]·[w_k·C_n(γ′_k, θ_j)]` (nalgebra's, blocked and vectorized). The
+    /// rule converges as `h²` (the lobe's edges and `H`'s bilinear table are not smooth
+    /// between nodes); against 8192 panels
     /// every entry of a 256 × 256 table is within `1.4·10⁻⁵` (`G0`), `2.7·10⁻⁵` (`G100`),
     /// `4.6·10⁻⁵` (`G1000`) — 10–50× below the table's interpolation error
     /// ([`DEFAULT_SIZE`]); 1024 panels cost twice the time for nothing visible.
