@@ -8,6 +8,7 @@ use crate::ToneMap;
 use rayon::prelude::*;
 use std::io::{BufWriter, Write};
 use std::path::Path;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Linear RGB radiance, `width × height` pixels, row-major from the top row.
 #[derive(Clone, Debug, PartialEq)]
@@ -54,6 +55,31 @@ impl Image {
             width,
             height,
             pixels: vec![[0.0; 3]; width * height],
+        }
+    }
+
+    /// The `width × height` image of `pixel(x, y)` (linear radiance in `f64`, kept in
+    /// `f32`), its rows computed in parallel; `progress` hears how many rows are done
+    /// each time one finishes (in any order).
+    pub fn by_rows(
+        width: usize,
+        height: usize,
+        progress: &(dyn Fn(usize) + Sync),
+        pixel: impl Fn(usize, usize) -> [f64; 3] + Sync,
+    ) -> Image {
+        let done = AtomicUsize::new(0);
+        let rows: Vec<Vec<[f32; 3]>> = (0..height)
+            .into_par_iter()
+            .map(|y| {
+                let row = (0..width).map(|x| pixel(x, y).map(|c| c as f32)).collect();
+                progress(done.fetch_add(1, Ordering::Relaxed) + 1);
+                row
+            })
+            .collect();
+        Image {
+            width,
+            height,
+            pixels: rows.into_iter().flatten().collect(),
         }
     }
 
@@ -305,6 +331,28 @@ mod tests {
             *p = [i as f32 * 0.25, 1.0, 0.5 / (1.0 + i as f32)];
         }
         im
+    }
+
+    #[test]
+    fn rows_land_in_order_and_every_row_is_heard() {
+        // Pixel (x, y) at index y·width + x with its f64 value rounded to f32; the
+        // progress calls count 1..=height once each, whatever order the rows end in.
+        let heard = std::sync::Mutex::new(Vec::new());
+        let im = Image::by_rows(7, 5, &|n| heard.lock().unwrap().push(n), |x, y| {
+            [x as f64, y as f64, 0.1 + (x * 10 + y) as f64]
+        });
+        assert_eq!((im.width, im.height, im.pixels.len()), (7, 5, 35));
+        for y in 0..5 {
+            for x in 0..7 {
+                let want = [x as f32, y as f32, (0.1 + (x * 10 + y) as f64) as f32];
+                assert_eq!(im.get(x, y), want, "({x}, {y})");
+            }
+        }
+        let mut heard = heard.into_inner().unwrap();
+        heard.sort_unstable();
+        assert_eq!(heard, vec![1, 2, 3, 4, 5]);
+        let empty = Image::by_rows(0, 3, &|_| {}, |_, _| [1.0; 3]);
+        assert!(empty.pixels.is_empty());
     }
 
     #[test]

@@ -25,9 +25,7 @@ use crate::paper_c::htable::HTable;
 use crate::paper_c::reference::{self, RefOptions};
 use crate::scene::{Environment, Light, Material, Rgb, Scene};
 use crate::vec3::{Vec3, axpy, cos_sin, dot, norm, reflect, scale, sub};
-use rayon::prelude::*;
 use std::f64::consts::PI;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 pub use haze_core::Image;
 
@@ -251,22 +249,9 @@ pub fn render(
     };
     let env = model.environment(scene);
     let env = env.as_deref();
-    let done = AtomicUsize::new(0);
-    let rows: Vec<Vec<[f32; 3]>> = (0..h)
-        .into_par_iter()
-        .map(|y| {
-            let row = (0..w)
-                .map(|x| radiance(scene, model, env, &lim, cam.pixel_ray(x, y)).map(|c| c as f32))
-                .collect();
-            progress(done.fetch_add(1, Ordering::Relaxed) + 1);
-            row
-        })
-        .collect();
-    Image {
-        width: w,
-        height: h,
-        pixels: rows.into_iter().flatten().collect(),
-    }
+    Image::by_rows(w, h, progress, |x, y| {
+        radiance(scene, model, env, &lim, cam.pixel_ray(x, y))
+    })
 }
 
 /// Channels grouped by equal `(β, σs)`: each group's scattering is computed once per

@@ -29,8 +29,6 @@ use crate::render::Image;
 use crate::scene::{Light, Rgb, Scene};
 use crate::vec3::{Vec3, axpy, dot, norm, reflect, scale, sub};
 use env_smoke::EnvLight;
-use rayon::prelude::*;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Settings of the march.
 #[derive(Clone, Debug, PartialEq)]
@@ -275,22 +273,9 @@ pub fn render(
 ) -> Image {
     let cam = &scene.camera;
     let (w, h) = (cam.width, cam.height);
-    let done = AtomicUsize::new(0);
-    let rows: Vec<Vec<[f32; 3]>> = (0..h)
-        .into_par_iter()
-        .map(|y| {
-            let row = (0..w)
-                .map(|x| radiance(scene, lim, opt, cam.pixel_ray(x, y)).map(|c| c as f32))
-                .collect();
-            progress(done.fetch_add(1, Ordering::Relaxed) + 1);
-            row
-        })
-        .collect();
-    Image {
-        width: w,
-        height: h,
-        pixels: rows.into_iter().flatten().collect(),
-    }
+    Image::by_rows(w, h, progress, |x, y| {
+        radiance(scene, lim, opt, cam.pixel_ray(x, y))
+    })
 }
 
 /// The march's settings for `scene`: steps of half the smallest voxel

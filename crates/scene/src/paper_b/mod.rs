@@ -67,7 +67,6 @@ use pairs::{PairTerms, pair_terms};
 use rayon::prelude::*;
 use reuse::PairMode;
 use std::f64::consts::PI;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Switches of the renderer.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -834,25 +833,8 @@ pub fn render(prep: &Prepared<'_>, lim: &Limits, progress: &(dyn Fn(usize) + Syn
     if prep.options.reuse > 1 && prep.integrated_pairs().0 > 0 {
         return reuse::render(prep, &lim, sky.as_ref(), progress);
     }
-    let done = AtomicUsize::new(0);
-    let rows: Vec<Vec<[f32; 3]>> = (0..h)
-        .into_par_iter()
-        .map(|y| {
-            let row = (0..w)
-                .map(|x| {
-                    let table = sky.as_ref().map(|t| (t, x, y));
-                    let dir = cam.pixel_ray(x, y);
-                    let r = prep.radiance_with(&lim, dir, &mut PairMode::Exact, table);
-                    r.map(|c| c as f32)
-                })
-                .collect();
-            progress(done.fetch_add(1, Ordering::Relaxed) + 1);
-            row
-        })
-        .collect();
-    Image {
-        width: w,
-        height: h,
-        pixels: rows.into_iter().flatten().collect(),
-    }
+    Image::by_rows(w, h, progress, |x, y| {
+        let table = sky.as_ref().map(|t| (t, x, y));
+        prep.radiance_with(&lim, cam.pixel_ray(x, y), &mut PairMode::Exact, table)
+    })
 }
