@@ -297,6 +297,18 @@ fn bad_render_requests_fail_on_one_line() {
         "finite and non-negative",
     );
     fails(&["render", &vol, "--out", out, "--albedo", "1.5"], "albedo");
+    // A grid spacing finer than a quarter voxel (it once allocated exabytes and aborted):
+    // clap's one-line usage error (exit 2).
+    let o = haze()
+        .args(["render", &vol, "--out", out, "--env-grid-spacing", "1e-9"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.lines().count() == 1 && err.contains("at least 0.25"),
+        "{err}"
+    );
     fails(&["render", &vol, "--out", out, "--slices", "0"], "--slices");
     for detail in ["0", "1.5", "-1", "nan"] {
         fails(

@@ -3,6 +3,7 @@
 use crate::import_args::ImportArgs;
 use anyhow::Result;
 use haze_bake::BakeOptions;
+use haze_core::number::shown;
 use std::path::PathBuf;
 
 #[derive(Debug, clap::Args)]
@@ -188,21 +189,24 @@ impl BakeCli {
         };
         bounds.validate().map_err(anyhow::Error::msg)?;
         if !(self.tolerance > 0.0 && self.tolerance < 1.0) {
-            bail!("--tolerance {} must be in (0, 1)", self.tolerance);
+            bail!("--tolerance {} must be in (0, 1)", shown(self.tolerance));
         }
         if !(self.warm_tolerance >= 0.0 && self.warm_tolerance < 1.0) {
-            bail!("--warm-tolerance {} must be in [0, 1)", self.warm_tolerance);
+            bail!(
+                "--warm-tolerance {} must be in [0, 1)",
+                shown(self.warm_tolerance)
+            );
         }
         if self.max_insert == Some(0) {
             bail!("--max-insert must be at least 1 (--threshold 1e9 turns insertion off)");
         }
         if self.threshold.is_nan() || self.threshold < 1.0 {
-            bail!("--threshold {} must be at least 1", self.threshold);
+            bail!("--threshold {} must be at least 1", shown(self.threshold));
         }
         if !(self.marginal_gain.is_finite() && self.marginal_gain >= 0.0) {
             bail!(
                 "--marginal-gain {} must be a finite number ≥ 0 (0 turns the test off)",
-                self.marginal_gain
+                shown(self.marginal_gain)
             );
         }
         let max = haze_bake::MAX_RBFS;
@@ -224,7 +228,7 @@ impl BakeCli {
                 rel_l2: e,
                 cap: self.max_rbfs.unwrap_or(4096).max(1),
             },
-            (None, Some(e)) => bail!("--target-error {e} must be in (0, 1]"),
+            (None, Some(e)) => bail!("--target-error {} must be in (0, 1]", shown(e)),
             (None, None) => haze_bake::Count::Fixed(300),
         };
         let fit = FitOptions {

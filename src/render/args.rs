@@ -74,9 +74,10 @@ pub struct RenderCli {
     /// --gpu). BENCHMARKS.md "Multiple scattering: explicit orders" compares them.
     #[arg(long, value_parser = parse_diffusion)]
     pub(crate) diffusion: Option<haze_view::render::MsDiffusion>,
-    /// Voxels between the nodes of `--source grid`'s grid (smaller: sharper self-shadowing,
-    /// more time; the time grows as the inverse cube).
-    #[arg(long, default_value_t = haze_view::render::env_pass::EnvGridOptions::default().spacing, value_parser = positive_f64)]
+    /// Voxels between the nodes of `--source grid`'s grid, at least 0.25 (smaller: sharper
+    /// self-shadowing, more time and memory; both grow as the inverse cube). A grid of
+    /// more than 16 M nodes is widened to fit, with a warning.
+    #[arg(long, default_value_t = haze_view::render::env_pass::EnvGridOptions::default().spacing, value_parser = grid_spacing)]
     pub(crate) env_grid_spacing: f64,
     /// The lighting's detail, above 0 and at most 1: below 1 the environment grid's
     /// spacing is divided by it, the explicit orders' automatic cells grow as 1/detail,
@@ -388,13 +389,17 @@ pub(crate) enum ExpArg {
     Linear,
 }
 
-/// `--env-grid-spacing`: a finite number of voxels > 0.
-fn positive_f64(s: &str) -> Result<f64, String> {
+/// `--env-grid-spacing`: a finite number of voxels, at least
+/// [`env_pass::MIN_SPACING`](haze_view::render::env_pass::MIN_SPACING).
+fn grid_spacing(s: &str) -> Result<f64, String> {
+    use haze_view::render::env_pass::MIN_SPACING;
     let v: f64 = s.parse().map_err(|_| format!("'{s}' is not a number"))?;
-    if v.is_finite() && v > 0.0 {
+    if v.is_finite() && v >= MIN_SPACING {
         Ok(v)
     } else {
-        Err(format!("{s} must be a finite number > 0"))
+        Err(format!(
+            "{s} must be a number of voxels, at least {MIN_SPACING} (nodes closer than that hold no more detail)"
+        ))
     }
 }
 

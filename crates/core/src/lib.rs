@@ -14,6 +14,7 @@ mod image;
 pub mod json;
 pub mod mixing;
 pub mod npy_header;
+pub mod number;
 pub mod temp_output;
 pub mod tone;
 pub mod vec3;

@@ -7,6 +7,7 @@ use crate::frame::{self, FitKnobs};
 use crate::lights::{GroundChoice, Lights};
 use crate::progress;
 use anyhow::{Result, anyhow, bail};
+use haze_core::number::shown;
 use haze_gpu::GpuContext;
 use haze_view::diffusion::SolveOptions;
 use haze_view::gpu::GridBuffer;
@@ -389,7 +390,10 @@ pub fn render_image(a: &RenderOptions) -> Result<Rendered> {
                 None => String::new(),
             },
             if n > 1 {
-                format!(" on a {n}× finer grid ({tau:.1} optical depths per voxel)")
+                format!(
+                    " on a {n}× finer grid ({} optical depths per voxel)",
+                    depth_text(tau)
+                )
             } else {
                 String::new()
             },
@@ -456,15 +460,26 @@ fn refinement(
             "no finer grid fits: a lower --sigma-t, smaller voxels, or --reference"
         };
         tracing::warn!(
-            "{label}: the smoke is {tau:.1} optical depths per voxel (σt × density × voxel side){}: the fast renderer lights each voxel at its center, so thick voxels come out too dark (about 12 % at 4 on a plume's single scattering); {advice}",
+            "{label}: the smoke is {} optical depths per voxel (σt × density × voxel side){}: the fast renderer lights each voxel at its center, so thick voxels come out too dark (about 12 % at 4 on a plume's single scattering); {advice}",
+            depth_text(tau),
             if n > 1 {
-                format!(", {fine:.1} on the {n}× finer grid")
+                format!(", {} on the {n}× finer grid", depth_text(fine))
             } else {
                 String::new()
             }
         );
     }
     Ok((n, tau))
+}
+
+/// An optical depth for a message: one decimal, or in scientific notation from 10⁴ on
+/// (a `--sigma-t` of 1e300 would otherwise print 300 digits).
+fn depth_text(tau: f64) -> String {
+    if tau.abs() < 1e4 {
+        format!("{tau:.1}")
+    } else {
+        format!("{tau:.1e}")
+    }
 }
 
 /// Warns when `--lighting-detail` lies below [`CrmOptions::detail_floor`] for lit voxels
@@ -580,14 +595,10 @@ pub const MAX_EXPOSURE: f64 = 1e6;
 /// pixel black, 0 every pixel black, infinity every lit pixel white).
 pub fn check_exposure(exposure: f64) -> Result<()> {
     if !(exposure > 0.0 && exposure <= MAX_EXPOSURE) {
-        // As typed for everyday numbers, in scientific notation for huge ones (1e40, not
-        // forty digits).
-        let shown = if exposure.abs() > MAX_EXPOSURE && exposure.is_finite() {
-            format!("{exposure:e}")
-        } else {
-            format!("{exposure}")
-        };
-        bail!("--exposure {shown} must be a number in (0, {MAX_EXPOSURE:e}]");
+        bail!(
+            "--exposure {} must be a number in (0, {MAX_EXPOSURE:e}]",
+            shown(exposure)
+        );
     }
     Ok(())
 }
@@ -605,7 +616,10 @@ pub fn check_knobs(sh_order: usize, slices: f64) -> Result<()> {
         );
     }
     if !(slices > 0.0 && slices <= MAX_SLICES) {
-        bail!("--slices {slices} must be in (0, {MAX_SLICES}] slices per voxel");
+        bail!(
+            "--slices {} must be in (0, {MAX_SLICES}] slices per voxel",
+            shown(slices)
+        );
     }
     Ok(())
 }

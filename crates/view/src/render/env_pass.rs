@@ -121,12 +121,23 @@ pub fn directions(theta: usize) -> SphereGrid {
     SphereGrid::hemispheres(t, 4 * t)
 }
 
+/// The finest spacing of the grid, in voxels: the density is trilinear between voxel
+/// centers, so nodes closer than a quarter voxel hold no more of its shadows, and a finer
+/// request would only multiply the nodes (as the inverse cube).
+pub const MIN_SPACING: f64 = 0.25;
+
+/// The most nodes the CPU's grid holds (16 M: 1 GiB of `S_lm` at SH order 4, 2.3 GiB at
+/// order 6); [`cpu_spacing`] widens a finer grid to fit, as the GPU's widens to fit its
+/// buffers (`gpu::env_pass`).
+pub const MAX_NODES: usize = 1 << 24;
+
 /// The nodes of the grid over a `dims` grid on `bbox` (no coefficients yet): from the
 /// first voxel center to the last, about `spacing` voxels apart (at least two nodes per
-/// axis of two voxels or more, one on an axis of one voxel).
+/// axis of two voxels or more, one on an axis of one voxel; `spacing` at least
+/// [`MIN_SPACING`], 1 where it is not a positive number).
 pub fn grid_frame(dims: [usize; 3], bbox: &Bbox, spacing: f64, order: usize) -> ShGrid {
     let spacing = if spacing > 0.0 && spacing.is_finite() {
-        spacing
+        spacing.max(MIN_SPACING)
     } else {
         1.0
     };
@@ -284,8 +295,40 @@ pub fn cell_powers(map: &LatLong, theta: usize) -> Vec<[f64; 3]> {
     out
 }
 
+/// The spacing the CPU's grid over `dims` takes for the requested `spacing`: the same,
+/// or wider until the grid holds at most [`MAX_NODES`] nodes (each time by the cube root
+/// of the excess and a hundredth more).
+pub fn cpu_spacing(dims: [usize; 3], spacing: f64) -> f64 {
+    let unit = Bbox::new([0.0; 3], [1.0; 3]);
+    let mut spacing = if spacing > 0.0 && spacing.is_finite() {
+        spacing.max(MIN_SPACING)
+    } else {
+        1.0
+    };
+    // Per axis at most 4·span + 1 nodes (MIN_SPACING), so the count fits a u64.
+    let count = |s: f64| {
+        grid_frame(dims, &unit, s, 0)
+            .nodes
+            .iter()
+            .fold(1u64, |n, &k| n.saturating_mul(k as u64))
+    };
+    for _ in 0..64 {
+        let n = count(spacing);
+        if n <= MAX_NODES as u64 {
+            break;
+        }
+        spacing *= 1.01 * (n as f64 / MAX_NODES as f64).cbrt();
+    }
+    spacing
+}
+
+/// Whether the CPU's widening of the grid was said already (once a process: a viewer
+/// would say it every frame).
+static WIDENED_SAID: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
 /// The grid of `S_lm` (module docs) of `env`'s distant light through `density` (σt
-/// `sigma_t`), SH of `order`.
+/// `sigma_t`), SH of `order`; its spacing [`cpu_spacing`] of `opts.spacing` (a warning
+/// says when it is wider).
 pub fn env_grid(
     density: &Volume,
     sigma_t: f64,
@@ -295,7 +338,20 @@ pub fn env_grid(
 ) -> ShGrid {
     let dims = density.dims();
     let vs = density.voxel_size();
-    let grid = grid_frame(dims, density.bbox(), opts.spacing, order);
+    let spacing = cpu_spacing(dims, opts.spacing);
+    if spacing > opts.spacing.max(MIN_SPACING)
+        && !WIDENED_SAID.swap(true, std::sync::atomic::Ordering::Relaxed)
+    {
+        tracing::warn!(
+            "the environment's grid is spaced {spacing:.2} voxels, not {}, to hold at most {} M nodes over {} × {} × {} voxels: the sky's light through the smoke is coarser",
+            opts.spacing,
+            MAX_NODES >> 20,
+            dims[0],
+            dims[1],
+            dims[2]
+        );
+    }
+    let grid = grid_frame(dims, density.bbox(), spacing, order);
     let nodes = grid.nodes;
     let n2 = sh::count(order);
     let h0 = vs[0].min(vs[1]).min(vs[2]);
@@ -651,6 +707,35 @@ mod tests {
     fn map(w: usize, h: usize, f: impl Fn(usize, usize) -> f32) -> LatLong {
         let texels = (0..w * h).map(|i| [f(i % w, i / w), 1.0, 0.5]).collect();
         LatLong::new(w, h, texels).unwrap()
+    }
+
+    #[test]
+    fn the_cpu_grid_widens_to_its_node_budget_and_no_further() {
+        // A grid that fits keeps its spacing; a production-size one (512 × 512 × 640
+        // voxels at the default 1.5: 342 × 342 × 427 = 49.9 M nodes) widens to at most
+        // MAX_NODES, in one step of the cube root of its excess and a hundredth here
+        // (2.18 voxels, 98 % of the budget; a second step would only be for the node
+        // counts' rounding); spacings below MIN_SPACING and nonsense ones give finite
+        // grids of at most 4 nodes a voxel.
+        let nodes = |dims: [usize; 3], s: f64| {
+            let g = grid_frame(dims, &Bbox::new([0.0; 3], [1.0; 3]), s, 4);
+            g.nodes.iter().map(|&n| n as u64).product::<u64>()
+        };
+        assert_eq!(cpu_spacing([96, 96, 128], 1.5), 1.5);
+        let big = [512, 512, 640];
+        let excess = nodes(big, 1.5) as f64 / MAX_NODES as f64;
+        assert!(excess > 2.0, "{excess}");
+        let s = cpu_spacing(big, 1.5);
+        assert!(nodes(big, s) <= MAX_NODES as u64);
+        let most = 1.5 * 1.01 * excess.cbrt() * (1.0 + 1e-12);
+        assert!(s > 1.5 && s <= most, "{s} (at most {most})");
+        for bad in [1e-300, 0.0, -1.0, f64::NAN, f64::INFINITY] {
+            let s = cpu_spacing(big, bad);
+            assert!(s.is_finite() && s >= MIN_SPACING, "{bad}: {s}");
+            assert!(nodes(big, s) <= MAX_NODES as u64, "{bad}");
+        }
+        let fine = grid_frame([48, 48, 64], &Bbox::new([0.0; 3], [1.0; 3]), 1e-12, 4);
+        assert_eq!(fine.nodes, [189, 189, 253]);
     }
 
     #[test]

@@ -1,0 +1,50 @@
+//! Numbers in messages: a value the user gave, shown as they would have typed it.
+//!
+//! Rust's `{}` writes an `f64` in full positional notation, so a mistyped `1e300` in an
+//! error message would come back as 301 digits. [`shown`] writes everyday magnitudes as
+//! `{}` does (`0.25`, `1.5`, `1000000000`) and the others in scientific notation (`1e300`,
+//! `2.5e-9`).
+
+/// `x` for a message: `{}` for `0` and magnitudes in `[10⁻⁴, 10¹⁶)` (at most 16 digits
+/// before the point), `{:e}` otherwise
+/// (NaN and infinities as `{}` writes them).
+pub fn shown(x: f64) -> String {
+    let a = x.abs();
+    if x == 0.0 || !x.is_finite() || (1e-4..1e16).contains(&a) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn everyday_numbers_as_typed_and_extremes_in_scientific_notation() {
+        for (x, want) in [
+            (0.0, "0"),
+            (0.25, "0.25"),
+            (-1.5, "-1.5"),
+            (4000.0, "4000"),
+            (1e-4, "0.0001"),
+            (1e9, "1000000000"),
+            (9_999_999_999_999_998.0, "9999999999999998"),
+            (1e16, "1e16"),
+            (1e300, "1e300"),
+            (-2.5e-9, "-2.5e-9"),
+            (f64::MAX, "1.7976931348623157e308"),
+            (f64::MIN_POSITIVE, "2.2250738585072014e-308"),
+            (f64::INFINITY, "inf"),
+            (f64::NEG_INFINITY, "-inf"),
+            (f64::NAN, "NaN"),
+        ] {
+            assert_eq!(shown(x), want, "{x:?}");
+        }
+        // Never longer than a round-tripping scientific form.
+        for x in [1e300, 6.267e297, 1.234e-200] {
+            assert!(shown(x).len() <= 25, "{}", shown(x));
+        }
+    }
+}
