@@ -383,8 +383,21 @@ fn bad_inputs_fail_on_one_line() {
     );
     fails(
         &["fog", "wavelet", fm, "--out", o, "--density", "1e305"],
-        "too large",
+        "density 1e305 is too large",
     );
+    // Cell sizes and falloffs past the numbers' reach: named, not NaN pictures or a
+    // camera's complaint alone.
+    for (flag, value, needle) in [
+        ("--cell", "1e300", "cell size 1e300 makes the fog's box"),
+        ("--cell", "1e-300", "framed on the fog at cell size 1e-300"),
+        (
+            "--falloff",
+            "1e300",
+            "falloff 1e300 must be between 0 and 1e30",
+        ),
+    ] {
+        fails(&["fog", "wavelet", fm, "--out", o, flag, value], needle);
+    }
     fails(
         &["fog", "wavelet", fm, "--out", "x.jpg"],
         "must be a .exr or .png",

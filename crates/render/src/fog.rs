@@ -183,9 +183,18 @@ pub fn wavelet(args: WaveletJob) -> Result<()> {
         up: args.up,
         fov_deg: args.fov,
     };
-    let frame = camera
-        .camera(args.width, args.height)
-        .map_err(anyhow::Error::msg)?;
+    let frame = camera.camera(args.width, args.height).map_err(|e| {
+        if args.eye.is_none() || args.target.is_none() {
+            // The default view is framed on the fog's box, which a degenerate cell size
+            // makes a point.
+            anyhow::anyhow!(
+                "camera: {e}, framed on the fog at cell size {} (give --eye and --target, or a larger cell)",
+                haze_core::number::shown(placement.cell)
+            )
+        } else {
+            anyhow::Error::msg(e)
+        }
+    })?;
     let scene = args.model.scene();
     // The smoke's layer: one camera for every frame, so computed once.
     let smoke_at = Instant::now();

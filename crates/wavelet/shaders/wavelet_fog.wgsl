@@ -321,7 +321,8 @@ fn integrate(l: u32, o: vec3<f32>, d: vec3<f32>, ta_in: f32, tb_in: f32, goal: f
                     ra = rb;
                     rb = r0;
                 }
-                h = exp(-p.falloff * min(za, zb));
+                // A hair below the slab's bottom by rounding: h is at most 1 there.
+                h = exp(-p.falloff * max(min(za, zb), 0.0));
                 m = moments(p.falloff * abs(za - zb), nmax);
             }
             let r = cell_polynomial(lv, ix, iy, vec2<f32>(sa, sb), vec2<f32>(ra, rb));

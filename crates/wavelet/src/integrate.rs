@@ -360,7 +360,9 @@ fn integrate_deg<const D: usize>(
                     std::mem::swap(&mut sa, &mut sb);
                     std::mem::swap(&mut ra, &mut rb);
                 }
-                h = (-vert.falloff * (za.min(zb) - vert.bottom)).exp();
+                // Clipped to the slab, a ray's lower end can round a hair below the
+                // bottom: h is at most 1 there (a steep falloff would overflow).
+                h = (-vert.falloff * (za.min(zb) - vert.bottom).max(0.0)).exp();
                 moments(vert.falloff * (za - zb).abs(), 2 * D, &mut m);
             }
             let mut r = [0.0; 5];

@@ -39,6 +39,7 @@ use crate::basis::Basis;
 use crate::integrate::{self, Layer, LayerRay, Stop, Term, Vertical};
 use crate::mallat::{Decomposition, Grid};
 use crate::placement::Placement;
+use haze_core::number::shown;
 use thiserror::Error;
 
 /// How levels are integrated (module docs).
@@ -108,7 +109,8 @@ pub enum FogError {
     Settings(String),
     /// The optical depth through the fog could overflow.
     #[error(
-        "density {density} is too large: the optical depth through the fog would overflow (at most {max:e})"
+        "density {} is too large: the optical depth through the fog would overflow (at most {max:e})",
+        shown(*density)
     )]
     Overflow {
         /// The density asked for.
@@ -168,7 +170,7 @@ impl Fog {
         if !(0.0..=1.0).contains(&settings.mu) {
             return Err(FogError::Settings(format!(
                 "µ = {} must be in [0, 1]",
-                settings.mu
+                shown(settings.mu)
             )));
         }
         if !(0.0..1.0).contains(&settings.min_transmittance) {
@@ -228,6 +230,14 @@ impl Fog {
             + (bounds[3] - bounds[2]).powi(2)
             + (placement.top - placement.bottom).powi(2))
         .sqrt();
+        if !diagonal.is_finite() {
+            return Err(FogError::Settings(format!(
+                "cell size {} makes the fog's box ({} × {} cells) larger than numbers reach",
+                shown(placement.cell),
+                fogmap.nx,
+                fogmap.ny
+            )));
+        }
         let bound = 2.0 * (levels + 1) as f64 * coef_max * diagonal;
         if bound > 0.0 && placement.density > 1e300 / bound {
             return Err(FogError::Overflow {

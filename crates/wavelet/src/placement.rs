@@ -17,6 +17,7 @@
 //! fade is an exponential in height (`falloff = 0` gives a homogeneous slab), which the
 //! integration handles exactly.
 
+use haze_core::number::shown;
 use thiserror::Error;
 
 /// World placement and vertical profile of a fog.
@@ -36,6 +37,11 @@ pub struct Placement {
     pub falloff: f64,
 }
 
+/// The steepest vertical falloff: `h` drops by `e^{−10³⁰}` (to 0) within one unit of
+/// height, and the GPU's `f32` (up to 3.4·10³⁸) still holds `falloff × height` for any
+/// height up to 10⁸.
+pub const MAX_FALLOFF: f64 = 1e30;
+
 /// A placement that cannot describe a fog.
 #[derive(Debug, Error, PartialEq)]
 #[error("{0}")]
@@ -46,30 +52,35 @@ impl Placement {
     pub fn validate(&self) -> Result<(), PlacementError> {
         let bad = |what: String| Err(PlacementError(what));
         if !self.origin.iter().all(|v| v.is_finite()) {
-            return bad(format!("origin {:?} must be finite", self.origin));
+            return bad(format!(
+                "origin {}, {} must be finite",
+                shown(self.origin[0]),
+                shown(self.origin[1])
+            ));
         }
         if !(self.cell.is_finite() && self.cell > 0.0) {
             return bad(format!(
                 "cell size {} must be positive and finite",
-                self.cell
+                shown(self.cell)
             ));
         }
         if !(self.density.is_finite() && self.density >= 0.0) {
             return bad(format!(
                 "density {} must be non-negative and finite",
-                self.density
+                shown(self.density)
             ));
         }
         if !(self.bottom.is_finite() && self.top.is_finite() && self.top > self.bottom) {
             return bad(format!(
                 "fog layer bottom {} and top {} must be finite with top above bottom",
-                self.bottom, self.top
+                shown(self.bottom),
+                shown(self.top)
             ));
         }
-        if !(self.falloff.is_finite() && self.falloff >= 0.0) {
+        if !(self.falloff >= 0.0 && self.falloff <= MAX_FALLOFF) {
             return bad(format!(
-                "vertical falloff {} must be non-negative and finite",
-                self.falloff
+                "vertical falloff {} must be between 0 and {MAX_FALLOFF:e} per unit height",
+                shown(self.falloff)
             ));
         }
         Ok(())
@@ -171,6 +182,25 @@ mod tests {
         let mut p = sample();
         p.top = p.bottom;
         assert!(p.validate().is_err());
+        // Extremes as typed, not 300 digits.
+        let mut p = sample();
+        p.falloff = 1e300;
+        let e = p.validate().unwrap_err().0;
+        assert!(
+            e.contains("falloff 1e300 must be between 0 and 1e30"),
+            "{e}"
+        );
+        let mut p = sample();
+        p.bottom = 1e300;
+        assert!(
+            p.validate()
+                .unwrap_err()
+                .0
+                .contains("bottom 1e300 and top 3")
+        );
+        let mut p = sample();
+        p.falloff = MAX_FALLOFF;
+        assert!(p.validate().is_ok());
         assert!(sample().validate().is_ok());
         assert_eq!(sample().vertical(4.0), 0.0);
         assert!((sample().vertical(2.0) - (-1.0f64).exp()).abs() < 1e-15);
