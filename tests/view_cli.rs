@@ -532,7 +532,7 @@ fn a_bad_fogmap_fails_on_one_line() {
     fog(
         &["--fps", "0"],
         seq,
-        "--fps 0: a sequence of fogmaps needs a positive rate",
+        "--fps 0: a sequence of fogmaps needs a rate above 0, at most 1000",
     );
     fog(&["--levels", "9"], &fogmap, "fogmap_128.png: 9 levels");
     fog(&["--mu", "1.5"], &fogmap, "µ = 1.5 must be in [0, 1]");

@@ -34,7 +34,8 @@ pub struct ViewCli {
     /// and --no-window.
     #[arg(long, value_name = "FOGMAP")]
     pub(crate) fog: Option<PathBuf>,
-    /// Playback rate in frames per second; 0 plays every frame as fast as it renders.
+    /// Playback rate in frames per second, at most 1000; 0 plays every frame as fast as it
+    /// renders.
     #[arg(long, default_value_t = 24.0)]
     pub(crate) fps: f64,
     /// Render resolution (the picture is scaled to the window; larger costs more, in the

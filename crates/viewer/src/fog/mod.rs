@@ -241,10 +241,11 @@ pub fn run(a: FogViewArgs) -> Result<()> {
         bail!("--no-window plays only for a while: give --play-for SECONDS");
     }
     let files = haze_render::fog::fogmap_files(&a.fogmap)?;
-    if files.len() > 1 && !(a.fps > 0.0 && a.fps.is_finite()) {
+    let most = crate::smoke::playback::MAX_FPS;
+    if files.len() > 1 && !(a.fps > 0.0 && a.fps <= most) {
         bail!(
-            "--fps {}: a sequence of fogmaps needs a positive rate",
-            a.fps
+            "--fps {}: a sequence of fogmaps needs a rate above 0, at most {most}",
+            haze_core::number::shown(a.fps)
         );
     }
     let mut fogmaps: Vec<Fogmap> = Vec::with_capacity(files.len());

@@ -17,7 +17,7 @@ mod app;
 pub mod budget;
 mod detail;
 pub mod frame;
-mod playback;
+pub(crate) mod playback;
 mod player;
 #[cfg(test)]
 mod testing;

@@ -16,6 +16,10 @@
 
 use std::time::{Duration, Instant};
 
+/// The highest frame rate a playback takes: beyond any display's refresh (a frame every
+/// millisecond); 0 asks for frames as fast as they render.
+pub const MAX_FPS: f64 = 1000.0;
+
 /// One tick of one run, as handed to the renderer and back.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Tick {
@@ -100,12 +104,13 @@ impl Playback {
         self.fps
     }
 
-    /// Changes the frame rate (0: as fast as possible); a playing run restarts at the
-    /// frame after the one on screen.
+    /// Changes the frame rate (0: as fast as possible, at most [`MAX_FPS`]); a playing run
+    /// restarts at the frame after the one on screen.
     pub fn set_fps(&mut self, fps: f64) -> Result<(), String> {
-        if !(fps >= 0.0 && fps.is_finite()) {
+        if !(0.0..=MAX_FPS).contains(&fps) {
             return Err(format!(
-                "--fps {fps} must be a frame rate ≥ 0 (0: as fast as possible)"
+                "--fps {} must be a frame rate from 0 to {MAX_FPS} (0: as fast as possible)",
+                haze_core::number::shown(fps)
             ));
         }
         self.fps = fps;
@@ -360,6 +365,18 @@ mod tests {
         assert_eq!((r.shown, r.due, r.dropped), (3, 6, 3));
         assert!((r.max_frame_seconds - 0.25).abs() < 1e-9, "{r:?}");
         assert!((r.fps - 4.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn rates_outside_0_to_max_fps_are_refused_as_typed() {
+        // 1e300 fps once counted 1.8·10¹⁹ frames due and printed 301 digits.
+        for bad in [-1.0, 1e300, MAX_FPS * 1.001, f64::NAN, f64::INFINITY] {
+            let e = Playback::new(10, bad).unwrap_err();
+            assert!(e.contains("from 0 to 1000"), "{bad}: {e}");
+            assert!(e.len() < 100, "{e}");
+        }
+        assert!(Playback::new(10, MAX_FPS).is_ok());
+        assert!(Playback::new(10, 0.0).is_ok());
     }
 
     #[test]

@@ -262,7 +262,7 @@ impl Player {
         let r = self.report(now);
         let fps = self.playback.fps();
         let target = if fps > 0.0 {
-            format!("at {fps} fps")
+            format!("at {} fps", haze_core::number::shown(fps))
         } else {
             "as fast as possible".to_string()
         };
