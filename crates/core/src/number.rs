@@ -17,12 +17,23 @@ pub fn shown(x: f64) -> String {
     }
 }
 
+/// A computed `x` for a message, `decimals` after the point: fixed for magnitudes below
+/// 10⁴, in scientific notation with as many decimals above (an optical depth of 10³⁰⁰
+/// would otherwise print 300 digits).
+pub fn rounded(x: f64, decimals: usize) -> String {
+    if x.abs() < 1e4 || !x.is_finite() {
+        format!("{x:.decimals$}")
+    } else {
+        format!("{x:.decimals$e}")
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
-    fn everyday_numbers_as_typed_and_extremes_in_scientific_notation() {
+    fn numbers_as_typed_or_rounded_and_extremes_in_scientific_notation() {
         for (x, want) in [
             (0.0, "0"),
             (0.25, "0.25"),
@@ -41,6 +52,16 @@ mod tests {
             (f64::NAN, "NaN"),
         ] {
             assert_eq!(shown(x), want, "{x:?}");
+        }
+        for (x, d, want) in [
+            (4.04, 1, "4.0"),
+            (9999.94, 1, "9999.9"),
+            (1e4, 1, "1.0e4"),
+            (6.267e298, 1, "6.3e298"),
+            (-0.125, 2, "-0.12"),
+            (f64::INFINITY, 2, "inf"),
+        ] {
+            assert_eq!(rounded(x, d), want, "{x:?}");
         }
         // Never longer than a round-tripping scientific form.
         for x in [1e300, 6.267e297, 1.234e-200] {

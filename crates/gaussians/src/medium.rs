@@ -11,10 +11,17 @@
 
 use crate::bvh::SphereBvh;
 use crate::line;
+use haze_core::number::shown;
 use haze_core::vec3::{Vec3, dot, sub};
 
 /// Optical depth below which a Gaussian's contribution to a line is dropped.
 pub const DEPTH_EPSILON: f64 = 1e-10;
+
+/// The widest Gaussian, in world units (10⁹, as far as the CLI's coordinates reach): its
+/// depth `σt·w·√π·r` and the powers of `r` in paper B's integrals stay within `f64` for
+/// any weight a scene would hold (a radius of 10³⁰⁰ made NaN pictures); a wider one is a
+/// constant background (`background`).
+pub const MAX_RADIUS: f64 = 1e9;
 
 /// One Gaussian of the scene file: `weight·exp(−|x − center|²/radius²)`, times `σt`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -48,30 +55,34 @@ impl GaussianMedium {
         gaussians: Vec<Gaussian>,
     ) -> Result<GaussianMedium, String> {
         if !(sigma_t.is_finite() && sigma_t >= 0.0) {
-            return Err(format!("sigma_t {sigma_t} must be finite and not negative"));
+            return Err(format!(
+                "sigma_t {} must be finite and not negative",
+                shown(sigma_t)
+            ));
         }
         if !(0.0..=1.0).contains(&albedo) {
-            return Err(format!("albedo {albedo} must be in [0, 1]"));
+            return Err(format!("albedo {} must be in [0, 1]", shown(albedo)));
         }
         if !(background.is_finite() && background >= 0.0) {
             return Err(format!(
-                "background {background} must be finite and not negative"
+                "background {} must be finite and not negative",
+                shown(background)
             ));
         }
         for (i, g) in gaussians.iter().enumerate() {
             if !g.center.iter().all(|x| x.is_finite()) {
                 return Err(format!("gaussians[{i}].center must be finite"));
             }
-            if !(g.radius > 0.0 && g.radius.is_finite()) {
+            if !(g.radius > 0.0 && g.radius <= MAX_RADIUS) {
                 return Err(format!(
-                    "gaussians[{i}].radius {} must be positive",
-                    g.radius
+                    "gaussians[{i}].radius {} must be positive and at most {MAX_RADIUS:e}",
+                    shown(g.radius)
                 ));
             }
             if !(g.weight >= 0.0 && g.weight.is_finite()) {
                 return Err(format!(
                     "gaussians[{i}].weight {} must be finite and not negative",
-                    g.weight
+                    shown(g.weight)
                 ));
             }
         }

@@ -7,7 +7,7 @@ use crate::frame::{self, FitKnobs};
 use crate::lights::{GroundChoice, Lights};
 use crate::progress;
 use anyhow::{Result, anyhow, bail};
-use haze_core::number::shown;
+use haze_core::number::{rounded, shown};
 use haze_gpu::GpuContext;
 use haze_view::diffusion::SolveOptions;
 use haze_view::gpu::GridBuffer;
@@ -392,7 +392,7 @@ pub fn render_image(a: &RenderOptions) -> Result<Rendered> {
             if n > 1 {
                 format!(
                     " on a {n}× finer grid ({} optical depths per voxel)",
-                    depth_text(tau)
+                    rounded(tau, 1)
                 )
             } else {
                 String::new()
@@ -461,25 +461,15 @@ fn refinement(
         };
         tracing::warn!(
             "{label}: the smoke is {} optical depths per voxel (σt × density × voxel side){}: the fast renderer lights each voxel at its center, so thick voxels come out too dark (about 12 % at 4 on a plume's single scattering); {advice}",
-            depth_text(tau),
+            rounded(tau, 1),
             if n > 1 {
-                format!(", {} on the {n}× finer grid", depth_text(fine))
+                format!(", {} on the {n}× finer grid", rounded(fine, 1))
             } else {
                 String::new()
             }
         );
     }
     Ok((n, tau))
-}
-
-/// An optical depth for a message: one decimal, or in scientific notation from 10⁴ on
-/// (a `--sigma-t` of 1e300 would otherwise print 300 digits).
-fn depth_text(tau: f64) -> String {
-    if tau.abs() < 1e4 {
-        format!("{tau:.1}")
-    } else {
-        format!("{tau:.1e}")
-    }
 }
 
 /// Warns when `--lighting-detail` lies below [`CrmOptions::detail_floor`] for lit voxels

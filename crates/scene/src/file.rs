@@ -410,10 +410,21 @@ fn homogeneous(v: &Value) -> Result<(Rgb, Rgb), String> {
     }
 }
 
+/// The highest Phong exponent a material takes: paper C's `G` tables are held to
+/// quadrature up to it (`paper_c::gtable`'s lobe test), and their lobe rule's panels grow
+/// as its square root (10⁹ took minutes a render).
+pub const MAX_SHININESS: f64 = 1e5;
+
 fn material(m: MaterialSpec) -> Result<Material, String> {
     non_negative("material.diffuse", &m.diffuse)?;
     non_negative("material.specular", &m.specular)?;
     non_negative("material.shininess", &[m.shininess])?;
+    if m.shininess > MAX_SHININESS {
+        return Err(format!(
+            "material.shininess {} must be at most {MAX_SHININESS:e}: a lobe that narrow is a mirror",
+            haze_core::number::shown(m.shininess)
+        ));
+    }
     Ok(Material {
         diffuse: m.diffuse,
         specular: m.specular,
@@ -634,6 +645,10 @@ mod tests {
             (
                 ("\"shininess\": 20", "\"shininess\": 20, \"roughness\": 1"),
                 "surfaces[1]: unknown field `roughness`",
+            ),
+            (
+                ("\"shininess\": 20", "\"shininess\": 1e9"),
+                "material.shininess 1000000000 must be at most 1e5",
             ),
             (
                 ("\"target\": [0, 0, 1]", "\"target\": [0, -5, 1]"),

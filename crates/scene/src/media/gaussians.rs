@@ -260,6 +260,14 @@ mod tests {
                 "gaussians[0].radius -1 must be positive",
             ),
             (
+                r#"{"type": "gaussians", "sigma_t": 1, "gaussians": [{"center": [0,0,0], "radius": 1e300, "weight": 1}]}"#,
+                "gaussians[0].radius 1e300 must be positive and at most 1e9",
+            ),
+            (
+                r#"{"type": "gaussians", "sigma_t": 1, "gaussians": [{"center": [0,0,0], "radius": 1, "weight": -1e300}]}"#,
+                "gaussians[0].weight -1e300 must be finite",
+            ),
+            (
                 r#"{"type": "gaussians", "sigma_t": 1, "noise": {"gain": -1}}"#,
                 "noise.gain -1",
             ),

@@ -322,10 +322,11 @@ impl<'a> Prepared<'a> {
         {
             out.push(format!(
                 "paper B: the Gaussians are dense for the environment's light (the others' \
-                 average optical depth around each is {m:.2}, above {}): such clouds \
+                 average optical depth around each is {}, above {}): such clouds \
                  measured 2–5 % off under a sky (5–6 % with --sky-shadow mean and on the \
                  GPU), their own glow 14–44 % where each Gaussian's peak depth is 0.2–1; \
                  --reference renders it exactly",
+                haze_core::number::rounded(m, 2),
                 gaussian_env::VALID_MEAN_DEPTH
             ));
         }
