@@ -229,6 +229,26 @@ fn bad_scenes_are_one_line_errors() {
         &["--scene", bad_s, "--out", out_s],
         &["bad.json", "surfaces[3]: radius -1"],
     );
+    // Extremes as typed (1e-300, not 300 digits after the point).
+    std::fs::write(
+        &bad,
+        text.replacen("\"radius\": 0.45", "\"radius\": -1e-300", 1)
+            .replacen("\"fov\": 50", "\"fov\": 1e30", 1),
+    )
+    .unwrap();
+    fails(
+        &["--scene", bad_s, "--out", out_s],
+        &["bad.json", "field of view 1e30°"],
+    );
+    std::fs::write(
+        &bad,
+        text.replacen("\"radius\": 0.45", "\"radius\": -1e-300", 1),
+    )
+    .unwrap();
+    fails(
+        &["--scene", bad_s, "--out", out_s],
+        &["bad.json", "surfaces[3]: radius -1e-300 must be positive"],
+    );
     let missing = dir.path().join("none.json");
     fails(
         &["--scene", missing.to_str().unwrap(), "--out", out_s],

@@ -79,8 +79,14 @@ impl Camera {
             return Err("the camera's eye, target and up must be finite".to_string());
         }
         if !(fov_degrees > 0.0 && fov_degrees < 180.0) {
+            // As typed, or in scientific notation beyond 10¹⁶ (1e30, not 31 digits).
+            let shown = if fov_degrees.abs() < 1e16 {
+                format!("{fov_degrees}")
+            } else {
+                format!("{fov_degrees:e}")
+            };
             return Err(format!(
-                "field of view {fov_degrees}° must be between 0 and 180 degrees"
+                "field of view {shown}° must be between 0 and 180 degrees"
             ));
         }
         let forward = normalize(sub(target, eye))

@@ -12,6 +12,7 @@ use crate::height::Height;
 use crate::polynomial::{MAX_DEGREE, Polynomial};
 use crate::vec3::{Vec3, normalize, scale};
 use crate::{Family, Fog, Term};
+use haze_core::number::shown;
 use serde::Deserialize;
 use serde::de::DeserializeOwned;
 use serde_json::Value;
@@ -163,7 +164,8 @@ pub fn fog(wind: Vec3, terms: &[Value]) -> Result<Fog, String> {
     let low = fog.lower_bound();
     if low < -1e-12 {
         return Err(format!(
-            "the terms can sum to a negative extinction (their lower bounds add up to {low:.6}); raise the constant term or lower the amplitudes"
+            "the terms can sum to a negative extinction (their lower bounds add up to {}); raise the constant term or lower the amplitudes",
+            haze_core::number::rounded(low, 6)
         ));
     }
     Ok(fog)
@@ -227,7 +229,7 @@ fn term(v: &Value) -> Result<Term, String> {
             if s.weight < 0.0 {
                 return Err(format!(
                     "weight {} of a height falloff must not be negative",
-                    s.weight
+                    shown(s.weight)
                 ));
             }
             let normal = unit("normal", s.normal)?;
@@ -260,10 +262,10 @@ fn term(v: &Value) -> Result<Term, String> {
 fn blob(s: &BlobSpec) -> Result<Blob, String> {
     finite("center", &s.center)?;
     if !(s.c > 0.0 && s.c.is_finite()) {
-        return Err(format!("c = {} must be positive", s.c));
+        return Err(format!("c = {} must be positive", shown(s.c)));
     }
     if !(s.d >= 0.0 && s.d.is_finite()) {
-        return Err(format!("d = {} must not be negative", s.d));
+        return Err(format!("d = {} must not be negative", shown(s.d)));
     }
     let shape = match (s.shape.as_str(), s.direction, s.radius) {
         ("point", None, None) => Shape::Point { center: s.center },
@@ -275,7 +277,9 @@ fn blob(s: &BlobSpec) -> Result<Blob, String> {
             center: s.center,
             radius: r,
         },
-        ("sphere", None, Some(r)) => return Err(format!("radius {r} must be positive")),
+        ("sphere", None, Some(r)) => {
+            return Err(format!("radius {} must be positive", shown(r)));
+        }
         ("point", ..) => return Err("a point blob takes no direction or radius".into()),
         ("line", ..) => {
             return Err("a line blob takes a direction and no radius".into());
@@ -311,7 +315,10 @@ fn polynomial(s: PolynomialSpec) -> Result<Polynomial, String> {
         .collect::<Result<Vec<_>, _>>()?;
     finite("center", &s.center)?;
     if !(s.half_width > 0.0 && s.half_width.is_finite()) {
-        return Err(format!("half_width {} must be positive", s.half_width));
+        return Err(format!(
+            "half_width {} must be positive",
+            shown(s.half_width)
+        ));
     }
     let n = axes.len();
     let monomials: Vec<(f64, [u32; 3])> = match (s.coefficients, s.monomials) {

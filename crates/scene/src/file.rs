@@ -221,7 +221,12 @@ pub fn parse_in(text: &str, base: &Path) -> Result<Scene, String> {
     let environment_distance = match spec.environment_distance {
         None => f64::INFINITY,
         Some(d) if d > 0.0 => d,
-        Some(d) => return Err(format!("environment_distance {d} must be positive")),
+        Some(d) => {
+            return Err(format!(
+                "environment_distance {} must be positive",
+                haze_core::number::shown(d)
+            ));
+        }
     };
     let lights = spec
         .lights
@@ -368,7 +373,10 @@ fn light(v: &Value) -> Result<Light, String> {
             non_negative("radiance", &s.radiance)?;
             let direction = normalize(s.direction).ok_or("direction must not be zero")?;
             if !(0.0..180.0).contains(&s.angle) {
-                return Err(format!("angle {} must be in [0, 180) degrees", s.angle));
+                return Err(format!(
+                    "angle {} must be in [0, 180) degrees",
+                    haze_core::number::shown(s.angle)
+                ));
             }
             Ok(Light::Sun {
                 direction,
@@ -393,7 +401,10 @@ fn homogeneous(v: &Value) -> Result<(Rgb, Rgb), String> {
             };
             crate::media::check_sigma_t(&st)?;
             if !(0.0..=1.0).contains(&h.albedo) {
-                return Err(format!("albedo {} must be in [0, 1]", h.albedo));
+                return Err(format!(
+                    "albedo {} must be in [0, 1]",
+                    haze_core::number::shown(h.albedo)
+                ));
             }
             if h.g != 0.0 {
                 return Err(format!(
@@ -453,7 +464,10 @@ fn surface(v: &Value, base: &Path) -> Result<Vec<Surface>, String> {
             let s: SphereSpec = typed(v)?;
             finite("center", &s.center)?;
             if !(s.radius > 0.0 && s.radius.is_finite()) {
-                return Err(format!("radius {} must be positive", s.radius));
+                return Err(format!(
+                    "radius {} must be positive",
+                    haze_core::number::shown(s.radius)
+                ));
             }
             Ok(vec![Surface {
                 shape: Shape::Sphere {

@@ -13,6 +13,7 @@
 use super::{Draft, normal_deviate};
 use crate::scene::Scene;
 use crate::vec3::{Vec3, axpy, dot, norm, scale};
+use haze_core::number::shown;
 use haze_gaussians::Gaussian;
 use haze_gaussians::cloud::Uniform;
 
@@ -45,7 +46,7 @@ impl AirParams {
         let positive = [("rate", self.rate), ("radius", self.radius)];
         for (name, v) in positive {
             if !(v > 0.0 && v.is_finite()) {
-                return Err(format!("airbrush {name} {v} must be positive"));
+                return Err(format!("airbrush {name} {} must be positive", shown(v)));
             }
         }
         let non_negative = [
@@ -57,7 +58,7 @@ impl AirParams {
         ];
         for (name, v) in non_negative {
             if !(v >= 0.0 && v.is_finite()) {
-                return Err(format!("airbrush {name} {v} must not be negative"));
+                return Err(format!("airbrush {name} {} must not be negative", shown(v)));
             }
         }
         Ok(())

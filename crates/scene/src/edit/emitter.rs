@@ -13,6 +13,7 @@
 
 use super::{Draft, normal_deviate};
 use crate::vec3::{Vec3, axpy, norm};
+use haze_core::number::shown;
 use haze_gaussians::Gaussian;
 use haze_gaussians::cloud::Uniform;
 
@@ -43,12 +44,12 @@ impl EmitParams {
             ("radius", self.radius),
         ] {
             if !(v > 0.0 && v.is_finite()) {
-                return Err(format!("emitter {name} {v} must be positive"));
+                return Err(format!("emitter {name} {} must be positive", shown(v)));
             }
         }
         for (name, v) in [("spread", self.spread), ("weight", self.weight)] {
             if !(v >= 0.0 && v.is_finite()) {
-                return Err(format!("emitter {name} {v} must not be negative"));
+                return Err(format!("emitter {name} {} must not be negative", shown(v)));
             }
         }
         if !self

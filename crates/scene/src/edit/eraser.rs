@@ -6,6 +6,7 @@
 
 use super::Draft;
 use crate::Camera;
+use haze_core::number::shown;
 use haze_gaussians::Gaussian;
 
 /// The eraser's settings.
@@ -20,12 +21,15 @@ pub struct EraseParams {
 impl EraseParams {
     pub fn check(&self) -> Result<(), String> {
         if !(self.radius > 0.0 && self.radius.is_finite()) {
-            return Err(format!("eraser radius {} must be positive", self.radius));
+            return Err(format!(
+                "eraser radius {} must be positive",
+                shown(self.radius)
+            ));
         }
         if !(self.strength > 0.0 && self.strength.is_finite()) {
             return Err(format!(
                 "eraser strength {} must be positive",
-                self.strength
+                shown(self.strength)
             ));
         }
         Ok(())

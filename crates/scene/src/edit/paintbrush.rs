@@ -11,6 +11,7 @@ use super::{Draft, Target};
 use crate::Camera;
 use crate::scene::Scene;
 use crate::vec3::{Vec3, axpy, cross, dot, norm, normalize, perpendicular, scale, sub};
+use haze_core::number::shown;
 use haze_gaussians::Gaussian;
 use haze_gaussians::cloud::Uniform;
 
@@ -49,25 +50,25 @@ impl PaintParams {
         if !(self.radius > 0.0 && self.radius.is_finite()) {
             return Err(format!(
                 "paintbrush radius {} must be positive",
-                self.radius
+                shown(self.radius)
             ));
         }
         if !(self.weight >= 0.0 && self.weight.is_finite()) {
             return Err(format!(
                 "paintbrush weight {} must not be negative",
-                self.weight
+                shown(self.weight)
             ));
         }
         if !(self.spacing > 0.0 && self.spacing.is_finite()) {
             return Err(format!(
                 "paintbrush spacing {} must be positive",
-                self.spacing
+                shown(self.spacing)
             ));
         }
         if !(0.0..=1.0).contains(&self.jitter) {
             return Err(format!(
                 "paintbrush jitter {} must be in [0, 1]",
-                self.jitter
+                shown(self.jitter)
             ));
         }
         if !self.lift.is_finite() {

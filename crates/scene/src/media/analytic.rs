@@ -8,6 +8,7 @@
 use super::{Aabb, Heterogeneous};
 use crate::vec3::Vec3;
 use haze_core::Rgb;
+use haze_core::number::shown;
 use haze_fogfn::Fog;
 use serde::Deserialize;
 use serde_json::Value;
@@ -118,7 +119,7 @@ pub fn parse(v: &Value) -> Result<AnalyticMedium, String> {
         return Err(format!("albedo {albedo:?} must be in [0, 1]"));
     }
     if !(s.g > -1.0 && s.g < 1.0) {
-        return Err(format!("g = {} must be in (−1, 1)", s.g));
+        return Err(format!("g = {} must be in (−1, 1)", shown(s.g)));
     }
     if let Some(c) = s.colour
         && !c.iter().all(|x| x.is_finite() && *x >= 0.0)
@@ -126,7 +127,7 @@ pub fn parse(v: &Value) -> Result<AnalyticMedium, String> {
         return Err(format!("colour {c:?} must be finite and not negative"));
     }
     if !(s.far > 0.0 && s.far.is_finite()) {
-        return Err(format!("far {} must be positive and finite", s.far));
+        return Err(format!("far {} must be positive and finite", shown(s.far)));
     }
     if s.terms.is_empty() {
         return Err("an analytic medium needs at least one term".to_string());

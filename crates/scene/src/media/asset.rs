@@ -11,6 +11,7 @@ use super::{Aabb, Heterogeneous};
 use crate::vec3::Vec3;
 use haze_asset::Asset;
 use haze_core::Rgb;
+use haze_core::number::shown;
 use haze_view::stream::{FrameDecoder, StreamFrame};
 use haze_volume::{Bbox, rbf};
 use serde::Deserialize;
@@ -130,16 +131,16 @@ impl AssetMedium {
             return Err(format!("sigma_t {sigma:?} must not be negative"));
         }
         if !(0.0..=1.0).contains(&s.albedo) {
-            return Err(format!("albedo {} must be in [0, 1]", s.albedo));
+            return Err(format!("albedo {} must be in [0, 1]", shown(s.albedo)));
         }
         if !(s.g > -1.0 && s.g < 1.0) {
-            return Err(format!("g {} must be in (-1, 1)", s.g));
+            return Err(format!("g {} must be in (-1, 1)", shown(s.g)));
         }
         if !s.offset.iter().all(|x| x.is_finite()) {
             return Err("offset must be finite".into());
         }
         if !(s.scale > 0.0 && s.scale.is_finite()) {
-            return Err(format!("scale {} must be positive", s.scale));
+            return Err(format!("scale {} must be positive", shown(s.scale)));
         }
         let path = base.join(&s.path);
         let (data, dims, bbox) = frame_density(&path, s.frame)?;

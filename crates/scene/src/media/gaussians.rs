@@ -19,6 +19,7 @@
 use super::{Aabb, Heterogeneous};
 use crate::vec3::Vec3;
 use haze_core::Rgb;
+use haze_core::number::shown;
 use haze_gaussians::noise::{Noise, Perlin};
 use haze_gaussians::{Gaussian, GaussianMedium};
 use serde::Deserialize;
@@ -193,11 +194,14 @@ pub fn parse(v: &Value, base: &Path) -> Result<GaussianMediumOf, String> {
             if !(n.gain.is_finite() && n.gain >= 0.0) {
                 return Err(format!(
                     "noise.gain {} must be finite and not negative",
-                    n.gain
+                    shown(n.gain)
                 ));
             }
             if !(n.frequency.is_finite() && n.frequency > 0.0) {
-                return Err(format!("noise.frequency {} must be positive", n.frequency));
+                return Err(format!(
+                    "noise.frequency {} must be positive",
+                    shown(n.frequency)
+                ));
             }
             if !n.offset.iter().all(|x| x.is_finite()) {
                 return Err("noise.offset must be finite".to_string());

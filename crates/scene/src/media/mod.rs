@@ -157,13 +157,7 @@ pub fn check_sigma_t(v: &[f64]) -> Result<(), String> {
         let same = v.windows(2).all(|w| w[0] == w[1]);
         let shown: Vec<String> = v[..if same { v.len().min(1) } else { v.len() }]
             .iter()
-            .map(|&x| {
-                if x != 0.0 && !(1e-4..1e6).contains(&x.abs()) {
-                    format!("{x:e}")
-                } else {
-                    x.to_string()
-                }
-            })
+            .map(|&x| haze_core::number::shown(x))
             .collect();
         Err(format!(
             "sigma_t {} must be in [0, {MAX_SIGMA_T:e}] per world unit",
