@@ -297,6 +297,23 @@ fn bad_render_requests_fail_on_one_line() {
         "finite and non-negative",
     );
     fails(&["render", &vol, "--out", out, "--albedo", "1.5"], "albedo");
+    // Extremes as typed, not 300 digits.
+    for (flag, value, needle) in [
+        ("--albedo", "1e300", "albedo 1e300 must be in [0, 1]"),
+        ("--g", "-1e300", "g = -1e300 must be in"),
+        (
+            "--budget-ms",
+            "-1e300",
+            "--budget-ms -1e300 must be a positive",
+        ),
+        (
+            "--lighting-detail",
+            "1e300",
+            "the lighting detail 1e300 must be",
+        ),
+    ] {
+        fails(&["render", &vol, "--out", out, flag, value], needle);
+    }
     // A grid spacing finer than a quarter voxel (it once allocated exabytes and aborted):
     // clap's one-line usage error (exit 2).
     let o = haze()

@@ -143,7 +143,7 @@ fn percent(x: f64) -> String {
     if p != 0.0 && p.abs() < 0.01 {
         format!("{p:.1e} %")
     } else {
-        format!("{p:.2} %")
+        format!("{} %", haze_core::number::rounded(p, 2))
     }
 }
 
@@ -198,13 +198,18 @@ pub fn choose(doc: &Value, goal: Goal) -> Result<Choice> {
     }
     let goal_text = match goal {
         Goal::BudgetMs(t) => format!(
-            "budget {t:.1} ms: the most accurate of the {} front settings within it",
+            "budget {} ms: the most accurate of the {} front settings within it",
+            haze_core::number::rounded(t, 1),
             front.len()
         ),
         Goal::TargetError(x) => format!(
             "target error {}: the fastest of the {} front settings reaching it",
             // As given, or to four decimals where a render chose again for less.
-            (x * 1e4).round() / 1e4,
+            if x < 1.0 {
+                haze_core::number::shown((x * 1e4).round() / 1e4)
+            } else {
+                haze_core::number::shown(x)
+            },
             front.len()
         ),
     };
@@ -431,10 +436,16 @@ pub fn for_view(file: &Path, budget_ms: f64) -> Result<Choice> {
 pub fn check_goal(goal: Goal) -> Result<()> {
     match goal {
         Goal::BudgetMs(t) if !(t > 0.0 && t.is_finite()) => {
-            anyhow::bail!("--budget-ms {t} must be a positive number of milliseconds")
+            anyhow::bail!(
+                "--budget-ms {} must be a positive number of milliseconds",
+                haze_core::number::shown(t)
+            )
         }
         Goal::TargetError(e) if !(e > 0.0 && e.is_finite()) => {
-            anyhow::bail!("--target-error {e} must be a positive rel RMS (0.02 = 2 %)")
+            anyhow::bail!(
+                "--target-error {} must be a positive rel RMS (0.02 = 2 %)",
+                haze_core::number::shown(e)
+            )
         }
         _ => Ok(()),
     }

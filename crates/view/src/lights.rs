@@ -61,7 +61,8 @@ impl Sun {
         }
         if !(0.0..=180.0).contains(&angle_degrees) {
             return Err(format!(
-                "sun angle {angle_degrees}° must be between 0° and 180°"
+                "sun angle {}° must be between 0° and 180°",
+                haze_core::number::shown(angle_degrees)
             ));
         }
         let angle = angle_degrees.to_radians();

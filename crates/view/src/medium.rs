@@ -1,6 +1,7 @@
 //! Optical properties of the smoke: extinction `κt = σt·D(x)`, albedo `Ω = σs/σt`, and the
 //! Henyey–Greenstein phase function, normalized so that `(1/4π)∫p dω = 1` (docs/conventions.md).
 
+use haze_core::number::shown;
 use std::f64::consts::PI;
 
 /// Scattering parameters, changeable at run time.
@@ -18,13 +19,19 @@ impl Medium {
     /// Refuses negative or non-finite extinction, albedo outside [0, 1] and |g| ≥ 1.
     pub fn new(sigma_t: f64, albedo: f64, g: f64) -> Result<Medium, String> {
         if !(sigma_t >= 0.0 && sigma_t.is_finite()) {
-            return Err(format!("extinction σt = {sigma_t} must be finite and ≥ 0"));
+            return Err(format!(
+                "extinction σt = {} must be finite and ≥ 0",
+                shown(sigma_t)
+            ));
         }
         if !(0.0..=1.0).contains(&albedo) {
-            return Err(format!("albedo {albedo} must be in [0, 1]"));
+            return Err(format!("albedo {} must be in [0, 1]", shown(albedo)));
         }
         if !(g > -1.0 && g < 1.0) {
-            return Err(format!("phase asymmetry g = {g} must be in (−1, 1)"));
+            return Err(format!(
+                "phase asymmetry g = {} must be in (−1, 1)",
+                shown(g)
+            ));
         }
         Ok(Medium { sigma_t, albedo, g })
     }

@@ -116,7 +116,8 @@ impl CrmOptions {
             Ok(())
         } else {
             Err(format!(
-                "the lighting detail {detail} must be above 0 and at most 1"
+                "the lighting detail {} must be above 0 and at most 1",
+                haze_core::number::shown(detail)
             ))
         }
     }

@@ -230,7 +230,10 @@ impl Renderer {
 
 pub fn run(a: FogViewArgs) -> Result<()> {
     if !(a.exposure > 0.0 && a.exposure.is_finite()) {
-        bail!("--exposure {} must be positive", a.exposure);
+        bail!(
+            "--exposure {} must be positive",
+            haze_core::number::shown(a.exposure)
+        );
     }
     if let Some(s) = a.play_for
         && !(s > 0.0 && s.is_finite())

@@ -182,7 +182,10 @@ pub fn run(mut a: ViewArgs) -> Result<()> {
         tracing::warn!("{w}");
     }
     if !(knobs.exposure > 0.0 && knobs.exposure.is_finite()) {
-        bail!("--exposure {} must be positive", knobs.exposure);
+        bail!(
+            "--exposure {} must be positive",
+            haze_core::number::shown(knobs.exposure)
+        );
     }
     if let Some(s) = a.play_for
         && !(s > 0.0 && s.is_finite())

@@ -34,12 +34,13 @@ impl Grid {
     /// "voxels 0.4 optical depths thick" or "voxels 4.0 optical depths thick, lit on a
     /// 4× finer grid (1.0)".
     pub fn describe(&self) -> String {
-        let mut s = format!("voxels {:.1} optical depths thick", self.tau);
+        let depth = |t: f64| haze_core::number::rounded(t, 1);
+        let mut s = format!("voxels {} optical depths thick", depth(self.tau));
         if self.n > 1 {
             s += &format!(
-                ", lit on a {}× finer grid ({:.1})",
+                ", lit on a {}× finer grid ({})",
                 self.n,
-                self.tau / self.n as f64
+                depth(self.tau / self.n as f64)
             );
         }
         s
