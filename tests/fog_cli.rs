@@ -398,6 +398,21 @@ fn bad_inputs_fail_on_one_line() {
     ] {
         fails(&["fog", "wavelet", fm, "--out", o, flag, value], needle);
     }
+    // The steepest falloff accepted renders a finite picture at the default 800 × 600 (33
+    // rays' ends rounded below the slab once overflowed h to ∞, and ∞ · 0 to NaN, which
+    // the writer refuses).
+    let steep = dir.path().join("steep.png");
+    let o_ok = haze()
+        .args(["fog", "wavelet", fm, "--falloff", "1e30", "--out"])
+        .arg(&steep)
+        .output()
+        .unwrap();
+    assert!(
+        o_ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&o_ok.stderr)
+    );
+    assert!(steep.exists());
     fails(
         &["fog", "wavelet", fm, "--out", "x.jpg"],
         "must be a .exr or .png",
