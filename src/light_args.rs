@@ -24,11 +24,12 @@ pub struct LightArgs {
     /// A sun, lit exactly (sharp shadows, the phase function at its true direction):
     /// the direction towards it, the radiance of its disk (RGB) and the disk's apparent
     /// diameter in degrees (default 0.53, the real sun's). An angle of 0 makes a
-    /// point-like sun whose RGB is its irradiance. Repeatable.
+    /// point-like sun whose RGB is its irradiance. Each of R, G, B at most 1e30 (pictures
+    /// are f32). Repeatable.
     #[arg(long, value_name = "X,Y,Z,R,G,B[,ANGLE]", value_parser = parse_sun, allow_hyphen_values = true)]
     pub sun: Vec<Sun>,
     /// A point light, lit exactly: position and radiant intensity (RGB; irradiance
-    /// I/d² at distance d, unshadowed). Repeatable.
+    /// I/d² at distance d, unshadowed), each of R, G, B at most 1e30. Repeatable.
     #[arg(long, value_name = "X,Y,Z,R,G,B", value_parser = parse_point, allow_hyphen_values = true)]
     pub light: Vec<PointLight>,
 }

@@ -437,6 +437,38 @@ fn suns_lights_and_a_maps_sun_reach_the_render() {
         mean(&plain)
     );
     assert!(mean(&light) > mean(&plain));
+    // The brightest lights the flags take (`MAX_LIGHT`) render finite pictures on the
+    // CPU and with the lighting on the GPU (f32); a brighter one is refused as typed,
+    // before any rendering.
+    let brightest = [
+        "--sun",
+        "0.3,-1,0.5,1e30,1e30,1e30,0",
+        "--light",
+        "-0.2,0.1,0.3,1e30,1e30,1e30",
+    ];
+    for extra in [&[][..], &["--gpu", "--lighting", "gpu"]] {
+        let mut args = brightest.to_vec();
+        args.extend_from_slice(extra);
+        let (px, _) = render("brightest.exr", &args);
+        assert!(px.iter().flatten().all(|c| c.is_finite()), "{extra:?}");
+        assert!(mean(&px) > 1e20, "{extra:?}: {}", mean(&px));
+    }
+    for (flag, value, needle) in [
+        ("--sun", "0,0,1,1,1e45,1", "sun radiance 1e45 is above 1e30"),
+        (
+            "--light",
+            "0,0,1,2e30,1,1",
+            "light intensity 2e30 is above 1e30",
+        ),
+    ] {
+        let o = haze()
+            .args(["render", vol.as_str(), flag, value])
+            .output()
+            .unwrap();
+        let err = String::from_utf8(o.stderr).unwrap();
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.lines().count() == 1 && err.contains(needle), "{err}");
+    }
     // A lat-long map, dim sky with a small bright sun.
     let (w, h) = (64usize, 32usize);
     let map = tmp(&dir, "env.exr");

@@ -346,7 +346,7 @@ fn environment(v: &Value, base: &Path) -> Result<Environment, String> {
         )),
         _ => {
             let c: Rgb = typed(v).map_err(|e| format!("environment: {e}"))?;
-            non_negative("environment", &c)?;
+            haze_view::lights::check_light("environment", &c)?;
             Ok(if c == [0.0; 3] {
                 Environment::Black
             } else {
@@ -361,7 +361,7 @@ fn light(v: &Value) -> Result<Light, String> {
         "point" => {
             let p: PointSpec = typed(v)?;
             finite("position", &p.position)?;
-            non_negative("intensity", &p.intensity)?;
+            haze_view::lights::check_light("intensity", &p.intensity)?;
             Ok(Light::Point {
                 position: p.position,
                 intensity: p.intensity,
@@ -370,7 +370,7 @@ fn light(v: &Value) -> Result<Light, String> {
         "sun" => {
             let s: SunSpec = typed(v)?;
             finite("direction", &s.direction)?;
-            non_negative("radiance", &s.radiance)?;
+            haze_view::lights::check_light("radiance", &s.radiance)?;
             let direction = normalize(s.direction).ok_or("direction must not be zero")?;
             if !(0.0..180.0).contains(&s.angle) {
                 return Err(format!(
@@ -663,6 +663,22 @@ mod tests {
             (
                 ("\"shininess\": 20", "\"shininess\": 1e9"),
                 "material.shininess 1000000000 must be at most 1e5",
+            ),
+            (
+                ("\"intensity\": [10, 9, 8]", "\"intensity\": [10, 9, 1e31]"),
+                "lights[0]: intensity 1e31 is above 1e30",
+            ),
+            (
+                ("\"intensity\": [10, 9, 8]", "\"intensity\": [10, -9, 8]"),
+                "lights[0]: intensity -9 must be finite and non-negative",
+            ),
+            (
+                ("\"radiance\": [1, 1, 1]", "\"radiance\": [1, 1e45, 1]"),
+                "lights[1]: radiance 1e45 is above 1e30",
+            ),
+            (
+                ("\"environment\": \"sky\"", "\"environment\": [1, 1, 1e40]"),
+                "environment 1e40 is above 1e30",
             ),
             (
                 ("\"target\": [0, 0, 1]", "\"target\": [0, -5, 1]"),

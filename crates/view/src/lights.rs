@@ -24,6 +24,32 @@ use std::sync::{Arc, Mutex};
 
 pub mod decompose;
 
+/// The largest radiance, irradiance or radiant intensity a light may have. Pictures are
+/// f32 (largest `3.4·10³⁸`); `10³⁰` leaves eight orders of magnitude for the phase
+/// function's peak, the sums over lights and orders, and the exposure, so a light the
+/// parser accepts never turns a picture infinite (a sun of radiance `10⁴⁵` did, and was
+/// refused only after rendering).
+pub const MAX_LIGHT: f64 = 1e30;
+
+/// `Err` naming `what` when a component of `v` is negative, not finite or above
+/// [`MAX_LIGHT`].
+pub fn check_light(what: &str, v: &Rgb) -> Result<(), String> {
+    if let Some(c) = v.iter().find(|c| !(c.is_finite() && **c >= 0.0)) {
+        return Err(format!(
+            "{what} {} must be finite and non-negative",
+            haze_core::number::shown(*c)
+        ));
+    }
+    if let Some(c) = v.iter().find(|c| **c > MAX_LIGHT) {
+        return Err(format!(
+            "{what} {} is above {} (pictures are f32: brighter lights overflow them)",
+            haze_core::number::shown(*c),
+            haze_core::number::shown(MAX_LIGHT)
+        ));
+    }
+    Ok(())
+}
+
 /// A distant light: a uniformly bright disk in the sky.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Sun {
@@ -45,7 +71,7 @@ impl Sun {
     /// A sun towards `direction` (any length > 0) of disk radiance `radiance` and apparent
     /// angle `angle_degrees`; a zero angle makes a directional light whose irradiance is
     /// `radiance` itself. Refuses a zero or non-finite direction, negative or non-finite
-    /// radiance, and angles outside `[0°, 180°]`.
+    /// radiance or radiance above [`MAX_LIGHT`], and angles outside `[0°, 180°]`.
     pub fn from_radiance(
         direction: [f64; 3],
         radiance: Rgb,
@@ -54,11 +80,7 @@ impl Sun {
         let dir = unit(direction).ok_or_else(|| {
             format!("sun direction {direction:?} must be a finite, non-zero vector")
         })?;
-        if radiance.iter().any(|c| !(c.is_finite() && *c >= 0.0)) {
-            return Err(format!(
-                "sun radiance {radiance:?} must be finite and non-negative"
-            ));
-        }
+        check_light("sun radiance", &radiance)?;
         if !(0.0..=180.0).contains(&angle_degrees) {
             return Err(format!(
                 "sun angle {}° must be between 0° and 180°",
@@ -131,16 +153,13 @@ pub struct PointLight {
 }
 
 impl PointLight {
-    /// Refuses non-finite positions and negative or non-finite intensity.
+    /// Refuses non-finite positions and negative, non-finite or above-[`MAX_LIGHT`]
+    /// intensity.
     pub fn new(position: [f64; 3], intensity: Rgb) -> Result<PointLight, String> {
         if position.iter().any(|c| !c.is_finite()) {
             return Err(format!("light position {position:?} must be finite"));
         }
-        if intensity.iter().any(|c| !(c.is_finite() && *c >= 0.0)) {
-            return Err(format!(
-                "light intensity {intensity:?} must be finite and non-negative"
-            ));
-        }
+        check_light("light intensity", &intensity)?;
         Ok(PointLight {
             position,
             intensity,

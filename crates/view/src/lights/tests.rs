@@ -37,6 +37,16 @@ fn sun_radiance_and_irradiance_agree_and_bad_suns_are_refused() {
     assert!(Sun::from_radiance([f64::NAN, 0.0, 1.0], [1.0; 3], 1.0).is_err());
     assert!(PointLight::new([0.0, f64::INFINITY, 0.0], [1.0; 3]).is_err());
     assert!(PointLight::new([0.0; 3], [1.0, f64::NAN, 0.0]).is_err());
+    // The brightest light a picture's f32 carries, and no brighter.
+    assert!(Sun::from_radiance([0.0, 0.0, 1.0], [MAX_LIGHT; 3], 0.0).is_ok());
+    assert!(PointLight::new([0.0; 3], [MAX_LIGHT; 3]).is_ok());
+    let e = Sun::from_radiance([0.0, 0.0, 1.0], [1.0, 1e45, 1.0], 0.53).unwrap_err();
+    assert_eq!(
+        e,
+        "sun radiance 1e45 is above 1e30 (pictures are f32: brighter lights overflow them)"
+    );
+    assert!(PointLight::new([0.0; 3], [0.0, 0.0, MAX_LIGHT * 1.01]).is_err());
+    assert!(PointLight::new([0.0; 3], [0.0, 0.0, f64::INFINITY]).is_err());
 }
 
 #[test]
