@@ -34,7 +34,10 @@ fn main() -> ExitCode {
             .location()
             .map(|l| format!(" at {}:{}", l.file(), l.line()))
             .unwrap_or_default();
-        eprintln!("error: internal error: {msg}{at}");
+        eprintln!(
+            "error: internal error: {}",
+            printable(&format!("{msg}{at}"))
+        );
     }));
     let cli = match cli::Cli::try_parse() {
         Ok(cli) => cli,
@@ -50,8 +53,7 @@ fn main() -> ExitCode {
     match cli::run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            let line = format!("{e:#}").replace('\n', " ");
-            eprintln!("error: {line}");
+            eprintln!("error: {}", printable(&format!("{e:#}")));
             ExitCode::FAILURE
         }
     }
@@ -92,7 +94,24 @@ fn one_line(text: &str) -> String {
     } else {
         message.join(" ")
     };
-    format!("{message} (--help lists the options)")
+    printable(&format!("{message} (--help lists the options)"))
+}
+
+/// `text` as one printable line: line breaks and tabs become spaces, and every other
+/// control character (a damaged file's bytes or a typed value quoted in a message: a
+/// vertical tab, a form feed, a terminal's escape) is written as its `\u{..}` escape, so
+/// an error is one line and never drives the terminal.
+fn printable(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        match c {
+            '\n' | '\r' | '\t' => out.push(' '),
+            '\u{2028}' | '\u{2029}' => out.extend(c.escape_unicode()),
+            c if c.is_control() => out.extend(c.escape_unicode()),
+            c => out.push(c),
+        }
+    }
+    out
 }
 
 /// Logs go to stderr: warnings by default, more with `-v`/`-vv`, `RUST_LOG` overrides.
@@ -125,7 +144,22 @@ fn init_logging(verbose: u8, quiet: bool) {
 
 #[cfg(test)]
 mod tests {
-    use super::one_line;
+    use super::{one_line, printable};
+
+    /// A damaged file's control bytes quoted in a message keep it on one line and out of
+    /// the terminal's hands.
+    #[test]
+    fn control_characters_are_escaped() {
+        assert_eq!(
+            printable("format `32-bit_rle_\u{fffd}g\u{b}e` at\nline\r\t2 \u{1b}[31mred\u{2028}"),
+            "format `32-bit_rle_\u{fffd}g\\u{b}e` at line  2 \\u{1b}[31mred\\u{2028}"
+        );
+        assert_eq!(printable("plain ünïcode ≤ 1 %"), "plain ünïcode ≤ 1 %");
+        assert_eq!(
+            one_line("error: invalid value '\u{c}' for '--width <WIDTH>'\n"),
+            "error: invalid value '\\u{c}' for '--width <WIDTH>' (--help lists the options)"
+        );
+    }
 
     /// The names of missing arguments, on the lines after clap's first, are kept.
     #[test]

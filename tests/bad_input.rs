@@ -44,6 +44,10 @@ fn holds_the_promise(dir: &Path, args: &[&str]) -> Result<(), TestCaseError> {
     } else {
         prop_assert!(matches!(run.status.code(), Some(1 | 2)), "{args:?}: {err}");
         prop_assert_eq!(err.lines().count(), 1, "{:?}: {}", args, err);
+        prop_assert!(
+            !err.trim_end_matches('\n').chars().any(char::is_control),
+            "{args:?}: a control character in {err:?}"
+        );
         prop_assert!(err.starts_with("error: "), "{args:?}: {err}");
         let new: Vec<_> = after.keys().filter(|p| !before.contains_key(*p)).collect();
         prop_assert!(new.is_empty(), "{:?}: left behind {:?}", args, new);

@@ -296,6 +296,23 @@ fn bad_render_requests_fail_on_one_line() {
         &["render", &vol, "--out", out, "--env", &negative],
         "finite and non-negative",
     );
+    // A damaged .hdr header's bytes quoted in the error, escaped: one line, nothing
+    // for the terminal to act on (a vertical tab broke the line).
+    let garbled = dir.path().join("garbled.hdr");
+    let mut bytes = b"#?RADIANCE\nFORMAT=32-bit_rle_\x0bgbe\n\n-Y 2 +X 4\n".to_vec();
+    bytes.extend([100u8, 120, 140, 128].repeat(8));
+    std::fs::write(&garbled, bytes).unwrap();
+    let o = haze()
+        .args(["inspect", garbled.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("garbled.hdr") && err.contains("\\u{b}"),
+        "{err:?}"
+    );
+    assert!(!err.trim_end().chars().any(char::is_control), "{err:?}");
     fails(&["render", &vol, "--out", out, "--albedo", "1.5"], "albedo");
     // Extremes as typed, not 300 digits.
     for (flag, value, needle) in [
