@@ -614,3 +614,42 @@ fn suns_lights_and_a_maps_sun_reach_the_render() {
     ]);
     assert!(log.contains("noise ≈"), "{log}");
 }
+
+/// A point light inside the smoke is named with the share of its first scattering the
+/// grids smooth (`near_light`), one outside it is not.
+#[test]
+fn a_point_light_in_the_smoke_is_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let asset = data("scenes/plume.haze");
+    let out = tmp(&dir, "lamp.exr");
+    let render = |light: &str| {
+        ok(&[
+            "-v",
+            "render",
+            &asset,
+            "--light",
+            light,
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
+    // In the stem of the bundled plume's first frame: 37 % within 1.5 voxels.
+    let inside = render("1.5,1.5,1.2,20,20,20");
+    let warned: Vec<&str> = inside.lines().filter(|l| l.contains("WARN")).collect();
+    assert!(
+        warned.len() == 1
+            && warned[0].contains("point light 1 at (1.5, 1.5, 1.2) sits in the smoke: 37 %"),
+        "{inside}"
+    );
+    // Beside the box: nothing near it, said at -v only.
+    let outside = render("3.5,-1,2,20,20,20");
+    assert!(!outside.contains("sits in the smoke"), "{outside}");
+    assert!(
+        outside.contains("point light 1 at (3.5, -1, 2): 0.0 % of its first scattering"),
+        "{outside}"
+    );
+}

@@ -259,6 +259,16 @@ pub fn render_image(a: &RenderOptions) -> Result<Rendered> {
     {
         tracing::warn!("{}: {w}", frame.label);
     }
+    if !a.reference {
+        for (i, light) in env.points.iter().enumerate() {
+            use haze_view::render::near_light;
+            let share = near_light::near_share(&frame.density, a.sigma_t, light.position);
+            match near_light::describe(i + 1, light.position, share) {
+                (w, true) => tracing::warn!("{}: {w}", frame.label),
+                (said, false) => tracing::info!("{said}"),
+            }
+        }
+    }
     // The path tracer shows its rows with an ETA (it can take minutes); the others spin.
     let spinner = (!a.reference).then(|| progress::spinner(&format!("rendering {}", frame.label)));
     let (image, what) = if a.reference {

@@ -8,6 +8,7 @@ pub mod frame_light;
 pub mod grid_diffusion;
 pub mod ground_shadow;
 pub mod lights_pass;
+pub mod near_light;
 pub mod occupancy;
 pub mod peak_rule;
 pub mod plane_sweep;
