@@ -123,6 +123,6 @@ impl Smoke {
         let du = slice_thickness(self.dims, &self.bbox, &self.opts);
         let end =
             |d: [f64; 3]| haze_wavelet::render::ground_distance(eye, d).unwrap_or(f64::INFINITY);
-        crm::view_layer(&grids, &self.medium, camera, du, &end)
+        crm::view_layer(&grids, &self.medium, &self.env.points, camera, du, &end)
     }
 }

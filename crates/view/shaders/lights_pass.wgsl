@@ -7,8 +7,9 @@
 //
 // with s the unit vector towards the light. A sun: E its irradiance, p the disk-averaged
 // HG (`DiskPhase`: a table over θc ∈ [0, π], linear in θc; exact HG for a zero-angle sun).
-// A point light of intensity I at P: E = I/(|P − u|² + soft), p = HG, and a light at the
-// voxel center itself adds I/soft, isotropic and unshadowed. The transmittance
+// A point light of intensity I at P: E = I/max(|P − u|², soft), p = HG (soft = R², R four
+// voxels: the view pass adds the rest of 1/r² inside that sphere, `near_light`), and a
+// light at the voxel center itself adds I/soft, isotropic and unshadowed. The transmittance
 // T = exp(−σt·τ) is marched through D (the grid's w, the shadow volume): the midpoint rule
 // over n = ⌈ℓ/h0⌉ equal steps h = ℓ/n, ℓ the distance to the box's face along s (or to a
 // point light inside the box), D trilinear with `field::sample`'s stencil; the march stops
@@ -37,7 +38,7 @@ struct Params {
     h0: f32,
     // Box size (its maximum corner, relative to its minimum).
     size: vec3<f32>,
-    // A point light's softening a²/3, a half the smallest voxel side.
+    // R², the floor under a point light's r² (`near_light::NEAR_RADIUS_VOXELS`).
     soft: f32,
     dims: vec3<u32>,
     suns: u32,
@@ -134,7 +135,7 @@ fn main(@builtin(global_invocation_id) i: vec3<u32>) {
         }
         let s = v / sqrt(r2);
         let t = shadow_t[lin * n + p.suns + l];
-        add += intensity * (t * hg_lobe(p.g, dot(s, d)) / (r2 + p.soft));
+        add += intensity * (t * hg_lobe(p.g, dot(s, d)) / max(r2, p.soft));
     }
     for (var c = 0u; c < 3u; c++) {
         grid[4u * lin + c] += p.k * add[c];

@@ -55,10 +55,18 @@ struct Params {
     // (`VolumeGrids::eye_peak`; 1 for single scattering).
     keep: f32,
     sun: vec3<f32>,
-    _pad5: f32,
+    // HG asymmetry.
+    g: f32,
     // ρ/π · E_sky of the ground.
     ground_sky: vec3<f32>,
-    _pad6: f32,
+    // R, the radius about a point light inside which its light is this pass's
+    // (`near_light`).
+    near_radius: f32,
+    // Point lights in `near_lights`.
+    near_lights: u32,
+    _pad7: u32,
+    _pad8: u32,
+    _pad9: u32,
 }
 
 // Transmittance below which the march stops (`crm::OPAQUE`).
@@ -87,6 +95,8 @@ const LN_MAX_SPAN: f32 = 6.9077552789821;
 // Per block of OCCUPANCY_BLOCK³ voxels (x fastest) whether a sample there may see
 // density (`occupancy.wgsl`): in an empty block `sample_grid` is exactly 0.
 @group(0) @binding(6) var<storage, read> occupancy: array<u32>;
+// Two per point light (`gpu::view_pass::near_lights`): (box-local position, 0), (Ω/4π·I, 0).
+@group(0) @binding(7) var<storage, read> near_lights: array<vec4<f32>>;
 
 
 // `Camera::pixel_ray`: through the center of pixel (x, y), row 0 at the top.
@@ -305,6 +315,92 @@ fn shadow(x: vec3<f32>, w: vec3<f32>, len: f32) -> f32 {
     return 1.0;
 }
 
+// `lights_pass::optical_depth`: σt·τ from box-local x along the unit s over at most
+// max_len, the midpoint rule in n = ⌈ℓ/h0⌉ equal steps over ℓ, the distance to the box's
+// face or max_len, h0 the smallest voxel side; stops once past SHADOW_CUTOFF.
+fn light_depth(x: vec3<f32>, s: vec3<f32>, max_len: f32) -> f32 {
+    let hit = ray_box(x, s);
+    let h0 = min(p.voxel.x, min(p.voxel.y, p.voxel.z));
+    if hit.z == 0.0 || !(p.sigma_t > 0.0) {
+        return 0.0;
+    }
+    let len = min(hit.y, max_len);
+    if !(len > 0.0) {
+        return 0.0;
+    }
+    let n = max(ceil(len / h0), 1.0);
+    let h = len / n;
+    let k0 = u32(max(floor(hit.x / h - 1.0), 0.0));
+    let k1 = u32(min(max(ceil(hit.y / h + 1.0), 0.0), n));
+    var depth = 0.0;
+    for (var k = k0; k < k1; k++) {
+        depth += p.sigma_t * sample_density(x + (f32(k) + 0.5) * h * s) * h;
+        if depth > SHADOW_CUTOFF {
+            break;
+        }
+    }
+    return depth;
+}
+
+// Gauss–Legendre nodes and weights on [−1, 1], 6 points (`near_light::NODES`).
+const GL_X = array<f32, 6>(-0.9324695142, -0.6612093865, -0.2386191861, 0.2386191861, 0.6612093865, 0.9324695142);
+const GL_W = array<f32, 6>(0.1713244924, 0.3607615730, 0.4679139346, 0.4679139346, 0.3607615730, 0.1713244924);
+
+// `NearLights::chord_integral`: ∫ p(cos θ)(1/r² − 1/R²) du over u ∈ [lo, hi] for a ray
+// passing at h from the light, in the angle φ = atan(u/h) seen from it.
+fn chord_integral(h: f32, lo: f32, hi: f32) -> f32 {
+    let a = atan(lo / h);
+    let b = atan(hi / h);
+    let mid = 0.5 * (a + b);
+    let half = 0.5 * (b - a);
+    let r2 = p.near_radius * p.near_radius;
+    var sum = 0.0;
+    for (var i = 0u; i < 6u; i++) {
+        let phi = mid + half * GL_X[i];
+        let c = cos(phi);
+        let flat = max(1.0 - h * h / (r2 * c * c), 0.0);
+        sum += GL_W[i] * hg_lobe(p.g, -sin(phi)) * flat;
+    }
+    return max(sum * half / h, 0.0);
+}
+
+// `NearLights::at_step`: the point lights' light inside their spheres of radius R at the
+// step [t − ds/2, t + ds/2] of the ray along unit d, per unit of the step's optical depth.
+fn near_at_step(d: vec3<f32>, t: f32, ds: f32) -> vec3<f32> {
+    var out = vec3<f32>(0.0);
+    let radius = p.near_radius;
+    for (var i = 0u; i < p.near_lights; i++) {
+        let at = near_lights[2u * i].xyz;
+        let v = at - p.eye;
+        let foot = dot(v, d);
+        var h = length(v - foot * d);
+        if !(h < radius && foot + radius > 0.0) {
+            continue;
+        }
+        // A ray through the light: h floored at a sixteenth of the pixel's side there.
+        let side = 2.0 * p.tan_half / f32(p.image.y) * max(dot(v, p.forward), 0.0);
+        h = max(max(h, side / 16.0), 1e-9 * radius);
+        if !(h < radius) {
+            continue;
+        }
+        let half_chord = sqrt(max(radius * radius - h * h, 0.0));
+        let lo = max(t - 0.5 * ds - foot, -half_chord);
+        let hi = min(t + 0.5 * ds - foot, half_chord);
+        if hi <= lo || !(ds > 0.0) {
+            continue;
+        }
+        let x = p.eye + t * d;
+        let w = at - x;
+        let r = length(w);
+        var tr = 1.0;
+        if r > 0.0 {
+            tr = exp(-light_depth(x, w / r, r));
+        }
+        out += near_lights[2u * i + 1u].xyz * (tr * chord_integral(h, lo, hi) / ds);
+    }
+    return out;
+}
+
 // `GroundLight::radiance` at the box-local ground point x, the smoke's shadow marched.
 fn ground_radiance(x: vec3<f32>) -> vec3<f32> {
     var out = p.ground_sky;
@@ -382,6 +478,10 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
                 i++;
                 continue;
             }
+            var j = s.xyz;
+            if p.near_lights > 0u {
+                j += near_at_step(d, t, ds);
+            }
             let a = p.sigma_t * s.w * ds;
             let dt = exp(-a);
             // `crm::scattered_step`: (1 − e^{−x})/keep with x = keep·a, by its series
@@ -389,7 +489,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             let x = p.keep * a;
             let dt_j = exp(-x);
             let share = select((1.0 - dt_j) / p.keep, a * (1.0 - 0.5 * x), x < 1e-3);
-            out += tau_j * s.xyz * share;
+            out += tau_j * j * share;
             tau *= dt;
             tau_j *= dt_j;
             if tau_j < OPAQUE {

@@ -637,7 +637,7 @@ fn the_view_layer_is_the_view_pass_split_into_smoke_and_background() {
     .unwrap();
     let du = default_slice([n; 3], &bbox) / 4.0;
     let image = view_pass(&grids, &medium, &env, &camera, du, None);
-    let layer = view_layer(&grids, &medium, &camera, du, &|_| f64::INFINITY);
+    let layer = view_layer(&grids, &medium, &[], &camera, du, &|_| f64::INFINITY);
     for (i, (px, s)) in image.iter().zip(&layer).enumerate() {
         let bg = env.radiance(camera.pixel_ray(i % 9, i / 9));
         for c in 0..3 {
@@ -661,7 +661,7 @@ fn the_view_layer_is_the_view_pass_split_into_smoke_and_background() {
         (1.0, [0.0; 3], 0.0)
     );
     // A surface 1 unit in front of the slab hides it.
-    let hidden = view_layer(&grids, &medium, &camera, du, &|_| 1.0);
+    let hidden = view_layer(&grids, &medium, &[], &camera, du, &|_| 1.0);
     assert!(hidden.iter().all(|s| s.transmittance == 1.0));
 }
 
@@ -894,4 +894,115 @@ fn the_lights_pass_at_its_extremes() {
             assert!(opaque.iter().all(|&v| v == 0.0), "{what}: {opaque:?}");
         }
     }
+}
+
+/// A point light inside uniform smoke (σt 2 over a unit box of 24³ voxels, albedo 0.9,
+/// g 0.3), single scattering of it alone, against the integral along each pixel's ray
+/// by Gauss–Legendre in the angle seen from the light (`σt·Ω/4π·p·I·e^{−σt r}/r²·
+/// e^{−σt(t − t₀)}`, 4 × 64 nodes split at the ray's foot; independent of the grids). The
+/// grids hold the light's `1/r²` flat inside four voxels and the view pass adds the rest
+/// along each ray (`near_light`); the pixels around the light's image are where a grid
+/// alone smooths its peak away. Measured: relative RMS 1.8 %, the light's pixel +1.1 %
+/// (bounds 3 % each); the grid alone (the same lights pass, the near term left out) has
+/// an eighth of the light's pixel. The grid's phase function between voxel centres is what
+/// is left, growing with g: at g 0, 0.6 and 0.8 the RMS is 1.5, 4.6 and 16 %.
+#[test]
+fn a_point_light_in_the_smoke_matches_its_integral() {
+    use haze_view::render::crm::{VolumeGrids, default_slice, view_pass};
+    use haze_view::render::lights_pass::lights_pass;
+    let n = 24;
+    let dims = [n; 3];
+    let bbox = unit_box();
+    let volume = haze_volume::Volume::new(dims, bbox, vec![1.0; n * n * n]).unwrap();
+    let medium = Medium::new(2.0, 0.9, 0.3).unwrap();
+    let light = [0.52, 0.47, 0.55];
+    let intensity = 3.0;
+    let mut env = Environment::constant([0.0; 3]);
+    env.points = vec![PointLight::new(light, [intensity; 3]).unwrap()];
+    let cam = Camera::new(
+        [1.9, 0.2, 0.9],
+        [0.52, 0.47, 0.55],
+        [0.0, 0.0, 1.0],
+        30.0,
+        48,
+        36,
+    )
+    .unwrap();
+    let mut grids = VolumeGrids {
+        density: volume.clone(),
+        radiance: vec![[0.0; 3]; n * n * n],
+        eye_peak: 0.0,
+    };
+    lights_pass(&mut grids, &env, &medium, cam.eye);
+    let du = default_slice(dims, &bbox);
+    let fast = view_pass(&grids, &medium, &env, &cam, du, None);
+    let grid_alone = view_pass(
+        &grids,
+        &medium,
+        &Environment::constant([0.0; 3]),
+        &cam,
+        du,
+        None,
+    );
+    // The integral along a ray, in φ = atan((t − t_f)/h) on each side of the foot t_f.
+    let (nodes, sigma) = (gauss_legendre(64), medium.sigma_t);
+    let k = medium.albedo / (4.0 * PI);
+    let exact = |d: [f64; 3]| -> f64 {
+        let Some((t0, t1)) = haze_view::field::ray_box(cam.eye, d, &bbox) else {
+            return 0.0;
+        };
+        let v = [0, 1, 2].map(|a| light[a] - cam.eye[a]);
+        let tf = v[0] * d[0] + v[1] * d[1] + v[2] * d[2];
+        let m = [0, 1, 2].map(|a| v[a] - tf * d[a]);
+        let h = (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt();
+        let (a, b) = (((t0 - tf) / h).atan(), ((t1 - tf) / h).atan());
+        let mut sum = 0.0;
+        // Four panels: the foot (φ = 0) is a panel edge when it lies on the ray.
+        let cuts = [
+            a,
+            a + 0.5 * (0f64.clamp(a, b) - a),
+            0f64.clamp(a, b),
+            0f64.clamp(a, b) + 0.5 * (b - 0f64.clamp(a, b)),
+            b,
+        ];
+        for w in cuts.windows(2) {
+            let (mid, half) = (0.5 * (w[0] + w[1]), 0.5 * (w[1] - w[0]));
+            for &(x, wt) in &nodes {
+                let phi = mid + half * x;
+                let r = h / phi.cos();
+                let t = tf + h * phi.tan();
+                sum += wt
+                    * half
+                    * hg(medium.g, -phi.sin())
+                    * (-sigma * r).exp()
+                    * (-sigma * (t - t0)).exp()
+                    / h;
+            }
+        }
+        sigma * k * intensity * sum
+    };
+    let (mut d2, mut r2) = (0.0, 0.0);
+    let (px, py) = cam.project(light).unwrap();
+    let (lx, ly) = (px as usize, py as usize);
+    let mut at_light = (0.0, 0.0, 0.0);
+    for y in 0..cam.height {
+        for x in 0..cam.width {
+            let want = exact(cam.pixel_ray(x, y));
+            let got = f64::from(fast[y * cam.width + x][0]);
+            d2 += (got - want).powi(2);
+            r2 += want * want;
+            if (x, y) == (lx, ly) {
+                at_light = (got, want, f64::from(grid_alone[y * cam.width + x][0]));
+            }
+        }
+    }
+    let e = (d2 / r2).sqrt();
+    let (got, want, alone) = at_light;
+    println!(
+        "point light in smoke: rel RMS {e:.4}; the light's pixel {got:.3} vs {want:.3} ({:+.4}), the grid alone {alone:.3}",
+        got / want - 1.0
+    );
+    assert!(e < 0.03, "{e}");
+    assert!((got / want - 1.0).abs() < 0.03, "{got} vs {want}");
+    assert!(alone < 0.5 * want, "{alone} vs {want}");
 }

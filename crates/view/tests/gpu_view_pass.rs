@@ -244,6 +244,41 @@ fn the_ground_and_its_shadow_match_the_cpu() {
     );
 }
 
+/// A point light inside the smoke, in a box far from the origin: the view pass adds its
+/// light within four voxels of it along each ray (`near_light`: the chord's integral in
+/// the angle seen from the light, the light's transmittance marched), on the GPU as on
+/// the CPU; the pixel nearest the light's image is the picture's brightest.
+#[test]
+fn a_point_light_inside_the_smoke_matches_the_cpu() {
+    let ctx = context();
+    let bbox = Bbox::new([40.0, -20.0, 5.0], [41.0, -19.0, 6.0]);
+    let rbfs = cluster(&bbox);
+    let light = [40.52, -19.47, 5.45];
+    let mut env = Environment::constant([0.05; 3]);
+    env.points
+        .push(haze_view::PointLight::new(light, [3.0, 2.5, 2.0]).unwrap());
+    let medium = Medium::new(6.0, 0.9, 0.3).unwrap();
+    let cam = Camera::new(
+        [42.2, -21.1, 6.1],
+        [40.5, -19.5, 5.45],
+        [0.0, 0.0, 1.0],
+        35.0,
+        41,
+        33,
+    )
+    .unwrap();
+    let dims = [20; 3];
+    let mut g = grids(&rbfs, dims, &bbox, &medium, &env, cam.eye);
+    haze_view::render::lights_pass::lights_pass(&mut g, &env, &medium, cam.eye);
+    let du = crm::default_slice(dims, &bbox);
+    compare(&ctx, &g, &medium, &env, &cam, du);
+    let cpu = crm::view_pass(&g, &medium, &env, &cam, du, None);
+    let (px, py) = cam.project(light).unwrap();
+    let at = py as usize * cam.width + px as usize;
+    let brightest = (0..cpu.len()).max_by(|&a, &b| cpu[a][0].total_cmp(&cpu[b][0]));
+    assert_eq!(brightest, Some(at), "the light at pixel ({px:.1}, {py:.1})");
+}
+
 /// The radiance at its extremes, through the view pass's logarithms (`view_grid.wgsl`
 /// takes `ln J̃` once a voxel; an unlit channel is its sentinel): voxels unlit in one
 /// channel or all three, subnormal, 10⁻³⁰ and 10³⁰ beside ordinary ones, so cells whose

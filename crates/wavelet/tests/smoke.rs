@@ -155,7 +155,7 @@ fn smoke_composited_by_depth_matches_both_media_marched_together() {
     let du = crm::default_slice([16; 3], smoke.density.bbox());
     let eye = camera.eye;
     let end = |d: [f64; 3]| render::ground_distance(eye, d).unwrap_or(f64::INFINITY);
-    let layer = crm::view_layer(&smoke, &medium, &camera, du, &end);
+    let layer = crm::view_layer(&smoke, &medium, &[], &camera, du, &end);
     let image = render::render_over(&fog, &camera, &scene, &layer, &|| {});
     let radiance = RadianceField::new(&smoke);
     let (mut through, mut worse_front, mut worse_back) = (0, 0, 0);

@@ -426,7 +426,7 @@ impl LightsPass {
             voxel: vs.map(|v| v as f32),
             h0: h0 as f32,
             size: bbox.size().map(|v| v as f32),
-            soft: ((0.5 * h0).powi(2) / 3.0) as f32,
+            soft: crate::render::near_light::NearLights::radius2(h0) as f32,
             dims: dims.map(|n| n as u32),
             suns,
             points,

@@ -37,8 +37,10 @@ use crate::Camera;
 use crate::distant::Distant;
 use crate::env::{Backdrop, Environment};
 use crate::ground::GroundLight;
-use crate::medium::Medium;
+use crate::lights::PointLight;
+use crate::medium::{FOUR_PI, Medium};
 use crate::render::crm::VolumeGrids;
+use crate::render::near_light::NEAR_RADIUS_VOXELS;
 use haze_gpu::wgsl::Variant;
 use haze_gpu::{GpuContext, GpuError, buffer_init, compute_pipeline, line_groups, submit_pass};
 
@@ -72,7 +74,7 @@ struct GridParams {
 const TILE: u32 = 8;
 
 /// The shader's `Params` (a read-only storage buffer): WGSL's layout (a `vec3` is 16-byte aligned and the
-/// scalar after it fills its fourth slot), 224 bytes.
+/// scalar after it fills its fourth slot), 240 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 struct Params {
@@ -101,9 +103,11 @@ struct Params {
     sun_direction: [f32; 3],
     keep: f32,
     sun: [f32; 3],
-    _pad5: f32,
+    g: f32,
     ground_sky: [f32; 3],
-    _pad6: f32,
+    near_radius: f32,
+    near_lights: u32,
+    _pad7: [u32; 3],
 }
 
 fn f32x3(v: [f64; 3]) -> [f32; 3] {
@@ -215,14 +219,7 @@ impl ViewPass {
             )));
         }
         let (width, height) = (camera.width, camera.height);
-        let groups = [width, height].map(|n| n.div_ceil(TILE as usize));
-        let max_groups = ctx.device.limits().max_compute_workgroups_per_dimension as usize;
-        if groups.iter().any(|&n| n > max_groups) {
-            return Err(GpuError::Input(format!(
-                "an image of {width}×{height} pixels is larger than the device dispatches ({} pixels a side at most)",
-                max_groups * TILE as usize
-            )));
-        }
+        let groups = image_groups(ctx, width, height)?;
         let sky = &env.sky;
         let out_bytes = (width * height * 16) as u64;
         ctx.check_storage_size("the image", out_bytes)?;
@@ -234,6 +231,7 @@ impl ViewPass {
             "the ground's lights",
             std::mem::size_of_val(lights.as_slice()) as u64,
         )?;
+        let (near, near_radius) = near_lights(ctx, &env.points, medium, grid)?;
         let params = Params {
             eye: f32x3(eye),
             tan_half: camera.tan_half() as f32,
@@ -260,9 +258,11 @@ impl ViewPass {
             sun_direction: f32x3(sky.sun_direction),
             keep: (1.0 - grid.eye_peak()) as f32,
             sun: f32x3(sky.sun),
-            _pad5: 0.0,
+            g: medium.g as f32,
             ground_sky: f32x3(ground.map_or([0.0; 3], |g| g.sky)),
-            _pad6: 0.0,
+            near_radius,
+            near_lights: ((near.len() - 1) / 2) as u32,
+            _pad7: [0; 3],
         };
 
         let block_groups = OccupancyPass::groups(ctx, dims)?;
@@ -293,6 +293,12 @@ impl ViewPass {
                 bytemuck::cast_slice(&lights),
                 wgpu::BufferUsages::STORAGE,
             );
+            let near_buffer = buffer_init(
+                ctx,
+                "view pass point lights",
+                bytemuck::cast_slice(&near),
+                wgpu::BufferUsages::STORAGE,
+            );
             let buffers = [
                 &params_buffer,
                 &ln_grid,
@@ -301,6 +307,7 @@ impl ViewPass {
                 &env.sun_buffer,
                 &lights_buffer,
                 &occupancy,
+                &near_buffer,
             ];
             let groups = [groups[0] as u32, groups[1] as u32, 1];
             submit_pass(ctx, &self.pipeline, "view pass", &buffers, groups);
@@ -350,6 +357,20 @@ impl ViewPass {
     }
 }
 
+/// The workgroups of an image of `width × height` pixels, [`TILE`]² pixels each; refuses
+/// more than the device dispatches.
+fn image_groups(ctx: &GpuContext, width: usize, height: usize) -> Result<[usize; 2], GpuError> {
+    let groups = [width, height].map(|n| n.div_ceil(TILE as usize));
+    let max_groups = ctx.device.limits().max_compute_workgroups_per_dimension as usize;
+    if groups.iter().any(|&n| n > max_groups) {
+        return Err(GpuError::Input(format!(
+            "an image of {width}×{height} pixels is larger than the device dispatches ({} pixels a side at most)",
+            max_groups * TILE as usize
+        )));
+    }
+    Ok(groups)
+}
+
 /// The ground's lights as `view_pass.wgsl` reads them: per light `(direction towards a
 /// sun, 0)` or `(box-local position of a point light, 1)`, then `(ρ/π·E or ρ/π·I, 0)`;
 /// after them one zero `vec4` (a buffer is never empty). Refuses non-finite values.
@@ -387,6 +408,44 @@ fn ground_lights(
     Ok(out)
 }
 
+/// The point lights whose light near them the view pass adds (`render::near_light`), as
+/// `view_pass.wgsl` reads them: per light `(box-local position, 0)`, `(Ω/4π·I, 0)`; after
+/// them one zero `vec4` (a buffer is never empty). None for an albedo of 0 or a grid
+/// without a voxel size, as on the CPU. With the radius `R` of their spheres. Refuses
+/// non-finite values and more than the device holds.
+fn near_lights(
+    ctx: &GpuContext,
+    points: &[PointLight],
+    medium: &Medium,
+    grid: &GridBuffer,
+) -> Result<(Vec<[f32; 4]>, f32), GpuError> {
+    let vs = grid.voxel_size();
+    let h0 = vs[0].min(vs[1]).min(vs[2]);
+    let origin = grid.bbox().min;
+    let mut out = Vec::new();
+    if medium.albedo > 0.0 && h0 > 0.0 && h0.is_finite() {
+        let k = medium.albedo / FOUR_PI;
+        for (i, l) in points.iter().enumerate() {
+            if !l.position.iter().chain(&l.intensity).all(|c| c.is_finite()) {
+                return Err(GpuError::Input(format!(
+                    "point light {} has a non-finite position or intensity",
+                    i + 1
+                )));
+            }
+            let q = f32x3([0, 1, 2].map(|a| l.position[a] - origin[a]));
+            out.push([q[0], q[1], q[2], 0.0]);
+            let e = f32x3(l.intensity.map(|c| k * c));
+            out.push([e[0], e[1], e[2], 0.0]);
+        }
+    }
+    out.push([0.0; 4]);
+    ctx.check_storage_size(
+        "the point lights",
+        std::mem::size_of_val(out.as_slice()) as u64,
+    )?;
+    Ok((out, (NEAR_RADIUS_VOXELS * h0) as f32))
+}
+
 /// The environment on the GPU as the view pass reads it: the sky's parameters (evaluated
 /// analytically), or a lat-long map's texels (the backdrop's where a map was split into
 /// suns); and the disks of the suns that are not in the backdrop
@@ -403,6 +462,8 @@ pub struct EnvBuffer {
     suns: u32,
     /// Per sun `(direction, cos(angle/2))`, `(radiance, 0)`; one zero `vec4` when none.
     sun_buffer: wgpu::Buffer,
+    /// The point lights (their light near them is the view pass's, `render::near_light`).
+    points: Vec<PointLight>,
 }
 
 impl EnvBuffer {
@@ -490,6 +551,7 @@ impl EnvBuffer {
             buffer,
             suns,
             sun_buffer,
+            points: env.points.clone(),
         })
     }
 }
@@ -583,8 +645,10 @@ mod tests {
     #[test]
     fn params_match_the_wgsl_layout() {
         // Offsets of the WGSL struct: vec3 at 16-byte boundaries, vec2<u32> at 8.
-        assert_eq!(std::mem::size_of::<Params>(), 224);
+        assert_eq!(std::mem::size_of::<Params>(), 240);
         assert_eq!(std::mem::offset_of!(Params, ground_sky), 208);
+        assert_eq!(std::mem::offset_of!(Params, near_radius), 220);
+        assert_eq!(std::mem::offset_of!(Params, near_lights), 224);
         assert_eq!(std::mem::offset_of!(Params, image), 112);
         assert_eq!(std::mem::offset_of!(Params, zenith), 128);
         assert_eq!(std::mem::offset_of!(Params, sun), 192);

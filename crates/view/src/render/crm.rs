@@ -27,6 +27,7 @@
 //! and `τ`, an integral of the trilinear density, is what varies smoothly across a cell.
 
 use super::ground_shadow::ShadowMarch;
+use super::near_light::NearLights;
 use super::occupancy::Occupancy;
 use crate::Camera;
 use crate::distant::Rgb;
@@ -34,6 +35,7 @@ use crate::env::Environment;
 use crate::field;
 use crate::ground::GroundLight;
 use crate::lighting::single::RgbSh;
+use crate::lights::PointLight;
 use crate::medium::Medium;
 use crate::sh;
 use haze_volume::rbf::SliceSplats;
@@ -321,10 +323,13 @@ pub struct SmokeSample {
 /// The view pass along one ray from `eye` along unit `d` (camera axis `axis`, slice
 /// thickness `du`), stopping at `t_end` (an opaque surface; `∞` for none): the grids'
 /// light carried to the eye through `σt(1 − Ωf)` ([`VolumeGrids::eye_peak`],
-/// [`scattered_step`]), the transmittance it returns (the background's) through `σt`.
+/// [`scattered_step`]), the transmittance it returns (the background's) through `σt`;
+/// the point lights' light near them added at each step ([`NearLights`]).
+#[allow(clippy::too_many_arguments)]
 fn march(
     field: &RadianceField<'_>,
     medium: &Medium,
+    near: &NearLights<'_>,
     eye: [f64; 3],
     d: [f64; 3],
     axis: [f64; 3],
@@ -357,6 +362,7 @@ fn march(
     let keep = 1.0 - g.eye_peak;
     let mut tau_j = 1.0f64;
     let (sampler, data) = (&field.sampler, g.density.data());
+    let crossings = near.crossings(eye, d);
     for k in k0.max(0)..=k1 {
         let t = (k as f64 + 0.5) * ds;
         if t < t0 || t > t1 {
@@ -377,7 +383,13 @@ fn march(
         let (share, dt_j) = scattered_step(a, keep);
         // Nothing given back: the background's transmittance is the scattered light's.
         let dt = if keep == 1.0 { dt_j } else { (-a).exp() };
-        let j = field.sample_stencil(&stencil, dens);
+        let mut j = field.sample_stencil(&stencil, dens);
+        if !crossings.is_empty() {
+            let n = near.at_step(&crossings, eye, d, t, ds);
+            for c in 0..3 {
+                j[c] += n[c];
+            }
+        }
         let w = tau * (1.0 - dt);
         for c in 0..3 {
             out[c] += tau_j * share * j[c];
@@ -425,6 +437,7 @@ pub fn view_pass(
     let w = camera.width;
     let axis = camera.forward();
     let field = RadianceField::new(g);
+    let near = NearLights::new(&env.points, &g.density, medium, camera);
     let shadows = ground.map(|_| ShadowMarch::new(&g.density, medium.sigma_t));
     (0..w * camera.height)
         .into_par_iter()
@@ -438,7 +451,16 @@ pub fn view_pass(
                 Some((gr, sh, x)) => gr.radiance(x, |x, w, len| sh.transmittance(x, w, len)),
                 None => env.radiance(d),
             };
-            let (out, tau, _) = march(&field, medium, camera.eye, d, axis, du, f64::INFINITY);
+            let (out, tau, _) = march(
+                &field,
+                medium,
+                &near,
+                camera.eye,
+                d,
+                axis,
+                du,
+                f64::INFINITY,
+            );
             [0, 1, 2].map(|c| (out[c] + tau * background[c]) as f32)
         })
         .collect()
@@ -446,10 +468,12 @@ pub fn view_pass(
 
 /// The view pass as a layer ([`SmokeSample`] per pixel, row 0 on top) for compositing
 /// with another medium; `t_end(d)` is where the ray along unit `d` from the eye meets an
-/// opaque surface (`f64::INFINITY` for none), beyond which the smoke is hidden.
+/// opaque surface (`f64::INFINITY` for none), beyond which the smoke is hidden. `points`
+/// are the point lights the lights pass lit the grids with.
 pub fn view_layer(
     g: &VolumeGrids,
     medium: &Medium,
+    points: &[PointLight],
     camera: &Camera,
     du: f64,
     t_end: &(dyn Fn([f64; 3]) -> f64 + Sync),
@@ -457,11 +481,12 @@ pub fn view_layer(
     let w = camera.width;
     let axis = camera.forward();
     let field = RadianceField::new(g);
+    let near = NearLights::new(points, &g.density, medium, camera);
     (0..w * camera.height)
         .into_par_iter()
         .map(|i| {
             let d = camera.pixel_ray(i % w, i / w);
-            let (out, tau, depth) = march(&field, medium, camera.eye, d, axis, du, t_end(d));
+            let (out, tau, depth) = march(&field, medium, &near, camera.eye, d, axis, du, t_end(d));
             SmokeSample {
                 radiance: out.map(|c| c as f32),
                 transmittance: tau as f32,
@@ -686,6 +711,9 @@ mod tests {
         for peak in [0.0, 0.4] {
             g.eye_peak = peak;
             let medium = crate::Medium::new(3.0, 0.8, 0.3).unwrap();
+            let camera =
+                super::Camera::new([0.0; 3], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0], 40.0, 8, 6).unwrap();
+            let none = super::NearLights::new(&[], &g.density, &medium, &camera);
             let fast = RadianceField::new(&g);
             let mut every = RadianceField::new(&g);
             every.occupied = Occupancy::new(&everywhere);
@@ -707,8 +735,8 @@ mod tests {
                 let d = v.map(|c| c / len);
                 let axis = [0.6f64, 0.64, -0.48];
                 let t_end = if k % 3 == 1 { len } else { f64::INFINITY };
-                let got = march(&fast, &medium, eye, d, axis, 0.045, t_end);
-                let want = march(&every, &medium, eye, d, axis, 0.045, t_end);
+                let got = march(&fast, &medium, &none, eye, d, axis, 0.045, t_end);
+                let want = march(&every, &medium, &none, eye, d, axis, 0.045, t_end);
                 for c in 0..3 {
                     assert_eq!(got.0[c].to_bits(), want.0[c].to_bits(), "ray {k} ch {c}");
                 }
@@ -719,6 +747,7 @@ mod tests {
             let through = march(
                 &RadianceField::new(&air),
                 &medium,
+                &none,
                 [-5.0, 2.0, 2.0],
                 [1.0, 0.0, 0.0],
                 [1.0, 0.0, 0.0],

@@ -3,7 +3,9 @@
 //!
 //! At a voxel center `u` with `D(u) > 0`, seen along `d` (from the eye), each light adds
 //! `J(u, d) += Ω·E(u)·T(u)·p(s·d)/4π` (`crate::lights` module docs), `s` the unit vector
-//! towards the light, `p` the disk-averaged HG of a sun or HG for a point light. The
+//! towards the light, `p` the disk-averaged HG of a sun or HG for a point light. A point
+//! light's `E = I·min(1/r², 1/R²)`, `R` four voxels: within that sphere the view pass
+//! adds the rest of its `1/r²` along each ray ([`super::near_light`]). The
 //! transmittance `T = exp(−σt·τ)` is marched through the grid's `D = D̃ + R` (the shadow
 //! volume, residual included): `τ = Σ_k D(u + (k + ½)h·s)·h` over `n = ⌈ℓ/h₀⌉` equal
 //! steps `h = ℓ/n`, `h₀` the smallest voxel side, `ℓ` the distance to the box's face (or
@@ -67,8 +69,9 @@ pub fn lights_pass_at(
     let bbox = *density.bbox();
     let vs = density.voxel_size();
     let h0 = vs[0].min(vs[1]).min(vs[2]);
-    // The mean of 1/r² over a ball of radius a (half a voxel) about a point light: 3/a².
-    let soft = (0.5 * h0).powi(2) / 3.0;
+    // A point light's 1/r² held at most 1/R² (R four voxels): the view pass adds the rest
+    // inside that sphere along its rays (`near_light`, "The split").
+    let soft = super::near_light::NearLights::radius2(h0);
     let plane = dims[0] * dims[1];
     let k = medium.albedo / FOUR_PI;
     let lit = lit_voxels(density);
@@ -143,7 +146,7 @@ pub fn lights_pass_at(
                     .exp();
                     let p = hg(medium.g, dot(s, d));
                     for (a, i) in add.iter_mut().zip(light.intensity) {
-                        *a += i / (r2 + soft) * t * p;
+                        *a += i / r2.max(soft) * t * p;
                     }
                 }
                 for c in 0..3 {
