@@ -283,11 +283,26 @@ fn cells(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     }
     let u = (vec3<f32>(c) + 0.5) * p.cell;
     if p.albedo != 0.0 {
+        let hc = min(p.cell.x, min(p.cell.y, p.cell.z));
         for (var l = 0u; l < p.points; l++) {
             let at = 8u * (p.suns + l);
             let v = light_vec(at) - u;
             let r2 = dot(v, v);
             let intensity = light_vec(at + 4u);
+            if r2 < (NEAR_CELLS * hc) * (NEAR_CELLS * hc) {
+                let mean = near_light_mean(u, light_vec(at));
+                if mean.y > 0.0 {
+                    let a = p.k * intensity * mean.x;
+                    j0 += a;
+                    if r2 > 0.0 {
+                        let s = v / sqrt(r2);
+                        for (var ch = 0u; ch < 3u; ch++) {
+                            j1[ch] -= 3.0 * p.g * a[ch] * s;
+                        }
+                    }
+                    continue;
+                }
+            }
             if !(r2 > 0.0) {
                 j0 += p.k * intensity / p.soft;
                 continue;
@@ -312,6 +327,41 @@ fn cells(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
         let t = transmittance(u, light_vec(8u * l), 3.0e38);
         rec_out[base + 13u + l] = ds * clamp(finite_or_zero(t), 0.0, 1.0);
     }
+}
+
+// `source::near_light_mean`: a point light's T/r² over the cell centred at u, the
+// density-weighted mean over NEAR_SUB³ sub-cell centres, Σ D·T/(r² + a²/3) / Σ D (a half
+// the smallest sub-cell side); (mean, Σ D), Σ D = 0 where the sub-cells hold no density.
+const NEAR_CELLS: f32 = 2.5;
+const NEAR_SUB: u32 = 4u;
+
+fn near_light_mean(u: vec3<f32>, light: vec3<f32>) -> vec2<f32> {
+    let n = f32(NEAR_SUB);
+    let hs = min(p.cell.x, min(p.cell.y, p.cell.z)) / n;
+    let soft = 0.25 * hs * hs / 3.0;
+    var sum = 0.0;
+    var weight = 0.0;
+    for (var k = 0u; k < NEAR_SUB * NEAR_SUB * NEAR_SUB; k++) {
+        let idx = vec3<u32>(k % NEAR_SUB, (k / NEAR_SUB) % NEAR_SUB, k / (NEAR_SUB * NEAR_SUB));
+        let x = u + ((vec3<f32>(idx) + 0.5) / n - 0.5) * p.cell;
+        let d = sample_density(x);
+        if !(d > 0.0) {
+            continue;
+        }
+        let w = light - x;
+        let r2 = dot(w, w);
+        var t = 1.0;
+        if r2 > 0.0 {
+            let r = sqrt(r2);
+            t = transmittance(x, w / r, r);
+        }
+        sum += d * t / (r2 + soft);
+        weight += d;
+    }
+    if weight > 0.0 {
+        return vec2<f32>(sum / weight, weight);
+    }
+    return vec2<f32>(0.0);
 }
 
 // Distance from x along s to the coarse box's face (∞ for s = 0, as

@@ -1,13 +1,11 @@
 //! A point light in the smoke: what the grids cannot follow.
 //!
-//! The lights pass gives each voxel centre `u` a point light's `I/(|u − s|² + a²/3)`
-//! ([`super::lights_pass`]) and the view pass interpolates between the centres, so the
-//! light's `1/r²` peak within a voxel or so of its position `s` is smoothed away: a view
-//! ray passing at `h ≪` a voxel from the light should gather `∫ dt/(h² + t²) = π/h` there
-//! and gathers what the neighbouring centres hold. The multiple scattering's cells
-//! ([`super::grid_diffusion`]) smooth it over a cell. Where smoke surrounds the light,
-//! much of its first scattering happens in that neighbourhood, and the picture around
-//! the light's image comes out dark.
+//! Voxel centres holding a point light's `I/r²`, interpolated between them by the view
+//! pass, cannot follow its peak within a few voxels of its position `s`: a view ray
+//! passing at `h ≪` a voxel from the light should gather `∫ dt/(h² + t²) = π/h` there
+//! and would gather what the neighbouring centres hold; the multiple scattering's cells
+//! ([`super::grid_diffusion`]) likewise take the light at their centres. Where smoke
+//! surrounds the light, much of its first scattering happens in that neighbourhood.
 //!
 //! **The split.** The grids hold what they can follow: the lights pass gives a voxel
 //! centre `I·min(1/r², 1/R²)` ([`NEAR_RADIUS_VOXELS`]: `R` four smallest voxel sides),
@@ -35,11 +33,14 @@
 //! [`DIRECTIONS`] Fibonacci directions (`R` the radius, `τ(∞)` to the box's face). 0 for
 //! a light whose rays meet no smoke.
 //!
-//! **Measured** (the bundled sample's first frame, σt 4, albedo 0.8, g 0.3, 80 × 60, no
-//! environment, against `--reference`; BENCHMARKS "A point light in the smoke"): a light
-//! in the stem, share 0.30, single scattering 36 % RMS off the path tracer (0.89× its
-//! mean), the final image 34 % (0.82×), most of it around the light's image; a light in
-//! the cap, share 0.06: 4.2 % (the reference's noise 3.3 %). [`describe`] warns above
+//! **Measured** (BENCHMARKS "A point light in the smoke": the bundled sample's first
+//! frame and held-out plume-d, σt 4, albedo 0.8, g 0.3, against `--reference`). Before
+//! the split, a light in the stem (share 0.37) left single scattering 36 % RMS off (0.89×
+//! the mean) and the final image 34 % (0.82×, the multiple scattering's cells smoothing
+//! the same peak); after it and the cells' mean of `T/r²`
+//! ([`super::grid_diffusion::near_light_mean`]), single scattering is within the
+//! reference's noise but for 7 % in the stem, and the final image 8–22 % with the noise
+//! taken out where the share is 3–41 %, its mean within 6 %. [`describe`] warns above
 //! [`NEAR_SHARE_WARNING`].
 
 use super::grid_diffusion::fibonacci_directions;
@@ -57,8 +58,9 @@ use rayon::prelude::*;
 /// within `h²/(4r²)` (1.6 % at four voxels) and its phase function as well as a voxel
 /// seen from the light resolves it: against the integral along each ray
 /// (`tests/crm.rs`, g 0.3) two, three, four and six voxels give 4.0, 2.3, 1.8 and 1.4 %
-/// RMS; at g 0.6, 11, 6.7, 4.6 and 2.8 %. The view pass's cost hardly moved from two to
-/// six on a 96³-class frame at 800 × 600 (BENCHMARKS "A point light in the smoke").
+/// RMS; at g 0.6, 11, 6.7, 4.6 and 2.8 %. Its cost grows with the rays that cross the
+/// sphere and their steps in it (BENCHMARKS "A point light in the smoke": a lamp inside
+/// a 96³-class frame adds a third to the view pass at 800 × 600).
 pub const NEAR_RADIUS_VOXELS: f64 = 4.0;
 
 /// The radius, in smallest voxel sides, within which the grids smooth a point light's
@@ -278,7 +280,7 @@ pub fn describe(index: usize, light: [f64; 3], share: f64) -> (String, bool) {
     if share > NEAR_SHARE_WARNING {
         (
             format!(
-                "{at} sits in the smoke: {percent:.0} % of its first scattering happens within {NEAR_VOXELS} voxels of it, where the fast renderer's grids smooth its 1/r² peak, so the smoke around its image comes out too dark (a light with 30 % there: 34 % off the path tracer); --reference renders it exactly"
+                "{at} sits in the smoke: {percent:.0} % of its first scattering happens within {NEAR_VOXELS} voxels of it, where the fast renderer's multiple scattering follows its light only cell by cell, so the smoke around it is approximate (lights with 3-41 % there: 8-22 % off the path tracer); --reference renders it exactly"
             ),
             true,
         )

@@ -95,7 +95,10 @@ pub use coarse::CoarseGrid;
 pub use escape::{escape, fibonacci_directions};
 pub use gather::{Gathered, HIGH, SunSource, T_MIN, gather, phase_norm};
 pub use solve::{FvSystem, GridSolution, GridSolveOptions, THIN, solve};
-pub use source::{add_lights, env_grid_sources, interpolate_centers, sun_sources};
+pub use source::{
+    NEAR_CELLS, NEAR_SUB, add_lights, env_grid_sources, interpolate_centers, near_light_mean,
+    sun_sources,
+};
 
 use crate::diffusion::Sources;
 use crate::env::Environment;

@@ -85,10 +85,58 @@ pub fn interpolate_centers(grid: &CoarseGrid, rbfs: &[Rbf], centers: &Sources) -
     out
 }
 
+/// Cells whose centre lies within this many smallest cell sides of a point light take
+/// its light as the cell's mean ([`near_light_mean`]) rather than at the centre.
+pub const NEAR_CELLS: f64 = 2.5;
+
+/// Points a side of the [`near_light_mean`] of a cell.
+pub const NEAR_SUB: usize = 4;
+
+/// A point light's `T/r²` over the cell of sides `h` centred at `u`, as the first
+/// scattering there sees it: the density-weighted mean over [`NEAR_SUB`]³ points at the
+/// centres of the cell's sub-cells, `Σ D(x)·T(x)/(r² + a²/3) / Σ D(x)` (`a` half the
+/// smallest sub-cell side: the mean of `1/r²` over a ball of that radius, so a point at
+/// the light stays finite), `T` marched through `fine`. Taken at the centre alone,
+/// `T/r²` is far below the cell's mean beside a light in dense smoke (a quarter to a third
+/// at σt 2 a cell: the near side takes more than the far side loses; test below), and the
+/// light's first scattering there is what the orders spread. `None` where the sub-cells
+/// hold no density.
+pub fn near_light_mean(
+    fine: &Volume,
+    sigma_t: f64,
+    h0: f64,
+    h: [f64; 3],
+    u: [f64; 3],
+    light: [f64; 3],
+) -> Option<f64> {
+    let n = NEAR_SUB as f64;
+    let soft = (0.5 * h[0].min(h[1]).min(h[2]) / n).powi(2) / 3.0;
+    let (mut sum, mut weight) = (0.0, 0.0);
+    for k in 0..NEAR_SUB.pow(3) {
+        let idx = [
+            k % NEAR_SUB,
+            k / NEAR_SUB % NEAR_SUB,
+            k / (NEAR_SUB * NEAR_SUB),
+        ];
+        let x = [0, 1, 2].map(|a| u[a] + ((idx[a] as f64 + 0.5) / n - 0.5) * h[a]);
+        let d = crate::field::sample(fine, x);
+        if d.is_nan() || d <= 0.0 {
+            continue;
+        }
+        let w = [0, 1, 2].map(|a| light[a] - x[a]);
+        let r2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
+        let t = unit(w).map_or(1.0, |s| transmittance(fine, sigma_t, x, s, r2.sqrt(), h0));
+        sum += d * t / (r2 + soft);
+        weight += d;
+    }
+    (weight > 0.0).then(|| sum / weight)
+}
+
 /// Adds the direct light of `env`'s suns (with `suns`) and point lights at every cell
 /// center with smoke (`lighting::direct`'s moments: `J⁰ = Ω·E·T/4π`, `J¹ = −3·g·m·J⁰·s`,
 /// `m` the disk's mean cosine), `T` marched through `fine`
-/// (`render::lights_pass::transmittance`).
+/// (`render::lights_pass::transmittance`); a point light's `T/r²` as the cell's mean in
+/// the cells within [`NEAR_CELLS`] of it ([`near_light_mean`]).
 pub fn add_lights(
     sources: &mut Sources,
     grid: &CoarseGrid,
@@ -138,6 +186,14 @@ pub fn add_lights(
             for pl in &env.points {
                 let v = [0, 1, 2].map(|a| pl.position[a] - u[a]);
                 let r2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+                if r2 < (NEAR_CELLS * hc).powi(2)
+                    && let Some(mean) =
+                        near_light_mean(fine, medium.sigma_t, h0, grid.h, u, pl.position)
+                {
+                    let (s, m) = unit(v).map_or(([0.0; 3], 0.0), |s| (s, 1.0));
+                    light(pl.intensity.map(|x| x * mean), s, 1.0, m);
+                    continue;
+                }
                 match unit(v) {
                     Some(s) => {
                         let t = transmittance(fine, medium.sigma_t, u, s, r2.sqrt(), h0);
@@ -247,4 +303,53 @@ pub fn sun_sources(
                 .collect(),
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use haze_volume::Bbox;
+
+    /// A cell of uniform smoke (density 1, σt 2 per unit, cells of side 1) beside a
+    /// point light: the cell's mean of `T/r²` (`T = e^{−σt r}`, exact in uniform smoke)
+    /// by its 4³ sub-cell centres against a 96³ midpoint sum of the same mean (the light
+    /// outside the cell). The centre's value alone is 23–32 % low: the near side of the
+    /// cell takes more of the light than the far side loses. The sub-cells' mean is
+    /// 2.6–3.9 % low (bound 5 %). A light inside the cell gives a finite mean.
+    #[test]
+    fn a_cell_beside_a_light_takes_its_mean() {
+        let sigma_t = 2.0;
+        let fine = Volume::new([8; 3], Bbox::new([0.0; 3], [4.0; 3]), vec![1.0; 512]).unwrap();
+        let (u, h) = ([2.0; 3], [1.0; 3]);
+        let dist =
+            |a: [f64; 3], b: [f64; 3]| (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt();
+        let brute = |light: [f64; 3]| {
+            let n = 96;
+            let mut sum = 0.0;
+            for k in 0..n * n * n {
+                let i = [k % n, k / n % n, k / (n * n)];
+                let x = [0, 1, 2].map(|a| u[a] + ((i[a] as f64 + 0.5) / n as f64 - 0.5));
+                let r = dist(light, x);
+                sum += (-sigma_t * r).exp() / (r * r);
+            }
+            sum / (n * n * n) as f64
+        };
+        for light in [[3.0, 2.0, 2.0], [3.0, 2.6, 1.7], [2.0, 2.0, 3.4]] {
+            let mean = near_light_mean(&fine, sigma_t, 0.5, h, u, light).unwrap();
+            let want = brute(light);
+            let r = dist(light, u);
+            let centre = (-sigma_t * r).exp() / (r * r);
+            println!("light {light:?}: 4³ {mean:.5}, 96³ {want:.5}, centre {centre:.5}");
+            assert!((mean / want - 1.0).abs() < 0.05, "{mean} vs {want}");
+            assert!(centre < 0.8 * want, "{centre} vs {want}");
+        }
+        let at = near_light_mean(&fine, sigma_t, 0.5, h, u, [2.125, 2.125, 2.125]).unwrap();
+        assert!(at.is_finite() && at > 0.0);
+        // No density in the cell: no mean.
+        let empty = Volume::new([8; 3], Bbox::new([0.0; 3], [4.0; 3]), vec![0.0; 512]).unwrap();
+        assert_eq!(
+            near_light_mean(&empty, 1.0, 0.5, h, u, [3.0, 2.0, 2.0]),
+            None
+        );
+    }
 }
