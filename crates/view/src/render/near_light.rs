@@ -22,15 +22,16 @@
 //! `h` is floored at a sixteenth of the pixel's side at the light's depth. Like the rest
 //! of the view pass (and the reference), a pixel is its central ray, so the pixel
 //! nearest the light's image holds the spike as that ray meets it. The multiple
-//! scattering's cells keep their own mean of `1/r²` ([`super::grid_diffusion`]).
+//! scattering's cells beside the light take their own mean of `T/r²`
+//! ([`super::grid_diffusion::near_light_mean`]).
 //!
 //! **The measure.** [`near_share`]: the light's first scatterings within
 //! [`NEAR_VOXELS`] smallest voxel sides of it, as a share of all its first scatterings.
 //! Along a direction `ω` from the light, a first scattering happens before distance `r`
 //! with probability `1 − e^{−τ(r)}`, `τ` the optical depth `σt∫₀^r D(s + tω)dt` (the
 //! shadow march of [`super::lights_pass::optical_depth`]); a point light sends the same
-//! power every way, so the share is `Σ_ω (1 − e^{−τ_ω(R)}) / Σ_ω (1 − e^{−τ_ω(∞)})` over
-//! [`DIRECTIONS`] Fibonacci directions (`R` the radius, `τ(∞)` to the box's face). 0 for
+//! power every way, so the share is `Σ_ω (1 − e^{−τ_ω(ρ)}) / Σ_ω (1 − e^{−τ_ω(∞)})` over
+//! [`DIRECTIONS`] Fibonacci directions (`ρ` that radius, `τ(∞)` to the box's face). 0 for
 //! a light whose rays meet no smoke.
 //!
 //! **Measured** (BENCHMARKS "A point light in the smoke": the bundled sample's first
