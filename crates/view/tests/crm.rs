@@ -154,6 +154,23 @@ fn constant_env(c: f32) -> Environment {
     Environment::map(LatLong::new(8, 4, vec![[c; 3]; 32]).unwrap())
 }
 
+/// The volume-pass grids of `volume` lit by `env`'s suns and point lights alone (no
+/// environment source): zero radiance, then the lights pass.
+fn lit_by_lights(
+    volume: &haze_volume::Volume,
+    env: &Environment,
+    medium: &Medium,
+    eye: [f64; 3],
+) -> haze_view::render::crm::VolumeGrids {
+    let mut grids = haze_view::render::crm::VolumeGrids {
+        density: volume.clone(),
+        radiance: vec![[0.0; 3]; volume.data().len()],
+        eye_peak: 0.0,
+    };
+    haze_view::render::lights_pass::lights_pass(&mut grids, env, medium, eye);
+    grids
+}
+
 /// `rel_rms` over the pixels whose ray meets the smoke (`mask`).
 fn masked_rel_rms(a: &Image, reference: &Image, mask: &[bool]) -> f64 {
     let (mut num, mut den) = (0.0, 0.0);
@@ -676,8 +693,7 @@ fn the_view_layer_is_the_view_pass_split_into_smoke_and_background() {
 /// the old rule fails.
 #[test]
 fn a_sun_skimming_a_face_lights_its_outer_band() {
-    use haze_view::render::crm::{VolumeGrids, default_slice, view_pass};
-    use haze_view::render::lights_pass::lights_pass;
+    use haze_view::render::crm::{default_slice, view_pass};
     let n = 24;
     let dims = [n; 3];
     let bbox = unit_box();
@@ -703,12 +719,7 @@ fn a_sun_skimming_a_face_lights_its_outer_band() {
         30,
     )
     .unwrap();
-    let mut grids = VolumeGrids {
-        density: volume.clone(),
-        radiance: vec![[0.0; 3]; n * n * n],
-        eye_peak: 0.0,
-    };
-    lights_pass(&mut grids, &env, &medium, cam.eye);
+    let grids = lit_by_lights(&volume, &env, &medium, cam.eye);
     let fast = view_pass(
         &grids,
         &medium,
@@ -908,8 +919,7 @@ fn the_lights_pass_at_its_extremes() {
 /// is left, growing with g: at g 0, 0.6 and 0.8 the RMS is 1.5, 4.6 and 16 %.
 #[test]
 fn a_point_light_in_the_smoke_matches_its_integral() {
-    use haze_view::render::crm::{VolumeGrids, default_slice, view_pass};
-    use haze_view::render::lights_pass::lights_pass;
+    use haze_view::render::crm::{default_slice, view_pass};
     let n = 24;
     let dims = [n; 3];
     let bbox = unit_box();
@@ -928,12 +938,7 @@ fn a_point_light_in_the_smoke_matches_its_integral() {
         36,
     )
     .unwrap();
-    let mut grids = VolumeGrids {
-        density: volume.clone(),
-        radiance: vec![[0.0; 3]; n * n * n],
-        eye_peak: 0.0,
-    };
-    lights_pass(&mut grids, &env, &medium, cam.eye);
+    let grids = lit_by_lights(&volume, &env, &medium, cam.eye);
     let du = default_slice(dims, &bbox);
     let fast = view_pass(&grids, &medium, &env, &cam, du, None);
     let grid_alone = view_pass(
