@@ -92,14 +92,16 @@ pub fn near_share(density: &Volume, sigma_t: f64, light: [f64; 3]) -> f64 {
     let radius = NEAR_VOXELS * h0;
     // The march's step: half a voxel, so the near part takes three samples at least.
     let step = 0.5 * h0;
-    let (near, all) = fibonacci_directions(DIRECTIONS)
+    let each: Vec<(f64, f64)> = fibonacci_directions(DIRECTIONS)
         .par_iter()
         .map(|&w| {
             let scattered =
                 |len: f64| -(-optical_depth(density, sigma_t, light, w, len, step)).exp_m1();
             (scattered(radius), scattered(f64::INFINITY))
         })
-        .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+        .collect();
+    // Summed in order, so the same light in the same smoke gives the same share.
+    let (near, all) = each.iter().fold((0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
     // Below a millionth of the light scattered at all (per direction, on average) the
     // smoke is not lit by it: nothing to smooth.
     if all <= 1e-6 * DIRECTIONS as f64 {
@@ -280,7 +282,7 @@ pub fn describe(index: usize, light: [f64; 3], share: f64) -> (String, bool) {
     if share > NEAR_SHARE_WARNING {
         (
             format!(
-                "{at} sits in the smoke: {percent:.0} % of its first scattering happens within {NEAR_VOXELS} voxels of it, where the fast renderer's multiple scattering follows its light only cell by cell, so the smoke around it is approximate (lights with 3-41 % there: 8-22 % off the path tracer); --reference renders it exactly"
+                "{at} sits in the smoke: {percent:.0} % of its first scattering happens within {NEAR_VOXELS} voxels of it, where the fast renderer's multiple scattering follows its light only cell by cell, so the smoke around it is approximate (lights with 3-41 % there: 8-22 % off the path tracer); `haze render --reference` renders it exactly"
             ),
             true,
         )

@@ -514,6 +514,13 @@ impl ViewerApp {
                 None => ui.small(g.describe()),
             };
         }
+        for (line, warning) in self.player.lamps.lines() {
+            if warning {
+                ui.colored_label(egui::Color32::LIGHT_RED, line);
+            } else {
+                ui.small(line);
+            }
+        }
         if let Some(e) = &self.player.error {
             ui.colored_label(egui::Color32::LIGHT_RED, e);
         }

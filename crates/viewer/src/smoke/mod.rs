@@ -11,12 +11,15 @@
 //!   playback back;
 //! - [`app`]: the room's panel, keys and picture in the window;
 //! - [`budget`]: the starting knobs chosen for a time budget or an error target;
-//! - [`thick`]: the grid each frame is lit on, finer where its voxels are optically thick.
+//! - [`thick`]: the grid each frame is lit on, finer where its voxels are optically thick;
+//! - [`lamps`]: whether a point light sits in the smoke, where the picture near it is
+//!   approximate.
 
 mod app;
 pub mod budget;
 mod detail;
 pub mod frame;
+mod lamps;
 pub(crate) mod playback;
 mod player;
 #[cfg(test)]

@@ -69,6 +69,10 @@ pub struct Player {
     pub times: Option<super::frame::StageTimes>,
     /// The grid the picture on screen was lit on.
     pub grid: Option<super::thick::Grid>,
+    /// Its point lights' share of first scattering near them (`lamps` module).
+    pub lamps: super::lamps::Lamps,
+    /// The point lights (their positions) the log has warned about.
+    lamps_warned: Vec<[f64; 3]>,
     /// The lighting's detail of the picture on screen (`CrmOptions::detail`).
     pub shown_detail: f64,
     pub error: Option<String>,
@@ -97,6 +101,8 @@ impl Player {
             render_seconds: 0.0,
             times: None,
             grid: None,
+            lamps: Default::default(),
+            lamps_warned: Vec::new(),
             shown_detail: 1.0,
             error: None,
             failures: 0,
@@ -236,6 +242,15 @@ impl Player {
             tracing::warn!("{w}");
         }
         self.grid = Some(picture.grid);
+        // The log warns once a light (its share moves from frame to frame; the panel
+        // shows it live).
+        for (at, w) in picture.lamps.warnings() {
+            if !self.lamps_warned.contains(&at) {
+                tracing::warn!("{w}");
+                self.lamps_warned.push(at);
+            }
+        }
+        self.lamps = picture.lamps.clone();
         self.error = None;
         self.first_picture
             .get_or_insert_with(|| now.saturating_duration_since(self.created));

@@ -139,7 +139,7 @@ impl Refiner {
 }
 
 /// The density `frame` reconstructs (RBFs plus residual, negatives clamped).
-fn density(
+pub(super) fn density(
     frame: &StreamFrame,
     dims: [usize; 3],
     bbox: Bbox,

@@ -8,6 +8,7 @@
 
 use super::detail;
 use super::frame::{FrameImage, FrameRenderer, StageTimes};
+use super::lamps::{LampCheck, Lamps};
 use super::playback::Tick;
 use super::thick::{Grid, Refiner};
 use haze_gpu::GpuContext;
@@ -61,6 +62,8 @@ pub struct Picture {
     pub times: Option<StageTimes>,
     /// The grid the frame was lit on (`thick` module).
     pub grid: Grid,
+    /// Its point lights' share of first scattering near them (`lamps` module).
+    pub lamps: Lamps,
     /// The lighting's detail it was lit at (`CrmOptions::detail`).
     pub detail: f64,
 }
@@ -150,6 +153,7 @@ struct Kept {
     image: FrameImage,
     number: i64,
     grid: Grid,
+    lamps: Lamps,
 }
 
 impl Worker {
@@ -167,6 +171,7 @@ impl Worker {
         let renderer =
             FrameRenderer::new(&ctx, lighting).map_err(|e| anyhow::anyhow!("GPU: {e}"))?;
         let mut refiner = Refiner::new(supersample, GridBuffer::max_voxels(&ctx));
+        let mut lamps = LampCheck::default();
         let (jobs, inbox) = channel::<Job>();
         let (outbox, done) = channel();
         let thread = std::thread::Builder::new()
@@ -179,7 +184,7 @@ impl Worker {
                     let picture = run_job(
                         &ctx,
                         &mut renderer,
-                        &mut refiner,
+                        (&mut refiner, &mut lamps),
                         &mut cursor,
                         &job,
                         &mut kept,
@@ -268,7 +273,7 @@ impl Drop for Worker {
 fn run_job(
     ctx: &GpuContext,
     renderer: &mut FrameRenderer,
-    refiner: &mut Refiner,
+    (refiner, lamps): (&mut Refiner, &mut LampCheck),
     cursor: &mut FrameCursor,
     job: &Job,
     kept: &mut Option<Kept>,
@@ -281,7 +286,9 @@ fn run_job(
             *kept = None;
             let (dims, bbox) = cursor.stream().grid();
             let frame = cursor.get(job.frame)?;
-            let (grid, fine) = refiner.prepare(frame, dims, bbox, job.scene.medium.sigma_t)?;
+            let sigma_t = job.scene.medium.sigma_t;
+            let lit_by = lamps.check(frame, dims, bbox, sigma_t, &job.scene.env.points)?;
+            let (grid, fine) = refiner.prepare(frame, dims, bbox, sigma_t)?;
             let mut scene = job.scene.clone();
             if job.at_floor {
                 let floor = detail::floor(grid.tau / grid.n.max(1) as f64);
@@ -327,6 +334,7 @@ fn run_job(
                 image,
                 number: frame.number,
                 grid,
+                lamps: lit_by,
             });
             Some(times)
         }
@@ -341,6 +349,7 @@ fn run_job(
             .map_err(|e| format!("frame {}: {e}", k.number))?,
         times,
         grid: k.grid,
+        lamps: k.lamps.clone(),
         detail: k.scene.opts.detail,
     })
 }
@@ -438,6 +447,28 @@ mod tests {
         let c = run(view_job(0, 0.9, 4.0));
         assert_eq!(c.number, 101);
         assert!(c.times.is_some());
+        assert!(c.lamps.lines().next().is_none(), "no point light");
+        // A lamp at the densest RBF's center: the picture warns of it (`lamps` module),
+        // and so does the same picture tone-mapped again.
+        let mut lamp = view_job(0, 0.9, 4.0);
+        let mut env = (*lamp.scene.env).clone();
+        let center = super::super::testing::rbfs(0)[0].center;
+        env.points.push(haze_view::PointLight {
+            position: center,
+            intensity: [2.0; 3],
+        });
+        lamp.scene.env = Arc::new(env);
+        let warned = run(lamp.clone());
+        assert!(warned.times.is_some());
+        let w = warned.lamps.warnings();
+        assert!(
+            w.len() == 1 && w[0].1.contains("sits in the smoke"),
+            "{w:?}"
+        );
+        lamp.exposure = 2.0;
+        let again = run(lamp);
+        assert!(again.times.is_none());
+        assert_eq!(again.lamps, warned.lamps);
     }
 
     #[test]
