@@ -653,3 +653,55 @@ fn a_point_light_in_the_smoke_is_warned_about() {
         "{outside}"
     );
 }
+
+/// A sun below the horizon, over the ground under the smoke: the ground hides it, so the
+/// smoke is lit as without it (the picture the same as with that sun dark), and the user
+/// is told; without a ground it lights the smoke from below. The path tracer sees the
+/// same scene.
+#[test]
+fn the_ground_hides_a_sun_below_the_horizon() {
+    let dir = tempfile::tempdir().unwrap();
+    let asset = data("scenes/plume.haze");
+    let render = |name: &str, sun: &str, extra: &[&str]| {
+        let out = tmp(&dir, name);
+        let mut args = vec![
+            "render",
+            asset.as_str(),
+            "--sun",
+            sun,
+            "--width",
+            "24",
+            "--height",
+            "18",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let log = ok(&args);
+        (read_exr(&out, 24, 18), log)
+    };
+    let below = "0.3,-0.9,-0.3,12,11,9,0";
+    let (hidden, log) = render("hidden.exr", below, &[]);
+    assert!(
+        log.contains("sun 1 is below the horizon (elevation -17.5°): the ground hides it"),
+        "{log}"
+    );
+    let (dark, quiet) = render("dark.exr", "0.3,-0.9,-0.3,0,0,0,0", &[]);
+    assert!(!quiet.contains("WARN"), "{quiet}");
+    assert_eq!(hidden, dark);
+    let (lit, _) = render("lit.exr", below, &["--ground", "off"]);
+    let (unlit, _) = render("unlit.exr", "0.3,-0.9,-0.3,0,0,0,0", &["--ground", "off"]);
+    assert!(
+        mean(&lit) > 1.05 * mean(&unlit),
+        "{} vs {}",
+        mean(&lit),
+        mean(&unlit)
+    );
+    let (reference, _) = render("ref.exr", below, &["--reference", "--spp", "2"]);
+    let (reference_dark, _) = render(
+        "ref_dark.exr",
+        "0.3,-0.9,-0.3,0,0,0,0",
+        &["--reference", "--spp", "2"],
+    );
+    assert_eq!(reference, reference_dark);
+}

@@ -254,6 +254,16 @@ pub fn render_image(a: &RenderOptions) -> Result<Rendered> {
     }
     .map_err(|e| anyhow!("camera: {e}"))?;
     let ground = a.ground.ground(&a.env, frame.density.bbox().min[2]);
+    // The smoke above a ground does not see the lights below it.
+    let env = match ground.and_then(|g| g.hiding(&env)) {
+        Some((seen, said)) => {
+            for line in said {
+                tracing::warn!("{}: {line}", frame.label);
+            }
+            seen
+        }
+        None => env,
+    };
     if !a.reference
         && let Some(w) = haze_view::sh::phase_cut_warning(a.g, a.sh_order)
     {
@@ -520,6 +530,10 @@ fn check_error(
         return Ok((None, None));
     }
     let env = a.env.environment_whole()?;
+    // The lights the ground hides, as the render saw them (`render`).
+    let env = ground
+        .and_then(|g| g.hiding(&env))
+        .map_or(env, |(seen, _)| seen);
     let spinner = progress::spinner(&format!(
         "checking {} pixels against the reference",
         a.check

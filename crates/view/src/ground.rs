@@ -19,6 +19,16 @@
 //! darkening under dense smoke that the model does not show). A sun's disk is taken
 //! at its center.
 //!
+//! **What the ground hides.** The smoke stands above the plane, so a sun below the
+//! horizon, or a point light below the plane, cannot light it: a path from the smoke to it
+//! crosses the ground. [`Ground::hiding`] gives the environment the smoke sees — each
+//! sun's irradiance times the share of its disk above the horizon
+//! ([`disk_above_horizon`]: 0 below, 1 above, the disk's segment in between), each point
+//! light below the plane left out — and what it hid, for the user. Every renderer takes
+//! the environment that way where there is a ground (`haze render`, `--check`, the
+//! viewer), so they see the same scene; the distant light below the horizon (the built-in
+//! sky's ground colour, a map's lower half) still lights the smoke, as the ground's bounce.
+//!
 //! **Who computes `T`.** The fast renderers march it through the density grid
 //! ([`crate::render::ground_shadow`]: the midpoint rule in steps of half the smallest
 //! voxel side, on the CPU and in `view_pass.wgsl` on the GPU). The reference renderer
@@ -75,6 +85,95 @@ impl Ground {
                 .map(|p| (p.position, [0, 1, 2].map(|c| k[c] * p.intensity[c])))
                 .collect(),
         }
+    }
+}
+
+impl Ground {
+    /// The environment the smoke above this ground sees (module docs, "What the ground
+    /// hides"), with [`Ground::hidden`]'s lines; `None` when it hides nothing (and then
+    /// nothing is copied).
+    pub fn hiding(&self, env: &Environment) -> Option<(Environment, Vec<String>)> {
+        let said = self.hidden(env);
+        if said.is_empty() {
+            return None;
+        }
+        let mut out = env.clone();
+        for sun in &mut out.suns {
+            let share = disk_above_horizon(sun.direction, sun.angle);
+            sun.irradiance = sun.irradiance.map(|e| e * share);
+        }
+        out.points.retain(|p| self.below(p.position).is_none());
+        Some((out, said))
+    }
+
+    /// One line per light of `env` this ground hides from the smoke, wholly or in part
+    /// (empty when it hides none).
+    pub fn hidden(&self, env: &Environment) -> Vec<String> {
+        let mut said = Vec::new();
+        for (i, sun) in env.suns.iter().enumerate() {
+            let share = disk_above_horizon(sun.direction, sun.angle);
+            // A dark sun hides nothing.
+            if share >= 1.0 || sun.irradiance.iter().all(|&e| e <= 0.0) {
+                continue;
+            }
+            let elevation = sun.direction[2].clamp(-1.0, 1.0).asin().to_degrees();
+            said.push(if share <= 0.0 {
+                format!(
+                    "sun {} is below the horizon (elevation {elevation:.1}°): the ground hides it from the smoke (--ground off lights the smoke from below)",
+                    i + 1
+                )
+            } else {
+                format!(
+                    "sun {} is on the horizon (elevation {elevation:.2}°): {:.0} % of its disk lights the smoke above the ground",
+                    i + 1,
+                    100.0 * share
+                )
+            });
+        }
+        for (i, p) in env.points.iter().enumerate() {
+            if let Some(line) = self.below(p.position)
+                && p.intensity.iter().any(|&e| e > 0.0)
+            {
+                said.push(format!("point light {} {line}", i + 1));
+            }
+        }
+        said
+    }
+
+    /// What is said of a point light at `position` below the plane; `None` at or above it.
+    fn below(&self, position: [f64; 3]) -> Option<String> {
+        (position[2] < self.height || position[2].is_nan()).then(|| {
+            format!(
+                "at z = {} is below the ground (z = {}): it lights neither the smoke nor the ground",
+                haze_core::number::shown(position[2]),
+                haze_core::number::shown(self.height)
+            )
+        })
+    }
+}
+
+/// The share of a sun's disk of apex angle `angle` (radians) around the unit `direction`
+/// that stands above the horizon `z = 0`: with `α = angle/2` the disk's angular radius
+/// and `h = elevation/α`, the segment `1 − (acos h − h√(1 − h²))/π` for `|h| < 1` (the disk
+/// small enough to be flat), 1 above and 0 below; a point-like sun (`angle` 0) is seen
+/// from the horizon up. Non-finite directions give 0.
+pub fn disk_above_horizon(direction: [f64; 3], angle: f64) -> f64 {
+    let z = direction[2];
+    if !z.is_finite() {
+        return 0.0;
+    }
+    let elevation = z.clamp(-1.0, 1.0).asin();
+    let alpha = 0.5 * angle;
+    if alpha.is_nan() || alpha <= 0.0 {
+        return if elevation >= 0.0 { 1.0 } else { 0.0 };
+    }
+    let h = elevation / alpha;
+    if h >= 1.0 {
+        1.0
+    } else if h <= -1.0 {
+        0.0
+    } else {
+        1.0 - (h.acos() - h * (1.0 - h * h).sqrt()) / PI
     }
 }
 
@@ -285,5 +384,101 @@ mod tests {
         assert!(g.hit([0.0, 0.0, 3.0], [1.0, 0.0, 0.0]).is_none());
         assert!(g.hit([0.0, 0.0, 3.0], [0.0, 0.0, 1.0]).is_none());
         assert!(g.hit([0.0, 0.0, 0.5], [0.0, 0.0, -1.0]).is_none());
+    }
+
+    /// The share of a disk above the horizon against a count over the disk itself:
+    /// directions spread evenly over the cone of the disk's angular radius (equal areas
+    /// in `1 − cos` and in azimuth), the share of them with `z ≥ 0`.
+    #[test]
+    fn a_disks_share_above_the_horizon_is_its_segment() {
+        let counted = |elevation_deg: f64, angle: f64| {
+            let e = elevation_deg.to_radians();
+            let (axis, up, side) = (
+                [e.cos(), 0.0, e.sin()],
+                [-e.sin(), 0.0, e.cos()],
+                [0.0, 1.0, 0.0],
+            );
+            let (rings, sectors) = (400, 400);
+            let mut above = 0usize;
+            for i in 0..rings {
+                // Equal solid angle: cos θ evenly between 1 and cos α.
+                let q = (i as f64 + 0.5) / rings as f64;
+                let c = 1.0 - q * (1.0 - (0.5 * angle).cos());
+                let s = (1.0 - c * c).sqrt();
+                for j in 0..sectors {
+                    let phi = 2.0 * PI * (j as f64 + 0.5) / sectors as f64;
+                    let z = c * axis[2] + s * (phi.cos() * up[2] + phi.sin() * side[2]);
+                    above += usize::from(z >= 0.0);
+                }
+            }
+            above as f64 / (rings * sectors) as f64
+        };
+        for angle in [0.53f64.to_radians(), 10f64.to_radians()] {
+            let alpha = 0.5 * angle.to_degrees();
+            for h in [-1.2, -0.9, -0.5, -0.1, 0.0, 0.3, 0.7, 0.99, 1.5] {
+                let e = h * alpha;
+                let d = [e.to_radians().cos(), 0.0, e.to_radians().sin()];
+                let got = disk_above_horizon(d, angle);
+                let want = counted(e, angle);
+                // The grid's 1/400 steps, and the flat disk's error (α²/8 at 5°).
+                assert!(
+                    (got - want).abs() < 4e-3,
+                    "angle {angle} h {h}: {got} vs {want}"
+                );
+            }
+        }
+        // A point-like sun: seen from the horizon up; a broken direction: not at all.
+        assert_eq!(disk_above_horizon([1.0, 0.0, 0.0], 0.0), 1.0);
+        assert_eq!(disk_above_horizon([1.0, 0.0, -1e-9], 0.0), 0.0);
+        assert_eq!(disk_above_horizon([f64::NAN, 0.0, f64::NAN], 0.01), 0.0);
+        assert_eq!(disk_above_horizon([0.0, 0.0, 1.0], f64::NAN), 1.0);
+    }
+
+    /// The ground hides a sun below the horizon and a point light below the plane from
+    /// the smoke, takes part of a sun on the horizon, keeps the rest, and says so.
+    #[test]
+    fn the_ground_hides_the_lights_below_it() {
+        use crate::lights::{PointLight, Sun};
+        let g = Ground::at(1.0);
+        let mut env = Environment::constant([0.1; 3]);
+        let sun = |z: f64| Sun {
+            direction: crate::lights::unit([1.0, 0.0, z]).unwrap(),
+            irradiance: [10.0, 8.0, 6.0],
+            angle: 0.53f64.to_radians(),
+        };
+        env.suns = vec![sun(0.5), sun(-0.3), sun(0.0)];
+        env.points = vec![
+            PointLight {
+                position: [0.0, 0.0, 2.0],
+                intensity: [1.0; 3],
+            },
+            PointLight {
+                position: [0.0, 0.0, 0.5],
+                intensity: [1.0; 3],
+            },
+        ];
+        let (seen, said) = g.hiding(&env).expect("two suns and a lamp hidden");
+        assert_eq!(seen.suns[0], env.suns[0]);
+        assert_eq!(seen.suns[1].irradiance, [0.0; 3]);
+        assert_eq!(seen.suns[2].irradiance, [5.0, 4.0, 3.0], "half the disk");
+        assert_eq!(seen.points, env.points[..1].to_vec());
+        assert_eq!(seen.distant, env.distant);
+        assert_eq!(said.len(), 3, "{said:?}");
+        assert!(
+            said[0].starts_with("sun 2 is below the horizon (elevation -16.7°)"),
+            "{said:?}"
+        );
+        assert!(
+            said[1].contains("sun 3 is on the horizon") && said[1].contains("50 %"),
+            "{said:?}"
+        );
+        assert!(
+            said[2].starts_with("point light 2 at z = 0.5 is below the ground (z = 1)"),
+            "{said:?}"
+        );
+        // Nothing below: nothing hidden, nothing said.
+        env.suns.truncate(1);
+        env.points.truncate(1);
+        assert!(g.hiding(&env).is_none());
     }
 }

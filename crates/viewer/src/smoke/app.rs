@@ -544,6 +544,11 @@ impl ViewerApp {
         for line in &self.found {
             ui.small(line);
         }
+        if let Some(g) = self.settings.knobs.ground {
+            for line in g.hidden(&self.settings.env) {
+                ui.colored_label(egui::Color32::LIGHT_RED, line);
+            }
+        }
         self.update_light();
         ui.separator();
 

@@ -138,6 +138,11 @@ impl Knobs {
 
     /// The medium and the renderer's options of these knobs.
     fn scene(&self, env: Arc<Environment>) -> Result<Scene, String> {
+        // The smoke above a ground does not see the lights below it (`haze_view::ground`).
+        let env = match self.ground.and_then(|g| g.hiding(&env)) {
+            Some((seen, _)) => Arc::new(seen),
+            None => env,
+        };
         Ok(Scene {
             medium: Medium::new(self.sigma_t, self.albedo, self.g)?,
             env,
@@ -207,6 +212,11 @@ pub fn run(mut a: ViewArgs) -> Result<()> {
     let playback = Playback::new(stream.frame_count(), a.fps).map_err(|e| anyhow!(e))?;
     let (dims, bbox) = stream.grid();
     knobs.ground = a.ground.ground(&a.env, bbox.min[2]);
+    if let Some(g) = knobs.ground {
+        for line in g.hidden(&env) {
+            tracing::warn!("{line}");
+        }
+    }
     let mut cursor = FrameCursor::new(stream, READ_AHEAD);
     let first = cursor.get(0).map_err(|e| anyhow!(e))?;
     let residual = first.residual.as_ref().map(|s| (&*s.group, s.slot));
@@ -429,5 +439,40 @@ mod tests {
                 .describe()
                 .contains("multiple scattering (orders:3:3)")
         );
+    }
+
+    /// With the ground on, the scene's smoke does not see the sun once the slider takes
+    /// it below the horizon (`haze_view::ground`); without it, the sun is kept.
+    #[test]
+    fn the_ground_hides_the_sun_below_the_horizon() {
+        let mut knobs = Knobs {
+            sigma_t: 4.0,
+            albedo: 0.8,
+            g: 0.3,
+            sh_order: 4,
+            slices: 2.0,
+            multiple: true,
+            residual: true,
+            sky_per_voxel: true,
+            orders: true,
+            orders_model: MsDiffusion::DEFAULT,
+            exposure: 1.0,
+            tone: ToneMap::Filmic,
+            ground: Some(haze_view::ground::Ground::at(0.0)),
+        };
+        let mut sky = Environment::sky(haze_view::Sky::default());
+        sky.suns.push(haze_view::Sun {
+            direction: [0.0, 0.6, 0.8],
+            irradiance: [12.0, 10.8, 9.0],
+            angle: 0.53f64.to_radians(),
+        });
+        let below = app::move_sun(&sky, 150.0, -5.0).expect("the sun moves");
+        let seen = knobs.scene(Arc::new(below.clone())).unwrap().env;
+        assert_eq!(seen.suns[0].irradiance, [0.0; 3]);
+        assert_eq!(seen.distant, below.distant, "the sky is kept");
+        let above = app::move_sun(&sky, 150.0, 5.0).expect("the sun moves");
+        assert_eq!(*knobs.scene(Arc::new(above.clone())).unwrap().env, above);
+        knobs.ground = None;
+        assert_eq!(*knobs.scene(Arc::new(below.clone())).unwrap().env, below);
     }
 }
