@@ -161,21 +161,7 @@ mod tests {
         let asset = write_asset(dir.path(), "a.haze", 2);
         let file = dir.path().join("tradeoff.json");
         std::fs::write(&file, sweep().to_string()).unwrap();
-        let defaults = Knobs {
-            sigma_t: 4.0,
-            albedo: 0.8,
-            g: 0.3,
-            sh_order: 4,
-            slices: 2.0,
-            multiple: true,
-            residual: true,
-            sky_per_voxel: true,
-            orders: true,
-            orders_model: MsDiffusion::DEFAULT,
-            exposure: 1.0,
-            tone: haze_core::ToneMap::Filmic,
-            ground: None,
-        };
+        let defaults = super::super::testing::default_knobs();
         let args = |tradeoff: &std::path::Path| ViewArgs {
             input: asset.clone(),
             fps: 0.0,

@@ -381,21 +381,7 @@ mod tests {
     /// words say so only when it is off.
     #[test]
     fn the_sky_switch_picks_the_environment_source() {
-        let on = Knobs {
-            sigma_t: 4.0,
-            albedo: 0.8,
-            g: 0.3,
-            sh_order: 4,
-            slices: 2.0,
-            multiple: true,
-            residual: true,
-            sky_per_voxel: true,
-            orders: true,
-            orders_model: MsDiffusion::DEFAULT,
-            exposure: 1.0,
-            tone: ToneMap::Filmic,
-            ground: None,
-        };
+        let on = super::testing::default_knobs();
         let off = Knobs {
             sky_per_voxel: false,
             ..on.clone()
@@ -446,19 +432,8 @@ mod tests {
     #[test]
     fn the_ground_hides_the_sun_below_the_horizon() {
         let mut knobs = Knobs {
-            sigma_t: 4.0,
-            albedo: 0.8,
-            g: 0.3,
-            sh_order: 4,
-            slices: 2.0,
-            multiple: true,
-            residual: true,
-            sky_per_voxel: true,
-            orders: true,
-            orders_model: MsDiffusion::DEFAULT,
-            exposure: 1.0,
-            tone: ToneMap::Filmic,
             ground: Some(haze_view::ground::Ground::at(0.0)),
+            ..super::testing::default_knobs()
         };
         let mut sky = Environment::sky(haze_view::Sky::default());
         sky.suns.push(haze_view::Sun {

@@ -2,7 +2,7 @@
 //! (an RBF block per frame, the residuals in hash volumes of 27 frames) without the
 //! fitting: a
 //! cluster of RBFs drifting along +X from frame to frame, and per frame a rippled residual
-//! of both signs, quantized to 8 bits.
+//! of both signs, quantized to 8 bits. And the viewer's default knobs.
 
 use haze_asset::{AssetWriter, BlockKind, GridInfo, Header, Scope, SourceInfo, encode_rbfs};
 use haze_hash::tile::{GROUP, ResidualGroup};
@@ -103,4 +103,23 @@ pub fn write_asset(dir: &Path, name: &str, frames: usize) -> PathBuf {
     })
     .unwrap();
     path
+}
+
+/// The knobs `haze view` starts with by default (no ground).
+pub fn default_knobs() -> super::Knobs {
+    super::Knobs {
+        sigma_t: 4.0,
+        albedo: 0.8,
+        g: 0.3,
+        sh_order: 4,
+        slices: 2.0,
+        multiple: true,
+        residual: true,
+        sky_per_voxel: true,
+        orders: true,
+        orders_model: haze_view::render::MsDiffusion::DEFAULT,
+        exposure: 1.0,
+        tone: haze_core::ToneMap::Filmic,
+        ground: None,
+    }
 }
