@@ -3,6 +3,7 @@
 //! told not to), and suns and point lights given on the command line.
 
 use haze_render::lights::Lights;
+use haze_view::distant::Layout;
 use haze_view::{PointLight, Sun};
 
 #[derive(Debug, Clone, clap::Args)]
@@ -21,6 +22,16 @@ pub struct LightArgs {
     /// over the environment pass's directions and the spherical harmonics only).
     #[arg(long)]
     pub no_sun_extraction: bool,
+    /// How a map's columns map to directions: `haze`, column u at azimuth 360°·u from +X
+    /// towards +Y (pbrt's layout); `blender`, as Blender's World reads an Environment
+    /// Texture (its centre column facing +X, azimuth falling with u). The same file read
+    /// with the other layout lights the smoke mirrored (x → −x).
+    #[arg(long, value_enum, default_value = "haze", value_name = "LAYOUT")]
+    pub env_layout: EnvLayout,
+    /// Turn the map about the vertical (+Z) by DEG degrees, counter-clockwise seen from
+    /// above: what it shows at azimuth φ then lights from φ + DEG (its suns too).
+    #[arg(long, default_value_t = 0.0, value_name = "DEG", allow_hyphen_values = true, value_parser = parse_degrees)]
+    pub env_rotate: f64,
     /// A sun, lit exactly (sharp shadows, the phase function at its true direction):
     /// the direction towards it, the radiance of its disk (RGB) and the disk's apparent
     /// diameter in degrees (default 0.53, the real sun's). An angle of 0 makes a
@@ -36,13 +47,15 @@ pub struct LightArgs {
 
 impl LightArgs {
     /// Each flag with whether it differs from `defaults` ([`crate::unused_flags`]).
-    pub fn given(&self, defaults: &LightArgs) -> [(&'static str, bool); 4] {
+    pub fn given(&self, defaults: &LightArgs) -> [(&'static str, bool); 6] {
         [
             (
                 "--env",
                 crate::unused_flags::differs(&self.env, &defaults.env),
             ),
             ("--no-sun-extraction", self.no_sun_extraction),
+            ("--env-layout", self.env_layout != defaults.env_layout),
+            ("--env-rotate", self.env_rotate != defaults.env_rotate),
             ("--sun", !self.sun.is_empty()),
             ("--light", !self.light.is_empty()),
         ]
@@ -54,9 +67,31 @@ impl From<LightArgs> for Lights {
         Lights {
             env: a.env,
             no_sun_extraction: a.no_sun_extraction,
+            layout: match a.env_layout {
+                EnvLayout::Haze => Layout::Haze,
+                EnvLayout::Blender => Layout::Blender,
+            },
+            turn_degrees: a.env_rotate,
             sun: a.sun,
             light: a.light,
         }
+    }
+}
+
+/// `--env-layout`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum EnvLayout {
+    /// Column u at azimuth 360°·u from +X towards +Y.
+    Haze,
+    /// As Blender's World reads an Environment Texture.
+    Blender,
+}
+
+/// A finite angle in degrees.
+fn parse_degrees(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(d) if d.is_finite() => Ok(d),
+        _ => Err(format!("'{s}' is not a finite angle in degrees")),
     }
 }
 

@@ -705,3 +705,67 @@ fn the_ground_hides_a_sun_below_the_horizon() {
     );
     assert_eq!(reference, reference_dark);
 }
+
+/// `--env-layout blender` reads a map as Blender's World does: the picture is, to the
+/// bit, the one lit by the map laid out in haze's convention by hand (column `x` of
+/// Blender's at column `w/2 − 1 − x` of haze's); `--env-rotate` turns the map and its
+/// split-off sun about +Z; a non-finite angle is refused.
+#[test]
+fn a_map_is_read_in_blenders_layout_and_turned() {
+    let dir = tempfile::tempdir().unwrap();
+    let vol = data("plume-a/dense/density_0024.f32");
+    let (w, h) = (64usize, 32usize);
+    // A dim sky and a sun at column 5 (azimuth 30.9° in haze's layout), 20° up.
+    let texel = |x: usize, y: usize| {
+        if (x, y) == (5, 12) {
+            (900.0f32, 850.0, 800.0)
+        } else {
+            (0.3f32, 0.4, 0.6)
+        }
+    };
+    let blender = tmp(&dir, "blender.exr");
+    exr::prelude::write_rgb_file(&blender, w, h, texel).unwrap();
+    let by_hand = tmp(&dir, "by-hand.exr");
+    exr::prelude::write_rgb_file(&by_hand, w, h, |x, y| texel((w / 2 + w - 1 - x) % w, y)).unwrap();
+    let render = |name: &str, map: &Path, extra: &[&str]| {
+        let out = tmp(&dir, name);
+        let mut args = vec![
+            "-v",
+            "render",
+            vol.as_str(),
+            "--env",
+            map.to_str().unwrap(),
+            "--width",
+            "20",
+            "--height",
+            "15",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let log = ok(&args);
+        (read_exr(&out, 20, 15), log)
+    };
+    let (read, log) = render("read.exr", &blender, &["--env-layout", "blender"]);
+    assert!(log.contains("azimuth 149.1°"), "{log}");
+    let (laid, _) = render("laid.exr", &by_hand, &[]);
+    assert_eq!(read, laid);
+    let (plain, log) = render("plain.exr", &blender, &[]);
+    assert!(log.contains("azimuth 30.9°"), "{log}");
+    assert_ne!(plain, read, "the mirrored sky lights the smoke otherwise");
+    let (_, log) = render("turned.exr", &blender, &["--env-rotate", "-30.9"]);
+    assert!(
+        log.contains("azimuth 0.0°") || log.contains("azimuth 360.0°"),
+        "{log}"
+    );
+    let o = haze()
+        .args(["render", vol.as_str(), "--env-rotate", "nan"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("'nan' is not a finite angle in degrees"),
+        "{err}"
+    );
+}

@@ -10,6 +10,7 @@
 //! replaces it; `--env glow` is the same sky with its glow only, no sun.
 
 use anyhow::{Result, bail};
+use haze_view::distant::Layout;
 use haze_view::ground::Ground;
 use haze_view::lights::decompose::{DecomposeOptions, Decomposition, decompose, map_power};
 use haze_view::{Distant, Environment, LatLong, PointLight, Sky, Sun};
@@ -92,6 +93,10 @@ pub struct Lights {
     pub env: String,
     /// Keep an environment map whole: no suns are split off it.
     pub no_sun_extraction: bool,
+    /// How the map's columns map to azimuths ([`haze_view::distant::Layout`]).
+    pub layout: Layout,
+    /// The map turned about +Z by this many degrees, counter-clockwise seen from above.
+    pub turn_degrees: f64,
     /// Suns, lit exactly.
     pub sun: Vec<Sun>,
     /// Point lights, lit exactly.
@@ -176,7 +181,7 @@ impl Lights {
             );
         }
         note_map(&self.env, &map);
-        Ok(map)
+        Ok(map.turned(self.layout, self.turn_degrees))
     }
 
     /// The light in words ("the built-in sky and 1 sun"), as a choice's reasons name it.
@@ -260,6 +265,8 @@ mod tests {
         Lights {
             env: env.into(),
             no_sun_extraction: false,
+            layout: Default::default(),
+            turn_degrees: 0.0,
             sun,
             light: Vec::new(),
         }

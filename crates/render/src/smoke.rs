@@ -96,6 +96,8 @@ impl RenderOptions {
             env: Lights {
                 env: "sky".into(),
                 no_sun_extraction: false,
+                layout: Default::default(),
+                turn_degrees: 0.0,
                 sun: Vec::new(),
                 light: Vec::new(),
             },

@@ -12,6 +12,9 @@ use std::io::{BufRead, BufReader};
 use std::path::Path;
 
 pub use haze_core::Rgb;
+pub use turn::Layout;
+
+mod turn;
 
 /// Unit direction of polar angle `theta` (from +Z) and azimuth `phi` (from +X to +Y).
 pub fn direction(theta: f64, phi: f64) -> [f64; 3] {

@@ -171,6 +171,8 @@ mod tests {
             env: haze_render::lights::Lights {
                 env: "sky".into(),
                 no_sun_extraction: false,
+                layout: Default::default(),
+                turn_degrees: 0.0,
                 sun: Vec::new(),
                 light: Vec::new(),
             },
