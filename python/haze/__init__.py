@@ -209,6 +209,8 @@ def render(
     check: int = 0,
     supersample: Union[str, int] = "auto",
     ground: str = "auto",
+    env_layout: str = "haze",
+    env_rotate: float = 0.0,
 ) -> np.ndarray:
     """Render one frame of an asset or a volume (``haze render``).
 
@@ -244,6 +246,11 @@ def render(
         ground: ``"auto"``, ``"on"`` or ``"off"``: a ground under the smoke with its
             shadow, at the floor of the volume's box (``auto``: under the built-in
             skies, not under a map).
+        env_layout: ``"haze"`` (a map's column u at azimuth 360°·u from +X towards +Y)
+            or ``"blender"`` (as Blender's World reads an Environment Texture; read the
+            other way, the same map lights the smoke mirrored).
+        env_rotate: turn the map about +Z by this many degrees, counter-clockwise seen
+            from above.
 
     Returns:
         float32 array ``(height, width, 3)`` of linear radiance, row 0 at the top.
@@ -275,6 +282,8 @@ def render(
         check,
         supersample,
         ground,
+        env_layout,
+        float(env_rotate),
     )
 
 

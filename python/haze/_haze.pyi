@@ -62,6 +62,8 @@ def render(
     check: int = 0,
     supersample_: Union[str, int, None] = None,
     ground: str = "auto",
+    env_layout: str = "haze",
+    env_rotate: float = 0.0,
 ) -> npt.NDArray[np.float32]: ...
 def render_scene(
     scene: str,

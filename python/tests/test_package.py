@@ -290,6 +290,33 @@ def test_render_errors_are_haze_errors(tmp_path):
         haze.render(SCENES / "plume.haze", width=8, height=6, ground="maybe")
     with pytest.raises(haze.HazeError, match="suns"):
         haze.render(SCENES / "plume.haze", suns=[(0, 0, 1)])
+    with pytest.raises(haze.HazeError, match="env_layout"):
+        haze.render(SCENES / "plume.haze", width=8, height=6, env_layout="maya")
+    with pytest.raises(haze.HazeError, match="env_rotate"):
+        haze.render(SCENES / "plume.haze", width=8, height=6, env_rotate=float("nan"))
+
+
+def test_a_map_in_blenders_layout_is_the_command_lines(tmp_path):
+    import OpenEXR
+
+    # A dim sky and a sun at column 5 of 64, 20° up.
+    w, h = 64, 32
+    texels = np.full((h, w, 3), 0.25, np.float32)
+    texels[12, 5] = 512.0
+    path = tmp_path / "sun.exr"
+    OpenEXR.File({"type": OpenEXR.scanlineimage}, {"RGB": texels}).write(str(path))
+    asset = SCENES / "plume.haze"
+    kw = dict(width=24, height=18, env=path)
+    blender = haze.render(asset, env_layout="blender", env_rotate=15, **kw)
+    assert not np.array_equal(blender, haze.render(asset, **kw))
+    out = tmp_path / "cli.exr"
+    subprocess.run(
+        [haze_bin(), "render", str(asset), "--out", str(out), "--width", "24",
+         "--height", "18", "--env", str(path), "--env-layout", "blender",
+         "--env-rotate", "15", "-q"],
+        check=True,
+    )
+    np.testing.assert_array_equal(blender, read_exr(out))
 
 
 def test_a_scene_renders_from_its_file_and_from_a_dict():

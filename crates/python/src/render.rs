@@ -67,7 +67,8 @@ fn supersample(given: &Bound<'_, PyAny>) -> PyResult<Supersample> {
     input, frame=None, width=400, height=300, eye=None, target=None, up=[0.0, 0.0, 1.0],
     fov=40.0, env="sky".to_string(), suns_=Vec::new(), lights_=Vec::new(), sigma_t=4.0,
     albedo=0.8, g=0.3, multiple=true, residual=true, sh_order=4, gpu=false,
-    reference=false, spp=64, check=0, supersample_=None, ground="auto".to_string()
+    reference=false, spp=64, check=0, supersample_=None, ground="auto".to_string(),
+    env_layout="haze".to_string(), env_rotate=0.0
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn render<'py>(
@@ -95,12 +96,29 @@ pub fn render<'py>(
     check: usize,
     supersample_: Option<Bound<'py, PyAny>>,
     ground: String,
+    env_layout: String,
+    env_rotate: f64,
 ) -> PyResult<Bound<'py, PyArray3<f32>>> {
     let mut a = RenderOptions::new(&input, "haze.render");
     a.frame = frame;
     (a.width, a.height) = (width, height);
     (a.eye, a.target, a.up, a.fov) = (eye, target, up, fov);
     a.env.env = env;
+    a.env.layout = match env_layout.as_str() {
+        "haze" => haze_view::distant::Layout::Haze,
+        "blender" => haze_view::distant::Layout::Blender,
+        other => {
+            return Err(to_py(anyhow::anyhow!(
+                "env_layout: '{other}' is not 'haze' or 'blender'"
+            )));
+        }
+    };
+    if !env_rotate.is_finite() {
+        return Err(to_py(anyhow::anyhow!(
+            "env_rotate: {env_rotate} is not a finite angle in degrees"
+        )));
+    }
+    a.env.turn_degrees = env_rotate;
     a.env.sun = suns(suns_).map_err(to_py)?;
     a.env.light = lights(lights_).map_err(to_py)?;
     (a.sigma_t, a.albedo, a.g) = (sigma_t, albedo, g);
