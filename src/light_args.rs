@@ -32,6 +32,10 @@ pub struct LightArgs {
     /// above: what it shows at azimuth φ then lights from φ + DEG (its suns too).
     #[arg(long, default_value_t = 0.0, value_name = "DEG", allow_hyphen_values = true, value_parser = parse_degrees)]
     pub env_rotate: f64,
+    /// Multiply the map's radiance by S (as Blender's Background Strength does); the
+    /// suns split off it follow. --sun and --light are not scaled.
+    #[arg(long, default_value_t = 1.0, value_name = "S", value_parser = parse_strength)]
+    pub env_strength: f64,
     /// A sun, lit exactly (sharp shadows, the phase function at its true direction):
     /// the direction towards it, the radiance of its disk (RGB) and the disk's apparent
     /// diameter in degrees (default 0.53, the real sun's). An angle of 0 makes a
@@ -47,7 +51,7 @@ pub struct LightArgs {
 
 impl LightArgs {
     /// Each flag with whether it differs from `defaults` ([`crate::unused_flags`]).
-    pub fn given(&self, defaults: &LightArgs) -> [(&'static str, bool); 6] {
+    pub fn given(&self, defaults: &LightArgs) -> [(&'static str, bool); 7] {
         [
             (
                 "--env",
@@ -56,6 +60,7 @@ impl LightArgs {
             ("--no-sun-extraction", self.no_sun_extraction),
             ("--env-layout", self.env_layout != defaults.env_layout),
             ("--env-rotate", self.env_rotate != defaults.env_rotate),
+            ("--env-strength", self.env_strength != defaults.env_strength),
             ("--sun", !self.sun.is_empty()),
             ("--light", !self.light.is_empty()),
         ]
@@ -72,6 +77,7 @@ impl From<LightArgs> for Lights {
                 EnvLayout::Blender => Layout::Blender,
             },
             turn_degrees: a.env_rotate,
+            strength: a.env_strength,
             sun: a.sun,
             light: a.light,
         }
@@ -92,6 +98,14 @@ fn parse_degrees(s: &str) -> Result<f64, String> {
     match s.trim().parse::<f64>() {
         Ok(d) if d.is_finite() => Ok(d),
         _ => Err(format!("'{s}' is not a finite angle in degrees")),
+    }
+}
+
+/// A finite, non-negative factor.
+fn parse_strength(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(k) if k.is_finite() && k >= 0.0 => Ok(k),
+        _ => Err(format!("'{s}' is not a finite factor of at least 0")),
     }
 }
 

@@ -709,7 +709,8 @@ fn the_ground_hides_a_sun_below_the_horizon() {
 /// `--env-layout blender` reads a map as Blender's World does: the picture is, to the
 /// bit, the one lit by the map laid out in haze's convention by hand (column `x` of
 /// Blender's at column `w/2 − 1 − x` of haze's); `--env-rotate` turns the map and its
-/// split-off sun about +Z; a non-finite angle is refused.
+/// split-off sun about +Z; `--env-strength` scales its radiance; a non-finite angle and
+/// a negative strength are refused.
 #[test]
 fn a_map_is_read_in_blenders_layout_and_turned() {
     let dir = tempfile::tempdir().unwrap();
@@ -753,6 +754,16 @@ fn a_map_is_read_in_blenders_layout_and_turned() {
     let (plain, log) = render("plain.exr", &blender, &[]);
     assert!(log.contains("azimuth 30.9°"), "{log}");
     assert_ne!(plain, read, "the mirrored sky lights the smoke otherwise");
+    // --env-strength multiplies the map's radiance: the map written twice as bright.
+    let brighter = tmp(&dir, "brighter.exr");
+    exr::prelude::write_rgb_file(&brighter, w, h, |x, y| {
+        let (r, g, b) = texel(x, y);
+        (2.0 * r, 2.0 * g, 2.0 * b)
+    })
+    .unwrap();
+    let (doubled, _) = render("doubled.exr", &blender, &["--env-strength", "2"]);
+    let (written, _) = render("written.exr", &brighter, &[]);
+    assert_eq!(doubled, written);
     let (_, log) = render("turned.exr", &blender, &["--env-rotate", "-30.9"]);
     assert!(
         log.contains("azimuth 0.0°") || log.contains("azimuth 360.0°"),
@@ -766,6 +777,16 @@ fn a_map_is_read_in_blenders_layout_and_turned() {
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(
         err.contains("'nan' is not a finite angle in degrees"),
+        "{err}"
+    );
+    let o = haze()
+        .args(["render", vol.as_str(), "--env-strength", "-1"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("'-1' is not a finite factor of at least 0"),
         "{err}"
     );
 }

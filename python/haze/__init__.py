@@ -211,6 +211,7 @@ def render(
     ground: str = "auto",
     env_layout: str = "haze",
     env_rotate: float = 0.0,
+    env_strength: float = 1.0,
 ) -> np.ndarray:
     """Render one frame of an asset or a volume (``haze render``).
 
@@ -251,6 +252,7 @@ def render(
             other way, the same map lights the smoke mirrored).
         env_rotate: turn the map about +Z by this many degrees, counter-clockwise seen
             from above.
+        env_strength: multiply the map's radiance (Blender's Background Strength).
 
     Returns:
         float32 array ``(height, width, 3)`` of linear radiance, row 0 at the top.
@@ -284,6 +286,7 @@ def render(
         ground,
         env_layout,
         float(env_rotate),
+        float(env_strength),
     )
 
 

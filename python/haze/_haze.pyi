@@ -64,6 +64,7 @@ def render(
     ground: str = "auto",
     env_layout: str = "haze",
     env_rotate: float = 0.0,
+    env_strength: float = 1.0,
 ) -> npt.NDArray[np.float32]: ...
 def render_scene(
     scene: str,

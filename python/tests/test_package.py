@@ -294,6 +294,8 @@ def test_render_errors_are_haze_errors(tmp_path):
         haze.render(SCENES / "plume.haze", width=8, height=6, env_layout="maya")
     with pytest.raises(haze.HazeError, match="env_rotate"):
         haze.render(SCENES / "plume.haze", width=8, height=6, env_rotate=float("nan"))
+    with pytest.raises(haze.HazeError, match="env_strength"):
+        haze.render(SCENES / "plume.haze", width=8, height=6, env_strength=-1.0)
 
 
 def test_a_map_in_blenders_layout_is_the_command_lines(tmp_path):
@@ -307,13 +309,13 @@ def test_a_map_in_blenders_layout_is_the_command_lines(tmp_path):
     OpenEXR.File({"type": OpenEXR.scanlineimage}, {"RGB": texels}).write(str(path))
     asset = SCENES / "plume.haze"
     kw = dict(width=24, height=18, env=path)
-    blender = haze.render(asset, env_layout="blender", env_rotate=15, **kw)
+    blender = haze.render(asset, env_layout="blender", env_rotate=15, env_strength=1.5, **kw)
     assert not np.array_equal(blender, haze.render(asset, **kw))
     out = tmp_path / "cli.exr"
     subprocess.run(
         [haze_bin(), "render", str(asset), "--out", str(out), "--width", "24",
          "--height", "18", "--env", str(path), "--env-layout", "blender",
-         "--env-rotate", "15", "-q"],
+         "--env-rotate", "15", "--env-strength", "1.5", "-q"],
         check=True,
     )
     np.testing.assert_array_equal(blender, read_exr(out))

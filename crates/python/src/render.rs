@@ -68,7 +68,7 @@ fn supersample(given: &Bound<'_, PyAny>) -> PyResult<Supersample> {
     fov=40.0, env="sky".to_string(), suns_=Vec::new(), lights_=Vec::new(), sigma_t=4.0,
     albedo=0.8, g=0.3, multiple=true, residual=true, sh_order=4, gpu=false,
     reference=false, spp=64, check=0, supersample_=None, ground="auto".to_string(),
-    env_layout="haze".to_string(), env_rotate=0.0
+    env_layout="haze".to_string(), env_rotate=0.0, env_strength=1.0
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn render<'py>(
@@ -98,6 +98,7 @@ pub fn render<'py>(
     ground: String,
     env_layout: String,
     env_rotate: f64,
+    env_strength: f64,
 ) -> PyResult<Bound<'py, PyArray3<f32>>> {
     let mut a = RenderOptions::new(&input, "haze.render");
     a.frame = frame;
@@ -119,6 +120,12 @@ pub fn render<'py>(
         )));
     }
     a.env.turn_degrees = env_rotate;
+    if !(env_strength.is_finite() && env_strength >= 0.0) {
+        return Err(to_py(anyhow::anyhow!(
+            "env_strength: {env_strength} is not a finite factor of at least 0"
+        )));
+    }
+    a.env.strength = env_strength;
     a.env.sun = suns(suns_).map_err(to_py)?;
     a.env.light = lights(lights_).map_err(to_py)?;
     (a.sigma_t, a.albedo, a.g) = (sigma_t, albedo, g);

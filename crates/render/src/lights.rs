@@ -9,7 +9,7 @@
 //! and that sun lit exactly ([`SUN_IRRADIANCE`], the real sun's 0.53°). A `--sun` given
 //! replaces it; `--env glow` is the same sky with its glow only, no sun.
 
-use anyhow::{Result, bail};
+use anyhow::{Result, anyhow, bail};
 use haze_view::distant::Layout;
 use haze_view::ground::Ground;
 use haze_view::lights::decompose::{DecomposeOptions, Decomposition, decompose, map_power};
@@ -97,6 +97,8 @@ pub struct Lights {
     pub layout: Layout,
     /// The map turned about +Z by this many degrees, counter-clockwise seen from above.
     pub turn_degrees: f64,
+    /// The map's radiance times this (Blender's Background Strength); 1 as given.
+    pub strength: f64,
     /// Suns, lit exactly.
     pub sun: Vec<Sun>,
     /// Point lights, lit exactly.
@@ -180,8 +182,17 @@ impl Lights {
                 self.env
             );
         }
+        let map = map.turned(self.layout, self.turn_degrees);
+        let map = if self.strength == 1.0 {
+            map
+        } else {
+            let s = self.strength as f32;
+            let texels = map.texels.iter().map(|t| t.map(|c| c * s)).collect();
+            LatLong::new(map.width, map.height, texels)
+                .map_err(|e| anyhow!("{}: times --env-strength {}: {e}", self.env, self.strength))?
+        };
         note_map(&self.env, &map);
-        Ok(map.turned(self.layout, self.turn_degrees))
+        Ok(map)
     }
 
     /// The light in words ("the built-in sky and 1 sun"), as a choice's reasons name it.
@@ -267,6 +278,7 @@ mod tests {
             no_sun_extraction: false,
             layout: Default::default(),
             turn_degrees: 0.0,
+            strength: 1.0,
             sun,
             light: Vec::new(),
         }

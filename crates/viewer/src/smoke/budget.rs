@@ -173,6 +173,7 @@ mod tests {
                 no_sun_extraction: false,
                 layout: Default::default(),
                 turn_degrees: 0.0,
+                strength: 1.0,
                 sun: Vec::new(),
                 light: Vec::new(),
             },
