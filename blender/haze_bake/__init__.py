@@ -13,7 +13,8 @@ OpenVDB). On a domain:
   the finished frames, which the next bake of the same asset resumes.
 - **Preview** renders the current frame of the asset through the scene camera (or the
   default camera that frames the smoke) into the image "haze preview", shown in any open
-  Image Editor.
+  Image Editor, lit by the World's equirectangular Environment Texture as Blender shows
+  it (``world_lighting``), or else by haze's built-in sky and sun.
 - **Load as Volume** writes the asset's frames, as every renderer reconstructs them, to
   an OpenVDB sequence beside it (``<asset>_vdb/density_NNNN.vdb``) and loads that into the
   scene as the Volume object "<asset> (haze)", frame for frame with the cache: the bake
@@ -444,16 +445,77 @@ class HAZE_OT_preview(_OnSource, bpy.types.Operator):
         w, h = settings.preview_width, settings.preview_height
         try:
             camera = preview_camera(scene.camera, context.object, w, h)
+            lighting, lit_by = world_lighting(scene.world)
             frames = haze.Asset(path).frames
             frame = shown_frame(scene, context.object)
             frame = frame if frame in frames else frames[0]
-            image = haze.render(path, frame, width=w, height=h, **camera)
+            image = haze.render(path, frame, width=w, height=h, **camera, **lighting)
         except (haze.HazeError, RuntimeError) as e:
             self.report({"ERROR"}, str(e))
             return {"CANCELLED"}
         show(image, "haze preview")
-        self.report({"INFO"}, f"haze preview: {path} frame {frame}")
+        self.report({"INFO"}, f"haze preview: {path} frame {frame}, lit by {lit_by}")
         return {"FINISHED"}
+
+
+def world_lighting(world):
+    """``haze.render``'s lighting arguments for the World ``world``, and what lights the
+    preview in words. A World whose Background takes its colour from an Environment
+    Texture (equirectangular, an image file), directly or through a Mapping node that
+    only turns about Z, lights the preview with that map as Blender shows it: read in
+    Blender's layout (``env_layout="blender"``), turned by the Mapping's Z rotation
+    (Point, Vector and Normal mappings look the map up at the rotated direction, so the
+    map turns the other way: ``env_rotate`` is minus the angle; Texture mappings turn it
+    by the angle), times the Background's Strength. Anything else (no World, a plain
+    colour, a sky texture, other nodes between) leaves haze's built-in sky and its sun,
+    and says why."""
+    builtin = {}, "haze's built-in sky and sun"
+    # Before Blender 5 a World could keep a node tree it does not use.
+    unused = bpy.app.version < (5, 0, 0) and not world.use_nodes if world is not None else False
+    if world is None or unused or world.node_tree is None:
+        return builtin[0], builtin[1] + " (the World has no shader nodes)"
+    nodes = world.node_tree.nodes
+    out = next((n for n in nodes if n.type == "OUTPUT_WORLD" and n.is_active_output), None)
+    out = out or next((n for n in nodes if n.type == "OUTPUT_WORLD"), None)
+
+    def source(socket):
+        return socket.links[0].from_node if socket.is_linked else None
+
+    bg = source(out.inputs["Surface"]) if out is not None else None
+    if bg is None or bg.type != "BACKGROUND" or bg.inputs["Strength"].is_linked:
+        return builtin[0], builtin[1] + " (the World is not a Background node of fixed strength)"
+    env = source(bg.inputs["Color"])
+    if env is None or env.type != "TEX_ENVIRONMENT":
+        return builtin[0], builtin[1] + " (the World's Background takes no Environment Texture)"
+    image = env.image
+    if env.projection != "EQUIRECTANGULAR" or image is None or image.source != "FILE" or image.packed_file:
+        return builtin[0], builtin[1] + " (the World's Environment Texture is not an equirectangular image file)"
+    path = bpy.path.abspath(image.filepath, library=image.library)
+    turn = 0.0
+    mapping = source(env.inputs["Vector"])
+    if mapping is not None:
+        if mapping.type != "MAPPING":
+            return builtin[0], builtin[1] + f" (the Environment Texture's vector comes from a {mapping.type} node)"
+        inputs = mapping.inputs
+        loose = [i for i in inputs[1:] if i.is_linked]
+        rotation = inputs["Rotation"].default_value
+        scale = inputs["Scale"].default_value
+        offset = inputs["Location"].default_value if "Location" in inputs else (0.0, 0.0, 0.0)
+        fed = source(inputs["Vector"])
+        turns_only = (
+            not loose
+            and abs(rotation[0]) < 1e-9
+            and abs(rotation[1]) < 1e-9
+            and all(abs(c - 1.0) < 1e-9 for c in scale)
+            and (mapping.vector_type != "POINT" or all(abs(c) < 1e-9 for c in offset))
+            and (fed is None or (fed.type == "TEX_COORD" and inputs["Vector"].links[0].from_socket.name == "Generated"))
+        )
+        if not turns_only:
+            return builtin[0], builtin[1] + " (the World's Mapping node does more than turn about Z)"
+        turn = math.degrees(rotation[2]) * (1.0 if mapping.vector_type == "TEXTURE" else -1.0)
+    strength = float(bg.inputs["Strength"].default_value)
+    lighting = dict(env=path, env_layout="blender", env_rotate=turn, env_strength=strength)
+    return lighting, f"the World's map {os.path.basename(path)} (turned {turn:.1f}°, strength {strength:g})"
 
 
 def preview_camera(cam, obj, width, height):

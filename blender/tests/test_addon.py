@@ -132,6 +132,7 @@ def main():
         f"max diff {np.abs(shown - want).max()}",
     )
     check("the smoke shows in the preview", np.ptp(want.mean(-1)) > 1e-3)
+    world_preview_checks(work, scene, out, asset.frames[-1], cam)
 
     # Load as Volume: the frames as an OpenVDB sequence beside the asset, played by a
     # Volume object frame for frame.
@@ -311,6 +312,66 @@ def main():
     volume_source_checks(work)
     print(f"{passed} passed, 0 failed in {time.monotonic() - START:.2f}s", flush=True)
     os._exit(0)
+
+
+def world_preview_checks(work, scene, out, frame, cam):
+    """Preview lit by the World: an Environment Texture turned by a Mapping node and a
+    Background Strength reach haze as Blender shows them; a World haze cannot read
+    leaves its built-in sky, said."""
+    w, h = 64, 32
+    img = bpy.data.images.new("sky", w, h, float_buffer=True)
+    px = np.full((h, w, 4), 0.3, np.float32)
+    px[20, 10] = (400.0, 380.0, 350.0, 1.0)  # a sun, 20° up (Blender's rows from the bottom)
+    px[..., 3] = 1.0
+    img.pixels.foreach_set(px.ravel())
+    img.filepath_raw = str(work / "sky.exr")
+    img.file_format = "OPEN_EXR"
+    img.save()
+    world = bpy.data.worlds.new("haze test world")
+    if bpy.app.version < (5, 0, 0):
+        world.use_nodes = True
+    nt = world.node_tree
+    bg = nt.nodes["Background"]
+    bg.inputs["Strength"].default_value = 2.5
+    env = nt.nodes.new("ShaderNodeTexEnvironment")
+    env.image = bpy.data.images.load(str(work / "sky.exr"))
+    mapping = nt.nodes.new("ShaderNodeMapping")
+    mapping.inputs["Rotation"].default_value = (0.0, 0.0, math.radians(30.0))
+    nt.links.new(mapping.outputs["Vector"], env.inputs["Vector"])
+    nt.links.new(env.outputs["Color"], bg.inputs["Color"])
+    scene.world = world
+    lighting, said = haze_bake.world_lighting(world)
+    check(
+        "the World's map is read in Blender's layout, turned back by its Mapping, scaled",
+        lighting.get("env_layout") == "blender"
+        and abs(lighting.get("env_rotate", 0.0) + 30.0) < 1e-4
+        and lighting.get("env_strength") == 2.5
+        and os.path.samefile(lighting.get("env", "/"), work / "sky.exr"),
+        f"{lighting} {said}",
+    )
+    result = bpy.ops.haze.preview()
+    shown = np.empty(64 * 48 * 4, dtype=np.float32)
+    bpy.data.images["haze preview"].pixels.foreach_get(shown)
+    shown = shown.reshape(48, 64, 4)[::-1, :, :3]
+    camera = haze_bake.preview_camera(cam, None, 64, 48)
+    want = haze.render(out, frame, width=64, height=48, **camera, **lighting)
+    check(
+        "the preview is lit by the World's map",
+        result == {"FINISHED"} and np.allclose(shown, want, rtol=1e-5, atol=1e-6),
+        f"{result} max diff {np.abs(shown - want).max()}",
+    )
+    sky = bpy.data.worlds.new("haze test sky")
+    if bpy.app.version < (5, 0, 0):
+        sky.use_nodes = True
+    texture = sky.node_tree.nodes.new("ShaderNodeTexSky")
+    sky.node_tree.links.new(texture.outputs["Color"], sky.node_tree.nodes["Background"].inputs["Color"])
+    lighting, said = haze_bake.world_lighting(sky)
+    check(
+        "a World haze cannot read leaves the built-in sky, and says why",
+        lighting == {} and "takes no Environment Texture" in said,
+        f"{lighting} {said}",
+    )
+    scene.world = None
 
 
 def foreign_sequence(folder):
