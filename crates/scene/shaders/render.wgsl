@@ -556,10 +556,11 @@ fn environment(d: vec3<f32>) -> vec3<f32> {
     if (kind == 3u) {
         return env_map(d);
     }
-    var out = vec3<f32>(0.25, 0.22, 0.2);
-    if (d.z >= 0.0) {
-        out = vec3<f32>(0.8, 0.85, 0.9) * (1.0 - d.z) + vec3<f32>(0.25, 0.45, 0.9) * d.z;
+    // Below the horizon the ground, which the glow does not reach (`Environment::radiance`).
+    if (d.z < 0.0) {
+        return vec3<f32>(0.25, 0.22, 0.2);
     }
+    let out = vec3<f32>(0.8, 0.85, 0.9) * (1.0 - d.z) + vec3<f32>(0.25, 0.45, 0.9) * d.z;
     let n = sqrt(0.25 + 0.09 + 0.64);
     let c = max(dot(d, vec3<f32>(0.5, 0.3, 0.8) / n), 0.0);
     let c2 = c * c;

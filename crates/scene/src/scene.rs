@@ -76,8 +76,9 @@ pub enum Environment {
 impl Environment {
     /// Radiance arriving from the unit direction `d` (pointing away from the scene). The
     /// sky blends horizon `(0.8, 0.85, 0.9)` to zenith `(0.25, 0.45, 0.9)` with `cos θ`
-    /// above the horizon, ground `(0.25, 0.22, 0.2)` below, plus a glow
-    /// `(4, 3.6, 3)·max(0, d·s)⁸` around `s ∝ (0.5, 0.3, 0.8)` — the sky of crates/view.
+    /// above the horizon plus a glow `(4, 3.6, 3)·max(0, d·s)⁸` around
+    /// `s ∝ (0.5, 0.3, 0.8)`, and ground `(0.25, 0.22, 0.2)` below, which the glow does not
+    /// reach — the sky of crates/view.
     pub fn radiance(&self, d: Vec3) -> Rgb {
         match self {
             Environment::Black => [0.0; 3],
@@ -86,11 +87,11 @@ impl Environment {
             Environment::Sky => {
                 let (zenith, horizon, ground) =
                     ([0.25, 0.45, 0.9], [0.8, 0.85, 0.9], [0.25, 0.22, 0.2]);
-                let mut out: Rgb = if d[2] >= 0.0 {
-                    [0, 1, 2].map(|c| horizon[c] * (1.0 - d[2]) + zenith[c] * d[2])
-                } else {
-                    ground
-                };
+                // Below the horizon the ground, which the glow does not reach.
+                if d[2] < 0.0 {
+                    return ground;
+                }
+                let mut out: Rgb = [0, 1, 2].map(|c| horizon[c] * (1.0 - d[2]) + zenith[c] * d[2]);
                 let n = (0.25f64 + 0.09 + 0.64).sqrt();
                 let c = (dot(d, [0.5 / n, 0.3 / n, 0.8 / n])).max(0.0);
                 let glow = c.powi(8);

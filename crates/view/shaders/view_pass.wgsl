@@ -226,10 +226,11 @@ fn sky(d: vec3<f32>) -> vec3<f32> {
         return p.zenith;
     }
     let u = d / n;
-    var out = p.ground;
-    if u.z >= 0.0 {
-        out = mix(p.horizon, p.zenith, u.z);
+    // Below the horizon the ground, which the glow does not reach (`distant::Sky`).
+    if u.z < 0.0 {
+        return p.ground;
     }
+    let out = mix(p.horizon, p.zenith, u.z);
     let c = max(dot(u, p.sun_direction), 0.0);
     var glow = 0.0;
     if c > 0.0 {
