@@ -34,6 +34,14 @@ fn fails(args: &[&str], needle: &str) {
     );
 }
 
+/// A flag's value refused as typed: clap's usage error (exit 2), on one line naming it.
+fn refused_as_typed(args: &[&str], needle: &str) {
+    let o = haze().args(args).output().unwrap();
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+    assert!(err.lines().count() == 1 && err.contains(needle), "{err}");
+}
+
 fn read_exr(path: &Path, w: usize, h: usize) -> Vec<[f32; 3]> {
     use exr::prelude::*;
     let image = read_first_rgba_layer_from_file(
@@ -478,13 +486,7 @@ fn suns_lights_and_a_maps_sun_reach_the_render() {
             "light intensity 2e30 is above 1e30",
         ),
     ] {
-        let o = haze()
-            .args(["render", vol.as_str(), flag, value])
-            .output()
-            .unwrap();
-        let err = String::from_utf8(o.stderr).unwrap();
-        assert_eq!(o.status.code(), Some(2), "{err}");
-        assert!(err.lines().count() == 1 && err.contains(needle), "{err}");
+        refused_as_typed(&["render", vol.as_str(), flag, value], needle);
     }
     // A lat-long map, dim sky with a small bright sun.
     let (w, h) = (64usize, 32usize);
@@ -769,24 +771,18 @@ fn a_map_is_read_in_blenders_layout_and_turned() {
         log.contains("azimuth 0.0°") || log.contains("azimuth 360.0°"),
         "{log}"
     );
-    let o = haze()
-        .args(["render", vol.as_str(), "--env-rotate", "nan"])
-        .output()
-        .unwrap();
-    let err = String::from_utf8(o.stderr).unwrap();
-    assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(
-        err.contains("'nan' is not a finite angle in degrees"),
-        "{err}"
-    );
-    let o = haze()
-        .args(["render", vol.as_str(), "--env-strength", "-1"])
-        .output()
-        .unwrap();
-    let err = String::from_utf8(o.stderr).unwrap();
-    assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(
-        err.contains("'-1' is not a finite factor of at least 0"),
-        "{err}"
-    );
+    for (flag, value, needle) in [
+        (
+            "--env-rotate",
+            "nan",
+            "'nan' is not a finite angle in degrees",
+        ),
+        (
+            "--env-strength",
+            "-1",
+            "'-1' is not a finite factor of at least 0",
+        ),
+    ] {
+        refused_as_typed(&["render", vol.as_str(), flag, value], needle);
+    }
 }
