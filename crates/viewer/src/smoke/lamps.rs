@@ -9,14 +9,12 @@
 //! [`near_light::NEAR_SHARE_WARNING`]; the viewer says the same in its panel and its log,
 //! per picture: the share depends on the frame's density, σt and the light's position,
 //! so each frame is measured once per σt and set of lights (a few milliseconds: 256
-//! shadow marches a light) on the density the asset reconstructs (RBFs plus residual, the
-//! same as the thick voxels' measure, `thick` module).
+//! shadow marches a light) on the density the asset reconstructs (RBFs plus residual),
+//! the one evaluation the thick voxels' measure takes too (`thick::FrameDensity`).
 
-use super::thick::density;
+use super::thick::FrameDensity;
 use haze_view::lights::PointLight;
 use haze_view::render::near_light;
-use haze_view::stream::StreamFrame;
-use haze_volume::{Bbox, Volume};
 use std::collections::HashMap;
 
 /// The share of each point light's first scattering near it, for one picture.
@@ -55,18 +53,14 @@ type Key = (u64, Vec<[u64; 3]>);
 pub struct LampCheck {
     /// The shares measured so far, by the frame's index in the asset, with their key.
     measured: HashMap<usize, (Key, Lamps)>,
-    /// The last frame's density (its index), kept while σt or a light changes on it.
-    density: Option<(usize, Volume)>,
 }
 
 impl LampCheck {
-    /// The shares of `lights` in `frame` (on a `dims` grid over `bbox`) at `sigma_t`:
-    /// none without point lights. Errors: a damaged frame.
+    /// The shares of `lights` in the frame of `density` at `sigma_t`: none without
+    /// point lights. Errors: a damaged frame.
     pub fn check(
         &mut self,
-        frame: &StreamFrame,
-        dims: [usize; 3],
-        bbox: Bbox,
+        density: &mut FrameDensity<'_>,
         sigma_t: f64,
         lights: &[PointLight],
     ) -> Result<Lamps, String> {
@@ -80,15 +74,12 @@ impl LampCheck {
                 .map(|l| l.position.map(f64::to_bits))
                 .collect(),
         );
-        if let Some((k, lamps)) = self.measured.get(&frame.index)
+        if let Some((k, lamps)) = self.measured.get(&density.index())
             && *k == key
         {
             return Ok(lamps.clone());
         }
-        if self.density.as_ref().is_none_or(|(i, _)| *i != frame.index) {
-            self.density = Some((frame.index, density(frame, dims, bbox)?));
-        }
-        let (_, volume) = self.density.as_ref().expect("kept above");
+        let volume = density.get()?;
         let lamps = Lamps {
             shares: lights
                 .iter()
@@ -98,7 +89,7 @@ impl LampCheck {
                 })
                 .collect(),
         };
-        self.measured.insert(frame.index, (key, lamps.clone()));
+        self.measured.insert(density.index(), (key, lamps.clone()));
         Ok(lamps)
     }
 }
@@ -106,7 +97,8 @@ impl LampCheck {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use haze_volume::Rbf;
+    use haze_view::stream::StreamFrame;
+    use haze_volume::{Bbox, Rbf};
 
     /// One dense Gaussian puff of radius 0.25 in the unit box.
     fn frame(index: usize) -> StreamFrame {
@@ -140,7 +132,11 @@ mod tests {
         let outside = lamp([0.5, 0.5, 3.0]);
         let mut check = LampCheck::default();
         let lamps = check
-            .check(&f, dims, bbox, 20.0, &[inside.clone(), outside.clone()])
+            .check(
+                &mut FrameDensity::new(&f, dims, bbox),
+                20.0,
+                &[inside.clone(), outside.clone()],
+            )
             .unwrap();
         let lines: Vec<_> = lamps.lines().collect();
         assert_eq!(lines.len(), 2);
@@ -157,19 +153,27 @@ mod tests {
             vec![(inside.position, lines[0].0.clone())]
         );
         // The measure itself, on the density the frame reconstructs.
-        let d = density(&f, dims, bbox).unwrap();
-        let share = near_light::near_share(&d, 20.0, inside.position);
+        let mut d = FrameDensity::new(&f, dims, bbox);
+        let share = near_light::near_share(d.get().unwrap(), 20.0, inside.position);
         assert!(share > near_light::NEAR_SHARE_WARNING, "{share}");
         assert_eq!(lamps.shares[0].1, share);
         assert_eq!(lamps.shares[1].1, 0.0, "its rays meet no smoke");
         // Thinner smoke scatters less of the lamp's light near it; a moved lamp is
         // measured where it is.
         let thin = check
-            .check(&f, dims, bbox, 0.5, std::slice::from_ref(&inside))
+            .check(
+                &mut FrameDensity::new(&f, dims, bbox),
+                0.5,
+                std::slice::from_ref(&inside),
+            )
             .unwrap();
         assert!(thin.shares[0].1 < share, "{thin:?}");
         let moved = check
-            .check(&f, dims, bbox, 20.0, std::slice::from_ref(&outside))
+            .check(
+                &mut FrameDensity::new(&f, dims, bbox),
+                20.0,
+                std::slice::from_ref(&outside),
+            )
             .unwrap();
         assert!(moved.warnings().is_empty() && moved.shares[0].0 == outside.position);
     }
@@ -179,13 +183,19 @@ mod tests {
     fn no_lamp_or_no_smoke_says_nothing() {
         let (dims, bbox) = ([8, 8, 8], Bbox::new([0.0; 3], [1.0; 3]));
         let mut check = LampCheck::default();
-        let none = check.check(&frame(0), dims, bbox, 4.0, &[]).unwrap();
+        let f = frame(0);
+        let mut d = FrameDensity::new(&f, dims, bbox);
+        let none = check.check(&mut d, 4.0, &[]).unwrap();
         assert_eq!(none, Lamps::default());
-        assert!(check.density.is_none(), "nothing to measure");
+        assert!(!d.evaluated(), "nothing to measure");
         let mut empty = frame(1);
         empty.rbfs[0].weight = 0.0;
         let dark = check
-            .check(&empty, dims, bbox, 4.0, &[lamp([0.5; 3])])
+            .check(
+                &mut FrameDensity::new(&empty, dims, bbox),
+                4.0,
+                &[lamp([0.5; 3])],
+            )
             .unwrap();
         assert!(dark.warnings().is_empty());
         assert_eq!(dark.shares[0].1, 0.0);

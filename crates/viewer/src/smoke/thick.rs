@@ -100,15 +100,14 @@ impl Refiner {
     /// resampled to the finer grid. Errors: a damaged frame.
     pub fn prepare(
         &mut self,
-        frame: &StreamFrame,
-        dims: [usize; 3],
-        bbox: Bbox,
+        density: &mut FrameDensity<'_>,
         sigma_t: f64,
     ) -> Result<(Grid, Option<&[f32]>), String> {
+        let (frame, dims, bbox) = (density.frame, density.dims, density.bbox);
         let depth = match self.depth.get(&frame.index) {
             Some(d) => *d,
             None => {
-                let d = supersample::tau_per_voxel(&density(frame, dims, bbox)?, 1.0);
+                let d = supersample::tau_per_voxel(density.get()?, 1.0);
                 self.depth.insert(frame.index, d);
                 d
             }
@@ -138,8 +137,48 @@ impl Refiner {
     }
 }
 
+/// The density a frame reconstructs, computed once when first asked for (by the thick
+/// voxels' measure or the lamps' share: one evaluation a picture serves both).
+pub struct FrameDensity<'a> {
+    frame: &'a StreamFrame,
+    dims: [usize; 3],
+    bbox: Bbox,
+    volume: Option<haze_volume::Volume>,
+}
+
+impl<'a> FrameDensity<'a> {
+    /// `frame` on a `dims` grid over `bbox`, not evaluated yet.
+    pub fn new(frame: &'a StreamFrame, dims: [usize; 3], bbox: Bbox) -> FrameDensity<'a> {
+        FrameDensity {
+            frame,
+            dims,
+            bbox,
+            volume: None,
+        }
+    }
+
+    /// The frame's index in the asset.
+    pub fn index(&self) -> usize {
+        self.frame.index
+    }
+
+    /// The density was evaluated.
+    #[cfg(test)]
+    pub fn evaluated(&self) -> bool {
+        self.volume.is_some()
+    }
+
+    /// The density, evaluated the first time. Errors: a damaged frame.
+    pub fn get(&mut self) -> Result<&haze_volume::Volume, String> {
+        match &mut self.volume {
+            Some(v) => Ok(v),
+            slot => Ok(slot.insert(density(self.frame, self.dims, self.bbox)?)),
+        }
+    }
+}
+
 /// The density `frame` reconstructs (RBFs plus residual, negatives clamped).
-pub(super) fn density(
+fn density(
     frame: &StreamFrame,
     dims: [usize; 3],
     bbox: Bbox,
@@ -182,11 +221,15 @@ mod tests {
         let d99 = supersample::tau_per_voxel(&density(&f, dims, unit()).unwrap(), 1.0);
         assert!(d99 > 0.0 && d99 < 2.0 / 8.0 + 1e-9, "{d99}");
         let mut r = Refiner::new(Supersample::Auto, usize::MAX);
-        let (thin, fine) = r.prepare(&f, dims, unit(), 0.5 / d99).unwrap();
+        let (thin, fine) = r
+            .prepare(&mut FrameDensity::new(&f, dims, unit()), 0.5 / d99)
+            .unwrap();
         assert_eq!(thin.n, 1);
         assert!((thin.tau - 0.5).abs() < 1e-12);
         assert!(fine.is_none() && thin.thin_enough() && thin.warning().is_none());
-        let (thick, fine) = r.prepare(&f, dims, unit(), 2.5 / d99).unwrap();
+        let (thick, fine) = r
+            .prepare(&mut FrameDensity::new(&f, dims, unit()), 2.5 / d99)
+            .unwrap();
         assert_eq!(thick.n, 3, "τ 2.5 needs 3× to reach 1.1");
         assert_eq!(fine.unwrap().len(), 24 * 24 * 24);
         assert!(thick.thin_enough());
@@ -199,7 +242,9 @@ mod tests {
     fn a_fixed_factor_is_kept_and_warned_about() {
         let dims = [8, 8, 8];
         let mut r = Refiner::new(Supersample::Times(1), usize::MAX);
-        let (g, fine) = r.prepare(&frame(2.0), dims, unit(), 1e3).unwrap();
+        let (g, fine) = r
+            .prepare(&mut FrameDensity::new(&frame(2.0), dims, unit()), 1e3)
+            .unwrap();
         assert_eq!(g.n, 1);
         assert!(fine.is_none());
         assert!(g.warning().unwrap().contains("too dark"));
@@ -213,12 +258,21 @@ mod tests {
     fn extremes_stay_finite() {
         let dims = [4, 4, 4];
         let mut r = Refiner::new(Supersample::Auto, usize::MAX);
-        let (g, _) = r.prepare(&frame(0.0), dims, unit(), 4.0).unwrap();
+        let (g, _) = r
+            .prepare(&mut FrameDensity::new(&frame(0.0), dims, unit()), 4.0)
+            .unwrap();
         assert_eq!((g.n, g.tau), (1, 0.0));
         let mut r = Refiner::new(Supersample::Auto, usize::MAX);
-        let (g, _) = r.prepare(&frame(1.0), dims, unit(), 0.0).unwrap();
+        let (g, _) = r
+            .prepare(&mut FrameDensity::new(&frame(1.0), dims, unit()), 0.0)
+            .unwrap();
         assert_eq!(g.n, 1);
-        let (g, fine) = r.prepare(&frame(1.0), dims, unit(), f64::INFINITY).unwrap();
+        let (g, fine) = r
+            .prepare(
+                &mut FrameDensity::new(&frame(1.0), dims, unit()),
+                f64::INFINITY,
+            )
+            .unwrap();
         assert_eq!(g.n, supersample::MAX_FACTOR);
         assert!(!g.thin_enough() && fine.is_some());
     }

@@ -10,7 +10,7 @@ use super::detail;
 use super::frame::{FrameImage, FrameRenderer, StageTimes};
 use super::lamps::{LampCheck, Lamps};
 use super::playback::Tick;
-use super::thick::{Grid, Refiner};
+use super::thick::{FrameDensity, Grid, Refiner};
 use haze_gpu::GpuContext;
 use haze_render::smoke::Supersample;
 use haze_view::gpu::GridBuffer;
@@ -287,8 +287,10 @@ fn run_job(
             let (dims, bbox) = cursor.stream().grid();
             let frame = cursor.get(job.frame)?;
             let sigma_t = job.scene.medium.sigma_t;
-            let lit_by = lamps.check(frame, dims, bbox, sigma_t, &job.scene.env.points)?;
-            let (grid, fine) = refiner.prepare(frame, dims, bbox, sigma_t)?;
+            // One evaluation of the frame's density serves both measures.
+            let mut density = FrameDensity::new(frame, dims, bbox);
+            let lit_by = lamps.check(&mut density, sigma_t, &job.scene.env.points)?;
+            let (grid, fine) = refiner.prepare(&mut density, sigma_t)?;
             let mut scene = job.scene.clone();
             if job.at_floor {
                 let floor = detail::floor(grid.tau / grid.n.max(1) as f64);
