@@ -11,6 +11,7 @@ use crate::mesh::model;
 use crate::scene::{Environment, Light, Material, Medium, Rgb, Scene, Shape, Surface};
 use crate::vec3::{Vec3, normalize};
 use haze_view::LatLong;
+use haze_view::distant::Layout;
 use serde::Deserialize;
 use serde::de::DeserializeOwned;
 use serde_json::Value;
@@ -318,9 +319,29 @@ fn non_negative(what: &str, v: &[f64]) -> Result<(), String> {
     }
 }
 
-/// `null`, `"sky"`, `[r, g, b]` or a lat-long `.exr` or `.hdr` map, its path relative to
-/// `base` (read by crates/view's [`LatLong::load`]); `[0, 0, 0]` is black, as `null` (no
-/// environment terms computed, no warning about them).
+/// A map with how to read it: `{"map": "ENV.exr", "layout": "haze" | "blender",
+/// "rotate": degrees, "strength": s}` (`haze render --env-layout`, `--env-rotate`,
+/// `--env-strength`; docs/conventions.md).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MapSpec {
+    map: String,
+    #[serde(default)]
+    layout: Option<String>,
+    #[serde(default)]
+    rotate: f64,
+    #[serde(default = "one")]
+    strength: f64,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+/// `null`, `"sky"`, `[r, g, b]`, a lat-long `.exr` or `.hdr` map, its path relative to
+/// `base` (read by crates/view's [`LatLong::load`]), or a map with its layout, turn and
+/// strength ([`MapSpec`]); `[0, 0, 0]` is black, as `null` (no environment terms
+/// computed, no warning about them).
 fn environment(v: &Value, base: &Path) -> Result<Environment, String> {
     match v {
         Value::Null => Ok(Environment::Black),
@@ -330,19 +351,45 @@ fn environment(v: &Value, base: &Path) -> Result<Environment, String> {
                 .iter()
                 .any(|e| s.to_ascii_lowercase().ends_with(e)) =>
         {
-            let path = base.join(s);
-            if !path.is_file() {
+            load_map(s, base).map(|m| Environment::Map(Arc::new(m)))
+        }
+        Value::Object(_) => {
+            let spec: MapSpec = typed(v).map_err(|e| format!("environment: {e}"))?;
+            let layout = match spec.layout.as_deref() {
+                None | Some("haze") => Layout::Haze,
+                Some("blender") => Layout::Blender,
+                Some(other) => {
+                    return Err(format!(
+                        "environment: layout \"{other}\" must be \"haze\" or \"blender\""
+                    ));
+                }
+            };
+            if !spec.rotate.is_finite() {
                 return Err(format!(
-                    "environment \"{s}\": no such environment map {}",
-                    path.display()
+                    "environment: rotate {} must be finite",
+                    spec.rotate
                 ));
             }
-            LatLong::load(&path)
+            if !(spec.strength.is_finite() && spec.strength >= 0.0) {
+                return Err(format!(
+                    "environment: strength {} must be finite and non-negative",
+                    spec.strength
+                ));
+            }
+            let map = load_map(&spec.map, base)?.turned(layout, spec.rotate);
+            let s = spec.strength as f32;
+            let texels = map.texels.iter().map(|t| t.map(|c| c * s)).collect();
+            LatLong::new(map.width, map.height, texels)
                 .map(|m| Environment::Map(Arc::new(m)))
-                .map_err(|e| format!("environment \"{s}\": {}", e.problem))
+                .map_err(|e| {
+                    format!(
+                        "environment \"{}\" times strength {}: {e}",
+                        spec.map, spec.strength
+                    )
+                })
         }
         Value::String(s) => Err(format!(
-            "environment \"{s}\" must be \"sky\", an .exr or .hdr map, [r, g, b] or null"
+            "environment \"{s}\" must be \"sky\", an .exr or .hdr map, {{\"map\": …}}, [r, g, b] or null"
         )),
         _ => {
             let c: Rgb = typed(v).map_err(|e| format!("environment: {e}"))?;
@@ -354,6 +401,18 @@ fn environment(v: &Value, base: &Path) -> Result<Environment, String> {
             })
         }
     }
+}
+
+/// The lat-long map at `name`, relative to `base`.
+fn load_map(name: &str, base: &Path) -> Result<LatLong, String> {
+    let path = base.join(name);
+    if !path.is_file() {
+        return Err(format!(
+            "environment \"{name}\": no such environment map {}",
+            path.display()
+        ));
+    }
+    LatLong::load(&path).map_err(|e| format!("environment \"{name}\": {}", e.problem))
 }
 
 fn light(v: &Value) -> Result<Light, String> {
@@ -527,6 +586,57 @@ fn surface(v: &Value, base: &Path) -> Result<Vec<Surface>, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A map with its layout, turn and strength is the plain map read so (`LatLong::turned`,
+    /// then scaled); a bad layout, a non-finite turn, a negative strength and an unknown
+    /// key are named.
+    #[test]
+    fn a_map_takes_its_layout_turn_and_strength() {
+        let dir = tempfile::tempdir().unwrap();
+        let image = haze_view::Image {
+            width: 8,
+            height: 4,
+            pixels: (0..32).map(|i| [i as f32, 1.0, 0.5]).collect(),
+        };
+        image.write_exr(&dir.path().join("env.exr")).unwrap();
+        let read = |v: Value| environment(&v, dir.path());
+        let Ok(Environment::Map(plain)) = read(serde_json::json!("env.exr")) else {
+            panic!("the plain map")
+        };
+        let spec =
+            serde_json::json!({"map": "env.exr", "layout": "blender", "rotate": 45, "strength": 2});
+        let Ok(Environment::Map(read_so)) = read(spec) else {
+            panic!("the map read so")
+        };
+        let want = plain.turned(Layout::Blender, 45.0);
+        let doubled: Vec<[f32; 3]> = want.texels.iter().map(|t| t.map(|c| 2.0 * c)).collect();
+        assert_eq!(read_so.texels, doubled);
+        let Ok(Environment::Map(same)) = read(serde_json::json!({"map": "env.exr"})) else {
+            panic!("defaults")
+        };
+        assert_eq!(*same, *plain);
+        for (bad, needle) in [
+            (
+                serde_json::json!({"map": "env.exr", "layout": "maya"}),
+                "layout \"maya\" must be",
+            ),
+            (
+                serde_json::json!({"map": "env.exr", "strength": -1}),
+                "strength -1 must be",
+            ),
+            (
+                serde_json::json!({"map": "env.exr", "turn": 3}),
+                "unknown field `turn`",
+            ),
+            (
+                serde_json::json!({"map": "gone.exr"}),
+                "no such environment map",
+            ),
+        ] {
+            let e = read(bad).unwrap_err();
+            assert!(e.contains(needle), "{e}");
+        }
+    }
 
     const GOOD: &str = r#"{
         "camera": {"eye": [0, -5, 1], "target": [0, 0, 1], "fov": 50, "width": 8, "height": 6},
