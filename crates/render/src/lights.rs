@@ -183,14 +183,9 @@ impl Lights {
             );
         }
         let map = map.turned(self.layout, self.turn_degrees);
-        let map = if self.strength == 1.0 {
-            map
-        } else {
-            let s = self.strength as f32;
-            let texels = map.texels.iter().map(|t| t.map(|c| c * s)).collect();
-            LatLong::new(map.width, map.height, texels)
-                .map_err(|e| anyhow!("{}: times --env-strength {}: {e}", self.env, self.strength))?
-        };
+        let map = map
+            .scaled(self.strength)
+            .map_err(|e| anyhow!("{}: times --env-strength: {e}", self.env))?;
         note_map(&self.env, &map);
         Ok(map)
     }

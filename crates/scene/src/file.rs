@@ -370,23 +370,11 @@ fn environment(v: &Value, base: &Path) -> Result<Environment, String> {
                     spec.rotate
                 ));
             }
-            if !(spec.strength.is_finite() && spec.strength >= 0.0) {
-                return Err(format!(
-                    "environment: strength {} must be finite and non-negative",
-                    spec.strength
-                ));
-            }
-            let map = load_map(&spec.map, base)?.turned(layout, spec.rotate);
-            let s = spec.strength as f32;
-            let texels = map.texels.iter().map(|t| t.map(|c| c * s)).collect();
-            LatLong::new(map.width, map.height, texels)
+            load_map(&spec.map, base)?
+                .turned(layout, spec.rotate)
+                .scaled(spec.strength)
                 .map(|m| Environment::Map(Arc::new(m)))
-                .map_err(|e| {
-                    format!(
-                        "environment \"{}\" times strength {}: {e}",
-                        spec.map, spec.strength
-                    )
-                })
+                .map_err(|e| format!("environment \"{}\": {e}", spec.map))
         }
         Value::String(s) => Err(format!(
             "environment \"{s}\" must be \"sky\", an .exr or .hdr map, {{\"map\": …}}, [r, g, b] or null"

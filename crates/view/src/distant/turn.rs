@@ -13,7 +13,7 @@
 //! (Blender's), linear between the file's texel centres and wrapping in azimuth. A
 //! layout alone, or a turn by a whole number of texels, copies texels exactly; any turn
 //! keeps each row's sum (each source texel's two weights sum to one), so the map's power
-//! and its suns' are unchanged.
+//! and its suns' are unchanged. [`LatLong::scaled`] multiplies its radiance.
 
 use super::LatLong;
 
@@ -83,6 +83,25 @@ impl LatLong {
     }
 }
 
+impl LatLong {
+    /// This map's radiance times `strength` (`--env-strength`, Blender's Background
+    /// Strength): the same map for 1; an error, as [`LatLong::new`]'s, where a texel would
+    /// pass [`super::MAX_RADIANCE`] or `strength` is negative or not finite.
+    pub fn scaled(&self, strength: f64) -> Result<LatLong, String> {
+        if !(strength.is_finite() && strength >= 0.0) {
+            return Err(format!(
+                "strength {strength} must be finite and non-negative"
+            ));
+        }
+        if strength == 1.0 {
+            return Ok(self.clone());
+        }
+        let s = strength as f32;
+        let texels = self.texels.iter().map(|t| t.map(|c| c * s)).collect();
+        LatLong::new(self.width, self.height, texels)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -144,6 +163,31 @@ mod tests {
                     assert!((sa - sb).abs() < 1e-5 * sa, "{degrees}: {sa} vs {sb}");
                 }
             }
+        }
+        // Strength: exact doubling, the limit and bad factors refused.
+        let twice = m.scaled(2.0).unwrap();
+        assert!(
+            twice
+                .texels
+                .iter()
+                .zip(&m.texels)
+                .all(|(a, b)| *a == b.map(|c| 2.0 * c))
+        );
+        assert_eq!(m.scaled(1.0).unwrap(), m);
+        assert!(
+            m.scaled(0.0)
+                .unwrap()
+                .texels
+                .iter()
+                .flatten()
+                .all(|&c| c == 0.0)
+        );
+        assert!(m.scaled(1e29).unwrap_err().contains("radiance above"));
+        for bad in [-1.0, f64::NAN, f64::INFINITY] {
+            assert!(
+                m.scaled(bad).unwrap_err().contains("must be finite"),
+                "{bad}"
+            );
         }
         // A one-texel map is the same from every direction.
         let one = LatLong::new(1, 1, vec![[1.0; 3]]).unwrap();
