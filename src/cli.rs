@@ -37,7 +37,8 @@ pub enum Command {
     /// value range, active (non-zero) voxels and memory. For an asset, every block's
     /// checksum is verified. For a lat-long map (.exr or .hdr, as --env takes it): its
     /// size, brightest texel and power, and the suns its concentrated light is split into
-    /// for the render, each with its direction, width and share of the power; any other
+    /// for the render, each with its direction, width and share of the power — placed by
+    /// --env-layout, --env-rotate and --env-strength as the render places it; any other
     /// .exr or .hdr picture (a render) is described as an image: size, brightest value and
     /// mean colour.
     #[command(allow_negative_numbers = true)]
@@ -52,6 +53,8 @@ pub enum Command {
         frames: Option<haze_volume::import::FrameRange>,
         #[command(flatten)]
         import: ImportArgs,
+        #[command(flatten)]
+        placement: crate::light_args::PlacementArgs,
     },
     /// Bake a sequence: fit every frame with Gaussian RBFs and write them to a .haze asset.
     ///
@@ -236,7 +239,14 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             json,
             frames,
             import,
-        } => crate::inspect::run(&path, json, frames.unwrap_or_default(), &import.options()),
+            placement,
+        } => crate::inspect::run(
+            &path,
+            json,
+            frames.unwrap_or_default(),
+            &import.options(),
+            placement.placement(),
+        ),
         Command::Pack {
             input,
             out,

@@ -1,17 +1,24 @@
 //! `haze inspect`: what is in a volume file, a sequence or an asset
-//! (`haze_bake::inspect`), or an environment map (`haze_render::map_report`), as text or
-//! JSON.
+//! (`haze_bake::inspect`), or an environment map (`haze_render::map_report`, placed as
+//! `haze render --env` places it), as text or JSON.
 
 use anyhow::Result;
+use haze_render::map_report::Placement;
 use haze_render::progress;
 use haze_volume::ImportOptions;
 use haze_volume::import::FrameRange;
 use indicatif::ProgressBar;
 use std::path::Path;
 
-pub fn run(path: &Path, json: bool, range: FrameRange, opts: &ImportOptions) -> Result<()> {
+pub fn run(
+    path: &Path,
+    json: bool,
+    range: FrameRange,
+    opts: &ImportOptions,
+    placement: Placement,
+) -> Result<()> {
     if haze_render::map_report::is_map(path) {
-        let report = haze_render::map_report::inspect_map(path)?;
+        let report = haze_render::map_report::inspect_map(path, placement)?;
         if json {
             println!("{}", serde_json::to_string_pretty(&report)?);
         } else {
@@ -19,6 +26,7 @@ pub fn run(path: &Path, json: bool, range: FrameRange, opts: &ImportOptions) -> 
         }
         return Ok(());
     }
+    placement.only_for_maps(path)?;
     let mut bar: Option<ProgressBar> = None;
     let report = haze_bake::inspect::inspect(path, range, opts, &mut |what, done, total| {
         let b = bar.get_or_insert_with(|| progress::frames(total, what));

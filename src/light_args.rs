@@ -3,6 +3,7 @@
 //! told not to), and suns and point lights given on the command line.
 
 use haze_render::lights::Lights;
+use haze_render::map_report::Placement;
 use haze_view::distant::Layout;
 use haze_view::{PointLight, Sun};
 
@@ -22,20 +23,8 @@ pub struct LightArgs {
     /// over the environment pass's directions and the spherical harmonics only).
     #[arg(long)]
     pub no_sun_extraction: bool,
-    /// How a map's columns map to directions: `haze`, column u at azimuth 360°·u from +X
-    /// towards +Y (pbrt's layout); `blender`, as Blender's World reads an Environment
-    /// Texture (its centre column facing +X, azimuth falling with u). The same file read
-    /// with the other layout lights the smoke mirrored (x → −x).
-    #[arg(long, value_enum, default_value = "haze", value_name = "LAYOUT")]
-    pub env_layout: EnvLayout,
-    /// Turn the map about the vertical (+Z) by DEG degrees, counter-clockwise seen from
-    /// above: what it shows at azimuth φ then lights from φ + DEG (its suns too).
-    #[arg(long, default_value_t = 0.0, value_name = "DEG", allow_hyphen_values = true, value_parser = parse_degrees)]
-    pub env_rotate: f64,
-    /// Multiply the map's radiance by S (as Blender's Background Strength does); the
-    /// suns split off it follow. --sun and --light are not scaled.
-    #[arg(long, default_value_t = 1.0, value_name = "S", value_parser = parse_strength)]
-    pub env_strength: f64,
+    #[command(flatten)]
+    pub placement: PlacementArgs,
     /// A sun, lit exactly (sharp shadows, the phase function at its true direction):
     /// the direction towards it, the radiance of its disk (RGB) and the disk's apparent
     /// diameter in degrees (default 0.53, the real sun's). An angle of 0 makes a
@@ -58,9 +47,18 @@ impl LightArgs {
                 crate::unused_flags::differs(&self.env, &defaults.env),
             ),
             ("--no-sun-extraction", self.no_sun_extraction),
-            ("--env-layout", self.env_layout != defaults.env_layout),
-            ("--env-rotate", self.env_rotate != defaults.env_rotate),
-            ("--env-strength", self.env_strength != defaults.env_strength),
+            (
+                "--env-layout",
+                self.placement.env_layout != defaults.placement.env_layout,
+            ),
+            (
+                "--env-rotate",
+                self.placement.env_rotate != defaults.placement.env_rotate,
+            ),
+            (
+                "--env-strength",
+                self.placement.env_strength != defaults.placement.env_strength,
+            ),
             ("--sun", !self.sun.is_empty()),
             ("--light", !self.light.is_empty()),
         ]
@@ -69,17 +67,49 @@ impl LightArgs {
 
 impl From<LightArgs> for Lights {
     fn from(a: LightArgs) -> Lights {
+        let placed = a.placement.placement();
         Lights {
             env: a.env,
             no_sun_extraction: a.no_sun_extraction,
-            layout: match a.env_layout {
+            layout: placed.layout,
+            turn_degrees: placed.turn_degrees,
+            strength: placed.strength,
+            sun: a.sun,
+            light: a.light,
+        }
+    }
+}
+
+/// How a lat-long map is placed: `haze render`, `haze view`, `haze tradeoff` and `haze
+/// inspect` take the same three flags.
+#[derive(Debug, Clone, clap::Args)]
+pub struct PlacementArgs {
+    /// How a map's columns map to directions: `haze`, column u at azimuth 360°·u from +X
+    /// towards +Y (pbrt's layout); `blender`, as Blender's World reads an Environment
+    /// Texture (its centre column facing +X, azimuth falling with u). The same file read
+    /// with the other layout lights the smoke mirrored (x → −x).
+    #[arg(long, value_enum, default_value = "haze", value_name = "LAYOUT")]
+    pub env_layout: EnvLayout,
+    /// Turn the map about the vertical (+Z) by DEG degrees, counter-clockwise seen from
+    /// above: what it shows at azimuth φ then lights from φ + DEG (its suns too).
+    #[arg(long, default_value_t = 0.0, value_name = "DEG", allow_hyphen_values = true, value_parser = parse_degrees)]
+    pub env_rotate: f64,
+    /// Multiply the map's radiance by S (as Blender's Background Strength does); the
+    /// suns split off it follow. --sun and --light are not scaled.
+    #[arg(long, default_value_t = 1.0, value_name = "S", value_parser = parse_strength)]
+    pub env_strength: f64,
+}
+
+impl PlacementArgs {
+    /// The placement the flags say.
+    pub fn placement(&self) -> Placement {
+        Placement {
+            layout: match self.env_layout {
                 EnvLayout::Haze => Layout::Haze,
                 EnvLayout::Blender => Layout::Blender,
             },
-            turn_degrees: a.env_rotate,
-            strength: a.env_strength,
-            sun: a.sun,
-            light: a.light,
+            turn_degrees: self.env_rotate,
+            strength: self.env_strength,
         }
     }
 }

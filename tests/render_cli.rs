@@ -589,6 +589,15 @@ fn suns_lights_and_a_maps_sun_reach_the_render() {
     let red = plain.iter().map(|p| f64::from(p[0])).sum::<f64>() / plain.len() as f64;
     let said_red = said["mean_rgb"][0].as_f64().unwrap();
     assert!((said_red / red - 1.0).abs() < 1e-9, "{said_red} vs {red}");
+    fails(
+        &[
+            "inspect",
+            picture.to_str().unwrap(),
+            "--env-layout",
+            "blender",
+        ],
+        "a 40×30 picture is not a lat-long map (twice as wide as it is tall), so --env-layout",
+    );
     let (whole, log) = render("whole.exr", &["--env", map, "--no-sun-extraction"]);
     assert!(!log.contains("sun split off"), "{log}");
     assert!(
@@ -770,6 +779,42 @@ fn a_map_is_read_in_blenders_layout_and_turned() {
     assert!(
         log.contains("azimuth 0.0°") || log.contains("azimuth 360.0°"),
         "{log}"
+    );
+    // `haze inspect` places the map as the render does: the same sun, the same azimuth.
+    let inspect = |extra: &[&str]| {
+        let mut args = vec!["inspect", "--json", blender.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        let o = haze().args(&args).output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let sun = &j["suns"][0];
+        let f = |k: &str| sun[k].as_f64().unwrap();
+        (
+            f("azimuth_degrees"),
+            f("elevation_degrees"),
+            j["power"].as_f64().unwrap(),
+        )
+    };
+    let (a0, e0, p0) = inspect(&[]);
+    // Column 5's centre: 360°·5.5/64 in haze's layout, 180° less that in Blender's.
+    assert!((a0 - 30.9375).abs() < 1e-9, "{a0}");
+    let (a, e, p) = inspect(&["--env-layout", "blender"]);
+    assert!(
+        (a - 149.0625).abs() < 1e-9 && e == e0 && (p / p0 - 1.0).abs() < 1e-12,
+        "{a} {e} {p} {p0}"
+    );
+    // Turned by four texels (22.5°); the columns summed in another order, so the power
+    // to rounding.
+    let (a, _, p) = inspect(&["--env-layout", "blender", "--env-rotate", "22.5"]);
+    assert!(
+        (a - 171.5625).abs() < 1e-9 && (p / p0 - 1.0).abs() < 1e-12,
+        "{a} {p}"
+    );
+    let (_, _, p) = inspect(&["--env-strength", "2"]);
+    assert_eq!(p, 2.0 * p0);
+    fails(
+        &["inspect", vol.as_str(), "--env-rotate", "10"],
+        "not an environment map (.exr, .hdr), so --env-layout, --env-rotate and --env-strength do not apply",
     );
     for (flag, value, needle) in [
         (

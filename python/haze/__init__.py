@@ -62,7 +62,14 @@ def _frames(frames: Frames) -> Optional[str]:
     return f"{'' if first is None else first}..{'' if last is None else last}"
 
 
-def inspect(path: PathLike, frames: Frames = None, grid: str = "density") -> Dict[str, Any]:
+def inspect(
+    path: PathLike,
+    frames: Frames = None,
+    grid: str = "density",
+    env_layout: str = "haze",
+    env_rotate: float = 0.0,
+    env_strength: float = 1.0,
+) -> Dict[str, Any]:
     """What is in a volume file, a frame sequence, a ``.haze`` asset or an environment map.
 
     Returns what ``haze inspect --json PATH`` prints, as a dict: for an asset its
@@ -79,11 +86,17 @@ def inspect(path: PathLike, frames: Frames = None, grid: str = "density") -> Dic
         frames: for a sequence, which frames to read: an int, ``(first, last)``
             (inclusive; ``None`` for open ends) or ``"A..B"``; all by default.
         grid: the OpenVDB grid to read (``haze inspect --grid``).
+        env_layout, env_rotate, env_strength: for a map, place it as :func:`render`
+            does before splitting it into suns, so the suns reported are the render's
+            (``haze inspect --env-layout/--env-rotate/--env-strength``).
 
     Raises:
-        HazeError: the path is missing or unreadable (the message names it).
+        HazeError: the path is missing or unreadable (the message names it), or a
+            placement is given for a path that is not a lat-long map.
     """
-    return _haze.inspect(os.fspath(path), _frames(frames), grid)
+    return _haze.inspect(
+        os.fspath(path), _frames(frames), grid, env_layout, float(env_rotate), float(env_strength)
+    )
 
 
 def bake(

@@ -14,7 +14,12 @@ class HazeWarning(UserWarning):
 
 def version() -> str: ...
 def inspect(
-    path: str, frames: Optional[str] = None, grid: Optional[str] = None
+    path: str,
+    frames: Optional[str] = None,
+    grid: Optional[str] = None,
+    env_layout: str = "haze",
+    env_rotate: float = 0.0,
+    env_strength: float = 1.0,
 ) -> Dict[str, Any]: ...
 def bake(
     src: str,

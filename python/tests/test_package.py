@@ -319,6 +319,21 @@ def test_a_map_in_blenders_layout_is_the_command_lines(tmp_path):
         check=True,
     )
     np.testing.assert_array_equal(blender, read_exr(out))
+    # haze.inspect places the map as haze.render does, as `haze inspect` does.
+    placed = dict(env_layout="blender", env_rotate=22.5)
+    said = haze.inspect(path, **placed)
+    cli = subprocess.run(
+        [haze_bin(), "inspect", "--json", str(path), "--env-layout", "blender",
+         "--env-rotate", "22.5"],
+        check=True, capture_output=True, text=True,
+    )
+    assert said == json.loads(cli.stdout)
+    # Column 5's centre in Blender's layout, 180° − 360°·5.5/64, then four texels on.
+    assert abs(said["suns"][0]["azimuth_degrees"] - (180.0 - 30.9375 + 22.5)) < 1e-9
+    with pytest.raises(haze.HazeError, match="not an environment map"):
+        haze.inspect(asset, **placed)
+    with pytest.raises(haze.HazeError, match="env_layout: 'maya'"):
+        haze.inspect(path, env_layout="maya")
 
 
 def test_a_scene_renders_from_its_file_and_from_a_dict():

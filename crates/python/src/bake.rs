@@ -26,25 +26,34 @@ fn from_json<'py>(py: Python<'py>, text: &str) -> PyResult<Bound<'py, PyAny>> {
     py.import("json")?.call_method1("loads", (text,))
 }
 
-/// What `haze inspect --json PATH [--grid GRID]` prints, as a JSON string.
+/// What `haze inspect --json PATH [--grid GRID] [--env-layout …]` prints, as a JSON
+/// string.
 #[pyfunction]
-#[pyo3(signature = (path, frames=None, grid=None))]
+#[pyo3(signature = (
+    path, frames=None, grid=None, env_layout="haze".to_string(), env_rotate=0.0,
+    env_strength=1.0
+))]
 pub fn inspect(
     py: Python<'_>,
     path: PathBuf,
     frames: Option<&str>,
     grid: Option<String>,
+    env_layout: String,
+    env_rotate: f64,
+    env_strength: f64,
 ) -> PyResult<Py<PyAny>> {
     let range = range(frames)?;
+    let placement = crate::render::placement(&env_layout, env_rotate, env_strength)?;
     let mut import = ImportOptions::default();
     if let Some(name) = grid {
         import.grid = name;
     }
     let text = py.detach(|| {
         if haze_render::map_report::is_map(&path) {
-            let report = haze_render::map_report::inspect_map(&path)?;
+            let report = haze_render::map_report::inspect_map(&path, placement)?;
             return Ok(serde_json::to_string(&report)?);
         }
+        placement.only_for_maps(&path)?;
         let report = haze_bake::inspect::inspect(&path, range, &import, &mut |_, _, _| {})?;
         Ok(serde_json::to_string(&report)?)
     });

@@ -3,6 +3,7 @@
 
 use crate::{to_py, warnings};
 use haze_core::Image;
+use haze_render::map_report::Placement;
 use haze_render::output::Outputs;
 use haze_render::scene::SceneJob;
 use haze_render::smoke::{RenderOptions, Supersample, render_image};
@@ -60,6 +61,35 @@ fn supersample(given: &Bound<'_, PyAny>) -> PyResult<Supersample> {
         .map_err(|e: String| to_py(anyhow::anyhow!("supersample: {e}")))
 }
 
+/// The keywords `env_layout`, `env_rotate` and `env_strength` checked, as `haze render`'s
+/// `--env-layout`, `--env-rotate` and `--env-strength` are.
+pub(crate) fn placement(layout: &str, rotate: f64, strength: f64) -> PyResult<Placement> {
+    let layout = match layout {
+        "haze" => haze_view::distant::Layout::Haze,
+        "blender" => haze_view::distant::Layout::Blender,
+        other => {
+            return Err(to_py(anyhow::anyhow!(
+                "env_layout: '{other}' is not 'haze' or 'blender'"
+            )));
+        }
+    };
+    if !rotate.is_finite() {
+        return Err(to_py(anyhow::anyhow!(
+            "env_rotate: {rotate} is not a finite angle in degrees"
+        )));
+    }
+    if !(strength.is_finite() && strength >= 0.0) {
+        return Err(to_py(anyhow::anyhow!(
+            "env_strength: {strength} is not a finite factor of at least 0"
+        )));
+    }
+    Ok(Placement {
+        layout,
+        turn_degrees: rotate,
+        strength,
+    })
+}
+
 /// One frame of an asset or a volume, rendered (`haze render`'s options; the Python
 /// half documents them).
 #[pyfunction]
@@ -105,27 +135,10 @@ pub fn render<'py>(
     (a.width, a.height) = (width, height);
     (a.eye, a.target, a.up, a.fov) = (eye, target, up, fov);
     a.env.env = env;
-    a.env.layout = match env_layout.as_str() {
-        "haze" => haze_view::distant::Layout::Haze,
-        "blender" => haze_view::distant::Layout::Blender,
-        other => {
-            return Err(to_py(anyhow::anyhow!(
-                "env_layout: '{other}' is not 'haze' or 'blender'"
-            )));
-        }
-    };
-    if !env_rotate.is_finite() {
-        return Err(to_py(anyhow::anyhow!(
-            "env_rotate: {env_rotate} is not a finite angle in degrees"
-        )));
-    }
-    a.env.turn_degrees = env_rotate;
-    if !(env_strength.is_finite() && env_strength >= 0.0) {
-        return Err(to_py(anyhow::anyhow!(
-            "env_strength: {env_strength} is not a finite factor of at least 0"
-        )));
-    }
-    a.env.strength = env_strength;
+    let placed = placement(&env_layout, env_rotate, env_strength)?;
+    a.env.layout = placed.layout;
+    a.env.turn_degrees = placed.turn_degrees;
+    a.env.strength = placed.strength;
     a.env.sun = suns(suns_).map_err(to_py)?;
     a.env.light = lights(lights_).map_err(to_py)?;
     (a.sigma_t, a.albedo, a.g) = (sigma_t, albedo, g);

@@ -182,10 +182,13 @@ impl Lights {
                 self.env
             );
         }
-        let map = map.turned(self.layout, self.turn_degrees);
-        let map = map
-            .scaled(self.strength)
-            .map_err(|e| anyhow!("{}: times --env-strength: {e}", self.env))?;
+        let map = placed(
+            map,
+            self.layout,
+            self.turn_degrees,
+            self.strength,
+            &self.env,
+        )?;
         note_map(&self.env, &map);
         Ok(map)
     }
@@ -261,6 +264,23 @@ pub(crate) fn decomposition_lines(path: &str, d: &Decomposition) -> Vec<String> 
         ));
     }
     lines
+}
+
+/// The lat-long `map` (read from `name`) as `--env-layout`, `--env-rotate` and
+/// `--env-strength` place it: its columns read in `layout`, turned `turn_degrees` about +Z
+/// (counter-clockwise seen from above), its radiance times `strength`
+/// ([`LatLong::turned`], [`LatLong::scaled`]). What `haze render --env` lights with and
+/// what `haze inspect` splits into suns.
+pub fn placed(
+    map: LatLong,
+    layout: Layout,
+    turn_degrees: f64,
+    strength: f64,
+    name: &str,
+) -> Result<LatLong> {
+    map.turned(layout, turn_degrees)
+        .scaled(strength)
+        .map_err(|e| anyhow!("{name}: times --env-strength: {e}"))
 }
 
 #[cfg(test)]

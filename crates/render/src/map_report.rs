@@ -5,9 +5,10 @@
 //! that is not lat-long (a rendered image, a texture) is described as an image: its size,
 //! format, brightest pixel and mean.
 
-use crate::lights::{decomposition_lines, is_lat_long, note_map};
+use crate::lights::{decomposition_lines, is_lat_long, note_map, placed};
 use anyhow::{Result, bail};
 use haze_view::LatLong;
+use haze_view::distant::Layout;
 use haze_view::lights::decompose::{DecomposeOptions, decompose, luminance, map_power};
 use serde::Serialize;
 use std::f64::consts::PI;
@@ -93,25 +94,80 @@ impl PictureReport {
     }
 }
 
-/// Reads the picture at `path` (opened once); decomposes it when it is a lat-long map
-/// (the same checks and errors as `--env`), else describes it as an image.
-pub fn inspect_map(path: &Path) -> Result<PictureReport> {
+/// How `haze inspect` places a map before splitting it, as `haze render`'s
+/// `--env-layout`, `--env-rotate` and `--env-strength` do ([`placed`]): the suns it
+/// reports are then the render's.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Placement {
+    pub layout: Layout,
+    /// Degrees about +Z, counter-clockwise seen from above.
+    pub turn_degrees: f64,
+    /// The radiance's factor.
+    pub strength: f64,
+}
+
+impl Default for Placement {
+    /// The map as given: haze's layout, not turned, strength 1.
+    fn default() -> Placement {
+        Placement {
+            layout: Layout::Haze,
+            turn_degrees: 0.0,
+            strength: 1.0,
+        }
+    }
+}
+
+impl Placement {
+    /// A one-line error when `self` is not the default for `path`, which is not a map
+    /// (a volume, a sequence, an asset): the flags place maps only.
+    pub fn only_for_maps(&self, path: &Path) -> Result<()> {
+        if *self != Placement::default() {
+            bail!(
+                "{}: not an environment map (.exr, .hdr), so --env-layout, --env-rotate and --env-strength do not apply",
+                path.display()
+            );
+        }
+        Ok(())
+    }
+}
+
+/// Reads the picture at `path` (opened once); decomposes it, placed by `placement`, when
+/// it is a lat-long map (the same checks and errors as `--env`), else describes it as an
+/// image — refused when `placement` is not the default, since only a map is placed.
+pub fn inspect_map(path: &Path, placement: Placement) -> Result<PictureReport> {
     let name = path.display().to_string();
     if !path.exists() {
         bail!("{name}: no such file or directory");
     }
     let (map, format) = LatLong::load_with_format(path)?;
     let format = format.name();
-    let max_value = map
-        .texels
-        .iter()
-        .flatten()
-        .fold(0.0f64, |m, &c| m.max(f64::from(c)));
+    let brightest = |map: &LatLong| {
+        map.texels
+            .iter()
+            .flatten()
+            .fold(0.0f64, |m, &c| m.max(f64::from(c)))
+    };
     if !is_lat_long(map.width, map.height) {
+        if placement != Placement::default() {
+            bail!(
+                "{name}: a {}×{} picture is not a lat-long map (twice as wide as it is tall), so --env-layout, --env-rotate and --env-strength do not apply",
+                map.width,
+                map.height
+            );
+        }
+        let max_value = brightest(&map);
         return Ok(PictureReport::Image(image_report(
             name, format, &map, max_value,
         )));
     }
+    let map = placed(
+        map,
+        placement.layout,
+        placement.turn_degrees,
+        placement.strength,
+        &name,
+    )?;
+    let max_value = brightest(&map);
     note_map(&name, &map);
     let found = decompose(&map, &DecomposeOptions::default());
     let power = luminance(map_power(&map));
