@@ -13,8 +13,9 @@ use anyhow::{Result, anyhow, bail};
 use haze_view::distant::Layout;
 use haze_view::ground::Ground;
 use haze_view::lights::decompose::{DecomposeOptions, Decomposition, decompose, map_power};
-use haze_view::{Distant, Environment, LatLong, PointLight, Sky, Sun};
+use haze_view::{Environment, LatLong, PointLight, Sky, Sun};
 use std::path::Path;
+use std::sync::Arc;
 
 /// The built-in sky's sun, towards it: azimuth 150° from +X towards +Y, elevation 25°
 /// (module docs).
@@ -113,29 +114,23 @@ impl Lights {
     /// `.hdr`, not lat-long (twice as wide as tall, or one texel), or without finite
     /// non-negative radiance is a one-line error naming it.
     pub fn environment(&self) -> Result<Environment> {
-        let env = self.build(!self.no_sun_extraction)?;
-        if self.no_sun_extraction
-            && let Distant::Map(map) = &env.distant
-        {
-            // Kept whole, concentrated light is blurred by SH and the direction rule (an
-            // 8° sun: single scattering 88 % off, BENCHMARKS "Skies of every shape").
-            let found = decompose(map, &DecomposeOptions::default());
-            let share: f64 = (0..found.suns.len()).map(|k| found.share(k)).sum();
-            if share > 0.05 {
-                tracing::warn!(
-                    "{}: {:.0} % of the map's light is concentrated (suns); kept whole by --no-sun-extraction it is blurred, the picture can be far off",
-                    self.env,
-                    100.0 * share
-                );
-            }
+        match self.turnable()? {
+            Some(map) => map.as_given(),
+            None => Ok(self.sky()),
         }
-        Ok(env)
     }
 
     /// The environment as given: a map whole, as the reference renders it (the map is
     /// the truth; the suns split off it are the fast renderers' approximation of it).
     pub fn environment_whole(&self) -> Result<Environment> {
-        self.build(false)
+        match self.turnable()? {
+            Some(map) => {
+                let placed = map.placed(self.turn_degrees)?;
+                note_map(&self.env, &placed);
+                Ok(self.around(placed, false, false))
+            }
+            None => Ok(self.sky()),
+        }
     }
 
     /// The environment is one of the built-in skies (`sky`, `glow`), not a map.
@@ -143,30 +138,37 @@ impl Lights {
         self.env == "sky" || self.env == "glow"
     }
 
-    fn build(&self, split: bool) -> Result<Environment> {
-        let mut env = if self.builtin() {
-            let mut env = Environment::sky(builtin_sky());
-            if self.env == "sky" && self.sun.is_empty() {
-                env.suns.push(builtin_sun());
+    /// The built-in sky (module docs), then the given suns and point lights.
+    fn sky(&self) -> Environment {
+        let mut env = Environment::sky(builtin_sky());
+        if self.env == "sky" && self.sun.is_empty() {
+            env.suns.push(builtin_sun());
+        }
+        env.suns.extend(self.sun.iter().cloned());
+        env.points.extend(self.light.iter().cloned());
+        env
+    }
+
+    /// The environment of the placed `map`: split into suns when `split` (what was found
+    /// logged at `-v` when `log`), then the given suns and point lights.
+    fn around(&self, map: LatLong, split: bool, log: bool) -> Environment {
+        let mut env = if split {
+            let (env, found) = Environment::map_decomposed(&map, &DecomposeOptions::default());
+            if log {
+                log_decomposition(&self.env, &found);
             }
             env
         } else {
-            let map = self.load_map()?;
-            if split {
-                let (env, found) = Environment::map_decomposed(&map, &DecomposeOptions::default());
-                log_decomposition(&self.env, &found);
-                env
-            } else {
-                Environment::map(map)
-            }
+            Environment::map(map)
         };
         env.suns.extend(self.sun.iter().cloned());
         env.points.extend(self.light.iter().cloned());
-        Ok(env)
+        env
     }
 
-    /// The map [`Lights::env`] names, read and checked (module docs of [`Lights`]).
-    pub(crate) fn load_map(&self) -> Result<LatLong> {
+    /// The map [`Lights::env`] names, read and checked as it is on disk (module docs of
+    /// [`Lights`]), not yet placed ([`placed`]).
+    fn read_map(&self) -> Result<LatLong> {
         let path = Path::new(&self.env);
         if !path.exists() {
             bail!(
@@ -182,15 +184,19 @@ impl Lights {
                 self.env
             );
         }
-        let map = placed(
-            map,
-            self.layout,
-            self.turn_degrees,
-            self.strength,
-            &self.env,
-        )?;
-        note_map(&self.env, &map);
         Ok(map)
+    }
+
+    /// The map to turn live (the viewer's "map turn" slider) when [`Lights::env`] is a
+    /// map, read once; `None` under the built-in skies.
+    pub fn turnable(&self) -> Result<Option<TurnableMap>> {
+        if self.builtin() {
+            return Ok(None);
+        }
+        Ok(Some(TurnableMap {
+            read: Arc::new(self.read_map()?),
+            lights: self.clone(),
+        }))
     }
 
     /// The light in words ("the built-in sky and 1 sun"), as a choice's reasons name it.
@@ -210,6 +216,58 @@ impl Lights {
             s += &format!(" and {}", plural(self.light.len(), "point light"));
         }
         s
+    }
+}
+
+/// A map's light that turns live: the map as read, once, and the lights given with it.
+/// Each turn is the map placed as `--env-rotate DEG` places it and split as
+/// [`Lights::environment`] splits it, so the viewer's picture at a turn is `haze render
+/// --env-rotate DEG`'s (the map, its suns and the background turn together).
+#[derive(Debug, Clone)]
+pub struct TurnableMap {
+    read: Arc<LatLong>,
+    lights: Lights,
+}
+
+impl TurnableMap {
+    /// The turn the lights were given (`--env-rotate`), degrees.
+    pub fn given_turn(&self) -> f64 {
+        self.lights.turn_degrees
+    }
+
+    /// The environment with the map turned `degrees` about +Z (counter-clockwise seen from
+    /// above) in place of the given turn.
+    pub fn environment(&self, degrees: f64) -> Result<Environment> {
+        let l = &self.lights;
+        Ok(l.around(self.placed(degrees)?, !l.no_sun_extraction, false))
+    }
+
+    /// [`Lights::environment`]: the map at its given turn, what was found logged at `-v`,
+    /// a warning where a map kept whole (`--no-sun-extraction`) holds concentrated light.
+    pub fn as_given(&self) -> Result<Environment> {
+        let l = &self.lights;
+        let map = self.placed(l.turn_degrees)?;
+        note_map(&l.env, &map);
+        if l.no_sun_extraction {
+            // Kept whole, concentrated light is blurred by SH and the direction rule (an
+            // 8° sun: single scattering 88 % off, BENCHMARKS "Skies of every shape").
+            let found = decompose(&map, &DecomposeOptions::default());
+            let share: f64 = (0..found.suns.len()).map(|k| found.share(k)).sum();
+            if share > 0.05 {
+                tracing::warn!(
+                    "{}: {:.0} % of the map's light is concentrated (suns); kept whole by --no-sun-extraction it is blurred, the picture can be far off",
+                    l.env,
+                    100.0 * share
+                );
+            }
+        }
+        Ok(l.around(map, !l.no_sun_extraction, true))
+    }
+
+    /// The map placed with the given layout and strength, turned `degrees`.
+    fn placed(&self, degrees: f64) -> Result<LatLong> {
+        let l = &self.lights;
+        placed(&self.read, l.layout, degrees, l.strength, &l.env)
     }
 }
 
@@ -272,7 +330,7 @@ pub(crate) fn decomposition_lines(path: &str, d: &Decomposition) -> Vec<String> 
 /// ([`LatLong::turned`], [`LatLong::scaled`]). What `haze render --env` lights with and
 /// what `haze inspect` splits into suns.
 pub fn placed(
-    map: LatLong,
+    map: &LatLong,
     layout: Layout,
     turn_degrees: f64,
     strength: f64,
@@ -351,5 +409,52 @@ mod tests {
         assert_eq!(GroundChoice::On.ground(&sky, f64::NAN), None);
         assert_eq!("on".parse(), Ok(GroundChoice::On));
         assert!("yes".parse::<GroundChoice>().is_err());
+    }
+
+    /// A map turned live is the map given that turn on the command line, to the bit: its
+    /// rest, its suns, its background, the lights given beside it; whole or split; in
+    /// either layout, at whole-texel and in-between turns.
+    #[test]
+    fn a_map_turned_live_is_the_map_given_that_turn() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("sun.exr");
+        // A sky brighter towards the zenith and a sun at column 11, 20° up.
+        exr::prelude::write_rgb_file(&path, 64, 32, |x, y| {
+            if (x, y) == (11, 12) {
+                (900.0f32, 850.0, 800.0)
+            } else {
+                let up = 1.0 - y as f32 / 32.0;
+                (0.2 + 0.3 * up, 0.3 + 0.3 * up, 0.5 + 0.4 * up)
+            }
+        })
+        .unwrap();
+        let point = PointLight::new([0.0, 0.0, 1.0], [5.0, 5.0, 5.0]).unwrap();
+        let mut given = lights(path.to_str().unwrap(), vec![builtin_sun()]);
+        given.light.push(point);
+        assert!(lights("sky", Vec::new()).turnable().unwrap().is_none());
+        for (layout, whole) in [
+            (Layout::Haze, false),
+            (Layout::Blender, false),
+            (Layout::Blender, true),
+        ] {
+            given.layout = layout;
+            given.no_sun_extraction = whole;
+            given.turn_degrees = 15.0;
+            let turnable = given.turnable().unwrap().unwrap();
+            assert_eq!(turnable.given_turn(), 15.0);
+            for degrees in [0.0, 15.0, 22.5, -97.3, 400.0] {
+                let live = turnable.environment(degrees).unwrap();
+                given.turn_degrees = degrees;
+                assert_eq!(
+                    live,
+                    given.environment().unwrap(),
+                    "{layout:?} {whole} {degrees}"
+                );
+                assert_eq!(live.suns.len(), if whole { 1 } else { 2 });
+            }
+        }
+        let missing = lights("nowhere.exr", Vec::new());
+        let e = missing.turnable().unwrap_err().to_string();
+        assert!(e.starts_with("nowhere.exr: no such environment map"), "{e}");
     }
 }

@@ -161,7 +161,7 @@ pub fn inspect_map(path: &Path, placement: Placement) -> Result<PictureReport> {
         )));
     }
     let map = placed(
-        map,
+        &map,
         placement.layout,
         placement.turn_degrees,
         placement.strength,

@@ -16,6 +16,7 @@ use crate::shell::{self, Outcome, Room};
 use anyhow::Result;
 use eframe::egui;
 use haze_gpu::GpuContext;
+use haze_render::lights::TurnableMap;
 use haze_view::distant::{angles, direction};
 use haze_view::gpu::renderer::LightingOn;
 use haze_view::{Distant, Environment};
@@ -47,6 +48,8 @@ pub struct Settings {
     pub orbit: Orbit,
     pub knobs: Knobs,
     pub env: Arc<Environment>,
+    /// The map of `--env`, to turn live (none under the built-in skies).
+    pub map: Option<TurnableMap>,
     /// The ground the panel's "ground" switch shows (at the floor of the asset's box).
     pub floor: haze_view::ground::Ground,
     /// Render resolution.
@@ -168,6 +171,11 @@ pub(super) fn move_sun(env: &Environment, azimuth: f64, elevation: f64) -> Optio
     changed.then_some(out)
 }
 
+/// `degrees` as the "map turn" slider shows it: the same turn within −180° to 180°.
+fn slider_degrees(degrees: f64) -> f64 {
+    (degrees + 180.0).rem_euclid(360.0) - 180.0
+}
+
 /// What the panel says of the suns split off a map: a count, then per sun its elevation,
 /// azimuth, width and share of the map's light (luminance). Nothing under the built-in
 /// sky.
@@ -259,6 +267,9 @@ struct ViewerApp {
     /// The sliders' values last applied to the environment: it changes only when they
     /// move (the light given on the command line stays as given until then).
     light_applied: (f64, f64),
+    /// The "map turn" slider (degrees, −180 to 180) and its value last applied, under a
+    /// map.
+    map_turn: (f64, f64),
     texture: Option<egui::TextureHandle>,
     /// The source frame number of the picture on screen.
     showing: Option<i64>,
@@ -274,6 +285,10 @@ impl ViewerApp {
     fn new(player: Player, settings: Settings, outcome: Outcome) -> ViewerApp {
         let light = Light::of(&settings.env);
         let found = suns_found(&settings.env);
+        let turn = settings
+            .map
+            .as_ref()
+            .map_or(0.0, |m| slider_degrees(m.given_turn()));
         let fps = player.playback.fps();
         let k = &settings.knobs;
         let ranges = Ranges {
@@ -294,6 +309,7 @@ impl ViewerApp {
             settings,
             light_applied: light.sliders(),
             light,
+            map_turn: (turn, turn),
             found,
             texture: None,
             showing: None,
@@ -321,6 +337,29 @@ impl ViewerApp {
             scene,
             exposure: self.settings.knobs.exposure,
             tone: self.settings.knobs.tone,
+        }
+    }
+
+    /// Turns the map to the "map turn" slider: the whole map — its rest, its suns, the
+    /// background — as `--env-rotate` would, split again; the sun sliders then start
+    /// from the first sun found.
+    fn update_map_turn(&mut self) {
+        let (turn, applied) = self.map_turn;
+        let Some(map) = &self.settings.map else {
+            return;
+        };
+        if turn == applied {
+            return;
+        }
+        self.map_turn.1 = turn;
+        match map.environment(turn) {
+            Ok(env) => {
+                self.light = Light::of(&env);
+                self.light_applied = self.light.sliders();
+                self.found = suns_found(&env);
+                self.settings.env = Arc::new(env);
+            }
+            Err(e) => tracing::warn!("{e:#}"),
         }
     }
 
@@ -526,6 +565,13 @@ impl ViewerApp {
         }
         ui.separator();
 
+        if self.settings.map.is_some() {
+            ui.add(egui::Slider::new(&mut self.map_turn.0, -180.0..=180.0).text("map turn °"))
+                .on_hover_text(
+                    "Turn the whole map about the vertical, counter-clockwise seen from above, as --env-rotate does",
+                );
+            self.update_map_turn();
+        }
         let sun = matches!(self.light, Light::Sun { .. });
         match &mut self.light {
             Light::Sun { azimuth, elevation } | Light::Sky { azimuth, elevation } => {
@@ -689,6 +735,48 @@ mod tests {
 
     fn close(a: [f64; 3], b: [f64; 3]) -> bool {
         (0..3).all(|k| (a[k] - b[k]).abs() < 1e-12)
+    }
+
+    /// The "map turn" slider turns the whole map as `--env-rotate` does, and the sun
+    /// sliders then start from the sun where the turn took it.
+    #[test]
+    fn the_map_turn_takes_the_sun_and_the_sliders_with_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("sun.exr");
+        let mut map = haze_core::Image::new(64, 32);
+        for p in &mut map.pixels {
+            *p = [0.3, 0.4, 0.6];
+        }
+        // A sun at column 11, row 12: azimuth 360°·11.5/64, elevation 90° − 180°·12.5/32.
+        map.pixels[12 * 64 + 11] = [900.0, 850.0, 800.0];
+        map.write_exr(&path).unwrap();
+        let lights = haze_render::lights::Lights {
+            env: path.to_str().unwrap().into(),
+            no_sun_extraction: false,
+            layout: Default::default(),
+            turn_degrees: 0.0,
+            strength: 1.0,
+            sun: Vec::new(),
+            light: Vec::new(),
+        };
+        let turnable = lights.turnable().unwrap().unwrap();
+        let (azimuth0, elevation0) = (360.0 * 11.5 / 64.0, 90.0 - 180.0 * 12.5 / 32.0);
+        for (turn, want) in [
+            (0.0, azimuth0),
+            (45.0, azimuth0 + 45.0),
+            (-90.0, azimuth0 + 270.0),
+        ] {
+            let env = turnable.environment(turn).unwrap();
+            let Light::Sun { azimuth, elevation } = Light::of(&env) else {
+                panic!("the map's sun is split off");
+            };
+            assert!((azimuth - want).abs() < 1e-9, "{turn}: {azimuth} vs {want}");
+            assert!((elevation - elevation0).abs() < 1e-9, "{elevation}");
+            assert_eq!(suns_found(&env).len(), 2, "{:?}", suns_found(&env));
+        }
+        assert_eq!(slider_degrees(400.0), 40.0);
+        assert_eq!(slider_degrees(180.0), -180.0);
+        assert_eq!(slider_degrees(-190.0), 170.0);
     }
 
     #[test]

@@ -203,7 +203,12 @@ pub fn run(mut a: ViewArgs) -> Result<()> {
     if !a.window && a.play_for.is_none() {
         bail!("--no-window plays only for a while: give --play-for SECONDS");
     }
-    let env = Arc::new(a.env.environment()?);
+    // A map is read once: the panel's "map turn" slider turns it live.
+    let map = a.env.turnable()?;
+    let env = Arc::new(match &map {
+        Some(m) => m.as_given()?,
+        None => a.env.environment()?,
+    });
 
     // The asset: its first frame is read now, so a file that is not a baked asset is
     // refused before any window opens; it also places the camera.
@@ -296,6 +301,7 @@ pub fn run(mut a: ViewArgs) -> Result<()> {
             orbit,
             knobs,
             env,
+            map,
             floor: haze_view::ground::Ground::at(bbox.min[2]),
             size: (a.width, a.height),
             play_for: a.play_for,
