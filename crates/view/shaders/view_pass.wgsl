@@ -64,7 +64,14 @@ struct Params {
     near_radius: f32,
     // Point lights in `near_lights`.
     near_lights: u32,
-    _pad7: u32,
+    // The spacing of the nodes of the ground's sky share (in `ground_lights`).
+    sky_cell: f32,
+    // Nodes per side of the sky's share; 0: the open sky (V = 1).
+    sky_nodes: u32,
+    // Where the sky's share starts in `ground_lights`.
+    sky_first: u32,
+    // Node (0, 0) of the sky's share, box-local x, y.
+    sky_origin: vec2<f32>,
     _pad8: u32,
     _pad9: u32,
 }
@@ -79,6 +86,7 @@ const LN_MAX_SPAN: f32 = 6.9077552789821;
 #import lat_long
 #import block_skip
 #import shadow_cutoff
+#import grid_shadow
 
 @group(0) @binding(0) var<storage, read> p: Params;
 // Per voxel (x fastest): ln J̃ in xyz (UNLIT where J̃ = 0; `view_grid.wgsl`), D in w.
@@ -90,7 +98,8 @@ const LN_MAX_SPAN: f32 = 6.9077552789821;
 // cos(angle/2)), (disk radiance, 0).
 @group(0) @binding(4) var<storage, read> suns: array<vec4<f32>>;
 // Two per light of the ground: (unit direction towards a sun, 0) or (box-local position
-// of a point light, 1); (ρ/π · irradiance or intensity, 0).
+// of a point light, 1); (ρ/π · irradiance or intensity, 0). From `sky_first` on, the
+// sky's share that reaches the ground per node of its grid (`ground_sky.wgsl`), in xyz.
 @group(0) @binding(5) var<storage, read> ground_lights: array<vec4<f32>>;
 // Per block of OCCUPANCY_BLOCK³ voxels (x fastest) whether a sample there may see
 // density (`occupancy.wgsl`): in an empty block `sample_grid` is exactly 0.
@@ -106,79 +115,6 @@ fn pixel_ray(x: u32, y: u32) -> vec3<f32> {
     let sx = (2.0 * px / f32(p.image.x) - 1.0) * p.tan_half * p.aspect;
     let sy = (1.0 - 2.0 * py / f32(p.image.y)) * p.tan_half;
     return normalize(p.forward + sx * p.right + sy * p.up);
-}
-
-// `field::ray_box` on [0, size]: (t0, t1, 1) where the ray o + t·d is inside, t0 ≥ 0, or
-// z = 0 when it misses.
-fn ray_box(o: vec3<f32>, d: vec3<f32>) -> vec3<f32> {
-    var t0 = 0.0;
-    var t1 = 3.0e38;
-    for (var a = 0u; a < 3u; a++) {
-        if d[a] == 0.0 {
-            if o[a] < 0.0 || o[a] > p.size[a] {
-                return vec3<f32>(0.0);
-            }
-            continue;
-        }
-        let inv = 1.0 / d[a];
-        let ta = -o[a] * inv;
-        let tb = (p.size[a] - o[a]) * inv;
-        t0 = max(t0, min(ta, tb));
-        t1 = min(t1, max(ta, tb));
-    }
-    if t0 <= t1 && t1 < 3.0e38 {
-        return vec3<f32>(t0, t1, 1.0);
-    }
-    return vec3<f32>(0.0);
-}
-
-// The trilinear stencil of `field::sample` at box-local point q inside the box: the
-// cell's lower and upper voxels per axis and q's fractions between them (constant to
-// the box's faces).
-struct Stencil {
-    i0: vec3<u32>,
-    i1: vec3<u32>,
-    t: vec3<f32>,
-}
-
-fn stencil(q: vec3<f32>) -> Stencil {
-    let n = p.dims;
-    let f = clamp(q / p.voxel - 0.5, vec3<f32>(0.0), vec3<f32>(n) - 1.0);
-    let i0 = min(vec3<u32>(floor(f)), max(n, vec3<u32>(2u)) - 2u);
-    return Stencil(i0, min(i0 + 1u, n - 1u), f - vec3<f32>(i0));
-}
-
-// Corner c (bit a: the upper voxel along axis a) of stencil s: its voxel's index in
-// `grid` and its trilinear weight in w.
-struct Corner {
-    index: u32,
-    w: f32,
-}
-
-fn corner(s: Stencil, c: u32) -> Corner {
-    let hi = vec3<u32>(c & 1u, (c >> 1u) & 1u, c >> 2u) == vec3<u32>(1u);
-    let k = select(s.i0, s.i1, hi);
-    let w = select(1.0 - s.t, s.t, hi);
-    return Corner(k.x + p.dims.x * (k.y + p.dims.y * k.z), w.x * w.y * w.z);
-}
-
-// Whether box-local q lies in a box with voxels (outside, every field is 0).
-fn in_grid(q: vec3<f32>) -> bool {
-    return !any(p.dims == vec3<u32>(0u)) && all(q >= vec3<f32>(0.0)) && all(q <= p.size);
-}
-
-// `field::sample`: the trilinear density D at box-local point q, 0 outside the box.
-fn sample_density(q: vec3<f32>) -> f32 {
-    if !in_grid(q) {
-        return 0.0;
-    }
-    let s = stencil(q);
-    var dq = 0.0;
-    for (var c = 0u; c < 8u; c++) {
-        let k = corner(s, c);
-        dq += k.w * grid[k.index].w;
-    }
-    return dq;
 }
 
 // `crm::sample_radiance` and `field::sample` at box-local point q, zero outside the box:
@@ -270,52 +206,6 @@ fn environment(d: vec3<f32>) -> vec3<f32> {
     return out;
 }
 
-// `ground::ShadowMarch::transmittance`: exp(−σt ∫ D) from box-local x along the unit w
-// over the distance len, by the midpoint rule in steps of half the smallest voxel side,
-// the steps in empty blocks passed over as the view rays do (the same samples count);
-// 0 once σt·τ passes SHADOW_CUTOFF.
-fn shadow(x: vec3<f32>, w: vec3<f32>, len: f32) -> f32 {
-    let hit = ray_box(x, w);
-    if hit.z == 0.0 {
-        return 1.0;
-    }
-    let t0 = hit.x;
-    let t1 = min(hit.y, len);
-    let h = 0.5 * min(p.voxel.x, min(p.voxel.y, p.voxel.z));
-    if !(p.sigma_t > 0.0 && h > 0.0 && t1 > t0) {
-        return 1.0;
-    }
-    let steps = u32(min(ceil((t1 - t0) / h), 1.0e6));
-    let dt = (t1 - t0) / f32(steps);
-    let side = f32(OCCUPANCY_BLOCK) * p.voxel;
-    let blocks = (p.dims + OCCUPANCY_BLOCK - 1u) / OCCUPANCY_BLOCK;
-    var depth = 0.0;
-    var k = 0u;
-    loop {
-        if k >= steps {
-            break;
-        }
-        let t = t0 + (f32(k) + 0.5) * dt;
-        let q = x + t * w;
-        let b = block_of(q, side, blocks);
-        if occupancy[b.x + blocks.x * (b.y + blocks.y * b.z)] == 0u {
-            // To the last step before the block's exit (rounded down, at least one on).
-            let next = floor((t + max(block_exit(q, w, b, side), 0.0) - t0) / dt - 0.5);
-            k = max(u32(max(next, 0.0)), k + 1u);
-            continue;
-        }
-        depth += sample_density(q);
-        if p.sigma_t * depth * dt > SHADOW_CUTOFF {
-            return 0.0;
-        }
-        k++;
-    }
-    if depth > 0.0 {
-        return exp(-p.sigma_t * depth * dt);
-    }
-    return 1.0;
-}
-
 // `lights_pass::optical_depth`: σt·τ from box-local x along the unit s over at most
 // max_len, the midpoint rule in n = ⌈ℓ/h0⌉ equal steps over ℓ, the distance to the box's
 // face or max_len, h0 the smallest voxel side; stops once past SHADOW_CUTOFF.
@@ -402,9 +292,32 @@ fn near_at_step(d: vec3<f32>, t: f32, ds: f32) -> vec3<f32> {
     return out;
 }
 
-// `GroundLight::radiance` at the box-local ground point x, the smoke's shadow marched.
+// `SkyGrid::at`: the sky's share at the box-local ground point x, bilinear between the
+// nodes, 1 outside the grid (and without one).
+fn sky_share(x: vec3<f32>) -> vec3<f32> {
+    let n = p.sky_nodes;
+    if n < 2u {
+        return vec3<f32>(1.0);
+    }
+    let f = (x.xy - p.sky_origin) / p.sky_cell;
+    let top = f32(n - 1u);
+    if !(all(f >= vec2<f32>(0.0)) && all(f <= vec2<f32>(top))) {
+        return vec3<f32>(1.0);
+    }
+    let i0 = min(vec2<u32>(floor(f)), vec2<u32>(n - 2u));
+    let t = f - vec2<f32>(i0);
+    let k = p.sky_first + i0.x + n * i0.y;
+    let a = ground_lights[k].xyz;
+    let b = ground_lights[k + 1u].xyz;
+    let c = ground_lights[k + n].xyz;
+    let d = ground_lights[k + n + 1u].xyz;
+    return (1.0 - t.y) * ((1.0 - t.x) * a + t.x * b) + t.y * ((1.0 - t.x) * c + t.x * d);
+}
+
+// `GroundLight::radiance` at the box-local ground point x, the smoke's shadow marched,
+// the sky's share from its grid.
 fn ground_radiance(x: vec3<f32>) -> vec3<f32> {
-    var out = p.ground_sky;
+    var out = p.ground_sky * sky_share(x);
     for (var i = 0u; i < p.ground_lights; i++) {
         let a = ground_lights[2u * i];
         let e = ground_lights[2u * i + 1u].xyz;

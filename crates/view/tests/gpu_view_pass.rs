@@ -242,6 +242,23 @@ fn the_ground_and_its_shadow_match_the_cpu() {
         shaded[0] < 0.9 * open[0],
         "shadow {shaded:?}, beside it {open:?}"
     );
+    // Under the smoke the sky's share is well below 1 (`ground::sky_seen`), so the
+    // pictures above compared it too; far outside the grid it is 1.
+    let seen = ground
+        .clone()
+        .seeing_sky_through(&bbox, |x, w, l| {
+            haze_view::render::ground_shadow::marched_transmittance(
+                &g.density,
+                medium.sigma_t,
+                x,
+                w,
+                l,
+            )
+        })
+        .sky_seen;
+    let under = seen.at([40.5, -19.5, 5.0], |_, _, _| 1.0);
+    assert!(under[0] < 0.9, "{under:?}");
+    assert_eq!(seen.at([60.0, -19.5, 5.0], |_, _, _| 1.0), [1.0; 3]);
 }
 
 /// A point light inside the smoke, in a box far from the origin: the view pass adds its

@@ -39,6 +39,10 @@ pub const MODULES: &[Module] = &[
         source: include_str!("../../shaders/shadow_cutoff.wgsl"),
     },
     Module {
+        name: "grid_shadow",
+        source: include_str!("../../shaders/grid_shadow.wgsl"),
+    },
+    Module {
         name: "ln_radiance",
         source: include_str!("../../shaders/ln_radiance.wgsl"),
     },
@@ -59,6 +63,7 @@ pub const VARIANTS: &[Variant] = &[
     super::diffusion::SHADER,
     super::view_pass::SHADER,
     super::view_pass::GRID_SHADER,
+    super::view_pass::SKY_SHADER,
     super::tone_pass::SHADER,
 ];
 

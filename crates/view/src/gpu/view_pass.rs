@@ -37,12 +37,14 @@ use crate::Camera;
 use crate::distant::Distant;
 use crate::env::{Backdrop, Environment};
 use crate::ground::GroundLight;
+use crate::ground::sky_seen::{NODES, SkyGrid};
 use crate::lights::PointLight;
 use crate::medium::{FOUR_PI, Medium};
 use crate::render::crm::VolumeGrids;
 use crate::render::near_light::NEAR_RADIUS_VOXELS;
 use haze_gpu::wgsl::Variant;
 use haze_gpu::{GpuContext, GpuError, buffer_init, compute_pipeline, line_groups, submit_pass};
+use haze_volume::Bbox;
 
 /// The shader, `crates/view/shaders/view_pass.wgsl`.
 pub const SHADER: Variant = Variant {
@@ -59,6 +61,34 @@ pub const GRID_SHADER: Variant = Variant {
     defines: &[],
 };
 
+/// The sky's share that reaches the ground on its grid's nodes,
+/// `crates/view/shaders/ground_sky.wgsl` (the twin of [`SkyGrid::compute`]).
+pub const SKY_SHADER: Variant = Variant {
+    label: "ground sky",
+    entry: include_str!("../../shaders/ground_sky.wgsl"),
+    defines: &[],
+};
+
+/// `ground_sky.wgsl`'s parameters, 80 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct SkyParams {
+    size: [f32; 3],
+    sigma_t: f32,
+    voxel: [f32; 3],
+    nodes: u32,
+    dims: [u32; 3],
+    count: u32,
+    origin: [f32; 2],
+    cell: f32,
+    ground_z: f32,
+    first: u32,
+    _pad: [u32; 3],
+}
+
+/// Nodes per workgroup of [`SKY_SHADER`] (`@workgroup_size(64)`).
+const NODES_PER_GROUP: usize = 64;
+
 /// Voxels per workgroup of [`GRID_SHADER`] (`@workgroup_size(64)`).
 const VOXELS_PER_GROUP: usize = 64;
 
@@ -74,7 +104,7 @@ struct GridParams {
 const TILE: u32 = 8;
 
 /// The shader's `Params` (a read-only storage buffer): WGSL's layout (a `vec3` is 16-byte aligned and the
-/// scalar after it fills its fourth slot), 240 bytes.
+/// scalar after it fills its fourth slot), 256 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 struct Params {
@@ -107,7 +137,86 @@ struct Params {
     ground_sky: [f32; 3],
     near_radius: f32,
     near_lights: u32,
-    _pad7: [u32; 3],
+    sky_cell: f32,
+    sky_nodes: u32,
+    sky_first: u32,
+    sky_origin: [f32; 2],
+    _pad8: [u32; 2],
+}
+
+impl Params {
+    /// The view of `grid` by `camera` through `medium` under `env` over `ground`, slices
+    /// `du` apart; no ground lights, point lights or sky share yet (their counts come with
+    /// their buffers).
+    fn new(
+        camera: &Camera,
+        medium: &Medium,
+        env: &EnvBuffer,
+        grid: &GridBuffer,
+        du: f64,
+        ground: Option<&GroundLight>,
+    ) -> Params {
+        let bbox = grid.bbox();
+        let sky = &env.sky;
+        let (width, height) = (camera.width, camera.height);
+        Params {
+            eye: f32x3([0, 1, 2].map(|a| camera.eye[a] - bbox.min[a])),
+            tan_half: camera.tan_half() as f32,
+            forward: f32x3(camera.forward()),
+            aspect: (width as f64 / height as f64) as f32,
+            right: f32x3(camera.right()),
+            sigma_t: medium.sigma_t as f32,
+            up: f32x3(camera.up()),
+            du: du as f32,
+            size: f32x3(bbox.size()),
+            env_kind: env.kind,
+            voxel: f32x3(grid.voxel_size()),
+            suns: env.suns,
+            dims: grid.dims().map(|n| n as u32),
+            ground_lights: 0,
+            image: [width as u32, height as u32],
+            env_size: env.size,
+            zenith: f32x3(sky.zenith),
+            sharpness: sky.sharpness as f32,
+            horizon: f32x3(sky.horizon),
+            ground_z: ground.map_or(0.0, |g| (g.height - bbox.min[2]) as f32),
+            ground: f32x3(sky.ground),
+            has_ground: u32::from(ground.is_some()),
+            sun_direction: f32x3(sky.sun_direction),
+            keep: (1.0 - grid.eye_peak()) as f32,
+            sun: f32x3(sky.sun),
+            g: medium.g as f32,
+            ground_sky: f32x3(ground.map_or([0.0; 3], |g| g.sky)),
+            near_radius: 0.0,
+            near_lights: 0,
+            sky_cell: 0.0,
+            sky_nodes: 0,
+            sky_first: 0,
+            sky_origin: [0.0; 2],
+            _pad8: [0; 2],
+        }
+    }
+}
+
+/// Places the sky's share that reaches `ground` (`ground::sky_seen`'s grid under the
+/// smoke in `bbox`) in `params`, its nodes after the ground's `lights` (room made for
+/// them there), and gives its directions ([`sky_directions`]); the open sky where there
+/// is no ground or the smoke cannot hide it.
+fn place_sky_share(
+    params: &mut Params,
+    lights: &mut Vec<[f32; 4]>,
+    ground: Option<&GroundLight>,
+    bbox: &Bbox,
+) -> Result<Vec<[f32; 4]>, GpuError> {
+    let placed = ground.and_then(|g| Some((g, SkyGrid::placed(bbox, g.height)?)));
+    if let Some((_, (origin, cell))) = placed {
+        params.sky_cell = cell as f32;
+        params.sky_nodes = NODES as u32;
+        params.sky_first = lights.len() as u32;
+        params.sky_origin = [0, 1].map(|a| (origin[a] - bbox.min[a]) as f32);
+        lights.resize(lights.len() + NODES * NODES, [0.0; 4]);
+    }
+    sky_directions(placed.map(|(g, _)| g))
 }
 
 fn f32x3(v: [f64; 3]) -> [f32; 3] {
@@ -120,6 +229,8 @@ pub struct ViewPass {
     pipeline: wgpu::ComputePipeline,
     /// [`GRID_SHADER`]'s.
     ln_pipeline: wgpu::ComputePipeline,
+    /// [`SKY_SHADER`]'s.
+    sky_pipeline: wgpu::ComputePipeline,
     occupancy: OccupancyPass,
 }
 
@@ -136,9 +247,15 @@ impl ViewPass {
             "view pass grid pipeline creation",
             &super::shaders::source(&GRID_SHADER)?,
         )?;
+        let sky_pipeline = compute_pipeline(
+            ctx,
+            "ground sky pipeline creation",
+            &super::shaders::source(&SKY_SHADER)?,
+        )?;
         Ok(ViewPass {
             pipeline,
             ln_pipeline,
+            sky_pipeline,
             occupancy: OccupancyPass::new(ctx)?,
         })
     }
@@ -220,50 +337,22 @@ impl ViewPass {
         }
         let (width, height) = (camera.width, camera.height);
         let groups = image_groups(ctx, width, height)?;
-        let sky = &env.sky;
         let out_bytes = (width * height * 16) as u64;
         ctx.check_storage_size("the image", out_bytes)?;
 
         let bbox = grid.bbox();
-        let eye = [0, 1, 2].map(|a| camera.eye[a] - bbox.min[a]);
-        let lights = ground_lights(ground, bbox.min)?;
+        let mut lights = ground_lights(ground, bbox.min)?;
+        let (near, near_radius) = near_lights(ctx, &env.points, medium, grid)?;
+        let mut params = Params::new(camera, medium, env, grid, du, ground);
+        params.ground_lights = ((lights.len() - 1) / 2) as u32;
+        params.near_radius = near_radius;
+        params.near_lights = ((near.len() - 1) / 2) as u32;
+        let sky_directions = place_sky_share(&mut params, &mut lights, ground, bbox)?;
         ctx.check_storage_size(
             "the ground's lights",
             std::mem::size_of_val(lights.as_slice()) as u64,
         )?;
-        let (near, near_radius) = near_lights(ctx, &env.points, medium, grid)?;
-        let params = Params {
-            eye: f32x3(eye),
-            tan_half: camera.tan_half() as f32,
-            forward: f32x3(camera.forward()),
-            aspect: (width as f64 / height as f64) as f32,
-            right: f32x3(camera.right()),
-            sigma_t: medium.sigma_t as f32,
-            up: f32x3(camera.up()),
-            du: du as f32,
-            size: f32x3(bbox.size()),
-            env_kind: env.kind,
-            voxel: f32x3(grid.voxel_size()),
-            suns: env.suns,
-            dims: dims.map(|n| n as u32),
-            ground_lights: ((lights.len() - 1) / 2) as u32,
-            image: [width as u32, height as u32],
-            env_size: env.size,
-            zenith: f32x3(sky.zenith),
-            sharpness: sky.sharpness as f32,
-            horizon: f32x3(sky.horizon),
-            ground_z: ground.map_or(0.0, |g| (g.height - bbox.min[2]) as f32),
-            ground: f32x3(sky.ground),
-            has_ground: u32::from(ground.is_some()),
-            sun_direction: f32x3(sky.sun_direction),
-            keep: (1.0 - grid.eye_peak()) as f32,
-            sun: f32x3(sky.sun),
-            g: medium.g as f32,
-            ground_sky: f32x3(ground.map_or([0.0; 3], |g| g.sky)),
-            near_radius,
-            near_lights: ((near.len() - 1) / 2) as u32,
-            _pad7: [0; 3],
-        };
+        let sky_groups = line_groups(ctx, NODES * NODES, NODES_PER_GROUP, "nodes")?;
 
         let block_groups = OccupancyPass::groups(ctx, dims)?;
         let voxels = dims.iter().product::<usize>();
@@ -293,6 +382,17 @@ impl ViewPass {
                 bytemuck::cast_slice(&lights),
                 wgpu::BufferUsages::STORAGE,
             );
+            // The sky's share that reaches the ground, on its grid (`ground_sky.wgsl`),
+            // into the nodes after the lights.
+            self.sky_seen(
+                ctx,
+                grid,
+                medium,
+                (&occupancy, &lights_buffer),
+                &params,
+                &sky_directions,
+                sky_groups,
+            );
             let near_buffer = buffer_init(
                 ctx,
                 "view pass point lights",
@@ -318,6 +418,59 @@ impl ViewPass {
             width,
             height,
         })
+    }
+
+    /// Submits the sky's share that reaches the ground on the nodes `params` places
+    /// (`ground_sky.wgsl`, over `groups`) by `directions` ([`sky_directions`]), through
+    /// `grid`'s density and its occupancy, into `seen` from `params.sky_first` on;
+    /// nothing where `params` places no node (the view pass then takes the open sky).
+    /// Call inside [`GpuContext::scoped`].
+    #[allow(clippy::too_many_arguments)]
+    fn sky_seen(
+        &self,
+        ctx: &GpuContext,
+        grid: &GridBuffer,
+        medium: &Medium,
+        (occupancy, seen): (&wgpu::Buffer, &wgpu::Buffer),
+        params: &Params,
+        directions: &[[f32; 4]],
+        groups: [u32; 3],
+    ) {
+        if params.sky_nodes == 0 {
+            return;
+        }
+        let sky = SkyParams {
+            size: params.size,
+            sigma_t: medium.sigma_t as f32,
+            voxel: params.voxel,
+            nodes: params.sky_nodes,
+            dims: params.dims,
+            count: (directions.len() / 2) as u32,
+            origin: params.sky_origin,
+            cell: params.sky_cell,
+            ground_z: params.ground_z,
+            first: params.sky_first,
+            _pad: [0; 3],
+        };
+        let sky = buffer_init(
+            ctx,
+            "ground sky parameters",
+            bytemuck::bytes_of(&sky),
+            wgpu::BufferUsages::STORAGE,
+        );
+        let directions = buffer_init(
+            ctx,
+            "ground sky directions",
+            bytemuck::cast_slice(directions),
+            wgpu::BufferUsages::STORAGE,
+        );
+        submit_pass(
+            ctx,
+            &self.sky_pipeline,
+            "ground sky",
+            &[&sky, grid.buffer(), occupancy, &directions, seen],
+            groups,
+        );
     }
 
     /// Submits the copy of `grid` (`voxels` voxels, dispatched as `groups`) with each
@@ -405,6 +558,31 @@ fn ground_lights(
         }
     }
     out.push([0.0; 4]);
+    Ok(out)
+}
+
+/// The sky's directions of `ground` as `ground_sky.wgsl` reads them: per direction
+/// `(unit direction, 0)`, `(weight per channel, 0)`; one zero `vec4` without a ground (a
+/// buffer is never empty). Refuses non-finite weights.
+fn sky_directions(ground: Option<&GroundLight>) -> Result<Vec<[f32; 4]>, GpuError> {
+    let mut out = Vec::new();
+    if let Some(g) = ground {
+        let d = &g.sky_directions;
+        for (w, k) in d.directions.iter().zip(&d.weights) {
+            if !w.iter().chain(k).all(|c| c.is_finite()) {
+                return Err(GpuError::Input(
+                    "the ground's sky has a non-finite radiance".into(),
+                ));
+            }
+            let w = f32x3(*w);
+            out.push([w[0], w[1], w[2], 0.0]);
+            let k = f32x3(*k);
+            out.push([k[0], k[1], k[2], 0.0]);
+        }
+    }
+    if out.is_empty() {
+        out.push([0.0; 4]);
+    }
     Ok(out)
 }
 
@@ -645,12 +823,21 @@ mod tests {
     #[test]
     fn params_match_the_wgsl_layout() {
         // Offsets of the WGSL struct: vec3 at 16-byte boundaries, vec2<u32> at 8.
-        assert_eq!(std::mem::size_of::<Params>(), 240);
+        assert_eq!(std::mem::size_of::<Params>(), 256);
         assert_eq!(std::mem::offset_of!(Params, ground_sky), 208);
         assert_eq!(std::mem::offset_of!(Params, near_radius), 220);
         assert_eq!(std::mem::offset_of!(Params, near_lights), 224);
+        assert_eq!(std::mem::offset_of!(Params, sky_cell), 228);
+        assert_eq!(std::mem::offset_of!(Params, sky_first), 236);
+        assert_eq!(std::mem::offset_of!(Params, sky_origin), 240);
         assert_eq!(std::mem::offset_of!(Params, image), 112);
         assert_eq!(std::mem::offset_of!(Params, zenith), 128);
         assert_eq!(std::mem::offset_of!(Params, sun), 192);
+        // `ground_sky.wgsl`'s: vec2<f32> at 8, the struct 16-byte aligned.
+        assert_eq!(std::mem::size_of::<SkyParams>(), 80);
+        assert_eq!(std::mem::offset_of!(SkyParams, count), 44);
+        assert_eq!(std::mem::offset_of!(SkyParams, origin), 48);
+        assert_eq!(std::mem::offset_of!(SkyParams, ground_z), 60);
+        assert_eq!(std::mem::offset_of!(SkyParams, first), 64);
     }
 }

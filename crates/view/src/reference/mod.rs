@@ -108,7 +108,8 @@ impl<'a> Scene<'a> {
     }
 
     /// What the camera ray from `o` along the unit `d` sees behind the smoke: the ground
-    /// where it meets it, its shadow exact, else the environment.
+    /// where it meets it, its shadows — the lights' and the sky's — exact, else the
+    /// environment.
     fn background(&self, o: [f64; 3], d: [f64; 3]) -> Rgb {
         match self.ground.and_then(|g| Some((g, g.hit(o, d)?))) {
             Some((g, x)) => g.radiance(x, |x, w, len| self.transmittance(x, w, len)),
@@ -155,7 +156,9 @@ pub fn render(
     opts: &RefOptions,
 ) -> Image {
     let sampler = sampler_for(env, opts);
-    let ground = opts.ground.map(|g| g.lit(env));
+    let ground = opts
+        .ground
+        .map(|g| g.lit(env).tracing_the_sky(&env.distant));
     let scene = Scene {
         volume,
         medium,
@@ -209,7 +212,9 @@ pub fn render_pixels(
     opts: &RefOptions,
 ) -> Vec<(Rgb, Rgb)> {
     let sampler = sampler_for(env, opts);
-    let ground = opts.ground.map(|g| g.lit(env));
+    let ground = opts
+        .ground
+        .map(|g| g.lit(env).tracing_the_sky(&env.distant));
     let scene = Scene {
         volume,
         medium,
@@ -281,7 +286,9 @@ pub fn render_with_noise_rows(
     on_row: &(dyn Fn() + Sync),
 ) -> (Image, Option<f64>) {
     let sampler = sampler_for(env, opts);
-    let ground = opts.ground.map(|g| g.lit(env));
+    let ground = opts
+        .ground
+        .map(|g| g.lit(env).tracing_the_sky(&env.distant));
     let scene = Scene {
         volume,
         medium,

@@ -425,7 +425,8 @@ pub fn scattered_step(a: f64, keep: f64) -> (f64, f64) {
 
 /// View pass: the image of the volume-pass grids, slice thickness `du` (world units).
 /// The background is the environment, or the `ground` where a ray meets it, with the
-/// smoke's shadow marched through the grids' density ([`crate::ground`]).
+/// smoke's shadow marched through the grids' density, the sky's share that reaches it
+/// taken on its grid ([`crate::ground`]).
 pub fn view_pass(
     g: &VolumeGrids,
     medium: &Medium,
@@ -439,6 +440,12 @@ pub fn view_pass(
     let field = RadianceField::new(g);
     let near = NearLights::new(&env.points, &g.density, medium, camera);
     let shadows = ground.map(|_| ShadowMarch::new(&g.density, medium.sigma_t));
+    // The sky's share that reaches the ground, on its grid (`ground::sky_seen`).
+    let ground = ground.zip(shadows.as_ref()).map(|(gr, sh)| {
+        gr.clone()
+            .seeing_sky_through(g.density.bbox(), |x, w, len| sh.transmittance(x, w, len))
+    });
+    let ground = ground.as_ref();
     (0..w * camera.height)
         .into_par_iter()
         .map(|i| {

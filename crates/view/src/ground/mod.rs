@@ -13,11 +13,10 @@
 //! ```
 //!
 //! with `T(x, w, r) = exp(−σt ∫₀^r D(x + t·w) dt)` the smoke's transmittance towards a
-//! light (its shadow), and `E_sky = ∫_{ω_z > 0} L_distant(ω)·ω_z dω` the distant light's
-//! irradiance on the plane, *not* shadowed by the smoke: the sky's light reaches the
-//! ground around the smoke from every side, and its occlusion is left out (a soft
-//! darkening under dense smoke that the model does not show). A sun's disk is taken
-//! at its center.
+//! light (its shadow), `E_sky = ∫_{ω_z > 0} L_distant(ω)·ω_z dω` the distant light's
+//! irradiance on the open plane, and the first term times `V(x)`, the share of it the
+//! smoke lets through ([`sky_seen`]: the sky's shadow, soft and wide under dense smoke).
+//! A sun's disk is taken at its center.
 //!
 //! **What the ground hides.** The smoke stands above the plane, so a sun below the
 //! horizon, or a point light below the plane, cannot light it: a path from the smoke to it
@@ -39,9 +38,13 @@
 //! for a lat-long map, the sum over the texels of its upper half of radiance × `cos θ` ×
 //! solid angle (texels the horizon cuts count the part above it).
 
+pub mod sky_seen;
+
 use crate::Rgb;
 use crate::distant::{Distant, LatLong, Sky};
 use crate::env::Environment;
+use haze_volume::Bbox;
+use sky_seen::{RINGS, SECTORS, SkyDirections, SkyGrid, SkySeen, TRACED_RINGS, TRACED_SECTORS};
 use std::f64::consts::PI;
 
 /// The ground's albedo by default: a darkish, slightly warm grey (asphalt or dark earth),
@@ -74,6 +77,8 @@ impl Ground {
         GroundLight {
             height: self.height,
             sky: [0, 1, 2].map(|c| k[c] * sky[c]),
+            sky_directions: SkyDirections::new(&env.distant, RINGS, SECTORS),
+            sky_seen: SkySeen::Open,
             suns: env
                 .suns
                 .iter()
@@ -182,8 +187,13 @@ pub fn disk_above_horizon(direction: [f64; 3], angle: f64) -> f64 {
 #[derive(Clone, Debug, PartialEq)]
 pub struct GroundLight {
     pub height: f64,
-    /// `ρ/π · E_sky`.
+    /// `ρ/π · E_sky`, of the open sky.
     pub sky: Rgb,
+    /// The sky's directions the fast renderers take its share `V` by ([`sky_seen`]).
+    pub sky_directions: SkyDirections,
+    /// How `V` is taken: [`SkySeen::Open`] until a renderer sets it
+    /// ([`GroundLight::seeing_sky_through`], [`GroundLight::tracing_the_sky`]).
+    pub sky_seen: SkySeen,
     /// Per sun: unit direction towards it, `ρ/π · E`.
     pub suns: Vec<([f64; 3], Rgb)>,
     /// Per point light: position, `ρ/π · I`.
@@ -203,6 +213,29 @@ impl GroundLight {
             .then(|| [o[0] + t * d[0], o[1] + t * d[1], self.height])
     }
 
+    /// This ground with the sky's share `V` taken on [`SkyGrid`]'s nodes for the smoke
+    /// in `bbox` by the shadow rays `transmittance` (the fast renderers; the sky stays
+    /// open where the box stands wholly below the ground).
+    pub fn seeing_sky_through(
+        mut self,
+        bbox: &Bbox,
+        transmittance: impl Fn([f64; 3], [f64; 3], f64) -> f64 + Sync,
+    ) -> GroundLight {
+        self.sky_seen =
+            match SkyGrid::compute(&self.sky_directions, bbox, self.height, transmittance) {
+                Some(grid) => SkySeen::Grid(grid),
+                None => SkySeen::Open,
+            };
+        self
+    }
+
+    /// This ground with the sky's share `V` traced from every point it is seen at by
+    /// [`TRACED_RINGS`] × [`TRACED_SECTORS`] directions of `distant` (the reference).
+    pub fn tracing_the_sky(mut self, distant: &Distant) -> GroundLight {
+        self.sky_seen = SkySeen::Traced(SkyDirections::new(distant, TRACED_RINGS, TRACED_SECTORS));
+        self
+    }
+
     /// `L_g(x)` (module docs) with the smoke's transmittance `transmittance(x, w, r)` from
     /// `x` along the unit `w` over the distance `r` (`∞`: out of the smoke).
     pub fn radiance(
@@ -210,7 +243,8 @@ impl GroundLight {
         x: [f64; 3],
         transmittance: impl Fn([f64; 3], [f64; 3], f64) -> f64,
     ) -> Rgb {
-        let mut out = self.sky;
+        let seen = self.sky_seen.at(x, &transmittance);
+        let mut out = [0, 1, 2].map(|c| self.sky[c] * seen[c]);
         for (w, e) in &self.suns {
             if w[2] > 0.0 {
                 let k = w[2] * transmittance(x, *w, f64::INFINITY);
