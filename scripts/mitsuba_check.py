@@ -304,7 +304,7 @@ def compare_ground(a, folder, w, h):
         return read_exr(out).astype(np.float64)
 
     fast = haze("fast.exr", a.sigma_t, "--ground", "on")
-    ref = haze("reference.exr", a.sigma_t, "--ground", "on", "--reference", "--spp", "16")
+    ref = haze("reference.exr", a.sigma_t, "--ground", "on", "--reference", "--spp", "256")
     off = haze("off.exr", a.sigma_t, "--ground", "off")
     clear = haze("clear.exr", 0.0, "--ground", "on")
     bare = haze("bare.exr", 0.0, "--ground", "off")

@@ -256,9 +256,9 @@ fn the_ground_and_its_shadow_match_the_cpu() {
             )
         })
         .sky_seen;
-    let under = seen.at([40.5, -19.5, 5.0], |_, _, _| 1.0);
+    let under = seen.at([40.5, -19.5, 5.0]);
     assert!(under[0] < 0.9, "{under:?}");
-    assert_eq!(seen.at([60.0, -19.5, 5.0], |_, _, _| 1.0), [1.0; 3]);
+    assert_eq!(seen.at([60.0, -19.5, 5.0]), [1.0; 3]);
 }
 
 /// A point light inside the smoke, in a box far from the origin: the view pass adds its

@@ -44,7 +44,7 @@ use crate::Rgb;
 use crate::distant::{Distant, LatLong, Sky};
 use crate::env::Environment;
 use haze_volume::Bbox;
-use sky_seen::{RINGS, SECTORS, SkyDirections, SkyGrid, SkySeen, TRACED_RINGS, TRACED_SECTORS};
+use sky_seen::{RINGS, SECTORS, SkyDirections, SkyGrid, SkySeen};
 use std::f64::consts::PI;
 
 /// The ground's albedo by default: a darkish, slightly warm grey (asphalt or dark earth),
@@ -191,8 +191,9 @@ pub struct GroundLight {
     pub sky: Rgb,
     /// The sky's directions the fast renderers take its share `V` by ([`sky_seen`]).
     pub sky_directions: SkyDirections,
-    /// How `V` is taken: [`SkySeen::Open`] until a renderer sets it
-    /// ([`GroundLight::seeing_sky_through`], [`GroundLight::tracing_the_sky`]).
+    /// How the fast renderers take `V`: [`SkySeen::Open`] until they set it
+    /// ([`GroundLight::seeing_sky_through`]); the reference estimates its own
+    /// ([`GroundLight::radiance_seeing`]).
     pub sky_seen: SkySeen,
     /// Per sun: unit direction towards it, `ρ/π · E`.
     pub suns: Vec<([f64; 3], Rgb)>,
@@ -229,13 +230,6 @@ impl GroundLight {
         self
     }
 
-    /// This ground with the sky's share `V` traced from every point it is seen at by
-    /// [`TRACED_RINGS`] × [`TRACED_SECTORS`] directions of `distant` (the reference).
-    pub fn tracing_the_sky(mut self, distant: &Distant) -> GroundLight {
-        self.sky_seen = SkySeen::Traced(SkyDirections::new(distant, TRACED_RINGS, TRACED_SECTORS));
-        self
-    }
-
     /// `L_g(x)` (module docs) with the smoke's transmittance `transmittance(x, w, r)` from
     /// `x` along the unit `w` over the distance `r` (`∞`: out of the smoke).
     pub fn radiance(
@@ -243,7 +237,17 @@ impl GroundLight {
         x: [f64; 3],
         transmittance: impl Fn([f64; 3], [f64; 3], f64) -> f64,
     ) -> Rgb {
-        let seen = self.sky_seen.at(x, &transmittance);
+        self.radiance_seeing(x, self.sky_seen.at(x), transmittance)
+    }
+
+    /// [`GroundLight::radiance`] with the sky's share at `x` given, `seen` (the
+    /// reference's own estimate, [`sky_seen::sampled`]).
+    pub fn radiance_seeing(
+        &self,
+        x: [f64; 3],
+        seen: Rgb,
+        transmittance: impl Fn([f64; 3], [f64; 3], f64) -> f64,
+    ) -> Rgb {
         let mut out = [0, 1, 2].map(|c| self.sky[c] * seen[c]);
         for (w, e) in &self.suns {
             if w[2] > 0.0 {

@@ -101,13 +101,7 @@ fn check_in_scattering(
     let medium = Medium::new(2.0, 1.0, g).unwrap();
     let sampler = sampler_for(env, &RefOptions::default());
     assert!(sampler.is_some());
-    let with = Scene {
-        volume,
-        medium: &medium,
-        env,
-        sampler: sampler.as_ref(),
-        ground: None,
-    };
+    let with = Scene::new(volume, &medium, env, sampler.as_ref(), None);
     let without = Scene {
         sampler: None,
         ..with
@@ -284,13 +278,7 @@ fn both_estimators_with_mis_match_quadrature_in_a_slab_under_a_ring() {
         let m = Medium::new(s, albedo, g).unwrap();
         let fine = slab(s, albedo, g, l_down, &fine_l, 1000);
         let coarse = slab(s, albedo, g, l_down, &coarse_l, 500);
-        let scene = Scene {
-            volume: &v,
-            medium: &m,
-            env: &env,
-            sampler: sampler.as_ref(),
-            ground: None,
-        };
+        let scene = Scene::new(&v, &m, &env, sampler.as_ref(), None);
         for multiple in [false, true] {
             let opts = RefOptions {
                 spp: 1,
@@ -325,13 +313,7 @@ fn path_tracing_with_and_without_mis_agree_under_a_patch() {
     let v = blob();
     let m = Medium::new(4.0, 0.95, 0.5).unwrap();
     let sampler = sampler_for(&env, &RefOptions::default());
-    let with = Scene {
-        volume: &v,
-        medium: &m,
-        env: &env,
-        sampler: sampler.as_ref(),
-        ground: None,
-    };
+    let with = Scene::new(&v, &m, &env, sampler.as_ref(), None);
     let without = Scene {
         sampler: None,
         ..with

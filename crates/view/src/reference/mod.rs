@@ -35,7 +35,7 @@ use rand_pcg::Pcg64;
 use rayon::prelude::*;
 
 use crate::field::ray_box;
-use crate::ground::GroundLight;
+use crate::ground::{GroundLight, sky_irradiance, sky_seen};
 use crate::lights::dot;
 use crate::medium::{FOUR_PI, Medium, hg, sample_hg_cos};
 use crate::{Camera, Environment, Image, Rgb};
@@ -100,19 +100,51 @@ pub(crate) struct Scene<'a> {
     pub sampler: Option<&'a EnvSampler>,
     /// The ground camera rays see, lit.
     pub ground: Option<&'a GroundLight>,
+    /// The open sky's irradiance on the ground, `E_sky` (zero without a ground).
+    pub sky_irradiance: Rgb,
 }
 
 impl<'a> Scene<'a> {
+    fn new(
+        volume: &'a Volume,
+        medium: &'a Medium,
+        env: &'a Environment,
+        sampler: Option<&'a EnvSampler>,
+        ground: Option<&'a GroundLight>,
+    ) -> Scene<'a> {
+        Scene {
+            volume,
+            medium,
+            env,
+            sampler,
+            ground,
+            sky_irradiance: ground.map_or([0.0; 3], |_| sky_irradiance(&env.distant)),
+        }
+    }
+
     fn track(&self, o: [f64; 3], d: [f64; 3]) -> track::Track<'a> {
         track::Track::new(self.volume, self.medium.sigma_t, o, d)
     }
 
     /// What the camera ray from `o` along the unit `d` sees behind the smoke: the ground
-    /// where it meets it, its shadows — the lights' and the sky's — exact, else the
+    /// where it meets it, the lights' shadows exact and the sky's share estimated with
+    /// `spp` directions or more drawn from `rng` ([`sky_seen::sampled`]), else the
     /// environment.
-    fn background(&self, o: [f64; 3], d: [f64; 3]) -> Rgb {
+    fn background(&self, o: [f64; 3], d: [f64; 3], spp: u32, rng: &mut Pcg64) -> Rgb {
         match self.ground.and_then(|g| Some((g, g.hit(o, d)?))) {
-            Some((g, x)) => g.radiance(x, |x, w, len| self.transmittance(x, w, len)),
+            Some((g, x)) => {
+                let shadow = |x, w, len| self.transmittance(x, w, len);
+                let mut uniform = || rng.random::<f64>();
+                let seen = sky_seen::sampled(
+                    &self.env.distant,
+                    self.sky_irradiance,
+                    x,
+                    spp as usize,
+                    &mut uniform,
+                    shadow,
+                );
+                g.radiance_seeing(x, seen, shadow)
+            }
             None => self.env.radiance(d),
         }
     }
@@ -156,16 +188,8 @@ pub fn render(
     opts: &RefOptions,
 ) -> Image {
     let sampler = sampler_for(env, opts);
-    let ground = opts
-        .ground
-        .map(|g| g.lit(env).tracing_the_sky(&env.distant));
-    let scene = Scene {
-        volume,
-        medium,
-        env,
-        sampler: sampler.as_ref(),
-        ground: ground.as_ref(),
-    };
+    let ground = opts.ground.map(|g| g.lit(env));
+    let scene = Scene::new(volume, medium, env, sampler.as_ref(), ground.as_ref());
     render_scene(&scene, camera, opts, &|| {})
 }
 
@@ -212,16 +236,8 @@ pub fn render_pixels(
     opts: &RefOptions,
 ) -> Vec<(Rgb, Rgb)> {
     let sampler = sampler_for(env, opts);
-    let ground = opts
-        .ground
-        .map(|g| g.lit(env).tracing_the_sky(&env.distant));
-    let scene = Scene {
-        volume,
-        medium,
-        env,
-        sampler: sampler.as_ref(),
-        ground: ground.as_ref(),
-    };
+    let ground = opts.ground.map(|g| g.lit(env));
+    let scene = Scene::new(volume, medium, env, sampler.as_ref(), ground.as_ref());
     let one = RefOptions { spp: 1, ..*opts };
     let n = opts.spp.max(1);
     pixels
@@ -286,16 +302,8 @@ pub fn render_with_noise_rows(
     on_row: &(dyn Fn() + Sync),
 ) -> (Image, Option<f64>) {
     let sampler = sampler_for(env, opts);
-    let ground = opts
-        .ground
-        .map(|g| g.lit(env).tracing_the_sky(&env.distant));
-    let scene = Scene {
-        volume,
-        medium,
-        env,
-        sampler: sampler.as_ref(),
-        ground: ground.as_ref(),
-    };
+    let ground = opts.ground.map(|g| g.lit(env));
+    let scene = Scene::new(volume, medium, env, sampler.as_ref(), ground.as_ref());
     if opts.spp <= 1 {
         return (render_scene(&scene, camera, opts, on_row), None);
     }

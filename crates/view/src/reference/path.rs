@@ -51,11 +51,13 @@ pub(crate) fn radiance(
     rng: &mut Pcg64,
 ) -> Rgb {
     let Some((t0, t1)) = ray_box(o, d, scene.volume.bbox()) else {
-        return scene.background(o, d);
+        return scene.background(o, d, opts.spp, rng);
     };
     let view = scene.track(o, d);
     let tau = view.depth(t0, t1);
-    let mut out = scene.background(o, d).map(|c| c * (-tau).exp());
+    let mut out = scene
+        .background(o, d, opts.spp, rng)
+        .map(|c| c * (-tau).exp());
     // 1 − T without cancellation for thin media.
     let mass = -(-tau).exp_m1();
     if scene.medium.albedo == 0.0 || mass <= 0.0 || opts.max_bounces == 0 {
