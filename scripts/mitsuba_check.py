@@ -212,7 +212,9 @@ def main():
             compare(a, folder, w, h)
 
 
-def compare(a, folder, w, h):
+def write_volume(folder):
+    """The density (`density()`) as a raw file with its JSON sidecar in `folder`: the
+    array and the file's path."""
     vol = density()
     vol_path = os.path.join(folder, "blob.f32")
     vol.tofile(vol_path)
@@ -221,6 +223,11 @@ def compare(a, folder, w, h):
             {"dims": [DIMS] * 3, "world_bbox_min": [-1.0] * 3, "world_bbox_max": [1.0] * 3},
             f,
         )
+    return vol, vol_path
+
+
+def compare(a, folder, w, h):
+    vol, vol_path = write_volume(folder)
     env_path = os.path.join(folder, "env.exr")
     mi.Bitmap(env_map()).write(env_path)
 
@@ -279,14 +286,7 @@ def compare(a, folder, w, h):
 
 def compare_ground(a, folder, w, h):
     """The ground under absorbing smoke (module docs, `--ground`)."""
-    vol = density()
-    vol_path = os.path.join(folder, "blob.f32")
-    vol.tofile(vol_path)
-    with open(os.path.join(folder, "blob.json"), "w") as f:
-        json.dump(
-            {"dims": [DIMS] * 3, "world_bbox_min": [-1.0] * 3, "world_bbox_max": [1.0] * 3},
-            f,
-        )
+    vol, vol_path = write_volume(folder)
     env_path = os.path.join(folder, "sky.exr")
     mi.Bitmap(env_map(sun_ratio=0.0)).write(env_path)
 

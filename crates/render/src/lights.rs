@@ -106,6 +106,22 @@ pub struct Lights {
     pub light: Vec<PointLight>,
 }
 
+impl Default for Lights {
+    /// `--env sky` as the command line's defaults give it: the built-in sky and its sun,
+    /// nothing added.
+    fn default() -> Lights {
+        Lights {
+            env: "sky".into(),
+            no_sun_extraction: false,
+            layout: Layout::Haze,
+            turn_degrees: 0.0,
+            strength: 1.0,
+            sun: Vec::new(),
+            light: Vec::new(),
+        }
+    }
+}
+
 impl Lights {
     /// The environment the fast renderers light with: a map's concentrated light split
     /// off into suns lit exactly ([`haze_view::lights::decompose`]; what was found is
@@ -348,12 +364,8 @@ mod tests {
     fn lights(env: &str, sun: Vec<Sun>) -> Lights {
         Lights {
             env: env.into(),
-            no_sun_extraction: false,
-            layout: Default::default(),
-            turn_degrees: 0.0,
-            strength: 1.0,
             sun,
-            light: Vec::new(),
+            ..Lights::default()
         }
     }
 

@@ -752,12 +752,7 @@ mod tests {
         map.write_exr(&path).unwrap();
         let lights = haze_render::lights::Lights {
             env: path.to_str().unwrap().into(),
-            no_sun_extraction: false,
-            layout: Default::default(),
-            turn_degrees: 0.0,
-            strength: 1.0,
-            sun: Vec::new(),
-            light: Vec::new(),
+            ..Default::default()
         };
         let turnable = lights.turnable().unwrap().unwrap();
         let (azimuth0, elevation0) = (360.0 * 11.5 / 64.0, 90.0 - 180.0 * 12.5 / 32.0);
