@@ -110,8 +110,9 @@ pub enum Command {
     /// Window: drag the image to orbit, scroll to zoom; the side panel plays, pauses,
     /// steps and scrubs, shows the measured fps, dropped frames and the time of each
     /// stage, and moves the sun, the medium, the SH order, the slices, multiple
-    /// scattering, the residual and the exposure. Space plays or pauses, the left and right
-    /// arrow keys step.
+    /// scattering, the residual and the exposure; under a map (--env) it also turns the
+    /// whole map about the vertical, as --env-rotate does. Space plays or pauses, the left
+    /// and right arrow keys step.
     ///
     /// --play-for SECONDS measures playback: it plays that long from the first picture,
     /// prints one line (frames shown, due and dropped, frame times, fps) and exits. A
