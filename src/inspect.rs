@@ -3,7 +3,7 @@
 //! `haze render --env` places it), as text or JSON.
 
 use anyhow::Result;
-use haze_render::map_report::Placement;
+use haze_render::lights::MapPlacement;
 use haze_render::progress;
 use haze_volume::ImportOptions;
 use haze_volume::import::FrameRange;
@@ -15,7 +15,7 @@ pub fn run(
     json: bool,
     range: FrameRange,
     opts: &ImportOptions,
-    placement: Placement,
+    placement: MapPlacement,
 ) -> Result<()> {
     if haze_render::map_report::is_map(path) {
         let report = haze_render::map_report::inspect_map(path, placement)?;

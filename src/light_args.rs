@@ -2,8 +2,7 @@
 //! a lat-long map, whose concentrated light is split off into suns lit exactly unless
 //! told not to), and suns and point lights given on the command line.
 
-use haze_render::lights::Lights;
-use haze_render::map_report::Placement;
+use haze_render::lights::{Lights, MapPlacement};
 use haze_view::distant::Layout;
 use haze_view::{PointLight, Sun};
 
@@ -67,13 +66,10 @@ impl LightArgs {
 
 impl From<LightArgs> for Lights {
     fn from(a: LightArgs) -> Lights {
-        let placed = a.placement.placement();
         Lights {
             env: a.env,
             no_sun_extraction: a.no_sun_extraction,
-            layout: placed.layout,
-            turn_degrees: placed.turn_degrees,
-            strength: placed.strength,
+            placement: a.placement.placement(),
             sun: a.sun,
             light: a.light,
         }
@@ -102,8 +98,8 @@ pub struct PlacementArgs {
 
 impl PlacementArgs {
     /// The placement the flags say.
-    pub fn placement(&self) -> Placement {
-        Placement {
+    pub fn placement(&self) -> MapPlacement {
+        MapPlacement {
             layout: match self.env_layout {
                 EnvLayout::Haze => Layout::Haze,
                 EnvLayout::Blender => Layout::Blender,

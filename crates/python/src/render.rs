@@ -3,7 +3,7 @@
 
 use crate::{to_py, warnings};
 use haze_core::Image;
-use haze_render::map_report::Placement;
+use haze_render::lights::MapPlacement;
 use haze_render::output::Outputs;
 use haze_render::scene::SceneJob;
 use haze_render::smoke::{RenderOptions, Supersample, render_image};
@@ -63,7 +63,7 @@ fn supersample(given: &Bound<'_, PyAny>) -> PyResult<Supersample> {
 
 /// The keywords `env_layout`, `env_rotate` and `env_strength` checked, as `haze render`'s
 /// `--env-layout`, `--env-rotate` and `--env-strength` are.
-pub(crate) fn placement(layout: &str, rotate: f64, strength: f64) -> PyResult<Placement> {
+pub(crate) fn placement(layout: &str, rotate: f64, strength: f64) -> PyResult<MapPlacement> {
     let layout = match layout {
         "haze" => haze_view::distant::Layout::Haze,
         "blender" => haze_view::distant::Layout::Blender,
@@ -83,7 +83,7 @@ pub(crate) fn placement(layout: &str, rotate: f64, strength: f64) -> PyResult<Pl
             "env_strength: {strength} is not a finite factor of at least 0"
         )));
     }
-    Ok(Placement {
+    Ok(MapPlacement {
         layout,
         turn_degrees: rotate,
         strength,
@@ -135,10 +135,7 @@ pub fn render<'py>(
     (a.width, a.height) = (width, height);
     (a.eye, a.target, a.up, a.fov) = (eye, target, up, fov);
     a.env.env = env;
-    let placed = placement(&env_layout, env_rotate, env_strength)?;
-    a.env.layout = placed.layout;
-    a.env.turn_degrees = placed.turn_degrees;
-    a.env.strength = placed.strength;
+    a.env.placement = placement(&env_layout, env_rotate, env_strength)?;
     a.env.sun = suns(suns_).map_err(to_py)?;
     a.env.light = lights(lights_).map_err(to_py)?;
     (a.sigma_t, a.albedo, a.g) = (sigma_t, albedo, g);

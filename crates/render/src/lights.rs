@@ -94,12 +94,8 @@ pub struct Lights {
     pub env: String,
     /// Keep an environment map whole: no suns are split off it.
     pub no_sun_extraction: bool,
-    /// How the map's columns map to azimuths ([`haze_view::distant::Layout`]).
-    pub layout: Layout,
-    /// The map turned about +Z by this many degrees, counter-clockwise seen from above.
-    pub turn_degrees: f64,
-    /// The map's radiance times this (Blender's Background Strength); 1 as given.
-    pub strength: f64,
+    /// How the map is laid out, turned and scaled ([`MapPlacement`]).
+    pub placement: MapPlacement,
     /// Suns, lit exactly.
     pub sun: Vec<Sun>,
     /// Point lights, lit exactly.
@@ -113,9 +109,7 @@ impl Default for Lights {
         Lights {
             env: "sky".into(),
             no_sun_extraction: false,
-            layout: Layout::Haze,
-            turn_degrees: 0.0,
-            strength: 1.0,
+            placement: MapPlacement::default(),
             sun: Vec::new(),
             light: Vec::new(),
         }
@@ -141,7 +135,7 @@ impl Lights {
     pub fn environment_whole(&self) -> Result<Environment> {
         match self.turnable()? {
             Some(map) => {
-                let placed = map.placed(self.turn_degrees)?;
+                let placed = map.placed(self.placement.turn_degrees)?;
                 note_map(&self.env, &placed);
                 Ok(self.around(placed, false, false))
             }
@@ -183,7 +177,7 @@ impl Lights {
     }
 
     /// The map [`Lights::env`] names, read and checked as it is on disk (module docs of
-    /// [`Lights`]), not yet placed ([`placed`]).
+    /// [`Lights`]), not yet placed ([`MapPlacement`]).
     fn read_map(&self) -> Result<LatLong> {
         let path = Path::new(&self.env);
         if !path.exists() {
@@ -248,7 +242,7 @@ pub struct TurnableMap {
 impl TurnableMap {
     /// The turn the lights were given (`--env-rotate`), degrees.
     pub fn given_turn(&self) -> f64 {
-        self.lights.turn_degrees
+        self.lights.placement.turn_degrees
     }
 
     /// The environment with the map turned `degrees` about +Z (counter-clockwise seen from
@@ -262,7 +256,7 @@ impl TurnableMap {
     /// a warning where a map kept whole (`--no-sun-extraction`) holds concentrated light.
     pub fn as_given(&self) -> Result<Environment> {
         let l = &self.lights;
-        let map = self.placed(l.turn_degrees)?;
+        let map = self.placed(l.placement.turn_degrees)?;
         note_map(&l.env, &map);
         if l.no_sun_extraction {
             // Kept whole, concentrated light is blurred by SH and the direction rule (an
@@ -283,7 +277,11 @@ impl TurnableMap {
     /// The map placed with the given layout and strength, turned `degrees`.
     fn placed(&self, degrees: f64) -> Result<LatLong> {
         let l = &self.lights;
-        placed(&self.read, l.layout, degrees, l.strength, &l.env)
+        let turned = MapPlacement {
+            turn_degrees: degrees,
+            ..l.placement
+        };
+        turned.apply(&self.read, &l.env)
     }
 }
 
@@ -340,21 +338,51 @@ pub(crate) fn decomposition_lines(path: &str, d: &Decomposition) -> Vec<String> 
     lines
 }
 
-/// The lat-long `map` (read from `name`) as `--env-layout`, `--env-rotate` and
-/// `--env-strength` place it: its columns read in `layout`, turned `turn_degrees` about +Z
-/// (counter-clockwise seen from above), its radiance times `strength`
-/// ([`LatLong::turned`], [`LatLong::scaled`]). What `haze render --env` lights with and
-/// what `haze inspect` splits into suns.
-pub fn placed(
-    map: &LatLong,
-    layout: Layout,
-    turn_degrees: f64,
-    strength: f64,
-    name: &str,
-) -> Result<LatLong> {
-    map.turned(layout, turn_degrees)
-        .scaled(strength)
-        .map_err(|e| anyhow!("{name}: times --env-strength: {e}"))
+/// How a lat-long map is placed (`--env-layout`, `--env-rotate`, `--env-strength`, a
+/// scene file's `"layout"`, `"rotate"`, `"strength"`): its columns read in `layout`,
+/// turned `turn_degrees` about +Z (counter-clockwise seen from above), its radiance times
+/// `strength` ([`LatLong::turned`], [`LatLong::scaled`]). What `haze render --env` lights
+/// with, the viewer turns and `haze inspect` splits into suns.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MapPlacement {
+    pub layout: Layout,
+    /// Degrees about +Z, counter-clockwise seen from above.
+    pub turn_degrees: f64,
+    /// The radiance's factor (Blender's Background Strength).
+    pub strength: f64,
+}
+
+impl Default for MapPlacement {
+    /// The map as given: haze's layout, not turned, strength 1.
+    fn default() -> MapPlacement {
+        MapPlacement {
+            layout: Layout::Haze,
+            turn_degrees: 0.0,
+            strength: 1.0,
+        }
+    }
+}
+
+impl MapPlacement {
+    /// The lat-long `map` (read from `name`) placed; a one-line error naming it where
+    /// the strength takes a texel past what a map holds.
+    pub fn apply(&self, map: &LatLong, name: &str) -> Result<LatLong> {
+        map.turned(self.layout, self.turn_degrees)
+            .scaled(self.strength)
+            .map_err(|e| anyhow!("{name}: times --env-strength: {e}"))
+    }
+
+    /// A one-line error when `self` is not the default for `path`, which is not a map
+    /// (a volume, a sequence, an asset): the flags place maps only.
+    pub fn only_for_maps(&self, path: &Path) -> Result<()> {
+        if *self != MapPlacement::default() {
+            bail!(
+                "{}: not an environment map (.exr, .hdr), so --env-layout, --env-rotate and --env-strength do not apply",
+                path.display()
+            );
+        }
+        Ok(())
+    }
 }
 
 #[cfg(test)]
@@ -449,14 +477,14 @@ mod tests {
             (Layout::Blender, false),
             (Layout::Blender, true),
         ] {
-            given.layout = layout;
+            given.placement.layout = layout;
             given.no_sun_extraction = whole;
-            given.turn_degrees = 15.0;
+            given.placement.turn_degrees = 15.0;
             let turnable = given.turnable().unwrap().unwrap();
             assert_eq!(turnable.given_turn(), 15.0);
             for degrees in [0.0, 15.0, 22.5, -97.3, 400.0] {
                 let live = turnable.environment(degrees).unwrap();
-                given.turn_degrees = degrees;
+                given.placement.turn_degrees = degrees;
                 assert_eq!(
                     live,
                     given.environment().unwrap(),

@@ -5,10 +5,9 @@
 //! that is not lat-long (a rendered image, a texture) is described as an image: its size,
 //! format, brightest pixel and mean.
 
-use crate::lights::{decomposition_lines, is_lat_long, note_map, placed};
+use crate::lights::{MapPlacement, decomposition_lines, is_lat_long, note_map};
 use anyhow::{Result, bail};
 use haze_view::LatLong;
-use haze_view::distant::Layout;
 use haze_view::lights::decompose::{DecomposeOptions, decompose, luminance, map_power};
 use serde::Serialize;
 use std::f64::consts::PI;
@@ -94,47 +93,11 @@ impl PictureReport {
     }
 }
 
-/// How `haze inspect` places a map before splitting it, as `haze render`'s
-/// `--env-layout`, `--env-rotate` and `--env-strength` do ([`placed`]): the suns it
-/// reports are then the render's.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Placement {
-    pub layout: Layout,
-    /// Degrees about +Z, counter-clockwise seen from above.
-    pub turn_degrees: f64,
-    /// The radiance's factor.
-    pub strength: f64,
-}
-
-impl Default for Placement {
-    /// The map as given: haze's layout, not turned, strength 1.
-    fn default() -> Placement {
-        Placement {
-            layout: Layout::Haze,
-            turn_degrees: 0.0,
-            strength: 1.0,
-        }
-    }
-}
-
-impl Placement {
-    /// A one-line error when `self` is not the default for `path`, which is not a map
-    /// (a volume, a sequence, an asset): the flags place maps only.
-    pub fn only_for_maps(&self, path: &Path) -> Result<()> {
-        if *self != Placement::default() {
-            bail!(
-                "{}: not an environment map (.exr, .hdr), so --env-layout, --env-rotate and --env-strength do not apply",
-                path.display()
-            );
-        }
-        Ok(())
-    }
-}
-
 /// Reads the picture at `path` (opened once); decomposes it, placed by `placement`, when
 /// it is a lat-long map (the same checks and errors as `--env`), else describes it as an
-/// image — refused when `placement` is not the default, since only a map is placed.
-pub fn inspect_map(path: &Path, placement: Placement) -> Result<PictureReport> {
+/// image — refused when `placement` is not the default, since only a map is placed
+/// ([`MapPlacement`], as `haze render` places it, so the suns reported are the render's).
+pub fn inspect_map(path: &Path, placement: MapPlacement) -> Result<PictureReport> {
     let name = path.display().to_string();
     if !path.exists() {
         bail!("{name}: no such file or directory");
@@ -148,7 +111,7 @@ pub fn inspect_map(path: &Path, placement: Placement) -> Result<PictureReport> {
             .fold(0.0f64, |m, &c| m.max(f64::from(c)))
     };
     if !is_lat_long(map.width, map.height) {
-        if placement != Placement::default() {
+        if placement != MapPlacement::default() {
             bail!(
                 "{name}: a {}×{} picture is not a lat-long map (twice as wide as it is tall), so --env-layout, --env-rotate and --env-strength do not apply",
                 map.width,
@@ -160,13 +123,7 @@ pub fn inspect_map(path: &Path, placement: Placement) -> Result<PictureReport> {
             name, format, &map, max_value,
         )));
     }
-    let map = placed(
-        &map,
-        placement.layout,
-        placement.turn_degrees,
-        placement.strength,
-        &name,
-    )?;
+    let map = placement.apply(&map, &name)?;
     let max_value = brightest(&map);
     note_map(&name, &map);
     let found = decompose(&map, &DecomposeOptions::default());

@@ -321,6 +321,16 @@ mod tests {
             sampled(&sky, e, [0.0; 3], 64, &mut uniform, |_, _, _| 1.0),
             [1.0; 3]
         );
+        // A black sky (no irradiance to take a share of) leaves 1, not 0/0.
+        let none = sampled(
+            &sky,
+            [0.0, f64::NAN, 0.0],
+            [0.0; 3],
+            64,
+            &mut uniform,
+            |_, _, _| 0.0,
+        );
+        assert_eq!(none, [1.0; 3]);
         let dark = sampled(&sky, e, [0.0; 3], 64, &mut uniform, |_, _, _| 0.0);
         assert!(dark.iter().all(|v| v.abs() < 0.05), "{dark:?}");
         let open = fast.seen_from([0.0; 3], |_, _, _| 1.0);
