@@ -56,7 +56,11 @@ fn streams_frames_in_order_with_scrubbing_and_bounded_read_ahead() {
         assert_eq!(f.rbfs, rbfs);
         let mine = f.residual.as_ref().unwrap();
         let theirs = direct.decode(k).unwrap().residual.unwrap();
-        assert_eq!(mine.slot, k);
+        assert_eq!(
+            (mine.slot, mine.group.frames()),
+            (0, 1),
+            "a frame of its own"
+        );
         assert_eq!(mine.dense(), theirs.dense());
         assert!(mine.dense().iter().any(|r| *r != 0.0));
     }
@@ -64,8 +68,8 @@ fn streams_frames_in_order_with_scrubbing_and_bounded_read_ahead() {
 
     // A volume met without a decode ahead is decoded up to the frame asked for: the same
     // residual, the later frames not yet there; a later frame decodes the whole volume,
-    // which then serves the earlier ones too. A prefetching decoder decodes the rest of
-    // the volume on a thread of its own meanwhile.
+    // which then serves the earlier ones too. A prefetching decoder gives each frame as a
+    // group of its own, decoded ahead in order on a thread of its own.
     let whole = direct.decode(n - 1).unwrap().residual.unwrap().group;
     assert_eq!(whole.frames(), n);
     let mut single = FrameDecoder::new(Arc::new(Asset::open(&path).unwrap()));
@@ -77,12 +81,15 @@ fn streams_frames_in_order_with_scrubbing_and_bounded_read_ahead() {
     let again = single.decode(1).unwrap().residual.unwrap();
     assert!(Arc::ptr_eq(&again.group, &later.group));
     let mut ahead = FrameDecoder::prefetching(Arc::new(Asset::open(&path).unwrap()), false);
-    let first = ahead.decode(1).unwrap().residual.unwrap();
-    assert_eq!((first.group.frames(), first.dense()), (2, whole.dense(1)));
-    assert!(ahead.decoding_ahead().is_some(), "the rest of the volume");
-    let next = ahead.decode(2).unwrap().residual.unwrap();
-    assert_eq!((next.group.frames(), next.dense()), (n, whole.dense(2)));
-    assert!(ahead.decoding_ahead().is_none(), "one volume, not looping");
+    for k in [1, 2, 4, 3, 3] {
+        let r = ahead.decode(k).unwrap().residual.unwrap();
+        let got = (r.group.frames(), r.slot, r.dense());
+        assert_eq!(got, (1, 0, whole.dense(k)), "frame {k}");
+        assert!(ahead.decoding_ahead(), "frame {k}");
+    }
+    let last = ahead.decode(n - 1).unwrap().residual.unwrap();
+    assert_eq!(last.dense(), whole.dense(n - 1));
+    assert!(ahead.decode(0).is_ok());
 
     // Scrubbing back, then forward.
     s.seek(4);
@@ -91,11 +98,8 @@ fn streams_frames_in_order_with_scrubbing_and_bounded_read_ahead() {
     let a = s.next_frame().unwrap().unwrap();
     let b = s.next_frame().unwrap().unwrap();
     assert_eq!((a.index, b.index), (1, 2));
-    // The frames of one hash volume share it.
-    assert!(Arc::ptr_eq(
-        &a.residual.unwrap().group,
-        &b.residual.unwrap().group
-    ));
+    assert_eq!(a.residual.unwrap().dense(), whole.dense(1));
+    assert_eq!(b.residual.unwrap().dense(), whole.dense(2));
     s.seek(99);
     assert_eq!(s.next_frame().unwrap().unwrap().index, n - 1);
 
@@ -138,6 +142,28 @@ fn a_damaged_frame_is_reported_and_playback_goes_on() {
             assert_eq!(f.unwrap().index, k);
         }
     }
+
+    // A damaged hash volume: each of its frames says so, and the stream ends as it would.
+    let asset = Asset::open(&path).unwrap();
+    let e = *asset
+        .entries()
+        .iter()
+        .find(|e| e.kind == BlockKind::ResidualHash)
+        .unwrap();
+    drop(asset);
+    let mut bytes = std::fs::read(&path).unwrap();
+    bytes[e.offset as usize + e.len as usize / 2] ^= 0xff;
+    let bad = dir.path().join("bad-residual.haze");
+    std::fs::write(&bad, bytes).unwrap();
+    let mut s = FrameStream::open(&bad, 2, false).unwrap();
+    for k in 0..6 {
+        let err = s.next_frame().unwrap().unwrap_err();
+        assert!(
+            err.contains("bad-residual.haze") && err.lines().count() == 1,
+            "frame {k}: {err}"
+        );
+    }
+    assert!(s.next_frame().is_none());
 }
 
 #[test]

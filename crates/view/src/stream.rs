@@ -3,19 +3,25 @@
 //! hash volume holding the frame's residual — so the renderer never waits on I/O or
 //! decoding.
 //!
-//! Memory is bounded whatever the sequence length: at most `ahead` decoded frames wait in
-//! the queue, one more is being decoded and one is held by the caller; a hash volume is
-//! decoded once and shared (`Arc`) by those of its frames (up to 27) that are in flight,
-//! and the stream decodes the next hash volume on a thread of its own as soon as it
-//! enters one (playback would otherwise wait at each volume's first frame), so at most
-//! three are alive in order playback, each within the size its bake closed volumes at
-//! (`haze bake --volume-mib`, 128 MiB by default). A volume met without a decode ahead
-//! (the first frame, a seek, `haze render --frame`) is decoded first only up to the frame
-//! asked for — its values are coded frame after frame — and whole after that (on its own
-//! thread in playback), so a picture never waits for the frames after its own. Scrubbing ([`FrameStream::seek`])
-//! restarts the reader at the new frame and discards what it had read ahead. A damaged
-//! block is reported on its frame, with the file and the block named, and playback goes
-//! on.
+//! In playback the residual is decoded frame by frame on a thread of its own
+//! ([`haze_hash::block::decode_frames`]): a hash volume's values are coded frame after
+//! frame, so each frame is handed over, as a group of its own, as soon as the volume's
+//! value streams have passed it, and the thread goes on into the next volume (after the
+//! last frame, the first again when looping). A volume's decode is thus spread over its
+//! frames: playback never waits for a whole volume, at its start, after a seek or at a
+//! volume's first frame. Memory is bounded whatever the sequence length: at most `ahead`
+//! decoded frames wait in the stream's queue, one more in the residual thread's, one is
+//! being decoded and one is held by the caller — each frame's own bricks, not a volume's
+//! (a volume stays within the size its bake closed volumes at, `haze bake --volume-mib`,
+//! 128 MiB by default). A looping asset of one volume is decoded again on each loop.
+//! Scrubbing ([`FrameStream::seek`]) restarts the reader at the new frame and discards
+//! what it had read ahead; the residual thread starts again at the frame's volume, its
+//! earlier frames decoded but not packed. A damaged block is reported on its frame, with
+//! the file and the block named, and playback goes on.
+//!
+//! A decoder that does not decode ahead ([`FrameDecoder::new`]: `haze render --frame`,
+//! `haze export`, a scene's medium) decodes a volume up to the frame asked for, and
+//! whole when a later frame of it is asked for; its frames share that group.
 //!
 //! A packed asset's frame (`haze pack`: a raw volume) plays as a frame with no RBFs and
 //! the whole density as a lossless residual, hashed as it is read (tens of ms a frame).
@@ -62,20 +68,56 @@ pub struct StreamFrame {
     pub residual: Option<ResidualSlot>,
 }
 
-/// A hash volume being decoded on a thread of its own: its block index and the thread.
-type Pending = (usize, JoinHandle<Result<ResidualGroup, AssetError>>);
+/// What a decoder holds of one hash volume: block `block`'s frames from slot `first` on,
+/// as many as `group` holds (a volume's first frames, the whole volume, or in playback one
+/// frame as a group of its own).
+#[derive(Debug)]
+struct Held {
+    block: usize,
+    first: usize,
+    group: Arc<ResidualGroup>,
+}
+
+impl Held {
+    /// Slot `slot` of block `block`, if held.
+    fn slot(&self, block: usize, slot: usize) -> Option<ResidualSlot> {
+        let k = slot.checked_sub(self.first)?;
+        (block == self.block && k < self.group.frames()).then(|| ResidualSlot {
+            group: self.group.clone(),
+            slot: k,
+        })
+    }
+}
+
+/// A frame's residual decoded ahead: its block, its slot and the frame as a group of its
+/// own (or the one-line error met there).
+type Decoded = (usize, usize, Result<ResidualGroup, AssetError>);
+
+/// Playback's residual frames, decoded in order by a thread of their own one frame at a
+/// time ([`haze_hash::block::decode_frames`]), from one hash volume into the next, at most
+/// [`AHEAD_FRAMES`] waiting.
+#[derive(Debug)]
+struct Ahead {
+    frames: Receiver<Decoded>,
+    /// A frame received that was not the one asked for (it comes later).
+    held: Option<Decoded>,
+}
+
+/// Residual frames playback's decode thread keeps ready (besides the one it decodes): the
+/// stream's own queue lies after it.
+const AHEAD_FRAMES: usize = 1;
 
 /// Reads frames out of an asset, reusing the hash volume while consecutive frames share it.
 #[derive(Debug)]
 pub struct FrameDecoder {
     asset: Arc<Asset>,
-    /// The last hash volume decoded: its block index and contents.
-    cached: Option<(usize, Arc<ResidualGroup>)>,
-    /// Whether to decode the hash volume after the cached one ahead (playback).
+    /// The residual frames last decoded.
+    cached: Option<Held>,
+    /// Whether to decode frames ahead in order on a thread (playback).
     prefetch: bool,
-    /// Whether the volume after the last is the first again (looping playback).
+    /// Whether the frame after the last is the first again (looping playback).
     wrap: bool,
-    next: Option<Pending>,
+    ahead: Option<Ahead>,
 }
 
 impl FrameDecoder {
@@ -86,12 +128,13 @@ impl FrameDecoder {
             cached: None,
             prefetch: false,
             wrap: false,
-            next: None,
+            ahead: None,
         }
     }
 
-    /// A decoder for playback in order: entering a hash volume starts decoding the next
-    /// one on a thread of its own (after the last, the first again when `looping`).
+    /// A decoder for playback in order: a thread of its own decodes the residual frame by
+    /// frame ahead of the frames asked for, from one hash volume into the next (after the
+    /// last frame, the first again when `looping`), each frame a group of its own.
     pub fn prefetching(asset: Arc<Asset>, looping: bool) -> FrameDecoder {
         FrameDecoder {
             prefetch: true,
@@ -104,9 +147,9 @@ impl FrameDecoder {
         &self.asset
     }
 
-    /// The block index of the hash volume being decoded ahead, if any.
-    pub fn decoding_ahead(&self) -> Option<usize> {
-        self.next.as_ref().map(|(j, _)| *j)
+    /// Whether a thread decodes residual frames ahead (playback, while frames follow).
+    pub fn decoding_ahead(&self) -> bool {
+        self.ahead.is_some()
     }
 
     /// Frame `k`: its RBFs and residual slot, blocks verified.
@@ -146,9 +189,7 @@ impl FrameDecoder {
                 let Scope::Frames { first, .. } = entry.scope else {
                     unreachable!("covering() excludes asset-wide blocks")
                 };
-                let slot = k - first as usize;
-                let group = self.group(i, slot)?;
-                Some(ResidualSlot { group, slot })
+                Some(self.residual(i, k - first as usize)?)
             }
         };
         Ok(StreamFrame {
@@ -161,72 +202,82 @@ impl FrameDecoder {
 }
 
 impl FrameDecoder {
-    /// Hash volume `i` (a block index) holding at least its frames up to `slot`: cached,
-    /// taken from the thread that decoded it ahead, or decoded now. A volume met without a
-    /// decode ahead is decoded now only up to `slot` (a single frame's render, the first
-    /// picture and a seek need not wait for the volume's later frames); a prefetching
-    /// decoder then decodes the whole volume on a thread of its own, and one that does not
-    /// prefetch decodes it when a later frame of it is asked for: at most two decodes a
-    /// volume. Once a volume is whole, a prefetching decoder starts on the one after.
-    fn group(&mut self, i: usize, slot: usize) -> Result<Arc<ResidualGroup>, AssetError> {
-        let partial = match &self.cached {
-            Some((c, g)) if *c == i && g.frames() > slot => return Ok(g.clone()),
-            Some((c, _)) => *c == i,
-            None => false,
-        };
-        let (g, whole) = match self.next.take() {
-            Some((n, thread)) if n == i => {
-                let g = thread.join().unwrap_or_else(|_| {
-                    Err(AssetError::Invalid {
-                        path: self.asset.path().to_path_buf(),
-                        what: format!("the thread decoding block {i} failed"),
-                    })
-                })?;
-                (g, true)
-            }
-            _ if partial => (decode_group(&self.asset, i, usize::MAX)?, true),
-            _ => {
-                let g = decode_group(&self.asset, i, slot)?;
-                let more = matches!(self.asset.entries()[i].scope,
-                    Scope::Frames { count, .. } if g.frames() < count as usize);
-                (g, !more)
-            }
-        };
-        let g = Arc::new(g);
-        self.cached = Some((i, g.clone()));
-        if self.prefetch {
-            let ahead = if whole { self.volume_after(i) } else { Some(i) };
-            self.next = ahead.map(|j| {
-                let asset = self.asset.clone();
-                (
-                    j,
-                    std::thread::spawn(move || decode_group(&asset, j, usize::MAX)),
-                )
-            });
+    /// Slot `slot` of hash volume `i` (a block index): held, decoded ahead ([`Ahead`]) in
+    /// playback, or decoded now. A volume met by a decoder that does not decode ahead is
+    /// decoded only up to `slot` (a single frame's render and a seek need not wait for the
+    /// volume's later frames), and whole when a later frame of it is asked for: at most
+    /// two decodes a volume.
+    fn residual(&mut self, i: usize, slot: usize) -> Result<ResidualSlot, AssetError> {
+        if let Some(r) = self.cached.as_ref().and_then(|h| h.slot(i, slot)) {
+            return Ok(r);
         }
-        Ok(g)
+        let (first, group) = if self.prefetch {
+            (slot, self.decoded_ahead(i, slot)?)
+        } else {
+            let partial = self.cached.as_ref().is_some_and(|h| h.block == i);
+            let through = if partial { usize::MAX } else { slot };
+            (0, decode_group(&self.asset, i, through)?)
+        };
+        let held = Held {
+            block: i,
+            first,
+            group: Arc::new(group),
+        };
+        let r = held.slot(i, slot);
+        self.cached = Some(held);
+        Ok(r.expect("a decoded group holds the slot asked for"))
     }
 
-    /// The hash volume holding the frame after volume `i`'s last (frame 0 after the
-    /// asset's last when looping), if it is another one.
-    fn volume_after(&self, i: usize) -> Option<usize> {
-        let a = &*self.asset;
-        let Scope::Frames { first, count } = a.entries()[i].scope else {
-            return None;
-        };
-        let after = first as usize + count as usize;
-        if after >= a.frame_count() && !self.wrap {
-            return None;
+    /// Slot `slot` of hash volume `i` from the thread decoding ahead, which is started
+    /// there again when it is elsewhere (a seek, the first frame, a damaged block met).
+    fn decoded_ahead(&mut self, i: usize, slot: usize) -> Result<ResidualGroup, AssetError> {
+        if let Some(g) = self.take_ahead(i, slot) {
+            return g;
         }
-        let next = after % a.frame_count().max(1);
-        a.entries()
-            .iter()
-            .position(|e| {
-                e.kind == BlockKind::ResidualHash
-                    && e.scope.covers(next as u32)
-                    && e.scope != Scope::Asset
-            })
-            .filter(|&j| j != i)
+        let (tx, rx) = sync_channel(AHEAD_FRAMES);
+        let (asset, wrap) = (self.asset.clone(), self.wrap);
+        let started = std::thread::Builder::new()
+            .name("haze-residual".into())
+            .spawn(move || decode_ahead(&asset, i, slot, wrap, &tx));
+        let path = self.asset.path().to_path_buf();
+        let failed = |what: String| AssetError::Invalid {
+            path: path.clone(),
+            what,
+        };
+        started.map_err(|e| failed(format!("cannot start the residual's thread: {e}")))?;
+        self.ahead = Some(Ahead {
+            frames: rx,
+            held: None,
+        });
+        self.take_ahead(i, slot)
+            .unwrap_or_else(|| Err(failed(format!("the thread decoding block {i} failed"))))
+    }
+
+    /// Slot `slot` of volume `i` if the thread decoding ahead gives it next (the frames
+    /// before it in the volume passed over); `None`, the frame it gives kept, when it is
+    /// past that slot or in another volume, or has ended.
+    fn take_ahead(&mut self, i: usize, slot: usize) -> Option<Result<ResidualGroup, AssetError>> {
+        let ahead = self.ahead.as_mut()?;
+        loop {
+            let next = match ahead.held.take() {
+                Some(d) => d,
+                None => match ahead.frames.recv() {
+                    Ok(d) => d,
+                    Err(_) => {
+                        self.ahead = None;
+                        return None;
+                    }
+                },
+            };
+            match (next.0 == i, next.1.cmp(&slot)) {
+                (true, std::cmp::Ordering::Equal) => return Some(next.2),
+                (true, std::cmp::Ordering::Less) => continue,
+                _ => {
+                    ahead.held = Some(next);
+                    return None;
+                }
+            }
+        }
     }
 
     /// Frame `k` (number `number`) of a packed asset, from its raw-volume block `block`: no
@@ -284,6 +335,60 @@ fn decode_group(a: &Asset, i: usize, through: usize) -> Result<ResidualGroup, As
         return Err(a.block_error(&block, "residual dims differ from the grid's"));
     }
     Ok(g)
+}
+
+/// The hash volume (a block index) holding frame `k`, if any.
+fn volume_of(a: &Asset, k: usize) -> Option<usize> {
+    a.entries().iter().position(|e| {
+        e.kind == BlockKind::ResidualHash && e.scope.covers(k as u32) && e.scope != Scope::Asset
+    })
+}
+
+/// Playback's residual thread: decodes hash volume `i` frame by frame from slot `from`,
+/// then the volume of the frame after its last (frame 0 after the asset's last when
+/// `wrap`), and so on, sending each frame to `tx` as a group of its own. Ends when the
+/// receiver goes, at the end of a sequence that does not wrap, at a frame with no
+/// residual, or after sending the error met at a frame.
+fn decode_ahead(a: &Asset, mut i: usize, mut from: usize, wrap: bool, tx: &SyncSender<Decoded>) {
+    loop {
+        let mut next = from;
+        let mut ended = false;
+        let decoded = a.block(i).and_then(|block| {
+            haze_hash::block::decode_frames(block.bytes, from, |j, g| {
+                next = j + 1;
+                let g = if g.dims == a.header().grid.dims {
+                    Ok(g)
+                } else {
+                    Err(a.block_error(&block, "residual dims differ from the grid's"))
+                };
+                ended = g.is_err();
+                ended |= tx.send((i, j, g)).is_err();
+                !ended
+            })
+            .map_err(|e| a.block_error(&block, e))
+        });
+        if ended {
+            return;
+        }
+        if let Err(e) = decoded {
+            let _ = tx.send((i, next, Err(e)));
+            return;
+        }
+        let Scope::Frames { first, count } = a.entries()[i].scope else {
+            return;
+        };
+        let mut after = first as usize + count as usize;
+        if after >= a.frame_count() {
+            if !wrap {
+                return;
+            }
+            after = 0;
+        }
+        let Some(j) = volume_of(a, after) else {
+            return;
+        };
+        (i, from) = (j, 0);
+    }
 }
 
 /// What the reader thread is asked to do.
