@@ -11,9 +11,11 @@
 //! frames: playback never waits for a whole volume, at its start, after a seek or at a
 //! volume's first frame. Memory is bounded whatever the sequence length: at most `ahead`
 //! decoded frames wait in the stream's queue, one more in the residual thread's, one is
-//! being decoded and one is held by the caller — each frame's own bricks, not a volume's
-//! (a volume stays within the size its bake closed volumes at, `haze bake --volume-mib`,
-//! 128 MiB by default). A looping asset of one volume is decoded again on each loop.
+//! being decoded and one is held by the caller — each frame's own bricks, not a volume's —
+//! and the frames decoded are kept for a later round while they fit in 128 MiB (the size
+//! of a hash volume at the bake's default `--volume-mib`), so that a short loop, a seek
+//! back, or a renderer slower than the frame rate skipping round a short loop, decode
+//! each frame once; a longer sequence is decoded as it plays.
 //! Scrubbing ([`FrameStream::seek`]) restarts the reader at the new frame and discards
 //! what it had read ahead; the residual thread starts again at the frame's volume, its
 //! earlier frames decoded but not packed. A damaged block is reported on its frame, with
@@ -30,6 +32,7 @@ use haze_asset::{Asset, AssetError, BlockKind, Scope, decode_raw_volume, decode_
 use haze_hash::tile::{DEFAULT_BRICK, ResidualGroup};
 use haze_hash::{BuildOptions, QuantOptions, quantize};
 use haze_volume::{Bbox, Rbf};
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
@@ -68,24 +71,46 @@ pub struct StreamFrame {
     pub residual: Option<ResidualSlot>,
 }
 
-/// What a decoder holds of one hash volume: block `block`'s frames from slot `first` on,
-/// as many as `group` holds (a volume's first frames, the whole volume, or in playback one
-/// frame as a group of its own).
+/// What a decoder that does not decode ahead holds of one hash volume: block `block`'s
+/// first frames, as many as `group` holds (up to the volume's last).
 #[derive(Debug)]
 struct Held {
     block: usize,
-    first: usize,
     group: Arc<ResidualGroup>,
 }
 
 impl Held {
     /// Slot `slot` of block `block`, if held.
     fn slot(&self, block: usize, slot: usize) -> Option<ResidualSlot> {
-        let k = slot.checked_sub(self.first)?;
-        (block == self.block && k < self.group.frames()).then(|| ResidualSlot {
+        (block == self.block && slot < self.group.frames()).then(|| ResidualSlot {
             group: self.group.clone(),
-            slot: k,
+            slot,
         })
+    }
+}
+
+/// Playback's decoded residual frames kept for later — a loop's next round, a seek back, a
+/// renderer slower than the frame rate that skips round a short loop — as long as they fit
+/// in [`KEPT_BYTES`]. None is let go: a loop longer than the budget still finds its first
+/// frames each round (a least-recently-used cache would let each frame go just before it
+/// came round again), and a sequence longer than it is decoded as it plays.
+#[derive(Debug, Default)]
+struct Kept {
+    frames: HashMap<(usize, usize), Arc<ResidualGroup>>,
+    bytes: usize,
+}
+
+/// Decoded residual frames a player keeps at most: a hash volume's size at the bake's
+/// default `--volume-mib`, so a volume of a default bake is decoded once however it loops.
+const KEPT_BYTES: usize = 128 << 20;
+
+impl Kept {
+    /// Keeps frame `at` (block, slot) if it fits.
+    fn keep(&mut self, at: (usize, usize), g: &Arc<ResidualGroup>) {
+        let bytes = g.bytes();
+        if self.bytes + bytes <= KEPT_BYTES && self.frames.insert(at, g.clone()).is_none() {
+            self.bytes += bytes;
+        }
     }
 }
 
@@ -111,8 +136,10 @@ const AHEAD_FRAMES: usize = 1;
 #[derive(Debug)]
 pub struct FrameDecoder {
     asset: Arc<Asset>,
-    /// The residual frames last decoded.
+    /// The hash volume last decoded (a decoder that does not decode ahead).
     cached: Option<Held>,
+    /// Playback's frames kept for later.
+    kept: Kept,
     /// Whether to decode frames ahead in order on a thread (playback).
     prefetch: bool,
     /// Whether the frame after the last is the first again (looping playback).
@@ -126,6 +153,7 @@ impl FrameDecoder {
         FrameDecoder {
             asset,
             cached: None,
+            kept: Kept::default(),
             prefetch: false,
             wrap: false,
             ahead: None,
@@ -202,26 +230,31 @@ impl FrameDecoder {
 }
 
 impl FrameDecoder {
-    /// Slot `slot` of hash volume `i` (a block index): held, decoded ahead ([`Ahead`]) in
-    /// playback, or decoded now. A volume met by a decoder that does not decode ahead is
-    /// decoded only up to `slot` (a single frame's render and a seek need not wait for the
-    /// volume's later frames), and whole when a later frame of it is asked for: at most
-    /// two decodes a volume.
+    /// Slot `slot` of hash volume `i` (a block index). In playback: kept ([`Kept`]) or
+    /// decoded ahead ([`Ahead`]), a frame of its own. Otherwise held or decoded now: a
+    /// volume met is decoded only up to `slot` (a single frame's render and a seek need
+    /// not wait for the volume's later frames), and whole when a later frame of it is
+    /// asked for: at most two decodes a volume.
     fn residual(&mut self, i: usize, slot: usize) -> Result<ResidualSlot, AssetError> {
+        if self.prefetch {
+            let group = match self.kept.frames.get(&(i, slot)) {
+                Some(g) => g.clone(),
+                None => {
+                    let g = Arc::new(self.decoded_ahead(i, slot)?);
+                    self.kept.keep((i, slot), &g);
+                    g
+                }
+            };
+            return Ok(ResidualSlot { group, slot: 0 });
+        }
         if let Some(r) = self.cached.as_ref().and_then(|h| h.slot(i, slot)) {
             return Ok(r);
         }
-        let (first, group) = if self.prefetch {
-            (slot, self.decoded_ahead(i, slot)?)
-        } else {
-            let partial = self.cached.as_ref().is_some_and(|h| h.block == i);
-            let through = if partial { usize::MAX } else { slot };
-            (0, decode_group(&self.asset, i, through)?)
-        };
+        let partial = self.cached.as_ref().is_some_and(|h| h.block == i);
+        let through = if partial { usize::MAX } else { slot };
         let held = Held {
             block: i,
-            first,
-            group: Arc::new(group),
+            group: Arc::new(decode_group(&self.asset, i, through)?),
         };
         let r = held.slot(i, slot);
         self.cached = Some(held);
@@ -271,7 +304,12 @@ impl FrameDecoder {
             };
             match (next.0 == i, next.1.cmp(&slot)) {
                 (true, std::cmp::Ordering::Equal) => return Some(next.2),
-                (true, std::cmp::Ordering::Less) => continue,
+                (true, std::cmp::Ordering::Less) => {
+                    // Passed over (a skip ahead), kept for a later round.
+                    if let Ok(g) = next.2 {
+                        self.kept.keep((next.0, next.1), &Arc::new(g));
+                    }
+                }
                 _ => {
                     ahead.held = Some(next);
                     return None;
