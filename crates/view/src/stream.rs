@@ -126,6 +126,15 @@ struct Ahead {
     frames: Receiver<Decoded>,
     /// A frame received that was not the one asked for (it comes later).
     held: Option<Decoded>,
+    /// Set when the frames are no longer wanted, so that the thread stops even while it
+    /// passes over a volume's first frames (sending nothing) after a seek.
+    gone: Arc<AtomicBool>,
+}
+
+impl Drop for Ahead {
+    fn drop(&mut self) {
+        self.gone.store(true, Ordering::Release);
+    }
 }
 
 /// Residual frames playback's decode thread keeps ready (besides the one it decodes): the
@@ -269,9 +278,11 @@ impl FrameDecoder {
         }
         let (tx, rx) = sync_channel(AHEAD_FRAMES);
         let (asset, wrap) = (self.asset.clone(), self.wrap);
+        let gone = Arc::new(AtomicBool::new(false));
+        let stop = gone.clone();
         let started = std::thread::Builder::new()
             .name("haze-residual".into())
-            .spawn(move || decode_ahead(&asset, i, slot, wrap, &tx));
+            .spawn(move || decode_ahead(&asset, (i, slot), wrap, &tx, &stop));
         let path = self.asset.path().to_path_buf();
         let failed = |what: String| AssetError::Invalid {
             path: path.clone(),
@@ -281,6 +292,7 @@ impl FrameDecoder {
         self.ahead = Some(Ahead {
             frames: rx,
             held: None,
+            gone,
         });
         self.take_ahead(i, slot)
             .unwrap_or_else(|| Err(failed(format!("the thread decoding block {i} failed"))))
@@ -385,14 +397,25 @@ fn volume_of(a: &Asset, k: usize) -> Option<usize> {
 /// Playback's residual thread: decodes hash volume `i` frame by frame from slot `from`,
 /// then the volume of the frame after its last (frame 0 after the asset's last when
 /// `wrap`), and so on, sending each frame to `tx` as a group of its own. Ends when the
-/// receiver goes, at the end of a sequence that does not wrap, at a frame with no
-/// residual, or after sending the error met at a frame.
-fn decode_ahead(a: &Asset, mut i: usize, mut from: usize, wrap: bool, tx: &SyncSender<Decoded>) {
+/// frames are no longer wanted (`gone`, or the receiver gone), at the end of a sequence
+/// that does not wrap, at a frame with no residual, or after sending the error met at a
+/// frame.
+fn decode_ahead(
+    a: &Asset,
+    (mut i, mut from): (usize, usize),
+    wrap: bool,
+    tx: &SyncSender<Decoded>,
+    gone: &AtomicBool,
+) {
     loop {
         let mut next = from;
         let mut ended = false;
         let decoded = a.block(i).and_then(|block| {
             haze_hash::block::decode_frames(block.bytes, from, |j, g| {
+                ended = gone.load(Ordering::Acquire);
+                let Some(g) = g.filter(|_| !ended) else {
+                    return !ended;
+                };
                 next = j + 1;
                 let g = if g.dims == a.header().grid.dims {
                     Ok(g)

@@ -79,9 +79,10 @@ pub fn decode_through(bytes: &[u8], through: usize) -> Result<ResidualGroup, Str
 
 /// Decodes the block frame after frame and hands each frame `j ≥ from` to `each` as a
 /// group of its own — the group [`ResidualGroup::build`] makes of that frame alone, the
-/// frame in its slot 0 — as soon as every value stream has passed it; the frames before
-/// `from` are decoded (their values are the context of those after them) but not packed.
-/// Stops, with no error, when `each` returns `false`.
+/// frame in its slot 0 — as soon as every value stream has passed it; a frame before
+/// `from` is decoded (its values are the context of those after it) but not packed, and
+/// `each` is told of it with `None` (so that a consumer gone can stop a long skip). Stops,
+/// with no error, when `each` returns `false`.
 ///
 /// Playback takes its frames this way: a frame waits for no frame after it, a volume's
 /// decode is spread over its frames instead of coming at its start, and each frame's
@@ -91,7 +92,7 @@ pub fn decode_through(bytes: &[u8], through: usize) -> Result<ResidualGroup, Str
 pub fn decode_frames(
     bytes: &[u8],
     from: usize,
-    mut each: impl FnMut(usize, ResidualGroup) -> bool,
+    mut each: impl FnMut(usize, Option<ResidualGroup>) -> bool,
 ) -> Result<(), String> {
     let mut o = open(bytes)?;
     let readers = std::mem::take(&mut o.readers);
@@ -152,6 +153,9 @@ pub fn decode_frames(
                     lossless.by_ref().take(o.per() * mine.len()).for_each(drop);
                     o.per() * mine.len()
                 };
+                if !each(j, None) {
+                    return Ok(());
+                }
                 continue;
             };
             let g = o.frame_alone(j, mine, hash, &values, &mut lossless)?;
@@ -162,7 +166,7 @@ pub fn decode_frames(
                     o.words
                 ));
             }
-            if !each(j, g) {
+            if !each(j, Some(g)) {
                 return Ok(());
             }
         }

@@ -374,25 +374,40 @@ mod tests {
             .collect();
         for bytes in [&one, &split] {
             for from in [0, 3] {
-                let mut got = Vec::new();
+                let (mut got, mut told) = (Vec::new(), Vec::new());
                 decode_frames(bytes, from, |j, f| {
-                    got.push((j, f));
+                    match f {
+                        Some(f) => got.push((j, f)),
+                        None => told.push(j),
+                    }
                     true
                 })
                 .unwrap();
+                assert_eq!(told, (0..from).collect::<Vec<_>>(), "passed over");
                 assert_eq!(got.len(), frames.len() - from);
                 for (j, f) in got {
                     assert_eq!(f, alone[j], "frame {j} from {from}");
                     assert_eq!(f.dense(0), g.dense(j), "frame {j} from {from}");
                 }
             }
-            let mut asked = 0;
-            decode_frames(bytes, 1, |j, _| {
-                asked += 1;
+            let mut asked = Vec::new();
+            decode_frames(bytes, 1, |j, f| {
+                asked.push((j, f.is_some()));
                 j < 2
             })
             .unwrap();
-            assert_eq!(asked, 2, "the consumer stops after frame 2");
+            assert_eq!(
+                asked,
+                [(0, false), (1, true), (2, true)],
+                "stops after frame 2"
+            );
+            let mut asked = 0;
+            decode_frames(bytes, 4, |_, _| {
+                asked += 1;
+                false
+            })
+            .unwrap();
+            assert_eq!(asked, 1, "stops while passing over the first frames");
             assert!(decode_frames(&bytes[..bytes.len() - 4], 0, |_, _| true).is_err());
             let mut bad = bytes.clone();
             bad[32..36].copy_from_slice(&(u32_at(bytes, 32) + 1).to_le_bytes());
