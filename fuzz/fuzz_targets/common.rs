@@ -1,5 +1,6 @@
 //! What both asset-reader targets do with an input: open it, verify every block, and
-//! decode the blocks of every frame (raw volumes, RBFs, residual hash volumes). Never a
+//! decode the blocks of every frame (raw volumes, RBFs, residual hash volumes, whole and
+//! frame after frame). Never a
 //! panic, never an out-of-bounds read.
 
 use haze_asset::{Asset, BlockKind, decode_raw_volume, decode_rbfs};
@@ -20,6 +21,8 @@ pub fn exercise(data: &[u8]) {
             }
             if let Some(residual) = frame.find(BlockKind::ResidualHash) {
                 let _ = haze_hash::block::decode(residual.bytes);
+                // Playback's way: frame after frame, each stream on a thread.
+                let _ = haze_hash::block::decode_frames(residual.bytes, 1, |_, _| true);
             }
         }
     }

@@ -419,6 +419,16 @@ mod tests {
             .unwrap_err();
             assert!(e.contains("data words"), "{e}");
             assert_eq!(held, frames.len(), "the frames before the fault");
+            // Damage anywhere past the header: an error or frames, never a panic (on the
+            // streams' threads either); where the whole decode refuses, so does this one
+            // by its end.
+            for at in (header_of(bytes)..bytes.len()).step_by(7) {
+                let mut bad = bytes.clone();
+                bad[at] ^= 0x5a;
+                let whole = decode(&bad);
+                let frames = decode_frames(&bad, 0, |_, _| true);
+                assert!(whole.is_ok() || frames.is_err(), "byte {at}");
+            }
         }
     }
 
