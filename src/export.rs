@@ -9,7 +9,7 @@
 
 use anyhow::{Context, Result, bail};
 use haze_asset::Asset;
-use haze_bake::export::{Reconstruction, reconstruct_frame};
+use haze_bake::export::{Reconstruction, reconstruct_frames};
 use haze_bake::inspect::span;
 use haze_render::output::{self, Created, Outputs};
 use haze_render::progress;
@@ -91,12 +91,17 @@ pub fn run(path: &Path, frame: Option<i64>, range: Option<FrameRange>, out: &Pat
     let kind = kind?;
     let bar = progress::frames(targets.len(), "exporting");
     let mut created = Created::new();
-    for (n, file) in &targets {
-        let r = reconstruct_frame(path, *n)?;
-        write(kind, r, file, path, *n, &mut created)?;
+    // The frames in the asset's order: a hash volume's residual decodes once for all of
+    // its frames.
+    let mut files = targets.iter().map(|(_, f)| f);
+    let order: Vec<i64> = targets.iter().map(|(n, _)| *n).collect();
+    reconstruct_frames(path, &order, |n, r| {
+        let file = files.next().context("more frames than files")?;
+        write(kind, r, file, path, n, &mut created)?;
         tracing::info!("{}: frame {n} written", file.display());
         bar.inc(1);
-    }
+        Ok(())
+    })?;
     bar.finish_and_clear();
     created.keep();
     if targets.len() > 1 {

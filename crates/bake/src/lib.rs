@@ -40,6 +40,6 @@ pub mod pipeline;
 pub mod residual;
 pub mod source;
 
-pub use export::{AssetFrame, Reconstruction, read_frame, reconstruct_frame};
+pub use export::{AssetFrame, Reconstruction, read_frame, reconstruct_frame, reconstruct_frames};
 pub use merge::{Merged, merge};
 pub use pipeline::{Bake, BakeOptions, Baked, Count, Event, FrameRecord, MAX_RBFS, baseline};

@@ -1,7 +1,7 @@
 //! The bake through its library API: frames as an iterator, an interrupted bake resumed to
 //! the very same asset, and a frame reconstructed within the error asked for.
 
-use haze_bake::{Bake, BakeOptions, Count, Event, reconstruct_frame};
+use haze_bake::{Bake, BakeOptions, Count, Event, reconstruct_frame, reconstruct_frames};
 use haze_fit::{FitOptions, SequenceOptions};
 use haze_hash::QuantOptions;
 use haze_volume::ImportOptions;
@@ -150,4 +150,38 @@ fn volumes_closed_by_their_size_hold_the_same_frames() {
         );
         assert_eq!(a.data, b.data, "frame {frame}");
     }
+    // Several frames at once (a volume decoded frame after frame), in the asset's order or
+    // not, a frame twice: each as one frame at a time gives it.
+    for asset in [&one, &small] {
+        for numbers in [
+            &[23, 24, 25][..],
+            &[24, 25],
+            &[23, 25],
+            &[25, 23, 24],
+            &[24, 24],
+        ] {
+            let mut got = Vec::new();
+            reconstruct_frames(asset, numbers, |n, r| {
+                got.push((n, r.data));
+                Ok(())
+            })
+            .unwrap();
+            let want: Vec<(i64, Vec<f32>)> = numbers
+                .iter()
+                .map(|&n| (n, reconstruct_frame(asset, n).unwrap().data))
+                .collect();
+            assert_eq!(got, want, "{numbers:?}");
+        }
+    }
+    assert!(reconstruct_frames(&one, &[23, 99], |_, _| Ok(())).is_err());
+    let mut seen = 0;
+    let stop = reconstruct_frames(&one, &[23, 24, 25], |_, _| {
+        seen += 1;
+        anyhow::ensure!(seen < 2, "the consumer's error");
+        Ok(())
+    });
+    assert_eq!(
+        (stop.unwrap_err().to_string(), seen),
+        ("the consumer's error".into(), 2)
+    );
 }
