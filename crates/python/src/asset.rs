@@ -3,14 +3,16 @@
 
 use crate::to_py;
 use anyhow::Context;
-use haze_bake::export::{read_frame, read_raw_frame};
+use haze_bake::export::{frame_density, read_frame, read_raw_frame};
 use haze_render::output::{Outputs, write_atomic};
+use haze_view::stream::FrameDecoder;
 use haze_volume::Volume;
 use haze_volume::export::vdb;
 use numpy::ndarray::{Array2, Array3};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3};
 use pyo3::prelude::*;
 use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
 
 /// A baked or packed `.haze` asset, opened for reading.
 #[derive(Debug)]
@@ -24,6 +26,12 @@ pub struct Asset {
     bbox_max: [f64; 3],
     /// The input the asset was baked from, as recorded (an export never replaces it).
     source: PathBuf,
+    /// The frames' decoder, made at the first frame read: it holds the hash volume last
+    /// decoded (up to the frame asked for, whole when a later frame of it is asked for),
+    /// so that a sequence read frame after frame, in either order (Blender's "Load as
+    /// Volume"), decodes a volume at most twice instead of its earlier frames again for
+    /// every frame.
+    decoder: Mutex<Option<FrameDecoder>>,
 }
 
 /// A frame's RBFs as arrays: centers `(N, 3)`, radii `(N,)`, weights `(N,)`.
@@ -55,6 +63,7 @@ impl Asset {
             bbox_max: h.grid.bbox_max,
             source: PathBuf::from(&h.source.path),
             path,
+            decoder: Mutex::new(None),
         })
     }
 
@@ -161,6 +170,18 @@ impl Asset {
         if let Some((_, v)) = read_raw_frame(&self.path, Some(number))? {
             return Ok(v);
         }
-        Ok(read_frame(&self.path, Some(number))?.density()?.0)
+        let Some(k) = self.numbers.iter().position(|&n| n == number) else {
+            // Not in the asset: its one-line error.
+            return Ok(read_frame(&self.path, Some(number))?.density()?.0);
+        };
+        let mut decoder = self.decoder.lock().unwrap_or_else(|e| e.into_inner());
+        if decoder.is_none() {
+            let asset = Arc::new(haze_asset::Asset::open(&self.path)?);
+            *decoder = Some(FrameDecoder::new(asset));
+        }
+        let f = decoder.as_mut().expect("set above").decode(k)?;
+        let bbox = haze_volume::Bbox::new(self.bbox_min, self.bbox_max);
+        let residual = f.residual.as_ref().map(|r| (&*r.group, r.slot));
+        Ok(frame_density(self.dims, bbox, &f.rbfs, residual)?.0)
     }
 }
