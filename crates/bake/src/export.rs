@@ -85,8 +85,23 @@ pub fn frame_density(
 pub fn read_frame(path: &Path, frame: Option<i64>) -> Result<AssetFrame> {
     let asset = Asset::open(path)?;
     let (k, number) = frame_index(&asset, path, frame)?;
+    let rbf_block = rbf_block(&asset, path, k, number)?;
+    baked_frame(&asset, path, k, number, rbf_block)
+}
+
+/// Frame `frame`'s RBFs as stored (its number in the input; the first frame when `None`),
+/// its residual left undecoded: [`read_frame`]'s RBFs, at the cost of one small block.
+pub fn read_rbfs(path: &Path, frame: Option<i64>) -> Result<Vec<Rbf>> {
+    let asset = Asset::open(path)?;
+    let (k, number) = frame_index(&asset, path, frame)?;
+    let block = rbf_block(&asset, path, k, number)?;
+    Ok(decode_rbfs(block.bytes).map_err(|e| asset.block_error(&block, e))?)
+}
+
+/// Frame `k` (number `number`)'s RBF block; a packed frame's error says to bake it.
+fn rbf_block<'a>(asset: &'a Asset, path: &Path, k: usize, number: i64) -> Result<BlockView<'a>> {
     let blocks = asset.frame(k)?;
-    let rbf_block = blocks.find(BlockKind::Rbfs).ok_or_else(|| {
+    blocks.find(BlockKind::Rbfs).ok_or_else(|| {
         if blocks.find(BlockKind::RawVolume).is_some() {
             anyhow!(
                 "{}: frame {number} is a raw volume (a packed asset, `haze pack`): bake its \
@@ -100,8 +115,7 @@ pub fn read_frame(path: &Path, frame: Option<i64>) -> Result<AssetFrame> {
                 path.display()
             )
         }
-    })?;
-    baked_frame(&asset, path, k, number, rbf_block)
+    })
 }
 
 /// Frame `frame` (its number in the input; the first when `None`) of a packed asset

@@ -40,6 +40,8 @@ pub mod pipeline;
 pub mod residual;
 pub mod source;
 
-pub use export::{AssetFrame, Reconstruction, read_frame, reconstruct_frame, reconstruct_frames};
+pub use export::{
+    AssetFrame, Reconstruction, read_frame, read_rbfs, reconstruct_frame, reconstruct_frames,
+};
 pub use merge::{Merged, merge};
 pub use pipeline::{Bake, BakeOptions, Baked, Count, Event, FrameRecord, MAX_RBFS, baseline};

@@ -1,7 +1,9 @@
 //! The bake through its library API: frames as an iterator, an interrupted bake resumed to
 //! the very same asset, and a frame reconstructed within the error asked for.
 
-use haze_bake::{Bake, BakeOptions, Count, Event, reconstruct_frame, reconstruct_frames};
+use haze_bake::{
+    Bake, BakeOptions, Count, Event, read_frame, read_rbfs, reconstruct_frame, reconstruct_frames,
+};
 use haze_fit::{FitOptions, SequenceOptions};
 use haze_hash::QuantOptions;
 use haze_volume::ImportOptions;
@@ -174,6 +176,14 @@ fn volumes_closed_by_their_size_hold_the_same_frames() {
         }
     }
     assert!(reconstruct_frames(&one, &[23, 99], |_, _| Ok(())).is_err());
+    // The RBFs alone, the residual not decoded: those of the whole frame.
+    for frame in [Some(23), Some(25), None] {
+        let want = read_frame(&small, frame).unwrap().rbfs;
+        assert_eq!(read_rbfs(&small, frame).unwrap(), want, "{frame:?}");
+        assert!(!want.is_empty());
+    }
+    let e = read_rbfs(&small, Some(99)).unwrap_err().to_string();
+    assert!(e.contains("frame 99"), "{e}");
     let mut seen = 0;
     let stop = reconstruct_frames(&one, &[23, 24, 25], |_, _| {
         seen += 1;

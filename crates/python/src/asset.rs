@@ -3,7 +3,7 @@
 
 use crate::to_py;
 use anyhow::Context;
-use haze_bake::export::{frame_density, read_frame, read_raw_frame};
+use haze_bake::export::{frame_density, read_frame, read_raw_frame, read_rbfs};
 use haze_render::output::{Outputs, write_atomic};
 use haze_view::stream::FrameDecoder;
 use haze_volume::Volume;
@@ -109,15 +109,15 @@ impl Asset {
     /// Frame `number`'s RBFs: `(centers (N, 3), radii (N,), weights (N,))`, float64, world
     /// units; `D̃(x) = Σ wᵢ·exp(−|x − cᵢ|²/rᵢ²)`.
     fn rbfs<'py>(&self, py: Python<'py>, number: i64) -> PyResult<Rbfs<'py>> {
-        let frame = py
-            .detach(|| read_frame(&self.path, Some(number)))
+        let rbfs = py
+            .detach(|| read_rbfs(&self.path, Some(number)))
             .map_err(to_py)?;
-        let n = frame.rbfs.len();
-        let centers: Vec<f64> = frame.rbfs.iter().flat_map(|r| r.center).collect();
+        let n = rbfs.len();
+        let centers: Vec<f64> = rbfs.iter().flat_map(|r| r.center).collect();
         let centers = Array2::from_shape_vec((n, 3), centers)
             .map_err(|e| to_py(anyhow::anyhow!("RBF centers: {e}")))?;
-        let radii: Vec<f64> = frame.rbfs.iter().map(|r| r.radius).collect();
-        let weights: Vec<f64> = frame.rbfs.iter().map(|r| r.weight).collect();
+        let radii: Vec<f64> = rbfs.iter().map(|r| r.radius).collect();
+        let weights: Vec<f64> = rbfs.iter().map(|r| r.weight).collect();
         Ok((
             centers.into_pyarray(py),
             radii.into_pyarray(py),
