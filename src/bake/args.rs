@@ -126,10 +126,11 @@ pub struct BakeCli {
     pub(crate) residual_brick: u32,
     /// Largest decoded size of a residual hash volume, in MiB. A volume holds up to 27
     /// frames and closes early, with fewer, before another frame would take it past this:
-    /// playback holds up to three volumes at once and the bake one, so this bounds the
-    /// memory both need for the residual whatever the frames' size (turbulent smoke at
-    /// 256³ takes about 10 MiB a frame). Larger volumes code a little smaller: the coder
-    /// adapts over more frames.
+    /// the bake holds one volume, and a single frame's render or export (or Python's
+    /// reader) up to one, so this bounds the memory they need for the residual whatever
+    /// the frames' size (turbulent smoke at 256³ takes about 10 MiB a frame); playback
+    /// decodes frame after frame and holds frames, not volumes. Larger volumes code a
+    /// little smaller: the coder adapts over more frames.
     #[arg(long, value_name = "MIB", default_value_t = (haze_hash::tile::VOLUME_BYTES >> 20) as f64, value_parser = parse_volume_mib)]
     pub(crate) volume_mib: f64,
     /// Also write a JSON report of every frame's fit.

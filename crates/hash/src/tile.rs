@@ -22,10 +22,10 @@ pub const GROUP: usize = 27;
 
 /// The decoded size a hash volume stops growing at by default (128 MiB): a bake closes a
 /// volume early, with fewer than [`GROUP`] frames, rather than let another frame take it
-/// past this ([`GroupBuilder::has_room`]). Playback holds up to three volumes at once
-/// (the one playing, the one before it until its last frame is let go, the next one
-/// decoding), so this bounds its cache at about 384 MiB whatever the frames' size, and
-/// bounds the bake's volume waiting to be hashed the same way. Smooth 128³-class smoke
+/// past this ([`GroupBuilder::has_room`]). This bounds the bake's volume waiting to be
+/// hashed, and what a reader of single frames holds (a volume decoded up to a frame),
+/// whatever the frames' size; playback decodes frame after frame
+/// ([`crate::block::decode_frames`]) and holds frames, not volumes. Smooth 128³-class smoke
 /// fills 27 frames with a few MiB; turbulent 256³-class smoke takes about 10 MiB a frame.
 pub const VOLUME_BYTES: usize = 128 << 20;
 
