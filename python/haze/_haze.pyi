@@ -81,7 +81,11 @@ def render_scene(
 ) -> npt.NDArray[np.float32]: ...
 
 class Asset:
-    """A baked or packed `.haze` asset, opened for reading."""
+    """A baked or packed `.haze` asset, opened for reading.
+
+    Reading frames keeps the hash volume last decoded (at most the bake's `--volume-mib`,
+    128 MiB by default), so a sequence read frame by frame, in either order, decodes each
+    volume at most twice."""
 
     def __init__(self, path: Union[str, "os.PathLike[str]"]) -> None: ...
     @property

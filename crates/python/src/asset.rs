@@ -14,7 +14,9 @@ use pyo3::prelude::*;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
-/// A baked or packed `.haze` asset, opened for reading.
+/// A baked or packed `.haze` asset, opened for reading. Reading frames keeps the hash
+/// volume last decoded (at most the bake's `--volume-mib`, 128 MiB by default), so a
+/// sequence read frame by frame, in either order, decodes each volume at most twice.
 #[derive(Debug)]
 #[pyclass(frozen, module = "haze._haze")]
 pub struct Asset {
