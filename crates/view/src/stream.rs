@@ -141,7 +141,9 @@ impl Drop for Ahead {
 /// stream's own queue lies after it.
 const AHEAD_FRAMES: usize = 1;
 
-/// Reads frames out of an asset, reusing the hash volume while consecutive frames share it.
+/// Reads frames out of an asset: one at a time, a hash volume held while its frames are
+/// asked for ([`FrameDecoder::new`]), or in playback frame after frame on a thread of
+/// its own, the frames decoded kept ([`FrameDecoder::prefetching`]).
 #[derive(Debug)]
 pub struct FrameDecoder {
     asset: Arc<Asset>,
@@ -157,7 +159,8 @@ pub struct FrameDecoder {
 }
 
 impl FrameDecoder {
-    /// A decoder that decodes what it is asked for (single frames, scrubbing).
+    /// A decoder that decodes what it is asked for (single frames, exports, a scene's
+    /// medium, Python's reader).
     pub fn new(asset: Arc<Asset>) -> FrameDecoder {
         FrameDecoder {
             asset,
