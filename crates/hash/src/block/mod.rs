@@ -306,8 +306,18 @@ mod tests {
     /// The frames up to each slot decode to the group built of those frames alone, table
     /// for table, in one stream and in four, a lossless frame and an empty one among
     /// them; past the last slot the whole group comes back.
-    #[test]
-    fn a_prefix_of_the_frames_decodes_alone() {
+    /// Five frames of a 40 × 12 × 12 grid in bricks of 4 — frame 1 lossless, frame 3 empty,
+    /// the others' values `((i·a + f·b) mod m)·0.002 − c` — their group, and its block
+    /// coded in one stream and in four.
+    struct Five {
+        dims: [u32; 3],
+        frames: Vec<crate::Quantized>,
+        g: ResidualGroup,
+        one: Vec<u8>,
+        split: Vec<u8>,
+    }
+
+    fn five((a, b, m, c): (usize, usize, usize, f32)) -> Five {
         let dims = [40, 12, 12];
         let n = (dims[0] * dims[1] * dims[2]) as usize;
         let frames: Vec<_> = (0..5)
@@ -315,7 +325,7 @@ mod tests {
                 let r: Vec<f32> = (0..n)
                     .map(|i| match f {
                         3 => 0.0,
-                        _ => ((i * 31 + f * 7) % 13) as f32 * 0.002 - 0.01,
+                        _ => ((i * a + f * b) % m) as f32 * 0.002 - c,
                     })
                     .collect();
                 let error = if f == 1 { 0.0 } else { 0.004 };
@@ -326,6 +336,24 @@ mod tests {
         let one = encode_streams(&g, usize::MAX, VERSION).unwrap();
         let split = encode_streams(&g, g.data.len() / 8, VERSION).unwrap();
         assert_eq!((u32_at(&one, FIXED), u32_at(&split, FIXED)), (1, 4));
+        Five {
+            dims,
+            frames,
+            g,
+            one,
+            split,
+        }
+    }
+
+    #[test]
+    fn a_prefix_of_the_frames_decodes_alone() {
+        let Five {
+            dims,
+            frames,
+            g,
+            one,
+            split,
+        } = five((31, 7, 13, 0.01));
         for bytes in [&one, &split] {
             for j in 0..frames.len() {
                 let want =
@@ -347,24 +375,13 @@ mod tests {
     /// words do not add up is refused after the frames it does hold.
     #[test]
     fn frames_decode_one_after_another_each_alone() {
-        let dims = [40, 12, 12];
-        let n = (dims[0] * dims[1] * dims[2]) as usize;
-        let frames: Vec<_> = (0..5)
-            .map(|f| {
-                let r: Vec<f32> = (0..n)
-                    .map(|i| match f {
-                        3 => 0.0,
-                        _ => ((i * 37 + f * 5) % 11) as f32 * 0.002 - 0.008,
-                    })
-                    .collect();
-                let error = if f == 1 { 0.0 } else { 0.004 };
-                quantize(&r, 1.0, QuantOptions { error, bits: 8 }).unwrap()
-            })
-            .collect();
-        let g = ResidualGroup::build(dims, 4, &frames, BuildOptions::default()).unwrap();
-        let one = encode_streams(&g, usize::MAX, VERSION).unwrap();
-        let split = encode_streams(&g, g.data.len() / 8, VERSION).unwrap();
-        assert_eq!((u32_at(&one, FIXED), u32_at(&split, FIXED)), (1, 4));
+        let Five {
+            dims,
+            frames,
+            g,
+            one,
+            split,
+        } = five((37, 5, 11, 0.008));
         let alone: Vec<ResidualGroup> = frames
             .iter()
             .map(|f| {
