@@ -85,8 +85,7 @@ pub fn frame_density(
 pub fn read_frame(path: &Path, frame: Option<i64>) -> Result<AssetFrame> {
     let asset = Asset::open(path)?;
     let (k, number) = frame_index(&asset, path, frame)?;
-    let rbf_block = rbf_block(&asset, path, k, number)?;
-    baked_frame(&asset, path, k, number, rbf_block)
+    baked_frame(&asset, path, k, number)
 }
 
 /// Frame `frame`'s RBFs as stored (its number in the input; the first frame when `None`),
@@ -157,19 +156,11 @@ fn frame_index(asset: &Asset, path: &Path, frame: Option<i64>) -> Result<(usize,
     Ok((k, numbers[k]))
 }
 
-/// Frame `k` (number `number`) of a baked asset from its RBF block and its hash volume.
-fn baked_frame(
-    asset: &Asset,
-    path: &Path,
-    k: usize,
-    number: i64,
-    rbf_block: BlockView<'_>,
-) -> Result<AssetFrame> {
-    let h = asset.header();
-    let blocks = asset.frame(k)?;
-    let rbfs = decode_rbfs(rbf_block.bytes).map_err(|e| asset.block_error(&rbf_block, e))?;
+/// Frame `k` (number `number`) of a baked asset from its RBF block and its hash volume
+/// (decoded up to the frame: the values after it are not needed).
+fn baked_frame(asset: &Asset, path: &Path, k: usize, number: i64) -> Result<AssetFrame> {
     // No residual block: the RBFs alone met the error on every frame of its hash volume.
-    let residual = match blocks.find(BlockKind::ResidualHash) {
+    let residual = match asset.frame(k)?.find(BlockKind::ResidualHash) {
         Some(res_block) => {
             let Scope::Frames { first, .. } = res_block.id.scope else {
                 bail!(
@@ -177,26 +168,42 @@ fn baked_frame(
                     path.display()
                 );
             };
-            // The volume's frames up to this one: the values after it are not needed.
-            let group = haze_hash::block::decode_through(res_block.bytes, k - first as usize)
+            let slot = k - first as usize;
+            let group = haze_hash::block::decode_through(res_block.bytes, slot)
                 .map_err(|e| asset.block_error(&res_block, e))?;
-            if group.dims != h.grid.dims {
-                bail!(
-                    "{}: residual block dims {:?} differ from the grid's",
-                    path.display(),
-                    group.dims
-                );
-            }
-            Some((Arc::new(group), k - first as usize))
+            Some((group, slot))
         }
         None => None,
     };
+    frame_with(asset, path, k, number, residual)
+}
+
+/// Frame `k` (number `number`) of a baked asset: its RBF block decoded, beside `residual`
+/// (frames of its hash volume decoded and the frame's slot among them; none when the
+/// asset stores none for it), whose grid must be the asset's.
+fn frame_with(
+    asset: &Asset,
+    path: &Path,
+    k: usize,
+    number: i64,
+    residual: Option<(ResidualGroup, usize)>,
+) -> Result<AssetFrame> {
+    let h = asset.header();
+    if let Some((group, _)) = residual.as_ref().filter(|(g, _)| g.dims != h.grid.dims) {
+        bail!(
+            "{}: residual block dims {:?} differ from the grid's",
+            path.display(),
+            group.dims
+        );
+    }
+    let block = rbf_block(asset, path, k, number)?;
+    let rbfs = decode_rbfs(block.bytes).map_err(|e| asset.block_error(&block, e))?;
     Ok(AssetFrame {
         number,
         dims: h.grid.dims.map(|d| d as usize),
         bbox: Bbox::new(h.grid.bbox_min, h.grid.bbox_max),
         rbfs,
-        residual,
+        residual: residual.map(|(g, slot)| (Arc::new(g), slot)),
     })
 }
 
@@ -249,29 +256,10 @@ fn walk_volume(
     asked: &[(usize, i64)],
     each: &mut impl FnMut(i64, Reconstruction) -> Result<()>,
 ) -> Result<()> {
-    let h = asset.header();
     let mut next = 0;
     let mut failed = None;
     let mut frame = |k: usize, number: i64, group: ResidualGroup| -> Result<()> {
-        if group.dims != h.grid.dims {
-            bail!(
-                "{}: residual block dims {:?} differ from the grid's",
-                path.display(),
-                group.dims
-            );
-        }
-        let blocks = asset.frame(k)?;
-        let rbf_block = blocks
-            .find(BlockKind::Rbfs)
-            .ok_or_else(|| anyhow!("{}: frame {number} has no RBF block", path.display()))?;
-        let rbfs = decode_rbfs(rbf_block.bytes).map_err(|e| asset.block_error(&rbf_block, e))?;
-        let f = AssetFrame {
-            number,
-            dims: h.grid.dims.map(|d| d as usize),
-            bbox: Bbox::new(h.grid.bbox_min, h.grid.bbox_max),
-            rbfs,
-            residual: Some((Arc::new(group), 0)),
-        };
+        let f = frame_with(asset, path, k, number, Some((group, 0)))?;
         each(number, f.reconstruction())
     };
     let walked = haze_hash::block::decode_frames(block.bytes, asked[0].0 - first, |j, g| {

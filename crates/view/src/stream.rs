@@ -206,11 +206,7 @@ impl FrameDecoder {
                     frame: k,
                     count: a.frame_count(),
                 })?;
-        let covering = |kind: BlockKind| {
-            a.entries()
-                .iter()
-                .position(|e| e.kind == kind && e.scope.covers(k as u32) && e.scope != Scope::Asset)
-        };
+        let covering = |kind: BlockKind| block_of(a, kind, k);
         let Some(rbf_index) = covering(BlockKind::Rbfs) else {
             return match covering(BlockKind::RawVolume) {
                 Some(i) => self.decode_raw(k, number, i),
@@ -227,7 +223,7 @@ impl FrameDecoder {
             Some(i) => {
                 let entry = &a.entries()[i];
                 let Scope::Frames { first, .. } = entry.scope else {
-                    unreachable!("covering() excludes asset-wide blocks")
+                    unreachable!("block_of() excludes asset-wide blocks")
                 };
                 Some(self.residual(i, k - first as usize)?)
             }
@@ -390,11 +386,11 @@ fn decode_group(a: &Asset, i: usize, through: usize) -> Result<ResidualGroup, As
     Ok(g)
 }
 
-/// The hash volume (a block index) holding frame `k`, if any.
-fn volume_of(a: &Asset, k: usize) -> Option<usize> {
-    a.entries().iter().position(|e| {
-        e.kind == BlockKind::ResidualHash && e.scope.covers(k as u32) && e.scope != Scope::Asset
-    })
+/// The block (its index) of kind `kind` that holds frame `k`, if any.
+fn block_of(a: &Asset, kind: BlockKind, k: usize) -> Option<usize> {
+    a.entries()
+        .iter()
+        .position(|e| e.kind == kind && e.scope.covers(k as u32) && e.scope != Scope::Asset)
 }
 
 /// Playback's residual thread: decodes hash volume `i` frame by frame from slot `from`,
@@ -448,7 +444,7 @@ fn decode_ahead(
             }
             after = 0;
         }
-        let Some(j) = volume_of(a, after) else {
+        let Some(j) = block_of(a, BlockKind::ResidualHash, after) else {
             return;
         };
         (i, from) = (j, 0);
