@@ -822,6 +822,75 @@ fn swept_sun_shadows_follow_the_march() {
     assert_eq!(a.radiance, b.radiance);
 }
 
+/// The lights pass's shadows kept across camera moves (`LightShadows`, what the viewer
+/// keeps for a frame on the CPU): added from a second and a third eye — one of them on a
+/// voxel center, which that voxel does not light — they give the pass run afresh from
+/// that eye to the bit, marched and swept, under a sun and two point lights (one on a
+/// voxel center, lit there without a shadow); and the eye matters (g ≠ 0), so the check
+/// can fail: the two eyes' grids differ.
+#[test]
+fn kept_light_shadows_give_the_fresh_pass_from_every_eye() {
+    use haze_view::render::crm::VolumeGrids;
+    use haze_view::render::lights_pass::{LightShadows, lights_pass_at};
+    let n = 20;
+    let dims = [n; 3];
+    let bbox = unit_box();
+    let data: Vec<f32> = (0..n * n * n)
+        .map(|i| {
+            let c = [i % n, i / n % n, i / (n * n)].map(|a| (a as f64 + 0.5) / n as f64 - 0.5);
+            let r2 = c[0] * c[0] + 1.3 * c[1] * c[1] + c[2] * c[2];
+            ((1.0 - 7.0 * r2).max(0.0) * (1.0 + 0.3 * (13.0 * c[2]).sin())) as f32
+        })
+        .collect();
+    let volume = haze_volume::Volume::new(dims, bbox, data).unwrap();
+    let grids = || VolumeGrids {
+        density: volume.clone(),
+        radiance: vec![[0.01; 3]; n * n * n],
+        eye_peak: 0.0,
+    };
+    let center = |k: [usize; 3]| {
+        let vs = volume.voxel_size();
+        [0, 1, 2].map(|a| bbox.min[a] + (k[a] as f64 + 0.5) * vs[a])
+    };
+    let medium = Medium::new(6.0, 0.9, 0.4).unwrap();
+    let mut env = Environment::constant([0.0; 3]);
+    env.suns = vec![Sun::from_radiance([0.3, 0.5, 0.81], [20.0; 3], 0.0).unwrap()];
+    env.points = vec![
+        PointLight {
+            position: [0.9, 0.2, 0.7],
+            intensity: [5.0; 3],
+        },
+        PointLight {
+            position: center([9, 10, 11]),
+            intensity: [0.5, 1.0, 2.0],
+        },
+    ];
+    let eyes = [[2.0, -1.0, 0.8], [-1.5, 0.4, 1.9], center([10, 10, 10])];
+    for detail in [1.0, 0.5] {
+        let shadows = LightShadows::new(&volume, &env, &medium, detail).unwrap();
+        let mut seen = Vec::new();
+        for eye in eyes {
+            let (mut fresh, mut kept) = (grids(), grids());
+            lights_pass_at(&mut fresh, &env, &medium, eye, detail);
+            shadows.add_to(&mut kept, &env, &medium, eye);
+            assert_eq!(
+                kept.radiance, fresh.radiance,
+                "detail {detail}, eye {eye:?}"
+            );
+            seen.push(kept.radiance);
+        }
+        assert_ne!(seen[0], seen[1], "detail {detail}");
+        let i = 10 + n * (10 + n * 10);
+        assert_eq!(seen[2][i], [0.01; 3], "the voxel at the eye");
+        assert!(seen[0][i][0] > 0.01);
+    }
+    // Nothing to add: no lights, or an albedo of 0.
+    let dark = Environment::constant([0.0; 3]);
+    assert!(LightShadows::new(&volume, &dark, &medium, 1.0).is_none());
+    let black = Medium::new(6.0, 0.0, 0.4).unwrap();
+    assert!(LightShadows::new(&volume, &env, &black, 1.0).is_none());
+}
+
 /// The lights pass at its extremes, marched (detail 1) and swept (detail 0.5), under suns
 /// along an axis, along a diagonal and grazing a face: an empty box lights nothing; a
 /// full box at σt 0 is lit without shadow (every voxel the same multiple of HG toward

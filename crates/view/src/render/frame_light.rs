@@ -1,7 +1,8 @@
 //! The light of one frame, split by what a camera move changes. [`FrameLight::new`]
 //! computes what does not depend on the camera — the source radiance at the centers
-//! ([`super::source_radiance`]), the environment pass's grid ([`env_pass::env_grid`]) and the
-//! multiple scattering's cells ([`grid_diffusion`]) — and returns the volume grids seen
+//! ([`super::source_radiance`]), the environment pass's grid ([`env_pass::env_grid`]), the
+//! lights' shadows ([`LightShadows`]) and the multiple scattering's cells
+//! ([`grid_diffusion`]) — and returns the volume grids seen
 //! from its eye; [`FrameLight::grids`] rebuilds them for another eye from what was kept:
 //! the volume pass, then the environment's, the lights' and the multiple scattering's
 //! light towards the eye, added in that order. The two together are [`super::crm_grids`].
@@ -9,7 +10,8 @@
 use super::crm::{self, VolumeGrids};
 use super::env_pass;
 use super::grid_diffusion::{self, MediaRadiance};
-use super::{CrmOptions, CrmStats, MsDiffusion, centers_single, lights_pass, source_radiance};
+use super::lights_pass::LightShadows;
+use super::{CrmOptions, CrmStats, MsDiffusion, centers_single, source_radiance};
 use crate::diffusion::{DiffusionSolver, Sources};
 use crate::lighting::single::{RgbSh, ShKit, moments};
 use crate::sh::ShGrid;
@@ -26,6 +28,8 @@ pub struct FrameLight {
     /// The environment pass's grid and the environment's projection, with
     /// [`EnvSource::Grid`].
     env_grid: Option<(Arc<ShGrid>, RgbSh)>,
+    /// The lights pass's shadows (none without lights).
+    shadows: Option<LightShadows>,
     /// The multiple scattering on the coarse grid, with the grid's diffusions.
     ms: Option<MediaRadiance>,
 }
@@ -107,7 +111,10 @@ impl FrameLight {
             stats.env_seconds = t.elapsed().as_secs_f64();
         }
         let t = Instant::now();
-        lights_pass::lights_pass_at(&mut grids, env, medium, eye, opts.detail);
+        let shadows = LightShadows::new(&grids.density, env, medium, opts.detail);
+        if let Some(shadows) = &shadows {
+            shadows.add_to(&mut grids, env, medium, eye);
+        }
         stats.lights_seconds = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let rbfs = frame.rbfs;
@@ -155,6 +162,7 @@ impl FrameLight {
         let light = FrameLight {
             source,
             env_grid,
+            shadows,
             ms,
         };
         (light, grids, stats)
@@ -193,9 +201,11 @@ impl FrameLight {
             );
             stats.env_seconds = t.elapsed().as_secs_f64();
         }
-        let t = Instant::now();
-        lights_pass::lights_pass_at(&mut grids, env, medium, eye, opts.detail);
-        stats.lights_seconds = t.elapsed().as_secs_f64();
+        if let Some(shadows) = &self.shadows {
+            let t = Instant::now();
+            shadows.add_to(&mut grids, env, medium, eye);
+            stats.lights_seconds = t.elapsed().as_secs_f64();
+        }
         if let Some(ms) = &self.ms {
             let t = Instant::now();
             grid_diffusion::add_to_grids(&mut grids, ms, medium, eye);

@@ -20,6 +20,12 @@
 //! a march a voxel, its shadows' edges blurred by about half a voxel per `√(n/4)` planes
 //! crossed. Point lights still march.
 //!
+//! **Kept across camera moves** ([`LightShadows`]): `T(u)` does not depend on the eye,
+//! only `p(s·d)` does, so the pass is split into the shadows, marched (or swept) once a
+//! frame, and their addition through the phase function from an eye — on a 96 × 96 ×
+//! 128 frame under one sun 0.25 s against 0.007 s (`BENCHMARKS.md`, "Camera moves keep
+//! the lights' shadows").
+//!
 //! The GPU twin is `shaders/lights_pass.wgsl` (`gpu::lights_pass`).
 
 use super::crm::VolumeGrids;
@@ -51,109 +57,201 @@ pub fn lights_pass_at(
     eye: [f64; 3],
     detail: f64,
 ) {
-    if !env.has_lights() || medium.albedo == 0.0 {
-        return;
+    if let Some(shadows) = LightShadows::new(&grids.density, env, medium, detail) {
+        shadows.add_to(grids, env, medium, eye);
     }
-    // No density: nothing to light (the lit voxels are those with `D > 0` and their
-    // shell).
-    let Some(occupied) = Occupancy::new(&grids.density) else {
-        return;
-    };
-    let phases: Vec<Arc<DiskPhase>> = env
-        .suns
-        .iter()
-        .map(|s| DiskPhase::shared(medium.g, s.angle))
-        .collect();
-    let density = &grids.density;
-    let dims = density.dims();
-    let bbox = *density.bbox();
-    let vs = density.voxel_size();
-    let h0 = vs[0].min(vs[1]).min(vs[2]);
-    // A point light's 1/r² held at most 1/R² (R four voxels): the view pass adds the rest
-    // inside that sphere along its rays (`near_light`, "The split").
-    let soft = super::near_light::NearLights::radius2(h0);
-    let plane = dims[0] * dims[1];
-    let k = medium.albedo / FOUR_PI;
-    let lit = lit_voxels(density);
-    // Per sun, at a lower detail, σt·τ at every voxel center by a sweep.
-    let swept: Vec<Option<Vec<f32>>> = env
-        .suns
-        .iter()
-        .map(|sun| {
-            (super::detail_or_one(detail) < 1.0)
-                .then(|| sun_depths(density, medium.sigma_t, &lit, sun.direction, &occupied))
-                .flatten()
+}
+
+/// The lights pass's shadows: every lit voxel's transmittance `T(u)` towards each light,
+/// which depends on the density, σt, the lights and the detail but not on the eye — so a
+/// camera move keeps them and adds the lights again through the phase function alone
+/// ([`LightShadows::add_to`]). `T` is kept in `f64` as marched: a pass from kept
+/// shadows is [`lights_pass_at`]'s to the bit.
+#[derive(Clone, Debug)]
+pub struct LightShadows {
+    /// The voxels lit: those with `D > 0` and their shell ([`lit_voxels`]).
+    lit: Vec<bool>,
+    /// Per z slice, where its lit voxels' transmittances start in `t`.
+    starts: Vec<usize>,
+    /// Per lit voxel (x fastest), the suns' `T` then the point lights' (`NaN` for a
+    /// point light at the voxel's center: isotropic and unshadowed there).
+    t: Vec<f64>,
+    /// Suns and point lights the shadows were marched for.
+    lights: (usize, usize),
+}
+
+impl LightShadows {
+    /// The shadows of `env`'s suns and point lights in `density` at `medium`'s σt and the
+    /// lighting's `detail` (module docs); `None` where the pass adds nothing (no lights,
+    /// albedo 0, no density).
+    pub fn new(
+        density: &Volume,
+        env: &Environment,
+        medium: &Medium,
+        detail: f64,
+    ) -> Option<LightShadows> {
+        if !env.has_lights() || medium.albedo == 0.0 {
+            return None;
+        }
+        // No density: nothing to light (the lit voxels are those with `D > 0` and their
+        // shell).
+        let occupied = Occupancy::new(density)?;
+        let dims = density.dims();
+        let bbox = *density.bbox();
+        let vs = density.voxel_size();
+        let h0 = vs[0].min(vs[1]).min(vs[2]);
+        let plane = dims[0] * dims[1];
+        let lit = lit_voxels(density);
+        // Per sun, at a lower detail, σt·τ at every voxel center by a sweep.
+        let swept: Vec<Option<Vec<f32>>> = env
+            .suns
+            .iter()
+            .map(|sun| {
+                (super::detail_or_one(detail) < 1.0)
+                    .then(|| sun_depths(density, medium.sigma_t, &lit, sun.direction, &occupied))
+                    .flatten()
+            })
+            .collect();
+        let slices: Vec<Vec<f64>> = (0..dims[2])
+            .into_par_iter()
+            .map(|z| {
+                let mut out = Vec::new();
+                for i in 0..plane {
+                    let idx = z * plane + i;
+                    if !lit[idx] {
+                        continue;
+                    }
+                    let (x, y) = (i % dims[0], i / dims[0]);
+                    let u = [x, y, z].map(|a| a as f64 + 0.5);
+                    let u = [0, 1, 2].map(|a| bbox.min[a] + u[a] * vs[a]);
+                    for (sun, swept) in env.suns.iter().zip(&swept) {
+                        let depth = match swept {
+                            Some(depths) => f64::from(depths[idx]),
+                            None => optical_depth_within(
+                                density,
+                                medium.sigma_t,
+                                u,
+                                sun.direction,
+                                f64::MAX,
+                                h0,
+                                &occupied,
+                            ),
+                        };
+                        out.push((-depth).exp());
+                    }
+                    for light in &env.points {
+                        let v = [0, 1, 2].map(|a| light.position[a] - u[a]);
+                        let t = match crate::lights::unit(v) {
+                            Some(s) => (-optical_depth_within(
+                                density,
+                                medium.sigma_t,
+                                u,
+                                s,
+                                dot(v, v).sqrt(),
+                                h0,
+                                &occupied,
+                            ))
+                            .exp(),
+                            None => f64::NAN,
+                        };
+                        out.push(t);
+                    }
+                }
+                out
+            })
+            .collect();
+        let mut starts = Vec::with_capacity(slices.len());
+        let mut t = Vec::with_capacity(slices.iter().map(Vec::len).sum());
+        for slice in slices {
+            starts.push(t.len());
+            t.extend(slice);
+        }
+        Some(LightShadows {
+            lit,
+            starts,
+            t,
+            lights: (env.suns.len(), env.points.len()),
         })
-        .collect();
-    grids
-        .radiance
-        .par_chunks_mut(plane.max(1))
-        .enumerate()
-        .for_each(|(z, slice)| {
-            for (i, out) in slice.iter_mut().enumerate() {
-                let idx = z * plane + i;
-                if !lit[idx] {
-                    continue;
-                }
-                let (x, y) = (i % dims[0], i / dims[0]);
-                let u = [x, y, z].map(|a| a as f64 + 0.5);
-                let u = [0, 1, 2].map(|a| bbox.min[a] + u[a] * vs[a]);
-                let Some(d) = crate::lights::unit([0, 1, 2].map(|a| u[a] - eye[a])) else {
-                    continue;
-                };
-                let mut add = [0.0f64; 3];
-                for ((sun, phase), swept) in env.suns.iter().zip(&phases).zip(&swept) {
-                    let t = match swept {
-                        Some(depths) => (-f64::from(depths[idx])).exp(),
-                        None => (-optical_depth_within(
-                            density,
-                            medium.sigma_t,
-                            u,
-                            sun.direction,
-                            f64::MAX,
-                            h0,
-                            &occupied,
-                        ))
-                        .exp(),
-                    };
-                    if t <= 0.0 {
+    }
+
+    /// Adds `env`'s suns and point lights through these shadows to the radiance of
+    /// `grids` seen from `eye` (module docs): `env`, `medium` and the grids' density must
+    /// be those the shadows were marched for (the eye alone may differ).
+    pub fn add_to(
+        &self,
+        grids: &mut VolumeGrids,
+        env: &Environment,
+        medium: &Medium,
+        eye: [f64; 3],
+    ) {
+        debug_assert_eq!(self.lights, (env.suns.len(), env.points.len()));
+        debug_assert_eq!(self.lit.len(), grids.density.data().len());
+        let phases: Vec<Arc<DiskPhase>> = env
+            .suns
+            .iter()
+            .map(|s| DiskPhase::shared(medium.g, s.angle))
+            .collect();
+        let density = &grids.density;
+        let dims = density.dims();
+        let bbox = *density.bbox();
+        let vs = density.voxel_size();
+        let h0 = vs[0].min(vs[1]).min(vs[2]);
+        // A point light's 1/r² held at most 1/R² (R four voxels): the view pass adds the rest
+        // inside that sphere along its rays (`near_light`, "The split").
+        let soft = super::near_light::NearLights::radius2(h0);
+        let plane = dims[0] * dims[1];
+        let k = medium.albedo / FOUR_PI;
+        let per_voxel = env.suns.len() + env.points.len();
+        grids
+            .radiance
+            .par_chunks_mut(plane.max(1))
+            .enumerate()
+            .for_each(|(z, slice)| {
+                let mut kept = self.t[self.starts[z]..].chunks_exact(per_voxel.max(1));
+                for (i, out) in slice.iter_mut().enumerate() {
+                    let idx = z * plane + i;
+                    if !self.lit[idx] {
                         continue;
                     }
-                    let p = phase.eval(dot(sun.direction, d));
-                    for (a, e) in add.iter_mut().zip(sun.irradiance) {
-                        *a += e * t * p;
-                    }
-                }
-                for light in &env.points {
-                    let v = [0, 1, 2].map(|a| light.position[a] - u[a]);
-                    let r2 = dot(v, v);
-                    let Some(s) = crate::lights::unit(v) else {
-                        // The light at the voxel center: isotropic, unshadowed.
-                        for (a, i) in add.iter_mut().zip(light.intensity) {
-                            *a += i / soft;
+                    let ts = kept.next().unwrap_or(&[]);
+                    let (x, y) = (i % dims[0], i / dims[0]);
+                    let u = [x, y, z].map(|a| a as f64 + 0.5);
+                    let u = [0, 1, 2].map(|a| bbox.min[a] + u[a] * vs[a]);
+                    let Some(d) = crate::lights::unit([0, 1, 2].map(|a| u[a] - eye[a])) else {
+                        continue;
+                    };
+                    let (sun_t, point_t) = ts.split_at(env.suns.len().min(ts.len()));
+                    let mut add = [0.0f64; 3];
+                    for ((sun, phase), &t) in env.suns.iter().zip(&phases).zip(sun_t) {
+                        if t <= 0.0 {
+                            continue;
                         }
-                        continue;
-                    };
-                    let t = (-optical_depth_within(
-                        density,
-                        medium.sigma_t,
-                        u,
-                        s,
-                        r2.sqrt(),
-                        h0,
-                        &occupied,
-                    ))
-                    .exp();
-                    let p = hg(medium.g, dot(s, d));
-                    for (a, i) in add.iter_mut().zip(light.intensity) {
-                        *a += i / r2.max(soft) * t * p;
+                        let p = phase.eval(dot(sun.direction, d));
+                        for (a, e) in add.iter_mut().zip(sun.irradiance) {
+                            *a += e * t * p;
+                        }
+                    }
+                    for (light, &t) in env.points.iter().zip(point_t) {
+                        let v = [0, 1, 2].map(|a| light.position[a] - u[a]);
+                        let Some(s) = crate::lights::unit(v) else {
+                            // The light at the voxel center: isotropic, unshadowed.
+                            for (a, i) in add.iter_mut().zip(light.intensity) {
+                                *a += i / soft;
+                            }
+                            continue;
+                        };
+                        let r2 = dot(v, v);
+                        let p = hg(medium.g, dot(s, d));
+                        for (a, i) in add.iter_mut().zip(light.intensity) {
+                            *a += i / r2.max(soft) * t * p;
+                        }
+                    }
+                    for c in 0..3 {
+                        out[c] = (f64::from(out[c]) + k * add[c]) as f32;
                     }
                 }
-                for c in 0..3 {
-                    out[c] = (f64::from(out[c]) + k * add[c]) as f32;
-                }
-            }
-        });
+            });
+    }
 }
 
 /// `σt·τ` from every voxel center towards the sun along the unit `w` to the box's face,
