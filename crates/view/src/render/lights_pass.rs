@@ -97,7 +97,6 @@ impl LightShadows {
         // shell).
         let occupied = Occupancy::new(density)?;
         let dims = density.dims();
-        let bbox = *density.bbox();
         let vs = density.voxel_size();
         let h0 = vs[0].min(vs[1]).min(vs[2]);
         let plane = dims[0] * dims[1];
@@ -121,9 +120,7 @@ impl LightShadows {
                     if !lit[idx] {
                         continue;
                     }
-                    let (x, y) = (i % dims[0], i / dims[0]);
-                    let u = [x, y, z].map(|a| a as f64 + 0.5);
-                    let u = [0, 1, 2].map(|a| bbox.min[a] + u[a] * vs[a]);
+                    let u = density.voxel_center(i % dims[0], i / dims[0], z);
                     for (sun, swept) in env.suns.iter().zip(&swept) {
                         let depth = match swept {
                             Some(depths) => f64::from(depths[idx]),
@@ -193,7 +190,6 @@ impl LightShadows {
             .collect();
         let density = &grids.density;
         let dims = density.dims();
-        let bbox = *density.bbox();
         let vs = density.voxel_size();
         let h0 = vs[0].min(vs[1]).min(vs[2]);
         // A point light's 1/r² held at most 1/R² (R four voxels): the view pass adds the rest
@@ -214,9 +210,7 @@ impl LightShadows {
                         continue;
                     }
                     let ts = kept.next().unwrap_or(&[]);
-                    let (x, y) = (i % dims[0], i / dims[0]);
-                    let u = [x, y, z].map(|a| a as f64 + 0.5);
-                    let u = [0, 1, 2].map(|a| bbox.min[a] + u[a] * vs[a]);
+                    let u = density.voxel_center(i % dims[0], i / dims[0], z);
                     let Some(d) = crate::lights::unit([0, 1, 2].map(|a| u[a] - eye[a])) else {
                         continue;
                     };
