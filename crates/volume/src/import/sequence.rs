@@ -193,13 +193,16 @@ pub fn discover(path: &Path) -> Result<Vec<FrameFile>, ImportError> {
             path: path.to_path_buf(),
         }]);
     } else {
-        return Err(ImportError::new(
-            path,
-            Problem::Io(std::io::Error::new(
-                std::io::ErrorKind::NotFound,
-                "no such file or directory",
-            )),
-        ));
+        // Neither a file nor a folder: missing, unreadable, or something else (a device,
+        // a pipe) — say which.
+        let why = match std::fs::metadata(path) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                "no such file or directory".to_string()
+            }
+            Err(e) => e.to_string(),
+            Ok(_) => "not a regular file or a folder (a device, pipe or socket): give a volume file or a folder of them".to_string(),
+        };
+        return Err(ImportError::new(path, Problem::Format(why)));
     };
     if files.is_empty() {
         foreign.sort();
@@ -728,6 +731,22 @@ mod tests {
     }
 
     /// Messages print a range as it is written on the command line, never as a Rust value.
+    /// What is neither a file nor a folder is named as such: a missing path is missing,
+    /// a device (Unix's `/dev/null`) is not a volume file.
+    #[test]
+    fn neither_file_nor_folder_says_which() {
+        let missing = discover(Path::new("no/such/smoke_0001.vdb")).unwrap_err();
+        assert!(
+            missing.to_string().ends_with(": no such file or directory"),
+            "{missing}"
+        );
+        let null = Path::new("/dev/null");
+        if null.exists() {
+            let e = discover(null).unwrap_err().to_string();
+            assert!(e.contains("not a regular file or a folder"), "{e}");
+        }
+    }
+
     #[test]
     fn ranges_print_as_they_parse() {
         for s in ["3..7", "-3..2", "99..", "..5", "12", ".."] {
