@@ -15,7 +15,7 @@
 //! was lit at a lower detail while playing (`detail` module: playback lowers the
 //! lighting's detail while the lighting holds it back).
 
-use super::detail::{DetailControl, FrameCost};
+use super::detail::{DetailControl, FrameCost, PLAYING_SLICES};
 use super::playback::{PlayReport, Playback};
 use super::worker::{Done, Job, Picture, Scene, Worker};
 use haze_view::Camera;
@@ -75,6 +75,9 @@ pub struct Player {
     lamps_warned: Vec<[f64; 3]>,
     /// The lighting's detail of the picture on screen (`CrmOptions::detail`).
     pub shown_detail: f64,
+    /// Whether a playback frame was rendered with fewer slices per voxel than the view's
+    /// (`detail::PLAYING_SLICES`).
+    fewer_slices: bool,
     pub error: Option<String>,
     /// Jobs that failed, and the first one's error.
     pub failures: u64,
@@ -104,6 +107,7 @@ impl Player {
             lamps: Default::default(),
             lamps_warned: Vec::new(),
             shown_detail: 1.0,
+            fewer_slices: false,
             error: None,
             failures: 0,
             first_failure: None,
@@ -164,10 +168,15 @@ impl Player {
             let lead = Duration::from_secs_f64(self.lead);
             let next = self.playback.next_request(now, lead);
             let frame = next.map_or(self.playback.current(), |t| t.frame);
-            // Playback frames at the control's detail, a still at the view's own (full).
+            // Playback frames at the control's detail (and, below full, at most one
+            // slice per voxel), a still at the view's own.
             let mut view = view.clone();
             if next.is_some() {
-                view.scene.opts.detail = self.detail.detail();
+                let opts = &mut view.scene.opts;
+                opts.detail = self.detail.detail();
+                let slices = self.detail.slices(opts.slices_per_voxel);
+                self.fewer_slices |= slices < opts.slices_per_voxel;
+                opts.slices_per_voxel = slices;
             }
             let stale = self.submitted.as_ref() != Some(&(frame, view.clone()));
             if next.is_some() || (!self.playback.playing() && stale) {
@@ -306,13 +315,19 @@ impl Player {
     }
 
     /// "; lighting detail 0.50 while playing (lowest 0.35)" once playback lowered it,
-    /// else nothing.
+    /// else nothing; ", 1 slice per voxel" after it where playback lowered the view's
+    /// slices too.
     fn detail_words(&self) -> String {
         let (now, lowest) = (self.detail.detail(), self.detail.lowest());
         if lowest >= 1.0 {
             return String::new();
         }
-        format!("; lighting detail {now:.2} while playing (lowest {lowest:.2})")
+        let fewer = if self.fewer_slices {
+            format!(", {PLAYING_SLICES} slice per voxel")
+        } else {
+            String::new()
+        };
+        format!("; lighting detail {now:.2} while playing (lowest {lowest:.2}){fewer}")
     }
 }
 
@@ -496,13 +511,19 @@ mod tests {
         }
         // The first may have been submitted before the step.
         assert!(low[1..].iter().all(|(_, d)| *d == 0.75), "{low:?}");
+        // Below full detail the view pass takes one slice per voxel, the view two.
+        assert_eq!(v.scene.opts.slices_per_voxel, 2.0);
+        let playing = &p.submitted.as_ref().unwrap().1.scene.opts;
+        assert_eq!((playing.detail, playing.slices_per_voxel), (0.75, 1.0));
         p.playback.pause();
         let still = settle(&mut p, &v);
         assert_eq!(p.shown_detail, 1.0);
         assert!(still.last().unwrap().times.is_some(), "lit again");
+        let paused = &p.submitted.as_ref().unwrap().1.scene.opts;
+        assert_eq!((paused.detail, paused.slices_per_voxel), (1.0, 2.0));
         let line = p.summary(Instant::now(), 16, 12);
         assert!(
-            line.ends_with("; lighting detail 0.75 while playing (lowest 0.75)"),
+            line.ends_with("; lighting detail 0.75 while playing (lowest 0.75), 1 slice per voxel"),
             "{line}"
         );
     }
