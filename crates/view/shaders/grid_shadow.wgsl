@@ -80,9 +80,9 @@ fn sample_density(q: vec3<f32>) -> f32 {
 }
 
 // `ground::ShadowMarch::transmittance`: exp(−σt ∫ D) from box-local x along the unit w
-// over the distance len, by the midpoint rule in steps of half the smallest voxel side,
-// the steps in empty blocks passed over as the view rays do (the same samples count);
-// 0 once σt·τ passes SHADOW_CUTOFF.
+// over the distance len, by the midpoint rule in steps of at most the view pass's slice
+// thickness p.du, the steps in empty blocks passed over as the view rays do (the same
+// samples count); 0 once σt·τ passes SHADOW_CUTOFF.
 fn shadow(x: vec3<f32>, w: vec3<f32>, len: f32) -> f32 {
     let hit = ray_box(x, w);
     if hit.z == 0.0 {
@@ -90,7 +90,7 @@ fn shadow(x: vec3<f32>, w: vec3<f32>, len: f32) -> f32 {
     }
     let t0 = hit.x;
     let t1 = min(hit.y, len);
-    let h = 0.5 * min(p.voxel.x, min(p.voxel.y, p.voxel.z));
+    let h = p.du;
     if !(p.sigma_t > 0.0 && h > 0.0 && t1 > t0) {
         return 1.0;
     }

@@ -25,7 +25,8 @@ struct Params {
     ground_z: f32,
     // Where the nodes start in `seen`.
     first: u32,
-    _pad0: u32,
+    // The shadow rays' step: the view pass's slice thickness.
+    du: f32,
     _pad1: u32,
     _pad2: u32,
 }

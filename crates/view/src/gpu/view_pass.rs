@@ -83,7 +83,8 @@ struct SkyParams {
     cell: f32,
     ground_z: f32,
     first: u32,
-    _pad: [u32; 3],
+    du: f32,
+    _pad: [u32; 2],
 }
 
 /// Nodes per workgroup of [`SKY_SHADER`] (`@workgroup_size(64)`).
@@ -450,7 +451,8 @@ impl ViewPass {
             cell: params.sky_cell,
             ground_z: params.ground_z,
             first: params.sky_first,
-            _pad: [0; 3],
+            du: params.du,
+            _pad: [0; 2],
         };
         let sky = buffer_init(
             ctx,

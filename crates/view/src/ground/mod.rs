@@ -29,9 +29,10 @@
 //! sky's ground colour, a map's lower half) still lights the smoke, as the ground's bounce.
 //!
 //! **Who computes `T`.** The fast renderers march it through the density grid
-//! ([`crate::render::ground_shadow`]: the midpoint rule in steps of half the smallest
-//! voxel side, on the CPU and in `view_pass.wgsl` on the GPU). The reference renderer
-//! integrates the same field exactly.
+//! ([`crate::render::ground_shadow`]: the midpoint rule in steps of the view pass's slice
+//! thickness, half the smallest voxel side at its default two slices per voxel, on the
+//! CPU and in `grid_shadow.wgsl` on the GPU). The reference renderer integrates the same
+//! field exactly.
 //!
 //! **`E_sky`.** For the built-in sky (smooth), a midpoint rule on 64 × 128 cells of the
 //! upper hemisphere in `(θ, φ)` (relative error below 10⁻³ on a constant sky, tested);

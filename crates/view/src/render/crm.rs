@@ -439,7 +439,8 @@ pub fn view_pass(
     let axis = camera.forward();
     let field = RadianceField::new(g);
     let near = NearLights::new(&env.points, &g.density, medium, camera);
-    let shadows = ground.map(|_| ShadowMarch::new(&g.density, medium.sigma_t));
+    // The ground's shadow rays step as the eye's do: a slice (`ground_shadow`).
+    let shadows = ground.map(|_| ShadowMarch::new(&g.density, medium.sigma_t, du));
     // The sky's share that reaches the ground, on its grid (`ground::sky_seen`).
     let ground = ground.zip(shadows.as_ref()).map(|(gr, sh)| {
         gr.clone()

@@ -1,12 +1,13 @@
 //! The ground's shadow rays ([`crate::ground`]'s `T(x, w, r)`): the smoke's transmittance
 //! from a point of the ground towards a light through the density grid, by the midpoint
-//! rule in steps of half the smallest voxel side, the trilinear density of
-//! [`crate::field::sample`], stopping with `T = 0` once the optical depth passes
-//! [`SHADOW_CUTOFF`] (`e^{−20} ≈ 2·10⁻⁹` of the light left, as the lighting's shadow
-//! marches stop). [`marched_transmittance`] visits every step; [`ShadowMarch`] passes
-//! over the steps where the trilinear density is exactly zero — outside the occupied
-//! box, in the grid's empty blocks ([`super::occupancy`]) — and sums the same samples.
-//! `view_pass.wgsl`'s `shadow` is its GPU twin.
+//! rule in steps of the view pass's slice thickness (half the smallest voxel side at its
+//! default two slices per voxel: the eye's rays and the ground's march alike), the
+//! trilinear density of [`crate::field::sample`], stopping with `T = 0` once the optical
+//! depth passes [`SHADOW_CUTOFF`] (`e^{−20} ≈ 2·10⁻⁹` of the light left, as the
+//! lighting's shadow marches stop). [`marched_transmittance`] visits every step of half
+//! a voxel; [`ShadowMarch`] passes over the steps where the trilinear density is exactly
+//! zero — outside the occupied box, in the grid's empty blocks ([`super::occupancy`]) —
+//! and sums the same samples. `grid_shadow.wgsl`'s `shadow` is its GPU twin.
 
 use super::lights_pass::SHADOW_CUTOFF;
 use super::occupancy::Occupancy;
@@ -15,10 +16,11 @@ use haze_volume::Volume;
 
 /// `exp(−σt ∫₀^len D(x + t·w) dt)` through `density` by the midpoint rule, steps of half
 /// the smallest voxel side, from `x` to where the ray leaves the box or `len`: what the
-/// fast renderers' ground shadow uses (`view_pass.wgsl` is its twin). 1 for no smoke
-/// in the way, a `σt` of 0 or NaN, or an empty grid; 0 through smoke at an infinite `σt`,
-/// and once `σt·τ` passes [`SHADOW_CUTOFF`] (`e^{−20}`: the march stops there).
-/// [`ShadowMarch`] takes the same sum faster, many rays at a time.
+/// fast renderers' ground shadow takes at the default two slices per voxel
+/// (`grid_shadow.wgsl` is its twin). 1 for no smoke in the way, a `σt` of 0 or NaN, or an
+/// empty grid; 0 through smoke at an infinite `σt`, and once `σt·τ` passes
+/// [`SHADOW_CUTOFF`] (`e^{−20}`: the march stops there). [`ShadowMarch`] takes the same
+/// sum faster, many rays at a time, at any step.
 pub fn marched_transmittance(
     density: &Volume,
     sigma_t: f64,
@@ -26,11 +28,20 @@ pub fn marched_transmittance(
     w: [f64; 3],
     len: f64,
 ) -> f64 {
-    ShadowMarch::visiting_every_step(density, sigma_t).transmittance(x, w, len)
+    ShadowMarch::visiting_every_step(density, sigma_t, half_voxel(density)).transmittance(x, w, len)
+}
+
+/// Half the smallest voxel side of `density`: the ground's shadow step at the view
+/// pass's default two slices per voxel ([`super::crm::default_slice`]).
+pub fn half_voxel(density: &Volume) -> f64 {
+    0.5 * density
+        .voxel_size()
+        .into_iter()
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// The ground's shadow rays of one picture through one density grid: the march of
-/// [`marched_transmittance`], its sampler set up once, and — where the grid has empty
+/// [`marched_transmittance`] at a given step, its sampler set up once, and — where the grid has empty
 /// blocks ([`Occupancy`]) — the steps whose trilinear density is exactly zero not
 /// visited: the steps outside the occupied box and those in empty blocks. The same
 /// steps, the same samples, the same sum to the bit (a skipped sample adds `0.0`).
@@ -42,28 +53,31 @@ pub struct ShadowMarch<'a> {
     /// No voxel holds density: every ray's transmittance is 1, nothing to march.
     empty: bool,
     sigma_t: f64,
+    /// The march's step, world units (at most this: the steps divide each ray evenly).
+    step: f64,
 }
 
 impl<'a> ShadowMarch<'a> {
-    /// The shadow rays through `density` at extinction `sigma_t`, passing over its empty
-    /// blocks.
-    pub fn new(density: &'a Volume, sigma_t: f64) -> ShadowMarch<'a> {
+    /// The shadow rays through `density` at extinction `sigma_t` in steps of at most
+    /// `step` (the view pass's slice thickness), passing over its empty blocks.
+    pub fn new(density: &'a Volume, sigma_t: f64, step: f64) -> ShadowMarch<'a> {
         let occupied = Occupancy::new(density);
         ShadowMarch {
             empty: occupied.is_none(),
             occupied,
-            ..ShadowMarch::visiting_every_step(density, sigma_t)
+            ..ShadowMarch::visiting_every_step(density, sigma_t, step)
         }
     }
 
     /// The march that samples every step ([`marched_transmittance`]).
-    fn visiting_every_step(density: &'a Volume, sigma_t: f64) -> ShadowMarch<'a> {
+    fn visiting_every_step(density: &'a Volume, sigma_t: f64, step: f64) -> ShadowMarch<'a> {
         ShadowMarch {
             density,
             sampler: field::Sampler::new(density),
             occupied: None,
             empty: false,
             sigma_t,
+            step,
         }
     }
 
@@ -77,11 +91,7 @@ impl<'a> ShadowMarch<'a> {
             return 1.0;
         };
         let t1 = t1.min(len);
-        let h = 0.5
-            * density
-                .voxel_size()
-                .into_iter()
-                .fold(f64::INFINITY, f64::min);
+        let h = self.step;
         if !(self.sigma_t > 0.0 && h > 0.0 && h.is_finite() && t1 > t0) {
             return 1.0;
         }
@@ -132,12 +142,8 @@ mod tests {
     use super::*;
     use haze_volume::Bbox;
 
-    /// On a sparse grid (two lumps in a box of air, so most blocks are empty) the march
-    /// that passes over the empty blocks sums the same samples as the one that visits
-    /// every step: the same transmittance to the bit, towards suns and point lights from
-    /// points under, beside and inside the lumps; an all-zero grid casts no shadow.
-    #[test]
-    fn skipping_empty_blocks_gives_the_same_shadow() {
+    /// Two lumps in a box of air (most blocks empty).
+    fn two_lumps() -> Volume {
         let dims = [30, 26, 34];
         let bbox = Bbox::new([-2.0, 1.0, 0.5], [1.0, 3.6, 4.0]);
         let mut v = Volume::zeros(dims, bbox).unwrap();
@@ -158,7 +164,17 @@ mod tests {
                 }
             }
         }
-        let fast = ShadowMarch::new(&v, 4.0);
+        v
+    }
+
+    /// On a sparse grid (two lumps in a box of air, so most blocks are empty) the march
+    /// that passes over the empty blocks sums the same samples as the one that visits
+    /// every step: the same transmittance to the bit, towards suns and point lights from
+    /// points under, beside and inside the lumps; an all-zero grid casts no shadow.
+    #[test]
+    fn skipping_empty_blocks_gives_the_same_shadow() {
+        let v = two_lumps();
+        let fast = ShadowMarch::new(&v, 4.0, half_voxel(&v));
         let mut shaded = 0;
         for k in 0..400u32 {
             let u = |s: u32| f64::from((k * s + 7) % 97) / 97.0;
@@ -191,10 +207,10 @@ mod tests {
             shaded += usize::from(every < 0.99);
         }
         assert!(shaded > 100, "{shaded} of 400 rays shaded");
-        let air = Volume::zeros(dims, bbox).unwrap();
+        let air = Volume::zeros(v.dims(), *v.bbox()).unwrap();
         let up = [0.0, 0.0, 1.0];
         assert_eq!(
-            ShadowMarch::new(&air, 4.0).transmittance([-0.5, 2.0, 0.5], up, 9.0),
+            ShadowMarch::new(&air, 4.0, half_voxel(&air)).transmittance([-0.5, 2.0, 0.5], up, 9.0),
             1.0
         );
     }
@@ -226,5 +242,46 @@ mod tests {
         // passes 20 within the slab.
         assert!((up(19.0, floor, f64::INFINITY) - (-19.0f64).exp()).abs() < 1e-20);
         assert_eq!(up(21.0, floor, f64::INFINITY), 0.0);
+    }
+
+    /// The step follows the view pass's slices: at a voxel (one slice per voxel) and at
+    /// half a voxel (two) the march converges on the same shadow — against a sixteenth
+    /// of a voxel's steps, over 400 rays aimed through the lumps, the half-voxel march is
+    /// within 3·10⁻³ and the voxel march within 10⁻² (measured 8.8·10⁻⁴ and 3.2·10⁻³: the
+    /// midpoint rule's error grows as the step squared, 3.6× here, the density's kinks at
+    /// voxel faces keeping it from a clean 4×), the finer step never the farther.
+    #[test]
+    fn the_step_follows_the_slices_and_converges() {
+        let v = two_lumps();
+        let half = half_voxel(&v);
+        let marches = [2.0 * half, half, half / 8.0].map(|h| ShadowMarch::new(&v, 4.0, h));
+        let (mut worst, mut shaded) = ([0.0f64; 2], 0);
+        for k in 0..400u32 {
+            let u = |s: u32| f64::from((k * s + 7) % 97) / 97.0;
+            let x = [-2.5 + 4.0 * u(13), 0.5 + 3.5 * u(29), 0.5 + 3.0 * u(41)];
+            // Aimed at a lump's centre.
+            let c = if k % 2 == 0 {
+                [-1.3, 1.8, 1.45]
+            } else {
+                [0.15, 2.6, 3.1]
+            };
+            let d = [0, 1, 2].map(|a| c[a] - x[a]);
+            let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            let w = d.map(|c| c / n);
+            let t = marches
+                .each_ref()
+                .map(|m| m.transmittance(x, w, f64::INFINITY));
+            for i in 0..2 {
+                worst[i] = worst[i].max((t[i] - t[2]).abs());
+            }
+            shaded += usize::from(t[2] < 0.99);
+        }
+        println!(
+            "{shaded} rays shaded; largest difference from the fine march: a voxel {:.2e}, half a voxel {:.2e}",
+            worst[0], worst[1]
+        );
+        assert!(shaded > 200, "{shaded}");
+        assert!(worst[1] < 3e-3 && worst[0] < 1e-2, "{worst:?}");
+        assert!(worst[1] <= worst[0], "{worst:?}");
     }
 }
