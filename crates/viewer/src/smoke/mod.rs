@@ -376,7 +376,7 @@ fn turn_without_window(
         1e3 * times[times.len() / 2],
         1e3 * mean,
         1e3 * player.mean_render_seconds()
-    ))
+    ) + &player.moving_words())
 }
 
 #[cfg(test)]

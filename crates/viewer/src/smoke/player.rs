@@ -13,7 +13,10 @@
 //! paused, the frame on screen is rendered again only when the camera, the scene or the
 //! exposure changed (a change of exposure alone is only tone-mapped again), or when it
 //! was lit at a lower detail while playing (`detail` module: playback lowers the
-//! lighting's detail while the lighting holds it back).
+//! lighting's detail while the lighting holds it back). Below full detail, and for a
+//! still whose camera moved since the last one asked for, the view pass takes at most
+//! [`PLAYING_SLICES`] slices per voxel; the frame is rendered again with the view's own
+//! once playback pauses or the camera rests.
 
 use super::detail::{DetailControl, FrameCost, PLAYING_SLICES};
 use super::playback::{PlayReport, Playback};
@@ -78,6 +81,8 @@ pub struct Player {
     /// Whether a playback frame was rendered with fewer slices per voxel than the view's
     /// (`detail::PLAYING_SLICES`).
     fewer_slices: bool,
+    /// Whether a still was, while its camera moved.
+    moved_slices: bool,
     pub error: Option<String>,
     /// Jobs that failed, and the first one's error.
     pub failures: u64,
@@ -108,6 +113,7 @@ impl Player {
             lamps_warned: Vec::new(),
             shown_detail: 1.0,
             fewer_slices: false,
+            moved_slices: false,
             error: None,
             failures: 0,
             first_failure: None,
@@ -176,6 +182,18 @@ impl Player {
                 opts.detail = self.detail.detail();
                 let slices = self.detail.slices(opts.slices_per_voxel);
                 self.fewer_slices |= slices < opts.slices_per_voxel;
+                opts.slices_per_voxel = slices;
+            } else if self
+                .submitted
+                .as_ref()
+                .is_some_and(|(f, last)| *f == frame && last.camera != view.camera)
+            {
+                // A still whose camera moved since the last picture asked for (a drag, a
+                // zoom) takes at most one slice per voxel, as playback below full detail
+                // does; once the camera rests, the picture comes again with the view's.
+                let opts = &mut view.scene.opts;
+                let slices = opts.slices_per_voxel.min(PLAYING_SLICES);
+                self.moved_slices |= slices < opts.slices_per_voxel;
                 opts.slices_per_voxel = slices;
             }
             let stale = self.submitted.as_ref() != Some(&(frame, view.clone()));
@@ -264,6 +282,16 @@ impl Player {
         self.first_picture
             .get_or_insert_with(|| now.saturating_duration_since(self.created));
         out.shown = Some(picture);
+    }
+
+    /// "; 1 slice per voxel while the camera moves" once a moving camera's stills took
+    /// fewer slices than the view's, else nothing.
+    pub fn moving_words(&self) -> String {
+        if self.moved_slices {
+            format!("; {PLAYING_SLICES} slice per voxel while the camera moves")
+        } else {
+            String::new()
+        }
     }
 
     /// The current run's figures at `now`.
@@ -434,10 +462,21 @@ mod tests {
         let brighter = settle(&mut p, &view(0.2, 3.0));
         assert_eq!(numbers(&brighter), [101]);
         assert!(brighter[0].times.is_none());
-        // The camera: the passes again, the sources kept.
+        // The camera: the passes again, the sources kept — at one slice per voxel while
+        // it moves, then at the view's own once it rests (the same camera asked again).
+        assert!(p.moving_words().is_empty());
         let turned = settle(&mut p, &view(1.2, 3.0));
-        assert_eq!(numbers(&turned), [101]);
+        assert_eq!(numbers(&turned), [101, 101]);
         assert!(p.times.as_ref().unwrap().sources_reused);
+        assert_eq!(v.scene.opts.slices_per_voxel, 2.0);
+        assert_eq!(
+            p.submitted.as_ref().unwrap().1.scene.opts.slices_per_voxel,
+            2.0
+        );
+        assert_eq!(
+            p.moving_words(),
+            "; 1 slice per voxel while the camera moves"
+        );
         // A step: the next frame, lit anew.
         p.playback.step(1);
         let stepped = settle(&mut p, &view(1.2, 3.0));
