@@ -765,16 +765,7 @@ fn swept_sun_shadows_follow_the_march() {
     use haze_view::render::lights_pass::{lights_pass, lights_pass_at};
     use haze_view::render::supersample::tau_per_voxel;
     let n = 32;
-    let dims = [n; 3];
-    let bbox = unit_box();
-    let data: Vec<f32> = (0..n * n * n)
-        .map(|i| {
-            let c = [i % n, i / n % n, i / (n * n)].map(|a| (a as f64 + 0.5) / n as f64 - 0.5);
-            let r2 = c[0] * c[0] + 1.5 * c[1] * c[1] + c[2] * c[2];
-            ((1.0 - 8.0 * r2).max(0.0) * (1.0 + 0.3 * (17.0 * c[0]).sin())) as f32
-        })
-        .collect();
-    let volume = haze_volume::Volume::new(dims, bbox, data).unwrap();
+    let volume = rippled_blob(n, (1.5, 8.0), |c| 17.0 * c[0]);
     let grids = || VolumeGrids {
         density: volume.clone(),
         radiance: vec![[0.0; 3]; n * n * n],
@@ -822,6 +813,24 @@ fn swept_sun_shadows_follow_the_march() {
     assert_eq!(a.radiance, b.radiance);
 }
 
+/// A smooth blob on an `n³` grid of the unit box: `(1 − k·r²)⁺·(1 + 0.3·sin ripple(c))`
+/// with `r² = x² + s·y² + z²` about the box's center (`(s, k)` = `shape`), `c` the voxel
+/// center relative to it.
+fn rippled_blob(
+    n: usize,
+    (s, k): (f64, f64),
+    ripple: impl Fn([f64; 3]) -> f64,
+) -> haze_volume::Volume {
+    let data: Vec<f32> = (0..n * n * n)
+        .map(|i| {
+            let c = [i % n, i / n % n, i / (n * n)].map(|a| (a as f64 + 0.5) / n as f64 - 0.5);
+            let r2 = c[0] * c[0] + s * c[1] * c[1] + c[2] * c[2];
+            ((1.0 - k * r2).max(0.0) * (1.0 + 0.3 * ripple(c).sin())) as f32
+        })
+        .collect();
+    haze_volume::Volume::new([n; 3], unit_box(), data).unwrap()
+}
+
 /// The lights pass's shadows kept across camera moves (`LightShadows`, what the viewer
 /// keeps for a frame on the CPU): added from a second and a third eye — one of them on a
 /// voxel center, which that voxel does not light — they give the pass run afresh from
@@ -833,16 +842,8 @@ fn kept_light_shadows_give_the_fresh_pass_from_every_eye() {
     use haze_view::render::crm::VolumeGrids;
     use haze_view::render::lights_pass::{LightShadows, lights_pass_at};
     let n = 20;
-    let dims = [n; 3];
     let bbox = unit_box();
-    let data: Vec<f32> = (0..n * n * n)
-        .map(|i| {
-            let c = [i % n, i / n % n, i / (n * n)].map(|a| (a as f64 + 0.5) / n as f64 - 0.5);
-            let r2 = c[0] * c[0] + 1.3 * c[1] * c[1] + c[2] * c[2];
-            ((1.0 - 7.0 * r2).max(0.0) * (1.0 + 0.3 * (13.0 * c[2]).sin())) as f32
-        })
-        .collect();
-    let volume = haze_volume::Volume::new(dims, bbox, data).unwrap();
+    let volume = rippled_blob(n, (1.3, 7.0), |c| 13.0 * c[2]);
     let grids = || VolumeGrids {
         density: volume.clone(),
         radiance: vec![[0.01; 3]; n * n * n],

@@ -142,6 +142,24 @@ mod tests {
     use super::*;
     use haze_volume::Bbox;
 
+    /// The start of test ray `k`: a point under, beside or inside [`two_lumps`].
+    fn start(k: u32) -> [f64; 3] {
+        let u = |s: u32| f64::from((k * s + 7) % 97) / 97.0;
+        [-2.5 + 4.0 * u(13), 0.5 + 3.5 * u(29), 0.5 + 3.0 * u(41)]
+    }
+
+    /// The unit direction from `x` to the first lump's centre, or the second's.
+    fn toward_a_lump(x: [f64; 3], first: bool) -> [f64; 3] {
+        let c = if first {
+            [-1.3, 1.8, 1.45]
+        } else {
+            [0.15, 2.6, 3.1]
+        };
+        let v = [0, 1, 2].map(|a| c[a] - x[a]);
+        let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        v.map(|c| c / n)
+    }
+
     /// Two lumps in a box of air (most blocks empty).
     fn two_lumps() -> Volume {
         let dims = [30, 26, 34];
@@ -178,17 +196,10 @@ mod tests {
         let mut shaded = 0;
         for k in 0..400u32 {
             let u = |s: u32| f64::from((k * s + 7) % 97) / 97.0;
-            let x = [-2.5 + 4.0 * u(13), 0.5 + 3.5 * u(29), 0.5 + 3.0 * u(41)];
+            let x = start(k);
             // Every other ray aimed at a lump's centre, the rest in any upward direction.
             let w = if k % 2 == 0 {
-                let c = if k % 4 == 0 {
-                    [-1.3, 1.8, 1.45]
-                } else {
-                    [0.15, 2.6, 3.1]
-                };
-                let v = [0, 1, 2].map(|a| c[a] - x[a]);
-                let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-                v.map(|c| c / n)
+                toward_a_lump(x, k % 4 == 0)
             } else {
                 let (a, b) = (u(53) * std::f64::consts::TAU, 0.2 + 1.3 * u(61));
                 [b.sin() * a.cos(), b.sin() * a.sin(), b.cos()]
@@ -257,17 +268,8 @@ mod tests {
         let marches = [2.0 * half, half, half / 8.0].map(|h| ShadowMarch::new(&v, 4.0, h));
         let (mut worst, mut shaded) = ([0.0f64; 2], 0);
         for k in 0..400u32 {
-            let u = |s: u32| f64::from((k * s + 7) % 97) / 97.0;
-            let x = [-2.5 + 4.0 * u(13), 0.5 + 3.5 * u(29), 0.5 + 3.0 * u(41)];
-            // Aimed at a lump's centre.
-            let c = if k % 2 == 0 {
-                [-1.3, 1.8, 1.45]
-            } else {
-                [0.15, 2.6, 3.1]
-            };
-            let d = [0, 1, 2].map(|a| c[a] - x[a]);
-            let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-            let w = d.map(|c| c / n);
+            let x = start(k);
+            let w = toward_a_lump(x, k % 2 == 0);
             let t = marches
                 .each_ref()
                 .map(|m| m.transmittance(x, w, f64::INFINITY));

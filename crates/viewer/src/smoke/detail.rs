@@ -48,8 +48,15 @@ pub fn floor(tau: f64) -> f64 {
 /// On held-out plume-d at 400 × 300 one slice is within 0.04 % (relative RMS over the
 /// smoke, 0.3 % of the peak at most) of eight slices' picture where two are within
 /// 0.01 % — far below what the lowered lighting detail itself changes (BENCHMARKS.md,
-/// "Viewer playback: the lighting's detail").
+/// "Viewer playback: the lighting's detail"; decision 0073).
 pub const PLAYING_SLICES: f64 = 1.0;
+
+/// The slices per voxel of a picture that will soon be replaced (a playback frame below
+/// full detail, a still while the camera moves) for a view that asks for `slices`: at
+/// most [`PLAYING_SLICES`].
+pub fn fewer_slices(slices: f64) -> f64 {
+    slices.min(PLAYING_SLICES)
+}
 
 /// The smallest step down worth taking: a step to the floor is taken when the floor is
 /// below this share of the current detail (at least `1 − 0.95³` ≈ 14 % less work).
@@ -133,10 +140,10 @@ impl DetailControl {
     }
 
     /// The slices per voxel of the next playback frame of a view that asks for `slices`:
-    /// at most [`PLAYING_SLICES`] while the detail is below full, else `slices`.
+    /// [`fewer_slices`] while the detail is below full, else `slices`.
     pub fn slices(&self, slices: f64) -> f64 {
         if self.detail < 1.0 {
-            slices.min(PLAYING_SLICES)
+            fewer_slices(slices)
         } else {
             slices
         }

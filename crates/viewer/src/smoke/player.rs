@@ -18,7 +18,7 @@
 //! [`PLAYING_SLICES`] slices per voxel; the frame is rendered again with the view's own
 //! once playback pauses or the camera rests.
 
-use super::detail::{DetailControl, FrameCost, PLAYING_SLICES};
+use super::detail::{DetailControl, FrameCost, PLAYING_SLICES, fewer_slices};
 use super::playback::{PlayReport, Playback};
 use super::worker::{Done, Job, Picture, Scene, Worker};
 use haze_view::Camera;
@@ -180,9 +180,7 @@ impl Player {
             if next.is_some() {
                 let opts = &mut view.scene.opts;
                 opts.detail = self.detail.detail();
-                let slices = self.detail.slices(opts.slices_per_voxel);
-                self.fewer_slices |= slices < opts.slices_per_voxel;
-                opts.slices_per_voxel = slices;
+                self.fewer_slices |= take_slices(opts, self.detail.slices(opts.slices_per_voxel));
             } else if self
                 .submitted
                 .as_ref()
@@ -192,9 +190,7 @@ impl Player {
                 // zoom) takes at most one slice per voxel, as playback below full detail
                 // does; once the camera rests, the picture comes again with the view's.
                 let opts = &mut view.scene.opts;
-                let slices = opts.slices_per_voxel.min(PLAYING_SLICES);
-                self.moved_slices |= slices < opts.slices_per_voxel;
-                opts.slices_per_voxel = slices;
+                self.moved_slices |= take_slices(opts, fewer_slices(opts.slices_per_voxel));
             }
             let stale = self.submitted.as_ref() != Some(&(frame, view.clone()));
             if next.is_some() || (!self.playback.playing() && stale) {
@@ -357,6 +353,14 @@ impl Player {
         };
         format!("; lighting detail {now:.2} while playing (lowest {lowest:.2}){fewer}")
     }
+}
+
+/// Sets the view pass's slices per voxel of `opts` to `slices`; whether that is fewer
+/// than it had.
+fn take_slices(opts: &mut haze_view::render::CrmOptions, slices: f64) -> bool {
+    let fewer = slices < opts.slices_per_voxel;
+    opts.slices_per_voxel = slices;
+    fewer
 }
 
 #[cfg(test)]
