@@ -352,6 +352,24 @@ fn bad_render_requests_fail_on_one_line() {
         "{err}"
     );
     fails(&["render", &vol, "--out", out, "--slices", "0"], "--slices");
+    for reuse in ["-0.001", "0.5", "nan", "1e300"] {
+        fails(
+            &["render", &vol, "--out", out, "--pixel-reuse", reuse],
+            "--pixel-reuse",
+        );
+    }
+    fails(
+        &[
+            "render",
+            &vol,
+            "--out",
+            out,
+            "--gpu",
+            "--pixel-reuse",
+            "0.002",
+        ],
+        "CPU's fast view pass only",
+    );
     for detail in ["0", "1.5", "-1", "nan"] {
         fails(
             &["render", &vol, "--out", out, "--lighting-detail", detail],

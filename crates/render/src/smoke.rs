@@ -44,6 +44,8 @@ pub struct RenderOptions {
     pub multiple: bool,
     pub residual: bool,
     pub slices: f64,
+    /// `CrmOptions::pixel_reuse` (the CPU's view pass).
+    pub pixel_reuse: f64,
     pub exp: ExpMethod,
     pub source_points: SourcePoints,
     /// Where multiple scattering's diffusion is solved.
@@ -101,6 +103,7 @@ impl RenderOptions {
             multiple: true,
             residual: true,
             slices: crm.slices_per_voxel,
+            pixel_reuse: crm.pixel_reuse,
             exp: crm.exp,
             source_points: crm.source_points,
             diffusion: MsDiffusion::DEFAULT,
@@ -200,6 +203,12 @@ pub fn render_image(a: &RenderOptions) -> Result<Rendered> {
     }
     let medium = Medium::new(a.sigma_t, a.albedo, a.g).map_err(|e| anyhow!("{e}"))?;
     check_knobs(a.sh_order, a.slices)?;
+    if !(0.0..=MAX_PIXEL_REUSE).contains(&a.pixel_reuse) {
+        bail!(
+            "--pixel-reuse {} must be between 0 (every pixel marched) and {MAX_PIXEL_REUSE}",
+            shown(a.pixel_reuse)
+        );
+    }
     CrmOptions::check_detail(a.detail).map_err(|e| anyhow!("--lighting-detail: {e}"))?;
     // The reference lights with a map whole (the truth); the fast renderers with its
     // concentrated light split off into suns.
@@ -211,6 +220,11 @@ pub fn render_image(a: &RenderOptions) -> Result<Rendered> {
     a.diffusion
         .check()
         .map_err(|e| anyhow!("--diffusion {}: {e}", diffusion_name(a.diffusion)))?;
+    if (a.gpu || a.reference) && a.pixel_reuse > 0.0 {
+        bail!(
+            "--pixel-reuse takes pixels in the CPU's fast view pass only; leave out --gpu and --reference"
+        );
+    }
     if a.gpu && !a.reference && matches!(a.diffusion, MsDiffusion::Grid { .. }) {
         bail!(
             "--diffusion grid runs on the CPU only; use --diffusion orders or centers with --gpu"
@@ -312,6 +326,7 @@ pub fn render_image(a: &RenderOptions) -> Result<Rendered> {
             multiple: a.multiple,
             residual: a.residual,
             slices_per_voxel: a.slices,
+            pixel_reuse: a.pixel_reuse,
             exp: a.exp,
             source_points: a.source_points,
             env_source: a.env_source,
@@ -617,6 +632,10 @@ pub fn check_exposure(exposure: f64) -> Result<()> {
 pub const MAX_SLICES: f64 = 64.0;
 
 /// Refuses an SH order outside 1..=6 and a slice count per voxel outside (0, 64].
+/// The largest `--pixel-reuse`: a pixel's mean of its neighbours then within a tenth of
+/// the picture's light by the reuse's test (`haze_view::render::pixel_reuse`).
+pub const MAX_PIXEL_REUSE: f64 = 0.1;
+
 pub fn check_knobs(sh_order: usize, slices: f64) -> Result<()> {
     if !(1..=haze_view::sh::MAX_ORDER).contains(&sh_order) {
         bail!(

@@ -356,6 +356,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     var tau = 1.0;
     // The scattered light's transmittance, through σt·keep (`VolumeGrids::eye_peak`).
     var tau_j = 1.0;
+    var optical = 0.0;
+    var opaque = false;
     // A grid without voxels has no density to sample (`sample_grid` is 0 everywhere).
     if hit.z > 0.0 && all(p.dims > vec3<u32>(0u)) {
         let ds = p.du / cos_g;
@@ -397,21 +399,23 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
                 j += near_at_step(d, t, ds);
             }
             let a = p.sigma_t * s.w * ds;
-            let dt = exp(-a);
+            // The background's transmittance through σt, e^{−Σ a}, is taken once after
+            // the march (`crm::march` without a depth).
+            optical += a;
             // `crm::scattered_step`: (1 − e^{−x})/keep with x = keep·a, by its series
             // a(1 − x/2) below x = 10⁻³ (f32's 1 − e^{−x} cancels there).
             let x = p.keep * a;
             let dt_j = exp(-x);
             let share = select((1.0 - dt_j) / p.keep, a * (1.0 - 0.5 * x), x < 1e-3);
             out += tau_j * j * share;
-            tau *= dt;
             tau_j *= dt_j;
             if tau_j < OPAQUE {
-                tau = 0.0;
+                opaque = true;
                 break;
             }
             i++;
         }
+        tau = select(exp(-optical), 0.0, opaque);
     }
     pixels[id.y * p.image.x + id.x] = vec4<f32>(out + tau * background, 1.0);
 }

@@ -139,6 +139,7 @@ impl HostGrids {
             medium: *medium,
             opts: CrmOptions {
                 slices_per_voxel: 0.0,
+                pixel_reuse: 0.0,
                 ..*opts
             },
         };

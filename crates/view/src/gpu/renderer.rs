@@ -424,8 +424,17 @@ impl GpuRenderer {
         let t = Instant::now();
         let du = slice_thickness(frame.dims, &frame.bbox, opts);
         let ground = opts.ground.map(|g| g.lit(env));
-        let pixels = crate::render::crm::view_pass(grids, medium, env, camera, du, ground.as_ref());
+        let (pixels, reuse) = crate::render::crm::view_pass_reused(
+            grids,
+            medium,
+            env,
+            camera,
+            du,
+            ground.as_ref(),
+            opts.pixel_reuse,
+        );
         stats.crm.view_seconds = t.elapsed().as_secs_f64();
+        stats.crm.reused_pixels = reuse.reused;
         if stats.solved
             && let Some(solve) = self.host.last_solve()
         {
@@ -549,6 +558,7 @@ impl GpuRenderer {
             opts: CrmOptions {
                 residual: false,
                 slices_per_voxel: 0.0,
+                pixel_reuse: 0.0,
                 ..*opts
             },
         };

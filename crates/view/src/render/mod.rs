@@ -11,6 +11,7 @@ pub mod lights_pass;
 pub mod near_light;
 pub mod occupancy;
 pub mod peak_rule;
+pub mod pixel_reuse;
 pub mod plane_sweep;
 pub mod separable;
 pub mod shell;
@@ -39,6 +40,11 @@ pub struct CrmOptions {
     pub residual: bool,
     /// View-pass slices per voxel (paper: 2, i.e. Δu = half a voxel).
     pub slices_per_voxel: f64,
+    /// The CPU's view pass takes the pixels between its even rows and columns from their
+    /// neighbours where the picture's second differences bound that within this share of
+    /// it ([`pixel_reuse`]); 0 (the default) marches every pixel. The GPU's view pass
+    /// marches every pixel whatever it says.
+    pub pixel_reuse: f64,
     /// How `exp*` is computed for the transmittance vectors (`BENCHMARKS.md`, "SH
     /// exponentiation": the optimal linear one is exact at order 2 but breaks down for
     /// thick smoke at higher orders).
@@ -267,6 +273,7 @@ impl Default for CrmOptions {
             multiple: true,
             residual: true,
             slices_per_voxel: 2.0,
+            pixel_reuse: 0.0,
             exp: ExpMethod::ScaleSquareAuto,
             source_points: SourcePoints::Footprint,
             env_source: EnvSource::Grid(EnvGridOptions::default()),
@@ -293,6 +300,8 @@ pub struct CrmStats {
     /// The lights pass (suns and point lights per voxel, shadows marched).
     pub lights_seconds: f64,
     pub view_seconds: f64,
+    /// Pixels the view pass took from their neighbours ([`CrmOptions::pixel_reuse`]).
+    pub reused_pixels: usize,
     pub cg_iterations: u32,
     pub cg_residual: f64,
     /// Voxels per cell side of the gathered orders (0 without them).
@@ -319,7 +328,11 @@ impl std::fmt::Display for CrmStats {
             self.env_seconds,
             self.lights_seconds,
             self.view_seconds
-        )
+        )?;
+        if self.reused_pixels > 0 {
+            write!(f, " ({} pixels from their neighbours)", self.reused_pixels)?;
+        }
+        Ok(())
     }
 }
 
@@ -534,7 +547,16 @@ pub fn crm_render(
         crm_grids(rbfs, residual, dims, bbox, medium, env, camera.eye, opts);
     let t = Instant::now();
     let ground = opts.ground.map(|g| g.lit(env));
-    let pixels = crm::view_pass(&grids, medium, env, camera, du, ground.as_ref());
+    let (pixels, reuse) = crm::view_pass_reused(
+        &grids,
+        medium,
+        env,
+        camera,
+        du,
+        ground.as_ref(),
+        opts.pixel_reuse,
+    );
+    stats.reused_pixels = reuse.reused;
     stats.view_seconds = t.elapsed().as_secs_f64();
     (
         Image {

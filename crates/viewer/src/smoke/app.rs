@@ -543,7 +543,7 @@ impl ViewerApp {
         }
         if self.player.shown_detail < 1.0 {
             ui.small(format!(
-                "lit at detail {:.2}, at most one slice per voxel, to keep up with playback (full detail when paused)",
+                "lit at detail {:.2}, at most one slice per voxel (on a CPU adapter smooth pixels from their neighbours), to keep up with playback (full detail when paused)",
                 self.player.shown_detail
             ));
         }

@@ -18,7 +18,7 @@
 //! [`PLAYING_SLICES`] slices per voxel; the frame is rendered again with the view's own
 //! once playback pauses or the camera rests.
 
-use super::detail::{DetailControl, FrameCost, PLAYING_SLICES, fewer_slices};
+use super::detail::{DetailControl, FrameCost, PLAYING_REUSE, PLAYING_SLICES, fewer_slices};
 use super::playback::{PlayReport, Playback};
 use super::worker::{Done, Job, Picture, Scene, Worker};
 use haze_view::Camera;
@@ -83,6 +83,11 @@ pub struct Player {
     fewer_slices: bool,
     /// Whether a still was, while its camera moved.
     moved_slices: bool,
+    /// Whether a playback frame's view pass took pixels from their neighbours
+    /// (`detail::PLAYING_REUSE`; the CPU's view pass only), and whether a moving
+    /// camera's still did.
+    reused_playing: bool,
+    reused_moving: bool,
     pub error: Option<String>,
     /// Jobs that failed, and the first one's error.
     pub failures: u64,
@@ -114,6 +119,8 @@ impl Player {
             shown_detail: 1.0,
             fewer_slices: false,
             moved_slices: false,
+            reused_playing: false,
+            reused_moving: false,
             error: None,
             failures: 0,
             first_failure: None,
@@ -181,6 +188,7 @@ impl Player {
                 let opts = &mut view.scene.opts;
                 opts.detail = self.detail.detail();
                 self.fewer_slices |= take_slices(opts, self.detail.slices(opts.slices_per_voxel));
+                opts.pixel_reuse = self.detail.pixel_reuse(opts.pixel_reuse);
             } else if self
                 .submitted
                 .as_ref()
@@ -191,6 +199,7 @@ impl Player {
                 // does; once the camera rests, the picture comes again with the view's.
                 let opts = &mut view.scene.opts;
                 self.moved_slices |= take_slices(opts, fewer_slices(opts.slices_per_voxel));
+                opts.pixel_reuse = opts.pixel_reuse.max(PLAYING_REUSE);
             }
             let stale = self.submitted.as_ref() != Some(&(frame, view.clone()));
             if next.is_some() || (!self.playback.playing() && stale) {
@@ -223,6 +232,15 @@ impl Player {
             LEAD_WEIGHT * done.seconds + (1.0 - LEAD_WEIGHT) * self.lead
         };
         let from_floor = std::mem::take(&mut self.floor_started);
+        if let Ok(Picture { times: Some(t), .. }) = &done.picture
+            && t.crm.reused_pixels > 0
+        {
+            if done.tick.is_some() {
+                self.reused_playing = true;
+            } else {
+                self.reused_moving = true;
+            }
+        }
         if let (Some(_), Ok(p @ Picture { times: Some(t), .. })) = (done.tick, &done.picture) {
             if from_floor {
                 self.detail.start_at(done.detail);
@@ -281,12 +299,20 @@ impl Player {
     }
 
     /// "; 1 slice per voxel while the camera moves" once a moving camera's stills took
-    /// fewer slices than the view's, else nothing.
+    /// fewer slices than the view's, with ", smooth pixels from their neighbours" where
+    /// their view pass reused pixels too; else nothing.
     pub fn moving_words(&self) -> String {
+        let mut words = Vec::new();
         if self.moved_slices {
-            format!("; {PLAYING_SLICES} slice per voxel while the camera moves")
-        } else {
+            words.push(format!("{PLAYING_SLICES} slice per voxel"));
+        }
+        if self.reused_moving {
+            words.push(REUSE_WORDS.to_string());
+        }
+        if words.is_empty() {
             String::new()
+        } else {
+            format!("; {} while the camera moves", words.join(", "))
         }
     }
 
@@ -346,14 +372,20 @@ impl Player {
         if lowest >= 1.0 {
             return String::new();
         }
-        let fewer = if self.fewer_slices {
+        let mut fewer = if self.fewer_slices {
             format!(", {PLAYING_SLICES} slice per voxel")
         } else {
             String::new()
         };
+        if self.reused_playing {
+            fewer += &format!(", {REUSE_WORDS}");
+        }
         format!("; lighting detail {now:.2} while playing (lowest {lowest:.2}){fewer}")
     }
 }
+
+/// How the player's lines say that the view pass took pixels from their neighbours.
+const REUSE_WORDS: &str = "smooth pixels from their neighbours";
 
 /// Sets the view pass's slices per voxel of `opts` to `slices`; whether that is fewer
 /// than it had.
@@ -477,9 +509,21 @@ mod tests {
             p.submitted.as_ref().unwrap().1.scene.opts.slices_per_voxel,
             2.0
         );
+        // Where the view pass runs on the host (a CPU adapter), smooth pixels come from
+        // their neighbours too (`detail::PLAYING_REUSE`).
+        let reuse = if p.worker.lights_on_host() {
+            ", smooth pixels from their neighbours"
+        } else {
+            ""
+        };
         assert_eq!(
             p.moving_words(),
-            "; 1 slice per voxel while the camera moves"
+            format!("; 1 slice per voxel{reuse} while the camera moves")
+        );
+        assert_eq!(
+            p.submitted.as_ref().unwrap().1.scene.opts.pixel_reuse,
+            0.0,
+            "at rest every pixel is marched"
         );
         // A step: the next frame, lit anew.
         p.playback.step(1);
@@ -558,15 +602,21 @@ mod tests {
         assert_eq!(v.scene.opts.slices_per_voxel, 2.0);
         let playing = &p.submitted.as_ref().unwrap().1.scene.opts;
         assert_eq!((playing.detail, playing.slices_per_voxel), (0.75, 1.0));
+        assert_eq!(playing.pixel_reuse, PLAYING_REUSE);
         p.playback.pause();
         let still = settle(&mut p, &v);
         assert_eq!(p.shown_detail, 1.0);
         assert!(still.last().unwrap().times.is_some(), "lit again");
         let paused = &p.submitted.as_ref().unwrap().1.scene.opts;
-        assert_eq!((paused.detail, paused.slices_per_voxel), (1.0, 2.0));
+        assert_eq!(
+            (paused.detail, paused.slices_per_voxel, paused.pixel_reuse),
+            (1.0, 2.0, 0.0)
+        );
         let line = p.summary(Instant::now(), 16, 12);
         assert!(
-            line.ends_with("; lighting detail 0.75 while playing (lowest 0.75), 1 slice per voxel"),
+            line.ends_with(&format!(
+                "; lighting detail 0.75 while playing (lowest 0.75), 1 slice per voxel{reuse}"
+            )),
             "{line}"
         );
     }
