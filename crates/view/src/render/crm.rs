@@ -325,7 +325,10 @@ pub struct SmokeSample {
 /// thickness `du`), stopping at `t_end` (an opaque surface; `∞` for none): the grids'
 /// light carried to the eye through `σt(1 − Ωf)` ([`VolumeGrids::eye_peak`],
 /// [`scattered_step`]), the transmittance it returns (the background's) through `σt`;
-/// the point lights' light near them added at each step ([`NearLights`]).
+/// the point lights' light near them added at each step ([`NearLights`]). Without
+/// `want_depth` the depth is 0 and the background's transmittance, where the eye's peak
+/// makes it differ from the scattered light's, is `e^{−Σ a}` taken once after the march
+/// (the steps' product to rounding).
 #[allow(clippy::too_many_arguments)]
 fn march(
     field: &RadianceField<'_>,
@@ -477,7 +480,7 @@ pub fn view_pass(
     du: f64,
     ground: Option<&GroundLight>,
 ) -> Vec<[f32; 3]> {
-    view_pixels(g, medium, env, camera, du, ground, None).0
+    view_pass_reused(g, medium, env, camera, du, ground, 0.0).0
 }
 
 /// [`view_pass`] with its smooth parts' pixels between the even rows and columns taken
@@ -492,20 +495,6 @@ pub fn view_pass_reused(
     du: f64,
     ground: Option<&GroundLight>,
     tol: f64,
-) -> (Vec<[f32; 3]>, ReuseCount) {
-    view_pixels(g, medium, env, camera, du, ground, Some(tol))
-}
-
-/// The view pass's pixels, every one computed (`reuse` none or 0) or reused at that
-/// tolerance.
-fn view_pixels(
-    g: &VolumeGrids,
-    medium: &Medium,
-    env: &Environment,
-    camera: &Camera,
-    du: f64,
-    ground: Option<&GroundLight>,
-    reuse: Option<f64>,
 ) -> (Vec<[f32; 3]>, ReuseCount) {
     let w = camera.width;
     let axis = camera.forward();
@@ -543,22 +532,20 @@ fn view_pixels(
         [0, 1, 2].map(|c| out[c] + tau * background[c])
     };
     let n = w * camera.height;
-    match reuse {
-        Some(tol) if tol > 0.0 => pixel_reuse::reused(w, camera.height, tol, pixel),
-        _ => {
-            let pixels = (0..n)
-                .into_par_iter()
-                .map(|i| pixel(i).map(|v| v as f32))
-                .collect();
-            (
-                pixels,
-                ReuseCount {
-                    computed: n,
-                    reused: 0,
-                },
-            )
-        }
+    if tol > 0.0 {
+        return pixel_reuse::reused(w, camera.height, tol, pixel);
     }
+    let pixels = (0..n)
+        .into_par_iter()
+        .map(|i| pixel(i).map(|v| v as f32))
+        .collect();
+    (
+        pixels,
+        ReuseCount {
+            computed: n,
+            reused: 0,
+        },
+    )
 }
 
 /// The view pass as a layer ([`SmokeSample`] per pixel, row 0 on top) for compositing
