@@ -423,16 +423,7 @@ impl GpuRenderer {
         );
         let t = Instant::now();
         let du = slice_thickness(frame.dims, &frame.bbox, opts);
-        let ground = opts.ground.map(|g| g.lit(env));
-        let (pixels, reuse) = crate::render::crm::view_pass_reused(
-            grids,
-            medium,
-            env,
-            camera,
-            du,
-            ground.as_ref(),
-            opts.pixel_reuse,
-        );
+        let (pixels, reuse) = crate::render::view_pass_as(grids, medium, env, camera, du, opts);
         stats.crm.view_seconds = t.elapsed().as_secs_f64();
         stats.crm.reused_pixels = reuse.reused;
         if stats.solved

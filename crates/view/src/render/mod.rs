@@ -336,6 +336,28 @@ impl std::fmt::Display for CrmStats {
     }
 }
 
+/// The view pass of `grids` (slice thickness `du`) as `opts` asks for it: over its ground
+/// lit by `env` if it has one, its pixels reused at [`CrmOptions::pixel_reuse`].
+pub fn view_pass_as(
+    grids: &crm::VolumeGrids,
+    medium: &Medium,
+    env: &Environment,
+    camera: &Camera,
+    du: f64,
+    opts: &CrmOptions,
+) -> (Vec<[f32; 3]>, pixel_reuse::ReuseCount) {
+    let ground = opts.ground.map(|g| g.lit(env));
+    crm::view_pass_reused(
+        grids,
+        medium,
+        env,
+        camera,
+        du,
+        ground.as_ref(),
+        opts.pixel_reuse,
+    )
+}
+
 /// Source radiance `J̃ = J̃ss + J̃ms` at every center (RGB SH of `kit.order`, functions of
 /// the viewing direction), with the diffusion solve warm-started by `solver`: `J̃ss` of
 /// the environment's projection `light`; the suns and point lights of `env` feed the
@@ -546,16 +568,7 @@ pub fn crm_render(
     let (grids, du, mut stats) =
         crm_grids(rbfs, residual, dims, bbox, medium, env, camera.eye, opts);
     let t = Instant::now();
-    let ground = opts.ground.map(|g| g.lit(env));
-    let (pixels, reuse) = crm::view_pass_reused(
-        &grids,
-        medium,
-        env,
-        camera,
-        du,
-        ground.as_ref(),
-        opts.pixel_reuse,
-    );
+    let (pixels, reuse) = view_pass_as(&grids, medium, env, camera, du, opts);
     stats.reused_pixels = reuse.reused;
     stats.view_seconds = t.elapsed().as_secs_f64();
     (
