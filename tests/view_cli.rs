@@ -575,3 +575,25 @@ fn without_an_adapter_it_fails_on_one_line() {
     assert_eq!(err.lines().count(), 1, "not one line: {err}");
     assert!(err.starts_with("error: GPU: no GPU adapter found"), "{err}");
 }
+
+/// No X or Wayland display: one line that says so and how to play without a window.
+#[test]
+fn without_a_display_it_says_how_to_play_without_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let asset = bake(dir.path());
+    let o = haze()
+        .args(["view", asset.to_str().unwrap()])
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .env_remove("WAYLAND_SOCKET")
+        .timeout(std::time::Duration::from_secs(120))
+        .output()
+        .unwrap();
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(err.lines().count(), 1, "not one line: {err}");
+    assert!(
+        err.starts_with("error: cannot open the viewer window") && err.contains("--no-window"),
+        "{err}"
+    );
+}

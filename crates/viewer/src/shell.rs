@@ -69,13 +69,18 @@ pub fn open<R: Room + 'static>(
         Box::new(move |cc| Ok(Box::new(Shell(make(&cc.egui_ctx)?)))),
     )
     .map_err(|e| {
-        anyhow!(
-            "cannot open the viewer window: {}",
-            e.to_string()
-                .split_whitespace()
-                .collect::<Vec<_>>()
-                .join(" ")
-        )
+        let said = e
+            .to_string()
+            .split_whitespace()
+            .collect::<Vec<_>>()
+            .join(" ");
+        // Headless (no X or Wayland display): say how to play without a window.
+        let hint = if said.contains("DISPLAY") || said.contains("WAYLAND") {
+            "; without a display, `--play-for SECONDS --no-window` plays and prints the figures"
+        } else {
+            ""
+        };
+        anyhow!("cannot open the viewer window: {said}{hint}")
     })?;
     let taken = outcome.lock().map(|mut o| o.take()).unwrap_or(None);
     match taken {
