@@ -18,9 +18,10 @@
 //! `(|f_xx| + |f_yy|)/2`) where the largest along `x` plus the largest along `y`, over
 //! 8, is. The scale `s` is the corners' mean in that channel, or `FLOOR` times the
 //! brightest coarse value where that is larger (dark pixels are held to a share of the
-//! picture's light, not of their own). A coarse pixel without a coarse neighbour along
-//! an axis (the last column or row) has no second difference there: the pixels that need
-//! it are computed, as are the last column and row where the picture's size is even.
+//! picture's light, not of their own). A coarse pixel without a coarse neighbour on both
+//! sides along an axis (the first and last coarse column or row) has no second difference
+//! there: the pixels that need it are computed, as are the last column and row where the
+//! picture's size is even.
 //!
 //! What the test cannot see is a feature narrower than the coarse grid's spacing that
 //! leaves no trace at the coarse pixels (a wisp one pixel wide between them). The view
