@@ -51,10 +51,11 @@ pub struct RenderCli {
     /// View-pass slices per voxel (2: half a voxel apart, as in the paper).
     #[arg(long, default_value_t = 2.0)]
     pub(crate) slices: f64,
-    /// With --cpu, take the pixels between the even rows and columns as the mean of their
-    /// neighbours where the picture's second differences bound that within this share of
-    /// it (the viewer's 0.002 while playing; 0: march every pixel). Faster where the
-    /// smoke spans several pixels a voxel; `-v` counts the pixels reused.
+    /// In the CPU's view pass (the default; not with --gpu or --reference), take the
+    /// pixels between the even rows and columns as the mean of their neighbours where the
+    /// picture's second differences bound that within this share of it, 0 to 0.1 (the
+    /// viewer's 0.002 while playing; 0: march every pixel). Faster where the smoke spans
+    /// several pixels a voxel; `-v` counts the pixels reused.
     #[arg(long, default_value_t = 0.0)]
     pub(crate) pixel_reuse: f64,
     /// SH exponentiation of the transmittance: scaling and squaring (accurate for thick
