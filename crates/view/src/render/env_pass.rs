@@ -472,42 +472,72 @@ fn add_lost(s: &mut [f64], tau: f64, l: &[f64; 3], y: &[f64]) {
 /// its trilinear stencil with a non-zero weight. The others are left at zero and cost
 /// nothing. (The GPU twin asks the same of each node as: a voxel with `D > 0` within one
 /// cell and one voxel, per axis — the shell voxel between them is then within one cell.)
+///
+/// Per axis a voxel's nodes form an interval that moves up with the voxel, so a node's
+/// voxels do too: the node is needed where the box of its voxels holds a lit one, found
+/// one axis at a time (an OR over each node's voxel interval along x, then y, then z).
 pub fn needed_nodes(density: &Volume, grid: &ShGrid) -> Vec<bool> {
-    let mut needed = vec![false; grid.len()];
     let dims = density.dims();
-    let vs = density.voxel_size();
-    let bbox = density.bbox();
     let n = grid.nodes;
-    let range = |a: usize, k: usize| -> (usize, usize) {
-        if n[a] < 2 || grid.cell[a].is_nan() || grid.cell[a] <= 0.0 {
-            return (0, 0);
-        }
-        let u = bbox.min[a] + (k as f64 + 0.5) * vs[a];
-        let f = (u - grid.min[a]) / grid.cell[a];
-        let lo = (f - 1.0).floor() + 1.0;
-        let hi = (f + 1.0).ceil() - 1.0;
-        let top = (n[a] - 1) as f64;
-        (lo.clamp(0.0, top) as usize, hi.clamp(0.0, top) as usize)
+    let lit = lit_voxels(density);
+    if lit.is_empty() || grid.is_empty() {
+        return vec![false; grid.len()];
+    }
+    let spans = [0, 1, 2].map(|a| voxel_spans(density, grid, a));
+    // Along x: per voxel row, its nodes' ORs.
+    let rows: Vec<bool> = lit
+        .par_chunks(dims[0])
+        .flat_map_iter(|row| {
+            spans[0]
+                .iter()
+                .map(move |&(lo, hi)| row[lo..hi].contains(&true))
+        })
+        .collect();
+    // Along y, then z: `src` holds `n[0]` (then `n[0]·n[1]`) entries a voxel line.
+    let along = |src: &[bool], line: usize, count: usize, spans: &[(usize, usize)]| {
+        src.par_chunks(line * count)
+            .flat_map_iter(move |block| {
+                spans.iter().flat_map(move |&(lo, hi)| {
+                    (0..line).map(move |i| (lo..hi).any(|v| block[v * line + i]))
+                })
+            })
+            .collect::<Vec<bool>>()
     };
-    for (idx, &lit) in lit_voxels(density).iter().enumerate() {
-        if !lit {
-            continue;
-        }
-        let k = [
-            idx % dims[0],
-            (idx / dims[0]) % dims[1],
-            idx / (dims[0] * dims[1]),
-        ];
-        let (r0, r1, r2) = (range(0, k[0]), range(1, k[1]), range(2, k[2]));
-        for z in r2.0..=r2.1 {
-            for y in r1.0..=r1.1 {
-                for x in r0.0..=r0.1 {
-                    needed[x + n[0] * (y + n[1] * z)] = true;
-                }
-            }
+    let planes = along(&rows, n[0], dims[1], &spans[1]);
+    along(&planes, n[0] * n[1], dims[2], &spans[2])
+}
+
+/// Per node along axis `a`, the voxels (`lo..hi`, maybe empty) whose center lies within
+/// one cell of it, strictly ([`needed_nodes`]); every voxel at node 0 on an axis of one
+/// node.
+fn voxel_spans(density: &Volume, grid: &ShGrid, a: usize) -> Vec<(usize, usize)> {
+    let count = density.dims()[a];
+    let mut spans = vec![(usize::MAX, 0); grid.nodes[a]];
+    for v in 0..count {
+        let (lo, hi) = node_range(density, grid, a, v);
+        for span in &mut spans[lo..=hi] {
+            *span = (span.0.min(v), span.1.max(v + 1));
         }
     }
-    needed
+    spans
+        .into_iter()
+        .map(|(lo, hi)| if lo < hi { (lo, hi) } else { (0, 0) })
+        .collect()
+}
+
+/// The nodes along axis `a` within one cell, strictly, of voxel `v`'s center (the first
+/// and last; node 0 on an axis of one node).
+fn node_range(density: &Volume, grid: &ShGrid, a: usize, v: usize) -> (usize, usize) {
+    let n = grid.nodes[a];
+    if n < 2 || grid.cell[a].is_nan() || grid.cell[a] <= 0.0 {
+        return (0, 0);
+    }
+    let u = density.bbox().min[a] + (v as f64 + 0.5) * density.voxel_size()[a];
+    let f = (u - grid.min[a]) / grid.cell[a];
+    let lo = (f - 1.0).floor() + 1.0;
+    let hi = (f + 1.0).ceil() - 1.0;
+    let top = (n - 1) as f64;
+    (lo.clamp(0.0, top) as usize, hi.clamp(0.0, top) as usize)
 }
 
 /// `f` below which the environment pass keeps HG's forward peak in its SH series: the
@@ -703,6 +733,58 @@ pub fn add_env_grid(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// [`needed_nodes`] by its definition, voxel by voxel: every lit voxel marks the
+    /// nodes within one cell of its center on every axis.
+    fn needed_by_each_voxel(density: &Volume, grid: &ShGrid) -> Vec<bool> {
+        let d = density.dims();
+        let n = grid.nodes;
+        let mut needed = vec![false; grid.len()];
+        for (i, _) in lit_voxels(density).iter().enumerate().filter(|(_, l)| **l) {
+            let k = [i % d[0], (i / d[0]) % d[1], i / (d[0] * d[1])];
+            let r = [0, 1, 2].map(|a| node_range(density, grid, a, k[a]));
+            for z in r[2].0..=r[2].1 {
+                for y in r[1].0..=r[1].1 {
+                    for x in r[0].0..=r[0].1 {
+                        needed[x + n[0] * (y + n[1] * z)] = true;
+                    }
+                }
+            }
+        }
+        needed
+    }
+
+    #[test]
+    fn the_needed_nodes_are_those_each_lit_voxel_marks() {
+        // Pseudo-random smoke (a fixed linear congruential sequence), one voxel in 40 and
+        // one in 400, on grids finer and coarser than the voxels, with axes one voxel and
+        // one node thick; and the voxel-by-voxel count of a node's voxels checked once.
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            seed = seed
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (seed >> 33) as usize
+        };
+        for dims in [[17, 12, 9], [1, 10, 14], [11, 9, 1]] {
+            for every in [40, 400] {
+                let total: usize = dims.iter().product();
+                let data = (0..total)
+                    .map(|_| if next() % every == 0 { 0.7 } else { 0.0 })
+                    .collect();
+                let bbox = Bbox::new([-1.0, 0.0, 2.0], [1.5, 1.0, 3.5]);
+                let density = Volume::new(dims, bbox, data).unwrap();
+                for spacing in [0.4, 1.0, 1.5, 2.6, 3.9, 40.0] {
+                    let grid = grid_frame(dims, &bbox, spacing, 1);
+                    assert_eq!(
+                        needed_nodes(&density, &grid),
+                        needed_by_each_voxel(&density, &grid),
+                        "{dims:?}, one in {every}, spacing {spacing}"
+                    );
+                }
+            }
+        }
+    }
 
     fn map(w: usize, h: usize, f: impl Fn(usize, usize) -> f32) -> LatLong {
         let texels = (0..w * h).map(|i| [f(i % w, i / w), 1.0, 0.5]).collect();
