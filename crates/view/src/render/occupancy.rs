@@ -86,6 +86,14 @@ impl Occupancy {
             std::array::from_fn(|a| (q[a] as usize).min(self.dims[a] - 1) / BLOCK);
         self.marked[block[0] + self.blocks[0] * (block[1] + self.blocks[1] * block[2])]
     }
+
+    /// [`Occupancy::may_hold_coords`] at a point held by voxel `k` (each index below the
+    /// grid's dimension on its axis).
+    #[inline]
+    pub fn may_hold_voxel(&self, k: [usize; 3]) -> bool {
+        let block = k.map(|v| v / BLOCK);
+        self.marked[block[0] + self.blocks[0] * (block[1] + self.blocks[1] * block[2])]
+    }
 }
 
 #[cfg(test)]
