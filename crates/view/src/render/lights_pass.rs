@@ -104,7 +104,7 @@ impl LightShadows {
         // Per sun, at a lower detail, σt·τ at every voxel center by a sweep.
         let swept: Vec<Option<Vec<f32>>> = env
             .suns
-            .iter()
+            .par_iter()
             .map(|sun| {
                 (super::detail_or_one(detail) < 1.0)
                     .then(|| sun_depths(density, medium.sigma_t, &lit, sun.direction, &occupied))
