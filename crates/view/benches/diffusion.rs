@@ -9,22 +9,21 @@ use haze_view::Medium;
 use haze_view::diffusion::{DiffusionSolver, SolveOptions, Sources, assemble, solve_system};
 use haze_volume::Rbf;
 use nalgebra::DVector;
+use rand::{RngExt, SeedableRng};
+use rand_pcg::Pcg64;
 use std::hint::black_box;
 
-struct Lcg(u64);
+/// Uniform numbers from a seeded PCG.
+struct Uniform(Pcg64);
 
-impl Lcg {
+impl Uniform {
     fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        lo + (hi - lo) * ((self.0 >> 11) as f64 / (1u64 << 53) as f64)
+        lo + (hi - lo) * self.0.random::<f64>()
     }
 }
 
 fn frame(n: usize, seed: u64) -> (Vec<Rbf>, Sources) {
-    let mut rng = Lcg(seed);
+    let mut rng = Uniform(Pcg64::seed_from_u64(seed));
     let rbfs = (0..n)
         .map(|_| {
             let c = [0; 3].map(|_| rng.uniform(0.0, 1.0));

@@ -101,6 +101,8 @@ mod tests {
     use super::*;
     use crate::field;
     use crate::render::lights_pass::{optical_depth, optical_depth_within};
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg64;
 
     /// A sparse grid: a few lumps in a 23 × 17 × 30 box, zero elsewhere.
     fn lumps() -> Volume {
@@ -130,23 +132,15 @@ mod tests {
         v
     }
 
-    /// A deterministic sequence in [0, 1).
-    fn uniform(k: u64) -> f64 {
-        let mut x = k.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0xD1B5_4A32_D192_ED03;
-        x ^= x >> 31;
-        x = x.wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        x ^= x >> 29;
-        (x >> 11) as f64 / (1u64 << 53) as f64
-    }
-
     #[test]
     fn an_unmarked_block_holds_exact_zeros() {
         let v = lumps();
         let occ = Occupancy::new(&v).unwrap();
         let (b, mut skipped) = (v.bbox(), 0);
-        for k in 0..20_000 {
+        let mut rng = Pcg64::seed_from_u64(3);
+        for _ in 0..20_000 {
             let p: [f64; 3] = std::array::from_fn(|a| {
-                b.min[a] + (1.2 * uniform(3 * k + a as u64) - 0.1) * (b.max[a] - b.min[a])
+                b.min[a] + (1.2 * rng.random::<f64>() - 0.1) * (b.max[a] - b.min[a])
             });
             if !occ.may_hold(p) {
                 skipped += 1;
@@ -166,12 +160,12 @@ mod tests {
         let h0 = v.voxel_size().into_iter().fold(f64::INFINITY, f64::min);
         let b = *v.bbox();
         let mut nonzero = 0;
-        for k in 0..2_000u64 {
-            let u: [f64; 3] = std::array::from_fn(|a| {
-                b.min[a] + uniform(7 * k + a as u64) * (b.max[a] - b.min[a])
-            });
-            let z = 2.0 * uniform(7 * k + 3) - 1.0;
-            let phi = std::f64::consts::TAU * uniform(7 * k + 4);
+        let mut rng = Pcg64::seed_from_u64(7);
+        for _ in 0..2_000 {
+            let u: [f64; 3] =
+                std::array::from_fn(|a| b.min[a] + rng.random::<f64>() * (b.max[a] - b.min[a]));
+            let z = 2.0 * rng.random::<f64>() - 1.0;
+            let phi = std::f64::consts::TAU * rng.random::<f64>();
             let r = (1.0 - z * z).sqrt();
             let s = [r * phi.cos(), r * phi.sin(), z];
             for max_len in [f64::MAX, 0.7] {

@@ -3,6 +3,8 @@ use crate::env::Environment;
 use crate::lights::Sun;
 use crate::render::crm::VolumeGrids;
 use haze_volume::{Bbox, Volume};
+use rand::{RngExt, SeedableRng};
+use rand_pcg::Pcg64;
 
 fn grid(dims: [usize; 3], h: [f64; 3], density: Vec<f64>) -> CoarseGrid {
     CoarseGrid {
@@ -66,13 +68,8 @@ fn line_matches_the_closed_form() {
 /// of random densities, sources, fluxes and escape probabilities.
 #[test]
 fn cg_matches_a_dense_solve() {
-    let mut seed = 7u64;
-    let mut rnd = || {
-        seed = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (seed >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut rng = Pcg64::seed_from_u64(7);
+    let mut rnd = || rng.random::<f64>();
     let dims = [5, 4, 3];
     let n = 60;
     let density: Vec<f64> = (0..n)
