@@ -8,6 +8,8 @@ use haze_fit::{
     fit_first_frame,
 };
 use haze_volume::{Bbox, ImportOptions, Rbf, Volume, import, rbf};
+use rand::{RngExt, SeedableRng};
+use rand_pcg::Pcg64;
 use std::path::Path;
 
 fn cube(n: usize) -> Bbox {
@@ -18,14 +20,11 @@ fn cube(n: usize) -> Bbox {
 fn gaussians(n: usize, rbfs: &[Rbf], noise: f64, seed: u64) -> Volume {
     let b = cube(n);
     let clean = rbf::evaluate_on_grid([n; 3], &b, rbfs);
-    let mut s = seed;
+    let mut rng = Pcg64::seed_from_u64(seed);
     let data = clean
         .iter()
         .map(|&v| {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            let u = (s >> 11) as f64 / (1u64 << 53) as f64;
+            let u: f64 = rng.random();
             (v + noise * (2.0 * u - 1.0) * (v > 1e-3) as u8 as f64).max(0.0) as f32
         })
         .collect();

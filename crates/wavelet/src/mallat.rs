@@ -301,19 +301,12 @@ impl Decomposition {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg64;
 
     fn pseudo_random(n: usize, seed: u64) -> Vec<f64> {
-        let mut x = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (0..n)
-            .map(|_| {
-                x = x
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                (x >> 11) as f64 / (1u64 << 53) as f64
-            })
-            .collect()
+        let mut rng = Pcg64::seed_from_u64(seed);
+        (0..n).map(|_| rng.random()).collect()
     }
 
     #[test]
