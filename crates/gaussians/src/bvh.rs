@@ -225,39 +225,39 @@ fn build(
 mod tests {
     use super::*;
     use haze_core::vec3::normalize;
-
-    /// A small deterministic generator (64-bit LCG, high bits) for test data.
-    fn lcg(state: &mut u64) -> f64 {
-        *state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (*state >> 11) as f64 / (1u64 << 53) as f64
-    }
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg64;
 
     #[test]
     fn queries_match_brute_force() {
-        let mut s = 7u64;
+        let mut s = Pcg64::seed_from_u64(7);
         let n = 500;
         let centers: Vec<Vec3> = (0..n)
-            .map(|_| [0, 1, 2].map(|_| lcg(&mut s) * 10.0 - 5.0))
+            .map(|_| [0, 1, 2].map(|_| s.random::<f64>() * 10.0 - 5.0))
             .collect();
         let radii: Vec<f64> = (0..n)
-            .map(|i| if i % 50 == 0 { 0.0 } else { 0.05 + lcg(&mut s) })
+            .map(|i| {
+                if i % 50 == 0 {
+                    0.0
+                } else {
+                    0.05 + s.random::<f64>()
+                }
+            })
             .collect();
         let bvh = SphereBvh::new(centers.clone(), radii.clone());
         for q in 0..200 {
-            let o = [0, 1, 2].map(|_| lcg(&mut s) * 12.0 - 6.0);
-            let mut d = normalize([0, 1, 2].map(|_| lcg(&mut s) - 0.5)).unwrap();
+            let o = [0, 1, 2].map(|_| s.random::<f64>() * 12.0 - 6.0);
+            let mut d = normalize([0, 1, 2].map(|_| s.random::<f64>() - 0.5)).unwrap();
             if q % 10 == 0 {
                 d = [0.0, 0.0, 1.0]; // axis-aligned: zero components
             }
             let len = if q % 7 == 0 {
                 f64::INFINITY
             } else {
-                lcg(&mut s) * 8.0
+                s.random::<f64>() * 8.0
             };
             // Plain, and with every radius grown by a margin.
-            for margin in [0.0, lcg(&mut s) * 0.7] {
+            for margin in [0.0, s.random::<f64>() * 0.7] {
                 let mut got = Vec::new();
                 if margin == 0.0 {
                     bvh.segment(o, d, len, |i| got.push(i));

@@ -3,27 +3,16 @@
 
 use haze_hash::tile::{BRICK_SIDES, GROUP, GroupBuilder, ResidualGroup, tile_origin};
 use haze_hash::{BuildOptions, HashError, PerfectHash, QuantOptions, quantize};
-
-/// Deterministic pseudo-random numbers.
-struct Lcg(u64);
-impl Lcg {
-    fn next(&mut self) -> u64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        self.0 >> 33
-    }
-}
+use rand::seq::SliceRandom;
+use rand::{RngExt, SeedableRng};
+use rand_pcg::Pcg64;
 
 /// A random set of `k` distinct cells of `domain` with random payloads.
 fn random_cells(domain: [u32; 3], k: usize, seed: u64) -> Vec<([u32; 3], u32)> {
     let n = (domain[0] * domain[1] * domain[2]) as usize;
     let mut idx: Vec<usize> = (0..n).collect();
-    let mut rng = Lcg(seed);
-    for i in (1..n).rev() {
-        idx.swap(i, (rng.next() as usize) % (i + 1));
-    }
+    let mut rng = Pcg64::seed_from_u64(seed);
+    idx.shuffle(&mut rng);
     idx.truncate(k);
     idx.iter()
         .map(|&i| {
@@ -33,7 +22,7 @@ fn random_cells(domain: [u32; 3], k: usize, seed: u64) -> Vec<([u32; 3], u32)> {
                 (i / domain[0]) % domain[1],
                 i / (domain[0] * domain[1]),
             ];
-            (p, rng.next() as u32)
+            (p, rng.random::<u32>() >> 1)
         })
         .collect()
 }
@@ -246,14 +235,14 @@ fn a_filling_volume_knows_its_decoded_size() {
         error: 1.0 / 255.0,
         bits: 8,
     };
-    let mut rng = Lcg(7);
+    let mut rng = Pcg64::seed_from_u64(7);
     let mut b = GroupBuilder::new(dims, 4).unwrap();
     assert!(b.has_room(0));
     let mut frames = Vec::new();
     for _ in 0..5 {
         let r: Vec<f32> = (0..n)
             .map(|_| {
-                let u = rng.next() as f64 / (1u64 << 31) as f64;
+                let u: f64 = rng.random();
                 if u < 0.3 { (u * 2.0) as f32 } else { 0.0 }
             })
             .collect();

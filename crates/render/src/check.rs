@@ -177,6 +177,8 @@ mod tests {
     use super::*;
     use haze_view::Sky;
     use haze_volume::Bbox;
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg64;
 
     fn ball() -> Volume {
         let n = 12;
@@ -197,13 +199,9 @@ mod tests {
     /// cautious.
     #[test]
     fn the_spread_is_the_estimates_scatter() {
-        let mut state = 0x9E37_79B9_7F4A_7C15u64;
-        let mut uniform = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-        };
+        let mut rng = Pcg64::seed_from_u64(0x9E37_79B9_7F4A_7C15);
+        // In (0, 1]: the logarithm below needs it above 0.
+        let mut uniform = move || 1.0 - rng.random::<f64>();
         let mut normal = move || {
             let (a, b) = (uniform(), uniform());
             (-2.0 * a.ln()).sqrt() * (2.0 * std::f64::consts::PI * b).cos()

@@ -7,6 +7,8 @@ use haze_scene::paper_c::reference::{self, RefOptions};
 use haze_scene::paper_c::special::g_edge;
 use haze_scene::render::{Analytic, Reference, render};
 use haze_scene::vec3::{Vec3, axpy, norm, normalize};
+use rand::{RngExt, SeedableRng};
+use rand_pcg::Pcg64;
 use std::f64::consts::PI;
 use std::sync::OnceLock;
 
@@ -20,15 +22,14 @@ fn table() -> &'static HTable {
     T.get_or_init(HTable::default)
 }
 
-/// A small deterministic generator (64-bit LCG, top bits).
-struct Lcg(u64);
-impl Lcg {
+/// Draws from a seeded PCG.
+struct Draws(Pcg64);
+impl Draws {
+    fn new(seed: u64) -> Draws {
+        Draws(Pcg64::seed_from_u64(seed))
+    }
     fn next(&mut self) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+        self.0.random()
     }
     fn dir(&mut self) -> Vec3 {
         loop {
@@ -48,7 +49,7 @@ impl Lcg {
 /// Random rays and lights: optical distances to the light 0.001–30, rays 0.001–60 long
 /// or escaping, every angle.
 fn configurations(n: usize) -> Vec<(Vec3, f64, Vec3, f64)> {
-    let mut g = Lcg(7);
+    let mut g = Draws::new(7);
     (0..n)
         .map(|i| {
             let dir = g.dir();

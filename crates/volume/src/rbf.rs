@@ -184,6 +184,8 @@ impl SliceSplats {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg64;
 
     #[test]
     fn eval_matches_closed_form_and_cuts_off_at_3r() {
@@ -226,13 +228,8 @@ mod tests {
         let dims = [13, 9, 11];
         let bbox = Bbox::new([-1.0, 0.0, 2.0], [1.6, 1.8, 4.2]);
         let mut rbfs = Vec::new();
-        let mut seed = 12345u64;
-        let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = Pcg64::seed_from_u64(12345);
+        let mut rnd = || rng.random::<f64>();
         for _ in 0..40 {
             let c = [-1.5 + 3.5 * rnd(), -0.5 + 2.8 * rnd(), 1.5 + 3.2 * rnd()];
             rbfs.push(Rbf::new(c, 0.05 + 0.4 * rnd(), 0.1 + rnd()));

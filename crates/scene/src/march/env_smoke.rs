@@ -412,6 +412,8 @@ impl Cache {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg64;
     use std::f64::consts::PI;
 
     /// The bundled plume under a sky, half its size, with a fog around it.
@@ -446,14 +448,9 @@ mod tests {
             .count();
         assert!(skipped > 12 * 12 * 12 / 10, "{skipped} nodes left out");
         let b = scene.hetero[0].bounds().unwrap();
-        let (mut s, mut lit) = (7u64, 0);
+        let (mut rng, mut lit) = (Pcg64::seed_from_u64(7), 0);
         for _ in 0..20_000 {
-            let mut r = || {
-                s = s
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                (s >> 11) as f64 / (1u64 << 53) as f64
-            };
+            let mut r = || rng.random::<f64>();
             let x: Vec3 = [0, 1, 2].map(|a| b.min[a] + r() * (b.max[a] - b.min[a]));
             let Some(dir) = crate::vec3::normalize([r() - 0.5, r() - 0.5, r() - 0.5]) else {
                 continue;

@@ -280,18 +280,17 @@ impl VoxelGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg64;
 
-    /// A 5×4×6 grid of pseudo-random values (a fixed LCG) with some zeros, voxels of
+    /// A 5×4×6 grid of pseudo-random values (a seeded PCG) with some zeros, voxels of
     /// unequal sides.
     fn grid() -> VoxelGrid {
         let dims = [5, 4, 6];
-        let mut s = 12345u64;
+        let mut rng = Pcg64::seed_from_u64(12345);
         let data = (0..120)
             .map(|i| {
-                s = s
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                let v = (s >> 40) as f32 / (1u64 << 24) as f32;
+                let v: f32 = rng.random();
                 if i % 7 == 0 { 0.0 } else { v }
             })
             .collect();

@@ -253,16 +253,17 @@ fn build(items: &mut [(Vec3, Triangle)], offset: usize, nodes: &mut Vec<Node>) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::{RngExt, SeedableRng};
+    use rand_pcg::Pcg64;
 
-    /// A deterministic generator (SplitMix64) for the test rays.
-    struct Rng(u64);
+    /// The test rays' draws, from a seeded PCG.
+    struct Rng(Pcg64);
     impl Rng {
+        fn new(seed: u64) -> Rng {
+            Rng(Pcg64::seed_from_u64(seed))
+        }
         fn next(&mut self) -> f64 {
-            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+            self.0.random()
         }
         fn point(&mut self, r: f64) -> Vec3 {
             [0; 3].map(|_| r * (2.0 * self.next() - 1.0))
@@ -326,7 +327,7 @@ mod tests {
     fn the_hierarchy_finds_what_brute_force_finds() {
         let mesh = Mesh::new(blob(12));
         assert!(depth(&mesh.nodes, 0) < 64, "a stack of 64 is enough");
-        let mut rng = Rng(7);
+        let mut rng = Rng::new(7);
         let mut rays = Vec::new();
         // Random rays from outside and inside, in random directions and aimed at points
         // near the surface.
@@ -372,7 +373,7 @@ mod tests {
             p: [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
             n: None,
         };
-        let mut rng = Rng(3);
+        let mut rng = Rng::new(3);
         for _ in 0..1000 {
             let (x, y) = (3.0 * rng.next() - 0.5, 1.5 * rng.next() - 0.25);
             let got = t.intersect([x, y, 2.5], [0.0, 0.0, -1.0], 0.0, 10.0);
