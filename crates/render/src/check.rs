@@ -199,7 +199,7 @@ mod tests {
     /// cautious.
     #[test]
     fn the_spread_is_the_estimates_scatter() {
-        let mut rng = Pcg64::seed_from_u64(0x9E37_79B9_7F4A_7C15);
+        let mut rng = Pcg64::seed_from_u64(11);
         // In (0, 1]: the logarithm below needs it above 0.
         let mut uniform = move || 1.0 - rng.random::<f64>();
         let mut normal = move || {

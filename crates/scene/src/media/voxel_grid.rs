@@ -303,15 +303,10 @@ mod tests {
         }
     }
 
-    /// Uniform numbers in `[0, 1)` from a fixed LCG seeded with `seed`.
+    /// Uniform numbers in `[0, 1)` from a PCG seeded with `seed`.
     fn uniform(seed: u64) -> impl FnMut() -> f64 {
-        let mut s = seed;
-        move || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        }
+        let mut rng = Pcg64::seed_from_u64(seed);
+        move || rng.random()
     }
 
     /// `∫ρ` over `[0, len]` by the composite midpoint rule on `n` steps of the part
@@ -521,13 +516,9 @@ mod tests {
         let c = g.cropped();
         assert_eq!(c.dims, [4, 4, 4]);
         let b = g.bounds();
-        let mut s = 7u64;
+        let mut f = uniform(7);
         for _ in 0..2000 {
-            let p = [0, 1, 2].map(|a| {
-                s = s.wrapping_mul(6364136223846793005).wrapping_add(1);
-                let f = (s >> 11) as f64 / (1u64 << 53) as f64;
-                b.min[a] - 0.1 + f * (b.max[a] - b.min[a] + 0.2)
-            });
+            let p = [0, 1, 2].map(|a| b.min[a] - 0.1 + f() * (b.max[a] - b.min[a] + 0.2));
             assert!((c.density(p) - g.density(p)).abs() < 1e-12, "{p:?}");
         }
     }
