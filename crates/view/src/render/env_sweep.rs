@@ -459,23 +459,27 @@ mod tests {
             |p| if p[2] < 0.5 { 1.0 } else { 0.0 },
         );
         let occupied = Occupancy::new(&v).unwrap();
-        let grid = grid_frame([16, 16, 16], v.bbox(), 1.5, 1);
-        for sigma_t in [1e40, 1e300, f64::MAX] {
-            for w in [
-                [0.3, 0.2, 0.93],
-                [0.0, 0.0, 1.0],
-                [0.0, 0.0, -1.0],
-                [0.6, -0.8, 0.0],
-            ] {
-                let n = w.iter().map(|c: &f64| c * c).sum::<f64>().sqrt();
-                let w = w.map(|c| c / n);
-                let tau = sweep_depths(&v, sigma_t, &grid, full(&grid), w, 1.0 / 16.0, &occupied);
-                for (i, &t) in tau.iter().enumerate() {
-                    assert!(t.is_finite() && t >= 0.0, "σt {sigma_t} {w:?}: {t}");
-                    let x = grid.node(node_index(&grid, i));
-                    // Upwards from above the smoke nothing is in the way.
-                    if w == [0.0, 0.0, 1.0] && x[2] > 0.6 {
-                        assert_eq!(t, 0.0);
+        // Nodes 1.5 voxels apart (the environment grid) and at the voxel centers (the
+        // suns' sweep, from shared stencils).
+        for grid in [1.5, 1.0].map(|spacing| grid_frame([16, 16, 16], v.bbox(), spacing, 1)) {
+            for sigma_t in [1e40, 1e300, f64::MAX] {
+                for w in [
+                    [0.3, 0.2, 0.93],
+                    [0.0, 0.0, 1.0],
+                    [0.0, 0.0, -1.0],
+                    [0.6, -0.8, 0.0],
+                ] {
+                    let n = w.iter().map(|c: &f64| c * c).sum::<f64>().sqrt();
+                    let w = w.map(|c| c / n);
+                    let tau =
+                        sweep_depths(&v, sigma_t, &grid, full(&grid), w, 1.0 / 16.0, &occupied);
+                    for (i, &t) in tau.iter().enumerate() {
+                        assert!(t.is_finite() && t >= 0.0, "σt {sigma_t} {w:?}: {t}");
+                        let x = grid.node(node_index(&grid, i));
+                        // Upwards from above the smoke nothing is in the way.
+                        if w == [0.0, 0.0, 1.0] && x[2] > 0.6 {
+                            assert_eq!(t, 0.0);
+                        }
                     }
                 }
             }

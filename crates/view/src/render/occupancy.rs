@@ -80,11 +80,10 @@ impl Occupancy {
     /// [`crate::field::Sampler::coords`] gives them).
     #[inline]
     pub fn may_hold_coords(&self, q: [f64; 3]) -> bool {
-        // The block of the voxel that holds q per axis (a negative or NaN coordinate casts
-        // to 0).
-        let block: [usize; 3] =
-            std::array::from_fn(|a| (q[a] as usize).min(self.dims[a] - 1) / BLOCK);
-        self.marked[block[0] + self.blocks[0] * (block[1] + self.blocks[1] * block[2])]
+        // The voxel that holds q per axis (a negative or NaN coordinate casts to 0).
+        self.may_hold_voxel(std::array::from_fn(|a| {
+            (q[a] as usize).min(self.dims[a] - 1)
+        }))
     }
 
     /// [`Occupancy::may_hold_coords`] at a point held by voxel `k` (each index below the
