@@ -145,15 +145,14 @@ impl<'a> Segment<'a> {
 
     /// [`Segment::depth`] sample by sample through the sampler.
     fn depth_sampled(&self, x: [f64; 3]) -> f64 {
+        let line = self.sampler.line(x, self.w, self.h);
         let mut depth = 0.0;
-        for j in 0..self.m {
-            let t = (j as f64 + 0.5) * self.h;
-            let p = [0, 1, 2].map(|c| x[c] + t * self.w[c]);
-            let Some(q) = self.sampler.coords(p) else {
+        for j in 0..self.m as u64 {
+            let Some(q) = line.coords(j) else {
                 continue;
             };
             if self.occupied.may_hold_coords(q) {
-                depth += self.sampler.at_coords(q);
+                depth += line.at_coords(q);
             }
         }
         self.sigma_t * depth * self.h

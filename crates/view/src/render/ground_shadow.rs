@@ -111,10 +111,12 @@ impl<'a> ShadowMarch<'a> {
                 }
             },
         };
+        let line = self
+            .sampler
+            .line([0, 1, 2].map(|a| x[a] + t0 * w[a]), w, dt);
         let mut depth = 0.0;
-        for k in k0..k1 {
-            let t = t0 + (k as f64 + 0.5) * dt;
-            let Some(q) = self.sampler.coords([0, 1, 2].map(|a| x[a] + t * w[a])) else {
+        for k in k0 as u64..k1 as u64 {
+            let Some(q) = line.coords(k) else {
                 continue;
             };
             if self
@@ -124,7 +126,7 @@ impl<'a> ShadowMarch<'a> {
             {
                 continue;
             }
-            depth += self.sampler.at_coords(q);
+            depth += line.at_coords(q);
             if self.sigma_t * depth * dt > SHADOW_CUTOFF {
                 return 0.0;
             }

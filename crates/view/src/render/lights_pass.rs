@@ -351,19 +351,17 @@ fn march(
     // Sample k sits at (k + ½)h: those in [ta, tb] and a step to spare on each side.
     let k0 = ((ta / h - 1.0).floor().max(0.0)).min(n) as u64;
     let k1 = ((tb / h + 1.0).ceil().max(0.0)).min(n) as u64;
-    let sampler = field::Sampler::new(density);
+    let line = field::Sampler::new(density).line(u, s, h);
     let mut depth = 0.0;
     for k in k0..k1 {
-        let t = (k as f64 + 0.5) * h;
-        let p = [0, 1, 2].map(|a| u[a] + t * s[a]);
         // Outside the box the density is 0: nothing to add.
-        let Some(q) = sampler.coords(p) else {
+        let Some(q) = line.coords(k) else {
             continue;
         };
         if blocks.is_some_and(|b| !b.may_hold_coords(q)) {
             continue;
         }
-        depth += sigma_t * sampler.at_coords(q) * h;
+        depth += sigma_t * line.at_coords(q) * h;
         if depth > SHADOW_CUTOFF {
             break;
         }
