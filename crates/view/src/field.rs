@@ -110,7 +110,8 @@ impl<'a> Sampler<'a> {
 #[derive(Clone, Copy, Debug)]
 pub struct Line<'a> {
     data: &'a [f32],
-    /// Voxel coordinates of step 0's sample, and their change per step.
+    /// Voxel coordinates of the line's start `u`, and their change per step `h·s`: step
+    /// `k`'s sample is at `q₀ + (k + ½)·Δq`.
     q0: [f64; 3],
     dq: [f64; 3],
     /// Per axis: the voxel count, the last voxel's index, the last lower corner's.
