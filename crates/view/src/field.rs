@@ -302,6 +302,39 @@ mod tests {
     }
 
     #[test]
+    fn a_line_at_its_extremes() {
+        // A zero step samples the start at every step; a NaN or infinite start or
+        // direction, and a step past f64's range, give no sample (density 0) rather
+        // than a NaN; an empty grid none at all.
+        let v = ramp();
+        let sampler = Sampler::new(&v);
+        let u = [1.7, 2.2, 1.1];
+        let still = sampler.line(u, [0.6, 0.0, 0.8], 0.0);
+        for k in [0, 1, 1000] {
+            let (got, want) = (still.coords(k).map(|q| still.at_coords(q)), sampler.at(u));
+            assert!(
+                got.is_some_and(|g| (g - want).abs() <= 1e-12 * want.abs()),
+                "step {k}: {got:?} against {want}"
+            );
+        }
+        for (u, s, h) in [
+            ([f64::NAN, 1.0, 1.0], [1.0, 0.0, 0.0], 0.1),
+            (u, [f64::NAN, 0.0, 1.0], 0.1),
+            (u, [f64::INFINITY, 0.0, 0.0], 0.1),
+            ([f64::NEG_INFINITY, 1.0, 1.0], [1.0, 0.0, 0.0], 0.1),
+            (u, [1.0, 0.0, 0.0], f64::MAX),
+        ] {
+            let line = sampler.line(u, s, h);
+            for k in [0, 1, 7, u64::MAX] {
+                assert_eq!(line.coords(k), None, "{u:?} {s:?} {h} step {k}");
+            }
+        }
+        let empty = Volume::zeros([0, 3, 2], Bbox::new([0.0; 3], [1.0; 3])).unwrap();
+        let line = Sampler::new(&empty).line([0.5; 3], [1.0, 0.0, 0.0], 0.1);
+        assert_eq!(line.coords(0), None);
+    }
+
+    #[test]
     fn ray_box_clips_including_axis_parallel_rays() {
         let b = Bbox::new([0.0; 3], [1.0; 3]);
         assert_eq!(
