@@ -76,6 +76,25 @@ pub fn hg(g: f64, cos_theta: f64) -> f64 {
     (1.0 - g * g) / (denom * denom.sqrt())
 }
 
+/// The angle `ψ` from the forward direction at which HG of asymmetry `g` falls to half
+/// its peak `p(1) = (1 + g)/(1 − g)²`: `(1 + g² − 2g cos ψ)^{3/2} = 2(1 − g)³`, so
+///
+/// ```text
+/// cos ψ = (1 + g² − 2^{2/3} (1 − g)²) / 2g
+/// ```
+///
+/// `None` where HG never falls to half its peak (its forward-to-backward ratio
+/// `((1 + g)/(1 − g))³` under 2: `g` below `(2^{1/3} − 1)/(2^{1/3} + 1) ≈ 0.115`, `g ≤ 0`
+/// or NaN); `g ≥ 1` is taken as `1 − 10⁻⁶` (a width near 0, not 0).
+pub fn hg_half_width(g: f64) -> Option<f64> {
+    if g.is_nan() || g <= 0.0 {
+        return None;
+    }
+    let g = g.min(1.0 - 1e-6);
+    let cos = (1.0 + g * g - 2f64.powf(2.0 / 3.0) * (1.0 - g).powi(2)) / (2.0 * g);
+    (cos >= -1.0).then(|| cos.min(1.0).acos())
+}
+
 /// Samples `cos θ` from HG for a uniform `u ∈ [0, 1)` (inverse CDF; isotropic for tiny |g|).
 pub fn sample_hg_cos(g: f64, u: f64) -> f64 {
     if g.abs() < 1e-4 {
@@ -106,6 +125,36 @@ mod tests {
             }
             assert!((s - 1.0).abs() < 2e-3, "g {g}: {s}");
             assert!((m - g).abs() < 2e-3, "g {g}: {m}");
+        }
+    }
+
+    #[test]
+    fn hg_half_width_is_where_the_phase_halves() {
+        // Against bisection on `hg` itself.
+        for g in [0.12, 0.2, 0.5, 0.7, 0.8, 0.9, 0.99] {
+            let half = 0.5 * hg(g, 1.0);
+            let (mut lo, mut hi) = (0.0f64, std::f64::consts::PI);
+            for _ in 0..100 {
+                let mid = 0.5 * (lo + hi);
+                if hg(g, mid.cos()) > half {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            let psi = hg_half_width(g).unwrap();
+            assert!((psi - lo).abs() < 1e-9, "g {g}: {psi} vs {lo}");
+        }
+        // No half maximum: HG's forward-to-backward ratio under 2.
+        let g_min = (2f64.cbrt() - 1.0) / (2f64.cbrt() + 1.0);
+        assert!(hg_half_width(g_min - 1e-6).is_none());
+        assert!((hg_half_width(g_min + 1e-9).unwrap() - std::f64::consts::PI).abs() < 1e-3);
+        for g in [0.0, -0.5, f64::NAN, f64::NEG_INFINITY] {
+            assert!(hg_half_width(g).is_none(), "{g}");
+        }
+        for g in [1.0, 2.0, f64::INFINITY] {
+            let psi = hg_half_width(g).unwrap();
+            assert!(psi > 0.0 && psi < 1e-3, "{g}: {psi}");
         }
     }
 

@@ -35,8 +35,8 @@ use haze_view::render::MsDiffusion;
 use haze_view::render::crm::{self, VolumeGrids};
 use haze_view::render::env_pass::{EnvGridOptions, directions, grid_frame};
 use haze_view::render::grid_diffusion::{
-    CoarseGrid, GATHER_LATER_THETA, GATHER_THETA, GridSolveOptions, HIGH, MediaRadiance,
-    add_lights, add_to_grids, env_grid_sources, explicit_media_radiance, gather,
+    CoarseGrid, GATHER_LATER_THETA, GridSolveOptions, HIGH, MediaRadiance, add_lights,
+    add_to_grids, env_grid_sources, explicit_media_radiance, gather, gather_theta,
     scaled_first_sources, sun_sources,
 };
 use haze_view::sh::{self, ShGrid};
@@ -56,6 +56,11 @@ fn medium() -> Medium {
         albedo: 0.9,
         g: 0.4,
     }
+}
+
+/// The same medium with HG asymmetry `g`.
+fn medium_g(g: f64) -> Medium {
+    Medium { g, ..medium() }
 }
 
 fn env() -> Environment {
@@ -210,15 +215,17 @@ fn gathered_orders_match_the_cpu() {
     // Cells of 2³ voxels, and of one voxel, where a ray takes up to 28 steps: the
     // longest loops an invocation runs here (lavapipe cuts them short past a budget,
     // shaders/orders.wgsl).
-    for factor in [FACTOR, 1] {
-        gathered_orders_match(factor);
+    // At g 0.8 the first order takes `gather_theta`'s finer rule (128 directions, 16
+    // dispatches).
+    for (factor, g) in [(FACTOR, 0.4), (1, 0.4), (FACTOR, 0.8)] {
+        gathered_orders_match(factor, g);
     }
 }
 
-fn gathered_orders_match(factor: usize) {
-    let (env, m) = (env(), medium());
+fn gathered_orders_match(factor: usize, g: f64) {
+    let (env, m) = (env(), medium_g(g));
     let s = scene(&env, &m, factor);
-    let first: Vec<_> = directions(GATHER_THETA).points().collect();
+    let first: Vec<_> = directions(gather_theta(m.g)).points().collect();
     let later: Vec<_> = directions(GATHER_LATER_THETA).points().collect();
     // The CPU's first and second orders, summed, through the delta-Eddington transport
     // medium `t` with the first source scaled by `k` (as `explicit_media_radiance`).
@@ -262,7 +269,7 @@ fn gathered_orders_match(factor: usize) {
             .unwrap();
         let gpu = media.read(&s.ctx).unwrap();
         let d = differences(&gpu, cpu, Some(&g1.escape), &s.coarse);
-        print!("cells of {factor}³: ");
+        print!("cells of {factor}³, g {g}: ");
         println!(
             "{orders} order(s): |ΔL⁰|/max {:.2e}, |ΔL¹|/max {:.2e}, |ΔP| {:.2e}, |Δc_lm|/max {:.2e}",
             d[0], d[1], d[2], d[3]
@@ -275,7 +282,7 @@ fn gathered_orders_match(factor: usize) {
 fn the_diffusion_after_the_orders_and_the_voxels_match_the_cpu() {
     let (env, m) = (env(), medium());
     let s = scene(&env, &m, FACTOR);
-    let first: Vec<_> = directions(GATHER_THETA).points().collect();
+    let first: Vec<_> = directions(gather_theta(m.g)).points().collect();
     let later: Vec<_> = directions(GATHER_LATER_THETA).points().collect();
     let opts = GridSolveOptions::default();
     let orders = 2;

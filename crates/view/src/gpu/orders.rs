@@ -13,8 +13,9 @@
 //!   through the volume pass's `D` as the lights pass marches
 //!   ([`crate::render::grid_diffusion::add_lights`], [`crate::render::grid_diffusion::sun_sources`]) —
 //!   then the box of the cells with smoke, where the rays stop (one workgroup), and one
-//!   pass per order ([`crate::render::grid_diffusion::gather`]: 72 directions for the first, 32
-//!   for the later, 8 per dispatch);
+//!   pass per order ([`crate::render::grid_diffusion::gather`]: 72 directions for the first
+//!   where HG's peak is broad, up to 288 where it is narrow
+//!   ([`crate::render::grid_diffusion::gather_theta`]), 32 for the later, 8 per dispatch);
 //! - [`OrdersPass::diffuse`]: the finite-volume system of the light after the gathered
 //!   orders, one invocation per cell, solved by Jacobi-preconditioned conjugate gradients
 //!   ([`crate::render::grid_diffusion::solve`]) spread over every cell: per iteration two
@@ -53,7 +54,7 @@ use crate::medium::{FOUR_PI, Medium};
 use crate::render::MsDiffusion;
 use crate::render::env_pass::{directions, phase_factors};
 use crate::render::grid_diffusion::{
-    GATHER_LATER_THETA, GATHER_THETA, GridSolveOptions, HIGH, phase_norm,
+    GATHER_LATER_THETA, GridSolveOptions, HIGH, gather_theta, phase_norm,
 };
 use haze_gpu::wgsl::Variant;
 use haze_gpu::{
@@ -421,7 +422,7 @@ impl OrdersPass {
         let record_bytes = (4 * n.max(1) * stride) as u64;
         ctx.check_storage_size("the gathered orders' sources", record_bytes)?;
         let groups = cell_groups(ctx, n)?;
-        let first: Vec<_> = directions(GATHER_THETA).points().collect();
+        let first: Vec<_> = directions(gather_theta(medium.g)).points().collect();
         let later: Vec<_> = directions(GATHER_LATER_THETA).points().collect();
         ctx.scoped("the gathered orders", || {
             let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
@@ -863,7 +864,7 @@ fn gather_params(
         *e = [light[0][j], light[1][j], light[2][j], a[j]].map(|v| v as f32);
     }
     let stride = 13 + env.suns.len();
-    let first_rule: Vec<_> = directions(GATHER_THETA).points().collect();
+    let first_rule: Vec<_> = directions(gather_theta(medium.g)).points().collect();
     let mut sun_norm = [[0.0f32; 4]; 2];
     for (k, sun) in env.suns.iter().enumerate().take(MAX_SUNS) {
         let phase = DiskPhase::shared(medium.g, sun.angle);

@@ -182,7 +182,9 @@ pub enum MsDiffusion {
     /// after the lights pass. CPU only.
     Grid { factor: usize },
     /// On the same coarse grid, the first `orders` scattering orders gathered explicitly
-    /// along 72 directions from every cell and the rest by the grid's diffusion
+    /// from every cell (the first along 72 directions, up to 288 for a narrow phase
+    /// function's peak: `crate::render::grid_diffusion::gather_theta`) and the rest by
+    /// the grid's diffusion
     /// (`crate::render::grid_diffusion::explicit_media_radiance`; on the GPU
     /// `crate::gpu::orders`, lit by the environment pass's grid); `factor`
     /// [`MsDiffusion::AUTO`] chooses it from the amount of smoke

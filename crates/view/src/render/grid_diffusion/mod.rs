@@ -331,7 +331,8 @@ pub fn scaled_first_sources(
 /// (0: [`auto_grid`]'s) (`explicit_media_radiance`): the environment's single scattering from the environment
 /// pass's grid `env_grid` and projection `light` when given (else from the centers'
 /// moments `center_moments` of `rbfs`), the point lights as moments and the suns exactly,
-/// along the environment pass's 72 directions for the first order and 32 for the later.
+/// along [`gather_theta`]'s directions for the first order (the environment pass's 72
+/// where HG's peak is broad) and 32 for the later.
 #[allow(clippy::too_many_arguments)]
 pub fn frame_explicit_media_radiance(
     grids: &VolumeGrids,
@@ -356,7 +357,7 @@ pub fn frame_explicit_media_radiance(
     };
     add_lights(&mut sources, &grid, &grids.density, env, medium, false);
     let suns = sun_sources(&grid, &grids.density, env, medium);
-    let first: Vec<_> = directions(GATHER_THETA).points().collect();
+    let first: Vec<_> = directions(gather_theta(medium.g)).points().collect();
     let later: Vec<_> = directions(GATHER_LATER_THETA).points().collect();
     explicit_media_radiance(grid, medium, &sources, &suns, orders, &first, &later, opts)
 }
@@ -375,7 +376,9 @@ pub fn gather_work(grid: &CoarseGrid) -> f64 {
 /// The most [`gather_work`] that the automatic cell size lets the gathered orders do:
 /// about 10 s of multiple scattering (four orders, 72 + 3 × 32 directions; measured
 /// 16–18 µs per unit of work on a 2-core machine shared three ways) (BENCHMARKS.md,
-/// "Multiple scattering: the cell size").
+/// "Multiple scattering: the cell size"). For g above 0.74 the first order's finer rule
+/// ([`gather_theta`]: 128 to 288 directions) makes the same work cost up to 2.3× that:
+/// the cells stay as fine, since the rule is what the narrow peak needs.
 pub const GATHER_BUDGET: f64 = 6e5;
 
 /// The coarse grid of the automatic cell size at the lighting's `detail` (`(0, 1]`,
@@ -404,9 +407,42 @@ pub fn auto_min_factor(detail: f64) -> usize {
     ((2.0 / detail - 1e-9).ceil() as usize).clamp(2, 8)
 }
 
-/// Gauss–Legendre latitudes per hemisphere of the first order's directions
-/// (`2·3 × 4·3 = 72`, the environment pass's rule).
+/// Gauss–Legendre latitudes per hemisphere of the first order's directions where HG's
+/// peak is broad (`2·3 × 4·3 = 72`, the environment pass's rule); [`gather_theta`] takes
+/// more for a narrow one.
 pub const GATHER_THETA: usize = 3;
+
+/// The most latitudes per hemisphere [`gather_theta`] takes (`2·6 × 4·6 = 288`
+/// directions, 4× the first order's work at [`GATHER_THETA`]).
+pub const GATHER_THETA_MAX: usize = 6;
+
+/// The rule's spacing, `π/(2θ)` in latitude and azimuth, that the first order allows
+/// per unit of HG's full width at half maximum (module docs of [`gather_theta`]).
+pub const SPACING_PER_WIDTH: f64 = 1.15;
+
+/// Latitudes per hemisphere of the first order's directions for HG asymmetry `g`: the
+/// smallest `θ ≥` [`GATHER_THETA`] whose spacing `π/(2θ)` is within [`SPACING_PER_WIDTH`]
+/// of HG's full width at half maximum ([`crate::medium::hg_half_width`]), at most
+/// [`GATHER_THETA_MAX`]; [`GATHER_THETA`] where HG has no half maximum (`g` below about
+/// 0.115, or not a positive number). The first order gathers the suns' once-scattered
+/// light with its phase function evaluated at each direction; a rule coarser than the
+/// peak aliases it, and bands 2–4 of what it gathers — the light the smoke scatters
+/// towards an eye that looks into the sun — come out wrong although [`phase_norm`]
+/// keeps the total. Full widths: g 0.5 62.9°, 0.7 31.6°, 0.75 25.4°, 0.8 19.7°, 0.85
+/// 14.3°, so `θ` is 3 up to g ≈ 0.74, 4 at 0.8, 6 from 0.85 (BENCHMARKS.md, "The first
+/// order's rule follows the phase function's peak": at g 0.8 the back-lit multiple
+/// scattering went from 6 % dark at `θ = 3` to within 1 % at 4).
+pub fn gather_theta(g: f64) -> usize {
+    let Some(half) = crate::medium::hg_half_width(g) else {
+        return GATHER_THETA;
+    };
+    let theta = (std::f64::consts::FRAC_PI_2 / (SPACING_PER_WIDTH * 2.0 * half)).ceil();
+    if theta.is_finite() {
+        (theta as usize).clamp(GATHER_THETA, GATHER_THETA_MAX)
+    } else {
+        GATHER_THETA_MAX
+    }
+}
 
 /// The same for the later orders (`2·2 × 4·2 = 32`): their sources are smooth, and on
 /// the tuning scenes 32 directions measured as 72 (BENCHMARKS.md, "Multiple scattering:

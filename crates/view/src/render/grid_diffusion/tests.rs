@@ -314,3 +314,50 @@ fn the_automatic_cell_size_follows_the_amount_of_smoke() {
         assert_eq!(auto_grid(&full, bad).factor, expected, "{bad}");
     }
 }
+
+#[test]
+fn the_first_orders_rule_follows_the_phase_functions_peak() {
+    use crate::medium::hg_half_width;
+    let spacing = |theta: usize| std::f64::consts::FRAC_PI_2 / theta as f64;
+    // The rule's spacing within `SPACING_PER_WIDTH` of HG's full width, and one latitude
+    // fewer not, between the bounds.
+    let mut last = GATHER_THETA;
+    for k in 0..=99 {
+        let g = 0.01 * k as f64;
+        let theta = gather_theta(g);
+        assert!(
+            (GATHER_THETA..=GATHER_THETA_MAX).contains(&theta),
+            "g {g}: {theta}"
+        );
+        assert!(theta >= last, "g {g}: {theta} after {last}");
+        last = theta;
+        let Some(half) = hg_half_width(g) else {
+            assert_eq!(theta, GATHER_THETA, "g {g}");
+            continue;
+        };
+        let allowed = SPACING_PER_WIDTH * 2.0 * half;
+        if theta < GATHER_THETA_MAX {
+            assert!(spacing(theta) <= allowed + 1e-12, "g {g}: {theta}");
+        }
+        if theta > GATHER_THETA {
+            assert!(spacing(theta - 1) > allowed, "g {g}: {theta}");
+        }
+    }
+    // The values the docs give: 72 directions up to g ≈ 0.74, 128 at 0.8, 288 from 0.85.
+    for (g, theta) in [
+        (0.5, 3),
+        (0.7, 3),
+        (0.74, 3),
+        (0.76, 4),
+        (0.8, 4),
+        (0.85, 6),
+    ] {
+        assert_eq!(gather_theta(g), theta, "g {g}");
+    }
+    for g in [0.0, -0.8, f64::NAN, f64::NEG_INFINITY] {
+        assert_eq!(gather_theta(g), GATHER_THETA, "g {g}");
+    }
+    for g in [0.95, 0.999, 1.0, f64::INFINITY] {
+        assert_eq!(gather_theta(g), GATHER_THETA_MAX, "g {g}");
+    }
+}
