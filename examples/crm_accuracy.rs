@@ -42,6 +42,7 @@ use haze_view::lighting::single::SourcePoints;
 use haze_view::lights::decompose::{DecomposeOptions, luminance};
 use haze_view::reference::{self, RefOptions, rbf_volume};
 use haze_view::render::env_pass::{EnvGridOptions, EnvSource};
+use haze_view::render::supersample::tau_per_voxel;
 use haze_view::render::{CrmOptions, CrmStats, MsDiffusion, crm_render};
 use haze_view::{Camera, Environment, Image, LatLong, Medium, Sky, Sun};
 use haze_volume::import::{ImportOptions, import};
@@ -179,7 +180,10 @@ fn parse() -> Result<Args, String> {
                     s => return Err(format!("--env {s}: centers or grid")),
                 }
             }
-            "--env-spacing" => grid.spacing = num(v()?)?,
+            "--env-spacing" => {
+                grid.spacing = num(v()?)?;
+                grid.follow_smoke = false;
+            }
             "--env-theta" => grid.theta = num(v()?)? as usize,
             _ if a.input.is_empty() => a.input = k,
             _ => return Err(format!("unexpected argument {k}")),
@@ -241,6 +245,9 @@ impl Scene {
         res: Option<&[f32]>,
         opts: CrmOptions,
     ) -> (Image, CrmStats, f64) {
+        // The environment grid on the voxel centers where the smoke is thick, as
+        // `haze render` lights it.
+        let opts = opts.for_smoke(tau_per_voxel(&self.density, self.medium.sigma_t));
         let t = Instant::now();
         if let Some(ctx) = &self.gpu {
             let gpu = |e: haze_gpu::GpuError| -> ! { panic!("--gpu: {e}") };

@@ -84,9 +84,12 @@ pub struct RenderCli {
     pub(crate) diffusion: Option<haze_view::render::MsDiffusion>,
     /// Voxels between the nodes of `--source grid`'s grid, at least 0.25 (smaller: sharper
     /// self-shadowing, more time and memory; both grow as the inverse cube). A grid of
-    /// more than 16 M nodes is widened to fit, with a warning.
-    #[arg(long, default_value_t = haze_view::render::env_pass::EnvGridOptions::default().spacing, value_parser = grid_spacing)]
-    pub(crate) env_grid_spacing: f64,
+    /// more than 16 M nodes is widened to fit, with a warning. Default: 1.5, or 1 (the
+    /// nodes on the voxel centers) where a cell of 1.5 voxels would be more than half an
+    /// optical depth across (σt × density × side, at the 99th percentile of the density):
+    /// there the wider grid leaves thick smoke's sky light a few percent bright.
+    #[arg(long, value_parser = grid_spacing, value_name = "VOXELS")]
+    pub(crate) env_grid_spacing: Option<f64>,
     /// The lighting's detail, above 0 and at most 1: below 1 the environment grid's
     /// spacing is divided by it, the explicit orders' automatic cells grow as 1/detail,
     /// the suns' shadows are swept over the voxel planes instead of marched and at 0.5
@@ -224,10 +227,7 @@ impl RenderCli {
             ("--exp", differs(&self.exp, &d.exp)),
             ("--source", differs(&self.source, &d.source)),
             ("--diffusion", self.diffusion.is_some()),
-            (
-                "--env-grid-spacing",
-                differs(&self.env_grid_spacing, &d.env_grid_spacing),
-            ),
+            ("--env-grid-spacing", self.env_grid_spacing.is_some()),
             (
                 "--lighting-detail",
                 differs(&self.lighting_detail, &d.lighting_detail),
@@ -305,7 +305,11 @@ impl RenderCli {
             env_source: match self.source {
                 SourceArg::Grid => haze_view::render::env_pass::EnvSource::Grid(
                     haze_view::render::env_pass::EnvGridOptions {
-                        spacing: self.env_grid_spacing,
+                        spacing: self.env_grid_spacing.unwrap_or(
+                            haze_view::render::env_pass::EnvGridOptions::default().spacing,
+                        ),
+                        // A spacing given stays; the default follows the smoke's thickness.
+                        follow_smoke: self.env_grid_spacing.is_none(),
                         ..Default::default()
                     },
                 ),

@@ -344,6 +344,20 @@ pub fn render_image(a: &RenderOptions) -> Result<Rendered> {
             gpu.as_ref(),
             &frame.label,
         )?;
+        // The environment grid's nodes on the voxel centers where the smoke is thick.
+        let thick = opts.for_smoke(tau / n as f64);
+        if let (Some(was), Some(now)) = (opts.env_grid(), thick.env_grid())
+            && was.spacing != now.spacing
+        {
+            tracing::info!(
+                "{}: voxels {} optical depths thick: the environment grid's spacing {} instead of {} voxels (--env-grid-spacing sets it)",
+                frame.label,
+                rounded(tau / n as f64, 2),
+                shown(now.spacing),
+                shown(was.spacing)
+            );
+        }
+        let opts = thick;
         warn_below_detail_floor(&opts, tau / n as f64, &frame.label);
         // Lit on the grid `n` times finer: the RBFs are evaluated at its voxel centers,
         // the residual resampled to them (`supersample` module docs).

@@ -13,6 +13,7 @@ use haze_view::render::crm::{self, VolumeGrids};
 use haze_view::render::env_pass::{
     self, EnvGridOptions, directions, env_grid, env_pass, sky_cell_powers,
 };
+use haze_view::render::supersample;
 use haze_view::sh::{self, quad::SphereGrid};
 use haze_view::{Environment, Medium, Sky};
 use haze_volume::{Bbox, Rbf, Volume};
@@ -320,4 +321,53 @@ fn a_forward_phase_function_keeps_its_peak() {
         let a = env_pass::env_phase_factors(&m, 4);
         assert_eq!(a, env_pass::phase_factors(&m, 4), "g {g}");
     }
+}
+
+#[test]
+fn thick_smoke_takes_its_nodes_on_the_voxel_centers() {
+    // Voxels 0.45 optical depths thick (σt × the 99th-percentile density × side): a cell
+    // of the default 1.5 voxels is 0.68 across, over `MAX_CELL_TAU`, so `for_smoke`
+    // puts the nodes on the voxel centers, where the pass reads the lost light without
+    // interpolating it. Against the brute force, with 288 directions in both grids so
+    // that the nodes' interpolation is what differs: the RMS and the worst error over
+    // the smoke's voxels, relative to their unshadowed light.
+    let rbfs = cluster(&unit_box());
+    let env = Environment::sky(Sky::default());
+    let per_unit = supersample::tau_per_voxel(&dark_grids(&rbfs).density, 1.0);
+    let tau = 0.45;
+    let m = Medium::new(tau / per_unit, 0.8, 0.3).unwrap();
+    let wide = EnvGridOptions {
+        theta: 6,
+        ..EnvGridOptions::default()
+    };
+    let thick = wide.for_smoke(tau);
+    assert_eq!(thick.spacing, env_pass::THICK_SPACING);
+    let light = sh::project_env(&env, 6);
+    let errors = |opts: &EnvGridOptions| {
+        let mut g = dark_grids(&rbfs);
+        env_pass(&mut g, &env, &light, &m, EYE, 6, opts);
+        let (mut sq, mut n, mut worst) = (0.0, 0.0, 0.0f64);
+        for i in smoke_voxels(&g, 41) {
+            let u = voxel_center(&g, i);
+            let want = brute_force(&g.density, &env, &m, u, true);
+            let free = brute_force(&g.density, &env, &m, u, false);
+            for c in 0..3 {
+                let e = (f64::from(g.radiance[i][c]) - want[c]) / free[c];
+                sq += e * e;
+                n += 1.0;
+                worst = worst.max(e.abs());
+            }
+        }
+        ((sq / n).sqrt(), worst)
+    };
+    let (rms_wide, worst_wide) = errors(&wide);
+    let (rms_thick, worst_thick) = errors(&thick);
+    println!(
+        "1.5 voxels: rms {rms_wide:.2e}, worst {worst_wide:.2e}; 1 voxel: rms {rms_thick:.2e}, worst {worst_thick:.2e}"
+    );
+    assert!(rms_thick < 0.5 * rms_wide, "{rms_thick} vs {rms_wide}");
+    assert!(
+        worst_thick < 0.5 * worst_wide,
+        "{worst_thick} vs {worst_wide}"
+    );
 }

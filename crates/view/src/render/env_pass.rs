@@ -79,6 +79,9 @@ pub struct EnvGridOptions {
     pub theta: usize,
     /// How each node's optical depth towards each direction is found.
     pub depths: EnvDepths,
+    /// Whether [`EnvGridOptions::for_smoke`] may move the nodes onto the voxel centers
+    /// where the smoke is thick (`false`: `spacing` is a user's and stays as given).
+    pub follow_smoke: bool,
 }
 
 /// How [`env_grid`] finds the optical depth from each node towards each direction.
@@ -99,6 +102,35 @@ impl Default for EnvGridOptions {
             spacing: 1.5,
             theta: 3,
             depths: EnvDepths::default(),
+            follow_smoke: true,
+        }
+    }
+}
+
+/// The grid's spacing, in voxels, on smoke too thick for a wider one
+/// ([`EnvGridOptions::for_smoke`]): the nodes on the voxel centers.
+pub const THICK_SPACING: f64 = 1.0;
+
+impl EnvGridOptions {
+    /// The grid for smoke whose lit voxels are `tau` optical depths across
+    /// ([`super::supersample::tau_per_voxel`] on the grid the renderer lights). Where a
+    /// cell, `spacing · tau` optical depths across, is thicker than
+    /// [`super::MAX_CELL_TAU`], the spacing becomes [`THICK_SPACING`] (at most; a finer
+    /// one is kept): the pass then reads `S_lm` at its own nodes, the voxel centers, where
+    /// a wider grid interpolated it trilinearly across cells through which the light
+    /// taken away changes by more than the model holds (decision 0076: on thick
+    /// front-lit smoke, σt 10 at 0.42 optical depths a voxel, the sky's single scattering
+    /// 2 % bright at 1.5 voxels, within 0.5 % at 1; spacings between gain in proportion).
+    /// Unchanged without [`EnvGridOptions::follow_smoke`], for thin smoke, and for a `tau`
+    /// that is not a positive number (no bound can be given); an infinite `tau` is thick.
+    pub fn for_smoke(self, tau: f64) -> Self {
+        if self.follow_smoke && self.spacing * tau > super::MAX_CELL_TAU {
+            EnvGridOptions {
+                spacing: self.spacing.min(THICK_SPACING),
+                ..self
+            }
+        } else {
+            self
         }
     }
 }

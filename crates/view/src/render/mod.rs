@@ -117,6 +117,21 @@ impl CrmOptions {
         }
     }
 
+    /// These options for smoke whose lit voxels are `tau` optical depths across: the
+    /// environment grid's nodes on the voxel centers where its cells would be too thick
+    /// ([`EnvGridOptions::for_smoke`]; the spacing at full detail, which
+    /// [`CrmOptions::detail`] then divides). The renderers' callers apply it once they know
+    /// the grid they light (`haze render`, the viewer).
+    pub fn for_smoke(self, tau: f64) -> Self {
+        match self.env_source {
+            EnvSource::Grid(g) => CrmOptions {
+                env_source: EnvSource::Grid(g.for_smoke(tau)),
+                ..self
+            },
+            EnvSource::Centers => self,
+        }
+    }
+
     /// `Err` with a one-line reason when [`CrmOptions::detail`] is outside `(0, 1]`.
     pub fn check_detail(detail: f64) -> Result<(), String> {
         if detail > 0.0 && detail <= 1.0 {
@@ -587,7 +602,7 @@ pub fn crm_render(
 mod tests {
     use super::{
         CrmOptions, EnvGridOptions, EnvSource, MAX_CELL_TAU, MIN_DETAIL_THETA, MsDiffusion,
-        detail_or_one,
+        detail_or_one, env_pass,
     };
 
     /// `orders` chooses its cell size unless given one; `auto` only where allowed.
@@ -660,6 +675,49 @@ mod tests {
             ..opts(0.5)
         };
         assert_eq!(centers.env_grid(), None);
+    }
+
+    /// Thick smoke moves the environment grid's nodes onto the voxel centers: from the
+    /// `tau` where a default cell passes [`MAX_CELL_TAU`] (1/3), not before; a finer
+    /// spacing, a user's spacing (`follow_smoke` off), paper A's centers and a `tau` that
+    /// is not a positive number stay as they are; infinitely thick smoke is thick; the
+    /// rule is idempotent, and the detail floor then follows the finer grid.
+    #[test]
+    fn thick_smoke_puts_the_environment_grid_on_the_voxel_centers() {
+        let base = EnvGridOptions::default();
+        let spacing = |g: EnvGridOptions, tau| g.for_smoke(tau).spacing;
+        let edge = MAX_CELL_TAU / base.spacing;
+        for tau in [0.0, 1e-9, 0.1, edge, -1.0, f64::NAN, f64::NEG_INFINITY] {
+            assert_eq!(spacing(base, tau), base.spacing, "{tau}");
+        }
+        for tau in [edge * (1.0 + 1e-9), 0.45, 4.0, f64::INFINITY] {
+            assert_eq!(spacing(base, tau), env_pass::THICK_SPACING, "{tau}");
+            let once = base.for_smoke(tau);
+            assert_eq!(once.for_smoke(tau), once, "{tau}");
+        }
+        let fine = EnvGridOptions {
+            spacing: 0.5,
+            ..base
+        };
+        assert_eq!(spacing(fine, 4.0), 0.5);
+        let given = EnvGridOptions {
+            follow_smoke: false,
+            ..base
+        };
+        assert_eq!(spacing(given, 4.0), base.spacing);
+        let centers = CrmOptions {
+            env_source: EnvSource::Centers,
+            ..CrmOptions::default()
+        };
+        assert_eq!(centers.for_smoke(4.0).env_source, EnvSource::Centers);
+        let thick = CrmOptions::default().for_smoke(0.45);
+        assert_eq!(
+            thick.env_grid().map(|g| g.spacing),
+            Some(env_pass::THICK_SPACING)
+        );
+        // Cells of one voxel at 0.45 optical depths reach the bound at detail 0.9.
+        assert!((thick.detail_floor(0.45) - 0.45 / MAX_CELL_TAU).abs() < 1e-12);
+        assert_eq!(CrmOptions::default().detail_floor(0.45), 1.0);
     }
 
     /// The detail's floor: at the floor a cell of the environment grid (`spacing /

@@ -35,11 +35,13 @@ pub const LEVELS: [f64; 5] = [1.0, 0.75, 0.5, 0.35, 0.25];
 pub const RAISE_BELOW: f64 = 0.25;
 
 /// The lowest detail for smoke whose lit voxels are `tau` optical depths across (the
-/// `thick` module's figure): the renderer's floor ([`CrmOptions::detail_floor`], the
+/// `thick` module's figure): the renderer's floor ([`CrmOptions::detail_floor`] of the grid
+/// [`CrmOptions::for_smoke`] gives, the
 /// environment grid's cells within [`MAX_CELL_TAU`](haze_view::render::MAX_CELL_TAU) optical depths across), not below
 /// the last level (1 for a `tau` that is not a positive number).
 pub fn floor(tau: f64) -> f64 {
     CrmOptions::default()
+        .for_smoke(tau)
         .detail_floor(tau)
         .max(LEVELS[LEVELS.len() - 1])
 }
@@ -347,6 +349,9 @@ mod tests {
         // 1.5 voxels × τ / detail ≤ 0.5.
         assert_eq!(floor(0.05), 0.25);
         assert!((floor(0.1) - 0.3).abs() < 1e-12);
+        // Past τ = 1/3 the grid's nodes sit on the voxel centers (`for_smoke`): 1 voxel ×
+        // τ / detail ≤ 0.5.
+        assert!((floor(0.45) - 0.9).abs() < 1e-12);
         assert_eq!(floor(0.5), 1.0);
         for bad in [0.0, -1.0, f64::NAN] {
             assert_eq!(floor(bad), 1.0, "{bad}");

@@ -292,8 +292,9 @@ fn run_job(
             let lit_by = lamps.check(&mut density, sigma_t, &job.scene.env.points)?;
             let (grid, fine) = refiner.prepare(&mut density, sigma_t)?;
             let mut scene = job.scene.clone();
+            let tau = grid.tau / grid.n.max(1) as f64;
             if job.at_floor {
-                let floor = detail::floor(grid.tau / grid.n.max(1) as f64);
+                let floor = detail::floor(tau);
                 scene.opts.detail = scene.opts.detail.min(floor);
             }
             let residual = match fine {
@@ -310,7 +311,9 @@ fn run_job(
                     &scene.medium,
                     &scene.env,
                     &job.camera,
-                    &scene.opts,
+                    // The environment grid's nodes on the voxel centers where the smoke
+                    // is thick, as `haze render` lights it.
+                    &scene.opts.for_smoke(tau),
                 )
                 .map_err(|e| format!("frame {}: {e}", frame.number))?;
             let gpu: Vec<String> = times

@@ -429,9 +429,9 @@ pub const SPACING_PER_WIDTH: f64 = 1.15;
 /// peak aliases it, and bands 2–4 of what it gathers — the light the smoke scatters
 /// towards an eye that looks into the sun — come out wrong although [`phase_norm`]
 /// keeps the total. Full widths: g 0.5 62.9°, 0.7 31.6°, 0.75 25.4°, 0.8 19.7°, 0.85
-/// 14.3°, so `θ` is 3 up to g ≈ 0.74, 4 at 0.8, 6 from 0.85 (BENCHMARKS.md, "The first
-/// order's rule follows the phase function's peak": at g 0.8 the back-lit multiple
-/// scattering went from 6 % dark at `θ = 3` to within 1 % at 4).
+/// 14.3°, so `θ` is 3 up to g ≈ 0.74, 4 at 0.8, 5 at 0.82–0.83, 6 from 0.84
+/// (BENCHMARKS.md, "The first order's rule follows the phase function's peak": at g 0.8
+/// the back-lit multiple scattering went from 6 % dark at `θ = 3` to within 1 % at 4).
 pub fn gather_theta(g: f64) -> usize {
     let Some(half) = crate::medium::hg_half_width(g) else {
         return GATHER_THETA;
