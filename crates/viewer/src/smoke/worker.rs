@@ -436,7 +436,10 @@ mod tests {
                 &job.scene.medium,
                 &job.scene.env,
                 &job.camera,
-                &job.scene.opts,
+                // The options the worker lit this frame with (`for_smoke` of its grid).
+                &job.scene
+                    .opts
+                    .for_smoke(a.grid.tau / a.grid.n.max(1) as f64),
             )
             .unwrap();
         // The worker's picture, encoded on the GPU, byte for byte the host's encoding.
