@@ -120,7 +120,8 @@ impl EnvGridOptions {
     /// a wider grid interpolated it trilinearly across cells through which the light
     /// taken away changes by more than the model holds (decision 0076: on thick
     /// front-lit smoke, σt 10 at 0.42 optical depths a voxel, the sky's single scattering
-    /// 2 % bright at 1.5 voxels, within 0.5 % at 1; spacings between gain in proportion).
+    /// 2.1 % bright in the mean and 4.6 % off a path tracer at 1.5 voxels, 0.6 % dark and
+    /// 2.6 % off at 1; spacings between gain in proportion).
     /// Unchanged without [`EnvGridOptions::follow_smoke`], for thin smoke, and for a `tau`
     /// that is not a positive number (no bound can be given); an infinite `tau` is thick.
     pub fn for_smoke(self, tau: f64) -> Self {
