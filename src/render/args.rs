@@ -73,9 +73,10 @@ pub struct RenderCli {
     /// scattering orders gathered explicitly along 72 directions (128 to 288 for g above
     /// 0.74, whose forward peak is narrower), 32 after the first, on
     /// the density averaged over F³ voxels, and the rest by diffusion on that grid; K = 4;
-    /// F = auto unless given: on the CPU 2, or where the cells with smoke times the side
-    /// of the box they fill exceed 600 000, the smallest larger F within it, which keeps
-    /// a frame's multiple scattering to about 10 s on two cores; with --gpu 2, at most 8,
+    /// F = auto unless given: on the CPU 2 (1 where the voxels are over a third of an
+    /// optical depth thick), or where the cells with smoke times the side of the box
+    /// they fill exceed 600 000, the smallest larger F within it, which keeps a frame's
+    /// multiple scattering to about 10 s on two cores; with --gpu 2, at most 8,
     /// and lit by the sky per voxel, so --source grid), `centers` (paper A §5.4's
     /// diffusion on the RBF basis; the default with --gpu and --source footprint or
     /// center) or `grid[:F]` (the diffusion alone on the F³ grid, CPU only, refused with

@@ -213,8 +213,9 @@ impl MsDiffusion {
 
     /// `haze render`'s choice on the CPU and the GPU, and the viewer's (BENCHMARKS.md,
     /// "Multiple scattering: explicit orders"): four orders gathered on cells of 2³
-    /// voxels, larger cells where the smoke would cost more than
-    /// `grid_diffusion::GATHER_BUDGET`.
+    /// voxels (on the CPU one voxel where the voxels are over a third of an optical depth
+    /// thick, `grid_diffusion::MAX_ORDERS_CELL_TAU`), larger cells where the smoke would
+    /// cost more than `grid_diffusion::GATHER_BUDGET`.
     pub const DEFAULT: MsDiffusion = MsDiffusion::Orders {
         factor: MsDiffusion::AUTO,
         orders: 4,

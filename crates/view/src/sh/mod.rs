@@ -59,7 +59,7 @@ pub fn phase_cut_warning(g: f64, order: usize) -> Option<String> {
     let c = phase_cut(g, order);
     (c > PHASE_CUT_WARNING).then(|| {
         format!(
-            "HG g {g} is too {} for SH order {order}: the cut band weighs {:.0} % of the phase function's first, so sky-lit multiple scattering is approximate (at g 0.8 and order 4 on held-out plumes: single scattering within 3 %, the final image 3–6 % off; on smoke thicker than a third of an optical depth a voxel, --diffusion orders:1 took it to 3.3–5.1 % at about 10× the multiple scattering's time); a check against the reference (--check) says how far",
+            "HG g {g} is too {} for SH order {order}: the cut band weighs {:.0} % of the phase function's first, so sky-lit multiple scattering is approximate (at g 0.8 and order 4 on held-out plumes: single scattering within 3 %, the final image 3–6 % off; on smoke thicker than a third of an optical depth a voxel, cells of one voxel took it to 2.4–5.1 % at about 10× the multiple scattering's time: automatic while they cost at most the orders' budget, --diffusion orders:1 beyond it); a check against the reference (--check) says how far",
             if g < 0.0 { "backward" } else { "forward" },
             100.0 * c
         )

@@ -328,7 +328,7 @@ pub fn scaled_first_sources(
 }
 
 /// Scattering orders gathered explicitly on the coarse grid of `factor` of `grids`' density
-/// (0: [`auto_grid`]'s) (`explicit_media_radiance`): the environment's single scattering from the environment
+/// (0: [`auto_grid`]'s for its voxels' optical depth in `medium`) (`explicit_media_radiance`): the environment's single scattering from the environment
 /// pass's grid `env_grid` and projection `light` when given (else from the centers'
 /// moments `center_moments` of `rbfs`), the point lights as moments and the suns exactly,
 /// along [`gather_theta`]'s directions for the first order (the environment pass's 72
@@ -347,7 +347,8 @@ pub fn frame_explicit_media_radiance(
     opts: &GridSolveOptions,
 ) -> MediaRadiance {
     let grid = if factor == 0 {
-        auto_grid(&grids.density, detail)
+        let tau = crate::render::supersample::tau_per_voxel(&grids.density, medium.sigma_t);
+        auto_grid(&grids.density, detail, tau)
     } else {
         CoarseGrid::new(&grids.density, factor)
     };
@@ -381,14 +382,30 @@ pub fn gather_work(grid: &CoarseGrid) -> f64 {
 /// the cells stay as fine, since the rule is what the narrow peak needs.
 pub const GATHER_BUDGET: f64 = 6e5;
 
+/// The optical depth across a cell of 2 voxels above which the automatic cells start at
+/// one voxel ([`auto_grid`]): voxels over a third of an optical depth thick, the edge
+/// where the environment grid's nodes move onto the voxel centers too
+/// (`EnvGridOptions::for_smoke`). On thick held-out plumes (σt 10, g 0.8, voxels 0.36–0.42
+/// optical depths) cells of one voxel took the final image from 4.8–5.8 % to 3.2–5.1 %
+/// off the path tracer, every case measured closer (BENCHMARKS.md, "Thick smoke's
+/// scattering orders on the voxels").
+pub const MAX_ORDERS_CELL_TAU: f64 = 2.0 / 3.0;
+
 /// The coarse grid of the automatic cell size at the lighting's `detail` (`(0, 1]`,
-/// `CrmOptions::detail`; 1 as measured): cells of `⌈2/detail⌉` voxels a side (2, the
-/// measured default, at detail 1), or the smallest larger side up to 8 whose
+/// `CrmOptions::detail`; 1 as measured) for smoke whose voxels are `tau` optical depths
+/// thick (`supersample::tau_per_voxel`): cells of `⌈2/detail⌉` voxels a side (2, the
+/// measured default, at detail 1; 1 at detail 1 where cells of 2 would be more than
+/// [`MAX_ORDERS_CELL_TAU`] across), or the smallest larger side up to 8 whose
 /// [`gather_work`] is within [`GATHER_BUDGET`]` × detail⁴` (the work falls as `F⁻⁴`:
-/// `F⁻³` cells, `F⁻¹` steps per ray), so cells grow as `1/detail` either way.
-pub fn auto_grid(fine: &Volume, detail: f64) -> CoarseGrid {
+/// `F⁻³` cells, `F⁻¹` steps per ray), so cells grow as `1/detail` either way and thick
+/// smoke keeps cells of one voxel only while they cost no more than the budget.
+pub fn auto_grid(fine: &Volume, detail: f64, tau: f64) -> CoarseGrid {
     let detail = crate::render::detail_or_one(detail);
-    let first = auto_min_factor(detail);
+    let first = if detail >= 1.0 && 2.0 * tau > MAX_ORDERS_CELL_TAU {
+        1
+    } else {
+        auto_min_factor(detail)
+    };
     let budget = GATHER_BUDGET * detail.powi(4);
     let mut grid = CoarseGrid::new(fine, first);
     for f in first + 1..=8 {
@@ -400,8 +417,9 @@ pub fn auto_grid(fine: &Volume, detail: f64) -> CoarseGrid {
     grid
 }
 
-/// The smallest automatic cell side at `detail` (`(0, 1]`): `⌈2/detail⌉` voxels, at
-/// most 8 (2 at detail 1; the `1e-9` keeps `2/0.5` at 4).
+/// The smallest automatic cell side at `detail` (`(0, 1]`) on smoke thinner than
+/// [`MAX_ORDERS_CELL_TAU`] a cell of two voxels: `⌈2/detail⌉` voxels, at most 8 (2 at
+/// detail 1; the `1e-9` keeps `2/0.5` at 4).
 pub fn auto_min_factor(detail: f64) -> usize {
     let detail = crate::render::detail_or_one(detail);
     ((2.0 / detail - 1e-9).ceil() as usize).clamp(2, 8)

@@ -286,33 +286,82 @@ fn the_automatic_cell_size_follows_the_amount_of_smoke() {
             .collect(),
     )
     .unwrap();
-    assert_eq!(auto_grid(&small, 1.0).factor, 2);
+    assert_eq!(auto_grid(&small, 1.0, 0.0).factor, 2);
     let n = 128usize;
     let full = Volume::new([n; 3], Bbox::new([0.0; 3], [1.0; 3]), vec![0.5; n * n * n]).unwrap();
     let expected = (2..=8)
         .find(|&f| (n.div_ceil(f) as f64).powi(4) <= GATHER_BUDGET)
         .unwrap_or(8);
     assert!(expected > 2, "the test needs a volume over the budget");
-    let grid = auto_grid(&full, 1.0);
+    let grid = auto_grid(&full, 1.0, 0.0);
     assert_eq!(grid.factor, expected);
     assert_eq!(gather_work(&grid), (n.div_ceil(expected) as f64).powi(4));
     // No smoke: no work, the default size.
     let empty = Volume::new([8; 3], Bbox::new([0.0; 3], [1.0; 3]), vec![0.0; 512]).unwrap();
     assert_eq!(gather_work(&CoarseGrid::new(&empty, 2)), 0.0);
-    assert_eq!(auto_grid(&empty, 1.0).factor, 2);
+    assert_eq!(auto_grid(&empty, 1.0, 0.0).factor, 2);
     // A lower detail: at least ⌈2/detail⌉ voxels a side, and the budget times detail⁴.
-    assert_eq!(auto_grid(&small, 0.5).factor, 4);
-    assert_eq!(auto_grid(&small, 0.3).factor, 7);
-    assert_eq!(auto_grid(&small, 1e-6).factor, 8);
+    assert_eq!(auto_grid(&small, 0.5, 0.0).factor, 4);
+    assert_eq!(auto_grid(&small, 0.3, 0.0).factor, 7);
+    assert_eq!(auto_grid(&small, 1e-6, 0.0).factor, 8);
     let half = (4..=8)
         .find(|&f| (n.div_ceil(f) as f64).powi(4) <= GATHER_BUDGET / 16.0)
         .unwrap_or(8);
     assert!(half > expected, "{half} {expected}");
-    assert_eq!(auto_grid(&full, 0.5).factor, half);
+    assert_eq!(auto_grid(&full, 0.5, 0.0).factor, half);
     // An invalid detail lights as detail 1.
     for bad in [0.0, -1.0, 2.0, f64::NAN, f64::INFINITY] {
-        assert_eq!(auto_grid(&full, bad).factor, expected, "{bad}");
+        assert_eq!(auto_grid(&full, bad, 0.0).factor, expected, "{bad}");
     }
+}
+
+/// Thick smoke: cells of one voxel at full detail where cells of two would be more than
+/// `MAX_ORDERS_CELL_TAU` across (voxels over 1/3 optical depth) and their work is within
+/// the budget; cells of 2 at the edge and below it, for a NaN thickness and at a lower
+/// detail; the budget's cells where one voxel would cost more.
+#[test]
+fn thick_smoke_takes_cells_of_one_voxel_within_the_budget() {
+    let small = Volume::new(
+        [16, 16, 20],
+        Bbox::new([0.0; 3], [1.0; 3]),
+        (0..16 * 16 * 20)
+            .map(|i| if i % 3 == 0 { 1.0 } else { 0.0 })
+            .collect(),
+    )
+    .unwrap();
+    let edge = MAX_ORDERS_CELL_TAU / 2.0;
+    for (tau, want) in [
+        (0.0, 2),
+        (edge, 2),
+        (edge * 1.001, 1),
+        (0.42, 1),
+        (f64::INFINITY, 1),
+        (f64::NAN, 2),
+        (-1.0, 2),
+    ] {
+        assert_eq!(auto_grid(&small, 1.0, tau).factor, want, "tau {tau}");
+    }
+    assert!(gather_work(&CoarseGrid::new(&small, 1)) <= GATHER_BUDGET);
+    assert_eq!(auto_grid(&small, 0.5, 0.42).factor, 4);
+    // Over the budget at one voxel: the thin smoke's choice.
+    let n = 128usize;
+    let full = Volume::new([n; 3], Bbox::new([0.0; 3], [1.0; 3]), vec![0.5; n * n * n]).unwrap();
+    assert!(gather_work(&CoarseGrid::new(&full, 1)) > GATHER_BUDGET);
+    assert_eq!(
+        auto_grid(&full, 1.0, 0.42).factor,
+        auto_grid(&full, 1.0, 0.0).factor
+    );
+    // Between: one voxel over the budget, two within it.
+    let mid = 48usize;
+    let middle = Volume::new(
+        [mid; 3],
+        Bbox::new([0.0; 3], [1.0; 3]),
+        vec![0.5; mid.pow(3)],
+    )
+    .unwrap();
+    assert!(gather_work(&CoarseGrid::new(&middle, 1)) > GATHER_BUDGET);
+    assert!(gather_work(&CoarseGrid::new(&middle, 2)) <= GATHER_BUDGET);
+    assert_eq!(auto_grid(&middle, 1.0, 0.42).factor, 2);
 }
 
 #[test]
