@@ -164,3 +164,44 @@ fn a_detail_below_the_floor_is_warned_about() {
     let thin = run("0.05", "0.1");
     assert!(thin.contains("use at least 0.1"), "{thin}");
 }
+
+/// The explicit orders' automatic cells follow the smoke's thickness (`haze render -v`
+/// names them): the blob held to its own voxels at σt 0.5 (0.5 optical depths a voxel,
+/// over the third where cells of 2³ would be more than 2/3 across) takes cells of one
+/// voxel, its work far within the budget; at σt 0.3 (0.3 a voxel) cells of 2³; an
+/// explicit factor stays as given.
+#[test]
+fn thick_smoke_takes_the_orders_on_its_voxels() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("blob.npy");
+    write_npy(&input, [20; 3], &blob(20));
+    let out = dir.path().join("out.exr");
+    let cells = |sigma_t: &str, extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            s(&input),
+            "--out",
+            s(&out),
+            "--size",
+            "32x24",
+            "--cpu",
+            "--supersample",
+            "1",
+            "--sigma-t",
+            sigma_t,
+            "-v",
+        ];
+        args.extend_from_slice(extra);
+        let o = haze().args(&args).output().unwrap();
+        let err = String::from_utf8(o.stderr).unwrap();
+        assert!(o.status.success(), "{args:?}: {err}");
+        err.split("(cells of ")
+            .nth(1)
+            .and_then(|t| t.split(' ').next())
+            .unwrap_or_else(|| panic!("no cells in {err}"))
+            .to_string()
+    };
+    assert_eq!(cells("0.5", &[]), "1³");
+    assert_eq!(cells("0.3", &[]), "2³");
+    assert_eq!(cells("0.5", &["--diffusion", "orders:2"]), "2³");
+}

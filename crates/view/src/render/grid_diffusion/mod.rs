@@ -347,7 +347,12 @@ pub fn frame_explicit_media_radiance(
     opts: &GridSolveOptions,
 ) -> MediaRadiance {
     let grid = if factor == 0 {
-        let tau = crate::render::supersample::tau_per_voxel(&grids.density, medium.sigma_t);
+        // The thickness matters at full detail only (`auto_grid`): playback skips its pass.
+        let tau = if crate::render::detail_or_one(detail) >= 1.0 {
+            crate::render::supersample::tau_per_voxel(&grids.density, medium.sigma_t)
+        } else {
+            0.0
+        };
         auto_grid(&grids.density, detail, tau)
     } else {
         CoarseGrid::new(&grids.density, factor)
