@@ -276,16 +276,22 @@ fn extremes_stay_finite() {
 /// smallest F whose work `⌈128/F⌉³ · ⌈128/F⌉` (every cell has smoke, the box is the
 /// grid) is within the budget, counted here independently of `gather_work`; and the
 /// gathered orders on it keep that factor.
-#[test]
-fn the_automatic_cell_size_follows_the_amount_of_smoke() {
-    let small = Volume::new(
+/// A 16 × 16 × 20 grid with smoke (density 1) in every third voxel: far within the
+/// gathers' budget even on cells of one voxel.
+fn sparse_smoke() -> Volume {
+    Volume::new(
         [16, 16, 20],
         Bbox::new([0.0; 3], [1.0; 3]),
         (0..16 * 16 * 20)
             .map(|i| if i % 3 == 0 { 1.0 } else { 0.0 })
             .collect(),
     )
-    .unwrap();
+    .unwrap()
+}
+
+#[test]
+fn the_automatic_cell_size_follows_the_amount_of_smoke() {
+    let small = sparse_smoke();
     assert_eq!(auto_grid(&small, 1.0, 0.0).factor, 2);
     let n = 128usize;
     let full = Volume::new([n; 3], Bbox::new([0.0; 3], [1.0; 3]), vec![0.5; n * n * n]).unwrap();
@@ -321,14 +327,7 @@ fn the_automatic_cell_size_follows_the_amount_of_smoke() {
 /// detail; the budget's cells where one voxel would cost more.
 #[test]
 fn thick_smoke_takes_cells_of_one_voxel_within_the_budget() {
-    let small = Volume::new(
-        [16, 16, 20],
-        Bbox::new([0.0; 3], [1.0; 3]),
-        (0..16 * 16 * 20)
-            .map(|i| if i % 3 == 0 { 1.0 } else { 0.0 })
-            .collect(),
-    )
-    .unwrap();
+    let small = sparse_smoke();
     let edge = MAX_ORDERS_CELL_TAU / 2.0;
     for (tau, want) in [
         (0.0, 2),
