@@ -143,7 +143,7 @@ impl FrameLight {
                     medium,
                     factor,
                     orders,
-                    opts.detail,
+                    (opts.detail, opts.thick_cells),
                     &opts.grid_solve,
                 ))
             }

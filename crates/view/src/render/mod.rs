@@ -79,6 +79,12 @@ pub struct CrmOptions {
     /// costs in error is measured in BENCHMARKS.md ("Viewer playback: the lighting's
     /// detail"). The viewer lowers it while playback cannot keep up.
     pub detail: f64,
+    /// Whether the explicit orders' automatic cells may be one voxel where the smoke is
+    /// thick ([`grid_diffusion::auto_grid`]: at full detail, within the gathers' budget;
+    /// about 9× the multiple scattering's time of cells of 2³). On by default: `haze
+    /// render` and the viewer's stills; the viewer's playback frames turn it off, where
+    /// the step up to full detail would otherwise cost tens of times the step below it.
+    pub thick_cells: bool,
 }
 
 /// The fewest latitudes per hemisphere a lower [`CrmOptions::detail`] leaves the
@@ -300,6 +306,7 @@ impl Default for CrmOptions {
             grid_solve: GridSolveOptions::default(),
             ground: None,
             detail: 1.0,
+            thick_cells: true,
         }
     }
 }

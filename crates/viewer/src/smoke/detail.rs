@@ -15,9 +15,12 @@
 //! CPU (beside an adapter that is a CPU), playback starts at the floor of its first
 //! frame's thickness rather than at full detail ([`DetailControl::start_at`]), and the
 //! rules above go on from there: the first picture comes in about a third of a
-//! full-detail frame's time. Paused, a frame is lit at full
-//! detail: the picture a user stops on is the one the renderer's figures are measured
-//! for, and the player renders it again when playback stopped on a lower detail. Below
+//! full-detail frame's time. Playback frames, full detail included, keep the explicit
+//! orders' cells of 2³ voxels on thick smoke (`CrmOptions::thick_cells` off: one voxel
+//! costs tens of times more, not the 3× a step assumes). Paused, a frame is lit at full
+//! detail, thick smoke's cells of one voxel included: the picture a user stops on is the
+//! one the renderer's figures are measured for, and the player renders it again when
+//! playback stopped on a lower detail. Below
 //! full detail the view pass also takes at most [`PLAYING_SLICES`] slices per voxel and,
 //! on the CPU, takes smooth pixels from their neighbours ([`PLAYING_REUSE`]). What
 //! each level costs in error against the full detail is in BENCHMARKS.md ("Viewer

@@ -263,7 +263,7 @@ fn frame_orders_extremes() {
             m,
             2,
             2,
-            1.0,
+            (1.0, true),
             &GridSolveOptions::default(),
         );
         ms.l0

@@ -328,7 +328,8 @@ pub fn scaled_first_sources(
 }
 
 /// Scattering orders gathered explicitly on the coarse grid of `factor` of `grids`' density
-/// (0: [`auto_grid`]'s for its voxels' optical depth in `medium`) (`explicit_media_radiance`): the environment's single scattering from the environment
+/// (0: [`auto_grid`]'s at the lighting's `detail`, for its voxels' optical depth in
+/// `medium` where `thick_cells`, else as thin smoke) (`explicit_media_radiance`): the environment's single scattering from the environment
 /// pass's grid `env_grid` and projection `light` when given (else from the centers'
 /// moments `center_moments` of `rbfs`), the point lights as moments and the suns exactly,
 /// along [`gather_theta`]'s directions for the first order (the environment pass's 72
@@ -343,12 +344,13 @@ pub fn frame_explicit_media_radiance(
     medium: &Medium,
     factor: usize,
     orders: usize,
-    detail: f64,
+    (detail, thick_cells): (f64, bool),
     opts: &GridSolveOptions,
 ) -> MediaRadiance {
     let grid = if factor == 0 {
-        // The thickness matters at full detail only (`auto_grid`): playback skips its pass.
-        let tau = if crate::render::detail_or_one(detail) >= 1.0 {
+        // The thickness matters at full detail only (`auto_grid`), where thick cells are
+        // asked for (`CrmOptions::thick_cells`): playback skips its pass.
+        let tau = if thick_cells && crate::render::detail_or_one(detail) >= 1.0 {
             crate::render::supersample::tau_per_voxel(&grids.density, medium.sigma_t)
         } else {
             0.0
