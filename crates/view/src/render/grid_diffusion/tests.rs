@@ -272,10 +272,6 @@ fn extremes_stay_finite() {
     check_extremes(&grids, run);
 }
 
-/// The automatic cell size: 2 for a small plume; for a 128³ box full of smoke the
-/// smallest F whose work `⌈128/F⌉³ · ⌈128/F⌉` (every cell has smoke, the box is the
-/// grid) is within the budget, counted here independently of `gather_work`; and the
-/// gathered orders on it keep that factor.
 /// A 16 × 16 × 20 grid with smoke (density 1) in every third voxel: far within the
 /// gathers' budget even on cells of one voxel.
 fn sparse_smoke() -> Volume {
@@ -289,6 +285,10 @@ fn sparse_smoke() -> Volume {
     .unwrap()
 }
 
+/// The automatic cell size: 2 for a small plume; for a 128³ box full of smoke the
+/// smallest F whose work `⌈128/F⌉³ · ⌈128/F⌉` (every cell has smoke, the box is the
+/// grid) is within the budget, counted here independently of `gather_work`; and the
+/// gathered orders on it keep that factor.
 #[test]
 fn the_automatic_cell_size_follows_the_amount_of_smoke() {
     let small = sparse_smoke();
