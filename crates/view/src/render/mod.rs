@@ -81,9 +81,11 @@ pub struct CrmOptions {
     pub detail: f64,
     /// Whether the explicit orders' automatic cells may be one voxel where the smoke is
     /// thick ([`grid_diffusion::auto_grid`]: at full detail, within the gathers' budget;
-    /// about 9× the multiple scattering's time on cells of 2³). On by default: `haze
-    /// render` and the viewer's stills; the viewer's playback frames turn it off, where
-    /// the step up to full detail would otherwise cost tens of times the step below it.
+    /// about 9× the multiple scattering's time on cells of 2³; the GPU's automatic cells
+    /// stay 2³). On by default: `haze render` and the viewer's stills. Off for the
+    /// viewer's playback frames, where the step up to full detail would otherwise cost
+    /// tens of times the step below it, and for `haze tradeoff`'s sweeps, which measure
+    /// the same on the CPU and the GPU.
     pub thick_cells: bool,
 }
 
