@@ -76,8 +76,9 @@ pub struct RenderCli {
     /// F = auto unless given: on the CPU 2 (1 where the voxels are over a third of an
     /// optical depth thick), or where the cells with smoke times the side of the box
     /// they fill exceed 600 000, the smallest larger F within it, which keeps a frame's
-    /// multiple scattering to about 10 s on two cores; with --gpu 2, at most 8,
-    /// and lit by the sky per voxel, so --source grid), `centers` (paper A §5.4's
+    /// multiple scattering to about 10 s on two cores; with --gpu 1 where the CPU takes
+    /// 1 and the device holds that many cells, else 2; at most 8 there, and lit by the
+    /// sky per voxel, so --source grid), `centers` (paper A §5.4's
     /// diffusion on the RBF basis; the default with --gpu and --source footprint or
     /// center) or `grid[:F]` (the diffusion alone on the F³ grid, CPU only, refused with
     /// --gpu). BENCHMARKS.md "Multiple scattering: explicit orders" compares them.

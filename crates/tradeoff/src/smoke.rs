@@ -353,9 +353,10 @@ impl SmokeLab {
                     .name()
                     .and_then(|d| d.parse().ok())
                     .unwrap_or(MsDiffusion::DEFAULT),
-                // The automatic cells as the GPU takes them (2³ on thick smoke too), so a
-                // sweep measures the same on either renderer; the `diffusion` knob names a
-                // factor where one voxel is wanted.
+                // The automatic cells of thin smoke (2³ on thick smoke too), as either
+                // renderer takes them without `CrmOptions::for_gpu_cells`, so a sweep
+                // measures the same on both; the `diffusion` knob names a factor where one
+                // voxel is wanted.
                 thick_cells: false,
                 ..CrmOptions::default()
             },

@@ -421,6 +421,7 @@ impl OrdersPass {
         let n = cells.iter().product::<usize>();
         let record_bytes = (4 * n.max(1) * stride) as u64;
         ctx.check_storage_size("the gathered orders' sources", record_bytes)?;
+        ctx.check_storage_size("the gathered orders' cells", (4 * MEDIA * n.max(1)) as u64)?;
         let groups = cell_groups(ctx, n)?;
         let first: Vec<_> = directions(gather_theta(medium.g)).points().collect();
         let later: Vec<_> = directions(GATHER_LATER_THETA).points().collect();
@@ -793,6 +794,13 @@ impl OrdersPass {
         self.diffuse(ctx, grid, shadow, &media, opts)?;
         self.apply(ctx, grid, shadow, &media, eye)
     }
+}
+
+/// The most cells [`OrdersPass::gather`] can hold on `ctx`'s device: its largest per-cell
+/// buffer, the cells' radiance ([`MEDIA`] words a cell), within the largest storage
+/// binding.
+pub fn max_cells(ctx: &GpuContext) -> usize {
+    usize::try_from(ctx.storage_limit() / (4 * MEDIA) as u64).unwrap_or(usize::MAX)
 }
 
 /// The factor [`OrdersPass::gather`] takes (the automatic one resolved), or why it cannot

@@ -738,6 +738,12 @@ impl GpuRenderer {
             && !frame.dims.contains(&0)
         {
             let kept = matches!(&self.orders_media, Some((k, _)) if *k == key);
+            let factor = gpu_orders_factor(factor, opts.detail);
+            stats.crm.ms_factor = if factor == MsDiffusion::AUTO {
+                crate::gpu::orders::AUTO_FACTOR
+            } else {
+                factor
+            };
             let media = match self.orders_media.take() {
                 Some(m) if kept => &self.orders_media.insert(m).1,
                 _ => {
@@ -749,7 +755,7 @@ impl GpuRenderer {
                         &self.env,
                         &self.lights,
                         medium,
-                        gpu_orders_factor(factor, opts.detail),
+                        factor,
                         orders,
                     )?;
                     self.orders

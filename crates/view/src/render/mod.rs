@@ -81,11 +81,12 @@ pub struct CrmOptions {
     pub detail: f64,
     /// Whether the explicit orders' automatic cells may be one voxel where the smoke is
     /// thick ([`grid_diffusion::auto_grid`]: at full detail, within the gathers' budget;
-    /// about 9× the multiple scattering's time on cells of 2³; the GPU's automatic cells
-    /// stay 2³). On by default: `haze render` and the viewer's stills. Off for the
+    /// about 9× the multiple scattering's time on cells of 2³; the GPU's pass, which
+    /// cannot measure the smoke, where its caller resolves them:
+    /// [`CrmOptions::for_gpu_cells`]). On by default: `haze render` and the viewer's stills. Off for the
     /// viewer's playback frames, where the step up to full detail would otherwise cost
     /// tens of times the step below it, and for `haze tradeoff`'s sweeps, which measure
-    /// the same on the CPU and the GPU.
+    /// the same on the CPU and the GPU (their GPU runs do not resolve the cells).
     pub thick_cells: bool,
 }
 
@@ -137,6 +138,53 @@ impl CrmOptions {
                 ..self
             },
             EnvSource::Centers => self,
+        }
+    }
+
+    /// These options with the explicit orders' automatic cells resolved to one voxel where
+    /// the CPU's automatic choice takes one voxel ([`grid_diffusion::one_voxel_cells`] of
+    /// the smoke `density`, lit on a grid `n` times finer per axis whose voxels are `tau`
+    /// optical depths thick): `MsDiffusion::Orders` at factor 1. For the GPU's gathered
+    /// orders, which cannot measure the smoke and otherwise take cells of 2³ (`gpu::orders::
+    /// AUTO_FACTOR`), so that `--gpu` lights thick smoke as `--cpu` does; where the CPU's
+    /// budget grows its cells beyond 2³, or the lit grid has more voxels than the device
+    /// holds cells (`max_cells`, `gpu::orders::max_cells`), the GPU keeps 2³. Unchanged below full detail,
+    /// without [`CrmOptions::thick_cells`] or multiple scattering, for a given factor and
+    /// for thin smoke; `density` is asked for only when the rest holds (it may cost an
+    /// evaluation of the frame), and `None` leaves the options as they are.
+    pub fn for_gpu_cells<'a>(
+        self,
+        n: usize,
+        tau: f64,
+        max_cells: usize,
+        density: impl FnOnce() -> Option<&'a haze_volume::Volume>,
+    ) -> Self {
+        let MsDiffusion::Orders { factor, orders } = self.diffusion else {
+            return self;
+        };
+        let asks = self.multiple
+            && self.thick_cells
+            && factor == MsDiffusion::AUTO
+            && detail_or_one(self.detail) >= 1.0
+            && 2.0 * tau > grid_diffusion::MAX_ORDERS_CELL_TAU;
+        if !asks {
+            return self;
+        }
+        match density() {
+            Some(d)
+                if d.dims()
+                    .iter()
+                    .product::<usize>()
+                    .saturating_mul(n.saturating_pow(3))
+                    <= max_cells
+                    && grid_diffusion::one_voxel_cells(d, n, tau) =>
+            {
+                CrmOptions {
+                    diffusion: MsDiffusion::Orders { factor: 1, orders },
+                    ..self
+                }
+            }
+            _ => self,
         }
     }
 
@@ -333,7 +381,8 @@ pub struct CrmStats {
     pub cg_residual: f64,
     /// Voxels per cell side of the gathered orders (0 without them).
     pub ms_factor: usize,
-    /// Their `grid_diffusion::gather_work` on that grid.
+    /// Their `grid_diffusion::gather_work` on that grid (0 on the GPU, which does not
+    /// count it).
     pub ms_work: f64,
 }
 
@@ -347,7 +396,10 @@ impl std::fmt::Display for CrmStats {
             self.multiple_seconds,
             match self.ms_factor {
                 0 => String::new(),
-                f => format!("cells of {f}³ voxels, work {:.2e}, ", self.ms_work),
+                f if self.ms_work > 0.0 => {
+                    format!("cells of {f}³ voxels, work {:.2e}, ", self.ms_work)
+                }
+                f => format!("cells of {f}³ voxels, "),
             },
             self.cg_iterations,
             self.cg_residual,
@@ -639,6 +691,75 @@ mod tests {
             assert!(p(bad).unwrap_err().contains("orders"), "{bad}");
         }
         assert_eq!(p("grid"), Ok(MsDiffusion::Grid { factor: 2 }));
+    }
+
+    /// The GPU's cells resolved to one voxel where the CPU's automatic choice takes one:
+    /// thick smoke within the budget at full detail, the lit grid within the device's
+    /// cells; every other case unchanged, and the density not asked for where nothing
+    /// else holds.
+    #[test]
+    fn the_gpu_takes_one_voxel_where_the_cpu_does() {
+        use haze_volume::{Bbox, Volume};
+        let n = 16usize;
+        let blob = Volume::new(
+            [n; 3],
+            Bbox::new([0.0; 3], [1.0; 3]),
+            (0..n.pow(3))
+                .map(|i| if i % 2 == 0 { 1.0 } else { 0.0 })
+                .collect(),
+        )
+        .unwrap();
+        let voxels = n.pow(3);
+        let factor = |opts: CrmOptions, tau: f64, refine: usize, cells: usize| match opts
+            .for_gpu_cells(refine, tau, cells, || Some(&blob))
+            .diffusion
+        {
+            MsDiffusion::Orders { factor, orders } => {
+                assert_eq!(orders, 4);
+                factor
+            }
+            other => panic!("{other:?}"),
+        };
+        let auto = MsDiffusion::AUTO;
+        let base = CrmOptions {
+            multiple: true,
+            diffusion: MsDiffusion::DEFAULT,
+            ..CrmOptions::default()
+        };
+        assert_eq!(factor(base, 0.5, 1, voxels), 1);
+        assert_eq!(factor(base, 0.5, 2, 8 * voxels), 1);
+        // Too many cells for the device, thin smoke, a lower detail, thick cells off,
+        // no multiple scattering, a given factor.
+        assert_eq!(factor(base, 0.5, 1, voxels - 1), auto);
+        assert_eq!(factor(base, 0.5, 2, 8 * voxels - 1), auto);
+        assert_eq!(factor(base, 0.3, 1, voxels), auto);
+        assert_eq!(factor(base, f64::NAN, 1, voxels), auto);
+        let with = |f: fn(&mut CrmOptions)| {
+            let mut o = base;
+            f(&mut o);
+            o
+        };
+        assert_eq!(factor(with(|o| o.detail = 0.5), 0.5, 1, voxels), auto);
+        assert_eq!(
+            factor(with(|o| o.thick_cells = false), 0.5, 1, voxels),
+            auto
+        );
+        assert_eq!(factor(with(|o| o.multiple = false), 0.5, 1, voxels), auto);
+        let given = with(|o| {
+            o.diffusion = MsDiffusion::Orders {
+                factor: 3,
+                orders: 4,
+            }
+        });
+        assert_eq!(factor(given, 0.5, 1, voxels), 3);
+        // Nothing asks: the density is not evaluated.
+        let thin = base.for_gpu_cells(1, 0.1, voxels, || panic!("asked for the density"));
+        assert_eq!(thin.diffusion, base.diffusion);
+        // No density (it could not be evaluated): unchanged.
+        assert_eq!(
+            base.for_gpu_cells(1, 0.5, voxels, || None).diffusion,
+            base.diffusion
+        );
     }
 
     /// The detail divides the environment grid's spacing; a bad one is refused by the

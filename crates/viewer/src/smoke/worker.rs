@@ -13,9 +13,9 @@ use super::playback::Tick;
 use super::thick::{FrameDensity, Grid, Refiner};
 use haze_gpu::GpuContext;
 use haze_render::smoke::Supersample;
-use haze_view::gpu::GridBuffer;
 use haze_view::gpu::renderer::LightingOn;
 use haze_view::gpu::volume_pass::Residual;
+use haze_view::gpu::{GridBuffer, orders};
 use haze_view::render::CrmOptions;
 use haze_view::stream::{FrameStream, StreamFrame};
 use haze_view::{Camera, Environment, Medium};
@@ -301,6 +301,17 @@ fn run_job(
                 Some(values) => Some(Residual::Dense(values)),
                 None => frame.residual.as_ref().map(Residual::Hash),
             };
+            // The environment grid's nodes on the voxel centers and the orders' cells of
+            // one voxel where the smoke is thick, as `haze render` lights it.
+            let opts = {
+                let density = &mut density;
+                scene.opts.for_smoke(tau).for_gpu_cells(
+                    grid.n,
+                    tau,
+                    orders::max_cells(ctx),
+                    move || density.get().ok(),
+                )
+            };
             let (image, times) = renderer
                 .render(
                     ctx,
@@ -311,9 +322,7 @@ fn run_job(
                     &scene.medium,
                     &scene.env,
                     &job.camera,
-                    // The environment grid's nodes on the voxel centers where the smoke
-                    // is thick, as `haze render` lights it.
-                    &scene.opts.for_smoke(tau),
+                    &opts,
                 )
                 .map_err(|e| format!("frame {}: {e}", frame.number))?;
             let gpu: Vec<String> = times

@@ -424,6 +424,19 @@ pub fn auto_grid(fine: &Volume, detail: f64, tau: f64) -> CoarseGrid {
     grid
 }
 
+/// Whether [`auto_grid`] at full detail takes cells of one voxel on the grid `n` times
+/// finer per axis than `density` (the lit grid, `supersample::refine`), whose voxels are
+/// `tau` optical depths thick: cells of two voxels more than [`MAX_ORDERS_CELL_TAU`]
+/// across, and the work of one-voxel cells within [`GATHER_BUDGET`]. The work is counted
+/// on `density` and scaled by `n⁴` (`n³` times the cells, their box `n` times as many
+/// cells a side): exact for `n = 1`, for a refined grid up to the cells its smoother
+/// edges add. For a renderer that cannot measure the smoke itself (the GPU's gathered
+/// orders, `CrmOptions::for_gpu_cells`). False for a `tau` that is not a number.
+pub fn one_voxel_cells(density: &Volume, n: usize, tau: f64) -> bool {
+    2.0 * tau > MAX_ORDERS_CELL_TAU
+        && gather_work(&CoarseGrid::new(density, 1)) * (n.max(1) as f64).powi(4) <= GATHER_BUDGET
+}
+
 /// The smallest automatic cell side at `detail` (`(0, 1]`) on smoke thinner than
 /// [`MAX_ORDERS_CELL_TAU`] a cell of two voxels: `⌈2/detail⌉` voxels, at most 8 (2 at
 /// detail 1; the `1e-9` keeps `2/0.5` at 4).

@@ -363,6 +363,60 @@ fn thick_smoke_takes_cells_of_one_voxel_within_the_budget() {
     assert_eq!(auto_grid(&middle, 1.0, 0.42).factor, 2);
 }
 
+/// `density` refined `n` times per axis by repeating each voxel (`n³` copies).
+fn repeated(density: &Volume, n: usize) -> Volume {
+    let d = density.dims();
+    let fine = d.map(|a| a * n);
+    let mut data = Vec::with_capacity(fine.iter().product());
+    for z in 0..fine[2] {
+        for y in 0..fine[1] {
+            for x in 0..fine[0] {
+                data.push(density.get(x / n, y / n, z / n));
+            }
+        }
+    }
+    Volume::new(fine, *density.bbox(), data).unwrap()
+}
+
+/// The GPU's rule ([`one_voxel_cells`]) agrees with [`auto_grid`]'s choice of one voxel
+/// at full detail: on the grid itself, and on a grid refined 2× (each voxel repeated, so
+/// the refined grid's own work, counted by `auto_grid`, is exactly 16× the coarse one's)
+/// whose one-voxel cells go over the budget where the coarse grid's did not.
+#[test]
+fn the_gpu_rule_takes_one_voxel_where_the_cpu_does() {
+    let n = 32usize;
+    let middle = Volume::new(
+        [n; 3],
+        Bbox::new([0.0; 3], [1.0; 3]),
+        (0..n.pow(3))
+            .map(|i| if i % 3 == 0 { 0.5 } else { 0.0 })
+            .collect(),
+    )
+    .unwrap();
+    let small = sparse_smoke();
+    let edge = MAX_ORDERS_CELL_TAU / 2.0;
+    for density in [&small, &middle] {
+        for tau in [0.0, edge, edge * 1.001, 0.42, f64::INFINITY, f64::NAN, -1.0] {
+            assert_eq!(
+                one_voxel_cells(density, 1, tau),
+                auto_grid(density, 1.0, tau).factor == 1,
+                "{:?} tau {tau}",
+                density.dims()
+            );
+            let fine = repeated(density, 2);
+            assert_eq!(
+                one_voxel_cells(density, 2, tau),
+                auto_grid(&fine, 1.0, tau).factor == 1,
+                "{:?} refined, tau {tau}",
+                density.dims()
+            );
+        }
+    }
+    // The cases the test needs: within the budget on the grid, over it refined.
+    assert!(one_voxel_cells(&middle, 1, 0.42));
+    assert!(!one_voxel_cells(&middle, 2, 0.42));
+}
+
 #[test]
 fn the_first_orders_rule_follows_the_phase_functions_peak() {
     use crate::medium::hg_half_width;
