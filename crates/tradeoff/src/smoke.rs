@@ -2,7 +2,12 @@
 //! its residual quantized (as the bake stores it), rendered by compensated ray marching
 //! for every setting of the knobs — on the CPU (`haze render`'s default), or with every
 //! stage on the GPU (`haze render --gpu`, the viewer's renderer) when the sweep times the
-//! GPU.
+//! GPU. Thick smoke is lit as `haze render` lights it at voxel resolution: the
+//! environment grid's nodes on the voxel centers (`CrmOptions::for_smoke`) and the
+//! explicit orders' cells of one voxel where the automatic rule takes them, on the GPU
+//! too (`CrmOptions::for_gpu_cells`), so both sweeps measure the same pictures; it is not
+//! refined as `haze render --supersample` refines voxels over one optical depth (the
+//! sweep warns).
 
 use super::knobs::{Knob, KnobValue};
 use crate::lab::{Lab, Sample};
@@ -13,12 +18,13 @@ use haze_gpu::GpuContext;
 use haze_hash::QuantOptions;
 use haze_render::check::{self, ErrorEstimate};
 use haze_view::diffusion::SolveOptions;
+use haze_view::gpu::orders;
 use haze_view::gpu::renderer::{GpuFrame, GpuRenderer, LightingOn};
 use haze_view::gpu::volume_pass::Residual;
 use haze_view::lighting::single::SourcePoints;
 use haze_view::reference::{self, RefOptions};
 use haze_view::render::env_pass::{EnvGridOptions, EnvSource};
-use haze_view::render::{CrmOptions, MsDiffusion, crm_render};
+use haze_view::render::{CrmOptions, MsDiffusion, crm_render, supersample};
 use haze_view::sh::ExpMethod;
 use haze_view::{Camera, Environment, Image, Medium};
 use haze_volume::{Rbf, Volume, rbf};
@@ -124,6 +130,8 @@ type Timed = (
 #[derive(Debug)]
 pub struct SmokeLab {
     density: Volume,
+    /// Its voxels' optical depth (`supersample::tau_per_voxel`) in the medium.
+    tau: f64,
     env: Environment,
     medium: Medium,
     view: View,
@@ -248,8 +256,15 @@ impl SmokeLab {
                 last(tables.diffusion.len()),
             ),
         ];
+        let tau = supersample::tau_per_voxel(&density, medium.sigma_t);
+        if !supersample::thin_enough(tau) {
+            tracing::warn!(
+                "the smoke is {tau:.1} optical depths a voxel: `haze render` lights it on a finer grid (--supersample), this sweep at its own voxels, so its errors are larger than the renders'"
+            );
+        }
         SmokeLab {
             density,
+            tau,
             env,
             medium,
             view,
@@ -353,13 +368,9 @@ impl SmokeLab {
                     .name()
                     .and_then(|d| d.parse().ok())
                     .unwrap_or(MsDiffusion::DEFAULT),
-                // The automatic cells of thin smoke (2³ on thick smoke too), as either
-                // renderer takes them without `CrmOptions::for_gpu_cells`, so a sweep
-                // measures the same on both; the `diffusion` knob names a factor where one
-                // voxel is wanted.
-                thick_cells: false,
                 ..CrmOptions::default()
-            },
+            }
+            .for_smoke(self.tau),
             size: f(9),
         }
     }
@@ -511,9 +522,15 @@ impl Lab for SmokeLab {
                         dims: self.density.dims(),
                         bbox: *self.density.bbox(),
                     };
+                    // The orders' cells of one voxel where the CPU takes them.
+                    let crm = set
+                        .crm
+                        .for_gpu_cells(1, self.tau, orders::max_cells(&g.ctx), || {
+                            Some(&self.density)
+                        });
                     let (image, stats) = g
                         .renderer
-                        .render(&g.ctx, &frame, &self.medium, &camera, &set.crm)
+                        .render(&g.ctx, &frame, &self.medium, &camera, &crm)
                         .map_err(gpu_err)?;
                     let pixels = image.read(&g.ctx).map_err(gpu_err)?;
                     let img = Image {
@@ -603,9 +620,16 @@ impl Lab for SmokeLab {
 mod tests {
     use super::*;
     use haze_view::Sky;
+    use haze_view::render::env_pass::THICK_SPACING;
     use haze_volume::Bbox;
 
     fn lab(quick: bool) -> SmokeLab {
+        lab_at(quick, 4.0)
+    }
+
+    /// The lab of a 2³ block of density 1 over the unit box (voxels of 1/2) at `sigma_t`:
+    /// its voxels `sigma_t / 2` optical depths thick.
+    fn lab_at(quick: bool, sigma_t: f64) -> SmokeLab {
         let density = Volume::new([2, 2, 2], Bbox::new([0.0; 3], [1.0; 3]), vec![1.0; 8]).unwrap();
         let view = View {
             eye: None,
@@ -618,11 +642,37 @@ mod tests {
         SmokeLab::new(
             density,
             Environment::sky(Sky::default()),
-            Medium::new(4.0, 0.8, 0.3).unwrap(),
+            Medium::new(sigma_t, 0.8, 0.3).unwrap(),
             view,
             quick,
             1,
         )
+    }
+
+    /// Every setting of thick smoke is lit as `haze render` lights it: the environment
+    /// grid's nodes on the voxel centers past a third of an optical depth a voxel (the
+    /// default spacing below it); paper A's sources at the centers keep no grid.
+    #[test]
+    fn thick_smoke_is_swept_as_haze_render_lights_it() {
+        let spacing = |sigma_t: f64| {
+            let lab = lab_at(true, sigma_t);
+            let default = super::super::knobs::defaults(&lab.knobs);
+            match lab.decode(&default).crm.env_source {
+                EnvSource::Grid(g) => g.spacing,
+                EnvSource::Centers => panic!("the default lights by the grid"),
+            }
+        };
+        let wide = EnvGridOptions::default().spacing;
+        assert!(wide > THICK_SPACING);
+        // 0.25 optical depths a voxel: a cell of 1.5 voxels is 0.375 across.
+        assert_eq!(spacing(0.5), wide);
+        // 0.4 a voxel: 0.6 across, over `MAX_CELL_TAU`.
+        assert_eq!(spacing(0.8), THICK_SPACING);
+        assert_eq!(spacing(4.0), THICK_SPACING);
+        let lab = lab_at(true, 4.0);
+        let mut footprint = super::super::knobs::defaults(&lab.knobs);
+        footprint[SOURCE] = 1;
+        assert_eq!(lab.decode(&footprint).crm.env_source, EnvSource::Centers);
     }
 
     /// The `diffusion` knob's values decode to the renderers' models, its default and

@@ -85,8 +85,7 @@ pub struct CrmOptions {
     /// cannot measure the smoke, where its caller resolves them:
     /// [`CrmOptions::for_gpu_cells`]). On by default: `haze render` and the viewer's stills. Off for the
     /// viewer's playback frames, where the step up to full detail would otherwise cost
-    /// tens of times the step below it, and for `haze tradeoff`'s sweeps, which measure
-    /// the same on the CPU and the GPU (their GPU runs do not resolve the cells).
+    /// tens of times the step below it.
     pub thick_cells: bool,
 }
 
