@@ -77,7 +77,8 @@ pub struct RenderCli {
     /// optical depth thick), or where the cells with smoke times the side of the box
     /// they fill exceed 600 000, the smallest larger F within it, which keeps a frame's
     /// multiple scattering to about 10 s on two cores; with --gpu 1 where the CPU takes
-    /// 1 and the device holds that many cells, else 2; at most 8 there, and lit by the
+    /// 1 and the device holds that many cells, else 2 (larger, with a warning, where the
+    /// device's buffers cannot hold cells of 2); at most 8 there, and lit by the
     /// sky per voxel, so --source grid), `centers` (paper A §5.4's
     /// diffusion on the RBF basis; the default with --gpu and --source footprint or
     /// center) or `grid[:F]` (the diffusion alone on the F³ grid, CPU only, refused with

@@ -61,7 +61,7 @@ use haze_gpu::{
     ComputeLayout, GpuContext, GpuError, bind_buffers, buffer_init, compute_layout, timed_pass,
     voxel_groups,
 };
-use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 /// The shader: `crates/view/shaders/orders.wgsl`, importing the fine march
 /// (`grid_march`), the phase functions (`disk_phase`) and `sh_basis`.
@@ -395,7 +395,8 @@ impl OrdersPass {
     /// `D` (module docs), lit by the environment's single scattering from `shadow` (the
     /// environment pass's grid of this `D`) and `light` (its projection), `env`'s point
     /// lights and suns (records from `lights`) in `medium` (submitted); the factor
-    /// [`MsDiffusion::AUTO`] is [`AUTO_FACTOR`]. Refuses a factor
+    /// [`MsDiffusion::AUTO`] is [`auto_factor`] ([`AUTO_FACTOR`] where the device holds
+    /// its cells). Refuses a factor
     /// outside 1–[`MAX_FACTOR`], orders outside 1–8, more than [`MAX_SUNS`] suns, a `shadow` of
     /// another grid, a `light` of fewer coefficients than its order, and sizes beyond the
     /// device's limits.
@@ -412,7 +413,14 @@ impl OrdersPass {
         factor: usize,
         orders: usize,
     ) -> Result<MediaBuffer, GpuError> {
-        let factor = check_gather(grid, shadow, light, env, factor, orders)?;
+        let factor = check_gather(
+            grid,
+            shadow,
+            light,
+            env,
+            auto_factor(ctx, grid.dims(), factor),
+            orders,
+        )?;
         let words = lights.light_words(ctx, grid, env, medium.g)?;
         let stride = 13 + env.suns.len();
         let params = gather_params(grid, shadow, light, env, medium, factor);
@@ -796,6 +804,37 @@ impl OrdersPass {
     }
 }
 
+/// Whether a wider automatic factor than [`AUTO_FACTOR`] was said (once a process).
+static WIDENED_SAID: AtomicBool = AtomicBool::new(false);
+
+/// The factor [`OrdersPass::gather`] takes for `factor` over a grid of `dims` on `ctx`'s
+/// device: a given one as it is; [`MsDiffusion::AUTO`] the smallest from [`AUTO_FACTOR`]
+/// up to [`MAX_FACTOR`] whose cells the device holds ([`max_cells`]; [`MAX_FACTOR`] if
+/// none does, which `gather` then refuses), with a warning (once) where that is above
+/// [`AUTO_FACTOR`].
+pub fn auto_factor(ctx: &GpuContext, dims: [usize; 3], factor: usize) -> usize {
+    if factor != MsDiffusion::AUTO {
+        return factor;
+    }
+    let f = fitting_factor(dims, max_cells(ctx));
+    if f > AUTO_FACTOR && !WIDENED_SAID.swap(true, Ordering::Relaxed) {
+        tracing::warn!(
+            "the multiple scattering's cells are {f}³ voxels, not {AUTO_FACTOR}³, to fit the device's {} MiB buffers: the scattering orders are coarser (a device with larger buffers, or the CPU, keeps smaller cells)",
+            ctx.storage_limit() >> 20
+        );
+    }
+    f
+}
+
+/// The smallest factor from [`AUTO_FACTOR`] to [`MAX_FACTOR`] whose cells over `dims`
+/// (`⌈n/f⌉` a side) are at most `max_cells`; [`MAX_FACTOR`] if none.
+fn fitting_factor(dims: [usize; 3], max_cells: usize) -> usize {
+    let cells = |f: usize| dims.iter().map(|n| n.div_ceil(f)).product::<usize>();
+    (AUTO_FACTOR..=MAX_FACTOR)
+        .find(|&f| cells(f) <= max_cells)
+        .unwrap_or(MAX_FACTOR)
+}
+
 /// The most cells [`OrdersPass::gather`] can hold on `ctx`'s device: its largest per-cell
 /// buffer, the cells' radiance ([`MEDIA`] words a cell), within the largest storage
 /// binding.
@@ -923,6 +962,22 @@ fn gather_params(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The automatic factor grows until the cells fit: 2 where 2 fits, the first that
+    /// fits beyond it (counted here cell by cell), the largest where none does.
+    #[test]
+    fn the_automatic_factor_grows_to_fit_the_device() {
+        // Lavapipe's 128 MiB over the cells' radiance.
+        let max = (128usize << 20) / (4 * MEDIA);
+        assert_eq!(max, 134_217_728 / 316);
+        assert_eq!(fitting_factor([64, 64, 96], max), 2);
+        // 80³ cells of 2 are 512 000, over it; 54³ cells of 3 are 157 464.
+        assert_eq!(fitting_factor([160; 3], max), 3);
+        assert_eq!(fitting_factor([224, 140, 196], max), 3);
+        // 10⁴ voxels a side: even cells of 8 are 1250³.
+        assert_eq!(fitting_factor([10_000; 3], max), MAX_FACTOR);
+        assert_eq!(fitting_factor([0; 3], 0), AUTO_FACTOR);
+    }
 
     #[test]
     fn params_match_the_wgsl_layout() {

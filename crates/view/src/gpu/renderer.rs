@@ -739,11 +739,7 @@ impl GpuRenderer {
         {
             let kept = matches!(&self.orders_media, Some((k, _)) if *k == key);
             let factor = gpu_orders_factor(factor, opts.detail);
-            stats.crm.ms_factor = if factor == MsDiffusion::AUTO {
-                crate::gpu::orders::AUTO_FACTOR
-            } else {
-                factor
-            };
+            stats.crm.ms_factor = crate::gpu::orders::auto_factor(ctx, grid.dims(), factor);
             let media = match self.orders_media.take() {
                 Some(m) if kept => &self.orders_media.insert(m).1,
                 _ => {
