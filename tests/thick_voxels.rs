@@ -208,3 +208,60 @@ fn thick_smoke_takes_the_orders_on_its_voxels() {
     assert_eq!(cells("0.5", &gpu), "1³");
     assert_eq!(cells("0.3", &gpu), "2³");
 }
+
+/// Where the device's buffers cannot hold a cell a voxel (lavapipe binds 128 MiB: about
+/// 420 000 cells), the GPU's orders keep cells of 2³ and say why in one warning; a device
+/// that holds them takes one voxel, as the CPU does. The blob of 20³ voxels inside an
+/// 80³ grid (512 000 voxels) at 0.5 optical depths a voxel: its one-voxel work within the
+/// budget, its grid over lavapipe's cells.
+#[test]
+fn the_gpu_says_when_its_buffers_keep_the_cpus_cells_from_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("room.npy");
+    let (n, b) = (80usize, 20usize);
+    let small = blob(b);
+    let mut room = vec![0.0f32; n * n * n];
+    for z in 0..b {
+        for y in 0..b {
+            for x in 0..b {
+                room[(x + 30) + n * ((y + 30) + n * (z + 30))] = small[x + b * (y + b * z)];
+            }
+        }
+    }
+    write_npy(&input, [n; 3], &room);
+    let out = dir.path().join("out.exr");
+    let o = haze()
+        .args([
+            "render",
+            s(&input),
+            "--out",
+            s(&out),
+            "--size",
+            "32x24",
+            "--gpu",
+            "--lighting",
+            "gpu",
+            "--supersample",
+            "1",
+            "--sigma-t",
+            "0.5",
+            "-v",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert!(o.status.success(), "{err}");
+    let cells = err
+        .split("(cells of ")
+        .nth(1)
+        .and_then(|t| t.split(' ').next())
+        .unwrap_or_else(|| panic!("no cells in {err}"));
+    let warned = err.lines().filter(|l| l.contains("the GPU's buffers hold")).count();
+    if warned > 0 {
+        assert_eq!(warned, 1, "{err}");
+        assert_eq!(cells, "2³", "{err}");
+        assert!(err.contains("--lighting cpu or --cpu"), "{err}");
+    } else {
+        assert_eq!(cells, "1³", "{err}");
+    }
+}

@@ -10,9 +10,9 @@ use anyhow::{Result, anyhow, bail};
 use haze_core::number::{rounded, shown};
 use haze_gpu::GpuContext;
 use haze_view::diffusion::SolveOptions;
+use haze_view::gpu::GridBuffer;
 use haze_view::gpu::renderer::{GpuFrame, GpuRenderer, LightingOn};
 use haze_view::gpu::volume_pass::Residual;
-use haze_view::gpu::{GridBuffer, orders};
 use haze_view::lighting::single::SourcePoints;
 use haze_view::reference::{self, RefOptions};
 use haze_view::render::env_pass::EnvSource;
@@ -386,7 +386,7 @@ pub fn render_image(a: &RenderOptions) -> Result<Rendered> {
                 bbox: *bbox,
             };
             // The orders' cells of one voxel where the CPU would take them on this smoke.
-            let opts = opts.for_gpu_cells(n, tau / n as f64, orders::max_cells(ctx), || {
+            let opts = opts.for_gpu_cells(n, tau / n as f64, renderer.orders_cells(ctx), || {
                 Some(&frame.density)
             });
             let (image, mut stats) = renderer

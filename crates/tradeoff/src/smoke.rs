@@ -18,7 +18,6 @@ use haze_gpu::GpuContext;
 use haze_hash::QuantOptions;
 use haze_render::check::{self, ErrorEstimate};
 use haze_view::diffusion::SolveOptions;
-use haze_view::gpu::orders;
 use haze_view::gpu::renderer::{GpuFrame, GpuRenderer, LightingOn};
 use haze_view::gpu::volume_pass::Residual;
 use haze_view::lighting::single::SourcePoints;
@@ -523,11 +522,11 @@ impl Lab for SmokeLab {
                         bbox: *self.density.bbox(),
                     };
                     // The orders' cells of one voxel where the CPU takes them.
-                    let crm = set
-                        .crm
-                        .for_gpu_cells(1, self.tau, orders::max_cells(&g.ctx), || {
-                            Some(&self.density)
-                        });
+                    let crm =
+                        set.crm
+                            .for_gpu_cells(1, self.tau, g.renderer.orders_cells(&g.ctx), || {
+                                Some(&self.density)
+                            });
                     let (image, stats) = g
                         .renderer
                         .render(&g.ctx, &frame, &self.medium, &camera, &crm)

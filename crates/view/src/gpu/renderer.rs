@@ -329,6 +329,16 @@ impl GpuRenderer {
         }
     }
 
+    /// The most cells this renderer's explicit orders hold (the `max_cells` of
+    /// [`CrmOptions::for_gpu_cells`]): any number where its lighting runs on the CPU,
+    /// else the device's ([`crate::gpu::orders::max_cells`]).
+    pub fn orders_cells(&self, ctx: &GpuContext) -> usize {
+        match self.lighting_on.resolve(ctx) {
+            LightingOn::Cpu => usize::MAX,
+            _ => crate::gpu::orders::max_cells(ctx),
+        }
+    }
+
     /// Puts how this frame's diffusion solve ended (iterations, residual) into `stats`
     /// when it had one; a solve on the GPU is read back (a wait).
     pub fn read_solve(&self, ctx: &GpuContext, stats: &mut FrameStats) -> Result<(), GpuError> {

@@ -89,6 +89,11 @@ pub struct CrmOptions {
     pub thick_cells: bool,
 }
 
+/// Whether [`CrmOptions::for_gpu_cells`] has said that the device's buffers kept the GPU
+/// from the CPU's one-voxel cells (once a process).
+static SMALL_BUFFERS_SAID: std::sync::atomic::AtomicBool =
+    std::sync::atomic::AtomicBool::new(false);
+
 /// The fewest latitudes per hemisphere a lower [`CrmOptions::detail`] leaves the
 /// environment grid's direction rule (2: 4 × 8 directions, enough for the SH of order 4
 /// it projects on: the Gauss–Legendre latitudes integrate `cos θ` polynomials to degree 3
@@ -169,21 +174,29 @@ impl CrmOptions {
         if !asks {
             return self;
         }
-        match density() {
-            Some(d)
-                if d.dims()
-                    .iter()
-                    .product::<usize>()
-                    .saturating_mul(n.saturating_pow(3))
-                    <= max_cells
-                    && grid_diffusion::one_voxel_cells(d, n, tau) =>
-            {
-                CrmOptions {
-                    diffusion: MsDiffusion::Orders { factor: 1, orders },
-                    ..self
-                }
+        let Some(d) = density() else {
+            return self;
+        };
+        if !grid_diffusion::one_voxel_cells(d, n, tau) {
+            return self;
+        }
+        let voxels = d
+            .dims()
+            .iter()
+            .product::<usize>()
+            .saturating_mul(n.saturating_pow(3));
+        if voxels > max_cells {
+            if !SMALL_BUFFERS_SAID.swap(true, std::sync::atomic::Ordering::Relaxed) {
+                tracing::warn!(
+                    "the smoke is {} optical depths a voxel: the CPU would gather its scattering orders on cells of one voxel, but the GPU's buffers hold {max_cells} cells and the grid has {voxels} voxels, so they keep cells of 2³ (about 1–2.5 points further from the path tracer on thick held-out plumes; --lighting cpu or --cpu lights them on one voxel)",
+                    haze_core::number::shown((tau * 100.0).round() / 100.0)
+                );
             }
-            _ => self,
+            return self;
+        }
+        CrmOptions {
+            diffusion: MsDiffusion::Orders { factor: 1, orders },
+            ..self
         }
     }
 

@@ -110,6 +110,11 @@ fn frame_key(rbfs: &[Rbf], residual: Option<Residual<'_>>, dims: [usize; 3], bbo
 }
 
 impl FrameRenderer {
+    /// The most cells its explicit orders hold (`GpuRenderer::orders_cells`).
+    pub fn orders_cells(&self, ctx: &GpuContext) -> usize {
+        self.inner.orders_cells(ctx)
+    }
+
     /// Compiles the GPU passes on `ctx`, lighting the centers where `lighting` says,
     /// and turns on its per-pass GPU timing.
     pub fn new(ctx: &GpuContext, lighting: LightingOn) -> Result<FrameRenderer, GpuError> {

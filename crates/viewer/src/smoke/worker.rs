@@ -13,9 +13,9 @@ use super::playback::Tick;
 use super::thick::{FrameDensity, Grid, Refiner};
 use haze_gpu::GpuContext;
 use haze_render::smoke::Supersample;
+use haze_view::gpu::GridBuffer;
 use haze_view::gpu::renderer::LightingOn;
 use haze_view::gpu::volume_pass::Residual;
-use haze_view::gpu::{GridBuffer, orders};
 use haze_view::render::CrmOptions;
 use haze_view::stream::{FrameStream, StreamFrame};
 use haze_view::{Camera, Environment, Medium};
@@ -308,7 +308,7 @@ fn run_job(
                 scene.opts.for_smoke(tau).for_gpu_cells(
                     grid.n,
                     tau,
-                    orders::max_cells(ctx),
+                    renderer.orders_cells(ctx),
                     move || density.get().ok(),
                 )
             };
