@@ -256,7 +256,10 @@ fn the_gpu_says_when_its_buffers_keep_the_cpus_cells_from_it() {
         .nth(1)
         .and_then(|t| t.split(' ').next())
         .unwrap_or_else(|| panic!("no cells in {err}"));
-    let warned = err.lines().filter(|l| l.contains("the GPU's buffers hold")).count();
+    let warned = err
+        .lines()
+        .filter(|l| l.contains("the GPU's buffers hold"))
+        .count();
     if warned > 0 {
         assert_eq!(warned, 1, "{err}");
         assert_eq!(cells, "2³", "{err}");
