@@ -413,23 +413,14 @@ impl OrdersPass {
         factor: usize,
         orders: usize,
     ) -> Result<MediaBuffer, GpuError> {
-        let factor = check_gather(
-            grid,
-            shadow,
-            light,
-            env,
-            auto_factor(ctx, grid.dims(), factor),
-            orders,
-        )?;
+        let factor = check_gather(ctx, grid, shadow, light, env, factor, orders)?;
         let words = lights.light_words(ctx, grid, env, medium.g)?;
-        let stride = 13 + env.suns.len();
         let params = gather_params(grid, shadow, light, env, medium, factor);
         let dims = grid.dims();
         let cells = dims.map(|n| n.div_ceil(factor));
         let n = cells.iter().product::<usize>();
+        let stride = 13 + env.suns.len();
         let record_bytes = (4 * n.max(1) * stride) as u64;
-        ctx.check_storage_size("the gathered orders' sources", record_bytes)?;
-        ctx.check_storage_size("the gathered orders' cells", (4 * MEDIA * n.max(1)) as u64)?;
         let groups = cell_groups(ctx, n)?;
         let first: Vec<_> = directions(gather_theta(medium.g)).points().collect();
         let later: Vec<_> = directions(GATHER_LATER_THETA).points().collect();
@@ -842,10 +833,13 @@ pub fn max_cells(ctx: &GpuContext) -> usize {
     usize::try_from(ctx.storage_limit() / (4 * MEDIA) as u64).unwrap_or(usize::MAX)
 }
 
-/// The factor [`OrdersPass::gather`] takes (the automatic one resolved), or why it cannot
-/// gather: a factor or order count out of range, too many suns, an environment grid of
-/// another volume or a projection with too few coefficients.
+/// The factor [`OrdersPass::gather`] takes on `ctx`'s device (the automatic one resolved
+/// by [`auto_factor`]), or why it cannot gather: a factor or order count out of range, too
+/// many suns, an environment grid of another volume, a projection with too few
+/// coefficients, cells (their sources, [`MEDIA`] words of radiance) beyond the device's
+/// buffers.
 fn check_gather(
+    ctx: &GpuContext,
     grid: &GridBuffer,
     shadow: &EnvShadow,
     light: &RgbSh,
@@ -853,11 +847,7 @@ fn check_gather(
     factor: usize,
     orders: usize,
 ) -> Result<usize, GpuError> {
-    let factor = if factor == MsDiffusion::AUTO {
-        AUTO_FACTOR
-    } else {
-        factor
-    };
+    let factor = auto_factor(ctx, grid.dims(), factor);
     if !(1..=MAX_FACTOR).contains(&factor) || !(1..=8).contains(&orders) {
         return Err(GpuError::Input(format!(
             "orders:{factor}:{orders}: on the GPU the factor must be 1 to {MAX_FACTOR} and the orders 1 to 8"
@@ -881,6 +871,15 @@ fn check_gather(
             "the environment's projection has fewer than {n2} coefficients"
         )));
     }
+    let n = grid
+        .dims()
+        .map(|n| n.div_ceil(factor))
+        .iter()
+        .product::<usize>()
+        .max(1);
+    let record_bytes = (4 * n * (13 + env.suns.len())) as u64;
+    ctx.check_storage_size("the gathered orders' sources", record_bytes)?;
+    ctx.check_storage_size("the gathered orders' cells", (4 * MEDIA * n) as u64)?;
     Ok(factor)
 }
 
