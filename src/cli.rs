@@ -202,7 +202,7 @@ pub enum Command {
     /// fitted (RBF count, teleportation), its residual stored (--residual-error, bits) and
     /// rendered on the CPU by compensated ray marching (SH order, exp, source placement, CG
     /// iterations, slices, render size, multiple scattering and its model `diffusion` —
-    /// centers, orders:4:2, orders:3:3, orders:auto:4 as --diffusion spells them —,
+    /// centers, orders:4:2, orders:3:3, orders:auto:6 as --diffusion spells them —,
     /// residual) under the lighting
     /// and camera flags of `haze render`; every knob is turned one at a time around the
     /// defaults, then greedy chains of changes from the defaults towards speed and towards

@@ -132,8 +132,8 @@ fn a_quick_smoke_sweep_writes_its_front_and_plots_and_render_chooses_from_it() {
         .iter()
         .find(|k| k["name"] == "diffusion")
         .unwrap();
-    assert_eq!(diffusion["default"], "orders:auto:4");
-    assert_eq!(diffusion["best"], "orders:auto:4");
+    assert_eq!(diffusion["default"], "orders:auto:6");
+    assert_eq!(diffusion["best"], "orders:auto:6");
     let centers = settings
         .iter()
         .find(|s| s["changed"] == "diffusion=centers")
@@ -186,7 +186,7 @@ fn a_quick_smoke_sweep_writes_its_front_and_plots_and_render_chooses_from_it() {
         err.lines()
             .last()
             .unwrap()
-            .contains("single + multiple scattering (orders:auto:4)"),
+            .contains("single + multiple scattering (orders:auto:6)"),
         "{err}"
     );
     let (_, err) = ok(&[

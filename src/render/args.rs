@@ -72,7 +72,7 @@ pub struct RenderCli {
     /// How multiple scattering is computed: `orders[:F[:K]]` (the default: the first K
     /// scattering orders gathered explicitly along 72 directions (128 to 288 for g above
     /// 0.74, whose forward peak is narrower), 32 after the first, on
-    /// the density averaged over F³ voxels, and the rest by diffusion on that grid; K = 4;
+    /// the density averaged over F³ voxels, and the rest by diffusion on that grid; K = 6;
     /// F = auto unless given: on the CPU 2 (1 where the voxels are over a third of an
     /// optical depth thick), or where the cells with smoke times the side of the box
     /// they fill exceed 600 000, the smallest larger F within it, which keeps a frame's

@@ -279,9 +279,9 @@ mod tests {
     /// that change.
     fn front_decided_by(knob: &str, value: Value) -> Value {
         let defaults = json!({"exp": "square", "source": "footprint", "cg_iterations": 20,
-                              "diffusion": "orders:auto:4"});
+                              "diffusion": "orders:auto:6"});
         let best = json!({"exp": "square", "source": "footprint", "cg_iterations": 500,
-                          "diffusion": "orders:auto:4"});
+                          "diffusion": "orders:auto:6"});
         let mut changed = defaults.clone();
         changed[knob] = value;
         json!({
@@ -291,8 +291,8 @@ mod tests {
                 {"name": "exp", "values": ["square", "linear"], "default": "square", "best": "square"},
                 {"name": "source", "values": ["footprint", "center"], "default": "footprint", "best": "footprint"},
                 {"name": "cg_iterations", "values": [5, 20, 500], "default": 20, "best": 500},
-                {"name": "diffusion", "values": ["centers", "orders:3:3", "orders:auto:4"],
-                 "default": "orders:auto:4", "best": "orders:auto:4"},
+                {"name": "diffusion", "values": ["centers", "orders:3:3", "orders:auto:6"],
+                 "default": "orders:auto:6", "best": "orders:auto:6"},
             ],
             "settings": [
                 {"knobs": best, "ms": {"render": 300.0, "view": 100.0}, "error": 0.0},

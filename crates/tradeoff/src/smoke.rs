@@ -80,8 +80,8 @@ const SIZE_QUICK: [f64; 2] = [0.5, 1.0];
 /// The multiple-scattering models (`--diffusion`'s spelling), cheapest first: paper A's
 /// diffusion at the centers, then the explicit orders from few orders on large cells to
 /// the renderers' default ([`MsDiffusion::DEFAULT`], the most accurate).
-const DIFFUSION: [&str; 4] = ["centers", "orders:4:2", "orders:3:3", "orders:auto:4"];
-const DIFFUSION_QUICK: [&str; 3] = ["centers", "orders:4:2", "orders:auto:4"];
+const DIFFUSION: [&str; 4] = ["centers", "orders:4:2", "orders:3:3", "orders:auto:6"];
+const DIFFUSION_QUICK: [&str; 3] = ["centers", "orders:4:2", "orders:auto:6"];
 /// The knobs' positions in a setting ([`SmokeLab::decode`]'s order).
 const SOURCE: usize = 6;
 const MULTIPLE: usize = 10;

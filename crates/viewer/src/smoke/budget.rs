@@ -127,7 +127,7 @@ mod tests {
             let diffusion = if ms < 100.0 {
                 "orders:3:3"
             } else {
-                "orders:auto:4"
+                "orders:auto:6"
             };
             json!({"knobs": {"sh_order": sh, "slices": slices, "multiple": m, "residual": true,
                              "size": size, "diffusion": diffusion},
@@ -142,8 +142,8 @@ mod tests {
                 {"name": "multiple", "values": [false, true], "default": true, "best": true},
                 {"name": "residual", "values": [false, true], "default": true, "best": true},
                 {"name": "size", "values": [0.5, 1.0], "default": 1.0, "best": 1.0},
-                {"name": "diffusion", "values": ["orders:3:3", "orders:auto:4"],
-                 "default": "orders:auto:4", "best": "orders:auto:4"},
+                {"name": "diffusion", "values": ["orders:3:3", "orders:auto:6"],
+                 "default": "orders:auto:6", "best": "orders:auto:6"},
             ],
             "settings": [
                 setting(6, 2.0, true, 1.0, 400.0, 0.0),

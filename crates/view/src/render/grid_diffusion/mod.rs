@@ -382,7 +382,7 @@ pub fn gather_work(grid: &CoarseGrid) -> f64 {
 }
 
 /// The most [`gather_work`] that the automatic cell size lets the gathered orders do:
-/// about 10 s of multiple scattering (four orders, 72 + 3 × 32 directions; measured
+/// about 10 s of multiple scattering (measured at four orders, 72 + 3 × 32 directions; the six
 /// 16–18 µs per unit of work on a 2-core machine shared three ways) (BENCHMARKS.md,
 /// "Multiple scattering: the cell size"). For g above 0.74 the first order's finer rule
 /// ([`gather_theta`]: 128 to 288 directions) makes the same work cost up to 2.3× that:
