@@ -382,9 +382,10 @@ pub fn gather_work(grid: &CoarseGrid) -> f64 {
 }
 
 /// The most [`gather_work`] that the automatic cell size lets the gathered orders do:
-/// about 10 s of multiple scattering (measured at four orders, 72 + 3 × 32 directions; the six
-/// 16–18 µs per unit of work on a 2-core machine shared three ways) (BENCHMARKS.md,
-/// "Multiple scattering: the cell size"). For g above 0.74 the first order's finer rule
+/// about 10 s of multiple scattering (measured at four orders, 72 + 3 × 32 directions:
+/// 16–18 µs per unit of work on a 2-core machine shared three ways; BENCHMARKS.md,
+/// "Multiple scattering: the cell size"; the default six orders add two gathers of 32
+/// directions, decision 0079). For g above 0.74 the first order's finer rule
 /// ([`gather_theta`]: 128 to 288 directions) makes the same work cost up to 2.3× that:
 /// the cells stay as fine, since the rule is what the narrow peak needs.
 pub const GATHER_BUDGET: f64 = 6e5;
