@@ -3,6 +3,7 @@
 
 mod support;
 
+use std::path::Path;
 use support::{blob, haze, s, write_npy};
 
 /// The render's stderr and its estimated error (the `--check` figure, in %).
@@ -165,6 +166,35 @@ fn a_detail_below_the_floor_is_warned_about() {
     assert!(thin.contains("use at least 0.1"), "{thin}");
 }
 
+/// `haze render INPUT --out OUT --size 32x24 --supersample 1 --sigma-t SIGMA_T -v EXTRA…`,
+/// asserted to succeed: its stderr and the orders' cells it names ("1³").
+fn cells_named(input: &Path, out: &Path, sigma_t: &str, extra: &[&str]) -> (String, String) {
+    let mut args = vec![
+        "render",
+        s(input),
+        "--out",
+        s(out),
+        "--size",
+        "32x24",
+        "--supersample",
+        "1",
+        "--sigma-t",
+        sigma_t,
+        "-v",
+    ];
+    args.extend_from_slice(extra);
+    let o = haze().args(&args).output().unwrap();
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert!(o.status.success(), "{args:?}: {err}");
+    let cells = err
+        .split("(cells of ")
+        .nth(1)
+        .and_then(|t| t.split(' ').next())
+        .unwrap_or_else(|| panic!("no cells in {err}"))
+        .to_string();
+    (err, cells)
+}
+
 /// The explicit orders' automatic cells follow the smoke's thickness (`haze render -v`
 /// names them): the blob held to its own voxels at σt 0.5 (0.5 optical depths a voxel,
 /// over the third where cells of 2³ would be more than 2/3 across) takes cells of one
@@ -176,30 +206,7 @@ fn thick_smoke_takes_the_orders_on_its_voxels() {
     let input = dir.path().join("blob.npy");
     write_npy(&input, [20; 3], &blob(20));
     let out = dir.path().join("out.exr");
-    let cells = |sigma_t: &str, extra: &[&str]| {
-        let mut args = vec![
-            "render",
-            s(&input),
-            "--out",
-            s(&out),
-            "--size",
-            "32x24",
-            "--supersample",
-            "1",
-            "--sigma-t",
-            sigma_t,
-            "-v",
-        ];
-        args.extend_from_slice(extra);
-        let o = haze().args(&args).output().unwrap();
-        let err = String::from_utf8(o.stderr).unwrap();
-        assert!(o.status.success(), "{args:?}: {err}");
-        err.split("(cells of ")
-            .nth(1)
-            .and_then(|t| t.split(' ').next())
-            .unwrap_or_else(|| panic!("no cells in {err}"))
-            .to_string()
-    };
+    let cells = |sigma_t: &str, extra: &[&str]| cells_named(&input, &out, sigma_t, extra).1;
     assert_eq!(cells("0.5", &["--cpu"]), "1³");
     assert_eq!(cells("0.3", &["--cpu"]), "2³");
     assert_eq!(cells("0.5", &["--cpu", "--diffusion", "orders:2"]), "2³");
@@ -230,32 +237,7 @@ fn the_gpu_says_when_its_buffers_keep_the_cpus_cells_from_it() {
     }
     write_npy(&input, [n; 3], &room);
     let out = dir.path().join("out.exr");
-    let o = haze()
-        .args([
-            "render",
-            s(&input),
-            "--out",
-            s(&out),
-            "--size",
-            "32x24",
-            "--gpu",
-            "--lighting",
-            "gpu",
-            "--supersample",
-            "1",
-            "--sigma-t",
-            "0.5",
-            "-v",
-        ])
-        .output()
-        .unwrap();
-    let err = String::from_utf8(o.stderr).unwrap();
-    assert!(o.status.success(), "{err}");
-    let cells = err
-        .split("(cells of ")
-        .nth(1)
-        .and_then(|t| t.split(' ').next())
-        .unwrap_or_else(|| panic!("no cells in {err}"));
+    let (err, cells) = cells_named(&input, &out, "0.5", &["--gpu", "--lighting", "gpu"]);
     let warned = err
         .lines()
         .filter(|l| l.contains("the GPU's buffers hold"))
