@@ -81,10 +81,10 @@ pub struct CrmOptions {
     pub detail: f64,
     /// Whether the explicit orders' automatic cells may be one voxel where the smoke is
     /// thick ([`grid_diffusion::auto_grid`]: at full detail, within the gathers' budget;
-    /// about 9× the multiple scattering's time on cells of 2³; the GPU's pass, which
-    /// cannot measure the smoke, where its caller resolves them:
-    /// [`CrmOptions::for_gpu_cells`]). On by default: `haze render` and the viewer's stills. Off for the
-    /// viewer's playback frames, where the step up to full detail would otherwise cost
+    /// about 9× the multiple scattering's time on cells of 2³; on the GPU, which cannot
+    /// measure the smoke, where its caller resolves them: [`CrmOptions::for_gpu_cells`]).
+    /// On by default: `haze render` and the viewer's stills. Off for the viewer's playback
+    /// frames, where the step up to full detail would otherwise cost
     /// tens of times the step below it.
     pub thick_cells: bool,
 }
@@ -149,11 +149,12 @@ impl CrmOptions {
     /// the CPU's automatic choice takes one voxel ([`grid_diffusion::one_voxel_cells`] of
     /// the smoke `density`, lit on a grid `n` times finer per axis whose voxels are `tau`
     /// optical depths thick): `MsDiffusion::Orders` at factor 1. For the GPU's gathered
-    /// orders, which cannot measure the smoke and otherwise take cells of 2³ (`gpu::orders::
-    /// AUTO_FACTOR`), so that `--gpu` lights thick smoke as `--cpu` does; where the CPU's
-    /// budget grows its cells beyond 2³, or the lit grid has more voxels than the device
-    /// holds cells (`max_cells`, `gpu::orders::max_cells`), the GPU keeps 2³. Unchanged below full detail,
-    /// without [`CrmOptions::thick_cells`] or multiple scattering, for a given factor and
+    /// orders, which cannot measure the smoke and otherwise take their own automatic cells
+    /// (`gpu::orders::auto_factor`: 2³, larger where the device's buffers need it), so that
+    /// `--gpu` lights thick smoke as `--cpu` does. Where the CPU's budget grows its cells
+    /// past one voxel, the automatic cells are kept; where only the device's buffers
+    /// (`max_cells`, `gpu::orders::max_cells`) cannot hold a cell a voxel, too, with one
+    /// warning a process. Unchanged below full detail, without [`CrmOptions::thick_cells`] or multiple scattering, for a given factor and
     /// for thin smoke; `density` is asked for only when the rest holds (it may cost an
     /// evaluation of the frame), and `None` leaves the options as they are.
     pub fn for_gpu_cells<'a>(
@@ -170,7 +171,7 @@ impl CrmOptions {
             && self.thick_cells
             && factor == MsDiffusion::AUTO
             && detail_or_one(self.detail) >= 1.0
-            && 2.0 * tau > grid_diffusion::MAX_ORDERS_CELL_TAU;
+            && grid_diffusion::thick_for_cells(tau);
         if !asks {
             return self;
         }

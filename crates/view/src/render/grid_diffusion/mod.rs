@@ -399,6 +399,12 @@ pub const GATHER_BUDGET: f64 = 6e5;
 /// scattering orders on the voxels").
 pub const MAX_ORDERS_CELL_TAU: f64 = 2.0 / 3.0;
 
+/// Whether voxels `tau` optical depths thick ask for cells of one voxel: a cell of two
+/// more than [`MAX_ORDERS_CELL_TAU`] across. False for a `tau` that is not a number.
+pub fn thick_for_cells(tau: f64) -> bool {
+    2.0 * tau > MAX_ORDERS_CELL_TAU
+}
+
 /// The coarse grid of the automatic cell size at the lighting's `detail` (`(0, 1]`,
 /// `CrmOptions::detail`; 1 as measured) for smoke whose voxels are `tau` optical depths
 /// thick (`supersample::tau_per_voxel`): cells of `⌈2/detail⌉` voxels a side (2, the
@@ -409,7 +415,7 @@ pub const MAX_ORDERS_CELL_TAU: f64 = 2.0 / 3.0;
 /// smoke keeps cells of one voxel only while they cost no more than the budget.
 pub fn auto_grid(fine: &Volume, detail: f64, tau: f64) -> CoarseGrid {
     let detail = crate::render::detail_or_one(detail);
-    let first = if detail >= 1.0 && 2.0 * tau > MAX_ORDERS_CELL_TAU {
+    let first = if detail >= 1.0 && thick_for_cells(tau) {
         1
     } else {
         auto_min_factor(detail)
@@ -434,7 +440,7 @@ pub fn auto_grid(fine: &Volume, detail: f64, tau: f64) -> CoarseGrid {
 /// edges add. For a renderer that cannot measure the smoke itself (the GPU's gathered
 /// orders, `CrmOptions::for_gpu_cells`). False for a `tau` that is not a number.
 pub fn one_voxel_cells(density: &Volume, n: usize, tau: f64) -> bool {
-    2.0 * tau > MAX_ORDERS_CELL_TAU
+    thick_for_cells(tau)
         && gather_work(&CoarseGrid::new(density, 1)) * (n.max(1) as f64).powi(4) <= GATHER_BUDGET
 }
 
