@@ -39,8 +39,8 @@ pub enum FogCommand {
     /// --smoke FILE.haze shows a baked smoke frame in the fog (placed by --smoke-offset and
     /// --smoke-scale in the fog's world: Z up, ground at z = 0), both media composited by
     /// depth: with the smoke's radiance L_s, transmittance T_s and the opacity-weighted
-    /// mean depth d of the smoke along each pixel's ray, L = F[0,d] + T_f[0,d]·(L_s +
-    /// T_s·F[d,P]), the fog's two parts integrated exactly on either side of d.
+    /// mean depth d of the smoke along each pixel's ray, L = F(0,d) + T_f(0,d)·(L_s +
+    /// T_s·F(d,P)), the fog's two parts integrated exactly on either side of d.
     #[command(after_help = "Examples:\n  \
         haze fog wavelet data/fogmap/fogmap_128.png --out fog.png\n  \
         haze fog wavelet fog.exr --basis quadratic --levels 3 --mu 0.6 --out far.exr\n  \

@@ -23,7 +23,7 @@
 //! * [`pipeline`]: [`Bake`] — open, fit, hash, journal, finish.
 //! * [`residual`]: the residual stage (quantize, hash volumes of 27 frames).
 //! * [`journal`]: the append-only journal of finished frames and hash volumes.
-//! * [`merge`]: chunks baked separately joined into one asset.
+//! * [`merge`](mod@merge): chunks baked separately joined into one asset.
 //! * [`export`]: a frame read back, reconstructed as a dense volume.
 //! * [`source`]: the frames of a bake: volume files, or a packed asset's raw volumes.
 //! * [`header`]: the asset header of a sequence.

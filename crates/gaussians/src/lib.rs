@@ -6,7 +6,7 @@
 //!
 //! with `cᵢ = σt·wᵢ`, `aᵢ = 1/rᵢ`, `bᵢ` the centre (the scene file's `weight`, `radius`,
 //! `center`) and `β0 = σt·background`. The pure mathematics lives here — the line integral
-//! of a Gaussian in closed form ([`line`]), the erf it needs ([`erf`]), a bounding-sphere
+//! of a Gaussian in closed form ([`line`](mod@line)), the erf it needs ([`erf`]), a bounding-sphere
 //! hierarchy to find the Gaussians along a segment ([`bvh`]), the medium ([`medium`]),
 //! paper B's per-Gaussian airlight factored at the centre ([`airlight`]) and, where a bound on
 //! that factorization's error says so, integrated along the ray ([`integrated`]), the average optical depth that dims the environment ([`average`], summed over many

@@ -2,7 +2,7 @@
 //! then stored in a perfect spatial hash of voxel bricks (Lefebvre & Hoppe 2006) so that a
 //! GPU can look up any voxel in O(1) with no collisions and no bytes spent on empty space.
 //!
-//! * [`quantize`]: per-frame uniform quantization whose step follows from the error asked
+//! * [`quantize`](mod@quantize): per-frame uniform quantization whose step follows from the error asked
 //!   for (dead zone ±½ step; lossless at error 0).
 //! * [`pack`]: a brick's values at the narrowest of 2, 4, 8, 16 (or 32, lossless) bits.
 //! * [`PerfectHash`]: the hash of a sparse set of integer cells with exact lookups.

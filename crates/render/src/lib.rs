@@ -7,7 +7,7 @@
 //! * [`frame`]: an asset's frame (read by `haze_bake::export`) or a volume, fitted here.
 //! * [`lights`]: the environment, suns and point lights.
 //! * [`smoke`]: compensated ray marching (CPU or GPU) or the reference renderer.
-//! * [`bench`]: the GPU renderer timed on fixed synthetic workloads (`haze bench`).
+//! * [`bench`](mod@bench): the GPU renderer timed on fixed synthetic workloads (`haze bench`).
 //! * [`check`]: a render's estimate of its own error against the reference.
 //! * [`scene`]: scene files (papers B, C, D, and the march).
 //! * [`fog`]: the wavelet fog (paper E); [`fog_smoke`] places a smoke frame in it.

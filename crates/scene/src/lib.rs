@@ -1,5 +1,5 @@
 //! Scenes — a camera, an environment, point and sun lights, participating media and
-//! surfaces, read from one JSON file ([`file`], docs/formats.md "Scene file") — and the fog models that light them, one
+//! surfaces, read from one JSON file ([`file`](mod@file), docs/formats.md "Scene file") — and the fog models that light them, one
 //! room each:
 //!
 //! - [`scene`]: the scene as the renderers see it, validated; its homogeneous medium is
@@ -8,7 +8,7 @@
 //!   asset on a voxel grid (paper A), a sum of Gaussians (paper B), analytic fog
 //!   functions with wind (paper D) — and what every renderer asks of them.
 //! - [`mesh`]: triangle meshes with their bounding-volume hierarchy, and glTF models.
-//! - [`file`]: the scene file, its keys and its one-line errors.
+//! - [`file`](mod@file): the scene file, its keys and its one-line errors.
 //! - [`paper_c`]: analytic single scattering in a homogeneous medium (Sun et al. 2005) —
 //!   the airlight and surface tables, the environment's glow — and the quadrature
 //!   references of the same model; [`render`] renders a scene with them.

@@ -14,7 +14,7 @@ use rayon::prelude::*;
 use std::slice::ChunksExact;
 use std::sync::mpsc::{Receiver, sync_channel};
 
-/// Decodes a residual-hash block into the group [`super::encode`] was given, checking every
+/// Decodes a residual-hash block into the group [`super::encode()`] was given, checking every
 /// size and index against the block's own header.
 pub fn decode(bytes: &[u8]) -> Result<ResidualGroup, String> {
     decode_through(bytes, usize::MAX)

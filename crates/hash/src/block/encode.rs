@@ -13,7 +13,7 @@ pub fn encode(g: &ResidualGroup) -> Result<Vec<u8>, String> {
     encode_streams(g, STREAM_NONZERO, VERSION)
 }
 
-/// [`encode`] in `layout` (this one, or [`GAMMA`] to write what older builds wrote), a
+/// [`encode`] in `layout` (this one, or [`GAMMA`](super::GAMMA) to write what older builds wrote), a
 /// stream for every `stream_nonzero` non-zero values.
 pub(super) fn encode_streams(
     g: &ResidualGroup,

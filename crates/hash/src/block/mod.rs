@@ -1,12 +1,12 @@
-//! The residual-hash block of the asset: one [`ResidualGroup`], entropy-coded on disk and
+//! The residual-hash block of the asset: one [`ResidualGroup`](crate::tile::ResidualGroup), entropy-coded on disk and
 //! decoded into the flat `u32` arrays a GPU uploads.
 //!
 //! A hash's key and payload tables are mostly empty slots, and every stored brick's slot
 //! follows from its key and the offset table `Φ` (`h(p)`, [`crate::psh`]), which itself
-//! follows from the bricks: [`ResidualGroup::build`] builds it from the brick list alone,
+//! follows from the bricks: [`ResidualGroup::build`](crate::tile::ResidualGroup::build) builds it from the brick list alone,
 //! deterministically. So the block stores only the bricks, as a list, and their quantized
 //! values, range-coded under adaptive models ([`haze_core::adaptive`]; the values under
-//! their neighbours' mixed contexts, [`crate::context_coder`]); [`decode`] packs every
+//! their neighbours' mixed contexts, [`crate::context_coder`]); [`decode()`] packs every
 //! brick again and builds the hash again from the same list with the same options: the
 //! decoded group is the one encoded, table for table.
 //!
@@ -47,7 +47,7 @@
 //! Bricks are listed in the order of their values in `data` (frame by frame, bricks
 //! ascending `z, y, x`), so a brick's payload (first word, width) is the running sum of
 //! the words before it. A brick's width is not stored: it is the narrowest that holds
-//! its values (as [`ResidualGroup::build`] packs them), or `f32` in a lossless frame.
+//! its values (as [`ResidualGroup::build`](crate::tile::ResidualGroup::build) packs them), or `f32` in a lossless frame.
 //! Layouts 1 (a cell hash, haze format 1), 2 (the tables uncoded, haze format 2), 3
 //! (values zstd-coded as packed words, haze format 3) and 4 (`Φ` stored, the values under
 //! one context each, haze format 4) are refused with a message that says to bake the

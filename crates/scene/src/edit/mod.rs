@@ -14,7 +14,7 @@
 //! - [`emitter`]: particles on parabolic paths whose Gaussians grow and fade with age;
 //! - [`clipboard`]: copy, cut and paste of the Gaussians whose centres project inside a
 //!   screen rectangle;
-//! - [`file`]: the edited medium written back into the scene file (temp file + rename)
+//! - [`file`](mod@file): the edited medium written back into the scene file (temp file + rename)
 //!   and read from one.
 //!
 //! Random choices come from a seeded stream ([`haze_gaussians::cloud::Uniform`]), so a

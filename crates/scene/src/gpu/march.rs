@@ -13,7 +13,7 @@
 //! Per pixel, as on the CPU: midpoint steps of [`crate::march::MarchOptions::step`] over
 //! the part of the camera ray holding extinction, each step's transmittance from the
 //! media's optical depths — the grids' by the same exact walk through the voxel planes
-//! with Simpson's rule per piece ([`VoxelGrid::density_integral`]) —, shadow rays towards
+//! with Simpson's rule per piece ([`crate::media::voxel_grid::VoxelGrid::density_integral`]) —, shadow rays towards
 //! every light through the grids (smoke → surfaces and smoke → itself), Henyey–Greenstein
 //! phase, and the environment's light from the precomputed SH grid
 //! ([`crate::march::env_smoke`], `shaders/env_smoke.wgsl`). What differs from the CPU beyond `f32`: a surface point's shadow rays test the

@@ -1,5 +1,5 @@
 //! Single scattering through all of a scene's media — the homogeneous one and every
-//! [`Heterogeneous`] medium — by ray marching with exact transmittance between samples:
+//! [`Heterogeneous`](crate::media::Heterogeneous) medium — by ray marching with exact transmittance between samples:
 //! the renderer of media without an analytic airlight and the reference of those with one
 //! (papers B and D are checked against it).
 //!
@@ -12,7 +12,7 @@
 //! midpoint rule on steps of at most [`MarchOptions::step`], every step's transmittance
 //! from the media's own optical depths (closed forms where they have them), so the only
 //! discretization is that of the in-scattered light. A surface at `t_end` reflects the
-//! direct light of every light (Lambert + normalized Phong, [`Material::brdf`]) reaching
+//! direct light of every light (Lambert + normalized Phong, [`crate::scene::Material::brdf`]) reaching
 //! it through the media; light scattered onto surfaces by the medium is not included.
 //! Where a homogeneous medium fills space the march ends where the transmittance falls
 //! below [`MarchOptions::min_transmittance`]. The environment lights the heterogeneous

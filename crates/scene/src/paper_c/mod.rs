@@ -4,7 +4,7 @@
 //! medium scatters onto surfaces (the diffuse `G0` and specular `Gn` tables, [`gtable`]),
 //! the environment seen and reflected through the medium with its glow in spherical
 //! harmonics ([`envglow`]) — and the references that integrate the same model by
-//! quadrature, independent of every table ([`reference`], [`envref`]). [`crate::render`]
+//! quadrature, independent of every table ([`reference`](mod@reference), [`envref`]). [`crate::render`]
 //! renders a scene with either.
 
 pub mod airlight;

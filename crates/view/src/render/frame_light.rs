@@ -26,7 +26,7 @@ pub struct FrameLight {
     /// RGB SH at every center, a function of the viewing direction.
     source: Vec<RgbSh>,
     /// The environment pass's grid and the environment's projection, with
-    /// [`EnvSource::Grid`].
+    /// [`super::EnvSource::Grid`].
     env_grid: Option<(Arc<ShGrid>, RgbSh)>,
     /// The lights pass's shadows (none without lights).
     shadows: Option<LightShadows>,

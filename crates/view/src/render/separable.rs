@@ -11,7 +11,7 @@
 //! Σ_corners w_x w_y w_z V = Σ_x w_x · Σ_y w_y · (Σ_z w_z V)
 //! ```
 //!
-//! A slice of voxels shares `w_z`: [`Slice::new`] interpolates the node planes along z
+//! A slice of voxels shares `w_z`: [`Separable::slice`] interpolates the node planes along z
 //! once (a plane of nodes), [`Slice::row`] that plane along y once per row of voxels (a
 //! row of nodes), and [`Slice::at`] a voxel along x from two nodes: `2·K` multiply-adds
 //! a voxel for `K` numbers a node instead of `8·K`. The sums are the trilinear ones in

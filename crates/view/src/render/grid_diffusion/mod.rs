@@ -5,7 +5,7 @@
 //!
 //! **Grid.** The density `D = D̃ + R` of the volume pass averaged over blocks of `f³` voxels
 //! ([`CoarseGrid`]). Each cell's escape probability `P = (1/4π)∫ exp(−σt∫D dt) dω` is
-//! marched through it along [`DIRECTIONS`] directions ([`escape`]); the sources `J⁰`,
+//! marched through it along [`DIRECTIONS`] directions ([`escape`](mod@escape)); the sources `J⁰`,
 //! `J¹` per cell are the environment's single scattering interpolated from the RBF
 //! centers plus the suns and point lights with their transmittance marched through the
 //! fine density (`source`).
@@ -39,7 +39,7 @@
 //! light that leaves is the sink `σs P`. Cells thinner than [`THIN`] transport mean free
 //! paths are left out (their `L₂ = 0`). The matrix is symmetric positive definite when
 //! some `P > 0` or `Ω < 1` (always: `P ≥ e⁻²⁰` at the smoke's edge) and is solved by
-//! Jacobi-preconditioned conjugate gradients ([`solve`]). `L¹₂` per cell is 3× the mean
+//! Jacobi-preconditioned conjugate gradients ([`solve`](mod@solve)). `L¹₂` per cell is 3× the mean
 //! of the two opposite faces' flux densities.
 //!
 //! **Forward peaks.** The explicit orders and the diffusion after them
