@@ -142,10 +142,15 @@ const FOUR_PI: f32 = 12.5663706144;
 // Records hold at most 13 + 8 words (eight suns).
 const MAX_RECORD: u32 = 21u;
 // Words per cell of `media` (L⁰ rgb, L¹ [channel][axis], P, D, 2 unused, c_lm of bands
-// 2–4 [channel][HIGH] from word 16) and of the system in `work` (diag, G ×6, b ×3, drive
-// [face][channel], x, r, two slots of p, Ap per channel).
+// 2–4 of the red channel [HIGH] from word 16), of the green and blue channels' bands in
+// `work` during the gathers and `apply` (after the box's BOX words: `more_at`), and of the
+// system in `work` during the diffusion (diag, G ×6, b ×3, drive [face][channel], x, r,
+// two slots of p, Ap per channel). The bands are split over two bindings so that neither
+// holds more words a cell than the system.
 const HIGH: u32 = 21u;
-const MEDIA: u32 = 16u + 3u * HIGH;
+const MEDIA: u32 = 16u + HIGH;
+const MORE: u32 = 2u * HIGH;
+const BOX: u32 = 8u;
 const ROW: u32 = 43u;
 // The first of a row's two slots of the search direction p (3 words each).
 const P_SLOTS: u32 = 34u;
@@ -184,6 +189,24 @@ fn cell_coords(i: u32) -> vec3<u32> {
 
 fn cell_index(c: vec3<u32>) -> u32 {
     return c.x + p.cells.x * (c.y + p.cells.y * c.z);
+}
+
+// Band coefficient j (of bands 2–4) of channel ch of cell i: the red channel's in `media`,
+// the green and blue channels' in `work` after the box (bound there in `cells`, the
+// gathers and `apply`).
+fn band(i: u32, ch: u32, j: u32) -> f32 {
+    if ch == 0u {
+        return media[i * MEDIA + 16u + j];
+    }
+    return work[BOX + i * MORE + (ch - 1u) * HIGH + j];
+}
+
+fn add_band(i: u32, ch: u32, j: u32, v: f32) {
+    if ch == 0u {
+        media[i * MEDIA + 16u + j] += v;
+    } else {
+        work[BOX + i * MORE + (ch - 1u) * HIGH + j] += v;
+    }
 }
 
 // The cell of a flat dispatch of 64-invocation groups (x, then rows of x groups).
@@ -270,6 +293,9 @@ fn cells(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     }
     for (var k = 0u; k < MEDIA; k++) {
         media[i * MEDIA + k] = 0.0;
+    }
+    for (var k = 0u; k < MORE; k++) {
+        work[BOX + i * MORE + k] = 0.0;
     }
     media[i * MEDIA + 13u] = dc;
     if !(dc > 0.0) {
@@ -583,7 +609,7 @@ fn gather(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
             rec_out[next + 4u + 3u * ch + a] += dc * p.transport_albedo * p.transport_g * a1[a];
         }
         for (var j = 0u; j < HIGH; j++) {
-            media[m + 16u + HIGH * ch + j] += high[ch][j];
+            add_band(i, ch, j, high[ch][j]);
         }
     }
     if p.first == 1u {
@@ -1040,7 +1066,7 @@ fn apply(@builtin(global_invocation_id) v: vec3<u32>) {
             l0[ch] += wd * media[m + ch];
             l1[ch] += wd * vec3<f32>(media[m + 3u + 3u * ch], media[m + 4u + 3u * ch], media[m + 5u + 3u * ch]);
             for (var j = 0u; j < HIGH; j++) {
-                high[ch][j] += wd * media[m + 16u + HIGH * ch + j];
+                high[ch][j] += wd * band(cell_index(cc), ch, j);
             }
         }
     }

@@ -79,8 +79,14 @@ pub const MAX_SUNS: usize = 8;
 const DIRECTIONS_PER_DISPATCH: usize = 8;
 /// Most voxels per cell side on the GPU (`cells` visits ≤ 512 voxels per invocation).
 pub const MAX_FACTOR: usize = 8;
-/// Words per cell of the cells' radiance and of the system.
-const MEDIA: usize = 16 + 3 * HIGH;
+/// Words per cell of the cells' radiance: `L⁰`, `L¹`, `P`, `D`, two unused, the red
+/// channel's bands 2–4.
+const MEDIA: usize = 16 + HIGH;
+/// Words per cell of the green and blue channels' bands 2–4, in the buffer bound as the
+/// shader's `work` while the orders gather and are applied, after [`BOX`] words.
+const MORE: usize = 2 * HIGH;
+/// Words before the bands of [`MORE`]: the box of the cells with smoke (six used).
+const BOX: usize = 8;
 /// The cell size [`MsDiffusion::AUTO`] stands for on the GPU (the CPU's measured
 /// default; the GPU's march is not bound by the CPU's budget).
 pub const AUTO_FACTOR: usize = 2;
@@ -141,13 +147,17 @@ struct Params {
 }
 
 /// `L⁰`, `L¹` and the escape probability per coarse cell on the GPU (`MEDIA` `f32` per
-/// cell: `L⁰` RGB, `L¹` `[channel][axis]`, `P`, the cell's mean density, two unused, bands
-/// 2–4 `[channel][HIGH]` of the gathered orders), with the
-/// last gathered order's scattered source (the diffusion's input) and the parameters buffer of the
-/// grid they belong to.
+/// cell: `L⁰` RGB, `L¹` `[channel][axis]`, `P`, the cell's mean density, two unused, the
+/// red channel's bands 2–4 of the gathered orders; the green and blue channels' bands in
+/// `more`), with the last gathered order's scattered source (the diffusion's input) and
+/// the parameters buffer of the grid they belong to.
 #[derive(Debug)]
 pub struct MediaBuffer {
     media: wgpu::Buffer,
+    /// The box of the cells with smoke ([`BOX`] words), then per cell the green and blue
+    /// channels' bands 2–4 ([`MORE`] words): split from `media` so that no binding holds
+    /// more words a cell than the diffusion's system ([`max_cells`]).
+    more: wgpu::Buffer,
     /// The last gathered order's record, `D·(Ω L⁰, Ω g L¹)` (13 words per cell).
     last: wgpu::Buffer,
     /// The other record buffer (the first source's, then the ping-pong's other half).
@@ -178,17 +188,23 @@ impl MediaBuffer {
     /// Reads the cells back (a wait).
     pub fn read(&self, ctx: &GpuContext) -> Result<CellRadiance, GpuError> {
         let words: Vec<f32> = bytemuck::pod_collect_to_vec(&ctx.read_buffer(&self.media)?);
+        let more: Vec<f32> = bytemuck::pod_collect_to_vec(&ctx.read_buffer(&self.more)?);
         let mut out = CellRadiance {
             cells: self.cells,
             ..CellRadiance::default()
         };
-        for c in words.chunks(MEDIA).take(self.len()) {
+        let cells = words.chunks(MEDIA).zip(more[BOX..].chunks(MORE));
+        for (c, m) in cells.take(self.len()) {
             let v = |k: usize| f64::from(c[k]);
+            let band = |ch: usize, k: usize| match ch {
+                0 => v(16 + k),
+                _ => f64::from(m[HIGH * (ch - 1) + k]),
+            };
             out.l0.push([v(0), v(1), v(2)]);
             out.l1
                 .push([0, 1, 2].map(|ch| [0, 1, 2].map(|a| v(3 + 3 * ch + a))));
             out.high
-                .push([0, 1, 2].map(|ch| std::array::from_fn(|k| v(16 + HIGH * ch + k))));
+                .push([0, 1, 2].map(|ch| std::array::from_fn(|k| band(ch, k))));
             out.escape.push(v(12));
             out.density.push(v(13));
         }
@@ -435,6 +451,9 @@ impl OrdersPass {
                 })
             };
             let media = buffer("cells' radiance", (4 * MEDIA * n.max(1)) as u64);
+            // The box of the cells with smoke, where the gathers' rays stop, then the
+            // green and blue channels' bands.
+            let more = buffer("cells' bands", (4 * (BOX + MORE * n.max(1))) as u64);
             let mut rec = [
                 buffer("orders' source", record_bytes),
                 buffer("orders' source", record_bytes),
@@ -460,13 +479,11 @@ impl OrdersPass {
                     &ro,
                     &rec[1],
                     &media,
-                    &rw,
+                    &more,
                 ],
                 groups,
                 1,
             );
-            // The box of the cells with smoke, where the gathers' rays stop.
-            let occupied = buffer("cells with smoke", 32);
             self.dispatch(
                 ctx,
                 "orders occupied",
@@ -479,7 +496,7 @@ impl OrdersPass {
                     &ro,
                     &rw,
                     &media,
-                    &occupied,
+                    &more,
                 ],
                 [1, 1, 1],
                 1,
@@ -501,7 +518,7 @@ impl OrdersPass {
                         &rec[0],
                         &rec[1],
                         &media,
-                        &occupied,
+                        &more,
                     ],
                 );
                 self.dispatch_each(ctx, "orders gather", &self.gather, &binds, groups);
@@ -509,6 +526,7 @@ impl OrdersPass {
             let [spare, last] = rec;
             MediaBuffer {
                 media,
+                more,
                 last,
                 spare,
                 params,
@@ -742,20 +760,19 @@ impl OrdersPass {
                     mapped_at_creation: false,
                 })
             };
-            let (ro, rw) = (unused(), unused());
             self.dispatch(
                 ctx,
                 "orders apply",
                 &self.apply,
                 &[
                     &params_buffer,
-                    &ro,
+                    &unused(),
                     grid.buffer(),
                     shadow.buffer(),
                     &media.last,
                     &media.spare,
                     &media.media,
-                    &rw,
+                    &media.more,
                 ],
                 groups,
                 1,
@@ -826,17 +843,39 @@ fn fitting_factor(dims: [usize; 3], max_cells: usize) -> usize {
         .unwrap_or(MAX_FACTOR)
 }
 
-/// The most cells [`OrdersPass::gather`] can hold on `ctx`'s device: its largest per-cell
-/// buffer, the cells' radiance ([`MEDIA`] words a cell), within the largest storage
-/// binding.
+/// The most cells [`OrdersPass::gather`] and [`OrdersPass::diffuse`] can hold on
+/// `ctx`'s device ([`cells_within`] its largest storage binding).
 pub fn max_cells(ctx: &GpuContext) -> usize {
-    usize::try_from(ctx.storage_limit() / (4 * MEDIA) as u64).unwrap_or(usize::MAX)
+    cells_within(ctx.storage_limit())
+}
+
+/// The most cells whose every per-cell buffer fits in a binding of `bytes`: the cells'
+/// radiance ([`MEDIA`] words a cell), the green and blue bands after the box ([`BOX`] +
+/// [`MORE`] a cell), the records (at most 13 + [`MAX_SUNS`] a cell) and the diffusion's
+/// system ([`ROW`] a cell, [`STATE`] words and 8 a workgroup of [`CG_GROUP`] cells), the
+/// largest of them a cell.
+fn cells_within(bytes: u64) -> usize {
+    let words = bytes / 4;
+    let per_cell = |fixed: u64, per: u64| words.saturating_sub(fixed) / per;
+    // 8·⌈n/G⌉ ≤ 8n/G + 8, so n(ROW·G + 8) ≤ G(words − STATE − 8) keeps the system within.
+    let (g, row) = (CG_GROUP as u64, ROW as u64);
+    let system = words.saturating_sub(STATE as u64 + 8) * g / (row * g + 8);
+    let n = [
+        per_cell(0, MEDIA as u64),
+        per_cell(BOX as u64, MORE as u64),
+        per_cell(0, (13 + MAX_SUNS) as u64),
+        system,
+    ]
+    .into_iter()
+    .min()
+    .unwrap_or(0);
+    usize::try_from(n).unwrap_or(usize::MAX)
 }
 
 /// The factor [`OrdersPass::gather`] takes on `ctx`'s device (the automatic one resolved
 /// by [`auto_factor`]), or why it cannot gather: a factor or order count out of range, too
 /// many suns, an environment grid of another volume, a projection with too few
-/// coefficients, cells (their sources, [`MEDIA`] words of radiance) beyond the device's
+/// coefficients, cells (their sources, radiance, bands or system) beyond the device's
 /// buffers.
 fn check_gather(
     ctx: &GpuContext,
@@ -880,6 +919,9 @@ fn check_gather(
     let record_bytes = (4 * n * (13 + env.suns.len())) as u64;
     ctx.check_storage_size("the gathered orders' sources", record_bytes)?;
     ctx.check_storage_size("the gathered orders' cells", (4 * MEDIA * n) as u64)?;
+    ctx.check_storage_size("the gathered orders' bands", (4 * (BOX + MORE * n)) as u64)?;
+    let system = ROW * n + STATE + 8 * n.div_ceil(CG_GROUP);
+    ctx.check_storage_size("the orders' diffusion", (4 * system) as u64)?;
     Ok(factor)
 }
 
@@ -962,17 +1004,48 @@ fn gather_params(
 mod tests {
     use super::*;
 
+    /// Whether `n` cells fit in a binding of `bytes`, buffer by buffer as `gather` and
+    /// `diffuse` size them.
+    fn fits(n: usize, bytes: usize) -> bool {
+        let system = ROW * n + STATE + 8 * n.div_ceil(CG_GROUP);
+        [MEDIA * n, BOX + MORE * n, (13 + MAX_SUNS) * n, system]
+            .iter()
+            .all(|&words| 4 * words <= bytes)
+    }
+
+    /// The cells within a binding are the most that fit, buffer by buffer (within one cell:
+    /// the system's partial sums are bounded, not counted), from lavapipe's 128 MiB to
+    /// bindings of a few words.
+    #[test]
+    fn the_cells_within_a_binding_are_the_most_that_fit() {
+        let lavapipe = 128usize << 20;
+        assert_eq!(cells_within(lavapipe as u64), 779_768);
+        for bytes in [
+            lavapipe,
+            1 << 20,
+            4 << 30,
+            1000,
+            4 * (STATE + 8 + ROW),
+            172,
+            0,
+        ] {
+            let n = cells_within(bytes as u64);
+            assert!(n == 0 || fits(n, bytes), "{bytes} B: {n} cells do not fit");
+            assert!(!fits(n + 2, bytes), "{bytes} B: {} cells fit too", n + 2);
+        }
+    }
+
     /// The automatic factor grows until the cells fit: 2 where 2 fits, the first that
     /// fits beyond it (counted here cell by cell), the largest where none does.
     #[test]
     fn the_automatic_factor_grows_to_fit_the_device() {
-        // Lavapipe's 128 MiB over the cells' radiance.
-        let max = (128usize << 20) / (4 * MEDIA);
-        assert_eq!(max, 134_217_728 / 316);
+        // Lavapipe's 128 MiB.
+        let max = cells_within(128 << 20);
         assert_eq!(fitting_factor([64, 64, 96], max), 2);
-        // 80³ cells of 2 are 512 000, over it; 54³ cells of 3 are 157 464.
-        assert_eq!(fitting_factor([160; 3], max), 3);
-        assert_eq!(fitting_factor([224, 140, 196], max), 3);
+        // 112 × 70 × 98 cells of 2 are 768 320; 100³ are 1 000 000, over it, and 67³
+        // cells of 3 are 300 763.
+        assert_eq!(fitting_factor([224, 140, 196], max), 2);
+        assert_eq!(fitting_factor([200; 3], max), 3);
         // 10⁴ voxels a side: even cells of 8 are 1250³.
         assert_eq!(fitting_factor([10_000; 3], max), MAX_FACTOR);
         assert_eq!(fitting_factor([0; 3], 0), AUTO_FACTOR);
