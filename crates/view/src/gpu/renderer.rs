@@ -749,7 +749,9 @@ impl GpuRenderer {
         {
             let kept = matches!(&self.orders_media, Some((k, _)) if *k == key);
             let factor = gpu_orders_factor(factor, opts.detail);
+            let orders = crate::render::grid_diffusion::orders_at_detail(orders, opts.detail);
             stats.crm.ms_factor = crate::gpu::orders::auto_factor(ctx, grid.dims(), factor);
+            stats.crm.ms_orders = orders;
             let media = match self.orders_media.take() {
                 Some(m) if kept => &self.orders_media.insert(m).1,
                 _ => {

@@ -71,7 +71,8 @@ pub struct CrmOptions {
     /// coarser, its spacing divided by `detail` ([`CrmOptions::env_grid`]), and the
     /// automatic cells of the explicit orders larger, their work budget times
     /// `detail⁴` and their side at least `2/detail` voxels
-    /// ([`grid_diffusion::auto_grid`]), and on the CPU the suns' shadows swept over the
+    /// ([`grid_diffusion::auto_grid`]) and their count `⌈K·detail⌉`, at least four
+    /// ([`grid_diffusion::orders_at_detail`], CPU and GPU), and on the CPU the suns' shadows swept over the
     /// voxel planes instead of marched per voxel ([`lights_pass::lights_pass_at`]); at
     /// 0.5 and below the environment grid also takes fewer directions
     /// ([`CrmOptions::env_grid`]). A
@@ -401,6 +402,8 @@ pub struct CrmStats {
     pub cg_residual: f64,
     /// Voxels per cell side of the gathered orders (0 without them).
     pub ms_factor: usize,
+    /// How many orders were gathered (`grid_diffusion::orders_at_detail`; 0 without them).
+    pub ms_orders: usize,
     /// Their `grid_diffusion::gather_work` on that grid (0 on the GPU, which does not
     /// count it).
     pub ms_work: f64,
@@ -414,12 +417,19 @@ impl std::fmt::Display for CrmStats {
             self.setup_seconds,
             self.single_seconds,
             self.multiple_seconds,
-            match self.ms_factor {
-                0 => String::new(),
-                f if self.ms_work > 0.0 => {
-                    format!("cells of {f}³ voxels, work {:.2e}, ", self.ms_work)
-                }
-                f => format!("cells of {f}³ voxels, "),
+            match (self.ms_factor, self.ms_orders) {
+                (0, _) => String::new(),
+                (f, k) => format!(
+                    "cells of {f}³ voxels, {}{}",
+                    match k {
+                        0 => String::new(),
+                        k => format!("{k} orders, "),
+                    },
+                    match self.ms_work {
+                        w if w > 0.0 => format!("work {w:.2e}, "),
+                        _ => String::new(),
+                    }
+                ),
             },
             self.cg_iterations,
             self.cg_residual,

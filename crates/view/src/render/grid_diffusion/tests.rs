@@ -321,6 +321,25 @@ fn the_automatic_cell_size_follows_the_amount_of_smoke() {
     }
 }
 
+/// Below full detail the orders fall with it, rounded up, never under four nor over those
+/// asked; full detail and an invalid one keep them all.
+#[test]
+fn a_lower_detail_gathers_fewer_orders() {
+    assert_eq!(orders_at_detail(6, 1.0), 6);
+    assert_eq!(orders_at_detail(6, 0.75), 5);
+    // 6 × 0.5 is 3 exactly: not rounded up past it, then raised to the least.
+    assert_eq!(orders_at_detail(6, 0.5), MIN_DETAIL_ORDERS);
+    assert_eq!(orders_at_detail(6, 0.43), MIN_DETAIL_ORDERS);
+    assert_eq!(orders_at_detail(8, 0.6), 5);
+    assert_eq!(orders_at_detail(8, 0.9), 8);
+    // Fewer asked than the least: kept.
+    assert_eq!(orders_at_detail(2, 0.25), 2);
+    assert_eq!(orders_at_detail(1, 0.5), 1);
+    for bad in [0.0, -1.0, 2.0, f64::NAN, f64::INFINITY] {
+        assert_eq!(orders_at_detail(6, bad), 6, "{bad}");
+    }
+}
+
 /// Thick smoke: cells of one voxel at full detail where cells of two would be more than
 /// `MAX_ORDERS_CELL_TAU` across (voxels over 1/3 optical depth) and their work is within
 /// the budget; cells of 2 at the edge and below it, for a NaN thickness and at a lower
