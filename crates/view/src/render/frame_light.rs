@@ -151,11 +151,9 @@ impl FrameLight {
         };
         if let Some(ms) = &ms {
             grid_diffusion::add_to_grids(&mut grids, ms, medium, eye);
-            if matches!(opts.diffusion, MsDiffusion::Orders { .. }) {
+            if let MsDiffusion::Orders { orders, .. } = opts.diffusion {
                 stats.ms_factor = ms.grid.factor;
-                if let MsDiffusion::Orders { orders, .. } = opts.diffusion {
-                    stats.ms_orders = grid_diffusion::orders_at_detail(orders, opts.detail);
-                }
+                stats.ms_orders = grid_diffusion::orders_at_detail(orders, opts.detail);
                 stats.ms_work = grid_diffusion::gather_work(&ms.grid);
             }
             stats.cg_iterations = ms.iterations;
