@@ -105,26 +105,34 @@ impl CoarseGrid {
     /// The eight cells around world point `p` and their trilinear weights between cell
     /// centers (the outer half cells take their own value), or `None` outside the box.
     pub fn corners(&self, p: [f64; 3]) -> Option<[(usize, f64); 8]> {
+        self.corners_at([0, 1, 2].map(|a| (p[a] - self.origin[a]) / self.h[a] - 0.5))
+    }
+
+    /// [`CoarseGrid::corners`] of the point at cell coordinates `c` (cell `k`'s center at
+    /// `c = k`, the box from `−½` to `dims − ½`): a march steps these from its start
+    /// instead of dividing each point's world position.
+    pub fn corners_at(&self, c: [f64; 3]) -> Option<[(usize, f64); 8]> {
         let mut lo = [0usize; 3];
+        let mut hi = [0usize; 3];
         let mut t = [0.0f64; 3];
         for a in 0..3 {
-            let u = (p[a] - self.origin[a]) / self.h[a];
-            if !(u >= 0.0 && u <= self.dims[a] as f64) {
+            if !(c[a] >= -0.5 && c[a] <= self.dims[a] as f64 - 0.5) {
                 return None;
             }
-            let c = (u - 0.5).clamp(0.0, (self.dims[a] - 1) as f64);
+            let c = c[a].clamp(0.0, (self.dims[a] - 1) as f64);
             lo[a] = (c as usize).min(self.dims[a].saturating_sub(2));
+            hi[a] = (lo[a] + 1).min(self.dims[a] - 1);
             t[a] = c - lo[a] as f64;
         }
+        let (sx, sy) = (self.dims[0], self.dims[0] * self.dims[1]);
+        let x = [(lo[0], 1.0 - t[0]), (hi[0], t[0])];
+        let y = [(lo[1] * sx, 1.0 - t[1]), (hi[1] * sx, t[1])];
+        let z = [(lo[2] * sy, 1.0 - t[2]), (hi[2] * sy, t[2])];
         Some(std::array::from_fn(|corner| {
-            let mut w = 1.0;
-            let mut c = [0usize; 3];
-            for a in 0..3 {
-                let hi = corner >> a & 1 == 1;
-                c[a] = (lo[a] + usize::from(hi)).min(self.dims[a] - 1);
-                w *= if hi { t[a] } else { 1.0 - t[a] };
-            }
-            (self.index(c), w)
+            let (i, wx) = x[corner & 1];
+            let (j, wy) = y[corner >> 1 & 1];
+            let (k, wz) = z[corner >> 2 & 1];
+            (i + j + k, wx * wy * wz)
         }))
     }
 

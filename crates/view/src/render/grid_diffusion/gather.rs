@@ -70,7 +70,10 @@ pub struct Gathered {
 }
 
 /// Values per cell in the march's record: `D`, `D·J⁰` (3), `D·J¹` (9), `D·T` per sun.
-const BASE: usize = 13;
+const BASE: usize = 1 + MOMENTS;
+
+/// `D·J⁰` and `D·J¹` of a record: the moments every march carries.
+const MOMENTS: usize = 12;
 
 fn finite(x: f64) -> f64 {
     if x.is_finite() { x } else { 0.0 }
@@ -141,7 +144,6 @@ pub fn gather(
             let (mut l0, mut l1, mut escape) = ([0.0f64; 3], [[0.0f64; 3]; 3], 0.0);
             let mut high = [[0.0f64; HIGH]; 3];
             let mut acc = vec![0.0f64; stride];
-            let mut sample = vec![0.0f64; stride];
             for (&(w, wt), y) in dirs.iter().zip(&ys) {
                 // Light arriving along w comes from x − s·w.
                 let back = w.map(|v| -v);
@@ -154,7 +156,6 @@ pub fn gather(
                     sigma_t,
                     (occ_lo, occ_hi),
                     &mut acc,
-                    &mut sample,
                 );
                 escape += wt * t;
                 for c in 0..3 {
@@ -209,27 +210,6 @@ fn occupied(grid: &CoarseGrid) -> ([f64; 3], [f64; 3]) {
     )
 }
 
-/// The record of `grid` (`stride` values per cell) at world point `p`, trilinear between
-/// cell centers, into `out` (zeros outside the box).
-fn trilinear(grid: &CoarseGrid, rec: &[f64], stride: usize, p: [f64; 3], out: &mut [f64]) {
-    out.fill(0.0);
-    let Some(corners) = grid.corners(p) else {
-        return;
-    };
-    for (cell, w) in corners {
-        if w == 0.0 {
-            continue;
-        }
-        let r = &rec[cell * stride..(cell + 1) * stride];
-        if r[0] <= 0.0 {
-            continue;
-        }
-        for (o, v) in out.iter_mut().zip(r) {
-            *o += w * v;
-        }
-    }
-}
-
 /// Per cell `stride` values, the density `D` first, then `D·J⁰` and `D·J¹` per channel
 /// and `D·T` per sun (0 in an empty cell): what the gathers' rays interpolate.
 fn cell_records(
@@ -273,7 +253,6 @@ fn march_back(
     sigma_t: f64,
     (occ_lo, occ_hi): ([f64; 3], [f64; 3]),
     acc: &mut [f64],
-    sample: &mut [f64],
 ) -> f64 {
     let h = grid.h[0].min(grid.h[1]).min(grid.h[2]);
     let len = grid.exit_distance(x, back);
@@ -290,19 +269,39 @@ fn march_back(
     }
     let steps = steps.min((reach / step + 0.5).ceil().max(0.0) as usize);
     acc.fill(0.0);
+    // The steps' midpoints in cell coordinates, stepped from the start.
+    let c0 = [0, 1, 2].map(|a| (x[a] - grid.origin[a]) / grid.h[a] - 0.5);
+    let dc = [0, 1, 2].map(|a| step * back[a] / grid.h[a]);
     let mut t = 1.0;
     for k in 0..steps {
-        let s = (k as f64 + 0.5) * step;
-        let p = [0, 1, 2].map(|a| x[a] + s * back[a]);
-        trilinear(grid, rec, stride, p, sample);
-        let d = sample[0];
+        let s = k as f64 + 0.5;
+        let Some(corners) = grid.corners_at([0, 1, 2].map(|a| c0[a] + s * dc[a])) else {
+            continue;
+        };
+        let d: f64 = corners
+            .iter()
+            .map(|&(cell, w)| w * rec[cell * stride])
+            .sum();
         if d <= 0.0 {
             continue;
         }
         let dtau = sigma_t * d * step;
         let share = t * -(-dtau).exp_m1() / d;
-        for (a, v) in acc.iter_mut().zip(sample.iter()).skip(1) {
-            *a += share * v;
+        // `acc += share · Σ w·record`, taken corner by corner (empty cells hold zeros).
+        for (cell, w) in corners {
+            let r = &rec[cell * stride..(cell + 1) * stride];
+            if w == 0.0 || r[0] <= 0.0 {
+                continue;
+            }
+            let sw = share * w;
+            let (moments, sun) = r[1..].split_at(MOMENTS);
+            let (acc_moments, acc_sun) = acc[1..].split_at_mut(MOMENTS);
+            for (a, v) in acc_moments.iter_mut().zip(moments) {
+                *a += sw * v;
+            }
+            for (a, v) in acc_sun.iter_mut().zip(sun) {
+                *a += sw * v;
+            }
         }
         t *= (-dtau).exp();
         if t < T_MIN {

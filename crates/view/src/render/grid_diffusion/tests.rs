@@ -482,3 +482,44 @@ fn the_first_orders_rule_follows_the_phase_functions_peak() {
         assert_eq!(gather_theta(g), GATHER_THETA_MAX, "g {g}");
     }
 }
+
+/// `corners` reproduces a linear function of the cell centers at every point between the
+/// first and last centers (trilinear interpolation is exact on linear functions), takes
+/// the nearest centers' value in the outer half cells, and answers `None` outside the
+/// box; `corners_at` of the cell coordinates a march steps gives the same cells and
+/// weights.
+#[test]
+fn the_corners_interpolate_a_linear_field() {
+    let g = CoarseGrid {
+        dims: [5, 3, 4],
+        factor: 2,
+        h: [0.5, 0.25, 1.0],
+        origin: [-1.0, 2.0, 0.5],
+        density: vec![1.0; 60],
+    };
+    let f = |p: [f64; 3]| 0.3 + 1.7 * p[0] - 2.1 * p[1] + 0.6 * p[2];
+    let mut rng = Pcg64::seed_from_u64(11);
+    for _ in 0..500 {
+        let u: [f64; 3] = std::array::from_fn(|_| rng.random_range(-0.05..1.05));
+        let p = [0, 1, 2].map(|a| g.origin[a] + u[a] * g.h[a] * g.dims[a] as f64);
+        let corners = g.corners(p);
+        if u.iter().any(|&u| !(0.0..=1.0).contains(&u)) {
+            assert!(corners.is_none(), "{p:?} is outside the box");
+            continue;
+        }
+        let corners = corners.unwrap();
+        // The point clamped to the centers' hull: the outer half cells are constant.
+        let lo = g.center([0, 0, 0]);
+        let hi = g.center([4, 2, 3]);
+        let q = [0, 1, 2].map(|a| p[a].clamp(lo[a], hi[a]));
+        let sum: f64 = corners.iter().map(|&(_, w)| w).sum();
+        let value: f64 = corners
+            .iter()
+            .map(|&(i, w)| w * f(g.center(g.coords(i))))
+            .sum();
+        assert!((sum - 1.0).abs() < 1e-12, "weights sum to {sum}");
+        assert!((value - f(q)).abs() < 1e-12, "{value} against {}", f(q));
+        let c = [0, 1, 2].map(|a| (p[a] - g.origin[a]) / g.h[a] - 0.5);
+        assert_eq!(g.corners_at(c), Some(corners));
+    }
+}
