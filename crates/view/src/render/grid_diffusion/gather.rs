@@ -286,7 +286,10 @@ fn march_back(
             continue;
         }
         let dtau = sigma_t * d * step;
-        let share = t * -(-dtau).exp_m1() / d;
+        // `1 − e^{−Δτ}` from the one exponential: off by at most an ulp of 1, a relative
+        // `10⁻⁸` of the step's share at `Δτ = 10⁻⁸`, where the share is that small.
+        let e = (-dtau).exp();
+        let share = t * (1.0 - e) / d;
         // `acc += share · Σ w·record`, taken corner by corner (empty cells hold zeros).
         for (cell, w) in corners {
             let r = &rec[cell * stride..(cell + 1) * stride];
@@ -303,7 +306,7 @@ fn march_back(
                 *a += sw * v;
             }
         }
-        t *= (-dtau).exp();
+        t *= e;
         if t < T_MIN {
             t = 0.0;
             break;
