@@ -172,14 +172,15 @@ impl Volume {
     pub fn occupied_bbox(&self, threshold: f32) -> Option<Bbox> {
         let mut lo = [usize::MAX; 3];
         let mut hi = [0usize; 3];
-        for (i, &d) in self.data.iter().enumerate() {
-            if d > threshold {
-                let c = self.coords(i);
-                for a in 0..3 {
-                    lo[a] = lo[a].min(c[a]);
-                    hi[a] = hi[a].max(c[a]);
-                }
-            }
+        // Row by row (x fastest): each row's first and last dense voxel.
+        for (r, row) in self.data.chunks_exact(self.dims[0].max(1)).enumerate() {
+            let Some(first) = row.iter().position(|&d| d > threshold) else {
+                continue;
+            };
+            let last = row.iter().rposition(|&d| d > threshold).unwrap_or(first);
+            let (y, z) = (r % self.dims[1], r / self.dims[1]);
+            lo = [lo[0].min(first), lo[1].min(y), lo[2].min(z)];
+            hi = [hi[0].max(last), hi[1].max(y), hi[2].max(z)];
         }
         if lo[0] == usize::MAX {
             return None;
@@ -213,6 +214,34 @@ mod tests {
         assert_eq!((b.min, b.max), ([1.0, 4.0, 1.5], [3.0, 6.0, 3.0]));
         let b = v.occupied_bbox(0.6).unwrap();
         assert_eq!((b.min, b.max), ([1.0, 4.0, 1.5], [2.0, 6.0, 2.0]));
+    }
+
+    /// The row-by-row box against every voxel tested (sparse voxels on odd shapes).
+    #[test]
+    fn occupied_bbox_matches_every_voxel_tested() {
+        for (dims, step) in [([7, 5, 3], 11usize), ([1, 9, 4], 7), ([6, 1, 1], 4)] {
+            let mut v = Volume::zeros(dims, unit()).unwrap();
+            for (i, d) in v.data_mut().iter_mut().enumerate() {
+                *d = if (i * 37 + 5) % step == 0 {
+                    1.0 + i as f32
+                } else {
+                    0.0
+                };
+            }
+            let (mut lo, mut hi) = ([usize::MAX; 3], [0; 3]);
+            for i in 0..v.data().len() {
+                if v.data()[i] > 0.0 {
+                    let c = v.coords(i);
+                    (0..3).for_each(|a| (lo[a], hi[a]) = (lo[a].min(c[a]), hi[a].max(c[a])));
+                }
+            }
+            let vs = v.voxel_size();
+            let b = v.occupied_bbox(0.0).unwrap();
+            for a in 0..3 {
+                assert_eq!(b.min[a], lo[a] as f64 * vs[a], "{dims:?}");
+                assert_eq!(b.max[a], (hi[a] + 1) as f64 * vs[a], "{dims:?}");
+            }
+        }
     }
 
     fn unit() -> Bbox {

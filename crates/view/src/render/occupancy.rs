@@ -32,23 +32,22 @@ impl Occupancy {
         let dims = density.dims();
         let blocks = dims.map(|n| n.div_ceil(BLOCK));
         let mut marked = vec![false; blocks.iter().product()];
-        for (i, &d) in density.data().iter().enumerate() {
-            // `D > 0` only (NaN and non-positive voxels are not density).
-            if d.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
-                continue;
-            }
-            let k = [
-                i % dims[0],
-                (i / dims[0]) % dims[1],
-                i / (dims[0] * dims[1]),
-            ];
-            // The blocks of the voxels within one of k.
-            let lo = k.map(|v| v.saturating_sub(1) / BLOCK);
-            let hi: [usize; 3] = std::array::from_fn(|a| (k[a] + 1).min(dims[a] - 1) / BLOCK);
-            for z in lo[2]..=hi[2] {
-                for y in lo[1]..=hi[1] {
-                    for x in lo[0]..=hi[0] {
-                        marked[x + blocks[0] * (y + blocks[1] * z)] = true;
+        for (r, row) in density.data().chunks_exact(dims[0]).enumerate() {
+            let (y, z) = (r % dims[1], r / dims[1]);
+            for (x, &d) in row.iter().enumerate() {
+                // `D > 0` only (NaN and non-positive voxels are not density).
+                if d.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+                    continue;
+                }
+                let k = [x, y, z];
+                // The blocks of the voxels within one of k.
+                let lo = k.map(|v| v.saturating_sub(1) / BLOCK);
+                let hi: [usize; 3] = std::array::from_fn(|a| (k[a] + 1).min(dims[a] - 1) / BLOCK);
+                for z in lo[2]..=hi[2] {
+                    for y in lo[1]..=hi[1] {
+                        for x in lo[0]..=hi[0] {
+                            marked[x + blocks[0] * (y + blocks[1] * z)] = true;
+                        }
                     }
                 }
             }
