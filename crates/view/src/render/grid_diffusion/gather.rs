@@ -269,6 +269,8 @@ fn march_back(
     }
     let steps = steps.min((reach / step + 0.5).ceil().max(0.0) as usize);
     acc.fill(0.0);
+    // The moments summed in registers, the suns' transmittances (first order) in `acc`.
+    let mut sum = [0.0f64; MOMENTS];
     // The steps' midpoints in cell coordinates, stepped from the start.
     let c0 = [0, 1, 2].map(|a| (x[a] - grid.origin[a]) / grid.h[a] - 0.5);
     let dc = [0, 1, 2].map(|a| step * back[a] / grid.h[a]);
@@ -297,12 +299,13 @@ fn march_back(
                 continue;
             }
             let sw = share * w;
-            let (moments, sun) = r[1..].split_at(MOMENTS);
-            let (acc_moments, acc_sun) = acc[1..].split_at_mut(MOMENTS);
-            for (a, v) in acc_moments.iter_mut().zip(moments) {
+            let Some((moments, sun)) = r[1..].split_first_chunk::<MOMENTS>() else {
+                continue;
+            };
+            for (a, v) in sum.iter_mut().zip(moments) {
                 *a += sw * v;
             }
-            for (a, v) in acc_sun.iter_mut().zip(sun) {
+            for (a, v) in acc[BASE..].iter_mut().zip(sun) {
                 *a += sw * v;
             }
         }
@@ -312,5 +315,6 @@ fn march_back(
             break;
         }
     }
+    acc[1..BASE].copy_from_slice(&sum);
     t
 }
