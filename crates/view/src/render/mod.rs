@@ -73,7 +73,9 @@ pub struct CrmOptions {
     /// `detail⁴` and their side at least `2/detail` voxels
     /// ([`grid_diffusion::auto_grid`]) and their count `⌈K·detail⌉`, at least four
     /// ([`grid_diffusion::orders_at_detail`], CPU and GPU), and on the CPU the suns' shadows swept over the
-    /// voxel planes instead of marched per voxel ([`lights_pass::lights_pass_at`]); at
+    /// voxel planes instead of marched per voxel, on a lattice
+    /// [`lights_pass::SUN_SPACING`] voxels apart at `1/SUN_SPACING` and below
+    /// ([`lights_pass::lights_pass_at`]); at
     /// 0.5 and below the environment grid also takes fewer directions
     /// ([`CrmOptions::env_grid`]). A
     /// new frame's lighting then costs about a third per step of 0.75, 0.5, 0.35; what it
