@@ -133,6 +133,17 @@ pub fn gather(
         .iter()
         .map(|sun| phase_norm(&sun.phase, sun.direction, dirs))
         .collect();
+    // Each sun's phase function towards every direction, `p̄(−s·ω)`: the same for every
+    // cell, so taken once.
+    let phases: Vec<f64> = dirs
+        .iter()
+        .flat_map(|(w, _)| {
+            suns.iter().map(|sun| {
+                let cos = -(0..3).map(|a| sun.direction[a] * w[a]).sum::<f64>();
+                sun.phase.eval(cos)
+            })
+        })
+        .collect();
     type Cell = ([f64; 3], [[f64; 3]; 3], [[f64; HIGH]; 3], f64);
     let cells: Vec<Cell> = (0..n)
         .into_par_iter()
@@ -144,7 +155,8 @@ pub fn gather(
             let (mut l0, mut l1, mut escape) = ([0.0f64; 3], [[0.0f64; 3]; 3], 0.0);
             let mut high = [[0.0f64; HIGH]; 3];
             let mut acc = vec![0.0f64; stride];
-            for (&(w, wt), y) in dirs.iter().zip(&ys) {
+            for (d, (&(w, wt), y)) in dirs.iter().zip(&ys).enumerate() {
+                let phase = &phases[d * suns.len()..(d + 1) * suns.len()];
                 // Light arriving along w comes from x − s·w.
                 let back = w.map(|v| -v);
                 let t = march_back(
@@ -161,8 +173,7 @@ pub fn gather(
                 for c in 0..3 {
                     let mut l = acc[1 + c] + (0..3).map(|a| acc[4 + 3 * c + a] * w[a]).sum::<f64>();
                     for (k, sun) in suns.iter().enumerate() {
-                        let cos = -(0..3).map(|a| sun.direction[a] * w[a]).sum::<f64>();
-                        l += norms[k] * sun.emit[c] * acc[BASE + k] * sun.phase.eval(cos);
+                        l += norms[k] * sun.emit[c] * acc[BASE + k] * phase[k];
                     }
                     let l = l.max(0.0);
                     l0[c] += wt * l;
