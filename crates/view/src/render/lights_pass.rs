@@ -112,7 +112,8 @@ impl LightShadows {
         let h0 = vs[0].min(vs[1]).min(vs[2]);
         let plane = dims[0] * dims[1];
         let lit = lit_voxels(density);
-        // Per sun, at a lower detail, σt·τ on a lattice `1/detail` voxels apart by a sweep.
+        // Per sun, at a lower detail, σt·τ by a sweep: on the voxel centers, or on a
+        // lattice `SUN_SPACING` voxels apart at `1/SUN_SPACING` and below.
         let detail = super::detail_or_one(detail);
         let lit_box = super::env_pass::node_domain(&lit, dims);
         let swept: Vec<Option<SunDepths>> = env
@@ -285,19 +286,19 @@ impl SunDepths {
     /// `σt·τ` at `u`, trilinear between the lattice's nodes (clamped to its box).
     fn at(&self, u: [f64; 3]) -> f64 {
         let (i0, f) = self.grid.stencil(u);
-        let [nx, ny, nz] = self.grid.nodes;
+        let n = self.grid.nodes;
         let mut depth = 0.0;
         for corner in 0..8 {
             let d = [corner & 1, corner >> 1 & 1, corner >> 2];
-            let n = [nx, ny, nz];
             let mut w = 1.0;
             let mut i = [0usize; 3];
             for a in 0..3 {
+                // An axis of one node has `f = 0`: its upper corner weighs nothing.
                 i[a] = (i0[a] + d[a]).min(n[a] - 1);
                 w *= if d[a] == 1 { f[a] } else { 1.0 - f[a] };
             }
             if w > 0.0 {
-                depth += w * f64::from(self.tau[i[0] + nx * (i[1] + ny * i[2])]);
+                depth += w * f64::from(self.tau[i[0] + n[0] * (i[1] + n[1] * i[2])]);
             }
         }
         depth
