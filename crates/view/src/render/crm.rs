@@ -84,37 +84,33 @@ pub fn volume_pass(
     let plane = dims[0] * dims[1];
     let size = bbox.size();
     let vs = [0, 1, 2].map(|a| size[a] / dims[a].max(1) as f64);
-    let slices: Vec<(Vec<f32>, Vec<[f32; 3]>)> = (0..dims[2])
-        .into_par_iter()
-        .map(|z| {
-            let slice = SliceSplats::new(rbfs, z, dims, bbox);
-            let mut dens = vec![0.0f32; plane];
-            let mut rad = vec![[0.0f32; 3]; plane];
-            let mut band = Band::new(dims[0], order);
-            for y0 in (0..dims[1]).step_by(ROWS) {
-                let y1 = (y0 + ROWS).min(dims[1]);
-                band.clear(y1 - y0);
-                band.splat(&slice, source, y0, y1);
-                let at = y0 * dims[0]..y1 * dims[0];
-                let r = residual.map(|r| &r[z * plane + at.start..z * plane + at.end]);
-                let eye_u = |i: usize| {
-                    let (x, y) = (i % dims[0], y0 + i / dims[0]);
-                    [0, 1, 2].map(|a| {
-                        let c = [x as f64, y as f64, z as f64][a];
-                        bbox.min[a] + (c + 0.5) * vs[a] - eye[a]
-                    })
-                };
-                band.finish(r, eye_u, &mut dens[at.clone()], &mut rad[at]);
-            }
-            (dens, rad)
-        })
-        .collect();
-    let mut density = Vec::with_capacity(plane * dims[2]);
-    let mut radiance = Vec::with_capacity(plane * dims[2]);
-    for (d, r) in slices {
-        density.extend(d);
-        radiance.extend(r);
-    }
+    let mut density = vec![0.0f32; plane * dims[2]];
+    let mut radiance = vec![[0.0f32; 3]; plane * dims[2]];
+    density
+        .par_chunks_mut(plane.max(1))
+        .zip(radiance.par_chunks_mut(plane.max(1)))
+        .enumerate()
+        .for_each_init(
+            || Band::new(dims[0], order),
+            |band, (z, (dens, rad))| {
+                let slice = SliceSplats::new(rbfs, z, dims, bbox);
+                for y0 in (0..dims[1]).step_by(ROWS) {
+                    let y1 = (y0 + ROWS).min(dims[1]);
+                    band.clear();
+                    band.splat(&slice, source, y0, y1);
+                    let at = y0 * dims[0]..y1 * dims[0];
+                    let r = residual.map(|r| &r[z * plane + at.start..z * plane + at.end]);
+                    let eye_u = |i: usize| {
+                        let (x, y) = (i % dims[0], y0 + i / dims[0]);
+                        [0, 1, 2].map(|a| {
+                            let c = [x as f64, y as f64, z as f64][a];
+                            bbox.min[a] + (c + 0.5) * vs[a] - eye[a]
+                        })
+                    };
+                    band.finish(r, eye_u, &mut dens[at.clone()], &mut rad[at]);
+                }
+            },
+        );
     VolumeGrids {
         density: Volume::new(dims, *bbox, density).expect("dims match the data"),
         radiance,
@@ -122,11 +118,16 @@ pub fn volume_pass(
     }
 }
 
-/// [`volume_pass`]'s sums over a band of rows: `D̃` and `Σ B_ℓ J̃(c_ℓ)` per voxel.
+/// [`volume_pass`]'s sums over a band of rows: `D̃` and `Σ B_ℓ J̃(c_ℓ)` per voxel. A
+/// voxel's sums are zeroed when the first RBF reaches it ([`Band::splat`]), so a band
+/// whose RBFs cover a few voxels clears only those; a voxel no RBF reaches reads as
+/// `D̃ = 0`.
 struct Band {
     nx: usize,
     n2: usize,
     order: usize,
+    /// Whether an RBF reached the voxel since [`Band::clear`] (its sums hold values).
+    touched: Vec<bool>,
     dt: Vec<f64>,
     acc: Vec<f64>,
     y: Vec<f64>,
@@ -139,6 +140,7 @@ impl Band {
             nx,
             n2,
             order,
+            touched: vec![false; ROWS * nx],
             dt: vec![0.0; ROWS * nx],
             acc: vec![0.0; ROWS * nx * 3 * n2],
             y: vec![0.0; n2],
@@ -150,8 +152,13 @@ impl Band {
         let (nx, n2) = (self.nx, self.n2);
         slice.splat(y0, y1, |l, x, y, b| {
             let i = x + nx * (y - y0);
-            self.dt[i] += b;
             let a = &mut self.acc[i * 3 * n2..(i + 1) * 3 * n2];
+            if !self.touched[i] {
+                self.touched[i] = true;
+                self.dt[i] = 0.0;
+                a.fill(0.0);
+            }
+            self.dt[i] += b;
             for (ch, j) in source[l].iter().enumerate() {
                 for (s, v) in a[ch * n2..(ch + 1) * n2].iter_mut().zip(j) {
                     *s += b * v;
@@ -160,10 +167,9 @@ impl Band {
         });
     }
 
-    /// Zeroes the sums of `rows` rows.
-    fn clear(&mut self, rows: usize) {
-        self.dt[..rows * self.nx].fill(0.0);
-        self.acc[..rows * self.nx * 3 * self.n2].fill(0.0);
+    /// Marks every voxel of the band as reached by no RBF.
+    fn clear(&mut self) {
+        self.touched.fill(false);
     }
 
     /// `D` and `J̃` towards the eye of the band's voxels (module docs): `residual` their
@@ -177,7 +183,7 @@ impl Band {
     ) {
         let n2 = self.n2;
         for i in 0..dens.len() {
-            let d_tilde = self.dt[i];
+            let d_tilde = if self.touched[i] { self.dt[i] } else { 0.0 };
             if d_tilde < MIN_DENSITY {
                 dens[i] = d_tilde.max(0.0) as f32;
                 continue;
