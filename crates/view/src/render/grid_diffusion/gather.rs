@@ -31,12 +31,14 @@
 //! once-scattered light seen across its flow, `super::add_to_grids`).
 
 use super::CoarseGrid;
+use super::rays::{CellRays, RayCache};
 use crate::diffusion::Sources;
 use crate::lights::DiskPhase;
 use crate::medium::FOUR_PI;
 use crate::sh;
 use rayon::prelude::*;
 use std::sync::Arc;
+use std::sync::atomic::AtomicUsize;
 
 /// Transmittance below which a ray stops.
 pub const T_MIN: f64 = 1e-4;
@@ -73,7 +75,7 @@ pub struct Gathered {
 const BASE: usize = 1 + MOMENTS;
 
 /// `D·J⁰` and `D·J¹` of a record: the moments every march carries.
-const MOMENTS: usize = 12;
+pub(super) const MOMENTS: usize = 12;
 
 fn finite(x: f64) -> f64 {
     if x.is_finite() { x } else { 0.0 }
@@ -109,89 +111,104 @@ pub fn gather(
     suns: &[SunSource],
     dirs: &[([f64; 3], f64)],
 ) -> Gathered {
+    gather_with(grid, sigma_t, sources, suns, dirs, Rays::March).0
+}
+
+/// [`gather`] of a later order (no suns) keeping its rays in `rays` for the next
+/// ([`super::rays`]): with `rays` empty every ray is marched and each cell's kept while
+/// its budget holds them (none with a budget of 0); else the kept rays sum `sources` without a march (the
+/// same sums to the bit) and the cells not kept march. `rays` must come from gathers
+/// through the same `grid`, `sigma_t` and `dirs`.
+///
+/// # Panics
+/// If `sources` does not hold one entry per cell.
+pub fn gather_later(
+    grid: &CoarseGrid,
+    sigma_t: f64,
+    sources: &Sources,
+    dirs: &[([f64; 3], f64)],
+    rays: &mut RayCache,
+) -> Gathered {
+    if rays.budget == 0 {
+        gather(grid, sigma_t, sources, &[], dirs)
+    } else if rays.cells.is_empty() {
+        let left = AtomicUsize::new(rays.budget);
+        let (out, kept) = gather_with(grid, sigma_t, sources, &[], dirs, Rays::Keep(&left));
+        rays.cells = kept;
+        out
+    } else {
+        gather_with(grid, sigma_t, sources, &[], dirs, Rays::Replay(rays)).0
+    }
+}
+
+/// What a gather does with its rays.
+enum Rays<'a> {
+    /// Marches every ray.
+    March,
+    /// Marches every ray and keeps each cell's within the bytes left.
+    Keep(&'a AtomicUsize),
+    /// Sums the kept rays; marches the cells not kept.
+    Replay(&'a RayCache),
+}
+
+/// `L⁰`, `L¹`, bands 2–4 and the escape probability of one cell.
+type Cell = ([f64; 3], [[f64; 3]; 3], [[f64; HIGH]; 3], f64);
+
+/// [`gather`] with its rays marched, kept or replayed: also each cell's kept rays with
+/// [`Rays::Keep`] (empty otherwise).
+fn gather_with(
+    grid: &CoarseGrid,
+    sigma_t: f64,
+    sources: &Sources,
+    suns: &[SunSource],
+    dirs: &[([f64; 3], f64)],
+    rays: Rays<'_>,
+) -> (Gathered, Vec<Option<CellRays>>) {
     let n = grid.len();
     assert!(sources.j0.len() == n && sources.j1.len() == n);
     assert!(suns.iter().all(|s| s.transmittance.len() == n));
     let stride = BASE + suns.len();
-    let rec = cell_records(grid, sources, suns, stride);
-    let (occ_lo, occ_hi) = occupied(grid);
     let sigma_t = if sigma_t.is_finite() {
         sigma_t.max(0.0)
     } else {
         0.0
     };
-    // Bands 2–4 of the SH basis at every direction.
-    let ys: Vec<[f64; HIGH]> = dirs
-        .iter()
-        .map(|(w, _)| {
-            let mut y = [0.0; 25];
-            sh::eval_into(5, *w, &mut y);
-            std::array::from_fn(|k| y[4 + k])
-        })
-        .collect();
-    let norms: Vec<f64> = suns
-        .iter()
-        .map(|sun| phase_norm(&sun.phase, sun.direction, dirs))
-        .collect();
-    // Each sun's phase function towards every direction, `p̄(−s·ω)`: the same for every
-    // cell, so taken once.
-    let phases: Vec<f64> = dirs
-        .iter()
-        .flat_map(|(w, _)| {
-            suns.iter().map(|sun| {
-                let cos = -(0..3).map(|a| sun.direction[a] * w[a]).sum::<f64>();
-                sun.phase.eval(cos)
+    let gathering = Gathering {
+        grid,
+        rec: cell_records(grid, sources, suns, stride),
+        stride,
+        occupied: occupied(grid),
+        sigma_t,
+        dirs,
+        // Bands 2–4 of the SH basis at every direction.
+        ys: dirs
+            .iter()
+            .map(|(w, _)| {
+                let mut y = [0.0; 25];
+                sh::eval_into(5, *w, &mut y);
+                std::array::from_fn(|k| y[4 + k])
             })
-        })
-        .collect();
-    type Cell = ([f64; 3], [[f64; 3]; 3], [[f64; HIGH]; 3], f64);
-    let cells: Vec<Cell> = (0..n)
+            .collect(),
+        norms: suns
+            .iter()
+            .map(|sun| phase_norm(&sun.phase, sun.direction, dirs))
+            .collect(),
+        // Each sun's phase function towards every direction, `p̄(−s·ω)`: the same for
+        // every cell, so taken once.
+        phases: dirs
+            .iter()
+            .flat_map(|(w, _)| {
+                suns.iter().map(|sun| {
+                    let cos = -(0..3).map(|a| sun.direction[a] * w[a]).sum::<f64>();
+                    sun.phase.eval(cos)
+                })
+            })
+            .collect(),
+        suns,
+    };
+    let cells: Vec<(Cell, Option<CellRays>)> = (0..n)
         .into_par_iter()
-        .map(|i| {
-            if grid.density[i] <= 0.0 || grid.density[i].is_nan() || dirs.is_empty() {
-                return ([0.0; 3], [[0.0; 3]; 3], [[0.0; HIGH]; 3], 1.0);
-            }
-            let x = grid.center(grid.coords(i));
-            let (mut l0, mut l1, mut escape) = ([0.0f64; 3], [[0.0f64; 3]; 3], 0.0);
-            let mut high = [[0.0f64; HIGH]; 3];
-            let mut acc = vec![0.0f64; stride];
-            for (d, (&(w, wt), y)) in dirs.iter().zip(&ys).enumerate() {
-                let phase = &phases[d * suns.len()..(d + 1) * suns.len()];
-                // Light arriving along w comes from x − s·w.
-                let back = w.map(|v| -v);
-                let t = march_back(
-                    grid,
-                    &rec,
-                    stride,
-                    x,
-                    back,
-                    sigma_t,
-                    (occ_lo, occ_hi),
-                    &mut acc,
-                );
-                escape += wt * t;
-                for c in 0..3 {
-                    let mut l = acc[1 + c] + (0..3).map(|a| acc[4 + 3 * c + a] * w[a]).sum::<f64>();
-                    for (k, sun) in suns.iter().enumerate() {
-                        l += norms[k] * sun.emit[c] * acc[BASE + k] * phase[k];
-                    }
-                    let l = l.max(0.0);
-                    l0[c] += wt * l;
-                    for a in 0..3 {
-                        l1[c][a] += 3.0 * wt * l * w[a];
-                    }
-                    for (h, y) in high[c].iter_mut().zip(y) {
-                        *h += wt * l * y;
-                    }
-                }
-            }
-            (
-                l0.map(|v| v / FOUR_PI),
-                l1.map(|c| c.map(|v| v / FOUR_PI)),
-                high,
-                (escape / FOUR_PI).clamp(0.0, 1.0),
-            )
-        })
+        .map(|i| gathering.cell(i, &rays))
         .collect();
     let mut out = Gathered {
         l0: Vec::with_capacity(n),
@@ -199,13 +216,105 @@ pub fn gather(
         high: Vec::with_capacity(n),
         escape: Vec::with_capacity(n),
     };
-    for (a, b, h, p) in cells {
+    let keep = matches!(rays, Rays::Keep(_));
+    let mut kept = Vec::with_capacity(if keep { n } else { 0 });
+    for ((a, b, h, p), k) in cells {
         out.l0.push(a);
         out.l1.push(b);
         out.high.push(h);
         out.escape.push(p);
+        if keep {
+            kept.push(k);
+        }
     }
-    out
+    (out, kept)
+}
+
+/// What every cell of one gather shares: the grid, its records, the rule and the suns.
+struct Gathering<'a> {
+    grid: &'a CoarseGrid,
+    rec: Vec<f64>,
+    stride: usize,
+    occupied: ([f64; 3], [f64; 3]),
+    sigma_t: f64,
+    dirs: &'a [([f64; 3], f64)],
+    ys: Vec<[f64; HIGH]>,
+    norms: Vec<f64>,
+    phases: Vec<f64>,
+    suns: &'a [SunSource],
+}
+
+impl Gathering<'_> {
+    /// The light gathered at cell `i` along every direction (its rays marched, kept or
+    /// replayed as `rays` says), and its rays where they are to be kept.
+    fn cell(&self, i: usize, rays: &Rays<'_>) -> (Cell, Option<CellRays>) {
+        let grid = self.grid;
+        if grid.density[i] <= 0.0 || grid.density[i].is_nan() || self.dirs.is_empty() {
+            return (([0.0; 3], [[0.0; 3]; 3], [[0.0; HIGH]; 3], 1.0), None);
+        }
+        let x = grid.center(grid.coords(i));
+        let replay = match rays {
+            Rays::Replay(cache) => cache.cells.get(i).and_then(Option::as_ref),
+            _ => None,
+        };
+        let mut keep = matches!(rays, Rays::Keep(_)).then(CellRays::default);
+        let (mut l0, mut l1, mut escape) = ([0.0f64; 3], [[0.0f64; 3]; 3], 0.0);
+        let mut high = [[0.0f64; HIGH]; 3];
+        let mut acc = vec![0.0f64; self.stride];
+        let suns = self.suns;
+        for (d, (&(w, wt), y)) in self.dirs.iter().zip(&self.ys).enumerate() {
+            let phase = &self.phases[d * suns.len()..(d + 1) * suns.len()];
+            let t = match replay {
+                Some(ray) => {
+                    let mut sum = [0.0f64; MOMENTS];
+                    let t = ray.replay(d, &self.rec, self.stride, &mut sum);
+                    acc.fill(0.0);
+                    acc[1..BASE].copy_from_slice(&sum);
+                    t
+                }
+                None => {
+                    // Light arriving along w comes from x − s·w.
+                    let t = march_back(self, x, w.map(|v| -v), &mut acc, |cell, sw| {
+                        if keep.as_mut().is_some_and(|k| !k.push(cell, sw)) {
+                            keep = None;
+                        }
+                    });
+                    if let Some(k) = keep.as_mut() {
+                        k.end_ray(t);
+                    }
+                    t
+                }
+            };
+            escape += wt * t;
+            for c in 0..3 {
+                let mut l = acc[1 + c] + (0..3).map(|a| acc[4 + 3 * c + a] * w[a]).sum::<f64>();
+                for (k, sun) in suns.iter().enumerate() {
+                    l += self.norms[k] * sun.emit[c] * acc[BASE + k] * phase[k];
+                }
+                let l = l.max(0.0);
+                l0[c] += wt * l;
+                for a in 0..3 {
+                    l1[c][a] += 3.0 * wt * l * w[a];
+                }
+                for (h, y) in high[c].iter_mut().zip(y) {
+                    *h += wt * l * y;
+                }
+            }
+        }
+        let kept = match rays {
+            Rays::Keep(left) => keep.and_then(|k| k.within(left)),
+            _ => None,
+        };
+        (
+            (
+                l0.map(|v| v / FOUR_PI),
+                l1.map(|c| c.map(|v| v / FOUR_PI)),
+                high,
+                (escape / FOUR_PI).clamp(0.0, 1.0),
+            ),
+            kept,
+        )
+    }
 }
 
 /// The world box outside which the trilinear density of `grid` is 0: the cells with
@@ -251,20 +360,19 @@ fn cell_records(
 }
 
 /// Marches back from `x` along `back` to the grid's edge (steps of the finest cell side,
-/// those beyond the occupied box `occ` skipped): accumulates into `acc` the records of
-/// `rec` weighted by each step's share of the light, and returns the transmittance left
-/// (0 once below [`T_MIN`]).
-#[allow(clippy::too_many_arguments)]
+/// those beyond the occupied box skipped): accumulates into `acc` the records of the
+/// gathering weighted by each step's share of the light, tells `seen` each corner added
+/// (its cell and weight, in order), and returns the transmittance left (0 once below
+/// [`T_MIN`]).
 fn march_back(
-    grid: &CoarseGrid,
-    rec: &[f64],
-    stride: usize,
+    gathering: &Gathering<'_>,
     x: [f64; 3],
     back: [f64; 3],
-    sigma_t: f64,
-    (occ_lo, occ_hi): ([f64; 3], [f64; 3]),
     acc: &mut [f64],
+    mut seen: impl FnMut(usize, f64),
 ) -> f64 {
+    let (grid, rec, stride) = (gathering.grid, gathering.rec.as_slice(), gathering.stride);
+    let ((occ_lo, occ_hi), sigma_t) = (gathering.occupied, gathering.sigma_t);
     let h = grid.h[0].min(grid.h[1]).min(grid.h[2]);
     let len = grid.exit_distance(x, back);
     let steps = (len / h).ceil().max(1.0) as usize;
@@ -313,6 +421,7 @@ fn march_back(
             let Some((moments, sun)) = r[1..].split_first_chunk::<MOMENTS>() else {
                 continue;
             };
+            seen(cell, sw);
             for (a, v) in sum.iter_mut().zip(moments) {
                 *a += sw * v;
             }

@@ -382,3 +382,59 @@ fn light_towards_the_eye_keeps_bands_two_to_four() {
         }
     }
 }
+
+/// The later orders' kept rays ([`RayCache`]) sum new sources to the same bits as a
+/// march of every ray, whether every cell, some or none fit the store: a blob with empty
+/// cells, two different sources gathered one after the other as the orders do.
+#[test]
+fn kept_rays_give_the_marchs_sums_to_the_bit() {
+    let n = [7, 6, 5];
+    let mut g = uniform(n, [0.1, 0.12, 0.09], 0.0);
+    for i in 0..g.len() {
+        let c = g.coords(i).map(|v| v as f64);
+        let r2 = (c[0] - 3.0).powi(2) + (c[1] - 2.5).powi(2) + (c[2] - 2.0).powi(2);
+        g.density[i] = if r2 < 7.0 {
+            1.0 + 0.3 * c[0] - 0.1 * c[2]
+        } else {
+            0.0
+        };
+    }
+    let smoke = g.density.iter().filter(|d| **d > 0.0).count();
+    let sources = |k: f64| {
+        let mut s = Sources::zeros(g.len());
+        for i in 0..g.len() {
+            let x = i as f64 * 0.37 + k;
+            s.j0[i] = [x.sin().abs(), 0.5 * x.cos().abs(), 0.2];
+            s.j1[i] = [[0.1 * x.sin(), 0.0, -0.05], [0.0, 0.02 * k, 0.0], [0.01; 3]];
+        }
+        s
+    };
+    let (a, b) = (sources(1.0), sources(2.5));
+    let (sigma_t, dirs) = (4.0, rule(2));
+    let same = |x: &Gathered, y: &Gathered| {
+        x.l0 == y.l0 && x.l1 == y.l1 && x.high == y.high && x.escape == y.escape
+    };
+    let (march_a, march_b) = (
+        gather(&g, sigma_t, &a, &[], &dirs),
+        gather(&g, sigma_t, &b, &[], &dirs),
+    );
+    let full = {
+        let mut rays = RayCache::default();
+        gather_later(&g, sigma_t, &a, &dirs, &mut rays);
+        rays.bytes()
+    };
+    for budget in [RAY_CACHE_BYTES, full / 2, 0] {
+        let mut rays = RayCache::within(budget);
+        let first = gather_later(&g, sigma_t, &a, &dirs, &mut rays);
+        let kept = rays.kept();
+        match budget {
+            0 => assert_eq!(kept, 0),
+            b if b == RAY_CACHE_BYTES => assert_eq!(kept, smoke),
+            _ => assert!(kept > 0 && kept < smoke, "{kept} of {smoke}"),
+        }
+        assert!(rays.bytes() <= budget);
+        let second = gather_later(&g, sigma_t, &b, &dirs, &mut rays);
+        assert!(same(&first, &march_a), "budget {budget}: the first gather");
+        assert!(same(&second, &march_b), "budget {budget}: the kept rays");
+    }
+}
