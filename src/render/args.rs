@@ -95,8 +95,8 @@ pub struct RenderCli {
     pub(crate) env_grid_spacing: Option<f64>,
     /// The lighting's detail, above 0 and at most 1: below 1 the environment grid's
     /// spacing is divided by it, the explicit orders' automatic cells grow as 1/detail
-    /// and their count falls to ⌈K·detail⌉ (at least 4), the suns' shadows are swept over the voxel planes instead of marched (on a lattice 1.5 voxels apart at 2/3 and below) and at 0.5
-    /// and below the sky takes fewer directions, so a new frame's lighting costs about detail³ as much (BENCHMARKS.md
+    /// and their count falls to ⌈K·detail⌉ (at least 4), the suns' shadows are swept over the voxel planes instead of marched (on a lattice 1.5 voxels apart at 2/3 and below) and at 2/3
+    /// and below the sky and the first scattering order take fewer directions (32, the first order more where the phase function's peak is narrow), so a new frame's lighting costs about detail³ as much (BENCHMARKS.md
     /// "Viewer playback: the lighting's detail" measures the error). Below the smoke's
     /// floor (environment-grid cells over half an optical depth across) the render warns
     /// and names the lowest detail to use; the viewer lowers it while playback cannot

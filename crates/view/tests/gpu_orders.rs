@@ -36,7 +36,7 @@ use haze_view::render::crm::{self, VolumeGrids};
 use haze_view::render::env_pass::{EnvGridOptions, directions, grid_frame};
 use haze_view::render::grid_diffusion::{
     CoarseGrid, GATHER_LATER_THETA, GridSolveOptions, HIGH, MediaRadiance, add_lights,
-    add_to_grids, env_grid_sources, explicit_media_radiance, gather, gather_theta,
+    add_to_grids, env_grid_sources, explicit_media_radiance, first_theta, gather, gather_theta,
     scaled_first_sources, sun_sources,
 };
 use haze_view::sh::{self, ShGrid};
@@ -216,16 +216,22 @@ fn gathered_orders_match_the_cpu() {
     // longest loops an invocation runs here (lavapipe cuts them short past a budget,
     // shaders/orders.wgsl).
     // At g 0.8 the first order takes `gather_theta`'s finer rule (128 directions, 16
-    // dispatches).
-    for (factor, g) in [(FACTOR, 0.4), (1, 0.4), (FACTOR, 0.8)] {
-        gathered_orders_match(factor, g);
+    // dispatches); at a lighting detail of 0.43 and g 0.4 the later orders' 32
+    // (`first_theta`).
+    for (factor, g, detail) in [
+        (FACTOR, 0.4, 1.0),
+        (1, 0.4, 1.0),
+        (FACTOR, 0.8, 1.0),
+        (FACTOR, 0.4, 0.43),
+    ] {
+        gathered_orders_match(factor, g, detail);
     }
 }
 
-fn gathered_orders_match(factor: usize, g: f64) {
+fn gathered_orders_match(factor: usize, g: f64, detail: f64) {
     let (env, m) = (env(), medium_g(g));
     let s = scene(&env, &m, factor);
-    let first: Vec<_> = directions(gather_theta(m.g)).points().collect();
+    let first: Vec<_> = directions(first_theta(m.g, detail)).points().collect();
     let later: Vec<_> = directions(GATHER_LATER_THETA).points().collect();
     // The CPU's first and second orders, summed, through the delta-Eddington transport
     // medium `t` with the first source scaled by `k` (as `explicit_media_radiance`).
@@ -263,13 +269,13 @@ fn gathered_orders_match(factor: usize, g: f64) {
     for (orders, cpu) in [(1, one), (2, two)] {
         let media = s
             .orders
-            .gather(
-                &s.ctx, &s.buf, &s.shadow, &s.light, &env, &s.lights, &m, factor, orders,
+            .gather_at(
+                &s.ctx, &s.buf, &s.shadow, &s.light, &env, &s.lights, &m, factor, orders, detail,
             )
             .unwrap();
         let gpu = media.read(&s.ctx).unwrap();
         let d = differences(&gpu, cpu, Some(&g1.escape), &s.coarse);
-        print!("cells of {factor}³, g {g}: ");
+        print!("cells of {factor}³, g {g}, detail {detail}: ");
         println!(
             "{orders} order(s): |ΔL⁰|/max {:.2e}, |ΔL¹|/max {:.2e}, |ΔP| {:.2e}, |Δc_lm|/max {:.2e}",
             d[0], d[1], d[2], d[3]

@@ -15,7 +15,9 @@
 //!   then the box of the cells with smoke, where the rays stop (one workgroup), and one
 //!   pass per order ([`crate::render::grid_diffusion::gather`]: 72 directions for the first
 //!   where HG's peak is broad, up to 288 where it is narrow
-//!   ([`crate::render::grid_diffusion::gather_theta`]), 32 for the later, 8 per dispatch);
+//!   ([`crate::render::grid_diffusion::gather_theta`]; 32 at a lighting detail of 2/3 and
+//!   below where the peak allows, [`crate::render::grid_diffusion::first_theta`]), 32 for
+//!   the later, 8 per dispatch);
 //! - [`OrdersPass::diffuse`]: the finite-volume system of the light after the gathered
 //!   orders, one invocation per cell, solved by Jacobi-preconditioned conjugate gradients
 //!   ([`crate::render::grid_diffusion::solve`]) spread over every cell: per iteration two
@@ -54,7 +56,7 @@ use crate::medium::{FOUR_PI, Medium};
 use crate::render::MsDiffusion;
 use crate::render::env_pass::{directions, phase_factors};
 use crate::render::grid_diffusion::{
-    GATHER_LATER_THETA, GridSolveOptions, HIGH, gather_theta, phase_norm,
+    GATHER_LATER_THETA, GridSolveOptions, HIGH, first_theta, phase_norm,
 };
 use haze_gpu::wgsl::Variant;
 use haze_gpu::{
@@ -429,16 +431,38 @@ impl OrdersPass {
         factor: usize,
         orders: usize,
     ) -> Result<MediaBuffer, GpuError> {
+        self.gather_at(
+            ctx, grid, shadow, light, env, lights, medium, factor, orders, 1.0,
+        )
+    }
+
+    /// [`OrdersPass::gather`] at the lighting's `detail` (`(0, 1]`): the first order
+    /// along [`first_theta`]'s rule at that detail, as the CPU's
+    /// (`grid_diffusion::frame_explicit_media_radiance`).
+    #[allow(clippy::too_many_arguments)]
+    pub fn gather_at(
+        &self,
+        ctx: &GpuContext,
+        grid: &GridBuffer,
+        shadow: &EnvShadow,
+        light: &RgbSh,
+        env: &Environment,
+        lights: &LightsPass,
+        medium: &Medium,
+        factor: usize,
+        orders: usize,
+        detail: f64,
+    ) -> Result<MediaBuffer, GpuError> {
         let factor = check_gather(ctx, grid, shadow, light, env, factor, orders)?;
         let words = lights.light_words(ctx, grid, env, medium.g)?;
-        let params = gather_params(grid, shadow, light, env, medium, factor);
+        let first: Vec<_> = directions(first_theta(medium.g, detail)).points().collect();
+        let params = gather_params(grid, shadow, light, env, medium, factor, &first);
         let dims = grid.dims();
         let cells = dims.map(|n| n.div_ceil(factor));
         let n = cells.iter().product::<usize>();
         let stride = 13 + env.suns.len();
         let record_bytes = (4 * n.max(1) * stride) as u64;
         let groups = cell_groups(ctx, n)?;
-        let first: Vec<_> = directions(gather_theta(medium.g)).points().collect();
         let later: Vec<_> = directions(GATHER_LATER_THETA).points().collect();
         ctx.scoped("the gathered orders", || {
             let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
@@ -936,6 +960,7 @@ fn gather_params(
     env: &Environment,
     medium: &Medium,
     factor: usize,
+    first_rule: &[([f64; 3], f64)],
 ) -> Params {
     let dims = grid.dims();
     let bbox = *grid.bbox();
@@ -952,11 +977,10 @@ fn gather_params(
         *e = [light[0][j], light[1][j], light[2][j], a[j]].map(|v| v as f32);
     }
     let stride = 13 + env.suns.len();
-    let first_rule: Vec<_> = directions(gather_theta(medium.g)).points().collect();
     let mut sun_norm = [[0.0f32; 4]; 2];
     for (k, sun) in env.suns.iter().enumerate().take(MAX_SUNS) {
         let phase = DiskPhase::shared(medium.g, sun.angle);
-        sun_norm[k / 4][k % 4] = phase_norm(&phase, sun.direction, &first_rule) as f32;
+        sun_norm[k / 4][k % 4] = phase_norm(&phase, sun.direction, first_rule) as f32;
     }
     let (transport, first_scale) = medium.delta_eddington();
     let (sigma_s, sigma_a, sigma_tr) = coefficients(&transport).unwrap_or_default();

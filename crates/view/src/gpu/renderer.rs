@@ -755,7 +755,7 @@ impl GpuRenderer {
             let media = match self.orders_media.take() {
                 Some(m) if kept => &self.orders_media.insert(m).1,
                 _ => {
-                    let media = self.orders.gather(
+                    let media = self.orders.gather_at(
                         ctx,
                         grid,
                         shadow,
@@ -765,6 +765,7 @@ impl GpuRenderer {
                         medium,
                         factor,
                         orders,
+                        opts.detail,
                     )?;
                     self.orders
                         .diffuse(ctx, grid, shadow, &media, &opts.grid_solve)?;

@@ -76,8 +76,10 @@ pub struct CrmOptions {
     /// voxel planes instead of marched per voxel, on a lattice
     /// [`lights_pass::SUN_SPACING`] voxels apart at `1/SUN_SPACING` and below
     /// ([`lights_pass::lights_pass_at`]); at
-    /// 0.5 and below the environment grid also takes fewer directions
-    /// ([`CrmOptions::env_grid`]). A
+    /// 2/3 and below the environment grid also takes fewer directions
+    /// ([`CrmOptions::env_grid`]), and so does the explicit orders' first where HG's peak
+    /// allows ([`grid_diffusion::first_theta`], decision 0083: every order then marches
+    /// the same rays, kept once). A
     /// new frame's lighting then costs about a third per step of 0.75, 0.5, 0.35; what it
     /// costs in error is measured in BENCHMARKS.md ("Viewer playback: the lighting's
     /// detail"). The viewer lowers it while playback cannot keep up.

@@ -75,7 +75,7 @@ pub struct Gathered {
 const BASE: usize = 1 + MOMENTS;
 
 /// `D·J⁰` and `D·J¹` of a record: the moments every march carries.
-pub(super) const MOMENTS: usize = 12;
+const MOMENTS: usize = 12;
 
 fn finite(x: f64) -> f64 {
     if x.is_finite() { x } else { 0.0 }
@@ -114,30 +114,31 @@ pub fn gather(
     gather_with(grid, sigma_t, sources, suns, dirs, Rays::March).0
 }
 
-/// [`gather`] of a later order (no suns) keeping its rays in `rays` for the next
-/// ([`super::rays`]): with `rays` empty every ray is marched and each cell's kept while
-/// its budget holds them (none with a budget of 0); else the kept rays sum `sources` without a march (the
-/// same sums to the bit) and the cells not kept march. `rays` must come from gathers
-/// through the same `grid`, `sigma_t` and `dirs`.
+/// [`gather`] keeping its rays in `rays` for the next gathers ([`super::rays`]): with
+/// `rays` empty every ray is marched and each cell's kept while its budget holds them
+/// (none with a budget of 0); else the kept rays sum the records of `sources` and `suns`
+/// without a march (the same sums to the bit) and the cells not kept march. `rays` must
+/// come from gathers through the same `grid`, `sigma_t` and `dirs`.
 ///
 /// # Panics
-/// If `sources` does not hold one entry per cell.
-pub fn gather_later(
+/// If `sources` or a sun's transmittance do not hold one entry per cell.
+pub fn gather_kept(
     grid: &CoarseGrid,
     sigma_t: f64,
     sources: &Sources,
+    suns: &[SunSource],
     dirs: &[([f64; 3], f64)],
     rays: &mut RayCache,
 ) -> Gathered {
     if rays.budget == 0 {
-        gather(grid, sigma_t, sources, &[], dirs)
+        gather(grid, sigma_t, sources, suns, dirs)
     } else if rays.cells.is_empty() {
         let left = AtomicUsize::new(rays.budget);
-        let (out, kept) = gather_with(grid, sigma_t, sources, &[], dirs, Rays::Keep(&left));
+        let (out, kept) = gather_with(grid, sigma_t, sources, suns, dirs, Rays::Keep(&left));
         rays.cells = kept;
         out
     } else {
-        gather_with(grid, sigma_t, sources, &[], dirs, Rays::Replay(rays)).0
+        gather_with(grid, sigma_t, sources, suns, dirs, Rays::Replay(rays)).0
     }
 }
 
@@ -265,13 +266,7 @@ impl Gathering<'_> {
         for (d, (&(w, wt), y)) in self.dirs.iter().zip(&self.ys).enumerate() {
             let phase = &self.phases[d * suns.len()..(d + 1) * suns.len()];
             let t = match replay {
-                Some(ray) => {
-                    let mut sum = [0.0f64; MOMENTS];
-                    let t = ray.replay(d, &self.rec, self.stride, &mut sum);
-                    acc.fill(0.0);
-                    acc[1..BASE].copy_from_slice(&sum);
-                    t
-                }
+                Some(ray) => ray.replay(d, &self.rec, self.stride, &mut acc),
                 None => {
                     // Light arriving along w comes from x − s·w.
                     let t = march_back(self, x, w.map(|v| -v), &mut acc, |cell, sw| {

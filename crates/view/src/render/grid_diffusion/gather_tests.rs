@@ -383,9 +383,10 @@ fn light_towards_the_eye_keeps_bands_two_to_four() {
     }
 }
 
-/// The later orders' kept rays ([`RayCache`]) sum new sources to the same bits as a
-/// march of every ray, whether every cell, some or none fit the store: a blob with empty
-/// cells, two different sources gathered one after the other as the orders do.
+/// The kept rays ([`RayCache`]) sum new sources to the same bits as a march of every
+/// ray, whether every cell, some or none fit the store: a blob with empty cells, a first
+/// gather with a sun, then two more with other sources (without the sun, then with it),
+/// as the orders do.
 #[test]
 fn kept_rays_give_the_marchs_sums_to_the_bit() {
     let n = [7, 6, 5];
@@ -409,23 +410,38 @@ fn kept_rays_give_the_marchs_sums_to_the_bit() {
         }
         s
     };
-    let (a, b) = (sources(1.0), sources(2.5));
+    let sun = |k: f64| SunSource {
+        emit: [0.3, 0.2, 0.1],
+        direction: crate::lights::unit([0.3, 0.5, 0.8]).unwrap(),
+        phase: std::sync::Arc::new(DiskPhase::new(0.6, 0.1)),
+        transmittance: (0..g.len())
+            .map(|i| (0.3 + 0.1 * (i as f64 + k).sin()).abs())
+            .collect(),
+    };
+    let runs = [
+        (sources(1.0), vec![sun(0.0)]),
+        (sources(2.5), vec![]),
+        (sources(4.0), vec![sun(1.0)]),
+    ];
     let (sigma_t, dirs) = (4.0, rule(2));
     let same = |x: &Gathered, y: &Gathered| {
         x.l0 == y.l0 && x.l1 == y.l1 && x.high == y.high && x.escape == y.escape
     };
-    let (march_a, march_b) = (
-        gather(&g, sigma_t, &a, &[], &dirs),
-        gather(&g, sigma_t, &b, &[], &dirs),
-    );
+    let marched: Vec<Gathered> = runs
+        .iter()
+        .map(|(s, suns)| gather(&g, sigma_t, s, suns, &dirs))
+        .collect();
     let full = {
         let mut rays = RayCache::default();
-        gather_later(&g, sigma_t, &a, &dirs, &mut rays);
+        gather_kept(&g, sigma_t, &runs[0].0, &runs[0].1, &dirs, &mut rays);
         rays.bytes()
     };
     for budget in [RAY_CACHE_BYTES, full / 2, 0] {
         let mut rays = RayCache::within(budget);
-        let first = gather_later(&g, sigma_t, &a, &dirs, &mut rays);
+        for (k, ((s, suns), march)) in runs.iter().zip(&marched).enumerate() {
+            let kept = gather_kept(&g, sigma_t, s, suns, &dirs, &mut rays);
+            assert!(same(&kept, march), "budget {budget}, gather {k}");
+        }
         let kept = rays.kept();
         match budget {
             0 => assert_eq!(kept, 0),
@@ -433,8 +449,5 @@ fn kept_rays_give_the_marchs_sums_to_the_bit() {
             _ => assert!(kept > 0 && kept < smoke, "{kept} of {smoke}"),
         }
         assert!(rays.bytes() <= budget);
-        let second = gather_later(&g, sigma_t, &b, &dirs, &mut rays);
-        assert!(same(&first, &march_a), "budget {budget}: the first gather");
-        assert!(same(&second, &march_b), "budget {budget}: the kept rays");
     }
 }

@@ -1,17 +1,17 @@
 //! The later orders' rays kept from one gather to the next.
 //!
-//! The orders after the first gather along the same directions through the same grid:
-//! only the records they sum change (the last order's scattered light), not the rays.
+//! The orders after the first gather along the same directions through the same grid (and
+//! at a low lighting detail the first too, `super::first_theta`): only the records they
+//! sum change (the last order's scattered light), not the rays.
 //! Each ray's march ([`super::gather`]) adds `share·w · record(cell)` for every corner
 //! `cell` of every step, `share = T (1 − e^{−Δτ}) / D` and `w` the corner's trilinear
 //! weight — both fixed by the density alone — and ends with the transmittance left. The
-//! first later gather keeps, per cell with smoke, each ray's corners and `share·w` in
+//! first gather along the rule keeps, per cell with smoke, each ray's corners and `share·w` in
 //! the march's order and its final transmittance ([`CellRays`]); the next gathers sum
 //! the new records over them in the same order, so they give the same sums to the bit
 //! without a corner's coordinates or an exponential. A cell whose rays would take the
 //! store past [`RAY_CACHE_BYTES`] is not kept and marches every order.
 
-use super::gather::MOMENTS;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// The most bytes the kept rays of one grid take (12 a corner of a step, 12 a ray): at
@@ -19,7 +19,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 pub const RAY_CACHE_BYTES: usize = 64 << 20;
 
 /// The rays of one gather through a grid along one rule, per cell, for the later
-/// gathers through the same grid and rule ([`super::gather::gather_later`]).
+/// gathers through the same grid and rule ([`super::gather::gather_kept`]).
 #[derive(Debug)]
 pub struct RayCache {
     /// Per cell its rays (`None`: not kept, marched again); empty until the first gather.
@@ -90,23 +90,19 @@ impl CellRays {
         12 * (self.corners.len() + self.ends.len())
     }
 
-    /// Ray `d`'s sum of the records `rec` (`stride` values a cell, the moments after the
-    /// density) into `sum`, in the march's order; returns its transmittance left.
-    pub(super) fn replay(
-        &self,
-        d: usize,
-        rec: &[f64],
-        stride: usize,
-        sum: &mut [f64; MOMENTS],
-    ) -> f64 {
+    /// Ray `d`'s sum of the records `rec` (`stride` values a cell: the density, then
+    /// what the rays carry) into `acc` (zeroed first; `acc[0]` stays 0), in the march's
+    /// order; returns its transmittance left.
+    pub(super) fn replay(&self, d: usize, rec: &[f64], stride: usize, acc: &mut [f64]) -> f64 {
+        acc.fill(0.0);
         let start = if d == 0 { 0 } else { self.ends[d - 1] as usize };
         let end = self.ends[d] as usize;
         for (&cell, &sw) in self.corners[start..end]
             .iter()
             .zip(&self.weights[start..end])
         {
-            let at = cell as usize * stride + 1;
-            for (a, v) in sum.iter_mut().zip(&rec[at..at + MOMENTS]) {
+            let at = cell as usize * stride;
+            for (a, v) in acc[1..].iter_mut().zip(&rec[at + 1..at + stride]) {
                 *a += sw * v;
             }
         }

@@ -483,6 +483,44 @@ fn the_first_orders_rule_follows_the_phase_functions_peak() {
     }
 }
 
+/// Below full detail the first order takes the environment pass's rule at that detail
+/// (32 directions at 2/3 and below) unless HG's peak asks for more; never more than at
+/// full detail, and the peak's criterion holds wherever the rule is below its cap.
+#[test]
+fn the_first_orders_rule_at_a_lower_detail() {
+    use crate::medium::hg_half_width;
+    let spacing = |theta: usize| std::f64::consts::FRAC_PI_2 / theta as f64;
+    for k in 0..=99 {
+        let g = 0.01 * k as f64;
+        assert_eq!(first_theta(g, 1.0), gather_theta(g), "g {g}");
+        for detail in [0.2, 0.43, 0.5, 0.6, 0.7, 0.9] {
+            let theta = first_theta(g, detail);
+            assert!(theta <= gather_theta(g), "g {g}, detail {detail}: {theta}");
+            let env = if detail <= 2.0 / 3.0 { 2 } else { 3 };
+            assert!(theta >= env, "g {g}, detail {detail}: {theta}");
+            if let Some(half) = hg_half_width(g)
+                && theta < GATHER_THETA_MAX
+            {
+                let allowed = SPACING_PER_WIDTH * 2.0 * half;
+                assert!(spacing(theta) <= allowed + 1e-12, "g {g}, detail {detail}");
+            }
+        }
+    }
+    for (g, detail, theta) in [
+        (0.3, 0.43, 2),
+        (0.5, 0.5, 2),
+        (0.3, 0.7, 3),
+        (0.7, 0.43, 3),
+        (0.8, 0.43, 4),
+        (0.9, 0.25, GATHER_THETA_MAX),
+        (0.3, f64::NAN, GATHER_THETA),
+        (0.3, 0.0, GATHER_THETA),
+        (f64::NAN, 0.43, GATHER_LATER_THETA),
+    ] {
+        assert_eq!(first_theta(g, detail), theta, "g {g}, detail {detail}");
+    }
+}
+
 /// `corners` reproduces a linear function of the cell centers at every point between the
 /// first and last centers (trilinear interpolation is exact on linear functions), takes
 /// the nearest centers' value in the outer half cells, and answers `None` outside the
