@@ -269,7 +269,7 @@ fn gathered_orders_match(factor: usize, g: f64, detail: f64) {
     for (orders, cpu) in [(1, one), (2, two)] {
         let media = s
             .orders
-            .gather_at(
+            .gather(
                 &s.ctx, &s.buf, &s.shadow, &s.light, &env, &s.lights, &m, factor, orders, detail,
             )
             .unwrap();
@@ -306,7 +306,7 @@ fn the_diffusion_after_the_orders_and_the_voxels_match_the_cpu() {
     let media = s
         .orders
         .gather(
-            &s.ctx, &s.buf, &s.shadow, &s.light, &env, &s.lights, &m, FACTOR, orders,
+            &s.ctx, &s.buf, &s.shadow, &s.light, &env, &s.lights, &m, FACTOR, orders, 1.0,
         )
         .unwrap();
     s.orders
@@ -402,7 +402,7 @@ fn extremes_add_nothing_or_are_refused() {
     let media = s
         .orders
         .gather(
-            &s.ctx, &s.buf, &s.shadow, &s.light, &env, &s.lights, &thick, FACTOR, 3,
+            &s.ctx, &s.buf, &s.shadow, &s.light, &env, &s.lights, &thick, FACTOR, 3, 1.0,
         )
         .unwrap();
     s.orders
@@ -428,7 +428,7 @@ fn extremes_add_nothing_or_are_refused() {
     let run = |factor, orders, env: &Environment| {
         s.orders
             .gather(
-                &s.ctx, &s.buf, &s.shadow, &s.light, env, &s.lights, &m, factor, orders,
+                &s.ctx, &s.buf, &s.shadow, &s.light, env, &s.lights, &m, factor, orders, 1.0,
             )
             .map(|_| ())
             .unwrap_err()
@@ -447,6 +447,7 @@ fn extremes_add_nothing_or_are_refused() {
             &m,
             MsDiffusion::AUTO,
             2,
+            1.0,
         )
         .unwrap();
     let cells = auto.read(&s.ctx).unwrap().cells;
@@ -466,7 +467,7 @@ fn extremes_add_nothing_or_are_refused() {
     let e = s
         .orders
         .gather(
-            &s.ctx, &small, &s.shadow, &s.light, &env, &s.lights, &m, FACTOR, 2,
+            &s.ctx, &small, &s.shadow, &s.light, &env, &s.lights, &m, FACTOR, 2, 1.0,
         )
         .map(|_| ())
         .unwrap_err();
@@ -479,7 +480,7 @@ fn solved(s: &Scene, pass: &OrdersPass, env: &Environment) -> (Vec<[f64; 3]>, u3
     let m = medium();
     let media = pass
         .gather(
-            &s.ctx, &s.buf, &s.shadow, &s.light, env, &s.lights, &m, FACTOR, 2,
+            &s.ctx, &s.buf, &s.shadow, &s.light, env, &s.lights, &m, FACTOR, 2, 1.0,
         )
         .unwrap();
     pass.diffuse(
@@ -548,7 +549,7 @@ fn the_cg_stops_at_its_most_iterations() {
         let pass = OrdersPass::new(&s.ctx).unwrap();
         let media = pass
             .gather(
-                &s.ctx, &s.buf, &s.shadow, &s.light, &env, &s.lights, &m, FACTOR, 2,
+                &s.ctx, &s.buf, &s.shadow, &s.light, &env, &s.lights, &m, FACTOR, 2, 1.0,
             )
             .unwrap();
         let opts = GridSolveOptions {

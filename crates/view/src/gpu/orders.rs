@@ -417,30 +417,11 @@ impl OrdersPass {
     /// its cells). Refuses a factor
     /// outside 1–[`MAX_FACTOR`], orders outside 1–8, more than [`MAX_SUNS`] suns, a `shadow` of
     /// another grid, a `light` of fewer coefficients than its order, and sizes beyond the
-    /// device's limits.
-    #[allow(clippy::too_many_arguments)]
-    pub fn gather(
-        &self,
-        ctx: &GpuContext,
-        grid: &GridBuffer,
-        shadow: &EnvShadow,
-        light: &RgbSh,
-        env: &Environment,
-        lights: &LightsPass,
-        medium: &Medium,
-        factor: usize,
-        orders: usize,
-    ) -> Result<MediaBuffer, GpuError> {
-        self.gather_at(
-            ctx, grid, shadow, light, env, lights, medium, factor, orders, 1.0,
-        )
-    }
-
-    /// [`OrdersPass::gather`] at the lighting's `detail` (`(0, 1]`): the first order
-    /// along [`first_theta`]'s rule at that detail, as the CPU's
+    /// device's limits. The first order takes [`first_theta`]'s rule at the lighting's
+    /// `detail` (`(0, 1]`, 1 at full detail), as the CPU's
     /// (`grid_diffusion::frame_explicit_media_radiance`).
     #[allow(clippy::too_many_arguments)]
-    pub fn gather_at(
+    pub fn gather(
         &self,
         ctx: &GpuContext,
         grid: &GridBuffer,
@@ -829,7 +810,7 @@ impl OrdersPass {
             return Ok(());
         }
         let media = self.gather(
-            ctx, grid, shadow, light, env, lights, medium, factor, orders,
+            ctx, grid, shadow, light, env, lights, medium, factor, orders, 1.0,
         )?;
         self.diffuse(ctx, grid, shadow, &media, opts)?;
         self.apply(ctx, grid, shadow, &media, eye)

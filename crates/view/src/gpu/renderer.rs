@@ -755,7 +755,7 @@ impl GpuRenderer {
             let media = match self.orders_media.take() {
                 Some(m) if kept => &self.orders_media.insert(m).1,
                 _ => {
-                    let media = self.orders.gather_at(
+                    let media = self.orders.gather(
                         ctx,
                         grid,
                         shadow,
