@@ -272,7 +272,8 @@ pub enum MsDiffusion {
     Grid { factor: usize },
     /// On the same coarse grid, the first `orders` scattering orders gathered explicitly
     /// from every cell (the first along 72 directions, up to 288 for a narrow phase
-    /// function's peak: `crate::render::grid_diffusion::gather_theta`) and the rest by
+    /// function's peak: `crate::render::grid_diffusion::gather_theta`; below full
+    /// detail `crate::render::grid_diffusion::first_theta`) and the rest by
     /// the grid's diffusion
     /// (`crate::render::grid_diffusion::explicit_media_radiance`; on the GPU
     /// `crate::gpu::orders`, lit by the environment pass's grid); `factor`

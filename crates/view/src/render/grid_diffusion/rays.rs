@@ -3,7 +3,7 @@
 //! The orders after the first gather along the same directions through the same grid (and
 //! at a low lighting detail the first too, `super::first_theta`): only the records they
 //! sum change (the last order's scattered light), not the rays.
-//! Each ray's march ([`super::gather`]) adds `share·w · record(cell)` for every corner
+//! Each ray's march ([`super::gather()`]) adds `share·w · record(cell)` for every corner
 //! `cell` of every step, `share = T (1 − e^{−Δτ}) / D` and `w` the corner's trilinear
 //! weight — both fixed by the density alone — and ends with the transmittance left. The
 //! first gather along the rule keeps, per cell with smoke, each ray's corners and `share·w` in
