@@ -112,6 +112,17 @@ pub const MIN_DETAIL_THETA: usize = 2;
 /// optical depths added up to 7, and 20 at detail 0.25 on the thickest smoke.
 pub const MAX_CELL_TAU: f64 = 0.5;
 
+/// A direction rule of `theta` latitudes per hemisphere at the lighting's `detail`
+/// (`(0, 1]`): `⌈theta·detail⌉`, at least [`MIN_DETAIL_THETA`], at most `theta` (a rule
+/// already below the minimum is kept). The environment grid's ([`CrmOptions::env_grid`])
+/// and, where HG's peak allows, the explicit orders' first
+/// ([`grid_diffusion::first_theta`]).
+pub fn theta_at_detail(theta: usize, detail: f64) -> usize {
+    ((theta as f64 * detail).ceil() as usize)
+        .max(MIN_DETAIL_THETA)
+        .min(theta)
+}
+
 impl CrmOptions {
     /// The environment pass's grid options at this detail (`None` with
     /// [`EnvSource::Centers`]): the spacing divided by [`CrmOptions::detail`], and the
@@ -126,9 +137,7 @@ impl CrmOptions {
         match self.env_source {
             EnvSource::Grid(g) => Some(EnvGridOptions {
                 spacing: g.spacing / detail,
-                theta: ((g.theta as f64 * detail).ceil() as usize)
-                    .max(MIN_DETAIL_THETA)
-                    .min(g.theta),
+                theta: theta_at_detail(g.theta, detail),
                 ..g
             }),
             EnvSource::Centers => None,

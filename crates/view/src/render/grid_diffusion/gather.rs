@@ -38,7 +38,7 @@ use crate::medium::FOUR_PI;
 use crate::sh;
 use rayon::prelude::*;
 use std::sync::Arc;
-use std::sync::atomic::AtomicUsize;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Transmittance below which a ray stops.
 pub const T_MIN: f64 = 1e-4;
@@ -258,7 +258,11 @@ impl Gathering<'_> {
             Rays::Replay(cache) => cache.cells.get(i).and_then(Option::as_ref),
             _ => None,
         };
-        let mut keep = matches!(rays, Rays::Keep(_)).then(CellRays::default);
+        // Rays are kept while the store has room (its bytes are taken at the end).
+        let mut keep = match rays {
+            Rays::Keep(left) if left.load(Ordering::Relaxed) > 0 => Some(CellRays::default()),
+            _ => None,
+        };
         let (mut l0, mut l1, mut escape) = ([0.0f64; 3], [[0.0f64; 3]; 3], 0.0);
         let mut high = [[0.0f64; HIGH]; 3];
         let mut acc = vec![0.0f64; self.stride];

@@ -312,9 +312,9 @@ pub fn explicit_media_radiance(
             (0..3).for_each(|c| (0..HIGH).for_each(|k| o[c][k] += l[c][k]));
         }
     }
-    if orders > 2 {
+    if orders > 1 {
         tracing::debug!(
-            "the later orders' rays: {} of {} cells kept, {:.1} MB",
+            "the orders' rays: {} of {} cells kept, {:.1} MB",
             rays.kept(),
             out.grid.len(),
             rays.bytes() as f64 / 1e6
@@ -566,8 +566,8 @@ fn peak_theta(g: f64) -> usize {
 
 /// Latitudes per hemisphere of the first order's directions at the lighting's `detail`
 /// (`(0, 1]`, `CrmOptions::detail`): [`gather_theta`] at full detail; below it the
-/// environment pass's rule at that detail (`⌈3·detail⌉`, at least
-/// [`GATHER_LATER_THETA`]: 32 directions at 2/3 and below) unless HG's peak asks for more
+/// environment pass's rule at that detail (`crate::render::theta_at_detail`: 32
+/// directions at 2/3 and below) unless HG's peak asks for more
 /// ([`peak_theta`]: 72 directions from g 0.65, 128 from 0.75). Where that is the later
 /// orders' rule, every order marches the same rays and the later orders sum the first's
 /// kept rays ([`RayCache`]). Decision 0083: on held-out plume-e at detail 0.43 the
@@ -577,8 +577,7 @@ pub fn first_theta(g: f64, detail: f64) -> usize {
     if detail >= 1.0 {
         return gather_theta(g);
     }
-    let env =
-        ((GATHER_THETA as f64 * detail).ceil() as usize).clamp(GATHER_LATER_THETA, GATHER_THETA);
+    let env = crate::render::theta_at_detail(GATHER_THETA, detail);
     peak_theta(g).max(env).min(gather_theta(g))
 }
 
