@@ -13,9 +13,10 @@
 //! them through a side), march to the face
 //! ([`super::lights_pass::optical_depth_within`], a short march).
 //!
-//! **Nodes at the voxel centers** (the lights pass's suns). There every node's segment
-//! samples sit at the same offsets from its voxel's center, so their trilinear weights and
-//! corners are the same up to a shift: [`VoxelSamples`] keeps them once, and a node whose
+//! **Nodes at the voxel centers** (the environment grid of thick smoke,
+//! `EnvGridOptions::for_smoke`). There every node's segment samples sit at the same
+//! offsets from its voxel's center, so their trilinear weights and corners are the same
+//! up to a shift: [`VoxelSamples`] keeps them once, and a node whose
 //! samples' corners all lie in the grid sums its density from them directly (the same
 //! samples, the same empty blocks skipped, rounding apart).
 //!
@@ -390,7 +391,7 @@ mod tests {
 
     #[test]
     fn voxel_center_nodes_share_their_samples_stencils() {
-        // Nodes at the voxel centers (the suns' sweep) take their segments from the shared
+        // Nodes at the voxel centers (thick smoke's grid) take their segments from the shared
         // stencils: against the same samples through the sampler, on sparse smoke with
         // negative voxels (which an empty block's skip leaves out) and whole empty blocks,
         // along oblique, axis and grazing directions and segments of 1 to 9 samples. Both
@@ -458,8 +459,8 @@ mod tests {
             |p| if p[2] < 0.5 { 1.0 } else { 0.0 },
         );
         let occupied = Occupancy::new(&v).unwrap();
-        // Nodes 1.5 voxels apart (the environment grid) and at the voxel centers (the
-        // suns' sweep, from shared stencils).
+        // Nodes 1.5 voxels apart (the environment grid) and at the voxel centers (thick
+        // smoke's grid, from shared stencils).
         for grid in [1.5, 1.0].map(|spacing| grid_frame([16, 16, 16], v.bbox(), spacing, 1)) {
             for sigma_t in [1e40, 1e300, f64::MAX] {
                 for w in [

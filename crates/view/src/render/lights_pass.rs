@@ -14,16 +14,15 @@
 //! ([`Occupancy`]: the same sum). Voxels with `D = 0` emit nothing and are skipped.
 //!
 //! **At a lower detail** ([`lights_pass_at`], `CrmOptions::detail` below 1) a sun's `τ`
-//! comes instead from a sweep over the voxel planes ([`super::env_sweep`], its nodes the
-//! voxel centers): each voxel's depth from its segment to the plane four voxels nearer
-//! the face and that plane's swept depths, read bilinearly — one sweep a sun instead of
-//! a march a voxel, its shadows' edges blurred by about half a voxel per `√(n/4)` planes
-//! crossed. At a detail of `1/`[`SUN_SPACING`] and below the sweep's nodes are
-//! [`SUN_SPACING`] voxels apart (about `3.4×` fewer) and each voxel reads `τ` trilinearly
-//! between them. Point lights still march.
+//! comes instead from planes of parallel rays towards it ([`SunPlanes`]): rays one voxel
+//! apart, or [`SUN_SPACING`] voxels at a detail of `1/SUN_SPACING` and below, each walked
+//! once through the lit voxels' planes, one or two samples a plane, and each voxel reading
+//! its plane's depths from the rays around it — about one sample a voxel instead of a
+//! march a voxel, its shadows' edges blurred sideways by about a ray spacing at most.
+//! Point lights still march.
 //!
 //! **Kept across camera moves** ([`LightShadows`]): `T(u)` does not depend on the eye,
-//! only `p(s·d)` does, so the pass is split into the shadows, marched (or swept) once a
+//! only `p(s·d)` does, so the pass is split into the shadows, marched (or walked along rays) once a
 //! frame, and their addition through the phase function from an eye — on a 96 × 96 ×
 //! 128 frame under one sun 0.25 s against 0.007 s (`BENCHMARKS.md`, "Camera moves keep
 //! the lights' shadows").
@@ -33,21 +32,21 @@
 use super::crm::VolumeGrids;
 use super::occupancy::Occupancy;
 use super::shell::lit_voxels;
+use super::sun_planes::SunPlanes;
 use crate::env::Environment;
 use crate::field;
 use crate::lights::{DiskPhase, dot};
 use crate::medium::{FOUR_PI, Medium, hg};
-use crate::sh::ShGrid;
 use haze_volume::{Bbox, Volume};
 use rayon::prelude::*;
 use std::sync::Arc;
 
-/// The spacing in voxels of the lattice a sun's shadow is swept on at a lighting detail
-/// of `1/SUN_SPACING` and below (at a detail between it and 1, the voxel centers; decision
-/// 0082). On held-out plume-e at detail 0.43 the sweep took 23–24 ms a frame instead of
-/// 30, the picture 0.04–0.08 points further from the full detail's (1.29–1.60 % →
-/// 1.33–1.65 %); a lattice of `1/detail` voxels (2.3) took 17–18 ms at 0.13–0.23 points
-/// (BENCHMARKS.md, "The suns' shadows on a coarser lattice").
+/// The spacing in voxels of the rays a sun's shadow is walked along ([`SunPlanes`]) at a
+/// lighting detail of `1/SUN_SPACING` and below (between it and 1, one voxel). Chosen
+/// for a sweep of the sun's depths over a lattice this far apart (decision 0082); the
+/// rays that replaced it (decision 0084) keep it: on held-out plume-e at detail 0.43
+/// they took the shadows from 16–23 ms to the figures in `BENCHMARKS.md`, "A sun's
+/// shadow along planes of rays".
 pub const SUN_SPACING: f64 = 1.5;
 
 /// Optical depth (σt·τ) beyond which the shadow march stops.
@@ -60,7 +59,7 @@ pub fn lights_pass(grids: &mut VolumeGrids, env: &Environment, medium: &Medium, 
 }
 
 /// [`lights_pass`] at the lighting's `detail` (`CrmOptions::detail`): below 1 the suns'
-/// shadows come from a sweep over the voxel planes (module docs).
+/// shadows come from planes of rays parallel to each sun (module docs).
 pub fn lights_pass_at(
     grids: &mut VolumeGrids,
     env: &Environment,
@@ -112,13 +111,13 @@ impl LightShadows {
         let h0 = vs[0].min(vs[1]).min(vs[2]);
         let plane = dims[0] * dims[1];
         let lit = lit_voxels(density);
-        // Per sun, at a lower detail, σt·τ by a sweep: on the voxel centers, or on a
-        // lattice `SUN_SPACING` voxels apart at `1/SUN_SPACING` and below.
+        // Per sun, at a lower detail, σt·τ along rays parallel to it: one voxel apart, or
+        // `SUN_SPACING` at `1/SUN_SPACING` and below.
         let detail = super::detail_or_one(detail);
         let lit_box = super::env_pass::node_domain(&lit, dims);
-        let swept: Vec<Option<SunDepths>> = env
+        let walked: Vec<Option<SunPlanes>> = env
             .suns
-            .par_iter()
+            .iter()
             .map(|sun| {
                 let lit_box = lit_box.filter(|_| detail < 1.0)?;
                 let spacing = if detail * SUN_SPACING <= 1.0 {
@@ -126,14 +125,14 @@ impl LightShadows {
                 } else {
                     1.0
                 };
-                Some(sun_depths(
+                SunPlanes::new(
                     density,
                     medium.sigma_t,
                     lit_box,
                     sun.direction,
                     &occupied,
                     spacing,
-                ))
+                )
             })
             .collect();
         let slices: Vec<Vec<f64>> = (0..dims[2])
@@ -145,10 +144,11 @@ impl LightShadows {
                     if !lit[idx] {
                         continue;
                     }
-                    let u = density.voxel_center(i % dims[0], i / dims[0], z);
-                    for (sun, swept) in env.suns.iter().zip(&swept) {
-                        let depth = match swept {
-                            Some(depths) => depths.at(u),
+                    let (x, y) = (i % dims[0], i / dims[0]);
+                    let u = density.voxel_center(x, y, z);
+                    for (sun, walked) in env.suns.iter().zip(&walked) {
+                        let depth = match walked {
+                            Some(planes) => planes.at([x, y, z], u),
                             None => optical_depth_within(
                                 density,
                                 medium.sigma_t,
@@ -271,74 +271,6 @@ impl LightShadows {
                 }
             });
     }
-}
-
-/// A sun's `σt·τ` on the nodes of a lattice over the lit voxels, swept
-/// ([`super::env_sweep::sweep_depths`]) and read trilinearly at the voxel centers.
-struct SunDepths {
-    /// The lattice (its frame only: no coefficients).
-    grid: ShGrid,
-    /// `σt·τ` per node, `x` fastest (0 outside the swept box).
-    tau: Vec<f32>,
-}
-
-impl SunDepths {
-    /// `σt·τ` at `u`, trilinear between the lattice's nodes (clamped to its box).
-    fn at(&self, u: [f64; 3]) -> f64 {
-        let (i0, f) = self.grid.stencil(u);
-        let n = self.grid.nodes;
-        let mut depth = 0.0;
-        for corner in 0..8 {
-            let d = [corner & 1, corner >> 1 & 1, corner >> 2];
-            let mut w = 1.0;
-            let mut i = [0usize; 3];
-            for a in 0..3 {
-                // An axis of one node has `f = 0`: its upper corner weighs nothing.
-                i[a] = (i0[a] + d[a]).min(n[a] - 1);
-                w *= if d[a] == 1 { f[a] } else { 1.0 - f[a] };
-            }
-            if w > 0.0 {
-                depth += w * f64::from(self.tau[i[0] + n[0] * (i[1] + n[1] * i[2])]);
-            }
-        }
-        depth
-    }
-}
-
-/// `σt·τ` towards the sun along the unit `w` to the box's face from the nodes of a lattice
-/// about `spacing` voxels apart (from the first voxel center to the last,
-/// [`super::env_pass::grid_frame`]; `spacing` 1: the voxel centers), swept
-/// ([`super::env_sweep::sweep_depths`]) over the nodes around the voxels of `lit_box`
-/// (per axis the first and last lit voxel). The sweep's segments sample the density at
-/// most a node cell apart, as the environment grid's do at the same detail.
-fn sun_depths(
-    density: &Volume,
-    sigma_t: f64,
-    lit_box: [(usize, usize); 3],
-    w: [f64; 3],
-    occupied: &Occupancy,
-    spacing: f64,
-) -> SunDepths {
-    let dims = density.dims();
-    let grid = super::env_pass::grid_frame(dims, density.bbox(), spacing, 1);
-    let vs = density.voxel_size();
-    // The nodes whose cells hold the lit voxels' centers: voxel `v` lies at `v·vs/cell`
-    // node cells from the first node.
-    let domain: [(usize, usize); 3] = std::array::from_fn(|a| {
-        let n = grid.nodes[a];
-        if n < 2 || grid.cell[a].is_nan() || grid.cell[a] <= 0.0 {
-            return (0, 0);
-        }
-        let node = |v: usize| v as f64 * vs[a] / grid.cell[a];
-        let (lo, hi) = lit_box[a];
-        (
-            (node(lo).floor() as usize).min(n - 1),
-            (node(hi).ceil() as usize).min(n - 1),
-        )
-    });
-    let h0 = vs[0].min(vs[1]).min(vs[2]);
-    let tau = super::env_sweep::sweep_depths(density, sigma_t, &grid, domain, w, h0, occupied);
-    SunDepths { grid, tau }
 }
 
 /// `exp(−σt·τ)` from `u` along the unit `s` to the box's face or `max_len`, whichever is

@@ -15,6 +15,7 @@ pub mod pixel_reuse;
 pub mod plane_sweep;
 pub mod separable;
 pub mod shell;
+pub mod sun_planes;
 pub mod supersample;
 
 use crate::diffusion::{DiffusionSolver, Operators, SolveOptions, Sources};
@@ -72,10 +73,10 @@ pub struct CrmOptions {
     /// automatic cells of the explicit orders larger, their work budget times
     /// `detail⁴` and their side at least `2/detail` voxels
     /// ([`grid_diffusion::auto_grid`]) and their count `⌈K·detail⌉`, at least four
-    /// ([`grid_diffusion::orders_at_detail`], CPU and GPU), and on the CPU the suns' shadows swept over the
-    /// voxel planes instead of marched per voxel, on a lattice
-    /// [`lights_pass::SUN_SPACING`] voxels apart at `1/SUN_SPACING` and below
-    /// ([`lights_pass::lights_pass_at`]); at
+    /// ([`grid_diffusion::orders_at_detail`], CPU and GPU), and on the CPU the suns' shadows walked
+    /// along planes of rays parallel to each sun instead of marched per voxel
+    /// ([`sun_planes::SunPlanes`]), the rays [`lights_pass::SUN_SPACING`] voxels apart at
+    /// `1/SUN_SPACING` and below ([`lights_pass::lights_pass_at`]); at
     /// 2/3 and below the environment grid also takes fewer directions
     /// ([`CrmOptions::env_grid`]), and so does the explicit orders' first where HG's peak
     /// allows ([`grid_diffusion::first_theta`], decision 0083: every order then marches

@@ -9,6 +9,7 @@
 //! `D > 0` grown by one voxel) bounds the marches as before.
 
 use haze_volume::{Bbox, Volume};
+use rayon::prelude::*;
 
 /// Voxels per block side.
 pub const BLOCK: usize = 4;
@@ -31,27 +32,42 @@ impl Occupancy {
         let bbox = super::lights_pass::occupied_box(density)?;
         let dims = density.dims();
         let blocks = dims.map(|n| n.div_ceil(BLOCK));
+        let (plane, layer) = (dims[0] * dims[1], blocks[0] * blocks[1]);
+        let data = density.data();
         let mut marked = vec![false; blocks.iter().product()];
-        for (r, row) in density.data().chunks_exact(dims[0]).enumerate() {
-            let (y, z) = (r % dims[1], r / dims[1]);
-            for (x, &d) in row.iter().enumerate() {
-                // `D > 0` only (NaN and non-positive voxels are not density).
-                if d.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
-                    continue;
-                }
-                let k = [x, y, z];
-                // The blocks of the voxels within one of k.
-                let lo = k.map(|v| v.saturating_sub(1) / BLOCK);
-                let hi: [usize; 3] = std::array::from_fn(|a| (k[a] + 1).min(dims[a] - 1) / BLOCK);
-                for z in lo[2]..=hi[2] {
-                    for y in lo[1]..=hi[1] {
-                        for x in lo[0]..=hi[0] {
-                            marked[x + blocks[0] * (y + blocks[1] * z)] = true;
+        // One layer of blocks at a time, in parallel: a block is marked by the voxels with
+        // `D > 0` within one voxel of it, those of the layer's voxel planes and the plane on
+        // either side.
+        marked
+            .par_chunks_mut(layer)
+            .enumerate()
+            .for_each(|(bz, out)| {
+                let z0 = (bz * BLOCK).saturating_sub(1);
+                let z1 = ((bz + 1) * BLOCK).min(dims[2] - 1);
+                for (r, row) in data[z0 * plane..(z1 + 1) * plane]
+                    .chunks_exact(dims[0])
+                    .enumerate()
+                {
+                    let y = r % dims[1];
+                    let (y0, y1) = (
+                        y.saturating_sub(1) / BLOCK,
+                        (y + 1).min(dims[1] - 1) / BLOCK,
+                    );
+                    for (x, &d) in row.iter().enumerate() {
+                        // `D > 0` only (NaN and non-positive voxels are not density).
+                        if d.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+                            continue;
+                        }
+                        let (x0, x1) = (
+                            x.saturating_sub(1) / BLOCK,
+                            (x + 1).min(dims[0] - 1) / BLOCK,
+                        );
+                        for by in y0..=y1 {
+                            out[x0 + blocks[0] * by..=x1 + blocks[0] * by].fill(true);
                         }
                     }
                 }
-            }
-        }
+            });
         Some(Occupancy {
             bbox,
             min: density.bbox().min,
@@ -128,6 +144,66 @@ mod tests {
             }
         }
         v
+    }
+
+    /// The blocks marked per voxel with `D > 0`: those of the voxels within one of it.
+    fn marked_by_voxel(v: &Volume) -> Vec<bool> {
+        let dims = v.dims();
+        let blocks = dims.map(|n| n.div_ceil(BLOCK));
+        let mut marked = vec![false; blocks.iter().product()];
+        for z in 0..dims[2] {
+            for y in 0..dims[1] {
+                for x in 0..dims[0] {
+                    let d = v.data()[v.index(x, y, z)];
+                    if d.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+                        continue;
+                    }
+                    let k = [x, y, z];
+                    let lo = k.map(|v| v.saturating_sub(1) / BLOCK);
+                    let hi: [usize; 3] =
+                        std::array::from_fn(|a| (k[a] + 1).min(dims[a] - 1) / BLOCK);
+                    for bz in lo[2]..=hi[2] {
+                        for by in lo[1]..=hi[1] {
+                            for bx in lo[0]..=hi[0] {
+                                marked[bx + blocks[0] * (by + blocks[1] * bz)] = true;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        marked
+    }
+
+    /// The layers of blocks marked in parallel mark the blocks of the definition, voxel by
+    /// voxel: on the lumps, on grids whose sides are and are not multiples of a block, on
+    /// flat grids, and with density on every face and corner.
+    #[test]
+    fn the_blocks_marked_are_the_definitions() {
+        let v = lumps();
+        assert_eq!(Occupancy::new(&v).unwrap().marked, marked_by_voxel(&v));
+        let mut rng = Pcg64::seed_from_u64(11);
+        for dims in [
+            [8, 8, 8],
+            [9, 5, 13],
+            [1, 7, 6],
+            [5, 1, 1],
+            [4, 4, 1],
+            [1, 1, 1],
+        ] {
+            for every in [1.0, 0.1, 0.01] {
+                let mut v = Volume::zeros(dims, Bbox::new([0.0; 3], [1.0; 3])).unwrap();
+                for d in v.data_mut() {
+                    if rng.random::<f64>() < every {
+                        *d = rng.random::<f32>() + 0.01;
+                    }
+                }
+                let last = v.data().len() - 1;
+                v.data_mut()[last] = 1.0;
+                let occ = Occupancy::new(&v).unwrap();
+                assert_eq!(occ.marked, marked_by_voxel(&v), "{dims:?} {every}");
+            }
+        }
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //! lighting costs more than its view pass and the frame misses its slot at the playback
 //! rate (playing as fast as possible has no slot, and keeps the detail), the player
 //! lights the next frames at a lower detail — a coarser environment grid, larger cells
-//! for the explicit orders and the suns' shadows swept, about a third of the work a
+//! for the explicit orders and the suns' shadows walked along rays, about a third of the work a
 //! step — down [`LEVELS`] to the one whose lighting would fit beside the view pass
 //! (one step when the frame is a little over, several at once when its lighting is many
 //! times the view pass, as a first frame's is on a CPU adapter), and raises it again
