@@ -178,18 +178,22 @@ impl FvSystem {
 
     /// `y = A x` per channel.
     pub fn apply(&self, x: &[[f64; 3]], y: &mut [[f64; 3]]) {
-        y.par_iter_mut().enumerate().for_each(|(k, yk)| {
-            let mut s = [0, 1, 2].map(|ch| self.diag[k] * x[k][ch]);
-            for f in 0..6 {
-                let j = self.nbr[k][f];
-                if j != NONE {
-                    for ch in 0..3 {
-                        s[ch] -= self.cond[k][f] * x[j as usize][ch];
+        let min = min_len(y.len());
+        y.par_iter_mut()
+            .with_min_len(min)
+            .enumerate()
+            .for_each(|(k, yk)| {
+                let mut s = [0, 1, 2].map(|ch| self.diag[k] * x[k][ch]);
+                for f in 0..6 {
+                    let j = self.nbr[k][f];
+                    if j != NONE {
+                        for ch in 0..3 {
+                            s[ch] -= self.cond[k][f] * x[j as usize][ch];
+                        }
                     }
                 }
-            }
-            *yk = s;
-        });
+                *yk = s;
+            });
     }
 
     /// The flux density of `L¹/3` through each axis at unknown `k` (mean of the two faces,
@@ -226,17 +230,41 @@ pub struct GridSolution {
     pub residual: f64,
 }
 
+/// Unknowns below which each step of the solve runs unsplit on one thread: there a step
+/// is a few microseconds of work, less than handing halves between threads (on held-out
+/// plume-e at detail 0.43, 535 unknowns and 62 iterations took 13–16 ms split, most of
+/// it the threads' hand-offs; BENCHMARKS.md, "The coarse grid's solve on one thread").
+pub const SPLIT_FROM: usize = 1 << 13;
+
+/// The least items a worker takes in a step over `n` unknowns ([`SPLIT_FROM`]).
+fn min_len(n: usize) -> usize {
+    if n < SPLIT_FROM { n.max(1) } else { 1 }
+}
+
 fn dot3(a: &[[f64; 3]], b: &[[f64; 3]]) -> [f64; 3] {
     a.par_iter()
+        .with_min_len(min_len(a.len()))
         .zip(b)
         .map(|(x, y)| [x[0] * y[0], x[1] * y[1], x[2] * y[2]])
         .reduce(|| [0.0; 3], |s, t| [s[0] + t[0], s[1] + t[1], s[2] + t[2]])
 }
 
 /// Conjugate gradient with the Jacobi preconditioner, the three channels side by side
-/// (each its own step lengths), from `start` (zero when `None`).
+/// (each its own step lengths), from `start` (zero when `None`). It runs on the thread
+/// pool (one hand-off for the whole solve rather than one a step), each step split
+/// between the workers from [`SPLIT_FROM`] unknowns.
 pub fn solve(sys: &FvSystem, start: Option<&[[f64; 3]]>, opts: &GridSolveOptions) -> GridSolution {
+    rayon::scope(|_| conjugate_gradient(sys, start, opts))
+}
+
+/// [`solve`]'s iterations, on the calling thread's pool.
+fn conjugate_gradient(
+    sys: &FvSystem,
+    start: Option<&[[f64; 3]]>,
+    opts: &GridSolveOptions,
+) -> GridSolution {
     let n = sys.n();
+    let min = min_len(n);
     let mut x = match start {
         Some(s) if s.len() == n => s.to_vec(),
         _ => vec![[0.0; 3]; n],
@@ -249,6 +277,7 @@ pub fn solve(sys: &FvSystem, start: Option<&[[f64; 3]]>, opts: &GridSolveOptions
     let bn = dot3(&sys.b, &sys.b).map(f64::sqrt);
     let precond = |r: &[[f64; 3]]| -> Vec<[f64; 3]> {
         r.par_iter()
+            .with_min_len(min)
             .zip(&sys.diag)
             .map(|(rk, d)| rk.map(|v| v / d))
             .collect()
@@ -273,6 +302,7 @@ pub fn solve(sys: &FvSystem, start: Option<&[[f64; 3]]>, opts: &GridSolveOptions
             }
         });
         x.par_iter_mut()
+            .with_min_len(min)
             .zip(r.par_iter_mut())
             .zip(p.par_iter().zip(&ax))
             .for_each(|((xk, rk), (pk, ak))| {
@@ -287,11 +317,14 @@ pub fn solve(sys: &FvSystem, start: Option<&[[f64; 3]]>, opts: &GridSolveOptions
         let rz_new = dot3(&r, &z);
         let beta = [0, 1, 2].map(|c| if rz[c] > 0.0 { rz_new[c] / rz[c] } else { 0.0 });
         rz = rz_new;
-        p.par_iter_mut().zip(&z).for_each(|(pk, zk)| {
-            for c in 0..3 {
-                pk[c] = zk[c] + beta[c] * pk[c];
-            }
-        });
+        p.par_iter_mut()
+            .with_min_len(min)
+            .zip(&z)
+            .for_each(|(pk, zk)| {
+                for c in 0..3 {
+                    pk[c] = zk[c] + beta[c] * pk[c];
+                }
+            });
     }
     GridSolution {
         l0: x,
