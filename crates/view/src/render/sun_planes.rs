@@ -26,6 +26,12 @@
 //! however far the light has come — unlike a sweep that reads its nodes bilinearly at
 //! every few planes ([`super::env_sweep`]), whose blur grows with the planes crossed.
 //! The depths are kept in `f32` (relative `6·10⁻⁸`).
+//!
+//! **Memory.** The rays cover the lit box's span on every plane, shifted: `n·|w_a/w_k|`
+//! more across on `a` over `n` planes. Each plane keeps only the rays over the lit span
+//! on the side axis the rays shift more along (`a`), so the depths take about the lit
+//! box's voxels `/spacing²` times `1 + n·|w_b/w_k|/width_b` floats — at most twice a
+//! cube's voxels at one voxel apart, under a sun 45° off both side axes.
 
 use super::lights_pass::{SHADOW_CUTOFF, optical_depth_within};
 use super::occupancy::Occupancy;
@@ -58,7 +64,10 @@ pub struct SunPlanes {
     spacing: [f64; 2],
     slope: [f64; 2],
     rays: [usize; 2],
-    /// `σt·τ` per ray `β`, plane (from `first`), ray `α`.
+    /// Rays kept per plane and row on `a`, and per plane the first kept.
+    window: usize,
+    alpha0: Vec<usize>,
+    /// `σt·τ` per ray `β`, plane (from `first`), kept ray `α − alpha0`.
     tau: Vec<f32>,
 }
 
@@ -83,7 +92,12 @@ impl SunPlanes {
         if w[k] == 0.0 {
             return None;
         }
-        let (a, b) = ((k + 1) % 3, (k + 2) % 3);
+        // `a` the side axis the rays shift more along, where each plane keeps only the
+        // rays over the lit box (module docs, "Memory").
+        let (a, b) = match ((k + 1) % 3, (k + 2) % 3) {
+            (a, b) if w[a].abs() >= w[b].abs() => (a, b),
+            (a, b) => (b, a),
+        };
         if [a, b]
             .iter()
             .any(|&ax| lit_box[ax].1 < lit_box[ax].0 + THIN)
@@ -126,7 +140,18 @@ impl SunPlanes {
                 first + step
             }
         };
-        let row = planes * rays[0];
+        // Per plane, the first of the `window` rays kept: those whose crossings reach the
+        // lit voxels' span on `a` through the 4 × 4 read, a ray to spare on each side for
+        // rounding.
+        let span = center(a, lit_box[a].1) - center(a, lit_box[a].0);
+        let window = ((span / steps[0]).ceil() as usize + 6).min(rays[0]);
+        let alpha0: Vec<usize> = (first..=last)
+            .map(|j| {
+                let x = (center(a, lit_box[a].0) - shift(j, 0) - origin[0]) / steps[0];
+                ((x.floor() - 2.0).max(0.0) as usize).min(rays[0] - window)
+            })
+            .collect();
+        let row = planes * window;
         let mut tau = vec![0.0f32; row * rays[1]];
         let point = |j: usize, alpha: usize, beta: usize| {
             let mut x = [0.0; 3];
@@ -163,7 +188,10 @@ impl SunPlanes {
                         }
                         depth += sigma_t * sum * h;
                     }
-                    out[(j - first) * rays[0] + alpha] = depth.min(DEPTH_CAP) as f32;
+                    let p = j - first;
+                    if let Some(i) = alpha.checked_sub(alpha0[p]).filter(|i| *i < window) {
+                        out[p * window + i] = depth.min(DEPTH_CAP) as f32;
+                    }
                 }
             }
         });
@@ -176,6 +204,8 @@ impl SunPlanes {
             spacing: steps,
             slope,
             rays,
+            window,
+            alpha0,
             tau,
         })
     }
@@ -199,9 +229,12 @@ impl SunPlanes {
             taps[c] = [lo.saturating_sub(1), lo, lo + 1, (lo + 2).min(top + 1)];
             weights[c] = catmull_rom(t);
         }
-        let n = self.rays[0];
+        let (n, first) = (self.window, self.alpha0[p]);
+        // The window holds every ray a voxel of the lit box reads.
+        debug_assert!(taps[0].iter().all(|&t| t >= first && t - first < n));
         let at = |i: usize, j: usize| {
-            f64::from(self.tau[(taps[1][j] * self.planes + p) * n + taps[0][i]])
+            let alpha = taps[0][i].saturating_sub(first).min(n - 1);
+            f64::from(self.tau[(taps[1][j] * self.planes + p) * n + alpha])
         };
         let mut sum = 0.0;
         for (j, wb) in weights[1].iter().enumerate() {
@@ -349,6 +382,10 @@ mod tests {
             for spacing in [1.0, 1.5] {
                 let planes = SunPlanes::new(&v, sigma_t, whole(dims), w, &occupied, spacing);
                 let planes = planes.unwrap();
+                // Memory: the kept depths within 2.5× the voxels per ray² (module docs;
+                // the rays to spare weigh more on a small grid).
+                let voxels = (dims[0] * dims[1] * dims[2]) as f64;
+                assert!(planes.tau.len() as f64 <= 2.5 * voxels / (spacing * spacing));
                 let (mut d2, mut r2, mut worst) = (0.0, 0.0, 0.0f64);
                 for z in 0..dims[2] {
                     for y in 0..dims[1] {
