@@ -56,6 +56,9 @@ pub struct SunPlanes {
     /// The first plane kept (a voxel index on `k`) and how many.
     first: usize,
     planes: usize,
+    /// The box's corner and the voxel's size.
+    min: [f64; 3],
+    voxel: [f64; 3],
     /// `z₀`, the center of plane 0 on `k`.
     z0: f64,
     /// Per `a`, `b`: the first ray's crossing of plane 0, the rays' spacing, `w_·/w_k`
@@ -85,6 +88,18 @@ impl SunPlanes {
         occupied: &Occupancy,
         spacing: f64,
     ) -> Option<SunPlanes> {
+        let mut planes = SunPlanes::layout(density, lit_box, w, spacing)?;
+        planes.tau = planes.walk(density, sigma_t, w, occupied, spacing);
+        Some(planes)
+    }
+
+    /// The rays' lattice over `lit_box` (no depths yet), or `None` ([`SunPlanes::new`]).
+    fn layout(
+        density: &Volume,
+        lit_box: [(usize, usize); 3],
+        w: [f64; 3],
+        spacing: f64,
+    ) -> Option<SunPlanes> {
         if !(w.iter().all(|c| c.is_finite()) && spacing.is_finite() && spacing > 0.0) {
             return None;
         }
@@ -104,34 +119,88 @@ impl SunPlanes {
         {
             return None;
         }
-        let vs = density.voxel_size();
-        let min = density.bbox().min;
-        let center = |ax: usize, i: usize| min[ax] + (i as f64 + 0.5) * vs[ax];
-        let slope = [w[a] / w[k], w[b] / w[k]];
-        let z0 = center(k, 0);
         let (first, last) = lit_box[k];
-        let planes = last.checked_sub(first)? + 1;
-        let shift = |j: usize, c: usize| (center(k, j) - z0) * slope[c];
-        let steps = [spacing * vs[a], spacing * vs[b]];
-        let mut origin = [0.0; 2];
-        let mut rays = [0usize; 2];
+        let mut out = SunPlanes {
+            axes: [k, a, b],
+            first,
+            planes: last.checked_sub(first)? + 1,
+            min: density.bbox().min,
+            voxel: density.voxel_size(),
+            z0: 0.0,
+            origin: [0.0; 2],
+            spacing: [0.0; 2],
+            slope: [w[a] / w[k], w[b] / w[k]],
+            rays: [0; 2],
+            window: 0,
+            alpha0: Vec::new(),
+            tau: Vec::new(),
+        };
+        out.z0 = out.center(k, 0);
+        out.spacing = [spacing * out.voxel[a], spacing * out.voxel[b]];
+        let (frame, z0, slope) = (out.clone(), out.z0, out.slope);
+        let shift = |j: usize, c: usize| (frame.center(k, j) - z0) * slope[c];
         for (c, ax) in [a, b].into_iter().enumerate() {
             // The rays must cover the lit voxels' span on every plane, shifted.
             let (s0, s1) = (shift(first, c), shift(last, c));
-            let start = center(ax, lit_box[ax].0) - s0.max(s1);
-            let end = center(ax, lit_box[ax].1) - s0.min(s1);
-            let n = ((end - start) / steps[c]).floor();
+            let start = out.center(ax, lit_box[ax].0) - s0.max(s1);
+            let end = out.center(ax, lit_box[ax].1) - s0.min(s1);
+            let n = ((end - start) / out.spacing[c]).floor();
             if !n.is_finite() || n < 0.0 {
                 return None;
             }
-            origin[c] = start;
-            rays[c] = n as usize + 2;
+            out.origin[c] = start;
+            out.rays[c] = n as usize + 2;
         }
+        // Per plane, the first of the `window` rays kept: those whose crossings reach the
+        // lit voxels' span on `a` through the 4 × 4 read, a ray to spare on each side for
+        // rounding.
+        let lo = out.center(a, lit_box[a].0);
+        let span = out.center(a, lit_box[a].1) - lo;
+        let window = ((span / out.spacing[0]).ceil() as usize + 6).min(out.rays[0]);
+        out.alpha0 = (first..=last)
+            .map(|j| {
+                let x = (lo - shift(j, 0) - out.origin[0]) / out.spacing[0];
+                ((x.floor() - 2.0).max(0.0) as usize).min(out.rays[0] - window)
+            })
+            .collect();
+        out.window = window;
+        Some(out)
+    }
+
+    /// The center of voxel `i` on axis `ax`.
+    fn center(&self, ax: usize, i: usize) -> f64 {
+        self.min[ax] + (i as f64 + 0.5) * self.voxel[ax]
+    }
+
+    /// Where ray `(α, β)` crosses plane `j`.
+    fn point(&self, j: usize, alpha: usize, beta: usize) -> [f64; 3] {
+        let [k, a, b] = self.axes;
+        let mut x = [0.0; 3];
+        x[k] = self.center(k, j);
+        let rise = x[k] - self.z0;
+        x[a] = self.origin[0] + alpha as f64 * self.spacing[0] + rise * self.slope[0];
+        x[b] = self.origin[1] + beta as f64 * self.spacing[1] + rise * self.slope[1];
+        x
+    }
+
+    /// Every ray's depths walked from the sun's side, kept within each plane's window
+    /// (module docs), per ray `β`, plane, kept ray.
+    fn walk(
+        &self,
+        density: &Volume,
+        sigma_t: f64,
+        w: [f64; 3],
+        occupied: &Occupancy,
+        spacing: f64,
+    ) -> Vec<f32> {
+        let k = self.axes[0];
+        let vs = self.voxel;
         let h0 = vs[0].min(vs[1]).min(vs[2]);
         let t = vs[k] / w[k].abs();
         let m = (t / (spacing.max(1.0) * h0)).ceil().max(1.0);
         let h = t / m;
         let sampler = Sampler::new(density);
+        let (first, last) = (self.first, self.first + self.planes - 1);
         // The rays walk from the sun's side: down the planes when the sun is up `k`.
         let plane = |step: usize| {
             if w[k] > 0.0 {
@@ -140,30 +209,12 @@ impl SunPlanes {
                 first + step
             }
         };
-        // Per plane, the first of the `window` rays kept: those whose crossings reach the
-        // lit voxels' span on `a` through the 4 × 4 read, a ray to spare on each side for
-        // rounding.
-        let span = center(a, lit_box[a].1) - center(a, lit_box[a].0);
-        let window = ((span / steps[0]).ceil() as usize + 6).min(rays[0]);
-        let alpha0: Vec<usize> = (first..=last)
-            .map(|j| {
-                let x = (center(a, lit_box[a].0) - shift(j, 0) - origin[0]) / steps[0];
-                ((x.floor() - 2.0).max(0.0) as usize).min(rays[0] - window)
-            })
-            .collect();
-        let row = planes * window;
-        let mut tau = vec![0.0f32; row * rays[1]];
-        let point = |j: usize, alpha: usize, beta: usize| {
-            let mut x = [0.0; 3];
-            x[k] = center(k, j);
-            x[a] = origin[0] + alpha as f64 * steps[0] + shift(j, 0);
-            x[b] = origin[1] + beta as f64 * steps[1] + shift(j, 1);
-            x
-        };
+        let (window, row) = (self.window, self.planes * self.window);
+        let mut tau = vec![0.0f32; row * self.rays[1]];
         let away = w.map(|c| -c);
         tau.par_chunks_mut(row).enumerate().for_each(|(beta, out)| {
-            for alpha in 0..rays[0] {
-                let start = point(plane(0), alpha, beta);
+            for alpha in 0..self.rays[0] {
+                let start = self.point(plane(0), alpha, beta);
                 let mut depth =
                     optical_depth_within(density, sigma_t, start, w, f64::MAX, h0, occupied);
                 // Only the segments on the ray's stretch through the occupied box add
@@ -172,12 +223,12 @@ impl SunPlanes {
                     Some((t0, t1)) => ((t0 / t).floor(), (t1 / t).ceil() + 1.0),
                     None => (0.0, 0.0),
                 };
-                for step in 0..planes {
+                for step in 0..self.planes {
                     let j = plane(step);
                     let s = step as f64;
                     if step > 0 && s >= near && s <= far && depth <= SHADOW_CUTOFF {
                         // The segment from this plane to the one before, towards the sun.
-                        let line = sampler.line(point(j, alpha, beta), w, h);
+                        let line = sampler.line(self.point(j, alpha, beta), w, h);
                         let mut sum = 0.0;
                         for i in 0..m as u64 {
                             if let Some(q) = line.coords(i)
@@ -189,25 +240,13 @@ impl SunPlanes {
                         depth += sigma_t * sum * h;
                     }
                     let p = j - first;
-                    if let Some(i) = alpha.checked_sub(alpha0[p]).filter(|i| *i < window) {
+                    if let Some(i) = alpha.checked_sub(self.alpha0[p]).filter(|i| *i < window) {
                         out[p * window + i] = depth.min(DEPTH_CAP) as f32;
                     }
                 }
             }
         });
-        Some(SunPlanes {
-            axes: [k, a, b],
-            first,
-            planes,
-            z0,
-            origin,
-            spacing: steps,
-            slope,
-            rays,
-            window,
-            alpha0,
-            tau,
-        })
+        tau
     }
 
     /// `σt·τ` at the center `u` of `voxel` (within the lit box the planes were laid
