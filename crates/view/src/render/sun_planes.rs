@@ -137,8 +137,8 @@ impl SunPlanes {
         };
         out.z0 = out.center(k, 0);
         out.spacing = [spacing * out.voxel[a], spacing * out.voxel[b]];
-        let (frame, z0, slope) = (out.clone(), out.z0, out.slope);
-        let shift = |j: usize, c: usize| (frame.center(k, j) - z0) * slope[c];
+        let (min, voxel, z0, slope) = (out.min, out.voxel, out.z0, out.slope);
+        let shift = |j: usize, c: usize| (center(min, voxel, k, j) - z0) * slope[c];
         for (c, ax) in [a, b].into_iter().enumerate() {
             // The rays must cover the lit voxels' span on every plane, shifted.
             let (s0, s1) = (shift(first, c), shift(last, c));
@@ -169,7 +169,7 @@ impl SunPlanes {
 
     /// The center of voxel `i` on axis `ax`.
     fn center(&self, ax: usize, i: usize) -> f64 {
-        self.min[ax] + (i as f64 + 0.5) * self.voxel[ax]
+        center(self.min, self.voxel, ax, i)
     }
 
     /// Where ray `(α, β)` crosses plane `j`.
@@ -289,6 +289,11 @@ impl SunPlanes {
             });
         sum.clamp(lo, hi)
     }
+}
+
+/// The center of voxel `i` on axis `ax` of a grid from `min` with voxels of `voxel`.
+fn center(min: [f64; 3], voxel: [f64; 3], ax: usize, i: usize) -> f64 {
+    min[ax] + (i as f64 + 0.5) * voxel[ax]
 }
 
 /// The Catmull–Rom weights of the taps at −1, 0, 1 and 2 for a point `t ∈ [0, 1]` of the
