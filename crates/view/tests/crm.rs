@@ -752,7 +752,7 @@ fn a_sun_skimming_a_face_lights_its_outer_band() {
 }
 
 /// The lights pass at a lower detail: a sun's shadows along planes of rays parallel to it
-/// (`sun_planes`) against the march per voxel, on a smooth blob under a tilted sun, at
+/// (`ray_planes`) against the march per voxel, on a smooth blob under a tilted sun, at
 /// σt 8, 4 and 2 (peak optical depth ~5, 2.5, 1.3 across), each at the lowest detail the
 /// floor allows there (`CrmOptions::detail_floor`: 0.85, 0.42 and 0.25; rays one voxel
 /// apart at 0.85, `SUN_SPACING` voxels at the other two). Each voxel reads its plane's

@@ -16,7 +16,9 @@
 //! `2·theta` Gauss–Legendre latitudes (`theta` per hemisphere: the sky jumps at the
 //! horizon) × `4·theta` azimuths, `1 − T = −expm1(−σt·τ)`. The depths `τ` come from a
 //! sweep over the node planes, each node's from the depths of nodes nearer the face
-//! ([`super::env_sweep`], [`EnvDepths::Sweep`], the default and the GPU twin's rule), or
+//! ([`super::env_sweep`], [`EnvDepths::Sweep`], the default and the GPU twin's rule), along
+//! planes of parallel rays one node apart per direction ([`super::ray_planes`],
+//! [`EnvDepths::Planes`], the CPU's below full detail: decision 0085), or
 //! from a march per node with the lights pass's midpoint rule
 //! ([`super::lights_pass::optical_depth`]; the samples in blocks without density skipped,
 //! [`Occupancy`], the same sum; [`EnvDepths::March`], the reference the sweep's error is
@@ -57,6 +59,7 @@ use super::env_sweep::sweep_depths;
 use super::lights_pass::optical_depth_within;
 use super::occupancy::Occupancy;
 use super::peak_rule::{self, PeakRule};
+use super::ray_planes::{Centers, RayPlanes, RaySpacing};
 use super::separable::{Separable, Stencil};
 use super::shell::lit_voxels;
 use crate::distant::{Distant, LatLong, Sky, direction};
@@ -94,6 +97,13 @@ pub enum EnvDepths {
     /// times faster on large grids (the GPU's rule).
     #[default]
     Sweep,
+    /// Along planes of parallel rays per direction, one node apart, read at each node
+    /// between the 4 × 4 rays around it ([`super::ray_planes`]; the sweep where the
+    /// needed nodes are fewer than three across a direction's rays): no march for the
+    /// nodes whose way out leaves the domain through a side, no blur that grows with the
+    /// planes crossed. The CPU's rule below full detail ([`super::CrmOptions::env_grid`],
+    /// decision 0085).
+    Planes,
 }
 
 impl Default for EnvGridOptions {
@@ -420,7 +430,7 @@ pub fn env_grid(
                     s.into_iter().map(|v| v as f32)
                 })
                 .collect(),
-            EnvDepths::Sweep => {
+            EnvDepths::Sweep | EnvDepths::Planes => {
                 let Some(domain) = node_domain(&needed, nodes) else {
                     return ShGrid {
                         coeffs: vec![0.0; total * 3 * n2],
@@ -428,14 +438,21 @@ pub fn env_grid(
                     };
                 };
                 let mut coeffs = vec![0.0f32; total * 3 * n2];
-                // A few directions' depths at a time (each a sweep on its own thread),
-                // added to the nodes' sums: memory for SWEEP_BATCH depths a node.
+                let depths = NodeDepths {
+                    density,
+                    sigma_t,
+                    grid: &grid,
+                    domain,
+                    h0,
+                    occupied: &occupied,
+                    needed: &needed,
+                };
+                // A few directions' depths at a time (each on its own thread), added to
+                // the nodes' sums: memory for SWEEP_BATCH depths a node.
                 for batch in rule.chunks(SWEEP_BATCH) {
                     let taus: Vec<Vec<f32>> = batch
                         .par_iter()
-                        .map(|(w, _, _)| {
-                            sweep_depths(density, sigma_t, &grid, domain, *w, h0, &occupied)
-                        })
+                        .map(|(w, _, _)| depths.toward(*w, opts.depths))
                         .collect();
                     coeffs
                         .par_chunks_mut(3 * n2)
@@ -482,8 +499,83 @@ pub(crate) fn node_domain(needed: &[bool], nodes: [usize; 3]) -> Option<[(usize,
     domain
 }
 
-/// Directions swept at once by [`EnvDepths::Sweep`].
+/// Directions swept (or walked) at once by [`EnvDepths::Sweep`] and
+/// [`EnvDepths::Planes`].
 const SWEEP_BATCH: usize = 8;
+
+/// What the depths from a grid's nodes take: the density at `sigma_t`, the grid, the box
+/// of its needed nodes (`domain`, [`node_domain`]) and which nodes are needed, the
+/// march's step `h0` and the density's occupied blocks.
+struct NodeDepths<'a> {
+    density: &'a Volume,
+    sigma_t: f64,
+    grid: &'a ShGrid,
+    domain: [(usize, usize); 3],
+    h0: f64,
+    occupied: &'a Occupancy,
+    needed: &'a [bool],
+}
+
+impl NodeDepths<'_> {
+    /// `σt·τ` from every needed node along the unit `w` to the box's face, in node order
+    /// (0 at the nodes not needed, or outside the domain with the sweep), by `rule`
+    /// (not [`EnvDepths::March`]: the sweep's). [`EnvDepths::Planes`] lays its rays one
+    /// node apart, their samples at most a node cell apart (at least `h0`), as the
+    /// sweep's segments.
+    fn toward(&self, w: [f64; 3], rule: EnvDepths) -> Vec<f32> {
+        let g = self.grid;
+        let sweep = || {
+            let occupied = self.occupied;
+            sweep_depths(
+                self.density,
+                self.sigma_t,
+                g,
+                self.domain,
+                w,
+                self.h0,
+                occupied,
+            )
+        };
+        if rule != EnvDepths::Planes {
+            return sweep();
+        }
+        let cell = g
+            .cell
+            .iter()
+            .filter(|c| **c > 0.0)
+            .fold(f64::INFINITY, |m, c| m.min(*c));
+        let spacing = RaySpacing {
+            across: 1.0,
+            along: if cell.is_finite() {
+                cell.max(self.h0)
+            } else {
+                self.h0
+            },
+        };
+        let centers = Centers::nodes(g);
+        let Some(planes) = RayPlanes::new(
+            self.density,
+            self.sigma_t,
+            centers,
+            self.domain,
+            w,
+            self.occupied,
+            spacing,
+        ) else {
+            return sweep();
+        };
+        let n = g.nodes;
+        let mut tau = vec![0.0f32; g.len()];
+        tau.par_iter_mut()
+            .enumerate()
+            .filter(|(i, _)| self.needed[*i])
+            .for_each(|(i, t)| {
+                let k = [i % n[0], (i / n[0]) % n[1], i / (n[0] * n[1])];
+                *t = planes.at(k, g.node(k)) as f32;
+            });
+        tau
+    }
+}
 
 /// Adds to a node's sums `s` (3 per coefficient) the light lost along one direction of
 /// the rule, power `l` and SH `y`, through optical depth `tau`: `1 − T = −expm1(−τ)`,

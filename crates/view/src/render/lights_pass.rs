@@ -14,7 +14,7 @@
 //! ([`Occupancy`]: the same sum). Voxels with `D = 0` emit nothing and are skipped.
 //!
 //! **At a lower detail** ([`lights_pass_at`], `CrmOptions::detail` below 1) a sun's `τ`
-//! comes instead from planes of parallel rays towards it ([`SunPlanes`]): rays one voxel
+//! comes instead from planes of parallel rays towards it ([`RayPlanes`]): rays one voxel
 //! apart, or [`SUN_SPACING`] voxels at a detail of `1/SUN_SPACING` and below, each walked
 //! once through the lit voxels' planes, one or two samples a plane, and each voxel reading
 //! its plane's depths from the rays around it — about one sample a voxel instead of a
@@ -31,8 +31,8 @@
 
 use super::crm::VolumeGrids;
 use super::occupancy::Occupancy;
+use super::ray_planes::{Centers, RayPlanes, RaySpacing};
 use super::shell::lit_voxels;
-use super::sun_planes::SunPlanes;
 use crate::env::Environment;
 use crate::field;
 use crate::lights::{DiskPhase, dot};
@@ -41,7 +41,7 @@ use haze_volume::{Bbox, Volume};
 use rayon::prelude::*;
 use std::sync::Arc;
 
-/// The spacing in voxels of the rays a sun's shadow is walked along ([`SunPlanes`]) at a
+/// The spacing in voxels of the rays a sun's shadow is walked along ([`RayPlanes`]) at a
 /// lighting detail of `1/SUN_SPACING` and below (between it and 1, one voxel). Chosen
 /// for a sweep of the sun's depths over a lattice this far apart (decision 0082); the
 /// rays that replaced it (decision 0084) keep it: on held-out plume-e at detail 0.43
@@ -115,7 +115,7 @@ impl LightShadows {
         // `SUN_SPACING` at `1/SUN_SPACING` and below.
         let detail = super::detail_or_one(detail);
         let lit_box = super::env_pass::node_domain(&lit, dims);
-        let walked: Vec<Option<SunPlanes>> = env
+        let walked: Vec<Option<RayPlanes>> = env
             .suns
             .iter()
             .map(|sun| {
@@ -125,9 +125,15 @@ impl LightShadows {
                 } else {
                     1.0
                 };
-                SunPlanes::new(
+                // Samples at most a ray spacing apart (one voxel at least).
+                let spacing = RaySpacing {
+                    across: spacing,
+                    along: spacing.max(1.0) * h0,
+                };
+                RayPlanes::new(
                     density,
                     medium.sigma_t,
+                    Centers::voxels(density),
                     lit_box,
                     sun.direction,
                     &occupied,

@@ -13,9 +13,9 @@ pub mod occupancy;
 pub mod peak_rule;
 pub mod pixel_reuse;
 pub mod plane_sweep;
+pub mod ray_planes;
 pub mod separable;
 pub mod shell;
-pub mod sun_planes;
 pub mod supersample;
 
 use crate::diffusion::{DiffusionSolver, Operators, SolveOptions, Sources};
@@ -24,7 +24,7 @@ use crate::lighting::single::moments;
 use crate::lighting::single::{RgbSh, ShKit, SourcePoints, single_scattering};
 use crate::sh::{self, ExpMethod};
 use crate::{Camera, Environment, Image, Medium};
-use env_pass::{EnvGridOptions, EnvSource};
+use env_pass::{EnvDepths, EnvGridOptions, EnvSource};
 use frame_light::{FrameInput, FrameLight, Kept};
 use grid_diffusion::GridSolveOptions;
 use haze_volume::{Bbox, Rbf};
@@ -75,7 +75,7 @@ pub struct CrmOptions {
     /// ([`grid_diffusion::auto_grid`]) and their count `⌈K·detail⌉`, at least four
     /// ([`grid_diffusion::orders_at_detail`], CPU and GPU), and on the CPU the suns' shadows walked
     /// along planes of rays parallel to each sun instead of marched per voxel
-    /// ([`sun_planes::SunPlanes`]), the rays [`lights_pass::SUN_SPACING`] voxels apart at
+    /// ([`ray_planes::RayPlanes`]), the rays [`lights_pass::SUN_SPACING`] voxels apart at
     /// `1/SUN_SPACING` and below ([`lights_pass::lights_pass_at`]); at
     /// 2/3 and below the environment grid also takes fewer directions
     /// ([`CrmOptions::env_grid`]), and so does the explicit orders' first where HG's peak
@@ -132,13 +132,19 @@ impl CrmOptions {
     /// — 32 directions — at 0.5 and below; a rule already below the minimum is kept).
     /// Fewer directions cost 0–0.4 points of error at detail 0.5 on the held-out sky
     /// cases of BENCHMARKS.md ("Viewer playback: the lighting's detail") and take about
-    /// a third off the environment grid's sweeps.
+    /// a third off the environment grid's sweeps. Below full detail the default sweep's
+    /// depths come instead along planes of rays per direction ([`EnvDepths::Planes`],
+    /// decision 0085: the CPU's; the GPU keeps its sweep); a march asked for stays.
     pub fn env_grid(&self) -> Option<EnvGridOptions> {
         let detail = detail_or_one(self.detail);
         match self.env_source {
             EnvSource::Grid(g) => Some(EnvGridOptions {
                 spacing: g.spacing / detail,
                 theta: theta_at_detail(g.theta, detail),
+                depths: match g.depths {
+                    EnvDepths::Sweep if detail < 1.0 => EnvDepths::Planes,
+                    d => d,
+                },
                 ..g
             }),
             EnvSource::Centers => None,
@@ -708,8 +714,8 @@ pub fn crm_render(
 #[cfg(test)]
 mod tests {
     use super::{
-        CrmOptions, EnvGridOptions, EnvSource, MAX_CELL_TAU, MIN_DETAIL_THETA, MsDiffusion,
-        detail_or_one, env_pass,
+        CrmOptions, EnvDepths, EnvGridOptions, EnvSource, MAX_CELL_TAU, MIN_DETAIL_THETA,
+        MsDiffusion, detail_or_one, env_pass,
     };
 
     /// `orders` chooses its cell size unless given one; `auto` only where allowed.
@@ -819,7 +825,16 @@ mod tests {
         assert_eq!(opts(1.0).env_grid(), Some(base));
         let half = opts(0.5).env_grid().unwrap();
         assert_eq!(half.spacing, 2.0 * base.spacing);
-        assert_eq!((half.theta, half.depths), (2, base.depths));
+        assert_eq!((half.theta, half.depths), (2, EnvDepths::Planes));
+        // A march asked for is kept at any detail.
+        let march = CrmOptions {
+            env_source: EnvSource::Grid(EnvGridOptions {
+                depths: EnvDepths::March,
+                ..base
+            }),
+            ..opts(0.5)
+        };
+        assert_eq!(march.env_grid().unwrap().depths, EnvDepths::March);
         // The directions follow the detail, rounded up, never below the minimum nor
         // above the rule given.
         let theta = |detail, theta| {

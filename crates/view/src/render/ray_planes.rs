@@ -1,64 +1,114 @@
-//! A sun's optical depths on planes of parallel rays: `σt·τ(u)` from the lit voxel
-//! centers `u` along the sun's unit direction `w` to the box's face, for the lights pass
-//! at a lower detail ([`super::lights_pass`]).
+//! Optical depths on planes of parallel rays: `σt·τ(u)` from the points `u` of a
+//! lattice along one unit direction `w` to the box's face — a sun's from the lit voxel
+//! centers for the lights pass at a lower detail ([`super::lights_pass`]), a sky
+//! direction's from the environment grid's nodes ([`super::env_pass`],
+//! `EnvDepths::Planes`).
+//!
+//! **The lattice** ([`Centers`]): points at `min + (i + offset)·step` per axis, on planes
+//! across each axis — the voxel centers (`offset` ½, `step` the voxel) or the grid's nodes
+//! (`offset` 0, `step` the cell).
 //!
 //! **The rays.** Let `k` be `w`'s major axis (`|w_k| ≥ 1/√3`) and `a`, `b` the other two.
-//! The voxel centers lie on planes across `k`, at `z_j`, one voxel `v_k` apart. A line
+//! The points lie on planes across `k`, at `z_j`, one `step_k` apart. A line
 //! along `w` crosses plane `j` at `a = A + (z_j − z₀)·w_a/w_k` (and likewise in `b`), `A`
 //! where it crosses plane 0: the lines through a regular lattice of `A = A₀ + α·s_a`,
-//! `B = B₀ + β·s_b` (`s` the spacing, `spacing` voxels) cross every plane on that
-//! lattice, shifted. Each such ray is walked from the lit plane nearest the sun: there
+//! `B = B₀ + β·s_b` (`s` the spacing, [`RaySpacing::across`] steps) cross every plane on that
+//! lattice, shifted. Each such ray is walked from the lit plane nearest the light: there
 //! its depth is marched to the box's face ([`optical_depth_within`]: zero unless that
 //! plane is within half a voxel of the face, since beyond the last lit plane the density
 //! is zero), and from plane to plane it grows by its segment between the two planes,
-//! `v_k/|w_k|` long: `τ_{j'} = τ_j + σt·∫D`, by the midpoint rule with samples at most
-//! `max(spacing, 1)·h₀` apart (`h₀` the smallest voxel side, the march's step), samples
+//! `step_k/|w_k|` long: `τ_{j'} = τ_j + σt·∫D`, by the midpoint rule with samples at most
+//! [`RaySpacing::along`] apart, samples
 //! in empty blocks and segments off the ray's stretch through the occupied box skipped
 //! ([`Occupancy`]: the same sum). Once a ray's depth passes
-//! [`SHADOW_CUTOFF`] it stops growing, as the march stops. A voxel center reads its
+//! [`SHADOW_CUTOFF`] it stops growing, as the march stops. A point reads its
 //! plane's depths from the 4 × 4 rays around it (Catmull–Rom, held within the four
 //! nearest: no overshoot at a shadow's edge).
 //!
-//! **Cost and error.** About `1/spacing²` rays a voxel, each taking one or two samples a
-//! plane, instead of a march a voxel (tens to hundreds of samples). Each ray's depth is
-//! the march's along its own line, its samples up to `spacing` times further apart; the
+//! **Cost and error.** About `1/spacing²` rays a point, each taking one or two samples a
+//! plane, instead of a march a point (tens to hundreds of samples). Each ray's depth is
+//! the march's along its own line, its samples further apart; the
 //! one read between rays blurs a shadow's edge sideways by about a ray spacing at most,
 //! however far the light has come — unlike a sweep that reads its nodes bilinearly at
-//! every few planes ([`super::env_sweep`]), whose blur grows with the planes crossed.
+//! every few planes ([`super::env_sweep`]), whose blur grows with the planes crossed, and
+//! which marches every node whose way out leaves its domain through a side.
 //! The depths are kept in `f32` (relative `6·10⁻⁸`).
 //!
 //! **Memory.** The rays cover the lit box's span on every plane, shifted: `n·|w_a/w_k|`
 //! more across on `a` over `n` planes. Each plane keeps only the rays over the lit span
 //! on the side axis the rays shift more along (`a`), so the depths take about the lit
-//! box's voxels `/spacing²` times `1 + n·|w_b/w_k|/width_b` floats — at most twice a
-//! cube's voxels at one voxel apart, under a sun 45° off both side axes.
+//! box's points `/spacing²` times `1 + n·|w_b/w_k|/width_b` floats — at most twice a
+//! cube's points at one step apart, under a light 45° off both side axes.
 
 use super::lights_pass::{SHADOW_CUTOFF, optical_depth_within};
 use super::occupancy::Occupancy;
 use crate::field::{self, Sampler};
+use crate::sh::ShGrid;
 use haze_volume::Volume;
 use rayon::prelude::*;
 
-/// Lit voxels across the rays (on either side axis) below which no planes are laid: with
-/// fewer than three, a voxel's read would lean on rays that pass beside the
+/// Lit points across the rays (on either side axis) below which no planes are laid: with
+/// fewer than three, a point's read would lean on rays that pass beside the
 /// smoke or outside the box (a column one voxel wide came out 35 % bright). Such thin
-/// smoke has few voxels or short ways out sideways, and marches per voxel.
+/// smoke has few points or short ways out sideways: the caller marches (or sweeps) them.
 const THIN: usize = 2;
 
 /// The largest depth kept (`e^{−10³⁰}` is 0; a NaN depth is kept as this too).
 const DEPTH_CAP: f64 = 1e30;
 
-/// A sun's `σt·τ` on the planes of parallel rays over a box of lit voxels (module docs).
+/// The points whose depths are wanted: per axis `min + (i + offset)·step` (module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Centers {
+    pub min: [f64; 3],
+    pub step: [f64; 3],
+    pub offset: f64,
+}
+
+impl Centers {
+    /// The voxel centers of `density`.
+    pub fn voxels(density: &Volume) -> Centers {
+        Centers {
+            min: density.bbox().min,
+            step: density.voxel_size(),
+            offset: 0.5,
+        }
+    }
+
+    /// The nodes of `grid` (its `node`).
+    pub fn nodes(grid: &ShGrid) -> Centers {
+        Centers {
+            min: grid.min,
+            step: grid.cell,
+            offset: 0.0,
+        }
+    }
+
+    /// The center of plane `i` across axis `ax`.
+    fn center(&self, ax: usize, i: usize) -> f64 {
+        self.min[ax] + (i as f64 + self.offset) * self.step[ax]
+    }
+}
+
+/// How far apart the rays lie and their samples fall.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RaySpacing {
+    /// Between neighbouring rays across them, in [`Centers`]' steps.
+    pub across: f64,
+    /// The longest interval between samples along a ray (a length).
+    pub along: f64,
+}
+
+/// `σt·τ` towards one direction on the planes of parallel rays over a box of lit points
+/// (module docs).
 #[derive(Clone, Debug)]
-pub struct SunPlanes {
+pub struct RayPlanes {
     /// The sun's major axis `k`, then `a` and `b`.
     axes: [usize; 3],
-    /// The first plane kept (a voxel index on `k`) and how many.
+    /// The first plane kept (a point's index on `k`) and how many.
     first: usize,
     planes: usize,
-    /// The box's corner and the voxel's size.
-    min: [f64; 3],
-    voxel: [f64; 3],
+    /// Where the points lie.
+    centers: Centers,
     /// `z₀`, the center of plane 0 on `k`.
     z0: f64,
     /// Per `a`, `b`: the first ray's crossing of plane 0, the rays' spacing, `w_·/w_k`
@@ -74,32 +124,36 @@ pub struct SunPlanes {
     tau: Vec<f32>,
 }
 
-impl SunPlanes {
-    /// The depths towards the sun along the unit `w` in `density` at `sigma_t` from the
-    /// voxel centers of `lit_box` (per axis the first and last voxel, inclusive), on rays
-    /// `spacing` voxels apart (module docs); `occupied` is `density`'s. `None` for a `w`
-    /// or `spacing` that is not finite and positive, and for a lit box fewer than three
-    /// voxels across the rays ([`THIN`]): the caller marches those voxels.
+impl RayPlanes {
+    /// The depths towards the light along the unit `w` in `density` at `sigma_t` from
+    /// the points of `centers` in `lit_box` (per axis the first and last point index,
+    /// inclusive), on rays spaced by `spacing` (module docs); `occupied` is `density`'s.
+    /// `None` for a `w` or spacing that is not finite and positive, and for a lit box
+    /// fewer than three points across the rays ([`THIN`]): the caller marches those points.
     pub fn new(
         density: &Volume,
         sigma_t: f64,
+        centers: Centers,
         lit_box: [(usize, usize); 3],
         w: [f64; 3],
         occupied: &Occupancy,
-        spacing: f64,
-    ) -> Option<SunPlanes> {
-        let mut planes = SunPlanes::layout(density, lit_box, w, spacing)?;
-        planes.tau = planes.walk(density, sigma_t, w, occupied, spacing);
+        spacing: RaySpacing,
+    ) -> Option<RayPlanes> {
+        if !(spacing.along.is_finite() && spacing.along > 0.0) {
+            return None;
+        }
+        let mut planes = RayPlanes::layout(centers, lit_box, w, spacing.across)?;
+        planes.tau = planes.walk(density, sigma_t, w, occupied, spacing.along);
         Some(planes)
     }
 
-    /// The rays' lattice over `lit_box` (no depths yet), or `None` ([`SunPlanes::new`]).
+    /// The rays' lattice over `lit_box` (no depths yet), or `None` ([`RayPlanes::new`]).
     fn layout(
-        density: &Volume,
+        centers: Centers,
         lit_box: [(usize, usize); 3],
         w: [f64; 3],
         spacing: f64,
-    ) -> Option<SunPlanes> {
+    ) -> Option<RayPlanes> {
         if !(w.iter().all(|c| c.is_finite()) && spacing.is_finite() && spacing > 0.0) {
             return None;
         }
@@ -120,12 +174,11 @@ impl SunPlanes {
             return None;
         }
         let (first, last) = lit_box[k];
-        let mut out = SunPlanes {
+        let mut out = RayPlanes {
             axes: [k, a, b],
             first,
             planes: last.checked_sub(first)? + 1,
-            min: density.bbox().min,
-            voxel: density.voxel_size(),
+            centers,
             z0: 0.0,
             origin: [0.0; 2],
             spacing: [0.0; 2],
@@ -136,9 +189,9 @@ impl SunPlanes {
             tau: Vec::new(),
         };
         out.z0 = out.center(k, 0);
-        out.spacing = [spacing * out.voxel[a], spacing * out.voxel[b]];
-        let (min, voxel, z0, slope) = (out.min, out.voxel, out.z0, out.slope);
-        let shift = |j: usize, c: usize| (center(min, voxel, k, j) - z0) * slope[c];
+        out.spacing = [spacing * centers.step[a], spacing * centers.step[b]];
+        let (z0, slope) = (out.z0, out.slope);
+        let shift = |j: usize, c: usize| (centers.center(k, j) - z0) * slope[c];
         for (c, ax) in [a, b].into_iter().enumerate() {
             // The rays must cover the lit voxels' span on every plane, shifted.
             let (s0, s1) = (shift(first, c), shift(last, c));
@@ -167,9 +220,9 @@ impl SunPlanes {
         Some(out)
     }
 
-    /// The center of voxel `i` on axis `ax`.
+    /// The center of plane `i` across axis `ax`.
     fn center(&self, ax: usize, i: usize) -> f64 {
-        center(self.min, self.voxel, ax, i)
+        self.centers.center(ax, i)
     }
 
     /// Where ray `(α, β)` crosses plane `j`.
@@ -183,25 +236,25 @@ impl SunPlanes {
         x
     }
 
-    /// Every ray's depths walked from the sun's side, kept within each plane's window
-    /// (module docs), per ray `β`, plane, kept ray.
+    /// Every ray's depths walked from the light's side, its samples at most `along`
+    /// apart, kept within each plane's window (module docs), per ray `β`, plane, kept ray.
     fn walk(
         &self,
         density: &Volume,
         sigma_t: f64,
         w: [f64; 3],
         occupied: &Occupancy,
-        spacing: f64,
+        along: f64,
     ) -> Vec<f32> {
         let k = self.axes[0];
-        let vs = self.voxel;
+        let vs = density.voxel_size();
         let h0 = vs[0].min(vs[1]).min(vs[2]);
-        let t = vs[k] / w[k].abs();
-        let m = (t / (spacing.max(1.0) * h0)).ceil().max(1.0);
+        let t = self.centers.step[k] / w[k].abs();
+        let m = (t / along).ceil().max(1.0);
         let h = t / m;
         let sampler = Sampler::new(density);
         let (first, last) = (self.first, self.first + self.planes - 1);
-        // The rays walk from the sun's side: down the planes when the sun is up `k`.
+        // The rays walk from the light's side: down the planes when it is up `k`.
         let plane = |step: usize| {
             if w[k] > 0.0 {
                 last - step
@@ -249,13 +302,13 @@ impl SunPlanes {
         tau
     }
 
-    /// `σt·τ` at the center `u` of `voxel` (within the lit box the planes were laid
+    /// `σt·τ` at the point `u` of index `point` (within the lit box the planes were laid
     /// over; clamped to it otherwise) from the rays around it on its plane: Catmull–Rom
     /// between the 4 × 4 nearest (exact for depths quadratic across the rays), held within
     /// the four around it so that it never overshoots past them (module docs).
-    pub fn at(&self, voxel: [usize; 3], u: [f64; 3]) -> f64 {
+    pub fn at(&self, point: [usize; 3], u: [f64; 3]) -> f64 {
         let [k, a, b] = self.axes;
-        let p = voxel[k].saturating_sub(self.first).min(self.planes - 1);
+        let p = point[k].saturating_sub(self.first).min(self.planes - 1);
         let rise = u[k] - self.z0;
         let mut taps = [[0usize; 4]; 2];
         let mut weights = [[0.0f64; 4]; 2];
@@ -269,7 +322,7 @@ impl SunPlanes {
             weights[c] = catmull_rom(t);
         }
         let (n, first) = (self.window, self.alpha0[p]);
-        // The window holds every ray a voxel of the lit box reads.
+        // The window holds every ray a point of the lit box reads.
         debug_assert!(taps[0].iter().all(|&t| t >= first && t - first < n));
         let at = |i: usize, j: usize| {
             let alpha = taps[0][i].saturating_sub(first).min(n - 1);
@@ -289,11 +342,6 @@ impl SunPlanes {
             });
         sum.clamp(lo, hi)
     }
-}
-
-/// The center of voxel `i` on axis `ax` of a grid from `min` with voxels of `voxel`.
-fn center(min: [f64; 3], voxel: [f64; 3], ax: usize, i: usize) -> f64 {
-    min[ax] + (i as f64 + 0.5) * voxel[ax]
 }
 
 /// The Catmull–Rom weights of the taps at −1, 0, 1 and 2 for a point `t ∈ [0, 1]` of the
@@ -333,6 +381,33 @@ mod tests {
         Volume::new(dims, bbox, data).unwrap()
     }
 
+    /// The planes over the voxel centers of `v`, rays `spacing` voxels apart, samples at
+    /// most `max(spacing, 1)` voxels apart (the lights pass's).
+    fn voxel_planes(
+        v: &Volume,
+        sigma_t: f64,
+        lit_box: [(usize, usize); 3],
+        w: [f64; 3],
+        occupied: &Occupancy,
+        spacing: f64,
+    ) -> Option<RayPlanes> {
+        let vs = v.voxel_size();
+        let along = spacing.max(1.0) * vs[0].min(vs[1]).min(vs[2]);
+        let spacing = RaySpacing {
+            across: spacing,
+            along,
+        };
+        RayPlanes::new(
+            v,
+            sigma_t,
+            Centers::voxels(v),
+            lit_box,
+            w,
+            occupied,
+            spacing,
+        )
+    }
+
     fn whole(dims: [usize; 3]) -> [(usize, usize); 3] {
         dims.map(|n| (0, n - 1))
     }
@@ -366,7 +441,7 @@ mod tests {
             .map(|j| f64::from(v.data()[j * 20 * 16]))
             .collect();
         for spacing in [1.0, 1.5] {
-            let planes = SunPlanes::new(&v, sigma_t, whole(dims), w, &occupied, spacing).unwrap();
+            let planes = voxel_planes(&v, sigma_t, whole(dims), w, &occupied, spacing).unwrap();
             let mut checked = 0;
             for z in 0..dims[2] {
                 let exact = sigma_t / w[2]
@@ -424,7 +499,7 @@ mod tests {
         ] {
             let w = unit(w);
             for spacing in [1.0, 1.5] {
-                let planes = SunPlanes::new(&v, sigma_t, whole(dims), w, &occupied, spacing);
+                let planes = voxel_planes(&v, sigma_t, whole(dims), w, &occupied, spacing);
                 let planes = planes.unwrap();
                 // Memory: the kept depths within 2.5× the voxels per ray² (module docs;
                 // the rays to spare weigh more on a small grid).
@@ -468,7 +543,7 @@ mod tests {
             let occupied = Occupancy::new(&v).unwrap();
             for w in [[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], unit([1.0, 1.0, 1.0])] {
                 for sigma_t in [0.0, 1.0, 1e30] {
-                    let planes = SunPlanes::new(&v, sigma_t, whole(dims), w, &occupied, 1.5);
+                    let planes = voxel_planes(&v, sigma_t, whole(dims), w, &occupied, 1.5);
                     let k = if w[2] != 0.0 { 2 } else { 0 };
                     let thin = (0..3).any(|a| a != k && dims[a] < 3);
                     let Some(planes) = planes else {
@@ -492,16 +567,145 @@ mod tests {
             let c = dims.map(|n| n / 2);
             let around = dims.map(|n| (n / 2).saturating_sub(1)..=(n / 2 + 1).min(n - 1));
             let lit = around.map(|r| (*r.start(), *r.end()));
-            if let Some(one) = SunPlanes::new(&v, 1e30, lit, [0.0, 0.0, 1.0], &occupied, 1.0) {
+            if let Some(one) = voxel_planes(&v, 1e30, lit, [0.0, 0.0, 1.0], &occupied, 1.0) {
                 assert!(one.at(c, center(&v, c)) > 1e20);
             }
             for bad in [[f64::NAN, 0.0, 1.0], [0.0; 3], [f64::INFINITY, 0.0, 0.0]] {
-                assert!(SunPlanes::new(&v, 1.0, whole(dims), bad, &occupied, 1.5).is_none());
+                assert!(voxel_planes(&v, 1.0, whole(dims), bad, &occupied, 1.5).is_none());
             }
             for spacing in [0.0, -1.0, f64::NAN] {
                 let w = [0.0, 0.0, 1.0];
-                assert!(SunPlanes::new(&v, 1.0, whole(dims), w, &occupied, spacing).is_none());
+                assert!(voxel_planes(&v, 1.0, whole(dims), w, &occupied, spacing).is_none());
             }
         }
+    }
+
+    /// The environment grid's nodes along planes of rays one node apart.
+    fn node_planes(
+        v: &Volume,
+        sigma_t: f64,
+        grid: &ShGrid,
+        w: [f64; 3],
+        occupied: &Occupancy,
+    ) -> Option<RayPlanes> {
+        let vs = v.voxel_size();
+        let h0 = vs[0].min(vs[1]).min(vs[2]);
+        let cell = grid.cell.iter().fold(f64::INFINITY, |m: f64, c| m.min(*c));
+        let spacing = RaySpacing {
+            across: 1.0,
+            along: cell.max(h0),
+        };
+        let all = grid.nodes.map(|n| (0, n - 1));
+        RayPlanes::new(v, sigma_t, Centers::nodes(grid), all, w, occupied, spacing)
+    }
+
+    fn node_index(grid: &ShGrid, i: usize) -> [usize; 3] {
+        let n = grid.nodes;
+        [i % n[0], (i / n[0]) % n[1], i / (n[0] * n[1])]
+    }
+
+    /// From the grid's nodes (1.5 voxels apart, between the voxel centers): `D(z)` linear
+    /// between the voxel centers and constant to the faces, so the depth along a steep
+    /// ray is the closed form `σt/w_z·∫ D dz` from the node's height to the top; the
+    /// depths do not change sideways (the reads are exact), so the rays must match it to
+    /// the midpoint rule's error on the kink at the last center (`σt·0.7·h²/8/w_z`, `h`
+    /// the sample step) and `f32`, at every node whose 4 × 4 rays stay in the box.
+    #[test]
+    fn layered_smoke_from_the_grids_nodes_has_the_closed_form_depth() {
+        let dims = [24, 24, 48];
+        let size = [1.0, 1.0, 2.0];
+        let slope = |z: f64| 0.3 + 0.7 * z;
+        let v = volume(dims, size, |p| slope(p[2]));
+        let occupied = Occupancy::new(&v).unwrap();
+        let grid = crate::render::env_pass::grid_frame(dims, v.bbox(), 1.5, 1);
+        let w = unit([0.05, 0.03, 1.0]);
+        let sigma_t = 2.0;
+        let vz = size[2] / dims[2] as f64;
+        let (z_lo, z_hi) = (0.5 * vz, size[2] - 0.5 * vz);
+        let column = |z: f64| {
+            let clamp = |z: f64| z.clamp(z_lo, z_hi);
+            let lin = |a: f64, b: f64| 0.3 * (b - a) + 0.35 * (b * b - a * a);
+            let below = (z_lo - z).max(0.0) * slope(z_lo);
+            below + lin(clamp(z), z_hi) + 0.5 * vz * slope(z_hi)
+        };
+        let planes = node_planes(&v, sigma_t, &grid, w, &occupied).unwrap();
+        let h = grid.cell.iter().fold(f64::INFINITY, |m: f64, c| m.min(*c));
+        let kink = sigma_t * 0.7 * h * h / 8.0 / w[2];
+        let (mut checked, mut worst) = (0, 0.0f64);
+        for i in 0..grid.len() {
+            let k = node_index(&grid, i);
+            let x = grid.node(k);
+            let rise = size[2] - x[2];
+            // Two rays from the sides, where the ray from the node meets the top.
+            let margin = 2.0 * grid.cell[0];
+            let inside = (0..2).all(|a| {
+                let top = x[a] + rise * w[a] / w[2];
+                (-0.5 * size[a] + margin..0.5 * size[a] - margin).contains(&top)
+                    && (-0.5 * size[a] + margin..0.5 * size[a] - margin).contains(&x[a])
+            });
+            if !inside {
+                continue;
+            }
+            let want = sigma_t * column(x[2]) / w[2];
+            worst = worst.max((planes.at(k, x) - want).abs() - 1e-6 * want);
+            checked += 1;
+        }
+        assert!(checked > 500, "{checked}");
+        assert!(worst <= kink, "{worst} > {kink}");
+    }
+
+    /// A dense blob (peak optical depth across it ≈ 6) off the box's center, from the
+    /// environment grid's nodes (1.5 voxels apart) along every direction of its rule,
+    /// against each node's own march, compared as transmittance (what the grid keeps):
+    /// the same case as the sweep's test (`env_sweep`, "a blob matches the march"), where
+    /// the sweep's reads, blurring at every fourth plane, are 0.056 off at worst and
+    /// 1.4·10⁻³ on average. The rays' one Catmull–Rom read between rays a node apart
+    /// (error up to `cell²/8·|∂²τ|` across the blob's edge) measured 7.7·10⁻³ at worst
+    /// and 1.4·10⁻⁴ on average (the sweep's, computed alongside: 0.056 and 1.4·10⁻³);
+    /// held to 0.015 and 4·10⁻⁴, and below the sweep's.
+    #[test]
+    fn a_blob_from_the_grids_nodes_matches_the_march_closer_than_the_sweep() {
+        use crate::render::env_pass::{directions, grid_frame};
+        use crate::render::env_sweep::sweep_depths;
+        let dims = [32, 32, 40];
+        let size = [1.0, 1.0, 1.25];
+        let c = [-0.05, 0.05, 0.6];
+        let v = volume(dims, size, |p| {
+            let r2: f64 = (0..3).map(|a| (p[a] - c[a]).powi(2)).sum();
+            (-r2 / (2.0 * 0.12f64.powi(2))).exp()
+        });
+        let occupied = Occupancy::new(&v).unwrap();
+        let grid = grid_frame(dims, v.bbox(), 1.5, 1);
+        let all = grid.nodes.map(|n| (0, n - 1));
+        let h0 = size[0] / dims[0] as f64;
+        let sigma_t = 20.0;
+        let mut planes_err = (0.0f64, 0.0);
+        let mut sweep_err = (0.0f64, 0.0);
+        let mut count = 0usize;
+        for (w, _) in directions(3).points() {
+            let planes = node_planes(&v, sigma_t, &grid, w, &occupied).unwrap();
+            let swept = sweep_depths(&v, sigma_t, &grid, all, w, h0, &occupied);
+            for (i, swept) in swept.iter().enumerate() {
+                let k = node_index(&grid, i);
+                let x = grid.node(k);
+                let want = (-optical_depth(&v, sigma_t, x, w, f64::MAX, h0)).exp();
+                let e = ((-planes.at(k, x)).exp() - want).abs();
+                planes_err = (planes_err.0.max(e), planes_err.1 + e);
+                let e = ((-f64::from(*swept)).exp() - want).abs();
+                sweep_err = (sweep_err.0.max(e), sweep_err.1 + e);
+                count += 1;
+            }
+        }
+        let mean = |e: (f64, f64)| e.1 / count as f64;
+        println!(
+            "transmittance off the march: planes worst {:.3e} mean {:.3e}; sweep worst {:.3e} mean {:.3e}",
+            planes_err.0,
+            mean(planes_err),
+            sweep_err.0,
+            mean(sweep_err)
+        );
+        assert!(planes_err.0 < 0.015, "{planes_err:?}");
+        assert!(mean(planes_err) < 4e-4, "{}", mean(planes_err));
+        assert!(planes_err.0 < sweep_err.0 && mean(planes_err) < mean(sweep_err));
     }
 }
