@@ -245,16 +245,19 @@ impl Player {
             }
         }
         if let (Some(_), Ok(p @ Picture { times: Some(t), .. })) = (done.tick, &done.picture) {
+            // The run's first frame only sets where the control starts: it is not
+            // weighed (`DetailControl::start_at`).
             if from_floor {
                 self.detail.start_at(done.detail);
+            } else {
+                let fps = self.playback.fps();
+                self.detail.observe(
+                    done.detail,
+                    FrameCost::of(done.seconds, t),
+                    (fps > 0.0).then(|| 1.0 / fps),
+                    p.grid.tau / p.grid.n.max(1) as f64,
+                );
             }
-            let fps = self.playback.fps();
-            self.detail.observe(
-                done.detail,
-                FrameCost::of(done.seconds, t),
-                (fps > 0.0).then(|| 1.0 / fps),
-                p.grid.tau / p.grid.n.max(1) as f64,
-            );
         }
         match (&done.picture, done.tick) {
             (Err(e), tick) => {
