@@ -1,10 +1,12 @@
 //! The environment pass's grid on the CPU (`render::env_pass::env_grid`): every node's
 //! optical depth towards the rule's 72 directions through the trilinear density, by the
-//! sweep (the default and the GPU's rule, `render::env_sweep`) and by a march per node
-//! (the reference),
+//! sweep (the default and the GPU's rule, `render::env_sweep`), along planes of rays one
+//! node apart (`render::ray_planes`, the CPU's rule below full detail) and by a march per
+//! node (the reference),
 //! what a new frame of the CPU lighting waited for most (BENCHMARKS.md "`haze bench` on
 //! lavapipe"). A smooth plume that fills most of a 48 × 48 × 64 box (the marches skip no
-//! block), σt 4, the built-in sky, order 4, the default spacing (1.5 voxels) and rule.
+//! block), σt 4, the built-in sky, order 4, the default spacing (1.5 voxels) and rule;
+//! and the grid playback lights at detail 0.43 (nodes 3.5 voxels apart, 32 directions).
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use haze_view::render::env_pass::{EnvDepths, EnvGridOptions, env_grid};
@@ -33,12 +35,28 @@ fn bench(c: &mut Criterion) {
     let env = Environment::sky(Sky::default());
     let mut g = c.benchmark_group("env_grid");
     g.sample_size(10);
-    for (name, depths) in [("sweep", EnvDepths::Sweep), ("march", EnvDepths::March)] {
+    let rules = [
+        ("sweep", EnvDepths::Sweep),
+        ("planes", EnvDepths::Planes),
+        ("march", EnvDepths::March),
+    ];
+    for (name, depths) in rules {
         let opts = EnvGridOptions {
             depths,
             ..Default::default()
         };
         g.bench_function(format!("48x48x64, sigma_t 4, order 4, {name}"), |b| {
+            b.iter(|| black_box(env_grid(black_box(&density), 4.0, &env, 4, &opts)))
+        });
+    }
+    for (name, depths) in &rules[..2] {
+        let opts = EnvGridOptions {
+            spacing: 1.5 / 0.43,
+            theta: 2,
+            depths: *depths,
+            ..Default::default()
+        };
+        g.bench_function(format!("48x48x64, detail 0.43, {name}"), |b| {
             b.iter(|| black_box(env_grid(black_box(&density), 4.0, &env, 4, &opts)))
         });
     }

@@ -69,7 +69,8 @@ pub struct CrmOptions {
     pub ground: Option<crate::ground::Ground>,
     /// The lighting's detail, in `(0, 1]` ([`CrmOptions::check_detail`]): 1 lights as
     /// the other knobs say (the default); below 1 the environment pass's grid is
-    /// coarser, its spacing divided by `detail` ([`CrmOptions::env_grid`]), and the
+    /// coarser, its spacing divided by `detail`, and on the CPU its depths taken along
+    /// planes of rays ([`CrmOptions::env_grid`]), and the
     /// automatic cells of the explicit orders larger, their work budget times
     /// `detail⁴` and their side at least `2/detail` voxels
     /// ([`grid_diffusion::auto_grid`]) and their count `⌈K·detail⌉`, at least four
