@@ -503,6 +503,33 @@ pub(crate) fn node_domain(needed: &[bool], nodes: [usize; 3]) -> Option<[(usize,
 /// [`EnvDepths::Planes`].
 const SWEEP_BATCH: usize = 8;
 
+/// The planes of rays one node apart over the nodes of `grid` in `domain` towards the
+/// unit `w` ([`EnvDepths::Planes`]), their samples at most a node cell apart and at least
+/// the march's step (the smallest voxel side) — the sweep's segments' step; `None` where
+/// [`RayPlanes::new`] lays none.
+pub(crate) fn node_planes(
+    density: &Volume,
+    sigma_t: f64,
+    grid: &ShGrid,
+    domain: [(usize, usize); 3],
+    w: [f64; 3],
+    occupied: &Occupancy,
+) -> Option<RayPlanes> {
+    let vs = density.voxel_size();
+    let h0 = vs[0].min(vs[1]).min(vs[2]);
+    let cell = grid
+        .cell
+        .iter()
+        .filter(|c| **c > 0.0)
+        .fold(f64::INFINITY, |m, c| m.min(*c));
+    let spacing = RaySpacing {
+        across: 1.0,
+        along: if cell.is_finite() { cell.max(h0) } else { h0 },
+    };
+    let centers = Centers::nodes(grid);
+    RayPlanes::new(density, sigma_t, centers, domain, w, occupied, spacing)
+}
+
 /// What the depths from a grid's nodes take: the density at `sigma_t`, the grid, the box
 /// of its needed nodes (`domain`, [`node_domain`]) and which nodes are needed, the
 /// march's step `h0` and the density's occupied blocks.
@@ -519,9 +546,8 @@ struct NodeDepths<'a> {
 impl NodeDepths<'_> {
     /// `σt·τ` from every needed node along the unit `w` to the box's face, in node order
     /// (0 at the nodes not needed, or outside the domain with the sweep), by `rule`
-    /// (not [`EnvDepths::March`]: the sweep's). [`EnvDepths::Planes`] lays its rays one
-    /// node apart, their samples at most a node cell apart (at least `h0`), as the
-    /// sweep's segments.
+    /// (not [`EnvDepths::March`]: the sweep's); [`EnvDepths::Planes`] along
+    /// [`node_planes`], the sweep where it lays none.
     fn toward(&self, w: [f64; 3], rule: EnvDepths) -> Vec<f32> {
         let g = self.grid;
         let sweep = || {
@@ -539,29 +565,8 @@ impl NodeDepths<'_> {
         if rule != EnvDepths::Planes {
             return sweep();
         }
-        let cell = g
-            .cell
-            .iter()
-            .filter(|c| **c > 0.0)
-            .fold(f64::INFINITY, |m, c| m.min(*c));
-        let spacing = RaySpacing {
-            across: 1.0,
-            along: if cell.is_finite() {
-                cell.max(self.h0)
-            } else {
-                self.h0
-            },
-        };
-        let centers = Centers::nodes(g);
-        let Some(planes) = RayPlanes::new(
-            self.density,
-            self.sigma_t,
-            centers,
-            self.domain,
-            w,
-            self.occupied,
-            spacing,
-        ) else {
+        let (density, sigma_t, occupied) = (self.density, self.sigma_t, self.occupied);
+        let Some(planes) = node_planes(density, sigma_t, g, self.domain, w, occupied) else {
             return sweep();
         };
         let n = g.nodes;
