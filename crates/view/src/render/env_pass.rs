@@ -55,7 +55,7 @@
 //! The GPU twin is `shaders/env_pass.wgsl` (`gpu::env_pass`).
 
 use super::crm::VolumeGrids;
-use super::env_sweep::sweep_depths;
+use super::env_sweep::{DEPTH_CAP, sweep_depths};
 use super::lights_pass::optical_depth_within;
 use super::occupancy::Occupancy;
 use super::peak_rule::{self, PeakRule};
@@ -576,7 +576,13 @@ impl NodeDepths<'_> {
             .filter(|(i, _)| self.needed[*i])
             .for_each(|(i, t)| {
                 let k = [i % n[0], (i / n[0]) % n[1], i / (n[0] * n[1])];
-                *t = planes.at(k, g.node(k)) as f32;
+                let x = g.node(k);
+                *t = if planes.near_smoky_side(x) {
+                    optical_depth_within(density, sigma_t, x, w, f64::MAX, self.h0, occupied)
+                        .min(DEPTH_CAP)
+                } else {
+                    planes.at(k, x)
+                } as f32;
             });
         tau
     }

@@ -39,7 +39,7 @@ use crate::sh::ShGrid;
 use haze_volume::Volume;
 
 /// The largest depth kept (`e^{−10³⁰}` is 0; a NaN depth is kept as this too).
-const DEPTH_CAP: f64 = 1e30;
+pub(crate) const DEPTH_CAP: f64 = 1e30;
 
 /// Node planes between a node and the plane its depth is read from (module docs).
 pub const STRIDE: usize = 4;
@@ -310,12 +310,12 @@ mod tests {
         // midpoint rule's error on the kink at the last center (≤ 10⁻⁶ here) and the
         // depths' f32 (10⁻⁷ relative), on every node whose ray and reads stay clear of
         // the sides (four cells from the faces the ray drifts towards). So must the same
-        // nodes along planes of rays (`super::ray_planes`, `EnvDepths::Planes`), two
-        // cells from the faces it drifts away from as well: each ray sums the same
+        // nodes along planes of rays (`super::ray_planes`, `EnvDepths::Planes`): each ray sums the same
         // segments, and the Catmull–Rom read of equal depths is exact. (Within two cells
-        // of a face, where the smoke meets the box's side, a node reads rays that cross
-        // its plane outside the box and enter it far above: this ray, 3° off the side,
-        // reads depths up to 0.45 short there, where the sweep marches.)
+        // of a face where the smoke meets the box's side, a node would read rays that
+        // cross its plane outside the box and enter it far above — this ray, 3° off the
+        // side, read depths up to 0.45 short there — so those nodes march, as the
+        // sweep's do: `RayPlanes::near_smoky_side`.)
         let dims = [24, 24, 48];
         let size = [1.0, 1.0, 2.0];
         let slope = |z: f64| 0.3 + 0.7 * z;
@@ -339,6 +339,7 @@ mod tests {
         };
         let tau = sweep_depths(&v, sigma_t, &grid, full(&grid), w, 0.5 * vz, &occupied);
         let planes = node_planes(&v, sigma_t, &grid, full(&grid), w, &occupied).unwrap();
+        let march = |x: [f64; 3]| optical_depth(&v, sigma_t, x, w, f64::MAX, 0.5 * vz);
         let mut checked = 0;
         let (mut worst, mut p_worst) = (0.0f64, 0.0f64);
         for (i, &t) in tau.iter().enumerate() {
@@ -349,9 +350,12 @@ mod tests {
             let x = grid.node(k);
             let want = sigma_t * column(x[2]) / w[2];
             worst = worst.max((f64::from(t) - want).abs() - 1e-7 * want);
-            if k[0] >= 2 && k[1] >= 2 {
-                p_worst = p_worst.max((planes.at(k, x) - want).abs() - 1e-7 * want);
-            }
+            let walked = if planes.near_smoky_side(x) {
+                march(x)
+            } else {
+                planes.at(k, x)
+            };
+            p_worst = p_worst.max((walked - want).abs() - 1e-7 * want);
             checked += 1;
         }
         // The segments' step: a node cell (the smallest, 23/16 of a voxel sideways).

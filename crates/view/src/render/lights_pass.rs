@@ -18,7 +18,9 @@
 //! apart, or [`SUN_SPACING`] voxels at a detail of `1/SUN_SPACING` and below, each walked
 //! once through the lit voxels' planes, one or two samples a plane, and each voxel reading
 //! its plane's depths from the rays around it — about one sample a voxel instead of a
-//! march a voxel, its shadows' edges blurred sideways by about a ray spacing at most.
+//! march a voxel, its shadows' edges blurred sideways by about a ray spacing at most
+//! (voxels within two ray spacings of a box face with smoke on it march:
+//! `RayPlanes::near_smoky_side`).
 //! Point lights still march.
 //!
 //! **Kept across camera moves** ([`LightShadows`]): `T(u)` does not depend on the eye,
@@ -154,8 +156,8 @@ impl LightShadows {
                     let u = density.voxel_center(x, y, z);
                     for (sun, walked) in env.suns.iter().zip(&walked) {
                         let depth = match walked {
-                            Some(planes) => planes.at([x, y, z], u),
-                            None => optical_depth_within(
+                            Some(planes) if !planes.near_smoky_side(u) => planes.at([x, y, z], u),
+                            _ => optical_depth_within(
                                 density,
                                 medium.sigma_t,
                                 u,
