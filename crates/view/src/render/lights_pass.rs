@@ -384,11 +384,17 @@ fn march(
 /// with `D > 0` grown by one voxel (the reach of `field::sample`'s stencil), within the
 /// grid's box; `None` when no voxel has `D > 0`.
 pub fn occupied_box(density: &Volume) -> Option<Bbox> {
-    let b = density.occupied_bbox(0.0)?;
+    let cells = density.occupied_bbox(0.0)?;
+    Some(grown_by_half_a_voxel(density, &cells))
+}
+
+/// The cells `cells` of `density`'s voxels grown by half a voxel on every side, within
+/// the box ([`occupied_box`]).
+pub(crate) fn grown_by_half_a_voxel(density: &Volume, cells: &Bbox) -> Bbox {
     let vs = density.voxel_size();
     let outer = density.bbox();
-    Some(Bbox::new(
-        [0, 1, 2].map(|a| (b.min[a] - 0.5 * vs[a]).max(outer.min[a])),
-        [0, 1, 2].map(|a| (b.max[a] + 0.5 * vs[a]).min(outer.max[a])),
-    ))
+    Bbox::new(
+        [0, 1, 2].map(|a| (cells.min[a] - 0.5 * vs[a]).max(outer.min[a])),
+        [0, 1, 2].map(|a| (cells.max[a] + 0.5 * vs[a]).min(outer.max[a])),
+    )
 }

@@ -6,7 +6,9 @@
 //! voxels within one of the voxel that holds the point, so where that voxel's block is
 //! not marked the sample is exactly zero and a march may skip it: the same steps at the
 //! same points, the same sum, fewer samples taken. The occupied box (the voxels with
-//! `D > 0` grown by one voxel) bounds the marches as before.
+//! `D > 0` grown by one voxel) bounds the marches as before. Which of the box's faces
+//! hold density on their outermost voxels is kept too (for
+//! [`super::ray_planes::RayPlanes`], whose rays may cross such a face outside the box).
 
 use haze_volume::{Bbox, Volume};
 use rayon::prelude::*;
@@ -24,12 +26,15 @@ pub struct Occupancy {
     dims: [usize; 3],
     blocks: [usize; 3],
     marked: Vec<bool>,
+    /// Per axis, whether a voxel with `D > 0` lies on the low and the high face.
+    smoky_faces: [[bool; 2]; 3],
 }
 
 impl Occupancy {
     /// The occupancy of `density`; `None` when no voxel has `D > 0`.
     pub fn new(density: &Volume) -> Option<Occupancy> {
-        let bbox = super::lights_pass::occupied_box(density)?;
+        let cells = density.occupied_bbox(0.0)?;
+        let bbox = super::lights_pass::grown_by_half_a_voxel(density, &cells);
         let dims = density.dims();
         let blocks = dims.map(|n| n.div_ceil(BLOCK));
         let (plane, layer) = (dims[0] * dims[1], blocks[0] * blocks[1]);
@@ -75,7 +80,14 @@ impl Occupancy {
             dims,
             blocks,
             marked,
+            smoky_faces: smoky_faces(density, &cells),
         })
+    }
+
+    /// Whether a voxel with `D > 0` lies on the box's `high` (else low) face across
+    /// axis `ax` (its outermost layer of voxels).
+    pub fn smoky_face(&self, ax: usize, high: bool) -> bool {
+        self.smoky_faces[ax][usize::from(high)]
     }
 
     /// The occupied box: outside it the trilinear density is zero.
@@ -108,6 +120,19 @@ impl Occupancy {
         let block = k.map(|v| v / BLOCK);
         self.marked[block[0] + self.blocks[0] * (block[1] + self.blocks[1] * block[2])]
     }
+}
+
+/// Per axis, whether the voxels with `D > 0`, whose cells span `cells`, reach the low and
+/// the high face of `density`'s box: their first (last) voxel is the box's, so the span's
+/// end lies within half a voxel of the face (it is `min + i·voxel` for a whole `i`).
+fn smoky_faces(density: &Volume, cells: &Bbox) -> [[bool; 2]; 3] {
+    let (outer, vs) = (density.bbox(), density.voxel_size());
+    std::array::from_fn(|a| {
+        [
+            cells.min[a] < outer.min[a] + 0.5 * vs[a],
+            cells.max[a] > outer.max[a] - 0.5 * vs[a],
+        ]
+    })
 }
 
 #[cfg(test)]
@@ -202,6 +227,46 @@ mod tests {
                 v.data_mut()[last] = 1.0;
                 let occ = Occupancy::new(&v).unwrap();
                 assert_eq!(occ.marked, marked_by_voxel(&v), "{dims:?} {every}");
+            }
+        }
+    }
+
+    /// The faces told smoky are those with a voxel `D > 0` on their outermost layer,
+    /// voxel by voxel: single voxels on, next to and away from every face of boxes whose
+    /// corners and sizes do not round evenly, grids one voxel thick, and the lumps.
+    #[test]
+    fn the_smoky_faces_are_those_with_density_on_them() {
+        let by_voxel = |v: &Volume, ax: usize, high: bool| {
+            let d = v.dims();
+            let layer = if high { d[ax] - 1 } else { 0 };
+            (0..d[2]).any(|z| {
+                (0..d[1]).any(|y| {
+                    (0..d[0]).any(|x| [x, y, z][ax] == layer && v.data()[v.index(x, y, z)] > 0.0)
+                })
+            })
+        };
+        let check = |v: &Volume, what: &str| {
+            let occ = Occupancy::new(v).unwrap();
+            for ax in 0..3 {
+                for high in [false, true] {
+                    assert_eq!(
+                        occ.smoky_face(ax, high),
+                        by_voxel(v, ax, high),
+                        "{what} {ax} {high}"
+                    );
+                }
+            }
+        };
+        check(&lumps(), "lumps");
+        let mut rng = Pcg64::seed_from_u64(5);
+        for dims in [[7, 9, 11], [1, 6, 5], [3, 1, 1], [13, 2, 4]] {
+            let bbox = Bbox::new([-0.37, 1.1, 1e3], [0.71, 1.93, 1e3 + 0.3]);
+            for _ in 0..40 {
+                let mut v = Volume::zeros(dims, bbox).unwrap();
+                let k = dims.map(|n| rng.random_range(0..n));
+                let i = v.index(k[0], k[1], k[2]);
+                v.data_mut()[i] = 0.5;
+                check(&v, &format!("{dims:?} {k:?}"));
             }
         }
     }

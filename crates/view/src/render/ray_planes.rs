@@ -48,6 +48,7 @@
 //! box's points `/spacing²` times `1 + n·|w_b/w_k|/width_b` floats — at most twice a
 //! cube's points at one step apart, under a light 45° off both side axes.
 
+use super::env_sweep::DEPTH_CAP;
 use super::lights_pass::{SHADOW_CUTOFF, optical_depth_within};
 use super::occupancy::Occupancy;
 use crate::field::{self, Sampler};
@@ -60,9 +61,6 @@ use rayon::prelude::*;
 /// smoke or outside the box (a column one voxel wide came out 35 % bright). Such thin
 /// smoke has few points or short ways out sideways: the caller marches (or sweeps) them.
 const THIN: usize = 2;
-
-/// The largest depth kept (`e^{−10³⁰}` is 0; a NaN depth is kept as this too).
-const DEPTH_CAP: f64 = 1e30;
 
 /// The points whose depths are wanted: per axis `min + (i + offset)·step` (module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -156,7 +154,7 @@ impl RayPlanes {
         }
         let mut planes = RayPlanes::layout(centers, lit_box, w, spacing.across)?;
         let [_, a, b] = planes.axes;
-        planes.sides = [a, b].map(|ax| [false, true].map(|high| face_has_smoke(density, ax, high)));
+        planes.sides = [a, b].map(|ax| [false, true].map(|high| occupied.smoky_face(ax, high)));
         planes.bbox = *density.bbox();
         planes.tau = planes.walk(density, sigma_t, w, occupied, spacing.along);
         Some(planes)
@@ -371,23 +369,6 @@ impl RayPlanes {
             });
         sum.clamp(lo, hi)
     }
-}
-
-/// Whether `density` is non-zero on any voxel of its outermost layer on the `high` (else
-/// low) face across axis `ax`.
-fn face_has_smoke(density: &Volume, ax: usize, high: bool) -> bool {
-    let d = density.dims();
-    let layer = if high { d[ax].saturating_sub(1) } else { 0 };
-    let (p, q) = ((ax + 1) % 3, (ax + 2) % 3);
-    let data = density.data();
-    (0..d[p]).any(|i| {
-        (0..d[q]).any(|j| {
-            let mut k = [0; 3];
-            (k[ax], k[p], k[q]) = (layer, i, j);
-            data.get(k[0] + d[0] * (k[1] + d[1] * k[2]))
-                .is_some_and(|v| *v > 0.0)
-        })
-    })
 }
 
 /// The Catmull–Rom weights of the taps at −1, 0, 1 and 2 for a point `t ∈ [0, 1]` of the
