@@ -373,7 +373,7 @@ impl RayPlanes {
 
 /// The Catmull–Rom weights of the taps at −1, 0, 1 and 2 for a point `t ∈ [0, 1]` of the
 /// way from tap 0 to tap 1 (they sum to 1 and reproduce quadratics).
-fn catmull_rom(t: f64) -> [f64; 4] {
+pub(crate) fn catmull_rom(t: f64) -> [f64; 4] {
     let (t2, t3) = (t * t, t * t * t);
     [
         0.5 * (-t3 + 2.0 * t2 - t),

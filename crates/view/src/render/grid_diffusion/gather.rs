@@ -72,7 +72,7 @@ pub struct Gathered {
 }
 
 /// Values per cell in the march's record: `D`, `D·J⁰` (3), `D·J¹` (9), `D·T` per sun.
-const BASE: usize = 1 + MOMENTS;
+pub(super) const BASE: usize = 1 + MOMENTS;
 
 /// `D·J⁰` and `D·J¹` of a record: the moments every march carries.
 const MOMENTS: usize = 12;
@@ -131,7 +131,7 @@ pub fn gather_kept(
     rays: &mut RayCache,
 ) -> Gathered {
     if rays.budget == 0 {
-        gather(grid, sigma_t, sources, suns, dirs)
+        gather_with(grid, sigma_t, sources, suns, dirs, Rays::Planes).0
     } else if rays.cells.is_empty() {
         let left = AtomicUsize::new(rays.budget);
         let (out, kept) = gather_with(grid, sigma_t, sources, suns, dirs, Rays::Keep(&left));
@@ -150,10 +150,12 @@ enum Rays<'a> {
     Keep(&'a AtomicUsize),
     /// Sums the kept rays; marches the cells not kept.
     Replay(&'a RayCache),
+    /// Walks planes of parallel rays, one direction at a time ([`super::gather_planes`]).
+    Planes,
 }
 
 /// `L⁰`, `L¹`, bands 2–4 and the escape probability of one cell.
-type Cell = ([f64; 3], [[f64; 3]; 3], [[f64; HIGH]; 3], f64);
+pub(super) type Cell = ([f64; 3], [[f64; 3]; 3], [[f64; HIGH]; 3], f64);
 
 /// [`gather`] with its rays marched, kept or replayed: also each cell's kept rays with
 /// [`Rays::Keep`] (empty otherwise).
@@ -207,10 +209,17 @@ fn gather_with(
             .collect(),
         suns,
     };
-    let cells: Vec<(Cell, Option<CellRays>)> = (0..n)
-        .into_par_iter()
-        .map(|i| gathering.cell(i, &rays))
-        .collect();
+    let cells: Vec<(Cell, Option<CellRays>)> = if matches!(rays, Rays::Planes) {
+        super::gather_planes::gather(&gathering)
+            .into_iter()
+            .map(|c| (c, None))
+            .collect()
+    } else {
+        (0..n)
+            .into_par_iter()
+            .map(|i| gathering.cell(i, &rays))
+            .collect()
+    };
     let mut out = Gathered {
         l0: Vec::with_capacity(n),
         l1: Vec::with_capacity(n),
@@ -232,13 +241,15 @@ fn gather_with(
 }
 
 /// What every cell of one gather shares: the grid, its records, the rule and the suns.
-struct Gathering<'a> {
-    grid: &'a CoarseGrid,
-    rec: Vec<f64>,
-    stride: usize,
-    occupied: ([f64; 3], [f64; 3]),
-    sigma_t: f64,
-    dirs: &'a [([f64; 3], f64)],
+pub(super) struct Gathering<'a> {
+    pub(super) grid: &'a CoarseGrid,
+    /// [`cell_records`]: `stride` values a cell.
+    pub(super) rec: Vec<f64>,
+    pub(super) stride: usize,
+    /// The world box outside which the density is 0 ([`occupied`]).
+    pub(super) occupied: ([f64; 3], [f64; 3]),
+    pub(super) sigma_t: f64,
+    pub(super) dirs: &'a [([f64; 3], f64)],
     ys: Vec<[f64; HIGH]>,
     norms: Vec<f64>,
     phases: Vec<f64>,
@@ -251,7 +262,7 @@ impl Gathering<'_> {
     fn cell(&self, i: usize, rays: &Rays<'_>) -> (Cell, Option<CellRays>) {
         let grid = self.grid;
         if grid.density[i] <= 0.0 || grid.density[i].is_nan() || self.dirs.is_empty() {
-            return (([0.0; 3], [[0.0; 3]; 3], [[0.0; HIGH]; 3], 1.0), None);
+            return (EMPTY, None);
         }
         let x = grid.center(grid.coords(i));
         let replay = match rays {
@@ -263,12 +274,9 @@ impl Gathering<'_> {
             Rays::Keep(left) if left.load(Ordering::Relaxed) > 0 => Some(CellRays::default()),
             _ => None,
         };
-        let (mut l0, mut l1, mut escape) = ([0.0f64; 3], [[0.0f64; 3]; 3], 0.0);
-        let mut high = [[0.0f64; HIGH]; 3];
+        let mut sums: Cell = ([0.0; 3], [[0.0; 3]; 3], [[0.0; HIGH]; 3], 0.0);
         let mut acc = vec![0.0f64; self.stride];
-        let suns = self.suns;
-        for (d, (&(w, wt), y)) in self.dirs.iter().zip(&self.ys).enumerate() {
-            let phase = &self.phases[d * suns.len()..(d + 1) * suns.len()];
+        for (d, &(w, _)) in self.dirs.iter().enumerate() {
             let t = match replay {
                 Some(ray) => ray.replay(d, &self.rec, self.stride, &mut acc),
                 None => {
@@ -284,37 +292,69 @@ impl Gathering<'_> {
                     t
                 }
             };
-            escape += wt * t;
-            for c in 0..3 {
-                let mut l = acc[1 + c] + (0..3).map(|a| acc[4 + 3 * c + a] * w[a]).sum::<f64>();
-                for (k, sun) in suns.iter().enumerate() {
-                    l += self.norms[k] * sun.emit[c] * acc[BASE + k] * phase[k];
-                }
-                let l = l.max(0.0);
-                l0[c] += wt * l;
-                for a in 0..3 {
-                    l1[c][a] += 3.0 * wt * l * w[a];
-                }
-                for (h, y) in high[c].iter_mut().zip(y) {
-                    *h += wt * l * y;
-                }
-            }
+            let l = [0, 1, 2].map(|c| self.light(d, &acc, c));
+            self.add(d, l, t, &mut sums);
         }
         let kept = match rays {
             Rays::Keep(left) => keep.and_then(|k| k.within(left)),
             _ => None,
         };
-        (
-            (
-                l0.map(|v| v / FOUR_PI),
-                l1.map(|c| c.map(|v| v / FOUR_PI)),
-                high,
-                (escape / FOUR_PI).clamp(0.0, 1.0),
-            ),
-            kept,
-        )
+        (finish(sums), kept)
+    }
+
+    /// The light of channel `c` along direction `d` of a ray's sums `acc` (the march's
+    /// `Σ share·record`, or a record itself: `D·J⁰ + D·J¹·ω` and each sun's
+    /// `(Ω E/4π)·norm·p̄(−s·ω)·D·T`), before it is clamped at 0.
+    pub(super) fn light(&self, d: usize, acc: &[f64], c: usize) -> f64 {
+        let w = self.dirs[d].0;
+        let phase = &self.phases[d * self.suns.len()..(d + 1) * self.suns.len()];
+        let mut l = acc[1 + c] + (0..3).map(|a| acc[4 + 3 * c + a] * w[a]).sum::<f64>();
+        for (k, sun) in self.suns.iter().enumerate() {
+            l += self.norms[k] * sun.emit[c] * acc[BASE + k] * phase[k];
+        }
+        l
+    }
+
+    /// Adds the light `l` (clamped at 0) arriving along direction `d` and the ray's
+    /// transmittance `t` left to a cell's sums (divided by `4π` in [`finish`]).
+    pub(super) fn add(&self, d: usize, l: [f64; 3], t: f64, sums: &mut Cell) {
+        let ((w, wt), y) = (self.dirs[d], &self.ys[d]);
+        let (l0, l1, high, escape) = sums;
+        *escape += wt * t;
+        for c in 0..3 {
+            let l = l[c].max(0.0);
+            l0[c] += wt * l;
+            for a in 0..3 {
+                l1[c][a] += 3.0 * wt * l * w[a];
+            }
+            for (h, y) in high[c].iter_mut().zip(y) {
+                *h += wt * l * y;
+            }
+        }
+    }
+
+    /// The light gathered at the center `x` of a cell along direction `d` by a march back
+    /// to the box's face, and the transmittance left.
+    pub(super) fn march(&self, x: [f64; 3], d: usize, acc: &mut [f64]) -> ([f64; 3], f64) {
+        let back = self.dirs[d].0.map(|v| -v);
+        let t = march_back(self, x, back, acc, |_, _| {});
+        ([0, 1, 2].map(|c| self.light(d, acc, c)), t)
     }
 }
+
+/// A cell's sums over the directions as [`Gathered`] holds them: `L⁰`, `L¹` and the
+/// escape probability divided by `4π`, the escape held in `[0, 1]`.
+pub(super) fn finish((l0, l1, high, escape): Cell) -> Cell {
+    (
+        l0.map(|v| v / FOUR_PI),
+        l1.map(|c| c.map(|v| v / FOUR_PI)),
+        high,
+        (escape / FOUR_PI).clamp(0.0, 1.0),
+    )
+}
+
+/// A cell without smoke: no light gathered, every ray escapes.
+pub(super) const EMPTY: Cell = ([0.0; 3], [[0.0; 3]; 3], [[0.0; HIGH]; 3], 1.0);
 
 /// The world box outside which the trilinear density of `grid` is 0: the cells with
 /// smoke and one cell around them (the interpolation reaches half a cell beyond), within

@@ -84,6 +84,7 @@
 mod coarse;
 mod escape;
 mod gather;
+mod gather_planes;
 #[cfg(test)]
 mod gather_tests;
 mod rays;
@@ -269,9 +270,10 @@ pub fn explicit_media_radiance(
     let (first_sources, first_suns) = scaled_first_sources(sources, suns, scale);
     let medium = &transport;
     // The later orders march their rays once and sum the kept ones after, where they fit;
-    // the first order keeps them where it gathers along the same rule.
+    // the first order keeps them where it gathers along the same rule. Where they do not
+    // fit, every order walks planes of rays (`gather_planes`).
     let mut rays = later_rays(&out.grid, later.len());
-    let mut last = if first == later {
+    let mut last = if first == later || rays.budget == 0 {
         gather_kept(
             &out.grid,
             medium.sigma_t,
