@@ -28,8 +28,9 @@
 //! **Where cells march.** Cells within two lines of a side face (across `a` or `b`) that
 //! has smoke on its outermost cells: their reads lean on lines that crossed the plane
 //! outside the box and entered it further on ([`crate::render::ray_planes`], "Side
-//! faces"); and every cell of a direction whose grid is fewer than three cells across `a`
-//! or `b` (too few lines to read between).
+//! faces"); every cell of a direction whose grid is fewer than three cells across `a`
+//! or `b` (too few lines to read between); and every cell of a direction whose lines
+//! would take more steps than the marches ([`READ_STEPS`]).
 //!
 //! **Cost.** About one line a cell, one or two steps a plane, instead of a march a cell
 //! (its steps reach the face: tens to a hundred on a full-detail grid); the values are
@@ -45,6 +46,13 @@ use rayon::prelude::*;
 /// Cells across a side axis below which a direction's cells march (module docs).
 const THIN: usize = 3;
 
+/// What a cell's read of its lines costs, in a march's steps: 16 taps of four values
+/// against a step's 8 corners of four and an exponential (an estimate, not tuned). A
+/// direction whose lines' steps plus the reads come to the marches' ([`super::gather_work`])
+/// or more marches: near the diagonals the lines over a thin plume's box can outnumber
+/// its cells several times.
+const READ_STEPS: f64 = 2.0;
+
 /// Lines between a cell and a smoky side face within which the cell marches.
 const SIDE_REACH: usize = 2;
 
@@ -56,9 +64,12 @@ pub(super) fn gather(gathering: &Gathering<'_>) -> Vec<Cell> {
     let n = grid.len();
     let smoke: Vec<bool> = grid.density.iter().map(|&d| d > 0.0).collect();
     let mut sums: Vec<Cell> = vec![([0.0; 3], [[0.0; 3]; 3], [[0.0; HIGH]; 3], 0.0); n];
-    let Some((_, lo, hi)) = grid.smoke_cells().filter(|_| !gathering.dirs.is_empty()) else {
+    let Some((cells, lo, hi)) = grid.smoke_cells().filter(|_| !gathering.dirs.is_empty()) else {
         return vec![EMPTY; n];
     };
+    // The marches' steps a direction, against which each direction's lines are weighed.
+    let marches = super::gather_work(grid);
+    let mut walked = 0;
     let span = (lo, hi);
     // Per axis, whether a cell with smoke lies on the grid's low and high face.
     let faces: [[bool; 2]; 3] = std::array::from_fn(|a| [lo[a] == 0, hi[a] + 1 == grid.dims[a]]);
@@ -67,8 +78,10 @@ pub(super) fn gather(gathering: &Gathering<'_>) -> Vec<Cell> {
     let mut values = Vec::new();
     for d in 0..gathering.dirs.len() {
         let w = gathering.dirs[d].0;
-        let lines = Lines::new(grid, w, span);
+        let lines = Lines::new(grid, w, span)
+            .filter(|l| l.work(grid) + READ_STEPS * (cells as f64) < marches);
         if let Some(lines) = &lines {
+            walked += 1;
             // `D` and `S = D·J(ω)` per channel: what the lines interpolate.
             source
                 .par_iter_mut()
@@ -116,6 +129,10 @@ pub(super) fn gather(gathering: &Gathering<'_>) -> Vec<Cell> {
                 );
         }
     }
+    tracing::debug!(
+        "the orders' gather: {walked} of {} directions along planes of rays",
+        gathering.dirs.len()
+    );
     sums.into_iter()
         .zip(&smoke)
         .map(|(s, &lit)| if lit { finish(s) } else { EMPTY })
@@ -177,6 +194,15 @@ impl Lines {
             first: lo[k],
             planes: hi[k] - lo[k] + 1,
         })
+    }
+
+    /// The steps of [`Lines::walk`]: every line's steps over the planes walked, at most
+    /// the smallest cell side each (some are skipped outside the occupied box).
+    fn work(&self, grid: &CoarseGrid) -> f64 {
+        let k = self.axes[0];
+        let h = grid.h[0].min(grid.h[1]).min(grid.h[2]);
+        let steps = (grid.h[k] / self.w[k].abs() / h).ceil().max(1.0);
+        (self.count[0] * self.count[1] * self.planes) as f64 * steps
     }
 
     /// Where line `(α, β)` crosses plane `j`, in the grid's cell coordinates (cell `i`'s
