@@ -62,38 +62,42 @@ const SIDE_REACH: usize = 2;
 pub(super) fn gather(gathering: &Gathering<'_>) -> Vec<Cell> {
     let grid = gathering.grid;
     let n = grid.len();
-    let smoke: Vec<bool> = grid.density.iter().map(|&d| d > 0.0).collect();
-    let mut sums: Vec<Cell> = vec![([0.0; 3], [[0.0; 3]; 3], [[0.0; HIGH]; 3], 0.0); n];
-    let Some((cells, lo, hi)) = grid.smoke_cells().filter(|_| !gathering.dirs.is_empty()) else {
+    let Some((_, lo, hi)) = grid.smoke_cells().filter(|_| !gathering.dirs.is_empty()) else {
         return vec![EMPTY; n];
     };
+    // The cells with smoke, and their sums (the rest gather nothing).
+    let smoke: Vec<usize> = (0..n).filter(|&i| grid.density[i] > 0.0).collect();
+    let mut sums: Vec<Cell> = vec![([0.0; 3], [[0.0; 3]; 3], [[0.0; HIGH]; 3], 0.0); smoke.len()];
     // The marches' steps a direction, against which each direction's lines are weighed.
     let marches = super::gather_work(grid);
+    let reads = READ_STEPS * smoke.len() as f64;
     let mut walked = 0;
-    let span = (lo, hi);
     // Per axis, whether a cell with smoke lies on the grid's low and high face.
     let faces: [[bool; 2]; 3] = std::array::from_fn(|a| [lo[a] == 0, hi[a] + 1 == grid.dims[a]]);
     let stride = gathering.stride;
+    // `D` and `S = D·J(ω)` per channel (zero without smoke): what the lines interpolate.
     let mut source = vec![[0.0f64; 4]; n];
     let mut values = Vec::new();
     for d in 0..gathering.dirs.len() {
         let w = gathering.dirs[d].0;
-        let lines = Lines::new(grid, w, span)
-            .filter(|l| l.work(grid) + READ_STEPS * (cells as f64) < marches);
+        let lines = Lines::new(grid, w, (lo, hi)).filter(|l| l.work(grid) + reads < marches);
         if let Some(lines) = &lines {
             walked += 1;
-            // `D` and `S = D·J(ω)` per channel: what the lines interpolate.
-            source
-                .par_iter_mut()
-                .zip(gathering.rec.par_chunks(stride))
-                .for_each(|(s, rec)| {
-                    *s = [rec[0], 0.0, 0.0, 0.0];
-                    if rec[0] > 0.0 {
-                        for c in 0..3 {
-                            s[1 + c] = gathering.light(d, rec, c);
-                        }
-                    }
-                });
+            let at: Vec<[f64; 4]> = smoke
+                .par_iter()
+                .map(|&i| {
+                    let rec = &gathering.rec[i * stride..(i + 1) * stride];
+                    [
+                        rec[0],
+                        gathering.light(d, rec, 0),
+                        gathering.light(d, rec, 1),
+                        gathering.light(d, rec, 2),
+                    ]
+                })
+                .collect();
+            for (&i, s) in smoke.iter().zip(at) {
+                source[i] = s;
+            }
             lines.walk(
                 grid,
                 &source,
@@ -101,42 +105,30 @@ pub(super) fn gather(gathering: &Gathering<'_>) -> Vec<Cell> {
                 gathering.occupied,
                 &mut values,
             );
-            sums.par_iter_mut()
-                .enumerate()
-                .filter(|(i, _)| smoke[*i])
-                .for_each_init(
-                    || vec![0.0; stride],
-                    |acc, (i, cell)| {
-                        let at = grid.coords(i);
-                        let (l, t) = if lines.near_smoky_side(grid, at, &faces) {
-                            gathering.march(grid.center(at), d, acc)
-                        } else {
-                            lines.read(grid, &values, at)
-                        };
-                        gathering.add(d, l, t, cell);
-                    },
-                );
-        } else {
-            sums.par_iter_mut()
-                .enumerate()
-                .filter(|(i, _)| smoke[*i])
-                .for_each_init(
-                    || vec![0.0; stride],
-                    |acc, (i, cell)| {
-                        let (l, t) = gathering.march(grid.center(grid.coords(i)), d, acc);
-                        gathering.add(d, l, t, cell);
-                    },
-                );
         }
+        sums.par_iter_mut().zip(&smoke).for_each_init(
+            || vec![0.0; stride],
+            |acc, (cell, &i)| {
+                let at = grid.coords(i);
+                let (l, t) = match &lines {
+                    Some(lines) if !lines.near_smoky_side(grid, at, &faces) => {
+                        lines.read(grid, &values, at)
+                    }
+                    _ => gathering.march(grid.center(at), d, acc),
+                };
+                gathering.add(d, l, t, cell);
+            },
+        );
     }
     tracing::debug!(
         "the orders' gather: {walked} of {} directions along planes of rays",
         gathering.dirs.len()
     );
-    sums.into_iter()
-        .zip(&smoke)
-        .map(|(s, &lit)| if lit { finish(s) } else { EMPTY })
-        .collect()
+    let mut out = vec![EMPTY; n];
+    for (&i, s) in smoke.iter().zip(sums) {
+        out[i] = finish(s);
+    }
+    out
 }
 
 /// The lines along one direction `ω` through the cells' planes across its major axis
