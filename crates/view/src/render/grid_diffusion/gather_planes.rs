@@ -15,8 +15,9 @@
 //! — the march's sum `Σ T (1 − e^{−Δτ}) S/D` taken from the far end, exact for a density
 //! constant within each step, bounded in opaque smoke. So per direction `ω` with major
 //! axis `k` (`|ω_k| ≥ 1/√3`): lines along `ω` one cell apart across `k` (spacing `h_a`,
-//! `h_b` on the side axes `a`, `b`, shifted by `ω_a/ω_k` a plane) are walked through the
-//! cells' planes across `k`, from the box's upstream face, each plane-to-plane segment
+//! `h_b` on the side axes `a`, `b`, shifted by `ω_a/ω_k` a plane), over the box of the
+//! cells with smoke, are walked through its planes across `k` from a plane before the
+//! upstream one (before that the density is zero), each plane-to-plane segment
 //! (`h_k/|ω_k|` long) in steps of at most the smallest cell side, segments that miss the
 //! occupied box skipped (they add nothing and take nothing away); each line keeps `L` per
 //! channel and `τ` where it crosses each plane. A cell reads its plane's four values from
