@@ -517,11 +517,11 @@ mod tests {
                     .fold(f64::INFINITY, f64::min);
                 let t = (-sigma_t * d * l).exp();
                 let cos = -(0..3).map(|a| s.direction[a] * w[a]).sum::<f64>();
-                for c in 0..3 {
+                for (c, l0) in l0.iter_mut().enumerate() {
                     let j = src.j0[i][c]
                         + (0..3).map(|a| src.j1[i][c][a] * w[a]).sum::<f64>()
                         + norm * s.emit[c] * 0.7 * s.phase.eval(cos);
-                    l0[c] += wt * j.max(0.0) * (1.0 - t) / FOUR_PI;
+                    *l0 += wt * j.max(0.0) * (1.0 - t) / FOUR_PI;
                 }
                 p += wt * t / FOUR_PI;
             }
