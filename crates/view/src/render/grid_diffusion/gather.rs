@@ -72,7 +72,7 @@ pub struct Gathered {
 }
 
 /// Values per cell in the march's record: `D`, `D·J⁰` (3), `D·J¹` (9), `D·T` per sun.
-pub(super) const BASE: usize = 1 + MOMENTS;
+const BASE: usize = 1 + MOMENTS;
 
 /// `D·J⁰` and `D·J¹` of a record: the moments every march carries.
 const MOMENTS: usize = 12;
